@@ -1,0 +1,1 @@
+"""Procedural asset generators that write the meshes under ``scenes/meshes``."""

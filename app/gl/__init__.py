@@ -1,0 +1,1 @@
+"""OpenGL plumbing: headless contexts and the GLSL source assembler."""

@@ -1,0 +1,146 @@
+"""Headless OpenGL contexts: EGL first, OSMesa as the fallback.
+
+EGL (through moderngl/glcontext) reaches Mesa's llvmpipe on machines without a GPU and
+the GPU's driver elsewhere. OSMesa renders into client memory with no display at all;
+moderngl accepts any object with ``load_opengl_function(name) -> address`` through
+``moderngl.init_context(loader=...)``, and OSMesa gives those addresses through
+``OSMesaGetProcAddress``. OpenGL 3.3 core is the baseline either way.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+from dataclasses import dataclass, field
+from typing import Literal
+
+import moderngl
+
+Backend = Literal["auto", "egl", "osmesa"]
+REQUIRED_GL = 330
+
+# OSMesa attribute tokens (GL/osmesa.h).
+_OSMESA_FORMAT = 0x22
+_OSMESA_RGBA = 0x1908
+_OSMESA_DEPTH_BITS = 0x30
+_OSMESA_PROFILE = 0x33
+_OSMESA_CORE_PROFILE = 0x34
+_OSMESA_CONTEXT_MAJOR_VERSION = 0x36
+_OSMESA_CONTEXT_MINOR_VERSION = 0x37
+_GL_UNSIGNED_BYTE = 0x1401
+
+
+class ContextError(RuntimeError):
+    """No headless OpenGL 3.3 context could be created."""
+
+
+class _OSMesaLoader:
+    """A moderngl loader backed by an OSMesa context made current on a 1x1 buffer.
+
+    The renderer draws only into its own framebuffer objects, so the OSMesa colour
+    buffer is a single pixel kept alive for the context's lifetime.
+    """
+
+    def __init__(self) -> None:
+        name = ctypes.util.find_library("OSMesa") or "libOSMesa.so.8"
+        try:
+            lib = ctypes.CDLL(name)
+        except OSError as exc:
+            raise ContextError(f"OSMesa library not found ({exc})") from None
+        lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
+        lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
+        lib.OSMesaMakeCurrent.restype = ctypes.c_ubyte
+        lib.OSMesaMakeCurrent.argtypes = [
+            ctypes.c_void_p,
+            ctypes.c_void_p,
+            ctypes.c_uint,
+            ctypes.c_int,
+            ctypes.c_int,
+        ]
+        lib.OSMesaGetProcAddress.restype = ctypes.c_void_p
+        lib.OSMesaGetProcAddress.argtypes = [ctypes.c_char_p]
+        lib.OSMesaDestroyContext.argtypes = [ctypes.c_void_p]
+        attrs = (ctypes.c_int * 11)(
+            _OSMESA_FORMAT, _OSMESA_RGBA,
+            _OSMESA_DEPTH_BITS, 24,
+            _OSMESA_PROFILE, _OSMESA_CORE_PROFILE,
+            _OSMESA_CONTEXT_MAJOR_VERSION, 3,
+            _OSMESA_CONTEXT_MINOR_VERSION, 3,
+            0,
+        )  # fmt: skip
+        handle = lib.OSMesaCreateContextAttribs(attrs, None)
+        if not handle:
+            raise ContextError("OSMesaCreateContextAttribs failed (no OpenGL 3.3 core)")
+        self._lib = lib
+        self._handle = handle
+        self._buffer = (ctypes.c_ubyte * 4)()
+        if not lib.OSMesaMakeCurrent(handle, self._buffer, _GL_UNSIGNED_BYTE, 1, 1):
+            lib.OSMesaDestroyContext(handle)
+            raise ContextError("OSMesaMakeCurrent failed")
+
+    def load_opengl_function(self, name: str) -> int:
+        return self._lib.OSMesaGetProcAddress(name.encode()) or 0
+
+    def release(self) -> None:
+        if self._handle:
+            self._lib.OSMesaDestroyContext(self._handle)
+            self._handle = None
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, *args: object) -> None:
+        return None
+
+
+@dataclass
+class GLContext:
+    """A moderngl context and the backend that made it."""
+
+    ctx: moderngl.Context
+    backend: str
+    _keepalive: object = field(default=None, repr=False)
+
+    @property
+    def renderer(self) -> str:
+        return str(self.ctx.info.get("GL_RENDERER", "?"))
+
+    def release(self) -> None:
+        """Destroy the context (OSMesa's too)."""
+        self.ctx.release()
+        if isinstance(self._keepalive, _OSMesaLoader):
+            self._keepalive.release()
+
+
+def _create_egl() -> GLContext:
+    ctx = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
+    return GLContext(ctx, "egl")
+
+
+def _create_osmesa() -> GLContext:
+    loader = _OSMesaLoader()
+    try:
+        moderngl.init_context(loader=loader)
+        ctx = moderngl.get_context()
+    except Exception:
+        loader.release()
+        raise
+    if ctx.version_code < REQUIRED_GL:
+        loader.release()
+        raise ContextError(f"OSMesa gave OpenGL {ctx.version_code}, need {REQUIRED_GL}")
+    return GLContext(ctx, "osmesa", loader)
+
+
+def create_context(backend: Backend = "auto") -> GLContext:
+    """A headless OpenGL >= 3.3 core context. ``auto`` tries EGL, then OSMesa."""
+    if backend == "egl":
+        return _create_egl()
+    if backend == "osmesa":
+        return _create_osmesa()
+    errors = []
+    for make in (_create_egl, _create_osmesa):
+        try:
+            return make()
+        except Exception as exc:  # each backend fails in its own way; report both
+            errors.append(f"{make.__name__[8:]}: {exc}")
+    raise ContextError("no headless OpenGL 3.3 context: " + "; ".join(errors))

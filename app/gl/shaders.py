@@ -1,0 +1,72 @@
+"""GLSL assembly: ``#include`` resolution, feature defines, and a program cache.
+
+A program is built from one vertex and one fragment file plus a set of defines, so a
+scene compiles only the features it uses (as the glTF Sample Viewer's shader cache
+does). Included files are spliced once each; the GLSL keeps ``#ifndef`` guards too so
+each file also stands alone.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from pathlib import Path
+
+import moderngl
+
+from app.resources import glsl_dir
+
+GLSL_VERSION = "#version 330 core"
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
+
+
+def expand_includes(relative: str, root: Path | None = None, _seen: set[str] | None = None) -> str:
+    """The source of ``relative`` (under ``glsl/``) with every #include spliced in once."""
+    root = glsl_dir() if root is None else root
+    seen = set() if _seen is None else _seen
+    if relative in seen:
+        return ""
+    seen.add(relative)
+    text = (root / relative).read_text(encoding="utf-8")
+
+    def splice(match: re.Match[str]) -> str:
+        return expand_includes(match.group(1), root, seen)
+
+    return _INCLUDE.sub(splice, text)
+
+
+def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:
+    """``#version`` line, then the defines, then the expanded source."""
+    lines = [GLSL_VERSION]
+    for name, value in sorted((defines or {}).items()):
+        lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")
+    return "\n".join(lines) + "\n#line 1\n" + expand_includes(relative)
+
+
+class ShaderCache:
+    """Compiled programs keyed by (vertex file, fragment file, defines)."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self._ctx = ctx
+        self._programs: dict[tuple, moderngl.Program] = {}
+
+    def program(
+        self, vertex: str, fragment: str, defines: Mapping[str, object] | None = None
+    ) -> moderngl.Program:
+        key = (vertex, fragment, tuple(sorted((defines or {}).items())))
+        prog = self._programs.get(key)
+        if prog is None:
+            prog = self._ctx.program(
+                vertex_shader=assemble(vertex, defines),
+                fragment_shader=assemble(fragment, defines),
+            )
+            self._programs[key] = prog
+        return prog
+
+    def __len__(self) -> int:
+        return len(self._programs)
+
+    def release(self) -> None:
+        for prog in self._programs.values():
+            prog.release()
+        self._programs.clear()

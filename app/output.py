@@ -1,0 +1,55 @@
+"""Writing images without leaving partial files: temp file in the same folder, then rename."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+HDR_SUFFIXES = (".exr", ".npy")
+
+
+def atomic_write(path: Path, write: Callable[[Path], None]) -> None:
+    """Call ``write(tmp)`` on a temporary sibling of ``path`` and rename it into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def write_png(path: Path, rgb: np.ndarray) -> None:
+    """(H, W, 3) uint8 -> PNG."""
+    atomic_write(path, lambda tmp: Image.fromarray(rgb, "RGB").save(tmp, format="PNG"))
+
+
+def _write_exr(tmp: Path, hdr: np.ndarray) -> None:
+    import OpenEXR
+
+    channels = {"RGB": np.ascontiguousarray(hdr[..., :3], dtype=np.float32)}
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(tmp))
+
+
+def write_hdr(path: Path, hdr: np.ndarray) -> None:
+    """(H, W, 3) float32 linear radiance -> OpenEXR (.exr) or numpy (.npy)."""
+    path = Path(path)
+    if path.suffix == ".npy":
+        atomic_write(path, lambda tmp: np.save(tmp, np.asarray(hdr, np.float32)))
+    elif path.suffix == ".exr":
+        atomic_write(path, lambda tmp: _write_exr(tmp, hdr))
+    else:
+        raise ValueError(f"unsupported HDR suffix {path.suffix}")

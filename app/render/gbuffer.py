@@ -1,0 +1,126 @@
+"""The G-buffer pass: rasterise every object's material parameters into render targets.
+
+Layout and precision are documented in docs/gbuffer.md:
+  RT0 ``albedo``  RGBA16F|32F  base_color.rgb (linear), metallic
+  RT1 ``normal``  RGBA16F|32F  octahedral normal (x, y), perceptual roughness, F0
+  depth           DEPTH32F     the world position is reconstructed from it
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from app.gl.shaders import ShaderCache
+from app.scene.camera import gl_bytes
+from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart, Texture
+
+
+@dataclass
+class GBufferData:
+    """A G-buffer read back to the CPU, rows top to bottom."""
+
+    albedo: np.ndarray  # (H, W, 4) float32
+    normal: np.ndarray  # (H, W, 4) float32
+    depth: np.ndarray  # (H, W) float32, window-space depth in [0, 1]
+
+
+class GBuffer:
+    """The render targets of the G-buffer pass."""
+
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], precision: str) -> None:
+        dtype = {"f16": "f2", "f32": "f4"}[precision]
+        self.size = size
+        self.albedo = ctx.texture(size, 4, dtype=dtype)
+        self.normal = ctx.texture(size, 4, dtype=dtype)
+        self.depth = ctx.depth_texture(size)  # DEPTH_COMPONENT24 by default; see below
+        for tex in (self.albedo, self.normal, self.depth):
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            tex.repeat_x = tex.repeat_y = False
+        self.fbo = ctx.framebuffer([self.albedo, self.normal], self.depth)
+
+    def read(self) -> GBufferData:
+        w, h = self.size
+        albedo = np.frombuffer(self.albedo.read(dtype="f4"), np.float32).reshape(h, w, 4)
+        normal = np.frombuffer(self.normal.read(dtype="f4"), np.float32).reshape(h, w, 4)
+        depth = np.frombuffer(self.depth.read(), np.float32).reshape(h, w)
+        return GBufferData(albedo[::-1].copy(), normal[::-1].copy(), depth[::-1].copy())
+
+    def release(self) -> None:
+        for obj in (self.fbo, self.albedo, self.normal, self.depth):
+            obj.release()
+
+
+def _upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
+    h, w = tex.pixels.shape[:2]
+    internal = 0x8C43 if tex.srgb else None  # GL_SRGB8_ALPHA8: decoded to linear on fetch
+    gl_tex = ctx.texture((w, h), 4, tex.pixels[::-1].tobytes(), internal_format=internal)
+    gl_tex.build_mipmaps()  # colour data and glTF metallic-roughness maps only
+    gl_tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    return gl_tex
+
+
+class _Drawable:
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart) -> None:
+        defines = {}
+        if "base_color" in part.maps:
+            defines["MAT_BASE_COLOR_MAP"] = None
+        if "metallic_roughness" in part.maps:
+            defines["MAT_METALLIC_ROUGHNESS_MAP"] = None
+        self.program = shaders.program("passes/gbuffer.vert", "passes/gbuffer.frag", defines)
+        self.vbo = ctx.buffer(part.vertices.tobytes())
+        self.ibo = ctx.buffer(part.indices.tobytes())
+        self.vao = ctx.vertex_array(
+            self.program,
+            [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)],
+            self.ibo,
+            skip_errors=True,
+        )
+        self.textures = {name: _upload_texture(ctx, t) for name, t in part.maps.items()}
+        self.part = part
+        normal_matrix = np.linalg.inv(part.model[:3, :3]).T
+        self.model_bytes = gl_bytes(part.model)
+        self.normal_bytes = gl_bytes(normal_matrix)
+
+    def draw(self, view_proj_bytes: bytes) -> None:
+        prog, m = self.program, self.part.material
+        prog["u_model"].write(self.model_bytes)
+        prog["u_normal_matrix"].write(self.normal_bytes)
+        prog["u_view_proj"].write(view_proj_bytes)
+        prog["u_base_color"].value = m.base_color
+        prog["u_metallic"].value = m.metallic
+        prog["u_roughness"].value = m.roughness
+        prog["u_f0"].value = m.f0
+        for unit, (name, tex) in enumerate(self.textures.items()):
+            tex.use(unit)
+            prog[f"u_{name}_map"].value = unit
+        self.vao.render(moderngl.TRIANGLES)
+
+    def release(self) -> None:
+        for obj in (self.vao, self.vbo, self.ibo, *self.textures.values()):
+            obj.release()
+
+
+class GBufferPass:
+    """Draws every mesh part into a ``GBuffer``."""
+
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, parts: list[MeshPart]) -> None:
+        self.ctx = ctx
+        self.drawables = [_Drawable(ctx, shaders, p) for p in parts]
+
+    def run(self, target: GBuffer, view_proj: np.ndarray) -> None:
+        ctx = self.ctx
+        target.fbo.use()
+        ctx.viewport = (0, 0, *target.size)
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        target.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        vp = gl_bytes(view_proj)
+        for d in self.drawables:
+            d.draw(vp)
+
+    def release(self) -> None:
+        for d in self.drawables:
+            d.release()

@@ -1,0 +1,44 @@
+"""Post: exposure (2^EV), tone mapping and sRGB encoding into an 8-bit image."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from app.gl.shaders import ShaderCache
+
+TONEMAP_CODE = {"linear": 0, "neutral": 1, "aces": 2, "reinhard": 3}
+
+
+class PostPass:
+    """HDR texture -> RGBA8 display image."""
+
+    def __init__(
+        self, ctx: moderngl.Context, shaders: ShaderCache, size: tuple[int, int], tonemap: str
+    ) -> None:
+        self.ctx = ctx
+        self.program = shaders.program(
+            "passes/fullscreen.vert", "passes/post.frag", {"TONEMAP": TONEMAP_CODE[tonemap]}
+        )
+        self.vao = ctx.vertex_array(self.program, [])
+        self.ldr = ctx.texture(size, 4)
+        self.fbo = ctx.framebuffer([self.ldr])
+        self.size = size
+
+    def run(self, hdr: moderngl.Texture, exposure_ev: float) -> None:
+        self.fbo.use()
+        self.ctx.viewport = (0, 0, *self.size)
+        hdr.use(0)
+        self.program["u_hdr"].value = 0
+        self.program["u_exposure"].value = 2.0**exposure_ev
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def read(self) -> np.ndarray:
+        """(H, W, 3) uint8, rows top to bottom."""
+        w, h = self.size
+        data = np.frombuffer(self.ldr.read(), np.uint8).reshape(h, w, 4)
+        return data[::-1, :, :3].copy()
+
+    def release(self) -> None:
+        for obj in (self.vao, self.fbo, self.ldr):
+            obj.release()

@@ -1,0 +1,31 @@
+"""Where the GLSL sources and the bundled scenes live.
+
+In a wheel they are inside the package (``app/glsl``, ``app/scenes``, put there by the
+build); in a source checkout they sit at the repository root beside ``app/``.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from pathlib import Path
+
+_PACKAGE = Path(__file__).resolve().parent
+
+
+def _first_existing(name: str) -> Path:
+    for candidate in (_PACKAGE / name, _PACKAGE.parent / name):
+        if candidate.is_dir():
+            return candidate
+    raise FileNotFoundError(f"cannot find the '{name}' folder next to {_PACKAGE}")
+
+
+@cache
+def glsl_dir() -> Path:
+    """The folder holding the GLSL sources the renderer compiles."""
+    return _first_existing("glsl")
+
+
+@cache
+def scenes_dir() -> Path:
+    """The folder holding the bundled scene files."""
+    return _first_existing("scenes")

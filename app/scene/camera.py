@@ -1,0 +1,42 @@
+"""Camera matrices (column-vector convention, float64).
+
+pyrr builds its matrices for row vectors (``v @ M``); they are transposed here once so
+that the rest of the code reads like the maths (``M @ v``). For upload to GL, whose
+uniforms are column-major, ``gl_bytes`` writes ``M.T`` in C order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pyrr import matrix44
+
+from app.scene.model import Camera
+
+
+def view_matrix(cam: Camera) -> np.ndarray:
+    """World -> view (right-handed, looking down -Z)."""
+    m = matrix44.create_look_at(
+        np.array(cam.position, np.float64),
+        np.array(cam.target, np.float64),
+        np.array(cam.up, np.float64),
+        dtype=np.float64,
+    )
+    return np.asarray(m, np.float64).T
+
+
+def projection_matrix(cam: Camera, aspect: float) -> np.ndarray:
+    """View -> clip, OpenGL depth range [-1, 1]."""
+    m = matrix44.create_perspective_projection(
+        cam.fov_y, aspect, cam.near, cam.far, dtype=np.float64
+    )
+    return np.asarray(m, np.float64).T
+
+
+def view_projection(cam: Camera, width: int, height: int) -> np.ndarray:
+    """World -> clip."""
+    return projection_matrix(cam, width / height) @ view_matrix(cam)
+
+
+def gl_bytes(m: np.ndarray) -> bytes:
+    """A column-vector matrix as the column-major float32 bytes a GL uniform expects."""
+    return np.ascontiguousarray(np.asarray(m).T, dtype=np.float32).tobytes()

@@ -1,0 +1,212 @@
+"""Scene objects -> triangle meshes ready for the G-buffer pass.
+
+Primitives come from trimesh; mesh files (OBJ, PLY, STL, glTF/GLB) are read through
+trimesh. glTF metallic-roughness factors and textures come through where trimesh reads
+them. Every mesh ends up as interleaved float32 ``position, normal, uv`` vertices and
+uint32 triangle indices, in object space, with its model matrix.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import trimesh
+
+from app.errors import InputError
+from app.scene.loader import LoadedScene
+from app.scene.model import MaterialParams, SceneObject
+
+VERTEX_FORMAT = "3f 3f 2f"
+VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv")
+
+
+@dataclass
+class Texture:
+    """An RGBA8 image for a material map (``srgb`` for colour data)."""
+
+    pixels: np.ndarray  # (H, W, 4) uint8, first row = top of the image
+    srgb: bool
+
+
+@dataclass
+class MeshPart:
+    """One drawable: vertices, indices, a material and its optional maps."""
+
+    vertices: np.ndarray  # (N, 8) float32: position, normal, uv
+    indices: np.ndarray  # (M*3,) uint32
+    material: MaterialParams
+    model: np.ndarray  # (4, 4) float64 object -> world
+    maps: dict[str, Texture] = field(default_factory=dict)
+
+
+def model_matrix(obj: SceneObject) -> np.ndarray:
+    """T @ Rz @ Ry @ Rx @ S: scale, then rotate about X, Y, Z (degrees), then translate."""
+    scale = np.broadcast_to(np.asarray(obj.scale, np.float64), (3,))
+    rx, ry, rz = (math.radians(a) for a in obj.rotation)
+    r = (
+        trimesh.transformations.rotation_matrix(rz, [0, 0, 1])
+        @ trimesh.transformations.rotation_matrix(ry, [0, 1, 0])
+        @ trimesh.transformations.rotation_matrix(rx, [1, 0, 0])
+    )
+    t = trimesh.transformations.translation_matrix(obj.position)
+    return t @ r @ np.diag([*scale, 1.0])
+
+
+def _crease_normals(mesh: trimesh.Trimesh, crease_deg: float = 40.0) -> trimesh.Trimesh:
+    """Split vertices where faces meet at more than ``crease_deg``: hard edges stay hard.
+
+    Each face corner gets the area-weighted mean of the normals of the faces around
+    its vertex that lie within the crease angle of its own face.
+    """
+    faces = mesh.faces
+    fn = mesh.face_normals * mesh.area_faces[:, None]
+    unit = mesh.face_normals
+    cos_crease = math.cos(math.radians(crease_deg))
+    around: dict[int, list[int]] = {}
+    for f, tri in enumerate(faces):
+        for v in tri:
+            around.setdefault(int(v), []).append(f)
+    corner_normals = np.empty((len(faces), 3, 3))
+    for f, tri in enumerate(faces):
+        for c, v in enumerate(tri):
+            group = np.array(around[int(v)])
+            keep = group[unit[group] @ unit[f] >= cos_crease]
+            n = fn[keep].sum(axis=0)
+            corner_normals[f, c] = n / np.linalg.norm(n)
+    positions = mesh.vertices[faces].reshape(-1, 3)
+    normals = corner_normals.reshape(-1, 3)
+    new_faces = np.arange(len(positions)).reshape(-1, 3)
+    out = trimesh.Trimesh(positions, new_faces, vertex_normals=normals, process=False)
+    out.merge_vertices(merge_norm=True)
+    return out
+
+
+def _plane(size: list[float]) -> trimesh.Trimesh:
+    """A quad in the XZ plane facing +Y, with UVs over [0, 1]^2."""
+    sx, sz = size[0] / 2.0, size[1] / 2.0
+    v = np.array([[-sx, 0, -sz], [-sx, 0, sz], [sx, 0, sz], [sx, 0, -sz]], np.float64)
+    uv = np.array([[0, 1], [0, 0], [1, 0], [1, 1]], np.float64)
+    mesh = trimesh.Trimesh(
+        v, [[0, 1, 2], [0, 2, 3]], vertex_normals=np.tile([0.0, 1.0, 0.0], (4, 1)), process=False
+    )
+    mesh.visual = trimesh.visual.TextureVisuals(uv=uv)
+    return mesh
+
+
+def _primitive(obj: SceneObject) -> trimesh.Trimesh:
+    if obj.shape == "sphere":
+        radius = obj.radius or 0.5
+        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions or 4, radius=radius)
+        # The exact sphere normal, not an average of facet normals.
+        mesh.vertex_normals = mesh.vertices / np.linalg.norm(mesh.vertices, axis=1, keepdims=True)
+        return mesh
+    if obj.shape == "box":
+        return _crease_normals(trimesh.creation.box(extents=obj.size or [1.0, 1.0, 1.0]))
+    if obj.shape == "plane":
+        return _plane(obj.size or [10.0, 10.0])
+    if obj.shape == "cylinder":
+        mesh = trimesh.creation.cylinder(
+            radius=obj.radius or 0.5, height=obj.height or 1.0, sections=64
+        )
+        return _crease_normals(mesh)
+    if obj.shape == "capsule":
+        return trimesh.creation.capsule(
+            radius=obj.radius or 0.5, height=obj.height or 1.0, count=[64, 32]
+        )
+    raise AssertionError(obj.shape)
+
+
+def _interleave(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
+    positions = np.asarray(mesh.vertices, np.float64)
+    normals = np.asarray(mesh.vertex_normals, np.float64)
+    uv = getattr(mesh.visual, "uv", None)
+    uv = np.zeros((len(positions), 2)) if uv is None or len(uv) != len(positions) else uv
+    vertices = np.hstack([positions, normals, np.asarray(uv, np.float64)]).astype(np.float32)
+    indices = np.asarray(mesh.faces, np.uint32).ravel()
+    return vertices, indices
+
+
+def _texture(image: object, srgb: bool) -> Texture | None:
+    if image is None:
+        return None
+    rgba = np.asarray(image.convert("RGBA"), np.uint8)  # PIL image from trimesh
+    return Texture(rgba, srgb)
+
+
+def _file_material(
+    mesh: trimesh.Trimesh, fallback: MaterialParams
+) -> tuple[MaterialParams, dict[str, Texture]]:
+    """glTF metallic-roughness factors and maps where trimesh read them."""
+    mat = getattr(mesh.visual, "material", None)
+    if not isinstance(mat, trimesh.visual.material.PBRMaterial):
+        return fallback, {}
+    factor = mat.baseColorFactor
+    base = (
+        fallback.base_color
+        if factor is None
+        else tuple(
+            float(x) / (255.0 if np.asarray(factor).dtype == np.uint8 else 1.0) for x in factor[:3]
+        )
+    )
+    params = MaterialParams(
+        base_color=base,  # type: ignore[arg-type]
+        metallic=fallback.metallic if mat.metallicFactor is None else float(mat.metallicFactor),
+        roughness=fallback.roughness if mat.roughnessFactor is None else float(mat.roughnessFactor),
+        f0=fallback.f0,
+    )
+    maps = {}
+    if (t := _texture(mat.baseColorTexture, srgb=True)) is not None:
+        maps["base_color"] = t
+    if (t := _texture(mat.metallicRoughnessTexture, srgb=False)) is not None:
+        maps["metallic_roughness"] = t
+    return params, maps
+
+
+_DEFAULT_MATERIAL = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
+
+
+def _load_file(
+    loaded: LoadedScene, index: int, obj: SceneObject
+) -> list[tuple[trimesh.Trimesh, np.ndarray]]:
+    path = loaded.resolve_file(obj.file or "")
+    try:
+        data = trimesh.load(str(path), process=False)
+    except Exception as exc:  # trimesh raises many types for unreadable files
+        raise InputError(
+            str(loaded.path), f"objects[{index}].file", f"cannot read mesh {path}: {exc}"
+        ) from None
+    if isinstance(data, trimesh.Trimesh):
+        return [(data, np.eye(4))]
+    if isinstance(data, trimesh.Scene):
+        parts = []
+        for node in data.graph.nodes_geometry:
+            transform, name = data.graph[node]
+            geom = data.geometry[name]
+            if isinstance(geom, trimesh.Trimesh) and len(geom.faces):
+                parts.append((geom, np.asarray(transform, np.float64)))
+        if parts:
+            return parts
+    raise InputError(str(loaded.path), f"objects[{index}].file", f"{path} holds no triangles")
+
+
+def build_parts(loaded: LoadedScene) -> list[MeshPart]:
+    """Every object of the scene as drawable mesh parts."""
+    scene = loaded.scene
+    parts: list[MeshPart] = []
+    for i, obj in enumerate(scene.objects):
+        model = model_matrix(obj)
+        chosen = scene.materials[obj.material].resolve() if obj.material else None
+        if obj.shape != "mesh":
+            vertices, indices = _interleave(_primitive(obj))
+            parts.append(MeshPart(vertices, indices, chosen or _DEFAULT_MATERIAL, model))
+            continue
+        for mesh, local in _load_file(loaded, i, obj):
+            if chosen is not None:  # the scene's material overrides the file's
+                params, maps = chosen, {}
+            else:
+                params, maps = _file_material(mesh, _DEFAULT_MATERIAL)
+            vertices, indices = _interleave(mesh)
+            parts.append(MeshPart(vertices, indices, params, model @ local, maps))
+    return parts

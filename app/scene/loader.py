@@ -1,0 +1,117 @@
+"""Reading a scene file: TOML -> validated ``Scene``, or one ``InputError``.
+
+Every failure names the file and the key path (``lights[2].range``,
+``materials.gold.roughness``) the way a user would find it in the file.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from app.errors import InputError
+from app.scene.model import Scene
+
+_KEY_PREFIX = re.compile(r"^(?:Value error, )?([A-Za-z_][A-Za-z0-9_]*): (.*)$", re.S)
+
+
+@dataclass(frozen=True)
+class LoadedScene:
+    """A validated scene and the file it came from (mesh paths are relative to it)."""
+
+    scene: Scene
+    path: Path
+
+    def resolve_file(self, relative: str) -> Path:
+        """A path named in the scene, relative to the scene file's folder."""
+        return (self.path.parent / relative).resolve()
+
+
+def key_path(loc: tuple[str | int, ...]) -> str:
+    """('lights', 2, 'range') -> 'lights[2].range'."""
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _describe(error: dict) -> tuple[str, str]:
+    loc = tuple(error["loc"])
+    msg = error["msg"]
+    if error["type"] == "extra_forbidden":
+        return key_path(loc), "unknown key"
+    match = _KEY_PREFIX.match(msg)
+    if match:  # a model validator naming the key it rejects
+        loc, msg = (*loc, match.group(1)), match.group(2)
+    elif msg.startswith("Value error, "):
+        msg = msg[len("Value error, ") :]
+    if (
+        "input" in error
+        and error["type"] not in ("missing",)
+        and not isinstance(error["input"], dict)
+    ):
+        msg = f"{msg} (got {error['input']!r})"
+    return key_path(loc), msg
+
+
+def _read_text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(str(path), "", "no such file") from None
+    except IsADirectoryError:
+        raise InputError(str(path), "", "is a folder, not a scene file") from None
+    except PermissionError:
+        raise InputError(str(path), "", "permission denied") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(str(path), "", f"not UTF-8 text ({exc.reason})") from None
+    except OSError as exc:
+        raise InputError(str(path), "", f"cannot read ({exc.strerror})") from None
+
+
+def parse_scene(data: dict, path: Path) -> LoadedScene:
+    """Validate already-parsed TOML data; check references between tables and files."""
+    try:
+        scene = Scene.model_validate(data)
+    except ValidationError as exc:
+        key, msg = _describe(exc.errors()[0])
+        raise InputError(str(path), key, msg) from None
+    loaded = LoadedScene(scene, path)
+    for i, obj in enumerate(scene.objects):
+        if obj.material is not None and obj.material not in scene.materials:
+            known = ", ".join(sorted(scene.materials)) or "none defined"
+            raise InputError(
+                str(path),
+                f"objects[{i}].material",
+                f"unknown material '{obj.material}' (known: {known})",
+            )
+        if obj.file is not None:
+            target = loaded.resolve_file(obj.file)
+            if not target.is_file():
+                raise InputError(str(path), f"objects[{i}].file", f"no such file: {target}")
+            try:
+                with target.open("rb") as fh:
+                    fh.read(1)
+            except OSError as exc:
+                raise InputError(
+                    str(path), f"objects[{i}].file", f"cannot read {target} ({exc.strerror})"
+                ) from None
+    return loaded
+
+
+def load_scene(path: str | Path) -> LoadedScene:
+    """Read and validate a TOML scene file."""
+    path = Path(path)
+    text = _read_text(path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(str(path), "", f"malformed TOML: {exc}") from None
+    return parse_scene(data, path.resolve())

@@ -1,0 +1,224 @@
+"""The scene-file schema (TOML), validated with pydantic.
+
+Every key, its unit and its default is documented in docs/scene-format.md; this module
+is the single place they are defined. Models forbid unknown keys and non-finite
+numbers, and accept only the types the documentation names (no "1.0" for 1.0).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from app.scene.presets import PRESETS
+
+Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+Vec3 = Annotated[list[Real], Field(min_length=3, max_length=3)]
+Color = Annotated[list[Annotated[Real, Field(ge=0.0)]], Field(min_length=3, max_length=3)]
+UnitColor = Annotated[
+    list[Annotated[Real, Field(ge=0.0, le=1.0)]], Field(min_length=3, max_length=3)
+]
+Unit = Annotated[Real, Field(ge=0.0, le=1.0)]
+Positive = Annotated[Real, Field(gt=0.0)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+
+def _nonzero(v: list[float] | None, what: str) -> None:
+    if v is not None and math.fsum(x * x for x in v) <= 1e-20:
+        raise ValueError(f"{what}: must not be the zero vector")
+
+
+class Camera(_Strict):
+    """A pinhole camera looking from ``position`` at ``target``."""
+
+    position: Vec3 = [0.0, 1.0, 6.0]
+    target: Vec3 = [0.0, 0.0, 0.0]
+    up: Vec3 = [0.0, 1.0, 0.0]
+    fov_y: Annotated[Real, Field(gt=0.0, lt=180.0)] = 45.0  # degrees, vertical
+    exposure: Annotated[Real, Field(ge=-32.0, le=32.0)] = 0.0  # EV: radiance x 2^exposure
+    near: Positive = 0.05  # metres
+    far: Positive = 200.0  # metres
+
+    @model_validator(mode="after")
+    def _check(self) -> Camera:
+        forward = np.subtract(self.target, self.position)
+        _nonzero(list(forward), "target")
+        _nonzero(self.up, "up")
+        if np.linalg.norm(np.cross(forward, self.up)) <= 1e-9 * np.linalg.norm(forward):
+            raise ValueError("up: must not be parallel to the view direction (target - position)")
+        if self.far <= self.near:
+            raise ValueError("far: must be greater than near")
+        return self
+
+
+class RenderSettings(_Strict):
+    """Image size and pipeline options."""
+
+    width: Annotated[int, Field(strict=True, ge=1, le=16384)] = 1280
+    height: Annotated[int, Field(strict=True, ge=1, le=16384)] = 720
+    tonemap: Literal["linear", "neutral", "aces", "reinhard"] = "neutral"
+    gbuffer: Literal["f16", "f32"] = "f16"
+
+
+class Light(_Strict):
+    """A punctual light. ``c_light = color * intensity`` (at 1 m for point and spot lights)."""
+
+    type: Literal["directional", "point", "spot"]
+    color: Color = [1.0, 1.0, 1.0]
+    intensity: Annotated[Real, Field(ge=0.0)] = 1.0
+    position: Vec3 | None = None
+    direction: Vec3 | None = None
+    range: Positive | None = None  # metres; the window reaches exactly 0 here
+    inner_angle: Annotated[Real, Field(ge=0.0, lt=90.0)] | None = None  # degrees, half-angle
+    outer_angle: Annotated[Real, Field(gt=0.0, le=90.0)] | None = None  # degrees, half-angle
+
+    @model_validator(mode="after")
+    def _check(self) -> Light:
+        needs = {
+            "directional": {"direction"},
+            "point": {"position"},
+            "spot": {"position", "direction"},
+        }[self.type]
+        allowed = (
+            needs
+            | {
+                "directional": set(),
+                "point": {"range"},
+                "spot": {"range", "inner_angle", "outer_angle"},
+            }[self.type]
+        )
+        for key in sorted(needs):
+            if getattr(self, key) is None:
+                raise ValueError(f"{key}: a {self.type} light needs it")
+        for key in ("position", "direction", "range", "inner_angle", "outer_angle"):
+            if key not in allowed and getattr(self, key) is not None:
+                raise ValueError(f"{key}: does not apply to a {self.type} light")
+        _nonzero(self.direction, "direction")
+        if self.type == "spot" and self.cone[0] >= self.cone[1]:
+            raise ValueError("inner_angle: must be smaller than outer_angle")
+        return self
+
+    @property
+    def cone(self) -> tuple[float, float]:
+        """(inner, outer) half-angles in degrees, defaults filled in."""
+        inner = 20.0 if self.inner_angle is None else self.inner_angle
+        outer = 30.0 if self.outer_angle is None else self.outer_angle
+        return inner, outer
+
+    @property
+    def effective_range(self) -> float:
+        """The range in metres (default 10 m); infinite for directional lights."""
+        if self.type == "directional":
+            return math.inf
+        return 10.0 if self.range is None else self.range
+
+
+@dataclass(frozen=True)
+class MaterialParams:
+    """A material after presets and defaults: exactly what the G-buffer stores."""
+
+    base_color: tuple[float, float, float]
+    metallic: float
+    roughness: float
+    f0: float  # normal-incidence reflectance of the dielectric part
+
+
+class Material(_Strict):
+    """The metallic-roughness material (glTF names), optionally from a seed preset."""
+
+    preset: str | None = None
+    base_color: UnitColor | None = None  # linear RGB
+    metallic: Unit | None = None
+    roughness: Unit | None = None  # perceptual; alpha = roughness^2
+    f0: Unit | None = None  # dielectric F0; or give ior
+    ior: Annotated[Real, Field(ge=1.0, le=10.0)] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> Material:
+        if self.preset is not None and self.preset not in PRESETS:
+            raise ValueError(
+                f"preset: unknown preset '{self.preset}' (known: {', '.join(sorted(PRESETS))})"
+            )
+        if self.f0 is not None and self.ior is not None:
+            raise ValueError("ior: give either 'f0' or 'ior', not both")
+        return self
+
+    def resolve(self) -> MaterialParams:
+        """Apply preset, then explicit keys, then defaults (grey plastic, F0 = 0.04)."""
+        base, metallic, f0 = [0.8, 0.8, 0.8], 0.0, 0.04
+        if self.preset is not None:
+            p = PRESETS[self.preset]
+            metallic = p.metallic
+            if metallic > 0.0:
+                base = list(p.f0)
+            f0 = p.f0_scalar if p.kind == "dielectric" else 0.04
+        if self.base_color is not None:
+            base = list(self.base_color)
+        if self.metallic is not None:
+            metallic = self.metallic
+        if self.ior is not None:
+            f0 = ((self.ior - 1.0) / (self.ior + 1.0)) ** 2
+        if self.f0 is not None:
+            f0 = self.f0
+        roughness = 0.5 if self.roughness is None else self.roughness
+        return MaterialParams((base[0], base[1], base[2]), metallic, roughness, f0)
+
+
+Shape = Literal["sphere", "box", "plane", "cylinder", "capsule", "mesh"]
+
+
+class SceneObject(_Strict):
+    """A trimesh primitive or a mesh file, placed by scale, then rotation, then translation."""
+
+    name: str | None = None
+    shape: Shape
+    file: str | None = None  # mesh: path relative to the scene file
+    material: str | None = None  # name in [materials]; a mesh file may bring its own
+    radius: Positive | None = None  # sphere, cylinder, capsule (m)
+    height: Positive | None = None  # cylinder, capsule (m)
+    size: Annotated[list[Positive], Field(min_length=2, max_length=3)] | None = None  # box, plane
+    subdivisions: Annotated[int, Field(strict=True, ge=0, le=6)] | None = None  # sphere
+    position: Vec3 = [0.0, 0.0, 0.0]
+    rotation: Vec3 = [0.0, 0.0, 0.0]  # degrees about X, then Y, then Z
+    scale: Positive | Annotated[list[Positive], Field(min_length=3, max_length=3)] = 1.0
+
+    @model_validator(mode="after")
+    def _check(self) -> SceneObject:
+        allowed = {
+            "sphere": {"radius", "subdivisions"},
+            "box": {"size"},
+            "plane": {"size"},
+            "cylinder": {"radius", "height"},
+            "capsule": {"radius", "height"},
+            "mesh": {"file"},
+        }[self.shape]
+        for key in ("file", "radius", "height", "size", "subdivisions"):
+            if key not in allowed and getattr(self, key) is not None:
+                raise ValueError(f"{key}: does not apply to shape '{self.shape}'")
+        if self.shape == "mesh" and self.file is None:
+            raise ValueError("file: shape 'mesh' needs it")
+        if self.shape != "mesh" and self.material is None:
+            raise ValueError(f"material: shape '{self.shape}' needs it")
+        if self.size is not None:
+            want = 2 if self.shape == "plane" else 3
+            if len(self.size) != want:
+                raise ValueError(f"size: a {self.shape} takes {want} numbers")
+        return self
+
+
+class Scene(_Strict):
+    """A whole scene file."""
+
+    background: Color = [0.0, 0.0, 0.0]  # linear radiance where no surface is hit
+    camera: Camera = Camera()
+    render: RenderSettings = RenderSettings()
+    materials: dict[str, Material] = {}
+    lights: list[Light] = []
+    objects: list[SceneObject] = []

@@ -1,0 +1,54 @@
+// Punctual lights: direction to the light and c_light at the shaded point.
+// Twin: app/reference/punctual.py.
+#ifndef PBS_PUNCTUAL_GLSL
+#define PBS_PUNCTUAL_GLSL
+
+const int LIGHT_DIRECTIONAL = 0;
+const int LIGHT_POINT = 1;
+const int LIGHT_SPOT = 2;
+
+// Distance floor for the inverse-square law (RTR4 eq. 5.11: a light is never closer
+// than about 1 cm), so a light touching a surface stays finite.
+const float LIGHT_MIN_DISTANCE = 0.01;
+
+struct PunctualLight {
+    int type;
+    vec3 position;        // world space (point, spot)
+    vec3 direction;       // unit, the way the light travels (directional, spot)
+    vec3 color;           // linear RGB c_light at 1 m (point, spot) or everywhere (directional)
+    float range;          // point, spot: the window reaches exactly 0 here
+    float cos_outer;      // spot: cosine of the outer cone half-angle
+    float cos_inner;      // spot: cosine of the inner cone half-angle
+};
+
+// Karis 2013, "Real Shading in Unreal Engine 4"; RTR4 eq. 5.14:
+//   f_win(r) = ((1 - (r/r_max)^4)+)^2, smooth and exactly 0 at r = r_max.
+float window_falloff(float dist2, float range) {
+    float x = dist2 / (range * range);
+    float t = clamp(1.0 - x * x, 0.0, 1.0);
+    return t * t;
+}
+
+// RTR4 eq. 5.18-5.19 (Frostbite): t = clamp((cos theta - cos outer)/(cos inner - cos outer)), t^2.
+float spot_cone(float cos_theta, float cos_outer, float cos_inner) {
+    float t = clamp((cos_theta - cos_outer) / max(cos_inner - cos_outer, 1e-4), 0.0, 1.0);
+    return t * t;
+}
+
+// Returns c_light arriving at p (seed section 4's c_light, already attenuated) and
+// writes the unit direction from p towards the light into l.
+vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
+    if (L.type == LIGHT_DIRECTIONAL) {
+        l = -L.direction;
+        return L.color;
+    }
+    vec3 d = L.position - p;
+    float dist2 = dot(d, d);
+    l = d * inversesqrt(max(dist2, 1e-20));
+    float atten = window_falloff(dist2, L.range)
+                / max(dist2, LIGHT_MIN_DISTANCE * LIGHT_MIN_DISTANCE);
+    if (L.type == LIGHT_SPOT) atten *= spot_cone(dot(-l, L.direction), L.cos_outer, L.cos_inner);
+    return L.color * atten;
+}
+
+#endif

@@ -1,0 +1,44 @@
+// G-buffer pass, fragment stage: writes the material parameters of the nearest surface.
+// Layout (docs/gbuffer.md):
+//   RT0 g_albedo : base_color.rgb (linear), metallic
+//   RT1 g_normal : octahedral normal (2), perceptual roughness, dielectric F0
+//   depth        : DEPTH32F, the world position is reconstructed from it.
+#include "common/constants.glsl"
+#include "common/encoding.glsl"
+
+in vec3 v_normal;
+in vec2 v_uv;
+
+uniform vec3 u_base_color;
+uniform float u_metallic;
+uniform float u_roughness;
+uniform float u_f0;
+
+#ifdef MAT_BASE_COLOR_MAP
+uniform sampler2D u_base_color_map;    // sRGB texture: sampled as linear by the GL
+#endif
+#ifdef MAT_METALLIC_ROUGHNESS_MAP
+uniform sampler2D u_metallic_roughness_map;  // glTF: G = roughness, B = metallic
+#endif
+
+layout(location = 0) out vec4 g_albedo;
+layout(location = 1) out vec4 g_normal;
+
+void main() {
+    vec3 base_color = u_base_color;
+    float metallic = u_metallic;
+    float roughness = u_roughness;
+#ifdef MAT_BASE_COLOR_MAP
+    base_color *= texture(u_base_color_map, v_uv).rgb;
+#endif
+#ifdef MAT_METALLIC_ROUGHNESS_MAP
+    vec4 mr = texture(u_metallic_roughness_map, v_uv);
+    roughness *= mr.g;
+    metallic *= mr.b;
+#endif
+    // Two-sided: a back face seen through an open mesh or under a plane is shaded
+    // with the normal turned towards the viewer.
+    vec3 n = normalize(gl_FrontFacing ? v_normal : -v_normal);
+    g_albedo = vec4(base_color, metallic);
+    g_normal = vec4(oct_encode(n), roughness, u_f0);
+}

@@ -1,0 +1,17 @@
+// G-buffer pass, vertex stage: object -> world -> clip.
+in vec3 in_position;
+in vec3 in_normal;
+in vec2 in_uv;
+
+uniform mat4 u_model;
+uniform mat3 u_normal_matrix;   // inverse-transpose of u_model's upper 3x3
+uniform mat4 u_view_proj;
+
+out vec3 v_normal;
+out vec2 v_uv;
+
+void main() {
+    v_normal = u_normal_matrix * in_normal;
+    v_uv = in_uv;
+    gl_Position = u_view_proj * (u_model * vec4(in_position, 1.0));
+}

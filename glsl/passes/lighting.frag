@@ -1,0 +1,59 @@
+// Lighting pass: the seed's illumination sum over a G-buffer, in linear HDR.
+//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
+#include "common/constants.glsl"
+#include "common/encoding.glsl"
+#include "brdf/fresnel.glsl"
+#include "brdf/ndf.glsl"
+#include "brdf/masking.glsl"
+#include "brdf/diffuse.glsl"
+#include "brdf/specular.glsl"
+#include "brdf/material.glsl"
+#include "lights/punctual.glsl"
+
+uniform sampler2D g_albedo;
+uniform sampler2D g_normal;
+uniform sampler2D g_depth;
+uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
+uniform int u_light_count;
+uniform mat4 u_inv_view_proj;
+uniform vec3 u_camera_pos;
+uniform vec3 u_background;
+
+out vec4 frag_color;
+
+PunctualLight fetch_light(int i) {
+    vec4 t0 = texelFetch(u_lights, ivec2(0, i), 0);
+    vec4 t1 = texelFetch(u_lights, ivec2(1, i), 0);
+    vec4 t2 = texelFetch(u_lights, ivec2(2, i), 0);
+    vec4 t3 = texelFetch(u_lights, ivec2(3, i), 0);
+    return PunctualLight(int(t0.w), t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t3.x);
+}
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    float depth = texelFetch(g_depth, px, 0).r;
+    if (depth >= 1.0) {                       // nothing drawn: the background radiance
+        frag_color = vec4(u_background, 1.0);
+        return;
+    }
+    vec4 a = texelFetch(g_albedo, px, 0);
+    vec4 b = texelFetch(g_normal, px, 0);
+    Surface s = Surface(a.rgb, a.a, b.b, b.a);
+    vec3 n = oct_decode(b.rg);
+
+    // World position from the depth buffer at the pixel centre.
+    vec2 ndc_xy = (gl_FragCoord.xy / vec2(textureSize(g_depth, 0))) * 2.0 - 1.0;
+    vec4 pw = u_inv_view_proj * vec4(ndc_xy, depth * 2.0 - 1.0, 1.0);
+    vec3 p = pw.xyz / pw.w;
+    vec3 v = normalize(u_camera_pos - p);
+
+    vec3 Lo = vec3(0.0);
+    for (int i = 0; i < u_light_count; ++i) {
+        vec3 l;
+        vec3 c_light = light_at(fetch_light(i), p, l);
+        float NoL = dot(n, l);
+        if (NoL <= 0.0) continue;             // (n.l)+ : lights behind the surface add nothing
+        Lo += brdf_standard(s, n, l, v) * c_light * NoL;
+    }
+    frag_color = vec4(PI * Lo, 1.0);
+}

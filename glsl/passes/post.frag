@@ -1,0 +1,19 @@
+// Post pass: exposure, tone mapping, sRGB encoding of the HDR image.
+#include "post/tonemap.glsl"
+
+uniform sampler2D u_hdr;
+uniform float u_exposure;   // linear scale, 2^EV
+
+out vec4 frag_color;
+
+void main() {
+    vec3 c = texelFetch(u_hdr, ivec2(gl_FragCoord.xy), 0).rgb * u_exposure;
+#if TONEMAP == 1
+    c = tonemap_khronos_neutral(c);
+#elif TONEMAP == 2
+    c = tonemap_aces_narkowicz(c);
+#elif TONEMAP == 3
+    c = tonemap_reinhard(c);
+#endif
+    frag_color = vec4(srgb_encode(c), 1.0);
+}
