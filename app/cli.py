@@ -9,7 +9,9 @@ import argparse
 import re
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import NoReturn
 
 from app.errors import EXIT_BAD_INPUT, InputError
 from app.output import HDR_SUFFIXES, write_hdr, write_png
@@ -22,8 +24,15 @@ def _size(text: str) -> tuple[int, int]:
     return int(match.group(1)), int(match.group(2))
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse whose usage errors are one line, like every other bad input."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"pbs: error: {message} (see '{self.prog} --help')\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="pbs", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="pbs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     render = sub.add_parser("render", help="render a scene file headless to PNG")
     render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
@@ -50,6 +59,14 @@ def _resolve_scene(name: str) -> Path:
     return bundled if bundled.exists() else path
 
 
+def _write(path: Path, option: str, write: Callable[[Path], None]) -> None:
+    try:
+        write(path)
+    except OSError as exc:
+        why = f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc.strerror or exc)
+        raise InputError(str(path), option, f"cannot write ({why})") from None
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from app.gl.context import create_context
     from app.render.renderer import Renderer
@@ -59,7 +76,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.suffix.lower() != ".png":
         raise InputError(str(out), "-o", "the output must be a .png file")
-    if args.hdr and Path(args.hdr).suffix.lower() not in HDR_SUFFIXES:
+    if args.hdr and Path(args.hdr).suffix not in HDR_SUFFIXES:  # write_hdr: lower case only
         raise InputError(args.hdr, "--hdr", "the HDR output must end in .exr or .npy")
     loaded = load_scene(_resolve_scene(args.scene))
     gl = create_context(args.backend)
@@ -69,8 +86,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     hdr = renderer.read_hdr() if args.hdr else None
     renderer.release()
     if hdr is not None:
-        write_hdr(Path(args.hdr), hdr)
-    write_png(out, ldr)
+        _write(Path(args.hdr), "--hdr", lambda p: write_hdr(p, hdr))
+    _write(out, "-o", lambda p: write_png(p, ldr))
     if not args.quiet:
         w, h = renderer.size
         print(

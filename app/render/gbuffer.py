@@ -3,7 +3,8 @@
 Layout and precision are documented in docs/gbuffer.md:
   RT0 ``albedo``  RGBA16F|32F  base_color.rgb (linear), metallic
   RT1 ``normal``  RGBA16F|32F  octahedral normal (x, y), perceptual roughness, F0
-  depth           DEPTH32F     the world position is reconstructed from it
+  RT2 ``depth``   R32F         linear view depth in metres, 0 where nothing was drawn
+  z-test          DEPTH24      a renderbuffer, never sampled
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ class GBufferData:
 
     albedo: np.ndarray  # (H, W, 4) float32
     normal: np.ndarray  # (H, W, 4) float32
-    depth: np.ndarray  # (H, W) float32, window-space depth in [0, 1]
+    depth: np.ndarray  # (H, W) float32 view depth in metres, 0 = background
 
 
 class GBuffer:
@@ -35,22 +36,28 @@ class GBuffer:
         self.size = size
         self.albedo = ctx.texture(size, 4, dtype=dtype)
         self.normal = ctx.texture(size, 4, dtype=dtype)
-        self.depth = ctx.depth_texture(size)  # DEPTH_COMPONENT24 by default; see below
+        self.depth = ctx.texture(size, 1, dtype="f4")
+        self.zbuffer = ctx.depth_renderbuffer(size)
         for tex in (self.albedo, self.normal, self.depth):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
-        self.fbo = ctx.framebuffer([self.albedo, self.normal], self.depth)
+        self.fbo = ctx.framebuffer([self.albedo, self.normal, self.depth], self.zbuffer)
 
     def read(self) -> GBufferData:
         w, h = self.size
-        albedo = np.frombuffer(self.albedo.read(dtype="f4"), np.float32).reshape(h, w, 4)
-        normal = np.frombuffer(self.normal.read(dtype="f4"), np.float32).reshape(h, w, 4)
+        albedo = _read_float(self.albedo).reshape(h, w, 4)
+        normal = _read_float(self.normal).reshape(h, w, 4)
         depth = np.frombuffer(self.depth.read(), np.float32).reshape(h, w)
         return GBufferData(albedo[::-1].copy(), normal[::-1].copy(), depth[::-1].copy())
 
     def release(self) -> None:
-        for obj in (self.fbo, self.albedo, self.normal, self.depth):
+        for obj in (self.fbo, self.albedo, self.normal, self.depth, self.zbuffer):
             obj.release()
+
+
+def _read_float(tex: moderngl.Texture) -> np.ndarray:
+    """A float16/float32 texture's texels as float32 (float16 widens exactly)."""
+    return np.frombuffer(tex.read(), np.dtype(tex.dtype)).astype(np.float32)
 
 
 def _upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
@@ -84,11 +91,12 @@ class _Drawable:
         self.model_bytes = gl_bytes(part.model)
         self.normal_bytes = gl_bytes(normal_matrix)
 
-    def draw(self, view_proj_bytes: bytes) -> None:
+    def draw(self, view_bytes: bytes, proj_bytes: bytes) -> None:
         prog, m = self.program, self.part.material
         prog["u_model"].write(self.model_bytes)
         prog["u_normal_matrix"].write(self.normal_bytes)
-        prog["u_view_proj"].write(view_proj_bytes)
+        prog["u_view"].write(view_bytes)
+        prog["u_proj"].write(proj_bytes)
         prog["u_base_color"].value = m.base_color
         prog["u_metallic"].value = m.metallic
         prog["u_roughness"].value = m.roughness
@@ -110,16 +118,16 @@ class GBufferPass:
         self.ctx = ctx
         self.drawables = [_Drawable(ctx, shaders, p) for p in parts]
 
-    def run(self, target: GBuffer, view_proj: np.ndarray) -> None:
+    def run(self, target: GBuffer, view: np.ndarray, proj: np.ndarray) -> None:
         ctx = self.ctx
         target.fbo.use()
         ctx.viewport = (0, 0, *target.size)
         ctx.enable_only(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
         target.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        vp = gl_bytes(view_proj)
+        view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
         for d in self.drawables:
-            d.draw(vp)
+            d.draw(view_bytes, proj_bytes)
 
     def release(self) -> None:
         for d in self.drawables:

@@ -13,7 +13,7 @@ import numpy as np
 
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
-from app.scene.camera import gl_bytes
+from app.scene.camera import CameraFrame, gl_bytes
 from app.scene.lights import pack_lights
 
 
@@ -42,8 +42,7 @@ class LightingPass:
     def run(
         self,
         gbuffer: GBuffer,
-        inv_view_proj: np.ndarray,
-        camera_pos: np.ndarray,
+        camera: CameraFrame,
         background: np.ndarray,
     ) -> None:
         ctx, prog = self.ctx, self.program
@@ -57,8 +56,9 @@ class LightingPass:
         for name, unit in (("g_albedo", 0), ("g_normal", 1), ("g_depth", 2), ("u_lights", 3)):
             prog[name].value = unit
         prog["u_light_count"].value = self.light_count
-        prog["u_inv_view_proj"].write(gl_bytes(inv_view_proj))
-        prog["u_camera_pos"].value = tuple(float(x) for x in camera_pos)
+        prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)
+        prog["u_camera_to_world"].write(gl_bytes(camera.camera_to_world))
+        prog["u_tan_half_fov"].value = camera.tan_half_fov
         prog["u_background"].value = tuple(float(x) for x in background)
         self.vao.render(moderngl.TRIANGLES, vertices=3)
 

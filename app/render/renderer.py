@@ -13,7 +13,7 @@ from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer, GBufferData, GBufferPass
 from app.render.lighting import LightingPass
 from app.render.post import PostPass
-from app.scene.camera import view_projection
+from app.scene.camera import camera_frame, projection_matrix, view_matrix
 from app.scene.geometry import build_parts
 from app.scene.lights import light_record
 from app.scene.loader import LoadedScene
@@ -36,18 +36,16 @@ class Renderer:
         self.gbuffer_pass = GBufferPass(ctx, self.shaders, build_parts(loaded))
         self.lighting = LightingPass(ctx, self.shaders, self.size, self.lights)
         self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)
-        self.view_proj = view_projection(scene.camera, *self.size)
+        w, h = self.size
+        self.view = view_matrix(scene.camera)
+        self.proj = projection_matrix(scene.camera, w / h)
+        self.camera = camera_frame(scene.camera, *self.size)
 
     def render(self) -> None:
         """Run all passes; results stay on the GPU until read."""
         scene = self.scene
-        self.gbuffer_pass.run(self.gbuffer, self.view_proj)
-        self.lighting.run(
-            self.gbuffer,
-            np.linalg.inv(self.view_proj),
-            np.asarray(scene.camera.position, np.float64),
-            np.asarray(scene.background, np.float64),
-        )
+        self.gbuffer_pass.run(self.gbuffer, self.view, self.proj)
+        self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
         self.post.run(self.lighting.hdr, scene.camera.exposure)
 
     def read_hdr(self) -> np.ndarray:

@@ -12,7 +12,15 @@ from dataclasses import dataclass
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidatorFunctionWrapHandler,
+    field_validator,
+    model_validator,
+)
 
 from app.scene.presets import PRESETS
 
@@ -49,7 +57,8 @@ class Camera(_Strict):
     @model_validator(mode="after")
     def _check(self) -> Camera:
         forward = np.subtract(self.target, self.position)
-        _nonzero(list(forward), "target")
+        if math.fsum(x * x for x in forward) <= 1e-20:
+            raise ValueError("target: must differ from position (no view direction)")
         _nonzero(self.up, "up")
         if np.linalg.norm(np.cross(forward, self.up)) <= 1e-9 * np.linalg.norm(forward):
             raise ValueError("up: must not be parallel to the view direction (target - position)")
@@ -188,6 +197,15 @@ class SceneObject(_Strict):
     position: Vec3 = [0.0, 0.0, 0.0]
     rotation: Vec3 = [0.0, 0.0, 0.0]  # degrees about X, then Y, then Z
     scale: Positive | Annotated[list[Positive], Field(min_length=3, max_length=3)] = 1.0
+
+    @field_validator("scale", mode="wrap")
+    @classmethod
+    def _scale(cls, value: object, handler: ValidatorFunctionWrapHandler) -> object:
+        # One message instead of one per union member (whose locs name pydantic's types).
+        try:
+            return handler(value)
+        except ValidationError:
+            raise ValueError("must be a number > 0 or a list of 3 numbers > 0") from None
 
     @model_validator(mode="after")
     def _check(self) -> SceneObject:

@@ -2,12 +2,14 @@
 // Layout (docs/gbuffer.md):
 //   RT0 g_albedo : base_color.rgb (linear), metallic
 //   RT1 g_normal : octahedral normal (2), perceptual roughness, dielectric F0
-//   depth        : DEPTH32F, the world position is reconstructed from it.
+//   RT2 g_depth  : R32F linear view depth in metres (0 = no surface); the world
+//                  position is reconstructed from it. A DEPTH24 buffer does the z-test.
 #include "common/constants.glsl"
 #include "common/encoding.glsl"
 
 in vec3 v_normal;
 in vec2 v_uv;
+in float v_view_depth;
 
 uniform vec3 u_base_color;
 uniform float u_metallic;
@@ -23,6 +25,7 @@ uniform sampler2D u_metallic_roughness_map;  // glTF: G = roughness, B = metalli
 
 layout(location = 0) out vec4 g_albedo;
 layout(location = 1) out vec4 g_normal;
+layout(location = 2) out float g_depth;
 
 void main() {
     vec3 base_color = u_base_color;
@@ -41,4 +44,5 @@ void main() {
     vec3 n = normalize(gl_FrontFacing ? v_normal : -v_normal);
     g_albedo = vec4(base_color, metallic);
     g_normal = vec4(oct_encode(n), roughness, u_f0);
+    g_depth = v_view_depth;
 }

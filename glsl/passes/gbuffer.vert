@@ -5,13 +5,17 @@ in vec2 in_uv;
 
 uniform mat4 u_model;
 uniform mat3 u_normal_matrix;   // inverse-transpose of u_model's upper 3x3
-uniform mat4 u_view_proj;
+uniform mat4 u_view;
+uniform mat4 u_proj;
 
 out vec3 v_normal;
 out vec2 v_uv;
+out float v_view_depth;   // metres along the view axis
 
 void main() {
     v_normal = u_normal_matrix * in_normal;
     v_uv = in_uv;
-    gl_Position = u_view_proj * (u_model * vec4(in_position, 1.0));
+    vec4 view = u_view * (u_model * vec4(in_position, 1.0));
+    v_view_depth = -view.z;
+    gl_Position = u_proj * view;
 }

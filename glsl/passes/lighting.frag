@@ -2,6 +2,7 @@
 //   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
 #include "common/constants.glsl"
 #include "common/encoding.glsl"
+#include "common/position.glsl"
 #include "brdf/fresnel.glsl"
 #include "brdf/ndf.glsl"
 #include "brdf/masking.glsl"
@@ -15,8 +16,9 @@ uniform sampler2D g_normal;
 uniform sampler2D g_depth;
 uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
 uniform int u_light_count;
-uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_pos;
+uniform mat3 u_camera_to_world;
+uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
 uniform vec3 u_background;
 
 out vec4 frag_color;
@@ -32,7 +34,7 @@ PunctualLight fetch_light(int i) {
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     float depth = texelFetch(g_depth, px, 0).r;
-    if (depth >= 1.0) {                       // nothing drawn: the background radiance
+    if (depth <= 0.0) {                       // nothing drawn: the background radiance
         frag_color = vec4(u_background, 1.0);
         return;
     }
@@ -43,8 +45,8 @@ void main() {
 
     // World position from the depth buffer at the pixel centre.
     vec2 ndc_xy = (gl_FragCoord.xy / vec2(textureSize(g_depth, 0))) * 2.0 - 1.0;
-    vec4 pw = u_inv_view_proj * vec4(ndc_xy, depth * 2.0 - 1.0, 1.0);
-    vec3 p = pw.xyz / pw.w;
+    vec3 p = reconstruct_position(ndc_xy, depth, u_camera_pos, u_camera_to_world,
+                                  u_tan_half_fov);
     vec3 v = normalize(u_camera_pos - p);
 
     vec3 Lo = vec3(0.0);

@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# One entry point that does all set-up, then one job:
+#   bash scripts/dev.sh render   render the default scene headless into screenshots/
+#   bash scripts/dev.sh test     run the whole test suite
+#   bash scripts/dev.sh shots    regenerate screenshots/ for every scene in scenes/
+#   bash scripts/dev.sh setup    set up only
+# Set-up (idempotent): Debian's Mesa EGL + llvmpipe, OSMesa and Xvfb (apt-get when
+# root, else the exact packages to install are printed), a virtual environment in
+# .venv, and the project with its test tools installed into it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+VENV="$ROOT/.venv"
+
+APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth)
+PY_APT_PACKAGES=(python3 python3-venv python3-pip)
+
+have_system_libs() {
+    ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' &&
+    ldconfig -p 2>/dev/null | grep -q 'libOSMesa.so' &&
+    ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 &&
+    command -v Xvfb >/dev/null 2>&1
+}
+
+pick_python() {
+    for py in python3.13 python3.12 python3.11 python3; do
+        if command -v "$py" >/dev/null 2>&1 &&
+           "$py" -c 'import sys, venv, ensurepip; sys.exit(sys.version_info < (3, 11))' 2>/dev/null; then
+            echo "$py"; return 0
+        fi
+    done
+    return 1
+}
+
+apt_install() {
+    if [ "$(id -u)" -eq 0 ]; then
+        echo "setup: installing with apt-get: $*"
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get update -qq
+        apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+    else
+        echo "setup: missing system packages; as root run:" >&2
+        echo "    apt-get install -y $*" >&2
+        exit 1
+    fi
+}
+
+setup() {
+    have_system_libs || apt_install "${APT_PACKAGES[@]}"
+    PY=$(pick_python) || { apt_install "${PY_APT_PACKAGES[@]}"; PY=$(pick_python); }
+    if [ ! -x "$VENV/bin/python" ]; then
+        echo "setup: creating $VENV with $PY"
+        "$PY" -m venv "$VENV"
+    fi
+    # Reinstall only when the project's metadata changed.
+    stamp="$VENV/.pbs-installed"
+    want=$(sha256sum pyproject.toml | cut -d' ' -f1)
+    if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+        echo "setup: installing the project and its dependencies into $VENV"
+        "$VENV/bin/python" -m pip install -q --upgrade pip
+        "$VENV/bin/python" -m pip install -q -e ".[test]"
+        echo "$want" > "$stamp"
+    fi
+}
+
+cmd=${1:-}
+case "$cmd" in
+    setup) setup ;;
+    render)
+        setup
+        mkdir -p screenshots
+        "$VENV/bin/pbs" render scenes/showcase.toml -o screenshots/showcase.png ;;
+    shots)
+        setup
+        "$VENV/bin/python" -m app.screenshots ;;
+    test)
+        setup
+        shift
+        "$VENV/bin/python" -m pytest "$@" ;;
+    *)
+        echo "usage: bash scripts/dev.sh render|test|shots|setup" >&2
+        exit 2 ;;
+esac

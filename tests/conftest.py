@@ -1,0 +1,27 @@
+"""Shared fixtures: real headless GL contexts on Mesa (EGL and OSMesa), no mocks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from app.gl.context import GLContext, create_context
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module", params=["egl", "osmesa"])
+def gl(request: pytest.FixtureRequest) -> GLContext:
+    """A headless OpenGL 3.3 context from each backend in turn."""
+    context = create_context(request.param)
+    yield context
+    context.release()
+
+
+@pytest.fixture(scope="module")
+def gl_egl() -> GLContext:
+    """The EGL context alone, for tests where the backend does not matter."""
+    context = create_context("egl")
+    yield context
+    context.release()
