@@ -16,8 +16,10 @@ APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa
 PY_APT_PACKAGES=(python3 python3-venv python3-pip)
 
 have_system_libs() {
-    ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' &&
-    ldconfig -p 2>/dev/null | grep -q 'libOSMesa.so' &&
+    local ldconfig
+    ldconfig=$(command -v ldconfig || echo /sbin/ldconfig)
+    "$ldconfig" -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' &&
+    "$ldconfig" -p 2>/dev/null | grep -q 'libOSMesa.so' &&
     ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 &&
     command -v Xvfb >/dev/null 2>&1
 }
