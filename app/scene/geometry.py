@@ -98,7 +98,9 @@ def _plane(size: list[float]) -> trimesh.Trimesh:
 def _primitive(obj: SceneObject) -> trimesh.Trimesh:
     if obj.shape == "sphere":
         radius = obj.radius or 0.5
-        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions or 4, radius=radius)
+        mesh = trimesh.creation.icosphere(
+            subdivisions=4 if obj.subdivisions is None else obj.subdivisions, radius=radius
+        )
         # The exact sphere normal, not an average of facet normals.
         mesh.vertex_normals = mesh.vertices / np.linalg.norm(mesh.vertices, axis=1, keepdims=True)
         return mesh
@@ -144,7 +146,7 @@ def _file_material(
         return fallback, {}
     factor = mat.baseColorFactor
     base = (
-        fallback.base_color
+        (1.0, 1.0, 1.0)  # glTF 2.0's default baseColorFactor
         if factor is None
         else tuple(
             float(x) / (255.0 if np.asarray(factor).dtype == np.uint8 else 1.0) for x in factor[:3]
@@ -152,8 +154,9 @@ def _file_material(
     )
     params = MaterialParams(
         base_color=base,  # type: ignore[arg-type]
-        metallic=fallback.metallic if mat.metallicFactor is None else float(mat.metallicFactor),
-        roughness=fallback.roughness if mat.roughnessFactor is None else float(mat.roughnessFactor),
+        # glTF 2.0: an absent metallicFactor or roughnessFactor means 1.0.
+        metallic=1.0 if mat.metallicFactor is None else float(mat.metallicFactor),
+        roughness=1.0 if mat.roughnessFactor is None else float(mat.roughnessFactor),
         f0=fallback.f0,
     )
     maps = {}
@@ -175,7 +178,9 @@ def _load_file(
         data = trimesh.load(str(path), process=False)
     except Exception as exc:  # trimesh raises many types for unreadable files
         raise InputError(
-            str(loaded.path), f"objects[{index}].file", f"cannot read mesh {path}: {exc}"
+            str(loaded.path),
+            f"objects[{index}].file",
+            f"cannot read mesh {path} ({type(exc).__name__}: {exc})",
         ) from None
     if isinstance(data, trimesh.Trimesh):
         return [(data, np.eye(4))]

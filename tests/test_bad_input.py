@@ -1,0 +1,537 @@
+"""Bad input never crashes ``pbs render``: exit code 2, one line naming file and key, no output.
+
+Most cases call ``app.cli.main`` in-process (it returns the exit code and fails before any
+GL work); a few run ``python -m app`` in a subprocess to prove the contract end to end,
+including the mesh-file cases that only fail once rendering has begun.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from app.cli import main
+
+REPO = Path(__file__).resolve().parent.parent
+SIZE = "64x48"
+
+# A minimal valid scene; each case appends to it or replaces it.
+BASE = """\
+[materials.m]
+roughness = 0.5
+
+[[objects]]
+shape = "sphere"
+material = "m"
+
+[[lights]]
+type = "point"
+position = [0.0, 2.0, 2.0]
+"""
+
+SPOT = '[[lights]]\ntype = "spot"\nposition = [0.0, 2.0, 0.0]\ndirection = [0.0, -1.0, 0.0]\n'
+
+
+def _scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.fixture
+def work(tmp_path: Path) -> tuple[Path, Path]:
+    """(folder for scene files, empty folder for the outputs), symlinks resolved."""
+    root = tmp_path.resolve()
+    out = root / "out"
+    out.mkdir()
+    return root, out
+
+
+def _check(rc: int, stderr: str, out_dir: Path, prefix: str, fragment: str = "") -> str:
+    """The bad-input contract; returns the one error line."""
+    assert rc == 2, stderr
+    assert "Traceback" not in stderr
+    lines = stderr.splitlines()
+    assert len(lines) == 1, stderr
+    line = lines[0]
+    assert line.startswith(prefix), line
+    assert fragment in line, line
+    assert sorted(p.name for p in out_dir.iterdir()) == [], "output or temp file left behind"
+    return line
+
+
+def _run_inproc(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str]:
+    capsys.readouterr()
+    rc = main(["render", *argv])
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    return rc, captured.err
+
+
+def _run_cli(*argv: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "app", "render", *argv],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+
+
+# (id, scene text, key path, fragment of the message)
+SCENE_CASES = [
+    ("unknown-top-level-key", "foo = 1\n" + BASE, "foo", "unknown key"),
+    ("unknown-nested-key", BASE + "[camera]\nfov = 40.0\n", "camera.fov", "unknown key"),
+    (
+        "unknown-material-key",
+        BASE.replace("roughness = 0.5", "rough = 0.5"),
+        "materials.m.rough",
+        "unknown key",
+    ),
+    ("string-for-number", BASE + '[camera]\nfov_y = "45"\n', "camera.fov_y", "valid number"),
+    ("bool-for-number", BASE + "[camera]\nfov_y = true\n", "camera.fov_y", "valid number"),
+    ("float-for-integer", BASE + "[render]\nwidth = 64.0\n", "render.width", "valid integer"),
+    ("vector-too-short", BASE + "[camera]\nposition = [1.0, 2.0]\n", "camera.position", "3"),
+    ("color-too-long", "background = [0.1, 0.1, 0.1, 1.0]\n" + BASE, "background", "3"),
+    (
+        "vector-element-string",
+        BASE + '[camera]\ntarget = [0.0, "up", 0.0]\n',
+        "camera.target[1]",
+        "valid number",
+    ),
+    ("nan", BASE + "[camera]\nfov_y = nan\n", "camera.fov_y", "finite"),
+    ("inf", BASE + "[camera]\nexposure = inf\n", "camera.exposure", "finite"),
+    ("minus-inf-in-vector", BASE + "[camera]\nup = [0.0, -inf, 0.0]\n", "camera.up[1]", "finite"),
+    ("nan-in-color", "background = [0.0, nan, 0.0]\n" + BASE, "background[1]", "finite"),
+    ("inf-intensity", BASE + "intensity = inf\n", "lights[0].intensity", "finite"),
+    (
+        "negative-roughness",
+        BASE.replace("roughness = 0.5", "roughness = -0.1"),
+        "materials.m.roughness",
+        "greater than or equal to 0",
+    ),
+    (
+        "roughness-above-1",
+        BASE.replace("roughness = 0.5", "roughness = 1.5"),
+        "materials.m.roughness",
+        "less than or equal to 1",
+    ),
+    (
+        "f0-above-1",
+        BASE.replace("roughness = 0.5", "f0 = 1.2"),
+        "materials.m.f0",
+        "less than or equal to 1",
+    ),
+    (
+        "base-color-above-1",
+        BASE.replace("roughness = 0.5", "base_color = [0.5, 2.0, 0.5]"),
+        "materials.m.base_color[1]",
+        "less than or equal to 1",
+    ),
+    ("ior-below-1", BASE.replace("roughness = 0.5", "ior = 0.5"), "materials.m.ior", "1"),
+    (
+        "f0-and-ior",
+        BASE.replace("roughness = 0.5", "f0 = 0.04\nior = 1.5"),
+        "materials.m.ior",
+        "not both",
+    ),
+    (
+        "unknown-preset",
+        BASE.replace("roughness = 0.5", 'preset = "unobtainium"'),
+        "materials.m.preset",
+        "unknown preset 'unobtainium'",
+    ),
+    (
+        "unknown-material-reference",
+        BASE.replace('material = "m"', 'material = "nope"'),
+        "objects[0].material",
+        "unknown material 'nope'",
+    ),
+    (
+        "primitive-without-material",
+        BASE.replace('material = "m"\n', ""),
+        "objects[0].material",
+        "needs it",
+    ),
+    (
+        "zero-light-direction",
+        BASE + '[[lights]]\ntype = "directional"\ndirection = [0.0, 0.0, 0.0]\n',
+        "lights[1].direction",
+        "zero vector",
+    ),
+    (
+        "zero-spot-direction",
+        BASE + SPOT.replace("[0.0, -1.0, 0.0]", "[0.0, 0.0, 0.0]"),
+        "lights[1].direction",
+        "zero vector",
+    ),
+    ("zero-camera-up", BASE + "[camera]\nup = [0.0, 0.0, 0.0]\n", "camera.up", "zero vector"),
+    (
+        "camera-position-equals-target",
+        BASE + "[camera]\nposition = [1.0, 1.0, 1.0]\ntarget = [1.0, 1.0, 1.0]\n",
+        "camera.target",
+        "must differ from position",
+    ),
+    (
+        "camera-up-parallel-to-view",
+        BASE + "[camera]\nposition = [0.0, 5.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n",
+        "camera.up",
+        "parallel",
+    ),
+    ("camera-far-before-near", BASE + "[camera]\nnear = 10.0\nfar = 1.0\n", "camera.far", ""),
+    ("camera-fov-180", BASE + "[camera]\nfov_y = 180.0\n", "camera.fov_y", "less than 180"),
+    (
+        "spot-inner-equals-outer",
+        BASE + SPOT + "inner_angle = 30.0\nouter_angle = 30.0\n",
+        "lights[1].inner_angle",
+        "smaller than outer_angle",
+    ),
+    (
+        "spot-outer-below-default-inner",
+        BASE + SPOT + "outer_angle = 15.0\n",
+        "lights[1].inner_angle",
+        "smaller than outer_angle",
+    ),
+    (
+        "point-light-without-position",
+        BASE + '[[lights]]\ntype = "point"\n',
+        "lights[1].position",
+        "a point light needs it",
+    ),
+    (
+        "spot-light-without-direction",
+        BASE + '[[lights]]\ntype = "spot"\nposition = [0.0, 1.0, 0.0]\n',
+        "lights[1].direction",
+        "a spot light needs it",
+    ),
+    (
+        "light-without-type",
+        BASE + "[[lights]]\nposition = [0.0, 1.0, 0.0]\n",
+        "lights[1].type",
+        "required",
+    ),
+    (
+        "unknown-light-type",
+        BASE + '[[lights]]\ntype = "area"\nposition = [0.0, 1.0, 0.0]\n',
+        "lights[1].type",
+        "'area'",
+    ),
+    (
+        "range-on-directional-light",
+        BASE + '[[lights]]\ntype = "directional"\ndirection = [0.0, -1.0, 0.0]\nrange = 5.0\n',
+        "lights[1].range",
+        "does not apply",
+    ),
+    ("zero-range", BASE + "range = 0.0\n", "lights[0].range", "greater than 0"),
+    ("lights-as-table", '[lights]\ntype = "point"\n', "lights", "valid list"),
+    (
+        "negative-scale",
+        BASE.replace('material = "m"\n', 'material = "m"\nscale = -1.0\n'),
+        "objects[0].scale",
+        "number > 0",
+    ),
+    (
+        "zero-in-scale-vector",
+        BASE.replace('material = "m"\n', 'material = "m"\nscale = [1.0, 0.0, 1.0]\n'),
+        "objects[0].scale",
+        "> 0",
+    ),
+    (
+        "plane-with-3-sizes",
+        BASE + '[[objects]]\nshape = "plane"\nmaterial = "m"\nsize = [1.0, 1.0, 1.0]\n',
+        "objects[1].size",
+        "2 numbers",
+    ),
+    (
+        "radius-on-box",
+        BASE + '[[objects]]\nshape = "box"\nmaterial = "m"\nradius = 1.0\n',
+        "objects[1].radius",
+        "does not apply",
+    ),
+    (
+        "object-without-shape",
+        BASE + '[[objects]]\nmaterial = "m"\n',
+        "objects[1].shape",
+        "required",
+    ),
+    ("mesh-without-file", BASE + '[[objects]]\nshape = "mesh"\n', "objects[1].file", "needs it"),
+    (
+        "unknown-tonemap",
+        BASE + '[render]\ntonemap = "filmic"\n',
+        "render.tonemap",
+        "'filmic'",
+    ),
+    (
+        "missing-mesh-file",
+        BASE + '[[objects]]\nshape = "mesh"\nfile = "meshes/nope.obj"\n',
+        "objects[1].file",
+        "no such file",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "fragment"),
+    [pytest.param(*case[1:], id=case[0]) for case in SCENE_CASES],
+)
+def test_bad_scene(
+    work: tuple[Path, Path],
+    capsys: pytest.CaptureFixture[str],
+    text: str,
+    key: str,
+    fragment: str,
+) -> None:
+    root, out = work
+    scene = _scene(root, text)
+    rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    _check(rc, err, out, f"pbs: error: {scene}: {key}: ", fragment)
+
+
+# Problems with the scene file itself: no key, the message says what is wrong.
+def _malformed(root: Path) -> Path:
+    return _scene(root, "[camera\nposition = [0.0, 0.0, 0.0]\n")
+
+
+def _duplicate_key(root: Path) -> Path:
+    return _scene(root, BASE + "[camera]\nfov_y = 40.0\nfov_y = 41.0\n")
+
+
+def _missing(root: Path) -> Path:
+    return root / "nope.toml"
+
+
+def _folder(root: Path) -> Path:
+    (root / "folder.toml").mkdir()
+    return root / "folder.toml"
+
+
+def _not_utf8(root: Path) -> Path:
+    path = root / "latin1.toml"
+    path.write_bytes(BASE.encode() + b"# caf\xe9\n")
+    return path
+
+
+FILE_CASES = [
+    ("malformed-toml", _malformed, "malformed TOML"),
+    ("duplicate-key", _duplicate_key, "malformed TOML"),
+    ("missing-scene-file", _missing, "no such file"),
+    ("folder-as-scene", _folder, "is a folder"),
+    ("not-utf8", _not_utf8, "not UTF-8"),
+]
+
+
+@pytest.mark.parametrize(
+    ("make", "fragment"), [pytest.param(*case[1:], id=case[0]) for case in FILE_CASES]
+)
+def test_bad_scene_file(
+    work: tuple[Path, Path], capsys: pytest.CaptureFixture[str], make, fragment: str
+) -> None:
+    root, out = work
+    scene = make(root)
+    rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    _check(rc, err, out, f"pbs: error: {scene}: {fragment}")
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root can read any file"
+)
+def test_unreadable_scene_file(work: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    root, out = work
+    scene = _scene(root, BASE)
+    scene.chmod(0)
+    try:
+        rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    finally:
+        scene.chmod(0o644)
+    _check(rc, err, out, f"pbs: error: {scene}: permission denied")
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root can read any file"
+)
+def test_unreadable_mesh_file(work: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    root, out = work
+    mesh = root / "locked.obj"
+    mesh.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    scene = _scene(root, BASE + '[[objects]]\nshape = "mesh"\nfile = "locked.obj"\n')
+    mesh.chmod(0)
+    try:
+        rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    finally:
+        mesh.chmod(0o644)
+    _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: ", "cannot read")
+
+
+def test_mesh_file_is_a_folder(work: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    root, out = work
+    (root / "folder.obj").mkdir()
+    scene = _scene(root, BASE + '[[objects]]\nshape = "mesh"\nfile = "folder.obj"\n')
+    rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: ", "folder.obj")
+
+
+# Command-line arguments: (id, extra arguments, output name, expected prefix, fragment).
+ARG_CASES = [
+    ("size-zero", ["--size", "0x48"], "out.png", "pbs: error: argument --size: ", "'0x48'"),
+    ("size-one-number", ["--size", "64"], "out.png", "pbs: error: argument --size: ", "'64'"),
+    ("size-too-big", ["--size", "64x99999"], "out.png", "pbs: error: argument --size: ", ""),
+    ("size-words", ["--size", "big"], "out.png", "pbs: error: argument --size: ", "'big'"),
+    ("unknown-backend", ["--backend", "vulkan"], "out.png", "pbs: error: argument --backend", ""),
+    ("output-not-png", [], "out.jpg", "pbs: error: {out}/out.jpg: -o: ", ".png"),
+    ("output-no-suffix", [], "out", "pbs: error: {out}/out: -o: ", ".png"),
+    ("hdr-tiff", ["--hdr", "{out}/out.tiff"], "out.png", "pbs: error: {out}/out.tiff: --hdr: ", ""),
+    (
+        "hdr-upper-case",
+        ["--hdr", "{out}/out.EXR"],
+        "out.png",
+        "pbs: error: {out}/out.EXR: --hdr: ",
+        ".exr or .npy",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("extra", "name", "prefix", "fragment"),
+    [pytest.param(*case[1:], id=case[0]) for case in ARG_CASES],
+)
+def test_bad_arguments(
+    work: tuple[Path, Path],
+    capsys: pytest.CaptureFixture[str],
+    extra: list[str],
+    name: str,
+    prefix: str,
+    fragment: str,
+) -> None:
+    root, out = work
+    scene = _scene(root, BASE)
+    argv = [str(scene), "-o", str(out / name), *(a.format(out=out) for a in extra)]
+    rc, err = _run_inproc(capsys, *argv)
+    _check(rc, err, out, prefix.format(out=out), fragment)
+
+
+def test_missing_output_argument(
+    work: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    root, out = work
+    rc, err = _run_inproc(capsys, str(_scene(root, BASE)))
+    _check(rc, err, out, "pbs: error: ", "-o/--output")
+
+
+# ---- end to end, in a subprocess -------------------------------------------------------
+
+
+def test_valid_scene_renders(work: tuple[Path, Path]) -> None:
+    """The control: BASE itself is fine, so each case above fails for its own reason."""
+    root, out = work
+    result = _run_cli(str(_scene(root, BASE)), "-o", str(out / "out.png"), "--size", SIZE, "-q")
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    assert result.returncode == 0, result.stderr
+    assert result.stderr == ""
+    assert sorted(p.name for p in out.iterdir()) == ["out.png"]
+
+
+E2E_CASES = [
+    ("malformed-toml", "[camera\n", "", "malformed TOML"),
+    ("unknown-nested-key", BASE + "[camera]\nfov = 40.0\n", "camera.fov", "unknown key"),
+    ("nan", BASE + "[camera]\nfov_y = nan\n", "camera.fov_y", "finite"),
+    (
+        "spot-inner-ge-outer",
+        BASE + SPOT + "inner_angle = 40.0\nouter_angle = 30.0\n",
+        "lights[1].inner_angle",
+        "",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "fragment"), [pytest.param(*case[1:], id=case[0]) for case in E2E_CASES]
+)
+def test_bad_scene_subprocess(work: tuple[Path, Path], text: str, key: str, fragment: str) -> None:
+    root, out = work
+    scene = _scene(root, text)
+    result = _run_cli(str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    assert result.stdout == ""
+    prefix = f"pbs: error: {scene}: {key}: " if key else f"pbs: error: {scene}: "
+    _check(result.returncode, result.stderr, out, prefix, fragment)
+
+
+def test_bad_size_subprocess(work: tuple[Path, Path]) -> None:
+    root, out = work
+    result = _run_cli(str(_scene(root, BASE)), "-o", str(out / "out.png"), "--size", "0x0")
+    _check(result.returncode, result.stderr, out, "pbs: error: argument --size: ", "'0x0'")
+
+
+def test_missing_scene_subprocess(work: tuple[Path, Path]) -> None:
+    root, out = work
+    result = _run_cli(str(root / "nope.toml"), "-o", str(out / "out.png"), "--size", SIZE)
+    _check(result.returncode, result.stderr, out, f"pbs: error: {root / 'nope.toml'}: ")
+
+
+# Mesh files that exist but do not hold triangles trimesh can read. These fail only once
+# rendering has begun (the GL context exists), so they run in a subprocess.
+MESH_CASES = [
+    ("binary-garbage-obj", "garbage.obj", b"v 0 0 0\nf 1 2 3\n\x00\x81\xfe\xff" * 8),
+    ("text-garbage-obj", "garbage.obj", b"this is not a mesh\nat all\n"),
+    ("obj-without-faces", "points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n"),
+    ("empty-obj", "empty.obj", b""),
+    ("random-bytes-glb", "garbage.glb", bytes(range(256)) * 2),
+    ("truncated-glb", "truncated.glb", b"glTF\x02\x00\x00\x00\x40\x00\x00\x00"),
+    ("unknown-mesh-suffix", "mesh.xyzzy", b"v 0 0 0\n"),
+]
+
+
+@pytest.mark.parametrize(
+    ("name", "data"), [pytest.param(*case[1:], id=case[0]) for case in MESH_CASES]
+)
+def test_bad_mesh_file(work: tuple[Path, Path], name: str, data: bytes) -> None:
+    root, out = work
+    (root / name).write_bytes(data)
+    scene = _scene(root, BASE + f'[[objects]]\nshape = "mesh"\nfile = "{name}"\n')
+    result = _run_cli(str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    line = _check(result.returncode, result.stderr, out, f"pbs: error: {scene}: objects[1].file: ")
+    assert name in line
+
+
+def test_output_is_a_folder(work: tuple[Path, Path]) -> None:
+    """The write itself fails (after rendering): no temp file may be left beside it."""
+    root, out = work
+    (out / "out.png").mkdir()
+    result = _run_cli(str(_scene(root, BASE)), "-o", str(out / "out.png"), "--size", SIZE)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    (out / "out.png").rmdir()  # so that _check sees an empty folder
+    _check(result.returncode, result.stderr, out, f"pbs: error: {out / 'out.png'}: -o: ")
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        pytest.param(BASE + "[camera]\nfov_y = nan\n", id="bad-scene"),
+        pytest.param(
+            BASE + '[[objects]]\nshape = "mesh"\nfile = "garbage.glb"\n',
+            id="bad-mesh-while-rendering",
+        ),
+    ],
+)
+def test_existing_output_survives(work: tuple[Path, Path], text: str) -> None:
+    root, out = work
+    (root / "garbage.glb").write_bytes(b"not a glb at all")
+    png, hdr = out / "out.png", out / "out.npy"
+    png.write_bytes(b"sentinel png")
+    hdr.write_bytes(b"sentinel hdr")
+    result = _run_cli(str(_scene(root, text)), "-o", str(png), "--hdr", str(hdr), "--size", SIZE)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.splitlines()) == 1, result.stderr
+    assert png.read_bytes() == b"sentinel png"
+    assert hdr.read_bytes() == b"sentinel hdr"
+    assert sorted(p.name for p in out.iterdir()) == ["out.npy", "out.png"]
