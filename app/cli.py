@@ -1,4 +1,4 @@
-"""The ``pbs`` command line.
+"""pbs: the physically based shading lab's command line.
 
 Exit codes: 0 success, 2 bad input (one line naming the file and key), 1 anything else.
 """

@@ -120,9 +120,27 @@ def _primitive(obj: SceneObject) -> trimesh.Trimesh:
     raise AssertionError(obj.shape)
 
 
+def vertex_normals(mesh: trimesh.Trimesh) -> np.ndarray:
+    """The mesh's own vertex normals, or area-weighted face normals summed per vertex.
+
+    Computed here rather than by trimesh, whose fallback without scipy is O(V*F) and
+    logs a traceback; a vertex no face touches gets +Y rather than NaN.
+    """
+    if "vertex_normals" in mesh._cache:  # given by the file or by our primitives
+        return np.asarray(mesh.vertex_normals, np.float64)
+    v = np.asarray(mesh.vertices, np.float64)
+    f = np.asarray(mesh.faces, np.int64)
+    face_n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])  # |.| = 2 area
+    acc = np.zeros_like(v)
+    for corner in range(3):
+        np.add.at(acc, f[:, corner], face_n)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    return np.where(length > 0.0, acc / np.where(length > 0.0, length, 1.0), [0.0, 1.0, 0.0])
+
+
 def _interleave(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     positions = np.asarray(mesh.vertices, np.float64)
-    normals = np.asarray(mesh.vertex_normals, np.float64)
+    normals = vertex_normals(mesh)
     uv = getattr(mesh.visual, "uv", None)
     uv = np.zeros((len(positions), 2)) if uv is None or len(uv) != len(positions) else uv
     vertices = np.hstack([positions, normals, np.asarray(uv, np.float64)]).astype(np.float32)
