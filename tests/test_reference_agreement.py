@@ -34,11 +34,17 @@ def interior(covered: np.ndarray) -> np.ndarray:
     return out
 
 
-def render_and_reference(gl: GLContext, scene: str, size: tuple[int, int], gbuffer: str):
+def render_and_reference(
+    gl: GLContext, scene: str, size: tuple[int, int], gbuffer: str, tonemap: str | None = None
+):
     loaded = load_scene(REPO / "scenes" / scene)
     loaded = type(loaded)(
         loaded.scene.model_copy(
-            update={"render": loaded.scene.render.model_copy(update={"gbuffer": gbuffer})}
+            update={
+                "render": loaded.scene.render.model_copy(
+                    update={"gbuffer": gbuffer, "tonemap": tonemap or loaded.scene.render.tonemap}
+                )
+            }
         ),
         loaded.path,
     )
@@ -71,8 +77,10 @@ def test_lighting_pass_matches_float64_reference(gl, scene, gbuffer):
     assert np.allclose(hdr[g.depth <= 0.0], ref[g.depth <= 0.0], rtol=0, atol=1e-7)
 
 
-def test_post_pass_matches_float64_reference(gl):
-    scene, hdr, ldr, _, _ = render_and_reference(gl, "showcase.toml", (160, 90), "f16")
+@pytest.mark.parametrize("tonemap", ["linear", "neutral", "aces", "reinhard"])
+def test_post_pass_matches_float64_reference(gl, tonemap):
+    scene, hdr, ldr, _, _ = render_and_reference(gl, "showcase.toml", (160, 90), "f16", tonemap)
+    assert scene.render.tonemap == tonemap
     expected = post_process(hdr, scene.camera.exposure, scene.render.tonemap) * 255.0
     # 8-bit quantisation: the GL rounds to nearest; allow one code value for float32 paths.
     assert np.abs(ldr.astype(np.float64) - expected).max() <= 1.0
