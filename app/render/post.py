@@ -6,8 +6,10 @@ import moderngl
 import numpy as np
 
 from app.gl.shaders import ShaderCache
+from app.reference.tonemap import TONEMAPS
 
-TONEMAP_CODE = {"linear": 0, "neutral": 1, "aces": 2, "reinhard": 3}
+# The TONEMAP define of glsl/passes/post.frag, in the order of the twin's list.
+TONEMAP_CODE = {name: code for code, name in enumerate(TONEMAPS)}
 
 
 class PostPass:

@@ -35,11 +35,6 @@ def projection_matrix(cam: Camera, aspect: float) -> np.ndarray:
     return np.asarray(m, np.float64).T
 
 
-def view_projection(cam: Camera, width: int, height: int) -> np.ndarray:
-    """World -> clip."""
-    return projection_matrix(cam, width / height) @ view_matrix(cam)
-
-
 def gl_bytes(m: np.ndarray) -> bytes:
     """A column-vector matrix as the column-major float32 bytes a GL uniform expects."""
     return np.ascontiguousarray(np.asarray(m).T, dtype=np.float32).tobytes()

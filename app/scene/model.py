@@ -22,6 +22,7 @@ from pydantic import (
     model_validator,
 )
 
+from app.reference.fresnel import f0_from_ior
 from app.scene.presets import PRESETS
 
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
@@ -173,7 +174,7 @@ class Material(_Strict):
         if self.metallic is not None:
             metallic = self.metallic
         if self.ior is not None:
-            f0 = ((self.ior - 1.0) / (self.ior + 1.0)) ** 2
+            f0 = float(f0_from_ior(self.ior))
         if self.f0 is not None:
             f0 = self.f0
         roughness = 0.5 if self.roughness is None else self.roughness
