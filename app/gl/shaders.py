@@ -35,12 +35,28 @@ def expand_includes(relative: str, root: Path | None = None, _seen: set[str] | N
     return _INCLUDE.sub(splice, text)
 
 
-def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:
-    """``#version`` line, then the defines, then the expanded source."""
+def expand_text(text: str, root: Path | None = None) -> str:
+    """GLSL source text (not a file) with every #include spliced in once."""
+    root = glsl_dir() if root is None else root
+    seen: set[str] = set()
+    return _INCLUDE.sub(lambda m: expand_includes(m.group(1), root, seen), text)
+
+
+def _header(defines: Mapping[str, object] | None) -> str:
     lines = [GLSL_VERSION]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")
-    return "\n".join(lines) + "\n#line 1\n" + expand_includes(relative)
+    return "\n".join(lines) + "\n#line 1\n"
+
+
+def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:
+    """``#version`` line, then the defines, then the expanded source of a file."""
+    return _header(defines) + expand_includes(relative)
+
+
+def assemble_text(text: str, defines: Mapping[str, object] | None = None) -> str:
+    """``#version`` line, then the defines, then ``text`` with its includes expanded."""
+    return _header(defines) + expand_text(text)
 
 
 class ShaderCache:

@@ -1,0 +1,98 @@
+"""Run a GLSL snippet once per element of some arrays: the project's real shader code as a
+vectorised function, for the BRDF probe and for term-by-term tests against the twins.
+
+Each element becomes one fragment of a full-screen pass; each input array travels in an
+RGBA32F texture and each result is read back from an RGBA32F target, so nothing but
+float32 arithmetic in the shader stands between the GLSL and its float64 twin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+
+import moderngl
+import numpy as np
+
+from app.gl.shaders import assemble, assemble_text
+
+MAX_WIDTH = 1024  # texels per row of the input and output textures
+
+_TEMPLATE = """{includes}
+{uniforms}
+out vec4 kernel_result;
+
+void main() {{
+    ivec2 kernel_px = ivec2(gl_FragCoord.xy);
+{fetches}
+    vec4 result = vec4(0.0);
+{body}
+    kernel_result = result;
+}}
+"""
+
+
+def kernel_source(includes: Sequence[str], body: str, inputs: Sequence[str]) -> str:
+    """The fragment shader: ``body`` reads each input as a ``vec4`` of its name and
+    assigns the ``vec4 result``."""
+    return _TEMPLATE.format(
+        includes="\n".join(f'#include "{name}"' for name in includes),
+        uniforms="\n".join(f"uniform sampler2D kernel_in_{name};" for name in inputs),
+        fetches="\n".join(
+            f"    vec4 {name} = texelFetch(kernel_in_{name}, kernel_px, 0);" for name in inputs
+        ),
+        body="\n".join("    " + line for line in body.strip().splitlines()),
+    )
+
+
+def run_kernel(
+    ctx: moderngl.Context,
+    includes: Sequence[str],
+    body: str,
+    inputs: Mapping[str, np.ndarray],
+    defines: Mapping[str, object] | None = None,
+    bind: Callable[[moderngl.Program, int], None] | None = None,
+) -> np.ndarray:
+    """Evaluate ``body`` for each of the N rows of the ``inputs`` arrays.
+
+    ``inputs`` maps a GLSL name to an (N,) or (N, k <= 4) array (padded with zeros to a
+    vec4). ``bind(program, first_free_unit)`` may set further uniforms and textures.
+    Returns the ``result`` vectors as an (N, 4) float64 array.
+    """
+    arrays = {k: np.asarray(a, np.float32).reshape(len(a), -1) for k, a in inputs.items()}
+    if not arrays:
+        raise ValueError("run_kernel needs at least one input array")
+    count = {len(a) for a in arrays.values()}
+    if len(count) != 1:
+        raise ValueError(f"inputs differ in length: {sorted(count)}")
+    n = count.pop()
+    width = max(1, min(n, MAX_WIDTH))
+    height = max(1, -(-n // width))
+    program = ctx.program(
+        vertex_shader=assemble("passes/fullscreen.vert", defines),
+        fragment_shader=assemble_text(kernel_source(includes, body, list(arrays)), defines),
+    )
+    textures: list[moderngl.Texture] = []
+    target = ctx.texture((width, height), 4, dtype="f4")
+    fbo = ctx.framebuffer([target])
+    vao = ctx.vertex_array(program, [])
+    try:
+        for unit, (name, a) in enumerate(arrays.items()):
+            texels = np.zeros((width * height, 4), np.float32)
+            texels[:n, : a.shape[1]] = a
+            tex = ctx.texture((width, height), 4, texels.tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            textures.append(tex)
+            tex.use(unit)
+            if f"kernel_in_{name}" in program:  # an unused input is optimised away
+                program[f"kernel_in_{name}"].value = unit
+        if bind is not None:
+            bind(program, len(arrays))
+        fbo.use()
+        ctx.viewport = (0, 0, width, height)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        out = np.frombuffer(target.read(), np.float32).reshape(-1, 4)[:n]
+        return out.astype(np.float64)
+    finally:
+        for obj in (vao, fbo, target, program, *textures):
+            obj.release()
