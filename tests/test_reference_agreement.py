@@ -55,7 +55,8 @@ def render_and_reference(
         ldr = r.read_ldr()
         g = r.read_gbuffer()
         ref = shade_gbuffer(
-            g.albedo, g.normal, g.depth, r.camera, r.lights, loaded.scene.background,
+            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
+            r.materials.packed(),
         )  # fmt: skip
     finally:
         r.release()

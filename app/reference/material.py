@@ -1,4 +1,6 @@
-"""Twin of glsl/brdf/material.glsl: the metallic-roughness material and its BRDF."""
+"""Twin of glsl/brdf/material.glsl: the metallic-roughness material and its BRDF under a
+``Model``. Each branch below mirrors one preprocessor branch of the GLSL, in the same
+order of operations, so GLSL and twin differ only by float32 rounding."""
 
 from __future__ import annotations
 
@@ -6,9 +8,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
-from app.reference.diffuse import Fd_lambert
-from app.reference.specular import f_spec_GGX
+from app.reference import diffuse, fresnel, masking
+from app.reference._vec import dot
+from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
+from app.reference.model import DEFAULT_MODEL, Model, ModelParams
+from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
 
 
 @dataclass
@@ -19,6 +23,7 @@ class Surface:
     metallic: np.ndarray
     perceptual_roughness: np.ndarray
     f0_dielectric: np.ndarray
+    anisotropy: np.ndarray | float = 0.0
 
 
 def material_F0(s: Surface) -> np.ndarray:
@@ -41,6 +46,143 @@ def material_alpha(s: Surface) -> np.ndarray:
     return r * r
 
 
+def _mix(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    t = np.asarray(t, np.float64)[..., None]
+    return a * (1.0 - t) + b * t
+
+
+def F_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.ndarray:
+    """F(h, l) of the model's Fresnel term, (..., 3)."""
+    if model.fresnel == "schlick_generalized":
+        return fresnel.F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH)
+    if model.fresnel in ("dielectric", "conductor"):
+        dielectric = np.asarray(fresnel.F_dielectric(p.eta_dielectric, LoH), np.float64)
+        dielectric = np.broadcast_to(dielectric[..., None], (*dielectric.shape, 3))
+        metal = (
+            fresnel.F_schlick(s.base_color, LoH)
+            if model.fresnel == "dielectric"
+            else fresnel.F_conductor(p.eta, p.k, LoH)
+        )
+        return _mix(dielectric, metal, s.metallic)
+    if model.internal:
+        return fresnel.F_schlick(material_F0(s), fresnel.cos_theta_schlick(p.eta_dielectric, LoH))
+    return fresnel.F_schlick(material_F0(s), LoH)
+
+
+def f_diffuse_selected(
+    s: Surface,
+    model: Model,
+    alpha: np.ndarray,
+    n: np.ndarray,
+    l: np.ndarray,
+    v: np.ndarray,
+    NoL: np.ndarray,
+    NoV: np.ndarray,
+    NoH: np.ndarray,
+    LoH: np.ndarray,
+) -> np.ndarray:
+    """The model's diffuse lobe, (..., 3)."""
+    rho = material_rho_ss(s)
+    match model.diffuse:
+        case "shirley":
+            return diffuse.Fd_shirley(rho, material_F0(s), NoL, NoV)
+        case "ashikhmin_shirley":
+            return diffuse.Fd_ashikhmin_shirley(rho, material_F0(s), NoL, NoV)
+        case "burley":
+            r = np.clip(np.asarray(s.perceptual_roughness, np.float64), 0.0, 1.0)
+            return diffuse.Fd_burley(rho, r, NoL, NoV, LoH)
+        case "oren_nayar":
+            return diffuse.Fd_oren_nayar(rho, alpha, n, l, v)
+        case "hammon":
+            return diffuse.Fd_hammon(rho, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v))
+        case "none":
+            return np.zeros_like(rho)
+    return diffuse.Fd_lambert(rho)
+
+
+def orthonormal_tangent(n: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """A unit tangent perpendicular to n (t's normal component removed, or any perpendicular)."""
+    n = np.asarray(n, np.float64)
+    t = np.asarray(t, np.float64)
+    u = t - n * dot(n, t)[..., None]
+    len2 = dot(u, u)
+    a = np.where((np.abs(n[..., 2]) < 0.999)[..., None], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
+    fallback = np.cross(a, n)
+    fallback = fallback / np.linalg.norm(fallback, axis=-1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit = u / np.sqrt(len2)[..., None]
+    return np.where((len2 > 1e-8)[..., None], unit, fallback)
+
+
+def brdf_eval(
+    s: Surface,
+    p: ModelParams,
+    model: Model,
+    n: np.ndarray,
+    t: np.ndarray,
+    l: np.ndarray,
+    v: np.ndarray,
+    ms_table: np.ndarray | None = None,
+) -> np.ndarray:
+    """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model``, (..., 3); 0 where n.l <= 0.
+
+    ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
+    and is needed only when ``model.multiscatter``.
+    """
+    n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
+    NoL_raw = dot(n, l)
+    lit = NoL_raw > 0.0
+    NoL = np.where(lit, np.minimum(NoL_raw, 1.0), 1.0)  # 1.0: any value, masked below
+    NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
+    hv = l + v
+    hv2 = dot(hv, hv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where((hv2 > 1e-12)[..., None], hv / np.sqrt(hv2)[..., None], n)
+    NoH = np.clip(dot(n, h), 0.0, 1.0)
+    LoH = np.clip(dot(l, h), 0.0, 1.0)
+    alpha = material_alpha(s)
+    F = F_selected(s, p, model, LoH)
+
+    if model.anisotropic:
+        tn = orthonormal_tangent(n, t)
+        bn = np.cross(n, tn)
+        alpha_min = MIN_PERCEPTUAL_ROUGHNESS * MIN_PERCEPTUAL_ROUGHNESS
+        a = np.asarray(s.anisotropy, np.float64)
+        alpha_x = np.maximum(alpha * (1.0 + a), alpha_min)
+        alpha_y = np.maximum(alpha * (1.0 - a), alpha_min)
+        D = D_selected_aniso(model, n, tn, bn, h, alpha_x, alpha_y)
+        alpha_v = masking.alpha_in_direction(tn, bn, v, alpha_x, alpha_y)
+        alpha_l = masking.alpha_in_direction(tn, bn, l, alpha_x, alpha_y)
+    else:
+        D = D_selected(model, n, h, alpha, p.gtr_gamma)
+        alpha_v = alpha_l = alpha
+
+    if model.g2 == "hammon":
+        f_spec = F * (D * masking.V_hammon_GGX(NoL, NoV, alpha))[..., None]
+    elif model.g2 == "height_correlated" and model.ndf == "ggx" and not model.anisotropic:
+        f_spec = F * (D * masking.V_height_correlated_GGX(NoL, NoV, alpha))[..., None]
+    else:
+        G2 = G2_selected(
+            model,
+            Lambda_selected(model, NoV, alpha_v, p.gtr_gamma),
+            Lambda_selected(model, NoL, alpha_l, p.gtr_gamma),
+            n,
+            l,
+            v,
+        )
+        f_spec = F * (D * G2 / (4.0 * NoL * NoV))[..., None]
+    if model.multiscatter:
+        from app.reference import multiscatter  # its tables load only when a model uses them
+
+        if ms_table is None:
+            ms_table = multiscatter.load_table()
+        f_spec = f_spec + multiscatter.f_ms_kulla_conty(
+            ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
+        )
+    f = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH) + f_spec
+    return np.where(lit[..., None], f, 0.0)
+
+
 def brdf_standard(s: Surface, n: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """f(l, v) = rho_ss/pi + f_spec (Lambert + GGX microfacet specular), (..., 3)."""
-    return Fd_lambert(material_rho_ss(s)) + f_spec_GGX(material_F0(s), material_alpha(s), n, l, v)
+    """f(l, v) under the standard model (Lambert + GGX, height-correlated Smith, Schlick)."""
+    return brdf_eval(s, ModelParams(), DEFAULT_MODEL, n, n, l, v)

@@ -4,6 +4,7 @@ Layout and precision are documented in docs/gbuffer.md:
   RT0 ``albedo``  RGBA16F|32F  base_color.rgb (linear), metallic
   RT1 ``normal``  RGBA16F|32F  octahedral normal (x, y), perceptual roughness, F0
   RT2 ``depth``   R32F         linear view depth in metres, 0 where nothing was drawn
+  RT3 ``tangent`` RGBA16F|32F  octahedral tangent (x, y), anisotropy, material id
   z-test          DEPTH24      a renderbuffer, never sampled
 """
 
@@ -26,6 +27,7 @@ class GBufferData:
     albedo: np.ndarray  # (H, W, 4) float32
     normal: np.ndarray  # (H, W, 4) float32
     depth: np.ndarray  # (H, W) float32 view depth in metres, 0 = background
+    tangent: np.ndarray  # (H, W, 4) float32
 
 
 class GBuffer:
@@ -37,21 +39,27 @@ class GBuffer:
         self.albedo = ctx.texture(size, 4, dtype=dtype)
         self.normal = ctx.texture(size, 4, dtype=dtype)
         self.depth = ctx.texture(size, 1, dtype="f4")
+        self.tangent = ctx.texture(size, 4, dtype=dtype)
         self.zbuffer = ctx.depth_renderbuffer(size)
-        for tex in (self.albedo, self.normal, self.depth):
+        for tex in (self.albedo, self.normal, self.depth, self.tangent):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
-        self.fbo = ctx.framebuffer([self.albedo, self.normal, self.depth], self.zbuffer)
+        self.fbo = ctx.framebuffer(
+            [self.albedo, self.normal, self.depth, self.tangent], self.zbuffer
+        )
 
     def read(self) -> GBufferData:
         w, h = self.size
         albedo = _read_float(self.albedo).reshape(h, w, 4)
         normal = _read_float(self.normal).reshape(h, w, 4)
         depth = np.frombuffer(self.depth.read(), np.float32).reshape(h, w)
-        return GBufferData(albedo[::-1].copy(), normal[::-1].copy(), depth[::-1].copy())
+        tangent = _read_float(self.tangent).reshape(h, w, 4)
+        return GBufferData(
+            albedo[::-1].copy(), normal[::-1].copy(), depth[::-1].copy(), tangent[::-1].copy()
+        )
 
     def release(self) -> None:
-        for obj in (self.fbo, self.albedo, self.normal, self.depth, self.zbuffer):
+        for obj in (self.fbo, self.albedo, self.normal, self.depth, self.tangent, self.zbuffer):
             obj.release()
 
 
@@ -70,7 +78,9 @@ def _upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
 
 
 class _Drawable:
-    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart) -> None:
+    def __init__(
+        self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart, material_id: int
+    ) -> None:
         defines = {}
         if "base_color" in part.maps:
             defines["MAT_BASE_COLOR_MAP"] = None
@@ -87,6 +97,7 @@ class _Drawable:
         )
         self.textures = {name: _upload_texture(ctx, t) for name, t in part.maps.items()}
         self.part = part
+        self.material_id = material_id
         normal_matrix = np.linalg.inv(part.model[:3, :3]).T
         self.model_bytes = gl_bytes(part.model)
         self.normal_bytes = gl_bytes(normal_matrix)
@@ -101,6 +112,8 @@ class _Drawable:
         prog["u_metallic"].value = m.metallic
         prog["u_roughness"].value = m.roughness
         prog["u_f0"].value = m.f0
+        prog["u_anisotropy"].value = m.anisotropy
+        prog["u_material_id"].value = float(self.material_id)
         for unit, (name, tex) in enumerate(self.textures.items()):
             tex.use(unit)
             prog[f"u_{name}_map"].value = unit
@@ -112,11 +125,20 @@ class _Drawable:
 
 
 class GBufferPass:
-    """Draws every mesh part into a ``GBuffer``."""
+    """Draws every mesh part into a ``GBuffer``; ``material_ids[i]`` is part i's row of the
+    lighting pass's material table."""
 
-    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, parts: list[MeshPart]) -> None:
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        parts: list[MeshPart],
+        material_ids: list[int],
+    ) -> None:
         self.ctx = ctx
-        self.drawables = [_Drawable(ctx, shaders, p) for p in parts]
+        self.drawables = [
+            _Drawable(ctx, shaders, p, i) for p, i in zip(parts, material_ids, strict=True)
+        ]
 
     def run(self, target: GBuffer, view: np.ndarray, proj: np.ndarray) -> None:
         ctx = self.ctx

@@ -4,6 +4,10 @@
 glsl/passes/lighting.frag into an RGBA32F target. Lights travel in an RGBA32F texture
 (4 texels per light, one light per row), so their number is bounded only by the
 texture height, not by uniform-block limits.
+
+One program per model group (app/render/materials.py): a scene whose materials all use
+one model runs one full-screen pass; otherwise each group's pass discards the pixels of
+the other groups, so no pixel pays for a branch of a model it does not use.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import numpy as np
 
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
+from app.render.materials import MaterialTable
 from app.scene.camera import CameraFrame, gl_bytes
 from app.scene.lights import pack_lights
 
@@ -26,10 +31,25 @@ class LightingPass:
         shaders: ShaderCache,
         size: tuple[int, int],
         records: list[dict],
+        table: MaterialTable,
     ) -> None:
         self.ctx = ctx
-        self.program = shaders.program("passes/fullscreen.vert", "passes/lighting.frag")
-        self.vao = ctx.vertex_array(self.program, [])
+        several = len(table.models) > 1
+        self.programs = []
+        for group, model in enumerate(table.models):
+            defines = dict(model.defines())
+            if several:
+                defines["MODEL_GROUP"] = group
+            self.programs.append(
+                shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
+            )
+        self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
+        self.materials = table.texture(ctx)
+        self.ms_table = None
+        if any(model.multiscatter for model in table.models):
+            from app.render.tables import ms_texture
+
+            self.ms_table = ms_texture(ctx)
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
@@ -45,22 +65,33 @@ class LightingPass:
         camera: CameraFrame,
         background: np.ndarray,
     ) -> None:
-        ctx, prog = self.ctx, self.program
+        ctx = self.ctx
         self.fbo.use()
         ctx.viewport = (0, 0, *self.size)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        gbuffer.albedo.use(0)
-        gbuffer.normal.use(1)
-        gbuffer.depth.use(2)
-        self.lights.use(3)
-        for name, unit in (("g_albedo", 0), ("g_normal", 1), ("g_depth", 2), ("u_lights", 3)):
-            prog[name].value = unit
-        prog["u_light_count"].value = self.light_count
-        prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)
-        prog["u_camera_to_world"].write(gl_bytes(camera.camera_to_world))
-        prog["u_tan_half_fov"].value = camera.tan_half_fov
-        prog["u_background"].value = tuple(float(x) for x in background)
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
+        textures = [
+            ("g_albedo", gbuffer.albedo),
+            ("g_normal", gbuffer.normal),
+            ("g_depth", gbuffer.depth),
+            ("g_tangent", gbuffer.tangent),
+            ("u_lights", self.lights),
+            ("u_materials", self.materials),
+        ]
+        if self.ms_table is not None:
+            textures.append(("u_ms_table", self.ms_table))
+        for unit, (_, tex) in enumerate(textures):
+            tex.use(unit)
+        camera_to_world = gl_bytes(camera.camera_to_world)
+        for prog, vao in zip(self.programs, self.vaos, strict=True):
+            for unit, (name, _) in enumerate(textures):
+                if name in prog:  # a permutation may not use every texture
+                    prog[name].value = unit
+            prog["u_light_count"].value = self.light_count
+            prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)
+            prog["u_camera_to_world"].write(camera_to_world)
+            prog["u_tan_half_fov"].value = camera.tan_half_fov
+            vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:
         """The HDR image, (H, W, 3) float32, rows top to bottom."""
@@ -69,5 +100,7 @@ class LightingPass:
         return data[::-1, :, :3].copy()
 
     def release(self) -> None:
-        for obj in (self.vao, self.fbo, self.hdr, self.lights):
+        for obj in (*self.vaos, self.fbo, self.hdr, self.lights, self.materials):
             obj.release()
+        if self.ms_table is not None:
+            self.ms_table.release()

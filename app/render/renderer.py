@@ -12,6 +12,7 @@ from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer, GBufferData, GBufferPass
 from app.render.lighting import LightingPass
+from app.render.materials import MaterialTable
 from app.render.post import PostPass
 from app.scene.camera import camera_frame, projection_matrix, view_matrix
 from app.scene.geometry import build_parts
@@ -32,9 +33,11 @@ class Renderer:
         ctx = gl.ctx
         self.shaders = ShaderCache(ctx)
         self.lights = [light_record(light) for light in scene.lights]
+        parts = build_parts(loaded)
+        self.materials, material_ids = MaterialTable.build([p.material for p in parts])
         self.gbuffer = GBuffer(ctx, self.size, scene.render.gbuffer)
-        self.gbuffer_pass = GBufferPass(ctx, self.shaders, build_parts(loaded))
-        self.lighting = LightingPass(ctx, self.shaders, self.size, self.lights)
+        self.gbuffer_pass = GBufferPass(ctx, self.shaders, parts, material_ids)
+        self.lighting = LightingPass(ctx, self.shaders, self.size, self.lights, self.materials)
         self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)
         w, h = self.size
         self.view = view_matrix(scene.camera)

@@ -3,7 +3,9 @@
 Primitives come from trimesh; mesh files (OBJ, PLY, STL, glTF/GLB) are read through
 trimesh. glTF metallic-roughness factors and textures come through where trimesh reads
 them. Every mesh ends up as interleaved float32 ``position, normal, uv`` vertices and
-uint32 triangle indices, in object space, with its model matrix.
+uint32 triangle indices, in object space, with its model matrix. Tangents come from the
+UVs where a mesh has usable ones and from the direction around the object's Y axis
+otherwise (so anisotropic highlights on primitives run along lines of latitude).
 """
 
 from __future__ import annotations
@@ -18,8 +20,8 @@ from app.errors import InputError
 from app.scene.loader import LoadedScene
 from app.scene.model import MaterialParams, SceneObject
 
-VERTEX_FORMAT = "3f 3f 2f"
-VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv")
+VERTEX_FORMAT = "3f 3f 2f 4f"
+VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
 
 
 @dataclass
@@ -34,7 +36,7 @@ class Texture:
 class MeshPart:
     """One drawable: vertices, indices, a material and its optional maps."""
 
-    vertices: np.ndarray  # (N, 8) float32: position, normal, uv
+    vertices: np.ndarray  # (N, 12) float32: position, normal, uv, tangent (xyz, handedness)
     indices: np.ndarray  # (M*3,) uint32
     material: MaterialParams
     model: np.ndarray  # (4, 4) float64 object -> world
@@ -138,12 +140,54 @@ def vertex_normals(mesh: trimesh.Trimesh) -> np.ndarray:
     return np.where(length > 0.0, acc / np.where(length > 0.0, length, 1.0), [0.0, 1.0, 0.0])
 
 
+def vertex_tangents(
+    positions: np.ndarray, normals: np.ndarray, uv: np.ndarray | None, faces: np.ndarray
+) -> np.ndarray:
+    """Per-vertex unit tangents (N, 4): xyz along +u, w = +-1 the handedness of (t, b, n).
+
+    Lengyel's method: each triangle's dP/du and dP/dv from its UVs, area-weighted sums per
+    vertex, Gram-Schmidt against the normal. Where there are no UVs, or they are
+    degenerate at a vertex, the tangent is Y x n (around the object's vertical axis), and
+    X x n at the poles where that vanishes.
+    """
+    n = np.asarray(normals, np.float64)
+    fallback = np.cross([0.0, 1.0, 0.0], n)
+    pole = np.linalg.norm(fallback, axis=1) < 1e-6
+    fallback[pole] = np.cross([1.0, 0.0, 0.0], n[pole])
+    t_acc = np.zeros_like(n)
+    b_acc = np.zeros_like(n)
+    if uv is not None:
+        f = np.asarray(faces, np.int64)
+        p = np.asarray(positions, np.float64)
+        w = np.asarray(uv, np.float64)
+        e1, e2 = p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]]
+        d1, d2 = w[f[:, 1]] - w[f[:, 0]], w[f[:, 2]] - w[f[:, 0]]
+        det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+        # dP/du = (e1 dv2 - e2 dv1)/det; multiplying by |det| (the UV area) weights each
+        # face by its size and leaves faces with degenerate UVs (det = 0) out.
+        sign = np.where(np.abs(det) > 1e-12, np.sign(det), 0.0)[:, None]
+        dpdu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * sign
+        dpdv = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * sign
+        for corner in range(3):
+            np.add.at(t_acc, f[:, corner], dpdu)
+            np.add.at(b_acc, f[:, corner], dpdv)
+    t = t_acc - n * np.sum(n * t_acc, axis=1, keepdims=True)
+    length = np.linalg.norm(t, axis=1, keepdims=True)
+    usable = length[:, 0] > 1e-9
+    t = np.where(usable[:, None], t / np.where(usable, length[:, 0], 1.0)[:, None], fallback)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    handed = np.where(np.sum(np.cross(n, t) * b_acc, axis=1) < 0.0, -1.0, 1.0)
+    return np.hstack([t, handed[:, None]])
+
+
 def _interleave(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     positions = np.asarray(mesh.vertices, np.float64)
     normals = vertex_normals(mesh)
     uv = getattr(mesh.visual, "uv", None)
-    uv = np.zeros((len(positions), 2)) if uv is None or len(uv) != len(positions) else uv
-    vertices = np.hstack([positions, normals, np.asarray(uv, np.float64)]).astype(np.float32)
+    uv = None if uv is None or len(uv) != len(positions) else np.asarray(uv, np.float64)
+    tangents = vertex_tangents(positions, normals, uv, mesh.faces)
+    uv = np.zeros((len(positions), 2)) if uv is None else uv
+    vertices = np.hstack([positions, normals, uv, tangents]).astype(np.float32)
     indices = np.asarray(mesh.faces, np.uint32).ravel()
     return vertices, indices
 

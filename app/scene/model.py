@@ -8,7 +8,7 @@ numbers, and accept only the types the documentation names (no "1.0" for 1.0).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Annotated, Literal
 
 import numpy as np
@@ -22,7 +22,18 @@ from pydantic import (
     model_validator,
 )
 
-from app.reference.fresnel import f0_from_ior
+from app.reference.fresnel import f0_from_ior, ior_from_f0
+from app.reference.model import (
+    CORRELATIONS,
+    DEFAULT_MODEL,
+    DIFFUSE_MODELS,
+    FRESNEL_MODELS,
+    G2_MODELS,
+    LAMBDA_FORMS,
+    NDF_MODELS,
+    Model,
+    ModelParams,
+)
 from app.scene.presets import PRESETS
 
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
@@ -132,23 +143,51 @@ class Light(_Strict):
 
 @dataclass(frozen=True)
 class MaterialParams:
-    """A material after presets and defaults: exactly what the G-buffer stores."""
+    """A material after presets and defaults: what the G-buffer and the material table store."""
 
     base_color: tuple[float, float, float]
     metallic: float
     roughness: float
     f0: float  # normal-incidence reflectance of the dielectric part
+    anisotropy: float = 0.0
+    model: Model = DEFAULT_MODEL
+    params: ModelParams = field(default_factory=ModelParams)
+
+
+Ior = Annotated[Real, Field(ge=1.0, le=10.0)]
+PositiveColor = Annotated[
+    list[Annotated[Real, Field(gt=0.0, le=100.0)]], Field(min_length=3, max_length=3)
+]
+ExtinctionColor = Annotated[
+    list[Annotated[Real, Field(ge=0.0, le=100.0)]], Field(min_length=3, max_length=3)
+]
 
 
 class Material(_Strict):
-    """The metallic-roughness material (glTF names), optionally from a seed preset."""
+    """The metallic-roughness material (glTF names), optionally from a seed preset, and the
+    model of each BRDF term (docs/scene-format.md, "Materials")."""
 
     preset: str | None = None
     base_color: UnitColor | None = None  # linear RGB
     metallic: Unit | None = None
     roughness: Unit | None = None  # perceptual; alpha = roughness^2
     f0: Unit | None = None  # dielectric F0; or give ior
-    ior: Annotated[Real, Field(ge=1.0, le=10.0)] | None = None
+    ior: Ior | None = None  # the object's index of refraction
+    medium_ior: Ior | None = None  # the index of the medium around it (1.0 air, 1.33 water)
+    anisotropy: Annotated[Real, Field(ge=-1.0, le=1.0)] | None = None
+    # Model of each term (seed sections 5-9); the defaults are the standard model.
+    fresnel: Literal[FRESNEL_MODELS] = "schlick"  # type: ignore[valid-type]
+    f90: UnitColor | None = None  # schlick_generalized
+    fresnel_p: Annotated[Real, Field(ge=0.01, le=10.0)] | None = None  # exponent 1/p
+    eta: PositiveColor | None = None  # conductor: n per RGB channel
+    k: ExtinctionColor | None = None  # conductor: k per RGB channel
+    ndf: Literal[NDF_MODELS] = "ggx"  # type: ignore[valid-type]
+    gtr_gamma: Annotated[Real, Field(ge=0.1, le=20.0)] | None = None
+    lambda_form: Literal[LAMBDA_FORMS] = "exact"  # type: ignore[valid-type]
+    g2: Literal[G2_MODELS] = "height_correlated"  # type: ignore[valid-type]
+    correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
+    diffuse: Literal[DIFFUSE_MODELS] = "lambert"  # type: ignore[valid-type]
+    multiscatter: Annotated[bool, Field(strict=True)] = False
 
     @model_validator(mode="after")
     def _check(self) -> Material:
@@ -158,13 +197,52 @@ class Material(_Strict):
             )
         if self.f0 is not None and self.ior is not None:
             raise ValueError("ior: give either 'f0' or 'ior', not both")
+        only = {
+            "f90": ("fresnel", "schlick_generalized"),
+            "fresnel_p": ("fresnel", "schlick_generalized"),
+            "eta": ("fresnel", "conductor"),
+            "k": ("fresnel", "conductor"),
+            "gtr_gamma": ("ndf", "gtr"),
+        }
+        for key, (term, value) in only.items():
+            if getattr(self, key) is not None and getattr(self, term) != value:
+                raise ValueError(f"{key}: applies only with {term} = '{value}'")
+        if self.lambda_form == "rational" and self.ndf != "beckmann":
+            raise ValueError(
+                "lambda_form: 'rational' is Beckmann's approximation (ndf = 'beckmann')"
+            )
+        if self.g2 == "hammon" and (self.ndf != "ggx" or self.anisotropy):
+            raise ValueError("g2: 'hammon' approximates the isotropic GGX G2 (ndf = 'ggx')")
+        if self.anisotropy and self.ndf not in ("ggx", "beckmann"):
+            raise ValueError("anisotropy: only the 'ggx' and 'beckmann' NDFs are anisotropic")
+        if self.multiscatter and (self.ndf != "ggx" or self.anisotropy):
+            raise ValueError(
+                "multiscatter: the compensation tables are for the isotropic GGX (ndf = 'ggx')"
+            )
+        if self.fresnel == "conductor" and self._conductor_index() is None:
+            raise ValueError(
+                "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
+            )
         return self
+
+    def _preset(self) -> object | None:
+        return PRESETS[self.preset] if self.preset is not None else None
+
+    def _conductor_index(self) -> tuple[np.ndarray, np.ndarray] | None:
+        p = self._preset()
+        eta = self.eta if self.eta is not None else getattr(p, "eta", None)
+        k = self.k if self.k is not None else getattr(p, "k", None)
+        if eta is None or k is None:
+            return None
+        return np.asarray(eta, np.float64), np.asarray(k, np.float64)
 
     def resolve(self) -> MaterialParams:
         """Apply preset, then explicit keys, then defaults (grey plastic, F0 = 0.04)."""
         base, metallic, f0 = [0.8, 0.8, 0.8], 0.0, 0.04
-        if self.preset is not None:
-            p = PRESETS[self.preset]
+        p = self._preset()
+        ior = getattr(p, "ior", None)
+        medium = getattr(p, "medium_ior", 1.0)
+        if p is not None:
             metallic = p.metallic
             if metallic > 0.0:
                 base = list(p.f0)
@@ -174,11 +252,45 @@ class Material(_Strict):
         if self.metallic is not None:
             metallic = self.metallic
         if self.ior is not None:
-            f0 = float(f0_from_ior(self.ior))
+            ior = self.ior
+        if self.medium_ior is not None:
+            medium = self.medium_ior
+        if self.ior is not None or self.medium_ior is not None:
+            if ior is None:  # medium given for a material known by its F0 in air
+                ior = float(ior_from_f0(min(f0, 0.99)))
+            f0 = float(f0_from_ior(ior, medium))
         if self.f0 is not None:
             f0 = self.f0
+        if ior is None:
+            ior = float(ior_from_f0(min(f0, 0.99))) * medium  # gives F0 in this medium
+        eta_d = ior / medium
+        conductor = self._conductor_index()
+        eta, k = conductor if conductor is not None else (np.full(3, 1.5), np.zeros(3))
+        exponent = 5.0 if self.fresnel_p is None else 1.0 / self.fresnel_p
+        params = ModelParams(
+            f90=np.asarray(self.f90 if self.f90 is not None else [1.0, 1.0, 1.0], np.float64),
+            fresnel_exponent=exponent,
+            eta=eta / medium,
+            eta_dielectric=eta_d,
+            k=k / medium,
+            gtr_gamma=2.0 if self.gtr_gamma is None else self.gtr_gamma,
+        )
+        anisotropy = 0.0 if self.anisotropy is None else self.anisotropy
+        model = Model(
+            fresnel=self.fresnel,
+            ndf=self.ndf,
+            lambda_form=self.lambda_form,
+            g2=self.g2,
+            correlation=self.correlation,
+            diffuse=self.diffuse,
+            multiscatter=self.multiscatter,
+            anisotropic=anisotropy != 0.0,
+            internal=self.fresnel == "schlick" and eta_d < 1.0,
+        )
         roughness = 0.5 if self.roughness is None else self.roughness
-        return MaterialParams((base[0], base[1], base[2]), metallic, roughness, f0)
+        return MaterialParams(
+            (base[0], base[1], base[2]), metallic, roughness, f0, anisotropy, model, params
+        )
 
 
 Shape = Literal["sphere", "box", "plane", "cylinder", "capsule", "mesh"]

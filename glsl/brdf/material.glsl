@@ -1,4 +1,5 @@
-// The metallic-roughness material and its BRDF. Twin: app/reference/material.py.
+// The metallic-roughness material and its BRDF f(l, v) under the selected model.
+// Twin: app/reference/material.py.
 #ifndef PBS_MATERIAL_GLSL
 #define PBS_MATERIAL_GLSL
 
@@ -8,6 +9,7 @@ struct Surface {
     float metallic;            // 0 dielectric, 1 conductor
     float perceptual_roughness;
     float f0_dielectric;       // normal-incidence reflectance when metallic = 0
+    float anisotropy;          // -1..1: alpha_x = alpha (1 + a), alpha_y = alpha (1 - a)
 };
 
 // The metalness workflow (glTF 2.0 Appendix B; Burley 2012): one base colour serves
@@ -28,11 +30,102 @@ float material_alpha(Surface s) {
     return r * r;
 }
 
-// f(l, v) = rho_ss / pi + f_spec: Lambert diffuse plus the GGX microfacet specular.
-// The diffuse term is not weighted by (1 - F) here (as in Filament and the glTF
-// metallic-roughness model's Lambert lobe); the coupled form is a separate model.
-vec3 brdf_standard(Surface s, vec3 n, vec3 l, vec3 v) {
-    return Fd_lambert(material_rho_ss(s)) + f_spec_GGX(material_F0(s), material_alpha(s), n, l, v);
+// F(h, l) of the selected Fresnel model (seed section 5). The exact models blend the
+// dielectric interface and the metal by metallic, as the metalness workflow does.
+vec3 F_selected(Surface s, ModelParams p, float LoH) {
+#if FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED
+    return F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH);
+#elif FRESNEL_MODEL == FRESNEL_DIELECTRIC
+    return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_schlick(s.base_color, LoH),
+               s.metallic);
+#elif FRESNEL_MODEL == FRESNEL_CONDUCTOR
+    return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_conductor(p.eta, p.k, LoH),
+               s.metallic);
+#elif FRESNEL_INTERNAL
+    // n1 > n2: Schlick at the transmitted angle, exactly 1 past the critical angle.
+    return F_schlick(material_F0(s), cos_theta_schlick(p.eta_dielectric, LoH));
+#else
+    return F_schlick(material_F0(s), LoH);
+#endif
+}
+
+// The diffuse (subsurface) lobe of the selected model (seed section 9).
+vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
+                        float NoL, float NoV, float NoH, float LoH) {
+    vec3 rho_ss = material_rho_ss(s);
+#if DIFFUSE_MODEL == DIFFUSE_SHIRLEY
+    return Fd_shirley(rho_ss, material_F0(s), NoL, NoV);
+#elif DIFFUSE_MODEL == DIFFUSE_ASHIKHMIN_SHIRLEY
+    return Fd_ashikhmin_shirley(rho_ss, material_F0(s), NoL, NoV);
+#elif DIFFUSE_MODEL == DIFFUSE_BURLEY
+    return Fd_burley(rho_ss, clamp(s.perceptual_roughness, 0.0, 1.0), NoL, NoV, LoH);
+#elif DIFFUSE_MODEL == DIFFUSE_OREN_NAYAR
+    return Fd_oren_nayar(rho_ss, alpha, n, l, v);
+#elif DIFFUSE_MODEL == DIFFUSE_HAMMON
+    return Fd_hammon(rho_ss, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v));
+#elif DIFFUSE_MODEL == DIFFUSE_NONE
+    return vec3(0.0);
+#else
+    return Fd_lambert(rho_ss);
+#endif
+}
+
+// A unit tangent perpendicular to n: t with its normal component removed, or any
+// perpendicular where t is (numerically) parallel to n or zero.
+vec3 orthonormal_tangent(vec3 n, vec3 t) {
+    vec3 u = t - n * dot(n, t);
+    float len2 = dot(u, u);
+    if (len2 > 1e-8) return u * inversesqrt(len2);
+    vec3 a = abs(n.z) < 0.999 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0);
+    return normalize(cross(a, n));
+}
+
+// f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v
+// and the tangent t (used only by anisotropic NDFs). Zero for lights below the surface;
+// n.v is clamped to MIN_N_DOT_V as interpolated normals can face away from the eye.
+vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+    float NoL = dot(n, l);
+    if (NoL <= 0.0) return vec3(0.0);
+    NoL = min(NoL, 1.0);
+    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
+    // l = -v (possible only when the true n.v < 0) has no half vector: use n.
+    vec3 hv = l + v;
+    float hv2 = dot(hv, hv);
+    vec3 h = hv2 > 1e-12 ? hv * inversesqrt(hv2) : n;
+    float NoH = clamp(dot(n, h), 0.0, 1.0);
+    float LoH = clamp(dot(l, h), 0.0, 1.0);
+    float alpha = material_alpha(s);
+    vec3 F = F_selected(s, p, LoH);
+
+#if ANISOTROPIC
+    vec3 tn = orthonormal_tangent(n, t);
+    vec3 bn = cross(n, tn);
+    float alpha_min = MIN_PERCEPTUAL_ROUGHNESS * MIN_PERCEPTUAL_ROUGHNESS;
+    float alpha_x = max(alpha * (1.0 + s.anisotropy), alpha_min);
+    float alpha_y = max(alpha * (1.0 - s.anisotropy), alpha_min);
+    float D = D_selected_aniso(n, tn, bn, h, alpha_x, alpha_y);
+    float alpha_v = alpha_in_direction(tn, bn, v, alpha_x, alpha_y);
+    float alpha_l = alpha_in_direction(tn, bn, l, alpha_x, alpha_y);
+#else
+    float D = D_selected(n, h, alpha, p.gtr_gamma);
+    float alpha_v = alpha;
+    float alpha_l = alpha;
+#endif
+
+#if G2_MODEL == G2_HAMMON
+    vec3 f_spec = F * (D * V_hammon_GGX(NoL, NoV, alpha));
+#elif !SPECULAR_LAMBDA_G2
+    // The division-free visibility form: accurate as n.l or n.v -> 0.
+    vec3 f_spec = F * (D * V_height_correlated_GGX(NoL, NoV, alpha));
+#else
+    float G2 = G2_selected(Lambda_selected(NoV, alpha_v, p.gtr_gamma),
+                           Lambda_selected(NoL, alpha_l, p.gtr_gamma), n, l, v);
+    vec3 f_spec = F * (D * G2 / (4.0 * NoL * NoV));
+#endif
+#if MULTISCATTER
+    f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
+#endif
+    return f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH) + f_spec;
 }
 
 #endif

@@ -4,17 +4,21 @@
 //   RT1 g_normal : octahedral normal (2), perceptual roughness, dielectric F0
 //   RT2 g_depth  : R32F linear view depth in metres (0 = no surface); the world
 //                  position is reconstructed from it. A DEPTH24 buffer does the z-test.
+//   RT3 g_tangent: octahedral tangent (2), anisotropy, material id (exact integer)
 #include "common/constants.glsl"
 #include "common/encoding.glsl"
 
 in vec3 v_normal;
 in vec2 v_uv;
+in vec3 v_tangent;
 in float v_view_depth;
 
 uniform vec3 u_base_color;
 uniform float u_metallic;
 uniform float u_roughness;
 uniform float u_f0;
+uniform float u_anisotropy;
+uniform float u_material_id;   // row of the lighting pass's material table
 
 #ifdef MAT_BASE_COLOR_MAP
 uniform sampler2D u_base_color_map;    // sRGB texture: sampled as linear by the GL
@@ -26,6 +30,7 @@ uniform sampler2D u_metallic_roughness_map;  // glTF: G = roughness, B = metalli
 layout(location = 0) out vec4 g_albedo;
 layout(location = 1) out vec4 g_normal;
 layout(location = 2) out float g_depth;
+layout(location = 3) out vec4 g_tangent;
 
 void main() {
     vec3 base_color = u_base_color;
@@ -45,4 +50,9 @@ void main() {
     g_albedo = vec4(base_color, metallic);
     g_normal = vec4(oct_encode(n), roughness, u_f0);
     g_depth = v_view_depth;
+    // Interpolation shortens the tangent and may tilt it off the surface; the lighting
+    // pass re-orthonormalises it against n, so only its direction matters here.
+    vec3 t = v_tangent;
+    float t_len = length(t);
+    g_tangent = vec4(oct_encode(t_len > 0.0 ? t / t_len : n), u_anisotropy, u_material_id);
 }

@@ -3,10 +3,12 @@
 #include "common/constants.glsl"
 #include "common/encoding.glsl"
 #include "common/position.glsl"
+#include "brdf/model.glsl"
 #include "brdf/fresnel.glsl"
 #include "brdf/ndf.glsl"
 #include "brdf/masking.glsl"
 #include "brdf/diffuse.glsl"
+#include "brdf/multiscatter.glsl"
 #include "brdf/specular.glsl"
 #include "brdf/material.glsl"
 #include "lights/punctual.glsl"
@@ -14,12 +16,13 @@
 uniform sampler2D g_albedo;
 uniform sampler2D g_normal;
 uniform sampler2D g_depth;
+uniform sampler2D g_tangent;
+uniform sampler2D u_materials;  // RGBA32F, 4 texels per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
 uniform int u_light_count;
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
-uniform vec3 u_background;
 
 out vec4 frag_color;
 
@@ -34,14 +37,19 @@ PunctualLight fetch_light(int i) {
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     float depth = texelFetch(g_depth, px, 0).r;
-    if (depth <= 0.0) {                       // nothing drawn: the background radiance
-        frag_color = vec4(u_background, 1.0);
-        return;
-    }
+    if (depth <= 0.0) discard;                // nothing drawn: the cleared background stays
+    vec4 c = texelFetch(g_tangent, px, 0);
+    int material_id = int(c.a);
+#ifdef MODEL_GROUP
+    // Several models in the frame: this permutation shades only its own group's pixels.
+    if (fetch_model_group(u_materials, material_id) != MODEL_GROUP) discard;
+#endif
     vec4 a = texelFetch(g_albedo, px, 0);
     vec4 b = texelFetch(g_normal, px, 0);
-    Surface s = Surface(a.rgb, a.a, b.b, b.a);
+    Surface s = Surface(a.rgb, a.a, b.b, b.a, c.b);
+    ModelParams params = fetch_model_params(u_materials, material_id);
     vec3 n = oct_decode(b.rg);
+    vec3 t = oct_decode(c.rg);
 
     // World position from the depth buffer at the pixel centre.
     vec2 ndc_xy = (gl_FragCoord.xy / vec2(textureSize(g_depth, 0))) * 2.0 - 1.0;
@@ -55,7 +63,7 @@ void main() {
         vec3 c_light = light_at(fetch_light(i), p, l);
         float NoL = dot(n, l);
         if (NoL <= 0.0) continue;             // (n.l)+ : lights behind the surface add nothing
-        Lo += brdf_standard(s, n, l, v) * c_light * NoL;
+        Lo += brdf_eval(s, params, n, t, l, v) * c_light * NoL;
     }
     frag_color = vec4(PI * Lo, 1.0);
 }

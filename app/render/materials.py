@@ -1,0 +1,66 @@
+"""The material table: the per-material numbers of the optional BRDF models, one row per
+distinct (model, parameters), and the model groups that decide the lighting permutations.
+
+The G-buffer carries each pixel's row (its material id); the lighting pass compiles one
+program per distinct ``Model`` (a group) and each program shades only its group's pixels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from app.reference.model import Model, ModelParams, pack_model_params
+from app.scene.model import MaterialParams
+
+
+def _params_key(p: ModelParams) -> tuple:
+    return (
+        tuple(np.broadcast_to(p.f90, 3)),
+        p.fresnel_exponent,
+        tuple(np.broadcast_to(p.eta, 3)),
+        p.eta_dielectric,
+        tuple(np.broadcast_to(p.k, 3)),
+        p.gtr_gamma,
+    )
+
+
+@dataclass
+class MaterialTable:
+    """Rows of (model, params), the distinct models in first-use order, and each row's group."""
+
+    models: list[Model]  # one per group
+    rows: list[tuple[Model, ModelParams]]
+    groups: list[int]  # group of each row
+
+    @classmethod
+    def build(cls, materials: list[MaterialParams]) -> tuple[MaterialTable, list[int]]:
+        """The table for ``materials`` and each material's row (its material id)."""
+        models: list[Model] = []
+        rows: list[tuple[Model, ModelParams]] = []
+        groups: list[int] = []
+        index: dict[tuple, int] = {}
+        ids = []
+        for m in materials:
+            key = (m.model, _params_key(m.params))
+            if key not in index:
+                if m.model not in models:
+                    models.append(m.model)
+                index[key] = len(rows)
+                rows.append((m.model, m.params))
+                groups.append(models.index(m.model))
+            ids.append(index[key])
+        return cls(models, rows, groups), ids
+
+    def packed(self) -> np.ndarray:
+        """(M, 4, 4) float32 texels, see app.reference.model.pack_model_params."""
+        return pack_model_params([p for _, p in self.rows], self.groups)
+
+    def texture(self, ctx: moderngl.Context) -> moderngl.Texture:
+        """The table as an RGBA32F texture, 4 texels wide, one material per row."""
+        packed = self.packed()
+        tex = ctx.texture((4, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return tex
