@@ -18,6 +18,7 @@ from app.gl.shaders import assemble, assemble_text
 MAX_WIDTH = 1024  # texels per row of the input and output textures
 
 _TEMPLATE = """{includes}
+{declarations}
 {uniforms}
 out vec4 kernel_result;
 
@@ -31,11 +32,14 @@ void main() {{
 """
 
 
-def kernel_source(includes: Sequence[str], body: str, inputs: Sequence[str]) -> str:
+def kernel_source(
+    includes: Sequence[str], body: str, inputs: Sequence[str], declarations: str = ""
+) -> str:
     """The fragment shader: ``body`` reads each input as a ``vec4`` of its name and
-    assigns the ``vec4 result``."""
+    assigns the ``vec4 result``; ``declarations`` (uniforms, helper functions) precede it."""
     return _TEMPLATE.format(
         includes="\n".join(f'#include "{name}"' for name in includes),
+        declarations=declarations,
         uniforms="\n".join(f"uniform sampler2D kernel_in_{name};" for name in inputs),
         fetches="\n".join(
             f"    vec4 {name} = texelFetch(kernel_in_{name}, kernel_px, 0);" for name in inputs
@@ -51,6 +55,7 @@ def run_kernel(
     inputs: Mapping[str, np.ndarray],
     defines: Mapping[str, object] | None = None,
     bind: Callable[[moderngl.Program, int], None] | None = None,
+    declarations: str = "",
 ) -> np.ndarray:
     """Evaluate ``body`` for each of the N rows of the ``inputs`` arrays.
 
@@ -69,7 +74,9 @@ def run_kernel(
     height = max(1, -(-n // width))
     program = ctx.program(
         vertex_shader=assemble("passes/fullscreen.vert", defines),
-        fragment_shader=assemble_text(kernel_source(includes, body, list(arrays)), defines),
+        fragment_shader=assemble_text(
+            kernel_source(includes, body, list(arrays), declarations), defines
+        ),
     )
     textures: list[moderngl.Texture] = []
     target = ctx.texture((width, height), 4, dtype="f4")

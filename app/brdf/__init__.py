@@ -1,0 +1,157 @@
+"""The BRDF probe: f(l, v) of a material for arrays of direction pairs, from the real GLSL
+or from its float64 twin.
+
+``evaluate(material, l, v)`` answers with the very code the lighting pass runs: the same
+GLSL files (glsl/brdf/*.glsl), assembled with the same model defines and fed the same
+material table, executed on a full-screen pass into a 32-bit float texture. With
+``backend="reference"`` it runs app/reference instead, so the two can be compared on any
+directions one likes (tests/test_brdf_models.py, docs/brdf-models.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from app.errors import InputError
+from app.gl.context import GLContext, create_context
+from app.gl.kernel import run_kernel
+from app.reference.material import Surface, brdf_eval
+from app.reference.model import pack_model_params, unpack_model_params
+from app.scene.model import Material, MaterialParams
+
+Backend = Literal["glsl", "reference"]
+
+INCLUDES = (
+    "common/constants.glsl",
+    "brdf/model.glsl",
+    "brdf/fresnel.glsl",
+    "brdf/ndf.glsl",
+    "brdf/masking.glsl",
+    "brdf/diffuse.glsl",
+    "brdf/multiscatter.glsl",
+    "brdf/specular.glsl",
+    "brdf/material.glsl",
+)
+
+_BODY = """
+Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
+ModelParams p = fetch_model_params(u_materials, 0);
+result = vec4(brdf_eval(s, p, dir_n.xyz, dir_t.xyz, dir_l.xyz, dir_v.xyz), 0.0);
+"""
+
+_context: GLContext | None = None
+
+
+def _default_context() -> GLContext:
+    """One headless context per process, created on first use (EGL, else OSMesa)."""
+    global _context
+    if _context is None:
+        _context = create_context("auto")
+    return _context
+
+
+def resolve_material(material: Mapping[str, Any] | Material | MaterialParams) -> MaterialParams:
+    """A scene-file material table (or its validated forms) as resolved parameters."""
+    if isinstance(material, MaterialParams):
+        return material
+    if isinstance(material, Material):
+        return material.resolve()
+    try:
+        return Material.model_validate(dict(material)).resolve()
+    except ValueError as exc:  # pydantic's ValidationError is a ValueError
+        raise InputError("<material>", "", str(exc).splitlines()[-2].strip()) from None
+
+
+def _frame(count: int, n: ArrayLike | None, t: ArrayLike | None) -> tuple[np.ndarray, np.ndarray]:
+    """Normal and tangent per pair: +Z and +X by default; a given tangent is used as is
+    (brdf_eval orthonormalises it against n), else +X for every normal."""
+    n_arr = np.broadcast_to(np.asarray([0.0, 0.0, 1.0] if n is None else n, np.float64), (count, 3))
+    t_arr = np.broadcast_to(np.asarray([1.0, 0.0, 0.0] if t is None else t, np.float64), (count, 3))
+    return n_arr, t_arr
+
+
+def evaluate(
+    material: Mapping[str, Any] | Material | MaterialParams,
+    l: ArrayLike,
+    v: ArrayLike,
+    n: ArrayLike | None = None,
+    backend: Backend = "glsl",
+    *,
+    t: ArrayLike | None = None,
+    gl: GLContext | None = None,
+) -> np.ndarray:
+    """f(l, v) for N pairs of unit directions, as an (N, 3) float64 array.
+
+    ``material`` is what a scene file's [materials.NAME] table holds (a dict), or a
+    validated ``Material``/``MaterialParams``. ``n`` defaults to +Z with the tangent ``t``
+    along +X. The material's numbers are rounded to float32 for both backends (the GPU's
+    precision), so the backends differ only by the arithmetic.
+    """
+    params = resolve_material(material)
+    l_arr = np.atleast_2d(np.asarray(l, np.float64))
+    v_arr = np.atleast_2d(np.asarray(v, np.float64))
+    count = max(len(l_arr), len(v_arr))
+    l_arr = np.broadcast_to(l_arr, (count, 3))
+    v_arr = np.broadcast_to(v_arr, (count, 3))
+    n_arr, t_arr = _frame(count, n, t)
+    table = pack_model_params([params.params], [0])
+    f32 = np.float32
+    surface_a = np.array([*params.base_color, params.metallic], f32)
+    surface_b = np.array([params.roughness, params.f0, params.anisotropy, 0.0], f32)
+
+    if backend == "reference":
+        s = Surface(
+            surface_a[:3].astype(np.float64),
+            float(surface_a[3]),
+            float(surface_b[0]),
+            float(surface_b[1]),
+            float(surface_b[2]),
+        )
+        return brdf_eval(s, unpack_model_params(table[0]), params.model, n_arr, t_arr, l_arr, v_arr)
+    if backend != "glsl":
+        raise ValueError(f"backend must be 'glsl' or 'reference', not {backend!r}")
+
+    context = gl or _default_context()
+    ctx = context.ctx
+    textures = []
+
+    def bind(program: Any, unit: int) -> None:
+        tex = ctx.texture((4, 1), 4, table.tobytes(), dtype="f4")
+        textures.append(tex)
+        tex.use(unit)
+        if "u_materials" in program:  # the standard model reads no table entries
+            program["u_materials"].value = unit
+        if params.model.multiscatter:
+            from app.render.tables import ms_texture
+
+            ms = ms_texture(ctx)
+            textures.append(ms)
+            ms.use(unit + 1)
+            program["u_ms_table"].value = unit + 1
+
+    inputs = {
+        "surface_a": np.broadcast_to(surface_a, (count, 4)),
+        "surface_b": np.broadcast_to(surface_b, (count, 4)),
+        "dir_n": n_arr,
+        "dir_t": t_arr,
+        "dir_l": l_arr,
+        "dir_v": v_arr,
+    }
+    try:
+        out = run_kernel(
+            ctx,
+            INCLUDES,
+            _BODY,
+            inputs,
+            defines=params.model.defines(),
+            bind=bind,
+            declarations="uniform sampler2D u_materials;",
+        )
+    finally:
+        for tex in textures:
+            tex.release()
+    return out[:, :3]
