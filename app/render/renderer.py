@@ -16,7 +16,7 @@ from app.render.materials import MaterialTable
 from app.render.post import PostPass
 from app.scene.camera import camera_frame, projection_matrix, view_matrix
 from app.scene.geometry import build_parts
-from app.scene.lights import light_record
+from app.scene.lights import environment_records, light_record
 from app.scene.loader import LoadedScene
 
 
@@ -33,6 +33,7 @@ class Renderer:
         ctx = gl.ctx
         self.shaders = ShaderCache(ctx)
         self.lights = [light_record(light) for light in scene.lights]
+        self.lights += environment_records(scene.environment)
         parts = build_parts(loaded)
         self.materials, material_ids = MaterialTable.build([p.material for p in parts])
         self.gbuffer = GBuffer(ctx, self.size, scene.render.gbuffer)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from app.scene.model import Light
+from app.scene.model import Environment, Light
 
 LIGHT_TYPE_CODE = {"directional": 0, "point": 1, "spot": 2}
 
@@ -27,6 +27,39 @@ def light_record(light: Light) -> dict:
         "cos_outer": math.cos(math.radians(outer)),
         "cos_inner": math.cos(math.radians(inner)),
     }
+
+
+def fibonacci_sphere(count: int) -> np.ndarray:
+    """``count`` unit vectors spread evenly over the sphere (a spherical Fibonacci lattice,
+    Gonzalez 2010): equal-area cells, so each stands for 4 pi / count steradians."""
+    i = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * i / count
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))  # the golden angle
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+
+
+def environment_records(env: Environment | None) -> list[dict]:
+    """A uniform environment as directional lights that integrate it.
+
+    L_o = integral f L (n.l)+ dl ~ sum_i f L (n.l_i)+ 4 pi / N over N equal-area directions;
+    the illumination sum gives pi sum_i f c_light (n.l_i)+, so c_light = 4 L / N.
+    """
+    if env is None:
+        return []
+    color = np.asarray(env.radiance, float) * (4.0 / env.samples)
+    return [
+        {
+            "type": LIGHT_TYPE_CODE["directional"],
+            "position": np.zeros(3),
+            "direction": -d,  # light travels from direction d towards the surface
+            "color": color,
+            "range": 1.0,
+            "cos_outer": 0.0,
+            "cos_inner": 1.0,
+        }
+        for d in fibonacci_sphere(env.samples)
+    ]
 
 
 def pack_lights(records: list[dict]) -> np.ndarray:

@@ -344,10 +344,19 @@ class SceneObject(_Strict):
         return self
 
 
+class Environment(_Strict):
+    """A uniform environment of radiance ``radiance`` from every direction (the seed's white
+    furnace, section 3), integrated by ``samples`` directional lights on a Fibonacci sphere."""
+
+    radiance: Color = [1.0, 1.0, 1.0]
+    samples: Annotated[int, Field(strict=True, ge=16, le=4096)] = 256
+
+
 class Scene(_Strict):
     """A whole scene file."""
 
     background: Color = [0.0, 0.0, 0.0]  # linear radiance where no surface is hit
+    environment: Environment | None = None
     camera: Camera = Camera()
     render: RenderSettings = RenderSettings()
     materials: dict[str, Material] = {}

@@ -1,0 +1,169 @@
+"""Every BRDF model of the renderer, through the BRDF probe: the lighting pass's own GLSL
+(app.brdf.evaluate, float32 on llvmpipe) against its float64 twin, reciprocity, and energy.
+
+The terms are tested one by one in test_fresnel.py, test_microfacet.py, test_diffuse.py and
+test_multiscatter.py; here each complete f(l, v), as a scene selects it, is run through the
+same preprocessor branches the lighting pass compiles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.brdf import evaluate
+from app.reference.quadrature import N, directional_albedo, reflected_rule
+from tests.agreement import relative_error
+
+# One material table per model choice (what a scene file's [materials.NAME] holds).
+MODELS: dict[str, dict] = {
+    "standard": {"base_color": [0.8, 0.3, 0.1]},
+    "standard metal": {"preset": "gold"},
+    "schlick generalised": {
+        "fresnel": "schlick_generalized", "f90": [0.9, 0.7, 1.0], "fresnel_p": 0.3,
+    },
+    "exact dielectric": {"fresnel": "dielectric", "ior": 1.5},
+    "exact dielectric in water": {"preset": "skin-in-water", "fresnel": "dielectric"},
+    "exact internal reflection": {"fresnel": "dielectric", "ior": 1.0, "medium_ior": 1.5},
+    "schlick internal reflection": {"ior": 1.0, "medium_ior": 1.5},
+    "index matched (vanishes)": {"fresnel": "dielectric", "ior": 1.33, "medium_ior": 1.33},
+    "exact conductor": {"preset": "gold", "fresnel": "conductor"},
+    "conductor in water": {"preset": "silver", "fresnel": "conductor", "medium_ior": 1.33},
+    "beckmann": {"ndf": "beckmann"},
+    "beckmann rational lambda": {"ndf": "beckmann", "lambda_form": "rational"},
+    "blinn-phong": {"ndf": "blinn_phong"},
+    "gtr gamma 1": {"ndf": "gtr", "gtr_gamma": 1.0},
+    "gtr gamma 1.5": {"ndf": "gtr", "gtr_gamma": 1.5},
+    "gtr gamma 3": {"ndf": "gtr", "gtr_gamma": 3.0},
+    "anisotropic ggx": {"anisotropy": 0.8, "preset": "aluminum"},
+    "anisotropic beckmann": {"ndf": "beckmann", "anisotropy": -0.6},
+    "ggx lambda path": {"g2": "separable"},
+    "height-correlated beckmann": {"ndf": "beckmann", "g2": "height_correlated"},
+    "direction-correlated exp": {"g2": "direction_correlated"},
+    "direction-correlated rational": {"g2": "direction_correlated", "correlation": "rational"},
+    "height-direction-correlated exp": {"g2": "height_direction_correlated"},
+    "height-direction-correlated rational": {
+        "g2": "height_direction_correlated", "correlation": "rational",
+    },
+    "hammon visibility": {"g2": "hammon"},
+    "shirley diffuse": {"diffuse": "shirley"},
+    "ashikhmin-shirley diffuse": {"diffuse": "ashikhmin_shirley"},
+    "burley diffuse": {"diffuse": "burley"},
+    "oren-nayar diffuse": {"diffuse": "oren_nayar"},
+    "hammon diffuse": {"diffuse": "hammon"},
+    "no diffuse": {"diffuse": "none"},
+    "multiscatter": {"multiscatter": True, "preset": "copper"},
+}  # fmt: skip
+
+ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material
+
+
+def _unit(d: np.ndarray) -> np.ndarray:
+    d = np.asarray(d, np.float64)
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def _dir(theta_deg: np.ndarray, phi_deg: np.ndarray) -> np.ndarray:
+    t, p = np.radians(theta_deg), np.radians(phi_deg)
+    return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+
+
+def direction_pairs(seed: int = 7, count: int = 3000) -> tuple[np.ndarray, np.ndarray]:
+    """Random pairs over the upper hemisphere plus the edge cases, rounded to float32 so
+    both backends see the same inputs."""
+    rng = np.random.default_rng(seed)
+    l = _unit(rng.normal(size=(count, 3)))
+    v = _unit(rng.normal(size=(count, 3)))
+    l[:, 2], v[:, 2] = np.abs(l[:, 2]), np.abs(v[:, 2])
+    theta = np.array([0.0, 30.0, 60.0, 80.0, 89.0, 89.9])
+    mirror_l = _dir(theta, 0.0 * theta)
+    mirror_v = _dir(theta, 0.0 * theta + 180.0)  # the specular peak of each theta
+    edges_l = [
+        [0.0, 0.0, 1.0],  # l = v = n
+        _dir(89.9, 0.0),  # l = v at grazing
+        _dir(45.0, 0.0),  # n.v tiny
+        _dir(89.94, 0.0),  # n.l ~ 1e-3
+        [1.0, 0.0, 0.0],  # l in the tangent plane: f = 0
+        _dir(40.0, 10.0),  # v just below the horizon (clamped n.v)
+        _dir(30.0, 0.0),  # v = -l reflected through n: no half vector
+        _dir(60.0, 90.0),  # l along the bitangent, v along the tangent
+    ]
+    edges_v = [
+        [0.0, 0.0, 1.0],
+        _dir(89.9, 0.0),
+        _dir(89.94, 180.0),
+        _dir(20.0, 250.0),
+        _dir(30.0, 0.0),
+        [0.3, 0.0, -0.01],
+        -_dir(30.0, 0.0),
+        _dir(60.0, 0.0),
+    ]
+    l = np.vstack([l, mirror_l, edges_l])
+    v = np.vstack([v, mirror_v, edges_v])
+    l, v = _unit(l), _unit(v)
+    return l.astype(np.float32).astype(np.float64), v.astype(np.float32).astype(np.float64)
+
+
+@pytest.fixture(scope="module")
+def pairs() -> tuple[np.ndarray, np.ndarray]:
+    return direction_pairs()
+
+
+@pytest.mark.parametrize("roughness", ROUGHNESSES)
+@pytest.mark.parametrize("name", list(MODELS))
+def test_glsl_matches_float64_twin(gl_egl, pairs, name: str, roughness: float) -> None:
+    l, v = pairs
+    material = {**MODELS[name], "roughness": roughness}
+    gpu = evaluate(material, l, v, gl=gl_egl)
+    ref = evaluate(material, l, v, backend="reference")
+    assert np.all(np.isfinite(gpu)) and np.all(gpu >= 0.0)
+    assert np.all(np.isfinite(ref)) and np.all(ref >= 0.0)
+    below = (l @ N) <= 0.0
+    assert np.all(gpu[below] == 0.0) and np.all(ref[below] == 0.0)
+    # Relative error, with values under 1e-6 of the set's peak compared absolutely
+    # (that far below the peak float32's absolute rounding of the sums dominates).
+    err = relative_error(gpu, ref, 1e-6 * ref.max())
+    assert err.max() <= 1e-4, f"{name} r={roughness}: max relative error {err.max():.2e}"
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_reciprocity(gl_egl, pairs, name: str) -> None:
+    """f(l, v) = f(v, l) (seed section 3) for every model, twin and GLSL, where both
+    cosines exceed the n.v clamp (which is the one deliberate asymmetry)."""
+    l, v = pairs
+    keep = (l @ N > 1e-3) & (v @ N > 1e-3)
+    l, v = _unit(l[keep]), _unit(v[keep])  # exactly unit in float64: f is reciprocal for those
+    material = {**MODELS[name], "roughness": 0.4}
+    ref_lv = evaluate(material, l, v, backend="reference")
+    ref_vl = evaluate(material, v, l, backend="reference")
+    np.testing.assert_allclose(ref_lv, ref_vl, rtol=1e-12, atol=1e-300)
+    gpu_lv = evaluate(material, l, v, gl=gl_egl)
+    gpu_vl = evaluate(material, v, l, gl=gl_egl)
+    assert relative_error(gpu_lv, gpu_vl, 1e-6 * gpu_lv.max()).max() <= 1e-4
+
+
+SPECULAR_ONLY = {  # specular terms alone with F = 1: white metal, no diffuse lobe
+    name: {**MODELS[name], "base_color": [1.0, 1.0, 1.0], "metallic": 1.0, "diffuse": "none"}
+    for name in MODELS
+    if MODELS[name].get("fresnel", "schlick") == "schlick"
+    and "preset" not in MODELS[name]
+    and "diffuse" not in MODELS[name]
+    and "medium_ior" not in MODELS[name]
+}
+
+
+@pytest.mark.parametrize("name", list(SPECULAR_ONLY))
+def test_specular_never_creates_energy(name: str) -> None:
+    """Directional albedo of every NDF/Lambda/G2 combination with F = 1 is at most 1
+    (seed section 3), over roughness and incidence; by quadrature on the twin."""
+    worst = 0.0
+    for roughness in (0.05, 0.2, 0.5, 0.8, 1.0):
+        alpha = roughness * roughness
+        for theta in (0.0, 30.0, 60.0, 80.0, 89.0):
+            l = _dir(theta, 30.0)
+            v, w = reflected_rule(l, max(alpha, 0.01), 32, 24)
+            material = {**SPECULAR_ONLY[name], "roughness": roughness}
+            f = evaluate(material, np.broadcast_to(l, v.shape), v, backend="reference")
+            albedo = directional_albedo(f, v, w)[0]
+            worst = max(worst, albedo)
+    assert worst <= 1.0 + 2e-3, f"{name}: albedo {worst:.4f}"
