@@ -46,7 +46,69 @@ def _parser() -> argparse.ArgumentParser:
         help="headless OpenGL backend (default: EGL, then OSMesa)",
     )
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    _brdf_parser(sub)
     return parser
+
+
+def _thetas(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or not all(0.0 <= t <= 90.0 for t in values):  # also rejects nan
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated angles in degrees within 0..90, got '{text}'"
+        )
+    return values
+
+
+def _dpi(text: str) -> int:
+    if not re.fullmatch(r"\d+", text) or not 10 <= int(text) <= 1200:
+        raise argparse.ArgumentTypeError(f"expected an integer within 10..1200, got '{text}'")
+    return int(text)
+
+
+def _brdf_parser(sub: argparse._SubParsersAction) -> None:
+    """The ``brdf`` subcommand's arguments (docs/brdf-explorer.md)."""
+    brdf = sub.add_parser(
+        "brdf",
+        help="plot BRDF lobes and directional albedo of materials to PNG",
+        description="Plot the lobe in the plane of incidence and the directional albedo of "
+        "each material, one column per material (docs/brdf-explorer.md).",
+    )
+    brdf.add_argument(
+        "materials",
+        nargs="+",
+        metavar="MATERIAL-OR-SCENE",
+        help="a preset name (gold), a scene file (all its materials, or scene.toml:NAME), "
+        "or an inline TOML table ('{ ndf = \"beckmann\", roughness = 0.3 }')",
+    )
+    brdf.add_argument("-o", "--output", required=True, help="PNG file to write")
+    brdf.add_argument(
+        "--backend",
+        choices=("glsl", "reference"),
+        default="glsl",
+        help="evaluate the renderer's GLSL (default) or its float64 twin",
+    )
+    brdf.add_argument(
+        "--theta",
+        type=_thetas,
+        default=(0.0, 30.0, 60.0, 80.0),
+        help="incident angles of the lobe curves, degrees (default 0,30,60,80)",
+    )
+    brdf.add_argument(
+        "--quantity",
+        choices=("fcos", "f"),
+        default="fcos",
+        help="lobe radius: f(l,v) cos(theta_v) (default) or f(l,v)",
+    )
+    brdf.add_argument("--log", action="store_true", help="log radius (4 decades) for the lobes")
+    brdf.add_argument("--rgb", action="store_true", help="lobe per RGB channel, not luminance")
+    brdf.add_argument("--size", type=_size, help="WIDTHxHEIGHT in pixels (default: by --dpi)")
+    brdf.add_argument(
+        "--dpi", type=_dpi, help="pixels per inch (default 100; a column is 4.6 x 7.4 in)"
+    )
+    brdf.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
 
 
 def _resolve_scene(name: str) -> Path:
@@ -98,6 +160,36 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_brdf(args: argparse.Namespace) -> int:
+    """Plot materials' BRDFs (app/brdf/plot.py). Every argument is checked before any GL or
+    matplotlib work, so bad input exits 2 without writing anything."""
+    from app.brdf import plot
+
+    start = time.perf_counter()
+    out = Path(args.output)
+    if out.suffix.lower() != ".png":
+        raise InputError(str(out), "-o", "the output must be a .png file")
+    materials = plot.parse_material_args(args.materials)  # all validated before any work
+    try:
+        columns = plot.compute_columns(materials, args.theta, args.quantity, args.backend)
+    except plot.ModelUnavailableError as exc:
+        print(f"pbs: error: {exc}", file=sys.stderr)
+        return 1
+    fig = plot.render_figure(
+        columns, args.quantity, rgb=args.rgb, log=args.log, size=args.size, dpi=args.dpi,
+        backend=args.backend,
+    )  # fmt: skip
+    _write(out, "-o", lambda p: plot.save_png(fig, p))
+    if not args.quiet:
+        width, height = fig.canvas.get_width_height(physical=True)
+        error = max(float(c.albedo.error.max()) for c in columns)
+        print(
+            f"{out}: {width}x{height}, {len(columns)} material(s), {args.backend} backend, "
+            f"albedo quadrature error ~{error:.0e}, {time.perf_counter() - start:.2f} s"
+        )
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pbs`` and ``python -m app``."""
     parser = _parser()
@@ -105,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse exits 2 on bad arguments, 0 on --help
         return int(exc.code or 0)
-    handlers = {"render": cmd_render}
+    handlers = {"render": cmd_render, "brdf": cmd_brdf}
     try:
         return handlers[args.command](args)
     except InputError as exc:
