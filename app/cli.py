@@ -153,7 +153,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     if not args.quiet:
         w, h = renderer.size
         print(
-            f"{out}: {w}x{h}, {len(loaded.scene.lights)} lights, {gl.backend} "
+            f"{out}: {w}x{h}, {len(renderer.lights)} lights"
+            f"{' (environment included)' if loaded.scene.environment else ''}, {gl.backend} "
             f"({gl.renderer}), {time.perf_counter() - start:.2f} s"
         )
     gl.release()
