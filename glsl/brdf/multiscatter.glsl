@@ -1,0 +1,99 @@
+// Multiple-scattering compensation of the GGX specular. Twin: app/reference/multiscatter.py.
+// Kulla & Conty 2017, "Revisiting Physically Based Shading at Imageworks" (SIGGRAPH course).
+// Everything is inside #if MULTISCATTER, so a program built without it pays nothing.
+// Needs common/constants.glsl.
+//
+// u_ms_table (app/render/tables.py, ms_texture): RG32F, NEAREST, width n_mu, height n_r;
+// texel (j, i) = (1 - E(mu_j, r_i), 1 - E_avg(r_i)), the energy LOST by single scattering,
+// on mu_j = (j/(n_mu - 1))^4 and r_i = 0.045 + 0.955 (i/(n_r - 1))^2: nodes crowded toward
+// grazing and smooth, where E changes fastest. Storing the loss keeps its 7 digits in
+// float32 where 1 - E would keep 1-3 for a smooth surface.
+// Interpolation is bilinear in the grid coordinates (sqrt(sqrt(mu)) and
+// sqrt((r - 0.045)/0.955): sqrt only, no pow), by hand with texelFetch, the same sums as
+// the float64 twin: GPU filtering weighs texels with fixed-point fractions (8 bits on
+// NVIDIA), up to 2e-3 of a cell's difference, and differs between drivers.
+#ifndef PBS_MULTISCATTER_GLSL
+#define PBS_MULTISCATTER_GLSL
+
+#if MULTISCATTER
+
+uniform sampler2D u_ms_table;
+
+// Below every real 1 - E_avg of the table (2.7e-5 at the roughness floor): only keeps a
+// row that loses nothing (so 1 - E = 0 there too) from dividing 0 by 0.
+const float MS_MIN_LOSS_AVG = 1e-6;
+
+// Grid coordinate s in [0, n - 1] -> cell index in [0, n - 2] and the fraction within it.
+int ms_cell(float s, int n, out float t) {
+    int i = min(int(s), n - 2);
+    t = s - float(i);
+    return i;
+}
+
+// Column coordinate of mu = n.l or n.v.
+float ms_mu_coord(float mu, int n_mu) {
+    return sqrt(sqrt(clamp(mu, 0.0, 1.0))) * float(n_mu - 1);
+}
+
+// Row coordinate of a perceptual roughness; roughness below the floor is the floor.
+float ms_r_coord(float perceptual_roughness, int n_r) {
+    float r = clamp(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    float u = (r - MIN_PERCEPTUAL_ROUGHNESS) / (1.0 - MIN_PERCEPTUAL_ROUGHNESS);
+    return sqrt(u) * float(n_r - 1);
+}
+
+// 1 - E(mu, r). (1 - t) a + t b rather than a + t (b - a): all terms are >= 0, so the
+// result keeps its relative precision where neighbouring losses differ tenfold.
+float ms_loss(float mu, float perceptual_roughness) {
+    ivec2 size = textureSize(u_ms_table, 0);
+    float tx, ty;
+    int j = ms_cell(ms_mu_coord(mu, size.x), size.x, tx);
+    int i = ms_cell(ms_r_coord(perceptual_roughness, size.y), size.y, ty);
+    float a = texelFetch(u_ms_table, ivec2(j, i), 0).r;
+    float b = texelFetch(u_ms_table, ivec2(j + 1, i), 0).r;
+    float c = texelFetch(u_ms_table, ivec2(j, i + 1), 0).r;
+    float d = texelFetch(u_ms_table, ivec2(j + 1, i + 1), 0).r;
+    float lo = (1.0 - tx) * a + tx * b;
+    float hi = (1.0 - tx) * c + tx * d;
+    return (1.0 - ty) * lo + ty * hi;
+}
+
+// 1 - E_avg(r), linear in r (every column holds it; column 0 is read).
+float ms_loss_avg(float perceptual_roughness) {
+    int n_r = textureSize(u_ms_table, 0).y;
+    float ty;
+    int i = ms_cell(ms_r_coord(perceptual_roughness, n_r), n_r, ty);
+    float a = texelFetch(u_ms_table, ivec2(0, i), 0).g;
+    float b = texelFetch(u_ms_table, ivec2(0, i + 1), 0).g;
+    return (1.0 - ty) * a + ty * b;
+}
+
+// Kulla & Conty 2017: E(mu, r), the directional albedo of f_spec_GGX with F = 1.
+float ms_E(float mu, float perceptual_roughness) {
+    return 1.0 - ms_loss(mu, perceptual_roughness);
+}
+
+// Kulla & Conty 2017: E_avg(r) = 2 int_0^1 E(mu) mu dmu.
+float ms_E_avg(float perceptual_roughness) {
+    return 1.0 - ms_loss_avg(perceptual_roughness);
+}
+
+// Kulla & Conty 2017: the lobe added to the single-scattering specular,
+//   f_ms = (1 - E(n.l))(1 - E(n.v)) / (pi (1 - E_avg)) * F_avg^2 E_avg / (1 - F_avg (1 - E_avg)),
+// F_avg = F0 + (1 - F0)/21, the hemispherical average 2 int F mu dmu of Schlick's F
+// (2 int_0^1 (1 - mu)^5 mu dmu = 1/21). With F0 = 1 the colour factor is exactly 1 and the
+// lobe's albedo is 1 - E(n.l): f_spec + f_ms then reflects all light. The colour factor is
+// the geometric series of bounces that each keep F_avg, so it is more saturated than F0.
+// 1 - F_avg (1 - E_avg) >= E_avg > 0.4: no guard needed there.
+vec3 f_ms_kulla_conty(vec3 F0, float perceptual_roughness, float NoL, float NoV) {
+    float loss_l = ms_loss(NoL, perceptual_roughness);
+    float loss_v = ms_loss(NoV, perceptual_roughness);
+    float loss_avg = ms_loss_avg(perceptual_roughness);
+    vec3 F_avg = F0 + (1.0 - F0) / 21.0;
+    vec3 colour = F_avg * F_avg * (1.0 - loss_avg) / (1.0 - F_avg * loss_avg);
+    return colour * (loss_l * loss_v / (PI * max(loss_avg, MS_MIN_LOSS_AVG)));
+}
+
+#endif  // MULTISCATTER
+
+#endif
