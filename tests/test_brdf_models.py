@@ -49,6 +49,7 @@ MODELS: dict[str, dict] = {
     "shirley diffuse": {"diffuse": "shirley"},
     "ashikhmin-shirley diffuse": {"diffuse": "ashikhmin_shirley"},
     "burley diffuse": {"diffuse": "burley"},
+    "renormalised burley diffuse": {"diffuse": "burley_renormalized"},
     "oren-nayar diffuse": {"diffuse": "oren_nayar"},
     "hammon diffuse": {"diffuse": "hammon"},
     "no diffuse": {"diffuse": "none"},

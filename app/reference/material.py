@@ -91,6 +91,9 @@ def f_diffuse_selected(
         case "burley":
             r = np.clip(np.asarray(s.perceptual_roughness, np.float64), 0.0, 1.0)
             return diffuse.Fd_burley(rho, r, NoL, NoV, LoH)
+        case "burley_renormalized":
+            r = np.clip(np.asarray(s.perceptual_roughness, np.float64), 0.0, 1.0)
+            return diffuse.Fd_burley_renormalized(rho, r, NoL, NoV, LoH)
         case "oren_nayar":
             return diffuse.Fd_oren_nayar(rho, alpha, n, l, v)
         case "hammon":

@@ -33,6 +33,7 @@ DIFFUSE_MODELS = (
     "oren_nayar",
     "hammon",
     "none",
+    "burley_renormalized",
 )
 
 

@@ -59,6 +59,8 @@ vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
     return Fd_ashikhmin_shirley(rho_ss, material_F0(s), NoL, NoV);
 #elif DIFFUSE_MODEL == DIFFUSE_BURLEY
     return Fd_burley(rho_ss, clamp(s.perceptual_roughness, 0.0, 1.0), NoL, NoV, LoH);
+#elif DIFFUSE_MODEL == DIFFUSE_BURLEY_RENORMALIZED
+    return Fd_burley_renormalized(rho_ss, clamp(s.perceptual_roughness, 0.0, 1.0), NoL, NoV, LoH);
 #elif DIFFUSE_MODEL == DIFFUSE_OREN_NAYAR
     return Fd_oren_nayar(rho_ss, alpha, n, l, v);
 #elif DIFFUSE_MODEL == DIFFUSE_HAMMON

@@ -34,6 +34,7 @@
 #define DIFFUSE_OREN_NAYAR 4
 #define DIFFUSE_HAMMON 5
 #define DIFFUSE_NONE 6
+#define DIFFUSE_BURLEY_RENORMALIZED 7
 
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
