@@ -149,7 +149,14 @@ class GBufferPass:
         target.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
         for d in self.drawables:
+            # Object matrices with a negative determinant mirror the winding.
+            if d.part.closed:
+                ctx.enable(moderngl.CULL_FACE)
+                ctx.front_face = "cw" if np.linalg.det(d.part.model[:3, :3]) < 0.0 else "ccw"
+            else:
+                ctx.disable(moderngl.CULL_FACE)
             d.draw(view_bytes, proj_bytes)
+        ctx.disable(moderngl.CULL_FACE)
 
     def release(self) -> None:
         for d in self.drawables:

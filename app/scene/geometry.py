@@ -41,6 +41,10 @@ class MeshPart:
     material: MaterialParams
     model: np.ndarray  # (4, 4) float64 object -> world
     maps: dict[str, Texture] = field(default_factory=dict)
+    # Closed primitives are drawn with back faces culled: at a silhouette a back face lies
+    # within the 24-bit depth buffer's resolution of the front face and could win the depth
+    # test with a normal facing away. Planes and mesh files (possibly open) stay two-sided.
+    closed: bool = False
 
 
 def model_matrix(obj: SceneObject) -> np.ndarray:
@@ -267,7 +271,15 @@ def build_parts(loaded: LoadedScene) -> list[MeshPart]:
         chosen = scene.materials[obj.material].resolve() if obj.material else None
         if obj.shape != "mesh":
             vertices, indices = _interleave(_primitive(obj))
-            parts.append(MeshPart(vertices, indices, chosen or _DEFAULT_MATERIAL, model))
+            parts.append(
+                MeshPart(
+                    vertices,
+                    indices,
+                    chosen or _DEFAULT_MATERIAL,
+                    model,
+                    closed=obj.shape != "plane",
+                )
+            )
             continue
         for mesh, local in _load_file(loaded, i, obj):
             if chosen is not None:  # the scene's material overrides the file's
