@@ -16,6 +16,7 @@ import moderngl
 import numpy as np
 
 from app.gl.shaders import ShaderCache
+from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer
 from app.render.materials import MaterialTable
 from app.scene.camera import CameraFrame, gl_bytes
@@ -32,14 +33,18 @@ class LightingPass:
         size: tuple[int, int],
         records: list[dict],
         table: MaterialTable,
+        culler: LightCuller | None = None,
     ) -> None:
         self.ctx = ctx
+        self.culler = culler
         several = len(table.models) > 1
         self.programs = []
         for group, model in enumerate(table.models):
             defines = dict(model.defines())
             if several:
                 defines["MODEL_GROUP"] = group
+            if culler is not None:
+                defines["TILED_LIGHTS"] = 1
             self.programs.append(
                 shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
             )
@@ -80,6 +85,8 @@ class LightingPass:
         ]
         if self.ms_table is not None:
             textures.append(("u_ms_table", self.ms_table))
+        if self.culler is not None:
+            textures.append(("u_tile_masks", self.culler.masks))
         for unit, (_, tex) in enumerate(textures):
             tex.use(unit)
         camera_to_world = gl_bytes(camera.camera_to_world)
@@ -87,10 +94,14 @@ class LightingPass:
             for unit, (name, _) in enumerate(textures):
                 if name in prog:  # a permutation may not use every texture
                     prog[name].value = unit
-            prog["u_light_count"].value = self.light_count
+            if "u_light_count" in prog:  # the tiled loop counts through its masks instead
+                prog["u_light_count"].value = self.light_count
             prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)
             prog["u_camera_to_world"].write(camera_to_world)
             prog["u_tan_half_fov"].value = camera.tan_half_fov
+            if self.culler is not None:
+                prog["u_words"].value = self.culler.words
+                prog["u_first_local"].value = self.culler.first_local
             vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:

@@ -10,6 +10,7 @@ import numpy as np
 
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
+from app.render.culling import LightCuller, order_lights
 from app.render.gbuffer import GBuffer, GBufferData, GBufferPass
 from app.render.lighting import LightingPass
 from app.render.materials import MaterialTable
@@ -32,13 +33,21 @@ class Renderer:
         self.size = size or (scene.render.width, scene.render.height)
         ctx = gl.ctx
         self.shaders = ShaderCache(ctx)
-        self.lights = [light_record(light) for light in scene.lights]
-        self.lights += environment_records(scene.environment)
+        records = [light_record(light) for light in scene.lights]
+        self.lights = order_lights(records + environment_records(scene.environment))
         parts = build_parts(loaded)
         self.materials, material_ids = MaterialTable.build([p.material for p in parts])
         self.gbuffer = GBuffer(ctx, self.size, scene.render.gbuffer)
         self.gbuffer_pass = GBufferPass(ctx, self.shaders, parts, material_ids)
-        self.lighting = LightingPass(ctx, self.shaders, self.size, self.lights, self.materials)
+        local = any(r["type"] != 0 for r in self.lights)
+        self.culler = (
+            LightCuller(ctx, self.shaders, self.size, self.lights)
+            if local and scene.render.light_culling == "tiled"
+            else None
+        )
+        self.lighting = LightingPass(
+            ctx, self.shaders, self.size, self.lights, self.materials, self.culler
+        )
         self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)
         w, h = self.size
         self.view = view_matrix(scene.camera)
@@ -49,6 +58,8 @@ class Renderer:
         """Run all passes; results stay on the GPU until read."""
         scene = self.scene
         self.gbuffer_pass.run(self.gbuffer, self.view, self.proj)
+        if self.culler is not None:
+            self.culler.run(self.gbuffer, self.view, self.camera)
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
         self.post.run(self.lighting.hdr, scene.camera.exposure)
 
@@ -64,5 +75,7 @@ class Renderer:
         return self.gbuffer.read()
 
     def release(self) -> None:
+        if self.culler is not None:
+            self.culler.release()
         for obj in (self.gbuffer_pass, self.gbuffer, self.lighting, self.post, self.shaders):
             obj.release()

@@ -86,6 +86,7 @@ class RenderSettings(_Strict):
     height: Annotated[int, Field(strict=True, ge=1, le=16384)] = 720
     tonemap: Literal["linear", "neutral", "aces", "reinhard"] = "neutral"
     gbuffer: Literal["f16", "f32"] = "f16"
+    light_culling: Literal["tiled", "none"] = "tiled"
 
 
 class Light(_Strict):

@@ -12,6 +12,7 @@
 #include "brdf/specular.glsl"
 #include "brdf/material.glsl"
 #include "lights/punctual.glsl"
+#include "lights/tiles.glsl"
 
 uniform sampler2D g_albedo;
 uniform sampler2D g_normal;
@@ -20,6 +21,11 @@ uniform sampler2D g_tangent;
 uniform sampler2D u_materials;  // RGBA32F, 4 texels per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
 uniform int u_light_count;
+#if TILED_LIGHTS
+uniform usampler2D u_tile_masks;   // R32UI: u_words bitmasks per tile (app/render/culling.py)
+uniform int u_words;
+uniform int u_first_local;         // lights [0, u_first_local) are directional
+#endif
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
@@ -32,6 +38,15 @@ PunctualLight fetch_light(int i) {
     vec4 t2 = texelFetch(u_lights, ivec2(2, i), 0);
     vec4 t3 = texelFetch(u_lights, ivec2(3, i), 0);
     return PunctualLight(int(t0.w), t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t3.x);
+}
+
+// f(l, v) c_light (n.l)+ of light i at p.
+vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
+    vec3 l;
+    vec3 c_light = light_at(fetch_light(i), p, l);
+    float NoL = dot(n, l);
+    if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
+    return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
 }
 
 void main() {
@@ -58,12 +73,25 @@ void main() {
     vec3 v = normalize(u_camera_pos - p);
 
     vec3 Lo = vec3(0.0);
-    for (int i = 0; i < u_light_count; ++i) {
-        vec3 l;
-        vec3 c_light = light_at(fetch_light(i), p, l);
-        float NoL = dot(n, l);
-        if (NoL <= 0.0) continue;             // (n.l)+ : lights behind the surface add nothing
-        Lo += brdf_eval(s, params, n, t, l, v) * c_light * NoL;
+#if TILED_LIGHTS
+    // Directional lights reach everything; local lights only where their tile's mask
+    // says so, visited in ascending order like the plain loop below.
+    for (int i = 0; i < u_first_local; ++i) {
+        Lo += light_contribution(i, s, params, n, t, p, v);
     }
+    ivec2 tile = px / TILE_SIZE;
+    for (int w = 0; w < u_words; ++w) {
+        uint bits = texelFetch(u_tile_masks, ivec2(tile.x * u_words + w, tile.y), 0).r;
+        while (bits != 0u) {
+            int b = lowest_bit(bits);
+            bits &= bits - 1u;                // clear that bit
+            Lo += light_contribution(u_first_local + 32 * w + b, s, params, n, t, p, v);
+        }
+    }
+#else
+    for (int i = 0; i < u_light_count; ++i) {
+        Lo += light_contribution(i, s, params, n, t, p, v);
+    }
+#endif
     frag_color = vec4(PI * Lo, 1.0);
 }

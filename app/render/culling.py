@@ -1,0 +1,118 @@
+"""Tiled light culling on the OpenGL 3.3 path: lights reach only the pixels in their range.
+
+Two small fragment passes per frame, after the G-buffer pass and before lighting:
+
+1. ``tile_depth.frag``: the min and max view depth of each 16x16 tile's surfaces;
+2. ``light_cull.frag``: for each tile, a bitmask of the local (point and spot) lights
+   whose range sphere reaches the tile's sub-frustum between those depths; one R32UI
+   texel holds 32 lights, a tile has ``words`` texels side by side.
+
+The lighting pass then loops the directional lights (which reach everything) and the set
+bits of its tile's masks, in ascending light order: the same lights in the same order
+as the unculled loop minus lights that would add exactly 0, so culled and unculled
+images agree to the last bit. The CPU's per-frame work is one vectorised transform of
+the light centres into view space.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from app.gl.shaders import ShaderCache
+from app.render.gbuffer import GBuffer
+from app.scene.camera import CameraFrame
+
+TILE_SIZE = 16
+LIGHTS_PER_ROW = 1024  # texels per row of the local-light texture
+RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a light
+#                      whose window is still (barely) above zero at a tile's edge
+
+
+def order_lights(records: list[dict]) -> list[dict]:
+    """Directional lights first, then local ones, each group in scene order."""
+    return [r for r in records if r["type"] == 0] + [r for r in records if r["type"] != 0]
+
+
+class LightCuller:
+    """Owns the tile targets and the local-light texture of one image size."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        records: list[dict],
+    ) -> None:
+        self.ctx = ctx
+        self.size = size
+        local = [r for r in records if r["type"] != 0]
+        self.first_local = len(records) - len(local)
+        self.local_count = len(local)
+        self.centres = np.array([r["position"] for r in local], np.float64).reshape(-1, 3)
+        self.ranges = np.array([r["range"] for r in local], np.float64) * RANGE_MARGIN
+        self.tiles = (-(-size[0] // TILE_SIZE), -(-size[1] // TILE_SIZE))
+        self.words = max(1, -(-self.local_count // 32))
+        self.depth_program = shaders.program("passes/fullscreen.vert", "passes/tile_depth.frag")
+        self.cull_program = shaders.program("passes/fullscreen.vert", "passes/light_cull.frag")
+        self.depth_vao = ctx.vertex_array(self.depth_program, [])
+        self.cull_vao = ctx.vertex_array(self.cull_program, [])
+        self.tile_depth = ctx.texture(self.tiles, 2, dtype="f4")
+        self.masks = ctx.texture((self.tiles[0] * self.words, self.tiles[1]), 1, dtype="u4")
+        rows = max(1, -(-self.local_count // LIGHTS_PER_ROW))
+        width = LIGHTS_PER_ROW if self.local_count > LIGHTS_PER_ROW else max(1, self.local_count)
+        self.lights = ctx.texture((width, rows), 4, dtype="f4")
+        for tex in (self.tile_depth, self.masks, self.lights):
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.depth_fbo = ctx.framebuffer([self.tile_depth])
+        self.mask_fbo = ctx.framebuffer([self.masks])
+
+    def _upload(self, view: np.ndarray) -> None:
+        """Light centres in view space with their (padded) ranges, one texel per light."""
+        texels = np.zeros((self.lights.width * self.lights.height, 4), np.float32)
+        centres = self.centres @ view[:3, :3].T + view[:3, 3]
+        texels[: self.local_count, :3] = centres
+        texels[: self.local_count, 3] = self.ranges
+        self.lights.write(texels.tobytes())
+
+    def run(self, gbuffer: GBuffer, view: np.ndarray, camera: CameraFrame) -> None:
+        ctx = self.ctx
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        self._upload(view)
+        self.depth_fbo.use()
+        ctx.viewport = (0, 0, *self.tiles)
+        gbuffer.depth.use(0)
+        self.depth_program["g_depth"].value = 0
+        self.depth_vao.render(moderngl.TRIANGLES, vertices=3)
+
+        self.mask_fbo.use()
+        ctx.viewport = (0, 0, self.tiles[0] * self.words, self.tiles[1])
+        prog = self.cull_program
+        self.tile_depth.use(0)
+        self.lights.use(1)
+        prog["u_tile_depth"].value = 0
+        prog["u_local_lights"].value = 1
+        prog["u_local_count"].value = self.local_count
+        prog["u_words"].value = self.words
+        prog["u_image_size"].value = self.size
+        prog["u_tan_half_fov"].value = camera.tan_half_fov
+        self.cull_vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def read_masks(self) -> np.ndarray:
+        """(tiles_y, tiles_x, local_count) bool: which local lights reach each tile."""
+        tx, ty = self.tiles
+        words = np.frombuffer(self.masks.read(), np.uint32).reshape(ty, tx, self.words)
+        bits = (words[..., :, None] >> np.arange(32, dtype=np.uint32)) & 1
+        return bits.reshape(ty, tx, self.words * 32)[..., : self.local_count].astype(bool)
+
+    def release(self) -> None:
+        for obj in (
+            self.depth_vao,
+            self.cull_vao,
+            self.depth_fbo,
+            self.mask_fbo,
+            self.tile_depth,
+            self.masks,
+            self.lights,
+        ):
+            obj.release()
