@@ -139,10 +139,12 @@ def Fd_hammon(
     f = rho/pi ((1 - alpha) f_smooth + alpha f_rough + rho f_multi) with
     f_smooth = 21/20 (1 - F0)(1-(1-n.l)^5)(1-(1-n.v)^5),
     f_rough = k (0.9 - 0.4 k)(0.5 + n.h)/n.h, k = 0.5 + 0.5 l.v, f_multi = 0.3641 alpha.
+    n.h is floored at MIN_N_DOT_V/2 as in the GLSL: a no-op while v is above the horizon,
+    it keeps v below it (n.v < -n.l, where h gave n.h = 0) from dividing by 0.
     """
     rho_ss = _f64(rho_ss)
     alpha = _f64(alpha)
-    NoH = _f64(NoH)
+    NoH = np.maximum(_f64(NoH), 0.5 * MIN_N_DOT_V)
     smooth = one_minus_pow5_one_minus(NoL) * one_minus_pow5_one_minus(NoV)
     f_smooth = (21.0 / 20.0) * (1.0 - _f64(F0)) * smooth[..., None]
     k_facing = 0.5 + 0.5 * _f64(LoV)

@@ -10,7 +10,7 @@ import numpy as np
 
 from app.reference import diffuse, fresnel, masking
 from app.reference._vec import dot
-from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
+from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.model import DEFAULT_MODEL, Model, ModelParams
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
 
@@ -24,6 +24,55 @@ class Surface:
     perceptual_roughness: np.ndarray
     f0_dielectric: np.ndarray
     anisotropy: np.ndarray | float = 0.0
+
+
+# --- sanitising what a G-buffer texel delivers (see the GLSL for why and where) ---
+
+# (lo, hi, fallback) of each Surface field: finite values are clamped to [lo, hi], NaN and
+# +-Inf become the fallback.
+SANITIZE_BASE_COLOR = (0.0, 1.0, 0.0)
+SANITIZE_METALLIC = (0.0, 1.0, 0.0)
+SANITIZE_ROUGHNESS = (0.0, 1.0, 1.0)
+SANITIZE_F0 = (0.0, 1.0, 0.04)
+SANITIZE_ANISOTROPY = (-1.0, 1.0, 0.0)
+
+
+def is_finite(x: np.ndarray) -> np.ndarray:
+    """True unless x is NaN or +-Inf (the GLSL reads the exponent bits)."""
+    return np.isfinite(np.asarray(x, np.float64))
+
+
+def sanitize_value(x: np.ndarray, lo: float, hi: float, fallback: float) -> np.ndarray:
+    """x clamped to [lo, hi]; ``fallback`` where x is NaN or +-Inf."""
+    x = np.asarray(x, np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.where(is_finite(x), np.clip(x, lo, hi), fallback)
+
+
+def sanitize_surface(s: Surface) -> Surface:
+    """Every field clamped to its valid range, non-finite values replaced by the fallbacks:
+    base colour 0, metallic 0, roughness 1 (the flattest lobe), F0 0.04, anisotropy 0."""
+    return Surface(
+        sanitize_value(s.base_color, *SANITIZE_BASE_COLOR),
+        sanitize_value(s.metallic, *SANITIZE_METALLIC),
+        sanitize_value(s.perceptual_roughness, *SANITIZE_ROUGHNESS),
+        sanitize_value(s.f0_dielectric, *SANITIZE_F0),
+        sanitize_value(s.anisotropy, *SANITIZE_ANISOTROPY),
+    )
+
+
+def sanitize_direction(d: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """d normalised, or ``fallback`` (unit) where d has a non-finite component or |d|^2 is
+    not in (1e-12, inf) (in float32, as the GLSL squares it)."""
+    d = np.asarray(d, np.float64)
+    fallback = np.broadcast_to(np.asarray(fallback, np.float64), d.shape)
+    finite = np.all(is_finite(d), axis=-1)
+    safe = np.where(finite[..., None], d, 0.0)
+    len2 = dot(safe, safe)
+    ok = finite & (len2 > 1e-12) & (len2 <= float(np.finfo(np.float32).max))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit = safe / np.sqrt(len2)[..., None]
+    return np.where(ok[..., None], unit, fallback)
 
 
 def material_F0(s: Surface) -> np.ndarray:
@@ -135,7 +184,8 @@ def brdf_eval(
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
     NoL_raw = dot(n, l)
     lit = NoL_raw > 0.0
-    NoL = np.where(lit, np.minimum(NoL_raw, 1.0), 1.0)  # 1.0: any value, masked below
+    # n.l floored at MIN_N_DOT_L as in the GLSL (1/(n.l) and D G2 underflowed for n.l = 1e-36).
+    NoL = np.where(lit, np.clip(NoL_raw, MIN_N_DOT_L, 1.0), 1.0)  # 1.0: any value, masked below
     NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
     hv = l + v
     hv2 = dot(hv, hv)

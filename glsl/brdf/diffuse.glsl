@@ -104,11 +104,16 @@ vec3 Fd_oren_nayar(vec3 rho_ss, float alpha, vec3 n, vec3 l, vec3 v) {
 // n.h > 0 whenever n.l > 0 and n.v > 0 (n.h = (n.l + n.v)/|l + v|), so chi+ is 1 here.
 // Not energy conserving for rho_ss near 1: with rho_ss = 1 the directional albedo reaches
 // 1.18 at alpha = 1 near grazing (docs/diffuse-and-multiscatter.md).
+// Guard: n.h is floored at MIN_N_DOT_V/2. While v is truly above the horizon,
+// n.h >= (n.l + n.v)/2 >= MIN_N_DOT_V/2 already, so nothing changes there; but the caller's h
+// comes from the unclamped v, and a normal-mapped v below the horizon (n.v < -n.l, e.g.
+// n.l = 0.01, n.v = -0.3) gave n.h = 0 and f_rough = 0.5/0 = Inf (tests/test_stability_brdf.py).
 vec3 Fd_hammon(vec3 rho_ss, vec3 F0, float alpha, float NoL, float NoV, float NoH, float LoV) {
     vec3 f_smooth = (21.0 / 20.0) * (1.0 - F0) *
                     (one_minus_pow5_one_minus(NoL) * one_minus_pow5_one_minus(NoV));
     float k_facing = 0.5 + 0.5 * LoV;
-    float f_rough = k_facing * (0.9 - 0.4 * k_facing) * ((0.5 + NoH) / NoH);
+    float NoH_safe = max(NoH, 0.5 * MIN_N_DOT_V);
+    float f_rough = k_facing * (0.9 - 0.4 * k_facing) * ((0.5 + NoH_safe) / NoH_safe);
     float f_multi = 0.3641 * alpha;
     return rho_ss * INV_PI * ((1.0 - alpha) * f_smooth + alpha * f_rough + rho_ss * f_multi);
 }

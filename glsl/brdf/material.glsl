@@ -12,6 +12,49 @@ struct Surface {
     float anisotropy;          // -1..1: alpha_x = alpha (1 + a), alpha_y = alpha (1 - a)
 };
 
+// --- sanitising what a G-buffer texel delivers ---
+// Textures can hold NaN or Inf (a float texture, a degenerate mesh normal normalize(0) that
+// the G-buffer pass encodes as is) and out-of-range values (an RGBA16F channel holds up to
+// 65504); one NaN in a Surface field makes every light's f(l, v) NaN, and the HDR sum with it.
+// The lighting pass maps each field into its valid range before shading:
+//   s = sanitize_surface(s); n = sanitize_direction(n, v);
+// Finite values are clamped to the range; NaN and +-Inf become the field's fallback.
+
+// True unless x is NaN or +-Inf, read from the exponent bits: a compiler that assumes finite
+// arithmetic may fold isnan(), isinf() and comparisons with NaN away, but not integer tests.
+bool is_finite(float x) {
+    return (floatBitsToUint(x) & 0x7F800000u) != 0x7F800000u;
+}
+
+// x clamped to [lo, hi]; fallback where x is NaN or +-Inf.
+float sanitize_value(float x, float lo, float hi, float fallback) {
+    return is_finite(x) ? clamp(x, lo, hi) : fallback;
+}
+
+// Valid ranges, and the fallback for a non-finite value:
+//   base_color [0, 1] (fallback 0: black adds no light), metallic [0, 1] (0),
+//   perceptual_roughness [0, 1] (1: the flattest lobe, so a bad texel cannot become a
+//   firefly), f0_dielectric [0, 1] (0.04, the default dielectric), anisotropy [-1, 1] (0).
+Surface sanitize_surface(Surface s) {
+    vec3 c = vec3(sanitize_value(s.base_color.r, 0.0, 1.0, 0.0),
+                  sanitize_value(s.base_color.g, 0.0, 1.0, 0.0),
+                  sanitize_value(s.base_color.b, 0.0, 1.0, 0.0));
+    return Surface(c, sanitize_value(s.metallic, 0.0, 1.0, 0.0),
+                   sanitize_value(s.perceptual_roughness, 0.0, 1.0, 1.0),
+                   sanitize_value(s.f0_dielectric, 0.0, 1.0, 0.04),
+                   sanitize_value(s.anisotropy, -1.0, 1.0, 0.0));
+}
+
+// d normalised, or the unit fallback where d has a non-finite component, is too short to
+// have a direction (|d|^2 <= 1e-12) or too long to square (|d|^2 overflows); oct_decode
+// returns none of these unless its texel is NaN or Inf. For the normal the lighting pass
+// passes v as the fallback: a pixel whose normal is lost faces the viewer.
+vec3 sanitize_direction(vec3 d, vec3 fallback) {
+    bool finite = is_finite(d.x) && is_finite(d.y) && is_finite(d.z);
+    float len2 = finite ? dot(d, d) : 0.0;
+    return finite && is_finite(len2) && len2 > 1e-12 ? d * inversesqrt(len2) : fallback;
+}
+
 // The metalness workflow (glTF 2.0 Appendix B; Burley 2012): one base colour serves
 // as the diffuse albedo of a dielectric and as the F0 of a metal.
 //   F0      = mix(f0_dielectric, base_color, metallic)
@@ -84,11 +127,12 @@ vec3 orthonormal_tangent(vec3 n, vec3 t) {
 
 // f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v
 // and the tangent t (used only by anisotropic NDFs). Zero for lights below the surface;
-// n.v is clamped to MIN_N_DOT_V as interpolated normals can face away from the eye.
+// n.v is clamped to MIN_N_DOT_V as interpolated normals can face away from the eye, and a
+// lit n.l to MIN_N_DOT_L (1e-20) so that no 1/(n.l) underflows (see constants.glsl).
 vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
     float NoL = dot(n, l);
     if (NoL <= 0.0) return vec3(0.0);
-    NoL = min(NoL, 1.0);
+    NoL = clamp(NoL, MIN_N_DOT_L, 1.0);
     float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
     // l = -v (possible only when the true n.v < 0) has no half vector: use n.
     vec3 hv = l + v;

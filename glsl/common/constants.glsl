@@ -14,4 +14,13 @@ const float MIN_PERCEPTUAL_ROUGHNESS = 0.045;
 // pixel's view direction; clamping keeps 1/(n.v) bounded instead of flipping sign.
 const float MIN_N_DOT_V = 1e-4;
 
+// n.l floor inside brdf_eval, for lights that are above the surface (n.l > 0) but only just:
+// far below what a float32 direction resolves (dot() itself rounds by ~6e-8), so no lit
+// result changes. Without it the Lambda/G2 path divides by 4 (n.l)(n.v), which for
+// n.l = 1e-36, n.v = 1e-3 is a float32 denormal that the GPU flushes to 0: D G2 / 0 gave
+// Inf (G2 > 0) or NaN (G2 = 0, when Lambda(n.l) had overflowed); and G2 ~ n.l made D G2
+// underflow to 0 for n.l < 1e-29. At 1e-20 both have nine decades of headroom
+// (tests/test_stability_brdf.py).
+const float MIN_N_DOT_L = 1e-20;
+
 #endif
