@@ -13,7 +13,7 @@ import numpy as np
 from app.reference._vec import dot, normalize
 from app.reference.constants import PI
 from app.reference.encoding import oct_decode
-from app.reference.material import Surface, brdf_eval
+from app.reference.material import Surface, brdf_eval, sanitize_direction, sanitize_surface
 from app.reference.model import Model, ModelParams, unpack_model_params
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
@@ -70,7 +70,7 @@ def shade_gbuffer(
     normal = np.asarray(gbuffer.normal, np.float64)
     tangent = np.asarray(gbuffer.tangent, np.float64)
     depth = gbuffer.depth
-    covered = depth > 0.0
+    covered = np.isfinite(depth) & (depth > 0.0)
     out = np.broadcast_to(np.asarray(background, np.float64), (*albedo.shape[:2], 3)).copy()
     p = reconstruct_position(
         pixel_ndc(*depth.shape)[covered], depth[covered], camera.position,
@@ -81,10 +81,10 @@ def shade_gbuffer(
     shaded = np.zeros((len(ids), 3))
     for row in np.unique(ids):
         sel = ids == row
-        s = Surface(a[sel, :3], a[sel, 3], b[sel, 2], b[sel, 3], c[sel, 2])
-        n = oct_decode(b[sel, :2])
+        s = sanitize_surface(Surface(a[sel, :3], a[sel, 3], b[sel, 2], b[sel, 3], c[sel, 2]))
         t = oct_decode(c[sel, :2])
         v = normalize(camera.position - p[sel])
+        n = sanitize_direction(oct_decode(b[sel, :2]), v)
         model = models[int(table[row, 3, 0])]
         params = unpack_model_params(table[row])
         shaded[sel] = illumination_sum(s, params, model, n, t, p[sel], v, lights)

@@ -52,7 +52,8 @@ vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, ve
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     float depth = texelFetch(g_depth, px, 0).r;
-    if (depth <= 0.0) discard;                // nothing drawn: the cleared background stays
+    // Nothing drawn (or a non-finite depth): the cleared background stays.
+    if (!(is_finite(depth) && depth > 0.0)) discard;
     vec4 c = texelFetch(g_tangent, px, 0);
     int material_id = int(c.a);
 #ifdef MODEL_GROUP
@@ -61,9 +62,10 @@ void main() {
 #endif
     vec4 a = texelFetch(g_albedo, px, 0);
     vec4 b = texelFetch(g_normal, px, 0);
-    Surface s = Surface(a.rgb, a.a, b.b, b.a, c.b);
+    // Textures can deliver NaN, Inf or out-of-range values; no pixel may turn them into
+    // NaN radiance (docs/stability.md).
+    Surface s = sanitize_surface(Surface(a.rgb, a.a, b.b, b.a, c.b));
     ModelParams params = fetch_model_params(u_materials, material_id);
-    vec3 n = oct_decode(b.rg);
     vec3 t = oct_decode(c.rg);
 
     // World position from the depth buffer at the pixel centre.
@@ -71,6 +73,7 @@ void main() {
     vec3 p = reconstruct_position(ndc_xy, depth, u_camera_pos, u_camera_to_world,
                                   u_tan_half_fov);
     vec3 v = normalize(u_camera_pos - p);
+    vec3 n = sanitize_direction(oct_decode(b.rg), v);
 
     vec3 Lo = vec3(0.0);
 #if TILED_LIGHTS
