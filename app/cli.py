@@ -24,10 +24,19 @@ def _size(text: str) -> tuple[int, int]:
     return int(match.group(1)), int(match.group(2))
 
 
+def _one_line(text: str) -> str:
+    """``text`` with every character that is not printable written as an escape (\\n,
+    \\x1e, \\u2028): an error quotes keys and values from the user's file, and a line
+    break or record separator among them must not split the one-line error (found by
+    tests/test_fuzz_scenes.py: an unknown key named "\\x1e")."""
+    return "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse whose usage errors are one line, like every other bad input."""
 
     def error(self, message: str) -> NoReturn:
+        message = _one_line(message)
         self.exit(EXIT_BAD_INPUT, f"pbs: error: {message} (see '{self.prog} --help')\n")
 
 
@@ -44,6 +53,13 @@ def _parser() -> argparse.ArgumentParser:
         choices=("auto", "egl", "osmesa"),
         default="auto",
         help="headless OpenGL backend (default: EGL, then OSMesa)",
+    )
+    render.add_argument(
+        "--debug",
+        choices=("nan",),
+        help="nan: write a debug view instead of the render: pixels whose HDR radiance is "
+        "NaN (magenta), +Inf (yellow), -Inf (cyan) or negative (green) over a dimmed grey "
+        "render, and print their counts (even with -q)",
     )
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
@@ -145,11 +161,19 @@ def cmd_render(args: argparse.Namespace) -> int:
     renderer = Renderer(gl, loaded, args.size)
     renderer.render()
     ldr = renderer.read_ldr()
-    hdr = renderer.read_hdr() if args.hdr else None
+    hdr = renderer.read_hdr() if args.hdr or args.debug else None
     renderer.release()
-    if hdr is not None:
+    report = None
+    if args.debug == "nan":
+        from app.render.debug import describe, nan_debug_image
+
+        ldr, bad = nan_debug_image(hdr, ldr)
+        report = f"{out}: NaN debug view: {describe(bad)} of {hdr.shape[0] * hdr.shape[1]} pixels"
+    if args.hdr:
         _write(Path(args.hdr), "--hdr", lambda p: write_hdr(p, hdr))
     _write(out, "-o", lambda p: write_png(p, ldr))
+    if report is not None:
+        print(report)  # the point of --debug nan, so -q does not silence it
     if not args.quiet:
         w, h = renderer.size
         print(
@@ -202,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return handlers[args.command](args)
     except InputError as exc:
-        print(f"pbs: error: {exc}", file=sys.stderr)
+        print(f"pbs: error: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
 
 

@@ -49,9 +49,12 @@ def srgb_decode(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
+MAX_EXPOSED = 1.0e9  # as glsl/passes/post.frag: keeps tone maps from overflowing float32
+
+
 def post_process(hdr: np.ndarray, exposure_ev: float, tonemap: str) -> np.ndarray:
     """HDR radiance -> display-encoded values in [0, 1], as glsl/passes/post.frag."""
-    c = np.asarray(hdr, np.float64)[..., :3] * 2.0**exposure_ev
+    c = np.minimum(np.asarray(hdr, np.float64)[..., :3] * 2.0**exposure_ev, MAX_EXPOSED)
     if tonemap == "neutral":
         c = tonemap_khronos_neutral(c)
     elif tonemap == "aces":

@@ -104,12 +104,17 @@ def _plane(size: list[float]) -> trimesh.Trimesh:
 def _primitive(obj: SceneObject) -> trimesh.Trimesh:
     if obj.shape == "sphere":
         radius = obj.radius or 0.5
-        mesh = trimesh.creation.icosphere(
-            subdivisions=4 if obj.subdivisions is None else obj.subdivisions, radius=radius
+        # A unit icosphere scaled here: trimesh's radius divides by the vertices' lengths,
+        # 0/0 for a radius under ~1e-15 m (NaN vertices and a RuntimeWarning on stderr;
+        # found by tests/test_fuzz_scenes.py). Normals from the unit sphere likewise.
+        unit = trimesh.creation.icosphere(
+            subdivisions=4 if obj.subdivisions is None else obj.subdivisions, radius=1.0
         )
         # The exact sphere normal, not an average of facet normals.
-        mesh.vertex_normals = mesh.vertices / np.linalg.norm(mesh.vertices, axis=1, keepdims=True)
-        return mesh
+        normals = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
+        return trimesh.Trimesh(
+            unit.vertices * radius, unit.faces, vertex_normals=normals, process=False
+        )
     if obj.shape == "box":
         return _crease_normals(trimesh.creation.box(extents=obj.size or [1.0, 1.0, 1.0]))
     if obj.shape == "plane":

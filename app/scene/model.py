@@ -37,13 +37,27 @@ from app.reference.model import (
 from app.scene.presets import PRESETS
 
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
-Vec3 = Annotated[list[Real], Field(min_length=3, max_length=3)]
-Color = Annotated[list[Annotated[Real, Field(ge=0.0)]], Field(min_length=3, max_length=3)]
+# Coordinates and lengths stop at 1e6 m: trimesh squares lengths (a sphere of radius
+# 1e300 became NaN vertices, an object that silently vanished; found by
+# tests/test_fuzz_scenes.py), and float32 positions are useless far beyond.
+MAX_LENGTH = 1e6
+Vec3 = Annotated[
+    list[Annotated[Real, Field(ge=-MAX_LENGTH, le=MAX_LENGTH)]], Field(min_length=3, max_length=3)
+]
+# Radiometric values (light colours and intensities, background, environment radiance)
+# stop at 1e15 so that the HDR image stays finite in float32 (max 3.4e38): near a light
+# the 1 cm distance floor and the largest f (n.l) multiply c_light by up to ~2.4e14, and
+# a frame sums at most a few thousand lights. Values above ~3.4e38 overflowed to +Inf in the HDR
+# image (found by tests/test_fuzz_scenes.py; docs/stability-renderer.md).
+MAX_RADIANCE = 1e15
+Color = Annotated[
+    list[Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)]], Field(min_length=3, max_length=3)
+]
 UnitColor = Annotated[
     list[Annotated[Real, Field(ge=0.0, le=1.0)]], Field(min_length=3, max_length=3)
 ]
 Unit = Annotated[Real, Field(ge=0.0, le=1.0)]
-Positive = Annotated[Real, Field(gt=0.0)]
+Positive = Annotated[Real, Field(gt=0.0, le=MAX_LENGTH)]  # metres (or a scale factor)
 
 
 class _Strict(BaseModel):
@@ -94,7 +108,7 @@ class Light(_Strict):
 
     type: Literal["directional", "point", "spot"]
     color: Color = [1.0, 1.0, 1.0]
-    intensity: Annotated[Real, Field(ge=0.0)] = 1.0
+    intensity: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] = 1.0
     position: Vec3 | None = None
     direction: Vec3 | None = None
     range: Positive | None = None  # metres; the window reaches exactly 0 here
@@ -123,6 +137,8 @@ class Light(_Strict):
             if key not in allowed and getattr(self, key) is not None:
                 raise ValueError(f"{key}: does not apply to a {self.type} light")
         _nonzero(self.direction, "direction")
+        if max(self.color) * self.intensity > MAX_RADIANCE:  # c_light, see MAX_RADIANCE
+            raise ValueError(f"intensity: color x intensity must not exceed {MAX_RADIANCE:g}")
         if self.type == "spot" and self.cone[0] >= self.cone[1]:
             raise ValueError("inner_angle: must be smaller than outer_angle")
         return self
