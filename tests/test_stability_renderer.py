@@ -1,4 +1,4 @@
-"""The renderer under stress (issue 6, docs/stability-renderer.md).
+"""The renderer under stress (issue 6, docs/stability.md, "The renderer").
 
 * scenes/stress.toml, built to hit the worst cases (grazing planes, mirror-smooth spheres,
   lights touching surfaces, a 1e12 intensity ratio, every BRDF model), renders with no

@@ -48,7 +48,7 @@ Vec3 = Annotated[
 # stop at 1e15 so that the HDR image stays finite in float32 (max 3.4e38): near a light
 # the 1 cm distance floor and the largest f (n.l) multiply c_light by up to ~2.4e14, and
 # a frame sums at most a few thousand lights. Values above ~3.4e38 overflowed to +Inf in the HDR
-# image (found by tests/test_fuzz_scenes.py; docs/stability-renderer.md).
+# image (found by tests/test_fuzz_scenes.py; docs/stability.md, "The renderer").
 MAX_RADIANCE = 1e15
 Color = Annotated[
     list[Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)]], Field(min_length=3, max_length=3)
