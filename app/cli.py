@@ -63,6 +63,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
+    sub.add_parser(
+        "bench",
+        help="measure run time against error (options: pbs bench --help)",
+        add_help=False,
+    )
     return parser
 
 
@@ -217,6 +222,11 @@ def cmd_brdf(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pbs`` and ``python -m app``."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["bench"]:  # app.bench owns its options (also `python -m app.bench`)
+        from app.bench import main as bench_main
+
+        return bench_main(argv[1:])
     parser = _parser()
     try:
         args = parser.parse_args(argv)

@@ -1,0 +1,162 @@
+"""``pbs bench``: run time against error (issue 5); docs/performance.md explains it all.
+
+    python -m app.bench [--quick] [--out DIR] [--suites culling,resolution,accuracy,startup]
+
+writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
+issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
+DIR/scaling.png. A progress bar runs on stderr. ``--quick`` uses smaller images and fewer
+light counts and frames (a few minutes on two cores); the full run takes tens of minutes,
+most of it in the unculled and forward renderers at 1024 lights.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launcher must not
+    from app.bench.suites import Settings
+
+__all__ = ["main"]
+SUITES = ("culling", "resolution", "accuracy", "startup")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pbs bench",
+        description="Measure run time against error: light culling, image size, the accuracy "
+        "of each approximation, cold start (docs/performance.md).",
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="smaller images, fewer light counts and frames"
+    )
+    parser.add_argument(
+        "--out", default="bench-results", help="output folder (default: bench-results)"
+    )
+    parser.add_argument(
+        "--suites",
+        default=",".join(SUITES),
+        help=f"comma-separated subset of {','.join(SUITES)} (default: all)",
+    )
+    parser.add_argument(
+        "--backend", choices=("egl", "osmesa"), default="egl", help="headless GL (default egl)"
+    )
+    parser.add_argument("--no-pyrender", action="store_true", help="skip the pyrender comparison")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    # Test-only: every suite on tiny images (tests/test_bench.py), numbers meaningless.
+    parser.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)
+    return parser
+
+
+def _settings_text(s: Settings, suites: list[str]) -> str:
+    parts = []
+    if "culling" in suites:
+        counts = ", ".join(str(n) for n in s.light_counts)
+        parts.append(f"culling {s.culling_size[0]}x{s.culling_size[1]} at {counts} lights")
+    if "resolution" in suites:
+        sizes = ", ".join(f"{w}x{h}" for w, h in s.resolutions)
+        parts.append(f"resolution {sizes} at {s.resolution_lights} lights")
+    if "accuracy" in suites:
+        parts.append(f"accuracy {s.accuracy_size[0]}x{s.accuracy_size[1]}")
+    b = s.budget
+    parts.append(
+        f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"
+        f" (more while under {b.seconds:g} s)"
+    )
+    return "; ".join(parts)
+
+
+def pyrender_available() -> tuple[bool, str]:
+    """Can a child process import pyrender with EGL? (It is the optional ``bench`` extra.)"""
+    env = dict(os.environ)
+    env.setdefault("PYOPENGL_PLATFORM", "egl")
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-c", "import pyrender"],
+            capture_output=True, text=True, env=env, timeout=120,
+        )  # fmt: skip
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return False, f"pyrender check failed: {exc}"
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or ["?"])[-1]
+        return False, f"pyrender is not usable here ({last}); install the 'bench' extra"
+    return True, ""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the bench; 0 on success, 1 if a suite failed, 2 on bad arguments."""
+    from app.bench import plots, report, suites
+    from app.bench.progress import Progress
+    from app.bench.suites import FULL, QUICK, TINY
+    from app.bench.timing import TIMER_FINISH, TIMER_QUERY, GLTimerQueries
+    from app.gl.context import create_context
+
+    parser = _parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    chosen = [s.strip() for s in args.suites.split(",") if s.strip()]
+    unknown = [s for s in chosen if s not in SUITES]
+    if unknown or not chosen:
+        print(f"pbs bench: error: unknown suite(s) {', '.join(unknown)}; "
+              f"choose from {', '.join(SUITES)}", file=sys.stderr)  # fmt: skip
+        return 2
+    settings = TINY if args.tiny else QUICK if args.quick else FULL
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    started = time.perf_counter()
+    gl = create_context(args.backend)
+    queries = GLTimerQueries.create(gl)
+    notes: list[str] = []
+    if queries is None:
+        notes.append("GL timer queries unavailable: per-pass times from glFinish + perf_counter")
+    use_pyrender = "culling" in chosen and not args.no_pyrender
+    if use_pyrender:
+        use_pyrender, why = pyrender_available()
+        if not use_pyrender:
+            notes.append(why)
+    elif "culling" in chosen:
+        notes.append("pyrender comparison skipped (--no-pyrender)")
+    progress = Progress(
+        suites.planned_tasks(chosen, settings, use_pyrender), enabled=not args.quiet
+    )
+    ctx = suites.Context(gl, settings, queries, progress, notes=notes, pyrender=use_pyrender)
+    timer = f"{TIMER_FINISH}; {TIMER_QUERY}" if queries else f"{TIMER_FINISH} (no timer queries)"
+    machine = report.machine_info(gl, timer, settings.mode)
+    failed = []
+    try:
+        for name in chosen:
+            try:
+                suites.RUNNERS[name](ctx)
+            except Exception as exc:  # one suite's failure must not lose the others' rows
+                failed.append(name)
+                ctx.notes.append(f"suite {name} failed: {type(exc).__name__}: {exc}")
+                traceback.print_exc(file=sys.stderr)
+    finally:
+        if queries is not None:
+            queries.release()
+        gl.release()
+    machine["load_avg_end"] = list(os.getloadavg())
+    machine["wall_s"] = round(time.perf_counter() - started, 1)
+    text = _settings_text(settings, chosen)
+    report.write_json(
+        out / "bench.json", machine, ctx.rows,
+        {"settings": text, "suites": chosen, "notes": ctx.notes,
+         "targets": [v.__dict__ for v in report.evaluate_targets(ctx.rows)]},
+    )  # fmt: skip
+    report.write_markdown(out / "bench.md", report.markdown(machine, ctx.rows, ctx.notes, text))
+    plots.plot_pareto(ctx.rows, out / "pareto.png")
+    plots.plot_scaling(ctx.rows, out / "scaling.png")
+    if not args.quiet:
+        for v in report.evaluate_targets(ctx.rows):
+            print(f"{v.status:>12}  {v.target}: {v.measured}")
+        print(f"{out / 'bench.md'}: {len(ctx.rows)} rows, {machine['wall_s']:.0f} s")
+    return 1 if failed else 0

@@ -1,0 +1,144 @@
+"""pareto.png and scaling.png (matplotlib's Agg backend: no window, no display needed).
+
+* pareto.png: one panel per accuracy comparison, frame time (median, with the min-max
+  range as a bar) against rel_rmse, log scale; the Pareto front joined by a line, front
+  points filled, the renderer's default ringed.
+* scaling.png: (left) frame time against light count for each culling variant, log-log;
+  (right) frame time against pixel count for the resolution suite, with each pass's
+  time, so it shows which pass grows with the image.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from app.bench.report import pareto_by_comparison
+from app.output import atomic_write
+
+VARIANT_STYLE = {
+    "culled": ("tab:blue", "o"),
+    "unculled": ("tab:red", "s"),
+    "forward": ("tab:orange", "^"),
+    "floor": ("tab:green", "v"),
+    "pyrender": ("tab:purple", "D"),
+    "culled_readback": ("tab:cyan", "x"),
+}
+
+
+def _figure(width: float, height: float):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), dpi=110, layout="constrained")
+
+
+def _save(fig, path: Path) -> None:
+    atomic_write(Path(path), lambda tmp: fig.savefig(tmp, format="png", dpi=fig.dpi))
+
+
+def plot_pareto(rows: list[dict], path: Path) -> None:
+    fronts = pareto_by_comparison(rows)
+    n = max(len(fronts), 1)
+    cols = min(n, 3)
+    nrows = -(-n // cols)
+    fig = _figure(4.2 * cols, 3.6 * nrows)
+    axes = fig.subplots(nrows, cols, squeeze=False).ravel()
+    for ax, (comp, front) in zip(axes, fronts.items(), strict=False):
+        members = front["rows"]
+        floor = 1e-12  # exact variants can reach 0 on a log axis
+        for r in members:
+            err = max(r["rel_rmse"], floor)
+            on = r["variant"] in front["front"]
+            ax.errorbar(
+                r["ms_median"], err,
+                xerr=[[r["ms_median"] - r["ms_min"]], [r["ms_max"] - r["ms_median"]]],
+                fmt="o", color="tab:blue" if on else "tab:gray",
+                markerfacecolor="tab:blue" if on else "white", capsize=3,
+            )  # fmt: skip
+            if r.get("default"):
+                ax.plot(r["ms_median"], err, "o", markersize=14, markerfacecolor="none",
+                        markeredgecolor="tab:red")  # fmt: skip
+            ax.annotate(
+                r["variant"] + (" (default)" if r.get("default") else ""),
+                (r["ms_median"], err), textcoords="offset points", xytext=(6, 6), fontsize=8,
+            )  # fmt: skip
+        pts = sorted(
+            (r["ms_median"], max(r["rel_rmse"], floor))
+            for r in members
+            if r["variant"] in front["front"]
+        )
+        if len(pts) > 1:
+            ax.plot(*zip(*pts, strict=True), "-", color="tab:blue", alpha=0.6, label="Pareto front")
+            ax.legend(fontsize=7, loc="best")
+        ax.set_yscale("log")
+        ax.margins(x=0.15, y=0.2)
+        ax.set_title(members[0].get("comparison", comp), fontsize=9)
+        ax.set_xlabel("frame time, ms (median, min-max)")
+        ax.set_ylabel("rel. RMSE vs float64")
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in axes[len(fronts) :]:
+        ax.set_visible(False)
+    if not fronts:
+        axes[0].set_visible(True)
+        axes[0].text(0.5, 0.5, "no accuracy rows", ha="center", va="center")
+    _save(fig, path)
+
+
+def plot_scaling(rows: list[dict], path: Path) -> None:
+    fig = _figure(11.0, 4.2)
+    left, right = fig.subplots(1, 2)
+    culling = [r for r in rows if r["suite"] == "culling" and r.get("ms_median")]
+    for variant, (colour, marker) in VARIANT_STYLE.items():
+        pts = sorted((r["lights"], r) for r in culling if r["variant"] == variant)
+        if not pts:
+            continue
+        xs = [n for n, _ in pts]
+        ys = [r["ms_median"] for _, r in pts]
+        lo = [r["ms_median"] - r["ms_min"] for _, r in pts]
+        hi = [r["ms_max"] - r["ms_median"] for _, r in pts]
+        left.errorbar(xs, ys, yerr=[lo, hi], color=colour, marker=marker, label=variant, capsize=2)
+    if culling:
+        size = f"{culling[0]['width']}x{culling[0]['height']}"
+        left.set_xscale("log")
+        left.set_yscale("log")
+        left.legend(fontsize=8)
+        left.set_title(f"culling suite, {size}, ~16 lights per pixel", fontsize=9)
+    else:
+        left.text(0.5, 0.5, "no culling rows", ha="center", va="center")
+    left.set_xlabel("lights in the scene")
+    left.set_ylabel("frame time to HDR, ms (median, min-max)")
+    left.grid(True, which="both", alpha=0.3)
+
+    res = sorted(
+        (r["width"] * r["height"], r)
+        for r in rows
+        if r["suite"] == "resolution" and r.get("ms_median")
+    )
+    if res:
+        px = [p / 1e6 for p, _ in res]
+        right.errorbar(
+            px, [r["ms_median"] for _, r in res],
+            yerr=[[r["ms_median"] - r["ms_min"] for _, r in res],
+                  [r["ms_max"] - r["ms_median"] for _, r in res]],
+            color="black", marker="o", label="frame (wall)", capsize=2,
+        )  # fmt: skip
+        names = []
+        for _, r in res:
+            names += [n for n in r.get("passes_ms", {}) if n not in names]
+        for name in names:
+            right.plot(px, [r["passes_ms"].get(name, float("nan")) for _, r in res],
+                       marker=".", linestyle="--", label=f"{name} pass")  # fmt: skip
+        right.set_xscale("log")
+        right.set_yscale("log")
+        right.legend(fontsize=8)
+        right.set_title(f"resolution suite, culled, {res[0][1]['lights']} lights", fontsize=9)
+        right.set_xticks(px, [r["case"] for _, r in res], fontsize=8)
+        right.minorticks_off()
+    else:
+        right.text(0.5, 0.5, "no resolution rows", ha="center", va="center")
+    right.set_xlabel("image size (megapixels, log)")
+    right.set_ylabel("ms")
+    right.grid(True, which="both", alpha=0.3)
+    _save(fig, path)

@@ -1,0 +1,159 @@
+"""pyrender on the bench's scene, in a child process: ``python -m app.bench.pyrender_child``.
+
+Reads a JSON request on stdin ({"scene": scene dict, "size": [w, h], "warmup": n,
+"min_frames": n, "max_frames": n, "seconds": s}) and writes one JSON object on stdout:
+{"ok": true, "ms": [...], ...} or {"ok": false, "why": "..."}.
+
+A separate process because pyrender makes its own EGL context current through PyOpenGL,
+which must not meet the bench's moderngl contexts, and because pyrender is optional (the
+``bench`` extra): the bench records why when it cannot run.
+
+The scene is the renderer's own: the same triangles (app.scene.geometry.build_parts), the
+camera, and the point and spot lights with their colours and intensities. pyrender
+shades them its own way (its metallic-roughness BRDF, lights without a range window, 4x
+multisampling, sRGB output), so its image is not compared with the reference; pyrender
+keeps at most 4 lights of each type per shader and drops the rest (the farthest, which
+the result counts). Each timed ``render()`` returns the colour and depth images in
+numpy, so the time includes that read-back.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import statistics
+import sys
+import time
+
+
+def _spot_pose(position: list[float], direction: list[float]):
+    """A pose whose -Z axis is ``direction`` (pyrender's lights shine along -Z)."""
+    import numpy as np
+
+    z = -np.asarray(direction, np.float64)
+    z /= np.linalg.norm(z)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    pose = np.eye(4)
+    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, y, z, position
+    return pose
+
+
+def _build(request: dict):
+    import numpy as np
+    import pyrender
+
+    from app.bench.scenes import load
+    from app.scene.camera import view_matrix
+    from app.scene.geometry import build_parts
+
+    loaded = load(request["scene"])
+    scene_model = loaded.scene
+    w, h = request["size"]
+    scene = pyrender.Scene(ambient_light=[0.0, 0.0, 0.0], bg_color=[*scene_model.background, 1.0])
+    for part in build_parts(loaded):
+        v = part.vertices
+        m = part.material
+        material = pyrender.MetallicRoughnessMaterial(
+            baseColorFactor=[*m.base_color, 1.0],
+            metallicFactor=m.metallic,
+            roughnessFactor=m.roughness,
+        )
+        primitive = pyrender.Primitive(
+            positions=v[:, 0:3],
+            normals=v[:, 3:6],
+            indices=part.indices.reshape(-1, 3),
+            material=material,
+        )
+        scene.add(pyrender.Mesh([primitive]), pose=part.model)
+    kinds = {"point": 0, "spot": 0, "directional": 0}
+    for light in scene_model.lights:
+        kinds[light.type] += 1
+        colour = list(light.color)
+        if light.type == "point":
+            pose = np.eye(4)
+            pose[:3, 3] = light.position
+            node = pyrender.PointLight(colour, light.intensity, light.effective_range)
+        elif light.type == "spot":
+            inner, outer = light.cone
+            pose = _spot_pose(light.position, light.direction)
+            node = pyrender.SpotLight(
+                colour,
+                light.intensity,
+                light.effective_range,
+                innerConeAngle=math.radians(inner),
+                outerConeAngle=math.radians(outer),
+            )
+        else:
+            pose = _spot_pose([0.0, 0.0, 0.0], light.direction)
+            node = pyrender.DirectionalLight(colour, light.intensity)
+        scene.add(node, pose=pose)
+    cam = scene_model.camera
+    camera = pyrender.PerspectiveCamera(
+        yfov=math.radians(cam.fov_y), znear=cam.near, zfar=cam.far, aspectRatio=w / h
+    )
+    scene.add(camera, pose=np.linalg.inv(view_matrix(cam)))
+    limit = 4  # pyrender.constants.MAX_N_LIGHTS: per light type and shader
+    dropped = sum(max(0, n - limit) for n in kinds.values())
+    return scene, dropped, kinds
+
+
+def run(request: dict) -> dict:
+    """Time pyrender on the request's scene; never raises."""
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    try:
+        import pyrender
+    except Exception as exc:  # not installed, or PyOpenGL cannot reach EGL
+        return {"ok": False, "why": f"import pyrender failed: {type(exc).__name__}: {exc}"}
+    try:
+        scene, dropped, kinds = _build(request)
+        w, h = request["size"]
+        renderer = pyrender.OffscreenRenderer(w, h)
+    except Exception as exc:
+        return {"ok": False, "why": f"pyrender setup failed: {type(exc).__name__}: {exc}"}
+    try:
+        from OpenGL import GL
+
+        gl_renderer = GL.glGetString(GL.GL_RENDERER).decode()
+        start = time.perf_counter()
+        renderer.render(scene)  # warm-up: shader compilation, buffer uploads
+        first_ms = (time.perf_counter() - start) * 1e3
+        for _ in range(max(0, int(request.get("warmup", 1)) - 1)):
+            renderer.render(scene)
+        times: list[float] = []
+        started = time.perf_counter()
+        while len(times) < request["max_frames"] and (
+            len(times) < request["min_frames"] or time.perf_counter() - started < request["seconds"]
+        ):
+            t0 = time.perf_counter()
+            color, _depth = renderer.render(scene)
+            times.append((time.perf_counter() - t0) * 1e3)
+        return {
+            "ok": True,
+            "ms": times,
+            "ms_median": statistics.median(times),
+            "first_ms": first_ms,
+            "version": getattr(pyrender, "__version__", "?"),
+            "gl_renderer": gl_renderer,
+            "platform": os.environ.get("PYOPENGL_PLATFORM"),
+            "lights_dropped": dropped,
+            "light_kinds": kinds,
+            "image_mean": float(color.mean()),
+        }
+    except Exception as exc:
+        return {"ok": False, "why": f"pyrender render failed: {type(exc).__name__}: {exc}"}
+    finally:
+        renderer.delete()
+
+
+def main() -> int:
+    request = json.load(sys.stdin)
+    print(json.dumps(run(request)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,435 @@
+"""bench.json and bench.md: the machine, the rows, the targets of issue 5 and the Pareto fronts.
+
+Targets (issue 5), judged on ``ms_median`` of the rows, never tuned to pass:
+
+* ``culled`` at 256 lights <= 1.5x ``floor``, and >= 8x faster than ``unculled``;
+* ``culled`` faster than ``forward`` from 16 lights on (each count on its own);
+* cold start to PNG <= 3 s (the median over runs with Mesa's shader cache);
+* every default approximation on the Pareto front of its accuracy comparison (nothing
+  among the variants both faster and more accurate, by ``ms_median`` and ``rel_rmse``).
+
+``specialization`` (specialized vs uber shader) is deferred and reported as not measured.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+
+from app.gl.context import GLContext
+from app.output import atomic_write
+
+CULLED_FLOOR_MAX = 1.5
+UNCULLED_SPEEDUP_MIN = 8.0
+COLD_START_MAX_S = 3.0
+TARGET_LIGHTS = 256
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "?"
+
+
+def _version(module: str) -> str:
+    try:
+        from importlib.metadata import version
+
+        return version(module)
+    except Exception:
+        return "not installed"
+
+
+def _git_revision() -> str:
+    root = Path(__file__).resolve().parents[2]
+    try:
+        rev = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=root, capture_output=True, text=True,
+        ).stdout.strip()  # fmt: skip
+        return f"{rev}{' (modified)' if dirty else ''}" if rev else "?"
+    except OSError:
+        return "?"
+
+
+def machine_info(gl: GLContext, timer: str, mode: str) -> dict:
+    """Where and how the numbers were taken."""
+    info = gl.ctx.info
+    try:
+        affinity = len(os.sched_getaffinity(0))
+    except AttributeError:
+        affinity = os.cpu_count()
+    return {
+        "date": datetime.now(UTC).isoformat(timespec="seconds"),
+        "mode": mode,
+        "cpu": _cpu_model(),
+        "cores": os.cpu_count(),
+        "cores_usable": affinity,
+        "memory_gib": round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30, 1),
+        "load_avg_start": list(os.getloadavg()),
+        "gl_backend": gl.backend,
+        "gl_renderer": str(info.get("GL_RENDERER")),
+        "gl_version": str(info.get("GL_VERSION")),
+        "gl_vendor": str(info.get("GL_VENDOR")),
+        "lp_num_threads": os.environ.get("LP_NUM_THREADS", "default (one per core)"),
+        "pass_timer": timer,
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "numpy": _version("numpy"),
+        "moderngl": _version("moderngl"),
+        "pyrender": _version("pyrender"),
+        "pbs_lab": _version("pbs-lab"),
+        "git": _git_revision(),
+    }
+
+
+def write_json(path: Path, machine: dict, rows: list[dict], extra: dict) -> None:
+    payload = {"machine": machine, "rows": rows, **extra}
+    text = json.dumps(payload, indent=1, default=_jsonable, allow_nan=False)
+    atomic_write(path, lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
+
+
+def _jsonable(x: object) -> object:
+    if hasattr(x, "tolist"):
+        return x.tolist()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    raise TypeError(f"not JSON: {type(x).__name__}")
+
+
+# --- targets ----------------------------------------------------------------------------------
+
+
+@dataclass
+class Verdict:
+    """One target: what it asks, what was measured, PASS / FAIL / NOT MEASURED."""
+
+    target: str
+    measured: str
+    status: str
+
+
+def find(rows: list[dict], suite: str, variant: str, lights: int | None = None) -> dict | None:
+    """The first timed row of (suite, variant[, lights])."""
+    for row in rows:
+        if (
+            row["suite"] == suite
+            and row["variant"] == variant
+            and (lights is None or row["lights"] == lights)
+            and row.get("ms_median") is not None
+        ):
+            return row
+    return None
+
+
+def _status(ok: bool) -> str:
+    return "PASS" if ok else "FAIL"
+
+
+def evaluate_targets(rows: list[dict]) -> list[Verdict]:
+    out: list[Verdict] = []
+    culled = find(rows, "culling", "culled", TARGET_LIGHTS)
+    floor = find(rows, "culling", "floor", TARGET_LIGHTS)
+    unculled = find(rows, "culling", "unculled", TARGET_LIGHTS)
+    what = f"culled at {TARGET_LIGHTS} lights <= {CULLED_FLOOR_MAX}x floor"
+    if culled and floor:
+        ratio = culled["ms_median"] / floor["ms_median"]
+        lighting = _pass_ratio(culled, floor, ("cull", "lighting"), ("floor",))
+        out.append(
+            Verdict(what, f"culled/floor = {ratio:.2f}x ({culled['ms_median']:.0f} / "
+                    f"{floor['ms_median']:.0f} ms){lighting}", _status(ratio <= CULLED_FLOOR_MAX))
+        )  # fmt: skip
+    else:
+        out.append(Verdict(what, "no 256-light rows", "NOT MEASURED"))
+    what = f"culled at {TARGET_LIGHTS} lights >= {UNCULLED_SPEEDUP_MIN:g}x faster than unculled"
+    if culled and unculled:
+        ratio = unculled["ms_median"] / culled["ms_median"]
+        out.append(
+            Verdict(what, f"unculled/culled = {ratio:.2f}x ({unculled['ms_median']:.0f} / "
+                    f"{culled['ms_median']:.0f} ms)", _status(ratio >= UNCULLED_SPEEDUP_MIN))
+        )  # fmt: skip
+    else:
+        out.append(Verdict(what, "no 256-light rows", "NOT MEASURED"))
+    counts = sorted(
+        {r["lights"] for r in rows if r["suite"] == "culling" and r["variant"] == "forward"}
+    )
+    for n in (c for c in counts if c >= 16):
+        c, f = find(rows, "culling", "culled", n), find(rows, "culling", "forward", n)
+        if c and f:
+            ratio = f["ms_median"] / c["ms_median"]
+            out.append(
+                Verdict(f"culled faster than forward at {n} lights",
+                        f"forward/culled = {ratio:.2f}x ({f['ms_median']:.0f} / "
+                        f"{c['ms_median']:.0f} ms)", _status(ratio > 1.0))
+            )  # fmt: skip
+    start = find(rows, "startup", "shader cache")
+    what = f"cold start to PNG <= {COLD_START_MAX_S:g} s (pbs render scenes/showcase.toml)"
+    if start:
+        s = start["ms_median"] / 1e3
+        uncached = find(rows, "startup", "no shader cache")
+        more = (
+            f"; without Mesa's shader cache {uncached['ms_median'] / 1e3:.2f} s" if uncached else ""
+        )
+        measured = (
+            f"{s:.2f} s median of {start['frames']} (max {start['ms_max'] / 1e3:.2f} s),"
+            f" peak RSS {start['peak_rss_mib']:.0f} MiB{more}"
+        )
+        out.append(Verdict(what, measured, _status(s <= COLD_START_MAX_S)))
+    else:
+        out.append(Verdict(what, "not run", "NOT MEASURED"))
+    for comp, front in pareto_by_comparison(rows).items():
+        for row in front["rows"]:
+            if not row.get("default"):
+                continue
+            on = row["variant"] in front["front"]
+            measured = (
+                f"default '{row['variant']}' {'is' if on else 'is not'} on the front"
+                f" {_front_text(front)}"
+            )
+            if not on:
+                measured += f"; {front['why'].get(row['variant'], '')}"
+            out.append(Verdict(f"default of accuracy '{comp}' on its Pareto front", measured,
+                               _status(on)))  # fmt: skip
+    out.append(
+        Verdict(
+            "specialized >= 1.5x faster than uber (Lambert-only scene)",
+            "deferred: the uber variant needs run-time model selection in glsl/brdf/*",
+            "NOT MEASURED",
+        )
+    )
+    return out
+
+
+def _pass_ratio(a: dict, b: dict, a_passes: tuple[str, ...], b_passes: tuple[str, ...]) -> str:
+    pa = sum(a.get("passes_ms", {}).get(p, 0.0) for p in a_passes)
+    pb = sum(b.get("passes_ms", {}).get(p, 0.0) for p in b_passes)
+    if pa > 0.0 and pb > 0.0:
+        return f"; shading passes alone (cull + lighting vs floor) {pa / pb:.2f}x"
+    return ""
+
+
+def _front_text(front: dict) -> str:
+    return "(front: " + ", ".join(front["front"]) + ")"
+
+
+# --- Pareto fronts ----------------------------------------------------------------------------
+
+
+def pareto_front(points: dict[str, tuple[float, float]]) -> list[str]:
+    """Names of the points that no other point dominates: (time, error), both smaller is
+    better; q dominates p when q is no worse in both and better in one."""
+    front = []
+    for name, (t, e) in points.items():
+        dominated = any(
+            (t2 <= t and e2 <= e) and (t2 < t or e2 < e)
+            for other, (t2, e2) in points.items()
+            if other != name
+        )
+        if not dominated:
+            front.append(name)
+    return front
+
+
+def pareto_by_comparison(rows: list[dict]) -> dict[str, dict]:
+    """For each accuracy comparison: its rows, the front by (ms_median, rel_rmse), and for
+    each variant off the front which variant dominates it, and by how much time."""
+    out: dict[str, dict] = {}
+    comps: dict[str, list[dict]] = {}
+    for row in rows:
+        timed = row.get("ms_median") is not None and row.get("rel_rmse") is not None
+        if row["suite"] == "accuracy" and timed:
+            comps.setdefault(row["case"], []).append(row)
+    for comp, members in comps.items():
+        points = {r["variant"]: (r["ms_median"], r["rel_rmse"]) for r in members}
+        front = pareto_front(points)
+        why = {}
+        for r in members:
+            if r["variant"] in front:
+                continue
+            t, e = points[r["variant"]]
+            for other in members:
+                t2, e2 = points[other["variant"]]
+                if other is not r and t2 <= t and e2 <= e:
+                    spread = max(r["ms_max"] - r["ms_min"], other["ms_max"] - other["ms_min"])
+                    noise = (
+                        " (within the min-max spread of the frame times)" if t - t2 < spread else ""
+                    )
+                    why[r["variant"]] = (
+                        f"'{other['variant']}' is {t - t2:.1f} ms faster{noise} and has "
+                        f"rel_rmse {e2:.2e} <= {e:.2e}"
+                    )
+                    break
+        out[comp] = {"rows": members, "front": front, "why": why}
+    return out
+
+
+# --- markdown -----------------------------------------------------------------------------------
+
+
+def _fmt(x: object, spec: str = ".1f") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, float):
+        return format(x, spec)
+    return str(x)
+
+
+def _passes(row: dict) -> str:
+    """Each pass's wall time, and its timer query in parentheses where it was plausible."""
+    wall = row.get("passes_ms") or {}
+    query = row.get("passes_gpu_ms") or {}
+    parts = []
+    for name, ms in wall.items():
+        q = f" (q {query[name]:.1f})" if name in query else ""
+        parts.append(f"{name} {ms:.1f}{q}")
+    return ", ".join(parts) or "-"
+
+
+def _lights_per_pixel(row: dict) -> str:
+    """Measured lights per surface pixel: in range, and (tiled) in its tile's list."""
+    text = _fmt(row.get("lights_per_pixel"), ".2f")
+    tile = row.get("lights_per_tile_mean")
+    return f"{text} (tile {tile:.1f})" if tile is not None else text
+
+
+def timer_summary(rows: list[dict]) -> str | None:
+    """Which passes' timer queries were discarded, in how many rows."""
+    counts: dict[str, int] = {}
+    for row in rows:
+        for name in row.get("passes_ms") or {}:
+            if name not in (row.get("passes_gpu_ms") or {}):
+                counts[name] = counts.get(name, 0) + 1
+    if not counts:
+        return None
+    listed = ", ".join(f"{name} ({n} rows)" for name, n in sorted(counts.items()))
+    return (
+        "GL_TIME_ELAPSED results outside [0.5, 1] x the pass's wall time were discarded for: "
+        f"{listed}; those passes show only their wall time."
+    )
+
+
+def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: str) -> str:
+    """bench.md: the machine, the targets, then a table per suite."""
+    lines = [
+        "# pbs bench",
+        "",
+        f"Mode **{machine['mode']}** ({settings_text}); {machine['date']}; git {machine['git']}.",
+        "",
+        "## Machine",
+        "",
+        f"- CPU: {machine['cpu']}, {machine['cores']} cores ({machine['cores_usable']} usable),"
+        f" {machine['memory_gib']} GiB",
+        f"- GL: {machine['gl_renderer']} / {machine['gl_version']} ({machine['gl_backend']}),"
+        f" llvmpipe threads: {machine['lp_num_threads']}",
+        f"- Python {machine['python']}, numpy {machine['numpy']}, moderngl {machine['moderngl']},"
+        f" pyrender {machine['pyrender']}",
+        f"- Per-pass timer: {machine['pass_timer']}; frame time: wall clock, glFinish to glFinish",
+        f"- Load average (1, 5, 15 min) at start: "
+        f"{', '.join(f'{x:.2f}' for x in machine['load_avg_start'])}; at end: "
+        f"{', '.join(f'{x:.2f}' for x in machine.get('load_avg_end', []))}",
+        "",
+        "## Targets (issue 5)",
+        "",
+        "| target | measured | result |",
+        "|---|---|---|",
+    ]
+    for v in evaluate_targets(rows):
+        lines.append(f"| {v.target} | {v.measured} | **{v.status}** |")
+    lines += ["", "## Results", ""]
+    for suite in ("culling", "resolution", "accuracy", "startup"):
+        members = [r for r in rows if r["suite"] == suite]
+        if not members:
+            continue
+        lines += [f"### {suite}", ""]
+        if suite == "culling":
+            lines += [
+                "| lights | variant | ms median | min | max | passes, ms (q: timer query) |"
+                " lights per pixel: in range (in tile list) | rel_rmse | max_rel_err | FLIP |",
+                "|---|---|---|---|---|---|---|---|---|---|",
+            ]
+            for r in members:
+                lines.append(
+                    f"| {r['lights']} | {r['variant']} | {_fmt(r['ms_median'])} |"
+                    f" {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} | {_passes(r)} |"
+                    f" {_lights_per_pixel(r)} | {_fmt(r['rel_rmse'], '.2e')} |"
+                    f" {_fmt(r['max_rel_err'], '.2e')} | {_fmt(r['flip_mean'], '.2e')} |"
+                )
+        elif suite == "resolution":
+            lines += [
+                "| size | lights | ms median | min | max | passes, ms (q: timer query) |"
+                " ns per pixel |",
+                "|---|---|---|---|---|---|---|",
+            ]
+            for r in members:
+                per_px = r["ms_median"] * 1e6 / (r["width"] * r["height"])
+                lines.append(
+                    f"| {r['case']} | {r['lights']} | {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])}"
+                    f" | {_fmt(r['ms_max'])} | {_passes(r)} | {per_px:.0f} |"
+                )
+        elif suite == "accuracy":
+            fronts = pareto_by_comparison(rows)
+            lines += [
+                "| comparison | variant | default | ms median | min | max | lighting ms |"
+                " rel_rmse | max_rel_err | FLIP | on front |",
+                "|---|---|---|---|---|---|---|---|---|---|---|",
+            ]
+            for r in members:
+                front = fronts.get(r["case"], {}).get("front", [])
+                lighting = (r.get("passes_ms") or {}).get("lighting")
+                lines.append(
+                    f"| {r['case']} | {r['variant']} | {'yes' if r.get('default') else ''} |"
+                    f" {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} |"
+                    f" {_fmt(lighting)} | {_fmt(r['rel_rmse'], '.2e')} |"
+                    f" {_fmt(r['max_rel_err'], '.2e')} | {_fmt(r['flip_mean'], '.2e')} |"
+                    f" {'yes' if r['variant'] in front else 'no'} |"
+                )
+            lines.append("")
+            for comp, front in fronts.items():
+                title = front["rows"][0].get("comparison", comp)
+                lines.append(f"- **{comp}** ({title}): front {', '.join(front['front'])}.")
+                for variant, why in front["why"].items():
+                    lines.append(f"  - '{variant}' is dominated: {why}.")
+        else:
+            lines += [
+                "| case | variant | to PNG ms median | min | max | peak RSS MiB | runs |",
+                "|---|---|---|---|---|---|---|",
+            ]
+            for r in members:
+                lines.append(
+                    f"| {r['case']} ({r['width']}x{r['height']}) | {r['variant']} |"
+                    f" {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} |"
+                    f" {_fmt(r.get('peak_rss_mib'), '.0f')} | {r['frames']} |"
+                )
+        lines.append("")
+    lines += [
+        "## Not measured",
+        "",
+        "- `specialization` suite (specialized vs uber shader): deferred, the uber variant needs"
+        " run-time model selection in glsl/brdf/*.",
+        "- Normal encodings and mip-filtering options: the renderer offers one of each"
+        " (octahedral normals; trilinear mipmaps for glTF maps), so there are no variants.",
+        "",
+    ]
+    summary = timer_summary(rows)
+    notes = [*notes, summary] if summary else notes
+    if notes:
+        lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
+    return "\n".join(lines)
+
+
+def write_markdown(path: Path, text: str) -> None:
+    atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))

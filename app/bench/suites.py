@@ -1,0 +1,613 @@
+"""The bench's suites: what is rendered, how it is timed, what each row holds.
+
+Every row has ``suite``, ``case``, ``variant``, ``width``, ``height``, ``lights``,
+``ms_median``, ``ms_min``, ``ms_max`` (wall clock per frame, glFinish to glFinish),
+``frames``, ``passes_ms`` (median wall time per pass, each ended by glFinish),
+``passes_gpu_ms`` (median GL_TIME_ELAPSED per pass where every frame's was plausible),
+``passes_submit_ms`` (time for the pass's calls to return), ``timer``, ``load_1min``
+(os.getloadavg() as the row finished) and, where the image has a float64 reference,
+``rel_rmse``, ``max_rel_err``, ``flip_mean`` (app/bench/metrics.py); None elsewhere.
+
+A frame ends at the linear HDR image: the post pass (tone map to 8 bits), the same for
+every deferred variant and absent from the forward one, is not in it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import subprocess
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from app.bench.floor import FloorPass
+from app.bench.metrics import image_errors
+from app.bench.pairs import covered_pixels, light_pairs, reference_hdr
+from app.bench.progress import Progress
+from app.bench.scenes import accuracy_scene, calibrate_range, load, many_lights_scene
+from app.bench.startup import cold_start
+from app.bench.timing import Budget, FrameTimes, GLTimerQueries, Pass, summary, time_frames
+from app.gl.context import GLContext
+from app.render.culling import TILE_SIZE
+from app.render.forward import ForwardRenderer
+from app.render.renderer import Renderer
+
+CULLING_VARIANTS = ("culled", "unculled", "forward", "floor")
+PYRENDER_CASE_LIGHTS = 8  # 4 point + 4 spot: the most pyrender shades (4 per type)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Sizes, light counts and frame budgets of one bench mode."""
+
+    mode: str
+    culling_size: tuple[int, int]
+    light_counts: tuple[int, ...]
+    resolutions: tuple[tuple[int, int], ...]
+    resolution_lights: int
+    accuracy_size: tuple[int, int]
+    ms_sizes: tuple[int, ...]
+    ms_reference: int
+    budget: Budget
+    startup_runs: int
+    startup_size: tuple[int, int] | None
+    pyrender_lights: tuple[int, ...]
+    lights_per_pixel: float = 16.0
+
+
+FULL = Settings(
+    mode="full",
+    culling_size=(1280, 720),
+    light_counts=(1, 16, 64, 256, 1024),
+    resolutions=((640, 360), (1280, 720), (1920, 1080)),
+    resolution_lights=64,
+    accuracy_size=(1280, 720),
+    ms_sizes=(16, 32, 64),
+    ms_reference=128,
+    budget=Budget(warmup=1, min_frames=3, max_frames=9, seconds=20.0),
+    startup_runs=3,
+    startup_size=None,
+    pyrender_lights=(1, PYRENDER_CASE_LIGHTS),
+)
+QUICK = replace(
+    FULL,
+    mode="quick",
+    culling_size=(640, 360),
+    light_counts=(1, 16, 256),
+    resolutions=((640, 360), (1280, 720)),
+    accuracy_size=(640, 360),
+    ms_sizes=(16, 32),
+    ms_reference=64,
+    budget=Budget(warmup=1, min_frames=3, max_frames=5, seconds=4.0),
+    startup_runs=2,
+    pyrender_lights=(1,),
+)
+# For tests/test_bench.py only: every suite runs, on images small enough to take seconds.
+TINY = replace(
+    QUICK,
+    mode="tiny",
+    culling_size=(160, 90),
+    light_counts=(1, 16),
+    resolutions=((160, 90), (320, 180)),
+    resolution_lights=16,
+    accuracy_size=(160, 90),
+    ms_sizes=(32,),
+    ms_reference=32,
+    budget=Budget(warmup=1, min_frames=2, max_frames=2, seconds=0.0),
+    startup_runs=1,
+    startup_size=(160, 90),
+    pyrender_lights=(1,),
+)
+
+
+@dataclass
+class Context:
+    """What every suite needs: the GL context, its timer, the progress bar, the rows."""
+
+    gl: GLContext
+    settings: Settings
+    queries: GLTimerQueries | None
+    progress: Progress
+    rows: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    pyrender: bool = True
+    ranges: dict[int, float] = field(default_factory=dict)
+
+    def time(self, passes: list[Pass]) -> FrameTimes:
+        return time_frames(self.gl, passes, self.settings.budget, self.queries, self.progress.tick)
+
+    def light_range(self, count: int) -> float:
+        """The common range giving ~16 lights per surface pixel (cached per count)."""
+        if count not in self.ranges:
+            self.ranges[count] = calibrate_range(self.gl, count, self.settings.lights_per_pixel)
+        return self.ranges[count]
+
+
+def make_row(
+    suite: str,
+    case: str,
+    variant: str,
+    size: tuple[int, int],
+    lights: int,
+    times: FrameTimes | None,
+    **extra: object,
+) -> dict:
+    """A row with the required keys; timing keys from ``times`` when given."""
+    row: dict = {
+        "suite": suite,
+        "case": case,
+        "variant": variant,
+        "width": size[0],
+        "height": size[1],
+        "lights": lights,
+        "ms_median": None,
+        "ms_min": None,
+        "ms_max": None,
+        "frames": 0,
+        "passes_ms": {},
+        "passes_gpu_ms": {},
+        "passes_submit_ms": {},
+        "timer": None,
+        "timer_notes": [],
+        "rel_rmse": None,
+        "max_rel_err": None,
+        "flip_mean": None,
+    }
+    if times is not None:
+        med, lo, hi = summary(times.wall_ms)
+        row.update(
+            ms_median=med,
+            ms_min=lo,
+            ms_max=hi,
+            frames=len(times.wall_ms),
+            passes_ms=times.pass_medians(),
+            passes_gpu_ms=times.gpu_medians(),
+            passes_submit_ms=times.submit_medians(),
+            timer=times.timer,
+            timer_notes=times.notes,
+        )
+    row.update(extra)
+    row["load_1min"] = os.getloadavg()[0]
+    return row
+
+
+def deferred_passes(r: Renderer) -> list[Pass]:
+    """The deferred frame up to HDR: G-buffer, tile culling (if any), lighting."""
+    background = np.asarray(r.scene.background, np.float64)
+    passes = [Pass("gbuffer", lambda: r.gbuffer_pass.run(r.gbuffer, r.view, r.proj), r.gbuffer.fbo)]
+    if r.culler is not None:
+        culler = r.culler
+        passes.append(
+            Pass("cull", lambda: culler.run(r.gbuffer, r.view, r.camera), culler.depth_fbo)
+        )
+    passes.append(
+        Pass("lighting", lambda: r.lighting.run(r.gbuffer, r.camera, background), r.lighting.fbo)
+    )
+    return passes
+
+
+# --- culling and resolution -----------------------------------------------------------------
+
+
+def _pyrender_request(data: dict, size: tuple[int, int], budget: Budget) -> dict:
+    return {
+        "scene": data,
+        "size": list(size),
+        "warmup": budget.warmup,
+        "min_frames": budget.min_frames,
+        "max_frames": budget.max_frames,
+        "seconds": budget.seconds,
+    }
+
+
+def run_pyrender(data: dict, size: tuple[int, int], budget: Budget) -> dict:
+    """pyrender in a child process (app/bench/pyrender_child.py); never raises."""
+    env = dict(os.environ)
+    env.setdefault("PYOPENGL_PLATFORM", "egl")
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(Path(__file__).resolve().parents[2]), env.get("PYTHONPATH", "")]
+    ).rstrip(os.pathsep)
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-m", "app.bench.pyrender_child"],
+            input=json.dumps(_pyrender_request(data, size, budget)),
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=900,
+        )
+    except subprocess.TimeoutExpired:
+        return {"ok": False, "why": "pyrender child timed out (900 s)"}
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
+    if not lines:
+        tail = proc.stderr.strip().splitlines()[-1:] or [f"exit code {proc.returncode}"]
+        return {"ok": False, "why": f"pyrender child gave no result: {tail[0]}"}
+    return json.loads(lines[-1])
+
+
+def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: bool) -> None:
+    """All variants of one light count: time each, then compare with one reference."""
+    gl, progress = ctx.gl, ctx.progress
+    light_range = ctx.light_range(count)
+    data = many_lights_scene(count, light_range, size)
+    loaded = load(data)
+    case = f"{count} lights"
+    common = {"light_range_m": light_range}
+    images: dict[str, np.ndarray] = {}
+    pending: list[dict] = []
+
+    progress.start(f"culling {case}: culled")
+    culled = Renderer(gl, loaded, size)
+    try:
+        times = ctx.time(deferred_passes(culled))
+        images["culled"] = culled.read_hdr()
+        gbuffer = culled.read_gbuffer()
+        pairs = light_pairs(gbuffer, culled.camera, culled.lights)
+        common["lights_per_pixel"] = pairs.mean_per_covered_pixel
+        common["lights_per_pixel_max"] = int(pairs.count.max())
+        extra = {}
+        if culled.culler is not None:
+            # What the tiled loop visits: each surface pixel's tile list, averaged like the
+            # pairs (masks are bottom-up tile rows; the G-buffer arrays top-down).
+            per_tile = culled.culler.read_masks().sum(axis=-1)
+            h = pairs.covered.shape[0]
+            rows, cols = np.nonzero(pairs.covered)
+            tiles_y = (h - 1 - rows) // TILE_SIZE
+            extra["lights_per_tile_mean"] = float(per_tile[tiles_y, cols // TILE_SIZE].mean())
+        pending.append(make_row("culling", case, "culled", size, count, times, **common, **extra))
+        progress.done()
+
+        progress.start(f"culling {case}: floor")
+        floor = FloorPass(culled, pairs)
+        try:
+            gb = culled.gbuffer_pass
+            times = ctx.time(
+                [
+                    Pass("gbuffer", lambda: gb.run(culled.gbuffer, culled.view, culled.proj),
+                         culled.gbuffer.fbo),
+                    Pass("floor", floor.run, floor.fbo),
+                ]
+            )  # fmt: skip
+            images["floor"] = floor.read_hdr()
+        finally:
+            floor.release()
+        pending.append(
+            make_row("culling", case, "floor", size, count, times, pairs=pairs.total, **common)
+        )
+        progress.done()
+
+        if pyrender:
+            progress.start(f"culling {case}: culled_readback (to compare with pyrender)")
+
+            def to_pixels() -> None:
+                culled.render()
+                culled.read_ldr()
+
+            times = ctx.time([Pass("render+read_ldr", to_pixels)])
+            pending.append(
+                make_row("culling", case, "culled_readback", size, count, times, **common)
+            )
+            progress.done()
+    finally:
+        culled.release()
+
+    progress.start(f"culling {case}: unculled")
+    unculled = Renderer(gl, load({**data, "render": {**data["render"], "light_culling": "none"}}))
+    try:
+        times = ctx.time(deferred_passes(unculled))
+        images["unculled"] = unculled.read_hdr()
+    finally:
+        unculled.release()
+    pending.append(make_row("culling", case, "unculled", size, count, times, **common))
+    progress.done()
+
+    progress.start(f"culling {case}: forward")
+    forward = ForwardRenderer(gl, loaded, size)
+    try:
+        times = ctx.time([Pass("forward", forward.render, forward.fbo)])
+        images["forward"] = forward.read_hdr()
+    finally:
+        forward.release()
+    pending.append(make_row("culling", case, "forward", size, count, times, **common))
+    progress.done()
+
+    if pyrender:
+        progress.start(f"culling {case}: pyrender (child process)")
+        result = run_pyrender(data, size, ctx.settings.budget)
+        if result.get("ok"):
+            ms = result["ms"]
+            med, lo, hi = summary(ms)
+            row = make_row(
+                "culling", case, "pyrender", size, count, None,
+                ms_median=med, ms_min=lo, ms_max=hi, frames=len(ms),
+                timer="perf_counter around render() (includes colour+depth read-back)",
+                pyrender=result, **common,
+            )  # fmt: skip
+            pending.append(row)
+        else:
+            ctx.pyrender = False
+            ctx.notes.append(f"pyrender: {result.get('why')}")
+        progress.done()
+
+    # One float64 reference for all variants: the twin on an f32 G-buffer of the same view
+    # (the unquantised surface), over the in-range pairs (other lights add exactly 0).
+    progress.start(f"culling {case}: float64 reference and errors")
+    exact = Renderer(gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}))
+    try:
+        exact.gbuffer_pass.run(exact.gbuffer, exact.view, exact.proj)
+        g32 = exact.read_gbuffer()
+        ref = reference_hdr(
+            g32, exact.camera, exact.lights, loaded.scene.background,
+            exact.materials.models, exact.materials.packed(), pairs,
+        )  # fmt: skip
+    finally:
+        exact.release()
+    covered = covered_pixels(g32.depth)
+    cam = loaded.scene.camera
+    for row in pending:
+        if row["variant"] in images:
+            row.update(
+                image_errors(images[row["variant"]], ref, covered, cam.exposure,
+                             loaded.scene.render.tonemap)
+            )  # fmt: skip
+        row["error_reference"] = "float64 twin on an f32 G-buffer, in-range pairs"
+    ctx.rows.extend(pending)
+    progress.done()
+
+
+def culling_tasks(settings: Settings, pyrender: bool) -> int:
+    counts = _culling_counts(settings, pyrender)
+    tasks = 0
+    for count in counts:
+        with_pyrender = pyrender and count in settings.pyrender_lights
+        tasks += 5 + (2 if with_pyrender else 0)
+    return tasks
+
+
+def _culling_counts(settings: Settings, pyrender: bool) -> list[int]:
+    counts = list(settings.light_counts)
+    if pyrender:
+        counts += [n for n in settings.pyrender_lights if n not in counts]
+    return sorted(counts)
+
+
+def run_culling(ctx: Context) -> None:
+    """Suite ``culling``: culled, unculled, forward and floor at each light count."""
+    s = ctx.settings
+    for count in _culling_counts(s, ctx.pyrender):
+        if count not in s.light_counts and not ctx.pyrender:
+            continue  # the extra pyrender case, and pyrender turned out to be unavailable
+        _culling_case(ctx, count, s.culling_size, ctx.pyrender and count in s.pyrender_lights)
+
+
+def run_resolution(ctx: Context) -> None:
+    """Suite ``resolution``: the culled pipeline at each image size, 64 lights."""
+    s = ctx.settings
+    count = s.resolution_lights
+    light_range = ctx.light_range(count)
+    for size in s.resolutions:
+        case = f"{size[0]}x{size[1]}"
+        ctx.progress.start(f"resolution {case}: culled")
+        r = Renderer(ctx.gl, load(many_lights_scene(count, light_range, size)), size)
+        try:
+            times = ctx.time(deferred_passes(r))
+        finally:
+            r.release()
+        ctx.rows.append(
+            make_row("resolution", case, "culled", size, count, times, light_range_m=light_range)
+        )
+        ctx.progress.done()
+
+
+# --- accuracy -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One way of rendering a comparison's scene."""
+
+    name: str
+    model: dict  # material keys given to every material
+    default: bool = False
+    gbuffer: str = "f16"
+    ms_size: int | None = None  # multiple-scattering table size (None: the pass's own)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """An approximation against its exact form; ``reference`` is rendered untimed for its
+    G-buffer, which the float64 twin then shades (with ``ms_reference`` if set)."""
+
+    name: str
+    title: str
+    variants: tuple[Variant, ...]
+    reference: Variant
+    ms_reference: int | None = None
+
+
+def comparisons(settings: Settings) -> list[Comparison]:
+    """The accuracy suite's comparisons (issue 5), with the renderer's defaults marked."""
+    dielectric = {"ior": 1.5}
+    out = [
+        Comparison(
+            "fresnel",
+            "Schlick vs exact Fresnel (dielectric, n = 1.5)",
+            (
+                Variant("schlick", {"fresnel": "schlick", **dielectric}, default=True),
+                Variant("exact", {"fresnel": "dielectric", **dielectric}),
+            ),
+            Variant("exact", {"fresnel": "dielectric", **dielectric}),
+        ),
+        Comparison(
+            "g2",
+            "Hammon vs exact height-correlated Smith G2 (GGX)",
+            (
+                Variant("hammon", {"g2": "hammon"}),
+                Variant("height_correlated", {}, default=True),
+            ),
+            Variant("height_correlated", {}),
+        ),
+        Comparison(
+            "lambda",
+            "Beckmann Lambda: rational vs exact",
+            (
+                Variant("rational", {"ndf": "beckmann", "lambda_form": "rational"}),
+                Variant("exact", {"ndf": "beckmann"}, default=True),
+            ),
+            Variant("exact", {"ndf": "beckmann"}),
+        ),
+        Comparison(
+            "gbuffer",
+            "G-buffer channels: 16-bit vs 32-bit float",
+            (
+                Variant("f16", {}, default=True, gbuffer="f16"),
+                Variant("f32", {}, gbuffer="f32"),
+            ),
+            Variant("f32", {}, gbuffer="f32"),
+        ),
+        Comparison(
+            "ms_table",
+            f"Kulla-Conty table size (reference: {settings.ms_reference}x{settings.ms_reference})",
+            tuple(
+                Variant(f"{n}x{n}", {"multiscatter": True}, default=n == 32, ms_size=n)
+                for n in settings.ms_sizes
+            ),
+            Variant("reference", {"multiscatter": True}, ms_size=settings.ms_reference),
+            ms_reference=settings.ms_reference,
+        ),
+    ]
+    return out
+
+
+def accuracy_tasks(settings: Settings) -> int:
+    return sum(len(c.variants) + 1 for c in comparisons(settings))
+
+
+def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
+    r = Renderer(ctx.gl, load(accuracy_scene(size, variant.model, variant.gbuffer)), size)
+    if variant.ms_size is not None and r.lighting.ms_table is not None:
+        # Hook: the lighting pass loads the shipped table; swap in the size asked for
+        # (the GLSL reads the table's size from the texture).
+        from app.render.tables import ms_texture
+
+        r.lighting.ms_table.release()
+        r.lighting.ms_table = ms_texture(ctx.gl.ctx, variant.ms_size)
+    return r
+
+
+def run_accuracy(ctx: Context) -> None:
+    """Suite ``accuracy``: each approximation's time and error against its exact form."""
+    s = ctx.settings
+    size = s.accuracy_size
+    for comp in comparisons(s):
+        ctx.progress.start(f"accuracy {comp.name}: float64 reference")
+        ref_r = _accuracy_renderer(ctx, comp.reference, size)
+        try:
+            ref_r.gbuffer_pass.run(ref_r.gbuffer, ref_r.view, ref_r.proj)
+            g = ref_r.read_gbuffer()
+            ms_table = None
+            if comp.ms_reference is not None:
+                from app.reference.multiscatter import load_table
+
+                ms_table = load_table(comp.ms_reference)
+            scene = ref_r.scene
+            ref = reference_hdr(
+                g, ref_r.camera, ref_r.lights, scene.background, ref_r.materials.models,
+                ref_r.materials.packed(), None, ms_table,
+            )  # fmt: skip
+        finally:
+            ref_r.release()
+        covered = covered_pixels(g.depth)
+        ctx.progress.done()
+        for variant in comp.variants:
+            ctx.progress.start(f"accuracy {comp.name}: {variant.name}")
+            r = _accuracy_renderer(ctx, variant, size)
+            try:
+                times = ctx.time(deferred_passes(r))
+                hdr = r.read_hdr()
+                same_surface = bool(np.array_equal(r.read_gbuffer().depth, g.depth))
+                lights = len(r.lights)
+            finally:
+                r.release()
+            errors = image_errors(hdr, ref, covered, scene.camera.exposure, scene.render.tonemap)
+            ctx.rows.append(
+                make_row(
+                    "accuracy", comp.name, variant.name, size, lights, times,
+                    default=variant.default, comparison=comp.title,
+                    error_reference=_reference_text(comp), same_depth_as_reference=same_surface,
+                    **errors,
+                )
+            )  # fmt: skip
+            ctx.progress.done()
+
+
+def _reference_text(comp: Comparison) -> str:
+    ref = comp.reference
+    text = f"float64 twin, model of variant '{ref.name}', on its {ref.gbuffer} G-buffer"
+    if comp.ms_reference is not None:
+        text += f", {comp.ms_reference}x{comp.ms_reference} table"
+    return text
+
+
+# --- startup --------------------------------------------------------------------------------
+
+
+def startup_tasks(settings: Settings) -> int:
+    return 2 * settings.startup_runs
+
+
+def run_startup(ctx: Context) -> None:
+    """Cold start (process start to PNG written) and peak memory of pbs render."""
+    from app.resources import scenes_dir
+    from app.scene.loader import load_scene
+
+    s = ctx.settings
+    showcase = load_scene(scenes_dir() / "showcase.toml").scene
+    size = s.startup_size or (showcase.render.width, showcase.render.height)
+    for variant, cache in (("shader cache", True), ("no shader cache", False)):
+        runs = []
+        for i in range(s.startup_runs):
+            ctx.progress.start(f"startup {variant}: run {i + 1}/{s.startup_runs}")
+            runs.append(cold_start(s.startup_size, shader_cache=cache))
+            ctx.progress.done()
+        ok = [r for r in runs if r["to_png_s"] is not None and r["returncode"] == 0]
+        if not ok:
+            ctx.notes.append(f"startup ({variant}): pbs render failed: {runs[-1]['stderr']}")
+            continue
+        ms = [r["to_png_s"] * 1e3 for r in ok]
+        med, lo, hi = summary(ms)
+        ctx.rows.append(
+            make_row(
+                "startup", "showcase.toml", variant, size, len(showcase.lights), None,
+                ms_median=med, ms_min=lo, ms_max=hi, frames=len(ok),
+                timer="process spawn to PNG mtime",
+                peak_rss_mib=max(r["maxrss_mib"] for r in ok),
+                peak_rss_mib_median=statistics.median(r["maxrss_mib"] for r in ok),
+                exit_ms_median=statistics.median(r["exit_s"] * 1e3 for r in ok),
+                command=ok[0]["command"], runs=runs,
+            )
+        )  # fmt: skip
+
+
+RUNNERS: dict[str, Callable[[Context], None]] = {
+    "culling": run_culling,
+    "resolution": run_resolution,
+    "accuracy": run_accuracy,
+    "startup": run_startup,
+}
+
+
+def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
+    """The progress bar's total."""
+    counts = {
+        "culling": culling_tasks(settings, pyrender),
+        "resolution": len(settings.resolutions),
+        "accuracy": accuracy_tasks(settings),
+        "startup": startup_tasks(settings),
+    }
+    return sum(counts[s] for s in suites)

@@ -1,0 +1,186 @@
+"""A plain forward renderer: the baseline the deferred pipeline has to beat (issue 5).
+
+Every object is drawn once into an RGBA32F target with a depth test, and each fragment
+loops over every light of the scene with the lighting pass's own ``light_at`` and
+``brdf_eval`` (glsl/passes/forward.frag), in the deferred renderer's light order, so the
+two images agree to float32 rounding (tests/test_bench.py). What differs is where the
+work goes:
+
+* no G-buffer: the surface comes from the material's uniforms and the interpolated
+  normal and tangent, so nothing is quantised to 16 bits; the world position is
+  reconstructed from the interpolated view depth as the lighting pass does;
+* no light culling: a fragment pays for every light, in range or not;
+* overdraw: a fragment shaded before something nearer covers it is shaded for nothing.
+  Objects are drawn nearest first (by the distance of their origin from the camera), the
+  usual cheap help for the early depth test; there is no depth pre-pass.
+
+Material numbers of the optional BRDF models come from the same material table as the
+lighting pass (``u_material_id`` selects the row); one program per model group and per
+texture-map combination, as the G-buffer pass compiles them.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from app.gl.context import GLContext
+from app.gl.shaders import ShaderCache
+from app.render.culling import order_lights
+from app.render.gbuffer import _upload_texture
+from app.render.materials import MaterialTable
+from app.scene.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
+from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart, build_parts
+from app.scene.lights import environment_records, light_record, pack_lights
+from app.scene.loader import LoadedScene
+
+
+class _ForwardDrawable:
+    """One mesh part with its program (its model group's permutation) and buffers."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        part: MeshPart,
+        material_id: int,
+        model_defines: dict[str, int],
+    ) -> None:
+        defines: dict[str, object] = dict(model_defines)
+        if "base_color" in part.maps:
+            defines["MAT_BASE_COLOR_MAP"] = None
+        if "metallic_roughness" in part.maps:
+            defines["MAT_METALLIC_ROUGHNESS_MAP"] = None
+        self.program = shaders.program("passes/forward.vert", "passes/forward.frag", defines)
+        self.vbo = ctx.buffer(part.vertices.tobytes())
+        self.ibo = ctx.buffer(part.indices.tobytes())
+        self.vao = ctx.vertex_array(
+            self.program,
+            [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)],
+            self.ibo,
+            skip_errors=True,
+        )
+        self.textures = {name: _upload_texture(ctx, t) for name, t in part.maps.items()}
+        self.part = part
+        self.material_id = material_id
+        self.model_bytes = gl_bytes(part.model)
+        self.normal_bytes = gl_bytes(np.linalg.inv(part.model[:3, :3]).T)
+        self.mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
+
+    def release(self) -> None:
+        for obj in (self.vao, self.vbo, self.ibo, *self.textures.values()):
+            obj.release()
+
+
+class ForwardRenderer:
+    """One scene, one image size, headless; ``render()`` then ``read_hdr()``."""
+
+    def __init__(
+        self, gl: GLContext, loaded: LoadedScene, size: tuple[int, int] | None = None
+    ) -> None:
+        scene = loaded.scene
+        self.gl = gl
+        self.scene = scene
+        self.size = size or (scene.render.width, scene.render.height)
+        ctx = gl.ctx
+        self.ctx = ctx
+        self.shaders = ShaderCache(ctx)
+        records = [light_record(light) for light in scene.lights]
+        # The deferred renderer's order, so each pixel sums the same terms in the same order.
+        self.lights = order_lights(records + environment_records(scene.environment))
+        parts = build_parts(loaded)
+        self.materials, material_ids = MaterialTable.build([p.material for p in parts])
+        self.material_texture = self.materials.texture(ctx)
+        self.ms_table = None
+        if any(model.multiscatter for model in self.materials.models):
+            from app.render.tables import ms_texture
+
+            self.ms_table = ms_texture(ctx)
+        packed = pack_lights(self.lights)
+        self.light_texture = ctx.texture((4, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
+        self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        group_defines = [model.defines() for model in self.materials.models]
+        self.drawables = [
+            _ForwardDrawable(
+                ctx, self.shaders, part, row, group_defines[self.materials.groups[row]]
+            )
+            for part, row in zip(parts, material_ids, strict=True)
+        ]
+        self.hdr = ctx.texture(self.size, 4, dtype="f4")
+        self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.zbuffer = ctx.depth_renderbuffer(self.size)
+        self.fbo = ctx.framebuffer([self.hdr], self.zbuffer)
+        w, h = self.size
+        self.view = view_matrix(scene.camera)
+        self.proj = projection_matrix(scene.camera, w / h)
+        self.camera = camera_frame(scene.camera, w, h)
+        # Nearest first: the early depth test then skips more of what is hidden.
+        eye = np.asarray(scene.camera.position, np.float64)
+        self.drawables.sort(key=lambda d: float(np.linalg.norm(d.part.model[:3, 3] - eye)))
+
+    def render(self) -> None:
+        """Draw every object once, each fragment summing over every light."""
+        ctx = self.ctx
+        self.fbo.use()
+        ctx.viewport = (0, 0, *self.size)
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        background = (float(x) for x in self.scene.background)
+        self.fbo.clear(*background, 1.0, depth=1.0)
+        view_bytes, proj_bytes = gl_bytes(self.view), gl_bytes(self.proj)
+        camera_pos = tuple(float(x) for x in self.camera.position)
+        camera_to_world = gl_bytes(self.camera.camera_to_world)
+        self.light_texture.use(0)
+        self.material_texture.use(1)
+        if self.ms_table is not None:
+            self.ms_table.use(2)
+        for d in self.drawables:
+            if d.part.closed:  # as the G-buffer pass: closed primitives cull back faces
+                ctx.enable(moderngl.CULL_FACE)
+                ctx.front_face = "cw" if d.mirrored else "ccw"
+            else:
+                ctx.disable(moderngl.CULL_FACE)
+            prog, m = d.program, d.part.material
+            prog["u_model"].write(d.model_bytes)
+            prog["u_normal_matrix"].write(d.normal_bytes)
+            prog["u_view"].write(view_bytes)
+            prog["u_proj"].write(proj_bytes)
+            prog["u_camera_to_world"].write(camera_to_world)
+            values = {
+                "u_base_color": m.base_color,
+                "u_metallic": m.metallic,
+                "u_roughness": m.roughness,
+                "u_f0": m.f0,
+                "u_anisotropy": m.anisotropy,
+                "u_material_id": d.material_id,
+                "u_lights": 0,
+                "u_materials": 1,
+                "u_ms_table": 2,
+                "u_light_count": len(self.lights),
+                "u_camera_pos": camera_pos,
+                "u_tan_half_fov": self.camera.tan_half_fov,
+                "u_image_size": tuple(float(x) for x in self.size),
+            }
+            for name, value in values.items():
+                if name in prog:  # the compiler drops what a permutation does not use
+                    prog[name].value = value
+            for unit, (name, tex) in enumerate(d.textures.items(), start=3):
+                tex.use(unit)
+                prog[f"u_{name}_map"].value = unit
+            d.vao.render(moderngl.TRIANGLES)
+        ctx.disable(moderngl.CULL_FACE)
+
+    def read_hdr(self) -> np.ndarray:
+        """Linear HDR radiance, (H, W, 3) float32, rows top to bottom."""
+        w, h = self.size
+        data = np.frombuffer(self.hdr.read(), np.float32).reshape(h, w, 4)
+        return data[::-1, :, :3].copy()
+
+    def release(self) -> None:
+        for d in self.drawables:
+            d.release()
+        for obj in (self.fbo, self.hdr, self.zbuffer, self.light_texture, self.material_texture):
+            obj.release()
+        if self.ms_table is not None:
+            self.ms_table.release()
+        self.shaders.release()

@@ -1,0 +1,101 @@
+// Forward pass (the bench's baseline): each object's fragments loop over every light.
+//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
+// The same terms as glsl/passes/lighting.frag (same includes, brdf_eval and light_at, lights
+// in the same order), but the surface comes straight from the material uniforms and the
+// interpolated vertex attributes instead of a G-buffer: no quantisation, no culling, and
+// occluded fragments that reach the shader before their occluder are shaded too.
+#include "common/constants.glsl"
+#include "common/encoding.glsl"
+#include "common/position.glsl"
+#include "brdf/model.glsl"
+#include "brdf/fresnel.glsl"
+#include "brdf/ndf.glsl"
+#include "brdf/masking.glsl"
+#include "brdf/diffuse.glsl"
+#include "brdf/multiscatter.glsl"
+#include "brdf/specular.glsl"
+#include "brdf/material.glsl"
+#include "lights/punctual.glsl"
+
+in vec3 v_normal;
+in vec2 v_uv;
+in vec3 v_tangent;
+in float v_view_depth;
+
+uniform vec3 u_base_color;
+uniform float u_metallic;
+uniform float u_roughness;
+uniform float u_f0;
+uniform float u_anisotropy;
+uniform int u_material_id;      // row of the material table (the optional models' numbers)
+#ifdef MAT_BASE_COLOR_MAP
+uniform sampler2D u_base_color_map;    // sRGB texture: sampled as linear by the GL
+#endif
+#ifdef MAT_METALLIC_ROUGHNESS_MAP
+uniform sampler2D u_metallic_roughness_map;  // glTF: G = roughness, B = metallic
+#endif
+
+uniform sampler2D u_materials;  // RGBA32F, 4 texels per material (brdf/model.glsl)
+uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
+uniform int u_light_count;
+uniform vec3 u_camera_pos;
+uniform mat3 u_camera_to_world;
+uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
+uniform vec2 u_image_size;       // pixels
+
+out vec4 frag_color;
+
+// The lighting pass's light fetch and per-light term (glsl/passes/lighting.frag).
+PunctualLight fetch_light(int i) {
+    vec4 t0 = texelFetch(u_lights, ivec2(0, i), 0);
+    vec4 t1 = texelFetch(u_lights, ivec2(1, i), 0);
+    vec4 t2 = texelFetch(u_lights, ivec2(2, i), 0);
+    vec4 t3 = texelFetch(u_lights, ivec2(3, i), 0);
+    return PunctualLight(int(t0.w), t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t3.x);
+}
+
+vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
+    vec3 l;
+    vec3 c_light = light_at(fetch_light(i), p, l);
+    float NoL = dot(n, l);
+    if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
+    return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
+}
+
+void main() {
+    // The material as the G-buffer pass would store it (glsl/passes/gbuffer.frag).
+    vec3 base_color = u_base_color;
+    float metallic = u_metallic;
+    float roughness = u_roughness;
+#ifdef MAT_BASE_COLOR_MAP
+    base_color *= texture(u_base_color_map, v_uv).rgb;
+#endif
+#ifdef MAT_METALLIC_ROUGHNESS_MAP
+    vec4 mr = texture(u_metallic_roughness_map, v_uv);
+    roughness *= mr.g;
+    metallic *= mr.b;
+#endif
+    // Two-sided, as in the G-buffer pass: a back face is shaded with the normal flipped.
+    vec3 n_raw = normalize(gl_FrontFacing ? v_normal : -v_normal);
+    float t_len = length(v_tangent);
+    vec3 t = t_len > 0.0 ? v_tangent / t_len : n_raw;
+    // Sanitised as the lighting pass sanitises what the G-buffer delivers (a texture map can
+    // hold anything, a degenerate mesh normal is NaN): the same values reach brdf_eval.
+    Surface s = sanitize_surface(Surface(base_color, metallic, roughness, u_f0, u_anisotropy));
+    ModelParams params = fetch_model_params(u_materials, u_material_id);
+
+    // The lighting pass's position: the pixel centre's view ray times the interpolated view
+    // depth. An interpolated world position is as valid, but across the two 40 m triangles
+    // of a floor its float32 barycentrics moved p by up to ~1e-4 of the distance to a
+    // nearby light (measured), which hides the comparison with the deferred image.
+    vec2 ndc_xy = (gl_FragCoord.xy / u_image_size) * 2.0 - 1.0;
+    vec3 p = reconstruct_position(ndc_xy, v_view_depth, u_camera_pos, u_camera_to_world,
+                                  u_tan_half_fov);
+    vec3 v = normalize(u_camera_pos - p);
+    vec3 n = sanitize_direction(n_raw, v);
+    vec3 Lo = vec3(0.0);
+    for (int i = 0; i < u_light_count; ++i) {
+        Lo += light_contribution(i, s, params, n, t, p, v);
+    }
+    frag_color = vec4(PI * Lo, 1.0);
+}

@@ -1,0 +1,26 @@
+// Forward pass (the bench's baseline), vertex stage: object -> world -> clip.
+// gl_Position is the G-buffer pass's expression, operation for operation
+// (glsl/passes/gbuffer.vert), so both passes rasterise the same pixels.
+in vec3 in_position;
+in vec3 in_normal;
+in vec2 in_uv;
+in vec4 in_tangent;     // xyz along +u, w = handedness
+
+uniform mat4 u_model;
+uniform mat3 u_normal_matrix;   // inverse-transpose of u_model's upper 3x3
+uniform mat4 u_view;
+uniform mat4 u_proj;
+
+out vec3 v_normal;
+out vec2 v_uv;
+out vec3 v_tangent;
+out float v_view_depth;   // metres along the view axis, as the G-buffer pass stores it
+
+void main() {
+    v_normal = u_normal_matrix * in_normal;
+    v_uv = in_uv;
+    v_tangent = mat3(u_model) * in_tangent.xyz;
+    vec4 view = u_view * (u_model * vec4(in_position, 1.0));
+    v_view_depth = -view.z;
+    gl_Position = u_proj * view;
+}

@@ -1,0 +1,232 @@
+"""pbs bench: the outputs exist and hold what the issue asks, and its two extra renderers
+are right: the forward baseline draws the deferred image, and the floor pass evaluates
+exactly the (pixel, light in range) pairs. No test here asserts a time."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.bench import main
+from app.bench.floor import FloorPass
+from app.bench.pairs import light_pairs, reference_hdr, surface_positions
+from app.bench.report import evaluate_targets, pareto_front
+from app.bench.scenes import load, many_lights_scene
+from app.bench.timing import plausible
+from app.render.forward import ForwardRenderer
+from app.render.renderer import Renderer
+from tests.agreement import relative_error
+
+REQUIRED = (
+    "suite", "case", "variant", "width", "height", "lights",
+    "ms_median", "ms_min", "ms_max",
+)  # fmt: skip
+ERRORS = ("rel_rmse", "max_rel_err", "flip_mean")
+SIZE = (240, 135)
+LIGHTS = 40
+RANGE = 9.0  # metres: about 10 of the 40 lights reach an average surface pixel
+
+
+def covered_relative_error(a: np.ndarray, b: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    """|a - b| / max(|b|, 1e-3 peak) on covered pixels, as the reference tests measure it."""
+    peak = float(np.abs(b[covered]).max())
+    return relative_error(a[covered], b[covered], 1e-3 * peak)
+
+
+def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
+    """A whole (tiny) run: every suite, the required keys, the targets, two valid PNGs."""
+    assert main(["--quick", "--tiny", "--out", str(tmp_path), "-q"]) == 0
+    data = json.loads((tmp_path / "bench.json").read_text())
+    assert set(data) >= {"machine", "rows"}
+    machine = data["machine"]
+    for key in ("cpu", "cores", "gl_renderer", "gl_version", "python", "moderngl", "pass_timer"):
+        assert machine[key], key
+    assert len(machine["load_avg_start"]) == 3
+    rows = data["rows"]
+    for row in rows:
+        for key in REQUIRED:
+            assert key in row, (key, row["suite"], row["variant"])
+        assert row["ms_min"] <= row["ms_median"] <= row["ms_max"]
+    suites = {r["suite"] for r in rows}
+    assert suites == {"culling", "resolution", "accuracy", "startup"}
+    culling = {(r["lights"], r["variant"]) for r in rows if r["suite"] == "culling"}
+    for n in (1, 16):
+        for v in ("culled", "unculled", "forward", "floor"):
+            assert (n, v) in culling
+    # Errors exist where a float64 reference does: every culling variant we render, and
+    # every accuracy variant; they are finite, and the exact variants are float32-close.
+    for r in rows:
+        rendered = r["variant"] in ("culled", "unculled", "forward", "floor")
+        if r["suite"] == "accuracy" or (r["suite"] == "culling" and rendered):
+            assert all(isinstance(r[k], float) and np.isfinite(r[k]) for k in ERRORS), r
+    exact = [r for r in rows if r["suite"] == "accuracy" and r["variant"] in ("exact", "f32")]
+    assert exact and all(r["max_rel_err"] < 1e-3 for r in exact)
+    lpp = [r["lights_per_pixel"] for r in rows if r["suite"] == "culling" and r["lights"] == 16]
+    assert all(15.5 < x < 16.5 for x in lpp), lpp  # "about 16 lights reach an average pixel"
+    text = (tmp_path / "bench.md").read_text()
+    assert "## Targets (issue 5)" in text and "culled faster than forward at 16 lights" in text
+    assert "**PASS**" in text or "**FAIL**" in text
+    for name in ("pareto.png", "scaling.png"):
+        with Image.open(tmp_path / name) as img:
+            img.verify()
+        with Image.open(tmp_path / name) as img:
+            assert img.size[0] > 300 and img.size[1] > 200
+
+
+def test_bad_suite_name_is_rejected(tmp_path):
+    assert main(["--suites", "culling,nonsense", "--out", str(tmp_path), "-q"]) == 2
+    assert not (tmp_path / "bench.json").exists()
+
+
+def _scene(gbuffer: str) -> dict:
+    return many_lights_scene(LIGHTS, RANGE, SIZE, gbuffer=gbuffer)
+
+
+# The forward renderer reads the material straight from its uniforms and interpolated
+# attributes; the deferred one from the G-buffer. With 32-bit G-buffer channels the only
+# differences are the octahedral round trip of the normal and tangent (~1e-7) and the
+# order of float32 operations, measured at most 2.5e-6 relative on this scene (EGL and
+# OSMesa alike); the bound leaves 40x for other drivers. With 16-bit channels the
+# quantised normal moves sharp highlights by 3% (measured), which the bound must catch.
+FORWARD_MAX_REL = 1e-4
+
+
+def test_forward_image_equals_deferred(gl):
+    loaded = load(_scene("f32"))
+    deferred = Renderer(gl, loaded, SIZE)
+    forward = ForwardRenderer(gl, loaded, SIZE)
+    try:
+        deferred.render()
+        forward.render()
+        a, b = forward.read_hdr(), deferred.read_hdr()
+        covered = deferred.read_gbuffer().depth > 0.0
+    finally:
+        deferred.release()
+        forward.release()
+    assert covered.mean() > 0.5 and np.isfinite(a).all()
+    background = np.asarray(loaded.scene.background, np.float32)
+    assert np.array_equal(a[~covered], np.broadcast_to(background, a[~covered].shape))
+    rel = covered_relative_error(a, b, covered)
+    assert rel.max() <= FORWARD_MAX_REL, f"max relative difference {rel.max():.2e}"
+
+
+def test_forward_comparison_sees_a_16_bit_gbuffer(gl):
+    """The bound above is tight enough to fail: the f16 G-buffer's quantisation shows."""
+    loaded = load(_scene("f16"))
+    deferred = Renderer(gl, loaded, SIZE)
+    forward = ForwardRenderer(gl, loaded, SIZE)
+    try:
+        deferred.render()
+        forward.render()
+        covered = deferred.read_gbuffer().depth > 0.0
+        rel = covered_relative_error(forward.read_hdr(), deferred.read_hdr(), covered)
+    finally:
+        deferred.release()
+        forward.release()
+    assert rel.max() > 10 * FORWARD_MAX_REL
+
+
+def test_light_pairs_are_exactly_the_lights_in_range(gl_egl):
+    """The CPU lists hold every light closer than its range, and no other, in order."""
+    r = Renderer(gl_egl, load(_scene("f16")), SIZE)
+    try:
+        r.gbuffer_pass.run(r.gbuffer, r.view, r.proj)
+        g = r.read_gbuffer()
+        pairs = light_pairs(g, r.camera, r.lights)
+        covered, p = surface_positions(g, r.camera)
+    finally:
+        r.release()
+    centres = np.array([x["position"] for x in r.lights])
+    ranges = np.array([x["range"] for x in r.lights])
+    d = np.linalg.norm(p[:, None, :] - centres[None], axis=-1)  # brute force, (pixels, lights)
+    want = d < ranges[None, :]
+    assert 5.0 < pairs.mean_per_covered_pixel < 25.0  # a meaningful mix of lights per pixel
+    assert np.array_equal(pairs.count[covered], want.sum(axis=1))
+    assert np.all(pairs.count[~covered] == 0)
+    flat_first = pairs.first[covered].astype(np.int64)
+    for i in np.linspace(0, len(p) - 1, 400).astype(int):
+        got = pairs.lights[flat_first[i] : flat_first[i] + want[i].sum()]
+        assert np.array_equal(got, np.nonzero(want[i])[0])
+
+
+def test_floor_pass_evaluates_exactly_the_pairs(gl):
+    """Looping only the in-range pairs gives the deferred image (lights out of range add
+    exactly 0, and the pairs keep the lighting loop's order); dropping one light's pairs
+    changes it. The float64 twin on the same pairs agrees with the full twin."""
+    loaded = load(_scene("f16"))
+    r = Renderer(gl, loaded, SIZE)
+    try:
+        r.render()
+        deferred = r.read_hdr()
+        g = r.read_gbuffer()
+        pairs = light_pairs(g, r.camera, r.lights)
+        floor = FloorPass(r, pairs)
+        floor.run()
+        image = floor.read_hdr()
+        floor.release()
+        # Drop light 7 from every list: the floor must then miss its light.
+        keep = pairs.lights != 7
+        pix = pairs.pixel_index()[keep]
+        count = np.bincount(pix, minlength=pairs.count.size).reshape(pairs.count.shape)
+        first = np.concatenate([[0], np.cumsum(count.ravel())[:-1]]).reshape(count.shape)
+        broken = type(pairs)(
+            first.astype(np.uint32), count.astype(np.uint32), pairs.lights[keep], pairs.covered
+        )
+        floor = FloorPass(r, broken)
+        floor.run()
+        missing = floor.read_hdr()
+        floor.release()
+        table = r.materials.packed()
+        ref_pairs = reference_hdr(g, r.camera, r.lights, loaded.scene.background,
+                                  r.materials.models, table, pairs)  # fmt: skip
+        ref_all = reference_hdr(g, r.camera, r.lights, loaded.scene.background,
+                                r.materials.models, table)  # fmt: skip
+    finally:
+        r.release()
+    covered = g.depth > 0.0
+    assert pairs.total > 5 * covered.sum()
+    # The same terms summed in the same order: measured bit-identical on llvmpipe (EGL and
+    # OSMesa). The bound leaves room for a driver that compiles the two programs' float32
+    # arithmetic differently; a light missing from the lists costs 1e-2 or more (below).
+    assert covered_relative_error(image, deferred, covered).max() <= 1e-6
+    assert np.array_equal(image[~covered], deferred[~covered])
+    assert covered_relative_error(missing, deferred, covered).max() > 1e-2
+    assert np.abs(ref_pairs - ref_all).max() <= 1e-12 * np.abs(ref_all).max()
+
+
+def test_pareto_front_and_targets_from_rows():
+    points = {"a": (10.0, 1e-2), "b": (12.0, 1e-6), "c": (13.0, 1e-3), "d": (10.0, 1e-2)}
+    assert sorted(pareto_front(points)) == ["a", "b", "d"]  # c: b is faster and better
+
+    def row(variant, lights, ms, **extra):
+        return {"suite": "culling", "case": f"{lights} lights", "variant": variant,
+                "lights": lights, "ms_median": ms, "ms_min": ms, "ms_max": ms, **extra}  # fmt: skip
+
+    rows = [
+        row("culled", 256, 120.0, passes_ms={"cull": 5.0, "lighting": 100.0}),
+        row("floor", 256, 100.0, passes_ms={"floor": 90.0}),
+        row("unculled", 256, 1000.0),
+        row("forward", 256, 1100.0),
+        row("culled", 16, 100.0),
+        row("forward", 16, 90.0),
+    ]
+    verdicts = {v.target: v for v in evaluate_targets(rows)}
+    assert verdicts["culled at 256 lights <= 1.5x floor"].status == "PASS"
+    assert "1.20x" in verdicts["culled at 256 lights <= 1.5x floor"].measured
+    assert verdicts["culled at 256 lights >= 8x faster than unculled"].status == "PASS"
+    assert verdicts["culled faster than forward at 16 lights"].status == "FAIL"
+    assert verdicts["culled faster than forward at 256 lights"].status == "PASS"
+    assert "cold start" in " ".join(v.target for v in verdicts.values())
+
+
+@pytest.mark.parametrize(
+    ("wall", "query", "ok"),
+    [(100.0, 90.0, True), (100.0, 5.2e9, False), (1540.0, 13.0, False), (100.0, 130.0, False)],
+)
+def test_implausible_timer_queries_are_rejected(wall, query, ok):
+    """llvmpipe answered a query begun in an empty scene with the time since boot, and one
+    around the many-draw forward pass with 13 ms of 1540."""
+    assert plausible(wall, query) is ok
