@@ -27,49 +27,12 @@ import numpy as np
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.culling import order_lights
-from app.render.gbuffer import _upload_texture
+from app.render.gbuffer import MeshDrawable
 from app.render.materials import MaterialTable
 from app.scene.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
-from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart, build_parts
+from app.scene.geometry import build_parts
 from app.scene.lights import environment_records, light_record, pack_lights
 from app.scene.loader import LoadedScene
-
-
-class _ForwardDrawable:
-    """One mesh part with its program (its model group's permutation) and buffers."""
-
-    def __init__(
-        self,
-        ctx: moderngl.Context,
-        shaders: ShaderCache,
-        part: MeshPart,
-        material_id: int,
-        model_defines: dict[str, int],
-    ) -> None:
-        defines: dict[str, object] = dict(model_defines)
-        if "base_color" in part.maps:
-            defines["MAT_BASE_COLOR_MAP"] = None
-        if "metallic_roughness" in part.maps:
-            defines["MAT_METALLIC_ROUGHNESS_MAP"] = None
-        self.program = shaders.program("passes/forward.vert", "passes/forward.frag", defines)
-        self.vbo = ctx.buffer(part.vertices.tobytes())
-        self.ibo = ctx.buffer(part.indices.tobytes())
-        self.vao = ctx.vertex_array(
-            self.program,
-            [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)],
-            self.ibo,
-            skip_errors=True,
-        )
-        self.textures = {name: _upload_texture(ctx, t) for name, t in part.maps.items()}
-        self.part = part
-        self.material_id = material_id
-        self.model_bytes = gl_bytes(part.model)
-        self.normal_bytes = gl_bytes(np.linalg.inv(part.model[:3, :3]).T)
-        self.mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
-
-    def release(self) -> None:
-        for obj in (self.vao, self.vbo, self.ibo, *self.textures.values()):
-            obj.release()
 
 
 class ForwardRenderer:
@@ -101,8 +64,13 @@ class ForwardRenderer:
         self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         group_defines = [model.defines() for model in self.materials.models]
         self.drawables = [
-            _ForwardDrawable(
-                ctx, self.shaders, part, row, group_defines[self.materials.groups[row]]
+            MeshDrawable(
+                ctx,
+                self.shaders,
+                part,
+                row,
+                ("passes/forward.vert", "passes/forward.frag"),
+                group_defines[self.materials.groups[row]],
             )
             for part, row in zip(parts, material_ids, strict=True)
         ]

@@ -77,16 +77,26 @@ def _upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
     return gl_tex
 
 
-class _Drawable:
+class MeshDrawable:
+    """One mesh part on the GPU: its program (the shader pair, with the part's texture
+    maps as defines), vertex and index buffers, textures and per-part matrices. The
+    G-buffer pass and the forward renderer (app/render/forward.py) both draw with it."""
+
     def __init__(
-        self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart, material_id: int
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        part: MeshPart,
+        material_id: int,
+        shader_pair: tuple[str, str] = ("passes/gbuffer.vert", "passes/gbuffer.frag"),
+        defines: dict[str, object] | None = None,
     ) -> None:
-        defines = {}
+        defines = dict(defines or {})
         if "base_color" in part.maps:
             defines["MAT_BASE_COLOR_MAP"] = None
         if "metallic_roughness" in part.maps:
             defines["MAT_METALLIC_ROUGHNESS_MAP"] = None
-        self.program = shaders.program("passes/gbuffer.vert", "passes/gbuffer.frag", defines)
+        self.program = shaders.program(*shader_pair, defines)
         self.vbo = ctx.buffer(part.vertices.tobytes())
         self.ibo = ctx.buffer(part.indices.tobytes())
         self.vao = ctx.vertex_array(
@@ -101,6 +111,8 @@ class _Drawable:
         normal_matrix = np.linalg.inv(part.model[:3, :3]).T
         self.model_bytes = gl_bytes(part.model)
         self.normal_bytes = gl_bytes(normal_matrix)
+        # A matrix with a negative determinant mirrors the triangles' winding.
+        self.mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
 
     def draw(self, view_bytes: bytes, proj_bytes: bytes) -> None:
         prog, m = self.program, self.part.material
@@ -137,7 +149,7 @@ class GBufferPass:
     ) -> None:
         self.ctx = ctx
         self.drawables = [
-            _Drawable(ctx, shaders, p, i) for p, i in zip(parts, material_ids, strict=True)
+            MeshDrawable(ctx, shaders, p, i) for p, i in zip(parts, material_ids, strict=True)
         ]
 
     def run(self, target: GBuffer, view: np.ndarray, proj: np.ndarray) -> None:
@@ -149,10 +161,9 @@ class GBufferPass:
         target.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
         for d in self.drawables:
-            # Object matrices with a negative determinant mirror the winding.
             if d.part.closed:
                 ctx.enable(moderngl.CULL_FACE)
-                ctx.front_face = "cw" if np.linalg.det(d.part.model[:3, :3]) < 0.0 else "ccw"
+                ctx.front_face = "cw" if d.mirrored else "ccw"
             else:
                 ctx.disable(moderngl.CULL_FACE)
             d.draw(view_bytes, proj_bytes)
