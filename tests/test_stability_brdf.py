@@ -33,7 +33,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.brdf import INCLUDES, evaluate, resolve_material
+from app.brdf import (
+    INCLUDES,
+    evaluate,
+    resolve_material,
+    run_material_kernel,
+    surface_texels,
+)
 from app.gl.context import GLContext
 from app.gl.kernel import run_kernel
 from app.reference import material as ref_material
@@ -567,26 +573,7 @@ def lighting_sum(
     float32 on the GPU, for surface points ``point`` (n = +Z) and lights ``light`` (xyz, and
     the intensity in w); returns (N, 4): the radiance and n.l."""
     count = len(point)
-    table = pack_model_params([params.params], [0])
-    f32 = np.float32
-    surface_a = np.array([*params.base_color, params.metallic], f32)
-    surface_b = np.array([params.roughness, params.f0, params.anisotropy, 0.0], f32)
-    textures = []
-
-    def bind(program, unit: int) -> None:
-        tex = ctx.ctx.texture((4, 1), 4, table.tobytes(), dtype="f4")
-        textures.append(tex)
-        tex.use(unit)
-        if "u_materials" in program:
-            program["u_materials"].value = unit
-        if params.model.multiscatter:
-            from app.render.tables import ms_texture
-
-            ms = ms_texture(ctx.ctx)
-            textures.append(ms)
-            ms.use(unit + 1)
-            program["u_ms_table"].value = unit + 1
-
+    surface_a, surface_b = surface_texels(params)
     inputs = {
         "surface_a": np.broadcast_to(surface_a, (count, 4)),
         "surface_b": np.broadcast_to(surface_b, (count, 4)),
@@ -596,19 +583,9 @@ def lighting_sum(
         "dir_p": point,
         "light_p": light,
     }
-    try:
-        return run_kernel(
-            ctx.ctx,
-            (*INCLUDES, "lights/punctual.glsl"),
-            _LIGHTING_BODY,
-            inputs,
-            defines=params.model.defines(),
-            bind=bind,
-            declarations="uniform sampler2D u_materials;",
-        )
-    finally:
-        for tex in textures:
-            tex.release()
+    return run_material_kernel(
+        ctx.ctx, params, _LIGHTING_BODY, inputs, extra_includes=("lights/punctual.glsl",)
+    )
 
 
 INTENSITIES = (1e-40, 1e-6, 1.0, 1e6)  # 1e-40: a float32 denormal

@@ -74,6 +74,58 @@ def _frame(count: int, n: ArrayLike | None, t: ArrayLike | None) -> tuple[np.nda
     return n_arr, t_arr
 
 
+def surface_texels(params: MaterialParams) -> tuple[np.ndarray, np.ndarray]:
+    """The material's Surface values as the two float32 vec4 inputs ``_BODY`` reads:
+    (base_color, metallic) and (roughness, f0, anisotropy, 0)."""
+    f32 = np.float32
+    return (
+        np.array([*params.base_color, params.metallic], f32),
+        np.array([params.roughness, params.f0, params.anisotropy, 0.0], f32),
+    )
+
+
+def run_material_kernel(
+    ctx: Any,
+    params: MaterialParams,
+    body: str,
+    inputs: dict[str, np.ndarray],
+    extra_includes: tuple[str, ...] = (),
+) -> np.ndarray:
+    """``run_kernel`` with everything a material's BRDF needs: the BRDF includes, the
+    model's defines, its one-row material table bound to ``u_materials`` and, with
+    multiple scattering, the table bound to ``u_ms_table``. Returns (N, 4) float64."""
+    table = pack_model_params([params.params], [0])
+    textures: list[Any] = []
+
+    def bind(program: Any, unit: int) -> None:
+        tex = ctx.texture((4, 1), 4, table.tobytes(), dtype="f4")
+        textures.append(tex)
+        tex.use(unit)
+        if "u_materials" in program:  # the standard model reads no table entries
+            program["u_materials"].value = unit
+        if params.model.multiscatter:
+            from app.render.tables import ms_texture
+
+            ms = ms_texture(ctx)
+            textures.append(ms)
+            ms.use(unit + 1)
+            program["u_ms_table"].value = unit + 1
+
+    try:
+        return run_kernel(
+            ctx,
+            (*INCLUDES, *extra_includes),
+            body,
+            inputs,
+            defines=params.model.defines(),
+            bind=bind,
+            declarations="uniform sampler2D u_materials;",
+        )
+    finally:
+        for tex in textures:
+            tex.release()
+
+
 def evaluate(
     material: Mapping[str, Any] | Material | MaterialParams,
     l: ArrayLike,
@@ -98,12 +150,10 @@ def evaluate(
     l_arr = np.broadcast_to(l_arr, (count, 3))
     v_arr = np.broadcast_to(v_arr, (count, 3))
     n_arr, t_arr = _frame(count, n, t)
-    table = pack_model_params([params.params], [0])
-    f32 = np.float32
-    surface_a = np.array([*params.base_color, params.metallic], f32)
-    surface_b = np.array([params.roughness, params.f0, params.anisotropy, 0.0], f32)
+    surface_a, surface_b = surface_texels(params)
 
     if backend == "reference":
+        table = pack_model_params([params.params], [0])
         s = Surface(
             surface_a[:3].astype(np.float64),
             float(surface_a[3]),
@@ -116,23 +166,6 @@ def evaluate(
         raise ValueError(f"backend must be 'glsl' or 'reference', not {backend!r}")
 
     context = gl or _default_context()
-    ctx = context.ctx
-    textures = []
-
-    def bind(program: Any, unit: int) -> None:
-        tex = ctx.texture((4, 1), 4, table.tobytes(), dtype="f4")
-        textures.append(tex)
-        tex.use(unit)
-        if "u_materials" in program:  # the standard model reads no table entries
-            program["u_materials"].value = unit
-        if params.model.multiscatter:
-            from app.render.tables import ms_texture
-
-            ms = ms_texture(ctx)
-            textures.append(ms)
-            ms.use(unit + 1)
-            program["u_ms_table"].value = unit + 1
-
     inputs = {
         "surface_a": np.broadcast_to(surface_a, (count, 4)),
         "surface_b": np.broadcast_to(surface_b, (count, 4)),
@@ -141,17 +174,5 @@ def evaluate(
         "dir_l": l_arr,
         "dir_v": v_arr,
     }
-    try:
-        out = run_kernel(
-            ctx,
-            INCLUDES,
-            _BODY,
-            inputs,
-            defines=params.model.defines(),
-            bind=bind,
-            declarations="uniform sampler2D u_materials;",
-        )
-    finally:
-        for tex in textures:
-            tex.release()
+    out = run_material_kernel(context.ctx, params, _BODY, inputs)
     return out[:, :3]
