@@ -63,6 +63,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
+    _textures_parser(sub)
     sub.add_parser(
         "bench",
         help="measure run time against error (options: pbs bench --help)",
@@ -130,6 +131,25 @@ def _brdf_parser(sub: argparse._SubParsersAction) -> None:
         "--dpi", type=_dpi, help="pixels per inch (default 100; a column is 4.6 x 7.4 in)"
     )
     brdf.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+
+
+def _textures_parser(sub: argparse._SubParsersAction) -> None:
+    """The ``textures`` subcommand's arguments (docs/textures.md)."""
+    textures = sub.add_parser(
+        "textures",
+        help="write the procedural textures (rust mask, normal map, ...) as PNG files",
+        description="Generate the procedural textures of app/textures/procedural.py and write "
+        "them as PNG files, or check that the files in a folder hold them (docs/textures.md).",
+    )
+    textures.add_argument(
+        "--out", help="folder to write to or check (default: the bundled scenes/textures/)"
+    )
+    textures.add_argument(
+        "--check",
+        action="store_true",
+        help="write nothing; exit 1 listing the files whose pixels differ from the generators",
+    )
+    textures.add_argument("-q", "--quiet", action="store_true", help="print only problems")
 
 
 def _resolve_scene(name: str) -> Path:
@@ -220,6 +240,44 @@ def cmd_brdf(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_textures(args: argparse.Namespace) -> int:
+    """Write the procedural textures into ``--out``, or with ``--check`` compare the files
+    there with freshly generated pixels. Every texture is generated before anything is
+    written, and each file is renamed into place whole."""
+    from app.resources import scenes_dir
+    from app.textures.procedural import TEXTURES, difference, png_bytes, write_texture
+
+    out = Path(args.out) if args.out else scenes_dir() / "textures"
+    if out.exists() and not out.is_dir():
+        raise InputError(str(out), "--out", "not a folder")
+    generated = [(texture, texture.pixels()) for texture in TEXTURES]
+    if args.check:
+        differ = []
+        for texture, pixels in generated:
+            problem = difference(out / texture.name, texture, pixels)
+            if problem is not None:
+                differ.append(texture.name)
+                print(f"{out / texture.name}: differs: {problem}")
+            elif not args.quiet:
+                print(f"{out / texture.name}: matches ({texture.what})")
+        if differ:
+            print(
+                f"pbs: error: {out}: {len(differ)} of {len(generated)} textures differ from "
+                f"'pbs textures': {', '.join(differ)}",
+                file=sys.stderr,
+            )
+            return 1
+        return 0
+    encoded = [(texture, pixels, png_bytes(pixels, texture.mode)) for texture, pixels in generated]
+    for texture, pixels, data in encoded:
+        path = out / texture.name
+        _write(path, "--out", lambda p, data=data: write_texture(p, data))
+        if not args.quiet:
+            height, width = pixels.shape[:2]
+            print(f"{path}: {width}x{height} {texture.mode}, {len(data)} bytes, {texture.what}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pbs`` and ``python -m app``."""
     argv = sys.argv[1:] if argv is None else argv
@@ -232,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse exits 2 on bad arguments, 0 on --help
         return int(exc.code or 0)
-    handlers = {"render": cmd_render, "brdf": cmd_brdf}
+    handlers = {"render": cmd_render, "brdf": cmd_brdf, "textures": cmd_textures}
     try:
         return handlers[args.command](args)
     except InputError as exc:

@@ -1,0 +1,2 @@
+"""Material textures: procedural generators, mip chains for normal and roughness data, and
+the offline baking of mask blends (seed section 13, "Blending and Filtering Materials")."""
