@@ -1,0 +1,97 @@
+"""Twin of glsl/brdf/filtering.glsl: roughness that absorbs the normals a pixel or a texel
+averages (seed section 13, "Blending and Filtering Materials").
+
+Two kinds of filtering meet here, both as changes of alpha^2 (alpha = r^2, r the perceptual
+roughness), because the variance of a distribution of slopes adds to the NDF's alpha^2:
+
+* screen space, per pixel, in the G-buffer shader: ``alpha2_specular_aa`` and
+  ``perceptual_roughness_specular_aa`` (the GLSL functions of the same names);
+* texture space, per mip texel, on the CPU: ``alpha2_toksvig`` and
+  ``alpha2_from_slope_variance``, which app/textures/mips.py applies to the moments of each
+  texel's footprint. They have no GLSL counterpart: the renderer samples their result.
+
+Every function is float64 and broadcasts over leading axes (vectors on the last axis).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.reference._vec import dot
+
+# Tokuyoshi & Kaplanyan 2019, their deferred-shading listing: the variance of the pixel filter
+# in pixels^2 (a Gaussian of standard deviation 1/2 pixel, so that +-2 sigma spans one pixel)
+# and the most the filter may add to alpha^2. Their 2021 JCGT sequel uses 1/(2 pi) = 0.159
+# for SIGMA2; the scene format exposes both values (render.specular_aa_variance/_threshold).
+SPECULAR_AA_SIGMA2 = 0.25
+SPECULAR_AA_KAPPA = 0.18
+
+
+def _f64(x: np.ndarray | float) -> np.ndarray:
+    return np.asarray(x, np.float64)
+
+
+def alpha2_specular_aa(
+    alpha2: np.ndarray | float,
+    dndx: np.ndarray,
+    dndy: np.ndarray,
+    sigma2: np.ndarray | float = SPECULAR_AA_SIGMA2,
+    kappa: np.ndarray | float = SPECULAR_AA_KAPPA,
+) -> np.ndarray:
+    """Tokuyoshi & Kaplanyan 2019, "Improved Geometric Specular Antialiasing", the isotropic
+    kernel for deferred shading (after Kaplanyan et al. 2016): the pixel footprint's normal
+    variance added to alpha^2.
+
+    variance = sigma2 (|dn/dx|^2 + |dn/dy|^2); kernel = min(2 variance, kappa);
+    alpha2' = clamp(alpha2 + kernel, 0, 1). ``dndx``, ``dndy`` (..., 3): screen-space
+    derivatives of the shading normal; ``alpha2``, ``sigma2``, ``kappa`` (...) or scalars.
+    """
+    with np.errstate(over="ignore"):  # huge derivatives: the kernel is clamped to kappa
+        variance = _f64(sigma2) * (dot(dndx, dndx) + dot(dndy, dndy))
+    kernel = np.minimum(2.0 * variance, _f64(kappa))
+    return np.clip(_f64(alpha2) + kernel, 0.0, 1.0)
+
+
+def perceptual_roughness_specular_aa(
+    r: np.ndarray | float,
+    dndx: np.ndarray,
+    dndy: np.ndarray,
+    sigma2: np.ndarray | float = SPECULAR_AA_SIGMA2,
+    kappa: np.ndarray | float = SPECULAR_AA_KAPPA,
+) -> np.ndarray:
+    """Tokuyoshi & Kaplanyan 2019 on perceptual roughness: r -> alpha^2 = r^4 ->
+    ``alpha2_specular_aa`` -> r' = (alpha2')^(1/4)."""
+    a = _f64(r) * _f64(r)
+    return np.sqrt(np.sqrt(alpha2_specular_aa(a * a, dndx, dndy, sigma2, kappa)))
+
+
+def alpha2_toksvig(
+    alpha2: np.ndarray | float, mean_normal_length: np.ndarray | float
+) -> np.ndarray:
+    """Toksvig 2005, "Mipmapping Normal Maps", with Walter et al. 2007's Blinn-Phong <->
+    Beckmann mapping s = 2/alpha^2 - 2: alpha^2 widened by the shortening |Na| of the mean
+    of the unit normals a texel averages.
+
+    ft = |Na| / (|Na| + s (1 - |Na|)), s' = ft s, alpha'^2 = 2 / (s' + 2). Multiplying
+    through by alpha^2 gives the same value without s (infinite at alpha = 0):
+    alpha'^2 = D / (|Na| (1 - alpha^2) + D), D = |Na| alpha^2 + 2 (1 - alpha^2)(1 - |Na|).
+    |Na| = 1 returns alpha^2; alpha^2 = 1 returns 1; alpha^2 = 0 returns
+    2 (1 - |Na|) / (2 - |Na|). The one 0/0 (|Na| = 0 with alpha^2 = 1: normals that cancel
+    out, impossible for tangent-space normals with z > 0) returns 1.
+    """
+    a2 = np.clip(_f64(alpha2), 0.0, 1.0)
+    na = np.clip(_f64(mean_normal_length), 0.0, 1.0)
+    d = na * a2 + 2.0 * (1.0 - a2) * (1.0 - na)
+    den = na * (1.0 - a2) + d
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0.0, d / np.where(den > 0.0, den, 1.0), 1.0)
+
+
+def alpha2_from_slope_variance(
+    alpha2: np.ndarray | float, sigma2: np.ndarray | float
+) -> np.ndarray:
+    """Olano & Baker 2010, "LEAN Mapping" (slope moments), with the Beckmann mapping: a
+    Beckmann lobe of roughness alpha has slope variance alpha^2/2 per axis, and variances of
+    independent slopes add, so alpha'^2 = min(1, alpha^2 + 2 sigma^2) with sigma^2 the
+    per-axis variance of the slopes of the normals a texel averages."""
+    return np.minimum(1.0, _f64(alpha2) + 2.0 * np.maximum(_f64(sigma2), 0.0))

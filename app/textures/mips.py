@@ -1,0 +1,191 @@
+"""Mip chains for normal maps and roughness that keep the variance of the normals they
+average (seed section 13, "Blending and Filtering Materials").
+
+Normals and roughness are not linear in the final colour: a plain mip of a bumpy normal map
+is a smooth, shorter normal over a texel whose roughness never learnt about the bumps, so
+highlights alias up close and turn glossier with distance. Here each texel of level k is
+computed from the *moments* of the source texels in its footprint (the unit normal n, the
+slopes s = (-n.x/n.z, -n.y/n.z), s.x^2, s.y^2, alpha^2 and r; alpha = r^2), and a method
+turns the moments into a normal and a perceptual roughness:
+
+* ``naive``: normalize(E[n]) and E[r], what plain mips of the two maps give (the baseline);
+* ``toksvig``: normalize(E[n]), and alpha^2 widened by the shortening |E[n]| (Toksvig 2005);
+* ``variance``: the normal of the mean slope, and alpha^2 + 2 sigma^2 with sigma^2 the
+  slope variance (LEAN-style moments, Olano & Baker 2010). Means of moments average
+  exactly, so every level is the true box filter of the source: level 2 built from level 1
+  equals level 2 built from the source (the law of total variance).
+
+The per-texel formulas live in app/reference/filtering.py. Level k is built from level k-1
+by summing 2x2 blocks of moment *sums* and counting source texels (GL sizes,
+h_k = max(1, h >> k)); an odd last row or column joins the last pair (a block of 3), so at
+every level each source texel lies in exactly one footprint and weighs the same as every
+other texel of it: each texel holds the exact box average of its footprint. (Weighting the
+level k-1 texels equally instead, as plain mips do, would weigh the texels of an odd
+footprint unequally.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.reference.filtering import alpha2_from_slope_variance, alpha2_toksvig
+
+NORMAL_FILTERS = ("naive", "toksvig", "variance")
+
+# Smallest tangent-space n.z: decoded normals are clamped to it, and slopes are computed with
+# n.z floored to it. A normal with n.z <= 0 points into the surface (invalid), and the slope
+# -n.xy/n.z diverges as n.z -> 0, so one grazing texel would outweigh any footprint's second
+# moment. 0.05 is 87.1 degrees from the surface normal, |slope| <= 20: one such texel adds
+# up to 400/N to the slope second moment of a footprint of N texels, which saturates alpha^2
+# (at sigma^2 >= 1/2) for N < 800; height-field normal maps rarely pass 80 degrees
+# (|slope| 5.7), so the floor changes only outliers.
+MIN_NORMAL_Z = 0.05
+
+UNIT_TOLERANCE = 1e-3  # |1 - |n|| allowed for the input normals of build_chain
+
+# Moment channels each method needs (names of _moment's channels).
+_CHANNELS = {
+    "naive": ("nx", "ny", "nz", "r"),
+    "toksvig": ("nx", "ny", "nz", "a2"),
+    "variance": ("sx", "sy", "sxx", "syy", "a2"),
+}
+
+
+def decode_normal_map(rgb: np.ndarray) -> np.ndarray:
+    """(H, W, 3|4) uint8 tangent-space normal map (n*0.5+0.5) -> (H, W, 3) float64 unit
+    normals, z clamped > 0.
+
+    Each channel decodes as v/255 * 2 - 1, the exact inverse of the encoding and what a GL
+    UNORM texture sampled as ``rgb * 2 - 1`` gives (so 128 decodes to 1/255, not 0: a flat
+    map is flat and constant, tilted by 0.3 degrees). No channel can decode to 0, so the
+    vector always has a length; it is normalised, and where n.z < MIN_NORMAL_Z (facing into
+    or along the surface) n.z is raised to MIN_NORMAL_Z and x, y are rescaled to keep unit
+    length. Alpha is ignored. Raises ValueError on another dtype or shape (the caller names
+    the file and the scene key).
+    """
+    a = np.asarray(rgb)
+    if a.dtype != np.uint8 or a.ndim != 3 or a.shape[2] not in (3, 4):
+        raise ValueError(f"a normal map must be (H, W, 3|4) uint8, not {a.shape} {a.dtype}")
+    n = a[..., :3].astype(np.float64) * (2.0 / 255.0) - 1.0
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    low = n[..., 2] < MIN_NORMAL_Z
+    if np.any(low):
+        xy = n[low, :2]
+        length = np.linalg.norm(xy, axis=-1, keepdims=True)  # >= sqrt(1 - 0.05^2) > 0
+        n[low, :2] = xy * (np.sqrt(1.0 - MIN_NORMAL_Z**2) / length)
+        n[low, 2] = MIN_NORMAL_Z
+    return n
+
+
+@dataclass
+class FilteredChain:
+    """A normal map's and a roughness map's joint mip chain, level 0 first (GL sizes)."""
+
+    normals: list[np.ndarray]  # level k: (h_k, w_k, 3) float32 unit tangent-space normals
+    roughness: list[np.ndarray]  # level k: (h_k, w_k) float32 perceptual roughness r (alpha = r^2)
+
+
+def build_chain(normals: np.ndarray, roughness: np.ndarray | float, method: str) -> FilteredChain:
+    """Mip chain down to 1x1 (GL sizes: h_k = max(1, h >> k)). Level 0 is exactly the source.
+
+    ``normals``: (H, W, 3) unit tangent-space normals; ``roughness``: (H, W) perceptual
+    roughness in [0, 1] or one value for every texel; ``method`` one of NORMAL_FILTERS.
+    Raises ValueError on anything else (the caller names the file and the scene key).
+    """
+    n, r = _checked(normals, roughness, method)
+    levels_n = [n.astype(np.float32)]
+    levels_r = [r.astype(np.float32)]
+    names = _CHANNELS[method]
+    sums: np.ndarray | None = None
+    counts_y = np.ones(n.shape[0])
+    counts_x = np.ones(n.shape[1])
+    while max(counts_y.size, counts_x.size) > 1:
+        if sums is None:  # level 1 straight from the source, one moment at a time
+            sums = np.stack([_halve(_moment(name, n, r)) for name in names], axis=-1)
+        else:
+            sums = _halve(sums)
+        counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
+        means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
+        moments = dict(zip(names, np.moveaxis(means, -1, 0), strict=True))
+        normal, r_level = _filtered(method, moments)
+        levels_n.append(normal.astype(np.float32))
+        levels_r.append(r_level.astype(np.float32))
+    return FilteredChain(levels_n, levels_r)
+
+
+def _checked(
+    normals: np.ndarray, roughness: np.ndarray | float, method: str
+) -> tuple[np.ndarray, np.ndarray]:
+    if method not in NORMAL_FILTERS:
+        raise ValueError(f"unknown normal filter {method!r}; one of {', '.join(NORMAL_FILTERS)}")
+    n = np.asarray(normals, np.float64)
+    if n.ndim != 3 or n.shape[2] != 3 or n.shape[0] < 1 or n.shape[1] < 1:
+        raise ValueError(f"normals must be (H, W, 3), not {n.shape}")
+    if not np.all(np.isfinite(n)):
+        raise ValueError("normals must be finite")
+    if np.max(np.abs(np.linalg.norm(n, axis=-1) - 1.0)) > UNIT_TOLERANCE:
+        raise ValueError("normals must have unit length")
+    r = np.asarray(roughness, np.float64)
+    if r.ndim == 0:
+        r = np.full(n.shape[:2], float(r))
+    if r.shape != n.shape[:2]:
+        raise ValueError(f"roughness must be {n.shape[:2]} like the normals, not {r.shape}")
+    if not np.all(np.isfinite(r)) or r.min() < 0.0 or r.max() > 1.0:
+        raise ValueError("roughness must lie in [0, 1]")
+    return n, r
+
+
+def _moment(name: str, n: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """One per-texel moment (H, W): normal components, slopes (n.z floored to
+    MIN_NORMAL_Z), squared slopes, alpha^2 = r^4, or r."""
+    if name in ("nx", "ny", "nz"):
+        return n[..., "xyz".index(name[1])]
+    if name == "a2":
+        return r**4
+    if name == "r":
+        return r
+    s = -n[..., "xy".index(name[1])] / np.maximum(n[..., 2], MIN_NORMAL_Z)
+    return s * s if len(name) == 3 else s
+
+
+def _halve(a: np.ndarray) -> np.ndarray:
+    """Sums over the next level's footprints: 2x2 blocks of rows and columns, an odd last
+    row or column joining the last pair, a side of 1 staying 1."""
+    for axis in (0, 1):
+        size = a.shape[axis]
+        a = np.add.reduceat(a, np.arange(0, 2 * max(1, size // 2), 2), axis=axis)
+    return a
+
+
+def _halve_counts(counts: np.ndarray) -> np.ndarray:
+    """Source texels per footprint along one axis at the next level."""
+    return np.add.reduceat(counts, np.arange(0, 2 * max(1, counts.size // 2), 2))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    """v / |v| over the last axis, +Z where v vanishes (only normals that cancel exactly)."""
+    length = np.linalg.norm(v, axis=-1, keepdims=True)
+    up = np.zeros_like(v)
+    up[..., 2] = 1.0
+    return np.where(length > 1e-300, v / np.where(length > 1e-300, length, 1.0), up)
+
+
+def _filtered(method: str, m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(normal, perceptual roughness) of each texel from the mean moments ``m`` of its
+    footprint."""
+    if method == "naive":
+        return _unit(np.stack([m["nx"], m["ny"], m["nz"]], axis=-1)), m["r"]
+    if method == "toksvig":
+        mean_n = np.stack([m["nx"], m["ny"], m["nz"]], axis=-1)
+        alpha2 = alpha2_toksvig(m["a2"], np.linalg.norm(mean_n, axis=-1))
+        return _unit(mean_n), alpha2**0.25
+    # Isotropic: the G-buffer carries one roughness, so sigma^2 is the mean of the two
+    # per-axis slope variances (clamped at 0 against rounding in E[s^2] - E[s]^2).
+    var_x = m["sxx"] - m["sx"] * m["sx"]
+    var_y = m["syy"] - m["sy"] * m["sy"]
+    sigma2 = np.maximum(0.5 * (var_x + var_y), 0.0)
+    alpha2 = alpha2_from_slope_variance(m["a2"], sigma2)
+    normal = _unit(np.stack([-m["sx"], -m["sy"], np.ones_like(m["sx"])], axis=-1))
+    return normal, alpha2**0.25

@@ -1,0 +1,301 @@
+"""Mip chains for normal and roughness maps (seed section 13): level 0 is the source, sizes
+follow GL, a flat map keeps its roughness, bumps below a texel move into roughness by the
+amount each method predicts, and the variance method is the exact box filter of the slope
+moments (level 2 from level 1 = level 2 from the source).
+
+Outputs are float32: r' carries one float32 rounding (relative 2^-24), so alpha'^2 = r'^4
+carries ~4 of them; tolerances on alpha'^2 below are 1e-6 relative (~17 ulps).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from app.reference.filtering import alpha2_from_slope_variance, alpha2_toksvig
+from app.textures.mips import (
+    MIN_NORMAL_Z,
+    NORMAL_FILTERS,
+    build_chain,
+    decode_normal_map,
+)
+
+RNG_SEED = 20241130
+F32_REL = 1e-6  # alpha'^2 = r'^4 from a float32 r': 4 roundings of 2^-24, with margin
+
+
+def alpha2(r: np.ndarray) -> np.ndarray:
+    """alpha^2 = r^4 of a float32 roughness level, in float64."""
+    return np.asarray(r, np.float64) ** 4
+
+
+def bumpy_normals(shape: tuple[int, int], slope_std: float, seed: int) -> np.ndarray:
+    """Unit normals of random slopes (s.x, s.y) ~ N(0, slope_std^2): n = (-s.x, -s.y, 1)/|.|."""
+    s = np.random.default_rng(seed).normal(0.0, slope_std, (*shape, 2))
+    n = np.concatenate([-s, np.ones((*shape, 1))], axis=-1)
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def checkerboard(shape: tuple[int, int], theta: float) -> np.ndarray:
+    """Normals tilted by +theta and -theta about the x axis, alternating per texel:
+    n = (0, -+sin theta, cos theta), slopes (0, +-tan theta)."""
+    yy, xx = np.mgrid[: shape[0], : shape[1]]
+    sign = np.where((xx + yy) % 2 == 0, 1.0, -1.0)
+    n = np.zeros((*shape, 3))
+    n[..., 1] = -sign * math.sin(theta)
+    n[..., 2] = math.cos(theta)
+    return n
+
+
+def slopes(n: np.ndarray) -> np.ndarray:
+    return -n[..., :2] / n[..., 2:3]
+
+
+def box(a: np.ndarray, k: int) -> np.ndarray:
+    """Direct box average of (H, W, ...) over 2^k x 2^k blocks (H, W multiples of 2^k)."""
+    f = 2**k
+    h, w = a.shape[:2]
+    return a.reshape(h // f, f, w // f, f, *a.shape[2:]).mean(axis=(1, 3))
+
+
+# --- structure ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", NORMAL_FILTERS)
+def test_level_zero_is_exactly_the_source(method: str) -> None:
+    rng = np.random.default_rng(RNG_SEED)
+    n = decode_normal_map(rng.integers(0, 256, (12, 20, 3), dtype=np.uint8))
+    r = rng.uniform(0.0, 1.0, (12, 20))
+    chain = build_chain(n, r, method)
+    np.testing.assert_array_equal(chain.normals[0], n.astype(np.float32))
+    np.testing.assert_array_equal(chain.roughness[0], r.astype(np.float32))
+    assert chain.normals[0].dtype == np.float32 and chain.roughness[0].dtype == np.float32
+    flat = build_chain(n, 0.37, method)  # one roughness for every texel
+    np.testing.assert_array_equal(flat.roughness[0], np.full((12, 20), 0.37, np.float32))
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 7), (5, 7), (8, 8), (13, 3), (64, 1), (6, 33)])
+def test_level_sizes_follow_gl(shape: tuple[int, int]) -> None:
+    """h_k = max(1, h >> k) for k = 0 .. floor(log2(max(h, w))), as glGenerateMipmap."""
+    h, w = shape
+    expected = [(max(1, h >> k), max(1, w >> k)) for k in range(int(math.log2(max(h, w))) + 1)]
+    n = bumpy_normals(shape, 0.2, 1)
+    for method in NORMAL_FILTERS:
+        chain = build_chain(n, 0.5, method)
+        assert [a.shape[:2] for a in chain.normals] == expected
+        assert [a.shape for a in chain.roughness] == expected
+        assert all(a.shape[2] == 3 for a in chain.normals)
+
+
+@pytest.mark.parametrize("method", NORMAL_FILTERS)
+def test_odd_sizes_weigh_every_source_texel_equally(method: str) -> None:
+    """5 x 7 -> 2 x 3 -> 1 x 1 (the odd row and column join the last pair): the 1x1 level is
+    the method applied to the plain mean of the moments of all 35 source texels."""
+    rng = np.random.default_rng(RNG_SEED + 1)
+    n = bumpy_normals((5, 7), 0.2, 2)
+    r = rng.uniform(0.05, 0.5, (5, 7))
+    top_n = build_chain(n, r, method).normals[-1][0, 0]
+    top_r = float(build_chain(n, r, method).roughness[-1][0, 0])
+    mean_n = n.reshape(-1, 3).mean(axis=0)
+    s = slopes(n).reshape(-1, 2)
+    if method == "naive":
+        want_n, want_a2 = mean_n / np.linalg.norm(mean_n), r.mean() ** 4
+    elif method == "toksvig":
+        want_n = mean_n / np.linalg.norm(mean_n)
+        want_a2 = alpha2_toksvig((r**4).mean(), np.linalg.norm(mean_n))
+    else:
+        want_n = np.append(-s.mean(axis=0), 1.0)
+        want_n /= np.linalg.norm(want_n)
+        want_a2 = alpha2_from_slope_variance((r**4).mean(), s.var(axis=0).mean())
+    np.testing.assert_allclose(top_n, want_n, rtol=0, atol=2e-7)
+    assert abs(top_r**4 / want_a2 - 1.0) <= F32_REL
+
+
+# --- flat maps ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", NORMAL_FILTERS)
+def test_flat_map_keeps_constant_roughness_at_every_level(method: str) -> None:
+    """All normals (0, 0, 1) and one r: every level of every method has normal +Z and r
+    itself (measured: bit-identical to float32(r) for these values)."""
+    n = np.zeros((16, 24, 3))
+    n[..., 2] = 1.0
+    for r in (0.0, 0.045, 0.3, 0.5, 0.77, 1.0):
+        chain = build_chain(n, r, method)
+        for level_n, level_r in zip(chain.normals, chain.roughness, strict=True):
+            np.testing.assert_array_equal(level_n, np.broadcast_to([0, 0, 1], level_n.shape))
+            np.testing.assert_array_equal(level_r, np.float32(r))
+
+
+def test_flat_map_with_varying_roughness() -> None:
+    """A flat map with a roughness texture: no normal variance to move anywhere, so what
+    holds is the box filter of each method's roughness quantity: naive averages r,
+    toksvig and variance average alpha^2 = r^4 (|E[n]| = 1, sigma^2 = 0)."""
+    rng = np.random.default_rng(RNG_SEED + 2)
+    n = np.zeros((16, 16, 3))
+    n[..., 2] = 1.0
+    r = rng.uniform(0.0, 1.0, (16, 16))
+    for method in NORMAL_FILTERS:
+        chain = build_chain(n, r, method)
+        for k in range(1, 5):
+            if method == "naive":
+                want = box(r, k)
+                np.testing.assert_allclose(chain.roughness[k], want, rtol=2**-23)
+            else:
+                want = box(r**4, k)
+                np.testing.assert_allclose(alpha2(chain.roughness[k]), want, rtol=F32_REL)
+
+
+# --- bumps move into roughness --------------------------------------------------------------
+
+
+@pytest.mark.parametrize("degrees", [2.0, 10.0, 25.0])
+@pytest.mark.parametrize("r", [0.0, 0.3, 0.6])
+def test_checkerboard_of_tilted_normals(degrees: float, r: float) -> None:
+    """Normals at +-theta about x, alternating per texel; every level >= 1 sees both equally.
+
+    Derivation for the variance method: slopes are (0, +tan theta) and (0, -tan theta), half
+    each, so E[s] = 0, Var(s.y) = tan^2 theta, Var(s.x) = 0; the isotropic sigma^2 is their
+    mean, tan^2(theta)/2, and alpha'^2 = alpha^2 + 2 sigma^2 = alpha^2 + tan^2 theta (not
+    + 2 tan^2 theta: the whole variance is along one axis, and one roughness spreads it over
+    two). Toksvig: |E[n]| = cos theta. Naive: r unchanged. All: the normal is +Z.
+    """
+    theta = math.radians(degrees)
+    n = checkerboard((16, 16), theta)
+    a2 = r**4
+    chains = {m: build_chain(n, r, m) for m in NORMAL_FILTERS}
+    s_phong = 2.0 / a2 - 2.0 if a2 > 0 else math.inf
+    if a2 > 0:  # Toksvig's formula as printed, through the Blinn-Phong exponent
+        ft = math.cos(theta) / (math.cos(theta) + s_phong * (1.0 - math.cos(theta)))
+        toksvig_a2 = 2.0 / (ft * s_phong + 2.0)
+    else:  # its limit as s -> infinity
+        toksvig_a2 = 2.0 * (1.0 - math.cos(theta)) / (2.0 - math.cos(theta))
+    variance_a2 = min(1.0, a2 + math.tan(theta) ** 2)
+    for k in range(1, 5):
+        for chain in chains.values():
+            up = np.zeros(chain.normals[k].shape)
+            up[..., 2] = 1.0
+            np.testing.assert_allclose(chain.normals[k], up, rtol=0, atol=1e-7)
+        np.testing.assert_array_equal(chains["naive"].roughness[k], np.float32(r))
+        got_t = alpha2(chains["toksvig"].roughness[k])
+        got_v = alpha2(chains["variance"].roughness[k])
+        np.testing.assert_allclose(got_t, toksvig_a2, rtol=F32_REL)
+        np.testing.assert_allclose(got_v, variance_a2, rtol=F32_REL)
+        assert np.all(got_t > a2) and np.all(got_v > a2)
+
+
+def test_checkerboard_steep_enough_saturates_variance() -> None:
+    """tan^2(60 deg) = 3 > 1 - alpha^2: alpha'^2 clamps at 1 (r' = 1)."""
+    chain = build_chain(checkerboard((8, 8), math.radians(60.0)), 0.3, "variance")
+    for level in chain.roughness[1:]:
+        np.testing.assert_array_equal(level, np.float32(1.0))
+
+
+def test_variance_method_conserves_the_slope_second_moment() -> None:
+    """Law of total variance: the mean of the level-1 variances plus the variance of the
+    level-1 mean slopes is the variance over the level-2 footprint. So level 2 built from
+    level 1's own outputs (alpha'^2 = E[alpha_1'^2] + 2 Var_iso(slope of n_1), n_1's slope
+    being E[s] exactly) equals level 2 from the source's 4x4 footprints (numpy's var).
+    Slopes N(0, 0.12^2), r in [0.05, 0.35]: alpha'^2 stays < 1 (no clamp)."""
+    rng = np.random.default_rng(RNG_SEED + 3)
+    n = bumpy_normals((32, 32), 0.12, 3)
+    r = rng.uniform(0.05, 0.35, (32, 32))
+    chain = build_chain(n, r, "variance")
+    assert max(float(level.max()) for level in chain.roughness) < 1.0
+    s = slopes(n)
+    for k in (1, 2, 3):
+        f = 2**k
+        foot = s.reshape(32 // f, f, 32 // f, f, 2)
+        var_iso = foot.var(axis=(1, 3)).mean(axis=-1)
+        direct = box(r**4, k) + 2.0 * var_iso
+        np.testing.assert_allclose(alpha2(chain.roughness[k]), direct, rtol=F32_REL)
+        mean_slope = foot.mean(axis=(1, 3))
+        got_slope = slopes(chain.normals[k].astype(np.float64))
+        np.testing.assert_allclose(got_slope, mean_slope, rtol=0, atol=1e-6)
+    # Level 2 from level 1's outputs alone.
+    a2_1 = alpha2(chain.roughness[1])
+    s_1 = slopes(chain.normals[1].astype(np.float64))
+    foot = s_1.reshape(8, 2, 8, 2, 2)
+    from_level1 = box(a2_1, 1) + 2.0 * foot.var(axis=(1, 3)).mean(axis=-1)
+    # Level 1 is float32 (its slopes carry ~1e-8 absolute): measured 2.0e-7 relative.
+    np.testing.assert_allclose(alpha2(chain.roughness[2]), from_level1, rtol=F32_REL)
+
+
+def test_toksvig_closed_form_matches_the_printed_formula() -> None:
+    """alpha2_toksvig's rearrangement (no Blinn-Phong exponent, finite at alpha = 0) equals
+    ft = |Na|/(|Na| + s(1 - |Na|)), alpha'^2 = 2/(ft s + 2), s = 2/alpha^2 - 2, to 1e-12."""
+    a2, na = np.meshgrid(np.linspace(0.001, 0.999, 101), np.linspace(0.01, 1.0, 100))
+    s = 2.0 / a2 - 2.0
+    ft = na / (na + s * (1.0 - na))
+    np.testing.assert_allclose(alpha2_toksvig(a2, na), 2.0 / (ft * s + 2.0), rtol=1e-12)
+    assert alpha2_toksvig(0.0, 1.0) == 0.0 and alpha2_toksvig(1.0, 0.3) == 1.0
+    assert alpha2_toksvig(1.0, 0.0) == 1.0  # the 0/0 corner
+    assert np.all(alpha2_toksvig(a2, na) >= a2 - 1e-15)  # never sharper
+
+
+# --- robustness -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", NORMAL_FILTERS)
+def test_grazing_normals_and_extreme_roughness_stay_finite(method: str) -> None:
+    """Normals at n.z = 0, 1e-300, 1e-8, MIN_NORMAL_Z/2 and 1, opposite horizontal pairs
+    (whose mean vanishes), r in {0, 1}: every level finite, unit normals, r' in [0, 1]."""
+    rng = np.random.default_rng(RNG_SEED + 4)
+    h, w = 16, 16
+    z = rng.choice([0.0, 1e-300, 1e-8, MIN_NORMAL_Z / 2, 1.0], (h, w))
+    phi = rng.uniform(0.0, 2.0 * np.pi, (h, w))
+    rho = np.sqrt(1.0 - z * z)
+    n = np.stack([rho * np.cos(phi), rho * np.sin(phi), z], axis=-1)
+    n[:4, :4] = [1.0, 0.0, 0.0]  # a 4x4 block of +x and -x columns: E[n] = 0
+    n[:4, 1:4:2] = [-1.0, 0.0, 0.0]
+    for r in (np.zeros((h, w)), np.ones((h, w)), rng.choice([0.0, 1.0], (h, w))):
+        chain = build_chain(n, r, method)
+        for level_n, level_r in zip(chain.normals, chain.roughness, strict=True):
+            assert np.all(np.isfinite(level_n)) and np.all(np.isfinite(level_r))
+            np.testing.assert_allclose(np.linalg.norm(level_n, axis=-1), 1.0, atol=1e-6)
+            assert level_r.min() >= 0.0 and level_r.max() <= 1.0
+
+
+def test_decode_normal_map() -> None:
+    """v/255*2 - 1 per channel, normalised; z floored at MIN_NORMAL_Z with unit length kept;
+    RGBA reads as RGB; the 8-bit round trip of unit normals is within half a code."""
+    rgb = np.array([[[128, 128, 255], [255, 128, 128], [0, 0, 0], [10, 250, 130]]], np.uint8)
+    n = decode_normal_map(rgb)
+    assert n.shape == (1, 4, 3) and n.dtype == np.float64
+    np.testing.assert_allclose(np.linalg.norm(n, axis=-1), 1.0, atol=1e-15)
+    flat = np.array([1.0, 1.0, 255.0]) / 255.0
+    np.testing.assert_allclose(n[0, 0], flat / np.linalg.norm(flat), atol=1e-15)
+    np.testing.assert_allclose(n[0, 1:, 2], MIN_NORMAL_Z, atol=1e-15)
+    rgba = np.concatenate([rgb, np.full((1, 4, 1), 7, np.uint8)], axis=-1)
+    np.testing.assert_array_equal(decode_normal_map(rgba), n)
+    # Round trip: encode unit normals with z >= 0.2 to 8 bits, decode; each channel is off by
+    # at most half a code (1/255) before normalising, so the angle is below ~1/255 * sqrt(3).
+    m = bumpy_normals((64, 64), 0.5, 5)
+    m = m[m[..., 2] >= 0.2][None]
+    back = decode_normal_map(np.round((m * 0.5 + 0.5) * 255.0).astype(np.uint8))
+    angle = np.arccos(np.clip(np.sum(back * m, axis=-1), -1.0, 1.0))
+    assert angle.max() < math.sqrt(3.0) / 255.0
+
+
+@pytest.mark.parametrize(
+    ("normals", "roughness", "method"),
+    [
+        (np.dstack([np.zeros((4, 4, 2)), np.ones((4, 4))]), 0.5, "trilinear"),
+        (np.dstack([np.zeros((4, 4, 2)), np.ones((4, 4))]), np.zeros((4, 5)), "variance"),
+        (np.dstack([np.zeros((4, 4, 2)), np.ones((4, 4))]), 1.5, "variance"),
+        (np.dstack([np.zeros((4, 4, 2)), np.ones((4, 4))]), math.nan, "toksvig"),
+        (np.dstack([np.zeros((4, 4, 2)), np.full((4, 4), 2.0)]), 0.5, "naive"),
+        (np.zeros((4, 4, 2)), 0.5, "naive"),
+    ],
+)
+def test_bad_arguments_raise(normals: np.ndarray, roughness: object, method: str) -> None:
+    with pytest.raises(ValueError):
+        build_chain(normals, roughness, method)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("rgb", [np.zeros((4, 4, 3), np.float32), np.zeros((4, 4), np.uint8)])
+def test_decode_rejects_non_uint8_rgb(rgb: np.ndarray) -> None:
+    with pytest.raises(ValueError):
+        decode_normal_map(rgb)
