@@ -27,8 +27,7 @@ import numpy as np
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.culling import order_lights
-from app.render.gbuffer import MeshDrawable
-from app.render.materials import MaterialTable
+from app.render.gbuffer import MeshDrawable, material_table
 from app.scene.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
 from app.scene.geometry import build_parts
 from app.scene.lights import environment_records, light_record, pack_lights
@@ -52,7 +51,7 @@ class ForwardRenderer:
         # The deferred renderer's order, so each pixel sums the same terms in the same order.
         self.lights = order_lights(records + environment_records(scene.environment))
         parts = build_parts(loaded)
-        self.materials, material_ids = MaterialTable.build([p.material for p in parts])
+        self.materials, material_ids = material_table(parts)
         self.material_texture = self.materials.texture(ctx)
         self.ms_table = None
         if any(model.multiscatter for model in self.materials.models):
@@ -63,16 +62,24 @@ class ForwardRenderer:
         self.light_texture = ctx.texture((4, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         group_defines = [model.defines() for model in self.materials.models]
+        settings = scene.render
+        specular_aa = (
+            (settings.specular_aa_variance, settings.specular_aa_threshold)
+            if settings.specular_aa
+            else None
+        )
+        # A blend of two models shades with the first layer's (the baseline needs no more).
         self.drawables = [
             MeshDrawable(
                 ctx,
                 self.shaders,
                 part,
-                row,
+                rows,
                 ("passes/forward.vert", "passes/forward.frag"),
-                group_defines[self.materials.groups[row]],
+                group_defines[self.materials.groups[rows[0]]],
+                specular_aa,
             )
-            for part, row in zip(parts, material_ids, strict=True)
+            for part, rows in zip(parts, material_ids, strict=True)
         ]
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -108,19 +115,14 @@ class ForwardRenderer:
                 ctx.front_face = "cw" if d.mirrored else "ccw"
             else:
                 ctx.disable(moderngl.CULL_FACE)
-            prog, m = d.program, d.part.material
+            prog = d.program
             prog["u_model"].write(d.model_bytes)
             prog["u_normal_matrix"].write(d.normal_bytes)
             prog["u_view"].write(view_bytes)
             prog["u_proj"].write(proj_bytes)
             prog["u_camera_to_world"].write(camera_to_world)
+            d.bind_material(first_unit=3)
             values = {
-                "u_base_color": m.base_color,
-                "u_metallic": m.metallic,
-                "u_roughness": m.roughness,
-                "u_f0": m.f0,
-                "u_anisotropy": m.anisotropy,
-                "u_material_id": d.material_id,
                 "u_lights": 0,
                 "u_materials": 1,
                 "u_ms_table": 2,
@@ -132,9 +134,6 @@ class ForwardRenderer:
             for name, value in values.items():
                 if name in prog:  # the compiler drops what a permutation does not use
                     prog[name].value = value
-            for unit, (name, tex) in enumerate(d.textures.items(), start=3):
-                tex.use(unit)
-                prog[f"u_{name}_map"].value = unit
             d.vao.render(moderngl.TRIANGLES)
         ctx.disable(moderngl.CULL_FACE)
 

@@ -16,8 +16,10 @@ import moderngl
 import numpy as np
 
 from app.gl.shaders import ShaderCache
+from app.render.materials import MaterialTable
 from app.scene.camera import gl_bytes
-from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart, Texture
+from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
+from app.textures.maps import SurfaceLayer, Texture
 
 
 @dataclass
@@ -68,34 +70,81 @@ def _read_float(tex: moderngl.Texture) -> np.ndarray:
     return np.frombuffer(tex.read(), np.dtype(tex.dtype)).astype(np.float32)
 
 
-def _upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
-    h, w = tex.pixels.shape[:2]
-    internal = 0x8C43 if tex.srgb else None  # GL_SRGB8_ALPHA8: decoded to linear on fetch
-    gl_tex = ctx.texture((w, h), 4, tex.pixels[::-1].tobytes(), internal_format=internal)
-    gl_tex.build_mipmaps()  # colour data and glTF metallic-roughness maps only
-    gl_tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+# Bit of each map in a layer's LAYER<i>_MAPS define (glsl/material/layers.glsl).
+MAP_BITS = {
+    "base_color": 1,
+    "metallic": 2,
+    "anisotropy": 4,
+    "normal_roughness": 8,
+    "f0": 16,
+    "select": 32,
+}
+# Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
+# anisotropic) stepped between mip levels on the receding floor of
+# scenes/sec13_filtering.toml: bands of constant roughness, one per level (seen, and gone at
+# 1); it would also pick the roughness of the minor axis's footprint. docs/filtering.md.
+MAX_ANISOTROPY = 1.0
+
+
+def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
+    """A material map with its mips: sRGB colour data decoded by the GL, which builds its
+    mips; every other map with the levels the project built (app/textures/), never the
+    GL's. Non-colour data is stored as 16-bit floats."""
+    level0 = tex.levels[0]
+    h, w = level0.shape[:2]
+    if tex.srgb:
+        internal = 0x8C43  # GL_SRGB8_ALPHA8: decoded to linear on fetch
+        gl_tex = ctx.texture((w, h), 4, level0[::-1].tobytes(), internal_format=internal)
+        gl_tex.build_mipmaps()
+    else:
+        comps = 1 if level0.ndim == 2 else level0.shape[2]
+
+        def data(level: np.ndarray) -> bytes:
+            return np.ascontiguousarray(level[::-1], np.float16).tobytes()
+
+        gl_tex = ctx.texture((w, h), comps, data(level0), dtype="f2")
+        if len(tex.levels) > 1:
+            gl_tex.build_mipmaps(0, len(tex.levels) - 1)  # allocates the levels ...
+            for k, level in enumerate(tex.levels[1:], start=1):
+                gl_tex.write(data(level), level=k)  # ... which ours then replace
+    mipmapped = tex.srgb or len(tex.levels) > 1
+    gl_tex.filter = (
+        moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
+        moderngl.LINEAR,
+    )
+    gl_tex.anisotropy = MAX_ANISOTROPY
     return gl_tex
 
 
+def layer_maps_define(layer: SurfaceLayer) -> int:
+    """The LAYER<i>_MAPS bitmask of a layer's maps."""
+    return sum(MAP_BITS[name] for name in layer.maps)
+
+
 class MeshDrawable:
-    """One mesh part on the GPU: its program (the shader pair, with the part's texture
-    maps as defines), vertex and index buffers, textures and per-part matrices. The
-    G-buffer pass and the forward renderer (app/render/forward.py) both draw with it."""
+    """One mesh part on the GPU: its program (the shader pair, with the part's maps, blend
+    and options as defines), vertex and index buffers, textures and per-part matrices.
+    The G-buffer pass and the forward renderer (app/render/forward.py) both draw with it."""
 
     def __init__(
         self,
         ctx: moderngl.Context,
         shaders: ShaderCache,
         part: MeshPart,
-        material_id: int,
+        material_ids: list[int],
         shader_pair: tuple[str, str] = ("passes/gbuffer.vert", "passes/gbuffer.frag"),
         defines: dict[str, object] | None = None,
+        specular_aa: tuple[float, float] | None = None,
     ) -> None:
         defines = dict(defines or {})
-        if "base_color" in part.maps:
-            defines["MAT_BASE_COLOR_MAP"] = None
-        if "metallic_roughness" in part.maps:
-            defines["MAT_METALLIC_ROUGHNESS_MAP"] = None
+        for i, layer in enumerate(part.layers):
+            if layer.maps:
+                defines[f"LAYER{i}_MAPS"] = layer_maps_define(layer)
+        if part.blend is not None:
+            defines["BLEND"] = 1
+        if specular_aa is not None:
+            defines["SPECULAR_AA"] = 1
+        self.specular_aa = specular_aa
         self.program = shaders.program(*shader_pair, defines)
         self.vbo = ctx.buffer(part.vertices.tobytes())
         self.ibo = ctx.buffer(part.indices.tobytes())
@@ -105,51 +154,96 @@ class MeshDrawable:
             self.ibo,
             skip_errors=True,
         )
-        self.textures = {name: _upload_texture(ctx, t) for name, t in part.maps.items()}
+        # (uniform name, texture) in the order they take texture units.
+        self.textures: list[tuple[str, moderngl.Texture]] = []
+        for i, layer in enumerate(part.layers[:2] if part.blend else part.layers[:1]):
+            for name, tex in layer.maps.items():
+                self.textures.append((f"u_{name}_map{i}", upload_texture(ctx, tex)))
+        if part.blend is not None:
+            self.textures.append(("u_blend_mask", upload_texture(ctx, part.blend.mask)))
         self.part = part
-        self.material_id = material_id
+        self.material_ids = material_ids
         normal_matrix = np.linalg.inv(part.model[:3, :3]).T
         self.model_bytes = gl_bytes(part.model)
         self.normal_bytes = gl_bytes(normal_matrix)
         # A matrix with a negative determinant mirrors the triangles' winding.
         self.mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
 
+    @property
+    def material_id(self) -> int:
+        """The row of the part's (first) material."""
+        return self.material_ids[0]
+
+    def bind_material(self, first_unit: int = 0) -> None:
+        """Set the layers' constants and bind their maps from texture unit ``first_unit``."""
+        prog = self.program
+        values: dict[str, object] = {}
+        for i, layer in enumerate(self.part.layers):
+            m = layer.params
+            values.update(
+                {
+                    f"u_layer{i}.base_color": m.base_color,
+                    f"u_layer{i}.metallic": m.metallic,
+                    f"u_layer{i}.roughness": m.roughness,
+                    f"u_layer{i}.f0": m.f0,
+                    f"u_layer{i}.anisotropy": m.anisotropy,
+                    f"u_layer{i}.uv_scale": layer.uv_scale,
+                    f"u_material_id{i}": float(self.material_ids[i]),
+                }
+            )
+        if (blend := self.part.blend) is not None:
+            values["u_blend"] = (blend.threshold, blend.softness)
+        if self.specular_aa is not None:
+            values["u_specular_aa"] = self.specular_aa
+        for name, value in values.items():
+            if name in prog:  # the compiler drops what a permutation does not use
+                prog[name].value = value
+        for unit, (name, tex) in enumerate(self.textures, start=first_unit):
+            tex.use(unit)
+            if name in prog:
+                prog[name].value = unit
+
     def draw(self, view_bytes: bytes, proj_bytes: bytes) -> None:
-        prog, m = self.program, self.part.material
+        prog = self.program
         prog["u_model"].write(self.model_bytes)
         prog["u_normal_matrix"].write(self.normal_bytes)
         prog["u_view"].write(view_bytes)
         prog["u_proj"].write(proj_bytes)
-        prog["u_base_color"].value = m.base_color
-        prog["u_metallic"].value = m.metallic
-        prog["u_roughness"].value = m.roughness
-        prog["u_f0"].value = m.f0
-        prog["u_anisotropy"].value = m.anisotropy
-        prog["u_material_id"].value = float(self.material_id)
-        for unit, (name, tex) in enumerate(self.textures.items()):
-            tex.use(unit)
-            prog[f"u_{name}_map"].value = unit
+        self.bind_material()
         self.vao.render(moderngl.TRIANGLES)
 
     def release(self) -> None:
-        for obj in (self.vao, self.vbo, self.ibo, *self.textures.values()):
+        for obj in (self.vao, self.vbo, self.ibo, *(t for _, t in self.textures)):
             obj.release()
 
 
+def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]]]:
+    """The lighting pass's material table over every layer of every part, and each part's
+    rows (one per layer)."""
+    table, flat = MaterialTable.build([layer.params for p in parts for layer in p.layers])
+    ids, i = [], 0
+    for p in parts:
+        ids.append(flat[i : i + len(p.layers)])
+        i += len(p.layers)
+    return table, ids
+
+
 class GBufferPass:
-    """Draws every mesh part into a ``GBuffer``; ``material_ids[i]`` is part i's row of the
-    lighting pass's material table."""
+    """Draws every mesh part into a ``GBuffer``; ``material_ids[i]`` are part i's rows of the
+    lighting pass's material table, one per layer."""
 
     def __init__(
         self,
         ctx: moderngl.Context,
         shaders: ShaderCache,
         parts: list[MeshPart],
-        material_ids: list[int],
+        material_ids: list[list[int]],
+        specular_aa: tuple[float, float] | None = None,
     ) -> None:
         self.ctx = ctx
         self.drawables = [
-            MeshDrawable(ctx, shaders, p, i) for p, i in zip(parts, material_ids, strict=True)
+            MeshDrawable(ctx, shaders, p, ids, specular_aa=specular_aa)
+            for p, ids in zip(parts, material_ids, strict=True)
         ]
 
     def run(self, target: GBuffer, view: np.ndarray, proj: np.ndarray) -> None:

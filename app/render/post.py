@@ -44,3 +44,38 @@ class PostPass:
     def release(self) -> None:
         for obj in (self.vao, self.fbo, self.ldr):
             obj.release()
+
+
+class DownsamplePass:
+    """Supersampling's resolve: box-filters an HDR image rendered ``factor`` times larger
+    in each direction down to ``size`` (the scene's ``render.supersample``)."""
+
+    def __init__(
+        self, ctx: moderngl.Context, shaders: ShaderCache, size: tuple[int, int], factor: int
+    ) -> None:
+        self.ctx = ctx
+        self.program = shaders.program("passes/fullscreen.vert", "passes/downsample.frag")
+        self.vao = ctx.vertex_array(self.program, [])
+        self.hdr = ctx.texture(size, 4, dtype="f4")
+        self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.fbo = ctx.framebuffer([self.hdr])
+        self.size = size
+        self.factor = factor
+
+    def run(self, hdr: moderngl.Texture) -> None:
+        self.fbo.use()
+        self.ctx.viewport = (0, 0, *self.size)
+        hdr.use(0)
+        self.program["u_hdr"].value = 0
+        self.program["u_factor"].value = self.factor
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def read(self) -> np.ndarray:
+        """(H, W, 3) float32, rows top to bottom."""
+        w, h = self.size
+        data = np.frombuffer(self.hdr.read(), np.float32).reshape(h, w, 4)
+        return data[::-1, :, :3].copy()
+
+    def release(self) -> None:
+        for obj in (self.vao, self.fbo, self.hdr):
+            obj.release()

@@ -11,10 +11,9 @@ import numpy as np
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.culling import LightCuller, order_lights
-from app.render.gbuffer import GBuffer, GBufferData, GBufferPass
+from app.render.gbuffer import GBuffer, GBufferData, GBufferPass, material_table
 from app.render.lighting import LightingPass
-from app.render.materials import MaterialTable
-from app.render.post import PostPass
+from app.render.post import DownsamplePass, PostPass
 from app.scene.camera import camera_frame, projection_matrix, view_matrix
 from app.scene.geometry import build_parts
 from app.scene.lights import environment_records, light_record
@@ -22,37 +21,55 @@ from app.scene.loader import LoadedScene
 
 
 class Renderer:
-    """One scene, one image size, headless."""
+    """One scene, one image size, headless.
+
+    With ``render.supersample = n`` every pass before post runs at n x n times the pixels
+    (``render_size``) and a resolve box-filters the HDR image down to ``size``.
+    """
 
     def __init__(
-        self, gl: GLContext, loaded: LoadedScene, size: tuple[int, int] | None = None
+        self,
+        gl: GLContext,
+        loaded: LoadedScene,
+        size: tuple[int, int] | None = None,
     ) -> None:
         scene = loaded.scene
         self.gl = gl
         self.scene = scene
         self.size = size or (scene.render.width, scene.render.height)
+        factor = scene.render.supersample
+        self.render_size = (self.size[0] * factor, self.size[1] * factor)
         ctx = gl.ctx
         self.shaders = ShaderCache(ctx)
         records = [light_record(light) for light in scene.lights]
         self.lights = order_lights(records + environment_records(scene.environment))
         parts = build_parts(loaded)
-        self.materials, material_ids = MaterialTable.build([p.material for p in parts])
-        self.gbuffer = GBuffer(ctx, self.size, scene.render.gbuffer)
-        self.gbuffer_pass = GBufferPass(ctx, self.shaders, parts, material_ids)
+        self.materials, material_ids = material_table(parts)
+        self.gbuffer = GBuffer(ctx, self.render_size, scene.render.gbuffer)
+        settings = scene.render
+        specular_aa = (
+            (settings.specular_aa_variance, settings.specular_aa_threshold)
+            if settings.specular_aa
+            else None
+        )
+        self.gbuffer_pass = GBufferPass(ctx, self.shaders, parts, material_ids, specular_aa)
         local = any(r["type"] != 0 for r in self.lights)
         self.culler = (
-            LightCuller(ctx, self.shaders, self.size, self.lights)
+            LightCuller(ctx, self.shaders, self.render_size, self.lights)
             if local and scene.render.light_culling == "tiled"
             else None
         )
         self.lighting = LightingPass(
-            ctx, self.shaders, self.size, self.lights, self.materials, self.culler
+            ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler
+        )
+        self.resolve = (
+            DownsamplePass(ctx, self.shaders, self.size, factor) if factor > 1 else None
         )
         self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)
         w, h = self.size
         self.view = view_matrix(scene.camera)
         self.proj = projection_matrix(scene.camera, w / h)
-        self.camera = camera_frame(scene.camera, *self.size)
+        self.camera = camera_frame(scene.camera, *self.render_size)
 
     def render(self) -> None:
         """Run all passes; results stay on the GPU until read."""
@@ -61,11 +78,15 @@ class Renderer:
         if self.culler is not None:
             self.culler.run(self.gbuffer, self.view, self.camera)
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
-        self.post.run(self.lighting.hdr, scene.camera.exposure)
+        hdr = self.lighting.hdr
+        if self.resolve is not None:
+            self.resolve.run(hdr)
+            hdr = self.resolve.hdr
+        self.post.run(hdr, scene.camera.exposure)
 
     def read_hdr(self) -> np.ndarray:
-        """Linear HDR radiance before exposure, (H, W, 3) float32."""
-        return self.lighting.read()
+        """Linear HDR radiance before exposure, (H, W, 3) float32 (resolved to ``size``)."""
+        return self.resolve.read() if self.resolve is not None else self.lighting.read()
 
     def read_ldr(self) -> np.ndarray:
         """The display image, (H, W, 3) uint8 sRGB."""
@@ -77,5 +98,7 @@ class Renderer:
     def release(self) -> None:
         if self.culler is not None:
             self.culler.release()
+        if self.resolve is not None:
+            self.resolve.release()
         for obj in (self.gbuffer_pass, self.gbuffer, self.lighting, self.post, self.shaders):
             obj.release()

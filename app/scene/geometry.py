@@ -11,7 +11,7 @@ otherwise (so anisotropic highlights on primitives run along lines of latitude).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import trimesh
@@ -19,32 +19,45 @@ import trimesh
 from app.errors import InputError
 from app.scene.loader import LoadedScene
 from app.scene.model import MaterialParams, SceneObject
+from app.textures.bake import bake_blend
+from app.textures.layers import LayerBuilder, gltf_layer
+from app.textures.maps import SurfaceLayer, Texture, scalar_texture
 
 VERTEX_FORMAT = "3f 3f 2f 4f"
 VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
 
 
 @dataclass
-class Texture:
-    """An RGBA8 image for a material map (``srgb`` for colour data)."""
+class BlendMask:
+    """A mask painting ``MeshPart.layers[1]`` over ``layers[0]`` (seed section 13)."""
 
-    pixels: np.ndarray  # (H, W, 4) uint8, first row = top of the image
-    srgb: bool
+    mask: Texture  # red channel, sampled with layer 0's UV scale
+    threshold: float
+    softness: float
 
 
 @dataclass
 class MeshPart:
-    """One drawable: vertices, indices, a material and its optional maps."""
+    """One drawable: vertices, indices, its material layers and where it stands.
+
+    ``layers[0]`` is the material; a second layer is painted over it by ``blend`` at run
+    time, or, for a baked blend, is only the material-table row its ``select`` map picks.
+    """
 
     vertices: np.ndarray  # (N, 12) float32: position, normal, uv, tangent (xyz, handedness)
     indices: np.ndarray  # (M*3,) uint32
-    material: MaterialParams
+    layers: list[SurfaceLayer]
     model: np.ndarray  # (4, 4) float64 object -> world
-    maps: dict[str, Texture] = field(default_factory=dict)
+    blend: BlendMask | None = None
     # Closed primitives are drawn with back faces culled: at a silhouette a back face lies
     # within the 24-bit depth buffer's resolution of the front face and could win the depth
     # test with a normal facing away. Planes and mesh files (possibly open) stay two-sided.
     closed: bool = False
+
+    @property
+    def material(self) -> MaterialParams:
+        """The constants of the part's (first) material."""
+        return self.layers[0].params
 
 
 def model_matrix(obj: SceneObject) -> np.ndarray:
@@ -101,6 +114,29 @@ def _plane(size: list[float]) -> trimesh.Trimesh:
     return mesh
 
 
+def _sphere_uv(unit: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Equirectangular UVs of a unit sphere's vertices (u = longitude around +Y from +Z,
+    v = latitude, both in [0, 1]), with the vertices on the seam duplicated so that no
+    triangle's u runs backwards across it (which would squeeze the whole texture into one
+    strip of triangles)."""
+    u = np.arctan2(unit[:, 0], unit[:, 2]) / (2.0 * np.pi) + 0.5
+    v = np.arcsin(np.clip(unit[:, 1], -1.0, 1.0)) / np.pi + 0.5
+    positions, uv, faces = list(unit), list(np.stack([u, v], axis=1)), faces.copy()
+    fu = u[faces]
+    wraps = fu.max(axis=1) - fu.min(axis=1) > 0.5
+    copies: dict[int, int] = {}
+    for f in np.nonzero(wraps)[0]:
+        for c in range(3):
+            i = int(faces[f, c])
+            if u[i] < 0.5:  # the low side of the seam moves to u + 1
+                if i not in copies:
+                    copies[i] = len(positions)
+                    positions.append(unit[i])
+                    uv.append(np.array([u[i] + 1.0, v[i]]))
+                faces[f, c] = copies[i]
+    return np.asarray(positions), faces, np.asarray(uv)
+
+
 def _primitive(obj: SceneObject) -> trimesh.Trimesh:
     if obj.shape == "sphere":
         radius = obj.radius or 0.5
@@ -112,9 +148,10 @@ def _primitive(obj: SceneObject) -> trimesh.Trimesh:
         )
         # The exact sphere normal, not an average of facet normals.
         normals = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
-        return trimesh.Trimesh(
-            unit.vertices * radius, unit.faces, vertex_normals=normals, process=False
-        )
+        positions, faces, uv = _sphere_uv(normals, np.asarray(unit.faces))
+        mesh = trimesh.Trimesh(positions * radius, faces, vertex_normals=positions, process=False)
+        mesh.visual = trimesh.visual.TextureVisuals(uv=uv)
+        return mesh
     if obj.shape == "box":
         return _crease_normals(trimesh.creation.box(extents=obj.size or [1.0, 1.0, 1.0]))
     if obj.shape == "plane":
@@ -201,20 +238,13 @@ def _interleave(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     return vertices, indices
 
 
-def _texture(image: object, srgb: bool) -> Texture | None:
-    if image is None:
-        return None
-    rgba = np.asarray(image.convert("RGBA"), np.uint8)  # PIL image from trimesh
-    return Texture(rgba, srgb)
-
-
 def _file_material(
-    mesh: trimesh.Trimesh, fallback: MaterialParams
-) -> tuple[MaterialParams, dict[str, Texture]]:
+    mesh: trimesh.Trimesh, fallback: MaterialParams, normal_filter: str
+) -> SurfaceLayer:
     """glTF metallic-roughness factors and maps where trimesh read them."""
     mat = getattr(mesh.visual, "material", None)
     if not isinstance(mat, trimesh.visual.material.PBRMaterial):
-        return fallback, {}
+        return SurfaceLayer(fallback)
     factor = mat.baseColorFactor
     base = (
         (1.0, 1.0, 1.0)  # glTF 2.0's default baseColorFactor
@@ -230,12 +260,7 @@ def _file_material(
         roughness=1.0 if mat.roughnessFactor is None else float(mat.roughnessFactor),
         f0=fallback.f0,
     )
-    maps = {}
-    if (t := _texture(mat.baseColorTexture, srgb=True)) is not None:
-        maps["base_color"] = t
-    if (t := _texture(mat.metallicRoughnessTexture, srgb=False)) is not None:
-        maps["metallic_roughness"] = t
-    return params, maps
+    return gltf_layer(params, mat.baseColorTexture, mat.metallicRoughnessTexture, normal_filter)
 
 
 _DEFAULT_MATERIAL = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
@@ -267,30 +292,54 @@ def _load_file(
     raise InputError(str(loaded.path), f"objects[{index}].file", f"{path} holds no triangles")
 
 
+def _material_layers(
+    builder: LayerBuilder, name: str, cache: dict
+) -> tuple[list[SurfaceLayer], BlendMask | None]:
+    """The layers of scene material ``name`` (and its blend), built once per material."""
+    if name in cache:
+        return cache[name]
+    scene = builder.loaded.scene
+    base = builder.layer(name)
+    blend = scene.materials[name].blend
+    if blend is None:
+        result: tuple[list[SurfaceLayer], BlendMask | None] = ([base], None)
+    else:
+        top = builder.layer(blend.material)
+        mask = builder.mask(name)
+        if scene.render.blend == "baked":
+            baked = bake_blend(
+                base, top, mask, blend.threshold, blend.softness, builder.normal_filter
+            )
+            result = ([baked, SurfaceLayer(top.params)], None)
+        else:
+            chain = scalar_texture(mask)
+            result = ([base, top], BlendMask(chain, blend.threshold, blend.softness))
+    cache[name] = result
+    return result
+
+
 def build_parts(loaded: LoadedScene) -> list[MeshPart]:
     """Every object of the scene as drawable mesh parts."""
     scene = loaded.scene
+    builder = LayerBuilder(loaded)
+    cache: dict = {}
     parts: list[MeshPart] = []
     for i, obj in enumerate(scene.objects):
         model = model_matrix(obj)
-        chosen = scene.materials[obj.material].resolve() if obj.material else None
+        chosen = _material_layers(builder, obj.material, cache) if obj.material else None
         if obj.shape != "mesh":
             vertices, indices = _interleave(_primitive(obj))
+            layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)
             parts.append(
-                MeshPart(
-                    vertices,
-                    indices,
-                    chosen or _DEFAULT_MATERIAL,
-                    model,
-                    closed=obj.shape != "plane",
-                )
+                MeshPart(vertices, indices, layers, model, blend, closed=obj.shape != "plane")
             )
             continue
         for mesh, local in _load_file(loaded, i, obj):
             if chosen is not None:  # the scene's material overrides the file's
-                params, maps = chosen, {}
+                layers, blend = chosen
             else:
-                params, maps = _file_material(mesh, _DEFAULT_MATERIAL)
+                layers = [_file_material(mesh, _DEFAULT_MATERIAL, builder.normal_filter)]
+                blend = None
             vertices, indices = _interleave(mesh)
-            parts.append(MeshPart(vertices, indices, params, model @ local, maps))
+            parts.append(MeshPart(vertices, indices, layers, model @ local, blend))
     return parts

@@ -14,7 +14,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from app.errors import InputError
-from app.scene.model import Scene
+from app.scene.model import TEXTURE_KEYS, Scene
 
 _KEY_PREFIX = re.compile(r"^(?:Value error, )?([A-Za-z_][A-Za-z0-9_]*): (.*)$", re.S)
 
@@ -84,6 +84,26 @@ def parse_scene(data: dict, path: Path) -> LoadedScene:
         key, msg = _describe(exc.errors()[0])
         raise InputError(str(path), key, msg) from None
     loaded = LoadedScene(scene, path)
+    for name, material in scene.materials.items():
+        key = f"materials.{name}"
+        for texture_key in TEXTURE_KEYS:
+            if (relative := getattr(material, texture_key)) is not None:
+                _check_readable(loaded, relative, f"{key}.{texture_key}")
+        if (blend := material.blend) is not None:
+            if blend.material not in scene.materials or blend.material == name:
+                known = ", ".join(sorted(set(scene.materials) - {name})) or "none defined"
+                raise InputError(
+                    str(path),
+                    f"{key}.blend.material",
+                    f"unknown material '{blend.material}' to paint on top (known: {known})",
+                )
+            if scene.materials[blend.material].blend is not None:
+                raise InputError(
+                    str(path),
+                    f"{key}.blend.material",
+                    f"'{blend.material}' has a blend itself; layers do not nest",
+                )
+            _check_readable(loaded, blend.mask, f"{key}.blend.mask")
     for i, obj in enumerate(scene.objects):
         if obj.material is not None and obj.material not in scene.materials:
             known = ", ".join(sorted(scene.materials)) or "none defined"
@@ -93,17 +113,20 @@ def parse_scene(data: dict, path: Path) -> LoadedScene:
                 f"unknown material '{obj.material}' (known: {known})",
             )
         if obj.file is not None:
-            target = loaded.resolve_file(obj.file)
-            if not target.is_file():
-                raise InputError(str(path), f"objects[{i}].file", f"no such file: {target}")
-            try:
-                with target.open("rb") as fh:
-                    fh.read(1)
-            except OSError as exc:
-                raise InputError(
-                    str(path), f"objects[{i}].file", f"cannot read {target} ({exc.strerror})"
-                ) from None
+            _check_readable(loaded, obj.file, f"objects[{i}].file")
     return loaded
+
+
+def _check_readable(loaded: LoadedScene, relative: str, key: str) -> None:
+    """A file the scene names exists and can be opened, or an InputError naming ``key``."""
+    target = loaded.resolve_file(relative)
+    if not target.is_file():
+        raise InputError(str(loaded.path), key, f"no such file: {target}")
+    try:
+        with target.open("rb") as fh:
+            fh.read(1)
+    except OSError as exc:
+        raise InputError(str(loaded.path), key, f"cannot read {target} ({exc.strerror})") from None
 
 
 def load_scene(path: str | Path) -> LoadedScene:

@@ -101,6 +101,22 @@ class RenderSettings(_Strict):
     tonemap: Literal["linear", "neutral", "aces", "reinhard"] = "neutral"
     gbuffer: Literal["f16", "f32"] = "f16"
     light_culling: Literal["tiled", "none"] = "tiled"
+    # Seed section 13: how normal-map mips carry the variance of the normals they average
+    # into roughness (app/textures/mips.py), and screen-space geometric specular AA.
+    normal_filter: Literal["none", "naive", "toksvig", "variance"] = "variance"
+    specular_aa: Annotated[bool, Field(strict=True)] = False
+    specular_aa_variance: Annotated[Real, Field(gt=0.0, le=10.0)] = 0.25  # sigma^2, pixel filter
+    specular_aa_threshold: Unit = 0.18  # kappa: the most alpha^2 the filter may add
+    blend: Literal["runtime", "baked"] = "runtime"  # mask blends mixed per pixel, or baked
+    supersample: Annotated[int, Field(strict=True, ge=1, le=16)] = 1  # n x n samples per pixel
+
+    @model_validator(mode="after")
+    def _check(self) -> RenderSettings:
+        if max(self.width, self.height) * self.supersample > 16384:
+            raise ValueError(
+                "supersample: width and height times supersample must not exceed 16384"
+            )
+        return self
 
 
 class Light(_Strict):
@@ -180,6 +196,30 @@ ExtinctionColor = Annotated[
 ]
 
 
+TexturePath = Annotated[str, Field(min_length=1, max_length=4096)]
+UvScale = Annotated[list[Annotated[Real, Field(gt=0.0, le=1e4)]], Field(min_length=2, max_length=2)]
+
+# Material keys that name texture files (relative to the scene file), and what they hold.
+TEXTURE_KEYS = {
+    "base_color_map": "sRGB colour; multiplies base_color",
+    "metallic_map": "linear, red channel; multiplies metallic",
+    "roughness_map": "linear, red channel; multiplies roughness",
+    "normal_map": "tangent-space normals, RGB = n * 0.5 + 0.5 (OpenGL: +Y along +v)",
+    "anisotropy_map": "linear, red channel; multiplies anisotropy",
+}
+
+
+class Blend(_Strict):
+    """Paints another material over this one where a mask texture says so (seed section 13):
+    the two materials' parameters are mixed with weight ``smoothstep`` of the mask around
+    ``threshold`` over a ramp ``softness`` wide, never their shaded colours."""
+
+    material: str  # name in [materials]: the layer painted on top
+    mask: TexturePath  # linear, red channel, sampled with this material's UVs
+    threshold: Unit = 0.5
+    softness: Unit = 0.1  # width of the ramp in mask units; 0 = a hard edge
+
+
 class Material(_Strict):
     """The metallic-roughness material (glTF names), optionally from a seed preset, and the
     model of each BRDF term (docs/scene-format.md, "Materials")."""
@@ -205,9 +245,20 @@ class Material(_Strict):
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
     diffuse: Literal[DIFFUSE_MODELS] = "lambert"  # type: ignore[valid-type]
     multiscatter: Annotated[bool, Field(strict=True)] = False
+    # Textures (seed section 13), paths relative to the scene file; see TEXTURE_KEYS.
+    base_color_map: TexturePath | None = None
+    metallic_map: TexturePath | None = None
+    roughness_map: TexturePath | None = None
+    normal_map: TexturePath | None = None
+    anisotropy_map: TexturePath | None = None
+    normal_scale: Annotated[Real, Field(ge=0.0, le=10.0)] = 1.0  # glTF normalTexture.scale
+    uv_scale: UvScale = [1.0, 1.0]  # texture repeats across the surface's UV range
+    blend: Blend | None = None
 
     @model_validator(mode="after")
     def _check(self) -> Material:
+        if self.anisotropy_map is not None and not self.anisotropy:
+            raise ValueError("anisotropy_map: multiplies 'anisotropy', which must be non-zero")
         if self.preset is not None and self.preset not in PRESETS:
             raise ValueError(
                 f"preset: unknown preset '{self.preset}' (known: {', '.join(sorted(PRESETS))})"

@@ -16,24 +16,12 @@
 #include "brdf/specular.glsl"
 #include "brdf/material.glsl"
 #include "lights/punctual.glsl"
+#include "material/layers.glsl"
 
 in vec3 v_normal;
 in vec2 v_uv;
-in vec3 v_tangent;
+in vec4 v_tangent;
 in float v_view_depth;
-
-uniform vec3 u_base_color;
-uniform float u_metallic;
-uniform float u_roughness;
-uniform float u_f0;
-uniform float u_anisotropy;
-uniform int u_material_id;      // row of the material table (the optional models' numbers)
-#ifdef MAT_BASE_COLOR_MAP
-uniform sampler2D u_base_color_map;    // sRGB texture: sampled as linear by the GL
-#endif
-#ifdef MAT_METALLIC_ROUGHNESS_MAP
-uniform sampler2D u_metallic_roughness_map;  // glTF: G = roughness, B = metallic
-#endif
 
 uniform sampler2D u_materials;  // RGBA32F, 4 texels per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
@@ -63,26 +51,15 @@ vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, ve
 }
 
 void main() {
-    // The material as the G-buffer pass would store it (glsl/passes/gbuffer.frag).
-    vec3 base_color = u_base_color;
-    float metallic = u_metallic;
-    float roughness = u_roughness;
-#ifdef MAT_BASE_COLOR_MAP
-    base_color *= texture(u_base_color_map, v_uv).rgb;
-#endif
-#ifdef MAT_METALLIC_ROUGHNESS_MAP
-    vec4 mr = texture(u_metallic_roughness_map, v_uv);
-    roughness *= mr.g;
-    metallic *= mr.b;
-#endif
-    // Two-sided, as in the G-buffer pass: a back face is shaded with the normal flipped.
-    vec3 n_raw = normalize(gl_FrontFacing ? v_normal : -v_normal);
-    float t_len = length(v_tangent);
-    vec3 t = t_len > 0.0 ? v_tangent / t_len : n_raw;
+    // The material as the G-buffer pass stores it (glsl/passes/gbuffer.frag), two-sided.
+    MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
+    Layer l = m.layer;
+    vec3 t = m.t;
     // Sanitised as the lighting pass sanitises what the G-buffer delivers (a texture map can
     // hold anything, a degenerate mesh normal is NaN): the same values reach brdf_eval.
-    Surface s = sanitize_surface(Surface(base_color, metallic, roughness, u_f0, u_anisotropy));
-    ModelParams params = fetch_model_params(u_materials, u_material_id);
+    Surface s = sanitize_surface(
+        Surface(l.base_color, l.metallic, l.perceptual_roughness, l.f0, l.anisotropy));
+    ModelParams params = fetch_model_params(u_materials, int(m.material_id));
 
     // The lighting pass's position: the pixel centre's view ray times the interpolated view
     // depth. An interpolated world position is as valid, but across the two 40 m triangles
@@ -92,7 +69,7 @@ void main() {
     vec3 p = reconstruct_position(ndc_xy, v_view_depth, u_camera_pos, u_camera_to_world,
                                   u_tan_half_fov);
     vec3 v = normalize(u_camera_pos - p);
-    vec3 n = sanitize_direction(n_raw, v);
+    vec3 n = sanitize_direction(m.n, v);
     vec3 Lo = vec3(0.0);
     for (int i = 0; i < u_light_count; ++i) {
         Lo += light_contribution(i, s, params, n, t, p, v);

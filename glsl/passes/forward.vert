@@ -13,13 +13,13 @@ uniform mat4 u_proj;
 
 out vec3 v_normal;
 out vec2 v_uv;
-out vec3 v_tangent;
+out vec4 v_tangent;   // xyz along +u, w = handedness
 out float v_view_depth;   // metres along the view axis, as the G-buffer pass stores it
 
 void main() {
     v_normal = u_normal_matrix * in_normal;
     v_uv = in_uv;
-    v_tangent = mat3(u_model) * in_tangent.xyz;
+    v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w);
     vec4 view = u_view * (u_model * vec4(in_position, 1.0));
     v_view_depth = -view.z;
     gl_Position = u_proj * view;

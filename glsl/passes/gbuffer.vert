@@ -11,13 +11,13 @@ uniform mat4 u_proj;
 
 out vec3 v_normal;
 out vec2 v_uv;
-out vec3 v_tangent;
+out vec4 v_tangent;   // xyz along +u, w = handedness
 out float v_view_depth;   // metres along the view axis
 
 void main() {
     v_normal = u_normal_matrix * in_normal;
     v_uv = in_uv;
-    v_tangent = mat3(u_model) * in_tangent.xyz;   // tangents transform with the surface
+    v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w);   // tangents transform with the surface
     vec4 view = u_view * (u_model * vec4(in_position, 1.0));
     v_view_depth = -view.z;
     gl_Position = u_proj * view;

@@ -1,0 +1,93 @@
+"""Scene materials -> ``SurfaceLayer``s: constants plus the texture chains the G-buffer
+pass samples, cached so that a file two materials share is read and filtered once."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from PIL import Image
+
+from app.scene.loader import LoadedScene
+from app.scene.model import Material, MaterialParams
+from app.textures.maps import (
+    SurfaceLayer,
+    Texture,
+    colour_texture,
+    decode_normals,
+    linear_channel,
+    normal_roughness_texture,
+    read_image,
+    resample,
+    scalar_texture,
+)
+
+
+class LayerBuilder:
+    """Builds the layers of one scene, reading each texture file once."""
+
+    def __init__(self, loaded: LoadedScene) -> None:
+        self.loaded = loaded
+        self.normal_filter = loaded.scene.render.normal_filter
+        self._images = lru_cache(maxsize=None)(self._read)
+
+    def _read(self, relative: str, key: str) -> Image.Image:
+        return read_image(str(self.loaded.resolve_file(relative)), str(self.loaded.path), key)
+
+    def image(self, material: str, key: str) -> Image.Image:
+        relative = getattr(self.loaded.scene.materials[material], key)
+        return self._images(relative, f"materials.{material}.{key}")
+
+    def mask(self, material: str) -> np.ndarray:
+        """The blend mask of ``material`` as float64 (H, W) in [0, 1]."""
+        blend = self.loaded.scene.materials[material].blend
+        assert blend is not None
+        return linear_channel(self._images(blend.mask, f"materials.{material}.blend.mask"))
+
+    def layer(self, name: str) -> SurfaceLayer:
+        """The material ``name`` of the scene with its maps."""
+        m: Material = self.loaded.scene.materials[name]
+        params = m.resolve()
+        maps: dict[str, Texture] = {}
+        if m.base_color_map is not None:
+            maps["base_color"] = colour_texture(self.image(name, "base_color_map"))
+        if m.metallic_map is not None:
+            maps["metallic"] = scalar_texture(linear_channel(self.image(name, "metallic_map")))
+        if m.anisotropy_map is not None:
+            maps["anisotropy"] = scalar_texture(linear_channel(self.image(name, "anisotropy_map")))
+        normals = None
+        if m.normal_map is not None:
+            normals = decode_normals(self.image(name, "normal_map"), m.normal_scale)
+        if normals is not None or m.roughness_map is not None:
+            roughness: np.ndarray | float = params.roughness
+            if m.roughness_map is not None:
+                r = linear_channel(self.image(name, "roughness_map"))
+                if normals is not None:  # the chain is built at the normal map's size
+                    r = resample(r, normals.shape[:2])
+                roughness = params.roughness * r
+            shape = normals.shape[:2] if normals is not None else np.shape(roughness)
+            maps["normal_roughness"] = normal_roughness_texture(
+                normals, roughness, shape, self.normal_filter
+            )
+        return SurfaceLayer(params, maps, (m.uv_scale[0], m.uv_scale[1]))
+
+
+def gltf_layer(
+    params: MaterialParams,
+    base_color: Image.Image | None,
+    metallic_roughness: Image.Image | None,
+    normal_filter: str,
+) -> SurfaceLayer:
+    """A glTF material as a layer: the metallic-roughness texture (G = roughness,
+    B = metallic, both multiplying their factors) splits into the metallic map and the
+    roughness chain."""
+    maps: dict[str, Texture] = {}
+    if base_color is not None:
+        maps["base_color"] = colour_texture(base_color)
+    if metallic_roughness is not None:
+        mr = np.asarray(metallic_roughness.convert("RGB"), np.float64) / 255.0
+        maps["metallic"] = scalar_texture(mr[..., 2])
+        maps["normal_roughness"] = normal_roughness_texture(
+            None, params.roughness * mr[..., 1], mr.shape[:2], normal_filter
+        )
+    return SurfaceLayer(params, maps)

@@ -1,0 +1,183 @@
+"""A material's texture maps, read from the files a scene names and turned into the mip
+chains the G-buffer pass samples (seed section 13).
+
+Colour data (base colour) is sRGB and lets the GL build its mips. Non-colour data never
+does: masks, metallic and anisotropy get box-filtered mips built here, and roughness
+travels with the normals in one RGBA16F chain (xyz = tangent-space normal, a =
+perceptual roughness) built by app/textures/mips.py, so that the variance of the normals a
+texel averages moves into its roughness (the scene's ``render.normal_filter``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from PIL import Image, UnidentifiedImageError
+
+from app.errors import InputError
+from app.scene.model import MaterialParams
+from app.textures.mips import build_chain, decode_normal_map
+
+MAX_TEXTURE_SIZE = 8192  # texels per side; llvmpipe's limit is 16384, memory binds first
+
+
+@dataclass
+class Texture:
+    """One material map: its mip levels, level 0 first, rows top to bottom.
+
+    ``srgb``: colour data stored as sRGB8 and decoded by the GL, which also builds its mips
+    (``levels`` then holds level 0 only); otherwise every level is given here.
+    """
+
+    levels: list[np.ndarray]  # (h, w, c) uint8 or float32
+    srgb: bool = False
+
+    @property
+    def pixels(self) -> np.ndarray:
+        return self.levels[0]
+
+
+@dataclass
+class SurfaceLayer:
+    """One material as the G-buffer pass samples it: constants, maps and UV tiling.
+
+    ``maps`` keys: ``base_color`` (sRGB), ``metallic``, ``anisotropy`` (R), and
+    ``normal_roughness`` (RGBA: normal xyz, absolute perceptual roughness; present when the
+    material has a normal or a roughness map).
+    """
+
+    params: MaterialParams
+    maps: dict[str, Texture] = field(default_factory=dict)
+    uv_scale: tuple[float, float] = (1.0, 1.0)
+
+
+def read_image(path: str, scene_file: str, key: str) -> Image.Image:
+    """A texture file as a Pillow image, or an InputError naming the scene key."""
+    try:
+        with Image.open(path) as image:
+            image.load()
+            if max(image.size) > MAX_TEXTURE_SIZE:
+                raise InputError(
+                    scene_file,
+                    key,
+                    f"{path} is {image.size[0]}x{image.size[1]}, more than "
+                    f"{MAX_TEXTURE_SIZE} texels a side",
+                )
+            return image.copy()
+    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as exc:
+        raise InputError(scene_file, key, f"cannot read image {path} ({exc})") from None
+
+
+def linear_channel(image: Image.Image) -> np.ndarray:
+    """The first channel of a non-colour map in [0, 1], float64 (H, W)."""
+    if image.mode in ("I;16", "I;16B", "I;16L", "I"):
+        data = np.asarray(image, np.float64) / 65535.0
+    else:
+        data = np.asarray(image.convert("RGB"), np.float64)[..., 0] / 255.0
+    return np.clip(data, 0.0, 1.0)
+
+
+def box_chain(values: np.ndarray) -> list[np.ndarray]:
+    """Mips of linear data by 2x2 box averages down to 1x1 (GL sizes: max(1, n >> 1)),
+    level 0 untouched. An odd row or column is folded into its neighbour's average so that
+    every texel of a level counts once in the next."""
+    levels = [np.asarray(values, np.float32)]
+    current = np.asarray(values, np.float64)
+    while current.shape[0] > 1 or current.shape[1] > 1:
+        current = _halve(current)
+        levels.append(current.astype(np.float32))
+    return levels
+
+
+def _halve(a: np.ndarray) -> np.ndarray:
+    for axis in (0, 1):
+        n = a.shape[axis]
+        if n == 1:
+            continue
+        half = n // 2
+        even = np.take(a, np.arange(2 * half), axis=axis)
+        shape = list(even.shape)
+        shape[axis : axis + 1] = [half, 2]
+        pairs = even.reshape(shape)
+        summed = pairs.sum(axis=axis + 1)
+        counts = np.full(half, 2.0)
+        if n % 2:  # the odd last row/column joins the last pair
+            last = np.take(a, [n - 1], axis=axis)
+            idx = [slice(None)] * summed.ndim
+            idx[axis] = slice(half - 1, half)
+            summed[tuple(idx)] += last
+            counts[-1] = 3.0
+        shape_c = [1] * summed.ndim
+        shape_c[axis] = half
+        a = summed / counts.reshape(shape_c)
+    return a
+
+
+def resample(values: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """Bilinear resampling of (H, W[, C]) float data to (h, w) = ``size`` with wrap-around,
+    sampling at texel centres (a texture's repeat mode)."""
+    h, w = size
+    src_h, src_w = values.shape[:2]
+    if (src_h, src_w) == (h, w):
+        return np.asarray(values, np.float64)
+    y = (np.arange(h) + 0.5) * src_h / h - 0.5
+    x = (np.arange(w) + 0.5) * src_w / w - 0.5
+    return sample_bilinear_wrap(values, x[None, :], y[:, None])
+
+
+def sample_bilinear_wrap(values: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of (H, W[, C]) data at texel coordinates (x, y) (texel centres at
+    integers), wrapping around both edges like GL_REPEAT."""
+    v = np.asarray(values, np.float64)
+    src_h, src_w = v.shape[:2]
+    x, y = np.broadcast_arrays(np.asarray(x, np.float64), np.asarray(y, np.float64))
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = x - x0, y - y0
+    xi0, yi0 = x0.astype(np.int64) % src_w, y0.astype(np.int64) % src_h
+    xi1, yi1 = (xi0 + 1) % src_w, (yi0 + 1) % src_h
+    if v.ndim == 3:
+        fx, fy = fx[..., None], fy[..., None]
+    top = v[yi0, xi0] * (1 - fx) + v[yi0, xi1] * fx
+    bottom = v[yi1, xi0] * (1 - fx) + v[yi1, xi1] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def normal_roughness_texture(
+    normals: np.ndarray | None, roughness: np.ndarray | float, shape: tuple[int, int], method: str
+) -> Texture:
+    """The RGBA chain of a layer's normals (flat where it has no normal map) and absolute
+    perceptual roughness, filtered with ``method`` (app/textures/mips.py)."""
+    if normals is None:
+        normals = np.zeros((*shape, 3))
+        normals[..., 2] = 1.0
+    # "none": level 0 alone, bilinear without mips: each sample sees the source normals,
+    # aliasing included (what a supersampled reference averages).
+    chain = build_chain(normals, roughness, "naive" if method == "none" else method)
+    if method == "none":
+        chain.normals, chain.roughness = chain.normals[:1], chain.roughness[:1]
+    levels = [
+        np.concatenate([n, r[..., None]], axis=-1).astype(np.float32)
+        for n, r in zip(chain.normals, chain.roughness, strict=True)
+    ]
+    return Texture(levels)
+
+
+def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
+    """Unit tangent-space normals from an RGB normal map, x and y scaled by ``scale`` (glTF
+    normalTexture.scale) before renormalising."""
+    n = decode_normal_map(np.asarray(image.convert("RGB"), np.uint8)).copy()
+    if scale != 1.0:
+        n[..., :2] *= scale
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    return n
+
+
+def colour_texture(image: Image.Image) -> Texture:
+    """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips)."""
+    return Texture([np.asarray(image.convert("RGBA"), np.uint8)], srgb=True)
+
+
+def scalar_texture(values: np.ndarray) -> Texture:
+    """A single-channel non-colour map with box-filtered mips built here."""
+    return Texture([level[..., None] for level in box_chain(values)])

@@ -1,0 +1,135 @@
+// Gathering a fragment's material in the G-buffer pass (and the bench's forward pass):
+// layer constants times their texture maps, an optional second layer painted on by a
+// mask (seed section 13), tangent-space normal mapping, and optional screen-space
+// geometric specular antialiasing. Which maps a layer samples is a compile-time bitmask
+// (LAYER0_MAPS, LAYER1_MAPS), so the compiler drops every lookup a material lacks.
+#ifndef PBS_LAYERS_GLSL
+#define PBS_LAYERS_GLSL
+
+#include "brdf/blend.glsl"
+#include "brdf/filtering.glsl"
+
+#define MAP_BASE_COLOR 1        // sRGB (decoded by the GL) or linear: multiplies base_color
+#define MAP_METALLIC 2          // R: multiplies metallic
+#define MAP_ANISOTROPY 4        // R: multiplies anisotropy
+#define MAP_NORMAL_ROUGHNESS 8  // RGB: tangent-space normal, A: perceptual roughness (absolute)
+#define MAP_F0 16               // R: multiplies the dielectric F0 (baked blends)
+#define MAP_SELECT 32           // R: >= 0.5 picks layer 1's material row (baked blends)
+
+#ifndef LAYER0_MAPS
+#define LAYER0_MAPS 0
+#endif
+#ifndef LAYER1_MAPS
+#define LAYER1_MAPS 0
+#endif
+#ifndef BLEND
+#define BLEND 0
+#endif
+#ifndef SPECULAR_AA
+#define SPECULAR_AA 0
+#endif
+
+struct LayerConstants {
+    vec3 base_color;
+    float metallic;
+    float roughness;
+    float f0;
+    float anisotropy;
+    vec2 uv_scale;
+};
+
+uniform LayerConstants u_layer0;
+uniform float u_material_id0;   // rows of the lighting pass's material table
+uniform float u_material_id1;
+uniform sampler2D u_base_color_map0;
+uniform sampler2D u_metallic_map0;
+uniform sampler2D u_anisotropy_map0;
+uniform sampler2D u_normal_roughness_map0;
+uniform sampler2D u_f0_map0;
+uniform sampler2D u_select_map0;
+#if BLEND
+uniform LayerConstants u_layer1;
+uniform sampler2D u_base_color_map1;
+uniform sampler2D u_metallic_map1;
+uniform sampler2D u_anisotropy_map1;
+uniform sampler2D u_normal_roughness_map1;
+uniform sampler2D u_blend_mask;
+uniform vec2 u_blend;           // threshold, softness
+#endif
+#if SPECULAR_AA
+uniform vec2 u_specular_aa;     // sigma^2 of the pixel filter, kappa (the largest alpha^2 added)
+#endif
+
+// One layer's parameters at texture coordinate uv. `maps` is a constant, so after
+// inlining every branch below is resolved at compile time.
+Layer read_layer(LayerConstants c, int maps, vec2 uv, sampler2D base_color_map,
+                 sampler2D metallic_map, sampler2D anisotropy_map,
+                 sampler2D normal_roughness_map, sampler2D f0_map) {
+    vec2 st = uv * c.uv_scale;
+    Layer l = Layer(c.base_color, c.metallic, c.roughness, c.f0, c.anisotropy,
+                    vec3(0.0, 0.0, 1.0));
+    if ((maps & MAP_BASE_COLOR) != 0) l.base_color *= texture(base_color_map, st).rgb;
+    if ((maps & MAP_METALLIC) != 0) l.metallic *= texture(metallic_map, st).r;
+    if ((maps & MAP_ANISOTROPY) != 0) l.anisotropy *= texture(anisotropy_map, st).r;
+    if ((maps & MAP_F0) != 0) l.f0 *= texture(f0_map, st).r;
+    if ((maps & MAP_NORMAL_ROUGHNESS) != 0) {
+        // Trilinear filtering averages unit normals; their mip's roughness already holds
+        // the spread that shortening stands for (app/textures/mips.py), so renormalise.
+        vec4 nr = texture(normal_roughness_map, st);
+        float len = length(nr.xyz);
+        l.normal = len > 0.0 ? nr.xyz / len : vec3(0.0, 0.0, 1.0);
+        l.perceptual_roughness = nr.a;
+    }
+    return l;
+}
+
+// A fragment's material: the mixed layer, its shading frame in world space and its row.
+struct MaterialSample {
+    Layer layer;
+    vec3 n;             // unit shading normal (normal-mapped), facing the viewer's side
+    vec3 t;             // tangent along +u (not yet orthogonal to n; the lighting pass does it)
+    float material_id;
+};
+
+// `normal` and `tangent` (xyz along +u, w = handedness) are the interpolated vertex frame
+// in world space; back faces of two-sided surfaces flip the normal towards the viewer.
+MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_facing) {
+    Layer l = read_layer(u_layer0, LAYER0_MAPS, uv, u_base_color_map0, u_metallic_map0,
+                         u_anisotropy_map0, u_normal_roughness_map0, u_f0_map0);
+    float id = u_material_id0;
+#if BLEND
+    Layer top = read_layer(u_layer1, LAYER1_MAPS, uv, u_base_color_map1, u_metallic_map1,
+                           u_anisotropy_map1, u_normal_roughness_map1, u_f0_map0);
+    float w = blend_weight(texture(u_blend_mask, uv * u_layer0.uv_scale).r, u_blend.x,
+                           u_blend.y);
+    l = blend_layers(l, top, w);
+    // The optional models' numbers (eta, k, ...) cannot be mixed per pixel: the layer
+    // that dominates gives the row.
+    if (w >= 0.5) id = u_material_id1;
+#endif
+#if (LAYER0_MAPS & MAP_SELECT) != 0
+    if (texture(u_select_map0, uv * u_layer0.uv_scale).r >= 0.5) id = u_material_id1;
+#endif
+    vec3 ng = normalize(front_facing ? normal : -normal);
+    float t_len = length(tangent.xyz);
+    vec3 t = t_len > 0.0 ? tangent.xyz / t_len : vec3(0.0);
+    vec3 n = ng;
+#if ((LAYER0_MAPS | LAYER1_MAPS) & MAP_NORMAL_ROUGHNESS) != 0
+    // Tangent-space normal mapping (OpenGL convention: +x along +u, +y along +v).
+    vec3 tt = t - ng * dot(ng, t);
+    float tt_len = length(tt);
+    if (tt_len > 1e-6) {
+        tt /= tt_len;
+        vec3 b = cross(ng, tt) * (tangent.w < 0.0 ? -1.0 : 1.0);
+        n = normalize(tt * l.normal.x + b * l.normal.y + ng * l.normal.z);
+    }
+#endif
+#if SPECULAR_AA
+    // Tokuyoshi & Kaplanyan 2019: the normal's screen-space variation widens the NDF.
+    l.perceptual_roughness = perceptual_roughness_specular_aa(
+        l.perceptual_roughness, dFdx(n), dFdy(n), u_specular_aa.x, u_specular_aa.y);
+#endif
+    return MaterialSample(l, n, t_len > 0.0 ? t : n, id);
+}
+
+#endif
