@@ -1,0 +1,85 @@
+"""Seed section 13: filtering normal and roughness mips, measured against a supersampled
+reference (app/bench/filtering.py), and the mip chains as the GL samples them."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from app.bench.filtering import measure
+from app.gl.context import GLContext
+from app.render.gbuffer import upload_texture
+from app.scene.loader import load_scene
+from app.textures.maps import normal_roughness_texture
+from tests.conftest import REPO
+
+SCENE = REPO / "scenes" / "sec13_filtering.toml"
+
+
+def test_variance_filtering_beats_naive_mips(gl_egl: GLContext) -> None:
+    """On the bumpy receding floor (160x90; reference 8x8 samples per pixel from level 0),
+    variance-filtered roughness mips cut the relative RMSE of the HDR image against the
+    reference at least 4-fold over naive mips (measured 8.1 -> 0.87, 9.3x; at 320x180
+    7.1 -> 0.91): the energy the bumps scatter out of the mirror direction stays in the
+    highlight's surroundings instead of vanishing. Toksvig does as well within 10%."""
+    options = [(m, {"normal_filter": m}) for m in ("naive", "toksvig", "variance")]
+    results, _ = measure(
+        gl_egl, load_scene(SCENE), (160, 90), supersample=8, sweep=1, options=options,
+        repeats=1,
+    )  # fmt: skip
+    err = {r.variant: r.rel_rmse for r in results}
+    assert err["variance"] * 4.0 <= err["naive"], err
+    assert abs(err["toksvig"] - err["variance"]) <= 0.1 * err["variance"], err
+
+
+def _levels(gl_tex: moderngl.Texture, count: int) -> list[np.ndarray]:
+    out = []
+    w, h = gl_tex.size
+    for k in range(count):
+        lw, lh = max(1, w >> k), max(1, h >> k)
+        data = np.frombuffer(gl_tex.read(level=k), np.float16).reshape(lh, lw, -1)
+        out.append(data[::-1].astype(np.float32))
+    return out
+
+
+def test_gl_level_zero_is_the_source_and_levels_are_ours(gl_egl: GLContext) -> None:
+    """Uploaded chains read back from the GL: level 0 is the source (to float16, the
+    storage format), and every level is the project's, not the GL's own mipmaps."""
+    rng = np.random.default_rng(7)
+    n = rng.normal(size=(32, 16, 3)) * [0.4, 0.4, 1.0]
+    n[..., 2] = np.abs(n[..., 2]) + 0.2
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    r = rng.uniform(0.1, 0.9, (32, 16))
+    tex = normal_roughness_texture(n, r, (32, 16), "variance")
+    gl_tex = upload_texture(gl_egl.ctx, tex)
+    try:
+        got = _levels(gl_tex, len(tex.levels))
+    finally:
+        gl_tex.release()
+    source = np.concatenate([n, r[..., None]], axis=-1)
+    np.testing.assert_array_equal(got[0], source.astype(np.float16).astype(np.float32))
+    for k, level in enumerate(tex.levels):
+        np.testing.assert_array_equal(got[k], level.astype(np.float16).astype(np.float32))
+    # A plain box average of level 0's roughness is what the GL would have built; ours
+    # (variance) is rougher, since the normals under each texel differ.
+    assert got[1][..., 3].mean() > source[..., 3].reshape(16, 2, 8, 2).mean(axis=(1, 3)).mean()
+
+
+def test_flat_normal_map_keeps_roughness_at_every_gl_level(gl_egl: GLContext) -> None:
+    """A flat normal map: every level the GL holds has the source roughness (to float16)
+    and the +z normal, for every filter."""
+    n = np.zeros((16, 16, 3))
+    n[..., 2] = 1.0
+    for method in ("naive", "toksvig", "variance"):
+        tex = normal_roughness_texture(n, 0.37, (16, 16), method)
+        gl_tex = upload_texture(gl_egl.ctx, tex)
+        try:
+            levels = _levels(gl_tex, len(tex.levels))
+        finally:
+            gl_tex.release()
+        assert len(levels) == 5
+        for level in levels:
+            np.testing.assert_array_equal(level[..., 3], np.float32(np.float16(0.37)))
+            np.testing.assert_array_equal(
+                level[..., :3], np.broadcast_to([0.0, 0.0, 1.0], level[..., :3].shape)
+            )
