@@ -1,0 +1,145 @@
+"""Bad texture and blend input (seed section 13 keys): exit code 2, one line naming the
+file and the key, no output file, like every other bad input (tests/test_bad_input.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.cli import main
+from tests.test_bad_input import BASE, SIZE, _check, _run_inproc, _scene, work  # noqa: F401
+
+TEXTURED = BASE.replace("roughness = 0.5", 'roughness = 0.5\nnormal_map = "n.png"')
+
+
+def _png(path: Path) -> None:
+    rgb = np.full((8, 8, 3), (128, 128, 255), np.uint8)
+    Image.fromarray(rgb).save(path)
+
+
+CASES = [
+    ("missing-normal-map", TEXTURED, "materials.m.normal_map", "no such file", None),
+    (
+        "text-as-image",
+        BASE.replace("roughness = 0.5", 'base_color_map = "n.png"'),
+        "materials.m.base_color_map",
+        "cannot read image",
+        b"this is not a PNG",
+    ),
+    (
+        "truncated-png",
+        TEXTURED,
+        "materials.m.normal_map",
+        "cannot read image",
+        "truncate",
+    ),
+    (
+        "anisotropy-map-without-anisotropy",
+        BASE.replace("roughness = 0.5", 'anisotropy_map = "n.png"'),
+        "materials.m.anisotropy_map",
+        "non-zero",
+        "png",
+    ),
+    (
+        "negative-uv-scale",
+        BASE.replace("roughness = 0.5", "uv_scale = [1.0, -2.0]"),
+        "materials.m.uv_scale[1]",
+        "greater than 0",
+        None,
+    ),
+    (
+        "blend-unknown-material",
+        BASE + '[materials.m.blend]\nmaterial = "rust"\nmask = "n.png"\n',
+        "materials.m.blend.material",
+        "unknown material 'rust'",
+        "png",
+    ),
+    (
+        "blend-onto-itself",
+        BASE + '[materials.m.blend]\nmaterial = "m"\nmask = "n.png"\n',
+        "materials.m.blend.material",
+        "unknown material 'm'",
+        "png",
+    ),
+    (
+        "blend-missing-mask",
+        BASE + '[materials.r]\n[materials.m.blend]\nmaterial = "r"\nmask = "gone.png"\n',
+        "materials.m.blend.mask",
+        "no such file",
+        "png",
+    ),
+    (
+        "blend-nested",
+        BASE
+        + '[materials.r]\n[materials.m.blend]\nmaterial = "r"\nmask = "n.png"\n'
+        + '[materials.r.blend]\nmaterial = "m"\nmask = "n.png"\n',
+        "materials.m.blend.material",
+        "do not nest",
+        "png",
+    ),
+    (
+        "blend-softness-nan",
+        BASE + '[materials.r]\n[materials.m.blend]\nmaterial = "r"\nmask = "n.png"\n'
+        "softness = nan\n",
+        "materials.m.blend.softness",
+        "finite",
+        "png",
+    ),
+    (
+        "unknown-normal-filter",
+        BASE + '[render]\nnormal_filter = "mipmap"\n',
+        "render.normal_filter",
+        "naive",
+        None,
+    ),
+    (
+        "supersample-too-large",
+        BASE + "[render]\nwidth = 4096\nsupersample = 8\n",
+        "render.supersample",
+        "16384",
+        None,
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("scene", "key", "fragment", "texture"), [c[1:] for c in CASES], ids=[c[0] for c in CASES]
+)
+def test_bad_texture_input(
+    work: tuple[Path, Path],  # noqa: F811
+    capsys: pytest.CaptureFixture[str],
+    scene: str,
+    key: str,
+    fragment: str,
+    texture: object,
+) -> None:
+    root, out = work
+    if texture == "png":
+        _png(root / "n.png")
+    elif texture == "truncate":
+        _png(root / "n.png")
+        data = (root / "n.png").read_bytes()
+        (root / "n.png").write_bytes(data[: len(data) // 2])
+    elif isinstance(texture, bytes):
+        (root / "n.png").write_bytes(texture)
+    path = _scene(root, scene)
+    rc, err = _run_inproc(capsys, str(path), "-o", str(out / "x.png"), "--size", SIZE)
+    _check(rc, err, out, f"pbs: error: {path}: {key}:", fragment)
+
+
+def test_good_textured_scene_renders(
+    work: tuple[Path, Path],  # noqa: F811
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The same minimal scene with a valid normal map renders (the cases above fail for
+    the reason they name, not for the normal map itself)."""
+    root, out = work
+    _png(root / "n.png")
+    path = _scene(root, TEXTURED)
+    capsys.readouterr()
+    rc = main(["render", str(path), "-o", str(out / "x.png"), "--size", SIZE])
+    assert rc == 0, capsys.readouterr().err
+    assert (out / "x.png").is_file()
