@@ -110,16 +110,15 @@ class ForwardRenderer:
         if self.ms_table is not None:
             self.ms_table.use(2)
         for d in self.drawables:
+            # A mirroring matrix reverses the winding: front faces stay front faces (for
+            # gl_FrontFacing, which two-sided surfaces use, as well as for culling).
+            ctx.front_face = "cw" if d.mirrored else "ccw"
             if d.part.closed:  # as the G-buffer pass: closed primitives cull back faces
                 ctx.enable(moderngl.CULL_FACE)
-                ctx.front_face = "cw" if d.mirrored else "ccw"
             else:
                 ctx.disable(moderngl.CULL_FACE)
             prog = d.program
-            prog["u_model"].write(d.model_bytes)
-            prog["u_normal_matrix"].write(d.normal_bytes)
-            prog["u_view"].write(view_bytes)
-            prog["u_proj"].write(proj_bytes)
+            d.bind_transform(view_bytes, proj_bytes)
             prog["u_camera_to_world"].write(camera_to_world)
             d.bind_material(first_unit=3)
             values = {
@@ -136,6 +135,7 @@ class ForwardRenderer:
                     prog[name].value = value
             d.vao.render(moderngl.TRIANGLES)
         ctx.disable(moderngl.CULL_FACE)
+        ctx.front_face = "ccw"
 
     def read_hdr(self) -> np.ndarray:
         """Linear HDR radiance, (H, W, 3) float32, rows top to bottom."""

@@ -203,12 +203,18 @@ class MeshDrawable:
             if name in prog:
                 prog[name].value = unit
 
-    def draw(self, view_bytes: bytes, proj_bytes: bytes) -> None:
+    def bind_transform(self, view_bytes: bytes, proj_bytes: bytes) -> None:
+        """Set the part's matrices and the camera's."""
         prog = self.program
         prog["u_model"].write(self.model_bytes)
         prog["u_normal_matrix"].write(self.normal_bytes)
         prog["u_view"].write(view_bytes)
         prog["u_proj"].write(proj_bytes)
+        if "u_tangent_sign" in prog:  # used only where a layer has a normal map
+            prog["u_tangent_sign"].value = -1.0 if self.mirrored else 1.0
+
+    def draw(self, view_bytes: bytes, proj_bytes: bytes) -> None:
+        self.bind_transform(view_bytes, proj_bytes)
         self.bind_material()
         self.vao.render(moderngl.TRIANGLES)
 
@@ -255,13 +261,16 @@ class GBufferPass:
         target.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
         for d in self.drawables:
+            # A mirroring matrix reverses the winding: front faces stay front faces (for
+            # gl_FrontFacing, which two-sided surfaces use, as well as for culling).
+            ctx.front_face = "cw" if d.mirrored else "ccw"
             if d.part.closed:
                 ctx.enable(moderngl.CULL_FACE)
-                ctx.front_face = "cw" if d.mirrored else "ccw"
             else:
                 ctx.disable(moderngl.CULL_FACE)
             d.draw(view_bytes, proj_bytes)
         ctx.disable(moderngl.CULL_FACE)
+        ctx.front_face = "ccw"
 
     def release(self) -> None:
         for d in self.drawables:

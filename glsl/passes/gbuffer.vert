@@ -8,6 +8,7 @@ uniform mat4 u_model;
 uniform mat3 u_normal_matrix;   // inverse-transpose of u_model's upper 3x3
 uniform mat4 u_view;
 uniform mat4 u_proj;
+uniform float u_tangent_sign;  // -1 where u_model mirrors (det < 0): it flips (t, b, n)'s handedness
 
 out vec3 v_normal;
 out vec2 v_uv;
@@ -17,7 +18,7 @@ out float v_view_depth;   // metres along the view axis
 void main() {
     v_normal = u_normal_matrix * in_normal;
     v_uv = in_uv;
-    v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w);   // tangents transform with the surface
+    v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w * u_tangent_sign);   // tangents transform with the surface
     vec4 view = u_view * (u_model * vec4(in_position, 1.0));
     v_view_depth = -view.z;
     gl_Position = u_proj * view;
