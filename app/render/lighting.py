@@ -7,7 +7,10 @@ texture height, not by uniform-block limits.
 
 One program per model group (app/render/materials.py): a scene whose materials all use
 one model runs one full-screen pass; otherwise each group's pass discards the pixels of
-the other groups, so no pixel pays for a branch of a model it does not use.
+the other groups, so no pixel pays for a branch of a model it does not use. ``uber=True``
+(the bench's ``specialization`` suite only) builds the opposite for comparison: one
+program for every material, each model a run-time branch on codes from the material
+table (UBER_MODELS in glsl/brdf/model.glsl), paying for every model and table.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ import moderngl
 import numpy as np
 
 from app.gl.shaders import ShaderCache
-from app.render.culling import LightCuller
+from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
 from app.render.materials import MaterialTable
 from app.scene.camera import CameraFrame, gl_bytes
@@ -34,27 +37,40 @@ class LightingPass:
         records: list[dict],
         table: MaterialTable,
         culler: LightCuller | None = None,
+        uber: bool = False,
+        ms_table_size: int | None = None,
     ) -> None:
+        """``uber``: one program with run-time model selection instead of one per model
+        group (a bench knob, not a scene key). ``ms_table_size``: the Kulla-Conty table's
+        size (None: the shipped one; others are computed on first use and cached)."""
         self.ctx = ctx
         self.culler = culler
+        self.uber = uber
         several = len(table.models) > 1
-        self.programs = []
-        for group, model in enumerate(table.models):
+        variants: list[dict[str, int]] = []
+        if uber:
+            variants.append({"UBER_MODELS": 1})
+        for group, model in enumerate(table.models if not uber else ()):
             defines = dict(model.defines())
             if several:
                 defines["MODEL_GROUP"] = group
+            variants.append(defines)
+        self.programs = []
+        for defines in variants:
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
+                defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
+                defines["TILE_WORDS"] = culler.words  # 1: a simpler loop (lighting.frag)
             self.programs.append(
                 shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
             )
         self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
         self.materials = table.texture(ctx)
         self.ms_table = None
-        if any(model.multiscatter for model in table.models):
+        if uber or any(model.multiscatter for model in table.models):
             from app.render.tables import ms_texture
 
-            self.ms_table = ms_texture(ctx)
+            self.ms_table = ms_texture(ctx, ms_table_size)
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
@@ -100,7 +116,8 @@ class LightingPass:
             prog["u_camera_to_world"].write(camera_to_world)
             prog["u_tan_half_fov"].value = camera.tan_half_fov
             if self.culler is not None:
-                prog["u_words"].value = self.culler.words
+                if "u_words" in prog:  # with TILE_WORDS 1 the shader needs no stride
+                    prog["u_words"].value = self.culler.words
                 prog["u_first_local"].value = self.culler.first_local
             vao.render(moderngl.TRIANGLES, vertices=3)
 

@@ -8,12 +8,61 @@
 #define TILE_SIZE 16
 #endif
 
-// Does a sphere (view-space centre c with depth d = -c.z, radius r) reach the tile's
-// sub-frustum: the pixels whose NDC lie in [ndc_min, ndc_max], between the view depths
-// z_min and z_max? Conservative: each side plane and the depth slab are tested on
-// their own (Harada et al. 2012, "Forward+"), so a sphere near a corner may pass.
-bool sphere_reaches_tile(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
-                         float z_min, float z_max) {
+// Bits of a tile's depth mask: the slab between its nearest and farthest surface is cut
+// into DEPTH_BINS equal slices, and bit b says a surface of the tile lies in slice b.
+const int DEPTH_BINS = 32;
+// A slice's ends widen by this fraction of z_max before the box test: float32 rounding of
+// a depth's slice index and of the slice's ends can put a surface a few ulps outside it.
+const float Z_SLACK = 1e-5;
+
+// Slices per metre of the slab [z_min, z_max]; the width has a floor so that a tile of a
+// single depth (a wall seen head-on) still gets a finite scale (its surfaces: slice 0).
+float depth_bin_scale(float z_min, float z_max) {
+    return float(DEPTH_BINS) / max(z_max - z_min, 1e-20);
+}
+
+// Harada et al. 2012, "Forward+: A Step Toward Film-Quality Rendering in Real Time"
+// (2.5D culling): the slice, 0 ... DEPTH_BINS - 1, of view depth z; outside clamps to
+// the ends. Both culling passes call this one function, and it is monotonic in z, so a
+// light whose depth extent contains a surface's depth also contains its slice.
+int depth_bin(float z, float z_min, float bin_scale) {
+    return int(clamp((z - z_min) * bin_scale, 0.0, float(DEPTH_BINS - 1)));
+}
+
+// Bits lo ... hi set (0 <= lo <= hi < 32).
+uint bin_range_mask(int lo, int hi) {
+    return (0xFFFFFFFFu >> uint(31 - (hi - lo))) << uint(lo);
+}
+
+// Index of the lowest set bit of a non-zero mask (findLSB is GLSL 4.00): isolate it
+// with x & -x; that power of two converts to float exactly, and its exponent field is
+// the index (+127). No table: a table indexed per pixel is a gather on a SIMD rasteriser
+// such as llvmpipe, and this runs once per light a pixel visits.
+int lowest_bit(uint mask) {
+    uint lsb = mask & (~mask + 1u);
+    return int(floatBitsToUint(float(lsb)) >> 23) - 127;
+}
+
+// Index of the highest set bit of a non-zero mask (findMSB is GLSL 4.00): smear it into
+// every lower bit and keep only it, then as lowest_bit (a float of the mask itself could
+// round up to the next power of two).
+int highest_bit(uint mask) {
+    mask |= mask >> 1;
+    mask |= mask >> 2;
+    mask |= mask >> 4;
+    mask |= mask >> 8;
+    mask |= mask >> 16;
+    return lowest_bit(mask ^ (mask >> 1));
+}
+
+// Harada et al. 2012: does a sphere (view-space centre c with depth d = -c.z, radius r)
+// lie inside the depth slab [z_min, z_max] and inside each of the four side planes of the
+// tile's frustum (the pixels whose NDC lie in [ndc_min, ndc_max]), each tested on its own?
+// Conservative but loose at the frustum's corners: for spheres much wider than the tile
+// it accepts every centre in the r x r squares beyond the corners of the tile's cross-
+// section, where only a quarter disc of radius r reaches it.
+bool tile_planes_reach(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
+                       float z_min, float z_max) {
     float d = -c.z;
     if (d + r < z_min || d - r > z_max) return false;
     // A point is right of the left plane when x >= ndc_min.x tan_x d; the plane's unit
@@ -27,15 +76,39 @@ bool sphere_reaches_tile(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_h
     return true;
 }
 
-// Index of the lowest set bit of a non-zero mask (findLSB is GLSL 4.00): isolate it
-// with x & -x, then a de Bruijn multiply maps each power of two to a distinct 5-bit key.
-const int DEBRUIJN_BIT[32] = int[32](
-    0, 1, 28, 2, 29, 14, 24, 3, 30, 22, 20, 15, 25, 17, 4, 8,
-    31, 27, 13, 23, 21, 19, 16, 7, 26, 12, 18, 6, 11, 5, 10, 9);
+// Arvo 1990, "A Simple Method for Box-Sphere Intersection Testing": does the sphere reach
+// the view-space bounding box of the tile's frustum between depths z_lo and z_hi? The
+// exact distance to the box, so tight at corners where the planes are loose; the planes
+// are tighter along a deep, slanted frustum, so the culler asks both.
+bool tile_box_reach(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
+                    float z_lo, float z_hi) {
+    float d = -c.z;
+    vec2 k_min = ndc_min * tan_half_fov;
+    vec2 k_max = ndc_max * tan_half_fov;
+    // x = k z across the slab, so each side of the box is at z_lo or at z_hi.
+    vec2 lo = min(k_min * z_lo, k_min * z_hi);
+    vec2 hi = max(k_max * z_lo, k_max * z_hi);
+    vec3 gap = max(max(vec3(lo, z_lo) - vec3(c.xy, d), vec3(c.xy, d) - vec3(hi, z_hi)), 0.0);
+    return dot(gap, gap) <= r * r;
+}
 
-int lowest_bit(uint mask) {
-    uint lsb = mask & (~mask + 1u);
-    return DEBRUIJN_BIT[(lsb * 0x077CB531u) >> 27];
+// The culler's decision for one (tile, light) pair. 2.5D culling (Harada et al. 2012):
+// the sphere's depth extent [d - r, d + r] must cover a slice of the tile's depth mask
+// that holds a surface; then the sphere must reach the frustum's box between the nearest
+// and farthest of those slices, and pass the planes. Every step is conservative.
+bool sphere_reaches_tile(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
+                         float z_min, float z_max, uint depth_mask) {
+    float d = -c.z;
+    if (d + r < z_min || d - r > z_max) return false;
+    float scale = depth_bin_scale(z_min, z_max);
+    uint hits = depth_mask & bin_range_mask(depth_bin(d - r, z_min, scale),
+                                            depth_bin(d + r, z_min, scale));
+    if (hits == 0u) return false;
+    float slack = Z_SLACK * z_max;
+    float z_lo = z_min + float(lowest_bit(hits)) / scale - slack;
+    float z_hi = z_min + float(highest_bit(hits) + 1) / scale + slack;
+    return tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
+        && tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max);
 }
 
 #endif

@@ -1,8 +1,9 @@
 // Light culling: fragment (tile.x * u_words + w, tile.y) writes the bitmask of local
-// lights 32 w ... 32 w + 31 whose range sphere reaches tile's surfaces.
+// lights 32 w ... 32 w + 31 whose range sphere reaches the tile's surfaces.
 #include "lights/tiles.glsl"
 
 uniform sampler2D u_tile_depth;      // RG32F per tile: view depth min, max (0 = empty)
+uniform usampler2D u_tile_bins;      // R32UI per tile: depth mask (lights/tiles.glsl)
 uniform sampler2D u_local_lights;    // RGBA32F, 1024 per row: view-space centre, range
 uniform int u_local_count;
 uniform int u_words;
@@ -18,6 +19,7 @@ void main() {
     vec2 z = texelFetch(u_tile_depth, tile, 0).rg;
     uint bits = 0u;
     if (z.y > 0.0) {
+        uint depth_mask = texelFetch(u_tile_bins, tile, 0).r;
         vec2 px_min = vec2(tile * TILE_SIZE);
         vec2 px_max = min(vec2((tile + 1) * TILE_SIZE), vec2(u_image_size));
         vec2 ndc_min = px_min / vec2(u_image_size) * 2.0 - 1.0;
@@ -28,7 +30,7 @@ void main() {
             int i = first + b;
             vec4 light = texelFetch(u_local_lights, ivec2(i % 1024, i / 1024), 0);
             if (sphere_reaches_tile(light.xyz, light.w, ndc_min, ndc_max, u_tan_half_fov,
-                                    z.x, z.y)) {
+                                    z.x, z.y, depth_mask)) {
                 bits |= 1u << uint(b);
             }
         }

@@ -1,0 +1,145 @@
+"""Twin of glsl/lights/tiles.glsl: the tiled culler's per-tile decisions, in float64.
+
+Every function broadcasts over its arguments (a tile per element, a light per element, or
+both), so a whole frame's (tile, light) decisions come out of one call. The bin functions
+work on whole numbers and are exact; the geometric tests differ from the GLSL only by its
+float32 rounding, which the culler's range margin (app/render/culling.py) absorbs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DEPTH_BINS = 32  # bits of a tile's depth mask (Harada et al. 2012, "2.5D culling")
+
+
+def depth_bin_scale(z_min: np.ndarray, z_max: np.ndarray) -> np.ndarray:
+    """Bins per metre of a tile's depth slab: DEPTH_BINS / (z_max - z_min), with a floor on
+    the width so that a tile of one depth (a wall seen head-on) still has a finite scale."""
+    width = np.maximum(np.asarray(z_max, np.float64) - z_min, 1e-20)
+    return DEPTH_BINS / width
+
+
+def depth_bin(z: np.ndarray, z_min: np.ndarray, bin_scale: np.ndarray) -> np.ndarray:
+    """Harada et al. 2012: the bin, 0 ... DEPTH_BINS - 1, of view depth ``z`` in a slab
+    split into DEPTH_BINS equal slices from ``z_min``; depths outside clamp to the ends."""
+    x = (np.asarray(z, np.float64) - z_min) * bin_scale
+    return np.clip(x, 0.0, DEPTH_BINS - 1).astype(np.int64)
+
+
+def bin_range_mask(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Bits ``lo`` ... ``hi`` (inclusive, 0 <= lo <= hi < 32) set, as uint32."""
+    lo = np.asarray(lo, np.int64)
+    hi = np.asarray(hi, np.int64)
+    ones = np.uint64(0xFFFFFFFF)
+    span = (ones >> (31 - (hi - lo)).astype(np.uint64)) << lo.astype(np.uint64)
+    return (span & ones).astype(np.uint32)
+
+
+def tile_depth_mask(z: np.ndarray, z_min: float, z_max: float) -> int:
+    """The depth mask of one tile: bit b set when a surface depth of ``z`` (the tile's
+    covered pixels) falls in bin b of the slab [z_min, z_max]."""
+    bins = depth_bin(z, z_min, depth_bin_scale(z_min, z_max))
+    return int(np.bitwise_or.reduce(np.left_shift(1, bins), initial=0))
+
+
+def lowest_bit(mask: np.ndarray) -> np.ndarray:
+    """Index of the lowest set bit of a non-zero uint32 mask."""
+    m = np.asarray(mask, np.int64)
+    return np.log2(m & -m).astype(np.int64)
+
+
+def highest_bit(mask: np.ndarray) -> np.ndarray:
+    """Index of the highest set bit of a non-zero uint32 mask."""
+    m = np.asarray(mask, np.int64)
+    return np.floor(np.log2(m)).astype(np.int64)
+
+
+def tile_planes_reach(
+    c: np.ndarray,
+    r: np.ndarray,
+    ndc_min: np.ndarray,
+    ndc_max: np.ndarray,
+    tan_half_fov: np.ndarray,
+    z_min: np.ndarray,
+    z_max: np.ndarray,
+) -> np.ndarray:
+    """Harada et al. 2012 ("Forward+"): a sphere (view-space centre ``c``, radius ``r``)
+    passes unless it lies wholly outside the depth slab or one of the four side planes of
+    the tile's frustum, each tested on its own (so a sphere off a corner may pass)."""
+    c = np.asarray(c, np.float64)
+    d = -c[..., 2]
+    k_min = np.asarray(ndc_min, np.float64) * tan_half_fov
+    k_max = np.asarray(ndc_max, np.float64) * tan_half_fov
+    ok = (d + r >= z_min) & (d - r <= z_max)
+    for axis in (0, 1):
+        kn, kx = k_min[..., axis], k_max[..., axis]
+        ok &= c[..., axis] - kn * d >= -r * np.sqrt(1.0 + kn * kn)
+        ok &= kx * d - c[..., axis] >= -r * np.sqrt(1.0 + kx * kx)
+    return ok
+
+
+def tile_box_reach(
+    c: np.ndarray,
+    r: np.ndarray,
+    ndc_min: np.ndarray,
+    ndc_max: np.ndarray,
+    tan_half_fov: np.ndarray,
+    z_lo: np.ndarray,
+    z_hi: np.ndarray,
+) -> np.ndarray:
+    """Arvo 1990, "A simple method for box-sphere intersection testing": does the sphere
+    reach the view-space bounding box of the tile's frustum between depths ``z_lo`` and
+    ``z_hi``? Exact distance to the box, so unlike the planes it is tight at corners."""
+    c = np.asarray(c, np.float64)
+    d = -c[..., 2]
+    z_lo = np.asarray(z_lo, np.float64)
+    z_hi = np.asarray(z_hi, np.float64)
+    k_min = np.asarray(ndc_min, np.float64) * tan_half_fov
+    k_max = np.asarray(ndc_max, np.float64) * tan_half_fov
+    gap2 = np.square(np.maximum(np.maximum(z_lo - d, d - z_hi), 0.0))
+    for axis in (0, 1):
+        kn, kx = k_min[..., axis], k_max[..., axis]
+        lo = np.minimum(kn * z_lo, kn * z_hi)  # x = k z over the slab: ends at z_lo or z_hi
+        hi = np.maximum(kx * z_lo, kx * z_hi)
+        gap = np.maximum(np.maximum(lo - c[..., axis], c[..., axis] - hi), 0.0)
+        gap2 = gap2 + gap * gap
+    return gap2 <= np.square(r)
+
+
+def sphere_reaches_tile(
+    c: np.ndarray,
+    r: np.ndarray,
+    ndc_min: np.ndarray,
+    ndc_max: np.ndarray,
+    tan_half_fov: np.ndarray,
+    z_min: np.ndarray,
+    z_max: np.ndarray,
+    depth_mask: np.ndarray,
+) -> np.ndarray:
+    """2.5D culling (Harada et al. 2012) with a box test: the sphere's depth extent
+    [d - r, d + r] must cover an occupied bin of the tile's depth mask; then it must reach
+    the tile frustum's box between the nearest and the farthest of those bins (plus a
+    float32 allowance) and pass the four side planes."""
+    c = np.asarray(c, np.float64)
+    d = -c[..., 2]
+    z_min = np.asarray(z_min, np.float64)
+    z_max = np.asarray(z_max, np.float64)
+    scale = depth_bin_scale(z_min, z_max)
+    near = depth_bin(d - r, z_min, scale)
+    far = depth_bin(d + r, z_min, scale)
+    hits = np.asarray(depth_mask, np.uint32) & bin_range_mask(near, far)
+    hit = (hits != 0) & (d + r >= z_min) & (d - r <= z_max)
+    safe = np.where(hit, hits, 1)
+    slack = Z_SLACK * z_max
+    z_lo = z_min + lowest_bit(safe) / scale - slack
+    z_hi = z_min + (highest_bit(safe) + 1) / scale + slack
+    return (
+        hit
+        & tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
+        & tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max)
+    )
+
+
+Z_SLACK = 1e-5  # a bin's ends widen by this fraction of z_max: float32 rounding of the bin
+#                 index and of its ends can put a surface a few ulps outside its bin
