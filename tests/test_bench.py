@@ -11,6 +11,7 @@ import pytest
 from PIL import Image
 
 from app.bench import main
+from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.floor import FloorPass
 from app.bench.pairs import light_pairs, reference_hdr, surface_positions
 from app.bench.report import evaluate_targets, pareto_front
@@ -51,7 +52,7 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
             assert key in row, (key, row["suite"], row["variant"])
         assert row["ms_min"] <= row["ms_median"] <= row["ms_max"]
     suites = {r["suite"] for r in rows}
-    assert suites == {"culling", "resolution", "accuracy", "startup"}
+    assert suites == {"culling", "resolution", "accuracy", "specialization", "startup"}
     culling = {(r["lights"], r["variant"]) for r in rows if r["suite"] == "culling"}
     for n in (1, 16):
         for v in ("culled", "unculled", "forward", "floor"):
@@ -66,8 +67,30 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     assert exact and all(r["max_rel_err"] < 1e-3 for r in exact)
     lpp = [r["lights_per_pixel"] for r in rows if r["suite"] == "culling" and r["lights"] == 16]
     assert all(15.5 < x < 16.5 for x in lpp), lpp  # "about 16 lights reach an average pixel"
+    # specialization: both scenes, both variants, one uber program against one per model
+    # group, the same image (the uber shader is the same BRDF), errors against the twin.
+    spec = {(r["case"], r["variant"]): r for r in rows if r["suite"] == "specialization"}
+    assert set(spec) == {(c, v) for c in ("lambert", "mixed") for v in ("specialized", "uber")}
+    assert spec["lambert", "specialized"]["lighting_programs"] == 1
+    assert (
+        spec["mixed", "specialized"]["lighting_programs"] == spec["mixed", "uber"]["model_groups"]
+    )
+    assert (
+        spec["mixed", "uber"]["model_groups"] == 7
+        and spec["mixed", "uber"]["lighting_programs"] == 1
+    )
+    for r in spec.values():
+        assert r["max_rel_diff_vs_specialized"] <= 1e-5, r  # tests/test_uber.py's bound
+        assert all(isinstance(r[k], float) and np.isfinite(r[k]) for k in ERRORS), r
+    # mip filtering (issue 4): every option against the supersampled reference, with shimmer.
+    mip = {r["variant"]: r for r in rows if r["case"] == "mip_filtering"}
+    assert set(mip) == {name for name, _ in FILTER_OPTIONS}
+    assert [v for v, r in mip.items() if r["default"]] == ["variance"]
+    assert all(np.isfinite(r["shimmer"]) and r["shimmer"] >= 0.0 for r in mip.values())
     text = (tmp_path / "bench.md").read_text()
+    assert "| mip_filtering | variance |" in text and "Shimmer" in text
     assert "## Targets (issue 5)" in text and "culled faster than forward at 16 lights" in text
+    assert "### specialization" in text and "uber/specialized = " in text
     assert "**PASS**" in text or "**FAIL**" in text
     for name in ("pareto.png", "scaling.png"):
         with Image.open(tmp_path / name) as img:
@@ -220,6 +243,20 @@ def test_pareto_front_and_targets_from_rows():
     assert verdicts["culled faster than forward at 16 lights"].status == "FAIL"
     assert verdicts["culled faster than forward at 256 lights"].status == "PASS"
     assert "cold start" in " ".join(v.target for v in verdicts.values())
+    spec_target = "specialized >= 1.5x faster than uber (Lambert-only scene)"
+    assert verdicts[spec_target].status == "NOT MEASURED"
+
+    def spec_row(case, variant, ms):
+        return {"suite": "specialization", "case": case, "variant": variant, "lights": 64,
+                "ms_median": ms, "ms_min": ms, "ms_max": ms}  # fmt: skip
+
+    for uber_ms, status in ((160.0, "PASS"), (140.0, "FAIL")):
+        spec_rows = [
+            spec_row("lambert", "specialized", 100.0),
+            spec_row("lambert", "uber", uber_ms),
+        ]
+        verdict = {v.target: v for v in evaluate_targets(rows + spec_rows)}[spec_target]
+        assert verdict.status == status and f"{uber_ms / 100.0:.2f}x" in verdict.measured
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,7 @@
 """``pbs bench``: run time against error (issue 5); docs/performance.md explains it all.
 
-    python -m app.bench [--quick] [--out DIR] [--suites culling,resolution,accuracy,startup]
+    python -m app.bench [--quick] [--out DIR]
+                        [--suites culling,resolution,accuracy,specialization,startup]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -24,14 +25,15 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
     from app.bench.suites import Settings
 
 __all__ = ["main"]
-SUITES = ("culling", "resolution", "accuracy", "startup")
+SUITES = ("culling", "resolution", "accuracy", "specialization", "startup")
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pbs bench",
         description="Measure run time against error: light culling, image size, the accuracy "
-        "of each approximation, cold start (docs/performance.md).",
+        "of each approximation, specialized vs uber lighting shader, cold start "
+        "(docs/performance.md).",
     )
     parser.add_argument(
         "--quick", action="store_true", help="smaller images, fewer light counts and frames"
@@ -64,6 +66,9 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
         parts.append(f"resolution {sizes} at {s.resolution_lights} lights")
     if "accuracy" in suites:
         parts.append(f"accuracy {s.accuracy_size[0]}x{s.accuracy_size[1]}")
+    if "specialization" in suites:
+        w, h = s.specialization_size
+        parts.append(f"specialization {w}x{h} at {s.specialization_lights} lights")
     b = s.budget
     parts.append(
         f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"

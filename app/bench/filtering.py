@@ -65,6 +65,11 @@ def with_settings(
     return LoadedScene(scene.model_copy(update={"render": settings, "camera": camera}), loaded.path)
 
 
+def render_hdr(gl: GLContext, loaded: LoadedScene) -> np.ndarray:
+    """One frame's linear HDR image (supersampling resolved)."""
+    return _render(gl, loaded)[0]
+
+
 def _render(gl: GLContext, loaded: LoadedScene, repeats: int = 1) -> tuple[np.ndarray, float]:
     r = Renderer(gl, loaded)
     try:
@@ -175,8 +180,7 @@ def main() -> None:
     for r in results:
         save(r.variant.replace("+", "-"), r.hdr)
         print(
-            f"| {r.variant} | {r.ms:.1f} | {r.rel_rmse:.3f} | {r.flip_mean:.3f} | "
-            f"{r.shimmer:.5f} |"
+            f"| {r.variant} | {r.ms:.1f} | {r.rel_rmse:.3f} | {r.flip_mean:.3f} | {r.shimmer:.5f} |"
         )
     # The same floor with GGX: the variance mapping assumes Beckmann's Gaussian slopes.
     materials = {

@@ -8,6 +8,9 @@
 * ``accuracy_scene``: two rows of spheres sweeping roughness over a floor, 16 point lights
   and one low directional light that all reach everything, with every material set to the
   model a comparison of the accuracy suite asks for.
+* ``specialization_scene``: the culling scene's floor, spheres and lights, with every
+  material on the standard model (``lambert``: one model group) or each sphere on one of
+  ``MIXED_MODELS`` (``mixed``: seven groups).
 """
 
 from __future__ import annotations
@@ -185,3 +188,47 @@ def accuracy_scene(size: tuple[int, int], model: dict, gbuffer: str = "f16") -> 
         "lights": lights,
         "objects": objects,
     }
+
+
+# --- the specialization suite -------------------------------------------------------------
+
+# Six sphere models of the mixed scene, beside the standard floor: every optional term a
+# specialized pass compiles out (other NDFs and G2 forms, exact Fresnel, other diffuse
+# lobes, multiple scattering, anisotropy) appears in at least one.
+MIXED_MODELS: tuple[dict, ...] = (
+    {"ndf": "beckmann", "g2": "separable", "diffuse": "burley"},
+    {"ndf": "gtr", "gtr_gamma": 1.5, "g2": "height_direction_correlated"},
+    {"fresnel": "conductor", "preset": "gold", "multiscatter": True},
+    {"anisotropy": 0.7, "diffuse": "oren_nayar"},
+    {"fresnel": "dielectric", "ior": 1.5, "g2": "hammon", "diffuse": "hammon"},
+    {"ndf": "blinn_phong", "diffuse": "shirley"},
+)
+SPECIALIZATION_KINDS = ("lambert", "mixed")
+
+
+def specialization_scene(kind: str, count: int, light_range: float, size: tuple[int, int]) -> dict:
+    """``many_lights_scene`` with ``count`` lights, its materials set by ``kind``:
+
+    * ``lambert``: as it is: floor and spheres all on the standard model (Schlick F, GGX D,
+      height-correlated Smith G2, Lambert diffuse), so one lighting program shades all;
+    * ``mixed``: the floor on the standard model and the twelve spheres cycling through
+      ``MIXED_MODELS``: seven model groups, seven specialized lighting programs.
+    """
+    data = many_lights_scene(count, light_range, size)
+    if kind == "lambert":
+        return data
+    if kind != "mixed":
+        raise ValueError(f"unknown specialization scene {kind!r}")
+    colours = ([0.8, 0.3, 0.2], [0.2, 0.3, 0.8], [1.0, 0.78, 0.34], [0.3, 0.7, 0.3])
+    for k, keys in enumerate(MIXED_MODELS):
+        material = {
+            "base_color": colours[k % len(colours)],
+            "roughness": 0.25 + 0.1 * k,
+            **keys,
+        }
+        if "preset" in keys:
+            material.pop("base_color")
+        data["materials"][f"model{k}"] = material
+    for k, obj in enumerate(data["objects"][1:]):
+        obj["material"] = f"model{k % len(MIXED_MODELS)}"
+    return data

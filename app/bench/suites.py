@@ -25,17 +25,28 @@ from pathlib import Path
 
 import numpy as np
 
+from app.bench.filtering import OPTIONS as FILTER_OPTIONS
+from app.bench.filtering import SWEEP_METRES, render_hdr, shimmer, with_settings
 from app.bench.floor import FloorPass
 from app.bench.metrics import image_errors
 from app.bench.pairs import covered_pixels, light_pairs, reference_hdr
 from app.bench.progress import Progress
-from app.bench.scenes import accuracy_scene, calibrate_range, load, many_lights_scene
+from app.bench.scenes import (
+    SPECIALIZATION_KINDS,
+    accuracy_scene,
+    calibrate_range,
+    load,
+    many_lights_scene,
+    specialization_scene,
+)
 from app.bench.startup import cold_start
 from app.bench.timing import Budget, FrameTimes, GLTimerQueries, Pass, summary, time_frames
 from app.gl.context import GLContext
 from app.render.culling import TILE_SIZE
 from app.render.forward import ForwardRenderer
 from app.render.renderer import Renderer
+from app.resources import scenes_dir
+from app.scene.loader import load_scene
 
 CULLING_VARIANTS = ("culled", "unculled", "forward", "floor")
 PYRENDER_CASE_LIGHTS = 8  # 4 point + 4 spot: the most pyrender shades (4 per type)
@@ -58,6 +69,11 @@ class Settings:
     startup_size: tuple[int, int] | None
     pyrender_lights: tuple[int, ...]
     lights_per_pixel: float = 16.0
+    specialization_size: tuple[int, int] = (1280, 720)
+    specialization_lights: int = 64
+    filtering_size: tuple[int, int] = (640, 360)  # scenes/sec13_filtering.toml
+    filtering_supersample: int = 8  # the reference's samples per pixel: n x n
+    filtering_sweep: int = 5  # camera positions for shimmer
 
 
 FULL = Settings(
@@ -86,6 +102,8 @@ QUICK = replace(
     budget=Budget(warmup=1, min_frames=3, max_frames=5, seconds=4.0),
     startup_runs=2,
     pyrender_lights=(1,),
+    specialization_size=(640, 360),
+    filtering_size=(320, 180),
 )
 # For tests/test_bench.py only: every suite runs, on images small enough to take seconds.
 TINY = replace(
@@ -102,6 +120,10 @@ TINY = replace(
     startup_runs=1,
     startup_size=(160, 90),
     pyrender_lights=(1,),
+    specialization_size=(160, 90),
+    specialization_lights=16,
+    filtering_size=(160, 90),
+    filtering_sweep=2,
 )
 
 
@@ -485,19 +507,13 @@ def comparisons(settings: Settings) -> list[Comparison]:
 
 
 def accuracy_tasks(settings: Settings) -> int:
-    return sum(len(c.variants) + 1 for c in comparisons(settings))
+    return sum(len(c.variants) + 1 for c in comparisons(settings)) + len(FILTER_OPTIONS) + 1
 
 
 def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
-    r = Renderer(ctx.gl, load(accuracy_scene(size, variant.model, variant.gbuffer)), size)
-    if variant.ms_size is not None and r.lighting.ms_table is not None:
-        # Hook: the lighting pass loads the shipped table; swap in the size asked for
-        # (the GLSL reads the table's size from the texture).
-        from app.render.tables import ms_texture
-
-        r.lighting.ms_table.release()
-        r.lighting.ms_table = ms_texture(ctx.gl.ctx, variant.ms_size)
-    return r
+    # The GLSL reads the multiple-scattering table's size from the texture.
+    scene = load(accuracy_scene(size, variant.model, variant.gbuffer))
+    return Renderer(ctx.gl, scene, size, ms_table_size=variant.ms_size)
 
 
 def run_accuracy(ctx: Context) -> None:
@@ -544,6 +560,52 @@ def run_accuracy(ctx: Context) -> None:
                 )
             )  # fmt: skip
             ctx.progress.done()
+    _run_mip_filtering(ctx)
+
+
+def _run_mip_filtering(ctx: Context) -> None:
+    """Accuracy comparison ``mip_filtering`` (issue 4): every normal/roughness filtering
+    option on scenes/sec13_filtering.toml against the same view rendered with
+    ``filtering_supersample``^2 samples per pixel from the unfiltered level 0, with the
+    shimmer over a sideways camera sweep (app/bench/filtering.py)."""
+    s = ctx.settings
+    size = s.filtering_size
+    loaded = load_scene(scenes_dir() / "sec13_filtering.toml")
+    exposure, tonemap = loaded.scene.camera.exposure, loaded.scene.render.tonemap
+    ref_settings = {"normal_filter": "none", "supersample": s.filtering_supersample}
+    ctx.progress.start(f"accuracy mip_filtering: {s.filtering_supersample}^2 reference")
+    ref = render_hdr(ctx.gl, with_settings(loaded, size, 0.0, **ref_settings))
+    ctx.progress.done()
+    covered = np.ones(ref.shape[:2], bool)
+    offsets = np.linspace(0.0, SWEEP_METRES, s.filtering_sweep)
+    title = (
+        f"normal/roughness mip filtering vs a {s.filtering_supersample}x"
+        f"{s.filtering_supersample} supersampled reference (scenes/sec13_filtering.toml)"
+    )
+    for name, options in FILTER_OPTIONS:
+        ctx.progress.start(f"accuracy mip_filtering: {name}")
+        r = Renderer(ctx.gl, with_settings(loaded, size, 0.0, **options))
+        try:
+            times = ctx.time(deferred_passes(r))
+            frames = [r.read_hdr()]
+            lights = len(r.lights)
+        finally:
+            r.release()
+        frames += [
+            render_hdr(ctx.gl, with_settings(loaded, size, float(o), **options))
+            for o in offsets[1:]
+        ]
+        errors = image_errors(frames[0], ref, covered, exposure, tonemap)
+        ctx.rows.append(
+            make_row(
+                "accuracy", "mip_filtering", name, size, lights, times,
+                default=name == "variance", comparison=title,
+                error_reference=f"{s.filtering_supersample}x{s.filtering_supersample} "
+                "samples per pixel from texture level 0, box-filtered",
+                shimmer=shimmer(frames, loaded), **errors,
+            )
+        )  # fmt: skip
+        ctx.progress.done()
 
 
 def _reference_text(comp: Comparison) -> str:
@@ -552,6 +614,78 @@ def _reference_text(comp: Comparison) -> str:
     if comp.ms_reference is not None:
         text += f", {comp.ms_reference}x{comp.ms_reference} table"
     return text
+
+
+# --- specialization -------------------------------------------------------------------------
+
+SPECIALIZATION_VARIANTS = ("specialized", "uber")
+
+
+def specialization_tasks(settings: Settings) -> int:
+    return len(SPECIALIZATION_KINDS) * (len(SPECIALIZATION_VARIANTS) + 1)
+
+
+def run_specialization(ctx: Context) -> None:
+    """Suite ``specialization``: one lighting program per model group (``specialized``, as
+    the renderer ships) against one uber-shader with run-time model selection (``uber``),
+    on a Lambert-only (standard model) scene and a mixed-model scene, culled pipeline.
+
+    Both variants draw the same image (tests/test_uber.py); each row records the uber
+    image's largest relative difference from the specialized one, and both carry the
+    error against the float64 twin on an f32 G-buffer (as the culling suite)."""
+    s = ctx.settings
+    size, count = s.specialization_size, s.specialization_lights
+    light_range = ctx.light_range(count)
+    for kind in SPECIALIZATION_KINDS:
+        data = specialization_scene(kind, count, light_range, size)
+        loaded = load(data)
+        images: dict[str, np.ndarray] = {}
+        pending: list[dict] = []
+        pairs = None
+        for variant in SPECIALIZATION_VARIANTS:
+            ctx.progress.start(f"specialization {kind}: {variant}")
+            r = Renderer(ctx.gl, loaded, size, uber=variant == "uber")
+            try:
+                times = ctx.time(deferred_passes(r))
+                images[variant] = r.read_hdr()
+                if pairs is None:
+                    pairs = light_pairs(r.read_gbuffer(), r.camera, r.lights)
+                programs = len(r.lighting.programs)
+                groups = len(r.materials.models)
+            finally:
+                r.release()
+            pending.append(
+                make_row(
+                    "specialization", kind, variant, size, count, times,
+                    light_range_m=light_range, model_groups=groups, lighting_programs=programs,
+                    lights_per_pixel=pairs.mean_per_covered_pixel,
+                )
+            )  # fmt: skip
+            ctx.progress.done()
+
+        ctx.progress.start(f"specialization {kind}: float64 reference and errors")
+        exact = Renderer(ctx.gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}))
+        try:
+            exact.gbuffer_pass.run(exact.gbuffer, exact.view, exact.proj)
+            g32 = exact.read_gbuffer()
+            ref = reference_hdr(
+                g32, exact.camera, exact.lights, loaded.scene.background,
+                exact.materials.models, exact.materials.packed(), pairs,
+            )  # fmt: skip
+        finally:
+            exact.release()
+        covered = covered_pixels(g32.depth)
+        cam, render = loaded.scene.camera, loaded.scene.render
+        base = images["specialized"][covered].astype(np.float64)
+        floor = 1e-3 * float(np.abs(base).max())
+        for row in pending:
+            image = images[row["variant"]]
+            diff = np.abs(image[covered] - base) / np.maximum(np.abs(base), floor)
+            row["max_rel_diff_vs_specialized"] = float(diff.max())
+            row.update(image_errors(image, ref, covered, cam.exposure, render.tonemap))
+            row["error_reference"] = "float64 twin on an f32 G-buffer, in-range pairs"
+        ctx.rows.extend(pending)
+        ctx.progress.done()
 
 
 # --- startup --------------------------------------------------------------------------------
@@ -598,6 +732,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "culling": run_culling,
     "resolution": run_resolution,
     "accuracy": run_accuracy,
+    "specialization": run_specialization,
     "startup": run_startup,
 }
 
@@ -608,6 +743,7 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "culling": culling_tasks(settings, pyrender),
         "resolution": len(settings.resolutions),
         "accuracy": accuracy_tasks(settings),
+        "specialization": specialization_tasks(settings),
         "startup": startup_tasks(settings),
     }
     return sum(counts[s] for s in suites)

@@ -105,15 +105,59 @@ class ModelParams:
     gtr_gamma: float = 2.0  # GTR tail exponent (2 = GGX)
 
 
-def pack_model_params(params: list[ModelParams], groups: list[int]) -> np.ndarray:
+def model_codes(model: Model) -> tuple[int, int, int]:
+    """The (Fresnel, specular, diffuse) codes of ``model`` in texel 3 of its table row, read
+    by the uber lighting shader (glsl/brdf/model.glsl fetch_model_codes):
+
+    * Fresnel: fresnel | internal << 2
+    * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
+      | multiscatter << 8
+    * diffuse: diffuse
+
+    Small integers, exact in float32."""
+    d = model.defines()
+    fresnel = d["FRESNEL_MODEL"] | d["FRESNEL_INTERNAL"] << 2
+    specular = (
+        d["NDF_MODEL"]
+        | d["LAMBDA_FORM"] << 2
+        | d["G2_MODEL"] << 3
+        | d["CORRELATION"] << 6
+        | d["ANISOTROPIC"] << 7
+        | d["MULTISCATTER"] << 8
+    )
+    return fresnel, specular, d["DIFFUSE_MODEL"]
+
+
+def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
+    """Inverse of ``model_codes``."""
+    return Model(
+        fresnel=FRESNEL_MODELS[fresnel & 3],
+        ndf=NDF_MODELS[specular & 3],
+        lambda_form=LAMBDA_FORMS[(specular >> 2) & 1],
+        g2=G2_MODELS[(specular >> 3) & 7],
+        correlation=CORRELATIONS[(specular >> 6) & 1],
+        diffuse=DIFFUSE_MODELS[diffuse],
+        multiscatter=bool((specular >> 8) & 1),
+        anisotropic=bool((specular >> 7) & 1),
+        internal=bool((fresnel >> 2) & 1),
+    )
+
+
+def pack_model_params(
+    params: list[ModelParams], groups: list[int], models: list[Model] | None = None
+) -> np.ndarray:
     """The lighting pass's material table: (M, 4, 4) float32, one row of 4 RGBA texels per
-    material id: (f90, 1/p), (eta, eta_dielectric), (k, gtr_gamma), (model group, 0, 0, 0)."""
+    material id: (f90, 1/p), (eta, eta_dielectric), (k, gtr_gamma), (model group, Fresnel
+    code, specular code, diffuse code). ``models`` gives each row's model for the codes
+    (``model_codes``; only the uber lighting shader reads them); without it every row gets
+    the standard model's codes."""
     table = np.zeros((max(len(params), 1), 4, 4), np.float32)
-    for row, (p, group) in enumerate(zip(params, groups, strict=True)):
+    models = models if models is not None else [DEFAULT_MODEL] * len(params)
+    for row, (p, group, model) in enumerate(zip(params, groups, models, strict=True)):
         table[row, 0] = [*np.broadcast_to(p.f90, 3), p.fresnel_exponent]
         table[row, 1] = [*np.broadcast_to(p.eta, 3), p.eta_dielectric]
         table[row, 2] = [*np.broadcast_to(p.k, 3), p.gtr_gamma]
-        table[row, 3, 0] = group
+        table[row, 3] = [group, *model_codes(model)]
     return table
 
 
@@ -121,3 +165,9 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
     """Inverse of one row of ``pack_model_params`` (float32 values widened to float64)."""
     t = np.asarray(texels, np.float64)
     return ModelParams(t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]))
+
+
+def unpack_model(texels: np.ndarray) -> tuple[int, Model]:
+    """The model group and the model of one row of ``pack_model_params`` (texel 3)."""
+    group, fresnel, specular, diffuse = (int(x) for x in np.asarray(texels)[3])
+    return group, model_from_codes(fresnel, specular, diffuse)

@@ -3,6 +3,8 @@ distinct (model, parameters), and the model groups that decide the lighting perm
 
 The G-buffer carries each pixel's row (its material id); the lighting pass compiles one
 program per distinct ``Model`` (a group) and each program shades only its group's pixels.
+Each row also carries its model's codes (app.reference.model.model_codes), which only the
+bench's uber lighting shader reads.
 """
 
 from __future__ import annotations
@@ -56,7 +58,7 @@ class MaterialTable:
 
     def packed(self) -> np.ndarray:
         """(M, 4, 4) float32 texels, see app.reference.model.pack_model_params."""
-        return pack_model_params([p for _, p in self.rows], self.groups)
+        return pack_model_params([p for _, p in self.rows], self.groups, [m for m, _ in self.rows])
 
     def texture(self, ctx: moderngl.Context) -> moderngl.Texture:
         """The table as an RGBA32F texture, 4 texels wide, one material per row."""

@@ -32,7 +32,13 @@ class Renderer:
         gl: GLContext,
         loaded: LoadedScene,
         size: tuple[int, int] | None = None,
+        *,
+        uber: bool = False,
+        ms_table_size: int | None = None,
     ) -> None:
+        """``uber`` and ``ms_table_size`` are bench knobs, not scene keys: one lighting
+        program with run-time model selection, and the multiple-scattering table's size
+        (app/render/lighting.py LightingPass)."""
         scene = loaded.scene
         self.gl = gl
         self.scene = scene
@@ -60,11 +66,10 @@ class Renderer:
             else None
         )
         self.lighting = LightingPass(
-            ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler
-        )
-        self.resolve = (
-            DownsamplePass(ctx, self.shaders, self.size, factor) if factor > 1 else None
-        )
+            ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
+            uber=uber, ms_table_size=ms_table_size,
+        )  # fmt: skip
+        self.resolve = DownsamplePass(ctx, self.shaders, self.size, factor) if factor > 1 else None
         self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)
         w, h = self.size
         self.view = view_matrix(scene.camera)

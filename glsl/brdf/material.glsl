@@ -75,44 +75,46 @@ float material_alpha(Surface s) {
 
 // F(h, l) of the selected Fresnel model (seed section 5). The exact models blend the
 // dielectric interface and the metal by metallic, as the metalness workflow does.
+// Like every dispatch function, a plain `if` on the constants of brdf/model.glsl: folded
+// at compile time in a specialized pass, a run-time branch under UBER_MODELS.
 vec3 F_selected(Surface s, ModelParams p, float LoH) {
-#if FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED
-    return F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH);
-#elif FRESNEL_MODEL == FRESNEL_DIELECTRIC
-    return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_schlick(s.base_color, LoH),
-               s.metallic);
-#elif FRESNEL_MODEL == FRESNEL_CONDUCTOR
-    return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_conductor(p.eta, p.k, LoH),
-               s.metallic);
-#elif FRESNEL_INTERNAL
-    // n1 > n2: Schlick at the transmitted angle, exactly 1 past the critical angle.
-    return F_schlick(material_F0(s), cos_theta_schlick(p.eta_dielectric, LoH));
-#else
+    if (FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED) {
+        return F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH);
+    }
+    if (FRESNEL_MODEL == FRESNEL_DIELECTRIC) {
+        return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_schlick(s.base_color, LoH),
+                   s.metallic);
+    }
+    if (FRESNEL_MODEL == FRESNEL_CONDUCTOR) {
+        return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_conductor(p.eta, p.k, LoH),
+                   s.metallic);
+    }
+    if (FRESNEL_INTERNAL != 0) {
+        // n1 > n2: Schlick at the transmitted angle, exactly 1 past the critical angle.
+        return F_schlick(material_F0(s), cos_theta_schlick(p.eta_dielectric, LoH));
+    }
     return F_schlick(material_F0(s), LoH);
-#endif
 }
 
 // The diffuse (subsurface) lobe of the selected model (seed section 9).
 vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
                         float NoL, float NoV, float NoH, float LoH) {
     vec3 rho_ss = material_rho_ss(s);
-#if DIFFUSE_MODEL == DIFFUSE_SHIRLEY
-    return Fd_shirley(rho_ss, material_F0(s), NoL, NoV);
-#elif DIFFUSE_MODEL == DIFFUSE_ASHIKHMIN_SHIRLEY
-    return Fd_ashikhmin_shirley(rho_ss, material_F0(s), NoL, NoV);
-#elif DIFFUSE_MODEL == DIFFUSE_BURLEY
-    return Fd_burley(rho_ss, clamp(s.perceptual_roughness, 0.0, 1.0), NoL, NoV, LoH);
-#elif DIFFUSE_MODEL == DIFFUSE_BURLEY_RENORMALIZED
-    return Fd_burley_renormalized(rho_ss, clamp(s.perceptual_roughness, 0.0, 1.0), NoL, NoV, LoH);
-#elif DIFFUSE_MODEL == DIFFUSE_OREN_NAYAR
-    return Fd_oren_nayar(rho_ss, alpha, n, l, v);
-#elif DIFFUSE_MODEL == DIFFUSE_HAMMON
-    return Fd_hammon(rho_ss, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v));
-#elif DIFFUSE_MODEL == DIFFUSE_NONE
-    return vec3(0.0);
-#else
+    float r = clamp(s.perceptual_roughness, 0.0, 1.0);
+    if (DIFFUSE_MODEL == DIFFUSE_SHIRLEY) return Fd_shirley(rho_ss, material_F0(s), NoL, NoV);
+    if (DIFFUSE_MODEL == DIFFUSE_ASHIKHMIN_SHIRLEY) {
+        return Fd_ashikhmin_shirley(rho_ss, material_F0(s), NoL, NoV);
+    }
+    if (DIFFUSE_MODEL == DIFFUSE_BURLEY) return Fd_burley(rho_ss, r, NoL, NoV, LoH);
+    if (DIFFUSE_MODEL == DIFFUSE_BURLEY_RENORMALIZED) {
+        return Fd_burley_renormalized(rho_ss, r, NoL, NoV, LoH);
+    }
+    if (DIFFUSE_MODEL == DIFFUSE_OREN_NAYAR) return Fd_oren_nayar(rho_ss, alpha, n, l, v);
+    if (DIFFUSE_MODEL == DIFFUSE_HAMMON) {
+        return Fd_hammon(rho_ss, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v));
+    }
+    if (DIFFUSE_MODEL == DIFFUSE_NONE) return vec3(0.0);
     return Fd_lambert(rho_ss);
-#endif
 }
 
 // A unit tangent perpendicular to n: t with its normal component removed, or any
@@ -143,33 +145,38 @@ vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
     float alpha = material_alpha(s);
     vec3 F = F_selected(s, p, LoH);
 
-#if ANISOTROPIC
-    vec3 tn = orthonormal_tangent(n, t);
-    vec3 bn = cross(n, tn);
-    float alpha_min = MIN_PERCEPTUAL_ROUGHNESS * MIN_PERCEPTUAL_ROUGHNESS;
-    float alpha_x = max(alpha * (1.0 + s.anisotropy), alpha_min);
-    float alpha_y = max(alpha * (1.0 - s.anisotropy), alpha_min);
-    float D = D_selected_aniso(n, tn, bn, h, alpha_x, alpha_y);
-    float alpha_v = alpha_in_direction(tn, bn, v, alpha_x, alpha_y);
-    float alpha_l = alpha_in_direction(tn, bn, l, alpha_x, alpha_y);
-#else
-    float D = D_selected(n, h, alpha, p.gtr_gamma);
+    float D;
     float alpha_v = alpha;
     float alpha_l = alpha;
-#endif
+    if (ANISOTROPIC != 0) {
+        vec3 tn = orthonormal_tangent(n, t);
+        vec3 bn = cross(n, tn);
+        float alpha_min = MIN_PERCEPTUAL_ROUGHNESS * MIN_PERCEPTUAL_ROUGHNESS;
+        float alpha_x = max(alpha * (1.0 + s.anisotropy), alpha_min);
+        float alpha_y = max(alpha * (1.0 - s.anisotropy), alpha_min);
+        D = D_selected_aniso(n, tn, bn, h, alpha_x, alpha_y);
+        alpha_v = alpha_in_direction(tn, bn, v, alpha_x, alpha_y);
+        alpha_l = alpha_in_direction(tn, bn, l, alpha_x, alpha_y);
+    } else {
+        D = D_selected(n, h, alpha, p.gtr_gamma);
+    }
 
-#if G2_MODEL == G2_HAMMON
-    vec3 f_spec = F * (D * V_hammon_GGX(NoL, NoV, alpha));
-#elif !SPECULAR_LAMBDA_G2
-    // The division-free visibility form: accurate as n.l or n.v -> 0.
-    vec3 f_spec = F * (D * V_height_correlated_GGX(NoL, NoV, alpha));
-#else
-    float G2 = G2_selected(Lambda_selected(NoV, alpha_v, p.gtr_gamma),
-                           Lambda_selected(NoL, alpha_l, p.gtr_gamma), n, l, v);
-    vec3 f_spec = F * (D * G2 / (4.0 * NoL * NoV));
-#endif
-#if MULTISCATTER
-    f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
+    vec3 f_spec;
+    if (G2_MODEL == G2_HAMMON) {
+        f_spec = F * (D * V_hammon_GGX(NoL, NoV, alpha));
+    } else if (!SPECULAR_LAMBDA_G2) {
+        // The division-free visibility form: accurate as n.l or n.v -> 0.
+        f_spec = F * (D * V_height_correlated_GGX(NoL, NoV, alpha));
+    } else {
+        float G2 = G2_selected(Lambda_selected(NoV, alpha_v, p.gtr_gamma),
+                               Lambda_selected(NoL, alpha_l, p.gtr_gamma), n, l, v);
+        f_spec = F * (D * G2 / (4.0 * NoL * NoV));
+    }
+#if UBER_MODELS || MULTISCATTER
+    // brdf/multiscatter.glsl declares the table and its functions only under this condition.
+    if (MULTISCATTER != 0) {
+        f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
+    }
 #endif
     return f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH) + f_spec;
 }

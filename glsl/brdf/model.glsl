@@ -1,7 +1,15 @@
-// Which model each BRDF term uses (compile-time), and the per-material numbers those
-// models need (run-time, from the material table). Twin: app/reference/model.py.
-// A pass is compiled once per distinct model: every #if below is resolved by the
-// preprocessor, so a scene pays only for the terms its materials select.
+// Which model each BRDF term uses, and the per-material numbers those models need
+// (run-time, from the material table). Twin: app/reference/model.py.
+// A pass is compiled once per distinct model: FRESNEL_MODEL, NDF_MODEL, ... are #define'd
+// integer constants, so the plain `if (NDF_MODEL == NDF_BECKMANN)` of each dispatch
+// function (material.glsl, specular.glsl) is folded by the compiler and a scene pays only
+// for the terms its materials select.
+//
+// UBER_MODELS 1 (the bench's `uber` variant, docs/performance.md "Specialization"): one
+// program for every material. The same names then expand to globals that
+// fetch_model_codes() sets per pixel from the material table, and the SAME dispatch code
+// becomes run-time branches; every model function, the multiple-scattering table and the
+// anisotropic tangent frame are compiled in.
 #ifndef PBS_MODEL_GLSL
 #define PBS_MODEL_GLSL
 
@@ -36,6 +44,32 @@
 #define DIFFUSE_NONE 6
 #define DIFFUSE_BURLEY_RENORMALIZED 7
 
+#ifndef UBER_MODELS
+#define UBER_MODELS 0
+#endif
+
+#if UBER_MODELS
+// Run-time model codes of the pixel being shaded (fetch_model_codes). A pass that also
+// defines one of the compile-time names fails to compile (macro redefinition).
+int uber_fresnel_model;
+int uber_ndf_model;
+int uber_lambda_form;
+int uber_g2_model;
+int uber_correlation;
+int uber_diffuse_model;
+int uber_multiscatter;
+int uber_anisotropic;
+int uber_fresnel_internal;
+#define FRESNEL_MODEL uber_fresnel_model
+#define NDF_MODEL uber_ndf_model
+#define LAMBDA_FORM uber_lambda_form
+#define G2_MODEL uber_g2_model
+#define CORRELATION uber_correlation
+#define DIFFUSE_MODEL uber_diffuse_model
+#define MULTISCATTER uber_multiscatter
+#define ANISOTROPIC uber_anisotropic
+#define FRESNEL_INTERNAL uber_fresnel_internal
+#else
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
 #define FRESNEL_MODEL FRESNEL_SCHLICK
@@ -64,16 +98,15 @@
 #ifndef FRESNEL_INTERNAL
 #define FRESNEL_INTERNAL 0
 #endif
+#endif  // UBER_MODELS
 
-// 0 where the specular term has a fused visibility form V = G2/(4 n.l n.v) (the standard
-// height-correlated GGX, or Hammon's approximation of it); 1 where it goes through the
-// Smith Lambdas and the selected G2. GLSL compiles every function it sees, so the general
-// path's functions exist only when this is 1.
-#if G2_MODEL == G2_HAMMON || (G2_MODEL == G2_HEIGHT_CORRELATED && NDF_MODEL == NDF_GGX && !ANISOTROPIC)
-#define SPECULAR_LAMBDA_G2 0
-#else
-#define SPECULAR_LAMBDA_G2 1
-#endif
+// SPECULAR_LAMBDA_G2 is false where the specular term has a fused visibility form
+// V = G2/(4 n.l n.v) (the standard height-correlated GGX, or Hammon's approximation of it),
+// true where it goes through the Smith Lambdas and the selected G2. A constant expression
+// in a specialized pass, a per-pixel one under UBER_MODELS.
+#define SPECULAR_FUSED_V (G2_MODEL == G2_HAMMON || (G2_MODEL == G2_HEIGHT_CORRELATED && \
+                          NDF_MODEL == NDF_GGX && ANISOTROPIC == 0))
+#define SPECULAR_LAMBDA_G2 (!SPECULAR_FUSED_V)
 
 // Per-material numbers of the optional models; indices are relative to the medium
 // the light arrives from.
@@ -87,7 +120,9 @@ struct ModelParams {
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
-// app/reference/model.py pack_model_params).
+// app/reference/model.py pack_model_params):
+//   texel 0 (f90, 1/p), texel 1 (eta, eta_dielectric), texel 2 (k, gtr_gamma),
+//   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below.
 ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t0 = texelFetch(table, ivec2(0, id), 0);
     vec4 t1 = texelFetch(table, ivec2(1, id), 0);
@@ -99,5 +134,26 @@ ModelParams fetch_model_params(sampler2D table, int id) {
 int fetch_model_group(sampler2D table, int id) {
     return int(texelFetch(table, ivec2(3, id), 0).r);
 }
+
+#if UBER_MODELS
+// Sets the run-time model codes from texel 3 of material ``id`` (exact small integers in
+// float32; twin: app/reference/model.py model_codes):
+//   .g Fresnel:  fresnel | internal << 2
+//   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
+//                | multiscatter << 8
+//   .a diffuse:  diffuse
+void fetch_model_codes(sampler2D table, int id) {
+    ivec4 c = ivec4(texelFetch(table, ivec2(3, id), 0));
+    uber_fresnel_model = c.g & 3;
+    uber_fresnel_internal = (c.g >> 2) & 1;
+    uber_ndf_model = c.b & 3;
+    uber_lambda_form = (c.b >> 2) & 1;
+    uber_g2_model = (c.b >> 3) & 7;
+    uber_correlation = (c.b >> 6) & 1;
+    uber_anisotropic = (c.b >> 7) & 1;
+    uber_multiscatter = (c.b >> 8) & 1;
+    uber_diffuse_model = c.a;
+}
+#endif
 
 #endif

@@ -1,6 +1,7 @@
 // Multiple-scattering compensation of the GGX specular. Twin: app/reference/multiscatter.py.
 // Kulla & Conty 2017, "Revisiting Physically Based Shading at Imageworks" (SIGGRAPH course).
-// Everything is inside #if MULTISCATTER, so a program built without it pays nothing.
+// Everything is inside #if MULTISCATTER (or UBER_MODELS, the uber-shader that compiles every
+// model; brdf/model.glsl), so a program built without it pays nothing.
 // Needs common/constants.glsl.
 //
 // u_ms_table (app/render/tables.py, ms_texture): RG32F, NEAREST, width n_mu, height n_r;
@@ -15,7 +16,7 @@
 #ifndef PBS_MULTISCATTER_GLSL
 #define PBS_MULTISCATTER_GLSL
 
-#if MULTISCATTER
+#if UBER_MODELS || MULTISCATTER
 
 uniform sampler2D u_ms_table;
 
@@ -94,6 +95,6 @@ vec3 f_ms_kulla_conty(vec3 F0, float perceptual_roughness, float NoL, float NoV)
     return colour * (loss_l * loss_v / (PI * max(loss_avg, MS_MIN_LOSS_AVG)));
 }
 
-#endif  // MULTISCATTER
+#endif  // UBER_MODELS || MULTISCATTER
 
 #endif
