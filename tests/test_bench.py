@@ -65,8 +65,11 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
             assert all(isinstance(r[k], float) and np.isfinite(r[k]) for k in ERRORS), r
     exact = [r for r in rows if r["suite"] == "accuracy" and r["variant"] in ("exact", "f32")]
     assert exact and all(r["max_rel_err"] < 1e-3 for r in exact)
-    lpp = [r["lights_per_pixel"] for r in rows if r["suite"] == "culling" and r["lights"] == 16]
+    lpp = [r["lights_per_pixel"] for r in rows if r["suite"] == "culling" and r["lights"] == 64]
     assert all(15.5 < x < 16.5 for x in lpp), lpp  # "about 16 lights reach an average pixel"
+    # With 16 lights each reaches every pixel in its cone: the spots (half) cover part.
+    lpp16 = [r["lights_per_pixel"] for r in rows if r["suite"] == "culling" and r["lights"] == 16]
+    assert all(8.0 < x < 16.0 for x in lpp16), lpp16
     # specialization: both scenes, both variants, one uber program against one per model
     # group, the same image (the uber shader is the same BRDF), errors against the twin.
     spec = {(r["case"], r["variant"]): r for r in rows if r["suite"] == "specialization"}
@@ -153,7 +156,8 @@ def test_forward_comparison_sees_a_16_bit_gbuffer(gl):
 
 
 def test_light_pairs_are_exactly_the_lights_in_range(gl_egl):
-    """The CPU lists hold every light closer than its range, and no other, in order."""
+    """The CPU lists hold every light closer than its range (and inside its cone, for a
+    spot light), and no other, in order."""
     r = Renderer(gl_egl, load(_scene("f16")), SIZE)
     try:
         r.gbuffer_pass.run(r.gbuffer, r.view, r.proj)
@@ -164,8 +168,13 @@ def test_light_pairs_are_exactly_the_lights_in_range(gl_egl):
         r.release()
     centres = np.array([x["position"] for x in r.lights])
     ranges = np.array([x["range"] for x in r.lights])
-    d = np.linalg.norm(p[:, None, :] - centres[None], axis=-1)  # brute force, (pixels, lights)
+    to_p = p[:, None, :] - centres[None]  # brute force, (pixels, lights)
+    d = np.linalg.norm(to_p, axis=-1)
     want = d < ranges[None, :]
+    for j, light in enumerate(r.lights):
+        if light["type"] == 2:  # spot: inside the outer cone, where its factor is not 0
+            want[:, j] &= to_p[:, j] @ light["direction"] > light["cos_outer"] * d[:, j]
+    assert (~want & (d < ranges[None, :])).sum() > 0, "the scene's cones cull nothing"
     assert 5.0 < pairs.mean_per_covered_pixel < 25.0  # a meaningful mix of lights per pixel
     assert np.array_equal(pairs.count[covered], want.sum(axis=1))
     assert np.all(pairs.count[~covered] == 0)

@@ -146,6 +146,8 @@ class Frame:
             texels = np.frombuffer(culler.lights.read(), np.float32).reshape(-1, 4)
             self.centres_view = texels[: culler.local_count, :3].astype(np.float64)
             self.ranges = texels[: culler.local_count, 3].astype(np.float64)  # padded
+            spots = np.frombuffer(culler.spots.read(), np.float32).reshape(-1, 4)
+            self.spots = spots[: culler.local_count].astype(np.float64)  # widened cones
             self.local = [x for x in r.lights if x["type"] != 0]
             self.camera = r.camera
             self.tiles = culler.tiles
@@ -154,7 +156,8 @@ class Frame:
 
     def needed(self) -> np.ndarray:
         """(tiles_y, tiles_x, lights): some pixel of the tile is closer than the light's
-        range (the unpadded one: where its window is not 0), in float64."""
+        range (the unpadded one: where its window is not 0) and, for a spot light, inside
+        its outer cone (where the cone factor is not 0), in float64."""
         h, w = self.depth.shape
         covered = self.depth > 0.0
         p = reconstruct_position(
@@ -165,12 +168,16 @@ class Frame:
         tile_y, tile_x = (h - 1 - rows) // TILE_SIZE, cols // TILE_SIZE
         needed = np.zeros_like(self.masks)
         for j, light in enumerate(self.local):
-            reach = np.linalg.norm(p - light["position"], axis=1) < light["range"]
+            to_p = p - light["position"]
+            dist = np.linalg.norm(to_p, axis=1)
+            reach = dist < light["range"]
+            if light["type"] == 2:  # cos(angle to the axis) > cos outer: the cone is not 0
+                reach &= to_p @ light["direction"] > light["cos_outer"] * dist
             needed[tile_y[reach], tile_x[reach], j] = True
         return needed
 
     def twin_decisions(self, scale: float = 1.0, depth_mask: bool = True) -> np.ndarray:
-        """(tiles_y, tiles_x, lights): the twin's sphere_reaches_tile on the GPU's own tile
+        """(tiles_y, tiles_x, lights): the twin's light_reaches_tile on the GPU's own tile
         bounds, depth masks and lights, the radii times ``scale``; without ``depth_mask``
         every slice counts as occupied (planes and box over the whole slab)."""
         tx, ty = self.tiles
@@ -183,8 +190,8 @@ class Frame:
         z = self.bounds.astype(np.float64)
         occupied = z[..., 1] > 0.0
         dm = self.depth_masks if depth_mask else np.full_like(self.depth_masks, 0xFFFFFFFF)
-        reach = twin.sphere_reaches_tile(
-            self.centres_view, self.ranges * scale, ndc_min[..., None, :],
+        reach = twin.light_reaches_tile(
+            self.centres_view, self.ranges * scale, self.spots, ndc_min[..., None, :],
             ndc_max[..., None, :], np.asarray(self.camera.tan_half_fov), z[..., :1],
             z[..., 1:], dm[..., None],
         )  # fmt: skip

@@ -3,10 +3,11 @@
 A (pixel, light) pair is *in range* when the light can add anything at the pixel's surface
 point: every directional light, and a point or spot light whose centre is closer than its
 range (the window ((1 - (d/r)^4)+)^2 of glsl/lights/punctual.glsl is exactly 0 from d = r
-on). The lists are found in float64 from the G-buffer's float32 view depth, so they are
-exact for the positions the GPU reconstructs up to float32 rounding; a light that float32
-rounding would move across its own range boundary adds ((1 - (d/r)^4)+)^2 ~ 1e-13 of its
-colour there.
+on) and, for a spot light, inside its outer cone (the cone factor t^2 is exactly 0 from
+the outer angle on). The lists are found in float64 from the G-buffer's float32 view
+depth, so they are exact for the positions the GPU reconstructs up to float32 rounding;
+a light that float32 rounding would move across its own range boundary adds
+((1 - (d/r)^4)+)^2 ~ 1e-13 of its colour there (and as little across its cone's edge).
 
 The floor pass (app/bench/floor.py) loops these lists and nothing else; the reference
 (``reference_hdr``) evaluates the float64 twin on the same pairs, since out-of-range lights
@@ -79,6 +80,22 @@ def surface_positions(gbuffer: GBufferData, camera: CameraFrame) -> tuple[np.nda
     return covered, p
 
 
+def in_cone_mask(
+    p: np.ndarray, centres: np.ndarray, axes: np.ndarray, cos_outer: np.ndarray
+) -> np.ndarray:
+    """(C, L) bool: p_c lies inside light l's outer cone, cos(angle to the axis) >
+    cos_outer (RTR4 eq. 5.18: the cone factor is 0 from there on); cos_outer < -1 for
+    point lights, which have no cone."""
+    mask = np.ones((len(p), len(centres)), bool)
+    cols = np.nonzero(cos_outer >= -1.0)[0]
+    if cols.size:
+        to_p = p[:, None, :] - centres[None, cols, :]
+        dist = np.linalg.norm(to_p, axis=-1)
+        along = np.einsum("ijk,jk->ij", to_p, axes[cols])
+        mask[:, cols] = along > cos_outer[None, cols] * dist
+    return mask
+
+
 def in_range_mask(p: np.ndarray, centres: np.ndarray, ranges: np.ndarray) -> np.ndarray:
     """(C, L) bool: |p_c - centre_l| < range_l, exactly in float64.
 
@@ -108,6 +125,9 @@ def light_pairs(gbuffer: GBufferData, camera: CameraFrame, lights: list[dict]) -
     directional = np.array([i for i, r in enumerate(lights) if r["type"] == 0], np.int64)
     centres = np.array([lights[i]["position"] for i in local], np.float64).reshape(-1, 3)
     ranges = np.array([lights[i]["range"] for i in local], np.float64)
+    spot = np.array([lights[i]["type"] == 2 for i in local], bool)
+    axes = np.array([lights[i]["direction"] for i in local], np.float64).reshape(-1, 3)
+    cos_outer = np.array([lights[i].get("cos_outer", -2.0) for i in local], np.float64)
     per_pixel_lights: list[np.ndarray] = []
     counts = np.zeros(len(p), np.int64)
     for start in range(0, len(p), PIXEL_CHUNK):
@@ -121,6 +141,9 @@ def light_pairs(gbuffer: GBufferData, camera: CameraFrame, lights: list[dict]) -
         reach = np.ones((len(block), ids.size), bool)
         if near.size:
             reach[:, directional.size :] = in_range_mask(block, centres[near], ranges[near])
+            reach[:, directional.size :] &= in_cone_mask(
+                block, centres[near], axes[near], np.where(spot[near], cos_outer[near], -2.0)
+            )
         order = np.argsort(ids)  # columns in ascending light order
         rows, k = np.nonzero(reach[:, order])  # row-major: by pixel, then by light
         cols = ids[order][k]

@@ -20,9 +20,10 @@ import math
 
 import numpy as np
 
-from app.bench.pairs import surface_positions
+from app.bench.pairs import in_cone_mask, surface_positions
 from app.gl.context import GLContext
 from app.render.renderer import Renderer
+from app.scene.lights import light_record
 from app.scene.loader import parse_scene
 
 FIELD_HALF = 14.0  # lights lie over [-14, 14]^2 m
@@ -110,24 +111,32 @@ def calibrate_range(
 ) -> float:
     """The common light range that makes ``target`` lights reach an average surface pixel of
     ``many_lights_scene(count, ...)``; with ``count <= target`` every light reaches every
-    pixel (the range is 1% beyond the farthest pixel).
+    pixel of its cone (the range is 1% beyond the farthest such pixel).
 
-    The mean over pixels of #{lights closer than r} is #{(pixel, light) pairs closer than r}
-    / pixels, so r is the (target x pixels)-th smallest pixel-light distance, found on a
-    small G-buffer (the lights do not change the G-buffer; ``size`` keeps the aspect).
+    A light reaches a pixel closer than its range and, for a spot light, inside its outer
+    cone (app/bench/pairs.py). The mean over pixels of #{lights reaching} is #{(pixel,
+    light) pairs in cone and closer than r} / pixels, so r is the (target x pixels)-th
+    smallest in-cone pixel-light distance, found on a small G-buffer (the lights do not
+    change the G-buffer; ``size`` keeps the aspect).
     """
-    renderer = Renderer(gl, load(many_lights_scene(count, 1.0, size)), size)
+    data = many_lights_scene(count, 1.0, size)
+    loaded = load(data)
+    renderer = Renderer(gl, loaded, size)
     try:
         renderer.gbuffer_pass.run(renderer.gbuffer, renderer.view, renderer.proj)
         _, p = surface_positions(renderer.read_gbuffer(), renderer.camera)
     finally:
         renderer.release()
-    centres = np.array([pos for pos, _ in _light_field(count)], np.float64)
+    records = [light_record(light) for light in loaded.scene.lights]
+    centres = np.array([r["position"] for r in records], np.float64)
+    axes = np.array([r["direction"] for r in records], np.float64)
+    cos_outer = np.array([r["cos_outer"] if r["type"] == 2 else -2.0 for r in records])
     # |p - c|^2 by expansion (one matrix product): its rounding is irrelevant to a range.
     d2 = (p * p).sum(axis=1)[:, None] + (centres * centres).sum(axis=1)[None, :]
-    d = np.sqrt(np.maximum(d2 - 2.0 * (p @ centres.T), 0.0)).ravel()
+    d = np.sqrt(np.maximum(d2 - 2.0 * (p @ centres.T), 0.0))
+    d = np.where(in_cone_mask(p, centres, axes, cos_outer), d, np.inf).ravel()
     if count <= target:
-        return float(d.max() * 1.01)
+        return float(d[np.isfinite(d)].max() * 1.01)
     k = round(target * len(p))
     return float(np.partition(d, k)[k])
 

@@ -110,7 +110,7 @@ TINY = replace(
     QUICK,
     mode="tiny",
     culling_size=(160, 90),
-    light_counts=(1, 16),
+    light_counts=(1, 16, 64),
     resolutions=((160, 90), (320, 180)),
     resolution_lights=16,
     accuracy_size=(160, 90),

@@ -107,9 +107,56 @@ def tile_box_reach(
     return gap2 <= np.square(r)
 
 
-def sphere_reaches_tile(
+def cone_reaches_sphere(
+    a: np.ndarray,
+    u: np.ndarray,
+    cos_a: np.ndarray,
+    sin_a: np.ndarray,
+    length: np.ndarray,
+    q: np.ndarray,
+    rho: np.ndarray,
+) -> np.ndarray:
+    """Wronski 2017, "Cull that cone!": does the cone (apex ``a``, unit axis ``u``, outer
+    half-angle cosine/sine, ``length``) reach the sphere (centre ``q``, radius ``rho``)?
+    Conservative behind the apex, where the side distance underestimates the true one."""
+    v = np.asarray(q, np.float64) - np.asarray(a, np.float64)
+    along = np.sum(v * u, axis=-1)
+    perp = np.sqrt(np.maximum(np.sum(v * v, axis=-1) - along * along, 0.0))
+    side = cos_a * perp - along * sin_a
+    return (side <= rho) & (along <= rho + length) & (along >= -rho)
+
+
+def cone_reaches_tile(
     c: np.ndarray,
     r: np.ndarray,
+    u: np.ndarray,
+    cos_a: np.ndarray,
+    sin_a: np.ndarray,
+    ndc_min: np.ndarray,
+    ndc_max: np.ndarray,
+    tan_half_fov: np.ndarray,
+    z_lo: np.ndarray,
+    z_hi: np.ndarray,
+) -> np.ndarray:
+    """A spot light's cone reaches the bounding sphere (grown by 1e-4) of the tile
+    frustum's view-space box between ``z_lo`` and ``z_hi``, in (x, y, depth) coordinates."""
+    c = np.asarray(c, np.float64)
+    u = np.asarray(u, np.float64)
+    z_lo = np.asarray(z_lo, np.float64)[..., None]
+    z_hi = np.asarray(z_hi, np.float64)[..., None]
+    k_min = np.asarray(ndc_min, np.float64) * tan_half_fov
+    k_max = np.asarray(ndc_max, np.float64) * tan_half_fov
+    lo = np.concatenate([np.minimum(k_min * z_lo, k_min * z_hi), z_lo], axis=-1)
+    hi = np.concatenate([np.maximum(k_max * z_lo, k_max * z_hi), z_hi], axis=-1)
+    rho = 0.5 * np.linalg.norm(hi - lo, axis=-1) * (1.0 + 1e-4)
+    flip = np.array([1.0, 1.0, -1.0])
+    return cone_reaches_sphere(c * flip, u * flip, cos_a, sin_a, r, 0.5 * (lo + hi), rho)
+
+
+def light_reaches_tile(
+    c: np.ndarray,
+    r: np.ndarray,
+    spot: np.ndarray,
     ndc_min: np.ndarray,
     ndc_max: np.ndarray,
     tan_half_fov: np.ndarray,
@@ -120,8 +167,10 @@ def sphere_reaches_tile(
     """2.5D culling (Harada et al. 2012) with a box test: the sphere's depth extent
     [d - r, d + r] must cover an occupied bin of the tile's depth mask; then it must reach
     the tile frustum's box between the nearest and the farthest of those bins (plus a
-    float32 allowance) and pass the four side planes."""
+    float32 allowance) and pass the four side planes; a spot light's cone (``spot``: axis,
+    cos outer; cos < -1 for point lights) must reach that box's bounding sphere."""
     c = np.asarray(c, np.float64)
+    spot = np.asarray(spot, np.float64)
     d = -c[..., 2]
     z_min = np.asarray(z_min, np.float64)
     z_max = np.asarray(z_max, np.float64)
@@ -134,8 +183,14 @@ def sphere_reaches_tile(
     slack = Z_SLACK * z_max
     z_lo = z_min + lowest_bit(safe) / scale - slack
     z_hi = z_min + (highest_bit(safe) + 1) / scale + slack
+    cos_a = spot[..., 3]
+    sin_a = np.sqrt(np.maximum(1.0 - cos_a * cos_a, 0.0))
+    cone = (cos_a < -1.0) | cone_reaches_tile(
+        c, r, spot[..., :3], cos_a, sin_a, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi
+    )
     return (
         hit
+        & cone
         & tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
         & tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max)
     )

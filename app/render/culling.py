@@ -7,7 +7,8 @@ Two small fragment passes per frame, after the G-buffer pass and before lighting
    2012's 2.5D culling), into two targets of one framebuffer;
 2. ``light_cull.frag``: for each tile, a bitmask of the local (point and spot) lights
    whose range sphere covers an occupied slice and reaches the view-space box of the
-   tile's frustum over those slices and its four side planes (glsl/lights/tiles.glsl,
+   tile's frustum over those slices and its four side planes, and, for a spot light,
+   whose cone reaches that box's bounding sphere (glsl/lights/tiles.glsl,
    twin app/reference/tiles.py); one R32UI texel holds 32 lights, a tile has ``words``
    texels side by side.
 
@@ -26,6 +27,8 @@ the light centres into view space.
 
 from __future__ import annotations
 
+import math
+
 import moderngl
 import numpy as np
 
@@ -37,6 +40,8 @@ TILE_SIZE = 16
 LIGHTS_PER_ROW = 1024  # texels per row of the local-light texture
 RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a light
 #                      whose window is still (barely) above zero at a tile's edge
+CONE_MARGIN = 1e-3  # radians: spot cones widen so float32 rounding never culls a lit pixel
+NO_CONE = -2.0  # the cone cosine of a point light: below -1, the cone test is skipped
 
 
 def order_lights(records: list[dict]) -> list[dict]:
@@ -61,6 +66,19 @@ class LightCuller:
         self.local_count = len(local)
         self.centres = np.array([r["position"] for r in local], np.float64).reshape(-1, 3)
         self.ranges = np.array([r["range"] for r in local], np.float64) * RANGE_MARGIN
+        # Spot lights' axes (the way the light travels) and widened outer-cone cosines.
+        self.axes = np.array(
+            [r["direction"] if r["type"] == 2 else (0.0, 0.0, 0.0) for r in local], np.float64
+        ).reshape(-1, 3)
+        self.cone_cos = np.array(
+            [
+                math.cos(min(math.acos(r["cos_outer"]) + CONE_MARGIN, math.pi))
+                if r["type"] == 2
+                else NO_CONE
+                for r in local
+            ],
+            np.float64,
+        )
         self.tiles = (-(-size[0] // TILE_SIZE), -(-size[1] // TILE_SIZE))
         self.words = max(1, -(-self.local_count // 32))
         defines = {"TILE_SIZE": TILE_SIZE}
@@ -78,7 +96,8 @@ class LightCuller:
         rows = max(1, -(-self.local_count // LIGHTS_PER_ROW))
         width = LIGHTS_PER_ROW if self.local_count > LIGHTS_PER_ROW else max(1, self.local_count)
         self.lights = ctx.texture((width, rows), 4, dtype="f4")
-        for tex in (self.tile_depth, self.tile_bins, self.masks, self.lights):
+        self.spots = ctx.texture((width, rows), 4, dtype="f4")
+        for tex in (self.tile_depth, self.tile_bins, self.masks, self.lights, self.spots):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.depth_fbo = ctx.framebuffer([self.tile_depth, self.tile_bins])
         self.mask_fbo = ctx.framebuffer([self.masks])
@@ -90,6 +109,10 @@ class LightCuller:
         texels[: self.local_count, :3] = centres
         texels[: self.local_count, 3] = self.ranges
         self.lights.write(texels.tobytes())
+        spots = np.zeros_like(texels)
+        spots[: self.local_count, :3] = self.axes @ view[:3, :3].T
+        spots[: self.local_count, 3] = self.cone_cos
+        self.spots.write(spots.tobytes())
 
     def run(self, gbuffer: GBuffer, view: np.ndarray, camera: CameraFrame) -> None:
         """Build this frame's tile masks from the G-buffer's depth (both culling passes)."""
@@ -108,9 +131,11 @@ class LightCuller:
         self.tile_depth.use(0)
         self.tile_bins.use(1)
         self.lights.use(2)
+        self.spots.use(3)
         prog["u_tile_depth"].value = 0
         prog["u_tile_bins"].value = 1
         prog["u_local_lights"].value = 2
+        prog["u_local_spots"].value = 3
         prog["u_local_count"].value = self.local_count
         prog["u_words"].value = self.words
         prog["u_image_size"].value = self.size
@@ -142,5 +167,6 @@ class LightCuller:
             self.tile_bins,
             self.masks,
             self.lights,
+            self.spots,
         ):
             obj.release()

@@ -92,12 +92,43 @@ bool tile_box_reach(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_f
     return dot(gap, gap) <= r * r;
 }
 
+// Wronski 2017, "Cull that cone!": does a spot light's cone (apex a, unit axis u, outer
+// half-angle with cosine cos_a and sine sin_a, length len) reach the sphere (centre q,
+// radius rho)? It misses when q lies more than rho outside the cone's side, beyond its
+// length, or behind its apex. Behind the apex the side distance underestimates the true
+// one (Cauchy-Schwarz), so the test stays conservative there too.
+bool cone_reaches_sphere(vec3 a, vec3 u, float cos_a, float sin_a, float len, vec3 q,
+                         float rho) {
+    vec3 v = q - a;
+    float along = dot(v, u);
+    float side = cos_a * sqrt(max(dot(v, v) - along * along, 0.0)) - along * sin_a;
+    return side <= rho && along <= rho + len && along >= -rho;
+}
+
+// A spot light (axis u in view space, cone cosine and sine cos_a, sin_a) reaches the
+// bounding sphere of the tile frustum's view-space box between depths z_lo and z_hi.
+// Coordinates are (x, y, depth) as in tile_box_reach, so the axis's z flips.
+bool cone_reaches_tile(vec3 c, float r, vec3 u, float cos_a, float sin_a, vec2 ndc_min,
+                       vec2 ndc_max, vec2 tan_half_fov, float z_lo, float z_hi) {
+    vec2 k_min = ndc_min * tan_half_fov;
+    vec2 k_max = ndc_max * tan_half_fov;
+    vec3 lo = vec3(min(k_min * z_lo, k_min * z_hi), z_lo);
+    vec3 hi = vec3(max(k_max * z_lo, k_max * z_hi), z_hi);
+    // The sphere grows by 1e-4 of its size: float32 rounding of the centre and the side
+    // distance must never cull a light whose cone (barely) reaches a surface.
+    float rho = 0.5 * length(hi - lo) * (1.0 + 1e-4);
+    return cone_reaches_sphere(vec3(c.xy, -c.z), vec3(u.xy, -u.z), cos_a, sin_a, r,
+                               0.5 * (lo + hi), rho);
+}
+
 // The culler's decision for one (tile, light) pair. 2.5D culling (Harada et al. 2012):
 // the sphere's depth extent [d - r, d + r] must cover a slice of the tile's depth mask
 // that holds a surface; then the sphere must reach the frustum's box between the nearest
-// and farthest of those slices, and pass the planes. Every step is conservative.
-bool sphere_reaches_tile(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
-                         float z_min, float z_max, uint depth_mask) {
+// and farthest of those slices, and pass the planes; a spot light's cone (spot.w =
+// cos of the outer angle, spot.xyz its axis; spot.w < -1 for a point light) must reach
+// that box's bounding sphere. Every step is conservative.
+bool light_reaches_tile(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
+                        vec2 tan_half_fov, float z_min, float z_max, uint depth_mask) {
     float d = -c.z;
     if (d + r < z_min || d - r > z_max) return false;
     float scale = depth_bin_scale(z_min, z_max);
@@ -107,7 +138,10 @@ bool sphere_reaches_tile(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_h
     float slack = Z_SLACK * z_max;
     float z_lo = z_min + float(lowest_bit(hits)) / scale - slack;
     float z_hi = z_min + float(highest_bit(hits) + 1) / scale + slack;
-    return tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
+    bool cone = spot.w < -1.0
+        || cone_reaches_tile(c, r, spot.xyz, spot.w, sqrt(max(1.0 - spot.w * spot.w, 0.0)),
+                             ndc_min, ndc_max, tan_half_fov, z_lo, z_hi);
+    return cone && tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
         && tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max);
 }
 
