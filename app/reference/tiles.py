@@ -168,7 +168,8 @@ def light_reaches_tile(
     [d - r, d + r] must cover an occupied bin of the tile's depth mask; then it must reach
     the tile frustum's box between the nearest and the farthest of those bins (plus a
     float32 allowance) and pass the four side planes; a spot light's cone (``spot``: axis,
-    cos outer; cos < -1 for point lights) must reach that box's bounding sphere."""
+    cos outer; cos < -1 for point lights) must reach the bounding sphere of one of those
+    bins' boxes."""
     c = np.asarray(c, np.float64)
     spot = np.asarray(spot, np.float64)
     d = -c[..., 2]
@@ -185,9 +186,20 @@ def light_reaches_tile(
     z_hi = z_min + (highest_bit(safe) + 1) / scale + slack
     cos_a = spot[..., 3]
     sin_a = np.sqrt(np.maximum(1.0 - cos_a * cos_a, 0.0))
-    cone = (cos_a < -1.0) | cone_reaches_tile(
-        c, r, spot[..., :3], cos_a, sin_a, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi
-    )
+    # The cone against each occupied slice's box on its own (one sphere around them all
+    # would span the tile's whole depth range).
+    cone = np.broadcast_to(cos_a < -1.0, np.broadcast(hit, cos_a).shape).copy()
+    for b in range(DEPTH_BINS):
+        occupied = (safe >> np.uint32(b)) & 1 != 0
+        lo = z_min + b / scale - slack
+        hi = z_min + (b + 1) / scale + slack
+        cone |= (
+            hit
+            & occupied
+            & cone_reaches_tile(
+                c, r, spot[..., :3], cos_a, sin_a, ndc_min, ndc_max, tan_half_fov, lo, hi
+            )
+        )
     return (
         hit
         & cone

@@ -126,7 +126,7 @@ bool cone_reaches_tile(vec3 c, float r, vec3 u, float cos_a, float sin_a, vec2 n
 // that holds a surface; then the sphere must reach the frustum's box between the nearest
 // and farthest of those slices, and pass the planes; a spot light's cone (spot.w =
 // cos of the outer angle, spot.xyz its axis; spot.w < -1 for a point light) must reach
-// that box's bounding sphere. Every step is conservative.
+// the bounding sphere of one of those slices' boxes. Every step is conservative.
 bool light_reaches_tile(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
                         vec2 tan_half_fov, float z_min, float z_max, uint depth_mask) {
     float d = -c.z;
@@ -138,11 +138,25 @@ bool light_reaches_tile(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
     float slack = Z_SLACK * z_max;
     float z_lo = z_min + float(lowest_bit(hits)) / scale - slack;
     float z_hi = z_min + float(highest_bit(hits) + 1) / scale + slack;
-    bool cone = spot.w < -1.0
-        || cone_reaches_tile(c, r, spot.xyz, spot.w, sqrt(max(1.0 - spot.w * spot.w, 0.0)),
-                             ndc_min, ndc_max, tan_half_fov, z_lo, z_hi);
-    return cone && tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
-        && tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max);
+    if (!(tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
+          && tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max))) {
+        return false;
+    }
+    if (spot.w < -1.0) return true;  // a point light: no cone
+    // The cone against each occupied slice's box on its own: one sphere around all of them
+    // would span the tile's whole depth range (a floor seen at a grazing angle).
+    float sin_a = sqrt(max(1.0 - spot.w * spot.w, 0.0));
+    while (hits != 0u) {
+        int b = lowest_bit(hits);
+        hits &= hits - 1u;
+        float lo = z_min + float(b) / scale - slack;
+        float hi = z_min + float(b + 1) / scale + slack;
+        if (cone_reaches_tile(c, r, spot.xyz, spot.w, sin_a, ndc_min, ndc_max, tan_half_fov,
+                              lo, hi)) {
+            return true;
+        }
+    }
+    return false;
 }
 
 #endif
