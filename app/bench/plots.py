@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 from app.bench.report import pareto_by_comparison
@@ -48,7 +49,7 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
     for ax, (comp, front) in zip(axes, fronts.items(), strict=False):
         members = front["rows"]
         floor = 1e-12  # exact variants can reach 0 on a log axis
-        for r in members:
+        for k, r in enumerate(members):
             err = max(r["rel_rmse"], floor)
             on = r["variant"] in front["front"]
             ax.errorbar(
@@ -62,8 +63,11 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
                         markeredgecolor="tab:red")  # fmt: skip
             ax.annotate(
                 r["variant"] + (" (default)" if r.get("default") else ""),
-                (r["ms_median"], err), textcoords="offset points", xytext=(6, 6), fontsize=8,
-            )  # fmt: skip
+                (r["ms_median"], err),
+                textcoords="offset points",
+                xytext=(6, 6 if k % 2 == 0 else -12),
+                fontsize=8,
+            )  # fmt: skip  (alternate above and below: close points' labels overlap)
         pts = sorted(
             (r["ms_median"], max(r["rel_rmse"], floor))
             for r in members
@@ -74,9 +78,9 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
             ax.legend(fontsize=7, loc="best")
         ax.set_yscale("log")
         ax.margins(x=0.15, y=0.2)
-        ax.set_title(members[0].get("comparison", comp), fontsize=9)
+        ax.set_title(textwrap.fill(members[0].get("comparison", comp), 48), fontsize=9)
         ax.set_xlabel("frame time, ms (median, min-max)")
-        ax.set_ylabel("rel. RMSE vs float64")
+        ax.set_ylabel("rel. RMSE vs its reference")
         ax.grid(True, which="both", alpha=0.3)
     for ax in axes[len(fronts) :]:
         ax.set_visible(False)

@@ -476,8 +476,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     lines += [
         "## Not measured",
         "",
-        "- Normal encodings and mip-filtering options: the renderer offers one of each"
-        " (octahedral normals; trilinear mipmaps for glTF maps), so there are no variants.",
+        "- Normal encodings: the G-buffer offers one (octahedral normals), so there are no"
+        " variants.",
         "",
     ]
     summary = timer_summary(rows)
