@@ -42,6 +42,7 @@ class FloorPass:
         for group, model in enumerate(table.models):
             defines: dict[str, object] = dict(model.defines())
             defines["PAIR_ROW"] = PAIR_ROW
+            defines["GBUFFER_TANGENT"] = int(table.needs_tangents)
             if several:
                 defines["MODEL_GROUP"] = group
             self.programs.append(
@@ -75,7 +76,7 @@ class FloorPass:
             ("g_albedo", r.gbuffer.albedo),
             ("g_normal", r.gbuffer.normal),
             ("g_depth", r.gbuffer.depth),
-            ("g_tangent", r.gbuffer.tangent),
+            *([("g_tangent", r.gbuffer.tangent)] if r.gbuffer.tangent is not None else []),
             ("u_lights", r.lighting.lights),
             ("u_materials", r.lighting.materials),
             ("u_pair_ranges", self.ranges),

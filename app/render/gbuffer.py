@@ -3,8 +3,10 @@
 Layout and precision are documented in docs/gbuffer.md:
   RT0 ``albedo``  RGBA16F|32F  base_color.rgb (linear), metallic
   RT1 ``normal``  RGBA16F|32F  octahedral normal (x, y), perceptual roughness, F0
-  RT2 ``depth``   R32F         linear view depth in metres, 0 where nothing was drawn
-  RT3 ``tangent`` RGBA16F|32F  octahedral tangent (x, y), anisotropy, material id
+  RT2 ``depth``   RG32F        linear view depth in metres (0 where nothing was drawn),
+                               material id (an exact integer)
+  RT3 ``tangent`` RGBA16F|32F  octahedral tangent (x, y), anisotropy, 0; only where a
+                               material of the scene is anisotropic (``tangents``)
   z-test          DEPTH24      a renderbuffer, never sampled
 """
 
@@ -29,40 +31,54 @@ class GBufferData:
     albedo: np.ndarray  # (H, W, 4) float32
     normal: np.ndarray  # (H, W, 4) float32
     depth: np.ndarray  # (H, W) float32 view depth in metres, 0 = background
-    tangent: np.ndarray  # (H, W, 4) float32
+    # (H, W, 4) float32: octahedral tangent, anisotropy, material id (the id from RT2; the
+    # tangent (0, 0) and anisotropy 0 where the G-buffer has no tangent target)
+    tangent: np.ndarray
 
 
 class GBuffer:
     """The render targets of the G-buffer pass."""
 
-    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], precision: str) -> None:
+    def __init__(
+        self, ctx: moderngl.Context, size: tuple[int, int], precision: str, tangents: bool = True
+    ) -> None:
+        """``tangents``: allocate RT3 (only anisotropic materials read a tangent)."""
         dtype = {"f16": "f2", "f32": "f4"}[precision]
         self.size = size
         self.albedo = ctx.texture(size, 4, dtype=dtype)
         self.normal = ctx.texture(size, 4, dtype=dtype)
-        self.depth = ctx.texture(size, 1, dtype="f4")
-        self.tangent = ctx.texture(size, 4, dtype=dtype)
+        self.depth = ctx.texture(size, 2, dtype="f4")
+        self.tangent = ctx.texture(size, 4, dtype=dtype) if tangents else None
         self.zbuffer = ctx.depth_renderbuffer(size)
-        for tex in (self.albedo, self.normal, self.depth, self.tangent):
+        targets = [self.albedo, self.normal, self.depth]
+        if self.tangent is not None:
+            targets.append(self.tangent)
+        for tex in targets:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
-        self.fbo = ctx.framebuffer(
-            [self.albedo, self.normal, self.depth, self.tangent], self.zbuffer
-        )
+        self.fbo = ctx.framebuffer(targets, self.zbuffer)
 
     def read(self) -> GBufferData:
         w, h = self.size
         albedo = _read_float(self.albedo).reshape(h, w, 4)
         normal = _read_float(self.normal).reshape(h, w, 4)
-        depth = np.frombuffer(self.depth.read(), np.float32).reshape(h, w)
-        tangent = _read_float(self.tangent).reshape(h, w, 4)
+        depth_id = np.frombuffer(self.depth.read(), np.float32).reshape(h, w, 2)
+        if self.tangent is not None:
+            tangent = _read_float(self.tangent).reshape(h, w, 4).copy()
+        else:
+            tangent = np.zeros((h, w, 4), np.float32)
+        tangent[..., 3] = depth_id[..., 1]
         return GBufferData(
-            albedo[::-1].copy(), normal[::-1].copy(), depth[::-1].copy(), tangent[::-1].copy()
+            albedo[::-1].copy(),
+            normal[::-1].copy(),
+            depth_id[::-1, :, 0].copy(),
+            tangent[::-1].copy(),
         )
 
     def release(self) -> None:
         for obj in (self.fbo, self.albedo, self.normal, self.depth, self.tangent, self.zbuffer):
-            obj.release()
+            if obj is not None:
+                obj.release()
 
 
 def _read_float(tex: moderngl.Texture) -> np.ndarray:
@@ -245,10 +261,13 @@ class GBufferPass:
         parts: list[MeshPart],
         material_ids: list[list[int]],
         specular_aa: tuple[float, float] | None = None,
+        tangents: bool = True,
     ) -> None:
+        """``tangents``: write RT3 (the target must have it: ``GBuffer(tangents=...)``)."""
         self.ctx = ctx
+        defines = {"GBUFFER_TANGENT": int(tangents)}
         self.drawables = [
-            MeshDrawable(ctx, shaders, p, ids, specular_aa=specular_aa)
+            MeshDrawable(ctx, shaders, p, ids, defines=defines, specular_aa=specular_aa)
             for p, ids in zip(parts, material_ids, strict=True)
         ]
 

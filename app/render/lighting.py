@@ -56,7 +56,9 @@ class LightingPass:
                 defines["MODEL_GROUP"] = group
             variants.append(defines)
         self.programs = []
+        tangents = table.needs_tangents
         for defines in variants:
+            defines["GBUFFER_TANGENT"] = int(tangents)
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
@@ -95,7 +97,7 @@ class LightingPass:
             ("g_albedo", gbuffer.albedo),
             ("g_normal", gbuffer.normal),
             ("g_depth", gbuffer.depth),
-            ("g_tangent", gbuffer.tangent),
+            *([("g_tangent", gbuffer.tangent)] if gbuffer.tangent is not None else []),
             ("u_lights", self.lights),
             ("u_materials", self.materials),
         ]

@@ -56,6 +56,12 @@ class MaterialTable:
             ids.append(index[key])
         return cls(models, rows, groups), ids
 
+    @property
+    def needs_tangents(self) -> bool:
+        """Whether a material is anisotropic: only then does shading read a tangent, and
+        the G-buffer carry one (docs/gbuffer.md)."""
+        return any(model.anisotropic for model in self.models)
+
     def packed(self) -> np.ndarray:
         """(M, 4, 4) float32 texels, see app.reference.model.pack_model_params."""
         return pack_model_params([p for _, p in self.rows], self.groups, [m for m, _ in self.rows])

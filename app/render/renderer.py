@@ -51,14 +51,17 @@ class Renderer:
         self.lights = order_lights(records + environment_records(scene.environment))
         parts = build_parts(loaded)
         self.materials, material_ids = material_table(parts)
-        self.gbuffer = GBuffer(ctx, self.render_size, scene.render.gbuffer)
+        tangents = self.materials.needs_tangents
+        self.gbuffer = GBuffer(ctx, self.render_size, scene.render.gbuffer, tangents)
         settings = scene.render
         specular_aa = (
             (settings.specular_aa_variance, settings.specular_aa_threshold)
             if settings.specular_aa
             else None
         )
-        self.gbuffer_pass = GBufferPass(ctx, self.shaders, parts, material_ids, specular_aa)
+        self.gbuffer_pass = GBufferPass(
+            ctx, self.shaders, parts, material_ids, specular_aa, tangents
+        )
         local = any(r["type"] != 0 for r in self.lights)
         self.culler = (
             LightCuller(ctx, self.shaders, self.render_size, self.lights)

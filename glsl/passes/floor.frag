@@ -24,7 +24,12 @@
 uniform sampler2D g_albedo;
 uniform sampler2D g_normal;
 uniform sampler2D g_depth;
-uniform sampler2D g_tangent;
+#ifndef GBUFFER_TANGENT
+#define GBUFFER_TANGENT 1
+#endif
+#if GBUFFER_TANGENT
+uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gbuffer.md)
+#endif
 uniform sampler2D u_materials;     // RGBA32F, 4 texels per material (brdf/model.glsl)
 uniform sampler2D u_lights;        // RGBA32F, 4 texels per light, one light per row
 uniform usampler2D u_pair_ranges;  // RG32UI per pixel: (first pair, number of pairs)
@@ -54,11 +59,16 @@ vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, ve
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    float depth = texelFetch(g_depth, px, 0).r;
+    vec2 depth_id = texelFetch(g_depth, px, 0).rg;
+    float depth = depth_id.x;
     // Nothing drawn (or a non-finite depth): the cleared background stays.
     if (!(is_finite(depth) && depth > 0.0)) discard;
+    int material_id = int(depth_id.y);
+#if GBUFFER_TANGENT
     vec4 c = texelFetch(g_tangent, px, 0);
-    int material_id = int(c.a);
+#else
+    vec4 c = vec4(0.0);   // no anisotropic material: anisotropy 0, the tangent unused
+#endif
 #ifdef MODEL_GROUP
     if (fetch_model_group(u_materials, material_id) != MODEL_GROUP) discard;
 #endif
