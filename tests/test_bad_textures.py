@@ -37,6 +37,13 @@ CASES = [
         "truncate",
     ),
     (
+        "oversized-image",
+        TEXTURED,
+        "materials.m.normal_map",
+        "more than 8192 texels a side",
+        "huge",
+    ),
+    (
         "anisotropy-map-without-anisotropy",
         BASE.replace("roughness = 0.5", 'anisotropy_map = "n.png"'),
         "materials.m.anisotropy_map",
@@ -123,6 +130,8 @@ def test_bad_texture_input(
         _png(root / "n.png")
         data = (root / "n.png").read_bytes()
         (root / "n.png").write_bytes(data[: len(data) // 2])
+    elif texture == "huge":  # 8200 x 1: a few bytes of PNG, over the size limit
+        Image.fromarray(np.zeros((1, 8200, 3), np.uint8)).save(root / "n.png")
     elif isinstance(texture, bytes):
         (root / "n.png").write_bytes(texture)
     path = _scene(root, scene)

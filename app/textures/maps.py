@@ -56,17 +56,17 @@ def read_image(path: str, scene_file: str, key: str) -> Image.Image:
     """A texture file as a Pillow image, or an InputError naming the scene key."""
     try:
         with Image.open(path) as image:
-            image.load()
-            if max(image.size) > MAX_TEXTURE_SIZE:
-                raise InputError(
-                    scene_file,
-                    key,
-                    f"{path} is {image.size[0]}x{image.size[1]}, more than "
-                    f"{MAX_TEXTURE_SIZE} texels a side",
-                )
-            return image.copy()
+            size = image.size  # from the header: checked before decoding anything
+            if max(size) <= MAX_TEXTURE_SIZE:
+                image.load()
+                return image.copy()
     except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as exc:
         raise InputError(scene_file, key, f"cannot read image {path} ({exc})") from None
+    raise InputError(
+        scene_file,
+        key,
+        f"{path} is {size[0]}x{size[1]}, more than {MAX_TEXTURE_SIZE} texels a side",
+    )
 
 
 def linear_channel(image: Image.Image) -> np.ndarray:
