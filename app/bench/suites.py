@@ -29,7 +29,7 @@ from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.filtering import SWEEP_METRES, render_hdr, shimmer, with_settings
 from app.bench.floor import FloorPass
 from app.bench.metrics import image_errors
-from app.bench.pairs import covered_pixels, light_pairs, reference_hdr
+from app.bench.pairs import LightPairs, covered_pixels, light_pairs, reference_hdr
 from app.bench.progress import Progress
 from app.bench.scenes import (
     SPECIALIZATION_KINDS,
@@ -198,6 +198,23 @@ def make_row(
     return row
 
 
+def f32_reference(gl: GLContext, data: dict, pairs: LightPairs) -> tuple[np.ndarray, np.ndarray]:
+    """The float64 twin's image of scene ``data`` on its f32 G-buffer (the unquantised
+    surface) over the in-range ``pairs`` (other lights add exactly 0), and the covered
+    pixels."""
+    exact = Renderer(gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}))
+    try:
+        exact.gbuffer_pass.run(exact.gbuffer, exact.view, exact.proj)
+        g32 = exact.read_gbuffer()
+        ref = reference_hdr(
+            g32, exact.camera, exact.lights, exact.scene.background,
+            exact.materials.models, exact.materials.packed(), pairs,
+        )  # fmt: skip
+    finally:
+        exact.release()
+    return ref, covered_pixels(g32.depth)
+
+
 def deferred_passes(r: Renderer) -> list[Pass]:
     """The deferred frame up to HDR: G-buffer, tile culling (if any), lighting."""
     background = np.asarray(r.scene.background, np.float64)
@@ -359,17 +376,7 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
     # One float64 reference for all variants: the twin on an f32 G-buffer of the same view
     # (the unquantised surface), over the in-range pairs (other lights add exactly 0).
     progress.start(f"culling {case}: float64 reference and errors")
-    exact = Renderer(gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}))
-    try:
-        exact.gbuffer_pass.run(exact.gbuffer, exact.view, exact.proj)
-        g32 = exact.read_gbuffer()
-        ref = reference_hdr(
-            g32, exact.camera, exact.lights, loaded.scene.background,
-            exact.materials.models, exact.materials.packed(), pairs,
-        )  # fmt: skip
-    finally:
-        exact.release()
-    covered = covered_pixels(g32.depth)
+    ref, covered = f32_reference(gl, data, pairs)
     cam = loaded.scene.camera
     for row in pending:
         if row["variant"] in images:
@@ -664,17 +671,7 @@ def run_specialization(ctx: Context) -> None:
             ctx.progress.done()
 
         ctx.progress.start(f"specialization {kind}: float64 reference and errors")
-        exact = Renderer(ctx.gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}))
-        try:
-            exact.gbuffer_pass.run(exact.gbuffer, exact.view, exact.proj)
-            g32 = exact.read_gbuffer()
-            ref = reference_hdr(
-                g32, exact.camera, exact.lights, loaded.scene.background,
-                exact.materials.models, exact.materials.packed(), pairs,
-            )  # fmt: skip
-        finally:
-            exact.release()
-        covered = covered_pixels(g32.depth)
+        ref, covered = f32_reference(ctx.gl, data, pairs)
         cam, render = loaded.scene.camera, loaded.scene.render
         base = images["specialized"][covered].astype(np.float64)
         floor = 1e-3 * float(np.abs(base).max())

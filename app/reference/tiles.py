@@ -79,6 +79,25 @@ def tile_planes_reach(
     return ok
 
 
+def tile_box(
+    ndc_min: np.ndarray,
+    ndc_max: np.ndarray,
+    tan_half_fov: np.ndarray,
+    z_lo: np.ndarray,
+    z_hi: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The view-space bounding box (lo, hi), in (x, y, depth), of the tile's frustum
+    between depths ``z_lo`` and ``z_hi``: x = k depth over the slab, so each side of the
+    box is at z_lo or at z_hi."""
+    z_lo = np.asarray(z_lo, np.float64)[..., None]
+    z_hi = np.asarray(z_hi, np.float64)[..., None]
+    k_min = np.asarray(ndc_min, np.float64) * tan_half_fov
+    k_max = np.asarray(ndc_max, np.float64) * tan_half_fov
+    lo = np.concatenate([np.minimum(k_min * z_lo, k_min * z_hi), z_lo], axis=-1)
+    hi = np.concatenate([np.maximum(k_max * z_lo, k_max * z_hi), z_hi], axis=-1)
+    return lo, hi
+
+
 def tile_box_reach(
     c: np.ndarray,
     r: np.ndarray,
@@ -91,20 +110,10 @@ def tile_box_reach(
     """Arvo 1990, "A simple method for box-sphere intersection testing": does the sphere
     reach the view-space bounding box of the tile's frustum between depths ``z_lo`` and
     ``z_hi``? Exact distance to the box, so unlike the planes it is tight at corners."""
-    c = np.asarray(c, np.float64)
-    d = -c[..., 2]
-    z_lo = np.asarray(z_lo, np.float64)
-    z_hi = np.asarray(z_hi, np.float64)
-    k_min = np.asarray(ndc_min, np.float64) * tan_half_fov
-    k_max = np.asarray(ndc_max, np.float64) * tan_half_fov
-    gap2 = np.square(np.maximum(np.maximum(z_lo - d, d - z_hi), 0.0))
-    for axis in (0, 1):
-        kn, kx = k_min[..., axis], k_max[..., axis]
-        lo = np.minimum(kn * z_lo, kn * z_hi)  # x = k z over the slab: ends at z_lo or z_hi
-        hi = np.maximum(kx * z_lo, kx * z_hi)
-        gap = np.maximum(np.maximum(lo - c[..., axis], c[..., axis] - hi), 0.0)
-        gap2 = gap2 + gap * gap
-    return gap2 <= np.square(r)
+    lo, hi = tile_box(ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
+    q = np.asarray(c, np.float64) * np.array([1.0, 1.0, -1.0])
+    gap = np.maximum(np.maximum(lo - q, q - hi), 0.0)
+    return np.sum(gap * gap, axis=-1) <= np.square(r)
 
 
 def cone_reaches_sphere(
@@ -142,12 +151,7 @@ def cone_reaches_tile(
     frustum's view-space box between ``z_lo`` and ``z_hi``, in (x, y, depth) coordinates."""
     c = np.asarray(c, np.float64)
     u = np.asarray(u, np.float64)
-    z_lo = np.asarray(z_lo, np.float64)[..., None]
-    z_hi = np.asarray(z_hi, np.float64)[..., None]
-    k_min = np.asarray(ndc_min, np.float64) * tan_half_fov
-    k_max = np.asarray(ndc_max, np.float64) * tan_half_fov
-    lo = np.concatenate([np.minimum(k_min * z_lo, k_min * z_hi), z_lo], axis=-1)
-    hi = np.concatenate([np.maximum(k_max * z_lo, k_max * z_hi), z_hi], axis=-1)
+    lo, hi = tile_box(ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
     rho = 0.5 * np.linalg.norm(hi - lo, axis=-1) * (1.0 + 1e-4)
     flip = np.array([1.0, 1.0, -1.0])
     return cone_reaches_sphere(c * flip, u * flip, cos_a, sin_a, r, 0.5 * (lo + hi), rho)

@@ -76,19 +76,27 @@ bool tile_planes_reach(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_hal
     return true;
 }
 
+// The view-space bounding box, in (x, y, depth), of the tile's frustum (the pixels whose
+// NDC lie in [ndc_min, ndc_max]) between depths z_lo and z_hi: x = k depth across the
+// slab, so each side of the box is at z_lo or at z_hi.
+void tile_box(vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov, float z_lo, float z_hi,
+              out vec3 lo, out vec3 hi) {
+    vec2 k_min = ndc_min * tan_half_fov;
+    vec2 k_max = ndc_max * tan_half_fov;
+    lo = vec3(min(k_min * z_lo, k_min * z_hi), z_lo);
+    hi = vec3(max(k_max * z_lo, k_max * z_hi), z_hi);
+}
+
 // Arvo 1990, "A Simple Method for Box-Sphere Intersection Testing": does the sphere reach
 // the view-space bounding box of the tile's frustum between depths z_lo and z_hi? The
 // exact distance to the box, so tight at corners where the planes are loose; the planes
 // are tighter along a deep, slanted frustum, so the culler asks both.
 bool tile_box_reach(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
                     float z_lo, float z_hi) {
-    float d = -c.z;
-    vec2 k_min = ndc_min * tan_half_fov;
-    vec2 k_max = ndc_max * tan_half_fov;
-    // x = k z across the slab, so each side of the box is at z_lo or at z_hi.
-    vec2 lo = min(k_min * z_lo, k_min * z_hi);
-    vec2 hi = max(k_max * z_lo, k_max * z_hi);
-    vec3 gap = max(max(vec3(lo, z_lo) - vec3(c.xy, d), vec3(c.xy, d) - vec3(hi, z_hi)), 0.0);
+    vec3 lo, hi;
+    tile_box(ndc_min, ndc_max, tan_half_fov, z_lo, z_hi, lo, hi);
+    vec3 q = vec3(c.xy, -c.z);
+    vec3 gap = max(max(lo - q, q - hi), 0.0);
     return dot(gap, gap) <= r * r;
 }
 
@@ -110,10 +118,8 @@ bool cone_reaches_sphere(vec3 a, vec3 u, float cos_a, float sin_a, float len, ve
 // Coordinates are (x, y, depth) as in tile_box_reach, so the axis's z flips.
 bool cone_reaches_tile(vec3 c, float r, vec3 u, float cos_a, float sin_a, vec2 ndc_min,
                        vec2 ndc_max, vec2 tan_half_fov, float z_lo, float z_hi) {
-    vec2 k_min = ndc_min * tan_half_fov;
-    vec2 k_max = ndc_max * tan_half_fov;
-    vec3 lo = vec3(min(k_min * z_lo, k_min * z_hi), z_lo);
-    vec3 hi = vec3(max(k_max * z_lo, k_max * z_hi), z_hi);
+    vec3 lo, hi;
+    tile_box(ndc_min, ndc_max, tan_half_fov, z_lo, z_hi, lo, hi);
     // The sphere grows by 1e-4 of its size: float32 rounding of the centre and the side
     // distance must never cull a light whose cone (barely) reaches a surface.
     float rho = 0.5 * length(hi - lo) * (1.0 + 1e-4);
