@@ -98,6 +98,8 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
                          u_anisotropy_map0, u_normal_roughness_map0, u_f0_map0);
     float id = u_material_id0;
 #if BLEND
+    // Only a baked blend has an F0 map, and it has no second layer: layer 1 never samples
+    // one, so layer 0's sampler fills the slot.
     Layer top = read_layer(u_layer1, LAYER1_MAPS, uv, u_base_color_map1, u_metallic_map1,
                            u_anisotropy_map1, u_normal_roughness_map1, u_f0_map0);
     float w = blend_weight(texture(u_blend_mask, uv * u_layer0.uv_scale).r, u_blend.x,
