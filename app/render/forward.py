@@ -59,7 +59,7 @@ class ForwardRenderer:
 
             self.ms_table = ms_texture(ctx)
         packed = pack_lights(self.lights)
-        self.light_texture = ctx.texture((4, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
+        self.light_texture = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         group_defines = [model.defines() for model in self.materials.models]
         settings = scene.render

@@ -2,7 +2,7 @@
 
 ``L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+`` (seed section 4), evaluated by
 glsl/passes/lighting.frag into an RGBA32F target. Lights travel in an RGBA32F texture
-(4 texels per light, one light per row), so their number is bounded only by the
+(3 texels per light, one light per row), so their number is bounded only by the
 texture height, not by uniform-block limits.
 
 One program per model group (app/render/materials.py): a scene whose materials all use
@@ -77,7 +77,7 @@ class LightingPass:
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
         packed = pack_lights(records)
-        self.lights = ctx.texture((4, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
+        self.lights = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.light_count = len(records)
         self.size = size

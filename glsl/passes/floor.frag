@@ -31,7 +31,7 @@ uniform sampler2D g_depth;
 uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gbuffer.md)
 #endif
 uniform sampler2D u_materials;     // RGBA32F, 4 texels per material (brdf/model.glsl)
-uniform sampler2D u_lights;        // RGBA32F, 4 texels per light, one light per row
+uniform sampler2D u_lights;        // RGBA32F, 3 texels per light, one light per row
 uniform usampler2D u_pair_ranges;  // RG32UI per pixel: (first pair, number of pairs)
 uniform usampler2D u_pair_lights;  // R32UI: light index of each pair, PAIR_ROW per row
 uniform vec3 u_camera_pos;
@@ -40,18 +40,10 @@ uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
 
 out vec4 frag_color;
 
-// The lighting pass's light fetch and per-light term (glsl/passes/lighting.frag).
-PunctualLight fetch_light(int i) {
-    vec4 t0 = texelFetch(u_lights, ivec2(0, i), 0);
-    vec4 t1 = texelFetch(u_lights, ivec2(1, i), 0);
-    vec4 t2 = texelFetch(u_lights, ivec2(2, i), 0);
-    vec4 t3 = texelFetch(u_lights, ivec2(3, i), 0);
-    return PunctualLight(int(t0.w), t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t3.x);
-}
-
+// The lighting pass's per-light term (glsl/passes/lighting.frag).
 vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
     vec3 l;
-    vec3 c_light = light_at(fetch_light(i), p, l);
+    vec3 c_light = light_at(fetch_light(u_lights, i), p, l);
     float NoL = dot(n, l);
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
     return brdf_eval(s, params, n, t, l, v) * c_light * NoL;

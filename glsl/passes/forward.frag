@@ -24,7 +24,7 @@ in vec4 v_tangent;
 in float v_view_depth;
 
 uniform sampler2D u_materials;  // RGBA32F, 4 texels per material (brdf/model.glsl)
-uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
+uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
 uniform int u_light_count;
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
@@ -33,18 +33,10 @@ uniform vec2 u_image_size;       // pixels
 
 out vec4 frag_color;
 
-// The lighting pass's light fetch and per-light term (glsl/passes/lighting.frag).
-PunctualLight fetch_light(int i) {
-    vec4 t0 = texelFetch(u_lights, ivec2(0, i), 0);
-    vec4 t1 = texelFetch(u_lights, ivec2(1, i), 0);
-    vec4 t2 = texelFetch(u_lights, ivec2(2, i), 0);
-    vec4 t3 = texelFetch(u_lights, ivec2(3, i), 0);
-    return PunctualLight(int(t0.w), t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t3.x);
-}
-
+// The lighting pass's per-light term (glsl/passes/lighting.frag).
 vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
     vec3 l;
-    vec3 c_light = light_at(fetch_light(i), p, l);
+    vec3 c_light = light_at(fetch_light(u_lights, i), p, l);
     float NoL = dot(n, l);
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
     return brdf_eval(s, params, n, t, l, v) * c_light * NoL;

@@ -24,7 +24,7 @@ uniform sampler2D g_depth;
 uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gbuffer.md)
 #endif
 uniform sampler2D u_materials;  // RGBA32F, 4 texels per material (brdf/model.glsl)
-uniform sampler2D u_lights;     // RGBA32F, 4 texels per light, one light per row
+uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
 uniform int u_light_count;
 #if TILED_LIGHTS
 uniform usampler2D u_tile_masks;   // R32UI: u_words bitmasks per tile (app/render/culling.py)
@@ -38,18 +38,10 @@ uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
 
 out vec4 frag_color;
 
-PunctualLight fetch_light(int i) {
-    vec4 t0 = texelFetch(u_lights, ivec2(0, i), 0);
-    vec4 t1 = texelFetch(u_lights, ivec2(1, i), 0);
-    vec4 t2 = texelFetch(u_lights, ivec2(2, i), 0);
-    vec4 t3 = texelFetch(u_lights, ivec2(3, i), 0);
-    return PunctualLight(int(t0.w), t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t3.x);
-}
-
 // f(l, v) c_light (n.l)+ of light i at p.
 vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
     vec3 l;
-    vec3 c_light = light_at(fetch_light(i), p, l);
+    vec3 c_light = light_at(fetch_light(u_lights, i), p, l);
     float NoL = dot(n, l);
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
     return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
