@@ -18,6 +18,7 @@ from app.reference.filtering import alpha2_from_slope_variance, alpha2_toksvig
 from app.textures.mips import (
     MIN_NORMAL_Z,
     NORMAL_FILTERS,
+    box_mips,
     build_chain,
     decode_normal_map,
 )
@@ -299,3 +300,17 @@ def test_bad_arguments_raise(normals: np.ndarray, roughness: object, method: str
 def test_decode_rejects_non_uint8_rgb(rgb: np.ndarray) -> None:
     with pytest.raises(ValueError):
         decode_normal_map(rgb)
+
+
+def test_box_mips_are_exact_footprint_means() -> None:
+    """Scalar and colour maps (masks, metallic, baked colour): level 0 is the source, and
+    every texel of every level is the mean of the source texels under its footprint, odd
+    sizes included (a 7-wide level's last texel covers three)."""
+    rng = np.random.default_rng(11)
+    values = rng.uniform(0.0, 1.0, (6, 7, 3))
+    levels = box_mips(values)
+    np.testing.assert_array_equal(levels[0], values.astype(np.float32))
+    assert [lv.shape[:2] for lv in levels] == [(6, 7), (3, 3), (1, 1)]
+    np.testing.assert_allclose(levels[1][0, 2], values[0:2, 4:7].mean(axis=(0, 1)), rtol=1e-6)
+    np.testing.assert_allclose(levels[2][0, 0], values.mean(axis=(0, 1)), rtol=1e-6)
+    assert box_mips(values[..., 0])[2].shape == (1, 1)

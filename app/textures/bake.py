@@ -20,11 +20,11 @@ from app.reference.tonemap import srgb_decode
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
-    box_chain,
     normal_roughness_texture,
     sample_bilinear_wrap,
     scalar_texture,
 )
+from app.textures.mips import box_mips
 
 
 def _sample(texture: Texture, x: np.ndarray, y: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -90,7 +90,7 @@ def bake_blend(
         roughness=1.0,
     )
     maps = {
-        "base_color": Texture(box_chain(mixed.base_color)),
+        "base_color": Texture(box_mips(mixed.base_color)),
         "metallic": scalar_texture(mixed.metallic),
         "f0": scalar_texture(mixed.f0),
         "normal_roughness": normal_roughness_texture(

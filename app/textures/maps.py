@@ -2,7 +2,7 @@
 chains the G-buffer pass samples (seed section 13).
 
 Colour data (base colour) is sRGB and lets the GL build its mips. Non-colour data never
-does: masks, metallic and anisotropy get box-filtered mips built here, and roughness
+does: masks, metallic and anisotropy get box-filtered mips (mips.box_mips), and roughness
 travels with the normals in one RGBA16F chain (xyz = tangent-space normal, a =
 perceptual roughness) built by app/textures/mips.py, so that the variance of the normals a
 texel averages moves into its roughness (the scene's ``render.normal_filter``).
@@ -17,7 +17,7 @@ from PIL import Image, UnidentifiedImageError
 
 from app.errors import InputError
 from app.scene.model import MaterialParams
-from app.textures.mips import build_chain, decode_normal_map
+from app.textures.mips import box_mips, build_chain, decode_normal_map
 
 MAX_TEXTURE_SIZE = 8192  # texels per side; llvmpipe's limit is 16384, memory binds first
 
@@ -76,42 +76,6 @@ def linear_channel(image: Image.Image) -> np.ndarray:
     else:
         data = np.asarray(image.convert("RGB"), np.float64)[..., 0] / 255.0
     return np.clip(data, 0.0, 1.0)
-
-
-def box_chain(values: np.ndarray) -> list[np.ndarray]:
-    """Mips of linear data by 2x2 box averages down to 1x1 (GL sizes: max(1, n >> 1)),
-    level 0 untouched. An odd row or column is folded into its neighbour's average so that
-    every texel of a level counts once in the next."""
-    levels = [np.asarray(values, np.float32)]
-    current = np.asarray(values, np.float64)
-    while current.shape[0] > 1 or current.shape[1] > 1:
-        current = _halve(current)
-        levels.append(current.astype(np.float32))
-    return levels
-
-
-def _halve(a: np.ndarray) -> np.ndarray:
-    for axis in (0, 1):
-        n = a.shape[axis]
-        if n == 1:
-            continue
-        half = n // 2
-        even = np.take(a, np.arange(2 * half), axis=axis)
-        shape = list(even.shape)
-        shape[axis : axis + 1] = [half, 2]
-        pairs = even.reshape(shape)
-        summed = pairs.sum(axis=axis + 1)
-        counts = np.full(half, 2.0)
-        if n % 2:  # the odd last row/column joins the last pair
-            last = np.take(a, [n - 1], axis=axis)
-            idx = [slice(None)] * summed.ndim
-            idx[axis] = slice(half - 1, half)
-            summed[tuple(idx)] += last
-            counts[-1] = 3.0
-        shape_c = [1] * summed.ndim
-        shape_c[axis] = half
-        a = summed / counts.reshape(shape_c)
-    return a
 
 
 def resample(values: np.ndarray, size: tuple[int, int]) -> np.ndarray:
@@ -179,5 +143,5 @@ def colour_texture(image: Image.Image) -> Texture:
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
-    """A single-channel non-colour map with box-filtered mips built here."""
-    return Texture([level[..., None] for level in box_chain(values)])
+    """A single-channel non-colour map with box-filtered mips (mips.box_mips), never the GL's."""
+    return Texture([level[..., None] for level in box_mips(values)])

@@ -115,6 +115,22 @@ def build_chain(normals: np.ndarray, roughness: np.ndarray | float, method: str)
     return FilteredChain(levels_n, levels_r)
 
 
+def box_mips(values: np.ndarray) -> list[np.ndarray]:
+    """Mips of linear data (H, W) or (H, W, C) down to 1x1 (GL sizes), level 0 untouched:
+    each texel the exact mean of the source texels under its footprint (the moments'
+    averaging above, for data that is averaged as it is: masks, metallic, colour)."""
+    a = np.asarray(values, np.float64)
+    levels = [a.astype(np.float32)]
+    sums = a if a.ndim == 3 else a[..., None]
+    counts_y, counts_x = np.ones(a.shape[0]), np.ones(a.shape[1])
+    while max(counts_y.size, counts_x.size) > 1:
+        sums = _halve(sums)
+        counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
+        means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
+        levels.append((means if a.ndim == 3 else means[..., 0]).astype(np.float32))
+    return levels
+
+
 def _checked(
     normals: np.ndarray, roughness: np.ndarray | float, method: str
 ) -> tuple[np.ndarray, np.ndarray]:
