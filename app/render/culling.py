@@ -9,8 +9,8 @@ Two small fragment passes per frame, after the G-buffer pass and before lighting
    whose range sphere covers an occupied slice and reaches the view-space box of the
    tile's frustum over those slices and its four side planes, and, for a spot light,
    whose cone reaches that box's bounding sphere (glsl/lights/tiles.glsl,
-   twin app/reference/tiles.py); one R32UI texel holds 32 lights, a tile has ``words``
-   texels side by side.
+   twin app/reference/tiles.py); one RGBA32UI texel holds 128 lights (four 32-bit
+   words), a tile has ``quads`` texels side by side.
 
 The box test is what makes the lists short: the side planes alone, tested one by one,
 accept any centre within r of each plane, so around a tile frustum much thinner than the
@@ -80,7 +80,7 @@ class LightCuller:
             np.float64,
         )
         self.tiles = (-(-size[0] // TILE_SIZE), -(-size[1] // TILE_SIZE))
-        self.words = max(1, -(-self.local_count // 32))
+        self.quads = max(1, -(-self.local_count // 128))  # mask texels per tile
         defines = {"TILE_SIZE": TILE_SIZE}
         self.depth_program = shaders.program(
             "passes/fullscreen.vert", "passes/tile_depth.frag", defines
@@ -92,7 +92,7 @@ class LightCuller:
         self.cull_vao = ctx.vertex_array(self.cull_program, [])
         self.tile_depth = ctx.texture(self.tiles, 2, dtype="f4")
         self.tile_bins = ctx.texture(self.tiles, 1, dtype="u4")
-        self.masks = ctx.texture((self.tiles[0] * self.words, self.tiles[1]), 1, dtype="u4")
+        self.masks = ctx.texture((self.tiles[0] * self.quads, self.tiles[1]), 4, dtype="u4")
         rows = max(1, -(-self.local_count // LIGHTS_PER_ROW))
         width = LIGHTS_PER_ROW if self.local_count > LIGHTS_PER_ROW else max(1, self.local_count)
         self.lights = ctx.texture((width, rows), 4, dtype="f4")
@@ -126,7 +126,7 @@ class LightCuller:
         self.depth_vao.render(moderngl.TRIANGLES, vertices=3)
 
         self.mask_fbo.use()
-        ctx.viewport = (0, 0, self.tiles[0] * self.words, self.tiles[1])
+        ctx.viewport = (0, 0, self.tiles[0] * self.quads, self.tiles[1])
         prog = self.cull_program
         self.tile_depth.use(0)
         self.tile_bins.use(1)
@@ -137,7 +137,7 @@ class LightCuller:
         prog["u_local_lights"].value = 2
         prog["u_local_spots"].value = 3
         prog["u_local_count"].value = self.local_count
-        prog["u_words"].value = self.words
+        prog["u_quads"].value = self.quads
         prog["u_image_size"].value = self.size
         prog["u_tan_half_fov"].value = camera.tan_half_fov
         self.cull_vao.render(moderngl.TRIANGLES, vertices=3)
@@ -153,9 +153,9 @@ class LightCuller:
     def read_masks(self) -> np.ndarray:
         """(tiles_y, tiles_x, local_count) bool: which local lights reach each tile."""
         tx, ty = self.tiles
-        words = np.frombuffer(self.masks.read(), np.uint32).reshape(ty, tx, self.words)
+        words = np.frombuffer(self.masks.read(), np.uint32).reshape(ty, tx, self.quads * 4)
         bits = (words[..., :, None] >> np.arange(32, dtype=np.uint32)) & 1
-        return bits.reshape(ty, tx, self.words * 32)[..., : self.local_count].astype(bool)
+        return bits.reshape(ty, tx, self.quads * 128)[..., : self.local_count].astype(bool)
 
     def release(self) -> None:
         for obj in (

@@ -62,7 +62,8 @@ class LightingPass:
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
-                defines["TILE_WORDS"] = culler.words  # 1: a simpler loop (lighting.frag)
+                defines["TILE_QUADS"] = culler.quads  # mask texels per tile
+                defines["DIRECTIONAL_LIGHTS"] = int(culler.first_local > 0)
             self.programs.append(
                 shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
             )
@@ -118,8 +119,6 @@ class LightingPass:
             prog["u_camera_to_world"].write(camera_to_world)
             prog["u_tan_half_fov"].value = camera.tan_half_fov
             if self.culler is not None:
-                if "u_words" in prog:  # with TILE_WORDS 1 the shader needs no stride
-                    prog["u_words"].value = self.culler.words
                 prog["u_first_local"].value = self.culler.first_local
             vao.render(moderngl.TRIANGLES, vertices=3)
 

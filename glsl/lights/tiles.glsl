@@ -55,6 +55,87 @@ int highest_bit(uint mask) {
     return lowest_bit(mask ^ (mask >> 1));
 }
 
+// --- a tile's light mask: RGBA32UI texels of four 32-bit words ---
+
+// Bit c set where word c of q is non-zero.
+uint quad_occupancy(uvec4 q) {
+    uvec4 nonzero = uvec4(notEqual(q, uvec4(0u)));
+    return nonzero.x | (nonzero.y << 1) | (nonzero.z << 2) | (nonzero.w << 3);
+}
+
+// Word c (0 ... 3) of q, by selects (a dynamic component index may go through memory).
+uint quad_word(uvec4 q, int c) {
+    return c < 2 ? (c == 0 ? q.x : q.y) : (c == 2 ? q.z : q.w);
+}
+
+// q with bit b of word c set to 1.
+uvec4 quad_bit(int c, int b) {
+    return uvec4(equal(ivec4(c), ivec4(0, 1, 2, 3))) << uint(b);
+}
+
+// --- ... in the lighting pass ---
+// The culler writes TILE_QUADS RGBA32UI texels per tile: light 128 k + 32 c + b is bit b
+// of component c of texel k. The lighting pass holds up to 8 texels (1024 lights, a
+// "chunk") in registers and visits the set bits of the non-zero words in ascending order.
+// Eight named fields, not an array: llvmpipe keeps a dynamically indexed local array in
+// memory, and indexing one per light cost the 256-light lighting pass 8.7 ms of 80
+// (docs/performance.md).
+#ifdef TILE_QUADS
+struct TileMask {
+    uvec4 q0, q1, q2, q3, q4, q5, q6, q7;
+};
+
+// Texel k (0 ... 7) of chunk `chunk` of the tile's mask, zero past the tile's last texel.
+#define TILE_QUAD(masks, tile, chunk, k) \
+    ((chunk) * 8 + (k) < TILE_QUADS \
+        ? texelFetch(masks, ivec2((tile).x * TILE_QUADS + (chunk) * 8 + (k), (tile).y), 0) \
+        : uvec4(0u))
+
+TileMask load_tile_mask(usampler2D masks, ivec2 tile, int chunk) {
+    TileMask m = TileMask(uvec4(0u), uvec4(0u), uvec4(0u), uvec4(0u),
+                          uvec4(0u), uvec4(0u), uvec4(0u), uvec4(0u));
+    m.q0 = TILE_QUAD(masks, tile, chunk, 0);
+#if TILE_QUADS > 1
+    m.q1 = TILE_QUAD(masks, tile, chunk, 1);
+#endif
+#if TILE_QUADS > 2
+    m.q2 = TILE_QUAD(masks, tile, chunk, 2);
+#endif
+#if TILE_QUADS > 3
+    m.q3 = TILE_QUAD(masks, tile, chunk, 3);
+#endif
+#if TILE_QUADS > 4
+    m.q4 = TILE_QUAD(masks, tile, chunk, 4);
+#endif
+#if TILE_QUADS > 5
+    m.q5 = TILE_QUAD(masks, tile, chunk, 5);
+#endif
+#if TILE_QUADS > 6
+    m.q6 = TILE_QUAD(masks, tile, chunk, 6);
+#endif
+#if TILE_QUADS > 7
+    m.q7 = TILE_QUAD(masks, tile, chunk, 7);
+#endif
+    return m;
+}
+
+// Bit w set where word w (0 ... 31) of the chunk holds a light.
+uint tile_occupancy(TileMask m) {
+    return quad_occupancy(m.q0) | (quad_occupancy(m.q1) << 4)
+         | (quad_occupancy(m.q2) << 8) | (quad_occupancy(m.q3) << 12)
+         | (quad_occupancy(m.q4) << 16) | (quad_occupancy(m.q5) << 20)
+         | (quad_occupancy(m.q6) << 24) | (quad_occupancy(m.q7) << 28);
+}
+
+// Word w (0 ... 31) of the chunk: selects, which stay in registers.
+uint tile_word(TileMask m, int w) {
+    int k = w >> 2;
+    uvec4 q = k < 4 ? (k < 2 ? (k == 0 ? m.q0 : m.q1) : (k == 2 ? m.q2 : m.q3))
+                    : (k < 6 ? (k == 4 ? m.q4 : m.q5) : (k == 6 ? m.q6 : m.q7));
+    return quad_word(q, w & 3);
+}
+#endif
+
 // Harada et al. 2012: does a sphere (view-space centre c with depth d = -c.z, radius r)
 // lie inside the depth slab [z_min, z_max] and inside each of the four side planes of the
 // tile's frustum (the pixels whose NDC lie in [ndc_min, ndc_max]), each tested on its own?
@@ -127,42 +208,72 @@ bool cone_reaches_tile(vec3 c, float r, vec3 u, float cos_a, float sin_a, vec2 n
                                0.5 * (lo + hi), rho);
 }
 
-// The culler's decision for one (tile, light) pair. 2.5D culling (Harada et al. 2012):
-// the sphere's depth extent [d - r, d + r] must cover a slice of the tile's depth mask
-// that holds a surface; then the sphere must reach the frustum's box between the nearest
-// and farthest of those slices, and pass the planes; a spot light's cone (spot.w =
-// cos of the outer angle, spot.xyz its axis; spot.w < -1 for a point light) must reach
-// the bounding sphere of one of those slices' boxes. Every step is conservative.
-bool light_reaches_tile(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
-                        vec2 tan_half_fov, float z_min, float z_max, uint depth_mask) {
+// The culler's decision for one (tile, light) pair, in two stages (light_cull.frag runs
+// the cone stage only for the spot lights that pass the sphere stage). 2.5D culling
+// (Harada et al. 2012): the sphere's depth extent [d - r, d + r] must cover a slice of
+// the tile's depth mask that holds a surface; then the sphere must reach the frustum's
+// box between the nearest and farthest of those slices, and pass the planes; a spot
+// light's cone must reach the bounding sphere of one of those slices' boxes. Every step
+// is conservative.
+
+// The occupied slices within the sphere's depth extent (0: none).
+uint sphere_slices(vec3 c, float r, float z_min, float z_max, uint depth_mask) {
     float d = -c.z;
-    if (d + r < z_min || d - r > z_max) return false;
+    if (d + r < z_min || d - r > z_max) return 0u;
     float scale = depth_bin_scale(z_min, z_max);
-    uint hits = depth_mask & bin_range_mask(depth_bin(d - r, z_min, scale),
-                                            depth_bin(d + r, z_min, scale));
-    if (hits == 0u) return false;
+    return depth_mask & bin_range_mask(depth_bin(d - r, z_min, scale),
+                                       depth_bin(d + r, z_min, scale));
+}
+
+// The sphere stage: the occupied slices within the sphere's depth extent, 0 when the
+// sphere misses the tile.
+uint sphere_reaches_tile(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
+                         float z_min, float z_max, uint depth_mask) {
+    uint hits = sphere_slices(c, r, z_min, z_max, depth_mask);
+    if (hits == 0u) return 0u;
+    float scale = depth_bin_scale(z_min, z_max);
     float slack = Z_SLACK * z_max;
     float z_lo = z_min + float(lowest_bit(hits)) / scale - slack;
     float z_hi = z_min + float(highest_bit(hits) + 1) / scale + slack;
     if (!(tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
           && tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max))) {
-        return false;
+        return 0u;
     }
-    if (spot.w < -1.0) return true;  // a point light: no cone
-    // The cone against each occupied slice's box on its own: one sphere around all of them
-    // would span the tile's whole depth range (a floor seen at a grazing angle).
+    return hits;
+}
+
+// The cone stage: does a spot light's cone (spot.xyz its axis, spot.w the cosine of its
+// outer angle) reach the box of one of the slices `hits` (non-zero) on its own? One
+// sphere around all of them would span the tile's whole depth range (a floor seen at a
+// grazing angle).
+bool cone_reaches_slices(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
+                         vec2 tan_half_fov, float z_min, float z_max, uint hits) {
+    float scale = depth_bin_scale(z_min, z_max);
+    float slack = Z_SLACK * z_max;
     float sin_a = sqrt(max(1.0 - spot.w * spot.w, 0.0));
-    while (hits != 0u) {
+    bool reach = false;
+    // Top-tested: as a do-while nested in light_cull.frag's loop over candidates, llvmpipe
+    // (Mesa 22.3) culled 14 of 2731 (tile, spot) pairs it should keep.
+    while (!reach && hits != 0u) {
         int b = lowest_bit(hits);
         hits &= hits - 1u;
         float lo = z_min + float(b) / scale - slack;
         float hi = z_min + float(b + 1) / scale + slack;
-        if (cone_reaches_tile(c, r, spot.xyz, spot.w, sin_a, ndc_min, ndc_max, tan_half_fov,
-                              lo, hi)) {
-            return true;
-        }
+        reach = cone_reaches_tile(c, r, spot.xyz, spot.w, sin_a, ndc_min, ndc_max,
+                                  tan_half_fov, lo, hi);
     }
-    return false;
+    return reach;
+}
+
+// Both stages for one light (spot.w < -1 for a point light: no cone).
+bool light_reaches_tile(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
+                        vec2 tan_half_fov, float z_min, float z_max, uint depth_mask) {
+    uint hits = sphere_reaches_tile(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max,
+                                    depth_mask);
+    if (hits == 0u) return false;
+    if (spot.w < -1.0) return true;
+    return cone_reaches_slices(c, r, spot, ndc_min, ndc_max, tan_half_fov, z_min, z_max,
+                               hits);
 }
 
 #endif

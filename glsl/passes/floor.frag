@@ -78,10 +78,13 @@ void main() {
 
     uvec2 range = texelFetch(u_pair_ranges, px, 0).xy;
     vec3 Lo = vec3(0.0);
-    for (uint k = range.x; k < range.x + range.y; ++k) {
+    // Bottom-tested, like the lighting pass's loops: a top-tested loop would evaluate one
+    // more (masked) light per pixel on llvmpipe (lighting.frag).
+    uint k = range.x;
+    if (range.y > 0u) do {
         int i = int(texelFetch(u_pair_lights, ivec2(int(k % uint(PAIR_ROW)),
                                                      int(k / uint(PAIR_ROW))), 0).r);
         Lo += light_contribution(i, s, params, n, t, p, v);
-    }
+    } while (++k < range.x + range.y);
     frag_color = vec4(PI * Lo, 1.0);
 }

@@ -63,8 +63,9 @@ void main() {
     vec3 v = normalize(u_camera_pos - p);
     vec3 n = sanitize_direction(m.n, v);
     vec3 Lo = vec3(0.0);
-    for (int i = 0; i < u_light_count; ++i) {
+    int i = 0;
+    if (u_light_count > 0) do {  // bottom-tested, as in the lighting pass
         Lo += light_contribution(i, s, params, n, t, p, v);
-    }
+    } while (++i < u_light_count);
     frag_color = vec4(PI * Lo, 1.0);
 }

@@ -1,5 +1,6 @@
-// Light culling: fragment (tile.x * u_words + w, tile.y) writes the bitmask of local
-// lights 32 w ... 32 w + 31 whose range sphere (and spot cone) reaches the tile's surfaces.
+// Light culling: fragment (tile.x * u_quads + k, tile.y) writes the bitmasks of local
+// lights 128 k ... 128 k + 127 (four 32-bit words) whose range sphere (and spot cone)
+// reaches the tile's surfaces.
 #include "lights/tiles.glsl"
 
 uniform sampler2D u_tile_depth;      // RG32F per tile: view depth min, max (0 = empty)
@@ -8,36 +9,72 @@ uniform sampler2D u_local_lights;    // RGBA32F, 1024 per row: view-space centre
 uniform sampler2D u_local_spots;     // RGBA32F, same layout: view-space axis, cos outer
                                      // (-2 for point lights)
 uniform int u_local_count;
-uniform int u_words;
+uniform int u_quads;
 uniform ivec2 u_image_size;
 uniform vec2 u_tan_half_fov;
 
-out uint mask;
+out uvec4 mask;
+
+ivec2 light_texel(int i) {
+    return ivec2(i % 1024, i / 1024);
+}
 
 void main() {
     ivec2 cell = ivec2(gl_FragCoord.xy);
-    ivec2 tile = ivec2(cell.x / u_words, cell.y);
-    int word = cell.x - tile.x * u_words;
+    ivec2 tile = ivec2(cell.x / u_quads, cell.y);
+    int first = (cell.x - tile.x * u_quads) * 128;
     vec2 z = texelFetch(u_tile_depth, tile, 0).rg;
-    uint bits = 0u;
+    uvec4 reach = uvec4(0u);
     if (z.y > 0.0) {
         uint depth_mask = texelFetch(u_tile_bins, tile, 0).r;
         vec2 px_min = vec2(tile * TILE_SIZE);
         vec2 px_max = min(vec2((tile + 1) * TILE_SIZE), vec2(u_image_size));
         vec2 ndc_min = px_min / vec2(u_image_size) * 2.0 - 1.0;
         vec2 ndc_max = px_max / vec2(u_image_size) * 2.0 - 1.0;
-        int first = word * 32;
-        int count = min(32, u_local_count - first);
-        for (int b = 0; b < count; ++b) {
-            int i = first + b;
-            ivec2 texel = ivec2(i % 1024, i / 1024);
+        // Bottom-tested loops (passes/lighting.frag says why). Every light gets the sphere
+        // stage; the cone stage, a loop over depth slices, runs afterwards for the spot
+        // lights that passed it only. Run inside the first loop it cost llvmpipe a masked
+        // slice test per light and tile: 2.6 ms of this pass's 5.8 at 256 lights.
+        uvec4 cones = uvec4(0u);  // spot lights whose sphere reaches the tile
+        int count = min(128, u_local_count - first);   // >= 1: the culler has no empty quad
+        int b = 0;
+        do {
+            vec4 light = texelFetch(u_local_lights, light_texel(first + b), 0);
+            float cos_outer = texelFetch(u_local_spots, light_texel(first + b), 0).w;
+            uint hits = sphere_reaches_tile(light.xyz, light.w, ndc_min, ndc_max,
+                                            u_tan_half_fov, z.x, z.y, depth_mask);
+            uvec4 bit = quad_bit(b >> 5, b & 31);
+            if (hits != 0u) {
+                reach |= bit;
+                if (cos_outer >= -1.0) cones |= bit;
+            }
+        } while (++b < count);
+
+        uint words = quad_occupancy(cones);
+        int w = 0;
+        uint bits = 0u;
+        if (words != 0u) {
+            w = lowest_bit(words);
+            words &= words - 1u;
+            bits = quad_word(cones, w);
+        }
+        if (bits != 0u) do {
+            int k = lowest_bit(bits);
+            bits &= bits - 1u;
+            ivec2 texel = light_texel(first + 32 * w + k);
             vec4 light = texelFetch(u_local_lights, texel, 0);
             vec4 spot = texelFetch(u_local_spots, texel, 0);
-            if (light_reaches_tile(light.xyz, light.w, spot, ndc_min, ndc_max,
-                                   u_tan_half_fov, z.x, z.y, depth_mask)) {
-                bits |= 1u << uint(b);
+            uint hits = sphere_slices(light.xyz, light.w, z.x, z.y, depth_mask);
+            if (!cone_reaches_slices(light.xyz, light.w, spot, ndc_min, ndc_max,
+                                     u_tan_half_fov, z.x, z.y, hits)) {
+                reach &= ~quad_bit(w, k);
             }
-        }
+            if (bits == 0u && words != 0u) {
+                w = lowest_bit(words);
+                words &= words - 1u;
+                bits = quad_word(cones, w);
+            }
+        } while (bits != 0u);
     }
-    mask = bits;
+    mask = reach;
 }
