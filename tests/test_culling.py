@@ -22,7 +22,7 @@ from app.gl.kernel import run_kernel
 from app.reference import tiles as twin
 from app.reference.illumination import pixel_ndc
 from app.reference.position import reconstruct_position
-from app.render.culling import TILE_SIZE
+from app.render.culling import GROUP_TILES, TILE_SIZE
 from app.render.renderer import Renderer
 from app.scene.loader import parse_scene
 
@@ -143,6 +143,7 @@ class Frame:
             self.depth = r.read_gbuffer().depth  # (H, W) float32, rows top-down
             self.bounds, self.depth_masks = culler.read_tiles()  # tile rows bottom-up
             self.masks = culler.read_masks()
+            self.group_masks = culler.read_group_masks()
             texels = np.frombuffer(culler.lights.read(), np.float32).reshape(-1, 4)
             self.centres_view = texels[: culler.local_count, :3].astype(np.float64)
             self.ranges = texels[: culler.local_count, 3].astype(np.float64)  # padded
@@ -261,6 +262,18 @@ def test_culling_is_conservative_and_effective(frame: Frame) -> None:
     assert not np.any(needed & ~masks), "a light that reaches a pixel was culled"
     assert masks.sum(axis=-1).max() < 0.25 * len(frame.local)
     assert masks.sum() < frame.max_excess * needed.sum()
+
+
+def test_group_masks_hold_every_tile_list_and_prune(frame: Frame) -> None:
+    """The coarse pass's candidates for a group of 4 x 4 tiles hold every light of its
+    tiles' lists (the tile pass tests nothing else, so a needed light missing there would
+    also fail the tests above), and they are few: 18 % (floor) and 22 % (posts) of all
+    (tile, light) pairs at 320 x 180, measured."""
+    ty, tx, _ = frame.masks.shape
+    per_tile = np.repeat(np.repeat(frame.group_masks, GROUP_TILES, 0), GROUP_TILES, 1)
+    per_tile = per_tile[:ty, :tx]
+    assert not np.any(frame.masks & ~per_tile)
+    assert per_tile.sum() < 0.3 * per_tile.size
 
 
 def test_depth_mask_culls_lights_between_surfaces(gl_egl) -> None:

@@ -1,16 +1,19 @@
 """Tiled light culling on the OpenGL 3.3 path: lights reach only the pixels in their range.
 
-Two small fragment passes per frame, after the G-buffer pass and before lighting:
+Three small fragment passes per frame, after the G-buffer pass and before lighting:
 
 1. ``tile_depth.frag``: the min and max view depth of each 16x16 tile's surfaces, and
    a 32-bit depth mask of the slices of that slab that hold a surface (Harada et al.
    2012's 2.5D culling), into two targets of one framebuffer;
-2. ``light_cull.frag``: for each tile, a bitmask of the local (point and spot) lights
-   whose range sphere covers an occupied slice and reaches the view-space box of the
+2. ``group_cull.frag``: for each group of 4x4 tiles, the local lights whose range sphere
+   reaches the view-space box and the side planes of the group's frustum over its
+   surfaces' depth slab: a superset of its tiles' lists, so that
+3. ``light_cull.frag`` tests only those for each tile: a light is in the tile's mask when
+   its range sphere covers an occupied slice and reaches the view-space box of the
    tile's frustum over those slices and its four side planes, and, for a spot light,
-   whose cone reaches that box's bounding sphere (glsl/lights/tiles.glsl,
-   twin app/reference/tiles.py); one RGBA32UI texel holds 128 lights (four 32-bit
-   words), a tile has ``quads`` texels side by side.
+   its cone reaches that box's bounding sphere (glsl/lights/tiles.glsl, twin
+   app/reference/tiles.py). One RGBA32UI texel holds 128 lights (four 32-bit words), a
+   tile (or group) has ``quads`` texels side by side.
 
 The box test is what makes the lists short: the side planes alone, tested one by one,
 accept any centre within r of each plane, so around a tile frustum much thinner than the
@@ -37,6 +40,7 @@ from app.render.gbuffer import GBuffer
 from app.scene.camera import CameraFrame
 
 TILE_SIZE = 16
+GROUP_TILES = 4  # the coarse pass culls for groups of 4 x 4 tiles (64 x 64 pixels)
 LIGHTS_PER_ROW = 1024  # texels per row of the local-light texture
 RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a light
 #                      whose window is still (barely) above zero at a tile's edge
@@ -81,25 +85,35 @@ class LightCuller:
         )
         self.tiles = (-(-size[0] // TILE_SIZE), -(-size[1] // TILE_SIZE))
         self.quads = max(1, -(-self.local_count // 128))  # mask texels per tile
-        defines = {"TILE_SIZE": TILE_SIZE}
+        self.groups = (-(-self.tiles[0] // GROUP_TILES), -(-self.tiles[1] // GROUP_TILES))
+        defines = {"TILE_SIZE": TILE_SIZE, "GROUP_TILES": GROUP_TILES}
         self.depth_program = shaders.program(
             "passes/fullscreen.vert", "passes/tile_depth.frag", defines
+        )
+        self.group_program = shaders.program(
+            "passes/fullscreen.vert", "passes/group_cull.frag", defines
         )
         self.cull_program = shaders.program(
             "passes/fullscreen.vert", "passes/light_cull.frag", defines
         )
         self.depth_vao = ctx.vertex_array(self.depth_program, [])
+        self.group_vao = ctx.vertex_array(self.group_program, [])
         self.cull_vao = ctx.vertex_array(self.cull_program, [])
         self.tile_depth = ctx.texture(self.tiles, 2, dtype="f4")
         self.tile_bins = ctx.texture(self.tiles, 1, dtype="u4")
         self.masks = ctx.texture((self.tiles[0] * self.quads, self.tiles[1]), 4, dtype="u4")
+        self.group_masks = ctx.texture((self.groups[0] * self.quads, self.groups[1]), 4, dtype="u4")
         rows = max(1, -(-self.local_count // LIGHTS_PER_ROW))
         width = LIGHTS_PER_ROW if self.local_count > LIGHTS_PER_ROW else max(1, self.local_count)
         self.lights = ctx.texture((width, rows), 4, dtype="f4")
         self.spots = ctx.texture((width, rows), 4, dtype="f4")
-        for tex in (self.tile_depth, self.tile_bins, self.masks, self.lights, self.spots):
+        textures = (
+            self.tile_depth, self.tile_bins, self.group_masks, self.masks, self.lights, self.spots
+        )  # fmt: skip
+        for tex in textures:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.depth_fbo = ctx.framebuffer([self.tile_depth, self.tile_bins])
+        self.group_fbo = ctx.framebuffer([self.group_masks])
         self.mask_fbo = ctx.framebuffer([self.masks])
 
     def _upload(self, view: np.ndarray) -> None:
@@ -125,6 +139,20 @@ class LightCuller:
         self.depth_program["g_depth"].value = 0
         self.depth_vao.render(moderngl.TRIANGLES, vertices=3)
 
+        self.group_fbo.use()
+        ctx.viewport = (0, 0, self.groups[0] * self.quads, self.groups[1])
+        prog = self.group_program
+        self.tile_depth.use(0)
+        self.lights.use(1)
+        prog["u_tile_depth"].value = 0
+        prog["u_local_lights"].value = 1
+        prog["u_local_count"].value = self.local_count
+        prog["u_quads"].value = self.quads
+        prog["u_tiles"].value = self.tiles
+        prog["u_image_size"].value = self.size
+        prog["u_tan_half_fov"].value = camera.tan_half_fov
+        self.group_vao.render(moderngl.TRIANGLES, vertices=3)
+
         self.mask_fbo.use()
         ctx.viewport = (0, 0, self.tiles[0] * self.quads, self.tiles[1])
         prog = self.cull_program
@@ -132,11 +160,12 @@ class LightCuller:
         self.tile_bins.use(1)
         self.lights.use(2)
         self.spots.use(3)
+        self.group_masks.use(4)
         prog["u_tile_depth"].value = 0
         prog["u_tile_bins"].value = 1
         prog["u_local_lights"].value = 2
         prog["u_local_spots"].value = 3
-        prog["u_local_count"].value = self.local_count
+        prog["u_group_masks"].value = 4
         prog["u_quads"].value = self.quads
         prog["u_image_size"].value = self.size
         prog["u_tan_half_fov"].value = camera.tan_half_fov
@@ -152,19 +181,30 @@ class LightCuller:
 
     def read_masks(self) -> np.ndarray:
         """(tiles_y, tiles_x, local_count) bool: which local lights reach each tile."""
-        tx, ty = self.tiles
-        words = np.frombuffer(self.masks.read(), np.uint32).reshape(ty, tx, self.quads * 4)
+        return self._unpack(self.masks, self.tiles)
+
+    def read_group_masks(self) -> np.ndarray:
+        """(groups_y, groups_x, local_count) bool: the coarse pass's candidates for each
+        group of GROUP_TILES x GROUP_TILES tiles."""
+        return self._unpack(self.group_masks, self.groups)
+
+    def _unpack(self, texture: moderngl.Texture, cells: tuple[int, int]) -> np.ndarray:
+        nx, ny = cells
+        words = np.frombuffer(texture.read(), np.uint32).reshape(ny, nx, self.quads * 4)
         bits = (words[..., :, None] >> np.arange(32, dtype=np.uint32)) & 1
-        return bits.reshape(ty, tx, self.quads * 128)[..., : self.local_count].astype(bool)
+        return bits.reshape(ny, nx, self.quads * 128)[..., : self.local_count].astype(bool)
 
     def release(self) -> None:
         for obj in (
             self.depth_vao,
+            self.group_vao,
             self.cull_vao,
             self.depth_fbo,
+            self.group_fbo,
             self.mask_fbo,
             self.tile_depth,
             self.tile_bins,
+            self.group_masks,
             self.masks,
             self.lights,
             self.spots,

@@ -1,14 +1,15 @@
 // Light culling: fragment (tile.x * u_quads + k, tile.y) writes the bitmasks of local
 // lights 128 k ... 128 k + 127 (four 32-bit words) whose range sphere (and spot cone)
-// reaches the tile's surfaces.
+// reaches the tile's surfaces. Only the lights of the tile's group mask (group_cull.frag)
+// are tested.
 #include "lights/tiles.glsl"
 
 uniform sampler2D u_tile_depth;      // RG32F per tile: view depth min, max (0 = empty)
 uniform usampler2D u_tile_bins;      // R32UI per tile: depth mask (lights/tiles.glsl)
+uniform usampler2D u_group_masks;    // RGBA32UI per (group, quad): group_cull.frag
 uniform sampler2D u_local_lights;    // RGBA32F, 1024 per row: view-space centre, range
 uniform sampler2D u_local_spots;     // RGBA32F, same layout: view-space axis, cos outer
                                      // (-2 for point lights)
-uniform int u_local_count;
 uniform int u_quads;
 uniform ivec2 u_image_size;
 uniform vec2 u_tan_half_fov;
@@ -31,28 +32,46 @@ void main() {
         vec2 px_max = min(vec2((tile + 1) * TILE_SIZE), vec2(u_image_size));
         vec2 ndc_min = px_min / vec2(u_image_size) * 2.0 - 1.0;
         vec2 ndc_max = px_max / vec2(u_image_size) * 2.0 - 1.0;
-        // Bottom-tested loops (passes/lighting.frag says why). Every light gets the sphere
-        // stage; the cone stage, a loop over depth slices, runs afterwards for the spot
-        // lights that passed it only. Run inside the first loop it cost llvmpipe a masked
-        // slice test per light and tile: 2.6 ms of this pass's 5.8 at 256 lights.
+        // Bottom-tested loops over set bits (passes/lighting.frag says why): first the
+        // sphere stage for each light of the group's mask, then the cone stage, a loop
+        // over depth slices, for the spot lights that passed it only. Inside the first
+        // loop the cone stage cost llvmpipe a masked slice test per light and tile (2.6 ms
+        // of this pass's 5.8 at 256 lights, before the group masks).
+        uvec4 group_mask = texelFetch(u_group_masks,
+                                      ivec2((tile.x / GROUP_TILES) * u_quads + first / 128,
+                                            tile.y / GROUP_TILES), 0);
         uvec4 cones = uvec4(0u);  // spot lights whose sphere reaches the tile
-        int count = min(128, u_local_count - first);   // >= 1: the culler has no empty quad
-        int b = 0;
-        do {
-            vec4 light = texelFetch(u_local_lights, light_texel(first + b), 0);
-            float cos_outer = texelFetch(u_local_spots, light_texel(first + b), 0).w;
+        uint words = quad_occupancy(group_mask);
+        int w = 0;
+        uint bits = 0u;
+        if (words != 0u) {
+            w = lowest_bit(words);
+            words &= words - 1u;
+            bits = quad_word(group_mask, w);
+        }
+        if (bits != 0u) do {
+            int k = lowest_bit(bits);
+            bits &= bits - 1u;
+            ivec2 texel = light_texel(first + 32 * w + k);
+            vec4 light = texelFetch(u_local_lights, texel, 0);
+            float cos_outer = texelFetch(u_local_spots, texel, 0).w;
             uint hits = sphere_reaches_tile(light.xyz, light.w, ndc_min, ndc_max,
                                             u_tan_half_fov, z.x, z.y, depth_mask);
-            uvec4 bit = quad_bit(b >> 5, b & 31);
+            uvec4 bit = quad_bit(w, k);
             if (hits != 0u) {
                 reach |= bit;
                 if (cos_outer >= -1.0) cones |= bit;
             }
-        } while (++b < count);
+            if (bits == 0u && words != 0u) {
+                w = lowest_bit(words);
+                words &= words - 1u;
+                bits = quad_word(group_mask, w);
+            }
+        } while (bits != 0u);
 
-        uint words = quad_occupancy(cones);
-        int w = 0;
-        uint bits = 0u;
+        words = quad_occupancy(cones);
+        w = 0;
+        bits = 0u;
         if (words != 0u) {
             w = lowest_bit(words);
             words &= words - 1u;
