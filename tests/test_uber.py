@@ -230,13 +230,13 @@ def test_uber_pass_compiles_every_table(gl_egl):
 
 def test_ms_table_size_keyword(gl_egl):
     """Renderer(ms_table_size=n) binds the n x n Kulla-Conty table (default: the shipped
-    32 x 32), and the image changes with it (the interpolation error differs)."""
+    64 x 64), and the image changes with it (the interpolation error differs)."""
     loaded = load_scene(scenes_dir() / "sec8_furnace.toml")
     images = {}
     for size in (None, 16):
         r = Renderer(gl_egl, loaded, SIZE, ms_table_size=size)
         try:
-            assert r.lighting.ms_table.size == ((32, 32) if size is None else (16, 16))
+            assert r.lighting.ms_table.size == ((64, 64) if size is None else (16, 16))
             r.render()
             images[size] = r.read_hdr()
         finally:

@@ -42,6 +42,7 @@ from app.bench.scenes import (
 from app.bench.startup import cold_start
 from app.bench.timing import Budget, FrameTimes, GLTimerQueries, Pass, summary, time_frames
 from app.gl.context import GLContext
+from app.reference.multiscatter import DEFAULT_SIZE
 from app.render.culling import TILE_SIZE
 from app.render.forward import ForwardRenderer
 from app.render.renderer import Renderer
@@ -97,8 +98,8 @@ QUICK = replace(
     light_counts=(1, 16, 256),
     resolutions=((640, 360), (1280, 720)),
     accuracy_size=(640, 360),
-    ms_sizes=(16, 32),
-    ms_reference=64,
+    ms_sizes=(32, 64),
+    ms_reference=128,
     budget=Budget(warmup=1, min_frames=3, max_frames=5, seconds=4.0),
     startup_runs=2,
     pyrender_lights=(1,),
@@ -114,8 +115,8 @@ TINY = replace(
     resolutions=((160, 90), (320, 180)),
     resolution_lights=16,
     accuracy_size=(160, 90),
-    ms_sizes=(32,),
-    ms_reference=32,
+    ms_sizes=(64,),
+    ms_reference=64,
     budget=Budget(warmup=1, min_frames=2, max_frames=2, seconds=0.0),
     startup_runs=1,
     startup_size=(160, 90),
@@ -503,7 +504,7 @@ def comparisons(settings: Settings) -> list[Comparison]:
             "ms_table",
             f"Kulla-Conty table size (reference: {settings.ms_reference}x{settings.ms_reference})",
             tuple(
-                Variant(f"{n}x{n}", {"multiscatter": True}, default=n == 32, ms_size=n)
+                Variant(f"{n}x{n}", {"multiscatter": True}, default=n == DEFAULT_SIZE, ms_size=n)
                 for n in settings.ms_sizes
             ),
             Variant("reference", {"multiscatter": True}, ms_size=settings.ms_reference),

@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import moderngl
 
-from app.reference.multiscatter import SHIPPED_SIZE, load_table
+from app.reference.multiscatter import DEFAULT_SIZE, load_table
 
 
-def ms_texture(ctx: moderngl.Context, size: int | None = SHIPPED_SIZE) -> moderngl.Texture:
-    """A new RG32F texture of the size x size table (None: the shipped size; other sizes
-    are computed on first use and cached). The caller releases it."""
+def ms_texture(ctx: moderngl.Context, size: int | None = DEFAULT_SIZE) -> moderngl.Texture:
+    """A new RG32F texture of the size x size table (None: the default, 64 x 64; sizes not
+    shipped are computed on first use and cached). The caller releases it."""
     # float32 (n_r, n_mu, 2): rows are texture rows (y = r)
-    table = load_table(SHIPPED_SIZE if size is None else size)
+    table = load_table(DEFAULT_SIZE if size is None else size)
     n_r, n_mu = table.shape[:2]
     tex = ctx.texture((n_mu, n_r), 2, table.tobytes(), dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
