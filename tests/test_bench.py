@@ -5,6 +5,7 @@ exactly the (pixel, light in range) pairs. No test here asserts a time."""
 from __future__ import annotations
 
 import json
+import time
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from app.bench.floor import FloorPass
 from app.bench.pairs import light_pairs, reference_hdr, surface_positions
 from app.bench.report import evaluate_targets, pareto_front
 from app.bench.scenes import load, many_lights_scene
-from app.bench.timing import plausible
+from app.bench.timing import Budget, Pass, plausible, time_interleaved
 from app.render.forward import ForwardRenderer
 from app.render.renderer import Renderer
 from tests.agreement import relative_error
@@ -276,3 +277,32 @@ def test_implausible_timer_queries_are_rejected(wall, query, ok):
     """llvmpipe answered a query begun in an empty scene with the time since boot, and one
     around the many-draw forward pass with 13 ms of 1540."""
     assert plausible(wall, query) is ok
+
+
+def test_interleaved_timing_rotates_the_order_and_keeps_each_variants_frames(gl_egl):
+    """time_interleaved: a warm-up of each variant, then rounds of one frame each with the
+    starting variant rotated every round; each variant's frames and passes are its own (a
+    variant that sleeps 20 ms more per frame has medians 20 ms higher)."""
+    calls: list[str] = []
+
+    def pass_of(name: str, seconds: float) -> Pass:
+        def run() -> None:
+            calls.append(name)
+            time.sleep(seconds)
+
+        return Pass(name, run)
+
+    variants = {
+        "slow": [pass_of("slow", 0.021)],
+        "fast": [pass_of("fast", 0.001)],
+        "mid": [pass_of("mid", 0.011)],
+    }
+    budget = Budget(warmup=1, min_frames=3, max_frames=3, seconds=0.0)
+    times = time_interleaved(gl_egl, variants, budget, None)
+    warmup = ["slow", "fast", "mid"]
+    rounds = ["slow", "fast", "mid", "fast", "mid", "slow", "mid", "slow", "fast"]
+    assert calls == warmup + rounds
+    assert {v: len(t.wall_ms) for v, t in times.items()} == {"slow": 3, "fast": 3, "mid": 3}
+    assert list(times["slow"].pass_ms) == ["slow"]
+    assert 17.0 < times["slow"].median - times["fast"].median < 30.0
+    assert times["fast"].median < times["mid"].median < times["slow"].median

@@ -40,7 +40,15 @@ from app.bench.scenes import (
     specialization_scene,
 )
 from app.bench.startup import cold_start
-from app.bench.timing import Budget, FrameTimes, GLTimerQueries, Pass, summary, time_frames
+from app.bench.timing import (
+    Budget,
+    FrameTimes,
+    GLTimerQueries,
+    Pass,
+    summary,
+    time_frames,
+    time_interleaved,
+)
 from app.gl.context import GLContext
 from app.reference.multiscatter import DEFAULT_SIZE
 from app.render.culling import TILE_SIZE
@@ -143,6 +151,12 @@ class Context:
 
     def time(self, passes: list[Pass]) -> FrameTimes:
         return time_frames(self.gl, passes, self.settings.budget, self.queries, self.progress.tick)
+
+    def time_interleaved(self, variants: dict[str, list[Pass]]) -> dict[str, FrameTimes]:
+        """Variants to be compared, timed in alternating rounds (timing.time_interleaved)."""
+        return time_interleaved(
+            self.gl, variants, self.settings.budget, self.queries, self.progress.tick
+        )
 
     def light_range(self, count: int) -> float:
         """The common range giving ~16 lights per surface pixel (cached per count)."""
@@ -271,7 +285,8 @@ def run_pyrender(data: dict, size: tuple[int, int], budget: Budget) -> dict:
 
 
 def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: bool) -> None:
-    """All variants of one light count: time each, then compare with one reference."""
+    """All variants of one light count, timed interleaved (``time_interleaved``), then
+    compared with one reference."""
     gl, progress = ctx.gl, ctx.progress
     light_range = ctx.light_range(count)
     data = many_lights_scene(count, light_range, size)
@@ -280,16 +295,41 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
     common = {"light_range_m": light_range}
     images: dict[str, np.ndarray] = {}
     pending: list[dict] = []
-
-    progress.start(f"culling {case}: culled")
+    variants = ", ".join(CULLING_VARIANTS)
+    progress.start(f"culling {case}: {variants}, interleaved")
     culled = Renderer(gl, loaded, size)
+    unculled = floor = forward = None
     try:
-        times = ctx.time(deferred_passes(culled))
-        images["culled"] = culled.read_hdr()
-        gbuffer = culled.read_gbuffer()
-        pairs = light_pairs(gbuffer, culled.camera, culled.lights)
+        # The floor's pairs come from the culled renderer's G-buffer, drawn once here.
+        culled.gbuffer_pass.run(culled.gbuffer, culled.view, culled.proj)
+        pairs = light_pairs(culled.read_gbuffer(), culled.camera, culled.lights)
         common["lights_per_pixel"] = pairs.mean_per_covered_pixel
         common["lights_per_pixel_max"] = int(pairs.count.max())
+        floor = FloorPass(culled, pairs)
+        unculled = Renderer(
+            gl, load({**data, "render": {**data["render"], "light_culling": "none"}}), size
+        )
+        forward = ForwardRenderer(gl, loaded, size)
+        gb = culled.gbuffer_pass
+        frames = {
+            "culled": deferred_passes(culled),
+            "floor": [
+                Pass("gbuffer", lambda: gb.run(culled.gbuffer, culled.view, culled.proj),
+                     culled.gbuffer.fbo),
+                Pass("floor", floor.run, floor.fbo),
+            ],
+            "unculled": deferred_passes(unculled),
+            "forward": [Pass("forward", forward.render, forward.fbo)],
+        }  # fmt: skip
+        times = ctx.time_interleaved(frames)
+        # The floor pass draws into its own target from the shared G-buffer, so each
+        # variant's image is read after all of them have run.
+        images = {
+            "culled": culled.read_hdr(),
+            "floor": floor.read_hdr(),
+            "unculled": unculled.read_hdr(),
+            "forward": forward.read_hdr(),
+        }
         extra = {}
         if culled.culler is not None:
             # What the tiled loop visits: each surface pixel's tile list, averaged like the
@@ -299,26 +339,13 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
             rows, cols = np.nonzero(pairs.covered)
             tiles_y = (h - 1 - rows) // TILE_SIZE
             extra["lights_per_tile_mean"] = float(per_tile[tiles_y, cols // TILE_SIZE].mean())
-        pending.append(make_row("culling", case, "culled", size, count, times, **common, **extra))
-        progress.done()
-
-        progress.start(f"culling {case}: floor")
-        floor = FloorPass(culled, pairs)
-        try:
-            gb = culled.gbuffer_pass
-            times = ctx.time(
-                [
-                    Pass("gbuffer", lambda: gb.run(culled.gbuffer, culled.view, culled.proj),
-                         culled.gbuffer.fbo),
-                    Pass("floor", floor.run, floor.fbo),
-                ]
-            )  # fmt: skip
-            images["floor"] = floor.read_hdr()
-        finally:
-            floor.release()
-        pending.append(
-            make_row("culling", case, "floor", size, count, times, pairs=pairs.total, **common)
-        )
+        pending += [
+            make_row("culling", case, "culled", size, count, times["culled"], **common, **extra),
+            make_row("culling", case, "floor", size, count, times["floor"], pairs=pairs.total,
+                     **common),
+            make_row("culling", case, "unculled", size, count, times["unculled"], **common),
+            make_row("culling", case, "forward", size, count, times["forward"], **common),
+        ]  # fmt: skip
         progress.done()
 
         if pyrender:
@@ -328,33 +355,15 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
                 culled.render()
                 culled.read_ldr()
 
-            times = ctx.time([Pass("render+read_ldr", to_pixels)])
+            times_rb = ctx.time([Pass("render+read_ldr", to_pixels)])
             pending.append(
-                make_row("culling", case, "culled_readback", size, count, times, **common)
+                make_row("culling", case, "culled_readback", size, count, times_rb, **common)
             )
             progress.done()
     finally:
-        culled.release()
-
-    progress.start(f"culling {case}: unculled")
-    unculled = Renderer(gl, load({**data, "render": {**data["render"], "light_culling": "none"}}))
-    try:
-        times = ctx.time(deferred_passes(unculled))
-        images["unculled"] = unculled.read_hdr()
-    finally:
-        unculled.release()
-    pending.append(make_row("culling", case, "unculled", size, count, times, **common))
-    progress.done()
-
-    progress.start(f"culling {case}: forward")
-    forward = ForwardRenderer(gl, loaded, size)
-    try:
-        times = ctx.time([Pass("forward", forward.render, forward.fbo)])
-        images["forward"] = forward.read_hdr()
-    finally:
-        forward.release()
-    pending.append(make_row("culling", case, "forward", size, count, times, **common))
-    progress.done()
+        for obj in (floor, forward, unculled, culled):
+            if obj is not None:
+                obj.release()
 
     if pyrender:
         progress.start(f"culling {case}: pyrender (child process)")
@@ -395,7 +404,7 @@ def culling_tasks(settings: Settings, pyrender: bool) -> int:
     tasks = 0
     for count in counts:
         with_pyrender = pyrender and count in settings.pyrender_lights
-        tasks += 5 + (2 if with_pyrender else 0)
+        tasks += 2 + (2 if with_pyrender else 0)  # the variants; the reference
     return tasks
 
 
@@ -515,7 +524,9 @@ def comparisons(settings: Settings) -> list[Comparison]:
 
 
 def accuracy_tasks(settings: Settings) -> int:
-    return sum(len(c.variants) + 1 for c in comparisons(settings)) + len(FILTER_OPTIONS) + 1
+    # Per comparison: the reference, the variants; mip filtering: the reference, the
+    # variants, each variant's camera sweep.
+    return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2
 
 
 def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
@@ -548,26 +559,30 @@ def run_accuracy(ctx: Context) -> None:
             ref_r.release()
         covered = covered_pixels(g.depth)
         ctx.progress.done()
-        for variant in comp.variants:
-            ctx.progress.start(f"accuracy {comp.name}: {variant.name}")
-            r = _accuracy_renderer(ctx, variant, size)
-            try:
-                times = ctx.time(deferred_passes(r))
-                hdr = r.read_hdr()
-                same_surface = bool(np.array_equal(r.read_gbuffer().depth, g.depth))
-                lights = len(r.lights)
-            finally:
+        ctx.progress.start(f"accuracy {comp.name}: {', '.join(v.name for v in comp.variants)}")
+        renderers = {v.name: _accuracy_renderer(ctx, v, size) for v in comp.variants}
+        try:
+            times = ctx.time_interleaved({n: deferred_passes(r) for n, r in renderers.items()})
+            results = {
+                n: (r.read_hdr(), bool(np.array_equal(r.read_gbuffer().depth, g.depth)),
+                    len(r.lights))
+                for n, r in renderers.items()
+            }  # fmt: skip
+        finally:
+            for r in renderers.values():
                 r.release()
+        for variant in comp.variants:
+            hdr, same_surface, lights = results[variant.name]
             errors = image_errors(hdr, ref, covered, scene.camera.exposure, scene.render.tonemap)
             ctx.rows.append(
                 make_row(
-                    "accuracy", comp.name, variant.name, size, lights, times,
+                    "accuracy", comp.name, variant.name, size, lights, times[variant.name],
                     default=variant.default, comparison=comp.title,
                     error_reference=_reference_text(comp), same_depth_as_reference=same_surface,
                     **errors,
                 )
             )  # fmt: skip
-            ctx.progress.done()
+        ctx.progress.done()
     _run_mip_filtering(ctx)
 
 
@@ -590,23 +605,29 @@ def _run_mip_filtering(ctx: Context) -> None:
         f"normal/roughness mip filtering vs a {s.filtering_supersample}x"
         f"{s.filtering_supersample} supersampled reference (scenes/sec13_filtering.toml)"
     )
-    for name, options in FILTER_OPTIONS:
-        ctx.progress.start(f"accuracy mip_filtering: {name}")
-        r = Renderer(ctx.gl, with_settings(loaded, size, 0.0, **options))
-        try:
-            times = ctx.time(deferred_passes(r))
-            frames = [r.read_hdr()]
-            lights = len(r.lights)
-        finally:
+    ctx.progress.start(f"accuracy mip_filtering: {', '.join(n for n, _ in FILTER_OPTIONS)}")
+    renderers = {
+        name: Renderer(ctx.gl, with_settings(loaded, size, 0.0, **options))
+        for name, options in FILTER_OPTIONS
+    }
+    try:
+        times = ctx.time_interleaved({n: deferred_passes(r) for n, r in renderers.items()})
+        first = {n: (r.read_hdr(), len(r.lights)) for n, r in renderers.items()}
+    finally:
+        for r in renderers.values():
             r.release()
-        frames += [
+    ctx.progress.done()
+    for name, options in FILTER_OPTIONS:
+        ctx.progress.start(f"accuracy mip_filtering: {name}, camera sweep")
+        frame, lights = first[name]
+        frames = [frame] + [
             render_hdr(ctx.gl, with_settings(loaded, size, float(o), **options))
             for o in offsets[1:]
         ]
         errors = image_errors(frames[0], ref, covered, exposure, tonemap)
         ctx.rows.append(
             make_row(
-                "accuracy", "mip_filtering", name, size, lights, times,
+                "accuracy", "mip_filtering", name, size, lights, times[name],
                 default=name == "variance", comparison=title,
                 error_reference=f"{s.filtering_supersample}x{s.filtering_supersample} "
                 "samples per pixel from texture level 0, box-filtered",
@@ -630,7 +651,7 @@ SPECIALIZATION_VARIANTS = ("specialized", "uber")
 
 
 def specialization_tasks(settings: Settings) -> int:
-    return len(SPECIALIZATION_KINDS) * (len(SPECIALIZATION_VARIANTS) + 1)
+    return len(SPECIALIZATION_KINDS) * 2  # the variants; the reference
 
 
 def run_specialization(ctx: Context) -> None:
@@ -647,29 +668,31 @@ def run_specialization(ctx: Context) -> None:
     for kind in SPECIALIZATION_KINDS:
         data = specialization_scene(kind, count, light_range, size)
         loaded = load(data)
-        images: dict[str, np.ndarray] = {}
         pending: list[dict] = []
-        pairs = None
-        for variant in SPECIALIZATION_VARIANTS:
-            ctx.progress.start(f"specialization {kind}: {variant}")
-            r = Renderer(ctx.gl, loaded, size, uber=variant == "uber")
-            try:
-                times = ctx.time(deferred_passes(r))
-                images[variant] = r.read_hdr()
-                if pairs is None:
-                    pairs = light_pairs(r.read_gbuffer(), r.camera, r.lights)
-                programs = len(r.lighting.programs)
-                groups = len(r.materials.models)
-            finally:
+        ctx.progress.start(f"specialization {kind}: {', '.join(SPECIALIZATION_VARIANTS)}")
+        renderers = {
+            v: Renderer(ctx.gl, loaded, size, uber=v == "uber") for v in SPECIALIZATION_VARIANTS
+        }
+        try:
+            times = ctx.time_interleaved({v: deferred_passes(r) for v, r in renderers.items()})
+            images = {v: r.read_hdr() for v, r in renderers.items()}
+            first = renderers[SPECIALIZATION_VARIANTS[0]]
+            pairs = light_pairs(first.read_gbuffer(), first.camera, first.lights)
+            programs = {v: len(r.lighting.programs) for v, r in renderers.items()}
+            groups = len(first.materials.models)
+        finally:
+            for r in renderers.values():
                 r.release()
+        for variant in SPECIALIZATION_VARIANTS:
             pending.append(
                 make_row(
-                    "specialization", kind, variant, size, count, times,
-                    light_range_m=light_range, model_groups=groups, lighting_programs=programs,
+                    "specialization", kind, variant, size, count, times[variant],
+                    light_range_m=light_range, model_groups=groups,
+                    lighting_programs=programs[variant],
                     lights_per_pixel=pairs.mean_per_covered_pixel,
                 )
             )  # fmt: skip
-            ctx.progress.done()
+        ctx.progress.done()
 
         ctx.progress.start(f"specialization {kind}: float64 reference and errors")
         ref, covered = f32_reference(ctx.gl, data, pairs)

@@ -188,44 +188,80 @@ def time_frames(
     tick: Callable[[], None] | None = None,
 ) -> FrameTimes:
     """Warm up, then time frames of ``passes`` (see ``Budget``); ``tick`` after each frame."""
-    ctx = gl.ctx
-    if queries is not None and len(passes) > queries.slots:
-        raise ValueError("more passes than query slots")
-    for _ in range(budget.warmup):  # shader JIT, texture allocation, first-use costs
-        for p in passes:
-            p.run()
-        ctx.finish()
-        if tick:
-            tick()
-    names = [p.name for p in passes]
-    frames: list[float] = []
-    wall: dict[str, list[float]] = {n: [] for n in names}
-    gpu: dict[str, list[float]] = {n: [] for n in names}
-    submit: dict[str, list[float]] = {n: [] for n in names}
-    rejected: dict[str, int] = {n: 0 for n in names}
-    started = time.perf_counter()
-    while len(frames) < budget.max_frames and (
-        len(frames) < budget.min_frames or time.perf_counter() - started < budget.seconds
-    ):
-        w, g, c = _frame(ctx, passes, queries)
-        frames.append(sum(w))
-        for n, wv, gv, cv in zip(names, w, g, c, strict=True):
-            wall[n].append(wv)
-            submit[n].append(cv)
+    return time_interleaved(gl, {"": passes}, budget, queries, tick)[""]
+
+
+class _Record:
+    """One variant's frames as they come in."""
+
+    def __init__(self, names: list[str]) -> None:
+        self.frames: list[float] = []
+        self.wall: dict[str, list[float]] = {n: [] for n in names}
+        self.gpu: dict[str, list[float]] = {n: [] for n in names}
+        self.submit: dict[str, list[float]] = {n: [] for n in names}
+        self.rejected: dict[str, int] = {n: 0 for n in names}
+
+    def add(self, names: list[str], wall: list[float], gpu: list, submit: list[float]) -> None:
+        self.frames.append(sum(wall))
+        for n, wv, gv, cv in zip(names, wall, gpu, submit, strict=True):
+            self.wall[n].append(wv)
+            self.submit[n].append(cv)
             if gv is not None and plausible(wv, gv):
-                gpu[n].append(gv)
+                self.gpu[n].append(gv)
             elif gv is not None:
-                rejected[n] += 1
-        if tick:
-            tick()
-    notes = [
-        f"{n}: {k} of {len(frames)} timer-query results outside [0.5, 1] x the pass's wall time"
-        for n, k in rejected.items()
-        if k
-    ]
-    # A pass's query median is kept only if every frame's result was plausible.
-    gpu = {n: v if not rejected[n] else [] for n, v in gpu.items()}
-    return FrameTimes(frames, wall, gpu, submit, TIMER_FINISH, notes)
+                self.rejected[n] += 1
+
+    def times(self) -> FrameTimes:
+        notes = [
+            f"{n}: {k} of {len(self.frames)} timer-query results outside [0.5, 1] x the "
+            "pass's wall time"
+            for n, k in self.rejected.items()
+            if k
+        ]
+        # A pass's query median is kept only if every frame's result was plausible.
+        gpu = {n: v if not self.rejected[n] else [] for n, v in self.gpu.items()}
+        return FrameTimes(self.frames, self.wall, gpu, self.submit, TIMER_FINISH, notes)
+
+
+def time_interleaved(
+    gl: GLContext,
+    variants: dict[str, list[Pass]],
+    budget: Budget,
+    queries: GLTimerQueries | None,
+    tick: Callable[[], None] | None = None,
+) -> dict[str, FrameTimes]:
+    """Time the frames of several variants in rounds, one frame of each per round and the
+    order rotated every round, so that a change in the machine's speed while they are
+    measured (another process, clock or cache effects) falls on every variant alike and
+    the ratios between them stay fair. Each variant is warmed up first. Rounds stop after
+    ``budget.max_frames``, or once there are ``budget.min_frames`` and ``budget.seconds``
+    per variant have passed. ``tick`` after each frame."""
+    ctx = gl.ctx
+    for passes in variants.values():
+        if queries is not None and len(passes) > queries.slots:
+            raise ValueError("more passes than query slots")
+        for _ in range(budget.warmup):  # shader JIT, texture allocation, first-use costs
+            for p in passes:
+                p.run()
+            ctx.finish()
+            if tick:
+                tick()
+    order = list(variants)
+    records = {v: _Record([p.name for p in variants[v]]) for v in order}
+    started = time.perf_counter()
+    rounds = 0
+    while rounds < budget.max_frames and (
+        rounds < budget.min_frames or time.perf_counter() - started < budget.seconds * len(order)
+    ):
+        shift = rounds % len(order)
+        for v in order[shift:] + order[:shift]:
+            passes = variants[v]
+            w, g, c = _frame(ctx, passes, queries)
+            records[v].add([p.name for p in passes], w, g, c)
+            if tick:
+                tick()
+        rounds += 1
+    return {v: records[v].times() for v in order}
 
 
 def summary(values: list[float]) -> tuple[float, float, float]:
