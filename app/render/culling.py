@@ -2,7 +2,7 @@
 
 Three small fragment passes per frame, after the G-buffer pass and before lighting:
 
-1. ``tile_depth.frag``: the min and max view depth of each 16x16 tile's surfaces, and
+1. ``tile_depth.frag``: the min and max view depth of each 8x8 tile's surfaces, and
    a 32-bit depth mask of the slices of that slab that hold a surface (Harada et al.
    2012's 2.5D culling), into two targets of one framebuffer;
 2. ``group_cull.frag``: for each group of 4x4 tiles, the local lights whose range sphere
@@ -39,8 +39,12 @@ from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
 from app.scene.camera import CameraFrame
 
-TILE_SIZE = 16
-GROUP_TILES = 4  # the coarse pass culls for groups of 4 x 4 tiles (64 x 64 pixels)
+# 8 x 8 tiles: lists 10 % shorter than 16 x 16 ones on the bench's 256-light scene (14.5
+# against 16.1 lights per tile); with the group pass the finer cull costs less than that
+# saves: interleaved frames 90.2 against 94.4 ms at 256 lights, 112.5 against 124.0 ms at
+# 1024, equal at 16 and 64 (docs/performance.md).
+TILE_SIZE = 8
+GROUP_TILES = 4  # the coarse pass culls for groups of 4 x 4 tiles (32 x 32 pixels)
 LIGHTS_PER_ROW = 1024  # texels per row of the local-light texture
 RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a light
 #                      whose window is still (barely) above zero at a tile's edge

@@ -5,7 +5,7 @@
 #define PBS_TILES_GLSL
 
 #ifndef TILE_SIZE
-#define TILE_SIZE 16
+#define TILE_SIZE 8
 #endif
 
 // Bits of a tile's depth mask: the slab between its nearest and farthest surface is cut
