@@ -96,6 +96,7 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     assert "## Targets (issue 5)" in text and "culled faster than forward at 16 lights" in text
     assert "### specialization" in text and "uber/specialized = " in text
     assert "**PASS**" in text or "**FAIL**" in text
+    assert "in this mode the verdicts are indicative only" in text  # not the full mode
     for name in ("pareto.png", "scaling.png"):
         with Image.open(tmp_path / name) as img:
             img.verify()
