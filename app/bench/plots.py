@@ -39,6 +39,32 @@ def _save(fig, path: Path) -> None:
     atomic_write(Path(path), lambda tmp: fig.savefig(tmp, format="png", dpi=fig.dpi))
 
 
+def _label_clusters(ax, members: list[dict], floor: float) -> list[tuple[float, float, str]]:
+    """One label per group of points that nearly coincide on the drawn panel (within a
+    label's height and a few characters' width of each other, in display pixels), its
+    variants one per line, so that labels of overlapping points do not print over each
+    other. Call after the axes' limits and scales are final."""
+    ax.autoscale_view()
+    pts = [(r["ms_median"], max(r["rel_rmse"], floor)) for r in members]
+    px = ax.transData.transform(pts)
+    clusters: list[list[int]] = []
+    for i in range(len(members)):
+        for c in clusters:
+            dx, dy = abs(px[i] - px[c[0]])
+            if dx <= 60.0 and dy <= 28.0:
+                c.append(i)
+                break
+        else:
+            clusters.append([i])
+    out = []
+    for c in clusters:
+        text = "\n".join(
+            members[i]["variant"] + (" (default)" if members[i].get("default") else "") for i in c
+        )
+        out.append((*pts[c[0]], text))
+    return out
+
+
 def plot_pareto(rows: list[dict], path: Path) -> None:
     fronts = pareto_by_comparison(rows)
     n = max(len(fronts), 1)
@@ -49,7 +75,7 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
     for ax, (comp, front) in zip(axes, fronts.items(), strict=False):
         members = front["rows"]
         floor = 1e-12  # exact variants can reach 0 on a log axis
-        for k, r in enumerate(members):
+        for r in members:
             err = max(r["rel_rmse"], floor)
             on = r["variant"] in front["front"]
             ax.errorbar(
@@ -61,13 +87,6 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
             if r.get("default"):
                 ax.plot(r["ms_median"], err, "o", markersize=14, markerfacecolor="none",
                         markeredgecolor="tab:red")  # fmt: skip
-            ax.annotate(
-                r["variant"] + (" (default)" if r.get("default") else ""),
-                (r["ms_median"], err),
-                textcoords="offset points",
-                xytext=(6, 6 if k % 2 == 0 else -12),
-                fontsize=8,
-            )  # fmt: skip  (alternate above and below: close points' labels overlap)
         pts = sorted(
             (r["ms_median"], max(r["rel_rmse"], floor))
             for r in members
@@ -78,6 +97,16 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
             ax.legend(fontsize=7, loc="best")
         ax.set_yscale("log")
         ax.margins(x=0.15, y=0.2)
+        for x, y, text in _label_clusters(ax, members, floor):
+            ax.annotate(
+                text,
+                (x, y),
+                textcoords="offset points",
+                xytext=(9, 0),
+                fontsize=8,
+                va="center",
+                bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.85},
+            )  # fmt: skip  (a white box: the label sits on its own error bar)
         ax.set_title(textwrap.fill(members[0].get("comparison", comp), 48), fontsize=9)
         ax.set_xlabel("frame time, ms (median, min-max)")
         ax.set_ylabel("rel. RMSE vs its reference")
