@@ -1,18 +1,20 @@
 """The floor pass: what no lighting pipeline can go under (issue 5's ``floor`` variant).
 
 A bare full-screen pass (glsl/passes/floor.frag) that decodes the G-buffer and evaluates
-the lighting pass's ``light_at`` and ``brdf_eval`` exactly once per (pixel, light in range)
-pair, from per-pixel lists computed exactly on the CPU (app/bench/pairs.py) and uploaded
-before timing starts:
-
-* ``u_pair_ranges`` RG32UI, one texel per pixel: (first pair, number of pairs);
-* ``u_pair_lights`` R32UI, PAIR_ROW texels per row: the light index of each pair, a
-  pixel's lights contiguous and ascending, as the lighting pass visits them.
+the lighting pass's ``light_contribution`` exactly once per (pixel, light in range) pair,
+from per-pixel light masks computed exactly on the CPU (app/bench/pairs.py) and uploaded
+before timing starts: ``u_pixel_masks``, RGBA32UI, ``quads`` texels per pixel side by
+side, bit k of the pixel's mask set when light k reaches it. The pass walks a pixel's
+mask with the lighting pass's own loop (``add_masked_lights``, glsl/lights/
+illumination.glsl), so the two differ only in the mask: a pixel's exact one here, its
+tile's in the lighting pass.
 
 Its frame is the G-buffer pass plus this pass: any deferred pipeline rasterises the
-surfaces once and evaluates every pair that can add light; culling, bit scanning and
-lights a tile's list holds for the pixel's neighbours but not for the pixel are what the
-real pipeline pays on top. The lists are valid for one camera and one light set only.
+surfaces once and evaluates every pair that can add light; culling and the lights a tile's
+list holds for the pixel's neighbours but not for the pixel are what the real pipeline
+pays on top. (The masks replaced per-pixel index lists, whose texel fetch per pair made
+the floor dearer than the culled frame at 16 and 64 lights: docs/performance.md.) The
+masks are valid for one camera and one light set only.
 """
 
 from __future__ import annotations
@@ -24,12 +26,23 @@ from app.bench.pairs import LightPairs
 from app.render.renderer import Renderer
 from app.scene.camera import gl_bytes
 
-PAIR_ROW = 4096  # texels per row of the pair texture (the GL 3.3 minimum maximum is 1024;
-#                  llvmpipe and every current GPU take 16384)
+
+def pixel_masks(pairs: LightPairs, quads: int) -> np.ndarray:
+    """(H, W, 4 quads) uint32, rows top to bottom: bit k % 32 of word k // 32 set where
+    light k reaches the pixel. Each pair sets a distinct bit of its word, so the words are
+    sums of distinct powers of two, exact in the float64 of ``np.bincount``."""
+    h, w = pairs.count.shape
+    words = 4 * quads
+    lights = pairs.lights.astype(np.int64)
+    slot = pairs.pixel_index() * words + lights // 32
+    bit = np.left_shift(1, lights % 32).astype(np.float64)
+    flat = np.bincount(slot, weights=bit, minlength=h * w * words)
+    return flat.astype(np.uint32).reshape(h, w, words)
 
 
 class FloorPass:
-    """Shades a ``Renderer``'s G-buffer from exact light lists into its own HDR target."""
+    """Shades a ``Renderer``'s G-buffer from exact per-pixel light masks into its own HDR
+    target."""
 
     def __init__(self, renderer: Renderer, pairs: LightPairs) -> None:
         ctx = renderer.gl.ctx
@@ -38,10 +51,11 @@ class FloorPass:
         self.size = renderer.size
         table = renderer.materials
         several = len(table.models) > 1
+        self.quads = max(1, -(-len(renderer.lights) // 128))  # mask texels per pixel
         self.programs = []
         for group, model in enumerate(table.models):
             defines: dict[str, object] = dict(model.defines())
-            defines["PAIR_ROW"] = PAIR_ROW
+            defines["TILE_QUADS"] = self.quads
             defines["GBUFFER_TANGENT"] = int(table.needs_tangents)
             if several:
                 defines["MODEL_GROUP"] = group
@@ -49,17 +63,12 @@ class FloorPass:
                 renderer.shaders.program("passes/fullscreen.vert", "passes/floor.frag", defines)
             )
         self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
+        masks = pixel_masks(pairs, self.quads)[::-1]  # GL rows bottom-up
         w, h = self.size
-        ranges = np.stack([pairs.first, pairs.count], axis=-1)[::-1]  # GL rows bottom-up
-        self.ranges = ctx.texture(
-            (w, h), 2, np.ascontiguousarray(ranges, np.uint32).tobytes(), dtype="u4"
+        self.masks = ctx.texture(
+            (w * self.quads, h), 4, np.ascontiguousarray(masks).tobytes(), dtype="u4"
         )
-        rows = max(1, -(-pairs.total // PAIR_ROW))
-        flat = np.zeros(rows * PAIR_ROW, np.uint32)
-        flat[: pairs.total] = pairs.lights
-        self.pair_lights = ctx.texture((PAIR_ROW, rows), 1, flat.tobytes(), dtype="u4")
-        for tex in (self.ranges, self.pair_lights):
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.masks.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
@@ -79,8 +88,7 @@ class FloorPass:
             *([("g_tangent", r.gbuffer.tangent)] if r.gbuffer.tangent is not None else []),
             ("u_lights", r.lighting.lights),
             ("u_materials", r.lighting.materials),
-            ("u_pair_ranges", self.ranges),
-            ("u_pair_lights", self.pair_lights),
+            ("u_pixel_masks", self.masks),
         ]
         if r.lighting.ms_table is not None:
             textures.append(("u_ms_table", r.lighting.ms_table))
@@ -103,5 +111,5 @@ class FloorPass:
         return data[::-1, :, :3].copy()
 
     def release(self) -> None:
-        for obj in (*self.vaos, self.fbo, self.hdr, self.ranges, self.pair_lights):
+        for obj in (*self.vaos, self.fbo, self.hdr, self.masks):
             obj.release()

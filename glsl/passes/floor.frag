@@ -1,8 +1,9 @@
-// Floor pass (the bench's lower bound): the lighting pass's BRDF evaluated exactly once per
-// (pixel, light in range) pair and nothing else. The pairs were found on the CPU, exactly,
-// from the read-back G-buffer (app/bench/pairs.py) and uploaded untimed; this pass only
-// decodes the G-buffer and loops its pixel's list, where the tiled lighting pass loops
-// every light of its tile's masks, in range of the pixel or not.
+// Floor pass (the bench's lower bound): the lighting pass's per-light term evaluated exactly
+// once per (pixel, light in range) pair and nothing else. The pairs were found on the CPU,
+// exactly, from the read-back G-buffer (app/bench/pairs.py) and uploaded untimed as one
+// light mask per pixel; this pass decodes the G-buffer as the lighting pass does and walks
+// its pixel's mask with the lighting pass's own loop, where the tiled lighting pass walks
+// its tile's mask, lights in range of the pixel or not.
 //   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
 #include "common/constants.glsl"
 #include "common/encoding.glsl"
@@ -16,10 +17,8 @@
 #include "brdf/specular.glsl"
 #include "brdf/material.glsl"
 #include "lights/punctual.glsl"
-
-#ifndef PAIR_ROW
-#define PAIR_ROW 4096   // texels per row of u_pair_lights
-#endif
+#include "lights/tiles.glsl"
+#include "lights/illumination.glsl"
 
 uniform sampler2D g_albedo;
 uniform sampler2D g_normal;
@@ -32,22 +31,12 @@ uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gb
 #endif
 uniform sampler2D u_materials;     // RGBA32F, 4 texels per material (brdf/model.glsl)
 uniform sampler2D u_lights;        // RGBA32F, 3 texels per light, one light per row
-uniform usampler2D u_pair_ranges;  // RG32UI per pixel: (first pair, number of pairs)
-uniform usampler2D u_pair_lights;  // R32UI: light index of each pair, PAIR_ROW per row
+uniform usampler2D u_pixel_masks;  // RGBA32UI: TILE_QUADS texels per pixel (app/bench/floor.py)
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
 
 out vec4 frag_color;
-
-// The lighting pass's per-light term (glsl/passes/lighting.frag).
-vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
-    vec3 l;
-    vec3 c_light = light_at(fetch_light(u_lights, i), p, l);
-    float NoL = dot(n, l);
-    if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
-    return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
-}
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -76,15 +65,7 @@ void main() {
     vec3 v = normalize(u_camera_pos - p);
     vec3 n = sanitize_direction(oct_decode(b.rg), v);
 
-    uvec2 range = texelFetch(u_pair_ranges, px, 0).xy;
-    vec3 Lo = vec3(0.0);
-    // Bottom-tested, like the lighting pass's loops: a top-tested loop would evaluate one
-    // more (masked) light per pixel on llvmpipe (lighting.frag).
-    uint k = range.x;
-    if (range.y > 0u) do {
-        int i = int(texelFetch(u_pair_lights, ivec2(int(k % uint(PAIR_ROW)),
-                                                     int(k / uint(PAIR_ROW))), 0).r);
-        Lo += light_contribution(i, s, params, n, t, p, v);
-    } while (++k < range.x + range.y);
+    vec3 Lo = add_masked_lights(vec3(0.0), u_pixel_masks, px, u_lights, 0, s, params, n, t,
+                                p, v);
     frag_color = vec4(PI * Lo, 1.0);
 }

@@ -16,6 +16,7 @@
 #include "brdf/specular.glsl"
 #include "brdf/material.glsl"
 #include "lights/punctual.glsl"
+#include "lights/illumination.glsl"
 #include "material/layers.glsl"
 
 in vec3 v_normal;
@@ -32,15 +33,6 @@ uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
 uniform vec2 u_image_size;       // pixels
 
 out vec4 frag_color;
-
-// The lighting pass's per-light term (glsl/passes/lighting.frag).
-vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
-    vec3 l;
-    vec3 c_light = light_at(fetch_light(u_lights, i), p, l);
-    float NoL = dot(n, l);
-    if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
-    return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
-}
 
 void main() {
     // The material as the G-buffer pass stores it (glsl/passes/gbuffer.frag), two-sided.
@@ -65,7 +57,7 @@ void main() {
     vec3 Lo = vec3(0.0);
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as in the lighting pass
-        Lo += light_contribution(i, s, params, n, t, p, v);
+        Lo += light_contribution(u_lights, i, s, params, n, t, p, v);
     } while (++i < u_light_count);
     frag_color = vec4(PI * Lo, 1.0);
 }

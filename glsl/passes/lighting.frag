@@ -13,6 +13,7 @@
 #include "brdf/material.glsl"
 #include "lights/punctual.glsl"
 #include "lights/tiles.glsl"
+#include "lights/illumination.glsl"
 
 uniform sampler2D g_albedo;
 uniform sampler2D g_normal;
@@ -36,15 +37,6 @@ uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
 
 out vec4 frag_color;
-
-// f(l, v) c_light (n.l)+ of light i at p.
-vec3 light_contribution(int i, Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
-    vec3 l;
-    vec3 c_light = light_at(fetch_light(u_lights, i), p, l);
-    float NoL = dot(n, l);
-    if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
-    return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
-}
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -85,48 +77,21 @@ void main() {
     vec3 Lo = vec3(0.0);
 #if TILED_LIGHTS
     // Directional lights reach everything; local lights only where their tile's mask
-    // says so, visited in ascending order like the plain loop below.
-    //
-    // Every loop here is bottom-tested. A SIMD rasteriser such as llvmpipe runs a loop's
-    // body, masked, until every lane has left, and a top-tested loop ends with one more
-    // pass over the whole body with every lane masked off: one wasted light evaluation per
-    // pixel, 4 % of this pass at 256 lights. No `if` skips work on llvmpipe either (the
-    // next word is chosen by selects, not fetched; a scene without directional lights
-    // compiles their loop out): docs/performance.md.
+    // says so, visited in ascending order like the plain loop below. Bottom-tested loops,
+    // and a scene without directional lights compiles theirs out (lights/illumination.glsl
+    // says why).
 #if DIRECTIONAL_LIGHTS
     int i = 0;
     do {
-        Lo += light_contribution(i, s, params, n, t, p, v);
+        Lo += light_contribution(u_lights, i, s, params, n, t, p, v);
     } while (++i < u_first_local);
 #endif
-    ivec2 tile = px / TILE_SIZE;
-    int chunk = 0;
-    do {  // chunks of 1024 local lights: one for up to 1024 lights
-        TileMask mask = load_tile_mask(u_tile_masks, tile, chunk);
-        uint words = tile_occupancy(mask);   // the chunk's words that hold a light
-        int w = 0;
-        uint bits = 0u;
-        if (words != 0u) {
-            w = lowest_bit(words);
-            words &= words - 1u;
-            bits = tile_word(mask, w);
-        }
-        int base = u_first_local + 1024 * chunk;
-        if (bits != 0u) do {
-            int b = lowest_bit(bits);
-            bits &= bits - 1u;                // clear that bit
-            Lo += light_contribution(base + 32 * w + b, s, params, n, t, p, v);
-            if (bits == 0u && words != 0u) {  // on to the next word that holds a light
-                w = lowest_bit(words);
-                words &= words - 1u;
-                bits = tile_word(mask, w);
-            }
-        } while (bits != 0u);
-    } while (++chunk * 8 < TILE_QUADS);
+    Lo = add_masked_lights(Lo, u_tile_masks, px / TILE_SIZE, u_lights, u_first_local, s,
+                           params, n, t, p, v);
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above
-        Lo += light_contribution(i, s, params, n, t, p, v);
+        Lo += light_contribution(u_lights, i, s, params, n, t, p, v);
     } while (++i < u_light_count);
 #endif
     frag_color = vec4(PI * Lo, 1.0);

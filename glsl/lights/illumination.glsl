@@ -1,0 +1,60 @@
+// The terms of the seed's illumination sum, L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+
+// (seed section 4), shared by the lighting, floor and forward passes so that every
+// variant the bench compares adds the same float32 terms in the same order.
+// Twin: app/reference/illumination.py. Needs brdf/material.glsl (brdf_eval) and
+// lights/punctual.glsl before it; the masked loop also lights/tiles.glsl with TILE_QUADS.
+#ifndef PBS_ILLUMINATION_GLSL
+#define PBS_ILLUMINATION_GLSL
+
+// f(l, v) c_light (n.l)+ of light i of a light texture at p.
+vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
+                        vec3 t, vec3 p, vec3 v) {
+    vec3 l;
+    vec3 c_light = light_at(fetch_light(lights, i), p, l);
+    float NoL = dot(n, l);
+    if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
+    return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
+}
+
+#ifdef TILE_QUADS
+// Lo plus the terms of the set bits of cell `cell`'s light mask (lights/tiles.glsl:
+// TILE_QUADS RGBA32UI texels per cell; bit k is light base + k), added one by one in
+// ascending light order, so that a sum continued from other lights rounds exactly as the
+// plain loop over all lights does. A cell is a screen tile for the lighting pass and a
+// pixel for the bench's floor pass.
+//
+// Every loop here is bottom-tested. A SIMD rasteriser such as llvmpipe runs a loop's
+// body, masked, until every lane has left, and a top-tested loop ends with one more pass
+// over the whole body with every lane masked off: one wasted light evaluation per pixel,
+// 4 % of the lighting pass at 256 lights. No `if` skips work on llvmpipe either, so the
+// next word is chosen by selects, not fetched (docs/performance.md).
+vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
+                       Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
+    int chunk = 0;
+    do {  // chunks of 1024 lights: one for up to 1024 lights
+        TileMask mask = load_tile_mask(masks, cell, chunk);
+        uint words = tile_occupancy(mask);   // the chunk's words that hold a light
+        int w = 0;
+        uint bits = 0u;
+        if (words != 0u) {
+            w = lowest_bit(words);
+            words &= words - 1u;
+            bits = tile_word(mask, w);
+        }
+        int first = base + 1024 * chunk;
+        if (bits != 0u) do {
+            int b = lowest_bit(bits);
+            bits &= bits - 1u;                // clear that bit
+            Lo += light_contribution(lights, first + 32 * w + b, s, params, n, t, p, v);
+            if (bits == 0u && words != 0u) {  // on to the next word that holds a light
+                w = lowest_bit(words);
+                words &= words - 1u;
+                bits = tile_word(mask, w);
+            }
+        } while (bits != 0u);
+    } while (++chunk * 8 < TILE_QUADS);
+    return Lo;
+}
+#endif
+
+#endif
