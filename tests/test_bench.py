@@ -13,7 +13,7 @@ from PIL import Image
 
 from app.bench import main
 from app.bench.filtering import OPTIONS as FILTER_OPTIONS
-from app.bench.floor import FloorPass
+from app.bench.floor import FloorPass, pixel_masks
 from app.bench.pairs import light_pairs, reference_hdr, surface_positions
 from app.bench.report import evaluate_targets, pareto_front
 from app.bench.scenes import load, many_lights_scene
@@ -229,6 +229,15 @@ def test_floor_pass_evaluates_exactly_the_pairs(gl):
     assert np.array_equal(image[~covered], deferred[~covered])
     assert covered_relative_error(missing, deferred, covered).max() > 1e-2
     assert np.abs(ref_pairs - ref_all).max() <= 1e-12 * np.abs(ref_all).max()
+    # The masks the floor walks hold exactly the pairs: bit k of a pixel set iff light k
+    # reaches it.
+    masks = pixel_masks(pairs, 1)
+    bits = (masks[..., :, None] >> np.arange(32, dtype=np.uint32)) & 1
+    reach = bits.reshape(*masks.shape[:2], 128).astype(bool)
+    rows, cols = np.divmod(pairs.pixel_index(), masks.shape[1])
+    expected = np.zeros_like(reach)
+    expected[rows, cols, pairs.lights] = True
+    assert np.array_equal(reach, expected)
 
 
 def test_pareto_front_and_targets_from_rows():
