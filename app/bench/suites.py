@@ -293,7 +293,6 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
     loaded = load(data)
     case = f"{count} lights"
     common = {"light_range_m": light_range}
-    images: dict[str, np.ndarray] = {}
     pending: list[dict] = []
     variants = ", ".join(CULLING_VARIANTS)
     progress.start(f"culling {case}: {variants}, interleaved")
@@ -324,7 +323,7 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
         times = ctx.time_interleaved(frames)
         # The floor pass draws into its own target from the shared G-buffer, so each
         # variant's image is read after all of them have run.
-        images = {
+        images: dict[str, np.ndarray] = {
             "culled": culled.read_hdr(),
             "floor": floor.read_hdr(),
             "unculled": unculled.read_hdr(),

@@ -195,15 +195,16 @@ class _Record:
     """One variant's frames as they come in."""
 
     def __init__(self, names: list[str]) -> None:
+        self.names = names
         self.frames: list[float] = []
         self.wall: dict[str, list[float]] = {n: [] for n in names}
         self.gpu: dict[str, list[float]] = {n: [] for n in names}
         self.submit: dict[str, list[float]] = {n: [] for n in names}
         self.rejected: dict[str, int] = {n: 0 for n in names}
 
-    def add(self, names: list[str], wall: list[float], gpu: list, submit: list[float]) -> None:
+    def add(self, wall: list[float], gpu: list[float | None], submit: list[float]) -> None:
         self.frames.append(sum(wall))
-        for n, wv, gv, cv in zip(names, wall, gpu, submit, strict=True):
+        for n, wv, gv, cv in zip(self.names, wall, gpu, submit, strict=True):
             self.wall[n].append(wv)
             self.submit[n].append(cv)
             if gv is not None and plausible(wv, gv):
@@ -255,9 +256,7 @@ def time_interleaved(
     ):
         shift = rounds % len(order)
         for v in order[shift:] + order[:shift]:
-            passes = variants[v]
-            w, g, c = _frame(ctx, passes, queries)
-            records[v].add([p.name for p in passes], w, g, c)
+            records[v].add(*_frame(ctx, variants[v], queries))
             if tick:
                 tick()
         rounds += 1

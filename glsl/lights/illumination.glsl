@@ -36,21 +36,13 @@ vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, 
         uint words = tile_occupancy(mask);   // the chunk's words that hold a light
         int w = 0;
         uint bits = 0u;
-        if (words != 0u) {
-            w = lowest_bit(words);
-            words &= words - 1u;
-            bits = tile_word(mask, w);
-        }
+        next_tile_word(mask, words, w, bits);
         int first = base + 1024 * chunk;
         if (bits != 0u) do {
             int b = lowest_bit(bits);
             bits &= bits - 1u;                // clear that bit
             Lo += light_contribution(lights, first + 32 * w + b, s, params, n, t, p, v);
-            if (bits == 0u && words != 0u) {  // on to the next word that holds a light
-                w = lowest_bit(words);
-                words &= words - 1u;
-                bits = tile_word(mask, w);
-            }
+            if (bits == 0u) next_tile_word(mask, words, w, bits);
         } while (bits != 0u);
     } while (++chunk * 8 < TILE_QUADS);
     return Lo;

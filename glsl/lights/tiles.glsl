@@ -68,6 +68,17 @@ uint quad_word(uvec4 q, int c) {
     return c < 2 ? (c == 0 ? q.x : q.y) : (c == 2 ? q.z : q.w);
 }
 
+// On to the next word of q that holds a light: `words` has a bit for each word not yet
+// visited that is non-zero; w and bits become that word's index and value. Nothing
+// happens when none is left.
+void next_quad_word(uvec4 q, inout uint words, inout int w, inout uint bits) {
+    if (words != 0u) {
+        w = lowest_bit(words);
+        words &= words - 1u;
+        bits = quad_word(q, w);
+    }
+}
+
 // q with bit b of word c set to 1.
 uvec4 quad_bit(int c, int b) {
     return uvec4(equal(ivec4(c), ivec4(0, 1, 2, 3))) << uint(b);
@@ -133,6 +144,15 @@ uint tile_word(TileMask m, int w) {
     uvec4 q = k < 4 ? (k < 2 ? (k == 0 ? m.q0 : m.q1) : (k == 2 ? m.q2 : m.q3))
                     : (k < 6 ? (k == 4 ? m.q4 : m.q5) : (k == 6 ? m.q6 : m.q7));
     return quad_word(q, w & 3);
+}
+
+// next_quad_word for a chunk of up to 32 words.
+void next_tile_word(TileMask m, inout uint words, inout int w, inout uint bits) {
+    if (words != 0u) {
+        w = lowest_bit(words);
+        words &= words - 1u;
+        bits = tile_word(m, w);
+    }
 }
 #endif
 

@@ -44,11 +44,7 @@ void main() {
         uint words = quad_occupancy(group_mask);
         int w = 0;
         uint bits = 0u;
-        if (words != 0u) {
-            w = lowest_bit(words);
-            words &= words - 1u;
-            bits = quad_word(group_mask, w);
-        }
+        next_quad_word(group_mask, words, w, bits);
         if (bits != 0u) do {
             int k = lowest_bit(bits);
             bits &= bits - 1u;
@@ -62,21 +58,13 @@ void main() {
                 reach |= bit;
                 if (cos_outer >= -1.0) cones |= bit;
             }
-            if (bits == 0u && words != 0u) {
-                w = lowest_bit(words);
-                words &= words - 1u;
-                bits = quad_word(group_mask, w);
-            }
+            if (bits == 0u) next_quad_word(group_mask, words, w, bits);
         } while (bits != 0u);
 
         words = quad_occupancy(cones);
         w = 0;
         bits = 0u;
-        if (words != 0u) {
-            w = lowest_bit(words);
-            words &= words - 1u;
-            bits = quad_word(cones, w);
-        }
+        next_quad_word(cones, words, w, bits);
         if (bits != 0u) do {
             int k = lowest_bit(bits);
             bits &= bits - 1u;
@@ -88,11 +76,7 @@ void main() {
                                      u_tan_half_fov, z.x, z.y, hits)) {
                 reach &= ~quad_bit(w, k);
             }
-            if (bits == 0u && words != 0u) {
-                w = lowest_bit(words);
-                words &= words - 1u;
-                bits = quad_word(cones, w);
-            }
+            if (bits == 0u) next_quad_word(cones, words, w, bits);
         } while (bits != 0u);
     }
     mask = reach;
