@@ -8,6 +8,7 @@
 
 #include "brdf/blend.glsl"
 #include "brdf/filtering.glsl"
+#include "material/normal_mapping.glsl"
 
 #define MAP_BASE_COLOR 1        // sRGB (decoded by the GL) or linear: multiplies base_color
 #define MAP_METALLIC 2          // R: multiplies metallic
@@ -73,11 +74,8 @@ Layer read_layer(LayerConstants c, int maps, vec2 uv, sampler2D base_color_map,
     if ((maps & MAP_ANISOTROPY) != 0) l.anisotropy *= texture(anisotropy_map, st).r;
     if ((maps & MAP_F0) != 0) l.f0 *= texture(f0_map, st).r;
     if ((maps & MAP_NORMAL_ROUGHNESS) != 0) {
-        // Trilinear filtering averages unit normals; their mip's roughness already holds
-        // the spread that shortening stands for (app/textures/mips.py), so renormalise.
         vec4 nr = texture(normal_roughness_map, st);
-        float len = length(nr.xyz);
-        l.normal = len > 0.0 ? nr.xyz / len : vec3(0.0, 0.0, 1.0);
+        l.normal = tangent_space_normal(nr.xyz);
         l.perceptual_roughness = nr.a;
     }
     return l;
@@ -117,14 +115,7 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     vec3 t = t_len > 0.0 ? tangent.xyz / t_len : vec3(0.0);
     vec3 n = ng;
 #if ((LAYER0_MAPS | LAYER1_MAPS) & MAP_NORMAL_ROUGHNESS) != 0
-    // Tangent-space normal mapping (OpenGL convention: +x along +u, +y along +v).
-    vec3 tt = t - ng * dot(ng, t);
-    float tt_len = length(tt);
-    if (tt_len > 1e-6) {
-        tt /= tt_len;
-        vec3 b = cross(ng, tt) * (tangent.w < 0.0 ? -1.0 : 1.0);
-        n = normalize(tt * l.normal.x + b * l.normal.y + ng * l.normal.z);
-    }
+    n = perturb_normal(ng, t, tangent.w, l.normal);
 #endif
 #if SPECULAR_AA
     // Tokuyoshi & Kaplanyan 2019: the normal's screen-space variation widens the NDF.
