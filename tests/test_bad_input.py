@@ -267,6 +267,12 @@ SCENE_CASES = [
         "'filmic'",
     ),
     (
+        "unknown-terms",
+        BASE + '[render]\nterms = "glossy"\n',
+        "render.terms",
+        "'glossy'",
+    ),
+    (
         "missing-mesh-file",
         BASE + '[[objects]]\nshape = "mesh"\nfile = "meshes/nope.obj"\n',
         "objects[1].file",

@@ -23,6 +23,7 @@ import moderngl
 import numpy as np
 
 from app.bench.pairs import LightPairs
+from app.reference.material import BRDF_TERMS
 from app.render.renderer import Renderer
 from app.scene.camera import gl_bytes
 
@@ -57,6 +58,7 @@ class FloorPass:
             defines: dict[str, object] = dict(model.defines())
             defines["TILE_QUADS"] = self.quads
             defines["GBUFFER_TANGENT"] = int(table.needs_tangents)
+            defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             if several:
                 defines["MODEL_GROUP"] = group
             self.programs.append(

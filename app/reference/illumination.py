@@ -32,8 +32,10 @@ def illumination_sum(
     p: np.ndarray,
     v: np.ndarray,
     lights: list[dict],
+    terms: str = "all",
 ) -> np.ndarray:
-    """Seed section 4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3)."""
+    """Seed section 4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
+    ``terms`` as in ``brdf_eval``."""
     Lo = np.zeros(np.shape(p), np.float64)
     for light in lights:
         c_light, l = light_at(light, p)
@@ -41,7 +43,7 @@ def illumination_sum(
         lit = NoL > 0.0
         if not np.any(lit):
             continue
-        f = brdf_eval(s, params, model, n, t, l, v)
+        f = brdf_eval(s, params, model, n, t, l, v, terms=terms)
         Lo += np.where(lit[..., None], f * c_light * NoL[..., None], 0.0)
     return PI * Lo
 
@@ -60,8 +62,10 @@ def shade_gbuffer(
     background: np.ndarray,
     models: list[Model],
     table: np.ndarray,
+    terms: str = "all",
 ) -> np.ndarray:
-    """The HDR image the lighting pass should produce, (H, W, 3) float64.
+    """The HDR image the lighting pass should produce, (H, W, 3) float64 (``terms``: the
+    scene's render.terms).
 
     ``table`` is the material table as packed for the GPU ((M, 4, 4) float32, whose row
     [3][0] is the material's index into ``models``); each pixel's row is its material id.
@@ -87,6 +91,6 @@ def shade_gbuffer(
         n = sanitize_direction(oct_decode(b[sel, :2]), v)
         model = models[int(table[row, 3, 0])]
         params = unpack_model_params(table[row])
-        shaded[sel] = illumination_sum(s, params, model, n, t, p[sel], v, lights)
+        shaded[sel] = illumination_sum(s, params, model, n, t, p[sel], v, lights, terms)
     out[covered] = shaded
     return out

@@ -14,6 +14,12 @@ from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROU
 from app.reference.model import DEFAULT_MODEL, Model, ModelParams
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
 
+# Seed section 1: which reflections brdf_eval returns (the GLSL's BRDF_TERMS bitmask).
+TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
+TERM_DIFFUSE = 2  # subsurface reflection: f_diffuse
+BRDF_TERMS = {"all": TERM_SPECULAR | TERM_DIFFUSE, "specular": TERM_SPECULAR,
+              "diffuse": TERM_DIFFUSE}  # fmt: skip
+
 
 @dataclass
 class Surface:
@@ -175,11 +181,13 @@ def brdf_eval(
     l: np.ndarray,
     v: np.ndarray,
     ms_table: np.ndarray | None = None,
+    terms: str = "all",
 ) -> np.ndarray:
     """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model``, (..., 3); 0 where n.l <= 0.
 
     ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
-    and is needed only when ``model.multiscatter``.
+    and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, seed
+    section 1) keeps only the specular or only the diffuse reflection.
     """
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
     NoL_raw = dot(n, l)
@@ -232,7 +240,13 @@ def brdf_eval(
         f_spec = f_spec + multiscatter.f_ms_kulla_conty(
             ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
         )
-    f = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH) + f_spec
+    mask = BRDF_TERMS[terms]
+    if mask == TERM_SPECULAR:
+        f = f_spec
+    else:
+        f = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+        if mask & TERM_SPECULAR:
+            f = f + f_spec
     return np.where(lit[..., None], f, 0.0)
 
 

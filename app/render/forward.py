@@ -26,6 +26,7 @@ import numpy as np
 
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
+from app.reference.material import BRDF_TERMS
 from app.render.culling import order_lights
 from app.render.gbuffer import MeshDrawable, material_table
 from app.scene.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
@@ -61,8 +62,9 @@ class ForwardRenderer:
         packed = pack_lights(self.lights)
         self.light_texture = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        group_defines = [model.defines() for model in self.materials.models]
         settings = scene.render
+        terms = {"BRDF_TERMS": BRDF_TERMS[settings.terms]}
+        group_defines = [{**model.defines(), **terms} for model in self.materials.models]
         specular_aa = (
             (settings.specular_aa_variance, settings.specular_aa_threshold)
             if settings.specular_aa

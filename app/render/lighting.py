@@ -19,6 +19,7 @@ import moderngl
 import numpy as np
 
 from app.gl.shaders import ShaderCache
+from app.reference.material import BRDF_TERMS
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
 from app.render.materials import MaterialTable
@@ -39,10 +40,12 @@ class LightingPass:
         culler: LightCuller | None = None,
         uber: bool = False,
         ms_table_size: int | None = None,
+        terms: str = "all",
     ) -> None:
         """``uber``: one program with run-time model selection instead of one per model
         group (a bench knob, not a scene key). ``ms_table_size``: the Kulla-Conty table's
-        size (None: the shipped one; others are computed on first use and cached)."""
+        size (None: the shipped one; others are computed on first use and cached).
+        ``terms``: the scene's render.terms, which reflections the BRDF returns."""
         self.ctx = ctx
         self.culler = culler
         self.uber = uber
@@ -59,6 +62,7 @@ class LightingPass:
         tangents = table.needs_tangents
         for defines in variants:
             defines["GBUFFER_TANGENT"] = int(tangents)
+            defines["BRDF_TERMS"] = BRDF_TERMS[terms]
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles

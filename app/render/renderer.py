@@ -70,7 +70,7 @@ class Renderer:
         )
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
-            uber=uber, ms_table_size=ms_table_size,
+            uber=uber, ms_table_size=ms_table_size, terms=scene.render.terms,
         )  # fmt: skip
         self.resolve = DownsamplePass(ctx, self.shaders, self.size, factor) if factor > 1 else None
         self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)

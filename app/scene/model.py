@@ -109,6 +109,9 @@ class RenderSettings(_Strict):
     specular_aa_threshold: Unit = 0.18  # kappa: the most alpha^2 the filter may add
     blend: Literal["runtime", "baked"] = "runtime"  # mask blends mixed per pixel, or baked
     supersample: Annotated[int, Field(strict=True, ge=1, le=16)] = 1  # n x n samples per pixel
+    # Seed section 1: the surface (specular) and subsurface (diffuse) reflections as
+    # separate contributions: both, or one of them alone.
+    terms: Literal["all", "specular", "diffuse"] = "all"
 
     @model_validator(mode="after")
     def _check(self) -> RenderSettings:

@@ -127,6 +127,15 @@ vec3 orthonormal_tangent(vec3 n, vec3 t) {
     return normalize(cross(a, n));
 }
 
+// Seed section 1: the surface (specular: f_spec and f_ms) and subsurface (diffuse)
+// reflections as separate contributions. BRDF_TERMS selects which brdf_eval returns,
+// a compile-time bitmask (render.terms; app/render/lighting.py): both by default.
+#define TERM_SPECULAR 1
+#define TERM_DIFFUSE 2
+#ifndef BRDF_TERMS
+#define BRDF_TERMS 3
+#endif
+
 // f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v
 // and the tangent t (used only by anisotropic NDFs). Zero for lights below the surface;
 // n.v is clamped to MIN_N_DOT_V as interpolated normals can face away from the eye, and a
@@ -178,7 +187,13 @@ vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
         f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
     }
 #endif
+#if BRDF_TERMS == (TERM_SPECULAR | TERM_DIFFUSE)
     return f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH) + f_spec;
+#elif BRDF_TERMS == TERM_SPECULAR
+    return f_spec;
+#else
+    return f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH);
+#endif
 }
 
 #endif
