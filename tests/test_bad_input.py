@@ -267,6 +267,18 @@ SCENE_CASES = [
         "'filmic'",
     ),
     (
+        "negative-aperture",
+        BASE + "[camera]\naperture = -0.1\n",
+        "camera.aperture",
+        "greater than or equal to 0",
+    ),
+    (
+        "zero-focus-distance",
+        BASE + "[camera]\nfocus_distance = 0.0\n",
+        "camera.focus_distance",
+        "greater than 0",
+    ),
+    (
         "unknown-terms",
         BASE + '[render]\nterms = "glossy"\n',
         "render.terms",

@@ -6,6 +6,7 @@ import moderngl
 import numpy as np
 
 from app.gl.shaders import ShaderCache
+from app.reference import dof
 from app.reference.tonemap import TONEMAPS
 
 # The TONEMAP define of glsl/passes/post.frag, in the order of the twin's list.
@@ -68,6 +69,58 @@ class DownsamplePass:
         hdr.use(0)
         self.program["u_hdr"].value = 0
         self.program["u_factor"].value = self.factor
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def read(self) -> np.ndarray:
+        """(H, W, 3) float32, rows top to bottom."""
+        w, h = self.size
+        data = np.frombuffer(self.hdr.read(), np.float32).reshape(h, w, 4)
+        return data[::-1, :, :3].copy()
+
+    def release(self) -> None:
+        for obj in (self.vao, self.fbo, self.hdr):
+            obj.release()
+
+
+class DofPass:
+    """Thin-lens depth of field (seed section 2) on linear HDR: each pixel's radiance
+    spread over its circle of confusion (glsl/passes/dof.frag, twin app/reference/dof.py).
+    Built only for a camera with an aperture: a pinhole camera skips the pass."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        aperture: float,
+        focus: float,
+        fov_y: float,
+    ) -> None:
+        self.ctx = ctx
+        offsets = dof.gather_offsets()
+        self.program = shaders.program(
+            "passes/fullscreen.vert", "passes/dof.frag", {"DOF_SAMPLES": len(offsets)}
+        )
+        self.vao = ctx.vertex_array(self.program, [])
+        self.hdr = ctx.texture(size, 4, dtype="f4")
+        self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.fbo = ctx.framebuffer([self.hdr])
+        self.size = size
+        prog = self.program
+        prog["u_offsets"].write(np.ascontiguousarray(offsets, np.int32).tobytes())
+        prog["u_aperture"].value = aperture
+        prog["u_focus"].value = focus
+        prog["u_scale"].value = dof.pixels_per_radian(fov_y, size[1])
+        prog["u_max_coc"].value = dof.MAX_COC
+        prog["u_min_radius"].value = dof.MIN_RADIUS
+
+    def run(self, hdr: moderngl.Texture, depth: moderngl.Texture) -> None:
+        self.fbo.use()
+        self.ctx.viewport = (0, 0, *self.size)
+        hdr.use(0)
+        depth.use(1)
+        self.program["u_hdr"].value = 0
+        self.program["u_depth"].value = 1
         self.vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:

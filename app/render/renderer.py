@@ -13,7 +13,7 @@ from app.gl.shaders import ShaderCache
 from app.render.culling import LightCuller, order_lights
 from app.render.gbuffer import GBuffer, GBufferData, GBufferPass, material_table
 from app.render.lighting import LightingPass
-from app.render.post import DownsamplePass, PostPass
+from app.render.post import DofPass, DownsamplePass, PostPass
 from app.scene.camera import camera_frame, projection_matrix, view_matrix
 from app.scene.geometry import build_parts
 from app.scene.lights import environment_records, light_record
@@ -72,6 +72,12 @@ class Renderer:
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
             uber=uber, ms_table_size=ms_table_size, terms=scene.render.terms,
         )  # fmt: skip
+        cam = scene.camera
+        self.dof = (
+            DofPass(ctx, self.shaders, self.render_size, cam.aperture, cam.focus, cam.fov_y)
+            if cam.aperture > 0.0
+            else None
+        )
         self.resolve = DownsamplePass(ctx, self.shaders, self.size, factor) if factor > 1 else None
         self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)
         w, h = self.size
@@ -87,14 +93,20 @@ class Renderer:
             self.culler.run(self.gbuffer, self.view, self.camera)
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
         hdr = self.lighting.hdr
+        if self.dof is not None:
+            self.dof.run(hdr, self.gbuffer.depth)
+            hdr = self.dof.hdr
         if self.resolve is not None:
             self.resolve.run(hdr)
             hdr = self.resolve.hdr
         self.post.run(hdr, scene.camera.exposure)
 
     def read_hdr(self) -> np.ndarray:
-        """Linear HDR radiance before exposure, (H, W, 3) float32 (resolved to ``size``)."""
-        return self.resolve.read() if self.resolve is not None else self.lighting.read()
+        """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
+        where the camera has an aperture (resolved to ``size``)."""
+        if self.resolve is not None:
+            return self.resolve.read()
+        return self.dof.read() if self.dof is not None else self.lighting.read()
 
     def read_ldr(self) -> np.ndarray:
         """The display image, (H, W, 3) uint8 sRGB."""
@@ -106,7 +118,8 @@ class Renderer:
     def release(self) -> None:
         if self.culler is not None:
             self.culler.release()
-        if self.resolve is not None:
-            self.resolve.release()
+        for extra in (self.resolve, self.dof):
+            if extra is not None:
+                extra.release()
         for obj in (self.gbuffer_pass, self.gbuffer, self.lighting, self.post, self.shaders):
             obj.release()

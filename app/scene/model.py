@@ -79,6 +79,10 @@ class Camera(_Strict):
     exposure: Annotated[Real, Field(ge=-32.0, le=32.0)] = 0.0  # EV: radiance x 2^exposure
     near: Positive = 0.05  # metres
     far: Positive = 200.0  # metres
+    # Seed section 2: a thin lens of this diameter (metres; 0 = a pinhole, everything
+    # sharp) focused at focus_distance (metres along the view axis; default: the target's).
+    aperture: Annotated[Real, Field(ge=0.0, le=10.0)] = 0.0
+    focus_distance: Positive | None = None
 
     @model_validator(mode="after")
     def _check(self) -> Camera:
@@ -91,6 +95,13 @@ class Camera(_Strict):
         if self.far <= self.near:
             raise ValueError("far: must be greater than near")
         return self
+
+    @property
+    def focus(self) -> float:
+        """The focus distance in metres: focus_distance, or the target's view depth."""
+        if self.focus_distance is not None:
+            return float(self.focus_distance)
+        return float(np.linalg.norm(np.subtract(self.target, self.position)))
 
 
 class RenderSettings(_Strict):
