@@ -70,19 +70,20 @@ class ForwardRenderer:
             if settings.specular_aa
             else None
         )
-        # A blend of two models shades with the first layer's (the baseline needs no more).
-        self.drawables = [
-            MeshDrawable(
-                ctx,
-                self.shaders,
-                part,
-                rows,
-                ("passes/forward.vert", "passes/forward.frag"),
-                group_defines[self.materials.groups[rows[0]]],
-                specular_aa,
-            )
-            for part, rows in zip(parts, material_ids, strict=True)
-        ]
+        # A part drawn once per model group among its layers, each draw keeping only the
+        # fragments whose dominant layer is of its group (MODEL_GROUP in forward.frag), as
+        # the deferred lighting pass shades such a part with one permutation per group.
+        self.drawables = []
+        for part, rows in zip(parts, material_ids, strict=True):
+            groups = sorted({self.materials.groups[row] for row in rows})
+            for group in groups:
+                defines = dict(group_defines[group])
+                if len(groups) > 1:
+                    defines["MODEL_GROUP"] = group
+                shader_pair = ("passes/forward.vert", "passes/forward.frag")
+                self.drawables.append(
+                    MeshDrawable(ctx, self.shaders, part, rows, shader_pair, defines, specular_aa)
+                )
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.zbuffer = ctx.depth_renderbuffer(self.size)

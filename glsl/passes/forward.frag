@@ -37,6 +37,11 @@ out vec4 frag_color;
 void main() {
     // The material as the G-buffer pass stores it (glsl/passes/gbuffer.frag), two-sided.
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
+#ifdef MODEL_GROUP
+    // A part whose layers use two models is drawn once per model (app/render/forward.py):
+    // this draw keeps the fragments whose dominant layer uses its model.
+    if (fetch_model_group(u_materials, int(m.material_id)) != MODEL_GROUP) discard;
+#endif
     Layer l = m.layer;
     vec3 t = m.t;
     // Sanitised as the lighting pass sanitises what the G-buffer delivers (a texture map can
