@@ -124,18 +124,26 @@ def _scene(gbuffer: str) -> dict:
 FORWARD_MAX_REL = 1e-4
 
 
-def test_forward_image_equals_deferred(gl):
-    loaded = load(_scene("f32"))
-    deferred = Renderer(gl, loaded, SIZE)
-    forward = ForwardRenderer(gl, loaded, SIZE)
+def forward_and_deferred(
+    gl, loaded, size: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """(forward HDR, deferred HDR, covered pixels, forward draws) of one scene."""
+    deferred = Renderer(gl, loaded, size)
+    forward = ForwardRenderer(gl, loaded, size)
     try:
         deferred.render()
         forward.render()
-        a, b = forward.read_hdr(), deferred.read_hdr()
+        images = forward.read_hdr(), deferred.read_hdr()
         covered = deferred.read_gbuffer().depth > 0.0
+        return *images, covered, len(forward.drawables)
     finally:
         deferred.release()
         forward.release()
+
+
+def test_forward_image_equals_deferred(gl):
+    loaded = load(_scene("f32"))
+    a, b, covered, _ = forward_and_deferred(gl, loaded, SIZE)
     assert covered.mean() > 0.5 and np.isfinite(a).all()
     background = np.asarray(loaded.scene.background, np.float32)
     assert np.array_equal(a[~covered], np.broadcast_to(background, a[~covered].shape))
@@ -152,36 +160,17 @@ def test_forward_shades_a_two_model_blend_as_deferred_does(gl_egl):
     loaded = load_scene(REPO / "scenes" / "sec13_rust_blend.toml")
     render = loaded.scene.render.model_copy(update={"gbuffer": "f32"})
     loaded = LoadedScene(loaded.scene.model_copy(update={"render": render}), loaded.path)
-    size = (320, 180)
-    deferred = Renderer(gl_egl, loaded, size)
-    forward = ForwardRenderer(gl_egl, loaded, size)
-    try:
-        assert len(deferred.materials.models) == 2 and len(forward.drawables) == 4
-        deferred.render()
-        forward.render()
-        covered = deferred.read_gbuffer().depth > 0.0
-        rel = covered_relative_error(forward.read_hdr(), deferred.read_hdr(), covered)
-    finally:
-        deferred.release()
-        forward.release()
+    a, b, covered, draws = forward_and_deferred(gl_egl, loaded, (320, 180))
+    assert draws == 4  # the sheet and the sphere, each in two models
     assert covered.mean() > 0.4  # the sheet and sphere (48.6 %)
+    rel = covered_relative_error(a, b, covered)
     assert rel.max() <= FORWARD_MAX_REL, f"max relative difference {rel.max():.2e}"
 
 
 def test_forward_comparison_sees_a_16_bit_gbuffer(gl):
     """The bound above is tight enough to fail: the f16 G-buffer's quantisation shows."""
-    loaded = load(_scene("f16"))
-    deferred = Renderer(gl, loaded, SIZE)
-    forward = ForwardRenderer(gl, loaded, SIZE)
-    try:
-        deferred.render()
-        forward.render()
-        covered = deferred.read_gbuffer().depth > 0.0
-        rel = covered_relative_error(forward.read_hdr(), deferred.read_hdr(), covered)
-    finally:
-        deferred.release()
-        forward.release()
-    assert rel.max() > 10 * FORWARD_MAX_REL
+    a, b, covered, _ = forward_and_deferred(gl, load(_scene("f16")), SIZE)
+    assert covered_relative_error(a, b, covered).max() > 10 * FORWARD_MAX_REL
 
 
 def test_light_pairs_are_exactly_the_lights_in_range(gl_egl):
