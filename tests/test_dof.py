@@ -75,6 +75,38 @@ def test_pass_matches_its_twin_on_the_scene(gl_egl: GLContext) -> None:
     assert np.abs(out[untouched] - lit[untouched]).max() <= 1e-6 * peak
 
 
+def test_sparse_gather_is_close_to_the_dense_one(gl_egl: GLContext) -> None:
+    """The pass samples 128 of the 440 pixels within its 12 px reach. Against the dense
+    gather over all 440 (the twin with all_offsets()), measured on the scene: relative
+    RMSE 1.3 % and mean FLIP 0.012 of the tone-mapped images, where the pinhole image is
+    13.8 % and 0.075 away from it."""
+    import flip_evaluator as flip
+
+    from app.reference.tonemap import post_process
+
+    loaded = load_scene(SCENE)
+    cam = loaded.scene.camera
+    r = Renderer(gl_egl, loaded)
+    try:
+        r.render()
+        lit, out, depth = r.lighting.read(), r.read_hdr(), r.read_gbuffer().depth
+    finally:
+        r.release()
+    scale = dof.pixels_per_radian(cam.fov_y, lit.shape[0])
+    dense = dof.dof_gather(lit, depth, cam.aperture, cam.focus, scale, dof.all_offsets())
+
+    def display(x: np.ndarray) -> np.ndarray:
+        return post_process(x, cam.exposure, loaded.scene.render.tonemap).astype(np.float32)
+
+    def rel_rmse(x: np.ndarray) -> float:
+        return float(np.sqrt(np.mean((x - dense) ** 2) / np.mean(dense**2)))
+
+    sparse_flip = flip.evaluate(display(dense), display(out), "LDR")[1]
+    pinhole_flip = flip.evaluate(display(dense), display(lit), "LDR")[1]
+    assert rel_rmse(out) < 0.03 and sparse_flip < 0.02
+    assert rel_rmse(lit) > 4 * rel_rmse(out) and pinhole_flip > 4 * sparse_flip
+
+
 def test_uniform_radiance_stays_uniform_whatever_the_depths(gl_egl: GLContext) -> None:
     """A constant image through the pass with random depths (and background) is the same
     constant to float32 rounding: the gather is a normalised weighted average."""

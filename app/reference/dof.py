@@ -42,6 +42,15 @@ def gather_offsets(samples: int = SAMPLES, radius: float = MAX_COC) -> np.ndarra
     return out
 
 
+def all_offsets(radius: float = MAX_COC) -> np.ndarray:
+    """(K, 2) every whole-pixel offset within ``radius`` but the centre (440 for 12 px):
+    dof_gather with these is the dense gather the pass's 128 samples approximate."""
+    r = math.floor(radius)
+    yy, xx = np.mgrid[-r : r + 1, -r : r + 1]
+    keep = (xx * xx + yy * yy <= radius * radius) & ~((xx == 0) & (yy == 0))
+    return np.stack([xx[keep], yy[keep]], axis=-1)
+
+
 def pixels_per_radian(fov_y_deg: float, height: int) -> float:
     """H / (2 tan(fov_y / 2)): pixels per unit of tangent at the image centre."""
     return height / (2.0 * math.tan(math.radians(fov_y_deg) / 2.0))
