@@ -13,53 +13,24 @@ from app.reference.tonemap import TONEMAPS
 TONEMAP_CODE = {name: code for code, name in enumerate(TONEMAPS)}
 
 
-class PostPass:
-    """HDR texture -> RGBA8 display image."""
+class _FullscreenPass:
+    """A full-screen pass of ``program`` into its own RGBA target of ``size`` (``dtype``
+    "f4": linear HDR, NEAREST; "f1": the 8-bit display image): what every image-to-image
+    pass shares."""
 
     def __init__(
-        self, ctx: moderngl.Context, shaders: ShaderCache, size: tuple[int, int], tonemap: str
-    ) -> None:
-        self.ctx = ctx
-        self.program = shaders.program(
-            "passes/fullscreen.vert", "passes/post.frag", {"TONEMAP": TONEMAP_CODE[tonemap]}
-        )
-        self.vao = ctx.vertex_array(self.program, [])
-        self.ldr = ctx.texture(size, 4)
-        self.fbo = ctx.framebuffer([self.ldr])
-        self.size = size
-
-    def run(self, hdr: moderngl.Texture, exposure_ev: float) -> None:
-        self.fbo.use()
-        self.ctx.viewport = (0, 0, *self.size)
-        hdr.use(0)
-        self.program["u_hdr"].value = 0
-        self.program["u_exposure"].value = 2.0**exposure_ev
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
-
-    def read(self) -> np.ndarray:
-        """(H, W, 3) uint8, rows top to bottom."""
-        w, h = self.size
-        data = np.frombuffer(self.ldr.read(), np.uint8).reshape(h, w, 4)
-        return data[::-1, :, :3].copy()
-
-    def release(self) -> None:
-        for obj in (self.vao, self.fbo, self.ldr):
-            obj.release()
-
-
-class _HdrPass:
-    """A full-screen pass of ``program`` into its own RGBA32F target of ``size``: the
-    shared part of the passes that turn one linear HDR image into another."""
-
-    def __init__(
-        self, ctx: moderngl.Context, program: moderngl.Program, size: tuple[int, int]
+        self,
+        ctx: moderngl.Context,
+        program: moderngl.Program,
+        size: tuple[int, int],
+        dtype: str = "f4",
     ) -> None:
         self.ctx = ctx
         self.program = program
         self.vao = ctx.vertex_array(program, [])
-        self.hdr = ctx.texture(size, 4, dtype="f4")
-        self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.fbo = ctx.framebuffer([self.hdr])
+        self.target = ctx.texture(size, 4, dtype=dtype)
+        self.target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.fbo = ctx.framebuffer([self.target])
         self.size = size
 
     def _draw(self, textures: dict[str, moderngl.Texture], uniforms: dict[str, object]) -> None:
@@ -78,17 +49,33 @@ class _HdrPass:
         self.vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:
-        """(H, W, 3) float32, rows top to bottom."""
+        """(H, W, 3) float32 (HDR) or uint8 (display), rows top to bottom."""
         w, h = self.size
-        data = np.frombuffer(self.hdr.read(), np.float32).reshape(h, w, 4)
+        dtype = np.float32 if self.target.dtype == "f4" else np.uint8
+        data = np.frombuffer(self.target.read(), dtype).reshape(h, w, 4)
         return data[::-1, :, :3].copy()
 
     def release(self) -> None:
-        for obj in (self.vao, self.fbo, self.hdr):
+        for obj in (self.vao, self.fbo, self.target):
             obj.release()
 
 
-class DownsamplePass(_HdrPass):
+class PostPass(_FullscreenPass):
+    """HDR texture -> RGBA8 display image: exposure (2^EV), tone map, sRGB encoding."""
+
+    def __init__(
+        self, ctx: moderngl.Context, shaders: ShaderCache, size: tuple[int, int], tonemap: str
+    ) -> None:
+        program = shaders.program(
+            "passes/fullscreen.vert", "passes/post.frag", {"TONEMAP": TONEMAP_CODE[tonemap]}
+        )
+        super().__init__(ctx, program, size, dtype="f1")
+
+    def run(self, hdr: moderngl.Texture, exposure_ev: float) -> None:
+        self._draw({"u_hdr": hdr}, {"u_exposure": 2.0**exposure_ev})
+
+
+class DownsamplePass(_FullscreenPass):
     """Supersampling's resolve: box-filters an HDR image rendered ``factor`` times larger
     in each direction down to ``size`` (the scene's ``render.supersample``)."""
 
@@ -104,7 +91,7 @@ class DownsamplePass(_HdrPass):
         self._draw({"u_hdr": hdr}, {"u_factor": self.factor})
 
 
-class DofPass(_HdrPass):
+class DofPass(_FullscreenPass):
     """Thin-lens depth of field (seed section 2) on linear HDR: each pixel's radiance
     spread over its circle of confusion (glsl/passes/dof.frag, twin app/reference/dof.py).
     Built only for a camera with an aperture: a pinhole camera skips the pass."""

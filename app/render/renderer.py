@@ -95,10 +95,10 @@ class Renderer:
         hdr = self.lighting.hdr
         if self.dof is not None:
             self.dof.run(hdr, self.gbuffer.depth)
-            hdr = self.dof.hdr
+            hdr = self.dof.target
         if self.resolve is not None:
             self.resolve.run(hdr)
-            hdr = self.resolve.hdr
+            hdr = self.resolve.target
         self.post.run(hdr, scene.camera.exposure)
 
     def read_hdr(self) -> np.ndarray:
