@@ -14,11 +14,12 @@ from PIL import Image
 from app.bench import main
 from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.floor import FloorPass, pixel_masks
+from app.bench.forward import ForwardRenderer
 from app.bench.pairs import light_pairs, reference_hdr, surface_positions
 from app.bench.report import evaluate_targets, pareto_front
 from app.bench.scenes import load, many_lights_scene
 from app.bench.timing import Budget, Pass, plausible, time_interleaved
-from app.render.forward import ForwardRenderer
+from app.common.lights import LightType
 from app.render.renderer import Renderer
 from app.scene.loader import LoadedScene, load_scene
 from tests.agreement import relative_error
@@ -184,14 +185,14 @@ def test_light_pairs_are_exactly_the_lights_in_range(gl_egl):
         covered, p = surface_positions(g, r.camera)
     finally:
         r.release()
-    centres = np.array([x["position"] for x in r.lights])
-    ranges = np.array([x["range"] for x in r.lights])
+    centres = np.array([x.position for x in r.lights])
+    ranges = np.array([x.range for x in r.lights])
     to_p = p[:, None, :] - centres[None]  # brute force, (pixels, lights)
     d = np.linalg.norm(to_p, axis=-1)
     want = d < ranges[None, :]
     for j, light in enumerate(r.lights):
-        if light["type"] == 2:  # spot: inside the outer cone, where its factor is not 0
-            want[:, j] &= to_p[:, j] @ light["direction"] > light["cos_outer"] * d[:, j]
+        if light.type == LightType.SPOT:  # spot: inside the outer cone, where its factor is not 0
+            want[:, j] &= to_p[:, j] @ light.direction > light.cos_outer * d[:, j]
     assert (~want & (d < ranges[None, :])).sum() > 0, "the scene's cones cull nothing"
     assert 5.0 < pairs.mean_per_covered_pixel < 25.0  # a meaningful mix of lights per pixel
     assert np.array_equal(pairs.count[covered], want.sum(axis=1))

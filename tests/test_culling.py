@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from app.common.lights import LightType
 from app.gl.kernel import run_kernel
 from app.reference import tiles as twin
 from app.reference.illumination import pixel_ndc
@@ -149,7 +150,7 @@ class Frame:
             self.ranges = texels[: culler.local_count, 3].astype(np.float64)  # padded
             spots = np.frombuffer(culler.spots.read(), np.float32).reshape(-1, 4)
             self.spots = spots[: culler.local_count].astype(np.float64)  # widened cones
-            self.local = [x for x in r.lights if x["type"] != 0]
+            self.local = [x for x in r.lights if x.is_local]
             self.camera = r.camera
             self.tiles = culler.tiles
         finally:
@@ -169,11 +170,13 @@ class Frame:
         tile_y, tile_x = (h - 1 - rows) // TILE_SIZE, cols // TILE_SIZE
         needed = np.zeros_like(self.masks)
         for j, light in enumerate(self.local):
-            to_p = p - light["position"]
+            to_p = p - light.position
             dist = np.linalg.norm(to_p, axis=1)
-            reach = dist < light["range"]
-            if light["type"] == 2:  # cos(angle to the axis) > cos outer: the cone is not 0
-                reach &= to_p @ light["direction"] > light["cos_outer"] * dist
+            reach = dist < light.range
+            if (
+                light.type == LightType.SPOT
+            ):  # cos(angle to the axis) > cos outer: the cone is not 0
+                reach &= to_p @ light.direction > light.cos_outer * dist
             needed[tile_y[reach], tile_x[reach], j] = True
         return needed
 

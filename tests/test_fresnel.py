@@ -18,6 +18,7 @@ import re
 import numpy as np
 import pytest
 
+from app.common.ior import f0_conductor, f0_from_ior, ior_from_f0
 from app.gl.kernel import run_kernel
 from app.reference.fresnel import (
     F_conductor,
@@ -26,14 +27,10 @@ from app.reference.fresnel import (
     F_schlick_generalized,
     cos_theta_schlick,
     critical_cos,
-    f0_conductor,
-    f0_from_ior,
     fresnel_schlick_max_error,
-    generated_markdown,
-    ior_from_f0,
-    schlick_error_rows,
 )
 from app.scene.presets import MEDIUM_IOR, PRESETS, preset_table
+from scripts.fresnel_tables import generated_markdown, schlick_error_rows
 from tests.agreement import relative_error
 from tests.conftest import REPO
 
@@ -488,10 +485,10 @@ def test_schlick_against_the_exact_equations() -> None:
 
 
 def test_docs_tables_are_generated() -> None:
-    """docs/fresnel.md carries the current output of ``python -m app.reference.fresnel``."""
+    """docs/fresnel.md carries the current output of ``scripts/fresnel_tables.py``."""
     text = (REPO / "docs" / "fresnel.md").read_text(encoding="utf-8")
     m = re.search(r"<!-- generated: begin -->\n(.*)\n<!-- generated: end -->", text, re.S)
     assert m, "docs/fresnel.md lacks the generated markers"
     assert m.group(1).strip() == generated_markdown().strip(), (
-        "docs/fresnel.md is stale: regenerate with python -m app.reference.fresnel"
+        "docs/fresnel.md is stale: regenerate with scripts/fresnel_tables.py"
     )

@@ -36,7 +36,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.cli import main
-from app.reference.model import (
+from app.common.models import (
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,

@@ -84,7 +84,7 @@ def _render(gl: GLContext, tmp_path: Path, mesh: trimesh.Trimesh, name: str, ext
 def _centre(g: GBufferData) -> tuple[np.ndarray, np.ndarray, float]:
     h, w = g.depth.shape
     assert g.depth[h // 2, w // 2] > 0.0, "the mesh does not cover the centre pixel"
-    return g.albedo[h // 2, w // 2], g.normal[h // 2, w // 2], float(g.depth[h // 2, w // 2])
+    return g.base_color[h // 2, w // 2], g.normal[h // 2, w // 2], float(g.depth[h // 2, w // 2])
 
 
 def test_trimesh_quantises_base_color_factor_to_uint8() -> None:
@@ -160,8 +160,8 @@ def test_glb_texture_orientation(gl_egl: GLContext, tmp_path: Path) -> None:
     g = _render(gl_egl, tmp_path, _quad(material), "quad.glb")
     rows = np.nonzero(g.depth[:, SIZE[0] // 2] > 0.0)[0]
     assert len(rows) > 16
-    upper = g.albedo[rows[len(rows) // 4], SIZE[0] // 2, :3]
-    lower = g.albedo[rows[3 * len(rows) // 4], SIZE[0] // 2, :3]
+    upper = g.base_color[rows[len(rows) // 4], SIZE[0] // 2, :3]
+    lower = g.base_color[rows[3 * len(rows) // 4], SIZE[0] // 2, :3]
     np.testing.assert_allclose(upper, [1.0, 0.0, 0.0], atol=1e-2)
     np.testing.assert_allclose(lower, [0.0, 0.0, 1.0], atol=1e-2)
 

@@ -17,6 +17,7 @@ import moderngl
 import numpy as np
 import pytest
 
+from app.common import tables
 from app.gl.kernel import run_kernel
 from app.reference import multiscatter as ms
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
@@ -26,7 +27,7 @@ from app.reference.specular import f_spec_GGX
 from app.render.tables import ms_texture
 from tests.agreement import relative_error
 
-SIZE = ms.DEFAULT_SIZE
+SIZE = tables.DEFAULT_SIZE
 MAX_REL_ERR = 1e-4
 INCLUDES = ["common/constants.glsl", "brdf/multiscatter.glsl"]
 
@@ -59,14 +60,14 @@ def l_at(mu: float) -> np.ndarray:
 # --- the table -------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("size", ms.SHIPPED_SIZES)
+@pytest.mark.parametrize("size", tables.SHIPPED_SIZES)
 def test_shipped_table_is_a_fresh_computation(size: int) -> None:
-    """app/reference/data/ms_table_{size}.npy is what compute_tables gives now, to float32
+    """app/common/data/ms_table_{size}.npy is what compute_tables gives now, to float32
     rounding: four rows (the floor, its neighbour, the middle, r = 1) recomputed in full
     (E and E_avg; the whole 64 x 64 table takes ~10 s, the same code path)."""
     table = ms.load_table(size)
     assert table.dtype == np.float32 and table.shape == (size, size, 2)
-    assert ms.table_path(size).stat().st_size == 128 + table.nbytes  # .npy header + data
+    assert tables.table_path(size).stat().st_size == 128 + table.nbytes  # .npy header + data
     rows = [0, 1, size // 2, size - 1]
     E, E_avg = ms.compute_tables(size, size, rows=rows)
     np.testing.assert_allclose(table[rows], ms.pack_table(E, E_avg), rtol=2.0**-23, atol=0)
@@ -83,7 +84,7 @@ def test_other_sizes_are_computed_once_and_cached(tmp_path, monkeypatch) -> None
     ms.load_table.cache_clear()
     try:
         t = ms.load_table(3)
-        path = tmp_path / "pbs-lab" / f"ms_table_3_v{ms.CACHE_VERSION}.npy"
+        path = tmp_path / "pbs-lab" / f"ms_table_3_v{tables.CACHE_VERSION}.npy"
         assert path.is_file()
         np.testing.assert_array_equal(np.load(path), t)
         assert t.shape == (3, 3, 2) and not t.flags.writeable

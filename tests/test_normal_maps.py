@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
+import app.frame as frame_module
 from app.gl.context import GLContext
 from app.gl.kernel import run_kernel
 from app.reference.encoding import oct_decode
 from app.reference.normal_mapping import perturb_normal, tangent_space_normal
-from app.render import renderer as renderer_module
 from app.render.renderer import Renderer
 from app.scene.geometry import build_parts
 from app.scene.loader import load_scene
@@ -84,7 +84,7 @@ def test_normal_map_tilts_the_world_normal(
                 part.model = np.diag([-1.0, 1.0, 1.0, 1.0]) @ part.model
             return parts
 
-        monkeypatch.setattr(renderer_module, "build_parts", mirrored_parts)
+        monkeypatch.setattr(frame_module, "build_parts", mirrored_parts)
     r = Renderer(gl_egl, load_scene(scene))
     try:
         r.render()

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.bench.pairs import light_pairs, surface_positions
+from app.common.lights import LightType
 from app.gl.context import GLContext
 from app.reference.encoding import oct_decode
 from app.render.renderer import Renderer
@@ -27,13 +28,13 @@ def _lit_side(p: np.ndarray, n: np.ndarray, lights: list[dict]) -> np.ndarray:
     inside its outer cone) from the side its normal faces (n.l > 0)."""
     out = np.zeros(len(p), bool)
     for light in lights:
-        if light["type"] == 0:
+        if light.type == LightType.DIRECTIONAL:
             continue
-        d = np.asarray(light["position"], np.float64) - p
+        d = np.asarray(light.position, np.float64) - p
         dist = np.linalg.norm(d, axis=-1)
-        ok = (dist < light["range"]) & (np.sum(n * d, axis=-1) > 0.0)
-        if light["type"] == 2:
-            ok &= -(d @ np.asarray(light["direction"], np.float64)) > light["cos_outer"] * dist
+        ok = (dist < light.range) & (np.sum(n * d, axis=-1) > 0.0)
+        if light.type == LightType.SPOT:
+            ok &= -(d @ np.asarray(light.direction, np.float64)) > light.cos_outer * dist
         out |= ok
     return out
 
@@ -53,7 +54,7 @@ def test_local_lights_add_exactly_nothing_beyond_their_reach(gl_egl: GLContext) 
         covered, p = surface_positions(g, r.camera)
         lit = _lit_side(p, oct_decode(np.asarray(g.normal[..., :2], np.float64))[covered],
                         r.lights)  # fmt: skip
-        directional = sum(1 for light in r.lights if light["type"] == 0)
+        directional = sum(1 for light in r.lights if light.type == LightType.DIRECTIONAL)
     finally:
         r.release()
     lights = [x for x in loaded.scene.lights if x.type == "directional"]

@@ -40,15 +40,14 @@ from app.brdf import (
     run_material_kernel,
     surface_texels,
 )
+from app.common.models import MaterialParams, pack_model_params, unpack_model_params
 from app.gl.context import GLContext
 from app.gl.kernel import run_kernel
 from app.reference import material as ref_material
 from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, PI
 from app.reference.encoding import oct_decode, oct_encode
-from app.reference.model import pack_model_params, unpack_model_params
 from app.reference.ndf import gtr_peak
 from app.reference.punctual import LIGHT_MIN_DISTANCE
-from app.scene.model import MaterialParams
 from tests.agreement import relative_error
 from tests.test_brdf_models import MODELS
 

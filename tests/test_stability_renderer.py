@@ -32,10 +32,8 @@ import pytest
 from PIL import Image
 
 from app.cli import main
-from app.gl.context import GLContext
-from app.reference.encoding import oct_decode
-from app.reference.illumination import pixel_ndc, shade_gbuffer
-from app.reference.model import (
+from app.common.lights import LightType
+from app.common.models import (
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
@@ -43,6 +41,9 @@ from app.reference.model import (
     LAMBDA_FORMS,
     NDF_MODELS,
 )
+from app.gl.context import GLContext
+from app.reference.encoding import oct_decode
+from app.reference.illumination import pixel_ndc, shade_gbuffer
 from app.reference.position import reconstruct_position
 from app.render.debug import DIM, KIND_COLORS, classify, describe, nan_debug_image
 from app.render.gbuffer import GBufferData
@@ -137,16 +138,16 @@ def _spot_edge_and_in_plane_lights(r: Renderer, g: GBufferData) -> np.ndarray:
     )  # fmt: skip
     ill = np.zeros(depth.shape, bool)
     for light in r.lights:
-        if light["type"] == 0:
+        if light.type == LightType.DIRECTIONAL:
             continue
-        d = light["position"] - p
-        if light["type"] == 2:  # spot: within the clamped transition of the cone
-            cos = -np.sum(d * light["direction"], axis=-1) / np.linalg.norm(d, axis=-1)
-            width = max(light["cos_inner"] - light["cos_outer"], 1e-4)
-            ill |= covered & (np.abs(cos - light["cos_outer"] - 0.5 * width) < 0.5 * width + 1e-5)
+        d = light.position - p
+        if light.type == LightType.SPOT:  # spot: within the clamped transition of the cone
+            cos = -np.sum(d * light.direction, axis=-1) / np.linalg.norm(d, axis=-1)
+            width = max(light.cos_inner - light.cos_outer, 1e-4)
+            ill |= covered & (np.abs(cos - light.cos_outer - 0.5 * width) < 0.5 * width + 1e-5)
         # within the range of a light that lies within 10 um of the surface's tangent plane
         height = np.abs(np.sum(d * normal, axis=-1))
-        ill |= covered & (np.linalg.norm(d, axis=-1) < light["range"]) & (height < 1e-5)
+        ill |= covered & (np.linalg.norm(d, axis=-1) < light.range) & (height < 1e-5)
     return ill
 
 

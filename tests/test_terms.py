@@ -31,7 +31,7 @@ def _render(gl: GLContext, terms: str) -> tuple[np.ndarray, ...]:
     finally:
         r.release()
     covered = g.depth > 0.0
-    return hdr, twin, covered, covered & (np.asarray(g.albedo)[..., 3] > 0.5)
+    return hdr, twin, covered, covered & (np.asarray(g.base_color)[..., 3] > 0.5)
 
 
 @pytest.fixture(scope="module")

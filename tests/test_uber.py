@@ -22,8 +22,7 @@ import itertools
 import numpy as np
 import pytest
 
-from app.gl.kernel import run_kernel
-from app.reference.model import (
+from app.common.models import (
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
@@ -37,7 +36,10 @@ from app.reference.model import (
     pack_model_params,
     unpack_model,
 )
-from app.render.renderer import Renderer
+from app.frame import prepare_frame
+from app.gl.kernel import run_kernel
+from app.reference.multiscatter import load_table
+from app.render.renderer import Renderer, RenderOptions
 from app.resources import scenes_dir
 from app.scene.loader import load_scene
 from tests.agreement import relative_error
@@ -71,18 +73,14 @@ CHOICES = {
 
 def _models_of(name: str) -> list[Model]:
     """The scene's model groups, from the renderer's own material table."""
-    from app.render.gbuffer import material_table
-    from app.scene.geometry import build_parts
-
-    table, _ = material_table(build_parts(load_scene(scenes_dir() / f"{name}.toml")))
-    return table.models
+    return prepare_frame(load_scene(scenes_dir() / f"{name}.toml")).materials.models
 
 
 def _render(gl, name: str, uber: bool, codes: bool = True) -> tuple[np.ndarray, np.ndarray, int]:
     """HDR image, covered mask and number of lighting programs; ``codes=False`` zeroes the
     uber shader's model codes in the uploaded table (every material then reads as the
     standard model)."""
-    r = Renderer(gl, load_scene(scenes_dir() / f"{name}.toml"), SIZE, uber=uber)
+    r = Renderer(gl, load_scene(scenes_dir() / f"{name}.toml"), SIZE, RenderOptions(uber=uber))
     try:
         if not codes:
             packed = r.materials.packed()
@@ -220,7 +218,7 @@ def test_uber_pass_compiles_every_table(gl_egl):
     no such sampler."""
     loaded = load_scene(scenes_dir() / "sec8_ndf.toml")
     for uber, expect in ((False, False), (True, True)):
-        r = Renderer(gl_egl, loaded, (64, 32), uber=uber)
+        r = Renderer(gl_egl, loaded, (64, 32), RenderOptions(uber=uber))
         try:
             assert any("u_ms_table" in prog for prog in r.lighting.programs) is expect
             assert (r.lighting.ms_table is not None) is expect
@@ -228,13 +226,14 @@ def test_uber_pass_compiles_every_table(gl_egl):
             r.release()
 
 
-def test_ms_table_size_keyword(gl_egl):
-    """Renderer(ms_table_size=n) binds the n x n Kulla-Conty table (default: the shipped
-    64 x 64), and the image changes with it (the interpolation error differs)."""
+def test_ms_table_option(gl_egl):
+    """RenderOptions(ms_table=load_table(n)) binds the n x n Kulla-Conty table (default: the
+    shipped 64 x 64), and the image changes with it (the interpolation error differs)."""
     loaded = load_scene(scenes_dir() / "sec8_furnace.toml")
     images = {}
     for size in (None, 16):
-        r = Renderer(gl_egl, loaded, SIZE, ms_table_size=size)
+        table = None if size is None else load_table(size)
+        r = Renderer(gl_egl, loaded, SIZE, RenderOptions(ms_table=table))
         try:
             assert r.lighting.ms_table.size == ((64, 64) if size is None else (16, 16))
             r.render()

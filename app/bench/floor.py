@@ -23,9 +23,9 @@ import moderngl
 import numpy as np
 
 from app.bench.pairs import LightPairs
-from app.reference.material import BRDF_TERMS
+from app.common.models import BRDF_TERMS
+from app.frame.camera import gl_bytes
 from app.render.renderer import Renderer
-from app.scene.camera import gl_bytes
 
 
 def pixel_masks(pairs: LightPairs, quads: int) -> np.ndarray:
@@ -84,7 +84,7 @@ class FloorPass:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         self.fbo.clear(*(float(x) for x in r.scene.background), 1.0)
         textures = [
-            ("g_albedo", r.gbuffer.albedo),
+            ("g_albedo", r.gbuffer.base_color),
             ("g_normal", r.gbuffer.normal),
             ("g_depth", r.gbuffer.depth),
             *([("g_tangent", r.gbuffer.tangent)] if r.gbuffer.tangent is not None else []),

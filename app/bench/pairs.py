@@ -20,16 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.reference._vec import normalize
+from app.common.camera import CameraFrame
+from app.common.gbuffer import GBufferData
+from app.common.lights import LightType, PunctualLight
+from app.common.models import Model, unpack_model_params
 from app.reference.constants import PI
-from app.reference.encoding import oct_decode
-from app.reference.illumination import pixel_ndc
-from app.reference.material import Surface, brdf_eval, sanitize_direction, sanitize_surface
-from app.reference.model import Model, unpack_model_params
+from app.reference.illumination import decode_gbuffer, pixel_ndc
+from app.reference.material import brdf_eval
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
-from app.render.gbuffer import GBufferData
-from app.scene.camera import CameraFrame
 
 PIXEL_CHUNK = 8192  # pixels per distance block: PIXEL_CHUNK x lights float64 at a time
 
@@ -64,15 +63,10 @@ class LightPairs:
         return np.repeat(np.arange(flat.size, dtype=np.int64), flat)
 
 
-def covered_pixels(depth: np.ndarray) -> np.ndarray:
-    """(H, W) bool: pixels the lighting pass shades (a finite, positive view depth)."""
-    return np.isfinite(depth) & (depth > 0.0)
-
-
 def surface_positions(gbuffer: GBufferData, camera: CameraFrame) -> tuple[np.ndarray, np.ndarray]:
     """(covered (H, W) bool, world positions (C, 3) float64 of the covered pixels, row-major)."""
     depth = gbuffer.depth
-    covered = covered_pixels(depth)
+    covered = gbuffer.covered
     p = reconstruct_position(
         pixel_ndc(*depth.shape)[covered], depth[covered], camera.position,
         camera.camera_to_world, camera.tan_half_fov,
@@ -117,17 +111,19 @@ def in_range_mask(p: np.ndarray, centres: np.ndarray, ranges: np.ndarray) -> np.
     return mask
 
 
-def light_pairs(gbuffer: GBufferData, camera: CameraFrame, lights: list[dict]) -> LightPairs:
+def light_pairs(
+    gbuffer: GBufferData, camera: CameraFrame, lights: list[PunctualLight]
+) -> LightPairs:
     """The exact per-pixel light lists of a G-buffer (see the module docstring)."""
     covered, p = surface_positions(gbuffer, camera)
     h, w = covered.shape
-    local = np.array([i for i, r in enumerate(lights) if r["type"] != 0], np.int64)
-    directional = np.array([i for i, r in enumerate(lights) if r["type"] == 0], np.int64)
-    centres = np.array([lights[i]["position"] for i in local], np.float64).reshape(-1, 3)
-    ranges = np.array([lights[i]["range"] for i in local], np.float64)
-    spot = np.array([lights[i]["type"] == 2 for i in local], bool)
-    axes = np.array([lights[i]["direction"] for i in local], np.float64).reshape(-1, 3)
-    cos_outer = np.array([lights[i].get("cos_outer", -2.0) for i in local], np.float64)
+    local = np.array([i for i, x in enumerate(lights) if x.is_local], np.int64)
+    directional = np.array([i for i, x in enumerate(lights) if not x.is_local], np.int64)
+    centres = np.array([lights[i].position for i in local], np.float64).reshape(-1, 3)
+    ranges = np.array([lights[i].range for i in local], np.float64)
+    spot = np.array([lights[i].type == LightType.SPOT for i in local], bool)
+    axes = np.array([lights[i].direction for i in local], np.float64).reshape(-1, 3)
+    cos_outer = np.array([lights[i].cos_outer for i in local], np.float64)
     per_pixel_lights: list[np.ndarray] = []
     counts = np.zeros(len(p), np.int64)
     for start in range(0, len(p), PIXEL_CHUNK):
@@ -159,7 +155,7 @@ def light_pairs(gbuffer: GBufferData, camera: CameraFrame, lights: list[dict]) -
 def reference_hdr(
     gbuffer: GBufferData,
     camera: CameraFrame,
-    lights: list[dict],
+    lights: list[PunctualLight],
     background: np.ndarray,
     models: list[Model],
     table: np.ndarray,
@@ -169,17 +165,10 @@ def reference_hdr(
     """The lighting pass's image in float64, (H, W, 3): app.reference.illumination's
     shade_gbuffer (sanitising included), restricted to the in-range pairs when ``pairs`` is
     given (the lights left out add exactly 0), and with a chosen multiple-scattering table."""
-    albedo = np.asarray(gbuffer.albedo, np.float64)
-    normal = np.asarray(gbuffer.normal, np.float64)
-    tangent = np.asarray(gbuffer.tangent, np.float64)
-    covered, p = surface_positions(gbuffer, camera)
+    g = decode_gbuffer(gbuffer, camera)  # as the lighting pass, sanitising included
+    covered, p, ids = g.covered, g.p, g.material_id
     h, w = covered.shape
     out = np.broadcast_to(np.asarray(background, np.float64), (h, w, 3)).copy()
-    a, b, c = albedo[covered], normal[covered], tangent[covered]
-    ids = c[:, 3].astype(np.int64)
-    t_all = oct_decode(c[:, :2])
-    v_all = normalize(camera.position - p)
-    n_all = sanitize_direction(oct_decode(b[:, :2]), v_all)  # as the lighting pass
     Lo = np.zeros((len(p), 3))
     # Pairs as (covered-pixel index, light index), grouped by light.
     if pairs is None:
@@ -203,14 +192,14 @@ def reference_hdr(
                 sel = sel[in_row[sel]]
             if sel.size == 0:
                 continue
-            s = sanitize_surface(Surface(a[sel, :3], a[sel, 3], b[sel, 2], b[sel, 3], c[sel, 2]))
+            s = g.surface.select(sel)
             c_light, l = light_at(light, p[sel])
-            n = n_all[sel]
+            n = g.n[sel]
             NoL = np.einsum("ij,ij->i", n, l)
             lit = NoL > 0.0
             if not np.any(lit):
                 continue
-            f = brdf_eval(s, params, model, n, t_all[sel], l, v_all[sel], ms_table)
+            f = brdf_eval(s, params, model, n, g.t[sel], l, g.v[sel], ms_table)
             Lo[sel] += np.where(lit[:, None], f * c_light * NoL[:, None], 0.0)
     out[covered] = PI * Lo
     return out

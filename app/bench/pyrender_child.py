@@ -47,7 +47,7 @@ def _build(request: dict):
     import pyrender
 
     from app.bench.scenes import load
-    from app.scene.camera import view_matrix
+    from app.frame.camera import view_matrix
     from app.scene.geometry import build_parts
 
     loaded = load(request["scene"])

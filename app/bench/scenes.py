@@ -21,9 +21,10 @@ import math
 import numpy as np
 
 from app.bench.pairs import in_cone_mask, surface_positions
+from app.common.lights import LightType
+from app.frame.lights import light_record
 from app.gl.context import GLContext
 from app.render.renderer import Renderer
-from app.scene.lights import light_record
 from app.scene.loader import parse_scene
 
 FIELD_HALF = 14.0  # lights lie over [-14, 14]^2 m
@@ -128,9 +129,9 @@ def calibrate_range(
     finally:
         renderer.release()
     records = [light_record(light) for light in loaded.scene.lights]
-    centres = np.array([r["position"] for r in records], np.float64)
-    axes = np.array([r["direction"] for r in records], np.float64)
-    cos_outer = np.array([r["cos_outer"] if r["type"] == 2 else -2.0 for r in records])
+    centres = np.array([r.position for r in records], np.float64)
+    axes = np.array([r.direction for r in records], np.float64)
+    cos_outer = np.array([r.cos_outer if r.type == LightType.SPOT else -2.0 for r in records])
     # |p - c|^2 by expansion (one matrix product): its rounding is irrelevant to a range.
     d2 = (p * p).sum(axis=1)[:, None] + (centres * centres).sum(axis=1)[None, :]
     d = np.sqrt(np.maximum(d2 - 2.0 * (p @ centres.T), 0.0))

@@ -28,8 +28,9 @@ import numpy as np
 from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.filtering import SWEEP_METRES, render_hdr, shimmer, with_settings
 from app.bench.floor import FloorPass
+from app.bench.forward import ForwardRenderer
 from app.bench.metrics import image_errors
-from app.bench.pairs import LightPairs, covered_pixels, light_pairs, reference_hdr
+from app.bench.pairs import LightPairs, light_pairs, reference_hdr
 from app.bench.progress import Progress
 from app.bench.scenes import (
     SPECIALIZATION_KINDS,
@@ -49,11 +50,11 @@ from app.bench.timing import (
     time_frames,
     time_interleaved,
 )
+from app.common.tables import DEFAULT_SIZE
 from app.gl.context import GLContext
-from app.reference.multiscatter import DEFAULT_SIZE
+from app.reference.multiscatter import load_table
 from app.render.culling import TILE_SIZE
-from app.render.forward import ForwardRenderer
-from app.render.renderer import Renderer
+from app.render.renderer import Renderer, RenderOptions
 from app.resources import scenes_dir
 from app.scene.loader import load_scene
 
@@ -227,7 +228,7 @@ def f32_reference(gl: GLContext, data: dict, pairs: LightPairs) -> tuple[np.ndar
         )  # fmt: skip
     finally:
         exact.release()
-    return ref, covered_pixels(g32.depth)
+    return ref, g32.covered
 
 
 def deferred_passes(r: Renderer) -> list[Pass]:
@@ -531,7 +532,8 @@ def accuracy_tasks(settings: Settings) -> int:
 def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
     # The GLSL reads the multiple-scattering table's size from the texture.
     scene = load(accuracy_scene(size, variant.model, variant.gbuffer))
-    return Renderer(ctx.gl, scene, size, ms_table_size=variant.ms_size)
+    ms_table = None if variant.ms_size is None else load_table(variant.ms_size)
+    return Renderer(ctx.gl, scene, size, RenderOptions(ms_table=ms_table))
 
 
 def run_accuracy(ctx: Context) -> None:
@@ -546,8 +548,6 @@ def run_accuracy(ctx: Context) -> None:
             g = ref_r.read_gbuffer()
             ms_table = None
             if comp.ms_reference is not None:
-                from app.reference.multiscatter import load_table
-
                 ms_table = load_table(comp.ms_reference)
             scene = ref_r.scene
             ref = reference_hdr(
@@ -556,7 +556,7 @@ def run_accuracy(ctx: Context) -> None:
             )  # fmt: skip
         finally:
             ref_r.release()
-        covered = covered_pixels(g.depth)
+        covered = g.covered
         ctx.progress.done()
         ctx.progress.start(f"accuracy {comp.name}: {', '.join(v.name for v in comp.variants)}")
         renderers = {v.name: _accuracy_renderer(ctx, v, size) for v in comp.variants}
@@ -670,7 +670,8 @@ def run_specialization(ctx: Context) -> None:
         pending: list[dict] = []
         ctx.progress.start(f"specialization {kind}: {', '.join(SPECIALIZATION_VARIANTS)}")
         renderers = {
-            v: Renderer(ctx.gl, loaded, size, uber=v == "uber") for v in SPECIALIZATION_VARIANTS
+            v: Renderer(ctx.gl, loaded, size, RenderOptions(uber=v == "uber"))
+            for v in SPECIALIZATION_VARIANTS
         }
         try:
             times = ctx.time_interleaved({v: deferred_passes(r) for v, r in renderers.items()})

@@ -16,12 +16,12 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from app.common.models import MaterialParams, pack_model_params, unpack_model_params
 from app.errors import InputError
 from app.gl.context import GLContext, create_context
 from app.gl.kernel import run_kernel
 from app.reference.material import Surface, brdf_eval
-from app.reference.model import pack_model_params, unpack_model_params
-from app.scene.model import Material, MaterialParams
+from app.scene.model import Material
 
 Backend = Literal["glsl", "reference"]
 

@@ -29,12 +29,12 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from app.brdf import Backend, evaluate
+from app.common.models import MaterialParams
 from app.errors import InputError
 from app.gl.context import GLContext
 from app.output import atomic_write
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.quadrature import direction, directional_albedo, reflected_rule
-from app.scene.model import MaterialParams
 from app.scene.presets import PRESETS
 
 if TYPE_CHECKING:

@@ -1,14 +1,15 @@
 """Twin of glsl/brdf/fresnel.glsl: Fresnel reflectance terms.
 
-Besides the twins of the GLSL functions this module holds the index <-> F0 helpers the
-presets use and the comparison of Schlick's approximation with the exact Fresnel
-equations that docs/fresnel.md reports. ``python -m app.reference.fresnel`` prints the
-generated part of that document (the preset and the Schlick-error tables) as markdown.
+Besides the twins of the GLSL functions this module measures Schlick's approximation
+against the exact Fresnel equations (``fresnel_schlick_max_error``), which
+scripts/fresnel_tables.py turns into the generated tables of docs/fresnel.md.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from app.common.ior import f0_conductor, f0_from_ior
 
 
 def pow5_one_minus(x: np.ndarray) -> np.ndarray:
@@ -118,30 +119,6 @@ def cos_theta_schlick(eta: np.ndarray, cos_theta_i: np.ndarray) -> np.ndarray:
 # --- Index <-> F0 (twin-only helpers) ---------------------------------------------------------
 
 
-def f0_from_ior(n2: np.ndarray, n1: np.ndarray | float = 1.0) -> np.ndarray:
-    """Seed section 5: F0 = ((n1 - n2)/(n1 + n2))^2 for an interface n1 -> n2."""
-    n1 = np.asarray(n1, np.float64)
-    n2 = np.asarray(n2, np.float64)
-    return ((n1 - n2) / (n1 + n2)) ** 2
-
-
-def ior_from_f0(f0: np.ndarray, n1: np.ndarray | float = 1.0) -> np.ndarray:
-    """Inverse of ``f0_from_ior`` for a body in a medium n1: the root n2 > n1.
-
-    n2 = n1 (1 + sqrt F0)/(1 - sqrt F0) (the other root, n1 (1 - sqrt F0)/(1 + sqrt F0),
-    is the same F0 seen from inside: F0 does not tell the two sides apart).
-    """
-    s = np.sqrt(np.asarray(f0, np.float64))
-    return np.asarray(n1, np.float64) * (1.0 + s) / (1.0 - s)
-
-
-def f0_conductor(eta: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """Normal-incidence reflectance of the index eta + i k: ((eta-1)^2 + k^2)/((eta+1)^2 + k^2)."""
-    eta = np.asarray(eta, np.float64)
-    k = np.asarray(k, np.float64)
-    return ((eta - 1.0) ** 2 + k * k) / ((eta + 1.0) ** 2 + k * k)
-
-
 def critical_cos(eta: np.ndarray) -> np.ndarray:
     """cos(theta_c) = sqrt(1 - eta^2) for internal reflection (eta < 1); 0 for eta >= 1."""
     eta = np.asarray(eta, np.float64)
@@ -191,177 +168,3 @@ def fresnel_schlick_max_error(
     i = np.argmax(np.abs(err), axis=0)
     cols = np.arange(len(eta))
     return np.abs(err[i, cols]), theta[i], err[i, cols]
-
-
-# --- Generated tables for docs/fresnel.md ---------------------------------------------------------
-
-
-def _fmt3(v: tuple[float, ...] | None, spec: str = ".4f") -> str:
-    """One number if all channels agree, else a comma-separated triple; no '-0.0000'."""
-    if v is None:
-        return "-"
-
-    def one(x: float) -> str:
-        text = f"{x:{spec}}"
-        return text.lstrip("+-") if float(text) == 0.0 else text
-
-    if max(v) - min(v) == 0.0:
-        return one(v[0])
-    return ", ".join(one(x) for x in v)
-
-
-def preset_markdown() -> str:
-    """The preset table: seed F0, index, F0 from the index, difference (markdown)."""
-    from app.scene.presets import preset_table
-
-    lines = [
-        "| preset | medium | kind | seed F0 | index (n, or n + ik for R, G, B) "
-        "| F0 from index | difference | index source |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for row in preset_table():
-        if row["ior"] is not None:
-            index = f"{row['ior']:.4f}"
-        elif row["eta"] is not None:
-            index = "; ".join(
-                f"{n:.3f} + {k:.3f}i" for n, k in zip(row["eta"], row["k"], strict=True)
-            )
-        else:
-            index = "-"
-        lines.append(
-            f"| {row['name']} | {row['medium']} | {row['kind']} | {_fmt3(row['seed_f0'], '.4g')} "
-            f"| {index} | {_fmt3(row['f0_index'], '.4g')} | {_fmt3(row['difference'], '+.4f')} "
-            f"| {row['index_source']} |"
-        )
-    return "\n".join(lines)
-
-
-def schlick_error_rows() -> list[dict]:
-    """Schlick's largest error over angle for every preset with an index.
-
-    Dielectrics: external reflection (from the medium into the body) and internal
-    reflection (from inside the body out into the medium, eta = n_medium/n), the latter
-    with Schlick given the transmitted cosine ("internal") and the incident one
-    ("internal, cos_i"). Conductors: external only, per RGB channel.
-    """
-    from app.scene.presets import PRESETS
-
-    rows = []
-    for p in PRESETS.values():
-        if p.ior is not None:
-            cases = (
-                ("external", p.ior / p.medium_ior, True),
-                ("internal", p.medium_ior / p.ior, True),
-                ("internal, cos_i", p.medium_ior / p.ior, False),
-            )
-            for case, eta, transmitted in cases:
-                err, at, signed = fresnel_schlick_max_error(
-                    np.array([eta]), transmitted_cos=transmitted
-                )
-                rows.append(
-                    {
-                        "name": p.name, "medium": p.medium, "case": case, "eta": (eta,),
-                        "max_error": (float(err[0]),), "angle_deg": (float(at[0]),),
-                        "signed": (float(signed[0]),),
-                    }
-                )  # fmt: skip
-        elif p.eta is not None:
-            eta = np.array(p.eta) / p.medium_ior
-            k = np.array(p.k) / p.medium_ior
-            err, at, signed = fresnel_schlick_max_error(eta, k)
-            rows.append(
-                {
-                    "name": p.name, "medium": p.medium, "case": "conductor",
-                    "eta": tuple(eta), "max_error": tuple(map(float, err)),
-                    "angle_deg": tuple(map(float, at)), "signed": tuple(map(float, signed)),
-                }
-            )  # fmt: skip
-    return rows
-
-
-def schlick_markdown() -> str:
-    """The Schlick-vs-exact table and a generated summary (markdown)."""
-    rows = schlick_error_rows()
-    lines = [
-        "| preset | medium | case | relative index | max \\|Schlick - exact\\| "
-        "| at angle (deg) | signed error there |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        lines.append(
-            f"| {r['name']} | {r['medium']} | {r['case']} | {_fmt3(r['eta'])} "
-            f"| {_fmt3(r['max_error'])} | {_fmt3(r['angle_deg'], '.1f')} "
-            f"| {_fmt3(r['signed'], '+.4f')} |"
-        )
-
-    def extreme(case: str, medium: str | None = None, pick=max) -> tuple[float, str, float]:
-        found = [
-            (e, f"{r['name']} ({r['medium']})", a)
-            for r in rows
-            if r["case"] == case and medium in (None, r["medium"])
-            for e, a in zip(r["max_error"], r["angle_deg"], strict=True)
-        ]
-        return pick(found)
-
-    def say(x: tuple[float, str, float]) -> str:
-        return f"{x[0]:.4f} ({x[1]}, at {x[2]:.1f} deg)"
-
-    by = {(r["name"], r["case"]): r["max_error"][0] for r in rows}
-    stokes = max(abs(v - by[(n, "external")]) for (n, c), v in by.items() if c == "internal")
-    outer = [
-        (sign, angle)
-        for r in rows
-        if r["case"] in ("external", "conductor")
-        for sign, angle in zip(r["signed"], r["angle_deg"], strict=True)
-    ]
-    over = sum(sign > 0.0 for sign, _ in outer)
-    angles = [a for _, a in outer]
-    lines += [
-        "",
-        f"Largest error for external reflection from air: {say(extreme('external', 'air'))}; "
-        f"from water: {say(extreme('external', 'water'))}; conductors: "
-        f"{say(extreme('conductor'))}. At {over} of the {len(outer)} external and conductor "
-        f"maxima Schlick overestimates, and all lie between {min(angles):.1f} and "
-        f"{max(angles):.1f} degrees: near grazing the exact curve is still held down by the "
-        "p-polarised reflectance (0 at Brewster's angle), which Schlick's single power "
-        "does not model. For dielectrics the error is smallest near n = 1.6-1.7 and grows "
-        "toward diamond and, steeply, as the relative index approaches 1 (dielectrics in "
-        "water), where the exact reflectance stays near F0 until close to grazing.",
-        "",
-        "For internal reflection Schlick with the transmitted cosine has the same largest "
-        f"error as for external reflection (largest difference {stokes:.1e}): the exact "
-        "and the approximate curve are both reciprocal, F(eta, cos_i) = F(1/eta, cos_t). "
-        "With the incident cosine instead, Schlick misses total internal reflection: "
-        f"error at least {say(extreme('internal, cos_i', pick=min))}.",
-    ]
-    return "\n".join(lines)
-
-
-def generated_markdown() -> str:
-    """Everything between the GENERATED markers of docs/fresnel.md."""
-    from app.scene.presets import WAVELENGTHS_NM
-
-    nm = ", ".join(f"{w:g}" for w in WAVELENGTHS_NM)
-    return "\n".join(
-        [
-            "### Presets: seed F0 against the F0 of the index",
-            "",
-            f"Metals and silicon: n + ik interpolated linearly at {nm} nm (R, G, B). "
-            'Dielectrics: one real index. "in water" rows use the relative index '
-            "n / 1.33 (and k / 1.33); rows without a seed F0 are derived from the index.",
-            "",
-            preset_markdown(),
-            "",
-            "### Schlick against the exact Fresnel equations",
-            "",
-            "Largest |F_schlick(F0, cos) - F_exact(cos)| over 0-90 degrees in 0.001 degree "
-            "steps (plus the critical angle), with F0 = F_exact(1); internal reflection "
-            "passes Schlick the transmitted cosine (`cos_theta_schlick`).",
-            "",
-            schlick_markdown(),
-        ]
-    )
-
-
-if __name__ == "__main__":
-    print(generated_markdown())

@@ -1,26 +1,26 @@
-"""Twin of glsl/passes/lighting.frag: the illumination sum over a read-back G-buffer.
+"""Twin of glsl/lights/illumination.glsl and the G-buffer decode of the lighting pass: the
+illumination sum over a read-back G-buffer.
 
-``L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+`` (seed section 4), in float64, from
-the very G-buffer values the GPU shaded, so the comparison isolates the lighting pass.
+``L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+`` (RTR4 §9.4, eq. 9.13), in float64,
+from the very G-buffer values the GPU shaded, so the comparison isolates the lighting pass.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 
+from app.common.camera import CameraFrame
+from app.common.gbuffer import GBufferData
+from app.common.lights import PunctualLight
+from app.common.models import Model, ModelParams, unpack_model_params
 from app.reference._vec import dot, normalize
 from app.reference.constants import PI
 from app.reference.encoding import oct_decode
 from app.reference.material import Surface, brdf_eval, sanitize_direction, sanitize_surface
-from app.reference.model import Model, ModelParams, unpack_model_params
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
-from app.scene.camera import CameraFrame
-
-if TYPE_CHECKING:
-    from app.render.gbuffer import GBufferData
 
 
 def illumination_sum(
@@ -31,10 +31,10 @@ def illumination_sum(
     t: np.ndarray,
     p: np.ndarray,
     v: np.ndarray,
-    lights: list[dict],
+    lights: list[PunctualLight],
     terms: str = "all",
 ) -> np.ndarray:
-    """Seed section 4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
+    """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
     ``terms`` as in ``brdf_eval``."""
     Lo = np.zeros(np.shape(p), np.float64)
     for light in lights:
@@ -55,10 +55,44 @@ def pixel_ndc(height: int, width: int) -> np.ndarray:
     return np.stack(np.broadcast_arrays(x[None, :], y[:, None]), axis=-1)
 
 
+@dataclass
+class DecodedGBuffer:
+    """The covered pixels of a G-buffer as the lighting pass decodes them (C of them, in
+    row-major order): sanitised surface, world position, view, normal and tangent."""
+
+    covered: np.ndarray  # (H, W) bool
+    surface: Surface  # fields (C,) or (C, 3)
+    material_id: np.ndarray  # (C,) int64
+    p: np.ndarray  # (C, 3) world position
+    v: np.ndarray  # (C, 3) unit, towards the camera
+    n: np.ndarray  # (C, 3) unit normal (v where the stored normal is lost)
+    t: np.ndarray  # (C, 3) tangent as stored (brdf_eval orthonormalises it)
+
+
+def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
+    """Twin of the G-buffer decode every lighting pass runs (glsl/gbuffer/): each covered
+    pixel's surface, sanitised as the GLSL sanitises it (docs/stability.md), and its
+    position reconstructed from the view depth at the pixel centre."""
+    depth = gbuffer.depth
+    covered = gbuffer.covered
+    p = reconstruct_position(
+        pixel_ndc(*depth.shape)[covered], depth[covered], camera.position,
+        camera.camera_to_world, camera.tan_half_fov,
+    )  # fmt: skip
+    a = np.asarray(gbuffer.base_color, np.float64)[covered]
+    b = np.asarray(gbuffer.normal, np.float64)[covered]
+    c = np.asarray(gbuffer.tangent, np.float64)[covered]
+    s = sanitize_surface(Surface(a[:, :3], a[:, 3], b[:, 2], b[:, 3], c[:, 2]))
+    v = normalize(camera.position - p)
+    n = sanitize_direction(oct_decode(b[:, :2]), v)
+    ids = gbuffer.material_id[covered].astype(np.int64)
+    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]))
+
+
 def shade_gbuffer(
     gbuffer: GBufferData,
     camera: CameraFrame,
-    lights: list[dict],
+    lights: list[PunctualLight],
     background: np.ndarray,
     models: list[Model],
     table: np.ndarray,
@@ -70,27 +104,16 @@ def shade_gbuffer(
     ``table`` is the material table as packed for the GPU ((M, 4, 4) float32, whose row
     [3][0] is the material's index into ``models``); each pixel's row is its material id.
     """
-    albedo = np.asarray(gbuffer.albedo, np.float64)
-    normal = np.asarray(gbuffer.normal, np.float64)
-    tangent = np.asarray(gbuffer.tangent, np.float64)
-    depth = gbuffer.depth
-    covered = np.isfinite(depth) & (depth > 0.0)
-    out = np.broadcast_to(np.asarray(background, np.float64), (*albedo.shape[:2], 3)).copy()
-    p = reconstruct_position(
-        pixel_ndc(*depth.shape)[covered], depth[covered], camera.position,
-        camera.camera_to_world, camera.tan_half_fov,
-    )  # fmt: skip
-    a, b, c = albedo[covered], normal[covered], tangent[covered]
-    ids = c[:, 3].astype(np.int64)
-    shaded = np.zeros((len(ids), 3))
-    for row in np.unique(ids):
-        sel = ids == row
-        s = sanitize_surface(Surface(a[sel, :3], a[sel, 3], b[sel, 2], b[sel, 3], c[sel, 2]))
-        t = oct_decode(c[sel, :2])
-        v = normalize(camera.position - p[sel])
-        n = sanitize_direction(oct_decode(b[sel, :2]), v)
+    g = decode_gbuffer(gbuffer, camera)
+    out = np.broadcast_to(np.asarray(background, np.float64), (*g.covered.shape, 3)).copy()
+    shaded = np.zeros((len(g.material_id), 3))
+    for row in np.unique(g.material_id):
+        sel = g.material_id == row
         model = models[int(table[row, 3, 0])]
         params = unpack_model_params(table[row])
-        shaded[sel] = illumination_sum(s, params, model, n, t, p[sel], v, lights, terms)
-    out[covered] = shaded
+        shaded[sel] = illumination_sum(
+            g.surface.select(sel), params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel],
+            lights, terms,
+        )  # fmt: skip
+    out[g.covered] = shaded
     return out

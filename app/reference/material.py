@@ -8,17 +8,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.common.models import (
+    BRDF_TERMS,
+    DEFAULT_MODEL,
+    TERM_SPECULAR,
+    Model,
+    ModelParams,
+)
 from app.reference import diffuse, fresnel, masking
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
-from app.reference.model import DEFAULT_MODEL, Model, ModelParams
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
-
-# Seed section 1: which reflections brdf_eval returns (the GLSL's BRDF_TERMS bitmask).
-TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
-TERM_DIFFUSE = 2  # subsurface reflection: f_diffuse
-BRDF_TERMS = {"all": TERM_SPECULAR | TERM_DIFFUSE, "specular": TERM_SPECULAR,
-              "diffuse": TERM_DIFFUSE}  # fmt: skip
 
 
 @dataclass
@@ -30,6 +30,17 @@ class Surface:
     perceptual_roughness: np.ndarray
     f0_dielectric: np.ndarray
     anisotropy: np.ndarray | float = 0.0
+
+    def select(self, sel: np.ndarray) -> Surface:
+        """The points ``sel`` picks out of per-point fields (scalars are kept)."""
+
+        def pick(x: np.ndarray | float) -> np.ndarray | float:
+            return x[sel] if np.ndim(x) else x
+
+        return Surface(
+            pick(self.base_color), pick(self.metallic), pick(self.perceptual_roughness),
+            pick(self.f0_dielectric), pick(self.anisotropy),
+        )  # fmt: skip
 
 
 # --- sanitising what a G-buffer texel delivers (see the GLSL for why and where) ---

@@ -56,7 +56,6 @@ llvmpipe, R32F filtering measured exact; the project does not rely on either.)
 
 from __future__ import annotations
 
-import argparse
 import os
 import tempfile
 from collections.abc import Sequence
@@ -65,18 +64,10 @@ from pathlib import Path
 
 import numpy as np
 
+from app.common.tables import DEFAULT_SIZE, read_ms_table, table_path
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS, PI
 from app.reference.quadrature import N, directional_albedo, gauss_legendre, reflected_rule
 from app.reference.specular import f_spec_GGX
-
-# The renderer's table: 64 x 64 costs the lighting pass what 32 x 32 costs (one bilinear
-# fetch either way) and is 4.6 x more accurate at worst (docs/performance.md, ms_table).
-DEFAULT_SIZE = 64
-# Shipped in app/reference/data: the default, the bench's other size and its reference
-# (128 x 128 takes minutes to compute); other sizes are computed on first use and cached.
-SHIPPED_SIZES = (32, 64, 128)
-DATA_DIR = Path(__file__).resolve().parent / "data"
-CACHE_VERSION = 1  # bump when the grids, the quadrature or the layout change
 
 # Quadrature of one albedo: reflected_rule(l, alpha, QUAD_PSI, QUAD_PHI). Against a
 # (24, 96) rule the difference is at most 1.3e-6 at the two most grazing nodes
@@ -174,20 +165,7 @@ def pack_table(E: np.ndarray, E_avg: np.ndarray) -> np.ndarray:
     return np.stack([1.0 - E, loss_avg], axis=-1).astype(np.float32)
 
 
-# --- files -------------------------------------------------------------------------------
-
-
-def cache_dir() -> Path:
-    """$XDG_CACHE_HOME/pbs-lab (default ~/.cache/pbs-lab), where other sizes are kept."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "pbs-lab"
-
-
-def table_path(size: int) -> Path:
-    """Where the size x size table lives: shipped in app/reference/data, else the cache."""
-    if size in SHIPPED_SIZES:
-        return DATA_DIR / f"ms_table_{size}.npy"
-    return cache_dir() / f"ms_table_{size}_v{CACHE_VERSION}.npy"
+# --- files (where they live: app/common/tables.py) -------------------------------------
 
 
 def _save(path: Path, table: np.ndarray) -> None:
@@ -215,23 +193,15 @@ def generate(size: int) -> Path:
 def load_table(size: int = DEFAULT_SIZE) -> np.ndarray:
     """The float32 (size, size, 2) loss table (read-only), computed and cached on first use.
 
-    The shipped sizes (32, 64, 128) are read from app/reference/data; other sizes come from
+    The shipped sizes (32, 64, 128) are read from app/common/data; other sizes come from
     the cache directory, or are computed (seconds to minutes) and stored there.
     """
     if size < 2:
         raise ValueError(f"a table needs at least 2 nodes per axis, not {size}")
     path = table_path(size)
-    if path.is_file():
-        table = np.load(path)
-    else:
-        table = pack_table(*compute_tables(size, size))
-        _save(path, table)
-    if table.shape != (size, size, 2) or table.dtype != np.float32:
-        raise ValueError(
-            f"{path}: expected float32 {(size, size, 2)}, got {table.dtype} {table.shape}"
-        )
-    table.setflags(write=False)
-    return table
+    if not path.is_file():
+        _save(path, pack_table(*compute_tables(size, size)))
+    return read_ms_table(size)
 
 
 # --- the shading functions (twins of the GLSL) -------------------------------------------
@@ -297,25 +267,3 @@ def f_ms_kulla_conty(
 
 
 # --- command line ------------------------------------------------------------------------
-
-
-def main(argv: list[str] | None = None) -> None:
-    """``python -m app.reference.multiscatter [SIZE ...]``: (re)generate tables.
-
-    The shipped sizes (32, 64, 128: the default) go to app/reference/data; other sizes (16
-    for the benchmark) to the cache directory that load_table reads.
-    """
-    parser = argparse.ArgumentParser(description=main.__doc__)
-    parser.add_argument("sizes", nargs="*", type=int, default=list(SHIPPED_SIZES))
-    for size in parser.parse_args(argv).sizes:
-        path = generate(size)
-        table = np.load(path)
-        print(
-            f"{path}: {size}x{size}, E in [{1 - table[..., 0].max():.6f}, "
-            f"{1 - table[..., 0].min():.6f}], E_avg in [{1 - table[:, 0, 1].max():.6f}, "
-            f"{1 - table[:, 0, 1].min():.6f}]"
-        )
-
-
-if __name__ == "__main__":
-    main()

@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.common.lights import LightType, PunctualLight
 from app.reference._vec import dot
-
-LIGHT_DIRECTIONAL = 0
-LIGHT_POINT = 1
-LIGHT_SPOT = 2
 
 LIGHT_MIN_DISTANCE = 0.01
 
@@ -26,25 +23,21 @@ def spot_cone(cos_theta: np.ndarray, cos_outer: float, cos_inner: float) -> np.n
     return t * t
 
 
-def light_at(light: dict, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """c_light arriving at points ``p`` (..., 3) and the unit directions towards the light.
-
-    ``light`` holds ``type``, ``position``, ``direction`` (unit), ``color`` (c_light at
-    1 m, intensity included), ``range``, ``cos_outer``, ``cos_inner``.
-    """
+def light_at(light: PunctualLight, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """c_light arriving at points ``p`` (..., 3) and the unit directions towards the light."""
     p = np.asarray(p, np.float64)
-    color = np.asarray(light["color"], np.float64)
-    if light["type"] == LIGHT_DIRECTIONAL:
-        l = np.broadcast_to(-np.asarray(light["direction"], np.float64), p.shape)
+    color = np.asarray(light.color, np.float64)
+    if light.type == LightType.DIRECTIONAL:
+        l = np.broadcast_to(-np.asarray(light.direction, np.float64), p.shape)
         return np.broadcast_to(color, p.shape), l
-    d = np.asarray(light["position"], np.float64) - p
+    d = np.asarray(light.position, np.float64) - p
     dist2 = dot(d, d)
     l = d / np.sqrt(np.maximum(dist2, 1e-20))[..., None]
-    atten = window_falloff(dist2, light["range"]) / np.maximum(dist2, LIGHT_MIN_DISTANCE**2)
-    if light["type"] == LIGHT_SPOT:
+    atten = window_falloff(dist2, light.range) / np.maximum(dist2, LIGHT_MIN_DISTANCE**2)
+    if light.type == LightType.SPOT:
         atten = atten * spot_cone(
-            dot(-l, np.asarray(light["direction"], np.float64)),
-            light["cos_outer"],
-            light["cos_inner"],
+            dot(-l, np.asarray(light.direction, np.float64)),
+            light.cos_outer,
+            light.cos_inner,
         )
     return color * atten[..., None], l

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from app.common.models import Model
 from app.reference import masking, ndf
 from app.reference._vec import dot, normalize
 from app.reference.constants import MIN_N_DOT_V
 from app.reference.fresnel import F_schlick
 from app.reference.masking import V_height_correlated_GGX
-from app.reference.model import Model
 from app.reference.ndf import D_GGX
 
 

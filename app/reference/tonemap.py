@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-TONEMAPS = ("linear", "neutral", "aces", "reinhard")
-
 
 def tonemap_khronos_neutral(c: np.ndarray) -> np.ndarray:
     """Khronos PBR Neutral (2024)."""

@@ -18,8 +18,8 @@ Three small fragment passes per frame, after the G-buffer pass and before lighti
 The box test is what makes the lists short: the side planes alone, tested one by one,
 accept any centre within r of each plane, so around a tile frustum much thinner than the
 lights' ranges they pass every centre in the r x r squares beyond its corners, where the
-box (an exact distance) passes only those within r. At 256 lights of the bench's scene
-the lists fell from 29.4 to 19.5 lights per pixel where 16.0 reach (docs/performance.md).
+box (an exact distance) passes only those within r. docs/performance.md measures how much
+shorter the lists are on the bench's scene.
 
 The lighting pass then loops the directional lights (which reach everything) and the set
 bits of its tile's masks, in ascending light order: the same lights in the same order
@@ -35,26 +35,20 @@ import math
 import moderngl
 import numpy as np
 
+from app.common.camera import CameraFrame
+from app.common.lights import POINT_COS_OUTER, LightType, PunctualLight
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
-from app.scene.camera import CameraFrame
 
-# 8 x 8 tiles: lists 10 % shorter than 16 x 16 ones on the bench's 256-light scene (14.5
-# against 16.1 lights per tile); with the group pass the finer cull costs less than that
-# saves: interleaved frames 90.2 against 94.4 ms at 256 lights, 112.5 against 124.0 ms at
-# 1024, equal at 16 and 64 (docs/performance.md).
+# 8 x 8 tiles: shorter lists than 16 x 16 ones, and with the group pass the finer cull
+# costs less than that saves (measured in docs/performance.md).
 TILE_SIZE = 8
 GROUP_TILES = 4  # the coarse pass culls for groups of 4 x 4 tiles (32 x 32 pixels)
 LIGHTS_PER_ROW = 1024  # texels per row of the local-light texture
 RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a light
 #                      whose window is still (barely) above zero at a tile's edge
 CONE_MARGIN = 1e-3  # radians: spot cones widen so float32 rounding never culls a lit pixel
-NO_CONE = -2.0  # the cone cosine of a point light: below -1, the cone test is skipped
-
-
-def order_lights(records: list[dict]) -> list[dict]:
-    """Directional lights first, then local ones, each group in scene order."""
-    return [r for r in records if r["type"] == 0] + [r for r in records if r["type"] != 0]
+NO_CONE = POINT_COS_OUTER  # the cone cosine of a point light: below -1, no cone test
 
 
 class LightCuller:
@@ -65,25 +59,29 @@ class LightCuller:
         ctx: moderngl.Context,
         shaders: ShaderCache,
         size: tuple[int, int],
-        records: list[dict],
+        lights: list[PunctualLight],
     ) -> None:
+        """``lights`` in the frame's order: directional ones first (order_lights)."""
         self.ctx = ctx
         self.size = size
-        local = [r for r in records if r["type"] != 0]
-        self.first_local = len(records) - len(local)
+        local = [x for x in lights if x.is_local]
+        self.first_local = len(lights) - len(local)
         self.local_count = len(local)
-        self.centres = np.array([r["position"] for r in local], np.float64).reshape(-1, 3)
-        self.ranges = np.array([r["range"] for r in local], np.float64) * RANGE_MARGIN
+        self.centres = np.array([x.position for x in local], np.float64).reshape(-1, 3)
+        self.ranges = np.array([x.range for x in local], np.float64) * RANGE_MARGIN
         # Spot lights' axes (the way the light travels) and widened outer-cone cosines.
+        spot = [x.type == LightType.SPOT for x in local]
         self.axes = np.array(
-            [r["direction"] if r["type"] == 2 else (0.0, 0.0, 0.0) for r in local], np.float64
+            [
+                x.direction if is_spot else (0.0, 0.0, 0.0)
+                for x, is_spot in zip(local, spot, strict=True)
+            ],
+            np.float64,
         ).reshape(-1, 3)
         self.cone_cos = np.array(
             [
-                math.cos(min(math.acos(r["cos_outer"]) + CONE_MARGIN, math.pi))
-                if r["type"] == 2
-                else NO_CONE
-                for r in local
+                math.cos(min(math.acos(x.cos_outer) + CONE_MARGIN, math.pi)) if is_spot else NO_CONE
+                for x, is_spot in zip(local, spot, strict=True)
             ],
             np.float64,
         )

@@ -1,7 +1,7 @@
 """The G-buffer pass: rasterise every object's material parameters into render targets.
 
 Layout and precision are documented in docs/gbuffer.md:
-  RT0 ``albedo``  RGBA16F|32F  base_color.rgb (linear), metallic
+  RT0 ``base_color`` RGBA16F|32F  base_color.rgb (linear), metallic
   RT1 ``normal``  RGBA16F|32F  octahedral normal (x, y), perceptual roughness, F0
   RT2 ``depth``   RG32F        linear view depth in metres (0 where nothing was drawn),
                                material id (an exact integer)
@@ -12,28 +12,14 @@ Layout and precision are documented in docs/gbuffer.md:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import moderngl
 import numpy as np
 
+from app.common.gbuffer import GBufferData
+from app.frame.camera import gl_bytes
 from app.gl.shaders import ShaderCache
-from app.render.materials import MaterialTable
-from app.scene.camera import gl_bytes
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
 from app.textures.maps import SurfaceLayer, Texture
-
-
-@dataclass
-class GBufferData:
-    """A G-buffer read back to the CPU, rows top to bottom."""
-
-    albedo: np.ndarray  # (H, W, 4) float32
-    normal: np.ndarray  # (H, W, 4) float32
-    depth: np.ndarray  # (H, W) float32 view depth in metres, 0 = background
-    # (H, W, 4) float32: octahedral tangent, anisotropy, material id (the id from RT2; the
-    # tangent (0, 0) and anisotropy 0 where the G-buffer has no tangent target)
-    tangent: np.ndarray
 
 
 class GBuffer:
@@ -45,12 +31,12 @@ class GBuffer:
         """``tangents``: allocate RT3 (only anisotropic materials read a tangent)."""
         dtype = {"f16": "f2", "f32": "f4"}[precision]
         self.size = size
-        self.albedo = ctx.texture(size, 4, dtype=dtype)
+        self.base_color = ctx.texture(size, 4, dtype=dtype)
         self.normal = ctx.texture(size, 4, dtype=dtype)
         self.depth = ctx.texture(size, 2, dtype="f4")
         self.tangent = ctx.texture(size, 4, dtype=dtype) if tangents else None
         self.zbuffer = ctx.depth_renderbuffer(size)
-        targets = [self.albedo, self.normal, self.depth]
+        targets = [self.base_color, self.normal, self.depth]
         if self.tangent is not None:
             targets.append(self.tangent)
         for tex in targets:
@@ -60,23 +46,23 @@ class GBuffer:
 
     def read(self) -> GBufferData:
         w, h = self.size
-        albedo = _read_float(self.albedo).reshape(h, w, 4)
+        base_color = _read_float(self.base_color).reshape(h, w, 4)
         normal = _read_float(self.normal).reshape(h, w, 4)
         depth_id = np.frombuffer(self.depth.read(), np.float32).reshape(h, w, 2)
         if self.tangent is not None:
             tangent = _read_float(self.tangent).reshape(h, w, 4).copy()
         else:
             tangent = np.zeros((h, w, 4), np.float32)
-        tangent[..., 3] = depth_id[..., 1]
         return GBufferData(
-            albedo[::-1].copy(),
-            normal[::-1].copy(),
-            depth_id[::-1, :, 0].copy(),
-            tangent[::-1].copy(),
+            base_color=base_color[::-1].copy(),
+            normal=normal[::-1].copy(),
+            depth=depth_id[::-1, :, 0].copy(),
+            tangent=tangent[::-1].copy(),
+            material_id=depth_id[::-1, :, 1].copy(),
         )
 
     def release(self) -> None:
-        for obj in (self.fbo, self.albedo, self.normal, self.depth, self.tangent, self.zbuffer):
+        for obj in (self.fbo, self.base_color, self.normal, self.depth, self.tangent, self.zbuffer):
             if obj is not None:
                 obj.release()
 
@@ -140,7 +126,7 @@ def layer_maps_define(layer: SurfaceLayer) -> int:
 class MeshDrawable:
     """One mesh part on the GPU: its program (the shader pair, with the part's maps, blend
     and options as defines), vertex and index buffers, textures and per-part matrices.
-    The G-buffer pass and the forward renderer (app/render/forward.py) both draw with it."""
+    The G-buffer pass and the forward renderer (app/bench/forward.py) both draw with it."""
 
     def __init__(
         self,
@@ -237,17 +223,6 @@ class MeshDrawable:
     def release(self) -> None:
         for obj in (self.vao, self.vbo, self.ibo, *(t for _, t in self.textures)):
             obj.release()
-
-
-def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]]]:
-    """The lighting pass's material table over every layer of every part, and each part's
-    rows (one per layer)."""
-    table, flat = MaterialTable.build([layer.params for p in parts for layer in p.layers])
-    ids, i = [], 0
-    for p in parts:
-        ids.append(flat[i : i + len(p.layers)])
-        i += len(p.layers)
-    return table, ids
 
 
 class GBufferPass:

@@ -1,16 +1,16 @@
-"""The lighting pass: the seed's illumination sum over the G-buffer, into linear HDR.
+"""The lighting pass: the illumination sum over the G-buffer, into linear HDR.
 
-``L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+`` (seed section 4), evaluated by
+``L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+`` (RTR4 §9.4, eq. 9.13), evaluated by
 glsl/passes/lighting.frag into an RGBA32F target. Lights travel in an RGBA32F texture
 (3 texels per light, one light per row), so their number is bounded only by the
 texture height, not by uniform-block limits.
 
-One program per model group (app/render/materials.py): a scene whose materials all use
+One program per model group (app/frame/materials.py): a scene whose materials all use
 one model runs one full-screen pass; otherwise each group's pass discards the pixels of
-the other groups, so no pixel pays for a branch of a model it does not use. ``uber=True``
-(the bench's ``specialization`` suite only) builds the opposite for comparison: one
-program for every material, each model a run-time branch on codes from the material
-table (UBER_MODELS in glsl/brdf/model.glsl), paying for every model and table.
+the other groups, so no pixel pays for a branch of a model it does not use. The bench's
+``uber`` option (``RenderOptions``, the ``specialization`` suite) builds the opposite for
+comparison: one program for every material, each model a run-time branch on codes from
+the material table (UBER_MODELS in glsl/brdf/model.glsl), paying for every model and table.
 """
 
 from __future__ import annotations
@@ -18,13 +18,15 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from app.common.camera import CameraFrame
+from app.common.lights import PunctualLight, pack_lights
+from app.common.models import BRDF_TERMS
+from app.frame.camera import gl_bytes
+from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
-from app.reference.material import BRDF_TERMS
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
-from app.render.materials import MaterialTable
-from app.scene.camera import CameraFrame, gl_bytes
-from app.scene.lights import pack_lights
+from app.render.tables import material_texture, ms_texture
 
 
 class LightingPass:
@@ -35,17 +37,17 @@ class LightingPass:
         ctx: moderngl.Context,
         shaders: ShaderCache,
         size: tuple[int, int],
-        records: list[dict],
+        lights: list[PunctualLight],
         table: MaterialTable,
         culler: LightCuller | None = None,
-        uber: bool = False,
-        ms_table_size: int | None = None,
         terms: str = "all",
+        uber: bool = False,
+        ms_table: np.ndarray | None = None,
     ) -> None:
-        """``uber``: one program with run-time model selection instead of one per model
-        group (a bench knob, not a scene key). ``ms_table_size``: the Kulla-Conty table's
-        size (None: the shipped one; others are computed on first use and cached).
-        ``terms``: the scene's render.terms, which reflections the BRDF returns."""
+        """``terms``: the scene's render.terms, which reflections the BRDF returns.
+        ``uber``: one program with run-time model selection instead of one per model
+        group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
+        the bench's, from ``RenderOptions``)."""
         self.ctx = ctx
         self.culler = culler
         self.uber = uber
@@ -72,19 +74,17 @@ class LightingPass:
                 shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
             )
         self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
-        self.materials = table.texture(ctx)
+        self.materials = material_texture(ctx, table)
         self.ms_table = None
         if uber or any(model.multiscatter for model in table.models):
-            from app.render.tables import ms_texture
-
-            self.ms_table = ms_texture(ctx, ms_table_size)
+            self.ms_table = ms_texture(ctx, ms_table)
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
-        packed = pack_lights(records)
+        packed = pack_lights(lights)
         self.lights = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.light_count = len(records)
+        self.light_count = len(lights)
         self.size = size
 
     def run(
@@ -99,7 +99,7 @@ class LightingPass:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
         textures = [
-            ("g_albedo", gbuffer.albedo),
+            ("g_albedo", gbuffer.base_color),
             ("g_normal", gbuffer.normal),
             ("g_depth", gbuffer.depth),
             *([("g_tangent", gbuffer.tangent)] if gbuffer.tangent is not None else []),

@@ -5,12 +5,9 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from app.common.tonemaps import TONEMAP_CODE
 from app.gl.shaders import ShaderCache
 from app.reference import dof
-from app.reference.tonemap import TONEMAPS
-
-# The TONEMAP define of glsl/passes/post.frag, in the order of the twin's list.
-TONEMAP_CODE = {name: code for code, name in enumerate(TONEMAPS)}
 
 
 class _FullscreenPass:

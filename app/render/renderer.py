@@ -1,30 +1,60 @@
-"""The frame: scene -> G-buffer pass -> lighting pass -> post.
+"""The frame: scene -> frame data -> G-buffer pass -> culling -> lighting pass -> post.
 
-``Renderer`` owns the GPU objects of one scene at one size; ``render()`` runs the three
-passes, and the ``read_*`` methods bring each stage's result back for output and tests.
+``Renderer`` owns the GPU objects of one scene at one size; ``render()`` runs the passes,
+and the ``read_*`` methods bring each stage's result back for output and tests. A renderer
+can change without being rebuilt: ``set_camera``, ``set_lights``, ``set_materials``,
+``set_settings``, ``resize`` (and ``update``, which takes a whole edited scene and calls
+whichever of them the edit needs) rebuild only the passes that depend on what changed.
+Programs come from one ``ShaderCache`` that lives as long as the renderer, so a change
+compiles only a model combination it has never seen.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass
+
 import numpy as np
 
+from app.common.gbuffer import GBufferData
+from app.common.lights import PunctualLight
+from app.frame import FrameData, prepare_frame
+from app.frame.camera import camera_frame, projection_matrix, view_matrix
+from app.frame.lights import frame_lights
+from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.render.culling import LightCuller, order_lights
-from app.render.gbuffer import GBuffer, GBufferData, GBufferPass, material_table
+from app.render.culling import LightCuller
+from app.render.gbuffer import GBuffer, GBufferPass
 from app.render.lighting import LightingPass
 from app.render.post import DofPass, DownsamplePass, PostPass
-from app.scene.camera import camera_frame, projection_matrix, view_matrix
-from app.scene.geometry import build_parts
-from app.scene.lights import environment_records, light_record
 from app.scene.loader import LoadedScene
+from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """Pipeline variants that are not scene keys, for the bench and its tests.
+
+    ``uber``: one lighting program with run-time model selection instead of one per model
+    group (the ``specialization`` suite). ``ms_table``: a float32 (n, n, 2) Kulla-Conty table
+    other than the shipped 64 x 64 one (``app.reference.multiscatter.load_table(n)``).
+    """
+
+    uber: bool = False
+    ms_table: np.ndarray | None = None
+
+
+# Render settings whose change needs new mesh parts (their maps' mips and baked blends).
+_PART_SETTINGS = ("normal_filter", "blend")
 
 
 class Renderer:
     """One scene, one image size, headless.
 
     With ``render.supersample = n`` every pass before post runs at n x n times the pixels
-    (``render_size``) and a resolve box-filters the HDR image down to ``size``.
+    (``render_size``) and a resolve box-filters the HDR image down to ``size``. ``size``
+    overrides the scene's render.width and render.height.
     """
 
     def __init__(
@@ -32,58 +62,203 @@ class Renderer:
         gl: GLContext,
         loaded: LoadedScene,
         size: tuple[int, int] | None = None,
-        *,
-        uber: bool = False,
-        ms_table_size: int | None = None,
+        options: RenderOptions | None = None,
     ) -> None:
-        """``uber`` and ``ms_table_size`` are bench knobs, not scene keys: one lighting
-        program with run-time model selection, and the multiple-scattering table's size
-        (app/render/lighting.py LightingPass)."""
-        scene = loaded.scene
         self.gl = gl
-        self.scene = scene
-        self.size = size or (scene.render.width, scene.render.height)
-        factor = scene.render.supersample
-        self.render_size = (self.size[0] * factor, self.size[1] * factor)
-        ctx = gl.ctx
-        self.shaders = ShaderCache(ctx)
-        records = [light_record(light) for light in scene.lights]
-        self.lights = order_lights(records + environment_records(scene.environment))
-        parts = build_parts(loaded)
-        self.materials, material_ids = material_table(parts)
-        tangents = self.materials.needs_tangents
-        self.gbuffer = GBuffer(ctx, self.render_size, scene.render.gbuffer, tangents)
-        settings = scene.render
+        self.options = options or RenderOptions()
+        self.shaders = ShaderCache(gl.ctx)
+        self.loaded = loaded
+        self._size = size
+        self.frame: FrameData = prepare_frame(loaded)
+        self.gbuffer: GBuffer | None = None
+        self.gbuffer_pass: GBufferPass | None = None
+        self.culler: LightCuller | None = None
+        self.lighting: LightingPass | None = None
+        self.dof: DofPass | None = None
+        self.resolve: DownsamplePass | None = None
+        self.post: PostPass | None = None
+        self._build_targets()
+
+    # --- what the renderer shows -----------------------------------------------------------
+
+    @property
+    def scene(self) -> Scene:
+        return self.loaded.scene
+
+    @property
+    def lights(self) -> list[PunctualLight]:
+        """The frame's lights, in the order every pass sums them."""
+        return self.frame.lights
+
+    @property
+    def materials(self) -> MaterialTable:
+        """The frame's material table (app/frame/materials.py)."""
+        return self.frame.materials
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """The output image's (width, height)."""
+        if self._size is not None:
+            return self._size
+        return (self.scene.render.width, self.scene.render.height)
+
+    @property
+    def render_size(self) -> tuple[int, int]:
+        """The size every pass before the resolve runs at (``size`` x supersample)."""
+        factor = self.scene.render.supersample
+        return (self.size[0] * factor, self.size[1] * factor)
+
+    # --- building the passes -----------------------------------------------------------------
+
+    def _build_targets(self) -> None:
+        """Everything whose size is the image's: the G-buffer and every pass after it."""
+        self._release(("gbuffer",))
+        settings = self.scene.render
+        self.gbuffer = GBuffer(
+            self.gl.ctx, self.render_size, settings.gbuffer, self.materials.needs_tangents
+        )
+        self._build_gbuffer_pass()
+        self._build_lighting()
+        self._build_post()
+        self._build_camera()
+
+    def _build_gbuffer_pass(self) -> None:
+        self._release(("gbuffer_pass",))
+        settings = self.scene.render
         specular_aa = (
             (settings.specular_aa_variance, settings.specular_aa_threshold)
             if settings.specular_aa
             else None
         )
         self.gbuffer_pass = GBufferPass(
-            ctx, self.shaders, parts, material_ids, specular_aa, tangents
-        )
-        local = any(r["type"] != 0 for r in self.lights)
-        self.culler = (
-            LightCuller(ctx, self.shaders, self.render_size, self.lights)
-            if local and scene.render.light_culling == "tiled"
-            else None
-        )
+            self.gl.ctx, self.shaders, self.frame.parts, self.frame.material_ids, specular_aa,
+            self.materials.needs_tangents,
+        )  # fmt: skip
+
+    def _build_lighting(self) -> None:
+        """The culler (where local lights and tiled culling) and the lighting pass."""
+        self._release(("culler", "lighting"))
+        ctx, settings = self.gl.ctx, self.scene.render
+        if self.frame.has_local_lights and settings.light_culling == "tiled":
+            self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
-            uber=uber, ms_table_size=ms_table_size, terms=scene.render.terms,
+            settings.terms, self.options.uber, self.options.ms_table,
         )  # fmt: skip
-        cam = scene.camera
-        self.dof = (
-            DofPass(ctx, self.shaders, self.render_size, cam.aperture, cam.focus, cam.fov_y)
-            if cam.aperture > 0.0
-            else None
-        )
-        self.resolve = DownsamplePass(ctx, self.shaders, self.size, factor) if factor > 1 else None
-        self.post = PostPass(ctx, self.shaders, self.size, scene.render.tonemap)
+
+    def _build_post(self) -> None:
+        """Depth of field (a camera with an aperture), the supersampling resolve, post."""
+        self._release(("dof", "resolve", "post"))
+        ctx, cam, settings = self.gl.ctx, self.scene.camera, self.scene.render
+        if cam.aperture > 0.0:
+            self.dof = DofPass(
+                ctx, self.shaders, self.render_size, cam.aperture, cam.focus, cam.fov_y
+            )
+        factor = settings.supersample
+        if factor > 1:
+            self.resolve = DownsamplePass(ctx, self.shaders, self.size, factor)
+        self.post = PostPass(ctx, self.shaders, self.size, settings.tonemap)
+
+    def _build_camera(self) -> None:
+        cam = self.scene.camera
         w, h = self.size
-        self.view = view_matrix(scene.camera)
-        self.proj = projection_matrix(scene.camera, w / h)
-        self.camera = camera_frame(scene.camera, *self.render_size)
+        self.view = view_matrix(cam)
+        self.proj = projection_matrix(cam, w / h)
+        self.camera = camera_frame(cam, *self.render_size)
+
+    def _release(self, names: tuple[str, ...]) -> None:
+        for name in names:
+            obj = getattr(self, name)
+            if obj is not None:
+                obj.release()
+                setattr(self, name, None)
+
+    def _edit(self, **changes: object) -> Scene:
+        """The scene with ``changes``, validated as a scene file's would be; it becomes
+        the renderer's scene."""
+        old = self.scene
+        scene = Scene.model_validate({**old.model_dump(), **changes})
+        self.loaded = dataclasses.replace(self.loaded, scene=scene)
+        return old
+
+    # --- changing what is rendered --------------------------------------------------------------
+
+    def set_camera(self, camera: Camera) -> None:
+        """A new camera: new matrices, and a new depth-of-field pass where the lens changed."""
+        old = self._edit(camera=camera)
+        lens = ("aperture", "focus", "fov_y")
+        if any(getattr(old.camera, k) != getattr(camera, k) for k in lens):
+            self._build_post()
+        self._build_camera()
+
+    def set_lights(self, lights: list[Light], environment: Environment | None = None) -> None:
+        """New lights (and environment): new light textures, culler and lighting programs
+        (compiled only for a combination of light kinds not seen before)."""
+        self._edit(lights=lights, environment=environment)
+        self.frame = dataclasses.replace(
+            self.frame, lights=frame_lights(self.scene.lights, self.scene.environment)
+        )
+        self._build_lighting()
+
+    def set_materials(self, materials: dict[str, Material]) -> None:
+        """New material definitions for the scene's objects: new parts (their constants
+        and maps), material table and lighting programs."""
+        self._edit(materials=materials)
+        self._rebuild_frame()
+
+    def set_settings(self, settings: RenderSettings) -> None:
+        """New render settings; rebuilds only what depends on the keys that changed."""
+        old = self._edit(render=settings).render
+        changed = {
+            k for k in RenderSettings.model_fields if getattr(old, k) != getattr(settings, k)
+        }
+        if changed & set(_PART_SETTINGS):
+            self._rebuild_frame()
+        if changed & {"width", "height", "supersample", "gbuffer"}:
+            self._build_targets()
+            return
+        if changed & {"specular_aa", "specular_aa_variance", "specular_aa_threshold"}:
+            self._build_gbuffer_pass()
+        if changed & {"light_culling", "terms"}:
+            self._build_lighting()
+        if "tonemap" in changed:
+            self._build_post()
+
+    def resize(self, size: tuple[int, int]) -> None:
+        """A new output size (width, height): new targets for every pass."""
+        self._size = (int(size[0]), int(size[1]))
+        self._build_targets()
+
+    def update(self, scene: Scene) -> None:
+        """Show ``scene``, an edit of the current one (same objects' files): each part of
+        it that differs goes through its own ``set_*``."""
+        old = self.scene
+        if scene.objects != old.objects:
+            self._edit(objects=scene.objects, materials=scene.materials)
+            self._rebuild_frame()
+        elif scene.materials != old.materials:
+            self.set_materials(scene.materials)
+        if scene.render != old.render:
+            self.set_settings(scene.render)
+        if scene.lights != old.lights or scene.environment != old.environment:
+            self.set_lights(scene.lights, scene.environment)
+        if scene.camera != old.camera:
+            self.set_camera(scene.camera)
+        if scene.background != old.background:
+            self._edit(background=scene.background)
+
+    def _rebuild_frame(self) -> None:
+        """New parts and material table (the lights stay), and the passes that use them."""
+        tangents = self.materials.needs_tangents
+        self._release(("gbuffer_pass",))
+        self.frame = prepare_frame(self.loaded)
+        if self.materials.needs_tangents != tangents:  # the G-buffer gains or loses RT3
+            self._build_targets()
+            return
+        self._build_gbuffer_pass()
+        self._build_lighting()
+
+    # --- the frame ---------------------------------------------------------------------------
 
     def render(self) -> None:
         """Run all passes; results stay on the GPU until read."""
@@ -116,10 +291,5 @@ class Renderer:
         return self.gbuffer.read()
 
     def release(self) -> None:
-        if self.culler is not None:
-            self.culler.release()
-        for extra in (self.resolve, self.dof):
-            if extra is not None:
-                extra.release()
-        for obj in (self.gbuffer_pass, self.gbuffer, self.lighting, self.post, self.shaders):
-            obj.release()
+        self._release(("culler", "resolve", "dof", "gbuffer_pass", "gbuffer", "lighting", "post"))
+        self.shaders.release()

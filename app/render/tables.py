@@ -1,6 +1,7 @@
 """Look-up tables the shaders read, uploaded to GL.
 
-The Kulla-Conty multiple-scattering table (app.reference.multiscatter) becomes the RG32F
+The Kulla-Conty multiple-scattering table (app/common/tables.py; computed by the twin
+app/reference/multiscatter.py) becomes the RG32F
 texture ``u_ms_table`` of glsl/brdf/multiscatter.glsl:
 
 * width n_mu, height n_r; texel (x = j, y = i) holds (1 - E(mu_j, r_i), 1 - E_avg(r_i)),
@@ -15,18 +16,29 @@ texture ``u_ms_table`` of glsl/brdf/multiscatter.glsl:
 from __future__ import annotations
 
 import moderngl
+import numpy as np
 
-from app.reference.multiscatter import DEFAULT_SIZE, load_table
+from app.common.tables import read_ms_table
+from app.frame.materials import MaterialTable
 
 
-def ms_texture(ctx: moderngl.Context, size: int | None = DEFAULT_SIZE) -> moderngl.Texture:
-    """A new RG32F texture of the size x size table (None: the default, 64 x 64; sizes not
-    shipped are computed on first use and cached). The caller releases it."""
-    # float32 (n_r, n_mu, 2): rows are texture rows (y = r)
-    table = load_table(DEFAULT_SIZE if size is None else size)
-    n_r, n_mu = table.shape[:2]
+def ms_texture(ctx: moderngl.Context, table: np.ndarray | None = None) -> moderngl.Texture:
+    """A new RG32F texture of a float32 (n_r, n_mu, 2) table (None: the shipped default,
+    64 x 64). The caller releases it."""
+    table = read_ms_table() if table is None else np.ascontiguousarray(table, np.float32)
+    n_r, n_mu = table.shape[:2]  # rows are texture rows (y = r)
     tex = ctx.texture((n_mu, n_r), 2, table.tobytes(), dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     tex.repeat_x = False
     tex.repeat_y = False
+    return tex
+
+
+def material_texture(ctx: moderngl.Context, table: MaterialTable) -> moderngl.Texture:
+    """A new RGBA32F texture of the material table (app/frame/materials.py): 4 texels wide,
+    one material per row, NEAREST (glsl/brdf/model.glsl fetch_model_params). The caller
+    releases it."""
+    packed = table.packed()
+    tex = ctx.texture((4, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
+    tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     return tex

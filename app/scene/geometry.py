@@ -16,9 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from app.common.models import MaterialParams
 from app.errors import InputError
 from app.scene.loader import LoadedScene
-from app.scene.model import MaterialParams, SceneObject
+from app.scene.model import SceneObject
 from app.textures.bake import bake_blend
 from app.textures.layers import LayerBuilder, gltf_layer
 from app.textures.maps import SurfaceLayer, Texture, scalar_texture

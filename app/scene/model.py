@@ -8,7 +8,6 @@ numbers, and accept only the types the documentation names (no "1.0" for 1.0).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from typing import Annotated, Literal
 
 import numpy as np
@@ -22,18 +21,19 @@ from pydantic import (
     model_validator,
 )
 
-from app.reference.fresnel import f0_from_ior, ior_from_f0
-from app.reference.model import (
+from app.common.ior import f0_from_ior, ior_from_f0
+from app.common.models import (
     CORRELATIONS,
-    DEFAULT_MODEL,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
     G2_MODELS,
     LAMBDA_FORMS,
     NDF_MODELS,
+    MaterialParams,
     Model,
     ModelParams,
 )
+from app.common.tonemaps import TONEMAPS
 from app.scene.presets import PRESETS
 
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
@@ -109,7 +109,7 @@ class RenderSettings(_Strict):
 
     width: Annotated[int, Field(strict=True, ge=1, le=16384)] = 1280
     height: Annotated[int, Field(strict=True, ge=1, le=16384)] = 720
-    tonemap: Literal["linear", "neutral", "aces", "reinhard"] = "neutral"
+    tonemap: Literal[TONEMAPS] = "neutral"  # type: ignore[valid-type]
     gbuffer: Literal["f16", "f32"] = "f16"
     light_culling: Literal["tiled", "none"] = "tiled"
     # Seed section 13: how normal-map mips carry the variance of the normals they average
@@ -186,19 +186,6 @@ class Light(_Strict):
         if self.type == "directional":
             return math.inf
         return 10.0 if self.range is None else self.range
-
-
-@dataclass(frozen=True)
-class MaterialParams:
-    """A material after presets and defaults: what the G-buffer and the material table store."""
-
-    base_color: tuple[float, float, float]
-    metallic: float
-    roughness: float
-    f0: float  # normal-incidence reflectance of the dielectric part
-    anisotropy: float = 0.0
-    model: Model = DEFAULT_MODEL
-    params: ModelParams = field(default_factory=ModelParams)
 
 
 Ior = Annotated[Real, Field(ge=1.0, le=10.0)]

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from app.reference.fresnel import f0_conductor, f0_from_ior, ior_from_f0
+from app.common.ior import f0_conductor, f0_from_ior, ior_from_f0
 
 MEDIUM_IOR = {"air": 1.0, "water": 1.33}
 

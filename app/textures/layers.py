@@ -8,8 +8,9 @@ from functools import lru_cache
 import numpy as np
 from PIL import Image
 
+from app.common.models import MaterialParams
 from app.scene.loader import LoadedScene
-from app.scene.model import Material, MaterialParams
+from app.scene.model import Material
 from app.textures.maps import (
     SurfaceLayer,
     Texture,

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
+from app.common.models import MaterialParams
 from app.errors import InputError
-from app.scene.model import MaterialParams
 from app.textures.mips import box_mips, build_chain, decode_normal_map
 
 MAX_TEXTURE_SIZE = 8192  # texels per side; llvmpipe's limit is 16384, memory binds first

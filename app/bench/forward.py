@@ -1,4 +1,4 @@
-"""A plain forward renderer: the baseline the deferred pipeline has to beat (issue 5).
+"""A plain forward renderer: the baseline the deferred pipeline has to beat in the bench.
 
 Every object is drawn once into an RGBA32F target with a depth test, and each fragment
 loops over every light of the scene with the lighting pass's own ``light_at`` and
@@ -24,14 +24,14 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from app.common.lights import pack_lights
+from app.common.models import BRDF_TERMS
+from app.frame import prepare_frame
+from app.frame.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.reference.material import BRDF_TERMS
-from app.render.culling import order_lights
-from app.render.gbuffer import MeshDrawable, material_table
-from app.scene.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
-from app.scene.geometry import build_parts
-from app.scene.lights import environment_records, light_record, pack_lights
+from app.render.gbuffer import MeshDrawable
+from app.render.tables import material_texture, ms_texture
 from app.scene.loader import LoadedScene
 
 
@@ -48,16 +48,15 @@ class ForwardRenderer:
         ctx = gl.ctx
         self.ctx = ctx
         self.shaders = ShaderCache(ctx)
-        records = [light_record(light) for light in scene.lights]
-        # The deferred renderer's order, so each pixel sums the same terms in the same order.
-        self.lights = order_lights(records + environment_records(scene.environment))
-        parts = build_parts(loaded)
-        self.materials, material_ids = material_table(parts)
-        self.material_texture = self.materials.texture(ctx)
+        # The deferred renderer's frame: the same lights in the same order, so each pixel
+        # sums the same terms in the same order, and the same material table.
+        frame = prepare_frame(loaded)
+        self.lights = frame.lights
+        self.materials = frame.materials
+        parts, material_ids = frame.parts, frame.material_ids
+        self.material_texture = material_texture(ctx, self.materials)
         self.ms_table = None
         if any(model.multiscatter for model in self.materials.models):
-            from app.render.tables import ms_texture
-
             self.ms_table = ms_texture(ctx)
         packed = pack_lights(self.lights)
         self.light_texture = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")

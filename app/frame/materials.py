@@ -3,7 +3,7 @@ distinct (model, parameters), and the model groups that decide the lighting perm
 
 The G-buffer carries each pixel's row (its material id); the lighting pass compiles one
 program per distinct ``Model`` (a group) and each program shades only its group's pixels.
-Each row also carries its model's codes (app.reference.model.model_codes), which only the
+Each row also carries its model's codes (app.common.models.model_codes), which only the
 bench's uber lighting shader reads.
 """
 
@@ -11,11 +11,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import moderngl
 import numpy as np
 
-from app.reference.model import Model, ModelParams, pack_model_params
-from app.scene.model import MaterialParams
+from app.common.models import MaterialParams, Model, ModelParams, pack_model_params
+from app.scene.geometry import MeshPart
 
 
 def _params_key(p: ModelParams) -> tuple:
@@ -63,12 +62,16 @@ class MaterialTable:
         return any(model.anisotropic for model in self.models)
 
     def packed(self) -> np.ndarray:
-        """(M, 4, 4) float32 texels, see app.reference.model.pack_model_params."""
+        """(M, 4, 4) float32 texels, see app.common.models.pack_model_params."""
         return pack_model_params([p for _, p in self.rows], self.groups, [m for m, _ in self.rows])
 
-    def texture(self, ctx: moderngl.Context) -> moderngl.Texture:
-        """The table as an RGBA32F texture, 4 texels wide, one material per row."""
-        packed = self.packed()
-        tex = ctx.texture((4, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
-        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return tex
+
+def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]]]:
+    """The lighting pass's material table over every layer of every part, and each part's
+    rows (one per layer)."""
+    table, flat = MaterialTable.build([layer.params for p in parts for layer in p.layers])
+    ids, i = [], 0
+    for p in parts:
+        ids.append(flat[i : i + len(p.layers)])
+        i += len(p.layers)
+    return table, ids

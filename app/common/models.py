@@ -1,4 +1,5 @@
-"""Twin of glsl/brdf/model.glsl: which model each term of the BRDF uses, and its parameters.
+"""Which model each term of the BRDF uses, and its parameters (glsl/brdf/model.glsl reads
+the same layout).
 
 A ``Model`` is the choice of Fresnel, NDF, Smith Lambda, G2, diffuse and multiple-scattering
 terms; the renderer compiles one shader permutation per distinct ``Model`` (its
@@ -35,6 +36,34 @@ DIFFUSE_MODELS = (
     "none",
     "burley_renormalized",
 )
+
+# RTR4 §9.1: which reflections brdf_eval returns, a bitmask (``render.terms``).
+TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
+TERM_DIFFUSE = 2  # subsurface reflection: f_diffuse
+BRDF_TERMS = {"all": TERM_SPECULAR | TERM_DIFFUSE, "specular": TERM_SPECULAR,
+              "diffuse": TERM_DIFFUSE}  # fmt: skip
+
+# The GLSL name prefix of each term's model constants: FRESNEL_SCHLICK, NDF_GGX, ...
+_GLSL_PREFIXES = (
+    ("FRESNEL", FRESNEL_MODELS),
+    ("NDF", NDF_MODELS),
+    ("LAMBDA", LAMBDA_FORMS),
+    ("G2", G2_MODELS),
+    ("CORRELATION", CORRELATIONS),
+    ("DIFFUSE", DIFFUSE_MODELS),
+)
+
+
+def glsl_constants() -> dict[str, int]:
+    """The model constants of glsl/brdf/model.glsl (``FRESNEL_SCHLICK 0``, ...) and the
+    ``TERM_*`` bits, generated from the names above so that they are written once."""
+    out = {
+        f"{prefix}_{name.upper()}": code
+        for prefix, names in _GLSL_PREFIXES
+        for code, name in enumerate(names)
+    }
+    out.update(TERM_SPECULAR=TERM_SPECULAR, TERM_DIFFUSE=TERM_DIFFUSE)
+    return out
 
 
 @dataclass(frozen=True)
@@ -171,3 +200,16 @@ def unpack_model(texels: np.ndarray) -> tuple[int, Model]:
     """The model group and the model of one row of ``pack_model_params`` (texel 3)."""
     group, fresnel, specular, diffuse = (int(x) for x in np.asarray(texels)[3])
     return group, model_from_codes(fresnel, specular, diffuse)
+
+
+@dataclass(frozen=True)
+class MaterialParams:
+    """A material after presets and defaults: what the G-buffer and the material table store."""
+
+    base_color: tuple[float, float, float]
+    metallic: float
+    roughness: float
+    f0: float  # normal-incidence reflectance of the dielectric part
+    anisotropy: float = 0.0
+    model: Model = DEFAULT_MODEL
+    params: ModelParams = field(default_factory=ModelParams)

@@ -8,11 +8,11 @@ uniforms are column-major, ``gl_bytes`` writes ``M.T`` in C order.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from pyrr import matrix44
 
+from app.common.camera import CameraFrame
 from app.scene.model import Camera
 
 
@@ -38,17 +38,6 @@ def projection_matrix(cam: Camera, aspect: float) -> np.ndarray:
 def gl_bytes(m: np.ndarray) -> bytes:
     """A column-vector matrix as the column-major float32 bytes a GL uniform expects."""
     return np.ascontiguousarray(np.asarray(m).T, dtype=np.float32).tobytes()
-
-
-@dataclass(frozen=True)
-class CameraFrame:
-    """What the lighting pass needs to turn a depth value back into a world position."""
-
-    position: np.ndarray  # (3,) world
-    camera_to_world: np.ndarray  # (3, 3) rotation, columns = camera right, up, back
-    tan_half_fov: tuple[float, float]  # (tan(fov_y/2) * aspect, tan(fov_y/2))
-    near: float
-    far: float
 
 
 def camera_frame(cam: Camera, width: int, height: int) -> CameraFrame:

@@ -1,0 +1,76 @@
+"""Punctual lights as the GLSL and the float64 twin consume them (RTR4 §9.4; §5.2 for the
+light types): one typed record per light, and its texture layout."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+
+class LightType(IntEnum):
+    """The light types; the values are the GLSL's LIGHT_* constants (glsl/lights/punctual.glsl)."""
+
+    DIRECTIONAL = 0
+    POINT = 1
+    SPOT = 2
+
+
+@dataclass(frozen=True)
+class PunctualLight:
+    """One light in world space, in float64: glsl/lights/punctual.glsl's PunctualLight.
+
+    ``color`` is c_light (intensity included): at 1 m for point and spot lights, everywhere
+    for a directional light. ``direction`` is unit, the way the light travels (directional
+    and spot; zero for a point light). ``range`` is where the window falloff reaches 0
+    (point and spot; directional lights ignore it). The cone cosines matter for spots only.
+    """
+
+    type: LightType
+    position: np.ndarray  # (3,) world
+    direction: np.ndarray  # (3,) unit
+    color: np.ndarray  # (3,) linear RGB
+    range: float = 1.0
+    cos_outer: float = 0.0
+    cos_inner: float = 1.0
+
+    @property
+    def is_local(self) -> bool:
+        """A point or spot light: it reaches only the points within its range."""
+        return self.type != LightType.DIRECTIONAL
+
+
+# The texel values that imply a light's type (pack_lights): range < 0 marks a directional
+# light, cos_outer < -1 a point light (no cone).
+DIRECTIONAL_RANGE = -1.0
+POINT_COS_OUTER = -2.0
+
+
+def pack_lights(lights: list[PunctualLight]) -> np.ndarray:
+    """(N, 3, 4) float32 texels, the layout glsl/lights/punctual.glsl's fetch_light() reads.
+
+    texel 0: position.xyz, cos_inner   texel 1: direction.xyz, range
+    texel 2: c_light.rgb, cos_outer
+    The type is implied, so a light is three fetches, not four (docs/performance.md):
+    range < 0 marks a directional light, cos_outer < -1 a point light (no cone).
+    """
+    out = np.zeros((max(len(lights), 1), 3, 4), np.float32)
+    for i, light in enumerate(lights):
+        light_range = DIRECTIONAL_RANGE if light.type == LightType.DIRECTIONAL else light.range
+        cos_outer = POINT_COS_OUTER if light.type == LightType.POINT else light.cos_outer
+        out[i, 0] = (*light.position, light.cos_inner)
+        out[i, 1] = (*light.direction, light_range)
+        out[i, 2] = (*light.color, cos_outer)
+    return out
+
+
+def order_lights(lights: list[PunctualLight]) -> list[PunctualLight]:
+    """Directional lights first, then local ones, each group in scene order: the order in
+    which every pass (and the twin) sums them."""
+    return [x for x in lights if not x.is_local] + [x for x in lights if x.is_local]
+
+
+def glsl_constants() -> dict[str, int]:
+    """``LIGHT_DIRECTIONAL 0``, ``LIGHT_POINT 1``, ``LIGHT_SPOT 2``."""
+    return {f"LIGHT_{t.name}": int(t) for t in LightType}

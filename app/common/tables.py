@@ -1,0 +1,49 @@
+"""The shipped look-up tables (``data/``), read by the renderer and by the float64 twins.
+
+The Kulla-Conty multiple-scattering table (RTR4 §9.8.2) is computed by the twin
+(app/reference/multiscatter.py) and stored here as float32 (n_r, n_mu, 2) of
+(1 - E(mu, r), 1 - E_avg(r)). The renderer only reads it; sizes that are not shipped are
+computed by the twin on demand and cached outside the package.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+# The renderer's table: 64 x 64 costs the lighting pass what 32 x 32 costs and is more
+# accurate at worst (measured in docs/performance.md, ms_table).
+DEFAULT_SIZE = 64
+# Shipped: the default, the bench's other size and its reference (128 x 128 takes minutes
+# to compute); other sizes are computed on first use and cached.
+SHIPPED_SIZES = (32, 64, 128)
+DATA_DIR = Path(__file__).resolve().parent / "data"
+CACHE_VERSION = 1  # bump when the grids, the quadrature or the layout change
+
+
+def cache_dir() -> Path:
+    """$XDG_CACHE_HOME/pbs-lab (default ~/.cache/pbs-lab), where other sizes are kept."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "pbs-lab"
+
+
+def table_path(size: int) -> Path:
+    """Where the size x size table lives: shipped in app/common/data, else the cache."""
+    if size in SHIPPED_SIZES:
+        return DATA_DIR / f"ms_table_{size}.npy"
+    return cache_dir() / f"ms_table_{size}_v{CACHE_VERSION}.npy"
+
+
+def read_ms_table(size: int = DEFAULT_SIZE) -> np.ndarray:
+    """The stored float32 (size, size, 2) table, read-only; FileNotFoundError where it was
+    never computed (app.reference.multiscatter.load_table computes and stores it)."""
+    path = table_path(size)
+    table = np.load(path)
+    if table.shape != (size, size, 2) or table.dtype != np.float32:
+        raise ValueError(
+            f"{path}: expected float32 {(size, size, 2)}, got {table.dtype} {table.shape}"
+        )
+    table.setflags(write=False)
+    return table

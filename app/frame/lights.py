@@ -1,0 +1,61 @@
+"""Scene lights -> the typed records (``PunctualLight``) that both the GLSL and the float64
+twin consume."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from app.common.lights import LightType, PunctualLight, order_lights
+from app.scene.model import Environment, Light
+
+
+def light_record(light: Light) -> PunctualLight:
+    """One scene light as glsl/lights/punctual.glsl's PunctualLight, in float64."""
+    direction = np.zeros(3) if light.direction is None else np.asarray(light.direction, float)
+    if light.direction is not None:
+        direction = direction / np.linalg.norm(direction)
+    inner, outer = light.cone
+    return PunctualLight(
+        type=LightType[light.type.upper()],
+        position=np.zeros(3) if light.position is None else np.asarray(light.position, float),
+        direction=direction,
+        color=np.asarray(light.color, float) * light.intensity,
+        # Directional lights ignore range; a finite stand-in keeps the texture finite.
+        range=1.0 if light.type == "directional" else light.effective_range,
+        cos_outer=math.cos(math.radians(outer)),
+        cos_inner=math.cos(math.radians(inner)),
+    )
+
+
+def fibonacci_sphere(count: int) -> np.ndarray:
+    """``count`` unit vectors spread evenly over the sphere (a spherical Fibonacci lattice,
+    Gonzalez 2010): equal-area cells, so each stands for 4 pi / count steradians."""
+    i = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * i / count
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))  # the golden angle
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+
+
+def environment_lights(env: Environment | None) -> list[PunctualLight]:
+    """A uniform environment as directional lights that integrate it.
+
+    L_o = integral f L (n.l)+ dl ~ sum_i f L (n.l_i)+ 4 pi / N over N equal-area directions;
+    the illumination sum gives pi sum_i f c_light (n.l_i)+, so c_light = 4 L / N.
+    """
+    if env is None:
+        return []
+    color = np.asarray(env.radiance, float) * (4.0 / env.samples)
+    return [
+        # light travels from direction d towards the surface
+        PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, color)
+        for d in fibonacci_sphere(env.samples)
+    ]
+
+
+def frame_lights(lights: list[Light], env: Environment | None) -> list[PunctualLight]:
+    """The frame's lights in the order every pass sums them (``order_lights``): the scene's
+    lights and the environment's directions."""
+    return order_lights([light_record(x) for x in lights] + environment_lights(env))
