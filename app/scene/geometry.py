@@ -18,10 +18,10 @@ import trimesh
 
 from app.common.models import MaterialParams
 from app.errors import InputError
+from app.scene.layers import LayerBuilder, gltf_layer
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
 from app.textures.bake import bake_blend
-from app.textures.layers import LayerBuilder, gltf_layer
 from app.textures.maps import SurfaceLayer, Texture, scalar_texture
 
 VERTEX_FORMAT = "3f 3f 2f 4f"
