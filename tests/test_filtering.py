@@ -8,8 +8,11 @@ import numpy as np
 
 from app.bench.filtering import measure
 from app.gl.context import GLContext
+from app.reference.filtering import SPECULAR_AA_KAPPA, SPECULAR_AA_SIGMA2
 from app.render.gbuffer import upload_texture
-from app.scene.loader import load_scene
+from app.render.renderer import Renderer
+from app.scene.loader import load_scene, parse_scene
+from app.scene.model import RenderSettings
 from app.textures.maps import normal_roughness_texture
 from tests.conftest import REPO
 
@@ -86,3 +89,26 @@ def test_flat_normal_map_keeps_roughness_at_every_gl_level(gl_egl: GLContext) ->
             np.testing.assert_array_equal(
                 level[..., :3], np.broadcast_to([0.0, 0.0, 1.0], level[..., :3].shape)
             )
+
+
+def test_specular_aa_defaults_are_the_twins_and_reach_the_gbuffer_pass(gl_egl: GLContext):
+    """The scene format's default sigma^2 and kappa are the twin's (Tokuyoshi & Kaplanyan
+    2019: 0.25 and 0.18), and a scene that turns specular AA on hands exactly those values
+    (to float32) to the G-buffer pass's program, the only place the GLSL reads them."""
+    settings = RenderSettings()
+    assert settings.specular_aa_variance == SPECULAR_AA_SIGMA2 == 0.25
+    assert settings.specular_aa_threshold == SPECULAR_AA_KAPPA == 0.18
+    data = {
+        "render": {"width": 16, "height": 16, "specular_aa": True},
+        "materials": {"m": {"roughness": 0.3}},
+        "objects": [{"shape": "sphere", "radius": 1.0, "material": "m"}],
+        "lights": [{"type": "directional", "direction": [0.0, -1.0, -1.0]}],
+    }
+    r = Renderer(gl_egl, parse_scene(data, REPO / "scenes" / "specular_aa.toml"))
+    try:
+        r.render()
+        (drawable,) = r.gbuffer_pass.drawables
+        sigma2, kappa = drawable.program["u_specular_aa"].value
+    finally:
+        r.release()
+    assert (sigma2, kappa) == (np.float32(SPECULAR_AA_SIGMA2), np.float32(SPECULAR_AA_KAPPA))

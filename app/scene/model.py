@@ -34,6 +34,7 @@ from app.common.models import (
     ModelParams,
 )
 from app.common.tonemaps import TONEMAPS
+from app.reference.filtering import SPECULAR_AA_KAPPA, SPECULAR_AA_SIGMA2
 from app.scene.presets import PRESETS
 
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
@@ -116,8 +117,10 @@ class RenderSettings(_Strict):
     # into roughness (app/textures/mips.py), and screen-space geometric specular AA.
     normal_filter: Literal["none", "naive", "toksvig", "variance"] = "variance"
     specular_aa: Annotated[bool, Field(strict=True)] = False
-    specular_aa_variance: Annotated[Real, Field(gt=0.0, le=10.0)] = 0.25  # sigma^2, pixel filter
-    specular_aa_threshold: Unit = 0.18  # kappa: the most alpha^2 the filter may add
+    # Tokuyoshi & Kaplanyan 2019's sigma^2 (pixel filter) and kappa (the most alpha^2 the
+    # filter may add), as the twin defines them (app/reference/filtering.py).
+    specular_aa_variance: Annotated[Real, Field(gt=0.0, le=10.0)] = SPECULAR_AA_SIGMA2
+    specular_aa_threshold: Unit = SPECULAR_AA_KAPPA
     blend: Literal["runtime", "baked"] = "runtime"  # mask blends mixed per pixel, or baked
     supersample: Annotated[int, Field(strict=True, ge=1, le=16)] = 1  # n x n samples per pixel
     # Seed section 1: the surface (specular) and subsurface (diffuse) reflections as
