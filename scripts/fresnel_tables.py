@@ -30,9 +30,9 @@ def _fmt3(v: tuple[float, ...] | None, spec: str = ".4f") -> str:
 
 
 def preset_markdown() -> str:
-    """The preset table: seed F0, index, F0 from the index, difference (markdown)."""
+    """The preset table: RTR4 F0, index, F0 from the index, difference (markdown)."""
     lines = [
-        "| preset | medium | kind | seed F0 | index (n, or n + ik for R, G, B) "
+        "| preset | medium | kind | RTR4 F0 | index (n, or n + ik for R, G, B) "
         "| F0 from index | difference | index source |",
         "|---|---|---|---|---|---|---|---|",
     ]
@@ -46,7 +46,7 @@ def preset_markdown() -> str:
         else:
             index = "-"
         lines.append(
-            f"| {row['name']} | {row['medium']} | {row['kind']} | {_fmt3(row['seed_f0'], '.4g')} "
+            f"| {row['name']} | {row['medium']} | {row['kind']} | {_fmt3(row['rtr4_f0'], '.4g')} "
             f"| {index} | {_fmt3(row['f0_index'], '.4g')} | {_fmt3(row['difference'], '+.4f')} "
             f"| {row['index_source']} |"
         )
@@ -157,11 +157,11 @@ def generated_markdown() -> str:
     nm = ", ".join(f"{w:g}" for w in WAVELENGTHS_NM)
     return "\n".join(
         [
-            "### Presets: seed F0 against the F0 of the index",
+            "### Presets: RTR4 F0 against the F0 of the index",
             "",
             f"Metals and silicon: n + ik interpolated linearly at {nm} nm (R, G, B). "
             'Dielectrics: one real index. "in water" rows use the relative index '
-            "n / 1.33 (and k / 1.33); rows without a seed F0 are derived from the index.",
+            "n / 1.33 (and k / 1.33); rows without a RTR4 F0 are derived from the index.",
             "",
             preset_markdown(),
             "",

@@ -1,4 +1,4 @@
-"""Bad texture and blend input (seed section 13 keys): exit code 2, one line naming the
+"""Bad texture and blend input (RTR4 §9.13 keys): exit code 2, one line naming the
 file and the key, no output file, like every other bad input (tests/test_bad_input.py)."""
 
 from __future__ import annotations

@@ -89,14 +89,14 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     for r in spec.values():
         assert r["max_rel_diff_vs_specialized"] <= 1e-5, r  # tests/test_uber.py's bound
         assert all(isinstance(r[k], float) and np.isfinite(r[k]) for k in ERRORS), r
-    # mip filtering (issue 4): every option against the supersampled reference, with shimmer.
+    # mip filtering: every option against the supersampled reference, with shimmer.
     mip = {r["variant"]: r for r in rows if r["case"] == "mip_filtering"}
     assert set(mip) == {name for name, _ in FILTER_OPTIONS}
     assert [v for v, r in mip.items() if r["default"]] == ["variance"]
     assert all(np.isfinite(r["shimmer"]) and r["shimmer"] >= 0.0 for r in mip.values())
     text = (tmp_path / "bench.md").read_text()
     assert "| mip_filtering | variance |" in text and "Shimmer" in text
-    assert "## Targets (issue 5)" in text and "culled faster than forward at 16 lights" in text
+    assert "## Targets" in text and "culled faster than forward at 16 lights" in text
     assert "### specialization" in text and "uber/specialized = " in text
     assert "**PASS**" in text or "**FAIL**" in text
     assert "in this mode the verdicts are indicative only" in text  # not the full mode

@@ -129,7 +129,7 @@ def test_glsl_matches_float64_twin(gl_egl, pairs, name: str, roughness: float) -
 
 @pytest.mark.parametrize("name", list(MODELS))
 def test_reciprocity(gl_egl, pairs, name: str) -> None:
-    """f(l, v) = f(v, l) (seed section 3) for every model, twin and GLSL, where both
+    """f(l, v) = f(v, l) (RTR4 §9.3) for every model, twin and GLSL, where both
     cosines exceed the n.v clamp (which is the one deliberate asymmetry)."""
     l, v = pairs
     keep = (l @ N > 1e-3) & (v @ N > 1e-3)
@@ -156,7 +156,7 @@ SPECULAR_ONLY = {  # specular terms alone with F = 1: white metal, no diffuse lo
 @pytest.mark.parametrize("name", list(SPECULAR_ONLY))
 def test_specular_never_creates_energy(name: str) -> None:
     """Directional albedo of every NDF/Lambda/G2 combination with F = 1 is at most 1
-    (seed section 3), over roughness and incidence; by quadrature on the twin."""
+    (RTR4 §9.3), over roughness and incidence; by quadrature on the twin."""
     worst, roughness, theta = specular_albedo_max(name)
     assert worst <= 1.0 + 2e-3, f"{name}: albedo {worst:.4f} at r={roughness}, {theta} deg"
 

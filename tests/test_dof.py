@@ -1,4 +1,4 @@
-"""Seed section 2 (the camera): thin-lens depth of field (camera.aperture,
+"""RTR4 §9.2 (the camera): thin-lens depth of field (camera.aperture,
 camera.focus_distance; scenes/sec2_depth_of_field.toml). The GLSL circle of confusion and
 the gather pass against their float64 twin (app/reference/dof.py), and the properties
 that make it a lens blur: a pinhole camera runs no pass, a uniform image stays uniform

@@ -1,4 +1,4 @@
-"""Seed section 13: filtering normal and roughness mips, measured against a supersampled
+"""RTR4 §9.13: filtering normal and roughness mips, measured against a supersampled
 reference (app/bench/filtering.py), and the mip chains as the GL samples them."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Fresnel reflectance (seed section 5): the GLSL against its float64 twin, the twin against
-the physics of the Fresnel equations, and the presets' indices against the seed's F0.
+the physics of the Fresnel equations, and the presets' indices against the RTR4's F0.
 
 GLSL-vs-twin: the twin is evaluated on the float32-rounded inputs the shader received, so
 the difference is the shader's float32 arithmetic alone. Measured on llvmpipe (EGL and
@@ -396,12 +396,12 @@ def test_ior_from_f0_inverts_f0_from_ior(n1: float) -> None:
 # --- presets ---------------------------------------------------------------------------------
 
 # Measured largest |F0(index) - F0(seed)| per preset (rounded up), and why it is what it is.
-# Dielectrics whose index comes from the seed's own F0 (ior_from_f0) agree to rounding. The
-# others take one measured index at 587.6 nm (the seed's values are spectral averages
+# Dielectrics whose index comes from the RTR4's own F0 (ior_from_f0) agree to rounding. The
+# others take one measured index at 587.6 nm (the RTR4's values are spectral averages
 # quoted to 2-3 digits) and agree to 3 %. Metals: one wavelength per channel against the
-# seed's colour-matching-weighted spectral average, and different samples: within 0.1 except
+# RTR4's colour-matching-weighted spectral average, and different samples: within 0.1 except
 # zinc, whose only tabulated constants (Werner et al. 2009, derived from electron energy
-# loss spectra) give a red F0 of 0.875 against the seed's 0.664.
+# loss spectra) give a red F0 of 0.875 against the RTR4's 0.664.
 DIELECTRIC_REL_BOUND = 0.03
 METAL_ABS_BOUND = 0.1
 METAL_ABS_EXCEPTIONS = {"zinc": 0.22}
@@ -412,7 +412,7 @@ def test_preset_f0_from_index_against_the_seed() -> None:
     assert all(r["f0_index"] is not None for r in rows), "a seed preset without an index"
     report = []
     for r in rows:
-        seed = np.array(r["seed_f0"])
+        seed = np.array(r["rtr4_f0"])
         diff = np.array(r["f0_index"]) - seed
         report.append(f"{r['name']:26s} {r['medium']:5s} seed {seed} diff {np.round(diff, 4)}")
         if r["kind"] == "dielectric":
@@ -435,7 +435,7 @@ def test_every_material_in_air_and_in_water() -> None:
             assert f"{p.name}-in-water" in names, p.name
     for name in ("skin-in-water", "schott-k7-glass-in-water", "diamond-in-water",
                  "iron-in-water", "gold-in-water", "silver-in-water"):  # fmt: skip
-        assert not PRESETS[name].derived  # the seed's own rows are kept
+        assert not PRESETS[name].derived  # the RTR4's own rows are kept
 
 
 def test_in_water_presets_follow_from_the_indices() -> None:

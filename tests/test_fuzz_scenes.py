@@ -1,4 +1,4 @@
-"""Fuzzed scene files never crash ``pbs render`` (issue 6, docs/stability.md, "The renderer").
+"""Fuzzed scene files never crash ``pbs render`` (docs/stability.md, "The renderer").
 
 Every valid scene under scenes/ is a seed; hypothesis applies one to three random
 mutations (drop a key or element, change a value's type, put in NaN, +-Inf, huge,

@@ -1,4 +1,4 @@
-"""Mip chains for normal and roughness maps (seed section 13): level 0 is the source, sizes
+"""Mip chains for normal and roughness maps (RTR4 §9.13): level 0 is the source, sizes
 follow GL, a flat map keeps its roughness, bumps below a texel move into roughness by the
 amount each method predicts, and the variance method is the exact box filter of the slope
 moments (level 2 from level 1 = level 2 from the source).

@@ -1,6 +1,6 @@
 """Physics of the float64 reference BRDF (app/reference), proved by numerical quadrature.
 
-Each test states one claim of the seed ("Physically Based Shading") as an integral over
+Each test states one claim of RTR4 chapter 9 ("Physically Based Shading") as an integral over
 the hemisphere and evaluates it with a deterministic quadrature (Gauss-Legendre, no Monte
 Carlo noise), so each tolerance is tight: far below any error a wrong factor, exponent or
 clamp would cause, and checked against the quadrature's own convergence. Conventions as in
@@ -77,7 +77,7 @@ def test_reflected_rule_jacobian(theta_l: float, scale: float) -> None:
 
 @pytest.mark.parametrize("theta_l", [0.0, 30.0, 60.0, 85.0, 89.0])
 def test_white_lambertian_reflects_all_it_receives(theta_l: float) -> None:
-    """Seed section 3: a white Lambertian surface (rho_ss = 1) has directional albedo 1.
+    """RTR4 §9.3: a white Lambertian surface (rho_ss = 1) has directional albedo 1.
 
     The white furnace, by two rules over v: the plain one and the half-vector one around l.
     A coloured rho_ss comes back channel by channel.
@@ -94,7 +94,7 @@ def test_white_lambertian_reflects_all_it_receives(theta_l: float) -> None:
 
 @pytest.mark.parametrize("alpha", ALPHAS)
 def test_ggx_ndf_is_normalised(alpha: float) -> None:
-    """The GGX NDF (seed section 8) is normalised: integral D(m)(n.m) dm = 1.
+    """The GGX NDF (RTR4 §9.8) is normalised: integral D(m)(n.m) dm = 1.
 
     Rules scaled to alpha/4, alpha and 4 alpha all agree: with scale = alpha the substitution
     makes the integrand sin(psi)cos(psi)/pi, but a mismatched scale converges too, so the
@@ -115,7 +115,7 @@ def test_ggx_ndf_is_normalised(alpha: float) -> None:
 @pytest.mark.parametrize("theta_v", [0.0, 30.0, 60.0, 80.0, 89.0])
 @pytest.mark.parametrize("alpha", ALPHAS)
 def test_smith_masking_projected_area(alpha: float, theta_v: float) -> None:
-    """Seed section 7: integral G1(m, v) D(m) (v.m)+ dm = v.n, the visible projected area.
+    """RTR4 §9.7: integral G1(m, v) D(m) (v.m)+ dm = v.n, the visible projected area.
 
     G1(m, v) = chi+(m.v) / (1 + Lambda(v)); the rule is cut at m.v = 0, where (v.m)+ has its
     kink. Worst relative error over the grid: 3e-11 at these sizes (1e-8 at 32, 1e-6 at 16).
@@ -131,7 +131,7 @@ def test_smith_masking_projected_area(alpha: float, theta_v: float) -> None:
 
 
 def test_visibility_is_G2_over_4_NoL_NoV() -> None:
-    """Seed section 8: V = G2 / (4 |n.l| |n.v|); the GLSL's division-free form is the same."""
+    """RTR4 §9.8: V = G2 / (4 |n.l| |n.v|); the GLSL's division-free form is the same."""
     c = np.concatenate([np.geomspace(1e-3, 1.0, 40), [0.05, 0.5, 0.7071, 0.99999]])
     NoL, NoV, alpha = np.meshgrid(c, c, np.array([*ALPHAS, 0.3, 0.045**2, 1e-4]), indexing="ij")
     V = V_height_correlated_GGX(NoL, NoV, alpha)
@@ -155,7 +155,7 @@ def specular_albedo_table() -> np.ndarray:
 
 
 def test_ggx_specular_never_creates_energy(specular_albedo_table: np.ndarray) -> None:
-    """With F = 1 the GGX specular (seed section 8) reflects at most what it receives: E(l) <= 1."""
+    """With F = 1 the GGX specular (RTR4 §9.8) reflects at most what it receives: E(l) <= 1."""
     E = specular_albedo_table
     # The quadrature's error: a coarser rule agrees to 1e-7 (measured 5e-8, and the rule
     # used is ~10x closer still).
@@ -170,7 +170,7 @@ def test_ggx_specular_never_creates_energy(specular_albedo_table: np.ndarray) ->
 
 
 def test_ggx_specular_loses_energy_when_rough(specular_albedo_table: np.ndarray) -> None:
-    """Single scattering drops light that bounces more than once between microfacets (the seed's
+    """Single scattering drops light that bounces more than once between microfacets (the RTR4's
     energy loss), most for rough surfaces near normal incidence.
 
     At roughness 1 (alpha = 1) D = 1/pi and V = 1/(2(n.l + n.v)), so E(mu_l) has a closed
@@ -226,7 +226,7 @@ def test_brdf_is_reciprocal(name: str) -> None:
 
 
 def test_schlick_fresnel_from_F0_to_one() -> None:
-    """Seed section 5: F(0 degrees) = F0 and F(90 degrees) = 1 exactly; F falls as cos rises."""
+    """RTR4 §9.5: F(0 degrees) = F0 and F(90 degrees) = 1 exactly; F falls as cos rises."""
     F0 = np.concatenate([np.linspace(0.0, 1.0, 1001), [0.02, 0.04, 0.045, 0.08]])
     np.testing.assert_array_equal(F_schlick(F0, 1.0), F0)
     np.testing.assert_array_equal(F_schlick(F0, 0.0), np.ones_like(F0))

@@ -88,7 +88,7 @@ def test_post_pass_matches_float64_reference(gl, tonemap):
 
 
 def test_lights_behind_the_surface_add_nothing(gl):
-    """Seed section 4: the (n.l)+ clamp. A light under the floor leaves it black."""
+    """RTR4 §9.4: the (n.l)+ clamp. A light under the floor leaves it black."""
     from app.scene.loader import parse_scene
 
     data = {

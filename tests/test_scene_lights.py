@@ -1,4 +1,4 @@
-"""Seed section 4 (scenes/sec4_lights.toml): punctual lights summed in one lighting pass,
+"""RTR4 §9.4 (scenes/sec4_lights.toml): punctual lights summed in one lighting pass,
 each point and spot light windowed to exactly zero at its range (and a spot beyond its
 outer cone), so the lights can be culled without changing a pixel."""
 

@@ -1,4 +1,4 @@
-"""Numerical stability of every BRDF model under stress (issue 6, the BRDF half).
+"""Numerical stability of every BRDF model under stress (the BRDF half).
 
 Every model of tests/test_brdf_models.py (and a few stress-only materials) is driven through
 the lighting pass's own GLSL (app.brdf.evaluate, float32 on llvmpipe) and its float64 twin

@@ -1,4 +1,4 @@
-"""The renderer under stress (issue 6, docs/stability.md, "The renderer").
+"""The renderer under stress (docs/stability.md, "The renderer").
 
 * scenes/stress.toml, built to hit the worst cases (grazing planes, mirror-smooth spheres,
   lights touching surfaces, a 1e12 intensity ratio, every BRDF model), renders with no
@@ -64,7 +64,7 @@ def _with_gbuffer(loaded: LoadedScene, precision: str, culling: str = "tiled") -
 
 
 def test_stress_scene_hits_what_it_claims():
-    """Every BRDF model is in the scene, and the worst cases of issue 6 are: if a model is
+    """Every BRDF model is in the scene, and the worst cases are: if a model is
     added to app/reference/model.py, this fails until stress.toml uses it too."""
     scene = load_scene(STRESS).scene
     resolved = [m.resolve() for m in scene.materials.values()]

@@ -1,4 +1,4 @@
-"""Seed section 1: the surface (specular) and subsurface (diffuse) reflections as separate,
+"""RTR4 §9.1: the surface (specular) and subsurface (diffuse) reflections as separate,
 switchable contributions (render.terms; scenes/sec1_*.toml). The GLSL's BRDF_TERMS against
 the float64 twin, and the illumination sum's linearity: the image of both is the sum of
 the two images."""

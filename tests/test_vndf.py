@@ -1,4 +1,4 @@
-"""Seed section 6: the distribution of visible normals changes with the view angle
+"""RTR4 §9.6: the distribution of visible normals changes with the view angle
 (app/brdf/vndf.py, the figure of docs/microfacet.md)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``pbs bench``: run time against error (issue 5); docs/performance.md explains it all.
+"""``pbs bench``: run time against error; docs/performance.md explains it all.
 
     python -m app.bench [--quick] [--out DIR]
                         [--suites culling,resolution,accuracy,specialization,startup]

@@ -1,6 +1,6 @@
-"""bench.json and bench.md: the machine, the rows, the targets of issue 5 and the Pareto fronts.
+"""bench.json and bench.md: the machine, the rows, the targets and the Pareto fronts.
 
-Targets (issue 5), judged on ``ms_median`` of the rows, never tuned to pass:
+Targets, judged on ``ms_median`` of the rows, never tuned to pass:
 
 * ``culled`` at 256 lights <= 1.5x ``floor``, and >= 8x faster than ``unculled``;
 * ``culled`` faster than ``forward`` from 16 lights on (each count on its own);
@@ -368,7 +368,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
         f"{', '.join(f'{x:.2f}' for x in machine['load_avg_start'])}; at end: "
         f"{', '.join(f'{x:.2f}' for x in machine.get('load_avg_end', []))}",
         "",
-        "## Targets (issue 5)",
+        "## Targets",
         "",
     ]
     if machine["mode"] != "full":

@@ -470,7 +470,7 @@ class Comparison:
 
 
 def comparisons(settings: Settings) -> list[Comparison]:
-    """The accuracy suite's comparisons (issue 5), with the renderer's defaults marked."""
+    """The accuracy suite's comparisons, with the renderer's defaults marked."""
     dielectric = {"ior": 1.5}
     out = [
         Comparison(
@@ -586,7 +586,7 @@ def run_accuracy(ctx: Context) -> None:
 
 
 def _run_mip_filtering(ctx: Context) -> None:
-    """Accuracy comparison ``mip_filtering`` (issue 4): every normal/roughness filtering
+    """Accuracy comparison ``mip_filtering``: every normal/roughness filtering
     option on scenes/sec13_filtering.toml against the same view rendered with
     ``filtering_supersample``^2 samples per pixel from the unfiltered level 0, with the
     shimmer over a sideways camera sweep (app/bench/filtering.py)."""

@@ -8,7 +8,7 @@ pass runs, so the curves are the renderer's own numbers:
   over the outgoing angle theta_v in [-90, 90] degrees, for several incident angles
   theta_i (the light in the plane phi = 180 degrees, the view sweeping through it);
 * the directional albedo R(theta) = integral of f(l, v) (n.v)+ dv over the hemisphere
-  (seed section 3), the fraction of light from direction l that is reflected, against
+  (RTR4 §9.3), the fraction of light from direction l that is reflected, against
   theta in [0, 90] degrees, with the line R = 1 (energy conservation) for reference.
 
 The albedo uses a deterministic quadrature (``albedo_curve``) at two resolutions; their

@@ -1,10 +1,10 @@
-"""The distribution of visible normals (seed section 6: the microfacets the eye sees
+"""The distribution of visible normals (RTR4 §9.6: the microfacets the eye sees
 change with the view angle), plotted for docs/microfacet.md.
 
 Heitz 2014, "Understanding the Masking-Shadowing Function in Microfacet-Based BRDFs",
 eq. 38: D_v(m) = G1(v, m) (v.m)+ D(m) / (n.v), with Smith's G1 = chi+(v.m) / (1 + Lambda(v)).
 It integrates to 1 over the sphere of normals for every v (that is the masking identity
-of seed section 7, int G1 D (v.m)+ dm = n.v, which tests/test_microfacet.py proves for
+of RTR4 §9.7, int G1 D (v.m)+ dm = n.v, which tests/test_microfacet.py proves for
 every NDF). The renderer never samples it (no importance sampling), so it has no GLSL:
 it is built here from the float64 twins' D and Lambda.
 

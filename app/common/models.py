@@ -123,7 +123,7 @@ class ModelParams:
     """Per-material numbers of the optional models (each broadcasts like Surface's fields).
 
     Indices are relative: to the medium the light arrives from (``medium_ior``), so the
-    seed's "in water" values follow from dividing by 1.33.
+    RTR4's "in water" values follow from dividing by 1.33.
     """
 
     f90: np.ndarray = field(default_factory=_rgb)  # generalised Schlick: F at 90 degrees

@@ -20,7 +20,7 @@ def _f64(x: np.ndarray | float) -> np.ndarray:
 
 
 def Fd_lambert(rho_ss: np.ndarray) -> np.ndarray:
-    """Lambert 1760; seed section 3: f = rho_ss/pi, directional albedo rho_ss."""
+    """Lambert 1760; RTR4 §9.3: f = rho_ss/pi, directional albedo rho_ss."""
     return np.asarray(rho_ss, np.float64) * INV_PI
 
 

@@ -1,5 +1,5 @@
 """Twin of glsl/post/dof.glsl and glsl/passes/dof.frag: thin-lens depth of field
-(seed section 2, the camera), in float64.
+(RTR4 §9.2, the camera), in float64.
 
 A thin lens of aperture diameter A focused at distance z_f images a point at view depth z
 as a disc (the circle of confusion). Seen from the lens its angular diameter is

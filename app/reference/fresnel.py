@@ -18,7 +18,7 @@ def pow5_one_minus(x: np.ndarray) -> np.ndarray:
 
 
 def F_schlick(F0: np.ndarray, cos_theta: np.ndarray) -> np.ndarray:
-    """Schlick 1994; seed section 5: F = F0 + (1 - F0)(1 - (n.l)+)^5.
+    """Schlick 1994; RTR4 §9.5: F = F0 + (1 - F0)(1 - (n.l)+)^5.
 
     ``F0`` (..., 3) or scalar, ``cos_theta`` (...); returns (..., 3).
     """
@@ -30,7 +30,7 @@ def F_schlick(F0: np.ndarray, cos_theta: np.ndarray) -> np.ndarray:
 def F_schlick_generalized(
     F0: np.ndarray, F90: np.ndarray, exponent: np.ndarray, cos_theta: np.ndarray
 ) -> np.ndarray:
-    """Seed section 5 (RTR4 sec. 9.5): F = F0 + (F90 - F0)(1 - (n.l)+)^(1/p).
+    """RTR4 §9.5 (RTR4 sec. 9.5): F = F0 + (F90 - F0)(1 - (n.l)+)^(1/p).
 
     ``exponent`` = 1/p > 0 (5 gives Schlick); 0^exponent is 0, as the GLSL writes it out.
     ``F0``, ``F90`` (..., 3); ``exponent``, ``cos_theta`` (...); returns (..., 3).

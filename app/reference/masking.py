@@ -52,12 +52,12 @@ def Lambda_GGX(cos_theta: np.ndarray, alpha: np.ndarray) -> np.ndarray:
 
 
 def G1_smith(Lambda_v: np.ndarray) -> np.ndarray:
-    """Smith 1967; seed section 7: G1 = 1/(1 + Lambda(v)) (for m.v > 0)."""
+    """Smith 1967; RTR4 §9.7: G1 = 1/(1 + Lambda(v)) (for m.v > 0)."""
     return 1.0 / (1.0 + _f64(Lambda_v))
 
 
 def G2_height_correlated_GGX(NoL: np.ndarray, NoV: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Heitz 2014 eq. 99; seed section 7: G2 = 1/(1 + Lambda(v) + Lambda(l))."""
+    """Heitz 2014 eq. 99; RTR4 §9.7: G2 = 1/(1 + Lambda(v) + Lambda(l))."""
     return 1.0 / (1.0 + Lambda_GGX(NoL, alpha) + Lambda_GGX(NoV, alpha))
 
 
@@ -257,12 +257,12 @@ def azimuth_difference(n: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarra
 
 
 def lambda_phi_exp(phi: np.ndarray) -> np.ndarray:
-    """Ashikhmin et al. 2000 (seed section 7): lambda(phi) = 1 - e^(-7.3 phi^2)."""
+    """Ashikhmin et al. 2000 (RTR4 §9.7): lambda(phi) = 1 - e^(-7.3 phi^2)."""
     return -np.expm1(-7.3 * _f64(phi) ** 2)
 
 
 def lambda_phi_rational(phi: np.ndarray) -> np.ndarray:
-    """van Ginneken et al. 1998 (seed section 7): lambda(phi) = 4.41 phi/(4.41 phi + 1)."""
+    """van Ginneken et al. 1998 (RTR4 §9.7): lambda(phi) = 4.41 phi/(4.41 phi + 1)."""
     phi = _f64(phi)
     return 4.41 * phi / (4.41 * phi + 1.0)
 
@@ -313,7 +313,7 @@ def Lambda_numeric(
     """Smith Lambda of an isotropic NDF, independent of any closed form (for tests and docs).
 
     Lambda(v) = (1/cos) integral of D(m) (v.m)^- dm: the projected area of the microfacets
-    that face away from v, which the visible ones must make up (seed section 7). The azimuthal
+    that face away from v, which the visible ones must make up (RTR4 §9.7). The azimuthal
     integral of (v.m)^- is closed-form, 2 (b sin phi0 - a phi0) with a = cos_v cos_m,
     b = sin_v sin_m, cos phi0 = a/b; what remains is one integral over theta_m, taken in
     tan(theta_m) = scale tan(psi) from the cut theta_m = pi/2 - theta_v by composite

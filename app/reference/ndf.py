@@ -1,6 +1,6 @@
 """Twin of glsl/brdf/ndf.glsl: normal distribution functions.
 
-Every D carries chi+(n.m) and is normalised, integral of D(m)(n.m) dm = 1 (seed section 7).
+Every D carries chi+(n.m) and is normalised, integral of D(m)(n.m) dm = 1 (RTR4 §9.7).
 The twins evaluate the GLSL's formulas, clamps and branches in float64; where the GLSL
 approximates a special function (expm1, log1p), the twin uses the exact numpy one, so a
 GLSL-vs-twin difference measures float32 rounding plus that approximation.
@@ -33,7 +33,7 @@ def log_one_minus(x: np.ndarray) -> np.ndarray:
 
 
 def D_GGX(n: np.ndarray, m: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Walter et al. 2007 (GGX); Trowbridge & Reitz 1975; seed section 8.
+    """Walter et al. 2007 (GGX); Trowbridge & Reitz 1975; RTR4 §9.8.
 
     D(m) = chi+(n.m) alpha^2 / (pi (1 + (n.m)^2 (alpha^2 - 1))^2), with the denominator
     written as (n.m)^2 alpha^2 + |n x m|^2 exactly as the GLSL does.

@@ -17,7 +17,7 @@ from app.reference.ndf import D_GGX
 def f_spec_GGX(
     F0: np.ndarray, alpha: np.ndarray, n: np.ndarray, l: np.ndarray, v: np.ndarray
 ) -> np.ndarray:
-    """Cook & Torrance 1982; seed section 8: F(h,l) G2 D(h) / (4 |n.l| |n.v|).
+    """Cook & Torrance 1982; RTR4 §9.8: F(h,l) G2 D(h) / (4 |n.l| |n.v|).
 
     GGX D, height-correlated Smith G2 (as V = G2/(4|n.l||n.v|)), Schlick F; returns (..., 3).
     """

@@ -1,4 +1,4 @@
-"""The NaN/Inf debug view of ``pbs render --debug nan`` (issue 6).
+"""The NaN/Inf debug view of ``pbs render --debug nan``.
 
 Every pixel whose linear HDR radiance (the lighting pass's RGBA32F target, before
 exposure) is not a finite number >= 0 is painted in a loud colour over a dimmed

@@ -89,7 +89,7 @@ class DownsamplePass(_FullscreenPass):
 
 
 class DofPass(_FullscreenPass):
-    """Thin-lens depth of field (seed section 2) on linear HDR: each pixel's radiance
+    """Thin-lens depth of field (RTR4 §9.2) on linear HDR: each pixel's radiance
     spread over its circle of confusion (glsl/passes/dof.frag, twin app/reference/dof.py).
     Built only for a camera with an aperture: a pinhole camera skips the pass."""
 

@@ -30,7 +30,7 @@ VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
 
 @dataclass
 class BlendMask:
-    """A mask painting ``MeshPart.layers[1]`` over ``layers[0]`` (seed section 13)."""
+    """A mask painting ``MeshPart.layers[1]`` over ``layers[0]`` (RTR4 §9.13)."""
 
     mask: Texture  # red channel, sampled with layer 0's UV scale
     threshold: float

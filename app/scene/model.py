@@ -80,7 +80,7 @@ class Camera(_Strict):
     exposure: Annotated[Real, Field(ge=-32.0, le=32.0)] = 0.0  # EV: radiance x 2^exposure
     near: Positive = 0.05  # metres
     far: Positive = 200.0  # metres
-    # Seed section 2: a thin lens of this diameter (metres; 0 = a pinhole, everything
+    # RTR4 §9.2: a thin lens of this diameter (metres; 0 = a pinhole, everything
     # sharp) focused at focus_distance (metres along the view axis; default: the target's).
     aperture: Annotated[Real, Field(ge=0.0, le=10.0)] = 0.0
     focus_distance: Positive | None = None
@@ -113,7 +113,7 @@ class RenderSettings(_Strict):
     tonemap: Literal[TONEMAPS] = "neutral"  # type: ignore[valid-type]
     gbuffer: Literal["f16", "f32"] = "f16"
     light_culling: Literal["tiled", "none"] = "tiled"
-    # Seed section 13: how normal-map mips carry the variance of the normals they average
+    # RTR4 §9.13: how normal-map mips carry the variance of the normals they average
     # into roughness (app/textures/mips.py), and screen-space geometric specular AA.
     normal_filter: Literal["none", "naive", "toksvig", "variance"] = "variance"
     specular_aa: Annotated[bool, Field(strict=True)] = False
@@ -123,7 +123,7 @@ class RenderSettings(_Strict):
     specular_aa_threshold: Unit = SPECULAR_AA_KAPPA
     blend: Literal["runtime", "baked"] = "runtime"  # mask blends mixed per pixel, or baked
     supersample: Annotated[int, Field(strict=True, ge=1, le=16)] = 1  # n x n samples per pixel
-    # Seed section 1: the surface (specular) and subsurface (diffuse) reflections as
+    # RTR4 §9.1: the surface (specular) and subsurface (diffuse) reflections as
     # separate contributions: both, or one of them alone.
     terms: Literal["all", "specular", "diffuse"] = "all"
 
@@ -214,7 +214,7 @@ TEXTURE_KEYS = {
 
 
 class Blend(_Strict):
-    """Paints another material over this one where a mask texture says so (seed section 13):
+    """Paints another material over this one where a mask texture says so (RTR4 §9.13):
     the two materials' parameters are mixed with weight ``smoothstep`` of the mask around
     ``threshold`` over a ramp ``softness`` wide, never their shaded colours."""
 
@@ -225,8 +225,8 @@ class Blend(_Strict):
 
 
 class Material(_Strict):
-    """The metallic-roughness material (glTF names), optionally from a seed preset, and the
-    model of each BRDF term (docs/scene-format.md, "Materials")."""
+    """The metallic-roughness material (glTF names), optionally from a preset (RTR4's F0
+    tables), and the model of each BRDF term (docs/scene-format.md, "Materials")."""
 
     preset: str | None = None
     base_color: UnitColor | None = None  # linear RGB
@@ -236,7 +236,7 @@ class Material(_Strict):
     ior: Ior | None = None  # the object's index of refraction
     medium_ior: Ior | None = None  # the index of the medium around it (1.0 air, 1.33 water)
     anisotropy: Annotated[Real, Field(ge=-1.0, le=1.0)] | None = None
-    # Model of each term (seed sections 5-9); the defaults are the standard model.
+    # Model of each term (RTR4 §9.5–9.9); the defaults are the standard model.
     fresnel: Literal[FRESNEL_MODELS] = "schlick"  # type: ignore[valid-type]
     f90: UnitColor | None = None  # schlick_generalized
     fresnel_p: Annotated[Real, Field(ge=0.01, le=10.0)] | None = None  # exponent 1/p
@@ -249,7 +249,7 @@ class Material(_Strict):
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
     diffuse: Literal[DIFFUSE_MODELS] = "lambert"  # type: ignore[valid-type]
     multiscatter: Annotated[bool, Field(strict=True)] = False
-    # Textures (seed section 13), paths relative to the scene file; see TEXTURE_KEYS.
+    # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
     roughness_map: TexturePath | None = None
@@ -417,7 +417,7 @@ class SceneObject(_Strict):
 
 
 class Environment(_Strict):
-    """A uniform environment of radiance ``radiance`` from every direction (the seed's white
+    """A uniform environment of radiance ``radiance`` from every direction (the white
     furnace, section 3), integrated by ``samples`` directional lights on a Fibonacci sphere."""
 
     radiance: Color = [1.0, 1.0, 1.0]

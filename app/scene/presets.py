@@ -1,16 +1,16 @@
-"""Named materials from the seed's Fresnel tables (seed section 5; RTR4 tables 9.2-9.4).
+"""Named materials from RTR4's F0 tables (RTR4 §9.5; RTR4 tables 9.2-9.4).
 
-Each preset is the seed's linear F0 and the workflow it implies: dielectrics keep a
+Each preset is RTR4's linear F0 and the workflow it implies: dielectrics keep a
 scalar F0 (``metallic = 0``); metals, and silicon, whose reflectance is coloured and
-which have no diffuse term, use ``metallic = 1`` with ``base_color = F0``. Where the
-seed gives a range (e.g. water-y to dry tissue 0.02-0.04) the preset takes the midpoint
+which have no diffuse term, use ``metallic = 1`` with ``base_color = F0``. Where
+RTR4 gives a range (e.g. water-y to dry tissue 0.02-0.04) the preset takes the midpoint
 and records the range.
 
 Each preset also carries its index of refraction, so that its F0 can be computed rather
 than looked up: a real ``ior`` for dielectrics, a complex ``eta + i k`` per RGB channel
 for metals and silicon (measured optical constants, sources below, at ``WAVELENGTHS_NM``).
-The "in water" rows (n1 = 1.33) follow from those indices: the seed's own in-water rows
-keep the seed's F0 (``preset_table`` compares them with the computed value), and every
+The "in water" rows (n1 = 1.33) follow from those indices: RTR4's own in-water rows
+keep RTR4's F0 (``preset_table`` compares them with the computed value), and every
 other material gets a ``<name>-in-water`` row whose F0 is computed from its index.
 """
 
@@ -25,7 +25,7 @@ from app.common.ior import f0_conductor, f0_from_ior, ior_from_f0
 MEDIUM_IOR = {"air": 1.0, "water": 1.33}
 
 # The representative wavelengths of the R, G and B channels. Any single wavelength per
-# channel approximates the seed's F0, which are spectral reflectances integrated against
+# channel approximates RTR4's F0, which are spectral reflectances integrated against
 # colour-matching functions; 650/550/450 nm is the common rendering choice.
 WAVELENGTHS_NM = (650.0, 550.0, 450.0)
 
@@ -137,18 +137,18 @@ def optical_constants(name: str) -> tuple[tuple[float, ...], tuple[float, ...], 
 
 @dataclass(frozen=True)
 class Preset:
-    """One material: a row of the seed's tables, or one derived from its index."""
+    """One material: a row of RTR4's tables, or one derived from its index."""
 
     name: str
     kind: str  # "dielectric", "metal" or "semiconductor"
-    f0: tuple[float, float, float]  # the seed's linear F0 (computed for derived rows)
+    f0: tuple[float, float, float]  # RTR4's linear F0 (computed for derived rows)
     medium: str = "air"
     note: str = ""
     ior: float | None = None  # real index of a dielectric (absolute)
     eta: tuple[float, float, float] | None = None  # absolute complex index n + ik, R, G, B
     k: tuple[float, float, float] | None = None
     index_source: str = ""
-    derived: bool = False  # f0 computed from the index: the seed has no such row
+    derived: bool = False  # f0 computed from the index: RTR4 has no such row
 
     @property
     def metallic(self) -> float:
@@ -182,7 +182,7 @@ def _d(
 ) -> Preset:
     value = lo if hi is None else 0.5 * (lo + hi)
     if hi is not None:
-        note = f"seed range {lo}-{hi}; midpoint used" + (f"; {note}" if note else "")
+        note = f"RTR4 range {lo}-{hi}; midpoint used" + (f"; {note}" if note else "")
     return Preset(name, "dielectric", (value, value, value), medium, note)
 
 
@@ -191,7 +191,7 @@ def _m(name: str, r: float, g: float, b: float, kind: str = "metal", medium: str
 
 
 _TABLE: tuple[Preset, ...] = (
-    # Dielectrics (seed: "Typical Fresnel Reflectance Values", dielectric table).
+    # Dielectrics (RTR4 §9.5, the table of dielectric F0 values).
     _d("water", 0.02),
     _d("living-tissue", 0.02, 0.04, "watery tissues toward the lower bound, dry ones higher"),
     _d("skin", 0.028),
@@ -218,11 +218,11 @@ _TABLE: tuple[Preset, ...] = (
     _m("gold", 1.000, 0.782, 0.344),
     _m("aluminum", 0.913, 0.922, 0.924),
     _m("silver", 0.972, 0.960, 0.915),
-    # Semiconductors (the seed's table lists titanium here too; it is the metal above).
+    # Semiconductors (RTR4's table lists titanium here too; it is the metal above).
     # Diamond is a transparent insulator: kept as a dielectric with the table's mean F0.
-    Preset("diamond", "dielectric", (0.171, 0.172, 0.176), note="seed's semiconductor table"),
+    Preset("diamond", "dielectric", (0.171, 0.172, 0.176), note="RTR4's semiconductor table"),
     _m("silicon", 0.345, 0.369, 0.426, kind="semiconductor"),
-    # The same materials in water (seed: "Fresnel Reflectance Values in Water").
+    # The same materials in water (RTR4 §9.5, F0 values in water).
     _d("skin-in-water", 0.0007, medium="water"),
     _d("schott-k7-glass", 0.042),
     _d("schott-k7-glass-in-water", 0.004, medium="water"),
@@ -240,7 +240,7 @@ def _material(name: str) -> str:
 
 def _with_index(p: Preset, air_f0: dict[str, float]) -> Preset:
     """``p`` with its index filled in: measured constants, a dispersion formula, or the
-    index implied by the material's seed F0 in air (ior_from_f0)."""
+    index implied by the material's RTR4 F0 in air (ior_from_f0)."""
     material = _material(p.name)
     if material in _OPTICAL_CONSTANTS:
         eta, k, source = optical_constants(material)
@@ -250,13 +250,13 @@ def _with_index(p: Preset, air_f0: dict[str, float]) -> Preset:
         n = sellmeier(formula, coefficients, WAVELENGTH_D_NM / 1000.0)
         return replace(p, ior=n, index_source=f"{source}, at 587.6 nm")
     n = float(ior_from_f0(air_f0[material]))
-    return replace(p, ior=n, index_source="ior_from_f0(seed F0 in air)")
+    return replace(p, ior=n, index_source="ior_from_f0(RTR4 F0 in air)")
 
 
 def _in_water(p: Preset) -> Preset:
     """The derived ``<name>-in-water`` counterpart of an air preset, F0 from its index."""
     w = Preset(
-        f"{p.name}-in-water", p.kind, p.f0, "water", "derived from the index (no seed row)",
+        f"{p.name}-in-water", p.kind, p.f0, "water", "derived from the index (no RTR4 row)",
         p.ior, p.eta, p.k, p.index_source, derived=True,
     )  # fmt: skip
     f0 = w.f0_from_index()
@@ -281,21 +281,21 @@ PRESETS: dict[str, Preset] = {p.name: p for p in _build()}
 
 
 def preset_table() -> list[dict]:
-    """Per preset: the seed F0, the index, the F0 computed from the index and the difference.
+    """Per preset: the RTR4 F0, the index, the F0 computed from the index and the difference.
 
-    ``seed_f0`` and ``difference`` (computed - seed) are None for the derived rows, whose F0
+    ``rtr4_f0`` and ``difference`` (computed - RTR4) are None for the derived rows, whose F0
     is the computed one. Used by docs/fresnel.md and tests/test_fresnel.py.
     """
     rows = []
     for p in PRESETS.values():
         computed = p.f0_from_index()
-        seed = None if p.derived else p.f0
+        book = None if p.derived else p.f0
         diff = None
-        if seed is not None and computed is not None:
-            diff = tuple(c - s for c, s in zip(computed, seed, strict=True))
+        if book is not None and computed is not None:
+            diff = tuple(c - s for c, s in zip(computed, book, strict=True))
         rows.append(
             {
-                "name": p.name, "kind": p.kind, "medium": p.medium, "seed_f0": seed,
+                "name": p.name, "kind": p.kind, "medium": p.medium, "rtr4_f0": book,
                 "ior": p.ior, "eta": p.eta, "k": p.k, "f0_index": computed,
                 "difference": diff, "index_source": p.index_source, "derived": p.derived,
             }

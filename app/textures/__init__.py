@@ -1,2 +1,2 @@
 """Material textures: procedural generators, mip chains for normal and roughness data, and
-the offline baking of mask blends (seed section 13, "Blending and Filtering Materials")."""
+the offline baking of mask blends (RTR4 §9.13, "Blending and Filtering Materials")."""

@@ -1,5 +1,5 @@
 """A material's texture maps, read from the files a scene names and turned into the mip
-chains the G-buffer pass samples (seed section 13).
+chains the G-buffer pass samples (RTR4 §9.13).
 
 Colour data (base colour) is sRGB and lets the GL build its mips. Non-colour data never
 does: masks, metallic and anisotropy get box-filtered mips (mips.box_mips), and roughness

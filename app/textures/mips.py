@@ -1,5 +1,5 @@
 """Mip chains for normal maps and roughness that keep the variance of the normals they
-average (seed section 13, "Blending and Filtering Materials").
+average (RTR4 §9.13, "Blending and Filtering Materials").
 
 Normals and roughness are not linear in the final colour: a plain mip of a bumpy normal map
 is a smooth, shorter normal over a texel whose roughness never learnt about the bumps, so
