@@ -2,7 +2,9 @@
 #ifndef PBS_MASKING_GLSL
 #define PBS_MASKING_GLSL
 
-// Uses expm1_over_x and log_one_minus from brdf/ndf.glsl, which every pass includes first.
+#include "common/constants.glsl"
+#include "brdf/ndf.glsl"
+
 // Smith's masking (seed section 7): G1(m, v) = chi+(m.v) / (1 + Lambda(v)), where Lambda(v)
 // is fixed by the NDF: integral of G1(m, v) D(m) (v.m)+ dm = v.n. Lambda(cos) takes the
 // cosine of the direction's angle to n; it is 0 at cos = 1 and +inf at cos = 0.

@@ -3,6 +3,14 @@
 #ifndef PBS_MATERIAL_GLSL
 #define PBS_MATERIAL_GLSL
 
+#include "common/constants.glsl"
+#include "brdf/model.glsl"
+#include "brdf/fresnel.glsl"
+#include "brdf/masking.glsl"
+#include "brdf/diffuse.glsl"
+#include "brdf/multiscatter.glsl"
+#include "brdf/specular.glsl"
+
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
     vec3 base_color;           // linear RGB

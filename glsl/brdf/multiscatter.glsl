@@ -2,7 +2,6 @@
 // Kulla & Conty 2017, "Revisiting Physically Based Shading at Imageworks" (SIGGRAPH course).
 // Everything is inside #if MULTISCATTER (or UBER_MODELS, the uber-shader that compiles every
 // model; brdf/model.glsl), so a program built without it pays nothing.
-// Needs common/constants.glsl.
 //
 // u_ms_table (app/render/tables.py, ms_texture): RG32F, NEAREST, width n_mu, height n_r;
 // texel (j, i) = (1 - E(mu_j, r_i), 1 - E_avg(r_i)), the energy LOST by single scattering,
@@ -15,6 +14,9 @@
 // NVIDIA), up to 2e-3 of a cell's difference, and differs between drivers.
 #ifndef PBS_MULTISCATTER_GLSL
 #define PBS_MULTISCATTER_GLSL
+
+#include "common/constants.glsl"
+#include "brdf/model.glsl"
 
 #if UBER_MODELS || MULTISCATTER
 

@@ -2,6 +2,12 @@
 #ifndef PBS_SPECULAR_GLSL
 #define PBS_SPECULAR_GLSL
 
+#include "common/constants.glsl"
+#include "brdf/model.glsl"
+#include "brdf/fresnel.glsl"
+#include "brdf/ndf.glsl"
+#include "brdf/masking.glsl"
+
 // Cook & Torrance 1982; seed section 8:
 //   f_spec = F(h, l) G2(l, v, h) D(h) / (4 |n.l| |n.v|),  h = (l + v)/|l + v|,
 // with GGX D, height-correlated Smith G2 (as the visibility V = G2/(4|n.l||n.v|))
