@@ -37,7 +37,7 @@ from app.scene.presets import MEDIUM_IOR, PRESETS, preset_table
 from tests.agreement import relative_error
 from tests.conftest import REPO
 
-INCLUDES = ["common/constants.glsl", "brdf/fresnel.glsl"]
+INCLUDES = ["brdf/fresnel.glsl"]
 MAX_REL_ERR = 1e-4
 U = 2.0**-24  # float32 unit roundoff
 RNG_SEED = 20240917

@@ -5,18 +5,9 @@
 // its pixel's mask with the lighting pass's own loop, where the tiled lighting pass walks
 // its tile's mask, lights in range of the pixel or not.
 //   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
-#include "common/constants.glsl"
+#include "brdf/brdf.glsl"
 #include "common/encoding.glsl"
 #include "common/position.glsl"
-#include "brdf/model.glsl"
-#include "brdf/fresnel.glsl"
-#include "brdf/ndf.glsl"
-#include "brdf/masking.glsl"
-#include "brdf/diffuse.glsl"
-#include "brdf/multiscatter.glsl"
-#include "brdf/specular.glsl"
-#include "brdf/material.glsl"
-#include "lights/punctual.glsl"
 #include "lights/tiles.glsl"
 #include "lights/illumination.glsl"
 
