@@ -40,7 +40,7 @@ void main() {{
 
 
 def test_the_library_is_found():
-    assert {"brdf/brdf.glsl", "lights/illumination.glsl", "post/dof.glsl"} <= set(LIBRARY)
+    assert {"brdf/brdf.glsl", "gbuffer/decode.glsl", "lights/illumination.glsl"} <= set(LIBRARY)
 
 
 @pytest.mark.parametrize("features", list(FEATURES))
