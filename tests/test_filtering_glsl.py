@@ -1,4 +1,4 @@
-"""Geometric specular antialiasing (seed section 13): glsl/brdf/filtering.glsl against its
+"""Geometric specular antialiasing (seed section 13): glsl/material/filtering.glsl against its
 float64 twin app/reference/filtering.py, on EGL and OSMesa, and what the kernel may do.
 
 GLSL-vs-twin: the twin gets the float32-rounded inputs the shader received, so what is left
@@ -25,7 +25,7 @@ from app.reference.filtering import (
 )
 from tests.agreement import relative_error
 
-INCLUDES = ["brdf/filtering.glsl"]
+INCLUDES = ["material/filtering.glsl"]
 RNG_SEED = 20241130
 MAX_REL_ERR = 1e-6
 U = 2.0**-24

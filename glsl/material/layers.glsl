@@ -6,8 +6,8 @@
 #ifndef PBS_LAYERS_GLSL
 #define PBS_LAYERS_GLSL
 
-#include "brdf/blend.glsl"
-#include "brdf/filtering.glsl"
+#include "material/blend.glsl"
+#include "material/filtering.glsl"
 #include "material/normal_mapping.glsl"
 
 #define MAP_BASE_COLOR 1        // sRGB (decoded by the GL) or linear: multiplies base_color
