@@ -114,17 +114,6 @@ def test_kernel_adds_at_most_kappa(gl: GLContext) -> None:
     np.testing.assert_allclose(out[huge], want, rtol=0, atol=2.0**-24)
 
 
-def test_glsl_defaults_are_the_twins(gl_egl: GLContext) -> None:
-    """SPECULAR_AA_SIGMA2 and SPECULAR_AA_KAPPA read back from the GLSL equal the twin's
-    (Tokuyoshi & Kaplanyan 2019: 0.25 and 0.18) to float32."""
-    out = run_kernel(
-        gl_egl.ctx, INCLUDES, "result = vec4(SPECULAR_AA_SIGMA2, SPECULAR_AA_KAPPA, 0.0, 1.0);",
-        {"unused": np.zeros(1)},
-    )  # fmt: skip
-    assert out[0, 0] == np.float32(SPECULAR_AA_SIGMA2)
-    assert out[0, 1] == np.float32(SPECULAR_AA_KAPPA)
-
-
 def test_sigma2_is_the_pixel_filter_variance() -> None:
     """The kernel's meaning: a normal rotating at k radians per pixel about y,
     n(x) = (sin kx, 0, cos kx), has |dn/dx| = k; under a Gaussian pixel filter of variance

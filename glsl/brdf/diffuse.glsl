@@ -1,7 +1,7 @@
 // Diffuse (subsurface) terms. Twin: app/reference/diffuse.py.
 // Each model returns the BRDF value f_diff (already divided by pi). The caller guarantees
 // n.l > 0 and clamps n.v to [MIN_N_DOT_V, 1] (Fd_oren_nayar, which takes vectors, clamps
-// them itself as f_spec_GGX does).
+// them itself).
 #ifndef PBS_DIFFUSE_GLSL
 #define PBS_DIFFUSE_GLSL
 

@@ -71,7 +71,9 @@ float ms_loss_avg(float perceptual_roughness) {
     return (1.0 - ty) * a + ty * b;
 }
 
-// Kulla & Conty 2017: E(mu, r), the directional albedo of f_spec_GGX with F = 1.
+// Kulla & Conty 2017: E(mu, r), the directional albedo with F = 1 of the standard model's
+// single-scattering specular (brdf_eval's; integrated from its float64 twin,
+// app/reference/specular.py f_spec_GGX).
 float ms_E(float mu, float perceptual_roughness) {
     return 1.0 - ms_loss(mu, perceptual_roughness);
 }
