@@ -8,7 +8,7 @@
 #include "common/constants.glsl"
 #include "brdf/fresnel.glsl"
 
-// Lambert 1760; seed section 3: f = rho_ss / pi, whose directional albedo is rho_ss.
+// Lambert 1760; RTR4 sec. 9.3: f = rho_ss / pi, whose directional albedo is rho_ss.
 vec3 Fd_lambert(vec3 rho_ss) {
     return rho_ss * INV_PI;
 }

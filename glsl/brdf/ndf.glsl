@@ -6,7 +6,7 @@
 
 // Conventions: n is the normal, m the microfacet normal, t and b the tangent and bitangent
 // (n, t, b orthonormal); alpha = perceptual_roughness^2. Every D here carries chi+(n.m) and
-// is normalised: integral of D(m)(n.m) dm over the hemisphere = 1 (seed section 7).
+// is normalised: integral of D(m)(n.m) dm over the hemisphere = 1 (RTR4 sec. 9.7).
 // Precision: wherever a D needs 1 - (n.m)^2 = sin^2(theta_m) it is taken as |n x m|^2
 // (Lagrange's identity); the direct form cancels catastrophically near the peak in float32.
 
@@ -41,7 +41,7 @@ float log_one_minus(float x) {
 // --- isotropic NDFs ---
 
 // Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces" (GGX);
-// Trowbridge & Reitz 1975. Seed section 8:
+// Trowbridge & Reitz 1975. RTR4 sec. 9.8:
 //   D(m) = chi+(n.m) alpha^2 / (pi (1 + (n.m)^2 (alpha^2 - 1))^2).
 // Precision: the denominator is rewritten as (n.m)^2 alpha^2 + (1 - (n.m)^2), with
 // 1 - (n.m)^2 = |n x m|^2 by Lagrange's identity; near the peak of a smooth lobe the

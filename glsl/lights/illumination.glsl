@@ -1,5 +1,5 @@
-// The terms of the seed's illumination sum, L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+
-// (seed section 4), shared by the lighting, floor and forward passes so that every
+// The terms of the illumination sum L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+
+// (RTR4 sec. 9.4), shared by the lighting, floor and forward passes so that every
 // variant the bench compares adds the same float32 terms in the same order.
 // Twin: app/reference/illumination.py.
 #ifndef PBS_ILLUMINATION_GLSL
@@ -31,9 +31,9 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
 //
 // Every loop here is bottom-tested. A SIMD rasteriser such as llvmpipe runs a loop's
 // body, masked, until every lane has left, and a top-tested loop ends with one more pass
-// over the whole body with every lane masked off: one wasted light evaluation per pixel,
-// 4 % of the lighting pass at 256 lights. No `if` skips work on llvmpipe either, so the
-// next word is chosen by selects, not fetched (docs/performance.md).
+// over the whole body with every lane masked off: one wasted light evaluation per pixel.
+// No `if` skips work on llvmpipe either, so the next word is chosen by selects, not
+// fetched (docs/performance.md measures both).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
                        Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
     int chunk = 0;

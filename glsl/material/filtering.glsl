@@ -1,5 +1,5 @@
 // Geometric specular antialiasing: roughness that absorbs the normals a pixel averages
-// (seed section 13). Twin: app/reference/filtering.py.
+// (RTR4 sec. 9.13). Twin: app/reference/filtering.py.
 #ifndef PBS_FILTERING_GLSL
 #define PBS_FILTERING_GLSL
 

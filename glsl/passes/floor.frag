@@ -4,7 +4,7 @@
 // light mask per pixel; this pass decodes the G-buffer with the lighting pass's function and walks
 // its pixel's mask with the lighting pass's own loop, where the tiled lighting pass walks
 // its tile's mask, lights in range of the pixel or not.
-//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
+//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (RTR4 sec. 9.4)
 #include "brdf/brdf.glsl"
 #include "gbuffer/decode.glsl"
 #include "lights/illumination.glsl"

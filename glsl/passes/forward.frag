@@ -1,5 +1,5 @@
 // Forward pass (the bench's baseline): each object's fragments loop over every light.
-//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
+//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (RTR4 sec. 9.4)
 // The same terms as glsl/passes/lighting.frag (brdf_eval and light_contribution, lights in
 // the same order), but the surface comes straight from the material uniforms and the
 // interpolated vertex attributes instead of a G-buffer: no quantisation, no culling, and

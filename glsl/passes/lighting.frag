@@ -1,5 +1,5 @@
-// Lighting pass: the seed's illumination sum over a G-buffer, in linear HDR.
-//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
+// Lighting pass: the illumination sum over a G-buffer, in linear HDR.
+//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (RTR4 sec. 9.4)
 #include "brdf/brdf.glsl"
 #include "gbuffer/decode.glsl"
 #include "lights/tiles.glsl"
