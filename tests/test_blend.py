@@ -1,6 +1,6 @@
 """Seed section 13: materials blended by their parameters through a mask texture.
 
-The GLSL blend (glsl/brdf/blend.glsl, run by the G-buffer pass) against its float64 twin
+The GLSL blend (glsl/material/blend.glsl, run by the G-buffer pass) against its float64 twin
 (app/reference/blend.py, run by the offline bake), and a scene rendered with the blend
 mixed per pixel against the same scene baked into textures first.
 """
@@ -52,7 +52,7 @@ def test_glsl_blend_matches_its_twin(gl: GLContext) -> None:
     """blend_weight and blend_layers in GLSL agree with the float64 twin to float32
     rounding (a few ulps of values in [0, 1]; 1e-5 absolute)."""
     x = _inputs(4000)
-    out = run_kernel(gl.ctx, ["brdf/blend.glsl"], BODY, x)
+    out = run_kernel(gl.ctx, ["material/blend.glsl"], BODY, x)
     w = np.array([blend_weight(m, t, s) for m, t, s in x["m"]])
     ca, cb = x["ca"], x["cb"]
     a = Layer(ca[:, :3], ca[:, 3], ca[:, 0], ca[:, 1], ca[:, 2], x["na"])

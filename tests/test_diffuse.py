@@ -21,7 +21,7 @@ from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.quadrature import N, direction, gauss_legendre
 from tests.agreement import relative_error
 
-INCLUDES = ["common/constants.glsl", "brdf/fresnel.glsl", "brdf/diffuse.glsl"]
+INCLUDES = ["brdf/diffuse.glsl"]
 MAX_REL_ERR = 1e-4
 EPS32 = 2.0**-24  # float32 unit roundoff
 

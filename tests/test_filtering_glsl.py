@@ -1,4 +1,4 @@
-"""Geometric specular antialiasing (seed section 13): glsl/brdf/filtering.glsl against its
+"""Geometric specular antialiasing (seed section 13): glsl/material/filtering.glsl against its
 float64 twin app/reference/filtering.py, on EGL and OSMesa, and what the kernel may do.
 
 GLSL-vs-twin: the twin gets the float32-rounded inputs the shader received, so what is left
@@ -25,7 +25,7 @@ from app.reference.filtering import (
 )
 from tests.agreement import relative_error
 
-INCLUDES = ["brdf/filtering.glsl"]
+INCLUDES = ["material/filtering.glsl"]
 RNG_SEED = 20241130
 MAX_REL_ERR = 1e-6
 U = 2.0**-24
@@ -112,17 +112,6 @@ def test_kernel_adds_at_most_kappa(gl: GLContext) -> None:
     assert huge.sum() > 1500
     want = np.minimum(p[huge, 0] + p[huge, 2], 1.0)
     np.testing.assert_allclose(out[huge], want, rtol=0, atol=2.0**-24)
-
-
-def test_glsl_defaults_are_the_twins(gl_egl: GLContext) -> None:
-    """SPECULAR_AA_SIGMA2 and SPECULAR_AA_KAPPA read back from the GLSL equal the twin's
-    (Tokuyoshi & Kaplanyan 2019: 0.25 and 0.18) to float32."""
-    out = run_kernel(
-        gl_egl.ctx, INCLUDES, "result = vec4(SPECULAR_AA_SIGMA2, SPECULAR_AA_KAPPA, 0.0, 1.0);",
-        {"unused": np.zeros(1)},
-    )  # fmt: skip
-    assert out[0, 0] == np.float32(SPECULAR_AA_SIGMA2)
-    assert out[0, 1] == np.float32(SPECULAR_AA_KAPPA)
 
 
 def test_sigma2_is_the_pixel_filter_variance() -> None:

@@ -34,7 +34,7 @@ from scripts.fresnel_tables import generated_markdown, schlick_error_rows
 from tests.agreement import relative_error
 from tests.conftest import REPO
 
-INCLUDES = ["common/constants.glsl", "brdf/fresnel.glsl"]
+INCLUDES = ["brdf/fresnel.glsl"]
 MAX_REL_ERR = 1e-4
 U = 2.0**-24  # float32 unit roundoff
 RNG_SEED = 20240917

@@ -33,7 +33,7 @@ from tests.agreement import relative_error
 
 REPO = Path(__file__).resolve().parent.parent
 DOC = REPO / "docs" / "microfacet.md"
-INCLUDES = ["common/constants.glsl", "brdf/ndf.glsl", "brdf/masking.glsl"]
+INCLUDES = ["brdf/ndf.glsl", "brdf/masking.glsl"]
 
 ALPHA_FLOOR = 0.045**2  # the roughness floor of glsl/common/constants.glsl
 GAMMAS = (0.5, 1.0, 1.5, 2.0, 3.0, 10.0)

@@ -29,7 +29,7 @@ from tests.agreement import relative_error
 
 SIZE = tables.DEFAULT_SIZE
 MAX_REL_ERR = 1e-4
-INCLUDES = ["common/constants.glsl", "brdf/multiscatter.glsl"]
+INCLUDES = ["brdf/multiscatter.glsl"]
 
 # Test roughnesses: below and at the floor, its neighbour rows, r = 1, points halfway
 # between table rows (where the interpolation in r is worst) and a coarse sweep.

@@ -190,7 +190,7 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
             got.append(
                 run_kernel(
                     ctx,
-                    ["common/constants.glsl", "brdf/model.glsl"],
+                    ["brdf/model.glsl"],
                     f"fetch_model_codes(u_materials, int(x.x));\nresult = {expr};",
                     {"x": rows},
                     defines={"UBER_MODELS": 1},

@@ -84,7 +84,7 @@ class FloorPass:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         self.fbo.clear(*(float(x) for x in r.scene.background), 1.0)
         textures = [
-            ("g_albedo", r.gbuffer.base_color),
+            ("g_base_color", r.gbuffer.base_color),
             ("g_normal", r.gbuffer.normal),
             ("g_depth", r.gbuffer.depth),
             *([("g_tangent", r.gbuffer.tangent)] if r.gbuffer.tangent is not None else []),

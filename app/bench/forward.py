@@ -79,7 +79,7 @@ class ForwardRenderer:
                 defines = dict(group_defines[group])
                 if len(groups) > 1:
                     defines["MODEL_GROUP"] = group
-                shader_pair = ("passes/forward.vert", "passes/forward.frag")
+                shader_pair = ("passes/gbuffer.vert", "passes/forward.frag")
                 self.drawables.append(
                     MeshDrawable(ctx, self.shaders, part, rows, shader_pair, defines, specular_aa)
                 )

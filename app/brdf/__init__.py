@@ -25,17 +25,8 @@ from app.scene.model import Material
 
 Backend = Literal["glsl", "reference"]
 
-INCLUDES = (
-    "common/constants.glsl",
-    "brdf/model.glsl",
-    "brdf/fresnel.glsl",
-    "brdf/ndf.glsl",
-    "brdf/masking.glsl",
-    "brdf/diffuse.glsl",
-    "brdf/multiscatter.glsl",
-    "brdf/specular.glsl",
-    "brdf/material.glsl",
-)
+# The passes' own include: the model selection, every term and brdf_eval.
+INCLUDES = ("brdf/brdf.glsl",)
 
 _BODY = """
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);

@@ -2,8 +2,11 @@
 
 A program is built from one vertex and one fragment file plus a set of defines, so a
 scene compiles only the features it uses (as the glTF Sample Viewer's shader cache
-does). Included files are spliced once each; the GLSL keeps ``#ifndef`` guards too so
-each file also stands alone.
+does). Included files are spliced once each, at their first ``#include``; the GLSL keeps
+``#ifndef`` guards too. Every library file (``glsl/**/*.glsl``) includes what it uses, so
+each compiles on its own after the ``#version`` and defines header
+(tests/test_glsl_includes.py). Includes are expanded before the GLSL preprocessor runs:
+an ``#include`` inside ``#if`` is spliced (and counts as done) whatever the condition.
 """
 
 from __future__ import annotations

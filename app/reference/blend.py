@@ -1,4 +1,4 @@
-"""Twin of glsl/brdf/blend.glsl: blending materials by their parameters (seed section 13).
+"""Twin of glsl/material/blend.glsl: blending materials by their parameters (seed section 13).
 
 The offline bake (app/textures/bake.py) runs these on textures; the G-buffer pass runs
 the GLSL per pixel. Both mix BRDF inputs, never shaded colours.

@@ -1,4 +1,4 @@
-"""Twin of glsl/brdf/filtering.glsl: roughness that absorbs the normals a pixel or a texel
+"""Twin of glsl/material/filtering.glsl: roughness that absorbs the normals a pixel or a texel
 averages (seed section 13, "Blending and Filtering Materials").
 
 Two kinds of filtering meet here, both as changes of alpha^2 (alpha = r^2, r the perceptual

@@ -99,7 +99,7 @@ class LightingPass:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
         textures = [
-            ("g_albedo", gbuffer.base_color),
+            ("g_base_color", gbuffer.base_color),
             ("g_normal", gbuffer.normal),
             ("g_depth", gbuffer.depth),
             *([("g_tangent", gbuffer.tangent)] if gbuffer.tangent is not None else []),

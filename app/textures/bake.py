@@ -2,7 +2,7 @@
 offline, some at run time").
 
 The bake evaluates the same parameter blend as the G-buffer pass (app/reference/blend.py,
-twin of glsl/brdf/blend.glsl) once per texel of the mask, and stores the result as the
+twin of glsl/material/blend.glsl) once per texel of the mask, and stores the result as the
 maps of a single layer: base colour (linear), metallic, F0, anisotropy, normals with
 roughness (then filtered like any normal map), and a ``select`` map, the blend weight,
 from which the G-buffer pass picks the material-table row (the models' numbers) of the

@@ -1,11 +1,14 @@
 // Diffuse (subsurface) terms. Twin: app/reference/diffuse.py.
 // Each model returns the BRDF value f_diff (already divided by pi). The caller guarantees
 // n.l > 0 and clamps n.v to [MIN_N_DOT_V, 1] (Fd_oren_nayar, which takes vectors, clamps
-// them itself as f_spec_GGX does). Needs common/constants.glsl and brdf/fresnel.glsl.
+// them itself).
 #ifndef PBS_DIFFUSE_GLSL
 #define PBS_DIFFUSE_GLSL
 
-// Lambert 1760; seed section 3: f = rho_ss / pi, whose directional albedo is rho_ss.
+#include "common/constants.glsl"
+#include "brdf/fresnel.glsl"
+
+// Lambert 1760; RTR4 sec. 9.3: f = rho_ss / pi, whose directional albedo is rho_ss.
 vec3 Fd_lambert(vec3 rho_ss) {
     return rho_ss * INV_PI;
 }

@@ -10,12 +10,12 @@ float pow5_one_minus(float x) {
 }
 
 // Schlick 1994, "An Inexpensive BRDF Model for Physically-based Rendering";
-// seed section 5: F = F0 + (1 - F0)(1 - (n.l)+)^5, evaluated with the micro-normal h.
+// RTR4 sec. 9.5: F = F0 + (1 - F0)(1 - (n.l)+)^5, evaluated with the micro-normal h.
 vec3 F_schlick(vec3 F0, float cos_theta) {
     return F0 + (1.0 - F0) * pow5_one_minus(clamp(cos_theta, 0.0, 1.0));
 }
 
-// Seed section 5 (RTR4 sec. 9.5), the generalised Schlick approximation:
+// RTR4 sec. 9.5, the generalised Schlick approximation:
 //   F = F0 + (F90 - F0)(1 - (n.l)+)^(1/p),  exponent = 1/p > 0 (p = 1/5 is Schlick).
 // pow(0, e) is undefined in GLSL (pow is exp2(e log2 x)), so 0^e = 0 is written out.
 vec3 F_schlick_generalized(vec3 F0, vec3 F90, float exponent, float cos_theta) {

@@ -2,8 +2,10 @@
 #ifndef PBS_MASKING_GLSL
 #define PBS_MASKING_GLSL
 
-// Uses expm1_over_x and log_one_minus from brdf/ndf.glsl, which every pass includes first.
-// Smith's masking (seed section 7): G1(m, v) = chi+(m.v) / (1 + Lambda(v)), where Lambda(v)
+#include "common/constants.glsl"
+#include "brdf/ndf.glsl"
+
+// Smith's masking (RTR4 sec. 9.7): G1(m, v) = chi+(m.v) / (1 + Lambda(v)), where Lambda(v)
 // is fixed by the NDF: integral of G1(m, v) D(m) (v.m)+ dm = v.n. Lambda(cos) takes the
 // cosine of the direction's angle to n; it is 0 at cos = 1 and +inf at cos = 0.
 
@@ -25,12 +27,12 @@ float Lambda_GGX(float cos_theta, float alpha) {
     return 0.5 * a2s2 / (c * (sqrt(c * c + a2s2) + c));
 }
 
-// Smith 1967; seed section 7: G1(m, v) = chi+(m.v) / (1 + Lambda(v)).
+// Smith 1967; RTR4 sec. 9.7: G1(m, v) = chi+(m.v) / (1 + Lambda(v)).
 float G1_smith(float Lambda_v) {
     return 1.0 / (1.0 + Lambda_v);
 }
 
-// Heitz 2014 eq. 99; seed section 7, height-correlated form:
+// Heitz 2014 eq. 99; RTR4 sec. 9.7, height-correlated form:
 //   G2(l, v, m) = chi+(m.v) chi+(m.l) / (1 + Lambda(v) + Lambda(l)).
 float G2_height_correlated_GGX(float NoL, float NoV, float alpha) {
     return 1.0 / (1.0 + Lambda_GGX(NoL, alpha) + Lambda_GGX(NoV, alpha));
@@ -287,19 +289,19 @@ float azimuth_difference(vec3 n, vec3 l, vec3 v) {
     return atan(length(cross(pl, pv)), dot(pl, pv));
 }
 
-// Ashikhmin et al. 2000 (seed section 7): lambda(phi) = 1 - e^(-7.3 phi^2), written as
+// Ashikhmin et al. 2000 (RTR4 sec. 9.7): lambda(phi) = 1 - e^(-7.3 phi^2), written as
 // x E(-x), x = 7.3 phi^2, so it keeps its relative precision at small phi.
 float lambda_phi_exp(float phi) {
     float x = 7.3 * phi * phi;
     return x * expm1_over_x(-x);
 }
 
-// van Ginneken et al. 1998 (seed section 7): lambda(phi) = 4.41 phi / (4.41 phi + 1).
+// van Ginneken et al. 1998 (RTR4 sec. 9.7): lambda(phi) = 4.41 phi / (4.41 phi + 1).
 float lambda_phi_rational(float phi) {
     return 4.41 * phi / (4.41 * phi + 1.0);
 }
 
-// --- the four joint masking-shadowing forms of the seed (section 7) ---
+// --- the four joint masking-shadowing forms of RTR4 sec. 9.7 ---
 // They take Lambda(v) and Lambda(l); the chi+(m.v) chi+(m.l) factors are the caller's (it
 // passes m = h, where m.l and m.v are > 0). Lambda = +inf (grazing) gives G = 0.
 
@@ -313,7 +315,7 @@ float G2_height_correlated(float Lambda_v, float Lambda_l) {
     return 1.0 / (1.0 + Lambda_v + Lambda_l);
 }
 
-// Direction-correlated (Ashikhmin et al. 2000; seed): with lambda = lambda(phi),
+// Direction-correlated (Ashikhmin et al. 2000; RTR4 sec. 9.7): with lambda = lambda(phi),
 //   G2 = lambda G1(v) G1(l) + (1 - lambda) min(G1(v), G1(l)).
 float G2_direction_correlated(float Lambda_v, float Lambda_l, float lambda_phi) {
     float g_v = G1_smith(Lambda_v);
@@ -321,7 +323,7 @@ float G2_direction_correlated(float Lambda_v, float Lambda_l, float lambda_phi) 
     return mix(min(g_v, g_l), g_v * g_l, lambda_phi);
 }
 
-// Height-direction-correlated (Ross et al. 2005; Heitz 2014; seed):
+// Height-direction-correlated (Ross et al. 2005; Heitz 2014; RTR4 sec. 9.7):
 //   G2 = 1 / (1 + max(Lambda(v), Lambda(l)) + lambda min(Lambda(v), Lambda(l))).
 // lambda = 0 (phi = 0) drops the min term outright, so two grazing Lambdas = +inf give 0,
 // not 0 * inf = NaN.

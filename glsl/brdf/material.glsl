@@ -3,6 +3,14 @@
 #ifndef PBS_MATERIAL_GLSL
 #define PBS_MATERIAL_GLSL
 
+#include "common/constants.glsl"
+#include "brdf/model.glsl"
+#include "brdf/fresnel.glsl"
+#include "brdf/masking.glsl"
+#include "brdf/diffuse.glsl"
+#include "brdf/multiscatter.glsl"
+#include "brdf/specular.glsl"
+
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
     vec3 base_color;           // linear RGB
@@ -73,7 +81,7 @@ float material_alpha(Surface s) {
     return r * r;
 }
 
-// F(h, l) of the selected Fresnel model (seed section 5). The exact models blend the
+// F(h, l) of the selected Fresnel model (RTR4 sec. 9.5). The exact models blend the
 // dielectric interface and the metal by metallic, as the metalness workflow does.
 // Like every dispatch function, a plain `if` on the constants of brdf/model.glsl: folded
 // at compile time in a specialized pass, a run-time branch under UBER_MODELS.
@@ -96,7 +104,7 @@ vec3 F_selected(Surface s, ModelParams p, float LoH) {
     return F_schlick(material_F0(s), LoH);
 }
 
-// The diffuse (subsurface) lobe of the selected model (seed section 9).
+// The diffuse (subsurface) lobe of the selected model (RTR4 sec. 9.9).
 vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
                         float NoL, float NoV, float NoH, float LoH) {
     vec3 rho_ss = material_rho_ss(s);
@@ -127,7 +135,7 @@ vec3 orthonormal_tangent(vec3 n, vec3 t) {
     return normalize(cross(a, n));
 }
 
-// Seed section 1: the surface (specular: f_spec and f_ms) and subsurface (diffuse)
+// RTR4 sec. 9.1: the surface (specular: f_spec and f_ms) and subsurface (diffuse)
 // reflections as separate contributions. BRDF_TERMS selects which brdf_eval returns,
 // a compile-time bitmask (render.terms; app/render/lighting.py): both by default.
 #define TERM_SPECULAR 1

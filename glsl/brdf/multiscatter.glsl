@@ -2,7 +2,6 @@
 // Kulla & Conty 2017, "Revisiting Physically Based Shading at Imageworks" (SIGGRAPH course).
 // Everything is inside #if MULTISCATTER (or UBER_MODELS, the uber-shader that compiles every
 // model; brdf/model.glsl), so a program built without it pays nothing.
-// Needs common/constants.glsl.
 //
 // u_ms_table (app/render/tables.py, ms_texture): RG32F, NEAREST, width n_mu, height n_r;
 // texel (j, i) = (1 - E(mu_j, r_i), 1 - E_avg(r_i)), the energy LOST by single scattering,
@@ -15,6 +14,9 @@
 // NVIDIA), up to 2e-3 of a cell's difference, and differs between drivers.
 #ifndef PBS_MULTISCATTER_GLSL
 #define PBS_MULTISCATTER_GLSL
+
+#include "common/constants.glsl"
+#include "brdf/model.glsl"
 
 #if UBER_MODELS || MULTISCATTER
 
@@ -69,7 +71,9 @@ float ms_loss_avg(float perceptual_roughness) {
     return (1.0 - ty) * a + ty * b;
 }
 
-// Kulla & Conty 2017: E(mu, r), the directional albedo of f_spec_GGX with F = 1.
+// Kulla & Conty 2017: E(mu, r), the directional albedo with F = 1 of the standard model's
+// single-scattering specular (brdf_eval's; integrated from its float64 twin,
+// app/reference/specular.py f_spec_GGX).
 float ms_E(float mu, float perceptual_roughness) {
     return 1.0 - ms_loss(mu, perceptual_roughness);
 }

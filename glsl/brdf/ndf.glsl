@@ -2,13 +2,15 @@
 #ifndef PBS_NDF_GLSL
 #define PBS_NDF_GLSL
 
+#include "common/constants.glsl"
+
 // Conventions: n is the normal, m the microfacet normal, t and b the tangent and bitangent
 // (n, t, b orthonormal); alpha = perceptual_roughness^2. Every D here carries chi+(n.m) and
-// is normalised: integral of D(m)(n.m) dm over the hemisphere = 1 (seed section 7).
+// is normalised: integral of D(m)(n.m) dm over the hemisphere = 1 (RTR4 sec. 9.7).
 // Precision: wherever a D needs 1 - (n.m)^2 = sin^2(theta_m) it is taken as |n x m|^2
 // (Lagrange's identity); the direct form cancels catastrophically near the peak in float32.
 
-// --- numerical helpers (masking.glsl uses them too; it is always included after this file) ---
+// --- numerical helpers (brdf/masking.glsl uses them too) ---
 
 // (e^x - 1)/x, = 1 at x = 0. GLSL has no expm1, and exp(x) - 1 loses -log2|x| bits to
 // cancellation for small |x|: |x| < 1 uses the Taylor series through x^9/10! (truncation
@@ -39,7 +41,7 @@ float log_one_minus(float x) {
 // --- isotropic NDFs ---
 
 // Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces" (GGX);
-// Trowbridge & Reitz 1975. Seed section 8:
+// Trowbridge & Reitz 1975. RTR4 sec. 9.8:
 //   D(m) = chi+(n.m) alpha^2 / (pi (1 + (n.m)^2 (alpha^2 - 1))^2).
 // Precision: the denominator is rewritten as (n.m)^2 alpha^2 + (1 - (n.m)^2), with
 // 1 - (n.m)^2 = |n x m|^2 by Lagrange's identity; near the peak of a smooth lobe the

@@ -2,26 +2,15 @@
 #ifndef PBS_SPECULAR_GLSL
 #define PBS_SPECULAR_GLSL
 
-// Cook & Torrance 1982; seed section 8:
-//   f_spec = F(h, l) G2(l, v, h) D(h) / (4 |n.l| |n.v|),  h = (l + v)/|l + v|,
-// with GGX D, height-correlated Smith G2 (as the visibility V = G2/(4|n.l||n.v|))
-// and Schlick F. n.l > 0 is the caller's guarantee; n.v is clamped to MIN_N_DOT_V.
-// The standard model; the multiple-scattering tables are integrals of this function.
-vec3 f_spec_GGX(vec3 F0, float alpha, vec3 n, vec3 l, vec3 v) {
-    vec3 h = normalize(l + v);
-    float NoL = clamp(dot(n, l), 0.0, 1.0);
-    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
-    float D = D_GGX(n, h, alpha);
-    float V = V_height_correlated_GGX(NoL, NoV, alpha);
-    vec3 F = F_schlick(F0, dot(l, h));
-    return F * (D * V);
-}
+#include "brdf/model.glsl"
+#include "brdf/ndf.glsl"
+#include "brdf/masking.glsl"
 
 // The dispatch functions below branch with plain `if` on the model constants of
 // brdf/model.glsl: folded at compile time in a specialized pass (only the selected
 // model's code remains), run-time branches under UBER_MODELS.
 
-// D(h) of the isotropic NDF that NDF_MODEL selects (seed section 8).
+// D(h) of the isotropic NDF that NDF_MODEL selects (RTR4 sec. 9.8).
 float D_selected(vec3 n, vec3 h, float alpha, float gtr_gamma) {
     if (NDF_MODEL == NDF_BECKMANN) return D_beckmann(n, h, alpha);
     if (NDF_MODEL == NDF_BLINN_PHONG) return D_blinn_phong(n, h, alpha);
@@ -36,7 +25,7 @@ float D_selected_aniso(vec3 n, vec3 t, vec3 b, vec3 h, float alpha_x, float alph
 }
 
 // Smith Lambda of the selected NDF for a direction at cosine c whose roughness seen
-// along its azimuth is alpha (seed section 7).
+// along its azimuth is alpha (RTR4 sec. 9.7).
 float Lambda_selected(float c, float alpha, float gtr_gamma) {
     if (NDF_MODEL == NDF_BECKMANN && LAMBDA_FORM == LAMBDA_RATIONAL) {
         return Lambda_beckmann_rational(c, alpha);
@@ -48,7 +37,7 @@ float Lambda_selected(float c, float alpha, float gtr_gamma) {
 }
 
 // The joint masking-shadowing G2 that G2_MODEL selects, from the two Lambdas (the
-// chi+(h.l) chi+(h.v) factors are 1 for the half vector). Seed section 7.
+// chi+(h.l) chi+(h.v) factors are 1 for the half vector). RTR4 sec. 9.7.
 float G2_selected(float Lambda_v, float Lambda_l, vec3 n, vec3 l, vec3 v) {
     if (G2_MODEL == G2_SEPARABLE) return G2_separable(Lambda_v, Lambda_l);
     if (G2_MODEL == G2_DIRECTION_CORRELATED || G2_MODEL == G2_HEIGHT_DIRECTION_CORRELATED) {

@@ -1,10 +1,16 @@
-// The terms of the seed's illumination sum, L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+
-// (seed section 4), shared by the lighting, floor and forward passes so that every
+// The terms of the illumination sum L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+
+// (RTR4 sec. 9.4), shared by the lighting, floor and forward passes so that every
 // variant the bench compares adds the same float32 terms in the same order.
-// Twin: app/reference/illumination.py. Needs brdf/material.glsl (brdf_eval) and
-// lights/punctual.glsl before it; the masked loop also lights/tiles.glsl with TILE_QUADS.
+// Twin: app/reference/illumination.py.
 #ifndef PBS_ILLUMINATION_GLSL
 #define PBS_ILLUMINATION_GLSL
+
+#include "brdf/material.glsl"
+#include "lights/punctual.glsl"
+// For the masked loop only (TILE_QUADS), but included always: app/gl/shaders.py splices
+// includes before the preprocessor runs, so one inside #ifdef would count as included
+// even where the #ifdef drops it. Without TILE_QUADS it adds functions nothing calls.
+#include "lights/tiles.glsl"
 
 // f(l, v) c_light (n.l)+ of light i of a light texture at p.
 vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
@@ -25,9 +31,9 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
 //
 // Every loop here is bottom-tested. A SIMD rasteriser such as llvmpipe runs a loop's
 // body, masked, until every lane has left, and a top-tested loop ends with one more pass
-// over the whole body with every lane masked off: one wasted light evaluation per pixel,
-// 4 % of the lighting pass at 256 lights. No `if` skips work on llvmpipe either, so the
-// next word is chosen by selects, not fetched (docs/performance.md).
+// over the whole body with every lane masked off: one wasted light evaluation per pixel.
+// No `if` skips work on llvmpipe either, so the next word is chosen by selects, not
+// fetched (docs/performance.md measures both).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
                        Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
     int chunk = 0;

@@ -35,7 +35,7 @@ float spot_cone(float cos_theta, float cos_outer, float cos_inner) {
     return t * t;
 }
 
-// Returns c_light arriving at p (seed section 4's c_light, already attenuated) and
+// Returns c_light arriving at p (RTR4 sec. 9.4's c_light, already attenuated) and
 // writes the unit direction from p towards the light into l.
 vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
     if (L.type == LIGHT_DIRECTIONAL) {

@@ -89,8 +89,8 @@ uvec4 quad_bit(int c, int b) {
 // of component c of texel k. The lighting pass holds up to 8 texels (1024 lights, a
 // "chunk") in registers and visits the set bits of the non-zero words in ascending order.
 // Eight named fields, not an array: llvmpipe keeps a dynamically indexed local array in
-// memory, and indexing one per light cost the 256-light lighting pass 8.7 ms of 80
-// (docs/performance.md).
+// memory, and indexing one per light slowed the lighting pass (measured in
+// docs/performance.md, "Results").
 #ifdef TILE_QUADS
 struct TileMask {
     uvec4 q0, q1, q2, q3, q4, q5, q6, q7;

@@ -1,13 +1,13 @@
 // Gathering a fragment's material in the G-buffer pass (and the bench's forward pass):
 // layer constants times their texture maps, an optional second layer painted on by a
-// mask (seed section 13), tangent-space normal mapping, and optional screen-space
+// mask (RTR4 sec. 9.13), tangent-space normal mapping, and optional screen-space
 // geometric specular antialiasing. Which maps a layer samples is a compile-time bitmask
 // (LAYER0_MAPS, LAYER1_MAPS), so the compiler drops every lookup a material lacks.
 #ifndef PBS_LAYERS_GLSL
 #define PBS_LAYERS_GLSL
 
-#include "brdf/blend.glsl"
-#include "brdf/filtering.glsl"
+#include "material/blend.glsl"
+#include "material/filtering.glsl"
 #include "material/normal_mapping.glsl"
 
 #define MAP_BASE_COLOR 1        // sRGB (decoded by the GL) or linear: multiplies base_color

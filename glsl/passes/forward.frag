@@ -1,21 +1,11 @@
 // Forward pass (the bench's baseline): each object's fragments loop over every light.
-//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (seed section 4)
-// The same terms as glsl/passes/lighting.frag (same includes, brdf_eval and light_at, lights
-// in the same order), but the surface comes straight from the material uniforms and the
+//   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (RTR4 sec. 9.4)
+// The same terms as glsl/passes/lighting.frag (brdf_eval and light_contribution, lights in
+// the same order), but the surface comes straight from the material uniforms and the
 // interpolated vertex attributes instead of a G-buffer: no quantisation, no culling, and
 // occluded fragments that reach the shader before their occluder are shaded too.
-#include "common/constants.glsl"
-#include "common/encoding.glsl"
+#include "brdf/brdf.glsl"
 #include "common/position.glsl"
-#include "brdf/model.glsl"
-#include "brdf/fresnel.glsl"
-#include "brdf/ndf.glsl"
-#include "brdf/masking.glsl"
-#include "brdf/diffuse.glsl"
-#include "brdf/multiscatter.glsl"
-#include "brdf/specular.glsl"
-#include "brdf/material.glsl"
-#include "lights/punctual.glsl"
 #include "lights/illumination.glsl"
 #include "material/layers.glsl"
 

@@ -35,8 +35,8 @@ void main() {
         // Bottom-tested loops over set bits (passes/lighting.frag says why): first the
         // sphere stage for each light of the group's mask, then the cone stage, a loop
         // over depth slices, for the spot lights that passed it only. Inside the first
-        // loop the cone stage cost llvmpipe a masked slice test per light and tile (2.6 ms
-        // of this pass's 5.8 at 256 lights, before the group masks).
+        // loop the cone stage cost llvmpipe a masked slice test per light and tile
+        // (measured in docs/performance.md).
         uvec4 group_mask = texelFetch(u_group_masks,
                                       ivec2((tile.x / GROUP_TILES) * u_quads + first / 128,
                                             tile.y / GROUP_TILES), 0);

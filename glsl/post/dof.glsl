@@ -1,4 +1,4 @@
-// Thin-lens depth of field (seed section 2, the camera): the circle of confusion.
+// Thin-lens depth of field (RTR4 sec. 9.2, the camera): the circle of confusion.
 // Twin: app/reference/dof.py (which derives the formula).
 #ifndef PBS_DOF_GLSL
 #define PBS_DOF_GLSL

@@ -1,4 +1,4 @@
-// Blending materials by their parameters (seed section 13). Twin: app/reference/blend.py.
+// Blending materials by their parameters (RTR4 sec. 9.13). Twin: app/reference/blend.py.
 // A mask paints one material onto another in the G-buffer pass: the BRDF inputs are
 // mixed, never the shaded colours, so the result is again one material that the lighting
 // pass shades once.
@@ -23,7 +23,7 @@ float blend_weight(float mask, float threshold, float softness) {
     return x * x * (3.0 - 2.0 * x);
 }
 
-// Seed section 13: parameters mix linearly (base colour in linear RGB; roughness in the
+// RTR4 sec. 9.13: parameters mix linearly (base colour in linear RGB; roughness in the
 // perceptual r that artists paint, as Unreal's and Filament's layered materials do);
 // normals mix as vectors and are renormalised. Tangent-space normals of both layers have
 // z > 0, so the mix never vanishes.

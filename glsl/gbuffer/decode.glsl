@@ -1,0 +1,73 @@
+// Reading one pixel of the G-buffer (gbuffer/layout.glsl) back as the inputs of
+// light_contribution: the surface, its model's numbers, the shading frame and the position.
+// The lighting pass and the bench's floor pass both call decode_gbuffer, so both shade the
+// very same values. Twin: the decoding in app/reference/illumination.py shade_gbuffer.
+#ifndef PBS_GBUFFER_DECODE_GLSL
+#define PBS_GBUFFER_DECODE_GLSL
+
+#include "common/encoding.glsl"
+#include "common/position.glsl"
+#include "brdf/model.glsl"
+#include "brdf/material.glsl"
+#include "gbuffer/layout.glsl"
+
+uniform sampler2D g_base_color;
+uniform sampler2D g_normal;
+uniform sampler2D g_depth;
+#if GBUFFER_TANGENT
+uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gbuffer.md)
+#endif
+
+// A decoded G-buffer pixel.
+struct GBufferPixel {
+    Surface s;            // sanitised
+    ModelParams params;   // the material's row of the table
+    vec3 t;               // tangent as stored; brdf_eval orthonormalises it against n
+    vec3 p;               // world position
+    vec3 v;               // unit, from p towards the camera
+    vec3 n;               // unit shading normal, sanitised (v where it was lost)
+};
+
+// The pixel at window position frag_coord (gl_FragCoord.xy, the pixel centre), with the
+// material table `materials` (brdf/model.glsl) and the camera. Discards the fragment, so
+// that the cleared background stays, where nothing was drawn (or the depth is not finite);
+// with MODEL_GROUP, also where the pixel's material belongs to another model group. Under
+// UBER_MODELS it sets the model codes of the pixel's material.
+GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_pos,
+                            mat3 camera_to_world, vec2 tan_half_fov) {
+    ivec2 px = ivec2(frag_coord);
+    vec2 depth_id = texelFetch(g_depth, px, 0).rg;
+    float depth = depth_id.x;
+    if (!(is_finite(depth) && depth > 0.0)) discard;
+    int material_id = int(depth_id.y);
+#if GBUFFER_TANGENT
+    vec4 c = texelFetch(g_tangent, px, 0);
+#else
+    vec4 c = vec4(0.0);   // no anisotropic material: anisotropy 0, the tangent unused
+#endif
+#ifdef MODEL_GROUP
+    // Several models in the frame: this permutation shades only its own group's pixels.
+    if (fetch_model_group(materials, material_id) != MODEL_GROUP) discard;
+#endif
+#if UBER_MODELS
+    // One program for every material: the models become run-time branches on the codes
+    // of this pixel's material (brdf/model.glsl).
+    fetch_model_codes(materials, material_id);
+#endif
+    vec4 a = texelFetch(g_base_color, px, 0);
+    vec4 b = texelFetch(g_normal, px, 0);
+    // Textures can deliver NaN, Inf or out-of-range values; no pixel may turn them into
+    // NaN radiance (docs/stability.md).
+    Surface s = sanitize_surface(Surface(a.rgb, a.a, b.b, b.a, c.b));
+    ModelParams params = fetch_model_params(materials, material_id);
+    vec3 t = oct_decode(c.rg);
+
+    // World position from the depth buffer at the pixel centre.
+    vec2 ndc_xy = (frag_coord / vec2(textureSize(g_depth, 0))) * 2.0 - 1.0;
+    vec3 p = reconstruct_position(ndc_xy, depth, camera_pos, camera_to_world, tan_half_fov);
+    vec3 v = normalize(camera_pos - p);
+    vec3 n = sanitize_direction(oct_decode(b.rg), v);
+    return GBufferPixel(s, params, t, p, v, n);
+}
+
+#endif

@@ -1,0 +1,54 @@
+"""Every GLSL library file includes what it uses: each ``glsl/**/*.glsl`` compiles when it is
+the only file a shader includes (app/gl/shaders.py splices its own #include lines), so a
+pass or a test kernel can include any file without knowing what to include before it.
+
+Each file is compiled into a fragment shader of its own, with no defines (the default
+feature set) and with defines that compile in the optional code: every model at run time
+(UBER_MODELS), the masked light loop over several chunks (TILE_QUADS), and a material
+with every map, a blend and specular antialiasing.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from app.gl.shaders import assemble, assemble_text
+from app.resources import glsl_dir
+
+LIBRARY = sorted(p.relative_to(glsl_dir()).as_posix() for p in glsl_dir().rglob("*.glsl"))
+
+FEATURES = {
+    "default": {},
+    "optional code": {
+        "UBER_MODELS": 1,
+        "TILE_QUADS": 9,
+        "LAYER0_MAPS": 63,
+        "LAYER1_MAPS": 15,
+        "BLEND": 1,
+        "SPECULAR_AA": 1,
+    },
+}
+
+SHADER = """#include "{path}"
+
+out vec4 frag_color;
+
+void main() {{
+    frag_color = vec4(1.0);
+}}
+"""
+
+
+def test_the_library_is_found():
+    assert {"brdf/brdf.glsl", "gbuffer/decode.glsl", "lights/illumination.glsl"} <= set(LIBRARY)
+
+
+@pytest.mark.parametrize("features", list(FEATURES))
+@pytest.mark.parametrize("path", LIBRARY)
+def test_library_file_compiles_alone(gl_egl, path, features):
+    defines = FEATURES[features]
+    program = gl_egl.ctx.program(
+        vertex_shader=assemble("passes/fullscreen.vert", defines),
+        fragment_shader=assemble_text(SHADER.format(path=path), defines),
+    )
+    program.release()
