@@ -15,11 +15,12 @@ from app.bench import main
 from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.floor import FloorPass, pixel_masks
 from app.bench.forward import ForwardRenderer
-from app.bench.pairs import light_pairs, reference_hdr, surface_positions
+from app.bench.pairs import light_pairs, reference_hdr
 from app.bench.report import evaluate_targets, pareto_front
 from app.bench.scenes import load, many_lights_scene
 from app.bench.timing import Budget, Pass, plausible, time_interleaved
 from app.common.lights import LightType
+from app.reference.illumination import surface_positions
 from app.render.renderer import Renderer
 from app.scene.loader import LoadedScene, load_scene
 from tests.agreement import relative_error

@@ -1,4 +1,4 @@
-"""Seed section 13: materials blended by their parameters through a mask texture.
+"""RTR4 §9.13: materials blended by their parameters through a mask texture.
 
 The GLSL blend (glsl/material/blend.glsl, run by the G-buffer pass) against its float64 twin
 (app/reference/blend.py, run by the offline bake), and a scene rendered with the blend

@@ -1,4 +1,4 @@
-"""Diffuse models (seed section 9): the GLSL against its float64 twin, reciprocity, and the
+"""Diffuse models (RTR4 §9.9): the GLSL against its float64 twin, reciprocity, and the
 directional albedo of every model by deterministic quadrature.
 
 Conventions as in app/reference: n = +Z unless stated, vectors have a last axis of 3,
@@ -404,7 +404,7 @@ def test_albedo_quadrature_has_converged() -> None:
 
 
 def test_lambert_reflects_exactly_rho(albedo) -> None:
-    """Seed section 3: white Lambert has directional albedo 1 at every angle."""
+    """RTR4 §9.3: white Lambert has directional albedo 1 at every angle."""
     np.testing.assert_allclose(albedo["lambert"], 1.0, rtol=0, atol=1e-13)
 
 

@@ -1,4 +1,4 @@
-"""Geometric specular antialiasing (seed section 13): glsl/material/filtering.glsl against its
+"""Geometric specular antialiasing (RTR4 §9.13): glsl/material/filtering.glsl against its
 float64 twin app/reference/filtering.py, on EGL and OSMesa, and what the kernel may do.
 
 GLSL-vs-twin: the twin gets the float32-rounded inputs the shader received, so what is left

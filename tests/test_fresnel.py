@@ -1,4 +1,4 @@
-"""Fresnel reflectance (seed section 5): the GLSL against its float64 twin, the twin against
+"""Fresnel reflectance (RTR4 §9.5): the GLSL against its float64 twin, the twin against
 the physics of the Fresnel equations, and the presets' indices against the RTR4's F0.
 
 GLSL-vs-twin: the twin is evaluated on the float32-rounded inputs the shader received, so
@@ -274,13 +274,13 @@ def test_conductor_matches_the_complex_fresnel_equations() -> None:
 
 
 def test_dielectric_normal_incidence_is_f0() -> None:
-    """F(0 degrees) = ((n1 - n2)/(n1 + n2))^2 (seed section 5), inside and outside."""
+    """F(0 degrees) = ((n1 - n2)/(n1 + n2))^2 (RTR4 §9.5), inside and outside."""
     np.testing.assert_allclose(F_dielectric(ETAS, 1.0), f0_from_ior(ETAS), rtol=1e-14, atol=0)
     np.testing.assert_allclose(F_dielectric(1.0 / ETAS, 1.0), f0_from_ior(ETAS), rtol=1e-13)
 
 
 def test_external_reflection_reaches_one_at_grazing() -> None:
-    """Seed section 5: F rises to 1 at 90 degrees for every external interface."""
+    """RTR4 §9.5: F rises to 1 at 90 degrees for every external interface."""
     eta = ETAS[ETAS > 1.0]
     np.testing.assert_allclose(F_dielectric(eta, 0.0), 1.0, rtol=0, atol=1e-15)
     F = F_dielectric(eta[:, None], COS[None, :])
@@ -296,13 +296,13 @@ def test_external_reflection_reaches_one_at_grazing() -> None:
 
 
 def test_index_matched_interface_vanishes() -> None:
-    """eta = 1: no interface, no reflection (seed section 1), exactly, at every angle."""
+    """eta = 1: no interface, no reflection (RTR4 §9.1), exactly, at every angle."""
     np.testing.assert_array_equal(F_dielectric(1.0, COS), 0.0)
     np.testing.assert_array_equal(F_conductor(np.ones(3), np.zeros(3), COS[:, None]), 0.0)
 
 
 def test_total_internal_reflection_and_its_continuity() -> None:
-    """Seed section 5, internal reflection: F = 1 past sin(theta_c) = eta = n2/n1, and F is
+    """RTR4 §9.5, internal reflection: F = 1 past sin(theta_c) = eta = n2/n1, and F is
     continuous there (F -> 1 as the angle falls to theta_c)."""
     eta = ETAS[ETAS < 1.0]
     cc = critical_cos(eta)

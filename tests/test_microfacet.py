@@ -1,11 +1,11 @@
-"""NDFs and Smith masking-shadowing (seed sections 6-8): the GLSL against its twins, then the
+"""NDFs and Smith masking-shadowing (RTR4 §9.6–9.8): the GLSL against its twins, then the
 physics of the twins by deterministic quadrature.
 
 Part 1 runs every function of glsl/brdf/ndf.glsl and glsl/brdf/masking.glsl through
 app.gl.kernel on random and edge-case inputs (on EGL and OSMesa) and compares it with its
 float64 twin fed the same float32-rounded inputs.
 
-Part 2 proves, for every NDF the project ships and the Lambda it ships with it, the seed's
+Part 2 proves, for every NDF the project ships and the Lambda it ships with it, RTR4's
 two integrals: normalisation, integral D(m)(n.m) dm = 1, and Smith's masking condition,
 integral G1(m, v) D(m)(v.m)+ dm = v.n with G1 = 1/(1 + Lambda(v)), over a grid of alpha
 (the floor 0.002 .. 1) and theta_v (0 .. 89 degrees). The same measurement is the table in
@@ -534,7 +534,7 @@ def normalisation_errors() -> dict[str, np.ndarray]:
 
 @pytest.mark.parametrize("name", list(ISOTROPIC))
 def test_ndf_is_normalised(name: str) -> None:
-    """Seed section 7: integral D(m)(n.m) dm = 1 for every NDF, alpha from 0.002 to 1.
+    """RTR4 §9.7: integral D(m)(n.m) dm = 1 for every NDF, alpha from 0.002 to 1.
 
     Measured worst: 3e-15 (with the rule scaled to alpha, tan(theta) = alpha tan(psi), GGX's
     integrand is exactly sin cos/pi, and the others stay close); the lower hemisphere holds
@@ -558,7 +558,7 @@ MASKING_BOUND = {
 
 @pytest.mark.parametrize("name", list(ISOTROPIC))
 def test_smith_masking_integral(name: str) -> None:
-    """Seed section 7: integral G1(m, v) D(m) (v.m)+ dm = v.n with G1 = 1/(1 + Lambda(v)), for
+    """RTR4 §9.7: integral G1(m, v) D(m) (v.m)+ dm = v.n with G1 = 1/(1 + Lambda(v)), for
     every NDF with the Lambda it ships with, alpha 0.002 .. 1, theta_v 0 .. 89 degrees."""
     err = np.abs(masking_errors(name))
     assert err.max() <= min(MASKING_BOUND[name], REQUIRED), f"{err.max():.2e}"
@@ -739,7 +739,7 @@ def test_alpha_in_direction() -> None:
 
 
 def test_g2_forms_are_bounded_symmetric_and_ordered() -> None:
-    """Seed section 7's four G2 forms: 0 <= G2 <= min(G1(v), G1(l)), symmetric in l and v;
+    """RTR4 §9.7's four G2 forms: 0 <= G2 <= min(G1(v), G1(l)), symmetric in l and v;
     height-correlated >= separable (1 + Lv + Ll <= (1 + Lv)(1 + Ll)); the direction-correlated
     forms are min(G1(v), G1(l)) at phi = 0 and approach separable / height-correlated as phi
     grows (lambda -> 1)."""
@@ -782,7 +782,7 @@ def test_g2_forms_are_bounded_symmetric_and_ordered() -> None:
         mk.G2_height_direction_correlated(Lv, Ll, 1.0), mk.G2_height_correlated(Lv, Ll)
     )
     # Large phi: Ashikhmin's lambda is 1 to 1e-15 by phi = 2.2; van Ginneken's approaches
-    # slowly (0.93 at phi = pi) -- the two lambda(phi) of the seed differ.
+    # slowly (0.93 at phi = pi) -- the two lambda(phi) of RTR4 §9.7 differ.
     assert mk.lambda_phi_exp(2.2) == pytest.approx(1.0, abs=1e-15)
     assert 0.93 < mk.lambda_phi_rational(np.pi) < 0.94
     assert (np.diff(mk.lambda_phi_exp(np.linspace(0, np.pi, 200))) >= 0).all()

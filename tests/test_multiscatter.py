@@ -1,4 +1,4 @@
-"""Kulla-Conty multiple-scattering compensation (seed section 8, "multiple-bounce surface
+"""Kulla-Conty multiple-scattering compensation (RTR4 §9.8, "multiple-bounce surface
 reflection"): the shipped table, the white furnace with and without compensation, the
 colour of the added energy, and the GLSL against its float64 twin.
 
@@ -244,7 +244,7 @@ def test_white_furnace_with_compensation(residual: np.ndarray) -> None:
 
 def test_white_furnace_without_compensation_loses_light() -> None:
     """Without f_ms the furnace is far from 1 for rough surfaces: the loss the lobe restores
-    (seed section 8: over-darkening), 69% at r = 1 and normal incidence."""
+    (RTR4 §9.8: over-darkening), 69% at r = 1 and normal incidence."""
     assert spec_albedo(1.0, 1.0, 1.0)[0] == pytest.approx(1.0 - np.log(2.0), abs=1e-7)
     assert spec_albedo(1.0, 0.5, 1.0)[0] < 0.95
 

@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.bench.pairs import light_pairs, surface_positions
+from app.bench.pairs import light_pairs
 from app.common.lights import LightType
 from app.gl.context import GLContext
 from app.reference.encoding import oct_decode
+from app.reference.illumination import surface_positions
 from app.render.renderer import Renderer
 from app.scene.loader import LoadedScene, load_scene
 from tests.conftest import REPO

@@ -1,4 +1,4 @@
-"""The floor pass: what no lighting pipeline can go under (issue 5's ``floor`` variant).
+"""The floor pass: what no lighting pipeline can go under (the bench's ``floor`` variant).
 
 A bare full-screen pass (glsl/passes/floor.frag) that decodes the G-buffer and evaluates
 the lighting pass's ``light_contribution`` exactly once per (pixel, light in range) pair,

@@ -25,9 +25,8 @@ from app.common.gbuffer import GBufferData
 from app.common.lights import LightType, PunctualLight
 from app.common.models import Model, unpack_model_params
 from app.reference.constants import PI
-from app.reference.illumination import decode_gbuffer, pixel_ndc
+from app.reference.illumination import decode_gbuffer, surface_positions
 from app.reference.material import brdf_eval
-from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
 
 PIXEL_CHUNK = 8192  # pixels per distance block: PIXEL_CHUNK x lights float64 at a time
@@ -61,17 +60,6 @@ class LightPairs:
         """(P,) the flat (row-major, top row first) pixel index of each pair."""
         flat = self.count.ravel().astype(np.int64)
         return np.repeat(np.arange(flat.size, dtype=np.int64), flat)
-
-
-def surface_positions(gbuffer: GBufferData, camera: CameraFrame) -> tuple[np.ndarray, np.ndarray]:
-    """(covered (H, W) bool, world positions (C, 3) float64 of the covered pixels, row-major)."""
-    depth = gbuffer.depth
-    covered = gbuffer.covered
-    p = reconstruct_position(
-        pixel_ndc(*depth.shape)[covered], depth[covered], camera.position,
-        camera.camera_to_world, camera.tan_half_fov,
-    )  # fmt: skip
-    return covered, p
 
 
 def in_cone_mask(

@@ -20,10 +20,11 @@ import math
 
 import numpy as np
 
-from app.bench.pairs import in_cone_mask, surface_positions
+from app.bench.pairs import in_cone_mask
 from app.common.lights import LightType
 from app.frame.lights import light_record
 from app.gl.context import GLContext
+from app.reference.illumination import surface_positions
 from app.render.renderer import Renderer
 from app.scene.loader import parse_scene
 

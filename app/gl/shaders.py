@@ -7,6 +7,9 @@ does). Included files are spliced once each, at their first ``#include``; the GL
 each compiles on its own after the ``#version`` and defines header
 (tests/test_glsl_includes.py). Includes are expanded before the GLSL preprocessor runs:
 an ``#include`` inside ``#if`` is spliced (and counts as done) whatever the condition.
+
+Every program starts with the constants shared with Python (``app.common.glsl``: model
+names, ``TERM_*``, ``LIGHT_*``, ``TONEMAP_*``), generated from their one definition.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from pathlib import Path
 
 import moderngl
 
+from app.common.glsl import shared_defines
 from app.resources import glsl_dir
 
 GLSL_VERSION = "#version 330 core"
@@ -46,7 +50,9 @@ def expand_text(text: str, root: Path | None = None) -> str:
 
 
 def _header(defines: Mapping[str, object] | None) -> str:
+    """``#version``, the shared constants, then a program's feature ``defines``."""
     lines = [GLSL_VERSION]
+    lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")
     return "\n".join(lines) + "\n#line 1\n"

@@ -1,4 +1,4 @@
-"""Twin of glsl/material/blend.glsl: blending materials by their parameters (seed section 13).
+"""Twin of glsl/material/blend.glsl: blending materials by their parameters (RTR4 §9.13).
 
 The offline bake (app/textures/bake.py) runs these on textures; the G-buffer pass runs
 the GLSL per pixel. Both mix BRDF inputs, never shaded colours.
@@ -34,7 +34,7 @@ def blend_weight(mask: np.ndarray, threshold: float, softness: float) -> np.ndar
 
 
 def blend_layers(a: Layer, b: Layer, w: np.ndarray) -> Layer:
-    """Seed section 13: linear mixes of the parameters (roughness in perceptual r), normals
+    """RTR4 §9.13: linear mixes of the parameters (roughness in perceptual r), normals
     mixed as vectors and renormalised (both have z > 0, so the mix never vanishes)."""
     w = np.asarray(w, np.float64)
     w3 = w[..., None]

@@ -1,5 +1,5 @@
 """Twin of glsl/material/filtering.glsl: roughness that absorbs the normals a pixel or a texel
-averages (seed section 13, "Blending and Filtering Materials").
+averages (RTR4 §9.13, "Blending and Filtering Materials").
 
 Two kinds of filtering meet here, both as changes of alpha^2 (alpha = r^2, r the perceptual
 roughness), because the variance of a distribution of slopes adds to the NDF's alpha^2:

@@ -69,16 +69,23 @@ class DecodedGBuffer:
     t: np.ndarray  # (C, 3) tangent as stored (brdf_eval orthonormalises it)
 
 
-def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
-    """Twin of the G-buffer decode every lighting pass runs (glsl/gbuffer/): each covered
-    pixel's surface, sanitised as the GLSL sanitises it (docs/stability.md), and its
-    position reconstructed from the view depth at the pixel centre."""
+def surface_positions(gbuffer: GBufferData, camera: CameraFrame) -> tuple[np.ndarray, np.ndarray]:
+    """(covered (H, W) bool, world positions (C, 3) of the covered pixels, row-major): the
+    view depth at each pixel centre taken back to the world (glsl/common/position.glsl)."""
     depth = gbuffer.depth
     covered = gbuffer.covered
     p = reconstruct_position(
         pixel_ndc(*depth.shape)[covered], depth[covered], camera.position,
         camera.camera_to_world, camera.tan_half_fov,
     )  # fmt: skip
+    return covered, p
+
+
+def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
+    """Twin of the G-buffer decode every lighting pass runs (glsl/gbuffer/): each covered
+    pixel's surface, sanitised as the GLSL sanitises it (docs/stability.md), and its
+    position reconstructed from the view depth at the pixel centre."""
+    covered, p = surface_positions(gbuffer, camera)
     a = np.asarray(gbuffer.base_color, np.float64)[covered]
     b = np.asarray(gbuffer.normal, np.float64)[covered]
     c = np.asarray(gbuffer.tangent, np.float64)[covered]

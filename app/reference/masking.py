@@ -267,7 +267,7 @@ def lambda_phi_rational(phi: np.ndarray) -> np.ndarray:
     return 4.41 * phi / (4.41 * phi + 1.0)
 
 
-# --- the four joint masking-shadowing forms of the seed (section 7) ------------------------
+# --- the four joint masking-shadowing forms of RTR4 §9.7 ---------------------------------
 
 
 def G2_separable(Lambda_v: np.ndarray, Lambda_l: np.ndarray) -> np.ndarray:

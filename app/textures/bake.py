@@ -1,4 +1,4 @@
-"""Offline baking of a mask blend into one textured material (seed section 13: "mostly
+"""Offline baking of a mask blend into one textured material (RTR4 §9.13: "mostly
 offline, some at run time").
 
 The bake evaluates the same parameter blend as the G-buffer pass (app/reference/blend.py,

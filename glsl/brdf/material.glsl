@@ -137,9 +137,8 @@ vec3 orthonormal_tangent(vec3 n, vec3 t) {
 
 // RTR4 sec. 9.1: the surface (specular: f_spec and f_ms) and subsurface (diffuse)
 // reflections as separate contributions. BRDF_TERMS selects which brdf_eval returns,
-// a compile-time bitmask (render.terms; app/render/lighting.py): both by default.
-#define TERM_SPECULAR 1
-#define TERM_DIFFUSE 2
+// a compile-time bitmask of TERM_SPECULAR and TERM_DIFFUSE (render.terms; the bits are
+// generated from app/common/models.py): both by default.
 #ifndef BRDF_TERMS
 #define BRDF_TERMS 3
 #endif

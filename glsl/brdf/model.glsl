@@ -1,5 +1,8 @@
 // Which model each BRDF term uses, and the per-material numbers those models need
-// (run-time, from the material table). Twin: app/reference/model.py.
+// (run-time, from the material table). The layout and the model names are defined once in
+// app/common/models.py; the assembler (app/gl/shaders.py) generates their constants
+// (FRESNEL_SCHLICK 0, NDF_GGX 0, ..., DIFFUSE_BURLEY_RENORMALIZED 7) at the top of every
+// program, in the order of the Python tuples.
 // A pass is compiled once per distinct model: FRESNEL_MODEL, NDF_MODEL, ... are #define'd
 // integer constants, so the plain `if (NDF_MODEL == NDF_BECKMANN)` of each dispatch
 // function (material.glsl, specular.glsl) is folded by the compiler and a scene pays only
@@ -12,37 +15,6 @@
 // anisotropic tangent frame are compiled in.
 #ifndef PBS_MODEL_GLSL
 #define PBS_MODEL_GLSL
-
-#define FRESNEL_SCHLICK 0
-#define FRESNEL_SCHLICK_GENERALIZED 1
-#define FRESNEL_DIELECTRIC 2
-#define FRESNEL_CONDUCTOR 3
-
-#define NDF_GGX 0
-#define NDF_BECKMANN 1
-#define NDF_BLINN_PHONG 2
-#define NDF_GTR 3
-
-#define LAMBDA_EXACT 0
-#define LAMBDA_RATIONAL 1
-
-#define G2_SEPARABLE 0
-#define G2_HEIGHT_CORRELATED 1
-#define G2_DIRECTION_CORRELATED 2
-#define G2_HEIGHT_DIRECTION_CORRELATED 3
-#define G2_HAMMON 4
-
-#define CORRELATION_EXP 0
-#define CORRELATION_RATIONAL 1
-
-#define DIFFUSE_LAMBERT 0
-#define DIFFUSE_SHIRLEY 1
-#define DIFFUSE_ASHIKHMIN_SHIRLEY 2
-#define DIFFUSE_BURLEY 3
-#define DIFFUSE_OREN_NAYAR 4
-#define DIFFUSE_HAMMON 5
-#define DIFFUSE_NONE 6
-#define DIFFUSE_BURLEY_RENORMALIZED 7
 
 #ifndef UBER_MODELS
 #define UBER_MODELS 0

@@ -1,7 +1,7 @@
 // Reading one pixel of the G-buffer (gbuffer/layout.glsl) back as the inputs of
 // light_contribution: the surface, its model's numbers, the shading frame and the position.
 // The lighting pass and the bench's floor pass both call decode_gbuffer, so both shade the
-// very same values. Twin: the decoding in app/reference/illumination.py shade_gbuffer.
+// very same values. Twin: app/reference/illumination.py decode_gbuffer.
 #ifndef PBS_GBUFFER_DECODE_GLSL
 #define PBS_GBUFFER_DECODE_GLSL
 

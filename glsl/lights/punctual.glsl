@@ -3,9 +3,8 @@
 #ifndef PBS_PUNCTUAL_GLSL
 #define PBS_PUNCTUAL_GLSL
 
-const int LIGHT_DIRECTIONAL = 0;
-const int LIGHT_POINT = 1;
-const int LIGHT_SPOT = 2;
+// The light types LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT are generated from
+// app/common/lights.py LightType at the top of every program.
 
 // Distance floor for the inverse-square law (RTR4 eq. 5.11: a light is never closer
 // than about 1 cm), so a light touching a surface stays finite.

@@ -12,11 +12,11 @@ out vec4 frag_color;
 
 void main() {
     vec3 c = min(texelFetch(u_hdr, ivec2(gl_FragCoord.xy), 0).rgb * u_exposure, MAX_EXPOSED);
-#if TONEMAP == 1
+#if TONEMAP == TONEMAP_NEUTRAL
     c = tonemap_khronos_neutral(c);
-#elif TONEMAP == 2
+#elif TONEMAP == TONEMAP_ACES
     c = tonemap_aces_narkowicz(c);
-#elif TONEMAP == 3
+#elif TONEMAP == TONEMAP_REINHARD
     c = tonemap_reinhard(c);
 #endif
     frag_color = vec4(srgb_encode(c), 1.0);
