@@ -161,7 +161,7 @@ def generated_markdown() -> str:
             "",
             f"Metals and silicon: n + ik interpolated linearly at {nm} nm (R, G, B). "
             'Dielectrics: one real index. "in water" rows use the relative index '
-            "n / 1.33 (and k / 1.33); rows without a RTR4 F0 are derived from the index.",
+            "n / 1.33 (and k / 1.33); rows without an RTR4 F0 are derived from the index.",
             "",
             preset_markdown(),
             "",

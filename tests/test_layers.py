@@ -8,7 +8,7 @@ only its own package or a lower layer.
       -> scene (app.scene)
       -> frame data (app.frame)
       -> passes (app.render)
-      -> tools on top: BRDF probe, bench, CLI, screenshots
+      -> tools on top: BRDF probe, bench, viewer, CLI, screenshots
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("app.frame",),
     ("app.render",),
     ("app.brdf", "app.assets"),
-    ("app.bench",),
+    ("app.bench", "app.viewer"),
     ("app.cli", "app.screenshots"),
     ("app.__main__",),
 ]
