@@ -64,6 +64,16 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
     _textures_parser(sub)
+    view = sub.add_parser(
+        "view",
+        help="open the desktop viewer on a scene (glfw window, Dear ImGui panels)",
+        description="Open a window on a scene: orbit (left-drag), pan (right- or shift-drag), "
+        "zoom (wheel), click to select, F frame, R reset, Tab panels, Ctrl+S save, P "
+        "screenshot (Shift+P with HDR). docs/viewer.md.",
+    )
+    view.add_argument("scene", nargs="?", help="scene file or bundled name (default: showcase)")
+    view.add_argument("--size", type=_size, default=(960, 540), help="window WIDTHxHEIGHT")
+    view.add_argument("--no-vsync", action="store_true", help="do not wait for the display")
     sub.add_parser(
         "bench",
         help="measure run time against error (options: pbs bench --help)",
@@ -278,6 +288,22 @@ def cmd_textures(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    from app.viewer.window import Viewer, ViewerError
+
+    scene = _resolve_scene(args.scene) if args.scene else None
+    try:
+        viewer = Viewer(scene, args.size, vsync=not args.no_vsync)
+    except ViewerError as exc:
+        print(f"pbs: error: {exc}", file=sys.stderr)
+        return 1
+    try:
+        viewer.run()
+    finally:
+        viewer.close()
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pbs`` and ``python -m app``."""
     argv = sys.argv[1:] if argv is None else argv
@@ -290,7 +316,12 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse exits 2 on bad arguments, 0 on --help
         return int(exc.code or 0)
-    handlers = {"render": cmd_render, "brdf": cmd_brdf, "textures": cmd_textures}
+    handlers = {
+        "render": cmd_render,
+        "brdf": cmd_brdf,
+        "textures": cmd_textures,
+        "view": cmd_view,
+    }
     try:
         return handlers[args.command](args)
     except InputError as exc:

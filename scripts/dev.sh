@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 VENV="$ROOT/.venv"
 
-APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth)
+APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth xdotool)
 PY_APT_PACKAGES=(python3 python3-venv python3-pip)
 
 have_system_libs() {
@@ -21,7 +21,8 @@ have_system_libs() {
     "$ldconfig" -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' &&
     "$ldconfig" -p 2>/dev/null | grep -q 'libOSMesa.so' &&
     ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 &&
-    command -v Xvfb >/dev/null 2>&1
+    command -v Xvfb >/dev/null 2>&1 &&
+    command -v xdotool >/dev/null 2>&1
 }
 
 pick_python() {

@@ -399,6 +399,11 @@ class GLCensus:
     def __init__(self, gl: GLContext) -> None:
         if gl.backend == "osmesa":
             address = gl._keepalive.load_opengl_function
+        elif gl.backend == "glfw":  # the desktop viewer's window context (GLX)
+            import glfw
+
+            def address(name: str) -> int:
+                return glfw.get_proc_address(name) or 0
         else:
             egl = ctypes.CDLL("libEGL.so.1")
             egl.eglGetProcAddress.restype = ctypes.c_void_p

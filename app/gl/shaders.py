@@ -27,30 +27,58 @@ GLSL_VERSION = "#version 330 core"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
 
 
+Origin = tuple[str, int]  # (file under glsl/ or "<text>", 1-based line)
+
+
+def _expand(name: str, text: str, root: Path, seen: set[str]) -> tuple[list[str], list[Origin]]:
+    """The lines of ``text`` (of source ``name``) with each #include replaced by the
+    file's expanded lines (a file already spliced leaves an empty line), and where each
+    output line came from, so that a compiler's line number can be traced to a file."""
+    lines: list[str] = []
+    origins: list[Origin] = []
+    for number, line in enumerate(text.split("\n"), start=1):
+        match = _INCLUDE.match(line)
+        if match is None:
+            lines.append(line)
+            origins.append((name, number))
+            continue
+        child = match.group(1)
+        if child in seen:
+            lines.append("")
+            origins.append((name, number))
+            continue
+        seen.add(child)
+        body = (root / child).read_text(encoding="utf-8")
+        child_lines, child_origins = _expand(child, body, root, seen)
+        lines += child_lines
+        origins += child_origins
+    return lines, origins
+
+
 def expand_includes(relative: str, root: Path | None = None, _seen: set[str] | None = None) -> str:
     """The source of ``relative`` (under ``glsl/``) with every #include spliced in once."""
+    return "\n".join(_expand_file(relative, root, _seen)[0])
+
+
+def _expand_file(
+    relative: str, root: Path | None = None, seen: set[str] | None = None
+) -> tuple[list[str], list[Origin]]:
     root = glsl_dir() if root is None else root
-    seen = set() if _seen is None else _seen
+    seen = set() if seen is None else seen
     if relative in seen:
-        return ""
+        return [""], [(relative, 1)]
     seen.add(relative)
-    text = (root / relative).read_text(encoding="utf-8")
-
-    def splice(match: re.Match[str]) -> str:
-        return expand_includes(match.group(1), root, seen)
-
-    return _INCLUDE.sub(splice, text)
+    return _expand(relative, (root / relative).read_text(encoding="utf-8"), root, seen)
 
 
 def expand_text(text: str, root: Path | None = None) -> str:
     """GLSL source text (not a file) with every #include spliced in once."""
-    root = glsl_dir() if root is None else root
-    seen: set[str] = set()
-    return _INCLUDE.sub(lambda m: expand_includes(m.group(1), root, seen), text)
+    return "\n".join(_expand("<text>", text, glsl_dir() if root is None else root, set())[0])
 
 
 def _header(defines: Mapping[str, object] | None) -> str:
-    """``#version``, the shared constants, then a program's feature ``defines``."""
+    """``#version``, the shared constants, a program's feature ``defines``, then
+    ``#line 1``: the compiler numbers the expanded source from 1."""
     lines = [GLSL_VERSION]
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
@@ -68,6 +96,34 @@ def assemble_text(text: str, defines: Mapping[str, object] | None = None) -> str
     return _header(defines) + expand_text(text)
 
 
+class ShaderError(RuntimeError):
+    """A program failed to compile or link; the message names each error's file and line."""
+
+
+_LOG_LOCATION = re.compile(r"\b\d+:(\d+)\((\d+)\)")
+
+
+def describe_log(log: str, stages: Mapping[str, list[Origin]]) -> str:
+    """A compiler log's error lines with Mesa's "0:line(column)" locations, which count
+    lines of the expanded source, as "glsl/file:line:column" (``stages``: each stage's
+    line origins, keyed by the stage name the log prints, e.g. "fragment_shader")."""
+    out, origins = [], None
+    for line in log.splitlines():
+        if line.strip() in stages:
+            origins = stages[line.strip()]
+            continue
+        match = _LOG_LOCATION.search(line)
+        if match is None:
+            continue
+        number = int(match[1])
+        if origins is not None and 1 <= number <= len(origins):
+            name, own = origins[number - 1]
+            where = f"glsl/{name}:{own}:{match[2]}" if name != "<text>" else f"{own}:{match[2]}"
+            line = line[: match.start()] + where + line[match.end() :]
+        out.append(line.strip())
+    return "; ".join(out) or log.strip()
+
+
 class ShaderCache:
     """Compiled programs keyed by (vertex file, fragment file, defines)."""
 
@@ -81,10 +137,18 @@ class ShaderCache:
         key = (vertex, fragment, tuple(sorted((defines or {}).items())))
         prog = self._programs.get(key)
         if prog is None:
-            prog = self._ctx.program(
-                vertex_shader=assemble(vertex, defines),
-                fragment_shader=assemble(fragment, defines),
-            )
+            try:
+                prog = self._ctx.program(
+                    vertex_shader=assemble(vertex, defines),
+                    fragment_shader=assemble(fragment, defines),
+                )
+            except moderngl.Error as exc:
+                stages = {
+                    "vertex_shader": _expand_file(vertex)[1],
+                    "fragment_shader": _expand_file(fragment)[1],
+                }
+                message = describe_log(str(exc), stages)
+                raise ShaderError(f"{vertex} + {fragment}: {message}") from None
             self._programs[key] = prog
         return prog
 

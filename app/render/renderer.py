@@ -12,8 +12,10 @@ compiles only a model combination it has never seen.
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 
+import moderngl
 import numpy as np
 
 from app.common.gbuffer import GBufferData
@@ -43,6 +45,23 @@ class RenderOptions:
 
     uber: bool = False
     ms_table: np.ndarray | None = None
+
+
+class _PassClock:
+    """Wall time per pass, waiting for the GPU after each one; does nothing without a dict."""
+
+    def __init__(self, ctx: moderngl.Context, timings: dict[str, float] | None) -> None:
+        self.ctx, self.timings = ctx, timings
+        if timings is not None:
+            ctx.finish()
+            self.last = time.perf_counter()
+
+    def done(self, name: str) -> None:
+        if self.timings is not None:
+            self.ctx.finish()
+            now = time.perf_counter()
+            self.timings[name] = (now - self.last) * 1e3
+            self.last = now
 
 
 # Render settings whose change needs new mesh parts (their maps' mips and baked blends).
@@ -260,21 +279,30 @@ class Renderer:
 
     # --- the frame ---------------------------------------------------------------------------
 
-    def render(self) -> None:
-        """Run all passes; results stay on the GPU until read."""
+    def render(self, timings: dict[str, float] | None = None) -> None:
+        """Run all passes; results stay on the GPU until read. With ``timings`` each pass
+        is waited for and its wall time in milliseconds recorded by name (the viewer's
+        frame-time plot; the waits cost some throughput, so only when asked)."""
         scene = self.scene
+        clock = _PassClock(self.gl.ctx, timings)
         self.gbuffer_pass.run(self.gbuffer, self.view, self.proj)
+        clock.done("gbuffer")
         if self.culler is not None:
             self.culler.run(self.gbuffer, self.view, self.camera)
+            clock.done("culling")
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
+        clock.done("lighting")
         hdr = self.lighting.hdr
         if self.dof is not None:
             self.dof.run(hdr, self.gbuffer.depth)
             hdr = self.dof.target
+            clock.done("depth of field")
         if self.resolve is not None:
             self.resolve.run(hdr)
             hdr = self.resolve.target
+            clock.done("resolve")
         self.post.run(hdr, scene.camera.exposure)
+        clock.done("post")
 
     def read_hdr(self) -> np.ndarray:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field

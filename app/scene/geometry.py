@@ -54,6 +54,7 @@ class MeshPart:
     # within the 24-bit depth buffer's resolution of the front face and could win the depth
     # test with a normal facing away. Planes and mesh files (possibly open) stay two-sided.
     closed: bool = False
+    object_index: int = -1  # the scene object (index into scene.objects) it was built from
 
     @property
     def material(self) -> MaterialParams:
@@ -331,9 +332,7 @@ def build_parts(loaded: LoadedScene) -> list[MeshPart]:
         if obj.shape != "mesh":
             vertices, indices = _interleave(_primitive(obj))
             layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)
-            parts.append(
-                MeshPart(vertices, indices, layers, model, blend, closed=obj.shape != "plane")
-            )
+            parts.append(MeshPart(vertices, indices, layers, model, blend, obj.shape != "plane", i))
             continue
         for mesh, local in _load_file(loaded, i, obj):
             if chosen is not None:  # the scene's material overrides the file's
@@ -342,5 +341,5 @@ def build_parts(loaded: LoadedScene) -> list[MeshPart]:
                 layers = [_file_material(mesh, _DEFAULT_MATERIAL, builder.normal_filter)]
                 blend = None
             vertices, indices = _interleave(mesh)
-            parts.append(MeshPart(vertices, indices, layers, model @ local, blend))
+            parts.append(MeshPart(vertices, indices, layers, model @ local, blend, False, i))
     return parts

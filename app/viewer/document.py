@@ -1,0 +1,172 @@
+"""The scene the viewer edits, kept as the data a scene file holds.
+
+Every edit changes that data (``set_value`` with a key path as the CLI prints it:
+``materials.gold.roughness``, ``lights[2].range``) and is validated by the same
+``parse_scene`` as ``pbs render``: a refused value raises the same ``InputError`` with the
+same one-line message, and nothing changes. Saving writes the data back as TOML with
+tomlkit into the document that was loaded, so the file's comments and layout survive
+wherever the edit did not replace a whole table (docs/viewer.md says which).
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import os
+import re
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import tomlkit
+
+from app.output import atomic_write
+from app.scene.loader import LoadedScene, load_scene, parse_scene
+from app.scene.model import TEXTURE_KEYS
+
+_PART = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
+
+
+def split_key(key: str) -> list[str | int]:
+    """'lights[2].range' -> ['lights', 2, 'range']."""
+    parts: list[str | int] = []
+    for name, index in _PART.findall(key):
+        parts.append(int(index) if index else name)
+    return parts
+
+
+def get_value(data: dict, key: str, default: Any = None) -> Any:
+    node: Any = data
+    for part in split_key(key):
+        try:
+            node = node[part]
+        except (KeyError, IndexError, TypeError):
+            return default
+    return node
+
+
+def set_value(data: dict, key: str, value: Any) -> None:
+    """Set ``key`` in ``data`` (creating tables on the way); ``None`` removes the key, so
+    that the scene's default applies."""
+    parts = split_key(key)
+    node: Any = data
+    for part, following in itertools.pairwise(parts):
+        if isinstance(part, str) and part not in node:
+            node[part] = [] if isinstance(following, int) else {}
+        node = node[part]
+    last = parts[-1]
+    if value is None:
+        if isinstance(last, str):
+            node.pop(last, None)
+        return
+    node[last] = value
+
+
+class SceneDocument:
+    """The edited scene: its data, the file it came from and the validated result."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path).resolve()
+        self.loaded: LoadedScene = load_scene(self.path)  # InputError on a bad file
+        self.data: dict = tomllib.loads(self.path.read_text(encoding="utf-8"))
+        self.mtime = self.path.stat().st_mtime
+
+    @property
+    def scene(self):
+        return self.loaded.scene
+
+    def edit(self, changes: dict[str, Any]) -> LoadedScene:
+        """Apply {key path: value} to a copy of the data, validate it as a scene file
+        would be, and keep it only if valid (InputError otherwise, nothing changed)."""
+        data = copy.deepcopy(self.data)
+        for key, value in changes.items():
+            set_value(data, key, value)
+        loaded = parse_scene(data, self.path)
+        self.data, self.loaded = data, loaded
+        return loaded
+
+    def replace(self, data: dict) -> LoadedScene:
+        """Validate whole new data (a reloaded file, an undo) and keep it if valid."""
+        loaded = parse_scene(copy.deepcopy(data), self.path)
+        self.data, self.loaded = copy.deepcopy(data), loaded
+        return loaded
+
+    def reload(self) -> LoadedScene:
+        """Read the file again (hot reload); InputError leaves the current state."""
+        loaded = load_scene(self.path)
+        self.data = tomllib.loads(self.path.read_text(encoding="utf-8"))
+        self.loaded = loaded
+        self.mtime = self.path.stat().st_mtime
+        return loaded
+
+    def changed_on_disk(self) -> bool:
+        try:
+            return self.path.stat().st_mtime != self.mtime
+        except OSError:
+            return False
+
+    def save(self, path: Path) -> None:
+        """Write the edited scene to ``path`` as TOML, merged into the loaded file's
+        document so that its comments stay; file paths in the scene are rebased so that
+        they still point at the same files from the new folder."""
+        path = Path(path).resolve()
+        data = rebase_paths(self.data, self.path.parent, path.parent)
+        try:
+            document = tomlkit.parse(self.path.read_text(encoding="utf-8"))
+        except (OSError, tomlkit.exceptions.ParseError):
+            document = tomlkit.document()
+        merge(document, data)
+
+        def write(tmp: Path) -> None:
+            tmp.write_text(tomlkit.dumps(document), encoding="utf-8")
+
+        atomic_write(path, write)
+
+
+def merge(target: Any, data: dict) -> None:
+    """Make the tomlkit container ``target`` hold ``data``, changing only what differs:
+    unchanged tables keep their comments; arrays of tables of the same length are merged
+    entry by entry."""
+    for key in [k for k in target if k not in data]:
+        del target[key]
+    for key, value in data.items():
+        old = target.get(key)
+        if isinstance(value, dict) and isinstance(old, dict):
+            merge(old, value)
+        elif (
+            isinstance(value, list)
+            and value
+            and all(isinstance(v, dict) for v in value)
+            and isinstance(old, list)
+            and len(old) == len(value)
+            and all(isinstance(v, dict) for v in old)
+        ):
+            for entry, new in zip(old, value, strict=True):
+                merge(entry, new)
+        elif old != value:
+            target[key] = value
+
+
+def rebase_paths(data: dict, old_dir: Path, new_dir: Path) -> dict:
+    """A copy of ``data`` whose relative file paths (meshes, texture maps, blend masks) are
+    relative to ``new_dir`` instead of ``old_dir``."""
+    out = copy.deepcopy(data)
+    if old_dir == new_dir:
+        return out
+
+    def move(relative: str) -> str:
+        if os.path.isabs(relative):
+            return relative
+        return os.path.relpath(old_dir / relative, new_dir).replace(os.sep, "/")
+
+    for obj in out.get("objects", []):
+        if isinstance(obj.get("file"), str):
+            obj["file"] = move(obj["file"])
+    for material in out.get("materials", {}).values():
+        for key in TEXTURE_KEYS:
+            if isinstance(material.get(key), str):
+                material[key] = move(material[key])
+        blend = material.get("blend")
+        if isinstance(blend, dict) and isinstance(blend.get("mask"), str):
+            blend["mask"] = move(blend["mask"])
+    return out

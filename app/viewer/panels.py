@@ -1,0 +1,372 @@
+"""The viewer's Dear ImGui panels (imgui-bundle, drawn through the window's own GL context).
+
+Each widget reads the edited scene (``Viewer.value``, or the resolved material for values a
+preset supplies) and writes through ``Viewer.edit`` with the key path a scene file uses, so
+a panel can do exactly what a scene file can, with the same validation and messages:
+
+* Scene: objects, materials and lights; a click in the image selects what is under it.
+* Material: the selected material's preset (searchable), parameters and model of each term.
+* Lights: add, remove, move, colour, intensity, range, cone.
+* Render: tone map, exposure, lens, G-buffer precision, culling, filtering, terms, vsync.
+* Plots: the selected material's lobes and directional albedo from the GLSL probe that
+  ``pbs brdf`` uses, and the frame time of each pass.
+* Problems: the last refused edit, scene error or GLSL error (file and line).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from imgui_bundle import imgui, implot
+
+from app.common.models import (
+    CORRELATIONS,
+    DIFFUSE_MODELS,
+    FRESNEL_MODELS,
+    G2_MODELS,
+    LAMBDA_FORMS,
+    NDF_MODELS,
+)
+from app.common.tonemaps import TONEMAPS
+from app.scene.presets import PRESETS
+
+if TYPE_CHECKING:
+    from app.viewer.window import Viewer
+
+RED = imgui.ImVec4(1.0, 0.35, 0.3, 1.0)
+AMBER = imgui.ImVec4(1.0, 0.8, 0.2, 1.0)
+LOBE_ANGLES = (30.0, 60.0)  # incident angles of the lobe plot, degrees
+
+
+class Panels:
+    """The ImGui context, its glfw/OpenGL3 backends and the panels' own state."""
+
+    def __init__(self, viewer: Viewer) -> None:
+        self.viewer = viewer
+        self.context = imgui.create_context()
+        self.plot_context = implot.create_context()
+        imgui.get_io().set_ini_filename("")  # no imgui.ini next to the user's files
+        self.preset_filter = ""
+        self.save_path = ""
+        self.timing = False  # the frame-time plot asks the renderer to time its passes
+        self._curves: tuple[object, Any] | None = None  # (material key, (lobes, albedo))
+        self._backend = False
+
+    def install_backend(self, window_address: int) -> None:
+        """glfw input and OpenGL3 drawing for ImGui; it chains to the viewer's callbacks."""
+        imgui.backends.glfw_init_for_opengl(window_address, True)
+        imgui.backends.opengl3_init("#version 330 core")
+        self._backend = True
+
+    def wants_mouse(self) -> bool:
+        return bool(imgui.get_io().want_capture_mouse)
+
+    def wants_keyboard(self) -> bool:
+        return bool(imgui.get_io().want_capture_keyboard)
+
+    def shutdown(self) -> None:
+        if self._backend:
+            imgui.backends.opengl3_shutdown()
+            imgui.backends.glfw_shutdown()
+        implot.destroy_context(self.plot_context)
+        imgui.destroy_context(self.context)
+
+    # --- a frame of panels ------------------------------------------------------------------
+
+    def draw(self) -> None:
+        imgui.backends.opengl3_new_frame()
+        imgui.backends.glfw_new_frame()
+        imgui.new_frame()
+        self._scene_panel()
+        self._material_panel()
+        self._lights_panel()
+        self._render_panel()
+        self._plots_panel()
+        self._problems_panel()
+        imgui.render()
+        imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+
+    def _window(self, title: str, x: float, y: float, w: float, h: float) -> bool:
+        imgui.set_next_window_pos(imgui.ImVec2(x, y), imgui.Cond_.first_use_ever)
+        imgui.set_next_window_size(imgui.ImVec2(w, h), imgui.Cond_.first_use_ever)
+        return imgui.begin(title)[0]
+
+    def _edit(self, key: str, value: Any) -> None:
+        self.viewer.edit({key: value})
+
+    def _scene_panel(self) -> None:
+        v = self.viewer
+        if self._window("Scene", 8, 8, 250, 260):
+            imgui.text(v.document.path.name)
+            if imgui.collapsing_header("Objects", imgui.TreeNodeFlags_.default_open):
+                for i, obj in enumerate(v.scene.objects):
+                    label = f"{obj.name or obj.shape} #{i}  ({obj.material or 'default'})"
+                    chosen = v.selection.object_index == i
+                    if imgui.selectable(label, chosen)[0]:
+                        v.selection.object_index, v.selection.material = i, obj.material
+            if imgui.collapsing_header("Materials"):
+                for name in v.scene.materials:
+                    if imgui.selectable(name, v.selection.material == name)[0]:
+                        v.selection.material = name
+            imgui.separator()
+            if imgui.button("Frame (F)"):
+                v.frame_selection()
+            imgui.same_line()
+            if imgui.button("Reset camera (R)"):
+                v.reset_camera()
+            _, self.save_path = imgui.input_text_with_hint(
+                "##save", "save as... (empty: over the file)", self.save_path
+            )
+            if imgui.button("Save scene (Ctrl+S)"):
+                v.save_scene(self.save_path or None)
+            imgui.same_line()
+            if imgui.button("Screenshot (P)"):
+                v.screenshot()
+        imgui.end()
+
+    def _material_panel(self) -> None:
+        v = self.viewer
+        name = v.selection.material
+        if self._window("Material", 8, 276, 300, 430):
+            if name is None or name not in v.scene.materials:
+                imgui.text("Click an object, or pick a material in Scene.")
+            else:
+                self._material_editor(name)
+        imgui.end()
+
+    def _material_editor(self, name: str) -> None:
+        v = self.viewer
+        key = f"materials.{name}"
+        material = v.scene.materials[name]
+        resolved = material.resolve()
+        imgui.text(name)
+        _, self.preset_filter = imgui.input_text_with_hint(
+            "##presets", "search presets", self.preset_filter
+        )
+        current = material.preset or "(none)"
+        if imgui.begin_combo("preset", current):
+            if imgui.selectable("(none)", material.preset is None)[0]:
+                self._edit(f"{key}.preset", None)
+            for preset in PRESETS:
+                if (
+                    self.preset_filter.lower() in preset.lower()
+                    and imgui.selectable(preset, preset == material.preset)[0]
+                ):
+                    self._edit(f"{key}.preset", preset)
+            imgui.end_combo()
+        changed, color = imgui.color_edit3("base colour", list(resolved.base_color))
+        if changed:
+            self._edit(f"{key}.base_color", [float(c) for c in color])
+        for field, low, high in (
+            ("metallic", 0.0, 1.0),
+            ("roughness", 0.0, 1.0),
+            ("anisotropy", -1.0, 1.0),
+        ):
+            changed, value = imgui.slider_float(field, float(getattr(resolved, field)), low, high)
+            if changed:
+                self._edit(f"{key}.{field}", float(value))
+        if material.ior is None:
+            changed, value = imgui.slider_float("f0 (dielectric)", float(resolved.f0), 0.0, 1.0)
+            if changed:
+                self._edit(f"{key}.f0", float(value))
+        medium = material.medium_ior or 1.0
+        changed, value = imgui.slider_float("medium index", float(medium), 1.0, 3.0)
+        if changed:
+            self._edit(f"{key}.medium_ior", float(value))
+        imgui.separator()
+        for field, names in (
+            ("fresnel", FRESNEL_MODELS),
+            ("ndf", NDF_MODELS),
+            ("lambda_form", LAMBDA_FORMS),
+            ("g2", G2_MODELS),
+            ("correlation", CORRELATIONS),
+            ("diffuse", DIFFUSE_MODELS),
+        ):
+            now = getattr(material, field)
+            changed, index = imgui.combo(field, names.index(now), list(names))
+            if changed:
+                self._edit(f"{key}.{field}", names[index])
+        changed, on = imgui.checkbox("multiple scattering", material.multiscatter)
+        if changed:
+            self._edit(f"{key}.multiscatter", on)
+        if material.ndf == "gtr":
+            changed, value = imgui.slider_float("gtr gamma", resolved.params.gtr_gamma, 0.1, 20.0)
+            if changed:
+                self._edit(f"{key}.gtr_gamma", float(value))
+        if material.fresnel == "schlick_generalized":
+            changed, f90 = imgui.color_edit3("f90", [float(x) for x in resolved.params.f90])
+            if changed:
+                self._edit(f"{key}.f90", [float(c) for c in f90])
+        maps = [k for k in ("base_color_map", "metallic_map", "roughness_map", "normal_map",
+                            "anisotropy_map") if getattr(material, k)]  # fmt: skip
+        if maps or material.blend is not None:
+            imgui.separator()
+            for k in maps:
+                imgui.text(f"{k}: {getattr(material, k)}")
+            if material.blend is not None:
+                b = material.blend
+                imgui.text(f"blend: {b.material} through {b.mask}")
+                changed, value = imgui.slider_float("blend threshold", b.threshold, 0.0, 1.0)
+                if changed:
+                    self._edit(f"{key}.blend.threshold", float(value))
+
+    def _lights_panel(self) -> None:
+        v = self.viewer
+        if self._window("Lights", 700, 8, 250, 320):
+            for i, light in enumerate(v.scene.lights):
+                imgui.push_id(f"light{i}")
+                if imgui.collapsing_header(f"{i}: {light.type}"):
+                    key = f"lights[{i}]"
+                    changed, color = imgui.color_edit3("colour", list(light.color))
+                    if changed:
+                        self._edit(f"{key}.color", [float(c) for c in color])
+                    changed, value = imgui.slider_float(
+                        "intensity",
+                        light.intensity,
+                        0.0,
+                        100.0,
+                        "%.3f",
+                        imgui.SliderFlags_.logarithmic,
+                    )
+                    if changed:
+                        self._edit(f"{key}.intensity", float(value))
+                    if light.position is not None:
+                        changed, p = imgui.drag_float3("position", list(light.position), 0.02)
+                        if changed:
+                            self._edit(f"{key}.position", [float(x) for x in p])
+                    if light.direction is not None:
+                        changed, d = imgui.drag_float3("direction", list(light.direction), 0.01)
+                        if changed and np.linalg.norm(d) > 1e-6:
+                            self._edit(f"{key}.direction", [float(x) for x in d])
+                    if light.type != "directional":
+                        changed, value = imgui.slider_float(
+                            "range", light.effective_range, 0.05, 100.0
+                        )
+                        if changed:
+                            self._edit(f"{key}.range", float(value))
+                    if light.type == "spot":
+                        inner, outer = light.cone
+                        changed, value = imgui.slider_float("outer angle", outer, 1.0, 90.0)
+                        if changed:
+                            self._edit(f"{key}.outer_angle", float(value))
+                            if inner >= value:
+                                self._edit(f"{key}.inner_angle", float(value) * 0.8)
+                        changed, value = imgui.slider_float("inner angle", inner, 0.0, outer - 0.01)
+                        if changed:
+                            self._edit(f"{key}.inner_angle", float(value))
+                    if imgui.button("remove"):
+                        self.viewer.remove_light(i)
+                imgui.pop_id()
+            imgui.separator()
+            for kind in ("directional", "point", "spot"):
+                if imgui.button(f"+ {kind}"):
+                    self.viewer.add_light(kind)
+                imgui.same_line()
+            imgui.new_line()
+        imgui.end()
+
+    def _render_panel(self) -> None:
+        v = self.viewer
+        s, cam = v.scene.render, v.scene.camera
+        if self._window("Render", 700, 336, 250, 330):
+            changed, i = imgui.combo("tone map", TONEMAPS.index(s.tonemap), list(TONEMAPS))
+            if changed:
+                self._edit("render.tonemap", TONEMAPS[i])
+            changed, value = imgui.slider_float("exposure (EV)", cam.exposure, -8.0, 8.0)
+            if changed:
+                self._edit("camera.exposure", float(value))
+            changed, value = imgui.slider_float("field of view", cam.fov_y, 5.0, 120.0)
+            if changed:
+                self._edit("camera.fov_y", float(value))
+            changed, value = imgui.slider_float("aperture (m)", cam.aperture, 0.0, 0.5)
+            if changed:
+                self._edit("camera.aperture", float(value))
+            changed, value = imgui.slider_float("focus distance", cam.focus, 0.1, 100.0)
+            if changed:
+                self._edit("camera.focus_distance", float(value))
+            for field, names in (
+                ("gbuffer", ("f16", "f32")),
+                ("normal_filter", ("none", "naive", "toksvig", "variance")),
+                ("terms", ("all", "specular", "diffuse")),
+            ):
+                now = getattr(s, field)
+                changed, i = imgui.combo(field, names.index(now), list(names))
+                if changed:
+                    self._edit(f"render.{field}", names[i])
+            changed, on = imgui.checkbox("tile culling", s.light_culling == "tiled")
+            if changed:
+                self._edit("render.light_culling", "tiled" if on else "none")
+            changed, on = imgui.checkbox("specular AA", s.specular_aa)
+            if changed:
+                self._edit("render.specular_aa", on)
+            changed, n = imgui.slider_int("supersample", s.supersample, 1, 4)
+            if changed:
+                self._edit("render.supersample", int(n))
+            changed, on = imgui.checkbox("vsync", v.vsync)
+            if changed:
+                v.set_vsync(on)
+        imgui.end()
+
+    def _plots_panel(self) -> None:
+        v = self.viewer
+        if self._window("Plots", 316, 420, 376, 300):
+            name = v.selection.material
+            if name is not None and name in v.scene.materials:
+                self._material_plots(name)
+            _, self.timing = imgui.checkbox("time each pass", self.timing)
+            times = v.state.frame_ms
+            if (
+                self.timing
+                and times
+                and implot.begin_plot("frame time (ms)", imgui.ImVec2(-1, 120))
+            ):
+                names = list(times)
+                implot.setup_axis_ticks(
+                    implot.ImAxis_.x1, list(map(float, range(len(names)))), names
+                )
+                implot.plot_bars("ms", np.array(list(times.values()), np.float64))
+                implot.end_plot()
+        imgui.end()
+
+    def _material_plots(self, name: str) -> None:
+        from app.brdf.plot import NamedMaterial, albedo_curve, lobes
+
+        v = self.viewer
+        definition = v.scene.materials[name]
+        if self._curves is None or self._curves[0] != (name, definition):
+            material = NamedMaterial(name, name, definition.resolve())
+            try:
+                curves = (lobes(material, LOBE_ANGLES, gl=v.gl), albedo_curve(material, gl=v.gl))
+            except Exception as exc:  # a model the probe cannot evaluate: say so, keep going
+                v.state.error = f"plots: {exc}"
+                curves = None
+            self._curves = ((name, definition), curves)
+        curves = self._curves[1]
+        if curves is None:
+            return
+        lobe_list, albedo = curves
+        if implot.begin_plot("f cos (plane of incidence)", imgui.ImVec2(-1, 150)):
+            for lobe in lobe_list:
+                theta = np.radians(lobe.theta_v)
+                value = lobe.value @ np.array([0.2126, 0.7152, 0.0722])
+                implot.plot_line(
+                    f"{lobe.theta_i:g} deg", value * np.sin(theta), value * np.cos(theta)
+                )
+            implot.end_plot()
+        if implot.begin_plot("directional albedo", imgui.ImVec2(-1, 120)):
+            implot.plot_line("R(theta)", np.asarray(albedo.theta, np.float64),
+                             np.asarray(albedo.luminance, np.float64))  # fmt: skip
+            implot.end_plot()
+
+    def _problems_panel(self) -> None:
+        v = self.viewer
+        if not (v.state.error or v.state.notice):
+            return
+        if self._window("Problems", 316, 8, 376, 110):
+            if v.state.notice:
+                imgui.text_colored(AMBER, v.state.notice)
+            if v.state.error:
+                imgui.text_colored(RED, "The last good state keeps running:")
+                imgui.text_wrapped(v.state.error)
+        imgui.end()

@@ -1,0 +1,642 @@
+"""The desktop viewer: a glfw window showing what ``Renderer`` renders, with Dear ImGui panels.
+
+The viewer shades nothing itself. Each frame it hands its edits to the one ``Renderer`` that
+``pbs render`` also runs (G-buffer -> culling -> lighting -> post), then draws the display
+image into the window 1:1 and the panels over it. Everything the panels can do is a method
+here, so scripts and tests drive the same code as the mouse:
+
+    viewer = Viewer(Path("scenes/showcase.toml"))
+    viewer.orbit(120, 0)                                   # a drag of 120 pixels
+    viewer.edit({"materials.gold.roughness": 0.3})         # validated like a scene file
+    viewer.step()                                          # one frame
+    image = viewer.read_window()                           # the window's pixels
+
+**Responsive on a software rasteriser.** While input arrives the renderer runs at
+1/``PREVIEW_SCALE`` of the window's size; ``REFINE_AFTER`` seconds after the last input it
+renders once more at full size (docs/viewer.md measures the latency). An edit that may need
+new shader programs (a model, a light type, a setting) is applied one frame late: first the
+last image is shown with a "compiling..." notice, then the edit runs.
+
+**Hot reload.** The scene file and the GLSL tree are watched (``WATCH_INTERVAL``); a change
+reloads them. A scene that no longer validates, or GLSL that no longer compiles, leaves the
+last good state running and shows the error (file and line) in the Problems panel.
+"""
+
+from __future__ import annotations
+
+import copy
+import ctypes
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import glfw
+import moderngl
+import numpy as np
+
+from app.errors import InputError
+from app.gl.context import GLContext
+from app.gl.shaders import ShaderError
+from app.output import write_hdr, write_png
+from app.reference.position import reconstruct_position
+from app.render.renderer import Renderer
+from app.resources import glsl_dir, scenes_dir
+from app.scene.loader import LoadedScene, parse_scene
+from app.scene.model import Camera
+from app.viewer import orbit as orbit_controls
+from app.viewer.document import SceneDocument, get_value, set_value
+
+PREVIEW_SCALE = 2  # while interacting: render at 1/2 of the window in each direction
+REFINE_AFTER = 0.25  # seconds without input before the full-size frame
+WATCH_INTERVAL = 0.5  # seconds between checks of the scene file and glsl/
+
+
+class ViewerError(RuntimeError):
+    """The window cannot be opened (no display, no OpenGL 3.3)."""
+
+
+@dataclass
+class Selection:
+    """What a click picked: an object (index into scene.objects) and its material."""
+
+    object_index: int | None = None
+    material: str | None = None
+
+
+@dataclass
+class _State:
+    last_input: float = 0.0
+    dirty: bool = True  # the scene changed since the last render
+    rendered_scale: int = 0  # the scale the last image was rendered at
+    pending: list[dict[str, Any]] = field(default_factory=list)  # structural edits
+    notice: str = ""
+    error: str = ""  # shown in the Problems panel
+    glsl_mtime: float = 0.0
+    last_watch: float = 0.0
+    frame_ms: dict[str, float] = field(default_factory=dict)
+
+
+def _release_current_egl() -> None:
+    """Unbind a headless EGL context current in this thread (``pbs render``'s, a test's):
+    Mesa refuses to make a GLX window context current over it (BadAccess)."""
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+    except OSError:
+        return
+    egl.eglGetCurrentContext.restype = ctypes.c_void_p
+    egl.eglGetCurrentDisplay.restype = ctypes.c_void_p
+    if egl.eglGetCurrentContext():
+        egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+        egl.eglMakeCurrent(egl.eglGetCurrentDisplay(), None, None, None)
+
+
+def _glsl_mtime() -> float:
+    return max((p.stat().st_mtime for p in glsl_dir().rglob("*") if p.is_file()), default=0.0)
+
+
+class Viewer:
+    """One window on one scene (see the module docstring)."""
+
+    def __init__(
+        self,
+        scene: Path | None = None,
+        size: tuple[int, int] = (960, 540),
+        *,
+        visible: bool = True,
+        vsync: bool = True,
+        ui: bool = True,
+    ) -> None:
+        self.document = SceneDocument(scene or scenes_dir() / "showcase.toml")
+        self.base_camera = self.document.scene.camera  # what "reset camera" goes back to
+        if not glfw.init():
+            raise ViewerError("glfw could not initialise (is there a display? DISPLAY unset?)")
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        glfw.window_hint(glfw.SCALE_TO_MONITOR, True)  # HiDPI: the window grows with the scale
+        glfw.window_hint(glfw.VISIBLE, visible)
+        _release_current_egl()  # glfw makes the new context current while creating it
+        self.window = glfw.create_window(size[0], size[1], self._title(), None, None)
+        if not self.window:
+            glfw.terminate()
+            raise ViewerError("could not open an OpenGL 3.3 core window")
+        glfw.make_context_current(self.window)
+        self.vsync = vsync
+        glfw.swap_interval(1 if vsync else 0)
+        self.gl = GLContext(moderngl.create_context(require=330), "glfw")
+        self.ctx = self.gl.ctx
+        self.state = _State(glsl_mtime=_glsl_mtime(), last_watch=time.perf_counter())
+        self.selection = Selection()
+        self.show_ui = ui
+        self.renderer = Renderer(self.gl, self.document.loaded, self.framebuffer_size)
+        self._present = _Present(self.ctx)
+        self._drag: tuple[int, float, float] | None = None  # button, last x, last y
+        self.panels = None
+        if ui:
+            from app.viewer.panels import Panels
+
+            self.panels = Panels(self)
+        self._install_callbacks()
+
+    # --- sizes and the image --------------------------------------------------------------
+
+    @property
+    def framebuffer_size(self) -> tuple[int, int]:
+        """The window's size in pixels (on HiDPI screens larger than in screen units)."""
+        w, h = glfw.get_framebuffer_size(self.window)
+        return max(int(w), 1), max(int(h), 1)
+
+    @property
+    def scene(self):
+        return self.document.scene
+
+    def _title(self) -> str:
+        return f"pbs view - {self.document.path.name}"
+
+    # --- edits ----------------------------------------------------------------------------
+
+    def edit(self, changes: dict[str, Any], *, defer: bool | None = None) -> bool:
+        """Apply {key path: value} edits of the scene data (``None`` removes a key). A
+        refused value leaves everything as it was and puts the CLI's message in
+        ``error``; returns whether the edit was taken. ``defer`` (default: for edits that
+        may compile programs) applies it one frame later, behind the notice."""
+        self.touch()
+        if defer is None:
+            defer = any(_structural(key) for key in changes)
+        if defer:
+            try:  # validate now, so a refused value is reported at once
+                self._validated(changes)
+            except InputError as exc:
+                self.state.error = str(exc)
+                return False
+            self.state.pending.append(changes)
+            self.state.notice = "compiling..."
+            return True
+        return self._apply(changes)
+
+    def _validated(self, changes: dict[str, Any]) -> LoadedScene:
+        data = copy.deepcopy(self.document.data)
+        for key, value in changes.items():
+            set_value(data, key, value)
+        return parse_scene(data, self.document.path)
+
+    def _apply(self, changes: dict[str, Any]) -> bool:
+        self._current()
+        old = self.document.scene
+        previous = copy.deepcopy(self.document.data)
+        try:
+            loaded = self.document.edit(changes)
+        except InputError as exc:
+            self.state.error = str(exc)
+            return False
+        self.state.error = ""
+        try:
+            if loaded.scene.model_copy(update={"camera": old.camera}) == old:
+                self.renderer.set_camera(loaded.scene.camera)
+            else:
+                self.renderer.update(loaded.scene)
+        except (ShaderError, moderngl.Error) as exc:
+            self.document.replace(previous)
+            self._rebuild()  # the renderer may be half-updated: rebuild the last good state
+            self.state.error = f"GLSL: {exc}"
+            return False
+        self.state.dirty = True
+        return True
+
+    def set_camera(self, camera: Camera) -> None:
+        """Show the scene from ``camera`` (kept in the scene, so saving keeps the view)."""
+        self._apply(
+            {
+                "camera.position": list(camera.position),
+                "camera.target": list(camera.target),
+                "camera.up": list(camera.up),
+            }
+        )
+
+    def orbit(self, dx: float, dy: float) -> None:
+        """A left-drag of (dx, dy) pixels: turn around the target."""
+        self.touch()
+        self.set_camera(orbit_controls.orbit(self.scene.camera, dx, dy, self.framebuffer_size[1]))
+
+    def pan(self, dx: float, dy: float) -> None:
+        """A right- or shift-drag of (dx, dy) pixels: slide in the view plane."""
+        self.touch()
+        self.set_camera(orbit_controls.pan(self.scene.camera, dx, dy, self.framebuffer_size[1]))
+
+    def zoom(self, steps: float) -> None:
+        """Wheel steps towards the target (negative: away)."""
+        self.touch()
+        self.set_camera(orbit_controls.zoom(self.scene.camera, steps))
+
+    def reset_camera(self) -> None:
+        self.touch()
+        self.set_camera(self.base_camera)
+
+    def frame_selection(self) -> None:
+        """Frame the selected object (the whole scene when nothing is selected)."""
+        self.touch()
+        parts = self.renderer.frame.parts
+        chosen = [
+            p for p in parts
+            if self.selection.object_index is None or p.object_index == self.selection.object_index
+        ]  # fmt: skip
+        if not chosen:
+            return
+        points = np.concatenate(
+            [p.vertices[:, :3].astype(np.float64) @ p.model[:3, :3].T + p.model[:3, 3]
+             for p in chosen]
+        )  # fmt: skip
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        centre = (lo + hi) / 2.0
+        radius = float(np.linalg.norm(hi - lo) / 2.0) or 1.0
+        self.set_camera(orbit_controls.frame(self.scene.camera, centre, radius))
+
+    def select_pixel(self, x: float, y: float) -> Selection:
+        """Select the object and material under window pixel (x, y), y down from the top:
+        the first surface the pixel's view ray meets (the one the G-buffer shows there;
+        nothing where the G-buffer holds no surface)."""
+        self._current()
+        r = self.renderer
+        fw, fh = self.framebuffer_size
+        w, h = r.render_size
+        px = min(int(x * w / fw), w - 1)
+        py = min(int((fh - 1 - y) * h / fh), h - 1)  # GL rows bottom-up
+        raw = r.gbuffer.fbo.read(viewport=(px, py, 1, 1), components=2, attachment=2, dtype="f4")
+        depth = float(np.frombuffer(raw, np.float32)[0])
+        if not (np.isfinite(depth) and depth > 0.0):
+            self.selection = Selection()
+            return self.selection
+        ndc = np.array([(px + 0.5) / w * 2.0 - 1.0, (py + 0.5) / h * 2.0 - 1.0])
+        cam = r.camera
+        p = reconstruct_position(ndc, np.float64(depth), cam.position, cam.camera_to_world,
+                                 cam.tan_half_fov)  # fmt: skip
+        origin = np.asarray(cam.position, np.float64)
+        direction = (p - origin) / np.linalg.norm(p - origin)
+        best, nearest = None, np.inf
+        for part in r.frame.parts:
+            t = _nearest_hit(origin, direction, part)
+            if t < nearest:
+                best, nearest = part.object_index, t
+        material = self.scene.objects[best].material if best is not None else None
+        self.selection = Selection(best, material)
+        return self.selection
+
+    def add_light(self, kind: str) -> bool:
+        """A new light of ``kind`` ("directional", "point" or "spot") 2 m above the
+        camera's target, pointing down."""
+        target = [float(x) for x in self.scene.camera.target]
+        above = [target[0], target[1] + 2.0, target[2]]
+        light: dict[str, Any] = {"type": kind, "intensity": 1.0 if kind == "directional" else 4.0}
+        if kind != "point":
+            light["direction"] = [0.0, -1.0, -0.2]
+        if kind != "directional":
+            light["position"] = above
+        lights = [*copy.deepcopy(self.document.data.get("lights", [])), light]
+        return self.edit({"lights": lights})
+
+    def remove_light(self, index: int) -> bool:
+        lights = copy.deepcopy(self.document.data.get("lights", []))
+        del lights[index]
+        return self.edit({"lights": lights})
+
+    def set_vsync(self, on: bool) -> None:
+        self.vsync = on
+        glfw.swap_interval(1 if on else 0)
+
+    def _current(self) -> None:
+        """Make the window's GL context current: a process may hold other contexts (a
+        headless renderer, a test's), and every GL call here must reach this one."""
+        if glfw.get_current_context() != self.window:
+            _release_current_egl()
+            glfw.make_context_current(self.window)
+
+    def touch(self) -> None:
+        """Note user input: the next frames render at preview size."""
+        self.state.last_input = time.perf_counter()
+
+    # --- files ------------------------------------------------------------------------------
+
+    def save_scene(self, path: Path | None = None) -> Path:
+        """Write the edited scene as TOML (default: over the scene file)."""
+        path = Path(path) if path is not None else self.document.path
+        self.document.save(path)
+        return path
+
+    def screenshot(self, path: Path | None = None, hdr: bool = False) -> Path:
+        """The full-size image (PNG; with ``hdr`` also the linear radiance as .exr) next to
+        the scene unless ``path`` says otherwise."""
+        self._current()
+        self._render(scale=1)
+        stem = self.document.path.with_suffix("")
+        path = Path(path) if path is not None else stem.parent / f"{stem.name}-view.png"
+        write_png(path, self.renderer.read_ldr())
+        if hdr:
+            write_hdr(path.with_suffix(".exr"), self.renderer.read_hdr())
+        return path
+
+    def open_scene(self, path: Path) -> bool:
+        """Show another scene file (a dropped file); a bad one is reported, nothing changes."""
+        self._current()
+        try:
+            document = SceneDocument(path)
+            renderer = Renderer(self.gl, document.loaded, self.framebuffer_size)
+        except InputError as exc:
+            self.state.error = str(exc)
+            return False
+        except (ShaderError, moderngl.Error) as exc:
+            self.state.error = f"GLSL: {exc}"
+            return False
+        self.renderer.release()
+        self.document, self.renderer = document, renderer
+        self.base_camera = document.scene.camera
+        self.selection = Selection()
+        self.state.error = ""
+        self.state.dirty = True
+        glfw.set_window_title(self.window, self._title())
+        return True
+
+    def _watch(self) -> None:
+        """Hot reload: the scene file and glsl/, at most every WATCH_INTERVAL seconds."""
+        now = time.perf_counter()
+        if now - self.state.last_watch < WATCH_INTERVAL:
+            return
+        self.state.last_watch = now
+        if self.document.changed_on_disk():
+            old = self.document.scene
+            try:
+                loaded = self.document.reload()
+            except (InputError, OSError) as exc:
+                self.document.mtime = self.document.path.stat().st_mtime
+                self.state.error = str(exc)
+            else:
+                self.state.error = ""
+                if loaded.scene != old:
+                    self._rebuild()
+        mtime = _glsl_mtime()
+        if mtime != self.state.glsl_mtime:
+            self.state.glsl_mtime = mtime
+            self._rebuild()
+
+    def _rebuild(self) -> None:
+        """A new renderer from the document (new programs from the GLSL on disk); on a
+        compile error the old one keeps running."""
+        self._current()
+        try:
+            renderer = Renderer(self.gl, self.document.loaded, self.framebuffer_size)
+        except (ShaderError, moderngl.Error) as exc:
+            self.state.error = f"GLSL: {exc}"
+            return
+        self.renderer.release()
+        self.renderer = renderer
+        self.state.error = ""
+        self.state.dirty = True
+
+    # --- frames ---------------------------------------------------------------------------
+
+    def _render(self, scale: int) -> None:
+        """Render at the window size / scale if anything changed since the last frame."""
+        fw, fh = self.framebuffer_size
+        size = (max(fw // scale, 1), max(fh // scale, 1))
+        if self.renderer.size != size:
+            self.renderer.resize(size)
+            self.state.dirty = True
+        if self.state.dirty or self.state.rendered_scale != scale:
+            timings: dict[str, float] = {}
+            self.renderer.render(timings if self.panels and self.panels.timing else None)
+            if timings:
+                self.state.frame_ms = timings
+            self.state.dirty = False
+            self.state.rendered_scale = scale
+
+    def step(self, frames: int = 1) -> None:
+        """Run ``frames`` frames: input, hot reload, pending edits, render, panels, swap."""
+        self._current()
+        for _ in range(frames):
+            glfw.poll_events()
+            self._watch()
+            if self.state.pending and self.state.notice:
+                self._draw()  # the last image with the notice, before the compile
+                glfw.swap_buffers(self.window)
+                self.state.notice = ""
+                continue
+            while self.state.pending:
+                self._apply(self.state.pending.pop(0))
+            interacting = time.perf_counter() - self.state.last_input < REFINE_AFTER
+            self._render(PREVIEW_SCALE if interacting else 1)
+            self._draw()
+            glfw.swap_buffers(self.window)
+
+    def settle(self) -> None:
+        """Frames until every pending edit is applied and the full-size image is shown
+        (what a script wants before reading the window)."""
+        self.state.last_input = 0.0
+        while self.state.pending or self.state.notice:
+            self.step()
+        self.step()
+
+    def run(self) -> None:
+        """The interactive loop, until the window is closed."""
+        while not glfw.window_should_close(self.window):
+            self.step()
+
+    def _draw(self) -> None:
+        fw, fh = self.framebuffer_size
+        self.ctx.screen.use()
+        self.ctx.viewport = (0, 0, fw, fh)
+        self._present.draw(self.renderer.post.target, (fw, fh))
+        if self.panels is not None and self.show_ui:
+            self.panels.draw()
+
+    def read_window(self) -> np.ndarray:
+        """The window's framebuffer as the last frame drew it, (H, W, 3) uint8, rows top
+        to bottom."""
+        self._current()
+        fw, fh = self.framebuffer_size
+        data = self.ctx.screen.read(viewport=(0, 0, fw, fh), components=3)
+        return np.frombuffer(data, np.uint8).reshape(fh, fw, 3)[::-1].copy()
+
+    def value(self, key: str, default: Any = None) -> Any:
+        """A value of the edited scene data (what a scene file would hold)."""
+        return get_value(self.document.data, key, default)
+
+    # --- input ------------------------------------------------------------------------------
+
+    def _install_callbacks(self) -> None:
+        glfw.set_mouse_button_callback(self.window, self._on_button)
+        glfw.set_cursor_pos_callback(self.window, self._on_cursor)
+        glfw.set_scroll_callback(self.window, self._on_scroll)
+        glfw.set_key_callback(self.window, self._on_key)
+        glfw.set_drop_callback(self.window, self._on_drop)
+        glfw.set_framebuffer_size_callback(self.window, lambda *_: self._on_resize())
+        if self.panels is not None:
+            self.panels.install_backend(ctypes.cast(self.window, ctypes.c_void_p).value)
+
+    def _ui_wants_mouse(self) -> bool:
+        return self.panels is not None and self.show_ui and self.panels.wants_mouse()
+
+    def _on_button(self, window, button: int, action: int, mods: int) -> None:
+        if action == glfw.PRESS and not self._ui_wants_mouse():
+            x, y = glfw.get_cursor_pos(window)
+            self._drag = (button, x, y)
+            self._press = (x, y)
+        elif action == glfw.RELEASE and self._drag is not None:
+            x, y = glfw.get_cursor_pos(window)
+            px, py = getattr(self, "_press", (x, y))
+            if button == glfw.MOUSE_BUTTON_LEFT and abs(x - px) + abs(y - py) < 3:
+                self.select_pixel(*self._to_pixels(x, y))  # a click, not a drag
+            self._drag = None
+
+    def _to_pixels(self, x: float, y: float) -> tuple[float, float]:
+        """Screen units (cursor) to framebuffer pixels (HiDPI)."""
+        ww, wh = glfw.get_window_size(self.window)
+        fw, fh = self.framebuffer_size
+        return x * fw / max(ww, 1), y * fh / max(wh, 1)
+
+    def _on_cursor(self, window, x: float, y: float) -> None:
+        if self._drag is None:
+            return
+        button, lx, ly = self._drag
+        self._drag = (button, x, y)
+        dx, dy = self._to_pixels(x - lx, y - ly)
+        shift = glfw.get_key(window, glfw.KEY_LEFT_SHIFT) == glfw.PRESS
+        if button == glfw.MOUSE_BUTTON_LEFT and not shift:
+            self.orbit(dx, dy)
+        else:
+            self.pan(dx, dy)
+
+    def _on_scroll(self, window, dx: float, dy: float) -> None:
+        if not self._ui_wants_mouse():
+            self.zoom(dy)
+
+    def _on_key(self, window, key: int, scancode: int, action: int, mods: int) -> None:
+        if action not in (glfw.PRESS, glfw.REPEAT):
+            return
+        if self.panels is not None and self.show_ui and self.panels.wants_keyboard():
+            return
+        step = 20.0  # pixels of drag per key press
+        moves = {
+            glfw.KEY_LEFT: lambda: self.orbit(-step, 0),
+            glfw.KEY_RIGHT: lambda: self.orbit(step, 0),
+            glfw.KEY_UP: lambda: self.orbit(0, -step),
+            glfw.KEY_DOWN: lambda: self.orbit(0, step),
+            glfw.KEY_EQUAL: lambda: self.zoom(1),
+            glfw.KEY_MINUS: lambda: self.zoom(-1),
+            glfw.KEY_F: self.frame_selection,
+            glfw.KEY_R: self.reset_camera,
+            glfw.KEY_TAB: self._toggle_ui,
+        }
+        if key == glfw.KEY_S and mods & glfw.MOD_CONTROL:
+            self.save_scene()
+        elif key == glfw.KEY_P or key == glfw.KEY_F12:
+            self.screenshot(hdr=bool(mods & glfw.MOD_SHIFT))
+        elif key == glfw.KEY_ESCAPE:
+            glfw.set_window_should_close(window, True)
+        elif key in moves:
+            moves[key]()
+
+    def _toggle_ui(self) -> None:
+        self.show_ui = not self.show_ui
+
+    def _on_drop(self, window, paths: list[str]) -> None:
+        for path in paths:
+            if path.endswith(".toml"):
+                self.open_scene(Path(path))
+            else:
+                self.state.error = (
+                    f"{path}: only scene files (.toml) open by dropping; to view a mesh, "
+                    'name it in a scene\'s [[objects]] (shape = "mesh", file = ...)'
+                )
+
+    def _on_resize(self) -> None:
+        self.touch()
+        self.state.dirty = True
+
+    def close(self) -> None:
+        self._current()
+        if self.panels is not None:
+            self.panels.shutdown()
+        self.renderer.release()
+        self._present.release()
+        glfw.destroy_window(self.window)
+        glfw.terminate()
+
+
+class _Present:
+    """Draws the renderer's display image over the whole window: texel-exact (NEAREST)
+    when the image has the window's size, bilinear when a preview is magnified."""
+
+    _VERTEX = """
+#version 330 core
+void main() {
+    vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+"""
+    _FRAGMENT = """
+#version 330 core
+uniform sampler2D u_image;
+uniform vec2 u_window;
+out vec4 frag_color;
+void main() {
+    frag_color = vec4(texture(u_image, gl_FragCoord.xy / u_window).rgb, 1.0);
+}
+"""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self.program = ctx.program(vertex_shader=self._VERTEX, fragment_shader=self._FRAGMENT)
+        self.vao = ctx.vertex_array(self.program, [])
+        self.nearest = ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST), repeat_x=False,
+                                   repeat_y=False)  # fmt: skip
+        self.linear = ctx.sampler(filter=(moderngl.LINEAR, moderngl.LINEAR), repeat_x=False,
+                                  repeat_y=False)  # fmt: skip
+
+    def draw(self, image: moderngl.Texture, window: tuple[int, int]) -> None:
+        sampler = self.nearest if image.size == window else self.linear
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        sampler.use(0)
+        image.use(0)
+        self.program["u_image"].value = 0
+        self.program["u_window"].value = (float(window[0]), float(window[1]))
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        sampler.clear(0)
+
+    def release(self) -> None:
+        for obj in (self.vao, self.program, self.nearest, self.linear):
+            obj.release()
+
+
+def _nearest_hit(origin: np.ndarray, direction: np.ndarray, part) -> float:
+    """Distance along a ray to the nearest triangle of a mesh part, inf for a miss
+    (Moller & Trumbore 1997, vectorised over the triangles, two-sided)."""
+    world = part.vertices[:, :3].astype(np.float64) @ part.model[:3, :3].T + part.model[:3, 3]
+    tri = world[part.indices.reshape(-1, 3)]
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    pvec = np.cross(direction, e2)
+    det = np.einsum("ij,ij->i", e1, pvec)
+    ok = np.abs(det) > 1e-12
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    tvec = origin - tri[:, 0]
+    u = np.einsum("ij,ij->i", tvec, pvec) * inv
+    qvec = np.cross(tvec, e1)
+    v = (qvec @ direction) * inv
+    t = np.einsum("ij,ij->i", e2, qvec) * inv
+    hit = ok & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > 0.0)
+    return float(t[hit].min()) if np.any(hit) else float("inf")
+
+
+# Keys whose edit can change which programs a frame needs (model choices, maps, light kinds,
+# pipeline settings): applied one frame late, behind the "compiling..." notice.
+_STRUCTURAL = re.compile(
+    r"^(render\.|objects|environment|lights$|lights\[\d+\]$|lights\[\d+\]\.type$|"
+    r"materials\.[^.]+$|materials\.[^.]+\.(preset|fresnel|ndf|lambda_form|g2|correlation|"
+    r"diffuse|multiscatter|anisotropy|blend|[a-z_]+_map)$)"
+)
+
+
+def _structural(key: str) -> bool:
+    """Whether an edit of ``key`` may need programs the renderer has not compiled."""
+    return _STRUCTURAL.match(key) is not None
