@@ -48,8 +48,8 @@ def xdisplay() -> str:
             "1600x1000x24",
             "-nolisten",
             "tcp",
-            "-noreset",
-        ],  # fmt: skip
+            "-noreset",  # keep serving when the last window closes (no reset gap)
+        ],
         pass_fds=(write,),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
