@@ -31,41 +31,10 @@ def gl_egl() -> GLContext:
 def xdisplay() -> str:
     """A private X server (Xvfb, installed by scripts/dev.sh) for tests that open real
     windows; DISPLAY points at it for the rest of the session."""
-    import os
-    import shutil
-    import subprocess
+    from app.viewer.xvfb import xvfb
 
-    if shutil.which("Xvfb") is None:
-        pytest.fail("Xvfb is missing: run `bash scripts/dev.sh setup` (it installs it)")
-    read, write = os.pipe()
-    server = subprocess.Popen(
-        [
-            "Xvfb",
-            "-displayfd",
-            str(write),
-            "-screen",
-            "0",
-            "1600x1000x24",
-            "-nolisten",
-            "tcp",
-            "-noreset",  # keep serving when the last window closes (no reset gap)
-        ],
-        pass_fds=(write,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write)
-    with os.fdopen(read) as pipe:
-        number = pipe.readline().strip()
-    if not number:
-        server.kill()
-        pytest.fail("Xvfb did not start")
-    previous = os.environ.get("DISPLAY")
-    os.environ["DISPLAY"] = f":{number}"
-    yield os.environ["DISPLAY"]
-    server.terminate()
-    server.wait(timeout=10)
-    if previous is None:
-        os.environ.pop("DISPLAY", None)
-    else:
-        os.environ["DISPLAY"] = previous
+    try:
+        with xvfb() as display:
+            yield display
+    except RuntimeError as exc:
+        pytest.fail(str(exc))

@@ -192,3 +192,20 @@ def test_programs_are_compiled_once_per_combination(gl_egl, base: LoadedScene):
         assert len(r.shaders) == grown
     finally:
         r.release()
+
+
+def test_a_material_value_keeps_the_geometry(gl_egl, base: LoadedScene):
+    """A constant of a material without maps (what a viewer slider drags) reuses every
+    mesh's vertex buffer: no geometry is built or uploaded again, and the image is still
+    the fresh renderer's."""
+    target = edited(base, _materials_values)
+    r = Renderer(gl_egl, base, SIZE)
+    try:
+        images(r)
+        buffers = [d.vbo for d in r.gbuffer_pass.drawables]
+        r.update(target.scene)
+        assert [d.vbo for d in r.gbuffer_pass.drawables] == buffers
+        got = images(r)
+    finally:
+        r.release()
+    assert_same(got, fresh_images(gl_egl, target))

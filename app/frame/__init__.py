@@ -9,13 +9,16 @@ The camera is not part of it: it changes every frame in the viewer (app/frame/ca
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from app.common.lights import PunctualLight
 from app.frame.lights import frame_lights
 from app.frame.materials import MaterialTable, material_table
 from app.scene.geometry import MeshPart, build_parts
+from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
+from app.scene.model import TEXTURE_KEYS
 
 
 @dataclass
@@ -38,3 +41,31 @@ def prepare_frame(loaded: LoadedScene) -> FrameData:
     table, ids = material_table(parts)
     scene = loaded.scene
     return FrameData(parts, table, ids, frame_lights(scene.lights, scene.environment))
+
+
+def restyle(frame: FrameData, loaded: LoadedScene, changed: set[str]) -> FrameData | None:
+    """``frame`` with new constants for the scene materials named in ``changed`` (their
+    definitions in ``loaded`` differ from those ``frame`` was built with), keeping every
+    part's geometry: what a slider in the viewer needs, without loading meshes again.
+
+    The parts' layers are replaced in place. None where a changed material has texture
+    maps or a blend, or another material blends it in: their maps and bakes depend on
+    the constants, so the caller prepares the whole frame again.
+    """
+    scene = loaded.scene
+    for name in changed:
+        m = scene.materials.get(name)
+        if m is None or m.blend is not None or any(getattr(m, k) for k in TEXTURE_KEYS):
+            return None
+        if any(other.blend and other.blend.material == name for other in scene.materials.values()):
+            return None
+    builder = LayerBuilder(loaded)
+    layers = {name: builder.layer(name) for name in changed}
+    for part in frame.parts:
+        if part.object_index < 0:
+            continue
+        name = scene.objects[part.object_index].material
+        if name in layers and len(part.layers) == 1 and not part.layers[0].maps:
+            part.layers = [layers[name]]
+    table, ids = material_table(frame.parts)
+    return dataclasses.replace(frame, materials=table, material_ids=ids)

@@ -20,7 +20,7 @@ import numpy as np
 
 from app.common.gbuffer import GBufferData
 from app.common.lights import PunctualLight
-from app.frame import FrameData, prepare_frame
+from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
 from app.frame.lights import frame_lights
 from app.frame.materials import MaterialTable
@@ -220,10 +220,24 @@ class Renderer:
         self._build_lighting()
 
     def set_materials(self, materials: dict[str, Material]) -> None:
-        """New material definitions for the scene's objects: new parts (their constants
-        and maps), material table and lighting programs."""
-        self._edit(materials=materials)
-        self._rebuild_frame()
+        """New material definitions for the scene's objects: new constants, material table
+        and lighting programs; the geometry is kept, and maps are built again only for
+        materials that have them (``app.frame.restyle``)."""
+        old = self._edit(materials=materials).materials
+        new = self.scene.materials
+        changed = {name for name in new if old.get(name) != new[name]}
+        frame = None if set(old) - set(new) else restyle(self.frame, self.loaded, changed)
+        if frame is None:
+            self._rebuild_frame()
+            return
+        tangents = self.materials.needs_tangents
+        self.frame = frame
+        if frame.materials.needs_tangents != tangents:  # the G-buffer gains or loses RT3
+            self._build_targets()
+            return
+        for drawable, ids in zip(self.gbuffer_pass.drawables, frame.material_ids, strict=True):
+            drawable.material_ids = ids
+        self._build_lighting()
 
     def set_settings(self, settings: RenderSettings) -> None:
         """New render settings; rebuilds only what depends on the keys that changed."""

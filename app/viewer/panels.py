@@ -88,6 +88,13 @@ class Panels:
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
     def _window(self, title: str, x: float, y: float, w: float, h: float) -> bool:
+        """Begin a panel; its first position and size are fractions of the window where
+        below 1 (x, y, w, h), pixels otherwise, negative x from the right edge."""
+        fw, fh = self.viewer.framebuffer_size
+        x, w = (x * fw if abs(x) < 1 else x), (w * fw if w < 1 else w)
+        y, h = (y * fh if abs(y) < 1 else y), (h * fh if h < 1 else h)
+        if x < 0:
+            x = fw + x - w
         imgui.set_next_window_pos(imgui.ImVec2(x, y), imgui.Cond_.first_use_ever)
         imgui.set_next_window_size(imgui.ImVec2(w, h), imgui.Cond_.first_use_ever)
         return imgui.begin(title)[0]
@@ -97,7 +104,7 @@ class Panels:
 
     def _scene_panel(self) -> None:
         v = self.viewer
-        if self._window("Scene", 8, 8, 250, 260):
+        if self._window("Scene", 8, 8, 270, 0.34):
             imgui.text(v.document.path.name)
             if imgui.collapsing_header("Objects", imgui.TreeNodeFlags_.default_open):
                 for i, obj in enumerate(v.scene.objects):
@@ -128,7 +135,7 @@ class Panels:
     def _material_panel(self) -> None:
         v = self.viewer
         name = v.selection.material
-        if self._window("Material", 8, 276, 300, 430):
+        if self._window("Material", 8, 0.36, 300, 0.62):
             if name is None or name not in v.scene.materials:
                 imgui.text("Click an object, or pick a material in Scene.")
             else:
@@ -213,7 +220,7 @@ class Panels:
 
     def _lights_panel(self) -> None:
         v = self.viewer
-        if self._window("Lights", 700, 8, 250, 320):
+        if self._window("Lights", -8, 8, 310, 0.4):
             for i, light in enumerate(v.scene.lights):
                 imgui.push_id(f"light{i}")
                 if imgui.collapsing_header(f"{i}: {light.type}"):
@@ -269,7 +276,7 @@ class Panels:
     def _render_panel(self) -> None:
         v = self.viewer
         s, cam = v.scene.render, v.scene.camera
-        if self._window("Render", 700, 336, 250, 330):
+        if self._window("Render", -8, 0.42, 310, 0.56):
             changed, i = imgui.combo("tone map", TONEMAPS.index(s.tonemap), list(TONEMAPS))
             if changed:
                 self._edit("render.tonemap", TONEMAPS[i])
@@ -310,7 +317,7 @@ class Panels:
 
     def _plots_panel(self) -> None:
         v = self.viewer
-        if self._window("Plots", 316, 420, 376, 300):
+        if self._window("Plots", 316, 0.56, 380, 0.42):
             name = v.selection.material
             if name is not None and name in v.scene.materials:
                 self._material_plots(name)
@@ -346,7 +353,11 @@ class Panels:
         if curves is None:
             return
         lobe_list, albedo = curves
-        if implot.begin_plot("f cos (plane of incidence)", imgui.ImVec2(-1, 150)):
+        # Polar lobes in the plane of incidence, the normal up, equal axes so that the
+        # lobe's direction reads true (pbs brdf's left panel).
+        if implot.begin_plot(
+            "f cos (plane of incidence)", imgui.ImVec2(-1, 170), implot.Flags_.equal
+        ):
             for lobe in lobe_list:
                 theta = np.radians(lobe.theta_v)
                 value = lobe.value @ np.array([0.2126, 0.7152, 0.0722])
@@ -363,7 +374,7 @@ class Panels:
         v = self.viewer
         if not (v.state.error or v.state.notice):
             return
-        if self._window("Problems", 316, 8, 376, 110):
+        if self._window("Problems", 316, 8, 380, 110):
             if v.state.notice:
                 imgui.text_colored(AMBER, v.state.notice)
             if v.state.error:
