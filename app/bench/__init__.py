@@ -1,7 +1,7 @@
 """``pbs bench``: run time against error; docs/performance.md explains it all.
 
     python -m app.bench [--quick] [--out DIR]
-                        [--suites culling,resolution,accuracy,specialization,startup]
+                        [--suites culling,resolution,accuracy,specialization,startup,viewer]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -25,7 +25,7 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
     from app.bench.suites import Settings
 
 __all__ = ["main"]
-SUITES = ("culling", "resolution", "accuracy", "specialization", "startup")
+SUITES = ("culling", "resolution", "accuracy", "specialization", "startup", "viewer")
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -29,6 +29,7 @@ from app.output import atomic_write
 CULLED_FLOOR_MAX = 1.5
 UNCULLED_SPEEDUP_MIN = 8.0
 COLD_START_MAX_S = 3.0
+VIEWER_LATENCY_MAX_MS = 100.0  # an input's wait for its new image in pbs view
 SPECIALIZED_SPEEDUP_MIN = 1.5
 TARGET_LIGHTS = 256
 
@@ -192,6 +193,16 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
         out.append(Verdict(what, measured, _status(s <= COLD_START_MAX_S)))
     else:
         out.append(Verdict(what, "not run", "NOT MEASURED"))
+    for interaction in ("orbit", "roughness"):
+        row = find(rows, "viewer", interaction)
+        if row is None:
+            continue  # the viewer suite did not run
+        what = (
+            f"viewer: an input ({interaction}) waits <= {VIEWER_LATENCY_MAX_MS:g} ms for its"
+            f" image (p95, {row['width']}x{row['height']} window)"
+        )
+        measured = f"p95 {row['ms_p95']:.0f} ms, median {row['ms_median']:.0f} ms"
+        out.append(Verdict(what, measured, _status(row["ms_p95"] <= VIEWER_LATENCY_MAX_MS)))
     for comp, front in pareto_by_comparison(rows).items():
         for row in front["rows"]:
             if not row.get("default"):
@@ -383,7 +394,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     for v in evaluate_targets(rows):
         lines.append(f"| {v.target} | {v.measured} | **{v.status}** |")
     lines += ["", "## Results", ""]
-    for suite in ("culling", "resolution", "accuracy", "specialization", "startup"):
+    for suite in ("culling", "resolution", "accuracy", "specialization", "startup", "viewer"):
         members = [r for r in rows if r["suite"] == suite]
         if not members:
             continue
@@ -467,6 +478,17 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
                     f" {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} | {_fmt(lighting)} |"
                     f" {_fmt(ratio, '.2f')} | {_fmt(r.get('max_rel_diff_vs_specialized'), '.1e')}"
                     f" | {_fmt(r['rel_rmse'], '.2e')} | {_fmt(r['flip_mean'], '.2e')} |"
+                )
+        elif suite == "viewer":
+            lines += [
+                "| interaction | window | ms median | p95 | min | max | frames |",
+                "|---|---|---|---|---|---|---|",
+            ]
+            for r in members:
+                lines.append(
+                    f"| {r['variant']} | {r['width']}x{r['height']} | {_fmt(r['ms_median'])} |"
+                    f" {_fmt(r.get('ms_p95'))} | {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} |"
+                    f" {r['frames']} |"
                 )
         else:
             lines += [

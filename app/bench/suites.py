@@ -749,12 +749,34 @@ def run_startup(ctx: Context) -> None:
         )  # fmt: skip
 
 
+def run_viewer(ctx: Context) -> None:
+    """Suite ``viewer``: input-to-image latency of the desktop viewer (app/bench/viewer.py)."""
+    from app.bench.viewer import ORBIT_MOVES, run_child, summary_ms
+
+    size = VIEWER_SIZE
+    ctx.progress.start(f"viewer: interactions at {size[0]}x{size[1]}")
+    result = run_child(size, ORBIT_MOVES)
+    ctx.progress.done()
+    if "error" in result:
+        ctx.notes.append(f"viewer: not measured: {result['error']}")
+        return
+    for interaction, values in result["ms"].items():
+        ctx.rows.append(
+            make_row("viewer", "showcase.toml", interaction, size, 5, None,
+                     frames=len(values), timer="input call to swapped frame (ctx.finish)",
+                     **summary_ms(values))
+        )  # fmt: skip
+
+
+VIEWER_SIZE = (960, 540)  # the window the latency target is stated for
+
 RUNNERS: dict[str, Callable[[Context], None]] = {
     "culling": run_culling,
     "resolution": run_resolution,
     "accuracy": run_accuracy,
     "specialization": run_specialization,
     "startup": run_startup,
+    "viewer": run_viewer,
 }
 
 
@@ -766,5 +788,6 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "accuracy": accuracy_tasks(settings),
         "specialization": specialization_tasks(settings),
         "startup": startup_tasks(settings),
+        "viewer": 1,
     }
     return sum(counts[s] for s in suites)

@@ -42,7 +42,7 @@ def measure(size: tuple[int, int], moves: int) -> dict[str, list[float]]:
     out.update({"new model notice": [], "new model compiled": []})
     try:
         v.settle()
-        for i in range(moves):
+        for _ in range(moves):
             start = time.perf_counter()
             v.orbit(12.0, 0.0)
             v.step()

@@ -193,10 +193,17 @@ class Renderer:
                 setattr(self, name, None)
 
     def _edit(self, **changes: object) -> Scene:
-        """The scene with ``changes``, validated as a scene file's would be; it becomes
-        the renderer's scene."""
+        """The scene with ``changes``, which becomes the renderer's scene; returns the old
+        one. A camera or settings table is already validated on its own and is swapped in
+        as it is (every orbit step); other changes are validated with the whole scene, as
+        a scene file's would be (materials named by objects, blends, lights)."""
         old = self.scene
-        scene = Scene.model_validate({**old.model_dump(), **changes})
+        if set(changes) <= {"camera", "render", "background"} and all(
+            isinstance(v, Camera | RenderSettings) for k, v in changes.items() if k != "background"
+        ):
+            scene = old.model_copy(update=changes)
+        else:
+            scene = Scene.model_validate({**old.model_dump(), **changes})
         self.loaded = dataclasses.replace(self.loaded, scene=scene)
         return old
 

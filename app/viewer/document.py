@@ -11,6 +11,7 @@ wherever the edit did not replace a whole table (docs/viewer.md says which).
 from __future__ import annotations
 
 import copy
+import dataclasses
 import itertools
 import os
 import re
@@ -22,7 +23,7 @@ import tomlkit
 
 from app.output import atomic_write
 from app.scene.loader import LoadedScene, load_scene, parse_scene
-from app.scene.model import TEXTURE_KEYS
+from app.scene.model import TEXTURE_KEYS, Camera
 
 _PART = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
 
@@ -81,9 +82,22 @@ class SceneDocument:
         data = copy.deepcopy(self.data)
         for key, value in changes.items():
             set_value(data, key, value)
-        loaded = parse_scene(data, self.path)
+        loaded = self._camera_only(data, changes) or parse_scene(data, self.path)
         self.data, self.loaded = data, loaded
         return loaded
+
+    def _camera_only(self, data: dict, changes: dict[str, Any]) -> LoadedScene | None:
+        """An edit of the camera alone (every orbit step) validates just the camera table;
+        anything it refuses goes through ``parse_scene`` for the full message."""
+        if not all(key.startswith("camera.") for key in changes):
+            return None
+        try:
+            camera = Camera.model_validate(data.get("camera", {}))
+        except ValueError:
+            return None
+        return dataclasses.replace(
+            self.loaded, scene=self.loaded.scene.model_copy(update={"camera": camera})
+        )
 
     def replace(self, data: dict) -> LoadedScene:
         """Validate whole new data (a reloaded file, an undo) and keep it if valid."""
