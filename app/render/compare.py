@@ -53,10 +53,10 @@ Mode = Literal["split", "difference"]
 MODES: tuple[Mode, ...] = ("split", "difference")
 
 # The divider line of a split: this many columns, centred on the boundary between the
-# halves, in this 8-bit sRGB colour (an amber that neither a black background nor a
-# white highlight hides).
+# halves, in this 8-bit sRGB colour: magenta, a hue no bundled scene's metals, white
+# highlights or dark backgrounds hide (an amber line vanished against gold).
 DIVIDER_WIDTH = 2
-DIVIDER_COLOR = (255, 176, 0)
+DIVIDER_COLOR = (255, 0, 255)
 
 # A key path: names separated by dots, each followed by any number of [N] list indices.
 # A name is bare (letters, digits, '_', '-', as a scene file's bare keys) or in double
@@ -147,22 +147,10 @@ class CompareSpec:
         node: object = data
         for depth, part in enumerate(self.path):
             last = depth == len(self.path) - 1
-            where = key_path(self.path[: depth + 1])
-            if isinstance(part, int):
-                if not isinstance(node, list):
-                    raise InputError(str(base.path), where, "not a list: it takes no [N] index")
-                if part >= len(node):
-                    n = len(node)
-                    raise InputError(
-                        str(base.path), where, f"no such entry: the scene has {n} (0..{n - 1})"
-                    )
-            else:
-                if not isinstance(node, dict):
-                    kind = "a list: index it with [N]" if isinstance(node, list) else "a value"
-                    raise InputError(str(base.path), where, f"its parent is {kind}")
-                if part not in node and not last:
-                    there = ", ".join(sorted(node)) or "nothing"
-                    raise InputError(str(base.path), where, f"not in the scene (there: {there})")
+            problem = _missing(node, part, last)
+            if problem is not None:
+                where = key_path(self.path[: depth + 1])
+                raise InputError(str(base.path), where, f"{problem} ({self.origin})")
             if last:
                 node[part] = copy.deepcopy(value)  # type: ignore[index]
             else:
@@ -191,9 +179,33 @@ class CompareSpec:
                 )
         return a, b
 
+    def describe(self) -> str:
+        """``'materials.gold.fresnel: A = "schlick", B = "conductor"'``."""
+        return f"{self.key}: A = {_toml(self.a)}, B = {_toml(self.b)}"
+
     def touches(self, table: str) -> bool:
         """Whether the key lies in the scene's top-level ``table`` (``"camera"``)."""
         return self.path[0] == table
+
+
+def _missing(node: object, part: str | int, last: bool) -> str | None:
+    """Why the scene data ``node`` has no ``part`` to step into (or, where ``last``, to
+    set), or None."""
+    if isinstance(part, int):
+        if not isinstance(node, list):
+            return "not a list: it takes no [N] index"
+        if part >= len(node):
+            return f"no such entry: the list has {len(node)}" + (
+                f" (indices 0..{len(node) - 1})" if node else ""
+            )
+        return None
+    if not isinstance(node, dict):
+        return "its parent is " + (
+            "a list: index it with [N]" if isinstance(node, list) else "a value"
+        )
+    if part not in node and not last:
+        return f"not in the scene (there: {', '.join(sorted(node)) or 'nothing'})"
+    return None
 
 
 def parse_compare(text: str, origin: str = "--compare") -> CompareSpec:
