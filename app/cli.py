@@ -6,15 +6,19 @@ Exit codes: 0 success, 2 bad input (one line naming the file and key), 1 anythin
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 from app.errors import EXIT_BAD_INPUT, InputError
 from app.output import HDR_SUFFIXES, write_hdr, write_png
+
+if TYPE_CHECKING:
+    from app.scene.loader import LoadedScene
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -61,6 +65,29 @@ def _parser() -> argparse.ArgumentParser:
         "NaN (magenta), +Inf (yellow), -Inf (cyan) or negative (green) over a dimmed grey "
         "render, and print their counts (even with -q)",
     )
+    render.add_argument(
+        "--compare",
+        metavar="KEY=A,B",
+        help="split-screen comparison: render the scene with the key set to A on the left "
+        "and to B on the right; A and B are TOML values "
+        '(materials.gold.fresnel=\'"schlick","conductor"\', docs/compare.md)',
+    )
+    render.add_argument(
+        "--compare-mode",
+        choices=("split", "difference"),
+        help="with --compare: the two halves with a divider line (default), or |A - B| of "
+        "the linear radiance times --gain",
+    )
+    render.add_argument(
+        "--divider",
+        type=_fraction,
+        help="with --compare: where the split falls, a fraction of the width (default 0.5)",
+    )
+    render.add_argument(
+        "--gain",
+        type=_gain,
+        help="with --compare-mode difference: magnification of |A - B| (default 8)",
+    )
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
     _textures_parser(sub)
@@ -80,6 +107,26 @@ def _parser() -> argparse.ArgumentParser:
         add_help=False,
     )
     return parser
+
+
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 <= value <= 1.0:  # also rejects nan
+        raise argparse.ArgumentTypeError(f"expected a number within 0..1, got '{text}'")
+    return value
+
+
+def _gain(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value <= 1e6:  # also rejects nan and inf
+        raise argparse.ArgumentTypeError(f"expected a number > 0 and <= 1e6, got '{text}'")
+    return value
 
 
 def _thetas(text: str) -> tuple[float, ...]:
@@ -192,6 +239,15 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.hdr and Path(args.hdr).suffix not in HDR_SUFFIXES:  # write_hdr: lower case only
         raise InputError(args.hdr, "--hdr", "the HDR output must end in .exr or .npy")
     loaded = load_scene(_resolve_scene(args.scene))
+    if args.compare is not None:
+        return _render_comparison(args, loaded, out, start)
+    for option, value in (
+        ("--compare-mode", args.compare_mode),
+        ("--divider", args.divider),
+        ("--gain", args.gain),
+    ):
+        if value is not None:
+            raise InputError(option, "", "applies only with --compare")
     gl = create_context(args.backend)
     renderer = Renderer(gl, loaded, args.size)
     renderer.render()
@@ -215,6 +271,47 @@ def cmd_render(args: argparse.Namespace) -> int:
             f"{out}: {w}x{h}, {len(renderer.lights)} lights"
             f"{' (environment included)' if loaded.scene.environment else ''}, {gl.backend} "
             f"({gl.renderer}), {time.perf_counter() - start:.2f} s"
+        )
+    gl.release()
+    return 0
+
+
+def _render_comparison(
+    args: argparse.Namespace, loaded: LoadedScene, out: Path, start: float
+) -> int:
+    """``render --compare KEY=A,B``: both sides validated before any GL work, then the
+    split or difference composite written as the PNG (app/render/compare.py)."""
+    from app.gl.context import create_context
+    from app.render.compare import Comparison, divider_column, parse_compare
+
+    for option, value in (("--hdr", args.hdr), ("--debug", args.debug)):
+        if value is not None:
+            raise InputError(option, "", "does not combine with --compare")
+    mode = args.compare_mode or "split"
+    if mode == "split" and args.gain is not None:
+        raise InputError("--gain", "", "applies only with --compare-mode difference")
+    if mode == "difference" and args.divider is not None:
+        raise InputError("--divider", "", "applies only with --compare-mode split")
+    divider = 0.5 if args.divider is None else args.divider
+    gain = 8.0 if args.gain is None else args.gain
+    spec = parse_compare(args.compare)
+    spec.scenes(loaded, args.size)  # every refusal here, before a context exists
+    gl = create_context(args.backend)
+    comparison = Comparison(gl, loaded, spec, args.size)
+    comparison.render()
+    comparison.composite(mode, divider, gain)
+    ldr = comparison.read_ldr()
+    w, h = comparison.size
+    comparison.release()
+    _write(out, "-o", lambda p: write_png(p, ldr))
+    if not args.quiet:
+        if mode == "split":
+            how = f"split at column {divider_column(divider, w)} (A left, B right)"
+        else:
+            how = f"difference |A - B| x {gain:g}"
+        print(
+            f"{out}: {w}x{h}, {spec.describe()}, {how}, "
+            f"{gl.backend} ({gl.renderer}), {time.perf_counter() - start:.2f} s"
         )
     gl.release()
     return 0

@@ -26,6 +26,7 @@ FEATURES = {
         "LAYER1_MAPS": 15,
         "BLEND": 1,
         "SPECULAR_AA": 1,
+        "TONEMAP": 1,  # post/tonemap.glsl's tonemap_selected
     },
 }
 

@@ -47,7 +47,7 @@ def srgb_decode(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
-MAX_EXPOSED = 1.0e9  # as glsl/passes/post.frag: keeps tone maps from overflowing float32
+MAX_EXPOSED = 1.0e9  # as glsl/post/tonemap.glsl: keeps tone maps from overflowing float32
 
 
 def post_process(hdr: np.ndarray, exposure_ev: float, tonemap: str) -> np.ndarray:

@@ -6,7 +6,8 @@ can change without being rebuilt: ``set_camera``, ``set_lights``, ``set_material
 ``set_settings``, ``resize`` (and ``update``, which takes a whole edited scene and calls
 whichever of them the edit needs) rebuild only the passes that depend on what changed.
 Programs come from one ``ShaderCache`` that lives as long as the renderer, so a change
-compiles only a model combination it has never seen.
+compiles only a model combination it has never seen; renderers of the same context may
+share one cache (a comparison's two sides, app/render/compare.py), whose owner releases it.
 """
 
 from __future__ import annotations
@@ -73,7 +74,10 @@ class Renderer:
 
     With ``render.supersample = n`` every pass before post runs at n x n times the pixels
     (``render_size``) and a resolve box-filters the HDR image down to ``size``. ``size``
-    overrides the scene's render.width and render.height.
+    overrides the scene's render.width and render.height. ``shaders``: a cache of the same
+    context to take programs from (every pass sets its uniforms on each run, so passes of
+    two renderers can use one program); the renderer then leaves its release to the
+    caller, who releases it after every renderer that uses it.
     """
 
     def __init__(
@@ -82,10 +86,12 @@ class Renderer:
         loaded: LoadedScene,
         size: tuple[int, int] | None = None,
         options: RenderOptions | None = None,
+        shaders: ShaderCache | None = None,
     ) -> None:
         self.gl = gl
         self.options = options or RenderOptions()
-        self.shaders = ShaderCache(gl.ctx)
+        self._owns_shaders = shaders is None
+        self.shaders = ShaderCache(gl.ctx) if shaders is None else shaders
         self.loaded = loaded
         self._size = size
         self.frame: FrameData = prepare_frame(loaded)
@@ -325,6 +331,19 @@ class Renderer:
         self.post.run(hdr, scene.camera.exposure)
         clock.done("post")
 
+    @property
+    def hdr_texture(self) -> moderngl.Texture:
+        """The last frame's linear HDR radiance on the GPU (RGBA32F, ``size``): what
+        ``read_hdr`` reads, for passes that combine frames (app/render/compare.py)."""
+        if self.resolve is not None:
+            return self.resolve.target
+        return self.dof.target if self.dof is not None else self.lighting.hdr
+
+    @property
+    def display_texture(self) -> moderngl.Texture:
+        """The last frame's display image on the GPU (RGBA8 sRGB): what ``read_ldr`` reads."""
+        return self.post.target
+
     def read_hdr(self) -> np.ndarray:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
         where the camera has an aperture (resolved to ``size``)."""
@@ -341,4 +360,5 @@ class Renderer:
 
     def release(self) -> None:
         self._release(("culler", "resolve", "dof", "gbuffer_pass", "gbuffer", "lighting", "post"))
-        self.shaders.release()
+        if self._owns_shaders:
+            self.shaders.release()

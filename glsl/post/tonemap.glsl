@@ -37,4 +37,25 @@ vec3 srgb_encode(vec3 c) {
     return mix(lo, hi, step(vec3(0.0031308), c));
 }
 
+#ifdef TONEMAP
+// Every tone map is white (or clamped) long before this; without the cap, radiance x 2^EV
+// can overflow float32 inside a tone map (ACES squares its input: NaN past ~1.2e19).
+const float MAX_EXPOSED = 1.0e9;
+
+// Exposed radiance (linear, times 2^EV) -> tone-mapped linear display values, by the
+// program's TONEMAP define (the scene's render.tonemap); the post pass and the
+// comparison's difference view (passes/compare.frag) share it.
+vec3 tonemap_selected(vec3 c) {
+    c = min(c, MAX_EXPOSED);
+#if TONEMAP == TONEMAP_NEUTRAL
+    c = tonemap_khronos_neutral(c);
+#elif TONEMAP == TONEMAP_ACES
+    c = tonemap_aces_narkowicz(c);
+#elif TONEMAP == TONEMAP_REINHARD
+    c = tonemap_reinhard(c);
+#endif
+    return c;
+}
+#endif
+
 #endif
