@@ -264,3 +264,42 @@ def _interact(v, frame: int) -> None:
     else:
         v.edit({"render.tonemap": "aces" if frame % 20 < 10 else "neutral"})
     v.step()
+
+
+def test_comparison_in_the_window_equals_the_headless_comparison(viewer):
+    """A split (divider moved) and a difference view in the window: each equals
+    ``Comparison``'s composite of the same state rendered headless; orbiting keeps both
+    sides in step."""
+    from app.gl.context import create_context
+    from app.render.compare import CompareSpec, Comparison
+
+    v = viewer
+    assert v.compare("materials.ball.roughness", 0.1, 0.8)
+    v.set_divider(0.3)
+    v.orbit(25, 0)
+    split = window_image(v)
+    v.compare_mode = "difference"
+    v.state.dirty = True
+    difference = window_image(v)
+    gl = create_context("egl")
+    try:
+        with gl.ctx:
+            spec = CompareSpec("materials.ball.roughness", 0.1, 0.8)
+            c = Comparison(gl, v.document.loaded, spec, v.framebuffer_size)
+            try:
+                c.render()
+                c.composite("split", 0.3)
+                want_split = c.read_ldr()
+                c.composite("difference", gain=8.0)
+                want_difference = c.read_ldr()
+            finally:
+                c.release()
+    finally:
+        gl.release()
+    assert_close(split, want_split)
+    assert_close(difference, want_difference)
+    assert difference.max() > 0 and not np.array_equal(split, difference)
+    assert not v.compare("materials.ball.roughness", 0.1, 7.0)  # refused, reported
+    assert "roughness" in v.state.error and v.comparison is not None
+    v.stop_compare()
+    assert v.comparison is None

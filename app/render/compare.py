@@ -367,6 +367,12 @@ class Comparison:
             renderer.update(side.scene)
         self.base = base
 
+    def resize(self, size: tuple[int, int]) -> None:
+        """Both sides at a new image size (the viewer's window, or its preview)."""
+        self._size = (int(size[0]), int(size[1]))
+        for renderer in self.renderers:
+            renderer.resize(self._size)
+
     # --- the frame --------------------------------------------------------------------------
 
     def render(self) -> None:
@@ -401,6 +407,11 @@ class Comparison:
             current.run_difference(a.hdr_texture, b.hdr_texture, exposures, gain)
         self._last = current
         return current.target
+
+    @property
+    def last_target(self) -> moderngl.Texture | None:
+        """The RGBA8 texture of the last composite (None before the first)."""
+        return None if self._last is None else self._last.target
 
     def read_ldr(self) -> np.ndarray:
         """The last composite, (H, W, 3) uint8 sRGB, rows top to bottom."""

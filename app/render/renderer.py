@@ -219,7 +219,8 @@ class Renderer:
         """A new camera: new matrices, and a new depth-of-field pass where the lens changed."""
         old = self._edit(camera=camera)
         lens = ("aperture", "focus", "fov_y")
-        if any(getattr(old.camera, k) != getattr(camera, k) for k in lens):
+        thin_lens = old.camera.aperture > 0.0 or camera.aperture > 0.0  # a pinhole has no pass
+        if thin_lens and any(getattr(old.camera, k) != getattr(camera, k) for k in lens):
             self._build_post()
         self._build_camera()
 

@@ -15,6 +15,7 @@ a panel can do exactly what a scene file can, with the same validation and messa
 
 from __future__ import annotations
 
+import tomllib
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -36,7 +37,11 @@ if TYPE_CHECKING:
 
 RED = imgui.ImVec4(1.0, 0.35, 0.3, 1.0)
 AMBER = imgui.ImVec4(1.0, 0.8, 0.2, 1.0)
-LOBE_ANGLES = (30.0, 60.0)  # incident angles of the lobe plot, degrees
+LOBE_ANGLES = (30.0, 60.0)
+VIEWS = (
+    "split",
+    "difference",
+)  # the comparison's views  # incident angles of the lobe plot, degrees
 
 
 class Panels:
@@ -50,6 +55,10 @@ class Panels:
         self.preset_filter = ""
         self.save_path = ""
         self.timing = False  # the frame-time plot asks the renderer to time its passes
+        # The Compare panel's fields: a key path and TOML values, as --compare takes them.
+        self.compare_key = "render.normal_filter"
+        self.compare_a, self.compare_b = '"naive"', '"variance"'
+        self.compare_mode = 0
         self._curves: tuple[object, Any] | None = None  # (material key, (lobes, albedo))
         self._backend = False
 
@@ -83,6 +92,7 @@ class Panels:
         self._lights_panel()
         self._render_panel()
         self._plots_panel()
+        self._compare_panel()
         self._problems_panel()
         imgui.render()
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
@@ -370,11 +380,65 @@ class Panels:
                              np.asarray(albedo.luminance, np.float64))  # fmt: skip
             implot.end_plot()
 
+    def _compare_presets(self) -> list[tuple[str, str, str, str]]:
+        """(label, key, A, B) of the comparisons a lesson reaches for first, for the
+        selected material where one is selected."""
+        out = [("normal filter: naive | variance", "render.normal_filter", '"naive"', '"variance"')]
+        name = self.viewer.selection.material
+        if name is not None and name in self.viewer.scene.materials:
+            key = f"materials.{name}"
+            metal = self.viewer.scene.materials[name].resolve().metallic >= 1.0
+            exact = '"conductor"' if metal else '"dielectric"'
+            out = [
+                ("Fresnel: Schlick | exact", f"{key}.fresnel", '"schlick"', exact),
+                ("G2: separable | height-corr.", f"{key}.g2", '"separable"', '"height_correlated"'),
+                ("multiple scattering: off | on", f"{key}.multiscatter", "false", "true"),
+                *out,
+            ]
+        return out
+
+    def _compare_panel(self) -> None:
+        v = self.viewer
+        if self._window("Compare", 316, 8, 380, 0.3):
+            for label, key, a, b in self._compare_presets():
+                if imgui.small_button(label):
+                    self.compare_key, self.compare_a, self.compare_b = key, a, b
+            _, self.compare_key = imgui.input_text("key", self.compare_key)
+            _, self.compare_a = imgui.input_text("A (left)", self.compare_a)
+            _, self.compare_b = imgui.input_text("B (right)", self.compare_b)
+            changed, self.compare_mode = imgui.combo("view", self.compare_mode, list(VIEWS))
+            mode = VIEWS[self.compare_mode]
+            if changed and v.comparison is not None:
+                v.compare_mode = mode
+                v.state.dirty = True
+            if imgui.button("Compare"):
+                try:
+                    a = tomllib.loads(f"v = {self.compare_a}")["v"]
+                    b = tomllib.loads(f"v = {self.compare_b}")["v"]
+                except tomllib.TOMLDecodeError as exc:
+                    v.state.error = f"compare: A and B are TOML values (strings in quotes): {exc}"
+                else:
+                    v.compare(self.compare_key, a, b, mode, v.divider, v.gain)
+            if v.comparison is not None:
+                imgui.same_line()
+                if imgui.button("Stop"):
+                    v.stop_compare()
+                changed, value = imgui.slider_float("divider", v.divider, 0.0, 1.0)
+                if changed:
+                    v.touch()
+                    v.set_divider(value)
+                log = imgui.SliderFlags_.logarithmic
+                changed, value = imgui.slider_float("gain", v.gain, 1.0, 64.0, "%.1f", log)
+                if changed:
+                    v.gain = float(value)
+                    v.state.dirty = True
+        imgui.end()
+
     def _problems_panel(self) -> None:
         v = self.viewer
         if not (v.state.error or v.state.notice):
             return
-        if self._window("Problems", 316, 8, 380, 110):
+        if self._window("Problems", 316, 0.32, 380, 110):
             if v.state.notice:
                 imgui.text_colored(AMBER, v.state.notice)
             if v.state.error:

@@ -41,6 +41,7 @@ from app.gl.context import GLContext
 from app.gl.shaders import ShaderError
 from app.output import write_hdr, write_png
 from app.reference.position import reconstruct_position
+from app.render.compare import CompareSpec, Comparison
 from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
 from app.scene.loader import LoadedScene, parse_scene
@@ -51,6 +52,8 @@ from app.viewer.document import SceneDocument, get_value, set_value
 PREVIEW_SCALE = 2  # while interacting: render at 1/2 of the window in each direction
 REFINE_AFTER = 0.25  # seconds without input before the full-size frame
 WATCH_INTERVAL = 0.5  # seconds between checks of the scene file and glsl/
+DIVIDER_GRAB = 6  # pixels either side of a split's divider that a drag moves it by
+DIVIDER_DRAG = -1  # the drag "button" of a divider drag
 
 
 class ViewerError(RuntimeError):
@@ -132,6 +135,10 @@ class Viewer:
         self.selection = Selection()
         self.show_ui = ui
         self.renderer = Renderer(self.gl, self.document.loaded, self.framebuffer_size)
+        self.comparison: Comparison | None = None
+        self.compare_mode: str = "split"  # or "difference"
+        self.divider = 0.5  # where the split falls, a fraction of the width
+        self.gain = 8.0  # the difference view's magnification
         self._present = _Present(self.ctx)
         self._drag: tuple[int, float, float] | None = None  # button, last x, last y
         self.panels = None
@@ -194,10 +201,21 @@ class Viewer:
             return False
         self.state.error = ""
         try:
-            if loaded.scene.model_copy(update={"camera": old.camera}) == old:
+            camera_only = loaded.scene.model_copy(update={"camera": old.camera}) == old
+            if camera_only:
                 self.renderer.set_camera(loaded.scene.camera)
             else:
                 self.renderer.update(loaded.scene)
+            if self.comparison is not None:
+                if camera_only:
+                    self.comparison.set_camera(loaded.scene.camera)
+                else:
+                    self.comparison.update_base(loaded)
+        except InputError as exc:  # the edit is valid, but not on a comparison's side
+            self.document.replace(previous)
+            self._rebuild()
+            self.state.error = str(exc)
+            return False
         except (ShaderError, moderngl.Error) as exc:
             self.document.replace(previous)
             self._rebuild()  # the renderer may be half-updated: rebuild the last good state
@@ -259,7 +277,7 @@ class Viewer:
         the first surface the pixel's view ray meets (the one the G-buffer shows there;
         nothing where the G-buffer holds no surface)."""
         self._current()
-        r = self.renderer
+        r = self.comparison.renderers[0] if self.comparison is not None else self.renderer
         fw, fh = self.framebuffer_size
         w, h = r.render_size
         px = min(int(x * w / fw), w - 1)
@@ -301,6 +319,49 @@ class Viewer:
         lights = copy.deepcopy(self.document.data.get("lights", []))
         del lights[index]
         return self.edit({"lights": lights})
+
+    def compare(
+        self,
+        key: str,
+        a: Any,
+        b: Any,
+        mode: str = "split",
+        divider: float = 0.5,
+        gain: float = 8.0,
+    ) -> bool:
+        """Show the scene with two values of one key side by side (``mode`` "split", the
+        divider at ``divider`` of the width; drag it in the window) or as their difference
+        magnified by ``gain`` (docs/compare.md). A key or value the scene refuses is
+        reported and nothing changes."""
+        self._current()
+        self.touch()
+        try:
+            spec = CompareSpec(key, a, b, origin="compare")
+            comparison = Comparison(self.gl, self.document.loaded, spec, self.renderer.size)
+        except InputError as exc:
+            self.state.error = str(exc)
+            return False
+        except (ShaderError, moderngl.Error) as exc:
+            self.state.error = f"GLSL: {exc}"
+            return False
+        self.stop_compare()
+        self.comparison = comparison
+        self.compare_mode, self.divider, self.gain = mode, float(divider), float(gain)
+        self.state.error = ""
+        self.state.dirty = True
+        return True
+
+    def stop_compare(self) -> None:
+        """Back to the single image."""
+        self._current()
+        if self.comparison is not None:
+            self.comparison.release()
+            self.comparison = None
+            self.state.dirty = True
+
+    def set_divider(self, divider: float) -> None:
+        self.divider = float(np.clip(divider, 0.0, 1.0))
+        self.state.dirty = True
 
     def set_vsync(self, on: bool) -> None:
         self.vsync = on
@@ -403,13 +464,21 @@ class Viewer:
         if self.renderer.size != size:
             self.renderer.resize(size)
             self.state.dirty = True
-        if self.state.dirty or self.state.rendered_scale != scale:
+        if self.comparison is not None and self.comparison.size != size:
+            self.comparison.resize(size)
+            self.state.dirty = True
+        if not (self.state.dirty or self.state.rendered_scale != scale):
+            return
+        if self.comparison is not None:  # the two sides, composited; the base is not drawn
+            self.comparison.render()
+            self.comparison.composite(self.compare_mode, self.divider, self.gain)
+        else:
             timings: dict[str, float] = {}
             self.renderer.render(timings if self.panels and self.panels.timing else None)
             if timings:
                 self.state.frame_ms = timings
-            self.state.dirty = False
-            self.state.rendered_scale = scale
+        self.state.dirty = False
+        self.state.rendered_scale = scale
 
     def step(self, frames: int = 1) -> None:
         """Run ``frames`` frames: input, hot reload, pending edits, render, panels, swap."""
@@ -446,9 +515,16 @@ class Viewer:
         fw, fh = self.framebuffer_size
         self.ctx.screen.use()
         self.ctx.viewport = (0, 0, fw, fh)
-        self._present.draw(self.renderer.post.target, (fw, fh))
+        self._present.draw(self._shown(), (fw, fh))
         if self.panels is not None and self.show_ui:
             self.panels.draw()
+
+    def _shown(self) -> moderngl.Texture:
+        """The display image of the last render: the comparison's composite while one is
+        shown, else the renderer's (never a texture a rebuilt pass has released)."""
+        if self.comparison is not None and self.comparison.last_target is not None:
+            return self.comparison.last_target
+        return self.renderer.post.target
 
     def read_window(self) -> np.ndarray:
         """The window's framebuffer as the last frame drew it, (H, W, 3) uint8, rows top
@@ -482,12 +558,22 @@ class Viewer:
             x, y = glfw.get_cursor_pos(window)
             self._drag = (button, x, y)
             self._press = (x, y)
+            px = self._to_pixels(x, y)[0]
+            if self._on_divider(px) and button == glfw.MOUSE_BUTTON_LEFT:
+                self._drag = (DIVIDER_DRAG, x, y)
         elif action == glfw.RELEASE and self._drag is not None:
             x, y = glfw.get_cursor_pos(window)
             px, py = getattr(self, "_press", (x, y))
-            if button == glfw.MOUSE_BUTTON_LEFT and abs(x - px) + abs(y - py) < 3:
+            click = abs(x - px) + abs(y - py) < 3
+            if button == glfw.MOUSE_BUTTON_LEFT and click and self._drag[0] != DIVIDER_DRAG:
                 self.select_pixel(*self._to_pixels(x, y))  # a click, not a drag
             self._drag = None
+
+    def _on_divider(self, x: float) -> bool:
+        """Whether window pixel column x grabs the split's divider."""
+        if self.comparison is None or self.compare_mode != "split":
+            return False
+        return abs(x - self.divider * self.framebuffer_size[0]) <= DIVIDER_GRAB
 
     def _to_pixels(self, x: float, y: float) -> tuple[float, float]:
         """Screen units (cursor) to framebuffer pixels (HiDPI)."""
@@ -500,6 +586,10 @@ class Viewer:
             return
         button, lx, ly = self._drag
         self._drag = (button, x, y)
+        if button == DIVIDER_DRAG:
+            self.touch()
+            self.set_divider(self._to_pixels(x, y)[0] / self.framebuffer_size[0])
+            return
         dx, dy = self._to_pixels(x - lx, y - ly)
         shift = glfw.get_key(window, glfw.KEY_LEFT_SHIFT) == glfw.PRESS
         if button == glfw.MOUSE_BUTTON_LEFT and not shift:
@@ -558,6 +648,7 @@ class Viewer:
         self._current()
         if self.panels is not None:
             self.panels.shutdown()
+        self.stop_compare()
         self.renderer.release()
         self._present.release()
         glfw.destroy_window(self.window)
