@@ -18,6 +18,9 @@ from app.errors import EXIT_BAD_INPUT, InputError
 from app.output import HDR_SUFFIXES, write_hdr, write_png
 
 if TYPE_CHECKING:
+    import numpy as np
+
+    from app.render.renderer import Renderer
     from app.scene.loader import LoadedScene
 
 
@@ -44,10 +47,23 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"pbs: error: {message} (see '{self.prog} --help')\n")
 
 
+def _debug_views() -> dict[str, str]:
+    """The debug views of ``pbs render --debug``, name -> one line (app/render/debug_views.py)."""
+    from app.render.debug_views import DEBUG_VIEWS
+
+    return DEBUG_VIEWS
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pbs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    render = sub.add_parser("render", help="render a scene file headless to PNG")
+    render = sub.add_parser(
+        "render",
+        help="render a scene file headless to PNG",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="debug views (--debug VIEW; docs/debug-views.md):\n"
+        + "\n".join(f"  {name:12} {line}" for name, line in _debug_views().items()),
+    )
     render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
     render.add_argument("-o", "--output", required=True, help="PNG file to write")
     render.add_argument("--size", type=_size, help="WIDTHxHEIGHT (default: the scene's)")
@@ -60,10 +76,17 @@ def _parser() -> argparse.ArgumentParser:
     )
     render.add_argument(
         "--debug",
-        choices=("nan",),
-        help="nan: write a debug view instead of the render: pixels whose HDR radiance is "
-        "NaN (magenta), +Inf (yellow), -Inf (cyan) or negative (green) over a dimmed grey "
-        "render, and print their counts (even with -q)",
+        metavar="VIEW",
+        choices=tuple(_debug_views()),
+        help="write a debug view instead of the render: one of the views listed below",
+    )
+    render.add_argument(
+        "--debug-light",
+        type=int,
+        metavar="N",
+        help="the light (index into the scene's lights, in the order they are summed: "
+        "directional first) of the views fresnel, ndf, g2, specular, diffuse, light "
+        "(default 0)",
     )
     render.add_argument(
         "--compare",
@@ -227,6 +250,34 @@ def _write(path: Path, option: str, write: Callable[[Path], None]) -> None:
         raise InputError(str(path), option, f"cannot write ({why})") from None
 
 
+def _debug_image(
+    renderer: Renderer, view: str, light: int, out: Path, scene: Path
+) -> tuple[np.ndarray, str | None]:
+    """The display image of debug view ``view`` of the rendered frame, and the line the
+    view reports (the nan view's counts, printed even with -q), or None."""
+    from app.render.debug_views import DebugPass
+
+    debug = DebugPass(renderer)
+    try:
+        debug.run(view, light)
+        image = debug.read_display()
+        bad = debug.bad_pixels
+        if view == "tiles" and not debug.tiled:
+            print(
+                f"pbs: note: {scene}: no tile culling in this frame (no local lights, or "
+                'render.light_culling = "none"): the tiles view is zero everywhere',
+                file=sys.stderr,
+            )
+    finally:
+        debug.release()
+    if bad is None:
+        return image, None
+    from app.render.debug import describe
+
+    pixels = image.shape[0] * image.shape[1]
+    return image, f"{out}: NaN debug view: {describe(bad)} of {pixels} pixels"
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from app.gl.context import create_context
     from app.render.renderer import Renderer
@@ -238,7 +289,12 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise InputError(str(out), "-o", "the output must be a .png file")
     if args.hdr and Path(args.hdr).suffix not in HDR_SUFFIXES:  # write_hdr: lower case only
         raise InputError(args.hdr, "--hdr", "the HDR output must end in .exr or .npy")
-    loaded = load_scene(_resolve_scene(args.scene))
+    from app.render.debug_views import LIGHT_VIEWS
+
+    if args.debug_light is not None and args.debug not in LIGHT_VIEWS:
+        raise InputError("--debug-light", "", f"applies only to --debug {', '.join(LIGHT_VIEWS)}")
+    scene_path = _resolve_scene(args.scene)
+    loaded = load_scene(scene_path)
     if args.compare is not None:
         return _render_comparison(args, loaded, out, start)
     for option, value in (
@@ -250,23 +306,29 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise InputError(option, "", "applies only with --compare")
     gl = create_context(args.backend)
     renderer = Renderer(gl, loaded, args.size)
+    light = 0 if args.debug_light is None else args.debug_light
+    if args.debug in LIGHT_VIEWS and not 0 <= light < len(renderer.lights):
+        count = len(renderer.lights)
+        renderer.release()
+        raise InputError(
+            str(scene_path), "--debug-light",
+            f"light {light} out of range: the scene has {count} light(s)"
+            + (f", 0..{count - 1}" if count else ""),
+        )  # fmt: skip
     renderer.render()
     ldr = renderer.read_ldr()
-    hdr = renderer.read_hdr() if args.hdr or args.debug else None
-    renderer.release()
+    hdr = renderer.read_hdr() if args.hdr else None
     report = None
-    if args.debug == "nan":
-        from app.render.debug import describe, nan_debug_image
-
-        ldr, bad = nan_debug_image(hdr, ldr)
-        report = f"{out}: NaN debug view: {describe(bad)} of {hdr.shape[0] * hdr.shape[1]} pixels"
+    if args.debug is not None:
+        ldr, report = _debug_image(renderer, args.debug, light, out, scene_path)
+    renderer.release()
     if args.hdr:
         _write(Path(args.hdr), "--hdr", lambda p: write_hdr(p, hdr))
     _write(out, "-o", lambda p: write_png(p, ldr))
     if report is not None:
         print(report)  # the point of --debug nan, so -q does not silence it
     if not args.quiet:
-        w, h = renderer.size
+        h, w = ldr.shape[:2]  # a debug view has the G-buffer's size (render_size)
         print(
             f"{out}: {w}x{h}, {len(renderer.lights)} lights"
             f"{' (environment included)' if loaded.scene.environment else ''}, {gl.backend} "

@@ -2,22 +2,24 @@
 
 ``shared_defines()`` is what app/gl/shaders.py writes at the top of every program: the model
 names of each BRDF term (``FRESNEL_SCHLICK 0``, ``NDF_GGX 0``, ...), the ``TERM_*`` bits
-of ``render.terms``, the light types (``LIGHT_DIRECTIONAL 0``, ...) and the tone maps
-(``TONEMAP_NEUTRAL 1``, ...). No GLSL file writes these numbers itself.
+of ``render.terms``, the light types (``LIGHT_DIRECTIONAL 0``, ...), the tone maps
+(``TONEMAP_NEUTRAL 1``, ...) and the debug views (``DEBUG_NDF 8``, ...). No GLSL file
+writes these numbers itself.
 """
 
 from __future__ import annotations
 
 from functools import cache
 
-from app.common import lights, models, tonemaps
+from app.common import debug_views, lights, models, tonemaps
 
 
 @cache
 def shared_defines() -> dict[str, int]:
-    """Name -> value, in a stable order; the names of the three sources never collide."""
+    """Name -> value, in a stable order; the names of the sources never collide."""
     out: dict[str, int] = {}
-    for part in (models.glsl_constants(), lights.glsl_constants(), tonemaps.glsl_constants()):
+    parts = (models, lights, tonemaps, debug_views)
+    for part in (module.glsl_constants() for module in parts):
         clash = out.keys() & part.keys()
         if clash:
             raise ValueError(f"GLSL constants defined twice: {sorted(clash)}")

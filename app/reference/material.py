@@ -183,7 +183,20 @@ def orthonormal_tangent(n: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.where((len2 > 1e-8)[..., None], unit, fallback)
 
 
-def brdf_eval(
+@dataclass
+class BrdfFactors:
+    """The factors of f(l, v) apart (glsl/brdf/material.glsl ``BrdfFactors``); values at
+    points that ``lit`` leaves out are placeholders (brdf_eval makes f 0 there)."""
+
+    lit: np.ndarray  # (...,) bool: n.l > 0
+    F: np.ndarray  # (..., 3) Fresnel reflectance F(h, l), RTR4 §9.5
+    D: np.ndarray  # (...,) NDF D(h), RTR4 §9.7-9.8
+    G2: np.ndarray  # (...,) joint masking-shadowing G2(l, v, h), RTR4 §9.7
+    f_spec: np.ndarray  # (..., 3) F G2 D / (4 n.l n.v) (+ f_ms), RTR4 §9.8
+    f_diffuse: np.ndarray  # (..., 3) the subsurface lobe, RTR4 §9.9
+
+
+def brdf_factors(
     s: Surface,
     p: ModelParams,
     model: Model,
@@ -192,14 +205,10 @@ def brdf_eval(
     l: np.ndarray,
     v: np.ndarray,
     ms_table: np.ndarray | None = None,
-    terms: str = "all",
-) -> np.ndarray:
-    """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model``, (..., 3); 0 where n.l <= 0.
-
-    ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
-    and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, seed
-    section 1) keeps only the specular or only the diffuse reflection.
-    """
+) -> BrdfFactors:
+    """F, D, G2, f_spec and f_diffuse of ``model`` at each point (twin of the GLSL's
+    ``brdf_factors``). Where the model has a fused visibility V = G2/(4 n.l n.v), f_spec is
+    computed from V and G2 is V 4 n.l n.v, as in the GLSL. ``ms_table`` as in brdf_eval."""
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
     NoL_raw = dot(n, l)
     lit = NoL_raw > 0.0
@@ -229,10 +238,17 @@ def brdf_eval(
         D = D_selected(model, n, h, alpha, p.gtr_gamma)
         alpha_v = alpha_l = alpha
 
-    if model.g2 == "hammon":
-        f_spec = F * (D * masking.V_hammon_GGX(NoL, NoV, alpha))[..., None]
-    elif model.g2 == "height_correlated" and model.ndf == "ggx" and not model.anisotropic:
-        f_spec = F * (D * masking.V_height_correlated_GGX(NoL, NoV, alpha))[..., None]
+    fused = model.g2 == "hammon" or (
+        model.g2 == "height_correlated" and model.ndf == "ggx" and not model.anisotropic
+    )
+    if fused:
+        V = (
+            masking.V_hammon_GGX(NoL, NoV, alpha)
+            if model.g2 == "hammon"
+            else masking.V_height_correlated_GGX(NoL, NoV, alpha)
+        )
+        f_spec = F * (D * V)[..., None]
+        G2 = V * (4.0 * NoL * NoV)
     else:
         G2 = G2_selected(
             model,
@@ -251,14 +267,37 @@ def brdf_eval(
         f_spec = f_spec + multiscatter.f_ms_kulla_conty(
             ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
         )
+    f_diffuse = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+    return BrdfFactors(lit, F, np.asarray(D, np.float64), np.asarray(G2, np.float64), f_spec,
+                       f_diffuse)  # fmt: skip
+
+
+def brdf_eval(
+    s: Surface,
+    p: ModelParams,
+    model: Model,
+    n: np.ndarray,
+    t: np.ndarray,
+    l: np.ndarray,
+    v: np.ndarray,
+    ms_table: np.ndarray | None = None,
+    terms: str = "all",
+) -> np.ndarray:
+    """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model``, (..., 3); 0 where n.l <= 0.
+
+    ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
+    and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, seed
+    section 1) keeps only the specular or only the diffuse reflection.
+    """
+    b = brdf_factors(s, p, model, n, t, l, v, ms_table)
     mask = BRDF_TERMS[terms]
     if mask == TERM_SPECULAR:
-        f = f_spec
+        f = b.f_spec
     else:
-        f = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+        f = b.f_diffuse
         if mask & TERM_SPECULAR:
-            f = f + f_spec
-    return np.where(lit[..., None], f, 0.0)
+            f = f + b.f_spec
+    return np.where(b.lit[..., None], f, 0.0)
 
 
 def brdf_standard(s: Surface, n: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -143,14 +143,24 @@ vec3 orthonormal_tangent(vec3 n, vec3 t) {
 #define BRDF_TERMS 3
 #endif
 
-// f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v
-// and the tangent t (used only by anisotropic NDFs). Zero for lights below the surface;
-// n.v is clamped to MIN_N_DOT_V as interpolated normals can face away from the eye, and a
-// lit n.l to MIN_N_DOT_L (1e-20) so that no 1/(n.l) underflows (see constants.glsl).
-vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
-    float NoL = dot(n, l);
-    if (NoL <= 0.0) return vec3(0.0);
-    NoL = clamp(NoL, MIN_N_DOT_L, 1.0);
+// The factors of f(l, v) at one lit point, apart: brdf_eval adds them up, and the debug
+// views (glsl/passes/debug.frag, app/render/debug_views.py) show each one alone.
+struct BrdfFactors {
+    vec3 F;           // Fresnel reflectance F(h, l) (RTR4 sec. 9.5)
+    float D;          // NDF D(h) (RTR4 sec. 9.7, 9.8)
+    float G2;         // joint masking-shadowing G2(l, v, h) (RTR4 sec. 9.7)
+    vec3 f_spec;      // F G2 D / (4 n.l n.v), plus f_ms with MULTISCATTER (RTR4 sec. 9.8)
+    vec3 f_diffuse;   // the subsurface lobe (RTR4 sec. 9.9)
+};
+
+// The factors for unit n, l, v with n.l > 0 (brdf_eval returns 0 before it calls this)
+// and the tangent t (used only by anisotropic NDFs). n.v is clamped to MIN_N_DOT_V as
+// interpolated normals can face away from the eye, and n.l to MIN_N_DOT_L (1e-20) so that
+// no 1/(n.l) underflows (see constants.glsl). Where the model has a fused visibility term
+// V = G2/(4 n.l n.v), f_spec is computed from V as it always was and G2 is V 4 n.l n.v, a
+// value only the debug views read (the compiler drops it from brdf_eval).
+BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+    float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
     float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
     // l = -v (possible only when the true n.v < 0) has no half vector: use n.
     vec3 hv = l + v;
@@ -177,15 +187,20 @@ vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
         D = D_selected(n, h, alpha, p.gtr_gamma);
     }
 
+    float G2;
     vec3 f_spec;
     if (G2_MODEL == G2_HAMMON) {
-        f_spec = F * (D * V_hammon_GGX(NoL, NoV, alpha));
+        float V = V_hammon_GGX(NoL, NoV, alpha);
+        f_spec = F * (D * V);
+        G2 = V * (4.0 * NoL * NoV);
     } else if (!SPECULAR_LAMBDA_G2) {
         // The division-free visibility form: accurate as n.l or n.v -> 0.
-        f_spec = F * (D * V_height_correlated_GGX(NoL, NoV, alpha));
+        float V = V_height_correlated_GGX(NoL, NoV, alpha);
+        f_spec = F * (D * V);
+        G2 = V * (4.0 * NoL * NoV);
     } else {
-        float G2 = G2_selected(Lambda_selected(NoV, alpha_v, p.gtr_gamma),
-                               Lambda_selected(NoL, alpha_l, p.gtr_gamma), n, l, v);
+        G2 = G2_selected(Lambda_selected(NoV, alpha_v, p.gtr_gamma),
+                         Lambda_selected(NoL, alpha_l, p.gtr_gamma), n, l, v);
         f_spec = F * (D * G2 / (4.0 * NoL * NoV));
     }
 #if UBER_MODELS || MULTISCATTER
@@ -194,12 +209,21 @@ vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
         f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
     }
 #endif
+    vec3 f_diffuse = f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH);
+    return BrdfFactors(F, D, G2, f_spec, f_diffuse);
+}
+
+// f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v
+// and the tangent t; zero for lights below the surface (brdf_factors for the clamps).
+vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+    if (dot(n, l) <= 0.0) return vec3(0.0);
+    BrdfFactors b = brdf_factors(s, p, n, t, l, v);
 #if BRDF_TERMS == (TERM_SPECULAR | TERM_DIFFUSE)
-    return f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH) + f_spec;
+    return b.f_diffuse + b.f_spec;
 #elif BRDF_TERMS == TERM_SPECULAR
-    return f_spec;
+    return b.f_spec;
 #else
-    return f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH);
+    return b.f_diffuse;
 #endif
 }
 
