@@ -303,3 +303,34 @@ def test_comparison_in_the_window_equals_the_headless_comparison(viewer):
     assert "roughness" in v.state.error and v.comparison is not None
     v.stop_compare()
     assert v.comparison is None
+
+
+@pytest.mark.parametrize(("view", "light"), [("ndf", 3), ("normal", 0), ("tiles", 0)])
+def test_debug_views_in_the_window_equal_the_headless_ones(viewer, view, light):
+    """``--debug VIEW`` in the window equals DebugPass on a headless renderer of the same
+    state (what ``pbs render --debug`` writes)."""
+    from app.gl.context import create_context
+    from app.render.debug_views import DebugPass
+
+    v = viewer
+    v.orbit(-20, 5)
+    assert v.set_debug_view(view, light)
+    shown = window_image(v)
+    gl = create_context("egl")
+    try:
+        with gl.ctx:
+            r = Renderer(gl, v.document.loaded, v.framebuffer_size)
+            debug = DebugPass(r)
+            try:
+                r.render()
+                debug.run(view, light)
+                want = debug.read_display()
+            finally:
+                debug.release()
+                r.release()
+    finally:
+        gl.release()
+    assert_close(shown, want)
+    assert not v.set_debug_view("ndf", 99) and "light" in v.state.error
+    assert v.set_debug_view(None)
+    assert not np.array_equal(window_image(v), shown)

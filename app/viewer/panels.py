@@ -30,6 +30,7 @@ from app.common.models import (
     NDF_MODELS,
 )
 from app.common.tonemaps import TONEMAPS
+from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
 from app.scene.presets import PRESETS
 
 if TYPE_CHECKING:
@@ -320,6 +321,16 @@ class Panels:
             changed, n = imgui.slider_int("supersample", s.supersample, 1, 4)
             if changed:
                 self._edit("render.supersample", int(n))
+            views = ["(the render)", *DEBUG_VIEWS]
+            now = views.index(v.debug_view) if v.debug_view else 0
+            changed, i = imgui.combo("debug view", now, views)
+            if changed:
+                v.set_debug_view(None if i == 0 else views[i], v.debug_light)
+            if v.debug_view in LIGHT_VIEWS:
+                count = len(v.renderer.lights)
+                changed, n = imgui.slider_int("of light", v.debug_light, 0, max(count - 1, 0))
+                if changed:
+                    v.set_debug_view(v.debug_view, n)
             changed, on = imgui.checkbox("vsync", v.vsync)
             if changed:
                 v.set_vsync(on)

@@ -42,6 +42,7 @@ from app.gl.shaders import ShaderError
 from app.output import write_hdr, write_png
 from app.reference.position import reconstruct_position
 from app.render.compare import CompareSpec, Comparison
+from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS, DebugPass
 from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
 from app.scene.loader import LoadedScene, parse_scene
@@ -139,6 +140,9 @@ class Viewer:
         self.compare_mode: str = "split"  # or "difference"
         self.divider = 0.5  # where the split falls, a fraction of the width
         self.gain = 8.0  # the difference view's magnification
+        self.debug_view: str | None = None  # a view of app/render/debug_views.py
+        self.debug_light = 0
+        self._debug: DebugPass | None = None
         self._present = _Present(self.ctx)
         self._drag: tuple[int, float, float] | None = None  # button, last x, last y
         self.panels = None
@@ -359,6 +363,23 @@ class Viewer:
             self.comparison = None
             self.state.dirty = True
 
+    def set_debug_view(self, view: str | None, light: int = 0) -> bool:
+        """Show a debug view of the frame (``pbs render --debug VIEW``; None: the render),
+        ``light`` indexing ``renderer.lights`` for the BRDF views; a bad one is reported."""
+        if view is not None and view not in DEBUG_VIEWS:
+            self.state.error = f"unknown debug view '{view}' (one of {', '.join(DEBUG_VIEWS)})"
+            return False
+        if view in LIGHT_VIEWS and not 0 <= light < len(self.renderer.lights):
+            self.state.error = (
+                f"--debug-light: {light} is not a light of the frame "
+                f"(0 .. {len(self.renderer.lights) - 1})"
+            )
+            return False
+        self.debug_view, self.debug_light = view, int(light)
+        self.state.error = ""
+        self.state.dirty = True
+        return True
+
     def set_divider(self, divider: float) -> None:
         self.divider = float(np.clip(divider, 0.0, 1.0))
         self.state.dirty = True
@@ -477,6 +498,8 @@ class Viewer:
             self.renderer.render(timings if self.panels and self.panels.timing else None)
             if timings:
                 self.state.frame_ms = timings
+            if self.debug_view is not None:
+                self._run_debug()
         self.state.dirty = False
         self.state.rendered_scale = scale
 
@@ -519,11 +542,30 @@ class Viewer:
         if self.panels is not None and self.show_ui:
             self.panels.draw()
 
+    def _run_debug(self) -> None:
+        """The debug view of the frame just rendered, on a DebugPass of this renderer at
+        this size (made again when either changed)."""
+        r = self.renderer
+        if (
+            self._debug is None
+            or self._debug.renderer is not r
+            or self._debug.size != r.render_size
+        ):
+            if self._debug is not None:
+                self._debug.release()
+            self._debug = DebugPass(r)
+        if self.debug_view in LIGHT_VIEWS and self.debug_light >= len(r.lights):
+            self.debug_light = 0  # its light was removed
+        self._debug.run(self.debug_view, self.debug_light)
+
     def _shown(self) -> moderngl.Texture:
         """The display image of the last render: the comparison's composite while one is
-        shown, else the renderer's (never a texture a rebuilt pass has released)."""
+        shown, a debug view's, else the renderer's (never a texture a rebuilt pass has
+        released)."""
         if self.comparison is not None and self.comparison.last_target is not None:
             return self.comparison.last_target
+        if self.debug_view is not None and self._debug is not None and self._debug.view:
+            return self._debug.display
         return self.renderer.post.target
 
     def read_window(self) -> np.ndarray:
@@ -649,6 +691,8 @@ class Viewer:
         if self.panels is not None:
             self.panels.shutdown()
         self.stop_compare()
+        if self._debug is not None:
+            self._debug.release()
         self.renderer.release()
         self._present.release()
         glfw.destroy_window(self.window)
