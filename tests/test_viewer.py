@@ -334,3 +334,24 @@ def test_debug_views_in_the_window_equal_the_headless_ones(viewer, view, light):
     assert not v.set_debug_view("ndf", 99) and "light" in v.state.error
     assert v.set_debug_view(None)
     assert not np.array_equal(window_image(v), shown)
+
+
+def test_a_dropped_mesh_opens_framed_and_a_bad_file_is_reported(viewer, tmp_path):
+    """Opening a mesh file (what a drop does) shows it in a scene of its own, framed;
+    saving that scene writes a file that renders the same; a file that is no mesh is
+    reported and the current scene stays."""
+    v = viewer
+    mesh = tmp_path / "teapot.obj"
+    shutil.copy(scenes_dir() / "meshes" / "teapot.obj", mesh)
+    assert v.open_scene(mesh)
+    assert v.scene.objects[0].shape == "mesh"
+    image = window_image(v)
+    covered = (np.abs(image.astype(int) - image[0, 0].astype(int)).sum(axis=-1) > 0).mean()
+    assert 0.05 < covered < 0.95  # the teapot fills a good part of the view
+    saved = v.save_scene(tmp_path / "teapot-view.toml")
+    assert load_scene(saved).scene == v.scene
+    junk = tmp_path / "junk.obj"
+    junk.write_text("this is not a mesh\n", encoding="utf-8")
+    assert not v.open_scene(junk)
+    assert "junk.obj" in v.state.error
+    assert v.scene.objects[0].file == "teapot.obj"

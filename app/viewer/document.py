@@ -66,11 +66,18 @@ def set_value(data: dict, key: str, value: Any) -> None:
 class SceneDocument:
     """The edited scene: its data, the file it came from and the validated result."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, data: dict | None = None) -> None:
+        """The scene file ``path``; or, with ``data``, a scene not saved yet that will be
+        saved as ``path`` (file names in it are relative to ``path``'s folder)."""
         self.path = Path(path).resolve()
-        self.loaded: LoadedScene = load_scene(self.path)  # InputError on a bad file
-        self.data: dict = tomllib.loads(self.path.read_text(encoding="utf-8"))
-        self.mtime = self.path.stat().st_mtime
+        if data is None:
+            self.loaded: LoadedScene = load_scene(self.path)  # InputError on a bad file
+            self.data: dict = tomllib.loads(self.path.read_text(encoding="utf-8"))
+            self.mtime = self.path.stat().st_mtime
+        else:
+            self.loaded = parse_scene(copy.deepcopy(data), self.path)
+            self.data = copy.deepcopy(data)
+            self.mtime = 0.0
 
     @property
     def scene(self):
@@ -116,7 +123,7 @@ class SceneDocument:
     def changed_on_disk(self) -> bool:
         try:
             return self.path.stat().st_mtime != self.mtime
-        except OSError:
+        except OSError:  # not saved yet
             return False
 
     def save(self, path: Path) -> None:
@@ -184,3 +191,18 @@ def rebase_paths(data: dict, old_dir: Path, new_dir: Path) -> dict:
         if isinstance(blend, dict) and isinstance(blend.get("mask"), str):
             blend["mask"] = move(blend["mask"])
     return out
+
+
+def mesh_scene(mesh: Path) -> dict:
+    """The data of a scene around one mesh file (a file dropped on the viewer): the mesh
+    with its own materials, a key and a fill light, a camera the viewer then frames."""
+    return {
+        "background": [0.18, 0.19, 0.21],
+        "camera": {"position": [0.0, 1.0, 4.0], "target": [0.0, 0.0, 0.0]},
+        "lights": [
+            {"type": "directional", "direction": [-0.4, -1.0, -0.6], "intensity": 3.0},
+            {"type": "directional", "direction": [0.7, -0.3, 0.5], "intensity": 0.8,
+             "color": [0.8, 0.9, 1.0]},
+        ],
+        "objects": [{"shape": "mesh", "file": mesh.name}],
+    }  # fmt: skip

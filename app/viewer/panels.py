@@ -62,6 +62,12 @@ class Panels:
         self.compare_mode = 0
         self._curves: tuple[object, Any] | None = None  # (material key, (lobes, albedo))
         self._backend = False
+        self._expand: set[str] = set()  # panels to open on the next frame
+        self._selected: object = None  # the selection the panels last saw
+
+    def expand(self, *titles: str) -> None:
+        """Open these panels (by title) on the next frame, e.g. Material after a click."""
+        self._expand.update(titles)
 
     def install_backend(self, window_address: int) -> None:
         """glfw input and OpenGL3 drawing for ImGui; it chains to the viewer's callbacks."""
@@ -85,6 +91,11 @@ class Panels:
     # --- a frame of panels ------------------------------------------------------------------
 
     def draw(self) -> None:
+        selected = (self.viewer.selection.object_index, self.viewer.selection.material)
+        if selected != self._selected:
+            self._selected = selected
+            if selected[1] is not None:
+                self.expand("Material")
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
         imgui.new_frame()
@@ -98,7 +109,9 @@ class Panels:
         imgui.render()
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
-    def _window(self, title: str, x: float, y: float, w: float, h: float) -> bool:
+    def _window(
+        self, title: str, x: float, y: float, w: float, h: float, collapsed: bool = False
+    ) -> bool:
         """Begin a panel; its first position and size are fractions of the window where
         below 1 (x, y, w, h), pixels otherwise, negative x from the right edge."""
         fw, fh = self.viewer.framebuffer_size
@@ -107,6 +120,10 @@ class Panels:
         if x < 0:
             x = fw + x - w
         imgui.set_next_window_pos(imgui.ImVec2(x, y), imgui.Cond_.first_use_ever)
+        imgui.set_next_window_collapsed(collapsed, imgui.Cond_.first_use_ever)
+        if title in self._expand:
+            self._expand.discard(title)
+            imgui.set_next_window_collapsed(False, imgui.Cond_.always)
         imgui.set_next_window_size(imgui.ImVec2(w, h), imgui.Cond_.first_use_ever)
         return imgui.begin(title)[0]
 
@@ -146,7 +163,7 @@ class Panels:
     def _material_panel(self) -> None:
         v = self.viewer
         name = v.selection.material
-        if self._window("Material", 8, 0.36, 300, 0.62):
+        if self._window("Material", 8, 0.36, 300, 0.62, collapsed=True):
             if name is None or name not in v.scene.materials:
                 imgui.text("Click an object, or pick a material in Scene.")
             else:
@@ -231,7 +248,7 @@ class Panels:
 
     def _lights_panel(self) -> None:
         v = self.viewer
-        if self._window("Lights", -8, 8, 310, 0.4):
+        if self._window("Lights", -8, 8, 310, 0.4, collapsed=True):
             for i, light in enumerate(v.scene.lights):
                 imgui.push_id(f"light{i}")
                 if imgui.collapsing_header(f"{i}: {light.type}"):
@@ -287,7 +304,7 @@ class Panels:
     def _render_panel(self) -> None:
         v = self.viewer
         s, cam = v.scene.render, v.scene.camera
-        if self._window("Render", -8, 0.42, 310, 0.56):
+        if self._window("Render", -8, 40, 310, 0.5):
             changed, i = imgui.combo("tone map", TONEMAPS.index(s.tonemap), list(TONEMAPS))
             if changed:
                 self._edit("render.tonemap", TONEMAPS[i])
@@ -338,7 +355,7 @@ class Panels:
 
     def _plots_panel(self) -> None:
         v = self.viewer
-        if self._window("Plots", 316, 0.56, 380, 0.42):
+        if self._window("Plots", 316, 0.56, 380, 0.42, collapsed=True):
             name = v.selection.material
             if name is not None and name in v.scene.materials:
                 self._material_plots(name)
@@ -410,7 +427,7 @@ class Panels:
 
     def _compare_panel(self) -> None:
         v = self.viewer
-        if self._window("Compare", 316, 8, 380, 0.3):
+        if self._window("Compare", 316, 8, 380, 0.3, collapsed=True):
             for label, key, a, b in self._compare_presets():
                 if imgui.small_button(label):
                     self.compare_key, self.compare_a, self.compare_b = key, a, b

@@ -48,7 +48,7 @@ from app.resources import glsl_dir, scenes_dir
 from app.scene.loader import LoadedScene, parse_scene
 from app.scene.model import Camera
 from app.viewer import orbit as orbit_controls
-from app.viewer.document import SceneDocument, get_value, set_value
+from app.viewer.document import SceneDocument, get_value, mesh_scene, set_value
 
 PREVIEW_SCALE = 2  # while interacting: render at 1/2 of the window in each direction
 REFINE_AFTER = 0.25  # seconds without input before the full-size frame
@@ -420,10 +420,17 @@ class Viewer:
         return path
 
     def open_scene(self, path: Path) -> bool:
-        """Show another scene file (a dropped file); a bad one is reported, nothing changes."""
+        """Show another scene file, or a mesh file (.obj, .gltf, .glb, ... in a scene of
+        its own: ``mesh_scene``) as a dropped file does; a bad one is reported and
+        nothing changes."""
         self._current()
+        path = Path(path).resolve()
         try:
-            document = SceneDocument(path)
+            if path.suffix.lower() == ".toml":
+                document = SceneDocument(path)
+            else:
+                data = mesh_scene(path)
+                document = SceneDocument(path.with_name(f"{path.stem}-view.toml"), data)
             renderer = Renderer(self.gl, document.loaded, self.framebuffer_size)
         except InputError as exc:
             self.state.error = str(exc)
@@ -438,6 +445,9 @@ class Viewer:
         self.state.error = ""
         self.state.dirty = True
         glfw.set_window_title(self.window, self._title())
+        if path.suffix.lower() != ".toml":
+            self.frame_selection()  # the whole mesh in view
+            self.base_camera = self.scene.camera
         return True
 
     def _watch(self) -> None:
@@ -673,14 +683,9 @@ class Viewer:
         self.show_ui = not self.show_ui
 
     def _on_drop(self, window, paths: list[str]) -> None:
-        for path in paths:
-            if path.endswith(".toml"):
-                self.open_scene(Path(path))
-            else:
-                self.state.error = (
-                    f"{path}: only scene files (.toml) open by dropping; to view a mesh, "
-                    'name it in a scene\'s [[objects]] (shape = "mesh", file = ...)'
-                )
+        """A scene or mesh file dropped on the window opens (the first, if several)."""
+        if paths:
+            self.open_scene(Path(paths[0]))
 
     def _on_resize(self) -> None:
         self.touch()
