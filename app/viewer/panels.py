@@ -31,6 +31,7 @@ from app.common.models import (
 )
 from app.common.tonemaps import TONEMAPS
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
+from app.scene.model import TEXTURE_KEYS
 from app.scene.presets import PRESETS
 
 if TYPE_CHECKING:
@@ -233,18 +234,24 @@ class Panels:
             changed, f90 = imgui.color_edit3("f90", [float(x) for x in resolved.params.f90])
             if changed:
                 self._edit(f"{key}.f90", [float(c) for c in f90])
-        maps = [k for k in ("base_color_map", "metallic_map", "roughness_map", "normal_map",
-                            "anisotropy_map") if getattr(material, k)]  # fmt: skip
-        if maps or material.blend is not None:
-            imgui.separator()
-            for k in maps:
-                imgui.text(f"{k}: {getattr(material, k)}")
+        if imgui.collapsing_header("maps and blend"):
+            # Paths relative to the scene file; Enter applies, an empty path removes the
+            # map. A missing or unreadable file is refused with the CLI's message.
+            enter = imgui.InputTextFlags_.enter_returns_true
+            for k in TEXTURE_KEYS:
+                text = getattr(material, k) or ""
+                entered, text = imgui.input_text(k, text, enter)
+                if entered:
+                    self._edit(f"{key}.{k}", text or None)
             if material.blend is not None:
                 b = material.blend
                 imgui.text(f"blend: {b.material} through {b.mask}")
                 changed, value = imgui.slider_float("blend threshold", b.threshold, 0.0, 1.0)
                 if changed:
                     self._edit(f"{key}.blend.threshold", float(value))
+                changed, value = imgui.slider_float("blend softness", b.softness, 0.0, 1.0)
+                if changed:
+                    self._edit(f"{key}.blend.softness", float(value))
 
     def _lights_panel(self) -> None:
         v = self.viewer
