@@ -57,7 +57,11 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
             assert key in row, (key, row["suite"], row["variant"])
         assert row["ms_min"] <= row["ms_median"] <= row["ms_max"]
     suites = {r["suite"] for r in rows}
-    assert suites == {"culling", "resolution", "accuracy", "specialization", "startup"}
+    assert suites == {"culling", "resolution", "accuracy", "specialization", "startup", "viewer"}
+    viewer = {r["variant"]: r for r in rows if r["suite"] == "viewer"}
+    assert set(viewer) == {"orbit", "roughness", "refine", "new model notice",
+                           "new model compiled"}  # fmt: skip
+    assert all(r["ms_min"] <= r["ms_p95"] <= r["ms_max"] for r in viewer.values())
     culling = {(r["lights"], r["variant"]) for r in rows if r["suite"] == "culling"}
     for n in (1, 16):
         for v in ("culled", "unculled", "forward", "floor"):
@@ -98,6 +102,7 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     text = (tmp_path / "bench.md").read_text()
     assert "| mip_filtering | variance |" in text and "Shimmer" in text
     assert "## Targets" in text and "culled faster than forward at 16 lights" in text
+    assert "viewer: an input (orbit) waits <= 100 ms" in text and "### viewer" in text
     assert "### specialization" in text and "uber/specialized = " in text
     assert "**PASS**" in text or "**FAIL**" in text
     assert "in this mode the verdicts are indicative only" in text  # not the full mode

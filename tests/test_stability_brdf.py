@@ -743,7 +743,7 @@ def test_sanitized_nan_surfaces_shade_finite(gl_egl: GLContext, name: str) -> No
 
     def run(body: str) -> np.ndarray:
         def bind(program, unit: int) -> None:
-            tex = gl_egl.ctx.texture((4, 1), 4, table.tobytes(), dtype="f4")
+            tex = gl_egl.ctx.texture((table.shape[1], 1), 4, table.tobytes(), dtype="f4")
             binds.append(tex)
             tex.use(unit)
             if "u_materials" in program:

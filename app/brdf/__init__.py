@@ -89,7 +89,7 @@ def run_material_kernel(
     textures: list[Any] = []
 
     def bind(program: Any, unit: int) -> None:
-        tex = ctx.texture((4, 1), 4, table.tobytes(), dtype="f4")
+        tex = ctx.texture((table.shape[1], 1), 4, table.tobytes(), dtype="f4")
         textures.append(tex)
         tex.use(unit)
         if "u_materials" in program:  # the standard model reads no table entries

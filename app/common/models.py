@@ -63,6 +63,7 @@ def glsl_constants() -> dict[str, int]:
         for code, name in enumerate(names)
     }
     out.update(TERM_SPECULAR=TERM_SPECULAR, TERM_DIFFUSE=TERM_DIFFUSE)
+    out["MATERIAL_TEXELS"] = MATERIAL_TEXELS
     return out
 
 
@@ -134,6 +135,13 @@ class ModelParams:
     gtr_gamma: float = 2.0  # GTR tail exponent (2 = GGX)
 
 
+# Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); 4-7
+# are reserved for the models of §9.10-9.12, one or two texels each: 4-5 a clear coat
+# (§9.12), 6 a sheen layer (§9.10), 7 a thin film (§9.11). The GLSL reads the width from
+# the generated MATERIAL_TEXELS.
+MATERIAL_TEXELS = 8
+
+
 def model_codes(model: Model) -> tuple[int, int, int]:
     """The (Fresnel, specular, diffuse) codes of ``model`` in texel 3 of its table row, read
     by the uber lighting shader (glsl/brdf/model.glsl fetch_model_codes):
@@ -175,12 +183,13 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
 def pack_model_params(
     params: list[ModelParams], groups: list[int], models: list[Model] | None = None
 ) -> np.ndarray:
-    """The lighting pass's material table: (M, 4, 4) float32, one row of 4 RGBA texels per
-    material id: (f90, 1/p), (eta, eta_dielectric), (k, gtr_gamma), (model group, Fresnel
-    code, specular code, diffuse code). ``models`` gives each row's model for the codes
-    (``model_codes``; only the uber lighting shader reads them); without it every row gets
-    the standard model's codes."""
-    table = np.zeros((max(len(params), 1), 4, 4), np.float32)
+    """The lighting pass's material table: (M, MATERIAL_TEXELS, 4) float32, one row of RGBA
+    texels per material id: (f90, 1/p), (eta, eta_dielectric), (k, gtr_gamma), (model
+    group, Fresnel code, specular code, diffuse code), then the texels of the layered
+    models (``MATERIAL_TEXELS``; zero where a material does not use them). ``models`` gives
+    each row's model for the codes (``model_codes``; only the uber lighting shader reads
+    them); without it every row gets the standard model's codes."""
+    table = np.zeros((max(len(params), 1), MATERIAL_TEXELS, 4), np.float32)
     models = models if models is not None else [DEFAULT_MODEL] * len(params)
     for row, (p, group, model) in enumerate(zip(params, groups, models, strict=True)):
         table[row, 0] = [*np.broadcast_to(p.f90, 3), p.fresnel_exponent]

@@ -14,7 +14,7 @@ in vec2 v_uv;
 in vec4 v_tangent;
 in float v_view_depth;
 
-uniform sampler2D u_materials;  // RGBA32F, 4 texels per material (brdf/model.glsl)
+uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
 uniform int u_light_count;
 uniform vec3 u_camera_pos;
