@@ -202,10 +202,16 @@ class Panels:
             changed, value = imgui.slider_float(field, float(getattr(resolved, field)), low, high)
             if changed:
                 self._edit(f"{key}.{field}", float(value))
+        # F0 or the index of refraction (RTR4 §9.5): a scene gives one or the other.
         if material.ior is None:
             changed, value = imgui.slider_float("f0 (dielectric)", float(resolved.f0), 0.0, 1.0)
             if changed:
                 self._edit(f"{key}.f0", float(value))
+        if material.f0 is None:
+            ior = resolved.params.eta_dielectric * (material.medium_ior or 1.0)
+            changed, value = imgui.slider_float("index of refraction", float(ior), 1.0, 3.0)
+            if changed:
+                self._edit(f"{key}.ior", float(value))
         medium = material.medium_ior or 1.0
         changed, value = imgui.slider_float("medium index", float(medium), 1.0, 3.0)
         if changed:
@@ -234,6 +240,20 @@ class Panels:
             changed, f90 = imgui.color_edit3("f90", [float(x) for x in resolved.params.f90])
             if changed:
                 self._edit(f"{key}.f90", [float(c) for c in f90])
+            p = 1.0 / resolved.params.fresnel_exponent
+            changed, value = imgui.slider_float("fresnel p (exponent 1/p)", p, 0.01, 2.0)
+            if changed:
+                self._edit(f"{key}.fresnel_p", float(value))
+        if material.fresnel == "conductor":
+            medium = material.medium_ior or 1.0
+            for field, values, top in (
+                ("eta", resolved.params.eta * medium, 10.0),
+                ("k", resolved.params.k * medium, 10.0),
+            ):
+                changed, rgb = imgui.drag_float3(f"{field} (R, G, B)", [float(x) for x in values],
+                                                 0.01, 0.0, top)  # fmt: skip
+                if changed:
+                    self._edit(f"{key}.{field}", [max(float(x), 1e-3) for x in rgb])
         if imgui.collapsing_header("maps and blend"):
             # Paths relative to the scene file; Enter applies, an empty path removes the
             # map. A missing or unreadable file is refused with the CLI's message.
@@ -331,6 +351,7 @@ class Panels:
                 ("gbuffer", ("f16", "f32")),
                 ("normal_filter", ("none", "naive", "toksvig", "variance")),
                 ("terms", ("all", "specular", "diffuse")),
+                ("blend", ("runtime", "baked")),
             ):
                 now = getattr(s, field)
                 changed, i = imgui.combo(field, names.index(now), list(names))
