@@ -286,8 +286,8 @@ def brdf_eval(
     """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model``, (..., 3); 0 where n.l <= 0.
 
     ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
-    and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, seed
-    section 1) keeps only the specular or only the diffuse reflection.
+    and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, RTR4
+    §9.1) keeps only the specular or only the diffuse reflection.
     """
     b = brdf_factors(s, p, model, n, t, l, v, ms_table)
     mask = BRDF_TERMS[terms]

@@ -342,18 +342,19 @@ class Viewer:
         try:
             spec = CompareSpec(key, a, b, origin="compare")
             comparison = Comparison(self.gl, self.document.loaded, spec, self.renderer.size)
-        except InputError as exc:
-            self.state.error = str(exc)
-            return False
-        except (ShaderError, moderngl.Error) as exc:
-            self.state.error = f"GLSL: {exc}"
-            return False
+        except (InputError, ShaderError, moderngl.Error) as exc:
+            return self._refuse(exc)
         self.stop_compare()
         self.comparison = comparison
         self.compare_mode, self.divider, self.gain = mode, float(divider), float(gain)
         self.state.error = ""
         self.state.dirty = True
         return True
+
+    def _refuse(self, exc: Exception) -> bool:
+        """Report what refused an action in the Problems panel; nothing changed."""
+        self.state.error = f"GLSL: {exc}" if not isinstance(exc, InputError) else str(exc)
+        return False
 
     def stop_compare(self) -> None:
         """Back to the single image."""
@@ -432,12 +433,8 @@ class Viewer:
                 data = mesh_scene(path)
                 document = SceneDocument(path.with_name(f"{path.stem}-view.toml"), data)
             renderer = Renderer(self.gl, document.loaded, self.framebuffer_size)
-        except InputError as exc:
-            self.state.error = str(exc)
-            return False
-        except (ShaderError, moderngl.Error) as exc:
-            self.state.error = f"GLSL: {exc}"
-            return False
+        except (InputError, ShaderError, moderngl.Error) as exc:
+            return self._refuse(exc)
         self.renderer.release()
         self.document, self.renderer = document, renderer
         self.base_camera = document.scene.camera
