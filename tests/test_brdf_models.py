@@ -54,6 +54,16 @@ MODELS: dict[str, dict] = {
     "hammon diffuse": {"diffuse": "hammon"},
     "no diffuse": {"diffuse": "none"},
     "multiscatter": {"multiscatter": True, "preset": "copper"},
+    # Thin film (RTR4 §9.11): over the default dielectric, a conductor, a metalness metal.
+    "thin film soap": {"thin_film": True, "film_thickness": 380.0},
+    "thin film over gold": {
+        "thin_film": True, "preset": "gold", "fresnel": "conductor", "film_ior": 1.5,
+        "film_thickness": 250.0,
+    },
+    "thin film over metalness metal": {
+        "thin_film": True, "metallic": 1.0, "base_color": [0.9, 0.6, 0.3], "film_ior": 2.0,
+        "film_thickness": 900.0,
+    },
 }  # fmt: skip
 
 ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material

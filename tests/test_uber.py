@@ -56,6 +56,7 @@ SCENES = (
     "sec9_diffuse_grazing",
     "stress",
     "sec13_rust_blend",
+    "sec11_thin_film",  # thin film (RTR4 §9.11): films and a bare lens
 )
 SIZE = (320, 160)
 MAX_REL = 1e-5  # uber vs specialized, relative to max(|specialized|, 1e-3 peak)
@@ -69,6 +70,7 @@ CHOICES = {
     "multiscatter": (False, True),
     "anisotropic": (False, True),
     "internal": (False, True),
+    "thin_film": (False, True),  # thin film (RTR4 §9.11)
 }
 
 
@@ -174,7 +176,7 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     textures = []
 
     def bind(program, unit: int) -> None:
-        tex = ctx.texture((MATERIAL_TEXELS, len(models)), 4, table.tobytes(), dtype="f4")
+        tex = ctx.texture((table.shape[1], len(models)), 4, table.tobytes(), dtype="f4")
         textures.append(tex)
         tex.use(unit)
         program["u_materials"].value = unit

@@ -85,7 +85,7 @@ def run_material_kernel(
     """``run_kernel`` with everything a material's BRDF needs: the BRDF includes, the
     model's defines, its one-row material table bound to ``u_materials`` and, with
     multiple scattering, the table bound to ``u_ms_table``. Returns (N, 4) float64."""
-    table = pack_model_params([params.params], [0])
+    table = pack_model_params([params.params], [0], [params.model])
     textures: list[Any] = []
 
     def bind(program: Any, unit: int) -> None:
@@ -144,7 +144,7 @@ def evaluate(
     surface_a, surface_b = surface_texels(params)
 
     if backend == "reference":
-        table = pack_model_params([params.params], [0])
+        table = pack_model_params([params.params], [0], [params.model])
         s = Surface(
             surface_a[:3].astype(np.float64),
             float(surface_a[3]),

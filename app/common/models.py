@@ -81,6 +81,8 @@ class Model:
     multiscatter: bool = False
     anisotropic: bool = False
     internal: bool = False  # Schlick evaluated at the transmitted angle (n1 > n2)
+    # --- thin film (RTR4 §9.11): F replaced by a film's interference reflectance ---
+    thin_film: bool = False
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
@@ -94,6 +96,7 @@ class Model:
             "MULTISCATTER": int(self.multiscatter),
             "ANISOTROPIC": int(self.anisotropic),
             "FRESNEL_INTERNAL": int(self.internal),
+            "THIN_FILM": int(self.thin_film),  # thin film (RTR4 §9.11)
         }
 
     def describe(self) -> str:
@@ -107,7 +110,7 @@ class Model:
             parts.append(f"{self.lambda_form} Lambda")
         if self.g2 in ("direction_correlated", "height_direction_correlated"):
             parts.append(f"{self.correlation} lambda(phi)")
-        flags = ("multiscatter", "anisotropic", "internal")
+        flags = ("multiscatter", "anisotropic", "internal", "thin_film")
         parts += [name for name in flags if getattr(self, name)]
         return " + ".join(parts) or "standard"
 
@@ -133,6 +136,10 @@ class ModelParams:
     eta_dielectric: float = 1.5  # dielectric n2 / n1
     k: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))  # conductor k / n1
     gtr_gamma: float = 2.0  # GTR tail exponent (2 = GGX)
+    # --- thin film (RTR4 §9.11), material-table texel 7 ---
+    film_thickness: float = 0.0  # nm; 0 = the base's Fresnel alone
+    film_eta: float = 1.33  # film index / medium index (n2 / n1)
+    film_ior: float = 1.33  # film index n2 itself (the optical path 2 n2 d cos(theta2))
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); 4-7
@@ -148,7 +155,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
 
     * Fresnel: fresnel | internal << 2
     * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-      | multiscatter << 8
+      | multiscatter << 8 | thin_film << 13 (bits 9-12 are the other layered models')
     * diffuse: diffuse
 
     Small integers, exact in float32."""
@@ -161,6 +168,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
         | d["CORRELATION"] << 6
         | d["ANISOTROPIC"] << 7
         | d["MULTISCATTER"] << 8
+        | d["THIN_FILM"] << 13  # thin film (RTR4 §9.11)
     )
     return fresnel, specular, d["DIFFUSE_MODEL"]
 
@@ -177,6 +185,7 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
         multiscatter=bool((specular >> 8) & 1),
         anisotropic=bool((specular >> 7) & 1),
         internal=bool((fresnel >> 2) & 1),
+        thin_film=bool((specular >> 13) & 1),  # thin film (RTR4 §9.11)
     )
 
 
@@ -196,13 +205,19 @@ def pack_model_params(
         table[row, 1] = [*np.broadcast_to(p.eta, 3), p.eta_dielectric]
         table[row, 2] = [*np.broadcast_to(p.k, 3), p.gtr_gamma]
         table[row, 3] = [group, *model_codes(model)]
+        if model.thin_film:  # thin film (RTR4 §9.11): (thickness nm, n2/n1, n2, 0)
+            table[row, 7] = [p.film_thickness, p.film_eta, p.film_ior, 0.0]
     return table
 
 
 def unpack_model_params(texels: np.ndarray) -> ModelParams:
     """Inverse of one row of ``pack_model_params`` (float32 values widened to float64)."""
     t = np.asarray(texels, np.float64)
-    return ModelParams(t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]))
+    return ModelParams(
+        t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]),
+        # Thin film (RTR4 §9.11), texel 7.
+        film_thickness=float(t[7, 0]), film_eta=float(t[7, 1]), film_ior=float(t[7, 2]),
+    )  # fmt: skip
 
 
 def unpack_model(texels: np.ndarray) -> tuple[int, Model]:

@@ -25,6 +25,7 @@ def _params_key(p: ModelParams) -> tuple:
         p.eta_dielectric,
         tuple(np.broadcast_to(p.k, 3)),
         p.gtr_gamma,
+        (p.film_thickness, p.film_eta, p.film_ior),  # thin film (RTR4 §9.11)
     )
 
 

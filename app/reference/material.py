@@ -15,7 +15,7 @@ from app.common.models import (
     Model,
     ModelParams,
 )
-from app.reference import diffuse, fresnel, masking
+from app.reference import diffuse, fresnel, masking, thin_film
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
@@ -117,7 +117,7 @@ def _mix(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     return a * (1.0 - t) + b * t
 
 
-def F_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.ndarray:
+def F_base_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.ndarray:
     """F(h, l) of the model's Fresnel term, (..., 3)."""
     if model.fresnel == "schlick_generalized":
         return fresnel.F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH)
@@ -133,6 +133,43 @@ def F_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.
     if model.internal:
         return fresnel.F_schlick(material_F0(s), fresnel.cos_theta_schlick(p.eta_dielectric, LoH))
     return fresnel.F_schlick(material_F0(s), LoH)
+
+
+# --- thin film (RTR4 §9.11) ---
+
+
+def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
+    t = np.clip((np.asarray(x, np.float64) - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def F_film_selected(
+    s: Surface, p: ModelParams, model: Model, LoH: np.ndarray, F_base: np.ndarray
+) -> np.ndarray:
+    """The thin film over the material's base (see the GLSL): the dielectric part's index
+    eta_dielectric, the metal part's the conductor's eta + i k or the F0 of base_color as a
+    real index, mixed by metallic, faded in over F_base up to FILM_FADE_NM."""
+    LoH = np.asarray(LoH, np.float64)
+    film = (p.film_eta, p.film_ior, p.film_thickness)
+    zero = np.zeros(3)
+    dielectric = thin_film.F_thin_film(*film, np.full(3, p.eta_dielectric), zero, LoH)
+    if model.fresnel == "conductor":
+        metal_eta, metal_k = p.eta, p.k
+    else:
+        metal_eta = thin_film.ior_from_f0_rgb(s.base_color)
+        metal_k = np.zeros_like(metal_eta)
+    metal = thin_film.F_thin_film(*film, metal_eta, metal_k, LoH)
+    fade = _smoothstep(0.0, thin_film.FILM_FADE_NM, p.film_thickness)
+    return _mix(F_base, _mix(dielectric, metal, s.metallic), fade)
+
+
+def F_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.ndarray:
+    """F(h, l) of the material: the base's (F_base_selected), or with ``model.thin_film``
+    a thin film's over it (F_film_selected). (..., 3)."""
+    F = F_base_selected(s, p, model, LoH)
+    if model.thin_film:
+        F = F_film_selected(s, p, model, LoH, F)
+    return F
 
 
 def f_diffuse_selected(

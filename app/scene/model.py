@@ -249,6 +249,10 @@ class Material(_Strict):
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
     diffuse: Literal[DIFFUSE_MODELS] = "lambert"  # type: ignore[valid-type]
     multiscatter: Annotated[bool, Field(strict=True)] = False
+    # --- thin film (RTR4 §9.11): a dielectric film over the base replaces its F ---
+    thin_film: Annotated[bool, Field(strict=True)] = False
+    film_thickness: Annotated[Real, Field(ge=0.0, le=5000.0)] | None = None  # nm (default 400)
+    film_ior: Ior | None = None  # the film's index (default 1.33, water/soap)
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -275,10 +279,13 @@ class Material(_Strict):
             "eta": ("fresnel", "conductor"),
             "k": ("fresnel", "conductor"),
             "gtr_gamma": ("ndf", "gtr"),
+            "film_thickness": ("thin_film", True),  # thin film (RTR4 §9.11)
+            "film_ior": ("thin_film", True),
         }
         for key, (term, value) in only.items():
             if getattr(self, key) is not None and getattr(self, term) != value:
-                raise ValueError(f"{key}: applies only with {term} = '{value}'")
+                shown = "true" if value is True else f"'{value}'"
+                raise ValueError(f"{key}: applies only with {term} = {shown}")
         if self.lambda_form == "rational" and self.ndf != "beckmann":
             raise ValueError(
                 "lambda_form: 'rational' is Beckmann's approximation (ndf = 'beckmann')"
@@ -346,6 +353,10 @@ class Material(_Strict):
             eta_dielectric=eta_d,
             k=k / medium,
             gtr_gamma=2.0 if self.gtr_gamma is None else self.gtr_gamma,
+            # Thin film (RTR4 §9.11): indices relative to the medium, as eta's.
+            film_thickness=400.0 if self.film_thickness is None else self.film_thickness,
+            film_eta=(1.33 if self.film_ior is None else self.film_ior) / medium,
+            film_ior=1.33 if self.film_ior is None else self.film_ior,
         )
         anisotropy = 0.0 if self.anisotropy is None else self.anisotropy
         model = Model(
@@ -358,6 +369,7 @@ class Material(_Strict):
             multiscatter=self.multiscatter,
             anisotropic=anisotropy != 0.0,
             internal=self.fresnel == "schlick" and eta_d < 1.0,
+            thin_film=self.thin_film,  # thin film (RTR4 §9.11)
         )
         roughness = 0.5 if self.roughness is None else self.roughness
         return MaterialParams(

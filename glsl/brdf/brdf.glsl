@@ -8,6 +8,7 @@
 #include "common/constants.glsl"
 #include "brdf/model.glsl"
 #include "brdf/fresnel.glsl"
+#include "brdf/thin_film.glsl"
 #include "brdf/ndf.glsl"
 #include "brdf/masking.glsl"
 #include "brdf/diffuse.glsl"

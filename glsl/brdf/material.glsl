@@ -10,6 +10,7 @@
 #include "brdf/diffuse.glsl"
 #include "brdf/multiscatter.glsl"
 #include "brdf/specular.glsl"
+#include "brdf/thin_film.glsl"
 
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
@@ -85,7 +86,7 @@ float material_alpha(Surface s) {
 // dielectric interface and the metal by metallic, as the metalness workflow does.
 // Like every dispatch function, a plain `if` on the constants of brdf/model.glsl: folded
 // at compile time in a specialized pass, a run-time branch under UBER_MODELS.
-vec3 F_selected(Surface s, ModelParams p, float LoH) {
+vec3 F_base_selected(Surface s, ModelParams p, float LoH) {
     if (FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED) {
         return F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH);
     }
@@ -102,6 +103,35 @@ vec3 F_selected(Surface s, ModelParams p, float LoH) {
         return F_schlick(material_F0(s), cos_theta_schlick(p.eta_dielectric, LoH));
     }
     return F_schlick(material_F0(s), LoH);
+}
+
+// --- thin film (RTR4 sec. 9.11) ---
+// The film over the material's base (brdf/thin_film.glsl): over the dielectric part the
+// base index is eta_dielectric; over the metal part it is the conductor's eta + i k with
+// FRESNEL_CONDUCTOR, and otherwise the metalness workflow's F0 (base_color) turned into a
+// real index (ior_from_f0_rgb), as glTF KHR_materials_iridescence does. The two are mixed
+// by metallic like the base's own F, and the result fades in over the base's F_base
+// between 0 and FILM_FADE_NM: zero thickness is the base's Fresnel exactly (mix(a, b, 0)
+// is a), whatever its model, and the film's exact interfaces take over without a jump.
+// (Belcour and Barla's code fades the film's index to the medium's for the same reason.)
+vec3 F_film_selected(Surface s, ModelParams p, float LoH, vec3 F_base) {
+    vec3 dielectric = F_thin_film(p.film_eta, p.film_ior, p.film_thickness,
+                                  vec3(p.eta_dielectric), vec3(0.0), LoH);
+    vec3 metal_eta = FRESNEL_MODEL == FRESNEL_CONDUCTOR ? p.eta : ior_from_f0_rgb(s.base_color);
+    vec3 metal_k = FRESNEL_MODEL == FRESNEL_CONDUCTOR ? p.k : vec3(0.0);
+    vec3 metal = F_thin_film(p.film_eta, p.film_ior, p.film_thickness, metal_eta, metal_k, LoH);
+    vec3 film = mix(dielectric, metal, s.metallic);
+    return mix(F_base, film, smoothstep(0.0, FILM_FADE_NM, p.film_thickness));
+}
+
+// F(h, l) of the material: the base's Fresnel (F_base_selected), or a thin film's over it
+// with THIN_FILM. Without a film this is F_base_selected alone, as it always was.
+vec3 F_selected(Surface s, ModelParams p, float LoH) {
+    vec3 F = F_base_selected(s, p, LoH);
+#if UBER_MODELS || THIN_FILM
+    if (THIN_FILM != 0) F = F_film_selected(s, p, LoH, F);
+#endif
+    return F;
 }
 
 // The diffuse (subsurface) lobe of the selected model (RTR4 sec. 9.9).

@@ -32,6 +32,7 @@ int uber_diffuse_model;
 int uber_multiscatter;
 int uber_anisotropic;
 int uber_fresnel_internal;
+int uber_thin_film;  // thin film (RTR4 sec. 9.11)
 #define FRESNEL_MODEL uber_fresnel_model
 #define NDF_MODEL uber_ndf_model
 #define LAMBDA_FORM uber_lambda_form
@@ -41,6 +42,7 @@ int uber_fresnel_internal;
 #define MULTISCATTER uber_multiscatter
 #define ANISOTROPIC uber_anisotropic
 #define FRESNEL_INTERNAL uber_fresnel_internal
+#define THIN_FILM uber_thin_film  // thin film (RTR4 sec. 9.11)
 #else
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
@@ -70,6 +72,10 @@ int uber_fresnel_internal;
 #ifndef FRESNEL_INTERNAL
 #define FRESNEL_INTERNAL 0
 #endif
+// Thin film (RTR4 sec. 9.11): 1 where the material's F is a film's (brdf/thin_film.glsl).
+#ifndef THIN_FILM
+#define THIN_FILM 0
+#endif
 #endif  // UBER_MODELS
 
 // SPECULAR_LAMBDA_G2 is false where the specular term has a fused visibility form
@@ -89,6 +95,10 @@ struct ModelParams {
     float eta_dielectric;   // dielectric: n2 / n1
     vec3 k;                 // conductor: k / n1 per channel
     float gtr_gamma;        // GTR tail exponent
+    // --- thin film (RTR4 sec. 9.11), texel 7 ---
+    float film_thickness;   // nm
+    float film_eta;         // film index / medium index
+    float film_ior;         // film index (optical path)
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
@@ -99,7 +109,9 @@ ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t0 = texelFetch(table, ivec2(0, id), 0);
     vec4 t1 = texelFetch(table, ivec2(1, id), 0);
     vec4 t2 = texelFetch(table, ivec2(2, id), 0);
-    return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a);
+    vec4 t7 = texelFetch(table, ivec2(7, id), 0);  // thin film (RTR4 sec. 9.11)
+    return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a,
+                       t7.r, t7.g, t7.b);  // thin film
 }
 
 // The model group of material ``id``: which lighting permutation shades its pixels.
@@ -112,7 +124,7 @@ int fetch_model_group(sampler2D table, int id) {
 // float32; twin: app/reference/model.py model_codes):
 //   .g Fresnel:  fresnel | internal << 2
 //   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-//                | multiscatter << 8
+//                | multiscatter << 8 | thin_film << 13
 //   .a diffuse:  diffuse
 void fetch_model_codes(sampler2D table, int id) {
     ivec4 c = ivec4(texelFetch(table, ivec2(3, id), 0));
@@ -124,6 +136,7 @@ void fetch_model_codes(sampler2D table, int id) {
     uber_correlation = (c.b >> 6) & 1;
     uber_anisotropic = (c.b >> 7) & 1;
     uber_multiscatter = (c.b >> 8) & 1;
+    uber_thin_film = (c.b >> 13) & 1;  // thin film (RTR4 sec. 9.11)
     uber_diffuse_model = c.a;
 }
 #endif
