@@ -8,7 +8,8 @@ started from. The other commit is checked out into a temporary git worktree and 
 render in their own child processes with the same interpreter and the same GL backend;
 each child prints one SHA-256 per scene of the float32 HDR image (``Renderer.read_hdr``,
 before exposure and tone mapping) and of the 8-bit display image. The script exits 1 and
-names the scenes whose digests differ, 0 when every one matches.
+names the scenes whose digests differ, 0 when every one matches. A scene the other commit
+cannot read (it uses a key added since) is listed as new and not compared.
 
 Only ``app.gl.context.create_context``, ``app.scene.loader.load_scene`` and
 ``Renderer(gl, loaded)`` / ``render()`` / ``read_hdr()`` / ``read_ldr()`` are used, so the
@@ -39,7 +40,11 @@ from app.scene.loader import load_scene
 gl = create_context(sys.argv[2])
 out = {}
 for path in sorted(Path(sys.argv[1]).glob("*.toml")):
-    renderer = Renderer(gl, load_scene(path))
+    try:
+        renderer = Renderer(gl, load_scene(path))
+    except Exception as exc:  # a scene this tree cannot read (a key added since)
+        out[path.stem] = {"error": f"{type(exc).__name__}: {exc}"}
+        continue
     try:
         renderer.render()
         hdr = renderer.read_hdr()
@@ -94,13 +99,24 @@ def main(argv: list[str] | None = None) -> int:
                 check=False,
             )
     after = digests(REPO, scenes, args.backend)
-    differ = []
-    for name in sorted(set(before) | set(after)):
-        same = before.get(name) == after.get(name)
-        print(f"{'same' if same else 'DIFFERENT':9} {name}")
-        if not same:
+    differ, new = [], []
+    for name in sorted(after):
+        if "error" in after[name]:
+            print(f"{'BROKEN':9} {name}: {after[name]['error']}")
             differ.append(name)
-    print(f"{len(after) - len(differ)} of {len(after)} scenes bit-identical to {args.rev}")
+        elif "error" in before.get(name, {"error": ""}):
+            print(f"{'new':9} {name} ({args.rev} cannot read it)")
+            new.append(name)
+        else:
+            same = before[name] == after[name]
+            print(f"{'same' if same else 'DIFFERENT':9} {name}")
+            if not same:
+                differ.append(name)
+    compared = len(after) - len(new)
+    print(
+        f"{compared - len(differ)} of {compared} scenes bit-identical to {args.rev}"
+        + (f"; {len(new)} new" if new else "")
+    )
     return 1 if differ else 0
 
 
