@@ -103,15 +103,15 @@ def test_real_mouse_drag_orbits_the_camera(viewer):
         pytest.fail("xdotool is missing: run `bash scripts/dev.sh setup` (it installs it)")
     import glfw
 
-    glfw.set_window_pos(v.window, 0, 0)
     v.show_ui = False  # a press on a panel belongs to the panel, not to the camera
     for _ in range(5):
         v.step()
     start = v.scene.camera
+    window = str(glfw.get_x11_window(v.window))  # coordinates relative to the window itself
     drag = subprocess.Popen(
-        ["xdotool", "mousemove", "100", "90", "mousedown", "1", "sleep", "0.1",
-         "mousemove", "160", "100", "sleep", "0.1", "mousemove", "220", "110", "sleep", "0.1",
-         "mouseup", "1"],
+        ["xdotool", "mousemove", "--window", window, "100", "90", "mousedown", "1",
+         "sleep", "0.1", "mousemove", "--window", window, "160", "100", "sleep", "0.1",
+         "mousemove", "--window", window, "220", "110", "sleep", "0.1", "mouseup", "1"],
     )  # fmt: skip
     deadline = time.monotonic() + 10.0
     while drag.poll() is None and time.monotonic() < deadline:
