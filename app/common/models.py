@@ -36,6 +36,8 @@ DIFFUSE_MODELS = (
     "none",
     "burley_renormalized",
 )
+# --- sheen (RTR4 §9.10): the cloth layer's NDF; "none" (code 0) compiles the layer out ---
+SHEEN_MODELS = ("none", "charlie", "ashikhmin")
 
 # RTR4 §9.1: which reflections brdf_eval returns, a bitmask (``render.terms``).
 TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
@@ -51,6 +53,7 @@ _GLSL_PREFIXES = (
     ("G2", G2_MODELS),
     ("CORRELATION", CORRELATIONS),
     ("DIFFUSE", DIFFUSE_MODELS),
+    ("SHEEN", SHEEN_MODELS),  # sheen (RTR4 §9.10)
 )
 
 
@@ -81,6 +84,7 @@ class Model:
     multiscatter: bool = False
     anisotropic: bool = False
     internal: bool = False  # Schlick evaluated at the transmitted angle (n1 > n2)
+    sheen: str = "none"  # sheen (RTR4 §9.10): the cloth layer's NDF, SHEEN_MODELS
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
@@ -94,6 +98,7 @@ class Model:
             "MULTISCATTER": int(self.multiscatter),
             "ANISOTROPIC": int(self.anisotropic),
             "FRESNEL_INTERNAL": int(self.internal),
+            "SHEEN_MODEL": SHEEN_MODELS.index(self.sheen),  # sheen (RTR4 §9.10)
         }
 
     def describe(self) -> str:
@@ -109,6 +114,8 @@ class Model:
             parts.append(f"{self.correlation} lambda(phi)")
         flags = ("multiscatter", "anisotropic", "internal")
         parts += [name for name in flags if getattr(self, name)]
+        if self.sheen != "none":  # sheen (RTR4 §9.10)
+            parts.append(f"{self.sheen} sheen")
         return " + ".join(parts) or "standard"
 
 
@@ -133,6 +140,10 @@ class ModelParams:
     eta_dielectric: float = 1.5  # dielectric n2 / n1
     k: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))  # conductor k / n1
     gtr_gamma: float = 2.0  # GTR tail exponent (2 = GGX)
+    # sheen (RTR4 §9.10), texel 6: the layer's colour (linear RGB; black = no layer) and
+    # its perceptual roughness (alpha = r^2)
+    sheen_color: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))
+    sheen_roughness: float = 0.0
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); 4-7
@@ -148,7 +159,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
 
     * Fresnel: fresnel | internal << 2
     * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-      | multiscatter << 8
+      | multiscatter << 8 | sheen << 9
     * diffuse: diffuse
 
     Small integers, exact in float32."""
@@ -161,6 +172,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
         | d["CORRELATION"] << 6
         | d["ANISOTROPIC"] << 7
         | d["MULTISCATTER"] << 8
+        | d["SHEEN_MODEL"] << 9  # sheen (RTR4 §9.10): bits 9-10
     )
     return fresnel, specular, d["DIFFUSE_MODEL"]
 
@@ -177,6 +189,7 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
         multiscatter=bool((specular >> 8) & 1),
         anisotropic=bool((specular >> 7) & 1),
         internal=bool((fresnel >> 2) & 1),
+        sheen=SHEEN_MODELS[(specular >> 9) & 3],  # sheen (RTR4 §9.10)
     )
 
 
@@ -196,13 +209,17 @@ def pack_model_params(
         table[row, 1] = [*np.broadcast_to(p.eta, 3), p.eta_dielectric]
         table[row, 2] = [*np.broadcast_to(p.k, 3), p.gtr_gamma]
         table[row, 3] = [group, *model_codes(model)]
+        table[row, 6] = [*np.broadcast_to(p.sheen_color, 3), p.sheen_roughness]  # sheen
     return table
 
 
 def unpack_model_params(texels: np.ndarray) -> ModelParams:
     """Inverse of one row of ``pack_model_params`` (float32 values widened to float64)."""
     t = np.asarray(texels, np.float64)
-    return ModelParams(t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]))
+    return ModelParams(
+        t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]),
+        sheen_color=t[6, :3], sheen_roughness=float(t[6, 3]),  # sheen (RTR4 §9.10)
+    )  # fmt: skip
 
 
 def unpack_model(texels: np.ndarray) -> tuple[int, Model]:

@@ -25,6 +25,8 @@ def _params_key(p: ModelParams) -> tuple:
         p.eta_dielectric,
         tuple(np.broadcast_to(p.k, 3)),
         p.gtr_gamma,
+        tuple(np.broadcast_to(p.sheen_color, 3)),
+        p.sheen_roughness,  # sheen (RTR4 §9.10)
     )
 
 

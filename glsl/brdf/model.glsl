@@ -32,6 +32,7 @@ int uber_diffuse_model;
 int uber_multiscatter;
 int uber_anisotropic;
 int uber_fresnel_internal;
+int uber_sheen_model;  // sheen (RTR4 sec. 9.10)
 #define FRESNEL_MODEL uber_fresnel_model
 #define NDF_MODEL uber_ndf_model
 #define LAMBDA_FORM uber_lambda_form
@@ -41,6 +42,7 @@ int uber_fresnel_internal;
 #define MULTISCATTER uber_multiscatter
 #define ANISOTROPIC uber_anisotropic
 #define FRESNEL_INTERNAL uber_fresnel_internal
+#define SHEEN_MODEL uber_sheen_model
 #else
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
@@ -70,6 +72,10 @@ int uber_fresnel_internal;
 #ifndef FRESNEL_INTERNAL
 #define FRESNEL_INTERNAL 0
 #endif
+// sheen (RTR4 sec. 9.10): none unless a pass says otherwise (brdf/sheen.glsl)
+#ifndef SHEEN_MODEL
+#define SHEEN_MODEL SHEEN_NONE
+#endif
 #endif  // UBER_MODELS
 
 // SPECULAR_LAMBDA_G2 is false where the specular term has a fused visibility form
@@ -89,17 +95,23 @@ struct ModelParams {
     float eta_dielectric;   // dielectric: n2 / n1
     vec3 k;                 // conductor: k / n1 per channel
     float gtr_gamma;        // GTR tail exponent
+    // sheen (RTR4 sec. 9.10), texel 6
+    vec3 sheen_color;       // the cloth layer's colour; black: no layer
+    float sheen_roughness;  // its perceptual roughness (alpha = r^2)
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
 // app/reference/model.py pack_model_params):
 //   texel 0 (f90, 1/p), texel 1 (eta, eta_dielectric), texel 2 (k, gtr_gamma),
-//   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below.
+//   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below,
+//   texel 6 (sheen_color, sheen_roughness) (RTR4 sec. 9.10, brdf/sheen.glsl).
 ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t0 = texelFetch(table, ivec2(0, id), 0);
     vec4 t1 = texelFetch(table, ivec2(1, id), 0);
     vec4 t2 = texelFetch(table, ivec2(2, id), 0);
-    return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a);
+    vec4 t6 = texelFetch(table, ivec2(6, id), 0);  // sheen (RTR4 sec. 9.10)
+    return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a,
+                       t6.rgb, t6.a);  // sheen
 }
 
 // The model group of material ``id``: which lighting permutation shades its pixels.
@@ -112,7 +124,7 @@ int fetch_model_group(sampler2D table, int id) {
 // float32; twin: app/reference/model.py model_codes):
 //   .g Fresnel:  fresnel | internal << 2
 //   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-//                | multiscatter << 8
+//                | multiscatter << 8 | sheen << 9
 //   .a diffuse:  diffuse
 void fetch_model_codes(sampler2D table, int id) {
     ivec4 c = ivec4(texelFetch(table, ivec2(3, id), 0));
@@ -124,6 +136,7 @@ void fetch_model_codes(sampler2D table, int id) {
     uber_correlation = (c.b >> 6) & 1;
     uber_anisotropic = (c.b >> 7) & 1;
     uber_multiscatter = (c.b >> 8) & 1;
+    uber_sheen_model = (c.b >> 9) & 3;  // sheen (RTR4 sec. 9.10)
     uber_diffuse_model = c.a;
 }
 #endif
