@@ -64,6 +64,20 @@ MODELS: dict[str, dict] = {
         "thin_film": True, "metallic": 1.0, "base_color": [0.9, 0.6, 0.3], "film_ior": 2.0,
         "film_thickness": 900.0,
     },
+    # sheen (RTR4 §9.10): a cloth layer over a base, each NDF at its smooth and rough ends
+    "charlie sheen": {"sheen_color": [0.9, 0.6, 0.3], "sheen_roughness": 0.5},
+    "charlie sheen smooth": {"sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0},
+    "charlie sheen over metal": {
+        "preset": "gold", "sheen_color": [0.3, 0.5, 1.0], "sheen_roughness": 1.0,
+    },
+    "ashikhmin sheen": {"sheen": "ashikhmin", "sheen_color": [0.9, 0.6, 0.3]},
+    "ashikhmin sheen smooth": {
+        "sheen": "ashikhmin", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
+    },
+    "ashikhmin sheen rough": {
+        "sheen": "ashikhmin", "sheen_color": [0.5, 0.5, 0.5], "sheen_roughness": 1.0,
+        "diffuse": "oren_nayar",
+    },
 }  # fmt: skip
 
 ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material
@@ -160,6 +174,7 @@ SPECULAR_ONLY = {  # specular terms alone with F = 1: white metal, no diffuse lo
     and "preset" not in MODELS[name]
     and "diffuse" not in MODELS[name]
     and "medium_ior" not in MODELS[name]
+    and "sheen_color" not in MODELS[name]  # the sheen layer's energy: tests/test_sheen.py
 }
 
 

@@ -126,6 +126,14 @@ STRESS_MODELS: dict[str, dict] = {
         "anisotropy": -0.7, "g2": "height_direction_correlated",
     },
     "multiscatter burley": {"multiscatter": True, "diffuse": "burley"},
+    # sheen (RTR4 §9.10) at both roughness ends over an anisotropic and a multiscatter base
+    "charlie sheen r=1 over anisotropic ggx": {
+        "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 1.0, "anisotropy": 0.9,
+    },
+    "ashikhmin sheen r=0 over multiscatter": {
+        "sheen": "ashikhmin", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
+        "multiscatter": True,
+    },
 }  # fmt: skip
 
 # Surface variants: F0 = 0 and F0 = 1, through the metal and through the dielectric path.
@@ -755,6 +763,13 @@ def test_sanitized_nan_surfaces_shade_finite(gl_egl: GLContext, name: str) -> No
                 binds.append(ms)
                 ms.use(unit + 1)
                 program["u_ms_table"].value = unit + 1
+            if base.model.sheen != "none":  # sheen (RTR4 §9.10): its albedo table
+                from app.render.tables import sheen_texture
+
+                sh = sheen_texture(gl_egl.ctx)
+                binds.append(sh)
+                sh.use(unit + 2)
+                program["u_sheen_table"].value = unit + 2
 
         binds: list = []
         inputs = {"surface_a": a, "surface_b": b, "dir_n": n, "dir_l": l, "dir_v": v}

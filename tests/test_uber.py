@@ -30,6 +30,7 @@ from app.common.models import (
     LAMBDA_FORMS,
     MATERIAL_TEXELS,
     NDF_MODELS,
+    SHEEN_MODELS,
     Model,
     ModelParams,
     model_codes,
@@ -57,6 +58,7 @@ SCENES = (
     "stress",
     "sec13_rust_blend",
     "sec11_thin_film",  # thin film (RTR4 §9.11): films and a bare lens
+    "sec10_cloth",  # sheen (RTR4 §9.10): none, charlie, ashikhmin
 )
 SIZE = (320, 160)
 MAX_REL = 1e-5  # uber vs specialized, relative to max(|specialized|, 1e-3 peak)
@@ -71,6 +73,7 @@ CHOICES = {
     "anisotropic": (False, True),
     "internal": (False, True),
     "thin_film": (False, True),  # thin film (RTR4 §9.11)
+    "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
 }
 
 
@@ -137,7 +140,7 @@ def test_uber_image_depends_on_the_model_codes(gl_egl, name):
 
 def _all_models() -> list[Model]:
     """Every single-choice change from the standard model, plus a deterministic sample of
-    combinations (the full product has 40,960 models)."""
+    combinations (the full product has 122,880 models)."""
     out = [Model()]
     for key, values in CHOICES.items():
         out += [dataclasses.replace(Model(), **{key: v}) for v in values]
@@ -185,7 +188,7 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     outputs = (
         "vec4(FRESNEL_MODEL, NDF_MODEL, LAMBDA_FORM, G2_MODEL)",
         "vec4(CORRELATION, DIFFUSE_MODEL, MULTISCATTER, ANISOTROPIC)",
-        "vec4(FRESNEL_INTERNAL, SPECULAR_LAMBDA_G2 ? 1.0 : 0.0, 0.0, 0.0)",
+        "vec4(FRESNEL_INTERNAL, SPECULAR_LAMBDA_G2 ? 1.0 : 0.0, SHEEN_MODEL, 0.0)",
     )
     got = []
     try:
@@ -204,14 +207,14 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     finally:
         for tex in textures:
             tex.release()
-    got_all = np.concatenate([got[0], got[1], got[2][:, :2]], axis=1)
+    got_all = np.concatenate([got[0], got[1], got[2][:, :3]], axis=1)
     names = (
         "FRESNEL_MODEL", "NDF_MODEL", "LAMBDA_FORM", "G2_MODEL",
         "CORRELATION", "DIFFUSE_MODEL", "MULTISCATTER", "ANISOTROPIC", "FRESNEL_INTERNAL",
     )  # fmt: skip
     for row, m in enumerate(models):
         d = m.defines()
-        want = [d[n] for n in names] + [int(_specular_lambda_g2(m))]
+        want = [d[n] for n in names] + [int(_specular_lambda_g2(m)), d["SHEEN_MODEL"]]
         assert list(got_all[row].astype(int)) == want, m
 
 

@@ -94,6 +94,8 @@ class FloorPass:
         ]
         if r.lighting.ms_table is not None:
             textures.append(("u_ms_table", r.lighting.ms_table))
+        if r.lighting.sheen_table is not None:  # sheen (RTR4 §9.10)
+            textures.append(("u_sheen_table", r.lighting.sheen_table))
         for unit, (_, tex) in enumerate(textures):
             tex.use(unit)
         camera_to_world = gl_bytes(r.camera.camera_to_world)

@@ -31,7 +31,7 @@ from app.frame.camera import camera_frame, gl_bytes, projection_matrix, view_mat
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import MeshDrawable
-from app.render.tables import material_texture, ms_texture
+from app.render.tables import material_texture, ms_texture, sheen_texture
 from app.scene.loader import LoadedScene
 
 
@@ -58,6 +58,9 @@ class ForwardRenderer:
         self.ms_table = None
         if any(model.multiscatter for model in self.materials.models):
             self.ms_table = ms_texture(ctx)
+        self.sheen_table = None  # sheen (RTR4 §9.10): unit 3, the layers' maps from 4
+        if any(model.sheen != "none" for model in self.materials.models):
+            self.sheen_table = sheen_texture(ctx)
         packed = pack_lights(self.lights)
         self.light_texture = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -111,6 +114,8 @@ class ForwardRenderer:
         self.material_texture.use(1)
         if self.ms_table is not None:
             self.ms_table.use(2)
+        if self.sheen_table is not None:
+            self.sheen_table.use(3)
         for d in self.drawables:
             # A mirroring matrix reverses the winding: front faces stay front faces (for
             # gl_FrontFacing, which two-sided surfaces use, as well as for culling).
@@ -122,11 +127,12 @@ class ForwardRenderer:
             prog = d.program
             d.bind_transform(view_bytes, proj_bytes)
             prog["u_camera_to_world"].write(camera_to_world)
-            d.bind_material(first_unit=3)
+            d.bind_material(first_unit=4)
             values = {
                 "u_lights": 0,
                 "u_materials": 1,
                 "u_ms_table": 2,
+                "u_sheen_table": 3,
                 "u_light_count": len(self.lights),
                 "u_camera_pos": camera_pos,
                 "u_tan_half_fov": self.camera.tan_half_fov,
@@ -152,4 +158,6 @@ class ForwardRenderer:
             obj.release()
         if self.ms_table is not None:
             self.ms_table.release()
+        if self.sheen_table is not None:
+            self.sheen_table.release()
         self.shaders.release()

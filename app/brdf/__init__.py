@@ -84,7 +84,8 @@ def run_material_kernel(
 ) -> np.ndarray:
     """``run_kernel`` with everything a material's BRDF needs: the BRDF includes, the
     model's defines, its one-row material table bound to ``u_materials`` and, with
-    multiple scattering, the table bound to ``u_ms_table``. Returns (N, 4) float64."""
+    multiple scattering, the table bound to ``u_ms_table``, with sheen its albedo table
+    bound to ``u_sheen_table``. Returns (N, 4) float64."""
     table = pack_model_params([params.params], [0], [params.model])
     textures: list[Any] = []
 
@@ -101,6 +102,13 @@ def run_material_kernel(
             textures.append(ms)
             ms.use(unit + 1)
             program["u_ms_table"].value = unit + 1
+        if params.model.sheen != "none":  # sheen (RTR4 §9.10): its albedo table
+            from app.render.tables import sheen_texture
+
+            sh = sheen_texture(ctx)
+            textures.append(sh)
+            sh.use(unit + 2)
+            program["u_sheen_table"].value = unit + 2
 
     try:
         return run_kernel(

@@ -36,6 +36,8 @@ DIFFUSE_MODELS = (
     "none",
     "burley_renormalized",
 )
+# --- sheen (RTR4 §9.10): the cloth layer's NDF; "none" (code 0) compiles the layer out ---
+SHEEN_MODELS = ("none", "charlie", "ashikhmin")
 
 # RTR4 §9.1: which reflections brdf_eval returns, a bitmask (``render.terms``).
 TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
@@ -51,6 +53,7 @@ _GLSL_PREFIXES = (
     ("G2", G2_MODELS),
     ("CORRELATION", CORRELATIONS),
     ("DIFFUSE", DIFFUSE_MODELS),
+    ("SHEEN", SHEEN_MODELS),  # sheen (RTR4 §9.10)
 )
 
 
@@ -83,6 +86,7 @@ class Model:
     internal: bool = False  # Schlick evaluated at the transmitted angle (n1 > n2)
     # --- thin film (RTR4 §9.11): F replaced by a film's interference reflectance ---
     thin_film: bool = False
+    sheen: str = "none"  # sheen (RTR4 §9.10): the cloth layer's NDF, SHEEN_MODELS
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
@@ -97,6 +101,7 @@ class Model:
             "ANISOTROPIC": int(self.anisotropic),
             "FRESNEL_INTERNAL": int(self.internal),
             "THIN_FILM": int(self.thin_film),  # thin film (RTR4 §9.11)
+            "SHEEN_MODEL": SHEEN_MODELS.index(self.sheen),  # sheen (RTR4 §9.10)
         }
 
     def describe(self) -> str:
@@ -112,6 +117,8 @@ class Model:
             parts.append(f"{self.correlation} lambda(phi)")
         flags = ("multiscatter", "anisotropic", "internal", "thin_film")
         parts += [name for name in flags if getattr(self, name)]
+        if self.sheen != "none":  # sheen (RTR4 §9.10)
+            parts.append(f"{self.sheen} sheen")
         return " + ".join(parts) or "standard"
 
 
@@ -140,6 +147,10 @@ class ModelParams:
     film_thickness: float = 0.0  # nm; 0 = the base's Fresnel alone
     film_eta: float = 1.33  # film index / medium index (n2 / n1)
     film_ior: float = 1.33  # film index n2 itself (the optical path 2 n2 d cos(theta2))
+    # sheen (RTR4 §9.10), texel 6: the layer's colour (linear RGB; black = no layer) and
+    # its perceptual roughness (alpha = r^2)
+    sheen_color: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))
+    sheen_roughness: float = 0.0
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); 4-7
@@ -155,7 +166,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
 
     * Fresnel: fresnel | internal << 2
     * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-      | multiscatter << 8 | thin_film << 13 (bits 9-12 are the other layered models')
+      | multiscatter << 8 | sheen << 9 | thin_film << 13 (bits 11-12: the clear coat's)
     * diffuse: diffuse
 
     Small integers, exact in float32."""
@@ -169,6 +180,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
         | d["ANISOTROPIC"] << 7
         | d["MULTISCATTER"] << 8
         | d["THIN_FILM"] << 13  # thin film (RTR4 §9.11)
+        | d["SHEEN_MODEL"] << 9  # sheen (RTR4 §9.10): bits 9-10
     )
     return fresnel, specular, d["DIFFUSE_MODEL"]
 
@@ -186,6 +198,7 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
         anisotropic=bool((specular >> 7) & 1),
         internal=bool((fresnel >> 2) & 1),
         thin_film=bool((specular >> 13) & 1),  # thin film (RTR4 §9.11)
+        sheen=SHEEN_MODELS[(specular >> 9) & 3],  # sheen (RTR4 §9.10)
     )
 
 
@@ -207,6 +220,7 @@ def pack_model_params(
         table[row, 3] = [group, *model_codes(model)]
         if model.thin_film:  # thin film (RTR4 §9.11): (thickness nm, n2/n1, n2, 0)
             table[row, 7] = [p.film_thickness, p.film_eta, p.film_ior, 0.0]
+        table[row, 6] = [*np.broadcast_to(p.sheen_color, 3), p.sheen_roughness]  # sheen
     return table
 
 
@@ -217,6 +231,7 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
         t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]),
         # Thin film (RTR4 §9.11), texel 7.
         film_thickness=float(t[7, 0]), film_eta=float(t[7, 1]), film_ior=float(t[7, 2]),
+        sheen_color=t[6, :3], sheen_roughness=float(t[6, 3]),  # sheen (RTR4 §9.10)
     )  # fmt: skip
 
 

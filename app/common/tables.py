@@ -47,3 +47,26 @@ def read_ms_table(size: int = DEFAULT_SIZE) -> np.ndarray:
         )
     table.setflags(write=False)
     return table
+
+
+# --- sheen (RTR4 §9.10) ---------------------------------------------------------------------
+# The directional albedo E(mu, r) of the sheen lobes (app/reference/sheen.py), float32
+# (n_r, n_mu, 2): channel 0 Charlie, channel 1 Ashikhmin, both with Neubelt's visibility.
+SHEEN_TABLE_SIZE = 64
+
+
+def sheen_table_path(size: int = SHEEN_TABLE_SIZE) -> Path:
+    """Where the shipped sheen table lives (app/common/data/sheen_table_N.npy)."""
+    return DATA_DIR / f"sheen_table_{size}.npy"
+
+
+def read_sheen_table(size: int = SHEEN_TABLE_SIZE) -> np.ndarray:
+    """The stored float32 (size, size, 2) sheen albedo table, read-only."""
+    path = sheen_table_path(size)
+    table = np.load(path)
+    if table.shape != (size, size, 2) or table.dtype != np.float32:
+        raise ValueError(
+            f"{path}: expected float32 {(size, size, 2)}, got {table.dtype} {table.shape}"
+        )
+    table.setflags(write=False)
+    return table

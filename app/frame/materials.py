@@ -26,6 +26,8 @@ def _params_key(p: ModelParams) -> tuple:
         tuple(np.broadcast_to(p.k, 3)),
         p.gtr_gamma,
         (p.film_thickness, p.film_eta, p.film_ior),  # thin film (RTR4 §9.11)
+        tuple(np.broadcast_to(p.sheen_color, 3)),
+        p.sheen_roughness,  # sheen (RTR4 §9.10)
     )
 
 

@@ -305,6 +305,20 @@ def brdf_factors(
             ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
         )
     f_diffuse = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+    if model.sheen != "none":
+        # sheen (RTR4 §9.10, app/reference/sheen.py): the cloth layer over the whole base,
+        # f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))), in f_spec.
+        from app.reference import sheen  # its table loads only when a model uses it
+
+        table = sheen.load_table()
+        E_l = sheen.sheen_E(table, model.sheen, NoL, p.sheen_roughness)
+        E_v = sheen.sheen_E(table, model.sheen, NoV, p.sheen_roughness)
+        scale = sheen.sheen_scaling(p.sheen_color, E_l, E_v)[..., None]
+        alpha_sheen = sheen.sheen_alpha(p.sheen_roughness)
+        f_spec = f_spec * scale + sheen.f_sheen(
+            model.sheen, p.sheen_color, alpha_sheen, n, h, NoL, NoV
+        )
+        f_diffuse = f_diffuse * scale
     return BrdfFactors(lit, F, np.asarray(D, np.float64), np.asarray(G2, np.float64), f_spec,
                        f_diffuse)  # fmt: skip
 

@@ -265,6 +265,11 @@ class DebugPass:
             ("u_lights", lighting.lights),
             ("u_materials", lighting.materials),
             *([("u_ms_table", lighting.ms_table)] if lighting.ms_table is not None else []),
+            *(
+                [("u_sheen_table", lighting.sheen_table)]
+                if lighting.sheen_table is not None
+                else []
+            ),  # sheen (RTR4 §9.10)
             *([("u_tile_masks", r.culler.masks)] if r.culler is not None else []),
         ]
         for unit, (_, tex) in enumerate(textures):

@@ -26,7 +26,7 @@ from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
-from app.render.tables import material_texture, ms_texture
+from app.render.tables import material_texture, ms_texture, sheen_texture
 
 
 class LightingPass:
@@ -78,6 +78,9 @@ class LightingPass:
         self.ms_table = None
         if uber or any(model.multiscatter for model in table.models):
             self.ms_table = ms_texture(ctx, ms_table)
+        self.sheen_table = None  # sheen (RTR4 §9.10): the albedo table, where a model uses it
+        if uber or any(model.sheen != "none" for model in table.models):
+            self.sheen_table = sheen_texture(ctx)
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
@@ -108,6 +111,8 @@ class LightingPass:
         ]
         if self.ms_table is not None:
             textures.append(("u_ms_table", self.ms_table))
+        if self.sheen_table is not None:
+            textures.append(("u_sheen_table", self.sheen_table))
         if self.culler is not None:
             textures.append(("u_tile_masks", self.culler.masks))
         for unit, (_, tex) in enumerate(textures):
@@ -137,3 +142,5 @@ class LightingPass:
             obj.release()
         if self.ms_table is not None:
             self.ms_table.release()
+        if self.sheen_table is not None:
+            self.sheen_table.release()

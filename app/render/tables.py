@@ -18,7 +18,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from app.common.tables import read_ms_table
+from app.common.tables import read_ms_table, read_sheen_table
 from app.frame.materials import MaterialTable
 
 
@@ -41,4 +41,18 @@ def material_texture(ctx: moderngl.Context, table: MaterialTable) -> moderngl.Te
     packed = table.packed()
     tex = ctx.texture((packed.shape[1], packed.shape[0]), 4, packed.tobytes(), dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return tex
+
+
+def sheen_texture(ctx: moderngl.Context) -> moderngl.Texture:
+    """A new RG32F texture of the shipped sheen albedo table (RTR4 §9.10; app/common/
+    tables.py, computed by app/reference/sheen.py): width n_mu, height n_r, texel (j, i) =
+    (E_charlie, E_ashikhmin) on the multiple-scattering table's grids, NEAREST (read by
+    hand in glsl/brdf/sheen.glsl sheen_E). The caller releases it."""
+    table = read_sheen_table()
+    n_r, n_mu = table.shape[:2]
+    tex = ctx.texture((n_mu, n_r), 2, np.ascontiguousarray(table).tobytes(), dtype="f4")
+    tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    tex.repeat_x = False
+    tex.repeat_y = False
     return tex

@@ -8,6 +8,7 @@ numbers, and accept only the types the documentation names (no "1.0" for 1.0).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Annotated, Literal
 
 import numpy as np
@@ -29,6 +30,7 @@ from app.common.models import (
     G2_MODELS,
     LAMBDA_FORMS,
     NDF_MODELS,
+    SHEEN_MODELS,
     MaterialParams,
     Model,
     ModelParams,
@@ -253,6 +255,11 @@ class Material(_Strict):
     thin_film: Annotated[bool, Field(strict=True)] = False
     film_thickness: Annotated[Real, Field(ge=0.0, le=5000.0)] | None = None  # nm (default 400)
     film_ior: Ior | None = None  # the film's index (default 1.33, water/soap)
+    # Sheen (RTR4 §9.10): a cloth layer over the material above. No sheen_color (or black)
+    # means no layer, compiled out; sheen picks the NDF ("none" turns a layer off).
+    sheen: Literal[SHEEN_MODELS] = "charlie"  # type: ignore[valid-type]
+    sheen_color: UnitColor | None = None  # linear RGB
+    sheen_roughness: Unit | None = None  # perceptual; alpha = sheen_roughness^2; default 0.5
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -298,6 +305,8 @@ class Material(_Strict):
             raise ValueError(
                 "multiscatter: the compensation tables are for the isotropic GGX (ndf = 'ggx')"
             )
+        if self.sheen_roughness is not None and self.sheen_color is None:  # sheen
+            raise ValueError("sheen_roughness: applies only with a 'sheen_color'")
         if self.fresnel == "conductor" and self._conductor_index() is None:
             raise ValueError(
                 "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
@@ -358,6 +367,17 @@ class Material(_Strict):
             film_eta=(1.33 if self.film_ior is None else self.film_ior) / medium,
             film_ior=1.33 if self.film_ior is None else self.film_ior,
         )
+        # sheen (RTR4 §9.10): only a non-black colour with a model makes a layer; without
+        # one the parameters stay zero, so such materials share a row and a program.
+        sheen_on = (
+            self.sheen != "none" and self.sheen_color is not None and max(self.sheen_color) > 0
+        )
+        if sheen_on:
+            params = replace(
+                params,
+                sheen_color=np.asarray(self.sheen_color, np.float64),
+                sheen_roughness=0.5 if self.sheen_roughness is None else self.sheen_roughness,
+            )
         anisotropy = 0.0 if self.anisotropy is None else self.anisotropy
         model = Model(
             fresnel=self.fresnel,
@@ -370,6 +390,7 @@ class Material(_Strict):
             anisotropic=anisotropy != 0.0,
             internal=self.fresnel == "schlick" and eta_d < 1.0,
             thin_film=self.thin_film,  # thin film (RTR4 §9.11)
+            sheen=self.sheen if sheen_on else "none",  # sheen
         )
         roughness = 0.5 if self.roughness is None else self.roughness
         return MaterialParams(

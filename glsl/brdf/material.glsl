@@ -11,6 +11,7 @@
 #include "brdf/multiscatter.glsl"
 #include "brdf/specular.glsl"
 #include "brdf/thin_film.glsl"
+#include "brdf/sheen.glsl"
 
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
@@ -240,6 +241,17 @@ BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 
     }
 #endif
     vec3 f_diffuse = f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH);
+#if UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
+    // sheen (RTR4 sec. 9.10, brdf/sheen.glsl): the cloth layer over the whole base,
+    // f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))). The sheen is a
+    // surface reflection, so it joins f_spec (TERM_SPECULAR; the debug views' f_spec).
+    if (SHEEN_MODEL != SHEEN_NONE) {
+        float scale = sheen_scaling(p.sheen_color, p.sheen_roughness, NoL, NoV);
+        f_spec = f_spec * scale
+               + f_sheen_selected(p.sheen_color, p.sheen_roughness, n, h, NoL, NoV);
+        f_diffuse *= scale;
+    }
+#endif
     return BrdfFactors(F, D, G2, f_spec, f_diffuse);
 }
 

@@ -33,6 +33,7 @@ int uber_multiscatter;
 int uber_anisotropic;
 int uber_fresnel_internal;
 int uber_thin_film;  // thin film (RTR4 sec. 9.11)
+int uber_sheen_model;  // sheen (RTR4 sec. 9.10)
 #define FRESNEL_MODEL uber_fresnel_model
 #define NDF_MODEL uber_ndf_model
 #define LAMBDA_FORM uber_lambda_form
@@ -43,6 +44,7 @@ int uber_thin_film;  // thin film (RTR4 sec. 9.11)
 #define ANISOTROPIC uber_anisotropic
 #define FRESNEL_INTERNAL uber_fresnel_internal
 #define THIN_FILM uber_thin_film  // thin film (RTR4 sec. 9.11)
+#define SHEEN_MODEL uber_sheen_model
 #else
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
@@ -76,6 +78,10 @@ int uber_thin_film;  // thin film (RTR4 sec. 9.11)
 #ifndef THIN_FILM
 #define THIN_FILM 0
 #endif
+// sheen (RTR4 sec. 9.10): none unless a pass says otherwise (brdf/sheen.glsl)
+#ifndef SHEEN_MODEL
+#define SHEEN_MODEL SHEEN_NONE
+#endif
 #endif  // UBER_MODELS
 
 // SPECULAR_LAMBDA_G2 is false where the specular term has a fused visibility form
@@ -99,19 +105,25 @@ struct ModelParams {
     float film_thickness;   // nm
     float film_eta;         // film index / medium index
     float film_ior;         // film index (optical path)
+    // sheen (RTR4 sec. 9.10), texel 6
+    vec3 sheen_color;       // the cloth layer's colour; black: no layer
+    float sheen_roughness;  // its perceptual roughness (alpha = r^2)
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
 // app/reference/model.py pack_model_params):
 //   texel 0 (f90, 1/p), texel 1 (eta, eta_dielectric), texel 2 (k, gtr_gamma),
-//   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below.
+//   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below,
+//   texel 6 (sheen_color, sheen_roughness) (RTR4 sec. 9.10, brdf/sheen.glsl).
 ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t0 = texelFetch(table, ivec2(0, id), 0);
     vec4 t1 = texelFetch(table, ivec2(1, id), 0);
     vec4 t2 = texelFetch(table, ivec2(2, id), 0);
+    vec4 t6 = texelFetch(table, ivec2(6, id), 0);  // sheen (RTR4 sec. 9.10)
     vec4 t7 = texelFetch(table, ivec2(7, id), 0);  // thin film (RTR4 sec. 9.11)
     return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a,
-                       t7.r, t7.g, t7.b);  // thin film
+                       t7.r, t7.g, t7.b,   // thin film
+                       t6.rgb, t6.a);      // sheen
 }
 
 // The model group of material ``id``: which lighting permutation shades its pixels.
@@ -124,7 +136,7 @@ int fetch_model_group(sampler2D table, int id) {
 // float32; twin: app/reference/model.py model_codes):
 //   .g Fresnel:  fresnel | internal << 2
 //   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-//                | multiscatter << 8 | thin_film << 13
+//                | multiscatter << 8 | sheen << 9 | thin_film << 13
 //   .a diffuse:  diffuse
 void fetch_model_codes(sampler2D table, int id) {
     ivec4 c = ivec4(texelFetch(table, ivec2(3, id), 0));
@@ -137,6 +149,7 @@ void fetch_model_codes(sampler2D table, int id) {
     uber_anisotropic = (c.b >> 7) & 1;
     uber_multiscatter = (c.b >> 8) & 1;
     uber_thin_film = (c.b >> 13) & 1;  // thin film (RTR4 sec. 9.11)
+    uber_sheen_model = (c.b >> 9) & 3;  // sheen (RTR4 sec. 9.10)
     uber_diffuse_model = c.a;
 }
 #endif

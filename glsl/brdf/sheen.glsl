@@ -1,0 +1,127 @@
+// A cloth sheen layer over any base BRDF (RTR4 sec. 9.10). Twin: app/reference/sheen.py.
+// Microfacet sheen: an NDF whose microfacets lie near the horizon (fibres standing up from
+// the cloth), a soft visibility term instead of Smith's, no Fresnel:
+//   f_sheen = sheen_color D(h) V(n.l, n.v),
+// layered over the base as glTF's KHR_materials_sheen does (its "albedo scaling"):
+//   f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))),
+// E(mu) the sheen lobe's directional albedo with sheen_color = 1, read from a table the
+// float64 twin computes by quadrature (u_sheen_table, app/common/data/sheen_table_64.npy).
+// Everything is inside #if UBER_MODELS || SHEEN_MODEL != SHEEN_NONE: a material without
+// sheen compiles exactly as before.
+#ifndef PBS_SHEEN_GLSL
+#define PBS_SHEEN_GLSL
+
+#include "common/constants.glsl"
+#include "brdf/model.glsl"
+#include "brdf/ndf.glsl"
+
+#if UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
+
+// Ashikhmin & Premoze 2007's amplitude of the inverted Gaussian (their velvet's A = 4).
+const float ASHIKHMIN_AMPLITUDE = 4.0;
+// The inverted Gaussian is dropped where its exponent exceeds float32's normal range.
+const float ASHIKHMIN_EXPONENT_CUTOFF = 87.0;
+
+// alpha = r^2 with r floored at MIN_PERCEPTUAL_ROUGHNESS, as the base's alpha.
+float sheen_alpha(float sheen_roughness) {
+    float r = max(sheen_roughness, MIN_PERCEPTUAL_ROUGHNESS);
+    return r * r;
+}
+
+// Estevez & Kulla 2017, "Production Friendly Microfacet Sheen BRDF" ("Charlie"):
+//   D(m) = chi+(n.m) (2 + 1/alpha) sin(theta_m)^(1/alpha) / (2 pi).
+// Precision: sin^(1/alpha) = exp(ln(sin^2)/(2 alpha)), 1/alpha up to 494; at the peak near
+// the horizon ln(sin^2) = ln(1 - (n.m)^2) by log_one_minus, elsewhere ln(|n x m|^2) with
+// |n x m|^2 floored at 1e-30 only to keep ln(0) out (D < 1e-14 there).
+float D_charlie(vec3 n, vec3 m, float alpha) {
+    float NoM = dot(n, m);
+    if (NoM <= 0.0) return 0.0;
+    vec3 nxm = cross(n, m);
+    float s2 = max(dot(nxm, nxm), 1e-30);
+    float c2 = NoM * NoM;
+    float inv_a = 1.0 / alpha;
+    float ln_s2 = c2 < 0.25 ? log_one_minus(c2) : log(s2);
+    return (2.0 + inv_a) * (0.5 * INV_PI) * exp(0.5 * inv_a * ln_s2);
+}
+
+// Ashikhmin, Premoze & Shirley 2000; Ashikhmin & Premoze 2007, "Distribution-based BRDFs"
+// (inverted Gaussian velvet, amplitude k_amp = 4; RTR4 sec. 9.10):
+//   D(m) = chi+(n.m) (1 + k_amp exp(-cot^2(theta_m)/alpha^2) / sin^4(theta_m)) / (pi (1 + k_amp alpha^2)).
+// Precision: cot^2/alpha^2 = (n.m)^2 / (alpha^2 |n x m|^2); the exponent test is written as
+// a product, so sin = 0 needs no division, and where it passes sin^2 >= 1/88 (no overflow).
+float D_ashikhmin(vec3 n, vec3 m, float alpha) {
+    float NoM = dot(n, m);
+    if (NoM <= 0.0) return 0.0;
+    vec3 nxm = cross(n, m);
+    float s2 = dot(nxm, nxm);
+    float a2 = alpha * alpha;
+    float c2 = NoM * NoM;
+    float bump = 0.0;
+    if (c2 <= ASHIKHMIN_EXPONENT_CUTOFF * a2 * s2) {
+        bump = ASHIKHMIN_AMPLITUDE * exp(-c2 / (a2 * s2)) / (s2 * s2);
+    }
+    return (1.0 + bump) / (PI * (1.0 + ASHIKHMIN_AMPLITUDE * a2));
+}
+
+// Ashikhmin & Premoze 2007; Neubelt & Pettineo 2013, "Crafting a Next-Gen Material Pipeline
+// for The Order: 1886": V = 1/(4 (n.l + n.v - n.l n.v)). The sum is taken as
+// n.l + n.v (1 - n.l), all terms >= 0: no cancellation; >= MIN_N_DOT_V, so V <= 2500.
+float V_neubelt(float NoL, float NoV) {
+    return 1.0 / (4.0 * (NoL + NoV * (1.0 - NoL)));
+}
+
+// The sheen NDF of the selected model.
+float D_sheen_selected(vec3 n, vec3 h, float alpha) {
+    if (SHEEN_MODEL == SHEEN_ASHIKHMIN) return D_ashikhmin(n, h, alpha);
+    return D_charlie(n, h, alpha);
+}
+
+// f_sheen = sheen_color D(h) V(n.l, n.v).
+vec3 f_sheen_selected(vec3 sheen_color, float sheen_roughness, vec3 n, vec3 h,
+                      float NoL, float NoV) {
+    float alpha = sheen_alpha(sheen_roughness);
+    return sheen_color * (D_sheen_selected(n, h, alpha) * V_neubelt(NoL, NoV));
+}
+
+// --- the albedo table ---
+// u_sheen_table (app/render/tables.py sheen_texture): RG32F, NEAREST, 64 x 64; texel (j, i)
+// = (E_charlie, E_ashikhmin) at mu_j = (j/63)^4 and r_i = 0.045 + 0.955 (i/63)^2, the grids
+// of the multiple-scattering table. Bilinear by hand in (sqrt(sqrt(mu)), sqrt((r - 0.045)
+// / 0.955)) with texelFetch, the twin's sums (GPU filtering uses fixed-point weights).
+uniform sampler2D u_sheen_table;
+
+int sheen_cell(float s, int n, out float t) {
+    int i = min(int(s), n - 2);
+    t = s - float(i);
+    return i;
+}
+
+// E(mu, r) of the selected model's lobe (sheen_color = 1).
+float sheen_E(float mu, float sheen_roughness) {
+    ivec2 size = textureSize(u_sheen_table, 0);
+    float r = clamp(sheen_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    float u = (r - MIN_PERCEPTUAL_ROUGHNESS) / (1.0 - MIN_PERCEPTUAL_ROUGHNESS);
+    float tx, ty;
+    int j = sheen_cell(sqrt(sqrt(clamp(mu, 0.0, 1.0))) * float(size.x - 1), size.x, tx);
+    int i = sheen_cell(sqrt(u) * float(size.y - 1), size.y, ty);
+    vec2 a = texelFetch(u_sheen_table, ivec2(j, i), 0).rg;
+    vec2 b = texelFetch(u_sheen_table, ivec2(j + 1, i), 0).rg;
+    vec2 c = texelFetch(u_sheen_table, ivec2(j, i + 1), 0).rg;
+    vec2 d = texelFetch(u_sheen_table, ivec2(j + 1, i + 1), 0).rg;
+    vec2 e = (1.0 - ty) * ((1.0 - tx) * a + tx * b) + ty * ((1.0 - tx) * c + tx * d);
+    return SHEEN_MODEL == SHEEN_ASHIKHMIN ? e.g : e.r;
+}
+
+// glTF KHR_materials_sheen's albedo scaling, 1 - max(sheen_color) max(E(n.l), E(n.v)):
+// the light the sheen leaves to the base. The max over both directions (glTF's min of the
+// two scalings) keeps f reciprocal. Clamped at 0: Charlie's E with Neubelt's V exceeds 1
+// toward grazing at low sheen roughness (docs/cloth.md), where the base would turn negative.
+float sheen_scaling(vec3 sheen_color, float sheen_roughness, float NoL, float NoV) {
+    float c = max(sheen_color.r, max(sheen_color.g, sheen_color.b));
+    float E = max(sheen_E(NoL, sheen_roughness), sheen_E(NoV, sheen_roughness));
+    return clamp(1.0 - c * E, 0.0, 1.0);
+}
+
+#endif  // UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
+
+#endif
