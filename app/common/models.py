@@ -10,7 +10,7 @@ pass reads them from a per-material table (``pack_model_params``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -36,6 +36,10 @@ DIFFUSE_MODELS = (
     "none",
     "burley_renormalized",
 )
+# --- clear coat (RTR4 §9.12) ---
+# A transparent layer over any base model: none (compiled out), Filament's / glTF
+# KHR_materials_clearcoat's cheap composition, Weidlich & Wilkie 2007's refracted one.
+CLEARCOAT_MODELS = ("none", "filament", "weidlich_wilkie")
 
 # RTR4 §9.1: which reflections brdf_eval returns, a bitmask (``render.terms``).
 TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
@@ -51,6 +55,7 @@ _GLSL_PREFIXES = (
     ("G2", G2_MODELS),
     ("CORRELATION", CORRELATIONS),
     ("DIFFUSE", DIFFUSE_MODELS),
+    ("CLEARCOAT", CLEARCOAT_MODELS),  # clear coat (RTR4 §9.12)
 )
 
 
@@ -81,6 +86,7 @@ class Model:
     multiscatter: bool = False
     anisotropic: bool = False
     internal: bool = False  # Schlick evaluated at the transmitted angle (n1 > n2)
+    clearcoat: str = "none"  # clear coat (RTR4 §9.12): a CLEARCOAT_MODELS name
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
@@ -94,6 +100,7 @@ class Model:
             "MULTISCATTER": int(self.multiscatter),
             "ANISOTROPIC": int(self.anisotropic),
             "FRESNEL_INTERNAL": int(self.internal),
+            "CLEARCOAT_MODEL": CLEARCOAT_MODELS.index(self.clearcoat),  # RTR4 §9.12
         }
 
     def describe(self) -> str:
@@ -109,6 +116,8 @@ class Model:
             parts.append(f"{self.correlation} lambda(phi)")
         flags = ("multiscatter", "anisotropic", "internal")
         parts += [name for name in flags if getattr(self, name)]
+        if self.clearcoat != "none":  # clear coat (RTR4 §9.12)
+            parts.append(f"{self.clearcoat} clear coat")
         return " + ".join(parts) or "standard"
 
 
@@ -133,6 +142,13 @@ class ModelParams:
     eta_dielectric: float = 1.5  # dielectric n2 / n1
     k: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))  # conductor k / n1
     gtr_gamma: float = 2.0  # GTR tail exponent (2 = GGX)
+    # --- clear coat (RTR4 §9.12; material-table texels 4 and 5) ---
+    clearcoat: float = 0.0  # strength 0..1 (0: no coat, and Model.clearcoat is "none")
+    clearcoat_roughness: float = 0.0  # perceptual; the coat's alpha = r^2 (floored)
+    clearcoat_eta: float = 1.5  # the coat's index / the medium's (medium_ior)
+    # The coat's transmittance at normal incidence through its thickness, once (linear RGB):
+    # Beer-Lambert, T0 = exp(-sigma_a d); along a path at angle theta_t inside, T0^(1/cos).
+    clearcoat_color: np.ndarray = field(default_factory=_rgb)
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); 4-7
@@ -148,7 +164,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
 
     * Fresnel: fresnel | internal << 2
     * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-      | multiscatter << 8
+      | multiscatter << 8 | clearcoat << 11
     * diffuse: diffuse
 
     Small integers, exact in float32."""
@@ -161,6 +177,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
         | d["CORRELATION"] << 6
         | d["ANISOTROPIC"] << 7
         | d["MULTISCATTER"] << 8
+        | d["CLEARCOAT_MODEL"] << 11  # clear coat (RTR4 §9.12): bits 11-12
     )
     return fresnel, specular, d["DIFFUSE_MODEL"]
 
@@ -177,6 +194,7 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
         multiscatter=bool((specular >> 8) & 1),
         anisotropic=bool((specular >> 7) & 1),
         internal=bool((fresnel >> 2) & 1),
+        clearcoat=CLEARCOAT_MODELS[(specular >> 11) & 3],  # clear coat (RTR4 §9.12)
     )
 
 
@@ -196,13 +214,27 @@ def pack_model_params(
         table[row, 1] = [*np.broadcast_to(p.eta, 3), p.eta_dielectric]
         table[row, 2] = [*np.broadcast_to(p.k, 3), p.gtr_gamma]
         table[row, 3] = [group, *model_codes(model)]
+        # Clear coat (RTR4 §9.12), texels 4-5: (color, strength), (roughness, eta, 0, 0);
+        # zero when the material has no coat (strength 0).
+        if p.clearcoat > 0.0:
+            table[row, 4] = [*np.broadcast_to(p.clearcoat_color, 3), p.clearcoat]
+            table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
     return table
 
 
 def unpack_model_params(texels: np.ndarray) -> ModelParams:
     """Inverse of one row of ``pack_model_params`` (float32 values widened to float64)."""
     t = np.asarray(texels, np.float64)
-    return ModelParams(t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]))
+    p = ModelParams(t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]))
+    if t[4, 3] > 0.0:  # clear coat (RTR4 §9.12): texels 4-5, zero without a coat
+        p = replace(
+            p,
+            clearcoat=float(t[4, 3]),
+            clearcoat_roughness=float(t[5, 0]),
+            clearcoat_eta=float(t[5, 1]),
+            clearcoat_color=t[4, :3],
+        )
+    return p
 
 
 def unpack_model(texels: np.ndarray) -> tuple[int, Model]:

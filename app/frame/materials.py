@@ -25,6 +25,11 @@ def _params_key(p: ModelParams) -> tuple:
         p.eta_dielectric,
         tuple(np.broadcast_to(p.k, 3)),
         p.gtr_gamma,
+        # clear coat (RTR4 §9.12)
+        p.clearcoat,
+        p.clearcoat_roughness,
+        p.clearcoat_eta,
+        tuple(np.broadcast_to(p.clearcoat_color, 3)),
     )
 
 
@@ -62,7 +67,7 @@ class MaterialTable:
         return any(model.anisotropic for model in self.models)
 
     def packed(self) -> np.ndarray:
-        """(M, 4, 4) float32 texels, see app.common.models.pack_model_params."""
+        """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params."""
         return pack_model_params([p for _, p in self.rows], self.groups, [m for m, _ in self.rows])
 
 

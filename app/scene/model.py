@@ -8,6 +8,7 @@ numbers, and accept only the types the documentation names (no "1.0" for 1.0).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Annotated, Literal
 
 import numpy as np
@@ -23,6 +24,7 @@ from pydantic import (
 
 from app.common.ior import f0_from_ior, ior_from_f0
 from app.common.models import (
+    CLEARCOAT_MODELS,
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
@@ -249,6 +251,12 @@ class Material(_Strict):
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
     diffuse: Literal[DIFFUSE_MODELS] = "lambert"  # type: ignore[valid-type]
     multiscatter: Annotated[bool, Field(strict=True)] = False
+    # --- clear coat (RTR4 §9.12; docs/layered.md) ---
+    clearcoat: Unit = 0.0  # strength; 0 = no coat (compiled out)
+    clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
+    clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
+    clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
+    clearcoat_model: Literal[CLEARCOAT_MODELS[1:]] = "filament"  # type: ignore[valid-type]
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -291,11 +299,40 @@ class Material(_Strict):
             raise ValueError(
                 "multiscatter: the compensation tables are for the isotropic GGX (ndf = 'ggx')"
             )
+        self._check_clearcoat()
         if self.fresnel == "conductor" and self._conductor_index() is None:
             raise ValueError(
                 "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
             )
         return self
+
+    def _check_clearcoat(self) -> None:
+        """Clear coat keys (RTR4 §9.12) need a coat, and a coat needs a base it can lie on."""
+        if self.clearcoat == 0.0:
+            for key in ("clearcoat_roughness", "clearcoat_ior", "clearcoat_color"):
+                if getattr(self, key) is not None:
+                    raise ValueError(f"{key}: applies only with clearcoat > 0")
+            if "clearcoat_model" in self.model_fields_set:
+                raise ValueError("clearcoat_model: applies only with clearcoat > 0")
+            return
+        medium = self._medium()
+        coat = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
+        if coat < medium:
+            raise ValueError(
+                "clearcoat_ior: must be at least the medium's index (light would be totally "
+                "reflected going into the coat)"
+            )
+        base = self.resolve_base()
+        if base.model.internal:
+            raise ValueError(
+                "clearcoat: a coat over a base whose index is below the medium's is not supported"
+            )
+
+    def _medium(self) -> float:
+        """The index of the medium around the object (medium_ior, the preset's, or air)."""
+        if self.medium_ior is not None:
+            return self.medium_ior
+        return float(getattr(self._preset(), "medium_ior", 1.0))
 
     def _preset(self) -> object | None:
         return PRESETS[self.preset] if self.preset is not None else None
@@ -309,7 +346,26 @@ class Material(_Strict):
         return np.asarray(eta, np.float64), np.asarray(k, np.float64)
 
     def resolve(self) -> MaterialParams:
-        """Apply preset, then explicit keys, then defaults (grey plastic, F0 = 0.04)."""
+        """Apply preset, then explicit keys, then defaults (grey plastic, F0 = 0.04); then
+        the clear coat (RTR4 §9.12), whose index is relative to the medium like the rest."""
+        params = self.resolve_base()
+        if self.clearcoat == 0.0:
+            return params
+        medium = self._medium()
+        coat_ior = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
+        color = [1.0, 1.0, 1.0] if self.clearcoat_color is None else self.clearcoat_color
+        model_params = replace(
+            params.params,
+            clearcoat=self.clearcoat,
+            clearcoat_roughness=self.clearcoat_roughness or 0.0,
+            clearcoat_eta=coat_ior / medium,
+            clearcoat_color=np.asarray(color, np.float64),
+        )
+        model = replace(params.model, clearcoat=self.clearcoat_model)
+        return replace(params, model=model, params=model_params)
+
+    def resolve_base(self) -> MaterialParams:
+        """The material without its clear coat: preset, explicit keys, defaults."""
         base, metallic, f0 = [0.8, 0.8, 0.8], 0.0, 0.04
         p = self._preset()
         ior = getattr(p, "ior", None)

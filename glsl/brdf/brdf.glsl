@@ -1,5 +1,6 @@
 // The BRDF f(l, v) in one include: the model selection (brdf/model.glsl), every term
-// (Fresnel, NDF, masking-shadowing, diffuse, multiple scattering, the specular dispatch)
+// (Fresnel, NDF, masking-shadowing, diffuse, multiple scattering, the specular dispatch,
+// the clear coat's terms)
 // and the metallic-roughness material with brdf_eval (brdf/material.glsl). What a pass or
 // the BRDF probe (app/brdf) includes to shade; a test of one term includes its file alone.
 #ifndef PBS_BRDF_GLSL
@@ -13,6 +14,7 @@
 #include "brdf/diffuse.glsl"
 #include "brdf/multiscatter.glsl"
 #include "brdf/specular.glsl"
+#include "brdf/clearcoat.glsl"
 #include "brdf/material.glsl"
 
 #endif
