@@ -54,6 +54,18 @@ MODELS: dict[str, dict] = {
     "hammon diffuse": {"diffuse": "hammon"},
     "no diffuse": {"diffuse": "none"},
     "multiscatter": {"multiscatter": True, "preset": "copper"},
+    # --- clear coat (RTR4 §9.12) ---
+    "clear coat over plastic": {"base_color": [0.8, 0.3, 0.1], "clearcoat": 1.0},
+    "tinted rough half coat over gold": {
+        "preset": "gold", "clearcoat": 0.5, "clearcoat_roughness": 0.4,
+        "clearcoat_color": [0.9, 0.6, 0.3], "clearcoat_ior": 1.6,
+    },
+    "clear coat over exact conductor": {
+        "preset": "copper", "fresnel": "conductor", "clearcoat": 1.0, "clearcoat_roughness": 0.1,
+    },
+    "clear coat over exact dielectric": {
+        "fresnel": "dielectric", "ior": 1.33, "clearcoat": 1.0, "clearcoat_roughness": 0.05,
+    },
 }  # fmt: skip
 
 ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material

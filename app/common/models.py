@@ -204,7 +204,8 @@ def pack_model_params(
     """The lighting pass's material table: (M, MATERIAL_TEXELS, 4) float32, one row of RGBA
     texels per material id: (f90, 1/p), (eta, eta_dielectric), (k, gtr_gamma), (model
     group, Fresnel code, specular code, diffuse code), then the texels of the layered
-    models (``MATERIAL_TEXELS``; zero where a material does not use them). ``models`` gives
+    models (``MATERIAL_TEXELS``): 4-5 the clear coat's (color, strength), (roughness, eta,
+    0, 0), its defaults where a material has none; the others zero. ``models`` gives
     each row's model for the codes (``model_codes``; only the uber lighting shader reads
     them); without it every row gets the standard model's codes."""
     table = np.zeros((max(len(params), 1), MATERIAL_TEXELS, 4), np.float32)
@@ -214,11 +215,11 @@ def pack_model_params(
         table[row, 1] = [*np.broadcast_to(p.eta, 3), p.eta_dielectric]
         table[row, 2] = [*np.broadcast_to(p.k, 3), p.gtr_gamma]
         table[row, 3] = [group, *model_codes(model)]
-        # Clear coat (RTR4 §9.12), texels 4-5: (color, strength), (roughness, eta, 0, 0);
-        # zero when the material has no coat (strength 0).
-        if p.clearcoat > 0.0:
-            table[row, 4] = [*np.broadcast_to(p.clearcoat_color, 3), p.clearcoat]
-            table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
+        # Clear coat (RTR4 §9.12), texels 4-5: (color, strength), (roughness, eta, 0, 0).
+        # Without a coat they hold the defaults (strength 0, eta 1.5, white), so the coat's
+        # formulas stay finite (and equal the base) even where a pass forces them on.
+        table[row, 4] = [*np.broadcast_to(p.clearcoat_color, 3), p.clearcoat]
+        table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
     return table
 
 
@@ -226,7 +227,7 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
     """Inverse of one row of ``pack_model_params`` (float32 values widened to float64)."""
     t = np.asarray(texels, np.float64)
     p = ModelParams(t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]))
-    if t[4, 3] > 0.0:  # clear coat (RTR4 §9.12): texels 4-5, zero without a coat
+    if t[5, 1] > 0.0:  # clear coat (RTR4 §9.12): texels 4-5 (a table from before: zero)
         p = replace(
             p,
             clearcoat=float(t[4, 3]),

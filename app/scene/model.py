@@ -24,7 +24,6 @@ from pydantic import (
 
 from app.common.ior import f0_from_ior, ior_from_f0
 from app.common.models import (
-    CLEARCOAT_MODELS,
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
@@ -256,7 +255,8 @@ class Material(_Strict):
     clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
     clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
     clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
-    clearcoat_model: Literal[CLEARCOAT_MODELS[1:]] = "filament"  # type: ignore[valid-type]
+    # "weidlich_wilkie" (CLEARCOAT_MODELS[2]) is reserved and not implemented yet.
+    clearcoat_model: Literal["filament"] = "filament"
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
