@@ -53,13 +53,23 @@ def f_clearcoat_ggx(
     )
 
 
+def T_clearcoat_schlick(
+    c: np.ndarray | float, F0c: np.ndarray | float, mu: np.ndarray
+) -> np.ndarray:
+    """One crossing: 1 - c F(mu) = (1 - c) + c (1 - F0) (1 - (1 - mu)^5), the last factor as
+    the polynomial x (5 - 10x + 10x^2 - 5x^3 + x^4) (precise at grazing mu)."""
+    c, F0c = _f64(c), _f64(F0c)
+    x = np.clip(_f64(mu), 0.0, 1.0)
+    q = x * (5.0 + x * (-10.0 + x * (10.0 + x * (-5.0 + x))))
+    return (1.0 - c) + c * ((1.0 - F0c) * q)
+
+
 def T_clearcoat_filament(
     c: np.ndarray | float, F0c: np.ndarray | float, NoL: np.ndarray, NoV: np.ndarray
 ) -> np.ndarray:
     """Filament's attenuation of the base, on the way in and out (reciprocal):
     T = (1 - c F(n.l)) (1 - c F(n.v))."""
-    c = _f64(c)
-    return (1.0 - c * F_clearcoat_schlick(F0c, NoL)) * (1.0 - c * F_clearcoat_schlick(F0c, NoV))
+    return T_clearcoat_schlick(c, F0c, NoL) * T_clearcoat_schlick(c, F0c, NoV)
 
 
 def A_clearcoat_beer_lambert(
