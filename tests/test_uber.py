@@ -28,6 +28,7 @@ from app.common.models import (
     FRESNEL_MODELS,
     G2_MODELS,
     LAMBDA_FORMS,
+    MATERIAL_TEXELS,
     NDF_MODELS,
     Model,
     ModelParams,
@@ -55,6 +56,7 @@ SCENES = (
     "sec9_diffuse_grazing",
     "stress",
     "sec13_rust_blend",
+    "sec12_layered",  # clear coat (RTR4 §9.12)
 )
 SIZE = (320, 160)
 MAX_REL = 1e-5  # uber vs specialized, relative to max(|specialized|, 1e-3 peak)
@@ -68,6 +70,7 @@ CHOICES = {
     "multiscatter": (False, True),
     "anisotropic": (False, True),
     "internal": (False, True),
+    "clearcoat": ("none", "filament"),  # clear coat; "weidlich_wilkie" is not implemented
 }
 
 
@@ -151,7 +154,7 @@ def test_model_codes_round_trip():
     for m in models:
         assert model_from_codes(*model_codes(m)) == m
     table = pack_model_params([ModelParams()] * len(models), list(range(len(models))), models)
-    assert table.shape == (len(models), 4, 4)
+    assert table.shape == (len(models), MATERIAL_TEXELS, 4)
     for row, m in enumerate(models):
         assert unpack_model(table[row]) == (row, m)
 
@@ -173,7 +176,7 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     textures = []
 
     def bind(program, unit: int) -> None:
-        tex = ctx.texture((4, len(models)), 4, table.tobytes(), dtype="f4")
+        tex = ctx.texture((MATERIAL_TEXELS, len(models)), 4, table.tobytes(), dtype="f4")
         textures.append(tex)
         tex.use(unit)
         program["u_materials"].value = unit
@@ -182,7 +185,7 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     outputs = (
         "vec4(FRESNEL_MODEL, NDF_MODEL, LAMBDA_FORM, G2_MODEL)",
         "vec4(CORRELATION, DIFFUSE_MODEL, MULTISCATTER, ANISOTROPIC)",
-        "vec4(FRESNEL_INTERNAL, SPECULAR_LAMBDA_G2 ? 1.0 : 0.0, 0.0, 0.0)",
+        "vec4(FRESNEL_INTERNAL, SPECULAR_LAMBDA_G2 ? 1.0 : 0.0, CLEARCOAT_MODEL, 0.0)",
     )
     got = []
     try:
@@ -201,14 +204,15 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     finally:
         for tex in textures:
             tex.release()
-    got_all = np.concatenate([got[0], got[1], got[2][:, :2]], axis=1)
+    got_all = np.concatenate([got[0], got[1], got[2][:, :3]], axis=1)
     names = (
         "FRESNEL_MODEL", "NDF_MODEL", "LAMBDA_FORM", "G2_MODEL",
         "CORRELATION", "DIFFUSE_MODEL", "MULTISCATTER", "ANISOTROPIC", "FRESNEL_INTERNAL",
     )  # fmt: skip
+    # (the clear coat's code, CLEARCOAT_MODEL, is read back last, after SPECULAR_LAMBDA_G2)
     for row, m in enumerate(models):
         d = m.defines()
-        want = [d[n] for n in names] + [int(_specular_lambda_g2(m))]
+        want = [d[n] for n in names] + [int(_specular_lambda_g2(m)), d["CLEARCOAT_MODEL"]]
         assert list(got_all[row].astype(int)) == want, m
 
 
