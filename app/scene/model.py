@@ -312,8 +312,8 @@ class Material(_Strict):
             for key in ("clearcoat_roughness", "clearcoat_ior", "clearcoat_color"):
                 if getattr(self, key) is not None:
                     raise ValueError(f"{key}: applies only with clearcoat > 0")
-            if "clearcoat_model" in self.model_fields_set:
-                raise ValueError("clearcoat_model: applies only with clearcoat > 0")
+            # clearcoat_model is not checked: its one value is the default, and tools that
+            # rebuild a material from all its fields (pbs compare) set it explicitly.
             return
         medium = self._medium()
         coat = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
