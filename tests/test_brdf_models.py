@@ -78,6 +78,18 @@ MODELS: dict[str, dict] = {
         "sheen": "ashikhmin", "sheen_color": [0.5, 0.5, 0.5], "sheen_roughness": 1.0,
         "diffuse": "oren_nayar",
     },
+    # --- clear coat (RTR4 §9.12) ---
+    "clear coat over plastic": {"base_color": [0.8, 0.3, 0.1], "clearcoat": 1.0},
+    "tinted rough half coat over gold": {
+        "preset": "gold", "clearcoat": 0.5, "clearcoat_roughness": 0.4,
+        "clearcoat_color": [0.9, 0.6, 0.3], "clearcoat_ior": 1.6,
+    },
+    "clear coat over exact conductor": {
+        "preset": "copper", "fresnel": "conductor", "clearcoat": 1.0, "clearcoat_roughness": 0.1,
+    },
+    "clear coat over exact dielectric": {
+        "fresnel": "dielectric", "ior": 1.33, "clearcoat": 1.0, "clearcoat_roughness": 0.05,
+    },
 }  # fmt: skip
 
 ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material
@@ -175,6 +187,9 @@ SPECULAR_ONLY = {  # specular terms alone with F = 1: white metal, no diffuse lo
     and "diffuse" not in MODELS[name]
     and "medium_ior" not in MODELS[name]
     and "sheen_color" not in MODELS[name]  # the sheen layer's energy: tests/test_sheen.py
+    # A coat's lobe (alpha 0.002) is narrower than this rule resolves on the base's
+    # roughness: the coated white furnace is integrated lobe by lobe in test_layered.py.
+    and "clearcoat" not in MODELS[name]
 }
 
 

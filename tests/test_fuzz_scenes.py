@@ -37,6 +37,7 @@ from hypothesis import strategies as st
 
 from app.cli import main
 from app.common.models import (
+    CLEARCOAT_MODELS,
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
@@ -55,7 +56,7 @@ SIZE = "32x18"  # every render is tiny: the fuzzer is after crashes, not picture
 WORDS = sorted(
     {
         *FRESNEL_MODELS, *NDF_MODELS, *LAMBDA_FORMS, *G2_MODELS, *CORRELATIONS,
-        *DIFFUSE_MODELS, *PRESETS,
+        *DIFFUSE_MODELS, *PRESETS, *CLEARCOAT_MODELS,
         "directional", "point", "spot", "sphere", "box", "plane", "cylinder", "capsule",
         "mesh", "linear", "neutral", "aces", "reinhard", "f16", "f32", "meshes/teapot.obj",
         "floor", "gold", "m",

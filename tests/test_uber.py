@@ -59,6 +59,7 @@ SCENES = (
     "sec13_rust_blend",
     "sec11_thin_film",  # thin film (RTR4 §9.11): films and a bare lens
     "sec10_cloth",  # sheen (RTR4 §9.10): none, charlie, ashikhmin
+    "sec12_layered",  # clear coat (RTR4 §9.12)
 )
 SIZE = (320, 160)
 MAX_REL = 1e-5  # uber vs specialized, relative to max(|specialized|, 1e-3 peak)
@@ -74,6 +75,7 @@ CHOICES = {
     "internal": (False, True),
     "thin_film": (False, True),  # thin film (RTR4 §9.11)
     "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
+    "clearcoat": ("none", "filament"),  # clear coat; "weidlich_wilkie" is not implemented
 }
 
 
@@ -188,7 +190,7 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     outputs = (
         "vec4(FRESNEL_MODEL, NDF_MODEL, LAMBDA_FORM, G2_MODEL)",
         "vec4(CORRELATION, DIFFUSE_MODEL, MULTISCATTER, ANISOTROPIC)",
-        "vec4(FRESNEL_INTERNAL, SPECULAR_LAMBDA_G2 ? 1.0 : 0.0, SHEEN_MODEL, 0.0)",
+        "vec4(FRESNEL_INTERNAL, SPECULAR_LAMBDA_G2 ? 1.0 : 0.0, SHEEN_MODEL, CLEARCOAT_MODEL)",
     )
     got = []
     try:
@@ -207,14 +209,16 @@ def test_glsl_reads_the_model_codes_as_the_twin_writes_them(gl_egl):
     finally:
         for tex in textures:
             tex.release()
-    got_all = np.concatenate([got[0], got[1], got[2][:, :3]], axis=1)
+    got_all = np.concatenate([got[0], got[1], got[2]], axis=1)
     names = (
         "FRESNEL_MODEL", "NDF_MODEL", "LAMBDA_FORM", "G2_MODEL",
         "CORRELATION", "DIFFUSE_MODEL", "MULTISCATTER", "ANISOTROPIC", "FRESNEL_INTERNAL",
     )  # fmt: skip
+    # (then SPECULAR_LAMBDA_G2 and the layers' codes: SHEEN_MODEL, CLEARCOAT_MODEL)
     for row, m in enumerate(models):
         d = m.defines()
         want = [d[n] for n in names] + [int(_specular_lambda_g2(m)), d["SHEEN_MODEL"]]
+        want.append(d["CLEARCOAT_MODEL"])
         assert list(got_all[row].astype(int)) == want, m
 
 

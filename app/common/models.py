@@ -10,7 +10,7 @@ pass reads them from a per-material table (``pack_model_params``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -38,6 +38,10 @@ DIFFUSE_MODELS = (
 )
 # --- sheen (RTR4 §9.10): the cloth layer's NDF; "none" (code 0) compiles the layer out ---
 SHEEN_MODELS = ("none", "charlie", "ashikhmin")
+# --- clear coat (RTR4 §9.12) ---
+# A transparent layer over any base model: none (compiled out), Filament's / glTF
+# KHR_materials_clearcoat's cheap composition, Weidlich & Wilkie 2007's refracted one.
+CLEARCOAT_MODELS = ("none", "filament", "weidlich_wilkie")
 
 # RTR4 §9.1: which reflections brdf_eval returns, a bitmask (``render.terms``).
 TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
@@ -54,6 +58,7 @@ _GLSL_PREFIXES = (
     ("CORRELATION", CORRELATIONS),
     ("DIFFUSE", DIFFUSE_MODELS),
     ("SHEEN", SHEEN_MODELS),  # sheen (RTR4 §9.10)
+    ("CLEARCOAT", CLEARCOAT_MODELS),  # clear coat (RTR4 §9.12)
 )
 
 
@@ -87,6 +92,7 @@ class Model:
     # --- thin film (RTR4 §9.11): F replaced by a film's interference reflectance ---
     thin_film: bool = False
     sheen: str = "none"  # sheen (RTR4 §9.10): the cloth layer's NDF, SHEEN_MODELS
+    clearcoat: str = "none"  # clear coat (RTR4 §9.12): a CLEARCOAT_MODELS name
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
@@ -102,6 +108,7 @@ class Model:
             "FRESNEL_INTERNAL": int(self.internal),
             "THIN_FILM": int(self.thin_film),  # thin film (RTR4 §9.11)
             "SHEEN_MODEL": SHEEN_MODELS.index(self.sheen),  # sheen (RTR4 §9.10)
+            "CLEARCOAT_MODEL": CLEARCOAT_MODELS.index(self.clearcoat),  # RTR4 §9.12
         }
 
     def describe(self) -> str:
@@ -119,6 +126,8 @@ class Model:
         parts += [name for name in flags if getattr(self, name)]
         if self.sheen != "none":  # sheen (RTR4 §9.10)
             parts.append(f"{self.sheen} sheen")
+        if self.clearcoat != "none":  # clear coat (RTR4 §9.12)
+            parts.append(f"{self.clearcoat} clear coat")
         return " + ".join(parts) or "standard"
 
 
@@ -151,6 +160,13 @@ class ModelParams:
     # its perceptual roughness (alpha = r^2)
     sheen_color: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))
     sheen_roughness: float = 0.0
+    # --- clear coat (RTR4 §9.12; material-table texels 4 and 5) ---
+    clearcoat: float = 0.0  # strength 0..1 (0: no coat, and Model.clearcoat is "none")
+    clearcoat_roughness: float = 0.0  # perceptual; the coat's alpha = r^2 (floored)
+    clearcoat_eta: float = 1.5  # the coat's index / the medium's (medium_ior)
+    # The coat's transmittance at normal incidence through its thickness, once (linear RGB):
+    # Beer-Lambert, T0 = exp(-sigma_a d); along a path at angle theta_t inside, T0^(1/cos).
+    clearcoat_color: np.ndarray = field(default_factory=_rgb)
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); 4-7
@@ -166,7 +182,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
 
     * Fresnel: fresnel | internal << 2
     * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-      | multiscatter << 8 | sheen << 9 | thin_film << 13 (bits 11-12: the clear coat's)
+      | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13
     * diffuse: diffuse
 
     Small integers, exact in float32."""
@@ -181,6 +197,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
         | d["MULTISCATTER"] << 8
         | d["THIN_FILM"] << 13  # thin film (RTR4 §9.11)
         | d["SHEEN_MODEL"] << 9  # sheen (RTR4 §9.10): bits 9-10
+        | d["CLEARCOAT_MODEL"] << 11  # clear coat (RTR4 §9.12): bits 11-12
     )
     return fresnel, specular, d["DIFFUSE_MODEL"]
 
@@ -199,6 +216,7 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
         internal=bool((fresnel >> 2) & 1),
         thin_film=bool((specular >> 13) & 1),  # thin film (RTR4 §9.11)
         sheen=SHEEN_MODELS[(specular >> 9) & 3],  # sheen (RTR4 §9.10)
+        clearcoat=CLEARCOAT_MODELS[(specular >> 11) & 3],  # clear coat (RTR4 §9.12)
     )
 
 
@@ -208,7 +226,8 @@ def pack_model_params(
     """The lighting pass's material table: (M, MATERIAL_TEXELS, 4) float32, one row of RGBA
     texels per material id: (f90, 1/p), (eta, eta_dielectric), (k, gtr_gamma), (model
     group, Fresnel code, specular code, diffuse code), then the texels of the layered
-    models (``MATERIAL_TEXELS``; zero where a material does not use them). ``models`` gives
+    models (``MATERIAL_TEXELS``): 4-5 the clear coat's (color, strength), (roughness, eta,
+    0, 0), its defaults where a material has none; the others zero. ``models`` gives
     each row's model for the codes (``model_codes``; only the uber lighting shader reads
     them); without it every row gets the standard model's codes."""
     table = np.zeros((max(len(params), 1), MATERIAL_TEXELS, 4), np.float32)
@@ -221,18 +240,32 @@ def pack_model_params(
         if model.thin_film:  # thin film (RTR4 §9.11): (thickness nm, n2/n1, n2, 0)
             table[row, 7] = [p.film_thickness, p.film_eta, p.film_ior, 0.0]
         table[row, 6] = [*np.broadcast_to(p.sheen_color, 3), p.sheen_roughness]  # sheen
+        # Clear coat (RTR4 §9.12), texels 4-5: (color, strength), (roughness, eta, 0, 0).
+        # Without a coat they hold the defaults (strength 0, eta 1.5, white), so the coat's
+        # formulas stay finite (and equal the base) even where a pass forces them on.
+        table[row, 4] = [*np.broadcast_to(p.clearcoat_color, 3), p.clearcoat]
+        table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
     return table
 
 
 def unpack_model_params(texels: np.ndarray) -> ModelParams:
     """Inverse of one row of ``pack_model_params`` (float32 values widened to float64)."""
     t = np.asarray(texels, np.float64)
-    return ModelParams(
+    p = ModelParams(
         t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]),
         # Thin film (RTR4 §9.11), texel 7.
         film_thickness=float(t[7, 0]), film_eta=float(t[7, 1]), film_ior=float(t[7, 2]),
         sheen_color=t[6, :3], sheen_roughness=float(t[6, 3]),  # sheen (RTR4 §9.10)
     )  # fmt: skip
+    if t[5, 1] > 0.0:  # clear coat (RTR4 §9.12): texels 4-5 (a table from before: zero)
+        p = replace(
+            p,
+            clearcoat=float(t[4, 3]),
+            clearcoat_roughness=float(t[5, 0]),
+            clearcoat_eta=float(t[5, 1]),
+            clearcoat_color=t[4, :3],
+        )
+    return p
 
 
 def unpack_model(texels: np.ndarray) -> tuple[int, Model]:

@@ -28,6 +28,11 @@ def _params_key(p: ModelParams) -> tuple:
         (p.film_thickness, p.film_eta, p.film_ior),  # thin film (RTR4 §9.11)
         tuple(np.broadcast_to(p.sheen_color, 3)),
         p.sheen_roughness,  # sheen (RTR4 §9.10)
+        # clear coat (RTR4 §9.12)
+        p.clearcoat,
+        p.clearcoat_roughness,
+        p.clearcoat_eta,
+        tuple(np.broadcast_to(p.clearcoat_color, 3)),
     )
 
 
@@ -65,7 +70,7 @@ class MaterialTable:
         return any(model.anisotropic for model in self.models)
 
     def packed(self) -> np.ndarray:
-        """(M, 4, 4) float32 texels, see app.common.models.pack_model_params."""
+        """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params."""
         return pack_model_params([p for _, p in self.rows], self.groups, [m for m, _ in self.rows])
 
 

@@ -4,7 +4,7 @@ order of operations, so GLSL and twin differ only by float32 rounding."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -15,7 +15,7 @@ from app.common.models import (
     Model,
     ModelParams,
 )
-from app.reference import diffuse, fresnel, masking, thin_film
+from app.reference import clearcoat, diffuse, fresnel, masking, thin_film
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
@@ -233,7 +233,7 @@ class BrdfFactors:
     f_diffuse: np.ndarray  # (..., 3) the subsurface lobe, RTR4 §9.9
 
 
-def brdf_factors(
+def base_brdf_factors(
     s: Surface,
     p: ModelParams,
     model: Model,
@@ -243,9 +243,10 @@ def brdf_factors(
     v: np.ndarray,
     ms_table: np.ndarray | None = None,
 ) -> BrdfFactors:
-    """F, D, G2, f_spec and f_diffuse of ``model`` at each point (twin of the GLSL's
-    ``brdf_factors``). Where the model has a fused visibility V = G2/(4 n.l n.v), f_spec is
-    computed from V and G2 is V 4 n.l n.v, as in the GLSL. ``ms_table`` as in brdf_eval."""
+    """F, D, G2, f_spec and f_diffuse of ``model`` without its clear coat at each point
+    (twin of the GLSL's ``base_brdf_factors``). Where the model has a fused visibility
+    V = G2/(4 n.l n.v), f_spec is computed from V and G2 is V 4 n.l n.v, as in the GLSL.
+    ``ms_table`` as in brdf_eval."""
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
     NoL_raw = dot(n, l)
     lit = NoL_raw > 0.0
@@ -321,6 +322,86 @@ def brdf_factors(
         f_diffuse = f_diffuse * scale
     return BrdfFactors(lit, F, np.asarray(D, np.float64), np.asarray(G2, np.float64), f_spec,
                        f_diffuse)  # fmt: skip
+
+
+# --- clear coat (RTR4 §9.12) ---
+
+
+def clearcoat_base_surface(s: Surface, p: ModelParams) -> Surface:
+    """The base under the coat: its dielectric F0 against the coat, mixed in by strength."""
+    f0 = np.asarray(s.f0_dielectric, np.float64)
+    under = clearcoat.f0_under_clearcoat(f0, p.clearcoat_eta)
+    c = p.clearcoat
+    return replace(s, f0_dielectric=f0 * (1.0 - c) + under * c)
+
+
+def clearcoat_base_params(p: ModelParams) -> ModelParams:
+    """The base under the coat: the exact Fresnel models' indices divided by the coat's,
+    mixed in by strength (exact at 0 and 1)."""
+    c, eta_c = p.clearcoat, p.clearcoat_eta
+
+    def mix(x: np.ndarray | float) -> np.ndarray:
+        x = np.asarray(x, np.float64)
+        return x * (1.0 - c) + (x / eta_c) * c
+
+    return replace(p, eta_dielectric=float(mix(p.eta_dielectric)), eta=mix(p.eta), k=mix(p.k))
+
+
+def clearcoat_factors(
+    s: Surface,
+    p: ModelParams,
+    model: Model,
+    n: np.ndarray,
+    t: np.ndarray,
+    l: np.ndarray,
+    v: np.ndarray,
+    ms_table: np.ndarray | None = None,
+) -> BrdfFactors:
+    """The coated BRDF's factors (twin of the GLSL's ``clearcoat_factors``): F, D, G2 the
+    base's; "filament":
+    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base."""
+    n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
+    NoL_raw = dot(n, l)
+    lit = NoL_raw > 0.0
+    NoL = np.where(lit, np.clip(NoL_raw, MIN_N_DOT_L, 1.0), 1.0)
+    NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
+    hv = l + v
+    hv2 = dot(hv, hv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where((hv2 > 1e-12)[..., None], hv / np.sqrt(hv2)[..., None], n)
+    LoH = np.clip(dot(l, h), 0.0, 1.0)
+    c = p.clearcoat
+    F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
+    rc = max(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS)
+    alpha_c = rc * rc
+
+    base = replace(model, clearcoat="none")
+    b = base_brdf_factors(
+        clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l, v, ms_table
+    )
+    T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
+    A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
+    A = 1.0 - c + A * c
+    w = T[..., None] * A
+    f_coat = c * clearcoat.f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH)
+    return replace(b, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse)
+
+
+def brdf_factors(
+    s: Surface,
+    p: ModelParams,
+    model: Model,
+    n: np.ndarray,
+    t: np.ndarray,
+    l: np.ndarray,
+    v: np.ndarray,
+    ms_table: np.ndarray | None = None,
+) -> BrdfFactors:
+    """F, D, G2, f_spec and f_diffuse of ``model`` at each point (twin of the GLSL's
+    ``brdf_factors``): the base's, or with a clear coat the coated ones."""
+    if model.clearcoat != "none":
+        return clearcoat_factors(s, p, model, n, t, l, v, ms_table)
+    return base_brdf_factors(s, p, model, n, t, l, v, ms_table)
 
 
 def brdf_eval(

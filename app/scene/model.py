@@ -260,6 +260,13 @@ class Material(_Strict):
     sheen: Literal[SHEEN_MODELS] = "charlie"  # type: ignore[valid-type]
     sheen_color: UnitColor | None = None  # linear RGB
     sheen_roughness: Unit | None = None  # perceptual; alpha = sheen_roughness^2; default 0.5
+    # --- clear coat (RTR4 §9.12; docs/layered.md) ---
+    clearcoat: Unit = 0.0  # strength; 0 = no coat (compiled out)
+    clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
+    clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
+    clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
+    # "weidlich_wilkie" (CLEARCOAT_MODELS[2]) is reserved and not implemented yet.
+    clearcoat_model: Literal["filament"] = "filament"
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -307,11 +314,40 @@ class Material(_Strict):
             )
         if self.sheen_roughness is not None and self.sheen_color is None:  # sheen
             raise ValueError("sheen_roughness: applies only with a 'sheen_color'")
+        self._check_clearcoat()
         if self.fresnel == "conductor" and self._conductor_index() is None:
             raise ValueError(
                 "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
             )
         return self
+
+    def _check_clearcoat(self) -> None:
+        """Clear coat keys (RTR4 §9.12) need a coat, and a coat needs a base it can lie on."""
+        if self.clearcoat == 0.0:
+            for key in ("clearcoat_roughness", "clearcoat_ior", "clearcoat_color"):
+                if getattr(self, key) is not None:
+                    raise ValueError(f"{key}: applies only with clearcoat > 0")
+            # clearcoat_model is not checked: its one value is the default, and tools that
+            # rebuild a material from all its fields (pbs compare) set it explicitly.
+            return
+        medium = self._medium()
+        coat = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
+        if coat < medium:
+            raise ValueError(
+                "clearcoat_ior: must be at least the medium's index (light would be totally "
+                "reflected going into the coat)"
+            )
+        base = self.resolve_base()
+        if base.model.internal:
+            raise ValueError(
+                "clearcoat: a coat over a base whose index is below the medium's is not supported"
+            )
+
+    def _medium(self) -> float:
+        """The index of the medium around the object (medium_ior, the preset's, or air)."""
+        if self.medium_ior is not None:
+            return self.medium_ior
+        return float(getattr(self._preset(), "medium_ior", 1.0))
 
     def _preset(self) -> object | None:
         return PRESETS[self.preset] if self.preset is not None else None
@@ -325,7 +361,26 @@ class Material(_Strict):
         return np.asarray(eta, np.float64), np.asarray(k, np.float64)
 
     def resolve(self) -> MaterialParams:
-        """Apply preset, then explicit keys, then defaults (grey plastic, F0 = 0.04)."""
+        """Apply preset, then explicit keys, then defaults (grey plastic, F0 = 0.04); then
+        the clear coat (RTR4 §9.12), whose index is relative to the medium like the rest."""
+        params = self.resolve_base()
+        if self.clearcoat == 0.0:
+            return params
+        medium = self._medium()
+        coat_ior = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
+        color = [1.0, 1.0, 1.0] if self.clearcoat_color is None else self.clearcoat_color
+        model_params = replace(
+            params.params,
+            clearcoat=self.clearcoat,
+            clearcoat_roughness=self.clearcoat_roughness or 0.0,
+            clearcoat_eta=coat_ior / medium,
+            clearcoat_color=np.asarray(color, np.float64),
+        )
+        model = replace(params.model, clearcoat=self.clearcoat_model)
+        return replace(params, model=model, params=model_params)
+
+    def resolve_base(self) -> MaterialParams:
+        """The material without its clear coat: preset, explicit keys, defaults."""
         base, metallic, f0 = [0.8, 0.8, 0.8], 0.0, 0.04
         p = self._preset()
         ior = getattr(p, "ior", None)

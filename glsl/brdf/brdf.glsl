@@ -1,6 +1,6 @@
 // The BRDF f(l, v) in one include: the model selection (brdf/model.glsl), every term
 // (Fresnel, NDF, masking-shadowing, diffuse, multiple scattering, the specular dispatch,
-// the cloth sheen layer)
+// the cloth sheen layer, the clear coat)
 // and the metallic-roughness material with brdf_eval (brdf/material.glsl). What a pass or
 // the BRDF probe (app/brdf) includes to shade; a test of one term includes its file alone.
 #ifndef PBS_BRDF_GLSL
@@ -16,6 +16,7 @@
 #include "brdf/multiscatter.glsl"
 #include "brdf/specular.glsl"
 #include "brdf/sheen.glsl"
+#include "brdf/clearcoat.glsl"
 #include "brdf/material.glsl"
 
 #endif

@@ -12,6 +12,7 @@
 #include "brdf/specular.glsl"
 #include "brdf/thin_film.glsl"
 #include "brdf/sheen.glsl"
+#include "brdf/clearcoat.glsl"
 
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
@@ -190,7 +191,8 @@ struct BrdfFactors {
 // no 1/(n.l) underflows (see constants.glsl). Where the model has a fused visibility term
 // V = G2/(4 n.l n.v), f_spec is computed from V as it always was and G2 is V 4 n.l n.v, a
 // value only the debug views read (the compiler drops it from brdf_eval).
-BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+// The base's factors: the whole BRDF without a clear coat (brdf_factors adds the coat).
+BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
     float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
     float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
     // l = -v (possible only when the true n.v < 0) has no half vector: use n.
@@ -253,6 +255,66 @@ BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 
     }
 #endif
     return BrdfFactors(F, D, G2, f_spec, f_diffuse);
+}
+
+#if CLEARCOAT_ON
+// --- clear coat (RTR4 sec. 9.12) ---
+// The base under a coat: its interface is with the coat (index eta), so its Fresnel is
+// relative to the coat, mixed in by the strength c (exact at c = 0 and 1): the dielectric
+// F0 by f0_under_clearcoat, the exact models' indices divided by eta. A metal's F0 (its
+// base colour) is kept: for a metal's complex index the change is small (gold's F0 0.92 in
+// air, 0.90 under eta = 1.5: docs/layered.md).
+Surface clearcoat_base_surface(Surface s, ModelParams p) {
+    s.f0_dielectric = mix(s.f0_dielectric, f0_under_clearcoat(s.f0_dielectric, p.clearcoat_eta),
+                          p.clearcoat);
+    return s;
+}
+
+ModelParams clearcoat_base_params(ModelParams p) {
+    float c = p.clearcoat;
+    p.eta_dielectric = mix(p.eta_dielectric, p.eta_dielectric / p.clearcoat_eta, c);
+    p.eta = mix(p.eta, p.eta / p.clearcoat_eta, c);
+    p.k = mix(p.k, p.k / p.clearcoat_eta, c);
+    return p;
+}
+
+// The coated BRDF's factors; F, D and G2 stay the base's (what the debug views show), the
+// coat's reflection joins f_spec (it is surface reflection, RTR4 sec. 9.1) and the base's
+// two lobes are weighted by what reaches them through the coat and back.
+// CLEARCOAT_FILAMENT (Filament; glTF KHR_materials_clearcoat), with strength c:
+//   f = c f_coat(l, v) + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base(l, v).
+BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+    // The clamps and the half vector of base_brdf_factors.
+    float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
+    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
+    vec3 hv = l + v;
+    float hv2 = dot(hv, hv);
+    vec3 h = hv2 > 1e-12 ? hv * inversesqrt(hv2) : n;
+    float LoH = clamp(dot(l, h), 0.0, 1.0);
+    float c = p.clearcoat;
+    float F0c = clearcoat_F0(p.clearcoat_eta);
+    float rc = max(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS);
+    float alpha_c = rc * rc;
+
+    BrdfFactors b = base_brdf_factors(clearcoat_base_surface(s, p), clearcoat_base_params(p),
+                                      n, t, l, v);
+    float T = T_clearcoat_filament(c, F0c, NoL, NoV);
+    vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
+                                                     NoV), c);
+    vec3 w = T * A;
+    float f_coat = c * f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH);
+    b.f_spec = vec3(f_coat) + w * b.f_spec;
+    b.f_diffuse = w * b.f_diffuse;
+    return b;
+}
+#endif
+
+// The factors of the material's BRDF: the base's, or, with a clear coat, the coated ones.
+BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+#if CLEARCOAT_ON
+    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) return clearcoat_factors(s, p, n, t, l, v);
+#endif
+    return base_brdf_factors(s, p, n, t, l, v);
 }
 
 // f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v

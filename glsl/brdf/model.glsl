@@ -34,6 +34,7 @@ int uber_anisotropic;
 int uber_fresnel_internal;
 int uber_thin_film;  // thin film (RTR4 sec. 9.11)
 int uber_sheen_model;  // sheen (RTR4 sec. 9.10)
+int uber_clearcoat_model;  // clear coat (RTR4 sec. 9.12)
 #define FRESNEL_MODEL uber_fresnel_model
 #define NDF_MODEL uber_ndf_model
 #define LAMBDA_FORM uber_lambda_form
@@ -45,6 +46,7 @@ int uber_sheen_model;  // sheen (RTR4 sec. 9.10)
 #define FRESNEL_INTERNAL uber_fresnel_internal
 #define THIN_FILM uber_thin_film  // thin film (RTR4 sec. 9.11)
 #define SHEEN_MODEL uber_sheen_model
+#define CLEARCOAT_MODEL uber_clearcoat_model
 #else
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
@@ -82,7 +84,19 @@ int uber_sheen_model;  // sheen (RTR4 sec. 9.10)
 #ifndef SHEEN_MODEL
 #define SHEEN_MODEL SHEEN_NONE
 #endif
+// Clear coat (RTR4 sec. 9.12): none unless a pass says otherwise.
+#ifndef CLEARCOAT_MODEL
+#define CLEARCOAT_MODEL CLEARCOAT_NONE
+#endif
 #endif  // UBER_MODELS
+
+// Whether the coat's code is compiled in (always under UBER_MODELS, where the model is a
+// run-time branch): a material without a coat compiles exactly as it did before it existed.
+#if UBER_MODELS || CLEARCOAT_MODEL != CLEARCOAT_NONE
+#define CLEARCOAT_ON 1
+#else
+#define CLEARCOAT_ON 0
+#endif
 
 // SPECULAR_LAMBDA_G2 is false where the specular term has a fused visibility form
 // V = G2/(4 n.l n.v) (the standard height-correlated GGX, or Hammon's approximation of it),
@@ -108,6 +122,11 @@ struct ModelParams {
     // sheen (RTR4 sec. 9.10), texel 6
     vec3 sheen_color;       // the cloth layer's colour; black: no layer
     float sheen_roughness;  // its perceptual roughness (alpha = r^2)
+    // --- clear coat (RTR4 sec. 9.12), texels 4-5; zero without a coat ---
+    vec3 clearcoat_color;       // transmittance at normal incidence through the coat, once
+    float clearcoat;            // strength 0..1
+    float clearcoat_roughness;  // perceptual
+    float clearcoat_eta;        // coat index / medium index
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
@@ -115,15 +134,19 @@ struct ModelParams {
 //   texel 0 (f90, 1/p), texel 1 (eta, eta_dielectric), texel 2 (k, gtr_gamma),
 //   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below,
 //   texel 6 (sheen_color, sheen_roughness) (RTR4 sec. 9.10, brdf/sheen.glsl).
+//   texel 4 (clear coat colour, strength), texel 5 (coat roughness, coat eta, 0, 0).
 ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t0 = texelFetch(table, ivec2(0, id), 0);
     vec4 t1 = texelFetch(table, ivec2(1, id), 0);
     vec4 t2 = texelFetch(table, ivec2(2, id), 0);
+    vec4 t4 = texelFetch(table, ivec2(4, id), 0);  // clear coat (RTR4 sec. 9.12)
+    vec4 t5 = texelFetch(table, ivec2(5, id), 0);  // clear coat (RTR4 sec. 9.12)
     vec4 t6 = texelFetch(table, ivec2(6, id), 0);  // sheen (RTR4 sec. 9.10)
     vec4 t7 = texelFetch(table, ivec2(7, id), 0);  // thin film (RTR4 sec. 9.11)
     return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a,
-                       t7.r, t7.g, t7.b,   // thin film
-                       t6.rgb, t6.a);      // sheen
+                       t7.r, t7.g, t7.b,            // thin film
+                       t6.rgb, t6.a,                // sheen
+                       t4.rgb, t4.a, t5.r, t5.g);   // clear coat
 }
 
 // The model group of material ``id``: which lighting permutation shades its pixels.
@@ -136,7 +159,7 @@ int fetch_model_group(sampler2D table, int id) {
 // float32; twin: app/reference/model.py model_codes):
 //   .g Fresnel:  fresnel | internal << 2
 //   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-//                | multiscatter << 8 | sheen << 9 | thin_film << 13
+//                | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13
 //   .a diffuse:  diffuse
 void fetch_model_codes(sampler2D table, int id) {
     ivec4 c = ivec4(texelFetch(table, ivec2(3, id), 0));
@@ -150,6 +173,7 @@ void fetch_model_codes(sampler2D table, int id) {
     uber_multiscatter = (c.b >> 8) & 1;
     uber_thin_film = (c.b >> 13) & 1;  // thin film (RTR4 sec. 9.11)
     uber_sheen_model = (c.b >> 9) & 3;  // sheen (RTR4 sec. 9.10)
+    uber_clearcoat_model = (c.b >> 11) & 3;  // clear coat (RTR4 sec. 9.12)
     uber_diffuse_model = c.a;
 }
 #endif

@@ -1,0 +1,94 @@
+// The terms of a clear coat: a transparent, absorbing layer of index eta (relative to the
+// medium around the object) over any base BRDF (RTR4 sec. 9.12). Only the terms live here;
+// brdf/material.glsl composes them with the base (clearcoat_factors).
+// Twin: app/reference/clearcoat.py (same names, same order of operations).
+//
+// The coat uses the shading normal n: a coat with a normal map of its own would need
+// another G-buffer target (docs/layered.md).
+#ifndef PBS_CLEARCOAT_GLSL
+#define PBS_CLEARCOAT_GLSL
+
+#include "common/constants.glsl"
+#include "brdf/fresnel.glsl"
+#include "brdf/ndf.glsl"
+#include "brdf/masking.glsl"
+
+// RTR4 eq. 9.17: F0 = ((eta - 1)/(eta + 1))^2 of the coat's outer interface.
+float clearcoat_F0(float eta) {
+    float r = (eta - 1.0) / (eta + 1.0);
+    return r * r;
+}
+
+// Schlick 1994 (RTR4 sec. 9.5) with the coat's scalar F0: the coat is a dielectric, the
+// same reflectance in every channel.
+float F_clearcoat_schlick(float F0c, float cos_theta) {
+    return F0c + (1.0 - F0c) * pow5_one_minus(clamp(cos_theta, 0.0, 1.0));
+}
+
+// Snell's law, RTR4 eq. 9.31: the cosine inside the coat of a direction whose cosine
+// outside is mu, cos_t = sqrt(1 - (1 - mu^2)/eta^2) = sqrt((eta - 1)(eta + 1) + mu^2)/eta.
+// Precision: as in F_dielectric, d = (eta - 1)(eta + 1) is exact near eta = 1 where
+// eta^2 - 1 would cancel; for eta >= 1 the root's argument is >= mu^2 (no TIR going in).
+float clearcoat_cos_refracted(float eta, float mu) {
+    float d = (eta - 1.0) * (eta + 1.0);
+    return sqrt(max(d + mu * mu, 0.0)) / eta;
+}
+
+// The coat's own reflection (Filament; glTF KHR_materials_clearcoat): an isotropic GGX
+// lobe of the coat's roughness with the height-correlated Smith visibility and the
+// Schlick Fresnel of its index, RTR4 eq. 9.34: F(h, l) D(h) G2 / (4 n.l n.v).
+float f_clearcoat_ggx(float alpha_c, float F0c, vec3 n, vec3 h, float NoL, float NoV,
+                      float LoH) {
+    return F_clearcoat_schlick(F0c, LoH) * (D_GGX(n, h, alpha_c) *
+                                            V_height_correlated_GGX(NoL, NoV, alpha_c));
+}
+
+// What one crossing of the coat lets through, 1 - c F(mu) with Schlick's F, written as
+//   (1 - c) + c (1 - F0) (1 - (1 - mu)^5),  1 - (1 - x)^5 = x (5 - 10x + 10x^2 - 5x^3 + x^4).
+// Precision: at grazing mu, F is within ulps of 1 and 1 - F cancels in float32 (at
+// mu = 1e-7 the 1 - mu inside Schlick already rounds by 19 %); the polynomial keeps full
+// relative precision there. c = 0 gives exactly 1.
+float T_clearcoat_schlick(float c, float F0c, float mu) {
+    float x = clamp(mu, 0.0, 1.0);
+    float q = x * (5.0 + x * (-10.0 + x * (10.0 + x * (-5.0 + x))));
+    return (1.0 - c) + c * ((1.0 - F0c) * q);
+}
+
+// Filament's attenuation of the base by the coat, here on the way in AND out: the light
+// the coat reflects at n.l and at n.v never reaches (leaves) the base. With strength c,
+//   T = (1 - c F(n.l)) (1 - c F(n.v)),
+// symmetric in l and v, so the composition stays reciprocal (Filament weights by
+// 1 - F(v.h) once, which is not).
+float T_clearcoat_filament(float c, float F0c, float NoL, float NoV) {
+    return T_clearcoat_schlick(c, F0c, NoL) * T_clearcoat_schlick(c, F0c, NoV);
+}
+
+// Beer-Lambert absorption (RTR4 sec. 14.1.2) along the refracted path down and up:
+// T0 is the coat's transmittance at normal incidence through its thickness once, so a
+// path at angle theta_t inside keeps T0^(1/cos theta_t), and the two legs
+//   A = T0^(1/cos_t(n.l) + 1/cos_t(n.v)).
+// Precision: T0^e as exp2(e log2 T0), written out at T0 = 0 (pow(0, e) is undefined in
+// GLSL); T0 = 1 gives exactly 1 for every e (log2(1) = 0), so a clear coat costs no tint.
+vec3 A_clearcoat_beer_lambert(vec3 T0, float eta, float NoL, float NoV) {
+    float e = 1.0 / clearcoat_cos_refracted(eta, NoL) + 1.0 / clearcoat_cos_refracted(eta, NoV);
+    vec3 lg = log2(max(T0, vec3(1e-30)));
+    return vec3(T0.r > 0.0 ? exp2(e * lg.r) : 0.0, T0.g > 0.0 ? exp2(e * lg.g) : 0.0,
+                T0.b > 0.0 ? exp2(e * lg.b) : 0.0);
+}
+
+// The F0 of a dielectric base under the coat: the base's interface is with the coat, not
+// with the medium. From its F0 in the medium, s = sqrt(F0), its relative index is
+// n = (1 + s)/(1 - s) (RTR4 eq. 9.18), and against the coat n/eta:
+//   F0' = ((n - eta)/(n + eta))^2 = (((1 + s) - eta (1 - s)) / ((1 + s) + eta (1 - s)))^2.
+// Written without (1 - s) in a denominator, so F0 = 1 (s = 1) gives 1, not 0/0. Filament
+// fits the same curve for eta = 1.5 (f0ClearCoatToSurface). A base as dense as the coat
+// (n = eta) reflects nothing: RTR4's weak substrate reflection under a coat.
+float f0_under_clearcoat(float f0, float eta) {
+    float s = sqrt(clamp(f0, 0.0, 1.0));
+    float a = 1.0 + s;
+    float b = eta * (1.0 - s);
+    float r = (a - b) / (a + b);
+    return r * r;
+}
+
+#endif
