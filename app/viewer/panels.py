@@ -28,6 +28,7 @@ from app.common.models import (
     G2_MODELS,
     LAMBDA_FORMS,
     NDF_MODELS,
+    SHEEN_MODELS,
 )
 from app.common.tonemaps import TONEMAPS
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
@@ -254,6 +255,8 @@ class Panels:
                                                  0.01, 0.0, top)  # fmt: skip
                 if changed:
                     self._edit(f"{key}.{field}", [max(float(x), 1e-3) for x in rgb])
+        if imgui.collapsing_header("layers: sheen, clear coat, thin film"):
+            self._layers(key, material)
         if imgui.collapsing_header("maps and blend"):
             # Paths relative to the scene file; Enter applies, an empty path removes the
             # map. A missing or unreadable file is refused with the CLI's message.
@@ -272,6 +275,65 @@ class Panels:
                 changed, value = imgui.slider_float("blend softness", b.softness, 0.0, 1.0)
                 if changed:
                     self._edit(f"{key}.blend.softness", float(value))
+
+    def _layers(self, key: str, material: Any) -> None:
+        """The layers over the base (RTR4 §9.10-9.12). Turning one off removes its keys,
+        which the scene format refuses without the layer."""
+        sheen_on = material.sheen_color is not None and any(material.sheen_color)
+        changed, on = imgui.checkbox("sheen (cloth)", sheen_on)
+        if changed:
+            self.viewer.edit(
+                {f"{key}.sheen_color": [0.5, 0.5, 0.5]}
+                if on
+                else {f"{key}.sheen_color": None, f"{key}.sheen_roughness": None}
+            )
+        if sheen_on:
+            names = [n for n in SHEEN_MODELS if n != "none"]
+            now = names.index(material.sheen) if material.sheen in names else 0
+            changed, i = imgui.combo("sheen NDF", now, names)
+            if changed:
+                self._edit(f"{key}.sheen", names[i])
+            changed, rgb = imgui.color_edit3("sheen colour", list(material.sheen_color))
+            if changed:
+                self._edit(f"{key}.sheen_color", [float(c) for c in rgb])
+            r = 0.5 if material.sheen_roughness is None else material.sheen_roughness
+            changed, value = imgui.slider_float("sheen roughness", r, 0.0, 1.0)
+            if changed:
+                self._edit(f"{key}.sheen_roughness", float(value))
+        changed, value = imgui.slider_float("clear coat", material.clearcoat, 0.0, 1.0)
+        if changed:
+            off = {f"{key}.clearcoat_{k}": None for k in ("roughness", "ior", "color")}
+            self.viewer.edit({f"{key}.clearcoat": float(value), **(off if value <= 0.0 else {})})
+        if material.clearcoat > 0.0:
+            r = material.clearcoat_roughness or 0.0
+            changed, value = imgui.slider_float("coat roughness", r, 0.0, 1.0)
+            if changed:
+                self._edit(f"{key}.clearcoat_roughness", float(value))
+            ior = material.clearcoat_ior or 1.5
+            changed, value = imgui.slider_float("coat index", ior, 1.0, 3.0)
+            if changed:
+                self._edit(f"{key}.clearcoat_ior", float(value))
+            color = material.clearcoat_color or [1.0, 1.0, 1.0]
+            changed, rgb = imgui.color_edit3("coat colour", list(color))
+            if changed:
+                self._edit(f"{key}.clearcoat_color", [float(c) for c in rgb])
+        changed, on = imgui.checkbox("thin film", material.thin_film)
+        if changed:
+            self.viewer.edit(
+                {f"{key}.thin_film": True}
+                if on
+                else {f"{key}.thin_film": None, f"{key}.film_thickness": None,
+                      f"{key}.film_ior": None}
+            )  # fmt: skip
+        if material.thin_film:
+            d = 400.0 if material.film_thickness is None else material.film_thickness
+            changed, value = imgui.slider_float("film thickness (nm)", d, 0.0, 1000.0)
+            if changed:
+                self._edit(f"{key}.film_thickness", float(value))
+            n = 1.33 if material.film_ior is None else material.film_ior
+            changed, value = imgui.slider_float("film index", n, 1.0, 3.0)
+            if changed:
+                self._edit(f"{key}.film_ior", float(value))
 
     def _lights_panel(self) -> None:
         v = self.viewer
