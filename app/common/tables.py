@@ -39,7 +39,11 @@ def table_path(size: int) -> Path:
 def read_ms_table(size: int = DEFAULT_SIZE) -> np.ndarray:
     """The stored float32 (size, size, 2) table, read-only; FileNotFoundError where it was
     never computed (app.reference.multiscatter.load_table computes and stores it)."""
-    path = table_path(size)
+    return _read_square(table_path(size), size)
+
+
+def _read_square(path: Path, size: int) -> np.ndarray:
+    """A stored float32 (size, size, 2) table, read-only; ValueError for another shape."""
     table = np.load(path)
     if table.shape != (size, size, 2) or table.dtype != np.float32:
         raise ValueError(
@@ -62,11 +66,4 @@ def sheen_table_path(size: int = SHEEN_TABLE_SIZE) -> Path:
 
 def read_sheen_table(size: int = SHEEN_TABLE_SIZE) -> np.ndarray:
     """The stored float32 (size, size, 2) sheen albedo table, read-only."""
-    path = sheen_table_path(size)
-    table = np.load(path)
-    if table.shape != (size, size, 2) or table.dtype != np.float32:
-        raise ValueError(
-            f"{path}: expected float32 {(size, size, 2)}, got {table.dtype} {table.shape}"
-        )
-    table.setflags(write=False)
-    return table
+    return _read_square(sheen_table_path(size), size)
