@@ -169,11 +169,11 @@ class ModelParams:
     clearcoat_color: np.ndarray = field(default_factory=_rgb)
 
 
-# Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); 4-7
-# are reserved for the models of §9.10-9.12, one or two texels each: 4-5 a clear coat
-# (§9.12), 6 a sheen layer (§9.10), 7 a thin film (§9.11). The GLSL reads the width from
-# the generated MATERIAL_TEXELS.
-MATERIAL_TEXELS = 8
+# Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); the
+# layered models of §9.10-9.12 have their own: 4-5 the clear coat (§9.12), 6 the sheen
+# (§9.10), 7 the thin film (§9.11), 8 a diffraction grating (§9.11), 9-11 the empirical
+# cloth terms (§9.10). The GLSL reads the width from the generated MATERIAL_TEXELS.
+MATERIAL_TEXELS = 12
 
 
 def model_codes(model: Model) -> tuple[int, int, int]:
