@@ -90,6 +90,12 @@ MODELS: dict[str, dict] = {
     "clear coat over exact dielectric": {
         "fresnel": "dielectric", "ior": 1.33, "clearcoat": 1.0, "clearcoat_roughness": 0.05,
     },
+    # --- diffraction grating (RTR4 §9.11): a CD over silver, a fine deep one over plastic ---
+    "cd grating over silver": {"diffraction": "grating", "preset": "silver", "roughness": 0.2},
+    "fine deep grating over plastic": {
+        "diffraction": "grating", "base_color": [0.1, 0.1, 0.1], "grating_period": 700.0,
+        "grating_depth": 300.0,
+    },
 }  # fmt: skip
 
 ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material
@@ -190,6 +196,9 @@ SPECULAR_ONLY = {  # specular terms alone with F = 1: white metal, no diffuse lo
     # A coat's lobe (alpha 0.002) is narrower than this rule resolves on the base's
     # roughness: the coated white furnace is integrated lobe by lobe in test_layered.py.
     and "clearcoat" not in MODELS[name]
+    # A grating's orders lie away from the mirror lobe this rule samples: its white
+    # furnace is integrated over the whole disc of directions in test_diffraction.py.
+    and "diffraction" not in MODELS[name]
 }
 
 

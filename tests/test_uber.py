@@ -24,6 +24,7 @@ import pytest
 
 from app.common.models import (
     CORRELATIONS,
+    DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
     G2_MODELS,
@@ -76,6 +77,7 @@ CHOICES = {
     "thin_film": (False, True),  # thin film (RTR4 §9.11)
     "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
     "clearcoat": ("none", "filament"),  # clear coat; "weidlich_wilkie" is not implemented
+    "diffraction": DIFFRACTION_MODELS,  # diffraction grating (RTR4 §9.11)
 }
 
 

@@ -42,6 +42,8 @@ SHEEN_MODELS = ("none", "charlie", "ashikhmin")
 # A transparent layer over any base model: none (compiled out), Filament's / glTF
 # KHR_materials_clearcoat's cheap composition, Weidlich & Wilkie 2007's refracted one.
 CLEARCOAT_MODELS = ("none", "filament", "weidlich_wilkie")
+# --- diffraction (RTR4 §9.11): a periodic grating's orders over the specular lobe ---
+DIFFRACTION_MODELS = ("none", "grating")
 
 # RTR4 §9.1: which reflections brdf_eval returns, a bitmask (``render.terms``).
 TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
@@ -59,6 +61,7 @@ _GLSL_PREFIXES = (
     ("DIFFUSE", DIFFUSE_MODELS),
     ("SHEEN", SHEEN_MODELS),  # sheen (RTR4 §9.10)
     ("CLEARCOAT", CLEARCOAT_MODELS),  # clear coat (RTR4 §9.12)
+    ("DIFFRACTION", DIFFRACTION_MODELS),  # diffraction grating (RTR4 §9.11)
 )
 
 
@@ -93,6 +96,7 @@ class Model:
     thin_film: bool = False
     sheen: str = "none"  # sheen (RTR4 §9.10): the cloth layer's NDF, SHEEN_MODELS
     clearcoat: str = "none"  # clear coat (RTR4 §9.12): a CLEARCOAT_MODELS name
+    diffraction: str = "none"  # diffraction (RTR4 §9.11): a DIFFRACTION_MODELS name
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
@@ -109,6 +113,7 @@ class Model:
             "THIN_FILM": int(self.thin_film),  # thin film (RTR4 §9.11)
             "SHEEN_MODEL": SHEEN_MODELS.index(self.sheen),  # sheen (RTR4 §9.10)
             "CLEARCOAT_MODEL": CLEARCOAT_MODELS.index(self.clearcoat),  # RTR4 §9.12
+            "DIFFRACTION_MODEL": DIFFRACTION_MODELS.index(self.diffraction),  # RTR4 §9.11
         }
 
     def describe(self) -> str:
@@ -128,6 +133,8 @@ class Model:
             parts.append(f"{self.sheen} sheen")
         if self.clearcoat != "none":  # clear coat (RTR4 §9.12)
             parts.append(f"{self.clearcoat} clear coat")
+        if self.diffraction != "none":  # diffraction (RTR4 §9.11)
+            parts.append(f"{self.diffraction} diffraction")
         return " + ".join(parts) or "standard"
 
 
@@ -167,6 +174,9 @@ class ModelParams:
     # The coat's transmittance at normal incidence through its thickness, once (linear RGB):
     # Beer-Lambert, T0 = exp(-sigma_a d); along a path at angle theta_t inside, T0^(1/cos).
     clearcoat_color: np.ndarray = field(default_factory=_rgb)
+    # --- diffraction grating (RTR4 §9.11), material-table texel 8 ---
+    grating_period: float = 0.0  # nm, the groove spacing d
+    grating_depth: float = 0.0  # nm, the sinusoidal profile's peak-to-valley depth
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); the
@@ -183,6 +193,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
     * Fresnel: fresnel | internal << 2
     * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
       | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13
+      | diffraction << 14
     * diffuse: diffuse
 
     Small integers, exact in float32."""
@@ -198,6 +209,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
         | d["THIN_FILM"] << 13  # thin film (RTR4 §9.11)
         | d["SHEEN_MODEL"] << 9  # sheen (RTR4 §9.10): bits 9-10
         | d["CLEARCOAT_MODEL"] << 11  # clear coat (RTR4 §9.12): bits 11-12
+        | d["DIFFRACTION_MODEL"] << 14  # diffraction (RTR4 §9.11): bits 14-15
     )
     return fresnel, specular, d["DIFFUSE_MODEL"]
 
@@ -217,6 +229,7 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
         thin_film=bool((specular >> 13) & 1),  # thin film (RTR4 §9.11)
         sheen=SHEEN_MODELS[(specular >> 9) & 3],  # sheen (RTR4 §9.10)
         clearcoat=CLEARCOAT_MODELS[(specular >> 11) & 3],  # clear coat (RTR4 §9.12)
+        diffraction=DIFFRACTION_MODELS[(specular >> 14) & 3],  # diffraction (RTR4 §9.11)
     )
 
 
@@ -240,6 +253,8 @@ def pack_model_params(
         if model.thin_film:  # thin film (RTR4 §9.11): (thickness nm, n2/n1, n2, 0)
             table[row, 7] = [p.film_thickness, p.film_eta, p.film_ior, 0.0]
         table[row, 6] = [*np.broadcast_to(p.sheen_color, 3), p.sheen_roughness]  # sheen
+        if model.diffraction != "none":  # diffraction (RTR4 §9.11): (period, depth, 0, 0)
+            table[row, 8] = [p.grating_period, p.grating_depth, 0.0, 0.0]
         # Clear coat (RTR4 §9.12), texels 4-5: (color, strength), (roughness, eta, 0, 0).
         # Without a coat they hold the defaults (strength 0, eta 1.5, white), so the coat's
         # formulas stay finite (and equal the base) even where a pass forces them on.
@@ -256,6 +271,7 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
         # Thin film (RTR4 §9.11), texel 7.
         film_thickness=float(t[7, 0]), film_eta=float(t[7, 1]), film_ior=float(t[7, 2]),
         sheen_color=t[6, :3], sheen_roughness=float(t[6, 3]),  # sheen (RTR4 §9.10)
+        grating_period=float(t[8, 0]), grating_depth=float(t[8, 1]),  # grating (§9.11)
     )  # fmt: skip
     if t[5, 1] > 0.0:  # clear coat (RTR4 §9.12): texels 4-5 (a table from before: zero)
         p = replace(

@@ -33,6 +33,7 @@ def _params_key(p: ModelParams) -> tuple:
         p.clearcoat_roughness,
         p.clearcoat_eta,
         tuple(np.broadcast_to(p.clearcoat_color, 3)),
+        (p.grating_period, p.grating_depth),  # diffraction grating (RTR4 §9.11)
     )
 
 
@@ -65,9 +66,10 @@ class MaterialTable:
 
     @property
     def needs_tangents(self) -> bool:
-        """Whether a material is anisotropic: only then does shading read a tangent, and
-        the G-buffer carry one (docs/gbuffer.md)."""
-        return any(model.anisotropic for model in self.models)
+        """Whether a material is anisotropic or a diffraction grating (RTR4 §9.11: its
+        grooves run along the tangent): only then does shading read a tangent, and the
+        G-buffer carry one (docs/gbuffer.md)."""
+        return any(model.anisotropic or model.diffraction != "none" for model in self.models)
 
     def packed(self) -> np.ndarray:
         """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params."""

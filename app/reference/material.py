@@ -15,7 +15,7 @@ from app.common.models import (
     Model,
     ModelParams,
 )
-from app.reference import clearcoat, diffuse, fresnel, masking, thin_film
+from app.reference import clearcoat, diffraction, diffuse, fresnel, masking, thin_film
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
@@ -220,6 +220,39 @@ def orthonormal_tangent(n: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.where((len2 > 1e-8)[..., None], unit, fallback)
 
 
+# --- diffraction grating (RTR4 §9.11) ---
+
+
+def grating_lobe(
+    s: Surface, p: ModelParams, model: Model, n: np.ndarray, alpha, l: np.ndarray, v: np.ndarray
+) -> np.ndarray:
+    """The material's single-scattering lobe F D V at any pair of upper-hemisphere
+    directions (the clamps and half vector of base_brdf_factors; the fused
+    height-correlated GGX visibility, the only G2 a grating takes), (..., 3)."""
+    NoL = np.clip(dot(n, l), MIN_N_DOT_L, 1.0)
+    NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
+    hv = l + v
+    hv2 = dot(hv, hv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where((hv2 > 1e-12)[..., None], hv / np.sqrt(hv2)[..., None], n)
+    LoH = np.clip(dot(l, h), 0.0, 1.0)
+    F = F_selected(s, p, model, LoH)
+    D = D_selected(model, n, h, alpha, p.gtr_gamma)
+    return F * (D * masking.V_height_correlated_GGX(NoL, NoV, alpha))[..., None]
+
+
+def f_spec_grating_selected(
+    s: Surface, p: ModelParams, model: Model, n, t, l, v, NoL, NoV, alpha
+) -> np.ndarray:
+    """The grating's orders over the lobe (app/reference/diffraction.py), grooves along
+    the tangent t: g = n x t."""
+    g = diffraction.grating_direction(n, orthonormal_tangent(n, t))
+    return diffraction.f_spec_grating(
+        lambda a, b: grating_lobe(s, p, model, n, alpha, a, b),
+        n, g, l, v, NoL, NoV, p.grating_period, p.grating_depth,
+    )  # fmt: skip
+
+
 @dataclass
 class BrdfFactors:
     """The factors of f(l, v) apart (glsl/brdf/material.glsl ``BrdfFactors``); values at
@@ -297,6 +330,8 @@ def base_brdf_factors(
             v,
         )
         f_spec = F * (D * G2 / (4.0 * NoL * NoV))[..., None]
+    if model.diffraction == "grating":  # RTR4 §9.11: the orders replace the lobe
+        f_spec = f_spec_grating_selected(s, p, model, n, t, l, v, NoL, NoV, alpha)
     if model.multiscatter:
         from app.reference import multiscatter  # its tables load only when a model uses them
 

@@ -25,6 +25,7 @@ from pydantic import (
 from app.common.ior import f0_from_ior, ior_from_f0
 from app.common.models import (
     CORRELATIONS,
+    DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
     G2_MODELS,
@@ -267,6 +268,10 @@ class Material(_Strict):
     clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
     # "weidlich_wilkie" (CLEARCOAT_MODELS[2]) is reserved and not implemented yet.
     clearcoat_model: Literal["filament"] = "filament"
+    # --- diffraction (RTR4 §9.11; docs/diffraction.md): a grating, grooves along the tangent
+    diffraction: Literal[DIFFRACTION_MODELS] = "none"  # type: ignore[valid-type]
+    grating_period: Annotated[Real, Field(ge=200.0, le=20000.0)] | None = None  # nm (1600)
+    grating_depth: Annotated[Real, Field(ge=0.0, le=300.0)] | None = None  # nm (120)
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -295,6 +300,8 @@ class Material(_Strict):
             "gtr_gamma": ("ndf", "gtr"),
             "film_thickness": ("thin_film", True),  # thin film (RTR4 §9.11)
             "film_ior": ("thin_film", True),
+            "grating_period": ("diffraction", "grating"),  # diffraction (RTR4 §9.11)
+            "grating_depth": ("diffraction", "grating"),
         }
         for key, (term, value) in only.items():
             if getattr(self, key) is not None and getattr(self, term) != value:
@@ -314,6 +321,13 @@ class Material(_Strict):
             )
         if self.sheen_roughness is not None and self.sheen_color is None:  # sheen
             raise ValueError("sheen_roughness: applies only with a 'sheen_color'")
+        if self.diffraction != "none" and (
+            self.ndf != "ggx" or self.g2 != "height_correlated" or self.anisotropy
+        ):
+            raise ValueError(
+                "diffraction: the grating's orders move the isotropic GGX lobe with the "
+                "height-correlated G2 (ndf = 'ggx', g2 = 'height_correlated', no anisotropy)"
+            )
         self._check_clearcoat()
         if self.fresnel == "conductor" and self._conductor_index() is None:
             raise ValueError(
@@ -422,6 +436,12 @@ class Material(_Strict):
             film_eta=(1.33 if self.film_ior is None else self.film_ior) / medium,
             film_ior=1.33 if self.film_ior is None else self.film_ior,
         )
+        if self.diffraction != "none":  # diffraction grating (RTR4 §9.11)
+            params = replace(
+                params,
+                grating_period=1600.0 if self.grating_period is None else self.grating_period,
+                grating_depth=120.0 if self.grating_depth is None else self.grating_depth,
+            )
         # sheen (RTR4 §9.10): only a non-black colour with a model makes a layer; without
         # one the parameters stay zero, so such materials share a row and a program.
         sheen_on = (
@@ -446,6 +466,7 @@ class Material(_Strict):
             internal=self.fresnel == "schlick" and eta_d < 1.0,
             thin_film=self.thin_film,  # thin film (RTR4 §9.11)
             sheen=self.sheen if sheen_on else "none",  # sheen
+            diffraction=self.diffraction,  # diffraction (RTR4 §9.11)
         )
         roughness = 0.5 if self.roughness is None else self.roughness
         return MaterialParams(

@@ -13,6 +13,7 @@
 #include "brdf/thin_film.glsl"
 #include "brdf/sheen.glsl"
 #include "brdf/clearcoat.glsl"
+#include "brdf/diffraction.glsl"
 
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
@@ -167,6 +168,50 @@ vec3 orthonormal_tangent(vec3 n, vec3 t) {
     return normalize(cross(a, n));
 }
 
+#if UBER_MODELS || DIFFRACTION_MODEL != DIFFRACTION_NONE
+// --- diffraction grating (RTR4 sec. 9.11, brdf/diffraction.glsl) ---
+// The single-scattering lobe F D V at any pair of upper-hemisphere directions (the clamps
+// and half vector of base_brdf_factors; the fused height-correlated GGX visibility, the
+// only G2 a grating takes).
+vec3 grating_lobe(Surface s, ModelParams p, vec3 n, float alpha, vec3 l, vec3 v) {
+    float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
+    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
+    vec3 hv = l + v;
+    float hv2 = dot(hv, hv);
+    vec3 h = hv2 > 1e-12 ? hv * inversesqrt(hv2) : n;
+    float LoH = clamp(dot(l, h), 0.0, 1.0);
+    vec3 F = F_selected(s, p, LoH);
+    float D = D_selected(n, h, alpha, p.gtr_gamma);
+    return F * (D * V_height_correlated_GGX(NoL, NoV, alpha));
+}
+
+// The grating's orders over the lobe, grooves along the tangent t (g = n x t):
+//   sum_lambda W(lambda) sum_|m|<=ORDERS eta_m (f(l, v'_m) + f(l'_m, v)) / 2 (m = 0: f),
+// clamped at 0 (a narrow band lies outside the sRGB gamut). f0 is f(l, v).
+vec3 f_spec_grating_selected(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v,
+                             float NoL, float NoV, float alpha, vec3 f0) {
+    vec3 g = cross(n, orthonormal_tangent(n, t));
+    vec3 total = vec3(0.0);
+    for (int j = 0; j < GRATING_SAMPLES; ++j) {
+        float lambda_nm = grating_wavelength(j);
+        vec3 band = grating_efficiency(0, p.grating_depth, lambda_nm, NoL, NoV) * f0;
+        for (int m = -GRATING_ORDERS; m <= GRATING_ORDERS; ++m) {
+            if (m == 0) continue;
+            float shift = float(m) * lambda_nm / p.grating_period;
+            bool v_ok, l_ok;
+            vec3 vm = grating_shifted(v, n, g, shift, v_ok);
+            vec3 lm = grating_shifted(l, n, g, shift, l_ok);
+            vec3 half_sum = v_ok ? grating_lobe(s, p, n, alpha, l, vm) : vec3(0.0);
+            if (l_ok) half_sum += grating_lobe(s, p, n, alpha, lm, v);
+            float eta = grating_efficiency(m, p.grating_depth, lambda_nm, NoL, NoV);
+            band += (0.5 * eta) * half_sum;
+        }
+        total += GRATING_WEIGHTS[j] * band;
+    }
+    return max(total, vec3(0.0));
+}
+#endif
+
 // RTR4 sec. 9.1: the surface (specular: f_spec and f_ms) and subsurface (diffuse)
 // reflections as separate contributions. BRDF_TERMS selects which brdf_eval returns,
 // a compile-time bitmask of TERM_SPECULAR and TERM_DIFFUSE (render.terms; the bits are
@@ -236,6 +281,12 @@ BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
                          Lambda_selected(NoL, alpha_l, p.gtr_gamma), n, l, v);
         f_spec = F * (D * G2 / (4.0 * NoL * NoV));
     }
+#if UBER_MODELS || DIFFRACTION_MODEL != DIFFRACTION_NONE
+    // diffraction grating (RTR4 sec. 9.11): the orders replace the lobe
+    if (DIFFRACTION_MODEL == DIFFRACTION_GRATING) {
+        f_spec = f_spec_grating_selected(s, p, n, t, l, v, NoL, NoV, alpha, f_spec);
+    }
+#endif
 #if UBER_MODELS || MULTISCATTER
     // brdf/multiscatter.glsl declares the table and its functions only under this condition.
     if (MULTISCATTER != 0) {

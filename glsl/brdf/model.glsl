@@ -35,6 +35,7 @@ int uber_fresnel_internal;
 int uber_thin_film;  // thin film (RTR4 sec. 9.11)
 int uber_sheen_model;  // sheen (RTR4 sec. 9.10)
 int uber_clearcoat_model;  // clear coat (RTR4 sec. 9.12)
+int uber_diffraction_model;  // diffraction grating (RTR4 sec. 9.11)
 #define FRESNEL_MODEL uber_fresnel_model
 #define NDF_MODEL uber_ndf_model
 #define LAMBDA_FORM uber_lambda_form
@@ -47,6 +48,7 @@ int uber_clearcoat_model;  // clear coat (RTR4 sec. 9.12)
 #define THIN_FILM uber_thin_film  // thin film (RTR4 sec. 9.11)
 #define SHEEN_MODEL uber_sheen_model
 #define CLEARCOAT_MODEL uber_clearcoat_model
+#define DIFFRACTION_MODEL uber_diffraction_model
 #else
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
@@ -88,6 +90,10 @@ int uber_clearcoat_model;  // clear coat (RTR4 sec. 9.12)
 #ifndef CLEARCOAT_MODEL
 #define CLEARCOAT_MODEL CLEARCOAT_NONE
 #endif
+// Diffraction grating (RTR4 sec. 9.11): none unless a pass says otherwise.
+#ifndef DIFFRACTION_MODEL
+#define DIFFRACTION_MODEL DIFFRACTION_NONE
+#endif
 #endif  // UBER_MODELS
 
 // Whether the coat's code is compiled in (always under UBER_MODELS, where the model is a
@@ -127,6 +133,9 @@ struct ModelParams {
     float clearcoat;            // strength 0..1
     float clearcoat_roughness;  // perceptual
     float clearcoat_eta;        // coat index / medium index
+    // --- diffraction grating (RTR4 sec. 9.11), texel 8; zero without one ---
+    float grating_period;       // nm, the groove spacing
+    float grating_depth;        // nm, peak-to-valley depth of the sinusoidal profile
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
@@ -143,10 +152,12 @@ ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t5 = texelFetch(table, ivec2(5, id), 0);  // clear coat (RTR4 sec. 9.12)
     vec4 t6 = texelFetch(table, ivec2(6, id), 0);  // sheen (RTR4 sec. 9.10)
     vec4 t7 = texelFetch(table, ivec2(7, id), 0);  // thin film (RTR4 sec. 9.11)
+    vec4 t8 = texelFetch(table, ivec2(8, id), 0);  // diffraction grating (RTR4 sec. 9.11)
     return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a,
                        t7.r, t7.g, t7.b,            // thin film
                        t6.rgb, t6.a,                // sheen
-                       t4.rgb, t4.a, t5.r, t5.g);   // clear coat
+                       t4.rgb, t4.a, t5.r, t5.g,    // clear coat
+                       t8.r, t8.g);                 // diffraction grating
 }
 
 // The model group of material ``id``: which lighting permutation shades its pixels.
@@ -160,6 +171,7 @@ int fetch_model_group(sampler2D table, int id) {
 //   .g Fresnel:  fresnel | internal << 2
 //   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
 //                | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13
+//                | diffraction << 14
 //   .a diffuse:  diffuse
 void fetch_model_codes(sampler2D table, int id) {
     ivec4 c = ivec4(texelFetch(table, ivec2(3, id), 0));
@@ -174,6 +186,7 @@ void fetch_model_codes(sampler2D table, int id) {
     uber_thin_film = (c.b >> 13) & 1;  // thin film (RTR4 sec. 9.11)
     uber_sheen_model = (c.b >> 9) & 3;  // sheen (RTR4 sec. 9.10)
     uber_clearcoat_model = (c.b >> 11) & 3;  // clear coat (RTR4 sec. 9.12)
+    uber_diffraction_model = (c.b >> 14) & 3;  // diffraction grating (RTR4 sec. 9.11)
     uber_diffuse_model = c.a;
 }
 #endif
