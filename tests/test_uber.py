@@ -61,6 +61,7 @@ SCENES = (
     "sec11_thin_film",  # thin film (RTR4 §9.11): films and a bare lens
     "sec10_cloth",  # sheen (RTR4 §9.10): none, charlie, ashikhmin
     "sec12_layered",  # clear coat (RTR4 §9.12)
+    "sec11_diffraction",  # diffraction grating (RTR4 §9.11)
 )
 SIZE = (320, 160)
 MAX_REL = 1e-5  # uber vs specialized, relative to max(|specialized|, 1e-3 peak)
