@@ -10,9 +10,12 @@ import numpy as np
 import pytest
 
 from app.brdf import evaluate, resolve_material
+from app.frame import prepare_frame
 from app.reference import diffraction
 from app.reference._vec import dot
 from app.reference.material import Surface, grating_lobe, material_alpha
+from app.resources import scenes_dir
+from app.scene.loader import load_scene
 from tests.test_brdf_models import _dir, direction_pairs
 
 N = np.array([0.0, 0.0, 1.0])
@@ -36,6 +39,14 @@ def _surface_and_lobe(material: dict):
 
 def test_tangent_convention():
     assert np.allclose(diffraction.grating_direction(N, T), G)
+
+
+def test_a_grating_makes_the_gbuffer_carry_tangents():
+    """The grooves run along the tangent, so a scene with a grating needs one per pixel
+    (MaterialTable.needs_tangents, as for anisotropy)."""
+    frame = prepare_frame(load_scene(scenes_dir() / "sec11_diffraction.toml"))
+    assert not any(m.anisotropic for m in frame.materials.models)
+    assert frame.materials.needs_tangents
 
 
 @pytest.mark.parametrize("wavelength", [450.0, 550.0, 650.0])
