@@ -90,6 +90,19 @@ MODELS: dict[str, dict] = {
     "clear coat over exact dielectric": {
         "fresnel": "dielectric", "ior": 1.33, "clearcoat": 1.0, "clearcoat_roughness": 0.05,
     },
+    # Weidlich & Wilkie 2007: the base with the directions refracted into the coat
+    "weidlich-wilkie coat over plastic": {
+        "base_color": [0.8, 0.3, 0.1], "clearcoat": 1.0, "clearcoat_model": "weidlich_wilkie",
+    },
+    "weidlich-wilkie tinted rough half coat over gold": {
+        "preset": "gold", "clearcoat": 0.5, "clearcoat_roughness": 0.4,
+        "clearcoat_color": [0.9, 0.6, 0.3], "clearcoat_ior": 1.6,
+        "clearcoat_model": "weidlich_wilkie",
+    },
+    "weidlich-wilkie coat over exact conductor": {
+        "preset": "copper", "fresnel": "conductor", "clearcoat": 1.0, "clearcoat_ior": 2.0,
+        "clearcoat_roughness": 0.1, "clearcoat_model": "weidlich_wilkie",
+    },
 }  # fmt: skip
 
 ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material

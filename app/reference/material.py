@@ -359,7 +359,9 @@ def clearcoat_factors(
 ) -> BrdfFactors:
     """The coated BRDF's factors (twin of the GLSL's ``clearcoat_factors``): F, D, G2 the
     base's; "filament":
-    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base."""
+    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base;
+    "weidlich_wilkie" (Weidlich & Wilkie 2007), the base with the refracted directions:
+    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2."""
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
     NoL_raw = dot(n, l)
     lit = NoL_raw > 0.0
@@ -376,15 +378,26 @@ def clearcoat_factors(
     alpha_c = rc * rc
 
     base = replace(model, clearcoat="none")
+    l_base, v_base, compression = l, v, 1.0
+    if model.clearcoat == "weidlich_wilkie" and c > 0.0:
+        # Weidlich & Wilkie 2007: the base sees the directions refracted into the coat, at
+        # eta_c = mix(1, eta, c), and the result is compressed by 1/eta_c^2 (GLSL's comment).
+        eta_c = 1.0 - c + p.clearcoat_eta * c
+        l_base = clearcoat.clearcoat_refract_in(eta_c, n, l)
+        v_base = clearcoat.clearcoat_refract_in(eta_c, n, v)
+        compression = clearcoat.clearcoat_solid_angle_compression(eta_c)
     b = base_brdf_factors(
-        clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l, v, ms_table
-    )
+        clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l_base, v_base,
+        ms_table,
+    )  # fmt: skip
     T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
     A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
     A = 1.0 - c + A * c
-    w = T[..., None] * A
+    w = (T * compression)[..., None] * A
     f_coat = c * clearcoat.f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH)
-    return replace(b, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse)
+    return replace(
+        b, lit=lit, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse
+    )
 
 
 def brdf_factors(

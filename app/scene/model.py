@@ -265,8 +265,8 @@ class Material(_Strict):
     clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
     clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
     clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
-    # "weidlich_wilkie" (CLEARCOAT_MODELS[2]) is reserved and not implemented yet.
-    clearcoat_model: Literal["filament"] = "filament"
+    # how the coat composes with the base (docs/layered.md): Filament's or Weidlich & Wilkie's
+    clearcoat_model: Literal["filament", "weidlich_wilkie"] = "filament"
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -327,8 +327,8 @@ class Material(_Strict):
             for key in ("clearcoat_roughness", "clearcoat_ior", "clearcoat_color"):
                 if getattr(self, key) is not None:
                     raise ValueError(f"{key}: applies only with clearcoat > 0")
-            # clearcoat_model is not checked: its one value is the default, and tools that
-            # rebuild a material from all its fields (pbs compare) set it explicitly.
+            # clearcoat_model is not checked: without a coat it selects nothing, and tools
+            # that rebuild a material from all its fields (pbs compare) set it explicitly.
             return
         medium = self._medium()
         coat = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior

@@ -283,6 +283,14 @@ ModelParams clearcoat_base_params(ModelParams p) {
 // two lobes are weighted by what reaches them through the coat and back.
 // CLEARCOAT_FILAMENT (Filament; glTF KHR_materials_clearcoat), with strength c:
 //   f = c f_coat(l, v) + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base(l, v).
+// CLEARCOAT_WEIDLICH_WILKIE (Weidlich & Wilkie 2007, "Arbitrarily Layered Micro-Facet
+// Surfaces", two layers, a flat coat): the base sees the directions refracted into the coat,
+//   f = c f_coat(l, v) + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2,
+// l_t, v_t by Snell's law at eta_c = mix(1, eta, c) (the medium's index at c = 0: the base
+// unchanged), 1/eta_c^2 the solid-angle compression of the refraction (clearcoat.glsl).
+// Left out, as in the paper: the light the coat reflects back down (no inter-reflection
+// between coat and base), refraction through the coat's microfacets (the macro normal
+// refracts), and the paper's empirical compensation term t.
 BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
     // The clamps and the half vector of base_brdf_factors.
     float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
@@ -296,12 +304,21 @@ BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
     float rc = max(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS);
     float alpha_c = rc * rc;
 
+    vec3 l_base = l;
+    vec3 v_base = v;
+    float compression = 1.0;
+    if (CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE && c > 0.0) {
+        float eta_c = mix(1.0, p.clearcoat_eta, c);
+        l_base = clearcoat_refract_in(eta_c, n, l);
+        v_base = clearcoat_refract_in(eta_c, n, v);
+        compression = clearcoat_solid_angle_compression(eta_c);
+    }
     BrdfFactors b = base_brdf_factors(clearcoat_base_surface(s, p), clearcoat_base_params(p),
-                                      n, t, l, v);
+                                      n, t, l_base, v_base);
     float T = T_clearcoat_filament(c, F0c, NoL, NoV);
     vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
                                                      NoV), c);
-    vec3 w = T * A;
+    vec3 w = (T * compression) * A;
     float f_coat = c * f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH);
     b.f_spec = vec3(f_coat) + w * b.f_spec;
     b.f_diffuse = w * b.f_diffuse;
