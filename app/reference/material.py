@@ -395,9 +395,7 @@ def clearcoat_factors(
     A = 1.0 - c + A * c
     w = (T * compression)[..., None] * A
     f_coat = c * clearcoat.f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH)
-    return replace(
-        b, lit=lit, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse
-    )
+    return replace(b, lit=lit, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse)
 
 
 def brdf_factors(
