@@ -75,7 +75,7 @@ CHOICES = {
     "internal": (False, True),
     "thin_film": (False, True),  # thin film (RTR4 §9.11)
     "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
-    "clearcoat": ("none", "filament"),  # clear coat; "weidlich_wilkie" is not implemented
+    "clearcoat": ("none", "filament"),  # clear coat; "weidlich_wilkie" is in no scene yet
 }
 
 
