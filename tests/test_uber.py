@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from app.common.models import (
+    CLEARCOAT_MODELS,
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
@@ -75,7 +76,7 @@ CHOICES = {
     "internal": (False, True),
     "thin_film": (False, True),  # thin film (RTR4 §9.11)
     "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
-    "clearcoat": ("none", "filament"),  # clear coat; "weidlich_wilkie" is in no scene yet
+    "clearcoat": CLEARCOAT_MODELS,  # clear coat (RTR4 §9.12)
 }
 
 
