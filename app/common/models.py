@@ -254,11 +254,13 @@ def pack_model_params(
         # formulas stay finite (and equal the base) even where a pass forces them on.
         table[row, 4] = [*np.broadcast_to(p.clearcoat_color, 3), p.clearcoat]
         table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
-        if model.diffuse == "cloth_empirical":  # empirical cloth (RTR4 §9.10), texels 9-11:
-            # (k_rim, a_rim, k_inner, a_inner), (c_scatter, w), (k_sheen c_sheen, k_diff)
-            table[row, 9] = np.broadcast_to(p.cloth_rim_inner, 4)
-            table[row, 10] = [*np.broadcast_to(p.cloth_scatter, 3), p.cloth_wrap]
-            table[row, 11] = [*np.broadcast_to(p.cloth_sheen, 3), p.cloth_diffuse]
+        # Empirical cloth (RTR4 §9.10), texels 9-11: (k_rim, a_rim, k_inner, a_inner),
+        # (c_scatter, w), (k_sheen c_sheen, k_diff). Every row holds them (the defaults,
+        # Lambert, where a material has none), like the clear coat's, so a table packed
+        # without its models (the tests' kernels) still shades a cloth row as the twin.
+        table[row, 9] = np.broadcast_to(p.cloth_rim_inner, 4)
+        table[row, 10] = [*np.broadcast_to(p.cloth_scatter, 3), p.cloth_wrap]
+        table[row, 11] = [*np.broadcast_to(p.cloth_sheen, 3), p.cloth_diffuse]
     return table
 
 
@@ -279,7 +281,7 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
             clearcoat_eta=float(t[5, 1]),
             clearcoat_color=t[4, :3],
         )
-    if int(t[3, 3]) == DIFFUSE_MODELS.index("cloth_empirical"):  # empirical cloth (§9.10)
+    if t[9, 1] > 0.0:  # empirical cloth (RTR4 §9.10): a_rim > 0 (a table from before: zero)
         p = replace(
             p,
             cloth_rim_inner=t[9].copy(),
