@@ -33,6 +33,12 @@ def _params_key(p: ModelParams) -> tuple:
         p.clearcoat_roughness,
         p.clearcoat_eta,
         tuple(np.broadcast_to(p.clearcoat_color, 3)),
+        # empirical cloth (RTR4 §9.10)
+        tuple(np.broadcast_to(p.cloth_rim_inner, 4)),
+        p.cloth_diffuse,
+        tuple(np.broadcast_to(p.cloth_scatter, 3)),
+        p.cloth_wrap,
+        tuple(np.broadcast_to(p.cloth_sheen, 3)),
     )
 
 

@@ -15,7 +15,7 @@ from app.common.models import (
     Model,
     ModelParams,
 )
-from app.reference import clearcoat, diffuse, fresnel, masking, thin_film
+from app.reference import clearcoat, cloth, diffuse, fresnel, masking, thin_film
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
@@ -174,6 +174,7 @@ def F_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.
 
 def f_diffuse_selected(
     s: Surface,
+    p: ModelParams,
     model: Model,
     alpha: np.ndarray,
     n: np.ndarray,
@@ -203,6 +204,11 @@ def f_diffuse_selected(
             return diffuse.Fd_hammon(rho, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v))
         case "none":
             return np.zeros_like(rho)
+        case "cloth_empirical":  # RTR4 §9.10 (app/reference/cloth.py)
+            return cloth.f_cloth_empirical(
+                rho, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap,
+                p.cloth_sheen, NoL, NoV, LoH,
+            )  # fmt: skip
     return diffuse.Fd_lambert(rho)
 
 
@@ -305,7 +311,7 @@ def base_brdf_factors(
         f_spec = f_spec + multiscatter.f_ms_kulla_conty(
             ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
         )
-    f_diffuse = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+    f_diffuse = f_diffuse_selected(s, p, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
     if model.sheen != "none":
         # sheen (RTR4 §9.10, app/reference/sheen.py): the cloth layer over the whole base,
         # f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))), in f_spec.

@@ -13,6 +13,7 @@
 #include "brdf/thin_film.glsl"
 #include "brdf/sheen.glsl"
 #include "brdf/clearcoat.glsl"
+#include "brdf/cloth.glsl"
 
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
@@ -137,7 +138,7 @@ vec3 F_selected(Surface s, ModelParams p, float LoH) {
 }
 
 // The diffuse (subsurface) lobe of the selected model (RTR4 sec. 9.9).
-vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
+vec3 f_diffuse_selected(Surface s, ModelParams p, float alpha, vec3 n, vec3 l, vec3 v,
                         float NoL, float NoV, float NoH, float LoH) {
     vec3 rho_ss = material_rho_ss(s);
     float r = clamp(s.perceptual_roughness, 0.0, 1.0);
@@ -154,6 +155,10 @@ vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
         return Fd_hammon(rho_ss, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v));
     }
     if (DIFFUSE_MODEL == DIFFUSE_NONE) return vec3(0.0);
+    if (DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL) {  // RTR4 sec. 9.10 (brdf/cloth.glsl)
+        return f_cloth_empirical(rho_ss, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter,
+                                 p.cloth_wrap, p.cloth_sheen, NoL, NoV, LoH);
+    }
     return Fd_lambert(rho_ss);
 }
 
@@ -242,7 +247,7 @@ BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
         f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
     }
 #endif
-    vec3 f_diffuse = f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH);
+    vec3 f_diffuse = f_diffuse_selected(s, p, alpha, n, l, v, NoL, NoV, NoH, LoH);
 #if UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
     // sheen (RTR4 sec. 9.10, brdf/sheen.glsl): the cloth layer over the whole base,
     // f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))). The sheen is a
