@@ -134,6 +134,12 @@ STRESS_MODELS: dict[str, dict] = {
         "sheen": "ashikhmin", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
         "multiscatter": True,
     },
+    # empirical cloth (RTR4 §9.10) at its keys' ends: sharp lobes, full wrap, black to white scatter
+    "empirical cloth extremes": {
+        "diffuse": "cloth_empirical", "cloth_rim": [10.0, 64.0], "cloth_inner": [10.0, 1e-3],
+        "cloth_diffuse": 10.0, "cloth_scatter": [0.0, 0.5, 1.0], "cloth_wrap": 1.0,
+        "cloth_sheen": 10.0,
+    },
 }  # fmt: skip
 
 # Surface variants: F0 = 0 and F0 = 1, through the metal and through the dielectric path.

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from app.common.models import (
+    CLEARCOAT_MODELS,
     CORRELATIONS,
     DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
@@ -38,6 +39,7 @@ from app.common.models import (
     model_from_codes,
     pack_model_params,
     unpack_model,
+    unpack_model_params,
 )
 from app.frame import prepare_frame
 from app.gl.kernel import run_kernel
@@ -60,6 +62,7 @@ SCENES = (
     "sec13_rust_blend",
     "sec11_thin_film",  # thin film (RTR4 §9.11): films and a bare lens
     "sec10_cloth",  # sheen (RTR4 §9.10): none, charlie, ashikhmin
+    "sec10_cloth_empirical",  # the empirical cloth terms (RTR4 §9.10)
     "sec12_layered",  # clear coat (RTR4 §9.12)
     "sec11_diffraction",  # diffraction grating (RTR4 §9.11)
 )
@@ -77,7 +80,7 @@ CHOICES = {
     "internal": (False, True),
     "thin_film": (False, True),  # thin film (RTR4 §9.11)
     "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
-    "clearcoat": ("none", "filament"),  # clear coat; "weidlich_wilkie" is not implemented
+    "clearcoat": CLEARCOAT_MODELS,  # clear coat (RTR4 §9.12)
     "diffraction": DIFFRACTION_MODELS,  # diffraction grating (RTR4 §9.11)
 }
 
@@ -165,6 +168,27 @@ def test_model_codes_round_trip():
     assert table.shape == (len(models), MATERIAL_TEXELS, 4)
     for row, m in enumerate(models):
         assert unpack_model(table[row]) == (row, m)
+
+
+def test_cloth_params_round_trip():
+    """Empirical cloth (RTR4 §9.10): texels 9-11 carry a cloth row's numbers back exactly
+    (float32-exact values); rows of other diffuse models hold the defaults (Lambert)."""
+    cloth = Model(diffuse="cloth_empirical")
+    p = ModelParams(
+        cloth_rim_inner=np.array([0.5, 4.0, 0.25, 2.0]), cloth_diffuse=0.75,
+        cloth_scatter=np.array([0.5, 0.25, 0.125]), cloth_wrap=0.5,
+        cloth_sheen=np.array([1.0, 0.5, 0.375]),
+    )  # fmt: skip
+    table = pack_model_params([p, ModelParams()], [0, 1], [cloth, Model()])
+    back = unpack_model_params(table[0])
+    for name in ("cloth_rim_inner", "cloth_scatter", "cloth_sheen"):
+        assert np.array_equal(getattr(back, name), getattr(p, name)), name
+    assert (back.cloth_diffuse, back.cloth_wrap) == (0.75, 0.5)
+    assert unpack_model(table[0]) == (0, cloth)
+    assert table[1, 9:12].tolist() == [[0, 1, 0, 1], [1, 1, 1, 0], [0, 0, 0, 1]]
+    old = table[1].copy()
+    old[9:12] = 0.0  # a table from before the cloth texels: the defaults
+    assert unpack_model_params(old).cloth_diffuse == ModelParams().cloth_diffuse
 
 
 def _specular_lambda_g2(m: Model) -> bool:

@@ -35,6 +35,7 @@ DIFFUSE_MODELS = (
     "hammon",
     "none",
     "burley_renormalized",
+    "cloth_empirical",  # RTR4 §9.10: the empirical cloth terms (app/reference/cloth.py)
 )
 # --- sheen (RTR4 §9.10): the cloth layer's NDF; "none" (code 0) compiles the layer out ---
 SHEEN_MODELS = ("none", "charlie", "ashikhmin")
@@ -177,6 +178,14 @@ class ModelParams:
     # --- diffraction grating (RTR4 §9.11), material-table texel 8 ---
     grating_period: float = 0.0  # nm, the groove spacing d
     grating_depth: float = 0.0  # nm, the sinusoidal profile's peak-to-valley depth
+    # --- empirical cloth (RTR4 §9.10, diffuse = "cloth_empirical"; texels 9-11) ---
+    # (k_rim, a_rim, k_inner, a_inner); the defaults, with k_diff 1, white scatter, wrap 0
+    # and no sheen, make the model Lambert exactly.
+    cloth_rim_inner: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0, 1.0]))
+    cloth_diffuse: float = 1.0  # k_diff
+    cloth_scatter: np.ndarray = field(default_factory=_rgb)  # c_scatter (linear RGB)
+    cloth_wrap: float = 0.0  # w
+    cloth_sheen: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))  # k c_sheen
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); the
@@ -260,6 +269,13 @@ def pack_model_params(
         # formulas stay finite (and equal the base) even where a pass forces them on.
         table[row, 4] = [*np.broadcast_to(p.clearcoat_color, 3), p.clearcoat]
         table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
+        # Empirical cloth (RTR4 §9.10), texels 9-11: (k_rim, a_rim, k_inner, a_inner),
+        # (c_scatter, w), (k_sheen c_sheen, k_diff). Every row holds them (the defaults,
+        # Lambert, where a material has none), like the clear coat's, so a table packed
+        # without its models (the tests' kernels) still shades a cloth row as the twin.
+        table[row, 9] = np.broadcast_to(p.cloth_rim_inner, 4)
+        table[row, 10] = [*np.broadcast_to(p.cloth_scatter, 3), p.cloth_wrap]
+        table[row, 11] = [*np.broadcast_to(p.cloth_sheen, 3), p.cloth_diffuse]
     return table
 
 
@@ -280,6 +296,15 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
             clearcoat_roughness=float(t[5, 0]),
             clearcoat_eta=float(t[5, 1]),
             clearcoat_color=t[4, :3],
+        )
+    if t[9, 1] > 0.0:  # empirical cloth (RTR4 §9.10): a_rim > 0 (a table from before: zero)
+        p = replace(
+            p,
+            cloth_rim_inner=t[9].copy(),
+            cloth_scatter=t[10, :3],
+            cloth_wrap=float(t[10, 3]),
+            cloth_sheen=t[11, :3],
+            cloth_diffuse=float(t[11, 3]),
         )
     return p
 

@@ -34,6 +34,12 @@ def _params_key(p: ModelParams) -> tuple:
         p.clearcoat_eta,
         tuple(np.broadcast_to(p.clearcoat_color, 3)),
         (p.grating_period, p.grating_depth),  # diffraction grating (RTR4 §9.11)
+        # empirical cloth (RTR4 §9.10)
+        tuple(np.broadcast_to(p.cloth_rim_inner, 4)),
+        p.cloth_diffuse,
+        tuple(np.broadcast_to(p.cloth_scatter, 3)),
+        p.cloth_wrap,
+        tuple(np.broadcast_to(p.cloth_sheen, 3)),
     )
 
 

@@ -94,3 +94,22 @@ def f0_under_clearcoat(f0: np.ndarray | float, eta: np.ndarray | float) -> np.nd
     b = _f64(eta) * (1.0 - s)
     r = (a - b) / (a + b)
     return r * r
+
+
+def clearcoat_refract_in(eta: np.ndarray | float, n: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Snell's law (RTR4 eq. 9.31) for a unit direction d outside, pointing away from the
+    surface: the same direction inside the coat, d_t = (d - (n.d) n)/eta + cos_t n, unit for
+    any n.d (cos_t from (n.d)^2), so a direction slightly below the horizon lands above it."""
+    eta, n, d = _f64(eta), _f64(n), _f64(d)
+    mu = np.sum(n * d, -1)
+    cos_t = clearcoat_cos_refracted(eta, mu)
+    eta_ = eta[..., None] if eta.ndim else eta
+    return (d - mu[..., None] * n) / eta_ + cos_t[..., None] * n
+
+
+def clearcoat_solid_angle_compression(eta: np.ndarray | float) -> np.ndarray:
+    """What refraction does to radiance, crossing in and back out (RTR4 §9.12's coat; the
+    n^2 law of radiance, Veach 1997 §5.2): a BRDF evaluated with the refracted directions
+    is worth 1/eta^2 of itself outside, since cos_t d omega_t = cos d omega / eta^2."""
+    eta = _f64(eta)
+    return 1.0 / (eta * eta)

@@ -15,7 +15,7 @@ from app.common.models import (
     Model,
     ModelParams,
 )
-from app.reference import clearcoat, diffraction, diffuse, fresnel, masking, thin_film
+from app.reference import clearcoat, cloth, diffraction, diffuse, fresnel, masking, thin_film
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
@@ -174,6 +174,7 @@ def F_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.
 
 def f_diffuse_selected(
     s: Surface,
+    p: ModelParams,
     model: Model,
     alpha: np.ndarray,
     n: np.ndarray,
@@ -203,6 +204,11 @@ def f_diffuse_selected(
             return diffuse.Fd_hammon(rho, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v))
         case "none":
             return np.zeros_like(rho)
+        case "cloth_empirical":  # RTR4 §9.10 (app/reference/cloth.py)
+            return cloth.f_cloth_empirical(
+                rho, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap,
+                p.cloth_sheen, NoL, NoV, LoH,
+            )  # fmt: skip
     return diffuse.Fd_lambert(rho)
 
 
@@ -340,7 +346,7 @@ def base_brdf_factors(
         f_spec = f_spec + multiscatter.f_ms_kulla_conty(
             ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
         )
-    f_diffuse = f_diffuse_selected(s, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+    f_diffuse = f_diffuse_selected(s, p, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
     if model.sheen != "none":
         # sheen (RTR4 §9.10, app/reference/sheen.py): the cloth layer over the whole base,
         # f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))), in f_spec.
@@ -394,7 +400,9 @@ def clearcoat_factors(
 ) -> BrdfFactors:
     """The coated BRDF's factors (twin of the GLSL's ``clearcoat_factors``): F, D, G2 the
     base's; "filament":
-    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base."""
+    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base;
+    "weidlich_wilkie" (Weidlich & Wilkie 2007), the base with the refracted directions:
+    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2."""
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
     NoL_raw = dot(n, l)
     lit = NoL_raw > 0.0
@@ -411,15 +419,24 @@ def clearcoat_factors(
     alpha_c = rc * rc
 
     base = replace(model, clearcoat="none")
+    l_base, v_base, compression = l, v, 1.0
+    if model.clearcoat == "weidlich_wilkie" and c > 0.0:
+        # Weidlich & Wilkie 2007: the base sees the directions refracted into the coat, at
+        # eta_c = mix(1, eta, c), and the result is compressed by 1/eta_c^2 (GLSL's comment).
+        eta_c = 1.0 - c + p.clearcoat_eta * c
+        l_base = clearcoat.clearcoat_refract_in(eta_c, n, l)
+        v_base = clearcoat.clearcoat_refract_in(eta_c, n, v)
+        compression = clearcoat.clearcoat_solid_angle_compression(eta_c)
     b = base_brdf_factors(
-        clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l, v, ms_table
-    )
+        clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l_base, v_base,
+        ms_table,
+    )  # fmt: skip
     T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
     A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
     A = 1.0 - c + A * c
-    w = T[..., None] * A
+    w = (T * compression)[..., None] * A
     f_coat = c * clearcoat.f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH)
-    return replace(b, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse)
+    return replace(b, lit=lit, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse)
 
 
 def brdf_factors(

@@ -227,6 +227,18 @@ class Blend(_Strict):
     softness: Unit = 0.1  # width of the ramp in mask units; 0 = a hard edge
 
 
+# Empirical cloth (RTR4 §9.10): a lobe's weight k and exponent a (a > 0: pow(0, a) is
+# defined in GLSL only for a > 0).
+ClothWeight = Annotated[Real, Field(ge=0.0, le=10.0)]
+ClothLobe = Annotated[
+    list[Annotated[Real, Field(ge=0.0, le=64.0)]], Field(min_length=2, max_length=2)
+]
+CLOTH_KEYS = (
+    "cloth_rim", "cloth_inner", "cloth_diffuse", "cloth_scatter", "cloth_wrap", "cloth_sheen",
+    "cloth_sheen_color",
+)  # fmt: skip
+
+
 class Material(_Strict):
     """The metallic-roughness material (glTF names), optionally from a preset (RTR4's F0
     tables), and the model of each BRDF term (docs/scene-format.md, "Materials")."""
@@ -266,8 +278,16 @@ class Material(_Strict):
     clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
     clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
     clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
-    # "weidlich_wilkie" (CLEARCOAT_MODELS[2]) is reserved and not implemented yet.
-    clearcoat_model: Literal["filament"] = "filament"
+    # how the coat composes with the base (docs/layered.md): Filament's or Weidlich & Wilkie's
+    clearcoat_model: Literal["filament", "weidlich_wilkie"] = "filament"
+    # --- empirical cloth (RTR4 §9.10): only with diffuse = "cloth_empirical" ---
+    cloth_rim: ClothLobe | None = None  # [k_rim, a_rim] (default [0, 1])
+    cloth_inner: ClothLobe | None = None  # [k_inner, a_inner] (default [0, 1])
+    cloth_diffuse: ClothWeight | None = None  # k_diff (default 1)
+    cloth_scatter: UnitColor | None = None  # c_scatter, linear RGB (default white: none)
+    cloth_wrap: Unit | None = None  # w (default 0: no wrap)
+    cloth_sheen: ClothWeight | None = None  # k_sheen (default 0)
+    cloth_sheen_color: UnitColor | None = None  # c_sheen, linear RGB (default white)
     # --- diffraction (RTR4 §9.11; docs/diffraction.md): a grating, grooves along the tangent
     diffraction: Literal[DIFFRACTION_MODELS] = "none"  # type: ignore[valid-type]
     grating_period: Annotated[Real, Field(ge=200.0, le=20000.0)] | None = None  # nm (1600)
@@ -329,6 +349,15 @@ class Material(_Strict):
                 "height-correlated G2 (ndf = 'ggx', g2 = 'height_correlated', no anisotropy)"
             )
         self._check_clearcoat()
+        for key in CLOTH_KEYS:  # empirical cloth (RTR4 §9.10)
+            if getattr(self, key) is not None and self.diffuse != "cloth_empirical":
+                raise ValueError(f"{key}: applies only with diffuse = 'cloth_empirical'")
+        for key in ("cloth_rim", "cloth_inner"):
+            lobe = getattr(self, key)
+            if lobe is not None and lobe[0] > 10.0:
+                raise ValueError(f"{key}: the weight k must be at most 10")
+            if lobe is not None and lobe[1] <= 0.0:
+                raise ValueError(f"{key}: the exponent must be positive")
         if self.fresnel == "conductor" and self._conductor_index() is None:
             raise ValueError(
                 "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
@@ -341,8 +370,8 @@ class Material(_Strict):
             for key in ("clearcoat_roughness", "clearcoat_ior", "clearcoat_color"):
                 if getattr(self, key) is not None:
                     raise ValueError(f"{key}: applies only with clearcoat > 0")
-            # clearcoat_model is not checked: its one value is the default, and tools that
-            # rebuild a material from all its fields (pbs compare) set it explicitly.
+            # clearcoat_model is not checked: without a coat it selects nothing, and tools
+            # that rebuild a material from all its fields (pbs compare) set it explicitly.
             return
         medium = self._medium()
         coat = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
@@ -452,6 +481,19 @@ class Material(_Strict):
                 params,
                 sheen_color=np.asarray(self.sheen_color, np.float64),
                 sheen_roughness=0.5 if self.sheen_roughness is None else self.sheen_roughness,
+            )
+        if self.diffuse == "cloth_empirical":  # empirical cloth (RTR4 §9.10)
+            rim = [0.0, 1.0] if self.cloth_rim is None else self.cloth_rim
+            inner = [0.0, 1.0] if self.cloth_inner is None else self.cloth_inner
+            k_sheen = 0.0 if self.cloth_sheen is None else self.cloth_sheen
+            c_sheen = [1.0, 1.0, 1.0] if self.cloth_sheen_color is None else self.cloth_sheen_color
+            params = replace(
+                params,
+                cloth_rim_inner=np.asarray([*rim, *inner], np.float64),
+                cloth_diffuse=1.0 if self.cloth_diffuse is None else self.cloth_diffuse,
+                cloth_scatter=np.asarray(self.cloth_scatter or [1.0, 1.0, 1.0], np.float64),
+                cloth_wrap=0.0 if self.cloth_wrap is None else self.cloth_wrap,
+                cloth_sheen=k_sheen * np.asarray(c_sheen, np.float64),
             )
         anisotropy = 0.0 if self.anisotropy is None else self.anisotropy
         model = Model(

@@ -91,4 +91,21 @@ float f0_under_clearcoat(float f0, float eta) {
     return r * r;
 }
 
+// Snell's law (RTR4 eq. 9.31) for a unit direction d outside, pointing away from the
+// surface: the same direction inside the coat, d_t = (d - (n.d) n)/eta + cos_t n. Unit for
+// any n.d (cos_t from (n.d)^2), so a direction slightly below the horizon (interpolated
+// normals) lands above it, where the base's clamps take over.
+vec3 clearcoat_refract_in(float eta, vec3 n, vec3 d) {
+    float mu = dot(n, d);
+    float cos_t = clearcoat_cos_refracted(eta, mu);
+    return (d - mu * n) / eta + cos_t * n;
+}
+
+// What refraction does to radiance, crossing in and back out (the n^2 law of radiance,
+// Veach 1997 sec. 5.2): a BRDF evaluated with the refracted directions is worth 1/eta^2
+// of itself outside, since cos_t d omega_t = cos d omega / eta^2.
+float clearcoat_solid_angle_compression(float eta) {
+    return 1.0 / (eta * eta);
+}
+
 #endif

@@ -14,6 +14,7 @@
 #include "brdf/sheen.glsl"
 #include "brdf/clearcoat.glsl"
 #include "brdf/diffraction.glsl"
+#include "brdf/cloth.glsl"
 
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
@@ -138,7 +139,7 @@ vec3 F_selected(Surface s, ModelParams p, float LoH) {
 }
 
 // The diffuse (subsurface) lobe of the selected model (RTR4 sec. 9.9).
-vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
+vec3 f_diffuse_selected(Surface s, ModelParams p, float alpha, vec3 n, vec3 l, vec3 v,
                         float NoL, float NoV, float NoH, float LoH) {
     vec3 rho_ss = material_rho_ss(s);
     float r = clamp(s.perceptual_roughness, 0.0, 1.0);
@@ -155,6 +156,10 @@ vec3 f_diffuse_selected(Surface s, float alpha, vec3 n, vec3 l, vec3 v,
         return Fd_hammon(rho_ss, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v));
     }
     if (DIFFUSE_MODEL == DIFFUSE_NONE) return vec3(0.0);
+    if (DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL) {  // RTR4 sec. 9.10 (brdf/cloth.glsl)
+        return f_cloth_empirical(rho_ss, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter,
+                                 p.cloth_wrap, p.cloth_sheen, NoL, NoV, LoH);
+    }
     return Fd_lambert(rho_ss);
 }
 
@@ -293,7 +298,7 @@ BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
         f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
     }
 #endif
-    vec3 f_diffuse = f_diffuse_selected(s, alpha, n, l, v, NoL, NoV, NoH, LoH);
+    vec3 f_diffuse = f_diffuse_selected(s, p, alpha, n, l, v, NoL, NoV, NoH, LoH);
 #if UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
     // sheen (RTR4 sec. 9.10, brdf/sheen.glsl): the cloth layer over the whole base,
     // f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))). The sheen is a
@@ -334,6 +339,14 @@ ModelParams clearcoat_base_params(ModelParams p) {
 // two lobes are weighted by what reaches them through the coat and back.
 // CLEARCOAT_FILAMENT (Filament; glTF KHR_materials_clearcoat), with strength c:
 //   f = c f_coat(l, v) + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base(l, v).
+// CLEARCOAT_WEIDLICH_WILKIE (Weidlich & Wilkie 2007, "Arbitrarily Layered Micro-Facet
+// Surfaces", two layers, a flat coat): the base sees the directions refracted into the coat,
+//   f = c f_coat(l, v) + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2,
+// l_t, v_t by Snell's law at eta_c = mix(1, eta, c) (the medium's index at c = 0: the base
+// unchanged), 1/eta_c^2 the solid-angle compression of the refraction (clearcoat.glsl).
+// Left out, as in the paper: the light the coat reflects back down (no inter-reflection
+// between coat and base), refraction through the coat's microfacets (the macro normal
+// refracts), and the paper's empirical compensation term t.
 BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
     // The clamps and the half vector of base_brdf_factors.
     float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
@@ -347,12 +360,21 @@ BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
     float rc = max(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS);
     float alpha_c = rc * rc;
 
+    vec3 l_base = l;
+    vec3 v_base = v;
+    float compression = 1.0;
+    if (CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE && c > 0.0) {
+        float eta_c = mix(1.0, p.clearcoat_eta, c);
+        l_base = clearcoat_refract_in(eta_c, n, l);
+        v_base = clearcoat_refract_in(eta_c, n, v);
+        compression = clearcoat_solid_angle_compression(eta_c);
+    }
     BrdfFactors b = base_brdf_factors(clearcoat_base_surface(s, p), clearcoat_base_params(p),
-                                      n, t, l, v);
+                                      n, t, l_base, v_base);
     float T = T_clearcoat_filament(c, F0c, NoL, NoV);
     vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
                                                      NoV), c);
-    vec3 w = T * A;
+    vec3 w = (T * compression) * A;
     float f_coat = c * f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH);
     b.f_spec = vec3(f_coat) + w * b.f_spec;
     b.f_diffuse = w * b.f_diffuse;

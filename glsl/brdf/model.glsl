@@ -136,6 +136,12 @@ struct ModelParams {
     // --- diffraction grating (RTR4 sec. 9.11), texel 8; zero without one ---
     float grating_period;       // nm, the groove spacing
     float grating_depth;        // nm, peak-to-valley depth of the sinusoidal profile
+    // --- empirical cloth (RTR4 sec. 9.10, DIFFUSE_CLOTH_EMPIRICAL), texels 9-11 ---
+    vec4 cloth_rim_inner;       // (k_rim, a_rim, k_inner, a_inner)
+    vec3 cloth_scatter;         // c_scatter
+    float cloth_wrap;           // w
+    vec3 cloth_sheen;           // k_sheen c_sheen
+    float cloth_diffuse;        // k_diff
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
@@ -143,7 +149,9 @@ struct ModelParams {
 //   texel 0 (f90, 1/p), texel 1 (eta, eta_dielectric), texel 2 (k, gtr_gamma),
 //   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below,
 //   texel 6 (sheen_color, sheen_roughness) (RTR4 sec. 9.10, brdf/sheen.glsl).
-//   texel 4 (clear coat colour, strength), texel 5 (coat roughness, coat eta, 0, 0).
+//   texel 4 (clear coat colour, strength), texel 5 (coat roughness, coat eta, 0, 0),
+//   texels 9-11 (k_rim, a_rim, k_inner, a_inner), (c_scatter, w), (k_sheen c_sheen, k_diff)
+//   (empirical cloth, RTR4 sec. 9.10, brdf/cloth.glsl).
 ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t0 = texelFetch(table, ivec2(0, id), 0);
     vec4 t1 = texelFetch(table, ivec2(1, id), 0);
@@ -153,11 +161,15 @@ ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t6 = texelFetch(table, ivec2(6, id), 0);  // sheen (RTR4 sec. 9.10)
     vec4 t7 = texelFetch(table, ivec2(7, id), 0);  // thin film (RTR4 sec. 9.11)
     vec4 t8 = texelFetch(table, ivec2(8, id), 0);  // diffraction grating (RTR4 sec. 9.11)
+    vec4 t9 = texelFetch(table, ivec2(9, id), 0);  // empirical cloth (RTR4 sec. 9.10)
+    vec4 t10 = texelFetch(table, ivec2(10, id), 0);
+    vec4 t11 = texelFetch(table, ivec2(11, id), 0);
     return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a,
                        t7.r, t7.g, t7.b,            // thin film
                        t6.rgb, t6.a,                // sheen
                        t4.rgb, t4.a, t5.r, t5.g,    // clear coat
-                       t8.r, t8.g);                 // diffraction grating
+                       t8.r, t8.g,                  // diffraction grating
+                       t9, t10.rgb, t10.a, t11.rgb, t11.a);  // empirical cloth
 }
 
 // The model group of material ``id``: which lighting permutation shades its pixels.

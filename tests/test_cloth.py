@@ -1,0 +1,188 @@
+"""The empirical cloth terms of RTR4 §9.10 (diffuse = "cloth_empirical";
+glsl/brdf/cloth.glsl, twin app/reference/cloth.py): what reciprocity holds, the wrap
+form's energy conservation, the white-furnace albedo, the scene keys.
+
+GLSL against the twin: tests/test_brdf_models.py (its "empirical cloth" rows). The
+numbers printed by ``python -m tests.test_cloth`` are those of docs/cloth.md, "Empirical".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.brdf import evaluate
+from app.errors import InputError
+from app.reference import cloth
+from app.reference.constants import MIN_N_DOT_V
+from app.reference.quadrature import cosine_rule, gauss_legendre
+from app.scene.model import CLOTH_KEYS
+from tests.test_brdf_models import direction_pairs
+
+N = np.array([0.0, 0.0, 1.0])
+WRAPS = (0.0, 0.1, 0.25, 0.5, 0.75, 1.0)
+ALL_KEYS = {
+    "diffuse": "cloth_empirical", "cloth_rim": [0.6, 4.0], "cloth_inner": [0.4, 2.0],
+    "cloth_diffuse": 0.5, "cloth_scatter": [0.6, 0.2, 0.1], "cloth_wrap": 0.5,
+    "cloth_sheen": 0.8, "cloth_sheen_color": [1.0, 0.8, 0.6],
+}  # fmt: skip
+
+EVERY_WEIGHT_1 = {"cloth_rim": [1.0, 1.0], "cloth_inner": [1.0, 1.0], "cloth_sheen": 1.0}
+
+# White furnace (rho_ss = 1, c_sheen = 1), twin, largest directional albedo over n.v:
+# (name, keys, pinned maximum). The model is not normalised: lobes k_rim + k_inner + k_diff
+# above 1, or any sheen over a full diffuse lobe, reflect more than arrives.
+FURNACE: tuple[tuple[str, dict, float], ...] = (
+    ("defaults (Lambert)", {}, 1.0),
+    ("wrap 0.5, white scatter", {"cloth_wrap": 0.5}, 0.888869),
+    ("wrap 1, white scatter", {"cloth_wrap": 1.0}, 0.749978),
+    ("wrap 0.5, black scatter", {"cloth_wrap": 0.5, "cloth_scatter": [0.0, 0.0, 0.0]}, 0.518519),
+    ("rim [1, 4] + diffuse 0", {"cloth_rim": [1.0, 4.0], "cloth_diffuse": 0.0}, 1.0),
+    ("inner [1, 2] + diffuse 0", {"cloth_inner": [1.0, 2.0], "cloth_diffuse": 0.0}, 0.9998),
+    ("sheen 1 alone", {"cloth_sheen": 1.0, "cloth_diffuse": 0.0}, 0.088428),
+    ("every weight 1, no wrap", EVERY_WEIGHT_1, 2.088428),
+    ("all keys (the test's)", ALL_KEYS, 0.928432),
+)
+
+
+def _params(keys: dict):
+    from app.scene.model import Material
+
+    return Material(**{"diffuse": "cloth_empirical", **keys}).resolve().params
+
+
+def f_twin(p, rho: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The cloth term of the twin at unit l, v over n = +Z (the caller's clamps applied)."""
+    NoL = np.clip(l @ N, 1e-20, 1.0)
+    NoV = np.clip(v @ N, MIN_N_DOT_V, 1.0)
+    h = l + v
+    h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+    LoH = np.clip(np.sum(l * h, axis=-1), 0.0, 1.0)
+    return cloth.f_cloth_empirical(
+        rho, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap, p.cloth_sheen,
+        NoL, NoV, LoH,
+    )  # fmt: skip
+
+
+def furnace_albedo(keys: dict, mu_v: float) -> float:
+    """int f(l, v) (n.l) dl with rho_ss = 1 (the largest channel), Gauss-Legendre 256 in n.l
+    x 256 in azimuth."""
+    p = _params(keys)
+    d, w = cosine_rule(256, 256)
+    v = np.array([np.sqrt(1.0 - mu_v * mu_v), 0.0, mu_v])
+    f = f_twin(p, np.ones(3), d, np.broadcast_to(v, d.shape))
+    return float(np.max(np.sum(f * (d[:, 2] * w)[:, None], axis=0)))
+
+
+MU_V = (MIN_N_DOT_V, 0.01, 0.05, 0.1, 0.2, 0.5, 0.8, 1.0)
+
+
+def furnace_max(keys: dict) -> tuple[float, float]:
+    return max((furnace_albedo(keys, mu), mu) for mu in MU_V)
+
+
+# --- the defaults are Lambert ---
+
+
+def test_defaults_are_lambert_bit_for_bit(gl_egl) -> None:
+    """diffuse = "cloth_empirical" without keys: k_diff 1, no lobes, white scatter, wrap 0,
+    no sheen, i.e. Lambert, bit for bit in the twin and on the GPU (1 + 0/n.l is 1)."""
+    l, v = direction_pairs()
+    for backend in ("reference", "glsl"):
+        gl = gl_egl if backend == "glsl" else None
+        lam = evaluate({"roughness": 0.4}, l, v, backend=backend, gl=gl)
+        cl = evaluate({"diffuse": "cloth_empirical", "roughness": 0.4}, l, v, backend=backend,
+                      gl=gl)  # fmt: skip
+        assert np.array_equal(lam, cl), backend
+
+
+# --- reciprocity: what holds ---
+
+
+def test_reciprocity_what_holds() -> None:
+    """The rim and inner lobes depend on v only, the wrap on l only: f(l, v) != f(v, l).
+    What holds: (1) the sheen term and the k_diff lobe without wrap are reciprocal;
+    (2) the asymmetry is exactly rho/pi [g(v) W(l) - g(l) W(v)], g = the lobes' sum."""
+    l, v = direction_pairs()
+    keep = (l @ N > 1e-3) & (v @ N > 1e-3)
+    l, v = l[keep], v[keep]
+    l = l / np.linalg.norm(l, axis=-1, keepdims=True)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    rho = np.array([0.8, 0.5, 0.2])
+    sym = _params({"cloth_diffuse": 0.7, "cloth_sheen": 0.9})
+    np.testing.assert_allclose(f_twin(sym, rho, l, v), f_twin(sym, rho, v, l), rtol=1e-12)
+    p = _params(ALL_KEYS)
+    asym = f_twin(p, rho, l, v) - f_twin(p, rho, v, l)
+    assert np.abs(asym).max() > 0.1  # not reciprocal, and by a visible amount
+
+    def g(x: np.ndarray) -> np.ndarray:
+        return cloth.Fd_cloth_empirical(rho, p.cloth_rim_inner, p.cloth_diffuse, x @ N)
+
+    def W(x: np.ndarray) -> np.ndarray:
+        return cloth.wrap_cloth_empirical(p.cloth_scatter, p.cloth_wrap, x @ N)
+
+    np.testing.assert_allclose(asym, g(v) * W(l) - g(l) * W(v), rtol=1e-9, atol=1e-12)
+
+
+# --- the wrap form conserves energy ---
+
+
+@pytest.mark.parametrize("w", WRAPS)
+def test_wrap_integrates_to_lambert_over_the_sphere(w: float) -> None:
+    """int (n.l + w)+ / (1 + w)^2 dl over the whole sphere is pi = int (n.l)+ dl (exact:
+    2 pi / (1 + w)^2 int_{-w}^{1} (mu + w) dmu); the renderer's hemisphere keeps
+    pi (1 + 2w)/(1 + w)^2 of it, through the twin's W (n.l)."""
+    mu, wt = gauss_legendre(-w, 1.0, 8) if w > 0 else gauss_legendre(0.0, 1.0, 8)
+    sphere = 2.0 * np.pi * np.sum(wt * (mu + w)) / (1.0 + w) ** 2
+    assert abs(sphere - np.pi) <= 1e-13
+    # The twin's factor times n.l over the upper hemisphere (c_scatter white).
+    mu, wt = gauss_legendre(0.0, 1.0, 64)
+    Wl = cloth.wrap_cloth_empirical(np.ones(3), w, mu)[:, 0]
+    upper = 2.0 * np.pi * np.sum(wt * Wl * mu)
+    # Below n.l = 1e-4 the floored division gives (mu + w) mu/1e-4: almost none of it.
+    assert abs(upper - np.pi * (1.0 + 2.0 * w) / (1.0 + w) ** 2) <= 2e-4 * np.pi
+
+
+def test_wrap_behind_the_surface_is_not_added(gl_egl) -> None:
+    """The illumination sum adds nothing for n.l <= 0: the BRDF is 0 there on both backends
+    (so a white furnace loses w^2/(1 + w)^2 of the wrapped light)."""
+    l = np.array([[0.6, 0.0, -0.2], [0.8, 0.0, 0.0]])
+    l = l / np.linalg.norm(l, axis=-1, keepdims=True)
+    v = np.array([[0.0, 0.0, 1.0]] * 2)
+    for backend in ("reference", "glsl"):
+        f = evaluate(ALL_KEYS, l, v, backend=backend, gl=gl_egl if backend == "glsl" else None)
+        assert np.all(f == 0.0)
+
+
+# --- white furnace ---
+
+
+@pytest.mark.parametrize(("name", "keys", "pinned"), FURNACE, ids=[f[0] for f in FURNACE])
+def test_white_furnace_albedo(name: str, keys: dict, pinned: float) -> None:
+    """Largest directional albedo over n.v, pinned to 1e-4 (docs/cloth.md, "Empirical")."""
+    albedo, _ = furnace_max(keys)
+    assert abs(albedo - pinned) <= 1e-4, f"{name}: {albedo:.6f}"
+
+
+# --- scene keys ---
+
+
+@pytest.mark.parametrize("key", CLOTH_KEYS)
+def test_cloth_keys_need_the_model(key: str) -> None:
+    value = {"cloth_rim": [0.5, 2.0], "cloth_inner": [0.5, 2.0], "cloth_scatter": [0.5] * 3,
+             "cloth_sheen_color": [0.5] * 3}.get(key, 0.5)  # fmt: skip
+    with pytest.raises(InputError, match=f"{key}: applies only with diffuse = 'cloth_empirical'"):
+        evaluate({key: value}, [[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]], backend="reference")
+    evaluate({key: value, "diffuse": "cloth_empirical"}, [[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]],
+             backend="reference")  # fmt: skip
+
+
+def print_tables() -> None:
+    print("| parameters | largest albedo | at n.v |\n|---|---|---|")
+    for name, keys, _ in FURNACE:
+        albedo, mu = furnace_max(keys)
+        print(f"| {name} | {albedo:.6f} | {mu:g} |")
+
+
+if __name__ == "__main__":
+    print_tables()
