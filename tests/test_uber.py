@@ -64,6 +64,7 @@ SCENES = (
     "sec10_cloth",  # sheen (RTR4 §9.10): none, charlie, ashikhmin
     "sec10_cloth_empirical",  # the empirical cloth terms (RTR4 §9.10)
     "sec12_layered",  # clear coat (RTR4 §9.12)
+    "sec12_layered_variants",  # both clear-coat compositions
     "sec11_diffraction",  # diffraction grating (RTR4 §9.11)
 )
 SIZE = (320, 160)
