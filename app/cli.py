@@ -132,24 +132,23 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _fraction(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 <= value <= 1.0:  # also rejects nan
-        raise argparse.ArgumentTypeError(f"expected a number within 0..1, got '{text}'")
-    return value
+def _number(accept: Callable[[float], bool], expected: str) -> Callable[[str], float]:
+    """An argparse type: a float that ``accept`` takes (NaN never passes a comparison)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not accept(value):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got '{text}'")
+        return value
+
+    return parse
 
 
-def _gain(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 < value <= 1e6:  # also rejects nan and inf
-        raise argparse.ArgumentTypeError(f"expected a number > 0 and <= 1e6, got '{text}'")
-    return value
+_fraction = _number(lambda x: 0.0 <= x <= 1.0, "a number within 0..1")
+_gain = _number(lambda x: 0.0 < x <= 1e6, "a number > 0 and <= 1e6")
 
 
 def _thetas(text: str) -> tuple[float, ...]:
