@@ -272,6 +272,24 @@ class BrdfFactors:
     f_diffuse: np.ndarray  # (..., 3) the subsurface lobe, RTR4 §9.9
 
 
+def shading_cosines(
+    n: np.ndarray, l: np.ndarray, v: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(lit, n.l, n.v, h), clamped as every BRDF evaluation clamps them (the GLSL's
+    base_brdf_factors and clearcoat_factors): n.l floored at MIN_N_DOT_L (1/(n.l) and D G2
+    underflowed for n.l = 1e-36; 1.0 where unlit, masked later), n.v at MIN_N_DOT_V, and
+    h = n where l = -v has no half vector."""
+    NoL_raw = dot(n, l)
+    lit = NoL_raw > 0.0
+    NoL = np.where(lit, np.clip(NoL_raw, MIN_N_DOT_L, 1.0), 1.0)
+    NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
+    hv = l + v
+    hv2 = dot(hv, hv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where((hv2 > 1e-12)[..., None], hv / np.sqrt(hv2)[..., None], n)
+    return lit, NoL, NoV, h
+
+
 def base_brdf_factors(
     s: Surface,
     p: ModelParams,
@@ -287,15 +305,7 @@ def base_brdf_factors(
     V = G2/(4 n.l n.v), f_spec is computed from V and G2 is V 4 n.l n.v, as in the GLSL.
     ``ms_table`` as in brdf_eval."""
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
-    NoL_raw = dot(n, l)
-    lit = NoL_raw > 0.0
-    # n.l floored at MIN_N_DOT_L as in the GLSL (1/(n.l) and D G2 underflowed for n.l = 1e-36).
-    NoL = np.where(lit, np.clip(NoL_raw, MIN_N_DOT_L, 1.0), 1.0)  # 1.0: any value, masked below
-    NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
-    hv = l + v
-    hv2 = dot(hv, hv)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h = np.where((hv2 > 1e-12)[..., None], hv / np.sqrt(hv2)[..., None], n)
+    lit, NoL, NoV, h = shading_cosines(n, l, v)
     NoH = np.clip(dot(n, h), 0.0, 1.0)
     LoH = np.clip(dot(l, h), 0.0, 1.0)
     alpha = material_alpha(s)
@@ -404,14 +414,7 @@ def clearcoat_factors(
     "weidlich_wilkie" (Weidlich & Wilkie 2007), the base with the refracted directions:
     f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2."""
     n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
-    NoL_raw = dot(n, l)
-    lit = NoL_raw > 0.0
-    NoL = np.where(lit, np.clip(NoL_raw, MIN_N_DOT_L, 1.0), 1.0)
-    NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
-    hv = l + v
-    hv2 = dot(hv, hv)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h = np.where((hv2 > 1e-12)[..., None], hv / np.sqrt(hv2)[..., None], n)
+    lit, NoL, NoV, h = shading_cosines(n, l, v)
     LoH = np.clip(dot(l, h), 0.0, 1.0)
     c = p.clearcoat
     F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
