@@ -173,17 +173,27 @@ vec3 orthonormal_tangent(vec3 n, vec3 t) {
     return normalize(cross(a, n));
 }
 
-#if UBER_MODELS || DIFFRACTION_MODEL != DIFFRACTION_NONE
-// --- diffraction grating (RTR4 sec. 9.11, brdf/diffraction.glsl) ---
-// The single-scattering lobe F D V at any pair of upper-hemisphere directions (the clamps
-// and half vector of base_brdf_factors; the fused height-correlated GGX visibility, the
-// only G2 a grating takes).
-vec3 grating_lobe(Surface s, ModelParams p, vec3 n, float alpha, vec3 l, vec3 v) {
-    float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
-    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
+// The clamped cosines every BRDF evaluation starts from (twin: material.py
+// shading_cosines): n.l floored at MIN_N_DOT_L so no 1/(n.l) underflows, n.v at MIN_N_DOT_V
+// (interpolated normals can face away from the eye), and the half vector, n where l = -v
+// (possible only when the true n.v < 0) has none.
+void shading_cosines(vec3 n, vec3 l, vec3 v, out float NoL, out float NoV, out vec3 h) {
+    NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
+    NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
     vec3 hv = l + v;
     float hv2 = dot(hv, hv);
-    vec3 h = hv2 > 1e-12 ? hv * inversesqrt(hv2) : n;
+    h = hv2 > 1e-12 ? hv * inversesqrt(hv2) : n;
+}
+
+#if UBER_MODELS || DIFFRACTION_MODEL != DIFFRACTION_NONE
+// --- diffraction grating (RTR4 sec. 9.11, brdf/diffraction.glsl) ---
+// The single-scattering lobe F D V at any pair of upper-hemisphere directions
+// (shading_cosines; the fused height-correlated GGX visibility, the only G2 a grating
+// takes).
+vec3 grating_lobe(Surface s, ModelParams p, vec3 n, float alpha, vec3 l, vec3 v) {
+    float NoL, NoV;
+    vec3 h;
+    shading_cosines(n, l, v, NoL, NoV, h);
     float LoH = clamp(dot(l, h), 0.0, 1.0);
     vec3 F = F_selected(s, p, LoH);
     float D = D_selected(n, h, alpha, p.gtr_gamma);
@@ -243,12 +253,9 @@ struct BrdfFactors {
 // value only the debug views read (the compiler drops it from brdf_eval).
 // The base's factors: the whole BRDF without a clear coat (brdf_factors adds the coat).
 BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
-    float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
-    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
-    // l = -v (possible only when the true n.v < 0) has no half vector: use n.
-    vec3 hv = l + v;
-    float hv2 = dot(hv, hv);
-    vec3 h = hv2 > 1e-12 ? hv * inversesqrt(hv2) : n;
+    float NoL, NoV;
+    vec3 h;
+    shading_cosines(n, l, v, NoL, NoV, h);
     float NoH = clamp(dot(n, h), 0.0, 1.0);
     float LoH = clamp(dot(l, h), 0.0, 1.0);
     float alpha = material_alpha(s);
@@ -348,12 +355,9 @@ ModelParams clearcoat_base_params(ModelParams p) {
 // between coat and base), refraction through the coat's microfacets (the macro normal
 // refracts), and the paper's empirical compensation term t.
 BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
-    // The clamps and the half vector of base_brdf_factors.
-    float NoL = clamp(dot(n, l), MIN_N_DOT_L, 1.0);
-    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
-    vec3 hv = l + v;
-    float hv2 = dot(hv, hv);
-    vec3 h = hv2 > 1e-12 ? hv * inversesqrt(hv2) : n;
+    float NoL, NoV;
+    vec3 h;
+    shading_cosines(n, l, v, NoL, NoV, h);
     float LoH = clamp(dot(l, h), 0.0, 1.0);
     float c = p.clearcoat;
     float F0c = clearcoat_F0(p.clearcoat_eta);
