@@ -356,3 +356,46 @@ def test_a_dropped_mesh_opens_framed_and_a_bad_file_is_reported(viewer, tmp_path
     assert not v.open_scene(junk)
     assert "junk.obj" in v.state.error
     assert v.scene.objects[0].file == "teapot.obj"
+
+
+@pytest.mark.parametrize(
+    "scene", ["sec10_cloth_empirical.toml", "sec11_diffraction.toml", "sec12_layered_variants.toml"]
+)
+def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp_path, scene):
+    """The Material panel draws every section open for each material of the scenes of
+    RTR4 §9.10-9.12 (empirical cloth, grating, both coat models) without an error, and
+    the edits its toggles make are taken: leaving the empirical cloth model removes its
+    keys, a grating turns on and off, the coat model switches."""
+    from app.viewer.panels import diffuse_edit, grating_edit
+
+    v = viewer
+    path = tmp_path / scene
+    shutil.copy(scenes_dir() / scene, path)
+    assert v.open_scene(path)
+    v.panels.open_sections = True
+    for name in v.scene.materials:
+        v.selection.material = name
+        v.step(2)
+        assert not v.state.error, (name, v.state.error)
+    if scene.startswith("sec10"):
+        name = next(n for n, m in v.scene.materials.items() if m.cloth_wrap is not None)
+        key = f"materials.{name}"
+        assert not v.edit({f"{key}.diffuse": "burley"})  # the cloth keys would be left behind
+        assert v.edit(diffuse_edit(key, "cloth_empirical", "burley"))
+        v.settle()
+        assert v.scene.materials[name].diffuse == "burley"
+        assert v.scene.materials[name].cloth_wrap is None
+    if scene.startswith("sec11"):
+        name = next(n for n, m in v.scene.materials.items() if m.grating_period is not None)
+        assert v.edit(grating_edit(f"materials.{name}", False))
+        v.settle()
+        assert v.scene.materials[name].diffraction == "none"
+        assert v.edit(grating_edit(f"materials.{name}", True))
+        v.settle()
+        assert v.scene.materials[name].diffraction == "grating"
+    if scene.startswith("sec12"):
+        name = next(n for n, m in v.scene.materials.items() if m.clearcoat > 0)
+        assert v.edit({f"materials.{name}.clearcoat_model": "weidlich_wilkie"})
+        v.settle()
+        assert v.scene.materials[name].clearcoat_model == "weidlich_wilkie"
+        assert not v.state.error

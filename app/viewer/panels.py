@@ -22,6 +22,7 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from app.common.models import (
+    CLEARCOAT_MODELS,
     CORRELATIONS,
     DIFFUSE_MODELS,
     FRESNEL_MODELS,
@@ -32,7 +33,7 @@ from app.common.models import (
 )
 from app.common.tonemaps import TONEMAPS
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
-from app.scene.model import TEXTURE_KEYS
+from app.scene.model import CLOTH_KEYS, TEXTURE_KEYS
 from app.scene.presets import PRESETS
 
 if TYPE_CHECKING:
@@ -45,6 +46,24 @@ VIEWS = (
     "split",
     "difference",
 )  # the comparison's views  # incident angles of the lobe plot, degrees
+
+
+def diffuse_edit(key: str, old: str, new: str) -> dict[str, Any]:
+    """The edit that picks diffuse model ``new`` for material ``key``: the empirical cloth
+    keys (refused without their model) leave with it."""
+    edit: dict[str, Any] = {f"{key}.diffuse": new}
+    if old == "cloth_empirical" and new != old:
+        edit |= {f"{key}.{k}": None for k in CLOTH_KEYS}
+    return edit
+
+
+def grating_edit(key: str, on: bool) -> dict[str, Any]:
+    """The edit that turns material ``key``'s diffraction grating on (the scene format's
+    default period and depth) or off (its keys removed with it)."""
+    if on:
+        return {f"{key}.diffraction": "grating"}
+    return {f"{key}.diffraction": "none", f"{key}.grating_period": None,
+            f"{key}.grating_depth": None}  # fmt: skip
 
 
 class Panels:
@@ -66,6 +85,9 @@ class Panels:
         self._backend = False
         self._expand: set[str] = set()  # panels to open on the next frame
         self._selected: object = None  # the selection the panels last saw
+        # Every section of the Material panel drawn open (the docs' screenshot and the
+        # test that draws each layered material's controls).
+        self.open_sections = False
 
     def expand(self, *titles: str) -> None:
         """Open these panels (by title) on the next frame, e.g. Material after a click."""
@@ -128,6 +150,12 @@ class Panels:
             imgui.set_next_window_collapsed(False, imgui.Cond_.always)
         imgui.set_next_window_size(imgui.ImVec2(w, h), imgui.Cond_.first_use_ever)
         return imgui.begin(title)[0]
+
+    def _section(self, label: str) -> bool:
+        """A collapsing header of the Material panel (held open by ``open_sections``)."""
+        if self.open_sections:
+            imgui.set_next_item_open(True, imgui.Cond_.always)
+        return imgui.collapsing_header(label)
 
     def _edit(self, key: str, value: Any) -> None:
         self.viewer.edit({key: value})
@@ -228,7 +256,9 @@ class Panels:
         ):
             now = getattr(material, field)
             changed, index = imgui.combo(field, names.index(now), list(names))
-            if changed:
+            if changed and field == "diffuse":
+                self.viewer.edit(diffuse_edit(key, now, names[index]))
+            elif changed:
                 self._edit(f"{key}.{field}", names[index])
         changed, on = imgui.checkbox("multiple scattering", material.multiscatter)
         if changed:
@@ -255,9 +285,11 @@ class Panels:
                                                  0.01, 0.0, top)  # fmt: skip
                 if changed:
                     self._edit(f"{key}.{field}", [max(float(x), 1e-3) for x in rgb])
-        if imgui.collapsing_header("layers: sheen, clear coat, thin film"):
+        if material.diffuse == "cloth_empirical" and self._section("empirical cloth"):
+            self._cloth_empirical(key, material)
+        if self._section("layers: sheen, clear coat, thin film, grating"):
             self._layers(key, material)
-        if imgui.collapsing_header("maps and blend"):
+        if self._section("maps and blend"):
             # Paths relative to the scene file; Enter applies, an empty path removes the
             # map. A missing or unreadable file is refused with the CLI's message.
             enter = imgui.InputTextFlags_.enter_returns_true
@@ -275,6 +307,35 @@ class Panels:
                 changed, value = imgui.slider_float("blend softness", b.softness, 0.0, 1.0)
                 if changed:
                     self._edit(f"{key}.blend.softness", float(value))
+
+    def _cloth_empirical(self, key: str, material: Any) -> None:
+        """The empirical cloth terms of RTR4 §9.10 (diffuse = "cloth_empirical"); unset keys
+        show their defaults, which make the model Lambert."""
+        for field, label in (("cloth_rim", "rim"), ("cloth_inner", "inner")):
+            k, a = getattr(material, field) or (0.0, 1.0)
+            changed, value = imgui.slider_float(f"k {label}", float(k), 0.0, 10.0)
+            if changed:
+                self._edit(f"{key}.{field}", [float(value), float(a)])
+            changed, value = imgui.slider_float(f"{label} exponent", float(a), 0.01, 64.0)
+            if changed:
+                self._edit(f"{key}.{field}", [float(k), float(value)])
+        for field, label, default, top in (
+            ("cloth_diffuse", "k diffuse", 1.0, 10.0),
+            ("cloth_wrap", "wrap w", 0.0, 1.0),
+            ("cloth_sheen", "k sheen", 0.0, 10.0),
+        ):
+            now = getattr(material, field)
+            changed, value = imgui.slider_float(label, default if now is None else now, 0.0, top)
+            if changed:
+                self._edit(f"{key}.{field}", float(value))
+        for field, label in (
+            ("cloth_scatter", "scatter colour"),
+            ("cloth_sheen_color", "sheen colour##cloth"),
+        ):
+            rgb = getattr(material, field) or [1.0, 1.0, 1.0]
+            changed, rgb = imgui.color_edit3(label, list(rgb))
+            if changed:
+                self._edit(f"{key}.{field}", [float(c) for c in rgb])
 
     def _layers(self, key: str, material: Any) -> None:
         """The layers over the base (RTR4 §9.10-9.12). Turning one off removes its keys,
@@ -317,6 +378,11 @@ class Panels:
             changed, rgb = imgui.color_edit3("coat colour", list(color))
             if changed:
                 self._edit(f"{key}.clearcoat_color", [float(c) for c in rgb])
+            names = [n for n in CLEARCOAT_MODELS if n != "none"]
+            now = names.index(material.clearcoat_model)
+            changed, i = imgui.combo("coat model", now, names)
+            if changed:
+                self._edit(f"{key}.clearcoat_model", names[i])
         changed, on = imgui.checkbox("thin film", material.thin_film)
         if changed:
             self.viewer.edit(
@@ -334,6 +400,22 @@ class Panels:
             changed, value = imgui.slider_float("film index", n, 1.0, 3.0)
             if changed:
                 self._edit(f"{key}.film_ior", float(value))
+        # A grating's orders (RTR4 §9.11) move the isotropic GGX lobe: the scene format
+        # refuses other bases, and the refusal shows in the Problems panel.
+        changed, on = imgui.checkbox("diffraction grating", material.diffraction == "grating")
+        if changed:
+            self.viewer.edit(grating_edit(key, on))
+        if material.diffraction == "grating":
+            d = 1600.0 if material.grating_period is None else material.grating_period
+            changed, value = imgui.slider_float(
+                "groove period (nm)", d, 200.0, 20000.0, flags=imgui.SliderFlags_.logarithmic
+            )
+            if changed:
+                self._edit(f"{key}.grating_period", float(value))
+            h = 120.0 if material.grating_depth is None else material.grating_depth
+            changed, value = imgui.slider_float("groove depth (nm)", h, 0.0, 300.0)
+            if changed:
+                self._edit(f"{key}.grating_depth", float(value))
 
     def _lights_panel(self) -> None:
         v = self.viewer
