@@ -74,6 +74,21 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
             assert all(isinstance(r[k], float) and np.isfinite(r[k]) for k in ERRORS), r
     exact = [r for r in rows if r["suite"] == "accuracy" and r["variant"] in ("exact", "f32")]
     assert exact and all(r["max_rel_err"] < 1e-3 for r in exact)
+    # The layered models (RTR4 §9.10-9.12): each against the layer left out; the variant
+    # the twin shades is float32-close, the layer left out is not (the layer shows).
+    layered = {(r["case"], r["variant"]): r for r in rows if r["suite"] == "accuracy"}
+    for case, model in (("sheen", "charlie"), ("thin_film", "film"), ("grating", "grating"),
+                        ("clearcoat", "filament")):  # fmt: skip
+        assert layered[case, model]["default"] and layered[case, model]["max_rel_err"] < 1e-3
+        assert layered[case, "none"]["rel_rmse"] > 1e-2, case
+        assert (layered[case, "none"]["width"], layered[case, "none"]["height"]) == (64, 36)
+    assert {v for c, v in layered if c in ("sheen", "clearcoat")} == {
+        "none",
+        "charlie",
+        "ashikhmin",
+        "filament",
+        "weidlich_wilkie",
+    }
     lpp = [r["lights_per_pixel"] for r in rows if r["suite"] == "culling" and r["lights"] == 64]
     assert all(15.5 < x < 16.5 for x in lpp), lpp  # "about 16 lights reach an average pixel"
     # With 16 lights each reaches every pixel in its cone: the spots (half) cover part.

@@ -65,7 +65,10 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
         sizes = ", ".join(f"{w}x{h}" for w, h in s.resolutions)
         parts.append(f"resolution {sizes} at {s.resolution_lights} lights")
     if "accuracy" in suites:
-        parts.append(f"accuracy {s.accuracy_size[0]}x{s.accuracy_size[1]}")
+        parts.append(
+            f"accuracy {s.accuracy_size[0]}x{s.accuracy_size[1]} "
+            f"(layered models {s.layered_size[0]}x{s.layered_size[1]})"
+        )
     if "specialization" in suites:
         w, h = s.specialization_size
         parts.append(f"specialization {w}x{h} at {s.specialization_lights} lights")

@@ -84,6 +84,9 @@ class Settings:
     filtering_size: tuple[int, int] = (640, 360)  # scenes/sec13_filtering.toml
     filtering_supersample: int = 8  # the reference's samples per pixel: n x n
     filtering_sweep: int = 5  # camera positions for shimmer
+    # The layered models' comparisons (RTR4 §9.10-9.12): the grating's twin sums its orders
+    # over 16 wavelengths per pixel and light, minutes at the accuracy size.
+    layered_size: tuple[int, int] = (320, 180)
 
 
 FULL = Settings(
@@ -114,6 +117,7 @@ QUICK = replace(
     pyrender_lights=(1,),
     specialization_size=(640, 360),
     filtering_size=(320, 180),
+    layered_size=(160, 90),
 )
 # For tests/test_bench.py only: every suite runs, on images small enough to take seconds.
 TINY = replace(
@@ -133,6 +137,7 @@ TINY = replace(
     specialization_size=(160, 90),
     specialization_lights=16,
     filtering_size=(160, 90),
+    layered_size=(64, 36),
     filtering_sweep=2,
 )
 
@@ -467,6 +472,7 @@ class Comparison:
     variants: tuple[Variant, ...]
     reference: Variant
     ms_reference: int | None = None
+    layered: bool = False  # rendered at Settings.layered_size, not accuracy_size
 
 
 def comparisons(settings: Settings) -> list[Comparison]:
@@ -519,8 +525,66 @@ def comparisons(settings: Settings) -> list[Comparison]:
             Variant("reference", {"multiscatter": True}, ms_size=settings.ms_reference),
             ms_reference=settings.ms_reference,
         ),
+        *layered_comparisons(),
     ]
     return out
+
+
+# The layers of RTR4 §9.10-9.12 over every material of the accuracy scene: each model's cost
+# against the cheaper alternative (no layer, or the cheaper composition), and its error
+# against the float64 twin of the comparison's reference variant.
+SHEEN = {"sheen_color": [0.8, 0.8, 0.8], "sheen_roughness": 0.5}
+FILM = {"thin_film": True, "film_thickness": 350.0, "film_ior": 1.33}
+GRATING = {"diffraction": "grating", "grating_period": 1600.0, "grating_depth": 120.0}
+COAT = {"clearcoat": 1.0, "clearcoat_roughness": 0.1}
+
+
+def layered_comparisons() -> list[Comparison]:
+    """Sheen NDFs (RTR4 §9.10), the thin film and the grating (§9.11), the clear coat's two
+    compositions (§9.12), at ``Settings.layered_size``. The twins of the film and the
+    grating are the GLSL's own closed forms in float64 (their error against the spectral
+    sums is measured in docs/thin-film.md and docs/diffraction.md: a spectral twin per
+    pixel and light would take minutes here); the coat's reference is Filament's twin, so
+    Weidlich-Wilkie's row measures how far the two compositions part (their errors
+    against the random walk are in docs/layered.md)."""
+    return [
+        Comparison(
+            "sheen",
+            "cloth sheen layer: none vs Charlie vs Ashikhmin (Neubelt-Pettineo visibility)",
+            (
+                Variant("none", {}),
+                Variant("charlie", {"sheen": "charlie", **SHEEN}, default=True),
+                Variant("ashikhmin", {"sheen": "ashikhmin", **SHEEN}),
+            ),
+            Variant("charlie", {"sheen": "charlie", **SHEEN}),
+            layered=True,
+        ),
+        Comparison(
+            "thin_film",
+            "thin film (350 nm, n = 1.33): the base's Fresnel vs Belcour-Barla's Airy sum",
+            (Variant("none", {}), Variant("film", FILM, default=True)),
+            Variant("film", FILM),
+            layered=True,
+        ),
+        Comparison(
+            "grating",
+            "diffraction grating (1600 nm period, 120 nm deep): none vs its orders",
+            (Variant("none", {}), Variant("grating", GRATING, default=True)),
+            Variant("grating", GRATING),
+            layered=True,
+        ),
+        Comparison(
+            "clearcoat",
+            "clear coat (roughness 0.1): none vs Filament vs Weidlich-Wilkie",
+            (
+                Variant("none", {}),
+                Variant("filament", {"clearcoat_model": "filament", **COAT}, default=True),
+                Variant("weidlich_wilkie", {"clearcoat_model": "weidlich_wilkie", **COAT}),
+            ),
+            Variant("filament", {"clearcoat_model": "filament", **COAT}),
+            layered=True,
+        ),
+    ]
 
 
 def accuracy_tasks(settings: Settings) -> int:
@@ -539,8 +603,8 @@ def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) ->
 def run_accuracy(ctx: Context) -> None:
     """Suite ``accuracy``: each approximation's time and error against its exact form."""
     s = ctx.settings
-    size = s.accuracy_size
     for comp in comparisons(s):
+        size = s.layered_size if comp.layered else s.accuracy_size
         ctx.progress.start(f"accuracy {comp.name}: float64 reference")
         ref_r = _accuracy_renderer(ctx, comp.reference, size)
         try:
