@@ -27,6 +27,11 @@ FIBER_SAMPLES = 5
 FIBER_MIN_N_DOT_L = 1e-4
 # Floor of cos^2(theta_d) (0 only for l, v along the thread in opposite senses).
 FIBER_MIN_COS2_THETA_D = 1e-4
+# Below this sum of the projection terms P the thread is not seen (f = 0).
+FIBER_MIN_VISIBLE = 1e-12
+# Floor of the thread's longitudinal width gamma_s (radians): float32 rounding of the
+# thread direction on the flank of a narrower lobe exceeds 1e-4 relative (see the GLSL).
+FIBER_MIN_GAMMA_S = 0.01
 # Sadeghi et al. 2013, sec. 5: width of u(phi_d) in the masking, 20 degrees.
 FIBER_MASKING_WIDTH = np.radians(20.0)
 
@@ -44,9 +49,10 @@ def fiber_rotate(n: np.ndarray, t: np.ndarray, rotation: float) -> np.ndarray:
 def fiber_angle_sums(
     s_i: np.ndarray, c_i: np.ndarray, s_r: np.ndarray, c_r: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(sin, cos) of theta_i + theta_r and cos(theta_i - theta_r) from the sines and cosines
-    of the longitudinal angles (sin of the sum keeps its absolute accuracy near 0)."""
-    return s_i * c_r + c_i * s_r, c_i * c_r - s_i * s_r, c_i * c_r + s_i * s_r
+    """(sin, cos) of theta_i + theta_r and cos(theta_d) from the sines and cosines of the
+    longitudinal angles; cos(theta_d) = |(c_i + c_r, s_i + s_r)|/2 (see the GLSL)."""
+    cos_td = 0.5 * np.hypot(_f64(c_i) + c_r, _f64(s_i) + s_r)
+    return s_i * c_r + c_i * s_r, c_i * c_r - s_i * s_r, cos_td
 
 
 def fiber_log1m(y: np.ndarray) -> np.ndarray:
@@ -95,11 +101,11 @@ def kajiya_kay_normalization(p: np.ndarray) -> np.ndarray:
 
 def kajiya_kay_highlight(p: np.ndarray, sin_sum: np.ndarray, cos_sum: np.ndarray) -> np.ndarray:
     """cos^p(theta_i + theta_r)+ (Kajiya & Kay's sin(t,l) sin(t,v) - (t.l)(t.v) for l, v
-    leaving the surface), as exp(p ln cos) with ln cos from the series near the peak."""
+    leaving the surface), as exp(p ln cos), ln cos = ln(1 - sin^2)/2 while sin^2 < 1/2."""
     y = _f64(sin_sum) ** 2
     cos_sum = _f64(cos_sum)
     with np.errstate(divide="ignore"):
-        ln_cos = np.where(y < 0.01, 0.5 * fiber_log1m(y), np.log(np.maximum(cos_sum, 1e-300)))
+        ln_cos = np.where(y < 0.5, 0.5 * fiber_log1m(y), np.log(np.maximum(cos_sum, 1e-300)))
     return np.where(cos_sum <= 0.0, 0.0, np.exp(_f64(p) * ln_cos))
 
 
@@ -140,7 +146,7 @@ def f_sadeghi_thread(
     kd: float,
     sin_sum: np.ndarray,
     cos_sum: np.ndarray,
-    cos_diff: np.ndarray,
+    cos_td: np.ndarray,
     c_i: np.ndarray,
     c_r: np.ndarray,
     cos_half_phi: np.ndarray,
@@ -151,7 +157,7 @@ def f_sadeghi_thread(
     cos^2 theta_d; both transmissions at the reflecting facet's angle (our choice).
     ``cos_half_phi`` = cos(phi_d/2) = |p_i + p_r|/2."""
     theta_h = 0.5 * fiber_atan2(sin_sum, cos_sum)
-    cos2_td = np.maximum(0.5 * (1.0 + _f64(cos_diff)), FIBER_MIN_COS2_THETA_D)
+    cos2_td = np.maximum(_f64(cos_td) ** 2, FIBER_MIN_COS2_THETA_D)
     cos_half_phi = _f64(cos_half_phi)
     Fr = F_dielectric(eta, np.sqrt(cos2_td) * cos_half_phi)
     Ft = 1.0 - Fr
@@ -181,10 +187,11 @@ def f_fiber(
     thread along the unit t (perpendicular to n) tilted about b = n x t by ``samples``
     midpoint tilts in [-curvature, curvature]; Kajiya & Kay (``sadeghi`` false) the mean of
     F0 N_p cos^p(theta_i + theta_r)+ and rho 2/pi^2 cos(theta_i), Sadeghi et al. the
-    P-weighted sum_k f_s M_k P_k cos(theta_i) / sum_k P_k; both over max(n.l, 1e-4)."""
+    P-weighted sum_k f_s M_k P_k cos(theta_i) / sum_k P_k; both over max(n.l, 1e-4);
+    gamma_s floored at FIBER_MIN_GAMMA_S."""
     n, t, l, v = (_f64(x) for x in (n, t, l, v))
     b = np.cross(n, t)
-    gamma_s = _f64(gamma_s)
+    gamma_s = np.maximum(_f64(gamma_s), FIBER_MIN_GAMMA_S)
     p = kajiya_kay_exponent(gamma_s)
     norm = kajiya_kay_normalization(p)
     pl_b = fiber_project(b, l)
@@ -200,9 +207,9 @@ def f_fiber(
         n_k = ct * n - st * t
         s_i = np.clip(dot(t_k, l), -1.0, 1.0)
         s_r = np.clip(dot(t_k, v), -1.0, 1.0)
-        c_i = np.sqrt(1.0 - s_i * s_i)
-        c_r = np.sqrt(1.0 - s_r * s_r)
-        sin_sum, cos_sum, cos_diff = fiber_angle_sums(s_i, c_i, s_r, c_r)
+        c_i = np.minimum(np.linalg.norm(np.cross(t_k, l), axis=-1), 1.0)  # |t_k x l|
+        c_r = np.minimum(np.linalg.norm(np.cross(t_k, v), axis=-1), 1.0)
+        sin_sum, cos_sum, cos_td = fiber_angle_sums(s_i, c_i, s_r, c_r)
         if not sadeghi:
             spec = spec + norm * kajiya_kay_highlight(p, sin_sum, cos_sum)
             diff = diff + (2.0 * INV_PI * INV_PI) * c_i
@@ -212,7 +219,7 @@ def f_fiber(
         M = fiber_masking(n_k, pl, pv)
         P = fiber_masking(n_k, pl_b, pv_b)
         surface, volume = f_sadeghi_thread(
-            eta, gamma_s, gamma_v, kd, sin_sum, cos_sum, cos_diff, c_i, c_r,
+            eta, gamma_s, gamma_v, kd, sin_sum, cos_sum, cos_td, c_i, c_r,
             0.5 * np.linalg.norm(pl + pv, axis=-1),
         )  # fmt: skip
         w = M * P * c_i
@@ -225,5 +232,5 @@ def f_fiber(
         scale = inv_nol / samples
         return F0 * (spec * scale)[..., None], rho * (diff * scale)[..., None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        scale = np.where(visible > 0.0, inv_nol / visible, 0.0)
+        scale = np.where(visible > FIBER_MIN_VISIBLE, inv_nol / visible, 0.0)
     return np.broadcast_to((spec * scale)[..., None], (*shape, 3)), rho * (diff * scale)[..., None]

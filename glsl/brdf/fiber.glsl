@@ -25,6 +25,14 @@ const float FIBER_MIN_N_DOT_L = 1e-4;
 // Floor of cos^2(theta_d), the factor Sadeghi et al. divide by (after Marschner et al.):
 // it is 0 only where l and v both run along the thread in opposite senses (docs/cloth.md).
 const float FIBER_MIN_COS2_THETA_D = 1e-4;
+// Below this sum of the projection terms P the thread is not seen (f = 0).
+const float FIBER_MIN_VISIBLE = 1e-12;
+// Floor of the thread's longitudinal width gamma_s (= alpha, radians; 0.57 degrees): the
+// thread direction carries float32 rounding (~1e-7 rad: the rotation about n, the tilts),
+// which the lobe's flank, d ln g / d theta_h = theta_h / gamma_s^2, multiplies; at the
+// roughness floor's 0.002 rad that was 2.7e-4 relative against the twin, at 0.01 it is
+// below 1e-4 (tests/test_fiber.py).
+const float FIBER_MIN_GAMMA_S = 0.01;
 // Sadeghi et al. 2013, sec. 5: the width of the unit-height Gaussian u(phi_d) that blends
 // the separable and the min form of the masking, 20 degrees.
 const float FIBER_MASKING_WIDTH = 0.34906585;
@@ -34,15 +42,18 @@ vec3 fiber_rotate(vec3 n, vec3 t, float rotation) {
     return cos(rotation) * t + sin(rotation) * cross(n, t);
 }
 
-// sin(x) and cos(x) of x = theta_i + theta_r and cos(theta_i - theta_r), from the sines
-// s = t.d and cosines c = sqrt(1 - s^2) of the two longitudinal angles. Precision: near the
-// fibre's mirror cone (x ~ 0) sin(x) = s_i c_r + c_i s_r keeps an absolute error of ~1e-7,
-// where 1 - cos(x) would keep none of x^2/2 in float32.
+// sin(x) and cos(x) of x = theta_i + theta_r and cos(theta_d), theta_d = (theta_i -
+// theta_r)/2, from the sines s = t.d and cosines c = |t x d| of the two longitudinal
+// angles. Precision: near the fibre's mirror cone (x ~ 0) sin(x) = s_i c_r + c_i s_r keeps
+// an absolute error of ~1e-7, where 1 - cos(x) would keep none of x^2/2 in float32; and
+// cos(theta_d) is half the length of (c_i + c_r, s_i + s_r), the sum of the two unit
+// vectors at theta_i and theta_r, not sqrt((1 + cos(theta_i - theta_r))/2), which cancels
+// where l and v run along the thread in opposite senses (6e-4 relative at cos^2 = 2e-4).
 void fiber_angle_sums(float s_i, float c_i, float s_r, float c_r, out float sin_sum,
-                      out float cos_sum, out float cos_diff) {
+                      out float cos_sum, out float cos_td) {
     sin_sum = s_i * c_r + c_i * s_r;
     cos_sum = c_i * c_r - s_i * s_r;
-    cos_diff = c_i * c_r + s_i * s_r;
+    cos_td = 0.5 * length(vec2(c_i + c_r, s_i + s_r));
 }
 
 // ln(1 - y) for 0 <= y < 1: the series -(y + y^2/2 + y^3/3 + y^4/4) below y = 0.01
@@ -120,12 +131,14 @@ float kajiya_kay_normalization(float p) {
 
 // Kajiya & Kay's highlight cos^p(theta_i + theta_r)+, the angle between v and the cone of
 // mirror directions of l about the thread: with l, v both leaving the surface that cosine
-// is sin(t, l) sin(t, v) - (t.l)(t.v) = cos(theta_i + theta_r). As exp(p ln cos), ln cos
-// from the series of ln(1 - sin^2) near the peak (see fiber_log1m).
+// is sin(t, l) sin(t, v) - (t.l)(t.v) = cos(theta_i + theta_r). As exp(p ln cos), with
+// ln cos = ln(1 - sin^2)/2 from sin(theta_i + theta_r) while sin^2 < 1/2: the sine's
+// absolute error (~2e-7) then moves p ln cos by p sin 2e-7, where log(cos) would move it by
+// p 2e-7 (5e-4 relative on the tail of p = 2,500, measured); log(cos) beyond.
 float kajiya_kay_highlight(float p, float sin_sum, float cos_sum) {
     if (cos_sum <= 0.0) return 0.0;
     float y = sin_sum * sin_sum;
-    float ln_cos = y < 0.01 ? 0.5 * fiber_log1m(y) : log(cos_sum);
+    float ln_cos = y < 0.5 ? 0.5 * fiber_log1m(y) : log(cos_sum);
     return exp(p * ln_cos);
 }
 
@@ -169,10 +182,10 @@ float fiber_masking(vec3 n_k, vec3 pi, vec3 pr) {
 // (the paper's F_t(eta, w_i) F_t(eta', w_r') leaves the entry and exit points open).
 // Both parts are symmetric in l and v (theta_h, cos theta_d and cos(phi_d/2) are).
 void f_sadeghi_thread(float eta, float gamma_s, float gamma_v, float kd, float sin_sum,
-                      float cos_sum, float cos_diff, float c_i, float c_r, float cos_half_phi,
+                      float cos_sum, float cos_td, float c_i, float c_r, float cos_half_phi,
                       out float surface, out float volume) {
     float theta_h = 0.5 * fiber_atan2(sin_sum, cos_sum);
-    float cos2_td = max(0.5 * (1.0 + cos_diff), FIBER_MIN_COS2_THETA_D);
+    float cos2_td = max(cos_td * cos_td, FIBER_MIN_COS2_THETA_D);
     float Fr = F_dielectric(eta, sqrt(cos2_td) * cos_half_phi);
     float Ft = 1.0 - Fr;
     surface = Fr * cos_half_phi * fiber_gaussian(gamma_s, theta_h) / cos2_td;
@@ -193,11 +206,12 @@ void f_sadeghi_thread(float eta, float gamma_s, float gamma_v, float kd, float s
 //   sadeghi = true (Sadeghi et al. 2013 sec. 5, one thread, a = 1: no gaps):
 //     f (n.l) = sum_k f_s(t_k) M_k P_k cos theta_i / sum_k P_k,
 //     the surface part in f_spec, the volume part times A = rho in f_diffuse.
-// Both are divided by max(n.l, FIBER_MIN_N_DOT_L). Left out: the weave (two threads and
+// Both are divided by max(n.l, FIBER_MIN_N_DOT_L); gamma_s is floored at FIBER_MIN_GAMMA_S. Left out: the weave (two threads and
 // their coverage a_1, a_2, the gaps' term of Q, the tiling of the weave pattern).
 void f_fiber(bool sadeghi, vec3 n, vec3 t, vec3 l, vec3 v, float NoL, vec3 rho, vec3 F0,
              float eta, float gamma_s, float curvature, float gamma_v, float kd,
              out vec3 f_spec, out vec3 f_diffuse) {
+    gamma_s = max(gamma_s, FIBER_MIN_GAMMA_S);
     vec3 b = cross(n, t);
     float p = kajiya_kay_exponent(gamma_s);
     float norm = kajiya_kay_normalization(p);
@@ -214,10 +228,12 @@ void f_fiber(bool sadeghi, vec3 n, vec3 t, vec3 l, vec3 v, float NoL, vec3 rho, 
         vec3 n_k = ct * n - st * t;
         float s_i = clamp(dot(t_k, l), -1.0, 1.0);
         float s_r = clamp(dot(t_k, v), -1.0, 1.0);
-        float c_i = sqrt(1.0 - s_i * s_i);
-        float c_r = sqrt(1.0 - s_r * s_r);
-        float sin_sum, cos_sum, cos_diff;
-        fiber_angle_sums(s_i, c_i, s_r, c_r, sin_sum, cos_sum, cos_diff);
+        // cos(theta) = |t_k x d|, not sqrt(1 - s^2): that cancels for d along the thread
+        // (1.2e-4 relative at cos(theta) = 0.02 measured).
+        float c_i = min(length(cross(t_k, l)), 1.0);
+        float c_r = min(length(cross(t_k, v)), 1.0);
+        float sin_sum, cos_sum, cos_td;
+        fiber_angle_sums(s_i, c_i, s_r, c_r, sin_sum, cos_sum, cos_td);
         if (!sadeghi) {
             spec += norm * kajiya_kay_highlight(p, sin_sum, cos_sum);
             diff += (2.0 * INV_PI * INV_PI) * c_i;
@@ -228,7 +244,7 @@ void f_fiber(bool sadeghi, vec3 n, vec3 t, vec3 l, vec3 v, float NoL, vec3 rho, 
         float M = fiber_masking(n_k, pl, pv);
         float P = fiber_masking(n_k, pl_b, pv_b);
         float surface, volume;
-        f_sadeghi_thread(eta, gamma_s, gamma_v, kd, sin_sum, cos_sum, cos_diff, c_i, c_r,
+        f_sadeghi_thread(eta, gamma_s, gamma_v, kd, sin_sum, cos_sum, cos_td, c_i, c_r,
                          0.5 * length(pl + pv), surface, volume);
         float w = M * P * c_i;
         spec += surface * w;
@@ -242,7 +258,9 @@ void f_fiber(bool sadeghi, vec3 n, vec3 t, vec3 l, vec3 v, float NoL, vec3 rho, 
         f_diffuse = rho * (diff * scale);
         return;
     }
-    float scale = visible > 0.0 ? inv_nol / visible : 0.0;
+    // A view that sees (almost) none of the thread: 0. Guard: with v in the tangent plane a
+    // float32 denormal P made inv_nol / P overflow and 0 * Inf a NaN.
+    float scale = visible > FIBER_MIN_VISIBLE ? inv_nol / visible : 0.0;
     f_spec = vec3(spec * scale);
     f_diffuse = rho * (diff * scale);
 }
