@@ -119,11 +119,26 @@ MODELS: dict[str, dict] = {
     "empirical cloth sheen, no wrap": {
         "diffuse": "cloth_empirical", "cloth_diffuse": 0.8, "cloth_sheen": 1.0,
     },
+    # --- micro-cylinder fibres (RTR4 §9.10): not reciprocal (tests/test_fiber.py, which
+    # also runs curved threads) ---
+    "kajiya-kay fibre": {"fiber": "kajiya_kay", "base_color": [0.6, 0.3, 0.1]},
+    "kajiya-kay fibre turned": {"fiber": "kajiya_kay", "fiber_rotation": 30.0},
+    "sadeghi fibre": {"fiber": "sadeghi", "base_color": [0.6, 0.3, 0.1]},
+    "sadeghi fibre turned, isotropic volume": {
+        "fiber": "sadeghi", "fiber_rotation": -45.0, "fiber_kd": 1.0, "fiber_gamma_v": 40.0,
+    },
 }  # fmt: skip
 
 # RTR4 §9.10's empirical cloth lobes depend on v alone and its wrap on l alone: what holds
 # of reciprocity for them is tested in tests/test_cloth.py.
-NOT_RECIPROCAL = ("empirical cloth velvet",)
+NOT_RECIPROCAL = (
+    "empirical cloth velvet",
+    # the fibre patches weight the thread by cos(theta_i) over n.l (tests/test_fiber.py)
+    "kajiya-kay fibre",
+    "kajiya-kay fibre turned",
+    "sadeghi fibre",
+    "sadeghi fibre turned, isotropic volume",
+)
 
 ROUGHNESSES = (0.0, 0.3, 1.0)  # 0 is floored to 0.045 by the material
 
@@ -226,6 +241,8 @@ SPECULAR_ONLY = {  # specular terms alone with F = 1: white metal, no diffuse lo
     # A grating's orders lie away from the mirror lobe this rule samples: its white
     # furnace is integrated over the whole disc of directions in test_diffraction.py.
     and "diffraction" not in MODELS[name]
+    # A fibre's albedo is integrated in the thread's own coordinates in test_fiber.py.
+    and "fiber" not in MODELS[name]
 }
 
 

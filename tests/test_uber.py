@@ -27,6 +27,7 @@ from app.common.models import (
     CORRELATIONS,
     DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
+    FIBER_MODELS,
     FRESNEL_MODELS,
     G2_MODELS,
     LAMBDA_FORMS,
@@ -66,6 +67,7 @@ SCENES = (
     "sec12_layered",  # clear coat (RTR4 §9.12)
     "sec12_layered_variants",  # both clear-coat compositions
     "sec11_diffraction",  # diffraction grating (RTR4 §9.11)
+    "sec10_cloth_fibers",  # micro-cylinder fibres (RTR4 §9.10)
 )
 SIZE = (320, 160)
 MAX_REL = 1e-5  # uber vs specialized, relative to max(|specialized|, 1e-3 peak)
@@ -83,6 +85,7 @@ CHOICES = {
     "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
     "clearcoat": CLEARCOAT_MODELS,  # clear coat (RTR4 §9.12)
     "diffraction": DIFFRACTION_MODELS,  # diffraction grating (RTR4 §9.11)
+    "fiber": FIBER_MODELS,  # micro-cylinder fibres (RTR4 §9.10)
 }
 
 
@@ -149,7 +152,7 @@ def test_uber_image_depends_on_the_model_codes(gl_egl, name):
 
 def _all_models() -> list[Model]:
     """Every single-choice change from the standard model, plus a deterministic sample of
-    combinations (the full product has 122,880 models)."""
+    combinations (the full product has 368,640 models)."""
     out = [Model()]
     for key, values in CHOICES.items():
         out += [dataclasses.replace(Model(), **{key: v}) for v in values]
@@ -190,6 +193,24 @@ def test_cloth_params_round_trip():
     old = table[1].copy()
     old[9:12] = 0.0  # a table from before the cloth texels: the defaults
     assert unpack_model_params(old).cloth_diffuse == ModelParams().cloth_diffuse
+
+
+def test_fiber_params_round_trip():
+    """Micro-cylinder fibre (RTR4 §9.10): texel 12 carries a fibre row's numbers back
+    exactly; other rows hold the defaults; the model code's bits 16-17 round-trip."""
+    model = Model(fiber="sadeghi")
+    p = ModelParams(fiber_rotation=0.5, fiber_curvature=0.25, fiber_gamma_v=0.125, fiber_kd=0.75)
+    table = pack_model_params([p, ModelParams()], [0, 1], [model, Model(fiber="kajiya_kay")])
+    back = unpack_model_params(table[0])
+    got = (back.fiber_rotation, back.fiber_curvature, back.fiber_gamma_v, back.fiber_kd)
+    assert got == (0.5, 0.25, 0.125, 0.75)
+    assert unpack_model(table[0]) == (0, model)
+    assert unpack_model(table[1]) == (1, Model(fiber="kajiya_kay"))
+    assert int(table[0, 3, 2]) >> 16 == 2 and int(table[1, 3, 2]) >> 16 == 1
+    d = ModelParams()
+    assert table[1, 12].tolist() == pytest.approx(
+        [d.fiber_rotation, d.fiber_curvature, d.fiber_gamma_v, d.fiber_kd]
+    )
 
 
 def _specular_lambda_g2(m: Model) -> bool:

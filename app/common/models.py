@@ -45,6 +45,9 @@ SHEEN_MODELS = ("none", "charlie", "ashikhmin")
 CLEARCOAT_MODELS = ("none", "filament", "weidlich_wilkie")
 # --- diffraction (RTR4 §9.11): a periodic grating's orders over the specular lobe ---
 DIFFRACTION_MODELS = ("none", "grating")
+# --- micro-cylinder fibres (RTR4 §9.10): a thread along the tangent replaces the base's
+# specular and diffuse terms; Kajiya & Kay 1989 or Sadeghi et al. 2013 (app/reference/fiber.py)
+FIBER_MODELS = ("none", "kajiya_kay", "sadeghi")
 
 # RTR4 §9.1: which reflections brdf_eval returns, a bitmask (``render.terms``).
 TERM_SPECULAR = 1  # surface reflection: f_spec (and the multiple-scattering lobe)
@@ -63,6 +66,7 @@ _GLSL_PREFIXES = (
     ("SHEEN", SHEEN_MODELS),  # sheen (RTR4 §9.10)
     ("CLEARCOAT", CLEARCOAT_MODELS),  # clear coat (RTR4 §9.12)
     ("DIFFRACTION", DIFFRACTION_MODELS),  # diffraction grating (RTR4 §9.11)
+    ("FIBER", FIBER_MODELS),  # micro-cylinder fibres (RTR4 §9.10)
 )
 
 
@@ -98,6 +102,7 @@ class Model:
     sheen: str = "none"  # sheen (RTR4 §9.10): the cloth layer's NDF, SHEEN_MODELS
     clearcoat: str = "none"  # clear coat (RTR4 §9.12): a CLEARCOAT_MODELS name
     diffraction: str = "none"  # diffraction (RTR4 §9.11): a DIFFRACTION_MODELS name
+    fiber: str = "none"  # micro-cylinder fibres (RTR4 §9.10): a FIBER_MODELS name
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
@@ -115,6 +120,7 @@ class Model:
             "SHEEN_MODEL": SHEEN_MODELS.index(self.sheen),  # sheen (RTR4 §9.10)
             "CLEARCOAT_MODEL": CLEARCOAT_MODELS.index(self.clearcoat),  # RTR4 §9.12
             "DIFFRACTION_MODEL": DIFFRACTION_MODELS.index(self.diffraction),  # RTR4 §9.11
+            "FIBER_MODEL": FIBER_MODELS.index(self.fiber),  # micro-cylinder fibres, RTR4 §9.10
         }
 
     def describe(self) -> str:
@@ -136,6 +142,8 @@ class Model:
             parts.append(f"{self.clearcoat} clear coat")
         if self.diffraction != "none":  # diffraction (RTR4 §9.11)
             parts.append(f"{self.diffraction} diffraction")
+        if self.fiber != "none":  # micro-cylinder fibres (RTR4 §9.10)
+            parts.append(f"{self.fiber} fibre")
         return " + ".join(parts) or "standard"
 
 
@@ -186,13 +194,19 @@ class ModelParams:
     cloth_scatter: np.ndarray = field(default_factory=_rgb)  # c_scatter (linear RGB)
     cloth_wrap: float = 0.0  # w
     cloth_sheen: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))  # k c_sheen
+    # --- micro-cylinder fibres (RTR4 §9.10; material-table texel 12), angles in radians ---
+    fiber_rotation: float = 0.0  # the thread's direction: the tangent turned about n
+    fiber_curvature: float = 0.0  # the thread's largest tilt out of the surface along its length
+    fiber_gamma_v: float = 0.3490658503988659  # Sadeghi's volume-scattering width (20 degrees)
+    fiber_kd: float = 0.3  # Sadeghi's isotropic share k_d of the volume scattering
 
 
 # Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); the
 # layered models of §9.10-9.12 have their own: 4-5 the clear coat (§9.12), 6 the sheen
 # (§9.10), 7 the thin film (§9.11), 8 a diffraction grating (§9.11), 9-11 the empirical
-# cloth terms (§9.10). The GLSL reads the width from the generated MATERIAL_TEXELS.
-MATERIAL_TEXELS = 12
+# cloth terms (§9.10), 12 the micro-cylinder fibre (§9.10). The GLSL reads the width from
+# the generated MATERIAL_TEXELS.
+MATERIAL_TEXELS = 13
 
 
 def model_codes(model: Model) -> tuple[int, int, int]:
@@ -202,7 +216,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
     * Fresnel: fresnel | internal << 2
     * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
       | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13
-      | diffraction << 14
+      | diffraction << 14 | fiber << 16
     * diffuse: diffuse
 
     Small integers, exact in float32."""
@@ -219,6 +233,7 @@ def model_codes(model: Model) -> tuple[int, int, int]:
         | d["SHEEN_MODEL"] << 9  # sheen (RTR4 §9.10): bits 9-10
         | d["CLEARCOAT_MODEL"] << 11  # clear coat (RTR4 §9.12): bits 11-12
         | d["DIFFRACTION_MODEL"] << 14  # diffraction (RTR4 §9.11): bits 14-15
+        | d["FIBER_MODEL"] << 16  # micro-cylinder fibres (RTR4 §9.10): bits 16-17
     )
     return fresnel, specular, d["DIFFUSE_MODEL"]
 
@@ -239,6 +254,7 @@ def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
         sheen=SHEEN_MODELS[(specular >> 9) & 3],  # sheen (RTR4 §9.10)
         clearcoat=CLEARCOAT_MODELS[(specular >> 11) & 3],  # clear coat (RTR4 §9.12)
         diffraction=DIFFRACTION_MODELS[(specular >> 14) & 3],  # diffraction (RTR4 §9.11)
+        fiber=FIBER_MODELS[(specular >> 16) & 3],  # micro-cylinder fibres (RTR4 §9.10)
     )
 
 
@@ -276,6 +292,9 @@ def pack_model_params(
         table[row, 9] = np.broadcast_to(p.cloth_rim_inner, 4)
         table[row, 10] = [*np.broadcast_to(p.cloth_scatter, 3), p.cloth_wrap]
         table[row, 11] = [*np.broadcast_to(p.cloth_sheen, 3), p.cloth_diffuse]
+        # Micro-cylinder fibre (RTR4 §9.10), texel 12: (rotation, curvature, gamma_v, k_d),
+        # on every row (the defaults where a material has none), as the cloth's.
+        table[row, 12] = [p.fiber_rotation, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd]
     return table
 
 
@@ -305,6 +324,14 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
             cloth_wrap=float(t[10, 3]),
             cloth_sheen=t[11, :3],
             cloth_diffuse=float(t[11, 3]),
+        )
+    if t.shape[0] > 12 and t[12, 2] > 0.0:  # fibre (RTR4 §9.10): gamma_v > 0 (before: 0)
+        p = replace(
+            p,
+            fiber_rotation=float(t[12, 0]),
+            fiber_curvature=float(t[12, 1]),
+            fiber_gamma_v=float(t[12, 2]),
+            fiber_kd=float(t[12, 3]),
         )
     return p
 

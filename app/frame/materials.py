@@ -40,6 +40,8 @@ def _params_key(p: ModelParams) -> tuple:
         tuple(np.broadcast_to(p.cloth_scatter, 3)),
         p.cloth_wrap,
         tuple(np.broadcast_to(p.cloth_sheen, 3)),
+        # micro-cylinder fibre (RTR4 §9.10)
+        (p.fiber_rotation, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd),
     )
 
 
@@ -72,10 +74,13 @@ class MaterialTable:
 
     @property
     def needs_tangents(self) -> bool:
-        """Whether a material is anisotropic or a diffraction grating (RTR4 §9.11: its
-        grooves run along the tangent): only then does shading read a tangent, and the
-        G-buffer carry one (docs/gbuffer.md)."""
-        return any(model.anisotropic or model.diffraction != "none" for model in self.models)
+        """Whether a material is anisotropic, a diffraction grating (RTR4 §9.11: its grooves
+        run along the tangent) or a fibre (RTR4 §9.10: its thread does): only then does
+        shading read a tangent, and the G-buffer carry one (docs/gbuffer.md)."""
+        return any(
+            model.anisotropic or model.diffraction != "none" or model.fiber != "none"
+            for model in self.models
+        )
 
     def packed(self) -> np.ndarray:
         """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params."""

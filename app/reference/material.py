@@ -15,7 +15,16 @@ from app.common.models import (
     Model,
     ModelParams,
 )
-from app.reference import clearcoat, cloth, diffraction, diffuse, fresnel, masking, thin_film
+from app.reference import (
+    clearcoat,
+    cloth,
+    diffraction,
+    diffuse,
+    fiber,
+    fresnel,
+    masking,
+    thin_film,
+)
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_L, MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.specular import D_selected, D_selected_aniso, G2_selected, Lambda_selected
@@ -357,6 +366,14 @@ def base_brdf_factors(
             ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
         )
     f_diffuse = f_diffuse_selected(s, p, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+    if model.fiber != "none":
+        # micro-cylinder fibres (RTR4 §9.10, app/reference/fiber.py): the thread along the
+        # tangent turned by fiber_rotation replaces both lobes; gamma_s = alpha.
+        tf = fiber.fiber_rotate(n, orthonormal_tangent(n, t), p.fiber_rotation)
+        f_spec, f_diffuse = fiber.f_fiber(
+            model.fiber == "sadeghi", n, tf, l, v, NoL, material_rho_ss(s), material_F0(s),
+            p.eta_dielectric, alpha, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd,
+        )  # fmt: skip
     if model.sheen != "none":
         # sheen (RTR4 §9.10, app/reference/sheen.py): the cloth layer over the whole base,
         # f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))), in f_spec.

@@ -27,6 +27,7 @@ from app.common.models import (
     CORRELATIONS,
     DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
+    FIBER_MODELS,
     FRESNEL_MODELS,
     G2_MODELS,
     LAMBDA_FORMS,
@@ -237,6 +238,10 @@ CLOTH_KEYS = (
     "cloth_rim", "cloth_inner", "cloth_diffuse", "cloth_scatter", "cloth_wrap", "cloth_sheen",
     "cloth_sheen_color",
 )  # fmt: skip
+# Micro-cylinder fibres (RTR4 §9.10): every key needs a fibre model; the last two are
+# Sadeghi et al.'s alone.
+FIBER_KEYS = ("fiber_rotation", "fiber_curvature", "fiber_gamma_v", "fiber_kd")
+SADEGHI_KEYS = ("fiber_gamma_v", "fiber_kd")
 
 
 class Material(_Strict):
@@ -292,6 +297,13 @@ class Material(_Strict):
     diffraction: Literal[DIFFRACTION_MODELS] = "none"  # type: ignore[valid-type]
     grating_period: Annotated[Real, Field(ge=200.0, le=20000.0)] | None = None  # nm (1600)
     grating_depth: Annotated[Real, Field(ge=0.0, le=300.0)] | None = None  # nm (120)
+    # --- micro-cylinder fibres (RTR4 §9.10; docs/cloth.md "Micro-cylinder"): a thread along
+    # the tangent replaces the specular and diffuse terms; angles in degrees
+    fiber: Literal[FIBER_MODELS] = "none"  # type: ignore[valid-type]
+    fiber_rotation: Annotated[Real, Field(ge=-360.0, le=360.0)] | None = None  # about n (0)
+    fiber_curvature: Annotated[Real, Field(ge=0.0, le=60.0)] | None = None  # largest tilt (0)
+    fiber_gamma_v: Annotated[Real, Field(ge=1.0, le=90.0)] | None = None  # sadeghi (20)
+    fiber_kd: Unit | None = None  # sadeghi: isotropic share of the volume scattering (0.3)
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -349,6 +361,7 @@ class Material(_Strict):
                 "height-correlated G2 (ndf = 'ggx', g2 = 'height_correlated', no anisotropy)"
             )
         self._check_clearcoat()
+        self._check_fiber()
         for key in CLOTH_KEYS:  # empirical cloth (RTR4 §9.10)
             if getattr(self, key) is not None and self.diffuse != "cloth_empirical":
                 raise ValueError(f"{key}: applies only with diffuse = 'cloth_empirical'")
@@ -363,6 +376,33 @@ class Material(_Strict):
                 "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
             )
         return self
+
+    def _check_fiber(self) -> None:
+        """Fibre keys (RTR4 §9.10) need their model; a fibre replaces the specular and
+        diffuse terms, so the keys that choose or layer over those are refused with it."""
+        for key in FIBER_KEYS:
+            if getattr(self, key) is not None and self.fiber == "none":
+                raise ValueError(f"{key}: applies only with fiber = 'kajiya_kay' or 'sadeghi'")
+        for key in SADEGHI_KEYS:
+            if getattr(self, key) is not None and self.fiber != "sadeghi":
+                raise ValueError(f"{key}: applies only with fiber = 'sadeghi'")
+        if self.fiber == "none":
+            return
+        defaults = {
+            "fresnel": "schlick", "ndf": "ggx", "lambda_form": "exact",
+            "g2": "height_correlated", "correlation": "exp", "diffuse": "lambert",
+            "multiscatter": False, "thin_film": False, "diffraction": "none", "clearcoat": 0.0,
+        }  # fmt: skip
+        given = [key for key, value in defaults.items() if getattr(self, key) != value]
+        given += [key for key in ("anisotropy", "anisotropy_map", "sheen_color")
+                  if getattr(self, key)]  # fmt: skip
+        for key in given:
+            raise ValueError(
+                f"{key}: does not apply with fiber = '{self.fiber}' (the fibre replaces the "
+                "specular and diffuse terms; no other layer composes over it)"
+            )
+        if self.resolve_base().metallic > 0.0:
+            raise ValueError(f"metallic: a fibre (fiber = '{self.fiber}') is a dielectric")
 
     def _check_clearcoat(self) -> None:
         """Clear coat keys (RTR4 §9.12) need a coat, and a coat needs a base it can lie on."""
@@ -495,6 +535,15 @@ class Material(_Strict):
                 cloth_wrap=0.0 if self.cloth_wrap is None else self.cloth_wrap,
                 cloth_sheen=k_sheen * np.asarray(c_sheen, np.float64),
             )
+        if self.fiber != "none":  # micro-cylinder fibres (RTR4 §9.10), degrees -> radians
+            gamma_v = 20.0 if self.fiber_gamma_v is None else self.fiber_gamma_v
+            params = replace(
+                params,
+                fiber_rotation=math.radians(self.fiber_rotation or 0.0),
+                fiber_curvature=math.radians(self.fiber_curvature or 0.0),
+                fiber_gamma_v=math.radians(gamma_v),
+                fiber_kd=0.3 if self.fiber_kd is None else self.fiber_kd,
+            )
         anisotropy = 0.0 if self.anisotropy is None else self.anisotropy
         model = Model(
             fresnel=self.fresnel,
@@ -509,6 +558,7 @@ class Material(_Strict):
             thin_film=self.thin_film,  # thin film (RTR4 §9.11)
             sheen=self.sheen if sheen_on else "none",  # sheen
             diffraction=self.diffraction,  # diffraction (RTR4 §9.11)
+            fiber=self.fiber,  # micro-cylinder fibres (RTR4 §9.10)
         )
         roughness = 0.5 if self.roughness is None else self.roughness
         return MaterialParams(

@@ -15,6 +15,7 @@
 #include "brdf/clearcoat.glsl"
 #include "brdf/diffraction.glsl"
 #include "brdf/cloth.glsl"
+#include "brdf/fiber.glsl"
 
 // What the lighting pass knows of a surface point after decoding the G-buffer.
 struct Surface {
@@ -306,6 +307,18 @@ BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
     }
 #endif
     vec3 f_diffuse = f_diffuse_selected(s, p, alpha, n, l, v, NoL, NoV, NoH, LoH);
+#if UBER_MODELS || FIBER_MODEL != FIBER_NONE
+    // micro-cylinder fibres (RTR4 sec. 9.10, brdf/fiber.glsl): the thread along the tangent
+    // turned by fiber_rotation replaces both lobes (its surface reflection in f_spec, its
+    // diffuse or volume scattering in f_diffuse); its longitudinal width gamma_s is alpha,
+    // its index the dielectric's. The scene format allows no other layer over it.
+    if (FIBER_MODEL != FIBER_NONE) {
+        vec3 tf = fiber_rotate(n, orthonormal_tangent(n, t), p.fiber_rotation);
+        f_fiber(FIBER_MODEL == FIBER_SADEGHI, n, tf, l, v, NoL, material_rho_ss(s),
+                material_F0(s), p.eta_dielectric, alpha, p.fiber_curvature, p.fiber_gamma_v,
+                p.fiber_kd, f_spec, f_diffuse);
+    }
+#endif
 #if UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
     // sheen (RTR4 sec. 9.10, brdf/sheen.glsl): the cloth layer over the whole base,
     // f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))). The sheen is a

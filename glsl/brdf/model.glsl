@@ -36,6 +36,7 @@ int uber_thin_film;  // thin film (RTR4 sec. 9.11)
 int uber_sheen_model;  // sheen (RTR4 sec. 9.10)
 int uber_clearcoat_model;  // clear coat (RTR4 sec. 9.12)
 int uber_diffraction_model;  // diffraction grating (RTR4 sec. 9.11)
+int uber_fiber_model;  // micro-cylinder fibres (RTR4 sec. 9.10)
 #define FRESNEL_MODEL uber_fresnel_model
 #define NDF_MODEL uber_ndf_model
 #define LAMBDA_FORM uber_lambda_form
@@ -49,6 +50,7 @@ int uber_diffraction_model;  // diffraction grating (RTR4 sec. 9.11)
 #define SHEEN_MODEL uber_sheen_model
 #define CLEARCOAT_MODEL uber_clearcoat_model
 #define DIFFRACTION_MODEL uber_diffraction_model
+#define FIBER_MODEL uber_fiber_model
 #else
 // The standard model unless a pass says otherwise.
 #ifndef FRESNEL_MODEL
@@ -93,6 +95,10 @@ int uber_diffraction_model;  // diffraction grating (RTR4 sec. 9.11)
 // Diffraction grating (RTR4 sec. 9.11): none unless a pass says otherwise.
 #ifndef DIFFRACTION_MODEL
 #define DIFFRACTION_MODEL DIFFRACTION_NONE
+#endif
+// Micro-cylinder fibres (RTR4 sec. 9.10): none unless a pass says otherwise.
+#ifndef FIBER_MODEL
+#define FIBER_MODEL FIBER_NONE
 #endif
 #endif  // UBER_MODELS
 
@@ -142,6 +148,11 @@ struct ModelParams {
     float cloth_wrap;           // w
     vec3 cloth_sheen;           // k_sheen c_sheen
     float cloth_diffuse;        // k_diff
+    // --- micro-cylinder fibre (RTR4 sec. 9.10, brdf/fiber.glsl), texel 12; radians ---
+    float fiber_rotation;       // the thread: the tangent turned about n
+    float fiber_curvature;      // the thread's largest tilt out of the surface
+    float fiber_gamma_v;        // Sadeghi's volume-scattering width
+    float fiber_kd;             // Sadeghi's isotropic share of the volume scattering
 };
 
 // Row ``id`` of the material table (4 RGBA32F texels per material; see
@@ -151,7 +162,8 @@ struct ModelParams {
 //   texel 6 (sheen_color, sheen_roughness) (RTR4 sec. 9.10, brdf/sheen.glsl).
 //   texel 4 (clear coat colour, strength), texel 5 (coat roughness, coat eta, 0, 0),
 //   texels 9-11 (k_rim, a_rim, k_inner, a_inner), (c_scatter, w), (k_sheen c_sheen, k_diff)
-//   (empirical cloth, RTR4 sec. 9.10, brdf/cloth.glsl).
+//   (empirical cloth, RTR4 sec. 9.10, brdf/cloth.glsl),
+//   texel 12 (rotation, curvature, gamma_v, k_d) (fibre, RTR4 sec. 9.10, brdf/fiber.glsl).
 ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t0 = texelFetch(table, ivec2(0, id), 0);
     vec4 t1 = texelFetch(table, ivec2(1, id), 0);
@@ -164,12 +176,14 @@ ModelParams fetch_model_params(sampler2D table, int id) {
     vec4 t9 = texelFetch(table, ivec2(9, id), 0);  // empirical cloth (RTR4 sec. 9.10)
     vec4 t10 = texelFetch(table, ivec2(10, id), 0);
     vec4 t11 = texelFetch(table, ivec2(11, id), 0);
+    vec4 t12 = texelFetch(table, ivec2(12, id), 0);  // micro-cylinder fibre (RTR4 sec. 9.10)
     return ModelParams(t0.rgb, t0.a, t1.rgb, t1.a, t2.rgb, t2.a,
                        t7.r, t7.g, t7.b,            // thin film
                        t6.rgb, t6.a,                // sheen
                        t4.rgb, t4.a, t5.r, t5.g,    // clear coat
                        t8.r, t8.g,                  // diffraction grating
-                       t9, t10.rgb, t10.a, t11.rgb, t11.a);  // empirical cloth
+                       t9, t10.rgb, t10.a, t11.rgb, t11.a,  // empirical cloth
+                       t12.r, t12.g, t12.b, t12.a);         // micro-cylinder fibre
 }
 
 // The model group of material ``id``: which lighting permutation shades its pixels.
@@ -183,7 +197,7 @@ int fetch_model_group(sampler2D table, int id) {
 //   .g Fresnel:  fresnel | internal << 2
 //   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
 //                | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13
-//                | diffraction << 14
+//                | diffraction << 14 | fiber << 16
 //   .a diffuse:  diffuse
 void fetch_model_codes(sampler2D table, int id) {
     ivec4 c = ivec4(texelFetch(table, ivec2(3, id), 0));
@@ -199,6 +213,7 @@ void fetch_model_codes(sampler2D table, int id) {
     uber_sheen_model = (c.b >> 9) & 3;  // sheen (RTR4 sec. 9.10)
     uber_clearcoat_model = (c.b >> 11) & 3;  // clear coat (RTR4 sec. 9.12)
     uber_diffraction_model = (c.b >> 14) & 3;  // diffraction grating (RTR4 sec. 9.11)
+    uber_fiber_model = (c.b >> 16) & 3;  // micro-cylinder fibres (RTR4 sec. 9.10)
     uber_diffuse_model = c.a;
 }
 #endif
