@@ -41,6 +41,7 @@ from app.common.models import (
     CORRELATIONS,
     DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
+    FIBER_MODELS,
     FRESNEL_MODELS,
     G2_MODELS,
     LAMBDA_FORMS,
@@ -59,6 +60,7 @@ WORDS = sorted(
     {
         *FRESNEL_MODELS, *NDF_MODELS, *LAMBDA_FORMS, *G2_MODELS, *CORRELATIONS,
         *DIFFUSE_MODELS, *PRESETS, *CLEARCOAT_MODELS, *SHEEN_MODELS, *DIFFRACTION_MODELS,
+        *FIBER_MODELS,
         "directional", "point", "spot", "sphere", "box", "plane", "cylinder", "capsule",
         "mesh", "linear", "neutral", "aces", "reinhard", "f16", "f32", "meshes/teapot.obj",
         "floor", "gold", "m",
@@ -281,7 +283,7 @@ FAR_EDGES = [1.0001, 2.0, 3.0, 1000.0]
 FAMILIES = {
     "diffuse": DIFFUSE_MODELS, "sheen": SHEEN_MODELS, "clearcoat_model": CLEARCOAT_MODELS,
     "diffraction": DIFFRACTION_MODELS, "fresnel": FRESNEL_MODELS, "ndf": NDF_MODELS,
-    "g2": G2_MODELS,
+    "g2": G2_MODELS, "fiber": FIBER_MODELS,
 }  # fmt: skip
 
 

@@ -359,14 +359,19 @@ def test_a_dropped_mesh_opens_framed_and_a_bad_file_is_reported(viewer, tmp_path
 
 
 @pytest.mark.parametrize(
-    "scene", ["sec10_cloth_empirical.toml", "sec11_diffraction.toml", "sec12_layered_variants.toml"]
-)
+    "scene",
+    [
+        "sec10_cloth_empirical.toml", "sec10_cloth_fibers.toml", "sec11_diffraction.toml",
+        "sec12_layered_variants.toml",
+    ],
+)  # fmt: skip
 def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp_path, scene):
     """The Material panel draws every section open for each material of the scenes of
-    RTR4 §9.10-9.12 (empirical cloth, grating, both coat models) without an error, and
-    the edits its toggles make are taken: leaving the empirical cloth model removes its
-    keys, a grating turns on and off, the coat model switches."""
-    from app.viewer.panels import diffuse_edit, grating_edit
+    RTR4 §9.10-9.12 (empirical cloth, fibres, grating, both coat models) without an
+    error, and the edits its toggles make are taken: leaving the empirical cloth model or
+    a fibre model removes their keys, a grating turns on and off, the coat model
+    switches."""
+    from app.viewer.panels import diffuse_edit, fiber_edit, grating_edit
 
     v = viewer
     path = tmp_path / scene
@@ -377,7 +382,17 @@ def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp
         v.selection.material = name
         v.step(2)
         assert not v.state.error, (name, v.state.error)
-    if scene.startswith("sec10"):
+    if scene == "sec10_cloth_fibers.toml":
+        name = next(n for n, m in v.scene.materials.items() if m.fiber_kd is not None)
+        key = f"materials.{name}"
+        assert not v.edit({f"{key}.fiber": "kajiya_kay"})  # Sadeghi's keys would stay
+        assert v.edit(fiber_edit(key, "sadeghi", "kajiya_kay"))
+        v.settle()
+        assert v.scene.materials[name].fiber == "kajiya_kay"
+        assert v.edit(fiber_edit(key, "kajiya_kay", "none"))
+        v.settle()
+        assert v.scene.materials[name].fiber_rotation is None
+    elif scene.startswith("sec10"):
         name = next(n for n, m in v.scene.materials.items() if m.cloth_wrap is not None)
         key = f"materials.{name}"
         assert not v.edit({f"{key}.diffuse": "burley"})  # the cloth keys would be left behind

@@ -25,6 +25,7 @@ from app.common.models import (
     CLEARCOAT_MODELS,
     CORRELATIONS,
     DIFFUSE_MODELS,
+    FIBER_MODELS,
     FRESNEL_MODELS,
     G2_MODELS,
     LAMBDA_FORMS,
@@ -33,7 +34,7 @@ from app.common.models import (
 )
 from app.common.tonemaps import TONEMAPS
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
-from app.scene.model import CLOTH_KEYS, TEXTURE_KEYS
+from app.scene.model import CLOTH_KEYS, FIBER_KEYS, SADEGHI_KEYS, TEXTURE_KEYS
 from app.scene.presets import PRESETS
 
 if TYPE_CHECKING:
@@ -54,6 +55,17 @@ def diffuse_edit(key: str, old: str, new: str) -> dict[str, Any]:
     edit: dict[str, Any] = {f"{key}.diffuse": new}
     if old == "cloth_empirical" and new != old:
         edit |= {f"{key}.{k}": None for k in CLOTH_KEYS}
+    return edit
+
+
+def fiber_edit(key: str, old: str, new: str) -> dict[str, Any]:
+    """The edit that picks fibre model ``new`` for material ``key``: keys the new model
+    does not take leave with the old one (all of them for "none", Sadeghi's own for
+    Kajiya-Kay)."""
+    edit: dict[str, Any] = {f"{key}.fiber": new}
+    leaving = FIBER_KEYS if new == "none" else SADEGHI_KEYS if new != "sadeghi" else ()
+    if old != new:
+        edit |= {f"{key}.{k}": None for k in leaving}
     return edit
 
 
@@ -285,6 +297,8 @@ class Panels:
                                                  0.01, 0.0, top)  # fmt: skip
                 if changed:
                     self._edit(f"{key}.{field}", [max(float(x), 1e-3) for x in rgb])
+        if self._section("fibres (micro-cylinders)"):
+            self._fibers(key, material)
         if material.diffuse == "cloth_empirical" and self._section("empirical cloth"):
             self._cloth_empirical(key, material)
         if self._section("layers: sheen, clear coat, thin film, grating"):
@@ -307,6 +321,29 @@ class Panels:
                 changed, value = imgui.slider_float("blend softness", b.softness, 0.0, 1.0)
                 if changed:
                     self._edit(f"{key}.blend.softness", float(value))
+
+    def _fibers(self, key: str, material: Any) -> None:
+        """The micro-cylinder models of RTR4 §9.10 (a thread along the tangent); the scene
+        format refuses the keys that choose or layer over the lobes a fibre replaces, and
+        the refusal shows in the Problems panel."""
+        now = FIBER_MODELS.index(material.fiber)
+        changed, i = imgui.combo("fibre model", now, list(FIBER_MODELS))
+        if changed:
+            self.viewer.edit(fiber_edit(key, material.fiber, FIBER_MODELS[i]))
+        if material.fiber == "none":
+            return
+        sliders = [("fiber_rotation", "thread rotation (deg)", 0.0, -180.0, 180.0),
+                   ("fiber_curvature", "thread curvature (deg)", 0.0, 0.0, 60.0)]  # fmt: skip
+        if material.fiber == "sadeghi":
+            sliders += [("fiber_gamma_v", "volume lobe width (deg)", 20.0, 1.0, 90.0),
+                        ("fiber_kd", "isotropic share k_d", 0.3, 0.0, 1.0)]  # fmt: skip
+        for field, label, default, low, high in sliders:
+            value = getattr(material, field)
+            changed, value = imgui.slider_float(
+                label, default if value is None else value, low, high
+            )
+            if changed:
+                self._edit(f"{key}.{field}", float(value))
 
     def _cloth_empirical(self, key: str, material: Any) -> None:
         """The empirical cloth terms of RTR4 §9.10 (diffuse = "cloth_empirical"); unset keys

@@ -771,7 +771,7 @@ _STRUCTURAL = re.compile(
     r"^(render\.|objects|environment|lights$|lights\[\d+\]$|lights\[\d+\]\.type$|"
     r"materials\.[^.]+$|materials\.[^.]+\.(preset|fresnel|ndf|lambda_form|g2|correlation|"
     r"diffuse|multiscatter|anisotropy|blend|[a-z_]+_map|sheen|clearcoat_model|thin_film|"
-    r"diffraction)$)"
+    r"diffraction|fiber)$)"
 )
 
 
