@@ -78,7 +78,7 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     # the twin shades is float32-close, the layer left out is not (the layer shows).
     layered = {(r["case"], r["variant"]): r for r in rows if r["suite"] == "accuracy"}
     for case, model in (("sheen", "charlie"), ("thin_film", "film"), ("grating", "grating"),
-                        ("clearcoat", "filament")):  # fmt: skip
+                        ("fiber", "sadeghi"), ("clearcoat", "filament")):  # fmt: skip
         assert layered[case, model]["default"] and layered[case, model]["max_rel_err"] < 1e-3
         assert layered[case, "none"]["rel_rmse"] > 1e-2, case
         assert (layered[case, "none"]["width"], layered[case, "none"]["height"]) == (64, 36)

@@ -537,16 +537,21 @@ SHEEN = {"sheen_color": [0.8, 0.8, 0.8], "sheen_roughness": 0.5}
 FILM = {"thin_film": True, "film_thickness": 350.0, "film_ior": 1.33}
 GRATING = {"diffraction": "grating", "grating_period": 1600.0, "grating_depth": 120.0}
 COAT = {"clearcoat": 1.0, "clearcoat_roughness": 0.1}
+# Fibres are dielectric threads: every sphere of the scene gets index 1.5 (no metal row).
+THREAD = {"fresnel": "schlick", "ior": 1.5}
+FIBER = {**THREAD, "fiber_rotation": 30.0, "fiber_curvature": 10.0}
 
 
 def layered_comparisons() -> list[Comparison]:
-    """Sheen NDFs (RTR4 §9.10), the thin film and the grating (§9.11), the clear coat's two
-    compositions (§9.12), at ``Settings.layered_size``. The twins of the film and the
-    grating are the GLSL's own closed forms in float64 (their error against the spectral
-    sums is measured in docs/thin-film.md and docs/diffraction.md: a spectral twin per
-    pixel and light would take minutes here); the coat's reference is Filament's twin, so
-    Weidlich-Wilkie's row measures how far the two compositions part (their errors
-    against the random walk are in docs/layered.md)."""
+    """Sheen NDFs and fibres (RTR4 §9.10), the thin film and the grating (§9.11), the
+    clear coat's two compositions (§9.12), at ``Settings.layered_size``.
+
+    The twins of the film and the grating are the GLSL's own closed forms in float64
+    (their error against the spectral sums is measured in docs/thin-film.md and
+    docs/diffraction.md: a spectral twin per pixel and light would take minutes here).
+    The coat's reference is Filament's twin, so Weidlich-Wilkie's row measures how far
+    the two compositions part (their errors against the random walk are in
+    docs/layered.md); likewise Kajiya-Kay's row against Sadeghi's twin."""
     return [
         Comparison(
             "sheen",
@@ -571,6 +576,17 @@ def layered_comparisons() -> list[Comparison]:
             "diffraction grating (1600 nm period, 120 nm deep): none vs its orders",
             (Variant("none", {}), Variant("grating", GRATING, default=True)),
             Variant("grating", GRATING),
+            layered=True,
+        ),
+        Comparison(
+            "fiber",
+            "micro-cylinder threads (dielectric): none vs Kajiya-Kay vs Sadeghi et al. 2013",
+            (
+                Variant("none", THREAD),
+                Variant("kajiya_kay", {"fiber": "kajiya_kay", **FIBER}),
+                Variant("sadeghi", {"fiber": "sadeghi", **FIBER}, default=True),
+            ),
+            Variant("sadeghi", {"fiber": "sadeghi", **FIBER}),
             layered=True,
         ),
         Comparison(
