@@ -67,6 +67,13 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
     render.add_argument("-o", "--output", required=True, help="PNG file to write")
     render.add_argument("--size", type=_size, help="WIDTHxHEIGHT (default: the scene's)")
+    render.add_argument(
+        "--fit",
+        action="store_true",
+        help="with --size of another aspect ratio than the scene's: keep the scene's whole "
+        "framing (a narrower image widens the vertical field of view; a wider one shows "
+        "more at the sides)",
+    )
     render.add_argument("--hdr", help="also write the linear HDR image (.exr or .npy)")
     render.add_argument(
         "--backend",
@@ -294,6 +301,10 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise InputError("--debug-light", "", f"applies only to --debug {', '.join(LIGHT_VIEWS)}")
     scene_path = _resolve_scene(args.scene)
     loaded = load_scene(scene_path)
+    if args.fit:
+        from app.frame.camera import fit_scene
+
+        loaded = fit_scene(loaded, args.size)
     if args.compare is not None:
         return _render_comparison(args, loaded, out, start)
     for option, value in (
