@@ -121,6 +121,7 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
     _textures_parser(sub)
+    _walkthrough_parser(sub)
     view = sub.add_parser(
         "view",
         help="open the desktop viewer on a scene (glfw window, Dear ImGui panels)",
@@ -217,6 +218,54 @@ def _brdf_parser(sub: argparse._SubParsersAction) -> None:
         "--dpi", type=_dpi, help="pixels per inch (default 100; a column is 4.6 x 7.4 in)"
     )
     brdf.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+
+
+def _sections(text: str) -> set[int]:
+    try:
+        values = {int(part) for part in text.split(",")}
+    except ValueError:
+        values = set()
+    if not values or not all(1 <= n <= 13 for n in values):
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated section numbers within 1..13, got '{text}'"
+        )
+    return values
+
+
+def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
+    """The ``walkthrough`` subcommand's arguments (docs/walkthrough.md)."""
+    walkthrough = sub.add_parser(
+        "walkthrough",
+        help="render the classroom walkthrough's steps into an offline HTML handout",
+        description="Render every step of the walkthrough (labelled views, A/B comparisons "
+        "with their difference, sweeps, BRDF plots) and write DIR/index.html, an offline "
+        "handout that prints on A4, and DIR/walkthrough.md (docs/walkthrough.md).",
+    )
+    walkthrough.add_argument("--out", required=True, metavar="DIR", help="folder to write")
+    walkthrough.add_argument(
+        "--lang", choices=("en", "ko"), default="en", help="language of the text (default en)"
+    )
+    walkthrough.add_argument(
+        "--size",
+        type=_size,
+        help="WIDTHxHEIGHT of every image (default: each scene's own); the scene's whole "
+        "framing is kept at any aspect ratio (as pbs render --fit)",
+    )
+    walkthrough.add_argument(
+        "--steps", type=_sections, metavar="N,M", help="only these sections (default: all)"
+    )
+    walkthrough.add_argument(
+        "--folder", help="the step files' folder (default: the bundled walkthrough/)"
+    )
+    walkthrough.add_argument(
+        "--backend",
+        choices=("auto", "egl", "osmesa"),
+        default="auto",
+        help="headless OpenGL backend (default: EGL, then OSMesa)",
+    )
+    walkthrough.add_argument(
+        "-q", "--quiet", action="store_true", help="no progress bar, no summary"
+    )
 
 
 def _textures_parser(sub: argparse._SubParsersAction) -> None:
@@ -457,6 +506,42 @@ def cmd_textures(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_walkthrough(args: argparse.Namespace) -> int:
+    """Render the walkthrough's steps and write the handout (app/walkthrough). The steps
+    and the fonts are checked before any GL work."""
+    from app.gl.context import create_context
+    from app.progress import Progress
+    from app.resources import walkthrough_dir
+    from app.walkthrough.build import build, count_items
+    from app.walkthrough.handout import write_handout
+    from app.walkthrough.labels import find_font
+    from app.walkthrough.model import load_walkthrough
+
+    start = time.perf_counter()
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(str(out), "--out", "not a folder")
+    steps = load_walkthrough(args.folder or walkthrough_dir(), args.steps)
+    find_font(args.lang)
+    gl = create_context(args.backend)
+    progress = Progress(count_items(steps), enabled=not args.quiet)
+    try:
+        rendered = build(gl, steps, out, args.lang, args.size, progress)
+    except OSError as exc:
+        why = f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc)
+        raise InputError(str(out), "--out", f"cannot write ({why})") from None
+    finally:
+        gl.release()
+    page, markdown = write_handout(out, rendered, args.lang)
+    if not args.quiet:
+        images = sum(len(r.figures) for r in rendered)
+        print(
+            f"{page}: {len(rendered)} step(s), {images} image(s), lang {args.lang}; "
+            f"{markdown}; {time.perf_counter() - start:.2f} s"
+        )
+    return 0
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     from app.viewer.window import Viewer, ViewerError
 
@@ -489,6 +574,7 @@ def main(argv: list[str] | None = None) -> int:
         "render": cmd_render,
         "brdf": cmd_brdf,
         "textures": cmd_textures,
+        "walkthrough": cmd_walkthrough,
         "view": cmd_view,
     }
     try:
