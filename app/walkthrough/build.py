@@ -9,8 +9,8 @@ Every image uses projector-ready framing (``app.frame.camera.fit_scene``): at an
 - a sweep: a strip of frames, the value under each;
 - a plot: ``pbs brdf``'s figure (``app.brdf.plot``) of the step's materials.
 
-``write_handout`` and ``write_markdown`` (``app.walkthrough.handout``) turn the result
-into the offline HTML handout and its Markdown version.
+``app.walkthrough.handout.write_handout`` turns the result into the offline HTML handout
+and its Markdown version.
 """
 
 from __future__ import annotations
@@ -62,11 +62,13 @@ def _hstack(images: list[np.ndarray]) -> np.ndarray:
 
 @dataclass
 class ViewImages:
-    """A view: the plain render, the labelled image, and the label boxes."""
+    """A view: the plain render, the labelled image, the label boxes (left, top, right,
+    bottom; right and bottom exclusive) and the linear HDR radiance."""
 
     plain: np.ndarray
     labelled: np.ndarray
     boxes: list[tuple[int, int, int, int]]
+    hdr: np.ndarray
 
 
 def label_texts(view: View, loaded: LoadedScene, lang: Lang) -> dict[int, str]:
@@ -93,23 +95,25 @@ def render_view(
     try:
         renderer.render()
         plain = renderer.read_ldr()
+        hdr = renderer.read_hdr()
         labelled, placed = label_objects(
             plain, renderer, label_texts(view, loaded, lang), find_font(lang)
         )
     finally:
         renderer.release()
-    return ViewImages(plain, labelled, [p.box for p in placed])
+    return ViewImages(plain, labelled, [p.box for p in placed], hdr)
 
 
 @dataclass
 class ComparisonImages:
-    """A comparison: both sides' display images, the magnified difference, and the panel
-    (A | B | difference, labelled)."""
+    """A comparison: both sides' display images, the magnified difference, the panel
+    (A | B | difference, labelled) and both sides' linear HDR radiance."""
 
     a: np.ndarray
     b: np.ndarray
     difference: np.ndarray
     panel: np.ndarray
+    hdr: tuple[np.ndarray, np.ndarray]
 
 
 def render_comparison(
@@ -126,6 +130,7 @@ def render_comparison(
     try:
         comparison.render()
         a, b = (renderer.read_ldr() for renderer in comparison.renderers)
+        hdr = comparison.read_sides()
         comparison.composite("difference", gain=GAIN)
         difference = comparison.read_ldr()
     finally:
@@ -139,16 +144,18 @@ def render_comparison(
             caption_band(difference, WORDS["difference"][lang], face, text),
         ]
     )
-    return ComparisonImages(a, b, difference, panel)
+    return ComparisonImages(a, b, difference, panel, hdr)
 
 
 @dataclass
 class SweepImages:
-    """A sweep: its values, each frame's display image, and the strip with the values."""
+    """A sweep: its values, each frame's display image and HDR radiance, and the strip
+    with the values."""
 
     values: list[float]
     frames: list[np.ndarray]
     strip: np.ndarray
+    hdrs: list[np.ndarray]
 
 
 def sweep_frame_size(size: tuple[int, int], steps: int) -> tuple[int, int]:
@@ -176,7 +183,7 @@ def render_sweep(
     loaded = step.scene(sweep.scene)
     frame = sweep_frame_size(image_size(loaded, size), sweep.steps)
     shaders = ShaderCache(gl.ctx)
-    frames = []
+    frames, hdrs = [], []
     try:
         for value in sweep.values():
             scene = with_values(loaded, sweep.keys, value, step.path, where, where)
@@ -184,6 +191,7 @@ def render_sweep(
             try:
                 renderer.render()
                 frames.append(renderer.read_ldr())
+                hdrs.append(renderer.read_hdr())
             finally:
                 renderer.release()
     finally:
@@ -196,7 +204,7 @@ def render_sweep(
             for im, v in zip(frames, sweep.values(), strict=True)
         ]
     )
-    return SweepImages(sweep.values(), frames, strip)
+    return SweepImages(sweep.values(), frames, strip, hdrs)
 
 
 def plot_dpi(size: tuple[int, int] | None) -> int:
@@ -220,12 +228,14 @@ def render_plot(gl: GLContext, plot: Plot, size: tuple[int, int] | None, path: P
 @dataclass
 class Figure:
     """One image of a step in the handout: its file (relative to the output folder),
-    its kind, its caption (None: none) and its alternative text."""
+    its kind, its caption (None: none) and its alternative text; with ``build(...,
+    keep=True)`` also the rendered images (None for a plot)."""
 
     kind: str
     image: str
     caption: str | None
     alt: str
+    result: ViewImages | ComparisonImages | SweepImages | None = None
 
 
 @dataclass
@@ -251,8 +261,11 @@ def build(
     lang: Lang,
     size: tuple[int, int] | None = None,
     progress: Progress | None = None,
+    keep: bool = False,
 ) -> list[RenderedStep]:
-    """Render every step's images into ``out/images/`` and return what the handout shows."""
+    """Render every step's images into ``out/images/`` and return what the handout shows
+    (``keep``: with each figure's images and HDR radiance, for checks; memory grows with
+    the number of images)."""
     images = out / "images"
     rendered = []
     find_font(lang)  # a missing Hangul font is reported before any rendering
@@ -270,24 +283,28 @@ def build(
                 progress.start(f"{loaded.slug} {where}")
             name = f"{loaded.slug}-{kind}-{where.split('[')[1].rstrip(']')}.png"
             path = images / name
+            result: ViewImages | ComparisonImages | SweepImages | None
             if isinstance(item, View):
-                view = render_view(gl, item, loaded.scene(item.scene), size, lang)
-                write_png(path, view.labelled)
+                result = render_view(gl, item, loaded.scene(item.scene), size, lang)
+                write_png(path, result.labelled)
                 alt = item.scene
             elif isinstance(item, ComparisonItem):
                 result = render_comparison(gl, item, loaded.scene(item.scene), size, lang)
                 write_png(path, result.panel)
                 alt = f"{item.scene}: {item.key} = {item.a!r} | {item.b!r}"
             elif isinstance(item, Sweep):
-                write_png(path, render_sweep(gl, item, loaded, where, size, lang).strip)
+                result = render_sweep(gl, item, loaded, where, size, lang)
+                write_png(path, result.strip)
                 alt = f"{item.scene}: {', '.join(item.keys)} {item.start:g} .. {item.to:g}"
             else:
                 assert isinstance(item, Plot)
                 path.parent.mkdir(parents=True, exist_ok=True)
                 render_plot(gl, item, size, path)
+                result = None
                 alt = "BRDF: " + "; ".join(item.materials)
             caption = item.caption.get(lang) if item.caption is not None else None
-            done.figures.append(Figure(kind, f"images/{name}", caption, alt))
+            kept = result if keep else None
+            done.figures.append(Figure(kind, f"images/{name}", caption, alt, kept))
             if progress is not None:
                 progress.tick()
                 progress.done()

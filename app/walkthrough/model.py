@@ -20,7 +20,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from app.errors import InputError
 from app.render.compare import parse_key, set_key
-from app.scene.loader import LoadedScene, describe_error, load_scene, parse_scene, read_text
+from app.scene.loader import (
+    LoadedScene,
+    describe_error,
+    key_path,
+    load_scene,
+    parse_scene,
+    read_text,
+)
 
 LANGUAGES: tuple[str, ...] = ("en", "ko")
 Lang = Literal["en", "ko"]
@@ -211,18 +218,26 @@ def with_values(
     """``loaded`` with every key path set to ``value``, validated as a scene file: a
     missing key is an error at ``where``'s key, a refused value at ``origin``'s."""
     data = loaded.scene.model_dump(exclude_none=True)
+    fields: dict[str, str] = {}  # the key as the scene loader names it -> the step's field
     for j, key in enumerate(keys):
         field = f"{where}.keys[{j}]" if where.startswith("sweeps") else f"{where}.key"
         try:
-            set_key(data, parse_key(key, str(path)), value, str(loaded.path), where)
+            parsed = parse_key(key, str(path))
+            set_key(data, parsed, value, str(loaded.path), where)
         except InputError as exc:
             raise _error(path, field, f"{exc.key}: {exc.message}") from None
+        fields[key_path(parsed)] = field
     try:
         return parse_scene(data, loaded.path)
     except InputError as exc:
         scene = loaded.path.stem
+        # A misspelt last name is added as a new key, which the scene refuses as unknown:
+        # the key is wrong, not the value.
+        unknown = exc.message == "unknown key" and exc.key in fields
         raise _error(
-            path, origin, f"{exc.key}: {exc.message} (scene {scene}, value {value!r})"
+            path,
+            fields[exc.key] if unknown else origin,
+            f"{exc.key}: {exc.message} (scene {scene}, value {value!r})",
         ) from None
 
 
