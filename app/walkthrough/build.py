@@ -136,7 +136,7 @@ def render_comparison(
     finally:
         comparison.release()
     face = find_font(lang)
-    text = font_size(size[1])
+    text = font_size(size[1], 3 * size[0])
     panel = _hstack(
         [
             caption_band(a, item.label_a.get(lang), face, text),
@@ -197,7 +197,7 @@ def render_sweep(
     finally:
         shaders.release()
     face = find_font(lang)
-    text = max(10, font_size(frame[1]))
+    text = font_size(frame[1], sweep.steps * frame[0])
     strip = _hstack(
         [
             caption_band(im, sweep_label(sweep, v), face, text, where="below")

@@ -139,9 +139,20 @@ def silhouettes(renderer: Renderer) -> dict[int, Silhouette]:
     return out
 
 
-def font_size(height: int) -> int:
-    """Label text height for an image ``height`` pixels tall (at least 10 px)."""
-    return max(10, round(height / 24))
+def font_size(height: int, strip_width: int | None = None) -> int:
+    """Label text height for an image ``height`` pixels tall (at least 10 px). An image
+    that is one panel of a strip ``strip_width`` wide (a comparison, a sweep), which the
+    handout shrinks to the page's width, gets text 1/64 of the strip's width, so it
+    reads at the size of a view's labels, within a quarter of the panel's height."""
+    size = round(height / 24)
+    if strip_width is not None:
+        size = min(max(size, round(strip_width / 64)), height // 4)
+    return max(10, size)
+
+
+def _overlap(box: tuple[float, float, float, float], shape: Silhouette) -> bool:
+    left, top, right, bottom = box
+    return left < shape.right and shape.left < right and top < shape.bottom and shape.top < bottom
 
 
 @dataclass(frozen=True)
@@ -174,10 +185,12 @@ def place(
     face: FontFace,
     size: int,
     room: float,
+    others: tuple[Silhouette, ...] = (),
 ) -> PlacedLabel:
     """Where ``text`` goes for an object: centred under its silhouette, above it where
-    below leaves the image, inside it where neither fits; kept within the image.
-    ``room``: the widest the text may be (the gap to the neighbouring objects)."""
+    below leaves the image or covers one of ``others`` (the other objects in view),
+    inside it where neither fits; kept within the image. ``room``: the widest the text
+    may be (the gap to the neighbouring objects)."""
     w, h = image_size
     lines, size = _layout(text, face, size, max(room, 4 * size))
     font = face.at(size)
@@ -187,7 +200,8 @@ def place(
     box_h = line_h * len(lines) + 2 * pad
     gap = max(2, size // 3)
     top = silhouette.bottom + gap
-    if top + box_h > h:
+    below = (silhouette.centre_x - 0.5 * box_w, top, silhouette.centre_x + 0.5 * box_w, top + box_h)
+    if top + box_h > h or any(_overlap(below, o) for o in others):
         top = silhouette.top - gap - box_h
         if top < 0:
             top = 0.5 * (silhouette.top + silhouette.bottom) - 0.5 * box_h
@@ -227,17 +241,19 @@ def label_objects(
     An object that is not in view gets no label."""
     h, w = image.shape[:2]
     shapes = silhouettes(renderer)
-    centres = sorted(s.centre_x for s in shapes.values())
+    # Labels collide only with labels: the room of each is set by the labelled objects.
+    centres = sorted(shapes[i].centre_x for i in texts if i in shapes)
     placed = []
     for index, text in texts.items():
         shape = shapes.get(index)
         if shape is None or shape.right < 0 or shape.left > w or shape.bottom < 0 or shape.top > h:
             continue
-        # Room: up to the midpoints to the nearest other objects' centres in x.
+        # Room: up to the nearest other labelled object's centre in x (0.95 of it).
         gaps = [abs(c - shape.centre_x) for c in centres if abs(c - shape.centre_x) > 1.0]
         room = min(gaps) * 0.95 if gaps else float(w)
         room = max(room, shape.right - shape.left)
-        placed.append(place(text, shape, (w, h), face, font_size(h), room))
+        others = tuple(s for i, s in shapes.items() if i != index)
+        placed.append(place(text, shape, (w, h), face, font_size(h), room, others))
     return draw_labels(image, placed, face), placed
 
 
