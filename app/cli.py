@@ -54,6 +54,16 @@ def _debug_views() -> dict[str, str]:
     return DEBUG_VIEWS
 
 
+def _gl_backend(parser: argparse.ArgumentParser) -> None:
+    """The ``--backend`` option of the commands that render headless."""
+    parser.add_argument(
+        "--backend",
+        choices=("auto", "egl", "osmesa"),
+        default="auto",
+        help="headless OpenGL backend (default: EGL, then OSMesa)",
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pbs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -75,12 +85,7 @@ def _parser() -> argparse.ArgumentParser:
         "more at the sides)",
     )
     render.add_argument("--hdr", help="also write the linear HDR image (.exr or .npy)")
-    render.add_argument(
-        "--backend",
-        choices=("auto", "egl", "osmesa"),
-        default="auto",
-        help="headless OpenGL backend (default: EGL, then OSMesa)",
-    )
+    _gl_backend(render)
     render.add_argument(
         "--debug",
         metavar="VIEW",
@@ -257,12 +262,7 @@ def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
     walkthrough.add_argument(
         "--folder", help="the step files' folder (default: the bundled walkthrough/)"
     )
-    walkthrough.add_argument(
-        "--backend",
-        choices=("auto", "egl", "osmesa"),
-        default="auto",
-        help="headless OpenGL backend (default: EGL, then OSMesa)",
-    )
+    _gl_backend(walkthrough)
     walkthrough.add_argument(
         "-q", "--quiet", action="store_true", help="no progress bar, no summary"
     )
