@@ -351,6 +351,10 @@ def print_tables() -> None:
         err, mu, r = interpolation_error(model)
         E = table[..., k]
         print(f"| {model} | {E.min():.4g} .. {E.max():.4g} | {err:.1e} at {mu:.3g}, {r:.3g} |")
+    print("\n| sheen_roughness | largest G1 error of the Lambda fit | at n.v |\n|---|---|---|")
+    for r in LAMBDA_ROUGHNESSES:
+        err, mu = lambda_fit_error(r)
+        print(f"| {r:g} | {err:.4f} | {mu:g} |")
     print("\n| model | sheen_roughness | largest furnace R over n.v | at n.v |")
     print("|---|---|---|---|")
     for model in SHEEN_MODELS[1:]:

@@ -241,8 +241,9 @@ def sheen_scaling(sheen_color: np.ndarray, E_l: np.ndarray, E_v: np.ndarray) -> 
     leaves to the base. glTF writes min(1 - c E(n.v), 1 - c E(n.l)), the same number; the max
     over both directions keeps f(l, v) = f(v, l). The clamp at 0 is ours: with Neubelt's V,
     Charlie's albedo exceeds 1 toward grazing for sheen_roughness below ~0.5 (8.8 at the
-    roughness floor and n.v = 0; docs/cloth.md), where the unclamped scaling would turn the
-    base negative."""
+    roughness floor and n.v = 0; docs/cloth.md), and with Estevez & Kulla's fitted Smith
+    Lambda below ~0.26 (4.4 at the floor), where the unclamped scaling would turn the base
+    negative."""
     c = np.max(_f64(sheen_color), axis=-1)
     E = np.maximum(_f64(E_l), _f64(E_v))
     return np.clip(1.0 - c * E, 0.0, 1.0)

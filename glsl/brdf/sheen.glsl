@@ -163,8 +163,9 @@ float sheen_E(float mu, float sheen_roughness) {
 
 // glTF KHR_materials_sheen's albedo scaling, 1 - max(sheen_color) max(E(n.l), E(n.v)):
 // the light the sheen leaves to the base. The max over both directions (glTF's min of the
-// two scalings) keeps f reciprocal. Clamped at 0: Charlie's E with Neubelt's V exceeds 1
-// toward grazing at low sheen roughness (docs/cloth.md), where the base would turn negative.
+// two scalings) keeps f reciprocal. Clamped at 0: Charlie's E with Neubelt's V (and, less,
+// with the fitted Smith Lambda) exceeds 1 toward grazing at low sheen roughness
+// (docs/cloth.md), where the base would turn negative.
 float sheen_scaling(vec3 sheen_color, float sheen_roughness, float NoL, float NoV) {
     float c = max(sheen_color.r, max(sheen_color.g, sheen_color.b));
     float E = max(sheen_E(NoL, sheen_roughness), sheen_E(NoV, sheen_roughness));
