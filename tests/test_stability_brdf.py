@@ -135,6 +135,15 @@ STRESS_MODELS: dict[str, dict] = {
         "sheen": "ashikhmin", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
         "multiscatter": True,
     },
+    # Charlie's Smith Lambda (exp(L) up to 7.7e8 where a cosine is 0) at both roughness ends
+    "charlie smith sheen r=0 over multiscatter": {
+        "sheen": "charlie_smith", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
+        "multiscatter": True,
+    },
+    "charlie smith sheen r=1 over anisotropic ggx": {
+        "sheen": "charlie_smith", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 1.0,
+        "anisotropy": 0.9,
+    },
     # empirical cloth (RTR4 §9.10) at its keys' ends: sharp lobes, full wrap, black to white scatter
     "empirical cloth extremes": {
         "diffuse": "cloth_empirical", "cloth_rim": [10.0, 64.0], "cloth_inner": [10.0, 1e-3],
