@@ -84,7 +84,7 @@ def variant_albedo(m: MaterialParams, theta: float) -> tuple[float, np.ndarray]:
 
     def parts(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         lv = np.broadcast_to(l, v.shape)
-        b = clearcoat_factors(s, p, m.model, N, np.array([1.0, 0.0, 0.0]), lv, v)
+        b = clearcoat_factors(s, p, m.model, N, N, np.array([1.0, 0.0, 0.0]), lv, v)
         NoL = np.clip(lv @ N, 1e-20, 1.0)
         NoV = np.clip(v @ N, 1e-4, 1.0)
         h = (lv + v) / np.linalg.norm(lv + v, axis=-1, keepdims=True)
