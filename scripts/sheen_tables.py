@@ -3,7 +3,8 @@
     .venv/bin/python scripts/sheen_tables.py
 
 Writes app/common/data/sheen_table_64.npy: E(mu, r) of the Charlie and the Ashikhmin sheen
-lobes with Neubelt's visibility, by quadrature (app/reference/sheen.py; ~30 s).
+lobes with Neubelt's visibility and of the Charlie lobe with its Smith Lambda (Estevez & Kulla
+2017's fit), by quadrature (app/reference/sheen.py; ~3 min).
 """
 
 from __future__ import annotations

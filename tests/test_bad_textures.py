@@ -13,6 +13,13 @@ from app.cli import main
 from tests.test_bad_input import BASE, SIZE, _check, _run_inproc, _scene, work  # noqa: F401
 
 TEXTURED = BASE.replace("roughness = 0.5", 'roughness = 0.5\nnormal_map = "n.png"')
+COATED = BASE.replace("roughness = 0.5", "roughness = 0.5\nclearcoat = 1.0")
+COAT_MAPPED = COATED.replace("clearcoat = 1.0", 'clearcoat = 1.0\nclearcoat_normal_map = "n.png"')
+# A blend whose top layer has a coat normal map (only layer 0 of a part samples one).
+COAT_IN_BLEND = (
+    BASE.replace("roughness = 0.5", 'roughness = 0.5\nblend = { material = "top", mask = "n.png" }')
+    + '[materials.top]\nclearcoat = 1.0\nclearcoat_normal_map = "n.png"\n'
+)
 
 
 def _png(path: Path) -> None:
@@ -48,6 +55,56 @@ CASES = [
         BASE.replace("roughness = 0.5", 'anisotropy_map = "n.png"'),
         "materials.m.anisotropy_map",
         "non-zero",
+        "png",
+    ),
+    # the clear coat's own normal map (RTR4 §9.12, docs/layered.md)
+    (
+        "missing-coat-normal-map",
+        COAT_MAPPED,
+        "materials.m.clearcoat_normal_map",
+        "no such file",
+        None,
+    ),
+    (
+        "coat-normal-map-without-coat",
+        BASE.replace("roughness = 0.5", 'clearcoat_normal_map = "n.png"'),
+        "materials.m.clearcoat_normal_map",
+        "applies only with clearcoat > 0",
+        "png",
+    ),
+    (
+        "coat-normal-scale-without-coat",
+        BASE.replace("roughness = 0.5", "clearcoat_normal_scale = 0.5"),
+        "materials.m.clearcoat_normal_scale",
+        "applies only with clearcoat > 0",
+        None,
+    ),
+    (
+        "coat-normal-scale-without-map",
+        COATED.replace("clearcoat = 1.0", "clearcoat = 1.0\nclearcoat_normal_scale = 0.5"),
+        "materials.m.clearcoat_normal_scale",
+        "applies only with a 'clearcoat_normal_map'",
+        None,
+    ),
+    (
+        "coat-normal-scale-out-of-range",
+        COAT_MAPPED.replace("clearcoat = 1.0", "clearcoat = 1.0\nclearcoat_normal_scale = -1.0"),
+        "materials.m.clearcoat_normal_scale",
+        "greater than or equal to 0",
+        "png",
+    ),
+    (
+        "coat-normal-map-text",
+        COAT_MAPPED,
+        "materials.m.clearcoat_normal_map",
+        "cannot read image",
+        b"not a PNG",
+    ),
+    (
+        "coat-normal-map-in-blend",
+        COAT_IN_BLEND,
+        "materials.top.clearcoat_normal_map",
+        "blend",
         "png",
     ),
     (

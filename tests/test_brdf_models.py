@@ -78,6 +78,17 @@ MODELS: dict[str, dict] = {
         "sheen": "ashikhmin", "sheen_color": [0.5, 0.5, 0.5], "sheen_roughness": 1.0,
         "diffuse": "oren_nayar",
     },
+    # Charlie with Estevez & Kulla's Smith Lambda: the fit's exp(L) up to 7.7e8 at grazing
+    "charlie smith sheen": {
+        "sheen": "charlie_smith", "sheen_color": [0.9, 0.6, 0.3], "sheen_roughness": 0.5,
+    },
+    "charlie smith sheen smooth": {
+        "sheen": "charlie_smith", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
+    },
+    "charlie smith sheen over metal": {
+        "sheen": "charlie_smith", "preset": "gold", "sheen_color": [0.3, 0.5, 1.0],
+        "sheen_roughness": 1.0,
+    },
     # --- clear coat (RTR4 §9.12) ---
     "clear coat over plastic": {"base_color": [0.8, 0.3, 0.1], "clearcoat": 1.0},
     "tinted rough half coat over gold": {

@@ -28,7 +28,7 @@ from PIL import Image
 from app.cli import main
 from app.common.models import unpack_model_params
 from app.reference.illumination import decode_gbuffer, illumination_sum
-from app.reference.material import brdf_factors
+from app.reference.material import brdf_factors, surface_reflection
 from app.reference.punctual import light_at
 from app.render.culling import TILE_SIZE
 from app.render.debug_views import (
@@ -74,19 +74,20 @@ class Frame:
             model = r.materials.models[int(table[row, 3, 0])]
             params = unpack_model_params(table[row])
             s, n, t, p, v = g.surface.select(sel), g.n[sel], g.t[sel], g.p[sel], g.v[sel]
+            nc = None if g.nc is None else g.nc[sel]  # the coat's normal, with RT4
             _, l = light_at(lamp, p)
             NoL = np.sum(n * l, axis=-1)
             away[sel] = np.abs(NoL) > 1e-3
             if view == "light":
                 value = illumination_sum(s, params, model, n, t, p, v, [lamp],
-                                         r.scene.render.terms)  # fmt: skip
+                                         r.scene.render.terms, nc)  # fmt: skip
             else:
-                b = brdf_factors(s, params, model, n, t, l, v)
+                b = brdf_factors(s, params, model, n, t, l, v, nc=nc)
                 value = {
                     "fresnel": b.F,
                     "ndf": np.repeat(b.D[:, None], 3, axis=-1),
                     "g2": np.repeat(b.G2[:, None], 3, axis=-1),
-                    "specular": b.f_spec,
+                    "specular": surface_reflection(b),
                     "diffuse": b.f_diffuse,
                 }[view]
                 value = np.where(b.lit[:, None], value, 0.0)
@@ -127,7 +128,7 @@ CHANNELS = {
     "depth": lambda g: g.depth[..., None],
     "material_id": lambda g: g.material_id[..., None],
 }
-assert set(CHANNELS) | {"normal"} == set(GBUFFER_VIEWS)
+assert set(CHANNELS) | {"normal", "coat_normal"} == set(GBUFFER_VIEWS)
 
 
 @pytest.mark.parametrize("scene", ["sec8_anisotropy.toml", "sec4_lights.toml"])
@@ -154,6 +155,18 @@ def test_normal_view_is_the_decoded_normal(frames, scene):
     assert err <= 1e-6
 
 
+@pytest.mark.parametrize("scene", ["sec12_coat_normal.toml", "sec4_lights.toml"])
+def test_coat_normal_view_is_the_decoded_coat_normal(frames, scene):
+    """The clear coat's normal the lighting pass shades (RTR4 §9.12): the twin's decode of
+    RT4 where the frame has it, the normal itself where it has not."""
+    frame = frames(scene)
+    values = frame.values("coat_normal")
+    g = frame.decoded
+    assert (g.nc is not None) == (scene == "sec12_coat_normal.toml")
+    err = np.abs(values[g.covered][:, :3] - (g.n if g.nc is None else g.nc)).max()
+    assert err <= 1e-6
+
+
 # --- BRDF views -----------------------------------------------------------------------------
 
 BRDF_CASES = [
@@ -162,6 +175,7 @@ BRDF_CASES = [
     ("sec8_anisotropy.toml", 1),
     ("sec4_lights.toml", 3),  # a point light
     ("sec4_lights.toml", 7),  # a spot light
+    ("sec12_coat_normal.toml", 0),  # clear coats with normals of their own (RT4)
 ]
 
 

@@ -21,7 +21,6 @@ import pytest
 
 from app.brdf import evaluate, resolve_material
 from app.common.models import MaterialParams, pack_model_params
-from app.reference import clearcoat
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.fresnel import F_conductor, F_dielectric
 from app.reference.layered import LayeredAlbedo, random_walk
@@ -80,18 +79,12 @@ def variant_albedo(m: MaterialParams, theta: float) -> tuple[float, np.ndarray]:
     s = surface_of(m)
     rc = max(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS)
     alpha_c = rc * rc
-    F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
 
     def parts(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(the coat's lobe, the base's specular and diffuse lobes under it)."""
         lv = np.broadcast_to(l, v.shape)
-        b = clearcoat_factors(s, p, m.model, N, np.array([1.0, 0.0, 0.0]), lv, v)
-        NoL = np.clip(lv @ N, 1e-20, 1.0)
-        NoV = np.clip(v @ N, 1e-4, 1.0)
-        h = (lv + v) / np.linalg.norm(lv + v, axis=-1, keepdims=True)
-        coat = p.clearcoat * clearcoat.f_clearcoat_ggx(
-            alpha_c, F0c, N, h, NoL, NoV, np.clip(np.sum(lv * h, -1), 0.0, 1.0)
-        )
-        return coat, b.f_spec - coat[:, None], b.f_diffuse
+        b = clearcoat_factors(s, p, m.model, N, N, np.array([1.0, 0.0, 0.0]), lv, v)
+        return b.f_coat, b.f_spec, b.f_diffuse
 
     def integral(f: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
         return np.sum(f * (np.maximum(v @ N, 0.0) * w).reshape(-1, *[1] * (f.ndim - 1)), axis=0)

@@ -135,6 +135,15 @@ STRESS_MODELS: dict[str, dict] = {
         "sheen": "ashikhmin", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
         "multiscatter": True,
     },
+    # Charlie's Smith Lambda (exp(L) up to 7.7e8 where a cosine is 0) at both roughness ends
+    "charlie smith sheen r=0 over multiscatter": {
+        "sheen": "charlie_smith", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.0,
+        "multiscatter": True,
+    },
+    "charlie smith sheen r=1 over anisotropic ggx": {
+        "sheen": "charlie_smith", "sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 1.0,
+        "anisotropy": 0.9,
+    },
     # empirical cloth (RTR4 §9.10) at its keys' ends: sharp lobes, full wrap, black to white scatter
     "empirical cloth extremes": {
         "diffuse": "cloth_empirical", "cloth_rim": [10.0, 64.0], "cloth_inner": [10.0, 1e-3],
@@ -629,7 +638,7 @@ vec3 c_light = light_at(L, dir_p.xyz, l);
 vec3 n = dir_n.xyz;
 float NoL = dot(n, l);
 vec3 Lo = vec3(0.0);
-if (NoL > 0.0) Lo += brdf_eval(s, p, n, dir_t.xyz, l, dir_v.xyz) * c_light * NoL;
+if (NoL > 0.0) Lo += brdf_eval(s, p, n, n, dir_t.xyz, l, dir_v.xyz) * c_light * NoL;
 result = vec4(PI * Lo, NoL);
 """
 
@@ -846,10 +855,11 @@ def test_sanitized_nan_surfaces_shade_finite(gl_egl: GLContext, name: str) -> No
     raw = """
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
 ModelParams p = fetch_model_params(u_materials, 0);
-result = vec4(brdf_eval(s, p, dir_n.xyz, vec3(1.0, 0.0, 0.0), dir_l.xyz, dir_v.xyz), 0.0);
+vec3 n = dir_n.xyz;
+result = vec4(brdf_eval(s, p, n, n, vec3(1.0, 0.0, 0.0), dir_l.xyz, dir_v.xyz), 0.0);
 """
     safe = raw.replace("ModelParams p", "s = sanitize_surface(s);\nModelParams p").replace(
-        "dir_n.xyz, vec3", "sanitize_direction(dir_n.xyz, dir_v.xyz), vec3"
+        "vec3 n = dir_n.xyz", "vec3 n = sanitize_direction(dir_n.xyz, dir_v.xyz)"
     )
     unsafe = run(raw)
     assert (~np.isfinite(unsafe)).any(), f"{name}: NaN inputs never reached the output"

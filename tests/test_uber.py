@@ -63,6 +63,7 @@ SCENES = (
     "sec13_rust_blend",
     "sec11_thin_film",  # thin film (RTR4 §9.11): films and a bare lens
     "sec10_cloth",  # sheen (RTR4 §9.10): none, charlie, ashikhmin
+    "sec10_cloth_smith",  # sheen: charlie_smith (Charlie's fitted Smith Lambda)
     "sec10_cloth_empirical",  # the empirical cloth terms (RTR4 §9.10)
     "sec12_layered",  # clear coat (RTR4 §9.12)
     "sec12_layered_variants",  # both clear-coat compositions

@@ -57,7 +57,7 @@ class FloorPass:
         for group, model in enumerate(table.models):
             defines: dict[str, object] = dict(model.defines())
             defines["TILE_QUADS"] = self.quads
-            defines["GBUFFER_TANGENT"] = int(table.needs_tangents)
+            defines.update(table.gbuffer_defines())
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             if several:
                 defines["MODEL_GROUP"] = group
@@ -84,10 +84,7 @@ class FloorPass:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         self.fbo.clear(*(float(x) for x in r.scene.background), 1.0)
         textures = [
-            ("g_base_color", r.gbuffer.base_color),
-            ("g_normal", r.gbuffer.normal),
-            ("g_depth", r.gbuffer.depth),
-            *([("g_tangent", r.gbuffer.tangent)] if r.gbuffer.tangent is not None else []),
+            *r.gbuffer.samplers(),
             ("u_lights", r.lighting.lights),
             ("u_materials", r.lighting.materials),
             ("u_pixel_masks", self.masks),

@@ -65,7 +65,12 @@ class ForwardRenderer:
         self.light_texture = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         settings = scene.render
-        terms = {"BRDF_TERMS": BRDF_TERMS[settings.terms]}
+        # GBUFFER_COAT_NORMAL: the coats' own normals and cosines, as the deferred pass has
+        # them (the forward pass has no G-buffer; the define selects the same shading).
+        terms = {
+            "BRDF_TERMS": BRDF_TERMS[settings.terms],
+            "GBUFFER_COAT_NORMAL": int(self.materials.needs_coat_normals),
+        }
         group_defines = [{**model.defines(), **terms} for model in self.materials.models]
         specular_aa = (
             (settings.specular_aa_variance, settings.specular_aa_threshold)

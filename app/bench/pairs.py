@@ -26,7 +26,7 @@ from app.common.lights import LightType, PunctualLight
 from app.common.models import Model, unpack_model_params
 from app.reference.constants import PI
 from app.reference.illumination import decode_gbuffer, surface_positions
-from app.reference.material import brdf_eval
+from app.reference.material import brdf_eval, brdf_eval_layered_cos
 from app.reference.punctual import light_at
 
 PIXEL_CHUNK = 8192  # pixels per distance block: PIXEL_CHUNK x lights float64 at a time
@@ -183,6 +183,11 @@ def reference_hdr(
             s = g.surface.select(sel)
             c_light, l = light_at(light, p[sel])
             n = g.n[sel]
+            if g.nc is not None and model.clearcoat != "none":  # each layer's own cosine
+                nc = g.nc[sel]
+                f_cos = brdf_eval_layered_cos(s, params, model, n, nc, g.t[sel], l, g.v[sel])
+                Lo[sel] += f_cos * c_light
+                continue
             NoL = np.einsum("ij,ij->i", n, l)
             lit = NoL > 0.0
             if not np.any(lit):

@@ -31,7 +31,7 @@ INCLUDES = ("brdf/brdf.glsl",)
 _BODY = """
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
 ModelParams p = fetch_model_params(u_materials, 0);
-result = vec4(brdf_eval(s, p, dir_n.xyz, dir_t.xyz, dir_l.xyz, dir_v.xyz), 0.0);
+result = vec4(brdf_eval(s, p, dir_n.xyz, dir_nc.xyz, dir_t.xyz, dir_l.xyz, dir_v.xyz), 0.0);
 """
 
 _context: GLContext | None = None
@@ -133,14 +133,16 @@ def evaluate(
     backend: Backend = "glsl",
     *,
     t: ArrayLike | None = None,
+    nc: ArrayLike | None = None,
     gl: GLContext | None = None,
 ) -> np.ndarray:
     """f(l, v) for N pairs of unit directions, as an (N, 3) float64 array.
 
     ``material`` is what a scene file's [materials.NAME] table holds (a dict), or a
     validated ``Material``/``MaterialParams``. ``n`` defaults to +Z with the tangent ``t``
-    along +X. The material's numbers are rounded to float32 for both backends (the GPU's
-    precision), so the backends differ only by the arithmetic.
+    along +X; ``nc``, a clear coat's own unit normal (RTR4 §9.12), defaults to ``n``. The
+    material's numbers are rounded to float32 for both backends (the GPU's precision), so
+    the backends differ only by the arithmetic.
     """
     params = resolve_material(material)
     l_arr = np.atleast_2d(np.asarray(l, np.float64))
@@ -149,6 +151,7 @@ def evaluate(
     l_arr = np.broadcast_to(l_arr, (count, 3))
     v_arr = np.broadcast_to(v_arr, (count, 3))
     n_arr, t_arr = _frame(count, n, t)
+    nc_arr = n_arr if nc is None else np.broadcast_to(np.asarray(nc, np.float64), (count, 3))
     surface_a, surface_b = surface_texels(params)
 
     if backend == "reference":
@@ -160,7 +163,8 @@ def evaluate(
             float(surface_b[1]),
             float(surface_b[2]),
         )
-        return brdf_eval(s, unpack_model_params(table[0]), params.model, n_arr, t_arr, l_arr, v_arr)
+        p = unpack_model_params(table[0])
+        return brdf_eval(s, p, params.model, n_arr, t_arr, l_arr, v_arr, nc=nc_arr)
     if backend != "glsl":
         raise ValueError(f"backend must be 'glsl' or 'reference', not {backend!r}")
 
@@ -169,6 +173,7 @@ def evaluate(
         "surface_a": np.broadcast_to(surface_a, (count, 4)),
         "surface_b": np.broadcast_to(surface_b, (count, 4)),
         "dir_n": n_arr,
+        "dir_nc": nc_arr,
         "dir_t": t_arr,
         "dir_l": l_arr,
         "dir_v": v_arr,

@@ -11,6 +11,7 @@ GPU_DEBUG_VIEWS = (
     "f0",
     "depth",
     "material_id",
+    "coat_normal",
     "fresnel",
     "ndf",
     "g2",

@@ -22,6 +22,10 @@ class GBufferData:
     # tangent target (no anisotropic material in the frame)
     tangent: np.ndarray
     material_id: np.ndarray  # (H, W): the row of the material table (an exact integer)
+    # (H, W, 2): octahedral clear-coat normal (x, y); None where the G-buffer has no coat
+    # normal target (no coat's normal differs from its base's: the coat shades with the
+    # normal above)
+    coat_normal: np.ndarray | None = None
 
     @property
     def covered(self) -> np.ndarray:

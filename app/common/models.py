@@ -38,7 +38,10 @@ DIFFUSE_MODELS = (
     "cloth_empirical",  # RTR4 §9.10: the empirical cloth terms (app/reference/cloth.py)
 )
 # --- sheen (RTR4 §9.10): the cloth layer's NDF; "none" (code 0) compiles the layer out ---
-SHEEN_MODELS = ("none", "charlie", "ashikhmin")
+# "charlie" and "ashikhmin" take Neubelt's visibility; "charlie_smith" is Charlie's NDF with
+# Estevez & Kulla 2017's fitted Smith Lambda (appended: the older codes keep their values;
+# code 3 is the last the specular code's two sheen bits hold).
+SHEEN_MODELS = ("none", "charlie", "ashikhmin", "charlie_smith")
 # --- clear coat (RTR4 §9.12) ---
 # A transparent layer over any base model: none (compiled out), Filament's / glTF
 # KHR_materials_clearcoat's cheap composition, Weidlich & Wilkie 2007's refracted one.

@@ -42,21 +42,23 @@ def read_ms_table(size: int = DEFAULT_SIZE) -> np.ndarray:
     return _read_square(table_path(size), size)
 
 
-def _read_square(path: Path, size: int) -> np.ndarray:
-    """A stored float32 (size, size, 2) table, read-only; ValueError for another shape."""
+def _read_square(path: Path, size: int, channels: int = 2) -> np.ndarray:
+    """A stored float32 (size, size, channels) table, read-only; ValueError for another
+    shape."""
     table = np.load(path)
-    if table.shape != (size, size, 2) or table.dtype != np.float32:
-        raise ValueError(
-            f"{path}: expected float32 {(size, size, 2)}, got {table.dtype} {table.shape}"
-        )
+    shape = (size, size, channels)
+    if table.shape != shape or table.dtype != np.float32:
+        raise ValueError(f"{path}: expected float32 {shape}, got {table.dtype} {table.shape}")
     table.setflags(write=False)
     return table
 
 
 # --- sheen (RTR4 §9.10) ---------------------------------------------------------------------
 # The directional albedo E(mu, r) of the sheen lobes (app/reference/sheen.py), float32
-# (n_r, n_mu, 2): channel 0 Charlie, channel 1 Ashikhmin, both with Neubelt's visibility.
+# (n_r, n_mu, 3): channel 0 Charlie, channel 1 Ashikhmin, both with Neubelt's visibility,
+# channel 2 Charlie with its Smith Lambda (Estevez & Kulla 2017's fit).
 SHEEN_TABLE_SIZE = 64
+SHEEN_TABLE_CHANNELS = 3
 
 
 def sheen_table_path(size: int = SHEEN_TABLE_SIZE) -> Path:
@@ -65,5 +67,5 @@ def sheen_table_path(size: int = SHEEN_TABLE_SIZE) -> Path:
 
 
 def read_sheen_table(size: int = SHEEN_TABLE_SIZE) -> np.ndarray:
-    """The stored float32 (size, size, 2) sheen albedo table, read-only."""
-    return _read_square(sheen_table_path(size), size)
+    """The stored float32 (size, size, SHEEN_TABLE_CHANNELS) sheen albedo table, read-only."""
+    return _read_square(sheen_table_path(size), size, SHEEN_TABLE_CHANNELS)

@@ -52,6 +52,9 @@ class MaterialTable:
     models: list[Model]  # one per group
     rows: list[tuple[Model, ModelParams]]
     groups: list[int]  # group of each row
+    # A clear coat of the frame shades with a normal other than its base's (a coat over a
+    # normal-mapped base, or a coat normal map: SurfaceLayer.own_coat_normal; RTR4 §9.12).
+    needs_coat_normals: bool = False
 
     @classmethod
     def build(cls, materials: list[MaterialParams]) -> tuple[MaterialTable, list[int]]:
@@ -82,6 +85,14 @@ class MaterialTable:
             for model in self.models
         )
 
+    def gbuffer_defines(self) -> dict[str, int]:
+        """The G-buffer's optional targets as the defines of every pass that writes or
+        decodes it (gbuffer/layout.glsl): RT3 (tangent) and RT4 (coat normal)."""
+        return {
+            "GBUFFER_TANGENT": int(self.needs_tangents),
+            "GBUFFER_COAT_NORMAL": int(self.needs_coat_normals),
+        }
+
     def packed(self) -> np.ndarray:
         """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params."""
         return pack_model_params([p for _, p in self.rows], self.groups, [m for m, _ in self.rows])
@@ -90,7 +101,9 @@ class MaterialTable:
 def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]]]:
     """The lighting pass's material table over every layer of every part, and each part's
     rows (one per layer)."""
-    table, flat = MaterialTable.build([layer.params for p in parts for layer in p.layers])
+    layers = [layer for p in parts for layer in p.layers]
+    table, flat = MaterialTable.build([layer.params for layer in layers])
+    table.needs_coat_normals = any(layer.own_coat_normal for layer in layers)
     ids, i = [], 0
     for p in parts:
         ids.append(flat[i : i + len(p.layers)])

@@ -18,7 +18,13 @@ from app.common.models import Model, ModelParams, unpack_model_params
 from app.reference._vec import dot, normalize
 from app.reference.constants import PI
 from app.reference.encoding import oct_decode
-from app.reference.material import Surface, brdf_eval, sanitize_direction, sanitize_surface
+from app.reference.material import (
+    Surface,
+    brdf_eval,
+    brdf_eval_layered_cos,
+    sanitize_direction,
+    sanitize_surface,
+)
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
 
@@ -33,17 +39,23 @@ def illumination_sum(
     v: np.ndarray,
     lights: list[PunctualLight],
     terms: str = "all",
+    nc: np.ndarray | None = None,
 ) -> np.ndarray:
     """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
-    ``terms`` as in ``brdf_eval``."""
+    ``terms`` as in ``brdf_eval``. ``nc``: the clear coat's normals where the G-buffer has
+    them (RT4): a coated model's layers then take their own cosines
+    (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL."""
     Lo = np.zeros(np.shape(p), np.float64)
     for light in lights:
         c_light, l = light_at(light, p)
+        if nc is not None and model.clearcoat != "none":
+            Lo += brdf_eval_layered_cos(s, params, model, n, nc, t, l, v, terms=terms) * c_light
+            continue
         NoL = dot(n, l)
         lit = NoL > 0.0
         if not np.any(lit):
             continue
-        f = brdf_eval(s, params, model, n, t, l, v, terms=terms)
+        f = brdf_eval(s, params, model, n, t, l, v, terms=terms, nc=nc)
         Lo += np.where(lit[..., None], f * c_light * NoL[..., None], 0.0)
     return PI * Lo
 
@@ -67,6 +79,7 @@ class DecodedGBuffer:
     v: np.ndarray  # (C, 3) unit, towards the camera
     n: np.ndarray  # (C, 3) unit normal (v where the stored normal is lost)
     t: np.ndarray  # (C, 3) tangent as stored (brdf_eval orthonormalises it)
+    nc: np.ndarray | None = None  # (C, 3) unit coat normal (n where lost); None without RT4
 
 
 def surface_positions(gbuffer: GBufferData, camera: CameraFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -93,7 +106,10 @@ def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
     v = normalize(camera.position - p)
     n = sanitize_direction(oct_decode(b[:, :2]), v)
     ids = gbuffer.material_id[covered].astype(np.int64)
-    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]))
+    nc = None  # no RT4: every coat shades with n
+    if gbuffer.coat_normal is not None:
+        nc = sanitize_direction(oct_decode(np.asarray(gbuffer.coat_normal, np.float64)[covered]), n)
+    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc)
 
 
 def shade_gbuffer(
@@ -120,7 +136,7 @@ def shade_gbuffer(
         params = unpack_model_params(table[row])
         shaded[sel] = illumination_sum(
             g.surface.select(sel), params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel],
-            lights, terms,
+            lights, terms, None if g.nc is None else g.nc[sel],
         )  # fmt: skip
     out[g.covered] = shaded
     return out

@@ -279,6 +279,13 @@ class BrdfFactors:
     G2: np.ndarray  # (...,) joint masking-shadowing G2(l, v, h), RTR4 §9.7
     f_spec: np.ndarray  # (..., 3) F G2 D / (4 n.l n.v) (+ f_ms), RTR4 §9.8
     f_diffuse: np.ndarray  # (..., 3) the subsurface lobe, RTR4 §9.9
+    f_coat: np.ndarray | float = 0.0  # (...,) a clear coat's own reflection, RTR4 §9.12
+
+
+def surface_reflection(b: BrdfFactors) -> np.ndarray:
+    """The surface reflection of the factors, (..., 3): the coat's lobe plus the base's
+    specular lobe, f_coat + f_spec (the GLSL's ``surface_reflection``)."""
+    return np.asarray(b.f_coat, np.float64)[..., None] + b.f_spec
 
 
 def shading_cosines(
@@ -420,18 +427,23 @@ def clearcoat_factors(
     p: ModelParams,
     model: Model,
     n: np.ndarray,
+    nc: np.ndarray,
     t: np.ndarray,
     l: np.ndarray,
     v: np.ndarray,
     ms_table: np.ndarray | None = None,
 ) -> BrdfFactors:
     """The coated BRDF's factors (twin of the GLSL's ``clearcoat_factors``): F, D, G2 the
-    base's; "filament":
-    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base;
-    "weidlich_wilkie" (Weidlich & Wilkie 2007), the base with the refracted directions:
-    f = c f_coat + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2."""
-    n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
-    lit, NoL, NoV, h = shading_cosines(n, l, v)
+    base's, f_coat the coat's lobe; "filament":
+    f = c f_coat + (1 - c F(nc.l)) (1 - c F(nc.v)) mix(1, A(l, v), c) f_base;
+    "weidlich_wilkie" (Weidlich & Wilkie 2007), the base with the directions refracted
+    about the coat's normal: f = c f_coat + (...) f_base(l_t, v_t) / eta_c^2.
+    Two normals (RTR4 §9.12, "layers may have different normals"; glTF
+    KHR_materials_clearcoat): the coat's lobe, its crossings and the absorption's path
+    lengths take the coat's nc, the base's lobes its own n; nc = n is the single normal."""
+    n, nc, t, l, v = (np.asarray(x, np.float64) for x in (n, nc, t, l, v))
+    coat_lit, _, NoV, h = shading_cosines(nc, l, v)  # the coat's cosines; n.l as the GLSL
+    NoL = np.clip(dot(nc, l), MIN_N_DOT_L, 1.0)  # clamps it where l is below nc only
     LoH = np.clip(dot(l, h), 0.0, 1.0)
     c = p.clearcoat
     F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
@@ -441,11 +453,12 @@ def clearcoat_factors(
     base = replace(model, clearcoat="none")
     l_base, v_base, compression = l, v, 1.0
     if model.clearcoat == "weidlich_wilkie" and c > 0.0:
-        # Weidlich & Wilkie 2007: the base sees the directions refracted into the coat, at
-        # eta_c = mix(1, eta, c), and the result is compressed by 1/eta_c^2 (GLSL's comment).
+        # Weidlich & Wilkie 2007: the base sees the directions refracted into the coat (about
+        # the coat's normal: its interface refracts), at eta_c = mix(1, eta, c), and the
+        # result is compressed by 1/eta_c^2 (GLSL's comment).
         eta_c = 1.0 - c + p.clearcoat_eta * c
-        l_base = clearcoat.clearcoat_refract_in(eta_c, n, l)
-        v_base = clearcoat.clearcoat_refract_in(eta_c, n, v)
+        l_base = clearcoat.clearcoat_refract_in(eta_c, nc, l)
+        v_base = clearcoat.clearcoat_refract_in(eta_c, nc, v)
         compression = clearcoat.clearcoat_solid_angle_compression(eta_c)
     b = base_brdf_factors(
         clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l_base, v_base,
@@ -455,8 +468,12 @@ def clearcoat_factors(
     A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
     A = 1.0 - c + A * c
     w = (T * compression)[..., None] * A
-    f_coat = c * clearcoat.f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH)
-    return replace(b, lit=lit, f_spec=f_coat[..., None] + w * b.f_spec, f_diffuse=w * b.f_diffuse)
+    # chi+(nc.l): no coat lobe for a light below the coat's horizon (GLSL's comment)
+    f_coat = np.where(
+        coat_lit, c * clearcoat.f_clearcoat_ggx(alpha_c, F0c, nc, h, NoL, NoV, LoH), 0.0
+    )
+    lit = dot(n, l) > 0.0  # brdf_eval's test, on the base's normal and the light itself
+    return replace(b, lit=lit, f_coat=f_coat, f_spec=w * b.f_spec, f_diffuse=w * b.f_diffuse)
 
 
 def brdf_factors(
@@ -468,12 +485,22 @@ def brdf_factors(
     l: np.ndarray,
     v: np.ndarray,
     ms_table: np.ndarray | None = None,
+    nc: np.ndarray | None = None,
 ) -> BrdfFactors:
-    """F, D, G2, f_spec and f_diffuse of ``model`` at each point (twin of the GLSL's
-    ``brdf_factors``): the base's, or with a clear coat the coated ones."""
+    """F, D, G2, f_coat, f_spec and f_diffuse of ``model`` at each point (twin of the
+    GLSL's ``brdf_factors``, whose coat normal ``nc`` is a keyword here: None is n): the
+    base's, or with a clear coat the coated ones."""
     if model.clearcoat != "none":
-        return clearcoat_factors(s, p, model, n, t, l, v, ms_table)
+        return clearcoat_factors(s, p, model, n, n if nc is None else nc, t, l, v, ms_table)
     return base_brdf_factors(s, p, model, n, t, l, v, ms_table)
+
+
+def selected_terms(f_diffuse: np.ndarray, f_surface: np.ndarray, terms: str) -> np.ndarray:
+    """The reflections ``terms`` (a key of BRDF_TERMS, RTR4 §9.1) keeps, (..., 3)."""
+    mask = BRDF_TERMS[terms]
+    if mask == TERM_SPECULAR:
+        return f_surface
+    return f_diffuse + f_surface if mask & TERM_SPECULAR else f_diffuse
 
 
 def brdf_eval(
@@ -486,22 +513,44 @@ def brdf_eval(
     v: np.ndarray,
     ms_table: np.ndarray | None = None,
     terms: str = "all",
+    nc: np.ndarray | None = None,
 ) -> np.ndarray:
     """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model``, (..., 3); 0 where n.l <= 0.
 
     ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
     and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, RTR4
-    §9.1) keeps only the specular or only the diffuse reflection.
+    §9.1) keeps only the specular or only the diffuse reflection. ``nc``: the clear coat's
+    normal (None: n).
     """
-    b = brdf_factors(s, p, model, n, t, l, v, ms_table)
-    mask = BRDF_TERMS[terms]
-    if mask == TERM_SPECULAR:
-        f = b.f_spec
-    else:
-        f = b.f_diffuse
-        if mask & TERM_SPECULAR:
-            f = f + b.f_spec
+    b = brdf_factors(s, p, model, n, t, l, v, ms_table, nc)
+    f = selected_terms(b.f_diffuse, surface_reflection(b), terms)
     return np.where(b.lit[..., None], f, 0.0)
+
+
+def brdf_eval_layered_cos(
+    s: Surface,
+    p: ModelParams,
+    model: Model,
+    n: np.ndarray,
+    nc: np.ndarray,
+    t: np.ndarray,
+    l: np.ndarray,
+    v: np.ndarray,
+    ms_table: np.ndarray | None = None,
+    terms: str = "all",
+) -> np.ndarray:
+    """f(l, v) times the cosine for a coat whose normal nc is not the base's n (twin of the
+    GLSL's ``brdf_eval_layered_cos``): the coat's lobe times (nc.l)+, the base's lobes seen
+    through the coat times (n.l)+ (Filament's surface shading with a clear-coat normal;
+    glTF KHR_materials_clearcoat: the coat's normal "affects the top layer, but not the
+    base"), (..., 3); 0 where the light is below both."""
+    NoL = dot(np.asarray(n, np.float64), np.asarray(l, np.float64))
+    NoLc = dot(np.asarray(nc, np.float64), np.asarray(l, np.float64))
+    b = brdf_factors(s, p, model, n, t, l, v, ms_table, nc)
+    base = selected_terms(b.f_diffuse, b.f_spec, terms)
+    coat = np.asarray(b.f_coat, np.float64) if BRDF_TERMS[terms] & TERM_SPECULAR else 0.0
+    result = np.where((NoL > 0.0)[..., None], base * NoL[..., None], 0.0)
+    return result + np.where(NoLc > 0.0, coat * NoLc, 0.0)[..., None]
 
 
 def brdf_standard(s: Surface, n: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -13,7 +13,11 @@ near the horizon, not near n, with a softer visibility term than Smith's:
   k_amp = 4 as published;
 * both with the "distribution-based" visibility of Ashikhmin & Premoze 2007, which Neubelt &
   Pettineo 2013 ("Crafting a Next-Gen Material Pipeline for The Order: 1886") adopted:
-  V = 1/(4 (n.l + n.v - (n.l)(n.v))), so f_sheen = sheen_color D(h) V, with no Fresnel.
+  V = 1/(4 (n.l + n.v - (n.l)(n.v))), so f_sheen = sheen_color D(h) V, with no Fresnel;
+* "charlie_smith": Charlie's D with Estevez & Kulla 2017's own fit of its Smith Lambda in the
+  height-correlated G2 = 1/(1 + Lambda(n.l) + Lambda(n.v)) (RTR4 §9.7), V = G2/(4 n.l n.v):
+  the accurate visibility, whose lobe no longer reflects more than arrives at grazing
+  angles (docs/cloth.md measures what the fit gets wrong).
 
 The layer goes over the base as glTF's KHR_materials_sheen arranges it (its "albedo
 scaling"): f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))), where E(mu) is
@@ -40,7 +44,7 @@ from app.common.tables import SHEEN_TABLE_SIZE, read_sheen_table, sheen_table_pa
 from app.reference._vec import dot
 from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, PI
 from app.reference.multiscatter import _save, mu_coord, mu_grid, r_coord, roughness_grid
-from app.reference.quadrature import N, cosine_rule
+from app.reference.quadrature import N, cosine_rule, gauss_legendre
 
 # Ashikhmin & Premoze 2007's amplitude of the inverted Gaussian ("A = 4" in their velvet).
 ASHIKHMIN_AMPLITUDE = 4.0
@@ -105,11 +109,114 @@ def V_neubelt(NoL: np.ndarray, NoV: np.ndarray) -> np.ndarray:
     return 1.0 / (4.0 * (NoL + NoV * (1.0 - NoL)))
 
 
+# Estevez & Kulla 2017, "Production Friendly Microfacet Sheen BRDF", their table of the fit
+# L(x) = a/(1 + b x^c) + d x + e to ln Lambda of the Charlie NDF: (a, b, c, d, e) at their r = 0
+# and r = 1. Their r is the exponent parameter of D (sin^(1/r)), i.e. this project's
+# alpha = sheen_roughness^2 (glTF KHR_materials_sheen reads it the same way); measured
+# against the Lambda by quadrature, reading r as the perceptual roughness fits worse
+# (docs/cloth.md).
+CHARLIE_LAMBDA_FIT_R0 = (25.3245, 3.32435, 0.16801, -1.27393, -4.85967)
+CHARLIE_LAMBDA_FIT_R1 = (21.5473, 3.82987, 0.19823, -1.97760, -4.32054)
+
+
+def charlie_L(x: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Estevez & Kulla 2017: L(x) = a/(1 + b x^c) + d x + e, each coefficient
+    p = p1 + t (p0 - p1) with t = (1 - alpha)^2 between their fits at r = 0 (p0) and 1 (p1).
+
+    x^c for x = 0 is written as 0 (GLSL's pow(0, c) is defined for c > 0, but the GLSL
+    writes the branch out so no driver's exp2(c log2(0)) is relied on)."""
+    x = _f64(x)
+    t = (1.0 - _f64(alpha)) ** 2
+    a, b, c, d, e = (
+        p1 + t * (p0 - p1)
+        for p0, p1 in zip(CHARLIE_LAMBDA_FIT_R0, CHARLIE_LAMBDA_FIT_R1, strict=True)
+    )
+    xc = np.where(x > 0.0, np.power(np.maximum(x, 1e-300), c), 0.0)
+    return a / (1.0 + b * xc) + d * x + e
+
+
+def Lambda_charlie(mu: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Estevez & Kulla 2017's Smith Lambda of the Charlie NDF (RTR4 §9.7):
+    exp(L(mu)) for mu < 0.5, exp(2 L(0.5) - L(1 - mu)) otherwise.
+
+    Precision: L is at most a + e (20.47 at alpha = 0, where mu = 0), so Lambda stays below
+    7.7e8, far inside float32; at mu = 1 it is ~1e-8 (exp(-18.7) at alpha = 0). Neither end
+    needs a guard; the fit does not grow without bound as mu -> 0, as the true Lambda (~ 1/mu)
+    does."""
+    mu = _f64(mu)
+    low = np.exp(charlie_L(np.minimum(mu, 0.5), alpha))
+    high = np.exp(2.0 * charlie_L(0.5, alpha) - charlie_L(1.0 - np.maximum(mu, 0.5), alpha))
+    return np.where(mu < 0.5, low, high)
+
+
+def V_charlie_smith(NoL: np.ndarray, NoV: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The height-correlated Smith visibility G2/(4 n.l n.v) with Charlie's Lambda (RTR4
+    §9.7): 1/(4 n.l n.v (1 + Lambda(n.l) + Lambda(n.v))). Symmetric in (n.l, n.v).
+
+    n.l enters at the floor n.v already has, MIN_N_DOT_V = 1e-4. Below it the fit's Lambda
+    flattens out (exp(L(0)) = 7.6e8, where the true Lambda grows as 1/mu: 9e19 at the
+    renderer's n.l floor 1e-20), so 1/n.l would no longer be cancelled and f would grow as
+    1/n.l: a light's albedo at n.l = 1e-20 came out ~5e7. With both cosines at one floor, f
+    is bounded and f(l, v) = f(v, l) holds at the clamps too; f (n.l) still goes to 0.
+
+    Precision: every factor is positive and finite in float32 (both cosines >= 1e-4 and
+    Lambda <= 7.7e8 give a denominator in [4e-8, 7e9]), so V needs no other guard: no Inf,
+    no NaN. Written as one reciprocal of a product, not G2 times 1/(4 n.l n.v)."""
+    NoL, NoV = np.maximum(_f64(NoL), MIN_N_DOT_V), _f64(NoV)
+    lam = 1.0 + Lambda_charlie(NoL, alpha) + Lambda_charlie(NoV, alpha)
+    return 1.0 / (4.0 * (NoL * NoV) * lam)
+
+
+# Panels of Lambda_charlie_quadrature, as fractions of the cut t* = sin(theta_v): graded
+# toward n.m = 0, where Charlie's lobe peaks (width ~ sqrt(alpha) in n.m), and toward t*,
+# where the integrand has a square-root branch point.
+_LAMBDA_PANELS = np.array(
+    [0.0, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.03, 0.1, 0.3, 0.6, 0.9, 0.99, 0.999, 0.9999,
+     1.0 - 1e-6, 1.0]
+)  # fmt: skip
+
+
+def Lambda_charlie_quadrature(mu: float, alpha: float, nodes: int = 48) -> float:
+    """The exact Smith Lambda of the Charlie NDF at n.v = mu, by quadrature of its definition
+    (RTR4 §9.7: with G1 = 1/(1 + Lambda), integral of G1 D(m) (v.m)+ dm = n.v), the reference
+    Estevez & Kulla's fit is measured against.
+
+    Since integral of D(m) (v.m) dm = n.v (projected area), Lambda(v) n.v = integral of
+    D(m) (v.m)- dm, the back-facing part alone (no cancellation as Lambda -> 0 at mu -> 1).
+    With t = n.m, s = sqrt(1 - t^2), A = mu t and B = sin(theta_v) s, v.m = A + B cos(phi),
+    and the azimuth integral is closed: integral over phi of (-(A + B cos phi))+ =
+    2 (sqrt(B^2 - A^2) - A arccos(A/B)) where A < B, i.e. t < t* = sin(theta_v), else 0 (derived
+    here; checked against a direction-space rule in tests/test_sheen.py). What remains,
+    Lambda = (1/mu) integral_0^t* D(t) (that) dt, is composite Gauss-Legendre (``nodes`` per
+    panel) on _LAMBDA_PANELS."""
+    mu = float(mu)
+    if mu >= 1.0:
+        return 0.0
+    sv = np.sqrt(1.0 - mu * mu)
+    total = 0.0
+    for lo, hi in zip(_LAMBDA_PANELS[:-1] * sv, _LAMBDA_PANELS[1:] * sv, strict=True):
+        t, w = gauss_legendre(lo, hi, nodes)
+        A = mu * t
+        B = sv * np.sqrt(1.0 - t * t)
+        h = 2.0 * (np.sqrt(np.maximum(B * B - A * A, 0.0)) - A * np.arccos(np.minimum(A / B, 1.0)))
+        D = (2.0 + 1.0 / alpha) * (0.5 / PI) * np.exp(np.log1p(-t * t) / (2.0 * alpha))
+        total += float(np.sum(w * D * h))
+    return total / mu
+
+
 def D_sheen_selected(sheen: str, n: np.ndarray, h: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """The sheen NDF of the chosen model (not "none")."""
+    """The sheen NDF of the chosen model (not "none"); "charlie_smith" shares Charlie's."""
     if sheen == "ashikhmin":
         return D_ashikhmin(n, h, alpha)
     return D_charlie(n, h, alpha)
+
+
+def V_sheen_selected(sheen: str, NoL: np.ndarray, NoV: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The sheen visibility of the chosen model: Charlie's Smith G2 for "charlie_smith",
+    Neubelt's V for the others."""
+    if sheen == "charlie_smith":
+        return V_charlie_smith(NoL, NoV, alpha)
+    return V_neubelt(NoL, NoV)
 
 
 def f_sheen(
@@ -122,7 +229,7 @@ def f_sheen(
     NoV: np.ndarray,
 ) -> np.ndarray:
     """f_sheen = sheen_color D(h) V(n.l, n.v), (..., 3)."""
-    dv = D_sheen_selected(sheen, n, h, alpha) * V_neubelt(NoL, NoV)
+    dv = D_sheen_selected(sheen, n, h, alpha) * V_sheen_selected(sheen, NoL, NoV, alpha)
     return _f64(sheen_color) * dv[..., None]
 
 
@@ -134,8 +241,9 @@ def sheen_scaling(sheen_color: np.ndarray, E_l: np.ndarray, E_v: np.ndarray) -> 
     leaves to the base. glTF writes min(1 - c E(n.v), 1 - c E(n.l)), the same number; the max
     over both directions keeps f(l, v) = f(v, l). The clamp at 0 is ours: with Neubelt's V,
     Charlie's albedo exceeds 1 toward grazing for sheen_roughness below ~0.5 (8.8 at the
-    roughness floor and n.v = 0; docs/cloth.md), where the unclamped scaling would turn the
-    base negative."""
+    roughness floor and n.v = 0; docs/cloth.md), and with Estevez & Kulla's fitted Smith
+    Lambda below ~0.26 (4.4 at the floor), where the unclamped scaling would turn the base
+    negative."""
     c = np.max(_f64(sheen_color), axis=-1)
     E = np.maximum(_f64(E_l), _f64(E_v))
     return np.clip(1.0 - c * E, 0.0, 1.0)
@@ -151,9 +259,11 @@ QUAD_MU = 128
 QUAD_PHI = 256
 # The shipped table's size (n_r = n_mu): 64 x 64 nodes, the multiple-scattering table's
 # grids (app/reference/multiscatter.py mu_grid, roughness_grid: mu = x^4, r = floor +
-# 0.955 y^2), channel 0 Charlie, channel 1 Ashikhmin.
+# 0.955 y^2), channel 0 Charlie, channel 1 Ashikhmin (both with Neubelt's V), channel 2
+# Charlie with its Smith Lambda (appended: the first two are bit-identical to the two-channel
+# table they extend).
 TABLE_SIZE = SHEEN_TABLE_SIZE
-TABLE_MODELS = ("charlie", "ashikhmin")  # channel order
+TABLE_MODELS = ("charlie", "ashikhmin", "charlie_smith")  # channel order
 
 
 def sheen_albedo(sheen: str, mu: float, sheen_roughness: float, rule=None) -> float:
@@ -165,14 +275,15 @@ def sheen_albedo(sheen: str, mu: float, sheen_roughness: float, rule=None) -> fl
     hv = l + v
     h = hv / np.linalg.norm(hv, axis=-1, keepdims=True)
     NoL = l[:, 2]
-    f = D_sheen_selected(sheen, N, h, sheen_alpha(sheen_roughness)) * V_neubelt(
-        NoL, max(mu, MIN_N_DOT_V)
+    alpha = sheen_alpha(sheen_roughness)
+    f = D_sheen_selected(sheen, N, h, alpha) * V_sheen_selected(
+        sheen, NoL, max(mu, MIN_N_DOT_V), alpha
     )
     return float(np.sum(f * NoL * w))
 
 
 def compute_table(size: int = TABLE_SIZE) -> np.ndarray:
-    """E on mu_grid x roughness_grid for both models, float64 (size, size, 2)."""
+    """E on mu_grid x roughness_grid for every model, float64 (size, size, 3)."""
     rule = cosine_rule(QUAD_MU, QUAD_PHI)
     mus, rs = mu_grid(size), roughness_grid(size)
     return np.stack(
@@ -193,7 +304,7 @@ def generate(size: int = TABLE_SIZE) -> Path:
 
 @cache
 def load_table(size: int = TABLE_SIZE) -> np.ndarray:
-    """The shipped float32 (size, size, 2) table, read-only."""
+    """The shipped float32 (size, size, 3) table, read-only."""
     return read_sheen_table(size)
 
 

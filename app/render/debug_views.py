@@ -27,6 +27,8 @@ view               raw value                                     display
 ``depth``          linear view depth, metres                     near (frame min) white to
                                                                  far (max) 10% grey
 ``material_id``    the material table's row                      ``PALETTE[id % 12]``
+``coat_normal``    unit clear-coat normal (RT4; the normal n     nc * 0.5 + 0.5
+                   where the frame has no RT4)
 ``fresnel``        F(h, l), RGB (RTR4 §9.5)                      sRGB
 ``ndf``            D(h) (RTR4 §9.7-9.8), 0 ... ~1e5              grey of a log scale:
                                                                  1e-3 black, 1 mid grey,
@@ -77,6 +79,7 @@ DEBUG_VIEWS: dict[str, str] = {
     "f0": "the dielectric F0 channel (sRGB-encoded)",
     "depth": "linear view depth: the frame's nearest white, farthest dark grey",
     "material_id": "material table row, one colour per id",
+    "coat_normal": "clear-coat normal as n*0.5+0.5 (the normal where RT4 is absent)",
     "fresnel": "F of the --debug-light light, RGB (sRGB-encoded)",
     "ndf": "D of that light's half vector, grey log scale 1e-3..1e3",
     "g2": "masking-shadowing G2 for that light, grey 0..1",
@@ -91,7 +94,9 @@ assert tuple(DEBUG_VIEWS)[: len(GPU_DEBUG_VIEWS)] == GPU_DEBUG_VIEWS
 # The views that evaluate one light (the ``light`` argument of ``run``).
 LIGHT_VIEWS = ("fresnel", "ndf", "g2", "specular", "diffuse", "light")
 # Views whose values come straight from the G-buffer (the G-buffer's texels, exactly).
-GBUFFER_VIEWS = ("base_color", "normal", "roughness", "metallic", "f0", "depth", "material_id")
+GBUFFER_VIEWS = (
+    "base_color", "normal", "roughness", "metallic", "f0", "depth", "material_id", "coat_normal",
+)  # fmt: skip
 
 # material_id: 12 colours far apart in hue and lightness (index = id % 12).
 PALETTE = np.array(
@@ -157,7 +162,7 @@ def display_image(view: str, values: np.ndarray) -> np.ndarray:
         return tile_ramp(rgb[..., 0])
     if view in ("base_color", "f0", "fresnel"):
         out = to_bytes(srgb_encode(rgb))
-    elif view == "normal":
+    elif view in ("normal", "coat_normal"):
         out = to_bytes(rgb * 0.5 + 0.5)
     elif view in ("roughness", "metallic", "g2"):
         out = to_bytes(rgb)
@@ -214,7 +219,7 @@ class DebugPass:
                 defines |= {"TILE_SIZE": TILE_SIZE, "TILE_QUADS": r.culler.quads}
             variants = [defines]
         else:
-            defines["GBUFFER_TANGENT"] = int(r.materials.needs_tangents)
+            defines |= r.materials.gbuffer_defines()
             defines["BRDF_TERMS"] = BRDF_TERMS[r.scene.render.terms]
             models = r.materials.models
             if view in LIGHT_VIEWS:
@@ -258,10 +263,7 @@ class DebugPass:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
         textures = [
-            ("g_base_color", gbuffer.base_color),
-            ("g_normal", gbuffer.normal),
-            ("g_depth", gbuffer.depth),
-            *([("g_tangent", gbuffer.tangent)] if gbuffer.tangent is not None else []),
+            *gbuffer.samplers(),
             ("u_lights", lighting.lights),
             ("u_materials", lighting.materials),
             *([("u_ms_table", lighting.ms_table)] if lighting.ms_table is not None else []),

@@ -7,6 +7,8 @@ Layout and precision are documented in docs/gbuffer.md:
                                material id (an exact integer)
   RT3 ``tangent`` RGBA16F|32F  octahedral tangent (x, y), anisotropy, 0; only where a
                                material of the scene is anisotropic (``tangents``)
+  RT4 ``coat_normal`` RG16F|32F  octahedral clear-coat normal (x, y); only where a coat's
+                               normal differs from its base's (``coat_normals``, RTR4 §9.12)
   z-test          DEPTH24      a renderbuffer, never sampled
 """
 
@@ -26,19 +28,27 @@ class GBuffer:
     """The render targets of the G-buffer pass."""
 
     def __init__(
-        self, ctx: moderngl.Context, size: tuple[int, int], precision: str, tangents: bool = True
+        self,
+        ctx: moderngl.Context,
+        size: tuple[int, int],
+        precision: str,
+        tangents: bool = True,
+        coat_normals: bool = False,
     ) -> None:
-        """``tangents``: allocate RT3 (only anisotropic materials read a tangent)."""
+        """``tangents``: allocate RT3 (only anisotropic materials read a tangent);
+        ``coat_normals``: allocate RT4 (only a coat whose normal is not its base's reads it).
+        The targets are bound in this order, RT4 at location 3 where RT3 is absent
+        (passes/gbuffer.frag)."""
         dtype = {"f16": "f2", "f32": "f4"}[precision]
         self.size = size
         self.base_color = ctx.texture(size, 4, dtype=dtype)
         self.normal = ctx.texture(size, 4, dtype=dtype)
         self.depth = ctx.texture(size, 2, dtype="f4")
         self.tangent = ctx.texture(size, 4, dtype=dtype) if tangents else None
+        self.coat_normal = ctx.texture(size, 2, dtype=dtype) if coat_normals else None
         self.zbuffer = ctx.depth_renderbuffer(size)
         targets = [self.base_color, self.normal, self.depth]
-        if self.tangent is not None:
-            targets.append(self.tangent)
+        targets += [t for t in (self.tangent, self.coat_normal) if t is not None]
         for tex in targets:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
@@ -53,18 +63,30 @@ class GBuffer:
             tangent = _read_float(self.tangent).reshape(h, w, 4).copy()
         else:
             tangent = np.zeros((h, w, 4), np.float32)
+        coat_normal = None
+        if self.coat_normal is not None:
+            coat_normal = _read_float(self.coat_normal).reshape(h, w, 2)[::-1].copy()
         return GBufferData(
             base_color=base_color[::-1].copy(),
             normal=normal[::-1].copy(),
             depth=depth_id[::-1, :, 0].copy(),
             tangent=tangent[::-1].copy(),
             material_id=depth_id[::-1, :, 1].copy(),
+            coat_normal=coat_normal,
         )
 
+    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        """(uniform, texture) of every target a pass decodes (gbuffer/decode.glsl), the
+        optional ones only where they exist."""
+        named = [
+            ("g_base_color", self.base_color), ("g_normal", self.normal), ("g_depth", self.depth),
+            ("g_tangent", self.tangent), ("g_coat_normal", self.coat_normal),
+        ]  # fmt: skip
+        return [(name, tex) for name, tex in named if tex is not None]
+
     def release(self) -> None:
-        for obj in (self.fbo, self.base_color, self.normal, self.depth, self.tangent, self.zbuffer):
-            if obj is not None:
-                obj.release()
+        for obj in (self.fbo, *(tex for _, tex in self.samplers()), self.zbuffer):
+            obj.release()
 
 
 def _read_float(tex: moderngl.Texture) -> np.ndarray:
@@ -80,6 +102,7 @@ MAP_BITS = {
     "normal_roughness": 8,
     "f0": 16,
     "select": 32,
+    "coat_normal": 64,
 }
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -236,11 +259,12 @@ class GBufferPass:
         parts: list[MeshPart],
         material_ids: list[list[int]],
         specular_aa: tuple[float, float] | None = None,
-        tangents: bool = True,
+        defines: dict[str, int] | None = None,
     ) -> None:
-        """``tangents``: write RT3 (the target must have it: ``GBuffer(tangents=...)``)."""
+        """``defines``: the optional targets to write, ``MaterialTable.gbuffer_defines()``
+        (the target must have them: ``GBuffer(tangents=..., coat_normals=...)``)."""
         self.ctx = ctx
-        defines = {"GBUFFER_TANGENT": int(tangents)}
+        defines = dict(defines or {"GBUFFER_TANGENT": 1})
         self.drawables = [
             MeshDrawable(ctx, shaders, p, ids, defines=defines, specular_aa=specular_aa)
             for p, ids in zip(parts, material_ids, strict=True)

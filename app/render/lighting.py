@@ -61,9 +61,8 @@ class LightingPass:
                 defines["MODEL_GROUP"] = group
             variants.append(defines)
         self.programs = []
-        tangents = table.needs_tangents
         for defines in variants:
-            defines["GBUFFER_TANGENT"] = int(tangents)
+            defines.update(table.gbuffer_defines())
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
@@ -102,10 +101,7 @@ class LightingPass:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
         textures = [
-            ("g_base_color", gbuffer.base_color),
-            ("g_normal", gbuffer.normal),
-            ("g_depth", gbuffer.depth),
-            *([("g_tangent", gbuffer.tangent)] if gbuffer.tangent is not None else []),
+            *gbuffer.samplers(),
             ("u_lights", self.lights),
             ("u_materials", self.materials),
         ]

@@ -139,9 +139,11 @@ class Renderer:
         """Everything whose size is the image's: the G-buffer and every pass after it."""
         self._release(("gbuffer",))
         settings = self.scene.render
+        table = self.materials
         self.gbuffer = GBuffer(
-            self.gl.ctx, self.render_size, settings.gbuffer, self.materials.needs_tangents
-        )
+            self.gl.ctx, self.render_size, settings.gbuffer, table.needs_tangents,
+            table.needs_coat_normals,
+        )  # fmt: skip
         self._build_gbuffer_pass()
         self._build_lighting()
         self._build_post()
@@ -157,7 +159,7 @@ class Renderer:
         )
         self.gbuffer_pass = GBufferPass(
             self.gl.ctx, self.shaders, self.frame.parts, self.frame.material_ids, specular_aa,
-            self.materials.needs_tangents,
+            self.materials.gbuffer_defines(),
         )  # fmt: skip
 
     def _build_lighting(self) -> None:
@@ -244,9 +246,9 @@ class Renderer:
         if frame is None:
             self._rebuild_frame()
             return
-        tangents = self.materials.needs_tangents
+        targets = self.materials.gbuffer_defines()
         self.frame = frame
-        if frame.materials.needs_tangents != tangents:  # the G-buffer gains or loses RT3
+        if frame.materials.gbuffer_defines() != targets:  # the G-buffer gains or loses RT3/4
             self._build_targets()
             return
         for drawable, ids in zip(self.gbuffer_pass.drawables, frame.material_ids, strict=True):
@@ -296,10 +298,10 @@ class Renderer:
 
     def _rebuild_frame(self) -> None:
         """New parts and material table (the lights stay), and the passes that use them."""
-        tangents = self.materials.needs_tangents
+        targets = self.materials.gbuffer_defines()
         self._release(("gbuffer_pass",))
         self.frame = prepare_frame(self.loaded)
-        if self.materials.needs_tangents != tangents:  # the G-buffer gains or loses RT3
+        if self.materials.gbuffer_defines() != targets:  # the G-buffer gains or loses RT3/4
             self._build_targets()
             return
         self._build_gbuffer_pass()

@@ -45,13 +45,13 @@ def material_texture(ctx: moderngl.Context, table: MaterialTable) -> moderngl.Te
 
 
 def sheen_texture(ctx: moderngl.Context) -> moderngl.Texture:
-    """A new RG32F texture of the shipped sheen albedo table (RTR4 §9.10; app/common/
+    """A new RGB32F texture of the shipped sheen albedo table (RTR4 §9.10; app/common/
     tables.py, computed by app/reference/sheen.py): width n_mu, height n_r, texel (j, i) =
-    (E_charlie, E_ashikhmin) on the multiple-scattering table's grids, NEAREST (read by
-    hand in glsl/brdf/sheen.glsl sheen_E). The caller releases it."""
+    (E_charlie, E_ashikhmin, E_charlie_smith) on the multiple-scattering table's grids,
+    NEAREST (read by hand in glsl/brdf/sheen.glsl sheen_E). The caller releases it."""
     table = read_sheen_table()
-    n_r, n_mu = table.shape[:2]
-    tex = ctx.texture((n_mu, n_r), 2, np.ascontiguousarray(table).tobytes(), dtype="f4")
+    n_r, n_mu, channels = table.shape
+    tex = ctx.texture((n_mu, n_r), channels, np.ascontiguousarray(table).tobytes(), dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     tex.repeat_x = False
     tex.repeat_y = False

@@ -70,7 +70,14 @@ class LayerBuilder:
             maps["normal_roughness"] = normal_roughness_texture(
                 normals, roughness, shape, self.normal_filter
             )
-        return SurfaceLayer(params, maps, (m.uv_scale[0], m.uv_scale[1]))
+        if m.clearcoat_normal_map is not None:  # RTR4 §9.12: the coat's own normals
+            scale = 1.0 if m.clearcoat_normal_scale is None else m.clearcoat_normal_scale
+            coat = decode_normals(self.image(name, "clearcoat_normal_map"), scale)
+            # The coat's roughness is a material constant (the G-buffer has no channel for
+            # it per pixel): its mips carry the normals alone, renormalised on sampling.
+            maps["coat_normal"] = normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+        uv_scale = (m.uv_scale[0], m.uv_scale[1])
+        return SurfaceLayer(params, maps, uv_scale, normal_mapped=m.normal_map is not None)
 
 
 def gltf_layer(

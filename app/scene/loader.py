@@ -107,6 +107,15 @@ def parse_scene(data: dict, path: Path) -> LoadedScene:
                     f"'{blend.material}' has a blend itself; layers do not nest",
                 )
             _check_readable(loaded, blend.mask, f"{key}.blend.mask")
+            # Only layer 0 of a part samples a coat normal map (glsl/material/layers.glsl).
+            for layer, where in ((name, key), (blend.material, f"materials.{blend.material}")):
+                if scene.materials[layer].clearcoat_normal_map is not None:
+                    raise InputError(
+                        str(path),
+                        f"{where}.clearcoat_normal_map",
+                        "a coat normal map is not supported in a blend (blend.material "
+                        f"of materials.{name})",
+                    )
     for i, obj in enumerate(scene.objects):
         if obj.material is not None and obj.material not in scene.materials:
             known = ", ".join(sorted(scene.materials)) or "none defined"

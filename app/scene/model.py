@@ -214,6 +214,8 @@ TEXTURE_KEYS = {
     "roughness_map": "linear, red channel; multiplies roughness",
     "normal_map": "tangent-space normals, RGB = n * 0.5 + 0.5 (OpenGL: +Y along +v)",
     "anisotropy_map": "linear, red channel; multiplies anisotropy",
+    # glTF KHR_materials_clearcoat's clearcoatNormalTexture (RTR4 §9.12)
+    "clearcoat_normal_map": "the clear coat's own tangent-space normals, as normal_map",
 }
 
 
@@ -285,6 +287,10 @@ class Material(_Strict):
     clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
     # how the coat composes with the base (docs/layered.md): Filament's or Weidlich & Wilkie's
     clearcoat_model: Literal["filament", "weidlich_wilkie"] = "filament"
+    # The coat's own normal map (glTF clearcoatNormalTexture; docs/layered.md): without it
+    # the coat keeps the vertex normal, whatever normal map the base has.
+    clearcoat_normal_map: TexturePath | None = None
+    clearcoat_normal_scale: Annotated[Real, Field(ge=0.0, le=10.0)] | None = None  # default 1
     # --- empirical cloth (RTR4 §9.10): only with diffuse = "cloth_empirical" ---
     cloth_rim: ClothLobe | None = None  # [k_rim, a_rim] (default [0, 1])
     cloth_inner: ClothLobe | None = None  # [k_inner, a_inner] (default [0, 1])
@@ -407,12 +413,17 @@ class Material(_Strict):
     def _check_clearcoat(self) -> None:
         """Clear coat keys (RTR4 §9.12) need a coat, and a coat needs a base it can lie on."""
         if self.clearcoat == 0.0:
-            for key in ("clearcoat_roughness", "clearcoat_ior", "clearcoat_color"):
+            for key in (
+                "clearcoat_roughness", "clearcoat_ior", "clearcoat_color", "clearcoat_normal_map",
+                "clearcoat_normal_scale",
+            ):  # fmt: skip
                 if getattr(self, key) is not None:
                     raise ValueError(f"{key}: applies only with clearcoat > 0")
             # clearcoat_model is not checked: without a coat it selects nothing, and tools
             # that rebuild a material from all its fields (pbs compare) set it explicitly.
             return
+        if self.clearcoat_normal_scale is not None and self.clearcoat_normal_map is None:
+            raise ValueError("clearcoat_normal_scale: applies only with a 'clearcoat_normal_map'")
         medium = self._medium()
         coat = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
         if coat < medium:

@@ -100,4 +100,4 @@ def bake_blend(
     }
     if anisotropic:
         maps["anisotropy"] = scalar_texture(mixed.anisotropy)
-    return SurfaceLayer(params, maps, base.uv_scale)
+    return SurfaceLayer(params, maps, base.uv_scale, base.normal_mapped or top.normal_mapped)

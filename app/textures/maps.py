@@ -44,12 +44,25 @@ class SurfaceLayer:
 
     ``maps`` keys: ``base_color`` (sRGB), ``metallic``, ``anisotropy`` (R), and
     ``normal_roughness`` (RGBA: normal xyz, absolute perceptual roughness; present when the
-    material has a normal or a roughness map).
+    material has a normal or a roughness map), ``coat_normal`` (RGBA: the clear coat's own
+    normal xyz, its own mips; RTR4 §9.12). ``normal_mapped``: the base's normals come from a
+    normal map (a roughness map alone keeps them flat).
     """
 
     params: MaterialParams
     maps: dict[str, Texture] = field(default_factory=dict)
     uv_scale: tuple[float, float] = (1.0, 1.0)
+    normal_mapped: bool = False
+
+    @property
+    def own_coat_normal(self) -> bool:
+        """Whether the layer's clear coat shades with a normal other than its base's (the
+        G-buffer then carries RT4, docs/gbuffer.md). glTF KHR_materials_clearcoat: without
+        a clearcoatNormalTexture "no normal mapping is applied to the clear coat layer,
+        even if normal mapping is applied to the base material", so a coat over a
+        normal-mapped base has the vertex normal; with one, the coat's own map."""
+        coated = self.params.model.clearcoat != "none"
+        return coated and (self.normal_mapped or "coat_normal" in self.maps)
 
 
 def read_image(path: str, scene_file: str, key: str) -> Image.Image:

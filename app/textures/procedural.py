@@ -48,6 +48,13 @@ RUST_RAMP_SIGMAS = 0.45
 MAX_BUMP_SLOPE_DEG = 45.0
 RUST_SPECKLE_CELLS = 64  # lattice of the candidate speckles (8 pixels per cell at 512)
 BUMP_CELLS = 24  # bumps per side of the tile: 576 bumps, one per jittered lattice cell
+# Metal flakes of car paint (RTR4 §9.12's layers with different normals): one flat flake
+# per jittered lattice cell (Voronoi cells, ~5 pixels across at 256), each tilted by up to
+# this many degrees, so that under a light only the flakes facing it glint.
+FLAKE_CELLS = 48
+MAX_FLAKE_TILT_DEG = 20.0
+# "Orange peel", the clear coat's gentle waviness: its steepest slope in degrees.
+ORANGE_PEEL_SLOPE_DEG = 12.0
 
 
 # -- random numbers and noise ------------------------------------------------------------------
@@ -254,6 +261,45 @@ def bumpy_normal_map(size: int = NORMAL_MAP_SIZE, seed: int = 43) -> np.ndarray:
     return normals_from_height(bump_height(size, seed))
 
 
+def flake_normal_map(size: int = NORMAL_MAP_SIZE, seed: int = 47) -> np.ndarray:
+    """Unit tangent-space normals (size, size, 3) of metal flakes: a tileable Voronoi
+    diagram of ``FLAKE_CELLS``² jittered sites, each cell one flat flake with its own tilt
+    (polar angle up to ``MAX_FLAKE_TILT_DEG``, uniform over the disc of tilts; azimuth
+    uniform). The nearest site of a pixel lies in its cell or the 8 around it (the sites
+    keep 0.15-0.85 of their cells, as ``jittered_spots``'), so those nine decide."""
+    g = FLAKE_CELLS
+    jitter = 0.15 + 0.7 * uniform(seed, 1000, (g, g, 2))  # [row, column, (x, y)]
+    theta = np.radians(MAX_FLAKE_TILT_DEG) * np.sqrt(uniform(seed, 1, (g, g)))
+    phi = 2.0 * np.pi * uniform(seed, 2, (g, g))
+    flakes = np.stack(
+        [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=-1
+    )
+    x = (np.arange(size) + 0.5) * (g / size)
+    cx = np.floor(x).astype(np.int64)
+    nearest = np.full((size, size), np.inf)
+    normals = np.zeros((size, size, 3))
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            cell = np.ix_((cx + dy) % g, (cx + dx) % g)
+            px = (cx + dx)[None, :] + jitter[..., 0][cell]
+            py = (cx + dy)[:, None] + jitter[..., 1][cell]
+            d = (x[None, :] - px) ** 2 + (x[:, None] - py) ** 2
+            closer = d < nearest
+            nearest = np.where(closer, d, nearest)
+            normals = np.where(closer[..., None], flakes[cell], normals)
+    return normals
+
+
+def orange_peel_normal_map(size: int = NORMAL_MAP_SIZE, seed: int = 48) -> np.ndarray:
+    """Unit tangent-space normals (size, size, 3) of a clear coat's "orange peel": a smooth
+    fBm height field (period 6, 3 octaves, gain 0.4: broad, soft undulations) scaled so
+    that its steepest slope is ``ORANGE_PEEL_SLOPE_DEG``."""
+    height = fbm(size, seed, period=6, octaves=3, gain=0.4) / size
+    du, dv = height_gradient(height)
+    steepest = float(np.sqrt(du * du + dv * dv).max())
+    return normals_from_height(height * (np.tan(np.radians(ORANGE_PEEL_SLOPE_DEG)) / steepest))
+
+
 def brushed_anisotropy(size: int = TEXTURE_SIZE, seed: int = 44) -> np.ndarray:
     """Anisotropy strength in [0.5, 0.9] of brushed metal, streaked along u.
 
@@ -336,6 +382,18 @@ TEXTURES: tuple[ProceduralTexture, ...] = (
         lambda: quantize(brushed_roughness()),
     ),
     ProceduralTexture("noise.png", "L", "generic fBm noise, linear", lambda: quantize(noise())),
+    ProceduralTexture(
+        "flake_normal.png",
+        "RGB",
+        "metal-flake tangent-space normal map (tilts up to 20 deg), n*0.5+0.5 linear",
+        lambda: encode_normals(flake_normal_map()),
+    ),
+    ProceduralTexture(
+        "orange_peel_normal.png",
+        "RGB",
+        "clear-coat orange-peel tangent-space normal map (slopes up to 12 deg), n*0.5+0.5",
+        lambda: encode_normals(orange_peel_normal_map()),
+    ),
 )
 
 

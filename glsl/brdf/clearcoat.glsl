@@ -3,8 +3,9 @@
 // brdf/material.glsl composes them with the base (clearcoat_factors).
 // Twin: app/reference/clearcoat.py (same names, same order of operations).
 //
-// The coat uses the shading normal n: a coat with a normal map of its own would need
-// another G-buffer target (docs/layered.md).
+// The coat's terms take the coat's own normal, which brdf/material.glsl passes in: the
+// base's shading normal, or where they differ (RTR4 sec. 9.12, "layers may have different
+// normals") the one in the G-buffer's RT4 (docs/layered.md).
 #ifndef PBS_CLEARCOAT_GLSL
 #define PBS_CLEARCOAT_GLSL
 

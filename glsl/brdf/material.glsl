@@ -242,9 +242,21 @@ struct BrdfFactors {
     vec3 F;           // Fresnel reflectance F(h, l) (RTR4 sec. 9.5)
     float D;          // NDF D(h) (RTR4 sec. 9.7, 9.8)
     float G2;         // joint masking-shadowing G2(l, v, h) (RTR4 sec. 9.7)
+    float f_coat;     // a clear coat's own reflection c f_coat (RTR4 sec. 9.12); 0 without
     vec3 f_spec;      // F G2 D / (4 n.l n.v), plus f_ms with MULTISCATTER (RTR4 sec. 9.8)
     vec3 f_diffuse;   // the subsurface lobe (RTR4 sec. 9.9)
 };
+
+// The surface reflection of the factors: the coat's lobe plus the base's specular lobe (the
+// sum every consumer of f_spec sees; f_coat + f_spec, in this order, as before the two
+// were kept apart).
+vec3 surface_reflection(BrdfFactors b) {
+#if CLEARCOAT_ON
+    return vec3(b.f_coat) + b.f_spec;
+#else
+    return b.f_spec;
+#endif
+}
 
 // The factors for unit n, l, v with n.l > 0 (brdf_eval returns 0 before it calls this)
 // and the tangent t (used only by anisotropic NDFs). n.v is clamped to MIN_N_DOT_V as
@@ -330,7 +342,7 @@ BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
         f_diffuse *= scale;
     }
 #endif
-    return BrdfFactors(F, D, G2, f_spec, f_diffuse);
+    return BrdfFactors(F, D, G2, 0.0, f_spec, f_diffuse);
 }
 
 #if CLEARCOAT_ON
@@ -355,22 +367,30 @@ ModelParams clearcoat_base_params(ModelParams p) {
 }
 
 // The coated BRDF's factors; F, D and G2 stay the base's (what the debug views show), the
-// coat's reflection joins f_spec (it is surface reflection, RTR4 sec. 9.1) and the base's
-// two lobes are weighted by what reaches them through the coat and back.
+// coat's reflection is f_coat (surface reflection, RTR4 sec. 9.1: it joins f_spec in
+// surface_reflection) and the base's two lobes are weighted by what reaches them through the
+// coat and back.
 // CLEARCOAT_FILAMENT (Filament; glTF KHR_materials_clearcoat), with strength c:
-//   f = c f_coat(l, v) + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A(l, v), c) f_base(l, v).
+//   f = c f_coat(l, v) + (1 - c F(nc.l)) (1 - c F(nc.v)) mix(1, A(l, v), c) f_base(l, v).
 // CLEARCOAT_WEIDLICH_WILKIE (Weidlich & Wilkie 2007, "Arbitrarily Layered Micro-Facet
 // Surfaces", two layers, a flat coat): the base sees the directions refracted into the coat,
-//   f = c f_coat(l, v) + (1 - c F(n.l)) (1 - c F(n.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2,
+//   f = c f_coat(l, v) + (1 - c F(nc.l)) (1 - c F(nc.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2,
 // l_t, v_t by Snell's law at eta_c = mix(1, eta, c) (the medium's index at c = 0: the base
 // unchanged), 1/eta_c^2 the solid-angle compression of the refraction (clearcoat.glsl).
 // Left out, as in the paper: the light the coat reflects back down (no inter-reflection
 // between coat and base), refraction through the coat's microfacets (the macro normal
 // refracts), and the paper's empirical compensation term t.
-BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+// Two normals (RTR4 sec. 9.12: "layers may have different normals"): the coat's nc and the
+// base's n. The coat's lobe, its Fresnel crossings 1 - c F and the Beer-Lambert path lengths
+// take nc (the coat's interface is where light crosses); the base's lobes take n. For
+// Weidlich-Wilkie the coat's interface refracts, so l and v refract about nc and the base
+// evaluates the refracted directions about its own n. With nc = n every number is the one
+// a single normal gives, bit for bit (the same operations on the same values).
+BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l,
+                              vec3 v) {
     float NoL, NoV;
     vec3 h;
-    shading_cosines(n, l, v, NoL, NoV, h);
+    shading_cosines(nc, l, v, NoL, NoV, h);   // the coat's cosines
     float LoH = clamp(dot(l, h), 0.0, 1.0);
     float c = p.clearcoat;
     float F0c = clearcoat_F0(p.clearcoat_eta);
@@ -382,8 +402,8 @@ BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
     float compression = 1.0;
     if (CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE && c > 0.0) {
         float eta_c = mix(1.0, p.clearcoat_eta, c);
-        l_base = clearcoat_refract_in(eta_c, n, l);
-        v_base = clearcoat_refract_in(eta_c, n, v);
+        l_base = clearcoat_refract_in(eta_c, nc, l);
+        v_base = clearcoat_refract_in(eta_c, nc, v);
         compression = clearcoat_solid_angle_compression(eta_c);
     }
     BrdfFactors b = base_brdf_factors(clearcoat_base_surface(s, p), clearcoat_base_params(p),
@@ -392,33 +412,63 @@ BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
     vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
                                                      NoV), c);
     vec3 w = (T * compression) * A;
-    float f_coat = c * f_clearcoat_ggx(alpha_c, F0c, n, h, NoL, NoV, LoH);
-    b.f_spec = vec3(f_coat) + w * b.f_spec;
+    // chi+(nc.l): a light below the coat's horizon has no coat lobe (brdf_eval has already
+    // returned 0 for one below n's, so at nc = n this selects nothing).
+    b.f_coat = dot(nc, l) > 0.0 ? c * f_clearcoat_ggx(alpha_c, F0c, nc, h, NoL, NoV, LoH) : 0.0;
+    b.f_spec = w * b.f_spec;
     b.f_diffuse = w * b.f_diffuse;
     return b;
 }
 #endif
 
-// The factors of the material's BRDF: the base's, or, with a clear coat, the coated ones.
-BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+// The factors of the material's BRDF: the base's, or, with a clear coat, the coated ones
+// with the coat's normal nc (n where the coat has no normal of its own: docs/layered.md).
+BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l, vec3 v) {
 #if CLEARCOAT_ON
-    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) return clearcoat_factors(s, p, n, t, l, v);
+    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) return clearcoat_factors(s, p, n, nc, t, l, v);
 #endif
     return base_brdf_factors(s, p, n, t, l, v);
 }
 
-// f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v
-// and the tangent t; zero for lights below the surface (brdf_factors for the clamps).
-vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
-    if (dot(n, l) <= 0.0) return vec3(0.0);
-    BrdfFactors b = brdf_factors(s, p, n, t, l, v);
+// The reflections BRDF_TERMS keeps of the base's lobes (the coat's is surface reflection).
+vec3 selected_terms(vec3 f_diffuse, vec3 f_surface) {
 #if BRDF_TERMS == (TERM_SPECULAR | TERM_DIFFUSE)
-    return b.f_diffuse + b.f_spec;
+    return f_diffuse + f_surface;
 #elif BRDF_TERMS == TERM_SPECULAR
-    return b.f_spec;
+    return f_surface;
 #else
-    return b.f_diffuse;
+    return f_diffuse;
 #endif
 }
+
+// f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v,
+// the coat's normal nc (unused without a coat) and the tangent t; zero for lights below the
+// surface (brdf_factors for the clamps).
+vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l, vec3 v) {
+    if (dot(n, l) <= 0.0) return vec3(0.0);
+    BrdfFactors b = brdf_factors(s, p, n, nc, t, l, v);
+    return selected_terms(b.f_diffuse, surface_reflection(b));
+}
+
+#if CLEARCOAT_ON
+// f(l, v) times the cosine, for a coat whose normal nc is not the base's n: each layer's
+// lobe takes its own cosine, the coat's (nc.l)+ and the base's (seen through the coat)
+// (n.l)+, as Filament's surface shading does with a clear-coat normal; with one cosine the
+// base's bumps would show in a smooth coat's highlight. glTF KHR_materials_clearcoat: the
+// coat's normal "affects the top layer, but not the base". Zero where the light is below
+// both. Each term is selected, not multiplied by 0: a lobe at a direction below its
+// layer's horizon is evaluated with clamped cosines and never reaches the sum.
+vec3 brdf_eval_layered_cos(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l,
+                           vec3 v) {
+    float NoL = dot(n, l);
+    float NoLc = dot(nc, l);
+    if (NoL <= 0.0 && NoLc <= 0.0) return vec3(0.0);
+    BrdfFactors b = brdf_factors(s, p, n, nc, t, l, v);
+    vec3 base = selected_terms(b.f_diffuse, b.f_spec);
+    float coat = (BRDF_TERMS & TERM_SPECULAR) != 0 ? b.f_coat : 0.0;
+    vec3 result = NoL > 0.0 ? base * NoL : vec3(0.0);
+    return NoLc > 0.0 ? result + vec3(coat * NoLc) : result;
+}
+#endif
 
 #endif

@@ -1,6 +1,7 @@
 // A cloth sheen layer over any base BRDF (RTR4 sec. 9.10). Twin: app/reference/sheen.py.
 // Microfacet sheen: an NDF whose microfacets lie near the horizon (fibres standing up from
-// the cloth), a soft visibility term instead of Smith's, no Fresnel:
+// the cloth), a soft visibility term instead of Smith's (or, SHEEN_CHARLIE_SMITH, Charlie's
+// own fitted Smith Lambda), no Fresnel:
 //   f_sheen = sheen_color D(h) V(n.l, n.v),
 // layered over the base as glTF's KHR_materials_sheen does (its "albedo scaling"):
 //   f = f_sheen + f_base (1 - max(sheen_color) max(E(n.l), E(n.v))),
@@ -70,22 +71,69 @@ float V_neubelt(float NoL, float NoV) {
     return 1.0 / (4.0 * (NoL + NoV * (1.0 - NoL)));
 }
 
-// The sheen NDF of the selected model.
+#if UBER_MODELS || SHEEN_MODEL == SHEEN_CHARLIE_SMITH
+// Estevez & Kulla 2017's fit to ln Lambda of the Charlie NDF (RTR4 sec. 9.7, 9.10),
+//   L(x) = a/(1 + b x^c) + d x + e,
+// each coefficient p1 + t (p0 - p1), t = (1 - alpha)^2, between their fits at r = 0 (p0) and
+// r = 1 (p1); their r is D's exponent parameter, this project's alpha (docs/cloth.md).
+// x^c is written 0 at x = 0 (n.v = 1 reaches L(1 - 1)) rather than trusting pow(0, c).
+float charlie_L(float x, float alpha) {
+    float t = (1.0 - alpha) * (1.0 - alpha);
+    float a = 21.5473 + t * (25.3245 - 21.5473);
+    float b = 3.82987 + t * (3.32435 - 3.82987);
+    float c = 0.19823 + t * (0.16801 - 0.19823);
+    float d = -1.97760 + t * (-1.27393 - -1.97760);
+    float e = -4.32054 + t * (-4.85967 - -4.32054);
+    float xc = x > 0.0 ? pow(x, c) : 0.0;
+    return a / (1.0 + b * xc) + d * x + e;
+}
+
+// Lambda(mu) = exp(L(mu)) for mu < 0.5, exp(2 L(0.5) - L(1 - mu)) otherwise. Precision:
+// L <= a + e = 20.47, so Lambda <= 7.7e8 (float32 holds it); at mu = 1 Lambda ~ 1e-8.
+float Lambda_charlie(float mu, float alpha) {
+    if (mu < 0.5) return exp(charlie_L(mu, alpha));
+    return exp(2.0 * charlie_L(0.5, alpha) - charlie_L(1.0 - mu, alpha));
+}
+
+// Height-correlated Smith visibility with Charlie's Lambda (RTR4 sec. 9.7):
+//   V = G2 / (4 n.l n.v) = 1 / (4 n.l n.v (1 + Lambda(n.l) + Lambda(n.v))).
+// n.l enters at n.v's floor MIN_N_DOT_V: below it the fit's Lambda flattens out (7.6e8
+// where the true one grows as 1/mu) and f would grow as 1/n.l; so f stays bounded and
+// reciprocal at the clamps too. Precision: one reciprocal of a product of positive
+// factors in [4e-8, 7e9]: no Inf or NaN. Estevez & Kulla's terminator softening
+// (Lambda(n.l)^(1 + 2 (1 - n.l)^8), light only) is left out: it breaks f(l, v) = f(v, l).
+float V_charlie_smith(float NoL, float NoV, float alpha) {
+    float mu_l = max(NoL, MIN_N_DOT_V);
+    float lam = 1.0 + Lambda_charlie(mu_l, alpha) + Lambda_charlie(NoV, alpha);
+    return 1.0 / (4.0 * (mu_l * NoV) * lam);
+}
+#endif
+
+// The sheen NDF of the selected model (SHEEN_CHARLIE_SMITH shares Charlie's).
 float D_sheen_selected(vec3 n, vec3 h, float alpha) {
     if (SHEEN_MODEL == SHEEN_ASHIKHMIN) return D_ashikhmin(n, h, alpha);
     return D_charlie(n, h, alpha);
+}
+
+// The sheen visibility of the selected model: Neubelt's, or Charlie's Smith G2.
+float V_sheen_selected(float NoL, float NoV, float alpha) {
+#if UBER_MODELS || SHEEN_MODEL == SHEEN_CHARLIE_SMITH
+    if (SHEEN_MODEL == SHEEN_CHARLIE_SMITH) return V_charlie_smith(NoL, NoV, alpha);
+#endif
+    return V_neubelt(NoL, NoV);
 }
 
 // f_sheen = sheen_color D(h) V(n.l, n.v).
 vec3 f_sheen_selected(vec3 sheen_color, float sheen_roughness, vec3 n, vec3 h,
                       float NoL, float NoV) {
     float alpha = sheen_alpha(sheen_roughness);
-    return sheen_color * (D_sheen_selected(n, h, alpha) * V_neubelt(NoL, NoV));
+    return sheen_color * (D_sheen_selected(n, h, alpha) * V_sheen_selected(NoL, NoV, alpha));
 }
 
 // --- the albedo table ---
-// u_sheen_table (app/render/tables.py sheen_texture): RG32F, NEAREST, 64 x 64; texel (j, i)
-// = (E_charlie, E_ashikhmin) at mu_j = (j/63)^4 and r_i = 0.045 + 0.955 (i/63)^2, the grids
+// u_sheen_table (app/render/tables.py sheen_texture): RGB32F, NEAREST, 64 x 64; texel (j, i)
+// = (E_charlie, E_ashikhmin, E_charlie_smith) at mu_j = (j/63)^4 and
+// r_i = 0.045 + 0.955 (i/63)^2, the grids
 // of the multiple-scattering table. Bilinear by hand in (sqrt(sqrt(mu)), sqrt((r - 0.045)
 // / 0.955)) with texelFetch, the twin's sums (GPU filtering uses fixed-point weights).
 uniform sampler2D u_sheen_table;
@@ -104,18 +152,20 @@ float sheen_E(float mu, float sheen_roughness) {
     float tx, ty;
     int j = sheen_cell(sqrt(sqrt(clamp(mu, 0.0, 1.0))) * float(size.x - 1), size.x, tx);
     int i = sheen_cell(sqrt(u) * float(size.y - 1), size.y, ty);
-    vec2 a = texelFetch(u_sheen_table, ivec2(j, i), 0).rg;
-    vec2 b = texelFetch(u_sheen_table, ivec2(j + 1, i), 0).rg;
-    vec2 c = texelFetch(u_sheen_table, ivec2(j, i + 1), 0).rg;
-    vec2 d = texelFetch(u_sheen_table, ivec2(j + 1, i + 1), 0).rg;
-    vec2 e = (1.0 - ty) * ((1.0 - tx) * a + tx * b) + ty * ((1.0 - tx) * c + tx * d);
+    vec3 a = texelFetch(u_sheen_table, ivec2(j, i), 0).rgb;
+    vec3 b = texelFetch(u_sheen_table, ivec2(j + 1, i), 0).rgb;
+    vec3 c = texelFetch(u_sheen_table, ivec2(j, i + 1), 0).rgb;
+    vec3 d = texelFetch(u_sheen_table, ivec2(j + 1, i + 1), 0).rgb;
+    vec3 e = (1.0 - ty) * ((1.0 - tx) * a + tx * b) + ty * ((1.0 - tx) * c + tx * d);
+    if (SHEEN_MODEL == SHEEN_CHARLIE_SMITH) return e.b;
     return SHEEN_MODEL == SHEEN_ASHIKHMIN ? e.g : e.r;
 }
 
 // glTF KHR_materials_sheen's albedo scaling, 1 - max(sheen_color) max(E(n.l), E(n.v)):
 // the light the sheen leaves to the base. The max over both directions (glTF's min of the
-// two scalings) keeps f reciprocal. Clamped at 0: Charlie's E with Neubelt's V exceeds 1
-// toward grazing at low sheen roughness (docs/cloth.md), where the base would turn negative.
+// two scalings) keeps f reciprocal. Clamped at 0: Charlie's E with Neubelt's V (and, less,
+// with the fitted Smith Lambda) exceeds 1 toward grazing at low sheen roughness
+// (docs/cloth.md), where the base would turn negative.
 float sheen_scaling(vec3 sheen_color, float sheen_roughness, float NoL, float NoV) {
     float c = max(sheen_color.r, max(sheen_color.g, sheen_color.b));
     float E = max(sheen_E(NoL, sheen_roughness), sheen_E(NoV, sheen_roughness));

@@ -17,6 +17,9 @@ uniform sampler2D g_depth;
 #if GBUFFER_TANGENT
 uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gbuffer.md)
 #endif
+#if GBUFFER_COAT_NORMAL
+uniform sampler2D g_coat_normal;  // only where a coat's normal differs from its base's
+#endif
 
 // A decoded G-buffer pixel.
 struct GBufferPixel {
@@ -26,6 +29,8 @@ struct GBufferPixel {
     vec3 p;               // world position
     vec3 v;               // unit, from p towards the camera
     vec3 n;               // unit shading normal, sanitised (v where it was lost)
+    vec3 nc;              // unit clear-coat normal, sanitised (n where it was lost); n
+                          // itself without RT4
 };
 
 // The pixel at window position frag_coord (gl_FragCoord.xy, the pixel centre), with the
@@ -67,7 +72,12 @@ GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     vec3 p = reconstruct_position(ndc_xy, depth, camera_pos, camera_to_world, tan_half_fov);
     vec3 v = normalize(camera_pos - p);
     vec3 n = sanitize_direction(oct_decode(b.rg), v);
-    return GBufferPixel(s, params, t, p, v, n);
+#if GBUFFER_COAT_NORMAL
+    vec3 nc = sanitize_direction(oct_decode(texelFetch(g_coat_normal, px, 0).rg), n);
+#else
+    vec3 nc = n;   // no coat has a normal of its own: the coat shades with n
+#endif
+    return GBufferPixel(s, params, t, p, v, n, nc);
 }
 
 #endif

@@ -8,11 +8,17 @@
 //                     A DEPTH24 buffer does the z-test.
 //   RT3 g_tangent   : octahedral tangent (2), anisotropy, 0; only with GBUFFER_TANGENT (a
 //                     material of the scene is anisotropic: nothing else reads a tangent)
+//   RT4 g_coat_normal: octahedral clear-coat normal (2); only with GBUFFER_COAT_NORMAL (a
+//                     coated material of the scene has a normal other than its base's: a
+//                     coat over a normal-mapped base, or a coat normal map; RTR4 sec. 9.12)
 #ifndef PBS_GBUFFER_LAYOUT_GLSL
 #define PBS_GBUFFER_LAYOUT_GLSL
 
 #ifndef GBUFFER_TANGENT
 #define GBUFFER_TANGENT 1
+#endif
+#ifndef GBUFFER_COAT_NORMAL
+#define GBUFFER_COAT_NORMAL 0
 #endif
 
 #endif

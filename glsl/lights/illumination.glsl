@@ -6,20 +6,29 @@
 #define PBS_ILLUMINATION_GLSL
 
 #include "brdf/material.glsl"
+#include "gbuffer/layout.glsl"
 #include "lights/punctual.glsl"
 // For the masked loop only (TILE_QUADS), but included always: app/gl/shaders.py splices
 // includes before the preprocessor runs, so one inside #ifdef would count as included
 // even where the #ifdef drops it. Without TILE_QUADS it adds functions nothing calls.
 #include "lights/tiles.glsl"
 
-// f(l, v) c_light (n.l)+ of light i of a light texture at p.
+// f(l, v) c_light (n.l)+ of light i of a light texture at p; nc is the clear coat's
+// normal (n where the coat has none of its own). With GBUFFER_COAT_NORMAL (a coat of the
+// scene has a normal other than its base's: gbuffer/layout.glsl) a coated material's
+// layers take their own cosines (brdf_eval_layered_cos in brdf/material.glsl).
 vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
-                        vec3 t, vec3 p, vec3 v) {
+                        vec3 nc, vec3 t, vec3 p, vec3 v) {
     vec3 l;
     vec3 c_light = light_at(fetch_light(lights, i), p, l);
+#if GBUFFER_COAT_NORMAL && CLEARCOAT_ON
+    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {
+        return brdf_eval_layered_cos(s, params, n, nc, t, l, v) * c_light;
+    }
+#endif
     float NoL = dot(n, l);
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
-    return brdf_eval(s, params, n, t, l, v) * c_light * NoL;
+    return brdf_eval(s, params, n, nc, t, l, v) * c_light * NoL;
 }
 
 #ifdef TILE_QUADS
@@ -35,7 +44,8 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
 // No `if` skips work on llvmpipe either, so the next word is chosen by selects, not
 // fetched (docs/performance.md measures both).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
-                       Surface s, ModelParams params, vec3 n, vec3 t, vec3 p, vec3 v) {
+                       Surface s, ModelParams params, vec3 n, vec3 nc, vec3 t, vec3 p,
+                       vec3 v) {
     int chunk = 0;
     do {  // chunks of 1024 lights: one for up to 1024 lights
         TileMask mask = load_tile_mask(masks, cell, chunk);
@@ -47,7 +57,7 @@ vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, 
         if (bits != 0u) do {
             int b = lowest_bit(bits);
             bits &= bits - 1u;                // clear that bit
-            Lo += light_contribution(lights, first + 32 * w + b, s, params, n, t, p, v);
+            Lo += light_contribution(lights, first + 32 * w + b, s, params, n, nc, t, p, v);
             if (bits == 0u) next_tile_word(mask, words, w, bits);
         } while (bits != 0u);
     } while (++chunk * 8 < TILE_QUADS);

@@ -16,6 +16,7 @@
 #define MAP_NORMAL_ROUGHNESS 8  // RGB: tangent-space normal, A: perceptual roughness (absolute)
 #define MAP_F0 16               // R: multiplies the dielectric F0 (baked blends)
 #define MAP_SELECT 32           // R: >= 0.5 picks layer 1's material row (baked blends)
+#define MAP_COAT_NORMAL 64      // RGB: the clear coat's tangent-space normal (layer 0 only)
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -48,6 +49,7 @@ uniform sampler2D u_anisotropy_map0;
 uniform sampler2D u_normal_roughness_map0;
 uniform sampler2D u_f0_map0;
 uniform sampler2D u_select_map0;
+uniform sampler2D u_coat_normal_map0;
 #if BLEND
 uniform LayerConstants u_layer1;
 uniform sampler2D u_base_color_map1;
@@ -85,6 +87,8 @@ Layer read_layer(LayerConstants c, int maps, vec2 uv, sampler2D base_color_map,
 struct MaterialSample {
     Layer layer;
     vec3 n;             // unit shading normal (normal-mapped), facing the viewer's side
+    vec3 nc;            // unit clear-coat normal: the coat's own normal map, else the
+                        // interpolated vertex normal (never the base's normal map)
     vec3 t;             // tangent along +u (not yet orthogonal to n; the lighting pass does it)
     float material_id;
 };
@@ -117,12 +121,20 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
 #if ((LAYER0_MAPS | LAYER1_MAPS) & MAP_NORMAL_ROUGHNESS) != 0
     n = perturb_normal(ng, t, tangent.w, l.normal);
 #endif
+    // glTF KHR_materials_clearcoat: "If clearcoatNormalTexture is not given, no normal
+    // mapping is applied to the clear coat layer, even if normal mapping is applied to the
+    // base material"; with it, the coat's map on the same tangent frame as the base's.
+    vec3 nc = ng;
+#if (LAYER0_MAPS & MAP_COAT_NORMAL) != 0
+    vec4 coat = texture(u_coat_normal_map0, uv * u_layer0.uv_scale);
+    nc = perturb_normal(ng, t, tangent.w, tangent_space_normal(coat.xyz));
+#endif
 #if SPECULAR_AA
     // Tokuyoshi & Kaplanyan 2019: the normal's screen-space variation widens the NDF.
     l.perceptual_roughness = perceptual_roughness_specular_aa(
         l.perceptual_roughness, dFdx(n), dFdy(n), u_specular_aa.x, u_specular_aa.y);
 #endif
-    return MaterialSample(l, n, t_len > 0.0 ? t : n, id);
+    return MaterialSample(l, n, nc, t_len > 0.0 ? t : n, id);
 }
 
 #endif

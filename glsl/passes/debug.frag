@@ -72,16 +72,19 @@ void main() {
     value = vec3(texelFetch(g_depth, px, 0).r);         // view depth, metres
 #elif DEBUG_VIEW == DEBUG_MATERIAL_ID
     value = vec3(texelFetch(g_depth, px, 0).g);         // the material table's row
+#elif DEBUG_VIEW == DEBUG_COAT_NORMAL
+    value = g.nc;                                       // the unit clear-coat normal shaded
 #elif DEBUG_VIEW == DEBUG_LIGHT
     // The very term the lighting pass adds for this light, times pi.
-    value = PI * light_contribution(u_lights, u_light, g.s, g.params, g.n, g.t, g.p, g.v);
+    value = PI * light_contribution(u_lights, u_light, g.s, g.params, g.n, g.nc, g.t, g.p,
+                                    g.v);
 #else
     // F, D, G2, f_spec or f_diffuse of light u_light; 0 where the light is below the
     // surface, as brdf_eval returns there.
     vec3 l;
     light_at(fetch_light(u_lights, u_light), g.p, l);
     if (dot(g.n, l) > 0.0) {
-        BrdfFactors b = brdf_factors(g.s, g.params, g.n, g.t, l, g.v);
+        BrdfFactors b = brdf_factors(g.s, g.params, g.n, g.nc, g.t, l, g.v);
 #if DEBUG_VIEW == DEBUG_FRESNEL
         value = b.F;
 #elif DEBUG_VIEW == DEBUG_NDF
@@ -89,7 +92,7 @@ void main() {
 #elif DEBUG_VIEW == DEBUG_G2
         value = vec3(b.G2);
 #elif DEBUG_VIEW == DEBUG_SPECULAR
-        value = b.f_spec;
+        value = surface_reflection(b);   // the coat's lobe and the base's
 #elif DEBUG_VIEW == DEBUG_DIFFUSE
         value = b.f_diffuse;
 #endif

@@ -24,6 +24,6 @@ void main() {
     GBufferPixel g = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
                                     u_camera_to_world, u_tan_half_fov);
     vec3 Lo = add_masked_lights(vec3(0.0), u_pixel_masks, px, u_lights, 0, g.s, g.params,
-                                g.n, g.t, g.p, g.v);
+                                g.n, g.nc, g.t, g.p, g.v);
     frag_color = vec4(PI * Lo, 1.0);
 }

@@ -49,10 +49,15 @@ void main() {
                                   u_tan_half_fov);
     vec3 v = normalize(u_camera_pos - p);
     vec3 n = sanitize_direction(m.n, v);
+#if GBUFFER_COAT_NORMAL
+    vec3 nc = sanitize_direction(m.nc, n);   // as the lighting pass decodes RT4
+#else
+    vec3 nc = n;
+#endif
     vec3 Lo = vec3(0.0);
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as in the lighting pass
-        Lo += light_contribution(u_lights, i, s, params, n, t, p, v);
+        Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);
     } while (++i < u_light_count);
     frag_color = vec4(PI * Lo, 1.0);
 }

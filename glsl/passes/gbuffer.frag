@@ -15,6 +15,15 @@ layout(location = 2) out vec2 g_depth;
 #if GBUFFER_TANGENT
 layout(location = 3) out vec4 g_tangent;
 #endif
+#if GBUFFER_COAT_NORMAL
+// RT4 follows RT3 where both exist, else takes RT3's place (app/render/gbuffer.py binds the
+// targets in this order).
+#if GBUFFER_TANGENT
+layout(location = 4) out vec2 g_coat_normal;
+#else
+layout(location = 3) out vec2 g_coat_normal;
+#endif
+#endif
 
 void main() {
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
@@ -26,5 +35,8 @@ void main() {
     // Interpolation shortens the tangent and may tilt it off the surface; the lighting
     // pass re-orthonormalises it against n, so only its direction matters here.
     g_tangent = vec4(oct_encode(m.t), l.anisotropy, 0.0);
+#endif
+#if GBUFFER_COAT_NORMAL
+    g_coat_normal = oct_encode(m.nc);
 #endif
 }

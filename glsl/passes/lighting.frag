@@ -34,15 +34,15 @@ void main() {
 #if DIRECTIONAL_LIGHTS
     int i = 0;
     do {
-        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.t, g.p, g.v);
+        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
     } while (++i < u_first_local);
 #endif
     Lo = add_masked_lights(Lo, u_tile_masks, px / TILE_SIZE, u_lights, u_first_local, g.s,
-                           g.params, g.n, g.t, g.p, g.v);
+                           g.params, g.n, g.nc, g.t, g.p, g.v);
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above
-        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.t, g.p, g.v);
+        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
     } while (++i < u_light_count);
 #endif
     frag_color = vec4(PI * Lo, 1.0);
