@@ -1,7 +1,7 @@
 """The classroom walkthrough (issue 15): step validation, rendering in both languages,
 labels, projector-ready framing, and the offline handout in real headless Chromium.
 
-Real components throughout: the step files of walkthrough/ (05 and 08), a real EGL
+Real components throughout: the step files of walkthrough/ (all 13; 04 and 07 built), a real EGL
 context, the system's fonts (fc-match), Debian's /usr/bin/chromium over the DevTools
 pipe. Images are 160x90 so the whole file stays near a minute on llvmpipe.
 """
@@ -27,6 +27,8 @@ from app.walkthrough.build import (
     SweepImages,
     ViewImages,
     build,
+    render_comparison,
+    render_sweep,
     render_view,
 )
 from app.walkthrough.handout import write_handout
@@ -104,7 +106,7 @@ BROKEN = [
 ]
 
 
-def _write(folder: Path, text: str, name: str = "05-fresnel.toml") -> Path:
+def _write(folder: Path, text: str, name: str = "05-fresnel-reflectance.toml") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / name
     path.write_text(text, encoding="utf-8")
@@ -202,9 +204,10 @@ def test_fit_keeps_every_sphere_in_view(
 def built(
     gl_egl: GLContext, tmp_path_factory: pytest.TempPathFactory
 ) -> dict[str, tuple[Path, list[RenderedStep]]]:
-    """Both example steps rendered in both languages with their images kept, and each
-    language's handout written: lang -> (folder, steps)."""
-    steps = load_walkthrough(STEPS, {5, 8})
+    """Steps 4 and 7 (views, comparisons, a sweep and a plot between them) rendered in
+    both languages with their images kept, and each language's handout written:
+    lang -> (folder, steps)."""
+    steps = load_walkthrough(STEPS, {4, 7})
     out = {}
     for lang in ("en", "ko"):
         folder = tmp_path_factory.mktemp(f"handout-{lang}")
@@ -270,7 +273,7 @@ def test_comparisons_and_sweeps_differ_between_their_ends(built: dict, lang: str
 def test_labels_are_drawn_inside_their_boxes_only(gl_egl: GLContext) -> None:
     """The labelled view differs from the plain render inside the label boxes (darkened,
     with light text) and nowhere else."""
-    loaded = load_step(STEPS / "05-fresnel.toml")
+    loaded = load_step(STEPS / "05-fresnel-reflectance.toml")
     view = View(scene="sec8_ndf")  # labels = "names": every sphere's name
     scene = load_scene(REPO / "scenes" / "sec8_ndf.toml")
     for lang in ("en", "ko"):
@@ -401,3 +404,44 @@ def test_no_hangul_font_is_one_line_naming_the_package(tmp_path: Path) -> None:
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.count("\n") == 1 and "fonts-noto-cjk" in proc.stderr, proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+# --- every step of the lesson -----------------------------------------------------------------
+
+EVERY_STEP_SIZE = (128, 72)
+# Several pairs change one sphere of a row (gold's Fresnel among 39 spheres, diamond in
+# water): "differs visibly" is then a count of pixels, not a share of the image.
+MIN_VISIBLE_PIXELS = 8  # pixels whose display value moves by more than 8/255
+
+
+def _visible(a: np.ndarray, b: np.ndarray) -> int:
+    return int((np.abs(a.astype(np.int32) - b.astype(np.int32)).max(axis=2) > 8).sum())
+
+
+def test_every_steps_pairs_and_sweeps_differ_at_their_ends(gl_egl: GLContext) -> None:
+    """All 13 bundled steps: every comparison's sides and every sweep's two ends render
+    finite, non-negative radiance and differ visibly (at least MIN_VISIBLE_PIXELS pixels
+    by more than 8/255). The sweeps' inner frames and the plots are left to the build
+    test above; the language changes captions only, never what is rendered."""
+    steps = load_walkthrough(STEPS)
+    assert sorted(s.step.section for s in steps) == list(range(1, 14))
+    measured = []
+    for loaded in steps:
+        step = loaded.step
+        for i, item in enumerate(step.comparisons):
+            images = render_comparison(
+                gl_egl, item, loaded.scene(item.scene), EVERY_STEP_SIZE, "en"
+            )
+            for hdr in images.hdr:
+                assert np.isfinite(hdr).all() and (hdr >= 0.0).all()
+            measured.append((f"{step.section} comparisons[{i}]", _visible(images.a, images.b)))
+        for i, sweep in enumerate(step.sweeps):
+            ends = sweep.model_copy(update={"steps": 2})
+            images = render_sweep(gl_egl, ends, loaded, f"sweeps[{i}]", EVERY_STEP_SIZE, "en")
+            for hdr in images.hdrs:
+                assert np.isfinite(hdr).all() and (hdr >= 0.0).all()
+            measured.append((f"{step.section} sweeps[{i}]", _visible(*images.frames)))
+    print("\n".join(f"{where}: {count} pixels" for where, count in measured))
+    assert len(measured) >= 26
+    faint = [(where, count) for where, count in measured if count < MIN_VISIBLE_PIXELS]
+    assert not faint, faint
