@@ -445,3 +445,13 @@ def test_every_steps_pairs_and_sweeps_differ_at_their_ends(gl_egl: GLContext) ->
     assert len(measured) >= 26
     faint = [(where, count) for where, count in measured if count < MIN_VISIBLE_PIXELS]
     assert not faint, faint
+
+
+def test_emphasis_closes_before_korean_particles() -> None:
+    """*반사*되고: Korean attaches its particle to the emphasised word, so a single * must
+    close inside a word (CommonMark's rule for *); a lone * between spaces stays a star."""
+    from app.walkthrough.markup import to_html
+
+    html = to_html("표면에서 *반사*되고 **굴절**됩니다; a * b", lambda m: m)
+    assert "<em>반사</em>되고" in html and "<strong>굴절</strong>됩니다" in html
+    assert "a * b" in html and "*" not in html.replace("a * b", "")

@@ -16,7 +16,9 @@ from collections.abc import Callable
 # A code span, or math between unescaped dollars (on one line).
 _SPAN = re.compile(r"(`[^`\n]+`|(?<!\\)\$(?:[^$\n\\]|\\.)+?(?<!\\)\$)")
 _BOLD = re.compile(r"\*\*(.+?)\*\*")
-_ITALIC = re.compile(r"(?<![*\w])\*(?!\s)(.+?)(?<!\s)\*(?![*\w])")
+# A single * opens and closes inside words too (CommonMark's rule for *, not for _):
+# Korean attaches particles to the emphasised word, as in *반사*되고.
+_ITALIC = re.compile(r"(?<!\*)\*(?![\s*])(.+?)(?<![\s*])\*(?!\*)")
 _BLANK = re.compile(r"\n[ \t]*\n")
 
 
