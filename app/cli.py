@@ -54,6 +54,16 @@ def _debug_views() -> dict[str, str]:
     return DEBUG_VIEWS
 
 
+def _gl_backend(parser: argparse.ArgumentParser) -> None:
+    """The ``--backend`` option of the commands that render headless."""
+    parser.add_argument(
+        "--backend",
+        choices=("auto", "egl", "osmesa"),
+        default="auto",
+        help="headless OpenGL backend (default: EGL, then OSMesa)",
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pbs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -67,13 +77,15 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
     render.add_argument("-o", "--output", required=True, help="PNG file to write")
     render.add_argument("--size", type=_size, help="WIDTHxHEIGHT (default: the scene's)")
-    render.add_argument("--hdr", help="also write the linear HDR image (.exr or .npy)")
     render.add_argument(
-        "--backend",
-        choices=("auto", "egl", "osmesa"),
-        default="auto",
-        help="headless OpenGL backend (default: EGL, then OSMesa)",
+        "--fit",
+        action="store_true",
+        help="with --size of another aspect ratio than the scene's: keep the scene's whole "
+        "framing (a narrower image widens the vertical field of view; a wider one shows "
+        "more at the sides)",
     )
+    render.add_argument("--hdr", help="also write the linear HDR image (.exr or .npy)")
+    _gl_backend(render)
     render.add_argument(
         "--debug",
         metavar="VIEW",
@@ -114,6 +126,7 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
     _textures_parser(sub)
+    _walkthrough_parser(sub)
     view = sub.add_parser(
         "view",
         help="open the desktop viewer on a scene (glfw window, Dear ImGui panels)",
@@ -212,6 +225,49 @@ def _brdf_parser(sub: argparse._SubParsersAction) -> None:
     brdf.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
 
 
+def _sections(text: str) -> set[int]:
+    try:
+        values = {int(part) for part in text.split(",")}
+    except ValueError:
+        values = set()
+    if not values or not all(1 <= n <= 13 for n in values):
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated section numbers within 1..13, got '{text}'"
+        )
+    return values
+
+
+def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
+    """The ``walkthrough`` subcommand's arguments (docs/walkthrough.md)."""
+    walkthrough = sub.add_parser(
+        "walkthrough",
+        help="render the classroom walkthrough's steps into an offline HTML handout",
+        description="Render every step of the walkthrough (labelled views, A/B comparisons "
+        "with their difference, sweeps, BRDF plots) and write DIR/index.html, an offline "
+        "handout that prints on A4, and DIR/walkthrough.md (docs/walkthrough.md).",
+    )
+    walkthrough.add_argument("--out", required=True, metavar="DIR", help="folder to write")
+    walkthrough.add_argument(
+        "--lang", choices=("en", "ko"), default="en", help="language of the text (default en)"
+    )
+    walkthrough.add_argument(
+        "--size",
+        type=_size,
+        help="WIDTHxHEIGHT of every image (default: each scene's own); the scene's whole "
+        "framing is kept at any aspect ratio (as pbs render --fit)",
+    )
+    walkthrough.add_argument(
+        "--steps", type=_sections, metavar="N,M", help="only these sections (default: all)"
+    )
+    walkthrough.add_argument(
+        "--folder", help="the step files' folder (default: the bundled walkthrough/)"
+    )
+    _gl_backend(walkthrough)
+    walkthrough.add_argument(
+        "-q", "--quiet", action="store_true", help="no progress bar, no summary"
+    )
+
+
 def _textures_parser(sub: argparse._SubParsersAction) -> None:
     """The ``textures`` subcommand's arguments (docs/textures.md)."""
     textures = sub.add_parser(
@@ -294,6 +350,10 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise InputError("--debug-light", "", f"applies only to --debug {', '.join(LIGHT_VIEWS)}")
     scene_path = _resolve_scene(args.scene)
     loaded = load_scene(scene_path)
+    if args.fit:
+        from app.frame.camera import fit_scene
+
+        loaded = fit_scene(loaded, args.size)
     if args.compare is not None:
         return _render_comparison(args, loaded, out, start)
     for option, value in (
@@ -446,6 +506,42 @@ def cmd_textures(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_walkthrough(args: argparse.Namespace) -> int:
+    """Render the walkthrough's steps and write the handout (app/walkthrough). The steps
+    and the fonts are checked before any GL work."""
+    from app.gl.context import create_context
+    from app.progress import Progress
+    from app.resources import walkthrough_dir
+    from app.walkthrough.build import build, count_items
+    from app.walkthrough.handout import write_handout
+    from app.walkthrough.labels import find_font
+    from app.walkthrough.model import load_walkthrough
+
+    start = time.perf_counter()
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(str(out), "--out", "not a folder")
+    steps = load_walkthrough(args.folder or walkthrough_dir(), args.steps)
+    find_font(args.lang)
+    gl = create_context(args.backend)
+    progress = Progress(count_items(steps), enabled=not args.quiet)
+    try:
+        rendered = build(gl, steps, out, args.lang, args.size, progress)
+    except OSError as exc:
+        why = f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc)
+        raise InputError(str(out), "--out", f"cannot write ({why})") from None
+    finally:
+        gl.release()
+    page, markdown = write_handout(out, rendered, args.lang)
+    if not args.quiet:
+        images = sum(len(r.figures) for r in rendered)
+        print(
+            f"{page}: {len(rendered)} step(s), {images} image(s), lang {args.lang}; "
+            f"{markdown}; {time.perf_counter() - start:.2f} s"
+        )
+    return 0
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     from app.viewer.window import Viewer, ViewerError
 
@@ -478,6 +574,7 @@ def main(argv: list[str] | None = None) -> int:
         "render": cmd_render,
         "brdf": cmd_brdf,
         "textures": cmd_textures,
+        "walkthrough": cmd_walkthrough,
         "view": cmd_view,
     }
     try:

@@ -29,3 +29,13 @@ def glsl_dir() -> Path:
 def scenes_dir() -> Path:
     """The folder holding the bundled scene files."""
     return _first_existing("scenes")
+
+
+@cache
+def walkthrough_dir() -> Path:
+    """The folder holding the walkthrough's step files (``walkthrough/`` in a checkout,
+    ``app/walkthrough_steps`` in a wheel: ``app/walkthrough`` is the code)."""
+    for candidate in (_PACKAGE / "walkthrough_steps", _PACKAGE.parent / "walkthrough"):
+        if candidate.is_dir():
+            return candidate
+    raise FileNotFoundError(f"cannot find the walkthrough's step files next to {_PACKAGE}")

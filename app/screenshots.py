@@ -2,6 +2,8 @@
 
 ``python -m app.screenshots [--backend egl|osmesa]``; the regression test renders each
 scene again and compares with these images perceptually (FLIP).
+``python -m app.screenshots --handout`` instead writes ``screenshots/walkthrough-handout.png``:
+the first page of the walkthrough's Korean handout as headless Chromium shows it.
 """
 
 from __future__ import annotations
@@ -36,11 +38,47 @@ def render_scene(gl: GLContext, path: Path) -> np.ndarray:
         renderer.release()
 
 
+HANDOUT_PAGE = (1000, 1400)  # CSS pixels: about an A4 page's proportions
+
+
+def handout_screenshot(gl: GLContext, out: Path, lang: str = "ko") -> None:
+    """The walkthrough's handout (every bundled step, images 640x360) as Chromium shows
+    its first ``HANDOUT_PAGE``, written as PNG to ``out``."""
+    import tempfile
+
+    from app.output import atomic_write
+    from app.resources import walkthrough_dir
+    from app.walkthrough.browser import Browser
+    from app.walkthrough.build import build
+    from app.walkthrough.handout import write_handout
+    from app.walkthrough.model import load_walkthrough
+
+    with tempfile.TemporaryDirectory(prefix="pbs-handout-") as tmp:
+        folder = Path(tmp)
+        rendered = build(gl, load_walkthrough(walkthrough_dir()), folder, lang, (640, 360))
+        page, _ = write_handout(folder, rendered, lang)
+        with Browser(*HANDOUT_PAGE) as browser:
+            browser.open(page)
+            png = browser.screenshot()
+    atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
+    parser.add_argument(
+        "--handout",
+        action="store_true",
+        help="write only screenshots/walkthrough-handout.png (needs chromium)",
+    )
     args = parser.parse_args(argv)
     gl = create_context(args.backend)
+    if args.handout:
+        out = SHOTS / "walkthrough-handout.png"
+        handout_screenshot(gl, out)
+        print(out.relative_to(REPO))
+        gl.release()
+        return 0
     for path in scene_files():
         out = SHOTS / f"{path.stem}.png"
         write_png(out, render_scene(gl, path))

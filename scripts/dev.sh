@@ -4,7 +4,8 @@
 #   bash scripts/dev.sh test     run the whole test suite
 #   bash scripts/dev.sh shots    regenerate screenshots/ for every scene in scenes/
 #   bash scripts/dev.sh setup    set up only
-# Set-up (idempotent): Debian's Mesa EGL + llvmpipe, OSMesa and Xvfb (apt-get when
+# Set-up (idempotent): Debian's Mesa EGL + llvmpipe, OSMesa, Xvfb, the Noto CJK fonts
+# and Chromium (the walkthrough's Hangul and its handout's tests) (apt-get when
 # root, else the exact packages to install are printed), a virtual environment in
 # .venv, and the project with its test tools installed into it.
 set -euo pipefail
@@ -12,7 +13,8 @@ cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 VENV="$ROOT/.venv"
 
-APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth xdotool)
+APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth xdotool
+              fonts-noto-cjk fontconfig chromium)
 PY_APT_PACKAGES=(python3 python3-venv python3-pip)
 
 have_system_libs() {
@@ -22,7 +24,10 @@ have_system_libs() {
     "$ldconfig" -p 2>/dev/null | grep -q 'libOSMesa.so' &&
     ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 &&
     command -v Xvfb >/dev/null 2>&1 &&
-    command -v xdotool >/dev/null 2>&1
+    command -v xdotool >/dev/null 2>&1 &&
+    # the walkthrough: Hangul labels and text (Noto Sans CJK), its handout's tests (Chromium)
+    fc-match -f '%{file}' 'Noto Sans CJK KR' 2>/dev/null | grep -qi 'NotoSansCJK' &&
+    command -v chromium >/dev/null 2>&1
 }
 
 pick_python() {

@@ -213,6 +213,7 @@ def test_wheel_install_runs_from_anywhere(tmp_path: Path) -> None:
     assert (site / "app" / "glsl" / "brdf" / "ndf.glsl").is_file()
     assert (site / "app" / "scenes" / "showcase.toml").is_file()
     assert (site / "app" / "scenes" / "meshes" / "teapot.obj").is_file()
+    assert list((site / "app" / "walkthrough_steps").glob("*.toml"))  # the lesson's steps
 
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()

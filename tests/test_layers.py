@@ -8,7 +8,7 @@ only its own package or a lower layer.
       -> scene (app.scene)
       -> frame data (app.frame)
       -> passes (app.render)
-      -> tools on top: BRDF probe, bench, viewer, CLI, screenshots
+      -> tools on top: BRDF probe, walkthrough, viewer, bench, CLI, screenshots
 """
 
 from __future__ import annotations
@@ -25,13 +25,14 @@ APP = REPO / "app"
 # Packages (or modules) in layer order. Within a layer, peers may not import each other:
 # the twins and the GL plumbing know nothing of one another.
 LAYERS: list[tuple[str, ...]] = [
-    ("app.common", "app.errors", "app.resources", "app.output"),
+    ("app.common", "app.errors", "app.resources", "app.output", "app.progress"),
     ("app.reference", "app.gl"),
     ("app.textures",),
     ("app.scene",),
     ("app.frame",),
     ("app.render",),
     ("app.brdf", "app.assets"),
+    ("app.walkthrough",),  # the classroom lesson: renders, plots, labels, handout
     ("app.viewer",),
     ("app.bench",),  # it measures the viewer too
     ("app.cli", "app.screenshots"),

@@ -100,10 +100,10 @@ def pyrender_available() -> tuple[bool, str]:
 def main(argv: list[str] | None = None) -> int:
     """Run the bench; 0 on success, 1 if a suite failed, 2 on bad arguments."""
     from app.bench import plots, report, suites
-    from app.bench.progress import Progress
     from app.bench.suites import FULL, QUICK, TINY
     from app.bench.timing import TIMER_FINISH, TIMER_QUERY, GLTimerQueries
     from app.gl.context import create_context
+    from app.progress import Progress
 
     parser = _parser()
     try:

@@ -31,7 +31,6 @@ from app.bench.floor import FloorPass
 from app.bench.forward import ForwardRenderer
 from app.bench.metrics import image_errors
 from app.bench.pairs import LightPairs, light_pairs, reference_hdr
-from app.bench.progress import Progress
 from app.bench.scenes import (
     SPECIALIZATION_KINDS,
     accuracy_scene,
@@ -52,6 +51,7 @@ from app.bench.timing import (
 )
 from app.common.tables import DEFAULT_SIZE
 from app.gl.context import GLContext
+from app.progress import Progress
 from app.reference.multiscatter import load_table
 from app.render.culling import TILE_SIZE
 from app.render.renderer import Renderer, RenderOptions

@@ -13,6 +13,7 @@ import numpy as np
 from pyrr import matrix44
 
 from app.common.camera import CameraFrame
+from app.scene.loader import LoadedScene
 from app.scene.model import Camera
 
 
@@ -50,3 +51,35 @@ def camera_frame(cam: Camera, width: int, height: int) -> CameraFrame:
         near=cam.near,
         far=cam.far,
     )
+
+
+# A fitted field of view stays below this (degrees): the scene format's fov_y < 180.
+MAX_FIT_FOV_Y = 170.0
+
+
+def fit_fov_y(fov_y: float, scene_aspect: float, aspect: float) -> float:
+    """The vertical field of view (degrees) that shows at ``aspect`` (width / height) all
+    that ``fov_y`` shows at ``scene_aspect``: where the image is narrower, the horizontal
+    extent is kept, so tan(fov/2) grows by scene_aspect / aspect; where it is wider, the
+    vertical one is kept (``fov_y`` unchanged) and more is seen at the sides. Capped at
+    ``MAX_FIT_FOV_Y`` for extreme ratios."""
+    if aspect >= scene_aspect:
+        return float(fov_y)
+    t = math.tan(math.radians(fov_y) / 2.0) * scene_aspect / aspect
+    return min(math.degrees(2.0 * math.atan(t)), MAX_FIT_FOV_Y)
+
+
+def fit_scene(loaded: LoadedScene, size: tuple[int, int] | None) -> LoadedScene:
+    """``loaded`` with its camera's fov_y fitted (``fit_fov_y``) so that an image of
+    ``size`` keeps the whole framing of the scene's own render.width x render.height
+    (projector-ready framing: ``pbs render --fit``, the walkthrough). ``None`` or the
+    scene's own aspect returns ``loaded`` unchanged."""
+    if size is None:
+        return loaded
+    render = loaded.scene.render
+    cam = loaded.scene.camera
+    fov = fit_fov_y(cam.fov_y, render.width / render.height, size[0] / size[1])
+    if fov == cam.fov_y:
+        return loaded
+    camera = cam.model_copy(update={"fov_y": fov})
+    return LoadedScene(loaded.scene.model_copy(update={"camera": camera}), loaded.path)

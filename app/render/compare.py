@@ -144,17 +144,7 @@ class CompareSpec:
         """
         value = self.value(side)
         data = base.scene.model_dump(exclude_none=True)  # a fresh copy: free to edit
-        node: object = data
-        for depth, part in enumerate(self.path):
-            last = depth == len(self.path) - 1
-            problem = _missing(node, part, last)
-            if problem is not None:
-                where = key_path(self.path[: depth + 1])
-                raise InputError(str(base.path), where, f"{problem} ({self.origin})")
-            if last:
-                node[part] = copy.deepcopy(value)  # type: ignore[index]
-            else:
-                node = node[part]  # type: ignore[index]
+        set_key(data, self.path, value, str(base.path), self.origin)
         try:
             return parse_scene(data, base.path)
         except InputError as exc:
@@ -186,6 +176,24 @@ class CompareSpec:
     def touches(self, table: str) -> bool:
         """Whether the key lies in the scene's top-level ``table`` (``"camera"``)."""
         return self.path[0] == table
+
+
+def set_key(data: dict, path: tuple[str | int, ...], value: object, file: str, origin: str) -> None:
+    """Set ``path`` (from ``parse_key``) in the scene data ``data`` (a scene's
+    ``model_dump``, edited in place) to a copy of ``value``. Every table and list on the
+    way must exist (a typo in a material's name must not quietly add a material that
+    nothing uses); the last name may be a key the scene leaves at its default. A missing
+    step is an ``InputError`` from ``file`` naming the path up to it."""
+    node: object = data
+    for depth, part in enumerate(path):
+        last = depth == len(path) - 1
+        problem = _missing(node, part, last)
+        if problem is not None:
+            raise InputError(file, key_path(path[: depth + 1]), f"{problem} ({origin})")
+        if last:
+            node[part] = copy.deepcopy(value)  # type: ignore[index]
+        else:
+            node = node[part]  # type: ignore[index]
 
 
 def _missing(node: object, part: str | int, last: bool) -> str | None:

@@ -42,7 +42,9 @@ def key_path(loc: tuple[str | int, ...]) -> str:
     return out
 
 
-def _describe(error: dict) -> tuple[str, str]:
+def describe_error(error: dict) -> tuple[str, str]:
+    """One pydantic error as (key path, message), the way a user finds it in the file
+    (also the walkthrough's step files)."""
     loc = tuple(error["loc"])
     msg = error["msg"]
     if error["type"] == "extra_forbidden":
@@ -61,13 +63,14 @@ def _describe(error: dict) -> tuple[str, str]:
     return key_path(loc), msg
 
 
-def _read_text(path: Path) -> str:
+def read_text(path: Path, kind: str = "scene file") -> str:
+    """A ``kind`` file's UTF-8 text, or one ``InputError`` saying why it cannot be read."""
     try:
         return path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise InputError(str(path), "", "no such file") from None
     except IsADirectoryError:
-        raise InputError(str(path), "", "is a folder, not a scene file") from None
+        raise InputError(str(path), "", f"is a folder, not a {kind}") from None
     except PermissionError:
         raise InputError(str(path), "", "permission denied") from None
     except UnicodeDecodeError as exc:
@@ -81,7 +84,7 @@ def parse_scene(data: dict, path: Path) -> LoadedScene:
     try:
         scene = Scene.model_validate(data)
     except ValidationError as exc:
-        key, msg = _describe(exc.errors()[0])
+        key, msg = describe_error(exc.errors()[0])
         raise InputError(str(path), key, msg) from None
     loaded = LoadedScene(scene, path)
     for name, material in scene.materials.items():
@@ -141,7 +144,7 @@ def _check_readable(loaded: LoadedScene, relative: str, key: str) -> None:
 def load_scene(path: str | Path) -> LoadedScene:
     """Read and validate a TOML scene file."""
     path = Path(path)
-    text = _read_text(path)
+    text = read_text(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -1,0 +1,336 @@
+"""The walkthrough's step format (docs/walkthrough.md) and its loader.
+
+A step is validated like a scene: unknown keys, missing ``en``/``ko``, a section outside
+1..13, a scene that does not exist, a key path the scene does not have or a value it
+refuses, an object label naming no object, LaTeX that mathtext cannot lay out, a BRDF
+plot material ``pbs brdf`` refuses: each is one ``InputError`` naming the step file and
+the key (``comparisons[0].key``), which the CLI prints on one line and exits 2.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from app.errors import InputError
+from app.render.compare import parse_key, set_key
+from app.scene.loader import (
+    LoadedScene,
+    describe_error,
+    key_path,
+    load_scene,
+    parse_scene,
+    read_text,
+)
+
+LANGUAGES: tuple[str, ...] = ("en", "ko")
+Lang = Literal["en", "ko"]
+SECTIONS = range(1, 14)  # RTR4 §9.1 .. §9.13, the seed's 13 sections
+MAX_SWEEP_STEPS = 9
+
+# A loc part that pydantic adds for a union member (``list[Label]``), not a key of the file.
+_KEY_PART = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+
+class Text(_Strict):
+    """A human-readable string in both languages."""
+
+    en: Annotated[str, Field(min_length=1)]
+    ko: Annotated[str, Field(min_length=1)]
+
+    def get(self, lang: Lang) -> str:
+        return self.en if lang == "en" else self.ko
+
+
+class Equation(_Strict):
+    """One equation of the section, LaTeX (matplotlib's mathtext subset)."""
+
+    latex: Annotated[str, Field(min_length=1)]
+    caption: Text | None = None
+
+
+class Label(_Strict):
+    """An explicit label: ``object`` is an index into the scene's [[objects]] or a name."""
+
+    object: Annotated[int, Field(strict=True, ge=0)] | str
+    text: Text
+
+
+class View(_Strict):
+    """A plain image of a scene with its objects labelled."""
+
+    scene: str
+    caption: Text | None = None
+    labels: Literal["names", "none"] | list[Label] = "names"
+
+
+class Comparison(_Strict):
+    """An A/B pair: the scene with ``key`` set to ``a`` and to ``b`` (docs/compare.md)."""
+
+    scene: str
+    key: str
+    a: Any
+    b: Any
+    label_a: Text
+    label_b: Text
+    caption: Text | None = None
+
+
+class Sweep(_Strict):
+    """``steps`` images with every key of ``keys`` set to values from ``from`` to ``to``."""
+
+    model_config = ConfigDict(populate_by_name=True)
+
+    scene: str
+    keys: Annotated[list[str], Field(min_length=1)]
+    start: Annotated[float, Field(alias="from")]
+    to: float
+    steps: Annotated[int, Field(strict=True, ge=2, le=MAX_SWEEP_STEPS)]
+    caption: Text | None = None
+    format: str = "{:.2f}"
+
+    @model_validator(mode="after")
+    def _check(self) -> Sweep:
+        try:
+            self.format.format(self.start)
+        except (ValueError, IndexError, KeyError) as exc:
+            raise ValueError(f"format: not a Python format for one number ({exc})") from None
+        return self
+
+    def values(self) -> list[float]:
+        """The swept values, ``from`` to ``to`` in ``steps`` even steps."""
+        return [float(v) for v in np.linspace(self.start, self.to, self.steps)]
+
+
+class Plot(_Strict):
+    """BRDF lobes and albedo of materials, as ``pbs brdf`` plots them."""
+
+    materials: Annotated[list[str], Field(min_length=1)]
+    theta: Annotated[list[Annotated[float, Field(ge=0.0, le=90.0)]], Field(min_length=1)] | None = (
+        None
+    )
+    caption: Text | None = None
+
+
+class Step(_Strict):
+    """One step of the walkthrough: one section of RTR4 chapter 9."""
+
+    section: Annotated[int, Field(strict=True, ge=SECTIONS.start, le=SECTIONS.stop - 1)]
+    title: Text
+    text: Text
+    equations: list[Equation] = []
+    views: list[View] = []
+    comparisons: list[Comparison] = []
+    sweeps: list[Sweep] = []
+    plots: list[Plot] = []
+
+    @model_validator(mode="after")
+    def _check(self) -> Step:
+        if not (self.views or self.comparisons or self.sweeps or self.plots):
+            raise ValueError(
+                "views: a step needs at least one of views, comparisons, sweeps, plots"
+            )
+        return self
+
+
+@dataclass(frozen=True)
+class LoadedStep:
+    """A validated step, its file, and every scene it names (loaded once, by reference)."""
+
+    step: Step
+    path: Path
+    scenes: dict[str, LoadedScene]
+
+    @property
+    def slug(self) -> str:
+        """The file's name without ``.toml`` (``05-fresnel``): names the step's images."""
+        return self.path.stem
+
+    def scene(self, ref: str) -> LoadedScene:
+        return self.scenes[ref]
+
+
+def resolve_scene_ref(ref: str, step_path: Path) -> Path:
+    """A step's scene reference: a bundled scene's name (``sec8_ndf``), or a path ending
+    in ``.toml`` relative to the step file."""
+    from app.resources import scenes_dir
+
+    if ref.endswith(".toml") or "/" in ref or "\\" in ref:
+        return step_path.parent / ref
+    return scenes_dir() / f"{ref}.toml"
+
+
+def _error(path: Path, key: str, message: str) -> InputError:
+    return InputError(str(path), key, message)
+
+
+def _load_scenes(step: Step, path: Path) -> dict[str, LoadedScene]:
+    scenes: dict[str, LoadedScene] = {}
+    for kind in ("views", "comparisons", "sweeps"):
+        for i, item in enumerate(getattr(step, kind)):
+            ref = item.scene
+            if ref in scenes:
+                continue
+            file = resolve_scene_ref(ref, path)
+            if not file.is_file():
+                raise _error(
+                    path,
+                    f"{kind}[{i}].scene",
+                    f"no such scene '{ref}' (a bundled scene's name like sec8_ndf, or a "
+                    f".toml path relative to the step file; looked for {file})",
+                )
+            try:
+                scenes[ref] = load_scene(file)
+            except InputError as exc:
+                why = f"the scene does not load: {exc}"
+                raise _error(path, f"{kind}[{i}].scene", why) from None
+    return scenes
+
+
+def _check_labels(view: View, loaded: LoadedScene, path: Path, where: str) -> None:
+    if not isinstance(view.labels, list):
+        return
+    objects = loaded.scene.objects
+    names = [obj.name for obj in objects]
+    for j, label in enumerate(view.labels):
+        key = f"{where}.labels[{j}].object"
+        if isinstance(label.object, int):
+            if label.object >= len(objects):
+                raise _error(path, key, f"no object {label.object}: the scene has {len(objects)}")
+        elif label.object not in names:
+            known = ", ".join(repr(n) for n in names if n) or "no named objects"
+            raise _error(path, key, f"no object named {label.object!r} (named: {known})")
+
+
+def with_values(
+    loaded: LoadedScene, keys: list[str], value: object, path: Path, where: str, origin: str
+) -> LoadedScene:
+    """``loaded`` with every key path set to ``value``, validated as a scene file: a
+    missing key is an error at ``where``'s key, a refused value at ``origin``'s."""
+    data = loaded.scene.model_dump(exclude_none=True)
+    fields: dict[str, str] = {}  # the key as the scene loader names it -> the step's field
+    for j, key in enumerate(keys):
+        field = f"{where}.keys[{j}]" if where.startswith("sweeps") else f"{where}.key"
+        try:
+            parsed = parse_key(key, str(path))
+            set_key(data, parsed, value, str(loaded.path), where)
+        except InputError as exc:
+            raise _error(path, field, f"{exc.key}: {exc.message}") from None
+        fields[key_path(parsed)] = field
+    try:
+        return parse_scene(data, loaded.path)
+    except InputError as exc:
+        scene = loaded.path.stem
+        # A misspelt last name is added as a new key, which the scene refuses as unknown:
+        # the key is wrong, not the value.
+        unknown = exc.message == "unknown key" and exc.key in fields
+        raise _error(
+            path,
+            fields[exc.key] if unknown else origin,
+            f"{exc.key}: {exc.message} (scene {scene}, value {value!r})",
+        ) from None
+
+
+def _check_keys(step: Step, scenes: dict[str, LoadedScene], path: Path) -> None:
+    for i, view in enumerate(step.views):
+        _check_labels(view, scenes[view.scene], path, f"views[{i}]")
+    for i, comp in enumerate(step.comparisons):
+        where = f"comparisons[{i}]"
+        for side in ("a", "b"):
+            value = getattr(comp, side)
+            with_values(scenes[comp.scene], [comp.key], value, path, where, f"{where}.{side}")
+    for i, sweep in enumerate(step.sweeps):
+        where = f"sweeps[{i}]"
+        values = sweep.values()
+        for k, value in enumerate(values):
+            end = "to" if k == len(values) - 1 else "from"
+            with_values(scenes[sweep.scene], sweep.keys, value, path, where, f"{where}.{end}")
+
+
+def _check_math(step: Step, path: Path) -> None:
+    from app.walkthrough.markup import problem
+    from app.walkthrough.mathsvg import check_latex
+
+    for lang in LANGUAGES:
+        why = problem(step.text.get(lang))
+        if why is not None:
+            raise _error(path, f"text.{lang}", why)
+    for i, equation in enumerate(step.equations):
+        why = check_latex(equation.latex)
+        if why is not None:
+            raise _error(path, f"equations[{i}].latex", f"mathtext cannot lay it out: {why}")
+    for kind in ("equations", "views", "comparisons", "sweeps", "plots"):
+        for i, item in enumerate(getattr(step, kind)):
+            if item.caption is None:
+                continue
+            for lang in LANGUAGES:
+                why = problem(item.caption.get(lang))
+                if why is not None:
+                    raise _error(path, f"{kind}[{i}].caption.{lang}", why)
+
+
+def _check_plots(step: Step, path: Path) -> None:
+    from app.brdf.plot import parse_material_arg
+
+    for i, plot in enumerate(step.plots):
+        for j, material in enumerate(plot.materials):
+            try:
+                parse_material_arg(material)
+            except InputError as exc:
+                raise _error(path, f"plots[{i}].materials[{j}]", str(exc)) from None
+
+
+def parse_step(data: dict, path: Path) -> LoadedStep:
+    """Validate a step's parsed TOML: the format, then everything it names."""
+    try:
+        step = Step.model_validate(data)
+    except ValidationError as exc:
+        error = exc.errors()[0]
+        loc = tuple(p for p in error["loc"] if isinstance(p, int) or _KEY_PART.match(p))
+        key, message = describe_error({**error, "loc": loc})
+        raise _error(path, key, message) from None
+    _check_math(step, path)
+    scenes = _load_scenes(step, path)
+    _check_keys(step, scenes, path)
+    _check_plots(step, path)
+    return LoadedStep(step, path, scenes)
+
+
+def load_step(path: str | Path) -> LoadedStep:
+    """Read and validate one step file (``walkthrough/NN-slug.toml``)."""
+    path = Path(path)
+    text = read_text(path, "step file")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise _error(path, "", f"malformed TOML: {exc}") from None
+    return parse_step(data, path)
+
+
+def load_walkthrough(folder: str | Path, sections: set[int] | None = None) -> list[LoadedStep]:
+    """Every step file ``*.toml`` of ``folder`` in file-name order (NN-slug: lesson
+    order), validated; with ``sections``, only the steps of those sections (one that no
+    step has is an error)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise _error(folder, "", "no such folder of walkthrough steps")
+    steps = [load_step(file) for file in sorted(folder.glob("*.toml"))]
+    if not steps:
+        raise _error(folder, "", "no step files (*.toml) in the folder")
+    if sections is not None:
+        missing = sorted(sections - {s.step.section for s in steps})
+        if missing:
+            have = ", ".join(str(s.step.section) for s in steps)
+            raise _error(folder, "--steps", f"no step for section(s) {missing} (steps: {have})")
+        steps = [s for s in steps if s.step.section in sections]
+    return steps
