@@ -142,12 +142,7 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="open the classroom walkthrough's panel on its step (docs/walkthrough.md)",
     )
-    view.add_argument(
-        "--lang",
-        choices=("en", "ko"),
-        default="en",
-        help="the walkthrough's language (default en; ko needs a font with Hangul glyphs)",
-    )
+    _lang_option(view, "the walkthrough's language")
     view.add_argument(
         "--step", type=int, default=1, metavar="N", help="the walkthrough's step: RTR4 §9.N"
     )
@@ -251,6 +246,16 @@ def _sections(text: str) -> set[int]:
     return values
 
 
+def _lang_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--lang en|ko``, the walkthrough's language (Korean needs a Hangul font)."""
+    parser.add_argument(
+        "--lang",
+        choices=("en", "ko"),
+        default="en",
+        help=f"{what} (default en; ko needs a font with Hangul glyphs, fonts-noto-cjk)",
+    )
+
+
 def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
     """The ``walkthrough`` subcommand's arguments (docs/walkthrough.md)."""
     walkthrough = sub.add_parser(
@@ -261,9 +266,7 @@ def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
         "handout that prints on A4, and DIR/walkthrough.md (docs/walkthrough.md).",
     )
     walkthrough.add_argument("--out", required=True, metavar="DIR", help="folder to write")
-    walkthrough.add_argument(
-        "--lang", choices=("en", "ko"), default="en", help="language of the text (default en)"
-    )
+    _lang_option(walkthrough, "language of the text")
     walkthrough.add_argument(
         "--size",
         type=_size,

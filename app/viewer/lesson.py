@@ -375,9 +375,7 @@ class LessonPanel:
     def _equations(self, lesson: Lesson) -> None:
         step = lesson.current.step
         self.equation_rects = []
-        if not step.equations or not imgui.collapsing_header(
-            _ui("equations", lesson.lang), imgui.TreeNodeFlags_.default_open
-        ):
+        if not _open_list(step.equations, "equations", lesson.lang):
             return
         size = round(imgui.get_font_size() * EQUATION_SCALE)
         avail = imgui.get_content_region_avail().x
@@ -392,9 +390,7 @@ class LessonPanel:
 
     def _views(self, lesson: Lesson) -> None:
         step = lesson.current.step
-        if not step.views or not imgui.collapsing_header(
-            _ui("views", lesson.lang), imgui.TreeNodeFlags_.default_open
-        ):
+        if not _open_list(step.views, "views", lesson.lang):
             return
         for i, view in enumerate(step.views):
             imgui.push_id(f"view{i}")
@@ -409,9 +405,7 @@ class LessonPanel:
 
     def _comparisons(self, lesson: Lesson) -> None:
         step, lang = lesson.current.step, lesson.lang
-        if not step.comparisons or not imgui.collapsing_header(
-            _ui("comparisons", lang), imgui.TreeNodeFlags_.default_open
-        ):
+        if not _open_list(step.comparisons, "comparisons", lesson.lang):
             return
         for i, c in enumerate(step.comparisons):
             imgui.push_id(f"comparison{i}")
@@ -427,9 +421,7 @@ class LessonPanel:
 
     def _sweeps(self, lesson: Lesson) -> None:
         step, lang = lesson.current.step, lesson.lang
-        if not step.sweeps or not imgui.collapsing_header(
-            _ui("sweeps", lang), imgui.TreeNodeFlags_.default_open
-        ):
+        if not _open_list(step.sweeps, "sweeps", lesson.lang):
             return
         for i, sweep in enumerate(step.sweeps):
             imgui.push_id(f"sweep{i}")
@@ -452,3 +444,10 @@ class LessonPanel:
                     lesson.play(on)
                 imgui.text(sweep.format.format(lesson.sweep_value))
             imgui.pop_id()
+
+
+def _open_list(items: list, word: str, lang: str) -> bool:
+    """A list's collapsing header (open at first), drawn only when the step has items."""
+    return bool(items) and imgui.collapsing_header(
+        _ui(word, lang), imgui.TreeNodeFlags_.default_open
+    )

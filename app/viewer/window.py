@@ -710,6 +710,8 @@ class Viewer:
             self.screenshot(hdr=bool(mods & glfw.MOD_SHIFT))
         elif key == glfw.KEY_ESCAPE:
             glfw.set_window_should_close(window, True)
+        elif key in (glfw.KEY_PAGE_UP, glfw.KEY_PAGE_DOWN) and self.lesson is not None:
+            self.lesson.go(self.lesson.index + (1 if key == glfw.KEY_PAGE_DOWN else -1))
         elif key in moves:
             moves[key]()
 
