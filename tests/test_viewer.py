@@ -582,3 +582,19 @@ def test_walkthrough_equations_and_korean_draw_in_the_window(xdisplay, scene_cop
         assert korean.shape != boxes.shape or not np.array_equal(korean, boxes)
     finally:
         v.close()
+
+
+def test_pbs_view_lang_ko_without_a_hangul_font_is_one_line_exit_2(monkeypatch, capsys):
+    """With no font with Hangul glyphs, ``pbs view --lang ko`` stops before opening a
+    window: one line naming the package to install, exit 2."""
+    from app import cli
+    from app.walkthrough import labels
+
+    monkeypatch.setattr(labels, "_fc_match", lambda pattern: None)
+    labels.find_font.cache_clear()
+    try:
+        assert cli.main(["view", "--lang", "ko"]) == 2
+    finally:
+        labels.find_font.cache_clear()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "fonts-noto-cjk" in err
