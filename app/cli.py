@@ -137,6 +137,15 @@ def _parser() -> argparse.ArgumentParser:
     view.add_argument("scene", nargs="?", help="scene file or bundled name (default: showcase)")
     view.add_argument("--size", type=_size, default=(960, 540), help="window WIDTHxHEIGHT")
     view.add_argument("--no-vsync", action="store_true", help="do not wait for the display")
+    view.add_argument(
+        "--walkthrough",
+        action="store_true",
+        help="open the classroom walkthrough's panel on its step (docs/walkthrough.md)",
+    )
+    _lang_option(view, "the walkthrough's language")
+    view.add_argument(
+        "--step", type=int, default=1, metavar="N", help="the walkthrough's step: RTR4 §9.N"
+    )
     sub.add_parser(
         "bench",
         help="measure run time against error (options: pbs bench --help)",
@@ -237,6 +246,16 @@ def _sections(text: str) -> set[int]:
     return values
 
 
+def _lang_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--lang en|ko``, the walkthrough's language (Korean needs a Hangul font)."""
+    parser.add_argument(
+        "--lang",
+        choices=("en", "ko"),
+        default="en",
+        help=f"{what} (default en; ko needs a font with Hangul glyphs, fonts-noto-cjk)",
+    )
+
+
 def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
     """The ``walkthrough`` subcommand's arguments (docs/walkthrough.md)."""
     walkthrough = sub.add_parser(
@@ -247,9 +266,7 @@ def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
         "handout that prints on A4, and DIR/walkthrough.md (docs/walkthrough.md).",
     )
     walkthrough.add_argument("--out", required=True, metavar="DIR", help="folder to write")
-    walkthrough.add_argument(
-        "--lang", choices=("en", "ko"), default="en", help="language of the text (default en)"
-    )
+    _lang_option(walkthrough, "language of the text")
     walkthrough.add_argument(
         "--size",
         type=_size,
@@ -545,13 +562,33 @@ def cmd_walkthrough(args: argparse.Namespace) -> int:
 def cmd_view(args: argparse.Namespace) -> int:
     from app.viewer.window import Viewer, ViewerError
 
+    steps = None
+    if args.walkthrough:
+        from app.resources import walkthrough_dir
+        from app.walkthrough.model import load_walkthrough
+
+        if args.scene:
+            raise InputError("--walkthrough", "", "opens its steps' own scenes: give no scene")
+        # Every step validated before the window opens: a broken one is one line, exit 2.
+        steps = load_walkthrough(walkthrough_dir())
+        sections = [loaded.step.section for loaded in steps]
+        if args.step not in sections:
+            raise InputError(
+                "--step", "", f"no step {args.step} (steps: {sections[0]}..{sections[-1]})"
+            )
+    if args.lang == "ko":
+        from app.walkthrough.labels import find_font
+
+        find_font("ko")  # no Hangul font: one line naming the package, exit 2
     scene = _resolve_scene(args.scene) if args.scene else None
     try:
-        viewer = Viewer(scene, args.size, vsync=not args.no_vsync)
+        viewer = Viewer(scene, args.size, vsync=not args.no_vsync, hangul=args.lang == "ko")
     except ViewerError as exc:
         print(f"pbs: error: {exc}", file=sys.stderr)
         return 1
     try:
+        if steps is not None:
+            viewer.open_walkthrough(steps, args.lang, args.step)
         viewer.run()
     finally:
         viewer.close()

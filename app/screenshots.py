@@ -4,6 +4,9 @@
 scene again and compares with these images perceptually (FLIP).
 ``python -m app.screenshots --handout`` instead writes ``screenshots/walkthrough-handout.png``:
 the first page of the walkthrough's Korean handout as headless Chromium shows it.
+``python -m app.screenshots --viewer-walkthrough`` writes ``screenshots/viewer-walkthrough.png``:
+the desktop viewer's window (a real glfw window on a private Xvfb) on the Korean
+walkthrough's step 1 with its first comparison in the split screen.
 """
 
 from __future__ import annotations
@@ -63,6 +66,30 @@ def handout_screenshot(gl: GLContext, out: Path, lang: str = "ko") -> None:
     atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
 
 
+VIEWER_WINDOW = (1280, 720)
+
+
+def viewer_walkthrough_screenshot(out: Path, section: int = 1, lang: str = "ko") -> None:
+    """The viewer's window, panels included, on the walkthrough's step of RTR4
+    §9.``section`` in ``lang`` with the step's first comparison started (as its button
+    does), written as PNG to ``out``."""
+    from app.viewer.window import Viewer
+    from app.viewer.xvfb import xvfb
+
+    with xvfb():
+        viewer = Viewer(None, VIEWER_WINDOW, vsync=False, hangul=lang == "ko")
+        try:
+            if not viewer.open_walkthrough(lang=lang, section=section):
+                raise RuntimeError(viewer.state.error)
+            if not viewer.lesson.compare(0):
+                raise RuntimeError(viewer.state.error)
+            viewer.settle()
+            viewer.step(3)  # the panels laid out, every formula uploaded
+            write_png(out, viewer.read_window())
+        finally:
+            viewer.close()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
@@ -71,7 +98,17 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="write only screenshots/walkthrough-handout.png (needs chromium)",
     )
+    parser.add_argument(
+        "--viewer-walkthrough",
+        action="store_true",
+        help="write only screenshots/viewer-walkthrough.png (needs Xvfb)",
+    )
     args = parser.parse_args(argv)
+    if args.viewer_walkthrough:
+        out = SHOTS / "viewer-walkthrough.png"
+        viewer_walkthrough_screenshot(out)
+        print(out.relative_to(REPO))
+        return 0
     gl = create_context(args.backend)
     if args.handout:
         out = SHOTS / "walkthrough-handout.png"

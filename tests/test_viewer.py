@@ -9,6 +9,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ import pytest
 from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
 from app.scene.loader import load_scene
+from app.viewer.document import get_value
 from tests.test_stability_renderer import GLCensus, resident_mib
 
 SIZE = (320, 180)
@@ -414,3 +416,185 @@ def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp
         v.settle()
         assert v.scene.materials[name].clearcoat_model == "weidlich_wilkie"
         assert not v.state.error
+
+
+# --- the classroom walkthrough in the viewer (app/viewer/lesson.py) ---------------------------
+
+
+@pytest.fixture(scope="module")
+def lesson_steps():
+    """The bundled walkthrough's 13 steps, validated once for the module (about 5 s)."""
+    from app.resources import walkthrough_dir
+    from app.walkthrough.model import load_walkthrough
+
+    return load_walkthrough(walkthrough_dir())
+
+
+def ink(image: np.ndarray) -> np.ndarray:
+    """Pixels that differ from the crop's most common colour (its background)."""
+    flat = image.reshape(-1, 3)
+    values, counts = np.unique(flat, axis=0, return_counts=True)
+    return np.abs(image.astype(int) - values[counts.argmax()].astype(int)).sum(axis=-1) > 60
+
+
+def crop(image: np.ndarray, rect: tuple[float, float, float, float]) -> np.ndarray:
+    x0, y0, x1, y1 = (round(c) for c in rect)
+    return image[y0:y1, x0:x1]
+
+
+def test_pbs_view_walkthrough_opens_step_1(xdisplay, monkeypatch):
+    """``pbs view --walkthrough`` opens the viewer on step 1's first scene with the panel;
+    ``--step 14`` is one line and exit 2 before any window opens."""
+    from app import cli
+    from app.viewer.window import Viewer
+
+    seen = {}
+
+    def run(self):  # instead of the interactive loop: a frame, then what it shows
+        self.settle()
+        seen["lesson"] = (self.lesson.index, self.lesson.current.step.section, self.lesson.lang)
+        seen["scene"] = self.document.path.name
+        seen["error"] = self.state.error
+
+    monkeypatch.setattr(Viewer, "run", run)
+    assert cli.main(["view", "--walkthrough", "--size", "320x180", "--no-vsync"]) == 0
+    assert seen == {"lesson": (0, 1, "en"), "scene": "sec1_specular.toml", "error": ""}
+    assert cli.main(["view", "--walkthrough", "--step", "14"]) == 2
+    assert "lesson" in seen  # (the second call opened nothing: `run` was not reached again)
+
+
+def test_walkthrough_next_and_previous_through_all_steps(viewer, lesson_steps):
+    """Next through all 13 steps and previous back to the first: every step's panel draws
+    (text, inline math and equations as textures) with no error, each step's equations
+    are textures with ink, and the formula textures are released at each step change
+    and at the end no GL object is left over from the walk."""
+    v = viewer
+    assert v.open_walkthrough(lesson_steps, "en", 1)
+    v.step(2)
+    census = GLCensus(v.gl)
+    before = census.live()
+    sections = []
+    for direction in [v.lesson.next] * 12 + [v.lesson.previous] * 12:
+        sections.append(v.lesson.current.step.section)
+        assert len(v.lesson.math) > 0  # the step's text and equations were drawn
+        for image in v.lesson.math.images():
+            assert np.frombuffer(image.texture.read(), np.uint8)[3::4].max() > 128
+        assert direction()
+        assert len(v.lesson.math) == 0  # released with the step
+        v.step(2)
+        assert not v.state.error, (v.lesson.current.slug, v.state.error)
+    assert sections == [*range(1, 13), *range(13, 1, -1)]
+    assert v.lesson.index == 0
+    assert census.live() == before
+
+
+def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps):
+    """Step 5's first comparison (gold: Schlick | exact conductor Fresnel) in one call, as
+    its button does: the window shows the split screen that ``pbs render --compare`` makes
+    of the same scene file, key and values."""
+    from app.gl.context import create_context
+    from app.render.compare import CompareSpec, Comparison
+
+    v = viewer
+    assert v.open_walkthrough(lesson_steps, "en", 5)
+    c = v.lesson.current.step.comparisons[0]
+    assert v.lesson.compare(0) and v.comparison is not None
+    shown = window_image(v)
+    gl = create_context("egl")
+    try:
+        with gl.ctx:
+            loaded = load_scene(scenes_dir() / f"{c.scene}.toml")
+            comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size)
+            try:
+                comp.render()
+                comp.composite("split", 0.5)
+                want = comp.read_ldr()
+            finally:
+                comp.release()
+    finally:
+        gl.release()
+    assert_close(shown, want)
+    assert v.document.path.name == f"{c.scene}.toml"
+
+
+def test_walkthrough_sweep_value_and_reset(viewer, lesson_steps, gl_egl):
+    """Step 8's roughness sweep at 0.35 (what its slider sets) shows what the headless
+    renderer shows of the scene file with every swept key at 0.35; "play" moves the value
+    between the ends; "reset this step" drops the edit (the scene is its file again)."""
+    from app.walkthrough.model import with_values
+
+    v = viewer
+    assert v.open_walkthrough(lesson_steps, "en", 8)
+    lesson = v.lesson
+    i = next(k for k, s in enumerate(lesson.current.step.sweeps) if s.keys[0].endswith("roughness"))
+    sweep = lesson.current.step.sweeps[i]
+    assert lesson.select_sweep(i)
+    assert lesson.set_sweep(0.35)
+    shown = window_image(v)
+    loaded = lesson.current.scene(sweep.scene)
+    want = with_values(loaded, sweep.keys, 0.35, lesson.current.path, "sweeps[0]", "sweeps[0]")
+    assert_close(shown, headless(gl_egl, want, v.framebuffer_size))
+    assert all(v.value(key) == 0.35 for key in sweep.keys)
+    lesson.play(True)
+    values = set()
+    for _ in range(6):
+        v.step()
+        time.sleep(0.05)
+        values.add(round(lesson.sweep_value, 4))
+    assert len(values) > 2 and all(min(sweep.start, sweep.to) <= x <= max(sweep.start, sweep.to)
+                                   for x in values)  # fmt: skip
+    assert lesson.reset()
+    assert not lesson.playing and lesson.sweep is None
+    on_file = tomllib.loads((scenes_dir() / f"{sweep.scene}.toml").read_text(encoding="utf-8"))
+    assert all(v.value(key) == get_value(on_file, key) != 0.35 for key in sweep.keys)
+    assert_close(window_image(v), headless(gl_egl, loaded, v.framebuffer_size))
+
+
+def test_walkthrough_equations_and_korean_draw_in_the_window(xdisplay, scene_copy, lesson_steps):
+    """In a 960x1000 window, Korean step 13: each equation the panel shows whole is a
+    formula texture with ink where the panel drew it; the title, drawn with the Hangul
+    font merged into ImGui's default one, has ink and differs from the same title drawn
+    with a second copy of the default font alone (each Hangul syllable its missing-glyph
+    box)."""
+    from imgui_bundle import imgui
+
+    from app.viewer.window import Viewer
+
+    v = Viewer(scene_copy, (960, 1000), vsync=False)
+    try:
+        assert v.open_walkthrough(lesson_steps, "ko", 13)
+        assert v.lesson.lang == "ko" and v.panels.hangul
+        v.settle()
+        v.step(2)
+        panel = v.panels.lesson_panel
+        image = v.read_window()
+        _, y0, _, y1 = panel.window_rect
+        inside = [r for r in panel.equation_rects if r[1] >= y0 and r[3] <= y1]
+        assert inside and len(v.lesson.math) >= len(panel.equation_rects)
+        for rect in inside:
+            assert ink(crop(image, rect)).mean() > 0.02, rect
+        korean = crop(image, panel.title_rect)
+        panel.title_font = imgui.get_io().fonts.add_font_default()  # no Hangul in it
+        v.step(3)
+        boxes = crop(v.read_window(), panel.title_rect)
+        panel.title_font = None
+        assert ink(korean).mean() > 0.05
+        assert korean.shape != boxes.shape or not np.array_equal(korean, boxes)
+    finally:
+        v.close()
+
+
+def test_pbs_view_lang_ko_without_a_hangul_font_is_one_line_exit_2(monkeypatch, capsys):
+    """With no font with Hangul glyphs, ``pbs view --lang ko`` stops before opening a
+    window: one line naming the package to install, exit 2."""
+    from app import cli
+    from app.walkthrough import labels
+
+    monkeypatch.setattr(labels, "_fc_match", lambda pattern: None)
+    labels.find_font.cache_clear()
+    try:
+        assert cli.main(["view", "--lang", "ko"]) == 2
+    finally:
+        labels.find_font.cache_clear()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "fonts-noto-cjk" in err

@@ -11,6 +11,10 @@ a panel can do exactly what a scene file can, with the same validation and messa
 * Plots: the selected material's lobes and directional albedo from the GLSL probe that
   ``pbs brdf`` uses, and the frame time of each pass.
 * Problems: the last refused edit, scene error or GLSL error (file and line).
+* Walkthrough: the classroom lesson's step (app/viewer/lesson.py), when one is open.
+
+ImGui's default font has no Hangul: ``load_hangul`` merges a system font with Hangul
+glyphs (the one the walkthrough's labels use) into it, only when Korean is asked for.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ from app.common.models import (
     SHEEN_MODELS,
 )
 from app.common.tonemaps import TONEMAPS
+from app.errors import InputError
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
 from app.scene.model import CLOTH_KEYS, FIBER_KEYS, SADEGHI_KEYS, TEXTURE_KEYS
 from app.scene.presets import PRESETS
@@ -100,10 +105,38 @@ class Panels:
         # Every section of the Material panel drawn open (the docs' screenshot and the
         # test that draws each layered material's controls).
         self.open_sections = False
+        self.hangul = False  # a Hangul font merged into the default one (load_hangul)
+        from app.viewer.lesson import LessonPanel
+
+        self.lesson_panel = LessonPanel()
 
     def expand(self, *titles: str) -> None:
         """Open these panels (by title) on the next frame, e.g. Material after a click."""
         self._expand.update(titles)
+
+    def load_hangul(self) -> bool:
+        """Merge the system's Hangul font (``find_font("ko")``, Noto Sans CJK KR) into
+        ImGui's default font; a missing one is reported in Problems. ImGui 1.92 rasterises
+        glyphs into its atlas when they are first drawn, so no glyph range is listed and
+        the atlas grows only by the Hangul actually shown (docs/viewer.md measures it)."""
+        if self.hangul:
+            return True
+        from app.walkthrough.labels import find_font
+
+        try:
+            face = find_font("ko")
+        except InputError as exc:
+            self.viewer.state.error = str(exc)
+            return False
+        fonts = imgui.get_io().fonts
+        if not fonts.fonts:
+            fonts.add_font_default()  # what ImGui would add on its first frame
+        config = imgui.ImFontConfig()
+        config.merge_mode = True  # into the default font: Latin from it, Hangul from here
+        config.font_no = face.index  # the KR face of the .ttc collection
+        fonts.add_font_from_file_ttf(str(face.path), 0.0, config)  # the default size
+        self.hangul = True
+        return True
 
     def install_backend(self, window_address: int) -> None:
         """glfw input and OpenGL3 drawing for ImGui; it chains to the viewer's callbacks."""
@@ -141,6 +174,8 @@ class Panels:
         self._render_panel()
         self._plots_panel()
         self._compare_panel()
+        if self.viewer.lesson is not None:
+            self.lesson_panel.draw(self.viewer.lesson, self)
         self._problems_panel()
         imgui.render()
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
@@ -200,6 +235,9 @@ class Panels:
             imgui.same_line()
             if imgui.button("Screenshot (P)"):
                 v.screenshot()
+            imgui.same_line()
+            if imgui.button("Lesson"):
+                v.open_walkthrough()
         imgui.end()
 
     def _material_panel(self) -> None:
@@ -512,7 +550,7 @@ class Panels:
     def _render_panel(self) -> None:
         v = self.viewer
         s, cam = v.scene.render, v.scene.camera
-        if self._window("Render", -8, 40, 310, 0.5):
+        if self._window("Render", -8, 40, 310, 0.5, collapsed=v.lesson is not None):
             changed, i = imgui.combo("tone map", TONEMAPS.index(s.tonemap), list(TONEMAPS))
             if changed:
                 self._edit("render.tonemap", TONEMAPS[i])

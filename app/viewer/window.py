@@ -111,7 +111,10 @@ class Viewer:
         visible: bool = True,
         vsync: bool = True,
         ui: bool = True,
+        hangul: bool = False,
     ) -> None:
+        """``hangul`` merges a Hangul font into the panels' (``Panels.load_hangul``): for
+        the Korean walkthrough, asked for before the first frame."""
         self.document = SceneDocument(scene or scenes_dir() / "showcase.toml")
         self.base_camera = self.document.scene.camera  # what "reset camera" goes back to
         if not glfw.init():
@@ -146,10 +149,13 @@ class Viewer:
         self._present = _Present(self.ctx)
         self._drag: tuple[int, float, float] | None = None  # button, last x, last y
         self.panels = None
+        self.lesson = None  # the walkthrough (app/viewer/lesson.py), when one is open
         if ui:
             from app.viewer.panels import Panels
 
             self.panels = Panels(self)
+            if hangul:
+                self.panels.load_hangul()
         self._install_callbacks()
 
     # --- sizes and the image --------------------------------------------------------------
@@ -351,6 +357,34 @@ class Viewer:
         self.state.dirty = True
         return True
 
+    def open_walkthrough(
+        self, steps: list | None = None, lang: str | None = None, section: int = 1
+    ) -> bool:
+        """Open the classroom walkthrough (default: the bundled steps, validated first) on
+        the step of RTR4 §9.``section`` in ``lang`` ("en" or "ko"; Korean merges the Hangul
+        font); a step that does not load is reported and nothing changes."""
+        from app.viewer.lesson import Lesson
+
+        if steps is None:
+            from app.resources import walkthrough_dir
+            from app.walkthrough.model import load_walkthrough
+
+            try:
+                steps = load_walkthrough(walkthrough_dir())
+            except InputError as exc:
+                return self._refuse(exc)
+        if lang is None:
+            korean = self.panels is not None and self.panels.hangul  # pbs view --lang ko
+            lang = self.lesson.lang if self.lesson is not None else "ko" if korean else "en"
+        if lang == "ko" and self.panels is not None and not self.panels.load_hangul():
+            lang = "en"
+        if self.lesson is not None:
+            self.lesson.close()
+        self.lesson = Lesson(self, steps, lang)
+        if self.panels is not None:
+            self.panels.expand("Walkthrough")
+        return self.lesson.go_section(section)
+
     def _refuse(self, exc: Exception) -> bool:
         """Report what refused an action in the Problems panel; nothing changed."""
         self.state.error = f"GLSL: {exc}" if not isinstance(exc, InputError) else str(exc)
@@ -435,6 +469,7 @@ class Viewer:
             renderer = Renderer(self.gl, document.loaded, self.framebuffer_size)
         except (InputError, ShaderError, moderngl.Error) as exc:
             return self._refuse(exc)
+        self.stop_compare()  # a comparison of the old scene would hide the new one
         self.renderer.release()
         self.document, self.renderer = document, renderer
         self.base_camera = document.scene.camera
@@ -523,6 +558,8 @@ class Viewer:
                 continue
             while self.state.pending:
                 self._apply(self.state.pending.pop(0))
+            if self.lesson is not None:
+                self.lesson.tick()  # a played sweep's next value
             interacting = time.perf_counter() - self.state.last_input < REFINE_AFTER
             self._render(PREVIEW_SCALE if interacting else 1)
             self._draw()
@@ -673,6 +710,8 @@ class Viewer:
             self.screenshot(hdr=bool(mods & glfw.MOD_SHIFT))
         elif key == glfw.KEY_ESCAPE:
             glfw.set_window_should_close(window, True)
+        elif key in (glfw.KEY_PAGE_UP, glfw.KEY_PAGE_DOWN) and self.lesson is not None:
+            self.lesson.go(self.lesson.index + (1 if key == glfw.KEY_PAGE_DOWN else -1))
         elif key in moves:
             moves[key]()
 
@@ -692,6 +731,8 @@ class Viewer:
         self._current()
         if self.panels is not None:
             self.panels.shutdown()
+        if self.lesson is not None:
+            self.lesson.close()  # its formula textures
         self.stop_compare()
         if self._debug is not None:
             self._debug.release()

@@ -14,5 +14,6 @@ labels drawn on them, its text for students in English and Korean, its equations
 - ``browser``: headless Chromium driven over the DevTools protocol (the handout's checks
   and its screenshot).
 
-Layer: above ``app.brdf`` (its plots), below ``app.viewer`` (which will show the steps).
+Layer: above ``app.brdf`` (its plots), below ``app.viewer`` (which shows the steps:
+``app.viewer.lesson``).
 """

@@ -88,3 +88,20 @@ def to_html(text: str, math: Callable[[str], str]) -> str:
         else:
             parts.append(f"<p>{_inline(lines[0], math)}</p>")
     return "\n".join(parts)
+
+
+def spans(text: str) -> list[tuple[str, str]]:
+    """One line of step text as ("text" | "code" | "math", content) pieces, for a
+    renderer that lays text out itself (the viewer's panel): the ``**`` and ``*``
+    markers are dropped (bold and italic read as plain text there), ``\\$`` becomes
+    ``$``, code loses its backticks and math its dollars."""
+    out: list[tuple[str, str]] = []
+    for part in _SPAN.split(text):
+        if part.startswith("`") and part.endswith("`") and len(part) > 1:
+            out.append(("code", part[1:-1]))
+        elif part.startswith("$") and part.endswith("$") and len(part) > 1:
+            out.append(("math", part[1:-1]))
+        elif part:
+            plain = _ITALIC.sub(r"\1", _BOLD.sub(r"\1", part)).replace("\\$", "$")
+            out.append(("text", plain))
+    return out

@@ -4,6 +4,7 @@ matplotlib's mathtext lays out the formula with its bundled Computer Modern font
 its SVG backend writes every glyph as a path (``svg.fonttype = "path"``), so the handout
 needs no font and no script to show an equation. ``check_latex`` parses a formula
 without drawing it: a step's bad LaTeX is refused when the step is loaded.
+``latex_to_rgba`` rasterises the same formula for the desktop viewer's panel.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ import io
 import itertools
 import re
 from dataclasses import dataclass
+
+import numpy as np
 
 _RC = {"mathtext.fontset": "cm", "svg.fonttype": "path", "svg.hashsalt": "pbs-walkthrough"}
 
@@ -77,3 +80,23 @@ def latex_to_svg(latex: str, size_pt: float = 15.0) -> MathSVG:
     label = latex.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace("$", "")
     svg = svg.replace("<svg ", f'<svg role="img" aria-label="{label}" ', 1)
     return MathSVG(svg.strip(), float(width), float(height), float(depth))
+
+
+def latex_to_rgba(latex: str, size_px: float) -> tuple[np.ndarray, float]:
+    """``latex`` rasterised by mathtext's Agg backend at a font size of ``size_px``
+    pixels: an (H, W, 4) uint8 image, white text on transparent (the alpha is the
+    glyphs' coverage), rows top to bottom, and the depth below the baseline in pixels.
+    The viewer uploads it as a texture and draws it in its panels."""
+    import matplotlib
+    from matplotlib import mathtext
+    from matplotlib.font_manager import FontProperties
+
+    with matplotlib.rc_context(_RC):
+        parsed = mathtext.MathTextParser("agg").parse(
+            _wrap(latex), dpi=72, prop=FontProperties(size=size_px)
+        )
+    alpha = np.asarray(parsed.image, np.uint8)
+    rgba = np.empty((*alpha.shape, 4), np.uint8)
+    rgba[..., :3] = 255
+    rgba[..., 3] = alpha
+    return rgba, float(parsed.depth)
