@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.frame.camera import fit_scene
 from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
 from app.scene.loader import load_scene
@@ -490,8 +491,8 @@ def test_walkthrough_next_and_previous_through_all_steps(viewer, lesson_steps):
 
 def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps):
     """Step 5's first comparison (gold: Schlick | exact conductor Fresnel) in one call, as
-    its button does: the window shows the split screen that ``pbs render --compare`` makes
-    of the same scene file, key and values."""
+    its button does: the window shows the split screen that ``pbs render --compare --fit``
+    makes of the same scene file, key and values (a step keeps the scene's framing)."""
     from app.gl.context import create_context
     from app.render.compare import CompareSpec, Comparison
 
@@ -503,7 +504,7 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
     gl = create_context("egl")
     try:
         with gl.ctx:
-            loaded = load_scene(scenes_dir() / f"{c.scene}.toml")
+            loaded = fit_scene(load_scene(scenes_dir() / f"{c.scene}.toml"), v.framebuffer_size)
             comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size)
             try:
                 comp.render()
@@ -531,7 +532,7 @@ def test_walkthrough_sweep_value_and_reset(viewer, lesson_steps, gl_egl):
     assert lesson.select_sweep(i)
     assert lesson.set_sweep(0.35)
     shown = window_image(v)
-    loaded = lesson.current.scene(sweep.scene)
+    loaded = fit_scene(lesson.current.scene(sweep.scene), v.framebuffer_size)
     want = with_values(loaded, sweep.keys, 0.35, lesson.current.path, "sweeps[0]", "sweeps[0]")
     assert_close(shown, headless(gl_egl, want, v.framebuffer_size))
     assert all(v.value(key) == 0.35 for key in sweep.keys)

@@ -24,6 +24,7 @@ import moderngl
 import numpy as np
 from imgui_bundle import imgui
 
+from app.frame.camera import fit_scene
 from app.walkthrough.markup import blocks, spans
 from app.walkthrough.mathsvg import latex_to_rgba
 from app.walkthrough.model import LoadedStep, Sweep, Text, resolve_scene_ref
@@ -173,6 +174,11 @@ class Lesson:
         v.stop_compare()
         if not v.open_scene(self.path(ref)):
             return False
+        # Projector-ready framing (issue 15; ``pbs render --fit``): the window keeps the
+        # scene's whole framing whatever its aspect ratio.
+        fov = fit_scene(v.document.loaded, v.framebuffer_size).scene.camera.fov_y
+        if fov != v.scene.camera.fov_y and v.edit({"camera.fov_y": fov}, defer=False):
+            v.base_camera = v.scene.camera
         self.scene_ref = ref
         return True
 
