@@ -27,6 +27,7 @@ from app.walkthrough.build import (
     SweepImages,
     ViewImages,
     build,
+    label_texts,
     render_comparison,
     render_sweep,
     render_view,
@@ -419,7 +420,8 @@ def _visible(a: np.ndarray, b: np.ndarray) -> int:
 
 
 def test_every_steps_pairs_and_sweeps_differ_at_their_ends(gl_egl: GLContext) -> None:
-    """All 13 bundled steps: every comparison's sides and every sweep's two ends render
+    """All 13 bundled steps: every view renders finite, non-negative radiance with a box
+    for each of its labels; every comparison's sides and every sweep's two ends render
     finite, non-negative radiance and differ visibly (at least MIN_VISIBLE_PIXELS pixels
     by more than 8/255). The sweeps' inner frames and the plots are left to the build
     test above; the language changes captions only, never what is rendered."""
@@ -428,6 +430,11 @@ def test_every_steps_pairs_and_sweeps_differ_at_their_ends(gl_egl: GLContext) ->
     measured = []
     for loaded in steps:
         step = loaded.step
+        for view in step.views:  # in Korean: the labels take the Hangul font
+            scene = loaded.scene(view.scene)
+            images = render_view(gl_egl, view, scene, EVERY_STEP_SIZE, "ko")
+            assert np.isfinite(images.hdr).all() and (images.hdr >= 0.0).all()
+            assert len(images.boxes) == len(label_texts(view, scene, "ko")), view.scene
         for i, item in enumerate(step.comparisons):
             images = render_comparison(
                 gl_egl, item, loaded.scene(item.scene), EVERY_STEP_SIZE, "en"
