@@ -259,12 +259,18 @@ OUTCOMES: dict[str, int] = {"exit 0": 0, "exit 2": 0}
 @given(name=scenes, data=st.data())
 def test_mutated_scene_renders_or_exits_2(name: str, data: st.DataObject) -> None:
     mutated, done = mutate(SEEDS[name], data.draw)
+    OUTCOMES[f"exit {render_mutant(name, mutated, done)}"] += 1
+
+
+def render_mutant(name: str, mutated: dict, done: list[str]) -> int:
+    """``pbs render`` in-process on the mutant (written as seed ``name``), the contract
+    checked; returns the exit code."""
     with _workdir() as (root, out):
         scene = root / name
         scene.write_text(to_toml(mutated), encoding="utf-8")
         rc, stdout, stderr = run_in_process(scene, out)
         check_outcome(rc, stdout, stderr, out, scene, f"{name}: {done}")
-        OUTCOMES[f"exit {rc}"] += 1
+    return rc
 
 
 # The layered models of RTR4 §9.10-9.12 (sheen, empirical cloth, thin film, grating, clear
@@ -322,12 +328,7 @@ def mutate_materials(data: dict, draw: Any) -> tuple[dict, list[str]]:
 @given(name=st.sampled_from(LAYERED_SEEDS), data=st.data())
 def test_mutated_layered_material_renders_or_exits_2(name: str, data: st.DataObject) -> None:
     mutated, done = mutate_materials(SEEDS[name], data.draw)
-    with _workdir() as (root, out):
-        scene = root / name
-        scene.write_text(to_toml(mutated), encoding="utf-8")
-        rc, stdout, stderr = run_in_process(scene, out)
-        check_outcome(rc, stdout, stderr, out, scene, f"{name}: {done}")
-        LAYERED_OUTCOMES[f"exit {rc}"] += 1
+    LAYERED_OUTCOMES[f"exit {render_mutant(name, mutated, done)}"] += 1
 
 
 LAYERED_OUTCOMES: dict[str, int] = {"exit 0": 0, "exit 2": 0}
