@@ -364,14 +364,14 @@ def test_a_dropped_mesh_opens_framed_and_a_bad_file_is_reported(viewer, tmp_path
 @pytest.mark.parametrize(
     "scene",
     [
-        "sec10_cloth_empirical.toml", "sec10_cloth_fibers.toml", "sec11_diffraction.toml",
-        "sec12_layered_variants.toml",
+        "sec10_cloth.toml", "sec10_cloth_empirical.toml", "sec10_cloth_fibers.toml",
+        "sec11_thin_film.toml", "sec11_diffraction.toml", "sec12_layered_variants.toml",
     ],
 )  # fmt: skip
 def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp_path, scene):
     """The Material panel draws every section open for each material of the scenes of
-    RTR4 §9.10-9.12 (empirical cloth, fibres, grating, both coat models) without an
-    error, and the edits its toggles make are taken: leaving the empirical cloth model or
+    RTR4 §9.10-9.12 (sheen, empirical cloth, fibres, thin film, grating, both coat
+    models) without an error, and the edits its toggles make are taken: leaving the empirical cloth model or
     a fibre model removes their keys, a grating turns on and off, the coat model
     switches."""
     from app.viewer.panels import diffuse_edit, fiber_edit, grating_edit
@@ -395,7 +395,7 @@ def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp
         assert v.edit(fiber_edit(key, "kajiya_kay", "none"))
         v.settle()
         assert v.scene.materials[name].fiber_rotation is None
-    elif scene.startswith("sec10"):
+    elif scene == "sec10_cloth_empirical.toml":
         name = next(n for n, m in v.scene.materials.items() if m.cloth_wrap is not None)
         key = f"materials.{name}"
         assert not v.edit({f"{key}.diffuse": "burley"})  # the cloth keys would be left behind
@@ -403,7 +403,7 @@ def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp
         v.settle()
         assert v.scene.materials[name].diffuse == "burley"
         assert v.scene.materials[name].cloth_wrap is None
-    if scene.startswith("sec11"):
+    if scene == "sec11_diffraction.toml":
         name = next(n for n, m in v.scene.materials.items() if m.grating_period is not None)
         assert v.edit(grating_edit(f"materials.{name}", False))
         v.settle()

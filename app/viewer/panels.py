@@ -204,6 +204,18 @@ class Panels:
             imgui.set_next_item_open(True, imgui.Cond_.always)
         return imgui.collapsing_header(label)
 
+    def _key_slider(
+        self, key: str, material: Any, field: str, label: str, default: float,
+        low: float, high: float, flags: int = 0,
+    ) -> None:  # fmt: skip
+        """A slider for one number of material ``key``; an unset key shows its default."""
+        now = getattr(material, field)
+        changed, value = imgui.slider_float(
+            label, default if now is None else float(now), low, high, flags=flags
+        )
+        if changed:
+            self._edit(f"{key}.{field}", float(value))
+
     def _edit(self, key: str, value: Any) -> None:
         self.viewer.edit({key: value})
 
@@ -376,12 +388,7 @@ class Panels:
             sliders += [("fiber_gamma_v", "volume lobe width (deg)", 20.0, 1.0, 90.0),
                         ("fiber_kd", "isotropic share k_d", 0.3, 0.0, 1.0)]  # fmt: skip
         for field, label, default, low, high in sliders:
-            value = getattr(material, field)
-            changed, value = imgui.slider_float(
-                label, default if value is None else value, low, high
-            )
-            if changed:
-                self._edit(f"{key}.{field}", float(value))
+            self._key_slider(key, material, field, label, default, low, high)
 
     def _cloth_empirical(self, key: str, material: Any) -> None:
         """The empirical cloth terms of RTR4 §9.10 (diffuse = "cloth_empirical"); unset keys
@@ -399,10 +406,7 @@ class Panels:
             ("cloth_wrap", "wrap w", 0.0, 1.0),
             ("cloth_sheen", "k sheen", 0.0, 10.0),
         ):
-            now = getattr(material, field)
-            changed, value = imgui.slider_float(label, default if now is None else now, 0.0, top)
-            if changed:
-                self._edit(f"{key}.{field}", float(value))
+            self._key_slider(key, material, field, label, default, 0.0, top)
         for field, label in (
             ("cloth_scatter", "scatter colour"),
             ("cloth_sheen_color", "sheen colour##cloth"),
@@ -432,23 +436,14 @@ class Panels:
             changed, rgb = imgui.color_edit3("sheen colour", list(material.sheen_color))
             if changed:
                 self._edit(f"{key}.sheen_color", [float(c) for c in rgb])
-            r = 0.5 if material.sheen_roughness is None else material.sheen_roughness
-            changed, value = imgui.slider_float("sheen roughness", r, 0.0, 1.0)
-            if changed:
-                self._edit(f"{key}.sheen_roughness", float(value))
+            self._key_slider(key, material, "sheen_roughness", "sheen roughness", 0.5, 0.0, 1.0)
         changed, value = imgui.slider_float("clear coat", material.clearcoat, 0.0, 1.0)
         if changed:
             off = {f"{key}.clearcoat_{k}": None for k in ("roughness", "ior", "color")}
             self.viewer.edit({f"{key}.clearcoat": float(value), **(off if value <= 0.0 else {})})
         if material.clearcoat > 0.0:
-            r = material.clearcoat_roughness or 0.0
-            changed, value = imgui.slider_float("coat roughness", r, 0.0, 1.0)
-            if changed:
-                self._edit(f"{key}.clearcoat_roughness", float(value))
-            ior = material.clearcoat_ior or 1.5
-            changed, value = imgui.slider_float("coat index", ior, 1.0, 3.0)
-            if changed:
-                self._edit(f"{key}.clearcoat_ior", float(value))
+            self._key_slider(key, material, "clearcoat_roughness", "coat roughness", 0.0, 0.0, 1.0)
+            self._key_slider(key, material, "clearcoat_ior", "coat index", 1.5, 1.0, 3.0)
             color = material.clearcoat_color or [1.0, 1.0, 1.0]
             changed, rgb = imgui.color_edit3("coat colour", list(color))
             if changed:
@@ -467,30 +462,19 @@ class Panels:
                       f"{key}.film_ior": None}
             )  # fmt: skip
         if material.thin_film:
-            d = 400.0 if material.film_thickness is None else material.film_thickness
-            changed, value = imgui.slider_float("film thickness (nm)", d, 0.0, 1000.0)
-            if changed:
-                self._edit(f"{key}.film_thickness", float(value))
-            n = 1.33 if material.film_ior is None else material.film_ior
-            changed, value = imgui.slider_float("film index", n, 1.0, 3.0)
-            if changed:
-                self._edit(f"{key}.film_ior", float(value))
+            self._key_slider(key, material, "film_thickness", "film thickness (nm)", 400.0,
+                             0.0, 1000.0)  # fmt: skip
+            self._key_slider(key, material, "film_ior", "film index", 1.33, 1.0, 3.0)
         # A grating's orders (RTR4 §9.11) move the isotropic GGX lobe: the scene format
         # refuses other bases, and the refusal shows in the Problems panel.
         changed, on = imgui.checkbox("diffraction grating", material.diffraction == "grating")
         if changed:
             self.viewer.edit(grating_edit(key, on))
         if material.diffraction == "grating":
-            d = 1600.0 if material.grating_period is None else material.grating_period
-            changed, value = imgui.slider_float(
-                "groove period (nm)", d, 200.0, 20000.0, flags=imgui.SliderFlags_.logarithmic
-            )
-            if changed:
-                self._edit(f"{key}.grating_period", float(value))
-            h = 120.0 if material.grating_depth is None else material.grating_depth
-            changed, value = imgui.slider_float("groove depth (nm)", h, 0.0, 300.0)
-            if changed:
-                self._edit(f"{key}.grating_depth", float(value))
+            self._key_slider(key, material, "grating_period", "groove period (nm)", 1600.0,
+                             200.0, 20000.0, imgui.SliderFlags_.logarithmic)  # fmt: skip
+            self._key_slider(key, material, "grating_depth", "groove depth (nm)", 120.0,
+                             0.0, 300.0)  # fmt: skip
 
     def _lights_panel(self) -> None:
         v = self.viewer
