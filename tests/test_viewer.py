@@ -371,9 +371,9 @@ def test_a_dropped_mesh_opens_framed_and_a_bad_file_is_reported(viewer, tmp_path
 def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp_path, scene):
     """The Material panel draws every section open for each material of the scenes of
     RTR4 §9.10-9.12 (sheen, empirical cloth, fibres, thin film, grating, both coat
-    models) without an error, and the edits its toggles make are taken: leaving the empirical cloth model or
-    a fibre model removes their keys, a grating turns on and off, the coat model
-    switches."""
+    models) without an error, and the edits its toggles make are taken: leaving the
+    empirical cloth model or a fibre model removes their keys, a grating turns on and
+    off, the coat model switches."""
     from app.viewer.panels import diffuse_edit, fiber_edit, grating_edit
 
     v = viewer
