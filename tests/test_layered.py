@@ -52,16 +52,25 @@ def surface_of(m: MaterialParams) -> Surface:
     return Surface(np.asarray(m.base_color, np.float64), m.metallic, m.roughness, m.f0, 0.0)
 
 
-@cache
-def walk(base: str, roughness: float, theta: float) -> LayeredAlbedo:
-    """The reference: the base resolved inside the coat (medium_ior = the coat's index)."""
+def walk_inside(
+    base: str, roughness: float, theta: float, paths: int, bounces: int, seed: int
+) -> LayeredAlbedo:
+    """The random walk of a flat coat over ``base``, resolved inside the coat (medium_ior =
+    the coat's index), light arriving at ``theta`` degrees."""
     inside = Material.model_validate(
         {**BASES[base], "roughness": roughness, "medium_ior": COAT_IOR}
     ).resolve()
     return random_walk(
         surface_of(inside), inside.params, inside.model, COAT_IOR, (1.0, 1.0, 1.0),
-        direction(theta), paths=PATHS, bounces=BOUNCES, seed=int(theta * 10 + roughness * 1000),
+        direction(theta), paths=paths, bounces=bounces, seed=seed,
     )  # fmt: skip
+
+
+@cache
+def walk(base: str, roughness: float, theta: float) -> LayeredAlbedo:
+    """The reference of the tables."""
+    seed = int(theta * 10 + roughness * 1000)
+    return walk_inside(base, roughness, theta, PATHS, BOUNCES, seed)
 
 
 def coated(base: str, roughness: float, model: str = "filament", **coat) -> MaterialParams:
@@ -194,13 +203,7 @@ TEST_PATHS = 20_000  # the tests' walks: standard errors ~0.003-0.02 (the tables
 
 
 def quick_walk(base: str, roughness: float, theta: float) -> LayeredAlbedo:
-    inside = Material.model_validate(
-        {**BASES[base], "roughness": roughness, "medium_ior": COAT_IOR}
-    ).resolve()
-    return random_walk(
-        surface_of(inside), inside.params, inside.model, COAT_IOR, (1.0, 1.0, 1.0),
-        direction(theta), paths=TEST_PATHS, bounces=16, seed=3,
-    )  # fmt: skip
+    return walk_inside(base, roughness, theta, TEST_PATHS, 16, 3)
 
 
 @pytest.mark.parametrize("theta", [0.0, 30.0, 60.0])
