@@ -22,7 +22,6 @@ import numpy as np
 
 from app.frame.camera import fit_scene
 from app.gl.context import GLContext
-from app.gl.shaders import ShaderCache
 from app.output import write_png
 from app.progress import Progress
 from app.render.compare import CompareSpec, Comparison, parse_key
@@ -179,23 +178,27 @@ def render_sweep(
     size: tuple[int, int] | None,
     lang: Lang,
 ) -> SweepImages:
-    """One frame per value of the sweep (one shader cache for all), and the strip."""
+    """One frame per value of the sweep, and the strip. One renderer shows every value:
+    ``Renderer.update`` rebuilds only what the swept keys change (a material value keeps
+    the meshes and the programs)."""
     loaded = step.scene(sweep.scene)
     frame = sweep_frame_size(image_size(loaded, size), sweep.steps)
-    shaders = ShaderCache(gl.ctx)
     frames, hdrs = [], []
+    renderer = None
     try:
         for value in sweep.values():
-            scene = with_values(loaded, sweep.keys, value, step.path, where, where)
-            renderer = Renderer(gl, fit_scene(scene, frame), frame, shaders=shaders)
-            try:
-                renderer.render()
-                frames.append(renderer.read_ldr())
-                hdrs.append(renderer.read_hdr())
-            finally:
-                renderer.release()
+            scene = fit_scene(with_values(loaded, sweep.keys, value, step.path, where, where),
+                              frame)  # fmt: skip
+            if renderer is None:
+                renderer = Renderer(gl, scene, frame)
+            else:
+                renderer.update(scene.scene)
+            renderer.render()
+            frames.append(renderer.read_ldr())
+            hdrs.append(renderer.read_hdr())
     finally:
-        shaders.release()
+        if renderer is not None:
+            renderer.release()
     face = find_font(lang)
     text = font_size(frame[1], sweep.steps * frame[0])
     strip = _hstack(
