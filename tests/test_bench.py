@@ -200,7 +200,7 @@ def test_light_pairs_are_exactly_the_lights_in_range(gl_egl):
     spot light), and no other, in order."""
     r = Renderer(gl_egl, load(_scene("f16")), SIZE)
     try:
-        r.gbuffer_pass.run(r.gbuffer, r.view, r.proj)
+        r.gbuffer_pass.run(r.gbuffer, r.view, r.proj, r.camera)
         g = r.read_gbuffer()
         pairs = light_pairs(g, r.camera, r.lights)
         covered, p = surface_positions(g, r.camera)

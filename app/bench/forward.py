@@ -122,15 +122,10 @@ class ForwardRenderer:
         if self.sheen_table is not None:
             self.sheen_table.use(3)
         for d in self.drawables:
-            # A mirroring matrix reverses the winding: front faces stay front faces (for
-            # gl_FrontFacing, which two-sided surfaces use, as well as for culling).
-            ctx.front_face = "cw" if d.mirrored else "ccw"
-            if d.part.closed:  # as the G-buffer pass: closed primitives cull back faces
-                ctx.enable(moderngl.CULL_FACE)
-            else:
-                ctx.disable(moderngl.CULL_FACE)
+            d.cull(ctx)  # as the G-buffer pass
             prog = d.program
             d.bind_transform(view_bytes, proj_bytes)
+            d.bind_camera(self.camera, self.size)
             prog["u_camera_to_world"].write(camera_to_world)
             d.bind_material(first_unit=4)
             values = {
@@ -148,6 +143,7 @@ class ForwardRenderer:
                     prog[name].value = value
             d.vao.render(moderngl.TRIANGLES)
         ctx.disable(moderngl.CULL_FACE)
+        ctx.cull_face = "back"
         ctx.front_face = "ccw"
 
     def read_hdr(self) -> np.ndarray:

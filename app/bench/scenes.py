@@ -125,7 +125,7 @@ def calibrate_range(
     loaded = load(data)
     renderer = Renderer(gl, loaded, size)
     try:
-        renderer.gbuffer_pass.run(renderer.gbuffer, renderer.view, renderer.proj)
+        renderer.gbuffer_pass.run(renderer.gbuffer, renderer.view, renderer.proj, renderer.camera)
         _, p = surface_positions(renderer.read_gbuffer(), renderer.camera)
     finally:
         renderer.release()

@@ -225,7 +225,7 @@ def f32_reference(gl: GLContext, data: dict, pairs: LightPairs) -> tuple[np.ndar
     pixels."""
     exact = Renderer(gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}))
     try:
-        exact.gbuffer_pass.run(exact.gbuffer, exact.view, exact.proj)
+        exact.gbuffer_pass.run(exact.gbuffer, exact.view, exact.proj, exact.camera)
         g32 = exact.read_gbuffer()
         ref = reference_hdr(
             g32, exact.camera, exact.lights, exact.scene.background,
@@ -239,7 +239,13 @@ def f32_reference(gl: GLContext, data: dict, pairs: LightPairs) -> tuple[np.ndar
 def deferred_passes(r: Renderer) -> list[Pass]:
     """The deferred frame up to HDR: G-buffer, tile culling (if any), lighting."""
     background = np.asarray(r.scene.background, np.float64)
-    passes = [Pass("gbuffer", lambda: r.gbuffer_pass.run(r.gbuffer, r.view, r.proj), r.gbuffer.fbo)]
+    passes = [
+        Pass(
+            "gbuffer",
+            lambda: r.gbuffer_pass.run(r.gbuffer, r.view, r.proj, r.camera),
+            r.gbuffer.fbo,
+        )
+    ]
     if r.culler is not None:
         culler = r.culler
         passes.append(
@@ -306,7 +312,7 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
     unculled = floor = forward = None
     try:
         # The floor's pairs come from the culled renderer's G-buffer, drawn once here.
-        culled.gbuffer_pass.run(culled.gbuffer, culled.view, culled.proj)
+        culled.gbuffer_pass.run(culled.gbuffer, culled.view, culled.proj, culled.camera)
         pairs = light_pairs(culled.read_gbuffer(), culled.camera, culled.lights)
         common["lights_per_pixel"] = pairs.mean_per_covered_pixel
         common["lights_per_pixel_max"] = int(pairs.count.max())
@@ -319,7 +325,8 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
         frames = {
             "culled": deferred_passes(culled),
             "floor": [
-                Pass("gbuffer", lambda: gb.run(culled.gbuffer, culled.view, culled.proj),
+                Pass("gbuffer",
+                     lambda: gb.run(culled.gbuffer, culled.view, culled.proj, culled.camera),
                      culled.gbuffer.fbo),
                 Pass("floor", floor.run, floor.fbo),
             ],
@@ -624,7 +631,7 @@ def run_accuracy(ctx: Context) -> None:
         ctx.progress.start(f"accuracy {comp.name}: float64 reference")
         ref_r = _accuracy_renderer(ctx, comp.reference, size)
         try:
-            ref_r.gbuffer_pass.run(ref_r.gbuffer, ref_r.view, ref_r.proj)
+            ref_r.gbuffer_pass.run(ref_r.gbuffer, ref_r.view, ref_r.proj, ref_r.camera)
             g = ref_r.read_gbuffer()
             ms_table = None
             if comp.ms_reference is not None:

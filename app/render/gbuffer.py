@@ -17,8 +17,9 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferData
-from app.frame.camera import gl_bytes
+from app.frame.camera import camera_from_matrices, gl_bytes
 from app.gl.shaders import ShaderCache
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
 from app.textures.maps import SurfaceLayer, Texture
@@ -169,6 +170,8 @@ class MeshDrawable:
             defines["BLEND"] = 1
         if specular_aa is not None:
             defines["SPECULAR_AA"] = 1
+        if part.analytic is not None:
+            defines[f"ANALYTIC_{part.analytic.kind.upper()}"] = 1
         self.specular_aa = specular_aa
         self.program = shaders.program(*shader_pair, defines)
         self.vbo = ctx.buffer(part.vertices.tobytes())
@@ -193,6 +196,41 @@ class MeshDrawable:
         self.normal_bytes = gl_bytes(normal_matrix)
         # A matrix with a negative determinant mirrors the triangles' winding.
         self.mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
+        self.world_to_object = np.linalg.inv(part.model)
+
+    def cull(self, ctx: moderngl.Context) -> None:
+        """Set the winding and face culling the part draws with: closed meshes cull their
+        back faces; an analytic primitive's proxy its front faces, so that its back faces
+        cover each of its pixels once, wherever the camera is."""
+        # A mirroring matrix reverses the winding: front faces stay front faces (for
+        # gl_FrontFacing, which two-sided surfaces use, as well as for culling).
+        ctx.front_face = "cw" if self.mirrored else "ccw"
+        if self.part.closed:
+            ctx.cull_face = "front" if self.part.analytic is not None else "back"
+            ctx.enable(moderngl.CULL_FACE)
+        else:
+            ctx.disable(moderngl.CULL_FACE)
+
+    def bind_camera(self, camera: CameraFrame, image_size: tuple[int, int]) -> None:
+        """The camera uniforms of an analytic part's ray (geometry/analytic.glsl): the
+        camera in world and object space, the pixel rays' frame, the target's size."""
+        if self.part.analytic is None:
+            return
+        prog = self.program
+        inverse = self.world_to_object
+        object_camera = inverse[:3, :3] @ camera.position + inverse[:3, 3]  # float64
+        values = {
+            "u_camera_pos": tuple(float(x) for x in camera.position),
+            "u_tan_half_fov": tuple(float(x) for x in camera.tan_half_fov),
+            "u_image_size": (float(image_size[0]), float(image_size[1])),
+            "u_object_camera": tuple(float(x) for x in object_camera),
+            "u_radius": float(self.part.analytic.radius),
+        }
+        for name, value in values.items():
+            if name in prog:
+                prog[name].value = value
+        prog["u_camera_to_world"].write(gl_bytes(camera.camera_to_world))
+        prog["u_world_to_object"].write(gl_bytes(inverse[:3, :3]))
 
     @property
     def material_id(self) -> int:
@@ -231,15 +269,20 @@ class MeshDrawable:
     def bind_transform(self, view_bytes: bytes, proj_bytes: bytes) -> None:
         """Set the part's matrices and the camera's."""
         prog = self.program
-        prog["u_model"].write(self.model_bytes)
-        prog["u_normal_matrix"].write(self.normal_bytes)
-        prog["u_view"].write(view_bytes)
-        prog["u_proj"].write(proj_bytes)
+        for name, data in (
+            ("u_model", self.model_bytes), ("u_normal_matrix", self.normal_bytes),
+            ("u_view", view_bytes), ("u_proj", proj_bytes),
+        ):  # fmt: skip
+            if name in prog:  # an analytic fragment may use the model, a proxy not
+                prog[name].write(data)
         if "u_tangent_sign" in prog:  # used only where a layer has a normal map
             prog["u_tangent_sign"].value = -1.0 if self.mirrored else 1.0
 
-    def draw(self, view_bytes: bytes, proj_bytes: bytes) -> None:
+    def draw(
+        self, view_bytes: bytes, proj_bytes: bytes, camera: CameraFrame, size: tuple[int, int]
+    ) -> None:
         self.bind_transform(view_bytes, proj_bytes)
+        self.bind_camera(camera, size)
         self.bind_material()
         self.vao.render(moderngl.TRIANGLES)
 
@@ -270,7 +313,17 @@ class GBufferPass:
             for p, ids in zip(parts, material_ids, strict=True)
         ]
 
-    def run(self, target: GBuffer, view: np.ndarray, proj: np.ndarray) -> None:
+    def run(
+        self,
+        target: GBuffer,
+        view: np.ndarray,
+        proj: np.ndarray,
+        camera: CameraFrame | None = None,
+    ) -> None:
+        """Draw every part; ``camera`` is the lighting pass's frame (the analytic parts'
+        rays must be the lighting pass's), derived from ``view`` and ``proj`` if not given."""
+        if camera is None:
+            camera = camera_from_matrices(view, proj)
         ctx = self.ctx
         target.fbo.use()
         ctx.viewport = (0, 0, *target.size)
@@ -279,15 +332,10 @@ class GBufferPass:
         target.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
         for d in self.drawables:
-            # A mirroring matrix reverses the winding: front faces stay front faces (for
-            # gl_FrontFacing, which two-sided surfaces use, as well as for culling).
-            ctx.front_face = "cw" if d.mirrored else "ccw"
-            if d.part.closed:
-                ctx.enable(moderngl.CULL_FACE)
-            else:
-                ctx.disable(moderngl.CULL_FACE)
-            d.draw(view_bytes, proj_bytes)
+            d.cull(ctx)
+            d.draw(view_bytes, proj_bytes, camera, target.size)
         ctx.disable(moderngl.CULL_FACE)
+        ctx.cull_face = "back"
         ctx.front_face = "ccw"
 
     def release(self) -> None:

@@ -315,7 +315,7 @@ class Renderer:
         frame-time plot; the waits cost some throughput, so only when asked)."""
         scene = self.scene
         clock = _PassClock(self.gl.ctx, timings)
-        self.gbuffer_pass.run(self.gbuffer, self.view, self.proj)
+        self.gbuffer_pass.run(self.gbuffer, self.view, self.proj, self.camera)
         clock.done("gbuffer")
         if self.culler is not None:
             self.culler.run(self.gbuffer, self.view, self.camera)

@@ -1,6 +1,10 @@
-"""Scene objects -> triangle meshes ready for the G-buffer pass.
+"""Scene objects -> triangle meshes and analytic primitives ready for the G-buffer pass.
 
-Primitives come from trimesh; mesh files (OBJ, PLY, STL, glTF/GLB) are read through
+A sphere without ``subdivisions`` is analytic (``MeshPart.analytic``): its vertices are a
+convex proxy around it, and the G-buffer pass intersects each pixel's view ray with the
+exact sphere (glsl/geometry/analytic.glsl), so that its normals, UVs, depth and silhouette
+are the sphere's own (docs/gbuffer.md, "Analytic primitives"). Other primitives come from
+trimesh; mesh files (OBJ, PLY, STL, glTF/GLB) are read through
 trimesh. glTF metallic-roughness factors and textures come through where trimesh reads
 them. Every mesh ends up as interleaved float32 ``position, normal, uv`` vertices and
 uint32 triangle indices, in object space, with its model matrix. Tangents come from the
@@ -17,6 +21,7 @@ import numpy as np
 import trimesh
 
 from app.common.models import MaterialParams
+from app.common.primitives import Primitive
 from app.errors import InputError
 from app.scene.layers import LayerBuilder, gltf_layer
 from app.scene.loader import LoadedScene
@@ -55,11 +60,30 @@ class MeshPart:
     # test with a normal facing away. Planes and mesh files (possibly open) stay two-sided.
     closed: bool = False
     object_index: int = -1  # the scene object (index into scene.objects) it was built from
+    # An analytic primitive drawn through the proxy ``vertices`` (its model is ``model``).
+    analytic: Primitive | None = None
 
     @property
     def material(self) -> MaterialParams:
         """The constants of the part's (first) material."""
         return self.layers[0].params
+
+    def surface_points(self) -> np.ndarray:
+        """(N, 3) object-space points on the surface, for bounds and screen boxes: the
+        vertices, or for an analytic sphere its proxy's directions on the sphere itself."""
+        points = self.vertices[:, :3].astype(np.float64)
+        if self.analytic is not None and self.analytic.kind == "sphere":
+            length = np.linalg.norm(points, axis=1, keepdims=True)
+            points = points / length * self.analytic.radius
+        return points
+
+    def triangles(self) -> tuple[np.ndarray, np.ndarray]:
+        """(vertices, indices) of a triangle mesh of the surface, for consumers that need
+        triangles (the bench's pyrender scene, picking): the part's own, or for an analytic
+        sphere an icosphere of 5,120 triangles (the mesh sphere's default)."""
+        if self.analytic is None:
+            return self.vertices, self.indices
+        return _interleave(_icosphere(self.analytic.radius, ICOSPHERE_SUBDIVISIONS))
 
 
 def model_matrix(obj: SceneObject) -> np.ndarray:
@@ -139,21 +163,49 @@ def _sphere_uv(unit: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndar
     return np.asarray(positions), faces, np.asarray(uv)
 
 
+ICOSPHERE_SUBDIVISIONS = 4  # a mesh sphere's tessellation where a consumer needs triangles
+# The analytic sphere's proxy: an icosphere of 320 triangles pushed out until its faces
+# enclose the sphere, drawn with its front faces culled (GBufferPass.run), so that its back
+# faces cover every pixel of the sphere once even with the camera inside the proxy.
+PROXY_SUBDIVISIONS = 2
+
+
+def _icosphere(radius: float, subdivisions: int) -> trimesh.Trimesh:
+    """An icosphere mesh with exact sphere normals and seam-split equirectangular UVs."""
+    # A unit icosphere scaled here: trimesh's radius divides by the vertices' lengths,
+    # 0/0 for a radius under ~1e-15 m (NaN vertices and a RuntimeWarning on stderr;
+    # found by tests/test_fuzz_scenes.py). Normals from the unit sphere likewise.
+    unit = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+    # The exact sphere normal, not an average of facet normals.
+    normals = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
+    positions, faces, uv = _sphere_uv(normals, np.asarray(unit.faces))
+    mesh = trimesh.Trimesh(positions * radius, faces, vertex_normals=positions, process=False)
+    mesh.visual = trimesh.visual.TextureVisuals(uv=uv)
+    return mesh
+
+
+def sphere_proxy(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, indices) of a convex polyhedron that encloses the sphere of ``radius``:
+    the icosphere scaled by 1 / its inradius (the distance of its nearest face plane), with
+    a relative margin of 1e-4 so that float32 rasterisation cannot cut a silhouette pixel."""
+    unit = trimesh.creation.icosphere(subdivisions=PROXY_SUBDIVISIONS, radius=1.0)
+    v = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
+    f = np.asarray(unit.faces)
+    normals = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    inradius = float(np.min(np.abs(np.sum(normals * v[f[:, 0]], axis=1))))
+    positions = v * (radius / inradius * (1.0 + 1e-4))
+    vertices = np.zeros((len(v), 12), np.float32)
+    vertices[:, 0:3] = positions
+    vertices[:, 3:6] = v  # unused by the analytic pass; the direction, for completeness
+    vertices[:, 8:12] = (1.0, 0.0, 0.0, 1.0)
+    return vertices, f.astype(np.uint32).ravel()
+
+
 def _primitive(obj: SceneObject) -> trimesh.Trimesh:
     if obj.shape == "sphere":
-        radius = obj.radius or 0.5
-        # A unit icosphere scaled here: trimesh's radius divides by the vertices' lengths,
-        # 0/0 for a radius under ~1e-15 m (NaN vertices and a RuntimeWarning on stderr;
-        # found by tests/test_fuzz_scenes.py). Normals from the unit sphere likewise.
-        unit = trimesh.creation.icosphere(
-            subdivisions=4 if obj.subdivisions is None else obj.subdivisions, radius=1.0
-        )
-        # The exact sphere normal, not an average of facet normals.
-        normals = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
-        positions, faces, uv = _sphere_uv(normals, np.asarray(unit.faces))
-        mesh = trimesh.Trimesh(positions * radius, faces, vertex_normals=positions, process=False)
-        mesh.visual = trimesh.visual.TextureVisuals(uv=uv)
-        return mesh
+        subdivisions = ICOSPHERE_SUBDIVISIONS if obj.subdivisions is None else obj.subdivisions
+        return _icosphere(obj.radius or 0.5, subdivisions)
     if obj.shape == "box":
         return _crease_normals(trimesh.creation.box(extents=obj.size or [1.0, 1.0, 1.0]))
     if obj.shape == "plane":
@@ -329,6 +381,13 @@ def build_parts(loaded: LoadedScene) -> list[MeshPart]:
     for i, obj in enumerate(scene.objects):
         model = model_matrix(obj)
         chosen = _material_layers(builder, obj.material, cache) if obj.material else None
+        if obj.shape == "sphere" and obj.subdivisions is None:  # analytic
+            radius = obj.radius or 0.5
+            vertices, indices = sphere_proxy(radius)
+            layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)
+            analytic = Primitive("sphere", model, radius=radius)
+            parts.append(MeshPart(vertices, indices, layers, model, blend, True, i, analytic))
+            continue
         if obj.shape != "mesh":
             vertices, indices = _interleave(_primitive(obj))
             layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)

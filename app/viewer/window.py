@@ -274,8 +274,7 @@ class Viewer:
         if not chosen:
             return
         points = np.concatenate(
-            [p.vertices[:, :3].astype(np.float64) @ p.model[:3, :3].T + p.model[:3, 3]
-             for p in chosen]
+            [p.surface_points() @ p.model[:3, :3].T + p.model[:3, 3] for p in chosen]
         )  # fmt: skip
         lo, hi = points.min(axis=0), points.max(axis=0)
         centre = (lo + hi) / 2.0

@@ -120,7 +120,7 @@ def silhouettes(renderer: Renderer) -> dict[int, Silhouette]:
     view_proj = renderer.proj @ renderer.view
     boxes: dict[int, list[np.ndarray]] = {}
     for part in renderer.frame.parts:
-        positions = part.vertices[:, :3].astype(np.float64)
+        positions = part.surface_points()
         world = part.model @ np.c_[positions, np.ones(len(positions))].T
         clip = view_proj @ world
         front = clip[3] > 1e-9

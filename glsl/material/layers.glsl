@@ -6,6 +6,7 @@
 #ifndef PBS_LAYERS_GLSL
 #define PBS_LAYERS_GLSL
 
+#include "geometry/analytic.glsl"
 #include "material/blend.glsl"
 #include "material/filtering.glsl"
 #include "material/normal_mapping.glsl"
@@ -63,20 +64,31 @@ uniform vec2 u_blend;           // threshold, softness
 uniform vec2 u_specular_aa;     // sigma^2 of the pixel filter, kappa (the largest alpha^2 added)
 #endif
 
+// A material map at uv times the layer's UV scale. An analytic surface's UVs are computed
+// per pixel and jump by a whole turn at the sphere's longitude seam, so the implicit
+// derivatives would pick the smallest mip in a line along it: its own continuous
+// derivatives (geometry/analytic.glsl) are used instead.
+vec4 sample_map(sampler2D map, vec2 uv, vec2 scale) {
+#if ANALYTIC
+    return textureGrad(map, uv * scale, analytic_uv_ddx * scale, analytic_uv_ddy * scale);
+#else
+    return texture(map, uv * scale);
+#endif
+}
+
 // One layer's parameters at texture coordinate uv. `maps` is a constant, so after
 // inlining every branch below is resolved at compile time.
 Layer read_layer(LayerConstants c, int maps, vec2 uv, sampler2D base_color_map,
                  sampler2D metallic_map, sampler2D anisotropy_map,
                  sampler2D normal_roughness_map, sampler2D f0_map) {
-    vec2 st = uv * c.uv_scale;
     Layer l = Layer(c.base_color, c.metallic, c.roughness, c.f0, c.anisotropy,
                     vec3(0.0, 0.0, 1.0));
-    if ((maps & MAP_BASE_COLOR) != 0) l.base_color *= texture(base_color_map, st).rgb;
-    if ((maps & MAP_METALLIC) != 0) l.metallic *= texture(metallic_map, st).r;
-    if ((maps & MAP_ANISOTROPY) != 0) l.anisotropy *= texture(anisotropy_map, st).r;
-    if ((maps & MAP_F0) != 0) l.f0 *= texture(f0_map, st).r;
+    if ((maps & MAP_BASE_COLOR) != 0) l.base_color *= sample_map(base_color_map, uv, c.uv_scale).rgb;
+    if ((maps & MAP_METALLIC) != 0) l.metallic *= sample_map(metallic_map, uv, c.uv_scale).r;
+    if ((maps & MAP_ANISOTROPY) != 0) l.anisotropy *= sample_map(anisotropy_map, uv, c.uv_scale).r;
+    if ((maps & MAP_F0) != 0) l.f0 *= sample_map(f0_map, uv, c.uv_scale).r;
     if ((maps & MAP_NORMAL_ROUGHNESS) != 0) {
-        vec4 nr = texture(normal_roughness_map, st);
+        vec4 nr = sample_map(normal_roughness_map, uv, c.uv_scale);
         l.normal = tangent_space_normal(nr.xyz);
         l.perceptual_roughness = nr.a;
     }
@@ -104,7 +116,7 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     // one, so layer 0's sampler fills the slot.
     Layer top = read_layer(u_layer1, LAYER1_MAPS, uv, u_base_color_map1, u_metallic_map1,
                            u_anisotropy_map1, u_normal_roughness_map1, u_f0_map0);
-    float w = blend_weight(texture(u_blend_mask, uv * u_layer0.uv_scale).r, u_blend.x,
+    float w = blend_weight(sample_map(u_blend_mask, uv, u_layer0.uv_scale).r, u_blend.x,
                            u_blend.y);
     l = blend_layers(l, top, w);
     // The optional models' numbers (eta, k, ...) cannot be mixed per pixel: the layer
@@ -112,7 +124,7 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     if (w >= 0.5) id = u_material_id1;
 #endif
 #if (LAYER0_MAPS & MAP_SELECT) != 0
-    if (texture(u_select_map0, uv * u_layer0.uv_scale).r >= 0.5) id = u_material_id1;
+    if (sample_map(u_select_map0, uv, u_layer0.uv_scale).r >= 0.5) id = u_material_id1;
 #endif
     vec3 ng = normalize(front_facing ? normal : -normal);
     float t_len = length(tangent.xyz);
@@ -126,7 +138,7 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     // base material"; with it, the coat's map on the same tangent frame as the base's.
     vec3 nc = ng;
 #if (LAYER0_MAPS & MAP_COAT_NORMAL) != 0
-    vec4 coat = texture(u_coat_normal_map0, uv * u_layer0.uv_scale);
+    vec4 coat = sample_map(u_coat_normal_map0, uv, u_layer0.uv_scale);
     nc = perturb_normal(ng, t, tangent.w, tangent_space_normal(coat.xyz));
 #endif
 #if SPECULAR_AA

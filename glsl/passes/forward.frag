@@ -6,6 +6,7 @@
 // occluded fragments that reach the shader before their occluder are shaded too.
 #include "brdf/brdf.glsl"
 #include "common/position.glsl"
+#include "geometry/analytic.glsl"
 #include "lights/illumination.glsl"
 #include "material/layers.glsl"
 
@@ -17,16 +18,24 @@ in float v_view_depth;
 uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
 uniform int u_light_count;
-uniform vec3 u_camera_pos;
-uniform mat3 u_camera_to_world;
-uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
-uniform vec2 u_image_size;       // pixels
+// u_camera_pos, u_camera_to_world, u_tan_half_fov, u_image_size: geometry/analytic.glsl
 
 out vec4 frag_color;
 
 void main() {
     // The material as the G-buffer pass stores it (glsl/passes/gbuffer.frag), two-sided.
+#if ANALYTIC
+    AnalyticHit hit = analytic_surface();   // as in passes/gbuffer.frag
+    analytic_uv_ddx = hit.uv_ddx;
+    analytic_uv_ddy = hit.uv_ddy;
+    MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
+    float view_depth = hit.view_depth;
+    gl_FragDepth = hit.frag_depth;
+    if (!hit.hit) discard;
+#else
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
+    float view_depth = v_view_depth;
+#endif
 #ifdef MODEL_GROUP
     // A part whose layers use two models is drawn once per model (app/render/forward.py):
     // this draw keeps the fragments whose dominant layer uses its model.
@@ -45,7 +54,7 @@ void main() {
     // of a floor its float32 barycentrics moved p by up to ~1e-4 of the distance to a
     // nearby light (measured), which hides the comparison with the deferred image.
     vec2 ndc_xy = (gl_FragCoord.xy / u_image_size) * 2.0 - 1.0;
-    vec3 p = reconstruct_position(ndc_xy, v_view_depth, u_camera_pos, u_camera_to_world,
+    vec3 p = reconstruct_position(ndc_xy, view_depth, u_camera_pos, u_camera_to_world,
                                   u_tan_half_fov);
     vec3 v = normalize(u_camera_pos - p);
     vec3 n = sanitize_direction(m.n, v);

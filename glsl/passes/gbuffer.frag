@@ -2,6 +2,7 @@
 // The targets: gbuffer/layout.glsl (docs/gbuffer.md).
 #include "common/encoding.glsl"
 #include "gbuffer/layout.glsl"
+#include "geometry/analytic.glsl"
 #include "material/layers.glsl"
 
 in vec3 v_normal;
@@ -26,11 +27,22 @@ layout(location = 3) out vec2 g_coat_normal;
 #endif
 
 void main() {
+#if ANALYTIC
+    // The exact surface under the pixel centre (geometry/analytic.glsl); the proxy's
+    // interpolated attributes are unused.
+    AnalyticHit hit = analytic_surface();
+    analytic_uv_ddx = hit.uv_ddx;
+    analytic_uv_ddy = hit.uv_ddy;
+    MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
+    float view_depth = hit.view_depth;
+#else
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
+    float view_depth = v_view_depth;
+#endif
     Layer l = m.layer;
     g_base_color = vec4(l.base_color, l.metallic);
     g_normal = vec4(oct_encode(m.n), l.perceptual_roughness, l.f0);
-    g_depth = vec2(v_view_depth, m.material_id);
+    g_depth = vec2(view_depth, m.material_id);
 #if GBUFFER_TANGENT
     // Interpolation shortens the tangent and may tilt it off the surface; the lighting
     // pass re-orthonormalises it against n, so only its direction matters here.
@@ -38,5 +50,10 @@ void main() {
 #endif
 #if GBUFFER_COAT_NORMAL
     g_coat_normal = oct_encode(m.nc);
+#endif
+#if ANALYTIC
+    // After every derivative above, so that a missing pixel still served its quad.
+    gl_FragDepth = hit.frag_depth;
+    if (!hit.hit) discard;
 #endif
 }
