@@ -63,7 +63,7 @@ def render_and_reference(
     return loaded.scene, hdr, ldr, g, ref
 
 
-@pytest.mark.parametrize("gbuffer", ["f16", "f32"])
+@pytest.mark.parametrize("gbuffer", ["f16", "unorm16", "f32"])
 @pytest.mark.parametrize("scene", ["showcase.toml", "teapot.toml"])
 def test_lighting_pass_matches_float64_reference(gl, scene, gbuffer):
     _, hdr, _, g, ref = render_and_reference(gl, scene, (320, 180), gbuffer)

@@ -103,7 +103,8 @@ def test_stress_scene_hits_what_it_claims():
 
 
 @pytest.mark.parametrize(
-    ("gbuffer", "culling"), [("f16", "tiled"), ("f32", "tiled"), ("f16", "none")]
+    ("gbuffer", "culling"),
+    [("f16", "tiled"), ("unorm16", "tiled"), ("f32", "tiled"), ("f16", "none")],
 )
 def test_stress_scene_hdr_is_finite_and_non_negative(gl: GLContext, gbuffer: str, culling: str):
     loaded = _with_gbuffer(load_scene(STRESS), gbuffer, culling)
@@ -161,7 +162,7 @@ WELL_CONDITIONED_REL = 1e-4
 ILL_CONDITIONED_REL = 2e-2
 
 
-@pytest.mark.parametrize("gbuffer", ["f16", "f32"])
+@pytest.mark.parametrize("gbuffer", ["f16", "unorm16", "f32"])
 def test_stress_scene_matches_float64_twin(gl: GLContext, gbuffer: str):
     """The lighting pass against app.reference.illumination on the same G-buffer.
 

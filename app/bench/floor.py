@@ -58,6 +58,7 @@ class FloorPass:
             defines: dict[str, object] = dict(model.defines())
             defines["TILE_QUADS"] = self.quads
             defines.update(table.gbuffer_defines())
+            defines.update(renderer.gbuffer.defines())
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             if several:
                 defines["MODEL_GROUP"] = group

@@ -21,6 +21,7 @@ import math
 import numpy as np
 
 from app.bench.pairs import in_cone_mask
+from app.common.gbuffer import DEFAULT_ENCODING
 from app.common.lights import LightType
 from app.frame.lights import light_record
 from app.gl.context import GLContext
@@ -50,7 +51,7 @@ def many_lights_scene(
     light_range: float,
     size: tuple[int, int],
     culling: str = "tiled",
-    gbuffer: str = "f16",
+    gbuffer: str = DEFAULT_ENCODING,
 ) -> dict:
     """The culling suite's scene with ``count`` lights (no directional light: the count is
     exactly the number of lights a pixel could be lit by).
@@ -148,7 +149,7 @@ def calibrate_range(
 ROUGHNESS_SWEEP = (0.05, 0.2, 0.35, 0.5, 0.7, 0.9)
 
 
-def accuracy_scene(size: tuple[int, int], model: dict, gbuffer: str = "f16") -> dict:
+def accuracy_scene(size: tuple[int, int], model: dict, gbuffer: str = DEFAULT_ENCODING) -> dict:
     """Spheres sweeping roughness (front row dielectric, back row metallic unless the
     comparison is about dielectric Fresnel) over a floor; every material gets ``model``'s
     keys (e.g. {"g2": "hammon"}). 16 point lights and a low directional light reach every
@@ -243,3 +244,51 @@ def specialization_scene(kind: str, count: int, light_range: float, size: tuple[
     for k, obj in enumerate(data["objects"][1:]):
         obj["material"] = f"model{k % len(MIXED_MODELS)}"
     return data
+
+
+# --- the G-buffer encodings ---------------------------------------------------------------
+
+# The materials of the encodings' varied scene: dark and bright base colours, dielectrics
+# and metals, roughness 0.05 to 1, and one anisotropic metal so that RT3 (the tangent) is
+# written and read.
+VARIED_MATERIALS: tuple[dict, ...] = (
+    {"base_color": [0.02, 0.02, 0.025], "roughness": 0.05},
+    {"base_color": [0.9, 0.88, 0.85], "roughness": 0.3},
+    {"base_color": [0.95, 0.64, 0.54], "metallic": 1.0, "roughness": 0.12},
+    {"base_color": [0.04, 0.3, 0.05], "roughness": 1.0},
+    {"base_color": [0.91, 0.92, 0.92], "metallic": 1.0, "roughness": 0.4, "anisotropy": 0.8},
+    {"base_color": [0.3, 0.05, 0.6], "roughness": 0.6, "f0": 0.02},
+)
+
+
+def encoding_scene(size: tuple[int, int], kind: str, gbuffer: str = "f32") -> dict:
+    """The scenes the G-buffer encodings are measured on (docs/gbuffer.md): ``spheres``,
+    five spheres of the default material (the default model) under two directional lights
+    and a point light; ``varied``, six spheres of ``VARIED_MATERIALS`` under the same
+    lights. No floor: every covered pixel is a sphere's."""
+    materials = (
+        [{}] * 5 if kind == "spheres" else list(VARIED_MATERIALS)
+    )  # the default material: base colour, roughness and F0 as docs/scene-format.md gives
+    count = len(materials)
+    objects = [
+        {
+            "shape": "sphere",
+            "radius": 0.7,
+            "material": f"m{k}",
+            "position": [-1.6 * (count - 1) / 2 + 1.6 * k, 0.0, 0.0],
+        }
+        for k in range(count)
+    ]
+    lights = [
+        {"type": "directional", "direction": [-0.5, -0.6, -0.62], "intensity": 2.0},
+        {"type": "directional", "direction": [0.7, -0.2, -0.7], "color": [0.6, 0.7, 1.0]},
+        {"type": "point", "position": [1.0, 2.0, 3.0], "intensity": 6.0, "range": 30.0},
+    ]
+    return {
+        "background": [0.0, 0.0, 0.0],
+        "camera": {"position": [0.0, 0.6, 7.0], "target": [0.0, 0.0, 0.0], "fov_y": 40.0},
+        "render": {"width": size[0], "height": size[1], "gbuffer": gbuffer},
+        "materials": {f"m{k}": m for k, m in enumerate(materials)},
+        "lights": lights,
+        "objects": objects,
+    }

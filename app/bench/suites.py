@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.bench.encodings import channel_errors
 from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.filtering import SWEEP_METRES, render_hdr, shimmer, with_settings
 from app.bench.floor import FloorPass
@@ -35,6 +36,7 @@ from app.bench.scenes import (
     SPECIALIZATION_KINDS,
     accuracy_scene,
     calibrate_range,
+    encoding_scene,
     load,
     many_lights_scene,
     specialization_scene,
@@ -49,6 +51,7 @@ from app.bench.timing import (
     time_frames,
     time_interleaved,
 )
+from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES, bytes_per_pixel
 from app.common.tables import DEFAULT_SIZE
 from app.gl.context import GLContext
 from app.progress import Progress
@@ -465,7 +468,7 @@ class Variant:
     name: str
     model: dict  # material keys given to every material
     default: bool = False
-    gbuffer: str = "f16"
+    gbuffer: str = DEFAULT_ENCODING
     ms_size: int | None = None  # multiple-scattering table size (None: the pass's own)
 
 
@@ -515,10 +518,10 @@ def comparisons(settings: Settings) -> list[Comparison]:
         ),
         Comparison(
             "gbuffer",
-            "G-buffer channels: 16-bit vs 32-bit float",
-            (
-                Variant("f16", {}, default=True, gbuffer="f16"),
-                Variant("f32", {}, gbuffer="f32"),
+            "G-buffer encodings: float16, 16-bit unorm, unorm16 base colour, float32",
+            tuple(
+                Variant(name, {}, default=name == DEFAULT_ENCODING, gbuffer=name)
+                for name in ENCODING_NAMES
             ),
             Variant("f32", {}, gbuffer="f32"),
         ),
@@ -613,7 +616,8 @@ def layered_comparisons() -> list[Comparison]:
 def accuracy_tasks(settings: Settings) -> int:
     # Per comparison: the reference, the variants; mip filtering: the reference, the
     # variants, each variant's camera sweep.
-    return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2
+    # The G-buffer channels: two scenes.
+    return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2 + 2
 
 
 def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
@@ -625,51 +629,81 @@ def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) ->
 
 def run_accuracy(ctx: Context) -> None:
     """Suite ``accuracy``: each approximation's time and error against its exact form."""
+    for comp in comparisons(ctx.settings):
+        run_comparison(ctx, comp)
+        if comp.name == "gbuffer":
+            _run_gbuffer_channels(ctx)
+    _run_mip_filtering(ctx)
+
+
+def run_comparison(ctx: Context, comp: Comparison) -> None:
+    """One comparison: its variants timed interleaved, each one's error against the
+    float64 twin on the reference variant's G-buffer."""
     s = ctx.settings
-    for comp in comparisons(s):
-        size = s.layered_size if comp.layered else s.accuracy_size
-        ctx.progress.start(f"accuracy {comp.name}: float64 reference")
-        ref_r = _accuracy_renderer(ctx, comp.reference, size)
-        try:
-            ref_r.gbuffer_pass.run(ref_r.gbuffer, ref_r.view, ref_r.proj, ref_r.camera)
-            g = ref_r.read_gbuffer()
-            ms_table = None
-            if comp.ms_reference is not None:
-                ms_table = load_table(comp.ms_reference)
-            scene = ref_r.scene
-            ref = reference_hdr(
-                g, ref_r.camera, ref_r.lights, scene.background, ref_r.materials.models,
-                ref_r.materials.packed(), None, ms_table,
-            )  # fmt: skip
-        finally:
-            ref_r.release()
-        covered = g.covered
-        ctx.progress.done()
-        ctx.progress.start(f"accuracy {comp.name}: {', '.join(v.name for v in comp.variants)}")
-        renderers = {v.name: _accuracy_renderer(ctx, v, size) for v in comp.variants}
-        try:
-            times = ctx.time_interleaved({n: deferred_passes(r) for n, r in renderers.items()})
-            results = {
-                n: (r.read_hdr(), bool(np.array_equal(r.read_gbuffer().depth, g.depth)),
-                    len(r.lights))
-                for n, r in renderers.items()
-            }  # fmt: skip
-        finally:
-            for r in renderers.values():
-                r.release()
-        for variant in comp.variants:
-            hdr, same_surface, lights = results[variant.name]
-            errors = image_errors(hdr, ref, covered, scene.camera.exposure, scene.render.tonemap)
+    size = s.layered_size if comp.layered else s.accuracy_size
+    ctx.progress.start(f"accuracy {comp.name}: float64 reference")
+    ref_r = _accuracy_renderer(ctx, comp.reference, size)
+    try:
+        ref_r.gbuffer_pass.run(ref_r.gbuffer, ref_r.view, ref_r.proj, ref_r.camera)
+        g = ref_r.read_gbuffer()
+        ms_table = None
+        if comp.ms_reference is not None:
+            ms_table = load_table(comp.ms_reference)
+        scene = ref_r.scene
+        ref = reference_hdr(
+            g, ref_r.camera, ref_r.lights, scene.background, ref_r.materials.models,
+            ref_r.materials.packed(), None, ms_table,
+        )  # fmt: skip
+    finally:
+        ref_r.release()
+    covered = g.covered
+    ctx.progress.done()
+    ctx.progress.start(f"accuracy {comp.name}: {', '.join(v.name for v in comp.variants)}")
+    renderers = {v.name: _accuracy_renderer(ctx, v, size) for v in comp.variants}
+    try:
+        times = ctx.time_interleaved({n: deferred_passes(r) for n, r in renderers.items()})
+        results = {
+            n: (r.read_hdr(), bool(np.array_equal(r.read_gbuffer().depth, g.depth)),
+                len(r.lights))
+            for n, r in renderers.items()
+        }  # fmt: skip
+    finally:
+        for r in renderers.values():
+            r.release()
+    for variant in comp.variants:
+        hdr, same_surface, lights = results[variant.name]
+        errors = image_errors(hdr, ref, covered, scene.camera.exposure, scene.render.tonemap)
+        if comp.name == "gbuffer":  # the encodings' cost in memory too (no RT3/RT4 here)
+            errors["bytes_per_pixel"] = bytes_per_pixel(variant.gbuffer)
+        ctx.rows.append(
+            make_row(
+                "accuracy", comp.name, variant.name, size, lights, times[variant.name],
+                default=variant.default, comparison=comp.title,
+                error_reference=_reference_text(comp), same_depth_as_reference=same_surface,
+                **errors,
+            )
+        )  # fmt: skip
+    ctx.progress.done()
+
+
+def _run_gbuffer_channels(ctx: Context) -> None:
+    """The G-buffer encodings' error channel by channel (app/bench/encodings.py), on the
+    five default-model spheres and on the varied materials: untimed rows, the error
+    against the f32 frame of the same scene (interior pixels, 2 px from silhouettes)."""
+    size = ctx.settings.accuracy_size
+    for kind in ("spheres", "varied"):
+        ctx.progress.start(f"accuracy gbuffer channels: {kind}")
+        for row in channel_errors(ctx.gl, encoding_scene(size, kind)):
             ctx.rows.append(
                 make_row(
-                    "accuracy", comp.name, variant.name, size, lights, times[variant.name],
-                    default=variant.default, comparison=comp.title,
-                    error_reference=_reference_text(comp), same_depth_as_reference=same_surface,
-                    **errors,
+                    "accuracy", f"gbuffer_channels_{kind}",
+                    f"{row['channel']}:{row['storage']}", size, 3, None,
+                    comparison="one G-buffer channel rounded as the storage would, the "
+                    "rest f32", error_reference="the f32 G-buffer's frame (GLSL), interior "
+                    "pixels", **{k: v for k, v in row.items() if k.startswith("rel_")},
                 )
             )  # fmt: skip
         ctx.progress.done()
-    _run_mip_filtering(ctx)
 
 
 def _run_mip_filtering(ctx: Context) -> None:

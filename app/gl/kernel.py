@@ -56,12 +56,15 @@ def run_kernel(
     defines: Mapping[str, object] | None = None,
     bind: Callable[[moderngl.Program, int], None] | None = None,
     declarations: str = "",
+    target_dtype: str = "f4",
 ) -> np.ndarray:
     """Evaluate ``body`` for each of the N rows of the ``inputs`` arrays.
 
     ``inputs`` maps a GLSL name to an (N,) or (N, k <= 4) array (padded with zeros to a
     vec4). ``bind(program, first_free_unit)`` may set further uniforms and textures.
-    Returns the ``result`` vectors as an (N, 4) float64 array.
+    ``target_dtype``: the result target's moderngl dtype, "f4" (RGBA32F), or "f2" / "nu2"
+    (RGBA16F / 16-bit unorm) to see what a G-buffer target of that storage keeps.
+    Returns the ``result`` vectors as an (N, 4) float64 array (a unorm code k as k/65535).
     """
     arrays = {k: np.asarray(a, np.float32).reshape(len(a), -1) for k, a in inputs.items()}
     if not arrays:
@@ -79,7 +82,7 @@ def run_kernel(
         ),
     )
     textures: list[moderngl.Texture] = []
-    target = ctx.texture((width, height), 4, dtype="f4")
+    target = ctx.texture((width, height), 4, dtype=target_dtype)
     fbo = ctx.framebuffer([target])
     vao = ctx.vertex_array(program, [])
     try:
@@ -98,8 +101,9 @@ def run_kernel(
         ctx.viewport = (0, 0, width, height)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         vao.render(moderngl.TRIANGLES, vertices=3)
-        out = np.frombuffer(target.read(), np.float32).reshape(-1, 4)[:n]
-        return out.astype(np.float64)
+        stored = np.dtype({"nu2": "u2"}.get(target_dtype, target_dtype))
+        out = np.frombuffer(target.read(), stored).reshape(-1, 4)[:n].astype(np.float64)
+        return out / 65535.0 if target_dtype == "nu2" else out
     finally:
         for obj in (vao, fbo, target, program, *textures):
             obj.release()

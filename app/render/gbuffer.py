@@ -1,15 +1,17 @@
 """The G-buffer pass: rasterise every object's material parameters into render targets.
 
 Layout and precision are documented in docs/gbuffer.md:
-  RT0 ``base_color`` RGBA16F|32F  base_color.rgb (linear), metallic
-  RT1 ``normal``  RGBA16F|32F  octahedral normal (x, y), perceptual roughness, F0
+  RT0 ``base_color`` RGBA16F|16|32F  base_color.rgb (linear), metallic
+  RT1 ``normal``  RGBA16F|16|32F  octahedral normal (x, y), perceptual roughness, F0
   RT2 ``depth``   RG32F        linear view depth in metres (0 where nothing was drawn),
                                material id (an exact integer)
-  RT3 ``tangent`` RGBA16F|32F  octahedral tangent (x, y), anisotropy, 0; only where a
+  RT3 ``tangent`` RGBA16F|16|32F  octahedral tangent (x, y), anisotropy, 0; only where a
                                material of the scene is anisotropic (``tangents``)
-  RT4 ``coat_normal`` RG16F|32F  octahedral clear-coat normal (x, y); only where a coat's
+  RT4 ``coat_normal`` RG16F|16|32F  octahedral clear-coat normal (x, y); only where a coat's
                                normal differs from its base's (``coat_normals``, RTR4 §9.12)
   z-test          DEPTH24      a renderbuffer, never sampled
+The storage of RT0 and of RT1/RT3/RT4 is the scene's ``render.gbuffer`` (app/common/gbuffer.py
+ENCODINGS): float16, 16-bit unorm (signed values mapped to [0, 1]) or float32.
 """
 
 from __future__ import annotations
@@ -18,9 +20,10 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.gbuffer import GBufferData
+from app.common.gbuffer import ENCODINGS, GBufferData, encoding_defines
 from app.frame.camera import camera_from_matrices, gl_bytes
 from app.gl.shaders import ShaderCache
+from app.reference.encoding import unorm_to_snorm
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
 from app.textures.maps import SurfaceLayer, Texture
 
@@ -32,21 +35,23 @@ class GBuffer:
         self,
         ctx: moderngl.Context,
         size: tuple[int, int],
-        precision: str,
+        encoding: str,
         tangents: bool = True,
         coat_normals: bool = False,
     ) -> None:
-        """``tangents``: allocate RT3 (only anisotropic materials read a tangent);
+        """``encoding``: a ``render.gbuffer`` value (app/common/gbuffer.py ENCODINGS);
+        ``tangents``: allocate RT3 (only anisotropic materials read a tangent);
         ``coat_normals``: allocate RT4 (only a coat whose normal is not its base's reads it).
         The targets are bound in this order, RT4 at location 3 where RT3 is absent
         (passes/gbuffer.frag)."""
-        dtype = {"f16": "f2", "f32": "f4"}[precision]
+        base, directions = (STORAGE_DTYPES[s] for s in ENCODINGS[encoding])
+        self.encoding = encoding
         self.size = size
-        self.base_color = ctx.texture(size, 4, dtype=dtype)
-        self.normal = ctx.texture(size, 4, dtype=dtype)
+        self.base_color = ctx.texture(size, 4, dtype=base)
+        self.normal = ctx.texture(size, 4, dtype=directions)
         self.depth = ctx.texture(size, 2, dtype="f4")
-        self.tangent = ctx.texture(size, 4, dtype=dtype) if tangents else None
-        self.coat_normal = ctx.texture(size, 2, dtype=dtype) if coat_normals else None
+        self.tangent = ctx.texture(size, 4, dtype=directions) if tangents else None
+        self.coat_normal = ctx.texture(size, 2, dtype=directions) if coat_normals else None
         self.zbuffer = ctx.depth_renderbuffer(size)
         targets = [self.base_color, self.normal, self.depth]
         targets += [t for t in (self.tangent, self.coat_normal) if t is not None]
@@ -55,18 +60,25 @@ class GBuffer:
             tex.repeat_x = tex.repeat_y = False
         self.fbo = ctx.framebuffer(targets, self.zbuffer)
 
+    def defines(self) -> dict[str, int]:
+        """The encoding's defines for every pass that writes or decodes these targets."""
+        return encoding_defines(self.encoding)
+
     def read(self) -> GBufferData:
+        """The targets with GBufferData's float meaning: a unorm target's signed channels
+        (octahedral coordinates, anisotropy) mapped back to [-1, 1] as decode.glsl maps
+        them (float64 here, then float32: within an ulp of the GLSL's float32)."""
         w, h = self.size
         base_color = _read_float(self.base_color).reshape(h, w, 4)
-        normal = _read_float(self.normal).reshape(h, w, 4)
+        normal = _read_float(self.normal, (0, 1), 4).reshape(h, w, 4)
         depth_id = np.frombuffer(self.depth.read(), np.float32).reshape(h, w, 2)
         if self.tangent is not None:
-            tangent = _read_float(self.tangent).reshape(h, w, 4).copy()
+            tangent = _read_float(self.tangent, (0, 1, 2), 4).reshape(h, w, 4).copy()
         else:
             tangent = np.zeros((h, w, 4), np.float32)
         coat_normal = None
         if self.coat_normal is not None:
-            coat_normal = _read_float(self.coat_normal).reshape(h, w, 2)[::-1].copy()
+            coat_normal = _read_float(self.coat_normal, (0, 1), 2).reshape(h, w, 2)[::-1].copy()
         return GBufferData(
             base_color=base_color[::-1].copy(),
             normal=normal[::-1].copy(),
@@ -90,9 +102,22 @@ class GBuffer:
             obj.release()
 
 
-def _read_float(tex: moderngl.Texture) -> np.ndarray:
-    """A float16/float32 texture's texels as float32 (float16 widens exactly)."""
-    return np.frombuffer(tex.read(), np.dtype(tex.dtype)).astype(np.float32)
+# moderngl's dtype of each storage: "nu2" is GL_RGBA16 (16-bit unsigned normalised),
+# colour-renderable in GL 3.3.
+STORAGE_DTYPES = {"f16": "f2", "unorm16": "nu2", "f32": "f4"}
+
+
+def _read_float(
+    tex: moderngl.Texture, signed: tuple[int, ...] = (), components: int = 4
+) -> np.ndarray:
+    """A texture's texels as float32: float16 widens exactly; a unorm16 texel ``u`` reads
+    as u / 65535 (the GL's conversion), and its ``signed`` channels through
+    unorm_to_snorm."""
+    if tex.dtype != "nu2":
+        return np.frombuffer(tex.read(), np.dtype(tex.dtype)).astype(np.float32)
+    texels = np.frombuffer(tex.read(), np.uint16).reshape(-1, components) / 65535.0
+    texels[:, signed] = unorm_to_snorm(texels[:, signed])
+    return texels.astype(np.float32).reshape(-1)
 
 
 # Bit of each map in a layer's LAYER<i>_MAPS define (glsl/material/layers.glsl).

@@ -19,6 +19,7 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
+from app.common.gbuffer import encoding_defines
 from app.common.lights import PunctualLight, pack_lights
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
@@ -43,8 +44,11 @@ class LightingPass:
         terms: str = "all",
         uber: bool = False,
         ms_table: np.ndarray | None = None,
+        *,
+        encoding: str,
     ) -> None:
-        """``terms``: the scene's render.terms, which reflections the BRDF returns.
+        """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
+        ``terms``: the scene's render.terms, which reflections the BRDF returns.
         ``uber``: one program with run-time model selection instead of one per model
         group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
         the bench's, from ``RenderOptions``)."""
@@ -63,6 +67,7 @@ class LightingPass:
         self.programs = []
         for defines in variants:
             defines.update(table.gbuffer_defines())
+            defines.update(encoding_defines(encoding))
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1

@@ -159,7 +159,7 @@ class Renderer:
         )
         self.gbuffer_pass = GBufferPass(
             self.gl.ctx, self.shaders, self.frame.parts, self.frame.material_ids, specular_aa,
-            self.materials.gbuffer_defines(),
+            self.materials.gbuffer_defines() | self.gbuffer.defines(),
         )  # fmt: skip
 
     def _build_lighting(self) -> None:
@@ -170,7 +170,7 @@ class Renderer:
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
-            settings.terms, self.options.uber, self.options.ms_table,
+            settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
         )  # fmt: skip
 
     def _build_post(self) -> None:

@@ -22,6 +22,7 @@ from pydantic import (
     model_validator,
 )
 
+from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES
 from app.common.ior import f0_from_ior, ior_from_f0
 from app.common.models import (
     CORRELATIONS,
@@ -115,7 +116,8 @@ class RenderSettings(_Strict):
     width: Annotated[int, Field(strict=True, ge=1, le=16384)] = 1280
     height: Annotated[int, Field(strict=True, ge=1, le=16384)] = 720
     tonemap: Literal[TONEMAPS] = "neutral"  # type: ignore[valid-type]
-    gbuffer: Literal["f16", "f32"] = "f16"
+    # The G-buffer's storage (app/common/gbuffer.py ENCODINGS; docs/gbuffer.md measures each).
+    gbuffer: Literal[ENCODING_NAMES] = DEFAULT_ENCODING  # type: ignore[valid-type]
     light_culling: Literal["tiled", "none"] = "tiled"
     # RTR4 §9.13: how normal-map mips carry the variance of the normals they average
     # into roughness (app/textures/mips.py), and screen-space geometric specular AA.

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from imgui_bundle import imgui, implot
 
+from app.common.gbuffer import ENCODING_NAMES
 from app.common.models import (
     CLEARCOAT_MODELS,
     CORRELATIONS,
@@ -551,7 +552,7 @@ class Panels:
             if changed:
                 self._edit("camera.focus_distance", float(value))
             for field, names in (
-                ("gbuffer", ("f16", "f32")),
+                ("gbuffer", ENCODING_NAMES),
                 ("normal_filter", ("none", "naive", "toksvig", "variance")),
                 ("terms", ("all", "specular", "diffuse")),
                 ("blend", ("runtime", "baked")),

@@ -61,6 +61,13 @@ GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
 #endif
     vec4 a = texelFetch(g_base_color, px, 0);
     vec4 b = texelFetch(g_normal, px, 0);
+#if GBUFFER_UNORM_DIRECTIONS
+    // 16-bit unorm targets: the signed values back to [-1, 1] (common/encoding.glsl).
+    b.rg = unorm_to_snorm(b.rg);
+#if GBUFFER_TANGENT
+    c.rgb = vec3(unorm_to_snorm(c.rg), unorm_to_snorm(c.b));
+#endif
+#endif
     // Textures can deliver NaN, Inf or out-of-range values; no pixel may turn them into
     // NaN radiance (docs/stability.md).
     Surface s = sanitize_surface(Surface(a.rgb, a.a, b.b, b.a, c.b));
@@ -73,7 +80,11 @@ GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     vec3 v = normalize(camera_pos - p);
     vec3 n = sanitize_direction(oct_decode(b.rg), v);
 #if GBUFFER_COAT_NORMAL
-    vec3 nc = sanitize_direction(oct_decode(texelFetch(g_coat_normal, px, 0).rg), n);
+    vec2 e_coat = texelFetch(g_coat_normal, px, 0).rg;
+#if GBUFFER_UNORM_DIRECTIONS
+    e_coat = unorm_to_snorm(e_coat);
+#endif
+    vec3 nc = sanitize_direction(oct_decode(e_coat), n);
 #else
     vec3 nc = n;   // no coat has a normal of its own: the coat shades with n
 #endif

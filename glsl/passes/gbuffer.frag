@@ -41,15 +41,31 @@ void main() {
 #endif
     Layer l = m.layer;
     g_base_color = vec4(l.base_color, l.metallic);
+#if GBUFFER_UNORM_DIRECTIONS
+    // 16-bit unorm targets (docs/gbuffer.md, "Encodings"): signed values mapped into
+    // [0, 1]; NaN given the fallback the decode's sanitize_surface would give it.
+    g_normal = vec4(snorm_to_unorm(oct_encode(m.n)), finite_or(l.perceptual_roughness, 1.0),
+                    finite_or(l.f0, 0.04));
+#else
     g_normal = vec4(oct_encode(m.n), l.perceptual_roughness, l.f0);
+#endif
     g_depth = vec2(view_depth, m.material_id);
 #if GBUFFER_TANGENT
     // Interpolation shortens the tangent and may tilt it off the surface; the lighting
     // pass re-orthonormalises it against n, so only its direction matters here.
+#if GBUFFER_UNORM_DIRECTIONS
+    g_tangent = vec4(snorm_to_unorm(oct_encode(m.t)),
+                     snorm_to_unorm(clamp(finite_or(l.anisotropy, 0.0), -1.0, 1.0)), 0.0);
+#else
     g_tangent = vec4(oct_encode(m.t), l.anisotropy, 0.0);
 #endif
+#endif
 #if GBUFFER_COAT_NORMAL
+#if GBUFFER_UNORM_DIRECTIONS
+    g_coat_normal = snorm_to_unorm(oct_encode(m.nc));
+#else
     g_coat_normal = oct_encode(m.nc);
+#endif
 #endif
 #if ANALYTIC
     // After every derivative above, so that a missing pixel still served its quad.
