@@ -69,14 +69,22 @@ def five_spheres(subdivisions: int | None = None, gbuffer: str = "f16") -> Loade
     return parse_scene(data, Path("five_spheres.toml"))
 
 
-def gpu_hdr(gl: GLContext, loaded: LoadedScene, size: tuple[int, int]) -> np.ndarray:
-    """The renderer's linear HDR of ``loaded`` at ``size``, float64 (H, W, 3)."""
+def gpu_hdr(
+    gl: GLContext, loaded: LoadedScene, size: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The renderer's linear HDR of ``loaded`` at ``size``, float64 (H, W, 3), and its
+    coverage (H, W): the pixels some sample of whose G-buffer holds a surface (depth > 0)."""
     r = Renderer(gl, loaded, size)
     try:
         r.render()
-        return r.read_hdr().astype(np.float64)
+        hdr = r.read_hdr().astype(np.float64)
+        depth = r.read_gbuffer().depth
     finally:
         r.release()
+    f = loaded.scene.render.supersample
+    w, h = size
+    covered = (depth > 0.0).reshape(h, f, w, f).any(axis=(1, 3))
+    return hdr, covered
 
 
 def raycast_errors(
@@ -84,11 +92,10 @@ def raycast_errors(
 ) -> dict[str, float | None]:
     """``interior_errors`` of the renderer's HDR of ``loaded`` against the ray-caster's,
     on the pixels 2 px or more inside a silhouette (``interior_mask``), plus the share of
-    pixels whose coverage differs (``coverage_mismatch``)."""
+    pixels covered by one and not the other (``coverage_mismatch``)."""
     ref = reference_scene(loaded, size)
-    hdr = gpu_hdr(gl, loaded, size)
+    hdr, covered = gpu_hdr(gl, loaded, size)
     cam, render = loaded.scene.camera, loaded.scene.render
     errors = interior_errors(hdr, ref.hdr, ref.interior(), cam.exposure, render.tonemap, flip)
-    background = np.all(hdr == np.asarray(loaded.scene.background, np.float32), axis=-1)
-    errors["coverage_mismatch"] = float(np.mean(background == ref.covered))
+    errors["coverage_mismatch"] = float(np.mean(covered != ref.covered))
     return errors
