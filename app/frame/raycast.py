@@ -1,0 +1,79 @@
+"""A validated scene -> the float64 ray-caster's inputs and its reference image
+(app/reference/raycast.py, issue 16).
+
+The primitives are built from ``scene.objects`` directly (their model matrices by
+app.scene.geometry.model_matrix), not from the tessellated mesh parts, and the materials
+from the scene's definitions (``Material.resolve``, as the layers take them), so the
+reference shares no geometry with the renderer. What it cannot reproduce exactly it
+refuses with a ValueError naming the object, material or key: mesh files and the shapes
+it does not intersect, texture maps, blends, a camera with an aperture.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.common.primitives import Primitive
+from app.frame.camera import camera_frame
+from app.frame.lights import frame_lights
+from app.reference.material import Surface
+from app.reference.raycast import PrimitiveMaterial, RaycastImage, render_reference
+from app.scene.geometry import model_matrix
+from app.scene.loader import LoadedScene
+from app.scene.model import TEXTURE_KEYS, Material, SceneObject
+
+
+def _label(index: int, obj: SceneObject) -> str:
+    return f"objects[{index}]" + (f" ({obj.name!r})" if obj.name else "")
+
+
+def primitive(index: int, obj: SceneObject) -> Primitive:
+    """Scene object ``index`` as an analytic primitive; ValueError for what has none."""
+    model = model_matrix(obj)
+    if obj.shape == "sphere":
+        return Primitive("sphere", model, radius=float(obj.radius or 0.5))  # geometry.py's default
+    if obj.shape == "plane":
+        size = obj.size or [10.0, 10.0]  # the mesh plane's default (app/scene/geometry.py)
+        return Primitive("plane", model, size=(float(size[0]), float(size[1])))
+    raise ValueError(
+        f"{_label(index, obj)}: the ray-caster intersects spheres and planes, not "
+        f"shape {obj.shape!r}"
+    )
+
+
+def primitive_material(name: str, m: Material) -> PrimitiveMaterial:
+    """Scene material ``name`` as the twins take it; ValueError for maps and blends (the
+    ray-caster shades material constants only)."""
+    maps = [key for key in TEXTURE_KEYS if getattr(m, key) is not None]
+    if maps:
+        raise ValueError(f"materials.{name}: the ray-caster takes no texture maps ({maps[0]})")
+    if m.blend is not None:
+        raise ValueError(f"materials.{name}: the ray-caster takes no blends (blend)")
+    p = m.resolve()
+    surface = Surface(
+        np.asarray(p.base_color, np.float64), p.metallic, p.roughness, p.f0, p.anisotropy
+    )
+    return PrimitiveMaterial(surface, p.params, p.model)
+
+
+def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) -> RaycastImage:
+    """The ray-cast reference image of ``loaded`` at ``size`` (width, height; default the
+    scene's render size), supersampled as ``render.supersample`` says, with the same camera
+    frame the renderer gives its lighting pass (app/render/renderer.py)."""
+    scene = loaded.scene
+    if scene.camera.aperture > 0.0:
+        raise ValueError("camera.aperture: the ray-caster is a pinhole camera (no depth of field)")
+    if size is None:
+        size = (scene.render.width, scene.render.height)
+    prims, materials = [], []
+    for i, obj in enumerate(scene.objects):
+        prims.append(primitive(i, obj))
+        assert obj.material is not None  # the scene model requires one for every shape
+        materials.append(primitive_material(obj.material, scene.materials[obj.material]))
+    factor = scene.render.supersample
+    camera = camera_frame(scene.camera, size[0] * factor, size[1] * factor)
+    lights = frame_lights(scene.lights, scene.environment)
+    background = np.asarray(scene.background, np.float64)
+    return render_reference(
+        prims, materials, camera, size, lights, background, scene.render.terms, factor
+    )

@@ -1,0 +1,291 @@
+"""An independent float64 ray-caster: the pipeline's reference image of a scene of analytic
+primitives (issue 16).
+
+It shares nothing with the rasteriser but the shading twins: rays leave the camera through
+the pixel centres the lighting pass reconstructs positions at (app/reference/position.py),
+each ray is intersected here, from the maths, with every primitive
+(app/common/primitives.py: spheres through their model matrix, so scaled spheres are
+ellipsoids, and finite two-sided rectangles), and the nearest hit is shaded by the twins'
+illumination sum (app/reference/illumination.py, RTR4 §9.4) with the surface sanitised as
+the G-buffer decode sanitises it. No G-buffer, no tessellation and no GLSL are involved,
+so the difference between this image and the GPU's is the whole pipeline's error:
+geometry, G-buffer encodings and float32 shading together.
+
+The ray through pixel centre ``ndc`` is ``camera + t R (ndc.x tan_x, ndc.y tan_y, -1)``,
+whose parameter ``t`` is the view depth (the distance along the view axis), so a hit's
+``t`` compares directly with the G-buffer's depth and with the near and far planes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.common.camera import CameraFrame
+from app.common.lights import PunctualLight
+from app.common.models import Model, ModelParams
+from app.common.primitives import Primitive
+from app.reference._vec import dot, normalize
+from app.reference.illumination import illumination_sum, pixel_ndc
+from app.reference.material import Surface, sanitize_surface
+
+NO_HIT = -1  # primitive id of a pixel that hits nothing
+MIXED = -2  # primitive id of a supersampled pixel whose samples disagree
+
+
+@dataclass(frozen=True)
+class PrimitiveMaterial:
+    """A primitive's material as the twins take it: the G-buffer's surface values (scalar
+    fields, base_color a 3-vector) and the material table row's model and parameters."""
+
+    surface: Surface
+    params: ModelParams
+    model: Model
+
+
+@dataclass
+class Hits:
+    """The nearest hit of each pixel's ray; every image is (H, W) or (H, W, k), with zeros
+    where nothing is hit (``ids == NO_HIT``)."""
+
+    ids: np.ndarray  # (H, W) int64: index of the primitive hit, NO_HIT where none
+    depth: np.ndarray  # (H, W) view depth t (0 where no hit, as in the G-buffer)
+    p: np.ndarray  # (H, W, 3) world position
+    n: np.ndarray  # (H, W, 3) unit normal (a plane's faces the viewer)
+    t: np.ndarray  # (H, W, 3) unit tangent (app/common/primitives.py)
+    uv: np.ndarray  # (H, W, 2)
+
+    @property
+    def covered(self) -> np.ndarray:
+        """(H, W) bool: the pixels whose ray hits a primitive."""
+        return self.ids >= 0
+
+
+@dataclass
+class RaycastImage:
+    """A rendered reference: linear HDR radiance and what the error metrics need."""
+
+    hdr: np.ndarray  # (H, W, 3) float64
+    covered: np.ndarray  # (H, W) bool: some sample of the pixel hits a primitive
+    ids: np.ndarray  # (H, W) int64: the primitive all samples hit, NO_HIT or MIXED
+
+    def interior(self, margin: int = 2) -> np.ndarray:
+        """``interior_mask(self.ids, margin)``."""
+        return interior_mask(self.ids, margin)
+
+
+def camera_rays(camera: CameraFrame, width: int, height: int) -> np.ndarray:
+    """World directions (H, W, 3) of the rays through the pixel centres, not normalised:
+    R (ndc.x tan_x, ndc.y tan_y, -1), whose parameter is the view depth (the ray the
+    lighting pass reconstructs positions along, app/reference/position.py)."""
+    ndc = pixel_ndc(height, width)
+    tan = np.asarray(camera.tan_half_fov, np.float64)
+    local = np.concatenate([ndc * tan, -np.ones((height, width, 1))], axis=-1)
+    return local @ np.asarray(camera.camera_to_world, np.float64).T
+
+
+def _to_object(prim: Primitive, origin: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The ray in the primitive's object space: the inverse model matrix applied to the
+    origin (a point) and the direction (a vector). The map is affine, so a point's ray
+    parameter is the same in both spaces and stays the view depth."""
+    inv = np.linalg.inv(np.asarray(prim.model, np.float64))
+    o = inv[:3, :3] @ np.asarray(origin, np.float64) + inv[:3, 3]
+    return o, d @ inv[:3, :3].T
+
+
+def intersect_sphere(
+    radius: float, o: np.ndarray, d: np.ndarray, near: float, far: float
+) -> np.ndarray:
+    """Ray parameter of the front surface of the sphere |x| = radius centred on the origin
+    (object space) along o + t d, or inf where that surface is not hit in (near, far).
+
+    Haines, Guenther & Akenine-Moeller 2019, "Precision Improvements for Ray/Sphere
+    Intersection" (Ray Tracing Gems, ch. 7): with f = o (centre to origin),
+    a t^2 + 2 b t + c = 0, a = d.d, b = f.d, c = f.f - r^2, the discriminant
+    b^2 - a c is computed as a (r^2 - |f - (b/a) d|^2) from the ray's closest point to
+    the centre (no cancellation between b^2 and a c far from the sphere), and the roots
+    as c / q and q / a with q = -b - sign(b) sqrt(disc) (no cancellation in -b + sqrt).
+
+    Only the nearer root counts: the far root is the sphere's back face, which the
+    rasteriser culls, so a camera inside the sphere, or a sphere cut by the near plane,
+    shows nothing of it.
+    """
+    a = dot(d, d)
+    b = d @ o
+    c = float(o @ o) - radius * radius
+    closest = o - (b / a)[..., None] * d
+    disc = a * (radius * radius - dot(closest, closest))
+    hit = disc >= 0.0
+    root = np.sqrt(np.where(hit, disc, 0.0))
+    q = -b - np.where(b >= 0.0, 1.0, -1.0) * root
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = c / q, q / a
+    t = np.minimum(t0, t1)
+    ok = hit & (q != 0.0) & (t > near) & (t < far)
+    return np.where(ok, t, np.inf)
+
+
+def intersect_plane(
+    size: tuple[float, float], o: np.ndarray, d: np.ndarray, near: float, far: float
+) -> np.ndarray:
+    """Ray parameter of the rectangle |x| <= sx/2, |z| <= sz/2 of the plane y = 0 (object
+    space) along o + t d, or inf where it is missed or outside (near, far); both faces
+    count (planes are two-sided)."""
+    dy = d[..., 1]
+    parallel = dy == 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -o[1] / np.where(parallel, 1.0, dy)
+    x = o[0] + t * d[..., 0]
+    z = o[2] + t * d[..., 2]
+    inside = (np.abs(x) <= 0.5 * size[0]) & (np.abs(z) <= 0.5 * size[1])
+    ok = ~parallel & inside & (t > near) & (t < far)
+    return np.where(ok, t, np.inf)
+
+
+def _frame(
+    prim: Primitive, q: np.ndarray, d: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World normal, world tangent and UV at object-space hit points ``q`` (N, 3) of rays
+    with world directions ``d``, by the conventions of app/common/primitives.py."""
+    m = np.asarray(prim.model, np.float64)[:3, :3]
+    normal_matrix = np.linalg.inv(m).T  # normals go by the inverse transpose
+    if prim.kind == "sphere":
+        n_obj = q / prim.radius
+        n_obj = normalize(n_obj)  # |q| = r up to rounding
+        t_obj = np.cross([0.0, 1.0, 0.0], n_obj)
+        pole = np.linalg.norm(t_obj, axis=-1) < 1e-6
+        t_obj[pole] = np.cross([1.0, 0.0, 0.0], n_obj[pole])
+        u = np.arctan2(n_obj[:, 0], n_obj[:, 2]) / (2.0 * np.pi) + 0.5
+        v = np.arcsin(np.clip(n_obj[:, 1], -1.0, 1.0)) / np.pi + 0.5
+        n = normalize(n_obj @ normal_matrix.T)
+    else:
+        n = normalize(np.broadcast_to(normal_matrix @ [0.0, 1.0, 0.0], q.shape))
+        n = np.where((dot(n, d) > 0.0)[:, None], -n, n)  # two-sided: towards the viewer
+        t_obj = np.broadcast_to([1.0, 0.0, 0.0], q.shape)
+        u = q[:, 0] / prim.size[0] + 0.5
+        v = 0.5 - q[:, 2] / prim.size[1]
+    t = normalize(t_obj @ m.T)
+    return n, t, np.stack([u, v], axis=-1)
+
+
+def cast(primitives: list[Primitive], camera: CameraFrame, size: tuple[int, int]) -> Hits:
+    """The nearest hit over all primitives of the ray through each pixel centre of an image
+    of ``size`` (width, height), with t in (camera.near, camera.far) as the rasteriser
+    clips. A tie goes to the earlier primitive."""
+    width, height = size
+    d = camera_rays(camera, width, height)
+    origin = np.asarray(camera.position, np.float64)
+    best = np.full((height, width), np.inf)
+    ids = np.full((height, width), NO_HIT, np.int64)
+    for i, prim in enumerate(primitives):
+        o, d_obj = _to_object(prim, origin, d)
+        if prim.kind == "sphere":
+            t = intersect_sphere(prim.radius, o, d_obj, camera.near, camera.far)
+        elif prim.kind == "plane":
+            t = intersect_plane(prim.size, o, d_obj, camera.near, camera.far)
+        else:
+            raise ValueError(f"primitive {i}: kind {prim.kind!r} is not supported")
+        nearer = t < best
+        best = np.where(nearer, t, best)
+        ids = np.where(nearer, i, ids)
+    depth = np.where(ids >= 0, best, 0.0)
+    p = np.zeros((height, width, 3))
+    n = np.zeros((height, width, 3))
+    tangent = np.zeros((height, width, 3))
+    uv = np.zeros((height, width, 2))
+    for i, prim in enumerate(primitives):
+        sel = ids == i
+        if not np.any(sel):
+            continue
+        o, d_obj = _to_object(prim, origin, d[sel])
+        tt = best[sel]
+        p[sel] = origin + tt[:, None] * d[sel]
+        q = o + tt[:, None] * d_obj  # the hit in object space, without a round trip
+        n[sel], tangent[sel], uv[sel] = _frame(prim, q, d[sel])
+    return Hits(ids, depth, p, n, tangent, uv)
+
+
+def shade(
+    hits: Hits,
+    materials: list[PrimitiveMaterial],
+    camera: CameraFrame,
+    lights: list[PunctualLight],
+    background: np.ndarray,
+    terms: str = "all",
+) -> np.ndarray:
+    """Linear HDR radiance (H, W, 3): each hit shaded by ``illumination_sum`` with its
+    primitive's material (sanitised as the G-buffer decode does), the background where
+    nothing is hit."""
+    out = np.broadcast_to(np.asarray(background, np.float64), (*hits.ids.shape, 3)).copy()
+    for i, mat in enumerate(materials):
+        sel = hits.ids == i
+        count = int(sel.sum())
+        if count == 0:
+            continue
+        s = mat.surface
+        surface = sanitize_surface(
+            Surface(
+                np.broadcast_to(np.asarray(s.base_color, np.float64), (count, 3)),
+                np.full(count, float(s.metallic)),
+                np.full(count, float(s.perceptual_roughness)),
+                np.full(count, float(s.f0_dielectric)),
+                np.full(count, float(s.anisotropy)),
+            )
+        )
+        p = hits.p[sel]
+        v = normalize(np.asarray(camera.position, np.float64) - p)
+        out[sel] = illumination_sum(
+            surface, mat.params, mat.model, hits.n[sel], hits.t[sel], p, v, lights, terms
+        )
+    return out
+
+
+def _blocks(a: np.ndarray, factor: int) -> np.ndarray:
+    """(H*f, W*f, ...) -> (H, W, f*f, ...): each output pixel's block of samples."""
+    h, w = a.shape[0] // factor, a.shape[1] // factor
+    b = a.reshape(h, factor, w, factor, *a.shape[2:])
+    b = np.moveaxis(b, 2, 1)
+    return b.reshape(h, w, factor * factor, *a.shape[2:])
+
+
+def render_reference(
+    primitives: list[Primitive],
+    materials: list[PrimitiveMaterial],
+    camera: CameraFrame,
+    size: tuple[int, int],
+    lights: list[PunctualLight],
+    background: np.ndarray,
+    terms: str = "all",
+    supersample: int = 1,
+) -> RaycastImage:
+    """The reference image of ``size`` (width, height). With ``supersample = n`` the rays
+    go through the pixel centres of an image n x n times larger (``camera`` must be that
+    image's frame, as the renderer's is) and each pixel is the box average of its n x n
+    block of linear radiance, as the renderer's resolve averages (glsl/passes/
+    downsample.frag). ``ids`` is the primitive every sample of a pixel hits, NO_HIT where
+    none does, MIXED where they differ."""
+    width, height = size
+    hits = cast(primitives, camera, (width * supersample, height * supersample))
+    hdr = shade(hits, materials, camera, lights, background, terms)
+    if supersample == 1:
+        return RaycastImage(hdr, hits.covered, hits.ids)
+    hdr = _blocks(hdr, supersample).mean(axis=2)
+    samples = _blocks(hits.ids, supersample)
+    same = np.all(samples == samples[..., :1], axis=-1)
+    ids = np.where(same, samples[..., 0], MIXED)
+    return RaycastImage(hdr, np.any(samples >= 0, axis=-1), ids)
+
+
+def interior_mask(ids: np.ndarray, margin: int = 2) -> np.ndarray:
+    """Covered pixels (ids >= 0) whose every neighbour within ``margin`` pixels (the
+    (2 margin + 1)^2 square around them) shows the same primitive: away from silhouettes,
+    from boundaries between primitives and from the image's edge, where the rasteriser's
+    coverage and the ray-caster's may differ by a pixel."""
+    h, w = ids.shape
+    padded = np.pad(ids, margin, constant_values=NO_HIT)
+    out = ids >= 0
+    for dy in range(2 * margin + 1):
+        for dx in range(2 * margin + 1):
+            out &= padded[dy : dy + h, dx : dx + w] == ids
+    return out
