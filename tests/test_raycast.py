@@ -247,14 +247,33 @@ def test_reference_scene_of_a_sphere_and_a_floor():
 # Issue 16: the renderer against the ray-caster, the five spheres at 320x180 on interior
 # pixels. Measured on llvmpipe at 640x360 (docs/accuracy.md): subdivisions 6 + f32 gives
 # median 4.1e-5, p99 5.3e-4. The bounds below are what the tessellated spheres meet today.
-# TIGHTEN once the G-buffer pass ray-casts its spheres (issue 16's first bullet): to the
-# issue's targets at the DEFAULT settings, median <= 1e-5, p99 <= 1e-4, mean FLIP <= 1e-3.
-TESSELLATED_MEDIAN = 1e-4
-TESSELLATED_P99 = 1.5e-3
+# Issue 16's targets for the whole pipeline at the DEFAULT settings (analytic spheres, the
+# default G-buffer encoding), interior pixels: docs/accuracy.md.
+TARGET_MEDIAN = 1e-5
+TARGET_P99 = 1e-4
+TARGET_FLIP = 1e-3
 
 
-def test_renderer_agrees_with_the_ray_caster(gl_egl):
-    errors = raycast_errors(gl_egl, five_spheres(6, "f32"), (320, 180))
-    assert errors["median"] < TESSELLATED_MEDIAN, errors
-    assert errors["p99"] < TESSELLATED_P99, errors
-    assert errors["coverage_mismatch"] < 1e-3, errors
+@pytest.mark.parametrize("point_lights", [False, True], ids=["directional", "point"])
+def test_renderer_at_default_settings_meets_the_targets(gl_egl, point_lights):
+    """The renderer as a user gets it against the ray-caster. Icospheres miss it by far
+    (subdivision 6 with f32: median 3.7e-5, p99 4.8e-4 at this size), and so do the
+    analytic spheres with an f16 G-buffer (median 4.4e-4); the coverage is exact at pixel
+    centres, where an icosphere's polygonal outline is not."""
+    errors = raycast_errors(gl_egl, five_spheres(point_lights=point_lights), (320, 180))
+    assert errors["median"] <= TARGET_MEDIAN, errors
+    assert errors["p99"] <= TARGET_P99, errors
+    assert errors["flip_mean"] <= TARGET_FLIP, errors
+    assert errors["coverage_mismatch"] == 0.0, errors
+
+
+def test_the_targets_fail_a_tessellated_or_half_float_pipeline(gl_egl):
+    """The test above can fail: the icosphere of subdivision 6 misses the p99 target, the
+    analytic sphere through an f16 G-buffer the median, and the outline of the default
+    icosphere (subdivision 4) the coverage."""
+    mesh = raycast_errors(gl_egl, five_spheres(6, "f32"), (320, 180), flip=False)
+    assert mesh["p99"] > TARGET_P99, mesh
+    coarse = raycast_errors(gl_egl, five_spheres(4, "f32"), (320, 180), flip=False)
+    assert coarse["coverage_mismatch"] > 0.0, coarse
+    half = raycast_errors(gl_egl, five_spheres(None, "f16"), (320, 180), flip=False)
+    assert half["median"] > TARGET_MEDIAN, half

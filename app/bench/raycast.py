@@ -3,9 +3,9 @@ scene of analytic primitives, compared on interior pixels with app/frame/raycast
 reference of the same scene (app/bench/metrics.py ``interior_errors``).
 
 ``five_spheres`` is issue 16's measuring scene: five spheres of the default model
-(GGX, Smith height-correlated, Schlick, Lambert) under two directional lights; its two
-settings that matter, ``subdivisions`` (icosphere level) and ``gbuffer`` (f16 or f32),
-are arguments. scripts/raycast_table.py prints docs/accuracy.md's table from it.
+(GGX, Smith height-correlated, Schlick, Lambert) under two directional lights, and two point
+lights where asked; its two settings that matter, ``subdivisions`` (None: the analytic
+sphere) and ``gbuffer`` (None: the default encoding), are arguments. scripts/raycast_table.py prints docs/accuracy.md's table from it.
 """
 
 from __future__ import annotations
@@ -31,10 +31,13 @@ FIVE_SPHERES = [
 ]
 
 
-def five_spheres(subdivisions: int | None = None, gbuffer: str = "f16") -> LoadedScene:
+def five_spheres(
+    subdivisions: int | None = None, gbuffer: str | None = None, point_lights: bool = False
+) -> LoadedScene:
     """Five unit-diameter spheres in a row, 1.2 m apart, seen from 6 m, lit by a warm key
-    light from the upper left and a cool fill from the right; ``subdivisions`` None keeps
-    the icosphere default."""
+    light from the upper left and a cool fill from the right (and, with ``point_lights``,
+    two point lights with a range close in front of them); ``subdivisions`` None keeps the
+    analytic sphere, ``gbuffer`` None the default encoding."""
     materials = {
         f"m{i}": {"base_color": list(c), "metallic": m, "roughness": r}
         for i, (c, m, r) in enumerate(FIVE_SPHERES)
@@ -52,7 +55,7 @@ def five_spheres(subdivisions: int | None = None, gbuffer: str = "f16") -> Loade
         objects.append(obj)
     data = {
         "background": [0.02, 0.02, 0.03],
-        "render": {"width": 640, "height": 360, "gbuffer": gbuffer},
+        "render": {"width": 640, "height": 360},
         "camera": {"position": [0.0, 0.6, 6.0], "target": [0.0, 0.0, 0.0], "fov_y": 35.0},
         "materials": materials,
         "lights": [
@@ -66,6 +69,14 @@ def five_spheres(subdivisions: int | None = None, gbuffer: str = "f16") -> Loade
         ],
         "objects": objects,
     }
+    if gbuffer is not None:
+        data["render"]["gbuffer"] = gbuffer
+    if point_lights:
+        data["lights"] += [
+            {"type": "point", "position": [-1.4, 1.0, 1.4], "intensity": 6.0, "range": 6.0},
+            {"type": "point", "position": [1.8, -0.4, 1.2], "color": [1.0, 0.85, 0.6],
+             "intensity": 4.0, "range": 5.0},
+        ]  # fmt: skip
     return parse_scene(data, Path("five_spheres.toml"))
 
 
