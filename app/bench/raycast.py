@@ -5,7 +5,8 @@ reference of the same scene (app/bench/metrics.py ``interior_errors``).
 ``five_spheres`` is issue 16's measuring scene: five spheres of the default model
 (GGX, Smith height-correlated, Schlick, Lambert) under two directional lights, and two point
 lights where asked; its two settings that matter, ``subdivisions`` (None: the analytic
-sphere) and ``gbuffer`` (None: the default encoding), are arguments. scripts/raycast_table.py prints docs/accuracy.md's table from it.
+sphere) and ``gbuffer`` (None: the default encoding), are arguments.
+scripts/raycast_table.py prints docs/accuracy.md's table from it.
 """
 
 from __future__ import annotations
