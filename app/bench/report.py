@@ -217,6 +217,57 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
             out.append(Verdict(f"default of accuracy '{comp}' on its Pareto front", measured,
                                _status(on)))  # fmt: skip
     out.append(_specialization_verdict(rows))
+    out.extend(_primitives_verdicts(rows))
+    return out
+
+
+# Issue 16: the whole pipeline at the default settings against the float64 ray-caster.
+PRIMITIVES_MEDIAN_MAX = 1e-5
+PRIMITIVES_P99_MAX = 1e-4
+PRIMITIVES_FLIP_MAX = 1e-3
+PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default spheres and encoding before issue 16
+
+
+def _primitives_verdicts(rows: list[dict]) -> list[Verdict]:
+    default = next(
+        (r for r in rows if r["case"] == "primitives" and r.get("default")
+         and r.get("ms_median") is not None), None,
+    )  # fmt: skip
+    what = (
+        f"default settings against the ray-caster: median <= {PRIMITIVES_MEDIAN_MAX:g}, p99 <="
+        f" {PRIMITIVES_P99_MAX:g}, mean FLIP <= {PRIMITIVES_FLIP_MAX:g}, exact coverage"
+    )
+    speed = f"default frame no slower than '{PRIMITIVES_BEFORE}' (the default before issue 16)"
+    if default is None:
+        return [Verdict(what, "not run", "NOT MEASURED"), Verdict(speed, "not run", "NOT MEASURED")]
+    ok = (
+        default["rel_median"] <= PRIMITIVES_MEDIAN_MAX
+        and default["rel_p99"] <= PRIMITIVES_P99_MAX
+        and default["flip_mean"] <= PRIMITIVES_FLIP_MAX
+        and default["coverage_mismatch"] == 0.0
+    )
+    measured = (
+        f"'{default['variant']}': median {default['rel_median']:.2e}, p99"
+        f" {default['rel_p99']:.2e}, max {default['max_rel_err']:.2e}, FLIP"
+        f" {default['flip_mean']:.2e}, coverage mismatch {default['coverage_mismatch']:.2e}"
+    )
+    out = [Verdict(what, measured, _status(ok))]
+    before = _case_row(rows, "accuracy", "primitives", PRIMITIVES_BEFORE)
+    if before is None:
+        out.append(Verdict(speed, "no row", "NOT MEASURED"))
+    else:
+        ratio = default["ms_median"] / before["ms_median"]
+        gb = default.get("passes_ms", {}).get("gbuffer")
+        gb_before = before.get("passes_ms", {}).get("gbuffer")
+        passes = f"; G-buffer pass {gb / gb_before:.2f}x" if gb and gb_before else ""
+        out.append(
+            Verdict(
+                speed,
+                f"default/before = {ratio:.2f}x ({default['ms_median']:.1f} /"
+                f" {before['ms_median']:.1f} ms){passes}",
+                _status(ratio <= 1.0),
+            )
+        )
     return out
 
 

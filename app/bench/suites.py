@@ -30,8 +30,9 @@ from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.filtering import SWEEP_METRES, render_hdr, shimmer, with_settings
 from app.bench.floor import FloorPass
 from app.bench.forward import ForwardRenderer
-from app.bench.metrics import image_errors
+from app.bench.metrics import image_errors, interior_errors
 from app.bench.pairs import LightPairs, light_pairs, reference_hdr
+from app.bench.raycast import five_spheres
 from app.bench.scenes import (
     SPECIALIZATION_KINDS,
     accuracy_scene,
@@ -53,6 +54,7 @@ from app.bench.timing import (
 )
 from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES, bytes_per_pixel
 from app.common.tables import DEFAULT_SIZE
+from app.frame.raycast import reference_scene
 from app.gl.context import GLContext
 from app.progress import Progress
 from app.reference.multiscatter import load_table
@@ -616,8 +618,8 @@ def layered_comparisons() -> list[Comparison]:
 def accuracy_tasks(settings: Settings) -> int:
     # Per comparison: the reference, the variants; mip filtering: the reference, the
     # variants, each variant's camera sweep.
-    # The G-buffer channels: two scenes.
-    return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2 + 2
+    # The G-buffer channels: two scenes. The primitives: the ray-cast reference, the variants.
+    return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2 + 2 + 2
 
 
 def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
@@ -633,7 +635,69 @@ def run_accuracy(ctx: Context) -> None:
         run_comparison(ctx, comp)
         if comp.name == "gbuffer":
             _run_gbuffer_channels(ctx)
+    run_primitives(ctx)
     _run_mip_filtering(ctx)
+
+
+# (variant, sphere subdivisions or None for the analytic sphere, G-buffer encoding): the
+# default, the analytic sphere through the cheaper encodings, and the icospheres (subdivision
+# 4 with f16 was the default before issue 16).
+PRIMITIVE_VARIANTS = (
+    ("analytic f32", None, "f32"),
+    ("analytic unorm16_base", None, "unorm16_base"),
+    ("analytic unorm16", None, "unorm16"),
+    ("analytic f16", None, "f16"),
+    ("icosphere 4 f16", 4, "f16"),
+    ("icosphere 6 f32", 6, "f32"),
+)
+PRIMITIVES_TITLE = (
+    "spheres and G-buffer encodings against the float64 ray-caster (five spheres, two "
+    "directional and two point lights; interior pixels)"
+)
+
+
+def run_primitives(ctx: Context) -> None:
+    """Issue 16's comparison: the whole pipeline (sphere geometry and G-buffer encoding)
+    against the independent float64 ray-caster of the same scene (app/reference/raycast.py),
+    each variant's frames timed interleaved. ``rel_rmse`` and the statistics are over the
+    ray-caster's interior pixels (2 px from silhouettes); ``coverage_mismatch`` over all."""
+    size = ctx.settings.accuracy_size
+    ctx.progress.start("accuracy primitives: float64 ray-caster")
+    ref = reference_scene(five_spheres(point_lights=True), size)
+    interior = ref.interior()
+    ctx.progress.done()
+    ctx.progress.start("accuracy primitives: " + ", ".join(v[0] for v in PRIMITIVE_VARIANTS))
+    scenes = {
+        name: five_spheres(subdivisions, gbuffer, point_lights=True)
+        for name, subdivisions, gbuffer in PRIMITIVE_VARIANTS
+    }
+    renderers = {name: Renderer(ctx.gl, loaded, size) for name, loaded in scenes.items()}
+    try:
+        times = ctx.time_interleaved({n: deferred_passes(r) for n, r in renderers.items()})
+        results = {
+            n: (r.read_hdr().astype(np.float64), r.read_gbuffer().covered, len(r.lights))
+            for n, r in renderers.items()
+        }
+    finally:
+        for r in renderers.values():
+            r.release()
+    scene = scenes[PRIMITIVE_VARIANTS[0][0]].scene
+    for name, subdivisions, gbuffer in PRIMITIVE_VARIANTS:
+        hdr, covered, lights = results[name]
+        stats = interior_errors(hdr, ref.hdr, interior, scene.camera.exposure, scene.render.tonemap)
+        errors = image_errors(hdr, ref.hdr, interior, 0.0, scene.render.tonemap, flip=False)
+        ctx.rows.append(
+            make_row(
+                "accuracy", "primitives", name, size, lights, times[name],
+                default=subdivisions is None and gbuffer == DEFAULT_ENCODING,
+                comparison=PRIMITIVES_TITLE, error_reference="float64 ray-caster",
+                rel_rmse=errors["rel_rmse"], max_rel_err=stats["max"],
+                flip_mean=stats["flip_mean"], rel_median=stats["median"],
+                rel_p99=stats["p99"], coverage_mismatch=float(np.mean(covered != ref.covered)),
+                bytes_per_pixel=bytes_per_pixel(gbuffer),
+            )
+        )  # fmt: skip
+    ctx.progress.done()
 
 
 def run_comparison(ctx: Context, comp: Comparison) -> None:

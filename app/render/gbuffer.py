@@ -243,19 +243,33 @@ class MeshDrawable:
             return
         prog = self.program
         inverse = self.world_to_object
+        rotation = np.asarray(camera.camera_to_world, np.float64)
         object_camera = inverse[:3, :3] @ camera.position + inverse[:3, 3]  # float64
+        # The ray through the centre (geometry/analytic.glsl, pixel_ray), in float64: its
+        # view depth, window pixel and object-space direction (view-axis component 1).
+        centre = rotation.T @ (self.part.model[:3, 3] - camera.position)  # camera space
+        depth = float(-centre[2])
+        tan = np.asarray(camera.tan_half_fov, np.float64)
+        use_centre = depth > 0.5 * camera.near
+        along = centre / depth if use_centre else np.array([0.0, 0.0, -1.0])
+        pixel = (along[:2] / tan + 1.0) * 0.5 * np.asarray(image_size, np.float64)
+        to_object = inverse[:3, :3] @ rotation
         values = {
             "u_camera_pos": tuple(float(x) for x in camera.position),
             "u_tan_half_fov": tuple(float(x) for x in camera.tan_half_fov),
             "u_image_size": (float(image_size[0]), float(image_size[1])),
             "u_object_camera": tuple(float(x) for x in object_camera),
             "u_radius": float(self.part.analytic.radius),
+            "u_centre_depth": depth if use_centre else 0.0,
+            "u_centre_pixel": tuple(float(x) for x in pixel),
+            "u_centre_direction": tuple(float(x) for x in to_object @ along),
         }
         for name, value in values.items():
             if name in prog:
                 prog[name].value = value
-        prog["u_camera_to_world"].write(gl_bytes(camera.camera_to_world))
-        prog["u_world_to_object"].write(gl_bytes(inverse[:3, :3]))
+        if "u_camera_to_world" in prog:
+            prog["u_camera_to_world"].write(gl_bytes(rotation))
+        prog["u_camera_to_object"].write(gl_bytes(to_object))
 
     @property
     def material_id(self) -> int:

@@ -34,8 +34,12 @@ uniform mat4 u_proj;
 // linear part of world -> object, and its size; passes/gbuffer.vert's u_model and
 // u_normal_matrix take the frame back to the world.
 uniform vec3 u_object_camera;
-uniform mat3 u_world_to_object;
+uniform mat3 u_camera_to_object;    // world -> object (linear part) times camera -> world
 uniform float u_radius;
+// The ray through the primitive's centre, for a far camera (ray_from_centre).
+uniform float u_centre_depth;       // the centre's view depth; <= 0: not used
+uniform vec2 u_centre_pixel;        // the centre's window position, pixels
+uniform vec3 u_centre_direction;    // object space, its view-axis component 1
 uniform mat4 u_model;
 uniform mat3 u_normal_matrix;
 uniform float u_tangent_sign;
@@ -85,15 +89,38 @@ vec3 ray_sphere(vec3 o, vec3 d, float r) {
     return vec3(min(t0, t1), max(t0, t1), h);
 }
 
+// The pixel's ray in object space as w + u d, whose view depth is t0 + u. From the camera,
+// w is the camera's object-space position and t0 = 0; but a camera far from a primitive
+// (sec1's stands 300 m from half-metre spheres) makes every point near the primitive a
+// difference of two large float32 numbers, and the normal lost ~1e-4 rad that way. So
+// where the primitive's centre lies ahead of the camera the ray is written around the ray
+// through the centre: with d_c that ray's direction and t_c the centre's view depth
+// (o = -t_c d_c exactly, as the ray meets the centre), the pixel's direction is
+// d = d_c + delta, delta coming from the pixel's offset from the centre's own pixel, and
+// o + t d = t_c delta + (t - t_c) d: only small numbers, exact for any distance.
+void pixel_ray(out vec3 w, out vec3 d, out float t0) {
+    if (u_centre_depth > 0.0) {
+        vec2 offset = (gl_FragCoord.xy - u_centre_pixel) * (2.0 / u_image_size);
+        vec3 delta = u_camera_to_object * vec3(offset * u_tan_half_fov, 0.0);
+        d = u_centre_direction + delta;
+        w = u_centre_depth * delta;
+        t0 = u_centre_depth;
+    } else {
+        vec2 ndc = (gl_FragCoord.xy / u_image_size) * 2.0 - 1.0;
+        d = u_camera_to_object * vec3(ndc * u_tan_half_fov, -1.0);
+        w = u_object_camera;
+        t0 = 0.0;
+    }
+}
+
 AnalyticHit analytic_surface() {
-    vec2 ndc = (gl_FragCoord.xy / u_image_size) * 2.0 - 1.0;
-    vec3 dir_world = u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0);
-    vec3 d = u_world_to_object * dir_world;
-    vec3 o = u_object_camera;
+    vec3 o, d;
+    float t0;
+    pixel_ray(o, d, t0);
     AnalyticHit h;
 #if ANALYTIC_SPHERE
     vec3 roots = ray_sphere(o, d, u_radius);
-    float t = roots.x;
+    float t = t0 + roots.x;
     // Only the near surface of the closed sphere is seen, as with a mesh whose back faces
     // are culled: a camera inside the sphere (near root behind the near plane) sees nothing.
     // The projection's near and far planes clip it as they clip a mesh.
@@ -101,7 +128,7 @@ AnalyticHit analytic_surface() {
     float far = u_proj[3][2] / (u_proj[2][2] + 1.0);
     h.hit = roots.z >= 0.0 && t >= near && t <= far;
     // A miss keeps the point of the sphere nearest the ray (for the derivatives below).
-    vec3 q = roots.z >= 0.0 ? o + t * d : o - (dot(o, d) / dot(d, d)) * d;
+    vec3 q = roots.z >= 0.0 ? o + roots.x * d : o - (dot(o, d) / dot(d, d)) * d;
     vec3 n_obj = normalize(q);
     // The object-space tangent runs around +Y (X at the poles, where Y x n vanishes).
     vec3 t_obj = cross(vec3(0.0, 1.0, 0.0), n_obj);
