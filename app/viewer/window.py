@@ -41,6 +41,7 @@ from app.gl.context import GLContext
 from app.gl.shaders import ShaderError
 from app.output import write_hdr, write_png
 from app.reference.position import reconstruct_position
+from app.reference.raycast import intersect_sphere
 from app.render.compare import CompareSpec, Comparison
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS, DebugPass
 from app.render.renderer import Renderer
@@ -788,7 +789,13 @@ void main() {
 
 def _nearest_hit(origin: np.ndarray, direction: np.ndarray, part) -> float:
     """Distance along a ray to the nearest triangle of a mesh part, inf for a miss
-    (Moller & Trumbore 1997, vectorised over the triangles, two-sided)."""
+    (Moller & Trumbore 1997, vectorised over the triangles, two-sided); for an analytic
+    sphere, to its exact front surface (the ray-caster's intersection)."""
+    if part.analytic is not None and part.analytic.kind == "sphere":
+        inv = np.linalg.inv(part.model)
+        o = inv[:3, :3] @ origin + inv[:3, 3]
+        d = inv[:3, :3] @ direction  # the map is affine: t is the world distance
+        return float(intersect_sphere(part.analytic.radius, o, d[None], 0.0, np.inf)[0])
     world = part.vertices[:, :3].astype(np.float64) @ part.model[:3, :3].T + part.model[:3, 3]
     tri = world[part.indices.reshape(-1, 3)]
     e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
