@@ -7,6 +7,8 @@ the first page of the walkthrough's Korean handout as headless Chromium shows it
 ``python -m app.screenshots --viewer-walkthrough`` writes ``screenshots/viewer-walkthrough.png``:
 the desktop viewer's window (a real glfw window on a private Xvfb) on the Korean
 walkthrough's step 1 with its first comparison in the split screen.
+``python -m app.screenshots --viewer`` writes ``screenshots/viewer.png``: the viewer on the
+showcase with its gold sphere selected (README, docs/viewer.md).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 from app.gl.context import GLContext, create_context
 from app.output import write_png
 from app.render.renderer import Renderer
+from app.resources import scenes_dir
 from app.scene.loader import load_scene
 
 REPO = Path(__file__).resolve().parent.parent
@@ -90,6 +93,26 @@ def viewer_walkthrough_screenshot(out: Path, section: int = 1, lang: str = "ko")
             viewer.close()
 
 
+def viewer_screenshot(out: Path, material: str = "gold") -> None:
+    """The viewer's window on scenes/showcase.toml with the first object of ``material``
+    selected (its material, lobes and albedo in the panels), written as PNG to ``out``."""
+    from app.viewer.window import Selection, Viewer
+    from app.viewer.xvfb import xvfb
+
+    with xvfb():
+        viewer = Viewer(scenes_dir() / "showcase.toml", VIEWER_WINDOW, vsync=False)
+        try:
+            objects = viewer.scene.objects
+            index = next(i for i, obj in enumerate(objects) if obj.material == material)
+            viewer.selection = Selection(index, material)
+            viewer.panels.expand("Material", "Plots")
+            viewer.settle()
+            viewer.step(3)  # the panels laid out, the plots drawn
+            write_png(out, viewer.read_window())
+        finally:
+            viewer.close()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
@@ -103,7 +126,15 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="write only screenshots/viewer-walkthrough.png (needs Xvfb)",
     )
+    parser.add_argument(
+        "--viewer", action="store_true", help="write only screenshots/viewer.png (needs Xvfb)"
+    )
     args = parser.parse_args(argv)
+    if args.viewer:
+        out = SHOTS / "viewer.png"
+        viewer_screenshot(out)
+        print(out.relative_to(REPO))
+        return 0
     if args.viewer_walkthrough:
         out = SHOTS / "viewer-walkthrough.png"
         viewer_walkthrough_screenshot(out)
