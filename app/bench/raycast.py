@@ -11,6 +11,7 @@ scripts/raycast_table.py prints docs/accuracy.md's table from it.
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +80,21 @@ def five_spheres(
              "intensity": 4.0, "range": 5.0},
         ]  # fmt: skip
     return parse_scene(data, Path("five_spheres.toml"))
+
+
+def scene_with_spheres(
+    path: Path, subdivisions: int | None = None, gbuffer: str | None = None
+) -> LoadedScene:
+    """A scene file with its analytic spheres drawn as icospheres of ``subdivisions``
+    (None: kept analytic) and ``render.gbuffer`` set (None: the file's own): the same
+    scene as the pipeline drew it before issue 16, or with another encoding."""
+    data = tomllib.loads(Path(path).read_text())
+    for obj in data.get("objects", []):
+        if obj.get("shape") == "sphere" and subdivisions is not None:
+            obj.setdefault("subdivisions", subdivisions)
+    if gbuffer is not None:
+        data.setdefault("render", {})["gbuffer"] = gbuffer
+    return parse_scene(data, Path(path))
 
 
 def gpu_hdr(

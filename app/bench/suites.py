@@ -32,7 +32,7 @@ from app.bench.floor import FloorPass
 from app.bench.forward import ForwardRenderer
 from app.bench.metrics import image_errors, interior_errors
 from app.bench.pairs import LightPairs, light_pairs, reference_hdr
-from app.bench.raycast import five_spheres
+from app.bench.raycast import five_spheres, scene_with_spheres
 from app.bench.scenes import (
     SPECIALIZATION_KINDS,
     accuracy_scene,
@@ -61,7 +61,7 @@ from app.reference.multiscatter import load_table
 from app.render.culling import TILE_SIZE
 from app.render.renderer import Renderer, RenderOptions
 from app.resources import scenes_dir
-from app.scene.loader import load_scene
+from app.scene.loader import LoadedScene, load_scene
 
 CULLING_VARIANTS = ("culled", "unculled", "forward", "floor")
 PYRENDER_CASE_LIGHTS = 8  # 4 point + 4 spot: the most pyrender shades (4 per type)
@@ -618,8 +618,9 @@ def layered_comparisons() -> list[Comparison]:
 def accuracy_tasks(settings: Settings) -> int:
     # Per comparison: the reference, the variants; mip filtering: the reference, the
     # variants, each variant's camera sweep.
-    # The G-buffer channels: two scenes. The primitives: the ray-cast reference, the variants.
-    return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2 + 2 + 2
+    # The G-buffer channels: two scenes. The primitives: two scenes, each the ray-cast
+    # reference and the variants.
+    return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2 + 2 + 4
 
 
 def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
@@ -654,23 +655,47 @@ PRIMITIVES_TITLE = (
     "spheres and G-buffer encodings against the float64 ray-caster (five spheres, two "
     "directional and two point lights; interior pixels)"
 )
+SHOWCASE_TITLE = (
+    "the default scene (scenes/showcase.toml) as drawn now and before issue 16, against the "
+    "float64 ray-caster (interior pixels)"
+)
 
 
 def run_primitives(ctx: Context) -> None:
-    """Issue 16's comparison: the whole pipeline (sphere geometry and G-buffer encoding)
+    """Issue 16's comparisons: the whole pipeline (sphere geometry and G-buffer encoding)
     against the independent float64 ray-caster of the same scene (app/reference/raycast.py),
-    each variant's frames timed interleaved. ``rel_rmse`` and the statistics are over the
-    ray-caster's interior pixels (2 px from silhouettes); ``coverage_mismatch`` over all."""
+    each variant's frames timed interleaved: every variant on the five spheres
+    (``primitives``), and the default against the pipeline before issue 16 on the default
+    scene (``primitives_showcase``)."""
+    _primitive_case(
+        ctx, "primitives", PRIMITIVES_TITLE, PRIMITIVE_VARIANTS,
+        lambda sub, gbuffer: five_spheres(sub, gbuffer, point_lights=True),
+    )  # fmt: skip
+    showcase = scenes_dir() / "showcase.toml"
+    _primitive_case(
+        ctx, "primitives_showcase", SHOWCASE_TITLE,
+        (PRIMITIVE_VARIANTS[0], PRIMITIVE_VARIANTS[4]),
+        lambda sub, gbuffer: scene_with_spheres(showcase, sub, gbuffer),
+    )  # fmt: skip
+
+
+def _primitive_case(
+    ctx: Context,
+    case: str,
+    title: str,
+    variants: tuple[tuple[str, int | None, str], ...],
+    make: Callable[[int | None, str], LoadedScene],
+) -> None:
+    """One scene's variants against its ray-cast reference. ``rel_rmse`` and the
+    statistics are over the ray-caster's interior pixels (2 px from silhouettes);
+    ``coverage_mismatch`` over all pixels."""
     size = ctx.settings.accuracy_size
-    ctx.progress.start("accuracy primitives: float64 ray-caster")
-    ref = reference_scene(five_spheres(point_lights=True), size)
+    ctx.progress.start(f"accuracy {case}: float64 ray-caster")
+    scenes = {name: make(subdivisions, gbuffer) for name, subdivisions, gbuffer in variants}
+    ref = reference_scene(scenes[variants[0][0]], size)
     interior = ref.interior()
     ctx.progress.done()
-    ctx.progress.start("accuracy primitives: " + ", ".join(v[0] for v in PRIMITIVE_VARIANTS))
-    scenes = {
-        name: five_spheres(subdivisions, gbuffer, point_lights=True)
-        for name, subdivisions, gbuffer in PRIMITIVE_VARIANTS
-    }
+    ctx.progress.start(f"accuracy {case}: " + ", ".join(v[0] for v in variants))
     renderers = {name: Renderer(ctx.gl, loaded, size) for name, loaded in scenes.items()}
     try:
         times = ctx.time_interleaved({n: deferred_passes(r) for n, r in renderers.items()})
@@ -681,16 +706,16 @@ def run_primitives(ctx: Context) -> None:
     finally:
         for r in renderers.values():
             r.release()
-    scene = scenes[PRIMITIVE_VARIANTS[0][0]].scene
-    for name, subdivisions, gbuffer in PRIMITIVE_VARIANTS:
+    scene = scenes[variants[0][0]].scene
+    for name, subdivisions, gbuffer in variants:
         hdr, covered, lights = results[name]
         stats = interior_errors(hdr, ref.hdr, interior, scene.camera.exposure, scene.render.tonemap)
         errors = image_errors(hdr, ref.hdr, interior, 0.0, scene.render.tonemap, flip=False)
         ctx.rows.append(
             make_row(
-                "accuracy", "primitives", name, size, lights, times[name],
+                "accuracy", case, name, size, lights, times[name],
                 default=subdivisions is None and gbuffer == DEFAULT_ENCODING,
-                comparison=PRIMITIVES_TITLE, error_reference="float64 ray-caster",
+                comparison=title, error_reference="float64 ray-caster",
                 rel_rmse=errors["rel_rmse"], max_rel_err=stats["max"],
                 flip_mean=stats["flip_mean"], rel_median=stats["median"],
                 rel_p99=stats["p99"], coverage_mismatch=float(np.mean(covered != ref.covered)),
