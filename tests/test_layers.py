@@ -8,6 +8,7 @@ only its own package or a lower layer.
       -> scene (app.scene)
       -> frame data (app.frame)
       -> passes (app.render)
+      -> the Python API (app.api)
       -> tools on top: BRDF probe, walkthrough, viewer, bench, CLI, screenshots
 """
 
@@ -31,6 +32,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("app.scene",),
     ("app.frame",),
     ("app.render",),
+    ("app.api",),  # the public Python API (docs/api.md): a renderer that changes, into numpy
     ("app.brdf", "app.assets"),
     ("app.walkthrough",),  # the classroom lesson: renders, plots, labels, handout
     ("app.viewer",),
