@@ -369,3 +369,22 @@ def test_interleaved_timing_rotates_the_order_and_keeps_each_variants_frames(gl_
     assert list(times["slow"].pass_ms) == ["slow"]
     assert 17.0 < times["slow"].median - times["fast"].median < 30.0
     assert times["fast"].median < times["mid"].median < times["slow"].median
+
+
+def test_api_rows_first_and_next_frames(gl_egl):
+    """The startup suite's API rows (issue 17): per case a first frame and the next frames
+    after camera changes, which compiled nothing; the mesh case draws the helmet-sized
+    icosphere. Times are recorded, never asserted."""
+    from app.bench.suites import API_CASES, TINY, Context, run_api
+    from app.progress import Progress
+
+    ctx = Context(gl_egl, TINY, None, Progress(len(API_CASES), enabled=False))
+    run_api(ctx, (64, 36))
+    rows = {(r["case"], r["variant"]): r for r in ctx.rows}
+    assert {case for case, _ in rows} == set(API_CASES)
+    for case in API_CASES:
+        first = rows[(case, "api first frame")]
+        after = rows[(case, "api next frame after a camera change")]
+        assert after["frames"] == 5 and after["programs_compiled"] == 0
+        assert after["first_over_next"] == pytest.approx(first["ms_median"] / after["ms_median"])
+    assert rows[(API_CASES[1], "api first frame")]["triangles_drawn"] >= 20 * 4**6
