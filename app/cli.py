@@ -76,7 +76,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
     render.add_argument("-o", "--output", required=True, help="PNG file to write")
-    render.add_argument("--size", type=_size, help="WIDTHxHEIGHT (default: the scene's)")
+    render.add_argument(
+        "--size",
+        type=_size,
+        help="WIDTHxHEIGHT (default: the scene's); the limit is the machine's: width and "
+        "height times render.supersample at most the GL's largest render target "
+        "(GL_MAX_TEXTURE_SIZE, 16384 under llvmpipe) and the render targets at most 4 GiB "
+        "(docs/scene-format.md, 'Image size limits'); a larger size exits 2",
+    )
     render.add_argument(
         "--fit",
         action="store_true",
@@ -381,7 +388,11 @@ def cmd_render(args: argparse.Namespace) -> int:
         if value is not None:
             raise InputError(option, "", "applies only with --compare")
     gl = create_context(args.backend)
-    renderer = Renderer(gl, loaded, args.size)
+    try:
+        renderer = Renderer(gl, loaded, args.size)
+    except InputError as exc:  # the size check (app/render/limits.py) names the option
+        key = "--size" if exc.key == "size" else exc.key
+        raise InputError(exc.file, key, exc.message) from None
     light = 0 if args.debug_light is None else args.debug_light
     if args.debug in LIGHT_VIEWS and not 0 <= light < len(renderer.lights):
         count = len(renderer.lights)

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from app.cli import main
+from app.gl.context import GLContext
 
 REPO = Path(__file__).resolve().parent.parent
 SIZE = "64x48"
@@ -553,3 +554,46 @@ def test_existing_output_survives(work: tuple[Path, Path], text: str) -> None:
     assert png.read_bytes() == b"sentinel png"
     assert hdr.read_bytes() == b"sentinel hdr"
     assert sorted(p.name for p in out.iterdir()) == ["out.npy", "out.png"]
+
+
+# Sizes past what the GL can allocate (app/render/limits.py): refused after the context
+# exists and before any target does, so they run in a subprocess.
+@pytest.mark.parametrize(
+    ("render", "size", "fragment"),
+    [
+        pytest.param("", "16384x16384", "GiB of render targets", id="past-memory"),
+        pytest.param(
+            "[render]\nsupersample = 4\n", "8192x64", "largest render target", id="past-dims"
+        ),
+    ],
+)
+def test_size_past_gl_limits(
+    work: tuple[Path, Path], render: str, size: str, fragment: str
+) -> None:
+    root, out = work
+    scene = _scene(root, BASE + render)
+    result = _run_cli(str(scene), "-o", str(out / "out.png"), "--size", size)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    line = _check(result.returncode, result.stderr, out, f"pbs: error: {scene}: --size: ", fragment)
+    assert size in line
+
+
+def test_renderer_refuses_resize_past_limits(gl_egl: GLContext, tmp_path: Path) -> None:
+    """The check is the Renderer's (viewer and API get it too): a refused resize raises
+    InputError and leaves the renderer at its old size, still rendering."""
+    from app.errors import InputError
+    from app.render.limits import max_dimension
+    from app.render.renderer import Renderer
+    from app.scene.loader import load_scene
+
+    renderer = Renderer(gl_egl, load_scene(_scene(tmp_path, BASE)), (32, 24))
+    try:
+        too_wide = max_dimension(gl_egl.ctx) + 1
+        with pytest.raises(InputError, match=f"render size {too_wide}x24"):
+            renderer.resize((too_wide, 24))
+        assert renderer.size == (32, 24)
+        renderer.render()
+        assert renderer.read_ldr().shape[:2] == (24, 32)
+    finally:
+        renderer.release()
