@@ -357,6 +357,11 @@ def _debug_image(
     return image, f"{out}: NaN debug view: {describe(bad)} of {pixels} pixels"
 
 
+def _size_option(exc: InputError) -> InputError:
+    """A renderer's refusal of its ``size`` (app/render/limits.py) as the CLI's option."""
+    return InputError(exc.file, "--size" if exc.key == "size" else exc.key, exc.message)
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from app.gl.context import create_context
     from app.render.renderer import Renderer
@@ -390,9 +395,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     gl = create_context(args.backend)
     try:
         renderer = Renderer(gl, loaded, args.size)
-    except InputError as exc:  # the size check (app/render/limits.py) names the option
-        key = "--size" if exc.key == "size" else exc.key
-        raise InputError(exc.file, key, exc.message) from None
+    except InputError as exc:
+        raise _size_option(exc) from None
     light = 0 if args.debug_light is None else args.debug_light
     if args.debug in LIGHT_VIEWS and not 0 <= light < len(renderer.lights):
         count = len(renderer.lights)
@@ -446,7 +450,10 @@ def _render_comparison(
     spec = parse_compare(args.compare)
     spec.scenes(loaded, args.size)  # every refusal here, before a context exists
     gl = create_context(args.backend)
-    comparison = Comparison(gl, loaded, spec, args.size)
+    try:
+        comparison = Comparison(gl, loaded, spec, args.size)
+    except InputError as exc:
+        raise _size_option(exc) from None
     comparison.render()
     comparison.composite(mode, divider, gain)
     ldr = comparison.read_ldr()

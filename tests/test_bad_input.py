@@ -756,3 +756,14 @@ def test_bad_obj_references(
     rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
     line = _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: {root / 'quad.obj'}")
     assert fragment in line and "is missing" in line, line
+
+
+def test_compare_size_past_gl_limits(work: tuple[Path, Path]) -> None:
+    """Both sides of --compare are Renderers: the same refusal, naming --size."""
+    root, out = work
+    scene = _scene(root, BASE)
+    compare = ("--compare", "materials.m.roughness=0.2,0.8")
+    result = _run_cli(str(scene), "-o", str(out / "out.png"), "--size", "16384x16384", *compare)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    _check(result.returncode, result.stderr, out, f"pbs: error: {scene}: --size: ", "GiB")
