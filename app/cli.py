@@ -76,7 +76,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
     render.add_argument("-o", "--output", required=True, help="PNG file to write")
-    render.add_argument("--size", type=_size, help="WIDTHxHEIGHT (default: the scene's)")
+    render.add_argument(
+        "--size",
+        type=_size,
+        help="WIDTHxHEIGHT (default: the scene's); the limit is the machine's: width and "
+        "height times render.supersample at most the GL's largest render target "
+        "(GL_MAX_TEXTURE_SIZE, 16384 under llvmpipe) and the render targets at most 4 GiB "
+        "(docs/scene-format.md, 'Image size limits'); a larger size exits 2",
+    )
     render.add_argument(
         "--fit",
         action="store_true",
@@ -350,6 +357,11 @@ def _debug_image(
     return image, f"{out}: NaN debug view: {describe(bad)} of {pixels} pixels"
 
 
+def _size_option(exc: InputError) -> InputError:
+    """A renderer's refusal of its ``size`` (app/render/limits.py) as the CLI's option."""
+    return InputError(exc.file, "--size" if exc.key == "size" else exc.key, exc.message)
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from app.gl.context import create_context
     from app.render.renderer import Renderer
@@ -381,7 +393,10 @@ def cmd_render(args: argparse.Namespace) -> int:
         if value is not None:
             raise InputError(option, "", "applies only with --compare")
     gl = create_context(args.backend)
-    renderer = Renderer(gl, loaded, args.size)
+    try:
+        renderer = Renderer(gl, loaded, args.size)
+    except InputError as exc:
+        raise _size_option(exc) from None
     light = 0 if args.debug_light is None else args.debug_light
     if args.debug in LIGHT_VIEWS and not 0 <= light < len(renderer.lights):
         count = len(renderer.lights)
@@ -435,7 +450,10 @@ def _render_comparison(
     spec = parse_compare(args.compare)
     spec.scenes(loaded, args.size)  # every refusal here, before a context exists
     gl = create_context(args.backend)
-    comparison = Comparison(gl, loaded, spec, args.size)
+    try:
+        comparison = Comparison(gl, loaded, spec, args.size)
+    except InputError as exc:
+        raise _size_option(exc) from None
     comparison.render()
     comparison.composite(mode, divider, gain)
     ldr = comparison.read_ldr()

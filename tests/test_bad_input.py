@@ -10,11 +10,13 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from app.cli import main
+from app.gl.context import GLContext
 
 REPO = Path(__file__).resolve().parent.parent
 SIZE = "64x48"
@@ -553,3 +555,215 @@ def test_existing_output_survives(work: tuple[Path, Path], text: str) -> None:
     assert png.read_bytes() == b"sentinel png"
     assert hdr.read_bytes() == b"sentinel hdr"
     assert sorted(p.name for p in out.iterdir()) == ["out.npy", "out.png"]
+
+
+# Sizes past what the GL can allocate (app/render/limits.py): refused after the context
+# exists and before any target does, so they run in a subprocess.
+@pytest.mark.parametrize(
+    ("render", "size", "fragment"),
+    [
+        pytest.param("", "16384x16384", "GiB of render targets", id="past-memory"),
+        pytest.param(
+            "[render]\nsupersample = 4\n", "8192x64", "largest render target", id="past-dims"
+        ),
+    ],
+)
+def test_size_past_gl_limits(
+    work: tuple[Path, Path], render: str, size: str, fragment: str
+) -> None:
+    root, out = work
+    scene = _scene(root, BASE + render)
+    result = _run_cli(str(scene), "-o", str(out / "out.png"), "--size", size)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    line = _check(result.returncode, result.stderr, out, f"pbs: error: {scene}: --size: ", fragment)
+    assert size in line
+
+
+def test_renderer_refuses_resize_past_limits(gl_egl: GLContext, tmp_path: Path) -> None:
+    """The check is the Renderer's (viewer and API get it too): a refused resize raises
+    InputError and leaves the renderer at its old size, still rendering."""
+    from app.errors import InputError
+    from app.render.limits import max_dimension
+    from app.render.renderer import Renderer
+    from app.scene.loader import load_scene
+
+    renderer = Renderer(gl_egl, load_scene(_scene(tmp_path, BASE)), (32, 24))
+    try:
+        too_wide = max_dimension(gl_egl.ctx) + 1
+        with pytest.raises(InputError, match=f"render size {too_wide}x24"):
+            renderer.resize((too_wide, 24))
+        assert renderer.size == (32, 24)
+        renderer.render()
+        assert renderer.read_ldr().shape[:2] == (24, 32)
+    finally:
+        renderer.release()
+
+
+# Files a mesh file names (app/scene/references.py). The glTF is written by hand: a quad
+# whose buffer and base colour image are separate files (trimesh's exporter embeds both).
+def _gltf(folder: Path, name: str = "model.gltf", **doc_changes: object) -> Path:
+    """A textured quad as ``name`` (.gltf with quad.bin and tex.png beside it, or a .glb
+    with the buffer inside and tex.png beside it); ``doc_changes`` update the JSON."""
+    import json
+    import struct
+
+    import numpy as np
+    from PIL import Image
+
+    pos = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+    uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)
+    blob = pos.tobytes() + uv.tobytes() + np.array([0, 1, 2, 0, 2, 3], np.uint16).tobytes()
+    Image.new("RGB", (2, 2), (255, 0, 0)).save(folder / "tex.png")
+    glb = name.endswith(".glb")
+    buffer: dict[str, object] = {"byteLength": len(blob)}
+    if not glb:
+        (folder / "quad.bin").write_bytes(blob)
+        buffer["uri"] = "quad.bin"
+    views = [(0, 48), (48, 32), (80, 12)]
+    doc: dict[str, object] = {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [
+            {
+                "primitives": [
+                    {"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}
+                ]
+            }
+        ],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": "tex.png"}],
+        "buffers": [buffer],
+        "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": n} for o, n in views],
+        "accessors": [
+            {
+                "bufferView": 0,
+                "componentType": 5126,
+                "count": 4,
+                "type": "VEC3",
+                "min": [-1, -1, 0],
+                "max": [1, 1, 0],
+            },
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
+        **doc_changes,
+    }
+    path = folder / name
+    if not glb:
+        path.write_text(json.dumps(doc), encoding="utf-8")
+        return path
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    body = struct.pack("<II", len(text), 0x4E4F534A) + text
+    body += struct.pack("<II", len(blob), 0x004E4942) + blob
+    path.write_bytes(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
+    return path
+
+
+def _remove(name: str) -> Callable[[Path], None]:
+    return lambda root: (root / name).unlink()
+
+
+def _garble(name: str) -> Callable[[Path], None]:
+    return lambda root: (root / name).write_bytes(b"not a PNG at all")
+
+
+REQUIRED = "extensionsRequired"
+# (id, mesh file name, glTF JSON changes, what is done to the files, fragment of the line)
+REFERENCE_CASES = [
+    ("gltf-image-missing", "model.gltf", {}, _remove("tex.png"), "images[0].uri 'tex.png'"),
+    ("gltf-buffer-missing", "model.gltf", {}, _remove("quad.bin"), "buffers[0].uri 'quad.bin'"),
+    ("gltf-image-garbage", "model.gltf", {}, _garble("tex.png"), "tex.png is not an image"),
+    ("glb-image-missing", "model.glb", {}, _remove("tex.png"), "images[0].uri 'tex.png'"),
+    ("gltf-draco", "model.gltf", {REQUIRED: ["KHR_draco_mesh_compression"]}, None,
+     "extension KHR_draco_mesh_compression"),
+    ("glb-meshopt", "model.glb", {REQUIRED: ["EXT_meshopt_compression"]}, None,
+     "extension EXT_meshopt_compression"),
+    ("gltf-unknown-required", "model.gltf", {REQUIRED: ["EXT_made_up"]}, None,
+     "extension EXT_made_up"),
+    ("gltf-points-only", "model.gltf",
+     {"meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "mode": 0}]}]}, None,
+     "holds no triangles"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("name", "changes", "damage", "fragment"),
+    [pytest.param(*case[1:], id=case[0]) for case in REFERENCE_CASES],
+)
+def test_bad_gltf_references(
+    work: tuple[Path, Path],
+    capsys: pytest.CaptureFixture[str],
+    name: str,
+    changes: dict[str, object],
+    damage: Callable[[Path], None] | None,
+    fragment: str,
+) -> None:
+    """trimesh would load these without the file (white) or draw nothing: exit 2 instead,
+    naming the scene, the object and the missing file or the extension."""
+    root, out = work
+    _gltf(root, name, **changes)
+    if damage is not None:
+        damage(root)
+    scene = _scene(root, BASE + f'[[objects]]\nshape = "mesh"\nfile = "{name}"\n')
+    rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: {root / name}", fragment)
+
+
+def test_intact_gltf_and_data_uris_render(work: tuple[Path, Path]) -> None:
+    """The same files intact render (exit 0), and data: URIs are not files to look for."""
+    import base64
+
+    root, out = work
+    _gltf(root)
+    data = base64.b64encode((root / "quad.bin").read_bytes()).decode()
+    (root / "quad.bin").unlink()
+    doc_uri = {"uri": f"data:application/octet-stream;base64,{data}", "byteLength": 92}
+    _gltf(root, "inline.gltf", buffers=[doc_uri])
+    (root / "quad.bin").unlink()  # inline.gltf wrote it again: neither file may need it
+    text = BASE + '[[objects]]\nshape = "mesh"\nfile = "inline.gltf"\n'
+    result = _run_cli(str(_scene(root, text)), "-o", str(out / "out.png"), "--size", SIZE)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    assert result.returncode == 0, result.stderr
+    assert (out / "out.png").is_file()
+
+
+OBJ_QUAD = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+OBJ_QUAD += "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
+
+
+@pytest.mark.parametrize(
+    ("mtl", "fragment"),
+    [
+        pytest.param(None, "mtllib quad.mtl: ", id="mtl-missing"),
+        pytest.param("newmtl m\nKd 1 1 1\nmap_Kd -s 1 1 1 gone.png\n", "map_Kd gone.png",
+                     id="map-kd-missing"),
+    ],
+)  # fmt: skip
+def test_bad_obj_references(
+    work: tuple[Path, Path], capsys: pytest.CaptureFixture[str], mtl: str | None, fragment: str
+) -> None:
+    """trimesh gives an OBJ whose MTL is gone a grey material with a white image: exit 2."""
+    root, out = work
+    (root / "quad.obj").write_text("mtllib quad.mtl\nusemtl m\n" + OBJ_QUAD, encoding="utf-8")
+    if mtl is not None:
+        (root / "quad.mtl").write_text(mtl, encoding="utf-8")
+    scene = _scene(root, BASE + '[[objects]]\nshape = "mesh"\nfile = "quad.obj"\n')
+    rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    line = _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: {root / 'quad.obj'}")
+    assert fragment in line and "is missing" in line, line
+
+
+def test_compare_size_past_gl_limits(work: tuple[Path, Path]) -> None:
+    """Both sides of --compare are Renderers: the same refusal, naming --size."""
+    root, out = work
+    scene = _scene(root, BASE)
+    compare = ("--compare", "materials.m.roughness=0.2,0.8")
+    result = _run_cli(str(scene), "-o", str(out / "out.png"), "--size", "16384x16384", *compare)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    _check(result.returncode, result.stderr, out, f"pbs: error: {scene}: --size: ", "GiB")

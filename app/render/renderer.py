@@ -21,6 +21,7 @@ import numpy as np
 
 from app.common.gbuffer import GBufferData
 from app.common.lights import PunctualLight
+from app.errors import InputError
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
 from app.frame.lights import frame_lights
@@ -30,6 +31,7 @@ from app.gl.shaders import ShaderCache
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass
 from app.render.lighting import LightingPass
+from app.render.limits import check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
@@ -137,9 +139,19 @@ class Renderer:
 
     def _build_targets(self) -> None:
         """Everything whose size is the image's: the G-buffer and every pass after it."""
-        self._release(("gbuffer",))
         settings = self.scene.render
         table = self.materials
+        # Refused before anything is allocated or released (app/render/limits.py): a
+        # renderer that refuses a resize keeps its old targets.
+        per_pixel = target_bytes_per_pixel(
+            settings.gbuffer, table.needs_tangents, table.needs_coat_normals,
+            self.scene.camera.aperture > 0.0,
+        )  # fmt: skip
+        check_render_size(
+            self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
+            "size" if self._size is not None else "render.width, render.height",
+        )  # fmt: skip
+        self._release(("gbuffer",))
         self.gbuffer = GBuffer(
             self.gl.ctx, self.render_size, settings.gbuffer, table.needs_tangents,
             table.needs_coat_normals,
@@ -264,7 +276,11 @@ class Renderer:
         if changed & set(_PART_SETTINGS):
             self._rebuild_frame()
         if changed & {"width", "height", "supersample", "gbuffer"}:
-            self._build_targets()
+            try:
+                self._build_targets()
+            except InputError:  # past the GL's limits: the old settings and targets stay
+                self._edit(render=old)
+                raise
             return
         if changed & {"specular_aa", "specular_aa_variance", "specular_aa_threshold"}:
             self._build_gbuffer_pass()
@@ -275,8 +291,12 @@ class Renderer:
 
     def resize(self, size: tuple[int, int]) -> None:
         """A new output size (width, height): new targets for every pass."""
-        self._size = (int(size[0]), int(size[1]))
-        self._build_targets()
+        old, self._size = self._size, (int(size[0]), int(size[1]))
+        try:
+            self._build_targets()
+        except InputError:  # past the GL's limits: the old size and targets stay
+            self._size = old
+            raise
 
     def update(self, scene: Scene) -> None:
         """Show ``scene``, an edit of the current one (same objects' files): each part of

@@ -6,10 +6,12 @@ exact sphere (glsl/geometry/analytic.glsl), so that its normals, UVs, depth and 
 are the sphere's own (docs/gbuffer.md, "Analytic primitives"). Other primitives come from
 trimesh; mesh files (OBJ, PLY, STL, glTF/GLB) are read through
 trimesh. glTF metallic-roughness factors and textures come through where trimesh reads
-them. Every mesh ends up as interleaved float32 ``position, normal, uv`` vertices and
-uint32 triangle indices, in object space, with its model matrix. Tangents come from the
-UVs where a mesh has usable ones and from the direction around the object's Y axis
-otherwise (so anisotropic highlights on primitives run along lines of latitude).
+them, and an OBJ's MTL base colour (``Kd``, ``map_Kd``), roughness and metallic; the files
+a mesh file names are checked first (app/scene/references.py). Every mesh ends up as
+interleaved float32 ``position, normal, uv`` vertices and uint32 triangle indices, in
+object space, with its model matrix. Tangents come from the UVs where a mesh has usable
+ones and from the direction around the object's Y axis otherwise (so anisotropic
+highlights on primitives run along lines of latitude).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from app.errors import InputError
 from app.scene.layers import LayerBuilder, gltf_layer
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
+from app.scene.references import gltf_problem, obj_libraries, obj_problem
 from app.textures.bake import bake_blend
 from app.textures.maps import SurfaceLayer, Texture, scalar_texture
 
@@ -293,10 +296,13 @@ def _interleave(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _file_material(
-    mesh: trimesh.Trimesh, fallback: MaterialParams, normal_filter: str
+    mesh: trimesh.Trimesh, fallback: MaterialParams, normal_filter: str, mtl: bool = False
 ) -> SurfaceLayer:
-    """glTF metallic-roughness factors and maps where trimesh read them."""
+    """glTF metallic-roughness factors and maps where trimesh read them; with ``mtl`` (an
+    OBJ that names an MTL file), the MTL's material (``_mtl_material``)."""
     mat = getattr(mesh.visual, "material", None)
+    if isinstance(mat, trimesh.visual.material.SimpleMaterial):
+        return _mtl_material(mat, fallback, normal_filter) if mtl else SurfaceLayer(fallback)
     if not isinstance(mat, trimesh.visual.material.PBRMaterial):
         return SurfaceLayer(fallback)
     factor = mat.baseColorFactor
@@ -317,13 +323,65 @@ def _file_material(
     return gltf_layer(params, mat.baseColorTexture, mat.metallicRoughnessTexture, normal_filter)
 
 
+def _mtl_number(kwargs: dict, key: str) -> float | None:
+    """An MTL statement's first number as trimesh keeps it (``kwargs``: the lower-cased
+    keyword -> its words, or floats for ``kd``), or None where absent or not a number."""
+    value = kwargs.get(key)
+    word = value[0] if isinstance(value, list | tuple) and value else value
+    try:
+        number = float(word)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _mtl_material(
+    mat: trimesh.visual.material.SimpleMaterial, fallback: MaterialParams, normal_filter: str
+) -> SurfaceLayer:
+    """An OBJ's MTL material as the glTF path reads a base colour: ``Kd`` is the base
+    colour factor (linear, as glTF's baseColorFactor; read from trimesh's float copy, not
+    its 8-bit ``diffuse``), ``map_Kd`` the base colour map (sRGB), multiplied. The PBR
+    extension's scalars ``Pr`` (roughness) and ``Pm`` (metallic) come through; its maps
+    (``map_Pr``, ``map_Pm``, ``norm``) are not read (docs/scene-format.md, "Mesh files").
+    Called only for an OBJ with an ``mtllib``: without one trimesh makes up a grey
+    material with a 2 x 2 image, which must not replace the default."""
+    kwargs = getattr(mat, "kwargs", None) or {}
+    kd = kwargs.get("kd")
+    if isinstance(kd, list | tuple) and len(kd) >= 3:
+        base = tuple(min(max(float(c), 0.0), 1.0) for c in kd[:3])
+    else:  # no Kd: the map alone (factor 1), or the default colour
+        base = (1.0, 1.0, 1.0) if mat.image is not None else fallback.base_color
+    roughness = _mtl_number(kwargs, "pr")
+    metallic = _mtl_number(kwargs, "pm")
+    params = MaterialParams(
+        base_color=base,  # type: ignore[arg-type]
+        metallic=fallback.metallic if metallic is None else min(max(metallic, 0.0), 1.0),
+        roughness=fallback.roughness if roughness is None else min(max(roughness, 0.0), 1.0),
+        f0=fallback.f0,
+    )
+    return gltf_layer(params, mat.image, None, normal_filter)
+
+
 _DEFAULT_MATERIAL = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
 
 
 def _load_file(
     loaded: LoadedScene, index: int, obj: SceneObject
-) -> list[tuple[trimesh.Trimesh, np.ndarray]]:
+) -> tuple[list[tuple[trimesh.Trimesh, np.ndarray]], bool]:
+    """The file's triangle meshes with their node transforms, and whether it is an OBJ
+    that names an MTL (whose materials then apply, ``_mtl_material``)."""
     path = loaded.resolve_file(obj.file or "")
+    # A missing texture or buffer, or a required extension, is bad input: trimesh would
+    # load the file without it (a white model, or geometry it cannot draw).
+    suffix, problem = path.suffix.lower(), None
+    libraries = obj_libraries(path) if suffix == ".obj" and path.is_file() else []
+    if suffix == ".obj":
+        problem = obj_problem(path, libraries)
+    elif suffix in (".gltf", ".glb") and path.is_file():
+        problem = gltf_problem(path)
+    if problem is not None:
+        raise InputError(str(loaded.path), f"objects[{index}].file", problem)
+    mtl = bool(libraries)
     try:
         data = trimesh.load(str(path), process=False)
     except Exception as exc:  # trimesh raises many types for unreadable files
@@ -333,7 +391,7 @@ def _load_file(
             f"cannot read mesh {path} ({type(exc).__name__}: {exc})",
         ) from None
     if isinstance(data, trimesh.Trimesh):
-        return [(data, np.eye(4))]
+        return [(data, np.eye(4))], mtl
     if isinstance(data, trimesh.Scene):
         parts = []
         for node in data.graph.nodes_geometry:
@@ -342,7 +400,7 @@ def _load_file(
             if isinstance(geom, trimesh.Trimesh) and len(geom.faces):
                 parts.append((geom, np.asarray(transform, np.float64)))
         if parts:
-            return parts
+            return parts, mtl
     raise InputError(str(loaded.path), f"objects[{index}].file", f"{path} holds no triangles")
 
 
@@ -393,11 +451,13 @@ def build_parts(loaded: LoadedScene) -> list[MeshPart]:
             layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)
             parts.append(MeshPart(vertices, indices, layers, model, blend, obj.shape != "plane", i))
             continue
-        for mesh, local in _load_file(loaded, i, obj):
+        meshes, mtl = _load_file(loaded, i, obj)
+        for mesh, local in meshes:
             if chosen is not None:  # the scene's material overrides the file's
                 layers, blend = chosen
             else:
-                layers = [_file_material(mesh, _DEFAULT_MATERIAL, builder.normal_filter)]
+                filt = builder.normal_filter
+                layers = [_file_material(mesh, _DEFAULT_MATERIAL, filt, mtl)]
                 blend = None
             vertices, indices = _interleave(mesh)
             parts.append(MeshPart(vertices, indices, layers, model @ local, blend, False, i))

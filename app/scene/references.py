@@ -1,0 +1,147 @@
+"""Files a mesh file names, checked before trimesh reads it.
+
+trimesh swallows a missing texture: a glTF whose base colour image is gone loads with
+``baseColorTexture = None`` (it logs the error and the model renders white), and an OBJ
+whose MTL is gone gets a grey default material with a white image. A glTF with an
+extension in ``extensionsRequired`` that trimesh does not decode (Draco,
+meshoptimizer) loads as geometry it cannot draw. So the references are read here from
+the files themselves, and each problem comes back as one sentence for an ``InputError``:
+
+- glTF / GLB: every ``buffers[i].uri`` and ``images[i].uri`` that is not a ``data:`` URI
+  must name a readable file (relative to the glTF, percent-decoded as glTF 2.0 says);
+  an image must also open as one (Pillow). Every name in ``extensionsRequired`` must be
+  in ``SUPPORTED_EXTENSIONS``.
+- OBJ: every ``mtllib`` must name a readable file, and every ``map_Kd`` in it (the one
+  MTL map the project reads) a readable image.
+
+A file whose own structure is broken (not JSON, a truncated GLB header) is left to
+trimesh, which refuses it with its own message.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+from urllib.parse import unquote
+
+from PIL import Image
+
+# glTF extensions a file may *require*: none yet (the project reads the core
+# metallic-roughness material only; docs/scene-format.md, "Mesh files").
+SUPPORTED_EXTENSIONS: frozenset[str] = frozenset()
+
+# Hints for required extensions users meet most (issue 17: a Draco .glb drew nothing).
+_HINTS = {
+    "KHR_draco_mesh_compression": "Draco-compressed geometry",
+    "EXT_meshopt_compression": "meshoptimizer-compressed geometry",
+}
+
+_GLB_MAGIC = b"glTF"
+_GLB_JSON = 0x4E4F534A  # chunk type "JSON"
+
+
+def _gltf_document(path: Path) -> dict | None:
+    """The JSON of a .gltf, or of a .glb's first chunk; None where it cannot be parsed."""
+    try:
+        with path.open("rb") as f:
+            if path.suffix.lower() == ".glb":
+                header = f.read(20)
+                if len(header) < 20 or header[:4] != _GLB_MAGIC:
+                    return None
+                length, kind = struct.unpack("<II", header[12:20])
+                if kind != _GLB_JSON:
+                    return None
+                text = f.read(length)
+            else:
+                text = f.read()
+        doc = json.loads(text)
+    except (OSError, ValueError):  # unreadable or not JSON: trimesh reports it
+        return None
+    return doc if isinstance(doc, dict) else None
+
+
+def _unreadable(file: Path, image: bool) -> str | None:
+    """Why ``file`` cannot be used (missing, a folder, unreadable, not an image), or None."""
+    if not file.exists():
+        return "is missing"
+    if not file.is_file():
+        return "is not a file"
+    try:
+        with file.open("rb") as f:
+            f.read(1)
+    except OSError as exc:  # PermissionError and the like
+        return f"cannot be read ({type(exc).__name__})"
+    if image:
+        try:
+            with Image.open(file) as img:
+                img.verify()
+        except Exception as exc:  # Pillow raises many types for data it cannot decode
+            return f"is not an image Pillow can read ({type(exc).__name__})"
+    return None
+
+
+def gltf_problem(path: Path) -> str | None:
+    """The first problem with a glTF/GLB's required extensions or referenced files."""
+    doc = _gltf_document(path)
+    if doc is None:
+        return None
+    required = doc.get("extensionsRequired", [])
+    for name in required if isinstance(required, list) else []:
+        if name not in SUPPORTED_EXTENSIONS:
+            what = f" ({_HINTS[name]})" if name in _HINTS else ""
+            return (
+                f"{path} requires the glTF extension {name}{what}, which pbs does not "
+                "read; export the file without it"
+            )
+    for table, image in (("buffers", False), ("images", True)):
+        entries = doc.get(table, [])
+        for i, entry in enumerate(entries if isinstance(entries, list) else []):
+            uri = entry.get("uri") if isinstance(entry, dict) else None
+            if not isinstance(uri, str) or uri.startswith("data:"):
+                continue
+            file = path.parent / unquote(uri)
+            why = _unreadable(file, image)
+            if why is not None:
+                return f"{path}: {table}[{i}].uri '{uri}': {file} {why}"
+    return None
+
+
+def _mtl_maps(mtl: Path) -> list[str]:
+    """The file names of the ``map_Kd`` lines of an MTL (the last word: options such as
+    ``-s 1 1 1`` come before the name)."""
+    names = []
+    for line in mtl.read_text(encoding="utf-8", errors="replace").splitlines():
+        words = line.split()
+        if len(words) >= 2 and words[0].lower() == "map_kd":
+            names.append(words[-1])
+    return names
+
+
+def obj_libraries(path: Path) -> list[str]:
+    """The names of an OBJ's ``mtllib`` statements (each the rest of its line, so that a
+    name with spaces stays whole); none where the file cannot be read."""
+    try:
+        with path.open("rb") as f:
+            return [
+                line[6:].strip().decode("utf-8", errors="replace")
+                for line in f
+                if line.startswith(b"mtllib") and line[6:7].isspace()
+            ]
+    except OSError:  # trimesh reports it
+        return []
+
+
+def obj_problem(path: Path, libraries: list[str]) -> str | None:
+    """The first problem with an OBJ's ``mtllib`` files or their ``map_Kd`` images."""
+    for name in libraries:
+        mtl = path.parent / name
+        why = _unreadable(mtl, image=False)
+        if why is not None:
+            return f"{path}: mtllib {name}: {mtl} {why}"
+        for texture in _mtl_maps(mtl):
+            file = mtl.parent / texture
+            why = _unreadable(file, image=True)
+            if why is not None:
+                return f"{path}: {mtl.name}: map_Kd {texture}: {file} {why}"
+    return None
