@@ -31,7 +31,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("app.scene",),
     ("app.frame",),
     ("app.render",),
-    ("app.brdf", "app.assets"),
+    ("app.brdf", "app.assets", "app.batch"),
     ("app.walkthrough",),  # the classroom lesson: renders, plots, labels, handout
     ("app.viewer",),
     ("app.bench",),  # it measures the viewer too
