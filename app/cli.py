@@ -186,10 +186,21 @@ def _thetas(text: str) -> tuple[float, ...]:
     return values
 
 
-def _dpi(text: str) -> int:
-    if not re.fullmatch(r"\d+", text) or not 10 <= int(text) <= 1200:
-        raise argparse.ArgumentTypeError(f"expected an integer within 10..1200, got '{text}'")
-    return int(text)
+def _integer(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: a whole number within low..high (digits only, no sign)."""
+
+    def parse(text: str) -> int:
+        if not re.fullmatch(r"\d+", text) or not low <= int(text) <= high:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer within {low}..{high}, got '{text}'"
+            )
+        return int(text)
+
+    return parse
+
+
+_dpi = _integer(10, 1200)
+_workers = _integer(1, 256)
 
 
 def _brdf_parser(sub: argparse._SubParsersAction) -> None:
@@ -284,12 +295,6 @@ def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
     walkthrough.add_argument(
         "-q", "--quiet", action="store_true", help="no progress bar, no summary"
     )
-
-
-def _workers(text: str) -> int:
-    if not re.fullmatch(r"\d+", text) or not 1 <= int(text) <= 256:
-        raise argparse.ArgumentTypeError(f"expected an integer within 1..256, got '{text}'")
-    return int(text)
 
 
 def _batch_parser(sub: argparse._SubParsersAction) -> None:
