@@ -132,6 +132,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
+    _batch_parser(sub)
     _textures_parser(sub)
     _walkthrough_parser(sub)
     view = sub.add_parser(
@@ -192,10 +193,21 @@ def _thetas(text: str) -> tuple[float, ...]:
     return values
 
 
-def _dpi(text: str) -> int:
-    if not re.fullmatch(r"\d+", text) or not 10 <= int(text) <= 1200:
-        raise argparse.ArgumentTypeError(f"expected an integer within 10..1200, got '{text}'")
-    return int(text)
+def _integer(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: a whole number within low..high (digits only, no sign)."""
+
+    def parse(text: str) -> int:
+        if not re.fullmatch(r"\d+", text) or not low <= int(text) <= high:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer within {low}..{high}, got '{text}'"
+            )
+        return int(text)
+
+    return parse
+
+
+_dpi = _integer(10, 1200)
+_workers = _integer(1, 256)
 
 
 def _brdf_parser(sub: argparse._SubParsersAction) -> None:
@@ -290,6 +302,40 @@ def _walkthrough_parser(sub: argparse._SubParsersAction) -> None:
     walkthrough.add_argument(
         "-q", "--quiet", action="store_true", help="no progress bar, no summary"
     )
+
+
+def _batch_parser(sub: argparse._SubParsersAction) -> None:
+    """The ``batch`` subcommand's arguments (docs/batch.md)."""
+    batch = sub.add_parser(
+        "batch",
+        help="render many images from a job file: an orbit, a key sweep, a list of scenes",
+        description="Render every image of a job file into DIR on warm GL contexts, with "
+        "DIR/manifest.jsonl (one line per job). Exit 0: every job ok or already done; 1: "
+        "some jobs failed (listed at the end; the others ran); 2: bad job file or "
+        "arguments. docs/batch.md.",
+    )
+    batch.add_argument("jobs", help="job file (TOML, or JSON by its .json suffix)")
+    batch.add_argument("-o", "--output", required=True, metavar="DIR", help="folder to write")
+    batch.add_argument(
+        "--workers", type=_workers, default=1, metavar="N",
+        help="worker processes, each with one GL context (default 1: in this process)",
+    )  # fmt: skip
+    batch.add_argument(
+        "--no-resume", action="store_true",
+        help="render every job again (default: skip outputs that are valid PNGs already)",
+    )  # fmt: skip
+    dask = batch.add_mutually_exclusive_group()
+    dask.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="run the jobs on a Dask distributed cluster (tcp://host:8786); needs the "
+        "'distributed' extra",
+    )  # fmt: skip
+    dask.add_argument(
+        "--dask-local", type=_workers, metavar="N",
+        help="run the jobs on a new local Dask cluster of N worker processes",
+    )  # fmt: skip
+    _gl_backend(batch)
+    batch.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
 
 
 def _textures_parser(sub: argparse._SubParsersAction) -> None:
@@ -503,6 +549,49 @@ def cmd_brdf(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_batch(args: argparse.Namespace) -> int:
+    """Render a job file's images (app/batch). The job file, and the scenes of an orbit or
+    a sweep, are validated before any GL work; a failed job is reported, not fatal."""
+    from app.batch.jobs import plan_jobs
+    from app.batch.run import dask_client, run_batch
+    from app.progress import Progress
+
+    start = time.perf_counter()
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise InputError(str(out), "-o", "not a folder")
+    plan = plan_jobs(args.jobs, out)
+    client = None
+    if args.scheduler is not None or args.dask_local is not None:
+        option = "--scheduler" if args.scheduler is not None else "--dask-local"
+        client = dask_client(args.scheduler, args.dask_local, option)
+    progress = Progress(len(plan.jobs), enabled=not args.quiet)
+    try:
+        results = run_batch(
+            plan, out, args.workers, args.backend, not args.no_resume, progress, client
+        )
+    except OSError as exc:
+        why = f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc)
+        raise InputError(str(out), "-o", f"cannot write ({why})") from None
+    finally:
+        if client is not None:
+            client.close()  # type: ignore[attr-defined]
+    failed = [r for r in results if r["status"] == "failed"]
+    if not args.quiet:
+        done = sum(r["status"] == "ok" for r in results)
+        skipped = sum(r["status"] == "skipped" for r in results)
+        print(
+            f"{out}: {plan.kind}, {done} rendered, {skipped} skipped, {len(failed)} failed "
+            f"of {len(results)}; {out / 'manifest.jsonl'}; {time.perf_counter() - start:.2f} s"
+        )
+    if failed:
+        print(f"pbs: error: {len(failed)} of {len(results)} jobs failed:", file=sys.stderr)
+        for r in failed:
+            print(f"  {r['job']}: {_one_line(r['error'] or '')}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def cmd_textures(args: argparse.Namespace) -> int:
     """Write the procedural textures into ``--out``, or with ``--check`` compare the files
     there with freshly generated pixels. Every texture is generated before anything is
@@ -628,6 +717,7 @@ def main(argv: list[str] | None = None) -> int:
     handlers = {
         "render": cmd_render,
         "brdf": cmd_brdf,
+        "batch": cmd_batch,
         "textures": cmd_textures,
         "walkthrough": cmd_walkthrough,
         "view": cmd_view,

@@ -66,7 +66,8 @@ setup() {
     if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
         echo "setup: installing the project and its dependencies into $VENV"
         "$VENV/bin/python" -m pip install -q --upgrade pip
-        "$VENV/bin/python" -m pip install -q -e ".[test]"
+        # distributed: pbs batch's Dask run, tested on a local cluster (tests/test_batch.py)
+        "$VENV/bin/python" -m pip install -q -e ".[test,distributed]"
         echo "$want" > "$stamp"
     fi
 }

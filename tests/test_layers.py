@@ -33,7 +33,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("app.frame",),
     ("app.render",),
     ("app.api",),  # the public Python API (docs/api.md): a renderer that changes, into numpy
-    ("app.brdf", "app.assets"),
+    ("app.brdf", "app.assets", "app.batch"),
     ("app.walkthrough",),  # the classroom lesson: renders, plots, labels, handout
     ("app.viewer",),
     ("app.bench",),  # it measures the viewer too

@@ -1,0 +1,262 @@
+"""The job file of ``pbs batch``: read, validated, and expanded into one ``Job`` per image.
+
+A job file is TOML (or JSON, by its ``.json`` suffix) with exactly one of three tables or
+keys (docs/batch.md)::
+
+    scene = "showcase"                      # orbit and sweep: the scene (file or bundled name)
+    size = "512x512"                        # optional: every image's size (default: the scene's)
+    orbit = { frames = 100, degrees = 360 } # N frames turning the camera about its up axis
+    # sweep = { key = "materials.gold.roughness", values = [0.1, 0.5] }
+    # sweep = { key = "materials.gold.roughness", start = 0.1, stop = 0.9, count = 9 }
+    # scenes = ["a.toml", "b.toml"]         # a list of scene files (no top-level scene)
+
+Everything the job file says is checked here, before any GL work, and a problem is an
+``InputError`` naming the job file and the key (the CLI's exit 2). The orbit's cameras and
+the sweep's scenes are validated here too, so a sweep value the scene refuses is bad job
+file input, not a failed job. The files of a ``scenes`` list are only resolved: one that
+is missing or broken fails its own job (its manifest line), never the others.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.errors import InputError
+from app.render.compare import parse_key, set_key
+from app.resources import scenes_dir
+from app.scene.loader import LoadedScene, load_scene, parse_scene, read_text
+from app.scene.model import Camera
+
+KINDS = ("orbit", "sweep", "scenes")
+_TOP_KEYS = {"scene", "size", *KINDS}
+MAX_JOBS = 100_000  # a typo in a count must not plan a billion images
+
+
+@dataclass(frozen=True)
+class Job:
+    """One image: what to render and where (picklable: it crosses to worker processes).
+
+    ``scene``: the scene file. ``camera``: an orbit frame's camera (a ``Camera`` dump), or
+    None. ``key``/``value``: a sweep step's key path and value, or None. ``size``: the
+    image's (width, height), or None for the scene's own. ``expected``: the size the PNG
+    will have, where it is known before rendering (resume checks outputs against it).
+    """
+
+    id: str
+    output: str
+    scene: str
+    size: tuple[int, int] | None = None
+    camera: dict | None = None
+    key: str | None = None
+    value: object = None
+    expected: tuple[int, int] | None = None
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A validated job file: its kind and jobs in output order."""
+
+    file: str
+    kind: str
+    jobs: list[Job]
+
+
+def _bad(file: Path, key: str, message: str) -> InputError:
+    return InputError(str(file), key, message)
+
+
+def read_job_file(path: str | Path) -> dict:
+    """The job file's data: TOML, or JSON where the name ends in ``.json``."""
+    path = Path(path)
+    text = read_text(path, "job file")
+    try:
+        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        kind = "JSON" if path.suffix.lower() == ".json" else "TOML"
+        raise _bad(path, "", f"malformed {kind}: {exc}") from None
+    if not isinstance(data, dict):
+        raise _bad(path, "", "expected a table (a JSON object) at the top")
+    return data
+
+
+def _size(file: Path, value: object) -> tuple[int, int]:
+    """``"WxH"`` or ``[W, H]``, each within 1..16384 (the CLI's --size range)."""
+    if isinstance(value, str) and (m := re.fullmatch(r"(\d+)[xX](\d+)", value)):
+        value = [int(m.group(1)), int(m.group(2))]
+    if (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(type(v) is int and 1 <= v <= 16384 for v in value)
+    ):
+        return (value[0], value[1])
+    raise _bad(file, "size", f'expected "WIDTHxHEIGHT" or [W, H] within 1..16384, got {value!r}')
+
+
+def _number(file: Path, key: str, value: object, low: float, high: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not low <= value <= high:
+        raise _bad(file, key, f"expected a number within {low:g}..{high:g}, got {value!r}")
+    return float(value)
+
+
+def _count(file: Path, key: str, value: object) -> int:
+    if type(value) is not int or not 1 <= value <= MAX_JOBS:
+        raise _bad(file, key, f"expected an integer within 1..{MAX_JOBS}, got {value!r}")
+    return value
+
+
+def _table(file: Path, key: str, value: object, allowed: set[str]) -> dict:
+    if not isinstance(value, dict):
+        raise _bad(file, key, f"expected a table, got {value!r}")
+    for name in value:
+        if name not in allowed:
+            raise _bad(file, f"{key}.{name}", f"unknown key (known: {', '.join(sorted(allowed))})")
+    return value
+
+
+def resolve_scene(name: str, base: Path) -> Path:
+    """A scene named in a job file: relative to the job file's folder, else a bundled
+    scene's name (``showcase``), as ``pbs render`` takes it."""
+    path = Path(name)
+    if not path.is_absolute():
+        path = base / path
+    if path.exists() or Path(name).suffix:
+        return path
+    bundled = scenes_dir() / f"{name}.toml"
+    return bundled if bundled.exists() else path
+
+
+def _load_base(file: Path, data: dict) -> LoadedScene:
+    if "scene" not in data:
+        raise _bad(file, "scene", "missing: the scene file that the orbit or sweep renders")
+    if not isinstance(data["scene"], str):
+        raise _bad(file, "scene", f"expected a scene file's path, got {data['scene']!r}")
+    path = resolve_scene(data["scene"], file.parent)
+    if not path.is_file():
+        raise _bad(file, "scene", f"no such scene file: {path}")
+    return load_scene(path)
+
+
+def _image_size(loaded: LoadedScene, size: tuple[int, int] | None) -> tuple[int, int]:
+    render = loaded.scene.render
+    return size if size is not None else (render.width, render.height)
+
+
+def orbit_cameras(camera: Camera, frames: int, degrees: float) -> list[Camera]:
+    """``frames`` cameras turned about the axis through the target along the camera's up
+    vector, by ``degrees * k / frames`` for k = 0..frames-1 (frame 0 is ``camera``
+    itself, bit for bit). Rodrigues' rotation in float64; the lens and up are kept."""
+    target = np.asarray(camera.target, np.float64)
+    offset = np.asarray(camera.position, np.float64) - target
+    axis = np.asarray(camera.up, np.float64)
+    axis /= np.linalg.norm(axis)
+    cameras = [camera]
+    for k in range(1, frames):
+        angle = math.radians(degrees * k / frames)
+        c, s = math.cos(angle), math.sin(angle)
+        rotated = offset * c + np.cross(axis, offset) * s + axis * float(axis @ offset) * (1.0 - c)
+        position = [float(x) for x in target + rotated]
+        cameras.append(camera.model_copy(update={"position": position}))
+    return cameras
+
+
+def _orbit(file: Path, data: dict, out: Path, size: tuple[int, int] | None) -> list[Job]:
+    spec = _table(file, "orbit", data["orbit"], {"frames", "degrees"})
+    if "frames" not in spec:
+        raise _bad(file, "orbit.frames", "missing: the number of frames")
+    frames = _count(file, "orbit.frames", spec["frames"])
+    degrees = _number(file, "orbit.degrees", spec.get("degrees", 360.0), -36000.0, 36000.0)
+    loaded = _load_base(file, data)
+    expected = _image_size(loaded, size)
+    jobs = []
+    for k, camera in enumerate(orbit_cameras(loaded.scene.camera, frames, degrees)):
+        name = f"frame-{k:04d}"
+        output = str(out / f"{name}.png")
+        jobs.append(Job(name, output, str(loaded.path), size, camera.model_dump(), None, None,
+                        expected))  # fmt: skip
+    return jobs
+
+
+def _sweep_values(file: Path, spec: dict) -> list[object]:
+    if "values" in spec:
+        if {"start", "stop", "count"} & set(spec):
+            raise _bad(file, "sweep.values", "give either values or start, stop and count")
+        values = spec["values"]
+        if not isinstance(values, list) or not 1 <= len(values) <= MAX_JOBS:
+            raise _bad(file, "sweep.values", f"expected a list of 1..{MAX_JOBS} values")
+        return values
+    for name in ("start", "stop", "count"):
+        if name not in spec:
+            why = "missing: a sweep needs values, or start, stop and count"
+            raise _bad(file, f"sweep.{name}", why)
+    start = _number(file, "sweep.start", spec["start"], -1e30, 1e30)
+    stop = _number(file, "sweep.stop", spec["stop"], -1e30, 1e30)
+    count = _count(file, "sweep.count", spec["count"])
+    # Inclusive of both ends, as numpy's linspace; float() keeps TOML's own float type.
+    return [float(v) for v in np.linspace(start, stop, count)]
+
+
+def _sweep(file: Path, data: dict, out: Path, size: tuple[int, int] | None) -> list[Job]:
+    spec = _table(file, "sweep", data["sweep"], {"key", "values", "start", "stop", "count"})
+    if not isinstance(spec.get("key"), str):
+        raise _bad(file, "sweep.key", "missing or not a string: the scene key to sweep")
+    origin = f"{file}: sweep.key"
+    path = parse_key(spec["key"], str(file))
+    values = _sweep_values(file, spec)
+    loaded = _load_base(file, data)
+    jobs = []
+    for i, value in enumerate(values):
+        scene_data = loaded.scene.model_dump(exclude_none=True)
+        set_key(scene_data, path, value, str(loaded.path), origin)
+        try:
+            swept = parse_scene(scene_data, loaded.path)
+        except InputError as exc:
+            raise _bad(file, f"sweep.values[{i}]", f"{spec['key']} = {value!r}: {exc}") from None
+        name = f"sweep-{i:04d}"
+        output = str(out / f"{name}.png")
+        expected = _image_size(swept, size)
+        jobs.append(Job(name, output, str(loaded.path), size, None, spec["key"], value, expected))
+    return jobs
+
+
+def _scenes(file: Path, data: dict, out: Path, size: tuple[int, int] | None) -> list[Job]:
+    names = data["scenes"]
+    if "scene" in data:
+        raise _bad(file, "scene", "a scenes list names its own files: give no scene")
+    if not isinstance(names, list) or not 1 <= len(names) <= MAX_JOBS:
+        raise _bad(file, "scenes", f"expected a list of 1..{MAX_JOBS} scene files")
+    jobs = []
+    for i, name in enumerate(names):
+        if not isinstance(name, str) or not name:
+            raise _bad(file, f"scenes[{i}]", f"expected a scene file's path, got {name!r}")
+        path = resolve_scene(name, file.parent)
+        stem = re.sub(r"[^A-Za-z0-9_.-]", "_", path.stem)
+        job_id = f"{i:04d}-{stem}"
+        try:  # the size resume checks against; a broken file fails its own job later
+            expected = _image_size(load_scene(path), size)
+        except InputError:
+            expected = None
+        output = str(out / f"{job_id}.png")
+        jobs.append(Job(job_id, output, str(path), size=size, expected=expected))
+    return jobs
+
+
+def plan_jobs(path: str | Path, out: str | Path) -> Plan:
+    """The job file at ``path`` validated and expanded into jobs writing under ``out``."""
+    file = Path(path)
+    data = read_job_file(file)
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise _bad(file, key, f"unknown key (known: {', '.join(sorted(_TOP_KEYS))})")
+    kinds = [k for k in KINDS if k in data]
+    if len(kinds) != 1:
+        raise _bad(file, "", f"expected exactly one of {', '.join(KINDS)}, found {len(kinds)}")
+    size = _size(file, data["size"]) if "size" in data else None
+    make = {"orbit": _orbit, "sweep": _sweep, "scenes": _scenes}[kinds[0]]
+    return Plan(str(file), kinds[0], make(file, data, Path(out), size))
