@@ -15,7 +15,7 @@ from PIL import Image
 
 from app.bench.scenes import load
 from app.reference.encoding import oct_decode
-from app.reference.illumination import pixel_ndc
+from app.reference.raycast import camera_rays
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
 
@@ -38,11 +38,7 @@ def _scene(**changes: object) -> dict:
 def _rays(r: Renderer) -> np.ndarray:
     """(H, W, 3) world directions through the pixel centres, rows top to bottom, whose
     component along the view axis is 1 (so the ray parameter is the view depth)."""
-    cam = r.camera
-    h, w = r.render_size[1], r.render_size[0]
-    ndc = pixel_ndc(h, w)
-    local = np.concatenate([ndc * np.asarray(cam.tan_half_fov), -np.ones((h, w, 1))], axis=-1)
-    return local @ np.asarray(cam.camera_to_world).T
+    return camera_rays(r.camera, *r.render_size)
 
 
 def _sphere_hits(r: Renderer, centre, radius: float) -> tuple[np.ndarray, np.ndarray]:

@@ -228,11 +228,16 @@ PRIMITIVES_FLIP_MAX = 1e-3
 PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default spheres and encoding before issue 16
 
 
+def _default_row(rows: list[dict], case: str) -> dict | None:
+    """The timed row of the default variant of accuracy comparison ``case``."""
+    for row in rows:
+        if row["case"] == case and row.get("default") and row.get("ms_median") is not None:
+            return row
+    return None
+
+
 def _primitives_verdicts(rows: list[dict]) -> list[Verdict]:
-    default = next(
-        (r for r in rows if r["case"] == "primitives" and r.get("default")
-         and r.get("ms_median") is not None), None,
-    )  # fmt: skip
+    default = _default_row(rows, "primitives")
     what = (
         f"default settings against the ray-caster: median <= {PRIMITIVES_MEDIAN_MAX:g}, p99 <="
         f" {PRIMITIVES_P99_MAX:g}, mean FLIP <= {PRIMITIVES_FLIP_MAX:g}, exact coverage"
@@ -259,10 +264,7 @@ def _primitives_verdicts(rows: list[dict]) -> list[Verdict]:
     # where the wider f32 G-buffer costs more than the analytic sphere saves) are reported.
     ratios = {}
     for case in ("primitives_showcase", "primitives"):
-        now = next(
-            (r for r in rows if r["case"] == case and r.get("default")
-             and r.get("ms_median") is not None), None,
-        )  # fmt: skip
+        now = _default_row(rows, case)
         before = _case_row(rows, "accuracy", case, PRIMITIVES_BEFORE)
         if now is not None and before is not None:
             gb, gb_before = (r.get("passes_ms", {}).get("gbuffer") for r in (now, before))

@@ -53,20 +53,6 @@ def camera_frame(cam: Camera, width: int, height: int) -> CameraFrame:
     )
 
 
-def camera_from_matrices(view: np.ndarray, proj: np.ndarray) -> CameraFrame:
-    """The frame of a camera given by its view and (perspective) projection matrices."""
-    world = np.linalg.inv(view)
-    near = proj[2, 3] / (proj[2, 2] - 1.0)
-    far = proj[2, 3] / (proj[2, 2] + 1.0)
-    return CameraFrame(
-        position=world[:3, 3].copy(),
-        camera_to_world=view[:3, :3].T,
-        tan_half_fov=(1.0 / proj[0, 0], 1.0 / proj[1, 1]),
-        near=float(near),
-        far=float(far),
-    )
-
-
 # A fitted field of view stays below this (degrees): the scene format's fov_y < 180.
 MAX_FIT_FOV_Y = 170.0
 

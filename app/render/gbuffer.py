@@ -21,7 +21,7 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import ENCODINGS, GBufferData, encoding_defines
-from app.frame.camera import camera_from_matrices, gl_bytes
+from app.frame.camera import gl_bytes
 from app.gl.shaders import ShaderCache
 from app.reference.encoding import unorm_to_snorm
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
@@ -357,12 +357,10 @@ class GBufferPass:
         target: GBuffer,
         view: np.ndarray,
         proj: np.ndarray,
-        camera: CameraFrame | None = None,
+        camera: CameraFrame,
     ) -> None:
         """Draw every part; ``camera`` is the lighting pass's frame (the analytic parts'
-        rays must be the lighting pass's), derived from ``view`` and ``proj`` if not given."""
-        if camera is None:
-            camera = camera_from_matrices(view, proj)
+        rays must be the lighting pass's)."""
         ctx = self.ctx
         target.fbo.use()
         ctx.viewport = (0, 0, *target.size)

@@ -16,6 +16,7 @@ highlights on primitives run along lines of latitude).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -187,16 +188,25 @@ def _icosphere(radius: float, subdivisions: int) -> trimesh.Trimesh:
     return mesh
 
 
-def sphere_proxy(radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices, indices) of a convex polyhedron that encloses the sphere of ``radius``:
-    the icosphere scaled by 1 / its inradius (the distance of its nearest face plane), with
-    a relative margin of 1e-4 so that float32 rasterisation cannot cut a silhouette pixel."""
+@functools.cache
+def _unit_proxy() -> tuple[np.ndarray, np.ndarray, float]:
+    """The proxy's unit directions, faces and inradius, built once per process."""
     unit = trimesh.creation.icosphere(subdivisions=PROXY_SUBDIVISIONS, radius=1.0)
     v = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
     f = np.asarray(unit.faces)
     normals = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     inradius = float(np.min(np.abs(np.sum(normals * v[f[:, 0]], axis=1))))
+    v.setflags(write=False)
+    f.setflags(write=False)
+    return v, f, inradius
+
+
+def sphere_proxy(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, indices) of a convex polyhedron that encloses the sphere of ``radius``:
+    the icosphere scaled by 1 / its inradius (the distance of its nearest face plane), with
+    a relative margin of 1e-4 so that float32 rasterisation cannot cut a silhouette pixel."""
+    v, f, inradius = _unit_proxy()
     positions = v * (radius / inradius * (1.0 + 1e-4))
     vertices = np.zeros((len(v), 12), np.float32)
     vertices[:, 0:3] = positions
