@@ -66,6 +66,10 @@ class MeshPart:
     object_index: int = -1  # the scene object (index into scene.objects) it was built from
     # An analytic primitive drawn through the proxy ``vertices`` (its model is ``model``).
     analytic: Primitive | None = None
+    # Optional per-vertex attributes of mesh files (glTF TEXCOORD_1 and COLOR_0): (N, 2)
+    # and (N, 4) float32, linear RGBA; None where the file has none.
+    uv1: np.ndarray | None = None
+    colors: np.ndarray | None = None
 
     @property
     def material(self) -> MaterialParams:

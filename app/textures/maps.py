@@ -32,17 +32,41 @@ class Texture:
 
     levels: list[np.ndarray]  # (h, w, c) uint8 or float32
     srgb: bool = False
+    # Sampler state (glTF 2.0 ``samplers``): wrap along u and v, each "repeat", "clamp"
+    # or "mirror"; the GL's minification and magnification filters by their glTF names
+    # ("nearest", "linear", "nearest_mipmap_nearest", ..., "linear_mipmap_linear").
+    wrap: tuple[str, str] = ("repeat", "repeat")
+    min_filter: str = "linear_mipmap_linear"
+    mag_filter: str = "linear"
 
     @property
     def pixels(self) -> np.ndarray:
         return self.levels[0]
 
 
+@dataclass(frozen=True)
+class UvTransform:
+    """Which texture coordinates a map reads and how they are moved first (glTF 2.0
+    ``texCoord`` and KHR_texture_transform): uv' = T(offset) R(rotation) S(scale) uv,
+    rotation in radians, counter-clockwise in UV space as the extension defines it. The
+    layer's ``uv_scale`` multiplies uv' afterwards."""
+
+    uv_set: int = 0  # 0: TEXCOORD_0, 1: TEXCOORD_1 (MeshPart.uv1)
+    offset: tuple[float, float] = (0.0, 0.0)
+    rotation: float = 0.0
+    scale: tuple[float, float] = (1.0, 1.0)
+
+    @property
+    def identity(self) -> bool:
+        return self == UvTransform()
+
+
 @dataclass
 class SurfaceLayer:
     """One material as the G-buffer pass samples it: constants, maps and UV tiling.
 
-    ``maps`` keys: ``base_color`` (sRGB), ``metallic``, ``anisotropy`` (R), and
+    ``maps`` keys: ``base_color`` (sRGB), ``metallic``, ``anisotropy`` (R), ``emissive``
+    (sRGB), ``occlusion`` (R), and
     ``normal_roughness`` (RGBA: normal xyz, absolute perceptual roughness; present when the
     material has a normal or a roughness map), ``coat_normal`` (RGBA: the clear coat's own
     normal xyz, its own mips; RTR4 §9.12). ``normal_mapped``: the base's normals come from a
@@ -53,6 +77,20 @@ class SurfaceLayer:
     maps: dict[str, Texture] = field(default_factory=dict)
     uv_scale: tuple[float, float] = (1.0, 1.0)
     normal_mapped: bool = False
+    # glTF 2.0 core material beyond metallic-roughness (issue 17). ``emissive``: emitted
+    # radiance added to the pixel (emissiveFactor x KHR_materials_emissive_strength),
+    # times the ``emissive`` map (sRGB RGB) where present. ``occlusion`` map (R, linear):
+    # 1 + strength (occlusion - 1) darkens environment light only. ``alpha``: coverage
+    # (baseColorFactor's A, times the base colour map's A and COLOR_0's A); ``alpha_mode``
+    # "opaque" ignores it, "mask" discards below ``alpha_cutoff``, "blend" composites.
+    emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    occlusion_strength: float = 1.0
+    alpha: float = 1.0
+    alpha_mode: str = "opaque"
+    alpha_cutoff: float = 0.5
+    # Per map key: its UV set and KHR_texture_transform; a key not here reads TEXCOORD_0
+    # untransformed.
+    uv_transforms: dict[str, UvTransform] = field(default_factory=dict)
 
     @property
     def own_coat_normal(self) -> bool:
