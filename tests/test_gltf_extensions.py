@@ -353,6 +353,7 @@ BAD = [
     ({"KHR_materials_ior": {"ior": 0.5}}, "KHR_materials_ior.ior"),
     ({"KHR_materials_ior": {"ior": "1.5"}}, "KHR_materials_ior.ior"),
     ({"KHR_materials_ior": [1.5]}, "KHR_materials_ior"),
+    ({"KHR_materials_ior": {"ior": 10**400}}, "KHR_materials_ior.ior"),  # JSON allows it
     ({"KHR_materials_specular": {"specularFactor": 1.5}}, "KHR_materials_specular.specularFactor"),
     ({"KHR_materials_specular": {"specularColorFactor": [1, -0.1, 1]}},
      "KHR_materials_specular.specularColorFactor"),

@@ -63,6 +63,26 @@ SUPPORTED = (
     "KHR_materials_clearcoat",
     "KHR_materials_iridescence",
 )
+# The extensions' textures the project cannot sample, and what is used instead (each one a
+# material names gives a note; docs/gltf.md lists them).
+UNSUPPORTED_TEXTURES = {
+    "KHR_materials_specular": {
+        "specularTexture": "the factor alone is used",
+        "specularColorTexture": "the factor alone is used",
+    },
+    "KHR_materials_sheen": {
+        "sheenColorTexture": "sheenColorFactor alone is used",
+        "sheenRoughnessTexture": "sheenRoughnessFactor alone is used",
+    },
+    "KHR_materials_clearcoat": {
+        "clearcoatTexture": "clearcoatFactor alone is used",
+        "clearcoatRoughnessTexture": "clearcoatRoughnessFactor alone is used",
+    },
+    "KHR_materials_iridescence": {
+        "iridescenceTexture": "iridescenceFactor alone is used",
+        "iridescenceThicknessTexture": "it is read as 1.0: iridescenceThicknessMaximum everywhere",
+    },
+}
 # Material extensions another part of the reader maps (the emissive strength joins the
 # core material's emissive factor).
 HANDLED_ELSEWHERE = ("KHR_materials_emissive_strength",)
@@ -115,10 +135,16 @@ def map_material_extensions(
     # The specification's layering order: the dielectric's F0 (ior, specular), its lobe
     # (anisotropy), the film on it (iridescence), then sheen, then the coat on top.
     _ior_and_specular(state, extensions)
-    _anisotropy(state, extensions)
-    _iridescence(state, extensions)
-    _sheen(state, extensions)
-    _clearcoat(state, extensions)
+    layers = (
+        ("KHR_materials_anisotropy", _anisotropy),
+        ("KHR_materials_iridescence", _iridescence),
+        ("KHR_materials_sheen", _sheen),
+        ("KHR_materials_clearcoat", _clearcoat),
+    )
+    for name, apply in layers:
+        ext = _extension(state, extensions, name)
+        if ext is not None:
+            apply(state, ext, name)
     for name in sorted(extensions):
         if name.startswith("KHR_materials_") and name not in SUPPORTED + HANDLED_ELSEWHERE:
             state.notes.append(f"{name}: not supported; the material renders without it")
@@ -149,6 +175,17 @@ def _object(state: _State, extensions: Mapping[str, Any], name: str) -> Mapping[
     return ext
 
 
+def _finite(value: object) -> bool:
+    """A JSON number (not a boolean) that is finite as a float64 (an integer too large for
+    one, which JSON allows, is not)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
 def _number(
     state: _State,
     ext: Mapping[str, Any],
@@ -160,8 +197,8 @@ def _number(
 ) -> float:
     """A finite number in [lo, hi] (JSON booleans are not numbers)."""
     value = ext.get(prop, default)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise GltfError(state.path(name, prop), f"must be a finite number, not {value!r}")
+    if not _finite(value):
+        raise GltfError(state.path(name, prop), f"must be a finite number, not {value!r:.40}")
     if not lo <= value <= hi:
         raise GltfError(state.path(name, prop), f"{value!r} is outside [{lo:g}, {hi:g}]")
     return float(value)
@@ -177,15 +214,8 @@ def _color(
 ) -> np.ndarray:
     """Three finite numbers in [0, hi] (linear RGB)."""
     value = ext.get(prop, list(default))
-    if (
-        not isinstance(value, list | tuple)
-        or len(value) != 3
-        or not all(
-            not isinstance(x, bool) and isinstance(x, int | float) and math.isfinite(x)
-            for x in value
-        )
-    ):
-        raise GltfError(state.path(name, prop), f"must be 3 finite numbers, not {value!r}")
+    if not isinstance(value, list | tuple) or len(value) != 3 or not all(map(_finite, value)):
+        raise GltfError(state.path(name, prop), f"must be 3 finite numbers, not {value!r:.60}")
     if not all(0.0 <= x <= hi for x in value):
         raise GltfError(state.path(name, prop), f"{list(value)!r} is outside [0, {hi:g}]")
     return np.asarray(value, np.float64)
@@ -207,14 +237,26 @@ def _texture(
     return ExtensionTexture(info, "rgb", state.path(name, prop))
 
 
-def _unsupported_textures(
-    state: _State, ext: Mapping[str, Any], name: str, props: dict[str, str]
-) -> None:
-    """A note for each present texture the project cannot sample; ``props`` maps the
-    property to what is used instead."""
-    for prop, instead in props.items():
-        if _texture(state, ext, name, prop) is not None:
+def _extension(state: _State, extensions: Mapping[str, Any], name: str) -> Mapping[str, Any] | None:
+    """The extension's object (None where the material has none), with a note for each
+    texture it names that the project cannot sample (UNSUPPORTED_TEXTURES)."""
+    ext = _object(state, extensions, name)
+    for prop, instead in UNSUPPORTED_TEXTURES.get(name, {}).items():
+        if ext is not None and _texture(state, ext, name, prop) is not None:
             state.notes.append(f"{state.path(name, prop)}: not supported; {instead}")
+    return ext
+
+
+def _apply(
+    state: _State, name: str, model: dict[str, Any], params: dict[str, Any], **material: Any
+) -> None:
+    """Replace fields of the Model, the ModelParams and the MaterialParams itself, and
+    record the extension as applied."""
+    p = state.params
+    state.params = replace(
+        p, model=replace(p.model, **model), params=replace(p.params, **params), **material
+    )
+    state.applied.append(name)
 
 
 # --- KHR_materials_ior and KHR_materials_specular: the dielectric's Fresnel (RTR4 §9.5) ---
@@ -222,7 +264,7 @@ def _unsupported_textures(
 
 def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
     ior_ext = _object(state, extensions, "KHR_materials_ior")
-    spec_ext = _object(state, extensions, "KHR_materials_specular")
+    spec_ext = _extension(state, extensions, "KHR_materials_specular")
     p = state.params
     f0_ior = p.f0  # the core material's F0 (0.04: glTF's fixed ior 1.5)
     eta = p.params.eta_dielectric
@@ -250,11 +292,6 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
                 f"approximated by its luminance {f0:.6g} (the project's F0 is one number)"
             )
         f90 = weight
-        _unsupported_textures(
-            state, spec_ext, name,
-            {"specularTexture": "the factor alone is used",
-             "specularColorTexture": "the factor alone is used"},
-        )  # fmt: skip
         state.applied.append(name)
     if ior_ext is None and spec_ext is None:
         return
@@ -279,11 +316,7 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
 # --- KHR_materials_anisotropy (RTR4 §9.8) ---
 
 
-def _anisotropy(state: _State, extensions: Mapping[str, Any]) -> None:
-    name = "KHR_materials_anisotropy"
-    ext = _object(state, extensions, name)
-    if ext is None:
-        return
+def _anisotropy(state: _State, ext: Mapping[str, Any], name: str) -> None:
     strength = _number(state, ext, name, "anisotropyStrength", 0.0, 0.0, 1.0)
     rotation = _number(state, ext, name, "anisotropyRotation", 0.0)
     texture = _texture(state, ext, name, "anisotropyTexture")
@@ -316,31 +349,22 @@ def _anisotropy(state: _State, extensions: Mapping[str, Any]) -> None:
             f"{texture.key}: its strength (B) multiplies the project's anisotropy linearly "
             "(the extension's alpha_t is quadratic in it); its direction (RG) is not supported"
         )
-    model = replace(p.model, anisotropic=True)
-    state.params = replace(p, roughness=math.sqrt(alpha_mean), anisotropy=anisotropy, model=model)
-    state.applied.append(name)
+    _apply(
+        state, name, {"anisotropic": True}, {},
+        roughness=math.sqrt(alpha_mean), anisotropy=anisotropy,
+    )  # fmt: skip
 
 
 # --- KHR_materials_iridescence (RTR4 §9.11) ---
 
 
-def _iridescence(state: _State, extensions: Mapping[str, Any]) -> None:
-    name = "KHR_materials_iridescence"
-    ext = _object(state, extensions, name)
-    if ext is None:
-        return
+def _iridescence(state: _State, ext: Mapping[str, Any], name: str) -> None:
     factor = _number(state, ext, name, "iridescenceFactor", 0.0, 0.0, 1.0)
     film_ior = _number(state, ext, name, "iridescenceIor", 1.3, lo=1.0)
     _number(state, ext, name, "iridescenceThicknessMinimum", 100.0, 0.0, MAX_FILM_THICKNESS_NM)
     thickness = _number(
         state, ext, name, "iridescenceThicknessMaximum", 400.0, 0.0, MAX_FILM_THICKNESS_NM
     )
-    _unsupported_textures(
-        state, ext, name,
-        {"iridescenceTexture": "iridescenceFactor alone is used",
-         "iridescenceThicknessTexture": "it is read as 1.0: iridescenceThicknessMaximum "
-                                        "everywhere"},
-    )  # fmt: skip
     if factor == 0.0:
         return
     if factor < 1.0:
@@ -348,37 +372,24 @@ def _iridescence(state: _State, extensions: Mapping[str, Any]) -> None:
             f"{state.path(name, 'iridescenceFactor')}: {factor!r} is rendered as 1 (the "
             "project's thin film has no strength)"
         )
-    p = state.params
     # Without the thickness texture the film is iridescenceThicknessMaximum thick; the
     # outside medium is air (the specification's outside_ior 1), so film_eta = film_ior.
-    params = replace(p.params, film_thickness=thickness, film_ior=film_ior, film_eta=film_ior)
-    state.params = replace(p, model=replace(p.model, thin_film=True), params=params)
-    state.applied.append(name)
+    film = {"film_thickness": thickness, "film_ior": film_ior, "film_eta": film_ior}
+    _apply(state, name, {"thin_film": True}, film)
 
 
 # --- KHR_materials_sheen (RTR4 §9.10) ---
 
 
-def _sheen(state: _State, extensions: Mapping[str, Any]) -> None:
-    name = "KHR_materials_sheen"
-    ext = _object(state, extensions, name)
-    if ext is None:
-        return
+def _sheen(state: _State, ext: Mapping[str, Any], name: str) -> None:
     color = _color(state, ext, name, "sheenColorFactor", (0.0, 0.0, 0.0), 1.0)
     roughness = _number(state, ext, name, "sheenRoughnessFactor", 0.0, 0.0, 1.0)
-    _unsupported_textures(
-        state, ext, name,
-        {"sheenColorTexture": "sheenColorFactor alone is used",
-         "sheenRoughnessTexture": "sheenRoughnessFactor alone is used"},
-    )  # fmt: skip
     if float(color.max()) == 0.0:  # "If sheenColorFactor is zero, the whole sheen layer
         return  # is disabled": no layer, compiled out, as a scene file's black sheen_color
-    p = state.params
     # The specification's Charlie NDF with Estevez & Kulla's Smith visibility, and its
     # albedo scaling 1 - max(sheenColor) max(E(n.l), E(n.v)): the project's charlie_smith.
-    params = replace(p.params, sheen_color=color, sheen_roughness=roughness)
-    state.params = replace(p, model=replace(p.model, sheen="charlie_smith"), params=params)
-    state.applied.append(name)
+    sheen = {"sheen_color": color, "sheen_roughness": roughness}
+    _apply(state, name, {"sheen": "charlie_smith"}, sheen)
 
 
 # --- KHR_materials_clearcoat (RTR4 §9.12) ---
@@ -386,37 +397,21 @@ def _sheen(state: _State, extensions: Mapping[str, Any]) -> None:
 CLEARCOAT_IOR = 1.5  # the extension's fixed coat index (F0 = 0.04)
 
 
-def _clearcoat(state: _State, extensions: Mapping[str, Any]) -> None:
-    name = "KHR_materials_clearcoat"
-    ext = _object(state, extensions, name)
-    if ext is None:
-        return
+def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
     strength = _number(state, ext, name, "clearcoatFactor", 0.0, 0.0, 1.0)
     roughness = _number(state, ext, name, "clearcoatRoughnessFactor", 0.0, 0.0, 1.0)
     normal = _texture(state, ext, name, "clearcoatNormalTexture")
-    scale = normal.info.get("scale", 1.0) if normal is not None else 1.0
-    if isinstance(scale, bool) or not isinstance(scale, int | float) or not math.isfinite(scale):
-        raise GltfError(
-            state.path(name, "clearcoatNormalTexture.scale"),
-            f"must be a finite number, not {scale!r}",
-        )
-    _unsupported_textures(
-        state, ext, name,
-        {"clearcoatTexture": "clearcoatFactor alone is used",
-         "clearcoatRoughnessTexture": "clearcoatRoughnessFactor alone is used"},
-    )  # fmt: skip
+    if normal is not None:  # its scale, read by the reader with the map: a finite number
+        _number(state, normal.info, f"{name}.clearcoatNormalTexture", "scale", 1.0)
     if strength == 0.0:  # "If clearcoatFactor is zero, the whole clearcoat layer is disabled"
         return
     if normal is not None:
         state.maps["coat_normal"] = normal
-    p = state.params
     # The medium is air (glTF has no other), so the coat's eta is its index.
-    params = replace(
-        p.params,
-        clearcoat=strength,
-        clearcoat_roughness=roughness,
-        clearcoat_eta=CLEARCOAT_IOR,
-        clearcoat_color=np.ones(3),
-    )
-    state.params = replace(p, model=replace(p.model, clearcoat="filament"), params=params)
-    state.applied.append(name)
+    coat = {
+        "clearcoat": strength,
+        "clearcoat_roughness": roughness,
+        "clearcoat_eta": CLEARCOAT_IOR,
+        "clearcoat_color": np.ones(3),
+    }
+    _apply(state, name, {"clearcoat": "filament"}, coat)
