@@ -1,0 +1,417 @@
+"""glTF 2.0 ``KHR_materials_*`` extensions mapped onto the project's models (docs/gltf.md).
+
+The glTF reader builds a ``MaterialParams`` from a material's core metallic-roughness
+values and hands it here with the material's ``extensions`` object (parsed JSON) and its
+JSON path; ``material_extensions`` returns the parameters with every extension the project
+has a model for applied. Each mapping says whether it is exact (the extension's formula and
+the project's BRDF give the same f(l, v); tests/test_gltf_extensions.py evaluates both) or
+what it approximates; docs/gltf.md has the table.
+
+* KHR_materials_ior: the dielectric F0 = ((ior - 1)/(ior + 1))^2 (RTR4 §9.5) and the
+  exact Fresnel's index; ``ior = 0`` (the specification's specular-glossiness mode, an
+  infinite index whose Fresnel is 1 at every angle) becomes F0 = 1 (Schlick then gives 1
+  exactly) with the index ``IOR_ZERO_ETA``.
+* KHR_materials_specular: F0 = min(F0_ior specularColor, 1) specular and F90 = specular,
+  through the generalised Schlick (RTR4 §9.5); the project's F0 is one number, so a
+  coloured specularColor is approximated by the luminance of its F0.
+* KHR_materials_anisotropy: alpha_t = mix(alpha, 1, strength^2), alpha_b = alpha, written
+  exactly in the project's (roughness, anisotropy) (RTR4 §9.8); the rotation only where it
+  maps t onto +-t or +-b.
+* KHR_materials_sheen: the Charlie sheen with Estevez & Kulla's Smith Lambda and the same
+  albedo scaling (RTR4 §9.10).
+* KHR_materials_clearcoat: the project's Filament clear coat at the coat index 1.5 (RTR4
+  §9.12); approximated (docs/gltf.md lists the differences).
+* KHR_materials_iridescence: Belcour & Barla 2017's thin film at the maximum thickness
+  (RTR4 §9.11); approximated (the project's film has no strength and uses exact Fresnel).
+
+Textures: only factors are mapped; ``map_material_extensions`` also returns the textures
+the project can sample (``maps``: the clear coat's normal map, the anisotropy strength) and
+a note for each texture or parameter it cannot honour, for the reader to attach and report.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from app.common.ior import f0_from_ior
+from app.common.models import MaterialParams
+from app.scene.gltf_document import GltfError
+
+# KHR_materials_ior's ior = 0: "the effective IOR becomes positive infinity and the Fresnel
+# term MUST evaluate to 1.0". F0 = 1 makes Schlick exactly 1; the exact dielectric Fresnel
+# and the thin film read this finite stand-in, whose F0 is 1 - 4e-6 (float32 keeps it).
+IOR_ZERO_ETA = 1e6
+# The thickest film the project's thin film takes (the scene format's film_thickness limit;
+# docs/thin-film.md measures its series up to there).
+MAX_FILM_THICKNESS_NM = 5000.0
+# An anisotropyRotation within this many radians of a multiple of pi/2 is taken as that
+# multiple (a float32 pi/2 written to JSON is 4.4e-8 off).
+ROTATION_TOLERANCE = 1e-6
+# Rec. 709 luminance weights (linear RGB), for the one F0 a coloured specularColor gets.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+SUPPORTED = (
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_anisotropy",
+    "KHR_materials_sheen",
+    "KHR_materials_clearcoat",
+    "KHR_materials_iridescence",
+)
+# The extensions' textures the project cannot sample, and what is used instead (each one a
+# material names gives a note; docs/gltf.md lists them).
+UNSUPPORTED_TEXTURES = {
+    "KHR_materials_specular": {
+        "specularTexture": "the factor alone is used",
+        "specularColorTexture": "the factor alone is used",
+    },
+    "KHR_materials_sheen": {
+        "sheenColorTexture": "sheenColorFactor alone is used",
+        "sheenRoughnessTexture": "sheenRoughnessFactor alone is used",
+    },
+    "KHR_materials_clearcoat": {
+        "clearcoatTexture": "clearcoatFactor alone is used",
+        "clearcoatRoughnessTexture": "clearcoatRoughnessFactor alone is used",
+    },
+    "KHR_materials_iridescence": {
+        "iridescenceTexture": "iridescenceFactor alone is used",
+        "iridescenceThicknessTexture": "it is read as 1.0: iridescenceThicknessMaximum everywhere",
+    },
+}
+# Material extensions another part of the reader maps (the emissive strength joins the
+# core material's emissive factor).
+HANDLED_ELSEWHERE = ("KHR_materials_emissive_strength",)
+
+
+@dataclass(frozen=True)
+class ExtensionTexture:
+    """A texture of an extension that the project can sample: the glTF ``textureInfo``
+    (or ``normalTextureInfo``) object as parsed JSON, the channel(s) that hold the value,
+    and the JSON path it came from (for the reader's errors)."""
+
+    info: Mapping[str, Any]
+    channel: str  # "r", "g", "b", "a" or "rgb"
+    key: str
+
+
+@dataclass(frozen=True)
+class ExtensionMapping:
+    """What ``map_material_extensions`` made of a material's extensions.
+
+    ``maps``: SurfaceLayer map keys ("coat_normal", "anisotropy") to the textures that fill
+    them. ``notes``: one line per texture, parameter or extension that is approximated or
+    left out (the reader reports them; docs/gltf.md explains each). ``applied``: the
+    extension names that changed the parameters.
+    """
+
+    params: MaterialParams
+    maps: dict[str, ExtensionTexture] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    applied: tuple[str, ...] = ()
+
+
+def material_extensions(extensions: dict, params: MaterialParams, key: str) -> MaterialParams:
+    """``params`` (a glTF material's core values) with its ``KHR_materials_*`` extensions
+    applied; ``key`` is the material's JSON path ("materials[2]") for errors. Bad values
+    raise ``GltfError(key + ".extensions.KHR_....name", message)``."""
+    return map_material_extensions(extensions, params, key).params
+
+
+def map_material_extensions(
+    extensions: Mapping[str, Any] | None, params: MaterialParams, key: str
+) -> ExtensionMapping:
+    """``material_extensions`` with the textures to attach and the notes on what is
+    approximated or unsupported (``ExtensionMapping``)."""
+    if extensions is None:
+        return ExtensionMapping(params)
+    if not isinstance(extensions, Mapping):
+        raise GltfError(f"{key}.extensions", "must be a JSON object")
+    state = _State(params, key)
+    # The specification's layering order: the dielectric's F0 (ior, specular), its lobe
+    # (anisotropy), the film on it (iridescence), then sheen, then the coat on top.
+    _ior_and_specular(state, extensions)
+    layers = (
+        ("KHR_materials_anisotropy", _anisotropy),
+        ("KHR_materials_iridescence", _iridescence),
+        ("KHR_materials_sheen", _sheen),
+        ("KHR_materials_clearcoat", _clearcoat),
+    )
+    for name, apply in layers:
+        ext = _extension(state, extensions, name)
+        if ext is not None:
+            apply(state, ext, name)
+    for name in sorted(extensions):
+        if name.startswith("KHR_materials_") and name not in SUPPORTED + HANDLED_ELSEWHERE:
+            state.notes.append(f"{name}: not supported; the material renders without it")
+    return ExtensionMapping(state.params, state.maps, tuple(state.notes), tuple(state.applied))
+
+
+@dataclass
+class _State:
+    """The parameters as the extensions change them, and what the mapping reports."""
+
+    params: MaterialParams
+    key: str
+    maps: dict[str, ExtensionTexture] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    applied: list[str] = field(default_factory=list)
+
+    def path(self, name: str, prop: str | None = None) -> str:
+        base = f"{self.key}.extensions.{name}"
+        return base if prop is None else f"{base}.{prop}"
+
+
+def _object(state: _State, extensions: Mapping[str, Any], name: str) -> Mapping[str, Any] | None:
+    ext = extensions.get(name)
+    if ext is None:
+        return None
+    if not isinstance(ext, Mapping):
+        raise GltfError(state.path(name), "must be a JSON object")
+    return ext
+
+
+def _finite(value: object) -> bool:
+    """A JSON number (not a boolean) that is finite as a float64 (an integer too large for
+    one, which JSON allows, is not)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
+def _number(
+    state: _State,
+    ext: Mapping[str, Any],
+    name: str,
+    prop: str,
+    default: float,
+    lo: float = -math.inf,
+    hi: float = math.inf,
+) -> float:
+    """A finite number in [lo, hi] (JSON booleans are not numbers)."""
+    value = ext.get(prop, default)
+    if not _finite(value):
+        raise GltfError(state.path(name, prop), f"must be a finite number, not {value!r:.40}")
+    if not lo <= value <= hi:
+        raise GltfError(state.path(name, prop), f"{value!r} is outside [{lo:g}, {hi:g}]")
+    return float(value)
+
+
+def _color(
+    state: _State,
+    ext: Mapping[str, Any],
+    name: str,
+    prop: str,
+    default: tuple[float, float, float],
+    hi: float,
+) -> np.ndarray:
+    """Three finite numbers in [0, hi] (linear RGB)."""
+    value = ext.get(prop, list(default))
+    if not isinstance(value, list | tuple) or len(value) != 3 or not all(map(_finite, value)):
+        raise GltfError(state.path(name, prop), f"must be 3 finite numbers, not {value!r:.60}")
+    if not all(0.0 <= x <= hi for x in value):
+        raise GltfError(state.path(name, prop), f"{list(value)!r} is outside [0, {hi:g}]")
+    return np.asarray(value, np.float64)
+
+
+def _texture(
+    state: _State, ext: Mapping[str, Any], name: str, prop: str
+) -> ExtensionTexture | None:
+    """A textureInfo object (its ``index`` a non-negative integer; the reader checks that
+    the texture exists), or None where the property is absent."""
+    info = ext.get(prop)
+    if info is None:
+        return None
+    index = info.get("index") if isinstance(info, Mapping) else None
+    if isinstance(index, bool) or not isinstance(index, int) or index < 0:
+        raise GltfError(
+            state.path(name, prop), "must be a textureInfo with a non-negative integer index"
+        )
+    return ExtensionTexture(info, "rgb", state.path(name, prop))
+
+
+def _extension(state: _State, extensions: Mapping[str, Any], name: str) -> Mapping[str, Any] | None:
+    """The extension's object (None where the material has none), with a note for each
+    texture it names that the project cannot sample (UNSUPPORTED_TEXTURES)."""
+    ext = _object(state, extensions, name)
+    for prop, instead in UNSUPPORTED_TEXTURES.get(name, {}).items():
+        if ext is not None and _texture(state, ext, name, prop) is not None:
+            state.notes.append(f"{state.path(name, prop)}: not supported; {instead}")
+    return ext
+
+
+def _apply(
+    state: _State, name: str, model: dict[str, Any], params: dict[str, Any], **material: Any
+) -> None:
+    """Replace fields of the Model, the ModelParams and the MaterialParams itself, and
+    record the extension as applied."""
+    p = state.params
+    state.params = replace(
+        p, model=replace(p.model, **model), params=replace(p.params, **params), **material
+    )
+    state.applied.append(name)
+
+
+# --- KHR_materials_ior and KHR_materials_specular: the dielectric's Fresnel (RTR4 §9.5) ---
+
+
+def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
+    ior_ext = _object(state, extensions, "KHR_materials_ior")
+    spec_ext = _extension(state, extensions, "KHR_materials_specular")
+    p = state.params
+    f0_ior = p.f0  # the core material's F0 (0.04: glTF's fixed ior 1.5)
+    eta = p.params.eta_dielectric
+    if ior_ext is not None:
+        name = "KHR_materials_ior"
+        ior = _number(state, ior_ext, name, "ior", 1.5, lo=0.0)
+        if 0.0 < ior < 1.0:
+            raise GltfError(state.path(name, "ior"), f"{ior!r} must be 0 or at least 1")
+        # The specification's outside_ior is 1 (air): F0 = ((ior - 1)/(ior + 1))^2.
+        f0_ior, eta = (1.0, IOR_ZERO_ETA) if ior == 0.0 else (float(f0_from_ior(ior)), ior)
+        state.applied.append(name)
+    f0, f90 = f0_ior, 1.0
+    if spec_ext is not None:
+        name = "KHR_materials_specular"
+        weight = _number(state, spec_ext, name, "specularFactor", 1.0, 0.0, 1.0)
+        color = _color(state, spec_ext, name, "specularColorFactor", (1.0, 1.0, 1.0), math.inf)
+        # dielectric_f0 = min(F0_ior specularColor, 1) specular; dielectric_f90 = specular.
+        f0_rgb = np.minimum(f0_ior * color, 1.0) * weight
+        if np.all(f0_rgb == f0_rgb[0]):
+            f0 = float(f0_rgb[0])
+        else:  # one F0 per material: the luminance of the coloured one (docs/gltf.md)
+            f0 = float(LUMINANCE @ f0_rgb)
+            state.notes.append(
+                f"{state.path(name, 'specularColorFactor')}: coloured F0 {f0_rgb.tolist()} "
+                f"approximated by its luminance {f0:.6g} (the project's F0 is one number)"
+            )
+        f90 = weight
+        state.applied.append(name)
+    if ior_ext is None and spec_ext is None:
+        return
+    model, params = p.model, replace(p.params, eta_dielectric=eta)
+    if f90 != 1.0:
+        if model.fresnel == "schlick" and not model.internal:
+            # Generalised Schlick (RTR4 §9.5), exponent 5: F = F0 + (F90 - F0)(1 - l.h)^5 with
+            # F0 = mix(f0, base, m) and F90 = mix(specular, 1, m), which is glTF's
+            # mix(dielectric_fresnel, metal_fresnel, metallic) exactly for this metallic.
+            m = p.metallic
+            f90_rgb = np.full(3, f90 * (1.0 - m) + m)
+            model = replace(model, fresnel="schlick_generalized")
+            params = replace(params, f90=f90_rgb, fresnel_exponent=5.0)
+        else:
+            state.notes.append(
+                f"{state.path('KHR_materials_specular', 'specularFactor')}: the F90 scale is "
+                f"not applied under the '{model.fresnel}' Fresnel model"
+            )
+    state.params = replace(p, f0=f0, model=model, params=params)
+
+
+# --- KHR_materials_anisotropy (RTR4 §9.8) ---
+
+
+def _anisotropy(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    strength = _number(state, ext, name, "anisotropyStrength", 0.0, 0.0, 1.0)
+    rotation = _number(state, ext, name, "anisotropyRotation", 0.0)
+    texture = _texture(state, ext, name, "anisotropyTexture")
+    if strength == 0.0:
+        return
+    p = state.params
+    # The extension: alpha_t = mix(alpha, 1, strength^2) along the tangent, alpha_b = alpha.
+    # The project (Burley 2012): alpha_x = alpha' (1 + a), alpha_y = alpha' (1 - a) with
+    # alpha' = r'^2, so alpha' = (alpha_t + alpha_b)/2 and a = (alpha_t - alpha_b)/(alpha_t +
+    # alpha_b) give the same two widths, the same D and the same anisotropic Smith G2.
+    alpha = p.roughness * p.roughness
+    alpha_t = alpha + (1.0 - alpha) * strength * strength
+    alpha_mean = 0.5 * (alpha_t + alpha)
+    anisotropy = (alpha_t - alpha) / (alpha_t + alpha)
+    # The rotation turns the stretched direction from t towards b. The renderer has no
+    # per-material tangent rotation; a quarter turn swaps t and b (a -> -a), a half turn is
+    # the same axis. Other angles are reported, and the tangent is kept.
+    quarter = rotation / (0.5 * math.pi)
+    turns = round(quarter)
+    if abs(quarter - turns) * 0.5 * math.pi <= ROTATION_TOLERANCE:
+        anisotropy = -anisotropy if turns % 2 else anisotropy
+    else:
+        state.notes.append(
+            f"{state.path(name, 'anisotropyRotation')}: {rotation!r} rad is not applied (the "
+            "renderer cannot rotate the tangent per material; only multiples of pi/2 map)"
+        )
+    if texture is not None:
+        state.maps["anisotropy"] = replace(texture, channel="b")
+        state.notes.append(
+            f"{texture.key}: its strength (B) multiplies the project's anisotropy linearly "
+            "(the extension's alpha_t is quadratic in it); its direction (RG) is not supported"
+        )
+    _apply(
+        state, name, {"anisotropic": True}, {},
+        roughness=math.sqrt(alpha_mean), anisotropy=anisotropy,
+    )  # fmt: skip
+
+
+# --- KHR_materials_iridescence (RTR4 §9.11) ---
+
+
+def _iridescence(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    factor = _number(state, ext, name, "iridescenceFactor", 0.0, 0.0, 1.0)
+    film_ior = _number(state, ext, name, "iridescenceIor", 1.3, lo=1.0)
+    _number(state, ext, name, "iridescenceThicknessMinimum", 100.0, 0.0, MAX_FILM_THICKNESS_NM)
+    thickness = _number(
+        state, ext, name, "iridescenceThicknessMaximum", 400.0, 0.0, MAX_FILM_THICKNESS_NM
+    )
+    if factor == 0.0:
+        return
+    if factor < 1.0:
+        state.notes.append(
+            f"{state.path(name, 'iridescenceFactor')}: {factor!r} is rendered as 1 (the "
+            "project's thin film has no strength)"
+        )
+    # Without the thickness texture the film is iridescenceThicknessMaximum thick; the
+    # outside medium is air (the specification's outside_ior 1), so film_eta = film_ior.
+    film = {"film_thickness": thickness, "film_ior": film_ior, "film_eta": film_ior}
+    _apply(state, name, {"thin_film": True}, film)
+
+
+# --- KHR_materials_sheen (RTR4 §9.10) ---
+
+
+def _sheen(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    color = _color(state, ext, name, "sheenColorFactor", (0.0, 0.0, 0.0), 1.0)
+    roughness = _number(state, ext, name, "sheenRoughnessFactor", 0.0, 0.0, 1.0)
+    if float(color.max()) == 0.0:  # "If sheenColorFactor is zero, the whole sheen layer
+        return  # is disabled": no layer, compiled out, as a scene file's black sheen_color
+    # The specification's Charlie NDF with Estevez & Kulla's Smith visibility, and its
+    # albedo scaling 1 - max(sheenColor) max(E(n.l), E(n.v)): the project's charlie_smith.
+    sheen = {"sheen_color": color, "sheen_roughness": roughness}
+    _apply(state, name, {"sheen": "charlie_smith"}, sheen)
+
+
+# --- KHR_materials_clearcoat (RTR4 §9.12) ---
+
+CLEARCOAT_IOR = 1.5  # the extension's fixed coat index (F0 = 0.04)
+
+
+def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    strength = _number(state, ext, name, "clearcoatFactor", 0.0, 0.0, 1.0)
+    roughness = _number(state, ext, name, "clearcoatRoughnessFactor", 0.0, 0.0, 1.0)
+    normal = _texture(state, ext, name, "clearcoatNormalTexture")
+    if normal is not None:  # its scale, read by the reader with the map: a finite number
+        _number(state, normal.info, f"{name}.clearcoatNormalTexture", "scale", 1.0)
+    if strength == 0.0:  # "If clearcoatFactor is zero, the whole clearcoat layer is disabled"
+        return
+    if normal is not None:
+        state.maps["coat_normal"] = normal
+    # The medium is air (glTF has no other), so the coat's eta is its index.
+    coat = {
+        "clearcoat": strength,
+        "clearcoat_roughness": roughness,
+        "clearcoat_eta": CLEARCOAT_IOR,
+        "clearcoat_color": np.ones(3),
+    }
+    _apply(state, name, {"clearcoat": "filament"}, coat)
