@@ -258,12 +258,15 @@ class GltfFile:
             if mode in ("TRIANGLES", "INDICES"):
                 if stride not in (2, 4):
                     raise GltfError(f"{key}.byteStride", "must be 2 or 4 for indices")
+                # Decoded as 4-byte indices whatever the stride: the C decoder's
+                # index_size is the width it writes, and the package's wrapper always
+                # hands it a uint32 array (2 would fill only half of it).
                 if mode == "TRIANGLES":
                     if count % 3:
                         raise GltfError(f"{key}.count", "must be a multiple of 3")
-                    out = meshoptimizer.decode_index_buffer(count, stride, source)
+                    out = meshoptimizer.decode_index_buffer(count, 4, source)
                 else:
-                    out = meshoptimizer.decode_index_sequence(count, stride, source)
+                    out = meshoptimizer.decode_index_sequence(count, 4, source)
                 return np.asarray(out, "<u2" if stride == 2 else "<u4").tobytes()
         except (RuntimeError, ValueError) as exc:
             raise GltfError(key, f"cannot be decoded ({exc})") from None
