@@ -205,7 +205,7 @@ def test_sparse_and_quantized_accessors(tmp_path: Path) -> None:
     padded[:, :3] = q
     view = b.view(padded.tobytes(), stride=8)
     where = b.view(np.array([2], np.uint8).tobytes())
-    values = b.view(np.array([[0, 32767, -32767]], np.int16).tobytes())
+    values = b.view(np.array([[0, 32767, -32768]], np.int16).tobytes())  # -32768: -1
     b.doc.accessors.append(
         pygltflib.Accessor(
             bufferView=view,

@@ -74,7 +74,7 @@ _SEMANTICS: dict[str, tuple[tuple[str, ...], tuple[int, ...]]] = {
     "COLOR_0": (("VEC3", "VEC4"), (5126, 5121, 5123)),
     "indices": (("SCALAR",), (5121, 5123, 5125)),
 }
-MAX_ELEMENTS = 1 << 26  # per accessor: past this a file is refused rather than allocated
+MAX_ELEMENTS = 1 << 24  # per accessor (16.7M): past this a file is refused, not allocated
 _TRIANGLE_MODES = (4, 5, 6)  # TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN
 _WRAP = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 _FILTERS = {
@@ -86,6 +86,8 @@ _FILTERS = {
     9987: "linear_mipmap_linear",
 }
 _MAG_FILTERS = (9728, 9729)
+_TABLES = ("accessors", "bufferViews", "buffers", "images", "materials", "meshes", "nodes")
+_TABLES += ("samplers", "scenes", "textures")
 
 
 def meshopt_available() -> bool:
@@ -156,6 +158,10 @@ class GltfFile:
     def __init__(self, path: Path) -> None:
         self.path = path
         self.doc: pygltflib.GLTF2 = open_gltf(path)
+        for name in _TABLES:  # pygltflib keeps a JSON null or number where an object was
+            for i, entry in enumerate(self._table(name)):
+                if not hasattr(entry, "extensions"):
+                    raise GltfError(f"{name}[{i}]", "must be a JSON object")
         self._buffers: dict[int, bytes] = {}
         self._views: dict[int, bytes] = {}
         self._images: dict[int, Image.Image] = {}
@@ -603,7 +609,9 @@ class GltfFile:
             nkey = f"{key}.normalTexture"
             img, n_sampler, n_tr = self._texture(m.normalTexture, nkey)
             scale = getattr(m.normalTexture, "scale", None)
-            scale = 1.0 if scale is None else _number(scale, f"{nkey}.scale")
+            # Bounded so that scaled x and y cannot overflow float64 (the map's normals
+            # are already flat to the eye past a few hundred).
+            scale = 1.0 if scale is None else _number(scale, f"{nkey}.scale", -1e3, 1e3)
             normals = decode_normals(img, scale)
         if normals is not None or mr is not None:
             # One chain for normals and roughness (app/textures/mips.py): built at the normal
@@ -639,7 +647,7 @@ class GltfFile:
         if strength_ext is not None:
             skey = f"{key}.extensions.KHR_materials_emissive_strength"
             value = _object(strength_ext, skey).get("emissiveStrength", 1.0)
-            emissive = emissive * _number(value, f"{skey}.emissiveStrength", 0.0)
+            emissive = emissive * _number(value, f"{skey}.emissiveStrength", 0.0, 1e30)
         layer.emissive = (float(emissive[0]), float(emissive[1]), float(emissive[2]))
         if m.emissiveTexture is not None:
             img, sampler, tr = self._texture(m.emissiveTexture, f"{key}.emissiveTexture")
