@@ -25,22 +25,10 @@ from app.errors import InputError
 from app.scene.geometry import build_parts
 from app.scene.loader import load_scene
 from tests.gltf_builder import QUAD_UV, GltfBuilder, png_rgb
+from tests.test_gltf import SCENE
 
 REPO = Path(__file__).resolve().parent.parent
 CASES = 240  # in-process mutations (about 5 s on llvmpipe's machine; no GL is needed)
-SCENE = """\
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-
-[[lights]]
-type = "directional"
-direction = [0.0, 0.0, -1.0]
-
-[[objects]]
-shape = "mesh"
-file = "{file}"
-"""
 # Replacement values: indices past every table, negatives, huge counts, non-finite and
 # out-of-range numbers, wrong types.
 BAD_VALUES = [

@@ -28,25 +28,7 @@ from tests.gltf_builder import (
     GltfBuilder,
     png_rgb,
 )
-
-SCENE = """\
-[render]
-width = 32
-height = 32
-
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-fov_y = 45.0
-
-[[lights]]
-type = "directional"
-direction = [0.0, 0.0, -1.0]
-
-[[objects]]
-shape = "mesh"
-file = "{file}"
-"""
+from tests.test_gltf import SCENE  # camera 3 m from the origin, one light, one mesh
 
 
 def _parts(folder: Path, b: GltfBuilder, name: str = "m.glb", extra: str = "") -> list[MeshPart]:
@@ -457,27 +439,6 @@ def load_scene_default():
     return _DEFAULT_MATERIAL
 
 
-NORMAL_SCENE = """\
-[render]
-width = 32
-height = 32
-gbuffer = "f32"
-
-[camera]
-position = [0.0, 0.0, 4.0]
-target = [0.0, 0.0, 0.0]
-fov_y = 20.0
-
-[[lights]]
-type = "directional"
-direction = [0.0, 0.0, -1.0]
-
-[[objects]]
-shape = "mesh"
-file = "n.glb"
-"""
-
-
 @pytest.mark.parametrize("mirrored", [False, True], ids=["plain", "mirrored"])
 def test_normal_map_tilts_the_gbuffer_normal(
     gl_egl: GLContext, tmp_path: Path, mirrored: bool
@@ -499,8 +460,8 @@ def test_normal_map_tilts_the_gbuffer_normal(
     b.quad(b.material(mat), scale=[-1.0, 1.0, 1.0] if mirrored else None)
     b.save(tmp_path / "n.glb")
     scene = tmp_path / "scene.toml"
-    scene.write_text(NORMAL_SCENE, encoding="utf-8")
-    r = Renderer(gl_egl, load_scene(scene))
+    scene.write_text(SCENE.format(file="n.glb"), encoding="utf-8")
+    r = Renderer(gl_egl, load_scene(scene), (32, 32))
     try:
         r.render()
         g = r.read_gbuffer()
