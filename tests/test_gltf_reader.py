@@ -439,15 +439,34 @@ def load_scene_default():
     return _DEFAULT_MATERIAL
 
 
-@pytest.mark.parametrize("mirrored", [False, True], ids=["plain", "mirrored"])
+TILT = math.radians(30.0)
+S, C = math.sin(TILT), math.cos(TILT)
+
+
+@pytest.mark.parametrize(
+    ("mirrored", "w", "texel", "world"),
+    [
+        (False, None, (S, 0.0, C), (S, 0.0, C)),
+        (True, None, (S, 0.0, C), (-S, 0.0, C)),
+        (False, None, (0.0, S, C), (0.0, S, C)),
+        (False, 1.0, (0.0, S, C), (0.0, S, C)),
+        (False, -1.0, (0.0, S, C), (0.0, -S, C)),
+    ],
+    ids=["derived-u", "derived-u-mirrored", "derived-v", "file-tangent-v", "file-tangent-w-1"],
+)
 def test_normal_map_tilts_the_gbuffer_normal(
-    gl_egl: GLContext, tmp_path: Path, mirrored: bool
+    gl_egl: GLContext,
+    tmp_path: Path,
+    mirrored: bool,
+    w: float | None,
+    texel: tuple,
+    world: tuple,
 ) -> None:
     """A constant normal map tilted 30 degrees towards +u (the quad's +x; in a mirrored
-    node -x) tilts the rendered G-buffer normal the same way, with the tangents derived
-    by the project (the file has none) and the quad's base colour texture on top."""
-    tilt = math.radians(30.0)
-    rgb = np.round((np.array([math.sin(tilt), 0.0, math.cos(tilt)]) * 0.5 + 0.5) * 255)
+    node -x) or +v (glTF: up the image, the quad's +y) tilts the rendered G-buffer normal
+    the same way: with tangents derived by the project (``w`` None) or the file's TANGENT
+    (+x, ``w`` its handedness: the bitangent is w (n x t), so w = -1 turns +v to -y)."""
+    rgb = np.round((np.array(texel) * 0.5 + 0.5) * 255)
     b = GltfBuilder()
     n = b.texture(png_rgb(tuple(int(c) for c in rgb)))
     base = b.texture(png_rgb((255, 255, 255)))
@@ -457,7 +476,8 @@ def test_normal_map_tilts_the_gbuffer_normal(
         ),
         normalTexture=pygltflib.NormalMaterialTexture(index=n),
     )
-    b.quad(b.material(mat), scale=[-1.0, 1.0, 1.0] if mirrored else None)
+    tangents = None if w is None else np.tile(np.float32([1, 0, 0, w]), (4, 1))
+    b.quad(b.material(mat), tangents=tangents, scale=[-1.0, 1.0, 1.0] if mirrored else None)
     b.save(tmp_path / "n.glb")
     scene = tmp_path / "scene.toml"
     scene.write_text(SCENE.format(file="n.glb"), encoding="utf-8")
@@ -469,5 +489,5 @@ def test_normal_map_tilts_the_gbuffer_normal(
         r.release()
     assert g.depth[16, 16] > 0.0, "the quad (single-sided) was culled"
     got = oct_decode(g.normal[16, 16, :2].astype(np.float64))
-    want = np.array([math.sin(tilt) * (-1.0 if mirrored else 1.0), 0.0, math.cos(tilt)])
+    want = np.array(world)
     assert np.degrees(np.arccos(np.clip(got @ want, -1, 1))) < 0.5, (got, want)
