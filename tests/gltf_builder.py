@@ -141,6 +141,35 @@ class GltfBuilder:
         )
         return self.node(mesh=self.mesh(prim), **node)
 
+    def draco_quad(self) -> int:
+        """The test quad (POSITION, TEXCOORD_0) as a KHR_draco_mesh_compression primitive
+        (16-bit positions), required by the file; returns the bufferView of the stream."""
+        import DracoPy
+
+        faces = QUAD_INDICES.reshape(-1, 3)
+        uv = QUAD_UV.astype(np.float64)
+        data = DracoPy.encode(
+            QUAD_POSITIONS, faces, tex_coord=uv, preserve_order=True, quantization_bits=16
+        )
+        ids = {a["attribute_type"]: a["unique_id"] for a in DracoPy.decode(data).attributes}
+        view = self.view(data)
+        first = len(self.doc.accessors)
+        box = {"min": [-1, -1, 0], "max": [1, 1, 0]}
+        self.doc.accessors += [
+            pygltflib.Accessor(componentType=FLOAT, count=4, type="VEC3", **box),
+            pygltflib.Accessor(componentType=FLOAT, count=4, type="VEC2"),
+            pygltflib.Accessor(componentType=USHORT, count=6, type="SCALAR"),
+        ]
+        # Draco's attribute types: 0 POSITION, 3 TEX_COORD.
+        ext = {"bufferView": view, "attributes": {"POSITION": ids[0], "TEXCOORD_0": ids[3]}}
+        attrs = pygltflib.Attributes(POSITION=first, TEXCOORD_0=first + 1)
+        prim = pygltflib.Primitive(
+            attributes=attrs, indices=first + 2, extensions={"KHR_draco_mesh_compression": ext}
+        )
+        self.node(mesh=self.mesh(prim))
+        self.doc.extensionsUsed = self.doc.extensionsRequired = ["KHR_draco_mesh_compression"]
+        return view
+
     def save(self, path: Path, buffer: str = "file") -> Path:
         """Write ``path`` (.glb: the buffer is its BIN chunk; .gltf: ``buffer`` "file"
         writes ``<stem>.bin`` beside it, "data" a data: URI)."""

@@ -176,6 +176,37 @@ def test_mutated_gltf_is_input_error_or_parts(tmp_path: Path) -> None:
     assert outcomes["parts"] >= 5 and outcomes["error"] > CASES // 2, outcomes
 
 
+def test_damaged_draco_stream_is_input_error_or_parts(tmp_path: Path) -> None:
+    """Flipped bytes and truncations inside a Draco stream (DracoPy decodes or refuses;
+    the reader checks what it returns)."""
+    b = GltfBuilder()
+    view = b.draco_quad()
+    start, length = b.doc.bufferViews[view].byteOffset, b.doc.bufferViews[view].byteLength
+    stream = bytes(b.blob[start : start + length])
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE.format(file="d.glb"), encoding="utf-8")
+    rng = random.Random(3)
+    refused = 0
+    for case in range(60):
+        damaged = bytearray(stream)
+        if case % 2:
+            damaged = damaged[: rng.randrange(len(damaged))]
+        else:
+            for _ in range(rng.randint(1, 4)):
+                damaged[rng.randrange(len(damaged))] = rng.randrange(256)
+        b.blob[start : start + length] = bytes(damaged).ljust(length, b"\0")
+        b.doc.bufferViews[view].byteLength = len(damaged) or 1
+        b.save(tmp_path / "d.glb")
+        try:
+            build_parts(load_scene(scene))
+        except InputError as exc:
+            assert "\n" not in str(exc)
+            refused += 1
+        except Exception as exc:  # the point: nothing else escapes
+            pytest.fail(f"case {case}: {type(exc).__name__}: {exc}")
+    assert refused >= 30  # every truncation at least
+
+
 @pytest.mark.parametrize(
     ("name", "damage", "fragment"),
     [

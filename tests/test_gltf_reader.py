@@ -281,41 +281,13 @@ def test_metallic_roughness_and_normal_share_one_chain(tmp_path: Path) -> None:
 
 def test_draco_round_trip(tmp_path: Path) -> None:
     """A Draco-compressed quad (DracoPy.encode) decodes to the same triangles."""
-    import DracoPy
-
-    uv = QUAD_UV.astype(np.float64)
-    data = DracoPy.encode(
-        QUAD_POSITIONS,
-        QUAD_INDICES.reshape(-1, 3),
-        tex_coord=uv,
-        preserve_order=True,
-        quantization_bits=16,
-    )
-    mesh = DracoPy.decode(data)
-    ids = {a["attribute_type"]: a["unique_id"] for a in mesh.attributes}  # 0 POSITION, 3 TEX
     b = GltfBuilder()
-    view = b.view(data)
-    pos = pygltflib.Accessor(
-        componentType=5126, count=4, type="VEC3", min=[-1, -1, 0], max=[1, 1, 0]
-    )
-    tex = pygltflib.Accessor(componentType=5126, count=4, type="VEC2")
-    idx = pygltflib.Accessor(componentType=5123, count=6, type="SCALAR")
-    b.doc.accessors += [pos, tex, idx]
-    ext = {"bufferView": view, "attributes": {"POSITION": ids[0], "TEXCOORD_0": ids[3]}}
-    b.node(
-        mesh=b.mesh(
-            pygltflib.Primitive(
-                attributes=pygltflib.Attributes(POSITION=0, TEXCOORD_0=1),
-                indices=2,
-                extensions={"KHR_draco_mesh_compression": ext},
-            )
-        )
-    )
-    b.doc.extensionsUsed = b.doc.extensionsRequired = ["KHR_draco_mesh_compression"]
+    b.draco_quad()
     (part,) = _parts(tmp_path, b)
     got = part.vertices[:, :3][part.indices.reshape(-1, 3)]
     want = QUAD_POSITIONS[QUAD_INDICES.reshape(-1, 3)]
     np.testing.assert_allclose(got, want, atol=1e-4)  # 16-bit quantisation
+    uv = QUAD_UV.astype(np.float64)
     want_uv = np.stack([uv[:, 0], 1 - uv[:, 1]], 1)[QUAD_INDICES]
     np.testing.assert_allclose(part.vertices[:, 6:8][part.indices], want_uv, atol=1e-4)
 
