@@ -218,6 +218,7 @@ def test_damaged_draco_stream_is_input_error_or_parts(tmp_path: Path) -> None:
             "material",
         ),
     ],
+    ids=["truncated", "nan-factor", "index-out-of-range"],
 )
 def test_cli_exits_2_with_one_line(tmp_path: Path, name: str, damage, fragment: str) -> None:
     data = _valid(tmp_path).read_bytes()
