@@ -86,6 +86,7 @@ _FILTERS = {
     9987: "linear_mipmap_linear",
 }
 _MAG_FILTERS = (9728, 9729)
+_FILTER_STRIDES = {"OCTAHEDRAL": (4, 8), "QUATERNION": (8,)}  # EXT_meshopt_compression
 _TABLES = ("accessors", "bufferViews", "buffers", "images", "materials", "meshes", "nodes")
 _TABLES += ("samplers", "scenes", "textures")
 
@@ -164,6 +165,7 @@ class GltfFile:
                     raise GltfError(f"{name}[{i}]", "must be a JSON object")
         self._buffers: dict[int, bytes] = {}
         self._views: dict[int, bytes] = {}
+        self._accessors: dict[tuple[int, str], np.ndarray] = {}
         self._images: dict[int, Image.Image] = {}
         self._layers: dict[tuple[int, str, int], SurfaceLayer] = {}
 
@@ -258,6 +260,9 @@ class GltfFile:
                 }
                 if filt not in decode:
                     raise GltfError(f"{key}.filter", f"unknown filter {filt!r}")
+                # The strides the extension allows per filter (the C filters assert them).
+                if stride not in _FILTER_STRIDES.get(filt, (stride,)):
+                    raise GltfError(f"{key}.byteStride", f"{stride} cannot use filter {filt}")
                 if decode[filt] is not None:
                     raw = decode[filt](raw, count, stride)
                 return raw.tobytes()
@@ -273,6 +278,8 @@ class GltfFile:
                     out = meshoptimizer.decode_index_buffer(count, 4, source)
                 else:
                     out = meshoptimizer.decode_index_sequence(count, 4, source)
+                if stride == 2 and len(out) and int(out.max()) > 0xFFFF:
+                    raise GltfError(key, "decodes to indices past 65535 in 2-byte indices")
                 return np.asarray(out, "<u2" if stride == 2 else "<u4").tobytes()
         except (RuntimeError, ValueError) as exc:
             raise GltfError(key, f"cannot be decoded ({exc})") from None
@@ -282,9 +289,15 @@ class GltfFile:
 
     def accessor(self, index: int, key: str, semantic: str) -> np.ndarray:
         """Accessor ``index`` as (count, components): float64 for attributes (normalized
-        integers scaled to [0, 1] or [-1, 1]), int64 for indices."""
+        integers scaled to [0, 1] or [-1, 1]), int64 for indices; read once per semantic
+        (a mesh that several nodes show is decoded once)."""
+        i = _int(index, key, len(self._table("accessors")))
+        if (i, semantic) not in self._accessors:
+            self._accessors[(i, semantic)] = self._accessor(i, semantic)
+        return self._accessors[(i, semantic)]
+
+    def _accessor(self, i: int, semantic: str) -> np.ndarray:
         accessors = self._table("accessors")
-        i = _int(index, key, len(accessors))
         a = accessors[i]
         akey = f"accessors[{i}]"
         types, components = _SEMANTICS[semantic]
@@ -378,6 +391,8 @@ class GltfFile:
             if node.mesh is None:
                 continue
             m = _int(node.mesh, f"nodes[{node_index}].mesh", len(meshes))
+            if not np.all(np.isfinite(world)):  # finite factors whose product overflows
+                raise GltfError(f"nodes[{node_index}]", "its world matrix is not finite")
             for p, prim in enumerate(meshes[m].primitives or []):
                 part = self._primitive(prim, f"meshes[{m}].primitives[{p}]", world)
                 if part is not None:
@@ -451,9 +466,12 @@ class GltfFile:
             attribute = mesh.get_attribute_by_unique_id(_int(unique_id, akey))
             if attribute is None:
                 raise GltfError(akey, f"Draco data has no attribute {unique_id}")
-            values = np.asarray(attribute["data"])
+            values = np.asarray(attribute.get("data"))
             if values.ndim == 1:
                 values = values[:, None]
+            widths = {_TYPES[t] for t in _SEMANTICS[name][0]}
+            if values.ndim != 2 or values.shape[1] not in widths or values.dtype.kind not in "iuf":
+                raise GltfError(akey, f"Draco attribute {unique_id} is not a {name}")
             values = values.astype(np.float64)
             a_index = getattr(prim.attributes, name, None)
             if a_index is not None:
