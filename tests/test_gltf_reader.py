@@ -257,13 +257,17 @@ def test_textures_samplers_and_transforms(tmp_path: Path) -> None:
 
 def test_metallic_roughness_and_normal_share_one_chain(tmp_path: Path) -> None:
     """MR: B -> metallic map, G x roughnessFactor -> the chain's alpha; the normal map's
-    scale tilts the chain's normals; normal_mapped set."""
+    scale tilts the chain's normals; normal_mapped set. The chain takes the normal map's
+    sampler and UVs (here untransformed, clamped); the metallic map keeps the MR
+    texture's own transform and sampler (docs/scene-format.md, "One chain")."""
     b = GltfBuilder()
-    mr = b.texture(png_rgb((0, 128, 64)))
-    n = b.texture(png_rgb((218, 128, 238)))  # about 30 degrees towards +u
+    mr = b.texture(png_rgb((0, 128, 64)), {"wrapS": 33648})
+    n = b.texture(png_rgb((218, 128, 238)), {"wrapS": 33071})  # ~30 degrees towards +u
+    moved = {"KHR_texture_transform": {"offset": [0.5, 0.0]}}
     mat = pygltflib.Material(
         pbrMetallicRoughness=PBR(
-            roughnessFactor=0.5, metallicRoughnessTexture=pygltflib.TextureInfo(index=mr)
+            roughnessFactor=0.5,
+            metallicRoughnessTexture=pygltflib.TextureInfo(index=mr, extensions=moved),
         ),
         normalTexture=pygltflib.NormalMaterialTexture(index=n, scale=0.5),
     )
@@ -277,6 +281,10 @@ def test_metallic_roughness_and_normal_share_one_chain(tmp_path: Path) -> None:
     raw = np.array([218, 128, 238]) / 255.0 * 2.0 - 1.0
     want = raw * [0.5, 0.5, 1.0]
     np.testing.assert_allclose(chain[:3], want / np.linalg.norm(want), atol=2e-3)
+    assert layer.uv_transforms["metallic"] == UvTransform(offset=(0.5, 0.0))
+    assert "normal_roughness" not in layer.uv_transforms
+    assert layer.maps["metallic"].wrap == ("mirror", "repeat")
+    assert layer.maps["normal_roughness"].wrap == ("clamp", "repeat")
 
 
 def test_draco_round_trip(tmp_path: Path) -> None:
