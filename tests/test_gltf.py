@@ -1,11 +1,13 @@
-"""glTF metallic-roughness materials come through trimesh into the G-buffer.
+"""Mesh files written by trimesh reach the G-buffer: glTF metallic-roughness materials
+(read by the project's reader, app/scene/gltf.py) and PLY/STL with the default material.
 
 Each test writes a tiny mesh file with trimesh, a scene TOML that places it in front of
 the camera, renders it on EGL and reads the G-buffer back: RT0 holds base_color.rgb
 (linear) and metallic, RT1.z the perceptual roughness, RT1.w the dielectric F0.
 
-trimesh keeps ``PBRMaterial.baseColorFactor`` as uint8 (0-255), so a factor survives a
-GLB round trip only to 8 bits; the exact-match tests use factors of the form k/255.
+trimesh keeps ``PBRMaterial.baseColorFactor`` as uint8 (0-255), so the factor it
+*writes* is already on the 8-bit grid; the exact-match tests use factors of the form
+k/255. (The reader keeps factors at full precision: tests/test_gltf_reader.py.)
 """
 
 from __future__ import annotations

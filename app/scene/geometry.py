@@ -4,10 +4,10 @@ A sphere without ``subdivisions`` is analytic (``MeshPart.analytic``): its verti
 convex proxy around it, and the G-buffer pass intersects each pixel's view ray with the
 exact sphere (glsl/geometry/analytic.glsl), so that its normals, UVs, depth and silhouette
 are the sphere's own (docs/gbuffer.md, "Analytic primitives"). Other primitives come from
-trimesh; mesh files (OBJ, PLY, STL, glTF/GLB) are read through
-trimesh. glTF metallic-roughness factors and textures come through where trimesh reads
-them, and an OBJ's MTL base colour (``Kd``, ``map_Kd``), roughness and metallic; the files
-a mesh file names are checked first (app/scene/references.py). Every mesh ends up as
+trimesh; OBJ, PLY and STL files are read through trimesh (an OBJ's MTL base colour
+``Kd``, ``map_Kd``, roughness and metallic come through), glTF/GLB through the project's
+own reader (app/scene/gltf.py: every primitive, attribute and core material field); the
+files a mesh file names are checked first (app/scene/references.py). Every mesh ends up as
 interleaved float32 ``position, normal, uv`` vertices and uint32 triangle indices, in
 object space, with its model matrix. Tangents come from the UVs where a mesh has usable
 ones and from the direction around the object's Y axis otherwise (so anisotropic
@@ -26,6 +26,8 @@ import trimesh
 from app.common.models import MaterialParams
 from app.common.primitives import Primitive
 from app.errors import InputError
+from app.scene.gltf import GltfFile
+from app.scene.gltf_document import GltfError
 from app.scene.layers import LayerBuilder, gltf_layer
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
@@ -302,39 +304,39 @@ def _interleave(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     normals = vertex_normals(mesh)
     uv = getattr(mesh.visual, "uv", None)
     uv = None if uv is None or len(uv) != len(positions) else np.asarray(uv, np.float64)
-    tangents = vertex_tangents(positions, normals, uv, mesh.faces)
+    return _vertex_array(positions, normals, uv, None, mesh.faces)
+
+
+def _vertex_array(
+    positions: np.ndarray,
+    normals: np.ndarray,
+    uv: np.ndarray | None,
+    tangents: np.ndarray | None,
+    faces: np.ndarray,
+    tangent_uv: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Interleaved float32 vertices and uint32 indices; ``tangents`` None: derived from
+    ``tangent_uv`` (the UVs the normal map reads; default ``uv``)."""
+    if tangents is None:
+        tangents = vertex_tangents(
+            positions, normals, uv if tangent_uv is None else tangent_uv, faces
+        )
     uv = np.zeros((len(positions), 2)) if uv is None else uv
     vertices = np.hstack([positions, normals, uv, tangents]).astype(np.float32)
-    indices = np.asarray(mesh.faces, np.uint32).ravel()
+    indices = np.asarray(faces, np.uint32).ravel()
     return vertices, indices
 
 
 def _file_material(
     mesh: trimesh.Trimesh, fallback: MaterialParams, normal_filter: str, mtl: bool = False
 ) -> SurfaceLayer:
-    """glTF metallic-roughness factors and maps where trimesh read them; with ``mtl`` (an
-    OBJ that names an MTL file), the MTL's material (``_mtl_material``)."""
+    """With ``mtl`` (an OBJ that names an MTL file), the MTL's material
+    (``_mtl_material``); otherwise ``fallback``. (OBJ, PLY and STL carry no other material
+    trimesh reads; glTF materials come from app/scene/gltf.py.)"""
     mat = getattr(mesh.visual, "material", None)
-    if isinstance(mat, trimesh.visual.material.SimpleMaterial):
-        return _mtl_material(mat, fallback, normal_filter) if mtl else SurfaceLayer(fallback)
-    if not isinstance(mat, trimesh.visual.material.PBRMaterial):
-        return SurfaceLayer(fallback)
-    factor = mat.baseColorFactor
-    base = (
-        (1.0, 1.0, 1.0)  # glTF 2.0's default baseColorFactor
-        if factor is None
-        else tuple(
-            float(x) / (255.0 if np.asarray(factor).dtype == np.uint8 else 1.0) for x in factor[:3]
-        )
-    )
-    params = MaterialParams(
-        base_color=base,  # type: ignore[arg-type]
-        # glTF 2.0: an absent metallicFactor or roughnessFactor means 1.0.
-        metallic=1.0 if mat.metallicFactor is None else float(mat.metallicFactor),
-        roughness=1.0 if mat.roughnessFactor is None else float(mat.roughnessFactor),
-        f0=fallback.f0,
-    )
-    return gltf_layer(params, mat.baseColorTexture, mat.metallicRoughnessTexture, normal_filter)
+    if mtl and isinstance(mat, trimesh.visual.material.SimpleMaterial):
+        return _mtl_material(mat, fallback, normal_filter)
+    return SurfaceLayer(fallback)
 
 
 def _mtl_number(kwargs: dict, key: str) -> float | None:
@@ -387,12 +389,9 @@ def _load_file(
     path = loaded.resolve_file(obj.file or "")
     # A missing texture or buffer, or a required extension, is bad input: trimesh would
     # load the file without it (a white model, or geometry it cannot draw).
-    suffix, problem = path.suffix.lower(), None
+    suffix = path.suffix.lower()
     libraries = obj_libraries(path) if suffix == ".obj" and path.is_file() else []
-    if suffix == ".obj":
-        problem = obj_problem(path, libraries)
-    elif suffix in (".gltf", ".glb") and path.is_file():
-        problem = gltf_problem(path)
+    problem = obj_problem(path, libraries) if suffix == ".obj" else None
     if problem is not None:
         raise InputError(str(loaded.path), f"objects[{index}].file", problem)
     mtl = bool(libraries)
@@ -416,6 +415,55 @@ def _load_file(
         if parts:
             return parts, mtl
     raise InputError(str(loaded.path), f"objects[{index}].file", f"{path} holds no triangles")
+
+
+GLTF_SUFFIXES = (".gltf", ".glb")
+
+
+def _gltf_parts(
+    loaded: LoadedScene,
+    index: int,
+    model: np.ndarray,
+    chosen: tuple[list[SurfaceLayer], BlendMask | None] | None,
+    normal_filter: str,
+) -> list[MeshPart]:
+    """A glTF/GLB object's primitives (app/scene/gltf.py), each with its world matrix
+    ``model @ node``. The file's material gives the layer and, through ``doubleSided``,
+    whether back faces are culled; a scene material replaces it and keeps the part
+    two-sided, as for other mesh files. Any problem with the file is one InputError."""
+    path = loaded.resolve_file(loaded.scene.objects[index].file or "")
+    scene_file, key = str(loaded.path), f"objects[{index}].file"
+    problem = gltf_problem(path) if path.is_file() else None  # missing files, extensions
+    if problem is not None:
+        raise InputError(scene_file, key, problem)
+    parts: list[MeshPart] = []
+    try:
+        gltf = GltfFile(path)
+        for prim in gltf.primitives():
+            blend, closed = None, False
+            if chosen is not None:
+                layers, blend = chosen
+            else:
+                layers = [gltf.layer(prim.material, _DEFAULT_MATERIAL, normal_filter)]
+                closed = not gltf.double_sided(prim.material)
+            sets = {t.uv_set for t in layers[0].uv_transforms.values()}
+            if 1 in sets and prim.uv1 is None:
+                raise GltfError(prim.key, "its material reads TEXCOORD_1, which it lacks")
+            normal_uv = layers[0].uv_transforms.get("normal_roughness")
+            tangent_uv = prim.uv1 if normal_uv is not None and normal_uv.uv_set == 1 else None
+            vertices, indices = _vertex_array(
+                prim.positions, prim.normals, prim.uv, prim.tangents, prim.faces, tangent_uv
+            )
+            uv1 = None if prim.uv1 is None else prim.uv1.astype(np.float32)
+            colors = None if prim.colors is None else prim.colors.astype(np.float32)
+            part = MeshPart(vertices, indices, layers, model @ prim.world, blend, closed, index)
+            part.uv1, part.colors = uv1, colors
+            parts.append(part)
+    except GltfError as exc:
+        raise InputError(scene_file, key, f"{path}: {exc}") from None
+    if not parts:
+        raise InputError(scene_file, key, f"{path} holds no triangles")
+    return parts
 
 
 def _material_layers(
@@ -464,6 +512,9 @@ def build_parts(loaded: LoadedScene) -> list[MeshPart]:
             vertices, indices = _interleave(_primitive(obj))
             layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)
             parts.append(MeshPart(vertices, indices, layers, model, blend, obj.shape != "plane", i))
+            continue
+        if loaded.resolve_file(obj.file or "").suffix.lower() in GLTF_SUFFIXES:
+            parts.extend(_gltf_parts(loaded, i, model, chosen, builder.normal_filter))
             continue
         meshes, mtl = _load_file(loaded, i, obj)
         for mesh, local in meshes:

@@ -3,9 +3,10 @@
 trimesh swallows a missing texture: a glTF whose base colour image is gone loads with
 ``baseColorTexture = None`` (it logs the error and the model renders white), and an OBJ
 whose MTL is gone gets a grey default material with a white image. A glTF with an
-extension in ``extensionsRequired`` that trimesh does not decode (Draco,
-meshoptimizer) loads as geometry it cannot draw. So the references are read here from
-the files themselves, and each problem comes back as one sentence for an ``InputError``:
+extension the project does not decode would load as geometry it cannot draw. So the
+references are read here from the files themselves, before the glTF reader
+(app/scene/gltf.py) or trimesh, and each problem comes back as one sentence for an
+``InputError``:
 
 - glTF / GLB: every ``buffers[i].uri`` and ``images[i].uri`` that is not a ``data:`` URI
   must name a readable file (relative to the glTF, percent-decoded as glTF 2.0 says);
@@ -14,8 +15,8 @@ the files themselves, and each problem comes back as one sentence for an ``Input
 - OBJ: every ``mtllib`` must name a readable file, and every ``map_Kd`` in it (the one
   MTL map the project reads) a readable image.
 
-A file whose own structure is broken (not JSON, a truncated GLB header) is left to
-trimesh, which refuses it with its own message.
+A file whose own structure is broken (not JSON, a truncated GLB header) is left to the
+reader (or trimesh), which refuses it with its own message.
 """
 
 from __future__ import annotations
@@ -27,14 +28,33 @@ from urllib.parse import unquote
 
 from PIL import Image
 
-# glTF extensions a file may *require*: none yet (the project reads the core
-# metallic-roughness material only; docs/scene-format.md, "Mesh files").
-SUPPORTED_EXTENSIONS: frozenset[str] = frozenset()
+from app.scene.gltf import meshopt_available
+
+# glTF extensions a file may *require* (docs/scene-format.md, "Mesh files"): those the
+# reader (app/scene/gltf.py) decodes, the material extensions it hands to
+# app/scene/gltf_extensions.py, and KHR_lights_punctual (lights are optional to draw).
+# EXT_meshopt_compression only where the optional meshoptimizer package imports.
+SUPPORTED_EXTENSIONS: frozenset[str] = frozenset(
+    {
+        "KHR_draco_mesh_compression",
+        "KHR_mesh_quantization",
+        "KHR_texture_transform",
+        "KHR_materials_emissive_strength",
+        "KHR_materials_ior",
+        "KHR_materials_specular",
+        "KHR_materials_anisotropy",
+        "KHR_materials_sheen",
+        "KHR_materials_clearcoat",
+        "KHR_materials_iridescence",
+        "KHR_lights_punctual",
+    }
+    | ({"EXT_meshopt_compression"} if meshopt_available() else set())
+)
 
 # Hints for required extensions users meet most (issue 17: a Draco .glb drew nothing).
 _HINTS = {
-    "KHR_draco_mesh_compression": "Draco-compressed geometry",
-    "EXT_meshopt_compression": "meshoptimizer-compressed geometry",
+    "EXT_meshopt_compression": "meshoptimizer-compressed geometry; "
+    "pip install 'pbs-lab[meshopt]' to read it",
 }
 
 _GLB_MAGIC = b"glTF"

@@ -1,0 +1,777 @@
+"""The project's glTF 2.0 reader: every triangle primitive of the shown scene and its
+material, read from the JSON and the buffers themselves (pygltflib parses the JSON).
+
+trimesh read glTF before: it passed material factors through 8 bits, dropped the normal,
+occlusion and emissive maps, samplers, TEXCOORD_1, COLOR_0 and texture transforms, and
+could not decode Draco or meshoptimizer. This module reads the file as the glTF 2.0
+specification (Khronos, 2021) defines it and checks every index and byte range on the
+way, so that a damaged file is one ``GltfError(json key, what)`` (the caller names the
+scene and the object) and never another exception or a hang.
+
+What is read (docs/scene-format.md, "Mesh files"):
+
+- Geometry: each primitive of each mesh of each node of the shown scene, with the node's
+  world matrix. Accessors of every component type (normalized integers included, as
+  KHR_mesh_quantization allows), ``byteStride``, sparse accessors, buffers from the GLB
+  BIN chunk, ``data:`` URIs or files; KHR_draco_mesh_compression (DracoPy) and
+  EXT_meshopt_compression (the optional ``meshoptimizer`` package). Modes TRIANGLES,
+  TRIANGLE_STRIP and TRIANGLE_FAN (the last two converted to triangles); points and lines
+  are skipped.
+- Attributes: POSITION, NORMAL (absent: flat normals, as the specification requires),
+  TANGENT, TEXCOORD_0, TEXCOORD_1, COLOR_0. Texture coordinates are returned with v
+  flipped (glTF's origin is the image's top left, the project's the bottom left); the
+  tangent's w keeps its meaning (the file's bitangent points up the image in both).
+- Materials -> ``SurfaceLayer`` at full float64 precision (``GltfFile.layer``).
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
+from urllib.parse import unquote
+
+import numpy as np
+import pygltflib
+from PIL import Image
+
+from app.common.models import MaterialParams
+from app.scene.gltf_document import GltfError, open_gltf, world_matrices
+from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
+from app.textures.maps import (
+    MAX_TEXTURE_SIZE,
+    SurfaceLayer,
+    Texture,
+    UvTransform,
+    colour_texture,
+    decode_normals,
+    normal_roughness_texture,
+    resample,
+    scalar_texture,
+)
+
+# Accessor componentType -> little-endian numpy type, and the divisor of a normalized
+# integer (glTF 2.0 sec. 3.11: signed values are max(c / (2^(n-1) - 1), -1)).
+_COMPONENTS: dict[int, tuple[str, float]] = {
+    5120: ("<i1", 127.0),
+    5121: ("<u1", 255.0),
+    5122: ("<i2", 32767.0),
+    5123: ("<u2", 65535.0),
+    5125: ("<u4", 0.0),  # never normalized
+    5126: ("<f4", 0.0),
+}
+_TYPES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+# Which accessor types and component types each attribute may have (glTF 2.0 sec. 3.7.2.1,
+# widened by KHR_mesh_quantization for positions, normals, tangents and texcoords).
+_SEMANTICS: dict[str, tuple[tuple[str, ...], tuple[int, ...]]] = {
+    "POSITION": (("VEC3",), (5126, 5120, 5121, 5122, 5123)),
+    "NORMAL": (("VEC3",), (5126, 5120, 5122)),
+    "TANGENT": (("VEC4",), (5126, 5120, 5122)),
+    "TEXCOORD_0": (("VEC2",), (5126, 5120, 5121, 5122, 5123)),
+    "TEXCOORD_1": (("VEC2",), (5126, 5120, 5121, 5122, 5123)),
+    "COLOR_0": (("VEC3", "VEC4"), (5126, 5121, 5123)),
+    "indices": (("SCALAR",), (5121, 5123, 5125)),
+}
+MAX_ELEMENTS = 1 << 24  # per accessor (16.7M): past this a file is refused, not allocated
+_TRIANGLE_MODES = (4, 5, 6)  # TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN
+_WRAP = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
+_FILTERS = {
+    9728: "nearest",
+    9729: "linear",
+    9984: "nearest_mipmap_nearest",
+    9985: "linear_mipmap_nearest",
+    9986: "nearest_mipmap_linear",
+    9987: "linear_mipmap_linear",
+}
+_MAG_FILTERS = (9728, 9729)
+_FILTER_STRIDES = {"OCTAHEDRAL": (4, 8), "QUATERNION": (8,)}  # EXT_meshopt_compression
+_LOG = logging.getLogger("pbs.gltf")  # notes on approximated extension parameters
+_TABLES = ("accessors", "bufferViews", "buffers", "images", "materials", "meshes", "nodes")
+_TABLES += ("samplers", "scenes", "textures")
+
+
+def meshopt_available() -> bool:
+    """Whether the optional ``meshoptimizer`` package (pbs-lab[meshopt]) imports."""
+    try:
+        import meshoptimizer  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@dataclass
+class GltfPrimitive:
+    """One triangle primitive, float64 arrays in the node's space, v flipped to the
+    project's UV convention. ``tangents`` None: the file has none (derive them)."""
+
+    key: str  # meshes[m].primitives[p], for errors
+    positions: np.ndarray  # (N, 3)
+    normals: np.ndarray  # (N, 3) unit
+    faces: np.ndarray  # (M, 3) int64, each index < N
+    world: np.ndarray  # (4, 4) node -> file root
+    material: int | None
+    uv: np.ndarray | None = None  # (N, 2)
+    uv1: np.ndarray | None = None  # (N, 2)
+    tangents: np.ndarray | None = None  # (N, 4): xyz unit, w = +-1
+    colors: np.ndarray | None = None  # (N, 4) linear RGBA
+
+
+def _int(value: object, key: str, count: int | None = None, low: int = 0) -> int:
+    """``value`` as an index (``count``: the number of entries it may name) or a size."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise GltfError(key, f"must be an integer, not {value!r}")
+    if value < low or (count is not None and value >= count):
+        what = f"one of the {count}" if count is not None else f"at least {low}"
+        raise GltfError(key, f"{value} is not {what}")
+    return value
+
+
+def _numbers(value: object, count: int, key: str, low: float = -math.inf, high: float = math.inf):
+    """``count`` finite numbers in [low, high] as a float64 array."""
+    if not isinstance(value, list | tuple) or len(value) != count:
+        raise GltfError(key, f"must be {count} numbers")
+    out = []
+    for x in value:
+        if isinstance(x, bool) or not isinstance(x, int | float) or not math.isfinite(x):
+            raise GltfError(key, f"must be {count} finite numbers, not {value!r}")
+        if not low <= x <= high:
+            raise GltfError(key, f"{x} is outside [{low:g}, {high:g}]")
+        out.append(float(x))
+    return np.asarray(out, np.float64)
+
+
+def _number(value: object, key: str, low: float = -math.inf, high: float = math.inf) -> float:
+    return float(_numbers([value], 1, key, low, high)[0])
+
+
+def _object(value: object, key: str) -> dict:
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise GltfError(key, "must be a JSON object")
+    return value
+
+
+class GltfFile:
+    """A glTF/GLB opened and its buffers and images read on demand, each once."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.doc: pygltflib.GLTF2 = open_gltf(path)
+        for name in _TABLES:  # pygltflib keeps a JSON null or number where an object was
+            for i, entry in enumerate(self._table(name)):
+                if not hasattr(entry, "extensions"):
+                    raise GltfError(f"{name}[{i}]", "must be a JSON object")
+        self._buffers: dict[int, bytes] = {}
+        self._views: dict[int, bytes] = {}
+        self._accessors: dict[tuple[int, str], np.ndarray] = {}
+        self._images: dict[int, Image.Image] = {}
+        self._layers: dict[tuple[int, str, int], SurfaceLayer] = {}
+
+    # --- bytes -------------------------------------------------------------------------
+
+    def _table(self, name: str) -> list:
+        return getattr(self.doc, name) or []
+
+    def _uri_bytes(self, uri: object, key: str) -> bytes:
+        if not isinstance(uri, str):
+            raise GltfError(key, "must be a string")
+        if uri.startswith("data:"):
+            head, sep, data = uri.partition(",")
+            if not sep or not head.endswith(";base64"):
+                raise GltfError(key, "a data: URI must be base64")
+            try:
+                return base64.b64decode(data, validate=True)
+            except ValueError:
+                raise GltfError(key, "a data: URI that is not valid base64") from None
+        file = self.path.parent / unquote(uri)
+        try:
+            return file.read_bytes()
+        except OSError as exc:
+            raise GltfError(key, f"{file} cannot be read ({type(exc).__name__})") from None
+
+    def buffer(self, index: int, key: str) -> bytes:
+        buffers = self._table("buffers")
+        i = _int(index, key, len(buffers))
+        if i not in self._buffers:
+            entry = buffers[i]
+            if entry.uri is None:  # the GLB's BIN chunk (only buffers[0] may use it)
+                blob = self.doc.binary_blob() if i == 0 else None
+                if blob is None:
+                    raise GltfError(f"buffers[{i}]", "has no uri and the file no BIN chunk")
+                data = bytes(blob)
+            else:
+                data = self._uri_bytes(entry.uri, f"buffers[{i}].uri")
+            length = _int(entry.byteLength, f"buffers[{i}].byteLength", low=1)
+            if len(data) < length:
+                raise GltfError(
+                    f"buffers[{i}].byteLength", f"{length} bytes, but only {len(data)} are there"
+                )
+            self._buffers[i] = data[:length]
+        return self._buffers[i]
+
+    def view(self, index: int, key: str) -> bytes:
+        """A bufferView's bytes (decompressed where EXT_meshopt_compression packs them)."""
+        views = self._table("bufferViews")
+        i = _int(index, key, len(views))
+        if i not in self._views:
+            v = views[i]
+            vkey = f"bufferViews[{i}]"
+            meshopt = (v.extensions or {}).get("EXT_meshopt_compression")
+            if meshopt is not None:
+                self._views[i] = self._meshopt(_object(meshopt, vkey), vkey)
+            else:
+                data = self.buffer(v.buffer, f"{vkey}.buffer")
+                self._views[i] = _slice(data, v.byteOffset or 0, v.byteLength, vkey)
+        return self._views[i]
+
+    def _meshopt(self, ext: dict, vkey: str) -> bytes:
+        """EXT_meshopt_compression: decode the compressed bytes of a view (its own
+        ``buffer`` is then a fallback that may hold nothing)."""
+        key = f"{vkey}.extensions.EXT_meshopt_compression"
+        if not meshopt_available():
+            raise GltfError(
+                key,
+                "the file uses EXT_meshopt_compression, which needs the meshoptimizer "
+                "package: pip install 'pbs-lab[meshopt]'",
+            )
+        import meshoptimizer
+
+        data = self.buffer(ext.get("buffer"), f"{key}.buffer")
+        source = _slice(data, ext.get("byteOffset", 0), ext.get("byteLength"), key)
+        count = _int(ext.get("count"), f"{key}.count", low=1)
+        stride = _int(ext.get("byteStride"), f"{key}.byteStride", low=1)
+        mode = ext.get("mode")
+        filt = ext.get("filter", "NONE")
+        if count > MAX_ELEMENTS:
+            raise GltfError(f"{key}.count", f"{count} is more than {MAX_ELEMENTS}")
+        try:
+            if mode == "ATTRIBUTES":
+                if stride % 4 or stride > 256:
+                    raise GltfError(f"{key}.byteStride", "must be a multiple of 4 up to 256")
+                out = meshoptimizer.decode_vertex_buffer(count, stride, source)
+                raw = np.frombuffer(out.tobytes(), np.uint8).copy()
+                decode = {
+                    "NONE": None,
+                    "OCTAHEDRAL": meshoptimizer.decode_filter_oct,
+                    "QUATERNION": meshoptimizer.decode_filter_quat,
+                    "EXPONENTIAL": meshoptimizer.decode_filter_exp,
+                }
+                if filt not in decode:
+                    raise GltfError(f"{key}.filter", f"unknown filter {filt!r}")
+                # The strides the extension allows per filter (the C filters assert them).
+                if stride not in _FILTER_STRIDES.get(filt, (stride,)):
+                    raise GltfError(f"{key}.byteStride", f"{stride} cannot use filter {filt}")
+                if decode[filt] is not None:
+                    raw = decode[filt](raw, count, stride)
+                return raw.tobytes()
+            if mode in ("TRIANGLES", "INDICES"):
+                if stride not in (2, 4):
+                    raise GltfError(f"{key}.byteStride", "must be 2 or 4 for indices")
+                # Decoded as 4-byte indices whatever the stride: the C decoder's
+                # index_size is the width it writes, and the package's wrapper always
+                # hands it a uint32 array (2 would fill only half of it).
+                if mode == "TRIANGLES":
+                    if count % 3:
+                        raise GltfError(f"{key}.count", "must be a multiple of 3")
+                    out = meshoptimizer.decode_index_buffer(count, 4, source)
+                else:
+                    out = meshoptimizer.decode_index_sequence(count, 4, source)
+                if stride == 2 and len(out) and int(out.max()) > 0xFFFF:
+                    raise GltfError(key, "decodes to indices past 65535 in 2-byte indices")
+                return np.asarray(out, "<u2" if stride == 2 else "<u4").tobytes()
+        except (RuntimeError, ValueError) as exc:
+            raise GltfError(key, f"cannot be decoded ({exc})") from None
+        raise GltfError(f"{key}.mode", f"unknown mode {mode!r}")
+
+    # --- accessors ---------------------------------------------------------------------
+
+    def accessor(self, index: int, key: str, semantic: str) -> np.ndarray:
+        """Accessor ``index`` as (count, components): float64 for attributes (normalized
+        integers scaled to [0, 1] or [-1, 1]), int64 for indices; read once per semantic
+        (a mesh that several nodes show is decoded once)."""
+        i = _int(index, key, len(self._table("accessors")))
+        if (i, semantic) not in self._accessors:
+            self._accessors[(i, semantic)] = self._accessor(i, semantic)
+        return self._accessors[(i, semantic)]
+
+    def _accessor(self, i: int, semantic: str) -> np.ndarray:
+        accessors = self._table("accessors")
+        a = accessors[i]
+        akey = f"accessors[{i}]"
+        types, components = _SEMANTICS[semantic]
+        if a.type not in types or a.componentType not in components:
+            raise GltfError(
+                akey,
+                f"{a.type} of componentType {a.componentType} cannot be {semantic} "
+                f"(allowed: {'/'.join(types)} of {', '.join(map(str, components))})",
+            )
+        n = _TYPES[a.type]
+        dtype, divisor = _COMPONENTS[a.componentType]
+        count = _int(a.count, f"{akey}.count", low=1)
+        if count > MAX_ELEMENTS:
+            raise GltfError(f"{akey}.count", f"{count} is more than {MAX_ELEMENTS}")
+        if a.bufferView is None:
+            values = np.zeros((count, n), dtype)
+        else:
+            values = self._strided(a.bufferView, a.byteOffset or 0, count, n, dtype, akey)
+        if a.sparse is not None:
+            values = self._sparse(a.sparse, values, n, dtype, akey)
+        if semantic == "indices":
+            return values[:, 0].astype(np.int64)
+        out = values.astype(np.float64)
+        if a.normalized:
+            if not divisor:
+                raise GltfError(f"{akey}.normalized", "only integer components are normalized")
+            out = np.maximum(out / divisor, -1.0)
+        elif a.componentType not in (5126,) and semantic in ("NORMAL", "TANGENT", "COLOR_0"):
+            raise GltfError(f"{akey}.normalized", f"integer {semantic} must be normalized")
+        if not np.all(np.isfinite(out)):
+            raise GltfError(akey, f"{semantic} holds NaN or infinite values")
+        return out
+
+    def _strided(
+        self, view_index: object, offset: object, count: int, n: int, dtype: str, akey: str
+    ) -> np.ndarray:
+        views = self._table("bufferViews")
+        v = _int(view_index, f"{akey}.bufferView", len(views))
+        data = self.view(v, f"{akey}.bufferView")
+        item = np.dtype(dtype).itemsize
+        size = item * n
+        stride_value = views[v].byteStride
+        stride = (
+            size if stride_value is None else _int(stride_value, f"bufferViews[{v}].byteStride")
+        )
+        if stride < size:
+            raise GltfError(f"bufferViews[{v}].byteStride", f"{stride} is less than {size} bytes")
+        start = _int(offset, f"{akey}.byteOffset")
+        end = start + stride * (count - 1) + size
+        if end > len(data):
+            raise GltfError(
+                akey,
+                f"{count} elements need {end} bytes of bufferViews[{v}], which has {len(data)}",
+            )
+        raw = np.ndarray((count, n), np.dtype(dtype), data, start, (stride, item))
+        return raw.copy()
+
+    def _sparse(
+        self, sparse: pygltflib.Sparse, values: np.ndarray, n: int, dtype: str, akey: str
+    ) -> np.ndarray:
+        skey = f"{akey}.sparse"
+        count = _int(sparse.count, f"{skey}.count", low=1)
+        if count > len(values):
+            raise GltfError(f"{skey}.count", f"{count} is more than the accessor's {len(values)}")
+        idx, vals = sparse.indices, sparse.values
+        if idx is None or vals is None:
+            raise GltfError(skey, "needs indices and values")
+        if idx.componentType not in (5121, 5123, 5125):
+            raise GltfError(f"{skey}.indices.componentType", f"{idx.componentType} is not allowed")
+        ikey = f"{skey}.indices"
+        where = self._strided(
+            idx.bufferView, idx.byteOffset or 0, count, 1, _COMPONENTS[idx.componentType][0], ikey
+        )[:, 0].astype(np.int64)
+        if np.any(where >= len(values)):
+            raise GltfError(ikey, f"an index is not below the accessor's count {len(values)}")
+        new = self._strided(
+            vals.bufferView, vals.byteOffset or 0, count, n, dtype, f"{skey}.values"
+        )
+        out = values.copy()
+        out[where] = new
+        return out
+
+    # --- geometry ----------------------------------------------------------------------
+
+    def primitives(self) -> list[GltfPrimitive]:
+        """Every triangle primitive of every node of the shown scene."""
+        meshes = self._table("meshes")
+        out = []
+        for node_index, world in world_matrices(self.doc).items():
+            node = self.doc.nodes[node_index]
+            if node.mesh is None:
+                continue
+            m = _int(node.mesh, f"nodes[{node_index}].mesh", len(meshes))
+            if not np.all(np.isfinite(world)):  # finite factors whose product overflows
+                raise GltfError(f"nodes[{node_index}]", "its world matrix is not finite")
+            for p, prim in enumerate(meshes[m].primitives or []):
+                part = self._primitive(prim, f"meshes[{m}].primitives[{p}]", world)
+                if part is not None:
+                    out.append(part)
+        return out
+
+    def _primitive(
+        self, prim: pygltflib.Primitive, key: str, world: np.ndarray
+    ) -> GltfPrimitive | None:
+        mode = _int(prim.mode if prim.mode is not None else 4, f"{key}.mode")
+        if mode not in _TRIANGLE_MODES:
+            if mode > 6:
+                raise GltfError(f"{key}.mode", f"{mode} is not a glTF primitive mode")
+            return None  # points and lines: nothing the G-buffer can draw
+        materials = self._table("materials")
+        material = None
+        if prim.material is not None:
+            material = _int(prim.material, f"{key}.material", len(materials))
+        draco = (prim.extensions or {}).get("KHR_draco_mesh_compression")
+        if draco is not None:
+            attrs, indices = self._draco(prim, _object(draco, key), key)
+        else:
+            attrs = {}
+            for name in ("POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "COLOR_0"):
+                index = getattr(prim.attributes, name, None)
+                if index is not None:
+                    attrs[name] = self.accessor(index, f"{key}.attributes.{name}", name)
+            indices = None
+            if prim.indices is not None:
+                indices = self.accessor(prim.indices, f"{key}.indices", "indices")
+        if "POSITION" not in attrs:
+            raise GltfError(f"{key}.attributes", "has no POSITION")
+        count = len(attrs["POSITION"])
+        for name, values in attrs.items():
+            if len(values) != count:
+                raise GltfError(
+                    f"{key}.attributes.{name}", f"{len(values)} elements, POSITION has {count}"
+                )
+        if indices is None:
+            indices = np.arange(count, dtype=np.int64)
+        elif len(indices) and int(indices.max()) >= count:
+            raise GltfError(
+                f"{key}.indices", f"index {int(indices.max())} is not below the {count} vertices"
+            )
+        faces = _triangles(indices, mode)
+        if not len(faces):
+            return None
+        return _assemble(key, attrs, faces, world, material)
+
+    def _draco(
+        self, prim: pygltflib.Primitive, ext: dict, key: str
+    ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """KHR_draco_mesh_compression: the attributes the extension maps to Draco ids,
+        decoded by DracoPy; accessors keep only their type and ``normalized``."""
+        import DracoPy
+
+        ekey = f"{key}.extensions.KHR_draco_mesh_compression"
+        data = self.view(ext.get("bufferView"), f"{ekey}.bufferView")
+        try:
+            mesh = DracoPy.decode(data)
+        except Exception as exc:  # DracoPy raises its own and plain Exceptions
+            raise GltfError(ekey, f"cannot be decoded ({type(exc).__name__}: {exc})") from None
+        faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), np.int64).reshape(-1)
+        ids = _object(ext.get("attributes"), f"{ekey}.attributes")
+        attrs: dict[str, np.ndarray] = {}
+        accessors = self._table("accessors")
+        for name, unique_id in ids.items():
+            if name not in _SEMANTICS or name == "indices":
+                continue  # JOINTS_0, WEIGHTS_0, ...: not drawn
+            akey = f"{ekey}.attributes.{name}"
+            attribute = mesh.get_attribute_by_unique_id(_int(unique_id, akey))
+            if attribute is None:
+                raise GltfError(akey, f"Draco data has no attribute {unique_id}")
+            values = np.asarray(attribute.get("data"))
+            if values.ndim == 1:
+                values = values[:, None]
+            widths = {_TYPES[t] for t in _SEMANTICS[name][0]}
+            if values.ndim != 2 or values.shape[1] not in widths or values.dtype.kind not in "iuf":
+                raise GltfError(akey, f"Draco attribute {unique_id} is not a {name}")
+            values = values.astype(np.float64)
+            a_index = getattr(prim.attributes, name, None)
+            if a_index is not None:
+                a = accessors[_int(a_index, f"{key}.attributes.{name}", len(accessors))]
+                divisor = _COMPONENTS.get(a.componentType, ("", 0.0))[1]
+                if a.normalized and divisor:
+                    values = np.maximum(values / divisor, -1.0)
+            if not np.all(np.isfinite(values)):
+                raise GltfError(akey, f"{name} holds NaN or infinite values")
+            attrs[name] = values
+        return attrs, faces
+
+    # --- materials ---------------------------------------------------------------------
+
+    def double_sided(self, material: int | None) -> bool:
+        """glTF ``doubleSided`` (false by default, also for the default material)."""
+        if material is None:
+            return False
+        return bool(self._table("materials")[material].doubleSided)
+
+    def image(self, index: object, key: str) -> Image.Image:
+        images = self._table("images")
+        i = _int(index, key, len(images))
+        if i not in self._images:
+            entry = images[i]
+            ikey = f"images[{i}]"
+            if entry.uri is not None:
+                data = self._uri_bytes(entry.uri, f"{ikey}.uri")
+            elif entry.bufferView is not None:
+                data = self.view(entry.bufferView, f"{ikey}.bufferView")
+            else:
+                raise GltfError(ikey, "has neither uri nor bufferView")
+            try:
+                with Image.open(io.BytesIO(data)) as img:
+                    if max(img.size) > MAX_TEXTURE_SIZE:
+                        raise GltfError(
+                            ikey,
+                            f"{img.size[0]}x{img.size[1]} is more than {MAX_TEXTURE_SIZE} a side",
+                        )
+                    img.load()
+                    self._images[i] = img.copy()
+            except GltfError:
+                raise
+            except Exception as exc:  # Pillow raises many types for data it cannot decode
+                raise GltfError(
+                    ikey, f"is not an image Pillow can read ({type(exc).__name__})"
+                ) from None
+        return self._images[i]
+
+    def _texture(self, info: object, key: str) -> tuple[Image.Image, dict, UvTransform]:
+        """A textureInfo: its image, its sampler's Texture fields, its UV transform."""
+        textures = self._table("textures")
+        t = _int(getattr(info, "index", None), f"{key}.index", len(textures))
+        tex = textures[t]
+        tkey = f"textures[{t}]"
+        if tex.source is None:
+            raise GltfError(
+                f"{tkey}.source", "is missing (image formats from extensions are not read)"
+            )
+        image = self.image(tex.source, f"{tkey}.source")
+        sampler: dict = {}
+        if tex.sampler is not None:
+            samplers = self._table("samplers")
+            s = samplers[_int(tex.sampler, f"{tkey}.sampler", len(samplers))]
+            skey = f"samplers[{tex.sampler}]"
+            wrap = []
+            for name in ("wrapS", "wrapT"):
+                value = getattr(s, name, None)
+                value = 10497 if value is None else value
+                if value not in _WRAP:
+                    raise GltfError(f"{skey}.{name}", f"{value} is not a glTF wrap mode")
+                wrap.append(_WRAP[value])
+            sampler["wrap"] = (wrap[0], wrap[1])
+            if s.minFilter is not None:
+                if s.minFilter not in _FILTERS:
+                    raise GltfError(f"{skey}.minFilter", f"{s.minFilter} is not a glTF filter")
+                sampler["min_filter"] = _FILTERS[s.minFilter]
+            if s.magFilter is not None:
+                if s.magFilter not in _MAG_FILTERS:
+                    raise GltfError(f"{skey}.magFilter", f"{s.magFilter} is not a glTF filter")
+                sampler["mag_filter"] = _FILTERS[s.magFilter]
+        uv_set = _int(getattr(info, "texCoord", 0) or 0, f"{key}.texCoord")
+        transform = UvTransform(uv_set=uv_set)
+        ext = (getattr(info, "extensions", None) or {}).get("KHR_texture_transform")
+        if ext is not None:
+            ekey = f"{key}.extensions.KHR_texture_transform"
+            ext = _object(ext, ekey)
+            offset = _numbers(ext.get("offset", [0.0, 0.0]), 2, f"{ekey}.offset")
+            scale = _numbers(ext.get("scale", [1.0, 1.0]), 2, f"{ekey}.scale")
+            rotation = _number(ext.get("rotation", 0.0), f"{ekey}.rotation")
+            if "texCoord" in ext:
+                uv_set = _int(ext["texCoord"], f"{ekey}.texCoord")
+            transform = UvTransform(uv_set, (offset[0], offset[1]), rotation, (scale[0], scale[1]))
+        if uv_set > 1:
+            raise GltfError(
+                f"{key}.texCoord", f"TEXCOORD_{uv_set}: only TEXCOORD_0 and _1 are read"
+            )
+        return image, sampler, transform
+
+    def layer(
+        self, material: int | None, fallback: MaterialParams, normal_filter: str
+    ) -> SurfaceLayer:
+        """Material ``material`` (None: the project's default ``fallback``) as a layer."""
+        if material is None:
+            return SurfaceLayer(fallback)
+        cache_key = (material, normal_filter, id(fallback))
+        if cache_key not in self._layers:
+            self._layers[cache_key] = self._layer(material, fallback, normal_filter)
+        return self._layers[cache_key]
+
+    def _layer(self, index: int, fallback: MaterialParams, normal_filter: str) -> SurfaceLayer:
+        m = self._table("materials")[index]
+        key = f"materials[{index}]"
+        pbr = m.pbrMetallicRoughness
+        pkey = f"{key}.pbrMetallicRoughness"
+        factor = np.ones(4)
+        metallic = roughness = 1.0  # glTF 2.0's defaults
+        if pbr is not None:
+            if pbr.baseColorFactor is not None:
+                factor = _numbers(pbr.baseColorFactor, 4, f"{pkey}.baseColorFactor", 0.0, 1.0)
+            if pbr.metallicFactor is not None:
+                metallic = _number(pbr.metallicFactor, f"{pkey}.metallicFactor", 0.0, 1.0)
+            if pbr.roughnessFactor is not None:
+                roughness = _number(pbr.roughnessFactor, f"{pkey}.roughnessFactor", 0.0, 1.0)
+        params = MaterialParams(
+            base_color=(float(factor[0]), float(factor[1]), float(factor[2])),
+            metallic=metallic,
+            roughness=roughness,
+            f0=fallback.f0,
+        )
+        extensions = _object(m.extensions, f"{key}.extensions")
+        mapping = map_material_extensions(extensions, params, key)
+        params = mapping.params
+        for note in mapping.notes:  # what the project approximates or leaves out
+            _LOG.warning("%s: %s", self.path, note)
+        maps: dict[str, Texture] = {}
+        transforms: dict[str, UvTransform] = {}
+
+        def put(name: str, texture: Texture, sampler: dict, transform: UvTransform) -> None:
+            for attr, value in sampler.items():
+                setattr(texture, attr, value)
+            maps[name] = texture
+            if not transform.identity:
+                transforms[name] = transform
+
+        if pbr is not None and pbr.baseColorTexture is not None:
+            img, sampler, tr = self._texture(pbr.baseColorTexture, f"{pkey}.baseColorTexture")
+            put("base_color", colour_texture(img), sampler, tr)  # RGBA: alpha kept
+        mr = None
+        if pbr is not None and pbr.metallicRoughnessTexture is not None:
+            mr = self._texture(pbr.metallicRoughnessTexture, f"{pkey}.metallicRoughnessTexture")
+            pixels = np.asarray(mr[0].convert("RGB"), np.float64) / 255.0
+            put("metallic", scalar_texture(pixels[..., 2]), mr[1], mr[2])
+        normals = None
+        if m.normalTexture is not None:
+            nkey = f"{key}.normalTexture"
+            img, n_sampler, n_tr = self._texture(m.normalTexture, nkey)
+            scale = getattr(m.normalTexture, "scale", None)
+            # Bounded so that scaled x and y cannot overflow float64 (the map's normals
+            # are already flat to the eye past a few hundred).
+            scale = 1.0 if scale is None else _number(scale, f"{nkey}.scale", -1e3, 1e3)
+            normals = decode_normals(img, scale)
+        if normals is not None or mr is not None:
+            # One chain for normals and roughness (app/textures/mips.py): built at the normal
+            # map's size with its sampler and UVs where there is one (the roughness image is
+            # resampled to it), else at the metallic-roughness image's.
+            rough: np.ndarray | float = roughness
+            if mr is not None:
+                g = np.asarray(mr[0].convert("RGB"), np.float64)[..., 1] / 255.0
+                if normals is not None:
+                    g = resample(g, normals.shape[:2])
+                rough = roughness * g
+            shape = normals.shape[:2] if normals is not None else np.shape(rough)
+            chain = normal_roughness_texture(normals, rough, shape, normal_filter)
+            if normals is not None:
+                put("normal_roughness", chain, n_sampler, n_tr)
+            else:
+                assert mr is not None
+                put("normal_roughness", chain, mr[1], mr[2])
+        layer = SurfaceLayer(params, maps, normal_mapped=normals is not None)
+        if m.occlusionTexture is not None:
+            okey = f"{key}.occlusionTexture"
+            img, sampler, tr = self._texture(m.occlusionTexture, okey)
+            red = np.asarray(img.convert("RGB"), np.float64)[..., 0] / 255.0
+            put("occlusion", scalar_texture(red), sampler, tr)
+            strength = getattr(m.occlusionTexture, "strength", None)
+            layer.occlusion_strength = (
+                1.0 if strength is None else _number(strength, f"{okey}.strength", 0.0, 1.0)
+            )
+        emissive = np.zeros(3)
+        if m.emissiveFactor is not None:
+            emissive = _numbers(m.emissiveFactor, 3, f"{key}.emissiveFactor", 0.0, 1.0)
+        strength_ext = extensions.get("KHR_materials_emissive_strength")
+        if strength_ext is not None:
+            skey = f"{key}.extensions.KHR_materials_emissive_strength"
+            value = _object(strength_ext, skey).get("emissiveStrength", 1.0)
+            emissive = emissive * _number(value, f"{skey}.emissiveStrength", 0.0, 1e30)
+        layer.emissive = (float(emissive[0]), float(emissive[1]), float(emissive[2]))
+        if m.emissiveTexture is not None:
+            img, sampler, tr = self._texture(m.emissiveTexture, f"{key}.emissiveTexture")
+            put("emissive", colour_texture(img), sampler, tr)
+        layer.alpha = float(factor[3])
+        mode = m.alphaMode if m.alphaMode is not None else "OPAQUE"
+        if mode not in ("OPAQUE", "MASK", "BLEND"):
+            raise GltfError(f"{key}.alphaMode", f"{mode!r} is not OPAQUE, MASK or BLEND")
+        layer.alpha_mode = mode.lower()
+        if m.alphaCutoff is not None:
+            layer.alpha_cutoff = _number(m.alphaCutoff, f"{key}.alphaCutoff", 0.0)
+        for name, ext_texture in mapping.maps.items():
+            img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
+            put(name, _extension_map(name, ext_texture, img), sampler, tr)
+        layer.uv_transforms = transforms
+        return layer
+
+
+def _texture_info(texture: ExtensionTexture) -> SimpleNamespace:
+    """An extension's textureInfo (parsed JSON) with the attributes ``_texture`` reads."""
+    info = texture.info
+    return SimpleNamespace(
+        index=info.get("index"),
+        texCoord=info.get("texCoord", 0),
+        extensions=info.get("extensions"),
+    )
+
+
+def _extension_map(name: str, texture: ExtensionTexture, image: Image.Image) -> Texture:
+    """The map a KHR_materials_* texture fills (docs/gltf.md): the clear coat's own normal
+    map (its ``scale`` applied; mips of the normals alone, as a scene's
+    ``clearcoat_normal_map``), or one channel of a scalar map."""
+    if name == "coat_normal":
+        scale = texture.info.get("scale", 1.0)
+        coat = decode_normals(image, float(scale))
+        return normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+    channel = "rgba".index(texture.channel)
+    pixels = np.asarray(image.convert("RGBA"), np.float64) / 255.0
+    return scalar_texture(pixels[..., channel])
+
+
+def _slice(data: bytes, offset: object, length: object, key: str) -> bytes:
+    start = _int(offset, f"{key}.byteOffset")
+    size = _int(length, f"{key}.byteLength", low=1)
+    if start + size > len(data):
+        raise GltfError(key, f"bytes {start}..{start + size} run past the buffer's {len(data)}")
+    return data[start : start + size]
+
+
+def _triangles(indices: np.ndarray, mode: int) -> np.ndarray:
+    """(M, 3) triangles of a TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN index list (glTF
+    2.0 sec. 3.7.2.1: strip triangle i is (i, i + 1 + i % 2, i + 2 - i % 2), keeping one
+    winding; fan triangle i is (i + 1, i + 2, 0))."""
+    if mode == 4:
+        return indices[: len(indices) // 3 * 3].reshape(-1, 3)
+    count = len(indices) - 2
+    if count <= 0:
+        return np.zeros((0, 3), np.int64)
+    i = np.arange(count)
+    if mode == 5:
+        odd = i % 2
+        return np.stack([indices[i], indices[i + 1 + odd], indices[i + 2 - odd]], axis=1)
+    return np.stack([indices[i + 1], indices[i + 2], np.full(count, indices[0])], axis=1)
+
+
+def _assemble(
+    key: str,
+    attrs: dict[str, np.ndarray],
+    faces: np.ndarray,
+    world: np.ndarray,
+    material: int | None,
+) -> GltfPrimitive:
+    """The primitive's arrays: without NORMAL, each triangle gets its own three vertices
+    and its face normal (glTF 2.0: "client implementations MUST calculate flat normals")."""
+    if "NORMAL" not in attrs:
+        corners = faces.reshape(-1)
+        attrs = {name: values[corners] for name, values in attrs.items() if name != "TANGENT"}
+        faces = np.arange(len(corners), dtype=np.int64).reshape(-1, 3)
+        p = attrs["POSITION"]
+        n = np.cross(p[faces[:, 1]] - p[faces[:, 0]], p[faces[:, 2]] - p[faces[:, 0]])
+        attrs["NORMAL"] = np.repeat(n, 3, axis=0)
+    normals = attrs["NORMAL"][:, :3]
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.where(length > 1e-12, normals / np.where(length > 1e-12, length, 1.0), [0, 1, 0])
+    out = GltfPrimitive(key, attrs["POSITION"][:, :3], normals, faces, world, material)
+    for name, attr in (("TEXCOORD_0", "uv"), ("TEXCOORD_1", "uv1")):
+        if name in attrs:
+            uv = attrs[name][:, :2].copy()
+            uv[:, 1] = 1.0 - uv[:, 1]
+            setattr(out, attr, uv)
+    if "TANGENT" in attrs:
+        t = attrs["TANGENT"]
+        xyz = t[:, :3]
+        tl = np.linalg.norm(xyz, axis=1, keepdims=True)
+        if np.all(tl > 1e-12):
+            w = np.where(t[:, 3:4] < 0.0, -1.0, 1.0)
+            out.tangents = np.hstack([xyz / tl, w])
+    if "COLOR_0" in attrs:
+        c = attrs["COLOR_0"]
+        if c.shape[1] == 3:
+            c = np.hstack([c, np.ones((len(c), 1))])
+        out.colors = c
+    return out
