@@ -29,8 +29,9 @@ from app.scene.model import MAX_LENGTH, Camera, Light, Scene, SceneObject
 
 EXTENSION = "KHR_lights_punctual"
 # glTF's range is optional ("infinite": plain inverse square). The project's lights need a
-# finite range for the window (RTR4 §9.4, eq. 5.14) and culling; at the largest length the
-# scene format allows, the window differs from 1 by less than 2e-16 within 100 m.
+# finite range for the window (RTR4 §9.4, eq. 5.14) and culling: the largest length the
+# scene format allows, where the window is 1 to double precision at scene scales
+# (docs/gltf-lights-cameras.md, "Range").
 INFINITE_RANGE = MAX_LENGTH
 # glTF's zfar is optional (an infinite projection, which the project does not have): the
 # scene format's own default far plane then (app/scene/model.py Camera.far), unless the
@@ -59,7 +60,9 @@ def _number(
     if ok and (value > low if open_low else value >= low) and value <= high:
         return float(value)
     bound = f"> {low:g}" if open_low else f">= {low:g}"
-    raise GltfError(key, f"must be a finite number {bound} and <= {high:g} (got {value!r})")
+    if math.isfinite(high):
+        bound += f" and <= {high:g}"
+    raise GltfError(key, f"must be a finite number {bound} (got {value!r})")
 
 
 def _placed(doc: pygltflib.GLTF2, model: np.ndarray) -> dict[int, np.ndarray]:
