@@ -191,6 +191,31 @@ def test_camera_by_node_name_or_index_and_far_default(tmp_path: Path) -> None:
     assert (cam.near, cam.far) == (0.5, 9.0)
 
 
+def test_keys_beside_from_file_win_and_the_viewer_orbits(tmp_path: Path) -> None:
+    """position/target/up/fov_y given beside from_file replace the file's values (the
+    others stay the file's), so the viewer's orbit, which writes position, target and up
+    into the scene, moves a file camera and keeps its field of view."""
+    from app.viewer.document import SceneDocument
+
+    nodes = [pygltflib.Node(name="n", translation=[0.0, 1.0, 6.0], camera=0)]
+    _write(tmp_path / "o.gltf", nodes, [0], [_perspective("c", 0.6, 0.2, 30.0)])
+    mesh = '[[objects]]\nshape = "mesh"\nfile = "o.gltf"\n'
+    text = 'camera = { from_file = "c", target = [0.0, 0.0, 0.0], fov_y = 30.0 }\n' + mesh
+    cam = load_scene(_scene(tmp_path, text)).scene.camera
+    assert (cam.position, cam.target, cam.fov_y, cam.far) == (
+        [0.0, 1.0, 6.0],
+        [0.0] * 3,
+        30.0,
+        30.0,
+    )
+    doc = SceneDocument(_scene(tmp_path, 'camera = { from_file = "c" }\n' + mesh))
+    moved = {"camera.position": [3.0, 1.0, 3.0], "camera.target": [0.0, 0.0, 0.0],
+             "camera.up": [0.0, 1.0, 0.0]}  # fmt: skip
+    cam = doc.edit(moved).scene.camera
+    assert cam.position == [3.0, 1.0, 3.0] and cam.target == [0.0, 0.0, 0.0]
+    assert cam.fov_y == pytest.approx(math.degrees(0.6)) and cam.near == 0.2
+
+
 # ---- the lights --------------------------------------------------------------------
 
 LIGHTS = [
@@ -322,10 +347,8 @@ BAD = [
      "several objects are glTF files (objects[0], objects[1])"),
     ("unknown-object", 'camera = { from_file = "n0", object = "car" }\n' + MESH,
      "camera.object", "no object named 'car'"),
-    ("position-beside", 'camera = { from_file = "n0", position = [0.0, 0.0, 1.0] }\n' + MESH,
-     "camera.position", "comes from the file's camera"),
     ("aperture-no-focus", 'camera = { from_file = "n0", aperture = 0.1 }\n' + MESH,
-     "camera.focus_distance", "give focus_distance with aperture"),
+     "camera.focus_distance", "give focus_distance (or target) with aperture"),
     ("object-alone", "camera = { object = 0 }\n" + MESH, "camera.object",
      "applies only with from_file"),
     ("nan-intensity", MESH.replace("b.gltf", "nan.gltf") + "import_lights = true\n",
@@ -434,3 +457,41 @@ def _fuzz(tmp_path: Path, edits: list, camera: bool) -> None:
     values += [[*x.color, x.intensity, *(x.position or []), *(x.direction or [])]
                for x in scene.lights]  # fmt: skip
     assert all(math.isfinite(v) for row in values for v in row)
+
+
+# ---- in the viewer -----------------------------------------------------------------
+
+
+def test_viewer_orbits_a_file_camera_and_lists_file_lights(
+    tmp_path: Path, xdisplay: str, gl_egl: GLContext
+) -> None:
+    """``pbs view`` on a scene with a file camera and file lights: the Lights panel draws
+    (the imported lights are listed, not editable), an orbit moves the camera and keeps
+    the file's field of view, and the window shows what ``pbs render`` renders."""
+    from app.viewer.window import Viewer
+    from tests.test_viewer import assert_close, headless, window_image
+
+    nodes = [
+        pygltflib.Node(name="eye", translation=[0.0, 1.0, 6.0], camera=0),
+        _light_node("sun", 0, rotation=_quat("x", -45.0)),
+    ]
+    _write(tmp_path / "v.gltf", nodes, [0, 1], [_perspective("eye", 0.6, 0.1, 40.0)],
+           [{"type": "directional", "intensity": 6.0}])  # fmt: skip
+    text = 'camera = { from_file = "eye" }\n' + SPHERE
+    text += '[[objects]]\nshape = "mesh"\nfile = "v.gltf"\nmaterial = "m"\nimport_lights = true\n'
+    size = (160, 90)
+    v = Viewer(_scene(tmp_path, text), size, vsync=False)
+    try:
+        v.panels.expand("Lights")
+        v.settle()
+        assert not v.state.error, v.state.error
+        assert len(v.scene.lights) == 1
+        v.orbit(40.0, 0.0)
+        v.settle()
+        assert not v.state.error, v.state.error
+        cam = v.scene.camera
+        assert cam.position != [0.0, 1.0, 6.0]
+        assert cam.fov_y == pytest.approx(math.degrees(0.6))
+        assert_close(window_image(v), headless(gl_egl, v.document.loaded, size))
+    finally:
+        v.close()

@@ -25,7 +25,7 @@ from pydantic import ValidationError
 from app.errors import InputError
 from app.scene.geometry import model_matrix
 from app.scene.gltf_document import GltfError, open_gltf, world_matrices
-from app.scene.model import MAX_LENGTH, Camera, Light, Scene, SceneObject
+from app.scene.model import FILE_CAMERA_KEYS, MAX_LENGTH, Camera, Light, Scene, SceneObject
 
 EXTENSION = "KHR_lights_punctual"
 # glTF's range is optional ("infinite": plain inverse square). The project's lights need a
@@ -182,9 +182,10 @@ def file_camera(scene: Scene, path: Path, files: _Files) -> Camera:
 
     Perspective only (the project has no orthographic projection). yfov (radians) becomes
     fov_y (degrees); aspectRatio is ignored: the image size decides, the vertical field of
-    view is kept. znear/zfar become near/far unless the scene gives them; without zfar
-    ``DEFAULT_FAR``. The target is 1 m along the view direction (a file camera has no
-    target: give focus_distance for depth of field)."""
+    view is kept. znear/zfar become near/far; without zfar ``DEFAULT_FAR``. The target is
+    1 m along the view direction (a file camera has no target: give focus_distance for
+    depth of field). Each of ``FILE_CAMERA_KEYS`` the scene gives replaces the file's
+    value: the viewer's orbit and pbs batch write position, target and up this way."""
     cam = scene.camera
     index = _camera_object(scene, path)
     key = "camera.from_file"
@@ -210,20 +211,18 @@ def file_camera(scene: Scene, path: Path, files: _Files) -> Camera:
         position, forward, up = _frame(placed[node], f"nodes[{node}]")
     except GltfError as exc:
         raise files.error(index, key, exc) from None
-    near = cam.near if "near" in cam.model_fields_set or znear is None else znear
-    far = cam.far if "far" in cam.model_fields_set else zfar or DEFAULT_FAR
+    keys = {
+        "position": position,
+        "target": [p + f for p, f in zip(position, forward, strict=True)],
+        "up": up,
+        "fov_y": math.degrees(yfov),
+        "near": cam.near if znear is None else znear,
+        "far": zfar or DEFAULT_FAR,
+    }
+    given = cam.model_dump(include=set(FILE_CAMERA_KEYS) & cam.model_fields_set)
+    rest = cam.model_dump(exclude={*FILE_CAMERA_KEYS, "from_file", "object"})
     try:
-        return Camera(
-            position=position,
-            target=[p + f for p, f in zip(position, forward, strict=True)],
-            up=up,
-            fov_y=math.degrees(yfov),
-            near=near,
-            far=far,
-            exposure=cam.exposure,
-            aperture=cam.aperture,
-            focus_distance=cam.focus_distance,
-        )
+        return Camera(**(keys | given | rest))
     except ValidationError as exc:
         error = exc.errors()[0]
         field = ".".join(str(x) for x in error["loc"]) or "camera"

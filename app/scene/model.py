@@ -76,8 +76,8 @@ def _nonzero(v: list[float] | None, what: str) -> None:
 
 
 FileIndex = Annotated[int, Field(strict=True, ge=0)]
-# What a glTF camera decides (camera.from_file); near and far may still be given.
-FILE_CAMERA_KEYS = ("position", "target", "up", "fov_y")
+# What a glTF camera (camera.from_file) gives; each of these keys given beside it wins.
+FILE_CAMERA_KEYS = ("position", "target", "up", "fov_y", "near", "far")
 
 
 class Camera(_Strict):
@@ -96,22 +96,25 @@ class Camera(_Strict):
     focus_distance: Positive | None = None
     # A glTF file's camera (docs/gltf-lights-cameras.md): its name (or its node's), or its
     # index in the file's cameras; ``object`` names the glTF object (name or index in
-    # [[objects]]) when several are. Resolved at load (app/scene/gltf_lights_cameras.py).
+    # [[objects]]) when several are. Resolved at load (app/scene/gltf_lights_cameras.py);
+    # FILE_CAMERA_KEYS given beside it replace the file's values (an orbit, a sweep).
     from_file: Annotated[str, Field(min_length=1)] | FileIndex | None = None
     object: Annotated[str, Field(min_length=1)] | FileIndex | None = None
 
     @model_validator(mode="after")
     def _check(self) -> Camera:
-        if self.from_file is not None:
-            for key in FILE_CAMERA_KEYS:
-                if key in self.model_fields_set:
-                    raise ValueError(f"{key}: comes from the file's camera (from_file)")
-            if self.aperture > 0.0 and self.focus_distance is None:
+        if self.from_file is not None:  # checked whole once resolved (app/scene/loader.py)
+            if (
+                self.aperture > 0.0
+                and self.focus_distance is None
+                and "target" not in (self.model_fields_set)
+            ):
                 raise ValueError(
                     "focus_distance: a camera from a file has no target to focus on; "
-                    "give focus_distance with aperture"
+                    "give focus_distance (or target) with aperture"
                 )
-        elif self.object is not None:
+            return self
+        if self.object is not None:
             raise ValueError("object: applies only with from_file")
         forward = np.subtract(self.target, self.position)
         if math.fsum(x * x for x in forward) <= 1e-20:
