@@ -495,3 +495,17 @@ def test_viewer_orbits_a_file_camera_and_lists_file_lights(
         assert_close(window_image(v), headless(gl_egl, v.document.loaded, size))
     finally:
         v.close()
+
+
+def test_bundled_stage_is_its_generator_output_and_loads() -> None:
+    """scenes/meshes/stage.gltf is what ``python -m app.assets.gltf_stage`` writes, and
+    scenes/gltf_stage.toml takes its camera (at the Camera node, fov 0.6 rad) and its
+    three lights from it."""
+    from app.assets.gltf_stage import OUT, build
+    from app.resources import scenes_dir
+
+    assert OUT.read_text(encoding="utf-8") == build()
+    scene = load_scene(scenes_dir() / "gltf_stage.toml").scene
+    assert scene.camera.position == [0.0, 2.2, 5.5]
+    assert scene.camera.fov_y == pytest.approx(math.degrees(0.6))
+    assert [x.type for x in scene.lights] == ["spot", "point", "directional"]
