@@ -26,7 +26,7 @@ from app.errors import InputError
 from app.frame.lights import light_record
 from app.gl.context import GLContext
 from app.render.renderer import Renderer
-from app.scene.loader import load_scene
+from app.scene.loader import load_scene, parse_scene
 
 EXT = "KHR_lights_punctual"
 
@@ -245,8 +245,12 @@ def test_each_light_type_placed_and_converted(tmp_path: Path) -> None:
         '[[objects]]\nshape = "mesh"\nfile = "l.gltf"\nimport_lights = true\n'
         "light_scale = 2.0\nposition = [1.0, 0.0, 0.0]\n"
     )
-    lights = load_scene(_scene(tmp_path, text)).scene.lights
+    loaded = load_scene(_scene(tmp_path, text))
+    lights = loaded.scene.lights
     assert [x.type for x in lights] == ["point", "directional", "point", "spot", "spot"]
+    # resolved once: the scene's data validated again (the API's edits) is the same scene
+    again = parse_scene(loaded.scene.model_dump(exclude_none=True), loaded.path).scene
+    assert again == loaded.scene
     rig = _rot("x", -90.0)
     origin = np.array([1.0, 3.0, 0.0])  # object position + rig translation
     records = [light_record(x) for x in lights[1:]]
@@ -303,6 +307,33 @@ def test_file_light_and_camera_render_as_their_toml_twins(
             r.release()
     assert np.count_nonzero(images[1][..., :3]) > 0.2 * images[1][..., :3].size
     np.testing.assert_array_equal(images[0], images[1])
+
+
+def test_python_api_switches_to_a_file_camera_and_keeps_file_lights_once(
+    tmp_path: Path, gl_egl: GLContext
+) -> None:
+    """``OffscreenRenderer.set_camera(from_file=...)`` moves to the file's camera (not the
+    current position with the file's name on it), and a lights edit, which validates the
+    whole scene again, keeps one copy of the imported lights."""
+    from app.api import OffscreenRenderer
+
+    nodes = [
+        pygltflib.Node(name="eye", translation=[2.0, 1.0, 5.0], camera=0),
+        _light_node("sun", 0, rotation=_quat("x", -45.0)),
+    ]
+    _write(tmp_path / "a.gltf", nodes, [0, 1], [_perspective("eye", 0.5, 0.1, 40.0)],
+           [{"type": "directional", "intensity": 3.0}])  # fmt: skip
+    text = SPHERE + '[[objects]]\nshape = "mesh"\nfile = "a.gltf"\nimport_lights = true\n'
+    with OffscreenRenderer(_scene(tmp_path, text), (32, 18), gl=gl_egl) as r:
+        assert r.scene.camera.position == [0.0, 1.0, 6.0]  # the format's default camera
+        r.set_camera(from_file="eye", exposure=0.5)
+        cam = r.scene.camera
+        assert cam.position == [2.0, 1.0, 5.0] and cam.exposure == 0.5
+        assert cam.fov_y == pytest.approx(math.degrees(0.5))
+        r.set_lights(environment=None)  # the lights as they are, validated again
+        assert len(r.scene.lights) == 1
+        r.set_camera(position=[0.0, 2.0, 6.0])  # an ordinary change of the file's camera
+        assert r.scene.camera.fov_y == pytest.approx(math.degrees(0.5))
 
 
 # ---- bad input ---------------------------------------------------------------------

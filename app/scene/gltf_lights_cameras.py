@@ -321,8 +321,8 @@ def file_lights(obj: SceneObject, index: int, path: Path, files: _Files) -> list
 
 def resolve(scene: Scene, path: Path) -> Scene:
     """``scene`` with ``camera.from_file`` replaced by the file's camera and the lights of
-    every ``import_lights`` object appended after the scene's own (object order). A scene
-    that uses neither is returned as it is."""
+    every ``import_lights`` object appended after the scene's own (object order), those
+    objects' ``import_lights`` turned off. A scene that uses neither is returned as it is."""
     wants_lights = any(obj.import_lights for obj in scene.objects)
     if scene.camera.from_file is None and not wants_lights:
         return scene
@@ -336,4 +336,10 @@ def resolve(scene: Scene, path: Path) -> Scene:
             if obj.import_lights:
                 lights += file_lights(obj, i, path, files)
         update["lights"] = lights
+        # Imported once: the resolved scene is a plain one, so that its data validated
+        # again (the Python API's edits, a batch job) does not import the lights twice.
+        plain = {"import_lights": False, "light_scale": None}
+        update["objects"] = [
+            obj.model_copy(update=plain) if obj.import_lights else obj for obj in scene.objects
+        ]
     return scene.model_copy(update=update)
