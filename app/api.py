@@ -37,7 +37,7 @@ from app.reference.encoding import oct_decode
 from app.render.renderer import Renderer
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, describe_error, load_scene, parse_scene
-from app.scene.model import Camera, RenderSettings, Scene
+from app.scene.model import FILE_CAMERA_KEYS, Camera, RenderSettings, Scene
 
 __all__ = ["CHANNELS", "OffscreenRenderer", "scene_from"]
 
@@ -181,12 +181,20 @@ class OffscreenRenderer:
 
     def set_camera(self, camera: Camera | Mapping[str, Any] | None = None, **changes: Any) -> None:
         """A new camera: a ``Camera``, a dict of the scene file's ``[camera]`` keys, or
-        keyword changes to the current one (``set_camera(position=[0, 1, 5])``). New
-        matrices only: nothing is compiled or uploaded."""
+        keyword changes to the current one (``set_camera(position=[0, 1, 5])``); with
+        ``from_file`` a glTF object's camera (docs/gltf-lights-cameras.md). New matrices
+        only: nothing is compiled or uploaded."""
         r = self._live()
         data = r.scene.camera.model_dump(exclude_none=True) if camera is None else _as_dict(camera)
+        if camera is None and "from_file" in changes:  # the file's camera replaces the view
+            data = {k: v for k, v in data.items() if k not in FILE_CAMERA_KEYS}
         data.update(changes)
-        r.set_camera(_validated(Camera, data, "camera", self.file))
+        new = _validated(Camera, data, "camera", self.file)
+        if new.from_file is not None:  # a glTF file's camera, resolved with the whole scene
+            scene = _scene_dict(r.scene)
+            scene["camera"] = data
+            new = parse_scene(scene, r.loaded.path).scene.camera
+        r.set_camera(new)
         self._frame = False
 
     def set_lights(

@@ -126,6 +126,12 @@ def parse_scene(data: dict, path: Path) -> LoadedScene:
             )
         if obj.file is not None:
             _check_readable(loaded, obj.file, f"objects[{i}].file")
+    if scene.camera.from_file is not None or any(obj.import_lights for obj in scene.objects):
+        # A glTF file's camera and lights become the scene's own (docs/gltf-lights-cameras.md).
+        # Imported here: the module needs app.scene.geometry, which imports this one.
+        from app.scene.gltf_lights_cameras import resolve
+
+        loaded = LoadedScene(resolve(scene, path), path)
     return loaded
 
 

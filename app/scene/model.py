@@ -75,6 +75,11 @@ def _nonzero(v: list[float] | None, what: str) -> None:
         raise ValueError(f"{what}: must not be the zero vector")
 
 
+FileIndex = Annotated[int, Field(strict=True, ge=0)]
+# What a glTF camera (camera.from_file) gives; each of these keys given beside it wins.
+FILE_CAMERA_KEYS = ("position", "target", "up", "fov_y", "near", "far")
+
+
 class Camera(_Strict):
     """A pinhole camera looking from ``position`` at ``target``."""
 
@@ -89,9 +94,28 @@ class Camera(_Strict):
     # sharp) focused at focus_distance (metres along the view axis; default: the target's).
     aperture: Annotated[Real, Field(ge=0.0, le=10.0)] = 0.0
     focus_distance: Positive | None = None
+    # A glTF file's camera (docs/gltf-lights-cameras.md): its name (or its node's), or its
+    # index in the file's cameras; ``object`` names the glTF object (name or index in
+    # [[objects]]) when several are. Resolved at load (app/scene/gltf_lights_cameras.py);
+    # FILE_CAMERA_KEYS given beside it replace the file's values (an orbit, a sweep).
+    from_file: Annotated[str, Field(min_length=1)] | FileIndex | None = None
+    object: Annotated[str, Field(min_length=1)] | FileIndex | None = None
 
     @model_validator(mode="after")
     def _check(self) -> Camera:
+        if self.from_file is not None:  # checked whole once resolved (app/scene/loader.py)
+            if (
+                self.aperture > 0.0
+                and self.focus_distance is None
+                and "target" not in (self.model_fields_set)
+            ):
+                raise ValueError(
+                    "focus_distance: a camera from a file has no target to focus on; "
+                    "give focus_distance (or target) with aperture"
+                )
+            return self
+        if self.object is not None:
+            raise ValueError("object: applies only with from_file")
         forward = np.subtract(self.target, self.position)
         if math.fsum(x * x for x in forward) <= 1e-20:
             raise ValueError("target: must differ from position (no view direction)")
@@ -596,6 +620,10 @@ class SceneObject(_Strict):
     position: Vec3 = [0.0, 0.0, 0.0]
     rotation: Vec3 = [0.0, 0.0, 0.0]  # degrees about X, then Y, then Z
     scale: Positive | Annotated[list[Positive], Field(min_length=3, max_length=3)] = 1.0
+    # A glTF file's KHR_lights_punctual lights, placed by this object (docs/gltf-lights-
+    # cameras.md); c_light = light_scale x color x intensity / pi.
+    import_lights: Annotated[bool, Field(strict=True)] = False
+    light_scale: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] | None = None
 
     @field_validator("scale", mode="wrap")
     @classmethod
@@ -621,6 +649,11 @@ class SceneObject(_Strict):
                 raise ValueError(f"{key}: does not apply to shape '{self.shape}'")
         if self.shape == "mesh" and self.file is None:
             raise ValueError("file: shape 'mesh' needs it")
+        gltf = self.file is not None and self.file.lower().endswith((".gltf", ".glb"))
+        if self.import_lights and not gltf:
+            raise ValueError("import_lights: needs a glTF file (.gltf or .glb) as file")
+        if self.light_scale is not None and not self.import_lights:
+            raise ValueError("light_scale: applies only with import_lights = true")
         if self.shape != "mesh" and self.material is None:
             raise ValueError(f"material: shape '{self.shape}' needs it")
         if self.size is not None:

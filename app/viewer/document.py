@@ -102,6 +102,8 @@ class SceneDocument:
             camera = Camera.model_validate(data.get("camera", {}))
         except ValueError:
             return None
+        if camera.from_file is not None:  # a glTF file's camera: resolved by parse_scene
+            return None
         return dataclasses.replace(
             self.loaded, scene=self.loaded.scene.model_copy(update={"camera": camera})
         )

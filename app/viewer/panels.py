@@ -480,7 +480,12 @@ class Panels:
     def _lights_panel(self) -> None:
         v = self.viewer
         if self._window("Lights", -8, 8, 310, 0.4, collapsed=True):
-            for i, light in enumerate(v.scene.lights):
+            # The scene's own lights; a glTF file's (import_lights) follow them and are
+            # edited in the file (docs/gltf-lights-cameras.md).
+            own = len(v.document.data.get("lights", []))
+            if len(v.scene.lights) > own:
+                imgui.text(f"+{len(v.scene.lights) - own} lights from glTF files (not editable)")
+            for i, light in enumerate(v.scene.lights[:own]):
                 imgui.push_id(f"light{i}")
                 if imgui.collapsing_header(f"{i}: {light.type}"):
                     key = f"lights[{i}]"
