@@ -456,9 +456,6 @@ FUZZ = settings(max_examples=40, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.function_scoped_fixture])  # fmt: skip
 
 
-# A rotation of 1.3e154 overflows the quaternion's norm in gltf_document.node_matrix
-# (numpy warns; the node is then taken as unrotated): reported, not this module's.
-@pytest.mark.filterwarnings("ignore:overflow encountered in dot:RuntimeWarning")
 @FUZZ
 @given(edits=_edits([*LIGHT_KEYS, "light", "rotation"]))
 def test_fuzzed_lights_load_or_fail_cleanly(tmp_path: Path, edits: list) -> None:
@@ -565,3 +562,14 @@ def test_bundled_stage_is_its_generator_output_and_loads() -> None:
     assert scene.camera.position == [0.0, 2.2, 5.5]
     assert scene.camera.fov_y == pytest.approx(math.degrees(0.6))
     assert [x.type for x in scene.lights] == ["spot", "point", "directional"]
+
+
+def test_huge_quaternion_is_normalised() -> None:
+    """A finite quaternion of length ~1e154 overflowed the squared norm to infinity and the
+    node was taken as unrotated; it is normalised without overflow now."""
+    import pygltflib
+
+    from app.scene.gltf_document import node_matrix
+
+    turn = node_matrix(pygltflib.Node(rotation=[0.0, 0.0, 1.3e154, 1.3e154]), 0)
+    assert np.allclose(turn[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-12)

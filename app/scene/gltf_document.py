@@ -59,10 +59,13 @@ def node_matrix(node: pygltflib.Node, index: int) -> np.ndarray:
     if s is not None:
         out = np.diag([*s, 1.0])
     if q is not None:
-        length = np.linalg.norm(q)
-        if length < 1e-6:
+        # Scaled by its largest component first, so that the length of a huge (finite)
+        # quaternion cannot overflow to infinity.
+        big = np.max(np.abs(q))
+        length = big * np.linalg.norm(q / big) if big > 0.0 else 0.0
+        if not 1e-6 <= length < np.inf:
             raise GltfError(f"{key}.rotation", "must be a unit quaternion")
-        x, y, z, w = q / length
+        x, y, z, w = (q / big) / (length / big)
         r = np.eye(4)
         r[:3, :3] = [
             [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
