@@ -93,3 +93,22 @@ def test_batch_ratios_are_of_the_right_rows():
     assert pyrender_why(Context(None, TINY, None, None, pyrender_why=NO_PYRENDER)).startswith(  # type: ignore[arg-type]
         PYRENDER_MISSING
     )
+
+
+def test_a_failed_way_is_a_row_saying_so_and_the_others_still_run(gl_egl, tmp_path, monkeypatch):
+    """A way whose process fails (here the CLI loop) leaves an untimed row with the error,
+    and the ways after it still run and are timed."""
+    import app.bench.batch as batch
+
+    def broken(orbit, tag):
+        raise RuntimeError("-m app render: exit 1: boom")
+
+    monkeypatch.setattr(batch, "_cli_loop", broken)
+    ctx = Context(gl_egl, TINY, None, Progress(1, enabled=False), pyrender=False,
+                  pyrender_why=NO_PYRENDER)  # fmt: skip
+    run_batch(ctx, tmp_path)
+    rows = {r["variant"]: r for r in ctx.rows}
+    assert rows[BATCH_CLI]["images_per_s"] is None
+    assert rows[BATCH_CLI]["not_measured"] == "failed: -m app render: exit 1: boom"
+    assert rows[BATCH_ONE]["images_valid"] == TINY.batch_frames
+    assert any("boom" in note for note in ctx.notes)

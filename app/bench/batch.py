@@ -161,7 +161,7 @@ def _pyrender(orbit: _Orbit, tag: str) -> dict:
             "valid": _valid(outputs, orbit.size), "pyrender": result}  # fmt: skip
 
 
-def _row(ctx: Context, orbit: _Orbit, variant: str, runs: list[dict], timer: str) -> dict:
+def _row(orbit: _Orbit, variant: str, runs: list[dict], timer: str) -> dict:
     """One way's row from its rounds: per-image ms of each round's whole run, images/s."""
     per_image = [r["seconds"] * 1e3 / r["images"] for r in runs]
     rates = [r["images"] / r["seconds"] for r in runs]
@@ -223,13 +223,23 @@ def run_batch(ctx: Context, folder: Path | None = None) -> None:
         ways[BATCH_PYRENDER] = (lambda t: _pyrender(orbit, t), f"{whole} (one child)")
     order = list(ways)
     runs: dict[str, list[dict]] = {v: [] for v in order}
+    failed: dict[str, str] = {}  # a way that failed is left out of later rounds
     for r in range(s.batch_rounds):
         shift = r % len(order)
         for variant in order[shift:] + order[:shift]:
+            if variant in failed:
+                continue
             ctx.progress.start(f"batch: {variant}, round {r + 1}/{s.batch_rounds}")
-            runs[variant].append(ways[variant][0](f"r{r}"))
+            try:
+                runs[variant].append(ways[variant][0](f"r{r}"))
+            except (RuntimeError, OSError, subprocess.TimeoutExpired) as exc:
+                failed[variant] = f"failed: {exc}"
+                ctx.notes.append(f"batch: {variant} {failed[variant]}")
             ctx.progress.done()
-    rows = [_row(ctx, orbit, v, runs[v], ways[v][1]) for v in order]
+    rows = [
+        _missing(orbit, v, failed[v]) if v in failed else _row(orbit, v, runs[v], ways[v][1])
+        for v in order
+    ]
     if n == 1:
         rows.insert(1, _missing(orbit, "pbs batch, N workers", "one usable core"))
     if not ctx.pyrender:
