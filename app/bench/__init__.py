@@ -33,8 +33,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pbs bench",
         description="Measure run time against error: light culling, image size, the accuracy "
-        "of each approximation, specialized vs uber lighting shader, cold start "
-        "(docs/performance.md).",
+        "of each approximation, specialized vs uber lighting shader, cold start, batch "
+        "throughput (docs/performance.md).",
     )
     parser.add_argument(
         "--quick", action="store_true", help="smaller images, fewer light counts and frames"
