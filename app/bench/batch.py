@@ -40,7 +40,7 @@ from pathlib import Path
 from app.batch.jobs import plan_jobs
 from app.batch.run import MANIFEST, valid_output
 from app.bench.report import BATCH_CLI, BATCH_ONE, BATCH_PYRENDER, batch_ratios
-from app.bench.startup import _repo_pythonpath
+from app.bench.startup import repo_pythonpath
 from app.bench.suites import Context, api_mesh_scene, make_row
 from app.render.compare import _toml as toml_value
 
@@ -65,7 +65,7 @@ def scene_text(data: dict) -> str:
 
 def _env() -> dict[str, str]:
     env = dict(os.environ)
-    env["PYTHONPATH"] = _repo_pythonpath(env)  # the children import this checkout's app
+    env["PYTHONPATH"] = repo_pythonpath(env)  # the children import this checkout's app
     env.setdefault("PYOPENGL_PLATFORM", "egl")
     return env
 
