@@ -1,7 +1,7 @@
 """``pbs bench``: run time against error; docs/performance.md explains it all.
 
     python -m app.bench [--quick] [--out DIR]
-                        [--suites culling,resolution,accuracy,specialization,startup,viewer]
+                        [--suites culling,resolution,accuracy,specialization,startup,viewer,batch]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -25,15 +25,16 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
     from app.bench.suites import Settings
 
 __all__ = ["main"]
-SUITES = ("culling", "resolution", "accuracy", "specialization", "startup", "viewer")
+SUITES = ("culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch")
+PYRENDER_SUITES = ("culling", "batch")  # the suites with a pyrender row
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pbs bench",
         description="Measure run time against error: light culling, image size, the accuracy "
-        "of each approximation, specialized vs uber lighting shader, cold start "
-        "(docs/performance.md).",
+        "of each approximation, specialized vs uber lighting shader, cold start, batch "
+        "throughput (docs/performance.md).",
     )
     parser.add_argument(
         "--quick", action="store_true", help="smaller images, fewer light counts and frames"
@@ -72,6 +73,12 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
     if "specialization" in suites:
         w, h = s.specialization_size
         parts.append(f"specialization {w}x{h} at {s.specialization_lights} lights")
+    if "batch" in suites:
+        w, h = s.batch_size
+        parts.append(
+            f"batch orbit of {s.batch_frames} frames at {w}x{h}, {s.batch_rounds} rounds,"
+            f" CLI loop {s.batch_cli_frames} frames"
+        )
     b = s.budget
     parts.append(
         f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"
@@ -126,17 +133,21 @@ def main(argv: list[str] | None = None) -> int:
     notes: list[str] = []
     if queries is None:
         notes.append("GL timer queries unavailable: per-pass times from glFinish + perf_counter")
-    use_pyrender = "culling" in chosen and not args.no_pyrender
-    if use_pyrender:
+    wants_pyrender = any(s in chosen for s in PYRENDER_SUITES)
+    use_pyrender, why = False, ""
+    if wants_pyrender and not args.no_pyrender:
         use_pyrender, why = pyrender_available()
         if not use_pyrender:
             notes.append(why)
-    elif "culling" in chosen:
-        notes.append("pyrender comparison skipped (--no-pyrender)")
+    elif wants_pyrender:
+        why = "pyrender comparison skipped (--no-pyrender)"
+        notes.append(why)
     progress = Progress(
         suites.planned_tasks(chosen, settings, use_pyrender), enabled=not args.quiet
     )
-    ctx = suites.Context(gl, settings, queries, progress, notes=notes, pyrender=use_pyrender)
+    ctx = suites.Context(
+        gl, settings, queries, progress, notes=notes, pyrender=use_pyrender, pyrender_why=why
+    )
     timer = f"{TIMER_FINISH}; {TIMER_QUERY}" if queries else f"{TIMER_FINISH} (no timer queries)"
     machine = report.machine_info(gl, timer, settings.mode)
     failed = []

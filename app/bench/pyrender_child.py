@@ -4,6 +4,12 @@ Reads a JSON request on stdin ({"scene": scene dict, "size": [w, h], "warmup": n
 "min_frames": n, "max_frames": n, "seconds": s}) and writes one JSON object on stdout:
 {"ok": true, "ms": [...], ...} or {"ok": false, "why": "..."}.
 
+An orbit request (the batch suite, app/bench/batch.py) is {"scene_file": path, "size":
+[w, h], "cameras": [camera dicts as pbs batch's orbit jobs hold them], "out": folder}:
+after one warm-up render of the scene's camera, each camera in turn is set, rendered,
+read back and written as ``out/frame-NNNN.png`` with the project's PNG writer; ``ms``
+holds each frame's time, all of that included.
+
 A separate process because pyrender makes its own EGL context current through PyOpenGL,
 which must not meet the bench's moderngl contexts, and because pyrender is optional (the
 ``bench`` extra): the bench records why when it cannot run.
@@ -43,15 +49,25 @@ def _spot_pose(position: list[float], direction: list[float]):
     return pose
 
 
+def _loaded(request: dict):
+    """The request's scene: a scene file (relative mesh paths resolve beside it) or dict."""
+    if "scene_file" in request:
+        from app.scene.loader import load_scene
+
+        return load_scene(request["scene_file"])
+    from app.bench.scenes import load
+
+    return load(request["scene"])
+
+
 def _build(request: dict):
     import numpy as np
     import pyrender
 
-    from app.bench.scenes import load
     from app.frame.camera import view_matrix
     from app.scene.geometry import build_parts
 
-    loaded = load(request["scene"])
+    loaded = _loaded(request)
     scene_model = loaded.scene
     w, h = request["size"]
     scene = pyrender.Scene(ambient_light=[0.0, 0.0, 0.0], bg_color=[*scene_model.background, 1.0])
@@ -96,10 +112,33 @@ def _build(request: dict):
     camera = pyrender.PerspectiveCamera(
         yfov=math.radians(cam.fov_y), znear=cam.near, zfar=cam.far, aspectRatio=w / h
     )
-    scene.add(camera, pose=np.linalg.inv(view_matrix(cam)))
+    camera_node = scene.add(camera, pose=np.linalg.inv(view_matrix(cam)))
     limit = 4  # pyrender.constants.MAX_N_LIGHTS: per light type and shader
     dropped = sum(max(0, n - limit) for n in kinds.values())
-    return scene, dropped, kinds
+    return scene, dropped, kinds, camera_node
+
+
+def _orbit(renderer, scene, camera_node, request: dict):
+    """Each of the request's cameras set, rendered, read back and written as a PNG: the
+    ms of each frame, and the last colour image."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from app.frame.camera import view_matrix
+    from app.output import write_png
+    from app.scene.model import Camera
+
+    out = Path(request["out"])
+    times = []
+    for k, data in enumerate(request["cameras"]):
+        t0 = time.perf_counter()
+        pose = np.linalg.inv(view_matrix(Camera.model_validate(data)))
+        scene.set_pose(camera_node, pose)
+        color, _depth = renderer.render(scene)
+        write_png(out / f"frame-{k:04d}.png", np.ascontiguousarray(color[..., :3]))
+        times.append((time.perf_counter() - t0) * 1e3)
+    return times, color
 
 
 def run(request: dict) -> dict:
@@ -110,7 +149,7 @@ def run(request: dict) -> dict:
     except Exception as exc:  # not installed, or PyOpenGL cannot reach EGL
         return {"ok": False, "why": f"import pyrender failed: {type(exc).__name__}: {exc}"}
     try:
-        scene, dropped, kinds = _build(request)
+        scene, dropped, kinds, camera_node = _build(request)
         w, h = request["size"]
         renderer = pyrender.OffscreenRenderer(w, h)
     except Exception as exc:
@@ -120,18 +159,22 @@ def run(request: dict) -> dict:
 
         gl_renderer = GL.glGetString(GL.GL_RENDERER).decode()
         start = time.perf_counter()
-        renderer.render(scene)  # warm-up: shader compilation, buffer uploads
+        color, _depth = renderer.render(scene)  # warm-up: shader compiles, buffer uploads
         first_ms = (time.perf_counter() - start) * 1e3
         for _ in range(max(0, int(request.get("warmup", 1)) - 1)):
             renderer.render(scene)
         times: list[float] = []
         started = time.perf_counter()
-        while len(times) < request["max_frames"] and (
-            len(times) < request["min_frames"] or time.perf_counter() - started < request["seconds"]
-        ):
-            t0 = time.perf_counter()
-            color, _depth = renderer.render(scene)
-            times.append((time.perf_counter() - t0) * 1e3)
+        if "cameras" in request:
+            times, color = _orbit(renderer, scene, camera_node, request)
+        else:
+            while len(times) < request["max_frames"] and (
+                len(times) < request["min_frames"]
+                or time.perf_counter() - started < request["seconds"]
+            ):
+                t0 = time.perf_counter()
+                color, _depth = renderer.render(scene)
+                times.append((time.perf_counter() - t0) * 1e3)
         return {
             "ok": True,
             "ms": times,

@@ -19,6 +19,7 @@ import os
 import platform
 import subprocess
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -285,6 +286,42 @@ def _primitives_verdicts(rows: list[dict]) -> list[Verdict]:
     return out
 
 
+BATCH_ONE = "pbs batch, 1 worker"
+BATCH_CLI = "CLI loop (pbs render per frame)"
+BATCH_PYRENDER = "pyrender in-process"
+
+
+def _batch_row(rows: list[dict], match: Callable[[str], bool]) -> dict | None:
+    for row in rows:
+        if row["suite"] == "batch" and match(row["variant"]) and row.get("images_per_s"):
+            return row
+    return None
+
+
+def batch_ratios(rows: list[dict]) -> dict[str, float | None]:
+    """The batch suite's ratios, from rows of one run (None where a way was not measured):
+    pbs with 1 worker against pyrender (images/s of the whole run, and per image once
+    warm), N workers against 1, and the CLI loop's time per image against 1 worker's."""
+    one = _batch_row(rows, lambda v: v == BATCH_ONE)
+    many = _batch_row(rows, lambda v: v.startswith("pbs batch, ") and v != BATCH_ONE)
+    cli = _batch_row(rows, lambda v: v == BATCH_CLI)
+    pyr = _batch_row(rows, lambda v: v == BATCH_PYRENDER)
+    return {
+        "pbs 1 worker / pyrender, images/s (whole run)": (
+            one["images_per_s"] / pyr["images_per_s"] if one and pyr else None
+        ),
+        "pbs 1 worker / pyrender, images/s (warm, per image)": (
+            pyr["steady_ms_median"] / one["steady_ms_median"] if one and pyr else None
+        ),
+        "N workers / 1 worker, images/s": (
+            many["images_per_s"] / one["images_per_s"] if one and many else None
+        ),
+        "CLI loop / pbs batch 1 worker, time per image": (
+            cli["ms_median"] / one["ms_median"] if one and cli else None
+        ),
+    }
+
+
 def _case_row(rows: list[dict], suite: str, case: str, variant: str) -> dict | None:
     for row in rows:
         match = (row["suite"], row["case"], row["variant"]) == (suite, case, variant)
@@ -459,7 +496,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     for v in evaluate_targets(rows):
         lines.append(f"| {v.target} | {v.measured} | **{v.status}** |")
     lines += ["", "## Results", ""]
-    for suite in ("culling", "resolution", "accuracy", "specialization", "startup", "viewer"):
+    suites = ("culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch")
+    for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
         if not members:
             continue
@@ -555,6 +593,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
                     f" {_fmt(r.get('ms_p95'))} | {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} |"
                     f" {r['frames']} |"
                 )
+        elif suite == "batch":
+            lines += _batch_lines(members)
         else:
             lines += [
                 "| case | variant | to PNG ms median | min | max | peak RSS MiB | runs |",
@@ -579,6 +619,30 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     if notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
     return "\n".join(lines)
+
+
+def _batch_lines(members: list[dict]) -> list[str]:
+    """The batch suite's table (images/s median and range over rounds) and its ratios."""
+    lines = [
+        "| orbit | way | images/s | min | max | ms per image (whole run) | ms per image (warm)"
+        " | images | rounds |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in members:
+        if r.get("images_per_s") is None:
+            lines.append(f"| {r['case']} | {r['variant']} | not measured: {r['not_measured']}"
+                         " | | | | | | |")  # fmt: skip
+            continue
+        lines.append(
+            f"| {r['case']} ({r['width']}x{r['height']}) | {r['variant']} |"
+            f" {_fmt(r['images_per_s'], '.2f')} | {_fmt(r['images_per_s_min'], '.2f')} |"
+            f" {_fmt(r['images_per_s_max'], '.2f')} | {_fmt(r['ms_median'], '.0f')} |"
+            f" {_fmt(r['steady_ms_median'], '.0f')} | {r['frames']} | {r['rounds']} |"
+        )
+    ratios = next((r["ratios"] for r in members if "ratios" in r), {})
+    lines += ["", "Ratios, this run:", ""]
+    lines += [f"- {name}: {_fmt(v, '.2f')}" for name, v in ratios.items()]
+    return lines
 
 
 def write_markdown(path: Path, text: str) -> None:

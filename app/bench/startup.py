@@ -34,7 +34,8 @@ def pbs_command() -> list[str]:
     return [str(script)] if script.is_file() else [sys.executable, "-m", "app"]
 
 
-def _repo_pythonpath(env: dict[str, str]) -> str:
+def repo_pythonpath(env: dict[str, str]) -> str:
+    """PYTHONPATH for a child that must import this checkout's ``app`` (the bench's)."""
     return os.pathsep.join(
         [str(Path(__file__).resolve().parents[2]), env.get("PYTHONPATH", "")]
     ).rstrip(os.pathsep)
@@ -46,7 +47,7 @@ def cold_start(
     """One run, through a launcher process (see the module docstring):
     {"to_png_s", "exit_s", "maxrss_mib", "returncode", "command", "stderr"}."""
     env = dict(os.environ)
-    env["PYTHONPATH"] = _repo_pythonpath(env)
+    env["PYTHONPATH"] = repo_pythonpath(env)
     request = json.dumps({"size": size, "shader_cache": shader_cache, "timeout": timeout})
     proc = subprocess.run(
         [sys.executable, "-m", "app.bench.startup", request],
@@ -69,7 +70,7 @@ def spawn_and_measure(
     env = dict(os.environ)
     if not shader_cache:
         env["MESA_SHADER_CACHE_DISABLE"] = "true"
-    env["PYTHONPATH"] = _repo_pythonpath(env)
+    env["PYTHONPATH"] = repo_pythonpath(env)
     with tempfile.TemporaryDirectory(prefix="pbs-bench-") as tmp:
         out = Path(tmp) / "showcase.png"
         cmd = [*pbs_command(), "render", str(scene), "-o", str(out), "-q"]

@@ -93,6 +93,12 @@ class Settings:
     # The layered models' comparisons (RTR4 §9.10-9.12): the grating's twin sums its orders
     # over 16 wavelengths per pixel and light, minutes at the accuracy size.
     layered_size: tuple[int, int] = (320, 180)
+    # Suite batch (app/bench/batch.py): issue 17's orbit, each way in rotated rounds.
+    batch_frames: int = 100
+    batch_size: tuple[int, int] = (512, 512)
+    batch_rounds: int = 3
+    batch_cli_frames: int = 5  # one pbs render process each
+    batch_subdivisions: int = 6  # the mesh: 20 * 4^n triangles
 
 
 FULL = Settings(
@@ -124,6 +130,9 @@ QUICK = replace(
     specialization_size=(640, 360),
     filtering_size=(320, 180),
     layered_size=(160, 90),
+    batch_frames=20,
+    batch_rounds=2,
+    batch_cli_frames=2,
 )
 # For tests/test_bench.py only: every suite runs, on images small enough to take seconds.
 TINY = replace(
@@ -145,6 +154,11 @@ TINY = replace(
     filtering_size=(160, 90),
     layered_size=(64, 36),
     filtering_sweep=2,
+    batch_frames=3,
+    batch_size=(64, 64),
+    batch_rounds=1,
+    batch_cli_frames=1,
+    batch_subdivisions=2,
 )
 
 
@@ -159,6 +173,7 @@ class Context:
     rows: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     pyrender: bool = True
+    pyrender_why: str = ""  # why pyrender is not used, where it is not
     ranges: dict[int, float] = field(default_factory=dict)
 
     def time(self, passes: list[Pass]) -> FrameTimes:
@@ -1075,6 +1090,14 @@ def run_viewer(ctx: Context) -> None:
 
 VIEWER_SIZE = (960, 540)  # the window the latency target is stated for
 
+
+def run_batch(ctx: Context) -> None:
+    """Suite ``batch``: an orbit's images per second, four ways (app/bench/batch.py)."""
+    from app.bench.batch import run_batch as run
+
+    run(ctx)
+
+
 RUNNERS: dict[str, Callable[[Context], None]] = {
     "culling": run_culling,
     "resolution": run_resolution,
@@ -1082,6 +1105,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "specialization": run_specialization,
     "startup": run_startup,
     "viewer": run_viewer,
+    "batch": run_batch,
 }
 
 
@@ -1094,5 +1118,10 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "specialization": specialization_tasks(settings),
         "startup": startup_tasks(settings),
         "viewer": 1,
+        "batch": 0,
     }
+    if "batch" in suites:
+        from app.bench.batch import batch_tasks, batch_workers
+
+        counts["batch"] = batch_tasks(pyrender, settings.batch_rounds, batch_workers())
     return sum(counts[s] for s in suites)
