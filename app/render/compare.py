@@ -94,16 +94,16 @@ def parse_key(key: str, origin: str = "comparison") -> tuple[str | int, ...]:
         pos += 1
 
 
-def _toml(value: object) -> str:
+def toml_value(value: object) -> str:
     """A value as the TOML the user would write (for messages)."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
         return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
     if isinstance(value, dict):
-        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
+        return "{ " + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + " }"
     return repr(value)
 
 
@@ -148,7 +148,7 @@ class CompareSpec:
         try:
             return parse_scene(data, base.path)
         except InputError as exc:
-            why = f"{self.origin} side {side.upper()}: {self.key} = {_toml(value)}"
+            why = f"{self.origin} side {side.upper()}: {self.key} = {toml_value(value)}"
             raise InputError(exc.file, exc.key, f"{exc.message} ({why})") from None
 
     def scenes(
@@ -171,7 +171,7 @@ class CompareSpec:
 
     def describe(self) -> str:
         """``'materials.gold.fresnel: A = "schlick", B = "conductor"'``."""
-        return f"{self.key}: A = {_toml(self.a)}, B = {_toml(self.b)}"
+        return f"{self.key}: A = {toml_value(self.a)}, B = {toml_value(self.b)}"
 
     def touches(self, table: str) -> bool:
         """Whether the key lies in the scene's top-level ``table`` (``"camera"``)."""
