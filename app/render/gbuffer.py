@@ -9,6 +9,8 @@ Layout and precision are documented in docs/gbuffer.md:
                                material of the scene is anisotropic (``tangents``)
   RT4 ``coat_normal`` RG16F|16|32F  octahedral clear-coat normal (x, y); only where a coat's
                                normal differs from its base's (``coat_normals``, RTR4 §9.12)
+  RT5 ``emission`` RGBA16F|32F  emitted radiance RGB, occlusion factor; only where a
+                               material emits or has an occlusion map (``emission``; glTF 2.0)
   z-test          DEPTH24      a renderbuffer, never sampled
 The storage of RT0 and of RT1/RT3/RT4 is the scene's ``render.gbuffer`` (app/common/gbuffer.py
 ENCODINGS): float16, 16-bit unorm (signed values mapped to [0, 1]) or float32.
@@ -16,12 +18,15 @@ ENCODINGS): float16, 16-bit unorm (signed values mapped to [0, 1]) or float32.
 
 from __future__ import annotations
 
+import ctypes
+
 import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import ENCODINGS, GBufferData, encoding_defines
 from app.frame.camera import gl_bytes
+from app.gl.context import gl_function
 from app.gl.shaders import ShaderCache
 from app.reference.encoding import unorm_to_snorm
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
@@ -38,12 +43,15 @@ class GBuffer:
         encoding: str,
         tangents: bool = True,
         coat_normals: bool = False,
+        emission: bool = False,
     ) -> None:
         """``encoding``: a ``render.gbuffer`` value (app/common/gbuffer.py ENCODINGS);
         ``tangents``: allocate RT3 (only anisotropic materials read a tangent);
-        ``coat_normals``: allocate RT4 (only a coat whose normal is not its base's reads it).
-        The targets are bound in this order, RT4 at location 3 where RT3 is absent
-        (passes/gbuffer.frag)."""
+        ``coat_normals``: allocate RT4 (only a coat whose normal is not its base's reads it);
+        ``emission``: allocate RT5 (emitted radiance and occlusion; float16 with the f16
+        encoding, else float32: radiance has no upper bound a unorm could hold).
+        The targets are bound in this order, each optional one at the first location the
+        absent ones leave free (passes/gbuffer.frag)."""
         base, directions = (STORAGE_DTYPES[s] for s in ENCODINGS[encoding])
         self.encoding = encoding
         self.size = size
@@ -52,9 +60,11 @@ class GBuffer:
         self.depth = ctx.texture(size, 2, dtype="f4")
         self.tangent = ctx.texture(size, 4, dtype=directions) if tangents else None
         self.coat_normal = ctx.texture(size, 2, dtype=directions) if coat_normals else None
+        emission_dtype = "f2" if encoding == "f16" else "f4"
+        self.emission = ctx.texture(size, 4, dtype=emission_dtype) if emission else None
         self.zbuffer = ctx.depth_renderbuffer(size)
         targets = [self.base_color, self.normal, self.depth]
-        targets += [t for t in (self.tangent, self.coat_normal) if t is not None]
+        targets += [t for t in (self.tangent, self.coat_normal, self.emission) if t is not None]
         for tex in targets:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
@@ -79,6 +89,9 @@ class GBuffer:
         coat_normal = None
         if self.coat_normal is not None:
             coat_normal = _read_float(self.coat_normal, (0, 1), 2).reshape(h, w, 2)[::-1].copy()
+        emission = None
+        if self.emission is not None:
+            emission = _read_float(self.emission).reshape(h, w, 4)[::-1].copy()
         return GBufferData(
             base_color=base_color[::-1].copy(),
             normal=normal[::-1].copy(),
@@ -86,6 +99,7 @@ class GBuffer:
             tangent=tangent[::-1].copy(),
             material_id=depth_id[::-1, :, 1].copy(),
             coat_normal=coat_normal,
+            emission=emission,
         )
 
     def samplers(self) -> list[tuple[str, moderngl.Texture]]:
@@ -94,6 +108,7 @@ class GBuffer:
         named = [
             ("g_base_color", self.base_color), ("g_normal", self.normal), ("g_depth", self.depth),
             ("g_tangent", self.tangent), ("g_coat_normal", self.coat_normal),
+            ("g_emission", self.emission),
         ]  # fmt: skip
         return [(name, tex) for name, tex in named if tex is not None]
 
@@ -129,6 +144,8 @@ MAP_BITS = {
     "f0": 16,
     "select": 32,
     "coat_normal": 64,
+    "emissive": 128,
+    "occlusion": 256,
 }
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -159,17 +176,68 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
             for k, level in enumerate(tex.levels[1:], start=1):
                 gl_tex.write(data(level), level=k)  # ... which ours then replace
     mipmapped = tex.srgb or len(tex.levels) > 1
-    gl_tex.filter = (
-        moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
-        moderngl.LINEAR,
-    )
+    if tex.min_filter == "linear_mipmap_linear" and tex.mag_filter == "linear":
+        gl_tex.filter = (  # the default: trilinear where there are mips
+            moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
+            moderngl.LINEAR,
+        )
+    else:  # glTF 2.0 sampler filters; a mip filter without mips falls back to its base
+        minify = tex.min_filter if mipmapped else tex.min_filter.split("_mipmap_")[0]
+        gl_tex.filter = (GL_FILTERS[minify], GL_FILTERS[tex.mag_filter])
     gl_tex.anisotropy = MAX_ANISOTROPY
+    if tex.wrap != ("repeat", "repeat"):
+        set_wrap(gl_tex, tex.wrap)
     return gl_tex
+
+
+# glTF 2.0 sampler filters by name -> the GL's (moderngl's constants are the GL enums).
+GL_FILTERS = {
+    "nearest": moderngl.NEAREST,
+    "linear": moderngl.LINEAR,
+    "nearest_mipmap_nearest": moderngl.NEAREST_MIPMAP_NEAREST,
+    "linear_mipmap_nearest": moderngl.LINEAR_MIPMAP_NEAREST,
+    "nearest_mipmap_linear": moderngl.NEAREST_MIPMAP_LINEAR,
+    "linear_mipmap_linear": moderngl.LINEAR_MIPMAP_LINEAR,
+}
+GL_TEXTURE_2D = 0x0DE1
+GL_TEXTURE_WRAP = {"s": 0x2802, "t": 0x2803}
+GL_MIRRORED_REPEAT = 0x8370
+
+
+def set_wrap(gl_tex: moderngl.Texture, wrap: tuple[str, str]) -> None:
+    """glTF 2.0 wrapS/wrapT on a texture: "repeat", "clamp" (CLAMP_TO_EDGE) or "mirror"
+    (MIRRORED_REPEAT). moderngl's repeat_x/y choose only between REPEAT and CLAMP_TO_EDGE,
+    so a mirrored axis sets the GL parameter itself (``_gl_mirror``)."""
+    for axis, mode in zip(("x", "y"), wrap, strict=True):
+        setattr(gl_tex, f"repeat_{axis}", mode != "clamp")
+    mirrored = [
+        GL_TEXTURE_WRAP[axis] for axis, mode in zip("st", wrap, strict=True) if mode == "mirror"
+    ]
+    if mirrored:
+        _gl_mirror(gl_tex, mirrored)
+
+
+def _gl_mirror(gl_tex: moderngl.Texture, parameters: list[int]) -> None:
+    """GL_MIRRORED_REPEAT on the given wrap parameters of ``gl_tex``, through the GL
+    entry points (app/gl/context.py gl_function). moderngl binds its textures
+    again before every use, so the binding changed here is never relied on."""
+    uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
+    bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
+    set_parameter = gl_function(gl_tex.ctx, "glTexParameteri", [enum, enum, int_])
+    bind(GL_TEXTURE_2D, gl_tex.glo)
+    for parameter in parameters:
+        set_parameter(GL_TEXTURE_2D, parameter, GL_MIRRORED_REPEAT)
 
 
 def layer_maps_define(layer: SurfaceLayer) -> int:
     """The LAYER<i>_MAPS bitmask of a layer's maps."""
     return sum(MAP_BITS[name] for name in layer.maps)
+
+
+def masked(part: MeshPart) -> bool:
+    """Whether the part's fragments are alpha-tested: glTF alphaMode MASK on its (first)
+    layer. "blend" is drawn opaque until a forward pass for blended primitives exists."""
+    return part.layers[0].alpha_mode == "mask"
 
 
 class MeshDrawable:
@@ -197,6 +265,9 @@ class MeshDrawable:
             defines["SPECULAR_AA"] = 1
         if part.analytic is not None:
             defines[f"ANALYTIC_{part.analytic.kind.upper()}"] = 1
+        self.alpha_mask = masked(part)
+        if self.alpha_mask:
+            defines["ALPHA_MASK"] = 1
         self.specular_aa = specular_aa
         self.program = shaders.program(*shader_pair, defines)
         self.vbo = ctx.buffer(part.vertices.tobytes())
@@ -293,6 +364,15 @@ class MeshDrawable:
                     f"u_material_id{i}": float(self.material_ids[i]),
                 }
             )
+        first = self.part.layers[0]  # glTF 2.0 core material: layer 0's only
+        values.update(
+            {
+                "u_emissive0": first.emissive,
+                "u_occlusion_strength0": first.occlusion_strength,
+                "u_alpha0": first.alpha,
+                "u_alpha_cutoff0": first.alpha_cutoff,
+            }
+        )
         if (blend := self.part.blend) is not None:
             values["u_blend"] = (blend.threshold, blend.softness)
         if self.specular_aa is not None:

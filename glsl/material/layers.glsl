@@ -6,6 +6,7 @@
 #ifndef PBS_LAYERS_GLSL
 #define PBS_LAYERS_GLSL
 
+#include "gbuffer/layout.glsl"
 #include "geometry/analytic.glsl"
 #include "material/blend.glsl"
 #include "material/filtering.glsl"
@@ -18,6 +19,8 @@
 #define MAP_F0 16               // R: multiplies the dielectric F0 (baked blends)
 #define MAP_SELECT 32           // R: >= 0.5 picks layer 1's material row (baked blends)
 #define MAP_COAT_NORMAL 64      // RGB: the clear coat's tangent-space normal (layer 0 only)
+#define MAP_EMISSIVE 128        // sRGB: multiplies the emitted radiance (layer 0 only)
+#define MAP_OCCLUSION 256       // R: ambient occlusion of environment light (layer 0 only)
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -30,6 +33,9 @@
 #endif
 #ifndef SPECULAR_AA
 #define SPECULAR_AA 0
+#endif
+#ifndef ALPHA_MASK
+#define ALPHA_MASK 0
 #endif
 
 struct LayerConstants {
@@ -59,6 +65,16 @@ uniform sampler2D u_anisotropy_map1;
 uniform sampler2D u_normal_roughness_map1;
 uniform sampler2D u_blend_mask;
 uniform vec2 u_blend;           // threshold, softness
+#endif
+#if GBUFFER_EMISSION
+uniform vec3 u_emissive0;            // emitted radiance (glTF emissiveFactor x strength)
+uniform float u_occlusion_strength0;
+uniform sampler2D u_emissive_map0;
+uniform sampler2D u_occlusion_map0;
+#endif
+#if ALPHA_MASK
+uniform float u_alpha0;              // glTF baseColorFactor's A
+uniform float u_alpha_cutoff0;
 #endif
 #if SPECULAR_AA
 uniform vec2 u_specular_aa;     // sigma^2 of the pixel filter, kappa (the largest alpha^2 added)
@@ -148,5 +164,33 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
 #endif
     return MaterialSample(l, n, nc, t_len > 0.0 ? t : n, id);
 }
+
+#if GBUFFER_EMISSION
+// glTF 2.0 core material: emitted radiance (emissive times the sRGB emissive map) and the
+// occlusion factor 1 + strength (occlusion - 1), layer 0's (a blend's top layer neither
+// emits nor occludes). RT5 of the G-buffer.
+vec4 sample_emission(vec2 uv) {
+    vec3 e = u_emissive0;
+    float ao = 1.0;
+#if (LAYER0_MAPS & MAP_EMISSIVE) != 0
+    e *= sample_map(u_emissive_map0, uv, u_layer0.uv_scale).rgb;
+#endif
+#if (LAYER0_MAPS & MAP_OCCLUSION) != 0
+    ao = 1.0 + u_occlusion_strength0 * (sample_map(u_occlusion_map0, uv, u_layer0.uv_scale).r - 1.0);
+#endif
+    return vec4(e, ao);
+}
+#endif
+
+#if ALPHA_MASK
+// glTF 2.0 coverage: the layer's alpha times the base colour map's A.
+float coverage(vec2 uv) {
+    float a = u_alpha0;
+#if (LAYER0_MAPS & MAP_BASE_COLOR) != 0
+    a *= sample_map(u_base_color_map0, uv, u_layer0.uv_scale).a;
+#endif
+    return a;
+}
+#endif
 
 #endif
