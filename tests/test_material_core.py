@@ -105,27 +105,34 @@ def test_emissive_map_multiplies_emissive(gl, tmp_path):
     assert_matches_twin(hdr, ref, g.covered)
 
 
-def test_occlusion_darkens_only_the_environment(gl, tmp_path):
+@pytest.mark.parametrize("culling", ["tiled", "none"])
+def test_occlusion_darkens_only_the_environment(gl, tmp_path, culling):
     """glTF 2.0: occlusion applies to indirect light. With an occlusion map of 0 and
     strength 0.75 (factor 1 + 0.75 (0 - 1) = 0.25) the environment's part of the image
-    scales by 0.25 and a point light's part is unchanged, bit for bit."""
-    ao = {
-        "occlusion_map": save(tmp_path, "ao.png", np.zeros((8, 8, 3))),
-        "occlusion_strength": 0.75,
-    }
-    env, _, _ = render(gl, scene_data({}, [], environment=True), tmp_path)
-    env_ao, g_env, _ = render(gl, scene_data(ao, [], environment=True), tmp_path)
-    point, _, _ = render(gl, scene_data({}, [POINT]), tmp_path)
-    point_ao, _, _ = render(gl, scene_data(ao, [POINT]), tmp_path)
-    both_ao, g, ref = render(gl, scene_data(ao, [POINT], environment=True), tmp_path)
+    scales by 0.25 and the part of a directional and a point light is unchanged, bit for
+    bit, with tiled light culling (the directional loop, then the masked one) and without
+    (one loop over every light)."""
+    ao_map = save(tmp_path, "ao.png", np.zeros((8, 8, 3)))
+    ao = {"occlusion_map": ao_map, "occlusion_strength": 0.75}
+
+    def image(material: dict, lights: list[dict], environment: bool):
+        data = scene_data(material, lights, environment)
+        data["render"]["light_culling"] = culling
+        return render(gl, data, tmp_path)
+
+    env, _, _ = image({}, [], True)
+    env_ao, g_env, _ = image(ao, [], True)
+    direct, _, _ = image({}, [SUN, POINT], False)
+    direct_ao, _, _ = image(ao, [SUN, POINT], False)
+    both_ao, g, ref = image(ao, [SUN, POINT], True)
     covered = g.covered
     assert covered.all()
     np.testing.assert_array_equal(g_env.emission[..., 3], 0.25)
     np.testing.assert_array_equal(g_env.emission[..., :3], 0.0)  # occlusion emits nothing
     assert env[covered].min() > 0.0
     np.testing.assert_allclose(env_ao[covered], 0.25 * env[covered], rtol=1e-6)
-    np.testing.assert_array_equal(point_ao, point)
-    np.testing.assert_allclose(both_ao[covered], (0.25 * env + point)[covered], rtol=1e-5)
+    np.testing.assert_array_equal(direct_ao, direct)
+    np.testing.assert_allclose(both_ao[covered], (0.25 * env + direct)[covered], rtol=1e-5)
     assert_matches_twin(both_ao, ref, covered)
 
 
@@ -184,3 +191,128 @@ def test_sampler_wrap_modes(gl, tmp_path, wrap):
     seen = ["d" if abs(row[x] - dark) < abs(row[x] - bright) else "b" for x in u_centres]
     expected = {"repeat": "dbdb", "clamp": "dbbb", "mirror": "dbbd"}[wrap]
     assert "".join(seen) == expected
+
+
+def render_part(gl: GLContext, data: dict, tmp_path: Path, edit) -> tuple:
+    """Like ``render``, with ``edit(part, layer)`` applied to the first mesh part before
+    the G-buffer pass is built again: the glTF reader fills MeshPart.colors/uv1 and
+    SurfaceLayer.uv_transforms, which no TOML key sets."""
+    r = Renderer(gl, parse_scene(data, tmp_path / "inline.toml"))
+    try:
+        part = r.frame.parts[0]
+        edit(part, part.layers[0])
+        r._build_gbuffer_pass()
+        r.render()
+        return r.read_hdr().astype(np.float64), r.read_gbuffer()
+    finally:
+        r.release()
+
+
+def view_filling_plane(material: dict) -> dict:
+    """The plane exactly filling the view: u and v span the image, 48 pixels each."""
+    data = scene_data(material, [SUN])
+    data["objects"][0]["size"] = [2.0, 2.0]
+    return data
+
+
+def test_vertex_colors_multiply_base_color_and_coverage(gl, tmp_path):
+    """glTF COLOR_0 multiplies the base colour (RGB) and the coverage (A)."""
+    data = view_filling_plane({"base_color": [0.8, 0.6, 0.4]})
+    color = np.array([0.5, 0.25, 1.0, 0.4], np.float32)
+
+    def paint(part, layer):
+        part.colors = np.tile(color, (len(part.vertices), 1))
+
+    _, g = render_part(gl, data, tmp_path, paint)
+    expected = np.array([0.8, 0.6, 0.4], np.float32) * color[:3]
+    np.testing.assert_allclose(
+        g.base_color[..., :3], np.broadcast_to(expected, (*SIZE, 3)), rtol=1e-6
+    )
+    data["materials"]["m"].update({"alpha_mode": "mask", "alpha_cutoff": 0.5, "alpha": 1.0})
+    _, g = render_part(gl, data, tmp_path, paint)
+    assert not g.covered.any()  # coverage 0.4 < 0.5 everywhere
+    data["materials"]["m"]["alpha_cutoff"] = 0.4
+    _, g = render_part(gl, data, tmp_path, paint)
+    assert g.covered.all()
+
+
+def test_texcoord1_is_read(gl, tmp_path):
+    """A map whose UvTransform names uv_set 1 reads MeshPart.uv1 (TEXCOORD_1): with every
+    vertex's TEXCOORD_1 at one texel's centre the whole plane takes that texel."""
+    from app.textures.maps import UvTransform
+
+    quadrants = np.zeros((2, 2), np.uint8)
+    quadrants[0, 1] = 200  # the top-right texel (u > 0.5, v > 0.5 in OpenGL's UVs)
+    metal = save(tmp_path, "q.png", np.dstack([quadrants] * 3))
+    data = view_filling_plane({"metallic": 1.0, "metallic_map": metal})
+
+    def second_set(part, layer):
+        part.uv1 = np.tile(np.float32([0.75, 0.75]), (len(part.vertices), 1))
+        layer.uv_transforms["metallic"] = UvTransform(uv_set=1)
+
+    _, g0 = render_part(gl, data, tmp_path, lambda part, layer: None)
+    _, g1 = render_part(gl, data, tmp_path, second_set)
+    assert g0.base_color[..., 3].std() > 0.1  # TEXCOORD_0 spans the map
+    np.testing.assert_allclose(g1.base_color[..., 3], 200 / 255, atol=1e-3)
+
+
+def row_ramp(axis: int) -> np.ndarray:
+    """16 x 16 8-bit texels rising by 16 per texel along ``axis`` (0: down the image's
+    rows, 1: along its columns): a linear ramp, which bilinear filtering reproduces
+    exactly between texel centres."""
+    ramp = (16 * np.arange(16) + 8).astype(np.uint8)
+    grid = np.broadcast_to(ramp[:, None] if axis == 0 else ramp[None, :], (16, 16))
+    return np.dstack([grid] * 3)
+
+
+@pytest.mark.parametrize("axis", [0, 1], ids=["v", "u"])
+def test_texture_transform_offset_moves_by_texels(gl, tmp_path, axis):
+    """KHR_texture_transform: uv' = uv + offset. An offset of 2/16 on a 16-texel ramp
+    makes every pixel read the value 2 texels further along the image (down its rows for
+    v: glTF's v runs down the image), i.e. the ramp's value plus 2 steps of 16/255, away
+    from the wrap seam."""
+    from app.textures.maps import UvTransform
+
+    metal = save(tmp_path, "ramp.png", row_ramp(axis))
+    data = view_filling_plane({"metallic": 1.0, "metallic_map": metal})
+    offset = (0.0, 2 / 16) if axis == 0 else (2 / 16, 0.0)
+
+    def move(part, layer):
+        layer.uv_transforms["metallic"] = UvTransform(offset=offset)
+
+    _, g0 = render_part(gl, data, tmp_path, lambda part, layer: None)
+    _, g1 = render_part(gl, data, tmp_path, move)
+    a, b = g0.base_color[..., 3], g1.base_color[..., 3]
+    step = 16 / 255
+    # Away from the wrap seam: a's at the image's edges (where repeat blends the first and
+    # last texels), b's where a is within 2.5 texels of the ramp's end.
+    inner = np.zeros(a.shape, bool)
+    inner[3:-3, 3:-3] = True
+    inner &= a < 13.4 * step
+    assert inner.mean() > 0.5
+    np.testing.assert_allclose(b[inner], a[inner] + 2 * step, atol=2e-3)
+
+
+def test_texture_transform_on_an_analytic_sphere(gl, tmp_path):
+    """An analytic sphere's maps (textureGrad with its own derivatives) move too: a scale
+    of 2 doubles how often the texture repeats, the same as uv_scale 2 does, down to the
+    mip level: a checker of 2-texel cells is minified about 2:1, so derivatives not taken
+    through the transform would pick a sharper level than uv_scale's."""
+    from app.textures.maps import UvTransform
+
+    cells = (np.indices((64, 64)) // 2).sum(axis=0) % 2
+    metal = save(tmp_path, "checker.png", np.dstack([cells * 255] * 3))
+    data = scene_data({"metallic": 1.0, "metallic_map": metal}, [SUN])
+    data["objects"] = [{"shape": "sphere", "radius": 0.5, "material": "m"}]
+    data["camera"] = {"position": [0, 0, 2], "target": [0, 0, 0]}
+
+    def scale(part, layer):
+        assert part.analytic is not None
+        layer.uv_transforms["metallic"] = UvTransform(scale=(2.0, 2.0))
+
+    _, g1 = render_part(gl, data, tmp_path, scale)
+    data["materials"]["m"]["uv_scale"] = [2.0, 2.0]
+    _, g2 = render_part(gl, data, tmp_path, lambda part, layer: None)
+    assert g1.covered.sum() > 100 and np.array_equal(g1.covered, g2.covered)
+    cov = g1.covered
+    np.testing.assert_allclose(g1.base_color[cov][:, 3], g2.base_color[cov][:, 3], atol=2e-3)
