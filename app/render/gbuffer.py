@@ -30,7 +30,7 @@ from app.gl.context import gl_function
 from app.gl.shaders import ShaderCache
 from app.reference.encoding import unorm_to_snorm
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
-from app.textures.maps import SurfaceLayer, Texture
+from app.textures.maps import SurfaceLayer, Texture, UvTransform
 
 
 class GBuffer:
@@ -234,6 +234,73 @@ def layer_maps_define(layer: SurfaceLayer) -> int:
     return sum(MAP_BITS[name] for name in layer.maps)
 
 
+# Map keys in the order of their MAP_INDEX_* (glsl/material/layers.glsl): bit = 1 << index.
+MAP_INDEX = {name: bit.bit_length() - 1 for name, bit in MAP_BITS.items()}
+
+
+def uv_matrix(t: UvTransform) -> np.ndarray:
+    """KHR_texture_transform's uv' = T(offset) R(rotation) S(scale) uv as a 3x3 matrix in
+    this project's UV space. The extension defines it in glTF's, whose v runs down the
+    image (origin top left); ours runs up (textures are uploaded bottom row first), so the
+    matrix is conjugated by the flip F: v -> 1 - v (F = F^-1): M = F T R S F. The rotation
+    is the extension's GLSL matrix, mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1) (glTF
+    KHR_texture_transform, Khronos 2018), written here by rows."""
+    c, s = np.cos(t.rotation), np.sin(t.rotation)
+    translate = np.array([[1.0, 0.0, t.offset[0]], [0.0, 1.0, t.offset[1]], [0.0, 0.0, 1.0]])
+    rotate = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    scale = np.diag([t.scale[0], t.scale[1], 1.0])
+    flip = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 1.0], [0.0, 0.0, 1.0]])
+    return flip @ translate @ rotate @ scale @ flip
+
+
+def uv_defines(part: MeshPart) -> dict[str, int]:
+    """UV_TRANSFORM_MAPS0 (layer 0's maps with a UV set or transform of their own) and
+    UV_SET1_MAPS0 (those reading TEXCOORD_1), VERTEX_UV1 where one does and the part has
+    TEXCOORD_1, VERTEX_COLOR where it has COLOR_0; nothing for a part without either
+    whose maps all read TEXCOORD_0 untransformed."""
+    layer = part.layers[0]
+    moved = {k: t for k, t in layer.uv_transforms.items() if k in layer.maps and not t.identity}
+    set1 = {k for k, t in moved.items() if t.uv_set == 1 and part.uv1 is not None}
+    defines: dict[str, int] = {}
+    if moved:
+        defines["UV_TRANSFORM_MAPS0"] = sum(MAP_BITS[k] for k in moved)
+    if set1:
+        defines["UV_SET1_MAPS0"] = sum(MAP_BITS[k] for k in set1)
+        defines["VERTEX_UV1"] = 1
+    if part.colors is not None and part.analytic is None:
+        defines["VERTEX_COLOR"] = 1
+    return defines
+
+
+def uv_transform_bytes(layer: SurfaceLayer) -> bytes:
+    """u_uv_transform0[9]: each map index's matrix (identity where the map has none), as
+    the GL's column-major float32 mat3s."""
+    out = np.tile(np.eye(3), (len(MAP_INDEX), 1, 1))
+    for key, t in layer.uv_transforms.items():
+        if key in MAP_INDEX:
+            out[MAP_INDEX[key]] = uv_matrix(t)
+    return np.ascontiguousarray(out.transpose(0, 2, 1), np.float32).tobytes()
+
+
+def vertex_extras(part: MeshPart) -> tuple[np.ndarray, str, tuple[str, ...]] | None:
+    """The second vertex buffer of a part with COLOR_0 and/or a TEXCOORD_1 that a map
+    reads: (interleaved float32 data, moderngl format, attribute names); None otherwise,
+    so that every other part keeps the one 12-float buffer."""
+    defines = uv_defines(part)
+    columns, fmt, names = [], [], []
+    if defines.get("VERTEX_COLOR"):
+        columns.append(np.asarray(part.colors, np.float32).reshape(-1, 4))
+        fmt.append("4f")
+        names.append("in_color")
+    if defines.get("VERTEX_UV1"):
+        columns.append(np.asarray(part.uv1, np.float32).reshape(-1, 2))
+        fmt.append("2f")
+        names.append("in_uv1")
+    if not columns:
+        return None
+    return np.ascontiguousarray(np.hstack(columns), np.float32), " ".join(fmt), tuple(names)
+
+
 def masked(part: MeshPart) -> bool:
     """Whether the part's fragments are alpha-tested: glTF alphaMode MASK on its (first)
     layer. "blend" is drawn opaque until a forward pass for blended primitives exists."""
@@ -268,16 +335,19 @@ class MeshDrawable:
         self.alpha_mask = masked(part)
         if self.alpha_mask:
             defines["ALPHA_MASK"] = 1
+        defines.update(uv_defines(part))
+        extra = vertex_extras(part)
         self.specular_aa = specular_aa
         self.program = shaders.program(*shader_pair, defines)
         self.vbo = ctx.buffer(part.vertices.tobytes())
         self.ibo = ctx.buffer(part.indices.tobytes())
-        self.vao = ctx.vertex_array(
-            self.program,
-            [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)],
-            self.ibo,
-            skip_errors=True,
-        )
+        buffers = [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)]
+        self.extra_vbo = None  # COLOR_0 / TEXCOORD_1: a second buffer, only where present
+        if extra is not None:
+            data, fmt, names = extra
+            self.extra_vbo = ctx.buffer(data.tobytes())
+            buffers.append((self.extra_vbo, fmt, *names))
+        self.vao = ctx.vertex_array(self.program, buffers, self.ibo, skip_errors=True)
         # (uniform name, texture) in the order they take texture units.
         self.textures: list[tuple[str, moderngl.Texture]] = []
         for i, layer in enumerate(part.layers[:2] if part.blend else part.layers[:1]):
@@ -365,6 +435,9 @@ class MeshDrawable:
                 }
             )
         first = self.part.layers[0]  # glTF 2.0 core material: layer 0's only
+        if "u_uv_transform0" in prog:  # UV_TRANSFORM_MAPS0: identity for the others
+            uniform = prog["u_uv_transform0"]  # the GL may trim the array past its last use
+            uniform.write(uv_transform_bytes(first)[: uniform.array_length * 36])
         values.update(
             {
                 "u_emissive0": first.emissive,
@@ -408,6 +481,8 @@ class MeshDrawable:
     def release(self) -> None:
         for obj in (self.vao, self.vbo, self.ibo, *(t for _, t in self.textures)):
             obj.release()
+        if self.extra_vbo is not None:
+            self.extra_vbo.release()
 
 
 class GBufferPass:

@@ -9,6 +9,12 @@ in vec3 v_normal;
 in vec2 v_uv;
 in vec4 v_tangent;
 in float v_view_depth;
+#if VERTEX_COLOR
+in vec4 v_color;
+#endif
+#if VERTEX_UV1
+in vec2 v_uv1;
+#endif
 
 layout(location = 0) out vec4 g_base_color;
 layout(location = 1) out vec4 g_normal;
@@ -37,6 +43,12 @@ layout(location = 3) out vec4 g_emission;
 #endif
 
 void main() {
+#if VERTEX_COLOR
+    vertex_color = v_color;   // material/layers.glsl multiplies base colour and coverage
+#endif
+#if VERTEX_UV1
+    vertex_uv1 = v_uv1;       // the maps that read TEXCOORD_1 (UV_SET1_MAPS0)
+#endif
 #if ANALYTIC
     // The exact surface under the pixel centre (geometry/analytic.glsl); the proxy's
     // interpolated attributes are unused.
