@@ -316,3 +316,26 @@ def test_texture_transform_on_an_analytic_sphere(gl, tmp_path):
     assert g1.covered.sum() > 100 and np.array_equal(g1.covered, g2.covered)
     cov = g1.covered
     np.testing.assert_allclose(g1.base_color[cov][:, 3], g2.base_color[cov][:, 3], atol=2e-3)
+
+
+@pytest.mark.parametrize(
+    ("material", "key"),
+    [
+        ({"alpha_cutoff": 0.3}, "alpha_cutoff"),  # without alpha_mode = "mask"
+        ({"alpha_mode": "cutout"}, "alpha_mode"),
+        ({"alpha": 1.5}, "alpha"),
+        ({"emissive": [-1.0, 0.0, 0.0]}, "emissive"),
+        ({"emissive": [1.0, 1.0, 1.0], "emissive_strength": 2e15}, "emissive_strength"),
+        ({"emissive_map": "e.png"}, "emissive_map"),  # multiplies a black emissive
+        ({"occlusion_strength": 0.5}, "occlusion_strength"),  # without occlusion_map
+        ({"occlusion_map": "missing.png"}, "occlusion_map"),
+    ],
+)
+def test_bad_core_material_keys_name_the_key(tmp_path, material, key):
+    """Bad input is one InputError naming the material key (exit 2 on the command line)."""
+    from app.errors import InputError
+
+    save(tmp_path, "e.png", np.zeros((4, 4, 3)))
+    with pytest.raises(InputError) as caught:
+        parse_scene(scene_data(material, []), tmp_path / "inline.toml")
+    assert key in str(caught.value)
