@@ -339,3 +339,29 @@ def test_bad_core_material_keys_name_the_key(tmp_path, material, key):
     with pytest.raises(InputError) as caught:
         parse_scene(scene_data(material, []), tmp_path / "inline.toml")
     assert key in str(caught.value)
+
+
+def test_debug_views_show_emission_and_occlusion(gl, tmp_path):
+    """``--debug emission`` shows RT5's radiance and ``--debug occlusion`` its factor, the
+    very values read back from the G-buffer."""
+    from app.render.debug_views import DebugPass
+
+    ao = save(tmp_path, "ao.png", np.full((8, 8, 3), 128))
+    material = {"emissive": [0.5, 0.2, 0.1], "occlusion_map": ao, "occlusion_strength": 0.5}
+    r = Renderer(gl, parse_scene(scene_data(material, [SUN]), tmp_path / "inline.toml"))
+    try:
+        r.render()
+        g = r.read_gbuffer()
+        debug = DebugPass(r)
+        try:
+            debug.run("emission")
+            emission = debug.read_values()
+            debug.run("occlusion")
+            occlusion = debug.read_values()
+        finally:
+            debug.release()
+    finally:
+        r.release()
+    np.testing.assert_array_equal(emission[..., :3], g.emission[..., :3])
+    np.testing.assert_array_equal(occlusion[..., 0], g.emission[..., 3])
+    np.testing.assert_allclose(g.emission[..., 3], 1.0 + 0.5 * (128 / 255 - 1.0), atol=1e-3)
