@@ -365,3 +365,35 @@ def test_debug_views_show_emission_and_occlusion(gl, tmp_path):
     np.testing.assert_array_equal(emission[..., :3], g.emission[..., :3])
     np.testing.assert_array_equal(occlusion[..., 0], g.emission[..., 3])
     np.testing.assert_allclose(g.emission[..., 3], 1.0 + 0.5 * (128 / 255 - 1.0), atol=1e-3)
+
+
+def test_alpha_mode_edit_recompiles_the_alpha_test(gl, tmp_path):
+    """Renderer.set_materials with a new alpha_mode rebuilds the G-buffer pass (the alpha
+    test is compiled in or out): "mask" with coverage below the cutoff empties the frame,
+    "opaque" fills it again."""
+    from app.scene.model import Material
+
+    data = scene_data({"alpha": 0.2}, [SUN])
+    r = Renderer(gl, parse_scene(data, tmp_path / "inline.toml"))
+    try:
+        r.render()
+        assert r.read_gbuffer().covered.all()
+        masked = Material.model_validate({"roughness": 0.5, "alpha": 0.2, "alpha_mode": "mask"})
+        r.set_materials({"m": masked})
+        r.render()
+        assert not r.read_gbuffer().covered.any()
+        r.set_materials({"m": Material.model_validate({"roughness": 0.5, "alpha": 0.2})})
+        r.render()
+        assert r.read_gbuffer().covered.all()
+    finally:
+        r.release()
+
+
+def test_raycaster_refuses_emission(tmp_path):
+    """The float64 ray-caster shades material constants only: an emitting material is
+    refused by key rather than drawn without its emission."""
+    from app.frame.raycast import primitive_material
+    from app.scene.model import Material
+
+    with pytest.raises(ValueError, match="emissive"):
+        primitive_material("m", Material.model_validate({"emissive": [1.0, 0.0, 0.0]}))
