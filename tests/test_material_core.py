@@ -397,3 +397,27 @@ def test_raycaster_refuses_emission(tmp_path):
 
     with pytest.raises(ValueError, match="emissive"):
         primitive_material("m", Material.model_validate({"emissive": [1.0, 0.0, 0.0]}))
+
+
+def test_forward_pass_cuts_the_same_pixels(gl, tmp_path):
+    """The bench's forward pass runs the same alpha test: its uncovered pixels (exactly the
+    background) are the deferred G-buffer's."""
+    from app.bench.forward import ForwardRenderer
+
+    a = blocks([0.2, 0.9, 0.5, 0.7])
+    base = save(tmp_path, "rgba.png", np.dstack([np.full_like(a, 255)] * 3 + [a]))
+    material = {"base_color_map": base, "alpha_mode": "mask", "alpha_cutoff": 0.6}
+    data = scene_data(material, [SUN])
+    data["background"] = [0.25, 0.5, 0.75]
+    loaded = parse_scene(data, tmp_path / "inline.toml")
+    deferred, forward = Renderer(gl, loaded), ForwardRenderer(gl, loaded, SIZE)
+    try:
+        deferred.render()
+        forward.render()
+        covered = deferred.read_gbuffer().covered
+        background = np.all(forward.read_hdr() == np.float32([0.25, 0.5, 0.75]), axis=-1)
+    finally:
+        deferred.release()
+        forward.release()
+    assert 0.2 < covered.mean() < 0.8
+    np.testing.assert_array_equal(background, ~covered)
