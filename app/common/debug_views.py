@@ -19,6 +19,8 @@ GPU_DEBUG_VIEWS = (
     "diffuse",
     "light",
     "tiles",
+    "emission",
+    "occlusion",
 )
 DEBUG_VIEW_CODE = {name: code for code, name in enumerate(GPU_DEBUG_VIEWS)}
 

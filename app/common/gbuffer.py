@@ -65,6 +65,9 @@ class GBufferData:
     # normal target (no coat's normal differs from its base's: the coat shades with the
     # normal above)
     coat_normal: np.ndarray | None = None
+    # (H, W, 4): emitted radiance (linear RGB), occlusion factor of environment light; None
+    # where the G-buffer has no RT5 (nothing emits and no occlusion map: glTF 2.0 core)
+    emission: np.ndarray | None = None
 
     @property
     def covered(self) -> np.ndarray:

@@ -50,7 +50,7 @@ def environment_lights(env: Environment | None) -> list[PunctualLight]:
     color = np.asarray(env.radiance, float) * (4.0 / env.samples)
     return [
         # light travels from direction d towards the surface
-        PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, color)
+        PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, color, environment=True)
         for d in fibonacci_sphere(env.samples)
     ]
 

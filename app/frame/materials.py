@@ -55,6 +55,9 @@ class MaterialTable:
     # A clear coat of the frame shades with a normal other than its base's (a coat over a
     # normal-mapped base, or a coat normal map: SurfaceLayer.own_coat_normal; RTR4 §9.12).
     needs_coat_normals: bool = False
+    # A layer of the frame emits or has an occlusion map (glTF 2.0 core material, issue 17):
+    # only then does the G-buffer carry RT5 (emitted radiance, occlusion).
+    needs_emission: bool = False
 
     @classmethod
     def build(cls, materials: list[MaterialParams]) -> tuple[MaterialTable, list[int]]:
@@ -87,11 +90,16 @@ class MaterialTable:
 
     def gbuffer_defines(self) -> dict[str, int]:
         """The G-buffer's optional targets as the defines of every pass that writes or
-        decodes it (gbuffer/layout.glsl): RT3 (tangent) and RT4 (coat normal)."""
-        return {
+        decodes it (gbuffer/layout.glsl): RT3 (tangent), RT4 (coat normal) and RT5
+        (emission and occlusion; named only where present, so that every other scene's
+        programs compile exactly as before it existed)."""
+        defines = {
             "GBUFFER_TANGENT": int(self.needs_tangents),
             "GBUFFER_COAT_NORMAL": int(self.needs_coat_normals),
         }
+        if self.needs_emission:
+            defines["GBUFFER_EMISSION"] = 1
+        return defines
 
     def packed(self) -> np.ndarray:
         """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params."""
@@ -104,6 +112,10 @@ def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]
     layers = [layer for p in parts for layer in p.layers]
     table, flat = MaterialTable.build([layer.params for layer in layers])
     table.needs_coat_normals = any(layer.own_coat_normal for layer in layers)
+    table.needs_emission = any(
+        any(layer.emissive) or "emissive" in layer.maps or "occlusion" in layer.maps
+        for layer in layers
+    )
     ids, i = [], 0
     for p in parts:
         ids.append(flat[i : i + len(p.layers)])

@@ -49,6 +49,11 @@ def primitive_material(name: str, m: Material) -> PrimitiveMaterial:
         raise ValueError(f"materials.{name}: the ray-caster takes no texture maps ({maps[0]})")
     if m.blend is not None:
         raise ValueError(f"materials.{name}: the ray-caster takes no blends (blend)")
+    if any(m.emission) or m.alpha_mode == "mask":  # glTF 2.0 core material (issue 17)
+        key = "emissive" if any(m.emission) else "alpha_mode"
+        raise ValueError(
+            f"materials.{name}: the ray-caster takes no emission or alpha mask ({key})"
+        )
     p = m.resolve()
     surface = Surface(
         np.asarray(p.base_color, np.float64), p.metallic, p.roughness, p.f0, p.anisotropy

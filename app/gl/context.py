@@ -128,7 +128,21 @@ def _create_osmesa() -> GLContext:
     if ctx.version_code < REQUIRED_GL:
         loader.release()
         raise ContextError(f"OSMesa gave OpenGL {ctx.version_code}, need {REQUIRED_GL}")
+    ctx.extra = loader  # gl_function: GL entry points moderngl does not wrap
     return GLContext(ctx, "osmesa", loader)
+
+
+def gl_function(ctx: moderngl.Context, name: str, argtypes: list[type]) -> ctypes._CFuncPtr:
+    """A GL entry point of ``ctx`` that moderngl does not wrap (e.g. glTexParameteri for
+    GL_MIRRORED_REPEAT), called with ``argtypes``: OSMesa's own address for an OSMesa
+    context; else the system libGL's, which glvnd dispatches to the current EGL context."""
+    if isinstance(ctx.extra, _OSMesaLoader):
+        address = ctx.extra.load_opengl_function(name)
+        return ctypes.CFUNCTYPE(None, *argtypes)(address)
+    lib = ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
+    function = getattr(lib, name)
+    function.argtypes, function.restype = argtypes, None
+    return function
 
 
 def create_context(backend: Backend = "auto") -> GLContext:

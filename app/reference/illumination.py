@@ -40,23 +40,30 @@ def illumination_sum(
     lights: list[PunctualLight],
     terms: str = "all",
     nc: np.ndarray | None = None,
+    occlusion: np.ndarray | None = None,
 ) -> np.ndarray:
     """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
     ``terms`` as in ``brdf_eval``. ``nc``: the clear coat's normals where the G-buffer has
     them (RT4): a coated model's layers then take their own cosines
-    (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL."""
+    (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL. ``occlusion``
+    (...,): the G-buffer's occlusion factor (RT5), which multiplies the terms of the
+    environment's lights only (glTF 2.0: occlusion applies to indirect light)."""
     Lo = np.zeros(np.shape(p), np.float64)
     for light in lights:
         c_light, l = light_at(light, p)
+        scale = 1.0
+        if occlusion is not None and light.environment:
+            scale = np.asarray(occlusion, np.float64)[..., None]
         if nc is not None and model.clearcoat != "none":
-            Lo += brdf_eval_layered_cos(s, params, model, n, nc, t, l, v, terms=terms) * c_light
+            layered = brdf_eval_layered_cos(s, params, model, n, nc, t, l, v, terms=terms)
+            Lo += scale * (layered * c_light)
             continue
         NoL = dot(n, l)
         lit = NoL > 0.0
         if not np.any(lit):
             continue
         f = brdf_eval(s, params, model, n, t, l, v, terms=terms, nc=nc)
-        Lo += np.where(lit[..., None], f * c_light * NoL[..., None], 0.0)
+        Lo += scale * np.where(lit[..., None], f * c_light * NoL[..., None], 0.0)
     return PI * Lo
 
 
@@ -80,6 +87,8 @@ class DecodedGBuffer:
     n: np.ndarray  # (C, 3) unit normal (v where the stored normal is lost)
     t: np.ndarray  # (C, 3) tangent as stored (brdf_eval orthonormalises it)
     nc: np.ndarray | None = None  # (C, 3) unit coat normal (n where lost); None without RT4
+    # (C, 4) emitted radiance and occlusion factor; None without RT5 (glTF 2.0 core)
+    emission: np.ndarray | None = None
 
 
 def surface_positions(gbuffer: GBufferData, camera: CameraFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -109,7 +118,10 @@ def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
     nc = None  # no RT4: every coat shades with n
     if gbuffer.coat_normal is not None:
         nc = sanitize_direction(oct_decode(np.asarray(gbuffer.coat_normal, np.float64)[covered]), n)
-    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc)
+    emission = None  # no RT5: nothing emits, nothing is occluded
+    if gbuffer.emission is not None:
+        emission = np.asarray(gbuffer.emission, np.float64)[covered]
+    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc, emission)
 
 
 def shade_gbuffer(
@@ -137,6 +149,9 @@ def shade_gbuffer(
         shaded[sel] = illumination_sum(
             g.surface.select(sel), params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel],
             lights, terms, None if g.nc is None else g.nc[sel],
+            None if g.emission is None else g.emission[sel, 3],
         )  # fmt: skip
+    if g.emission is not None:  # emitted radiance, once per pixel after the sum
+        shaded += g.emission[:, :3]
     out[g.covered] = shaded
     return out

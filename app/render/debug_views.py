@@ -40,6 +40,9 @@ view               raw value                                     display
 ``light``          pi f c_light (n.l)+ of the light, RGB         sRGB of x / (1 + x)
 ``tiles``          local lights in the pixel's 8x8 tile          ``tile_ramp``: a fixed
                    (popcount of the culler's mask)               heat ramp on log2(1 + n)
+``emission``       emitted radiance, RGB (RT5; 0 without it)     sRGB of x / (1 + x)
+``occlusion``      the occlusion factor on environment light      grey
+                   (RT5; 1 without it; glTF 2.0)
 ``nan``            the HDR image (app/render/debug.py)           its NaN/Inf view
 =================  ============================================  ==========================
 
@@ -87,6 +90,8 @@ DEBUG_VIEWS: dict[str, str] = {
     "diffuse": "f_diffuse for that light, as x/(1+x) of x = pi f_diffuse",
     "light": "that light's pi f c_light (n.l)+ alone, shown as x/(1+x)",
     "tiles": "local lights per 8x8 tile of the culler, fixed heat ramp",
+    "emission": "emitted radiance (glTF emissive), shown as x/(1+x)",
+    "occlusion": "occlusion factor on environment light, grey 0..1 (1 without a map)",
     "nan": "NaN/Inf/negative HDR pixels in colours, counts printed (even -q)",
 }
 assert tuple(DEBUG_VIEWS)[: len(GPU_DEBUG_VIEWS)] == GPU_DEBUG_VIEWS
@@ -164,7 +169,7 @@ def display_image(view: str, values: np.ndarray) -> np.ndarray:
         out = to_bytes(srgb_encode(rgb))
     elif view in ("normal", "coat_normal"):
         out = to_bytes(rgb * 0.5 + 0.5)
-    elif view in ("roughness", "metallic", "g2"):
+    elif view in ("roughness", "metallic", "g2", "occlusion"):
         out = to_bytes(rgb)
     elif view == "depth":
         z = rgb[..., 0]
@@ -180,7 +185,7 @@ def display_image(view: str, values: np.ndarray) -> np.ndarray:
     elif view == "ndf":
         with np.errstate(divide="ignore"):  # D = 0: log10 -inf, black
             out = to_bytes((np.log10(np.maximum(rgb, 0.0)) - NDF_LOG_MIN) / NDF_LOG_DECADES)
-    elif view == "light":
+    elif view in ("light", "emission"):
         out = to_bytes(srgb_encode(compress(rgb)))
     else:
         raise ValueError(f"unknown debug view '{view}' (one of {', '.join(DEBUG_VIEWS)})")

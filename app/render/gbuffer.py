@@ -9,6 +9,8 @@ Layout and precision are documented in docs/gbuffer.md:
                                material of the scene is anisotropic (``tangents``)
   RT4 ``coat_normal`` RG16F|16|32F  octahedral clear-coat normal (x, y); only where a coat's
                                normal differs from its base's (``coat_normals``, RTR4 §9.12)
+  RT5 ``emission`` RGBA16F|32F  emitted radiance RGB, occlusion factor; only where a
+                               material emits or has an occlusion map (``emission``; glTF 2.0)
   z-test          DEPTH24      a renderbuffer, never sampled
 The storage of RT0 and of RT1/RT3/RT4 is the scene's ``render.gbuffer`` (app/common/gbuffer.py
 ENCODINGS): float16, 16-bit unorm (signed values mapped to [0, 1]) or float32.
@@ -16,16 +18,19 @@ ENCODINGS): float16, 16-bit unorm (signed values mapped to [0, 1]) or float32.
 
 from __future__ import annotations
 
+import ctypes
+
 import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import ENCODINGS, GBufferData, encoding_defines
 from app.frame.camera import gl_bytes
+from app.gl.context import gl_function
 from app.gl.shaders import ShaderCache
 from app.reference.encoding import unorm_to_snorm
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
-from app.textures.maps import SurfaceLayer, Texture
+from app.textures.maps import SurfaceLayer, Texture, UvTransform
 
 
 class GBuffer:
@@ -38,12 +43,15 @@ class GBuffer:
         encoding: str,
         tangents: bool = True,
         coat_normals: bool = False,
+        emission: bool = False,
     ) -> None:
         """``encoding``: a ``render.gbuffer`` value (app/common/gbuffer.py ENCODINGS);
         ``tangents``: allocate RT3 (only anisotropic materials read a tangent);
-        ``coat_normals``: allocate RT4 (only a coat whose normal is not its base's reads it).
-        The targets are bound in this order, RT4 at location 3 where RT3 is absent
-        (passes/gbuffer.frag)."""
+        ``coat_normals``: allocate RT4 (only a coat whose normal is not its base's reads it);
+        ``emission``: allocate RT5 (emitted radiance and occlusion; float16 with the f16
+        encoding, else float32: radiance has no upper bound a unorm could hold).
+        The targets are bound in this order, each optional one at the first location the
+        absent ones leave free (passes/gbuffer.frag)."""
         base, directions = (STORAGE_DTYPES[s] for s in ENCODINGS[encoding])
         self.encoding = encoding
         self.size = size
@@ -52,9 +60,11 @@ class GBuffer:
         self.depth = ctx.texture(size, 2, dtype="f4")
         self.tangent = ctx.texture(size, 4, dtype=directions) if tangents else None
         self.coat_normal = ctx.texture(size, 2, dtype=directions) if coat_normals else None
+        emission_dtype = "f2" if encoding == "f16" else "f4"
+        self.emission = ctx.texture(size, 4, dtype=emission_dtype) if emission else None
         self.zbuffer = ctx.depth_renderbuffer(size)
         targets = [self.base_color, self.normal, self.depth]
-        targets += [t for t in (self.tangent, self.coat_normal) if t is not None]
+        targets += [t for t in (self.tangent, self.coat_normal, self.emission) if t is not None]
         for tex in targets:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
@@ -79,6 +89,9 @@ class GBuffer:
         coat_normal = None
         if self.coat_normal is not None:
             coat_normal = _read_float(self.coat_normal, (0, 1), 2).reshape(h, w, 2)[::-1].copy()
+        emission = None
+        if self.emission is not None:
+            emission = _read_float(self.emission).reshape(h, w, 4)[::-1].copy()
         return GBufferData(
             base_color=base_color[::-1].copy(),
             normal=normal[::-1].copy(),
@@ -86,6 +99,7 @@ class GBuffer:
             tangent=tangent[::-1].copy(),
             material_id=depth_id[::-1, :, 1].copy(),
             coat_normal=coat_normal,
+            emission=emission,
         )
 
     def samplers(self) -> list[tuple[str, moderngl.Texture]]:
@@ -94,6 +108,7 @@ class GBuffer:
         named = [
             ("g_base_color", self.base_color), ("g_normal", self.normal), ("g_depth", self.depth),
             ("g_tangent", self.tangent), ("g_coat_normal", self.coat_normal),
+            ("g_emission", self.emission),
         ]  # fmt: skip
         return [(name, tex) for name, tex in named if tex is not None]
 
@@ -129,6 +144,8 @@ MAP_BITS = {
     "f0": 16,
     "select": 32,
     "coat_normal": 64,
+    "emissive": 128,
+    "occlusion": 256,
 }
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -159,17 +176,135 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
             for k, level in enumerate(tex.levels[1:], start=1):
                 gl_tex.write(data(level), level=k)  # ... which ours then replace
     mipmapped = tex.srgb or len(tex.levels) > 1
-    gl_tex.filter = (
-        moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
-        moderngl.LINEAR,
-    )
+    if tex.min_filter == "linear_mipmap_linear" and tex.mag_filter == "linear":
+        gl_tex.filter = (  # the default: trilinear where there are mips
+            moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
+            moderngl.LINEAR,
+        )
+    else:  # glTF 2.0 sampler filters; a mip filter without mips falls back to its base
+        minify = tex.min_filter if mipmapped else tex.min_filter.split("_mipmap_")[0]
+        gl_tex.filter = (GL_FILTERS[minify], GL_FILTERS[tex.mag_filter])
     gl_tex.anisotropy = MAX_ANISOTROPY
+    if tex.wrap != ("repeat", "repeat"):
+        set_wrap(gl_tex, tex.wrap)
     return gl_tex
+
+
+# glTF 2.0 sampler filters by name -> the GL's (moderngl's constants are the GL enums).
+GL_FILTERS = {
+    "nearest": moderngl.NEAREST,
+    "linear": moderngl.LINEAR,
+    "nearest_mipmap_nearest": moderngl.NEAREST_MIPMAP_NEAREST,
+    "linear_mipmap_nearest": moderngl.LINEAR_MIPMAP_NEAREST,
+    "nearest_mipmap_linear": moderngl.NEAREST_MIPMAP_LINEAR,
+    "linear_mipmap_linear": moderngl.LINEAR_MIPMAP_LINEAR,
+}
+GL_TEXTURE_2D = 0x0DE1
+GL_TEXTURE_WRAP = {"s": 0x2802, "t": 0x2803}
+GL_MIRRORED_REPEAT = 0x8370
+
+
+def set_wrap(gl_tex: moderngl.Texture, wrap: tuple[str, str]) -> None:
+    """glTF 2.0 wrapS/wrapT on a texture: "repeat", "clamp" (CLAMP_TO_EDGE) or "mirror"
+    (MIRRORED_REPEAT). moderngl's repeat_x/y choose only between REPEAT and CLAMP_TO_EDGE,
+    so a mirrored axis sets the GL parameter itself (``_gl_mirror``)."""
+    for axis, mode in zip(("x", "y"), wrap, strict=True):
+        setattr(gl_tex, f"repeat_{axis}", mode != "clamp")
+    mirrored = [
+        GL_TEXTURE_WRAP[axis] for axis, mode in zip("st", wrap, strict=True) if mode == "mirror"
+    ]
+    if mirrored:
+        _gl_mirror(gl_tex, mirrored)
+
+
+def _gl_mirror(gl_tex: moderngl.Texture, parameters: list[int]) -> None:
+    """GL_MIRRORED_REPEAT on the given wrap parameters of ``gl_tex``, through the GL
+    entry points (app/gl/context.py gl_function). moderngl binds its textures
+    again before every use, so the binding changed here is never relied on."""
+    uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
+    bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
+    set_parameter = gl_function(gl_tex.ctx, "glTexParameteri", [enum, enum, int_])
+    bind(GL_TEXTURE_2D, gl_tex.glo)
+    for parameter in parameters:
+        set_parameter(GL_TEXTURE_2D, parameter, GL_MIRRORED_REPEAT)
 
 
 def layer_maps_define(layer: SurfaceLayer) -> int:
     """The LAYER<i>_MAPS bitmask of a layer's maps."""
     return sum(MAP_BITS[name] for name in layer.maps)
+
+
+# Map keys in the order of their MAP_INDEX_* (glsl/material/layers.glsl): bit = 1 << index.
+MAP_INDEX = {name: bit.bit_length() - 1 for name, bit in MAP_BITS.items()}
+
+
+def uv_matrix(t: UvTransform) -> np.ndarray:
+    """KHR_texture_transform's uv' = T(offset) R(rotation) S(scale) uv as a 3x3 matrix in
+    this project's UV space. The extension defines it in glTF's, whose v runs down the
+    image (origin top left); ours runs up (textures are uploaded bottom row first), so the
+    matrix is conjugated by the flip F: v -> 1 - v (F = F^-1): M = F T R S F. The rotation
+    is the extension's GLSL matrix, mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1) (glTF
+    KHR_texture_transform, Khronos 2018), written here by rows."""
+    c, s = np.cos(t.rotation), np.sin(t.rotation)
+    translate = np.array([[1.0, 0.0, t.offset[0]], [0.0, 1.0, t.offset[1]], [0.0, 0.0, 1.0]])
+    rotate = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    scale = np.diag([t.scale[0], t.scale[1], 1.0])
+    flip = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 1.0], [0.0, 0.0, 1.0]])
+    return flip @ translate @ rotate @ scale @ flip
+
+
+def uv_defines(part: MeshPart) -> dict[str, int]:
+    """UV_TRANSFORM_MAPS0 (layer 0's maps with a UV set or transform of their own) and
+    UV_SET1_MAPS0 (those reading TEXCOORD_1), VERTEX_UV1 where one does and the part has
+    TEXCOORD_1, VERTEX_COLOR where it has COLOR_0; nothing for a part without either
+    whose maps all read TEXCOORD_0 untransformed."""
+    layer = part.layers[0]
+    moved = {k: t for k, t in layer.uv_transforms.items() if k in layer.maps and not t.identity}
+    set1 = {k for k, t in moved.items() if t.uv_set == 1 and part.uv1 is not None}
+    defines: dict[str, int] = {}
+    if moved:
+        defines["UV_TRANSFORM_MAPS0"] = sum(MAP_BITS[k] for k in moved)
+    if set1:
+        defines["UV_SET1_MAPS0"] = sum(MAP_BITS[k] for k in set1)
+        defines["VERTEX_UV1"] = 1
+    if part.colors is not None and part.analytic is None:
+        defines["VERTEX_COLOR"] = 1
+    return defines
+
+
+def uv_transform_bytes(layer: SurfaceLayer) -> bytes:
+    """u_uv_transform0[9]: each map index's matrix (identity where the map has none), as
+    the GL's column-major float32 mat3s."""
+    out = np.tile(np.eye(3), (len(MAP_INDEX), 1, 1))
+    for key, t in layer.uv_transforms.items():
+        if key in MAP_INDEX:
+            out[MAP_INDEX[key]] = uv_matrix(t)
+    return np.ascontiguousarray(out.transpose(0, 2, 1), np.float32).tobytes()
+
+
+def vertex_extras(part: MeshPart) -> tuple[np.ndarray, str, tuple[str, ...]] | None:
+    """The second vertex buffer of a part with COLOR_0 and/or a TEXCOORD_1 that a map
+    reads: (interleaved float32 data, moderngl format, attribute names); None otherwise,
+    so that every other part keeps the one 12-float buffer."""
+    defines = uv_defines(part)
+    columns, fmt, names = [], [], []
+    if defines.get("VERTEX_COLOR"):
+        columns.append(np.asarray(part.colors, np.float32).reshape(-1, 4))
+        fmt.append("4f")
+        names.append("in_color")
+    if defines.get("VERTEX_UV1"):
+        columns.append(np.asarray(part.uv1, np.float32).reshape(-1, 2))
+        fmt.append("2f")
+        names.append("in_uv1")
+    if not columns:
+        return None
+    return np.ascontiguousarray(np.hstack(columns), np.float32), " ".join(fmt), tuple(names)
+
+
+def masked(part: MeshPart) -> bool:
+    """Whether the part's fragments are alpha-tested: glTF alphaMode MASK on its (first)
+    layer. "blend" is drawn opaque until a forward pass for blended primitives exists."""
+    return part.layers[0].alpha_mode == "mask"
 
 
 class MeshDrawable:
@@ -197,16 +332,22 @@ class MeshDrawable:
             defines["SPECULAR_AA"] = 1
         if part.analytic is not None:
             defines[f"ANALYTIC_{part.analytic.kind.upper()}"] = 1
+        self.alpha_mask = masked(part)
+        if self.alpha_mask:
+            defines["ALPHA_MASK"] = 1
+        defines.update(uv_defines(part))
+        extra = vertex_extras(part)
         self.specular_aa = specular_aa
         self.program = shaders.program(*shader_pair, defines)
         self.vbo = ctx.buffer(part.vertices.tobytes())
         self.ibo = ctx.buffer(part.indices.tobytes())
-        self.vao = ctx.vertex_array(
-            self.program,
-            [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)],
-            self.ibo,
-            skip_errors=True,
-        )
+        buffers = [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)]
+        self.extra_vbo = None  # COLOR_0 / TEXCOORD_1: a second buffer, only where present
+        if extra is not None:
+            data, fmt, names = extra
+            self.extra_vbo = ctx.buffer(data.tobytes())
+            buffers.append((self.extra_vbo, fmt, *names))
+        self.vao = ctx.vertex_array(self.program, buffers, self.ibo, skip_errors=True)
         # (uniform name, texture) in the order they take texture units.
         self.textures: list[tuple[str, moderngl.Texture]] = []
         for i, layer in enumerate(part.layers[:2] if part.blend else part.layers[:1]):
@@ -293,6 +434,18 @@ class MeshDrawable:
                     f"u_material_id{i}": float(self.material_ids[i]),
                 }
             )
+        first = self.part.layers[0]  # glTF 2.0 core material: layer 0's only
+        if "u_uv_transform0" in prog:  # UV_TRANSFORM_MAPS0: identity for the others
+            uniform = prog["u_uv_transform0"]  # the GL may trim the array past its last use
+            uniform.write(uv_transform_bytes(first)[: uniform.array_length * 36])
+        values.update(
+            {
+                "u_emissive0": first.emissive,
+                "u_occlusion_strength0": first.occlusion_strength,
+                "u_alpha0": first.alpha,
+                "u_alpha_cutoff0": first.alpha_cutoff,
+            }
+        )
         if (blend := self.part.blend) is not None:
             values["u_blend"] = (blend.threshold, blend.softness)
         if self.specular_aa is not None:
@@ -328,6 +481,8 @@ class MeshDrawable:
     def release(self) -> None:
         for obj in (self.vao, self.vbo, self.ibo, *(t for _, t in self.textures)):
             obj.release()
+        if self.extra_vbo is not None:
+            self.extra_vbo.release()
 
 
 class GBufferPass:

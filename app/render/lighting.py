@@ -20,7 +20,7 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import encoding_defines
-from app.common.lights import PunctualLight, pack_lights
+from app.common.lights import PunctualLight, environment_range, pack_lights
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
@@ -92,6 +92,7 @@ class LightingPass:
         self.lights = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.light_count = len(lights)
+        self.environment_lights = environment_range(lights)  # what occlusion darkens
         self.size = size
 
     def run(
@@ -123,6 +124,8 @@ class LightingPass:
             for unit, (name, _) in enumerate(textures):
                 if name in prog:  # a permutation may not use every texture
                     prog[name].value = unit
+            if "u_environment_lights" in prog:  # GBUFFER_EMISSION only
+                prog["u_environment_lights"].value = self.environment_lights
             if "u_light_count" in prog:  # the tiled loop counts through its masks instead
                 prog["u_light_count"].value = self.light_count
             prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)

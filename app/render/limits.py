@@ -48,7 +48,11 @@ def max_dimension(ctx: moderngl.Context) -> int:
 
 
 def target_bytes_per_pixel(
-    encoding: str, tangents: bool, coat_normals: bool, depth_of_field: bool
+    encoding: str,
+    tangents: bool,
+    coat_normals: bool,
+    depth_of_field: bool,
+    emission: bool = False,
 ) -> int:
     """Bytes a render-size pixel takes in the targets of app/render/gbuffer.py ``GBuffer``,
     the lighting pass's HDR target and the depth-of-field target, as they are allocated."""
@@ -56,6 +60,7 @@ def target_bytes_per_pixel(
     total = 4 * base + 4 * directions + 2 * 4 + _DEPTH_BUFFER + _HDR  # RT0, RT1, RT2, z, HDR
     total += 4 * directions if tangents else 0
     total += 2 * directions if coat_normals else 0
+    total += 4 * (2 if encoding == "f16" else 4) if emission else 0  # RT5 (glTF 2.0 core)
     return total + (_HDR if depth_of_field else 0)
 
 

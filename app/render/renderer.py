@@ -29,7 +29,7 @@ from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.culling import LightCuller
-from app.render.gbuffer import GBuffer, GBufferPass
+from app.render.gbuffer import GBuffer, GBufferPass, masked
 from app.render.lighting import LightingPass
 from app.render.limits import check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
@@ -145,7 +145,7 @@ class Renderer:
         # renderer that refuses a resize keeps its old targets.
         per_pixel = target_bytes_per_pixel(
             settings.gbuffer, table.needs_tangents, table.needs_coat_normals,
-            self.scene.camera.aperture > 0.0,
+            self.scene.camera.aperture > 0.0, table.needs_emission,
         )  # fmt: skip
         check_render_size(
             self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
@@ -154,7 +154,7 @@ class Renderer:
         self._release(("gbuffer",))
         self.gbuffer = GBuffer(
             self.gl.ctx, self.render_size, settings.gbuffer, table.needs_tangents,
-            table.needs_coat_normals,
+            table.needs_coat_normals, table.needs_emission,
         )  # fmt: skip
         self._build_gbuffer_pass()
         self._build_lighting()
@@ -265,6 +265,8 @@ class Renderer:
             return
         for drawable, ids in zip(self.gbuffer_pass.drawables, frame.material_ids, strict=True):
             drawable.material_ids = ids
+        if any(d.alpha_mask != masked(d.part) for d in self.gbuffer_pass.drawables):
+            self._build_gbuffer_pass()  # an alpha_mode edit compiles the alpha test in or out
         self._build_lighting()
 
     def set_settings(self, settings: RenderSettings) -> None:

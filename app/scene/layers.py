@@ -76,8 +76,18 @@ class LayerBuilder:
             # The coat's roughness is a material constant (the G-buffer has no channel for
             # it per pixel): its mips carry the normals alone, renormalised on sampling.
             maps["coat_normal"] = normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+        if m.emissive_map is not None:  # glTF emissiveTexture: sRGB, multiplies emissive
+            maps["emissive"] = colour_texture(self.image(name, "emissive_map"))
+        if m.occlusion_map is not None:  # glTF occlusionTexture: linear R
+            maps["occlusion"] = scalar_texture(linear_channel(self.image(name, "occlusion_map")))
         uv_scale = (m.uv_scale[0], m.uv_scale[1])
-        return SurfaceLayer(params, maps, uv_scale, normal_mapped=m.normal_map is not None)
+        return SurfaceLayer(
+            params, maps, uv_scale, normal_mapped=m.normal_map is not None,
+            emissive=m.emission,
+            occlusion_strength=1.0 if m.occlusion_strength is None else m.occlusion_strength,
+            alpha=m.alpha, alpha_mode=m.alpha_mode,
+            alpha_cutoff=0.5 if m.alpha_cutoff is None else m.alpha_cutoff,
+        )  # fmt: skip
 
 
 def gltf_layer(

@@ -242,7 +242,16 @@ TEXTURE_KEYS = {
     "anisotropy_map": "linear, red channel; multiplies anisotropy",
     # glTF KHR_materials_clearcoat's clearcoatNormalTexture (RTR4 §9.12)
     "clearcoat_normal_map": "the clear coat's own tangent-space normals, as normal_map",
+    # glTF 2.0 core material (issue 17): emissiveTexture and occlusionTexture
+    "emissive_map": "sRGB colour; multiplies emissive (emitted radiance)",
+    "occlusion_map": "linear, red channel; darkens environment light only",
 }
+# glTF 2.0 alphaMode, lower case: "blend" is drawn opaque until a forward pass for blended
+# primitives exists (docs/scene-format.md says so).
+ALPHA_MODES = ("opaque", "mask", "blend")
+EmissiveColor = Annotated[
+    list[Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)]], Field(min_length=3, max_length=3)
+]
 
 
 class Blend(_Strict):
@@ -345,6 +354,15 @@ class Material(_Strict):
     normal_scale: Annotated[Real, Field(ge=0.0, le=10.0)] = 1.0  # glTF normalTexture.scale
     uv_scale: UvScale = [1.0, 1.0]  # texture repeats across the surface's UV range
     blend: Blend | None = None
+    # --- glTF 2.0 core material (issue 17; docs/scene-format.md) ---
+    emissive: EmissiveColor | None = None  # emitted radiance, linear RGB (W/(sr m^2))
+    emissive_strength: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] = 1.0  # multiplies it
+    emissive_map: TexturePath | None = None
+    occlusion_map: TexturePath | None = None
+    occlusion_strength: Unit | None = None  # glTF occlusionTexture.strength (default 1)
+    alpha: Unit = 1.0  # coverage (glTF baseColorFactor's A), times the base colour map's A
+    alpha_mode: Literal[ALPHA_MODES] = "opaque"  # type: ignore[valid-type]
+    alpha_cutoff: Unit | None = None  # "mask" only (default 0.5)
 
     @model_validator(mode="after")
     def _check(self) -> Material:
@@ -393,6 +411,7 @@ class Material(_Strict):
                 "height-correlated G2 (ndf = 'ggx', g2 = 'height_correlated', no anisotropy)"
             )
         self._check_clearcoat()
+        self._check_core()
         self._check_fiber()
         for key in CLOTH_KEYS:  # empirical cloth (RTR4 §9.10)
             if getattr(self, key) is not None and self.diffuse != "cloth_empirical":
@@ -408,6 +427,26 @@ class Material(_Strict):
                 "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
             )
         return self
+
+    def _check_core(self) -> None:
+        """glTF core material keys (issue 17) that need another key to mean anything."""
+        if self.emissive_map is not None and not any(self.emissive or ()):
+            raise ValueError("emissive_map: multiplies 'emissive', which must be non-zero")
+        if self.occlusion_strength is not None and self.occlusion_map is None:
+            raise ValueError("occlusion_strength: applies only with an 'occlusion_map'")
+        if self.alpha_cutoff is not None and self.alpha_mode != "mask":
+            raise ValueError("alpha_cutoff: applies only with alpha_mode = 'mask'")
+        if max(self.emissive or (0.0,)) * self.emissive_strength > MAX_RADIANCE:
+            raise ValueError(
+                f"emissive_strength: emissive x emissive_strength must not exceed {MAX_RADIANCE:g}"
+            )
+
+    @property
+    def emission(self) -> tuple[float, float, float]:
+        """Emitted radiance, linear RGB: emissive x emissive_strength (black without)."""
+        e = self.emissive or (0.0, 0.0, 0.0)
+        return (e[0] * self.emissive_strength, e[1] * self.emissive_strength,
+                e[2] * self.emissive_strength)  # fmt: skip
 
     def _check_fiber(self) -> None:
         """Fibre keys (RTR4 §9.10) need their model; a fibre replaces the specular and

@@ -348,9 +348,9 @@ class ProceduralTexture:
     """One file of ``scenes/textures/``: its name, PNG mode, what it holds, and how."""
 
     name: str
-    mode: str  # "L" or "RGB"
+    mode: str  # "L", "RGB" or "RGBA"
     what: str
-    pixels: Callable[[], np.ndarray]  # uint8, (H, W) for "L", (H, W, 3) for "RGB"
+    pixels: Callable[[], np.ndarray]  # uint8, (H, W) for "L", (H, W, 3|4) for "RGB(A)"
 
 
 TEXTURES: tuple[ProceduralTexture, ...] = (
@@ -394,7 +394,23 @@ TEXTURES: tuple[ProceduralTexture, ...] = (
         "clear-coat orange-peel tangent-space normal map (slopes up to 12 deg), n*0.5+0.5",
         lambda: encode_normals(orange_peel_normal_map()),
     ),
+    ProceduralTexture(
+        "rusted_through.png",
+        "RGBA",
+        "rust base colour (sRGB) with coverage A = 1 - rust mask (linear): a sheet eaten "
+        "through where the rust is (glTF alphaMode MASK)",
+        lambda: rusted_through(),
+    ),
 )
+
+
+def rusted_through() -> np.ndarray:
+    """(H, W, 4) uint8: rust_color.png's RGB and the coverage 1 - rust_mask as alpha, so
+    that a cutoff of 0.5 opens holes where the rust patches are (glTF 2.0 alphaMode MASK
+    keeps a fragment where alpha >= alphaCutoff)."""
+    rgb = quantize(srgb_encode(rust_color()))
+    alpha = quantize(1.0 - rust_mask())
+    return np.dstack([rgb, alpha])
 
 
 def png_bytes(pixels: np.ndarray, mode: str) -> bytes:

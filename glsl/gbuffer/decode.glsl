@@ -20,6 +20,9 @@ uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gb
 #if GBUFFER_COAT_NORMAL
 uniform sampler2D g_coat_normal;  // only where a coat's normal differs from its base's
 #endif
+#if GBUFFER_EMISSION
+uniform sampler2D g_emission;   // only where a material emits or has an occlusion map
+#endif
 
 // A decoded G-buffer pixel.
 struct GBufferPixel {
@@ -90,5 +93,13 @@ GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
 #endif
     return GBufferPixel(s, params, t, p, v, n, nc);
 }
+
+#if GBUFFER_EMISSION
+// RT5 at window position frag_coord: emitted radiance (rgb) and the occlusion factor of
+// environment light (a). Twin: app/reference/illumination.py decode_gbuffer.
+vec4 decode_emission(vec2 frag_coord) {
+    return texelFetch(g_emission, ivec2(frag_coord), 0);
+}
+#endif
 
 #endif

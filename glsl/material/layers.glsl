@@ -6,6 +6,7 @@
 #ifndef PBS_LAYERS_GLSL
 #define PBS_LAYERS_GLSL
 
+#include "gbuffer/layout.glsl"
 #include "geometry/analytic.glsl"
 #include "material/blend.glsl"
 #include "material/filtering.glsl"
@@ -18,6 +19,8 @@
 #define MAP_F0 16               // R: multiplies the dielectric F0 (baked blends)
 #define MAP_SELECT 32           // R: >= 0.5 picks layer 1's material row (baked blends)
 #define MAP_COAT_NORMAL 64      // RGB: the clear coat's tangent-space normal (layer 0 only)
+#define MAP_EMISSIVE 128        // sRGB: multiplies the emitted radiance (layer 0 only)
+#define MAP_OCCLUSION 256       // R: ambient occlusion of environment light (layer 0 only)
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -31,6 +34,30 @@
 #ifndef SPECULAR_AA
 #define SPECULAR_AA 0
 #endif
+#ifndef ALPHA_MASK
+#define ALPHA_MASK 0
+#endif
+#ifndef VERTEX_COLOR
+#define VERTEX_COLOR 0
+#endif
+// Layer 0's maps (MAP_* bits) read through a KHR_texture_transform matrix
+// (u_uv_transform0[index]), and those of them that read TEXCOORD_1 instead of TEXCOORD_0.
+#ifndef UV_TRANSFORM_MAPS0
+#define UV_TRANSFORM_MAPS0 0
+#endif
+#ifndef UV_SET1_MAPS0
+#define UV_SET1_MAPS0 0
+#endif
+// Index of each map in u_uv_transform0 (its MAP_* bit is 1 << index).
+#define MAP_INDEX_BASE_COLOR 0
+#define MAP_INDEX_METALLIC 1
+#define MAP_INDEX_ANISOTROPY 2
+#define MAP_INDEX_NORMAL_ROUGHNESS 3
+#define MAP_INDEX_F0 4
+#define MAP_INDEX_SELECT 5
+#define MAP_INDEX_COAT_NORMAL 6
+#define MAP_INDEX_EMISSIVE 7
+#define MAP_INDEX_OCCLUSION 8
 
 struct LayerConstants {
     vec3 base_color;
@@ -60,6 +87,23 @@ uniform sampler2D u_normal_roughness_map1;
 uniform sampler2D u_blend_mask;
 uniform vec2 u_blend;           // threshold, softness
 #endif
+#if GBUFFER_EMISSION
+uniform vec3 u_emissive0;            // emitted radiance (glTF emissiveFactor x strength)
+uniform float u_occlusion_strength0;
+uniform sampler2D u_emissive_map0;
+uniform sampler2D u_occlusion_map0;
+#endif
+#if ALPHA_MASK
+uniform float u_alpha0;              // glTF baseColorFactor's A
+uniform float u_alpha_cutoff0;
+#endif
+#if UV_TRANSFORM_MAPS0 != 0
+uniform mat3 u_uv_transform0[9];     // uv' = M uv per map index, before uv_scale
+#endif
+// glTF COLOR_0 and TEXCOORD_1 of the fragment, set by the pass's main() from its inputs
+// (identity and unused where the mesh has none).
+vec4 vertex_color = vec4(1.0);
+vec2 vertex_uv1 = vec2(0.0);
 #if SPECULAR_AA
 uniform vec2 u_specular_aa;     // sigma^2 of the pixel filter, kappa (the largest alpha^2 added)
 #endif
@@ -76,19 +120,47 @@ vec4 sample_map(sampler2D map, vec2 uv, vec2 scale) {
 #endif
 }
 
+// Map `index` of layer `layer` at uv: layer 0's maps named in UV_TRANSFORM_MAPS0 read
+// their UV set (UV_SET1_MAPS0: TEXCOORD_1) through their KHR_texture_transform matrix,
+// then the UV scale; an analytic surface's derivatives go through the matrix's linear part
+// (the chain rule). Every other map is sample_map's, unchanged.
+vec4 sample_layer_map(sampler2D map, vec2 uv, vec2 scale, int layer, int index) {
+#if UV_TRANSFORM_MAPS0 != 0
+    if (layer == 0 && (UV_TRANSFORM_MAPS0 & (1 << index)) != 0) {
+        mat3 m = u_uv_transform0[index];
+        vec2 src = (UV_SET1_MAPS0 & (1 << index)) != 0 ? vertex_uv1 : uv;
+        vec2 t = (m * vec3(src, 1.0)).xy;
+#if ANALYTIC
+        mat2 j = mat2(m);
+        return textureGrad(map, t * scale, (j * analytic_uv_ddx) * scale,
+                           (j * analytic_uv_ddy) * scale);
+#else
+        return texture(map, t * scale);
+#endif
+    }
+#endif
+    return sample_map(map, uv, scale);
+}
+
 // One layer's parameters at texture coordinate uv. `maps` is a constant, so after
 // inlining every branch below is resolved at compile time.
-Layer read_layer(LayerConstants c, int maps, vec2 uv, sampler2D base_color_map,
+Layer read_layer(LayerConstants c, int layer, int maps, vec2 uv, sampler2D base_color_map,
                  sampler2D metallic_map, sampler2D anisotropy_map,
                  sampler2D normal_roughness_map, sampler2D f0_map) {
     Layer l = Layer(c.base_color, c.metallic, c.roughness, c.f0, c.anisotropy,
                     vec3(0.0, 0.0, 1.0));
-    if ((maps & MAP_BASE_COLOR) != 0) l.base_color *= sample_map(base_color_map, uv, c.uv_scale).rgb;
-    if ((maps & MAP_METALLIC) != 0) l.metallic *= sample_map(metallic_map, uv, c.uv_scale).r;
-    if ((maps & MAP_ANISOTROPY) != 0) l.anisotropy *= sample_map(anisotropy_map, uv, c.uv_scale).r;
-    if ((maps & MAP_F0) != 0) l.f0 *= sample_map(f0_map, uv, c.uv_scale).r;
+    if ((maps & MAP_BASE_COLOR) != 0)
+        l.base_color *= sample_layer_map(base_color_map, uv, c.uv_scale, layer,
+                                         MAP_INDEX_BASE_COLOR).rgb;
+    if ((maps & MAP_METALLIC) != 0)
+        l.metallic *= sample_layer_map(metallic_map, uv, c.uv_scale, layer, MAP_INDEX_METALLIC).r;
+    if ((maps & MAP_ANISOTROPY) != 0)
+        l.anisotropy *= sample_layer_map(anisotropy_map, uv, c.uv_scale, layer,
+                                         MAP_INDEX_ANISOTROPY).r;
+    if ((maps & MAP_F0) != 0) l.f0 *= sample_layer_map(f0_map, uv, c.uv_scale, layer, MAP_INDEX_F0).r;
     if ((maps & MAP_NORMAL_ROUGHNESS) != 0) {
-        vec4 nr = sample_map(normal_roughness_map, uv, c.uv_scale);
+        vec4 nr = sample_layer_map(normal_roughness_map, uv, c.uv_scale, layer,
+                                   MAP_INDEX_NORMAL_ROUGHNESS);
         l.normal = tangent_space_normal(nr.xyz);
         l.perceptual_roughness = nr.a;
     }
@@ -108,13 +180,16 @@ struct MaterialSample {
 // `normal` and `tangent` (xyz along +u, w = handedness) are the interpolated vertex frame
 // in world space; back faces of two-sided surfaces flip the normal towards the viewer.
 MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_facing) {
-    Layer l = read_layer(u_layer0, LAYER0_MAPS, uv, u_base_color_map0, u_metallic_map0,
+    Layer l = read_layer(u_layer0, 0, LAYER0_MAPS, uv, u_base_color_map0, u_metallic_map0,
                          u_anisotropy_map0, u_normal_roughness_map0, u_f0_map0);
+#if VERTEX_COLOR
+    l.base_color *= vertex_color.rgb;   // glTF COLOR_0 multiplies the base colour
+#endif
     float id = u_material_id0;
 #if BLEND
     // Only a baked blend has an F0 map, and it has no second layer: layer 1 never samples
     // one, so layer 0's sampler fills the slot.
-    Layer top = read_layer(u_layer1, LAYER1_MAPS, uv, u_base_color_map1, u_metallic_map1,
+    Layer top = read_layer(u_layer1, 1, LAYER1_MAPS, uv, u_base_color_map1, u_metallic_map1,
                            u_anisotropy_map1, u_normal_roughness_map1, u_f0_map0);
     float w = blend_weight(sample_map(u_blend_mask, uv, u_layer0.uv_scale).r, u_blend.x,
                            u_blend.y);
@@ -124,7 +199,8 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     if (w >= 0.5) id = u_material_id1;
 #endif
 #if (LAYER0_MAPS & MAP_SELECT) != 0
-    if (sample_map(u_select_map0, uv, u_layer0.uv_scale).r >= 0.5) id = u_material_id1;
+    if (sample_layer_map(u_select_map0, uv, u_layer0.uv_scale, 0, MAP_INDEX_SELECT).r >= 0.5)
+        id = u_material_id1;
 #endif
     vec3 ng = normalize(front_facing ? normal : -normal);
     float t_len = length(tangent.xyz);
@@ -138,7 +214,8 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     // base material"; with it, the coat's map on the same tangent frame as the base's.
     vec3 nc = ng;
 #if (LAYER0_MAPS & MAP_COAT_NORMAL) != 0
-    vec4 coat = sample_map(u_coat_normal_map0, uv, u_layer0.uv_scale);
+    vec4 coat = sample_layer_map(u_coat_normal_map0, uv, u_layer0.uv_scale, 0,
+                                 MAP_INDEX_COAT_NORMAL);
     nc = perturb_normal(ng, t, tangent.w, tangent_space_normal(coat.xyz));
 #endif
 #if SPECULAR_AA
@@ -148,5 +225,35 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
 #endif
     return MaterialSample(l, n, nc, t_len > 0.0 ? t : n, id);
 }
+
+#if GBUFFER_EMISSION
+// glTF 2.0 core material: emitted radiance (emissive times the sRGB emissive map) and the
+// occlusion factor 1 + strength (occlusion - 1), layer 0's (a blend's top layer neither
+// emits nor occludes). RT5 of the G-buffer.
+vec4 sample_emission(vec2 uv) {
+    vec3 e = u_emissive0;
+    float ao = 1.0;
+#if (LAYER0_MAPS & MAP_EMISSIVE) != 0
+    e *= sample_layer_map(u_emissive_map0, uv, u_layer0.uv_scale, 0, MAP_INDEX_EMISSIVE).rgb;
+#endif
+#if (LAYER0_MAPS & MAP_OCCLUSION) != 0
+    float occlusion = sample_layer_map(u_occlusion_map0, uv, u_layer0.uv_scale, 0,
+                                       MAP_INDEX_OCCLUSION).r;
+    ao = 1.0 + u_occlusion_strength0 * (occlusion - 1.0);
+#endif
+    return vec4(e, ao);
+}
+#endif
+
+#if ALPHA_MASK
+// glTF 2.0 coverage: the layer's alpha times the base colour map's A and COLOR_0's A.
+float coverage(vec2 uv) {
+    float a = u_alpha0 * vertex_color.a;
+#if (LAYER0_MAPS & MAP_BASE_COLOR) != 0
+    a *= sample_layer_map(u_base_color_map0, uv, u_layer0.uv_scale, 0, MAP_INDEX_BASE_COLOR).a;
+#endif
+    return a;
+}
+#endif
 
 #endif

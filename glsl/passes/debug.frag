@@ -74,6 +74,16 @@ void main() {
     value = vec3(texelFetch(g_depth, px, 0).g);         // the material table's row
 #elif DEBUG_VIEW == DEBUG_COAT_NORMAL
     value = g.nc;                                       // the unit clear-coat normal shaded
+#elif DEBUG_VIEW == DEBUG_EMISSION
+#if GBUFFER_EMISSION
+    value = decode_emission(gl_FragCoord.xy).rgb;       // emitted radiance (RT5)
+#endif
+#elif DEBUG_VIEW == DEBUG_OCCLUSION
+#if GBUFFER_EMISSION
+    value = vec3(decode_emission(gl_FragCoord.xy).a);   // factor on environment light
+#else
+    value = vec3(1.0);                                  // no occlusion map: 1
+#endif
 #elif DEBUG_VIEW == DEBUG_LIGHT
     // The very term the lighting pass adds for this light, times pi.
     value = PI * light_contribution(u_lights, u_light, g.s, g.params, g.n, g.nc, g.t, g.p,

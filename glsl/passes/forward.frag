@@ -14,6 +14,12 @@ in vec3 v_normal;
 in vec2 v_uv;
 in vec4 v_tangent;
 in float v_view_depth;
+#if VERTEX_COLOR
+in vec4 v_color;   // glTF COLOR_0 (passes/gbuffer.vert)
+#endif
+#if VERTEX_UV1
+in vec2 v_uv1;     // glTF TEXCOORD_1
+#endif
 
 uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
@@ -24,6 +30,12 @@ out vec4 frag_color;
 
 void main() {
     // The material as the G-buffer pass stores it (glsl/passes/gbuffer.frag), two-sided.
+#if VERTEX_COLOR
+    vertex_color = v_color;
+#endif
+#if VERTEX_UV1
+    vertex_uv1 = v_uv1;
+#endif
 #if ANALYTIC
     AnalyticHit hit = analytic_surface();   // as in passes/gbuffer.frag
     analytic_uv_ddx = hit.uv_ddx;
@@ -32,9 +44,15 @@ void main() {
     float view_depth = hit.view_depth;
     gl_FragDepth = hit.frag_depth;
     if (!hit.hit) discard;
+#if ALPHA_MASK
+    if (!(coverage(hit.uv) >= u_alpha_cutoff0)) discard;   // as passes/gbuffer.frag
+#endif
 #else
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
     float view_depth = v_view_depth;
+#if ALPHA_MASK
+    if (!(coverage(v_uv) >= u_alpha_cutoff0)) discard;   // as passes/gbuffer.frag
+#endif
 #endif
 #ifdef MODEL_GROUP
     // A part whose layers use two models is drawn once per model (app/render/forward.py):

@@ -9,6 +9,12 @@ in vec3 v_normal;
 in vec2 v_uv;
 in vec4 v_tangent;
 in float v_view_depth;
+#if VERTEX_COLOR
+in vec4 v_color;
+#endif
+#if VERTEX_UV1
+in vec2 v_uv1;
+#endif
 
 layout(location = 0) out vec4 g_base_color;
 layout(location = 1) out vec4 g_normal;
@@ -25,18 +31,36 @@ layout(location = 4) out vec2 g_coat_normal;
 layout(location = 3) out vec2 g_coat_normal;
 #endif
 #endif
+#if GBUFFER_EMISSION
+// RT5 at the first location RT3/RT4 leave free (a layout location must be a literal).
+#if GBUFFER_TANGENT && GBUFFER_COAT_NORMAL
+layout(location = 5) out vec4 g_emission;
+#elif GBUFFER_TANGENT || GBUFFER_COAT_NORMAL
+layout(location = 4) out vec4 g_emission;
+#else
+layout(location = 3) out vec4 g_emission;
+#endif
+#endif
 
 void main() {
+#if VERTEX_COLOR
+    vertex_color = v_color;   // material/layers.glsl multiplies base colour and coverage
+#endif
+#if VERTEX_UV1
+    vertex_uv1 = v_uv1;       // the maps that read TEXCOORD_1 (UV_SET1_MAPS0)
+#endif
 #if ANALYTIC
     // The exact surface under the pixel centre (geometry/analytic.glsl); the proxy's
     // interpolated attributes are unused.
     AnalyticHit hit = analytic_surface();
     analytic_uv_ddx = hit.uv_ddx;
     analytic_uv_ddy = hit.uv_ddy;
-    MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
+    vec2 uv = hit.uv;
+    MaterialSample m = sample_material(hit.normal, hit.tangent, uv, true);
     float view_depth = hit.view_depth;
 #else
-    MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
+    vec2 uv = v_uv;
+    MaterialSample m = sample_material(v_normal, v_tangent, uv, gl_FrontFacing);
     float view_depth = v_view_depth;
 #endif
     Layer l = m.layer;
@@ -66,6 +90,14 @@ void main() {
 #else
     g_coat_normal = oct_encode(m.nc);
 #endif
+#endif
+#if GBUFFER_EMISSION
+    g_emission = sample_emission(uv);
+#endif
+#if ALPHA_MASK
+    // glTF 2.0 alphaMode MASK: the surface is absent where its coverage is below the
+    // cutoff (after the lookups above, whose derivatives need the whole quad).
+    if (!(coverage(uv) >= u_alpha_cutoff0)) discard;
 #endif
 #if ANALYTIC
     // After every derivative above, so that a missing pixel still served its quad.

@@ -6,6 +6,15 @@ in vec3 in_normal;
 in vec2 in_uv;
 in vec4 in_tangent;     // xyz along +u, w = handedness
 
+#if VERTEX_COLOR
+in vec4 in_color;       // glTF COLOR_0, linear RGBA (a second vertex buffer)
+out vec4 v_color;
+#endif
+#if VERTEX_UV1
+in vec2 in_uv1;         // glTF TEXCOORD_1 (the second vertex buffer)
+out vec2 v_uv1;
+#endif
+
 uniform mat4 u_model;
 uniform mat3 u_normal_matrix;   // inverse-transpose of u_model's upper 3x3
 uniform mat4 u_view;
@@ -20,6 +29,12 @@ out float v_view_depth;   // metres along the view axis
 void main() {
     v_normal = u_normal_matrix * in_normal;
     v_uv = in_uv;
+#if VERTEX_COLOR
+    v_color = in_color;
+#endif
+#if VERTEX_UV1
+    v_uv1 = in_uv1;
+#endif
     v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w * u_tangent_sign);   // tangents transform with the surface
     vec4 view = u_view * (u_model * vec4(in_position, 1.0));
     v_view_depth = -view.z;

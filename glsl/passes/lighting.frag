@@ -16,6 +16,15 @@ uniform int u_first_local;         // lights [0, u_first_local) are directional
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
+#if GBUFFER_EMISSION
+// Lights [x, y) are the environment's directions (app/frame/lights.py): the only light
+// the occlusion map darkens (glTF 2.0: occlusion applies to indirect light). They are
+// directional, so the tiled path meets them in its directional loop only.
+uniform ivec2 u_environment_lights;
+#define OCCLUSION(i) ((i) >= u_environment_lights.x && (i) < u_environment_lights.y ? ao : 1.0)
+#else
+#define OCCLUSION(i) 1.0
+#endif
 
 out vec4 frag_color;
 
@@ -24,6 +33,10 @@ void main() {
     // Discards the background (and, with MODEL_GROUP, the other groups' pixels).
     GBufferPixel g = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
                                     u_camera_to_world, u_tan_half_fov);
+#if GBUFFER_EMISSION
+    vec4 emission = decode_emission(gl_FragCoord.xy);
+    float ao = emission.a;
+#endif
 
     vec3 Lo = vec3(0.0);
 #if TILED_LIGHTS
@@ -34,7 +47,8 @@ void main() {
 #if DIRECTIONAL_LIGHTS
     int i = 0;
     do {
-        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+        Lo += OCCLUSION(i) * light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t,
+                                                g.p, g.v);
     } while (++i < u_first_local);
 #endif
     Lo = add_masked_lights(Lo, u_tile_masks, px / TILE_SIZE, u_lights, u_first_local, g.s,
@@ -42,8 +56,14 @@ void main() {
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above
-        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+        Lo += OCCLUSION(i) * light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t,
+                                                g.p, g.v);
     } while (++i < u_light_count);
 #endif
+#if GBUFFER_EMISSION
+    // Emitted radiance, once per pixel, after the sum (RTR4 sec. 9.4's L_o plus L_e).
+    frag_color = vec4(PI * Lo + emission.rgb, 1.0);
+#else
     frag_color = vec4(PI * Lo, 1.0);
+#endif
 }
