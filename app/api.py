@@ -54,6 +54,8 @@ CHANNELS: dict[str, str] = {
     "covered": "(H, W) bool, the pixels a surface was drawn into",
     "tangent": "(H, W, 3) float32, world-space unit tangent; 0 without anisotropic materials",
     "anisotropy": "(H, W) float32; 0 without anisotropic materials",
+    "emission": "(H, W, 3) float32, emitted radiance (linear); 0 where nothing emits",
+    "occlusion": "(H, W) float32, the factor on environment light; 1 without occlusion maps",
 }
 
 # The name a scene built in Python goes by in error messages (it has no file).
@@ -340,10 +342,17 @@ def channels_of(g: GBufferData, names: tuple[str, ...]) -> dict[str, np.ndarray]
         elif name == "tangent":
             has = covered & np.any(g.tangent[..., :2] != 0.0, axis=-1)
             value = _direction(g.tangent[..., :2], has)
-        else:  # anisotropy
+        elif name == "anisotropy":
             value = g.tangent[..., 2]
+        elif name == "emission":  # RT5 (glTF 2.0 core material); absent: nothing emits
+            rgb = np.zeros((*covered.shape, 3)) if g.emission is None else g.emission[..., :3]
+            value = np.where(covered[..., None], rgb, 0.0)
+        else:  # occlusion: RT5's A; absent: no occlusion map in the frame
+            a = np.ones(covered.shape) if g.emission is None else g.emission[..., 3]
+            value = np.where(covered, a, 1.0)
         out[name] = np.ascontiguousarray(value, np.bool_ if name == "covered" else value.dtype)
-    for name in ("base_color", "metallic", "roughness", "f0", "depth", "anisotropy"):
+    floats = ("base_color", "metallic", "roughness", "f0", "depth", "anisotropy")
+    for name in (*floats, "emission", "occlusion"):
         if name in out:
             out[name] = out[name].astype(np.float32)
     return out

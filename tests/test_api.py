@@ -180,3 +180,42 @@ def test_own_context_is_released_on_exit():
     assert r.renderer is None
     with pytest.raises(Exception):  # noqa: B017 - moderngl's error for a released context
         gl.ctx.texture((1, 1), 4)
+
+
+def test_emission_and_occlusion_channels(gl_egl):
+    """RT5 through the API: a material's emitted radiance where it is drawn, the occlusion
+    map's factor (1 + strength (o - 1)) on the floor; 0 and 1 where nothing was drawn and
+    in a frame without RT5."""
+    scene = {
+        "camera": {"position": [0, 1.5, 4], "target": [0, 0.5, 0]},
+        "environment": {"radiance": [0.5, 0.5, 0.5]},
+        "materials": {
+            "glow": {"emissive": [2.0, 1.0, 0.5], "emissive_strength": 3.0},
+            "floor": {"occlusion_map": "textures/noise.png", "occlusion_strength": 0.5},
+        },
+        "objects": [
+            {"shape": "sphere", "radius": 0.5, "position": [0, 0.5, 0], "material": "glow"},
+            {"shape": "plane", "size": [6, 6], "material": "floor"},
+        ],
+    }
+    with OffscreenRenderer(scene, SIZE, base_dir="scenes", gl=gl_egl) as r:
+        r.render()
+        ch = r.channels(("emission", "occlusion", "covered"))
+    # Both materials share one row of the material table (emission and occlusion are
+    # per pixel, not table parameters): the ball is found by its emission.
+    ball = np.any(ch["emission"] > 0.0, axis=-1)
+    floor = ch["covered"] & ~ball
+    assert 20 < ball.sum() < floor.sum()
+    np.testing.assert_allclose(
+        ch["emission"][ball], np.broadcast_to([6.0, 3.0, 1.5], (ball.sum(), 3))
+    )
+    np.testing.assert_array_equal(ch["emission"][~ball], 0.0)
+    occ = ch["occlusion"]
+    assert occ[floor].min() >= 0.5 - 1e-6 and occ[floor].max() <= 1.0
+    assert occ[floor].std() > 0.01  # the noise map varies it
+    np.testing.assert_array_equal(occ[~ch["covered"]], 1.0)
+    with OffscreenRenderer(HORIZON, SIZE, gl=gl_egl) as r:
+        r.render()
+        plain = r.channels(("emission", "occlusion"))
+    np.testing.assert_array_equal(plain["emission"], 0.0)
+    np.testing.assert_array_equal(plain["occlusion"], 1.0)
