@@ -36,6 +36,9 @@ from app.render.lighting import LightingPass
 from app.scene.geometry import MeshPart
 
 FORWARD_SHADERS = ("passes/gbuffer.vert", "passes/forward.frag")
+# forward.frag as the blend pass: coverage as alpha, emission and occlusion compiled in
+# (GBUFFER_EMISSION selects layers.glsl's lookups; this pass writes no G-buffer).
+BLEND_DEFINES = {"ALPHA_BLEND": 1, "GBUFFER_EMISSION": 1}
 
 
 def blended(part: MeshPart) -> bool:
@@ -79,37 +82,23 @@ def forward_drawables(
     return drawables
 
 
-def view_depth(part: MeshPart, view: np.ndarray) -> float:
-    """The view depth (metres along the view axis) of the centre of the part's
-    object-space bounding box: the key of the back-to-front sort."""
+def world_centre(part: MeshPart) -> np.ndarray:
+    """The world position of the centre of the part's object-space bounding box: the
+    point whose view depth is the key of the back-to-front sort."""
     positions = np.asarray(part.vertices, np.float64).reshape(-1, 12)[:, :3]
     centre = 0.5 * (positions.min(axis=0) + positions.max(axis=0))
-    world = part.model @ np.append(centre, 1.0)
-    return float(-(view @ world)[2])
+    return part.model @ np.append(centre, 1.0)
 
 
 class BlendPass:
     """The blended parts of a frame, composited over the lighting pass's HDR image."""
 
-    def __init__(
-        self,
-        ctx: moderngl.Context,
-        shaders: ShaderCache,
-        parts: list[MeshPart],
-        material_ids: list[list[int]],
-        table: MaterialTable,
-        terms: str,
-        specular_aa: tuple[float, float] | None,
-    ) -> None:
-        """``parts``: the blended parts only, ``material_ids`` their material table rows;
-        ``table``, ``terms`` and ``specular_aa`` as the lighting and G-buffer passes have
-        them. GBUFFER_EMISSION compiles layers.glsl's emission and occlusion lookups in
-        (this pass writes no G-buffer)."""
+    def __init__(self, ctx: moderngl.Context, drawables: list[MeshDrawable]) -> None:
+        """``drawables``: ``forward_drawables`` of the blended parts only, compiled with
+        ``BLEND_DEFINES`` and the lighting pass's material table and terms."""
         self.ctx = ctx
-        defines = {"ALPHA_BLEND": 1, "GBUFFER_EMISSION": 1}
-        self.drawables = forward_drawables(
-            ctx, shaders, parts, material_ids, table, terms, specular_aa, defines
-        )
+        self.drawables = drawables
+        self._centres = [world_centre(d.part) for d in drawables]  # once: parts do not move
         self._fbo: moderngl.Framebuffer | None = None
         self._attached: tuple[moderngl.Texture, moderngl.Renderbuffer] | None = None
 
@@ -159,8 +148,9 @@ class BlendPass:
         for unit, (_, tex) in enumerate(units):
             tex.use(unit)
         # Farthest first; a stable sort keeps scene order between parts at one depth.
-        order = sorted(self.drawables, key=lambda d: -view_depth(d.part, view))
-        for d in order:
+        depths = [-float((view @ c)[2]) for c in self._centres]  # metres along the view axis
+        order = sorted(range(len(depths)), key=lambda k: -depths[k])
+        for d in (self.drawables[k] for k in order):
             prog = d.program
             d.bind_transform(view_bytes, proj_bytes)
             d.bind_camera(camera, size)

@@ -29,7 +29,7 @@ from app.frame.lights import frame_lights
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.render.blend import BlendPass, blended
+from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked
 from app.render.lighting import LightingPass
@@ -190,10 +190,11 @@ class Renderer:
         parts, ids = self.frame.parts, self.frame.material_ids
         chosen = [i for i, part in enumerate(parts) if blended(part)]
         if chosen:
-            self.blend = BlendPass(
+            drawables = forward_drawables(
                 self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
-                self.materials, self.scene.render.terms, self._specular_aa(),
+                self.materials, self.scene.render.terms, self._specular_aa(), BLEND_DEFINES,
             )  # fmt: skip
+            self.blend = BlendPass(self.gl.ctx, drawables)
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling) and the lighting pass."""
