@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pygltflib
 import pytest
 from PIL import Image
 
@@ -21,6 +22,7 @@ from app.gl.context import GLContext
 from app.render.renderer import Renderer
 from app.scene.loader import parse_scene
 from tests.conftest import REPO
+from tests.gltf_builder import GltfBuilder
 
 SIZE = (40, 32)
 BACKGROUND = [0.1, 0.2, 0.3]
@@ -62,15 +64,24 @@ def render(gl: GLContext, data: dict, tmp_path: Path) -> np.ndarray:
         r.release()
 
 
-def check_over(gl: GLContext, tmp_path: Path, material: dict, alpha: float, env: bool) -> None:
+def check_over(
+    gl: GLContext, tmp_path: Path, material: dict, alpha: float, env: bool, supersample: int = 1
+) -> None:
     """The blended image against a * opaque + (1 - a) * without."""
     lights = [SUN, POINT]
     m = {"roughness": 0.4, **material}
     glass = {"pane": {**m, "alpha": alpha, "alpha_mode": "blend"}}
     solid = {"pane": {**m, "alpha_mode": "opaque"}}
-    blended = render(gl, scene(glass, [quad("pane", 0.3)], lights, env), tmp_path)
-    opaque = render(gl, scene(solid, [quad("pane", 0.3)], lights, env), tmp_path)
-    without = render(gl, scene({}, [], lights, env), tmp_path)
+    images = []
+    for materials, objects in (
+        (glass, [quad("pane", 0.3)]),
+        (solid, [quad("pane", 0.3)]),
+        ({}, []),
+    ):
+        data = scene(materials, objects, lights, env)
+        data["render"]["supersample"] = supersample
+        images.append(render(gl, data, tmp_path))
+    blended, opaque, without = images
     expected = alpha * opaque + (1.0 - alpha) * without
     covered = np.abs(opaque - without).max(axis=2) > 1e-3
     assert covered.mean() > 0.1  # the quad is in view and differs from what is behind it
@@ -83,6 +94,48 @@ def test_blended_quad_is_the_linear_combination(gl_egl, tmp_path, alpha):
     blend disabled (the quad drawn opaque: off by (1 - a)(opaque - without)) or with the
     quad still drawn into the G-buffer (the floor behind it is not lit)."""
     check_over(gl_egl, tmp_path, {"base_color": [0.8, 0.3, 0.2], "metallic": 0.2}, alpha, False)
+
+
+def test_composite_is_resolved_with_the_rest(gl_egl, tmp_path):
+    """With render.supersample = 2 the blend runs at the render size, before the resolve:
+    the box filter is linear, so the linear combination still holds at the output size.
+    Fails if the pass ran on the wrong target (after the resolve, or at the output size)."""
+    check_over(gl_egl, tmp_path, {"base_color": [0.2, 0.7, 0.9]}, 0.5, False, supersample=2)
+
+
+def gltf_pane(tmp_path: Path, mode: str) -> Path:
+    """A .glb of the builder's 2 m quad with alphaMode ``mode``, baseColorFactor A 0.4."""
+    b = GltfBuilder()
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[0.9, 0.4, 0.1, 0.4], metallicFactor=0.0, roughnessFactor=0.5
+    )
+    b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=pbr, alphaMode=mode)))
+    return b.save(tmp_path / f"pane_{mode.lower()}.glb")
+
+
+def test_gltf_blend_primitive_goes_through_the_blend_pass(gl_egl, tmp_path):
+    """A glTF file's alphaMode BLEND primitive is left out of the G-buffer and composited
+    with its baseColorFactor's A: the same linear combination as the TOML key's. Fails
+    with the glTF reader's alpha mode dropped (the pane is then drawn opaque)."""
+    lights = [SUN]
+    images = []
+    for objects in (
+        [{"shape": "mesh", "file": str(gltf_pane(tmp_path, "BLEND")), "position": [0, 0.5, 0.3]}],
+        [{"shape": "mesh", "file": str(gltf_pane(tmp_path, "OPAQUE")), "position": [0, 0.5, 0.3]}],
+        [],
+    ):
+        r = Renderer(gl_egl, parse_scene(scene({}, objects, lights), tmp_path / "inline.toml"))
+        try:
+            if objects and "BLEND" in objects[0]["file"]:
+                assert r.blend is not None and len(r.gbuffer_pass.drawables) == 1  # the floor
+            r.render()
+            images.append(r.read_hdr().astype(np.float64))
+        finally:
+            r.release()
+    blended, opaque, without = images
+    assert (np.abs(opaque - without).max(axis=2) > 1e-3).mean() > 0.1
+    expected = 0.4 * opaque + 0.6 * without
+    np.testing.assert_allclose(blended, expected, rtol=0, atol=TOLERANCE * max(1, expected.max()))
 
 
 def test_emission_and_occlusion_blend(gl_egl, tmp_path):
