@@ -224,6 +224,12 @@ def scene(objects: list[dict], materials: dict | None = None, **camera: object):
             "materials.m: the ray-caster takes no texture maps (normal_map)",
         ),
         ([{"shape": "sphere", "material": "m"}], None, {"aperture": 0.1}, "camera.aperture"),
+        (
+            [{"shape": "sphere", "material": "m"}],
+            {"m": {"alpha": 0.5, "alpha_mode": "blend"}},
+            {},
+            "materials.m: the ray-caster takes no emission, alpha mask or blend (alpha_mode)",
+        ),
     ],
 )
 def test_reference_scene_refuses_what_it_cannot_do(objects, materials, cam, message):

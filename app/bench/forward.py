@@ -25,12 +25,11 @@ import moderngl
 import numpy as np
 
 from app.common.lights import pack_lights
-from app.common.models import BRDF_TERMS
 from app.frame import prepare_frame
 from app.frame.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.render.gbuffer import MeshDrawable
+from app.render.blend import forward_drawables
 from app.render.tables import material_texture, ms_texture, sheen_texture
 from app.scene.loader import LoadedScene
 
@@ -65,32 +64,16 @@ class ForwardRenderer:
         self.light_texture = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         settings = scene.render
-        # GBUFFER_COAT_NORMAL: the coats' own normals and cosines, as the deferred pass has
-        # them (the forward pass has no G-buffer; the define selects the same shading).
-        terms = {
-            "BRDF_TERMS": BRDF_TERMS[settings.terms],
-            "GBUFFER_COAT_NORMAL": int(self.materials.needs_coat_normals),
-        }
-        group_defines = [{**model.defines(), **terms} for model in self.materials.models]
         specular_aa = (
             (settings.specular_aa_variance, settings.specular_aa_threshold)
             if settings.specular_aa
             else None
         )
-        # A part drawn once per model group among its layers, each draw keeping only the
-        # fragments whose dominant layer is of its group (MODEL_GROUP in forward.frag), as
-        # the deferred lighting pass shades such a part with one permutation per group.
-        self.drawables = []
-        for part, rows in zip(parts, material_ids, strict=True):
-            groups = sorted({self.materials.groups[row] for row in rows})
-            for group in groups:
-                defines = dict(group_defines[group])
-                if len(groups) > 1:
-                    defines["MODEL_GROUP"] = group
-                shader_pair = ("passes/gbuffer.vert", "passes/forward.frag")
-                self.drawables.append(
-                    MeshDrawable(ctx, self.shaders, part, rows, shader_pair, defines, specular_aa)
-                )
+        # One drawable per part and model group (app/render/blend.py, which the renderer's
+        # blend pass shares).
+        self.drawables = forward_drawables(
+            ctx, self.shaders, parts, material_ids, self.materials, settings.terms, specular_aa
+        )
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.zbuffer = ctx.depth_renderbuffer(self.size)

@@ -49,10 +49,10 @@ def primitive_material(name: str, m: Material) -> PrimitiveMaterial:
         raise ValueError(f"materials.{name}: the ray-caster takes no texture maps ({maps[0]})")
     if m.blend is not None:
         raise ValueError(f"materials.{name}: the ray-caster takes no blends (blend)")
-    if any(m.emission) or m.alpha_mode == "mask":  # glTF 2.0 core material (issue 17)
+    if any(m.emission) or m.alpha_mode != "opaque":  # glTF 2.0 core material (issue 17)
         key = "emissive" if any(m.emission) else "alpha_mode"
         raise ValueError(
-            f"materials.{name}: the ray-caster takes no emission or alpha mask ({key})"
+            f"materials.{name}: the ray-caster takes no emission, alpha mask or blend ({key})"
         )
     p = m.resolve()
     surface = Surface(

@@ -303,7 +303,7 @@ def vertex_extras(part: MeshPart) -> tuple[np.ndarray, str, tuple[str, ...]] | N
 
 def masked(part: MeshPart) -> bool:
     """Whether the part's fragments are alpha-tested: glTF alphaMode MASK on its (first)
-    layer. "blend" is drawn opaque until a forward pass for blended primitives exists."""
+    layer. "blend" parts are not drawn here but by the blend pass (app/render/blend.py)."""
     return part.layers[0].alpha_mode == "mask"
 
 

@@ -1,4 +1,5 @@
-"""The frame: scene -> frame data -> G-buffer pass -> culling -> lighting pass -> post.
+"""The frame: scene -> frame data -> G-buffer pass -> culling -> lighting pass -> blend pass
+(alpha-blended parts only, app/render/blend.py) -> post.
 
 ``Renderer`` owns the GPU objects of one scene at one size; ``render()`` runs the passes,
 and the ``read_*`` methods bring each stage's result back for output and tests. A renderer
@@ -28,6 +29,7 @@ from app.frame.lights import frame_lights
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
+from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked
 from app.render.lighting import LightingPass
@@ -99,6 +101,7 @@ class Renderer:
         self.frame: FrameData = prepare_frame(loaded)
         self.gbuffer: GBuffer | None = None
         self.gbuffer_pass: GBufferPass | None = None
+        self.blend: BlendPass | None = None  # only where a part is alpha-blended
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
         self.dof: DofPass | None = None
@@ -161,18 +164,37 @@ class Renderer:
         self._build_post()
         self._build_camera()
 
+    def _specular_aa(self) -> tuple[float, float] | None:
+        settings = self.scene.render
+        if not settings.specular_aa:
+            return None
+        return (settings.specular_aa_variance, settings.specular_aa_threshold)
+
+    def _opaque(self) -> list[int]:
+        """Indices of the parts the G-buffer pass draws: all but the blended ones."""
+        return [i for i, part in enumerate(self.frame.parts) if not blended(part)]
+
     def _build_gbuffer_pass(self) -> None:
         self._release(("gbuffer_pass",))
-        settings = self.scene.render
-        specular_aa = (
-            (settings.specular_aa_variance, settings.specular_aa_threshold)
-            if settings.specular_aa
-            else None
-        )
+        opaque = self._opaque()
         self.gbuffer_pass = GBufferPass(
-            self.gl.ctx, self.shaders, self.frame.parts, self.frame.material_ids, specular_aa,
+            self.gl.ctx, self.shaders, [self.frame.parts[i] for i in opaque],
+            [self.frame.material_ids[i] for i in opaque], self._specular_aa(),
             self.materials.gbuffer_defines() | self.gbuffer.defines(),
         )  # fmt: skip
+
+    def _build_blend(self) -> None:
+        """The blend pass, only where a part is alpha-blended (every other scene compiles
+        and renders as before it existed)."""
+        self._release(("blend",))
+        parts, ids = self.frame.parts, self.frame.material_ids
+        chosen = [i for i, part in enumerate(parts) if blended(part)]
+        if chosen:
+            drawables = forward_drawables(
+                self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
+                self.materials, self.scene.render.terms, self._specular_aa(), BLEND_DEFINES,
+            )  # fmt: skip
+            self.blend = BlendPass(self.gl.ctx, drawables)
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling) and the lighting pass."""
@@ -184,6 +206,7 @@ class Renderer:
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
             settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
         )  # fmt: skip
+        self._build_blend()  # it shades with the lights, material table and terms
 
     def _build_post(self) -> None:
         """Depth of field (a camera with an aperture), the supersampling resolve, post."""
@@ -263,8 +286,12 @@ class Renderer:
         if frame.materials.gbuffer_defines() != targets:  # the G-buffer gains or loses RT3/4
             self._build_targets()
             return
-        for drawable, ids in zip(self.gbuffer_pass.drawables, frame.material_ids, strict=True):
-            drawable.material_ids = ids
+        opaque = self._opaque()
+        drawables = self.gbuffer_pass.drawables  # restyle edits the parts' layers in place
+        if len(drawables) != len(opaque) or any(blended(d.part) for d in drawables):
+            self._build_gbuffer_pass()  # a part became blended or stopped being blended
+        for drawable, i in zip(self.gbuffer_pass.drawables, opaque, strict=True):
+            drawable.material_ids = frame.material_ids[i]
         if any(d.alpha_mask != masked(d.part) for d in self.gbuffer_pass.drawables):
             self._build_gbuffer_pass()  # an alpha_mode edit compiles the alpha test in or out
         self._build_lighting()
@@ -286,6 +313,7 @@ class Renderer:
             return
         if changed & {"specular_aa", "specular_aa_variance", "specular_aa_threshold"}:
             self._build_gbuffer_pass()
+            self._build_blend()
         if changed & {"light_culling", "terms"}:
             self._build_lighting()
         if "tonemap" in changed:
@@ -344,6 +372,9 @@ class Renderer:
             clock.done("culling")
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
         clock.done("lighting")
+        if self.blend is not None:  # composited before depth of field, resolve and post
+            self.blend.run(self.gbuffer, self.lighting, self.view, self.proj, self.camera)
+            clock.done("blend")
         hdr = self.lighting.hdr
         if self.dof is not None:
             self.dof.run(hdr, self.gbuffer.depth)
@@ -384,6 +415,8 @@ class Renderer:
         return self.gbuffer.read()
 
     def release(self) -> None:
-        self._release(("culler", "resolve", "dof", "gbuffer_pass", "gbuffer", "lighting", "post"))
+        self._release(
+            ("culler", "resolve", "dof", "blend", "gbuffer_pass", "gbuffer", "lighting", "post")
+        )
         if self._owns_shaders:
             self.shaders.release()

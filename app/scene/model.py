@@ -246,8 +246,8 @@ TEXTURE_KEYS = {
     "emissive_map": "sRGB colour; multiplies emissive (emitted radiance)",
     "occlusion_map": "linear, red channel; darkens environment light only",
 }
-# glTF 2.0 alphaMode, lower case: "blend" is drawn opaque until a forward pass for blended
-# primitives exists (docs/scene-format.md says so).
+# glTF 2.0 alphaMode, lower case: "blend" parts are shaded forward and composited over the
+# lit image after the lighting pass (app/render/blend.py, docs/scene-format.md).
 ALPHA_MODES = ("opaque", "mask", "blend")
 EmissiveColor = Annotated[
     list[Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)]], Field(min_length=3, max_length=3)

@@ -93,8 +93,10 @@ uniform float u_occlusion_strength0;
 uniform sampler2D u_emissive_map0;
 uniform sampler2D u_occlusion_map0;
 #endif
-#if ALPHA_MASK
+#if ALPHA_MASK || ALPHA_BLEND
 uniform float u_alpha0;              // glTF baseColorFactor's A
+#endif
+#if ALPHA_MASK
 uniform float u_alpha_cutoff0;
 #endif
 #if UV_TRANSFORM_MAPS0 != 0
@@ -245,7 +247,7 @@ vec4 sample_emission(vec2 uv) {
 }
 #endif
 
-#if ALPHA_MASK
+#if ALPHA_MASK || ALPHA_BLEND
 // glTF 2.0 coverage: the layer's alpha times the base colour map's A and COLOR_0's A.
 float coverage(vec2 uv) {
     float a = u_alpha0 * vertex_color.a;

@@ -4,6 +4,10 @@
 // the same order), but the surface comes straight from the material uniforms and the
 // interpolated vertex attributes instead of a G-buffer: no quantisation, no culling, and
 // occluded fragments that reach the shader before their occluder are shaded too.
+// With ALPHA_BLEND it is the renderer's pass for glTF alphaMode BLEND (app/render/blend.py):
+// the fragment's full outgoing radiance (the sum plus emission, occlusion on the
+// environment's lights as in passes/lighting.frag) with its coverage as alpha, composited
+// "over" the lit HDR image by the fixed-function blend.
 #include "brdf/brdf.glsl"
 #include "common/position.glsl"
 #include "geometry/analytic.glsl"
@@ -26,6 +30,12 @@ uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per ro
 uniform int u_light_count;
 // u_camera_pos, u_camera_to_world, u_tan_half_fov, u_image_size: geometry/analytic.glsl
 
+#if ALPHA_BLEND
+// Lights [x, y) are the environment's: the only light the occlusion map darkens (glTF 2.0),
+// as in passes/lighting.frag.
+uniform ivec2 u_environment_lights;
+#endif
+
 out vec4 frag_color;
 
 void main() {
@@ -42,6 +52,10 @@ void main() {
     analytic_uv_ddy = hit.uv_ddy;
     MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
     float view_depth = hit.view_depth;
+#if ALPHA_BLEND
+    vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
+    float alpha = coverage(hit.uv);
+#endif
     gl_FragDepth = hit.frag_depth;
     if (!hit.hit) discard;
 #if ALPHA_MASK
@@ -50,6 +64,10 @@ void main() {
 #else
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
     float view_depth = v_view_depth;
+#if ALPHA_BLEND
+    vec4 emission = sample_emission(v_uv);
+    float alpha = coverage(v_uv);
+#endif
 #if ALPHA_MASK
     if (!(coverage(v_uv) >= u_alpha_cutoff0)) discard;   // as passes/gbuffer.frag
 #endif
@@ -83,8 +101,19 @@ void main() {
 #endif
     vec3 Lo = vec3(0.0);
     int i = 0;
+#if ALPHA_BLEND
+    // C_src of "over": the lighting pass's sum and emission (RTR4 sec. 9.4's L_o plus L_e);
+    // the blend unit computes alpha C_src + (1 - alpha) C_dst.
+    float ao = emission.a;
+    if (u_light_count > 0) do {
+        float occlusion = i >= u_environment_lights.x && i < u_environment_lights.y ? ao : 1.0;
+        Lo += occlusion * light_contribution(u_lights, i, s, params, n, nc, t, p, v);
+    } while (++i < u_light_count);
+    frag_color = vec4(PI * Lo + emission.rgb, alpha);
+#else
     if (u_light_count > 0) do {  // bottom-tested, as in the lighting pass
         Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);
     } while (++i < u_light_count);
     frag_color = vec4(PI * Lo, 1.0);
+#endif
 }
