@@ -66,6 +66,15 @@ def frame(r: Renderer) -> tuple[np.ndarray, GBufferData]:
     return r.read_hdr().astype(np.float64), r.read_gbuffer()
 
 
+def render_once(gl: GLContext, tmp_path: Path, b: GltfBuilder, **view: object):
+    """(HDR image, G-buffer) of one frame of ``b``'s file (``view``: ``renderer``'s)."""
+    r = renderer(gl, tmp_path, b, **view)
+    try:
+        return frame(r)
+    finally:
+        r.release()
+
+
 def white_base() -> PBR:
     return PBR(baseColorFactor=[0.8, 0.8, 0.8, 1.0], metallicFactor=0.0, roughnessFactor=0.5)
 
@@ -136,11 +145,7 @@ def test_emissive_texture_multiplies_the_factor(gl_egl, tmp_path):
         extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
     )
     b.quad(b.material(mat))
-    r = renderer(gl_egl, tmp_path, b)
-    try:
-        hdr, g = frame(r)
-    finally:
-        r.release()
+    hdr, g = render_once(gl_egl, tmp_path, b)
     c = 188 / 255
     decoded = ((c + 0.055) / 1.055) ** 2.4  # the sRGB transfer function (IEC 61966-2-1)
     assert g.covered.all()
@@ -206,11 +211,7 @@ def test_mask_cuts_at_the_cutoff(gl_egl, tmp_path, factor, cutoff):
     base = PBR(baseColorTexture=pygltflib.TextureInfo(index=tex), baseColorFactor=[1, 1, 1, factor])
     mat = pygltflib.Material(pbrMetallicRoughness=base, alphaMode="MASK", alphaCutoff=cutoff)
     b.quad(b.material(mat))
-    r = renderer(gl_egl, tmp_path, b)
-    try:
-        _, g = frame(r)
-    finally:
-        r.release()
+    _, g = render_once(gl_egl, tmp_path, b)
     coverage = factor * a / 255.0
     assert np.abs(coverage - cutoff).min() > 1e-3  # no column sits on the cut
     expected = np.broadcast_to(coverage >= cutoff, (N, N))
@@ -299,11 +300,7 @@ def id_quad(tmp_path, gl, info: dict, sampler: dict | None = None, **quad) -> GB
     b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=pbr)), **quad)
     if "extensions" in info:
         b.doc.extensionsUsed = ["KHR_texture_transform"]
-    r = renderer(gl, tmp_path, b)
-    try:
-        _, g = frame(r)
-    finally:
-        r.release()
+    _, g = render_once(gl, tmp_path, b)
     assert g.covered.all()
     return g
 
@@ -371,21 +368,13 @@ def test_color_0_multiplies_base_color_and_alpha(gl_egl, tmp_path):
     base = PBR(baseColorFactor=[0.8, 0.6, 0.4, 1.0], metallicFactor=0.0)
     b = GltfBuilder()
     b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=base)), colors=colors)
-    r = renderer(gl_egl, tmp_path, b)
-    try:
-        _, g = frame(r)
-    finally:
-        r.release()
+    _, g = render_once(gl_egl, tmp_path, b)
     want = np.array([0.8, 0.6, 0.4]) * colors[0, :3] / 255.0
     np.testing.assert_allclose(g.base_color[..., :3], np.broadcast_to(want, (N, N, 3)), rtol=1e-6)
     mask = pygltflib.Material(pbrMetallicRoughness=base, alphaMode="MASK", alphaCutoff=0.5)
     b = GltfBuilder()
     b.quad(b.material(mask), colors=colors)
-    r = renderer(gl_egl, tmp_path, b)
-    try:
-        _, g = frame(r)
-    finally:
-        r.release()
+    _, g = render_once(gl_egl, tmp_path, b)
     assert not g.covered.any()
 
 
@@ -517,11 +506,7 @@ def test_draco_file_renders_as_the_uncompressed_one(gl_egl, tmp_path):
     b.doc.meshes[-1].primitives[0].material = mat
     b.doc.nodes[-1].translation = [-EXTRA_NODE_X, 0.0, 0.0]
     b.quad(mat, normals=False, translation=[EXTRA_NODE_X, 0.0, 0.0])
-    r = renderer(gl_egl, tmp_path, b, position=(0.0, 0.0, 2.0))
-    try:
-        _, g = frame(r)
-    finally:
-        r.release()
+    _, g = render_once(gl_egl, tmp_path, b, position=(0.0, 0.0, 2.0))
     half = N // 2
     left, right = g.covered[:, :half], g.covered[:, half:]
     assert left.sum() > 100 and np.array_equal(left, right)
