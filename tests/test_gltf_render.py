@@ -494,10 +494,14 @@ def test_clearcoat_normal_texture_reaches_the_coat_normal(gl_egl, tmp_path):
 
 def test_draco_file_renders_as_the_uncompressed_one(gl_egl, tmp_path):
     """A KHR_draco_mesh_compression quad (16-bit positions and UVs) beside the same quad
-    uncompressed, both with the id texture: the G-buffer's pixels of one equal the other's
-    shifted by the quads' distance (positions, normals, UVs decoded alike). Fails with the
-    Draco stream's UVs flipped or its positions dropped (background only)."""
+    uncompressed (2 m apart), both with the id texture as metallic-roughness, lit by a
+    directional light: the camera filling its view with one quad and then moved 2 m to
+    the other sees the same HDR image and G-buffer (a directional light shades alike
+    under a translation). Fails with the Draco stream's UVs flipped, or its positions
+    dropped (background only)."""
     pytest.importorskip("DracoPy")
+    from app.scene.model import Camera
+
     b = GltfBuilder()
     tex = b.texture(png_rgb(id_texture()), sampler={"magFilter": NEAREST, "minFilter": NEAREST})
     pbr = PBR(metallicRoughnessTexture=pygltflib.TextureInfo(index=tex))
@@ -506,10 +510,19 @@ def test_draco_file_renders_as_the_uncompressed_one(gl_egl, tmp_path):
     b.doc.meshes[-1].primitives[0].material = mat
     b.doc.nodes[-1].translation = [-EXTRA_NODE_X, 0.0, 0.0]
     b.quad(mat, normals=False, translation=[EXTRA_NODE_X, 0.0, 0.0])
-    _, g = render_once(gl_egl, tmp_path, b, position=(0.0, 0.0, 2.0))
-    half = N // 2
-    left, right = g.covered[:, :half], g.covered[:, half:]
-    assert left.sum() > 100 and np.array_equal(left, right)
-    np.testing.assert_array_equal(g.base_color[:, :half][left], g.base_color[:, half:][right])
-    np.testing.assert_allclose(g.normal[:, :half][left], g.normal[:, half:][right], atol=1e-6)
-    assert len(np.unique(texel_ids(g)[g.covered])) == 16
+    r = renderer(gl_egl, tmp_path, b)
+    images = []
+    try:
+        r.set_lights([AXIS_SUN])
+        for x in (-EXTRA_NODE_X, EXTRA_NODE_X):
+            r.set_camera(Camera(position=[x, 0.0, 1.0], target=[x, 0.0, 0.0], fov_y=90.0))
+            images.append(frame(r))
+    finally:
+        r.release()
+    (draco, g_draco), (plain, g_plain) = images
+    assert g_draco.covered.all() and g_plain.covered.all()
+    assert len(np.unique(texel_ids(g_draco))) == 16
+    np.testing.assert_array_equal(g_draco.base_color, g_plain.base_color)
+    np.testing.assert_allclose(g_draco.normal, g_plain.normal, atol=1e-6)
+    np.testing.assert_allclose(draco, plain, rtol=1e-5, atol=1e-7)
+    assert plain.std() > 0.01  # the texture shows in the image
