@@ -442,6 +442,7 @@ def test_extension_parameters_reach_the_material_table(gl_egl, tmp_path, names):
         r.set_lights([ON_AXIS])
         hdr, g = frame(r)
         table = r.materials
+        compiled = [dict(k[2]) for k in r.shaders._programs if k[1] == "passes/lighting.frag"]
     finally:
         r.release()
     core = MaterialParams(base_color=(0.7, 0.5, 0.3), metallic=0.0, roughness=0.35, f0=0.04)
@@ -456,6 +457,7 @@ def test_extension_parameters_reach_the_material_table(gl_egl, tmp_path, names):
     assert table.models[table.groups[int(ids[0])]] == model
     np.testing.assert_allclose(g.normal[g.covered][:, 3], ((1.7 - 1) / (1.7 + 1)) ** 2, rtol=1e-6)
     defines = model.defines()
+    assert any(defines.items() <= d.items() for d in compiled)  # the group's program
     if len(names) > 1:
         assert defines["THIN_FILM"] == 1
         assert defines["SHEEN_MODEL"] != 0 and defines["CLEARCOAT_MODEL"] != 0
