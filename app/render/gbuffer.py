@@ -243,11 +243,16 @@ def uv_matrix(t: UvTransform) -> np.ndarray:
     this project's UV space. The extension defines it in glTF's, whose v runs down the
     image (origin top left); ours runs up (textures are uploaded bottom row first), so the
     matrix is conjugated by the flip F: v -> 1 - v (F = F^-1): M = F T R S F. The rotation
-    is the extension's GLSL matrix, mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1) (glTF
-    KHR_texture_transform, Khronos 2018), written here by rows."""
+    is R = [[cos, sin], [-sin, cos]] by rows in glTF's UV space: the one the extension's
+    worked example needs (offset [0, 1], rotation pi/2, scale 0.5 reads "only the lower
+    left quadrant of the source image, rotated clockwise 90 degrees"; glTF
+    KHR_texture_transform, Khronos 2018) and Blender, Babylon.js and the sample model
+    TextureTransformTest use. The README's GLSL listing, mat3(cos, sin, 0, -sin, cos, 0,
+    0, 0, 1), read column-major is its transpose (KhronosGroup/glTF issue #1563); this
+    function used it before, and rotated every texture the wrong way."""
     c, s = np.cos(t.rotation), np.sin(t.rotation)
     translate = np.array([[1.0, 0.0, t.offset[0]], [0.0, 1.0, t.offset[1]], [0.0, 0.0, 1.0]])
-    rotate = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    rotate = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
     scale = np.diag([t.scale[0], t.scale[1], 1.0])
     flip = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 1.0], [0.0, 0.0, 1.0]])
     return flip @ translate @ rotate @ scale @ flip
