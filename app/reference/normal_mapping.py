@@ -38,3 +38,33 @@ def perturb_normal(ng: np.ndarray, t: np.ndarray, w: np.ndarray, n_ts: np.ndarra
     n = tt * n_ts[..., :1] + b * n_ts[..., 1:2] + ng * n_ts[..., 2:3]
     n = n / np.linalg.norm(n, axis=-1, keepdims=True)
     return np.where(ok, n, ng)
+
+
+def rotate_tangent(
+    ng: np.ndarray, t: np.ndarray, w: np.ndarray, direction: np.ndarray
+) -> np.ndarray:
+    """glTF KHR_materials_anisotropy's direction in the tangent plane (RTR4 §9.8): with the
+    frame t' = t - ng (ng.t) renormalised and b = sign(w) cross(ng, t') of ``perturb_normal``,
+    the unit tangent normalize(t' d.x + b d.y) for the 2D direction d; t itself where
+    |t'| <= 1e-6 (the frame is undefined)."""
+    ng = np.asarray(ng, np.float64)
+    t = np.asarray(t, np.float64)
+    d = np.asarray(direction, np.float64)
+    tt = t - ng * dot(ng, t)[..., None]
+    length = np.linalg.norm(tt, axis=-1, keepdims=True)
+    ok = length > MIN_TANGENT
+    tt = tt / np.where(ok, length, 1.0)
+    sign = np.where(np.asarray(w, np.float64) < 0.0, -1.0, 1.0)[..., None]
+    b = np.cross(ng, tt) * sign
+    r = tt * d[..., :1] + b * d[..., 1:2]
+    r = r / np.linalg.norm(r, axis=-1, keepdims=True)
+    return np.where(ok, r, t)
+
+
+def anisotropy_direction(texel: np.ndarray) -> np.ndarray:
+    """The unit 2D direction a filtered direction-map texel (the decoded 2 rg - 1) stands
+    for: renormalised; (1, 0), the tangent itself, where it has length 0."""
+    texel = np.asarray(texel, np.float64)
+    length = np.linalg.norm(texel, axis=-1, keepdims=True)
+    along = np.broadcast_to([1.0, 0.0], texel.shape)
+    return np.where(length > 0.0, texel / np.where(length > 0.0, length, 1.0), along)

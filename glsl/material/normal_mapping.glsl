@@ -29,4 +29,27 @@ vec3 perturb_normal(vec3 ng, vec3 t, float w, vec3 n_ts) {
     return normalize(tt * n_ts.x + b * n_ts.y + ng * n_ts.z);
 }
 
+// glTF KHR_materials_anisotropy (RTR4 sec. 9.8, anisotropic NDFs): the direction of
+// anisotropy in the tangent plane. `dir` is a 2D direction in the frame (t', b) of
+// perturb_normal above (+x along t', +y along b = sign(w) cross(ng, t')); the result is the
+// unit world-space tangent t' dir.x + b dir.y, i.e. t' turned about ng towards b by
+// atan(dir.y, dir.x) when dir is a unit vector. Where the frame is undefined (|t'| <= 1e-6)
+// t is returned unchanged. The lighting pass orthonormalises it against the shading normal.
+vec3 rotate_tangent(vec3 ng, vec3 t, float w, vec2 dir) {
+    vec3 tt = t - ng * dot(ng, t);
+    float tt_len = length(tt);
+    if (!(tt_len > 1e-6)) return t;
+    tt /= tt_len;
+    vec3 b = cross(ng, tt) * (w < 0.0 ? -1.0 : 1.0);
+    return normalize(tt * dir.x + b * dir.y);
+}
+
+// The unit direction an anisotropy direction map's filtered texel stands for: the texel
+// holds the decoded glTF value 2 rg - 1 (app/textures/maps.py); filtering shortens it, so
+// it is renormalised, and a texel of length 0 stands for the tangent itself, (1, 0).
+vec2 anisotropy_direction(vec2 texel) {
+    float len = length(texel);
+    return len > 0.0 ? texel / len : vec2(1.0, 0.0);
+}
+
 #endif

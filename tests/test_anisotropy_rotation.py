@@ -1,0 +1,224 @@
+"""The direction of anisotropy turned per material and per texel (glTF
+KHR_materials_anisotropy's anisotropyRotation and anisotropyTexture RG; RTR4 §9.8), with
+the real GLSL: the G-buffer pass writes the turned tangent (glsl/material/layers.glsl), so
+the lighting pass needs nothing new.
+
+The plane of tests/test_material_core.py is seen from above: normal +Y, tangent +X (+u),
+and +v along -Z, which is n x t: the bitangent, towards which the rotation turns t.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+from PIL import Image
+
+from app.gl.context import GLContext
+from app.reference.encoding import oct_decode
+from app.reference.normal_mapping import rotate_tangent
+from app.render.renderer import Renderer
+from app.scene.gltf_extensions import map_material_extensions
+from app.scene.loader import load_scene, parse_scene
+from tests.gltf_builder import GltfBuilder, png_rgb
+from tests.test_gltf import SCENE
+
+SIZE = (24, 24)
+F32 = np.finfo(np.float32).eps
+
+
+def plane(material: dict, shape: str = "plane") -> dict:
+    """An anisotropic plane filling a 90-degree view from 1 m above (or a sphere, 1.5 m
+    below the camera, inside it)."""
+    height, size = (1.0, SIZE[0]) if shape == "plane" else (1.5, 48)
+    obj = {"shape": "plane", "size": [2.2, 2.2]} if shape == "plane" else {
+        "shape": "sphere", "radius": 0.6,
+    }  # fmt: skip
+    return {
+        "camera": {"position": [0, height, 0], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 90},
+        "materials": {"m": {"roughness": 0.4, "anisotropy": 0.7, "metallic": 1.0, **material}},
+        "objects": [{**obj, "material": "m"}],
+        "lights": [
+            {"type": "directional", "direction": [0.3, -1, 0.2], "intensity": 2.0},
+            {"type": "point", "position": [-0.4, 1.2, 0.5], "intensity": 2.0, "range": 6.0},
+        ],
+        "render": {"width": size, "height": size, "gbuffer": "f32"},
+    }
+
+
+def render(gl: GLContext, data: dict, tmp_path: Path):
+    """(HDR image, G-buffer) of a scene dict."""
+    r = Renderer(gl, parse_scene(data, tmp_path / "inline.toml"))
+    try:
+        r.render()
+        return r.read_hdr().astype(np.float64), r.read_gbuffer()
+    finally:
+        r.release()
+
+
+def tangents(g) -> np.ndarray:
+    """The G-buffer's unit tangents (H, W, 3), float64."""
+    return oct_decode(g.tangent[..., :2].astype(np.float64))
+
+
+def about(n: np.ndarray, t: np.ndarray, angle: float) -> np.ndarray:
+    """t turned about the unit n by ``angle`` radians (Rodrigues), t perpendicular to n."""
+    return math.cos(angle) * t + math.sin(angle) * np.cross(n, t)
+
+
+def direction_png(tmp_path: Path, rg: tuple[int, int]) -> str:
+    Image.fromarray(np.full((8, 8, 3), (*rg, 255), np.uint8)).save(tmp_path / "dir.png")
+    return "dir.png"
+
+
+@pytest.mark.parametrize("degrees", [30.0, -115.0])
+def test_rotation_turns_the_gbuffer_tangent_about_n(gl_egl, tmp_path, degrees):
+    """anisotropy_rotation = 30 degrees: every G-buffer tangent is the unrotated one
+    turned about the normal by 30 degrees towards the bitangent +v, to float32 precision;
+    every other channel is unchanged bit for bit."""
+    _, g0 = render(gl_egl, plane({}), tmp_path)
+    _, g = render(gl_egl, plane({"anisotropy_rotation": degrees}), tmp_path)
+    cov = g.covered
+    assert cov.all()
+    n = oct_decode(g0.normal[..., :2].astype(np.float64))
+    t0 = tangents(g0)
+    np.testing.assert_allclose(n[cov], np.broadcast_to([0, 1, 0], n[cov].shape), atol=1e-7)
+    np.testing.assert_allclose(t0[cov], np.broadcast_to([1, 0, 0], t0[cov].shape), atol=1e-7)
+    # +v runs along -Z = n x t: the bitangent the rotation turns towards
+    want = about(n, t0, math.radians(degrees))
+    err = np.linalg.norm(tangents(g) - want, axis=-1)[cov]
+    assert err.max() <= 8 * F32, err.max()
+    assert np.array_equal(g.tangent[..., 2], g0.tangent[..., 2])  # anisotropy
+    assert np.array_equal(g.normal, g0.normal) and np.array_equal(g.base_color, g0.base_color)
+
+
+@pytest.mark.parametrize(
+    ("rg", "degrees", "rotation"),
+    [((218, 218), 45.0, 0.0), ((37, 218), 135.0, 0.0), ((218, 37), -45.0, 0.0),
+     ((218, 218), 75.0, 30.0)],
+)  # fmt: skip
+def test_direction_map_is_the_same_as_the_rotation(gl_egl, tmp_path, rg, degrees, rotation):
+    """A direction map of constant (cos t, sin t) (8-bit RG, decoded 2 rg - 1) gives the
+    G-buffer of anisotropy_rotation = t, to float32 precision; with a rotation as well
+    the two angles add (the rotation turns the map's direction). The angles are those
+    an 8-bit texel holds exactly: (218, 218) decodes to (0.7098, 0.7098), 45 degrees
+    once renormalised (2 rg - 1 is never 0, so no texel points exactly along t or b)."""
+    tex = direction_png(tmp_path, rg)
+    _, g_map = render(
+        gl_egl, plane({"anisotropy_direction_map": tex, "anisotropy_rotation": rotation}),
+        tmp_path,
+    )  # fmt: skip
+    _, g_rot = render(gl_egl, plane({"anisotropy_rotation": degrees}), tmp_path)
+    cov = g_map.covered
+    assert cov.all()
+    err = np.linalg.norm(tangents(g_map) - tangents(g_rot), axis=-1)[cov]
+    assert err.max() <= 8 * F32, err.max()
+    # ... and both are turned: +X about +Y towards +v (-Z) by the angle
+    want = about(np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]), math.radians(degrees))
+    assert np.linalg.norm(tangents(g_map) - want, axis=-1)[cov].max() <= 8 * F32
+    for name in ("normal", "base_color", "depth"):
+        assert np.array_equal(getattr(g_map, name), getattr(g_rot, name)), name
+
+
+def test_quarter_turn_is_the_opposite_anisotropy(gl_egl, tmp_path):
+    """The project's anisotropic GGX (Burley 2012) has alpha_x = alpha (1 + a) along t and
+    alpha_y = alpha (1 - a) along b, and its D and Smith Lambda read (h.t)^2 and (h.b)^2
+    only. Turning t by 90 degrees makes t' = b and b' = n x b = -t, so the widths swap,
+    which is what a -> -a does: the sphere's highlights agree to float32 rounding (the
+    turned tangent carries cos(pi/2) = 6e-17 and one rounding per component)."""
+    turned, g = render(gl_egl, plane({"anisotropy_rotation": 90.0}, "sphere"), tmp_path)
+    opposite, _ = render(gl_egl, plane({"anisotropy": -0.7}, "sphere"), tmp_path)
+    straight, _ = render(gl_egl, plane({}, "sphere"), tmp_path)
+    cov = g.covered
+    assert 100 < cov.sum() < cov.size  # the sphere, with background around it
+    peak = opposite[cov].max()
+    diff = np.abs(turned - opposite)[cov]
+    assert diff.max() <= 1e-5 * peak, diff.max() / peak  # measured 3.9e-7
+    # ... and the comparison can fail: the unrotated highlight differs
+    assert np.abs(straight - opposite)[cov].max() > 0.05 * peak
+
+
+def test_rotate_tangent_twin_matches_the_gbuffer(gl_egl, tmp_path):
+    """The float64 twin (app/reference/normal_mapping.py rotate_tangent) of the GLSL
+    function on the plane's frame: n = +Y, t = +X, w = +1, direction (cos, sin) 30 deg."""
+    _, g = render(gl_egl, plane({"anisotropy_rotation": 30.0}), tmp_path)
+    a = math.radians(30.0)
+    want = rotate_tangent(
+        np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]), 1.0,
+        np.array([math.cos(a), math.sin(a)]),
+    )  # fmt: skip
+    err = np.linalg.norm(tangents(g) - want, axis=-1)[g.covered]
+    assert err.max() <= 8 * F32, err.max()
+
+
+def gltf_quad(tmp_path: Path, ext: dict, texture_rg: tuple[int, int] | None = None) -> Path:
+    """A scene with the glTF test quad (XY plane facing +Z, +u along +x; tangents derived
+    by the project, bitangent n x t = +y: up the image, the normal map's +Y) carrying
+    KHR_materials_anisotropy ``ext`` (and an anisotropyTexture of constant RG, B = 255)."""
+    b = GltfBuilder()
+    ext = dict(ext)
+    if texture_rg is not None:
+        ext["anisotropyTexture"] = {"index": b.texture(png_rgb((*texture_rg, 255)))}
+    mat = pygltflib.Material(
+        pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+            metallicFactor=1.0, roughnessFactor=0.4
+        ),
+        extensions={"KHR_materials_anisotropy": {"anisotropyStrength": 0.6, **ext}},
+    )
+    b.doc.extensionsUsed = ["KHR_materials_anisotropy"]
+    b.quad(b.material(mat))
+    b.save(tmp_path / "a.glb")
+    scene = tmp_path / "scene.toml"
+    text = SCENE.format(file="a.glb").replace('gbuffer = "f16"', 'gbuffer = "f32"')
+    scene.write_text(text, encoding="utf-8")
+    return scene
+
+
+def gltf_gbuffer(gl: GLContext, scene: Path):
+    r = Renderer(gl, load_scene(scene), SIZE)
+    try:
+        r.render()
+        return r.read_gbuffer()
+    finally:
+        r.release()
+
+
+def test_gltf_rotation_renders_with_the_turned_tangent(gl_egl, tmp_path):
+    """A glTF file's anisotropyRotation (0.5 rad, not a quarter turn) reaches the G-buffer:
+    its tangent is the unrotated file's turned about n by 0.5 rad towards the bitangent
+    b = w (n x t) = +y (the frame the normal map uses: tests/test_gltf_reader.py; the
+    Khronos sample viewer's b = cross(ng, t) for this quad), counter-clockwise seen from
+    +z. The anisotropyTexture's RG at 45 degrees plus the
+    rotation gives the rotation 0.5 + pi/4; no note says anything is left out."""
+    m = map_material_extensions(
+        {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6, "anisotropyRotation": 0.5}},
+        pygltflib_params(), "materials[0]",
+    )  # fmt: skip
+    assert m.notes == () and m.anisotropy_rotation == 0.5
+    g0 = gltf_gbuffer(gl_egl, gltf_quad(tmp_path, {}))
+    g = gltf_gbuffer(gl_egl, gltf_quad(tmp_path, {"anisotropyRotation": 0.5}))
+    cov = g.covered & g0.covered
+    assert cov.sum() > 100
+    t0 = tangents(g0)
+    np.testing.assert_allclose(t0[cov], np.broadcast_to([1, 0, 0], t0[cov].shape), atol=1e-6)
+    b_v = np.array([0.0, 1.0, 0.0])  # n x t
+    want = math.cos(0.5) * t0 + math.sin(0.5) * b_v
+    err = np.linalg.norm(tangents(g) - want, axis=-1)[cov]
+    assert err.max() <= 8 * F32, err.max()
+    g_tex = gltf_gbuffer(
+        gl_egl, gltf_quad(tmp_path, {"anisotropyRotation": 0.5}, texture_rg=(218, 218))
+    )
+    a = 0.5 + math.pi / 4
+    want = math.cos(a) * t0 + math.sin(a) * b_v
+    err = np.linalg.norm(tangents(g_tex) - want, axis=-1)[cov]
+    assert err.max() <= 8 * F32, err.max()
+
+
+def pygltflib_params():
+    """A glTF core material's parameters as the reader builds them (roughness 0.4)."""
+    from app.common.models import MaterialParams
+
+    return MaterialParams((1.0, 1.0, 1.0), 1.0, 0.4, 0.04)
