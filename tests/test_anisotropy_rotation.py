@@ -123,6 +123,24 @@ def test_direction_map_is_the_same_as_the_rotation(gl_egl, tmp_path, rg, degrees
         assert np.array_equal(getattr(g_map, name), getattr(g_rot, name)), name
 
 
+@pytest.mark.parametrize("mode", ["runtime", "baked"])
+def test_blend_keeps_the_base_direction(gl_egl, tmp_path, mode):
+    """A mask blend (RTR4 §9.13) has one tangent per pixel: the base material's rotation
+    and direction map turn it wherever the mask paints the top layer on, whether the
+    layers mix per pixel or are baked into one (app/textures/bake.py carries both)."""
+    mask = tmp_path / "mask.png"
+    Image.fromarray(np.tile(np.uint8([0, 255]), (8, 4))).save(mask)  # stripes of both
+    data = plane({"anisotropy_rotation": 30.0, "anisotropy_direction_map": direction_png(
+        tmp_path, (218, 218)), "blend": {"material": "top", "mask": "mask.png"}})  # fmt: skip
+    data["materials"]["top"] = {"roughness": 0.2, "anisotropy": -0.5, "metallic": 1.0}
+    data["render"]["blend"] = mode
+    _, g = render(gl_egl, data, tmp_path)
+    cov = g.covered
+    assert cov.all() and np.ptp(g.tangent[..., 2][cov]) > 0.5  # both layers are on screen
+    want = about(np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]), math.radians(75.0))
+    assert np.linalg.norm(tangents(g) - want, axis=-1)[cov].max() <= 8 * F32
+
+
 def test_quarter_turn_is_the_opposite_anisotropy(gl_egl, tmp_path):
     """The project's anisotropic GGX (Burley 2012) has alpha_x = alpha (1 + a) along t and
     alpha_y = alpha (1 - a) along b, and its D and Smith Lambda read (h.t)^2 and (h.b)^2
