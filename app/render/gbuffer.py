@@ -309,6 +309,13 @@ def masked(part: MeshPart) -> bool:
     return part.layers[0].alpha_mode == "mask"
 
 
+def rotated(part: MeshPart) -> bool:
+    """Whether the part turns its tangent by a constant angle: layer 0's
+    anisotropy_rotation, compiled in (ANISOTROPY_ROTATION) only where it is not 0, so
+    that every other part's program is the one it was before the rotation existed."""
+    return part.layers[0].anisotropy_rotation != 0.0
+
+
 class MeshDrawable:
     """One mesh part on the GPU: its program (the shader pair, with the part's maps, blend
     and options as defines), vertex and index buffers, textures and per-part matrices.
@@ -334,7 +341,8 @@ class MeshDrawable:
             defines["SPECULAR_AA"] = 1
         if part.analytic is not None:
             defines[f"ANALYTIC_{part.analytic.kind.upper()}"] = 1
-        if part.layers[0].anisotropy_rotation != 0.0:  # layer 0's only (layers.glsl)
+        self.rotated = rotated(part)
+        if self.rotated:
             defines["ANISOTROPY_ROTATION"] = 1
         self.alpha_mask = masked(part)
         if self.alpha_mask:
