@@ -19,7 +19,7 @@ from PIL import Image
 
 from app.gl.context import GLContext
 from app.reference.encoding import oct_decode
-from app.reference.normal_mapping import rotate_tangent
+from app.reference.normal_mapping import anisotropy_direction, rotate_tangent
 from app.render.renderer import Renderer
 from app.scene.gltf_extensions import map_material_extensions
 from app.scene.loader import load_scene, parse_scene
@@ -159,17 +159,24 @@ def test_quarter_turn_is_the_opposite_anisotropy(gl_egl, tmp_path):
     assert np.abs(straight - opposite)[cov].max() > 0.05 * peak
 
 
-def test_rotate_tangent_twin_matches_the_gbuffer(gl_egl, tmp_path):
-    """The float64 twin (app/reference/normal_mapping.py rotate_tangent) of the GLSL
-    function on the plane's frame: n = +Y, t = +X, w = +1, direction (cos, sin) 30 deg."""
-    _, g = render(gl_egl, plane({"anisotropy_rotation": 30.0}), tmp_path)
-    a = math.radians(30.0)
-    want = rotate_tangent(
-        np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]), 1.0,
-        np.array([math.cos(a), math.sin(a)]),
+def test_twins_match_the_gbuffer(gl_egl, tmp_path):
+    """The float64 twins (app/reference/normal_mapping.py rotate_tangent and
+    anisotropy_direction) of the GLSL functions, on the plane's frame (n = +Y, t = +X,
+    w = +1): a direction map texel off the 45-degree diagonal, (200, 90) -> (0.569,
+    -0.294) (stored as float16), turned by 20 degrees."""
+    tex = direction_png(tmp_path, (200, 90))
+    _, g = render(
+        gl_egl, plane({"anisotropy_direction_map": tex, "anisotropy_rotation": 20.0}),
+        tmp_path,
     )  # fmt: skip
+    texel = np.float16(2.0 * np.array([200.0, 90.0]) / 255.0 - 1.0).astype(np.float64)
+    d = anisotropy_direction(texel)
+    a = math.radians(20.0)
+    d = np.array([math.cos(a) * d[0] - math.sin(a) * d[1], math.sin(a) * d[0] + math.cos(a) * d[1]])
+    want = rotate_tangent(np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]), 1.0, d)
     err = np.linalg.norm(tangents(g) - want, axis=-1)[g.covered]
     assert err.max() <= 8 * F32, err.max()
+    assert anisotropy_direction(np.zeros(2)).tolist() == [1.0, 0.0]  # length 0: along t
 
 
 def test_forward_pass_turns_the_tangent_too(gl_egl, tmp_path):
