@@ -74,6 +74,24 @@ def direction_png(tmp_path: Path, rg: tuple[int, int]) -> str:
     return "dir.png"
 
 
+@pytest.mark.parametrize(
+    ("material", "key"),
+    [({"anisotropy": 0.0, "anisotropy_rotation": 30.0}, "anisotropy_rotation"),
+     ({"anisotropy": 0.0, "anisotropy_direction_map": "dir.png"}, "anisotropy_direction_map"),
+     ({"anisotropy_rotation": 400.0}, "anisotropy_rotation")],
+)  # fmt: skip
+def test_keys_without_anisotropy_are_refused(tmp_path, material, key):
+    """A turn of an isotropic lobe would silently do nothing: the keys need a non-zero
+    anisotropy (and the angle lies within +-360 degrees)."""
+    from app.errors import InputError
+
+    direction_png(tmp_path, (218, 218))  # the map exists: only the missing anisotropy is wrong
+    data = plane(material)
+    data["materials"]["m"].update(material)
+    with pytest.raises(InputError, match=f"{key}: (turns the anisotropy|Input should be)"):
+        parse_scene(data, tmp_path / "inline.toml")
+
+
 @pytest.mark.parametrize("degrees", [30.0, -115.0])
 def test_rotation_turns_the_gbuffer_tangent_about_n(gl_egl, tmp_path, degrees):
     """anisotropy_rotation = 30 degrees: every G-buffer tangent is the unrotated one
