@@ -17,6 +17,7 @@ import pytest
 
 from app.common.models import MaterialParams
 from app.reference.material import Surface, brdf_eval
+from app.reference.normal_mapping import rotate_tangent
 from app.reference.sheen import load_table, sheen_E
 from app.scene.gltf_document import GltfError
 from app.scene.gltf_extensions import (
@@ -252,12 +253,13 @@ def test_ior_and_specular_match_the_specification(ior, weight, metallic):
     np.testing.assert_allclose(twin(p, l, v, terms="specular"), ref, rtol=1e-12)
 
 
-@pytest.mark.parametrize("turns", [0, 1, 2, 3])
+@pytest.mark.parametrize("rotation", [0.0, math.pi / 2, math.pi, 0.3, -2.0, 7.0])
 @pytest.mark.parametrize(("strength", "roughness"), [(0.6, 0.5), (1.0, 0.3), (0.2, 0.8)])
-def test_anisotropy_matches_the_specification(strength, roughness, turns):
+def test_anisotropy_matches_the_specification(strength, roughness, rotation):
     """KHR_materials_anisotropy's D and V with alpha_t = mix(alpha, 1, strength^2) along the
-    tangent rotated by anisotropyRotation (quarter turns), alpha_b = alpha."""
-    rotation = turns * math.pi / 2
+    tangent rotated by anisotropyRotation (any angle), alpha_b = alpha: the project's
+    anisotropy along the tangent the G-buffer pass turns by the layer's rotation
+    (rotate_tangent, the twin of glsl/material/normal_mapping.glsl's)."""
     ext = {"KHR_materials_anisotropy": {"anisotropyStrength": strength,
                                         "anisotropyRotation": rotation}}  # fmt: skip
     m = map_material_extensions(ext, core(roughness=roughness), KEY)
@@ -270,20 +272,24 @@ def test_anisotropy_matches_the_specification(strength, roughness, turns):
     b = np.cross(N, t)
     F = spec_schlick(0.04, 1.0, np.sum(v * h, -1))
     ref = (F * spec_ggx_anisotropic(t, b, h, l, v, at, alpha))[:, None]
-    f = twin(m.params, l, v, t=X, terms="specular")  # the renderer's tangent, unrotated
+    a = m.anisotropy_rotation
+    assert -math.pi <= a <= math.pi
+    turned = rotate_tangent(N, X, 1.0, np.array([math.cos(a), math.sin(a)]))
+    f = twin(m.params, l, v, t=turned, terms="specular")  # the tangent the G-buffer holds
     np.testing.assert_allclose(f, np.broadcast_to(ref, f.shape), rtol=1e-12)
 
 
-def test_other_anisotropy_rotations_are_reported_not_faked():
+def test_anisotropy_texture_fills_strength_and_direction():
+    """anisotropyTexture: B (the strength) multiplies the anisotropy, RG (the direction)
+    becomes the direction map; the rotation is kept exactly, and only the linear use of
+    the strength is reported."""
     ext = {"KHR_materials_anisotropy": {"anisotropyStrength": 0.5, "anisotropyRotation": 0.3,
                                         "anisotropyTexture": {"index": 4}}}  # fmt: skip
     m = map_material_extensions(ext, core(), KEY)
-    assert any("anisotropyRotation" in n and "not applied" in n for n in m.notes)
-    straight = material_extensions(
-        {"KHR_materials_anisotropy": {"anisotropyStrength": 0.5}}, core(), KEY
-    )
-    assert m.params.anisotropy == straight.anisotropy  # the tangent kept, not turned
+    assert m.anisotropy_rotation == 0.3
     assert m.maps["anisotropy"].channel == "b"  # the strength channel
+    assert m.maps["anisotropy_direction"].channel == "rg"
+    assert len(m.notes) == 1 and "linearly" in m.notes[0]
 
 
 def test_sheen_matches_the_specification():

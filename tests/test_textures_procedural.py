@@ -63,6 +63,7 @@ GENERATORS: dict[str, Callable[[int, int], np.ndarray]] = {
     "brushed_anisotropy": procedural.brushed_anisotropy,
     "brushed_roughness": procedural.brushed_roughness,
     "noise": procedural.noise,
+    "brushed_direction": procedural.brushed_direction,
 }
 
 
@@ -249,6 +250,17 @@ def test_brushed_maps_streak_along_u(
     across_v = np.abs(np.diff(a, axis=0)).mean()
     along_u = np.abs(np.diff(a, axis=1)).mean()
     assert across_v > 10.0 * along_u
+
+
+def test_brushed_direction_is_unit_within_75_degrees(pixels: dict[str, np.ndarray]) -> None:
+    """The direction map decodes (2 rg - 1) to unit vectors (to 8-bit rounding) within 75
+    degrees of +u, so no two neighbours point opposite ways, and B (the strength) is 1."""
+    rgb = pixels["brushed_direction.png"] / 255.0
+    d = 2.0 * rgb[..., :2] - 1.0
+    assert np.abs(np.linalg.norm(d, axis=-1) - 1.0).max() <= 2.0 * QUANTUM
+    angle = np.degrees(np.arctan2(d[..., 1], d[..., 0]))
+    assert np.abs(angle).max() <= 75.0 + 0.5 and np.abs(angle).max() > 70.0
+    assert np.all(rgb[..., 2] == 1.0)
 
 
 # -- pbs textures ---------------------------------------------------------------------------

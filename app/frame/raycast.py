@@ -11,6 +11,8 @@ it does not intersect, texture maps, blends, a camera with an aperture.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from app.common.primitives import Primitive
@@ -58,7 +60,7 @@ def primitive_material(name: str, m: Material) -> PrimitiveMaterial:
     surface = Surface(
         np.asarray(p.base_color, np.float64), p.metallic, p.roughness, p.f0, p.anisotropy
     )
-    return PrimitiveMaterial(surface, p.params, p.model)
+    return PrimitiveMaterial(surface, p.params, p.model, math.radians(m.anisotropy_rotation))
 
 
 def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) -> RaycastImage:

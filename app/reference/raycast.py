@@ -18,6 +18,7 @@ whose parameter ``t`` is the view depth (the distance along the view axis), so a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +30,7 @@ from app.common.primitives import Primitive
 from app.reference._vec import dot, normalize
 from app.reference.illumination import illumination_sum, pixel_ndc
 from app.reference.material import Surface, sanitize_surface
+from app.reference.normal_mapping import rotate_tangent
 
 NO_HIT = -1  # primitive id of a pixel that hits nothing
 MIXED = -2  # primitive id of a supersampled pixel whose samples disagree
@@ -42,6 +44,9 @@ class PrimitiveMaterial:
     surface: Surface
     params: ModelParams
     model: Model
+    # The direction of anisotropy turned about n from t towards b, radians (the scene key
+    # anisotropy_rotation; the G-buffer pass turns its tangent the same way)
+    anisotropy_rotation: float = 0.0
 
 
 @dataclass
@@ -235,8 +240,14 @@ def shade(
         )
         p = hits.p[sel]
         v = normalize(np.asarray(camera.position, np.float64) - p)
+        t = hits.t[sel]
+        if mat.anisotropy_rotation != 0.0:  # as glsl/material/layers.glsl turns it
+            # b = n x t (handedness +1): a scene's scale is positive, so no primitive
+            # mirrors (the G-buffer pass's u_tangent_sign is 1)
+            a = mat.anisotropy_rotation
+            t = rotate_tangent(hits.n[sel], t, 1.0, np.array([math.cos(a), math.sin(a)]))
         out[sel] = illumination_sum(
-            surface, mat.params, mat.model, hits.n[sel], hits.t[sel], p, v, lights, terms
+            surface, mat.params, mat.model, hits.n[sel], t, p, v, lights, terms
         )
     return out
 

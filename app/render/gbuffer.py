@@ -19,6 +19,7 @@ ENCODINGS): float16, 16-bit unorm (signed values mapped to [0, 1]) or float32.
 from __future__ import annotations
 
 import ctypes
+import math
 
 import moderngl
 import numpy as np
@@ -146,6 +147,7 @@ MAP_BITS = {
     "coat_normal": 64,
     "emissive": 128,
     "occlusion": 256,
+    "anisotropy_direction": 512,
 }
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -312,6 +314,13 @@ def masked(part: MeshPart) -> bool:
     return part.layers[0].alpha_mode == "mask"
 
 
+def rotated(part: MeshPart) -> bool:
+    """Whether the part turns its tangent by a constant angle: layer 0's
+    anisotropy_rotation, compiled in (ANISOTROPY_ROTATION) only where it is not 0, so
+    that every other part's program is the one it was before the rotation existed."""
+    return part.layers[0].anisotropy_rotation != 0.0
+
+
 class MeshDrawable:
     """One mesh part on the GPU: its program (the shader pair, with the part's maps, blend
     and options as defines), vertex and index buffers, textures and per-part matrices.
@@ -337,6 +346,9 @@ class MeshDrawable:
             defines["SPECULAR_AA"] = 1
         if part.analytic is not None:
             defines[f"ANALYTIC_{part.analytic.kind.upper()}"] = 1
+        self.rotated = rotated(part)
+        if self.rotated:
+            defines["ANISOTROPY_ROTATION"] = 1
         self.alpha_mask = masked(part)
         if self.alpha_mask:
             defines["ALPHA_MASK"] = 1
@@ -449,6 +461,11 @@ class MeshDrawable:
                 "u_occlusion_strength0": first.occlusion_strength,
                 "u_alpha0": first.alpha,
                 "u_alpha_cutoff0": first.alpha_cutoff,
+                # cos and sin in float64, rounded once to float32 by the GL
+                "u_anisotropy_rotation0": (
+                    math.cos(first.anisotropy_rotation),
+                    math.sin(first.anisotropy_rotation),
+                ),
             }
         )
         if (blend := self.part.blend) is not None:

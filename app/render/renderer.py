@@ -31,7 +31,7 @@ from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
 from app.render.culling import LightCuller
-from app.render.gbuffer import GBuffer, GBufferPass, masked
+from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
 from app.render.lighting import LightingPass
 from app.render.limits import check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
@@ -292,8 +292,11 @@ class Renderer:
             self._build_gbuffer_pass()  # a part became blended or stopped being blended
         for drawable, i in zip(self.gbuffer_pass.drawables, opaque, strict=True):
             drawable.material_ids = frame.material_ids[i]
-        if any(d.alpha_mask != masked(d.part) for d in self.gbuffer_pass.drawables):
-            self._build_gbuffer_pass()  # an alpha_mode edit compiles the alpha test in or out
+        if any(
+            d.alpha_mask != masked(d.part) or d.rotated != rotated(d.part)
+            for d in self.gbuffer_pass.drawables
+        ):  # an alpha_mode or anisotropy_rotation edit compiles its code in or out
+            self._build_gbuffer_pass()
         self._build_lighting()
 
     def set_settings(self, settings: RenderSettings) -> None:

@@ -49,6 +49,7 @@ from app.textures.maps import (
     UvTransform,
     colour_texture,
     decode_normals,
+    direction_texture,
     normal_roughness_texture,
     resample,
     scalar_texture,
@@ -687,6 +688,7 @@ class GltfFile:
             img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
         layer.uv_transforms = transforms
+        layer.anisotropy_rotation = mapping.anisotropy_rotation
         return layer
 
 
@@ -703,11 +705,14 @@ def _texture_info(texture: ExtensionTexture) -> SimpleNamespace:
 def _extension_map(name: str, texture: ExtensionTexture, image: Image.Image) -> Texture:
     """The map a KHR_materials_* texture fills (docs/gltf.md): the clear coat's own normal
     map (its ``scale`` applied; mips of the normals alone, as a scene's
-    ``clearcoat_normal_map``), or one channel of a scalar map."""
+    ``clearcoat_normal_map``), the anisotropy direction (RG decoded to 2 rg - 1, as a
+    scene's ``anisotropy_direction_map``), or one channel of a scalar map."""
     if name == "coat_normal":
         scale = texture.info.get("scale", 1.0)
         coat = decode_normals(image, float(scale))
         return normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+    if name == "anisotropy_direction":
+        return direction_texture(image)
     channel = "rgba".index(texture.channel)
     pixels = np.asarray(image.convert("RGBA"), np.float64) / 255.0
     return scalar_texture(pixels[..., channel])

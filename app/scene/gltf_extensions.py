@@ -15,8 +15,8 @@ what it approximates; docs/gltf.md has the table.
   through the generalised Schlick (RTR4 §9.5); the project's F0 is one number, so a
   coloured specularColor is approximated by the luminance of its F0.
 * KHR_materials_anisotropy: alpha_t = mix(alpha, 1, strength^2), alpha_b = alpha, written
-  exactly in the project's (roughness, anisotropy) (RTR4 §9.8); the rotation only where it
-  maps t onto +-t or +-b.
+  exactly in the project's (roughness, anisotropy) (RTR4 §9.8); the rotation (any angle)
+  and the texture's direction (RG) turn the tangent the G-buffer pass writes.
 * KHR_materials_sheen: the Charlie sheen with Estevez & Kulla's Smith Lambda and the same
   albedo scaling (RTR4 §9.10).
 * KHR_materials_clearcoat: the project's Filament clear coat at the coat index 1.5 (RTR4
@@ -25,7 +25,8 @@ what it approximates; docs/gltf.md has the table.
   (RTR4 §9.11); approximated (the project's film has no strength and uses exact Fresnel).
 
 Textures: only factors are mapped; ``map_material_extensions`` also returns the textures
-the project can sample (``maps``: the clear coat's normal map, the anisotropy strength) and
+the project can sample (``maps``: the clear coat's normal map, the anisotropy strength and
+direction) and
 a note for each texture or parameter it cannot honour, for the reader to attach and report.
 """
 
@@ -49,9 +50,6 @@ IOR_ZERO_ETA = 1e6
 # The thickest film the project's thin film takes (the scene format's film_thickness limit;
 # docs/thin-film.md measures its series up to there).
 MAX_FILM_THICKNESS_NM = 5000.0
-# An anisotropyRotation within this many radians of a multiple of pi/2 is taken as that
-# multiple (a float32 pi/2 written to JSON is 4.4e-8 off).
-ROTATION_TOLERANCE = 1e-6
 # Rec. 709 luminance weights (linear RGB), for the one F0 a coloured specularColor gets.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -95,7 +93,7 @@ class ExtensionTexture:
     and the JSON path it came from (for the reader's errors)."""
 
     info: Mapping[str, Any]
-    channel: str  # "r", "g", "b", "a" or "rgb"
+    channel: str  # "r", "g", "b", "a", "rg" or "rgb"
     key: str
 
 
@@ -103,7 +101,8 @@ class ExtensionTexture:
 class ExtensionMapping:
     """What ``map_material_extensions`` made of a material's extensions.
 
-    ``maps``: SurfaceLayer map keys ("coat_normal", "anisotropy") to the textures that fill
+    ``maps``: SurfaceLayer map keys ("coat_normal", "anisotropy", "anisotropy_direction")
+    to the textures that fill
     them. ``notes``: one line per texture, parameter or extension that is approximated or
     left out (the reader reports them; docs/gltf.md explains each). ``applied``: the
     extension names that changed the parameters.
@@ -113,6 +112,9 @@ class ExtensionMapping:
     maps: dict[str, ExtensionTexture] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     applied: tuple[str, ...] = ()
+    # KHR_materials_anisotropy's anisotropyRotation in radians, in [-pi, pi]: the layer's
+    # SurfaceLayer.anisotropy_rotation
+    anisotropy_rotation: float = 0.0
 
 
 def material_extensions(extensions: dict, params: MaterialParams, key: str) -> MaterialParams:
@@ -148,7 +150,10 @@ def map_material_extensions(
     for name in sorted(extensions):
         if name.startswith("KHR_materials_") and name not in SUPPORTED + HANDLED_ELSEWHERE:
             state.notes.append(f"{name}: not supported; the material renders without it")
-    return ExtensionMapping(state.params, state.maps, tuple(state.notes), tuple(state.applied))
+    return ExtensionMapping(
+        state.params, state.maps, tuple(state.notes), tuple(state.applied),
+        state.anisotropy_rotation,
+    )  # fmt: skip
 
 
 @dataclass
@@ -160,6 +165,7 @@ class _State:
     maps: dict[str, ExtensionTexture] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     applied: list[str] = field(default_factory=list)
+    anisotropy_rotation: float = 0.0
 
     def path(self, name: str, prop: str | None = None) -> str:
         base = f"{self.key}.extensions.{name}"
@@ -331,23 +337,17 @@ def _anisotropy(state: _State, ext: Mapping[str, Any], name: str) -> None:
     alpha_t = alpha + (1.0 - alpha) * strength * strength
     alpha_mean = 0.5 * (alpha_t + alpha)
     anisotropy = (alpha_t - alpha) / (alpha_t + alpha)
-    # The rotation turns the stretched direction from t towards b. The renderer has no
-    # per-material tangent rotation; a quarter turn swaps t and b (a -> -a), a half turn is
-    # the same axis. Other angles are reported, and the tangent is kept.
-    quarter = rotation / (0.5 * math.pi)
-    turns = round(quarter)
-    if abs(quarter - turns) * 0.5 * math.pi <= ROTATION_TOLERANCE:
-        anisotropy = -anisotropy if turns % 2 else anisotropy
-    else:
-        state.notes.append(
-            f"{state.path(name, 'anisotropyRotation')}: {rotation!r} rad is not applied (the "
-            "renderer cannot rotate the tangent per material; only multiples of pi/2 map)"
-        )
+    # The rotation turns the stretched direction from t towards b: the layer's
+    # anisotropy_rotation, any angle, which the G-buffer pass applies to the tangent it
+    # writes (glsl/material/layers.glsl). Reduced to [-pi, pi] (exactly: IEEE remainder).
+    state.anisotropy_rotation = math.remainder(rotation, 2.0 * math.pi)
     if texture is not None:
+        # RG: the direction in (t, b) before the rotation, exact; B: the strength.
+        state.maps["anisotropy_direction"] = replace(texture, channel="rg")
         state.maps["anisotropy"] = replace(texture, channel="b")
         state.notes.append(
             f"{texture.key}: its strength (B) multiplies the project's anisotropy linearly "
-            "(the extension's alpha_t is quadratic in it); its direction (RG) is not supported"
+            "(the extension's alpha_t is quadratic in it)"
         )
     _apply(
         state, name, {"anisotropic": True}, {},

@@ -3,6 +3,7 @@ pass samples, cached so that a file two materials share is read and filtered onc
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
@@ -16,6 +17,7 @@ from app.textures.maps import (
     Texture,
     colour_texture,
     decode_normals,
+    direction_texture,
     linear_channel,
     normal_roughness_texture,
     read_image,
@@ -56,6 +58,9 @@ class LayerBuilder:
             maps["metallic"] = scalar_texture(linear_channel(self.image(name, "metallic_map")))
         if m.anisotropy_map is not None:
             maps["anisotropy"] = scalar_texture(linear_channel(self.image(name, "anisotropy_map")))
+        if m.anisotropy_direction_map is not None:  # glTF anisotropyTexture's RG
+            image = self.image(name, "anisotropy_direction_map")
+            maps["anisotropy_direction"] = direction_texture(image)
         normals = None
         if m.normal_map is not None:
             normals = decode_normals(self.image(name, "normal_map"), m.normal_scale)
@@ -87,6 +92,7 @@ class LayerBuilder:
             occlusion_strength=1.0 if m.occlusion_strength is None else m.occlusion_strength,
             alpha=m.alpha, alpha_mode=m.alpha_mode,
             alpha_cutoff=0.5 if m.alpha_cutoff is None else m.alpha_cutoff,
+            anisotropy_rotation=math.radians(m.anisotropy_rotation),
         )  # fmt: skip
 
 

@@ -240,6 +240,11 @@ TEXTURE_KEYS = {
     "roughness_map": "linear, red channel; multiplies roughness",
     "normal_map": "tangent-space normals, RGB = n * 0.5 + 0.5 (OpenGL: +Y along +v)",
     "anisotropy_map": "linear, red channel; multiplies anisotropy",
+    # glTF KHR_materials_anisotropy's anisotropyTexture RG (RTR4 §9.8)
+    "anisotropy_direction_map": (
+        "linear RG: the direction of anisotropy 2 rg - 1 in (tangent, bitangent), turned by "
+        "anisotropy_rotation"
+    ),
     # glTF KHR_materials_clearcoat's clearcoatNormalTexture (RTR4 §9.12)
     "clearcoat_normal_map": "the clear coat's own tangent-space normals, as normal_map",
     # glTF 2.0 core material (issue 17): emissiveTexture and occlusionTexture
@@ -351,6 +356,11 @@ class Material(_Strict):
     roughness_map: TexturePath | None = None
     normal_map: TexturePath | None = None
     anisotropy_map: TexturePath | None = None
+    # glTF KHR_materials_anisotropy (RTR4 §9.8): the direction of anisotropy turned about n,
+    # counter-clockwise from the tangent towards the bitangent, in degrees (0), and a map of
+    # that direction; the base material's only (a blend's top layer keeps the base's)
+    anisotropy_rotation: Annotated[Real, Field(ge=-360.0, le=360.0)] = 0.0
+    anisotropy_direction_map: TexturePath | None = None
     normal_scale: Annotated[Real, Field(ge=0.0, le=10.0)] = 1.0  # glTF normalTexture.scale
     uv_scale: UvScale = [1.0, 1.0]  # texture repeats across the surface's UV range
     blend: Blend | None = None
@@ -368,6 +378,9 @@ class Material(_Strict):
     def _check(self) -> Material:
         if self.anisotropy_map is not None and not self.anisotropy:
             raise ValueError("anisotropy_map: multiplies 'anisotropy', which must be non-zero")
+        for key in ("anisotropy_rotation", "anisotropy_direction_map"):
+            if getattr(self, key) and not self.anisotropy:
+                raise ValueError(f"{key}: turns the anisotropy, which must be non-zero")
         if self.preset is not None and self.preset not in PRESETS:
             raise ValueError(
                 f"preset: unknown preset '{self.preset}' (known: {', '.join(sorted(PRESETS))})"

@@ -100,4 +100,11 @@ def bake_blend(
     }
     if anisotropic:
         maps["anisotropy"] = scalar_texture(mixed.anisotropy)
-    return SurfaceLayer(params, maps, base.uv_scale, base.normal_mapped or top.normal_mapped)
+    # The direction of anisotropy is the base's (one tangent per pixel; a runtime blend
+    # also turns it by layer 0's alone): its map is read with the same UV scale.
+    if "anisotropy_direction" in base.maps:
+        maps["anisotropy_direction"] = base.maps["anisotropy_direction"]
+    return SurfaceLayer(
+        params, maps, base.uv_scale, base.normal_mapped or top.normal_mapped,
+        anisotropy_rotation=base.anisotropy_rotation,
+    )  # fmt: skip

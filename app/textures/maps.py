@@ -66,7 +66,8 @@ class SurfaceLayer:
     """One material as the G-buffer pass samples it: constants, maps and UV tiling.
 
     ``maps`` keys: ``base_color`` (sRGB), ``metallic``, ``anisotropy`` (R), ``emissive``
-    (sRGB), ``occlusion`` (R), and
+    (sRGB), ``occlusion`` (R), ``anisotropy_direction`` (RG: the direction of anisotropy
+    in (t, b), decoded to [-1, 1]; ``direction_texture``), and
     ``normal_roughness`` (RGBA: normal xyz, absolute perceptual roughness; present when the
     material has a normal or a roughness map), ``coat_normal`` (RGBA: the clear coat's own
     normal xyz, its own mips; RTR4 §9.12). ``normal_mapped``: the base's normals come from a
@@ -88,6 +89,10 @@ class SurfaceLayer:
     alpha: float = 1.0
     alpha_mode: str = "opaque"
     alpha_cutoff: float = 0.5
+    # glTF KHR_materials_anisotropy's anisotropyRotation (RTR4 §9.8), radians: the direction
+    # of anisotropy (the ``anisotropy_direction`` map's, else t) turned counter-clockwise
+    # from t towards b. Layer 0's only: the G-buffer has one tangent per pixel.
+    anisotropy_rotation: float = 0.0
     # Per map key: its UV set and KHR_texture_transform; a key not here reads TEXCOORD_0
     # untransformed.
     uv_transforms: dict[str, UvTransform] = field(default_factory=dict)
@@ -196,3 +201,13 @@ def colour_texture(image: Image.Image) -> Texture:
 def scalar_texture(values: np.ndarray) -> Texture:
     """A single-channel non-colour map with box-filtered mips (mips.box_mips), never the GL's."""
     return Texture([level[..., None] for level in box_mips(values)])
+
+
+def direction_texture(image: Image.Image) -> Texture:
+    """An anisotropy direction map (glTF KHR_materials_anisotropy's anisotropyTexture RG):
+    the direction 2 rg - 1 in the tangent frame (t, b), stored decoded (float16, the
+    G-buffer pass renormalises it) with box-filtered mips. Averaging directions is what
+    the specification's sampler does too: opposite directions (the same axis of
+    anisotropy) cancel in the mips, and a texel of length 0 reads as t itself."""
+    rg = np.asarray(image.convert("RGB"), np.float64)[..., :2] / 255.0
+    return Texture(box_mips(2.0 * rg - 1.0))

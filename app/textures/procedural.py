@@ -320,6 +320,15 @@ def brushed_roughness(size: int = TEXTURE_SIZE, seed: int = 45) -> np.ndarray:
     return 0.25 + 0.2 * stretch(0.75 * streaks + 0.25 * wear)
 
 
+def brushed_direction(size: int = NORMAL_MAP_SIZE, seed: int = 47) -> np.ndarray:
+    """(H, W, 2) unit directions of anisotropy in the tangent frame (+x along +u, +y along
+    +v), float64: brushing that swirls. The angle from +u is a broad fBm (period 2, 2
+    octaves) stretched onto [-75, 75] degrees, so it never wraps and neighbouring texels
+    never point opposite ways (their mips average, as glTF's sampler does)."""
+    angle = np.radians(75.0) * (2.0 * stretch(fbm(size, seed, period=2, octaves=2)) - 1.0)
+    return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+
+
 def noise(size: int = TEXTURE_SIZE, seed: int = 46) -> np.ndarray:
     """Generic greyscale fBm (period 4, 6 octaves) stretched onto [0, 1]."""
     return stretch(fbm(size, seed, period=4, octaves=6))
@@ -336,6 +345,13 @@ def quantize(values: np.ndarray) -> np.ndarray:
 def encode_normals(n: np.ndarray) -> np.ndarray:
     """Unit normals -> RGB8 n * 0.5 + 0.5 (linear, not sRGB)."""
     return quantize(np.asarray(n, np.float64) * 0.5 + 0.5)
+
+
+def encode_directions(d: np.ndarray) -> np.ndarray:
+    """Unit 2D directions -> RGB8 as glTF KHR_materials_anisotropy's anisotropyTexture
+    holds them: RG = d * 0.5 + 0.5 (linear), B = 255 (the strength, 1)."""
+    rg = quantize(np.asarray(d, np.float64) * 0.5 + 0.5)
+    return np.dstack([rg, np.full(rg.shape[:2], 255, np.uint8)])
 
 
 def decode_normals(rgb: np.ndarray) -> np.ndarray:
@@ -382,6 +398,13 @@ TEXTURES: tuple[ProceduralTexture, ...] = (
         lambda: quantize(brushed_roughness()),
     ),
     ProceduralTexture("noise.png", "L", "generic fBm noise, linear", lambda: quantize(noise())),
+    ProceduralTexture(
+        "brushed_direction.png",
+        "RGB",
+        "swirling direction of anisotropy within 75 deg of +u, RG = d*0.5+0.5, B = 1 (glTF "
+        "anisotropyTexture layout)",
+        lambda: encode_directions(brushed_direction()),
+    ),
     ProceduralTexture(
         "flake_normal.png",
         "RGB",

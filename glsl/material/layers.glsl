@@ -21,6 +21,7 @@
 #define MAP_COAT_NORMAL 64      // RGB: the clear coat's tangent-space normal (layer 0 only)
 #define MAP_EMISSIVE 128        // sRGB: multiplies the emitted radiance (layer 0 only)
 #define MAP_OCCLUSION 256       // R: ambient occlusion of environment light (layer 0 only)
+#define MAP_ANISOTROPY_DIRECTION 512  // RG: direction of anisotropy in (t, b), decoded 2 rg - 1 (layer 0 only)
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -40,6 +41,11 @@
 #ifndef VERTEX_COLOR
 #define VERTEX_COLOR 0
 #endif
+// Layer 0 turns its tangent about the normal by a constant angle (glTF
+// KHR_materials_anisotropy's anisotropyRotation; the scene key anisotropy_rotation).
+#ifndef ANISOTROPY_ROTATION
+#define ANISOTROPY_ROTATION 0
+#endif
 // Layer 0's maps (MAP_* bits) read through a KHR_texture_transform matrix
 // (u_uv_transform0[index]), and those of them that read TEXCOORD_1 instead of TEXCOORD_0.
 #ifndef UV_TRANSFORM_MAPS0
@@ -58,6 +64,7 @@
 #define MAP_INDEX_COAT_NORMAL 6
 #define MAP_INDEX_EMISSIVE 7
 #define MAP_INDEX_OCCLUSION 8
+#define MAP_INDEX_ANISOTROPY_DIRECTION 9
 
 struct LayerConstants {
     vec3 base_color;
@@ -93,6 +100,12 @@ uniform float u_occlusion_strength0;
 uniform sampler2D u_emissive_map0;
 uniform sampler2D u_occlusion_map0;
 #endif
+#if ANISOTROPY_ROTATION
+uniform vec2 u_anisotropy_rotation0;  // (cos, sin) of the angle, from float64 on the CPU
+#endif
+#if (LAYER0_MAPS & MAP_ANISOTROPY_DIRECTION) != 0
+uniform sampler2D u_anisotropy_direction_map0;
+#endif
 #if ALPHA_MASK || ALPHA_BLEND
 uniform float u_alpha0;              // glTF baseColorFactor's A
 #endif
@@ -100,7 +113,7 @@ uniform float u_alpha0;              // glTF baseColorFactor's A
 uniform float u_alpha_cutoff0;
 #endif
 #if UV_TRANSFORM_MAPS0 != 0
-uniform mat3 u_uv_transform0[9];     // uv' = M uv per map index, before uv_scale
+uniform mat3 u_uv_transform0[10];     // uv' = M uv per map index, before uv_scale
 #endif
 // glTF COLOR_0 and TEXCOORD_1 of the fragment, set by the pass's main() from its inputs
 // (identity and unused where the mesh has none).
@@ -219,6 +232,23 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     vec4 coat = sample_layer_map(u_coat_normal_map0, uv, u_layer0.uv_scale, 0,
                                  MAP_INDEX_COAT_NORMAL);
     nc = perturb_normal(ng, t, tangent.w, tangent_space_normal(coat.xyz));
+#endif
+    // glTF KHR_materials_anisotropy (RTR4 sec. 9.8): the direction of anisotropy is the
+    // direction map's texel (else +t), turned counter-clockwise from t towards b by the
+    // rotation, in the geometric frame that normal mapping uses. The G-buffer stores the
+    // turned tangent, so the lighting pass reads it as any other.
+#if ANISOTROPY_ROTATION || (LAYER0_MAPS & MAP_ANISOTROPY_DIRECTION) != 0
+    vec2 dir = vec2(1.0, 0.0);
+#if (LAYER0_MAPS & MAP_ANISOTROPY_DIRECTION) != 0
+    dir = anisotropy_direction(sample_layer_map(u_anisotropy_direction_map0, uv,
+                                                u_layer0.uv_scale, 0,
+                                                MAP_INDEX_ANISOTROPY_DIRECTION).rg);
+#endif
+#if ANISOTROPY_ROTATION
+    vec2 cs = u_anisotropy_rotation0;
+    dir = vec2(cs.x * dir.x - cs.y * dir.y, cs.y * dir.x + cs.x * dir.y);
+#endif
+    if (t_len > 0.0) t = rotate_tangent(ng, t, tangent.w, dir);
 #endif
 #if SPECULAR_AA
     // Tokuyoshi & Kaplanyan 2019: the normal's screen-space variation widens the NDF.
