@@ -471,3 +471,34 @@ def test_normal_map_tilts_the_gbuffer_normal(
     got = oct_decode(g.normal[16, 16, :2].astype(np.float64))
     want = np.array(world)
     assert np.degrees(np.arccos(np.clip(got @ want, -1, 1))) < 0.5, (got, want)
+
+
+def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) -> None:
+    """A material with KHR_materials_transmission (no model here) and a sheen colour
+    texture (sheen mapped, its texture not): `pbs render` writes the image, exits 0 and
+    says each on one line of stderr naming the glTF file, nothing else."""
+    import subprocess
+    import sys
+
+    b = GltfBuilder()
+    tex = b.texture(png_rgb((200, 100, 50)))
+    ext = {
+        "KHR_materials_transmission": {"transmissionFactor": 0.5},
+        "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1], "sheenColorTexture": {"index": tex}},
+    }
+    b.quad(b.material(pygltflib.Material(extensions=ext)))
+    b.save(tmp_path / "m.glb")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE.format(file="m.glb"), encoding="utf-8")
+    out = tmp_path / "o.png"
+    cmd = [sys.executable, "-m", "app", "render", str(scene), "-o", str(out), "--size", "16x16"]
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+    if result.returncode == 1 and "no headless OpenGL" in result.stderr:
+        pytest.skip("no headless OpenGL context here")
+    assert result.returncode == 0, result.stderr
+    assert out.is_file()
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 2, result.stderr
+    assert all(str(tmp_path / "m.glb") in line for line in lines)
+    assert any("KHR_materials_transmission" in line for line in lines)
+    assert any("sheenColorTexture" in line for line in lines)
