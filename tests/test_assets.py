@@ -20,6 +20,7 @@ from app.reference.encoding import oct_decode
 from app.render.renderer import Renderer
 from app.scene.geometry import build_parts
 from app.scene.loader import load_scene
+from app.scene.references import parse_map_statement
 from app.textures.maps import SurfaceLayer
 from tests.test_gltf import SCENE as GLTF_SCENE
 from tests.test_gltf import _srgb_decode
@@ -231,3 +232,19 @@ def test_dissolve_takes_the_blend_pass(gl_egl: GLContext, tmp_path: Path) -> Non
         assert covered == (d == 1.0), d
     assert hdr[1.0].min() > hdr[0.0].max() + 0.1, hdr  # the lit quad stands out
     np.testing.assert_allclose(hdr[0.5], 0.5 * hdr[1.0] + 0.5 * hdr[0.0], rtol=1e-2, atol=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("rest", "options", "name"),
+    [
+        (" kd.png", {}, "kd.png"),
+        (" -s 1 1 1 my kd.png", {"-s": ("1", "1", "1")}, "my kd.png"),
+        (" -o 0.5 0.25 -bm 2 n.png", {"-o": ("0.5", "0.25"), "-bm": ("2",)}, "n.png"),
+        (" -clamp on -imfchan r 1.png", {"-clamp": ("on",), "-imfchan": ("r",)}, "1.png"),
+        (" -s 2 2.png", {"-s": ("2",)}, "2.png"),  # a numeric-looking name stays the name
+    ],
+)
+def test_map_statement_options(rest: str, options: dict, name: str) -> None:
+    """Options before the file name are taken with their words (-o/-s/-t up to three
+    numbers), and the rest of the line, spaces kept, is the name."""
+    assert parse_map_statement(rest) == (options, name)
