@@ -1,8 +1,9 @@
-"""An OBJ's MTL material reaches the G-buffer as glTF's base colour does.
+"""An OBJ's MTL material reaches the G-buffer as glTF's material does.
 
 Each test writes an OBJ quad (facing the camera, UV (0, 0) at the bottom left) and its
-MTL, renders it on EGL and reads RT0 (linear base colour, metallic) and RT1.z (perceptual
-roughness) at the quad's pixels.
+MTL, and either reads the SurfaceLayer it becomes (``build_parts``) or renders it on EGL
+and reads RT0 (linear base colour, metallic), RT1 (octahedral normal, perceptual
+roughness) and RT5 (emission) at the quad's pixels.
 """
 
 from __future__ import annotations
@@ -15,8 +16,12 @@ from PIL import Image
 
 from app.common.gbuffer import GBufferData
 from app.gl.context import GLContext
+from app.reference.encoding import oct_decode
 from app.render.renderer import Renderer
+from app.scene.geometry import build_parts
 from app.scene.loader import load_scene
+from app.scene.references import parse_map_statement
+from app.textures.maps import SurfaceLayer
 from tests.test_gltf import SCENE as GLTF_SCENE
 from tests.test_gltf import _srgb_decode
 
@@ -38,13 +43,25 @@ f 1/1/1 3/3/1 4/4/1
 """
 
 
-def _render(gl: GLContext, folder: Path, mtl: str | None) -> GBufferData:
-    """The G-buffer of the quad, with ``mtl`` as its quad.mtl (None: no mtllib at all)."""
+def _write(folder: Path, mtl: str | None) -> Path:
+    """The quad's OBJ, ``mtl`` as its quad.mtl (None: no mtllib at all) and the scene."""
     header = "" if mtl is None else "mtllib quad.mtl\nusemtl m\n"
     (folder / "quad.obj").write_text(header + QUAD, encoding="utf-8")
     if mtl is not None:
         (folder / "quad.mtl").write_text(mtl, encoding="utf-8")
     (folder / "scene.toml").write_text(SCENE, encoding="utf-8")
+    return folder / "scene.toml"
+
+
+def _layer(folder: Path, mtl: str) -> SurfaceLayer:
+    """The SurfaceLayer the quad's MTL material becomes."""
+    (part,) = build_parts(load_scene(_write(folder, mtl)))
+    return part.layers[0]
+
+
+def _render(gl: GLContext, folder: Path, mtl: str | None) -> GBufferData:
+    """The G-buffer of the quad, with ``mtl`` as its quad.mtl (None: no mtllib at all)."""
+    _write(folder, mtl)
     renderer = Renderer(gl, load_scene(folder / "scene.toml"), SIZE)
     try:
         renderer.render()
@@ -109,3 +126,125 @@ def test_scene_material_overrides_the_mtl(gl_egl: GLContext, tmp_path: Path, mtl
     finally:
         renderer.release()
     np.testing.assert_allclose(base[:, :3], [[0.1, 0.9, 0.3]] * 2, atol=1e-5)
+
+
+# A normal-map texel tilted 30 degrees from +z towards +u (the quad's +x), 8-bit.
+TILT = np.radians(30.0)
+TILTED = (np.sin(TILT), 0.0, np.cos(TILT))
+TILTED_RGB = tuple(int(c) for c in np.round((np.array(TILTED) * 0.5 + 0.5) * 255))
+
+
+def _pbr_maps(folder: Path) -> None:
+    """One-colour maps for the PBR MTL statements (a file name with a space included)."""
+    Image.new("RGB", (4, 4), (0, 102, 0)).save(folder / "rough.png")  # R = 0: not G
+    Image.new("RGB", (4, 4), (153, 0, 0)).save(folder / "metal.png")
+    Image.new("RGB", (4, 4), TILTED_RGB).save(folder / "my normal.png")
+    Image.new("RGB", (4, 4), (255, 128, 0)).save(folder / "glow.png")
+    Image.new("L", (2, 2), 64).save(folder / "cover.png")
+    Image.new("RGB", (4, 4), (10, 20, 30)).save(folder / "kd.png")
+
+
+def test_pbr_maps_reach_the_layer_exactly(tmp_path: Path) -> None:
+    """Each map reaches the SurfaceLayer with its factor: map_Pr (R, linear) times Pr in
+    the chain's alpha, map_Pm as the metallic map with Pm the factor, norm's texels scaled
+    by -bm in x and y (a name with a space after the option), Ke / map_Ke the emission,
+    d the alpha in blend mode and map_d the base colour texture's alpha (resampled to
+    map_Kd's size); map_Kd behind an -s option is read (trimesh dropped it)."""
+    _pbr_maps(tmp_path)
+    mtl = (
+        "newmtl m\nKd 1 1 1\nPr 0.5\nPm 0.25\nmap_Pr rough.png\nmap_Pm metal.png\n"
+        "norm -bm 0.5 my normal.png\nKe 2 3 4\nmap_Ke glow.png\nd 0.75\nmap_d cover.png\n"
+        "map_Kd -s 1 1 1 kd.png\n"
+    )
+    layer = _layer(tmp_path, mtl)
+    assert (layer.params.roughness, layer.params.metallic) == (0.5, 0.25)
+    assert layer.maps["metallic"].pixels[0, 0, 0] == pytest.approx(153 / 255)
+    chain = layer.maps["normal_roughness"].pixels[0, 0]
+    assert chain[3] == pytest.approx(0.5 * 0.0, abs=1e-7)  # R of rough.png is 0
+    raw = np.array(TILTED_RGB) / 255.0 * 2.0 - 1.0
+    want = raw * [0.5, 0.5, 1.0]
+    np.testing.assert_allclose(chain[:3], want / np.linalg.norm(want), atol=2e-3)
+    assert layer.normal_mapped
+    assert layer.emissive == (2.0, 3.0, 4.0)
+    np.testing.assert_array_equal(layer.maps["emissive"].pixels[0, 0], [255, 128, 0, 255])
+    assert (layer.alpha, layer.alpha_mode) == (0.75, "blend")
+    np.testing.assert_array_equal(layer.maps["base_color"].pixels.shape, (4, 4, 4))
+    np.testing.assert_array_equal(layer.maps["base_color"].pixels[0, 0], [10, 20, 30, 64])
+
+
+def test_a_map_without_its_factor_has_factor_one(tmp_path: Path) -> None:
+    """map_Pr, map_Pm, map_Ke without Pr, Pm, Ke: the map alone (as map_Kd without Kd);
+    map_d alone: white RGB at its size, blend; no d or map_d: opaque."""
+    _pbr_maps(tmp_path)
+    (tmp_path / "rough.png").unlink()
+    Image.new("RGB", (4, 4), (102, 0, 0)).save(tmp_path / "rough.png")
+    layer = _layer(
+        tmp_path, "newmtl m\nmap_Pr rough.png\nmap_Pm metal.png\nmap_Ke glow.png\nmap_d cover.png\n"
+    )
+    assert (layer.params.roughness, layer.params.metallic) == (1.0, 1.0)
+    assert layer.maps["normal_roughness"].pixels[0, 0, 3] == pytest.approx(102 / 255)
+    assert not layer.normal_mapped  # a roughness map alone keeps the normals flat
+    assert layer.emissive == (1.0, 1.0, 1.0)
+    assert layer.alpha_mode == "blend"
+    np.testing.assert_array_equal(layer.maps["base_color"].pixels[0, 0], [255, 255, 255, 64])
+    plain = _layer(tmp_path, "newmtl m\nKd 0.5 0.5 0.5\n")
+    assert (plain.alpha, plain.alpha_mode, plain.emissive) == (1.0, "opaque", (0.0, 0.0, 0.0))
+    assert not plain.maps
+
+
+def test_pbr_maps_render(gl_egl: GLContext, tmp_path: Path) -> None:
+    """Rendered: norm tilts the G-buffer normal 30 degrees towards +x (the quad's +u);
+    map_Pr x Pr is the G-buffer roughness, map_Pm x Pm its metallic, Ke x map_Ke (sRGB)
+    its emission."""
+    _pbr_maps(tmp_path)
+    Image.new("RGB", (4, 4), (102, 0, 0)).save(tmp_path / "rough.png")
+    mtl = (
+        "newmtl m\nKd 1 1 1\nPr 0.5\nPm 0.5\nmap_Pr rough.png\nmap_Pm metal.png\n"
+        "norm my normal.png\nKe 2 1 0.5\nmap_Ke glow.png\n"
+    )
+    g = _render(gl_egl, tmp_path, mtl)
+    base, normal = _column(g)
+    # The maps are stored as float16 (spacing 2.4e-4 near 0.3).
+    np.testing.assert_allclose(base[:, 3], 0.5 * 153 / 255, atol=5e-4)
+    np.testing.assert_allclose(normal[:, 2], 0.5 * 102 / 255, atol=5e-4)
+    for row in normal:
+        got = oct_decode(row[:2].astype(np.float64))
+        assert np.degrees(np.arccos(np.clip(got @ np.array(TILTED), -1, 1))) < 0.5, got
+    assert g.emission is not None
+    mid = SIZE[1] // 2, SIZE[0] // 2
+    want = [2.0 * _srgb_decode(255), 1.0 * _srgb_decode(128), 0.0]
+    np.testing.assert_allclose(g.emission[mid][:3], want, atol=1e-2)
+
+
+def test_dissolve_takes_the_blend_pass(gl_egl: GLContext, tmp_path: Path) -> None:
+    """d 0.5: the quad leaves the G-buffer (blended parts are shaded forward after
+    lighting) and its HDR pixel is half of d 1's over half of the background (d 0)."""
+    hdr = {}
+    for d in (0.0, 0.5, 1.0):
+        _write(tmp_path, f"newmtl m\nKd 1 1 1\nd {d}\n")
+        renderer = Renderer(gl_egl, load_scene(tmp_path / "scene.toml"), SIZE)
+        try:
+            renderer.render()
+            covered = renderer.read_gbuffer().covered[SIZE[1] // 2, SIZE[0] // 2]
+            hdr[d] = renderer.read_hdr()[SIZE[1] // 2, SIZE[0] // 2, :3].astype(np.float64)
+        finally:
+            renderer.release()
+        assert covered == (d == 1.0), d
+    assert hdr[1.0].min() > hdr[0.0].max() + 0.1, hdr  # the lit quad stands out
+    np.testing.assert_allclose(hdr[0.5], 0.5 * hdr[1.0] + 0.5 * hdr[0.0], rtol=1e-2, atol=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("rest", "options", "name"),
+    [
+        (" kd.png", {}, "kd.png"),
+        (" -s 1 1 1 my kd.png", {"-s": ("1", "1", "1")}, "my kd.png"),
+        (" -o 0.5 0.25 -bm 2 n.png", {"-o": ("0.5", "0.25"), "-bm": ("2",)}, "n.png"),
+        (" -clamp on -imfchan r 1.png", {"-clamp": ("on",), "-imfchan": ("r",)}, "1.png"),
+        (" -s 2 2.png", {"-s": ("2",)}, "2.png"),  # a numeric-looking name stays the name
+    ],
+)
+def test_map_statement_options(rest: str, options: dict, name: str) -> None:
+    """Options before the file name are taken with their words (-o/-s/-t up to three
+    numbers), and the rest of the line, spaces kept, is the name."""
+    assert parse_map_statement(rest) == (options, name)

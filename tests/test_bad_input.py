@@ -748,6 +748,12 @@ OBJ_QUAD += "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
         pytest.param(None, "mtllib quad.mtl: ", id="mtl-missing"),
         pytest.param("newmtl m\nKd 1 1 1\nmap_Kd -s 1 1 1 gone.png\n", "map_Kd gone.png",
                      id="map-kd-missing"),
+        pytest.param("newmtl m\nmap_Pr gone.png\n", "map_Pr gone.png", id="map-pr-missing"),
+        pytest.param("newmtl m\nmap_Pm gone.png\n", "map_Pm gone.png", id="map-pm-missing"),
+        pytest.param("newmtl m\nnorm -bm 2 my gone.png\n", "norm my gone.png",
+                     id="norm-missing"),
+        pytest.param("newmtl m\nmap_Ke gone.png\n", "map_Ke gone.png", id="map-ke-missing"),
+        pytest.param("newmtl m\nmap_d gone.png\n", "map_d gone.png", id="map-d-missing"),
     ],
 )  # fmt: skip
 def test_bad_obj_references(

@@ -4,8 +4,9 @@ A sphere without ``subdivisions`` is analytic (``MeshPart.analytic``): its verti
 convex proxy around it, and the G-buffer pass intersects each pixel's view ray with the
 exact sphere (glsl/geometry/analytic.glsl), so that its normals, UVs, depth and silhouette
 are the sphere's own (docs/gbuffer.md, "Analytic primitives"). Other primitives come from
-trimesh; OBJ, PLY and STL files are read through trimesh (an OBJ's MTL base colour
-``Kd``, ``map_Kd``, roughness and metallic come through), glTF/GLB through the project's
+trimesh; OBJ, PLY and STL files are read through trimesh (an OBJ's MTL material comes
+through: base colour, PBR roughness, metallic and normal maps, emission, dissolve;
+``_mtl_material``), glTF/GLB through the project's
 own reader (app/scene/gltf.py: every primitive, attribute and core material field); the
 files a mesh file names are checked first (app/scene/references.py). Every mesh ends up as
 interleaved float32 ``position, normal, uv`` vertices and uint32 triangle indices, in
@@ -18,22 +19,40 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import trimesh
+from PIL import Image
 
 from app.common.models import MaterialParams
 from app.common.primitives import Primitive
 from app.errors import InputError
 from app.scene.gltf import GltfFile
 from app.scene.gltf_document import GltfError
-from app.scene.layers import LayerBuilder, gltf_layer
+from app.scene.layers import LayerBuilder, normal_roughness_chain
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
-from app.scene.references import gltf_problem, obj_libraries, obj_problem
+from app.scene.references import (
+    MtlMap,
+    gltf_problem,
+    obj_libraries,
+    obj_materials,
+    obj_problem,
+)
 from app.textures.bake import bake_blend
-from app.textures.maps import SurfaceLayer, Texture, scalar_texture
+from app.textures.maps import (
+    SurfaceLayer,
+    Texture,
+    colour_texture,
+    decode_normals,
+    linear_channel,
+    read_image,
+    resample,
+    scalar_texture,
+)
 
 VERTEX_FORMAT = "3f 3f 2f 4f"
 VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
@@ -328,14 +347,23 @@ def _vertex_array(
 
 
 def _file_material(
-    mesh: trimesh.Trimesh, fallback: MaterialParams, normal_filter: str, mtl: bool = False
+    mesh: trimesh.Trimesh,
+    fallback: MaterialParams,
+    normal_filter: str,
+    mtl: dict[str, dict[str, MtlMap]] | None = None,
+    read: Callable[[Path], Image.Image] | None = None,
 ) -> SurfaceLayer:
-    """With ``mtl`` (an OBJ that names an MTL file), the MTL's material
-    (``_mtl_material``); otherwise ``fallback``. (OBJ, PLY and STL carry no other material
-    trimesh reads; glTF materials come from app/scene/gltf.py.)"""
+    """With ``mtl`` (an OBJ that names an MTL file: its materials' maps by name,
+    ``obj_materials``), the MTL's material (``_mtl_material``; ``read`` opens its maps);
+    otherwise ``fallback``. (OBJ, PLY and STL carry no other material trimesh reads; glTF
+    materials come from app/scene/gltf.py.)"""
     mat = getattr(mesh.visual, "material", None)
-    if mtl and isinstance(mat, trimesh.visual.material.SimpleMaterial):
-        return _mtl_material(mat, fallback, normal_filter)
+    if (
+        mtl is not None
+        and read is not None
+        and isinstance(mat, trimesh.visual.material.SimpleMaterial)
+    ):
+        return _mtl_material(mat, mtl.get(mat.name, {}), fallback, normal_filter, read)
     return SurfaceLayer(fallback)
 
 
@@ -351,31 +379,113 @@ def _mtl_number(kwargs: dict, key: str) -> float | None:
     return number if math.isfinite(number) else None
 
 
+def _mtl_colour(kwargs: dict, key: str) -> tuple[float, float, float] | None:
+    """An MTL colour statement's three numbers (``Kd``, ``Ke``; trimesh keeps floats for
+    ``kd``, words for the rest), or None where absent, short or not finite numbers."""
+    value = kwargs.get(key)
+    if not isinstance(value, list | tuple) or len(value) < 3:
+        return None
+    try:
+        rgb = tuple(float(c) for c in value[:3])
+    except (TypeError, ValueError):
+        return None
+    return rgb if all(math.isfinite(c) for c in rgb) else None  # type: ignore[return-value]
+
+
+def _coverage_rgba(kd: Image.Image | None, d: Image.Image | None) -> Image.Image:
+    """The base colour texture of an MTL material: ``map_Kd`` (white where absent, at
+    ``map_d``'s size) with ``map_d``'s first channel (linear) as its alpha where given,
+    resampled to ``map_Kd``'s size; without ``map_d``, ``map_Kd``'s own alpha."""
+    if kd is None:
+        assert d is not None
+        rgba = np.full((d.height, d.width, 4), 255, np.uint8)
+    else:
+        rgba = np.array(kd.convert("RGBA"), np.uint8)
+    if d is not None:
+        alpha = resample(linear_channel(d), rgba.shape[:2])
+        rgba[..., 3] = np.round(np.clip(alpha, 0.0, 1.0) * 255.0).astype(np.uint8)
+    return Image.fromarray(rgba, "RGBA")
+
+
 def _mtl_material(
-    mat: trimesh.visual.material.SimpleMaterial, fallback: MaterialParams, normal_filter: str
+    mat: trimesh.visual.material.SimpleMaterial,
+    maps: dict[str, MtlMap],
+    fallback: MaterialParams,
+    normal_filter: str,
+    read: Callable[[Path], Image.Image],
 ) -> SurfaceLayer:
-    """An OBJ's MTL material as the glTF path reads a base colour: ``Kd`` is the base
-    colour factor (linear, as glTF's baseColorFactor; read from trimesh's float copy, not
-    its 8-bit ``diffuse``), ``map_Kd`` the base colour map (sRGB), multiplied. The PBR
-    extension's scalars ``Pr`` (roughness) and ``Pm`` (metallic) come through; its maps
-    (``map_Pr``, ``map_Pm``, ``norm``) are not read (docs/scene-format.md, "Mesh files").
-    Called only for an OBJ with an ``mtllib``: without one trimesh makes up a grey
-    material with a 2 x 2 image, which must not replace the default."""
+    """An OBJ's MTL material as the glTF path reads one (docs/scene-format.md, "Mesh
+    files"). Each map multiplies its factor, and a map without its factor has factor 1:
+
+    - ``Kd`` the base colour factor (linear, as glTF's baseColorFactor; read from
+      trimesh's float copy, not its 8-bit ``diffuse``), ``map_Kd`` the base colour map
+      (sRGB);
+    - the PBR extension's ``Pr`` / ``map_Pr`` (roughness, linear first channel) and
+      ``Pm`` / ``map_Pm`` (metallic, likewise), and ``norm`` (a tangent-space normal map,
+      x and y scaled by its ``-bm`` option as glTF's normalTexture.scale);
+    - ``Ke`` / ``map_Ke`` the emitted radiance (linear factor, sRGB map, glTF's
+      emissiveFactor / emissiveTexture);
+    - ``d`` / ``map_d`` (dissolve) the coverage: any ``d`` below 1 or a ``map_d`` makes
+      the material ``alpha_mode = "blend"`` (dissolve is a fraction of the surface seen,
+      not a cut-out threshold, so blending is what it means).
+
+    ``maps`` come from app/scene/references.py (files relative to the MTL's folder, options
+    before the name parsed), not from trimesh, which takes a ``map_Kd`` line's options for
+    part of the file name and then drops the image silently. Called only for an OBJ with
+    an ``mtllib``: without one trimesh makes up a grey material with a 2 x 2 image, which
+    must not replace the default."""
     kwargs = getattr(mat, "kwargs", None) or {}
-    kd = kwargs.get("kd")
-    if isinstance(kd, list | tuple) and len(kd) >= 3:
-        base = tuple(min(max(float(c), 0.0), 1.0) for c in kd[:3])
+    kd = _mtl_colour(kwargs, "kd")
+    if kd is not None:
+        base = tuple(min(max(c, 0.0), 1.0) for c in kd)
     else:  # no Kd: the map alone (factor 1), or the default colour
-        base = (1.0, 1.0, 1.0) if mat.image is not None else fallback.base_color
+        base = (1.0, 1.0, 1.0) if "map_kd" in maps else fallback.base_color
     roughness = _mtl_number(kwargs, "pr")
     metallic = _mtl_number(kwargs, "pm")
+    if roughness is None:
+        roughness = 1.0 if "map_pr" in maps else fallback.roughness
+    if metallic is None:
+        metallic = 1.0 if "map_pm" in maps else fallback.metallic
     params = MaterialParams(
         base_color=base,  # type: ignore[arg-type]
-        metallic=fallback.metallic if metallic is None else min(max(metallic, 0.0), 1.0),
-        roughness=fallback.roughness if roughness is None else min(max(roughness, 0.0), 1.0),
+        metallic=min(max(metallic, 0.0), 1.0),
+        roughness=min(max(roughness, 0.0), 1.0),
         f0=fallback.f0,
     )
-    return gltf_layer(params, mat.image, None, normal_filter)
+    images = {key: read(m.file) for key, m in maps.items()}
+    layer = SurfaceLayer(params)
+    if "map_kd" in images or "map_d" in images:
+        rgba = _coverage_rgba(images.get("map_kd"), images.get("map_d"))
+        layer.maps["base_color"] = colour_texture(rgba)
+    if "map_pm" in images:
+        layer.maps["metallic"] = scalar_texture(linear_channel(images["map_pm"]))
+    normals = None
+    if "norm" in images:
+        normals = decode_normals(images["norm"], _bump_multiplier(maps["norm"]))
+    if normals is not None or "map_pr" in images:
+        r = linear_channel(images["map_pr"]) if "map_pr" in images else None
+        chain = normal_roughness_chain(normals, params.roughness, r, normal_filter)
+        layer.maps["normal_roughness"] = chain
+    layer.normal_mapped = normals is not None
+    ke = _mtl_colour(kwargs, "ke")
+    if ke is not None:
+        layer.emissive = tuple(max(c, 0.0) for c in ke)  # type: ignore[assignment]
+    elif "map_ke" in images:
+        layer.emissive = (1.0, 1.0, 1.0)
+    if "map_ke" in images:
+        layer.maps["emissive"] = colour_texture(images["map_ke"])
+    d = _mtl_number(kwargs, "d")
+    layer.alpha = 1.0 if d is None else min(max(d, 0.0), 1.0)
+    if layer.alpha < 1.0 or "map_d" in images:
+        layer.alpha_mode = "blend"
+    return layer
+
+
+def _bump_multiplier(norm: MtlMap) -> float:
+    """``norm``'s ``-bm`` option (1 where absent or not a finite number)."""
+    words = norm.options.get("-bm", ())
+    value = _mtl_number({"bm": list(words)}, "bm")
+    return 1.0 if value is None else value
 
 
 _DEFAULT_MATERIAL = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
@@ -383,9 +493,9 @@ _DEFAULT_MATERIAL = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
 
 def _load_file(
     loaded: LoadedScene, index: int, obj: SceneObject
-) -> tuple[list[tuple[trimesh.Trimesh, np.ndarray]], bool]:
-    """The file's triangle meshes with their node transforms, and whether it is an OBJ
-    that names an MTL (whose materials then apply, ``_mtl_material``)."""
+) -> tuple[list[tuple[trimesh.Trimesh, np.ndarray]], dict[str, dict[str, MtlMap]] | None]:
+    """The file's triangle meshes with their node transforms and, for an OBJ that names
+    an MTL, its materials' maps by name (the materials then apply, ``_mtl_material``)."""
     path = loaded.resolve_file(obj.file or "")
     # A missing texture or buffer, or a required extension, is bad input: trimesh would
     # load the file without it (a white model, or geometry it cannot draw).
@@ -394,7 +504,7 @@ def _load_file(
     problem = obj_problem(path, libraries) if suffix == ".obj" else None
     if problem is not None:
         raise InputError(str(loaded.path), f"objects[{index}].file", problem)
-    mtl = bool(libraries)
+    mtl = obj_materials(path, libraries) if libraries else None
     try:
         data = trimesh.load(str(path), process=False)
     except Exception as exc:  # trimesh raises many types for unreadable files
@@ -415,6 +525,14 @@ def _load_file(
         if parts:
             return parts, mtl
     raise InputError(str(loaded.path), f"objects[{index}].file", f"{path} holds no triangles")
+
+
+def _image_reader(loaded: LoadedScene, index: int) -> Callable[[Path], Image.Image]:
+    """Opens an MTL map of object ``index`` once per file (parts sharing a material, or
+    materials sharing a map, read it once); a file that does not decode is an InputError
+    naming the object."""
+    key = f"objects[{index}].file"
+    return functools.cache(lambda file: read_image(str(file), str(loaded.path), key))
 
 
 GLTF_SUFFIXES = (".gltf", ".glb")
@@ -517,12 +635,13 @@ def build_parts(loaded: LoadedScene) -> list[MeshPart]:
             parts.extend(_gltf_parts(loaded, i, model, chosen, builder.normal_filter))
             continue
         meshes, mtl = _load_file(loaded, i, obj)
+        read = _image_reader(loaded, i)
         for mesh, local in meshes:
             if chosen is not None:  # the scene's material overrides the file's
                 layers, blend = chosen
             else:
                 filt = builder.normal_filter
-                layers = [_file_material(mesh, _DEFAULT_MATERIAL, filt, mtl)]
+                layers = [_file_material(mesh, _DEFAULT_MATERIAL, filt, mtl, read)]
                 blend = None
             vertices, indices = _interleave(mesh)
             parts.append(MeshPart(vertices, indices, layers, model @ local, blend, False, i))

@@ -9,7 +9,6 @@ from functools import lru_cache
 import numpy as np
 from PIL import Image
 
-from app.common.models import MaterialParams
 from app.scene.loader import LoadedScene
 from app.scene.model import Material
 from app.textures.maps import (
@@ -65,15 +64,11 @@ class LayerBuilder:
         if m.normal_map is not None:
             normals = decode_normals(self.image(name, "normal_map"), m.normal_scale)
         if normals is not None or m.roughness_map is not None:
-            roughness: np.ndarray | float = params.roughness
+            r = None
             if m.roughness_map is not None:
                 r = linear_channel(self.image(name, "roughness_map"))
-                if normals is not None:  # the chain is built at the normal map's size
-                    r = resample(r, normals.shape[:2])
-                roughness = params.roughness * r
-            shape = normals.shape[:2] if normals is not None else np.shape(roughness)
-            maps["normal_roughness"] = normal_roughness_texture(
-                normals, roughness, shape, self.normal_filter
+            maps["normal_roughness"] = normal_roughness_chain(
+                normals, params.roughness, r, self.normal_filter
             )
         if m.clearcoat_normal_map is not None:  # RTR4 §9.12: the coat's own normals
             scale = 1.0 if m.clearcoat_normal_scale is None else m.clearcoat_normal_scale
@@ -96,22 +91,16 @@ class LayerBuilder:
         )  # fmt: skip
 
 
-def gltf_layer(
-    params: MaterialParams,
-    base_color: Image.Image | None,
-    metallic_roughness: Image.Image | None,
-    normal_filter: str,
-) -> SurfaceLayer:
-    """A glTF material as a layer: the metallic-roughness texture (G = roughness,
-    B = metallic, both multiplying their factors) splits into the metallic map and the
-    roughness chain."""
-    maps: dict[str, Texture] = {}
-    if base_color is not None:
-        maps["base_color"] = colour_texture(base_color)
-    if metallic_roughness is not None:
-        mr = np.asarray(metallic_roughness.convert("RGB"), np.float64) / 255.0
-        maps["metallic"] = scalar_texture(mr[..., 2])
-        maps["normal_roughness"] = normal_roughness_texture(
-            None, params.roughness * mr[..., 1], mr.shape[:2], normal_filter
-        )
-    return SurfaceLayer(params, maps)
+def normal_roughness_chain(
+    normals: np.ndarray | None, factor: float, values: np.ndarray | None, normal_filter: str
+) -> Texture:
+    """A layer's one normal/roughness chain: ``normals`` (decoded; None: flat) with the
+    roughness ``factor`` times the roughness map's ``values`` where there is one (else the
+    factor alone), resampled to the normal map's size when both are given."""
+    roughness: np.ndarray | float = factor
+    if values is not None:
+        if normals is not None:  # the chain is built at the normal map's size
+            values = resample(values, normals.shape[:2])
+        roughness = factor * values
+    shape = normals.shape[:2] if normals is not None else np.shape(roughness)
+    return normal_roughness_texture(normals, roughness, shape, normal_filter)

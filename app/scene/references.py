@@ -12,8 +12,9 @@ references are read here from the files themselves, before the glTF reader
   must name a readable file (relative to the glTF, percent-decoded as glTF 2.0 says);
   an image must also open as one (Pillow). Every name in ``extensionsRequired`` must be
   in ``SUPPORTED_EXTENSIONS``.
-- OBJ: every ``mtllib`` must name a readable file, and every ``map_Kd`` in it (the one
-  MTL map the project reads) a readable image.
+- OBJ: every ``mtllib`` must name a readable file, and every map in it that the project
+  reads (``MTL_MAP_KEYWORDS``: ``map_Kd``, ``map_Pr``, ``map_Pm``, ``norm``, ``map_Ke``,
+  ``map_d``) a readable image, relative to the MTL's folder.
 
 A file whose own structure is broken (not JSON, a truncated GLB header) is left to the
 reader (or trimesh), which refuses it with its own message.
@@ -22,7 +23,9 @@ reader (or trimesh), which refuses it with its own message.
 from __future__ import annotations
 
 import json
+import re
 import struct
+from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -127,15 +130,93 @@ def gltf_problem(path: Path) -> str | None:
     return None
 
 
-def _mtl_maps(mtl: Path) -> list[str]:
-    """The file names of the ``map_Kd`` lines of an MTL (the last word: options such as
-    ``-s 1 1 1`` come before the name)."""
-    names = []
+# The MTL statements naming a map the project reads (lower-case; docs/scene-format.md,
+# "Mesh files"): base colour, the PBR extension's roughness, metallic and normal maps,
+# emission and dissolve. ``bump`` / ``map_Bump`` are not among them: most exporters write
+# a height map there, which the project does not turn into normals.
+MTL_MAP_KEYWORDS = ("map_kd", "map_pr", "map_pm", "norm", "map_ke", "map_d")
+
+# The options a map statement may put before its file name, and how many words each
+# takes (Wavefront's MTL specification; -o, -s and -t take one to three numbers, -mm two).
+_MTL_OPTIONS = {
+    "-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1,
+    "-imfchan": 1, "-texres": 1, "-type": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3,
+}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class MtlMap:
+    """One map statement of an MTL material: the keyword as written (``map_Pr``), the
+    file name as written, the file (relative to the MTL's folder) and the options."""
+
+    keyword: str
+    name: str
+    file: Path
+    options: dict[str, tuple[str, ...]]
+
+
+def _is_number(word: str) -> bool:
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
+def parse_map_statement(rest: str) -> tuple[dict[str, tuple[str, ...]], str]:
+    """(options, file name) of the text after a map keyword: options first, each with
+    its words (up to ``_MTL_OPTIONS``'s count; -o, -s, -t stop at the first word that is
+    not a number), then the file name, the rest of the line (spaces inside it kept)."""
+    options: dict[str, tuple[str, ...]] = {}
+    words = list(re.finditer(r"\S+", rest))
+    i = 0
+    while i < len(words) and words[i].group().lower() in _MTL_OPTIONS:
+        option = words[i].group().lower()
+        count = _MTL_OPTIONS[option]
+        numeric = option in ("-mm", "-o", "-s", "-t")
+        taken: list[str] = []
+        i += 1
+        # Leave at least one word for the file name.
+        while len(taken) < count and i < len(words) - 1:
+            word = words[i].group()
+            if numeric and taken and not _is_number(word):
+                break
+            taken.append(word)
+            i += 1
+        options[option] = tuple(taken)
+    name = rest[words[i].start() :].strip() if i < len(words) else ""
+    return options, name
+
+
+def mtl_materials(mtl: Path) -> dict[str, dict[str, MtlMap]]:
+    """Per material (``newmtl``'s name, as trimesh keys it) its read maps by lower-case
+    keyword (``MTL_MAP_KEYWORDS``); a statement before any ``newmtl`` belongs to none."""
+    materials: dict[str, dict[str, MtlMap]] = {}
+    current: dict[str, MtlMap] | None = None
     for line in mtl.read_text(encoding="utf-8", errors="replace").splitlines():
         words = line.split()
-        if len(words) >= 2 and words[0].lower() == "map_kd":
-            names.append(words[-1])
-    return names
+        if len(words) < 2:
+            continue
+        keyword = words[0].lower()
+        if keyword == "newmtl":
+            current = materials.setdefault(" ".join(words[1:]), {})
+        elif keyword in MTL_MAP_KEYWORDS and current is not None:
+            rest = line.strip()[len(words[0]) :]
+            options, name = parse_map_statement(rest)
+            if name:
+                current[keyword] = MtlMap(words[0], name, mtl.parent / name, options)
+    return materials
+
+
+def obj_materials(path: Path, libraries: list[str]) -> dict[str, dict[str, MtlMap]]:
+    """The maps of every material of an OBJ's MTL files (``obj_libraries``), by material
+    name; a name defined twice keeps its first definition. Call after ``obj_problem``
+    found nothing (the files are then readable)."""
+    materials: dict[str, dict[str, MtlMap]] = {}
+    for name in libraries:
+        for material, maps in mtl_materials(path.parent / name).items():
+            materials.setdefault(material, maps)
+    return materials
 
 
 def obj_libraries(path: Path) -> list[str]:
@@ -153,15 +234,16 @@ def obj_libraries(path: Path) -> list[str]:
 
 
 def obj_problem(path: Path, libraries: list[str]) -> str | None:
-    """The first problem with an OBJ's ``mtllib`` files or their ``map_Kd`` images."""
+    """The first problem with an OBJ's ``mtllib`` files or the images of the maps they
+    name that the project reads (``MTL_MAP_KEYWORDS``)."""
     for name in libraries:
         mtl = path.parent / name
         why = _unreadable(mtl, image=False)
         if why is not None:
             return f"{path}: mtllib {name}: {mtl} {why}"
-        for texture in _mtl_maps(mtl):
-            file = mtl.parent / texture
-            why = _unreadable(file, image=True)
-            if why is not None:
-                return f"{path}: {mtl.name}: map_Kd {texture}: {file} {why}"
+        for maps in mtl_materials(mtl).values():
+            for m in maps.values():
+                why = _unreadable(m.file, image=True)
+                if why is not None:
+                    return f"{path}: {mtl.name}: {m.keyword} {m.name}: {m.file} {why}"
     return None
