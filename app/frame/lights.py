@@ -8,8 +8,9 @@ import math
 import numpy as np
 
 from app.common.lights import LightType, PunctualLight, order_lights
+from app.reference.environment import rotate_y
 from app.scene.model import Environment, Light
-from app.textures.environment import environment_map, rotate_y, texel_directions
+from app.textures.environment import environment_map, texel_directions
 
 
 def light_record(light: Light) -> PunctualLight:
@@ -64,13 +65,20 @@ def cell_integrals(env_map: np.ndarray, directions: np.ndarray, rotation: float)
     about +Y into the world) goes to its nearest direction, so the cells partition the
     sphere and the integrals sum to the whole map's integral."""
     d, omega = texel_directions(*env_map.shape[:2])
-    d = rotate_y(d, rotation).reshape(-1, 3)
+    d = rotate_y(d, math.radians(rotation)).reshape(-1, 3)
     weighted = env_map.reshape(-1, 3).astype(np.float64) * omega.reshape(-1, 1)
     out = np.zeros((len(directions), 3))
     for start in range(0, len(d), 65536):  # chunks bound the (texels x N) dot products
         nearest = np.argmax(d[start : start + 65536] @ directions.T, axis=1)
         np.add.at(out, nearest, weighted[start : start + 65536])
     return out
+
+
+def environment_texels(env: Environment) -> np.ndarray:
+    """The equirect map (float32, read-only, cached) of an image, sky or studio environment,
+    before rotation and intensity."""
+    sun = None if env.sun_direction is None else tuple(env.sun_direction)
+    return environment_map(env.source, env.file, sun, env.turbidity)
 
 
 def map_lights(env: Environment) -> list[PunctualLight]:
@@ -83,12 +91,7 @@ def map_lights(env: Environment) -> list[PunctualLight]:
     (to the cells' discretisation). Exact for the diffuse term's low frequencies; glossy
     surfaces see the N dots the issue describes until a prefiltered path replaces this.
     """
-    env_map = environment_map(
-        env.source,
-        env.file,
-        None if env.sun_direction is None else tuple(env.sun_direction),
-        env.turbidity,
-    )
+    env_map = environment_texels(env)
     directions = fibonacci_sphere(env.samples)
     colors = cell_integrals(env_map, directions, env.rotation) * (env.intensity / math.pi)
     return [

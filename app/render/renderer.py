@@ -25,10 +25,11 @@ from app.common.lights import PunctualLight
 from app.errors import InputError
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
-from app.frame.lights import frame_lights
+from app.frame.lights import environment_texels, frame_lights
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
+from app.render.background import EnvironmentBackground
 from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
@@ -104,6 +105,7 @@ class Renderer:
         self.blend: BlendPass | None = None  # only where a part is alpha-blended
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
+        self.background: EnvironmentBackground | None = None  # [environment] background
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
         self.post: PostPass | None = None
@@ -207,6 +209,16 @@ class Renderer:
             settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
+        self._build_background()
+
+    def _build_background(self) -> None:
+        """The environment behind the objects, only where ``[environment] background``."""
+        self._release(("background",))
+        env = self.scene.environment
+        if env is not None and env.background:
+            self.background = EnvironmentBackground(
+                self.gl.ctx, self.shaders, environment_texels(env), env.rotation, env.intensity
+            )
 
     def _build_post(self) -> None:
         """Depth of field (a camera with an aperture), the supersampling resolve, post."""
@@ -374,6 +386,8 @@ class Renderer:
             self.culler.run(self.gbuffer, self.view, self.camera)
             clock.done("culling")
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
+        if self.background is not None:
+            self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
         clock.done("lighting")
         if self.blend is not None:  # composited before depth of field, resolve and post
             self.blend.run(self.gbuffer, self.lighting, self.view, self.proj, self.camera)
@@ -421,5 +435,6 @@ class Renderer:
         self._release(
             ("culler", "resolve", "dof", "blend", "gbuffer_pass", "gbuffer", "lighting", "post")
         )
+        self._release(("background",))
         if self._owns_shaders:
             self.shaders.release()

@@ -734,6 +734,9 @@ class Environment(_Strict):
     turbidity: Annotated[Real, Field(ge=2.0, le=10.0)] | None = None  # default 3 (clear)
     rotation: Annotated[Real, Field(ge=-360.0, le=360.0)] = 0.0  # degrees about +Y
     intensity: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] = 1.0
+    # true: pixels no surface covers show the environment (the scene's background colour
+    # otherwise); image, sky and studio only (app/render/background.py)
+    background: Annotated[bool, Field(strict=True)] = False
 
     @model_validator(mode="after")
     def _check(self) -> Environment:
@@ -743,7 +746,7 @@ class Environment(_Strict):
         if self.source == "image" and self.file is None:
             raise ValueError('file: source = "image" needs it')
         if self.source == "uniform":
-            for key in ("rotation", "intensity"):
+            for key in ("rotation", "intensity", "background"):
                 if key in self.model_fields_set:
                     raise ValueError(f"{key}: does not apply to a uniform environment")
         _nonzero(self.sun_direction, "sun_direction")

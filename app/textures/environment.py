@@ -11,7 +11,8 @@ The map's convention (the one place it is defined): row 0 is the top (+Y), the r
 runs down in theta = acos(d.y); the column runs in phi with the image's centre column
 looking along -Z (what the default camera, at +Z looking at the origin, sees behind the
 objects) and +X a quarter to the right: u = 1/2 + atan2(d.x, -d.z) / (2 pi),
-v = acos(d.y) / pi. ``rotation`` turns the environment about +Y (degrees, right-handed).
+v = acos(d.y) / pi (glsl/env/equirect.glsl and its twin app/reference/environment.py).
+``rotation`` turns the environment about +Y (degrees in the scene, right-handed).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import InputError
+from app.reference.environment import equirect_uv
 
 # Width of a generated (sky, studio) map; the height is half of it.
 GENERATED_WIDTH = 256
@@ -47,23 +49,13 @@ def texel_directions(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
     return d, np.broadcast_to(band[:, None], (height, width)).copy()
 
 
-def rotate_y(d: np.ndarray, degrees: float) -> np.ndarray:
-    """Directions ``d`` (..., 3) turned ``degrees`` about +Y (right-handed: +Z towards +X)."""
-    a = math.radians(degrees)
-    c, s = math.cos(a), math.sin(a)
-    x, y, z = d[..., 0], d[..., 1], d[..., 2]
-    return np.stack([c * x + s * z, y, -s * x + c * z], axis=-1)
-
-
 def lookup(env: np.ndarray, d: np.ndarray, rotation: float = 0.0) -> np.ndarray:
-    """Nearest-texel radiance of map ``env`` towards world directions ``d`` (..., 3)."""
-    d = rotate_y(np.asarray(d, np.float64), -rotation)  # world -> map frame
-    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    """Nearest-texel radiance of map ``env`` towards world directions ``d`` (..., 3),
+    the map turned ``rotation`` degrees about +Y."""
+    uv = equirect_uv(np.asarray(d, np.float64), math.radians(rotation))
     h, w = env.shape[:2]
-    u = 0.5 + np.arctan2(d[..., 0], -d[..., 2]) / (2.0 * math.pi)
-    v = np.arccos(np.clip(d[..., 1], -1.0, 1.0)) / math.pi
-    col = np.clip((u * w).astype(int), 0, w - 1)
-    row = np.clip((v * h).astype(int), 0, h - 1)
+    col = np.clip((uv[..., 0] * w).astype(int), 0, w - 1)
+    row = np.clip((uv[..., 1] * h).astype(int), 0, h - 1)
     return env[row, col]
 
 
