@@ -12,6 +12,7 @@ import pytest
 
 from app.errors import InputError
 from app.frame.lights import cell_integrals, environment_lights, fibonacci_sphere
+from app.reference.environment import texel_directions
 from app.scene.loader import load_scene
 from app.textures import environment as envmod
 from app.textures.environment import (
@@ -20,7 +21,6 @@ from app.textures.environment import (
     read_exr,
     read_hdr,
     studio,
-    texel_directions,
     zenith_xyY,
 )
 

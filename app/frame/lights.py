@@ -8,9 +8,9 @@ import math
 import numpy as np
 
 from app.common.lights import LightType, PunctualLight, order_lights
-from app.reference.environment import rotate_y
+from app.reference.environment import rotate_y, texel_directions
 from app.scene.model import Environment, Light
-from app.textures.environment import environment_map, texel_directions
+from app.textures.environment import environment_map
 
 
 def light_record(light: Light) -> PunctualLight:

@@ -40,3 +40,19 @@ def sample_bilinear(env: np.ndarray, uv: np.ndarray) -> np.ndarray:
     top = e[j0, i0] * (1 - fx) + e[j0, i1] * fx
     bottom = e[j1, i0] * (1 - fx) + e[j1, i1] * fx
     return top * (1 - fy) + bottom * fy
+
+
+def texel_directions(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """The unit direction of each texel centre (H, W, 3) and its solid angle (H, W) in sr.
+
+    A row at polar angle theta spans d_omega = (cos theta0 - cos theta1) * 2 pi / W exactly
+    (the band's area split evenly), so the solid angles sum to 4 pi to rounding."""
+    edges = np.linspace(0.0, math.pi, height + 1)
+    theta = 0.5 * (edges[:-1] + edges[1:])
+    phi = (np.arange(width) + 0.5) / width * 2.0 * math.pi - math.pi
+    st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
+    d = np.stack(
+        np.broadcast_arrays(st * np.sin(phi)[None, :], ct, -st * np.cos(phi)[None, :]), axis=-1
+    )
+    band = (np.cos(edges[:-1]) - np.cos(edges[1:])) * (2.0 * math.pi / width)
+    return d, np.broadcast_to(band[:, None], (height, width)).copy()

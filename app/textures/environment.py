@@ -24,29 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import InputError
-from app.reference.environment import equirect_uv
+from app.reference.environment import equirect_uv, texel_directions
 
 # Width of a generated (sky, studio) map; the height is half of it.
 GENERATED_WIDTH = 256
 
 
 # --- directions <-> map -----------------------------------------------------------------
-
-
-def texel_directions(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """The unit direction of each texel centre (H, W, 3) and its solid angle (H, W) in sr.
-
-    A row at polar angle theta spans d_omega = (cos theta0 - cos theta1) * 2 pi / W exactly
-    (the band's area split evenly), so the solid angles sum to 4 pi to rounding."""
-    edges = np.linspace(0.0, math.pi, height + 1)
-    theta = 0.5 * (edges[:-1] + edges[1:])
-    phi = (np.arange(width) + 0.5) / width * 2.0 * math.pi - math.pi
-    st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
-    d = np.stack(
-        np.broadcast_arrays(st * np.sin(phi)[None, :], ct, -st * np.cos(phi)[None, :]), axis=-1
-    )
-    band = (np.cos(edges[:-1]) - np.cos(edges[1:])) * (2.0 * math.pi / width)
-    return d, np.broadcast_to(band[:, None], (height, width)).copy()
 
 
 def lookup(env: np.ndarray, d: np.ndarray, rotation: float = 0.0) -> np.ndarray:
