@@ -1,6 +1,6 @@
 """Image environments through the renderer (real GL) against the float64 ray-caster: the
-background pass (``[environment] background = true``) and the sky's cell lights on a
-sphere; a scene without the key builds no background pass."""
+background pass (``[environment] background = true``) and a sphere lit by the split sum
+against the ray-caster's cell lights; a scene without the key builds no background pass."""
 
 from __future__ import annotations
 
@@ -81,10 +81,15 @@ def test_background_and_lit_sphere_match_the_ray_caster(
     err = np.abs(hdr[empty] - ref.hdr[empty]) / peak
     print("background error / peak: p99", np.quantile(err, 0.99), "max", err.max())
     assert err.max() < 2.0 / 256.0, err.max()  # measured 4.0e-3 (studio), 2e-4 (sky)
-    # The sphere, lit by the environment's 64 cell lights, on interior pixels.
+    # The sphere: the renderer's split sum (for a rough grey dielectric, mostly the SH9
+    # irradiance) against the ray-caster's brute force over 64 cell lights.
     inner = ref.interior()
-    rel = np.abs(hdr[inner] - ref.hdr[inner]) / np.maximum(ref.hdr[inner], 1e-3)
-    assert inner.sum() > 200 and np.median(rel) < 1e-3, np.median(rel)
+    rel = np.abs(hdr[inner] - ref.hdr[inner]).sum(-1) / ref.hdr[inner].sum(-1)
+    print(source, "sphere: median", np.median(rel), "p90", np.quantile(rel, 0.9))
+    # measured medians: sky 9.6e-3, studio 0.10 (SH9 rings on its compact boxes: docs/
+    # ibl.md), ramp 2.9e-3; the cell lights' own error is part of it
+    bound = {"sky": 0.02, "studio": 0.2, "image": 0.01}[source]
+    assert inner.sum() > 200 and np.median(rel) < bound, np.median(rel)
 
 
 def test_without_the_key_the_background_is_the_colour(gl_egl: GLContext, tmp_path: Path) -> None:

@@ -49,8 +49,8 @@ def environment_lights(env: Environment | None) -> list[PunctualLight]:
     """
     if env is None:
         return []
-    if env.source != "uniform":
-        return map_lights(env)
+    if env.source != "uniform":  # image-based lighting instead (app/render/ibl.py)
+        return []
     color = np.asarray(env.radiance, float) * (4.0 / env.samples)
     return [
         # light travels from direction d towards the surface
@@ -83,13 +83,14 @@ def environment_texels(env: Environment) -> np.ndarray:
 
 def map_lights(env: Environment) -> list[PunctualLight]:
     """An image, sky or studio environment as ``env.samples`` directional lights on the
-    Fibonacci lattice, each carrying its cell's radiance (docs/ibl.md).
+    Fibonacci lattice, each carrying its cell's radiance (docs/ibl.md): how the float64
+    ray-caster integrates it (the renderer uses the split sum, app/render/ibl.py).
 
     L_o = integral f L (n.l)+ dl ~ sum_i f(l_i) (n.l_i)+ integral_cell_i L dl, and the
     illumination sum gives pi sum_i f c_light (n.l_i)+, so c_light_i = (1/pi) integral over
     cell i, times ``intensity``. A uniform map gives c = 4 L / N, the uniform case's lights
     (to the cells' discretisation). Exact for the diffuse term's low frequencies; glossy
-    surfaces see the N dots the issue describes until a prefiltered path replaces this.
+    surfaces see the N dots of the lattice unless N grows.
     """
     env_map = environment_texels(env)
     directions = fibonacci_sphere(env.samples)

@@ -17,7 +17,7 @@ import numpy as np
 
 from app.common.primitives import Primitive
 from app.frame.camera import camera_frame
-from app.frame.lights import environment_texels, frame_lights
+from app.frame.lights import environment_texels, frame_lights, map_lights
 from app.reference.environment import equirect_uv, sample_bilinear
 from app.reference.material import Surface
 from app.reference.raycast import (
@@ -86,6 +86,10 @@ def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) ->
     factor = scene.render.supersample
     camera = camera_frame(scene.camera, size[0] * factor, size[1] * factor)
     lights = frame_lights(scene.lights, scene.environment)
+    if scene.environment is not None and scene.environment.source != "uniform":
+        # The reference integrates an image, sky or studio by its cell lights (the
+        # renderer by the split sum): the brute force converges as samples grows.
+        lights = lights + map_lights(scene.environment)
     background = np.asarray(scene.background, np.float64)
     env = scene.environment
     if env is not None and env.background:  # as app/render/background.py draws it

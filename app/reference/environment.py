@@ -15,10 +15,16 @@ def rotate_y(d: np.ndarray, radians: float) -> np.ndarray:
     return np.stack([c * x + s * z, y, -s * x + c * z], axis=-1)
 
 
+def env_map_direction(d: np.ndarray, rotation: float) -> np.ndarray:
+    """World directions ``d`` (..., 3) in the frame of a map turned ``rotation`` radians
+    about +Y."""
+    return rotate_y(np.asarray(d, np.float64), -rotation)
+
+
 def equirect_uv(d: np.ndarray, rotation: float) -> np.ndarray:
     """(u, v) (..., 2) of world directions ``d`` in a map turned ``rotation`` radians about
     +Y: u = 1/2 + atan2(d.x, -d.z) / (2 pi), v = acos(d.y) / pi (row 0 is up)."""
-    m = rotate_y(np.asarray(d, np.float64), -rotation)
+    m = env_map_direction(d, rotation)
     m = m / np.linalg.norm(m, axis=-1, keepdims=True)
     u = 0.5 + np.arctan2(m[..., 0], -m[..., 2]) / (2.0 * math.pi)
     v = np.arccos(np.clip(m[..., 1], -1.0, 1.0)) / math.pi
@@ -56,3 +62,22 @@ def texel_directions(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
     )
     band = (np.cos(edges[:-1]) - np.cos(edges[1:])) * (2.0 * math.pi / width)
     return d, np.broadcast_to(band[:, None], (height, width)).copy()
+
+
+def cube_direction(face: int, st: np.ndarray) -> np.ndarray:
+    """The (unnormalised) direction of cube face ``face`` (0..5 = +X, -X, +Y, -Y, +Z, -Z)
+    at texture coordinates st (..., 2) in [0, 1]: the inverse of the OpenGL spec's face
+    selection (table 8.19)."""
+    sc, tc = 2.0 * st[..., 0] - 1.0, 2.0 * st[..., 1] - 1.0
+    one = np.ones_like(sc)
+    return np.stack(
+        [
+            (one, -tc, -sc),
+            (-one, -tc, sc),
+            (sc, one, tc),
+            (sc, -one, -tc),
+            (sc, -tc, one),
+            (-sc, -tc, -one),
+        ][face],
+        axis=-1,
+    )

@@ -208,7 +208,7 @@ def split_sum_radiance(
     r = float(np.maximum(surface.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS))
     F0 = material_F0(surface)
     A, B = dfg_lookup(dfg_table, NoV, r)
-    E_n = sh9_irradiance(sh, n)
+    E_n = np.maximum(sh9_irradiance(sh, n), 0.0)  # as the GLSL: SH ringing can dip below 0
     out = material_rho_ss(surface) * E_n / math.pi
     out = out + prefiltered_radiance(env, rotation, R, r) * (F0 * A + B)
     if ms_table is not None:

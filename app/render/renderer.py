@@ -33,6 +33,7 @@ from app.render.background import EnvironmentBackground
 from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
+from app.render.ibl import EnvironmentLighting
 from app.render.lighting import LightingPass
 from app.render.limits import check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
@@ -106,6 +107,7 @@ class Renderer:
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
         self.background: EnvironmentBackground | None = None  # [environment] background
+        self.ibl: EnvironmentLighting | None = None  # image, sky or studio environment
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
         self.post: PostPass | None = None
@@ -200,13 +202,19 @@ class Renderer:
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling) and the lighting pass."""
-        self._release(("culler", "lighting"))
+        self._release(("culler", "lighting", "ibl"))
         ctx, settings = self.gl.ctx, self.scene.render
+        env = self.scene.environment
+        if env is not None and env.source != "uniform":  # docs/ibl.md
+            self.ibl = EnvironmentLighting(
+                ctx, self.shaders, environment_texels(env), env.rotation, env.intensity
+            )
         if self.frame.has_local_lights and settings.light_culling == "tiled":
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
             settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
+            ibl=self.ibl,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
         self._build_background()
@@ -435,6 +443,6 @@ class Renderer:
         self._release(
             ("culler", "resolve", "dof", "blend", "gbuffer_pass", "gbuffer", "lighting", "post")
         )
-        self._release(("background",))
+        self._release(("background", "ibl"))
         if self._owns_shaders:
             self.shaders.release()

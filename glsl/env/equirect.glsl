@@ -9,10 +9,14 @@
 // u = 1/2 + atan2(d.x, -d.z) / (2 pi) (the centre column looks along -Z),
 // v = acos(d.y) / pi (row 0, v = 0, is straight up). The map is uploaded row 0 first,
 // so v is the texture's t directly.
-vec2 equirect_uv(vec3 d, float rotation) {
+// World direction d in the frame of a map turned `rotation` radians about +Y.
+vec3 env_map_direction(vec3 d, float rotation) {
     float c = cos(rotation), s = sin(rotation);
-    vec3 m = vec3(c * d.x - s * d.z, d.y, s * d.x + c * d.z);  // world -> map frame
-    m = normalize(m);
+    return vec3(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+}
+
+vec2 equirect_uv(vec3 d, float rotation) {
+    vec3 m = normalize(env_map_direction(d, rotation));
     return vec2(0.5 + atan(m.x, -m.z) * (0.5 * INV_PI),
                 acos(clamp(m.y, -1.0, 1.0)) * INV_PI);
 }
