@@ -42,12 +42,10 @@ from app.reference.multiscatter import (
     QUAD_PHI,
     QUAD_PSI,
     F_avg_schlick,
-    _cell,
+    grid_bilinear,
     ms_E,
     ms_E_avg,
-    mu_coord,
     mu_grid,
-    r_coord,
     roughness_grid,
 )
 from app.reference.ndf import D_GGX
@@ -138,15 +136,7 @@ def compute_dfg_table(size: int) -> np.ndarray:
 
 def dfg_lookup(table: np.ndarray, mu: np.ndarray, r: np.ndarray) -> np.ndarray:
     """(A, B) (..., 2), bilinear in the grid coordinates (as ms_loss), float64."""
-    t64 = np.asarray(table, np.float64)
-    n_r, n_mu = t64.shape[:2]
-    mu, r = np.broadcast_arrays(np.asarray(mu, np.float64), np.asarray(r, np.float64))
-    j, tx = _cell(mu_coord(mu, n_mu), n_mu)
-    i, ty = _cell(r_coord(r, n_r), n_r)
-    tx, ty = tx[..., None], ty[..., None]
-    lo = (1.0 - tx) * t64[i, j] + tx * t64[i, j + 1]
-    hi = (1.0 - tx) * t64[i + 1, j] + tx * t64[i + 1, j + 1]
-    return (1.0 - ty) * lo + ty * hi
+    return grid_bilinear(table, mu, r)
 
 
 # --- spherical harmonics (Ramamoorthi & Hanrahan 2001) -----------------------------------

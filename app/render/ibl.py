@@ -19,6 +19,7 @@ import numpy as np
 from app.common.tables import read_dfg_table
 from app.gl.shaders import ShaderCache
 from app.reference.ibl import sh9_project
+from app.render.background import EnvironmentSource, equirect_texture
 
 ENV_LEVELS = 6  # roughness r_k = k / 5; glsl/lights/ibl.glsl samples exactly these
 FACE_SIZE = 128  # level 0's face; level k has max(FACE_SIZE >> k, MIN_FACE) texels
@@ -51,12 +52,7 @@ def prefilter(
     key = (digest, env_map.shape, base, samples)
     if key in _CACHE:
         return _CACHE[key]
-    h, w = env_map.shape[:2]
-    rgba = np.concatenate([env_map, np.ones((h, w, 1), np.float32)], axis=-1)
-    source = ctx.texture((w, h), 4, np.ascontiguousarray(rgba, np.float32), dtype="f4")
-    source.build_mipmaps()
-    source.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-    source.repeat_x, source.repeat_y = True, False
+    source = equirect_texture(ctx, env_map, mipmaps=True)
     prog = shaders.program("passes/fullscreen.vert", "passes/env_prefilter.frag", {})
     vao = ctx.vertex_array(prog, [])
     levels = []
@@ -95,19 +91,10 @@ def prefilter(
 class EnvironmentLighting:
     """The lighting pass's image-based light: textures, defines and uniforms."""
 
-    def __init__(
-        self,
-        ctx: moderngl.Context,
-        shaders: ShaderCache,
-        env_map: np.ndarray,
-        rotation: float,
-        intensity: float,
-    ) -> None:
-        """``env_map``: (H, W, 3) float32 equirect radiance (app/textures/environment.py);
-        ``rotation`` in degrees about +Y; ``intensity`` scales it."""
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, env: EnvironmentSource) -> None:
         ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)
         self.levels = []
-        for faces in prefilter(ctx, shaders, env_map):
+        for faces in prefilter(ctx, shaders, env.texels):
             size = faces.shape[1]
             rgba = np.concatenate([faces, np.ones((*faces.shape[:3], 1), np.float32)], -1)
             cube = ctx.texture_cube((size, size), 4, dtype="f4")
@@ -119,10 +106,10 @@ class EnvironmentLighting:
         self.dfg = ctx.texture(table.shape[1::-1], 2, table.tobytes(), dtype="f4")
         self.dfg.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.dfg.repeat_x = self.dfg.repeat_y = False
-        self.rotation = math.radians(rotation)
-        self.intensity = float(intensity)
+        self.rotation = math.radians(env.rotation)
+        self.intensity = float(env.intensity)
         # SH9 of the turned map, in the world frame (float64 twin), times the intensity.
-        self.sh = (sh9_project(env_map, self.rotation) * intensity).astype(np.float32)
+        self.sh = (sh9_project(env.texels, self.rotation) * env.intensity).astype(np.float32)
 
     @staticmethod
     def defines() -> dict[str, int]:

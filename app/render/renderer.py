@@ -29,7 +29,7 @@ from app.frame.lights import environment_texels, frame_lights
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.render.background import EnvironmentBackground
+from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
@@ -52,6 +52,11 @@ class RenderOptions:
 
     uber: bool = False
     ms_table: np.ndarray | None = None
+
+
+def environment_source(env: Environment) -> EnvironmentSource:
+    """An image, sky or studio environment's map (cached), rotation and intensity."""
+    return EnvironmentSource(environment_texels(env), env.rotation, env.intensity)
 
 
 class _PassClock:
@@ -206,9 +211,7 @@ class Renderer:
         ctx, settings = self.gl.ctx, self.scene.render
         env = self.scene.environment
         if env is not None and env.source != "uniform":  # docs/ibl.md
-            self.ibl = EnvironmentLighting(
-                ctx, self.shaders, environment_texels(env), env.rotation, env.intensity
-            )
+            self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
         if self.frame.has_local_lights and settings.light_culling == "tiled":
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         self.lighting = LightingPass(
@@ -225,7 +228,7 @@ class Renderer:
         env = self.scene.environment
         if env is not None and env.background:
             self.background = EnvironmentBackground(
-                self.gl.ctx, self.shaders, environment_texels(env), env.rotation, env.intensity
+                self.gl.ctx, self.shaders, environment_source(env)
             )
 
     def _build_post(self) -> None:

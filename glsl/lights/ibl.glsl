@@ -87,14 +87,8 @@ vec3 ibl_radiance(Surface s, vec3 n, vec3 v) {
     vec3 colour = F_avg * F_avg * E_avg / (1.0 - F_avg * (1.0 - E_avg));
     spec += colour * ms_loss(NoV, r) * E_n * INV_PI;
 #endif
-    vec3 diffuse = material_rho_ss(s) * E_n * INV_PI;
-#if BRDF_TERMS == (TERM_SPECULAR | TERM_DIFFUSE)
-    return diffuse + spec;
-#elif BRDF_TERMS == TERM_SPECULAR
-    return spec;
-#else
-    return diffuse;
-#endif
+    // the reflections render.terms keeps, as for lights (brdf/material.glsl)
+    return selected_terms(material_rho_ss(s) * E_n * INV_PI, spec);
 }
 
 #endif  // ENVIRONMENT_IBL
