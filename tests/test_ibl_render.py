@@ -165,3 +165,28 @@ def test_gbuffer_pixels_against_the_split_sum_and_the_reference(
     print("GPU vs float64 split sum: max", max(split_err), "; vs reference: max", max(ref_err))
     assert max(split_err) < 0.03, split_err
     assert max(ref_err) < 0.25, ref_err
+
+
+def test_occlusion_darkens_the_image_based_light(gl_egl: GLContext, tmp_path: Path) -> None:
+    """glTF 2.0 occlusion acts on the environment's light only: a map of 0 at strength 0.5
+    (factor 0.5) halves the IBL term; the directional light's part is unchanged."""
+    from PIL import Image
+
+    Image.fromarray(np.zeros((8, 8, 3), np.uint8)).save(tmp_path / "ao.png")
+    write_exr(tmp_path / "grey.exr", np.full((32, 64, 3), 0.5))
+    env = 'source = "image"\nfile = "grey.exr"'
+    base = "base_color = [0.8, 0.5, 0.3]\nmetallic = 0.0\nroughness = 0.5"
+    sun = '\n[[lights]]\ntype = "directional"\ndirection = [-0.3, -0.5, -1.0]'
+    ao = '\nocclusion_map = "ao.png"\nocclusion_strength = 0.5'
+    images = {}
+    for name, material in {"env": base, "env_ao": base + ao}.items():
+        for lit in (False, True):
+            images[name, lit] = render(gl_egl, write_scene(tmp_path, env, material + sun * lit))
+    covered = images["env", False][2].covered
+    plain, with_ao = images["env", False][1][covered], images["env_ao", False][1][covered]
+    assert plain.min() > 0.0
+    np.testing.assert_allclose(with_ao, 0.5 * plain, rtol=1e-5)
+    sun_part = images["env", True][1][covered] - plain
+    sun_part_ao = images["env_ao", True][1][covered] - with_ao
+    assert sun_part.max() > 0.1
+    np.testing.assert_allclose(sun_part_ao, sun_part, atol=1e-5)
