@@ -69,3 +69,19 @@ def sheen_table_path(size: int = SHEEN_TABLE_SIZE) -> Path:
 def read_sheen_table(size: int = SHEEN_TABLE_SIZE) -> np.ndarray:
     """The stored float32 (size, size, SHEEN_TABLE_CHANNELS) sheen albedo table, read-only."""
     return _read_square(sheen_table_path(size), size, SHEEN_TABLE_CHANNELS)
+
+
+# --- image-based lighting (issue 18; docs/ibl.md) -------------------------------------------
+# The split-sum DFG table (app/reference/ibl.py): float32 (n_r, n_mu, 2) of (A, B) with
+# integral f_spec (n.l) = F0 A + B for Schlick's F, on the Kulla-Conty table's grids.
+DFG_TABLE_SIZE = 64
+
+
+def dfg_table_path(size: int = DFG_TABLE_SIZE) -> Path:
+    """Where the shipped DFG table lives (app/common/data/dfg_table_N.npy)."""
+    return DATA_DIR / f"dfg_table_{size}.npy"
+
+
+def read_dfg_table(size: int = DFG_TABLE_SIZE) -> np.ndarray:
+    """The stored float32 (size, size, 2) DFG table, read-only."""
+    return _read_square(dfg_table_path(size), size)

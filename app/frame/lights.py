@@ -8,7 +8,9 @@ import math
 import numpy as np
 
 from app.common.lights import LightType, PunctualLight, order_lights
+from app.reference.environment import rotate_y, texel_directions
 from app.scene.model import Environment, Light
+from app.textures.environment import environment_map
 
 
 def light_record(light: Light) -> PunctualLight:
@@ -47,11 +49,55 @@ def environment_lights(env: Environment | None) -> list[PunctualLight]:
     """
     if env is None:
         return []
+    if env.source != "uniform":  # image-based lighting instead (app/render/ibl.py)
+        return []
     color = np.asarray(env.radiance, float) * (4.0 / env.samples)
     return [
         # light travels from direction d towards the surface
         PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, color, environment=True)
         for d in fibonacci_sphere(env.samples)
+    ]
+
+
+def cell_integrals(env_map: np.ndarray, directions: np.ndarray, rotation: float) -> np.ndarray:
+    """The integral of the map's radiance over each direction's Voronoi cell on the sphere,
+    sum over the cell's texels of L dOmega (N, 3): every texel (turned ``rotation`` degrees
+    about +Y into the world) goes to its nearest direction, so the cells partition the
+    sphere and the integrals sum to the whole map's integral."""
+    d, omega = texel_directions(*env_map.shape[:2])
+    d = rotate_y(d, math.radians(rotation)).reshape(-1, 3)
+    weighted = env_map.reshape(-1, 3).astype(np.float64) * omega.reshape(-1, 1)
+    out = np.zeros((len(directions), 3))
+    for start in range(0, len(d), 65536):  # chunks bound the (texels x N) dot products
+        nearest = np.argmax(d[start : start + 65536] @ directions.T, axis=1)
+        np.add.at(out, nearest, weighted[start : start + 65536])
+    return out
+
+
+def environment_texels(env: Environment) -> np.ndarray:
+    """The equirect map (float32, read-only, cached) of an image, sky or studio environment,
+    before rotation and intensity."""
+    sun = None if env.sun_direction is None else tuple(env.sun_direction)
+    return environment_map(env.source, env.file, sun, env.turbidity)
+
+
+def map_lights(env: Environment) -> list[PunctualLight]:
+    """An image, sky or studio environment as ``env.samples`` directional lights on the
+    Fibonacci lattice, each carrying its cell's radiance (docs/ibl.md): how the float64
+    ray-caster integrates it (the renderer uses the split sum, app/render/ibl.py).
+
+    L_o = integral f L (n.l)+ dl ~ sum_i f(l_i) (n.l_i)+ integral_cell_i L dl, and the
+    illumination sum gives pi sum_i f c_light (n.l_i)+, so c_light_i = (1/pi) integral over
+    cell i, times ``intensity``. A uniform map gives c = 4 L / N, the uniform case's lights
+    (to the cells' discretisation). Exact for the diffuse term's low frequencies; glossy
+    surfaces see the N dots of the lattice unless N grows.
+    """
+    env_map = environment_texels(env)
+    directions = fibonacci_sphere(env.samples)
+    colors = cell_integrals(env_map, directions, env.rotation) * (env.intensity / math.pi)
+    return [
+        PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, c, environment=True)
+        for d, c in zip(directions, colors, strict=True)
     ]
 
 

@@ -17,9 +17,15 @@ import numpy as np
 
 from app.common.primitives import Primitive
 from app.frame.camera import camera_frame
-from app.frame.lights import frame_lights
+from app.frame.lights import environment_texels, frame_lights, map_lights
+from app.reference.environment import equirect_uv, sample_bilinear
 from app.reference.material import Surface
-from app.reference.raycast import PrimitiveMaterial, RaycastImage, render_reference
+from app.reference.raycast import (
+    PrimitiveMaterial,
+    RaycastImage,
+    camera_rays,
+    render_reference,
+)
 from app.scene.geometry import model_matrix
 from app.scene.loader import LoadedScene
 from app.scene.model import TEXTURE_KEYS, Material, SceneObject
@@ -80,7 +86,16 @@ def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) ->
     factor = scene.render.supersample
     camera = camera_frame(scene.camera, size[0] * factor, size[1] * factor)
     lights = frame_lights(scene.lights, scene.environment)
+    if scene.environment is not None and scene.environment.source != "uniform":
+        # The reference integrates an image, sky or studio by its cell lights (the
+        # renderer by the split sum): the brute force converges as samples grows.
+        lights = lights + map_lights(scene.environment)
     background = np.asarray(scene.background, np.float64)
+    env = scene.environment
+    if env is not None and env.background:  # as app/render/background.py draws it
+        rays = camera_rays(camera, size[0] * factor, size[1] * factor)
+        uv = equirect_uv(rays, math.radians(env.rotation))
+        background = env.intensity * sample_bilinear(environment_texels(env), uv)
     return render_reference(
         prims, materials, camera, size, lights, background, scene.render.terms, factor
     )

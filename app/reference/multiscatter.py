@@ -213,16 +213,24 @@ def _cell(s: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     return i, s - i
 
 
-def ms_loss(table: np.ndarray, mu: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """1 - E(mu, r), bilinear in the grid coordinates on the table's float32 values."""
+def grid_bilinear(table: np.ndarray, mu: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Every channel of a table on these grids (n_r, n_mu, C) at (mu, r), bilinear in the
+    grid coordinates on its float32 values: (..., C). The split-sum DFG table
+    (app/reference/ibl.py) shares the grids and this look-up."""
     t64 = np.asarray(table, np.float64)
     n_r, n_mu = t64.shape[:2]
     mu, r = np.broadcast_arrays(np.asarray(mu, np.float64), np.asarray(r, np.float64))
     j, tx = _cell(mu_coord(mu, n_mu), n_mu)
     i, ty = _cell(r_coord(r, n_r), n_r)
-    lo = (1.0 - tx) * t64[i, j, 0] + tx * t64[i, j + 1, 0]
-    hi = (1.0 - tx) * t64[i + 1, j, 0] + tx * t64[i + 1, j + 1, 0]
+    tx, ty = tx[..., None], ty[..., None]
+    lo = (1.0 - tx) * t64[i, j] + tx * t64[i, j + 1]
+    hi = (1.0 - tx) * t64[i + 1, j] + tx * t64[i + 1, j + 1]
     return (1.0 - ty) * lo + ty * hi
+
+
+def ms_loss(table: np.ndarray, mu: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """1 - E(mu, r), bilinear in the grid coordinates on the table's float32 values."""
+    return grid_bilinear(table, mu, r)[..., 0]
 
 
 def ms_loss_avg(table: np.ndarray, r: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
+from app.render.ibl import EnvironmentLighting
 from app.render.tables import material_texture, ms_texture, sheen_texture
 
 
@@ -46,6 +47,7 @@ class LightingPass:
         ms_table: np.ndarray | None = None,
         *,
         encoding: str,
+        ibl: EnvironmentLighting | None = None,
     ) -> None:
         """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
         ``terms``: the scene's render.terms, which reflections the BRDF returns.
@@ -69,6 +71,8 @@ class LightingPass:
             defines.update(table.gbuffer_defines())
             defines.update(encoding_defines(encoding))
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
+            if ibl is not None:  # an image, sky or studio environment (docs/ibl.md)
+                defines.update(ibl.defines())
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
@@ -94,6 +98,7 @@ class LightingPass:
         self.light_count = len(lights)
         self.environment_lights = environment_range(lights)  # what occlusion darkens
         self.size = size
+        self.ibl = ibl  # owned by the renderer
 
     def run(
         self,
@@ -117,6 +122,8 @@ class LightingPass:
             textures.append(("u_sheen_table", self.sheen_table))
         if self.culler is not None:
             textures.append(("u_tile_masks", self.culler.masks))
+        if self.ibl is not None:
+            textures.extend(self.ibl.samplers())
         for unit, (_, tex) in enumerate(textures):
             tex.use(unit)
         camera_to_world = gl_bytes(camera.camera_to_world)
@@ -133,6 +140,8 @@ class LightingPass:
             prog["u_tan_half_fov"].value = camera.tan_half_fov
             if self.culler is not None:
                 prog["u_first_local"].value = self.culler.first_local
+            if self.ibl is not None:
+                self.ibl.set_uniforms(prog)
             vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:

@@ -25,13 +25,15 @@ from app.common.lights import PunctualLight
 from app.errors import InputError
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
-from app.frame.lights import frame_lights
+from app.frame.lights import environment_texels, frame_lights
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
+from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
+from app.render.ibl import EnvironmentLighting
 from app.render.lighting import LightingPass
 from app.render.limits import check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
@@ -50,6 +52,11 @@ class RenderOptions:
 
     uber: bool = False
     ms_table: np.ndarray | None = None
+
+
+def environment_source(env: Environment) -> EnvironmentSource:
+    """An image, sky or studio environment's map (cached), rotation and intensity."""
+    return EnvironmentSource(environment_texels(env), env.rotation, env.intensity)
 
 
 class _PassClock:
@@ -104,6 +111,8 @@ class Renderer:
         self.blend: BlendPass | None = None  # only where a part is alpha-blended
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
+        self.background: EnvironmentBackground | None = None  # [environment] background
+        self.ibl: EnvironmentLighting | None = None  # image, sky or studio environment
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
         self.post: PostPass | None = None
@@ -198,15 +207,29 @@ class Renderer:
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling) and the lighting pass."""
-        self._release(("culler", "lighting"))
+        self._release(("culler", "lighting", "ibl"))
         ctx, settings = self.gl.ctx, self.scene.render
+        env = self.scene.environment
+        if env is not None and env.source != "uniform":  # docs/ibl.md
+            self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
         if self.frame.has_local_lights and settings.light_culling == "tiled":
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
             settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
+            ibl=self.ibl,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
+        self._build_background()
+
+    def _build_background(self) -> None:
+        """The environment behind the objects, only where ``[environment] background``."""
+        self._release(("background",))
+        env = self.scene.environment
+        if env is not None and env.background:
+            self.background = EnvironmentBackground(
+                self.gl.ctx, self.shaders, environment_source(env)
+            )
 
     def _build_post(self) -> None:
         """Depth of field (a camera with an aperture), the supersampling resolve, post."""
@@ -374,6 +397,8 @@ class Renderer:
             self.culler.run(self.gbuffer, self.view, self.camera)
             clock.done("culling")
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
+        if self.background is not None:
+            self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
         clock.done("lighting")
         if self.blend is not None:  # composited before depth of field, resolve and post
             self.blend.run(self.gbuffer, self.lighting, self.view, self.proj, self.camera)
@@ -421,5 +446,6 @@ class Renderer:
         self._release(
             ("culler", "resolve", "dof", "blend", "gbuffer_pass", "gbuffer", "lighting", "post")
         )
+        self._release(("background", "ibl"))
         if self._owns_shaders:
             self.shaders.release()

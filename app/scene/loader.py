@@ -15,6 +15,7 @@ from pydantic import ValidationError
 
 from app.errors import InputError
 from app.scene.model import TEXTURE_KEYS, Scene
+from app.textures.environment import environment_map
 
 _KEY_PREFIX = re.compile(r"^(?:Value error, )?([A-Za-z_][A-Za-z0-9_]*): (.*)$", re.S)
 
@@ -126,6 +127,14 @@ def parse_scene(data: dict, path: Path) -> LoadedScene:
             )
         if obj.file is not None:
             _check_readable(loaded, obj.file, f"objects[{i}].file")
+    if (env := scene.environment) is not None and env.file is not None:
+        # Read (and checked) now, so that a bad image is one error naming the key; the
+        # path is made absolute, the way the frame (which knows no scene file) reads it.
+        _check_readable(loaded, env.file, "environment.file")
+        target = str(loaded.resolve_file(env.file))
+        environment_map("image", target, scene_file=str(path))
+        scene = scene.model_copy(update={"environment": env.model_copy(update={"file": target})})
+        loaded = LoadedScene(scene, path)
     if scene.camera.from_file is not None or any(obj.import_lights for obj in scene.objects):
         # A glTF file's camera and lights become the scene's own (docs/gltf-lights-cameras.md).
         # Imported here: the module needs app.scene.geometry, which imports this one.

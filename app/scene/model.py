@@ -715,12 +715,44 @@ class SceneObject(_Strict):
         return self
 
 
-class Environment(_Strict):
-    """A uniform environment of radiance ``radiance`` from every direction (the white
-    furnace, section 3), integrated by ``samples`` directional lights on a Fibonacci sphere."""
+ENVIRONMENT_SOURCES = ("uniform", "image", "sky", "studio")
+# Keys that belong to one source only (docs/scene-format.md, docs/ibl.md).
+_SOURCE_KEYS = {"radiance": "uniform", "file": "image", "sun_direction": "sky", "turbidity": "sky"}
 
+
+class Environment(_Strict):
+    """The radiance arriving from every direction, integrated by ``samples`` directional
+    lights on a Fibonacci sphere: a uniform ``radiance`` (the white furnace, section 3),
+    an equirectangular HDR image ``file``, a Preetham daylight ``sky`` or a ``studio``
+    (app/textures/environment.py; docs/ibl.md)."""
+
+    source: Literal[ENVIRONMENT_SOURCES] = "uniform"  # type: ignore[valid-type]
     radiance: Color = [1.0, 1.0, 1.0]
     samples: Annotated[int, Field(strict=True, ge=16, le=4096)] = 256
+    file: TexturePath | None = None  # .hdr or .exr, relative to the scene file
+    sun_direction: Vec3 | None = None  # towards the sun (default [0.5, 0.6, -0.6])
+    turbidity: Annotated[Real, Field(ge=2.0, le=10.0)] | None = None  # default 3 (clear)
+    rotation: Annotated[Real, Field(ge=-360.0, le=360.0)] = 0.0  # degrees about +Y
+    intensity: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] = 1.0
+    # true: pixels no surface covers show the environment (the scene's background colour
+    # otherwise); image, sky and studio only (app/render/background.py)
+    background: Annotated[bool, Field(strict=True)] = False
+
+    @model_validator(mode="after")
+    def _check(self) -> Environment:
+        for key, source in _SOURCE_KEYS.items():
+            if key in self.model_fields_set and self.source != source:
+                raise ValueError(f'{key}: applies only with source = "{source}"')
+        if self.source == "image" and self.file is None:
+            raise ValueError('file: source = "image" needs it')
+        if self.source == "uniform":
+            for key in ("rotation", "intensity", "background"):
+                if key in self.model_fields_set:
+                    raise ValueError(f"{key}: does not apply to a uniform environment")
+        _nonzero(self.sun_direction, "sun_direction")
+        if self.sun_direction is not None and self.sun_direction[1] <= 0.0:
+            raise ValueError("sun_direction: the sun must be above the horizon (y > 0)")
+        return self
 
 
 class Scene(_Strict):

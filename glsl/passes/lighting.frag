@@ -4,6 +4,7 @@
 #include "gbuffer/decode.glsl"
 #include "lights/tiles.glsl"
 #include "lights/illumination.glsl"
+#include "lights/ibl.glsl"
 
 uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
@@ -60,7 +61,16 @@ void main() {
                                                 g.p, g.v);
     } while (++i < u_light_count);
 #endif
+#if ENVIRONMENT_IBL
+    // The environment's light by the split sum (lights/ibl.glsl), once per pixel; the
+    // occlusion map darkens it (glTF 2.0: occlusion applies to indirect light).
+    vec3 L_env = ibl_radiance(g.s, g.n, g.v);
 #if GBUFFER_EMISSION
+    frag_color = vec4(PI * Lo + ao * L_env + emission.rgb, 1.0);
+#else
+    frag_color = vec4(PI * Lo + L_env, 1.0);
+#endif
+#elif GBUFFER_EMISSION
     // Emitted radiance, once per pixel, after the sum (RTR4 sec. 9.4's L_o plus L_e).
     frag_color = vec4(PI * Lo + emission.rgb, 1.0);
 #else

@@ -1,0 +1,252 @@
+"""Image-based lighting in float64 (docs/ibl.md): the split-sum approximation's parts and
+the brute-force reference it is measured against.
+
+Every function takes an equirectangular map (app/reference/environment.py's convention)
+and a rotation in radians, and sums over the map's texels with their exact solid angles,
+so "the integral" below always means the sum over the map at its resolution.
+
+* ``reference_radiance``: L_o(v) = integral f(l, v) L(l) (n.l)+ dl with the project's
+  whole BRDF (``brdf_eval``), by brute force over every texel.
+* The split sum (Karis 2013, "Real Shading in Unreal Engine 4", SIGGRAPH course):
+  integral f L (n.l) ~ L_pre(R, r) * integral f (n.l), with
+
+  - ``prefiltered_radiance``: L_pre(R) = integral L(l) D(h) (R.l)+ dl / integral D(h)
+    (R.l)+ dl, the GGX lobe with n = v = R (Karis's assumption, which the GPU's
+    importance sampling estimates with weights n.l);
+  - ``dfg_terms``: integral f_spec (n.l) with Schlick's F = F0 + (1 - F0) Fc,
+    Fc = (1 - l.h)^5, split as F0 A + B: A = E - B, B = the albedo with F0 = 0, computed
+    for the project's own G2 (height-correlated Smith) and D (GGX) with the same
+    quadrature as the Kulla-Conty table (app/reference/multiscatter.py), so A + B is E;
+  - diffuse: rho_ss E(n) / pi with the irradiance E(n) from 9 spherical-harmonic
+    coefficients (Ramamoorthi & Hanrahan 2001, "An Efficient Representation for
+    Irradiance Environment Maps", eq. 13);
+  - multiple scattering (Kulla & Conty 2017, as the lights get it): the added lobe
+    colour (1 - E(n.l)) (1 - E(n.v)) / (pi (1 - E_avg)) integrated against L, with
+    1 - E(n.l) replaced by its cosine-weighted mean 1 - E_avg: colour (1 - E(n.v)) E(n)/pi.
+    Exact for a uniform environment (the white furnace), approximate elsewhere (the same
+    idea as Fdez-Aguera 2019, "A Multiple-Scattering Microfacet Model for Real-Time
+    Image-based Lighting").
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from app.common.models import DEFAULT_MODEL, Model, ModelParams
+from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
+from app.reference.environment import rotate_y, texel_directions
+from app.reference.material import Surface, brdf_eval, material_F0, material_rho_ss
+from app.reference.multiscatter import (
+    QUAD_PHI,
+    QUAD_PSI,
+    F_avg_schlick,
+    grid_bilinear,
+    ms_E,
+    ms_E_avg,
+    mu_grid,
+    roughness_grid,
+)
+from app.reference.ndf import D_GGX
+from app.reference.quadrature import N, directional_albedo, reflected_rule
+from app.reference.specular import f_spec_GGX
+
+# --- the map as texels ---------------------------------------------------------------------
+
+
+def map_texels(env: np.ndarray, rotation: float) -> tuple[np.ndarray, np.ndarray]:
+    """World directions (T, 3) of the map's texels (turned ``rotation`` radians about +Y)
+    and their radiance times solid angle, L dOmega (T, 3)."""
+    d, omega = texel_directions(*env.shape[:2])
+    d = rotate_y(d, rotation).reshape(-1, 3)
+    return d, np.asarray(env, np.float64).reshape(-1, 3) * omega.reshape(-1, 1)
+
+
+# --- the brute-force reference ---------------------------------------------------------------
+
+
+def reference_radiance(
+    env: np.ndarray,
+    rotation: float,
+    surface: Surface,
+    n: np.ndarray,
+    v: np.ndarray,
+    model: Model = DEFAULT_MODEL,
+    params: ModelParams | None = None,
+    ms_table: np.ndarray | None = None,
+) -> np.ndarray:
+    """L_o(v) = sum over texels f(l, v) L(l) (n.l)+ dOmega for one shading point (3,)."""
+    d, l_domega = map_texels(env, rotation)
+    n = np.asarray(n, np.float64)
+    lit = d @ n > 0.0
+    d, l_domega = d[lit], l_domega[lit]
+    t = np.cross(n, [0.0, 0.0, 1.0] if abs(n[2]) < 0.9 else [1.0, 0.0, 0.0])
+    f = brdf_eval(surface, params or ModelParams(), model, n, t, d, v, ms_table)
+    return np.sum(f * l_domega * (d @ n)[:, None], axis=0)
+
+
+# --- the split sum's parts -------------------------------------------------------------------
+
+
+def prefiltered_radiance(
+    env: np.ndarray, rotation: float, R: np.ndarray, perceptual_roughness: float
+) -> np.ndarray:
+    """L_pre(R, r) = sum L D_GGX(h) (R.l)+ dOmega / sum D_GGX(h) (R.l)+ dOmega, h the half
+    vector of R and l (n = v = R), for directions R (..., 3) -> (..., 3)."""
+    d, l_domega = map_texels(env, rotation)
+    _, omega = texel_directions(*env.shape[:2])
+    omega = omega.reshape(-1)
+    r = max(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS)
+    R = np.asarray(R, np.float64)
+    flat = R.reshape(-1, 3)
+    out = np.empty_like(flat)
+    for i, Ri in enumerate(flat):
+        cos = d @ Ri
+        keep = cos > 0.0
+        h = d[keep] + Ri
+        h /= np.linalg.norm(h, axis=-1, keepdims=True)
+        w = D_GGX(Ri, h, r * r) * cos[keep]
+        out[i] = (w[:, None] * l_domega[keep]).sum(0) / np.sum(w * omega[keep])
+    return out.reshape(R.shape)
+
+
+def dfg_terms(mu: float, perceptual_roughness: float) -> tuple[float, float]:
+    """(A, B) with integral f_spec (n.l) dl = F0 A + B for Schlick's F, at n.v = mu; the
+    quadrature of single_scatter_albedo (A + B = E). mu = 0: the limit (E = 1, all in B:
+    Fc = 1 at grazing)."""
+    if mu <= 0.0:
+        return 0.0, 1.0
+    r = max(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS)
+    alpha = r * r
+    v = np.array([math.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu])
+    ls, w = reflected_rule(v, alpha, QUAD_PSI, QUAD_PHI)  # f is reciprocal: l <-> v
+    E = directional_albedo(f_spec_GGX(1.0, alpha, N, v, ls), ls, w)[0]
+    B = directional_albedo(f_spec_GGX(0.0, alpha, N, v, ls), ls, w)[0]
+    return float(E - B), float(B)
+
+
+def compute_dfg_table(size: int) -> np.ndarray:
+    """float32 (size, size, 2) of (A, B) on the Kulla-Conty table's grids (rows roughness,
+    columns mu), so that the same bilinear look-up serves both."""
+    mus, rs = mu_grid(size), roughness_grid(size)
+    table = np.array([[dfg_terms(m, r) for m in mus] for r in rs])
+    return table.astype(np.float32)
+
+
+def dfg_lookup(table: np.ndarray, mu: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """(A, B) (..., 2), bilinear in the grid coordinates (as ms_loss), float64."""
+    return grid_bilinear(table, mu, r)
+
+
+# --- spherical harmonics (Ramamoorthi & Hanrahan 2001) -----------------------------------
+
+# Their eq. 3 normalisation constants and eq. 13 irradiance constants.
+SH_Y = (0.282095, 0.488603, 1.092548, 0.315392, 0.546274)
+SH_C = (0.429043, 0.511664, 0.743125, 0.886227, 0.247708)
+
+
+def sh9_basis(d: np.ndarray) -> np.ndarray:
+    """The 9 real SH basis functions at unit directions d (..., 3) -> (..., 9), ordered
+    L00, L1-1 (y), L10 (z), L11 (x), L2-2 (xy), L2-1 (yz), L20, L21 (xz), L22."""
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    y0, y1, y2, y3, y4 = SH_Y
+    return np.stack(
+        [np.full_like(x, y0), y1 * y, y1 * z, y1 * x, y2 * x * y, y2 * y * z,
+         y3 * (3.0 * z * z - 1.0), y2 * x * z, y4 * (x * x - y * y)],
+        axis=-1,
+    )  # fmt: skip
+
+
+def sh9_project(env: np.ndarray, rotation: float) -> np.ndarray:
+    """L_lm = sum over texels L Y_lm dOmega: (9, 3)."""
+    d, l_domega = map_texels(env, rotation)
+    return sh9_basis(d).T @ l_domega
+
+
+def sh9_irradiance(L: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """E(n) from the 9 coefficients L (9, 3) (Ramamoorthi & Hanrahan 2001, eq. 13), for
+    unit normals n (..., 3) -> (..., 3)."""
+    c1, c2, c3, c4, c5 = SH_C
+    x, y, z = (np.asarray(n, np.float64)[..., i, None] for i in range(3))
+    return (
+        c1 * L[8] * (x * x - y * y) + c3 * L[6] * z * z + c4 * L[0] - c5 * L[6]
+        + 2.0 * c1 * (L[4] * x * y + L[7] * x * z + L[5] * y * z)
+        + 2.0 * c2 * (L[3] * x + L[1] * y + L[2] * z)
+    )  # fmt: skip
+
+
+# --- the split-sum estimate of one shading point --------------------------------------------
+
+
+def split_sum_radiance(
+    env: np.ndarray,
+    rotation: float,
+    surface: Surface,
+    n: np.ndarray,
+    v: np.ndarray,
+    dfg_table: np.ndarray,
+    sh: np.ndarray,
+    ms_table: np.ndarray | None = None,
+) -> np.ndarray:
+    """The standard model's environment term by the split sum (module docstring), (3,):
+    rho_ss E(n)/pi + L_pre(R, r) (F0 A + B) [+ the Kulla-Conty colour (1 - E(n.v)) E(n)/pi
+    with ``ms_table``]. ``sh``: sh9_project of the same map."""
+    n, v = np.asarray(n, np.float64), np.asarray(v, np.float64)
+    NoV = float(np.clip(n @ v, MIN_N_DOT_V, 1.0))
+    R = 2.0 * (n @ v) * n - v
+    r = float(np.maximum(surface.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS))
+    F0 = material_F0(surface)
+    A, B = dfg_lookup(dfg_table, NoV, r)
+    E_n = np.maximum(sh9_irradiance(sh, n), 0.0)  # as the GLSL: SH ringing can dip below 0
+    out = material_rho_ss(surface) * E_n / math.pi
+    out = out + prefiltered_radiance(env, rotation, R, r) * (F0 * A + B)
+    if ms_table is not None:
+        E_avg = ms_E_avg(ms_table, r)
+        F_avg = F_avg_schlick(F0)
+        colour = F_avg * F_avg * E_avg / (1.0 - F_avg * (1.0 - E_avg))
+        out = out + colour * (1.0 - ms_E(ms_table, NoV, r)) * E_n / math.pi
+    return out
+
+
+# --- the split sum's error -----------------------------------------------------------------
+
+GOLD = (1.0, 0.782, 0.344)  # RTR4's gold F0 (app/scene/presets.py), linear
+
+
+def view_direction(n: np.ndarray, degrees: float) -> np.ndarray:
+    """A unit view direction ``degrees`` from n, tilted towards +Z (or +X where n is
+    near +-Z)."""
+    n = np.asarray(n, np.float64)
+    side = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    side = side - (side @ n) * n
+    side /= np.linalg.norm(side)
+    a = math.radians(degrees)
+    return math.cos(a) * n + math.sin(a) * side
+
+
+def split_sum_errors(
+    env: np.ndarray,
+    angles: tuple[float, ...],
+    roughnesses: tuple[float, ...],
+    base_color: tuple[float, float, float] = GOLD,
+    metallic: float = 1.0,
+    n: tuple[float, float, float] = (0.0, 1.0, 0.0),
+    dfg_table: np.ndarray | None = None,
+) -> np.ndarray:
+    """Relative error (split sum - reference) / reference, averaged over RGB, per
+    (roughness, view angle from n): (len(roughnesses), len(angles))."""
+    from app.common.tables import read_dfg_table
+
+    nn = np.asarray(n, np.float64)
+    sh = sh9_project(env, 0.0)
+    dfg = read_dfg_table() if dfg_table is None else dfg_table
+    out = np.zeros((len(roughnesses), len(angles)))
+    for i, r in enumerate(roughnesses):
+        s = Surface(np.asarray(base_color, np.float64), metallic, r, 0.04, 0.0)
+        for j, a in enumerate(angles):
+            v = view_direction(nn, a)
+            split = split_sum_radiance(env, 0.0, s, nn, v, dfg, sh)
+            ref = reference_radiance(env, 0.0, s, nn, v)
+            out[i, j] = np.mean((split - ref) / ref)
+    return out

@@ -1,0 +1,133 @@
+"""Image-based lighting on the GPU (docs/ibl.md): the environment's prefiltered cube
+maps, its SH9 irradiance and the split-sum DFG table, handed to the lighting pass, which
+adds ``ibl_radiance`` (glsl/lights/ibl.glsl) per pixel where ENVIRONMENT_IBL.
+
+The prefilter (glsl/passes/env_prefilter.frag: GGX importance sampling with filtered
+importance sampling, Krivanek & Colbert 2008) runs once per (map, face size, samples)
+in a process: the faces are read back and kept as float32 arrays, so a second renderer
+of the same environment only uploads them. moderngl writes only level 0 of a cube map,
+so each roughness level is its own cube texture (ENV_LEVELS of them)."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+
+import moderngl
+import numpy as np
+
+from app.common.tables import read_dfg_table
+from app.gl.shaders import ShaderCache
+from app.reference.ibl import sh9_project
+from app.render.background import EnvironmentSource, equirect_texture
+
+ENV_LEVELS = 6  # roughness r_k = k / 5; glsl/lights/ibl.glsl samples exactly these
+FACE_SIZE = 128  # level 0's face; level k has max(FACE_SIZE >> k, MIN_FACE) texels
+MIN_FACE = 16
+SAMPLES = 256  # GGX samples per texel of the rough levels
+GL_TEXTURE_CUBE_MAP_SEAMLESS = 0x884F  # filter across face edges (core since GL 3.2)
+_CACHE: dict[tuple, list[np.ndarray]] = {}
+_CACHE_LIMIT = 8
+
+
+def level_roughness(k: int) -> float:
+    """The perceptual roughness level k is prefiltered for."""
+    return k / (ENV_LEVELS - 1)
+
+
+def face_size(k: int, base: int = FACE_SIZE) -> int:
+    return max(base >> k, MIN_FACE)
+
+
+def prefilter(
+    ctx: moderngl.Context,
+    shaders: ShaderCache,
+    env_map: np.ndarray,
+    base: int = FACE_SIZE,
+    samples: int = SAMPLES,
+) -> list[np.ndarray]:
+    """The prefiltered levels of ``env_map`` (in the map's own frame): ENV_LEVELS float32
+    arrays (6, size, size, 3), face rows in texture t order; cached per map and settings."""
+    digest = hashlib.sha1(np.ascontiguousarray(env_map, np.float32).tobytes()).hexdigest()
+    key = (digest, env_map.shape, base, samples)
+    if key in _CACHE:
+        return _CACHE[key]
+    source = equirect_texture(ctx, env_map, mipmaps=True)
+    prog = shaders.program("passes/fullscreen.vert", "passes/env_prefilter.frag", {})
+    vao = ctx.vertex_array(prog, [])
+    levels = []
+    try:
+        source.use(0)
+        prog["u_source"].value = 0
+        prog["u_samples"].value = samples
+        for k in range(ENV_LEVELS):
+            size = face_size(k, base)
+            target = ctx.texture((size, size), 4, dtype="f4")
+            fbo = ctx.framebuffer([target])
+            faces = []
+            try:
+                fbo.use()
+                ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+                prog["u_face_size"].value = size
+                prog["u_roughness"].value = level_roughness(k)
+                for face in range(6):
+                    prog["u_face"].value = face
+                    vao.render(moderngl.TRIANGLES, vertices=3)
+                    data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+                    faces.append(data.reshape(size, size, 4)[..., :3].copy())
+            finally:
+                fbo.release()
+                target.release()
+            levels.append(np.stack(faces))
+    finally:
+        vao.release()
+        source.release()
+    if len(_CACHE) >= _CACHE_LIMIT:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[key] = levels
+    return levels
+
+
+class EnvironmentLighting:
+    """The lighting pass's image-based light: textures, defines and uniforms."""
+
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, env: EnvironmentSource) -> None:
+        ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)
+        self.levels = []
+        for faces in prefilter(ctx, shaders, env.texels):
+            size = faces.shape[1]
+            rgba = np.concatenate([faces, np.ones((*faces.shape[:3], 1), np.float32)], -1)
+            cube = ctx.texture_cube((size, size), 4, dtype="f4")
+            for face in range(6):
+                cube.write(face, np.ascontiguousarray(rgba[face]).tobytes())
+            cube.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self.levels.append(cube)
+        table = np.ascontiguousarray(read_dfg_table())
+        self.dfg = ctx.texture(table.shape[1::-1], 2, table.tobytes(), dtype="f4")
+        self.dfg.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.dfg.repeat_x = self.dfg.repeat_y = False
+        self.rotation = math.radians(env.rotation)
+        self.intensity = float(env.intensity)
+        # SH9 of the turned map, in the world frame (float64 twin), times the intensity.
+        self.sh = (sh9_project(env.texels, self.rotation) * env.intensity).astype(np.float32)
+
+    @staticmethod
+    def defines() -> dict[str, int]:
+        return {"ENVIRONMENT_IBL": 1, "ENV_LEVELS": ENV_LEVELS}
+
+    def samplers(self) -> list[tuple[str, moderngl.Texture | moderngl.TextureCube]]:
+        """(uniform, texture) pairs the lighting pass binds."""
+        named = [(f"u_env_level{k}", cube) for k, cube in enumerate(self.levels)]
+        return [*named, ("u_dfg_table", self.dfg)]
+
+    def set_uniforms(self, prog: moderngl.Program) -> None:
+        """The SH coefficients, rotation and intensity (those render.terms keeps)."""
+        if "u_env_sh" in prog:
+            prog["u_env_sh"].write(self.sh.tobytes())
+        if "u_env_rotation" in prog:  # the specular term only
+            prog["u_env_rotation"].value = self.rotation
+            prog["u_env_intensity"].value = self.intensity
+
+    def release(self) -> None:
+        for tex in (*self.levels, self.dfg):
+            tex.release()

@@ -1,0 +1,96 @@
+// Image-based lighting by the split sum (docs/ibl.md): the environment's light reflected
+// towards v, added once per pixel by the lighting pass where ENVIRONMENT_IBL.
+// Twin: app/reference/ibl.py split_sum_radiance (with the exact prefiltered radiance).
+//   L_o ~ rho_ss E(n) / pi                                     (SH9 irradiance)
+//       + L_pre(R, r) (F0 A(n.v, r) + B(n.v, r))                (Karis 2013's split sum)
+//       + colour (1 - E(n.v)) E(n) / pi                          (Kulla-Conty, MULTISCATTER)
+// The standard model's terms only: other NDFs, Fresnel and diffuse models, sheen, coat,
+// thin film and anisotropy get this same approximation (RTR4 sec. 10.5.2).
+#ifndef PBS_LIGHTS_IBL_GLSL
+#define PBS_LIGHTS_IBL_GLSL
+
+#include "common/constants.glsl"
+#include "brdf/material.glsl"
+#include "brdf/multiscatter.glsl"
+#include "env/equirect.glsl"
+
+#if ENVIRONMENT_IBL
+
+// The GGX-prefiltered environment, one cube map per roughness r_k = k / (ENV_LEVELS - 1)
+// (moderngl writes only level 0 of a cube map, so the levels are separate textures and
+// the roughness between two of them is a linear blend, as a mip chain's trilinear filter).
+#if ENV_LEVELS != 6
+#error "ibl.glsl samples exactly 6 prefiltered levels (app/render/ibl.py ENV_LEVELS)"
+#endif
+uniform samplerCube u_env_level0;
+uniform samplerCube u_env_level1;
+uniform samplerCube u_env_level2;
+uniform samplerCube u_env_level3;
+uniform samplerCube u_env_level4;
+uniform samplerCube u_env_level5;
+uniform sampler2D u_dfg_table;       // RG32F (A, B) on the Kulla-Conty table's grids
+uniform vec3 u_env_sh[9];            // irradiance SH9 in the world frame, times intensity
+uniform float u_env_rotation;        // radians about +Y
+uniform float u_env_intensity;
+
+// E(n) = Ramamoorthi & Hanrahan 2001, eq. 13, with their constants c1..c5.
+vec3 sh9_irradiance(vec3 n) {
+    const float c1 = 0.429043, c2 = 0.511664, c3 = 0.743125, c4 = 0.886227, c5 = 0.247708;
+    vec3 L[9] = u_env_sh;
+    return c1 * L[8] * (n.x * n.x - n.y * n.y) + c3 * L[6] * n.z * n.z + c4 * L[0]
+         - c5 * L[6]
+         + 2.0 * c1 * (L[4] * n.x * n.y + L[7] * n.x * n.z + L[5] * n.y * n.z)
+         + 2.0 * c2 * (L[3] * n.x + L[1] * n.y + L[2] * n.z);
+}
+
+// (A, B) at (n.v, r): the hardware's bilinear filter at the texel-centred coordinates of
+// the Kulla-Conty grids (sqrt(sqrt(mu)), sqrt((r - floor) / (1 - floor))). Precision:
+// GPU filters weigh texels with ~8-bit fractions, up to 2e-3 of a cell's difference
+// (the ms table avoids it; here it is far below the split sum's own error).
+vec2 dfg_lookup(float mu, float perceptual_roughness) {
+    vec2 size = vec2(textureSize(u_dfg_table, 0));
+    float r = clamp(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    vec2 coord = vec2(sqrt(sqrt(clamp(mu, 0.0, 1.0))),
+                      sqrt((r - MIN_PERCEPTUAL_ROUGHNESS) / (1.0 - MIN_PERCEPTUAL_ROUGHNESS)));
+    return texture(u_dfg_table, (coord * (size - 1.0) + 0.5) / size).rg;
+}
+
+vec3 env_level(int k, vec3 d) {
+    if (k == 0) return textureLod(u_env_level0, d, 0.0).rgb;
+    if (k == 1) return textureLod(u_env_level1, d, 0.0).rgb;
+    if (k == 2) return textureLod(u_env_level2, d, 0.0).rgb;
+    if (k == 3) return textureLod(u_env_level3, d, 0.0).rgb;
+    if (k == 4) return textureLod(u_env_level4, d, 0.0).rgb;
+    return textureLod(u_env_level5, d, 0.0).rgb;
+}
+
+// L_pre(R, r): the two levels around r, blended linearly in r.
+vec3 prefiltered_radiance(vec3 R, float perceptual_roughness) {
+    float x = perceptual_roughness * float(ENV_LEVELS - 1);
+    int k = min(int(x), ENV_LEVELS - 2);
+    vec3 d = env_map_direction(R, u_env_rotation);
+    return mix(env_level(k, d), env_level(k + 1, d), x - float(k));
+}
+
+vec3 ibl_radiance(Surface s, vec3 n, vec3 v) {
+    float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
+    float r = clamp(s.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    vec3 R = reflect(-v, n);
+    vec3 E_n = max(sh9_irradiance(n), vec3(0.0));  // SH ringing can dip below 0
+    vec3 F0 = material_F0(s);
+    vec2 AB = dfg_lookup(NoV, r);
+    vec3 pre = u_env_intensity * prefiltered_radiance(R, r);
+    vec3 spec = pre * (F0 * AB.x + AB.y);
+#if MULTISCATTER
+    vec3 F_avg = F0 + (1.0 - F0) / 21.0;
+    float E_avg = ms_E_avg(r);
+    vec3 colour = F_avg * F_avg * E_avg / (1.0 - F_avg * (1.0 - E_avg));
+    spec += colour * ms_loss(NoV, r) * E_n * INV_PI;
+#endif
+    // the reflections render.terms keeps, as for lights (brdf/material.glsl)
+    return selected_terms(material_rho_ss(s) * E_n * INV_PI, spec);
+}
+
+#endif  // ENVIRONMENT_IBL
+
+#endif
