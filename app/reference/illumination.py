@@ -41,16 +41,22 @@ def illumination_sum(
     terms: str = "all",
     nc: np.ndarray | None = None,
     occlusion: np.ndarray | None = None,
+    visibility: list[np.ndarray | None] | None = None,
 ) -> np.ndarray:
     """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
     ``terms`` as in ``brdf_eval``. ``nc``: the clear coat's normals where the G-buffer has
     them (RT4): a coated model's layers then take their own cosines
     (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL. ``occlusion``
     (...,): the G-buffer's occlusion factor (RT5), which multiplies the terms of the
-    environment's lights only (glTF 2.0: occlusion applies to indirect light)."""
+    environment's lights only (glTF 2.0: occlusion applies to indirect light).
+    ``visibility``: per light, None or (...,) in [0, 1], the fraction of the light that
+    reaches each point (a shadow; glsl/lights/illumination.glsl multiplies c_light by it
+    under SHADOWS, docs/shadows.md)."""
     Lo = np.zeros(np.shape(p), np.float64)
-    for light in lights:
+    for k, light in enumerate(lights):
         c_light, l = light_at(light, p)
+        if visibility is not None and visibility[k] is not None:
+            c_light = c_light * np.asarray(visibility[k], np.float64)[..., None]
         scale = 1.0
         if occlusion is not None and light.environment:
             scale = np.asarray(occlusion, np.float64)[..., None]

@@ -27,6 +27,7 @@ from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
+from app.render.shadows import ShadowPass
 from app.render.tables import material_texture, ms_texture, sheen_texture
 
 
@@ -46,14 +47,17 @@ class LightingPass:
         ms_table: np.ndarray | None = None,
         *,
         encoding: str,
+        shadows: ShadowPass | None = None,
     ) -> None:
         """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
         ``terms``: the scene's render.terms, which reflections the BRDF returns.
         ``uber``: one program with run-time model selection instead of one per model
         group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
-        the bench's, from ``RenderOptions``)."""
+        the bench's, from ``RenderOptions``). ``shadows``: the shadow maps, where a light
+        casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl)."""
         self.ctx = ctx
         self.culler = culler
+        self.shadows = shadows
         self.uber = uber
         several = len(table.models) > 1
         variants: list[dict[str, int]] = []
@@ -69,6 +73,8 @@ class LightingPass:
             defines.update(table.gbuffer_defines())
             defines.update(encoding_defines(encoding))
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
+            if shadows is not None:
+                defines["SHADOWS"] = shadows.count
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
@@ -117,6 +123,8 @@ class LightingPass:
             textures.append(("u_sheen_table", self.sheen_table))
         if self.culler is not None:
             textures.append(("u_tile_masks", self.culler.masks))
+        if self.shadows is not None:
+            textures.append(("u_shadow_atlas", self.shadows.atlas))
         for unit, (_, tex) in enumerate(textures):
             tex.use(unit)
         camera_to_world = gl_bytes(camera.camera_to_world)
@@ -133,6 +141,8 @@ class LightingPass:
             prog["u_tan_half_fov"].value = camera.tan_half_fov
             if self.culler is not None:
                 prog["u_first_local"].value = self.culler.first_local
+            if self.shadows is not None:
+                self.shadows.bind(prog)
             vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:

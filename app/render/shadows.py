@@ -1,0 +1,225 @@
+"""Shadow maps for directional and spot lights (issue 18; RTR4 §7.4): one depth-only pass
+per shadowed light into a shared depth atlas, read by glsl/lights/shadows.glsl in the
+lighting pass (compiled in only where a light has ``shadow = true``: ``SHADOWS``).
+
+Frusta. A directional light gets an orthographic frustum fitted to the light-space bounds
+of every opaque part's surface points (``MeshPart.surface_points``), so every caster and
+receiver lies inside its map; there are no cascades, so a large floor spreads the texels
+thinly (docs/shadows.md). A spot light gets a perspective frustum along its axis whose
+field of view is the outer cone plus one degree, from range / 1000 to its range (the
+window falloff is exactly 0 beyond it).
+
+Geometry. Mesh parts are drawn as they are. An analytic sphere, whose exact depth the
+G-buffer pass writes per pixel from the camera's ray, is drawn here as the icosphere of
+``MeshPart.triangles`` (5,120 triangles, vertices on the sphere): its faces lie inside
+the sphere by at most 1 - (the nearest face plane's distance from the centre), at 4
+subdivisions 0.11 % of the radius (measured; docs/shadows.md), so its shadow is that
+much smaller. Alpha-masked parts cast the shadow of their whole surface; blended parts
+cast none.
+
+Bias. The pass offsets depth by glPolygonOffset(slope, 1): ``slope`` times the triangle's
+depth slope plus one depth unit (the slope-scaled bias); the lighting pass moves the
+shaded point along its normal by ``normal_offset`` shadow texels (normal offset). Both
+per light (``shadow_bias``); defaults and why in docs/shadows.md.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from app.common.lights import LightType, PunctualLight
+from app.errors import InputError
+from app.frame.camera import gl_bytes
+from app.gl.shaders import ShaderCache
+from app.render.limits import max_dimension
+from app.scene.geometry import MeshPart
+from app.scene.model import Light
+
+# A spot's map covers its outer cone plus this margin (degrees a side), so that the PCF
+# kernel at the cone's edge reads inside the map.
+SPOT_MARGIN_DEG = 1.0
+
+
+def check_shadow_resolutions(ctx: moderngl.Context, lights: list[Light], file: str) -> None:
+    """InputError naming ``lights[i].shadow_resolution`` where one map, or the atlas of all
+    of them side by side, is wider than this GL's largest texture."""
+    limit = max_dimension(ctx)
+    total = 0
+    for i, light in enumerate(lights):
+        if not light.shadow:
+            continue
+        total += light.shadow_resolution
+        if light.shadow_resolution > limit or total > limit:
+            what = (
+                f"{light.shadow_resolution}"
+                if light.shadow_resolution > limit
+                else f"{total} (the shadow maps side by side)"
+            )
+            raise InputError(
+                file,
+                f"lights[{i}].shadow_resolution",
+                f"{what} texels is past this GL's largest texture, {limit} a side",
+            )
+
+
+def look_along(eye: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """World -> view (looking down -Z along ``forward``), any up that is not parallel."""
+    f = np.asarray(forward, np.float64) / np.linalg.norm(forward)
+    up = np.array([0.0, 1.0, 0.0]) if abs(f[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    r = np.cross(f, up)
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = r, u, -f
+    m[:3, 3] = -m[:3, :3] @ np.asarray(eye, np.float64)
+    return m
+
+
+def orthographic(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """View -> clip of the box ``lo`` <= (x, y, -z) <= ``hi`` (OpenGL, depth [-1, 1])."""
+    m = np.eye(4)
+    for axis in range(3):
+        m[axis, axis] = 2.0 / (hi[axis] - lo[axis])
+        m[axis, 3] = -(hi[axis] + lo[axis]) / (hi[axis] - lo[axis])
+    m[2, 2] = -m[2, 2]  # the view looks down -Z
+    return m
+
+
+def perspective(fov_y: float, near: float, far: float) -> np.ndarray:
+    """View -> clip, square, OpenGL depth [-1, 1]; ``fov_y`` in radians."""
+    c = 1.0 / math.tan(fov_y / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0] = m[1, 1] = c
+    m[2, 2] = -(far + near) / (far - near)
+    m[2, 3] = -2.0 * far * near / (far - near)
+    m[3, 2] = -1.0
+    return m
+
+
+def world_points(parts: list[MeshPart]) -> np.ndarray:
+    """(N, 3) world points on the surfaces of ``parts``."""
+    pts = [p.surface_points() @ p.model[:3, :3].T + p.model[:3, 3] for p in parts]
+    return np.concatenate(pts) if pts else np.zeros((1, 3))
+
+
+def shadow_frustum(
+    light: PunctualLight, points: np.ndarray, resolution: int
+) -> tuple[np.ndarray, float, bool]:
+    """(world -> clip matrix, normal offset per texel, perspective) of ``light``'s map.
+    The offset per texel is the texel's world size: in metres for a directional light,
+    in metres per metre of distance along the axis for a spot."""
+    if light.type == LightType.DIRECTIONAL:
+        view = look_along(np.zeros(3), light.direction)
+        local = points @ view[:3, :3].T
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        extent = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-6))
+        pad = 0.01 * extent + 1e-6  # keeps the fitted surfaces off the map's border
+        lo_box = np.array([lo[0] - pad, lo[1] - pad, -hi[2] - pad])
+        hi_box = np.array([hi[0] + pad, hi[1] + pad, -lo[2] + pad])
+        texel = max(hi_box[0] - lo_box[0], hi_box[1] - lo_box[1]) / resolution
+        return orthographic(lo_box, hi_box) @ view, float(texel), False
+    if light.type != LightType.SPOT:
+        raise ValueError("only directional and spot lights have shadow maps")
+    half = math.acos(light.cos_outer) + math.radians(SPOT_MARGIN_DEG)  # <= 81 degrees (model)
+    view = look_along(light.position, light.direction)
+    proj = perspective(2.0 * half, light.range * 1e-3, light.range)
+    return proj @ view, 2.0 * math.tan(half) / resolution, True
+
+
+class _Caster:
+    """One part's triangles for the shadow pass: positions only."""
+
+    def __init__(self, ctx: moderngl.Context, prog: moderngl.Program, part: MeshPart) -> None:
+        vertices, indices = part.triangles()
+        self.vbo = ctx.buffer(np.ascontiguousarray(vertices, np.float32).tobytes())
+        self.ibo = ctx.buffer(np.ascontiguousarray(indices, np.uint32).tobytes())
+        self.vao = ctx.vertex_array(prog, [(self.vbo, "3f 36x", "in_position")], self.ibo, 4)
+        self.model = gl_bytes(part.model)
+
+    def release(self) -> None:
+        for obj in (self.vao, self.vbo, self.ibo):
+            obj.release()
+
+
+class ShadowPass:
+    """The shadow maps of a frame's shadowed lights, side by side in one depth atlas.
+
+    ``lights``: the frame's lights (ordered); ``parts``: the opaque parts that cast and
+    receive. The maps depend only on these, so ``run`` renders them once; a renderer
+    builds a new pass when lights or geometry change."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        lights: list[PunctualLight],
+        parts: list[MeshPart],
+    ) -> None:
+        self.ctx = ctx
+        self.lights = [i for i, light in enumerate(lights) if light.shadow is not None]
+        points = world_points(parts)
+        self.matrices: list[np.ndarray] = []
+        self.rects: list[tuple[float, float, float, float]] = []
+        self.offsets: list[tuple[float, float]] = []
+        self.slopes: list[float] = []
+        # A texel's world size: metres (directional), metres per metre of distance (spot).
+        self.texels: list[float] = []
+        x = 0
+        for i in self.lights:
+            s = lights[i].shadow
+            assert s is not None
+            matrix, texel, persp = shadow_frustum(lights[i], points, s.resolution)
+            self.matrices.append(matrix)
+            self.rects.append((float(x), 0.0, float(s.resolution), float(s.filter == "pcf")))
+            self.offsets.append((s.normal_offset * texel, float(persp)))
+            self.slopes.append(s.slope)
+            self.texels.append(texel)
+            x += s.resolution
+        height = max(int(r[2]) for r in self.rects)
+        self.atlas = ctx.depth_texture((x, height))
+        self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
+        self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.atlas.repeat_x = self.atlas.repeat_y = False
+        self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
+        self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
+        self.casters = [_Caster(ctx, self.prog, part) for part in parts]
+        self.rendered = False
+
+    @property
+    def count(self) -> int:
+        return len(self.lights)
+
+    def run(self) -> None:
+        """Render every map (once: they change only with a new pass)."""
+        if self.rendered:
+            return
+        ctx = self.ctx
+        self.fbo.use()
+        ctx.enable_only(moderngl.DEPTH_TEST)  # two-sided: planes and open meshes cast
+        ctx.depth_func = "<"
+        self.fbo.clear(depth=1.0)
+        for matrix, rect, slope in zip(self.matrices, self.rects, self.slopes, strict=True):
+            ctx.viewport = (int(rect[0]), 0, int(rect[2]), int(rect[2]))
+            ctx.polygon_offset = (slope, 1.0)
+            self.prog["u_light_matrix"].write(gl_bytes(matrix))
+            for caster in self.casters:
+                self.prog["u_model"].write(caster.model)
+                caster.vao.render(moderngl.TRIANGLES)
+        ctx.polygon_offset = (0.0, 0.0)
+        self.rendered = True
+
+    def bind(self, prog: moderngl.Program) -> None:
+        """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
+        prog["u_shadow_light"].write(np.asarray(self.lights, np.int32).tobytes())
+        prog["u_shadow_matrix"].write(b"".join(gl_bytes(m) for m in self.matrices))
+        prog["u_shadow_rect"].write(np.asarray(self.rects, np.float32).tobytes())
+        prog["u_shadow_offset"].write(np.asarray(self.offsets, np.float32).tobytes())
+
+    def release(self) -> None:
+        for caster in self.casters:
+            caster.release()
+        self.fbo.release()
+        self.atlas.release()

@@ -1,0 +1,71 @@
+// Shadow maps (RTR4 sec. 7.4): the visibility of a shadowed light at a shaded point, read
+// from its depth map in one shared atlas (app/render/shadows.py renders them).
+// Twin: the float64 ray-caster's shadow rays (app/reference/raycast.py light_visibility)
+// are the reference it is measured against (docs/shadows.md), not an equal of the filter.
+#ifndef PBS_SHADOWS_GLSL
+#define PBS_SHADOWS_GLSL
+
+// SHADOWS: the number of shadow maps; 0 (or undefined) compiles all of this out.
+#ifndef SHADOWS
+#define SHADOWS 0
+#endif
+
+#if SHADOWS
+uniform sampler2D u_shadow_atlas;            // DEPTH24, the maps side by side; no compare mode
+uniform int u_shadow_light[SHADOWS];         // the light (index into u_lights) of map k
+uniform mat4 u_shadow_matrix[SHADOWS];       // world -> map k's clip space
+// Map k: x, y its first texel in the atlas, z its size in texels, w 1 for PCF, 0 for none.
+uniform vec4 u_shadow_rect[SHADOWS];
+// Map k: x the normal offset in metres (directional) or in metres per metre of distance
+// from the light (spot: a texel grows with distance), y 1 for a perspective map.
+uniform vec2 u_shadow_offset[SHADOWS];
+
+// 1 where the receiver's window depth z is not behind the occluder depth in texel t.
+float shadow_test(ivec2 t, float z) {
+    return z <= texelFetch(u_shadow_atlas, t, 0).r ? 1.0 : 0.0;
+}
+
+// Visibility through map k of the point p with normal n.
+// Normal offset: p moves along n by a fixed number of shadow texels, so a surface tilted
+// away from the light does not shadow itself between texel centres (acne); the shadow
+// pass adds the slope-scaled depth offset (glPolygonOffset), docs/shadows.md.
+float shadow_map_visibility(int k, vec3 p, vec3 n) {
+    vec4 clip = u_shadow_matrix[k] * vec4(p, 1.0);
+    float scale = u_shadow_offset[k].y > 0.5 ? clip.w : 1.0;
+    clip = u_shadow_matrix[k] * vec4(p + n * (u_shadow_offset[k].x * scale), 1.0);
+    if (clip.w <= 0.0) return 1.0;               // behind a spot: its cone is dark anyway
+    vec3 ndc = clip.xyz / clip.w;
+    if (any(greaterThan(abs(ndc), vec3(1.0)))) return 1.0;   // outside the map: lit
+    float z = ndc.z * 0.5 + 0.5;                 // window depth, glDepthRange(0, 1)
+    vec4 rect = u_shadow_rect[k];
+    vec2 pos = rect.xy + (ndc.xy * 0.5 + 0.5) * rect.z;   // atlas texel coordinates
+    ivec2 lo = ivec2(rect.xy);
+    ivec2 hi = lo + ivec2(rect.z) - 1;
+    if (rect.w < 0.5) return shadow_test(clamp(ivec2(floor(pos)), lo, hi), z);
+    // PCF: a 3 x 3 box of bilinear comparisons one texel apart, which sums to 4 x 4 texels
+    // with separable weights ((1 - f), 1, 1, f) / 3 around the texel below pos - 0.5.
+    vec2 q = pos - 0.5;
+    ivec2 base = ivec2(floor(q));
+    vec2 f = q - vec2(base);
+    float wx[4] = float[4](1.0 - f.x, 1.0, 1.0, f.x);
+    float wy[4] = float[4](1.0 - f.y, 1.0, 1.0, f.y);
+    float sum = 0.0;
+    for (int j = 0; j < 4; ++j) {
+        for (int i = 0; i < 4; ++i) {
+            ivec2 t = clamp(base + ivec2(i - 1, j - 1), lo, hi);
+            sum += wx[i] * wy[j] * shadow_test(t, z);
+        }
+    }
+    return sum / 9.0;
+}
+
+// Visibility of light i at p: its map's, or 1 for a light without one.
+float shadow_visibility(int i, vec3 p, vec3 n) {
+    for (int k = 0; k < SHADOWS; ++k) {
+        if (u_shadow_light[k] == i) return shadow_map_visibility(k, p, n);
+    }
+    return 1.0;
+}
+#endif
+
+#endif

@@ -1,0 +1,160 @@
+"""Shadow maps (issue 18, app/render/shadows.py, glsl/lights/shadows.glsl) against the
+float64 ray-caster's shadow rays (app/reference/raycast.py light_visibility).
+
+The GPU's visibility of one light at a pixel is read as the ratio of two renders of a
+scene lit by that light alone, with and without ``shadow = true`` (a shadowed light's term
+is its unshadowed term times its visibility); lit means a ratio over 0.5. The reference's
+is its shadow ray through the same pixel centre. Numbers: docs/shadows.md.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.errors import InputError
+from app.frame.camera import camera_frame
+from app.frame.lights import frame_lights
+from app.frame.raycast import primitive
+from app.reference.raycast import cast, interior_mask, shadow_visibility
+from app.render.renderer import Renderer
+from app.render.shadows import check_shadow_resolutions
+from app.scene.loader import LoadedScene, parse_scene
+
+REPO = Path(__file__).resolve().parent.parent
+SIZE = (160, 96)
+RADIUS = 0.5
+SUN = {"type": "directional", "direction": [-1.0, -0.6, -0.3], "intensity": 2.0}
+SPOT = {
+    "type": "spot", "position": [0.8, 3.0, 1.2], "direction": [-0.1, -1.0, -0.2],
+    "intensity": 12.0, "range": 8.0, "inner_angle": 30.0, "outer_angle": 40.0,
+}  # fmt: skip
+SPHERES = [
+    {"shape": "sphere", "radius": RADIUS, "position": [-0.8, RADIUS, 0.0], "material": "m"},
+    {"shape": "sphere", "radius": 0.35, "position": [0.7, 0.8, -0.4], "material": "m"},
+]
+FLOOR = {"shape": "plane", "size": [8.0, 8.0], "material": "m"}
+
+
+def scene_data(objects: list[dict], light: dict, camera: dict | None = None) -> dict:
+    cam = camera or {"position": [0.0, 2.5, 5.0], "target": [0.0, 0.3, 0.0], "fov_y": 40.0}
+    return {
+        "render": {"width": SIZE[0], "height": SIZE[1]},
+        "camera": cam,
+        "materials": {"m": {"base_color": [0.8, 0.8, 0.8], "roughness": 0.6}},
+        "objects": objects,
+        "lights": [light],
+    }
+
+
+def loaded(data: dict) -> LoadedScene:
+    return parse_scene(copy.deepcopy(data), REPO / "scenes" / "t.toml")
+
+
+def render_hdr(gl, data: dict) -> tuple[np.ndarray, float]:
+    """The HDR image and the world size of the first shadow map's texel (0 without)."""
+    renderer = Renderer(gl, loaded(data))
+    try:
+        renderer.render()
+        texel = renderer.shadows.texels[0] if renderer.shadows is not None else 0.0
+        return renderer.read_hdr().astype(np.float64), texel
+    finally:
+        renderer.release()
+
+
+def gpu_visibility(gl, data: dict, **shadow: object) -> tuple[np.ndarray, np.ndarray, float]:
+    """(ratio of the shadowed to the unshadowed render, where the unshadowed one is lit,
+    the shadow map's texel size)."""
+    plain, _ = render_hdr(gl, data)
+    shadowed = copy.deepcopy(data)
+    shadowed["lights"][0].update(shadow=True, **shadow)
+    dark, texel = render_hdr(gl, shadowed)
+    lum, lum_plain = dark.sum(axis=-1), plain.sum(axis=-1)
+    lit = lum_plain > 1e-3 * lum_plain.max()
+    return np.where(lit, lum / np.maximum(lum_plain, 1e-30), 1.0), lit, texel
+
+
+def reference_visibility(data: dict) -> tuple[np.ndarray, np.ndarray, object]:
+    """(visibility, primitive ids, hits) of the ray-caster at the renderer's pixel centres."""
+    scene = loaded(data).scene
+    prims = [primitive(i, obj) for i, obj in enumerate(scene.objects)]
+    hits = cast(prims, camera_frame(scene.camera, *SIZE), SIZE)
+    light = dict(scene.lights[0].model_dump(), shadow=True)
+    lights = frame_lights([type(scene.lights[0]).model_validate(light)], None)
+    return shadow_visibility(prims, hits, lights)[0], hits.ids, hits
+
+
+def away_from_boundaries(vis: np.ndarray, ids: np.ndarray, margin: int) -> np.ndarray:
+    """Pixels whose (2 margin + 1)^2 neighbourhood shows one primitive and one reference
+    shadow state: the reference's penumbra-free interior, eroded by ``margin`` pixels."""
+    state = np.where(ids >= 0, ids * 2 + (vis > 0.5), -1)
+    return interior_mask(state, margin)
+
+
+@pytest.mark.parametrize("light", [SUN, SPOT], ids=["directional", "spot"])
+def test_lit_and_unlit_pixels_match_the_ray_caster_away_from_the_boundary(gl_egl, light):
+    data = scene_data([FLOOR, *SPHERES], light)
+    ratio, lit, _ = gpu_visibility(gl_egl, data, shadow_resolution=1024)
+    vis, ids, _ = reference_visibility(data)
+    region = away_from_boundaries(vis, ids, margin=2) & lit
+    shadowed = vis[region] < 0.5
+    assert shadowed.sum() > 60 and (~shadowed).sum() > 2000  # both states are tested
+    wrong = (ratio[region] > 0.5) != (vis[region] > 0.5)
+    assert wrong.mean() == 0.0, f"{wrong.sum()} of {region.sum()} pixels differ"
+
+
+def test_no_acne_on_a_flat_floor_at_a_grazing_light(gl_egl):
+    """A floor alone under a light 8 degrees above the horizon: nothing may shadow it."""
+    light = {"type": "directional", "direction": [-1.0, -0.1405, 0.0], "intensity": 3.0}
+    data = scene_data([FLOOR], light, {"position": [0.0, 1.5, 4.0], "target": [0, 0, 0]})
+    ratio, lit, _ = gpu_visibility(gl_egl, data)
+    assert lit.sum() > 0.5 * lit.size
+    unlit = ratio[lit] < 0.999
+    assert unlit.sum() == 0, f"{unlit.sum()} of {lit.sum()} floor pixels in shadow"
+
+
+def test_no_peter_panning_at_a_sphere_contact(gl_egl):
+    """A sphere touching the floor under a 45-degree sun, seen from low down on the
+    shadow's side: no floor pixel near the contact that the ray-caster puts in shadow by
+    more than one shadow texel is lit on the GPU (a slope bias of 100 leaves 14 texels)."""
+    light = {"type": "directional", "direction": [-1.0, -1.0, 0.0], "intensity": 2.0}
+    sphere = dict(SPHERES[0], position=[0.0, RADIUS, 0.0])
+    cam = {"position": [-2.2, 0.9, 1.6], "target": [-0.2, 0.1, 0.0], "fov_y": 40.0}
+    data = scene_data([FLOOR, sphere], light, cam)
+    ratio, lit, texel = gpu_visibility(gl_egl, data, shadow_resolution=1024)
+    _, ids, hits = reference_visibility(data)
+    # The shadow on the floor of a sphere of centre c under a light along u: the points
+    # whose line towards the light passes within RADIUS of c; RADIUS - that distance is
+    # how deep a point lies inside the shadow (metres on the floor, at least).
+    u = -np.asarray(light["direction"]) / np.linalg.norm(light["direction"])
+    rel = hits.p - np.array([0.0, RADIUS, 0.0])
+    depth = RADIUS - np.linalg.norm(rel - (rel @ u)[..., None] * u, axis=-1)
+    near_contact = (ids == 0) & (np.linalg.norm(hits.p, axis=-1) < 1.5 * RADIUS) & lit
+    inside = near_contact & (depth > 0.0)
+    assert inside.sum() > 100
+    gap = depth[inside & (ratio > 0.5)]
+    worst = float(gap.max()) / texel if gap.size else 0.0
+    assert worst <= 1.0, f"lit {worst:.2f} shadow texels inside the shadow at the contact"
+
+
+def test_scene_keys_are_validated():
+    def bad(light: dict, message: str) -> None:
+        with pytest.raises(InputError, match=message):
+            loaded(scene_data([FLOOR], light))
+
+    bad({"type": "point", "position": [0, 1, 0], "shadow": True}, "point lights cast no")
+    bad(dict(SUN, shadow_resolution=512), "shadow_resolution: needs shadow = true")
+    bad(dict(SPOT, outer_angle=85.0, shadow=True), "covers an outer_angle up to 80")
+    bad(dict(SUN, shadow=1), "shadow")
+    bad(dict(SUN, shadow=True, shadow_filter="pcss"), "shadow_filter")
+
+
+def test_a_resolution_past_the_gl_limit_is_refused_naming_the_key(gl_egl):
+    data = scene_data([FLOOR], dict(SUN, shadow=True, shadow_resolution=1 << 20))
+    with pytest.raises(InputError, match=r"lights\[0\]\.shadow_resolution"):
+        check_shadow_resolutions(gl_egl.ctx, loaded(data).scene.lights, "t.toml")
+    with pytest.raises(InputError, match=r"lights\[0\]\.shadow_resolution"):
+        Renderer(gl_egl, loaded(data))
