@@ -288,13 +288,18 @@ def test_the_targets_fail_a_tessellated_or_half_float_pipeline(gl_egl):
 
 def _analytic_scenes() -> list:
     """The bundled scenes the ray-caster takes whose spheres are all analytic (stress.toml
-    keeps two icospheres of subdivision 0 and 1 on purpose)."""
+    keeps two icospheres of subdivision 0 and 1 on purpose) and whose lights cast no
+    shadows: a shadow map's filtered edge is not the shadow rays' hard one (FLIP 0.0022 on
+    scenes/shadows.toml, median and p99 within the targets); tests/test_shadows.py measures
+    shadows by lit/unlit state instead (docs/shadows.md)."""
     out = []
     for path in scene_files():
         loaded = load_scene(path)
         try:
             reference_scene(loaded, (4, 4))
         except ValueError:
+            continue
+        if any(light.shadow for light in loaded.scene.lights):
             continue
         if all(obj.subdivisions is None for obj in loaded.scene.objects):
             out.append(path)
