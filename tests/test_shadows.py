@@ -167,6 +167,14 @@ def test_scene_keys_are_validated():
     bad(dict(SUN, shadow=True, shadow_filter="pcss"), "shadow_filter")
 
 
+def test_a_dumped_scene_validates_again():
+    """Renderer edits re-validate ``model_dump()`` (every key written): a light without
+    shadows, whose shadow keys are then present at their defaults, stays valid."""
+    scene = loaded(scene_data([FLOOR], SPOT)).scene
+    again = type(scene).model_validate(scene.model_dump())
+    assert again.lights == scene.lights and not again.lights[0].shadow
+
+
 def test_a_resolution_past_the_gl_limit_is_refused_naming_the_key(gl_egl):
     data = scene_data([FLOOR], dict(SUN, shadow=True, shadow_resolution=1 << 20))
     with pytest.raises(InputError, match=r"lights\[0\]\.shadow_resolution"):

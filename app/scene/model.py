@@ -226,9 +226,10 @@ class Light(_Strict):
                 f"shadow: a spot's shadow map (one perspective frustum) covers an outer_angle "
                 f"up to {MAX_SHADOW_SPOT_ANGLE:g} degrees"
             )
-        shadow_keys = ("shadow_resolution", "shadow_bias", "shadow_filter")
-        for key in shadow_keys:
-            if not self.shadow and key in self.model_fields_set:
+        # A shadow key set to other than its default needs shadow = true (compared by value,
+        # not by which keys were written, so a dumped and re-validated scene stays valid).
+        for key in ("shadow_resolution", "shadow_bias", "shadow_filter"):
+            if not self.shadow and getattr(self, key) != Light.model_fields[key].default:
                 raise ValueError(f"{key}: needs shadow = true")
         return self
 
