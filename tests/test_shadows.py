@@ -20,10 +20,12 @@ from app.errors import EXIT_BAD_INPUT, InputError
 from app.frame.camera import camera_frame
 from app.frame.lights import frame_lights
 from app.frame.raycast import primitive
+from app.reference.illumination import decode_gbuffer, shade_gbuffer
 from app.reference.raycast import cast, interior_mask, shadow_visibility
+from app.reference.shadows import light_visibilities
 from app.render.renderer import Renderer
 from app.render.shadows import check_shadow_resolutions
-from app.scene.loader import LoadedScene, parse_scene
+from app.scene.loader import LoadedScene, load_scene, parse_scene
 
 REPO = Path(__file__).resolve().parent.parent
 SIZE = (160, 96)
@@ -153,6 +155,43 @@ def test_no_peter_panning_at_a_sphere_contact(gl_egl):
     gap = depth[inside & (ratio > 0.5)]
     worst = float(gap.max()) / texel if gap.size else 0.0
     assert worst <= 1.0, f"lit {worst:.2f} shadow texels inside the shadow at the contact"
+
+
+# The lookup's float32 error: a texel position of a 2048 map resolves to about 1e-4 texel,
+# which moves a PCF weight by as much; in a deep penumbra (visibility 0.035) that is 1.9e-4
+# of the pixel (measured on scenes/shadows.toml at 320x180, one pixel over 1e-4).
+TWIN_MAX_REL_ERR = 5e-4
+
+
+@pytest.mark.parametrize("shadow_filter", ["pcf", "none"])
+def test_lighting_pass_matches_its_twin_with_the_shadow_maps(gl_egl, shadow_filter):
+    """glsl/lights/shadows.glsl against app/reference/shadows.py on the maps read back:
+    the whole lighting pass of scenes/shadows.toml, pixel for pixel."""
+    scene = load_scene(REPO / "scenes" / "shadows.toml")
+    lights = [
+        x.model_copy(update={"shadow_filter": shadow_filter}) if x.shadow else x
+        for x in scene.scene.lights
+    ]
+    scene = LoadedScene(scene.scene.model_copy(update={"lights": lights}), scene.path)
+    r = Renderer(gl_egl, scene, (320, 180))
+    try:
+        r.render()
+        hdr, g, maps = r.read_hdr().astype(np.float64), r.read_gbuffer(), r.shadows.read()
+        ref = shade_gbuffer(
+            g, r.camera, r.lights, scene.scene.background, r.materials.models,
+            r.materials.packed(), shadows=maps,
+        )  # fmt: skip
+        d = decode_gbuffer(g, r.camera)
+        vis = [v for v in light_visibilities(maps, len(r.lights), d.p, d.n) if v is not None]
+    finally:
+        r.release()
+    assert len(vis) == 2 and all((v == 0.0).sum() > 500 for v in vis)  # both maps shadow
+    if shadow_filter == "pcf":
+        assert sum(((v > 0.0) & (v < 1.0)).sum() for v in vis) > 1000  # penumbrae tested
+    covered = g.depth > 0.0
+    peak = ref[covered].max()
+    rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * peak)
+    assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"
 
 
 def test_scene_keys_are_validated():

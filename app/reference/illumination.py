@@ -27,6 +27,7 @@ from app.reference.material import (
 )
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
+from app.reference.shadows import ShadowMaps, light_visibilities
 
 
 def illumination_sum(
@@ -138,9 +139,11 @@ def shade_gbuffer(
     models: list[Model],
     table: np.ndarray,
     terms: str = "all",
+    shadows: ShadowMaps | None = None,
 ) -> np.ndarray:
     """The HDR image the lighting pass should produce, (H, W, 3) float64 (``terms``: the
-    scene's render.terms).
+    scene's render.terms; ``shadows``: the shadow maps read back from the GPU, whose
+    visibility multiplies each shadowed light's term, app/reference/shadows.py).
 
     ``table`` is the material table as packed for the GPU ((M, 4, 4) float32, whose row
     [3][0] is the material's index into ``models``); each pixel's row is its material id.
@@ -148,6 +151,7 @@ def shade_gbuffer(
     g = decode_gbuffer(gbuffer, camera)
     out = np.broadcast_to(np.asarray(background, np.float64), (*g.covered.shape, 3)).copy()
     shaded = np.zeros((len(g.material_id), 3))
+    visibility = light_visibilities(shadows, len(lights), g.p, g.n)
     for row in np.unique(g.material_id):
         sel = g.material_id == row
         model = models[int(table[row, 3, 0])]
@@ -156,6 +160,7 @@ def shade_gbuffer(
             g.surface.select(sel), params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel],
             lights, terms, None if g.nc is None else g.nc[sel],
             None if g.emission is None else g.emission[sel, 3],
+            [None if x is None else x[sel] for x in visibility],
         )  # fmt: skip
     if g.emission is not None:  # emitted radiance, once per pixel after the sum
         shaded += g.emission[:, :3]

@@ -34,6 +34,7 @@ from app.common.lights import LightType, PunctualLight
 from app.errors import InputError
 from app.frame.camera import gl_bytes
 from app.gl.shaders import ShaderCache
+from app.reference.shadows import ShadowMaps
 from app.render.limits import max_dimension
 from app.scene.geometry import MeshPart
 from app.scene.model import Light
@@ -217,6 +218,16 @@ class ShadowPass:
         prog["u_shadow_matrix"].write(b"".join(gl_bytes(m) for m in self.matrices))
         prog["u_shadow_rect"].write(np.asarray(self.rects, np.float32).tobytes())
         prog["u_shadow_offset"].write(np.asarray(self.offsets, np.float32).tobytes())
+
+    def read(self) -> ShadowMaps:
+        """The maps as the float64 twin takes them (app/reference/shadows.py): the atlas's
+        window depths, row 0 at the bottom as texelFetch indexes them, and the uniforms."""
+        w, h = self.atlas.size
+        depth = np.frombuffer(self.atlas.read(), np.float32).reshape(h, w).astype(np.float64)
+        return ShadowMaps(
+            depth, tuple(self.lights), tuple(self.matrices), tuple(self.rects),
+            tuple(self.offsets),
+        )  # fmt: skip
 
     def release(self) -> None:
         for caster in self.casters:

@@ -38,15 +38,18 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
     if (any(greaterThan(abs(ndc), vec3(1.0)))) return 1.0;   // outside the map: lit
     float z = ndc.z * 0.5 + 0.5;                 // window depth, glDepthRange(0, 1)
     vec4 rect = u_shadow_rect[k];
-    vec2 pos = rect.xy + (ndc.xy * 0.5 + 0.5) * rect.z;   // atlas texel coordinates
+    // Texel coordinates within the map, the atlas offset added as an integer: float32
+    // resolves a position of 2048 to 1.2e-4 texel, one of 4096 (a second map) to 2.4e-4.
+    vec2 pos = (ndc.xy * 0.5 + 0.5) * rect.z;
     ivec2 lo = ivec2(rect.xy);
     ivec2 hi = lo + ivec2(rect.z) - 1;
-    if (rect.w < 0.5) return shadow_test(clamp(ivec2(floor(pos)), lo, hi), z);
+    if (rect.w < 0.5) return shadow_test(clamp(lo + ivec2(floor(pos)), lo, hi), z);
     // PCF: a 3 x 3 box of bilinear comparisons one texel apart, which sums to 4 x 4 texels
     // with separable weights ((1 - f), 1, 1, f) / 3 around the texel below pos - 0.5.
     vec2 q = pos - 0.5;
-    ivec2 base = ivec2(floor(q));
-    vec2 f = q - vec2(base);
+    vec2 cell = floor(q);
+    vec2 f = q - cell;
+    ivec2 base = lo + ivec2(cell);
     float wx[4] = float[4](1.0 - f.x, 1.0, 1.0, f.x);
     float wy[4] = float[4](1.0 - f.y, 1.0, 1.0, f.y);
     float sum = 0.0;
