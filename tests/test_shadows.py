@@ -24,7 +24,7 @@ from app.reference.illumination import decode_gbuffer, shade_gbuffer
 from app.reference.raycast import cast, interior_mask, shadow_visibility
 from app.reference.shadows import light_visibilities
 from app.render.renderer import Renderer
-from app.render.shadows import check_shadow_resolutions
+from app.render.shadows import atlas_layout, check_shadow_resolutions
 from app.scene.loader import LoadedScene, load_scene, parse_scene
 
 REPO = Path(__file__).resolve().parent.parent
@@ -35,6 +35,7 @@ SPOT = {
     "type": "spot", "position": [0.8, 3.0, 1.2], "direction": [-0.1, -1.0, -0.2],
     "intensity": 12.0, "range": 8.0, "inner_angle": 30.0, "outer_angle": 40.0,
 }  # fmt: skip
+POINT = {"type": "point", "position": [0.9, 2.0, 0.9], "intensity": 10.0, "range": 9.0}
 SPHERES = [
     {"shape": "sphere", "radius": RADIUS, "position": [-0.8, RADIUS, 0.0], "material": "m"},
     {"shape": "sphere", "radius": 0.35, "position": [0.7, 0.8, -0.4], "material": "m"},
@@ -97,7 +98,7 @@ def away_from_boundaries(vis: np.ndarray, ids: np.ndarray, margin: int) -> np.nd
     return interior_mask(state, margin)
 
 
-@pytest.mark.parametrize("light", [SUN, SPOT], ids=["directional", "spot"])
+@pytest.mark.parametrize("light", [SUN, SPOT, POINT], ids=["directional", "spot", "point"])
 def test_lit_and_unlit_pixels_match_the_ray_caster_away_from_the_boundary(gl_egl, light):
     data = scene_data([FLOOR, *SPHERES], light)
     ratio, lit, _ = gpu_visibility(gl_egl, data, shadow_resolution=1024)
@@ -119,7 +120,7 @@ def test_no_acne_on_a_flat_floor_at_a_grazing_light(gl_egl):
     assert unlit.sum() == 0, f"{unlit.sum()} of {lit.sum()} floor pixels in shadow"
 
 
-@pytest.mark.parametrize("light", [SUN, SPOT], ids=["directional", "spot"])
+@pytest.mark.parametrize("light", [SUN, SPOT, POINT], ids=["directional", "spot", "point"])
 def test_no_acne_on_the_lit_side_of_the_spheres(gl_egl, light):
     """Sphere pixels the ray-caster sees lit (2 px from any edge) keep 99 % of their light:
     on curved receivers either bias alone leaves acne (slope only: 105 of 265 pixels under
@@ -182,10 +183,11 @@ def test_lighting_pass_matches_its_twin_with_the_shadow_maps(gl_egl, shadow_filt
             r.materials.packed(), shadows=maps,
         )  # fmt: skip
         d = decode_gbuffer(g, r.camera)
-        vis = [v for v in light_visibilities(maps, len(r.lights), d.p, d.n) if v is not None]
+        vis = [v for v in light_visibilities(maps, r.lights, d.p, d.n) if v is not None]
     finally:
         r.release()
-    assert len(vis) == 2 and all((v == 0.0).sum() > 500 for v in vis)  # both maps shadow
+    # the sun, the spot and the point light (six faces) all shadow something
+    assert len(vis) == 3 and all((v == 0.0).sum() > 500 for v in vis)
     if shadow_filter == "pcf":
         assert sum(((v > 0.0) & (v < 1.0)).sum() for v in vis) > 1000  # penumbrae tested
     covered = g.depth > 0.0
@@ -199,7 +201,6 @@ def test_scene_keys_are_validated():
         with pytest.raises(InputError, match=message):
             loaded(scene_data([FLOOR], light))
 
-    bad({"type": "point", "position": [0, 1, 0], "shadow": True}, "point lights cast no")
     bad(dict(SUN, shadow_resolution=512), "shadow_resolution: needs shadow = true")
     bad(dict(SPOT, outer_angle=85.0, shadow=True), "covers an outer_angle up to 80")
     bad(dict(SUN, shadow=1), "shadow")
@@ -214,6 +215,21 @@ def test_a_dumped_scene_validates_again():
     assert again.lights == scene.lights and not again.lights[0].shadow
 
 
+def test_the_atlas_packs_maps_in_rows_no_wider_than_the_limit():
+    origins, width, height = atlas_layout([2048, 2048, 1024, 1024, 1024], 4096)
+    assert origins == [(0, 0), (2048, 0), (0, 2048), (1024, 2048), (2048, 2048)]
+    assert (width, height) == (4096, 3072)
+
+
+def test_a_point_light_s_six_faces_count_against_the_limit(gl_egl):
+    """Six faces of half the GL's largest texture need three rows of two: refused."""
+    limit = gl_egl.ctx.info["GL_MAX_TEXTURE_SIZE"]
+    light = dict(POINT, shadow=True, shadow_resolution=limit // 2)
+    scene = loaded(scene_data([FLOOR], light)).scene
+    with pytest.raises(InputError, match=r"lights\[0\]\.shadow_resolution: 6 maps"):
+        check_shadow_resolutions(gl_egl.ctx, scene.lights, "t.toml")
+
+
 def test_a_resolution_past_the_gl_limit_is_refused_naming_the_key(gl_egl):
     data = scene_data([FLOOR], dict(SUN, shadow=True, shadow_resolution=1 << 20))
     with pytest.raises(InputError, match=r"lights\[0\]\.shadow_resolution"):
@@ -223,11 +239,12 @@ def test_a_resolution_past_the_gl_limit_is_refused_naming_the_key(gl_egl):
 
 
 def test_pbs_render_exits_2_naming_the_key(tmp_path, capsys):
-    """The scene file's second light asks for a map past any GL's texture size."""
+    """The scene file's spot (its third light) asks for a map past any GL's texture size."""
     text = (REPO / "scenes" / "shadows.toml").read_text()
-    head, tail = text.rsplit("shadow = true", 1)
+    spot = "outer_angle = 35.0\nshadow = true\n"
+    assert text.count(spot) == 1
     path = tmp_path / "big.toml"
-    path.write_text(head + "shadow = true\nshadow_resolution = 1000000" + tail)
+    path.write_text(text.replace(spot, spot + "shadow_resolution = 1000000\n"))
     capsys.readouterr()
     rc = main(["render", str(path), "-o", str(tmp_path / "out.png")])
     err = capsys.readouterr().err.strip().splitlines()

@@ -50,7 +50,7 @@ class PunctualLight:
     # One of the directions standing for the scene's environment (app/frame/lights.py):
     # the only light an occlusion map darkens (glTF 2.0: occlusion is for indirect light).
     environment: bool = False
-    # Its shadow map's settings where the light casts shadows (directional and spot only).
+    # Its shadow maps' settings where the light casts shadows (one map; six for a point).
     shadow: ShadowSettings | None = None
 
     @property

@@ -151,7 +151,7 @@ def shade_gbuffer(
     g = decode_gbuffer(gbuffer, camera)
     out = np.broadcast_to(np.asarray(background, np.float64), (*g.covered.shape, 3)).copy()
     shaded = np.zeros((len(g.material_id), 3))
-    visibility = light_visibilities(shadows, len(lights), g.p, g.n)
+    visibility = light_visibilities(shadows, lights, g.p, g.n)
     for row in np.unique(g.material_id):
         sel = g.material_id == row
         model = models[int(table[row, 3, 0])]

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.common.lights import PunctualLight
+
 
 @dataclass(frozen=True)
 class ShadowMaps:
@@ -44,17 +46,19 @@ def shadow_map_visibility(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray
     m = np.asarray(maps.matrices[k], np.float64)
     p = np.asarray(p, np.float64)
     n = np.asarray(n, np.float64)
-    offset, perspective = maps.offsets[k]
+    offset, kind = maps.offsets[k]  # kind: 0 orthographic, 1 spot, 2 cube face
     clip = p @ m[:3, :3].T + m[:3, 3]
     w = p @ m[3, :3] + m[3, 3]
-    scale = w if perspective > 0.5 else np.ones_like(w)
+    scale = w if kind > 0.5 else np.ones_like(w)
     q = p + n * (offset * scale)[:, None]
     clip = q @ m[:3, :3].T + m[:3, 3]
     w = q @ m[3, :3] + m[3, 3]
     out = np.ones(len(p))
     with np.errstate(divide="ignore", invalid="ignore"):
         ndc = clip / w[:, None]
-    inside = (w > 0.0) & np.all(np.abs(ndc) <= 1.0, axis=-1)
+    # a cube face (chosen to hold p) keeps a point its normal offset moved past its edge
+    outside_xy = np.any(np.abs(ndc[:, :2]) > 1.0, axis=-1) & (kind < 1.5)
+    inside = (w > 0.0) & (np.abs(ndc[:, 2]) <= 1.0) & ~outside_xy
     if not np.any(inside):
         return out
     ndc = ndc[inside]
@@ -86,13 +90,38 @@ def shadow_map_visibility(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray
     return out
 
 
+def cube_face(d: np.ndarray) -> np.ndarray:
+    """(N,) face index 0..5 (+x, -x, +y, -y, +z, -z) along the major axis of ``d`` (N, 3),
+    the direction from a point light to the points; ties go to x, then y, as in the GLSL."""
+    a = np.abs(d)
+    axis = np.where(
+        (a[:, 0] >= a[:, 1]) & (a[:, 0] >= a[:, 2]), 0, np.where(a[:, 1] >= a[:, 2], 1, 2)
+    )
+    negative = np.take_along_axis(d, axis[:, None], axis=1)[:, 0] < 0.0
+    return 2 * axis + negative
+
+
 def light_visibilities(
-    maps: ShadowMaps | None, count: int, p: np.ndarray, n: np.ndarray
+    maps: ShadowMaps | None, lights: list[PunctualLight], p: np.ndarray, n: np.ndarray
 ) -> list[np.ndarray | None]:
-    """Per light of ``count``: its map's visibility at ``p``, or None for a light without
-    one (glsl/lights/shadows.glsl shadow_visibility; ``illumination_sum``'s argument)."""
-    out: list[np.ndarray | None] = [None] * count
-    if maps is not None:
-        for k, i in enumerate(maps.lights):
+    """Per light: its map's visibility at ``p`` (for a point light, per point, the cube
+    face ``cube_face`` picks), or None for a light without one (glsl/lights/shadows.glsl
+    shadow_visibility; ``illumination_sum``'s argument)."""
+    out: list[np.ndarray | None] = [None] * len(lights)
+    if maps is None:
+        return out
+    p = np.asarray(p, np.float64)
+    for k, i in enumerate(maps.lights):
+        if out[i] is not None:  # the other faces of a point light, done with its first
+            continue
+        if maps.offsets[k][1] < 1.5:
             out[i] = shadow_map_visibility(maps, k, p, n)
+            continue
+        face = cube_face(p - np.asarray(lights[i].position, np.float64))
+        v = np.ones(len(p))
+        for f in range(6):
+            sel = face == f
+            if np.any(sel):
+                v[sel] = shadow_map_visibility(maps, k + f, p[sel], np.asarray(n)[sel])
+        out[i] = v
     return out

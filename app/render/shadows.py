@@ -1,13 +1,15 @@
-"""Shadow maps for directional and spot lights (issue 18; RTR4 §7.4): one depth-only pass
-per shadowed light into a shared depth atlas, read by glsl/lights/shadows.glsl in the
-lighting pass (compiled in only where a light has ``shadow = true``: ``SHADOWS``).
+"""Shadow maps for directional, spot and point lights (issue 18; RTR4 §7.4): depth-only
+passes into one shared depth atlas (maps packed in rows), read by glsl/lights/shadows.glsl
+in the lighting pass (compiled in only where a light has ``shadow = true``: ``SHADOWS``).
 
 Frusta. A directional light gets an orthographic frustum fitted to the light-space bounds
 of every opaque part's surface points (``MeshPart.surface_points``), so every caster and
 receiver lies inside its map; there are no cascades, so a large floor spreads the texels
 thinly (docs/shadows.md). A spot light gets a perspective frustum along its axis whose
 field of view is the outer cone plus one degree, from range / 1000 to its range (the
-window falloff is exactly 0 beyond it).
+window falloff is exactly 0 beyond it). A point light gets six 90-degree perspective maps,
+the faces of a cube around it (same near and far), each in its own place in the atlas; the
+lookup reads the one face along the major axis of the direction from the light.
 
 Geometry. Mesh parts are drawn as they are. An analytic sphere, whose exact depth the
 G-buffer pass writes per pixel from the camera's ray, is drawn here as the icosphere of
@@ -44,20 +46,48 @@ from app.scene.model import Light
 SPOT_MARGIN_DEG = 1.0
 
 
+# A point light's six cube faces: forward axes of 90-degree perspective maps.
+CUBE_FACES = (
+    (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0),
+    (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0),
+)  # fmt: skip
+
+
+def map_count(light_type: str) -> int:
+    """Shadow maps a shadowed light takes: six cube faces for a point light, else one."""
+    return 6 if light_type == "point" else 1
+
+
+def atlas_layout(sizes: list[int], limit: int) -> tuple[list[tuple[int, int]], int, int]:
+    """Square maps of ``sizes`` packed in rows (shelves) no wider than ``limit``: each
+    map's first texel (x, y), and the atlas's width and height (the height may exceed
+    ``limit``; the caller refuses that)."""
+    origins, x, y, row, width = [], 0, 0, 0, 0
+    for size in sizes:
+        if x > 0 and x + size > limit:  # the next shelf
+            x, y, row = 0, y + row, 0
+        origins.append((x, y))
+        x += size
+        row = max(row, size)
+        width = max(width, x)
+    return origins, width, y + row
+
+
 def check_shadow_resolutions(ctx: moderngl.Context, lights: list[Light], file: str) -> None:
     """InputError naming ``lights[i].shadow_resolution`` where one map, or the atlas of all
-    of them side by side, is wider than this GL's largest texture."""
+    of them packed in rows, is larger than this GL's largest texture."""
     limit = max_dimension(ctx)
-    total = 0
+    sizes: list[int] = []
     for i, light in enumerate(lights):
         if not light.shadow:
             continue
-        total += light.shadow_resolution
-        if light.shadow_resolution > limit or total > limit:
+        sizes += [light.shadow_resolution] * map_count(light.type)
+        _, _, height = atlas_layout(sizes, limit)
+        if light.shadow_resolution > limit or height > limit:
             what = (
                 f"{light.shadow_resolution}"
                 if light.shadow_resolution > limit
-                else f"{total} (the shadow maps side by side)"
+                else f"{len(sizes)} maps of up to {max(sizes)}"
             )
             raise InputError(
                 file,
@@ -106,12 +136,29 @@ def world_points(parts: list[MeshPart]) -> np.ndarray:
     return np.concatenate(pts) if pts else np.zeros((1, 3))
 
 
+# A map's projection as glsl/lights/shadows.glsl's u_shadow_offset[k].y reads it.
+ORTHOGRAPHIC, PERSPECTIVE, CUBE = 0.0, 1.0, 2.0
+
+
+def shadow_frusta(
+    light: PunctualLight, points: np.ndarray, resolution: int
+) -> list[tuple[np.ndarray, float, float]]:
+    """(world -> clip matrix, texel size, projection kind) of each of ``light``'s maps:
+    one, or a point light's six cube faces (+x, -x, +y, -y, +z, -z). The texel size is in
+    metres for a directional light, in metres per metre of distance along the axis for a
+    spot or a cube face."""
+    if light.type == LightType.POINT:
+        proj = perspective(0.5 * math.pi, light.range * 1e-3, light.range)
+        texel = 2.0 / resolution  # 2 tan(45 degrees) / resolution
+        return [(proj @ look_along(light.position, f), texel, CUBE) for f in CUBE_FACES]
+    return [shadow_frustum(light, points, resolution)]
+
+
 def shadow_frustum(
     light: PunctualLight, points: np.ndarray, resolution: int
-) -> tuple[np.ndarray, float, bool]:
-    """(world -> clip matrix, normal offset per texel, perspective) of ``light``'s map.
-    The offset per texel is the texel's world size: in metres for a directional light,
-    in metres per metre of distance along the axis for a spot."""
+) -> tuple[np.ndarray, float, float]:
+    """(world -> clip matrix, texel size, perspective) of a directional or spot light's
+    map (``shadow_frusta``)."""
     if light.type == LightType.DIRECTIONAL:
         view = look_along(np.zeros(3), light.direction)
         local = points @ view[:3, :3].T
@@ -121,13 +168,13 @@ def shadow_frustum(
         lo_box = np.array([lo[0] - pad, lo[1] - pad, -hi[2] - pad])
         hi_box = np.array([hi[0] + pad, hi[1] + pad, -lo[2] + pad])
         texel = max(hi_box[0] - lo_box[0], hi_box[1] - lo_box[1]) / resolution
-        return orthographic(lo_box, hi_box) @ view, float(texel), False
+        return orthographic(lo_box, hi_box) @ view, float(texel), ORTHOGRAPHIC
     if light.type != LightType.SPOT:
-        raise ValueError("only directional and spot lights have shadow maps")
+        raise ValueError("a point light's maps are its cube faces (shadow_frusta)")
     half = math.acos(light.cos_outer) + math.radians(SPOT_MARGIN_DEG)  # <= 81 degrees (model)
     view = look_along(light.position, light.direction)
     proj = perspective(2.0 * half, light.range * 1e-3, light.range)
-    return proj @ view, 2.0 * math.tan(half) / resolution, True
+    return proj @ view, 2.0 * math.tan(half) / resolution, PERSPECTIVE
 
 
 class _Caster:
@@ -146,7 +193,7 @@ class _Caster:
 
 
 class ShadowPass:
-    """The shadow maps of a frame's shadowed lights, side by side in one depth atlas.
+    """The shadow maps of a frame's shadowed lights, packed in one depth atlas.
 
     ``lights``: the frame's lights (ordered); ``parts``: the opaque parts that cast and
     receive. The maps depend only on these, so ``run`` renders them once; a renderer
@@ -160,27 +207,35 @@ class ShadowPass:
         parts: list[MeshPart],
     ) -> None:
         self.ctx = ctx
-        self.lights = [i for i, light in enumerate(lights) if light.shadow is not None]
         points = world_points(parts)
+        self.lights: list[int] = []  # per map: its light (six maps for a point light)
         self.matrices: list[np.ndarray] = []
         self.rects: list[tuple[float, float, float, float]] = []
         self.offsets: list[tuple[float, float]] = []
         self.slopes: list[float] = []
-        # A texel's world size: metres (directional), metres per metre of distance (spot).
+        # A texel's world size: metres (directional), metres per metre of distance (spot,
+        # cube face).
         self.texels: list[float] = []
-        x = 0
-        for i in self.lights:
-            s = lights[i].shadow
-            assert s is not None
-            matrix, texel, persp = shadow_frustum(lights[i], points, s.resolution)
-            self.matrices.append(matrix)
-            self.rects.append((float(x), 0.0, float(s.resolution), float(s.filter == "pcf")))
-            self.offsets.append((s.normal_offset * texel, float(persp)))
-            self.slopes.append(s.slope)
-            self.texels.append(texel)
-            x += s.resolution
-        height = max(int(r[2]) for r in self.rects)
-        self.atlas = ctx.depth_texture((x, height))
+        sizes: list[int] = []
+        pcf: list[float] = []
+        for i, light in enumerate(lights):
+            s = light.shadow
+            if s is None:
+                continue
+            for matrix, texel, kind in shadow_frusta(light, points, s.resolution):
+                self.lights.append(i)
+                self.matrices.append(matrix)
+                self.offsets.append((s.normal_offset * texel, kind))
+                self.slopes.append(s.slope)
+                self.texels.append(texel)
+                sizes.append(s.resolution)
+                pcf.append(float(s.filter == "pcf"))
+        origins, width, height = atlas_layout(sizes, max_dimension(ctx))
+        self.rects = [
+            (float(x), float(y), float(size), f)
+            for (x, y), size, f in zip(origins, sizes, pcf, strict=True)
+        ]
+        self.atlas = ctx.depth_texture((width, height))
         self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
         self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.atlas.repeat_x = self.atlas.repeat_y = False
@@ -203,7 +258,7 @@ class ShadowPass:
         ctx.depth_func = "<"
         self.fbo.clear(depth=1.0)
         for matrix, rect, slope in zip(self.matrices, self.rects, self.slopes, strict=True):
-            ctx.viewport = (int(rect[0]), 0, int(rect[2]), int(rect[2]))
+            ctx.viewport = (int(rect[0]), int(rect[1]), int(rect[2]), int(rect[2]))
             ctx.polygon_offset = (slope, 1.0)
             self.prog["u_light_matrix"].write(gl_bytes(matrix))
             for caster in self.casters:

@@ -183,7 +183,7 @@ class Light(_Strict):
     range: Positive | None = None  # metres; the window reaches exactly 0 here
     inner_angle: Annotated[Real, Field(ge=0.0, lt=90.0)] | None = None  # degrees, half-angle
     outer_angle: Annotated[Real, Field(gt=0.0, le=90.0)] | None = None  # degrees, half-angle
-    # Shadow maps (issue 18, docs/shadows.md): directional and spot lights only.
+    # Shadow maps (issue 18, docs/shadows.md); a point light's are six cube faces.
     shadow: Annotated[bool, Field(strict=True)] = False
     shadow_resolution: Annotated[int, Field(strict=True, ge=16)] = 2048  # texels a side
     # [slope, normal]: the shadow pass's slope-scaled depth offset (glPolygonOffset's factor,
@@ -219,8 +219,6 @@ class Light(_Strict):
             raise ValueError(f"intensity: color x intensity must not exceed {MAX_RADIANCE:g}")
         if self.type == "spot" and self.cone[0] >= self.cone[1]:
             raise ValueError("inner_angle: must be smaller than outer_angle")
-        if self.shadow and self.type == "point":
-            raise ValueError("shadow: point lights cast no shadows yet (no cube-map shadow maps)")
         if self.shadow and self.type == "spot" and self.cone[1] > MAX_SHADOW_SPOT_ANGLE:
             raise ValueError(
                 f"shadow: a spot's shadow map (one perspective frustum) covers an outer_angle "

@@ -23,7 +23,7 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
     vec3 l;
     vec3 c_light = light_at(fetch_light(lights, i), p, l);
 #if SHADOWS
-    c_light *= shadow_visibility(i, p, n);   // a shadowed light (lights/shadows.glsl)
+    c_light *= shadow_visibility(i, p, n, l);   // a shadowed light (lights/shadows.glsl)
 #endif
 #if GBUFFER_COAT_NORMAL && CLEARCOAT_ON
     if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {

@@ -11,13 +11,14 @@
 #endif
 
 #if SHADOWS
-uniform sampler2D u_shadow_atlas;            // DEPTH24, the maps side by side; no compare mode
+uniform sampler2D u_shadow_atlas;            // DEPTH24, the maps packed in rows; no compare mode
 uniform int u_shadow_light[SHADOWS];         // the light (index into u_lights) of map k
 uniform mat4 u_shadow_matrix[SHADOWS];       // world -> map k's clip space
 // Map k: x, y its first texel in the atlas, z its size in texels, w 1 for PCF, 0 for none.
 uniform vec4 u_shadow_rect[SHADOWS];
 // Map k: x the normal offset in metres (directional) or in metres per metre of distance
-// from the light (spot: a texel grows with distance), y 1 for a perspective map.
+// from the light (spot, cube face: a texel grows with distance), y 0 for an orthographic
+// map, 1 for a spot's, 2 for a point light's cube face (six in a row: +x -x +y -y +z -z).
 uniform vec2 u_shadow_offset[SHADOWS];
 
 // 1 where the receiver's window depth z is not behind the occluder depth in texel t.
@@ -33,9 +34,12 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
     vec4 clip = u_shadow_matrix[k] * vec4(p, 1.0);
     float scale = u_shadow_offset[k].y > 0.5 ? clip.w : 1.0;
     clip = u_shadow_matrix[k] * vec4(p + n * (u_shadow_offset[k].x * scale), 1.0);
-    if (clip.w <= 0.0) return 1.0;               // behind a spot: its cone is dark anyway
+    if (clip.w <= 0.0) return 1.0;               // behind a spot: no cone there
     vec3 ndc = clip.xyz / clip.w;
-    if (any(greaterThan(abs(ndc), vec3(1.0)))) return 1.0;   // outside the map: lit
+    // Outside the map: lit. A cube face was chosen to hold p, so a point that its normal
+    // offset moves just past the face's edge keeps the edge texels (the clamp below).
+    bvec3 outside = greaterThan(abs(ndc), vec3(1.0));
+    if (outside.z || (u_shadow_offset[k].y < 1.5 && any(outside.xy))) return 1.0;
     float z = ndc.z * 0.5 + 0.5;                 // window depth, glDepthRange(0, 1)
     vec4 rect = u_shadow_rect[k];
     // Texel coordinates within the map, the atlas offset added as an integer: float32
@@ -62,10 +66,18 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
     return sum / 9.0;
 }
 
-// Visibility of light i at p: its map's, or 1 for a light without one.
-float shadow_visibility(int i, vec3 p, vec3 n) {
+// Visibility of light i at p, l the unit direction from p to the light: its map's, for a
+// point light the cube face along the major axis of -l; 1 for a light without a map.
+float shadow_visibility(int i, vec3 p, vec3 n, vec3 l) {
     for (int k = 0; k < SHADOWS; ++k) {
-        if (u_shadow_light[k] == i) return shadow_map_visibility(k, p, n);
+        if (u_shadow_light[k] != i) continue;
+        int map = k;
+        if (u_shadow_offset[k].y > 1.5) {        // faces k .. k + 5
+            vec3 a = abs(l);
+            int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+            map += 2 * axis + (-l[axis] < 0.0 ? 1 : 0);
+        }
+        return shadow_map_visibility(map, p, n);
     }
     return 1.0;
 }
