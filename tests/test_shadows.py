@@ -98,7 +98,12 @@ def away_from_boundaries(vis: np.ndarray, ids: np.ndarray, margin: int) -> np.nd
     return interior_mask(state, margin)
 
 
-@pytest.mark.parametrize("light", [SUN, SPOT, POINT], ids=["directional", "spot", "point"])
+FAR_POINT = dict(POINT, range=1e5)  # a near plane of range / 1000 = 100 m would see nothing
+
+
+@pytest.mark.parametrize(
+    "light", [SUN, SPOT, POINT, FAR_POINT], ids=["directional", "spot", "point", "range 1e5"]
+)
 def test_lit_and_unlit_pixels_match_the_ray_caster_away_from_the_boundary(gl_egl, light):
     data = scene_data([FLOOR, *SPHERES], light)
     ratio, lit, _ = gpu_visibility(gl_egl, data, shadow_resolution=1024)

@@ -6,7 +6,7 @@ Frusta. A directional light gets an orthographic frustum fitted to the light-spa
 of every opaque part's surface points (``MeshPart.surface_points``), so every caster and
 receiver lies inside its map; there are no cascades, so a large floor spreads the texels
 thinly (docs/shadows.md). A spot light gets a perspective frustum along its axis whose
-field of view is the outer cone plus one degree, from range / 1000 to its range (the
+field of view is the outer cone plus one degree, from ``near_plane`` to its range (the
 window falloff is exactly 0 beyond it). A point light gets six 90-degree perspective maps,
 the faces of a cube around it (same near and far), each in its own place in the atlas; the
 lookup reads the one face along the major axis of the direction from the light.
@@ -51,6 +51,17 @@ CUBE_FACES = (
     (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0),
     (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0),
 )  # fmt: skip
+
+
+# A perspective map's near plane: range / 1000, but no farther than 5 cm from the light,
+# so that a light of a huge range (up to 1e6 m) still sees casters near it; a DEPTH24 map
+# with a 5 cm near plane resolves depth to z^2 / (0.05 m * 2^24), 30 um at 5 m.
+NEAR_MAX = 0.05
+
+
+def near_plane(light_range: float) -> float:
+    """The near plane (metres) of a spot's or cube face's perspective map."""
+    return min(light_range * 1e-3, NEAR_MAX)
 
 
 def map_count(light_type: str) -> int:
@@ -148,7 +159,7 @@ def shadow_frusta(
     metres for a directional light, in metres per metre of distance along the axis for a
     spot or a cube face."""
     if light.type == LightType.POINT:
-        proj = perspective(0.5 * math.pi, light.range * 1e-3, light.range)
+        proj = perspective(0.5 * math.pi, near_plane(light.range), light.range)
         texel = 2.0 / resolution  # 2 tan(45 degrees) / resolution
         return [(proj @ look_along(light.position, f), texel, CUBE) for f in CUBE_FACES]
     return [shadow_frustum(light, points, resolution)]
@@ -173,7 +184,7 @@ def shadow_frustum(
         raise ValueError("a point light's maps are its cube faces (shadow_frusta)")
     half = math.acos(light.cos_outer) + math.radians(SPOT_MARGIN_DEG)  # <= 81 degrees (model)
     view = look_along(light.position, light.direction)
-    proj = perspective(2.0 * half, light.range * 1e-3, light.range)
+    proj = perspective(2.0 * half, near_plane(light.range), light.range)
     return proj @ view, 2.0 * math.tan(half) / resolution, PERSPECTIVE
 
 
