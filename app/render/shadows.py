@@ -3,7 +3,7 @@ passes into one shared depth atlas (maps packed in rows), read by glsl/lights/sh
 in the lighting pass (compiled in only where a light has ``shadow = true``: ``SHADOWS``).
 
 Frusta. A directional light gets an orthographic frustum fitted to the light-space bounds
-of every opaque part's surface points (``MeshPart.surface_points``), so every caster and
+of every opaque part's vertices (an analytic sphere's enclosing proxy), so every caster and
 receiver lies inside its map; there are no cascades, so a large floor spreads the texels
 thinly (docs/shadows.md). A spot light gets a perspective frustum along its axis whose
 field of view is the outer cone plus one degree, from ``near_plane`` to its range (the
@@ -142,8 +142,10 @@ def perspective(fov_y: float, near: float, far: float) -> np.ndarray:
 
 
 def world_points(parts: list[MeshPart]) -> np.ndarray:
-    """(N, 3) world points on the surfaces of ``parts``."""
-    pts = [p.surface_points() @ p.model[:3, :3].T + p.model[:3, 3] for p in parts]
+    """(N, 3) world points whose bounds hold ``parts``: the vertices, for an analytic
+    sphere its proxy's, which enclose it (not ``surface_points``, which divides the proxy
+    by its length: 0/0 for a sphere of radius 1e-300, tests/test_fuzz_scenes.py)."""
+    pts = [p.vertices[:, :3].astype(np.float64) @ p.model[:3, :3].T + p.model[:3, 3] for p in parts]
     return np.concatenate(pts) if pts else np.zeros((1, 3))
 
 
