@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.scene.loader import LoadedScene
+
 
 def relative_error(gpu: np.ndarray, ref: np.ndarray, floor: float) -> np.ndarray:
     """|gpu - ref| / max(|ref|, floor): relative where the reference is not tiny.
@@ -14,3 +16,15 @@ def relative_error(gpu: np.ndarray, ref: np.ndarray, floor: float) -> np.ndarray
     gpu = np.asarray(gpu, np.float64)
     ref = np.asarray(ref, np.float64)
     return np.abs(gpu - ref) / np.maximum(np.abs(ref), floor)
+
+
+def without_shadows(loaded: LoadedScene) -> LoadedScene:
+    """``loaded`` with ``shadow = false`` (and the shadow keys' defaults) on every light:
+    the twins shade without a light's visibility, so tests that compare the lighting with
+    them compare the unshadowed scene; tests/test_shadows.py measures shadows against the
+    ray-caster's shadow rays (docs/shadows.md)."""
+    keys = {"shadow", "shadow_resolution", "shadow_bias", "shadow_filter"}
+    lights = [
+        type(light).model_validate(light.model_dump(exclude=keys)) for light in loaded.scene.lights
+    ]
+    return LoadedScene(loaded.scene.model_copy(update={"lights": lights}), loaded.path)

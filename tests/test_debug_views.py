@@ -40,6 +40,7 @@ from app.render.debug_views import (
 )
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
+from tests.agreement import without_shadows
 from tests.conftest import REPO
 from tests.test_reference_agreement import interior
 
@@ -51,7 +52,8 @@ class Frame:
     """A rendered scene with its debug pass and the float64 twin's decode of its G-buffer."""
 
     def __init__(self, gl, scene: str) -> None:
-        self.renderer = Renderer(gl, load_scene(REPO / "scenes" / scene), SIZE)
+        # Unshadowed: the debug views' light terms have no shadow (docs/shadows.md)
+        self.renderer = Renderer(gl, without_shadows(load_scene(REPO / "scenes" / scene)), SIZE)
         self.renderer.render()
         self.debug = DebugPass(self.renderer)
         self.gbuffer = self.renderer.read_gbuffer()

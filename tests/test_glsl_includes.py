@@ -27,6 +27,7 @@ FEATURES = {
         "BLEND": 1,
         "SPECULAR_AA": 1,
         "TONEMAP": 1,  # post/tonemap.glsl's tonemap_selected
+        "SHADOWS": 2,  # lights/shadows.glsl: two shadow maps
     },
 }
 

@@ -32,6 +32,7 @@ from app.reference.raycast import (
 )
 from app.scene.loader import load_scene, parse_scene
 from app.screenshots import scene_files
+from tests.agreement import without_shadows
 from tests.conftest import REPO
 
 SIZE = (41, 31)  # odd: the middle pixel's ray is the view axis
@@ -305,8 +306,11 @@ def _analytic_scenes() -> list:
 def test_bundled_scene_meets_the_targets(gl_egl, path):
     """Every screenshot scene made of analytic primitives, at its own settings (160 px
     wide), against the ray-caster: the issue's targets hold for all of them, the far
-    cameras (sec1_*, sec11_*, sec12_*: 300 m away) and every BRDF model included."""
-    loaded = load_scene(path)
+    cameras (sec1_*, sec11_*, sec12_*: 300 m away) and every BRDF model included.
+    Shadows are switched off on both sides: a shadow map's filtered edge is not the shadow
+    rays' hard one (mean FLIP 0.0022 on scenes/shadows.toml with them), and
+    tests/test_shadows.py measures shadows by lit/unlit state instead (docs/shadows.md)."""
+    loaded = without_shadows(load_scene(path))
     render = loaded.scene.render
     size = (160, max(8, round(160 * render.height / render.width)))
     errors = raycast_errors(gl_egl, loaded, size)

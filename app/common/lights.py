@@ -18,6 +18,19 @@ class LightType(IntEnum):
 
 
 @dataclass(frozen=True)
+class ShadowSettings:
+    """A light's shadow map (docs/shadows.md): ``resolution`` texels a side; ``slope``: the
+    shadow pass's slope-scaled depth offset (glPolygonOffset's factor); ``normal_offset``:
+    how far, in shadow texels, the lighting pass moves the shaded point along its normal
+    before the lookup; ``filter``: "pcf" (a 4 x 4-texel tent-box kernel) or "none"."""
+
+    resolution: int = 2048
+    slope: float = 2.0
+    normal_offset: float = 1.5
+    filter: str = "pcf"
+
+
+@dataclass(frozen=True)
 class PunctualLight:
     """One light in world space, in float64: glsl/lights/punctual.glsl's PunctualLight.
 
@@ -37,6 +50,8 @@ class PunctualLight:
     # One of the directions standing for the scene's environment (app/frame/lights.py):
     # the only light an occlusion map darkens (glTF 2.0: occlusion is for indirect light).
     environment: bool = False
+    # Its shadow maps' settings where the light casts shadows (one map; six for a point).
+    shadow: ShadowSettings | None = None
 
     @property
     def is_local(self) -> bool:

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from app.common.lights import LightType, PunctualLight, order_lights
+from app.common.lights import LightType, PunctualLight, ShadowSettings, order_lights
 from app.reference.environment import rotate_y, texel_directions
 from app.scene.model import Environment, Light
 from app.textures.environment import environment_map
@@ -28,7 +28,16 @@ def light_record(light: Light) -> PunctualLight:
         range=1.0 if light.type == "directional" else light.effective_range,
         cos_outer=math.cos(math.radians(outer)),
         cos_inner=math.cos(math.radians(inner)),
+        shadow=shadow_settings(light),
     )
+
+
+def shadow_settings(light: Light) -> ShadowSettings | None:
+    """A scene light's shadow map settings, None where it casts no shadow."""
+    if not light.shadow:
+        return None
+    slope, normal_offset = light.shadow_bias
+    return ShadowSettings(light.shadow_resolution, slope, normal_offset, light.shadow_filter)
 
 
 def fibonacci_sphere(count: int) -> np.ndarray:

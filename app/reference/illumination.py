@@ -27,6 +27,7 @@ from app.reference.material import (
 )
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
+from app.reference.shadows import ShadowMaps, light_visibilities
 
 
 def illumination_sum(
@@ -41,16 +42,22 @@ def illumination_sum(
     terms: str = "all",
     nc: np.ndarray | None = None,
     occlusion: np.ndarray | None = None,
+    visibility: list[np.ndarray | None] | None = None,
 ) -> np.ndarray:
     """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
     ``terms`` as in ``brdf_eval``. ``nc``: the clear coat's normals where the G-buffer has
     them (RT4): a coated model's layers then take their own cosines
     (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL. ``occlusion``
     (...,): the G-buffer's occlusion factor (RT5), which multiplies the terms of the
-    environment's lights only (glTF 2.0: occlusion applies to indirect light)."""
+    environment's lights only (glTF 2.0: occlusion applies to indirect light).
+    ``visibility``: per light, None or (...,) in [0, 1], the fraction of the light that
+    reaches each point (a shadow; glsl/lights/illumination.glsl multiplies c_light by it
+    under SHADOWS, docs/shadows.md)."""
     Lo = np.zeros(np.shape(p), np.float64)
-    for light in lights:
+    for k, light in enumerate(lights):
         c_light, l = light_at(light, p)
+        if visibility is not None and visibility[k] is not None:
+            c_light = c_light * np.asarray(visibility[k], np.float64)[..., None]
         scale = 1.0
         if occlusion is not None and light.environment:
             scale = np.asarray(occlusion, np.float64)[..., None]
@@ -132,9 +139,11 @@ def shade_gbuffer(
     models: list[Model],
     table: np.ndarray,
     terms: str = "all",
+    shadows: ShadowMaps | None = None,
 ) -> np.ndarray:
     """The HDR image the lighting pass should produce, (H, W, 3) float64 (``terms``: the
-    scene's render.terms).
+    scene's render.terms; ``shadows``: the shadow maps read back from the GPU, whose
+    visibility multiplies each shadowed light's term, app/reference/shadows.py).
 
     ``table`` is the material table as packed for the GPU ((M, 4, 4) float32, whose row
     [3][0] is the material's index into ``models``); each pixel's row is its material id.
@@ -142,6 +151,7 @@ def shade_gbuffer(
     g = decode_gbuffer(gbuffer, camera)
     out = np.broadcast_to(np.asarray(background, np.float64), (*g.covered.shape, 3)).copy()
     shaded = np.zeros((len(g.material_id), 3))
+    visibility = light_visibilities(shadows, lights, g.p, g.n)
     for row in np.unique(g.material_id):
         sel = g.material_id == row
         model = models[int(table[row, 3, 0])]
@@ -150,6 +160,7 @@ def shade_gbuffer(
             g.surface.select(sel), params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel],
             lights, terms, None if g.nc is None else g.nc[sel],
             None if g.emission is None else g.emission[sel, 3],
+            [None if x is None else x[sel] for x in visibility],
         )  # fmt: skip
     if g.emission is not None:  # emitted radiance, once per pixel after the sum
         shaded += g.emission[:, :3]

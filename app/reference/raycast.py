@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.lights import PunctualLight
+from app.common.lights import LightType, PunctualLight
 from app.common.models import Model, ModelParams
 from app.common.primitives import Primitive
 from app.reference._vec import dot, normalize
@@ -92,10 +92,10 @@ def camera_rays(camera: CameraFrame, width: int, height: int) -> np.ndarray:
 
 def _to_object(prim: Primitive, origin: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, ...]:
     """The ray in the primitive's object space: the inverse model matrix applied to the
-    origin (a point) and the direction (a vector). The map is affine, so a point's ray
-    parameter is the same in both spaces and stays the view depth."""
+    origin (a point, (3,) or one per ray) and the direction (a vector). The map is affine,
+    so a point's ray parameter is the same in both spaces and stays the view depth."""
     inv = np.linalg.inv(np.asarray(prim.model, np.float64))
-    o = inv[:3, :3] @ np.asarray(origin, np.float64) + inv[:3, 3]
+    o = np.asarray(origin, np.float64) @ inv[:3, :3].T + inv[:3, 3]
     return o, d @ inv[:3, :3].T
 
 
@@ -117,8 +117,8 @@ def intersect_sphere(
     shows nothing of it.
     """
     a = dot(d, d)
-    b = d @ o
-    c = float(o @ o) - radius * radius
+    b = dot(d, o)  # o (3,) for camera rays, or one origin per ray (shadow rays)
+    c = dot(o, o) - radius * radius
     closest = o - (b / a)[..., None] * d
     disc = a * (radius * radius - dot(closest, closest))
     hit = disc >= 0.0
@@ -140,9 +140,9 @@ def intersect_plane(
     dy = d[..., 1]
     parallel = dy == 0.0
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = -o[1] / np.where(parallel, 1.0, dy)
-    x = o[0] + t * d[..., 0]
-    z = o[2] + t * d[..., 2]
+        t = -o[..., 1] / np.where(parallel, 1.0, dy)
+    x = o[..., 0] + t * d[..., 0]
+    z = o[..., 2] + t * d[..., 2]
     inside = (np.abs(x) <= 0.5 * size[0]) & (np.abs(z) <= 0.5 * size[1])
     ok = ~parallel & inside & (t > near) & (t < far)
     return np.where(ok, t, np.inf)
@@ -211,6 +211,64 @@ def cast(primitives: list[Primitive], camera: CameraFrame, size: tuple[int, int]
     return Hits(ids, depth, p, n, tangent, uv)
 
 
+# A shadow ray leaves its hit this far along the hit's normal (metres). A float64 hit lies
+# within about 1e-15 relative of its surface, so 1e-9 m clears the surface it starts on
+# and moves no shadow boundary by anything a pixel could show.
+SHADOW_RAY_OFFSET = 1e-9
+
+
+def occluded(
+    primitives: list[Primitive], origin: np.ndarray, d: np.ndarray, far: np.ndarray
+) -> np.ndarray:
+    """(N,) bool: the ray origin + t d (one origin and direction per ray) hits some
+    primitive with 0 < t < far."""
+    blocked = np.zeros(len(d), bool)
+    for i, prim in enumerate(primitives):
+        o, d_obj = _to_object(prim, origin, d)
+        if prim.kind == "sphere":
+            t = intersect_sphere(prim.radius, o, d_obj, 0.0, np.inf)
+        elif prim.kind == "plane":
+            t = intersect_plane(prim.size, o, d_obj, 0.0, np.inf)
+        else:
+            raise ValueError(f"primitive {i}: kind {prim.kind!r} is not supported")
+        blocked |= t < far
+    return blocked
+
+
+def light_visibility(
+    primitives: list[Primitive], p: np.ndarray, n: np.ndarray, light: PunctualLight
+) -> np.ndarray:
+    """(N,) 1.0 where the shadow ray from ``p`` (N, 3) towards ``light`` reaches it, 0.0
+    where a primitive blocks it: the exact hard shadow of a punctual light (RTR4 §7.1),
+    the reference the shadow maps are measured against (docs/shadows.md)."""
+    if light.type == LightType.DIRECTIONAL:
+        d = np.broadcast_to(-np.asarray(light.direction, np.float64), p.shape)
+        far = np.full(len(p), np.inf)
+    else:
+        to_light = np.asarray(light.position, np.float64) - p
+        far = np.linalg.norm(to_light, axis=-1)
+        d = to_light / np.maximum(far, 1e-300)[:, None]
+    origin = p + SHADOW_RAY_OFFSET * n
+    return np.where(occluded(primitives, origin, d, far), 0.0, 1.0)
+
+
+def shadow_visibility(
+    primitives: list[Primitive], hits: Hits, lights: list[PunctualLight]
+) -> list[np.ndarray | None]:
+    """Per light: None for a light without ``shadow``, else (H, W) visibility of every
+    covered pixel (``light_visibility``; 1.0 where nothing is hit)."""
+    out: list[np.ndarray | None] = []
+    covered = hits.covered
+    for light in lights:
+        if light.shadow is None:
+            out.append(None)
+            continue
+        vis = np.ones(hits.ids.shape)
+        vis[covered] = light_visibility(primitives, hits.p[covered], hits.n[covered], light)
+        out.append(vis)
+    return out
+
+
 def shade(
     hits: Hits,
     materials: list[PrimitiveMaterial],
@@ -218,10 +276,12 @@ def shade(
     lights: list[PunctualLight],
     background: np.ndarray,
     terms: str = "all",
+    visibility: list[np.ndarray | None] | None = None,
 ) -> np.ndarray:
     """Linear HDR radiance (H, W, 3): each hit shaded by ``illumination_sum`` with its
     primitive's material (sanitised as the G-buffer decode does), the background where
-    nothing is hit."""
+    nothing is hit. ``visibility``: ``shadow_visibility``'s images, each multiplying its
+    light's term (None: no shadows)."""
     out = np.broadcast_to(np.asarray(background, np.float64), (*hits.ids.shape, 3)).copy()
     for i, mat in enumerate(materials):
         sel = hits.ids == i
@@ -246,8 +306,9 @@ def shade(
             # mirrors (the G-buffer pass's u_tangent_sign is 1)
             a = mat.anisotropy_rotation
             t = rotate_tangent(hits.n[sel], t, 1.0, np.array([math.cos(a), math.sin(a)]))
+        vis = None if visibility is None else [x if x is None else x[sel] for x in visibility]
         out[sel] = illumination_sum(
-            surface, mat.params, mat.model, hits.n[sel], t, p, v, lights, terms
+            surface, mat.params, mat.model, hits.n[sel], t, p, v, lights, terms, visibility=vis
         )
     return out
 
@@ -278,7 +339,10 @@ def render_reference(
     none does, MIXED where they differ."""
     width, height = size
     hits = cast(primitives, camera, (width * supersample, height * supersample))
-    hdr = shade(hits, materials, camera, lights, background, terms)
+    visibility = None
+    if any(light.shadow is not None for light in lights):  # shadow rays (docs/shadows.md)
+        visibility = shadow_visibility(primitives, hits, lights)
+    hdr = shade(hits, materials, camera, lights, background, terms, visibility)
     if supersample == 1:
         return RaycastImage(hdr, hits.covered, hits.ids)
     hdr = _blocks(hdr, supersample).mean(axis=2)

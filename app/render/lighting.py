@@ -28,6 +28,7 @@ from app.gl.shaders import ShaderCache
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
 from app.render.ibl import EnvironmentLighting
+from app.render.shadows import ShadowPass
 from app.render.tables import material_texture, ms_texture, sheen_texture
 
 
@@ -48,14 +49,17 @@ class LightingPass:
         *,
         encoding: str,
         ibl: EnvironmentLighting | None = None,
+        shadows: ShadowPass | None = None,
     ) -> None:
         """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
         ``terms``: the scene's render.terms, which reflections the BRDF returns.
         ``uber``: one program with run-time model selection instead of one per model
         group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
-        the bench's, from ``RenderOptions``)."""
+        the bench's, from ``RenderOptions``). ``shadows``: the shadow maps, where a light
+        casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl)."""
         self.ctx = ctx
         self.culler = culler
+        self.shadows = shadows
         self.uber = uber
         several = len(table.models) > 1
         variants: list[dict[str, int]] = []
@@ -73,6 +77,8 @@ class LightingPass:
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
             if ibl is not None:  # an image, sky or studio environment (docs/ibl.md)
                 defines.update(ibl.defines())
+            if shadows is not None:
+                defines["SHADOWS"] = shadows.count
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
@@ -124,6 +130,8 @@ class LightingPass:
             textures.append(("u_tile_masks", self.culler.masks))
         if self.ibl is not None:
             textures.extend(self.ibl.samplers())
+        if self.shadows is not None:
+            textures.append(("u_shadow_atlas", self.shadows.atlas))
         for unit, (_, tex) in enumerate(textures):
             tex.use(unit)
         camera_to_world = gl_bytes(camera.camera_to_world)
@@ -142,6 +150,8 @@ class LightingPass:
                 prog["u_first_local"].value = self.culler.first_local
             if self.ibl is not None:
                 self.ibl.set_uniforms(prog)
+            if self.shadows is not None:
+                self.shadows.bind(prog)
             vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:

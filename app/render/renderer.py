@@ -37,6 +37,7 @@ from app.render.ibl import EnvironmentLighting
 from app.render.lighting import LightingPass
 from app.render.limits import check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
+from app.render.shadows import ShadowPass, check_shadow_resolutions
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
 
@@ -113,6 +114,7 @@ class Renderer:
         self.lighting: LightingPass | None = None
         self.background: EnvironmentBackground | None = None  # [environment] background
         self.ibl: EnvironmentLighting | None = None  # image, sky or studio environment
+        self.shadows: ShadowPass | None = None  # only where a light casts shadows
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
         self.post: PostPass | None = None
@@ -207,17 +209,21 @@ class Renderer:
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling) and the lighting pass."""
-        self._release(("culler", "lighting", "ibl"))
         ctx, settings = self.gl.ctx, self.scene.render
+        check_shadow_resolutions(ctx, self.scene.lights, str(self.loaded.path))
+        self._release(("culler", "lighting", "ibl", "shadows"))
         env = self.scene.environment
         if env is not None and env.source != "uniform":  # docs/ibl.md
             self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
         if self.frame.has_local_lights and settings.light_culling == "tiled":
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
+        if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
+            parts = [self.frame.parts[i] for i in self._opaque()]
+            self.shadows = ShadowPass(ctx, self.shaders, self.lights, parts)
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
             settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
-            ibl=self.ibl,
+            ibl=self.ibl, shadows=self.shadows,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
         self._build_background()
@@ -396,6 +402,9 @@ class Renderer:
         if self.culler is not None:
             self.culler.run(self.gbuffer, self.view, self.camera)
             clock.done("culling")
+        if self.shadows is not None:  # once after a change of lights or geometry
+            self.shadows.run()
+            clock.done("shadows")
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
         if self.background is not None:
             self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
@@ -446,6 +455,6 @@ class Renderer:
         self._release(
             ("culler", "resolve", "dof", "blend", "gbuffer_pass", "gbuffer", "lighting", "post")
         )
-        self._release(("background", "ibl"))
+        self._release(("background", "ibl", "shadows"))
         if self._owns_shaders:
             self.shaders.release()

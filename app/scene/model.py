@@ -166,6 +166,12 @@ class RenderSettings(_Strict):
         return self
 
 
+# The widest spot cone a shadow map covers (half-angle, degrees): one square perspective
+# frustum of 2 x (80 + 1) degrees (app/render/shadows.py adds a degree a side) already
+# spreads its texels 41 times (1 / cos^2 81 degrees) wider at the edge than at the centre.
+MAX_SHADOW_SPOT_ANGLE = 80.0
+
+
 class Light(_Strict):
     """A punctual light. ``c_light = color * intensity`` (at 1 m for point and spot lights)."""
 
@@ -177,6 +183,15 @@ class Light(_Strict):
     range: Positive | None = None  # metres; the window reaches exactly 0 here
     inner_angle: Annotated[Real, Field(ge=0.0, lt=90.0)] | None = None  # degrees, half-angle
     outer_angle: Annotated[Real, Field(gt=0.0, le=90.0)] | None = None  # degrees, half-angle
+    # Shadow maps (issue 18, docs/shadows.md); a point light's are six cube faces.
+    shadow: Annotated[bool, Field(strict=True)] = False
+    shadow_resolution: Annotated[int, Field(strict=True, ge=16)] = 2048  # texels a side
+    # [slope, normal]: the shadow pass's slope-scaled depth offset (glPolygonOffset's factor,
+    # in depth slopes) and the lighting pass's normal offset (in shadow texels).
+    shadow_bias: Annotated[
+        list[Annotated[Real, Field(ge=0.0, le=100.0)]], Field(min_length=2, max_length=2)
+    ] = [2.0, 1.5]
+    shadow_filter: Literal["pcf", "none"] = "pcf"
 
     @model_validator(mode="after")
     def _check(self) -> Light:
@@ -204,6 +219,16 @@ class Light(_Strict):
             raise ValueError(f"intensity: color x intensity must not exceed {MAX_RADIANCE:g}")
         if self.type == "spot" and self.cone[0] >= self.cone[1]:
             raise ValueError("inner_angle: must be smaller than outer_angle")
+        if self.shadow and self.type == "spot" and self.cone[1] > MAX_SHADOW_SPOT_ANGLE:
+            raise ValueError(
+                f"shadow: a spot's shadow map (one perspective frustum) covers an outer_angle "
+                f"up to {MAX_SHADOW_SPOT_ANGLE:g} degrees"
+            )
+        # A shadow key set to other than its default needs shadow = true (compared by value,
+        # not by which keys were written, so a dumped and re-validated scene stays valid).
+        for key in ("shadow_resolution", "shadow_bias", "shadow_filter"):
+            if not self.shadow and getattr(self, key) != Light.model_fields[key].default:
+                raise ValueError(f"{key}: needs shadow = true")
         return self
 
     @property

@@ -8,6 +8,7 @@
 #include "brdf/material.glsl"
 #include "gbuffer/layout.glsl"
 #include "lights/punctual.glsl"
+#include "lights/shadows.glsl"
 // For the masked loop only (TILE_QUADS), but included always: app/gl/shaders.py splices
 // includes before the preprocessor runs, so one inside #ifdef would count as included
 // even where the #ifdef drops it. Without TILE_QUADS it adds functions nothing calls.
@@ -21,6 +22,9 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
                         vec3 nc, vec3 t, vec3 p, vec3 v) {
     vec3 l;
     vec3 c_light = light_at(fetch_light(lights, i), p, l);
+#if SHADOWS
+    c_light *= shadow_visibility(i, p, n, l);   // a shadowed light (lights/shadows.glsl)
+#endif
 #if GBUFFER_COAT_NORMAL && CLEARCOAT_ON
     if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {
         return brdf_eval_layered_cos(s, params, n, nc, t, l, v) * c_light;

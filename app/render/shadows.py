@@ -1,0 +1,304 @@
+"""Shadow maps for directional, spot and point lights (issue 18; RTR4 §7.4): depth-only
+passes into one shared depth atlas (maps packed in rows), read by glsl/lights/shadows.glsl
+in the lighting pass (compiled in only where a light has ``shadow = true``: ``SHADOWS``).
+
+Frusta. A directional light gets an orthographic frustum fitted to the light-space bounds
+of every opaque part's vertices (an analytic sphere's enclosing proxy), so every caster and
+receiver lies inside its map; there are no cascades, so a large floor spreads the texels
+thinly (docs/shadows.md). A spot light gets a perspective frustum along its axis whose
+field of view is the outer cone plus one degree, from ``near_plane`` to its range (the
+window falloff is exactly 0 beyond it). A point light gets six 90-degree perspective maps,
+the faces of a cube around it (same near and far), each in its own place in the atlas; the
+lookup reads the one face along the major axis of the direction from the light.
+
+Geometry. Mesh parts are drawn as they are. An analytic sphere, whose exact depth the
+G-buffer pass writes per pixel from the camera's ray, is drawn here as the icosphere of
+``MeshPart.triangles`` (5,120 triangles, vertices on the sphere): its faces lie inside
+the sphere by at most 1 - (the nearest face plane's distance from the centre), at 4
+subdivisions 0.11 % of the radius (measured; docs/shadows.md), so its shadow is that
+much smaller. Alpha-masked parts cast the shadow of their whole surface; blended parts
+cast none.
+
+Bias. The pass offsets depth by glPolygonOffset(slope, 1): ``slope`` times the triangle's
+depth slope plus one depth unit (the slope-scaled bias); the lighting pass moves the
+shaded point along its normal by ``normal_offset`` shadow texels (normal offset). Both
+per light (``shadow_bias``); defaults and why in docs/shadows.md.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from app.common.lights import LightType, PunctualLight
+from app.errors import InputError
+from app.frame.camera import gl_bytes
+from app.gl.shaders import ShaderCache
+from app.reference.shadows import ShadowMaps
+from app.render.limits import max_dimension
+from app.scene.geometry import MeshPart
+from app.scene.model import Light
+
+# A spot's map covers its outer cone plus this margin (degrees a side), so that the PCF
+# kernel at the cone's edge reads inside the map.
+SPOT_MARGIN_DEG = 1.0
+
+
+# A point light's six cube faces: forward axes of 90-degree perspective maps.
+CUBE_FACES = (
+    (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0),
+    (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0),
+)  # fmt: skip
+
+
+# A perspective map's near plane: range / 1000, but no farther than 5 cm from the light,
+# so that a light of a huge range (up to 1e6 m) still sees casters near it; a DEPTH24 map
+# with a 5 cm near plane resolves depth to z^2 / (0.05 m * 2^24), 30 um at 5 m.
+NEAR_MAX = 0.05
+
+
+def near_plane(light_range: float) -> float:
+    """The near plane (metres) of a spot's or cube face's perspective map."""
+    return min(light_range * 1e-3, NEAR_MAX)
+
+
+def map_count(light_type: str) -> int:
+    """Shadow maps a shadowed light takes: six cube faces for a point light, else one."""
+    return 6 if light_type == "point" else 1
+
+
+def atlas_layout(sizes: list[int], limit: int) -> tuple[list[tuple[int, int]], int, int]:
+    """Square maps of ``sizes`` packed in rows (shelves) no wider than ``limit``: each
+    map's first texel (x, y), and the atlas's width and height (the height may exceed
+    ``limit``; the caller refuses that)."""
+    origins, x, y, row, width = [], 0, 0, 0, 0
+    for size in sizes:
+        if x > 0 and x + size > limit:  # the next shelf
+            x, y, row = 0, y + row, 0
+        origins.append((x, y))
+        x += size
+        row = max(row, size)
+        width = max(width, x)
+    return origins, width, y + row
+
+
+def check_shadow_resolutions(ctx: moderngl.Context, lights: list[Light], file: str) -> None:
+    """InputError naming ``lights[i].shadow_resolution`` where one map, or the atlas of all
+    of them packed in rows, is larger than this GL's largest texture."""
+    limit = max_dimension(ctx)
+    sizes: list[int] = []
+    for i, light in enumerate(lights):
+        if not light.shadow:
+            continue
+        sizes += [light.shadow_resolution] * map_count(light.type)
+        _, _, height = atlas_layout(sizes, limit)
+        if light.shadow_resolution > limit or height > limit:
+            what = (
+                f"{light.shadow_resolution}"
+                if light.shadow_resolution > limit
+                else f"{len(sizes)} maps of up to {max(sizes)}"
+            )
+            raise InputError(
+                file,
+                f"lights[{i}].shadow_resolution",
+                f"{what} texels is past this GL's largest texture, {limit} a side",
+            )
+
+
+def look_along(eye: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """World -> view (looking down -Z along ``forward``), any up that is not parallel."""
+    f = np.asarray(forward, np.float64) / np.linalg.norm(forward)
+    up = np.array([0.0, 1.0, 0.0]) if abs(f[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    r = np.cross(f, up)
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = r, u, -f
+    m[:3, 3] = -m[:3, :3] @ np.asarray(eye, np.float64)
+    return m
+
+
+def orthographic(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """View -> clip of the box ``lo`` <= (x, y, -z) <= ``hi`` (OpenGL, depth [-1, 1])."""
+    m = np.eye(4)
+    for axis in range(3):
+        m[axis, axis] = 2.0 / (hi[axis] - lo[axis])
+        m[axis, 3] = -(hi[axis] + lo[axis]) / (hi[axis] - lo[axis])
+    m[2, 2] = -m[2, 2]  # the view looks down -Z
+    return m
+
+
+def perspective(fov_y: float, near: float, far: float) -> np.ndarray:
+    """View -> clip, square, OpenGL depth [-1, 1]; ``fov_y`` in radians."""
+    c = 1.0 / math.tan(fov_y / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0] = m[1, 1] = c
+    m[2, 2] = -(far + near) / (far - near)
+    m[2, 3] = -2.0 * far * near / (far - near)
+    m[3, 2] = -1.0
+    return m
+
+
+def world_points(parts: list[MeshPart]) -> np.ndarray:
+    """(N, 3) world points whose bounds hold ``parts``: the vertices, for an analytic
+    sphere its proxy's, which enclose it (not ``surface_points``, which divides the proxy
+    by its length: 0/0 for a sphere of radius 1e-300, tests/test_fuzz_scenes.py)."""
+    pts = [p.vertices[:, :3].astype(np.float64) @ p.model[:3, :3].T + p.model[:3, 3] for p in parts]
+    return np.concatenate(pts) if pts else np.zeros((1, 3))
+
+
+# A map's projection as glsl/lights/shadows.glsl's u_shadow_offset[k].y reads it.
+ORTHOGRAPHIC, PERSPECTIVE, CUBE = 0.0, 1.0, 2.0
+
+
+def shadow_frusta(
+    light: PunctualLight, points: np.ndarray, resolution: int
+) -> list[tuple[np.ndarray, float, float]]:
+    """(world -> clip matrix, texel size, projection kind) of each of ``light``'s maps:
+    one, or a point light's six cube faces (+x, -x, +y, -y, +z, -z). The texel size is in
+    metres for a directional light, in metres per metre of distance along the axis for a
+    spot or a cube face."""
+    if light.type == LightType.POINT:
+        proj = perspective(0.5 * math.pi, near_plane(light.range), light.range)
+        texel = 2.0 / resolution  # 2 tan(45 degrees) / resolution
+        return [(proj @ look_along(light.position, f), texel, CUBE) for f in CUBE_FACES]
+    return [shadow_frustum(light, points, resolution)]
+
+
+def shadow_frustum(
+    light: PunctualLight, points: np.ndarray, resolution: int
+) -> tuple[np.ndarray, float, float]:
+    """(world -> clip matrix, texel size, perspective) of a directional or spot light's
+    map (``shadow_frusta``)."""
+    if light.type == LightType.DIRECTIONAL:
+        view = look_along(np.zeros(3), light.direction)
+        local = points @ view[:3, :3].T
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        extent = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-6))
+        pad = 0.01 * extent + 1e-6  # keeps the fitted surfaces off the map's border
+        lo_box = np.array([lo[0] - pad, lo[1] - pad, -hi[2] - pad])
+        hi_box = np.array([hi[0] + pad, hi[1] + pad, -lo[2] + pad])
+        texel = max(hi_box[0] - lo_box[0], hi_box[1] - lo_box[1]) / resolution
+        return orthographic(lo_box, hi_box) @ view, float(texel), ORTHOGRAPHIC
+    if light.type != LightType.SPOT:
+        raise ValueError("a point light's maps are its cube faces (shadow_frusta)")
+    half = math.acos(light.cos_outer) + math.radians(SPOT_MARGIN_DEG)  # <= 81 degrees (model)
+    view = look_along(light.position, light.direction)
+    proj = perspective(2.0 * half, near_plane(light.range), light.range)
+    return proj @ view, 2.0 * math.tan(half) / resolution, PERSPECTIVE
+
+
+class _Caster:
+    """One part's triangles for the shadow pass: positions only."""
+
+    def __init__(self, ctx: moderngl.Context, prog: moderngl.Program, part: MeshPart) -> None:
+        vertices, indices = part.triangles()
+        self.vbo = ctx.buffer(np.ascontiguousarray(vertices, np.float32).tobytes())
+        self.ibo = ctx.buffer(np.ascontiguousarray(indices, np.uint32).tobytes())
+        self.vao = ctx.vertex_array(prog, [(self.vbo, "3f 36x", "in_position")], self.ibo, 4)
+        self.model = gl_bytes(part.model)
+
+    def release(self) -> None:
+        for obj in (self.vao, self.vbo, self.ibo):
+            obj.release()
+
+
+class ShadowPass:
+    """The shadow maps of a frame's shadowed lights, packed in one depth atlas.
+
+    ``lights``: the frame's lights (ordered); ``parts``: the opaque parts that cast and
+    receive. The maps depend only on these, so ``run`` renders them once; a renderer
+    builds a new pass when lights or geometry change."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        lights: list[PunctualLight],
+        parts: list[MeshPart],
+    ) -> None:
+        self.ctx = ctx
+        points = world_points(parts)
+        self.lights: list[int] = []  # per map: its light (six maps for a point light)
+        self.matrices: list[np.ndarray] = []
+        self.rects: list[tuple[float, float, float, float]] = []
+        self.offsets: list[tuple[float, float]] = []
+        self.slopes: list[float] = []
+        # A texel's world size: metres (directional), metres per metre of distance (spot,
+        # cube face).
+        self.texels: list[float] = []
+        sizes: list[int] = []
+        pcf: list[float] = []
+        for i, light in enumerate(lights):
+            s = light.shadow
+            if s is None:
+                continue
+            for matrix, texel, kind in shadow_frusta(light, points, s.resolution):
+                self.lights.append(i)
+                self.matrices.append(matrix)
+                self.offsets.append((s.normal_offset * texel, kind))
+                self.slopes.append(s.slope)
+                self.texels.append(texel)
+                sizes.append(s.resolution)
+                pcf.append(float(s.filter == "pcf"))
+        origins, width, height = atlas_layout(sizes, max_dimension(ctx))
+        self.rects = [
+            (float(x), float(y), float(size), f)
+            for (x, y), size, f in zip(origins, sizes, pcf, strict=True)
+        ]
+        self.atlas = ctx.depth_texture((width, height))
+        self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
+        self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.atlas.repeat_x = self.atlas.repeat_y = False
+        self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
+        self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
+        self.casters = [_Caster(ctx, self.prog, part) for part in parts]
+        self.rendered = False
+
+    @property
+    def count(self) -> int:
+        return len(self.lights)
+
+    def run(self) -> None:
+        """Render every map (once: they change only with a new pass)."""
+        if self.rendered:
+            return
+        ctx = self.ctx
+        self.fbo.use()
+        ctx.enable_only(moderngl.DEPTH_TEST)  # two-sided: planes and open meshes cast
+        ctx.depth_func = "<"
+        self.fbo.clear(depth=1.0)
+        for matrix, rect, slope in zip(self.matrices, self.rects, self.slopes, strict=True):
+            ctx.viewport = (int(rect[0]), int(rect[1]), int(rect[2]), int(rect[2]))
+            ctx.polygon_offset = (slope, 1.0)
+            self.prog["u_light_matrix"].write(gl_bytes(matrix))
+            for caster in self.casters:
+                self.prog["u_model"].write(caster.model)
+                caster.vao.render(moderngl.TRIANGLES)
+        ctx.polygon_offset = (0.0, 0.0)
+        self.rendered = True
+
+    def bind(self, prog: moderngl.Program) -> None:
+        """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
+        prog["u_shadow_light"].write(np.asarray(self.lights, np.int32).tobytes())
+        prog["u_shadow_matrix"].write(b"".join(gl_bytes(m) for m in self.matrices))
+        prog["u_shadow_rect"].write(np.asarray(self.rects, np.float32).tobytes())
+        prog["u_shadow_offset"].write(np.asarray(self.offsets, np.float32).tobytes())
+
+    def read(self) -> ShadowMaps:
+        """The maps as the float64 twin takes them (app/reference/shadows.py): the atlas's
+        window depths, row 0 at the bottom as texelFetch indexes them, and the uniforms."""
+        w, h = self.atlas.size
+        depth = np.frombuffer(self.atlas.read(), np.float32).reshape(h, w).astype(np.float64)
+        return ShadowMaps(
+            depth, tuple(self.lights), tuple(self.matrices), tuple(self.rects),
+            tuple(self.offsets),
+        )  # fmt: skip
+
+    def release(self) -> None:
+        for caster in self.casters:
+            caster.release()
+        self.fbo.release()
+        self.atlas.release()
