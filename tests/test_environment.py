@@ -223,3 +223,23 @@ def test_cell_integrals_turn_with_rotation() -> None:
     for rotation, world in ((0.0, [1.0, 0.0, 0.0]), (90.0, [0.0, 0.0, -1.0])):
         cells = cell_integrals(env, dirs, rotation)
         assert np.argmax(cells[:, 0]) == np.argmax(dirs @ world)
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        {"radiance": [0.5, 0.5, 0.5]},
+        {"source": "sky", "turbidity": 4.0, "rotation": 30.0},
+        {"source": "studio", "intensity": 2.0, "background": True},
+    ],
+)
+def test_a_dumped_environment_validates_again(data):
+    """The renderer's edits, the comparisons and the walkthrough re-validate
+    ``model_dump()``, which writes every key at its default: that must not read as a key
+    given for another source (a uniform environment refused its own default rotation)."""
+    from app.scene.model import Environment
+
+    env = Environment.model_validate(data)
+    assert Environment.model_validate(env.model_dump()) == env
+    with pytest.raises(ValueError, match="rotation"):
+        Environment.model_validate({"rotation": 10.0})

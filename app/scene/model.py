@@ -765,14 +765,18 @@ class Environment(_Strict):
 
     @model_validator(mode="after")
     def _check(self) -> Environment:
+        # A key counts as given when it differs from its default: the renderer's edits and
+        # the comparisons re-validate model_dump(), which writes every key.
+        fields = type(self).model_fields
+        given = {k for k in self.model_fields_set if getattr(self, k) != fields[k].default}
         for key, source in _SOURCE_KEYS.items():
-            if key in self.model_fields_set and self.source != source:
+            if key in given and self.source != source:
                 raise ValueError(f'{key}: applies only with source = "{source}"')
         if self.source == "image" and self.file is None:
             raise ValueError('file: source = "image" needs it')
         if self.source == "uniform":
             for key in ("rotation", "intensity", "background"):
-                if key in self.model_fields_set:
+                if key in given:
                     raise ValueError(f"{key}: does not apply to a uniform environment")
         _nonzero(self.sun_direction, "sun_direction")
         if self.sun_direction is not None and self.sun_direction[1] <= 0.0:
