@@ -289,10 +289,17 @@ def test_the_targets_fail_a_tessellated_or_half_float_pipeline(gl_egl):
 
 def _analytic_scenes() -> list:
     """The bundled scenes the ray-caster takes whose spheres are all analytic (stress.toml
-    keeps two icospheres of subdivision 0 and 1 on purpose)."""
+    keeps two icospheres of subdivision 0 and 1 on purpose). Scenes lit by an image, sky or
+    studio environment are left to the image-based lighting's own tests: the split sum is
+    an approximation by design, its error against brute force measured in
+    tests/test_ibl_reference.py and tabulated in docs/ibl.md (up to tens of percent at
+    grazing angles), far above these targets for an exact pipeline."""
     out = []
     for path in scene_files():
         loaded = load_scene(path)
+        env = loaded.scene.environment
+        if env is not None and env.source != "uniform":
+            continue
         try:
             reference_scene(loaded, (4, 4))
         except ValueError:
