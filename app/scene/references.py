@@ -32,6 +32,7 @@ from urllib.parse import unquote
 from PIL import Image
 
 from app.scene.gltf import meshopt_available
+from app.scene.gltf_extensions import SUPPORTED as MATERIAL_EXTENSIONS
 
 # glTF extensions a file may *require* (docs/scene-format.md, "Mesh files"): those the
 # reader (app/scene/gltf.py) decodes, the material extensions it hands to
@@ -43,13 +44,8 @@ SUPPORTED_EXTENSIONS: frozenset[str] = frozenset(
         "KHR_mesh_quantization",
         "KHR_texture_transform",
         "KHR_materials_emissive_strength",
-        "KHR_materials_ior",
-        "KHR_materials_specular",
-        "KHR_materials_anisotropy",
-        "KHR_materials_sheen",
-        "KHR_materials_clearcoat",
-        "KHR_materials_iridescence",
         "KHR_lights_punctual",
+        *MATERIAL_EXTENSIONS,
     }
     | ({"EXT_meshopt_compression"} if meshopt_available() else set())
 )
