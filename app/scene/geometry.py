@@ -32,7 +32,7 @@ from app.common.primitives import Primitive
 from app.errors import InputError
 from app.scene.gltf import GltfFile
 from app.scene.gltf_document import GltfError
-from app.scene.layers import LayerBuilder, normal_roughness_chain
+from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
 from app.scene.references import (
@@ -49,6 +49,7 @@ from app.textures.maps import (
     colour_texture,
     decode_normals,
     linear_channel,
+    normal_roughness_chain,
     read_image,
     resample,
     scalar_texture,

@@ -47,11 +47,11 @@ from app.textures.maps import (
     SurfaceLayer,
     Texture,
     UvTransform,
+    coat_normal_texture,
     colour_texture,
     decode_normals,
     direction_texture,
-    normal_roughness_texture,
-    resample,
+    normal_roughness_chain,
     scalar_texture,
 )
 
@@ -627,8 +627,8 @@ class GltfFile:
         mr = None
         if pbr is not None and pbr.metallicRoughnessTexture is not None:
             mr = self._texture(pbr.metallicRoughnessTexture, f"{pkey}.metallicRoughnessTexture")
-            pixels = np.asarray(mr[0].convert("RGB"), np.float64) / 255.0
-            put("metallic", scalar_texture(pixels[..., 2]), mr[1], mr[2])
+            mr_pixels = np.asarray(mr[0].convert("RGB"), np.float64) / 255.0
+            put("metallic", scalar_texture(mr_pixels[..., 2]), mr[1], mr[2])
         normals = None
         if m.normalTexture is not None:
             nkey = f"{key}.normalTexture"
@@ -642,14 +642,8 @@ class GltfFile:
             # One chain for normals and roughness (app/textures/mips.py): built at the normal
             # map's size with its sampler and UVs where there is one (the roughness image is
             # resampled to it), else at the metallic-roughness image's.
-            rough: np.ndarray | float = roughness
-            if mr is not None:
-                g = np.asarray(mr[0].convert("RGB"), np.float64)[..., 1] / 255.0
-                if normals is not None:
-                    g = resample(g, normals.shape[:2])
-                rough = roughness * g
-            shape = normals.shape[:2] if normals is not None else np.shape(rough)
-            chain = normal_roughness_texture(normals, rough, shape, normal_filter)
+            values = None if mr is None else mr_pixels[..., 1]
+            chain = normal_roughness_chain(normals, roughness, values, normal_filter)
             if normals is not None:
                 put("normal_roughness", chain, n_sampler, n_tr)
             else:
@@ -709,8 +703,7 @@ def _extension_map(name: str, texture: ExtensionTexture, image: Image.Image) -> 
     scene's ``anisotropy_direction_map``), or one channel of a scalar map."""
     if name == "coat_normal":
         scale = texture.info.get("scale", 1.0)
-        coat = decode_normals(image, float(scale))
-        return normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+        return coat_normal_texture(image, float(scale))
     if name == "anisotropy_direction":
         return direction_texture(image)
     channel = "rgba".index(texture.channel)

@@ -14,13 +14,13 @@ from app.scene.model import Material
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
+    coat_normal_texture,
     colour_texture,
     decode_normals,
     direction_texture,
     linear_channel,
-    normal_roughness_texture,
+    normal_roughness_chain,
     read_image,
-    resample,
     scalar_texture,
 )
 
@@ -72,10 +72,8 @@ class LayerBuilder:
             )
         if m.clearcoat_normal_map is not None:  # RTR4 §9.12: the coat's own normals
             scale = 1.0 if m.clearcoat_normal_scale is None else m.clearcoat_normal_scale
-            coat = decode_normals(self.image(name, "clearcoat_normal_map"), scale)
-            # The coat's roughness is a material constant (the G-buffer has no channel for
-            # it per pixel): its mips carry the normals alone, renormalised on sampling.
-            maps["coat_normal"] = normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+            image = self.image(name, "clearcoat_normal_map")
+            maps["coat_normal"] = coat_normal_texture(image, scale)
         if m.emissive_map is not None:  # glTF emissiveTexture: sRGB, multiplies emissive
             maps["emissive"] = colour_texture(self.image(name, "emissive_map"))
         if m.occlusion_map is not None:  # glTF occlusionTexture: linear R
@@ -89,18 +87,3 @@ class LayerBuilder:
             alpha_cutoff=0.5 if m.alpha_cutoff is None else m.alpha_cutoff,
             anisotropy_rotation=math.radians(m.anisotropy_rotation),
         )  # fmt: skip
-
-
-def normal_roughness_chain(
-    normals: np.ndarray | None, factor: float, values: np.ndarray | None, normal_filter: str
-) -> Texture:
-    """A layer's one normal/roughness chain: ``normals`` (decoded; None: flat) with the
-    roughness ``factor`` times the roughness map's ``values`` where there is one (else the
-    factor alone), resampled to the normal map's size when both are given."""
-    roughness: np.ndarray | float = factor
-    if values is not None:
-        if normals is not None:  # the chain is built at the normal map's size
-            values = resample(values, normals.shape[:2])
-        roughness = factor * values
-    shape = normals.shape[:2] if normals is not None else np.shape(roughness)
-    return normal_roughness_texture(normals, roughness, shape, normal_filter)

@@ -211,3 +211,26 @@ def direction_texture(image: Image.Image) -> Texture:
     anisotropy) cancel in the mips, and a texel of length 0 reads as t itself."""
     rg = np.asarray(image.convert("RGB"), np.float64)[..., :2] / 255.0
     return Texture(box_mips(2.0 * rg - 1.0))
+
+
+def normal_roughness_chain(
+    normals: np.ndarray | None, factor: float, values: np.ndarray | None, normal_filter: str
+) -> Texture:
+    """A layer's one normal/roughness chain: ``normals`` (decoded; None: flat) with the
+    roughness ``factor`` times the roughness map's ``values`` where there is one (else the
+    factor alone), resampled to the normal map's size when both are given."""
+    roughness: np.ndarray | float = factor
+    if values is not None:
+        if normals is not None:  # the chain is built at the normal map's size
+            values = resample(values, normals.shape[:2])
+        roughness = factor * values
+    shape = normals.shape[:2] if normals is not None else np.shape(roughness)
+    return normal_roughness_texture(normals, roughness, shape, normal_filter)
+
+
+def coat_normal_texture(image: Image.Image, scale: float) -> Texture:
+    """A clear coat's own normal map (RTR4 §9.12) with its ``scale``. The coat's roughness
+    is a material constant (the G-buffer has no channel for it per pixel): its mips carry
+    the normals alone, renormalised on sampling."""
+    coat = decode_normals(image, scale)
+    return normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
