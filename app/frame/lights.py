@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from app.common.lights import LightType, PunctualLight, ShadowSettings, order_lights
-from app.reference.environment import rotate_y, texel_directions
+from app.reference.ibl import map_texels
 from app.scene.model import Environment, Light
 from app.textures.environment import environment_map
 
@@ -73,9 +73,7 @@ def cell_integrals(env_map: np.ndarray, directions: np.ndarray, rotation: float)
     sum over the cell's texels of L dOmega (N, 3): every texel (turned ``rotation`` degrees
     about +Y into the world) goes to its nearest direction, so the cells partition the
     sphere and the integrals sum to the whole map's integral."""
-    d, omega = texel_directions(*env_map.shape[:2])
-    d = rotate_y(d, math.radians(rotation)).reshape(-1, 3)
-    weighted = env_map.reshape(-1, 3).astype(np.float64) * omega.reshape(-1, 1)
+    d, weighted = map_texels(env_map, math.radians(rotation))
     out = np.zeros((len(directions), 3))
     for start in range(0, len(d), 65536):  # chunks bound the (texels x N) dot products
         nearest = np.argmax(d[start : start + 65536] @ directions.T, axis=1)

@@ -280,8 +280,8 @@ def uv_defines(part: MeshPart) -> dict[str, int]:
 
 
 def uv_transform_bytes(layer: SurfaceLayer) -> bytes:
-    """u_uv_transform0[9]: each map index's matrix (identity where the map has none), as
-    the GL's column-major float32 mat3s."""
+    """u_uv_transform0[len(MAP_INDEX)]: each map index's matrix (identity where the map has
+    none), as the GL's column-major float32 mat3s."""
     out = np.tile(np.eye(3), (len(MAP_INDEX), 1, 1))
     for key, t in layer.uv_transforms.items():
         if key in MAP_INDEX:

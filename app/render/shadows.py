@@ -223,7 +223,6 @@ class ShadowPass:
         points = world_points(parts)
         self.lights: list[int] = []  # per map: its light (six maps for a point light)
         self.matrices: list[np.ndarray] = []
-        self.rects: list[tuple[float, float, float, float]] = []
         self.offsets: list[tuple[float, float]] = []
         self.slopes: list[float] = []
         # A texel's world size: metres (directional), metres per metre of distance (spot,
@@ -248,6 +247,13 @@ class ShadowPass:
             (float(x), float(y), float(size), f)
             for (x, y), size, f in zip(origins, sizes, pcf, strict=True)
         ]
+        # The lighting programs' uniforms, constant for this pass's life: packed once.
+        self._uniforms = {
+            "u_shadow_light": np.asarray(self.lights, np.int32).tobytes(),
+            "u_shadow_matrix": b"".join(gl_bytes(m) for m in self.matrices),
+            "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
+            "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
+        }
         self.atlas = ctx.depth_texture((width, height))
         self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
         self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -282,10 +288,8 @@ class ShadowPass:
 
     def bind(self, prog: moderngl.Program) -> None:
         """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
-        prog["u_shadow_light"].write(np.asarray(self.lights, np.int32).tobytes())
-        prog["u_shadow_matrix"].write(b"".join(gl_bytes(m) for m in self.matrices))
-        prog["u_shadow_rect"].write(np.asarray(self.rects, np.float32).tobytes())
-        prog["u_shadow_offset"].write(np.asarray(self.offsets, np.float32).tobytes())
+        for name, data in self._uniforms.items():
+            prog[name].write(data)
 
     def read(self) -> ShadowMaps:
         """The maps as the float64 twin takes them (app/reference/shadows.py): the atlas's
