@@ -1,6 +1,8 @@
 """The split sum's error against the brute-force reference (app/reference/ibl.py), as the
-markdown table in docs/ibl.md: gold with the normal straight up (sky, studio) or facing a
-window (the HDR image), per roughness and view angle.
+markdown tables in docs/ibl.md: gold with the normal straight up (sky, studio) or facing a
+window (the HDR image), per roughness and view angle; each cell is the plain split sum
+(the map read along R) -> the one the renderer uses (read along the dominant direction,
+Lagarde & de Rousiers 2014), and the last column the mean |error| of the row.
 
     .venv/bin/python scripts/ibl_errors.py
 
@@ -42,13 +44,19 @@ def main() -> None:
         ("studio", studio(512), (0.0, 1.0, 0.0)),
         ("HDR image (window room)", room(512), (0.0, 0.5, -0.866)),
     ]  # fmt: skip
-    print("| environment | roughness | " + " | ".join(f"{a:g} deg" for a in ANGLES) + " |")
-    print("|---|---|" + "---|" * len(ANGLES))
+    head = " | ".join(f"{a:g} deg" for a in ANGLES)
+    print(f"| environment | roughness | {head} | mean abs |")
+    print("|---|---|" + "---|" * (len(ANGLES) + 1))
     for name, env, n in cases:
-        err = split_sum_errors(env, ANGLES, ROUGHNESS, n=n)
-        for r, row in zip(ROUGHNESS, err, strict=True):
-            cells = " | ".join(f"{100 * e:+.1f} %" for e in row)
-            print(f"| {name} | {r:g} | {cells} |")
+        plain = split_sum_errors(env, ANGLES, ROUGHNESS, n=n, dominant=False)
+        bent = split_sum_errors(env, ANGLES, ROUGHNESS, n=n, dominant=True)
+        for r, row0, row1 in zip(ROUGHNESS, plain, bent, strict=True):
+            pairs = zip(row0, row1, strict=True)
+            cells = " | ".join(f"{100 * a:+.1f} -> {100 * b:+.1f} %" for a, b in pairs)
+            means = f"{100 * np.abs(row0).mean():.1f} -> {100 * np.abs(row1).mean():.1f} %"
+            print(f"| {name} | {r:g} | {cells} | {means} |")
+        means = f"{100 * np.abs(plain).mean():.1f} -> {100 * np.abs(bent).mean():.1f} %"
+        print(f"| {name} | all | {' | '.join('' for _ in ANGLES)} | {means} |")
 
 
 if __name__ == "__main__":

@@ -179,6 +179,20 @@ def sh9_irradiance(L: np.ndarray, n: np.ndarray) -> np.ndarray:
 # --- the split-sum estimate of one shading point --------------------------------------------
 
 
+def specular_dominant_direction(n: np.ndarray, R: np.ndarray, alpha: float) -> np.ndarray:
+    """The direction the prefiltered map is read along: the mirror direction R turned
+    towards the normal n as roughness grows, where the true lobe's peak lies (the
+    off-specular peak the split sum's n = v = R assumption loses at grazing view).
+    Lagarde & de Rousiers 2014, "Moving Frostbite to Physically Based Rendering", sec.
+    4.9.3 (listing 22): lerp(n, R, s (sqrt(s) + alpha)) with s = 1 - alpha, alpha = r^2,
+    their fit for GGX with (height-)correlated Smith G, the project's G2. Normalised here
+    (the paper leaves it to the cube fetch). Head-on (R = n) it changes nothing."""
+    s = 1.0 - alpha
+    t = s * (math.sqrt(s) + alpha)
+    d = (1.0 - t) * np.asarray(n, np.float64) + t * np.asarray(R, np.float64)
+    return d / np.linalg.norm(d)
+
+
 def split_sum_radiance(
     env: np.ndarray,
     rotation: float,
@@ -188,14 +202,19 @@ def split_sum_radiance(
     dfg_table: np.ndarray,
     sh: np.ndarray,
     ms_table: np.ndarray | None = None,
+    dominant: bool = True,
 ) -> np.ndarray:
     """The standard model's environment term by the split sum (module docstring), (3,):
-    rho_ss E(n)/pi + L_pre(R, r) (F0 A + B) [+ the Kulla-Conty colour (1 - E(n.v)) E(n)/pi
-    with ``ms_table``]. ``sh``: sh9_project of the same map."""
+    rho_ss E(n)/pi + L_pre(R', r) (F0 A + B) [+ the Kulla-Conty colour (1 - E(n.v)) E(n)/pi
+    with ``ms_table``]. ``sh``: sh9_project of the same map. R' is the mirror direction
+    turned towards n by ``specular_dominant_direction`` (``dominant=False``: R itself, the
+    plain split sum, kept to measure the correction in docs/ibl.md)."""
     n, v = np.asarray(n, np.float64), np.asarray(v, np.float64)
     NoV = float(np.clip(n @ v, MIN_N_DOT_V, 1.0))
     R = 2.0 * (n @ v) * n - v
     r = float(np.maximum(surface.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS))
+    if dominant:
+        R = specular_dominant_direction(n, R, r * r)
     F0 = material_F0(surface)
     A, B = dfg_lookup(dfg_table, NoV, r)
     E_n = np.maximum(sh9_irradiance(sh, n), 0.0)  # as the GLSL: SH ringing can dip below 0
@@ -233,9 +252,11 @@ def split_sum_errors(
     metallic: float = 1.0,
     n: tuple[float, float, float] = (0.0, 1.0, 0.0),
     dfg_table: np.ndarray | None = None,
+    dominant: bool = True,
 ) -> np.ndarray:
     """Relative error (split sum - reference) / reference, averaged over RGB, per
-    (roughness, view angle from n): (len(roughnesses), len(angles))."""
+    (roughness, view angle from n): (len(roughnesses), len(angles)). ``dominant``: as
+    split_sum_radiance's."""
     from app.common.tables import read_dfg_table
 
     nn = np.asarray(n, np.float64)
@@ -246,7 +267,7 @@ def split_sum_errors(
         s = Surface(np.asarray(base_color, np.float64), metallic, r, 0.04, 0.0)
         for j, a in enumerate(angles):
             v = view_direction(nn, a)
-            split = split_sum_radiance(env, 0.0, s, nn, v, dfg, sh)
+            split = split_sum_radiance(env, 0.0, s, nn, v, dfg, sh, dominant=dominant)
             ref = reference_radiance(env, 0.0, s, nn, v)
             out[i, j] = np.mean((split - ref) / ref)
     return out

@@ -72,10 +72,19 @@ vec3 prefiltered_radiance(vec3 R, float perceptual_roughness) {
     return mix(env_level(k, d), env_level(k + 1, d), x - float(k));
 }
 
+// The direction to read the prefiltered map along: R turned towards n as roughness grows,
+// where the true lobe peaks at grazing view (Lagarde & de Rousiers 2014, "Moving Frostbite
+// to Physically Based Rendering", sec. 4.9.3, listing 22; fitted for GGX with correlated
+// Smith G). alpha = r^2. Twin: app/reference/ibl.py specular_dominant_direction.
+vec3 specular_dominant_direction(vec3 n, vec3 R, float alpha) {
+    float s = 1.0 - alpha;
+    return normalize(mix(n, R, s * (sqrt(s) + alpha)));
+}
+
 vec3 ibl_radiance(Surface s, vec3 n, vec3 v) {
     float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
     float r = clamp(s.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
-    vec3 R = reflect(-v, n);
+    vec3 R = specular_dominant_direction(n, reflect(-v, n), r * r);
     vec3 E_n = max(sh9_irradiance(n), vec3(0.0));  // SH ringing can dip below 0
     vec3 F0 = material_F0(s);
     vec2 AB = dfg_lookup(NoV, r);
