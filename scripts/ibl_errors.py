@@ -4,6 +4,12 @@ window (the HDR image), per roughness and view angle; each cell is the plain spl
 (the map read along R) -> the one the renderer uses (read along the dominant direction,
 Lagarde & de Rousiers 2014), and the last column the mean |error| of the row.
 
+    .venv/bin/python scripts/ibl_errors.py --ndf
+
+instead prints the error of lighting the project's other NDFs (Beckmann, Blinn-Phong,
+GTR) with GGX's prefiltered map and DFG table, on the sky and the window room, with the
+mean |error| of a GGX roughness matched to the NDF's lobe width (``ggx_width_scale``).
+
     .venv/bin/python scripts/ibl_errors.py
 
 The HDR image is written as EXR to a temporary folder and read back through the scene
@@ -13,12 +19,15 @@ degrees up.
 
 from __future__ import annotations
 
+import math
+import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import OpenEXR
 
+from app.common.models import Model, ModelParams
 from app.reference.ibl import split_sum_errors
 from app.textures.environment import preetham_sky, read_environment_image, studio
 
@@ -37,7 +46,52 @@ def room(width: int) -> np.ndarray:
         return read_environment_image(path, "ibl_errors", "environment.file")
 
 
+def ggx_width_scale(ndf: str, gamma: float) -> float:
+    """The factor on perceptual roughness that gives GGX the same half width at half
+    maximum of the slope distribution as ``ndf`` at the same alpha (small-alpha limit):
+    P22 falls to half at slope t = alpha sqrt(sqrt 2 - 1) for GGX, alpha sqrt(ln 2) for
+    Beckmann (and Blinn-Phong, whose cos^p with p = 2/alpha^2 - 2 tends to Beckmann), and
+    alpha sqrt(2^(1/gamma) - 1) for GTR (Burley 2012). Derived here; alpha = r^2, so r
+    scales by the square root of the alpha ratio."""
+    ggx = math.sqrt(2.0) - 1.0
+    other = math.log(2.0) if ndf in ("beckmann", "blinn_phong") else 2.0 ** (1.0 / gamma) - 1.0
+    return (other / ggx) ** 0.25
+
+
+def ndf_table() -> None:
+    """The other NDFs lit with GGX's map: error per NDF, roughness and view."""
+    envs = [
+        ("sky", preetham_sky(np.array([0.5, 0.6, -0.6]), 3.0, 512), (0.0, 1.0, 0.0)),
+        ("window room", room(512), (0.0, 0.5, -0.866)),
+    ]
+    ndfs = [("beckmann", 2.0), ("blinn_phong", 2.0), ("gtr", 1.5), ("gtr", 3.0)]
+    head = " | ".join(f"{a:g} deg" for a in ANGLES)
+    print(f"| environment | NDF | roughness | {head} |")
+    print("|---|---|---|" + "---|" * len(ANGLES))
+    means = []
+    for ename, env, n in envs:
+        for ndf, gamma in ndfs:
+            label = ndf if ndf != "gtr" else f"gtr (gamma {gamma:g})"
+            model, params = Model(ndf=ndf), ModelParams(gtr_gamma=gamma)
+            plain = split_sum_errors(env, ANGLES, ROUGHNESS, n=n, model=model, params=params)
+            for r, row in zip(ROUGHNESS, plain, strict=True):
+                cells = " | ".join(f"{100 * e:+.1f} %" for e in row)
+                print(f"| {ename} | {label} | {r:g} | {cells} |")
+            k = ggx_width_scale(ndf, gamma)
+            matched = split_sum_errors(
+                env, ANGLES, ROUGHNESS, n=n, model=model, params=params, split_roughness=k
+            )
+            means.append((ename, label, k, np.abs(plain).mean(), np.abs(matched).mean()))
+    print("\n| environment | NDF | r scale | mean abs, same r | mean abs, width-matched r |")
+    print("|---|---|---|---|---|")
+    for ename, label, k, a, b in means:
+        print(f"| {ename} | {label} | {k:.3f} | {100 * a:.1f} % | {100 * b:.1f} % |")
+
+
 def main() -> None:
+    if "--ndf" in sys.argv[1:]:
+        ndf_table()
+        return
     cases = [
         ("sky (T = 3, sun 37 deg up)", preetham_sky(np.array([0.5, 0.6, -0.6]), 3.0, 512),
          (0.0, 1.0, 0.0)),

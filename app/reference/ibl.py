@@ -253,10 +253,16 @@ def split_sum_errors(
     n: tuple[float, float, float] = (0.0, 1.0, 0.0),
     dfg_table: np.ndarray | None = None,
     dominant: bool = True,
+    model: Model = DEFAULT_MODEL,
+    params: ModelParams | None = None,
+    split_roughness: float = 1.0,
 ) -> np.ndarray:
     """Relative error (split sum - reference) / reference, averaged over RGB, per
     (roughness, view angle from n): (len(roughnesses), len(angles)). ``dominant``: as
-    split_sum_radiance's."""
+    split_sum_radiance's. ``model``/``params``: the BRDF of the reference (another NDF
+    measures the error of lighting it with GGX's prefiltered map and DFG table);
+    ``split_roughness``: the split sum's perceptual roughness is r times this (a
+    remapping to GGX, capped at 1)."""
     from app.common.tables import read_dfg_table
 
     nn = np.asarray(n, np.float64)
@@ -265,9 +271,10 @@ def split_sum_errors(
     out = np.zeros((len(roughnesses), len(angles)))
     for i, r in enumerate(roughnesses):
         s = Surface(np.asarray(base_color, np.float64), metallic, r, 0.04, 0.0)
+        s_split = Surface(s.base_color, metallic, min(r * split_roughness, 1.0), 0.04, 0.0)
         for j, a in enumerate(angles):
             v = view_direction(nn, a)
-            split = split_sum_radiance(env, 0.0, s, nn, v, dfg, sh, dominant=dominant)
-            ref = reference_radiance(env, 0.0, s, nn, v)
+            split = split_sum_radiance(env, 0.0, s_split, nn, v, dfg, sh, dominant=dominant)
+            ref = reference_radiance(env, 0.0, s, nn, v, model, params)
             out[i, j] = np.mean((split - ref) / ref)
     return out
