@@ -8,7 +8,13 @@ Lagarde & de Rousiers 2014), and the last column the mean |error| of the row.
 
 instead prints the error of lighting the project's other NDFs (Beckmann, Blinn-Phong,
 GTR) with GGX's prefiltered map and DFG table, on the sky and the window room, with the
-mean |error| of a GGX roughness matched to the NDF's lobe width (``ggx_width_scale``).
+mean |error| of a GGX roughness matched to the NDF's lobe width (``ggx_width_scale``);
+
+    .venv/bin/python scripts/ibl_errors.py --anisotropy
+
+the error of anisotropic GGX (anisotropy 0, 0.5, 0.9) lit through the isotropic split
+sum -> through the bent reflection vector (app/reference/ibl.py anisotropic_bent_normal),
+on the studio and the sky, the tangent along the view plane or across it.
 
     .venv/bin/python scripts/ibl_errors.py
 
@@ -88,9 +94,44 @@ def ndf_table() -> None:
         print(f"| {ename} | {label} | {k:.3f} | {100 * a:.1f} % | {100 * b:.1f} % |")
 
 
+def anisotropy_table() -> None:
+    """Anisotropic gold, the isotropic split sum -> the bent reflection vector."""
+    envs = [
+        ("studio", studio(512)),
+        ("sky", preetham_sky(np.array([0.5, 0.6, -0.6]), 3.0, 512)),
+    ]
+    tangents = [("along", (0.0, 0.0, 1.0)), ("across", (1.0, 0.0, 0.0))]
+    angles, rough = ANGLES[:4], ROUGHNESS[:3]
+    model = Model(anisotropic=True)
+    head = " | ".join(f"{a:g} deg" for a in angles)
+    print(f"| environment | t | anisotropy | roughness | {head} |")
+    print("|---|---|---|---|" + "---|" * len(angles))
+    summary = []
+    for ename, env in envs:
+        for tname, t in tangents:
+            for an in (0.0, 0.5, 0.9):
+                kw = {"model": model, "anisotropy": an, "t": t}
+                iso = split_sum_errors(env, angles, rough, bent=False, **kw)
+                bent = split_sum_errors(env, angles, rough, bent=True, **kw)
+                for r, row0, row1 in zip(rough, iso, bent, strict=True):
+                    pairs = zip(row0, row1, strict=True)
+                    cells = " | ".join(f"{100 * a:+.0f} -> {100 * b:+.0f} %" for a, b in pairs)
+                    print(f"| {ename} | {tname} | {an:g} | {r:g} | {cells} |")
+                summary.append((ename, tname, an, np.abs(iso), np.abs(bent)))
+    print("\n| environment | t | anisotropy | mean abs | median abs |")
+    print("|---|---|---|---|---|")
+    for ename, tname, an, a, b in summary:
+        mean = f"{100 * a.mean():.1f} -> {100 * b.mean():.1f} %"
+        median = f"{100 * np.median(a):.1f} -> {100 * np.median(b):.1f} %"
+        print(f"| {ename} | {tname} | {an:g} | {mean} | {median} |")
+
+
 def main() -> None:
     if "--ndf" in sys.argv[1:]:
         ndf_table()
+        return
+    if "--anisotropy" in sys.argv[1:]:
+        anisotropy_table()
         return
     cases = [
         ("sky (T = 3, sun 37 deg up)", preetham_sky(np.array([0.5, 0.6, -0.6]), 3.0, 512),

@@ -167,6 +167,42 @@ def test_gbuffer_pixels_against_the_split_sum_and_the_reference(
     assert max(ref_err) < 0.25, ref_err
 
 
+def test_anisotropic_pixels_follow_the_bent_reflection_vector(
+    gl_egl: GLContext, tmp_path: Path
+) -> None:
+    """Brushed aluminium (anisotropy 0.8, r = 0.4) under the sky: pixels read from the
+    G-buffer against the float64 split sum reflected about anisotropic_bent_normal (with
+    the stored tangent) agree within 3 %, and the isotropic split sum (about n) is
+    measurably farther from the GPU on the pixels where the bend matters."""
+    env = 'source = "sky"\nsun_direction = [0.3, 0.5, 0.8]\nrotation = 20.0'
+    material = 'preset = "aluminum"\nroughness = 0.4\nanisotropy = 0.8'
+    loaded, hdr, gbuffer, camera = render(gl_egl, write_scene(tmp_path, env, material))
+    from app.frame.lights import environment_texels
+
+    envcfg = loaded.scene.environment
+    sky = environment_texels(envcfg)
+    rot = math.radians(envcfg.rotation)
+    dec = decode_gbuffer(gbuffer, camera)
+    gpu = hdr[dec.covered]
+    dfg, sh = read_dfg_table(), sh9_project(sky, rot)
+    rng = np.random.default_rng(7)
+    bent_err, iso_err = [], []
+    for i in rng.choice(len(gpu), 12, replace=False):
+        s = dec.surface.select(np.array([i]))
+        a = float(np.asarray(s.anisotropy).reshape(-1)[0])
+        s1 = Surface(s.base_color[0], s.metallic[0], s.perceptual_roughness[0],
+                     s.f0_dielectric[0], a)  # fmt: skip
+        assert s1.anisotropy > 0.7
+        args = (sky, rot, s1, dec.n[i], dec.v[i], dfg, sh)
+        bent = split_sum_radiance(*args, t=dec.t[i])
+        iso = split_sum_radiance(*args, t=dec.t[i], bent=False)
+        bent_err.append(np.abs(gpu[i] - bent).sum() / bent.sum())
+        iso_err.append(np.abs(gpu[i] - iso).sum() / iso.sum())
+    print("anisotropic GPU vs bent split sum: max", max(bent_err), "; vs isotropic", max(iso_err))
+    assert max(bent_err) < 0.03, bent_err
+    assert max(iso_err) > 2.0 * max(bent_err), (iso_err, bent_err)
+
+
 def test_occlusion_darkens_the_image_based_light(gl_egl: GLContext, tmp_path: Path) -> None:
     """glTF 2.0 occlusion acts on the environment's light only: a map of 0 at strength 0.5
     (factor 0.5) halves the IBL term; the directional light's part is unchanged."""

@@ -37,7 +37,13 @@ import numpy as np
 from app.common.models import DEFAULT_MODEL, Model, ModelParams
 from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.environment import rotate_y, texel_directions
-from app.reference.material import Surface, brdf_eval, material_F0, material_rho_ss
+from app.reference.material import (
+    Surface,
+    brdf_eval,
+    material_F0,
+    material_rho_ss,
+    orthonormal_tangent,
+)
 from app.reference.multiscatter import (
     QUAD_PHI,
     QUAD_PSI,
@@ -75,13 +81,16 @@ def reference_radiance(
     model: Model = DEFAULT_MODEL,
     params: ModelParams | None = None,
     ms_table: np.ndarray | None = None,
+    t: np.ndarray | None = None,
 ) -> np.ndarray:
-    """L_o(v) = sum over texels f(l, v) L(l) (n.l)+ dOmega for one shading point (3,)."""
+    """L_o(v) = sum over texels f(l, v) L(l) (n.l)+ dOmega for one shading point (3,).
+    ``t``: the tangent of an anisotropic model (None: any perpendicular to n)."""
     d, l_domega = map_texels(env, rotation)
     n = np.asarray(n, np.float64)
     lit = d @ n > 0.0
     d, l_domega = d[lit], l_domega[lit]
-    t = np.cross(n, [0.0, 0.0, 1.0] if abs(n[2]) < 0.9 else [1.0, 0.0, 0.0])
+    if t is None:
+        t = np.cross(n, [0.0, 0.0, 1.0] if abs(n[2]) < 0.9 else [1.0, 0.0, 0.0])
     f = brdf_eval(surface, params or ModelParams(), model, n, t, d, v, ms_table)
     return np.sum(f * l_domega * (d @ n)[:, None], axis=0)
 
@@ -193,6 +202,28 @@ def specular_dominant_direction(n: np.ndarray, R: np.ndarray, alpha: float) -> n
     return d / np.linalg.norm(d)
 
 
+def anisotropic_bent_normal(
+    n: np.ndarray, t: np.ndarray, v: np.ndarray, anisotropy: float, alpha: float
+) -> np.ndarray:
+    """The normal an anisotropic surface reflects the prefiltered (isotropic) map about:
+    n bent towards v with its component along the smoother direction removed (the
+    bitangent for anisotropy >= 0, where alpha_x = alpha (1 + a) along t is the rougher),
+    by |a| min(5 alpha, 1). The bent reflection vector of Revie 2011 ("Implementing Fur
+    Using Deferred Shading", GPU Pro 2) and McAuley 2015 ("Rendering the World of Far Cry
+    4", GDC), in the form Guy & Agopian's "Physically Based Rendering in Filament"
+    documents (Filament's roughness there is alpha). An approximation: the stretched
+    lobe's reflections streak across the smoother direction, which reading the map about a
+    normal leaning towards the view imitates; a = 0 gives n."""
+    n = np.asarray(n, np.float64)
+    tn = orthonormal_tangent(n, t)
+    d = np.cross(n, tn) if anisotropy >= 0.0 else tn
+    v = np.asarray(v, np.float64)
+    towards_v = v - (v @ d) * d  # cross(cross(d, v), d) for a unit d
+    bend = abs(anisotropy) * min(5.0 * alpha, 1.0)
+    b = (1.0 - bend) * n + bend * towards_v
+    return b / np.linalg.norm(b)
+
+
 def split_sum_radiance(
     env: np.ndarray,
     rotation: float,
@@ -203,16 +234,22 @@ def split_sum_radiance(
     sh: np.ndarray,
     ms_table: np.ndarray | None = None,
     dominant: bool = True,
+    t: np.ndarray | None = None,
+    bent: bool = True,
 ) -> np.ndarray:
     """The standard model's environment term by the split sum (module docstring), (3,):
     rho_ss E(n)/pi + L_pre(R', r) (F0 A + B) [+ the Kulla-Conty colour (1 - E(n.v)) E(n)/pi
     with ``ms_table``]. ``sh``: sh9_project of the same map. R' is the mirror direction
     turned towards n by ``specular_dominant_direction`` (``dominant=False``: R itself, the
-    plain split sum, kept to measure the correction in docs/ibl.md)."""
+    plain split sum, kept to measure the correction in docs/ibl.md). With a tangent ``t``
+    (an anisotropic model) R is reflected about ``anisotropic_bent_normal`` instead of n
+    (``bent=False``: about n, the isotropic split sum)."""
     n, v = np.asarray(n, np.float64), np.asarray(v, np.float64)
     NoV = float(np.clip(n @ v, MIN_N_DOT_V, 1.0))
-    R = 2.0 * (n @ v) * n - v
     r = float(np.maximum(surface.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS))
+    a = float(surface.anisotropy)
+    nb = anisotropic_bent_normal(n, t, v, a, r * r) if t is not None and bent else n
+    R = 2.0 * (nb @ v) * nb - v
     if dominant:
         R = specular_dominant_direction(n, R, r * r)
     F0 = material_F0(surface)
@@ -256,13 +293,17 @@ def split_sum_errors(
     model: Model = DEFAULT_MODEL,
     params: ModelParams | None = None,
     split_roughness: float = 1.0,
+    anisotropy: float = 0.0,
+    t: tuple[float, float, float] | None = None,
+    bent: bool = True,
 ) -> np.ndarray:
     """Relative error (split sum - reference) / reference, averaged over RGB, per
     (roughness, view angle from n): (len(roughnesses), len(angles)). ``dominant``: as
     split_sum_radiance's. ``model``/``params``: the BRDF of the reference (another NDF
     measures the error of lighting it with GGX's prefiltered map and DFG table);
     ``split_roughness``: the split sum's perceptual roughness is r times this (a
-    remapping to GGX, capped at 1)."""
+    remapping to GGX, capped at 1). ``anisotropy``, ``t``: an anisotropic surface and its
+    tangent (pass an anisotropic ``model``); ``bent``: as split_sum_radiance's."""
     from app.common.tables import read_dfg_table
 
     nn = np.asarray(n, np.float64)
@@ -270,11 +311,15 @@ def split_sum_errors(
     dfg = read_dfg_table() if dfg_table is None else dfg_table
     out = np.zeros((len(roughnesses), len(angles)))
     for i, r in enumerate(roughnesses):
-        s = Surface(np.asarray(base_color, np.float64), metallic, r, 0.04, 0.0)
-        s_split = Surface(s.base_color, metallic, min(r * split_roughness, 1.0), 0.04, 0.0)
+        s = Surface(np.asarray(base_color, np.float64), metallic, r, 0.04, anisotropy)
+        r_split = min(r * split_roughness, 1.0)
+        s_split = Surface(s.base_color, metallic, r_split, 0.04, anisotropy)
+        tt = None if t is None else np.asarray(t, np.float64)
         for j, a in enumerate(angles):
             v = view_direction(nn, a)
-            split = split_sum_radiance(env, 0.0, s_split, nn, v, dfg, sh, dominant=dominant)
-            ref = reference_radiance(env, 0.0, s, nn, v, model, params)
+            split = split_sum_radiance(
+                env, 0.0, s_split, nn, v, dfg, sh, dominant=dominant, t=tt, bent=bent
+            )
+            ref = reference_radiance(env, 0.0, s, nn, v, model, params, t=tt)
             out[i, j] = np.mean((split - ref) / ref)
     return out

@@ -4,8 +4,9 @@
 //   L_o ~ rho_ss E(n) / pi                                     (SH9 irradiance)
 //       + L_pre(R, r) (F0 A(n.v, r) + B(n.v, r))                (Karis 2013's split sum)
 //       + colour (1 - E(n.v)) E(n) / pi                          (Kulla-Conty, MULTISCATTER)
-// The standard model's terms only: other NDFs, Fresnel and diffuse models, sheen, coat,
-// thin film and anisotropy get this same approximation (RTR4 sec. 10.5.2).
+// The standard model's terms only: other NDFs, Fresnel and diffuse models, sheen, coat and
+// thin film get this same approximation (RTR4 sec. 10.5.2); anisotropy bends the normal the
+// map is read about (anisotropic_bent_normal).
 #ifndef PBS_LIGHTS_IBL_GLSL
 #define PBS_LIGHTS_IBL_GLSL
 
@@ -81,10 +82,25 @@ vec3 specular_dominant_direction(vec3 n, vec3 R, float alpha) {
     return normalize(mix(n, R, s * (sqrt(s) + alpha)));
 }
 
-vec3 ibl_radiance(Surface s, vec3 n, vec3 v) {
+// The normal an anisotropic surface reflects the isotropic map about: n bent towards v
+// with its component along the smoother direction removed (the bitangent for a >= 0,
+// where alpha_x = alpha (1 + a) along t is the rougher), by |a| min(5 alpha, 1): the bent
+// reflection vector (Revie 2011, GPU Pro 2; McAuley 2015, "Rendering the World of Far Cry
+// 4"), as Filament's documentation gives it. Twin: app/reference/ibl.py.
+vec3 anisotropic_bent_normal(vec3 n, vec3 t, vec3 v, float anisotropy, float alpha) {
+    vec3 tn = orthonormal_tangent(n, t);
+    vec3 d = anisotropy >= 0.0 ? cross(n, tn) : tn;
+    vec3 towards_v = v - dot(v, d) * d;
+    float bend = abs(anisotropy) * min(5.0 * alpha, 1.0);
+    return normalize(mix(n, towards_v, bend));
+}
+
+vec3 ibl_radiance(Surface s, vec3 n, vec3 t, vec3 v) {
     float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
     float r = clamp(s.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
-    vec3 R = specular_dominant_direction(n, reflect(-v, n), r * r);
+    vec3 nb = n;
+    if (ANISOTROPIC != 0) nb = anisotropic_bent_normal(n, t, v, s.anisotropy, r * r);
+    vec3 R = specular_dominant_direction(n, reflect(-v, nb), r * r);
     vec3 E_n = max(sh9_irradiance(n), vec3(0.0));  // SH ringing can dip below 0
     vec3 F0 = material_F0(s);
     vec2 AB = dfg_lookup(NoV, r);

@@ -64,7 +64,7 @@ void main() {
 #if ENVIRONMENT_IBL
     // The environment's light by the split sum (lights/ibl.glsl), once per pixel; the
     // occlusion map darkens it (glTF 2.0: occlusion applies to indirect light).
-    vec3 L_env = ibl_radiance(g.s, g.n, g.v);
+    vec3 L_env = ibl_radiance(g.s, g.n, g.t, g.v);
 #if GBUFFER_EMISSION
     frag_color = vec4(PI * Lo + ao * L_env + emission.rgb, 1.0);
 #else
