@@ -14,7 +14,13 @@ mean |error| of a GGX roughness matched to the NDF's lobe width (``ggx_width_sca
 
 the error of anisotropic GGX (anisotropy 0, 0.5, 0.9) lit through the isotropic split
 sum -> through the bent reflection vector (app/reference/ibl.py anisotropic_bent_normal),
-on the studio and the sky, the tangent along the view plane or across it.
+on the studio and the sky, the tangent along the view plane or across it;
+
+    .venv/bin/python scripts/ibl_errors.py --flip
+
+whole images: the renderer's split sum of four spheres (96 x 64, maps 128 wide) against
+the brute-force float64 image of the same G-buffer (app/bench/ibl.py), relative RMSE and
+mean FLIP per environment (needs a GL context).
 
     .venv/bin/python scripts/ibl_errors.py
 
@@ -126,7 +132,26 @@ def anisotropy_table() -> None:
         print(f"| {ename} | {tname} | {an:g} | {mean} | {median} |")
 
 
+def flip_rows() -> None:
+    """Relative RMSE and mean FLIP of the split-sum image per environment."""
+    from app.bench.ibl import flip_table
+    from app.gl.context import create_context
+
+    gl = create_context("egl")
+    try:
+        rows = flip_table(gl)
+    finally:
+        gl.release()
+    print("| environment | relative RMSE | mean FLIP |")
+    print("|---|---|---|")
+    for row in rows:
+        print(f"| {row['environment']} | {row['rel_rmse']:.3f} | {row['flip_mean']:.3f} |")
+
+
 def main() -> None:
+    if "--flip" in sys.argv[1:]:
+        flip_rows()
+        return
     if "--ndf" in sys.argv[1:]:
         ndf_table()
         return

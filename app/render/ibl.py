@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import moderngl
 import numpy as np
@@ -28,6 +30,31 @@ SAMPLES = 256  # GGX samples per texel of the rough levels
 GL_TEXTURE_CUBE_MAP_SEAMLESS = 0x884F  # filter across face edges (core since GL 3.2)
 _CACHE: dict[tuple, list[np.ndarray]] = {}
 _CACHE_LIMIT = 8
+# (face size, samples) the next EnvironmentLighting prefilters with: the renderer's
+# FACE_SIZE and SAMPLES unless a caller measuring the choice sets others (prefilter_settings).
+_SETTINGS = [FACE_SIZE, SAMPLES]
+
+
+@contextmanager
+def prefilter_settings(base: int, samples: int) -> Iterator[None]:
+    """Renderers made inside prefilter their environment with level 0's face size ``base``
+    and ``samples`` GGX samples per texel (the IBL bench's sweep); restored on exit."""
+    old = list(_SETTINGS)
+    _SETTINGS[:] = [base, samples]
+    try:
+        yield
+    finally:
+        _SETTINGS[:] = old
+
+
+def clear_cache() -> None:
+    """Forget every prefiltered map (the bench times the prefilter itself)."""
+    _CACHE.clear()
+
+
+def levels_bytes(base: int) -> int:
+    """GPU memory of the ENV_LEVELS RGBA32F cube maps for level 0's face size ``base``."""
+    return sum(6 * face_size(k, base) ** 2 * 16 for k in range(ENV_LEVELS))
 
 
 def level_roughness(k: int) -> float:
@@ -94,7 +121,7 @@ class EnvironmentLighting:
     def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, env: EnvironmentSource) -> None:
         ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)
         self.levels = []
-        for faces in prefilter(ctx, shaders, env.texels):
+        for faces in prefilter(ctx, shaders, env.texels, *_SETTINGS):
             size = faces.shape[1]
             rgba = np.concatenate([faces, np.ones((*faces.shape[:3], 1), np.float32)], -1)
             cube = ctx.texture_cube((size, size), 4, dtype="f4")
