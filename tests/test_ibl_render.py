@@ -134,23 +134,27 @@ def test_white_furnace_through_ibl(
     assert err.max() < tolerance, err.max()
 
 
+def sky_pixels(gl: GLContext, tmp_path: Path, material: str) -> tuple:
+    """A sphere of ``material`` under a turned sky, rendered: (the sky's map, its rotation in
+    radians, the decoded G-buffer, the covered pixels' HDR values, the DFG table, SH9)."""
+    from app.frame.lights import environment_texels
+
+    env = 'source = "sky"\nsun_direction = [0.3, 0.5, 0.8]\nrotation = 20.0'
+    loaded, hdr, gbuffer, camera = render(gl, write_scene(tmp_path, env, material))
+    envcfg = loaded.scene.environment
+    sky = environment_texels(envcfg)
+    rot = math.radians(envcfg.rotation)
+    dec = decode_gbuffer(gbuffer, camera)
+    return sky, rot, dec, hdr[dec.covered], read_dfg_table(), sh9_project(sky, rot)
+
+
 def test_gbuffer_pixels_against_the_split_sum_and_the_reference(
     gl_egl: GLContext, tmp_path: Path
 ) -> None:
     """Pixels of a gold sphere under the sky read from the G-buffer: the GPU against the
     float64 split sum with the exact prefilter (the same approximation: what is left is
     the level blend, sampling and float32), and both against the brute-force reference."""
-    env = 'source = "sky"\nsun_direction = [0.3, 0.5, 0.8]\nrotation = 20.0'
-    path = write_scene(tmp_path, env, 'preset = "gold"\nroughness = 0.6')
-    loaded, hdr, gbuffer, camera = render(gl_egl, path)
-    from app.frame.lights import environment_texels
-
-    envcfg = loaded.scene.environment
-    sky = environment_texels(envcfg)
-    rot = math.radians(envcfg.rotation)
-    dec = decode_gbuffer(gbuffer, camera)
-    gpu = hdr[dec.covered]
-    dfg, sh = read_dfg_table(), sh9_project(sky, rot)
+    sky, rot, dec, gpu, dfg, sh = sky_pixels(gl_egl, tmp_path, 'preset = "gold"\nroughness = 0.6')
     rng = np.random.default_rng(5)
     picks = rng.choice(len(gpu), 10, replace=False)
     split_err, ref_err = [], []
@@ -174,17 +178,8 @@ def test_anisotropic_pixels_follow_the_bent_reflection_vector(
     G-buffer against the float64 split sum reflected about anisotropic_bent_normal (with
     the stored tangent) agree within 3 %, and the isotropic split sum (about n) is
     measurably farther from the GPU on the pixels where the bend matters."""
-    env = 'source = "sky"\nsun_direction = [0.3, 0.5, 0.8]\nrotation = 20.0'
     material = 'preset = "aluminum"\nroughness = 0.4\nanisotropy = 0.8'
-    loaded, hdr, gbuffer, camera = render(gl_egl, write_scene(tmp_path, env, material))
-    from app.frame.lights import environment_texels
-
-    envcfg = loaded.scene.environment
-    sky = environment_texels(envcfg)
-    rot = math.radians(envcfg.rotation)
-    dec = decode_gbuffer(gbuffer, camera)
-    gpu = hdr[dec.covered]
-    dfg, sh = read_dfg_table(), sh9_project(sky, rot)
+    sky, rot, dec, gpu, dfg, sh = sky_pixels(gl_egl, tmp_path, material)
     rng = np.random.default_rng(7)
     bent_err, iso_err = [], []
     for i in rng.choice(len(gpu), 12, replace=False):

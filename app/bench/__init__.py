@@ -1,7 +1,7 @@
 """``pbs bench``: run time against error; docs/performance.md explains it all.
 
     python -m app.bench [--quick] [--out DIR]
-                        [--suites culling,resolution,accuracy,specialization,startup,viewer,batch]
+        [--suites culling,resolution,accuracy,specialization,startup,viewer,batch,ibl]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -25,7 +25,9 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
     from app.bench.suites import Settings
 
 __all__ = ["main"]
-SUITES = ("culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch")
+SUITES = (
+    "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl"
+)  # fmt: skip
 PYRENDER_SUITES = ("culling", "batch")  # the suites with a pyrender row
 
 
@@ -34,7 +36,7 @@ def _parser() -> argparse.ArgumentParser:
         prog="pbs bench",
         description="Measure run time against error: light culling, image size, the accuracy "
         "of each approximation, specialized vs uber lighting shader, cold start, batch "
-        "throughput (docs/performance.md).",
+        "throughput, image-based lighting's prefilter (docs/performance.md).",
     )
     parser.add_argument(
         "--quick", action="store_true", help="smaller images, fewer light counts and frames"
@@ -79,6 +81,8 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
             f"batch orbit of {s.batch_frames} frames at {w}x{h}, {s.batch_rounds} rounds,"
             f" CLI loop {s.batch_cli_frames} frames"
         )
+    if "ibl" in suites:
+        parts.append("ibl: 4 spheres at 96x64, maps 128 wide, 3 environments x 6 prefilter choices")
     b = s.budget
     parts.append(
         f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"

@@ -44,6 +44,7 @@ SKY_SUN = (0.5, 0.6, -0.6)
 # (face size, samples) the suite sweeps; the renderer's own choice is (128, 256).
 CHOICES = ((32, 64), (64, 64), (64, 256), (128, 64), (128, 256), (128, 1024))
 TINY_CHOICES = ((16, 16), (32, 64))
+DEFAULT_CHOICE = (render_ibl.FACE_SIZE, render_ibl.SAMPLES)
 
 # Gold and a red dielectric at two roughnesses, side by side, seen from the front.
 _SCENE = """background = [0.0, 0.0, 0.0]
@@ -234,12 +235,14 @@ def run_ibl(ctx: Context) -> None:
                         "ibl", name, f"face {base}, {samples} samples", size, 0, times,
                         face_size=base, samples=samples, prefilter_ms=pre_ms,
                         prefilter_bytes=render_ibl.levels_bytes(base), map_width=width,
-                        rel_rmse=None, max_rel_err=None,
                         error_reference="float64 brute force over every texel",
+                        comparison=f"IBL prefilter under the {name} (face size, samples)"
+                        " vs brute force",
+                        default=(base, samples) == DEFAULT_CHOICE,
                         **errors(image, ref),
                     )
                 )  # fmt: skip
-                ctx.progress.tick()
+                ctx.progress.done()
 
 
 def ibl_tasks(settings: object) -> int:

@@ -66,7 +66,8 @@ def _label_clusters(ax, members: list[dict], floor: float) -> list[tuple[float, 
 
 
 def plot_pareto(rows: list[dict], path: Path) -> None:
-    fronts = pareto_by_comparison(rows)
+    ibl = {f"ibl {case}": front for case, front in pareto_by_comparison(rows, "ibl").items()}
+    fronts = {**pareto_by_comparison(rows), **ibl}
     n = max(len(fronts), 1)
     cols = min(n, 3)
     nrows = -(-n // cols)

@@ -383,14 +383,15 @@ def pareto_front(points: dict[str, tuple[float, float]]) -> list[str]:
     return front
 
 
-def pareto_by_comparison(rows: list[dict]) -> dict[str, dict]:
-    """For each accuracy comparison: its rows, the front by (ms_median, rel_rmse), and for
-    each variant off the front which variant dominates it, and by how much time."""
+def pareto_by_comparison(rows: list[dict], suite: str = "accuracy") -> dict[str, dict]:
+    """For each comparison (case) of ``suite`` (accuracy, or ibl: one per environment): its
+    rows, the front by (ms_median, rel_rmse), and for each variant off the front which
+    variant dominates it, and by how much time."""
     out: dict[str, dict] = {}
     comps: dict[str, list[dict]] = {}
     for row in rows:
         timed = row.get("ms_median") is not None and row.get("rel_rmse") is not None
-        if row["suite"] == "accuracy" and timed:
+        if row["suite"] == suite and timed:
             comps.setdefault(row["case"], []).append(row)
     for comp, members in comps.items():
         points = {r["variant"]: (r["ms_median"], r["rel_rmse"]) for r in members}
@@ -496,7 +497,9 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     for v in evaluate_targets(rows):
         lines.append(f"| {v.target} | {v.measured} | **{v.status}** |")
     lines += ["", "## Results", ""]
-    suites = ("culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch")
+    suites = (
+        "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl"
+    )  # fmt: skip
     for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
         if not members:
@@ -595,6 +598,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
                 )
         elif suite == "batch":
             lines += _batch_lines(members)
+        elif suite == "ibl":
+            lines += _ibl_lines(rows, members)
         else:
             lines += [
                 "| case | variant | to PNG ms median | min | max | peak RSS MiB | runs |",
@@ -642,6 +647,33 @@ def _batch_lines(members: list[dict]) -> list[str]:
     ratios = next((r["ratios"] for r in members if "ratios" in r), {})
     lines += ["", "Ratios, this run:", ""]
     lines += [f"- {name}: {_fmt(v, '.2f')}" for name, v in ratios.items()]
+    return lines
+
+
+def _ibl_lines(rows: list[dict], members: list[dict]) -> list[str]:
+    """The ibl suite's table: per environment and (face size, samples), the prefilter's
+    time and GPU memory, the frame time and the error against the brute-force image, and
+    whether the choice is on that environment's time-vs-error front."""
+    fronts = pareto_by_comparison(rows, "ibl")
+    lines = [
+        "| environment | face | samples | default | prefilter ms | cube maps MiB | ms median"
+        " | min | max | rel_rmse | FLIP | on front |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in members:
+        front = fronts.get(r["case"], {}).get("front", [])
+        lines.append(
+            f"| {r['case']} | {r['face_size']} | {r['samples']} |"
+            f" {'yes' if r.get('default') else ''} | {_fmt(r['prefilter_ms'])} |"
+            f" {r['prefilter_bytes'] / 2**20:.2f} | {_fmt(r['ms_median'])} |"
+            f" {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} | {_fmt(r['rel_rmse'], '.3f')} |"
+            f" {_fmt(r['flip_mean'], '.3f')} | {'yes' if r['variant'] in front else 'no'} |"
+        )
+    lines.append("")
+    for case, front in fronts.items():
+        lines.append(f"- **{case}**: front {', '.join(front['front'])}.")
+        for variant, why in front["why"].items():
+            lines.append(f"  - '{variant}' is dominated: {why}.")
     return lines
 
 

@@ -1098,6 +1098,14 @@ def run_batch(ctx: Context) -> None:
     run(ctx)
 
 
+def run_ibl(ctx: Context) -> None:
+    """Suite ``ibl``: the prefilter's (face size, samples) against time, memory and error
+    (app/bench/ibl.py)."""
+    from app.bench.ibl import run_ibl as run
+
+    run(ctx)
+
+
 RUNNERS: dict[str, Callable[[Context], None]] = {
     "culling": run_culling,
     "resolution": run_resolution,
@@ -1106,6 +1114,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "startup": run_startup,
     "viewer": run_viewer,
     "batch": run_batch,
+    "ibl": run_ibl,
 }
 
 
@@ -1119,9 +1128,14 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "startup": startup_tasks(settings),
         "viewer": 1,
         "batch": 0,
+        "ibl": 0,
     }
     if "batch" in suites:
         from app.bench.batch import batch_tasks, batch_workers
 
         counts["batch"] = batch_tasks(pyrender, settings.batch_rounds, batch_workers())
+    if "ibl" in suites:
+        from app.bench.ibl import ibl_tasks
+
+        counts["ibl"] = ibl_tasks(settings)
     return sum(counts[s] for s in suites)
