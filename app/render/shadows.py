@@ -209,8 +209,10 @@ class ShadowPass:
     """The shadow maps of a frame's shadowed lights, packed in one depth atlas.
 
     ``lights``: the frame's lights (ordered); ``parts``: the opaque parts that cast and
-    receive. The maps depend only on these, so ``run`` renders them once; a renderer
-    builds a new pass when lights or geometry change."""
+    receive; ``receivers``: parts that only receive (the blended ones), which a directional
+    frustum bounds as well, so that a blended part lies inside the map, and its map is the
+    one the part would have if it were opaque. The maps depend only on these, so ``run``
+    renders them once; a renderer builds a new pass when lights or geometry change."""
 
     def __init__(
         self,
@@ -218,9 +220,10 @@ class ShadowPass:
         shaders: ShaderCache,
         lights: list[PunctualLight],
         parts: list[MeshPart],
+        receivers: list[MeshPart] | None = None,
     ) -> None:
         self.ctx = ctx
-        points = world_points(parts)
+        points = world_points([*parts, *(receivers or [])])
         self.lights: list[int] = []  # per map: its light (six maps for a point light)
         self.matrices: list[np.ndarray] = []
         self.offsets: list[tuple[float, float]] = []
