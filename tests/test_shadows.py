@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
+from app.common.lights import LightType, PunctualLight
 from app.errors import EXIT_BAD_INPUT, InputError
 from app.frame.camera import camera_frame
 from app.frame.lights import frame_lights
@@ -24,7 +25,7 @@ from app.reference.illumination import decode_gbuffer, shade_gbuffer
 from app.reference.raycast import cast, interior_mask, shadow_visibility
 from app.reference.shadows import light_visibilities
 from app.render.renderer import Renderer
-from app.render.shadows import atlas_layout, check_shadow_resolutions
+from app.render.shadows import atlas_layout, check_shadow_resolutions, culled_in, light_bounds
 from app.scene.loader import LoadedScene, load_scene, parse_scene
 
 REPO = Path(__file__).resolve().parent.parent
@@ -199,6 +200,69 @@ def test_lighting_pass_matches_its_twin_with_the_shadow_maps(gl_egl, shadow_filt
     peak = ref[covered].max()
     rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * peak)
     assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"
+
+
+@pytest.mark.parametrize("outer", [5.0, 30.0, 44.0, 46.0, 60.0, 80.0])
+def test_a_spot_s_bounding_sphere_holds_its_cone(outer):
+    """light_bounds of a spot holds every point of its spherical sector (sampled: the apex,
+    the cap, the cone's side), and is no larger than the range sphere."""
+    rng = np.random.default_rng(7)
+    axis = np.array([0.3, -1.0, 0.2]) / np.linalg.norm([0.3, -1.0, 0.2])
+    light = PunctualLight(
+        LightType.SPOT, position=np.array([1.0, 2.0, -0.5]), direction=axis,
+        color=np.ones(3), range=3.0, cos_outer=float(np.cos(np.radians(outer))),
+    )  # fmt: skip
+    centre, radius = light_bounds(light)
+    assert radius <= light.range
+    # points in the sector: directions within the outer angle, distances up to the range
+    u = np.cross(axis, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(axis, u)
+    phi = rng.uniform(0, 2 * np.pi, 20000)
+    theta = np.radians(outer) * np.sqrt(rng.uniform(0, 1, 20000))
+    theta[:2000] = np.radians(outer)  # the rim and the cone's side
+    dist = light.range * rng.uniform(0, 1, 20000) ** (1 / 3)
+    dist[:4000] = light.range  # the cap
+    d = (np.cos(theta)[:, None] * axis + np.sin(theta)[:, None]
+         * (np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w))  # fmt: skip
+    pts = light.position + dist[:, None] * d
+    assert np.linalg.norm(pts - centre, axis=1).max() <= radius * (1 + 1e-12)
+    assert np.linalg.norm(light.position - centre) <= radius * (1 + 1e-12)
+
+
+BEHIND = {**SPOT, "position": [0.0, 2.0, 9.0], "direction": [0.0, -0.3, 1.0], "range": 3.0}
+
+
+def test_a_light_outside_the_frustum_renders_no_map(gl_egl):
+    """A shadowed spot behind the camera (its reach, 3 m, ends before the frustum) renders
+    no map; the image is bit-identical to one whose maps were all rendered; a camera turned
+    towards it renders its map then (once). Fails with culled_in always True (2 maps on
+    the first frame) or with set_camera not rendering a newly needed map."""
+    data = scene_data([FLOOR, *SPHERES], dict(SUN, shadow=True))
+    data["lights"].append(dict(BEHIND, shadow=True, shadow_resolution=256))
+    images = []
+    for force in (False, True):
+        r = Renderer(gl_egl, loaded(data))
+        try:
+            assert not culled_in(r.lights[1], r.proj @ r.view)
+            assert culled_in(r.lights[0], r.proj @ r.view)  # directional: always
+            if force:
+                r.shadows.run()  # every map, as before the culling existed
+                assert r.shadows.maps_rendered == 2
+            r.render()
+            r.render()
+            images.append(r.read_hdr())
+            if not force:
+                assert r.shadows.maps_rendered == 1 and r.shadows.rendered == {0}
+                turned = r.scene.camera.model_copy(update={"target": [0.0, 1.0, 12.0]})
+                r.set_camera(turned)
+                r.render()
+                assert r.shadows.maps_rendered == 2
+                r.render()
+                assert r.shadows.maps_rendered == 2
+        finally:
+            r.release()
+    assert np.array_equal(images[0], images[1])
 
 
 def test_scene_keys_are_validated():

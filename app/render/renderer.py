@@ -405,8 +405,8 @@ class Renderer:
         if self.culler is not None:
             self.culler.run(self.gbuffer, self.view, self.camera)
             clock.done("culling")
-        if self.shadows is not None:  # once after a change of lights or geometry
-            self.shadows.run()
+        if self.shadows is not None:  # each map once, when its light is first culled in
+            self.shadows.run(self.proj @ self.view)
             clock.done("shadows")
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
         if self.background is not None:

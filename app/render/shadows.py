@@ -19,6 +19,9 @@ subdivisions 0.11 % of the radius (measured; docs/shadows.md), so its shadow is 
 much smaller. Alpha-masked parts cast the shadow of their whole surface; blended parts
 cast none.
 
+Culling. A map is rendered only once its light is culled in: its reach (``light_bounds``)
+meets the camera's frustum (``culled_in``); a light outside lights no visible point.
+
 Bias. The pass offsets depth by glPolygonOffset(slope, 1): ``slope`` times the triangle's
 depth slope plus one depth unit (the slope-scaled bias); the lighting pass moves the
 shaded point along its normal by ``normal_offset`` shadow texels (normal offset). Both
@@ -190,6 +193,58 @@ def shadow_frustum(
     return proj @ view, 2.0 * math.tan(half) / resolution, PERSPECTIVE
 
 
+def light_bounds(light: PunctualLight) -> tuple[np.ndarray, float] | None:
+    """(centre, radius) of a sphere holding every point ``light`` reaches, None for a
+    directional light (it reaches everything). A point light: its range sphere. A spot:
+    the smaller of that and the bound of its cone, a spherical sector of half angle t (the
+    outer cone) and radius R: for t <= 45 degrees the sphere through the apex and the cap's
+    rim, centre R / (2 cos t) along the axis and that radius; wider, the cap's rim circle's
+    sphere, centre R cos t along the axis, radius R sin t (both hold the apex, the rim and
+    the cap's pole: derived, checked in tests/test_shadows.py by sampling the sector)."""
+    if light.type == LightType.DIRECTIONAL:
+        return None
+    centre = np.asarray(light.position, np.float64)
+    reach = float(light.range)
+    if light.type != LightType.SPOT:
+        return centre, reach
+    cos_t = float(np.clip(light.cos_outer, 0.0, 1.0))
+    sin_t = math.sqrt(1.0 - cos_t * cos_t)
+    axis = np.asarray(light.direction, np.float64)
+    axis = axis / np.linalg.norm(axis)
+    if cos_t >= sin_t:  # t <= 45 degrees
+        radius = reach / (2.0 * cos_t)
+        offset = radius
+    else:
+        radius, offset = reach * sin_t, reach * cos_t
+    if radius >= reach:
+        return centre, reach
+    return centre + axis * offset, radius
+
+
+def frustum_planes(view_proj: np.ndarray) -> np.ndarray:
+    """(6, 4) planes (a, b, c, d) of the frustum of a world -> clip matrix, normalised so
+    that a x + b y + c z + d is the signed distance (positive inside): the rows' sums and
+    differences, Gribb and Hartmann 2001, "Fast Extraction of Viewing Frustum Planes from
+    the World-View-Projection Matrix"."""
+    m = np.asarray(view_proj, np.float64)
+    planes = np.array(
+        [m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]]
+    )
+    return planes / np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+
+
+def culled_in(light: PunctualLight, view_proj: np.ndarray) -> bool:
+    """Whether ``light``'s bounds (``light_bounds``) may reach the camera's frustum: the
+    sphere is not wholly outside one of its six planes (conservative: a sphere off a
+    corner passes, and then renders a map that nothing reads)."""
+    bounds = light_bounds(light)
+    if bounds is None:
+        return True
+    centre, radius = bounds
+    distances = frustum_planes(view_proj) @ np.append(centre, 1.0)
+    return bool(np.all(distances >= -radius))
+
+
 class _Caster:
     """One part's triangles for the shadow pass: positions only."""
 
@@ -212,7 +267,8 @@ class ShadowPass:
     receive; ``receivers``: parts that only receive (the blended ones), which a directional
     frustum bounds as well, so that a blended part lies inside the map, and its map is the
     one the part would have if it were opaque. The maps depend only on these, so ``run``
-    renders them once; a renderer builds a new pass when lights or geometry change."""
+    renders each map at most once, when a camera first culls its light in (docs/shadows.md);
+    a renderer builds a new pass when lights or geometry change."""
 
     def __init__(
         self,
@@ -264,30 +320,49 @@ class ShadowPass:
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
         self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
         self.casters = [_Caster(ctx, self.prog, part) for part in parts]
-        self.rendered = False
+        self._frame_lights = lights
+        self.rendered: set[int] = set()  # the maps drawn so far (indices into the lists)
+        self.maps_rendered = 0  # maps drawn over this pass's life (tests, bench)
+        self._cleared = False
 
     @property
     def count(self) -> int:
         return len(self.lights)
 
-    def run(self) -> None:
-        """Render every map (once: they change only with a new pass)."""
-        if self.rendered:
+    def needed(self, view_proj: np.ndarray | None) -> list[int]:
+        """The maps a camera of world -> clip ``view_proj`` needs: those of the lights
+        culled in (``culled_in``), every map where ``view_proj`` is None."""
+        if view_proj is None:
+            return list(range(self.count))
+        lights = {i for i in set(self.lights) if culled_in(self._frame_lights[i], view_proj)}
+        return [k for k, i in enumerate(self.lights) if i in lights]
+
+    def run(self, view_proj: np.ndarray | None = None) -> None:
+        """Render the maps the camera ``view_proj`` needs and that are not drawn yet (each
+        once: they change only with a new pass). A light outside the frustum reaches no
+        visible point, so its map, left cleared (lit), changes no pixel; a later camera
+        that sees its reach renders it then."""
+        todo = [k for k in self.needed(view_proj) if k not in self.rendered]
+        if not todo and self._cleared:
             return
         ctx = self.ctx
         self.fbo.use()
         ctx.enable_only(moderngl.DEPTH_TEST)  # two-sided: planes and open meshes cast
         ctx.depth_func = "<"
-        self.fbo.clear(depth=1.0)
-        for matrix, rect, slope in zip(self.matrices, self.rects, self.slopes, strict=True):
+        if not self._cleared:
+            self.fbo.clear(depth=1.0)
+            self._cleared = True
+        for k in todo:
+            rect = self.rects[k]
             ctx.viewport = (int(rect[0]), int(rect[1]), int(rect[2]), int(rect[2]))
-            ctx.polygon_offset = (slope, 1.0)
-            self.prog["u_light_matrix"].write(gl_bytes(matrix))
+            ctx.polygon_offset = (self.slopes[k], 1.0)
+            self.prog["u_light_matrix"].write(gl_bytes(self.matrices[k]))
             for caster in self.casters:
                 self.prog["u_model"].write(caster.model)
                 caster.vao.render(moderngl.TRIANGLES)
+            self.rendered.add(k)
+            self.maps_rendered += 1
         ctx.polygon_offset = (0.0, 0.0)
-        self.rendered = True
 
     def bind(self, prog: moderngl.Program) -> None:
         """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
