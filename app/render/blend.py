@@ -50,7 +50,7 @@ def blend_defines(lighting: LightingPass) -> dict[str, int]:
     if lighting.ibl is not None:
         defines.update(lighting.ibl.defines())
     if lighting.shadows is not None:
-        defines["SHADOWS"] = lighting.shadows.count
+        defines.update(lighting.shadows.defines())
     return defines
 
 

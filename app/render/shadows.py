@@ -152,6 +152,9 @@ def world_points(parts: list[MeshPart]) -> np.ndarray:
     return np.concatenate(pts) if pts else np.zeros((1, 3))
 
 
+# A map's filter as glsl/lights/shadows.glsl's u_shadow_rect[k].w reads it.
+FILTER_CODES = {"none": 0.0, "pcf": 1.0, "pcss": 2.0}
+
 # A map's projection as glsl/lights/shadows.glsl's u_shadow_offset[k].y reads it.
 ORTHOGRAPHIC, PERSPECTIVE, CUBE = 0.0, 1.0, 2.0
 
@@ -289,6 +292,9 @@ class ShadowPass:
         self.texels: list[float] = []
         sizes: list[int] = []
         pcf: list[float] = []
+        # PCSS's constants per map (glsl/lights/shadows.glsl u_shadow_pcss): light size,
+        # near and far (perspective) or 0 and the depth extent (orthographic), texel size.
+        self.pcss: list[tuple[float, float, float, float]] = []
         for i, light in enumerate(lights):
             s = light.shadow
             if s is None:
@@ -300,7 +306,13 @@ class ShadowPass:
                 self.slopes.append(s.slope)
                 self.texels.append(texel)
                 sizes.append(s.resolution)
-                pcf.append(float(s.filter == "pcf"))
+                pcf.append(FILTER_CODES[s.filter])
+                if kind == ORTHOGRAPHIC:  # the view is a rotation: row 2 is 2 / extent long
+                    near, far = 0.0, 2.0 / float(np.linalg.norm(matrix[2, :3]))
+                else:
+                    near, far = near_plane(light.range), float(light.range)
+                self.pcss.append((s.light_size, near, far, texel))
+        self.has_pcss = any(code == FILTER_CODES["pcss"] for code in pcf)
         origins, width, height = atlas_layout(sizes, max_dimension(ctx))
         self.rects = [
             (float(x), float(y), float(size), f)
@@ -313,6 +325,8 @@ class ShadowPass:
             "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
             "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
         }
+        if self.has_pcss:
+            self._uniforms["u_shadow_pcss"] = np.asarray(self.pcss, np.float32).tobytes()
         self.atlas = ctx.depth_texture((width, height))
         self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
         self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -329,6 +343,14 @@ class ShadowPass:
     def count(self) -> int:
         return len(self.lights)
 
+    def defines(self) -> dict[str, int]:
+        """The lighting and blend programs' defines: SHADOWS, and SHADOW_PCSS only where a
+        map uses PCSS (a scene without compiles as before PCSS existed)."""
+        defines = {"SHADOWS": self.count}
+        if self.has_pcss:
+            defines["SHADOW_PCSS"] = 1
+        return defines
+
     def needed(self, view_proj: np.ndarray | None) -> list[int]:
         """The maps a camera of world -> clip ``view_proj`` needs: those of the lights
         culled in (``culled_in``), every map where ``view_proj`` is None."""
@@ -336,6 +358,12 @@ class ShadowPass:
             return list(range(self.count))
         lights = {i for i in set(self.lights) if culled_in(self._frame_lights[i], view_proj)}
         return [k for k, i in enumerate(self.lights) if i in lights]
+
+    def invalidate(self) -> None:
+        """Forget every map drawn: the next ``run`` clears the atlas and draws again what
+        its camera needs (the bench's shadows suite times that)."""
+        self.rendered.clear()
+        self._cleared = False
 
     def run(self, view_proj: np.ndarray | None = None) -> None:
         """Render the maps the camera ``view_proj`` needs and that are not drawn yet (each
@@ -376,7 +404,7 @@ class ShadowPass:
         depth = np.frombuffer(self.atlas.read(), np.float32).reshape(h, w).astype(np.float64)
         return ShadowMaps(
             depth, tuple(self.lights), tuple(self.matrices), tuple(self.rects),
-            tuple(self.offsets),
+            tuple(self.offsets), tuple(self.pcss),
         )  # fmt: skip
 
     def release(self) -> None:
