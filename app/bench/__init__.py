@@ -1,7 +1,8 @@
 """``pbs bench``: run time against error; docs/performance.md explains it all.
 
     python -m app.bench [--quick] [--out DIR]
-                        [--suites culling,resolution,accuracy,specialization,startup,viewer,batch]
+                        [--suites culling,resolution,accuracy,specialization,startup,viewer,batch,
+                                  shadows]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -25,7 +26,10 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
     from app.bench.suites import Settings
 
 __all__ = ["main"]
-SUITES = ("culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch")
+SUITES = (
+    "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch",
+    "shadows",
+)  # fmt: skip
 PYRENDER_SUITES = ("culling", "batch")  # the suites with a pyrender row
 
 
@@ -34,7 +38,7 @@ def _parser() -> argparse.ArgumentParser:
         prog="pbs bench",
         description="Measure run time against error: light culling, image size, the accuracy "
         "of each approximation, specialized vs uber lighting shader, cold start, batch "
-        "throughput (docs/performance.md).",
+        "throughput, shadow filters and map sizes (docs/performance.md, docs/shadows.md).",
     )
     parser.add_argument(
         "--quick", action="store_true", help="smaller images, fewer light counts and frames"
@@ -79,6 +83,10 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
             f"batch orbit of {s.batch_frames} frames at {w}x{h}, {s.batch_rounds} rounds,"
             f" CLI loop {s.batch_cli_frames} frames"
         )
+    if "shadows" in suites:
+        w, h = s.shadow_size
+        sizes = ", ".join(str(n) for n in s.shadow_resolutions)
+        parts.append(f"shadows {w}x{h}, maps of {sizes}")
     b = s.budget
     parts.append(
         f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"
