@@ -42,7 +42,10 @@ def shadow_settings(light: Light) -> ShadowSettings | None:
         if light.type == "directional"
         else float(light.shadow_light_radius)
     )
-    return ShadowSettings(light.shadow_resolution, slope, normal_offset, light.shadow_filter, size)
+    return ShadowSettings(
+        light.shadow_resolution, slope, normal_offset, light.shadow_filter, size,
+        light.shadow_cascades,
+    )  # fmt: skip
 
 
 def fibonacci_sphere(count: int) -> np.ndarray:

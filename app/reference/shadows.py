@@ -48,11 +48,33 @@ def vogel_tap(i: int, n: int) -> np.ndarray:
     return r * np.array([np.cos(a), np.sin(a)])
 
 
+def orthographic(maps: ShadowMaps, k: int) -> bool:
+    """Map ``k`` is orthographic: a directional light's map or one of its cascades."""
+    kind = maps.offsets[k][1]
+    return kind < 0.5 or kind > 2.5
+
+
+# A cascade holds a point this many texels inside its edges (the filter's taps stay in it).
+CASCADE_MARGIN = 3.0
+
+
+def in_cascade(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """(N,) bool: points ``p`` moved by their normal offset lie in cascade ``k``'s map,
+    ``CASCADE_MARGIN`` texels inside its edges, and within its depth (glsl in_cascade)."""
+    m = np.asarray(maps.matrices[k], np.float64)
+    q = p + n * maps.offsets[k][0]
+    clip = q @ m[:3, :3].T + m[:3, 3]
+    w = q @ m[3, :3] + m[3, 3]
+    ndc = clip / w[:, None]
+    edge = 1.0 - 2.0 * CASCADE_MARGIN / maps.rects[k][2]
+    return np.all(np.abs(ndc[:, :2]) <= edge, axis=1) & (np.abs(ndc[:, 2]) <= 1.0)
+
+
 def shadow_linear_depth(maps: ShadowMaps, k: int, z: np.ndarray) -> np.ndarray:
     """Window depth ``z`` of map ``k`` as metres from the light (perspective: along the
     axis) or from the orthographic map's near plane."""
     _, near, far, _ = maps.pcss[k]
-    if maps.offsets[k][1] < 0.5:
+    if orthographic(maps, k):
         return z * far
     return near * far / (far - z * (far - near))
 
@@ -81,7 +103,7 @@ def pcss_visibility(
     x0, y0, size, _ = maps.rects[k]
     lo = np.array([int(x0), int(y0)])
     hi = lo + int(size) - 1
-    ortho = maps.offsets[k][1] < 0.5
+    ortho = orthographic(maps, k)
     d_r = shadow_linear_depth(maps, k, z)
     texel = texel_c * (np.ones_like(d_r) if ortho else d_r)
     a = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
@@ -235,6 +257,22 @@ def light_visibilities(
     p = np.asarray(p, np.float64)
     for k, i in enumerate(maps.lights):
         if out[i] is not None:  # the other faces of a point light, done with its first
+            continue
+        if maps.offsets[k][1] > 2.5:  # cascades k, k + 1, ...: the first that holds p
+            n = np.asarray(n, np.float64)
+            cascades = [c for c in range(k, len(maps.lights)) if maps.lights[c] == i]
+            choice = np.full(len(p), cascades[-1])
+            left = np.ones(len(p), bool)
+            for c in cascades:
+                take = left & in_cascade(maps, c, p, n)
+                choice[take] = c
+                left &= ~take
+            v = np.ones(len(p))
+            for c in cascades:
+                sel = choice == c
+                if np.any(sel):
+                    v[sel] = shadow_map_visibility(maps, c, p[sel], n[sel])
+            out[i] = v
             continue
         if maps.offsets[k][1] < 1.5:
             out[i] = shadow_map_visibility(maps, k, p, n)

@@ -4,12 +4,14 @@ in the lighting pass (compiled in only where a light has ``shadow = true``: ``SH
 
 Frusta. A directional light gets an orthographic frustum fitted to the light-space bounds
 of every opaque part's vertices (an analytic sphere's enclosing proxy), so every caster and
-receiver lies inside its map; there are no cascades, so a large floor spreads the texels
-thinly (docs/shadows.md). A spot light gets a perspective frustum along its axis whose
-field of view is the outer cone plus one degree, from ``near_plane`` to its range (the
-window falloff is exactly 0 beyond it). A point light gets six 90-degree perspective maps,
-the faces of a cube around it (same near and far), each in its own place in the atlas; the
-lookup reads the one face along the major axis of the direction from the light.
+receiver lies inside its map and a large floor spreads the texels thinly; with
+``shadow_cascades`` it gets several, each fitted to a slice of the camera's view and
+refitted when the camera moves (``cascade_frusta``; docs/shadows.md). A spot light gets a
+perspective frustum along its axis whose field of view is the outer cone plus one degree,
+from ``near_plane`` to its range (the window falloff is exactly 0 beyond it). A point
+light gets six 90-degree perspective maps, the faces of a cube around it (same near and
+far), each in its own place in the atlas; the lookup reads the one face along the major
+axis of the direction from the light.
 
 Geometry. Mesh parts are drawn as they are. An analytic sphere, whose exact depth the
 G-buffer pass writes per pixel from the camera's ray, is drawn here as the icosphere of
@@ -30,6 +32,7 @@ per light (``shadow_bias``); defaults and why in docs/shadows.md.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import moderngl
@@ -155,8 +158,64 @@ def world_points(parts: list[MeshPart]) -> np.ndarray:
 # A map's filter as glsl/lights/shadows.glsl's u_shadow_rect[k].w reads it.
 FILTER_CODES = {"none": 0.0, "pcf": 1.0, "pcss": 2.0}
 
-# A map's projection as glsl/lights/shadows.glsl's u_shadow_offset[k].y reads it.
-ORTHOGRAPHIC, PERSPECTIVE, CUBE = 0.0, 1.0, 2.0
+# A map's projection as glsl/lights/shadows.glsl's u_shadow_offset[k].y reads it: a
+# cascade is orthographic, one of its light's consecutive maps, nearest slice first.
+ORTHOGRAPHIC, PERSPECTIVE, CUBE, CASCADE = 0.0, 1.0, 2.0, 3.0
+
+# The practical split scheme's weight of the logarithmic split (Zhang et al. 2006,
+# "Parallel-Split Shadow Maps on Programmable GPUs"): d_j = w d_log + (1 - w) d_uniform.
+CASCADE_LOG_WEIGHT = 0.75
+
+
+def cascade_splits(near: float, far: float, count: int) -> list[float]:
+    """The ``count + 1`` view depths that cut [near, far] into cascades: the practical
+    split scheme (``CASCADE_LOG_WEIGHT``)."""
+    out = []
+    for j in range(count + 1):
+        log = near * (far / near) ** (j / count)
+        uniform = near + (far - near) * j / count
+        out.append(CASCADE_LOG_WEIGHT * log + (1.0 - CASCADE_LOG_WEIGHT) * uniform)
+    return out
+
+
+def cascade_frusta(
+    light: PunctualLight, points: np.ndarray, resolution: int, count: int, view_proj: np.ndarray
+) -> list[tuple[np.ndarray, float]]:
+    """(world -> clip matrix, texel metres) of each of a directional light's ``count``
+    cascades for the camera ``view_proj`` (a perspective world -> clip matrix): the view
+    from the near plane to the farthest scene point it sees (at most its far plane) cut by
+    ``cascade_splits``; each cascade an orthographic map along the light whose x, y bound
+    its slice of the view and whose depth bounds the slice and every scene point (so every
+    caster between the light and the slice is in it), padded as ``shadow_frustum``."""
+    m = np.asarray(view_proj, np.float64)
+    inv = np.linalg.inv(m)
+    ends = []
+    for z in (-1.0, 1.0):  # the near and far planes' corners
+        c = np.array([[x, y, z, 1.0] for x in (-1.0, 1.0) for y in (-1.0, 1.0)]) @ inv.T
+        ends.append(c[:, :3] / c[:, 3:])
+    near_c, far_c = ends
+    near = float((m[3, :3] @ near_c[0]) + m[3, 3])  # clip w: the view depth
+    far = float((m[3, :3] @ far_c[0]) + m[3, 3])
+    depth = points @ m[3, :3] + m[3, 3]
+    reach = float(np.clip(depth.max(), near * (1.0 + 1e-6), far))
+    view = look_along(np.zeros(3), light.direction)
+    local_pts = points @ view[:3, :3].T
+    out = []
+    splits = cascade_splits(near, reach, count)
+    for d0, d1 in itertools.pairwise(splits):
+        t = np.array([(d0 - near) / (far - near), (d1 - near) / (far - near)])
+        corners = np.concatenate([near_c + (far_c - near_c) * ti for ti in t])
+        local = corners @ view[:3, :3].T
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        z_lo = min(lo[2], local_pts[:, 2].min())
+        z_hi = max(hi[2], local_pts[:, 2].max())
+        extent = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-6))
+        pad = 0.01 * extent + 1e-6
+        lo_box = np.array([lo[0] - pad, lo[1] - pad, -z_hi - pad])
+        hi_box = np.array([hi[0] + pad, hi[1] + pad, -z_lo + pad])
+        texel = max(hi_box[0] - lo_box[0], hi_box[1] - lo_box[1]) / resolution
+        out.append((orthographic(lo_box, hi_box) @ view, float(texel)))
+    return out
 
 
 def shadow_frusta(
@@ -295,11 +354,19 @@ class ShadowPass:
         # PCSS's constants per map (glsl/lights/shadows.glsl u_shadow_pcss): light size,
         # near and far (perspective) or 0 and the depth extent (orthographic), texel size.
         self.pcss: list[tuple[float, float, float, float]] = []
+        self._points = points
+        # (first map, light index, cascades) of each cascaded light, refitted per camera
+        self._cascaded: list[tuple[int, int, int]] = []
+        self._cascade_camera: np.ndarray | None = None
         for i, light in enumerate(lights):
             s = light.shadow
             if s is None:
                 continue
-            for matrix, texel, kind in shadow_frusta(light, points, s.resolution):
+            frusta = shadow_frusta(light, points, s.resolution)
+            if s.cascades > 1:  # fitted to the whole scene until a camera refits them
+                self._cascaded.append((len(self.lights), i, s.cascades))
+                frusta = [(frusta[0][0], frusta[0][1], CASCADE)] * s.cascades
+            for matrix, texel, kind in frusta:
                 self.lights.append(i)
                 self.matrices.append(matrix)
                 self.offsets.append((s.normal_offset * texel, kind))
@@ -307,7 +374,7 @@ class ShadowPass:
                 self.texels.append(texel)
                 sizes.append(s.resolution)
                 pcf.append(FILTER_CODES[s.filter])
-                if kind == ORTHOGRAPHIC:  # the view is a rotation: row 2 is 2 / extent long
+                if kind in (ORTHOGRAPHIC, CASCADE):  # a rotation: row 2 is 2 / extent long
                     near, far = 0.0, 2.0 / float(np.linalg.norm(matrix[2, :3]))
                 else:
                     near, far = near_plane(light.range), float(light.range)
@@ -318,15 +385,8 @@ class ShadowPass:
             (float(x), float(y), float(size), f)
             for (x, y), size, f in zip(origins, sizes, pcf, strict=True)
         ]
-        # The lighting programs' uniforms, constant for this pass's life: packed once.
-        self._uniforms = {
-            "u_shadow_light": np.asarray(self.lights, np.int32).tobytes(),
-            "u_shadow_matrix": b"".join(gl_bytes(m) for m in self.matrices),
-            "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
-            "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
-        }
-        if self.has_pcss:
-            self._uniforms["u_shadow_pcss"] = np.asarray(self.pcss, np.float32).tobytes()
+        self._frame_lights = lights
+        self._pack_uniforms()
         self.atlas = ctx.depth_texture((width, height))
         self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
         self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -334,7 +394,6 @@ class ShadowPass:
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
         self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
         self.casters = [_Caster(ctx, self.prog, part) for part in parts]
-        self._frame_lights = lights
         self.rendered: set[int] = set()  # the maps drawn so far (indices into the lists)
         self.maps_rendered = 0  # maps drawn over this pass's life (tests, bench)
         self._cleared = False
@@ -344,11 +403,14 @@ class ShadowPass:
         return len(self.lights)
 
     def defines(self) -> dict[str, int]:
-        """The lighting and blend programs' defines: SHADOWS, and SHADOW_PCSS only where a
-        map uses PCSS (a scene without compiles as before PCSS existed)."""
+        """The lighting and blend programs' defines: SHADOWS, SHADOW_PCSS only where a map
+        uses PCSS and SHADOW_CASCADES only where a light has cascades (a scene without
+        compiles as before they existed)."""
         defines = {"SHADOWS": self.count}
         if self.has_pcss:
             defines["SHADOW_PCSS"] = 1
+        if self._cascaded:
+            defines["SHADOW_CASCADES"] = 1
         return defines
 
     def needed(self, view_proj: np.ndarray | None) -> list[int]:
@@ -358,6 +420,40 @@ class ShadowPass:
             return list(range(self.count))
         lights = {i for i in set(self.lights) if culled_in(self._frame_lights[i], view_proj)}
         return [k for k, i in enumerate(self.lights) if i in lights]
+
+    def _pack_uniforms(self) -> None:
+        """The lighting programs' uniforms, packed once (again only when cascades are
+        refitted to a new camera)."""
+        self._uniforms = {
+            "u_shadow_light": np.asarray(self.lights, np.int32).tobytes(),
+            "u_shadow_matrix": b"".join(gl_bytes(m) for m in self.matrices),
+            "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
+            "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
+        }
+        if self.has_pcss:
+            self._uniforms["u_shadow_pcss"] = np.asarray(self.pcss, np.float32).tobytes()
+
+    def _fit_cascades(self, view_proj: np.ndarray) -> None:
+        """Refit every cascaded light's maps to the camera ``view_proj`` (where it moved
+        since the last fit) and mark them to be drawn again."""
+        if not self._cascaded or (
+            self._cascade_camera is not None and np.array_equal(self._cascade_camera, view_proj)
+        ):
+            return
+        self._cascade_camera = np.array(view_proj, np.float64)
+        for first, i, count in self._cascaded:
+            light = self._frame_lights[i]
+            s = light.shadow
+            assert s is not None
+            fits = cascade_frusta(light, self._points, s.resolution, count, view_proj)
+            for k, (matrix, texel) in enumerate(fits, start=first):
+                self.matrices[k] = matrix
+                self.texels[k] = texel
+                self.offsets[k] = (s.normal_offset * texel, CASCADE)
+                far = 2.0 / float(np.linalg.norm(matrix[2, :3]))
+                self.pcss[k] = (s.light_size, 0.0, far, texel)
+                self.rendered.discard(k)
+        self._pack_uniforms()
 
     def invalidate(self) -> None:
         """Forget every map drawn: the next ``run`` clears the atlas and draws again what
@@ -370,6 +466,8 @@ class ShadowPass:
         once: they change only with a new pass). A light outside the frustum reaches no
         visible point, so its map, left cleared (lit), changes no pixel; a later camera
         that sees its reach renders it then."""
+        if view_proj is not None:
+            self._fit_cascades(view_proj)
         todo = [k for k in self.needed(view_proj) if k not in self.rendered]
         if not todo and self._cleared:
             return
@@ -383,6 +481,7 @@ class ShadowPass:
         for k in todo:
             rect = self.rects[k]
             ctx.viewport = (int(rect[0]), int(rect[1]), int(rect[2]), int(rect[2]))
+            self.fbo.clear(depth=1.0, viewport=ctx.viewport)  # a refitted cascade's old depths
             ctx.polygon_offset = (self.slopes[k], 1.0)
             self.prog["u_light_matrix"].write(gl_bytes(self.matrices[k]))
             for caster in self.casters:

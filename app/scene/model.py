@@ -196,6 +196,8 @@ class Light(_Strict):
     # directional light's angular radius in degrees (the sun's is about 0.27).
     shadow_light_radius: Annotated[Real, Field(gt=0.0, le=10.0)] = 0.05
     shadow_light_angle: Annotated[Real, Field(gt=0.0, le=10.0)] = 0.27
+    # A directional light's cascades (docs/shadows.md): maps fitted to slices of the view.
+    shadow_cascades: Annotated[int, Field(strict=True, ge=1, le=4)] = 1
 
     @model_validator(mode="after")
     def _check(self) -> Light:
@@ -233,6 +235,11 @@ class Light(_Strict):
         for key in ("shadow_resolution", "shadow_bias", "shadow_filter"):
             if not self.shadow and getattr(self, key) != Light.model_fields[key].default:
                 raise ValueError(f"{key}: needs shadow = true")
+        if self.shadow_cascades != 1:
+            if self.type != "directional":
+                raise ValueError(f"shadow_cascades: does not apply to a {self.type} light")
+            if not self.shadow:
+                raise ValueError("shadow_cascades: needs shadow = true")
         # The light size: for PCSS only, and the one of the light's kind.
         size_key = "shadow_light_angle" if self.type == "directional" else "shadow_light_radius"
         for key in ("shadow_light_radius", "shadow_light_angle"):

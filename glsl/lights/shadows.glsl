@@ -19,7 +19,8 @@ uniform mat4 u_shadow_matrix[SHADOWS];       // world -> map k's clip space
 uniform vec4 u_shadow_rect[SHADOWS];
 // Map k: x the normal offset in metres (directional) or in metres per metre of distance
 // from the light (spot, cube face: a texel grows with distance), y 0 for an orthographic
-// map, 1 for a spot's, 2 for a point light's cube face (six in a row: +x -x +y -y +z -z).
+// map, 1 for a spot's, 2 for a point light's cube face (six in a row: +x -x +y -y +z -z),
+// 3 for a directional light's cascade (orthographic; its cascades in a row, nearest first).
 uniform vec2 u_shadow_offset[SHADOWS];
 
 // 1 where the receiver's window depth z is not behind the occluder depth in texel t.
@@ -54,7 +55,7 @@ vec2 vogel_tap(int i, int n) {
 // axis) or from the orthographic map's near plane.
 float shadow_linear_depth(int k, float z) {
     vec4 c = u_shadow_pcss[k];
-    if (u_shadow_offset[k].y < 0.5) return z * c.z;
+    if (u_shadow_offset[k].y < 0.5 || u_shadow_offset[k].y > 2.5) return z * c.z;
     return c.y * c.z / (c.z - z * (c.z - c.y));
 }
 
@@ -86,7 +87,7 @@ float pcss_visibility(int k, vec3 q, vec3 n, vec2 pos, float z) {
     vec4 rect = u_shadow_rect[k];
     ivec2 lo = ivec2(rect.xy);
     ivec2 hi = lo + ivec2(rect.z) - 1;
-    bool ortho = u_shadow_offset[k].y < 0.5;
+    bool ortho = u_shadow_offset[k].y < 0.5 || u_shadow_offset[k].y > 2.5;
     float d_r = shadow_linear_depth(k, z);
     float texel = ortho ? c.w : c.w * d_r;   // metres a texel at the receiver
     // The receiver's plane in map space: two tangents of n, a texel long, projected.
@@ -180,12 +181,35 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
     return sum / 9.0;
 }
 
+#if SHADOW_CASCADES
+// Whether p (moved by its normal offset) lies in cascade k's map, CASCADE_MARGIN texels
+// inside its edges (so that the filter's taps stay in it), and within its depth.
+const float CASCADE_MARGIN = 3.0;
+bool in_cascade(int k, vec3 p, vec3 n) {
+    vec4 clip = u_shadow_matrix[k] * vec4(p + n * u_shadow_offset[k].x, 1.0);
+    vec3 ndc = clip.xyz / clip.w;
+    float edge = 1.0 - 2.0 * CASCADE_MARGIN / u_shadow_rect[k].z;
+    return all(lessThanEqual(abs(ndc.xy), vec2(edge))) && abs(ndc.z) <= 1.0;
+}
+#endif
+
 // Visibility of light i at p, l the unit direction from p to the light: its map's, for a
-// point light the cube face along the major axis of -l; 1 for a light without a map.
+// point light the cube face along the major axis of -l, for a cascaded light its first
+// cascade that holds p (else its last); 1 for a light without a map.
 float shadow_visibility(int i, vec3 p, vec3 n, vec3 l) {
     for (int k = 0; k < SHADOWS; ++k) {
         if (u_shadow_light[k] != i) continue;
         int map = k;
+#if SHADOW_CASCADES
+        if (u_shadow_offset[k].y > 2.5) {        // cascades: the first that holds p
+            for (int c = k; c < SHADOWS; ++c) {
+                if (u_shadow_light[c] != i) break;
+                map = c;
+                if (in_cascade(c, p, n)) break;
+            }
+            return shadow_map_visibility(map, p, n);
+        }
+#endif
         if (u_shadow_offset[k].y > 1.5) {        // faces k .. k + 5
             vec3 a = abs(l);
             int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
