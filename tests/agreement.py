@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.scene.loader import LoadedScene
+from app.scene.model import Light
 
 
 def relative_error(gpu: np.ndarray, ref: np.ndarray, floor: float) -> np.ndarray:
@@ -23,7 +24,7 @@ def without_shadows(loaded: LoadedScene) -> LoadedScene:
     the twins shade without a light's visibility, so tests that compare the lighting with
     them compare the unshadowed scene; tests/test_shadows.py measures shadows against the
     ray-caster's shadow rays (docs/shadows.md)."""
-    keys = {"shadow", "shadow_resolution", "shadow_bias", "shadow_filter"}
+    keys = {key for key in Light.model_fields if key.startswith("shadow")}
     lights = [
         type(light).model_validate(light.model_dump(exclude=keys)) for light in loaded.scene.lights
     ]

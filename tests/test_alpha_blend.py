@@ -237,3 +237,42 @@ def test_scene_without_blend_has_no_blend_pass(gl_egl, tmp_path):
         gl_egl, scene({"pane": {**m, "alpha_mode": "blend"}}, [quad("pane", 0.3)], [SUN]), tmp_path
     )
     np.testing.assert_array_equal(updated, fresh.astype(np.float32))
+
+
+def test_blended_part_gets_shadows_and_image_based_light(gl_egl, tmp_path):
+    """The blend pass shades with the lighting pass's surface_radiance
+    (glsl/lights/shading.glsl): a blended quad under a sky environment, in the shadow of an
+    opaque sphere, is a * (the quad opaque) + (1 - a) * (the quad of coverage 0) where it
+    covers the image, so its shadow and image-based light are the opaque quad's. Fails with
+    either term left out of the blend pass (checked: without the shadow 36 of the 675
+    covered channels differ; without the sky all 675, by up to 0.19). Blended parts cast no shadow,
+    so the comparison is on the pixels the quad covers; they must hold a shadow. The
+    coverage-0 quad (not an image without it) keeps the directional map's frustum, which
+    bounds blended receivers too (app/render/shadows.py), the same in all three."""
+    alpha = 0.6
+    # Straight back from the camera's side: the opaque quad's own shadow on the floor lies
+    # behind it, out of view, so that it does not count as covered.
+    sun = {**SUN, "direction": [0.0, -0.3, -1.0], "shadow": True, "shadow_resolution": 256}
+    ball = {"shape": "sphere", "radius": 0.15, "position": [0.1, 0.55, 0.9], "material": "ball"}
+    m = {"base_color": [0.9, 0.6, 0.3], "roughness": 0.4}
+    images = []
+    for pane, lights in (
+        ({**m, "alpha": alpha, "alpha_mode": "blend"}, [sun]),
+        ({**m, "alpha_mode": "opaque"}, [sun]),
+        ({**m, "alpha": 0.0, "alpha_mode": "blend"}, [sun]),
+        ({**m, "alpha": alpha, "alpha_mode": "blend"}, [{**SUN, "direction": sun["direction"]}]),
+    ):
+        materials = {"ball": {"base_color": [0.8, 0.8, 0.8], "roughness": 0.5}, "pane": pane}
+        data = scene(materials, [ball, quad("pane", 0.3)], lights)
+        data["environment"] = {"source": "sky", "sun_direction": [0.5, 0.6, 0.6]}
+        data["environment"]["intensity"] = 0.05
+        images.append(render(gl_egl, data, tmp_path))
+    blended, opaque, without, unshadowed = images
+    covered = np.abs(opaque - without).max(axis=2) > 1e-3
+    assert covered.mean() > 0.1
+    expected = alpha * opaque + (1.0 - alpha) * without
+    tol = TOLERANCE * max(1, expected.max())
+    np.testing.assert_allclose(blended[covered], expected[covered], rtol=0, atol=tol)
+    # The sphere's shadow falls on the quad: covered pixels that the shadow darkens.
+    shadowed = covered & ((unshadowed - blended).max(axis=2) > 0.05)
+    assert shadowed.sum() > 10

@@ -64,7 +64,8 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
         assert row["ms_min"] <= row["ms_median"] <= row["ms_max"]
     suites = {r["suite"] for r in rows}
     assert suites == {
-        "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl"
+        "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
+        "shadows",
     }  # fmt: skip
     viewer = {r["variant"]: r for r in rows if r["suite"] == "viewer"}
     assert set(viewer) == {"orbit", "roughness", "refine", "new model notice",

@@ -28,6 +28,8 @@ FEATURES = {
         "SPECULAR_AA": 1,
         "TONEMAP": 1,  # post/tonemap.glsl's tonemap_selected
         "SHADOWS": 2,  # lights/shadows.glsl: two shadow maps
+        "SHADOW_PCSS": 1,  # and their PCSS filter
+        "SHADOW_CASCADES": 1,  # and a directional light's cascades
     },
 }
 

@@ -1,7 +1,8 @@
 """``pbs bench``: run time against error; docs/performance.md explains it all.
 
     python -m app.bench [--quick] [--out DIR]
-        [--suites culling,resolution,accuracy,specialization,startup,viewer,batch,ibl]
+        [--suites culling,resolution,accuracy,specialization,startup,viewer,batch,ibl,
+                  shadows]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -26,7 +27,8 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
 
 __all__ = ["main"]
 SUITES = (
-    "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl"
+    "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
+    "shadows",
 )  # fmt: skip
 PYRENDER_SUITES = ("culling", "batch")  # the suites with a pyrender row
 
@@ -36,7 +38,8 @@ def _parser() -> argparse.ArgumentParser:
         prog="pbs bench",
         description="Measure run time against error: light culling, image size, the accuracy "
         "of each approximation, specialized vs uber lighting shader, cold start, batch "
-        "throughput, image-based lighting's prefilter (docs/performance.md).",
+        "throughput, image-based lighting's prefilter, shadow filters and map sizes "
+        "(docs/performance.md, docs/ibl.md, docs/shadows.md).",
     )
     parser.add_argument(
         "--quick", action="store_true", help="smaller images, fewer light counts and frames"
@@ -83,6 +86,10 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
         )
     if "ibl" in suites:
         parts.append("ibl: 4 spheres at 96x64, maps 128 wide, 3 environments x 6 prefilter choices")
+    if "shadows" in suites:
+        w, h = s.shadow_size
+        sizes = ", ".join(str(n) for n in s.shadow_resolutions)
+        parts.append(f"shadows {w}x{h}, maps of {sizes}")
     b = s.budget
     parts.append(
         f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"

@@ -498,7 +498,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
         lines.append(f"| {v.target} | {v.measured} | **{v.status}** |")
     lines += ["", "## Results", ""]
     suites = (
-        "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl"
+        "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
+        "shadows",
     )  # fmt: skip
     for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
@@ -600,6 +601,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
             lines += _batch_lines(members)
         elif suite == "ibl":
             lines += _ibl_lines(rows, members)
+        elif suite == "shadows":
+            lines += _shadow_lines(members)
         else:
             lines += [
                 "| case | variant | to PNG ms median | min | max | peak RSS MiB | runs |",
@@ -624,6 +627,46 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     if notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
     return "\n".join(lines)
+
+
+def shadow_fronts(rows: list[dict]) -> dict[str, list[str]]:
+    """Per light type of the shadows suite: the variants on the front of (frame ms,
+    lit/unlit mismatch fraction), among the shadowed rows."""
+    out: dict[str, list[str]] = {}
+    for case in dict.fromkeys(r["case"] for r in rows if r["suite"] == "shadows"):
+        points = {
+            r["variant"]: (r["ms_median"], r["mismatch"])
+            for r in rows
+            if r["suite"] == "shadows" and r["case"] == case and r.get("mismatch") is not None
+        }
+        out[case] = pareto_front(points)
+    return out
+
+
+def _shadow_lines(members: list[dict]) -> list[str]:
+    """The shadows suite's table: frame time (shadow pass redrawn each frame), its passes,
+    the lit/unlit mismatch against the ray-caster, and the time-vs-error front."""
+    fronts = shadow_fronts(members)
+    lines = [
+        "| light | variant | ms median | min | max | shadow pass ms | lighting ms |"
+        " mismatch vs ray-caster | on front |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in members:
+        passes = r.get("passes_ms") or {}
+        on = (
+            ""
+            if r.get("mismatch") is None
+            else "yes"
+            if r["variant"] in fronts[r["case"]]
+            else "no"
+        )
+        lines.append(
+            f"| {r['case']} | {r['variant']} | {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])} |"
+            f" {_fmt(r['ms_max'])} | {_fmt(passes.get('shadows'))} |"
+            f" {_fmt(passes.get('lighting'))} | {_fmt(r.get('mismatch'), '.2e')} | {on} |"
+        )
+    return lines
 
 
 def _batch_lines(members: list[dict]) -> list[str]:

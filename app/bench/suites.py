@@ -43,6 +43,7 @@ from app.bench.scenes import (
     many_lights_scene,
     specialization_scene,
 )
+from app.bench.shadows import run_shadows, shadows_tasks
 from app.bench.startup import cold_start
 from app.bench.timing import (
     Budget,
@@ -99,6 +100,10 @@ class Settings:
     batch_rounds: int = 3
     batch_cli_frames: int = 5  # one pbs render process each
     batch_subdivisions: int = 6  # the mesh: 20 * 4^n triangles
+    # Suite shadows (app/bench/shadows.py): the image, and the map sizes (the last one
+    # also times no shadow, PCF and PCSS side by side).
+    shadow_size: tuple[int, int] = (640, 384)
+    shadow_resolutions: tuple[int, ...] = (256, 512, 1024, 2048)
 
 
 FULL = Settings(
@@ -159,6 +164,8 @@ TINY = replace(
     batch_rounds=1,
     batch_cli_frames=1,
     batch_subdivisions=2,
+    shadow_size=(64, 40),
+    shadow_resolutions=(64, 128),
 )
 
 
@@ -1115,6 +1122,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "viewer": run_viewer,
     "batch": run_batch,
     "ibl": run_ibl,
+    "shadows": run_shadows,
 }
 
 
@@ -1129,6 +1137,7 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "viewer": 1,
         "batch": 0,
         "ibl": 0,
+        "shadows": shadows_tasks(settings),
     }
     if "batch" in suites:
         from app.bench.batch import batch_tasks, batch_workers

@@ -22,12 +22,17 @@ class ShadowSettings:
     """A light's shadow map (docs/shadows.md): ``resolution`` texels a side; ``slope``: the
     shadow pass's slope-scaled depth offset (glPolygonOffset's factor); ``normal_offset``:
     how far, in shadow texels, the lighting pass moves the shaded point along its normal
-    before the lookup; ``filter``: "pcf" (a 4 x 4-texel tent-box kernel) or "none"."""
+    before the lookup; ``filter``: "pcf" (a 4 x 4-texel tent-box kernel), "none" or "pcss";
+    ``light_size``: PCSS's light size, a point or spot light's radius in metres, the tangent
+    of a directional light's angular radius; ``cascades``: a directional light's maps, each
+    fitted to a slice of the camera's view (1: one map over the whole scene)."""
 
     resolution: int = 2048
     slope: float = 2.0
     normal_offset: float = 1.5
     filter: str = "pcf"
+    light_size: float = 0.0
+    cascades: int = 1
 
 
 @dataclass(frozen=True)

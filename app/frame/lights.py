@@ -37,7 +37,15 @@ def shadow_settings(light: Light) -> ShadowSettings | None:
     if not light.shadow:
         return None
     slope, normal_offset = light.shadow_bias
-    return ShadowSettings(light.shadow_resolution, slope, normal_offset, light.shadow_filter)
+    size = (
+        math.tan(math.radians(light.shadow_light_angle))
+        if light.type == "directional"
+        else float(light.shadow_light_radius)
+    )
+    return ShadowSettings(
+        light.shadow_resolution, slope, normal_offset, light.shadow_filter, size,
+        light.shadow_cascades,
+    )  # fmt: skip
 
 
 def fibonacci_sphere(count: int) -> np.ndarray:

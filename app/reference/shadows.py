@@ -21,14 +21,155 @@ from app.common.lights import PunctualLight
 class ShadowMaps:
     """What the lighting pass's SHADOWS uniforms and atlas hold (glsl/lights/shadows.glsl):
     per map k the light it belongs to, its world -> clip matrix, its rectangle in the atlas
-    (first texel x, y, size, 1 for PCF) and its normal offset (metres, or metres per metre
-    of distance, and 1 for a perspective map)."""
+    (first texel x, y, size, 1 for PCF, 2 for PCSS), its normal offset (metres, or metres
+    per metre of distance, and 1 for a perspective map) and its PCSS constants (light size,
+    near, far or 0 and depth extent, texel size)."""
 
     depth: np.ndarray  # (H, W) float64 window depths, row 0 the atlas's bottom (as texelFetch)
     lights: tuple[int, ...]
     matrices: tuple[np.ndarray, ...]  # (4, 4) float64 each
     rects: tuple[tuple[float, float, float, float], ...]
     offsets: tuple[tuple[float, float], ...]
+    pcss: tuple[tuple[float, float, float, float], ...] = ()
+
+
+# PCSS's taps (blocker search, variable PCF) and widest radius in texels, as the GLSL's.
+PCSS_SEARCH_TAPS = 16
+PCSS_FILTER_TAPS = 32
+PCSS_MAX_RADIUS = 32.0
+GOLDEN_ANGLE = 2.39996323  # radians, pi (3 - sqrt 5) to the GLSL's float
+
+
+def vogel_tap(i: int, n: int) -> np.ndarray:
+    """(2,) tap ``i`` of ``n`` on the unit disc, equal areas (Vogel 1979, "A better way to
+    construct the sunflower head"): radius sqrt((i + 0.5) / n), angle i golden angles."""
+    r = np.sqrt((i + 0.5) / n)
+    a = i * GOLDEN_ANGLE
+    return r * np.array([np.cos(a), np.sin(a)])
+
+
+def orthographic(maps: ShadowMaps, k: int) -> bool:
+    """Map ``k`` is orthographic: a directional light's map or one of its cascades."""
+    kind = maps.offsets[k][1]
+    return kind < 0.5 or kind > 2.5
+
+
+# A cascade holds a point this many texels inside its edges (the filter's taps stay in it).
+CASCADE_MARGIN = 3.0
+
+
+def in_cascade(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """(N,) bool: points ``p`` moved by their normal offset lie in cascade ``k``'s map,
+    ``CASCADE_MARGIN`` texels inside its edges, and within its depth (glsl in_cascade)."""
+    m = np.asarray(maps.matrices[k], np.float64)
+    q = p + n * maps.offsets[k][0]
+    clip = q @ m[:3, :3].T + m[:3, 3]
+    w = q @ m[3, :3] + m[3, 3]
+    ndc = clip / w[:, None]
+    edge = 1.0 - 2.0 * CASCADE_MARGIN / maps.rects[k][2]
+    return np.all(np.abs(ndc[:, :2]) <= edge, axis=1) & (np.abs(ndc[:, 2]) <= 1.0)
+
+
+def shadow_linear_depth(maps: ShadowMaps, k: int, z: np.ndarray) -> np.ndarray:
+    """Window depth ``z`` of map ``k`` as metres from the light (perspective: along the
+    axis) or from the orthographic map's near plane."""
+    _, near, far, _ = maps.pcss[k]
+    if orthographic(maps, k):
+        return z * far
+    return near * far / (far - z * (far - near))
+
+
+def shadow_map_coords(maps: ShadowMaps, k: int, q: np.ndarray) -> np.ndarray:
+    """(N, 3): texel position within map ``k`` and window depth of world points ``q``."""
+    m = np.asarray(maps.matrices[k], np.float64)
+    clip = q @ m[:3, :3].T + m[:3, 3]
+    w = q @ m[3, :3] + m[3, 3]
+    ndc = clip / w[:, None]
+    size = maps.rects[k][2]
+    return np.concatenate([(ndc[:, :2] * 0.5 + 0.5) * size, ndc[:, 2:] * 0.5 + 0.5], axis=1)
+
+
+def pcss_visibility(
+    maps: ShadowMaps, k: int, q: np.ndarray, n: np.ndarray, pos: np.ndarray, z: np.ndarray
+) -> np.ndarray:
+    """(N,) PCSS visibility (Fernando 2005, "Percentage-Closer Soft Shadows") of points
+    ``q`` (after the normal offset) with normals ``n``, at texel positions ``pos`` and
+    window depths ``z`` of map ``k``: the blocker search, the penumbra's half width
+    w = (d_r - d_b) light_size / d_b (perspective) or (d_r - d_b) tan(angle)
+    (orthographic), and a bilinear PCF over a disc of that radius, each texel compared
+    with the receiver's plane (receiver-plane depth bias, Isidoro 2006), in the GLSL's
+    order (glsl/lights/shadows.glsl pcss_visibility)."""
+    size_l, near, _, texel_c = maps.pcss[k]
+    x0, y0, size, _ = maps.rects[k]
+    lo = np.array([int(x0), int(y0)])
+    hi = lo + int(size) - 1
+    ortho = orthographic(maps, k)
+    d_r = shadow_linear_depth(maps, k, z)
+    texel = texel_c * (np.ones_like(d_r) if ortho else d_r)
+    a = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    t1 = np.cross(n, a)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(n, t1)
+    here = np.concatenate([pos, z[:, None]], axis=1)
+    m1 = shadow_map_coords(maps, k, q + t1 * texel[:, None]) - here
+    m2 = shadow_map_coords(maps, k, q + t2 * texel[:, None]) - here
+    det = m1[:, 0] * m2[:, 1] - m1[:, 1] * m2[:, 0]
+    ok = np.abs(det) > 1e-6
+    safe = np.where(ok, det, 1.0)
+    g = (
+        np.stack(
+            [m2[:, 1] * m1[:, 2] - m1[:, 1] * m2[:, 2], m1[:, 0] * m2[:, 2] - m2[:, 0] * m1[:, 2]],
+            axis=1,
+        )
+        / safe[:, None]
+    )
+    g[~ok] = 0.0
+    depth = maps.depth
+
+    def plane_z(t: np.ndarray) -> np.ndarray:
+        centre = (t - lo) + 0.5
+        return z + np.sum(g * (centre - pos), axis=1)
+
+    def clamp(t: np.ndarray) -> np.ndarray:
+        return np.clip(t, lo, hi)
+
+    # every blocker that can hide part of the light lies within this many texels
+    far_reach = size_l * (d_r - near) / (near * d_r * texel_c) if not ortho else 0.0
+    reach = d_r * size_l / texel_c if ortho else far_reach
+    search = np.clip(reach, 1.0, PCSS_MAX_RADIUS)
+    blockers = np.zeros(len(z))
+    d_sum = np.zeros(len(z))
+    for i in range(PCSS_SEARCH_TAPS):
+        t = clamp(
+            lo + np.floor(pos + search[:, None] * vogel_tap(i, PCSS_SEARCH_TAPS)).astype(np.int64)
+        )
+        stored = depth[t[:, 1], t[:, 0]]
+        hit = stored < plane_z(t)
+        blockers += hit
+        d_sum += np.where(hit, shadow_linear_depth(maps, k, stored), 0.0)
+    out = np.ones(len(z))
+    found = blockers > 0.0
+    d_b = d_sum / np.maximum(blockers, 1.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = (d_r - d_b) * size_l if ortho else (d_r - d_b) * size_l / d_b
+    radius = np.clip(np.where(found, w / texel, 1.0), 1.0, PCSS_MAX_RADIUS)
+    total = np.zeros(len(z))
+    for i in range(PCSS_FILTER_TAPS):
+        sp = pos + radius[:, None] * vogel_tap(i, PCSS_FILTER_TAPS) - 0.5
+        cell = np.floor(sp)
+        f = sp - cell
+        b = lo + cell.astype(np.int64)
+        v = [
+            np.where(
+                plane_z(clamp(b + d)) <= depth[clamp(b + d)[:, 1], clamp(b + d)[:, 0]], 1.0, 0.0
+            )
+            for d in (np.array([0, 0]), np.array([1, 0]), np.array([0, 1]), np.array([1, 1]))
+        ]
+        lower = v[0] + (v[1] - v[0]) * f[:, 0]
+        upper = v[2] + (v[3] - v[2]) * f[:, 0]
+        total += lower + (upper - lower) * f[:, 1]
+    out[found] = total[found] / PCSS_FILTER_TAPS
+    return out
 
 
 def pcf_weights(f: np.ndarray) -> np.ndarray:
@@ -77,6 +218,9 @@ def shadow_map_visibility(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray
         texel = lo + np.floor(pos).astype(np.int64)
         out[inside] = test(texel[:, 0], texel[:, 1])
         return out
+    if pcf > 1.5:
+        out[inside] = pcss_visibility(maps, k, q[inside], n[inside], pos, z)
+        return out
     qpos = pos - 0.5
     cell = np.floor(qpos)
     f = qpos - cell
@@ -113,6 +257,22 @@ def light_visibilities(
     p = np.asarray(p, np.float64)
     for k, i in enumerate(maps.lights):
         if out[i] is not None:  # the other faces of a point light, done with its first
+            continue
+        if maps.offsets[k][1] > 2.5:  # cascades k, k + 1, ...: the first that holds p
+            n = np.asarray(n, np.float64)
+            cascades = [c for c in range(k, len(maps.lights)) if maps.lights[c] == i]
+            choice = np.full(len(p), cascades[-1])
+            left = np.ones(len(p), bool)
+            for c in cascades:
+                take = left & in_cascade(maps, c, p, n)
+                choice[take] = c
+                left &= ~take
+            v = np.ones(len(p))
+            for c in cascades:
+                sel = choice == c
+                if np.any(sel):
+                    v[sel] = shadow_map_visibility(maps, c, p[sel], n[sel])
+            out[i] = v
             continue
         if maps.offsets[k][1] < 1.5:
             out[i] = shadow_map_visibility(maps, k, p, n)

@@ -3,9 +3,10 @@
 A G-buffer holds one surface per pixel, so it cannot blend. Blended parts are therefore
 left out of the G-buffer pass (the culler and the lighting pass see what is behind them)
 and drawn here, after the lighting pass, into its HDR image: each fragment evaluates the
-full outgoing radiance with the lighting pass's own ``light_contribution`` over every
-light (glsl/passes/forward.frag with ``ALPHA_BLEND``: the sum, emission, occlusion on the
-environment's lights) and the fixed-function blend composites it "over" what is there:
+full outgoing radiance with the lighting pass's own ``surface_radiance``
+(glsl/lights/shading.glsl, from glsl/passes/forward.frag with ``ALPHA_BLEND``: every
+light with its shadow map, the image-based light, emission, occlusion) and the
+fixed-function blend composites it "over" what is there:
 
     C = a C_src + (1 - a) C_dst        (Porter and Duff, 1984, "Compositing Digital Images")
 
@@ -18,7 +19,8 @@ front by the view depth of their bounding box's centre, once per frame; there is
 of the triangles within a part and no order-independent transparency, so two interpenetrating
 blended parts, or a blended part that overlaps itself, composite in an order that can be
 wrong where they cross. An open (two-sided) part draws its back faces, then its front
-faces; a closed part only its front faces, as the G-buffer pass culls it.
+faces; a closed part only its front faces, as the G-buffer pass culls it. Blended parts
+receive shadows but cast none (the shadow pass draws the opaque parts only).
 """
 
 from __future__ import annotations
@@ -39,6 +41,17 @@ FORWARD_SHADERS = ("passes/gbuffer.vert", "passes/forward.frag")
 # forward.frag as the blend pass: coverage as alpha, emission and occlusion compiled in
 # (GBUFFER_EMISSION selects layers.glsl's lookups; this pass writes no G-buffer).
 BLEND_DEFINES = {"ALPHA_BLEND": 1, "GBUFFER_EMISSION": 1}
+
+
+def blend_defines(lighting: LightingPass) -> dict[str, int]:
+    """``BLEND_DEFINES`` plus the lighting pass's image-based light and shadow maps, so
+    that a blended part is lit as an opaque one (glsl/lights/shading.glsl)."""
+    defines = dict(BLEND_DEFINES)
+    if lighting.ibl is not None:
+        defines.update(lighting.ibl.defines())
+    if lighting.shadows is not None:
+        defines.update(lighting.shadows.defines())
+    return defines
 
 
 def blended(part: MeshPart) -> bool:
@@ -145,6 +158,10 @@ class BlendPass:
             units.append(("u_ms_table", lighting.ms_table))
         if lighting.sheen_table is not None:
             units.append(("u_sheen_table", lighting.sheen_table))
+        if lighting.ibl is not None:  # the environment's light, as the lighting pass's
+            units.extend(lighting.ibl.samplers())
+        if lighting.shadows is not None:  # the lighting pass's maps (rendered before it)
+            units.append(("u_shadow_atlas", lighting.shadows.atlas))
         for unit, (_, tex) in enumerate(units):
             tex.use(unit)
         # Farthest first; a stable sort keeps scene order between parts at one depth.
@@ -168,6 +185,10 @@ class BlendPass:
             for name, value in values.items():
                 if name in prog:  # the compiler drops what a permutation does not use
                     prog[name].value = value
+            if lighting.ibl is not None:
+                lighting.ibl.set_uniforms(prog)
+            if lighting.shadows is not None:
+                lighting.shadows.bind(prog)
             d.cull(ctx)
             if d.part.closed:
                 d.vao.render(moderngl.TRIANGLES)

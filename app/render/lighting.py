@@ -78,7 +78,7 @@ class LightingPass:
             if ibl is not None:  # an image, sky or studio environment (docs/ibl.md)
                 defines.update(ibl.defines())
             if shadows is not None:
-                defines["SHADOWS"] = shadows.count
+                defines.update(shadows.defines())
             if culler is not None:
                 defines["TILED_LIGHTS"] = 1
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles

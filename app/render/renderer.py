@@ -30,7 +30,7 @@ from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
-from app.render.blend import BLEND_DEFINES, BlendPass, blended, forward_drawables
+from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
 from app.render.ibl import EnvironmentLighting
@@ -203,7 +203,8 @@ class Renderer:
         if chosen:
             drawables = forward_drawables(
                 self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
-                self.materials, self.scene.render.terms, self._specular_aa(), BLEND_DEFINES,
+                self.materials, self.scene.render.terms, self._specular_aa(),
+                blend_defines(self.lighting),
             )  # fmt: skip
             self.blend = BlendPass(self.gl.ctx, drawables)
 
@@ -218,8 +219,10 @@ class Renderer:
         if self.frame.has_local_lights and settings.light_culling == "tiled":
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
-            parts = [self.frame.parts[i] for i in self._opaque()]
-            self.shadows = ShadowPass(ctx, self.shaders, self.lights, parts)
+            opaque = self._opaque()
+            parts = [self.frame.parts[i] for i in opaque]
+            blends = [p for i, p in enumerate(self.frame.parts) if i not in set(opaque)]
+            self.shadows = ShadowPass(ctx, self.shaders, self.lights, parts, blends)
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
             settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
@@ -402,8 +405,8 @@ class Renderer:
         if self.culler is not None:
             self.culler.run(self.gbuffer, self.view, self.camera)
             clock.done("culling")
-        if self.shadows is not None:  # once after a change of lights or geometry
-            self.shadows.run()
+        if self.shadows is not None:  # each map once, when its light is first culled in
+            self.shadows.run(self.proj @ self.view)
             clock.done("shadows")
         self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
         if self.background is not None:

@@ -4,12 +4,14 @@ in the lighting pass (compiled in only where a light has ``shadow = true``: ``SH
 
 Frusta. A directional light gets an orthographic frustum fitted to the light-space bounds
 of every opaque part's vertices (an analytic sphere's enclosing proxy), so every caster and
-receiver lies inside its map; there are no cascades, so a large floor spreads the texels
-thinly (docs/shadows.md). A spot light gets a perspective frustum along its axis whose
-field of view is the outer cone plus one degree, from ``near_plane`` to its range (the
-window falloff is exactly 0 beyond it). A point light gets six 90-degree perspective maps,
-the faces of a cube around it (same near and far), each in its own place in the atlas; the
-lookup reads the one face along the major axis of the direction from the light.
+receiver lies inside its map and a large floor spreads the texels thinly; with
+``shadow_cascades`` it gets several, each fitted to a slice of the camera's view and
+refitted when the camera moves (``cascade_frusta``; docs/shadows.md). A spot light gets a
+perspective frustum along its axis whose field of view is the outer cone plus one degree,
+from ``near_plane`` to its range (the window falloff is exactly 0 beyond it). A point
+light gets six 90-degree perspective maps, the faces of a cube around it (same near and
+far), each in its own place in the atlas; the lookup reads the one face along the major
+axis of the direction from the light.
 
 Geometry. Mesh parts are drawn as they are. An analytic sphere, whose exact depth the
 G-buffer pass writes per pixel from the camera's ray, is drawn here as the icosphere of
@@ -19,6 +21,9 @@ subdivisions 0.11 % of the radius (measured; docs/shadows.md), so its shadow is 
 much smaller. Alpha-masked parts cast the shadow of their whole surface; blended parts
 cast none.
 
+Culling. A map is rendered only once its light is culled in: its reach (``light_bounds``)
+meets the camera's frustum (``culled_in``); a light outside lights no visible point.
+
 Bias. The pass offsets depth by glPolygonOffset(slope, 1): ``slope`` times the triangle's
 depth slope plus one depth unit (the slope-scaled bias); the lighting pass moves the
 shaded point along its normal by ``normal_offset`` shadow texels (normal offset). Both
@@ -27,6 +32,7 @@ per light (``shadow_bias``); defaults and why in docs/shadows.md.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import moderngl
@@ -149,8 +155,67 @@ def world_points(parts: list[MeshPart]) -> np.ndarray:
     return np.concatenate(pts) if pts else np.zeros((1, 3))
 
 
-# A map's projection as glsl/lights/shadows.glsl's u_shadow_offset[k].y reads it.
-ORTHOGRAPHIC, PERSPECTIVE, CUBE = 0.0, 1.0, 2.0
+# A map's filter as glsl/lights/shadows.glsl's u_shadow_rect[k].w reads it.
+FILTER_CODES = {"none": 0.0, "pcf": 1.0, "pcss": 2.0}
+
+# A map's projection as glsl/lights/shadows.glsl's u_shadow_offset[k].y reads it: a
+# cascade is orthographic, one of its light's consecutive maps, nearest slice first.
+ORTHOGRAPHIC, PERSPECTIVE, CUBE, CASCADE = 0.0, 1.0, 2.0, 3.0
+
+# The practical split scheme's weight of the logarithmic split (Zhang et al. 2006,
+# "Parallel-Split Shadow Maps on Programmable GPUs"): d_j = w d_log + (1 - w) d_uniform.
+CASCADE_LOG_WEIGHT = 0.75
+
+
+def cascade_splits(near: float, far: float, count: int) -> list[float]:
+    """The ``count + 1`` view depths that cut [near, far] into cascades: the practical
+    split scheme (``CASCADE_LOG_WEIGHT``)."""
+    out = []
+    for j in range(count + 1):
+        log = near * (far / near) ** (j / count)
+        uniform = near + (far - near) * j / count
+        out.append(CASCADE_LOG_WEIGHT * log + (1.0 - CASCADE_LOG_WEIGHT) * uniform)
+    return out
+
+
+def cascade_frusta(
+    light: PunctualLight, points: np.ndarray, resolution: int, count: int, view_proj: np.ndarray
+) -> list[tuple[np.ndarray, float]]:
+    """(world -> clip matrix, texel metres) of each of a directional light's ``count``
+    cascades for the camera ``view_proj`` (a perspective world -> clip matrix): the view
+    from the near plane to the farthest scene point it sees (at most its far plane) cut by
+    ``cascade_splits``; each cascade an orthographic map along the light whose x, y bound
+    its slice of the view and whose depth bounds the slice and every scene point (so every
+    caster between the light and the slice is in it), padded as ``shadow_frustum``."""
+    m = np.asarray(view_proj, np.float64)
+    inv = np.linalg.inv(m)
+    ends = []
+    for z in (-1.0, 1.0):  # the near and far planes' corners
+        c = np.array([[x, y, z, 1.0] for x in (-1.0, 1.0) for y in (-1.0, 1.0)]) @ inv.T
+        ends.append(c[:, :3] / c[:, 3:])
+    near_c, far_c = ends
+    near = float((m[3, :3] @ near_c[0]) + m[3, 3])  # clip w: the view depth
+    far = float((m[3, :3] @ far_c[0]) + m[3, 3])
+    depth = points @ m[3, :3] + m[3, 3]
+    reach = float(np.clip(depth.max(), near * (1.0 + 1e-6), far))
+    view = look_along(np.zeros(3), light.direction)
+    local_pts = points @ view[:3, :3].T
+    out = []
+    splits = cascade_splits(near, reach, count)
+    for d0, d1 in itertools.pairwise(splits):
+        t = np.array([(d0 - near) / (far - near), (d1 - near) / (far - near)])
+        corners = np.concatenate([near_c + (far_c - near_c) * ti for ti in t])
+        local = corners @ view[:3, :3].T
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        z_lo = min(lo[2], local_pts[:, 2].min())
+        z_hi = max(hi[2], local_pts[:, 2].max())
+        extent = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-6))
+        pad = 0.01 * extent + 1e-6
+        lo_box = np.array([lo[0] - pad, lo[1] - pad, -z_hi - pad])
+        hi_box = np.array([hi[0] + pad, hi[1] + pad, -z_lo + pad])
+        texel = max(hi_box[0] - lo_box[0], hi_box[1] - lo_box[1]) / resolution
+        out.append((orthographic(lo_box, hi_box) @ view, float(texel)))
+    return out
 
 
 def shadow_frusta(
@@ -190,6 +255,58 @@ def shadow_frustum(
     return proj @ view, 2.0 * math.tan(half) / resolution, PERSPECTIVE
 
 
+def light_bounds(light: PunctualLight) -> tuple[np.ndarray, float] | None:
+    """(centre, radius) of a sphere holding every point ``light`` reaches, None for a
+    directional light (it reaches everything). A point light: its range sphere. A spot:
+    the smaller of that and the bound of its cone, a spherical sector of half angle t (the
+    outer cone) and radius R: for t <= 45 degrees the sphere through the apex and the cap's
+    rim, centre R / (2 cos t) along the axis and that radius; wider, the cap's rim circle's
+    sphere, centre R cos t along the axis, radius R sin t (both hold the apex, the rim and
+    the cap's pole: derived, checked in tests/test_shadows.py by sampling the sector)."""
+    if light.type == LightType.DIRECTIONAL:
+        return None
+    centre = np.asarray(light.position, np.float64)
+    reach = float(light.range)
+    if light.type != LightType.SPOT:
+        return centre, reach
+    cos_t = float(np.clip(light.cos_outer, 0.0, 1.0))
+    sin_t = math.sqrt(1.0 - cos_t * cos_t)
+    axis = np.asarray(light.direction, np.float64)
+    axis = axis / np.linalg.norm(axis)
+    if cos_t >= sin_t:  # t <= 45 degrees
+        radius = reach / (2.0 * cos_t)
+        offset = radius
+    else:
+        radius, offset = reach * sin_t, reach * cos_t
+    if radius >= reach:
+        return centre, reach
+    return centre + axis * offset, radius
+
+
+def frustum_planes(view_proj: np.ndarray) -> np.ndarray:
+    """(6, 4) planes (a, b, c, d) of the frustum of a world -> clip matrix, normalised so
+    that a x + b y + c z + d is the signed distance (positive inside): the rows' sums and
+    differences, Gribb and Hartmann 2001, "Fast Extraction of Viewing Frustum Planes from
+    the World-View-Projection Matrix"."""
+    m = np.asarray(view_proj, np.float64)
+    planes = np.array(
+        [m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]]
+    )
+    return planes / np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+
+
+def culled_in(light: PunctualLight, view_proj: np.ndarray) -> bool:
+    """Whether ``light``'s bounds (``light_bounds``) may reach the camera's frustum: the
+    sphere is not wholly outside one of its six planes (conservative: a sphere off a
+    corner passes, and then renders a map that nothing reads)."""
+    bounds = light_bounds(light)
+    if bounds is None:
+        return True
+    centre, radius = bounds
+    distances = frustum_planes(view_proj) @ np.append(centre, 1.0)
+    return bool(np.all(distances >= -radius))
+
+
 class _Caster:
     """One part's triangles for the shadow pass: positions only."""
 
@@ -209,8 +326,11 @@ class ShadowPass:
     """The shadow maps of a frame's shadowed lights, packed in one depth atlas.
 
     ``lights``: the frame's lights (ordered); ``parts``: the opaque parts that cast and
-    receive. The maps depend only on these, so ``run`` renders them once; a renderer
-    builds a new pass when lights or geometry change."""
+    receive; ``receivers``: parts that only receive (the blended ones), which a directional
+    frustum bounds as well, so that a blended part lies inside the map, and its map is the
+    one the part would have if it were opaque. The maps depend only on these, so ``run``
+    renders each map at most once, when a camera first culls its light in (docs/shadows.md);
+    a renderer builds a new pass when lights or geometry change."""
 
     def __init__(
         self,
@@ -218,9 +338,10 @@ class ShadowPass:
         shaders: ShaderCache,
         lights: list[PunctualLight],
         parts: list[MeshPart],
+        receivers: list[MeshPart] | None = None,
     ) -> None:
         self.ctx = ctx
-        points = world_points(parts)
+        points = world_points([*parts, *(receivers or [])])
         self.lights: list[int] = []  # per map: its light (six maps for a point light)
         self.matrices: list[np.ndarray] = []
         self.offsets: list[tuple[float, float]] = []
@@ -230,30 +351,42 @@ class ShadowPass:
         self.texels: list[float] = []
         sizes: list[int] = []
         pcf: list[float] = []
+        # PCSS's constants per map (glsl/lights/shadows.glsl u_shadow_pcss): light size,
+        # near and far (perspective) or 0 and the depth extent (orthographic), texel size.
+        self.pcss: list[tuple[float, float, float, float]] = []
+        self._points = points
+        # (first map, light index, cascades) of each cascaded light, refitted per camera
+        self._cascaded: list[tuple[int, int, int]] = []
+        self._cascade_camera: np.ndarray | None = None
         for i, light in enumerate(lights):
             s = light.shadow
             if s is None:
                 continue
-            for matrix, texel, kind in shadow_frusta(light, points, s.resolution):
+            frusta = shadow_frusta(light, points, s.resolution)
+            if s.cascades > 1:  # fitted to the whole scene until a camera refits them
+                self._cascaded.append((len(self.lights), i, s.cascades))
+                frusta = [(frusta[0][0], frusta[0][1], CASCADE)] * s.cascades
+            for matrix, texel, kind in frusta:
                 self.lights.append(i)
                 self.matrices.append(matrix)
                 self.offsets.append((s.normal_offset * texel, kind))
                 self.slopes.append(s.slope)
                 self.texels.append(texel)
                 sizes.append(s.resolution)
-                pcf.append(float(s.filter == "pcf"))
+                pcf.append(FILTER_CODES[s.filter])
+                if kind in (ORTHOGRAPHIC, CASCADE):  # a rotation: row 2 is 2 / extent long
+                    near, far = 0.0, 2.0 / float(np.linalg.norm(matrix[2, :3]))
+                else:
+                    near, far = near_plane(light.range), float(light.range)
+                self.pcss.append((s.light_size, near, far, texel))
+        self.has_pcss = any(code == FILTER_CODES["pcss"] for code in pcf)
         origins, width, height = atlas_layout(sizes, max_dimension(ctx))
         self.rects = [
             (float(x), float(y), float(size), f)
             for (x, y), size, f in zip(origins, sizes, pcf, strict=True)
         ]
-        # The lighting programs' uniforms, constant for this pass's life: packed once.
-        self._uniforms = {
-            "u_shadow_light": np.asarray(self.lights, np.int32).tobytes(),
-            "u_shadow_matrix": b"".join(gl_bytes(m) for m in self.matrices),
-            "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
-            "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
-        }
+        self._frame_lights = lights
+        self._pack_uniforms()
         self.atlas = ctx.depth_texture((width, height))
         self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
         self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -261,30 +394,102 @@ class ShadowPass:
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
         self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
         self.casters = [_Caster(ctx, self.prog, part) for part in parts]
-        self.rendered = False
+        self.rendered: set[int] = set()  # the maps drawn so far (indices into the lists)
+        self.maps_rendered = 0  # maps drawn over this pass's life (tests, bench)
+        self._cleared = False
 
     @property
     def count(self) -> int:
         return len(self.lights)
 
-    def run(self) -> None:
-        """Render every map (once: they change only with a new pass)."""
-        if self.rendered:
+    def defines(self) -> dict[str, int]:
+        """The lighting and blend programs' defines: SHADOWS, SHADOW_PCSS only where a map
+        uses PCSS and SHADOW_CASCADES only where a light has cascades (a scene without
+        compiles as before they existed)."""
+        defines = {"SHADOWS": self.count}
+        if self.has_pcss:
+            defines["SHADOW_PCSS"] = 1
+        if self._cascaded:
+            defines["SHADOW_CASCADES"] = 1
+        return defines
+
+    def needed(self, view_proj: np.ndarray | None) -> list[int]:
+        """The maps a camera of world -> clip ``view_proj`` needs: those of the lights
+        culled in (``culled_in``), every map where ``view_proj`` is None."""
+        if view_proj is None:
+            return list(range(self.count))
+        lights = {i for i in set(self.lights) if culled_in(self._frame_lights[i], view_proj)}
+        return [k for k, i in enumerate(self.lights) if i in lights]
+
+    def _pack_uniforms(self) -> None:
+        """The lighting programs' uniforms, packed once (again only when cascades are
+        refitted to a new camera)."""
+        self._uniforms = {
+            "u_shadow_light": np.asarray(self.lights, np.int32).tobytes(),
+            "u_shadow_matrix": b"".join(gl_bytes(m) for m in self.matrices),
+            "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
+            "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
+        }
+        if self.has_pcss:
+            self._uniforms["u_shadow_pcss"] = np.asarray(self.pcss, np.float32).tobytes()
+
+    def _fit_cascades(self, view_proj: np.ndarray) -> None:
+        """Refit every cascaded light's maps to the camera ``view_proj`` (where it moved
+        since the last fit) and mark them to be drawn again."""
+        if not self._cascaded or (
+            self._cascade_camera is not None and np.array_equal(self._cascade_camera, view_proj)
+        ):
+            return
+        self._cascade_camera = np.array(view_proj, np.float64)
+        for first, i, count in self._cascaded:
+            light = self._frame_lights[i]
+            s = light.shadow
+            assert s is not None
+            fits = cascade_frusta(light, self._points, s.resolution, count, view_proj)
+            for k, (matrix, texel) in enumerate(fits, start=first):
+                self.matrices[k] = matrix
+                self.texels[k] = texel
+                self.offsets[k] = (s.normal_offset * texel, CASCADE)
+                far = 2.0 / float(np.linalg.norm(matrix[2, :3]))
+                self.pcss[k] = (s.light_size, 0.0, far, texel)
+                self.rendered.discard(k)
+        self._pack_uniforms()
+
+    def invalidate(self) -> None:
+        """Forget every map drawn: the next ``run`` clears the atlas and draws again what
+        its camera needs (the bench's shadows suite times that)."""
+        self.rendered.clear()
+        self._cleared = False
+
+    def run(self, view_proj: np.ndarray | None = None) -> None:
+        """Render the maps the camera ``view_proj`` needs and that are not drawn yet (each
+        once: they change only with a new pass). A light outside the frustum reaches no
+        visible point, so its map, left cleared (lit), changes no pixel; a later camera
+        that sees its reach renders it then."""
+        if view_proj is not None:
+            self._fit_cascades(view_proj)
+        todo = [k for k in self.needed(view_proj) if k not in self.rendered]
+        if not todo and self._cleared:
             return
         ctx = self.ctx
         self.fbo.use()
         ctx.enable_only(moderngl.DEPTH_TEST)  # two-sided: planes and open meshes cast
         ctx.depth_func = "<"
-        self.fbo.clear(depth=1.0)
-        for matrix, rect, slope in zip(self.matrices, self.rects, self.slopes, strict=True):
+        if not self._cleared:
+            self.fbo.clear(depth=1.0)
+            self._cleared = True
+        for k in todo:
+            rect = self.rects[k]
             ctx.viewport = (int(rect[0]), int(rect[1]), int(rect[2]), int(rect[2]))
-            ctx.polygon_offset = (slope, 1.0)
-            self.prog["u_light_matrix"].write(gl_bytes(matrix))
+            self.fbo.clear(depth=1.0, viewport=ctx.viewport)  # a refitted cascade's old depths
+            ctx.polygon_offset = (self.slopes[k], 1.0)
+            self.prog["u_light_matrix"].write(gl_bytes(self.matrices[k]))
             for caster in self.casters:
                 self.prog["u_model"].write(caster.model)
                 caster.vao.render(moderngl.TRIANGLES)
+            self.rendered.add(k)
+            self.maps_rendered += 1
         ctx.polygon_offset = (0.0, 0.0)
-        self.rendered = True
 
     def bind(self, prog: moderngl.Program) -> None:
         """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
@@ -298,7 +503,7 @@ class ShadowPass:
         depth = np.frombuffer(self.atlas.read(), np.float32).reshape(h, w).astype(np.float64)
         return ShadowMaps(
             depth, tuple(self.lights), tuple(self.matrices), tuple(self.rects),
-            tuple(self.offsets),
+            tuple(self.offsets), tuple(self.pcss),
         )  # fmt: skip
 
     def release(self) -> None:

@@ -191,7 +191,13 @@ class Light(_Strict):
     shadow_bias: Annotated[
         list[Annotated[Real, Field(ge=0.0, le=100.0)]], Field(min_length=2, max_length=2)
     ] = [2.0, 1.5]
-    shadow_filter: Literal["pcf", "none"] = "pcf"
+    shadow_filter: Literal["pcf", "none", "pcss"] = "pcf"
+    # PCSS's light size (Fernando 2005): a point or spot light's radius in metres, a
+    # directional light's angular radius in degrees (the sun's is about 0.27).
+    shadow_light_radius: Annotated[Real, Field(gt=0.0, le=10.0)] = 0.05
+    shadow_light_angle: Annotated[Real, Field(gt=0.0, le=10.0)] = 0.27
+    # A directional light's cascades (docs/shadows.md): maps fitted to slices of the view.
+    shadow_cascades: Annotated[int, Field(strict=True, ge=1, le=4)] = 1
 
     @model_validator(mode="after")
     def _check(self) -> Light:
@@ -229,6 +235,20 @@ class Light(_Strict):
         for key in ("shadow_resolution", "shadow_bias", "shadow_filter"):
             if not self.shadow and getattr(self, key) != Light.model_fields[key].default:
                 raise ValueError(f"{key}: needs shadow = true")
+        if self.shadow_cascades != 1:
+            if self.type != "directional":
+                raise ValueError(f"shadow_cascades: does not apply to a {self.type} light")
+            if not self.shadow:
+                raise ValueError("shadow_cascades: needs shadow = true")
+        # The light size: for PCSS only, and the one of the light's kind.
+        size_key = "shadow_light_angle" if self.type == "directional" else "shadow_light_radius"
+        for key in ("shadow_light_radius", "shadow_light_angle"):
+            if getattr(self, key) == Light.model_fields[key].default:
+                continue
+            if key != size_key:
+                raise ValueError(f"{key}: does not apply to a {self.type} light (use {size_key})")
+            if not (self.shadow and self.shadow_filter == "pcss"):
+                raise ValueError(f'{key}: needs shadow = true and shadow_filter = "pcss"')
         return self
 
     @property

@@ -14,17 +14,129 @@
 uniform sampler2D u_shadow_atlas;            // DEPTH24, the maps packed in rows; no compare mode
 uniform int u_shadow_light[SHADOWS];         // the light (index into u_lights) of map k
 uniform mat4 u_shadow_matrix[SHADOWS];       // world -> map k's clip space
-// Map k: x, y its first texel in the atlas, z its size in texels, w 1 for PCF, 0 for none.
+// Map k: x, y its first texel in the atlas, z its size in texels, w 1 for PCF, 0 for none,
+// 2 for PCSS.
 uniform vec4 u_shadow_rect[SHADOWS];
 // Map k: x the normal offset in metres (directional) or in metres per metre of distance
 // from the light (spot, cube face: a texel grows with distance), y 0 for an orthographic
-// map, 1 for a spot's, 2 for a point light's cube face (six in a row: +x -x +y -y +z -z).
+// map, 1 for a spot's, 2 for a point light's cube face (six in a row: +x -x +y -y +z -z),
+// 3 for a directional light's cascade (orthographic; its cascades in a row, nearest first).
 uniform vec2 u_shadow_offset[SHADOWS];
 
 // 1 where the receiver's window depth z is not behind the occluder depth in texel t.
 float shadow_test(ivec2 t, float z) {
     return z <= texelFetch(u_shadow_atlas, t, 0).r ? 1.0 : 0.0;
 }
+
+#if SHADOW_PCSS
+// Map k's PCSS constants (app/render/shadows.py): x the light's size (radius in metres for
+// a spot or cube face, tan of the angular radius for a directional light), y, z the
+// perspective map's near and far planes (metres) or, for an orthographic map, 0 and its
+// depth extent (metres), w a texel's size (metres per metre of distance along the axis;
+// metres for an orthographic map).
+uniform vec4 u_shadow_pcss[SHADOWS];
+
+// Taps of the blocker search and of the variable PCF, and the widest either may reach
+// (texels, radius): 16 and 32 nearest-texel taps of a Vogel disc, 32 texels.
+const int PCSS_SEARCH_TAPS = 16;
+const int PCSS_FILTER_TAPS = 32;
+const float PCSS_MAX_RADIUS = 32.0;
+const float GOLDEN_ANGLE = 2.39996323;
+
+// Tap i of n on the unit disc, equal areas (Vogel 1979, "A better way to construct the
+// sunflower head"): radius sqrt((i + 0.5) / n), angle i times the golden angle.
+vec2 vogel_tap(int i, int n) {
+    float r = sqrt((float(i) + 0.5) / float(n));
+    float a = float(i) * GOLDEN_ANGLE;
+    return r * vec2(cos(a), sin(a));
+}
+
+// The map's window depth z as metres from the light (perspective: view depth along the
+// axis) or from the orthographic map's near plane.
+float shadow_linear_depth(int k, float z) {
+    vec4 c = u_shadow_pcss[k];
+    if (u_shadow_offset[k].y < 0.5 || u_shadow_offset[k].y > 2.5) return z * c.z;
+    return c.y * c.z / (c.z - z * (c.z - c.y));
+}
+
+// (texel position within map k, window depth) of the world point q.
+vec3 shadow_map_coords(int k, vec3 q) {
+    vec4 clip = u_shadow_matrix[k] * vec4(q, 1.0);
+    vec3 ndc = clip.xyz / clip.w;
+    return vec3((ndc.xy * 0.5 + 0.5) * u_shadow_rect[k].z, ndc.z * 0.5 + 0.5);
+}
+
+// 1 where the receiver, the plane through (pos, z) with window-depth gradient g per texel,
+// is not behind the occluder in texel t (lo: the map's first texel in the atlas).
+// Receiver-plane depth bias (Isidoro 2006, "Shadow Mapping: GPU-based Tips and
+// Techniques"): a wide kernel compares each texel with the receiver's own plane there,
+// not with its depth at the centre, so a tilted receiver does not shadow itself.
+float shadow_test_plane(ivec2 t, ivec2 lo, vec2 pos, float z, vec2 g) {
+    vec2 centre = vec2(t - lo) + 0.5;
+    return shadow_test(t, z + dot(g, centre - pos));
+}
+
+// PCSS (Fernando 2005, "Percentage-Closer Soft Shadows"): the mean depth of the blockers
+// in a search disc, the penumbra's half width from it by similar triangles
+//   w = (d_receiver - d_blocker) * light_size / d_blocker   (spot, cube face)
+//   w = (d_receiver - d_blocker) * tan(angular radius)         (directional)
+// and a percentage-closer filter over a disc of that radius. q: the point after its
+// normal offset, n its normal; pos, z its texel position in map k and window depth.
+float pcss_visibility(int k, vec3 q, vec3 n, vec2 pos, float z) {
+    vec4 c = u_shadow_pcss[k];
+    vec4 rect = u_shadow_rect[k];
+    ivec2 lo = ivec2(rect.xy);
+    ivec2 hi = lo + ivec2(rect.z) - 1;
+    bool ortho = u_shadow_offset[k].y < 0.5 || u_shadow_offset[k].y > 2.5;
+    float d_r = shadow_linear_depth(k, z);
+    float texel = ortho ? c.w : c.w * d_r;   // metres a texel at the receiver
+    // The receiver's plane in map space: two tangents of n, a texel long, projected.
+    vec3 a = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    vec3 t1 = normalize(cross(n, a));
+    vec3 t2 = cross(n, t1);
+    vec3 m1 = shadow_map_coords(k, q + t1 * texel) - vec3(pos, z);
+    vec3 m2 = shadow_map_coords(k, q + t2 * texel) - vec3(pos, z);
+    float det = m1.x * m2.y - m1.y * m2.x;
+    vec2 g = vec2(0.0);
+    if (abs(det) > 1e-6) {
+        g = vec2(m2.y * m1.z - m1.y * m2.z, m1.x * m2.z - m2.x * m1.z) / det;
+    }
+    // Blocker search: every blocker that can hide part of the light lies within
+    //   light_size (d_r - near) / (near d_r)   (perspective),  d_r tan(angle)  (ortho)
+    // of the receiver's texel, capped at PCSS_MAX_RADIUS texels.
+    float reach = ortho ? d_r * c.x / c.w : c.x * (d_r - c.y) / (c.y * d_r * c.w);
+    float search = clamp(reach, 1.0, PCSS_MAX_RADIUS);
+    float blockers = 0.0;
+    float d_sum = 0.0;
+    for (int i = 0; i < PCSS_SEARCH_TAPS; ++i) {
+        ivec2 t = clamp(lo + ivec2(floor(pos + search * vogel_tap(i, PCSS_SEARCH_TAPS))), lo, hi);
+        float depth = texelFetch(u_shadow_atlas, t, 0).r;
+        vec2 centre = vec2(t - lo) + 0.5;
+        if (depth < z + dot(g, centre - pos)) {
+            blockers += 1.0;
+            d_sum += shadow_linear_depth(k, depth);
+        }
+    }
+    if (blockers == 0.0) return 1.0;
+    float d_b = d_sum / blockers;
+    float w = ortho ? (d_r - d_b) * c.x : (d_r - d_b) * c.x / d_b;   // metres
+    float radius = clamp(w / texel, 1.0, PCSS_MAX_RADIUS);
+    // Variable PCF: bilinear comparisons at the disc's taps.
+    float sum = 0.0;
+    for (int i = 0; i < PCSS_FILTER_TAPS; ++i) {
+        vec2 s = pos + radius * vogel_tap(i, PCSS_FILTER_TAPS) - 0.5;
+        vec2 cell = floor(s);
+        vec2 f = s - cell;
+        ivec2 b = lo + ivec2(cell);
+        float v00 = shadow_test_plane(clamp(b, lo, hi), lo, pos, z, g);
+        float v10 = shadow_test_plane(clamp(b + ivec2(1, 0), lo, hi), lo, pos, z, g);
+        float v01 = shadow_test_plane(clamp(b + ivec2(0, 1), lo, hi), lo, pos, z, g);
+        float v11 = shadow_test_plane(clamp(b + ivec2(1, 1), lo, hi), lo, pos, z, g);
+        sum += mix(mix(v00, v10, f.x), mix(v01, v11, f.x), f.y);
+    }
+    return sum / float(PCSS_FILTER_TAPS);
+}
+#endif
 
 // Visibility through map k of the point p with normal n.
 // Normal offset: p moves along n by a fixed number of shadow texels, so a surface tilted
@@ -48,6 +160,9 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
     ivec2 lo = ivec2(rect.xy);
     ivec2 hi = lo + ivec2(rect.z) - 1;
     if (rect.w < 0.5) return shadow_test(clamp(lo + ivec2(floor(pos)), lo, hi), z);
+#if SHADOW_PCSS
+    if (rect.w > 1.5) return pcss_visibility(k, p + n * (u_shadow_offset[k].x * scale), n, pos, z);
+#endif
     // PCF: a 3 x 3 box of bilinear comparisons one texel apart, which sums to 4 x 4 texels
     // with separable weights ((1 - f), 1, 1, f) / 3 around the texel below pos - 0.5.
     vec2 q = pos - 0.5;
@@ -66,12 +181,35 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
     return sum / 9.0;
 }
 
+#if SHADOW_CASCADES
+// Whether p (moved by its normal offset) lies in cascade k's map, CASCADE_MARGIN texels
+// inside its edges (so that the filter's taps stay in it), and within its depth.
+const float CASCADE_MARGIN = 3.0;
+bool in_cascade(int k, vec3 p, vec3 n) {
+    vec4 clip = u_shadow_matrix[k] * vec4(p + n * u_shadow_offset[k].x, 1.0);
+    vec3 ndc = clip.xyz / clip.w;
+    float edge = 1.0 - 2.0 * CASCADE_MARGIN / u_shadow_rect[k].z;
+    return all(lessThanEqual(abs(ndc.xy), vec2(edge))) && abs(ndc.z) <= 1.0;
+}
+#endif
+
 // Visibility of light i at p, l the unit direction from p to the light: its map's, for a
-// point light the cube face along the major axis of -l; 1 for a light without a map.
+// point light the cube face along the major axis of -l, for a cascaded light its first
+// cascade that holds p (else its last); 1 for a light without a map.
 float shadow_visibility(int i, vec3 p, vec3 n, vec3 l) {
     for (int k = 0; k < SHADOWS; ++k) {
         if (u_shadow_light[k] != i) continue;
         int map = k;
+#if SHADOW_CASCADES
+        if (u_shadow_offset[k].y > 2.5) {        // cascades: the first that holds p
+            for (int c = k; c < SHADOWS; ++c) {
+                if (u_shadow_light[c] != i) break;
+                map = c;
+                if (in_cascade(c, p, n)) break;
+            }
+            return shadow_map_visibility(map, p, n);
+        }
+#endif
         if (u_shadow_offset[k].y > 1.5) {        // faces k .. k + 5
             vec3 a = abs(l);
             int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);

@@ -1,17 +1,17 @@
 // Forward pass (the bench's baseline): each object's fragments loop over every light.
 //   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (RTR4 sec. 9.4)
-// The same terms as glsl/passes/lighting.frag (brdf_eval and light_contribution, lights in
-// the same order), but the surface comes straight from the material uniforms and the
-// interpolated vertex attributes instead of a G-buffer: no quantisation, no culling, and
+// The same terms as glsl/passes/lighting.frag (surface_radiance of lights/shading.glsl),
+// but the surface comes straight from the material uniforms and the interpolated vertex
+// attributes instead of a G-buffer: no quantisation, no culling, and
 // occluded fragments that reach the shader before their occluder are shaded too.
 // With ALPHA_BLEND it is the renderer's pass for glTF alphaMode BLEND (app/render/blend.py):
-// the fragment's full outgoing radiance (the sum plus emission, occlusion on the
-// environment's lights as in passes/lighting.frag) with its coverage as alpha, composited
+// the fragment's full outgoing radiance (surface_radiance: the sum with shadows, the
+// environment's light, emission, occlusion) with its coverage as alpha, composited
 // "over" the lit HDR image by the fixed-function blend.
 #include "brdf/brdf.glsl"
 #include "common/position.glsl"
 #include "geometry/analytic.glsl"
-#include "lights/illumination.glsl"
+#include "lights/shading.glsl"
 #include "material/layers.glsl"
 
 in vec3 v_normal;
@@ -26,15 +26,7 @@ in vec2 v_uv1;     // glTF TEXCOORD_1
 #endif
 
 uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
-uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
-uniform int u_light_count;
 // u_camera_pos, u_camera_to_world, u_tan_half_fov, u_image_size: geometry/analytic.glsl
-
-#if ALPHA_BLEND
-// Lights [x, y) are the environment's: the only light the occlusion map darkens (glTF 2.0),
-// as in passes/lighting.frag.
-uniform ivec2 u_environment_lights;
-#endif
 
 out vec4 frag_color;
 
@@ -99,21 +91,13 @@ void main() {
 #else
     vec3 nc = n;
 #endif
-    vec3 Lo = vec3(0.0);
-    int i = 0;
 #if ALPHA_BLEND
-    // C_src of "over": the lighting pass's sum and emission (RTR4 sec. 9.4's L_o plus L_e);
-    // the blend unit computes alpha C_src + (1 - alpha) C_dst.
-    float ao = emission.a;
-    if (u_light_count > 0) do {
-        float occlusion = i >= u_environment_lights.x && i < u_environment_lights.y ? ao : 1.0;
-        Lo += occlusion * light_contribution(u_lights, i, s, params, n, nc, t, p, v);
-    } while (++i < u_light_count);
-    frag_color = vec4(PI * Lo + emission.rgb, alpha);
+    // C_src of "over": the lighting pass's radiance (lights/shading.glsl: the sum with
+    // shadows, the environment's light, emission); the blend unit computes
+    // alpha C_src + (1 - alpha) C_dst.
+    frag_color = vec4(surface_radiance(ivec2(0), emission, s, params, n, nc, t, p, v), alpha);
 #else
-    if (u_light_count > 0) do {  // bottom-tested, as in the lighting pass
-        Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);
-    } while (++i < u_light_count);
-    frag_color = vec4(PI * Lo, 1.0);
+    frag_color = vec4(surface_radiance(ivec2(0), vec4(0.0, 0.0, 0.0, 1.0), s, params, n, nc, t,
+                                       p, v), 1.0);
 #endif
 }
