@@ -73,6 +73,11 @@ class LimitPass:
         packed = np.concatenate([pack_lights(renderer.lights)[: len(renderer.lights)],
                                  dark_light()[None]])  # fmt: skip
         dark = len(packed) - 1
+        room = {"uniform": ctx.info["GL_MAX_FRAGMENT_UNIFORM_VECTORS"],
+                "ubo": ctx.info["GL_MAX_UNIFORM_BLOCK_SIZE"] // 16}.get(form)  # fmt: skip
+        if room is not None and 3 * len(packed) > room:
+            raise ValueError(f"{len(packed)} lights need {3 * len(packed)} vec4 in a {form},"
+                             f" the context allows {room}: use form 'texture'")  # fmt: skip
         table = renderer.materials
         several = len(table.models) > 1
         self.programs = []
