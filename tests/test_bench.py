@@ -15,7 +15,8 @@ from app.bench import main
 from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.floor import FloorPass, pixel_masks
 from app.bench.forward import ForwardRenderer
-from app.bench.pairs import light_pairs, reference_hdr
+from app.bench.limit import FORMS, LimitPass, pixel_light_indices
+from app.bench.pairs import LightPairs, light_pairs, reference_hdr
 from app.bench.report import evaluate_targets, pareto_front
 from app.bench.scenes import load, many_lights_scene
 from app.bench.timing import Budget, Pass, plausible, time_interleaved
@@ -34,6 +35,17 @@ ERRORS = ("rel_rmse", "max_rel_err", "flip_mean")
 SIZE = (240, 135)
 LIGHTS = 40
 RANGE = 9.0  # metres: about 10 of the 40 lights reach an average surface pixel
+
+
+def without_light(pairs: LightPairs, light: int) -> LightPairs:
+    """``pairs`` with every pair of ``light`` dropped: lists that miss one light."""
+    keep = pairs.lights != light
+    pix = pairs.pixel_index()[keep]
+    count = np.bincount(pix, minlength=pairs.count.size).reshape(pairs.count.shape)
+    first = np.concatenate([[0], np.cumsum(count.ravel())[:-1]]).reshape(count.shape)
+    return LightPairs(
+        first.astype(np.uint32), count.astype(np.uint32), pairs.lights[keep], pairs.covered
+    )
 
 
 def covered_relative_error(a: np.ndarray, b: np.ndarray, covered: np.ndarray) -> np.ndarray:
@@ -73,8 +85,18 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     assert all(r["ms_min"] <= r["ms_p95"] <= r["ms_max"] for r in viewer.values())
     culling = {(r["lights"], r["variant"]) for r in rows if r["suite"] == "culling"}
     for n in (1, 16):
-        for v in ("culled", "unculled", "forward", "floor"):
+        for v in ("culled", "unculled", "forward", "floor", "limit"):
             assert (n, v) in culling
+    # Issue 19's fixed cost: the whole 1-light frame, pass by pass, read-back included.
+    frame = [r for r in rows if r["suite"] == "culling" and r["variant"] == "frame"]
+    assert [r["lights"] for r in frame] == [1]
+    assert list(frame[0]["passes_ms"]) == ["gbuffer", "cull", "lighting", "post", "read-back"]
+    # The limit row (issue 19): culled/limit per round, and its work close to the pairs'.
+    for r in rows:
+        if r["suite"] == "culling" and r["variant"] == "limit":
+            ratio = r["culled_over_limit"]
+            assert 0.0 < ratio["min"] <= ratio["median"] <= ratio["max"], r
+            assert abs(r["limit_terms"] - r["pairs"]) <= 0.5 * r["pairs"] + 1, r
     # Errors exist where a float64 reference does: every culling variant we render, and
     # every accuracy variant; they are finite, and the exact variants are float32-close.
     for r in rows:
@@ -261,14 +283,7 @@ def test_floor_pass_evaluates_exactly_the_pairs(gl):
         image = floor.read_hdr()
         floor.release()
         # Drop light 7 from every list: the floor must then miss its light.
-        keep = pairs.lights != 7
-        pix = pairs.pixel_index()[keep]
-        count = np.bincount(pix, minlength=pairs.count.size).reshape(pairs.count.shape)
-        first = np.concatenate([[0], np.cumsum(count.ravel())[:-1]]).reshape(count.shape)
-        broken = type(pairs)(
-            first.astype(np.uint32), count.astype(np.uint32), pairs.lights[keep], pairs.covered
-        )
-        floor = FloorPass(r, broken)
+        floor = FloorPass(r, without_light(pairs, 7))
         floor.run()
         missing = floor.read_hdr()
         floor.release()
@@ -297,6 +312,43 @@ def test_floor_pass_evaluates_exactly_the_pairs(gl):
     expected = np.zeros_like(reach)
     expected[rows, cols, pairs.lights] = True
     assert np.array_equal(reach, expected)
+
+
+def test_limit_pass_shades_each_pixel_with_its_own_lights(gl):
+    """Every light form draws the deferred image wherever a pixel has at most the limit's
+    count of lights (the same terms in the same order), the indices hold each pixel's
+    lights in ascending order padded with the dark light, and lists that lose a light
+    change the image."""
+    r = Renderer(gl, load(_scene("f16")), SIZE)
+    try:
+        r.render()
+        deferred = r.read_hdr()
+        pairs = light_pairs(r.read_gbuffer(), r.camera, r.lights)
+        images = {}
+        for form in FORMS:
+            limit = LimitPass(r, pairs, form)
+            limit.run()
+            images[form] = limit.read_hdr()
+            count = limit.count
+            limit.release()
+        limit = LimitPass(r, without_light(pairs, 7))
+        limit.run()
+        missing = limit.read_hdr()
+        limit.release()
+    finally:
+        r.release()
+    assert count == round(pairs.mean_per_covered_pixel)
+    exact = pairs.covered & (pairs.count <= count)
+    assert exact.sum() > 0.3 * pairs.covered.sum()
+    for form, image in images.items():
+        assert covered_relative_error(image, deferred, exact).max() <= 1e-6, form
+        assert np.array_equal(image[~pairs.covered], deferred[~pairs.covered]), form
+    assert covered_relative_error(missing, deferred, exact).max() > 1e-2
+    dark = LIGHTS
+    idx = pixel_light_indices(pairs, count, dark)
+    y, x = np.argwhere(exact & (pairs.count > 0))[0]
+    own = pairs.lights[pairs.first[y, x] : pairs.first[y, x] + pairs.count[y, x]]
+    assert list(idx[y, x]) == [*own, *[dark] * (count - len(own))]
 
 
 def test_pareto_front_and_targets_from_rows():
@@ -336,6 +388,31 @@ def test_pareto_front_and_targets_from_rows():
         ]
         verdict = {v.target: v for v in evaluate_targets(rows + spec_rows)}[spec_target]
         assert verdict.status == status and f"{uber_ms / 100.0:.2f}x" in verdict.measured
+
+
+def test_limit_and_pyrender_targets_from_rows():
+    """Issue 19's verdicts read the per-round ratios the rows carry: culled/limit of the
+    shading passes against 1.2, pyrender/pbs on the 35-sphere scene against 5."""
+
+    def ratio(median):
+        return {"median": median, "min": median - 0.1, "max": median + 0.1, "rounds": 5}
+
+    limit_target = "culled lighting pass (cull + lighting) at 256 lights <= 1.2x the limit pass"
+    spheres = "pbs >= 5x faster than pyrender, 35 spheres, 4 light(s), 1280x720, frame + read-back"
+    for median, status in ((1.15, "PASS"), (1.4, "FAIL")):
+        rows = [
+            {"suite": "culling", "case": "256 lights", "variant": "limit", "lights": 256,
+             "ms_median": 80.0, "culled_over_limit": ratio(1.3),
+             "culled_over_limit_lighting": ratio(median)},
+            {"suite": "culling", "case": "35 spheres", "variant": "pbs render+read-back",
+             "lights": 4, "width": 1280, "height": 720, "ms_median": 30.0,
+             "pyrender_over_pbs": ratio(median * 4.0)},
+        ]  # fmt: skip
+        verdicts = {v.target: v for v in evaluate_targets(rows)}
+        assert verdicts[limit_target].status == status
+        assert f"{median:.2f}x" in verdicts[limit_target].measured
+        assert verdicts[spheres].status == ("PASS" if median * 4.0 >= 5.0 else "FAIL")
+    assert {v.target: v for v in evaluate_targets([])}[limit_target].status == "NOT MEASURED"
 
 
 @pytest.mark.parametrize(

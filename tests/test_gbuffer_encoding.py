@@ -108,3 +108,35 @@ def test_a_unorm_target_keeps_no_nan(gl) -> None:
     assert np.all(np.isfinite(out))
     np.testing.assert_allclose(out[:, 0], np.round(finite_or(values, 1.0) * 65535) / 65535)
     np.testing.assert_allclose(out[:, 1], np.round(finite_or(values, 0.04) * 65535) / 65535)
+
+
+@pytest.mark.parametrize("encoding", ["f32", "unorm16"])
+def test_a_frame_clears_only_what_marks_the_background(gl_egl, encoding: str) -> None:
+    """The G-buffer pass clears RT2 and the z-buffer only (docs/performance.md, issue 19):
+    a pixel a surface left keeps stale texels in the other targets, yet ``read`` gives
+    it the cleared value, the lighting pass shows the background there, and the frame
+    equals a frame drawn into fully cleared targets."""
+    from app.bench.scenes import load, many_lights_scene
+    from app.render.renderer import Renderer
+
+    size = (64, 36)
+    data = many_lights_scene(4, 12.0, size, gbuffer=encoding)
+    moved = {**data, "camera": {**data["camera"], "position": [0.0, 4.0, 26.0]}}
+    r = Renderer(gl_egl, load(data), size)
+    fresh = Renderer(gl_egl, load(moved), size)
+    try:
+        r.render()
+        before = r.read_gbuffer()
+        r.set_camera(fresh.scene.camera)  # the surfaces move: some pixels lose theirs
+        r.render()
+        after, image = r.read_gbuffer(), r.read_hdr()
+        fresh.render()
+        expected, expected_image = fresh.read_gbuffer(), fresh.read_hdr()
+    finally:
+        r.release()
+        fresh.release()
+    left = (before.depth > 0.0) & (after.depth == 0.0)
+    assert left.any()  # the test needs pixels whose surface went away
+    for name in ("base_color", "normal", "depth", "tangent", "material_id"):
+        assert np.array_equal(getattr(after, name), getattr(expected, name)), name
+    assert np.array_equal(image, expected_image)

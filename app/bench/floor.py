@@ -19,12 +19,15 @@ masks are valid for one camera and one light set only.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import moderngl
 import numpy as np
 
 from app.bench.pairs import LightPairs
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
+from app.render.post import read_rgb
 from app.render.renderer import Renderer
 
 
@@ -39,6 +42,43 @@ def pixel_masks(pairs: LightPairs, quads: int) -> np.ndarray:
     bit = np.left_shift(1, lights % 32).astype(np.float64)
     flat = np.bincount(slot, weights=bit, minlength=h * w * words)
     return flat.astype(np.uint32).reshape(h, w, words)
+
+
+def shade_gbuffer(
+    r: Renderer,
+    fbo: moderngl.Framebuffer,
+    programs: list[moderngl.Program],
+    vaos: list[moderngl.VertexArray],
+    textures: list[tuple[str, moderngl.Texture]],
+    uniforms: Callable[[moderngl.Program], None] | None = None,
+) -> None:
+    """One full-screen pass per program over ``r``'s G-buffer into ``fbo``, cleared to the
+    background first, as the lighting pass draws: the G-buffer, material and table
+    textures bound with the pass's own ``textures``, the camera's uniforms set, and
+    ``uniforms(prog)`` for the rest (the bench's floor and limit passes)."""
+    ctx = r.gl.ctx
+    fbo.use()
+    ctx.viewport = fbo.viewport
+    ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+    fbo.clear(*(float(x) for x in r.scene.background), 1.0)
+    textures = [*r.gbuffer.samplers(), ("u_materials", r.lighting.materials), *textures]
+    if r.lighting.ms_table is not None:
+        textures.append(("u_ms_table", r.lighting.ms_table))
+    if r.lighting.sheen_table is not None:  # sheen (RTR4 §9.10)
+        textures.append(("u_sheen_table", r.lighting.sheen_table))
+    for unit, (_, tex) in enumerate(textures):
+        tex.use(unit)
+    camera_to_world = gl_bytes(r.camera.camera_to_world)
+    for prog, vao in zip(programs, vaos, strict=True):
+        for unit, (name, _) in enumerate(textures):
+            if name in prog:
+                prog[name].value = unit
+        prog["u_camera_pos"].value = tuple(float(x) for x in r.camera.position)
+        prog["u_camera_to_world"].write(camera_to_world)
+        prog["u_tan_half_fov"].value = r.camera.tan_half_fov
+        if uniforms is not None:
+            uniforms(prog)
+        vao.render(moderngl.TRIANGLES, vertices=3)
 
 
 class FloorPass:
@@ -79,38 +119,13 @@ class FloorPass:
 
     def run(self) -> None:
         """Shade the renderer's current G-buffer (its G-buffer pass must have run)."""
-        ctx, r = self.ctx, self.renderer
-        self.fbo.use()
-        ctx.viewport = (0, 0, *self.size)
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-        self.fbo.clear(*(float(x) for x in r.scene.background), 1.0)
-        textures = [
-            *r.gbuffer.samplers(),
-            ("u_lights", r.lighting.lights),
-            ("u_materials", r.lighting.materials),
-            ("u_pixel_masks", self.masks),
-        ]
-        if r.lighting.ms_table is not None:
-            textures.append(("u_ms_table", r.lighting.ms_table))
-        if r.lighting.sheen_table is not None:  # sheen (RTR4 §9.10)
-            textures.append(("u_sheen_table", r.lighting.sheen_table))
-        for unit, (_, tex) in enumerate(textures):
-            tex.use(unit)
-        camera_to_world = gl_bytes(r.camera.camera_to_world)
-        for prog, vao in zip(self.programs, self.vaos, strict=True):
-            for unit, (name, _) in enumerate(textures):
-                if name in prog:
-                    prog[name].value = unit
-            prog["u_camera_pos"].value = tuple(float(x) for x in r.camera.position)
-            prog["u_camera_to_world"].write(camera_to_world)
-            prog["u_tan_half_fov"].value = r.camera.tan_half_fov
-            vao.render(moderngl.TRIANGLES, vertices=3)
+        r = self.renderer
+        textures = [("u_lights", r.lighting.lights), ("u_pixel_masks", self.masks)]
+        shade_gbuffer(r, self.fbo, self.programs, self.vaos, textures)
 
     def read_hdr(self) -> np.ndarray:
         """The HDR image, (H, W, 3) float32, rows top to bottom."""
-        w, h = self.size
-        data = np.frombuffer(self.hdr.read(), np.float32).reshape(h, w, 4)
-        return data[::-1, :, :3].copy()
+        return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
         for obj in (*self.vaos, self.fbo, self.hdr, self.masks):

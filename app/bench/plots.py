@@ -13,7 +13,7 @@ from __future__ import annotations
 import textwrap
 from pathlib import Path
 
-from app.bench.report import pareto_by_comparison
+from app.bench.report import SPHERES_CASE, pareto_by_comparison
 from app.output import atomic_write
 
 VARIANT_STYLE = {
@@ -21,6 +21,7 @@ VARIANT_STYLE = {
     "unculled": ("tab:red", "s"),
     "forward": ("tab:orange", "^"),
     "floor": ("tab:green", "v"),
+    "limit": ("tab:olive", "<"),
     "pyrender": ("tab:purple", "D"),
     "culled_readback": ("tab:cyan", "x"),
 }
@@ -123,7 +124,11 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
 def plot_scaling(rows: list[dict], path: Path) -> None:
     fig = _figure(11.0, 4.2)
     left, right = fig.subplots(1, 2)
-    culling = [r for r in rows if r["suite"] == "culling" and r.get("ms_median")]
+    culling = [  # the 35-sphere pyrender comparison is another scene: not on these axes
+        r
+        for r in rows
+        if r["suite"] == "culling" and r.get("ms_median") and r["case"] != SPHERES_CASE
+    ]
     for variant, (colour, marker) in VARIANT_STYLE.items():
         pts = sorted((r["lights"], r) for r in culling if r["variant"] == variant)
         if not pts:

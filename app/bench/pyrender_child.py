@@ -10,6 +10,13 @@ after one warm-up render of the scene's camera, each camera in turn is set, rend
 read back and written as ``out/frame-NNNN.png`` with the project's PNG writer; ``ms``
 holds each frame's time, all of that included.
 
+A served request (issue 19's comparison, app/bench/spheres.py) is {"scene": scene dict,
+"size": [w, h], "serve": true}: after the warm-up render the child writes one JSON line
+{"ready": true} and then renders one frame for each line ``frame`` it reads on stdin,
+answering each with {"ms": t}; the line ``end`` makes it write the whole result (as
+above) and exit. So the bench can alternate one of its own frames with one of
+pyrender's, and a change of the machine's load falls on both alike.
+
 A separate process because pyrender makes its own EGL context current through PyOpenGL,
 which must not meet the bench's moderngl contexts, and because pyrender is optional (the
 ``bench`` extra): the bench records why when it cannot run.
@@ -141,6 +148,21 @@ def _orbit(renderer, scene, camera_node, request: dict):
     return times, color
 
 
+def _serve(renderer, scene, color):
+    """One frame per ``frame`` line on stdin, each answered with its ms, until ``end``:
+    the ms of each frame, and the last colour image."""
+    print(json.dumps({"ready": True}), flush=True)
+    times = []
+    for line in sys.stdin:
+        if line.strip() != "frame":
+            break
+        t0 = time.perf_counter()
+        color, _depth = renderer.render(scene)
+        times.append((time.perf_counter() - t0) * 1e3)
+        print(json.dumps({"ms": times[-1]}), flush=True)
+    return times, color
+
+
 def run(request: dict) -> dict:
     """Time pyrender on the request's scene; never raises."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
@@ -167,6 +189,8 @@ def run(request: dict) -> dict:
         started = time.perf_counter()
         if "cameras" in request:
             times, color = _orbit(renderer, scene, camera_node, request)
+        elif request.get("serve"):
+            times, color = _serve(renderer, scene, color)
         else:
             while len(times) < request["max_frames"] and (
                 len(times) < request["min_frames"]
@@ -194,7 +218,7 @@ def run(request: dict) -> dict:
 
 
 def main() -> int:
-    request = json.load(sys.stdin)
+    request = json.loads(sys.stdin.readline())  # one line: a served child reads on
     print(json.dumps(run(request)))
     return 0
 

@@ -33,6 +33,10 @@ COLD_START_MAX_S = 3.0
 VIEWER_LATENCY_MAX_MS = 100.0  # an input's wait for its new image in pbs view
 SPECIALIZED_SPEEDUP_MIN = 1.5
 TARGET_LIGHTS = 256
+CULLED_LIMIT_MAX = 1.2  # issue 19: the culled lighting pass against the limit pass
+PYRENDER_SPEEDUP_MIN = 5.0  # issue 19: pyrender / pbs on the 35-sphere scene
+SPHERES_CASE = "35 spheres"  # app/bench/spheres.py's CASE (report imports no GL modules)
+SPHERES_PYRENDER = "pyrender"
 
 
 def _cpu_model() -> str:
@@ -158,6 +162,7 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
         )  # fmt: skip
     else:
         out.append(Verdict(what, "no 256-light rows", "NOT MEASURED"))
+    out.append(_limit_verdict(rows))
     what = f"culled at {TARGET_LIGHTS} lights >= {UNCULLED_SPEEDUP_MIN:g}x faster than unculled"
     if culled and unculled:
         ratio = unculled["ms_median"] / culled["ms_median"]
@@ -217,6 +222,7 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
                 measured += f"; {front['why'].get(row['variant'], '')}"
             out.append(Verdict(f"default of accuracy '{comp}' on its Pareto front", measured,
                                _status(on)))  # fmt: skip
+    out.extend(_pyrender_verdicts(rows))
     out.append(_specialization_verdict(rows))
     out.extend(_primitives_verdicts(rows))
     return out
@@ -351,6 +357,29 @@ def _specialization_verdict(rows: list[dict]) -> Verdict:
     if mixed is not None:
         measured += f"; mixed-model scene {mixed:.2f}x"
     return Verdict(what, measured, _status(ratio >= SPECIALIZED_SPEEDUP_MIN))
+
+
+def _ratio_text(r: dict | None) -> str:
+    """A per-round ratio (timing.round_ratios): median and range over its rounds."""
+    if not r:
+        return "-"
+    return f"{r['median']:.2f}x ({r['min']:.2f}-{r['max']:.2f} over {r['rounds']} rounds)"
+
+
+def _limit_verdict(rows: list[dict]) -> Verdict:
+    what = (
+        f"culled lighting pass (cull + lighting) at {TARGET_LIGHTS} lights <= "
+        f"{CULLED_LIMIT_MAX:g}x the limit pass"
+    )
+    limit = find(rows, "culling", "limit", TARGET_LIGHTS)
+    if limit is None or not limit.get("culled_over_limit_lighting"):
+        return Verdict(what, f"no {TARGET_LIGHTS}-light limit row", "NOT MEASURED")
+    ratio = limit["culled_over_limit_lighting"]
+    measured = (
+        f"culled/limit, shading passes {_ratio_text(ratio)}; whole frames "
+        f"{_ratio_text(limit.get('culled_over_limit'))}"
+    )
+    return Verdict(what, measured, _status(ratio["median"] <= CULLED_LIMIT_MAX))
 
 
 def _pass_ratio(a: dict, b: dict, a_passes: tuple[str, ...], b_passes: tuple[str, ...]) -> str:
@@ -513,12 +542,15 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
                 "|---|---|---|---|---|---|---|---|---|---|",
             ]
             for r in members:
+                if r["case"] == SPHERES_CASE:
+                    continue  # their own table, below
                 lines.append(
                     f"| {r['lights']} | {r['variant']} | {_fmt(r['ms_median'])} |"
                     f" {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} | {_passes(r)} |"
                     f" {_lights_per_pixel(r)} | {_fmt(r['rel_rmse'], '.2e')} |"
                     f" {_fmt(r['max_rel_err'], '.2e')} | {_fmt(r['flip_mean'], '.2e')} |"
                 )
+            lines += _culling_ratio_lines(members)
         elif suite == "resolution":
             lines += [
                 "| size | lights | ms median | min | max | passes, ms (q: timer query) |"
@@ -667,6 +699,78 @@ def _shadow_lines(members: list[dict]) -> list[str]:
             f" {_fmt(passes.get('lighting'))} | {_fmt(r.get('mismatch'), '.2e')} | {on} |"
         )
     return lines
+
+
+def _culling_ratio_lines(members: list[dict]) -> list[str]:
+    """culled/limit per light count (per-round ratios of one interleaved run), and the
+    pyrender comparisons' ratios."""
+    limits = [r for r in members if r["variant"] == "limit" and r.get("culled_over_limit")]
+    lines = []
+    if limits:
+        lines += [
+            "",
+            "culled/limit (the limit pass: the pixel's own lights, a fixed-count loop, light"
+            " parameters in uniforms; app/bench/limit.py), per round of the interleaved run:",
+            "",
+            "| lights | limit: lights per pixel (form) | whole frames | cull + lighting vs"
+            " limit pass |",
+            "|---|---|---|---|",
+        ]
+        lines += [
+            f"| {r['lights']} | {r['limit_lights_per_pixel']} ({r['limit_form']}) |"
+            f" {_ratio_text(r['culled_over_limit'])} |"
+            f" {_ratio_text(r.get('culled_over_limit_lighting'))} |"
+            for r in limits
+        ]
+    frames = [r for r in members if r["variant"] == "frame"]
+    if frames:
+        lines += [
+            "",
+            "Fixed cost: the whole frame to the caller's 8-bit image (G-buffer, cull, lighting,"
+            " post, read-back), timed interleaved with the variants above:",
+            "",
+            "| lights | size | ms median | min | max | passes, ms |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [
+            f"| {r['lights']} | {r['width']}x{r['height']} | {_fmt(r['ms_median'])} |"
+            f" {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} | {_passes(r)} |"
+            for r in frames
+        ]
+    spheres = [r for r in members if r["case"] == SPHERES_CASE]
+    if spheres:
+        lines += [
+            "",
+            f"pyrender on the {SPHERES_CASE} scene (app/bench/spheres.py: icospheres of"
+            " subdivision 4 in both), render plus read-back per frame; the ratio is"
+            " pyrender/pbs of each round's medians:",
+            "",
+            "| lights | renderer | ms median | min | max | passes, ms | pyrender / pbs |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        lines += [
+            f"| {r['lights']} | {r['variant']} | {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])}"
+            f" | {_fmt(r['ms_max'])} | {_passes(r)} | {_ratio_text(r.get('pyrender_over_pbs'))} |"
+            for r in spheres
+        ]
+    return lines
+
+
+def _pyrender_verdicts(rows: list[dict]) -> list[Verdict]:
+    """Issue 19: pbs at least PYRENDER_SPEEDUP_MIN times faster than pyrender on the
+    35-sphere scene, per light count measured."""
+    out = []
+    for r in rows:
+        if r["case"] != SPHERES_CASE or r["variant"] == SPHERES_PYRENDER:
+            continue
+        ratio = r["pyrender_over_pbs"]
+        out.append(
+            Verdict(f"pbs >= {PYRENDER_SPEEDUP_MIN:g}x faster than pyrender, {SPHERES_CASE},"
+                    f" {r['lights']} light(s), {r['width']}x{r['height']}, frame + read-back",
+                    f"pyrender/pbs = {_ratio_text(ratio)}",
+                    _status(ratio["median"] >= PYRENDER_SPEEDUP_MIN))
+        )  # fmt: skip
+    return out
 
 
 def _batch_lines(members: list[dict]) -> list[str]:

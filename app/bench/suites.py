@@ -31,6 +31,7 @@ from app.bench.filtering import OPTIONS as FILTER_OPTIONS
 from app.bench.filtering import SWEEP_METRES, render_hdr, shimmer, with_settings
 from app.bench.floor import FloorPass
 from app.bench.forward import ForwardRenderer
+from app.bench.limit import LimitPass
 from app.bench.metrics import image_errors, interior_errors
 from app.bench.pairs import LightPairs, light_pairs, reference_hdr
 from app.bench.raycast import five_spheres, scene_with_spheres
@@ -50,6 +51,7 @@ from app.bench.timing import (
     FrameTimes,
     GLTimerQueries,
     Pass,
+    round_ratios,
     summary,
     time_frames,
     time_interleaved,
@@ -65,8 +67,9 @@ from app.render.renderer import Renderer, RenderOptions
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene
 
-CULLING_VARIANTS = ("culled", "unculled", "forward", "floor")
+CULLING_VARIANTS = ("culled", "unculled", "forward", "floor", "limit")
 PYRENDER_CASE_LIGHTS = 8  # 4 point + 4 spot: the most pyrender shades (4 per type)
+FIXED_COST_LIGHTS = 1  # issue 19: the frame whose fixed costs the "frame" row shows
 
 
 @dataclass(frozen=True)
@@ -104,6 +107,8 @@ class Settings:
     # also times no shadow, PCF and PCSS side by side).
     shadow_size: tuple[int, int] = (640, 384)
     shadow_resolutions: tuple[int, ...] = (256, 512, 1024, 2048)
+    # Issue 19's pyrender comparison (app/bench/spheres.py): its light counts.
+    pyrender_sphere_lights: tuple[int, ...] = (1, 4)
 
 
 FULL = Settings(
@@ -166,6 +171,7 @@ TINY = replace(
     batch_subdivisions=2,
     shadow_size=(64, 40),
     shadow_resolutions=(64, 128),
+    pyrender_sphere_lights=(1,),
 )
 
 
@@ -299,13 +305,19 @@ def _pyrender_request(data: dict, size: tuple[int, int], budget: Budget) -> dict
     }
 
 
-def run_pyrender(data: dict, size: tuple[int, int], budget: Budget) -> dict:
-    """pyrender in a child process (app/bench/pyrender_child.py); never raises."""
+def pyrender_env() -> dict[str, str]:
+    """The environment of a pyrender child: EGL, and this checkout's ``app`` importable."""
     env = dict(os.environ)
     env.setdefault("PYOPENGL_PLATFORM", "egl")
     env["PYTHONPATH"] = os.pathsep.join(
         [str(Path(__file__).resolve().parents[2]), env.get("PYTHONPATH", "")]
     ).rstrip(os.pathsep)
+    return env
+
+
+def run_pyrender(data: dict, size: tuple[int, int], budget: Budget) -> dict:
+    """pyrender in a child process (app/bench/pyrender_child.py); never raises."""
+    env = pyrender_env()
     try:
         proc = subprocess.run(
             [sys.executable, "-m", "app.bench.pyrender_child"],
@@ -337,7 +349,7 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
     variants = ", ".join(CULLING_VARIANTS)
     progress.start(f"culling {case}: {variants}, interleaved")
     culled = Renderer(gl, loaded, size)
-    unculled = floor = forward = None
+    unculled = floor = forward = limit = None
     try:
         # The floor's pairs come from the culled renderer's G-buffer, drawn once here.
         culled.gbuffer_pass.run(culled.gbuffer, culled.view, culled.proj, culled.camera)
@@ -345,6 +357,7 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
         common["lights_per_pixel"] = pairs.mean_per_covered_pixel
         common["lights_per_pixel_max"] = int(pairs.count.max())
         floor = FloorPass(culled, pairs)
+        limit = LimitPass(culled, pairs)
         unculled = Renderer(
             gl, load({**data, "render": {**data["render"], "light_culling": "none"}}), size
         )
@@ -358,9 +371,20 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
                      culled.gbuffer.fbo),
                 Pass("floor", floor.run, floor.fbo),
             ],
+            "limit": [
+                Pass("gbuffer",
+                     lambda: gb.run(culled.gbuffer, culled.view, culled.proj, culled.camera),
+                     culled.gbuffer.fbo),
+                Pass("limit", limit.run, limit.fbo),
+            ],
             "unculled": deferred_passes(unculled),
             "forward": [Pass("forward", forward.render, forward.fbo)],
         }  # fmt: skip
+        if count == FIXED_COST_LIGHTS:
+            # Issue 19's fixed cost: the whole frame to the caller's 8-bit image.
+            from app.bench.spheres import pbs_frame_passes
+
+            frames["frame"] = pbs_frame_passes(culled)
         times = ctx.time_interleaved(frames)
         # The floor pass draws into its own target from the shared G-buffer, so each
         # variant's image is read after all of them have run.
@@ -385,7 +409,19 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
                      **common),
             make_row("culling", case, "unculled", size, count, times["unculled"], **common),
             make_row("culling", case, "forward", size, count, times["forward"], **common),
+            make_row("culling", case, "limit", size, count, times["limit"],
+                     limit_lights_per_pixel=limit.count, limit_terms=limit.terms,
+                     limit_form=limit.form, pairs=pairs.total,
+                     culled_over_limit=round_ratios(times["culled"], times["limit"]),
+                     culled_over_limit_lighting=round_ratios(
+                         times["culled"], times["limit"], ("cull", "lighting"), ("limit",)),
+                     **common),
         ]  # fmt: skip
+        if "frame" in times:
+            pending.append(
+                make_row("culling", case, "frame", size, count, times["frame"],
+                         frame="G-buffer, cull, lighting, post, 8-bit read-back", **common)
+            )  # fmt: skip
         progress.done()
 
         if pyrender:
@@ -401,7 +437,7 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
             )
             progress.done()
     finally:
-        for obj in (floor, forward, unculled, culled):
+        for obj in (limit, floor, forward, unculled, culled):
             if obj is not None:
                 obj.release()
 
@@ -445,7 +481,9 @@ def culling_tasks(settings: Settings, pyrender: bool) -> int:
     for count in counts:
         with_pyrender = pyrender and count in settings.pyrender_lights
         tasks += 2 + (2 if with_pyrender else 0)  # the variants; the reference
-    return tasks
+    from app.bench.spheres import sphere_tasks
+
+    return tasks + sphere_tasks(settings, pyrender)
 
 
 def _culling_counts(settings: Settings, pyrender: bool) -> list[int]:
@@ -456,12 +494,16 @@ def _culling_counts(settings: Settings, pyrender: bool) -> list[int]:
 
 
 def run_culling(ctx: Context) -> None:
-    """Suite ``culling``: culled, unculled, forward and floor at each light count."""
+    """Suite ``culling``: culled, unculled, forward, floor and limit at each light count."""
     s = ctx.settings
     for count in _culling_counts(s, ctx.pyrender):
         if count not in s.light_counts and not ctx.pyrender:
             continue  # the extra pyrender case, and pyrender turned out to be unavailable
         _culling_case(ctx, count, s.culling_size, ctx.pyrender and count in s.pyrender_lights)
+    if ctx.pyrender:
+        from app.bench.spheres import run_pyrender_spheres
+
+        run_pyrender_spheres(ctx)
 
 
 def run_resolution(ctx: Context) -> None:

@@ -266,3 +266,23 @@ def time_interleaved(
 def summary(values: list[float]) -> tuple[float, float, float]:
     """(median, min, max)."""
     return statistics.median(values), min(values), max(values)
+
+
+def round_ratios(
+    a: FrameTimes, b: FrameTimes, a_passes: tuple[str, ...] = (), b_passes: tuple[str, ...] = ()
+) -> dict[str, float] | None:
+    """a / b per round of one ``time_interleaved`` run (frame k of each is round k, so a
+    slowdown of the machine falls on both): the median and the range over rounds, of the
+    whole frames or, where given, of the sums of the named passes. None without rounds."""
+
+    def per_round(t: FrameTimes, names: tuple[str, ...]) -> list[float]:
+        if not names:
+            return t.wall_ms
+        return [sum(v) for v in zip(*(t.pass_ms[n] for n in names), strict=True)]
+
+    num, den = per_round(a, a_passes), per_round(b, b_passes)
+    ratios = [x / y for x, y in zip(num, den, strict=False) if y > 0.0]
+    if not ratios:
+        return None
+    return {"median": statistics.median(ratios), "min": min(ratios), "max": max(ratios),
+            "rounds": len(ratios)}  # fmt: skip

@@ -70,6 +70,17 @@ class GBuffer:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
         self.fbo = ctx.framebuffer(targets, self.zbuffer)
+        # What a frame clears: RT2 and the z-buffer. Every pass that reads the other
+        # targets reads them only where RT2's depth says a surface was drawn (decode.glsl,
+        # debug.frag discard the rest), and every drawn fragment writes every target, so
+        # their background texels are never read on the GPU; ``read`` gives them the
+        # cleared value. Clearing all six took 3.7x as long as these two here
+        # (docs/performance.md).
+        self.clear_fbo = ctx.framebuffer([self.depth], self.zbuffer)
+
+    def clear(self) -> None:
+        """Start a frame: no surface anywhere (RT2's depth 0) and the far z."""
+        self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
 
     def defines(self) -> dict[str, int]:
         """The encoding's defines for every pass that writes or decodes these targets."""
@@ -80,19 +91,26 @@ class GBuffer:
         (octahedral coordinates, anisotropy) mapped back to [-1, 1] as decode.glsl maps
         them (float64 here, then float32: within an ulp of the GLSL's float32)."""
         w, h = self.size
-        base_color = _read_float(self.base_color).reshape(h, w, 4)
-        normal = _read_float(self.normal, (0, 1), 4).reshape(h, w, 4)
         depth_id = np.frombuffer(self.depth.read(), np.float32).reshape(h, w, 2)
+        empty = depth_id[..., 0] == 0.0  # no surface: the other targets were not cleared
+
+        def read(tex: moderngl.Texture, signed: tuple[int, ...], components: int) -> np.ndarray:
+            texels = _read_float(tex, signed, components).reshape(h, w, components).copy()
+            texels[empty] = _read_float_of_zero(tex.dtype, signed, components)
+            return texels
+
+        base_color = read(self.base_color, (), 4)
+        normal = read(self.normal, (0, 1), 4)
         if self.tangent is not None:
-            tangent = _read_float(self.tangent, (0, 1, 2), 4).reshape(h, w, 4).copy()
+            tangent = read(self.tangent, (0, 1, 2), 4)
         else:
             tangent = np.zeros((h, w, 4), np.float32)
         coat_normal = None
         if self.coat_normal is not None:
-            coat_normal = _read_float(self.coat_normal, (0, 1), 2).reshape(h, w, 2)[::-1].copy()
+            coat_normal = read(self.coat_normal, (0, 1), 2)[::-1].copy()
         emission = None
         if self.emission is not None:
-            emission = _read_float(self.emission).reshape(h, w, 4)[::-1].copy()
+            emission = read(self.emission, (), 4)[::-1].copy()
         return GBufferData(
             base_color=base_color[::-1].copy(),
             normal=normal[::-1].copy(),
@@ -114,7 +132,7 @@ class GBuffer:
         return [(name, tex) for name, tex in named if tex is not None]
 
     def release(self) -> None:
-        for obj in (self.fbo, *(tex for _, tex in self.samplers()), self.zbuffer):
+        for obj in (self.fbo, self.clear_fbo, *(tex for _, tex in self.samplers()), self.zbuffer):
             obj.release()
 
 
@@ -134,6 +152,15 @@ def _read_float(
     texels = np.frombuffer(tex.read(), np.uint16).reshape(-1, components) / 65535.0
     texels[:, signed] = unorm_to_snorm(texels[:, signed])
     return texels.astype(np.float32).reshape(-1)
+
+
+def _read_float_of_zero(dtype: str, signed: tuple[int, ...], components: int) -> np.ndarray:
+    """What ``_read_float`` gives for a texel cleared to 0: 0, or -1 in a unorm target's
+    signed channels (unorm_to_snorm(0))."""
+    value = np.zeros(components, np.float64)
+    if dtype == "nu2":
+        value[list(signed)] = unorm_to_snorm(value[list(signed)])
+    return value.astype(np.float32)
 
 
 # Bit of each map in a layer's LAYER<i>_MAPS define (glsl/material/layers.glsl).
@@ -543,7 +570,8 @@ class GBufferPass:
         ctx.viewport = (0, 0, *target.size)
         ctx.enable_only(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
-        target.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        target.clear()
+        target.fbo.use()
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
         for d in self.drawables:
             d.cull(ctx)

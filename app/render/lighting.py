@@ -28,6 +28,7 @@ from app.gl.shaders import ShaderCache
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
 from app.render.ibl import EnvironmentLighting
+from app.render.post import read_rgb
 from app.render.shadows import ShadowPass
 from app.render.tables import material_texture, ms_texture, sheen_texture
 
@@ -156,9 +157,7 @@ class LightingPass:
 
     def read(self) -> np.ndarray:
         """The HDR image, (H, W, 3) float32, rows top to bottom."""
-        w, h = self.size
-        data = np.frombuffer(self.hdr.read(), np.float32).reshape(h, w, 4)
-        return data[::-1, :, :3].copy()
+        return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
         for obj in (*self.vaos, self.fbo, self.hdr, self.lights, self.materials):

@@ -10,6 +10,19 @@ from app.gl.shaders import ShaderCache
 from app.reference import dof
 
 
+def read_rgb(fbo: moderngl.Framebuffer, size: tuple[int, int], dtype: str) -> np.ndarray:
+    """``fbo``'s first attachment as (H, W, 3) float32 ("f4") or uint8 ("f1"), rows top to
+    bottom. GL packs the three channels (glReadPixels with GL_RGB, rows 1-byte aligned),
+    so the only copy in numpy is the row flip, a contiguous copy per row: reading RGBA and
+    slicing off alpha, a strided copy, took 4x as long for 1280x720 RGBA8 here
+    (docs/performance.md). The values are the same bytes either way."""
+    w, h = size
+    data = fbo.read(components=3, alignment=1, dtype=dtype)
+    return (
+        np.frombuffer(data, np.float32 if dtype == "f4" else np.uint8).reshape(h, w, 3)[::-1].copy()
+    )
+
+
 class _FullscreenPass:
     """A full-screen pass of ``program`` into its own RGBA target of ``size`` (``dtype``
     "f4": linear HDR, NEAREST; "f1": the 8-bit display image): what every image-to-image
@@ -47,10 +60,7 @@ class _FullscreenPass:
 
     def read(self) -> np.ndarray:
         """(H, W, 3) float32 (HDR) or uint8 (display), rows top to bottom."""
-        w, h = self.size
-        dtype = np.float32 if self.target.dtype == "f4" else np.uint8
-        data = np.frombuffer(self.target.read(), dtype).reshape(h, w, 4)
-        return data[::-1, :, :3].copy()
+        return read_rgb(self.fbo, self.size, self.target.dtype)
 
     def release(self) -> None:
         for obj in (self.vao, self.fbo, self.target):

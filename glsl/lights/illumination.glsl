@@ -14,14 +14,16 @@
 // even where the #ifdef drops it. Without TILE_QUADS it adds functions nothing calls.
 #include "lights/tiles.glsl"
 
-// f(l, v) c_light (n.l)+ of light i of a light texture at p; nc is the clear coat's
-// normal (n where the coat has none of its own). With GBUFFER_COAT_NORMAL (a coat of the
-// scene has a normal other than its base's: gbuffer/layout.glsl) a coated material's
-// layers take their own cosines (brdf_eval_layered_cos in brdf/material.glsl).
-vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
-                        vec3 nc, vec3 t, vec3 p, vec3 v) {
+// f(l, v) c_light (n.l)+ of `light` (light i: its shadow map's index) at p, wherever the
+// light was read from (light_contribution below: the light texture; the bench's limit
+// pass: uniforms); nc is the clear coat's normal (n where the coat has none of its own).
+// With GBUFFER_COAT_NORMAL (a coat of the scene has a normal other than its base's:
+// gbuffer/layout.glsl) a coated material's layers take their own cosines
+// (brdf_eval_layered_cos in brdf/material.glsl).
+vec3 light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 n, vec3 nc,
+                vec3 t, vec3 p, vec3 v) {
     vec3 l;
-    vec3 c_light = light_at(fetch_light(lights, i), p, l);
+    vec3 c_light = light_at(light, p, l);
 #if SHADOWS
     c_light *= shadow_visibility(i, p, n, l);   // a shadowed light (lights/shadows.glsl)
 #endif
@@ -33,6 +35,12 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
     float NoL = dot(n, l);
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
     return brdf_eval(s, params, n, nc, t, l, v) * c_light * NoL;
+}
+
+// light_term of light i of a light texture.
+vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
+                        vec3 nc, vec3 t, vec3 p, vec3 v) {
+    return light_term(fetch_light(lights, i), i, s, params, n, nc, t, p, v);
 }
 
 #ifdef TILE_QUADS

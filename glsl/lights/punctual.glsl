@@ -53,12 +53,16 @@ vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
 // Light i of a light texture (app/scene/lights.py pack_lights): 3 RGBA32F texels per
 // light, one light per row. The type is implied by the numbers: range < 0 marks a
 // directional light, cos_outer < -1 a point light (no cone).
-PunctualLight fetch_light(sampler2D lights, int i) {
-    vec4 t0 = texelFetch(lights, ivec2(0, i), 0);
-    vec4 t1 = texelFetch(lights, ivec2(1, i), 0);
-    vec4 t2 = texelFetch(lights, ivec2(2, i), 0);
+// The same three texels however they reach the shader: a texture here, a uniform array or
+// block in the bench's limit pass (glsl/passes/limit.frag).
+PunctualLight unpack_light(vec4 t0, vec4 t1, vec4 t2) {
     int type = t1.w < 0.0 ? LIGHT_DIRECTIONAL : (t2.w < -1.0 ? LIGHT_POINT : LIGHT_SPOT);
     return PunctualLight(type, t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t0.w);
+}
+
+PunctualLight fetch_light(sampler2D lights, int i) {
+    return unpack_light(texelFetch(lights, ivec2(0, i), 0), texelFetch(lights, ivec2(1, i), 0),
+                        texelFetch(lights, ivec2(2, i), 0));
 }
 
 #endif

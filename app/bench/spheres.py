@@ -1,0 +1,185 @@
+"""Issue 19's pyrender comparison: the 35-sphere scene, render plus read-back per frame.
+
+``sphere_grid_scene``: a 7 x 5 grid of spheres of radius 0.5 m, 1.2 m apart, in the plane
+z = 0, seen from 9 m along +z with a 45 degree vertical field of view; roughness sweeps
+0.1-0.9 along a row and the rows alternate dielectric and metal (mixed metallic and
+roughness); ``lights`` point lights of range 100 m in front of the grid, no floor. The
+spheres are icospheres of subdivision 4 (5,120 triangles) in both renderers: pbs draws the
+same triangles pyrender is given (app/bench/pyrender_child.py builds them with
+app.scene.geometry.build_parts). pyrender shades at most 4 lights of each type, so the
+comparison stops at 4.
+
+``run_pyrender_spheres`` (part of the culling suite): for each light count, pbs frames
+(``Renderer.render`` then ``read_ldr``, split into its passes: the G-buffer, the tile
+culling, lighting, post and the 8-bit read-back, each ended by glFinish) alternate with
+pyrender's, rendered by a served child process (app/bench/pyrender_child.py; each
+``render()`` returns colour and depth in numpy), one frame of each per round with the
+order rotated (timing.time_interleaved), so a change of the machine's load falls on
+both; the ratio pyrender/pbs is taken per round. (Timing the two in blocks of frames,
+the first version, gave 1.3-3.0x at 1 light within one run on the loaded machine.)
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from typing import TYPE_CHECKING
+
+from app.bench.report import SPHERES_CASE, SPHERES_PYRENDER
+from app.bench.scenes import load
+from app.bench.timing import Pass, round_ratios
+from app.render.renderer import Renderer
+
+if TYPE_CHECKING:
+    from app.bench.suites import Context, Settings
+
+GRID = (7, 5)  # columns, rows
+SPACING = 1.2  # m between sphere centres
+RADIUS = 0.5  # m
+SUBDIVISIONS = 4  # icospheres of 20 * 4^4 = 5,120 triangles, in both renderers
+CASE = SPHERES_CASE
+PBS = "pbs render+read-back"
+PYRENDER = SPHERES_PYRENDER
+
+
+def sphere_grid_scene(lights: int, size: tuple[int, int]) -> dict:
+    """The issue's 35-sphere scene with ``lights`` (1-4) white point lights in front."""
+    cols, rows = GRID
+    materials, objects = {}, []
+    for j in range(rows):
+        for i in range(cols):
+            name = f"s{j}_{i}"
+            metal = j % 2 == 1
+            materials[name] = {
+                "base_color": [1.0, 0.78, 0.34] if metal else [0.8, 0.25, 0.2],
+                "metallic": 1.0 if metal else 0.0,
+                "roughness": round(0.1 + 0.8 * i / (cols - 1), 4),
+            }
+            objects.append({
+                "shape": "sphere", "radius": RADIUS, "subdivisions": SUBDIVISIONS,
+                "material": name,
+                "position": [SPACING * (i - (cols - 1) / 2), SPACING * (j - (rows - 1) / 2), 0.0],
+            })  # fmt: skip
+    spots = ([-3.0, 2.5, 5.0], [3.0, 2.5, 5.0], [-3.0, -2.5, 5.0], [3.0, -2.5, 5.0])
+    return {
+        "camera": {"position": [0.0, 0.0, 9.0], "target": [0.0, 0.0, 0.0], "fov_y": 45.0},
+        "render": {"width": size[0], "height": size[1]},
+        "materials": materials,
+        "lights": [
+            {"type": "point", "position": list(p), "intensity": 12.0, "range": 100.0}
+            for p in spots[:lights]
+        ],
+        "objects": objects,
+    }
+
+
+def pbs_frame_passes(r: Renderer) -> list[Pass]:
+    """A whole frame to the caller's 8-bit image, pass by pass: G-buffer, tile culling,
+    lighting, post (exposure, tone map, sRGB) and the read-back. The scene must have no
+    depth of field, supersampling, blended parts, shadows or an environment background
+    (what ``Renderer.render`` adds for those is not here)."""
+    from app.bench.suites import deferred_passes
+
+    extra = (r.dof, r.resolve, r.blend, r.shadows, r.background)
+    if any(x is not None for x in extra):
+        raise ValueError("pbs_frame_passes: a scene with depth of field, supersampling, "
+                         "blended parts, shadows or an environment")  # fmt: skip
+    exposure = r.scene.camera.exposure
+    return [
+        *deferred_passes(r),
+        Pass("post", lambda: r.post.run(r.lighting.hdr, exposure), r.post.fbo),
+        Pass("read-back", r.read_ldr),
+    ]
+
+
+class PyrenderChild:
+    """A served pyrender child (app/bench/pyrender_child.py): one frame per ``frame()``."""
+
+    def __init__(self, data: dict, size: tuple[int, int]) -> None:
+        from app.bench.suites import pyrender_env
+
+        request = {"scene": data, "size": list(size), "warmup": 1, "serve": True}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "app.bench.pyrender_child"], stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=pyrender_env(),
+        )  # fmt: skip
+        self._send(json.dumps(request))
+        first = self._answer()
+        if not first.get("ready"):
+            self.close()
+            raise RuntimeError(first.get("why") or "pyrender child did not start")
+
+    def _send(self, line: str) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+
+    def _answer(self) -> dict:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            if line.startswith("{"):
+                return json.loads(line)
+        return {"ok": False, "why": f"pyrender child ended (exit code {self.proc.wait()})"}
+
+    def frame(self) -> None:
+        """One pyrender ``render()`` (colour and depth read back into numpy)."""
+        self._send("frame")
+        if "ms" not in self._answer():
+            raise RuntimeError("pyrender child failed a frame")
+
+    def finish(self) -> dict:
+        """Its whole result (pyrender_child.run's), the child ended."""
+        self._send("end")
+        result = self._answer()
+        self.close()
+        return result
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+
+
+def run_pyrender_spheres(ctx: Context) -> None:
+    """The comparison's rows: per light count, ``pbs`` and ``pyrender``, one frame of each
+    in turn (timing.time_interleaved, pyrender's frame a request to its served child),
+    with the ratio pyrender/pbs per round."""
+    from app.bench.suites import make_row
+
+    s = ctx.settings
+    size = s.culling_size
+    for count in s.pyrender_sphere_lights:
+        data = sphere_grid_scene(count, size)
+        ctx.progress.start(f"culling {CASE}, {count} light(s): pbs and pyrender, interleaved")
+        r = Renderer(ctx.gl, load(data), size)
+        child = None
+        try:
+            child = PyrenderChild(data, size)
+            times = ctx.time_interleaved(
+                {PBS: pbs_frame_passes(r), PYRENDER: [Pass("render()", child.frame)]}
+            )
+            result = child.finish()
+        except (OSError, RuntimeError) as exc:
+            ctx.notes.append(f"pyrender ({CASE}, {count} lights): {exc}")
+            continue
+        finally:
+            if child is not None:
+                child.close()
+            r.release()
+            ctx.progress.done()
+        common = {
+            "pyrender_over_pbs": round_ratios(times[PYRENDER], times[PBS]),
+            "triangles_per_sphere": 20 * 4**SUBDIVISIONS,
+        }
+        ctx.rows.append(make_row("culling", CASE, PBS, size, count, times[PBS], **common))
+        ctx.rows.append(
+            make_row("culling", CASE, PYRENDER, size, count, times[PYRENDER], pyrender=result,
+                     timer="wall clock around a frame request to the served child: render()"
+                     " with colour+depth read-back, and the pipe's round trip", **common)
+        )  # fmt: skip
+
+
+def sphere_tasks(settings: Settings, pyrender: bool) -> int:
+    """Progress tasks: one per light count, with pyrender only."""
+    return len(settings.pyrender_sphere_lights) if pyrender else 0

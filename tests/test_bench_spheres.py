@@ -1,0 +1,73 @@
+"""Issue 19's pyrender comparison scene and frame (app/bench/spheres.py): the scene is the
+one the issue describes, and the frame the bench times pass by pass is the renderer's own
+frame to the 8-bit image. No test here asserts a time."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.bench.scenes import load
+from app.bench.spheres import (
+    RADIUS,
+    SPACING,
+    pbs_frame_passes,
+    run_pyrender_spheres,
+    sphere_grid_scene,
+)
+from app.bench.suites import TINY, Context
+from app.progress import Progress
+from app.render.renderer import Renderer
+
+SIZE = (96, 54)
+
+
+def test_sphere_grid_is_the_issues_scene():
+    data = sphere_grid_scene(4, (1280, 720))
+    spheres = data["objects"]
+    assert len(spheres) == 35 and {o["subdivisions"] for o in spheres} == {4}
+    assert {o["radius"] for o in spheres} == {RADIUS}
+    xs = sorted({o["position"][0] for o in spheres})
+    ys = sorted({o["position"][1] for o in spheres})
+    assert len(xs) == 7 and len(ys) == 5 and np.allclose(np.diff(xs), SPACING)
+    assert np.allclose(np.diff(ys), SPACING)
+    metallic = {m["metallic"] for m in data["materials"].values()}
+    roughness = {m["roughness"] for m in data["materials"].values()}
+    assert metallic == {0.0, 1.0} and len(roughness) == 7
+    assert data["camera"]["fov_y"] == 45.0 and data["camera"]["position"][2] == 9.0
+    lights = data["lights"]
+    assert len(lights) == 4 and all(x["type"] == "point" and x["range"] == 100.0 for x in lights)
+    assert all(x["position"][2] > RADIUS for x in lights)  # in front of the grid
+    assert len(sphere_grid_scene(1, (64, 36))["lights"]) == 1
+
+
+def test_frame_passes_draw_the_renderers_frame(gl_egl):
+    """The timed passes, run in order, end with the image render() + read_ldr() give; the
+    read-back pass returns it (a pass left out would leave another image)."""
+    r = Renderer(gl_egl, load(sphere_grid_scene(2, SIZE)), SIZE)
+    try:
+        r.render()
+        expected = r.read_ldr()
+        r.post.fbo.clear(0.0, 0.0, 0.0, 1.0)
+        passes = pbs_frame_passes(r)
+        assert [p.name for p in passes] == ["gbuffer", "cull", "lighting", "post", "read-back"]
+        for p in passes[:-1]:
+            p.run()
+        image = r.read_ldr()
+    finally:
+        r.release()
+    assert expected.shape == (SIZE[1], SIZE[0], 3) and expected.max() > 50
+    assert np.array_equal(image, expected)
+
+
+def test_without_pyrender_the_comparison_says_why(gl_egl):
+    """Run with an interpreter that cannot import pyrender (the tests' own), the rows are
+    left out and a note names the reason."""
+    import importlib.util
+
+    ctx = Context(gl_egl, TINY, None, Progress(1, enabled=False))
+    run_pyrender_spheres(ctx)
+    if importlib.util.find_spec("pyrender") is None:
+        assert ctx.rows == [] and "pyrender" in ctx.notes[0]
+    else:  # the bench extra is installed: one row per renderer, ratios per round
+        assert {r["variant"] for r in ctx.rows} == {"pbs render+read-back", "pyrender"}
+        assert all(r["pyrender_over_pbs"]["median"] > 0.0 for r in ctx.rows)
