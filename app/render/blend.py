@@ -32,6 +32,7 @@ from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer, MeshDrawable
+from app.render.ibl import UniformEnvironment
 from app.render.lighting import LightingPass
 from app.scene.geometry import MeshPart
 
@@ -159,7 +160,6 @@ class BlendPass:
             d.bind_material(first_unit=len(units))
             values: dict[str, object] = {
                 "u_light_count": lighting.light_count,
-                "u_environment_lights": lighting.environment_lights,
                 "u_camera_pos": camera_pos,
                 "u_tan_half_fov": camera.tan_half_fov,
                 "u_image_size": tuple(float(x) for x in size),
@@ -168,6 +168,8 @@ class BlendPass:
             for name, value in values.items():
                 if name in prog:  # the compiler drops what a permutation does not use
                     prog[name].value = value
+            if isinstance(lighting.ibl, UniformEnvironment):  # its radiance (forward.frag)
+                lighting.ibl.set_uniforms(prog)
             d.cull(ctx)
             if d.part.closed:
                 d.vao.render(moderngl.TRIANGLES)

@@ -5,13 +5,14 @@
 // interpolated vertex attributes instead of a G-buffer: no quantisation, no culling, and
 // occluded fragments that reach the shader before their occluder are shaded too.
 // With ALPHA_BLEND it is the renderer's pass for glTF alphaMode BLEND (app/render/blend.py):
-// the fragment's full outgoing radiance (the sum plus emission, occlusion on the
-// environment's lights as in passes/lighting.frag) with its coverage as alpha, composited
+// the fragment's full outgoing radiance (the sum plus emission, and a uniform environment's
+// light darkened by occlusion as in passes/lighting.frag) with its coverage as alpha, composited
 // "over" the lit HDR image by the fixed-function blend.
 #include "brdf/brdf.glsl"
 #include "common/position.glsl"
 #include "geometry/analytic.glsl"
 #include "lights/illumination.glsl"
+#include "lights/environment_uniform.glsl"
 #include "material/layers.glsl"
 
 in vec3 v_normal;
@@ -29,12 +30,6 @@ uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/m
 uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
 uniform int u_light_count;
 // u_camera_pos, u_camera_to_world, u_tan_half_fov, u_image_size: geometry/analytic.glsl
-
-#if ALPHA_BLEND
-// Lights [x, y) are the environment's: the only light the occlusion map darkens (glTF 2.0),
-// as in passes/lighting.frag.
-uniform ivec2 u_environment_lights;
-#endif
 
 out vec4 frag_color;
 
@@ -104,12 +99,17 @@ void main() {
 #if ALPHA_BLEND
     // C_src of "over": the lighting pass's sum and emission (RTR4 sec. 9.4's L_o plus L_e);
     // the blend unit computes alpha C_src + (1 - alpha) C_dst.
-    float ao = emission.a;
     if (u_light_count > 0) do {
-        float occlusion = i >= u_environment_lights.x && i < u_environment_lights.y ? ao : 1.0;
-        Lo += occlusion * light_contribution(u_lights, i, s, params, n, nc, t, p, v);
+        Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);
     } while (++i < u_light_count);
+#if ENVIRONMENT_UNIFORM
+    // the uniform environment (lights/environment_uniform.glsl), which the occlusion map
+    // darkens (glTF 2.0: occlusion applies to indirect light), as in passes/lighting.frag
+    vec3 L_env = uniform_environment_radiance(s, params, n, nc, t, v);
+    frag_color = vec4(PI * Lo + emission.a * L_env + emission.rgb, alpha);
+#else
     frag_color = vec4(PI * Lo + emission.rgb, alpha);
+#endif
 #else
     if (u_light_count > 0) do {  // bottom-tested, as in the lighting pass
         Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);

@@ -5,6 +5,7 @@
 #include "lights/tiles.glsl"
 #include "lights/illumination.glsl"
 #include "lights/ibl.glsl"
+#include "lights/environment_uniform.glsl"
 
 uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
 uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
@@ -17,15 +18,6 @@ uniform int u_first_local;         // lights [0, u_first_local) are directional
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
-#if GBUFFER_EMISSION
-// Lights [x, y) are the environment's directions (app/frame/lights.py): the only light
-// the occlusion map darkens (glTF 2.0: occlusion applies to indirect light). They are
-// directional, so the tiled path meets them in its directional loop only.
-uniform ivec2 u_environment_lights;
-#define OCCLUSION(i) ((i) >= u_environment_lights.x && (i) < u_environment_lights.y ? ao : 1.0)
-#else
-#define OCCLUSION(i) 1.0
-#endif
 
 out vec4 frag_color;
 
@@ -48,8 +40,7 @@ void main() {
 #if DIRECTIONAL_LIGHTS
     int i = 0;
     do {
-        Lo += OCCLUSION(i) * light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t,
-                                                g.p, g.v);
+        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
     } while (++i < u_first_local);
 #endif
     Lo = add_masked_lights(Lo, u_tile_masks, px / TILE_SIZE, u_lights, u_first_local, g.s,
@@ -57,14 +48,18 @@ void main() {
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above
-        Lo += OCCLUSION(i) * light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t,
-                                                g.p, g.v);
+        Lo += light_contribution(u_lights, i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
     } while (++i < u_light_count);
 #endif
+#if ENVIRONMENT_IBL || ENVIRONMENT_UNIFORM
+    // The environment's light, once per pixel: the split sum (lights/ibl.glsl) or the
+    // uniform environment's quadrature (lights/environment_uniform.glsl); the occlusion
+    // map darkens it (glTF 2.0: occlusion applies to indirect light).
 #if ENVIRONMENT_IBL
-    // The environment's light by the split sum (lights/ibl.glsl), once per pixel; the
-    // occlusion map darkens it (glTF 2.0: occlusion applies to indirect light).
     vec3 L_env = ibl_radiance(g.s, g.n, g.v);
+#else
+    vec3 L_env = uniform_environment_radiance(g.s, g.params, g.n, g.nc, g.t, g.v);
+#endif
 #if GBUFFER_EMISSION
     frag_color = vec4(PI * Lo + ao * L_env + emission.rgb, 1.0);
 #else
