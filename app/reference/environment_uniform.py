@@ -226,7 +226,7 @@ def converged_albedo(s: Surface, p: ModelParams, model: Model, v: np.ndarray) ->
     """R(v) (k, 3) at the views v (k, 3) about n = +Z (tangent +Y) by the dense deterministic
     rule of app/reference/quadrature.py (``reflected_rule``: GGX-shaped nodes about the
     mirror direction at the narrowest lobe's alpha, Gauss-Legendre panels graded towards
-    the horizon, ~7e4 nodes; doubling them moves R by < 1e-6): the converged value the
+    the horizon, ~7e4 nodes; doubling them moved R by < 1e-6 where checked): the value the
     quadrature above is measured against (docs/ibl.md)."""
     alpha = max(float(np.max(s.perceptual_roughness)), MIN_PERCEPTUAL_ROUGHNESS) ** 2
     if model.clearcoat != "none":
