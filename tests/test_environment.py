@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from app.errors import InputError
-from app.frame.lights import cell_integrals, environment_lights, fibonacci_sphere, map_lights
+from app.frame.lights import cell_integrals, fibonacci_sphere, map_lights, uniform_environment
 from app.reference.environment import texel_directions
 from app.scene.loader import load_scene
 from app.textures import environment as envmod
@@ -168,9 +168,9 @@ def test_image_environment_lights(tmp_path: Path) -> None:
         scene_with(tmp_path, 'source = "image"\nfile = "grey.hdr"\nintensity = 0.5')
     )
     assert Path(loaded.scene.environment.file).is_absolute()
-    assert environment_lights(loaded.scene.environment) == []  # the renderer: the split sum
+    assert uniform_environment(loaded.scene.environment) is None  # the renderer: split sum
     lights = map_lights(loaded.scene.environment)  # the ray-caster's reference integration
-    assert len(lights) == 256 and all(x.environment for x in lights)
+    assert len(lights) == 256  # the default samples of a map
     # a uniform radiance of 2 (to RGBE's step) at intensity 0.5: sum c = 4 L / pi * ... = 4 L
     total = np.sum([x.color for x in lights], axis=0)
     assert np.allclose(total, 4.0 * 1.0, rtol=0.01)

@@ -227,7 +227,9 @@ def test_set_lights_switches_image_based_lighting_on_and_off(
     gl_egl: GLContext, tmp_path: Path
 ) -> None:
     """A renderer whose environment becomes a sky builds the IBL and background passes; back
-    to uniform it drops both and renders what a fresh renderer of that scene renders."""
+    to uniform it drops both (the uniform environment's quadrature in their place) and
+    renders what a fresh renderer of that scene renders."""
+    from app.render.ibl import EnvironmentLighting, UniformEnvironment
     from app.scene.model import Environment
 
     path = write_scene(tmp_path, "radiance = [0.5, 0.5, 0.5]", 'preset = "gold"')
@@ -236,15 +238,15 @@ def test_set_lights_switches_image_based_lighting_on_and_off(
     try:
         renderer.render()
         uniform = renderer.read_hdr()
-        assert renderer.ibl is None and renderer.background is None
+        assert isinstance(renderer.ibl, UniformEnvironment) and renderer.background is None
         renderer.set_lights([], Environment(source="sky", background=True))
         renderer.render()
         sky = renderer.read_hdr()
-        assert renderer.ibl is not None and renderer.background is not None
+        assert isinstance(renderer.ibl, EnvironmentLighting) and renderer.background is not None
         assert sky[0, 0].sum() > 0.0 and not np.array_equal(sky, uniform)
         renderer.set_lights([], Environment(radiance=[0.5, 0.5, 0.5]))
         renderer.render()
-        assert renderer.ibl is None and renderer.background is None
+        assert isinstance(renderer.ibl, UniformEnvironment) and renderer.background is None
         np.testing.assert_array_equal(renderer.read_hdr(), uniform)
     finally:
         renderer.release()

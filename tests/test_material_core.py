@@ -54,8 +54,9 @@ def render(gl: GLContext, data: dict, tmp_path: Path, wrap: tuple[str, str] | No
         r.render()
         g = r.read_gbuffer()
         ref = shade_gbuffer(
-            g, r.camera, r.lights, np.zeros(3), r.materials.models, r.materials.packed()
-        )
+            g, r.camera, r.lights, np.zeros(3), r.materials.models, r.materials.packed(),
+            environment=r.uniform_environment,
+        )  # fmt: skip
         return r.read_hdr().astype(np.float64), g, ref
     finally:
         r.release()

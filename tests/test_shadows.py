@@ -93,7 +93,7 @@ def reference_visibility(data: dict) -> tuple[np.ndarray, np.ndarray, object]:
     prims = [primitive(i, obj) for i, obj in enumerate(scene.objects)]
     hits = cast(prims, camera_frame(scene.camera, *SIZE), SIZE)
     light = dict(scene.lights[0].model_dump(), shadow=True)
-    lights = frame_lights([type(scene.lights[0]).model_validate(light)], None)
+    lights = frame_lights([type(scene.lights[0]).model_validate(light)])
     return shadow_visibility(prims, hits, lights)[0], hits.ids, hits
 
 

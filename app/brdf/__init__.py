@@ -16,7 +16,12 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from app.common.models import MaterialParams, pack_model_params, unpack_model_params
+from app.common.models import (
+    MaterialParams,
+    ModelParams,
+    pack_model_params,
+    unpack_model_params,
+)
 from app.errors import InputError
 from app.gl.context import GLContext, create_context
 from app.gl.kernel import run_kernel
@@ -73,6 +78,14 @@ def surface_texels(params: MaterialParams) -> tuple[np.ndarray, np.ndarray]:
         np.array([*params.base_color, params.metallic], f32),
         np.array([params.roughness, params.f0, params.anisotropy, 0.0], f32),
     )
+
+
+def reference_inputs(params: MaterialParams) -> tuple[Surface, ModelParams]:
+    """The material as the float64 twins take it, from the very float32 values the GLSL
+    receives (``surface_texels`` and the packed material table)."""
+    a, b = surface_texels(params)
+    s = Surface(a[:3].astype(np.float64), float(a[3]), float(b[0]), float(b[1]), float(b[2]))
+    return s, unpack_model_params(pack_model_params([params.params], [0], [params.model])[0])
 
 
 def run_material_kernel(
@@ -155,15 +168,7 @@ def evaluate(
     surface_a, surface_b = surface_texels(params)
 
     if backend == "reference":
-        table = pack_model_params([params.params], [0], [params.model])
-        s = Surface(
-            surface_a[:3].astype(np.float64),
-            float(surface_a[3]),
-            float(surface_b[0]),
-            float(surface_b[1]),
-            float(surface_b[2]),
-        )
-        p = unpack_model_params(table[0])
+        s, p = reference_inputs(params)
         return brdf_eval(s, p, params.model, n_arr, t_arr, l_arr, v_arr, nc=nc_arr)
     if backend != "glsl":
         raise ValueError(f"backend must be 'glsl' or 'reference', not {backend!r}")

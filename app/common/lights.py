@@ -52,9 +52,6 @@ class PunctualLight:
     range: float = 1.0
     cos_outer: float = 0.0
     cos_inner: float = 1.0
-    # One of the directions standing for the scene's environment (app/frame/lights.py):
-    # the only light an occlusion map darkens (glTF 2.0: occlusion is for indirect light).
-    environment: bool = False
     # Its shadow maps' settings where the light casts shadows (one map; six for a point).
     shadow: ShadowSettings | None = None
 
@@ -92,18 +89,6 @@ def order_lights(lights: list[PunctualLight]) -> list[PunctualLight]:
     """Directional lights first, then local ones, each group in scene order: the order in
     which every pass (and the twin) sums them."""
     return [x for x in lights if not x.is_local] + [x for x in lights if x.is_local]
-
-
-def environment_range(lights: list[PunctualLight]) -> tuple[int, int]:
-    """[first, end) of the environment's lights in ``lights`` (ordered: ``order_lights``
-    keeps them together, after the scene's directional lights); (0, 0) without any."""
-    marked = [i for i, light in enumerate(lights) if light.environment]
-    if not marked:
-        return (0, 0)
-    first, end = marked[0], marked[-1] + 1
-    if end - first != len(marked):
-        raise ValueError("the environment's lights must be contiguous (order_lights)")
-    return (first, end)
 
 
 def glsl_constants() -> dict[str, int]:

@@ -40,7 +40,7 @@ def prepare_frame(loaded: LoadedScene) -> FrameData:
     parts = build_parts(loaded)
     table, ids = material_table(parts)
     scene = loaded.scene
-    return FrameData(parts, table, ids, frame_lights(scene.lights, scene.environment))
+    return FrameData(parts, table, ids, frame_lights(scene.lights))
 
 
 def restyle(frame: FrameData, loaded: LoadedScene, changed: set[str]) -> FrameData | None:

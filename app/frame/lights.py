@@ -58,24 +58,6 @@ def fibonacci_sphere(count: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
 
 
-def environment_lights(env: Environment | None) -> list[PunctualLight]:
-    """A uniform environment as directional lights that integrate it.
-
-    L_o = integral f L (n.l)+ dl ~ sum_i f L (n.l_i)+ 4 pi / N over N equal-area directions;
-    the illumination sum gives pi sum_i f c_light (n.l_i)+, so c_light = 4 L / N.
-    """
-    if env is None:
-        return []
-    if env.source != "uniform":  # image-based lighting instead (app/render/ibl.py)
-        return []
-    color = np.asarray(env.radiance, float) * (4.0 / env.samples)
-    return [
-        # light travels from direction d towards the surface
-        PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, color, environment=True)
-        for d in fibonacci_sphere(env.samples)
-    ]
-
-
 def cell_integrals(env_map: np.ndarray, directions: np.ndarray, rotation: float) -> np.ndarray:
     """The integral of the map's radiance over each direction's Voronoi cell on the sphere,
     sum over the cell's texels of L dOmega (N, 3): every texel (turned ``rotation`` degrees
@@ -111,12 +93,22 @@ def map_lights(env: Environment) -> list[PunctualLight]:
     directions = fibonacci_sphere(env.samples)
     colors = cell_integrals(env_map, directions, env.rotation) * (env.intensity / math.pi)
     return [
-        PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, c, environment=True)
+        # light travels from direction d towards the surface
+        PunctualLight(LightType.DIRECTIONAL, np.zeros(3), -d, c)
         for d, c in zip(directions, colors, strict=True)
     ]
 
 
-def frame_lights(lights: list[Light], env: Environment | None) -> list[PunctualLight]:
-    """The frame's lights in the order every pass sums them (``order_lights``): the scene's
-    lights and the environment's directions."""
-    return order_lights([light_record(x) for x in lights] + environment_lights(env))
+def frame_lights(lights: list[Light]) -> list[PunctualLight]:
+    """The scene's lights in the order every pass sums them (``order_lights``). An
+    environment is not among them: the lighting pass adds it per pixel (docs/ibl.md)."""
+    return order_lights([light_record(x) for x in lights])
+
+
+def uniform_environment(env: Environment | None) -> tuple[np.ndarray, int] | None:
+    """(radiance L, quadrature directions) of a uniform environment, the twin's and the
+    lighting pass's input (app/reference/environment_uniform.py); None for none or
+    another source."""
+    if env is None or env.source != "uniform":
+        return None
+    return np.asarray(env.radiance, np.float64), env.samples

@@ -17,7 +17,7 @@ import numpy as np
 
 from app.common.primitives import Primitive
 from app.frame.camera import camera_frame
-from app.frame.lights import environment_texels, frame_lights, map_lights
+from app.frame.lights import environment_texels, frame_lights, map_lights, uniform_environment
 from app.reference.environment import equirect_uv, sample_bilinear
 from app.reference.material import Surface
 from app.reference.raycast import (
@@ -85,11 +85,13 @@ def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) ->
         materials.append(primitive_material(obj.material, scene.materials[obj.material]))
     factor = scene.render.supersample
     camera = camera_frame(scene.camera, size[0] * factor, size[1] * factor)
-    lights = frame_lights(scene.lights, scene.environment)
+    lights = frame_lights(scene.lights)
     if scene.environment is not None and scene.environment.source != "uniform":
         # The reference integrates an image, sky or studio by its cell lights (the
         # renderer by the split sum): the brute force converges as samples grows.
         lights = lights + map_lights(scene.environment)
+    # A uniform environment: the renderer's own quadrature, through the twin (docs/ibl.md)
+    uniform = uniform_environment(scene.environment)
     background = np.asarray(scene.background, np.float64)
     env = scene.environment
     if env is not None and env.background:  # as app/render/background.py draws it
@@ -97,5 +99,5 @@ def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) ->
         uv = equirect_uv(rays, math.radians(env.rotation))
         background = env.intensity * sample_bilinear(environment_texels(env), uv)
     return render_reference(
-        prims, materials, camera, size, lights, background, scene.render.terms, factor
+        prims, materials, camera, size, lights, background, scene.render.terms, factor, uniform
     )

@@ -18,6 +18,7 @@ from app.common.models import Model, ModelParams, unpack_model_params
 from app.reference._vec import dot, normalize
 from app.reference.constants import PI
 from app.reference.encoding import oct_decode
+from app.reference.environment_uniform import uniform_environment_radiance
 from app.reference.material import (
     Surface,
     brdf_eval,
@@ -41,15 +42,12 @@ def illumination_sum(
     lights: list[PunctualLight],
     terms: str = "all",
     nc: np.ndarray | None = None,
-    occlusion: np.ndarray | None = None,
     visibility: list[np.ndarray | None] | None = None,
 ) -> np.ndarray:
     """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
     ``terms`` as in ``brdf_eval``. ``nc``: the clear coat's normals where the G-buffer has
     them (RT4): a coated model's layers then take their own cosines
-    (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL. ``occlusion``
-    (...,): the G-buffer's occlusion factor (RT5), which multiplies the terms of the
-    environment's lights only (glTF 2.0: occlusion applies to indirect light).
+    (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL.
     ``visibility``: per light, None or (...,) in [0, 1], the fraction of the light that
     reaches each point (a shadow; glsl/lights/illumination.glsl multiplies c_light by it
     under SHADOWS, docs/shadows.md)."""
@@ -58,19 +56,16 @@ def illumination_sum(
         c_light, l = light_at(light, p)
         if visibility is not None and visibility[k] is not None:
             c_light = c_light * np.asarray(visibility[k], np.float64)[..., None]
-        scale = 1.0
-        if occlusion is not None and light.environment:
-            scale = np.asarray(occlusion, np.float64)[..., None]
         if nc is not None and model.clearcoat != "none":
             layered = brdf_eval_layered_cos(s, params, model, n, nc, t, l, v, terms=terms)
-            Lo += scale * (layered * c_light)
+            Lo += layered * c_light
             continue
         NoL = dot(n, l)
         lit = NoL > 0.0
         if not np.any(lit):
             continue
         f = brdf_eval(s, params, model, n, t, l, v, terms=terms, nc=nc)
-        Lo += scale * np.where(lit[..., None], f * c_light * NoL[..., None], 0.0)
+        Lo += np.where(lit[..., None], f * c_light * NoL[..., None], 0.0)
     return PI * Lo
 
 
@@ -140,10 +135,14 @@ def shade_gbuffer(
     table: np.ndarray,
     terms: str = "all",
     shadows: ShadowMaps | None = None,
+    environment: tuple[np.ndarray, int] | None = None,
 ) -> np.ndarray:
     """The HDR image the lighting pass should produce, (H, W, 3) float64 (``terms``: the
     scene's render.terms; ``shadows``: the shadow maps read back from the GPU, whose
-    visibility multiplies each shadowed light's term, app/reference/shadows.py).
+    visibility multiplies each shadowed light's term, app/reference/shadows.py;
+    ``environment``: a uniform environment's (radiance, directions), whose light
+    ``uniform_environment_radiance`` adds per pixel, times the G-buffer's occlusion factor
+    (RT5; glTF 2.0: occlusion applies to indirect light)).
 
     ``table`` is the material table as packed for the GPU ((M, 4, 4) float32, whose row
     [3][0] is the material's index into ``models``); each pixel's row is its material id.
@@ -156,12 +155,19 @@ def shade_gbuffer(
         sel = g.material_id == row
         model = models[int(table[row, 3, 0])]
         params = unpack_model_params(table[row])
+        s, nc = g.surface.select(sel), None if g.nc is None else g.nc[sel]
         shaded[sel] = illumination_sum(
-            g.surface.select(sel), params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel],
-            lights, terms, None if g.nc is None else g.nc[sel],
-            None if g.emission is None else g.emission[sel, 3],
+            s, params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel], lights, terms, nc,
             [None if x is None else x[sel] for x in visibility],
         )  # fmt: skip
+        if environment is not None:  # after the sum, as the lighting pass adds it
+            L_env = uniform_environment_radiance(
+                environment[0], s, params, model, g.n[sel], nc, g.t[sel], g.v[sel],
+                environment[1], terms,
+            )  # fmt: skip
+            if g.emission is not None:
+                L_env = g.emission[sel, 3:4] * L_env
+            shaded[sel] += L_env
     if g.emission is not None:  # emitted radiance, once per pixel after the sum
         shaded += g.emission[:, :3]
     out[g.covered] = shaded

@@ -28,6 +28,7 @@ from app.common.lights import LightType, PunctualLight
 from app.common.models import Model, ModelParams
 from app.common.primitives import Primitive
 from app.reference._vec import dot, normalize
+from app.reference.environment_uniform import uniform_environment_radiance
 from app.reference.illumination import illumination_sum, pixel_ndc
 from app.reference.material import Surface, sanitize_surface
 from app.reference.normal_mapping import rotate_tangent
@@ -330,11 +331,14 @@ def shade(
     background: np.ndarray,
     terms: str = "all",
     visibility: list[np.ndarray | None] | None = None,
+    environment: tuple[np.ndarray, int] | None = None,
 ) -> np.ndarray:
     """Linear HDR radiance (H, W, 3): each hit shaded by ``illumination_sum`` with its
     primitive's material (sanitised as the G-buffer decode does), the background where
     nothing is hit. ``visibility``: ``shadow_visibility``'s images, each multiplying its
-    light's term (None: no shadows)."""
+    light's term (None: no shadows). ``environment``: a uniform environment's (radiance,
+    directions), added by the lighting pass's own quadrature (``uniform_environment_radiance``,
+    docs/ibl.md); the environment casts no shadow here, as in the renderer."""
     out = np.broadcast_to(np.asarray(background, np.float64), (*hits.ids.shape, 3)).copy()
     for i, mat in enumerate(materials):
         sel = hits.ids == i
@@ -363,6 +367,11 @@ def shade(
         out[sel] = illumination_sum(
             surface, mat.params, mat.model, hits.n[sel], t, p, v, lights, terms, visibility=vis
         )
+        if environment is not None:
+            out[sel] += uniform_environment_radiance(
+                environment[0], surface, mat.params, mat.model, hits.n[sel], None, t, v,
+                environment[1], terms,
+            )  # fmt: skip
     return out
 
 
@@ -383,19 +392,20 @@ def render_reference(
     background: np.ndarray,
     terms: str = "all",
     supersample: int = 1,
+    environment: tuple[np.ndarray, int] | None = None,
 ) -> RaycastImage:
     """The reference image of ``size`` (width, height). With ``supersample = n`` the rays
     go through the pixel centres of an image n x n times larger (``camera`` must be that
     image's frame, as the renderer's is) and each pixel is the box average of its n x n
     block of linear radiance, as the renderer's resolve averages (glsl/passes/
     downsample.frag). ``ids`` is the primitive every sample of a pixel hits, NO_HIT where
-    none does, MIXED where they differ."""
+    none does, MIXED where they differ. ``environment``: as in ``shade``."""
     width, height = size
     hits = cast(primitives, camera, (width * supersample, height * supersample))
     visibility = None
     if any(light.shadow is not None for light in lights):  # shadow rays (docs/shadows.md)
         visibility = shadow_visibility(primitives, hits, lights)
-    hdr = shade(hits, materials, camera, lights, background, terms, visibility)
+    hdr = shade(hits, materials, camera, lights, background, terms, visibility, environment)
     if supersample == 1:
         return RaycastImage(hdr, hits.covered, hits.ids)
     hdr = _blocks(hdr, supersample).mean(axis=2)

@@ -176,7 +176,6 @@ class BlendPass:
             d.bind_material(first_unit=len(units))
             values: dict[str, object] = {
                 "u_light_count": lighting.light_count,
-                "u_environment_lights": lighting.environment_lights,
                 "u_camera_pos": camera_pos,
                 "u_tan_half_fov": camera.tan_half_fov,
                 "u_image_size": tuple(float(x) for x in size),

@@ -158,3 +158,29 @@ class EnvironmentLighting:
     def release(self) -> None:
         for tex in (*self.levels, self.dfg):
             tex.release()
+
+
+class UniformEnvironment:
+    """The lighting pass's uniform environment (docs/ibl.md, "The uniform environment"):
+    ``uniform_environment_radiance`` (glsl/lights/environment_uniform.glsl) adds L R(v) per
+    pixel, R(v) by a deterministic quadrature of ``samples`` directions; no textures. The
+    same interface as ``EnvironmentLighting``, so the lighting and blend passes take
+    either."""
+
+    def __init__(self, radiance: list[float], samples: int) -> None:
+        self.radiance = tuple(float(x) for x in radiance)
+        self.samples = int(samples)
+
+    def defines(self) -> dict[str, int]:
+        return {"ENVIRONMENT_UNIFORM": 1, "ENV_UNIFORM_SAMPLES": self.samples}
+
+    def samplers(self) -> list[tuple[str, moderngl.Texture | moderngl.TextureCube]]:
+        return []
+
+    def set_uniforms(self, prog: moderngl.Program) -> None:
+        """The radiance L (absent where render.terms leaves nothing of it)."""
+        if "u_env_radiance" in prog:
+            prog["u_env_radiance"].value = self.radiance
+
+    def release(self) -> None:
+        pass

@@ -20,14 +20,14 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import encoding_defines
-from app.common.lights import PunctualLight, environment_range, pack_lights
+from app.common.lights import PunctualLight, pack_lights
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
-from app.render.ibl import EnvironmentLighting
+from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.post import read_rgb
 from app.render.shadows import ShadowPass
 from app.render.tables import material_texture, ms_texture, sheen_texture
@@ -49,7 +49,7 @@ class LightingPass:
         ms_table: np.ndarray | None = None,
         *,
         encoding: str,
-        ibl: EnvironmentLighting | None = None,
+        ibl: EnvironmentLighting | UniformEnvironment | None = None,
         shadows: ShadowPass | None = None,
     ) -> None:
         """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
@@ -57,7 +57,9 @@ class LightingPass:
         ``uber``: one program with run-time model selection instead of one per model
         group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
         the bench's, from ``RenderOptions``). ``shadows``: the shadow maps, where a light
-        casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl)."""
+        casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl). ``ibl``: the
+        environment's light (ENVIRONMENT_IBL's split sum or ENVIRONMENT_UNIFORM's
+        quadrature, docs/ibl.md), None without an environment."""
         self.ctx = ctx
         self.culler = culler
         self.shadows = shadows
@@ -76,7 +78,7 @@ class LightingPass:
             defines.update(table.gbuffer_defines())
             defines.update(encoding_defines(encoding))
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
-            if ibl is not None:  # an image, sky or studio environment (docs/ibl.md)
+            if ibl is not None:  # an environment (docs/ibl.md)
                 defines.update(ibl.defines())
             if shadows is not None:
                 defines.update(shadows.defines())
@@ -103,7 +105,6 @@ class LightingPass:
         self.lights = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.light_count = len(lights)
-        self.environment_lights = environment_range(lights)  # what occlusion darkens
         self.size = size
         self.ibl = ibl  # owned by the renderer
 
@@ -140,8 +141,6 @@ class LightingPass:
             for unit, (name, _) in enumerate(textures):
                 if name in prog:  # a permutation may not use every texture
                     prog[name].value = unit
-            if "u_environment_lights" in prog:  # GBUFFER_EMISSION only
-                prog["u_environment_lights"].value = self.environment_lights
             if "u_light_count" in prog:  # the tiled loop counts through its masks instead
                 prog["u_light_count"].value = self.light_count
             prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)

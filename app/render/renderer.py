@@ -25,7 +25,7 @@ from app.common.lights import PunctualLight
 from app.errors import InputError
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
-from app.frame.lights import environment_texels, frame_lights
+from app.frame.lights import environment_texels, frame_lights, uniform_environment
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
@@ -33,7 +33,7 @@ from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
-from app.render.ibl import EnvironmentLighting
+from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.lighting import LightingPass
 from app.render.limits import check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
@@ -113,7 +113,9 @@ class Renderer:
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
         self.background: EnvironmentBackground | None = None  # [environment] background
-        self.ibl: EnvironmentLighting | None = None  # image, sky or studio environment
+        # the environment's light: the split sum (image, sky, studio) or the uniform
+        # environment's quadrature (docs/ibl.md)
+        self.ibl: EnvironmentLighting | UniformEnvironment | None = None
         self.shadows: ShadowPass | None = None  # only where a light casts shadows
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
@@ -130,6 +132,12 @@ class Renderer:
     def lights(self) -> list[PunctualLight]:
         """The frame's lights, in the order every pass sums them."""
         return self.frame.lights
+
+    @property
+    def uniform_environment(self) -> tuple[np.ndarray, int] | None:
+        """The scene's uniform environment as the twins take it (radiance, directions:
+        ``shade_gbuffer``'s ``environment``); None for none or another source."""
+        return uniform_environment(self.scene.environment)
 
     @property
     def materials(self) -> MaterialTable:
@@ -216,6 +224,8 @@ class Renderer:
         env = self.scene.environment
         if env is not None and env.source != "uniform":  # docs/ibl.md
             self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
+        elif (uniform := uniform_environment(env)) is not None:
+            self.ibl = UniformEnvironment(*uniform)
         if self.frame.has_local_lights and settings.light_culling == "tiled":
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
@@ -297,9 +307,7 @@ class Renderer:
         """New lights (and environment): new light textures, culler and lighting programs
         (compiled only for a combination of light kinds not seen before)."""
         self._edit(lights=lights, environment=environment)
-        self.frame = dataclasses.replace(
-            self.frame, lights=frame_lights(self.scene.lights, self.scene.environment)
-        )
+        self.frame = dataclasses.replace(self.frame, lights=frame_lights(self.scene.lights))
         self._build_lighting()
 
     def set_materials(self, materials: dict[str, Material]) -> None:
