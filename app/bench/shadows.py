@@ -113,7 +113,7 @@ def reference_lit(data: dict, size: tuple[int, int]) -> np.ndarray:
     prims = [primitive(i, obj) for i, obj in enumerate(scene.objects)]
     hits = cast(prims, camera_frame(scene.camera, *size), size)
     light = dict(scene.lights[0].model_dump(), shadow=True)
-    lights = frame_lights([type(scene.lights[0]).model_validate(light)], None)
+    lights = frame_lights([type(scene.lights[0]).model_validate(light)])
     return shadow_visibility(prims, hits, lights)[0] > 0.5
 
 
