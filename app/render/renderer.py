@@ -31,7 +31,7 @@ from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
-from app.render.culling import LightCuller
+from app.render.culling import LightCuller, tiles_used
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
 from app.render.ibl import EnvironmentLighting
 from app.render.lighting import LightingPass
@@ -216,7 +216,7 @@ class Renderer:
         env = self.scene.environment
         if env is not None and env.source != "uniform":  # docs/ibl.md
             self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
-        if self.frame.has_local_lights and settings.light_culling == "tiled":
+        if tiles_used(settings.light_culling, self.lights):
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
             opaque = self._opaque()
