@@ -168,3 +168,30 @@ def test_flushing_in_runs_draws_the_same_targets(gl_egl, monkeypatch) -> None:
     for name in ("base_color", "normal", "depth", "tangent", "material_id"):
         assert np.array_equal(getattr(runs, name), getattr(whole, name)), name
     assert np.array_equal(runs_image, whole_image)
+
+
+@pytest.mark.parametrize("scene", ["gltf_alpha_blend", "sec2_depth_of_field"])
+def test_the_lighting_pass_z_test_keeps_the_image(gl_egl, scene: str) -> None:
+    """The lighting pass draws its triangle on the far plane against the G-buffer's
+    z-buffer (app/render/lighting.py): the frame equals the one drawn into a target
+    without a z-buffer (every pixel runs the shader, the background ones discard), and the
+    z-buffer is left as the G-buffer pass wrote it, which the blend pass tests its parts
+    against (gltf_alpha_blend has blended parts behind and in front of opaque ones)."""
+    from pathlib import Path
+
+    from app.render.renderer import Renderer
+    from app.scene.loader import load_scene
+
+    path = Path(__file__).resolve().parent.parent / "scenes" / f"{scene}.toml"
+    size = (128, 72)
+    r = Renderer(gl_egl, load_scene(path), size)
+    try:
+        r.render()
+        tested, tested_ldr = r.read_hdr(), r.read_ldr()
+        r.lighting._z_target = lambda gbuffer: r.lighting.fbo  # no z-buffer: no test
+        r.render()
+        every, every_ldr = r.read_hdr(), r.read_ldr()
+    finally:
+        r.release()
+    assert np.array_equal(tested, every)
+    assert np.array_equal(tested_ldr, every_ldr)

@@ -48,11 +48,9 @@ LIGHTS_PER_ROW = 1024  # texels per row of the local-light texture
 RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a light
 #                      whose window is still (barely) above zero at a tile's edge
 # render.light_culling = "auto" (the default) culls only from this many local lights on.
-# Below it the three passes cost more than the lights they save: on the 35-sphere and
-# the culling bench's scenes at 1280x720, 1-8 local lights (each reaching every pixel,
-# or 2 per pixel), cull + lighting took 0.72-0.85x as long without tiles (interleaved
-# rounds, docs/performance.md "Second part: fixed costs"), where the bench's quiet
-# full run had tiles paying from 16 lights on (unculled/culled 1.30x at 8 per pixel).
+# Below it the three passes cost more than the lights they save (measured with 1-16
+# lights in docs/performance.md, "Second part: fixed costs"; tiles paid at 16 lights in
+# the bench's full run).
 TILED_MIN_LOCAL_LIGHTS = 9
 CONE_MARGIN = 1e-3  # radians: spot cones widen so float32 rounding never culls a lit pixel
 NO_CONE = POINT_COS_OUTER  # the cone cosine of a point light: below -1, no cone test
