@@ -195,3 +195,33 @@ def test_the_lighting_pass_z_test_keeps_the_image(gl_egl, scene: str) -> None:
         r.release()
     assert np.array_equal(tested, every)
     assert np.array_equal(tested_ldr, every_ldr)
+
+
+@pytest.mark.parametrize(("tonemap", "ev"), [("neutral", 0.0), ("aces", 0.7), ("reinhard", -1.3)])
+def test_post_on_surfaces_only_keeps_the_image(gl_egl, tonemap: str, ev: float) -> None:
+    """The post pass run only where the z-buffer has a surface, over a target cleared to
+    the background's display value (PostPass.run_on_surfaces, which render() takes for a
+    frame whose background pixels are the lighting pass's clear) gives the 8-bit image
+    the full-screen pass gives."""
+    from app.bench.scenes import load
+    from app.bench.spheres import sphere_grid_scene
+    from app.render.renderer import Renderer
+
+    size = (96, 54)
+    data = sphere_grid_scene(1, size)
+    data["render"]["tonemap"] = tonemap
+    data["camera"]["exposure"] = ev
+    data["background"] = [0.3, 0.05, 0.6]
+    r = Renderer(gl_egl, load(data), size)
+    try:
+        assert r.dof is None and r.resolve is None and r.blend is None and r.background is None
+        r.render()
+        surfaces_only = r.read_ldr()
+        r.post.run(r.lighting.hdr, ev)  # every pixel through the pass
+        every = r.read_ldr()
+    finally:
+        r.release()
+    covered = np.asarray(every != surfaces_only).any(axis=-1)
+    assert not covered.any(), f"{covered.sum()} pixels differ"
+    background = every[0, 0]
+    assert background.tolist() != [0, 0, 0] and (every != background).any(axis=-1).mean() > 0.1

@@ -424,8 +424,21 @@ class Renderer:
             self.resolve.run(hdr)
             hdr = self.resolve.target
             clock.done("resolve")
-        self.post.run(hdr, scene.camera.exposure)
+        self.run_post(hdr)
         clock.done("post")
+
+    def run_post(self, hdr: moderngl.Texture) -> None:
+        """The post pass on the frame's HDR image ``hdr``; only on the surfaces' pixels
+        (``PostPass.run_on_surfaces``) where every other pixel of ``hdr`` is the lighting
+        pass's background: no depth of field, resolve, blended parts or environment
+        background has drawn over it."""
+        exposure = self.scene.camera.exposure
+        plain = self.dof is None and self.resolve is None and self.blend is None
+        if plain and self.background is None and hdr is self.lighting.hdr:
+            background = tuple(float(x) for x in self.scene.background)
+            self.post.run_on_surfaces(hdr, exposure, self.gbuffer.zbuffer, background)
+        else:
+            self.post.run(hdr, exposure)
 
     @property
     def hdr_texture(self) -> moderngl.Texture:
