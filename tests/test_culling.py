@@ -330,3 +330,35 @@ def test_bit_helpers_match_twin(gl_egl) -> None:
     )  # fmt: skip
     expected = twin.depth_bin(z.astype(np.float64), z_min, twin.depth_bin_scale(z_min, z_max))
     assert np.array_equal(out[:, 0], expected)
+
+
+def test_auto_culls_by_tiles_only_from_its_light_count(gl_egl) -> None:
+    """render.light_culling = "auto" (the default) builds the culler only from
+    TILED_MIN_LOCAL_LIGHTS local lights on; "tiled" with any, "none" never; the image is
+    the same with and without tiles."""
+    from app.common.lights import PunctualLight
+    from app.render.culling import TILED_MIN_LOCAL_LIGHTS, tiles_used
+    from app.scene.model import RenderSettings
+
+    def lights(local: int, directional: int = 1) -> list[PunctualLight]:
+        def one(kind: LightType) -> PunctualLight:
+            return PunctualLight(kind, np.zeros(3), np.array([0.0, -1.0, 0.0]), np.ones(3))
+
+        return [one(LightType.DIRECTIONAL)] * directional + [one(LightType.POINT)] * local
+
+    n = TILED_MIN_LOCAL_LIGHTS
+    assert not tiles_used("auto", lights(n - 1)) and tiles_used("auto", lights(n))
+    assert tiles_used("tiled", lights(1)) and not tiles_used("tiled", lights(0, 3))
+    assert not tiles_used("none", lights(4 * n))
+    assert RenderSettings().light_culling == "auto"
+    images = {}
+    for setting in ("auto", "tiled"):
+        data = many_lights_scene(n - 1, setting, (96, 54))
+        r = Renderer(gl_egl, parse_scene(data, "many-lights.toml"))
+        try:
+            assert (r.culler is not None) == (setting == "tiled")
+            r.render()
+            images[setting] = r.read_hdr()
+        finally:
+            r.release()
+    assert np.array_equal(images["auto"], images["tiled"])

@@ -140,3 +140,88 @@ def test_a_frame_clears_only_what_marks_the_background(gl_egl, encoding: str) ->
     for name in ("base_color", "normal", "depth", "tangent", "material_id"):
         assert np.array_equal(getattr(after, name), getattr(expected, name)), name
     assert np.array_equal(image, expected_image)
+
+
+def test_flushing_in_runs_draws_the_same_targets(gl_egl, monkeypatch) -> None:
+    """The G-buffer pass draws in runs and flushes between them (app/render/gbuffer.py
+    FLUSH_TRIANGLES, DRAW_RUN): with runs of 100 triangles and a flush after each, every
+    target equals the one-draw-per-part, one-flush frame's to the bit."""
+    import app.render.gbuffer as gbuffer_module
+    from app.bench.scenes import load, many_lights_scene
+    from app.render.renderer import Renderer
+
+    size = (96, 54)
+    data = many_lights_scene(4, 12.0, size)
+    r = Renderer(gl_egl, load(data), size)
+    try:
+        assert max(len(d.part.indices) // 3 for d in r.gbuffer_pass.drawables) > 300
+        r.gbuffer_pass.flush_triangles = 0  # one draw per part, no flush in between
+        r.render()
+        whole, whole_image = r.read_gbuffer(), r.read_hdr()
+        monkeypatch.setattr(gbuffer_module, "DRAW_RUN", 100)
+        r.gbuffer_pass.flush_triangles = 100
+        r.render()
+        runs, runs_image = r.read_gbuffer(), r.read_hdr()
+    finally:
+        r.release()
+    assert (whole.depth > 0.0).mean() > 0.5
+    for name in ("base_color", "normal", "depth", "tangent", "material_id"):
+        assert np.array_equal(getattr(runs, name), getattr(whole, name)), name
+    assert np.array_equal(runs_image, whole_image)
+
+
+@pytest.mark.parametrize("scene", ["gltf_alpha_blend", "sec2_depth_of_field"])
+def test_the_lighting_pass_z_test_keeps_the_image(gl_egl, scene: str) -> None:
+    """The lighting pass draws its triangle on the far plane against the G-buffer's
+    z-buffer (app/render/lighting.py): the frame equals the one drawn into a target
+    without a z-buffer (every pixel runs the shader, the background ones discard), and the
+    z-buffer is left as the G-buffer pass wrote it, which the blend pass tests its parts
+    against (gltf_alpha_blend has blended parts behind and in front of opaque ones)."""
+    from pathlib import Path
+
+    from app.render.renderer import Renderer
+    from app.scene.loader import load_scene
+
+    path = Path(__file__).resolve().parent.parent / "scenes" / f"{scene}.toml"
+    size = (128, 72)
+    r = Renderer(gl_egl, load_scene(path), size)
+    try:
+        r.render()
+        tested, tested_ldr = r.read_hdr(), r.read_ldr()
+        r.lighting._z_target = lambda gbuffer: r.lighting.fbo  # no z-buffer: no test
+        r.render()
+        every, every_ldr = r.read_hdr(), r.read_ldr()
+    finally:
+        r.release()
+    assert np.array_equal(tested, every)
+    assert np.array_equal(tested_ldr, every_ldr)
+
+
+@pytest.mark.parametrize(("tonemap", "ev"), [("neutral", 0.0), ("aces", 0.7), ("reinhard", -1.3)])
+def test_post_on_surfaces_only_keeps_the_image(gl_egl, tonemap: str, ev: float) -> None:
+    """The post pass run only where the z-buffer has a surface, over a target cleared to
+    the background's display value (PostPass.run_on_surfaces, which render() takes for a
+    frame whose background pixels are the lighting pass's clear) gives the 8-bit image
+    the full-screen pass gives."""
+    from app.bench.scenes import load
+    from app.bench.spheres import sphere_grid_scene
+    from app.render.renderer import Renderer
+
+    size = (96, 54)
+    data = sphere_grid_scene(1, size)
+    data["render"]["tonemap"] = tonemap
+    data["camera"]["exposure"] = ev
+    data["background"] = [0.3, 0.05, 0.6]
+    r = Renderer(gl_egl, load(data), size)
+    try:
+        assert r.dof is None and r.resolve is None and r.blend is None and r.background is None
+        r.render()
+        surfaces_only = r.read_ldr()
+        r.post.run(r.lighting.hdr, ev)  # every pixel through the pass
+        every = r.read_ldr()
+    finally:
+        r.release()
+    covered = np.asarray(every != surfaces_only).any(axis=-1)
+    assert not covered.any(), f"{covered.sum()} pixels differ"
+    background = every[0, 0]
+    assert background.tolist() != [0, 0, 0] and (every != background).any(axis=-1).mean() > 0.1

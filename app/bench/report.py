@@ -726,8 +726,9 @@ def _culling_ratio_lines(members: list[dict]) -> list[str]:
     if frames:
         lines += [
             "",
-            "Fixed cost: the whole frame to the caller's 8-bit image (G-buffer, cull, lighting,"
-            " post, read-back), timed interleaved with the variants above:",
+            "Fixed cost: the whole frame to the caller's 8-bit image (G-buffer, cull where the"
+            ' default light_culling = "auto" tiles, lighting, post, read-back), timed'
+            " interleaved with the variants above:",
             "",
             "| lights | size | ms median | min | max | passes, ms |",
             "|---|---|---|---|---|---|",

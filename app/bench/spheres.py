@@ -85,10 +85,9 @@ def pbs_frame_passes(r: Renderer) -> list[Pass]:
     if any(x is not None for x in extra):
         raise ValueError("pbs_frame_passes: a scene with depth of field, supersampling, "
                          "blended parts, shadows or an environment")  # fmt: skip
-    exposure = r.scene.camera.exposure
     return [
         *deferred_passes(r),
-        Pass("post", lambda: r.post.run(r.lighting.hdr, exposure), r.post.fbo),
+        Pass("post", lambda: r.run_post(r.lighting.hdr), r.post.fbo),
         Pass("read-back", r.read_ldr),
     ]
 

@@ -47,8 +47,24 @@ GROUP_TILES = 4  # the coarse pass culls for groups of 4 x 4 tiles (32 x 32 pixe
 LIGHTS_PER_ROW = 1024  # texels per row of the local-light texture
 RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a light
 #                      whose window is still (barely) above zero at a tile's edge
+# render.light_culling = "auto" (the default) culls only from this many local lights on.
+# Below it the three passes cost more than the lights they save (measured with 1-16
+# lights in docs/performance.md, "Second part: fixed costs"; tiles paid at 16 lights in
+# the bench's full run).
+TILED_MIN_LOCAL_LIGHTS = 9
 CONE_MARGIN = 1e-3  # radians: spot cones widen so float32 rounding never culls a lit pixel
 NO_CONE = POINT_COS_OUTER  # the cone cosine of a point light: below -1, no cone test
+
+
+def tiles_used(setting: str, lights: list[PunctualLight]) -> bool:
+    """Whether a frame with ``lights`` culls them by tiles under ``render.light_culling``
+    ``setting``: "tiled" whenever there is a local light, "none" never, "auto" from
+    ``TILED_MIN_LOCAL_LIGHTS`` local lights on. The image is the same either way (the
+    module docstring says why); only the time differs."""
+    local = sum(light.is_local for light in lights)
+    if setting == "auto":
+        return local >= TILED_MIN_LOCAL_LIGHTS
+    return setting == "tiled" and local > 0
 
 
 class LightCuller:

@@ -56,8 +56,10 @@ to 1/(pi alpha_min^2) = 7.8e4 for GGX) clip to white. The tile ramp is the same 
 (1 light blue, 3 cyan, 7 green, 15 yellow, 31 orange, 63 red, 127 magenta, 255
 and more white), so images of two
 scenes compare. ``tiles`` counts only local lights: directional ones reach every tile and
-have no mask bits; a frame without tile culling (no local lights, or
-``render.light_culling = "none"``) gives zero everywhere. ``nan`` is the view of
+have no mask bits; a frame without tile culling (no local lights,
+``render.light_culling = "none"``, or "auto" with fewer local lights than
+app/render/culling.py TILED_MIN_LOCAL_LIGHTS: set "tiled" to see them) gives zero
+everywhere. ``nan`` is the view of
 app/render/debug.py at the output size (after the supersampling resolve).
 """
 
@@ -211,7 +213,7 @@ class DebugPass:
 
     @property
     def tiled(self) -> bool:
-        """Whether the frame has tile masks (local lights and ``light_culling = "tiled"``)."""
+        """Whether the frame has tile masks (app/render/culling.py tiles_used)."""
         return self.renderer.culler is not None
 
     def _programs(self, view: str) -> list[moderngl.Program]:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+from collections.abc import Callable
 
 import moderngl
 import numpy as np
@@ -520,18 +521,44 @@ class MeshDrawable:
             prog["u_tangent_sign"].value = -1.0 if self.mirrored else 1.0
 
     def draw(
-        self, view_bytes: bytes, proj_bytes: bytes, camera: CameraFrame, size: tuple[int, int]
+        self,
+        view_bytes: bytes,
+        proj_bytes: bytes,
+        camera: CameraFrame,
+        size: tuple[int, int],
+        between: Callable[[int], None] | None = None,
     ) -> None:
+        """Bind the part's state and draw its triangles; with ``between``, in runs of at
+        most ``DRAW_RUN`` triangles, in their order, calling ``between(triangles drawn)``
+        after each run (``GBufferPass.run`` flushes there)."""
         self.bind_transform(view_bytes, proj_bytes)
         self.bind_camera(camera, size)
         self.bind_material()
-        self.vao.render(moderngl.TRIANGLES)
+        if between is None:
+            self.vao.render(moderngl.TRIANGLES)
+            return
+        count = len(self.part.indices)
+        for first in range(0, count, 3 * DRAW_RUN):
+            run = min(3 * DRAW_RUN, count - first)
+            self.vao.render(moderngl.TRIANGLES, vertices=run, first=first)
+            between(run // 3)
 
     def release(self) -> None:
         for obj in (self.vao, self.vbo, self.ibo, *(t for _, t in self.textures)):
             obj.release()
         if self.extra_vbo is not None:
             self.extra_vbo.release()
+
+
+# llvmpipe shades vertices and bins triangles on the calling thread and rasterises a
+# frame's binned triangles on its worker threads only at a flush. The G-buffer pass
+# flushes once FLUSH_TRIANGLES have been drawn since the last flush, so that the workers
+# rasterise those while this thread bins the next ones; a part larger than DRAW_RUN
+# triangles is drawn in runs of that many, in its order. The triangles, their order and
+# so every target's texels are the same as in one flush at the end; measured on the
+# 35-sphere scene in docs/performance.md ("Second part: fixed costs").
+FLUSH_TRIANGLES = 4096
+DRAW_RUN = 8192
 
 
 class GBufferPass:
@@ -550,6 +577,9 @@ class GBufferPass:
         """``defines``: the optional targets to write, ``MaterialTable.gbuffer_defines()``
         (the target must have them: ``GBuffer(tangents=..., coat_normals=...)``)."""
         self.ctx = ctx
+        self._gl_flush = gl_function(ctx, "glFlush", [])
+        self._unflushed = 0  # triangles drawn since the last flush
+        self.flush_triangles = FLUSH_TRIANGLES  # 0: one flush at the end (the bench's "before")
         defines = dict(defines or {"GBUFFER_TANGENT": 1})
         self.drawables = [
             MeshDrawable(ctx, shaders, p, ids, defines=defines, specular_aa=specular_aa)
@@ -573,12 +603,21 @@ class GBufferPass:
         target.clear()
         target.fbo.use()
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
+        self._unflushed = 0
+        between = self._drawn if self.flush_triangles else None
         for d in self.drawables:
             d.cull(ctx)
-            d.draw(view_bytes, proj_bytes, camera, target.size)
+            d.draw(view_bytes, proj_bytes, camera, target.size, between)
         ctx.disable(moderngl.CULL_FACE)
         ctx.cull_face = "back"
         ctx.front_face = "ccw"
+
+    def _drawn(self, triangles: int) -> None:
+        """Count ``triangles`` drawn; flush once FLUSH_TRIANGLES are waiting (see there)."""
+        self._unflushed += triangles
+        if self._unflushed >= self.flush_triangles:
+            self._gl_flush()
+            self._unflushed = 0
 
     def release(self) -> None:
         for d in self.drawables:

@@ -87,6 +87,7 @@ class LightingPass:
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
                 defines["TILE_QUADS"] = culler.quads  # mask texels per tile
                 defines["DIRECTIONAL_LIGHTS"] = int(culler.first_local > 0)
+            defines["FAR_PLANE"] = 1  # the triangle the z-test culls to surfaces (run)
             self.programs.append(
                 shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
             )
@@ -101,6 +102,8 @@ class LightingPass:
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
+        self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
+        self._z_source: GBuffer | None = None
         packed = pack_lights(lights)
         self.lights = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -119,6 +122,15 @@ class LightingPass:
         ctx.viewport = (0, 0, *self.size)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
+        # The full-screen triangle lies on the far plane and is tested against the
+        # G-buffer's z-buffer with ">" (never written): where no surface was drawn z is
+        # still the cleared 1 and llvmpipe skips the fragment shader before it runs, block
+        # by block, where the shader would fetch RT2 and discard. Every pixel the test
+        # passes has a drawn surface, which decode_gbuffer still checks, so the image is
+        # the same (docs/performance.md, "Second part: fixed costs", measures the gain).
+        self._z_target(gbuffer).use()
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = ">"
         textures = [
             *gbuffer.samplers(),
             ("u_lights", self.lights),
@@ -153,6 +165,19 @@ class LightingPass:
             if self.shadows is not None:
                 self.shadows.bind(prog)
             vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+
+    def _z_target(self, gbuffer: GBuffer) -> moderngl.Framebuffer:
+        """The HDR image with ``gbuffer``'s z-buffer, depth writes off; made again for a new
+        G-buffer (a resize, a new encoding)."""
+        if self._z_fbo is None or self._z_source is not gbuffer:
+            if self._z_fbo is not None:
+                self._z_fbo.release()
+            self._z_fbo = self.ctx.framebuffer([self.hdr], gbuffer.zbuffer)
+            self._z_fbo.depth_mask = False
+            self._z_source = gbuffer
+        return self._z_fbo
 
     def read(self) -> np.ndarray:
         """The HDR image, (H, W, 3) float32, rows top to bottom."""
@@ -161,6 +186,8 @@ class LightingPass:
     def release(self) -> None:
         for obj in (*self.vaos, self.fbo, self.hdr, self.lights, self.materials):
             obj.release()
+        if self._z_fbo is not None:
+            self._z_fbo.release()
         if self.ms_table is not None:
             self.ms_table.release()
         if self.sheen_table is not None:

@@ -78,8 +78,84 @@ class PostPass(_FullscreenPass):
         )
         super().__init__(ctx, program, size, dtype="f1")
 
+        defines = {"TONEMAP": TONEMAP_CODE[tonemap], "FAR_PLANE": 1}
+        self.far_program = shaders.program("passes/fullscreen.vert", "passes/post.frag", defines)
+        self.far_vao = ctx.vertex_array(self.far_program, [])
+        self._z_fbo: moderngl.Framebuffer | None = None  # target + a G-buffer's z-buffer
+        self._z_source: moderngl.Renderbuffer | None = None
+        self._background: tuple[tuple[float, ...], float, tuple[int, ...]] | None = None
+
     def run(self, hdr: moderngl.Texture, exposure_ev: float) -> None:
         self._draw({"u_hdr": hdr}, {"u_exposure": 2.0**exposure_ev})
+
+    def run_on_surfaces(
+        self,
+        hdr: moderngl.Texture,
+        exposure_ev: float,
+        zbuffer: moderngl.Renderbuffer,
+        background: tuple[float, float, float],
+    ) -> None:
+        """``run`` for an HDR image whose pixels without a surface in ``zbuffer`` (z still
+        the cleared 1) all hold ``background`` (the lighting pass's clear, nothing drawn
+        over it): the target is cleared to the display value the pass gives
+        ``background`` (``background_display``), and the pass runs only where the z-test
+        (">", on the far plane, no writes) finds a surface, as the lighting pass does.
+        The image is the one ``run`` draws (docs/performance.md, "Second part: fixed
+        costs")."""
+        value = self.background_display(background, exposure_ev)
+        if self._z_fbo is None or self._z_source is not zbuffer:
+            if self._z_fbo is not None:
+                self._z_fbo.release()
+            self._z_fbo = self.ctx.framebuffer([self.target], zbuffer)
+            self._z_fbo.depth_mask = False
+            self._z_source = zbuffer
+        ctx = self.ctx
+        # k / 255 converts back to the byte k in the GL's float -> unorm8 rounding.
+        self.fbo.clear(*(k / 255.0 for k in value))
+        self._z_fbo.use()
+        ctx.viewport = (0, 0, *self.size)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = ">"
+        hdr.use(0)
+        self.far_program["u_hdr"].value = 0
+        self.far_program["u_exposure"].value = 2.0**exposure_ev
+        self.far_vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+
+    def background_display(
+        self, background: tuple[float, float, float], exposure_ev: float
+    ) -> tuple[int, ...]:
+        """The RGBA bytes this pass writes for an HDR texel (background, 1): this pass's
+        own program run on a 1x1 image, so the value is the GPU's to the bit; kept until
+        the background or exposure changes (the read waits for the GPU once)."""
+        key = (tuple(float(x) for x in background), float(exposure_ev))
+        if self._background is None or self._background[:2] != key:
+            ctx = self.ctx
+            texel = np.array([*key[0], 1.0], np.float32)
+            src = ctx.texture((1, 1), 4, texel.tobytes(), dtype="f4")
+            dst = ctx.texture((1, 1), 4, dtype="f1")
+            fbo = ctx.framebuffer([dst])
+            vao = ctx.vertex_array(self.program, [])
+            try:
+                fbo.use()
+                ctx.viewport = (0, 0, 1, 1)
+                src.use(0)
+                self.program["u_hdr"].value = 0
+                self.program["u_exposure"].value = 2.0**exposure_ev
+                vao.render(moderngl.TRIANGLES, vertices=3)
+                value = tuple(int(b) for b in fbo.read(components=4, alignment=1))
+            finally:
+                for obj in (vao, fbo, dst, src):
+                    obj.release()
+            self._background = (*key, value)
+        return self._background[2]
+
+    def release(self) -> None:
+        super().release()
+        self.far_vao.release()
+        if self._z_fbo is not None:
+            self._z_fbo.release()
 
 
 class DownsamplePass(_FullscreenPass):

@@ -31,7 +31,7 @@ from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
-from app.render.culling import LightCuller
+from app.render.culling import LightCuller, tiles_used
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.lighting import LightingPass
@@ -226,7 +226,7 @@ class Renderer:
             self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
         elif (uniform := uniform_environment(env)) is not None:
             self.ibl = UniformEnvironment(*uniform)
-        if self.frame.has_local_lights and settings.light_culling == "tiled":
+        if tiles_used(settings.light_culling, self.lights):
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
         if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
             opaque = self._opaque()
@@ -432,8 +432,21 @@ class Renderer:
             self.resolve.run(hdr)
             hdr = self.resolve.target
             clock.done("resolve")
-        self.post.run(hdr, scene.camera.exposure)
+        self.run_post(hdr)
         clock.done("post")
+
+    def run_post(self, hdr: moderngl.Texture) -> None:
+        """The post pass on the frame's HDR image ``hdr``; only on the surfaces' pixels
+        (``PostPass.run_on_surfaces``) where every other pixel of ``hdr`` is the lighting
+        pass's background: no depth of field, resolve, blended parts or environment
+        background has drawn over it."""
+        exposure = self.scene.camera.exposure
+        plain = self.dof is None and self.resolve is None and self.blend is None
+        if plain and self.background is None and hdr is self.lighting.hdr:
+            background = tuple(float(x) for x in self.scene.background)
+            self.post.run_on_surfaces(hdr, exposure, self.gbuffer.zbuffer, background)
+        else:
+            self.post.run(hdr, exposure)
 
     @property
     def hdr_texture(self) -> moderngl.Texture:

@@ -142,7 +142,8 @@ class RenderSettings(_Strict):
     tonemap: Literal[TONEMAPS] = "neutral"  # type: ignore[valid-type]
     # The G-buffer's storage (app/common/gbuffer.py ENCODINGS; docs/gbuffer.md measures each).
     gbuffer: Literal[ENCODING_NAMES] = DEFAULT_ENCODING  # type: ignore[valid-type]
-    light_culling: Literal["tiled", "none"] = "tiled"
+    # "auto": tiles only from app/render/culling.py TILED_MIN_LOCAL_LIGHTS local lights on.
+    light_culling: Literal["auto", "tiled", "none"] = "auto"
     # RTR4 §9.13: how normal-map mips carry the variance of the normals they average
     # into roughness (app/textures/mips.py), and screen-space geometric specular AA.
     normal_filter: Literal["none", "naive", "toksvig", "variance"] = "variance"

@@ -561,14 +561,12 @@ class Panels:
                 ("normal_filter", ("none", "naive", "toksvig", "variance")),
                 ("terms", ("all", "specular", "diffuse")),
                 ("blend", ("runtime", "baked")),
+                ("light_culling", ("auto", "tiled", "none")),
             ):
                 now = getattr(s, field)
                 changed, i = imgui.combo(field, names.index(now), list(names))
                 if changed:
                     self._edit(f"render.{field}", names[i])
-            changed, on = imgui.checkbox("tile culling", s.light_culling == "tiled")
-            if changed:
-                self._edit("render.light_culling", "tiled" if on else "none")
             changed, on = imgui.checkbox("specular AA", s.specular_aa)
             if changed:
                 self._edit("render.specular_aa", on)
