@@ -3,7 +3,13 @@
 ``L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+`` (RTR4 §9.4, eq. 9.13), evaluated by
 glsl/passes/lighting.frag into an RGBA32F target. Lights travel in an RGBA32F texture
 (3 texels per light, one light per row), so their number is bounded only by the
-texture height, not by uniform-block limits.
+texture height, not by uniform limits; the blend, debug and bench passes read that
+texture. The lighting pass itself reads the same texels from a uniform array
+(``LIGHT_UNIFORMS``, glsl/lights/illumination.glsl) wherever they fit the context's
+fragment uniform vectors: the array is the form a rasteriser such as llvmpipe reads
+fastest (docs/performance.md, "Second part: the light loop"), and the texture is the
+fallback for scenes with more lights. The form is chosen when the programs are built,
+from the scene's light count (``light_form``).
 
 One program per model group (app/frame/materials.py): a scene whose materials all use
 one model runs one full-screen pass; otherwise each group's pass discards the pixels of
@@ -32,6 +38,21 @@ from app.render.post import read_rgb
 from app.render.shadows import ShadowPass
 from app.render.tables import material_texture, ms_texture, sheen_texture
 
+LIGHT_FORMS = ("texture", "uniform")
+# Fragment uniform vectors left to everything but the lights (camera, IBL, counts) and,
+# per shadow map, to its matrix and parameters (glsl/lights/shadows.glsl: 8 vectors).
+_OTHER_VECTORS = 64
+_VECTORS_PER_SHADOW_MAP = 8
+
+
+def light_form(ctx: moderngl.Context, light_count: int, shadow_maps: int = 0) -> str:
+    """Where the lighting pass reads its lights: "uniform" when 3 vectors per light fit the
+    context's GL_MAX_FRAGMENT_UNIFORM_VECTORS beside the pass's other uniforms (queried,
+    never assumed: llvmpipe has 4096), else "texture"."""
+    room = int(ctx.info["GL_MAX_FRAGMENT_UNIFORM_VECTORS"]) - _OTHER_VECTORS
+    room -= _VECTORS_PER_SHADOW_MAP * shadow_maps
+    return "uniform" if 3 * max(light_count, 1) <= room else "texture"
+
 
 class LightingPass:
     """Owns the HDR target and the light texture."""
@@ -51,13 +72,16 @@ class LightingPass:
         encoding: str,
         ibl: EnvironmentLighting | None = None,
         shadows: ShadowPass | None = None,
+        form: str | None = None,
     ) -> None:
         """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
         ``terms``: the scene's render.terms, which reflections the BRDF returns.
         ``uber``: one program with run-time model selection instead of one per model
         group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
         the bench's, from ``RenderOptions``). ``shadows``: the shadow maps, where a light
-        casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl)."""
+        casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl). ``form``:
+        where the pass reads its lights, one of ``LIGHT_FORMS``; None chooses
+        (``light_form``), the bench forces one to compare them."""
         self.ctx = ctx
         self.culler = culler
         self.shadows = shadows
@@ -71,6 +95,11 @@ class LightingPass:
             if several:
                 defines["MODEL_GROUP"] = group
             variants.append(defines)
+        if form is None:
+            form = light_form(ctx, len(lights), shadows.count if shadows is not None else 0)
+        if form not in LIGHT_FORMS:
+            raise ValueError(f"unknown light form {form!r}; choose from {LIGHT_FORMS}")
+        self.form = form
         self.programs = []
         for defines in variants:
             defines.update(table.gbuffer_defines())
@@ -85,6 +114,8 @@ class LightingPass:
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
                 defines["TILE_QUADS"] = culler.quads  # mask texels per tile
                 defines["DIRECTIONAL_LIGHTS"] = int(culler.first_local > 0)
+            if form == "uniform":
+                defines["LIGHT_UNIFORMS"] = max(len(lights), 1)  # the array's lights
             self.programs.append(
                 shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
             )
@@ -100,7 +131,8 @@ class LightingPass:
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
         packed = pack_lights(lights)
-        self.lights = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
+        self.light_bytes = packed.tobytes()  # LIGHT_UNIFORMS: the texture's texels
+        self.lights = ctx.texture((3, packed.shape[0]), 4, self.light_bytes, dtype="f4")
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.light_count = len(lights)
         self.environment_lights = environment_range(lights)  # what occlusion darkens
@@ -142,6 +174,8 @@ class LightingPass:
                     prog[name].value = unit
             if "u_environment_lights" in prog:  # GBUFFER_EMISSION only
                 prog["u_environment_lights"].value = self.environment_lights
+            if "u_light_vec" in prog:  # LIGHT_UNIFORMS; the program may be another scene's
+                prog["u_light_vec"].write(self.light_bytes)
             if "u_light_count" in prog:  # the tiled loop counts through its masks instead
                 prog["u_light_count"].value = self.light_count
             prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)

@@ -37,10 +37,24 @@ vec3 light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 
     return brdf_eval(s, params, n, nc, t, l, v) * c_light * NoL;
 }
 
-// light_term of light i of a light texture.
+// Where light i is read. With LIGHT_UNIFORMS (the scene's light count, set by
+// app/render/lighting.py where the context's fragment uniform vectors hold them) the
+// lighting pass keeps the three texels of every light in a uniform array, which the
+// rasteriser reads faster than texel fetches (docs/performance.md measures both);
+// otherwise, and in every other pass, from the light texture `lights`. The values are
+// the same float32 texels either way, so the two forms give the same image.
+#ifdef LIGHT_UNIFORMS
+uniform vec4 u_light_vec[3 * LIGHT_UNIFORMS];
+#define READ_LIGHT(lights, i) \
+    unpack_light(u_light_vec[3 * (i)], u_light_vec[3 * (i) + 1], u_light_vec[3 * (i) + 2])
+#else
+#define READ_LIGHT(lights, i) fetch_light(lights, i)
+#endif
+
+// light_term of light i of the light texture (or, with LIGHT_UNIFORMS, the uniform array).
 vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
                         vec3 nc, vec3 t, vec3 p, vec3 v) {
-    return light_term(fetch_light(lights, i), i, s, params, n, nc, t, p, v);
+    return light_term(READ_LIGHT(lights, i), i, s, params, n, nc, t, p, v);
 }
 
 #ifdef TILE_QUADS
