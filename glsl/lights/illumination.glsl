@@ -68,7 +68,11 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
 // body, masked, until every lane has left, and a top-tested loop ends with one more pass
 // over the whole body with every lane masked off: one wasted light evaluation per pixel.
 // No `if` skips work on llvmpipe either, so the next word is chosen by selects, not
-// fetched (docs/performance.md measures both).
+// fetched (docs/performance.md measures both). Two nested loops, the words outside and
+// a word's bits inside, so that the next word is looked up once per word, not tested for
+// after every light: in a tile every pixel walks the same mask, so the lanes of a SIMD
+// rasteriser leave both loops together (docs/performance.md, "Second part: the light
+// loop", measures it against one flat loop).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
                        Surface s, ModelParams params, vec3 n, vec3 nc, vec3 t, vec3 p,
                        vec3 v) {
@@ -81,10 +85,13 @@ vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, 
         next_tile_word(mask, words, w, bits);
         int first = base + 1024 * chunk;
         if (bits != 0u) do {
-            int b = lowest_bit(bits);
-            bits &= bits - 1u;                // clear that bit
-            Lo += light_contribution(lights, first + 32 * w + b, s, params, n, nc, t, p, v);
-            if (bits == 0u) next_tile_word(mask, words, w, bits);
+            int word_first = first + 32 * w;
+            do {
+                int b = lowest_bit(bits);
+                bits &= bits - 1u;                // clear that bit
+                Lo += light_contribution(lights, word_first + b, s, params, n, nc, t, p, v);
+            } while (bits != 0u);
+            next_tile_word(mask, words, w, bits);
         } while (bits != 0u);
     } while (++chunk * 8 < TILE_QUADS);
     return Lo;
