@@ -80,3 +80,24 @@ def test_shared_programs_shade_each_scene_with_its_own_lights(gl_egl):
         r1.release()
         r2.release()
         shaders.release()
+
+
+def test_uniform_array_the_driver_refuses_falls_back_to_the_texture(gl_egl, monkeypatch):
+    """Where the driver counts the pass's other uniforms differently, the array may not
+    link though ``light_form`` chose it: the pass then builds the texture form."""
+    vectors = int(gl_egl.ctx.info["GL_MAX_FRAGMENT_UNIFORM_VECTORS"])
+    count = vectors // 3 + 1  # one directional light besides: 3 (count + 1) > the limit
+    monkeypatch.setattr("app.render.lighting._OTHER_VECTORS", -3 * vectors)  # no reserve
+    assert light_form(gl_egl.ctx, count + 1) == "uniform"
+    data = many_lights_scene(count, "tiled", SIZE)
+    image, r = render(gl_egl, data)
+    try:
+        assert r.lighting.form == "texture"
+        with pytest.raises(Exception, match="uniform"):  # forced, the array is refused
+            Renderer(gl_egl, parse_scene(data, "forms.toml"),
+                     options=RenderOptions(light_form="uniform"))  # fmt: skip
+        expected, r2 = render(gl_egl, data, "texture")
+        r2.release()
+        assert np.array_equal(image, expected)
+    finally:
+        r.release()

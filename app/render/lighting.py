@@ -30,7 +30,7 @@ from app.common.lights import PunctualLight, environment_range, pack_lights
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
-from app.gl.shaders import ShaderCache
+from app.gl.shaders import ShaderCache, ShaderError
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
 from app.render.ibl import EnvironmentLighting
@@ -52,6 +52,19 @@ def light_form(ctx: moderngl.Context, light_count: int, shadow_maps: int = 0) ->
     room = int(ctx.info["GL_MAX_FRAGMENT_UNIFORM_VECTORS"]) - _OTHER_VECTORS
     room -= _VECTORS_PER_SHADOW_MAP * shadow_maps
     return "uniform" if 3 * max(light_count, 1) <= room else "texture"
+
+
+def _programs(
+    shaders: ShaderCache, variants: list[dict[str, int]], form: str, light_count: int
+) -> list[moderngl.Program]:
+    """The lighting programs of ``variants`` (their defines), reading the lights in
+    ``form``."""
+    programs = []
+    for defines in variants:
+        if form == "uniform":
+            defines = {**defines, "LIGHT_UNIFORMS": max(light_count, 1)}  # the array's lights
+        programs.append(shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines))
+    return programs
 
 
 class LightingPass:
@@ -95,12 +108,11 @@ class LightingPass:
             if several:
                 defines["MODEL_GROUP"] = group
             variants.append(defines)
+        chosen = form is None
         if form is None:
             form = light_form(ctx, len(lights), shadows.count if shadows is not None else 0)
         if form not in LIGHT_FORMS:
             raise ValueError(f"unknown light form {form!r}; choose from {LIGHT_FORMS}")
-        self.form = form
-        self.programs = []
         for defines in variants:
             defines.update(table.gbuffer_defines())
             defines.update(encoding_defines(encoding))
@@ -114,11 +126,16 @@ class LightingPass:
                 defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
                 defines["TILE_QUADS"] = culler.quads  # mask texels per tile
                 defines["DIRECTIONAL_LIGHTS"] = int(culler.first_local > 0)
-            if form == "uniform":
-                defines["LIGHT_UNIFORMS"] = max(len(lights), 1)  # the array's lights
-            self.programs.append(
-                shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
-            )
+        try:
+            self.programs = _programs(shaders, variants, form, len(lights))
+        except ShaderError:
+            if not (chosen and form == "uniform"):
+                raise
+            # A driver whose other uniforms take more room than _OTHER_VECTORS allows
+            # for: the light texture, which has no such limit.
+            form = "texture"
+            self.programs = _programs(shaders, variants, form, len(lights))
+        self.form = form
         self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
         self.materials = material_texture(ctx, table)
         self.ms_table = None
