@@ -315,6 +315,29 @@ def test_floor_pass_evaluates_exactly_the_pairs(gl):
     assert np.array_equal(reach, expected)
 
 
+def test_floor_pass_with_a_directional_light_takes_the_general_term(gl_egl):
+    """The floor walks local lights with the lighting pass's local term only where the
+    scene has no directional light (FLOOR_LOCAL_ONLY); a directional light in the masks
+    must be shaded as one, so the floor still draws the deferred image."""
+    data = _scene("f32")
+    sun = {"type": "directional", "direction": [0.3, -1.0, -0.2], "intensity": 0.5}
+    data = {**data, "lights": [sun, *data["lights"]]}
+    r = Renderer(gl_egl, load(data), SIZE)
+    try:
+        r.render()
+        deferred = r.read_hdr()
+        pairs = light_pairs(r.read_gbuffer(), r.camera, r.lights)
+        floor = FloorPass(r, pairs)
+        floor.run()
+        image = floor.read_hdr()
+        floor.release()
+    finally:
+        r.release()
+    covered = pairs.covered
+    assert not r.lights[0].is_local and pairs.count[covered].min() >= 1  # the sun everywhere
+    assert covered_relative_error(image, deferred, covered).max() <= 1e-6
+
+
 def test_limit_pass_shades_each_pixel_with_its_own_lights(gl):
     """Every light form draws the deferred image wherever a pixel has at most the limit's
     count of lights (the same terms in the same order), the indices hold each pixel's

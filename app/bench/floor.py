@@ -100,6 +100,8 @@ class FloorPass:
             defines.update(table.gbuffer_defines())
             defines.update(renderer.gbuffer.defines())
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
+            # Without directional lights the walk takes the lighting pass's local term.
+            defines["FLOOR_LOCAL_ONLY"] = int(all(x.is_local for x in renderer.lights))
             if several:
                 defines["MODEL_GROUP"] = group
             self.programs.append(

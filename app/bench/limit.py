@@ -78,6 +78,9 @@ class LimitPass:
         if room is not None and 3 * len(packed) > room:
             raise ValueError(f"{len(packed)} lights need {3 * len(packed)} vec4 in a {form},"
                              f" the context allows {room}: use form 'texture'")  # fmt: skip
+        # The dark light is a point light; without directional lights the limit takes
+        # the culled pass's local term (local_light_term, lights/illumination.glsl).
+        local_only = int(all(x.is_local for x in renderer.lights))
         table = renderer.materials
         several = len(table.models) > 1
         self.programs = []
@@ -87,7 +90,8 @@ class LimitPass:
             defines.update(renderer.gbuffer.defines())
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             defines.update(LIMIT_FORM=FORMS.index(form), LIMIT_LIGHTS=len(packed),
-                           LIMIT_COUNT=self.count, LIMIT_TEXELS=texels)  # fmt: skip
+                           LIMIT_COUNT=self.count, LIMIT_TEXELS=texels,
+                           LIMIT_LOCAL_ONLY=local_only)  # fmt: skip
             if several:
                 defines["MODEL_GROUP"] = group
             self.programs.append(

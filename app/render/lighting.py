@@ -3,7 +3,13 @@
 ``L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+`` (RTR4 §9.4, eq. 9.13), evaluated by
 glsl/passes/lighting.frag into an RGBA32F target. Lights travel in an RGBA32F texture
 (3 texels per light, one light per row), so their number is bounded only by the
-texture height, not by uniform-block limits.
+texture height, not by uniform limits; the blend, debug and bench passes read that
+texture. The lighting pass itself reads the same texels from a uniform array
+(``LIGHT_UNIFORMS``, glsl/lights/illumination.glsl) wherever they fit the context's
+fragment uniform vectors: the array is the form a rasteriser such as llvmpipe reads
+fastest (docs/performance.md, "Second part: the light loop"), and the texture is the
+fallback for scenes with more lights. The form is chosen when the programs are built,
+from the scene's light count (``light_form``).
 
 One program per model group (app/frame/materials.py): a scene whose materials all use
 one model runs one full-screen pass; otherwise each group's pass discards the pixels of
@@ -24,13 +30,41 @@ from app.common.lights import PunctualLight, pack_lights
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
-from app.gl.shaders import ShaderCache
+from app.gl.shaders import ShaderCache, ShaderError
 from app.render.culling import TILE_SIZE, LightCuller
 from app.render.gbuffer import GBuffer
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.post import read_rgb
 from app.render.shadows import ShadowPass
 from app.render.tables import material_texture, ms_texture, sheen_texture
+
+LIGHT_FORMS = ("texture", "uniform")
+# Fragment uniform vectors left to everything but the lights (camera, IBL, counts) and,
+# per shadow map, to its matrix and parameters (glsl/lights/shadows.glsl: 8 vectors).
+_OTHER_VECTORS = 64
+_VECTORS_PER_SHADOW_MAP = 8
+
+
+def light_form(ctx: moderngl.Context, light_count: int, shadow_maps: int = 0) -> str:
+    """Where the lighting pass reads its lights: "uniform" when 3 vectors per light fit the
+    context's GL_MAX_FRAGMENT_UNIFORM_VECTORS beside the pass's other uniforms (queried,
+    never assumed: llvmpipe has 4096), else "texture"."""
+    room = int(ctx.info["GL_MAX_FRAGMENT_UNIFORM_VECTORS"]) - _OTHER_VECTORS
+    room -= _VECTORS_PER_SHADOW_MAP * shadow_maps
+    return "uniform" if 3 * max(light_count, 1) <= room else "texture"
+
+
+def _programs(
+    shaders: ShaderCache, variants: list[dict[str, int]], form: str, light_count: int
+) -> list[moderngl.Program]:
+    """The lighting programs of ``variants`` (their defines), reading the lights in
+    ``form``."""
+    programs = []
+    for defines in variants:
+        if form == "uniform":
+            defines = {**defines, "LIGHT_UNIFORMS": max(light_count, 1)}  # the array's lights
+        programs.append(shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines))
+    return programs
 
 
 class LightingPass:
@@ -51,6 +85,7 @@ class LightingPass:
         encoding: str,
         ibl: EnvironmentLighting | UniformEnvironment | None = None,
         shadows: ShadowPass | None = None,
+        form: str | None = None,
     ) -> None:
         """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
         ``terms``: the scene's render.terms, which reflections the BRDF returns.
@@ -59,7 +94,9 @@ class LightingPass:
         the bench's, from ``RenderOptions``). ``shadows``: the shadow maps, where a light
         casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl). ``ibl``: the
         environment's light (ENVIRONMENT_IBL's split sum or ENVIRONMENT_UNIFORM's
-        quadrature, docs/ibl.md), None without an environment."""
+        quadrature, docs/ibl.md), None without an environment. ``form``: where the
+        pass reads its lights, one of ``LIGHT_FORMS``; None chooses (``light_form``),
+        the bench forces one to compare them."""
         self.ctx = ctx
         self.culler = culler
         self.shadows = shadows
@@ -73,7 +110,11 @@ class LightingPass:
             if several:
                 defines["MODEL_GROUP"] = group
             variants.append(defines)
-        self.programs = []
+        chosen = form is None
+        if form is None:
+            form = light_form(ctx, len(lights), shadows.count if shadows is not None else 0)
+        if form not in LIGHT_FORMS:
+            raise ValueError(f"unknown light form {form!r}; choose from {LIGHT_FORMS}")
         for defines in variants:
             defines.update(table.gbuffer_defines())
             defines.update(encoding_defines(encoding))
@@ -88,9 +129,16 @@ class LightingPass:
                 defines["TILE_QUADS"] = culler.quads  # mask texels per tile
                 defines["DIRECTIONAL_LIGHTS"] = int(culler.first_local > 0)
             defines["FAR_PLANE"] = 1  # the triangle the z-test culls to surfaces (run)
-            self.programs.append(
-                shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines)
-            )
+        try:
+            self.programs = _programs(shaders, variants, form, len(lights))
+        except ShaderError:
+            if not (chosen and form == "uniform"):
+                raise
+            # A driver whose other uniforms take more room than _OTHER_VECTORS allows
+            # for: the light texture, which has no such limit.
+            form = "texture"
+            self.programs = _programs(shaders, variants, form, len(lights))
+        self.form = form
         self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
         self.materials = material_texture(ctx, table)
         self.ms_table = None
@@ -105,7 +153,8 @@ class LightingPass:
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
         self._z_source: GBuffer | None = None
         packed = pack_lights(lights)
-        self.lights = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
+        self.light_bytes = packed.tobytes()  # LIGHT_UNIFORMS: the texture's texels
+        self.lights = ctx.texture((3, packed.shape[0]), 4, self.light_bytes, dtype="f4")
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.light_count = len(lights)
         self.size = size
@@ -153,6 +202,8 @@ class LightingPass:
             for unit, (name, _) in enumerate(textures):
                 if name in prog:  # a permutation may not use every texture
                     prog[name].value = unit
+            if "u_light_vec" in prog:  # LIGHT_UNIFORMS; the program may be another scene's
+                prog["u_light_vec"].write(self.light_bytes)
             if "u_light_count" in prog:  # the tiled loop counts through its masks instead
                 prog["u_light_count"].value = self.light_count
             prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)

@@ -49,10 +49,13 @@ class RenderOptions:
     ``uber``: one lighting program with run-time model selection instead of one per model
     group (the ``specialization`` suite). ``ms_table``: a float32 (n, n, 2) Kulla-Conty table
     other than the shipped 64 x 64 one (``app.reference.multiscatter.load_table(n)``).
+    ``light_form``: where the lighting pass reads its lights (app/render/lighting.py
+    ``LIGHT_FORMS``); None lets the pass choose from the light count.
     """
 
     uber: bool = False
     ms_table: np.ndarray | None = None
+    light_form: str | None = None
 
 
 def environment_source(env: Environment) -> EnvironmentSource:
@@ -236,7 +239,7 @@ class Renderer:
         self.lighting = LightingPass(
             ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
             settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
-            ibl=self.ibl, shadows=self.shadows,
+            ibl=self.ibl, shadows=self.shadows, form=self.options.light_form,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
         self._build_background()

@@ -14,16 +14,27 @@
 // even where the #ifdef drops it. Without TILE_QUADS it adds functions nothing calls.
 #include "lights/tiles.glsl"
 
-// f(l, v) c_light (n.l)+ of `light` (light i: its shadow map's index) at p, wherever the
-// light was read from (light_contribution below: the light texture; the bench's limit
-// pass: uniforms); nc is the clear coat's normal (n where the coat has none of its own).
-// With GBUFFER_COAT_NORMAL (a coat of the scene has a normal other than its base's:
-// gbuffer/layout.glsl) a coated material's layers take their own cosines
+// Where light i is read. With LIGHT_UNIFORMS (the scene's light count, set by
+// app/render/lighting.py where the context's fragment uniform vectors hold them) the
+// lighting pass keeps the three texels of every light in a uniform array, which the
+// rasteriser reads faster than texel fetches (docs/performance.md measures both);
+// otherwise, and in every other pass, from the light texture `lights`. The values are
+// the same float32 texels either way, so the two forms give the same image.
+#ifdef LIGHT_UNIFORMS
+uniform vec4 u_light_vec[3 * LIGHT_UNIFORMS];
+#define READ_LIGHT(lights, i) \
+    unpack_light(u_light_vec[3 * (i)], u_light_vec[3 * (i) + 1], u_light_vec[3 * (i) + 2])
+#else
+#define READ_LIGHT(lights, i) fetch_light(lights, i)
+#endif
+
+// f(l, v) c_light (n.l)+ of a light that sends c_light along l (towards it) to p (light i:
+// its shadow map's index); nc is the clear coat's normal (n where the coat has none of
+// its own). With GBUFFER_COAT_NORMAL (a coat of the scene has a normal other than its
+// base's: gbuffer/layout.glsl) a coated material's layers take their own cosines
 // (brdf_eval_layered_cos in brdf/material.glsl).
-vec3 light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 n, vec3 nc,
-                vec3 t, vec3 p, vec3 v) {
-    vec3 l;
-    vec3 c_light = light_at(light, p, l);
+vec3 light_term_at(vec3 c_light, vec3 l, int i, Surface s, ModelParams params, vec3 n,
+                   vec3 nc, vec3 t, vec3 p, vec3 v) {
 #if SHADOWS
     c_light *= shadow_visibility(i, p, n, l);   // a shadowed light (lights/shadows.glsl)
 #endif
@@ -37,10 +48,28 @@ vec3 light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 
     return brdf_eval(s, params, n, nc, t, l, v) * c_light * NoL;
 }
 
-// light_term of light i of a light texture.
+// The term of `light` at p, wherever the light was read from (light_contribution below:
+// the light texture or the uniform array; the bench's limit pass: its own form).
+vec3 light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 n, vec3 nc,
+                vec3 t, vec3 p, vec3 v) {
+    vec3 l;
+    vec3 c_light = light_at(light, p, l);
+    return light_term_at(c_light, l, i, s, params, n, nc, t, p, v);
+}
+
+// light_term of a light known to be a point or spot light (local_light_at): the same
+// float32 operations for it, without the test for a directional light.
+vec3 local_light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 n,
+                      vec3 nc, vec3 t, vec3 p, vec3 v) {
+    vec3 l;
+    vec3 c_light = local_light_at(light, p, l);
+    return light_term_at(c_light, l, i, s, params, n, nc, t, p, v);
+}
+
+// light_term of light i of the light texture (or, with LIGHT_UNIFORMS, the uniform array).
 vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
                         vec3 nc, vec3 t, vec3 p, vec3 v) {
-    return light_term(fetch_light(lights, i), i, s, params, n, nc, t, p, v);
+    return light_term(READ_LIGHT(lights, i), i, s, params, n, nc, t, p, v);
 }
 
 #ifdef TILE_QUADS
@@ -48,16 +77,22 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
 // TILE_QUADS RGBA32UI texels per cell; bit k is light base + k), added one by one in
 // ascending light order, so that a sum continued from other lights rounds exactly as the
 // plain loop over all lights does. A cell is a screen tile for the lighting pass and a
-// pixel for the bench's floor pass.
+// pixel for the bench's floor pass. local_only (a constant): every masked light is a
+// point or spot light, so local_light_term serves (the lighting pass's tiles; the floor's
+// pixels where the scene has no directional light).
 //
 // Every loop here is bottom-tested. A SIMD rasteriser such as llvmpipe runs a loop's
 // body, masked, until every lane has left, and a top-tested loop ends with one more pass
 // over the whole body with every lane masked off: one wasted light evaluation per pixel.
 // No `if` skips work on llvmpipe either, so the next word is chosen by selects, not
-// fetched (docs/performance.md measures both).
+// fetched (docs/performance.md measures both). Two nested loops, the words outside and
+// a word's bits inside, so that the next word is looked up once per word, not tested for
+// after every light: in a tile every pixel walks the same mask, so the lanes of a SIMD
+// rasteriser leave both loops together (docs/performance.md, "Second part: the light
+// loop", measures it against one flat loop).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
-                       Surface s, ModelParams params, vec3 n, vec3 nc, vec3 t, vec3 p,
-                       vec3 v) {
+                       bool local_only, Surface s, ModelParams params, vec3 n, vec3 nc,
+                       vec3 t, vec3 p, vec3 v) {
     int chunk = 0;
     do {  // chunks of 1024 lights: one for up to 1024 lights
         TileMask mask = load_tile_mask(masks, cell, chunk);
@@ -67,10 +102,18 @@ vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, 
         next_tile_word(mask, words, w, bits);
         int first = base + 1024 * chunk;
         if (bits != 0u) do {
-            int b = lowest_bit(bits);
-            bits &= bits - 1u;                // clear that bit
-            Lo += light_contribution(lights, first + 32 * w + b, s, params, n, nc, t, p, v);
-            if (bits == 0u) next_tile_word(mask, words, w, bits);
+            int word_first = first + 32 * w;
+            do {
+                int b = lowest_bit(bits);
+                bits &= bits - 1u;                // clear that bit
+                int k = word_first + b;
+                if (local_only) {  // a compile-time constant at every call
+                    Lo += local_light_term(READ_LIGHT(lights, k), k, s, params, n, nc, t, p, v);
+                } else {
+                    Lo += light_contribution(lights, k, s, params, n, nc, t, p, v);
+                }
+            } while (bits != 0u);
+            next_tile_word(mask, words, w, bits);
         } while (bits != 0u);
     } while (++chunk * 8 < TILE_QUADS);
     return Lo;

@@ -34,13 +34,11 @@ float spot_cone(float cos_theta, float cos_outer, float cos_inner) {
     return t * t;
 }
 
-// Returns c_light arriving at p (RTR4 sec. 9.4's c_light, already attenuated) and
-// writes the unit direction from p towards the light into l.
-vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
-    if (L.type == LIGHT_DIRECTIONAL) {
-        l = -L.direction;
-        return L.color;
-    }
+// light_at (below) of a point or spot light. The loops that visit only local lights (a
+// tile's list) call it directly: without light_at's test for a directional light, whose
+// early return a SIMD rasteriser runs masked for every light (docs/performance.md,
+// "Second part: the light loop").
+vec3 local_light_at(PunctualLight L, vec3 p, out vec3 l) {
     vec3 d = L.position - p;
     float dist2 = dot(d, d);
     l = d * inversesqrt(max(dist2, 1e-20));
@@ -48,6 +46,16 @@ vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
                 / max(dist2, LIGHT_MIN_DISTANCE * LIGHT_MIN_DISTANCE);
     if (L.type == LIGHT_SPOT) atten *= spot_cone(dot(-l, L.direction), L.cos_outer, L.cos_inner);
     return L.color * atten;
+}
+
+// Returns c_light arriving at p (RTR4 sec. 9.4's c_light, already attenuated) and
+// writes the unit direction from p towards the light into l.
+vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
+    if (L.type == LIGHT_DIRECTIONAL) {
+        l = -L.direction;
+        return L.color;
+    }
+    return local_light_at(L, p, l);
 }
 
 // Light i of a light texture (app/scene/lights.py pack_lights): 3 RGBA32F texels per

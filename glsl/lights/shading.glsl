@@ -45,8 +45,8 @@ vec3 sum_lights(ivec2 tile, Surface s, ModelParams params, vec3 n, vec3 nc, vec3
         Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);
     } while (++i < u_first_local);
 #endif
-    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, s, params, n, nc,
-                           t, p, v);
+    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, true, s, params,
+                           n, nc, t, p, v);   // the masks hold local lights only
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above

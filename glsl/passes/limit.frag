@@ -47,7 +47,11 @@ void main() {
     for (int j = 0; j < LIMIT_COUNT; ++j) {  // constant trip count: unrolled
         uint word = words[j / 8][(j / 2) % 4];
         int i = int((word >> uint(16 * (j % 2))) & 0xFFFFu);
+#if LIMIT_LOCAL_ONLY  // no directional light: the culled pass's local_light_term
+        Lo += local_light_term(LIMIT_LIGHT(i), i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+#else
         Lo += light_term(LIMIT_LIGHT(i), i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+#endif
     }
     frag_color = vec4(PI * Lo, 1.0);
 }
