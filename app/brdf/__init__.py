@@ -183,5 +183,9 @@ def evaluate(
         "dir_l": l_arr,
         "dir_v": v_arr,
     }
-    out = run_material_kernel(context.ctx, params, _BODY, inputs)
+    # Made current for the call (the previous context is current again after it): another
+    # context made or released since (a test module's, a renderer's) may be current, and
+    # GL calls go to whichever is (CI: "cannot create program" after such a release).
+    with context.ctx:
+        out = run_material_kernel(context.ctx, params, _BODY, inputs)
     return out[:, :3]
