@@ -1,7 +1,9 @@
 """The floor pass: what no lighting pipeline can go under (the bench's ``floor`` variant).
 
 A bare full-screen pass (glsl/passes/floor.frag) that decodes the G-buffer and evaluates
-the lighting pass's ``light_contribution`` exactly once per (pixel, light in range) pair,
+the lighting pass's light term exactly once per (pixel, light in range) pair (under
+``FLOOR_LOCAL_ONLY``, a scene without directional lights, ``local_light_term`` as the
+lighting pass's tiles take it; else ``light_contribution``),
 from per-pixel light masks computed exactly on the CPU (app/bench/pairs.py) and uploaded
 before timing starts: ``u_pixel_masks``, RGBA32UI, ``quads`` texels per pixel side by
 side, bit k of the pixel's mask set when light k reaches it. The pass walks a pixel's

@@ -52,7 +52,8 @@ class PunctualLight:
     range: float = 1.0
     cos_outer: float = 0.0
     cos_inner: float = 1.0
-    # Its shadow maps' settings where the light casts shadows (one map; six for a point).
+    # Its shadow maps' settings where the light casts shadows (one map; six for a point;
+    # one per cascade for a directional light with shadow_cascades > 1).
     shadow: ShadowSettings | None = None
 
     @property

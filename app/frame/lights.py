@@ -85,9 +85,11 @@ def map_lights(env: Environment) -> list[PunctualLight]:
 
     L_o = integral f L (n.l)+ dl ~ sum_i f(l_i) (n.l_i)+ integral_cell_i L dl, and the
     illumination sum gives pi sum_i f c_light (n.l_i)+, so c_light_i = (1/pi) integral over
-    cell i, times ``intensity``. A uniform map gives c = 4 L / N, the uniform case's lights
-    (to the cells' discretisation). Exact for the diffuse term's low frequencies; glossy
-    surfaces see the N dots of the lattice unless N grows.
+    cell i, times ``intensity``. A uniform map would give c = 4 L / N on every light (to the
+    cells' discretisation), but a uniform environment never comes here: the renderer and
+    the ray-caster integrate it per point by its own quadrature (``uniform_environment``;
+    app/reference/environment_uniform.py). Exact for the diffuse term's low frequencies;
+    glossy surfaces see the N dots of the lattice unless N grows.
     """
     env_map = environment_texels(env)
     directions = fibonacci_sphere(env.samples)

@@ -65,8 +65,9 @@ void main() {
 #endif
 #endif
 #ifdef MODEL_GROUP
-    // A part whose layers use two models is drawn once per model (app/render/forward.py):
-    // this draw keeps the fragments whose dominant layer uses its model.
+    // A part whose layers use two models is drawn once per model (forward_drawables in
+    // app/render/blend.py): this draw keeps the fragments whose dominant layer uses its
+    // model.
     if (fetch_model_group(u_materials, int(m.material_id)) != MODEL_GROUP) discard;
 #endif
     Layer l = m.layer;
