@@ -183,11 +183,5 @@ def evaluate(
         "dir_l": l_arr,
         "dir_v": v_arr,
     }
-    # Made current for the call and left current (it lives as long as the process): another
-    # context made or released since (a test module's, a renderer's) may be current, and GL
-    # calls go to whichever is (CI: "cannot create program" after such a release). Not a
-    # `with` block: leaving it releases the current context on EGL, so that no context at
-    # all is current for the caller's next GL call.
-    context.ctx.__enter__()
     out = run_material_kernel(context.ctx, params, _BODY, inputs)
     return out[:, :3]
