@@ -31,6 +31,27 @@ FEATURES = {
         "SHADOW_PCSS": 1,  # and their PCSS filter
         "SHADOW_CASCADES": 1,  # and a directional light's cascades
     },
+    # ENVIRONMENT_IBL and ENVIRONMENT_UNIFORM are alternatives (lights/shading.glsl):
+    # one set each, with the lighting pass's tiled walk, light array and emission target.
+    "uniform environment": {
+        "ENVIRONMENT_UNIFORM": 1,
+        "ENV_UNIFORM_SAMPLES": 64,
+        "LIGHT_UNIFORMS": 16,  # lights/illumination.glsl: the lights in a uniform array
+        "TILED_LIGHTS": 1,
+        "TILE_SIZE": 16,
+        "TILE_QUADS": 2,
+        "DIRECTIONAL_LIGHTS": 1,
+        "GBUFFER_EMISSION": 1,
+        "FAR_PLANE": 1,
+    },
+    "image-based light": {
+        "ENVIRONMENT_IBL": 1,
+        "ENV_LEVELS": 6,
+        "TILED_LIGHTS": 1,
+        "TILE_SIZE": 16,
+        "TILE_QUADS": 2,
+        "GBUFFER_EMISSION": 1,
+    },
 }
 
 SHADER = """#include "{path}"

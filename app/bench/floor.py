@@ -46,9 +46,18 @@ def pixel_masks(pairs: LightPairs, quads: int) -> np.ndarray:
     return flat.astype(np.uint32).reshape(h, w, words)
 
 
+def z_target(r: Renderer, hdr: moderngl.Texture) -> moderngl.Framebuffer:
+    """``hdr`` with ``r``'s G-buffer z-buffer, depth writes off: what ``shade_gbuffer``
+    draws into (the pass is valid for that G-buffer only, as for its camera)."""
+    fbo = r.gl.ctx.framebuffer([hdr], r.gbuffer.zbuffer)
+    fbo.depth_mask = False
+    return fbo
+
+
 def shade_gbuffer(
     r: Renderer,
     fbo: moderngl.Framebuffer,
+    z_fbo: moderngl.Framebuffer,
     programs: list[moderngl.Program],
     vaos: list[moderngl.VertexArray],
     textures: list[tuple[str, moderngl.Texture]],
@@ -57,12 +66,20 @@ def shade_gbuffer(
     """One full-screen pass per program over ``r``'s G-buffer into ``fbo``, cleared to the
     background first, as the lighting pass draws: the G-buffer, material and table
     textures bound with the pass's own ``textures``, the camera's uniforms set, and
-    ``uniforms(prog)`` for the rest (the bench's floor and limit passes)."""
+    ``uniforms(prog)`` for the rest (the bench's floor and limit passes). Like the lighting
+    pass (app/render/lighting.py ``run``), the programs' triangle lies on the far plane
+    (their ``FAR_PLANE`` define) and is z-tested ">" against the G-buffer's z-buffer, so
+    pixels without a surface never run the shader: the comparison with the culled pass
+    is then of the same pixels' work. ``z_fbo``: ``fbo``'s target with the z-buffer
+    (``z_target``)."""
     ctx = r.gl.ctx
     fbo.use()
     ctx.viewport = fbo.viewport
     ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
     fbo.clear(*(float(x) for x in r.scene.background), 1.0)
+    z_fbo.use()
+    ctx.enable(moderngl.DEPTH_TEST)
+    ctx.depth_func = ">"
     textures = [*r.gbuffer.samplers(), ("u_materials", r.lighting.materials), *textures]
     if r.lighting.ms_table is not None:
         textures.append(("u_ms_table", r.lighting.ms_table))
@@ -81,6 +98,8 @@ def shade_gbuffer(
         if uniforms is not None:
             uniforms(prog)
         vao.render(moderngl.TRIANGLES, vertices=3)
+    ctx.disable(moderngl.DEPTH_TEST)
+    ctx.depth_func = "<"
 
 
 class FloorPass:
@@ -104,6 +123,7 @@ class FloorPass:
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             # Without directional lights the walk takes the lighting pass's local term.
             defines["FLOOR_LOCAL_ONLY"] = int(all(x.is_local for x in renderer.lights))
+            defines["FAR_PLANE"] = 1  # z-tested to surface pixels (shade_gbuffer)
             if several:
                 defines["MODEL_GROUP"] = group
             self.programs.append(
@@ -119,18 +139,19 @@ class FloorPass:
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
+        self.z_fbo = z_target(renderer, self.hdr)
         self.pairs = pairs
 
     def run(self) -> None:
         """Shade the renderer's current G-buffer (its G-buffer pass must have run)."""
         r = self.renderer
         textures = [("u_lights", r.lighting.lights), ("u_pixel_masks", self.masks)]
-        shade_gbuffer(r, self.fbo, self.programs, self.vaos, textures)
+        shade_gbuffer(r, self.fbo, self.z_fbo, self.programs, self.vaos, textures)
 
     def read_hdr(self) -> np.ndarray:
         """The HDR image, (H, W, 3) float32, rows top to bottom."""
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.vaos, self.fbo, self.hdr, self.masks):
+        for obj in (*self.vaos, self.z_fbo, self.fbo, self.hdr, self.masks):
             obj.release()

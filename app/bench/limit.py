@@ -24,7 +24,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from app.bench.floor import shade_gbuffer
+from app.bench.floor import shade_gbuffer, z_target
 from app.bench.pairs import LightPairs
 from app.common.lights import pack_lights
 from app.common.models import BRDF_TERMS
@@ -91,7 +91,7 @@ class LimitPass:
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             defines.update(LIMIT_FORM=FORMS.index(form), LIMIT_LIGHTS=len(packed),
                            LIMIT_COUNT=self.count, LIMIT_TEXELS=texels,
-                           LIMIT_LOCAL_ONLY=local_only)  # fmt: skip
+                           LIMIT_LOCAL_ONLY=local_only, FAR_PLANE=1)  # fmt: skip
             if several:
                 defines["MODEL_GROUP"] = group
             self.programs.append(
@@ -115,6 +115,7 @@ class LimitPass:
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
+        self.z_fbo = z_target(renderer, self.hdr)
 
     def run(self) -> None:
         """Shade the renderer's current G-buffer (its G-buffer pass must have run)."""
@@ -123,7 +124,7 @@ class LimitPass:
             textures.append(("u_lights", self.lights))
         if self.block is not None:
             self.block.bind_to_uniform_block(_BLOCK_BINDING)
-        shade_gbuffer(self.renderer, self.fbo, self.programs, self.vaos, textures,
+        shade_gbuffer(self.renderer, self.fbo, self.z_fbo, self.programs, self.vaos, textures,
                       self._light_uniforms)  # fmt: skip
 
     def _light_uniforms(self, prog: moderngl.Program) -> None:
@@ -137,6 +138,14 @@ class LimitPass:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.vaos, self.fbo, self.hdr, self.indices, self.lights, self.block):
+        for obj in (
+            *self.vaos,
+            self.z_fbo,
+            self.fbo,
+            self.hdr,
+            self.indices,
+            self.lights,
+            self.block,
+        ):
             if obj is not None:
                 obj.release()

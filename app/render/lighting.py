@@ -43,26 +43,43 @@ LIGHT_FORMS = ("texture", "uniform")
 # per shadow map, to its matrix and parameters (glsl/lights/shadows.glsl: 8 vectors).
 _OTHER_VECTORS = 64
 _VECTORS_PER_SHADOW_MAP = 8
+_MIN_UNIFORM_SLOTS = 16  # the smallest array (uniform_slots)
 
 
 def light_form(ctx: moderngl.Context, light_count: int, shadow_maps: int = 0) -> str:
     """Where the lighting pass reads its lights: "uniform" when 3 vectors per light fit the
     context's GL_MAX_FRAGMENT_UNIFORM_VECTORS beside the pass's other uniforms (queried,
     never assumed: llvmpipe has 4096), else "texture"."""
+    return "uniform" if 3 * max(light_count, 1) <= _room(ctx, shadow_maps) else "texture"
+
+
+def _room(ctx: moderngl.Context, shadow_maps: int) -> int:
+    """The fragment uniform vectors left for the lights' array."""
     room = int(ctx.info["GL_MAX_FRAGMENT_UNIFORM_VECTORS"]) - _OTHER_VECTORS
-    room -= _VECTORS_PER_SHADOW_MAP * shadow_maps
-    return "uniform" if 3 * max(light_count, 1) <= room else "texture"
+    return room - _VECTORS_PER_SHADOW_MAP * shadow_maps
+
+
+def uniform_slots(ctx: moderngl.Context, light_count: int, shadow_maps: int = 0) -> int:
+    """The uniform array's size in lights: ``light_count`` rounded up to a power of two of
+    at least 16, within the room ``light_form`` allows (never below ``light_count``). The
+    programs are cached by their defines, so a size per light count would compile the
+    lighting pass again at every light added or removed (the viewer, ``OffscreenRenderer``,
+    batch edits); the loops stop at the light count or the tile masks, never at the
+    array's size, so the padding is never read and the image is the same."""
+    count = max(light_count, 1)
+    want = max(_MIN_UNIFORM_SLOTS, 1 << (count - 1).bit_length())
+    return max(min(want, _room(ctx, shadow_maps) // 3), count)
 
 
 def _programs(
-    shaders: ShaderCache, variants: list[dict[str, int]], form: str, light_count: int
+    shaders: ShaderCache, variants: list[dict[str, int]], form: str, slots: int
 ) -> list[moderngl.Program]:
     """The lighting programs of ``variants`` (their defines), reading the lights in
-    ``form``."""
+    ``form`` (an array of ``slots`` lights for "uniform")."""
     programs = []
     for defines in variants:
         if form == "uniform":
-            defines = {**defines, "LIGHT_UNIFORMS": max(light_count, 1)}  # the array's lights
+            defines = {**defines, "LIGHT_UNIFORMS": slots}  # the array's size in lights
         programs.append(shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines))
     return programs
 
@@ -129,15 +146,16 @@ class LightingPass:
                 defines["TILE_QUADS"] = culler.quads  # mask texels per tile
                 defines["DIRECTIONAL_LIGHTS"] = int(culler.first_local > 0)
             defines["FAR_PLANE"] = 1  # the triangle the z-test culls to surfaces (run)
+        slots = uniform_slots(ctx, len(lights), shadows.count if shadows is not None else 0)
         try:
-            self.programs = _programs(shaders, variants, form, len(lights))
+            self.programs = _programs(shaders, variants, form, slots)
         except ShaderError:
             if not (chosen and form == "uniform"):
                 raise
             # A driver whose other uniforms take more room than _OTHER_VECTORS allows
             # for: the light texture, which has no such limit.
             form = "texture"
-            self.programs = _programs(shaders, variants, form, len(lights))
+            self.programs = _programs(shaders, variants, form, slots)
         self.form = form
         self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
         self.materials = material_texture(ctx, table)
@@ -153,8 +171,11 @@ class LightingPass:
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
         self._z_source: GBuffer | None = None
         packed = pack_lights(lights)
-        self.light_bytes = packed.tobytes()  # LIGHT_UNIFORMS: the texture's texels
-        self.lights = ctx.texture((3, packed.shape[0]), 4, self.light_bytes, dtype="f4")
+        texels = packed.tobytes()
+        self.lights = ctx.texture((3, packed.shape[0]), 4, texels, dtype="f4")
+        # LIGHT_UNIFORMS: the texture's texels, padded with zeros to the array's size
+        # (moderngl writes a uniform array only whole)
+        self.light_bytes = texels + bytes(48 * max(slots - packed.shape[0], 0))
         self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.light_count = len(lights)
         self.size = size

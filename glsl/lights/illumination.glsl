@@ -14,7 +14,7 @@
 // even where the #ifdef drops it. Without TILE_QUADS it adds functions nothing calls.
 #include "lights/tiles.glsl"
 
-// Where light i is read. With LIGHT_UNIFORMS (the scene's light count, set by
+// Where light i is read. With LIGHT_UNIFORMS (the array's size in lights, set by
 // app/render/lighting.py where the context's fragment uniform vectors hold them) the
 // lighting pass keeps the three texels of every light in a uniform array, which the
 // rasteriser reads faster than texel fetches (docs/performance.md measures both);
