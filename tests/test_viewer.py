@@ -224,25 +224,61 @@ def _wait_for(v, condition, seconds: float = 10.0) -> None:
         time.sleep(0.02)
 
 
-def test_500_frames_of_interaction_leak_nothing(viewer):
+def test_500_frames_of_interaction_leak_nothing(xdisplay: str, scene_copy: Path):
     """Orbits, zooms, material, light and setting edits, lights added and removed: after one
     40-frame cycle of them (every program compiled, every allocation made) come 520 more
     frames, 13 whole cycles; the GL objects alive at the end are those alive before, and
-    the process grows by less than 10 MB."""
-    v = viewer
-    census = GLCensus(v.gl)
-    for frame in range(CYCLE):
-        _interact(v, frame)
-    v.settle()
-    before = census.live()
-    rss = resident_mib()
-    for frame in range(CYCLE, 14 * CYCLE):
-        _interact(v, frame)
-    v.settle()
-    after = census.live()
-    growth = resident_mib() - rss
-    assert after == before, (before, after)
-    assert growth < 10.0, f"RSS grew {growth:.1f} MiB"
+    the process grows by less than 10 MB.
+
+    The viewer runs in a process of its own, as ``pbs view`` does: a test worker's
+    resident size carries the heap of every module it ran before (its free lists, the
+    driver's caches), which the loop may or may not reclaim, so the same check in the
+    worker passed or failed with the order of the modules (+32 MiB in some full runs,
+    under 10 alone)."""
+    import json
+    import os
+    import sys
+
+    code = "import sys; from tests.test_viewer import _leak_run; _leak_run(sys.argv[1])"
+    proc = subprocess.run(
+        [sys.executable, "-c", code, str(scene_copy)],
+        capture_output=True, text=True, timeout=600,
+        env={**os.environ, "DISPLAY": xdisplay}, cwd=Path(__file__).parent.parent,
+    )  # fmt: skip
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
+    assert proc.returncode == 0 and lines, proc.stderr[-2000:]
+    out = json.loads(lines[-1])
+    assert out["after"] == out["before"], (out["before"], out["after"])
+    assert out["growth"] < 10.0, f"RSS grew {out['growth']:.1f} MiB; per cycle {out['trace']}"
+
+
+def _leak_run(scene: str) -> None:
+    """The child of the test above: the viewer on ``scene``, 14 cycles of ``_interact``;
+    prints the GL census and the resident size's growth as one JSON line."""
+    import json
+
+    from app.viewer.window import Viewer
+
+    v = Viewer(Path(scene), SIZE, vsync=False)
+    try:
+        v.settle()
+        census = GLCensus(v.gl)
+        for frame in range(CYCLE):
+            _interact(v, frame)
+        v.settle()
+        before = census.live()
+        rss = resident_mib()
+        trace = []
+        for frame in range(CYCLE, 14 * CYCLE):
+            _interact(v, frame)
+            if frame % CYCLE == CYCLE - 1:
+                trace.append(round(resident_mib() - rss, 1))
+        v.settle()
+        after = census.live()
+        growth = resident_mib() - rss
+    finally:
+        v.close()
+    print(json.dumps({"before": before, "after": after, "growth": growth, "trace": trace}))
 
 
 CYCLE = 40  # frames after which _interact has come back to the same scene
