@@ -217,7 +217,7 @@ def test_post_on_surfaces_only_keeps_the_image(gl_egl, tonemap: str, ev: float) 
         assert r.dof is None and r.resolve is None and r.blend is None and r.background is None
         r.render()
         surfaces_only = r.read_ldr()
-        r.post.run(r.lighting.hdr, ev)  # every pixel through the pass
+        r.post.run(r.hdr_texture, ev)  # every pixel through the pass, background filled
         every = r.read_ldr()
     finally:
         r.release()
@@ -225,3 +225,33 @@ def test_post_on_surfaces_only_keeps_the_image(gl_egl, tonemap: str, ev: float) 
     assert not covered.any(), f"{covered.sum()} pixels differ"
     background = every[0, 0]
     assert background.tolist() != [0, 0, 0] and (every != background).any(axis=-1).mean() > 0.1
+
+
+def test_a_plain_frame_fills_the_hdr_background_only_when_read(gl_egl) -> None:
+    """A plain frame (Renderer.run_lighting) skips the HDR image's clear: its background
+    texels still hold what was there before the frame until ``read_hdr`` (or
+    ``hdr_texture``) fills them, and then the image equals the one the cleared pass
+    draws, to the bit."""
+    from app.bench.scenes import load
+    from app.bench.spheres import sphere_grid_scene
+    from app.render.renderer import Renderer
+
+    size = (96, 54)
+    data = sphere_grid_scene(2, size)
+    data["background"] = [0.3, 0.05, 0.6]
+    r = Renderer(gl_egl, load(data), size)
+    try:
+        r.lighting.fbo.clear(7.0, 7.0, 7.0, 1.0)  # a stale frame's texels
+        r.render()
+        raw = r.lighting.read()  # the target as the frame left it
+        filled = r.read_hdr()
+        background = np.asarray(data["background"], np.float64)
+        r.lighting.run(r.gbuffer, r.camera, background, clear=True)
+        cleared = r.lighting.read()
+        covered = r.read_gbuffer().covered
+    finally:
+        r.release()
+    assert 0.1 < covered.mean() < 0.9
+    assert np.all(raw[~covered] == 7.0)  # not cleared by the frame
+    assert np.array_equal(filled, cleared)
+    assert np.all(filled[~covered] == np.float32(background))

@@ -85,8 +85,11 @@ def pbs_frame_passes(r: Renderer) -> list[Pass]:
     if any(x is not None for x in extra):
         raise ValueError("pbs_frame_passes: a scene with depth of field, supersampling, "
                          "blended parts, shadows or an environment")  # fmt: skip
+    *passes, _ = deferred_passes(r)
     return [
-        *deferred_passes(r),
+        *passes,
+        # as Renderer.render runs it: a plain frame leaves the HDR background uncleared
+        Pass("lighting", r.run_lighting, r.lighting.fbo),
         Pass("post", lambda: r.run_post(r.lighting.hdr), r.post.fbo),
         Pass("read-back", r.read_ldr),
     ]

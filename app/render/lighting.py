@@ -170,6 +170,8 @@ class LightingPass:
         self.fbo = ctx.framebuffer([self.hdr])
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
         self._z_source: GBuffer | None = None
+        self._shaders = shaders
+        self._fill: tuple[moderngl.Program, moderngl.VertexArray] | None = None
         packed = pack_lights(lights)
         texels = packed.tobytes()
         self.lights = ctx.texture((3, packed.shape[0]), 4, texels, dtype="f4")
@@ -186,12 +188,18 @@ class LightingPass:
         gbuffer: GBuffer,
         camera: CameraFrame,
         background: np.ndarray,
+        clear: bool = True,
     ) -> None:
+        """Shade every pixel ``gbuffer`` has a surface in; ``clear``: first clear the HDR
+        image to ``background`` (pixels no surface covers). Without it those pixels keep
+        whatever they held until ``fill_background`` writes them: for a frame whose
+        later passes read only the surfaces' pixels (Renderer.run_lighting)."""
         ctx = self.ctx
         self.fbo.use()
         ctx.viewport = (0, 0, *self.size)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
+        if clear:
+            self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
         # The full-screen triangle lies on the far plane and is tested against the
         # G-buffer's z-buffer with ">" (never written): where no surface was drawn z is
         # still the cleared 1 and llvmpipe skips the fragment shader before it runs, block
@@ -240,6 +248,27 @@ class LightingPass:
         ctx.disable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
 
+    def fill_background(self, gbuffer: GBuffer, background: np.ndarray) -> None:
+        """Write ``background`` (alpha 1) where ``gbuffer`` has no surface, what ``run``'s
+        clear writes there: a triangle on the far plane passes the test "<=" only where
+        the z-buffer still holds the cleared 1 (passes/background_fill.frag)."""
+        if self._fill is None:
+            prog = self._shaders.program(
+                "passes/fullscreen.vert", "passes/background_fill.frag", {"FAR_PLANE": 1}
+            )
+            self._fill = (prog, self.ctx.vertex_array(prog, []))
+        prog, vao = self._fill
+        ctx = self.ctx
+        self._z_target(gbuffer).use()
+        ctx.viewport = (0, 0, *self.size)
+        ctx.disable(moderngl.BLEND)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<="
+        prog["u_fill"].value = (*(float(x) for x in background), 1.0)
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+
     def _z_target(self, gbuffer: GBuffer) -> moderngl.Framebuffer:
         """The HDR image with ``gbuffer``'s z-buffer, depth writes off; made again for a new
         G-buffer (a resize, a new encoding)."""
@@ -260,6 +289,8 @@ class LightingPass:
             obj.release()
         if self._z_fbo is not None:
             self._z_fbo.release()
+        if self._fill is not None:
+            self._fill[1].release()  # the program is the shader cache's
         if self.ms_table is not None:
             self.ms_table.release()
         if self.sheen_table is not None:

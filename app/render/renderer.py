@@ -221,6 +221,7 @@ class Renderer:
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling) and the lighting pass."""
+        self._hdr_background_missing = False  # run_lighting: set by each frame
         ctx, settings = self.gl.ctx, self.scene.render
         check_shadow_resolutions(ctx, self.scene.lights, str(self.loaded.path))
         self._release(("culler", "lighting", "ibl", "shadows"))
@@ -409,7 +410,6 @@ class Renderer:
         """Run all passes; results stay on the GPU until read. With ``timings`` each pass
         is waited for and its wall time in milliseconds recorded by name (the viewer's
         frame-time plot; the waits cost some throughput, so only when asked)."""
-        scene = self.scene
         clock = _PassClock(self.gl.ctx, timings)
         self.gbuffer_pass.run(self.gbuffer, self.view, self.proj, self.camera)
         clock.done("gbuffer")
@@ -419,9 +419,7 @@ class Renderer:
         if self.shadows is not None:  # each map once, when its light is first culled in
             self.shadows.run(self.proj @ self.view)
             clock.done("shadows")
-        self.lighting.run(self.gbuffer, self.camera, np.asarray(scene.background, np.float64))
-        if self.background is not None:
-            self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
+        self.run_lighting()
         clock.done("lighting")
         if self.blend is not None:  # composited before depth of field, resolve and post
             self.blend.run(self.gbuffer, self.lighting, self.view, self.proj, self.camera)
@@ -438,23 +436,50 @@ class Renderer:
         self.run_post(hdr)
         clock.done("post")
 
+    def _plain(self) -> bool:
+        """No pass between lighting and post reads or draws the HDR image: no depth of
+        field, resolve, blended parts or environment background."""
+        extra = (self.dof, self.resolve, self.blend, self.background)
+        return all(x is None for x in extra)
+
+    def run_lighting(self) -> None:
+        """The lighting pass, then the environment background over it where there is one.
+        In a plain frame (``_plain``) the post pass reads only the surfaces' pixels, so the
+        HDR image's other pixels are not cleared: ``read_hdr`` and ``hdr_texture`` write
+        the background there first, the value the clear would have written, and only
+        when asked (docs/performance.md, "Third part", measures the clear it saves)."""
+        background = np.asarray(self.scene.background, np.float64)
+        plain = self._plain()
+        self.lighting.run(self.gbuffer, self.camera, background, clear=not plain)
+        self._hdr_background_missing = plain
+        if self.background is not None:
+            self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
+
+    def _complete_hdr(self) -> None:
+        """Give the HDR image the background pixels ``run_lighting`` left unwritten."""
+        if self._hdr_background_missing:
+            background = np.asarray(self.scene.background, np.float64)
+            self.lighting.fill_background(self.gbuffer, background)
+            self._hdr_background_missing = False
+
     def run_post(self, hdr: moderngl.Texture) -> None:
         """The post pass on the frame's HDR image ``hdr``; only on the surfaces' pixels
         (``PostPass.run_on_surfaces``) where every other pixel of ``hdr`` is the lighting
         pass's background: no depth of field, resolve, blended parts or environment
         background has drawn over it."""
         exposure = self.scene.camera.exposure
-        plain = self.dof is None and self.resolve is None and self.blend is None
-        if plain and self.background is None and hdr is self.lighting.hdr:
+        if self._plain() and hdr is self.lighting.hdr:
             background = tuple(float(x) for x in self.scene.background)
             self.post.run_on_surfaces(hdr, exposure, self.gbuffer.zbuffer, background)
         else:
+            self._complete_hdr()
             self.post.run(hdr, exposure)
 
     @property
     def hdr_texture(self) -> moderngl.Texture:
         """The last frame's linear HDR radiance on the GPU (RGBA32F, ``size``): what
         ``read_hdr`` reads, for passes that combine frames (app/render/compare.py)."""
+        self._complete_hdr()
         if self.resolve is not None:
             return self.resolve.target
         return self.dof.target if self.dof is not None else self.lighting.hdr
@@ -467,6 +492,7 @@ class Renderer:
     def read_hdr(self) -> np.ndarray:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
         where the camera has an aperture (resolved to ``size``)."""
+        self._complete_hdr()
         if self.resolve is not None:
             return self.resolve.read()
         return self.dof.read() if self.dof is not None else self.lighting.read()
