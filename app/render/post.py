@@ -10,17 +10,26 @@ from app.gl.shaders import ShaderCache
 from app.reference import dof
 
 
-def read_rgb(fbo: moderngl.Framebuffer, size: tuple[int, int], dtype: str) -> np.ndarray:
+def read_rgb(
+    fbo: moderngl.Framebuffer, size: tuple[int, int], dtype: str, scratch: bytearray | None = None
+) -> np.ndarray:
     """``fbo``'s first attachment as (H, W, 3) float32 ("f4") or uint8 ("f1"), rows top to
     bottom. GL packs the three channels (glReadPixels with GL_RGB, rows 1-byte aligned),
     so the only copy in numpy is the row flip, a contiguous copy per row: reading RGBA and
     slicing off alpha, a strided copy, took 4x as long for 1280x720 RGBA8 here
-    (docs/performance.md). The values are the same bytes either way."""
+    (docs/performance.md). ``scratch``: a buffer of the packed image's size to read into,
+    kept by a caller that reads every frame (fresh memory for each read is paged in
+    again; docs/performance.md, "Third part"). The values are the same bytes either way."""
     w, h = size
-    data = fbo.read(components=3, alignment=1, dtype=dtype)
-    return (
-        np.frombuffer(data, np.float32 if dtype == "f4" else np.uint8).reshape(h, w, 3)[::-1].copy()
-    )
+    item = np.dtype(np.float32 if dtype == "f4" else np.uint8)
+    if scratch is None:
+        data: bytes | bytearray = fbo.read(components=3, alignment=1, dtype=dtype)
+    else:
+        fbo.read_into(scratch, components=3, alignment=1, dtype=dtype)
+        data = scratch
+    out = np.empty((h, w, 3), item)
+    np.copyto(out, np.frombuffer(data, item, h * w * 3).reshape(h, w, 3)[::-1])
+    return out
 
 
 class _FullscreenPass:
@@ -41,6 +50,7 @@ class _FullscreenPass:
         self.target = ctx.texture(size, 4, dtype=dtype)
         self.target.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.target])
+        self._scratch: bytearray | None = None  # read: the display image's read buffer
         self.size = size
 
     def _draw(self, textures: dict[str, moderngl.Texture], uniforms: dict[str, object]) -> None:
@@ -59,8 +69,13 @@ class _FullscreenPass:
         self.vao.render(moderngl.TRIANGLES, vertices=3)
 
     def read(self) -> np.ndarray:
-        """(H, W, 3) float32 (HDR) or uint8 (display), rows top to bottom."""
-        return read_rgb(self.fbo, self.size, self.target.dtype)
+        """(H, W, 3) float32 (HDR) or uint8 (display), rows top to bottom; the display
+        image through a buffer kept for the next read (``read_rgb``)."""
+        if self.target.dtype != "f1":
+            return read_rgb(self.fbo, self.size, self.target.dtype)
+        if self._scratch is None:
+            self._scratch = bytearray(self.size[0] * self.size[1] * 3)
+        return read_rgb(self.fbo, self.size, "f1", self._scratch)
 
     def release(self) -> None:
         for obj in (self.vao, self.fbo, self.target):
