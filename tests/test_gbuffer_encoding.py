@@ -198,60 +198,39 @@ def test_the_lighting_pass_z_test_keeps_the_image(gl_egl, scene: str) -> None:
 
 
 @pytest.mark.parametrize(("tonemap", "ev"), [("neutral", 0.0), ("aces", 0.7), ("reinhard", -1.3)])
-def test_post_on_surfaces_only_keeps_the_image(gl_egl, tonemap: str, ev: float) -> None:
-    """The post pass run only where the z-buffer has a surface, over a target cleared to
-    the background's display value (PostPass.run_on_surfaces, which render() takes for a
-    frame whose background pixels are the lighting pass's clear) gives the 8-bit image
-    the full-screen pass gives."""
-    from app.bench.scenes import load
-    from app.bench.spheres import sphere_grid_scene
-    from app.render.renderer import Renderer
-
-    size = (96, 54)
-    data = sphere_grid_scene(1, size)
-    data["render"]["tonemap"] = tonemap
-    data["camera"]["exposure"] = ev
-    data["background"] = [0.3, 0.05, 0.6]
-    r = Renderer(gl_egl, load(data), size)
-    try:
-        assert r.dof is None and r.resolve is None and r.blend is None and r.background is None
-        r.render()
-        surfaces_only = r.read_ldr()
-        r.post.run(r.hdr_texture, ev)  # every pixel through the pass, background filled
-        every = r.read_ldr()
-    finally:
-        r.release()
-    covered = np.asarray(every != surfaces_only).any(axis=-1)
-    assert not covered.any(), f"{covered.sum()} pixels differ"
-    background = every[0, 0]
-    assert background.tolist() != [0, 0, 0] and (every != background).any(axis=-1).mean() > 0.1
-
-
-def test_a_plain_frame_fills_the_hdr_background_only_when_read(gl_egl) -> None:
-    """A plain frame (Renderer.run_lighting) skips the HDR image's clear: its background
-    texels still hold what was there before the frame until ``read_hdr`` (or
-    ``hdr_texture``) fills them, and then the image equals the one the cleared pass
-    draws, to the bit."""
+def test_the_fused_display_image_is_the_post_pass_image(gl_egl, tonemap: str, ev: float) -> None:
+    """A plain frame's lighting pass writes the display image itself, over a target
+    cleared to the background's display value (Renderer.run_lighting, DISPLAY_OUT), and
+    no HDR image: until ``read_hdr`` asks, the HDR target keeps what it held. The bytes
+    equal the full-screen post pass over the HDR image of the same frame, and that HDR
+    image is the unfused frame's, to the bit."""
     from app.bench.scenes import load
     from app.bench.spheres import sphere_grid_scene
     from app.render.renderer import Renderer
 
     size = (96, 54)
     data = sphere_grid_scene(2, size)
+    data["render"]["tonemap"] = tonemap
+    data["camera"]["exposure"] = ev
     data["background"] = [0.3, 0.05, 0.6]
     r = Renderer(gl_egl, load(data), size)
     try:
+        assert r.fused_display
         r.lighting.fbo.clear(7.0, 7.0, 7.0, 1.0)  # a stale frame's texels
         r.render()
-        raw = r.lighting.read()  # the target as the frame left it
-        filled = r.read_hdr()
-        background = np.asarray(data["background"], np.float64)
-        r.lighting.run(r.gbuffer, r.camera, background, clear=True)
-        cleared = r.lighting.read()
-        covered = r.read_gbuffer().covered
+        fused = r.read_ldr()
+        untouched = r.lighting.read()
+        hdr = r.read_hdr()  # the HDR lighting pass, run now
+        r.post.run(r.hdr_texture, ev)  # every pixel through the post pass
+        every = r.read_ldr()
+        r.fuse_post = False
+        r.render()
+        unfused_hdr, unfused = r.read_hdr(), r.read_ldr()
     finally:
         r.release()
-    assert 0.1 < covered.mean() < 0.9
-    assert np.all(raw[~covered] == 7.0)  # not cleared by the frame
-    assert np.array_equal(filled, cleared)
-    assert np.all(filled[~covered] == np.float32(background))
+    assert np.all(untouched == 7.0)
+    differ = np.asarray(every != fused).any(axis=-1)
+    assert not differ.any(), f"{differ.sum()} pixels differ"
+    assert np.array_equal(hdr, unfused_hdr) and np.array_equal(fused, unfused)
+    background = every[0, 0]
+    assert background.tolist() != [0, 0, 0] and (every != background).any(axis=-1).mean() > 0.1

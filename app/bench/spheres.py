@@ -76,7 +76,8 @@ def sphere_grid_scene(lights: int, size: tuple[int, int]) -> dict:
 
 def pbs_frame_passes(r: Renderer) -> list[Pass]:
     """A whole frame to the caller's 8-bit image, pass by pass: G-buffer, tile culling,
-    lighting, post (exposure, tone map, sRGB) and the read-back. The scene must have no
+    lighting, post (exposure, tone map, sRGB; fused into lighting in a plain frame) and
+    the read-back. The scene must have no
     depth of field, supersampling, blended parts, shadows or an environment background
     (what ``Renderer.render`` adds for those is not here)."""
     from app.bench.suites import deferred_passes
@@ -86,13 +87,13 @@ def pbs_frame_passes(r: Renderer) -> list[Pass]:
         raise ValueError("pbs_frame_passes: a scene with depth of field, supersampling, "
                          "blended parts, shadows or an environment")  # fmt: skip
     *passes, _ = deferred_passes(r)
-    return [
-        *passes,
-        # as Renderer.render runs it: a plain frame leaves the HDR background uncleared
-        Pass("lighting", r.run_lighting, r.lighting.fbo),
-        Pass("post", lambda: r.run_post(r.lighting.hdr), r.post.fbo),
-        Pass("read-back", r.read_ldr),
-    ]
+    # as Renderer.render runs them: the lighting pass writes the display image itself
+    # where the frame is plain (Renderer.fused_display), else the post pass follows
+    lit = r.post.fbo if r.fused_display else r.lighting.fbo
+    passes.append(Pass("lighting", r.run_lighting, lit))
+    if not r.fused_display:
+        passes.append(Pass("post", lambda: r.run_post(r.lighting.hdr), r.post.fbo))
+    return [*passes, Pass("read-back", r.read_ldr)]
 
 
 class PyrenderChild:

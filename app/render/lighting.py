@@ -28,6 +28,7 @@ from app.common.camera import CameraFrame
 from app.common.gbuffer import encoding_defines
 from app.common.lights import PunctualLight, pack_lights
 from app.common.models import BRDF_TERMS
+from app.common.tonemaps import TONEMAP_CODE
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache, ShaderError
@@ -158,6 +159,9 @@ class LightingPass:
             self.programs = _programs(shaders, variants, form, slots)
         self.form = form
         self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
+        self._variants, self._slots = variants, slots
+        # run_display's programs and triangles, per tone map, compiled at first use
+        self._display: dict[str, tuple[list[moderngl.Program], list[moderngl.VertexArray]]] = {}
         self.materials = material_texture(ctx, table)
         self.ms_table = None
         if uber or any(model.multiscatter for model in table.models):
@@ -171,7 +175,6 @@ class LightingPass:
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
         self._z_source: GBuffer | None = None
         self._shaders = shaders
-        self._fill: tuple[moderngl.Program, moderngl.VertexArray] | None = None
         packed = pack_lights(lights)
         texels = packed.tobytes()
         self.lights = ctx.texture((3, packed.shape[0]), 4, texels, dtype="f4")
@@ -183,30 +186,58 @@ class LightingPass:
         self.size = size
         self.ibl = ibl  # owned by the renderer
 
-    def run(
+    def run(self, gbuffer: GBuffer, camera: CameraFrame, background: np.ndarray) -> None:
+        """The HDR image: ``background`` where ``gbuffer`` has no surface, the radiance of
+        every surface pixel elsewhere."""
+        self.fbo.use()
+        self.ctx.viewport = (0, 0, *self.size)
+        self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
+        self._shade(self.programs, self.vaos, self._z_target(gbuffer), gbuffer, camera)
+
+    def run_display(
         self,
         gbuffer: GBuffer,
         camera: CameraFrame,
-        background: np.ndarray,
-        clear: bool = True,
+        target: moderngl.Framebuffer,
+        tonemap: str,
+        exposure: float,
     ) -> None:
-        """Shade every pixel ``gbuffer`` has a surface in; ``clear``: first clear the HDR
-        image to ``background`` (pixels no surface covers). Without it those pixels keep
-        whatever they held until ``fill_background`` writes them: for a frame whose
-        later passes read only the surfaces' pixels (Renderer.run_lighting)."""
+        """The display image of every surface pixel straight into ``target``: the post
+        pass's RGBA8 image with ``gbuffer``'s z-buffer attached, its other pixels already
+        the background's display value (PostPass.display_target). The same radiance as
+        ``run``'s in float32, then passes/post.frag's arithmetic with ``tonemap`` and the
+        linear ``exposure`` (DISPLAY_OUT in passes/lighting.frag), so the bytes are the
+        post pass's; the HDR image is not written."""
+        if tonemap not in self._display:
+            defines = [{**d, "DISPLAY_OUT": 1, "TONEMAP": TONEMAP_CODE[tonemap]}
+                       for d in self._variants]  # fmt: skip
+            programs = _programs(self._shaders, defines, self.form, self._slots)
+            self._display[tonemap] = (programs, [self.ctx.vertex_array(p, []) for p in programs])
+        programs, vaos = self._display[tonemap]
+        for prog in programs:
+            prog["u_exposure"].value = exposure
+        self._shade(programs, vaos, target, gbuffer, camera)
+
+    def _shade(
+        self,
+        programs: list[moderngl.Program],
+        vaos: list[moderngl.VertexArray],
+        target: moderngl.Framebuffer,
+        gbuffer: GBuffer,
+        camera: CameraFrame,
+    ) -> None:
+        """Draw ``programs`` (one per model group) into ``target``, which has ``gbuffer``'s
+        z-buffer attached with depth writes off."""
         ctx = self.ctx
-        self.fbo.use()
-        ctx.viewport = (0, 0, *self.size)
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        if clear:
-            self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
         # The full-screen triangle lies on the far plane and is tested against the
         # G-buffer's z-buffer with ">" (never written): where no surface was drawn z is
         # still the cleared 1 and llvmpipe skips the fragment shader before it runs, block
         # by block, where the shader would fetch RT2 and discard. Every pixel the test
         # passes has a drawn surface, which decode_gbuffer still checks, so the image is
         # the same (docs/performance.md, "Second part: fixed costs", measures the gain).
-        self._z_target(gbuffer).use()
+        target.use()
+        ctx.viewport = (0, 0, *self.size)
+        ctx.disable(moderngl.BLEND)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = ">"
         textures = [
@@ -227,7 +258,7 @@ class LightingPass:
         for unit, (_, tex) in enumerate(textures):
             tex.use(unit)
         camera_to_world = gl_bytes(camera.camera_to_world)
-        for prog, vao in zip(self.programs, self.vaos, strict=True):
+        for prog, vao in zip(programs, vaos, strict=True):
             for unit, (name, _) in enumerate(textures):
                 if name in prog:  # a permutation may not use every texture
                     prog[name].value = unit
@@ -245,27 +276,6 @@ class LightingPass:
             if self.shadows is not None:
                 self.shadows.bind(prog)
             vao.render(moderngl.TRIANGLES, vertices=3)
-        ctx.disable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
-
-    def fill_background(self, gbuffer: GBuffer, background: np.ndarray) -> None:
-        """Write ``background`` (alpha 1) where ``gbuffer`` has no surface, what ``run``'s
-        clear writes there: a triangle on the far plane passes the test "<=" only where
-        the z-buffer still holds the cleared 1 (passes/background_fill.frag)."""
-        if self._fill is None:
-            prog = self._shaders.program(
-                "passes/fullscreen.vert", "passes/background_fill.frag", {"FAR_PLANE": 1}
-            )
-            self._fill = (prog, self.ctx.vertex_array(prog, []))
-        prog, vao = self._fill
-        ctx = self.ctx
-        self._z_target(gbuffer).use()
-        ctx.viewport = (0, 0, *self.size)
-        ctx.disable(moderngl.BLEND)
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<="
-        prog["u_fill"].value = (*(float(x) for x in background), 1.0)
-        vao.render(moderngl.TRIANGLES, vertices=3)
         ctx.disable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
 
@@ -289,8 +299,9 @@ class LightingPass:
             obj.release()
         if self._z_fbo is not None:
             self._z_fbo.release()
-        if self._fill is not None:
-            self._fill[1].release()  # the program is the shader cache's
+        for _, vaos in self._display.values():  # the programs are the shader cache's
+            for vao in vaos:
+                vao.release()
         if self.ms_table is not None:
             self.ms_table.release()
         if self.sheen_table is not None:

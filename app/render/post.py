@@ -93,9 +93,6 @@ class PostPass(_FullscreenPass):
         )
         super().__init__(ctx, program, size, dtype="f1")
 
-        defines = {"TONEMAP": TONEMAP_CODE[tonemap], "FAR_PLANE": 1}
-        self.far_program = shaders.program("passes/fullscreen.vert", "passes/post.frag", defines)
-        self.far_vao = ctx.vertex_array(self.far_program, [])
         self._z_fbo: moderngl.Framebuffer | None = None  # target + a G-buffer's z-buffer
         self._z_source: moderngl.Renderbuffer | None = None
         self._background: tuple[tuple[float, ...], float, tuple[int, ...]] | None = None
@@ -103,20 +100,15 @@ class PostPass(_FullscreenPass):
     def run(self, hdr: moderngl.Texture, exposure_ev: float) -> None:
         self._draw({"u_hdr": hdr}, {"u_exposure": 2.0**exposure_ev})
 
-    def run_on_surfaces(
+    def display_target(
         self,
-        hdr: moderngl.Texture,
-        exposure_ev: float,
         zbuffer: moderngl.Renderbuffer,
         background: tuple[float, float, float],
-    ) -> None:
-        """``run`` for an HDR image whose pixels without a surface in ``zbuffer`` (z still
-        the cleared 1) all hold ``background`` (the lighting pass's clear, nothing drawn
-        over it): the target is cleared to the display value the pass gives
-        ``background`` (``background_display``), and the pass runs only where the z-test
-        (">", on the far plane, no writes) finds a surface, as the lighting pass does.
-        The image is the one ``run`` draws (docs/performance.md, "Second part: fixed
-        costs")."""
+        exposure_ev: float,
+    ) -> moderngl.Framebuffer:
+        """The display image cleared to the value this pass gives ``background``
+        (``background_display``), with ``zbuffer`` attached (depth writes off): for a pass
+        that then writes the surfaces' pixels only (the lighting pass's ``run_display``)."""
         value = self.background_display(background, exposure_ev)
         if self._z_fbo is None or self._z_source is not zbuffer:
             if self._z_fbo is not None:
@@ -124,19 +116,9 @@ class PostPass(_FullscreenPass):
             self._z_fbo = self.ctx.framebuffer([self.target], zbuffer)
             self._z_fbo.depth_mask = False
             self._z_source = zbuffer
-        ctx = self.ctx
         # k / 255 converts back to the byte k in the GL's float -> unorm8 rounding.
         self.fbo.clear(*(k / 255.0 for k in value))
-        self._z_fbo.use()
-        ctx.viewport = (0, 0, *self.size)
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = ">"
-        hdr.use(0)
-        self.far_program["u_hdr"].value = 0
-        self.far_program["u_exposure"].value = 2.0**exposure_ev
-        self.far_vao.render(moderngl.TRIANGLES, vertices=3)
-        ctx.disable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
+        return self._z_fbo
 
     def background_display(
         self, background: tuple[float, float, float], exposure_ev: float
@@ -168,7 +150,6 @@ class PostPass(_FullscreenPass):
 
     def release(self) -> None:
         super().release()
-        self.far_vao.release()
         if self._z_fbo is not None:
             self._z_fbo.release()
 

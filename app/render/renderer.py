@@ -108,6 +108,9 @@ class Renderer:
         self._owns_shaders = shaders is None
         self.shaders = ShaderCache(gl.ctx) if shaders is None else shaders
         self.loaded = loaded
+        # A plain frame's lighting pass writes the display image (run_lighting); False for
+        # a caller that reads every frame's HDR image (Comparison: no pass to waste).
+        self.fuse_post = True
         self._size = size
         self.frame: FrameData = prepare_frame(loaded)
         self.gbuffer: GBuffer | None = None
@@ -221,7 +224,7 @@ class Renderer:
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling) and the lighting pass."""
-        self._hdr_background_missing = False  # run_lighting: set by each frame
+        self._display_done = self._hdr_missing = False  # run_lighting: set by each frame
         ctx, settings = self.gl.ctx, self.scene.render
         check_shadow_resolutions(ctx, self.scene.lights, str(self.loaded.path))
         self._release(("culler", "lighting", "ibl", "shadows"))
@@ -433,8 +436,9 @@ class Renderer:
             self.resolve.run(hdr)
             hdr = self.resolve.target
             clock.done("resolve")
-        self.run_post(hdr)
-        clock.done("post")
+        if not self._display_done:  # else the lighting pass wrote the display image
+            self.run_post(hdr)
+            clock.done("post")
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of
@@ -442,38 +446,46 @@ class Renderer:
         extra = (self.dof, self.resolve, self.blend, self.background)
         return all(x is None for x in extra)
 
+    @property
+    def fused_display(self) -> bool:
+        """Whether a frame's lighting pass writes the display image (``run_lighting``)."""
+        return self.fuse_post and self._plain()
+
     def run_lighting(self) -> None:
         """The lighting pass, then the environment background over it where there is one.
-        In a plain frame (``_plain``) the post pass reads only the surfaces' pixels, so the
-        HDR image's other pixels are not cleared: ``read_hdr`` and ``hdr_texture`` write
-        the background there first, the value the clear would have written, and only
-        when asked (docs/performance.md, "Third part", measures the clear it saves)."""
+        A plain frame (``_plain``) with ``fuse_post`` writes the display image directly
+        (LightingPass.run_display: the post pass fused in, the same bytes) and no HDR
+        image; ``read_hdr`` and ``hdr_texture`` run the HDR lighting pass on the same
+        G-buffer when asked (docs/performance.md, "Third part", measures the frame)."""
         background = np.asarray(self.scene.background, np.float64)
-        plain = self._plain()
-        self.lighting.run(self.gbuffer, self.camera, background, clear=not plain)
-        self._hdr_background_missing = plain
+        if self.fused_display:
+            exposure = self.scene.camera.exposure
+            bg = tuple(float(x) for x in background)
+            target = self.post.display_target(self.gbuffer.zbuffer, bg, exposure)
+            self.lighting.run_display(
+                self.gbuffer, self.camera, target, self.scene.render.tonemap, 2.0**exposure
+            )
+            self._display_done = self._hdr_missing = True
+            return
+        self.lighting.run(self.gbuffer, self.camera, background)
+        self._display_done = self._hdr_missing = False
         if self.background is not None:
             self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
 
     def _complete_hdr(self) -> None:
-        """Give the HDR image the background pixels ``run_lighting`` left unwritten."""
-        if self._hdr_background_missing:
+        """The HDR image of a frame whose lighting pass wrote the display image only."""
+        if self._hdr_missing:
             background = np.asarray(self.scene.background, np.float64)
-            self.lighting.fill_background(self.gbuffer, background)
-            self._hdr_background_missing = False
+            self.lighting.run(self.gbuffer, self.camera, background)
+            self._hdr_missing = False
 
     def run_post(self, hdr: moderngl.Texture) -> None:
-        """The post pass on the frame's HDR image ``hdr``; only on the surfaces' pixels
-        (``PostPass.run_on_surfaces``) where every other pixel of ``hdr`` is the lighting
-        pass's background: no depth of field, resolve, blended parts or environment
-        background has drawn over it."""
-        exposure = self.scene.camera.exposure
-        if self._plain() and hdr is self.lighting.hdr:
-            background = tuple(float(x) for x in self.scene.background)
-            self.post.run_on_surfaces(hdr, exposure, self.gbuffer.zbuffer, background)
-        else:
-            self._complete_hdr()
-            self.post.run(hdr, exposure)
+        """The post pass on the frame's HDR image ``hdr``, unless the lighting pass wrote
+        the display image itself (``run_lighting``)."""
+        if self._display_done and hdr is self.lighting.hdr:
+            return
+        self._complete_hdr()
+        self.post.run(hdr, self.scene.camera.exposure)
 
     @property
     def hdr_texture(self) -> moderngl.Texture:

@@ -1,15 +1,27 @@
-// Lighting pass: the illumination sum over a G-buffer, in linear HDR.
+// Lighting pass: the illumination sum over a G-buffer, in linear HDR (with DISPLAY_OUT,
+// already exposed, tone mapped and sRGB encoded: the display image).
 //   L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+          (RTR4 sec. 9.4)
 // plus shadows, the environment's light and emission: lights/shading.glsl, shared with
 // the blend pass (passes/forward.frag with ALPHA_BLEND).
 #include "brdf/brdf.glsl"
 #include "gbuffer/decode.glsl"
 #include "lights/shading.glsl"
+#include "post/tonemap.glsl"
 
 uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
+
+#ifndef DISPLAY_OUT
+#define DISPLAY_OUT 0
+#endif
+#if DISPLAY_OUT
+// The post pass fused in (app/render/renderer.py, Renderer.run_lighting): where nothing
+// between lighting and post reads the HDR image, the pass writes the display image
+// directly, with passes/post.frag's arithmetic on the same float32 radiance.
+uniform float u_exposure;   // linear scale, 2^EV
+#endif
 
 out vec4 frag_color;
 
@@ -28,6 +40,10 @@ void main() {
 #else
     ivec2 tile = px;
 #endif
-    frag_color = vec4(surface_radiance(tile, emission, g.s, g.params, g.n, g.nc, g.t, g.p, g.v),
-                      1.0);
+    vec3 L = surface_radiance(tile, emission, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+#if DISPLAY_OUT
+    frag_color = vec4(srgb_encode(tonemap_selected(L * u_exposure)), 1.0);
+#else
+    frag_color = vec4(L, 1.0);
+#endif
 }
