@@ -90,8 +90,9 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     # Issue 19's fixed cost: the whole 1-light frame, pass by pass, read-back included.
     frame = [r for r in rows if r["suite"] == "culling" and r["variant"] == "frame"]
     assert [r["lights"] for r in frame] == [1]
-    # The scene's default light_culling ("auto") draws one light without tiles.
-    assert list(frame[0]["passes_ms"]) == ["gbuffer", "lighting", "post", "read-back"]
+    # The scene's default light_culling ("auto") draws one light without tiles, and the
+    # lighting pass of the plain frame writes the display image (no post pass).
+    assert list(frame[0]["passes_ms"]) == ["gbuffer", "lighting", "read-back"]
     # The limit row (issue 19): culled/limit per round, and its work close to the pairs'.
     for r in rows:
         if r["suite"] == "culling" and r["variant"] == "limit":

@@ -42,22 +42,30 @@ def test_sphere_grid_is_the_issues_scene():
 
 def test_frame_passes_draw_the_renderers_frame(gl_egl):
     """The timed passes, run in order, end with the image render() + read_ldr() give; the
-    read-back pass returns it (a pass left out would leave another image)."""
+    read-back pass returns it (a pass left out would leave another image). A plain frame
+    has no post pass (the lighting pass writes the display image); with ``fuse_post`` off
+    it has one, and the same image."""
     r = Renderer(gl_egl, load(sphere_grid_scene(2, SIZE)), SIZE)
+    images, names = [], []
     try:
         r.render()
         expected = r.read_ldr()
-        r.post.fbo.clear(0.0, 0.0, 0.0, 1.0)
-        passes = pbs_frame_passes(r)
-        # two lights: the default light_culling ("auto") draws them without tiles
-        assert [p.name for p in passes] == ["gbuffer", "lighting", "post", "read-back"]
-        for p in passes[:-1]:
-            p.run()
-        image = r.read_ldr()
+        for fuse in (True, False):
+            r.fuse_post = fuse
+            r.post.fbo.clear(0.0, 0.0, 0.0, 1.0)
+            passes = pbs_frame_passes(r)
+            names.append([p.name for p in passes])
+            for p in passes[:-1]:
+                p.run()
+            images.append(r.read_ldr())
     finally:
         r.release()
+    # two lights: the default light_culling ("auto") draws them without tiles
+    assert names == [["gbuffer", "lighting", "read-back"],
+                     ["gbuffer", "lighting", "post", "read-back"]]  # fmt: skip
     assert expected.shape == (SIZE[1], SIZE[0], 3) and expected.max() > 50
-    assert np.array_equal(image, expected)
+    for image in images:
+        assert np.array_equal(image, expected)
 
 
 def test_without_pyrender_the_comparison_says_why(gl_egl):

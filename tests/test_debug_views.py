@@ -207,7 +207,7 @@ def test_light_views_add_up_to_the_lighting_pass(frames, scene):
         frame.values("light", i).astype(np.float64)[..., :3]
         for i in range(len(frame.renderer.lights))
     )
-    hdr = frame.renderer.lighting.read().astype(np.float64)
+    hdr = frame.renderer.read_hdr().astype(np.float64)
     covered = frame.gbuffer.covered
     n = len(frame.renderer.lights)
     bound = 4 * n * np.finfo(np.float32).eps * np.maximum(np.abs(hdr), 1e-30)
