@@ -289,3 +289,21 @@ def test_lobe_peaks_at_the_mirror_direction(gl: GLContext) -> None:
     head_on = 0.04 / (4.0 * math.pi * alpha * alpha) + 0.8 / math.pi
     # The peak node sits at theta_v = 0 exactly (u = 0); float32 D: measured 2e-7 off.
     assert lobes(m, (0.0,), gl=gl)[0].value[:, 1].max() == pytest.approx(head_on, rel=1e-4)
+
+
+def test_the_default_context_survives_an_osmesa_context() -> None:
+    """``evaluate`` without a context uses one per process; an OSMesa context created and
+    destroyed meanwhile (as the test modules' ``gl`` fixture does) takes Mesa's dispatch
+    from it, and its next program failed ("cannot create program", a flaky CI failure):
+    the default context is made again after OSMesa came or went (app/gl/context.py)."""
+    from app.gl.context import create_context
+
+    material = {"base_color": [0.5, 0.5, 0.5], "roughness": 0.5}
+    l, v = np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.6, 0.8]])
+    before = evaluate(material, l, v)
+    try:
+        other = create_context("osmesa")
+    except Exception as exc:  # OSMesa is installed by scripts/dev.sh
+        pytest.fail(f"no OSMesa context: {exc}")
+    other.release()
+    assert np.array_equal(evaluate(material, l, v), before)

@@ -23,7 +23,7 @@ from app.common.models import (
     unpack_model_params,
 )
 from app.errors import InputError
-from app.gl.context import GLContext, create_context
+from app.gl.context import GLContext, create_context, osmesa_changes
 from app.gl.kernel import run_kernel
 from app.reference.material import Surface, brdf_eval
 from app.scene.model import Material
@@ -40,13 +40,19 @@ result = vec4(brdf_eval(s, p, dir_n.xyz, dir_nc.xyz, dir_t.xyz, dir_l.xyz, dir_v
 """
 
 _context: GLContext | None = None
+_context_osmesa = 0  # osmesa_changes() when _context was made
 
 
 def _default_context() -> GLContext:
-    """One headless context per process, created on first use (EGL, else OSMesa)."""
-    global _context
+    """One headless context per process, created on first use (EGL, else OSMesa), and
+    made again after an OSMesa context came or went (app/gl/context.py says why)."""
+    global _context, _context_osmesa
+    if _context is not None and _context_osmesa != osmesa_changes():
+        _context.release()
+        _context = None
     if _context is None:
         _context = create_context("auto")
+        _context_osmesa = osmesa_changes()
     return _context
 
 

@@ -107,9 +107,25 @@ class GLContext:
 
     def release(self) -> None:
         """Destroy the context (OSMesa's too)."""
+        global _osmesa_changes
         self.ctx.release()
         if isinstance(self._keepalive, _OSMesaLoader):
             self._keepalive.release()
+            _osmesa_changes += 1
+
+
+# OSMesa and EGL contexts share Mesa's GL dispatch: creating or destroying an OSMesa
+# context leaves an EGL context made current before it not current any more, while EGL
+# still reports it current (so making it current again does nothing), and its next
+# program fails ("cannot create program"). A holder of a long-lived context (app.brdf's
+# default one) compares this count with the one it saw and makes a fresh context when
+# it changed (tests/conftest.py mixes the two backends in one process; a user rarely does).
+_osmesa_changes = 0
+
+
+def osmesa_changes() -> int:
+    """How many OSMesa contexts this process has created and destroyed so far."""
+    return _osmesa_changes
 
 
 def _create_egl() -> GLContext:
@@ -129,6 +145,8 @@ def _create_osmesa() -> GLContext:
         loader.release()
         raise ContextError(f"OSMesa gave OpenGL {ctx.version_code}, need {REQUIRED_GL}")
     ctx.extra = loader  # gl_function: GL entry points moderngl does not wrap
+    global _osmesa_changes
+    _osmesa_changes += 1
     return GLContext(ctx, "osmesa", loader)
 
 
