@@ -150,6 +150,16 @@ def _create_osmesa() -> GLContext:
     return GLContext(ctx, "osmesa", loader)
 
 
+def wait_before_read(ctx: moderngl.Context) -> None:
+    """Wait for every queued pass before a texture is read back on the CPU. llvmpipe
+    waits on its own only for the current framebuffer's targets (and textures the queued
+    passes sample count as read, not written): a G-buffer target read right after the
+    frame could come back half-written (measured: 1-2 frames in 40 of
+    tests/test_material_core.py's alpha-mode edit once the post pass was fused into
+    lighting, which left one framebuffer change fewer between them)."""
+    ctx.finish()
+
+
 def gl_function(ctx: moderngl.Context, name: str, argtypes: list[type]) -> ctypes._CFuncPtr:
     """A GL entry point of ``ctx`` that moderngl does not wrap (e.g. glTexParameteri for
     GL_MIRRORED_REPEAT), called with ``argtypes``: OSMesa's own address for an OSMesa

@@ -37,6 +37,7 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.lights import POINT_COS_OUTER, LightType, PunctualLight
+from app.gl.context import wait_before_read
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
 
@@ -193,6 +194,7 @@ class LightCuller:
         """The tile-depth pass's output: (tiles_y, tiles_x, 2) float32 depth bounds and
         (tiles_y, tiles_x) uint32 depth masks, tile rows bottom-up."""
         tx, ty = self.tiles
+        wait_before_read(self.tile_depth.ctx)
         bounds = np.frombuffer(self.tile_depth.read(), np.float32).reshape(ty, tx, 2)
         bins = np.frombuffer(self.tile_bins.read(), np.uint32).reshape(ty, tx)
         return bounds.copy(), bins.copy()
@@ -208,6 +210,7 @@ class LightCuller:
 
     def _unpack(self, texture: moderngl.Texture, cells: tuple[int, int]) -> np.ndarray:
         nx, ny = cells
+        wait_before_read(texture.ctx)
         words = np.frombuffer(texture.read(), np.uint32).reshape(ny, nx, self.quads * 4)
         bits = (words[..., :, None] >> np.arange(32, dtype=np.uint32)) & 1
         return bits.reshape(ny, nx, self.quads * 128)[..., : self.local_count].astype(bool)

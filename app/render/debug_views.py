@@ -71,6 +71,7 @@ import numpy as np
 from app.common.debug_views import DEBUG_VIEW_CODE, GPU_DEBUG_VIEWS
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
+from app.gl.context import wait_before_read
 from app.render.culling import TILE_SIZE
 from app.render.debug import BadPixels, nan_debug_image
 from app.render.renderer import Renderer
@@ -257,6 +258,7 @@ class DebugPass:
         else:
             self._render(view, light)
             w, h = self.size
+            wait_before_read(self.target.ctx)
             raw = np.frombuffer(self.target.read(), np.float32).reshape(h, w, 4)
             self._values = raw[::-1].copy()
             self._display = display_image(view, self._values)

@@ -28,7 +28,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.common.gbuffer import ENCODINGS, GBufferData, encoding_defines
 from app.frame.camera import gl_bytes
-from app.gl.context import gl_function
+from app.gl.context import gl_function, wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference.encoding import unorm_to_snorm
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
@@ -91,6 +91,7 @@ class GBuffer:
         """The targets with GBufferData's float meaning: a unorm target's signed channels
         (octahedral coordinates, anisotropy) mapped back to [-1, 1] as decode.glsl maps
         them (float64 here, then float32: within an ulp of the GLSL's float32)."""
+        wait_before_read(self.fbo.ctx)
         w, h = self.size
         depth_id = np.frombuffer(self.depth.read(), np.float32).reshape(h, w, 2)
         empty = depth_id[..., 0] == 0.0  # no surface: the other targets were not cleared

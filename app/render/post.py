@@ -6,6 +6,7 @@ import moderngl
 import numpy as np
 
 from app.common.tonemaps import TONEMAP_CODE
+from app.gl.context import wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference import dof
 
@@ -21,6 +22,7 @@ def read_rgb(
     kept by a caller that reads every frame (fresh memory for each read is paged in
     again; docs/performance.md, "Third part"). The values are the same bytes either way."""
     w, h = size
+    wait_before_read(fbo.ctx)
     item = np.dtype(np.float32 if dtype == "f4" else np.uint8)
     if scratch is None:
         data: bytes | bytearray = fbo.read(components=3, alignment=1, dtype=dtype)

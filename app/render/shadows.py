@@ -41,6 +41,7 @@ import numpy as np
 from app.common.lights import LightType, PunctualLight
 from app.errors import InputError
 from app.frame.camera import gl_bytes
+from app.gl.context import wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference.shadows import ShadowMaps
 from app.render.limits import max_dimension
@@ -500,6 +501,7 @@ class ShadowPass:
         """The maps as the float64 twin takes them (app/reference/shadows.py): the atlas's
         window depths, row 0 at the bottom as texelFetch indexes them, and the uniforms."""
         w, h = self.atlas.size
+        wait_before_read(self.atlas.ctx)
         depth = np.frombuffer(self.atlas.read(), np.float32).reshape(h, w).astype(np.float64)
         return ShadowMaps(
             depth, tuple(self.lights), tuple(self.matrices), tuple(self.rects),
