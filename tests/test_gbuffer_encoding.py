@@ -234,3 +234,28 @@ def test_the_fused_display_image_is_the_post_pass_image(gl_egl, tonemap: str, ev
     assert np.array_equal(hdr, unfused_hdr) and np.array_equal(fused, unfused)
     background = every[0, 0]
     assert background.tolist() != [0, 0, 0] and (every != background).any(axis=-1).mean() > 0.1
+
+
+def test_reading_the_hdr_image_every_frame_draws_it_with_the_frame(gl_egl) -> None:
+    """After a frame whose HDR image was read, the next frame draws the HDR image and runs
+    the post pass (one lighting pass, not a fused one and then the HDR one on demand);
+    a frame after one whose HDR image nobody read is fused again. Same bytes each way."""
+    from app.bench.scenes import load
+    from app.bench.spheres import sphere_grid_scene
+    from app.render.renderer import Renderer
+
+    size = (96, 54)
+    r = Renderer(gl_egl, load(sphere_grid_scene(1, size)), size)
+    drawn, images = [], []
+    try:
+        for read_hdr in (True, True, False, False):
+            r.lighting.fbo.clear(7.0, 7.0, 7.0, 1.0)
+            r.render()
+            drawn.append(bool((r.lighting.read() != 7.0).any()))  # the frame drew HDR
+            images.append(r.read_ldr())
+            if read_hdr:
+                r.read_hdr()
+    finally:
+        r.release()
+    assert drawn == [False, True, True, False]
+    assert all(np.array_equal(image, images[0]) for image in images)

@@ -108,9 +108,12 @@ class Renderer:
         self._owns_shaders = shaders is None
         self.shaders = ShaderCache(gl.ctx) if shaders is None else shaders
         self.loaded = loaded
-        # A plain frame's lighting pass writes the display image (run_lighting); False for
-        # a caller that reads every frame's HDR image (Comparison: no pass to waste).
+        # A plain frame's lighting pass writes the display image (run_lighting); off, every
+        # frame draws the HDR image and runs the post pass on it.
         self.fuse_post = True
+        # The HDR image was asked for since the last frame / before this frame began: a
+        # caller that reads it every frame gets it drawn with the frame (fused_display).
+        self._hdr_read = self._hdr_wanted = False
         self._size = size
         self.frame: FrameData = prepare_frame(loaded)
         self.gbuffer: GBuffer | None = None
@@ -414,6 +417,7 @@ class Renderer:
         is waited for and its wall time in milliseconds recorded by name (the viewer's
         frame-time plot; the waits cost some throughput, so only when asked)."""
         clock = _PassClock(self.gl.ctx, timings)
+        self._hdr_wanted, self._hdr_read = self._hdr_read, False
         self.gbuffer_pass.run(self.gbuffer, self.view, self.proj, self.camera)
         clock.done("gbuffer")
         if self.culler is not None:
@@ -448,8 +452,10 @@ class Renderer:
 
     @property
     def fused_display(self) -> bool:
-        """Whether a frame's lighting pass writes the display image (``run_lighting``)."""
-        return self.fuse_post and self._plain()
+        """Whether a frame's lighting pass writes the display image (``run_lighting``): a
+        plain frame, unless the last frame's HDR image was read (a caller reading both
+        images of every frame would otherwise pay for two lighting passes)."""
+        return self.fuse_post and self._plain() and not self._hdr_wanted
 
     def run_lighting(self) -> None:
         """The lighting pass, then the environment background over it where there is one.
@@ -491,6 +497,7 @@ class Renderer:
     def hdr_texture(self) -> moderngl.Texture:
         """The last frame's linear HDR radiance on the GPU (RGBA32F, ``size``): what
         ``read_hdr`` reads, for passes that combine frames (app/render/compare.py)."""
+        self._hdr_read = True
         self._complete_hdr()
         if self.resolve is not None:
             return self.resolve.target
@@ -504,6 +511,7 @@ class Renderer:
     def read_hdr(self) -> np.ndarray:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
         where the camera has an aperture (resolved to ``size``)."""
+        self._hdr_read = True
         self._complete_hdr()
         if self.resolve is not None:
             return self.resolve.read()
