@@ -196,15 +196,52 @@ def test_programs_are_compiled_once_per_combination(gl_egl, base: LoadedScene):
 
 def test_a_material_value_keeps_the_geometry(gl_egl, base: LoadedScene):
     """A constant of a material without maps (what a viewer slider drags) reuses every
-    mesh's vertex buffer: no geometry is built or uploaded again, and the image is still
-    the fresh renderer's."""
+    mesh's vertex buffer and the shadow maps: no geometry is built or uploaded again, no
+    map is drawn again, and the image is still the fresh renderer's."""
     target = edited(base, _materials_values)
     r = Renderer(gl_egl, base, SIZE)
     try:
         images(r)
         buffers = [d.vbo for d in r.gbuffer_pass.drawables]
+        shadows = r.shadows
         r.update(target.scene)
         assert [d.vbo for d in r.gbuffer_pass.drawables] == buffers
+        assert shadows is not None and r.shadows is shadows
+        got = images(r)
+    finally:
+        r.release()
+    assert_same(got, fresh_images(gl_egl, target))
+
+
+def test_a_material_edit_keeps_the_environment(gl_egl):
+    """An image-lit scene's material edit keeps the prefiltered environment and the
+    background pass (nothing uploaded again); the image is the fresh renderer's."""
+    sky = load_scene(scenes_dir() / "ibl_sky.toml")
+    name = next(iter(sky.scene.materials))
+    target = edited(sky, lambda d: d["materials"][name].update(roughness=0.77))
+    r = Renderer(gl_egl, sky, SIZE)
+    try:
+        images(r)
+        kept = (r.ibl, r.background)
+        r.update(target.scene)
+        assert None not in kept and (r.ibl, r.background) == kept
+        got = images(r)
+    finally:
+        r.release()
+    assert_same(got, fresh_images(gl_egl, target))
+
+
+def test_a_part_turned_blended_draws_the_shadow_maps_again(gl_egl, base: LoadedScene):
+    """A material edit that makes a part blended takes it out of the shadow maps' casters
+    (blended parts cast none, docs/shadows.md): the maps are made again, and the image
+    is the fresh renderer's."""
+    target = edited(base, lambda d: d["materials"]["ball"].update(alpha=0.5, alpha_mode="blend"))
+    r = Renderer(gl_egl, base, SIZE)
+    try:
+        images(r)
+        shadows = r.shadows
+        r.update(target.scene)
+        assert r.shadows is not None and r.shadows is not shadows
         got = images(r)
     finally:
         r.release()

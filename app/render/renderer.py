@@ -226,8 +226,8 @@ class Renderer:
             self.blend = BlendPass(self.gl.ctx, drawables)
 
     def _build_lighting(self) -> None:
-        """The culler (where local lights and tiled culling) and the lighting pass."""
-        self._display_done = self._hdr_missing = False  # run_lighting: set by each frame
+        """The culler (where local lights and tiled culling), the environment's light, the
+        shadow maps, the lighting and blend passes and the environment background."""
         ctx, settings = self.gl.ctx, self.scene.render
         check_shadow_resolutions(ctx, self.scene.lights, str(self.loaded.path))
         self._release(("culler", "lighting", "ibl", "shadows"))
@@ -238,18 +238,28 @@ class Renderer:
             self.ibl = UniformEnvironment(*uniform)
         if tiles_used(settings.light_culling, self.lights):
             self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
+        self._shadow_casters = self._opaque()
         if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
-            opaque = self._opaque()
+            opaque = self._shadow_casters
             parts = [self.frame.parts[i] for i in opaque]
             blends = [p for i, p in enumerate(self.frame.parts) if i not in set(opaque)]
             self.shadows = ShadowPass(ctx, self.shaders, self.lights, parts, blends)
+        self._build_shading()
+        self._build_background()
+
+    def _build_shading(self) -> None:
+        """The lighting pass and the blend pass, on the culler, environment light and
+        shadow maps as they are: what a material edit needs again (``set_materials``)."""
+        self._display_done = self._hdr_missing = False  # run_lighting: set by each frame
+        self._release(("lighting",))
+        settings = self.scene.render
         self.lighting = LightingPass(
-            ctx, self.shaders, self.render_size, self.lights, self.materials, self.culler,
-            settings.terms, self.options.uber, self.options.ms_table, encoding=settings.gbuffer,
-            ibl=self.ibl, shadows=self.shadows, form=self.options.light_form,
+            self.gl.ctx, self.shaders, self.render_size, self.lights, self.materials,
+            self.culler, settings.terms, self.options.uber, self.options.ms_table,
+            encoding=settings.gbuffer, ibl=self.ibl, shadows=self.shadows,
+            form=self.options.light_form,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
-        self._build_background()
 
     def _build_background(self) -> None:
         """The environment behind the objects, only where ``[environment] background``."""
@@ -347,7 +357,10 @@ class Renderer:
             for d in self.gbuffer_pass.drawables
         ):  # an alpha_mode or anisotropy_rotation edit compiles its code in or out
             self._build_gbuffer_pass()
-        self._build_lighting()
+        if self._opaque() != self._shadow_casters:  # a part started or stopped blending
+            self._build_lighting()  # the shadow maps' casters change
+        else:  # the culler, the environment's light and background, the shadow maps stay
+            self._build_shading()
 
     def set_settings(self, settings: RenderSettings) -> None:
         """New render settings; rebuilds only what depends on the keys that changed."""
