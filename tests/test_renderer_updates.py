@@ -153,17 +153,23 @@ def test_each_setter_matches_a_fresh_renderer(gl_egl, base: LoadedScene):
         r.release()
 
 
-def test_resize(gl_egl, base: LoadedScene):
-    """``resize`` renders what a renderer built at the new size renders."""
-    r = Renderer(gl_egl, base, SIZE)
+@pytest.mark.parametrize("scene", ["sec4_lights", "ibl_sky"])
+def test_resize(gl_egl, scene: str):
+    """``resize`` renders what a renderer built at the new size renders, and keeps what
+    does not depend on the size: the G-buffer pass's geometry, the shadow maps, the
+    environment's light and background (the viewer resizes at every preview/full switch)."""
+    loaded = load_scene(scenes_dir() / f"{scene}.toml")
+    r = Renderer(gl_egl, loaded, SIZE)
     try:
         images(r)
+        kept = (r.gbuffer_pass, r.shadows, r.ibl, r.background)
         r.resize((64, 48))
+        assert (r.gbuffer_pass, r.shadows, r.ibl, r.background) == kept
         got = images(r)
     finally:
         r.release()
     assert got[0].shape == (48, 64, 3)
-    assert_same(got, fresh_images(gl_egl, base, (64, 48)))
+    assert_same(got, fresh_images(gl_egl, loaded, (64, 48)))
 
 
 def test_programs_are_compiled_once_per_combination(gl_egl, base: LoadedScene):

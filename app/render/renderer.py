@@ -168,8 +168,12 @@ class Renderer:
 
     # --- building the passes -----------------------------------------------------------------
 
-    def _build_targets(self) -> None:
-        """Everything whose size is the image's: the G-buffer and every pass after it."""
+    def _build_targets(self, resized: bool = False) -> None:
+        """Everything whose size is the image's: the G-buffer and every pass after it.
+        ``resized``: only the image's size changed (``resize``; a width, height or
+        supersample edit), so the G-buffer pass's geometry, the shadow maps and the
+        environment's light and background, which do not depend on it, are kept (the
+        viewer switches between its preview and full size after every input)."""
         settings = self.scene.render
         table = self.materials
         # Refused before anything is allocated or released (app/render/limits.py): a
@@ -187,8 +191,14 @@ class Renderer:
             self.gl.ctx, self.render_size, settings.gbuffer, table.needs_tangents,
             table.needs_coat_normals, table.needs_emission,
         )  # fmt: skip
-        self._build_gbuffer_pass()
-        self._build_lighting()
+        if resized:
+            self._release(("culler",))  # its tiles are the image's
+            if tiles_used(settings.light_culling, self.lights):
+                self.culler = LightCuller(self.gl.ctx, self.shaders, self.render_size, self.lights)
+            self._build_shading()
+        else:
+            self._build_gbuffer_pass()
+            self._build_lighting()
         self._build_post()
         self._build_camera()
 
@@ -372,7 +382,8 @@ class Renderer:
             self._rebuild_frame()
         if changed & {"width", "height", "supersample", "gbuffer"}:
             try:
-                self._build_targets()
+                # a new encoding compiles the G-buffer pass again; a new size keeps it
+                self._build_targets(resized="gbuffer" not in changed)
             except InputError:  # past the GL's limits: the old settings and targets stay
                 self._edit(render=old)
                 raise
@@ -389,7 +400,7 @@ class Renderer:
         """A new output size (width, height): new targets for every pass."""
         old, self._size = self._size, (int(size[0]), int(size[1]))
         try:
-            self._build_targets()
+            self._build_targets(resized=True)
         except InputError:  # past the GL's limits: the old size and targets stay
             self._size = old
             raise
