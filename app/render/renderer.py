@@ -496,6 +496,7 @@ class Renderer:
                 self.gbuffer, self.camera, target, self.scene.render.tonemap, 2.0**exposure
             )
             self._display_done = self._hdr_missing = True
+            self._frame_view = (self.camera, background)  # what _complete_hdr draws with
             return
         self.lighting.run(self.gbuffer, self.camera, background)
         self._display_done = self._hdr_missing = False
@@ -503,10 +504,11 @@ class Renderer:
             self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
 
     def _complete_hdr(self) -> None:
-        """The HDR image of a frame whose lighting pass wrote the display image only."""
+        """The HDR image of a frame whose lighting pass wrote the display image only, with
+        that frame's camera and background (an edit since has not been rendered)."""
         if self._hdr_missing:
-            background = np.asarray(self.scene.background, np.float64)
-            self.lighting.run(self.gbuffer, self.camera, background)
+            camera, background = self._frame_view
+            self.lighting.run(self.gbuffer, camera, background)
             self._hdr_missing = False
 
     def run_post(self, hdr: moderngl.Texture) -> None:
