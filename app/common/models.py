@@ -273,28 +273,37 @@ def pack_model_params(
     them); without it every row gets the standard model's codes."""
     table = np.zeros((max(len(params), 1), MATERIAL_TEXELS, 4), np.float32)
     models = models if models is not None else [DEFAULT_MODEL] * len(params)
+    # Slices take a number or an RGB triple as they are (np.broadcast_to per texel cost a
+    # viewer slider step more than the rest of the table).
     for row, (p, group, model) in enumerate(zip(params, groups, models, strict=True)):
-        table[row, 0] = [*np.broadcast_to(p.f90, 3), p.fresnel_exponent]
-        table[row, 1] = [*np.broadcast_to(p.eta, 3), p.eta_dielectric]
-        table[row, 2] = [*np.broadcast_to(p.k, 3), p.gtr_gamma]
+        table[row, 0, :3] = p.f90
+        table[row, 0, 3] = p.fresnel_exponent
+        table[row, 1, :3] = p.eta
+        table[row, 1, 3] = p.eta_dielectric
+        table[row, 2, :3] = p.k
+        table[row, 2, 3] = p.gtr_gamma
         table[row, 3] = [group, *model_codes(model)]
         if model.thin_film:  # thin film (RTR4 §9.11): (thickness nm, n2/n1, n2, 0)
             table[row, 7] = [p.film_thickness, p.film_eta, p.film_ior, 0.0]
-        table[row, 6] = [*np.broadcast_to(p.sheen_color, 3), p.sheen_roughness]  # sheen
+        table[row, 6, :3] = p.sheen_color  # sheen
+        table[row, 6, 3] = p.sheen_roughness
         if model.diffraction != "none":  # diffraction (RTR4 §9.11): (period, depth, 0, 0)
             table[row, 8] = [p.grating_period, p.grating_depth, 0.0, 0.0]
         # Clear coat (RTR4 §9.12), texels 4-5: (color, strength), (roughness, eta, 0, 0).
         # Without a coat they hold the defaults (strength 0, eta 1.5, white), so the coat's
         # formulas stay finite (and equal the base) even where a pass forces them on.
-        table[row, 4] = [*np.broadcast_to(p.clearcoat_color, 3), p.clearcoat]
+        table[row, 4, :3] = p.clearcoat_color
+        table[row, 4, 3] = p.clearcoat
         table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
         # Empirical cloth (RTR4 §9.10), texels 9-11: (k_rim, a_rim, k_inner, a_inner),
         # (c_scatter, w), (k_sheen c_sheen, k_diff). Every row holds them (the defaults,
         # Lambert, where a material has none), like the clear coat's, so a table packed
         # without its models (the tests' kernels) still shades a cloth row as the twin.
-        table[row, 9] = np.broadcast_to(p.cloth_rim_inner, 4)
-        table[row, 10] = [*np.broadcast_to(p.cloth_scatter, 3), p.cloth_wrap]
-        table[row, 11] = [*np.broadcast_to(p.cloth_sheen, 3), p.cloth_diffuse]
+        table[row, 9] = p.cloth_rim_inner  # numpy broadcasts one number to 4
+        table[row, 10, :3] = p.cloth_scatter
+        table[row, 10, 3] = p.cloth_wrap
+        table[row, 11, :3] = p.cloth_sheen
+        table[row, 11, 3] = p.cloth_diffuse
         # Micro-cylinder fibre (RTR4 §9.10), texel 12: (rotation, curvature, gamma_v, k_d),
         # on every row (the defaults where a material has none), as the cloth's.
         table[row, 12] = [p.fiber_rotation, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd]

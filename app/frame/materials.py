@@ -17,29 +17,37 @@ from app.common.models import MaterialParams, Model, ModelParams, pack_model_par
 from app.scene.geometry import MeshPart
 
 
+def _spread(x: np.ndarray | float, n: int) -> tuple:
+    """``x`` (n numbers, or one for all n) as a tuple of n numbers: a hashable part of a
+    key. ``tolist`` where it already has n (the usual case): np.broadcast_to took most of
+    a viewer slider step's material table (docs/viewer.md)."""
+    a = np.asarray(x)
+    return tuple(a.tolist()) if a.shape == (n,) else tuple(np.broadcast_to(a, n).tolist())
+
+
 def _params_key(p: ModelParams) -> tuple:
     return (
-        tuple(np.broadcast_to(p.f90, 3)),
+        _spread(p.f90, 3),
         p.fresnel_exponent,
-        tuple(np.broadcast_to(p.eta, 3)),
+        _spread(p.eta, 3),
         p.eta_dielectric,
-        tuple(np.broadcast_to(p.k, 3)),
+        _spread(p.k, 3),
         p.gtr_gamma,
         (p.film_thickness, p.film_eta, p.film_ior),  # thin film (RTR4 §9.11)
-        tuple(np.broadcast_to(p.sheen_color, 3)),
+        _spread(p.sheen_color, 3),
         p.sheen_roughness,  # sheen (RTR4 §9.10)
         # clear coat (RTR4 §9.12)
         p.clearcoat,
         p.clearcoat_roughness,
         p.clearcoat_eta,
-        tuple(np.broadcast_to(p.clearcoat_color, 3)),
+        _spread(p.clearcoat_color, 3),
         (p.grating_period, p.grating_depth),  # diffraction grating (RTR4 §9.11)
         # empirical cloth (RTR4 §9.10)
-        tuple(np.broadcast_to(p.cloth_rim_inner, 4)),
+        _spread(p.cloth_rim_inner, 4),
         p.cloth_diffuse,
-        tuple(np.broadcast_to(p.cloth_scatter, 3)),
+        _spread(p.cloth_scatter, 3),
         p.cloth_wrap,
-        tuple(np.broadcast_to(p.cloth_sheen, 3)),
+        _spread(p.cloth_sheen, 3),
         # micro-cylinder fibre (RTR4 §9.10)
         (p.fiber_rotation, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd),
     )
