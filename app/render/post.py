@@ -94,13 +94,44 @@ class PostPass(_FullscreenPass):
             "passes/fullscreen.vert", "passes/post.frag", {"TONEMAP": TONEMAP_CODE[tonemap]}
         )
         super().__init__(ctx, program, size, dtype="f1")
-
+        # run_on_surfaces's program on the far plane (compiled with the pass, so that a
+        # frame that first needs it compiles nothing) and its triangle, made at first use
+        defines = {"TONEMAP": TONEMAP_CODE[tonemap], "FAR_PLANE": 1}
+        self._far_program = shaders.program("passes/fullscreen.vert", "passes/post.frag", defines)
+        self._far_vao: moderngl.VertexArray | None = None
         self._z_fbo: moderngl.Framebuffer | None = None  # target + a G-buffer's z-buffer
         self._z_source: moderngl.Renderbuffer | None = None
         self._background: tuple[tuple[float, ...], float, tuple[int, ...]] | None = None
 
     def run(self, hdr: moderngl.Texture, exposure_ev: float) -> None:
         self._draw({"u_hdr": hdr}, {"u_exposure": 2.0**exposure_ev})
+
+    def run_on_surfaces(
+        self,
+        hdr: moderngl.Texture,
+        exposure_ev: float,
+        zbuffer: moderngl.Renderbuffer,
+        background: tuple[float, float, float],
+    ) -> None:
+        """``run`` for an HDR image whose pixels without a surface in ``zbuffer`` all hold
+        ``background``: the pass runs only where the z-test (">", on the far plane, no
+        writes) finds a surface, over ``display_target``'s cleared image; the bytes are
+        ``run``'s (docs/performance.md, "Second part: fixed costs")."""
+        prog = self._far_program
+        if self._far_vao is None:
+            self._far_vao = self.ctx.vertex_array(prog, [])
+        vao = self._far_vao
+        self.display_target(zbuffer, background, exposure_ev).use()
+        ctx = self.ctx
+        ctx.viewport = (0, 0, *self.size)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = ">"
+        hdr.use(0)
+        prog["u_hdr"].value = 0
+        prog["u_exposure"].value = 2.0**exposure_ev
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
 
     def display_target(
         self,
@@ -152,6 +183,8 @@ class PostPass(_FullscreenPass):
 
     def release(self) -> None:
         super().release()
+        if self._far_vao is not None:
+            self._far_vao.release()  # the program is the shader cache's
         if self._z_fbo is not None:
             self._z_fbo.release()
 

@@ -513,11 +513,17 @@ class Renderer:
 
     def run_post(self, hdr: moderngl.Texture) -> None:
         """The post pass on the frame's HDR image ``hdr``, unless the lighting pass wrote
-        the display image itself (``run_lighting``)."""
+        the display image itself (``run_lighting``); in a plain frame only on the
+        surfaces' pixels (``PostPass.run_on_surfaces``)."""
         if self._display_done and hdr is self.lighting.hdr:
             return
         self._complete_hdr()
-        self.post.run(hdr, self.scene.camera.exposure)
+        exposure = self.scene.camera.exposure
+        if self._plain() and hdr is self.lighting.hdr:  # the background is the clear's
+            background = tuple(float(x) for x in self.scene.background)
+            self.post.run_on_surfaces(hdr, exposure, self.gbuffer.zbuffer, background)
+        else:
+            self.post.run(hdr, exposure)
 
     @property
     def hdr_texture(self) -> moderngl.Texture:
