@@ -390,8 +390,7 @@ def _debug_image(
         if view == "tiles" and not debug.tiled:
             print(
                 f"pbs: note: {scene}: no tile culling in this frame (no local lights, or "
-                'render.light_culling = "none", or "auto" below its light count): the tiles '
-                'view is zero everywhere; render.light_culling = "tiled" shows them',
+                'render.light_culling = "none"): the tiles view is zero everywhere',
                 file=sys.stderr,
             )
     finally:

@@ -238,6 +238,27 @@ def test_tiles_view_is_the_popcount_of_the_culler_masks(frames):
     assert np.all(values[..., 3] == 1.0)
 
 
+def test_tiles_view_under_auto_shows_what_tiled_culls(gl_egl):
+    """Below "auto"'s light count the frame is drawn without tiles, yet the tiles view
+    shows the masks "tiled" gives the same scene (culled for the view alone)."""
+    loaded = without_shadows(load_scene(REPO / "scenes" / "sec4_lights.toml"))
+    views = []
+    for culling in ("auto", "tiled"):
+        r = Renderer(gl_egl, loaded, SIZE)
+        r.set_settings(r.scene.render.model_copy(update={"light_culling": culling}))
+        debug = DebugPass(r)
+        try:
+            r.render()
+            assert (r.culler is None) == (culling == "auto") and debug.tiled
+            debug.run("tiles")
+            views.append(debug.read_values())
+        finally:
+            debug.release()
+            r.release()
+    assert views[0][..., 0].max() >= 2
+    assert np.array_equal(views[0], views[1])
+
+
 def test_tiles_view_is_zero_without_culling(frames):
     frame = frames("sec8_anisotropy.toml")  # directional lights only: no culler
     assert not frame.debug.tiled

@@ -72,7 +72,7 @@ from app.common.debug_views import DEBUG_VIEW_CODE, GPU_DEBUG_VIEWS
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
-from app.render.culling import TILE_SIZE
+from app.render.culling import TILE_SIZE, LightCuller, tiles_used
 from app.render.debug import BadPixels, nan_debug_image
 from app.render.renderer import Renderer
 
@@ -214,17 +214,34 @@ class DebugPass:
 
     @property
     def tiled(self) -> bool:
-        """Whether the frame has tile masks (app/render/culling.py tiles_used)."""
-        return self.renderer.culler is not None
+        """Whether the tiles view has masks to show: the frame's (app/render/culling.py
+        tiles_used), or under ``"auto"`` below its light count the ones ``"tiled"`` would
+        cull (``_tile_culler``); none without local lights or with ``"none"``."""
+        return self.renderer.culler is not None or self._auto_tiles()
 
-    def _programs(self, view: str) -> list[moderngl.Program]:
+    def _auto_tiles(self) -> bool:
+        r = self.renderer
+        return r.scene.render.light_culling == "auto" and tiles_used("tiled", r.lights)
+
+    def _tile_culler(self) -> tuple[LightCuller | None, LightCuller | None]:
+        """(the culler whose masks the tiles view shows, the one made for it alone): the
+        frame's; or, where ``"auto"`` drew the frame without tiles, one run now on the
+        frame's G-buffer, so that the view shows what tiled culling gives the scene."""
+        r = self.renderer
+        if r.culler is not None or not self._auto_tiles():
+            return r.culler, None
+        own = LightCuller(self.ctx, r.shaders, r.render_size, r.lights)
+        own.run(r.gbuffer, r.view, r.camera)
+        return own, own
+
+    def _programs(self, view: str, culler: LightCuller | None) -> list[moderngl.Program]:
         """The view's programs from the renderer's shader cache: one per model group for
         the BRDF views (as app/render/lighting.py builds them), one otherwise."""
         r = self.renderer
         defines: dict[str, int] = {"DEBUG_VIEW": DEBUG_VIEW_CODE[view]}
         if view == "tiles":
-            if r.culler is not None:
-                defines |= {"TILE_SIZE": TILE_SIZE, "TILE_QUADS": r.culler.quads}
+            if culler is not None:
+                defines |= {"TILE_SIZE": TILE_SIZE, "TILE_QUADS": culler.quads}
             variants = [defines]
         else:
             defines |= r.materials.gbuffer_defines() | r.gbuffer.defines()
@@ -265,6 +282,14 @@ class DebugPass:
         self._upload_display()
 
     def _render(self, view: str, light: int) -> None:
+        culler, own = self._tile_culler() if view == "tiles" else (None, None)
+        try:
+            self._draw(view, light, culler)
+        finally:
+            if own is not None:
+                own.release()
+
+    def _draw(self, view: str, light: int, culler: LightCuller | None) -> None:
         r, ctx = self.renderer, self.ctx
         lighting, gbuffer = r.lighting, r.gbuffer
         self.fbo.use()
@@ -281,12 +306,12 @@ class DebugPass:
                 if lighting.sheen_table is not None
                 else []
             ),  # sheen (RTR4 §9.10)
-            *([("u_tile_masks", r.culler.masks)] if r.culler is not None else []),
+            *([("u_tile_masks", culler.masks)] if culler is not None else []),
         ]
         for unit, (_, tex) in enumerate(textures):
             tex.use(unit)
         camera = r.camera
-        for prog in self._programs(view):
+        for prog in self._programs(view, culler):
             for unit, (name, _) in enumerate(textures):
                 if name in prog:  # a view uses only some of them
                     prog[name].value = unit
