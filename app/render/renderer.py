@@ -192,9 +192,7 @@ class Renderer:
             table.needs_coat_normals, table.needs_emission,
         )  # fmt: skip
         if resized:
-            self._release(("culler",))  # its tiles are the image's
-            if tiles_used(settings.light_culling, self.lights):
-                self.culler = LightCuller(self.gl.ctx, self.shaders, self.render_size, self.lights)
+            self._build_culler()  # its tiles are the image's
             self._build_shading()
         else:
             self._build_gbuffer_pass()
@@ -238,16 +236,15 @@ class Renderer:
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling), the environment's light, the
         shadow maps, the lighting and blend passes and the environment background."""
-        ctx, settings = self.gl.ctx, self.scene.render
+        ctx = self.gl.ctx
         check_shadow_resolutions(ctx, self.scene.lights, str(self.loaded.path))
-        self._release(("culler", "lighting", "ibl", "shadows"))
+        self._release(("lighting", "ibl", "shadows"))
         env = self.scene.environment
         if env is not None and env.source != "uniform":  # docs/ibl.md
             self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
         elif (uniform := uniform_environment(env)) is not None:
             self.ibl = UniformEnvironment(*uniform)
-        if tiles_used(settings.light_culling, self.lights):
-            self.culler = LightCuller(ctx, self.shaders, self.render_size, self.lights)
+        self._build_culler()
         self._shadow_casters = self._opaque()
         if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
             opaque = self._shadow_casters
@@ -256,6 +253,12 @@ class Renderer:
             self.shadows = ShadowPass(ctx, self.shaders, self.lights, parts, blends)
         self._build_shading()
         self._build_background()
+
+    def _build_culler(self) -> None:
+        """The tile culler, where the frame culls by tiles (``tiles_used``)."""
+        self._release(("culler",))
+        if tiles_used(self.scene.render.light_culling, self.lights):
+            self.culler = LightCuller(self.gl.ctx, self.shaders, self.render_size, self.lights)
 
     def _build_shading(self) -> None:
         """The lighting pass and the blend pass, on the culler, environment light and
