@@ -74,6 +74,7 @@ from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
 from app.render.culling import TILE_SIZE, LightCuller, tiles_used
 from app.render.debug import BadPixels, nan_debug_image
+from app.render.lighting import LightingPass
 from app.render.renderer import Renderer
 
 # Name -> one line for ``pbs render --help``, in the order the help lists them.
@@ -211,6 +212,9 @@ class DebugPass:
         self._values: np.ndarray | None = None
         self._display: np.ndarray | None = None
         self._vaos: dict[int, moderngl.VertexArray] = {}  # by id of a cached program
+        # _tile_culler's own culler and the lighting pass it was made for (whose lights
+        # and size it has); made again only when the renderer builds a new one
+        self._own_culler: tuple[LightingPass, LightCuller] | None = None
 
     @property
     def tiled(self) -> bool:
@@ -223,16 +227,26 @@ class DebugPass:
         r = self.renderer
         return r.scene.render.light_culling == "auto" and tiles_used("tiled", r.lights)
 
-    def _tile_culler(self) -> tuple[LightCuller | None, LightCuller | None]:
-        """(the culler whose masks the tiles view shows, the one made for it alone): the
-        frame's; or, where ``"auto"`` drew the frame without tiles, one run now on the
-        frame's G-buffer, so that the view shows what tiled culling gives the scene."""
+    def _tile_culler(self) -> LightCuller | None:
+        """The culler whose masks the tiles view shows: the frame's; or, where ``"auto"``
+        drew the frame without tiles, one of this pass's own (kept while the renderer's
+        lighting pass is the same), run now on the frame's G-buffer, so that the view
+        shows what tiled culling gives the scene."""
         r = self.renderer
         if r.culler is not None or not self._auto_tiles():
-            return r.culler, None
-        own = LightCuller(self.ctx, r.shaders, r.render_size, r.lights)
-        own.run(r.gbuffer, r.view, r.camera)
-        return own, own
+            return r.culler
+        if self._own_culler is None or self._own_culler[0] is not r.lighting:
+            self._release_own_culler()
+            culler = LightCuller(self.ctx, r.shaders, r.render_size, r.lights)
+            self._own_culler = (r.lighting, culler)
+        culler = self._own_culler[1]
+        culler.run(r.gbuffer, r.view, r.camera)
+        return culler
+
+    def _release_own_culler(self) -> None:
+        if self._own_culler is not None:
+            self._own_culler[1].release()
+            self._own_culler = None
 
     def _programs(self, view: str, culler: LightCuller | None) -> list[moderngl.Program]:
         """The view's programs from the renderer's shader cache: one per model group for
@@ -282,15 +296,8 @@ class DebugPass:
         self._upload_display()
 
     def _render(self, view: str, light: int) -> None:
-        culler, own = self._tile_culler() if view == "tiles" else (None, None)
-        try:
-            self._draw(view, light, culler)
-        finally:
-            if own is not None:
-                own.release()
-
-    def _draw(self, view: str, light: int, culler: LightCuller | None) -> None:
         r, ctx = self.renderer, self.ctx
+        culler = self._tile_culler() if view == "tiles" else None
         lighting, gbuffer = r.lighting, r.gbuffer
         self.fbo.use()
         ctx.viewport = (0, 0, *self.size)
@@ -354,3 +361,4 @@ class DebugPass:
     def release(self) -> None:
         for obj in (*self._vaos.values(), self.fbo, self.target, self.display):
             obj.release()
+        self._release_own_culler()
