@@ -252,3 +252,22 @@ def test_a_part_turned_blended_draws_the_shadow_maps_again(gl_egl, base: LoadedS
     finally:
         r.release()
     assert_same(got, fresh_images(gl_egl, target))
+
+
+def test_a_map_removed_by_an_edit_is_gone(gl_egl, base: LoadedScene):
+    """A material that loses its base colour map by an edit is drawn without it: the
+    part's layer, built with the map, is built again (before, the edit kept the mapped
+    layer and the image showed the old map)."""
+    mapped = edited(
+        base, lambda d: d["materials"]["floor"].update(base_color_map="textures/noise.png")
+    )
+    r = Renderer(gl_egl, mapped, SIZE)
+    try:
+        with_map = images(r)
+        r.update(base.scene)
+        got = images(r)
+    finally:
+        r.release()
+    want = fresh_images(gl_egl, base)
+    assert not np.array_equal(with_map[1], want[1])  # the map shows
+    assert_same(got, want)

@@ -49,8 +49,8 @@ def restyle(frame: FrameData, loaded: LoadedScene, changed: set[str]) -> FrameDa
     part's geometry: what a slider in the viewer needs, without loading meshes again.
 
     The parts' layers are replaced in place. None where a changed material has texture
-    maps or a blend, or another material blends it in: their maps and bakes depend on
-    the constants, so the caller prepares the whole frame again.
+    maps or a blend, had maps before the edit, or another material blends it in: their
+    maps and bakes depend on the constants, so the caller prepares the whole frame again.
     """
     scene = loaded.scene
     for name in changed:
@@ -59,13 +59,19 @@ def restyle(frame: FrameData, loaded: LoadedScene, changed: set[str]) -> FrameDa
             return None
         if any(other.blend and other.blend.material == name for other in scene.materials.values()):
             return None
+    named = [
+        (part, scene.objects[part.object_index].material)
+        for part in frame.parts
+        if part.object_index >= 0
+    ]
+    # A part whose layer was built with maps (the material had them before this edit)
+    # needs its layer and G-buffer program built again, as any part with maps does.
+    if any(name in changed and (len(p.layers) != 1 or p.layers[0].maps) for p, name in named):
+        return None
     builder = LayerBuilder(loaded)
     layers = {name: builder.layer(name) for name in changed}
-    for part in frame.parts:
-        if part.object_index < 0:
-            continue
-        name = scene.objects[part.object_index].material
-        if name in layers and len(part.layers) == 1 and not part.layers[0].maps:
+    for part, name in named:
+        if name in layers:
             part.layers = [layers[name]]
     table, ids = material_table(frame.parts)
     return dataclasses.replace(frame, materials=table, material_ids=ids)
