@@ -9,12 +9,14 @@ new G-buffer channel (RT5) read back.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image
 
+from app.frame.materials import material_table
 from app.gl.context import GLContext
 from app.reference.illumination import shade_gbuffer
 from app.render.renderer import Renderer
@@ -197,13 +199,16 @@ def test_sampler_wrap_modes(gl, tmp_path, wrap):
 
 def render_part(gl: GLContext, data: dict, tmp_path: Path, edit) -> tuple:
     """Like ``render``, with ``edit(part, layer)`` applied to the first mesh part before
-    the G-buffer pass is built again: the glTF reader fills MeshPart.colors/uv1 and
-    SurfaceLayer.uv_transforms, which no TOML key sets."""
+    the material table and the G-buffer are built again: the glTF reader fills
+    MeshPart.colors/uv1 and SurfaceLayer.uv_transforms, which no TOML key sets (and a part
+    with COLOR_0 has no constant surface, so the G-buffer's layout follows the edit)."""
     r = Renderer(gl, parse_scene(data, tmp_path / "inline.toml"))
     try:
         part = r.frame.parts[0]
         edit(part, part.layers[0])
-        r._build_gbuffer_pass()
+        table, ids = material_table(r.frame.parts)
+        r.frame = dataclasses.replace(r.frame, materials=table, material_ids=ids)
+        r._build_targets()
         r.render()
         return r.read_hdr().astype(np.float64), r.read_gbuffer()
     finally:

@@ -83,6 +83,7 @@ def glsl_constants() -> dict[str, int]:
     }
     out.update(TERM_SPECULAR=TERM_SPECULAR, TERM_DIFFUSE=TERM_DIFFUSE)
     out["MATERIAL_TEXELS"] = MATERIAL_TEXELS
+    out["SURFACE_TEXEL"] = SURFACE_TEXEL
     return out
 
 
@@ -210,6 +211,11 @@ class ModelParams:
 # cloth terms (§9.10), 12 the micro-cylinder fibre (§9.10). The GLSL reads the width from
 # the generated MATERIAL_TEXELS.
 MATERIAL_TEXELS = 13
+# Where a table keyed by surface constants too (app/frame/materials.py, constant surfaces)
+# holds them, after the model texels: (base colour RGB, metallic), (perceptual roughness,
+# F0, 0, 0). The G-buffer then stores only the normal, depth and row (docs/gbuffer.md).
+SURFACE_TEXEL = MATERIAL_TEXELS
+SURFACE_TEXELS = 2
 
 
 def model_codes(model: Model) -> tuple[int, int, int]:

@@ -5,6 +5,12 @@ The G-buffer carries each pixel's row (its material id); the lighting pass compi
 program per distinct ``Model`` (a group) and each program shades only its group's pixels.
 Each row also carries its model's codes (app.common.models.model_codes), which only the
 bench's uber lighting shader reads.
+
+Where every part the G-buffer draws has the same surface numbers (base colour, metallic,
+perceptual roughness, F0) at all its pixels (``constant_surface``), the rows are keyed by
+those numbers too and carry them (``SURFACE_TEXEL``): the G-buffer can then store only
+each pixel's normal, depth and row, and the lighting pass read the rest from the row
+(docs/gbuffer.md, "Constant surfaces").
 """
 
 from __future__ import annotations
@@ -13,7 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.common.models import MaterialParams, Model, ModelParams, pack_model_params
+from app.common.models import (
+    SURFACE_TEXELS,
+    MaterialParams,
+    Model,
+    ModelParams,
+    pack_model_params,
+)
 from app.scene.geometry import MeshPart
 
 
@@ -53,6 +65,31 @@ def _params_key(p: ModelParams) -> tuple:
     )
 
 
+def _surface_key(m: MaterialParams) -> tuple:
+    """The surface numbers the G-buffer's RT0 and RT1 would store for a layer without maps."""
+    return (_spread(m.base_color, 3), m.metallic, m.roughness, m.f0)
+
+
+# Maps that change the surface numbers of RT0/RT1 (or the row) from pixel to pixel; the
+# others (anisotropy, its direction, the coat normal, emission, occlusion) feed other
+# targets. Keys of SurfaceLayer.maps.
+SURFACE_MAPS = frozenset({"base_color", "metallic", "normal_roughness", "f0", "select"})
+
+
+def constant_surface(part: MeshPart) -> bool:
+    """Whether the G-buffer pass writes one set of surface numbers (its layer 0's constants)
+    at every pixel of ``part``: no map of SURFACE_MAPS, no mask blend of two layers, no
+    glTF COLOR_0 (it multiplies the base colour; an analytic part has none). Screen-space
+    specular antialiasing, a render setting, widens the roughness per pixel too: the
+    renderer checks it (Renderer._constant_surfaces)."""
+    layer = part.layers[0]
+    return (
+        part.blend is None
+        and not SURFACE_MAPS & layer.maps.keys()
+        and (part.colors is None or part.analytic is not None)
+    )
+
+
 @dataclass
 class MaterialTable:
     """Rows of (model, params), the distinct models in first-use order, and each row's group."""
@@ -66,25 +103,41 @@ class MaterialTable:
     # A layer of the frame emits or has an occlusion map (glTF 2.0 core material, issue 17):
     # only then does the G-buffer carry RT5 (emitted radiance, occlusion).
     needs_emission: bool = False
+    # Every part the G-buffer draws has constant surface numbers (``constant_surface``):
+    # then ``surfaces`` holds each row's (base colour, metallic, roughness, F0), the rows
+    # are distinct in them too, and ``packed`` appends them (SURFACE_TEXEL).
+    surfaces: list[MaterialParams] | None = None
 
     @classmethod
-    def build(cls, materials: list[MaterialParams]) -> tuple[MaterialTable, list[int]]:
-        """The table for ``materials`` and each material's row (its material id)."""
+    def build(
+        cls, materials: list[MaterialParams], surfaces: bool = False
+    ) -> tuple[MaterialTable, list[int]]:
+        """The table for ``materials`` and each material's row (its material id); with
+        ``surfaces``, rows also differ by the surface numbers and carry them."""
         models: list[Model] = []
         rows: list[tuple[Model, ModelParams]] = []
         groups: list[int] = []
+        held: list[MaterialParams] = []
         index: dict[tuple, int] = {}
         ids = []
         for m in materials:
             key = (m.model, _params_key(m.params))
+            if surfaces:
+                key += _surface_key(m)
             if key not in index:
                 if m.model not in models:
                     models.append(m.model)
                 index[key] = len(rows)
                 rows.append((m.model, m.params))
                 groups.append(models.index(m.model))
+                held.append(m)
             ids.append(index[key])
-        return cls(models, rows, groups), ids
+        return cls(models, rows, groups, surfaces=held if surfaces else None), ids
+
+    @property
+    def constant_surfaces(self) -> bool:
+        """Whether the rows carry the surface numbers (see ``surfaces``)."""
+        return self.surfaces is not None
 
     @property
     def needs_tangents(self) -> bool:
@@ -110,15 +163,35 @@ class MaterialTable:
         return defines
 
     def packed(self) -> np.ndarray:
-        """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params."""
-        return pack_model_params([p for _, p in self.rows], self.groups, [m for m, _ in self.rows])
+        """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params;
+        with ``surfaces``, (M, MATERIAL_TEXELS + SURFACE_TEXELS, 4): each row's surface
+        texels appended (``surface_texels``)."""
+        table = pack_model_params([p for _, p in self.rows], self.groups,
+                                  [m for m, _ in self.rows])  # fmt: skip
+        if self.surfaces is None:
+            return table
+        return np.concatenate([table, self.surface_texels()], axis=1)
+
+    def surface_texels(self) -> np.ndarray:
+        """(M, SURFACE_TEXELS, 4) float32: (base colour RGB, metallic), (perceptual
+        roughness, F0, 0, 0) per row, rounded to float32 as the G-buffer pass's uniforms
+        are; zeros without ``surfaces``."""
+        out = np.zeros((max(len(self.rows), 1), SURFACE_TEXELS, 4), np.float32)
+        for row, m in enumerate(self.surfaces or ()):
+            out[row, 0, :3] = m.base_color
+            out[row, 0, 3] = m.metallic
+            out[row, 1, :2] = (m.roughness, m.f0)
+        return out
 
 
 def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]]]:
     """The lighting pass's material table over every layer of every part, and each part's
     rows (one per layer)."""
     layers = [layer for p in parts for layer in p.layers]
-    table, flat = MaterialTable.build([layer.params for layer in layers])
+    # The G-buffer draws every part but the alpha-blended ones (app/render/blend.py).
+    drawn = [p for p in parts if p.layers[0].alpha_mode != "blend"]
+    surfaces = all(constant_surface(p) for p in drawn)
+    table, flat = MaterialTable.build([layer.params for layer in layers], surfaces)
     table.needs_coat_normals = any(layer.own_coat_normal for layer in layers)
     table.needs_emission = any(
         any(layer.emissive) or "emissive" in layer.maps or "occlusion" in layer.maps

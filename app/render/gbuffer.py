@@ -14,6 +14,10 @@ Layout and precision are documented in docs/gbuffer.md:
   z-test          DEPTH24      a renderbuffer, never sampled
 The storage of RT0 and of RT1/RT3/RT4 is the scene's ``render.gbuffer`` (app/common/gbuffer.py
 ENCODINGS): float16, 16-bit unorm (signed values mapped to [0, 1]) or float32.
+With constant surfaces (every part's surface numbers are its material's constants, float32
+targets) RT0 is not allocated and RT1 is RG32F, the normal alone: the decode reads base
+colour, metallic, roughness and F0 from the pixel's row of the material table
+(``GBUFFER_CONSTANT_SURFACES``; docs/gbuffer.md, "Constant surfaces").
 """
 
 from __future__ import annotations
@@ -46,27 +50,35 @@ class GBuffer:
         tangents: bool = True,
         coat_normals: bool = False,
         emission: bool = False,
+        constant_surfaces: bool = False,
     ) -> None:
         """``encoding``: a ``render.gbuffer`` value (app/common/gbuffer.py ENCODINGS);
         ``tangents``: allocate RT3 (only anisotropic materials read a tangent);
         ``coat_normals``: allocate RT4 (only a coat whose normal is not its base's reads it);
         ``emission``: allocate RT5 (emitted radiance and occlusion; float16 with the f16
-        encoding, else float32: radiance has no upper bound a unorm could hold).
-        The targets are bound in this order, each optional one at the first location the
-        absent ones leave free (passes/gbuffer.frag)."""
+        encoding, else float32: radiance has no upper bound a unorm could hold);
+        ``constant_surfaces``: no RT0 and a two-channel RT1 (the material table carries
+        the surface numbers; ``MaterialTable.constant_surfaces``).
+        The targets are bound in this order, each at the first location the absent ones
+        leave free (passes/gbuffer.frag, ``defines``)."""
         base, directions = (STORAGE_DTYPES[s] for s in ENCODINGS[encoding])
         self.encoding = encoding
         self.size = size
-        self.base_color = ctx.texture(size, 4, dtype=base)
-        self.normal = ctx.texture(size, 4, dtype=directions)
+        self.constant_surfaces = constant_surfaces
+        self.base_color = None if constant_surfaces else ctx.texture(size, 4, dtype=base)
+        self.normal = ctx.texture(size, 2 if constant_surfaces else 4, dtype=directions)
         self.depth = ctx.texture(size, 2, dtype="f4")
         self.tangent = ctx.texture(size, 4, dtype=directions) if tangents else None
         self.coat_normal = ctx.texture(size, 2, dtype=directions) if coat_normals else None
         emission_dtype = "f2" if encoding == "f16" else "f4"
         self.emission = ctx.texture(size, 4, dtype=emission_dtype) if emission else None
         self.zbuffer = ctx.depth_renderbuffer(size)
-        targets = [self.base_color, self.normal, self.depth]
-        targets += [t for t in (self.tangent, self.coat_normal, self.emission) if t is not None]
+        targets = [
+            t for t in (self.base_color, self.normal, self.depth, self.tangent,
+                        self.coat_normal, self.emission)
+            if t is not None
+        ]  # fmt: skip
+        self._targets = targets
         for tex in targets:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
@@ -84,13 +96,26 @@ class GBuffer:
         self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
 
     def defines(self) -> dict[str, int]:
-        """The encoding's defines for every pass that writes or decodes these targets."""
-        return encoding_defines(self.encoding)
+        """The defines of every pass that writes or decodes these targets: the encoding's,
+        GBUFFER_CONSTANT_SURFACES where RT0 is absent, and the location of each optional
+        target present (GBUFFER_LOCATION_TANGENT, _COAT_NORMAL, _EMISSION: its index in
+        the framebuffer; a layout location must be a literal)."""
+        out = encoding_defines(self.encoding)
+        if self.constant_surfaces:
+            out["GBUFFER_CONSTANT_SURFACES"] = 1
+        for name, tex in (("TANGENT", self.tangent), ("COAT_NORMAL", self.coat_normal),
+                          ("EMISSION", self.emission)):  # fmt: skip
+            if tex is not None:
+                out[f"GBUFFER_LOCATION_{name}"] = self._targets.index(tex)
+        return out
 
-    def read(self) -> GBufferData:
+    def read(self, surfaces: np.ndarray | None = None) -> GBufferData:
         """The targets with GBufferData's float meaning: a unorm target's signed channels
         (octahedral coordinates, anisotropy) mapped back to [-1, 1] as decode.glsl maps
-        them (float64 here, then float32: within an ulp of the GLSL's float32)."""
+        them (float64 here, then float32: within an ulp of the GLSL's float32). With
+        constant surfaces, ``surfaces`` (``MaterialTable.surface_texels()``) gives each
+        pixel's base colour, metallic, roughness and F0 by its material id, as the decode
+        reads them."""
         wait_before_read(self.fbo.ctx)
         w, h = self.size
         depth_id = np.frombuffer(self.depth.read(), np.float32).reshape(h, w, 2)
@@ -101,8 +126,18 @@ class GBuffer:
             texels[empty] = _read_float_of_zero(tex.dtype, signed, components)
             return texels
 
-        base_color = read(self.base_color, (), 4)
-        normal = read(self.normal, (0, 1), 4)
+        if self.base_color is not None:
+            base_color = read(self.base_color, (), 4)
+            normal = read(self.normal, (0, 1), 4)
+        else:  # constant surfaces: RT0 and RT1's B, A from the table's rows
+            if surfaces is None:
+                raise ValueError("a G-buffer of constant surfaces reads with the table's")
+            rows = surfaces[np.where(empty, 0, depth_id[..., 1]).astype(np.int64)]
+            base_color = np.where(empty[..., None], np.float32(0.0), rows[..., 0, :])
+            normal = np.concatenate(
+                [read(self.normal, (0, 1), 2),
+                 np.where(empty[..., None], np.float32(0.0), rows[..., 1, :2])], axis=-1
+            )  # fmt: skip
         if self.tangent is not None:
             tangent = read(self.tangent, (0, 1, 2), 4)
         else:

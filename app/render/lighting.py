@@ -25,7 +25,6 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.gbuffer import encoding_defines
 from app.common.lights import PunctualLight, pack_lights
 from app.common.models import BRDF_TERMS
 from app.common.tonemaps import TONEMAP_CODE
@@ -100,12 +99,13 @@ class LightingPass:
         uber: bool = False,
         ms_table: np.ndarray | None = None,
         *,
-        encoding: str,
+        gbuffer: dict[str, int],
         ibl: EnvironmentLighting | UniformEnvironment | None = None,
         shadows: ShadowPass | None = None,
         form: str | None = None,
     ) -> None:
-        """``encoding``: the G-buffer's render.gbuffer (its decode, gbuffer/layout.glsl).
+        """``gbuffer``: the G-buffer's defines (``GBuffer.defines``: its encoding and
+        layout, which the decode follows; gbuffer/layout.glsl).
         ``terms``: the scene's render.terms, which reflections the BRDF returns.
         ``uber``: one program with run-time model selection instead of one per model
         group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
@@ -135,7 +135,7 @@ class LightingPass:
             raise ValueError(f"unknown light form {form!r}; choose from {LIGHT_FORMS}")
         for defines in variants:
             defines.update(table.gbuffer_defines())
-            defines.update(encoding_defines(encoding))
+            defines.update(gbuffer)
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
             if ibl is not None:  # an environment (docs/ibl.md)
                 defines.update(ibl.defines())

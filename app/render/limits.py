@@ -53,11 +53,14 @@ def target_bytes_per_pixel(
     coat_normals: bool,
     depth_of_field: bool,
     emission: bool = False,
+    constant_surfaces: bool = False,
 ) -> int:
     """Bytes a render-size pixel takes in the targets of app/render/gbuffer.py ``GBuffer``,
-    the lighting pass's HDR target and the depth-of-field target, as they are allocated."""
+    the lighting pass's HDR target and the depth-of-field target, as they are allocated
+    (``constant_surfaces``: no RT0, and RT1 two channels)."""
     base, directions = (_STORAGE_BYTES[s] for s in ENCODINGS[encoding])
-    total = 4 * base + 4 * directions + 2 * 4 + _DEPTH_BUFFER + _HDR  # RT0, RT1, RT2, z, HDR
+    surface = 2 * directions if constant_surfaces else 4 * base + 4 * directions  # RT0, RT1
+    total = surface + 2 * 4 + _DEPTH_BUFFER + _HDR  # RT2, z, HDR
     total += 4 * directions if tangents else 0
     total += 2 * directions if coat_normals else 0
     total += 4 * (2 if encoding == "f16" else 4) if emission else 0  # RT5 (glTF 2.0 core)

@@ -51,11 +51,15 @@ class RenderOptions:
     other than the shipped 64 x 64 one (``app.reference.multiscatter.load_table(n)``).
     ``light_form``: where the lighting pass reads its lights (app/render/lighting.py
     ``LIGHT_FORMS``); None lets the pass choose from the light count.
+    ``constant_surfaces``: False keeps RT0 and RT1's surface numbers in the G-buffer even
+    where the material table could give them (the bench's "before", and the tests'
+    reference for the same image; docs/gbuffer.md, "Constant surfaces").
     """
 
     uber: bool = False
     ms_table: np.ndarray | None = None
     light_form: str | None = None
+    constant_surfaces: bool = True
 
 
 def environment_source(env: Environment) -> EnvironmentSource:
@@ -178,9 +182,10 @@ class Renderer:
         table = self.materials
         # Refused before anything is allocated or released (app/render/limits.py): a
         # renderer that refuses a resize keeps its old targets.
+        constant = self._constant_surfaces()
         per_pixel = target_bytes_per_pixel(
             settings.gbuffer, table.needs_tangents, table.needs_coat_normals,
-            self.scene.camera.aperture > 0.0, table.needs_emission,
+            self.scene.camera.aperture > 0.0, table.needs_emission, constant,
         )  # fmt: skip
         check_render_size(
             self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
@@ -189,7 +194,7 @@ class Renderer:
         self._release(("gbuffer",))
         self.gbuffer = GBuffer(
             self.gl.ctx, self.render_size, settings.gbuffer, table.needs_tangents,
-            table.needs_coat_normals, table.needs_emission,
+            table.needs_coat_normals, table.needs_emission, constant,
         )  # fmt: skip
         if resized:
             self._build_culler()  # its tiles are the image's
@@ -199,6 +204,25 @@ class Renderer:
             self._build_lighting()
         self._build_post()
         self._build_camera()
+
+    def _constant_surfaces(self) -> bool:
+        """Whether the G-buffer leaves the surface numbers to the material table
+        (docs/gbuffer.md, "Constant surfaces"): every part drawn has its material's
+        constants at every pixel (``MaterialTable.constant_surfaces``), no screen-space
+        specular antialiasing widens the roughness per pixel, and the targets are float32,
+        so that the table's float32 numbers are exactly those the targets would hold."""
+        settings = self.scene.render
+        return (
+            self.options.constant_surfaces
+            and self.materials.constant_surfaces
+            and settings.gbuffer == "f32"
+            and not settings.specular_aa
+        )
+
+    def _layout(self) -> dict[str, int]:
+        """What decides the G-buffer's targets: their optional ones and constant surfaces.
+        A change of it allocates new targets (``_build_targets``)."""
+        return self.materials.gbuffer_defines() | {"constant": int(self._constant_surfaces())}
 
     def _specular_aa(self) -> tuple[float, float] | None:
         settings = self.scene.render
@@ -269,7 +293,7 @@ class Renderer:
         self.lighting = LightingPass(
             self.gl.ctx, self.shaders, self.render_size, self.lights, self.materials,
             self.culler, settings.terms, self.options.uber, self.options.ms_table,
-            encoding=settings.gbuffer, ibl=self.ibl, shadows=self.shadows,
+            gbuffer=self.gbuffer.defines(), ibl=self.ibl, shadows=self.shadows,
             form=self.options.light_form,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
@@ -354,9 +378,9 @@ class Renderer:
         if frame is None:
             self._rebuild_frame()
             return
-        targets = self.materials.gbuffer_defines()
+        targets = self._layout()
         self.frame = frame
-        if frame.materials.gbuffer_defines() != targets:  # the G-buffer gains or loses RT3/4
+        if self._layout() != targets:  # the G-buffer gains or loses a target
             self._build_targets()
             return
         opaque = self._opaque()
@@ -390,6 +414,11 @@ class Renderer:
             except InputError:  # past the GL's limits: the old settings and targets stay
                 self._edit(render=old)
                 raise
+            return
+        if "specular_aa" in changed and self.gbuffer.constant_surfaces != (
+            self._constant_surfaces()
+        ):  # RT0 and RT1's roughness come or go
+            self._build_targets()
             return
         if changed & {"specular_aa", "specular_aa_variance", "specular_aa_threshold"}:
             self._build_gbuffer_pass()
@@ -428,10 +457,10 @@ class Renderer:
 
     def _rebuild_frame(self) -> None:
         """New parts and material table (the lights stay), and the passes that use them."""
-        targets = self.materials.gbuffer_defines()
+        targets = self._layout()
         self._release(("gbuffer_pass",))
         self.frame = prepare_frame(self.loaded)
-        if self.materials.gbuffer_defines() != targets:  # the G-buffer gains or loses RT3/4
+        if self._layout() != targets:  # the G-buffer gains or loses a target
             self._build_targets()
             return
         self._build_gbuffer_pass()
@@ -557,7 +586,9 @@ class Renderer:
         return self.post.read()
 
     def read_gbuffer(self) -> GBufferData:
-        return self.gbuffer.read()
+        """The G-buffer's targets (with constant surfaces, the surface numbers from the
+        material table's rows, as the decode reads them)."""
+        return self.gbuffer.read(self.materials.surface_texels())
 
     def release(self) -> None:
         self._release(

@@ -11,7 +11,9 @@
 #include "brdf/material.glsl"
 #include "gbuffer/layout.glsl"
 
+#if !GBUFFER_CONSTANT_SURFACES
 uniform sampler2D g_base_color;
+#endif
 uniform sampler2D g_normal;
 uniform sampler2D g_depth;
 #if GBUFFER_TANGENT
@@ -35,6 +37,22 @@ struct GBufferPixel {
     vec3 nc;              // unit clear-coat normal, sanitised (n where it was lost); n
                           // itself without RT4
 };
+
+// RT0 and RT1 of pixel px as the G-buffer pass wrote them, before the unorm mapping and
+// sanitising: (base colour, metallic) and (octahedral normal, perceptual roughness, F0).
+// Under GBUFFER_CONSTANT_SURFACES the surface numbers are the texels of the pixel's
+// material-table row (gbuffer/layout.glsl): the same float32 numbers, 24 fewer bytes per
+// pixel written and read. Twin: app/render/gbuffer.py GBuffer.read fills GBufferData alike.
+void fetch_surface(ivec2 px, sampler2D materials, int material_id, out vec4 a, out vec4 b) {
+#if GBUFFER_CONSTANT_SURFACES
+    a = texelFetch(materials, ivec2(SURFACE_TEXEL, material_id), 0);
+    b = vec4(texelFetch(g_normal, px, 0).rg,
+             texelFetch(materials, ivec2(SURFACE_TEXEL + 1, material_id), 0).rg);
+#else
+    a = texelFetch(g_base_color, px, 0);
+    b = texelFetch(g_normal, px, 0);
+#endif
+}
 
 // The pixel at window position frag_coord (gl_FragCoord.xy, the pixel centre), with the
 // material table `materials` (brdf/model.glsl) and the camera. Discards the fragment, so
@@ -62,8 +80,8 @@ GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     // of this pixel's material (brdf/model.glsl).
     fetch_model_codes(materials, material_id);
 #endif
-    vec4 a = texelFetch(g_base_color, px, 0);
-    vec4 b = texelFetch(g_normal, px, 0);
+    vec4 a, b;
+    fetch_surface(px, materials, material_id, a, b);
 #if GBUFFER_UNORM_DIRECTIONS
     // 16-bit unorm targets: the signed values back to [-1, 1] (common/encoding.glsl).
     b.rg = unorm_to_snorm(b.rg);

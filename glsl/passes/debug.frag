@@ -58,16 +58,18 @@ void main() {
                                     u_camera_to_world, u_tan_half_fov);
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec3 value = vec3(0.0);
+    vec4 a, b;   // RT0 and RT1 as stored, before sanitising
+    fetch_surface(px, u_materials, int(texelFetch(g_depth, px, 0).g), a, b);
 #if DEBUG_VIEW == DEBUG_BASE_COLOR
-    value = texelFetch(g_base_color, px, 0).rgb;       // as stored, before sanitising
+    value = a.rgb;
 #elif DEBUG_VIEW == DEBUG_NORMAL
     value = g.n;                                        // the unit world normal shaded
 #elif DEBUG_VIEW == DEBUG_ROUGHNESS
-    value = vec3(texelFetch(g_normal, px, 0).b);        // perceptual roughness
+    value = vec3(b.b);                                  // perceptual roughness
 #elif DEBUG_VIEW == DEBUG_METALLIC
-    value = vec3(texelFetch(g_base_color, px, 0).a);
+    value = vec3(a.a);
 #elif DEBUG_VIEW == DEBUG_F0
-    value = vec3(texelFetch(g_normal, px, 0).a);        // the dielectric F0 channel
+    value = vec3(b.a);                                  // the dielectric F0 channel
 #elif DEBUG_VIEW == DEBUG_DEPTH
     value = vec3(texelFetch(g_depth, px, 0).r);         // view depth, metres
 #elif DEBUG_VIEW == DEBUG_MATERIAL_ID

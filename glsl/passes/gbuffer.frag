@@ -16,30 +16,24 @@ in vec4 v_color;
 in vec2 v_uv1;
 #endif
 
+#if GBUFFER_CONSTANT_SURFACES
+// Constant surfaces: the material table's row carries the surface numbers (RT0 absent).
+layout(location = 0) out vec2 g_normal;
+layout(location = 1) out vec2 g_depth;
+#else
 layout(location = 0) out vec4 g_base_color;
 layout(location = 1) out vec4 g_normal;
 layout(location = 2) out vec2 g_depth;
+#endif
+// The optional targets at the locations app/render/gbuffer.py binds them (GBuffer.defines).
 #if GBUFFER_TANGENT
-layout(location = 3) out vec4 g_tangent;
+layout(location = GBUFFER_LOCATION_TANGENT) out vec4 g_tangent;
 #endif
 #if GBUFFER_COAT_NORMAL
-// RT4 follows RT3 where both exist, else takes RT3's place (app/render/gbuffer.py binds the
-// targets in this order).
-#if GBUFFER_TANGENT
-layout(location = 4) out vec2 g_coat_normal;
-#else
-layout(location = 3) out vec2 g_coat_normal;
-#endif
+layout(location = GBUFFER_LOCATION_COAT_NORMAL) out vec2 g_coat_normal;
 #endif
 #if GBUFFER_EMISSION
-// RT5 at the first location RT3/RT4 leave free (a layout location must be a literal).
-#if GBUFFER_TANGENT && GBUFFER_COAT_NORMAL
-layout(location = 5) out vec4 g_emission;
-#elif GBUFFER_TANGENT || GBUFFER_COAT_NORMAL
-layout(location = 4) out vec4 g_emission;
-#else
-layout(location = 3) out vec4 g_emission;
-#endif
+layout(location = GBUFFER_LOCATION_EMISSION) out vec4 g_emission;
 #endif
 
 void main() {
@@ -64,6 +58,14 @@ void main() {
     float view_depth = v_view_depth;
 #endif
     Layer l = m.layer;
+#if GBUFFER_CONSTANT_SURFACES
+    // The layer's constants, which the decode reads from the pixel's table row instead.
+#if GBUFFER_UNORM_DIRECTIONS
+    g_normal = snorm_to_unorm(oct_encode(m.n));
+#else
+    g_normal = oct_encode(m.n);
+#endif
+#else
     g_base_color = vec4(l.base_color, l.metallic);
 #if GBUFFER_UNORM_DIRECTIONS
     // 16-bit unorm targets (docs/gbuffer.md, "Encodings"): signed values mapped into
@@ -72,6 +74,7 @@ void main() {
                     finite_or(l.f0, 0.04));
 #else
     g_normal = vec4(oct_encode(m.n), l.perceptual_roughness, l.f0);
+#endif
 #endif
     g_depth = vec2(view_depth, m.material_id);
 #if GBUFFER_TANGENT
