@@ -18,7 +18,7 @@ from app.bench.scenes import load
 from app.common.gbuffer import GBufferData
 from app.gl.context import GLContext
 from app.reference.encoding import snorm_to_unorm, unorm_to_snorm
-from app.render.renderer import Renderer
+from app.render.renderer import Renderer, RenderOptions
 
 STORAGES = ("f16", "unorm16", "f32")
 # channel -> (G-buffer field, components, signed: stored through snorm_to_unorm in unorm16)
@@ -81,8 +81,13 @@ def _write(tex: object, array: np.ndarray) -> None:
 
 def channel_errors(gl: GLContext, data: dict) -> list[dict]:
     """One row per (channel, storage): the error of the f32 frame of scene ``data`` with
-    that channel alone rounded as the storage would."""
-    r = Renderer(gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}))
+    that channel alone rounded as the storage would (written into the stored-surface
+    layout's targets: constant surfaces would keep the base colour, roughness and F0 in
+    the material table, out of reach)."""
+    r = Renderer(
+        gl, load({**data, "render": {**data["render"], "gbuffer": "f32"}}),
+        options=RenderOptions(constant_surfaces=False),
+    )  # fmt: skip
     rows = []
     try:
         r.render()
