@@ -534,7 +534,7 @@ def test_no_gl_objects_or_memory_leak_over_1000_frames_and_100_reloads(gl: GLCon
     )
     assert after == before
     # The census sees a Renderer's objects (so the equality above is not vacuous).
-    assert during["Texture"] - before["Texture"] >= 9
+    assert during["Texture"] - before["Texture"] >= 8  # 9 where RT0 is stored
     assert during["Program"] - before["Program"] >= 12
     if gl.backend == "egl":
         assert growth <= RSS_GROWTH_BOUND_MIB, f"RSS grew {growth:.1f} MiB"

@@ -109,6 +109,14 @@ class GBuffer:
                 out[f"GBUFFER_LOCATION_{name}"] = self._targets.index(tex)
         return out
 
+    def depth_at(self, x: int, y: int) -> float:
+        """RT2's view depth at pixel (x, y), rows bottom up: one texel, for picking."""
+        wait_before_read(self.fbo.ctx)
+        attachment = self._targets.index(self.depth)  # RT2's location: 1 without RT0
+        raw = self.fbo.read(viewport=(x, y, 1, 1), components=2, attachment=attachment,
+                            dtype="f4")  # fmt: skip
+        return float(np.frombuffer(raw, np.float32)[0])
+
     def read(self, surfaces: np.ndarray | None = None) -> GBufferData:
         """The targets with GBufferData's float meaning: a unorm target's signed channels
         (octahedral coordinates, anisotropy) mapped back to [-1, 1] as decode.glsl maps

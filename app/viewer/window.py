@@ -292,8 +292,7 @@ class Viewer:
         w, h = r.render_size
         px = min(int(x * w / fw), w - 1)
         py = min(int((fh - 1 - y) * h / fh), h - 1)  # GL rows bottom-up
-        raw = r.gbuffer.fbo.read(viewport=(px, py, 1, 1), components=2, attachment=2, dtype="f4")
-        depth = float(np.frombuffer(raw, np.float32)[0])
+        depth = r.gbuffer.depth_at(px, py)
         if not (np.isfinite(depth) and depth > 0.0):
             self.selection = Selection()
             return self.selection
