@@ -174,8 +174,9 @@ def test_stored_surfaces_where_a_number_varies_or_rounds(gl_egl, tmp_path, case)
 
 
 def test_edits_that_switch_the_layout(gl_egl, tmp_path):
-    """Specular antialiasing on and off, and a material gaining a map and losing it: each
-    edit switches the layout and gives the image a fresh renderer gives."""
+    """Specular antialiasing on and off (alone and with a new width), and a material gaining
+    a map and losing it: each edit switches the layout and gives the image a fresh
+    renderer gives."""
     Image.fromarray(np.full((4, 4, 3), 180, np.uint8)).save(tmp_path / "map.png")
     loaded = load(scene(PLAIN), tmp_path)
     r = Renderer(gl_egl, loaded)
@@ -193,6 +194,9 @@ def test_edits_that_switch_the_layout(gl_egl, tmp_path):
         settings = r.scene.render
         steps = [
             ("settings", settings.model_copy(update={"specular_aa": True}), False),
+            ("settings", settings, True),
+            # with a new size in the same edit (a resize alone keeps the G-buffer pass)
+            ("settings", settings.model_copy(update={"specular_aa": True, "width": 80}), False),
             ("settings", settings, True),
         ]
         mapped = {**r.scene.materials}

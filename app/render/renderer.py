@@ -407,20 +407,18 @@ class Renderer:
         }
         if changed & set(_PART_SETTINGS):
             self._rebuild_frame()
-        if changed & {"width", "height", "supersample", "gbuffer"}:
+        specular_aa = changed & {"specular_aa", "specular_aa_variance", "specular_aa_threshold"}
+        layout = self.gbuffer.constant_surfaces != self._constant_surfaces()  # RT0 comes or goes
+        if changed & {"width", "height", "supersample", "gbuffer"} or layout:
             try:
-                # a new encoding compiles the G-buffer pass again; a new size keeps it
-                self._build_targets(resized="gbuffer" not in changed)
+                # a new encoding, layout or specular antialiasing compiles the G-buffer pass
+                # again; a new size alone keeps it
+                self._build_targets(resized=not ("gbuffer" in changed or specular_aa or layout))
             except InputError:  # past the GL's limits: the old settings and targets stay
                 self._edit(render=old)
                 raise
             return
-        if "specular_aa" in changed and self.gbuffer.constant_surfaces != (
-            self._constant_surfaces()
-        ):  # RT0 and RT1's roughness come or go
-            self._build_targets()
-            return
-        if changed & {"specular_aa", "specular_aa_variance", "specular_aa_threshold"}:
+        if specular_aa:
             self._build_gbuffer_pass()
             self._build_blend()
         if changed & {"light_culling", "terms"}:
