@@ -15,8 +15,8 @@ median frame, and the median over blocks of (this tree / REV) of the blocks' med
 The children's display images must be equal (SHA-256), or the script exits 1: the
 target allows no image change.
 
-The other commit is checked out into a temporary git worktree, as scripts/same_pixels.py
-does. Only ``create_context``, ``parse_scene``, ``Renderer(gl, loaded, size)``,
+The other commit is checked out into a temporary git worktree (scripts/same_pixels.py
+``checkout``). Only ``create_context``, ``parse_scene``, ``Renderer(gl, loaded, size)``,
 ``render`` and ``read_ldr`` are used from it.
 """
 
@@ -31,7 +31,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+from same_pixels import REPO, checkout  # scripts/ is the script's own folder on sys.path
+
 SIZE = (1280, 720)
 
 # A child: renders the scene in argv[1] (JSON) on demand; stdin lines are frame counts.
@@ -141,30 +142,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=6, help="frames per block")
     args = parser.parse_args(argv)
     status = 0
-    with tempfile.TemporaryDirectory(prefix="frame-against-") as tmp:
-        other = Path(tmp) / "tree"
-        subprocess.run(
-            ["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(other), args.rev],
-            check=True,
-        )
-        try:
-            for name, scene in scenes(Path(tmp)).items():
-                result = compare({args.rev: other, "this tree": REPO}, scene, args.blocks,
-                                 args.frames)  # fmt: skip
-                ratios = result["ratios"]
-                for label, times in result["times"].items():
-                    print(f"{name}: {label} {statistics.median(times):.1f} ms per frame "
-                          f"({min(times):.1f}-{max(times):.1f}, {len(times)} frames)")  # fmt: skip
-                print(f"{name}: this tree / {args.rev} = {statistics.median(ratios):.3f} "
-                      f"({min(ratios):.3f}-{max(ratios):.3f} over {len(ratios)} blocks); "
-                      f"images {'equal' if result['same'] else 'DIFFERENT'}")  # fmt: skip
-                if not result["same"]:
-                    status = 1
-        finally:
-            subprocess.run(
-                ["git", "-C", str(REPO), "worktree", "remove", "--force", str(other)],
-                check=False,
-            )
+    with checkout(args.rev) as other, tempfile.TemporaryDirectory(prefix="frames-") as tmp:
+        for name, scene in scenes(Path(tmp)).items():
+            result = compare({args.rev: other, "this tree": REPO}, scene, args.blocks,
+                             args.frames)  # fmt: skip
+            ratios = result["ratios"]
+            for label, times in result["times"].items():
+                print(f"{name}: {label} {statistics.median(times):.1f} ms per frame "
+                      f"({min(times):.1f}-{max(times):.1f}, {len(times)} frames)")  # fmt: skip
+            print(f"{name}: this tree / {args.rev} = {statistics.median(ratios):.3f} "
+                  f"({min(ratios):.3f}-{max(ratios):.3f} over {len(ratios)} blocks); "
+                  f"images {'equal' if result['same'] else 'DIFFERENT'}")  # fmt: skip
+            if not result["same"]:
+                status = 1
     return status
 
 

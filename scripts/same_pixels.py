@@ -19,11 +19,13 @@ comparison works across refactors that keep that much of the API.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -60,6 +62,25 @@ print(json.dumps({"package": app.__file__, "scenes": out}))
 """
 
 
+@contextlib.contextmanager
+def checkout(rev: str) -> Iterator[Path]:
+    """``rev`` checked out into a temporary git worktree, removed afterwards (also used by
+    scripts/frame_against.py)."""
+    with tempfile.TemporaryDirectory(prefix="pbs-rev-") as tmp:
+        tree = Path(tmp) / "tree"
+        subprocess.run(
+            ["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(tree), rev],
+            check=True,
+        )
+        try:
+            yield tree
+        finally:
+            subprocess.run(
+                ["git", "-C", str(REPO), "worktree", "remove", "--force", str(tree)],
+                check=False,
+            )
+
+
 def digests(tree: Path, scenes: Path, backend: str) -> dict[str, dict]:
     """{scene: {"hdr": sha256, "ldr": sha256, "shape": [H, W, 3]}} rendered by ``tree``."""
     env = {**os.environ, "PYTHONPATH": str(tree)}
@@ -85,19 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     args = parser.parse_args(argv)
     scenes = REPO / "scenes"  # both trees render this tree's scene files
-    with tempfile.TemporaryDirectory(prefix="same-pixels-") as tmp:
-        other = Path(tmp) / "tree"
-        subprocess.run(
-            ["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(other), args.rev],
-            check=True,
-        )
-        try:
-            before = digests(other, scenes, args.backend)
-        finally:
-            subprocess.run(
-                ["git", "-C", str(REPO), "worktree", "remove", "--force", str(other)],
-                check=False,
-            )
+    with checkout(args.rev) as other:
+        before = digests(other, scenes, args.backend)
     after = digests(REPO, scenes, args.backend)
     differ, new = [], []
     for name in sorted(after):

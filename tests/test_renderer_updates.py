@@ -37,6 +37,17 @@ def images(r: Renderer) -> tuple[np.ndarray, np.ndarray]:
     return r.read_hdr(), r.read_ldr()
 
 
+def updated_images(gl, start: LoadedScene, target: LoadedScene):
+    """The images of a renderer of ``start`` before and after ``update(target.scene)``."""
+    r = Renderer(gl, start, SIZE)
+    try:
+        before = images(r)
+        r.update(target.scene)
+        return before, images(r)
+    finally:
+        r.release()
+
+
 def fresh_images(gl, loaded: LoadedScene, size: tuple[int, int] | None = SIZE):
     r = Renderer(gl, loaded, size)
     try:
@@ -110,13 +121,7 @@ def test_update_renders_what_a_fresh_renderer_renders(gl_egl, base: LoadedScene,
     """``update(scene)`` after a first frame gives the fresh renderer's image exactly."""
     target = edited(base, EDITS[name])
     want = fresh_images(gl_egl, target)
-    r = Renderer(gl_egl, base, SIZE)
-    try:
-        before = images(r)
-        r.update(target.scene)
-        got = images(r)
-    finally:
-        r.release()
+    before, got = updated_images(gl_egl, base, target)
     assert_same(got, want)
     # The edit shows: the image differs from the base scene's (the test can fail).
     assert not np.array_equal(before[0], got[0]) or not np.array_equal(before[1], got[1])
@@ -261,13 +266,7 @@ def test_a_map_removed_by_an_edit_is_gone(gl_egl, base: LoadedScene):
     mapped = edited(
         base, lambda d: d["materials"]["floor"].update(base_color_map="textures/noise.png")
     )
-    r = Renderer(gl_egl, mapped, SIZE)
-    try:
-        with_map = images(r)
-        r.update(base.scene)
-        got = images(r)
-    finally:
-        r.release()
+    with_map, got = updated_images(gl_egl, mapped, base)
     want = fresh_images(gl_egl, base)
     assert not np.array_equal(with_map[1], want[1])  # the map shows
     assert_same(got, want)
