@@ -243,3 +243,19 @@ def test_a_dumped_environment_validates_again(data):
     assert Environment.model_validate(env.model_dump()) == env
     with pytest.raises(ValueError, match="rotation"):
         Environment.model_validate({"rotation": 10.0})
+
+
+def test_a_dumped_default_sample_count_follows_a_new_source():
+    """A sample count left to the source's default stays the default through
+    ``model_dump()``: a dumped uniform environment (128 directions) turned into a sky gets
+    the sky's 256 cell lights, not the uniform's 128; a count the file gave is kept."""
+    from app.scene.model import MAP_SAMPLES, UNIFORM_SAMPLES, Environment
+
+    env = Environment.model_validate({"radiance": [0.5, 0.5, 0.5]})
+    assert env.samples == UNIFORM_SAMPLES != MAP_SAMPLES
+    for dumped in (env.model_dump(), env.model_dump(exclude_none=True)):
+        dumped.pop("radiance")
+        assert Environment.model_validate({**dumped, "source": "sky"}).samples == MAP_SAMPLES
+    given = Environment.model_validate({"radiance": [0.5, 0.5, 0.5], "samples": 64})
+    assert Environment.model_validate({**given.model_dump(), "source": "sky",
+                                       "radiance": [1.0, 1.0, 1.0]}).samples == 64  # fmt: skip

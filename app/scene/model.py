@@ -18,6 +18,7 @@ from pydantic import (
     Field,
     ValidationError,
     ValidatorFunctionWrapHandler,
+    field_serializer,
     field_validator,
     model_validator,
 )
@@ -814,6 +815,13 @@ class Environment(_Strict):
         if self.sun_direction is not None and self.sun_direction[1] <= 0.0:
             raise ValueError("sun_direction: the sun must be above the horizon (y > 0)")
         return self
+
+    @field_serializer("samples")
+    def _samples_as_given(self, samples: int) -> int | None:
+        """``samples`` as the file gave it: None where it is the source's own default, so
+        that an edit of a dumped environment's ``source`` (the renderer's and the API's
+        edits validate ``model_dump()`` again) takes the new source's default."""
+        return samples if "samples" in self.model_fields_set else None
 
 
 class Scene(_Strict):
