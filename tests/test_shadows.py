@@ -502,3 +502,82 @@ def test_a_camera_move_refits_the_cascades(gl_egl):
         r.release()
     fresh, _ = render_hdr(gl_egl, cascade_scene(3, moved))
     assert np.array_equal(after.astype(np.float64), fresh)
+
+
+def _masked_panel(tmp_path: Path, alpha: np.ndarray, mode: str = "mask") -> LoadedScene:
+    """A 2 m panel 1 m above the floor under a sun straight overhead, its base colour map's
+    A the given (16, 16) alpha and its alpha_mode ``mode``."""
+    from PIL import Image
+
+    rgba = np.dstack([np.full((16, 16), 200, np.uint8)] * 3 + [alpha.astype(np.uint8)])
+    Image.fromarray(rgba, "RGBA").save(tmp_path / "cut.png")
+    panel = {"base_color": [0.8, 0.8, 0.8], "base_color_map": "cut.png", "alpha_mode": mode}
+    data = scene_data(
+        [FLOOR, {"shape": "plane", "size": [2.0, 2.0], "material": "panel",
+                 "position": [0.0, 1.0, 0.0]}],
+        {"type": "directional", "direction": [0.0, -1.0, 0.0], "intensity": 2.0,
+         "shadow": True},
+    )  # fmt: skip
+    data["materials"]["panel"] = panel
+    return parse_scene(data, tmp_path / "t.toml")
+
+
+def _atlas(gl, loaded: LoadedScene) -> np.ndarray:
+    r = Renderer(gl, loaded)
+    try:
+        r.render()
+        return r.shadows.read().depth
+    finally:
+        r.release()
+
+
+def test_an_alpha_mask_cuts_its_shadow(gl_egl, tmp_path):
+    """An alpha-masked panel casts the shadow of what its mask keeps (glTF alphaMode MASK,
+    as the G-buffer pass draws it): under bands of alpha 0 and 255 the map holds the floor's
+    depth where the panel has holes and the panel's elsewhere. A mask of alpha 255
+    everywhere writes the very depths an opaque panel writes, to the bit."""
+    bands = np.where((np.arange(16) // 4) % 2 == 0, 0, 255)[None, :].repeat(16, 0)
+    opaque = _atlas(gl_egl, _masked_panel(tmp_path, bands, "opaque"))
+    full = _atlas(gl_egl, _masked_panel(tmp_path, np.full((16, 16), 255)))
+    cut = _atlas(gl_egl, _masked_panel(tmp_path, bands))
+    np.testing.assert_array_equal(full, opaque)
+    floor = np.median(opaque)  # the floor fills most of the sun's map
+    panel = opaque < floor - 1e-3  # texels the whole panel covers
+    assert 0.02 < panel.mean() < 0.5
+    holes = cut[panel] > floor - 1e-3  # the floor seen through the panel
+    assert 0.35 < holes.mean() < 0.65, holes.mean()
+    np.testing.assert_array_equal(cut[panel][~holes], opaque[panel][~holes])
+    np.testing.assert_array_equal(cut[~panel], opaque[~panel])
+
+
+def test_a_mask_edit_draws_the_maps_again(gl_egl, tmp_path):
+    """A constant edit of a masked caster gives the fresh renderer's image: a panel
+    without a map whose alpha 0.3 is under its cutoff casts nothing; at alpha 0.8 it casts
+    its whole shadow. Such an edit keeps the geometry (``restyle``), and the maps are drawn
+    again, where a constant edit of an opaque part keeps them."""
+    start = _masked_panel(tmp_path, np.full((16, 16), 255))
+    data = start.scene.model_dump(exclude_none=True)
+    data["materials"]["panel"] = {"base_color": [0.8, 0.8, 0.8], "alpha": 0.3,
+                                  "alpha_mode": "mask"}  # fmt: skip
+    start = parse_scene(data, tmp_path / "t.toml")
+    r = Renderer(gl_egl, start)
+    try:
+        r.render()
+        first = r.read_hdr()
+        data["materials"]["panel"]["alpha"] = 0.8
+        target = parse_scene(data, tmp_path / "t.toml")
+        drawables = [d.vbo for d in r.gbuffer_pass.drawables]
+        r.update(target.scene)
+        assert [d.vbo for d in r.gbuffer_pass.drawables] == drawables  # restyled
+        r.render()
+        got = r.read_hdr()
+    finally:
+        r.release()
+    fresh = Renderer(gl_egl, target)
+    try:
+        fresh.render()
+        want = fresh.read_hdr()
+    finally:
+        fresh.release()
+    np.testing.assert_array_equal(got, want)
+    assert not np.array_equal(got, first)

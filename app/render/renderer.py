@@ -394,7 +394,10 @@ class Renderer:
             for d in self.gbuffer_pass.drawables
         ):  # an alpha_mode or anisotropy_rotation edit compiles its code in or out
             self._build_gbuffer_pass()
-        if self._opaque() != self._shadow_casters:  # a part started or stopped blending
+        masks = self.shadows is not None and (
+            self.shadows.masked or any(masked(self.frame.parts[i]) for i in self._opaque())
+        )  # an alpha mask's coverage shapes its shadow (docs/shadows.md)
+        if self._opaque() != self._shadow_casters or masks:
             self._build_lighting()  # the shadow maps' casters change
         else:  # the culler, the environment's light and background, the shadow maps stay
             self._build_shading()

@@ -32,6 +32,7 @@ per light (``shadow_bias``); defaults and why in docs/shadows.md.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -44,6 +45,7 @@ from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference.shadows import ShadowMaps
+from app.render.gbuffer import MeshDrawable, masked
 from app.render.limits import max_dimension
 from app.scene.geometry import MeshPart
 from app.scene.model import Light
@@ -318,9 +320,47 @@ class _Caster:
         self.vao = ctx.vertex_array(prog, [(self.vbo, "3f 36x", "in_position")], self.ibo, 4)
         self.model = gl_bytes(part.model)
 
+    def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
+        """Draw into the bound map; ``prog`` (the pass's) already has ``light_matrix``."""
+        prog["u_model"].write(self.model)
+        self.vao.render(moderngl.TRIANGLES)
+
     def release(self) -> None:
         for obj in (self.vao, self.vbo, self.ibo):
             obj.release()
+
+
+# The identity as the G-buffer vertex stage's u_view: a masked caster's clip position is
+# then u_proj (u_model p) with u_proj the light's matrix, as passes/shadow.vert computes it
+# (an identity product is exact), so an opaque texel of a mask lands on the same depth.
+_IDENTITY = gl_bytes(np.eye(4))
+
+
+class _MaskedCaster:
+    """An alpha-masked part (glTF alphaMode MASK) for the shadow pass: its triangles with
+    UVs (and COLOR_0, TEXCOORD_1) and its base colour map, drawn by passes/gbuffer.vert and
+    passes/shadow_mask.frag, which discards where the coverage is below the cutoff, as the
+    G-buffer pass does. Only the base colour map is uploaded (it alone carries coverage)."""
+
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart) -> None:
+        layer = part.layers[0]
+        coverage = {k: v for k, v in layer.maps.items() if k == "base_color"}
+        shown = dataclasses.replace(
+            part, layers=[dataclasses.replace(layer, maps=coverage)], blend=None
+        )
+        self.drawable = MeshDrawable(
+            ctx, shaders, shown, [0], ("passes/gbuffer.vert", "passes/shadow_mask.frag")
+        )
+
+    def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
+        """Draw into the bound map with its own program (``prog`` is the pass's)."""
+        d = self.drawable
+        d.bind_transform(_IDENTITY, light_matrix)
+        d.bind_material()
+        d.vao.render(moderngl.TRIANGLES)
+
+    def release(self) -> None:
+        self.drawable.release()
 
 
 class ShadowPass:
@@ -394,7 +434,15 @@ class ShadowPass:
         self.atlas.repeat_x = self.atlas.repeat_y = False
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
         self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
-        self.casters = [_Caster(ctx, self.prog, part) for part in parts]
+        # An alpha-masked mesh casts only what its mask keeps (an analytic sphere's mask
+        # would need its ray: it casts its whole surface, docs/shadows.md).
+        self.casters: list[_Caster | _MaskedCaster] = [
+            _MaskedCaster(ctx, shaders, part)
+            if masked(part) and part.analytic is None
+            else _Caster(ctx, self.prog, part)
+            for part in parts
+        ]
+        self.masked = any(isinstance(c, _MaskedCaster) for c in self.casters)
         self.rendered: set[int] = set()  # the maps drawn so far (indices into the lists)
         self.maps_rendered = 0  # maps drawn over this pass's life (tests, bench)
         self._cleared = False
@@ -484,10 +532,10 @@ class ShadowPass:
             ctx.viewport = (int(rect[0]), int(rect[1]), int(rect[2]), int(rect[2]))
             self.fbo.clear(depth=1.0, viewport=ctx.viewport)  # a refitted cascade's old depths
             ctx.polygon_offset = (self.slopes[k], 1.0)
-            self.prog["u_light_matrix"].write(gl_bytes(self.matrices[k]))
+            light_matrix = gl_bytes(self.matrices[k])
+            self.prog["u_light_matrix"].write(light_matrix)
             for caster in self.casters:
-                self.prog["u_model"].write(caster.model)
-                caster.vao.render(moderngl.TRIANGLES)
+                caster.draw(self.prog, light_matrix)
             self.rendered.add(k)
             self.maps_rendered += 1
         ctx.polygon_offset = (0.0, 0.0)
