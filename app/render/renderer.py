@@ -262,21 +262,27 @@ class Renderer:
         shadow maps, the lighting and blend passes and the environment background."""
         ctx = self.gl.ctx
         check_shadow_resolutions(ctx, self.scene.lights, str(self.loaded.path))
-        self._release(("lighting", "ibl", "shadows"))
+        self._release(("lighting", "ibl"))
         env = self.scene.environment
         if env is not None and env.source != "uniform":  # docs/ibl.md
             self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
         elif (uniform := uniform_environment(env)) is not None:
             self.ibl = UniformEnvironment(*uniform)
         self._build_culler()
+        self._build_shadows()
+        self._build_shading()
+        self._build_background()
+
+    def _build_shadows(self) -> None:
+        """The shadow maps, where a light casts shadows (docs/shadows.md): the opaque parts
+        cast (``_shadow_casters``), the blended ones only receive."""
+        self._release(("lighting", "shadows"))  # the lighting pass binds the old maps
         self._shadow_casters = self._opaque()
-        if any(light.shadow is not None for light in self.lights):  # docs/shadows.md
+        if any(light.shadow is not None for light in self.lights):
             opaque = self._shadow_casters
             parts = [self.frame.parts[i] for i in opaque]
             blends = [p for i, p in enumerate(self.frame.parts) if i not in set(opaque)]
-            self.shadows = ShadowPass(ctx, self.shaders, self.lights, parts, blends)
-        self._build_shading()
-        self._build_background()
+            self.shadows = ShadowPass(self.gl.ctx, self.shaders, self.lights, parts, blends)
 
     def _build_culler(self) -> None:
         """The tile culler, where the frame culls by tiles (``tiles_used``)."""
@@ -394,13 +400,14 @@ class Renderer:
             for d in self.gbuffer_pass.drawables
         ):  # an alpha_mode or anisotropy_rotation edit compiles its code in or out
             self._build_gbuffer_pass()
+        casters = self._opaque()
         masks = self.shadows is not None and (
-            self.shadows.masked or any(masked(self.frame.parts[i]) for i in self._opaque())
+            self.shadows.masked or any(masked(self.frame.parts[i]) for i in casters)
         )  # an alpha mask's coverage shapes its shadow (docs/shadows.md)
-        if self._opaque() != self._shadow_casters or masks:
-            self._build_lighting()  # the shadow maps' casters change
-        else:  # the culler, the environment's light and background, the shadow maps stay
-            self._build_shading()
+        if casters != self._shadow_casters or masks:
+            self._build_shadows()  # the casters or their coverage change
+        # the culler and the environment's light and background stay
+        self._build_shading()
 
     def set_settings(self, settings: RenderSettings) -> None:
         """New render settings; rebuilds only what depends on the keys that changed."""
