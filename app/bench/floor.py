@@ -118,7 +118,6 @@ class FloorPass:
         for group, model in enumerate(table.models):
             defines: dict[str, object] = dict(model.defines())
             defines["TILE_QUADS"] = self.quads
-            defines.update(table.gbuffer_defines())
             defines.update(renderer.gbuffer.defines())
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             # Without directional lights the walk takes the lighting pass's local term.

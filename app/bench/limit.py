@@ -86,7 +86,6 @@ class LimitPass:
         self.programs = []
         for group, model in enumerate(table.models):
             defines: dict[str, object] = dict(model.defines())
-            defines.update(table.gbuffer_defines())
             defines.update(renderer.gbuffer.defines())
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             defines.update(LIMIT_FORM=FORMS.index(form), LIMIT_LIGHTS=len(packed),

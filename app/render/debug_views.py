@@ -258,7 +258,7 @@ class DebugPass:
                 defines |= {"TILE_SIZE": TILE_SIZE, "TILE_QUADS": culler.quads}
             variants = [defines]
         else:
-            defines |= r.materials.gbuffer_defines() | r.gbuffer.defines()
+            defines |= r.gbuffer.defines()
             defines["BRDF_TERMS"] = BRDF_TERMS[r.scene.render.terms]
             models = r.materials.models
             if view in LIGHT_VIEWS:

@@ -96,11 +96,18 @@ class GBuffer:
         self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
 
     def defines(self) -> dict[str, int]:
-        """The defines of every pass that writes or decodes these targets: the encoding's,
-        GBUFFER_CONSTANT_SURFACES where RT0 is absent, and the location of each optional
-        target present (GBUFFER_LOCATION_TANGENT, _COAT_NORMAL, _EMISSION: its index in
-        the framebuffer; a layout location must be a literal)."""
-        out = encoding_defines(self.encoding)
+        """The defines of every pass that writes or decodes these targets: which optional
+        ones exist (those of ``MaterialTable.gbuffer_defines``, which chose them), the
+        encoding's, GBUFFER_CONSTANT_SURFACES where RT0 is absent, and the location of each
+        optional target present (GBUFFER_LOCATION_TANGENT, _COAT_NORMAL, _EMISSION: its
+        index in the framebuffer; a layout location must be a literal)."""
+        out = {
+            "GBUFFER_TANGENT": int(self.tangent is not None),
+            "GBUFFER_COAT_NORMAL": int(self.coat_normal is not None),
+        }
+        if self.emission is not None:  # named only where present, as the table names it
+            out["GBUFFER_EMISSION"] = 1
+        out |= encoding_defines(self.encoding)
         if self.constant_surfaces:
             out["GBUFFER_CONSTANT_SURFACES"] = 1
         for name, tex in (("TANGENT", self.tangent), ("COAT_NORMAL", self.coat_normal),
@@ -635,8 +642,8 @@ class GBufferPass:
         specular_aa: tuple[float, float] | None = None,
         defines: dict[str, int] | None = None,
     ) -> None:
-        """``defines``: the optional targets to write, ``MaterialTable.gbuffer_defines()``
-        (the target must have them: ``GBuffer(tangents=..., coat_normals=...)``)."""
+        """``defines``: the targets to write, ``GBuffer.defines()`` of the target it
+        draws into."""
         self.ctx = ctx
         self._gl_flush = gl_function(ctx, "glFlush", [])
         self._unflushed = 0  # triangles drawn since the last flush

@@ -134,7 +134,6 @@ class LightingPass:
         if form not in LIGHT_FORMS:
             raise ValueError(f"unknown light form {form!r}; choose from {LIGHT_FORMS}")
         for defines in variants:
-            defines.update(table.gbuffer_defines())
             defines.update(gbuffer)
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
             if ibl is not None:  # an environment (docs/ibl.md)

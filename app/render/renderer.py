@@ -240,7 +240,7 @@ class Renderer:
         self.gbuffer_pass = GBufferPass(
             self.gl.ctx, self.shaders, [self.frame.parts[i] for i in opaque],
             [self.frame.material_ids[i] for i in opaque], self._specular_aa(),
-            self.materials.gbuffer_defines() | self.gbuffer.defines(),
+            self.gbuffer.defines(),
         )  # fmt: skip
 
     def _build_blend(self) -> None:
