@@ -6,16 +6,21 @@ Exit codes: 0 success, 2 bad input (one line naming the file and key), 1 anythin
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
 import math
 import re
 import sys
 import time
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from app.errors import EXIT_BAD_INPUT, InputError
 from app.output import HDR_SUFFIXES, write_hdr, write_png
+from app.untrusted import RefusedError, files
+from app.untrusted.policy import InputPolicy
 
 if TYPE_CHECKING:
     import numpy as np
@@ -52,6 +57,42 @@ def _debug_views() -> dict[str, str]:
     from app.render.debug_views import DEBUG_VIEWS
 
     return DEBUG_VIEWS
+
+
+def _memory(text: str) -> int:
+    """``--max-memory``: bytes, with an optional K, M, G or T suffix (powers of 1024)."""
+    match = re.fullmatch(r"(\d+(?:\.\d+)?)\s*([KMGT]?)i?B?", text.strip(), re.IGNORECASE)
+    if not match:
+        raise argparse.ArgumentTypeError(f"expected a size such as 8G or 512M, got '{text}'")
+    scale = 1024 ** "KMGT".find(match.group(2).upper()) * 1024 if match.group(2) else 1
+    value = int(float(match.group(1)) * scale)
+    if not 1 << 20 <= value <= 1 << 50:
+        raise argparse.ArgumentTypeError(f"expected a size within 1M..1024T, got '{text}'")
+    return value
+
+
+def _input_options(parser: argparse.ArgumentParser) -> None:
+    """``--allow-path`` and ``--max-memory``: what the input may read and cost
+    (app/untrusted/policy.py, docs/stability.md "Untrusted input")."""
+    parser.add_argument(
+        "--allow-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a folder (besides each file's own and the bundled data) that the files an "
+        "input names may be read from; repeatable",
+    )
+    parser.add_argument(
+        "--max-memory",
+        type=_memory,
+        metavar="SIZE",
+        help="the most memory an input's decoded meshes and textures, and its GPU "
+        "resources, may take (default 4G); larger inputs exit 2",
+    )
+
+
+def _policy(args: argparse.Namespace) -> InputPolicy:
+    return InputPolicy.from_options(args.allow_path, args.max_memory)
 
 
 def _gl_backend(parser: argparse.ArgumentParser) -> None:
@@ -130,6 +171,7 @@ def _parser() -> argparse.ArgumentParser:
         type=_gain,
         help="with --compare-mode difference: magnification of |A - B| (default 8)",
     )
+    _input_options(render)
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
     _batch_parser(sub)
@@ -154,6 +196,7 @@ def _parser() -> argparse.ArgumentParser:
     view.add_argument(
         "--step", type=int, default=1, metavar="N", help="the walkthrough's step: RTR4 §9.N"
     )
+    _input_options(view)
     sub.add_parser(
         "bench",
         help="measure run time against error (options: pbs bench --help)",
@@ -335,6 +378,7 @@ def _batch_parser(sub: argparse._SubParsersAction) -> None:
         help="run the jobs on a new local Dask cluster of N worker processes",
     )  # fmt: skip
     _gl_backend(batch)
+    _input_options(batch)
     batch.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
 
 
@@ -373,6 +417,17 @@ def _write(path: Path, option: str, write: Callable[[Path], None]) -> None:
     except OSError as exc:
         why = f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc.strerror or exc)
         raise InputError(str(path), option, f"cannot write ({why})") from None
+
+
+def _check_output(
+    path: Path, option: str, inputs: set[Path] | frozenset[Path] = frozenset()
+) -> None:
+    """An output path that may be written: not an input of the command, not a device,
+    FIFO or folder (app/untrusted/files.py ``check_output``)."""
+    try:
+        files.check_output(path, inputs)
+    except RefusedError as exc:
+        raise InputError(str(path), option, str(exc)) from None
 
 
 def _debug_image(
@@ -424,25 +479,34 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.debug_light is not None and args.debug not in LIGHT_VIEWS:
         raise InputError("--debug-light", "", f"applies only to --debug {', '.join(LIGHT_VIEWS)}")
     scene_path = _resolve_scene(args.scene)
-    loaded = load_scene(scene_path)
-    if args.fit:
-        from app.frame.camera import fit_scene
+    outputs = [(out, "-o")] + ([(Path(args.hdr), "--hdr")] if args.hdr else [])
+    if args.hdr and Path(args.hdr).resolve() == out.resolve():
+        raise InputError(args.hdr, "--hdr", "is the same file as -o")
+    for path, option in outputs:
+        _check_output(path, option, {scene_path.resolve()})
+    with files.recording() as inputs:  # every file the scene names, for the outputs' check
+        loaded = load_scene(scene_path, _policy(args))
+        if args.fit:
+            from app.frame.camera import fit_scene
 
-        loaded = fit_scene(loaded, args.size)
-    if args.compare is not None:
-        return _render_comparison(args, loaded, out, start)
-    for option, value in (
-        ("--compare-mode", args.compare_mode),
-        ("--divider", args.divider),
-        ("--gain", args.gain),
-    ):
-        if value is not None:
-            raise InputError(option, "", "applies only with --compare")
-    gl = create_context(args.backend)
-    try:
-        renderer = Renderer(gl, loaded, args.size)
-    except InputError as exc:
-        raise _size_option(exc) from None
+            loaded = fit_scene(loaded, args.size)
+        if args.compare is not None:
+            return _render_comparison(args, loaded, out, start, inputs)
+        for option, value in (
+            ("--compare-mode", args.compare_mode),
+            ("--divider", args.divider),
+            ("--gain", args.gain),
+        ):
+            if value is not None:
+                raise InputError(option, "", "applies only with --compare")
+        gl = create_context(args.backend)
+        try:
+            renderer = Renderer(gl, loaded, args.size)
+        except InputError as exc:
+            gl.release()
+            raise _size_option(exc) from None
+    for path, option in outputs:
+        _check_output(path, option, inputs)
     light = 0 if args.debug_light is None else args.debug_light
     if args.debug in LIGHT_VIEWS and not 0 <= light < len(renderer.lights):
         count = len(renderer.lights)
@@ -476,7 +540,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def _render_comparison(
-    args: argparse.Namespace, loaded: LoadedScene, out: Path, start: float
+    args: argparse.Namespace, loaded: LoadedScene, out: Path, start: float, inputs: set[Path]
 ) -> int:
     """``render --compare KEY=A,B``: both sides validated before any GL work, then the
     split or difference composite written as the PNG (app/render/compare.py)."""
@@ -500,6 +564,7 @@ def _render_comparison(
         comparison = Comparison(gl, loaded, spec, args.size)
     except InputError as exc:
         raise _size_option(exc) from None
+    _check_output(out, "-o", inputs)
     comparison.render()
     comparison.composite(mode, divider, gain)
     ldr = comparison.read_ldr()
@@ -560,7 +625,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.exists() and not out.is_dir():
         raise InputError(str(out), "-o", "not a folder")
-    plan = plan_jobs(args.jobs, out)
+    plan = plan_jobs(args.jobs, out, _policy(args))
     client = None
     if args.scheduler is not None or args.dask_local is not None:
         option = "--scheduler" if args.scheduler is not None else "--dask-local"
@@ -723,10 +788,47 @@ def main(argv: list[str] | None = None) -> int:
         "view": cmd_view,
     }
     try:
-        return handlers[args.command](args)
+        with _notes_after_success():
+            return handlers[args.command](args)
     except InputError as exc:
         print(f"pbs: error: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except (MemoryError, RecursionError) as exc:  # a backstop: the budgets refuse first
+        what = "ran out of memory" if isinstance(exc, MemoryError) else "nests too deeply"
+        name = getattr(args, "scene", None) or getattr(args, "jobs", None) or args.command
+        print(f"pbs: error: {name}: the input {what} to be read", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+class _Held(logging.Handler):
+    """Keeps the project's log records (notes such as a glTF extension approximated)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+
+@contextlib.contextmanager
+def _notes_after_success() -> Iterator[None]:
+    """Hold the notes and warnings a command produces and print them, one line each,
+    only when it ends without an error: a refused input prints its one error line alone."""
+    logger = logging.getLogger("pbs")
+    held, propagate = _Held(), logger.propagate
+    logger.addHandler(held)
+    logger.propagate = False
+    try:
+        with warnings.catch_warnings(record=True) as caught:  # the filters in force kept
+            yield
+    finally:
+        logger.removeHandler(held)
+        logger.propagate = propagate
+    for record in held.records:
+        print(f"pbs: note: {_one_line(record.getMessage())}", file=sys.stderr)
+    for warning in caught:
+        print(f"pbs: warning: {_one_line(str(warning.message))}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Callable
@@ -44,8 +45,11 @@ def _write_exr(tmp: Path, hdr: np.ndarray) -> None:
 
     channels = {"RGB": np.ascontiguousarray(hdr[..., :3], dtype=np.float32)}
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, channels) as f:
-        f.write(str(tmp))
+    try:
+        with OpenEXR.File(header, channels) as f:
+            f.write(str(tmp))
+    except RuntimeError as exc:  # OpenEXR's C++ errors (a full disk, a write refused)
+        raise OSError(errno.EIO, f"OpenEXR could not write the file ({exc})") from None
 
 
 def write_hdr(path: Path, hdr: np.ndarray) -> None:

@@ -39,3 +39,11 @@ def walkthrough_dir() -> Path:
         if candidate.is_dir():
             return candidate
     raise FileNotFoundError(f"cannot find the walkthrough's step files next to {_PACKAGE}")
+
+
+@cache
+def bundled_dirs() -> tuple[Path, ...]:
+    """The folders of the project's own data (scenes with their meshes and textures, the
+    walkthrough's steps), resolved: files there may be named by any input
+    (app/untrusted/policy.py)."""
+    return tuple(d.resolve() for d in (scenes_dir(), walkthrough_dir()))

@@ -33,14 +33,14 @@ CASES = [
         "text-as-image",
         BASE.replace("roughness = 0.5", 'base_color_map = "n.png"'),
         "materials.m.base_color_map",
-        "cannot read image",
+        "is not an image pbs reads",
         b"this is not a PNG",
     ),
     (
         "truncated-png",
         TEXTURED,
         "materials.m.normal_map",
-        "cannot read image",
+        "is not an image pbs reads",
         "truncate",
     ),
     (
@@ -97,7 +97,7 @@ CASES = [
         "coat-normal-map-text",
         COAT_MAPPED,
         "materials.m.clearcoat_normal_map",
-        "cannot read image",
+        "is not an image pbs reads",
         b"not a PNG",
     ),
     (

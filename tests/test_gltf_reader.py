@@ -361,7 +361,7 @@ def test_meshopt_without_the_package_names_the_extra(
 @pytest.mark.parametrize(
     ("damage", "fragment"),
     [
-        (lambda d: setattr(d.accessors[0], "count", 5), "accessors[0]: 5 elements need"),
+        (lambda d: setattr(d.accessors[0], "count", 5), "NORMAL: 4 elements, POSITION has 5"),
         (lambda d: setattr(d.bufferViews[0], "byteLength", 10**6), "bufferViews[0]: bytes"),
         (lambda d: setattr(d.meshes[0].primitives[0], "material", 3), "material: 3 is not one"),
         (lambda d: setattr(d.accessors[0], "type", "VEC2"), "cannot be POSITION"),
@@ -383,7 +383,7 @@ def test_index_past_vertices_and_nan_positions(tmp_path: Path) -> None:
     b.quad(None)
     start = b.doc.bufferViews[3].byteOffset
     b.blob[start : start + 2] = np.uint16(9).tobytes()
-    with pytest.raises(InputError, match="index 9 is not below the 4 vertices"):
+    with pytest.raises(InputError, match="an index is not below the 4 vertices"):
         _parts(tmp_path, b)
     b = GltfBuilder()
     b.quad(None)

@@ -27,6 +27,7 @@ APP = REPO / "app"
 # the twins and the GL plumbing know nothing of one another.
 LAYERS: list[tuple[str, ...]] = [
     ("app.common", "app.errors", "app.resources", "app.output", "app.progress"),
+    ("app.untrusted",),  # every input file opened, parsed and budgeted (docs/stability.md)
     ("app.reference", "app.gl"),
     ("app.textures",),
     ("app.scene",),

@@ -19,11 +19,9 @@ is missing or broken fails its own job (its manifest line), never the others.
 
 from __future__ import annotations
 
-import json
 import math
 import re
-import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +31,9 @@ from app.render.compare import parse_key, set_key
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene, parse_scene, read_text
 from app.scene.model import Camera
+from app.untrusted import RefusedError, files
+from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
+from app.untrusted.structured import parse_json, parse_toml
 
 KINDS = ("orbit", "sweep", "scenes")
 _TOP_KEYS = {"scene", "size", *KINDS}
@@ -57,6 +58,7 @@ class Job:
     key: str | None = None
     value: object = None
     expected: tuple[int, int] | None = None
+    policy: InputPolicy = field(default=DEFAULT_POLICY, compare=False)
 
 
 @dataclass(frozen=True)
@@ -72,15 +74,18 @@ def _bad(file: Path, key: str, message: str) -> InputError:
     return InputError(str(file), key, message)
 
 
-def read_job_file(path: str | Path) -> dict:
-    """The job file's data: TOML, or JSON where the name ends in ``.json``."""
+def read_job_file(path: str | Path, policy: InputPolicy = DEFAULT_POLICY) -> dict:
+    """The job file's data: TOML, or JSON where the name ends in ``.json`` (nesting
+    bounded, app/untrusted/structured.py)."""
     path = Path(path)
-    text = read_text(path, "job file")
+    text = read_text(path, "job file", policy)
+    depth = policy.limits.max_nesting
     try:
-        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
-        kind = "JSON" if path.suffix.lower() == ".json" else "TOML"
-        raise _bad(path, "", f"malformed {kind}: {exc}") from None
+        data = (
+            parse_json(text, depth) if path.suffix.lower() == ".json" else parse_toml(text, depth)
+        )
+    except RefusedError as exc:
+        raise _bad(path, "", str(exc)) from None
     if not isinstance(data, dict):
         raise _bad(path, "", "expected a table (a JSON object) at the top")
     return data
@@ -120,27 +125,29 @@ def _table(file: Path, key: str, value: object, allowed: set[str]) -> dict:
     return value
 
 
-def resolve_scene(name: str, base: Path) -> Path:
-    """A scene named in a job file: relative to the job file's folder, else a bundled
-    scene's name (``showcase``), as ``pbs render`` takes it."""
-    path = Path(name)
-    if not path.is_absolute():
-        path = base / path
-    if path.exists() or Path(name).suffix:
-        return path
-    bundled = scenes_dir() / f"{name}.toml"
-    return bundled if bundled.exists() else path
+def resolve_scene(name: str, job_file: Path, policy: InputPolicy, key: str) -> Path:
+    """A scene named in a job file: a bundled scene's name (``showcase``), as ``pbs
+    render`` takes it, or a path relative to the job file's folder, confined to the
+    folders ``policy`` allows (an ``InputError`` naming ``key`` otherwise)."""
+    if not Path(name).suffix and "/" not in name:
+        bundled = scenes_dir() / f"{name}.toml"
+        if bundled.is_file() and not (job_file.parent / name).exists():
+            return bundled
+    try:
+        return files.confine(name, job_file, policy)
+    except RefusedError as exc:
+        raise _bad(job_file, key, str(exc)) from None
 
 
-def _load_base(file: Path, data: dict) -> LoadedScene:
+def _load_base(file: Path, data: dict, policy: InputPolicy) -> LoadedScene:
     if "scene" not in data:
         raise _bad(file, "scene", "missing: the scene file that the orbit or sweep renders")
-    if not isinstance(data["scene"], str):
+    if not isinstance(data["scene"], str) or not data["scene"]:
         raise _bad(file, "scene", f"expected a scene file's path, got {data['scene']!r}")
-    path = resolve_scene(data["scene"], file.parent)
+    path = resolve_scene(data["scene"], file, policy, "scene")
     if not path.is_file():
         raise _bad(file, "scene", f"no such scene file: {path}")
-    return load_scene(path)
+    return load_scene(path, policy)
 
 
 def _image_size(loaded: LoadedScene, size: tuple[int, int] | None) -> tuple[int, int]:
@@ -166,20 +173,22 @@ def orbit_cameras(camera: Camera, frames: int, degrees: float) -> list[Camera]:
     return cameras
 
 
-def _orbit(file: Path, data: dict, out: Path, size: tuple[int, int] | None) -> list[Job]:
+def _orbit(
+    file: Path, data: dict, out: Path, size: tuple[int, int] | None, policy: InputPolicy
+) -> list[Job]:
     spec = _table(file, "orbit", data["orbit"], {"frames", "degrees"})
     if "frames" not in spec:
         raise _bad(file, "orbit.frames", "missing: the number of frames")
     frames = _count(file, "orbit.frames", spec["frames"])
     degrees = _number(file, "orbit.degrees", spec.get("degrees", 360.0), -36000.0, 36000.0)
-    loaded = _load_base(file, data)
+    loaded = _load_base(file, data, policy)
     expected = _image_size(loaded, size)
     jobs = []
     for k, camera in enumerate(orbit_cameras(loaded.scene.camera, frames, degrees)):
         name = f"frame-{k:04d}"
         output = str(out / f"{name}.png")
         jobs.append(Job(name, output, str(loaded.path), size, camera.model_dump(), None, None,
-                        expected))  # fmt: skip
+                        expected, policy))  # fmt: skip
     return jobs
 
 
@@ -202,30 +211,36 @@ def _sweep_values(file: Path, spec: dict) -> list[object]:
     return [float(v) for v in np.linspace(start, stop, count)]
 
 
-def _sweep(file: Path, data: dict, out: Path, size: tuple[int, int] | None) -> list[Job]:
+def _sweep(
+    file: Path, data: dict, out: Path, size: tuple[int, int] | None, policy: InputPolicy
+) -> list[Job]:
     spec = _table(file, "sweep", data["sweep"], {"key", "values", "start", "stop", "count"})
     if not isinstance(spec.get("key"), str):
         raise _bad(file, "sweep.key", "missing or not a string: the scene key to sweep")
     origin = f"{file}: sweep.key"
     path = parse_key(spec["key"], str(file))
     values = _sweep_values(file, spec)
-    loaded = _load_base(file, data)
+    loaded = _load_base(file, data, policy)
     jobs = []
     for i, value in enumerate(values):
         scene_data = loaded.scene.model_dump(exclude_none=True)
         set_key(scene_data, path, value, str(loaded.path), origin)
         try:
-            swept = parse_scene(scene_data, loaded.path)
+            swept = parse_scene(scene_data, loaded.path, policy)
         except InputError as exc:
             raise _bad(file, f"sweep.values[{i}]", f"{spec['key']} = {value!r}: {exc}") from None
         name = f"sweep-{i:04d}"
         output = str(out / f"{name}.png")
         expected = _image_size(swept, size)
-        jobs.append(Job(name, output, str(loaded.path), size, None, spec["key"], value, expected))
+        jobs.append(
+            Job(name, output, str(loaded.path), size, None, spec["key"], value, expected, policy)
+        )
     return jobs
 
 
-def _scenes(file: Path, data: dict, out: Path, size: tuple[int, int] | None) -> list[Job]:
+def _scenes(
+    file: Path, data: dict, out: Path, size: tuple[int, int] | None, policy: InputPolicy
+) -> list[Job]:
     names = data["scenes"]
     if "scene" in data:
         raise _bad(file, "scene", "a scenes list names its own files: give no scene")
@@ -235,22 +250,23 @@ def _scenes(file: Path, data: dict, out: Path, size: tuple[int, int] | None) -> 
     for i, name in enumerate(names):
         if not isinstance(name, str) or not name:
             raise _bad(file, f"scenes[{i}]", f"expected a scene file's path, got {name!r}")
-        path = resolve_scene(name, file.parent)
+        path = resolve_scene(name, file, policy, f"scenes[{i}]")
         stem = re.sub(r"[^A-Za-z0-9_.-]", "_", path.stem)
         job_id = f"{i:04d}-{stem}"
         try:  # the size resume checks against; a broken file fails its own job later
-            expected = _image_size(load_scene(path), size)
+            expected = _image_size(load_scene(path, policy), size)
         except InputError:
             expected = None
         output = str(out / f"{job_id}.png")
-        jobs.append(Job(job_id, output, str(path), size=size, expected=expected))
+        jobs.append(Job(job_id, output, str(path), size=size, expected=expected, policy=policy))
     return jobs
 
 
-def plan_jobs(path: str | Path, out: str | Path) -> Plan:
-    """The job file at ``path`` validated and expanded into jobs writing under ``out``."""
+def plan_jobs(path: str | Path, out: str | Path, policy: InputPolicy = DEFAULT_POLICY) -> Plan:
+    """The job file at ``path`` validated and expanded into jobs writing under ``out``;
+    the scenes it names, and the files they name, are read under ``policy``."""
     file = Path(path)
-    data = read_job_file(file)
+    data = read_job_file(file, policy)
     for key in data:
         if key not in _TOP_KEYS:
             raise _bad(file, key, f"unknown key (known: {', '.join(sorted(_TOP_KEYS))})")
@@ -259,4 +275,4 @@ def plan_jobs(path: str | Path, out: str | Path) -> Plan:
         raise _bad(file, "", f"expected exactly one of {', '.join(KINDS)}, found {len(kinds)}")
     size = _size(file, data["size"]) if "size" in data else None
     make = {"orbit": _orbit, "sweep": _sweep, "scenes": _scenes}[kinds[0]]
-    return Plan(str(file), kinds[0], make(file, data, Path(out), size))
+    return Plan(str(file), kinds[0], make(file, data, Path(out), size, policy))

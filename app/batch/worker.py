@@ -68,7 +68,7 @@ def _renderer(warm: _Warm, job: Job) -> tuple[Renderer, LoadedScene]:
         if warm.renderer is not None:
             warm.renderer.release()
             warm.renderer, warm.key = None, None
-        warm.base = load_scene(job.scene)
+        warm.base = load_scene(job.scene, job.policy)
         warm.renderer = Renderer(warm.gl, warm.base, job.size, shaders=warm.shaders)
         warm.key = key
     return warm.renderer, warm.base
@@ -82,7 +82,7 @@ def _show(renderer: Renderer, base: LoadedScene, job: Job) -> None:
     elif job.key is not None:
         data = scene.model_dump(exclude_none=True)
         set_key(data, parse_key(job.key), job.value, str(base.path), "sweep")
-        scene = parse_scene(data, base.path).scene
+        scene = parse_scene(data, base.path, base.policy).scene
     renderer.update(scene)
 
 

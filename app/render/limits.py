@@ -1,4 +1,5 @@
-"""Render sizes the GL can allocate: refused up front, before any target exists.
+"""Render sizes the GL can allocate, and the GPU memory of a scene: refused up front,
+before any target exists or anything is uploaded.
 
 A size past the GL's limits does not fail where it is asked for: ``ctx.texture`` or the
 framebuffer fails later with a GL error or an incomplete framebuffer (a traceback, exit 1),
@@ -17,14 +18,24 @@ The rule (docs/scene-format.md, "Image size limits"):
   f32 G-buffer (60 bytes a pixel, 3.75 GiB) and refuses 16384 x 16384 (15 GiB), which no
   GPU of the project's users can hold next to its meshes and which under llvmpipe would
   come out of system memory.
+
+And the whole: the scene's geometry and textures as the G-buffer pass uploads them, the
+render targets and the shadow atlas add up to at most ``Limits.max_memory`` (the policy's
+``--max-memory``; ``check_gpu_memory``), since a small file can name thousands of drawn
+copies of one textured mesh and each copy has its own buffers and textures.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterable
 
 import moderngl
 
 from app.common.gbuffer import ENCODINGS
 from app.errors import InputError
+from app.scene.geometry import MeshPart
+from app.textures.maps import Texture
+from app.untrusted.budget import describe
 
 MAX_TARGET_BYTES = 4 << 30
 
@@ -97,4 +108,43 @@ def check_render_size(
             f"render size {how} needs {total / 2**30:.1f} GiB of render targets "
             f"({bytes_per_pixel} bytes a pixel), past the limit of "
             f"{MAX_TARGET_BYTES / 2**30:g} GiB",
+        )
+
+
+def texture_bytes(tex: Texture) -> int:
+    """The GPU bytes of a map as ``upload_texture`` (app/render/gbuffer.py) stores it:
+    RGBA8 with the GL's mips (4/3 of level 0) for colour, 16-bit floats per level else."""
+    level0 = tex.levels[0]
+    if tex.srgb:
+        return level0.shape[0] * level0.shape[1] * 4 * 4 // 3
+    return sum(level.size * 2 for level in tex.levels)
+
+
+def part_bytes(part: MeshPart) -> int:
+    """The GPU bytes of one drawn part: its vertex, index and extra attribute buffers and
+    the maps of the layers it samples (each part uploads its own, as the G-buffer pass
+    does)."""
+    total = part.vertices.nbytes + part.indices.nbytes
+    total += sum(a.nbytes for a in (part.uv1, part.colors) if a is not None)
+    layers = part.layers[:2] if part.blend else part.layers[:1]
+    total += sum(texture_bytes(tex) for layer in layers for tex in layer.maps.values())
+    if part.blend is not None:
+        total += texture_bytes(part.blend.mask)
+    return total
+
+
+def check_gpu_memory(
+    parts: Iterable[MeshPart], target_bytes: int, shadow_bytes: int, limit: int, file: str
+) -> None:
+    """``InputError`` where the scene's parts, render targets and shadow atlas take more
+    than ``limit`` bytes of GPU memory together."""
+    geometry = sum(part_bytes(p) for p in parts)
+    total = geometry + target_bytes + shadow_bytes
+    if total > limit:
+        raise InputError(
+            file,
+            "",
+            f"the scene needs about {describe(total)} of GPU memory (meshes and textures "
+            f"{describe(geometry)}, render targets {describe(target_bytes)}, shadow maps "
+            f"{describe(shadow_bytes)}), past the limit of {describe(limit)} (--max-memory)",
         )

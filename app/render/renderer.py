@@ -35,9 +35,9 @@ from app.render.culling import LightCuller, tiles_used
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.lighting import LightingPass
-from app.render.limits import check_render_size, target_bytes_per_pixel
+from app.render.limits import check_gpu_memory, check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
-from app.render.shadows import ShadowPass, check_shadow_resolutions
+from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
 
@@ -180,7 +180,7 @@ class Renderer:
         viewer switches between its preview and full size after every input)."""
         settings = self.scene.render
         table = self.materials
-        # Refused before anything is allocated or released (app/render/limits.py): a
+        # RefusedError before anything is allocated or released (app/render/limits.py): a
         # renderer that refuses a resize keeps its old targets.
         constant = self._constant_surfaces()
         per_pixel = target_bytes_per_pixel(
@@ -190,6 +190,12 @@ class Renderer:
         check_render_size(
             self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
             "size" if self._size is not None else "render.width, render.height",
+        )  # fmt: skip
+        w, h = self.render_size
+        check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
+        check_gpu_memory(
+            self.frame.parts, w * h * per_pixel, shadow_atlas_bytes(self.scene.lights),
+            self.loaded.policy.limits.max_memory, str(self.loaded.path),
         )  # fmt: skip
         self._release(("gbuffer",))
         self.gbuffer = GBuffer(

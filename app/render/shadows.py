@@ -93,15 +93,32 @@ def atlas_layout(sizes: list[int], limit: int) -> tuple[list[tuple[int, int]], i
     return origins, width, y + row
 
 
+def shadow_map_sizes(lights: list[Light]) -> list[tuple[int, int]]:
+    """(light index, resolution) of every map the shadowed lights take, in atlas order:
+    six for a point light, one per cascade for a directional light, else one."""
+    out = []
+    for i, light in enumerate(lights):
+        if light.shadow:
+            count = map_count(light.type) * max(light.shadow_cascades, 1)
+            out += [(i, light.shadow_resolution)] * count
+    return out
+
+
+def shadow_atlas_bytes(lights: list[Light]) -> int:
+    """The bytes of the shadow atlas's depth texels (4 each) for ``lights``' maps."""
+    return sum(4 * size * size for _, size in shadow_map_sizes(lights))
+
+
 def check_shadow_resolutions(ctx: moderngl.Context, lights: list[Light], file: str) -> None:
     """InputError naming ``lights[i].shadow_resolution`` where one map, or the atlas of all
-    of them packed in rows, is larger than this GL's largest texture."""
+    of them (cascades and cube faces included) packed in rows, is larger than this GL's
+    largest texture."""
     limit = max_dimension(ctx)
     sizes: list[int] = []
     for i, light in enumerate(lights):
         if not light.shadow:
             continue
-        sizes += [light.shadow_resolution] * map_count(light.type)
+        sizes += [light.shadow_resolution] * map_count(light.type) * max(light.shadow_cascades, 1)
         _, _, height = atlas_layout(sizes, limit)
         if light.shadow_resolution > limit or height > limit:
             what = (

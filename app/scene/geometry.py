@@ -18,6 +18,7 @@ highlights on primitives run along lines of latitude).
 from __future__ import annotations
 
 import functools
+import io
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,6 +33,7 @@ from app.common.primitives import Primitive
 from app.errors import InputError
 from app.scene.gltf import GltfFile
 from app.scene.gltf_document import GltfError
+from app.scene.gltf_schema import MAX_COORDINATE
 from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
@@ -40,6 +42,7 @@ from app.scene.references import (
     gltf_problem,
     obj_libraries,
     obj_materials,
+    obj_mtl_files,
     obj_problem,
 )
 from app.textures.bake import bake_blend
@@ -54,6 +57,8 @@ from app.textures.maps import (
     resample,
     scalar_texture,
 )
+from app.untrusted import RefusedError, files
+from app.untrusted.budget import Budget
 
 VERTEX_FORMAT = "3f 3f 2f 4f"
 VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
@@ -355,7 +360,7 @@ def _file_material(
     fallback: MaterialParams,
     normal_filter: str,
     mtl: dict[str, dict[str, MtlMap]] | None = None,
-    read: Callable[[Path], Image.Image] | None = None,
+    read: Callable[[MtlMap], Image.Image] | None = None,
 ) -> SurfaceLayer:
     """With ``mtl`` (an OBJ that names an MTL file: its materials' maps by name,
     ``obj_materials``), the MTL's material (``_mtl_material``; ``read`` opens its maps);
@@ -416,7 +421,7 @@ def _mtl_material(
     maps: dict[str, MtlMap],
     fallback: MaterialParams,
     normal_filter: str,
-    read: Callable[[Path], Image.Image],
+    read: Callable[[MtlMap], Image.Image],
 ) -> SurfaceLayer:
     """An OBJ's MTL material as the glTF path reads one (docs/scene-format.md, "Mesh
     files"). Each map multiplies its factor, and a map without its factor has factor 1:
@@ -456,7 +461,7 @@ def _mtl_material(
         roughness=min(max(roughness, 0.0), 1.0),
         f0=fallback.f0,
     )
-    images = {key: read(m.file) for key, m in maps.items()}
+    images = {key: read(m) for key, m in maps.items()}
     layer = SurfaceLayer(params)
     if "map_kd" in images or "map_d" in images:
         rgba = _coverage_rgba(images.get("map_kd"), images.get("map_d"))
@@ -495,48 +500,100 @@ def _bump_multiplier(norm: MtlMap) -> float:
 _DEFAULT_MATERIAL = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
 
 
+# The map an MTL statement becomes, for what it costs (app/untrusted/budget.py).
+_MTL_KINDS = {"map_kd": "colour", "map_ke": "colour", "norm": "normal", "map_pr": "normal"}
+# The file types trimesh reads for the project (by suffix), from bytes pbs read itself.
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
+
+
 def _load_file(
-    loaded: LoadedScene, index: int, obj: SceneObject
+    loaded: LoadedScene, index: int, obj: SceneObject, budget: Budget
 ) -> tuple[list[tuple[trimesh.Trimesh, np.ndarray]], dict[str, dict[str, MtlMap]] | None]:
     """The file's triangle meshes with their node transforms and, for an OBJ that names
-    an MTL, its materials' maps by name (the materials then apply, ``_mtl_material``)."""
-    path = loaded.resolve_file(obj.file or "")
-    # A missing texture or buffer, or a required extension, is bad input: trimesh would
-    # load the file without it (a white model, or geometry it cannot draw).
+    an MTL, its materials' maps by name (the materials then apply, ``_mtl_material``).
+
+    The file is read here (confined, a plain file, within the size limit) and trimesh
+    parses the bytes; an OBJ's MTL files reach it through a resolver holding only the MTL
+    files this module confined and read, so trimesh opens no file itself (it would take
+    any ``mtllib ../../x`` and image name it finds)."""
+    scene_file, key = str(loaded.path), f"objects[{index}].file"
+    path = loaded.resolve_file(obj.file or "", key)
+    policy = loaded.policy
     suffix = path.suffix.lower()
-    libraries = obj_libraries(path) if suffix == ".obj" and path.is_file() else []
-    problem = obj_problem(path, libraries) if suffix == ".obj" else None
-    if problem is not None:
-        raise InputError(str(loaded.path), f"objects[{index}].file", problem)
-    mtl = obj_materials(path, libraries) if libraries else None
     try:
-        data = trimesh.load(str(path), process=False)
+        if suffix not in MESH_SUFFIXES:
+            raise RefusedError(
+                f"{path}: not a mesh file pbs reads (.gltf, .glb, {', '.join(MESH_SUFFIXES)})"
+            )
+        data = files.read_bytes(path, policy.limits.max_file_bytes)
+        budget.charge(len(data), "mesh file byte", f"{path.name} ({len(data)} bytes)")
+    except RefusedError as exc:
+        raise InputError(scene_file, key, str(exc)) from None
+    # A missing texture or MTL is bad input: trimesh would load the file without it (a
+    # white model).
+    libraries = obj_libraries(data) if suffix == ".obj" else []
+    problem = obj_problem(path, libraries, policy) if libraries else None
+    if problem is not None:
+        raise InputError(scene_file, key, problem)
+    mtl = obj_materials(path, libraries, policy) if libraries else None
+    resolver = {
+        name: files.read_bytes(mtl_path, policy.limits.max_text_bytes)
+        for name, mtl_path in zip(libraries, obj_mtl_files(path, libraries, policy), strict=True)
+    }
+    try:
+        mesh_data = trimesh.load(
+            io.BytesIO(data), file_type=suffix[1:], resolver=resolver, process=False
+        )
     except Exception as exc:  # trimesh raises many types for unreadable files
         raise InputError(
-            str(loaded.path),
-            f"objects[{index}].file",
-            f"cannot read mesh {path} ({type(exc).__name__}: {exc})",
+            scene_file, key, f"cannot read mesh {path} ({type(exc).__name__}: {exc})"
         ) from None
-    if isinstance(data, trimesh.Trimesh):
-        return [(data, np.eye(4))], mtl
-    if isinstance(data, trimesh.Scene):
+    if isinstance(mesh_data, trimesh.Trimesh):
+        if len(mesh_data.faces):
+            return [(mesh_data, np.eye(4))], mtl
+    elif isinstance(mesh_data, trimesh.Scene):
         parts = []
-        for node in data.graph.nodes_geometry:
-            transform, name = data.graph[node]
-            geom = data.geometry[name]
+        for node in mesh_data.graph.nodes_geometry:
+            transform, name = mesh_data.graph[node]
+            geom = mesh_data.geometry[name]
             if isinstance(geom, trimesh.Trimesh) and len(geom.faces):
                 parts.append((geom, np.asarray(transform, np.float64)))
         if parts:
             return parts, mtl
-    raise InputError(str(loaded.path), f"objects[{index}].file", f"{path} holds no triangles")
+    raise InputError(scene_file, key, f"{path} holds no triangles")
 
 
-def _image_reader(loaded: LoadedScene, index: int) -> Callable[[Path], Image.Image]:
+def _image_reader(
+    loaded: LoadedScene, index: int, budget: Budget
+) -> Callable[[MtlMap], Image.Image]:
     """Opens an MTL map of object ``index`` once per file (parts sharing a material, or
     materials sharing a map, read it once); a file that does not decode is an InputError
     naming the object."""
     key = f"objects[{index}].file"
-    return functools.cache(lambda file: read_image(str(file), str(loaded.path), key))
+
+    @functools.cache
+    def read(file: Path, kind: str) -> Image.Image:
+        return read_image(file, str(loaded.path), key, budget, kind)
+
+    return lambda m: read(m.file, _MTL_KINDS.get(m.keyword.lower(), "scalar"))
+
+
+def check_extent(part: MeshPart, scene_file: str, key: str) -> None:
+    """A mesh part's world-space corners finite and within ``MAX_COORDINATE`` metres (a
+    file's NaN vertex, or coordinates whose squares overflow float32 in the light loop);
+    an InputError naming the object otherwise."""
+    p = part.vertices[:, :3].astype(np.float64)
+    with np.errstate(all="ignore"):  # NaN and overflow are what is checked
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])  # fmt: skip
+        world = corners @ part.model.T
+    if not np.all(np.isfinite(p)) or not np.all(np.abs(world[:, :3]) <= MAX_COORDINATE):
+        raise InputError(
+            scene_file,
+            key,
+            f"its vertices are NaN, infinite or placed past {MAX_COORDINATE:g} m from the origin",
+        )
 
 
 GLTF_SUFFIXES = (".gltf", ".glb")
@@ -548,19 +605,20 @@ def _gltf_parts(
     model: np.ndarray,
     chosen: tuple[list[SurfaceLayer], BlendMask | None] | None,
     normal_filter: str,
+    budget: Budget,
 ) -> list[MeshPart]:
     """A glTF/GLB object's primitives (app/scene/gltf.py), each with its world matrix
     ``model @ node``. The file's material gives the layer and, through ``doubleSided``,
     whether back faces are culled; a scene material replaces it and keeps the part
     two-sided, as for other mesh files. Any problem with the file is one InputError."""
-    path = loaded.resolve_file(loaded.scene.objects[index].file or "")
     scene_file, key = str(loaded.path), f"objects[{index}].file"
-    problem = gltf_problem(path) if path.is_file() else None  # missing files, extensions
-    if problem is not None:
-        raise InputError(scene_file, key, problem)
+    path = loaded.resolve_file(loaded.scene.objects[index].file or "", key)
     parts: list[MeshPart] = []
     try:
-        gltf = GltfFile(path)
+        gltf = GltfFile(path, loaded.policy, budget)
+        problem = gltf_problem(gltf.doc, path, loaded.policy)  # missing files, extensions
+        if problem is not None:
+            raise InputError(scene_file, key, problem)
         for prim in gltf.primitives():
             blend, closed = None, False
             if chosen is not None:
@@ -614,39 +672,60 @@ def _material_layers(
     return result
 
 
-def build_parts(loaded: LoadedScene) -> list[MeshPart]:
-    """Every object of the scene as drawable mesh parts."""
+def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshPart]:
+    """Every object of the scene as drawable mesh parts. Every file is read under the
+    scene's policy and every part charged to ``budget`` (one for the scene where None)
+    before it is built (app/untrusted/budget.py)."""
     scene = loaded.scene
-    builder = LayerBuilder(loaded)
+    scene_file = str(loaded.path)
+    budget = budget or Budget(loaded.policy.limits)
+    builder = LayerBuilder(loaded, budget)
     cache: dict = {}
     parts: list[MeshPart] = []
+
+    def charge(vertices: int, triangles: int, key: str, what: str) -> None:
+        try:
+            budget.mesh(vertices, triangles, what)
+        except RefusedError as exc:
+            raise InputError(scene_file, key, str(exc)) from None
+
     for i, obj in enumerate(scene.objects):
+        key = f"objects[{i}]"
         model = model_matrix(obj)
         chosen = _material_layers(builder, obj.material, cache) if obj.material else None
         if obj.shape == "sphere" and obj.subdivisions is None:  # analytic
             radius = obj.radius or 0.5
             vertices, indices = sphere_proxy(radius)
+            charge(len(vertices), len(indices) // 3, key, f"{key}, a sphere")
             layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)
             analytic = Primitive("sphere", model, radius=radius)
             parts.append(MeshPart(vertices, indices, layers, model, blend, True, i, analytic))
             continue
         if obj.shape != "mesh":
-            vertices, indices = _interleave(_primitive(obj))
+            mesh = _primitive(obj)
+            charge(len(mesh.vertices), len(mesh.faces), key, f"{key}, a {obj.shape}")
+            vertices, indices = _interleave(mesh)
             layers, blend = chosen or ([SurfaceLayer(_DEFAULT_MATERIAL)], None)
             parts.append(MeshPart(vertices, indices, layers, model, blend, obj.shape != "plane", i))
             continue
-        if loaded.resolve_file(obj.file or "").suffix.lower() in GLTF_SUFFIXES:
-            parts.extend(_gltf_parts(loaded, i, model, chosen, builder.normal_filter))
-            continue
-        meshes, mtl = _load_file(loaded, i, obj)
-        read = _image_reader(loaded, i)
-        for mesh, local in meshes:
-            if chosen is not None:  # the scene's material overrides the file's
-                layers, blend = chosen
-            else:
-                filt = builder.normal_filter
-                layers = [_file_material(mesh, _DEFAULT_MATERIAL, filt, mtl, read)]
-                blend = None
-            vertices, indices = _interleave(mesh)
-            parts.append(MeshPart(vertices, indices, layers, model @ local, blend, False, i))
+        file_key = f"{key}.file"
+        if Path(obj.file or "").suffix.lower() in GLTF_SUFFIXES:
+            built = _gltf_parts(loaded, i, model, chosen, builder.normal_filter, budget)
+        else:
+            meshes, mtl = _load_file(loaded, i, obj, budget)
+            read = _image_reader(loaded, i, budget)
+            built = []
+            for mesh, local in meshes:
+                charge(len(mesh.vertices), len(mesh.faces), file_key, f"{obj.file}'s mesh")
+                if chosen is not None:  # the scene's material overrides the file's
+                    layers, blend = chosen
+                else:
+                    filt = builder.normal_filter
+                    layers = [_file_material(mesh, _DEFAULT_MATERIAL, filt, mtl, read)]
+                    blend = None
+                vertices, indices = _interleave(mesh)
+                built.append(MeshPart(vertices, indices, layers, model @ local, blend, False, i))
+        for part in built:
+            check_extent(part, scene_file, file_key)
+        parts.extend(built)
     return parts

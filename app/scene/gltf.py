@@ -1,5 +1,6 @@
 """The project's glTF 2.0 reader: every triangle primitive of the shown scene and its
-material, read from the JSON and the buffers themselves (pygltflib parses the JSON).
+material, read from the JSON and the buffers themselves (app/scene/gltf_document.py parses
+and checks the JSON).
 
 trimesh read glTF before: it passed material factors through 8 bits, dropped the normal,
 occlusion and emissive maps, samplers, TEXCOORD_1, COLOR_0 and texture transforms, and
@@ -22,28 +23,32 @@ What is read (docs/scene-format.md, "Mesh files"):
   flipped (glTF's origin is the image's top left, the project's the bottom left); the
   tangent's w keeps its meaning (the file's bitangent points up the image in both).
 - Materials -> ``SurfaceLayer`` at full float64 precision (``GltfFile.layer``).
+
+Untrusted input (docs/stability.md): the document is checked against glTF 2.0's schema
+before it is read (app/scene/gltf_document.py); buffer and image URIs are confined to the
+file's folder (app/untrusted/files.py); a primitive's declared vertex and index counts are
+charged to the scene's ``Budget`` before one is decoded, and so is every buffer read and
+image decoded; attribute values past ``MAX_COORDINATE`` are refused.
 """
 
 from __future__ import annotations
 
 import base64
-import io
 import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
-from urllib.parse import unquote
 
 import numpy as np
-import pygltflib
 from PIL import Image
 
 from app.common.models import MaterialParams
-from app.scene.gltf_document import GltfError, open_gltf, world_matrices
+from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matrices
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
+from app.scene.gltf_schema import MAX_COORDINATE
+from app.scene.model import MAX_RADIANCE
 from app.textures.maps import (
-    MAX_TEXTURE_SIZE,
     SurfaceLayer,
     Texture,
     UvTransform,
@@ -52,8 +57,12 @@ from app.textures.maps import (
     decode_normals,
     direction_texture,
     normal_roughness_chain,
+    open_image,
     scalar_texture,
 )
+from app.untrusted import RefusedError, files
+from app.untrusted.budget import Budget
+from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 
 # Accessor componentType -> little-endian numpy type, and the divisor of a normalized
 # integer (glTF 2.0 sec. 3.11: signed values are max(c / (2^(n-1) - 1), -1)).
@@ -77,7 +86,6 @@ _SEMANTICS: dict[str, tuple[tuple[str, ...], tuple[int, ...]]] = {
     "COLOR_0": (("VEC3", "VEC4"), (5126, 5121, 5123)),
     "indices": (("SCALAR",), (5121, 5123, 5125)),
 }
-MAX_ELEMENTS = 1 << 24  # per accessor (16.7M): past this a file is refused, not allocated
 _TRIANGLE_MODES = (4, 5, 6)  # TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN
 _WRAP = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 _FILTERS = {
@@ -91,8 +99,9 @@ _FILTERS = {
 _MAG_FILTERS = (9728, 9729)
 _FILTER_STRIDES = {"OCTAHEDRAL": (4, 8), "QUATERNION": (8,)}  # EXT_meshopt_compression
 _LOG = logging.getLogger("pbs.gltf")  # notes on approximated extension parameters
-_TABLES = ("accessors", "bufferViews", "buffers", "images", "materials", "meshes", "nodes")
-_TABLES += ("samplers", "scenes", "textures")
+# KHR_texture_transform's offset and scale: far past any tiling, small enough that a UV
+# times it stays finite and meaningful in float32.
+MAX_UV_TRANSFORM = 1e6
 
 
 def meshopt_available() -> bool:
@@ -160,15 +169,15 @@ def _object(value: object, key: str) -> dict:
 class GltfFile:
     """A glTF/GLB opened and its buffers and images read on demand, each once."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(
+        self, path: Path, policy: InputPolicy = DEFAULT_POLICY, budget: Budget | None = None
+    ) -> None:
         self.path = path
-        self.doc: pygltflib.GLTF2 = open_gltf(path)
-        for name in _TABLES:  # pygltflib keeps a JSON null or number where an object was
-            for i, entry in enumerate(self._table(name)):
-                if not hasattr(entry, "extensions"):
-                    raise GltfError(f"{name}[{i}]", "must be a JSON object")
-        self._buffers: dict[int, bytes] = {}
-        self._views: dict[int, bytes] = {}
+        self.policy = policy
+        self.budget = budget or Budget(policy.limits)
+        self.doc = open_gltf(path, policy)
+        self._buffers: dict[int, memoryview] = {}
+        self._views: dict[int, memoryview] = {}
         self._accessors: dict[tuple[int, str], np.ndarray] = {}
         self._images: dict[int, Image.Image] = {}
         self._layers: dict[tuple[int, str, int], SurfaceLayer] = {}
@@ -189,13 +198,21 @@ class GltfFile:
                 return base64.b64decode(data, validate=True)
             except ValueError:
                 raise GltfError(key, "a data: URI that is not valid base64") from None
-        file = self.path.parent / unquote(uri)
         try:
-            return file.read_bytes()
-        except OSError as exc:
-            raise GltfError(key, f"{file} cannot be read ({type(exc).__name__})") from None
+            file = files.confine_uri(uri, self.path, self.policy)
+            data = files.read_bytes(file, self.policy.limits.max_file_bytes)
+        except RefusedError as exc:
+            raise GltfError(key, str(exc)) from None
+        return data
 
-    def buffer(self, index: int, key: str) -> bytes:
+    def _charge(self, units: int, kind: str, key: str, what: str) -> None:
+        """Charge the scene's budget for what ``key`` is about to make."""
+        try:
+            self.budget.charge(units, kind, what)
+        except RefusedError as exc:
+            raise GltfError(key, str(exc)) from None
+
+    def buffer(self, index: int, key: str) -> memoryview:
         buffers = self._table("buffers")
         i = _int(index, key, len(buffers))
         if i not in self._buffers:
@@ -209,13 +226,12 @@ class GltfFile:
                 data = self._uri_bytes(entry.uri, f"buffers[{i}].uri")
             length = _int(entry.byteLength, f"buffers[{i}].byteLength", low=1)
             if len(data) < length:
-                raise GltfError(
-                    f"buffers[{i}].byteLength", f"{length} bytes, but only {len(data)} are there"
-                )
-            self._buffers[i] = data[:length]
+                raise GltfError(f"buffers[{i}].byteLength", f"{length}: the data is shorter")
+            self._charge(length, "byte", f"buffers[{i}]", f"a buffer of {length} bytes")
+            self._buffers[i] = memoryview(data)[:length]
         return self._buffers[i]
 
-    def view(self, index: int, key: str) -> bytes:
+    def view(self, index: int, key: str) -> memoryview:
         """A bufferView's bytes (decompressed where EXT_meshopt_compression packs them)."""
         views = self._table("bufferViews")
         i = _int(index, key, len(views))
@@ -224,7 +240,7 @@ class GltfFile:
             vkey = f"bufferViews[{i}]"
             meshopt = (v.extensions or {}).get("EXT_meshopt_compression")
             if meshopt is not None:
-                self._views[i] = self._meshopt(_object(meshopt, vkey), vkey)
+                self._views[i] = memoryview(self._meshopt(_object(meshopt, vkey), vkey))
             else:
                 data = self.buffer(v.buffer, f"{vkey}.buffer")
                 self._views[i] = _slice(data, v.byteOffset or 0, v.byteLength, vkey)
@@ -248,8 +264,9 @@ class GltfFile:
         stride = _int(ext.get("byteStride"), f"{key}.byteStride", low=1)
         mode = ext.get("mode")
         filt = ext.get("filter", "NONE")
-        if count > MAX_ELEMENTS:
-            raise GltfError(f"{key}.count", f"{count} is more than {MAX_ELEMENTS}")
+        # The decoded view is count x stride bytes (4-byte indices at most twice that).
+        self._charge(count * max(stride, 4) * 2, "byte", key, f"{count} elements decoded")
+        source = bytes(source)
         try:
             if mode == "ATTRIBUTES":
                 if stride % 4 or stride > 256:
@@ -314,8 +331,6 @@ class GltfFile:
         n = _TYPES[a.type]
         dtype, divisor = _COMPONENTS[a.componentType]
         count = _int(a.count, f"{akey}.count", low=1)
-        if count > MAX_ELEMENTS:
-            raise GltfError(f"{akey}.count", f"{count} is more than {MAX_ELEMENTS}")
         if a.bufferView is None:
             values = np.zeros((count, n), dtype)
         else:
@@ -331,8 +346,10 @@ class GltfFile:
             out = np.maximum(out / divisor, -1.0)
         elif a.componentType not in (5126,) and semantic in ("NORMAL", "TANGENT", "COLOR_0"):
             raise GltfError(f"{akey}.normalized", f"integer {semantic} must be normalized")
-        if not np.all(np.isfinite(out)):
-            raise GltfError(akey, f"{semantic} holds NaN or infinite values")
+        if not np.all(np.abs(out) <= MAX_COORDINATE):  # NaN and infinities fail too
+            raise GltfError(
+                akey, f"{semantic} holds NaN, infinite or values past {MAX_COORDINATE:g}"
+            )
         return out
 
     def _strided(
@@ -360,7 +377,7 @@ class GltfFile:
         return raw.copy()
 
     def _sparse(
-        self, sparse: pygltflib.Sparse, values: np.ndarray, n: int, dtype: str, akey: str
+        self, sparse: JsonObject, values: np.ndarray, n: int, dtype: str, akey: str
     ) -> np.ndarray:
         skey = f"{akey}.sparse"
         count = _int(sparse.count, f"{skey}.count", low=1)
@@ -390,7 +407,9 @@ class GltfFile:
         """Every triangle primitive of every node of the shown scene."""
         meshes = self._table("meshes")
         out = []
-        for node_index, world in world_matrices(self.doc).items():
+        for node_index, world in world_matrices(
+            self.doc, self.policy.limits.max_node_depth
+        ).items():
             node = self.doc.nodes[node_index]
             if node.mesh is None:
                 continue
@@ -403,9 +422,27 @@ class GltfFile:
                     out.append(part)
         return out
 
-    def _primitive(
-        self, prim: pygltflib.Primitive, key: str, world: np.ndarray
-    ) -> GltfPrimitive | None:
+    def _declared(self, prim: JsonObject, key: str) -> tuple[int, int]:
+        """(vertices, indices) a primitive's accessors declare, every attribute's count
+        equal to POSITION's: known from the JSON before a byte is decoded."""
+        accessors = self._table("accessors")
+
+        def count(index: object, where: str) -> int:
+            return accessors[_int(index, where, len(accessors))].count
+
+        if prim.attributes.POSITION is None:
+            raise GltfError(f"{key}.attributes", "has no POSITION")
+        vertices = count(prim.attributes.POSITION, f"{key}.attributes.POSITION")
+        for name in ("NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "COLOR_0"):
+            index = prim.attributes.get(name)
+            if index is not None and (n := count(index, f"{key}.attributes.{name}")) != vertices:
+                raise GltfError(
+                    f"{key}.attributes.{name}", f"{n} elements, POSITION has {vertices}"
+                )
+        indices = vertices if prim.indices is None else count(prim.indices, f"{key}.indices")
+        return vertices, indices
+
+    def _primitive(self, prim: JsonObject, key: str, world: np.ndarray) -> GltfPrimitive | None:
         mode = _int(prim.mode if prim.mode is not None else 4, f"{key}.mode")
         if mode not in _TRIANGLE_MODES:
             if mode > 6:
@@ -415,9 +452,21 @@ class GltfFile:
         material = None
         if prim.material is not None:
             material = _int(prim.material, f"{key}.material", len(materials))
+        vertices, index_count = self._declared(prim, key)
+        triangles = index_count // 3 if mode == 4 else max(index_count - 2, 0)
+        try:  # before anything of that size is decoded (a Draco stream must match them)
+            self.budget.mesh(vertices, triangles, f"{key} ({vertices} vertices)")
+        except RefusedError as exc:
+            raise GltfError(key, str(exc)) from None
         draco = (prim.extensions or {}).get("KHR_draco_mesh_compression")
         if draco is not None:
             attrs, indices = self._draco(prim, _object(draco, key), key)
+            decoded = len(attrs["POSITION"]) if "POSITION" in attrs else 0
+            if decoded > vertices or len(indices) > index_count:
+                raise GltfError(
+                    f"{key}.extensions.KHR_draco_mesh_compression",
+                    "decodes to more vertices or indices than its accessors declare",
+                )
         else:
             attrs = {}
             for name in ("POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "COLOR_0"):
@@ -438,16 +487,14 @@ class GltfFile:
         if indices is None:
             indices = np.arange(count, dtype=np.int64)
         elif len(indices) and int(indices.max()) >= count:
-            raise GltfError(
-                f"{key}.indices", f"index {int(indices.max())} is not below the {count} vertices"
-            )
+            raise GltfError(f"{key}.indices", f"an index is not below the {count} vertices")
         faces = _triangles(indices, mode)
         if not len(faces):
             return None
         return _assemble(key, attrs, faces, world, material)
 
     def _draco(
-        self, prim: pygltflib.Primitive, ext: dict, key: str
+        self, prim: JsonObject, ext: dict, key: str
     ) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """KHR_draco_mesh_compression: the attributes the extension maps to Draco ids,
         decoded by DracoPy; accessors keep only their type and ``normalized``."""
@@ -456,7 +503,7 @@ class GltfFile:
         ekey = f"{key}.extensions.KHR_draco_mesh_compression"
         data = self.view(ext.get("bufferView"), f"{ekey}.bufferView")
         try:
-            mesh = DracoPy.decode(data)
+            mesh = DracoPy.decode(bytes(data))
         except Exception as exc:  # DracoPy raises its own and plain Exceptions
             raise GltfError(ekey, f"cannot be decoded ({type(exc).__name__}: {exc})") from None
         faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), np.int64).reshape(-1)
@@ -483,8 +530,10 @@ class GltfFile:
                 divisor = _COMPONENTS.get(a.componentType, ("", 0.0))[1]
                 if a.normalized and divisor:
                     values = np.maximum(values / divisor, -1.0)
-            if not np.all(np.isfinite(values)):
-                raise GltfError(akey, f"{name} holds NaN or infinite values")
+            if not np.all(np.abs(values) <= MAX_COORDINATE):  # NaN and infinities fail too
+                raise GltfError(
+                    akey, f"{name} holds NaN, infinite or values past {MAX_COORDINATE:g}"
+                )
             attrs[name] = values
         return attrs, faces
 
@@ -497,6 +546,8 @@ class GltfFile:
         return bool(self._table("materials")[material].doubleSided)
 
     def image(self, index: object, key: str) -> Image.Image:
+        """Image ``index`` decoded once (its size checked and charged first,
+        app/textures/maps.py ``open_image``)."""
         images = self._table("images")
         i = _int(index, key, len(images))
         if i not in self._images:
@@ -505,25 +556,21 @@ class GltfFile:
             if entry.uri is not None:
                 data = self._uri_bytes(entry.uri, f"{ikey}.uri")
             elif entry.bufferView is not None:
-                data = self.view(entry.bufferView, f"{ikey}.bufferView")
+                data = bytes(self.view(entry.bufferView, f"{ikey}.bufferView"))
             else:
                 raise GltfError(ikey, "has neither uri nor bufferView")
             try:
-                with Image.open(io.BytesIO(data)) as img:
-                    if max(img.size) > MAX_TEXTURE_SIZE:
-                        raise GltfError(
-                            ikey,
-                            f"{img.size[0]}x{img.size[1]} is more than {MAX_TEXTURE_SIZE} a side",
-                        )
-                    img.load()
-                    self._images[i] = img.copy()
-            except GltfError:
-                raise
-            except Exception as exc:  # Pillow raises many types for data it cannot decode
-                raise GltfError(
-                    ikey, f"is not an image Pillow can read ({type(exc).__name__})"
-                ) from None
+                self._images[i] = open_image(data, self.budget, None)
+            except RefusedError as exc:
+                raise GltfError(ikey, str(exc)) from None
         return self._images[i]
+
+    def _map_cost(self, image: Image.Image, kind: str, key: str) -> None:
+        """Charge the map of ``kind`` about to be built from ``image``."""
+        try:
+            self.budget.texture(image.width, image.height, kind, f"{key}'s map")
+        except RefusedError as exc:
+            raise GltfError(key, str(exc)) from None
 
     def _texture(self, info: object, key: str) -> tuple[Image.Image, dict, UvTransform]:
         """A textureInfo: its image, its sampler's Texture fields, its UV transform."""
@@ -563,9 +610,13 @@ class GltfFile:
         if ext is not None:
             ekey = f"{key}.extensions.KHR_texture_transform"
             ext = _object(ext, ekey)
-            offset = _numbers(ext.get("offset", [0.0, 0.0]), 2, f"{ekey}.offset")
-            scale = _numbers(ext.get("scale", [1.0, 1.0]), 2, f"{ekey}.scale")
-            rotation = _number(ext.get("rotation", 0.0), f"{ekey}.rotation")
+            bound = MAX_UV_TRANSFORM
+            offset = _numbers(ext.get("offset", [0.0, 0.0]), 2, f"{ekey}.offset", -bound, bound)
+            scale = _numbers(ext.get("scale", [1.0, 1.0]), 2, f"{ekey}.scale", -bound, bound)
+            # Any finite angle, taken modulo a turn (in float64, before float32 sees it).
+            rotation = math.remainder(
+                _number(ext.get("rotation", 0.0), f"{ekey}.rotation"), math.tau
+            )
             if "texCoord" in ext:
                 uv_set = _int(ext["texCoord"], f"{ekey}.texCoord")
             transform = UvTransform(uv_set, (offset[0], offset[1]), rotation, (scale[0], scale[1]))
@@ -622,17 +673,22 @@ class GltfFile:
                 transforms[name] = transform
 
         if pbr is not None and pbr.baseColorTexture is not None:
-            img, sampler, tr = self._texture(pbr.baseColorTexture, f"{pkey}.baseColorTexture")
+            tkey = f"{pkey}.baseColorTexture"
+            img, sampler, tr = self._texture(pbr.baseColorTexture, tkey)
+            self._map_cost(img, "colour", tkey)
             put("base_color", colour_texture(img), sampler, tr)  # RGBA: alpha kept
         mr = None
         if pbr is not None and pbr.metallicRoughnessTexture is not None:
-            mr = self._texture(pbr.metallicRoughnessTexture, f"{pkey}.metallicRoughnessTexture")
+            tkey = f"{pkey}.metallicRoughnessTexture"
+            mr = self._texture(pbr.metallicRoughnessTexture, tkey)
+            self._map_cost(mr[0], "normal", tkey)  # roughness joins the normal chain
             mr_pixels = np.asarray(mr[0].convert("RGB"), np.float64) / 255.0
             put("metallic", scalar_texture(mr_pixels[..., 2]), mr[1], mr[2])
         normals = None
         if m.normalTexture is not None:
             nkey = f"{key}.normalTexture"
             img, n_sampler, n_tr = self._texture(m.normalTexture, nkey)
+            self._map_cost(img, "normal", nkey)
             scale = getattr(m.normalTexture, "scale", None)
             # Bounded so that scaled x and y cannot overflow float64 (the map's normals
             # are already flat to the eye past a few hundred).
@@ -653,6 +709,7 @@ class GltfFile:
         if m.occlusionTexture is not None:
             okey = f"{key}.occlusionTexture"
             img, sampler, tr = self._texture(m.occlusionTexture, okey)
+            self._map_cost(img, "scalar", okey)
             red = np.asarray(img.convert("RGB"), np.float64)[..., 0] / 255.0
             put("occlusion", scalar_texture(red), sampler, tr)
             strength = getattr(m.occlusionTexture, "strength", None)
@@ -666,10 +723,11 @@ class GltfFile:
         if strength_ext is not None:
             skey = f"{key}.extensions.KHR_materials_emissive_strength"
             value = _object(strength_ext, skey).get("emissiveStrength", 1.0)
-            emissive = emissive * _number(value, f"{skey}.emissiveStrength", 0.0, 1e30)
+            emissive = emissive * _number(value, f"{skey}.emissiveStrength", 0.0, MAX_RADIANCE)
         layer.emissive = (float(emissive[0]), float(emissive[1]), float(emissive[2]))
         if m.emissiveTexture is not None:
             img, sampler, tr = self._texture(m.emissiveTexture, f"{key}.emissiveTexture")
+            self._map_cost(img, "colour", f"{key}.emissiveTexture")
             put("emissive", colour_texture(img), sampler, tr)
         layer.alpha = float(factor[3])
         mode = m.alphaMode if m.alphaMode is not None else "OPAQUE"
@@ -680,6 +738,8 @@ class GltfFile:
             layer.alpha_cutoff = _number(m.alphaCutoff, f"{key}.alphaCutoff", 0.0)
         for name, ext_texture in mapping.maps.items():
             img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
+            kind = {"coat_normal": "normal", "anisotropy_direction": "direction"}.get(name)
+            self._map_cost(img, kind or "scalar", ext_texture.key)
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
         layer.uv_transforms = transforms
         layer.anisotropy_rotation = mapping.anisotropy_rotation
@@ -702,8 +762,8 @@ def _extension_map(name: str, texture: ExtensionTexture, image: Image.Image) -> 
     ``clearcoat_normal_map``), the anisotropy direction (RG decoded to 2 rg - 1, as a
     scene's ``anisotropy_direction_map``), or one channel of a scalar map."""
     if name == "coat_normal":
-        scale = texture.info.get("scale", 1.0)
-        return coat_normal_texture(image, float(scale))
+        scale = _number(texture.info.get("scale", 1.0), f"{texture.key}.scale", -1e3, 1e3)
+        return coat_normal_texture(image, scale)
     if name == "anisotropy_direction":
         return direction_texture(image)
     channel = "rgba".index(texture.channel)

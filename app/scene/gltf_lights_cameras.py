@@ -19,13 +19,15 @@ import math
 from pathlib import Path
 
 import numpy as np
-import pygltflib
 from pydantic import ValidationError
 
 from app.errors import InputError
 from app.scene.geometry import model_matrix
-from app.scene.gltf_document import GltfError, open_gltf, world_matrices
+from app.scene.gltf_document import GltfDocument, GltfError, open_gltf, world_matrices
 from app.scene.model import FILE_CAMERA_KEYS, MAX_LENGTH, Camera, Light, Scene, SceneObject
+from app.untrusted import RefusedError
+from app.untrusted import files as untrusted_files
+from app.untrusted.policy import InputPolicy
 
 EXTENSION = "KHR_lights_punctual"
 # glTF's range is optional ("infinite": plain inverse square). The project's lights need a
@@ -65,9 +67,9 @@ def _number(
     raise GltfError(key, f"must be a finite number {bound} (got {value!r})")
 
 
-def _placed(doc: pygltflib.GLTF2, model: np.ndarray) -> dict[int, np.ndarray]:
+def _placed(doc: GltfDocument, model: np.ndarray, max_depth: int) -> dict[int, np.ndarray]:
     """Each node of the file's shown scene to ``model @ world``."""
-    return {i: model @ world for i, world in world_matrices(doc).items()}
+    return {i: model @ world for i, world in world_matrices(doc, max_depth).items()}
 
 
 def _frame(m: np.ndarray, key: str) -> tuple[list[float], list[float], list[float]]:
@@ -81,18 +83,29 @@ def _frame(m: np.ndarray, key: str) -> tuple[list[float], list[float], list[floa
 class _Files:
     """The glTF documents a scene names, opened once each; problems as InputError."""
 
-    def __init__(self, scene: Scene, path: Path) -> None:
+    def __init__(self, scene: Scene, path: Path, policy: InputPolicy) -> None:
         self.scene = scene
         self.path = path
-        self._docs: dict[int, pygltflib.GLTF2] = {}
+        self.policy = policy
+        self._docs: dict[int, GltfDocument] = {}
 
     def file(self, index: int) -> Path:
-        return (self.path.parent / (self.scene.objects[index].file or "")).resolve()
+        """The object's file, confined (an InputError naming objects[i].file otherwise)."""
+        try:
+            return untrusted_files.confine(
+                self.scene.objects[index].file or "", self.path, self.policy
+            )
+        except RefusedError as exc:
+            raise InputError(str(self.path), f"objects[{index}].file", str(exc)) from None
 
-    def doc(self, index: int, key: str) -> pygltflib.GLTF2:
+    @property
+    def max_depth(self) -> int:
+        return self.policy.limits.max_node_depth
+
+    def doc(self, index: int, key: str) -> GltfDocument:
         if index not in self._docs:
             try:
-                self._docs[index] = open_gltf(self.file(index))
+                self._docs[index] = open_gltf(self.file(index), self.policy)
             except GltfError as exc:
                 raise self.error(index, key, exc) from None
         return self._docs[index]
@@ -143,7 +156,7 @@ def _camera_object(scene: Scene, path: Path) -> int:
     return index
 
 
-def _camera_node(doc: pygltflib.GLTF2, placed: dict[int, np.ndarray], wanted: str | int) -> int:
+def _camera_node(doc: GltfDocument, placed: dict[int, np.ndarray], wanted: str | int) -> int:
     """The node that places the wanted camera: the camera's name, its node's name, or its
     index in ``cameras``; exactly one node of the shown scene must match."""
     cameras = doc.cameras or []
@@ -191,7 +204,7 @@ def file_camera(scene: Scene, path: Path, files: _Files) -> Camera:
     key = "camera.from_file"
     doc = files.doc(index, key)
     try:
-        placed = _placed(doc, model_matrix(scene.objects[index]))
+        placed = _placed(doc, model_matrix(scene.objects[index]), files.max_depth)
         node = _camera_node(doc, placed, cam.from_file)  # type: ignore[arg-type]
         c = doc.nodes[node].camera
         camera = doc.cameras[c]
@@ -295,7 +308,7 @@ def file_lights(obj: SceneObject, index: int, path: Path, files: _Files) -> list
         defined = ((doc.extensions or {}).get(EXTENSION) or {}).get("lights", [])
         if not isinstance(defined, list):
             raise GltfError(f"extensions.{EXTENSION}.lights", "must be a list")
-        for node, m in _placed(doc, model_matrix(obj)).items():
+        for node, m in _placed(doc, model_matrix(obj), files.max_depth).items():
             ext = (doc.nodes[node].extensions or {}).get(EXTENSION)
             if ext is None:
                 continue
@@ -319,14 +332,14 @@ def file_lights(obj: SceneObject, index: int, path: Path, files: _Files) -> list
     return out
 
 
-def resolve(scene: Scene, path: Path) -> Scene:
+def resolve(scene: Scene, path: Path, policy: InputPolicy) -> Scene:
     """``scene`` with ``camera.from_file`` replaced by the file's camera and the lights of
     every ``import_lights`` object appended after the scene's own (object order), those
     objects' ``import_lights`` turned off. A scene that uses neither is returned as it is."""
     wants_lights = any(obj.import_lights for obj in scene.objects)
     if scene.camera.from_file is None and not wants_lights:
         return scene
-    files = _Files(scene, path)
+    files = _Files(scene, path, policy)
     update: dict[str, object] = {}
     if scene.camera.from_file is not None:
         update["camera"] = file_camera(scene, path, files)

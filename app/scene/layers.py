@@ -1,5 +1,7 @@
 """Scene materials -> ``SurfaceLayer``s: constants plus the texture chains the G-buffer
-pass samples, cached so that a file two materials share is read and filtered once."""
+pass samples, cached so that a file two materials share is read and filtered once. Every
+texture is read confined to the scene's allowed folders and charged to the scene's
+``Budget`` before it is decoded (app/untrusted)."""
 
 from __future__ import annotations
 
@@ -23,28 +25,43 @@ from app.textures.maps import (
     read_image,
     scalar_texture,
 )
+from app.untrusted.budget import Budget
+
+# The map each texture key becomes, which decides what it costs (app/untrusted/budget.py).
+TEXTURE_KINDS = {
+    "base_color_map": "colour",
+    "emissive_map": "colour",
+    "normal_map": "normal",
+    "clearcoat_normal_map": "normal",
+    "roughness_map": "normal",  # it travels in the normal/roughness chain
+    "anisotropy_direction_map": "direction",
+}
 
 
 class LayerBuilder:
     """Builds the layers of one scene, reading each texture file once."""
 
-    def __init__(self, loaded: LoadedScene) -> None:
+    def __init__(self, loaded: LoadedScene, budget: Budget | None = None) -> None:
         self.loaded = loaded
         self.normal_filter = loaded.scene.render.normal_filter
+        self.budget = budget or Budget(loaded.policy.limits)
         self._images = lru_cache(maxsize=None)(self._read)
 
-    def _read(self, relative: str, key: str) -> Image.Image:
-        return read_image(str(self.loaded.resolve_file(relative)), str(self.loaded.path), key)
+    def _read(self, relative: str, key: str, kind: str) -> Image.Image:
+        path = self.loaded.resolve_file(relative, key)
+        return read_image(path, str(self.loaded.path), key, self.budget, kind)
 
     def image(self, material: str, key: str) -> Image.Image:
         relative = getattr(self.loaded.scene.materials[material], key)
-        return self._images(relative, f"materials.{material}.{key}")
+        kind = TEXTURE_KINDS.get(key, "scalar")
+        return self._images(relative, f"materials.{material}.{key}", kind)
 
     def mask(self, material: str) -> np.ndarray:
         """The blend mask of ``material`` as float64 (H, W) in [0, 1]."""
         blend = self.loaded.scene.materials[material].blend
         assert blend is not None
-        return linear_channel(self._images(blend.mask, f"materials.{material}.blend.mask"))
+        key = f"materials.{material}.blend.mask"
+        return linear_channel(self._images(blend.mask, key, "scalar"))
 
     def layer(self, name: str) -> SurfaceLayer:
         """The material ``name`` of the scene with its maps."""

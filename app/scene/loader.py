@@ -7,29 +7,42 @@ Every failure names the file and the key path (``lights[2].range``,
 from __future__ import annotations
 
 import re
-import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from pydantic import ValidationError
 
 from app.errors import InputError
-from app.scene.model import TEXTURE_KEYS, Scene
+from app.scene.model import MAX_RADIANCE, TEXTURE_KEYS, Scene
 from app.textures.environment import environment_map
+from app.untrusted import RefusedError, files
+from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
+from app.untrusted.structured import parse_toml
 
 _KEY_PREFIX = re.compile(r"^(?:Value error, )?([A-Za-z_][A-Za-z0-9_]*): (.*)$", re.S)
 
 
 @dataclass(frozen=True)
 class LoadedScene:
-    """A validated scene and the file it came from (mesh paths are relative to it)."""
+    """A validated scene, the file it came from (the paths it names are relative to its
+    folder) and the policy its references are read under (app/untrusted/policy.py)."""
 
     scene: Scene
     path: Path
+    policy: InputPolicy = field(default=DEFAULT_POLICY, compare=False)
 
-    def resolve_file(self, relative: str) -> Path:
-        """A path named in the scene, relative to the scene file's folder."""
-        return (self.path.parent / relative).resolve()
+    def resolve_file(self, relative: str, key: str) -> Path:
+        """A path the scene names at ``key``, relative to the scene file's folder and
+        confined to the folders the policy allows (an ``InputError`` naming ``key``
+        otherwise, which says nothing about the file)."""
+        try:
+            return files.confine(relative, self.path, self.policy)
+        except RefusedError as exc:
+            raise InputError(str(self.path), key, str(exc)) from None
+
+    def with_scene(self, scene: Scene) -> LoadedScene:
+        """The same file and policy with another (edited) scene."""
+        return replace(self, scene=scene)
 
 
 def key_path(loc: tuple[str | int, ...]) -> str:
@@ -64,30 +77,37 @@ def describe_error(error: dict) -> tuple[str, str]:
     return key_path(loc), msg
 
 
-def read_text(path: Path, kind: str = "scene file") -> str:
-    """A ``kind`` file's UTF-8 text, or one ``InputError`` saying why it cannot be read."""
+def read_text(path: Path, kind: str = "scene file", policy: InputPolicy = DEFAULT_POLICY) -> str:
+    """A ``kind`` file's UTF-8 text, or one ``InputError`` saying why it cannot be read: a
+    missing file, a folder, a FIFO or device (refused before it is opened), a file past
+    ``Limits.max_text_bytes``, bytes that are not UTF-8."""
     try:
-        return path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(str(path), "", "no such file") from None
-    except IsADirectoryError:
-        raise InputError(str(path), "", f"is a folder, not a {kind}") from None
-    except PermissionError:
-        raise InputError(str(path), "", "permission denied") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(str(path), "", f"not UTF-8 text ({exc.reason})") from None
-    except OSError as exc:
-        raise InputError(str(path), "", f"cannot read ({exc.strerror})") from None
+        return files.read_text(Path(path), policy.limits.max_text_bytes)
+    except RefusedError as exc:
+        message = str(exc).removeprefix(f"{path}: ")
+        if message == "is a folder, not a file":
+            message = f"is a folder, not a {kind}"
+        raise InputError(str(path), "", message) from None
 
 
-def parse_scene(data: dict, path: Path) -> LoadedScene:
-    """Validate already-parsed TOML data; check references between tables and files."""
+def read_toml(path: Path, kind: str = "scene file", policy: InputPolicy = DEFAULT_POLICY) -> dict:
+    """A ``kind`` TOML file parsed, its nesting bounded (app/untrusted/structured.py)."""
+    text = read_text(path, kind, policy)
+    try:
+        return parse_toml(text, policy.limits.max_nesting)
+    except RefusedError as exc:
+        raise InputError(str(path), "", str(exc)) from None
+
+
+def parse_scene(data: dict, path: Path, policy: InputPolicy = DEFAULT_POLICY) -> LoadedScene:
+    """Validate already-parsed TOML data; check references between tables and files,
+    every file confined by ``policy``."""
     try:
         scene = Scene.model_validate(data)
     except ValidationError as exc:
         key, msg = describe_error(exc.errors()[0])
         raise InputError(str(path), key, msg) from None
-    loaded = LoadedScene(scene, path)
+    loaded = LoadedScene(scene, path, policy)
     for name, material in scene.materials.items():
         key = f"materials.{name}"
         for texture_key in TEXTURE_KEYS:
@@ -130,38 +150,39 @@ def parse_scene(data: dict, path: Path) -> LoadedScene:
     if (env := scene.environment) is not None and env.file is not None:
         # Read (and checked) now, so that a bad image is one error naming the key; the
         # path is made absolute, the way the frame (which knows no scene file) reads it.
-        _check_readable(loaded, env.file, "environment.file")
-        target = str(loaded.resolve_file(env.file))
-        environment_map("image", target, scene_file=str(path))
-        scene = scene.model_copy(update={"environment": env.model_copy(update={"file": target})})
-        loaded = LoadedScene(scene, path)
+        target = _check_readable(loaded, env.file, "environment.file")
+        texels = environment_map("image", str(target), scene_file=str(path), limits=policy.limits)
+        brightest = float(texels.max(initial=0.0)) * env.intensity
+        if brightest > MAX_RADIANCE:  # what the light sum keeps finite in float32
+            raise InputError(
+                str(path),
+                "environment.file",
+                f"{target}: its brightest texel times intensity is {brightest:.3g}, past the "
+                f"radiance limit of {MAX_RADIANCE:g}",
+            )
+        env = env.model_copy(update={"file": str(target)})
+        loaded = loaded.with_scene(scene.model_copy(update={"environment": env}))
     if scene.camera.from_file is not None or any(obj.import_lights for obj in scene.objects):
         # A glTF file's camera and lights become the scene's own (docs/gltf-lights-cameras.md).
         # Imported here: the module needs app.scene.geometry, which imports this one.
         from app.scene.gltf_lights_cameras import resolve
 
-        loaded = LoadedScene(resolve(scene, path), path)
+        loaded = loaded.with_scene(resolve(loaded.scene, path, policy))
     return loaded
 
 
-def _check_readable(loaded: LoadedScene, relative: str, key: str) -> None:
-    """A file the scene names exists and can be opened, or an InputError naming ``key``."""
-    target = loaded.resolve_file(relative)
-    if not target.is_file():
-        raise InputError(str(loaded.path), key, f"no such file: {target}")
+def _check_readable(loaded: LoadedScene, relative: str, key: str) -> Path:
+    """The confined path of a file the scene names, which must be a plain file that
+    opens, or an InputError naming ``key``."""
+    target = loaded.resolve_file(relative, key)
     try:
-        with target.open("rb") as fh:
-            fh.read(1)
-    except OSError as exc:
-        raise InputError(str(loaded.path), key, f"cannot read {target} ({exc.strerror})") from None
+        files.check_readable(target, loaded.policy.limits.max_file_bytes)
+    except RefusedError as exc:
+        raise InputError(str(loaded.path), key, str(exc)) from None
+    return target
 
 
-def load_scene(path: str | Path) -> LoadedScene:
-    """Read and validate a TOML scene file."""
+def load_scene(path: str | Path, policy: InputPolicy = DEFAULT_POLICY) -> LoadedScene:
+    """Read and validate a TOML scene file; the files it names are read under ``policy``."""
     path = Path(path)
-    text = read_text(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(str(path), "", f"malformed TOML: {exc}") from None
-    return parse_scene(data, path.resolve())
+    return parse_scene(read_toml(path, policy=policy), path.resolve(), policy)

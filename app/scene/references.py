@@ -1,38 +1,38 @@
-"""Files a mesh file names, checked before trimesh reads it.
+"""Files a mesh file names, checked before the glTF reader or trimesh reads it.
 
 trimesh swallows a missing texture: a glTF whose base colour image is gone loads with
 ``baseColorTexture = None`` (it logs the error and the model renders white), and an OBJ
 whose MTL is gone gets a grey default material with a white image. A glTF with an
 extension the project does not decode would load as geometry it cannot draw. So the
-references are read here from the files themselves, before the glTF reader
-(app/scene/gltf.py) or trimesh, and each problem comes back as one sentence for an
-``InputError``:
+references are read here from the files themselves, and each problem comes back as one
+sentence for an ``InputError``. Every reference is confined first (app/untrusted/files.py):
+one that resolves outside the allowed folders is refused with the same sentence whether
+its target exists or not, and nothing outside is ever opened.
 
-- glTF / GLB: every ``buffers[i].uri`` and ``images[i].uri`` that is not a ``data:`` URI
-  must name a readable file (relative to the glTF, percent-decoded as glTF 2.0 says);
-  an image must also open as one (Pillow). Every name in ``extensionsRequired`` must be
-  in ``SUPPORTED_EXTENSIONS``.
-- OBJ: every ``mtllib`` must name a readable file, and every map in it that the project
+- glTF / GLB (an opened ``GltfDocument``): every ``buffers[i].uri`` and ``images[i].uri``
+  that is not a ``data:`` URI must name a plain file (relative to the glTF,
+  percent-decoded as glTF 2.0 says); an image's header must open as a format pbs reads.
+  Every name in ``extensionsRequired`` must be in ``SUPPORTED_EXTENSIONS``.
+- OBJ: every ``mtllib`` must name a plain text file, and every map in it that the project
   reads (``MTL_MAP_KEYWORDS``: ``map_Kd``, ``map_Pr``, ``map_Pm``, ``norm``, ``map_Ke``,
-  ``map_d``) a readable image, relative to the MTL's folder.
-
-A file whose own structure is broken (not JSON, a truncated GLB header) is left to the
-reader (or trimesh), which refuses it with its own message.
+  ``map_d``) an image, relative to the MTL's folder.
 """
 
 from __future__ import annotations
 
-import json
 import re
-import struct
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import unquote
 
 from PIL import Image
 
 from app.scene.gltf import meshopt_available
+from app.scene.gltf_document import GltfDocument
 from app.scene.gltf_extensions import SUPPORTED as MATERIAL_EXTENSIONS
+from app.textures.maps import IMAGE_FORMATS
+from app.untrusted import RefusedError, files
+from app.untrusted.policy import InputPolicy
 
 # glTF extensions a file may *require* (docs/scene-format.md, "Mesh files"): those the
 # reader (app/scene/gltf.py) decodes, the material extensions it hands to
@@ -56,57 +56,31 @@ _HINTS = {
     "pip install 'pbs-lab[meshopt]' to read it",
 }
 
-_GLB_MAGIC = b"glTF"
-_GLB_JSON = 0x4E4F534A  # chunk type "JSON"
 
-
-def _gltf_document(path: Path) -> dict | None:
-    """The JSON of a .gltf, or of a .glb's first chunk; None where it cannot be parsed."""
+def _unreadable(file: Path, image: bool, policy: InputPolicy) -> str | None:
+    """Why ``file`` (confined already) cannot be used: not a plain file, past the size
+    limit, or (``image``) a header that is not an image pbs reads; None where it can."""
     try:
-        with path.open("rb") as f:
-            if path.suffix.lower() == ".glb":
-                header = f.read(20)
-                if len(header) < 20 or header[:4] != _GLB_MAGIC:
-                    return None
-                length, kind = struct.unpack("<II", header[12:20])
-                if kind != _GLB_JSON:
-                    return None
-                text = f.read(length)
-            else:
-                text = f.read()
-        doc = json.loads(text)
-    except (OSError, ValueError):  # unreadable or not JSON: trimesh reports it
-        return None
-    return doc if isinstance(doc, dict) else None
-
-
-def _unreadable(file: Path, image: bool) -> str | None:
-    """Why ``file`` cannot be used (missing, a folder, unreadable, not an image), or None."""
-    if not file.exists():
-        return "is missing"
-    if not file.is_file():
-        return "is not a file"
-    try:
-        with file.open("rb") as f:
-            f.read(1)
-    except OSError as exc:  # PermissionError and the like
-        return f"cannot be read ({type(exc).__name__})"
-    if image:
-        try:
-            with Image.open(file) as img:
-                img.verify()
-        except Exception as exc:  # Pillow raises many types for data it cannot decode
-            return f"is not an image Pillow can read ({type(exc).__name__})"
+        files.check_readable(file, policy.limits.max_file_bytes)
+        if image:
+            with (
+                files.open_regular(file, policy.limits.max_file_bytes) as (fd, _),
+                open(fd, "rb", closefd=False) as stream,
+                warnings.catch_warnings(),
+            ):
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(stream, formats=IMAGE_FORMATS):
+                    pass
+    except RefusedError as exc:
+        return str(exc)
+    except Exception as exc:  # Pillow raises many types for data it cannot decode
+        return f"{file}: is not an image pbs reads ({type(exc).__name__})"
     return None
 
 
-def gltf_problem(path: Path) -> str | None:
+def gltf_problem(doc: GltfDocument, path: Path, policy: InputPolicy) -> str | None:
     """The first problem with a glTF/GLB's required extensions or referenced files."""
-    doc = _gltf_document(path)
-    if doc is None:
-        return None
-    required = doc.get("extensionsRequired", [])
-    for name in required if isinstance(required, list) else []:
+    for name in doc.extensionsRequired or []:
         if name not in SUPPORTED_EXTENSIONS:
             what = f" ({_HINTS[name]})" if name in _HINTS else ""
             return (
@@ -114,15 +88,17 @@ def gltf_problem(path: Path) -> str | None:
                 "read; export the file without it"
             )
     for table, image in (("buffers", False), ("images", True)):
-        entries = doc.get(table, [])
-        for i, entry in enumerate(entries if isinstance(entries, list) else []):
-            uri = entry.get("uri") if isinstance(entry, dict) else None
-            if not isinstance(uri, str) or uri.startswith("data:"):
+        for i, entry in enumerate(getattr(doc, table) or []):
+            uri = entry.uri
+            if uri is None or uri.startswith("data:"):
                 continue
-            file = path.parent / unquote(uri)
-            why = _unreadable(file, image)
+            try:
+                file = files.confine_uri(uri, path, policy)
+            except RefusedError as exc:
+                return f"{path}: {table}[{i}].uri: {exc}"
+            why = _unreadable(file, image, policy)
             if why is not None:
-                return f"{path}: {table}[{i}].uri '{uri}': {file} {why}"
+                return f"{path}: {table}[{i}].uri '{uri}': {why}"
     return None
 
 
@@ -143,12 +119,14 @@ _MTL_OPTIONS = {
 @dataclass(frozen=True)
 class MtlMap:
     """One map statement of an MTL material: the keyword as written (``map_Pr``), the
-    file name as written, the file (relative to the MTL's folder) and the options."""
+    file name as written, the file (relative to the MTL's folder, confined; None where
+    the policy refuses it, with ``refused`` saying why) and the options."""
 
     keyword: str
     name: str
-    file: Path
+    file: Path | None
     options: dict[str, tuple[str, ...]]
+    refused: str | None = None
 
 
 def _is_number(word: str) -> bool:
@@ -184,12 +162,14 @@ def parse_map_statement(rest: str) -> tuple[dict[str, tuple[str, ...]], str]:
     return options, name
 
 
-def mtl_materials(mtl: Path) -> dict[str, dict[str, MtlMap]]:
+def mtl_materials(mtl: Path, policy: InputPolicy) -> dict[str, dict[str, MtlMap]]:
     """Per material (``newmtl``'s name, as trimesh keys it) its read maps by lower-case
-    keyword (``MTL_MAP_KEYWORDS``); a statement before any ``newmtl`` belongs to none."""
+    keyword (``MTL_MAP_KEYWORDS``); a statement before any ``newmtl`` belongs to none.
+    ``mtl`` is confined and readable already (``obj_problem``)."""
     materials: dict[str, dict[str, MtlMap]] = {}
     current: dict[str, MtlMap] | None = None
-    for line in mtl.read_text(encoding="utf-8", errors="replace").splitlines():
+    data = files.read_bytes(mtl, policy.limits.max_text_bytes)
+    for line in data.decode("utf-8", errors="replace").splitlines():
         words = line.split()
         if len(words) < 2:
             continue
@@ -200,46 +180,60 @@ def mtl_materials(mtl: Path) -> dict[str, dict[str, MtlMap]]:
             rest = line.strip()[len(words[0]) :]
             options, name = parse_map_statement(rest)
             if name:
-                current[keyword] = MtlMap(words[0], name, mtl.parent / name, options)
+                try:
+                    file, refused = files.confine(name, mtl, policy), None
+                except RefusedError as exc:
+                    file, refused = None, str(exc)
+                current[keyword] = MtlMap(words[0], name, file, options, refused)
     return materials
 
 
-def obj_materials(path: Path, libraries: list[str]) -> dict[str, dict[str, MtlMap]]:
-    """The maps of every material of an OBJ's MTL files (``obj_libraries``), by material
-    name; a name defined twice keeps its first definition. Call after ``obj_problem``
-    found nothing (the files are then readable)."""
-    materials: dict[str, dict[str, MtlMap]] = {}
-    for name in libraries:
-        for material, maps in mtl_materials(path.parent / name).items():
-            materials.setdefault(material, maps)
-    return materials
-
-
-def obj_libraries(path: Path) -> list[str]:
+def obj_libraries(data: bytes) -> list[str]:
     """The names of an OBJ's ``mtllib`` statements (each the rest of its line, so that a
-    name with spaces stays whole); none where the file cannot be read."""
-    try:
-        with path.open("rb") as f:
-            return [
-                line[6:].strip().decode("utf-8", errors="replace")
-                for line in f
-                if line.startswith(b"mtllib") and line[6:7].isspace()
-            ]
-    except OSError:  # trimesh reports it
-        return []
+    name with spaces stays whole)."""
+    return [
+        line[6:].strip().decode("utf-8", errors="replace")
+        for line in data.splitlines()
+        if line.startswith(b"mtllib") and line[6:7].isspace()
+    ]
 
 
-def obj_problem(path: Path, libraries: list[str]) -> str | None:
+def obj_mtl_files(path: Path, libraries: list[str], policy: InputPolicy) -> list[Path]:
+    """The confined paths of an OBJ's MTL files (``RefusedError`` for one outside the allowed
+    folders)."""
+    return [files.confine(name, path, policy) for name in libraries]
+
+
+def obj_problem(path: Path, libraries: list[str], policy: InputPolicy) -> str | None:
     """The first problem with an OBJ's ``mtllib`` files or the images of the maps they
     name that the project reads (``MTL_MAP_KEYWORDS``)."""
     for name in libraries:
-        mtl = path.parent / name
-        why = _unreadable(mtl, image=False)
-        if why is not None:
-            return f"{path}: mtllib {name}: {mtl} {why}"
-        for maps in mtl_materials(mtl).values():
+        try:
+            mtl = files.confine(name, path, policy)
+        except RefusedError as exc:
+            return f"{path}: mtllib: {exc}"
+        try:
+            files.check_readable(mtl, policy.limits.max_text_bytes)
+        except RefusedError as exc:
+            return f"{path}: mtllib {name}: {exc}"
+        for maps in mtl_materials(mtl, policy).values():
             for m in maps.values():
-                why = _unreadable(m.file, image=True)
+                if m.file is None:
+                    return f"{path}: {mtl.name}: {m.keyword}: {m.refused}"
+                why = _unreadable(m.file, True, policy)
                 if why is not None:
-                    return f"{path}: {mtl.name}: {m.keyword} {m.name}: {m.file} {why}"
+                    return f"{path}: {mtl.name}: {m.keyword} {m.name}: {why}"
     return None
+
+
+def obj_materials(
+    path: Path, libraries: list[str], policy: InputPolicy
+) -> dict[str, dict[str, MtlMap]]:
+    """The maps of every material of an OBJ's MTL files (``obj_libraries``), by material
+    name; a name defined twice keeps its first definition. Call after ``obj_problem``
+    found nothing (the files are then confined and readable)."""
+    materials: dict[str, dict[str, MtlMap]] = {}
+    for mtl in obj_mtl_files(path, libraries, policy):
+        for material, maps in mtl_materials(mtl, policy).items():
+            materials.setdefault(material, maps)
+    return materials

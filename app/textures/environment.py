@@ -25,6 +25,9 @@ import numpy as np
 
 from app.errors import InputError
 from app.reference.environment import equirect_uv, texel_directions
+from app.untrusted import RefusedError, files
+from app.untrusted.budget import Budget
+from app.untrusted.policy import Limits
 
 # Width of a generated (sky, studio) map; the height is half of it.
 GENERATED_WIDTH = 256
@@ -48,7 +51,25 @@ def lookup(env: np.ndarray, d: np.ndarray, rotation: float = 0.0) -> np.ndarray:
 _RESOLUTION = re.compile(rb"^-Y (\d+) \+X (\d+)$")
 
 
-def read_hdr(path: Path) -> np.ndarray:
+def _admit(width: int, height: int, channels: int, limits: Limits) -> None:
+    """``RefusedError`` for an environment image of this size, before anything of its size is
+    allocated: wider than ``Limits.max_environment_width``, not 2:1 (an equirectangular
+    map's shape, which every reader of the map assumes), or past the memory budget."""
+    if width > limits.max_environment_width:
+        raise RefusedError(
+            f"{width} x {height} is wider than {limits.max_environment_width} texels, the "
+            "largest environment image read"
+        )
+    if width != 2 * height:
+        raise RefusedError(
+            f"{width} x {height} is not an equirectangular map (width must be twice the height)"
+        )
+    budget = Budget(limits)
+    budget.charge(width * height, "environment texel", f"a {width} x {height} environment")
+    budget.charge(width * height * channels * 4, "byte", "its channels")
+
+
+def read_hdr(path: Path, limits: Limits | None = None) -> np.ndarray:
     """A Radiance RGBE (.hdr) file as float32 (H, W, 3); ValueError says what is wrong.
 
     The format is Greg Ward's ("Real Pixels", Graphics Gems II, 1991, and the Radiance
@@ -58,8 +79,13 @@ def read_hdr(path: Path) -> np.ndarray:
     (2, 2, W >> 8, W & 255, then each of the four components run-length coded: a count
     byte > 128 repeats the next byte count - 128 times, else count literal bytes follow).
     A pixel is (R, G, B) = (m + 0.5) * 2^(e - 136), and 0 for e = 0, as Radiance's
-    colr_color decodes it (the + 0.5 centres each mantissa step)."""
-    data = path.read_bytes()
+    colr_color decodes it (the + 0.5 centres each mantissa step). The size the header
+    declares is checked against ``limits`` (``_admit``) before the image is allocated."""
+    limits = limits or Limits()
+    try:
+        data = files.read_bytes(path, limits.max_file_bytes)
+    except RefusedError as exc:
+        raise ValueError(str(exc).removeprefix(f"{path}: ")) from None
     if not (data.startswith(b"#?RADIANCE") or data.startswith(b"#?RGBE")):
         raise ValueError("not a Radiance HDR file (no #?RADIANCE header)")
     pos = data.find(b"\n\n")
@@ -73,9 +99,17 @@ def read_hdr(path: Path) -> np.ndarray:
     match = _RESOLUTION.match(data[pos + 2 : end].strip()) if end > 0 else None
     if match is None:
         raise ValueError("no '-Y height +X width' resolution line")
+    if max(len(match.group(1)), len(match.group(2))) > 9:
+        raise ValueError("the resolution line declares more than a billion texels a side")
     height, width = int(match.group(1)), int(match.group(2))
     if height == 0 or width == 0:
         raise ValueError(f"zero-size image ({width} x {height})")
+    try:
+        _admit(width, height, 3, limits)
+    except RefusedError as exc:
+        raise ValueError(str(exc)) from None
+    if len(data) - end - 1 < 4 * height:  # at least a run-length header per scanline
+        raise ValueError(f"truncated: {height} scanlines declared")
     body = np.frombuffer(data, np.uint8, offset=end + 1)
     rgbe = np.empty((height, width, 4), np.uint8)
     at = 0
@@ -119,39 +153,62 @@ def read_hdr(path: Path) -> np.ndarray:
     return out.astype(np.float32)
 
 
-def read_exr(path: Path) -> np.ndarray:
+def read_exr(path: Path, limits: Limits | None = None) -> np.ndarray:
     """An OpenEXR file's RGB (or Y, grey) channels as float32 (H, W, 3), read with the
-    OpenEXR library; ValueError says what is wrong."""
+    OpenEXR library; ValueError says what is wrong. Its header is read first, alone, and
+    the size it declares checked against ``limits`` (``_admit``) before any pixel is."""
     import OpenEXR  # the Academy Software Foundation's binding; imported only when used
 
+    limits = limits or Limits()
     try:
-        with OpenEXR.File(str(path)) as f:
-            channels = f.channels()
-            if "RGB" in channels:
-                px = np.asarray(channels["RGB"].pixels, np.float32)
-            elif "RGBA" in channels:
-                px = np.asarray(channels["RGBA"].pixels, np.float32)[..., :3]
-            elif "Y" in channels:
-                px = np.repeat(np.asarray(channels["Y"].pixels, np.float32)[..., None], 3, -1)
-            else:
-                raise ValueError(f"no RGB or Y channels (has {', '.join(sorted(channels))})")
-    except RuntimeError as exc:
+        with (
+            files.open_regular(path, limits.max_file_bytes) as (fd, _),
+            open(fd, "rb", closefd=False) as stream,
+        ):
+            with OpenEXR.File(stream, header_only=True) as head:
+                if len(head.parts) != 1:
+                    raise ValueError(f"{len(head.parts)} parts (only single-part images)")
+                header = head.header()
+                if "deep" in str(header.get("type", "")).lower():
+                    raise ValueError("a deep image (only flat scanline or tiled images)")
+                low, high = (np.asarray(c, np.int64) for c in header["dataWindow"])
+                width, height = (int(x) for x in high - low + 1)
+                channels = len(header.get("channels", ()))
+            if width <= 0 or height <= 0:
+                raise ValueError(f"zero-size image ({width} x {height})")
+            _admit(width, height, max(channels, 1), limits)
+            stream.seek(0)
+            with OpenEXR.File(stream) as f:
+                channels = f.channels()
+                if "RGB" in channels:
+                    px = np.asarray(channels["RGB"].pixels, np.float32)
+                elif "RGBA" in channels:
+                    px = np.asarray(channels["RGBA"].pixels, np.float32)[..., :3]
+                elif "Y" in channels:
+                    px = np.repeat(np.asarray(channels["Y"].pixels, np.float32)[..., None], 3, -1)
+                else:
+                    raise ValueError(f"no RGB or Y channels (has {', '.join(sorted(channels))})")
+    except RefusedError as exc:
+        raise ValueError(str(exc).removeprefix(f"{path}: ")) from None
+    except (RuntimeError, KeyError, TypeError) as exc:
         raise ValueError(f"not a readable OpenEXR file ({exc})") from None
     if px.ndim != 3 or px.shape[0] == 0 or px.shape[1] == 0:
         raise ValueError(f"zero-size image ({px.shape[1]} x {px.shape[0]})")
     return np.ascontiguousarray(px)
 
 
-def read_environment_image(path: Path, scene_file: str, key: str) -> np.ndarray:
+def read_environment_image(
+    path: Path, scene_file: str, key: str, limits: Limits | None = None
+) -> np.ndarray:
     """An equirectangular HDR image, checked, or one InputError naming the scene file and
     ``key``. NaN, infinite or negative texels are refused with their count (docs/ibl.md:
     clamping them would hide a broken file; radiance is never negative)."""
     suffix = path.suffix.lower()
     try:
         if suffix == ".hdr":
-            env = read_hdr(path)
+            env = read_hdr(path, limits)
         elif suffix == ".exr":
-            env = read_exr(path)
+            env = read_exr(path, limits)
         else:
             raise ValueError(f"not an HDR image (.hdr or .exr): {path.name}")
     except OSError as exc:
@@ -162,13 +219,6 @@ def read_environment_image(path: Path, scene_file: str, key: str) -> np.ndarray:
     if bad:
         raise InputError(
             scene_file, key, f"{path}: {bad} NaN, infinite or negative texel values (refused)"
-        )
-    if env.shape[1] != 2 * env.shape[0]:
-        raise InputError(
-            scene_file,
-            key,
-            f"{path}: {env.shape[1]} x {env.shape[0]} is not an equirectangular map "
-            "(width must be twice the height)",
         )
     return env
 
@@ -301,11 +351,13 @@ def environment_map(
     sun_direction: tuple[float, ...] | None = None,
     turbidity: float | None = None,
     scene_file: str = "",
+    limits: Limits | None = None,
 ) -> np.ndarray:
     """The equirect map of a non-uniform environment source, made once per process and
     kept (keyed by the source's settings and, for a file, its path, size and modification
     time, so an edited file is read again). An image that cannot be used raises one
-    InputError naming ``scene_file`` and environment.file."""
+    InputError naming ``scene_file`` and environment.file; its size is checked against
+    ``limits`` (the defaults where None) before it is decoded."""
     if source == "image":
         assert file is not None
         path = Path(file)
@@ -323,7 +375,7 @@ def environment_map(
     if key in _CACHE:
         return _CACHE[key]
     if source == "image":
-        env = read_environment_image(path, scene_file, "environment.file")
+        env = read_environment_image(path, scene_file, "environment.file", limits)
     elif source == "sky":
         env = preetham_sky(np.asarray(key[1]), key[2])
     elif source == "studio":

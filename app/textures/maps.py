@@ -10,16 +10,28 @@ texel averages moves into its roughness (the scene's ``render.normal_filter``).
 
 from __future__ import annotations
 
+import io
+import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.textures.mips import box_mips, build_chain, decode_normal_map
+from app.untrusted import RefusedError, files
+from app.untrusted.budget import Budget
+from app.untrusted.policy import Limits
 
-MAX_TEXTURE_SIZE = 8192  # texels per side; llvmpipe's limit is 16384, memory binds first
+MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default limit)
+# The image formats a texture may be in: what glTF 2.0 allows (PNG, JPEG) and what OBJ
+# exporters write. Pillow's other readers (EPS runs Ghostscript, PSD, ICNS, ...) are never
+# asked to parse an input.
+IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
+# Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
+_BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
 
 @dataclass
@@ -108,21 +120,56 @@ class SurfaceLayer:
         return coated and (self.normal_mapped or "coat_normal" in self.maps)
 
 
-def read_image(path: str, scene_file: str, key: str) -> Image.Image:
-    """A texture file as a Pillow image, or an InputError naming the scene key."""
+def open_image(
+    source: Path | bytes, budget: Budget | None = None, kind: str | None = "colour"
+) -> Image.Image:
+    """A texture (a plain file, or bytes from a glTF buffer) decoded, or ``RefusedError``.
+
+    The size the header declares is checked before a pixel is decoded: at most
+    ``Limits.max_texture_side`` a side, and the decoded texels plus what the map of
+    ``kind`` (colour, scalar, normal, direction; None: the caller charges the map) builds
+    from them charged to ``budget``.
+    Only ``IMAGE_FORMATS`` are parsed, and Pillow's own size warnings stay off stderr
+    (the header check above is what refuses an oversized image)."""
+    budget = budget or Budget()
     try:
-        with Image.open(path) as image:
-            size = image.size  # from the header: checked before decoding anything
-            if max(size) <= MAX_TEXTURE_SIZE:
+        if isinstance(source, bytes):
+            stream = io.BytesIO(source)
+        else:
+            stream = io.BytesIO(files.read_bytes(Path(source), budget.limits.max_file_bytes))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(stream, formats=IMAGE_FORMATS) as image:
+                width, height = image.size  # from the header: checked before decoding
+                if width <= 0 or height <= 0:
+                    raise RefusedError(f"declares a {width}x{height} image")
+                bands = len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
+                budget.texture(width, height, kind, "the image")
+                budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
                 image.load()
                 return image.copy()
-    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as exc:
-        raise InputError(scene_file, key, f"cannot read image {path} ({exc})") from None
-    raise InputError(
-        scene_file,
-        key,
-        f"{path} is {size[0]}x{size[1]}, more than {MAX_TEXTURE_SIZE} texels a side",
-    )
+    except RefusedError:
+        raise
+    except Image.DecompressionBombError:
+        raise RefusedError(
+            f"declares more texels than an image of {budget.limits.max_texture_side} a side"
+        ) from None
+    except Exception as exc:  # Pillow raises many types for data it cannot decode
+        raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+def read_image(
+    path: str | Path, scene_file: str, key: str, budget: Budget | None = None, kind: str = "colour"
+) -> Image.Image:
+    """A texture file as a Pillow image (``open_image``), or an InputError naming the scene
+    key. ``path`` is already confined (``LoadedScene.resolve_file``)."""
+    try:
+        return open_image(Path(path), budget, kind)
+    except RefusedError as exc:
+        message = str(exc)
+        if not message.startswith(str(path)):
+            message = f"{path} {message}"
+        raise InputError(scene_file, key, message) from None
 
 
 def linear_channel(image: Image.Image) -> np.ndarray:
