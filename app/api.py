@@ -38,6 +38,7 @@ from app.render.renderer import Renderer
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, describe_error, load_scene, parse_scene
 from app.scene.model import FILE_CAMERA_KEYS, Camera, RenderSettings, Scene
+from app.untrusted.policy import InputPolicy
 
 __all__ = ["CHANNELS", "OffscreenRenderer", "scene_from"]
 
@@ -65,23 +66,35 @@ PYTHON_SCENE = "<python scene>"
 SceneSource = str | Path | Mapping[str, Any] | LoadedScene
 
 
-def scene_from(source: SceneSource, base_dir: str | Path | None = None) -> LoadedScene:
+def scene_from(
+    source: SceneSource,
+    base_dir: str | Path | None = None,
+    allow_paths: tuple[str | Path, ...] | list[str | Path] = (),
+    max_memory: int | None = None,
+) -> LoadedScene:
     """A validated scene from ``source``: a scene file's path, the name of a bundled scene
     (``"showcase"`` -> scenes/showcase.toml), a dict with a scene file's keys, or an already
     loaded scene. A dict's relative paths (mesh files, textures) are relative to
     ``base_dir`` (the working directory by default), as a file's are to its folder; its
-    errors name ``<python scene>`` in that folder. Raises ``InputError``."""
+    errors name ``<python scene>`` in that folder. Raises ``InputError``.
+
+    Strict by default, as ``pbs render``: every file the scene names must resolve inside
+    its folder (``base_dir`` for a dict) or the bundled data, unless ``allow_paths`` adds
+    folders; ``max_memory`` (bytes; default 4 GiB) bounds what its decoded input and GPU
+    resources may take (docs/stability.md, "Untrusted input")."""
     if isinstance(source, LoadedScene):
         return source
+    policy = InputPolicy.from_options(allow_paths, max_memory)
     if isinstance(source, Mapping):
         folder = Path.cwd() if base_dir is None else Path(base_dir)
-        return parse_scene(copy.deepcopy(dict(source)), folder.resolve() / PYTHON_SCENE)
+        data = copy.deepcopy(dict(source))
+        return parse_scene(data, folder.resolve() / PYTHON_SCENE, policy)
     path = Path(source)
     if not path.exists() and not path.suffix:
         bundled = scenes_dir() / f"{path}.toml"
         if bundled.is_file():
             path = bundled
-    return load_scene(path)
+    return load_scene(path, policy)
 
 
 def _validated(model: type[BaseModel], data: dict, where: str, file: str) -> Any:
@@ -105,7 +118,8 @@ class OffscreenRenderer:
 
     ``render()`` runs every pass and returns the display image; the other reads
     (``hdr``, ``depth``, ``channel``, ``gbuffer``) read the same frame. Rows are top to
-    bottom (row 0 is the top of the image) everywhere.
+    bottom (row 0 is the top of the image) everywhere. ``allow_paths`` and ``max_memory``:
+    what the scene's files may reach and cost (``scene_from``).
     """
 
     def __init__(
@@ -115,8 +129,10 @@ class OffscreenRenderer:
         backend: Backend = "auto",
         gl: GLContext | None = None,
         base_dir: str | Path | None = None,
+        allow_paths: tuple[str | Path, ...] | list[str | Path] = (),
+        max_memory: int | None = None,
     ) -> None:
-        loaded = scene_from(scene, base_dir)
+        loaded = scene_from(scene, base_dir, allow_paths, max_memory)
         if size is not None:
             size = self._checked_size(loaded, size)
         self._owns_gl = gl is None
@@ -195,7 +211,7 @@ class OffscreenRenderer:
         if new.from_file is not None:  # a glTF file's camera, resolved with the whole scene
             scene = _scene_dict(r.scene)
             scene["camera"] = data
-            new = parse_scene(scene, r.loaded.path).scene.camera
+            new = parse_scene(scene, r.loaded.path, r.loaded.policy).scene.camera
         r.set_camera(new)
         self._frame = False
 
@@ -215,7 +231,7 @@ class OffscreenRenderer:
             data.pop("environment", None)
             if environment is not None:
                 data["environment"] = _as_dict(environment)
-        loaded = parse_scene(data, r.loaded.path)
+        loaded = parse_scene(data, r.loaded.path, r.loaded.policy)
         r.set_lights(loaded.scene.lights, loaded.scene.environment)
         self._frame = False
 
@@ -235,7 +251,7 @@ class OffscreenRenderer:
                 material.pop(key, None)
             else:
                 material[key] = _as_dict(value) if isinstance(value, BaseModel) else value
-        loaded = parse_scene(data, r.loaded.path)
+        loaded = parse_scene(data, r.loaded.path, r.loaded.policy)
         r.set_materials(loaded.scene.materials)
         self._frame = False
 

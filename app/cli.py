@@ -754,7 +754,10 @@ def cmd_view(args: argparse.Namespace) -> int:
         find_font("ko")  # no Hangul font: one line naming the package, exit 2
     scene = _resolve_scene(args.scene) if args.scene else None
     try:
-        viewer = Viewer(scene, args.size, vsync=not args.no_vsync, hangul=args.lang == "ko")
+        viewer = Viewer(
+            scene, args.size, vsync=not args.no_vsync, hangul=args.lang == "ko",
+            policy=_policy(args),
+        )  # fmt: skip
     except ViewerError as exc:
         print(f"pbs: error: {exc}", file=sys.stderr)
         return 1

@@ -90,10 +90,13 @@ def _gltf(folder: Path, name: str, buffer_uri: str | None, image_uri: str | None
 
 @pytest.fixture(scope="module")
 def layout(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """asset/ (the scene's folder) and secret/ beside it, holding real files of every
-    kind whose bytes start with SECRET where the format lets them; symlinks from asset/
-    into secret/."""
-    root = tmp_path_factory.mktemp("confine")
+    return make_layout(tmp_path_factory.mktemp("confine"))
+
+
+def make_layout(root: Path) -> dict[str, Path]:
+    """asset/ (the scene's folder) and secret/ beside it in ``root``, holding real files
+    of every kind whose bytes start with SECRET where the format lets them; symlinks
+    from asset/ into secret/."""
     asset, secret = root / "asset", root / "secret"
     asset.mkdir()
     secret.mkdir()

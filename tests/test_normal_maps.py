@@ -78,8 +78,8 @@ def test_normal_map_tilts_the_world_normal(
     scene.write_text(SCENE, encoding="utf-8")
     if mirrored:
 
-        def mirrored_parts(loaded: object) -> list:
-            parts = build_parts(loaded)
+        def mirrored_parts(loaded: object, budget: object = None) -> list:
+            parts = build_parts(loaded, budget)
             for part in parts:
                 part.model = np.diag([-1.0, 1.0, 1.0, 1.0]) @ part.model
             return parts

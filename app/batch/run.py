@@ -1,34 +1,45 @@
-"""Running a plan's jobs: resume, workers (in-process, spawned processes or Dask), progress
-and ``manifest.jsonl``.
+"""Running a plan's jobs: resume, workers (in-process, worker processes or Dask), progress
+and ``manifest.jsonl``, under a lock on the output folder.
 
-Processes are started with multiprocessing's ``spawn`` method: a GL context (EGL or
-OSMesa) must never cross a ``fork``. Each worker process makes one context on its first job
-and keeps it, with its renderer, for every later job (app/batch/worker.py). Jobs are handed
-out one at a time, so a slow job does not hold a queue of others behind it.
+Worker processes (app/batch/pool.py) are started with ``subprocess``, never forked: a GL
+context (EGL or OSMesa) must never cross a ``fork``. Each makes one context on its first
+job and keeps it, with its renderer, for every later job (app/batch/worker.py). Jobs are
+handed out one at a time, so a slow job does not hold a queue of others behind it, and a
+worker that dies fails only the job it held.
+
+One run at a time writes into a folder: ``.pbs-batch.lock`` in it is held (``flock``) for
+the run, so a second run into the same folder exits 2 at once instead of interleaving its
+manifest with the first's; the kernel releases it however the holder ends. A run first
+removes the temporary files (``.NAME.*.png``) that a killed run left beside its outputs.
 
 ``manifest.jsonl`` in the output folder gets one JSON line per job as it ends (``job``,
-``output``, ``seconds``, ``status``: ``ok``, ``skipped`` or ``failed``, ``error``): a run
-that is killed leaves the lines of the jobs that ended. It is written anew by every run;
-``skipped`` marks an output a previous run already wrote whole.
+``output``, ``seconds``, ``status``: ``ok``, ``skipped`` or ``failed``, ``error``), each
+written by one ``write`` of an ``O_APPEND`` descriptor, so a run that is killed leaves
+whole lines of the jobs that ended. It is written anew by every run; ``skipped`` marks an
+output a previous run already wrote whole.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
-import multiprocessing
+import os
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from PIL import Image
 
 from app.batch.jobs import Job, Plan
+from app.batch.pool import WorkerPool
 from app.batch.worker import release_all, run_job
 from app.errors import InputError
 from app.progress import Progress
 
 MANIFEST = "manifest.jsonl"
+LOCK = ".pbs-batch.lock"
 DASK_HINT = "needs Dask distributed (pip install 'pbs-lab[distributed]')"
+SCHEDULER_TIMEOUT = 10.0  # seconds to reach a --scheduler before the run is refused
 
 
 def valid_output(path: Path, expected: tuple[int, int] | None) -> bool:
@@ -59,14 +70,7 @@ def _failed(job: Job, exc: BaseException) -> dict:
 
 
 def _processes(jobs: list[Job], workers: int, backend: str) -> Iterator[dict]:
-    spawn = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:
-        futures = {pool.submit(run_job, job, backend): job for job in jobs}
-        for future in as_completed(futures):
-            try:
-                yield future.result()
-            except Exception as exc:  # BrokenProcessPool: a worker died (not a job error)
-                yield _failed(futures[future], exc)
+    yield from WorkerPool(workers, backend).run(jobs)
 
 
 def dask_client(scheduler: str | None, local: int | None, option: str) -> object:
@@ -78,7 +82,13 @@ def dask_client(scheduler: str | None, local: int | None, option: str) -> object
     except ImportError:
         raise InputError(option, "", DASK_HINT) from None
     if scheduler is not None:
-        return Client(scheduler)
+        try:
+            return Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(
+                option, "", f"cannot reach the scheduler at {scheduler} ({why[:160]})"
+            ) from None
     cluster = LocalCluster(
         n_workers=local, threads_per_worker=1, processes=True, dashboard_address=None
     )
@@ -97,6 +107,41 @@ def _dask(jobs: list[Job], client: object, backend: str) -> Iterator[dict]:
             yield _failed(by_key[future.key], exc)
 
 
+@contextlib.contextmanager
+def folder_lock(out: Path) -> Iterator[None]:
+    """Hold ``out/.pbs-batch.lock`` for the block; an ``InputError`` naming the folder
+    where another run holds it."""
+    fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
+            raise InputError(
+                str(out), "-o", f"another pbs batch (pid {holder}) is writing into this folder"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def remove_stale(out: Path, jobs: list[Job]) -> int:
+    """Remove the temporary files a killed run left for these jobs' outputs (app/output.py
+    writes ``.NAME.<random>.png`` and renames it); how many there were."""
+    removed = 0
+    for job in jobs:
+        output = Path(job.output)
+        if output.parent.resolve() != out.resolve():
+            continue
+        for stale in out.glob(f".{output.name}.*{output.suffix}"):
+            with contextlib.suppress(OSError):
+                stale.unlink()
+                removed += 1
+    return removed
+
+
 def run_batch(
     plan: Plan,
     out: Path,
@@ -110,36 +155,45 @@ def run_batch(
     """Render ``plan`` into ``out``; the manifest lines, in the order the jobs ended.
 
     With ``resume``, a job whose output is already a valid PNG of the expected size is
-    not rendered again (status ``skipped``). ``workers`` > 1 spawns that many processes;
-    ``client`` (a ``distributed.Client``) runs the jobs on its workers instead.
+    not rendered again (status ``skipped``). ``workers`` > 1 starts that many worker
+    processes; ``client`` (a ``distributed.Client``) runs the jobs on its workers instead.
+    The folder is locked for the run (``folder_lock``) and cleared of stale temporary
+    files first (``remove_stale``).
     """
     out.mkdir(parents=True, exist_ok=True)
     results: list[dict] = []
     todo: list[Job] = []
-    with (out / MANIFEST).open("w", encoding="utf-8") as manifest:
+    with folder_lock(out):
+        remove_stale(out, plan.jobs)
+        fd = os.open(
+            out / MANIFEST, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND | os.O_CLOEXEC,
+            0o644,
+        )  # fmt: skip
+        try:
 
-        def record(line: dict) -> None:
-            manifest.write(json.dumps(line) + "\n")
-            manifest.flush()
-            results.append(line)
-            if progress is not None:
-                progress.start(f"{line['job']} {line['status']}")
-                progress.done()
-            if on_result is not None:
-                on_result(line)
+            def record(line: dict) -> None:
+                os.write(fd, (json.dumps(line) + "\n").encode())  # one write: a whole line
+                results.append(line)
+                if progress is not None:
+                    progress.start(f"{line['job']} {line['status']}")
+                    progress.done()
+                if on_result is not None:
+                    on_result(line)
 
-        for job in plan.jobs:
-            if resume and valid_output(Path(job.output), job.expected):
-                line = {"job": job.id, "output": job.output, "seconds": 0.0}
-                record({**line, "status": "skipped", "error": None})
+            for job in plan.jobs:
+                if resume and valid_output(Path(job.output), job.expected):
+                    line = {"job": job.id, "output": job.output, "seconds": 0.0}
+                    record({**line, "status": "skipped", "error": None})
+                else:
+                    todo.append(job)
+            if client is not None:
+                stream = _dask(todo, client, backend)
+            elif workers > 1 and len(todo) > 1:
+                stream = _processes(todo, min(workers, len(todo)), backend)
             else:
-                todo.append(job)
-        if client is not None:
-            stream = _dask(todo, client, backend)
-        elif workers > 1 and len(todo) > 1:
-            stream = _processes(todo, min(workers, len(todo)), backend)
-        else:
-            stream = _in_process(todo, backend)
-        for line in stream:
-            record(line)
+                stream = _in_process(todo, backend)
+            for line in stream:
+                record(line)
+        finally:
+            os.close(fd)
     return results

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -36,6 +35,9 @@ from app.output import atomic_write
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.quadrature import direction, directional_albedo, reflected_rule
 from app.scene.presets import PRESETS
+from app.untrusted import RefusedError
+from app.untrusted.policy import Limits
+from app.untrusted.structured import parse_toml
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -92,8 +94,8 @@ def _inline(arg: str) -> list[NamedMaterial]:
     from app.scene.loader import parse_scene
 
     try:
-        data = tomllib.loads(f"m = {arg}")
-    except tomllib.TOMLDecodeError as exc:
+        data = parse_toml(f"m = {arg}", Limits().max_nesting)
+    except RefusedError as exc:
         raise InputError(_shown(arg), "", f"malformed inline TOML table: {exc}") from None
     table = data.get("m")
     if set(data) != {"m"} or not isinstance(table, dict):  # '{ ... }\nkey = 1' and the like

@@ -19,6 +19,7 @@ from app.scene.geometry import MeshPart, build_parts
 from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
 from app.scene.model import TEXTURE_KEYS
+from app.untrusted.budget import Budget
 
 
 @dataclass
@@ -29,6 +30,7 @@ class FrameData:
     materials: MaterialTable
     material_ids: list[list[int]]  # part i's rows of ``materials``, one per layer
     lights: list[PunctualLight]  # directional first, then local (order_lights)
+    decoded: int = 0  # bytes of decoded input the parts keep (app/untrusted/budget.py)
 
     @property
     def has_local_lights(self) -> bool:
@@ -37,10 +39,11 @@ class FrameData:
 
 def prepare_frame(loaded: LoadedScene) -> FrameData:
     """Load the scene's geometry and maps and build its material table and lights."""
-    parts = build_parts(loaded)
+    budget = Budget(loaded.policy.limits)
+    parts = build_parts(loaded, budget)
     table, ids = material_table(parts)
     scene = loaded.scene
-    return FrameData(parts, table, ids, frame_lights(scene.lights))
+    return FrameData(parts, table, ids, frame_lights(scene.lights), budget.spent)
 
 
 def restyle(frame: FrameData, loaded: LoadedScene, changed: set[str]) -> FrameData | None:

@@ -32,7 +32,6 @@ from __future__ import annotations
 import copy
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -47,6 +46,9 @@ from app.render.post import _FullscreenPass
 from app.render.renderer import Renderer
 from app.scene.loader import LoadedScene, key_path, parse_scene
 from app.scene.model import Camera, Scene
+from app.untrusted import RefusedError
+from app.untrusted.policy import Limits
+from app.untrusted.structured import parse_toml
 
 Side = Literal["a", "b"]
 Mode = Literal["split", "difference"]
@@ -235,8 +237,8 @@ def parse_compare(text: str, origin: str = "--compare") -> CompareSpec:
     if "\n" in values or "\r" in values:
         raise InputError(origin, key, "the values must be on one line")
     try:
-        data = tomllib.loads(f"values = [{values}]")
-    except tomllib.TOMLDecodeError:
+        data = parse_toml(f"values = [{values}]", Limits().max_nesting)
+    except RefusedError:
         raise InputError(origin, key, f"{_VALUES_SYNTAX} (got {values!r})") from None
     if set(data) != {"values"} or len(data["values"]) != 2:
         raise InputError(origin, key, f"{_VALUES_SYNTAX}: two values (got {values!r})")

@@ -37,9 +37,11 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.lights import POINT_COS_OUTER, LightType, PunctualLight
+from app.errors import InputError
 from app.gl.context import wait_before_read
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
+from app.render.limits import max_dimension
 
 # 8 x 8 tiles: shorter lists than 16 x 16 ones, and with the group pass the finer cull
 # costs less than that saves (measured in docs/performance.md).
@@ -66,6 +68,22 @@ def tiles_used(setting: str, lights: list[PunctualLight]) -> bool:
     if setting == "auto":
         return local >= TILED_MIN_LOCAL_LIGHTS
     return setting == "tiled" and local > 0
+
+
+def check_tile_masks(
+    ctx: moderngl.Context, size: tuple[int, int], lights: list[PunctualLight], file: str
+) -> None:
+    """``InputError`` where the tile masks of ``lights``' local lights at ``size`` need a
+    texture wider than this GL's largest (one RGBA32UI texel per 128 lights per tile)."""
+    local = sum(x.is_local for x in lights)
+    width = -(-size[0] // TILE_SIZE) * max(1, -(-local // 128))
+    if width > (limit := max_dimension(ctx)):
+        raise InputError(
+            file,
+            "lights",
+            f"{local} local lights culled in {size[0]}-pixel-wide tiles need mask rows "
+            f"{width} texels wide, past this GL's largest texture ({limit})",
+        )
 
 
 class LightCuller:

@@ -235,6 +235,27 @@ MAP_BITS = {
 MAX_ANISOTROPY = 1.0
 
 
+class TextureUploads:
+    """The GL textures of one pass's material maps, one per ``Texture`` object: parts that
+    share a layer (a glTF mesh drawn by many nodes, one material on many primitives)
+    share its textures instead of each uploading its own copy. The owner releases them."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self._made: dict[int, tuple[Texture, moderngl.Texture]] = {}
+
+    def get(self, tex: Texture) -> moderngl.Texture:
+        made = self._made.get(id(tex))
+        if made is None:  # the Texture is kept, so its id is not reused while we hold it
+            made = self._made[id(tex)] = (tex, upload_texture(self.ctx, tex))
+        return made[1]
+
+    def release(self) -> None:
+        for _, gl_tex in self._made.values():
+            gl_tex.release()
+        self._made.clear()
+
+
 def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
     """A material map with its mips: sRGB colour data decoded by the GL, which builds its
     mips; every other map with the levels the project built (app/textures/), never the
@@ -414,7 +435,10 @@ class MeshDrawable:
         shader_pair: tuple[str, str] = ("passes/gbuffer.vert", "passes/gbuffer.frag"),
         defines: dict[str, object] | None = None,
         specular_aa: tuple[float, float] | None = None,
+        uploads: TextureUploads | None = None,
     ) -> None:
+        """``uploads``: the pass's shared textures (its owner releases them); without it
+        the drawable uploads and releases its own."""
         defines = dict(defines or {})
         for i, layer in enumerate(part.layers):
             if layer.maps:
@@ -451,11 +475,13 @@ class MeshDrawable:
         self.vao = ctx.vertex_array(self.program, buffers, self.ibo, skip_errors=True)
         # (uniform name, texture) in the order they take texture units.
         self.textures: list[tuple[str, moderngl.Texture]] = []
+        self._owns_textures = uploads is None
+        upload = (lambda tex: upload_texture(ctx, tex)) if uploads is None else uploads.get
         for i, layer in enumerate(part.layers[:2] if part.blend else part.layers[:1]):
             for name, tex in layer.maps.items():
-                self.textures.append((f"u_{name}_map{i}", upload_texture(ctx, tex)))
+                self.textures.append((f"u_{name}_map{i}", upload(tex)))
         if part.blend is not None:
-            self.textures.append(("u_blend_mask", upload_texture(ctx, part.blend.mask)))
+            self.textures.append(("u_blend_mask", upload(part.blend.mask)))
         self.part = part
         self.material_ids = material_ids
         normal_matrix = np.linalg.inv(part.model[:3, :3]).T
@@ -612,7 +638,8 @@ class MeshDrawable:
             between(run // 3)
 
     def release(self) -> None:
-        for obj in (self.vao, self.vbo, self.ibo, *(t for _, t in self.textures)):
+        owned = [t for _, t in self.textures] if self._owns_textures else []
+        for obj in (self.vao, self.vbo, self.ibo, *owned):
             obj.release()
         if self.extra_vbo is not None:
             self.extra_vbo.release()
@@ -649,8 +676,17 @@ class GBufferPass:
         self._unflushed = 0  # triangles drawn since the last flush
         self.flush_triangles = FLUSH_TRIANGLES  # 0: one flush at the end (the bench's "before")
         defines = dict(defines or {"GBUFFER_TANGENT": 1})
+        self.uploads = TextureUploads(ctx)
         self.drawables = [
-            MeshDrawable(ctx, shaders, p, ids, defines=defines, specular_aa=specular_aa)
+            MeshDrawable(
+                ctx,
+                shaders,
+                p,
+                ids,
+                defines=defines,
+                specular_aa=specular_aa,
+                uploads=self.uploads,
+            )
             for p, ids in zip(parts, material_ids, strict=True)
         ]
 
@@ -690,3 +726,4 @@ class GBufferPass:
     def release(self) -> None:
         for d in self.drawables:
             d.release()
+        self.uploads.release()

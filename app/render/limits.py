@@ -19,10 +19,10 @@ The rule (docs/scene-format.md, "Image size limits"):
   GPU of the project's users can hold next to its meshes and which under llvmpipe would
   come out of system memory.
 
-And the whole: the scene's geometry and textures as the G-buffer pass uploads them, the
-render targets and the shadow atlas add up to at most ``Limits.max_memory`` (the policy's
-``--max-memory``; ``check_gpu_memory``), since a small file can name thousands of drawn
-copies of one textured mesh and each copy has its own buffers and textures.
+And the whole: the decoded input the frame keeps, the scene's geometry and textures as
+the G-buffer pass uploads them, the render targets and the shadow atlas add up to at most
+``Limits.max_memory`` (the policy's ``--max-memory``; ``check_memory``), since a small
+file can name thousands of drawn copies of one mesh, each with its own buffers.
 """
 
 from __future__ import annotations
@@ -120,31 +120,46 @@ def texture_bytes(tex: Texture) -> int:
     return sum(level.size * 2 for level in tex.levels)
 
 
-def part_bytes(part: MeshPart) -> int:
-    """The GPU bytes of one drawn part: its vertex, index and extra attribute buffers and
-    the maps of the layers it samples (each part uploads its own, as the G-buffer pass
-    does)."""
-    total = part.vertices.nbytes + part.indices.nbytes
-    total += sum(a.nbytes for a in (part.uv1, part.colors) if a is not None)
+def _sampled(part: MeshPart) -> list[Texture]:
+    """The maps the G-buffer pass uploads for a part (its layers' and its blend mask)."""
     layers = part.layers[:2] if part.blend else part.layers[:1]
-    total += sum(texture_bytes(tex) for layer in layers for tex in layer.maps.values())
-    if part.blend is not None:
-        total += texture_bytes(part.blend.mask)
-    return total
+    maps = [tex for layer in layers for tex in layer.maps.values()]
+    return maps + ([part.blend.mask] if part.blend is not None else [])
 
 
-def check_gpu_memory(
-    parts: Iterable[MeshPart], target_bytes: int, shadow_bytes: int, limit: int, file: str
+def gpu_bytes(parts: Iterable[MeshPart]) -> tuple[int, int]:
+    """(geometry, textures): the GPU bytes of the parts' vertex, index and extra attribute
+    buffers, and of their maps, each ``Texture`` once (the G-buffer pass uploads a map
+    that parts share once, ``TextureUploads`` in app/render/gbuffer.py)."""
+    geometry, textures = 0, {}
+    for part in parts:
+        geometry += part.vertices.nbytes + part.indices.nbytes
+        geometry += sum(a.nbytes for a in (part.uv1, part.colors) if a is not None)
+        for tex in _sampled(part):
+            textures.setdefault(id(tex), texture_bytes(tex))
+    return geometry, sum(textures.values())
+
+
+def check_memory(
+    parts: Iterable[MeshPart],
+    decoded: int,
+    target_bytes: int,
+    shadow_bytes: int,
+    limit: int,
+    file: str,
 ) -> None:
-    """``InputError`` where the scene's parts, render targets and shadow atlas take more
-    than ``limit`` bytes of GPU memory together."""
-    geometry = sum(part_bytes(p) for p in parts)
-    total = geometry + target_bytes + shadow_bytes
+    """``InputError`` where the scene's decoded input that stays in memory (``decoded``:
+    the budget's total, app/untrusted/budget.py) and its GPU resources (geometry, maps,
+    render targets, shadow atlas) pass ``limit`` bytes together: under a software
+    rasteriser both are system memory, and on a GPU the decoded copies stay besides."""
+    geometry, textures = gpu_bytes(parts)
+    total = decoded + geometry + textures + target_bytes + shadow_bytes
     if total > limit:
         raise InputError(
             file,
             "",
-            f"the scene needs about {describe(total)} of GPU memory (meshes and textures "
-            f"{describe(geometry)}, render targets {describe(target_bytes)}, shadow maps "
+            f"the scene needs about {describe(total)} of memory (decoded input "
+            f"{describe(decoded)}, GPU meshes {describe(geometry)}, textures "
+            f"{describe(textures)}, render targets {describe(target_bytes)}, shadow maps "
             f"{describe(shadow_bytes)}), past the limit of {describe(limit)} (--max-memory)",
         )

@@ -31,11 +31,11 @@ from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
-from app.render.culling import LightCuller, tiles_used
+from app.render.culling import LightCuller, check_tile_masks, tiles_used
 from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.lighting import LightingPass
-from app.render.limits import check_gpu_memory, check_render_size, target_bytes_per_pixel
+from app.render.limits import check_memory, check_render_size, target_bytes_per_pixel
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
 from app.scene.loader import LoadedScene
@@ -193,9 +193,10 @@ class Renderer:
         )  # fmt: skip
         w, h = self.render_size
         check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
-        check_gpu_memory(
-            self.frame.parts, w * h * per_pixel, shadow_atlas_bytes(self.scene.lights),
-            self.loaded.policy.limits.max_memory, str(self.loaded.path),
+        check_memory(
+            self.frame.parts, self.frame.decoded, w * h * per_pixel,
+            shadow_atlas_bytes(self.scene.lights), self.loaded.policy.limits.max_memory,
+            str(self.loaded.path),
         )  # fmt: skip
         self._release(("gbuffer",))
         self.gbuffer = GBuffer(
@@ -294,6 +295,9 @@ class Renderer:
         """The tile culler, where the frame culls by tiles (``tiles_used``)."""
         self._release(("culler",))
         if tiles_used(self.scene.render.light_culling, self.lights):
+            check_tile_masks(
+                self.gl.ctx, self.render_size, self.lights, str(self.loaded.path)
+            )  # before any of its textures exists
             self.culler = LightCuller(self.gl.ctx, self.shaders, self.render_size, self.lights)
 
     def _build_shading(self) -> None:

@@ -717,6 +717,14 @@ def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshP
             built = []
             for mesh, local in meshes:
                 charge(len(mesh.vertices), len(mesh.faces), file_key, f"{obj.file}'s mesh")
+                with np.errstate(invalid="ignore"):  # NaN is what is checked
+                    if not np.all(np.abs(np.asarray(mesh.vertices)) <= MAX_COORDINATE):
+                        raise InputError(
+                            scene_file,
+                            file_key,
+                            f"{obj.file}: its vertices are NaN, infinite or past "
+                            f"{MAX_COORDINATE:g} m",
+                        )
                 if chosen is not None:  # the scene's material overrides the file's
                     layers, blend = chosen
                 else:

@@ -454,8 +454,11 @@ class GltfFile:
             material = _int(prim.material, f"{key}.material", len(materials))
         vertices, index_count = self._declared(prim, key)
         triangles = index_count // 3 if mode == 4 else max(index_count - 2, 0)
+        # Without NORMAL every triangle gets three vertices of its own (flat normals).
+        built = vertices if prim.attributes.NORMAL is not None else 3 * triangles
         try:  # before anything of that size is decoded (a Draco stream must match them)
-            self.budget.mesh(vertices, triangles, f"{key} ({vertices} vertices)")
+            what = f"{max(vertices, built)} vertices and {triangles} triangles"
+            self.budget.mesh(max(vertices, built), triangles, what)
         except RefusedError as exc:
             raise GltfError(key, str(exc)) from None
         draco = (prim.extensions or {}).get("KHR_draco_mesh_compression")
@@ -681,7 +684,9 @@ class GltfFile:
         if pbr is not None and pbr.metallicRoughnessTexture is not None:
             tkey = f"{pkey}.metallicRoughnessTexture"
             mr = self._texture(pbr.metallicRoughnessTexture, tkey)
-            self._map_cost(mr[0], "normal", tkey)  # roughness joins the normal chain
+            # Roughness joins the normal chain: built at the normal map's size where there
+            # is one (charged with it), else at this image's.
+            self._map_cost(mr[0], "scalar" if m.normalTexture is not None else "normal", tkey)
             mr_pixels = np.asarray(mr[0].convert("RGB"), np.float64) / 255.0
             put("metallic", scalar_texture(mr_pixels[..., 2]), mr[1], mr[2])
         normals = None

@@ -24,7 +24,15 @@ from pydantic import ValidationError
 from app.errors import InputError
 from app.scene.geometry import model_matrix
 from app.scene.gltf_document import GltfDocument, GltfError, open_gltf, world_matrices
-from app.scene.model import FILE_CAMERA_KEYS, MAX_LENGTH, Camera, Light, Scene, SceneObject
+from app.scene.model import (
+    FILE_CAMERA_KEYS,
+    MAX_LENGTH,
+    MAX_LIGHTS,
+    Camera,
+    Light,
+    Scene,
+    SceneObject,
+)
 from app.untrusted import RefusedError
 from app.untrusted import files as untrusted_files
 from app.untrusted.policy import InputPolicy
@@ -348,6 +356,12 @@ def resolve(scene: Scene, path: Path, policy: InputPolicy) -> Scene:
         for i, obj in enumerate(scene.objects):
             if obj.import_lights:
                 lights += file_lights(obj, i, path, files)
+                if len(lights) > MAX_LIGHTS:
+                    raise InputError(
+                        str(path),
+                        f"objects[{i}].import_lights",
+                        f"brings the scene past {MAX_LIGHTS} lights",
+                    )
         update["lights"] = lights
         # Imported once: the resolved scene is a plain one, so that its data validated
         # again (the Python API's edits, a batch job) does not import the lights twice.

@@ -52,8 +52,11 @@ class LayerBuilder:
         return read_image(path, str(self.loaded.path), key, self.budget, kind)
 
     def image(self, material: str, key: str) -> Image.Image:
-        relative = getattr(self.loaded.scene.materials[material], key)
+        m = self.loaded.scene.materials[material]
+        relative = getattr(m, key)
         kind = TEXTURE_KINDS.get(key, "scalar")
+        if key == "roughness_map" and m.normal_map is not None:
+            kind = "scalar"  # resampled into the normal map's chain, charged with it
         return self._images(relative, f"materials.{material}.{key}", kind)
 
     def mask(self, material: str) -> np.ndarray:

@@ -57,6 +57,13 @@ Vec3 = Annotated[
 # a frame sums at most a few thousand lights. Values above ~3.4e38 overflowed to +Inf in the HDR
 # image (found by tests/test_fuzz_scenes.py; docs/stability.md, "The renderer").
 MAX_RADIANCE = 1e15
+# Entries of a scene's tables (docs/stability.md, "Limits"): far past any scene of the
+# project's (the bench's largest has 256 lights), and within what the passes can hold: a
+# light is three texels of one row of the lighting pass's light texture (at most 16384
+# wide on llvmpipe), every object at least one drawn part (Limits.max_parts).
+MAX_LIGHTS = 4096
+MAX_OBJECTS = 16_384
+MAX_MATERIALS = 4096
 Color = Annotated[
     list[Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)]], Field(min_length=3, max_length=3)
 ]
@@ -831,6 +838,6 @@ class Scene(_Strict):
     environment: Environment | None = None
     camera: Camera = Camera()
     render: RenderSettings = RenderSettings()
-    materials: dict[str, Material] = {}
-    lights: list[Light] = []
-    objects: list[SceneObject] = []
+    materials: Annotated[dict[str, Material], Field(max_length=MAX_MATERIALS)] = {}
+    lights: Annotated[list[Light], Field(max_length=MAX_LIGHTS)] = []
+    objects: Annotated[list[SceneObject], Field(max_length=MAX_OBJECTS)] = []

@@ -17,18 +17,22 @@ from dataclasses import dataclass, field
 from app.untrusted import RefusedError
 from app.untrusted.policy import GIB, Limits
 
-# Peak bytes the loaders allocate per unit of what an input declares (measured with
-# tracemalloc on the loaders: docs/stability.md, "Limits"; rounded up).
+# Bytes the loaders allocate per unit of what an input declares, as (peak while the unit
+# is being built, what stays once it is built), measured on the loaders themselves
+# (scripts/budget_costs.py; the table is in docs/stability.md, "Limits") and rounded up:
+# a vertex with its share of the triangles' work, each kind of map per texel with its
+# mips, an environment image per texel, a mesh file parsed by trimesh per byte, a file's
+# bytes held while its contents are decoded.
 COSTS = {
-    "vertex": 600,  # a mesh vertex: float64 attributes, normals, tangents, the float32 array
-    "triangle": 120,  # a triangle: int64 faces and their uint32 copy, face normals
-    "colour texel": 12,  # an sRGB map: the decoded image and its RGBA8 copy
-    "scalar texel": 40,  # a linear one-channel map with its float64 mips
-    "normal texel": 260,  # a normal map's float64 normals, roughness and mip chain
-    "direction texel": 60,  # an anisotropy direction map's decoded RG and mips
-    "environment texel": 120,  # an HDR image decoded and turned into the float32 map
-    "byte": 1,  # a file's bytes, held while its contents are decoded
-    "mesh file byte": 40,  # an OBJ, PLY or STL file parsed by trimesh, per byte of the file
+    "vertex": (600, 64),
+    "triangle": (120, 16),
+    "colour texel": (16, 6),
+    "scalar texel": (48, 8),
+    "normal texel": (112, 24),
+    "direction texel": (64, 12),
+    "environment texel": (120, 16),
+    "byte": (1, 1),
+    "mesh file byte": (12, 1),
 }
 
 
@@ -39,34 +43,38 @@ def describe(n: float) -> str:
 
 @dataclass
 class Budget:
-    """The running total of one scene's decoded input, refused past ``limits.max_memory``."""
+    """The running total of what one scene's decoded input keeps, and the check that it
+    plus what the next unit takes while it is built stays within ``limits.max_memory``."""
 
     limits: Limits = field(default_factory=Limits)
-    spent: int = 0
+    spent: int = 0  # bytes kept by what was built so far
+    peak: int = 0  # the largest spent + building seen
     triangles: int = 0
     parts: int = 0
 
     def charge(self, units: int, kind: str, what: str) -> None:
-        """Add ``units`` of ``kind`` (a key of ``COSTS``) for ``what``; ``RefusedError`` where
-        the total would pass the limit, naming ``what`` and the limit."""
-        cost = int(units) * COSTS[kind]
-        if self.spent + cost > self.limits.max_memory:
+        """``units`` of ``kind`` (a key of ``COSTS``) about to be built for ``what``:
+        ``RefusedError`` where building them would pass the limit (naming ``what`` and the
+        limit), else their lasting share is added to the total."""
+        building, kept = (int(units) * c for c in COSTS[kind])
+        if self.spent + building > self.limits.max_memory:
             raise RefusedError(
-                f"{what} would take about {describe(cost)}, bringing this input to "
-                f"{describe(self.spent + cost)}, past the limit of "
+                f"{what} would take about {describe(building)} while it is read, on top of "
+                f"{describe(self.spent)} already held, past the limit of "
                 f"{describe(self.limits.max_memory)} (--max-memory)"
             )
-        self.spent += cost
+        self.peak = max(self.peak, self.spent + building)
+        self.spent += kept
 
     def mesh(self, vertices: int, triangles: int, what: str) -> None:
         """A part of ``vertices`` and ``triangles`` about to be built."""
         self.parts += 1
         if self.parts > self.limits.max_parts:
-            raise RefusedError(f"{what}: more than {self.limits.max_parts} drawn parts")
+            raise RefusedError(f"more than {self.limits.max_parts} drawn parts in all")
         self.triangles += int(triangles)
         if self.triangles > self.limits.max_triangles:
             raise RefusedError(
-                f"{what}: more than {self.limits.max_triangles} triangles in all "
+                f"more than {self.limits.max_triangles} triangles in all "
                 "(instances counted each time they are drawn)"
             )
         self.charge(vertices, "vertex", what)

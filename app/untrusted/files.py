@@ -29,6 +29,11 @@ _SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+:")
 _READ: ContextVar[set[Path] | None] = ContextVar("pbs_inputs_read", default=None)
 
 
+def _shown(reference: str) -> str:
+    """A reference as written, cut short where it is long (a URI can be megabytes)."""
+    return reference if len(reference) <= 300 else reference[:297] + "..."
+
+
 def confine(reference: str, referencing: Path, policy: InputPolicy) -> Path:
     """The resolved path of ``reference`` (relative to the folder of the file
     ``referencing``, or absolute), which must lie inside ``policy.roots(referencing)``
@@ -39,7 +44,7 @@ def confine(reference: str, referencing: Path, policy: InputPolicy) -> Path:
     target = (Path(referencing).resolve().parent / reference).resolve()
     if not any(target == root or target.is_relative_to(root) for root in roots):
         raise RefusedError(
-            f"'{reference}' is outside the folder this file may read from "
+            f"'{_shown(reference)}' is outside the folder this file may read from "
             f"({roots[0]}); pass --allow-path (allow_paths= in the API) to widen it"
         )
     return target
@@ -51,7 +56,7 @@ def confine_uri(uri: str, referencing: Path, policy: InputPolicy) -> Path:
     ``http:``) is refused: pbs reads local files only."""
     if _SCHEME.match(uri):
         raise RefusedError(
-            f"'{uri[:64]}' has a URI scheme; only relative paths and data: URIs are read"
+            f"'{_shown(uri)}' has a URI scheme; only relative paths and data: URIs are read"
         )
     return confine(unquote(uri), referencing, policy)
 

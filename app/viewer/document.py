@@ -15,15 +15,15 @@ import dataclasses
 import itertools
 import os
 import re
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import tomlkit
 
 from app.output import atomic_write
-from app.scene.loader import LoadedScene, load_scene, parse_scene
+from app.scene.loader import LoadedScene, parse_scene, read_text, read_toml
 from app.scene.model import TEXTURE_KEYS, Camera
+from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 
 _PART = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
 
@@ -66,18 +66,28 @@ def set_value(data: dict, key: str, value: Any) -> None:
 class SceneDocument:
     """The edited scene: its data, the file it came from and the validated result."""
 
-    def __init__(self, path: Path, data: dict | None = None) -> None:
+    def __init__(
+        self, path: Path, data: dict | None = None, policy: InputPolicy = DEFAULT_POLICY
+    ) -> None:
         """The scene file ``path``; or, with ``data``, a scene not saved yet that will be
-        saved as ``path`` (file names in it are relative to ``path``'s folder)."""
+        saved as ``path`` (file names in it are relative to ``path``'s folder). The files
+        it names are read under ``policy`` (app/untrusted/policy.py)."""
         self.path = Path(path).resolve()
+        self.policy = policy
         if data is None:
-            self.loaded: LoadedScene = load_scene(self.path)  # InputError on a bad file
-            self.data: dict = tomllib.loads(self.path.read_text(encoding="utf-8"))
-            self.mtime = self.path.stat().st_mtime
+            self.mtime = self._mtime()
+            self.data: dict = read_toml(self.path, policy=policy)  # InputError on a bad file
+            self.loaded: LoadedScene = parse_scene(copy.deepcopy(self.data), self.path, policy)
         else:
-            self.loaded = parse_scene(copy.deepcopy(data), self.path)
+            self.loaded = parse_scene(copy.deepcopy(data), self.path, policy)
             self.data = copy.deepcopy(data)
             self.mtime = 0.0
+
+    def _mtime(self) -> float:
+        try:
+            return self.path.stat().st_mtime
+        except OSError:
+            return 0.0
 
     @property
     def scene(self):
@@ -89,7 +99,7 @@ class SceneDocument:
         data = copy.deepcopy(self.data)
         for key, value in changes.items():
             set_value(data, key, value)
-        loaded = self._camera_only(data, changes) or parse_scene(data, self.path)
+        loaded = self._camera_only(data, changes) or parse_scene(data, self.path, self.policy)
         self.data, self.loaded = data, loaded
         return loaded
 
@@ -110,16 +120,17 @@ class SceneDocument:
 
     def replace(self, data: dict) -> LoadedScene:
         """Validate whole new data (a reloaded file, an undo) and keep it if valid."""
-        loaded = parse_scene(copy.deepcopy(data), self.path)
+        loaded = parse_scene(copy.deepcopy(data), self.path, self.policy)
         self.data, self.loaded = copy.deepcopy(data), loaded
         return loaded
 
     def reload(self) -> LoadedScene:
-        """Read the file again (hot reload); InputError leaves the current state."""
-        loaded = load_scene(self.path)
-        self.data = tomllib.loads(self.path.read_text(encoding="utf-8"))
-        self.loaded = loaded
-        self.mtime = self.path.stat().st_mtime
+        """Read the file again (hot reload); an InputError leaves the current state (the
+        file's new time is noted, so a broken file is not read again until it changes)."""
+        self.mtime = self._mtime()
+        data = read_toml(self.path, policy=self.policy)
+        loaded = parse_scene(copy.deepcopy(data), self.path, self.policy)
+        self.data, self.loaded = data, loaded
         return loaded
 
     def changed_on_disk(self) -> bool:
@@ -135,8 +146,8 @@ class SceneDocument:
         path = Path(path).resolve()
         data = rebase_paths(self.data, self.path.parent, path.parent)
         try:
-            document = tomlkit.parse(self.path.read_text(encoding="utf-8"))
-        except (OSError, tomlkit.exceptions.ParseError):
+            document = tomlkit.parse(read_text(self.path, policy=self.policy))
+        except Exception:
             document = tomlkit.document()
         merge(document, data)
 

@@ -19,7 +19,6 @@ glyphs (the one the walkthrough's labels use) into it, only when Korean is asked
 
 from __future__ import annotations
 
-import tomllib
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -42,6 +41,9 @@ from app.errors import InputError
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
 from app.scene.model import CLOTH_KEYS, FIBER_KEYS, SADEGHI_KEYS, TEXTURE_KEYS
 from app.scene.presets import PRESETS
+from app.untrusted import RefusedError
+from app.untrusted.policy import Limits
+from app.untrusted.structured import parse_toml
 
 if TYPE_CHECKING:
     from app.viewer.window import Viewer
@@ -676,9 +678,9 @@ class Panels:
                 v.state.dirty = True
             if imgui.button("Compare"):
                 try:
-                    a = tomllib.loads(f"v = {self.compare_a}")["v"]
-                    b = tomllib.loads(f"v = {self.compare_b}")["v"]
-                except tomllib.TOMLDecodeError as exc:
+                    a = parse_toml(f"v = {self.compare_a}", Limits().max_nesting)["v"]
+                    b = parse_toml(f"v = {self.compare_b}", Limits().max_nesting)["v"]
+                except (RefusedError, KeyError) as exc:
                     v.state.error = f"compare: A and B are TOML values (strings in quotes): {exc}"
                 else:
                     v.compare(self.compare_key, a, b, mode, v.divider, v.gain)

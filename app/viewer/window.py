@@ -48,7 +48,9 @@ from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
 from app.scene.loader import LoadedScene, parse_scene
 from app.scene.model import Camera
+from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.viewer import orbit as orbit_controls
+from app.viewer import x11
 from app.viewer.document import SceneDocument, get_value, mesh_scene, set_value
 
 PREVIEW_SCALE = 2  # while interacting: render at 1/2 of the window in each direction
@@ -83,6 +85,24 @@ class _State:
     frame_ms: dict[str, float] = field(default_factory=dict)
 
 
+def _problem(exc: BaseException) -> str:
+    """One line for the Problems panel: an input error as the CLI prints it, a GLSL error
+    after "GLSL:", anything else with its type."""
+    if isinstance(exc, InputError):
+        text = str(exc)
+    elif isinstance(exc, ShaderError | moderngl.Error):
+        text = f"GLSL: {exc}"
+    else:
+        text = f"{type(exc).__name__}: {exc}"
+    return " ".join(text.split())
+
+
+def _on_x11() -> bool:
+    """Whether glfw runs on X11 (the viewer's X error handlers apply only there)."""
+    get_platform = getattr(glfw, "get_platform", None)
+    return get_platform is None or get_platform() == getattr(glfw, "PLATFORM_X11", None)
+
+
 def _release_current_egl() -> None:
     """Unbind a headless EGL context current in this thread (``pbs render``'s, a test's):
     Mesa refuses to make a GLX window context current over it (BadAccess)."""
@@ -113,10 +133,12 @@ class Viewer:
         vsync: bool = True,
         ui: bool = True,
         hangul: bool = False,
+        policy: InputPolicy = DEFAULT_POLICY,
     ) -> None:
         """``hangul`` merges a Hangul font into the panels' (``Panels.load_hangul``): for
-        the Korean walkthrough, asked for before the first frame."""
-        self.document = SceneDocument(scene or scenes_dir() / "showcase.toml")
+        the Korean walkthrough, asked for before the first frame. ``policy``: what the
+        scenes' files may reach and cost (``--allow-path``, ``--max-memory``)."""
+        self.document = SceneDocument(scene or scenes_dir() / "showcase.toml", policy=policy)
         self.base_camera = self.document.scene.camera  # what "reset camera" goes back to
         if not glfw.init():
             raise ViewerError("glfw could not initialise (is there a display? DISPLAY unset?)")
@@ -132,6 +154,9 @@ class Viewer:
             glfw.terminate()
             raise ViewerError("could not open an OpenGL 3.3 core window")
         glfw.make_context_current(self.window)
+        # A window destroyed or a connection killed from outside ends the viewer cleanly
+        # (app/viewer/x11.py) instead of Xlib's exit(1).
+        self._x11 = x11.watch(glfw.get_x11_window(self.window)) if _on_x11() else None
         self.vsync = vsync
         glfw.swap_interval(1 if vsync else 0)
         self.gl = GLContext(moderngl.create_context(require=330), "glfw")
@@ -386,7 +411,7 @@ class Viewer:
 
     def _refuse(self, exc: Exception) -> bool:
         """Report what refused an action in the Problems panel; nothing changed."""
-        self.state.error = f"GLSL: {exc}" if not isinstance(exc, InputError) else str(exc)
+        self.state.error = _problem(exc)
         return False
 
     def stop_compare(self) -> None:
@@ -459,14 +484,16 @@ class Viewer:
         nothing changes."""
         self._current()
         path = Path(path).resolve()
+        policy = self.document.policy
         try:
             if path.suffix.lower() == ".toml":
-                document = SceneDocument(path)
+                document = SceneDocument(path, policy=policy)
             else:
                 data = mesh_scene(path)
-                document = SceneDocument(path.with_name(f"{path.stem}-view.toml"), data)
+                name = path.with_name(f"{path.stem}-view.toml")
+                document = SceneDocument(name, data, policy)
             renderer = Renderer(self.gl, document.loaded, self.framebuffer_size)
-        except (InputError, ShaderError, moderngl.Error) as exc:
+        except Exception as exc:
             return self._refuse(exc)
         self.stop_compare()  # a comparison of the old scene would hide the new one
         self.renderer.release()
@@ -488,34 +515,36 @@ class Viewer:
             return
         self.state.last_watch = now
         if self.document.changed_on_disk():
-            old = self.document.scene
+            old, previous = self.document.scene, copy.deepcopy(self.document.data)
             try:
                 loaded = self.document.reload()
-            except (InputError, OSError) as exc:
-                self.document.mtime = self.document.path.stat().st_mtime
-                self.state.error = str(exc)
+            except Exception as exc:
+                self.state.error = _problem(exc)
             else:
                 self.state.error = ""
-                if loaded.scene != old:
-                    self._rebuild()
+                if loaded.scene != old and not self._rebuild():
+                    self.document.replace(previous)  # the last good scene stays edited
         mtime = _glsl_mtime()
         if mtime != self.state.glsl_mtime:
             self.state.glsl_mtime = mtime
             self._rebuild()
 
-    def _rebuild(self) -> None:
-        """A new renderer from the document (new programs from the GLSL on disk); on a
-        compile error the old one keeps running."""
+    def _rebuild(self) -> bool:
+        """A new renderer from the document (new programs from the GLSL on disk, its files
+        read again); on any error (GLSL that does not compile, a mesh, texture or
+        environment that cannot be read) the old one keeps running, the error is shown,
+        and False is returned."""
         self._current()
         try:
             renderer = Renderer(self.gl, self.document.loaded, self.framebuffer_size)
-        except (ShaderError, moderngl.Error) as exc:
-            self.state.error = f"GLSL: {exc}"
-            return
+        except Exception as exc:
+            self.state.error = _problem(exc)
+            return False
         self.renderer.release()
         self.renderer = renderer
         self.state.error = ""
         self.state.dirty = True
+        return True
 
     # --- frames ---------------------------------------------------------------------------
 
@@ -544,11 +573,19 @@ class Viewer:
         self.state.dirty = False
         self.state.rendered_scale = scale
 
+    @property
+    def window_gone(self) -> bool:
+        """Whether X destroyed the window under the viewer (closed from outside)."""
+        return self._x11 is not None and self._x11.gone
+
     def step(self, frames: int = 1) -> None:
         """Run ``frames`` frames: input, hot reload, pending edits, render, panels, swap."""
         self._current()
         for _ in range(frames):
             glfw.poll_events()
+            if self.window_gone:  # destroyed from outside: the loop ends, nothing drawn
+                glfw.set_window_should_close(self.window, True)
+                return
             self._watch()
             if self.state.pending and self.state.notice:
                 self._draw()  # the last image with the notice, before the compile
@@ -727,6 +764,9 @@ class Viewer:
         self.state.dirty = True
 
     def close(self) -> None:
+        if self.window_gone:  # nothing of the window is left to release or draw into
+            glfw.terminate()
+            return
         self._current()
         if self.panels is not None:
             self.panels.shutdown()

@@ -10,7 +10,6 @@ the key (``comparisons[0].key``), which the CLI prints on one line and exits 2.
 from __future__ import annotations
 
 import re
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -26,8 +25,10 @@ from app.scene.loader import (
     key_path,
     load_scene,
     parse_scene,
-    read_text,
+    read_toml,
 )
+from app.untrusted import RefusedError, files
+from app.untrusted.policy import DEFAULT_POLICY
 
 LANGUAGES: tuple[str, ...] = ("en", "ko")
 Lang = Literal["en", "ko"]
@@ -166,7 +167,9 @@ def resolve_scene_ref(ref: str, step_path: Path) -> Path:
     from app.resources import scenes_dir
 
     if ref.endswith(".toml") or "/" in ref or "\\" in ref:
-        return step_path.parent / ref
+        # Confined like every reference: a step file reads only its own folder's scenes
+        # (and the bundled ones) (app/untrusted/files.py).
+        return files.confine(ref, step_path, DEFAULT_POLICY)
     return scenes_dir() / f"{ref}.toml"
 
 
@@ -181,7 +184,10 @@ def _load_scenes(step: Step, path: Path) -> dict[str, LoadedScene]:
             ref = item.scene
             if ref in scenes:
                 continue
-            file = resolve_scene_ref(ref, path)
+            try:
+                file = resolve_scene_ref(ref, path)
+            except RefusedError as exc:
+                raise _error(path, f"{kind}[{i}].scene", str(exc)) from None
             if not file.is_file():
                 raise _error(
                     path,
@@ -309,12 +315,7 @@ def parse_step(data: dict, path: Path) -> LoadedStep:
 def load_step(path: str | Path) -> LoadedStep:
     """Read and validate one step file (``walkthrough/NN-slug.toml``)."""
     path = Path(path)
-    text = read_text(path, "step file")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise _error(path, "", f"malformed TOML: {exc}") from None
-    return parse_step(data, path)
+    return parse_step(read_toml(path, "step file"), path)
 
 
 def load_walkthrough(folder: str | Path, sections: set[int] | None = None) -> list[LoadedStep]:
