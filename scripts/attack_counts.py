@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import contextlib
 import os
 import sys
 import tempfile
@@ -35,9 +36,7 @@ from tests.attacks import escapes, run_cases  # noqa: E402
 def _suites(folder: Path) -> dict[str, list]:
     (folder / "confine").mkdir()
     layout = test_attack_confinement.make_layout(folder / "confine")
-    confinement = test_attack_confinement._cases(layout) + test_attack_confinement._allowed(
-        layout
-    )
+    confinement = test_attack_confinement._cases(layout) + test_attack_confinement._allowed(layout)
     gltf, _ = test_attack_gltf.cases(folder / "gltf", test_attack_gltf.CASES)
     return {
         "confinement": confinement,
@@ -51,7 +50,8 @@ def _reason(line: str) -> str:
     why = line.split(": ", 1)[1]
     for prefix in ("opened a file outside", "exception", "took", "peak memory",
                    "refused with", "refused but wrote", "exit code", "exit 0 but",
-                   "expected a render", "expected a refusal", "the refusal quotes"):  # fmt: skip
+                   "expected a render", "expected a refusal", "the refusal quotes",
+                   "printed on stdout"):  # fmt: skip
         if why.startswith(prefix):
             return prefix
     return why[:40]
@@ -60,16 +60,20 @@ def _reason(line: str) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("rev", nargs="?", help="a commit to run the cases against")
+    parser.add_argument("--suites", help="only these suites (comma-separated first words)")
+    parser.add_argument("-v", "--verbose", action="store_true", help="list every escape")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         suites = _suites(folder)
-        with checkout(args.rev) if args.rev else _here() as tree:
+        with checkout(args.rev) if args.rev else contextlib.nullcontext(REPO) as tree:
             if args.rev:
                 os.environ["PBS_ATTACK_LEGACY"] = "1"
             print(f"| suite | cases | escaped | why ({args.rev or 'this tree'}) |")
             print("|---|---|---|---|")
             for name, cases in suites.items():
+                if args.suites and name.split()[0] not in args.suites.split(","):
+                    continue
                 work = folder / f"run-{name.split()[0]}"
                 work.mkdir()
                 outcomes = run_cases(cases, work, timeout=7200, tree=Path(tree))
@@ -77,14 +81,9 @@ def main() -> None:
                 reasons = collections.Counter(_reason(line) for line in found)
                 text = ", ".join(f"{n} {r}" for r, n in reasons.most_common()) or "none"
                 print(f"| {name} | {len(cases)} | {len(found)} | {text} |", flush=True)
-
-
-class _here:
-    def __enter__(self) -> Path:
-        return REPO
-
-    def __exit__(self, *exc: object) -> None:
-        return None
+                if args.verbose:
+                    for line in found:
+                        print(f"    {line[:240]}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -91,9 +91,7 @@ def main() -> None:
     parser.add_argument("folder", type=Path)
     parser.add_argument("--png", type=Path, help="also write each render here")
     args = parser.parse_args()
-    assets = sorted(
-        p for p in args.folder.rglob("*") if p.suffix.lower() in (".gltf", ".glb")
-    )
+    assets = sorted(p for p in args.folder.rglob("*") if p.suffix.lower() in (".gltf", ".glb"))
     if args.png:
         args.png.mkdir(parents=True, exist_ok=True)
     print("| asset | triangles | parts | nodes | images (largest side) | budget used "

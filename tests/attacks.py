@@ -16,6 +16,7 @@ for hundreds of cases), with:
 The contract (``escapes``): the command either refused the input (exit 2, exactly one
 stderr line ``pbs: error: ...``, none of the case's outputs written) or rendered it (exit
 0, a PNG that decodes, an HDR image whose every value is finite and >= 0), in both cases
+with nothing on stdout where the case passes ``-q``,
 without a traceback, within ``MAX_SECONDS`` and ``MAX_PEAK`` of memory, without opening a
 file under the case's secret folder, and without a refusal that quotes the secret's
 contents or size.
@@ -45,6 +46,16 @@ ADDRESS_SPACE = 8 << 30  # the child's limit: a bomb that gets through fails, no
 SECRET = "pbs-attack-secret-7f3a"  # what every secret file holds (and nothing else does)
 
 
+def scene_head(width: int = 32, height: int = 18) -> str:
+    """The start of every suite's scene files: a tiny image, a camera at +Z looking at
+    the origin, one directional light along the view."""
+    return (
+        f"[render]\nwidth = {width}\nheight = {height}\n\n"
+        "[camera]\nposition = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\n"
+        '[[lights]]\ntype = "directional"\ndirection = [0.0, 0.0, -1.0]\n\n'
+    )
+
+
 @dataclass
 class Case:
     """One hostile input: ``argv`` for ``pbs``, run in ``cwd``; ``outputs`` must not exist
@@ -65,6 +76,7 @@ class Outcome:
     id: str
     code: int | None
     stderr: str
+    stdout: str
     exception: str | None
     seconds: float
     peak: int
@@ -100,7 +112,7 @@ def run_cases(
         left = [c for c in todo if c.id not in results]
         if left:  # the child died on left[0]: it fails, the rest run in a new child
             why = f"the child process died here (exit {proc.returncode}): {proc.stderr[-600:]}"
-            results[left[0].id] = Outcome(left[0].id, None, "", why, 0.0, 0, [], [], None)
+            results[left[0].id] = Outcome(left[0].id, None, "", "", why, 0.0, 0, [], [], None)
             left = left[1:]
         todo, attempt = left, attempt + 1
     return results
@@ -129,6 +141,8 @@ def _problem(case: Case, o: Outcome) -> str | None:
     if o.peak > MAX_PEAK:
         return f"peak memory grew by {o.peak >> 20} MiB"
     lines = [line for line in o.stderr.splitlines() if line.strip()]
+    if "-q" in case.argv and o.stdout.strip() and o.code in (0, 2):
+        return f"printed on stdout under -q: {o.stdout.strip()[:200]!r}"
     if o.code == 2:
         if len(lines) != 1 or not lines[0].startswith("pbs: error: "):
             return f"refused with {len(lines)} stderr lines: {o.stderr[:300]!r}"
@@ -262,14 +276,16 @@ def _child(spec: Path, out: Path) -> None:
                 os.dup2(saved[0], 1), os.dup2(saved[1], 2)
                 err.seek(0)
                 stderr = err.read()
+                std.seek(0)
+                stdout = std.read()
             secret = case.secret
             touched = sorted(
                 {real for cwd, p in opened if secret and _inside(real := _real(cwd, p), secret)}
             )
             written = [p for p in case.outputs if os.path.exists(p)] if code != 0 else []
             problem = _image_problem(case) if code == 0 else None
-            line = Outcome(case.id, code, stderr, exception, seconds, peak, touched, written,
-                           problem)  # fmt: skip
+            line = Outcome(case.id, code, stderr, stdout, exception, seconds, peak, touched,
+                           written, problem)  # fmt: skip
             results.write(json.dumps(asdict(line)) + "\n")
             results.flush()
 

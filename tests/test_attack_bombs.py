@@ -20,24 +20,9 @@ import struct
 import zlib
 from pathlib import Path
 
-from tests.attacks import Case, escapes, run_cases
+from tests.attacks import Case, escapes, run_cases, scene_head
 
-HEAD = """\
-[render]
-width = 32
-height = 18
-
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-
-[[lights]]
-type = "directional"
-direction = [0.0, 0.0, -1.0]
-
-[materials.m]
-roughness = 0.5
-"""
+HEAD = scene_head() + "[materials.m]\nroughness = 0.5\n"
 MESH = '[[objects]]\nshape = "mesh"\nfile = "{f}"\n'
 SPHERE = '[[objects]]\nshape = "sphere"\nmaterial = "m"\n'
 SPHERE_N = '[[objects]]\nshape = "sphere"\nmaterial = "n"\n'

@@ -24,25 +24,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tests.attacks import SECRET, Case, escapes, run_cases
+from tests.attacks import SECRET, Case, escapes, run_cases, scene_head
 from tests.gltf_builder import GltfBuilder
 
-SCENE_HEAD = """\
-[render]
-width = 32
-height = 18
-
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-
-[[lights]]
-type = "directional"
-direction = [0.0, 0.0, -1.0]
-
-[materials.plain]
-roughness = 0.5
-"""
+SCENE_HEAD = scene_head() + "[materials.plain]\nroughness = 0.5\n"
 
 
 def _png(colour: tuple[int, int, int], text: str = "") -> bytes:
@@ -296,3 +281,32 @@ def test_bytes_of_a_secret_never_appear(layout: dict[str, Path]) -> None:
     assert SECRET.encode() in (secret / "secret.bin").read_bytes()
     assert SECRET.encode() in (secret / "secret.png").read_bytes()
     assert np.frombuffer((secret / "secret.hdr").read_bytes()[-4:], np.uint8)[3] == 129
+
+
+def test_the_api_is_strict_by_default(layout: dict[str, Path]) -> None:
+    """A scene dict (what a service builds from a request) reads only its base_dir, as a
+    file reads its folder; allow_paths widens it, as --allow-path does."""
+    from app.api import scene_from
+    from app.errors import InputError
+    from app.scene.geometry import build_parts
+
+    asset, secret = layout["asset"], layout["secret"]
+    data = {
+        "materials": {"m": {"base_color_map": str(secret / "secret.png")}},
+        "objects": [{"shape": "sphere", "material": "m"}],
+    }
+    with pytest.raises(InputError, match="is outside the folder") as err:
+        scene_from(data, base_dir=asset)
+    assert SECRET not in str(err.value)
+    loaded = scene_from(data, base_dir=asset, allow_paths=[secret])
+    assert build_parts(loaded)[0].layers[0].maps["base_color"].pixels[0, 0, 0] == 250
+    with pytest.raises(InputError, match="past the limit"):
+        big = {"render": {"width": 4096, "height": 4096}, **data}
+        from app.gl.context import create_context
+        from app.render.renderer import Renderer
+
+        gl = create_context("egl")
+        try:
+            Renderer(gl, scene_from(big, base_dir=asset, allow_paths=[secret], max_memory=1 << 28))
+        finally:
+            gl.release()

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from tests.attacks import Case, escapes, run_cases
+from tests.attacks import Case, escapes, run_cases, scene_head
 from tests.gltf_builder import GltfBuilder
 
 MAX_MEMORY = "1G"
@@ -160,26 +160,14 @@ def _environments() -> dict[str, bytes]:
         "wrong-aspect.exr": _exr(np.ones((8, 8, 3), np.float32)),
         "lying-window.exr": _exr_lying_window(100_000, 50_000),
         "lying-window-16384.exr": _exr_lying_window(16384, 8192),
+        "lying-window-small.exr": _exr_lying_window(64, 32),
         "truncated.exr": _exr(one)[:200],
         "text.exr": b"not an exr\n",
         "empty.hdr": b"",
     }  # fmt: skip
 
 
-HEAD = """\
-[render]
-width = 24
-height = 16
-
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-
-[[lights]]
-type = "directional"
-direction = [0.0, 0.0, -1.0]
-
-"""
+HEAD = scene_head(24, 16)
 SITES = {
     "base_color_map": '[materials.m]\nbase_color_map = "{f}"\n',
     "normal_map": '[materials.m]\nnormal_map = "{f}"\n',

@@ -103,7 +103,7 @@ BROKEN_RELOADS = {
     "nan-mesh": (("nan.obj", b"v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), dict(mesh="nan.obj")),
     "huge-gltf": (("huge.gltf", HUGE_GLTF.encode()), dict(mesh="huge.gltf")),
     "garbage-texture": (("junk.png", b"not a png"), dict(material='base_color_map = "junk.png"')),
-    "outside-texture": (None, dict(material='base_color_map = "../../etc/passwd"')),
+    "outside-texture": (None, dict(material='base_color_map = "/etc/hostname"')),
     "bad-environment": (
         ("bad.hdr", b"#?RADIANCE\n\nnonsense"), dict(environment=ENV.format("bad.hdr"))
     ),

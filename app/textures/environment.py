@@ -17,8 +17,13 @@ v = acos(d.y) / pi (glsl/env/equirect.glsl and its twin app/reference/environmen
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import re
+import sys
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -153,48 +158,78 @@ def read_hdr(path: Path, limits: Limits | None = None) -> np.ndarray:
     return out.astype(np.float32)
 
 
+@contextlib.contextmanager
+def _c_output() -> Iterator[list[str]]:
+    """Catch what C++ code writes to file descriptors 1 and 2 inside the block (OpenEXR
+    prints warnings and errors there before raising): the text is put in the list, never
+    on the terminal, since a refused input gets one line."""
+    caught: list[str] = []
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 1)
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield caught
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+            sink.seek(0)
+            caught.append(sink.read().decode("utf-8", "replace"))
+
+
 def read_exr(path: Path, limits: Limits | None = None) -> np.ndarray:
     """An OpenEXR file's RGB (or Y, grey) channels as float32 (H, W, 3), read with the
     OpenEXR library; ValueError says what is wrong. Its header is read first, alone, and
-    the size it declares checked against ``limits`` (``_admit``) before any pixel is."""
-    import OpenEXR  # the Academy Software Foundation's binding; imported only when used
-
+    the size it declares checked against ``limits`` (``_admit``) before any pixel is. What
+    the library prints about a broken file becomes part of that one message."""
     limits = limits or Limits()
+    said: list[str] = []
     try:
-        with (
-            files.open_regular(path, limits.max_file_bytes) as (fd, _),
-            open(fd, "rb", closefd=False) as stream,
-        ):
-            with OpenEXR.File(stream, header_only=True) as head:
-                if len(head.parts) != 1:
-                    raise ValueError(f"{len(head.parts)} parts (only single-part images)")
-                header = head.header()
-                if "deep" in str(header.get("type", "")).lower():
-                    raise ValueError("a deep image (only flat scanline or tiled images)")
-                low, high = (np.asarray(c, np.int64) for c in header["dataWindow"])
-                width, height = (int(x) for x in high - low + 1)
-                channels = len(header.get("channels", ()))
-            if width <= 0 or height <= 0:
-                raise ValueError(f"zero-size image ({width} x {height})")
-            _admit(width, height, max(channels, 1), limits)
-            stream.seek(0)
-            with OpenEXR.File(stream) as f:
-                channels = f.channels()
-                if "RGB" in channels:
-                    px = np.asarray(channels["RGB"].pixels, np.float32)
-                elif "RGBA" in channels:
-                    px = np.asarray(channels["RGBA"].pixels, np.float32)[..., :3]
-                elif "Y" in channels:
-                    px = np.repeat(np.asarray(channels["Y"].pixels, np.float32)[..., None], 3, -1)
-                else:
-                    raise ValueError(f"no RGB or Y channels (has {', '.join(sorted(channels))})")
+        with _c_output() as said:
+            px = _decode_exr(path, limits)
     except RefusedError as exc:
         raise ValueError(str(exc).removeprefix(f"{path}: ")) from None
     except (RuntimeError, KeyError, TypeError) as exc:
-        raise ValueError(f"not a readable OpenEXR file ({exc})") from None
+        detail = " ".join("".join(said).replace(str(path), "").split()).strip(": ")[:200]
+        raise ValueError(f"not a readable OpenEXR file ({detail or exc})") from None
     if px.ndim != 3 or px.shape[0] == 0 or px.shape[1] == 0:
         raise ValueError(f"zero-size image ({px.shape[1]} x {px.shape[0]})")
     return np.ascontiguousarray(px)
+
+
+def _decode_exr(path: Path, limits: Limits) -> np.ndarray:
+    import OpenEXR  # the Academy Software Foundation's binding; imported only when used
+
+    with (
+        files.open_regular(path, limits.max_file_bytes) as (fd, _),
+        open(fd, "rb", closefd=False) as stream,
+    ):
+        with OpenEXR.File(stream, header_only=True) as head:
+            if len(head.parts) != 1:
+                raise ValueError(f"{len(head.parts)} parts (only single-part images)")
+            header = head.header()
+            if "deep" in str(header.get("type", "")).lower():
+                raise ValueError("a deep image (only flat scanline or tiled images)")
+            low, high = (np.asarray(c, np.int64) for c in header["dataWindow"])
+            width, height = (int(x) for x in high - low + 1)
+            channels = len(header.get("channels", ()))
+        if width <= 0 or height <= 0:
+            raise ValueError(f"zero-size image ({width} x {height})")
+        _admit(width, height, max(channels, 1), limits)
+        stream.seek(0)
+        with OpenEXR.File(stream) as f:
+            channels = f.channels()
+            if "RGB" in channels:
+                return np.asarray(channels["RGB"].pixels, np.float32)
+            if "RGBA" in channels:
+                return np.asarray(channels["RGBA"].pixels, np.float32)[..., :3]
+            if "Y" in channels:
+                return np.repeat(np.asarray(channels["Y"].pixels, np.float32)[..., None], 3, -1)
+            raise ValueError(f"no RGB or Y channels (has {', '.join(sorted(channels))})")
 
 
 def read_environment_image(

@@ -26,9 +26,10 @@ MIB = 1 << 20
 class Limits:
     """Upper bounds on one input; each refusal names the limit it hit."""
 
-    # Estimated peak of the decoded data one scene holds: its meshes and textures as the
-    # loaders build them (app/untrusted/budget.py), and separately the GPU memory of its
-    # geometry, textures and render targets. --max-memory changes it.
+    # The memory one scene may take: the peak of its decoded meshes and textures as the
+    # loaders build them (app/untrusted/budget.py), and what of them it keeps plus its
+    # GPU resources (geometry, maps, render targets, shadow atlas: app/render/limits.py).
+    # --max-memory changes it.
     max_memory: int = 4 * GIB
     # Bytes of one referenced file (a glTF buffer, an image, a mesh): checked against the
     # file's size before it is read.
@@ -39,8 +40,8 @@ class Limits:
     max_json_bytes: int = 64 * MIB
     # Nesting depth of parsed JSON and TOML: scene files nest 4 deep, glTF 7.
     max_nesting: int = 64
-    # glTF: entries of one top-level array (accessors, nodes, images, ...), nodes of the
-    # shown scene and the depth of its hierarchy.
+    # glTF: entries of any one JSON array (nodes, accessors, images, a node's children,
+    # ...) and the depth of the node hierarchy.
     max_entries: int = 65_536
     max_node_depth: int = 1_024
     # Drawn parts (a glTF primitive once per node that shows it, a mesh of an OBJ) and
