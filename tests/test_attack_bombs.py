@@ -127,6 +127,12 @@ def _bombs(folder: Path) -> list[tuple[str, str, str]]:
         (folder / f"{name}.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + head)
         out.append((name, f'[environment]\nsource = "image"\nfile = "{name}.hdr"\n' + SPHERE,
                     "refused"))  # fmt: skip
+    w, h = 4096, 2048  # runs of one component each: 33.5 M Python steps to decode
+    row = bytes([2, 2, w >> 8, w & 255]) + (bytes([1, 100]) * w) * 3 + bytes([1, 128]) * w
+    head = f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode()
+    (folder / "runs.hdr").write_bytes(head + row * h)
+    out.append(("hdr-one-component-runs", '[environment]\nsource = "image"\nfile = "runs.hdr"\n'
+                + SPHERE, "refused"))  # fmt: skip
     # special files
     os.mkfifo(folder / "fifo.png")
     out.append(("fifo-texture", '[materials.n]\nbase_color_map = "fifo.png"\n'
@@ -242,7 +248,7 @@ def cases(folder: Path) -> list[Case]:
 
 def test_resource_bombs_are_refused_up_front(tmp_path: Path) -> None:
     found_cases = cases(tmp_path / "asset")
-    assert len(found_cases) >= 40, len(found_cases)
+    assert len(found_cases) >= 42, len(found_cases)
     outcomes = run_cases(found_cases, tmp_path)
     found = escapes(found_cases, outcomes)
     assert not found, f"{len(found)} of {len(found_cases)} escaped:\n" + "\n".join(found)

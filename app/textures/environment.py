@@ -74,6 +74,59 @@ def _admit(width: int, height: int, channels: int, limits: Limits) -> None:
     budget.charge(width * height * channels * 4, "byte", "its channels")
 
 
+# The most runs a run-length coded .hdr may hold: a file of runs one component long costs
+# the decoder a Python step per component (an 8192 x 4096 map would take minutes), while
+# Radiance's encoder writes literal runs of up to 128 and repeats of at least 4, so even
+# an 8K map of noise is 8192 x 4096 x 4 / 128 = 10^6 runs (docs/stability.md, "Limits").
+MAX_RLE_RUNS = 1 << 24
+
+
+def _scanlines(data: bytes, at: int, width: int, height: int) -> np.ndarray:
+    """The (height, width, 4) RGBE bytes of a Radiance body starting at ``data[at]``:
+    flat scanlines or the "new" run-length form, each channel's runs appended to one
+    bytearray (a Python step per run, and at most ``MAX_RLE_RUNS`` of them)."""
+    rgbe = np.empty((height, width, 4), np.uint8)
+    size, runs = len(data), 0
+    for row in range(height):
+        if at + 4 > size:
+            raise ValueError(f"truncated at scanline {row}")
+        rle = 8 <= width < 32768 and data[at] == 2 and data[at + 1] == 2 and data[at + 2] < 128
+        if not rle:  # flat pixels (this file's scanlines are not run-length coded)
+            if at + 4 * width > size:
+                raise ValueError(f"truncated at scanline {row}")
+            rgbe[row] = np.frombuffer(data, np.uint8, 4 * width, at).reshape(width, 4)
+            at += 4 * width
+            continue
+        if (data[at + 2] << 8 | data[at + 3]) != width:
+            raise ValueError(f"scanline {row}: length does not match the width")
+        at += 4
+        for channel in range(4):
+            line = bytearray()
+            while len(line) < width:
+                if at >= size:
+                    raise ValueError(f"truncated at scanline {row}")
+                count = data[at]
+                if count > 128:
+                    count -= 128
+                    if len(line) + count > width or at + 1 >= size:
+                        raise ValueError(f"scanline {row}: bad run")
+                    line += data[at + 1 : at + 2] * count
+                    at += 2
+                else:
+                    if count == 0 or len(line) + count > width or at + 1 + count > size:
+                        raise ValueError(f"scanline {row}: bad run")
+                    line += data[at + 1 : at + 1 + count]
+                    at += 1 + count
+                runs += 1
+            if runs > MAX_RLE_RUNS:
+                raise ValueError(
+                    f"more than {MAX_RLE_RUNS} run-length runs (the decoder's limit; real "
+                    "images hold far fewer)"
+                )
+            rgbe[row, :, channel] = np.frombuffer(line, np.uint8)
+    return rgbe
+
+
 def read_hdr(path: Path, limits: Limits | None = None) -> np.ndarray:
     """A Radiance RGBE (.hdr) file as float32 (H, W, 3); ValueError says what is wrong.
 
@@ -115,43 +168,7 @@ def read_hdr(path: Path, limits: Limits | None = None) -> np.ndarray:
         raise ValueError(str(exc)) from None
     if len(data) - end - 1 < 4 * height:  # at least a run-length header per scanline
         raise ValueError(f"truncated: {height} scanlines declared")
-    body = np.frombuffer(data, np.uint8, offset=end + 1)
-    rgbe = np.empty((height, width, 4), np.uint8)
-    at = 0
-    for row in range(height):
-        head = body[at : at + 4]
-        if len(head) < 4:
-            raise ValueError(f"truncated at scanline {row}")
-        rle = 8 <= width < 32768 and head[0] == 2 and head[1] == 2 and head[2] < 128
-        if not rle:  # flat pixels (this file's scanlines are not run-length coded)
-            flat = body[at : at + 4 * width]
-            if len(flat) < 4 * width:
-                raise ValueError(f"truncated at scanline {row}")
-            rgbe[row] = flat.reshape(width, 4)
-            at += 4 * width
-            continue
-        if (int(head[2]) << 8 | int(head[3])) != width:
-            raise ValueError(f"scanline {row}: length does not match the width")
-        at += 4
-        for channel in range(4):
-            x = 0
-            while x < width:
-                if at >= len(body):
-                    raise ValueError(f"truncated at scanline {row}")
-                count = int(body[at])
-                at += 1
-                if count > 128:
-                    count -= 128
-                    if x + count > width or at >= len(body):
-                        raise ValueError(f"scanline {row}: bad run")
-                    rgbe[row, x : x + count, channel] = body[at]
-                    at += 1
-                else:
-                    if count == 0 or x + count > width or at + count > len(body):
-                        raise ValueError(f"scanline {row}: bad run")
-                    rgbe[row, x : x + count, channel] = body[at : at + count]
-                    at += count
-                x += count
+    rgbe = _scanlines(data, end + 1, width, height)
     e = rgbe[..., 3].astype(np.int32)
     scale = np.where(e == 0, 0.0, np.ldexp(1.0, e - 136))
     out = (rgbe[..., :3].astype(np.float64) + 0.5) * scale[..., None]
