@@ -111,7 +111,7 @@ def _lines(out: Path) -> int:
 
 
 def test_a_killed_worker_fails_only_its_job(tmp_path: Path) -> None:
-    jobs, out = _setup(tmp_path, 16)
+    jobs, out = _setup(tmp_path, 48, "320x180")  # long enough that both still work
     proc = _start(jobs, out, "--workers", "2")
     _wait_for(lambda: _lines(out) >= 2, 120, "the first results")
     workers = _children(proc.pid)
@@ -119,19 +119,19 @@ def test_a_killed_worker_fails_only_its_job(tmp_path: Path) -> None:
     os.kill(workers[0], signal.SIGKILL)
     _, err = proc.communicate(timeout=240)
     lines = _manifest(out)
-    assert len(lines) == 16, f"{len(lines)} manifest lines for 16 jobs"
+    assert len(lines) == 48, f"{len(lines)} manifest lines for 48 jobs"
     failed = [line for line in lines if line["status"] == "failed"]
     assert len(failed) <= 1, failed
     for line in failed:
         assert "killed by SIGKILL" in line["error"], line
     assert proc.returncode == (1 if failed else 0), err
     ok = [line for line in lines if line["status"] == "ok"]
-    assert len(ok) == 16 - len(failed)
-    assert all(valid_output(Path(line["output"]), (160, 90)) for line in ok)
+    assert len(ok) == 48 - len(failed)
+    assert all(valid_output(Path(line["output"]), (320, 180)) for line in ok)
 
 
 def test_the_parent_killed_takes_its_workers(tmp_path: Path) -> None:
-    jobs, out = _setup(tmp_path, 40)
+    jobs, out = _setup(tmp_path, 120, "320x180")
     proc = _start(jobs, out, "--workers", "2")
     _wait_for(lambda: len(_children(proc.pid)) == 2 and _lines(out) >= 1, 120, "two workers")
     workers = _children(proc.pid)
@@ -141,7 +141,7 @@ def test_the_parent_killed_takes_its_workers(tmp_path: Path) -> None:
     _wait_for(lambda: not any(_alive(w) for w in workers), 10, "the workers to end")
     assert time.monotonic() - start < 20
     # Resume: the folder is free (the kernel dropped the lock) and the rest renders.
-    stale = out / ".frame-0039.png.deadbeef.png"
+    stale = out / ".frame-0119.png.deadbeef.png"
     stale.write_bytes(b"partial")
     again = _start(jobs, out, "--workers", "2")
     _, err = again.communicate(timeout=300)
@@ -149,7 +149,7 @@ def test_the_parent_killed_takes_its_workers(tmp_path: Path) -> None:
     assert not stale.exists(), "the killed run's temporary file is still there"
     assert not list(out.glob(".frame-*")), list(out.glob(".frame-*"))
     lines = _manifest(out)
-    assert len(lines) == 40
+    assert len(lines) == 120
     assert {line["status"] for line in lines} <= {"ok", "skipped"}
     assert any(line["status"] == "skipped" for line in lines)
 
