@@ -42,11 +42,6 @@ def blocks(text: str) -> list[tuple[str, list[str]]]:
     return out
 
 
-def math_spans(text: str) -> list[str]:
-    """The LaTeX of every ``$...$`` in ``text`` (without the dollars)."""
-    return [part[1:-1] for part in _SPAN.split(text) if part.startswith("$")]
-
-
 def problem(text: str) -> str | None:
     """Why ``text`` is not valid step text (an unpaired ``$``, math mathtext refuses),
     or None."""

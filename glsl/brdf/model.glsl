@@ -155,8 +155,8 @@ struct ModelParams {
     float fiber_kd;             // Sadeghi's isotropic share of the volume scattering
 };
 
-// Row ``id`` of the material table (4 RGBA32F texels per material; see
-// app/reference/model.py pack_model_params):
+// Row ``id`` of the material table (MATERIAL_TEXELS RGBA32F texels per material, then
+// SURFACE_TEXELS more for constant surfaces; see app/common/models.py pack_model_params):
 //   texel 0 (f90, 1/p), texel 1 (eta, eta_dielectric), texel 2 (k, gtr_gamma),
 //   texel 3 (model group, Fresnel code, specular code, diffuse code), the codes below,
 //   texel 6 (sheen_color, sheen_roughness) (RTR4 sec. 9.10, brdf/sheen.glsl).
@@ -193,7 +193,7 @@ int fetch_model_group(sampler2D table, int id) {
 
 #if UBER_MODELS
 // Sets the run-time model codes from texel 3 of material ``id`` (exact small integers in
-// float32; twin: app/reference/model.py model_codes):
+// float32; written by app/common/models.py model_codes):
 //   .g Fresnel:  fresnel | internal << 2
 //   .b specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
 //                | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13

@@ -58,7 +58,7 @@ vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
     return local_light_at(L, p, l);
 }
 
-// Light i of a light texture (app/scene/lights.py pack_lights): 3 RGBA32F texels per
+// Light i of a light texture (app/common/lights.py pack_lights): 3 RGBA32F texels per
 // light, one light per row. The type is implied by the numbers: range < 0 marks a
 // directional light, cos_outer < -1 a point light (no cone).
 // The same three texels however they reach the shader: a texture here, a uniform array or

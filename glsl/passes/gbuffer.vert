@@ -1,5 +1,5 @@
 // G-buffer pass, vertex stage: object -> world -> clip. The bench's forward pass
-// (app/render/forward.py) draws with it too, so both passes rasterise the same pixels
+// (app/bench/forward.py) draws with it too, so both passes rasterise the same pixels
 // and interpolate the same view depth.
 in vec3 in_position;
 in vec3 in_normal;
