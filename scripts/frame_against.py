@@ -71,9 +71,8 @@ for line in sys.stdin:
 def scenes(folder: Path) -> dict[str, Path]:
     """The two scenes as JSON files in ``folder``, built with this tree's bench."""
     sys.path.insert(0, str(REPO))
-    from app.bench.scenes import many_lights_scene
+    from app.bench.scenes import calibrate_range, many_lights_scene
     from app.bench.spheres import sphere_grid_scene
-    from app.bench.suites import calibrate_range
     from app.gl.context import create_context
 
     gl = create_context("egl")

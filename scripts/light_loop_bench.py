@@ -24,10 +24,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import app.render.lighting as lighting_module
+from app.bench.context import deferred_passes
 from app.bench.limit import LimitPass
 from app.bench.pairs import light_pairs
 from app.bench.scenes import calibrate_range, load, many_lights_scene
-from app.bench.suites import deferred_passes
 from app.bench.timing import Budget, Pass, round_ratios, time_interleaved
 from app.gl.context import GLContext, create_context
 from app.render.renderer import Renderer, RenderOptions

@@ -483,7 +483,8 @@ def test_api_rows_first_and_next_frames(gl_egl):
     """The startup suite's API rows (issue 17): per case a first frame and the next frames
     after camera changes, which compiled nothing; the mesh case draws the helmet-sized
     icosphere. Times are recorded, never asserted."""
-    from app.bench.suites import API_CASES, TINY, Context, run_api
+    from app.bench.context import TINY, Context
+    from app.bench.suites import API_CASES, run_api
     from app.progress import Progress
 
     ctx = Context(gl_egl, TINY, None, Progress(len(API_CASES), enabled=False))

@@ -9,8 +9,8 @@ import math
 import pytest
 
 from app.bench.batch import PYRENDER_MISSING, batch_workers, pyrender_why, run_batch, scene_text
+from app.bench.context import TINY, Context, api_mesh_scene
 from app.bench.report import BATCH_CLI, BATCH_ONE, BATCH_PYRENDER, batch_ratios, markdown
-from app.bench.suites import TINY, Context, api_mesh_scene
 from app.progress import Progress
 from app.scene.loader import load_scene, parse_scene
 

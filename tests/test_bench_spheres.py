@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.bench.context import TINY, Context
 from app.bench.scenes import load
 from app.bench.spheres import (
     RADIUS,
@@ -14,7 +15,6 @@ from app.bench.spheres import (
     run_pyrender_spheres,
     sphere_grid_scene,
 )
-from app.bench.suites import TINY, Context
 from app.progress import Progress
 from app.render.renderer import Renderer
 

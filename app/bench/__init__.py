@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launcher must not
-    from app.bench.suites import Settings
+    from app.bench.context import Settings
 
 __all__ = ["main"]
 SUITES = (
@@ -118,7 +118,7 @@ def pyrender_available() -> tuple[bool, str]:
 def main(argv: list[str] | None = None) -> int:
     """Run the bench; 0 on success, 1 if a suite failed, 2 on bad arguments."""
     from app.bench import plots, report, suites
-    from app.bench.suites import FULL, QUICK, TINY
+    from app.bench.context import FULL, QUICK, TINY
     from app.bench.timing import TIMER_FINISH, TIMER_QUERY, GLTimerQueries
     from app.gl.context import create_context
     from app.progress import Progress

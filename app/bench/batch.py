@@ -39,9 +39,9 @@ from pathlib import Path
 
 from app.batch.jobs import plan_jobs
 from app.batch.run import MANIFEST, valid_output
+from app.bench.context import Context, api_mesh_scene, make_row
 from app.bench.report import BATCH_CLI, BATCH_ONE, BATCH_PYRENDER, batch_ratios
 from app.bench.startup import repo_pythonpath
-from app.bench.suites import Context, api_mesh_scene, make_row
 from app.render.compare import toml_value
 
 MAX_WORKERS = 4

@@ -19,11 +19,11 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from app.assets.window_room import window_room
+from app.bench.context import Context, deferred_passes, make_row
 from app.bench.metrics import flip_map, image_errors
 from app.common.models import Model
 from app.gl.context import GLContext
@@ -34,9 +34,6 @@ from app.render import ibl as render_ibl
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
 from app.textures.environment import preetham_sky, studio
-
-if TYPE_CHECKING:
-    from app.bench.suites import Context
 
 MAP_WIDTH = 128
 IMAGE_SIZE = (96, 64)
@@ -214,8 +211,6 @@ def run_ibl(ctx: Context) -> None:
     """Suite ``ibl``: for each (face size, samples) and environment, the prefilter's time
     and memory, the frame time, and the error against the brute-force image (one reference
     per environment: it depends on the G-buffer only, the same for every choice)."""
-    from app.bench.suites import deferred_passes, make_row
-
     tiny = ctx.settings.mode == "tiny"
     width = 32 if tiny else MAP_WIDTH
     size = (24, 16) if tiny else IMAGE_SIZE

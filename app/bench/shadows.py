@@ -17,10 +17,10 @@ against an area light, is tests/test_shadows.py's).
 from __future__ import annotations
 
 import copy
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from app.bench.context import Context, Settings, make_row
 from app.bench.timing import Pass
 from app.frame.camera import camera_frame
 from app.frame.lights import frame_lights
@@ -29,9 +29,6 @@ from app.reference.raycast import cast, shadow_visibility
 from app.render.renderer import Renderer
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, parse_scene
-
-if TYPE_CHECKING:
-    from app.bench.suites import Context, Settings
 
 LIGHTS = {
     "directional": {"type": "directional", "direction": [-1.0, -0.6, -0.3], "intensity": 2.0},
@@ -136,8 +133,6 @@ def run_shadows(ctx: Context) -> None:
     """Per light type: no shadow, PCF and PCSS at the default resolution timed in
     alternating rounds; then PCF and PCSS at each of ``shadow_resolutions``; each row's
     mismatch fraction against the ray-caster."""
-    from app.bench.suites import make_row
-
     s = ctx.settings
     size = s.shadow_size
     default_res = s.shadow_resolutions[-1]

@@ -24,15 +24,12 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from typing import TYPE_CHECKING
 
+from app.bench.context import Context, Settings, deferred_passes, make_row, pyrender_env
 from app.bench.report import SPHERES_CASE, SPHERES_PYRENDER
 from app.bench.scenes import load
 from app.bench.timing import Pass, round_ratios
 from app.render.renderer import Renderer
-
-if TYPE_CHECKING:
-    from app.bench.suites import Context, Settings
 
 GRID = (7, 5)  # columns, rows
 SPACING = 1.2  # m between sphere centres
@@ -80,8 +77,6 @@ def pbs_frame_passes(r: Renderer) -> list[Pass]:
     the read-back. The scene must have no
     depth of field, supersampling, blended parts, shadows or an environment background
     (what ``Renderer.render`` adds for those is not here)."""
-    from app.bench.suites import deferred_passes
-
     extra = (r.dof, r.resolve, r.blend, r.shadows, r.background)
     if any(x is not None for x in extra):
         raise ValueError("pbs_frame_passes: a scene with depth of field, supersampling, "
@@ -100,8 +95,6 @@ class PyrenderChild:
     """A served pyrender child (app/bench/pyrender_child.py): one frame per ``frame()``."""
 
     def __init__(self, data: dict, size: tuple[int, int]) -> None:
-        from app.bench.suites import pyrender_env
-
         request = {"scene": data, "size": list(size), "warmup": 1, "serve": True}
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "app.bench.pyrender_child"], stdin=subprocess.PIPE,
@@ -148,8 +141,6 @@ def run_pyrender_spheres(ctx: Context) -> None:
     """The comparison's rows: per light count, ``pbs`` and ``pyrender``, one frame of each
     in turn (timing.time_interleaved, pyrender's frame a request to its served child),
     with the ratio pyrender/pbs per round."""
-    from app.bench.suites import make_row
-
     s = ctx.settings
     size = s.culling_size
     for count in s.pyrender_sphere_lights:

@@ -26,9 +26,9 @@ from app.reference.raycast import (
     camera_rays,
     render_reference,
 )
-from app.scene.geometry import model_matrix
 from app.scene.loader import LoadedScene
 from app.scene.model import TEXTURE_KEYS, Material, SceneObject
+from app.scene.placement import model_matrix
 
 
 def _label(index: int, obj: SceneObject) -> str:

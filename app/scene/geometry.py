@@ -37,6 +37,7 @@ from app.scene.gltf_schema import MAX_COORDINATE
 from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
+from app.scene.placement import model_matrix
 from app.scene.references import (
     MtlMap,
     gltf_problem,
@@ -119,19 +120,6 @@ class MeshPart:
         if self.analytic is None:
             return self.vertices, self.indices
         return _interleave(_icosphere(self.analytic.radius, ICOSPHERE_SUBDIVISIONS))
-
-
-def model_matrix(obj: SceneObject) -> np.ndarray:
-    """T @ Rz @ Ry @ Rx @ S: scale, then rotate about X, Y, Z (degrees), then translate."""
-    scale = np.broadcast_to(np.asarray(obj.scale, np.float64), (3,))
-    rx, ry, rz = (math.radians(a) for a in obj.rotation)
-    r = (
-        trimesh.transformations.rotation_matrix(rz, [0, 0, 1])
-        @ trimesh.transformations.rotation_matrix(ry, [0, 1, 0])
-        @ trimesh.transformations.rotation_matrix(rx, [1, 0, 0])
-    )
-    t = trimesh.transformations.translation_matrix(obj.position)
-    return t @ r @ np.diag([*scale, 1.0])
 
 
 def _crease_normals(mesh: trimesh.Trimesh, crease_deg: float = 40.0) -> trimesh.Trimesh:

@@ -22,7 +22,6 @@ import numpy as np
 from pydantic import ValidationError
 
 from app.errors import InputError
-from app.scene.geometry import model_matrix
 from app.scene.gltf_document import GltfDocument, GltfError, open_gltf, world_matrices
 from app.scene.model import (
     FILE_CAMERA_KEYS,
@@ -33,6 +32,7 @@ from app.scene.model import (
     Scene,
     SceneObject,
 )
+from app.scene.placement import model_matrix
 from app.untrusted import RefusedError
 from app.untrusted import files as untrusted_files
 from app.untrusted.policy import InputPolicy

@@ -13,6 +13,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from app.errors import InputError
+from app.scene.gltf_lights_cameras import resolve
 from app.scene.model import MAX_RADIANCE, TEXTURE_KEYS, Scene
 from app.textures.environment import environment_map
 from app.untrusted import RefusedError, files
@@ -164,9 +165,6 @@ def parse_scene(data: dict, path: Path, policy: InputPolicy = DEFAULT_POLICY) ->
         loaded = loaded.with_scene(scene.model_copy(update={"environment": env}))
     if scene.camera.from_file is not None or any(obj.import_lights for obj in scene.objects):
         # A glTF file's camera and lights become the scene's own (docs/gltf-lights-cameras.md).
-        # Imported here: the module needs app.scene.geometry, which imports this one.
-        from app.scene.gltf_lights_cameras import resolve
-
         loaded = loaded.with_scene(resolve(loaded.scene, path, policy))
     return loaded
 
