@@ -147,3 +147,91 @@ def test_the_check_catches_an_upward_import(tmp_path, monkeypatch, source, expec
     monkeypatch.setattr(f"{__name__}.APP", package)
     found = violations()
     assert found and all("planted.py" in line for line in found), found
+
+
+def _type_checking_lines(tree: ast.AST) -> set[int]:
+    """The lines of imports under ``if TYPE_CHECKING:`` (never run: annotations only)."""
+    lines: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            for inner in node.body:
+                for sub in ast.walk(inner):
+                    if isinstance(sub, ast.Import | ast.ImportFrom):
+                        lines.add(sub.lineno)
+    return lines
+
+
+def runtime_graph(root: Path = APP) -> dict[str, set[str]]:
+    """Module -> the app modules it imports when it runs (at the top or inside a
+    function; imports under TYPE_CHECKING left out), each a module of the tree."""
+    graph: dict[str, set[str]] = {}
+    for path in sorted(root.rglob("*.py")):
+        me = module_name(path)
+        skip = _type_checking_lines(ast.parse(path.read_text(encoding="utf-8")))
+        targets = set()
+        for line, target in imports(path):
+            if line in skip:
+                continue
+            while target and not known(target):
+                target = target.rpartition(".")[0]
+            if target and target != me and target != "app":
+                targets.add(target)
+        graph[me] = targets
+    return graph
+
+
+def loops(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected groups of more than one module (Tarjan's algorithm)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_module_imports_itself_through_others() -> None:
+    """No loop of imports that run, anywhere in app/ (function-level ones included: a loop
+    hidden in a function is still a loop). The bench's suites and the scene loader each
+    were one; a shared module below them broke it."""
+    found = loops(runtime_graph())
+    assert not found, "import loops:\n" + "\n".join(" -> ".join(g) for g in found)
+
+
+def test_the_loop_check_finds_a_loop(tmp_path, monkeypatch) -> None:
+    """A loop through a function-level import is found; one through TYPE_CHECKING is not."""
+    package = tmp_path / "app" / "pkg"
+    package.mkdir(parents=True)
+    (tmp_path / "app" / "__init__.py").write_text("")
+    (package / "__init__.py").write_text("")
+    (package / "a.py").write_text("from app.pkg.b import x\n")
+    (package / "b.py").write_text("def f():\n    from app.pkg.a import y\n")
+    (package / "c.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                                  "    from app.pkg.a import z\n")  # fmt: skip
+    monkeypatch.setattr(f"{__name__}.REPO", tmp_path)
+    assert loops(runtime_graph(tmp_path / "app")) == [["app.pkg.a", "app.pkg.b"]]

@@ -246,14 +246,3 @@ def run_batch(ctx: Context, folder: Path | None = None) -> None:
         rows.append(_missing(orbit, BATCH_PYRENDER, pyrender_why(ctx)))
     rows[0]["ratios"] = batch_ratios(rows)
     ctx.rows.extend(rows)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m app.bench.batch [pbs bench options]``: ``pbs bench --suites batch``."""
-    from app.bench import main as bench_main
-
-    return bench_main(["--suites", "batch", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
