@@ -65,7 +65,11 @@ def _glb_parts(data: bytes) -> tuple[dict, bytes]:
 
 
 def _glb(doc: object, blob: bytes, version: int = 2) -> bytes:
-    text = json.dumps(doc, separators=(",", ":")).encode()
+    return _glb_text(json.dumps(doc, separators=(",", ":")).encode(), blob, version)
+
+
+def _glb_text(text: bytes, blob: bytes, version: int = 2) -> bytes:
+    """A GLB of JSON ``text`` and BIN chunk ``blob`` (none where empty)."""
     text += b" " * (-len(text) % 4)
     body = struct.pack("<II", len(text), 0x4E4F534A) + text
     if blob:
@@ -326,13 +330,6 @@ def cases(folder: Path, count: int, seed: int = 27) -> tuple[list[Case], dict[st
         out.append(Case(stem, argv, str(asset), [str(png), str(hdr)], str(secret), None, str(hdr)))
         what[stem] = description
     return out, what
-
-
-def _glb_text(text: bytes, blob: bytes) -> bytes:
-    text += b" " * (-len(text) % 4)
-    body = struct.pack("<II", len(text), 0x4E4F534A) + text
-    body += struct.pack("<II", len(blob), 0x004E4942) + blob
-    return b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body
 
 
 def _run(tmp_path: Path, count: int) -> None:

@@ -174,11 +174,11 @@ class WorkerPool:
                     how = _how_it_died(w.proc)
                     early_deaths = early_deaths + 1 if w.done == 0 else 0
                     if w.job is not None:
-                        yield _failed(w.job, f"worker process {w.proc.pid} {how}")
+                        yield lost(w.job, f"worker process {w.proc.pid} {how}")
                     if pending and early_deaths >= MAX_EARLY_DEATHS:
                         why = f"worker processes keep dying before a job ends (last: {how})"
                         while pending:
-                            yield _failed(pending.pop(), why)
+                            yield lost(pending.pop(), why)
                     if pending:
                         fresh = self._start()
                         self.workers.append(fresh)
@@ -211,8 +211,9 @@ class WorkerPool:
         self.workers.clear()
 
 
-def _failed(job: Job, why: str) -> dict:
-    """The manifest line of a job whose worker died under it."""
+def lost(job: Job, why: str) -> dict:
+    """The manifest line of a job whose worker died under it (a crash in the driver, a
+    signal, Dask's workers lost past its retries)."""
     error = " ".join(f"worker lost: {why}".split())
     return {"job": job.id, "output": job.output, "seconds": 0.0, "status": "failed", "error": error}
 

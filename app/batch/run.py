@@ -31,7 +31,7 @@ from pathlib import Path
 from PIL import Image
 
 from app.batch.jobs import Job, Plan
-from app.batch.pool import WorkerPool
+from app.batch.pool import WorkerPool, lost
 from app.batch.worker import release_all, run_job
 from app.errors import InputError
 from app.progress import Progress
@@ -61,12 +61,6 @@ def _in_process(jobs: list[Job], backend: str) -> Iterator[dict]:
             yield run_job(job, backend)
     finally:
         release_all()
-
-
-def _failed(job: Job, exc: BaseException) -> dict:
-    """The manifest line of a job whose worker died under it (a crash in the driver)."""
-    error = " ".join(f"worker lost: {type(exc).__name__}: {exc}".split())
-    return {"job": job.id, "output": job.output, "seconds": 0.0, "status": "failed", "error": error}
 
 
 def _processes(jobs: list[Job], workers: int, backend: str) -> Iterator[dict]:
@@ -104,7 +98,7 @@ def _dask(jobs: list[Job], client: object, backend: str) -> Iterator[dict]:
         try:
             yield future.result()
         except Exception as exc:  # a worker lost past Dask's retries
-            yield _failed(by_key[future.key], exc)
+            yield lost(by_key[future.key], f"{type(exc).__name__}: {exc}")
 
 
 @contextlib.contextmanager

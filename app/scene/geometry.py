@@ -520,14 +520,15 @@ def _load_file(
     # A missing texture or MTL is bad input: trimesh would load the file without it (a
     # white model).
     libraries = obj_libraries(data) if suffix == ".obj" else []
-    problem = obj_problem(path, libraries, policy) if libraries else None
+    try:
+        mtls = obj_mtl_files(path, libraries, policy)
+    except RefusedError as exc:
+        raise InputError(scene_file, key, str(exc)) from None
+    problem = obj_problem(path, mtls, policy)
     if problem is not None:
         raise InputError(scene_file, key, problem)
-    mtl = obj_materials(path, libraries, policy) if libraries else None
-    resolver = {
-        name: files.read_bytes(mtl_path, policy.limits.max_text_bytes)
-        for name, mtl_path in zip(libraries, obj_mtl_files(path, libraries, policy), strict=True)
-    }
+    mtl = obj_materials(mtls) if mtls else None
+    resolver = {m.name: m.data for m in mtls}
     try:
         mesh_data = trimesh.load(
             io.BytesIO(data), file_type=suffix[1:], resolver=resolver, process=False
@@ -570,13 +571,14 @@ def check_extent(part: MeshPart, scene_file: str, key: str) -> None:
     """A mesh part's world-space corners finite and within ``MAX_COORDINATE`` metres (a
     file's NaN vertex, or coordinates whose squares overflow float32 in the light loop);
     an InputError naming the object otherwise."""
-    p = part.vertices[:, :3].astype(np.float64)
+    p = part.vertices[:, :3]
     with np.errstate(all="ignore"):  # NaN and overflow are what is checked
-        lo, hi = p.min(axis=0), p.max(axis=0)
+        # A NaN or infinite vertex makes its box's corners NaN or infinite too.
+        lo, hi = p.min(axis=0).astype(np.float64), p.max(axis=0).astype(np.float64)
         corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
         world = corners @ part.model.T
-    if not np.all(np.isfinite(p)) or not np.all(np.abs(world[:, :3]) <= MAX_COORDINATE):
+    if not np.all(np.abs(world[:, :3]) <= MAX_COORDINATE):
         raise InputError(
             scene_file,
             key,

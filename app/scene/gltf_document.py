@@ -76,13 +76,11 @@ def _view(value: Any) -> Any:
 
 class GltfDocument(JsonObject):
     """A .gltf's or .glb's checked JSON, by attribute (``doc.nodes``), with the GLB's
-    binary chunk (``binary_blob``) and the file it came from."""
+    binary chunk (``binary_blob``)."""
 
-    def __init__(self, data: dict[str, Any], blob: bytes | None, path: Path) -> None:
+    def __init__(self, data: dict[str, Any], blob: bytes | None) -> None:
         super().__init__(data)
         self.__dict__["_blob"] = blob
-        self.__dict__["_path"] = path
-        self.__dict__["json"] = data
 
     def binary_blob(self) -> bytes | None:
         return self._blob
@@ -142,7 +140,7 @@ def open_gltf(path: Path, policy: InputPolicy = DEFAULT_POLICY) -> GltfDocument:
         validate(doc, limits.max_entries)
     except SchemaError as exc:
         raise GltfError(exc.key, exc.message) from None
-    return GltfDocument(doc, blob, Path(path))
+    return GltfDocument(doc, blob)
 
 
 def _components(values: list[float] | None, count: int) -> np.ndarray | None:
@@ -183,7 +181,9 @@ def node_matrix(node: JsonObject, index: int) -> np.ndarray:
     return out
 
 
-def world_matrices(doc: GltfDocument, max_depth: int = 1_024) -> dict[int, np.ndarray]:
+def world_matrices(
+    doc: GltfDocument, max_depth: int = DEFAULT_POLICY.limits.max_node_depth
+) -> dict[int, np.ndarray]:
     """Each node of the shown scene (``scene``, else the first, else every root node) to
     its world matrix, parents first. A node reached twice (a cycle, or a node with two
     parents) is bad input, as glTF 2.0 forbids it; so is a hierarchy deeper than

@@ -61,8 +61,9 @@ def _unreadable(file: Path, image: bool, policy: InputPolicy) -> str | None:
     """Why ``file`` (confined already) cannot be used: not a plain file, past the size
     limit, or (``image``) a header that is not an image pbs reads; None where it can."""
     try:
-        files.check_readable(file, policy.limits.max_file_bytes)
-        if image:
+        if not image:
+            files.check_readable(file, policy.limits.max_file_bytes)
+        else:
             with (
                 files.open_regular(file, policy.limits.max_file_bytes) as (fd, _),
                 open(fd, "rb", closefd=False) as stream,
@@ -162,14 +163,13 @@ def parse_map_statement(rest: str) -> tuple[dict[str, tuple[str, ...]], str]:
     return options, name
 
 
-def mtl_materials(mtl: Path, policy: InputPolicy) -> dict[str, dict[str, MtlMap]]:
-    """Per material (``newmtl``'s name, as trimesh keys it) its read maps by lower-case
-    keyword (``MTL_MAP_KEYWORDS``); a statement before any ``newmtl`` belongs to none.
-    ``mtl`` is confined and readable already (``obj_problem``)."""
+def mtl_materials(mtl: Path, text: str, policy: InputPolicy) -> dict[str, dict[str, MtlMap]]:
+    """Per material (``newmtl``'s name, as trimesh keys it) of the MTL file ``mtl`` whose
+    ``text`` is given, its read maps by lower-case keyword (``MTL_MAP_KEYWORDS``), each
+    file confined to the MTL's folder; a statement before any ``newmtl`` belongs to none."""
     materials: dict[str, dict[str, MtlMap]] = {}
     current: dict[str, MtlMap] | None = None
-    data = files.read_bytes(mtl, policy.limits.max_text_bytes)
-    for line in data.decode("utf-8", errors="replace").splitlines():
+    for line in text.splitlines():
         words = line.split()
         if len(words) < 2:
             continue
@@ -198,42 +198,54 @@ def obj_libraries(data: bytes) -> list[str]:
     ]
 
 
-def obj_mtl_files(path: Path, libraries: list[str], policy: InputPolicy) -> list[Path]:
-    """The confined paths of an OBJ's MTL files (``RefusedError`` for one outside the allowed
-    folders)."""
-    return [files.confine(name, path, policy) for name in libraries]
+@dataclass(frozen=True)
+class MtlFile:
+    """One MTL file an OBJ names: the name as written, the confined path, its bytes (read
+    once: for its maps here and for trimesh's resolver) and its materials' maps."""
+
+    name: str
+    path: Path
+    data: bytes
+    materials: dict[str, dict[str, MtlMap]]
 
 
-def obj_problem(path: Path, libraries: list[str], policy: InputPolicy) -> str | None:
-    """The first problem with an OBJ's ``mtllib`` files or the images of the maps they
-    name that the project reads (``MTL_MAP_KEYWORDS``)."""
+def obj_mtl_files(path: Path, libraries: list[str], policy: InputPolicy) -> list[MtlFile]:
+    """The OBJ ``path``'s MTL files (``obj_libraries``), each confined, read and parsed
+    once; ``RefusedError`` saying which, for one outside the folder or unreadable."""
+    out = []
     for name in libraries:
         try:
             mtl = files.confine(name, path, policy)
         except RefusedError as exc:
-            return f"{path}: mtllib: {exc}"
+            raise RefusedError(f"{path}: mtllib: {exc}") from None
         try:
-            files.check_readable(mtl, policy.limits.max_text_bytes)
+            data = files.read_bytes(mtl, policy.limits.max_text_bytes)
         except RefusedError as exc:
-            return f"{path}: mtllib {name}: {exc}"
-        for maps in mtl_materials(mtl, policy).values():
+            raise RefusedError(f"{path}: mtllib {name}: {exc}") from None
+        text = data.decode("utf-8", errors="replace")
+        out.append(MtlFile(name, mtl, data, mtl_materials(mtl, text, policy)))
+    return out
+
+
+def obj_problem(path: Path, mtls: list[MtlFile], policy: InputPolicy) -> str | None:
+    """The first problem with the images of the maps an OBJ's MTL files name that the
+    project reads (``MTL_MAP_KEYWORDS``): outside the folder, missing, not an image."""
+    for mtl in mtls:
+        for maps in mtl.materials.values():
             for m in maps.values():
                 if m.file is None:
-                    return f"{path}: {mtl.name}: {m.keyword}: {m.refused}"
+                    return f"{path}: {mtl.path.name}: {m.keyword}: {m.refused}"
                 why = _unreadable(m.file, True, policy)
                 if why is not None:
-                    return f"{path}: {mtl.name}: {m.keyword} {m.name}: {why}"
+                    return f"{path}: {mtl.path.name}: {m.keyword} {m.name}: {why}"
     return None
 
 
-def obj_materials(
-    path: Path, libraries: list[str], policy: InputPolicy
-) -> dict[str, dict[str, MtlMap]]:
-    """The maps of every material of an OBJ's MTL files (``obj_libraries``), by material
-    name; a name defined twice keeps its first definition. Call after ``obj_problem``
-    found nothing (the files are then confined and readable)."""
+def obj_materials(mtls: list[MtlFile]) -> dict[str, dict[str, MtlMap]]:
+    """The maps of every material of an OBJ's MTL files, by material name; a name defined
+    twice keeps its first definition."""
     materials: dict[str, dict[str, MtlMap]] = {}
-    for mtl in obj_mtl_files(path, libraries, policy):
-        for material, maps in mtl_materials(mtl, policy).items():
+    for mtl in mtls:
+        for material, maps in mtl.materials.items():
             materials.setdefault(material, maps)
     return materials

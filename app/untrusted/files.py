@@ -172,5 +172,5 @@ def check_output(path: Path, inputs: set[Path] | frozenset[Path] = frozenset()) 
         raise RefusedError(
             "is not a regular file (a device, FIFO or socket); refusing to replace it"
         )
-    if Path(path).resolve() in inputs or (info is not None and Path(path).absolute() in inputs):
+    if Path(path).resolve() in inputs:
         raise RefusedError("is one of this command's input files; refusing to overwrite it")
