@@ -256,6 +256,7 @@ class Renderer:
         self.resolve: DownsamplePass | None = None
         self.post: PostPass | None = None
         self._refreshed: dict[str, Hashable] = {}  # Built.refresh's key per kept object
+        self._restyled: list | None = None  # _change's rollback of a restyle
         self._change()
 
     # --- what the renderer shows -----------------------------------------------------------
@@ -592,7 +593,7 @@ class Renderer:
         stays. Then the old objects are released and the new ones built in order, and the
         kept ones refreshed. Returns the names built again or dropped."""
         saved = (self.loaded, self._size, self.options, self.frame)
-        layers = [part.layers for part in self.frame.parts]
+        self._restyled = None  # the parts' layers before a restyle (_stage_frame)
         try:
             if edit is not None:
                 edit()
@@ -602,8 +603,9 @@ class Renderer:
                     b.check(self)
         except BaseException:
             self.loaded, self._size, self.options, self.frame = saved
-            for part, kept in zip(self.frame.parts, layers, strict=True):
-                part.layers = kept
+            if self._restyled is not None:
+                for part, kept in zip(self.frame.parts, self._restyled, strict=True):
+                    part.layers = kept
             raise
         for b in reversed(plan):
             obj = getattr(self, b.name)
@@ -618,6 +620,8 @@ class Renderer:
                 self.builds[b.name] += 1
             self._keys[b.name] = key
         names = tuple(b.name for b in plan)
+        for b in SCHEDULE:  # kept, or absent before and after
+            self._keys.setdefault(b.name, keys[b.name])
         for b in SCHEDULE:
             if b.refresh is None or getattr(self, b.name) is None:
                 continue
@@ -654,6 +658,7 @@ class Renderer:
             changed = {k for k in new.materials if old.materials.get(k) != new.materials[k]}
             restyled = None
             if not set(old.materials) - set(new.materials):
+                self._restyled = [part.layers for part in frame.parts]  # _change's rollback
                 restyled = restyle(frame, self.loaded, changed)
             if restyled is None:
                 parts = True
@@ -841,16 +846,13 @@ class Renderer:
         """Draw the HDR image of a frame whose lighting pass wrote the display image only
         (``fused_display``), with that frame's camera and background (an edit made since
         without a render does not show): one more lighting pass on the same G-buffer,
-        whose display image stays as it was. Nothing where the frame drew it. RuntimeError
-        where no frame was rendered since the passes it needs were built again."""
-        if self._drawn is None:
-            raise RuntimeError(
-                "no frame of the renderer's current passes to read the HDR image of: "
-                "call render() first"
-            )
-        if not self._drawn.hdr:
-            self.lighting.run(self.gbuffer, self._drawn.camera, self._drawn.background)
-            self._drawn.hdr = True
+        whose display image stays as it was. Nothing where the frame drew it, or where no
+        frame was rendered since the passes were built again (the targets are read as
+        they are: the bench runs passes one by one)."""
+        drawn = self._drawn
+        if drawn is not None and not drawn.hdr:
+            self.lighting.run(self.gbuffer, drawn.camera, drawn.background)
+            drawn.hdr = True
 
     def run_post(self, hdr: moderngl.Texture) -> None:
         """The post pass on the frame's HDR image ``hdr``, unless the lighting pass wrote
@@ -901,13 +903,13 @@ class Renderer:
         return self.gbuffer.read(self.materials.surface_texels())
 
     def release(self) -> None:
+        """Release every GPU object (the camera's matrices stay readable)."""
         for b in reversed(SCHEDULE):
             obj = getattr(self, b.name)
-            release = getattr(obj, "release", None)
-            if release is not None:
-                release()
-            setattr(self, b.name, None)
-        self._keys.clear()
+            if hasattr(obj, "release"):
+                obj.release()
+                setattr(self, b.name, None)
+                self._keys.pop(b.name, None)
         self._drawn = None
         if self._owns_shaders:
             self.shaders.release()
