@@ -117,6 +117,12 @@ CASES: dict[str, tuple[Callable[[Renderer], None], set[str]]] = {
     "environment background off": (_set_environment(background=False), {"background"}),
     # a constant of a material: restyled in place, a new table row, the same geometry
     "material restyle": (_set_material("ball", roughness=0.6), {"lighting"}),
+    # the ball takes the floor's constants: one row for both, the ball's id changes in the
+    # kept G-buffer pass (updated in place)
+    "material restyle merging rows": (
+        _set_material("ball", base_color=[0.5, 0.5, 0.5], roughness=0.7),
+        {"lighting"},
+    ),
     # a constant no pass compiles or uploads for an opaque part (its coverage): nothing
     "material opaque alpha": (_set_material("ball", alpha=0.9), set()),
     # anisotropy: the G-buffer gains a tangent target (a new layout)
@@ -225,22 +231,39 @@ def test_builds_follow_the_schedule_order(gl_egl) -> None:
         r.release()
 
 
-def test_a_refused_change_keeps_every_object(gl_egl) -> None:
+def test_a_refused_change_keeps_every_object(gl_egl, monkeypatch) -> None:
     """A size past the GL's limits is refused by the checks before anything is released:
-    the inputs go back and every object is the one it was (a material edit with it too)."""
+    the inputs go back and every object is the one it was. So is a material edit refused
+    after ``restyle`` replaced the parts' layers in place (here the memory check refuses
+    the tangent target an anisotropic ball adds): the layers go back too."""
+    import app.render.renderer as renderer_module
+
     r = Renderer(gl_egl, load(scene_data()))
     try:
         before = {name: getattr(r, name) for name in NAMES}
-        counts, scene = r.builds.copy(), r.scene
+        first = images(r)
+        counts, scene, frame = r.builds.copy(), r.scene, r.frame
+        layers = [part.layers for part in r.frame.parts]
         with pytest.raises(InputError):
             r.resize((16384, 16384))
         with pytest.raises(InputError):
             _set_render(width=16384, height=16384, supersample=1, specular_aa=True)(r)
-        assert r.scene is scene and r.size == SIZE and r.builds == counts
+
+        def refuse(*args, **kwargs) -> None:
+            raise InputError("inline.toml", "materials", "past the memory limit (test)")
+
+        monkeypatch.setattr(renderer_module, "check_memory", refuse)
+        with pytest.raises(InputError, match="test"):
+            _set_material("ball", anisotropy=0.6)(r)
+        assert r.scene is scene and r.frame is frame and r.size == SIZE
+        assert all(part.layers is kept for part, kept in zip(r.frame.parts, layers, strict=True))
+        assert r.builds == counts
         assert {name: getattr(r, name) for name in NAMES} == before
-        images(r)
+        again = images(r)
     finally:
         r.release()
+    np.testing.assert_array_equal(again[0], first[0])
+    np.testing.assert_array_equal(again[1], first[1])
 
 
 def test_hdr_is_read_from_the_frame_that_drew_it(gl_egl) -> None:
