@@ -33,6 +33,7 @@ from functools import cached_property
 import moderngl
 import numpy as np
 
+from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferData
 from app.common.lights import PunctualLight
 from app.frame import FrameData, prepare_frame, restyle
@@ -147,7 +148,7 @@ class CameraMatrices:
 
     view: np.ndarray
     proj: np.ndarray
-    frame: object  # CameraFrame
+    frame: CameraFrame
 
 
 @dataclass(frozen=True)
@@ -191,7 +192,7 @@ class _Drawn:
     (an HDR image completed later uses them, not an edit made since), whether the HDR
     image exists and whether the lighting pass wrote the display image (fused)."""
 
-    camera: object  # CameraFrame
+    camera: CameraFrame
     background: np.ndarray
     hdr: bool
     display: bool
@@ -305,7 +306,7 @@ class Renderer:
         return self.matrices.proj
 
     @property
-    def camera(self):  # -> CameraFrame
+    def camera(self) -> CameraFrame:
         """The lighting pass's camera frame at ``render_size``."""
         return self.matrices.frame
 
