@@ -46,12 +46,13 @@ from app.render.compare import CompareSpec, Comparison
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS, DebugPass
 from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
-from app.scene.loader import LoadedScene, parse_scene
+from app.scene.edits import get_key
+from app.scene.loader import LoadedScene
 from app.scene.model import Camera
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.viewer import orbit as orbit_controls
 from app.viewer import x11
-from app.viewer.document import SceneDocument, get_value, mesh_scene, set_value
+from app.viewer.document import SceneDocument, mesh_scene
 
 PREVIEW_SCALE = 2  # while interacting: render at 1/2 of the window in each direction
 REFINE_AFTER = 0.25  # seconds without input before the full-size frame
@@ -221,10 +222,7 @@ class Viewer:
         return self._apply(changes)
 
     def _validated(self, changes: dict[str, Any]) -> LoadedScene:
-        data = copy.deepcopy(self.document.data)
-        for key, value in changes.items():
-            set_value(data, key, value)
-        return parse_scene(data, self.document.path)
+        return self.document.edited(changes)[1]
 
     def _apply(self, changes: dict[str, Any]) -> bool:
         self._current()
@@ -658,7 +656,7 @@ class Viewer:
 
     def value(self, key: str, default: Any = None) -> Any:
         """A value of the edited scene data (what a scene file would hold)."""
-        return get_value(self.document.data, key, default)
+        return get_key(self.document.data, key, default)
 
     # --- input ------------------------------------------------------------------------------
 
