@@ -275,7 +275,7 @@ class Comparison:
     def set_camera(self, camera: Camera) -> None:
         """A new camera for the base scene, on both sides. Where the compared key is the
         camera's (``camera.aperture``), each side keeps its own value of it."""
-        base = LoadedScene(self.base.scene.model_copy(update={"camera": camera}), self.base.path)
+        base = self.base.with_scene(self.base.scene.model_copy(update={"camera": camera}))
         if self.spec.touches("camera"):
             sides = self.spec.scenes(base, self._size)
             cameras = [side.scene.camera for side in sides]
@@ -289,7 +289,7 @@ class Comparison:
         """Show an edit of the base scene on both sides (``Renderer.update`` on each, with
         the spec's values applied). Both sides are validated first: a refused edit raises
         ``InputError`` and changes nothing."""
-        base = scene if isinstance(scene, LoadedScene) else LoadedScene(scene, self.base.path)
+        base = scene if isinstance(scene, LoadedScene) else self.base.with_scene(scene)
         sides = self.spec.scenes(base, self._size)
         for renderer, side in zip(self.renderers, sides, strict=True):
             renderer.update(side.scene)

@@ -151,7 +151,7 @@ def set_key(
     """Set ``path`` (from ``parse_key``) in the scene data ``data`` (edited in place) to a
     copy of ``value``; None removes the key. Strict: every table and list on the way must
     exist, the last name may be a key the scene leaves at its default; lenient: a missing
-    table on the way is created. A step that is not there is an ``InputError`` from
+    table on the way is created. A step that is not there is a ``KeyPathError`` from
     ``file`` naming the path up to it, ``origin`` in parentheses."""
     node: Any = data
     for depth, part in enumerate(path):
