@@ -130,6 +130,8 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
                   define="GBUFFER_EMISSION", fields=("emission",)),
 )  # fmt: skip
 OPTIONAL_TARGETS = tuple(t.name for t in GBUFFER_TARGETS if t.define is not None)
+# The optional targets of a program that names none of their defines (RT3 alone).
+DEFAULT_OPTIONAL = frozenset(t.name for t in GBUFFER_TARGETS if t.define is not None and t.default)
 # The layout's other defines and their values in a program that does not name them.
 MODE_DEFAULTS = {"GBUFFER_UNORM_DIRECTIONS": 0, "GBUFFER_CONSTANT_SURFACES": 0}
 
@@ -167,7 +169,7 @@ def _optional_present(defines: Mapping[str, object]) -> frozenset[str]:
     """The optional targets a program's defines say exist (the defaults where unnamed)."""
     return frozenset(
         t.name for t in GBUFFER_TARGETS
-        if t.define is not None and int(defines.get(t.define, t.default))  # type: ignore[arg-type]
+        if t.define is not None and bool(defines.get(t.define, t.default))
     )  # fmt: skip
 
 
@@ -178,7 +180,7 @@ class GBufferLayout:
     locations and defines are all read from ``GBUFFER_TARGETS`` through it."""
 
     encoding: str = DEFAULT_ENCODING
-    optional: frozenset[str] = frozenset({"tangent"})
+    optional: frozenset[str] = DEFAULT_OPTIONAL
     constant_surfaces: bool = False
 
     def __post_init__(self) -> None:
@@ -241,7 +243,7 @@ def glsl_declarations(defines: Mapping[str, object]) -> list[str]:
         if name not in resolved:
             resolved[name] = value
             lines.append(f"#define {name} {value}")
-    constant = bool(int(resolved["GBUFFER_CONSTANT_SURFACES"]))  # type: ignore[arg-type]
+    constant = bool(resolved["GBUFFER_CONSTANT_SURFACES"])
     outputs, samplers = [], []
     for location, (target, channels) in enumerate(
         _allocated(_optional_present(resolved), constant)
