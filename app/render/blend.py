@@ -33,8 +33,9 @@ from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
-from app.render.gbuffer import GBuffer, MeshDrawable
+from app.render.gbuffer import GBuffer
 from app.render.lighting import LightingPass
+from app.render.mesh_drawable import MeshDrawable
 from app.scene.geometry import MeshPart
 
 FORWARD_SHADERS = ("passes/gbuffer.vert", "passes/forward.frag")

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from app.common.gbuffer import GBufferData
+from app.common.gbuffer import GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
 from app.errors import InputError
 from app.frame import FrameData, prepare_frame, restyle
@@ -32,10 +32,11 @@ from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller, check_tile_masks, tiles_used
-from app.render.gbuffer import GBuffer, GBufferPass, masked, rotated
+from app.render.gbuffer import GBuffer, GBufferPass
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.lighting import LightingPass
 from app.render.limits import check_memory, check_render_size, target_bytes_per_pixel
+from app.render.mesh_drawable import masked, rotated
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
 from app.scene.loader import LoadedScene
@@ -183,10 +184,8 @@ class Renderer:
         # RefusedError before anything is allocated or released (app/render/limits.py): a
         # renderer that refuses a resize keeps its old targets.
         constant = self._constant_surfaces()
-        per_pixel = target_bytes_per_pixel(
-            settings.gbuffer, table.needs_tangents, table.needs_coat_normals,
-            self.scene.camera.aperture > 0.0, table.needs_emission, constant,
-        )  # fmt: skip
+        layout = GBufferLayout.from_defines(settings.gbuffer, table.gbuffer_defines(), constant)
+        per_pixel = target_bytes_per_pixel(layout, self.scene.camera.aperture > 0.0)
         check_render_size(
             self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
             "size" if self._size is not None else "render.width, render.height",
@@ -199,10 +198,7 @@ class Renderer:
             str(self.loaded.path),
         )  # fmt: skip
         self._release(("gbuffer",))
-        self.gbuffer = GBuffer(
-            self.gl.ctx, self.render_size, settings.gbuffer, table.needs_tangents,
-            table.needs_coat_normals, table.needs_emission, constant,
-        )  # fmt: skip
+        self.gbuffer = GBuffer(self.gl.ctx, self.render_size, layout)
         if resized:
             self._build_culler()  # its tiles are the image's
             self._build_shading()

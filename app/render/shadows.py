@@ -45,8 +45,8 @@ from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference.shadows import ShadowMaps
-from app.render.gbuffer import MeshDrawable, masked
 from app.render.limits import max_dimension
+from app.render.mesh_drawable import MeshDrawable, masked
 from app.scene.geometry import MeshPart
 from app.scene.model import Light
 
