@@ -150,13 +150,13 @@ def test_an_added_input_is_compiled_in_and_bound_without_moving_a_pixel(renderer
 def test_a_lighting_pass_without_an_input_it_needs_refuses_by_name(renderer, missing):
     r = renderer
     context = r.shading.only(*(role for role in r.shading.roles if role != missing))
-    with pytest.raises(MissingInputError, match=f"lighting pass needs .*'{missing}'"):
+    with pytest.raises(MissingInputError, match=rf"lighting pass needs .*'{missing}'"):
         LightingPass(r.gl.ctx, r.shaders, r.render_size, context)
 
 
 def test_a_blend_pass_without_the_lights_refuses_and_binding_needs_use(renderer):
     r = renderer
-    with pytest.raises(MissingInputError, match="blend pass needs .*'lights'"):
+    with pytest.raises(MissingInputError, match=r"blend pass needs .*'lights'"):
         BlendPass(r.gl.ctx, [], r.shading.only(MATERIALS))
     with pytest.raises(RuntimeError, match="use"):
         ShadingContext([Probe("p", {})]).bind(r.lighting.programs[0])

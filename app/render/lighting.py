@@ -11,6 +11,11 @@ fastest (docs/performance.md, "Second part: the light loop"), and the texture is
 fallback for scenes with more lights. The form is chosen when the programs are built,
 from the scene's light count (``light_form``).
 
+Everything the pass reads (G-buffer, lights, material table, lookup tables, tile masks,
+environment light, shadow maps) is a shader input of the frame's ``ShadingContext``
+(app/render/inputs.py): the programs compile with the context's defines and every draw
+binds through it, so a new input reaches the pass without an edit here.
+
 One program per model group (app/frame/materials.py): a scene whose materials all use
 one model runs one full-screen pass; otherwise each group's pass discards the pixels of
 the other groups, so no pixel pays for a branch of a model it does not use. The bench's
