@@ -40,7 +40,7 @@ from app.common.tonemaps import TONEMAP_CODE
 from app.errors import InputError
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.render.post import _FullscreenPass
+from app.render.fullscreen import FullscreenPass
 from app.render.renderer import Renderer
 from app.scene.edits import KeyPathError, edited, parse_key, toml_value
 from app.scene.loader import LoadedScene
@@ -178,7 +178,7 @@ def divider_line(divider: float, width: int) -> range:
     return range(max(column - half, 0), min(column + DIVIDER_WIDTH - half, width))
 
 
-class ComparePass(_FullscreenPass):
+class ComparePass(FullscreenPass):
     """The composite of glsl/passes/compare.frag into an RGBA8 display image: the split
     (the sides' display images and the divider line) or the magnified difference (their
     HDR radiance, tone-mapped with ``tonemap``)."""
@@ -194,8 +194,7 @@ class ComparePass(_FullscreenPass):
         defines: dict[str, object] = {}
         if mode == "difference":
             defines = {"COMPARE_DIFFERENCE": 1, "TONEMAP": TONEMAP_CODE[tonemap]}
-        program = shaders.program("passes/fullscreen.vert", "passes/compare.frag", defines)
-        super().__init__(ctx, program, size, dtype="f1")
+        super().__init__(ctx, shaders, "passes/compare.frag", defines, size, dtype="f1")
         self.mode = mode
         self.tonemap = tonemap
 
@@ -203,13 +202,13 @@ class ComparePass(_FullscreenPass):
         """Side A's display image left of the divider, B's right of it, and the line."""
         width = self.size[0]
         line = divider_line(divider, width)
-        self._draw(
-            {"u_ldr_a": a, "u_ldr_b": b},
+        self.draw(
             {
                 "u_divider": divider_column(divider, width),
                 "u_line": (line.start, line.stop),
                 "u_line_color": tuple(c / 255.0 for c in DIVIDER_COLOR),
             },
+            {"u_ldr_a": a, "u_ldr_b": b},
         )
 
     def run_difference(
@@ -220,9 +219,9 @@ class ComparePass(_FullscreenPass):
         gain: float,
     ) -> None:
         """``|2^EV_A A - 2^EV_B B| * gain``, tone-mapped and sRGB-encoded."""
-        self._draw(
-            {"u_hdr_a": a, "u_hdr_b": b},
+        self.draw(
             {"u_exposure": tuple(2.0**ev for ev in exposures_ev), "u_gain": gain},
+            {"u_hdr_a": a, "u_hdr_b": b},
         )
 
 

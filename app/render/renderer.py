@@ -34,6 +34,7 @@ from app.render.blend import BlendPass, blend_defines, blended, forward_drawable
 from app.render.culling import LightCuller, check_tile_masks, tiles_used
 from app.render.gbuffer import GBuffer, GBufferPass
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
+from app.render.inputs import ShadingContext, shading_context
 from app.render.lighting import LightingPass
 from app.render.limits import check_memory, check_render_size, target_bytes_per_pixel
 from app.render.mesh_drawable import masked, rotated
@@ -126,6 +127,7 @@ class Renderer:
         self.blend: BlendPass | None = None  # only where a part is alpha-blended
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
+        self.shading: ShadingContext | None = None  # the frame's shader inputs (lighting's)
         self.background: EnvironmentBackground | None = None  # [environment] background
         # the environment's light: the split sum (image, sky, studio) or the uniform
         # environment's quadrature (docs/ibl.md)
@@ -256,9 +258,9 @@ class Renderer:
             drawables = forward_drawables(
                 self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
                 self.materials, self.scene.render.terms, self._specular_aa(),
-                blend_defines(self.lighting),
+                blend_defines(self.shading),
             )  # fmt: skip
-            self.blend = BlendPass(self.gl.ctx, drawables)
+            self.blend = BlendPass(self.gl.ctx, drawables, self.shading)
 
     def _build_lighting(self) -> None:
         """The culler (where local lights and tiled culling), the environment's light, the
@@ -301,12 +303,16 @@ class Renderer:
         shadow maps as they are: what a material edit needs again (``set_materials``)."""
         self._display_done = self._hdr_missing = False  # run_lighting: set by each frame
         self._release(("lighting",))
-        settings = self.scene.render
+        settings, options = self.scene.render, self.options
+        # the frame's shader inputs (app/render/inputs.py), released with the lighting pass
+        self.shading = shading_context(
+            self.gl.ctx, self.lights, self.materials, gbuffer=self.gbuffer,
+            ms_table=options.ms_table, every_table=options.uber, environment=self.ibl,
+            shadows=self.shadows, tiles=self.culler,
+        )  # fmt: skip
         self.lighting = LightingPass(
-            self.gl.ctx, self.shaders, self.render_size, self.lights, self.materials,
-            self.culler, settings.terms, self.options.uber, self.options.ms_table,
-            gbuffer=self.gbuffer.defines(), ibl=self.ibl, shadows=self.shadows,
-            form=self.options.light_form,
+            self.gl.ctx, self.shaders, self.render_size, self.shading, settings.terms,
+            options.uber, form=options.light_form,
         )  # fmt: skip
         self._build_blend()  # it shades with the lights, material table and terms
 
