@@ -35,12 +35,14 @@ from app.errors import InputError
 from app.gl.context import Backend, GLContext, create_context
 from app.reference.encoding import oct_decode
 from app.render.renderer import Renderer
-from app.resources import scenes_dir
-from app.scene.loader import LoadedScene, describe_error, load_scene, parse_scene
+from app.scene.edits import KeyPath, edited
+from app.scene.loader import LoadedScene, describe_error
 from app.scene.model import FILE_CAMERA_KEYS, Camera, RenderSettings, Scene
-from app.untrusted.policy import InputPolicy
+from app.scene.sources import PYTHON_SCENE, SceneSource, scene_from
 
-__all__ = ["CHANNELS", "OffscreenRenderer", "scene_from"]
+# ``scene_from`` (app/scene/sources.py, which the CLI shares) and ``PYTHON_SCENE`` are part
+# of the API.
+__all__ = ["CHANNELS", "PYTHON_SCENE", "OffscreenRenderer", "SceneSource", "scene_from"]
 
 # The G-buffer channels ``OffscreenRenderer.channel`` reads, with their shapes (H, W[, C]):
 # what each means is in docs/api.md and app/common/gbuffer.py.
@@ -58,43 +60,6 @@ CHANNELS: dict[str, str] = {
     "emission": "(H, W, 3) float32, emitted radiance (linear); 0 where nothing emits",
     "occlusion": "(H, W) float32, the factor on environment light; 1 without occlusion maps",
 }
-
-# The name a scene built in Python goes by in error messages (it has no file).
-PYTHON_SCENE = "<python scene>"
-
-
-SceneSource = str | Path | Mapping[str, Any] | LoadedScene
-
-
-def scene_from(
-    source: SceneSource,
-    base_dir: str | Path | None = None,
-    allow_paths: tuple[str | Path, ...] | list[str | Path] = (),
-    max_memory: int | None = None,
-) -> LoadedScene:
-    """A validated scene from ``source``: a scene file's path, the name of a bundled scene
-    (``"showcase"`` -> scenes/showcase.toml), a dict with a scene file's keys, or an already
-    loaded scene. A dict's relative paths (mesh files, textures) are relative to
-    ``base_dir`` (the working directory by default), as a file's are to its folder; its
-    errors name ``<python scene>`` in that folder. Raises ``InputError``.
-
-    Strict by default, as ``pbs render``: every file the scene names must resolve inside
-    its folder (``base_dir`` for a dict) or the bundled data, unless ``allow_paths`` adds
-    folders; ``max_memory`` (bytes; default 4 GiB) bounds what its decoded input and GPU
-    resources may take (docs/stability.md, "Untrusted input")."""
-    if isinstance(source, LoadedScene):
-        return source
-    policy = InputPolicy.from_options(allow_paths, max_memory)
-    if isinstance(source, Mapping):
-        folder = Path.cwd() if base_dir is None else Path(base_dir)
-        data = copy.deepcopy(dict(source))
-        return parse_scene(data, folder.resolve() / PYTHON_SCENE, policy)
-    path = Path(source)
-    if not path.exists() and not path.suffix:
-        bundled = scenes_dir() / f"{path}.toml"
-        if bundled.is_file():
-            path = bundled
-    return load_scene(path, policy)
 
 
 def _validated(model: type[BaseModel], data: dict, where: str, file: str) -> Any:
@@ -207,12 +172,8 @@ class OffscreenRenderer:
         if camera is None and "from_file" in changes:  # the file's camera replaces the view
             data = {k: v for k, v in data.items() if k not in FILE_CAMERA_KEYS}
         data.update(changes)
-        new = _validated(Camera, data, "camera", self.file)
-        if new.from_file is not None:  # a glTF file's camera, resolved with the whole scene
-            scene = _scene_dict(r.scene)
-            scene["camera"] = data
-            new = parse_scene(scene, r.loaded.path, r.loaded.policy).scene.camera
-        r.set_camera(new)
+        # The camera table alone is validated; a glTF file's camera with the whole scene.
+        r.set_camera(edited(r.loaded, [(("camera",), data)], "set_camera").scene.camera)
         self._frame = False
 
     def set_lights(
@@ -224,14 +185,12 @@ class OffscreenRenderer:
         them) and, where given, a new environment (a table, or None for none; left out it
         stays). Validated with the whole scene, as a file's lights are."""
         r = self._live()
-        data = _scene_dict(r.scene)
+        edits: list[tuple[KeyPath, object]] = []
         if lights is not None:
-            data["lights"] = [_as_dict(x) for x in lights]
+            edits.append((("lights",), [_as_dict(x) for x in lights]))
         if environment is not False:
-            data.pop("environment", None)
-            if environment is not None:
-                data["environment"] = _as_dict(environment)
-        loaded = parse_scene(data, r.loaded.path, r.loaded.policy)
+            edits.append((("environment",), None if environment is None else _as_dict(environment)))
+        loaded = edited(r.loaded, edits, "set_lights")
         r.set_lights(loaded.scene.lights, loaded.scene.environment)
         self._frame = False
 
@@ -241,18 +200,14 @@ class OffscreenRenderer:
         scene, as a file's materials are; a material without maps keeps every mesh's
         vertex buffer, and programs are compiled only for a model combination not seen."""
         r = self._live()
-        data = _scene_dict(r.scene)
-        if name not in data["materials"]:
-            known = ", ".join(sorted(data["materials"])) or "none defined"
+        if name not in r.scene.materials:
+            known = ", ".join(sorted(r.scene.materials)) or "none defined"
             raise InputError(self.file, f"materials.{name}", f"unknown material (known: {known})")
-        material = data["materials"][name]
-        for key, value in changes.items():
-            if value is None:
-                material.pop(key, None)
-            else:
-                material[key] = _as_dict(value) if isinstance(value, BaseModel) else value
-        loaded = parse_scene(data, r.loaded.path, r.loaded.policy)
-        r.set_materials(loaded.scene.materials)
+        edits = [
+            (("materials", name, key), _as_dict(value) if isinstance(value, BaseModel) else value)
+            for key, value in changes.items()
+        ]
+        r.set_materials(edited(r.loaded, edits, "set_material").scene.materials)
         self._frame = False
 
     def set_settings(self, **changes: Any) -> None:
@@ -261,7 +216,7 @@ class OffscreenRenderer:
         r = self._live()
         data = r.scene.render.model_dump(exclude_none=True)
         data.update(changes)
-        r.set_settings(_validated(RenderSettings, data, "render", self.file))
+        r.set_settings(edited(r.loaded, [(("render",), data)], "set_settings").scene.render)
         self._frame = False
 
     def resize(self, size: tuple[int, int]) -> None:
@@ -395,8 +350,3 @@ def _as_dict(value: Any) -> dict:
     if isinstance(value, Mapping):
         return copy.deepcopy(dict(value))
     raise InputError("value", "", f"expected a table (dict) (got {value!r})")
-
-
-def _scene_dict(scene: Scene) -> dict:
-    """The scene's data as a file would hold it, to be edited and validated again."""
-    return scene.model_dump(exclude_none=True)

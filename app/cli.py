@@ -401,16 +401,6 @@ def _textures_parser(sub: argparse._SubParsersAction) -> None:
     textures.add_argument("-q", "--quiet", action="store_true", help="print only problems")
 
 
-def _resolve_scene(name: str) -> Path:
-    path = Path(name)
-    if path.exists() or path.suffix:
-        return path
-    from app.resources import scenes_dir
-
-    bundled = scenes_dir() / f"{name}.toml"
-    return bundled if bundled.exists() else path
-
-
 def _write(path: Path, option: str, write: Callable[[Path], None]) -> None:
     try:
         write(path)
@@ -466,7 +456,7 @@ def _size_option(exc: InputError) -> InputError:
 def cmd_render(args: argparse.Namespace) -> int:
     from app.gl.context import create_context
     from app.render.renderer import Renderer
-    from app.scene.loader import load_scene
+    from app.scene.sources import scene_from, scene_path
 
     start = time.perf_counter()
     out = Path(args.output)
@@ -478,14 +468,14 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     if args.debug_light is not None and args.debug not in LIGHT_VIEWS:
         raise InputError("--debug-light", "", f"applies only to --debug {', '.join(LIGHT_VIEWS)}")
-    scene_path = _resolve_scene(args.scene)
+    scene_file = scene_path(args.scene)
     outputs = [(out, "-o")] + ([(Path(args.hdr), "--hdr")] if args.hdr else [])
     if args.hdr and Path(args.hdr).resolve() == out.resolve():
         raise InputError(args.hdr, "--hdr", "is the same file as -o")
     for path, option in outputs:
-        _check_output(path, option, {scene_path.resolve()})
+        _check_output(path, option, {scene_file.resolve()})
     with files.recording() as inputs:  # every file the scene names, for the outputs' check
-        loaded = load_scene(scene_path, _policy(args))
+        loaded = scene_from(scene_file, allow_paths=args.allow_path, max_memory=args.max_memory)
         if args.fit:
             from app.frame.camera import fit_scene
 
@@ -512,7 +502,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         count = len(renderer.lights)
         renderer.release()
         raise InputError(
-            str(scene_path), "--debug-light",
+            str(scene_file), "--debug-light",
             f"light {light} out of range: the scene has {count} light(s)"
             + (f", 0..{count - 1}" if count else ""),
         )  # fmt: skip
@@ -521,7 +511,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     hdr = renderer.read_hdr() if args.hdr else None
     report = None
     if args.debug is not None:
-        ldr, report = _debug_image(renderer, args.debug, light, out, scene_path)
+        ldr, report = _debug_image(renderer, args.debug, light, out, scene_file)
     renderer.release()
     if args.hdr:
         _write(Path(args.hdr), "--hdr", lambda p: write_hdr(p, hdr))
@@ -732,6 +722,7 @@ def cmd_walkthrough(args: argparse.Namespace) -> int:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
+    from app.scene.sources import scene_path
     from app.viewer.window import Viewer, ViewerError
 
     steps = None
@@ -752,7 +743,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         from app.walkthrough.labels import find_font
 
         find_font("ko")  # no Hangul font: one line naming the package, exit 2
-    scene = _resolve_scene(args.scene) if args.scene else None
+    scene = scene_path(args.scene) if args.scene else None
     try:
         viewer = Viewer(
             scene, args.size, vsync=not args.no_vsync, hangul=args.lang == "ko",

@@ -9,8 +9,8 @@ import numpy as np
 from app.bench.filtering import measure
 from app.gl.context import GLContext
 from app.reference.filtering import SPECULAR_AA_KAPPA, SPECULAR_AA_SIGMA2
-from app.render.gbuffer import upload_texture
 from app.render.renderer import Renderer
+from app.render.texture_upload import upload_texture
 from app.scene.loader import load_scene, parse_scene
 from app.scene.model import RenderSettings
 from app.textures.maps import normal_roughness_texture

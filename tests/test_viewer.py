@@ -18,8 +18,8 @@ import pytest
 from app.frame.camera import fit_scene
 from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
+from app.scene.edits import get_key
 from app.scene.loader import load_scene
-from app.viewer.document import get_value
 from tests.test_stability_renderer import GLCensus, resident_mib
 
 SIZE = (320, 180)
@@ -587,7 +587,7 @@ def test_walkthrough_sweep_value_and_reset(viewer, lesson_steps, gl_egl):
     assert lesson.reset()
     assert not lesson.playing and lesson.sweep is None
     on_file = tomllib.loads((scenes_dir() / f"{sweep.scene}.toml").read_text(encoding="utf-8"))
-    assert all(v.value(key) == get_value(on_file, key) != 0.35 for key in sweep.keys)
+    assert all(v.value(key) == get_key(on_file, key) != 0.35 for key in sweep.keys)
     assert_close(window_image(v), headless(gl_egl, loaded, v.framebuffer_size))
 
 

@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import InputError
-from app.render.compare import parse_key, set_key
 from app.resources import scenes_dir
-from app.scene.loader import LoadedScene, load_scene, parse_scene, read_text
+from app.scene.edits import KeyPathError, edited, parse_key
+from app.scene.loader import LoadedScene, load_scene, read_text
 from app.scene.model import Camera
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
@@ -223,10 +223,10 @@ def _sweep(
     loaded = _load_base(file, data, policy)
     jobs = []
     for i, value in enumerate(values):
-        scene_data = loaded.scene.model_dump(exclude_none=True)
-        set_key(scene_data, path, value, str(loaded.path), origin)
         try:
-            swept = parse_scene(scene_data, loaded.path, policy)
+            swept = edited(loaded, [(path, value)], origin)
+        except KeyPathError:
+            raise
         except InputError as exc:
             raise _bad(file, f"sweep.values[{i}]", f"{spec['key']} = {value!r}: {exc}") from None
         name = f"sweep-{i:04d}"

@@ -24,9 +24,9 @@ from app.errors import InputError
 from app.gl.context import GLContext, create_context
 from app.gl.shaders import ShaderCache
 from app.output import write_png
-from app.render.compare import parse_key, set_key
 from app.render.renderer import Renderer
-from app.scene.loader import LoadedScene, load_scene, parse_scene
+from app.scene.edits import edited
+from app.scene.loader import LoadedScene, load_scene
 from app.scene.model import Camera
 
 
@@ -80,9 +80,7 @@ def _show(renderer: Renderer, base: LoadedScene, job: Job) -> None:
     if job.camera is not None:
         scene = scene.model_copy(update={"camera": Camera.model_validate(job.camera)})
     elif job.key is not None:
-        data = scene.model_dump(exclude_none=True)
-        set_key(data, parse_key(job.key), job.value, str(base.path), "sweep")
-        scene = parse_scene(data, base.path, base.policy).scene
+        scene = edited(base, {job.key: job.value}, "sweep").scene
     renderer.update(scene)
 
 

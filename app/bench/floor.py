@@ -21,15 +21,14 @@ masks are valid for one camera and one light set only.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import moderngl
 import numpy as np
 
 from app.bench.pairs import LightPairs
 from app.common.models import BRDF_TERMS
-from app.frame.camera import gl_bytes
-from app.render.post import read_rgb
+from app.gl.fullscreen import FullscreenDraw
+from app.render.fullscreen import read_rgb
+from app.render.inputs import SURFACE_ROLES, ShaderInput, ShadingContext, bind_camera
 from app.render.renderer import Renderer
 
 
@@ -58,48 +57,52 @@ def shade_gbuffer(
     r: Renderer,
     fbo: moderngl.Framebuffer,
     z_fbo: moderngl.Framebuffer,
-    programs: list[moderngl.Program],
-    vaos: list[moderngl.VertexArray],
-    textures: list[tuple[str, moderngl.Texture]],
-    uniforms: Callable[[moderngl.Program], None] | None = None,
+    draws: list[FullscreenDraw],
+    context: ShadingContext,
 ) -> None:
-    """One full-screen pass per program over ``r``'s G-buffer into ``fbo``, cleared to the
-    background first, as the lighting pass draws: the G-buffer, material and table
-    textures bound with the pass's own ``textures``, the camera's uniforms set, and
-    ``uniforms(prog)`` for the rest (the bench's floor and limit passes). Like the lighting
-    pass (app/render/lighting.py ``run``), the programs' triangle lies on the far plane
-    (their ``FAR_PLANE`` define) and is z-tested ">" against the G-buffer's z-buffer, so
-    pixels without a surface never run the shader: the comparison with the culled pass
-    is then of the same pixels' work. ``z_fbo``: ``fbo``'s target with the z-buffer
-    (``z_target``)."""
+    """One full-screen pass per draw over ``r``'s G-buffer into ``fbo``, cleared to the
+    background first, as the lighting pass draws: every input of ``context`` (the
+    G-buffer, material table and lookup tables of the renderer's frame with the pass's own)
+    bound and the camera's uniforms set. Like the lighting pass (app/render/lighting.py
+    ``run``), the programs' triangle lies on the far plane (their ``FAR_PLANE`` define)
+    and is z-tested ">" against the G-buffer's z-buffer, so pixels without a surface never
+    run the shader: the comparison with the culled pass is then of the same pixels' work.
+    ``z_fbo``: ``fbo``'s target with the z-buffer (``z_target``)."""
     ctx = r.gl.ctx
     fbo.use()
     ctx.viewport = fbo.viewport
     ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
     fbo.clear(*(float(x) for x in r.scene.background), 1.0)
-    z_fbo.use()
-    ctx.enable(moderngl.DEPTH_TEST)
-    ctx.depth_func = ">"
-    textures = [*r.gbuffer.samplers(), ("u_materials", r.lighting.materials), *textures]
-    if r.lighting.ms_table is not None:
-        textures.append(("u_ms_table", r.lighting.ms_table))
-    if r.lighting.sheen_table is not None:  # sheen (RTR4 §9.10)
-        textures.append(("u_sheen_table", r.lighting.sheen_table))
-    for unit, (_, tex) in enumerate(textures):
-        tex.use(unit)
-    camera_to_world = gl_bytes(r.camera.camera_to_world)
-    for prog, vao in zip(programs, vaos, strict=True):
-        for unit, (name, _) in enumerate(textures):
-            if name in prog:
-                prog[name].value = unit
-        prog["u_camera_pos"].value = tuple(float(x) for x in r.camera.position)
-        prog["u_camera_to_world"].write(camera_to_world)
-        prog["u_tan_half_fov"].value = r.camera.tan_half_fov
-        if uniforms is not None:
-            uniforms(prog)
-        vao.render(moderngl.TRIANGLES, vertices=3)
-    ctx.disable(moderngl.DEPTH_TEST)
-    ctx.depth_func = "<"
+    context.use()
+    for draw in draws:
+        context.bind(draw.program)
+        bind_camera(draw.program, r.camera)
+        draw.draw(z_fbo, depth_func=">")
+
+
+class PixelMasks(ShaderInput):
+    """The floor pass's own input: each pixel's exact light mask (``pixel_masks``) in the
+    RGBA32UI texture ``u_pixel_masks``, ``TILE_QUADS`` texels per pixel side by side."""
+
+    role = "pixel_masks"
+
+    def __init__(self, ctx: moderngl.Context, pairs: LightPairs, quads: int) -> None:
+        self.quads = quads
+        masks = pixel_masks(pairs, quads)[::-1]  # GL rows bottom-up
+        h, w = masks.shape[:2]
+        self.texture = ctx.texture(
+            (w * quads, h), 4, np.ascontiguousarray(masks).tobytes(), dtype="u4"
+        )
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def defines(self) -> dict[str, int]:
+        return {"TILE_QUADS": self.quads}
+
+    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        return [("u_pixel_masks", self.texture)]
+
+    def release(self) -> None:
+        self.texture.release()
 
 
 class FloorPass:
@@ -114,27 +117,25 @@ class FloorPass:
         table = renderer.materials
         several = len(table.models) > 1
         self.quads = max(1, -(-len(renderer.lights) // 128))  # mask texels per pixel
-        self.programs = []
+        self.masks = PixelMasks(ctx, pairs, self.quads)
+        # the frame's G-buffer, lights (the texture), material and lookup tables, and the
+        # masks
+        self.context = renderer.shading.only(*SURFACE_ROLES).with_inputs(self.masks)
+        frame = self.context.defines()
+        self.draws = []
         for group, model in enumerate(table.models):
             defines: dict[str, object] = dict(model.defines())
-            defines["TILE_QUADS"] = self.quads
-            defines.update(renderer.gbuffer.defines())
+            defines.update(frame)
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
             # Without directional lights the walk takes the lighting pass's local term.
             defines["FLOOR_LOCAL_ONLY"] = int(all(x.is_local for x in renderer.lights))
             defines["FAR_PLANE"] = 1  # z-tested to surface pixels (shade_gbuffer)
             if several:
                 defines["MODEL_GROUP"] = group
-            self.programs.append(
-                renderer.shaders.program("passes/fullscreen.vert", "passes/floor.frag", defines)
+            self.draws.append(
+                FullscreenDraw.of(ctx, renderer.shaders, "passes/floor.frag", defines)
             )
-        self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
-        masks = pixel_masks(pairs, self.quads)[::-1]  # GL rows bottom-up
-        w, h = self.size
-        self.masks = ctx.texture(
-            (w * self.quads, h), 4, np.ascontiguousarray(masks).tobytes(), dtype="u4"
-        )
-        self.masks.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.programs = [draw.program for draw in self.draws]
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
@@ -143,14 +144,12 @@ class FloorPass:
 
     def run(self) -> None:
         """Shade the renderer's current G-buffer (its G-buffer pass must have run)."""
-        r = self.renderer
-        textures = [("u_lights", r.lighting.lights), ("u_pixel_masks", self.masks)]
-        shade_gbuffer(r, self.fbo, self.z_fbo, self.programs, self.vaos, textures)
+        shade_gbuffer(self.renderer, self.fbo, self.z_fbo, self.draws, self.context)
 
     def read_hdr(self) -> np.ndarray:
         """The HDR image, (H, W, 3) float32, rows top to bottom."""
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.vaos, self.z_fbo, self.fbo, self.hdr, self.masks):
+        for obj in (*self.draws, self.z_fbo, self.fbo, self.hdr, self.masks):
             obj.release()

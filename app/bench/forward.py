@@ -24,13 +24,12 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from app.common.lights import pack_lights
 from app.frame import prepare_frame
 from app.frame.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.blend import forward_drawables
-from app.render.tables import material_texture, ms_texture, sheen_texture
+from app.render.inputs import bind_camera, shading_context
 from app.scene.loader import LoadedScene
 
 
@@ -53,16 +52,10 @@ class ForwardRenderer:
         self.lights = frame.lights
         self.materials = frame.materials
         parts, material_ids = frame.parts, frame.material_ids
-        self.material_texture = material_texture(ctx, self.materials)
-        self.ms_table = None
-        if any(model.multiscatter for model in self.materials.models):
-            self.ms_table = ms_texture(ctx)
-        self.sheen_table = None  # sheen (RTR4 §9.10): unit 3, the layers' maps from 4
-        if any(model.sheen != "none" for model in self.materials.models):
-            self.sheen_table = sheen_texture(ctx)
-        packed = pack_lights(self.lights)
-        self.light_texture = ctx.texture((3, packed.shape[0]), 4, packed.tobytes(), dtype="f4")
-        self.light_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        # The shader inputs (app/render/inputs.py) the renderer's frame would have, but no
+        # G-buffer: the light texture, the material table and the lookup tables its models
+        # read; the layers' maps are bound on the units after theirs.
+        self.context = shading_context(ctx, self.lights, self.materials)
         settings = scene.render
         specular_aa = (
             (settings.specular_aa_variance, settings.specular_aa_threshold)
@@ -72,7 +65,14 @@ class ForwardRenderer:
         # One drawable per part and model group (app/render/blend.py, which the renderer's
         # blend pass shares).
         self.drawables = forward_drawables(
-            ctx, self.shaders, parts, material_ids, self.materials, settings.terms, specular_aa
+            ctx,
+            self.shaders,
+            parts,
+            material_ids,
+            self.materials,
+            settings.terms,
+            specular_aa,
+            self.context.defines(),
         )
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -96,34 +96,18 @@ class ForwardRenderer:
         background = (float(x) for x in self.scene.background)
         self.fbo.clear(*background, 1.0, depth=1.0)
         view_bytes, proj_bytes = gl_bytes(self.view), gl_bytes(self.proj)
-        camera_pos = tuple(float(x) for x in self.camera.position)
-        camera_to_world = gl_bytes(self.camera.camera_to_world)
-        self.light_texture.use(0)
-        self.material_texture.use(1)
-        if self.ms_table is not None:
-            self.ms_table.use(2)
-        if self.sheen_table is not None:
-            self.sheen_table.use(3)
+        image_size = tuple(float(x) for x in self.size)
+        first_map = self.context.use()
         for d in self.drawables:
             d.cull(ctx)  # as the G-buffer pass
             prog = d.program
             d.bind_transform(view_bytes, proj_bytes)
             d.bind_camera(self.camera, self.size)
-            prog["u_camera_to_world"].write(camera_to_world)
-            d.bind_material(first_unit=4)
-            values = {
-                "u_lights": 0,
-                "u_materials": 1,
-                "u_ms_table": 2,
-                "u_sheen_table": 3,
-                "u_light_count": len(self.lights),
-                "u_camera_pos": camera_pos,
-                "u_tan_half_fov": self.camera.tan_half_fov,
-                "u_image_size": tuple(float(x) for x in self.size),
-            }
-            for name, value in values.items():
-                if name in prog:  # the compiler drops what a permutation does not use
-                    prog[name].value = value
+            bind_camera(prog, self.camera)
+            d.bind_material(first_unit=first_map)
+            if "u_image_size" in prog:  # the compiler drops what a permutation does not use
+                prog["u_image_size"].value = image_size
+            self.context.bind(prog)
             d.vao.render(moderngl.TRIANGLES)
         ctx.disable(moderngl.CULL_FACE)
         ctx.cull_face = "back"
@@ -138,10 +122,7 @@ class ForwardRenderer:
     def release(self) -> None:
         for d in self.drawables:
             d.release()
-        for obj in (self.fbo, self.hdr, self.zbuffer, self.light_texture, self.material_texture):
+        for obj in (self.fbo, self.hdr, self.zbuffer):
             obj.release()
-        if self.ms_table is not None:
-            self.ms_table.release()
-        if self.sheen_table is not None:
-            self.sheen_table.release()
+        self.context.release()
         self.shaders.release()

@@ -28,7 +28,9 @@ from app.bench.floor import shade_gbuffer, z_target
 from app.bench.pairs import LightPairs
 from app.common.lights import pack_lights
 from app.common.models import BRDF_TERMS
-from app.render.post import read_rgb
+from app.gl.fullscreen import FullscreenDraw
+from app.render.fullscreen import read_rgb
+from app.render.inputs import GBUFFER, MATERIALS, MS_TABLE, SHEEN_TABLE, ShaderInput
 from app.render.renderer import Renderer
 
 FORMS = ("texture", "uniform", "ubo")
@@ -56,6 +58,70 @@ def pixel_light_indices(pairs: LightPairs, count: int, dark: int) -> np.ndarray:
     return out.reshape(h, w, count)
 
 
+class LimitLights(ShaderInput):
+    """The limit pass's lights (the frame's, then ``dark_light``) in ``form``: the texture
+    ``u_lights``, the uniform array ``u_light_vec`` or the uniform block ``LimitLights``
+    (``LIMIT_FORM``, ``LIMIT_LIGHTS``)."""
+
+    role = "limit_lights"
+
+    def __init__(self, ctx: moderngl.Context, packed: np.ndarray, form: str) -> None:
+        self.form, self.count = form, len(packed)
+        self.texels = np.ascontiguousarray(packed).tobytes()
+        self.texture: moderngl.Texture | None = None
+        self.block: moderngl.Buffer | None = None
+        if form == "texture":
+            self.texture = ctx.texture((3, len(packed)), 4, self.texels, dtype="f4")
+            self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        elif form == "ubo":
+            self.block = ctx.buffer(self.texels)
+
+    def defines(self) -> dict[str, int]:
+        return {"LIMIT_FORM": FORMS.index(self.form), "LIMIT_LIGHTS": self.count}
+
+    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        return [("u_lights", self.texture)] if self.texture is not None else []
+
+    def uniforms(self, program: moderngl.Program) -> None:
+        if self.form == "uniform":
+            program["u_light_vec"].write(self.texels)
+        elif self.block is not None:
+            self.block.bind_to_uniform_block(_BLOCK_BINDING)
+            program["LimitLights"].binding = _BLOCK_BINDING
+
+    def release(self) -> None:
+        for obj in (self.texture, self.block):
+            if obj is not None:
+                obj.release()
+
+
+class PixelLights(ShaderInput):
+    """The limit pass's per-pixel light indices (``pixel_light_indices``), 16 bits each,
+    ``PER_TEXEL`` to an RGBA32UI texel of ``u_pixel_lights`` (``LIMIT_COUNT`` of them,
+    ``LIMIT_TEXELS`` texels a pixel)."""
+
+    role = "pixel_lights"
+
+    def __init__(self, ctx: moderngl.Context, pairs: LightPairs, count: int, dark: int) -> None:
+        self.count = count
+        self.texels = -(-count // PER_TEXEL)
+        h, w = pairs.count.shape
+        indices = np.zeros((h, w, self.texels * PER_TEXEL), np.uint16)
+        indices[..., :count] = pixel_light_indices(pairs, count, dark)
+        words = np.ascontiguousarray(indices[::-1]).view(np.uint32)  # GL rows bottom-up
+        self.texture = ctx.texture((w * self.texels, h), 4, words.tobytes(), dtype="u4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def defines(self) -> dict[str, int]:
+        return {"LIMIT_COUNT": self.count, "LIMIT_TEXELS": self.texels}
+
+    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        return [("u_pixel_lights", self.texture)]
+
+    def release(self) -> None:
+        self.texture.release()
+
+
 class LimitPass:
     """Shades a ``Renderer``'s G-buffer with ``count`` lights per pixel into its own HDR
     target, the lights' parameters in ``form`` (one of ``FORMS``)."""
@@ -69,7 +135,6 @@ class LimitPass:
         self.ctx, self.renderer, self.size, self.form = ctx, renderer, renderer.size, form
         self.count = max(1, round(pairs.mean_per_covered_pixel))
         self.terms = self.count * int(pairs.covered.sum())
-        texels = -(-self.count // PER_TEXEL)
         packed = np.concatenate([pack_lights(renderer.lights)[: len(renderer.lights)],
                                  dark_light()[None]])  # fmt: skip
         dark = len(packed) - 1
@@ -78,39 +143,29 @@ class LimitPass:
         if room is not None and 3 * len(packed) > room:
             raise ValueError(f"{len(packed)} lights need {3 * len(packed)} vec4 in a {form},"
                              f" the context allows {room}: use form 'texture'")  # fmt: skip
+        self.lights = LimitLights(ctx, packed, form)
+        self.indices = PixelLights(ctx, pairs, self.count, dark)
+        # the frame's G-buffer, material and lookup tables (not its lights: its own)
+        frame = renderer.shading.only(GBUFFER, MATERIALS, MS_TABLE, SHEEN_TABLE)
+        self.context = frame.with_inputs(self.lights, self.indices)
         # The dark light is a point light; without directional lights the limit takes
         # the culled pass's local term (local_light_term, lights/illumination.glsl).
         local_only = int(all(x.is_local for x in renderer.lights))
         table = renderer.materials
         several = len(table.models) > 1
-        self.programs = []
+        inputs = self.context.defines()
+        self.draws = []
         for group, model in enumerate(table.models):
             defines: dict[str, object] = dict(model.defines())
-            defines.update(renderer.gbuffer.defines())
+            defines.update(inputs)
             defines["BRDF_TERMS"] = BRDF_TERMS[renderer.scene.render.terms]
-            defines.update(LIMIT_FORM=FORMS.index(form), LIMIT_LIGHTS=len(packed),
-                           LIMIT_COUNT=self.count, LIMIT_TEXELS=texels,
-                           LIMIT_LOCAL_ONLY=local_only, FAR_PLANE=1)  # fmt: skip
+            defines.update(LIMIT_LOCAL_ONLY=local_only, FAR_PLANE=1)
             if several:
                 defines["MODEL_GROUP"] = group
-            self.programs.append(
-                renderer.shaders.program("passes/fullscreen.vert", "passes/limit.frag", defines)
+            self.draws.append(
+                FullscreenDraw.of(ctx, renderer.shaders, "passes/limit.frag", defines)
             )
-        self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
-        w, h = self.size
-        indices = np.zeros((h, w, texels * PER_TEXEL), np.uint16)
-        indices[..., : self.count] = pixel_light_indices(pairs, self.count, dark)
-        words = np.ascontiguousarray(indices[::-1]).view(np.uint32)  # GL rows bottom-up
-        self.indices = ctx.texture((w * texels, h), 4, words.tobytes(), dtype="u4")
-        self.indices.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.lights: moderngl.Texture | None = None
-        self.block: moderngl.Buffer | None = None
-        self.light_bytes = np.ascontiguousarray(packed).tobytes()
-        if form == "texture":
-            self.lights = ctx.texture((3, len(packed)), 4, self.light_bytes, dtype="f4")
-            self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        elif form == "ubo":
-            self.block = ctx.buffer(self.light_bytes)
+        self.programs = [draw.program for draw in self.draws]
         self.hdr = ctx.texture(self.size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
@@ -118,33 +173,12 @@ class LimitPass:
 
     def run(self) -> None:
         """Shade the renderer's current G-buffer (its G-buffer pass must have run)."""
-        textures = [("u_pixel_lights", self.indices)]
-        if self.lights is not None:
-            textures.append(("u_lights", self.lights))
-        if self.block is not None:
-            self.block.bind_to_uniform_block(_BLOCK_BINDING)
-        shade_gbuffer(self.renderer, self.fbo, self.z_fbo, self.programs, self.vaos, textures,
-                      self._light_uniforms)  # fmt: skip
-
-    def _light_uniforms(self, prog: moderngl.Program) -> None:
-        if self.form == "uniform":
-            prog["u_light_vec"].write(self.light_bytes)
-        elif self.form == "ubo":
-            prog["LimitLights"].binding = _BLOCK_BINDING
+        shade_gbuffer(self.renderer, self.fbo, self.z_fbo, self.draws, self.context)
 
     def read_hdr(self) -> np.ndarray:
         """The HDR image, (H, W, 3) float32, rows top to bottom."""
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (
-            *self.vaos,
-            self.z_fbo,
-            self.fbo,
-            self.hdr,
-            self.indices,
-            self.lights,
-            self.block,
-        ):
-            if obj is not None:
-                obj.release()
+        for obj in (*self.draws, self.z_fbo, self.fbo, self.hdr, self.indices, self.lights):
+            obj.release()

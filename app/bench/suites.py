@@ -58,7 +58,7 @@ from app.bench.timing import (
     round_ratios,
     summary,
 )
-from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES, bytes_per_pixel
+from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES
 from app.common.tables import DEFAULT_SIZE
 from app.frame.raycast import reference_scene
 from app.gl.context import GLContext
@@ -561,6 +561,7 @@ def _primitive_case(
             n: (r.read_hdr().astype(np.float64), r.read_gbuffer().covered, len(r.lights))
             for n, r in renderers.items()
         }
+        per_pixel = {n: r.gbuffer.layout.bytes_per_pixel() for n, r in renderers.items()}
     finally:
         for r in renderers.values():
             r.release()
@@ -577,7 +578,7 @@ def _primitive_case(
                 rel_rmse=errors["rel_rmse"], max_rel_err=stats["max"],
                 flip_mean=stats["flip_mean"], rel_median=stats["median"],
                 rel_p99=stats["p99"], coverage_mismatch=float(np.mean(covered != ref.covered)),
-                bytes_per_pixel=bytes_per_pixel(gbuffer),
+                bytes_per_pixel=per_pixel[name],
             )
         )  # fmt: skip
     ctx.progress.done()
@@ -614,14 +615,15 @@ def run_comparison(ctx: Context, comp: Comparison) -> None:
                 len(r.lights))
             for n, r in renderers.items()
         }  # fmt: skip
+        per_pixel = {n: r.gbuffer.layout.bytes_per_pixel() for n, r in renderers.items()}
     finally:
         for r in renderers.values():
             r.release()
     for variant in comp.variants:
         hdr, same_surface, lights = results[variant.name]
         errors = image_errors(hdr, ref, covered, scene.camera.exposure, scene.render.tonemap)
-        if comp.name == "gbuffer":  # the encodings' cost in memory too (no RT3/RT4 here)
-            errors["bytes_per_pixel"] = bytes_per_pixel(variant.gbuffer)
+        if comp.name == "gbuffer":  # the encodings' cost in memory too, as allocated
+            errors["bytes_per_pixel"] = per_pixel[variant.name]
         ctx.rows.append(
             make_row(
                 "accuracy", comp.name, variant.name, size, lights, times[variant.name],

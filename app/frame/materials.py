@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.common.gbuffer import optional_defines
 from app.common.models import (
     SURFACE_TEXELS,
     MaterialParams,
@@ -154,13 +155,13 @@ class MaterialTable:
         decodes it (gbuffer/layout.glsl): RT3 (tangent), RT4 (coat normal) and RT5
         (emission and occlusion; named only where present, so that every other scene's
         programs compile exactly as before it existed)."""
-        defines = {
-            "GBUFFER_TANGENT": int(self.needs_tangents),
-            "GBUFFER_COAT_NORMAL": int(self.needs_coat_normals),
-        }
-        if self.needs_emission:
-            defines["GBUFFER_EMISSION"] = 1
-        return defines
+        return optional_defines(
+            {
+                "tangent": self.needs_tangents,
+                "coat_normal": self.needs_coat_normals,
+                "emission": self.needs_emission,
+            }
+        )
 
     def packed(self) -> np.ndarray:
         """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params;

@@ -13,6 +13,7 @@ from collections.abc import Callable, Mapping, Sequence
 import moderngl
 import numpy as np
 
+from app.gl.fullscreen import FullscreenDraw, bind_textures
 from app.gl.shaders import assemble, assemble_text
 
 MAX_WIDTH = 1024  # texels per row of the input and output textures
@@ -84,26 +85,23 @@ def run_kernel(
     textures: list[moderngl.Texture] = []
     target = ctx.texture((width, height), 4, dtype=target_dtype)
     fbo = ctx.framebuffer([target])
-    vao = ctx.vertex_array(program, [])
+    fullscreen = FullscreenDraw(ctx, program, owns_program=True)
     try:
-        for unit, (name, a) in enumerate(arrays.items()):
+        named = []
+        for name, a in arrays.items():
             texels = np.zeros((width * height, 4), np.float32)
             texels[:n, : a.shape[1]] = a
             tex = ctx.texture((width, height), 4, texels.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             textures.append(tex)
-            tex.use(unit)
-            if f"kernel_in_{name}" in program:  # an unused input is optimised away
-                program[f"kernel_in_{name}"].value = unit
+            named.append((f"kernel_in_{name}", tex))  # an unused input is optimised away
+        bind_textures(program, named)
         if bind is not None:
             bind(program, len(arrays))
-        fbo.use()
-        ctx.viewport = (0, 0, width, height)
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        vao.render(moderngl.TRIANGLES, vertices=3)
+        fullscreen.draw(fbo, viewport=(0, 0, width, height))
         stored = np.dtype({"nu2": "u2"}.get(target_dtype, target_dtype))
         out = np.frombuffer(target.read(), stored).reshape(-1, 4)[:n].astype(np.float64)
         return out / 65535.0 if target_dtype == "nu2" else out
     finally:
-        for obj in (vao, fbo, target, program, *textures):
+        for obj in (fullscreen, fbo, target, *textures):
             obj.release()

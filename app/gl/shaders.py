@@ -9,7 +9,9 @@ each compiles on its own after the ``#version`` and defines header
 an ``#include`` inside ``#if`` is spliced (and counts as done) whatever the condition.
 
 Every program starts with the constants shared with Python (``app.common.glsl``: model
-names, ``TERM_*``, ``LIGHT_*``, ``TONEMAP_*``), generated from their one definition.
+names, ``TERM_*``, ``LIGHT_*``, ``TONEMAP_*``), generated from their one definition, and,
+after its defines, the G-buffer's declarations generated from its one layout list
+(``app.common.gbuffer``: GBUFFER_OUTPUTS, GBUFFER_SAMPLERS and the layout's defaults).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from pathlib import Path
 
 import moderngl
 
+from app.common.gbuffer import glsl_declarations
 from app.common.glsl import shared_defines
 from app.resources import glsl_dir
 
@@ -77,13 +80,23 @@ def expand_text(text: str, root: Path | None = None) -> str:
 
 
 def _header(defines: Mapping[str, object] | None) -> str:
-    """``#version``, the shared constants, a program's feature ``defines``, then
-    ``#line 1``: the compiler numbers the expanded source from 1."""
+    """``#version``, the shared constants, a program's feature ``defines``, the lines
+    generated from them (``_generated``), then ``#line 1``: the compiler numbers the
+    expanded source from 1."""
     lines = [GLSL_VERSION]
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")
+    lines += _generated(defines or {})
     return "\n".join(lines) + "\n#line 1\n"
+
+
+def _generated(defines: Mapping[str, object]) -> list[str]:
+    """Header lines generated from a Python declaration for a program of ``defines``: the
+    G-buffer's (app/common/gbuffer.py ``glsl_declarations``: the layout's defines the
+    program leaves out, at their defaults, and the GBUFFER_OUTPUTS / GBUFFER_SAMPLERS
+    declarations of its targets)."""
+    return glsl_declarations(defines)
 
 
 def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:

@@ -14,6 +14,7 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.frame.camera import gl_bytes
+from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
 
@@ -52,28 +53,22 @@ class EnvironmentBackground:
     def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, env: EnvironmentSource) -> None:
         self.ctx = ctx
         self.texture = equirect_texture(ctx, env.texels)
-        self.program = shaders.program(
-            "passes/fullscreen.vert", "passes/environment_background.frag", {}
-        )
-        self.vao = ctx.vertex_array(self.program, [])
+        self.fullscreen = FullscreenDraw.of(ctx, shaders, "passes/environment_background.frag")
         self.rotation = math.radians(env.rotation)
         self.intensity = env.intensity
 
     def run(self, gbuffer: GBuffer, target: moderngl.Framebuffer, camera: CameraFrame) -> None:
-        """Write the background pixels of ``target`` (the lighting pass's HDR target)."""
-        target.use()
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        gbuffer.depth.use(0)
-        self.texture.use(1)
-        prog = self.program
-        prog["g_depth"].value = 0
-        prog["u_environment"].value = 1
-        prog["u_camera_to_world"].write(gl_bytes(camera.camera_to_world))
-        prog["u_tan_half_fov"].value = camera.tan_half_fov
-        prog["u_rotation"].value = self.rotation
-        prog["u_intensity"].value = self.intensity
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        """Write the background pixels of ``target`` (the lighting pass's HDR target), at
+        its own viewport."""
+        uniforms = {
+            "u_camera_to_world": gl_bytes(camera.camera_to_world),
+            "u_tan_half_fov": camera.tan_half_fov,
+            "u_rotation": self.rotation,
+            "u_intensity": self.intensity,
+        }
+        textures = {"g_depth": gbuffer.depth, "u_environment": self.texture}
+        self.fullscreen.draw(target, uniforms, textures)
 
     def release(self) -> None:
-        for obj in (self.vao, self.texture):
+        for obj in (self.fullscreen, self.texture):
             obj.release()

@@ -33,8 +33,19 @@ from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
-from app.render.gbuffer import GBuffer, MeshDrawable
+from app.render.gbuffer import GBuffer
+from app.render.inputs import (
+    ENVIRONMENT,
+    LIGHTS,
+    MATERIALS,
+    MS_TABLE,
+    SHADOWS,
+    SHEEN_TABLE,
+    ShadingContext,
+    bind_camera,
+)  # fmt: skip
 from app.render.lighting import LightingPass
+from app.render.mesh_drawable import MeshDrawable
 from app.scene.geometry import MeshPart
 
 FORWARD_SHADERS = ("passes/gbuffer.vert", "passes/forward.frag")
@@ -43,15 +54,17 @@ FORWARD_SHADERS = ("passes/gbuffer.vert", "passes/forward.frag")
 BLEND_DEFINES = {"ALPHA_BLEND": 1, "GBUFFER_EMISSION": 1}
 
 
-def blend_defines(lighting: LightingPass) -> dict[str, int]:
-    """``BLEND_DEFINES`` plus the lighting pass's image-based light and shadow maps, so
-    that a blended part is lit as an opaque one (glsl/lights/shading.glsl)."""
-    defines = dict(BLEND_DEFINES)
-    if lighting.ibl is not None:
-        defines.update(lighting.ibl.defines())
-    if lighting.shadows is not None:
-        defines.update(lighting.shadows.defines())
-    return defines
+# The shader inputs a blended part reads (app/render/inputs.py): the lighting pass's
+# lights (as the texture), material table, lookup tables, environment light and shadow
+# maps; not the G-buffer (it writes none) nor the tiles (it loops over every light).
+BLEND_INPUTS = (LIGHTS, MATERIALS, MS_TABLE, SHEEN_TABLE, ENVIRONMENT, SHADOWS)
+
+
+def blend_defines(context: ShadingContext) -> dict[str, int]:
+    """``BLEND_DEFINES`` plus the defines of the frame's inputs the pass reads
+    (``BLEND_INPUTS``: the image-based light and the shadow maps have some), so that a
+    blended part is lit as an opaque one (glsl/lights/shading.glsl)."""
+    return {**BLEND_DEFINES, **context.only(*BLEND_INPUTS).defines()}
 
 
 def blended(part: MeshPart) -> bool:
@@ -106,10 +119,16 @@ def world_centre(part: MeshPart) -> np.ndarray:
 class BlendPass:
     """The blended parts of a frame, composited over the lighting pass's HDR image."""
 
-    def __init__(self, ctx: moderngl.Context, drawables: list[MeshDrawable]) -> None:
+    def __init__(
+        self, ctx: moderngl.Context, drawables: list[MeshDrawable], context: ShadingContext
+    ) -> None:
         """``drawables``: ``forward_drawables`` of the blended parts only, compiled with
-        ``BLEND_DEFINES`` and the lighting pass's material table and terms."""
+        ``blend_defines(context)`` and the lighting pass's material table and terms.
+        ``context``: the frame's shader inputs (the lighting pass's), of which the pass
+        binds ``BLEND_INPUTS``."""
+        context.require("the blend pass", LIGHTS, MATERIALS)
         self.ctx = ctx
+        self.context = context.only(*BLEND_INPUTS)
         self.drawables = drawables
         self._centres = [world_centre(d.part) for d in drawables]  # once: parts do not move
         self._fbo: moderngl.Framebuffer | None = None
@@ -136,8 +155,9 @@ class BlendPass:
         proj: np.ndarray,
         camera: CameraFrame,
     ) -> None:
-        """Composite every blended part, farthest first, over ``lighting.hdr``; the lights,
-        material table and its lookup tables are the lighting pass's."""
+        """Composite every blended part, farthest first, over ``lighting.hdr``; the shader
+        inputs (lights, material table, lookup tables, environment, shadow maps) are the
+        context's, the lighting pass's."""
         ctx = self.ctx
         fbo = self._target(lighting.hdr, gbuffer.zbuffer)
         fbo.use()
@@ -151,19 +171,8 @@ class BlendPass:
         ctx.blend_func = (*over, moderngl.ZERO, moderngl.ONE)
         ctx.blend_equation = moderngl.FUNC_ADD
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
-        camera_pos = tuple(float(x) for x in camera.position)
-        camera_to_world = gl_bytes(camera.camera_to_world)
-        units = [("u_lights", lighting.lights), ("u_materials", lighting.materials)]
-        if lighting.ms_table is not None:
-            units.append(("u_ms_table", lighting.ms_table))
-        if lighting.sheen_table is not None:
-            units.append(("u_sheen_table", lighting.sheen_table))
-        if lighting.ibl is not None:  # the environment's light, as the lighting pass's
-            units.extend(lighting.ibl.samplers())
-        if lighting.shadows is not None:  # the lighting pass's maps (rendered before it)
-            units.append(("u_shadow_atlas", lighting.shadows.atlas))
-        for unit, (_, tex) in enumerate(units):
-            tex.use(unit)
+        image_size = tuple(float(x) for x in size)
+        first_map = self.context.use()  # the layers' maps on the units after the inputs'
         # Farthest first; a stable sort keeps scene order between parts at one depth.
         depths = [-float((view @ c)[2]) for c in self._centres]  # metres along the view axis
         order = sorted(range(len(depths)), key=lambda k: -depths[k])
@@ -171,23 +180,11 @@ class BlendPass:
             prog = d.program
             d.bind_transform(view_bytes, proj_bytes)
             d.bind_camera(camera, size)
-            if "u_camera_to_world" in prog:
-                prog["u_camera_to_world"].write(camera_to_world)
-            d.bind_material(first_unit=len(units))
-            values: dict[str, object] = {
-                "u_light_count": lighting.light_count,
-                "u_camera_pos": camera_pos,
-                "u_tan_half_fov": camera.tan_half_fov,
-                "u_image_size": tuple(float(x) for x in size),
-                **{name: unit for unit, (name, _) in enumerate(units)},
-            }
-            for name, value in values.items():
-                if name in prog:  # the compiler drops what a permutation does not use
-                    prog[name].value = value
-            if lighting.ibl is not None:
-                lighting.ibl.set_uniforms(prog)
-            if lighting.shadows is not None:
-                lighting.shadows.bind(prog)
+            bind_camera(prog, camera)
+            d.bind_material(first_unit=first_map)
+            if "u_image_size" in prog:  # the compiler drops what a permutation does not use
+                prog["u_image_size"].value = image_size
+            self.context.bind(prog)
             d.cull(ctx)
             if d.part.closed:
                 d.vao.render(moderngl.TRIANGLES)

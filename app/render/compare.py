@@ -29,9 +29,7 @@ The command line's form is ``--compare KEY=A,B`` (``parse_compare``, docs/compar
 
 from __future__ import annotations
 
-import copy
 import math
-import re
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -42,9 +40,10 @@ from app.common.tonemaps import TONEMAP_CODE
 from app.errors import InputError
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.render.post import _FullscreenPass
+from app.render.fullscreen import FullscreenPass
 from app.render.renderer import Renderer
-from app.scene.loader import LoadedScene, key_path, parse_scene
+from app.scene.edits import KeyPathError, edited, parse_key, toml_value
+from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Scene
 from app.untrusted import RefusedError
 from app.untrusted.policy import Limits
@@ -60,53 +59,10 @@ MODES: tuple[Mode, ...] = ("split", "difference")
 DIVIDER_WIDTH = 2
 DIVIDER_COLOR = (255, 0, 255)
 
-# A key path: names separated by dots, each followed by any number of [N] list indices.
-# A name is bare (letters, digits, '_', '-', as a scene file's bare keys) or in double
-# quotes (a material named "a.b").
-_NAME = re.compile(r'[A-Za-z0-9_-]+|"[^"\\\n]*"')
-_INDEX = re.compile(r"\[(\d+)\]")
-_KEY_SYNTAX = (
-    "not a key path: names separated by '.' with [N] list indices, as a scene file "
-    "writes them (materials.gold.fresnel, lights[0].intensity, render.normal_filter)"
-)
 _VALUES_SYNTAX = (
     "expected KEY=A,B with A and B TOML values: strings in double quotes, numbers, true "
     'or false, [arrays] (materials.gold.fresnel="schlick","conductor")'
 )
-
-
-def parse_key(key: str, origin: str = "comparison") -> tuple[str | int, ...]:
-    """``'lights[0].intensity'`` -> ``('lights', 0, 'intensity')``; a malformed path is an
-    ``InputError`` from ``origin`` naming it."""
-    path: list[str | int] = []
-    pos = 0
-    while True:
-        name = _NAME.match(key, pos)
-        if name is None:
-            raise InputError(origin, key, _KEY_SYNTAX)
-        path.append(name.group().strip('"'))
-        pos = name.end()
-        while (index := _INDEX.match(key, pos)) is not None:
-            path.append(int(index.group(1)))
-            pos = index.end()
-        if pos == len(key):
-            return tuple(path)
-        if key[pos] != ".":
-            raise InputError(origin, key, _KEY_SYNTAX)
-        pos += 1
-
-
-def toml_value(value: object) -> str:
-    """A value as the TOML the user would write (for messages)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + " }"
-    return repr(value)
 
 
 @dataclass(frozen=True)
@@ -145,10 +101,10 @@ class CompareSpec:
         name may be a key the scene leaves at its default.
         """
         value = self.value(side)
-        data = base.scene.model_dump(exclude_none=True)  # a fresh copy: free to edit
-        set_key(data, self.path, value, str(base.path), self.origin)
         try:
-            return parse_scene(data, base.path)
+            return edited(base, [(self.path, value)], self.origin)
+        except KeyPathError:  # a step of the key is missing: the same for both sides
+            raise
         except InputError as exc:
             why = f"{self.origin} side {side.upper()}: {self.key} = {toml_value(value)}"
             raise InputError(exc.file, exc.key, f"{exc.message} ({why})") from None
@@ -178,44 +134,6 @@ class CompareSpec:
     def touches(self, table: str) -> bool:
         """Whether the key lies in the scene's top-level ``table`` (``"camera"``)."""
         return self.path[0] == table
-
-
-def set_key(data: dict, path: tuple[str | int, ...], value: object, file: str, origin: str) -> None:
-    """Set ``path`` (from ``parse_key``) in the scene data ``data`` (a scene's
-    ``model_dump``, edited in place) to a copy of ``value``. Every table and list on the
-    way must exist (a typo in a material's name must not quietly add a material that
-    nothing uses); the last name may be a key the scene leaves at its default. A missing
-    step is an ``InputError`` from ``file`` naming the path up to it."""
-    node: object = data
-    for depth, part in enumerate(path):
-        last = depth == len(path) - 1
-        problem = _missing(node, part, last)
-        if problem is not None:
-            raise InputError(file, key_path(path[: depth + 1]), f"{problem} ({origin})")
-        if last:
-            node[part] = copy.deepcopy(value)  # type: ignore[index]
-        else:
-            node = node[part]  # type: ignore[index]
-
-
-def _missing(node: object, part: str | int, last: bool) -> str | None:
-    """Why the scene data ``node`` has no ``part`` to step into (or, where ``last``, to
-    set), or None."""
-    if isinstance(part, int):
-        if not isinstance(node, list):
-            return "not a list: it takes no [N] index"
-        if part >= len(node):
-            return f"no such entry: the list has {len(node)}" + (
-                f" (indices 0..{len(node) - 1})" if node else ""
-            )
-        return None
-    if not isinstance(node, dict):
-        return "its parent is " + (
-            "a list: index it with [N]" if isinstance(node, list) else "a value"
-        )
-    if part not in node and not last:
-        return f"not in the scene (there: {', '.join(sorted(node)) or 'nothing'})"
-    return None
 
 
 def parse_compare(text: str, origin: str = "--compare") -> CompareSpec:
@@ -260,7 +178,7 @@ def divider_line(divider: float, width: int) -> range:
     return range(max(column - half, 0), min(column + DIVIDER_WIDTH - half, width))
 
 
-class ComparePass(_FullscreenPass):
+class ComparePass(FullscreenPass):
     """The composite of glsl/passes/compare.frag into an RGBA8 display image: the split
     (the sides' display images and the divider line) or the magnified difference (their
     HDR radiance, tone-mapped with ``tonemap``)."""
@@ -276,8 +194,7 @@ class ComparePass(_FullscreenPass):
         defines: dict[str, object] = {}
         if mode == "difference":
             defines = {"COMPARE_DIFFERENCE": 1, "TONEMAP": TONEMAP_CODE[tonemap]}
-        program = shaders.program("passes/fullscreen.vert", "passes/compare.frag", defines)
-        super().__init__(ctx, program, size, dtype="f1")
+        super().__init__(ctx, shaders, "passes/compare.frag", defines, size, dtype="f1")
         self.mode = mode
         self.tonemap = tonemap
 
@@ -285,13 +202,13 @@ class ComparePass(_FullscreenPass):
         """Side A's display image left of the divider, B's right of it, and the line."""
         width = self.size[0]
         line = divider_line(divider, width)
-        self._draw(
-            {"u_ldr_a": a, "u_ldr_b": b},
+        self.draw(
             {
                 "u_divider": divider_column(divider, width),
                 "u_line": (line.start, line.stop),
                 "u_line_color": tuple(c / 255.0 for c in DIVIDER_COLOR),
             },
+            {"u_ldr_a": a, "u_ldr_b": b},
         )
 
     def run_difference(
@@ -302,9 +219,9 @@ class ComparePass(_FullscreenPass):
         gain: float,
     ) -> None:
         """``|2^EV_A A - 2^EV_B B| * gain``, tone-mapped and sRGB-encoded."""
-        self._draw(
-            {"u_hdr_a": a, "u_hdr_b": b},
+        self.draw(
             {"u_exposure": tuple(2.0**ev for ev in exposures_ev), "u_gain": gain},
+            {"u_hdr_a": a, "u_hdr_b": b},
         )
 
 
@@ -357,7 +274,7 @@ class Comparison:
     def set_camera(self, camera: Camera) -> None:
         """A new camera for the base scene, on both sides. Where the compared key is the
         camera's (``camera.aperture``), each side keeps its own value of it."""
-        base = LoadedScene(self.base.scene.model_copy(update={"camera": camera}), self.base.path)
+        base = self.base.with_scene(self.base.scene.model_copy(update={"camera": camera}))
         if self.spec.touches("camera"):
             sides = self.spec.scenes(base, self._size)
             cameras = [side.scene.camera for side in sides]
@@ -371,7 +288,7 @@ class Comparison:
         """Show an edit of the base scene on both sides (``Renderer.update`` on each, with
         the spec's values applied). Both sides are validated first: a refused edit raises
         ``InputError`` and changes nothing."""
-        base = scene if isinstance(scene, LoadedScene) else LoadedScene(scene, self.base.path)
+        base = scene if isinstance(scene, LoadedScene) else self.base.with_scene(scene)
         sides = self.spec.scenes(base, self._size)
         for renderer, side in zip(self.renderers, sides, strict=True):
             renderer.update(side.scene)

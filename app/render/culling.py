@@ -39,8 +39,10 @@ from app.common.camera import CameraFrame
 from app.common.lights import POINT_COS_OUTER, LightType, PunctualLight
 from app.errors import InputError
 from app.gl.context import wait_before_read
+from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
+from app.render.inputs import TILES, ShaderInput
 from app.render.limits import max_dimension
 
 # 8 x 8 tiles: shorter lists than 16 x 16 ones, and with the group pass the finer cull
@@ -86,8 +88,12 @@ def check_tile_masks(
         )
 
 
-class LightCuller:
-    """Owns the tile targets and the local-light texture of one image size."""
+class LightCuller(ShaderInput):
+    """Owns the tile targets and the local-light texture of one image size; to the
+    lighting pass (and the debug view ``tiles``) a shader input (app/render/inputs.py):
+    the tile masks ``u_tile_masks``, their layout's defines and ``u_first_local``."""
+
+    role = TILES
 
     def __init__(
         self,
@@ -124,18 +130,9 @@ class LightCuller:
         self.quads = max(1, -(-self.local_count // 128))  # mask texels per tile
         self.groups = (-(-self.tiles[0] // GROUP_TILES), -(-self.tiles[1] // GROUP_TILES))
         defines = {"TILE_SIZE": TILE_SIZE, "GROUP_TILES": GROUP_TILES}
-        self.depth_program = shaders.program(
-            "passes/fullscreen.vert", "passes/tile_depth.frag", defines
-        )
-        self.group_program = shaders.program(
-            "passes/fullscreen.vert", "passes/group_cull.frag", defines
-        )
-        self.cull_program = shaders.program(
-            "passes/fullscreen.vert", "passes/light_cull.frag", defines
-        )
-        self.depth_vao = ctx.vertex_array(self.depth_program, [])
-        self.group_vao = ctx.vertex_array(self.group_program, [])
-        self.cull_vao = ctx.vertex_array(self.cull_program, [])
+        self.depth_pass = FullscreenDraw.of(ctx, shaders, "passes/tile_depth.frag", defines)
+        self.group_pass = FullscreenDraw.of(ctx, shaders, "passes/group_cull.frag", defines)
+        self.cull_pass = FullscreenDraw.of(ctx, shaders, "passes/light_cull.frag", defines)
         self.tile_depth = ctx.texture(self.tiles, 2, dtype="f4")
         self.tile_bins = ctx.texture(self.tiles, 1, dtype="u4")
         self.masks = ctx.texture((self.tiles[0] * self.quads, self.tiles[1]), 4, dtype="u4")
@@ -167,46 +164,50 @@ class LightCuller:
 
     def run(self, gbuffer: GBuffer, view: np.ndarray, camera: CameraFrame) -> None:
         """Build this frame's tile masks from the G-buffer's depth (both culling passes)."""
-        ctx = self.ctx
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        self.ctx.disable(moderngl.CULL_FACE)  # the draws turn depth test and blending off
         self._upload(view)
-        self.depth_fbo.use()
-        ctx.viewport = (0, 0, *self.tiles)
-        gbuffer.depth.use(0)
-        self.depth_program["g_depth"].value = 0
-        self.depth_vao.render(moderngl.TRIANGLES, vertices=3)
+        self.depth_pass.draw(
+            self.depth_fbo, textures={"g_depth": gbuffer.depth}, viewport=(0, 0, *self.tiles)
+        )
+        common = {
+            "u_quads": self.quads,
+            "u_image_size": self.size,
+            "u_tan_half_fov": camera.tan_half_fov,
+        }
+        self.group_pass.draw(
+            self.group_fbo,
+            {**common, "u_local_count": self.local_count, "u_tiles": self.tiles},
+            {"u_tile_depth": self.tile_depth, "u_local_lights": self.lights},
+            viewport=(0, 0, self.groups[0] * self.quads, self.groups[1]),
+        )
+        textures = {
+            "u_tile_depth": self.tile_depth,
+            "u_tile_bins": self.tile_bins,
+            "u_local_lights": self.lights,
+            "u_local_spots": self.spots,
+            "u_group_masks": self.group_masks,
+        }
+        self.cull_pass.draw(
+            self.mask_fbo,
+            common,
+            textures,
+            viewport=(0, 0, self.tiles[0] * self.quads, self.tiles[1]),
+        )
 
-        self.group_fbo.use()
-        ctx.viewport = (0, 0, self.groups[0] * self.quads, self.groups[1])
-        prog = self.group_program
-        self.tile_depth.use(0)
-        self.lights.use(1)
-        prog["u_tile_depth"].value = 0
-        prog["u_local_lights"].value = 1
-        prog["u_local_count"].value = self.local_count
-        prog["u_quads"].value = self.quads
-        prog["u_tiles"].value = self.tiles
-        prog["u_image_size"].value = self.size
-        prog["u_tan_half_fov"].value = camera.tan_half_fov
-        self.group_vao.render(moderngl.TRIANGLES, vertices=3)
+    def defines(self) -> dict[str, int]:
+        return {
+            "TILED_LIGHTS": 1,
+            "TILE_SIZE": TILE_SIZE,  # the culler's tiles
+            "TILE_QUADS": self.quads,  # mask texels per tile
+            "DIRECTIONAL_LIGHTS": int(self.first_local > 0),
+        }
 
-        self.mask_fbo.use()
-        ctx.viewport = (0, 0, self.tiles[0] * self.quads, self.tiles[1])
-        prog = self.cull_program
-        self.tile_depth.use(0)
-        self.tile_bins.use(1)
-        self.lights.use(2)
-        self.spots.use(3)
-        self.group_masks.use(4)
-        prog["u_tile_depth"].value = 0
-        prog["u_tile_bins"].value = 1
-        prog["u_local_lights"].value = 2
-        prog["u_local_spots"].value = 3
-        prog["u_group_masks"].value = 4
-        prog["u_quads"].value = self.quads
-        prog["u_image_size"].value = self.size
-        prog["u_tan_half_fov"].value = camera.tan_half_fov
-        self.cull_vao.render(moderngl.TRIANGLES, vertices=3)
+    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        return [("u_tile_masks", self.masks)]
+
+    def uniforms(self, program: moderngl.Program) -> None:
+        if "u_first_local" in program:  # lights [0, u_first_local) are directional
+            program["u_first_local"].value = self.first_local
 
     def read_tiles(self) -> tuple[np.ndarray, np.ndarray]:
         """The tile-depth pass's output: (tiles_y, tiles_x, 2) float32 depth bounds and
@@ -235,9 +236,9 @@ class LightCuller:
 
     def release(self) -> None:
         for obj in (
-            self.depth_vao,
-            self.group_vao,
-            self.cull_vao,
+            self.depth_pass,
+            self.group_pass,
+            self.cull_pass,
             self.depth_fbo,
             self.group_fbo,
             self.mask_fbo,

@@ -70,10 +70,18 @@ import numpy as np
 
 from app.common.debug_views import DEBUG_VIEW_CODE, GPU_DEBUG_VIEWS
 from app.common.models import BRDF_TERMS
-from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
-from app.render.culling import TILE_SIZE, LightCuller, tiles_used
+from app.gl.fullscreen import FullscreenDraw
+from app.render.culling import LightCuller, tiles_used
 from app.render.debug import BadPixels, nan_debug_image
+from app.render.inputs import (
+    GBUFFER,
+    LIGHTS,
+    MATERIALS,
+    SURFACE_ROLES,
+    ShadingContext,
+    bind_camera,
+)  # fmt: skip
 from app.render.lighting import LightingPass
 from app.render.renderer import Renderer
 
@@ -211,7 +219,7 @@ class DebugPass:
         self.bad_pixels: BadPixels | None = None  # the nan view's classification
         self._values: np.ndarray | None = None
         self._display: np.ndarray | None = None
-        self._vaos: dict[int, moderngl.VertexArray] = {}  # by id of a cached program
+        self._draws: dict[int, FullscreenDraw] = {}  # by id of a cached program
         # _tile_culler's own culler and the lighting pass it was made for (whose lights
         # and size it has); made again only when the renderer builds a new one
         self._own_culler: tuple[LightingPass, LightCuller] | None = None
@@ -248,17 +256,26 @@ class DebugPass:
             self._own_culler[1].release()
             self._own_culler = None
 
-    def _programs(self, view: str, culler: LightCuller | None) -> list[moderngl.Program]:
-        """The view's programs from the renderer's shader cache: one per model group for
-        the BRDF views (as app/render/lighting.py builds them), one otherwise."""
-        r = self.renderer
-        defines: dict[str, int] = {"DEBUG_VIEW": DEBUG_VIEW_CODE[view]}
+    def _context(self, view: str) -> ShadingContext:
+        """The shader inputs ``view`` reads: the tile masks (``_tile_culler``'s, none
+        without tiles) for ``tiles``, else the frame's G-buffer, lights, material table
+        and lookup tables (``SURFACE_ROLES``)."""
         if view == "tiles":
-            if culler is not None:
-                defines |= {"TILE_SIZE": TILE_SIZE, "TILE_QUADS": culler.quads}
+            culler = self._tile_culler()
+            return ShadingContext([culler] if culler is not None else [])
+        context = self.renderer.shading.only(*SURFACE_ROLES)
+        context.require(f"the debug view {view!r}", GBUFFER, LIGHTS, MATERIALS)
+        return context
+
+    def _programs(self, view: str, context: ShadingContext) -> list[moderngl.Program]:
+        """The view's programs from the renderer's shader cache, compiled with
+        ``context``'s defines: one per model group for the BRDF views (as
+        app/render/lighting.py builds them), one otherwise."""
+        r = self.renderer
+        defines: dict[str, int] = {"DEBUG_VIEW": DEBUG_VIEW_CODE[view], **context.defines()}
+        if view == "tiles":
             variants = [defines]
         else:
-            defines |= r.gbuffer.defines()
             defines["BRDF_TERMS"] = BRDF_TERMS[r.scene.render.terms]
             models = r.materials.models
             if view in LIGHT_VIEWS:
@@ -296,45 +313,17 @@ class DebugPass:
         self._upload_display()
 
     def _render(self, view: str, light: int) -> None:
-        r, ctx = self.renderer, self.ctx
-        culler = self._tile_culler() if view == "tiles" else None
-        lighting, gbuffer = r.lighting, r.gbuffer
+        context = self._context(view)
         self.fbo.use()
-        ctx.viewport = (0, 0, *self.size)
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        self.ctx.viewport = (0, 0, *self.size)
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
-        textures = [
-            *gbuffer.samplers(),
-            ("u_lights", lighting.lights),
-            ("u_materials", lighting.materials),
-            *([("u_ms_table", lighting.ms_table)] if lighting.ms_table is not None else []),
-            *(
-                [("u_sheen_table", lighting.sheen_table)]
-                if lighting.sheen_table is not None
-                else []
-            ),  # sheen (RTR4 §9.10)
-            *([("u_tile_masks", culler.masks)] if culler is not None else []),
-        ]
-        for unit, (_, tex) in enumerate(textures):
-            tex.use(unit)
-        camera = r.camera
-        for prog in self._programs(view, culler):
-            for unit, (name, _) in enumerate(textures):
-                if name in prog:  # a view uses only some of them
-                    prog[name].value = unit
-            uniforms = {
-                "u_light": light,
-                "u_camera_pos": tuple(float(x) for x in camera.position),
-                "u_tan_half_fov": camera.tan_half_fov,
-            }
-            for name, value in uniforms.items():
-                if name in prog:
-                    prog[name].value = value
-            if "u_camera_to_world" in prog:
-                prog["u_camera_to_world"].write(gl_bytes(camera.camera_to_world))
-            if id(prog) not in self._vaos:  # the shader cache keeps the program alive
-                self._vaos[id(prog)] = ctx.vertex_array(prog, [])
-            self._vaos[id(prog)].render(moderngl.TRIANGLES, vertices=3)
+        context.use()
+        for prog in self._programs(view, context):
+            context.bind(prog)  # a view reads only some of the inputs
+            bind_camera(prog, self.renderer.camera)
+            if id(prog) not in self._draws:  # the shader cache keeps the program alive
+                self._draws[id(prog)] = FullscreenDraw(self.ctx, prog)
+            self._draws[id(prog)].draw(self.fbo, {"u_light": light})
 
     def _upload_display(self) -> None:
         """The display image into ``display`` (RGBA8, rows bottom-up as GL stores them)."""
@@ -359,6 +348,6 @@ class DebugPass:
         return self._display
 
     def release(self) -> None:
-        for obj in (*self._vaos.values(), self.fbo, self.target, self.display):
+        for obj in (*self._draws.values(), self.fbo, self.target, self.display):
             obj.release()
         self._release_own_culler()

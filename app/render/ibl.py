@@ -19,9 +19,11 @@ import moderngl
 import numpy as np
 
 from app.common.tables import read_dfg_table
+from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.reference.ibl import sh9_project
 from app.render.background import EnvironmentSource, equirect_texture
+from app.render.inputs import ENVIRONMENT, ShaderInput
 
 ENV_LEVELS = 6  # roughness r_k = k / 5; glsl/lights/ibl.glsl samples exactly these
 FACE_SIZE = 128  # level 0's face; level k has max(FACE_SIZE >> k, MIN_FACE) texels
@@ -80,26 +82,23 @@ def prefilter(
     if key in _CACHE:
         return _CACHE[key]
     source = equirect_texture(ctx, env_map, mipmaps=True)
-    prog = shaders.program("passes/fullscreen.vert", "passes/env_prefilter.frag", {})
-    vao = ctx.vertex_array(prog, [])
+    fullscreen = FullscreenDraw.of(ctx, shaders, "passes/env_prefilter.frag")
     levels = []
     try:
-        source.use(0)
-        prog["u_source"].value = 0
-        prog["u_samples"].value = samples
         for k in range(ENV_LEVELS):
             size = face_size(k, base)
             target = ctx.texture((size, size), 4, dtype="f4")
             fbo = ctx.framebuffer([target])
             faces = []
             try:
-                fbo.use()
-                ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-                prog["u_face_size"].value = size
-                prog["u_roughness"].value = level_roughness(k)
                 for face in range(6):
-                    prog["u_face"].value = face
-                    vao.render(moderngl.TRIANGLES, vertices=3)
+                    uniforms = {
+                        "u_samples": samples,
+                        "u_face_size": size,
+                        "u_roughness": level_roughness(k),
+                        "u_face": face,
+                    }
+                    fullscreen.draw(fbo, uniforms, {"u_source": source})
                     data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
                     faces.append(data.reshape(size, size, 4)[..., :3].copy())
             finally:
@@ -107,7 +106,7 @@ def prefilter(
                 target.release()
             levels.append(np.stack(faces))
     finally:
-        vao.release()
+        fullscreen.release()
         source.release()
     if len(_CACHE) >= _CACHE_LIMIT:
         _CACHE.pop(next(iter(_CACHE)))
@@ -115,8 +114,12 @@ def prefilter(
     return levels
 
 
-class EnvironmentLighting:
-    """The lighting pass's image-based light: textures, defines and uniforms."""
+class EnvironmentLighting(ShaderInput):
+    """The environment's image-based light as a shader input (app/render/inputs.py): the
+    prefiltered levels and the DFG table, ``ENVIRONMENT_IBL``, and the SH9, rotation and
+    intensity uniforms; the lighting and blend passes read it."""
+
+    role = ENVIRONMENT
 
     def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, env: EnvironmentSource) -> None:
         ctx.enable_direct(GL_TEXTURE_CUBE_MAP_SEAMLESS)
@@ -138,16 +141,15 @@ class EnvironmentLighting:
         # SH9 of the turned map, in the world frame (float64 twin), times the intensity.
         self.sh = (sh9_project(env.texels, self.rotation) * env.intensity).astype(np.float32)
 
-    @staticmethod
-    def defines() -> dict[str, int]:
+    def defines(self) -> dict[str, int]:
         return {"ENVIRONMENT_IBL": 1, "ENV_LEVELS": ENV_LEVELS}
 
     def samplers(self) -> list[tuple[str, moderngl.Texture | moderngl.TextureCube]]:
-        """(uniform, texture) pairs the lighting pass binds."""
+        """(uniform, texture) pairs: the ENV_LEVELS cube maps and the DFG table."""
         named = [(f"u_env_level{k}", cube) for k, cube in enumerate(self.levels)]
         return [*named, ("u_dfg_table", self.dfg)]
 
-    def set_uniforms(self, prog: moderngl.Program) -> None:
+    def uniforms(self, prog: moderngl.Program) -> None:
         """The SH coefficients, rotation and intensity (those render.terms keeps)."""
         if "u_env_sh" in prog:
             prog["u_env_sh"].write(self.sh.tobytes())
@@ -160,12 +162,14 @@ class EnvironmentLighting:
             tex.release()
 
 
-class UniformEnvironment:
-    """The lighting pass's uniform environment (docs/ibl.md, "The uniform environment"):
-    ``uniform_environment_radiance`` (glsl/lights/environment_uniform.glsl) adds L R(v) per
-    pixel, R(v) by a deterministic quadrature of ``samples`` directions; no textures. The
-    same interface as ``EnvironmentLighting``, so the lighting and blend passes take
-    either."""
+class UniformEnvironment(ShaderInput):
+    """The uniform environment as a shader input (docs/ibl.md, "The uniform
+    environment"): ``uniform_environment_radiance`` (glsl/lights/environment_uniform.glsl)
+    adds L R(v) per pixel, R(v) by a deterministic quadrature of ``samples`` directions;
+    no textures. The same role as ``EnvironmentLighting``, so the lighting and blend
+    passes take either."""
+
+    role = ENVIRONMENT
 
     def __init__(self, radiance: list[float], samples: int) -> None:
         self.radiance = tuple(float(x) for x in radiance)
@@ -174,13 +178,7 @@ class UniformEnvironment:
     def defines(self) -> dict[str, int]:
         return {"ENVIRONMENT_UNIFORM": 1, "ENV_UNIFORM_SAMPLES": self.samples}
 
-    def samplers(self) -> list[tuple[str, moderngl.Texture | moderngl.TextureCube]]:
-        return []
-
-    def set_uniforms(self, prog: moderngl.Program) -> None:
+    def uniforms(self, prog: moderngl.Program) -> None:
         """The radiance L (absent where render.terms leaves nothing of it)."""
         if "u_env_radiance" in prog:
             prog["u_env_radiance"].value = self.radiance
-
-    def release(self) -> None:
-        pass

@@ -11,6 +11,11 @@ fastest (docs/performance.md, "Second part: the light loop"), and the texture is
 fallback for scenes with more lights. The form is chosen when the programs are built,
 from the scene's light count (``light_form``).
 
+Everything the pass reads (G-buffer, lights, material table, lookup tables, tile masks,
+environment light, shadow maps) is a shader input of the frame's ``ShadingContext``
+(app/render/inputs.py): the programs compile with the context's defines and every draw
+binds through it, so a new input reaches the pass without an edit here.
+
 One program per model group (app/frame/materials.py): a scene whose materials all use
 one model runs one full-screen pass; otherwise each group's pass discards the pixels of
 the other groups, so no pixel pays for a branch of a model it does not use. The bench's
@@ -25,18 +30,26 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.lights import PunctualLight, pack_lights
 from app.common.models import BRDF_TERMS
 from app.common.tonemaps import TONEMAP_CODE
-from app.frame.camera import gl_bytes
-from app.frame.materials import MaterialTable
+from app.gl.fullscreen import FULLSCREEN_VERTEX, FullscreenDraw
 from app.gl.shaders import ShaderCache, ShaderError
-from app.render.culling import TILE_SIZE, LightCuller
+from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer
-from app.render.ibl import EnvironmentLighting, UniformEnvironment
-from app.render.post import read_rgb
-from app.render.shadows import ShadowPass
-from app.render.tables import material_texture, ms_texture, sheen_texture
+from app.render.inputs import (
+    ENVIRONMENT,
+    GBUFFER,
+    LIGHTS,
+    MATERIALS,
+    MS_TABLE,
+    SHADOWS,
+    SHEEN_TABLE,
+    TILES,
+    LightInput,
+    ShaderInput,
+    ShadingContext,
+    bind_camera,
+)  # fmt: skip
 
 LIGHT_FORMS = ("texture", "uniform")
 # Fragment uniform vectors left to everything but the lights (camera, IBL, counts) and,
@@ -71,54 +84,59 @@ def uniform_slots(ctx: moderngl.Context, light_count: int, shadow_maps: int = 0)
     return max(min(want, _room(ctx, shadow_maps) // 3), count)
 
 
-def _programs(
-    shaders: ShaderCache, variants: list[dict[str, int]], form: str, slots: int
-) -> list[moderngl.Program]:
-    """The lighting programs of ``variants`` (their defines), reading the lights in
-    ``form`` (an array of ``slots`` lights for "uniform")."""
-    programs = []
-    for defines in variants:
-        if form == "uniform":
-            defines = {**defines, "LIGHT_UNIFORMS": slots}  # the array's size in lights
-        programs.append(shaders.program("passes/fullscreen.vert", "passes/lighting.frag", defines))
-    return programs
+def _draws(
+    ctx: moderngl.Context,
+    shaders: ShaderCache,
+    variants: list[dict[str, int]],
+    lights: LightInput,
+) -> list[FullscreenDraw]:
+    """The lighting programs' full-screen draws of ``variants`` (their defines), reading
+    the lights as ``lights`` gives them (its ``LIGHT_UNIFORMS`` for "uniform")."""
+    extra = lights.defines()
+    programs = [  # every one compiled before a vertex array is made (the form's fallback)
+        shaders.program(FULLSCREEN_VERTEX, "passes/lighting.frag", {**defines, **extra})
+        for defines in variants
+    ]
+    return [FullscreenDraw(ctx, program) for program in programs]
 
 
 class LightingPass:
-    """Owns the HDR target and the light texture."""
+    """Owns the HDR target; shades through a ``ShadingContext`` (app/render/inputs.py)."""
+
+    # What no lighting program shades without; the culler, the environment's light and
+    # the shadow maps are compiled in where the context has them.
+    NEEDS = (GBUFFER, LIGHTS, MATERIALS)
 
     def __init__(
         self,
         ctx: moderngl.Context,
         shaders: ShaderCache,
         size: tuple[int, int],
-        lights: list[PunctualLight],
-        table: MaterialTable,
-        culler: LightCuller | None = None,
+        context: ShadingContext,
         terms: str = "all",
         uber: bool = False,
-        ms_table: np.ndarray | None = None,
         *,
-        gbuffer: dict[str, int],
-        ibl: EnvironmentLighting | UniformEnvironment | None = None,
-        shadows: ShadowPass | None = None,
         form: str | None = None,
     ) -> None:
-        """``gbuffer``: the G-buffer's defines (``GBuffer.defines``: its encoding and
-        layout, which the decode follows; gbuffer/layout.glsl).
+        """``context``: the frame's shader inputs (``shading_context``): the G-buffer (its
+        defines: encoding and layout, which the decode follows), the lights, the material
+        table and its lookup tables, and where the frame has them the tile culler, the
+        environment's light (ENVIRONMENT_IBL's split sum or ENVIRONMENT_UNIFORM's
+        quadrature, docs/ibl.md) and the shadow maps (``SHADOWS``,
+        glsl/lights/shadows.glsl); the pass releases it with itself (the inputs it made:
+        not the G-buffer, culler, environment or shadow maps, which are the renderer's).
         ``terms``: the scene's render.terms, which reflections the BRDF returns.
         ``uber``: one program with run-time model selection instead of one per model
-        group, and ``ms_table``: a Kulla-Conty table other than the shipped default (both
-        the bench's, from ``RenderOptions``). ``shadows``: the shadow maps, where a light
-        casts shadows (compiled in as ``SHADOWS``, glsl/lights/shadows.glsl). ``ibl``: the
-        environment's light (ENVIRONMENT_IBL's split sum or ENVIRONMENT_UNIFORM's
-        quadrature, docs/ibl.md), None without an environment. ``form``: where the
-        pass reads its lights, one of ``LIGHT_FORMS``; None chooses (``light_form``),
-        the bench forces one to compare them."""
+        group (the bench's, from ``RenderOptions``; the context then has every lookup
+        table). ``form``: where the pass reads its lights, one of ``LIGHT_FORMS``; None
+        chooses (``light_form``), the bench forces one to compare them."""
+        context.require("the lighting pass", *self.NEEDS)
         self.ctx = ctx
-        self.culler = culler
-        self.shadows = shadows
+        self.inputs = context
         self.uber = uber
+        table = context[MATERIALS].table
+        lights = context[LIGHTS]
+        shadow_maps = context[SHADOWS].count if SHADOWS in context else 0
         several = len(table.models) > 1
         variants: list[dict[str, int]] = []
         if uber:
@@ -130,60 +148,80 @@ class LightingPass:
             variants.append(defines)
         chosen = form is None
         if form is None:
-            form = light_form(ctx, len(lights), shadows.count if shadows is not None else 0)
+            form = light_form(ctx, lights.count, shadow_maps)
         if form not in LIGHT_FORMS:
             raise ValueError(f"unknown light form {form!r}; choose from {LIGHT_FORMS}")
+        # the context's defines (G-buffer, culler, environment, shadows) and the pass's
+        frame = context.defines()
         for defines in variants:
-            defines.update(gbuffer)
+            defines.update(frame)
             defines["BRDF_TERMS"] = BRDF_TERMS[terms]
-            if ibl is not None:  # an environment (docs/ibl.md)
-                defines.update(ibl.defines())
-            if shadows is not None:
-                defines.update(shadows.defines())
-            if culler is not None:
-                defines["TILED_LIGHTS"] = 1
-                defines["TILE_SIZE"] = TILE_SIZE  # the culler's tiles
-                defines["TILE_QUADS"] = culler.quads  # mask texels per tile
-                defines["DIRECTIONAL_LIGHTS"] = int(culler.first_local > 0)
             defines["FAR_PLANE"] = 1  # the triangle the z-test culls to surfaces (run)
-        slots = uniform_slots(ctx, len(lights), shadows.count if shadows is not None else 0)
+        slots = uniform_slots(ctx, lights.count, shadow_maps)
         try:
-            self.programs = _programs(shaders, variants, form, slots)
+            shaded = lights.in_form(form, slots)
+            self.draws = _draws(ctx, shaders, variants, shaded)
         except ShaderError:
             if not (chosen and form == "uniform"):
                 raise
             # A driver whose other uniforms take more room than _OTHER_VECTORS allows
             # for: the light texture, which has no such limit.
             form = "texture"
-            self.programs = _programs(shaders, variants, form, slots)
+            shaded = lights.in_form(form, slots)
+            self.draws = _draws(ctx, shaders, variants, shaded)
         self.form = form
-        self.vaos = [ctx.vertex_array(prog, []) for prog in self.programs]
-        self._variants, self._slots = variants, slots
-        # run_display's programs and triangles, per tone map, compiled at first use
-        self._display: dict[str, tuple[list[moderngl.Program], list[moderngl.VertexArray]]] = {}
-        self.materials = material_texture(ctx, table)
-        self.ms_table = None
-        if uber or any(model.multiscatter for model in table.models):
-            self.ms_table = ms_texture(ctx, ms_table)
-        self.sheen_table = None  # sheen (RTR4 §9.10): the albedo table, where a model uses it
-        if uber or any(model.sheen != "none" for model in table.models):
-            self.sheen_table = sheen_texture(ctx)
+        # the inputs the programs read, the lights in their form
+        self.context = context.with_inputs(shaded)
+        self.programs = [draw.program for draw in self.draws]
+        self._variants = variants
+        # run_display's draws, per tone map, compiled at first use
+        self._display: dict[str, list[FullscreenDraw]] = {}
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
         self._z_source: GBuffer | None = None
         self._shaders = shaders
-        packed = pack_lights(lights)
-        texels = packed.tobytes()
-        self.lights = ctx.texture((3, packed.shape[0]), 4, texels, dtype="f4")
-        # LIGHT_UNIFORMS: the texture's texels, padded with zeros to the array's size
-        # (moderngl writes a uniform array only whole)
-        self.light_bytes = texels + bytes(48 * max(slots - packed.shape[0], 0))
-        self.lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.light_count = len(lights)
         self.size = size
-        self.ibl = ibl  # owned by the renderer
+
+    # The inputs as attributes, for the passes and tests that read them.
+    @property
+    def lights(self) -> moderngl.Texture:
+        """The light texture (3 texels per light, one light per row)."""
+        return self.inputs[LIGHTS].texture
+
+    @property
+    def light_count(self) -> int:
+        return self.inputs[LIGHTS].count
+
+    @property
+    def materials(self) -> moderngl.Texture:
+        """The material table's texture."""
+        return self.inputs[MATERIALS].texture
+
+    @property
+    def ms_table(self) -> moderngl.Texture | None:
+        """The Kulla-Conty table's texture, where a model (or the uber program) reads it."""
+        table = self.inputs.get(MS_TABLE)
+        return table.texture if table is not None else None
+
+    @property
+    def sheen_table(self) -> moderngl.Texture | None:
+        """The sheen albedo table's texture (RTR4 §9.10), where a model reads it."""
+        table = self.inputs.get(SHEEN_TABLE)
+        return table.texture if table is not None else None
+
+    @property
+    def culler(self) -> ShaderInput | None:
+        return self.inputs.get(TILES)
+
+    @property
+    def ibl(self) -> ShaderInput | None:
+        return self.inputs.get(ENVIRONMENT)
+
+    @property
+    def shadows(self) -> ShaderInput | None:
+        return self.inputs.get(SHADOWS)
 
     def run(self, gbuffer: GBuffer, camera: CameraFrame, background: np.ndarray) -> None:
         """The HDR image: ``background`` where ``gbuffer`` has no surface, the radiance of
@@ -191,7 +229,7 @@ class LightingPass:
         self.fbo.use()
         self.ctx.viewport = (0, 0, *self.size)
         self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
-        self._shade(self.programs, self.vaos, self._z_target(gbuffer), gbuffer, camera)
+        self._shade(self.draws, self._z_target(gbuffer), camera)
 
     def run_display(
         self,
@@ -210,73 +248,28 @@ class LightingPass:
         if tonemap not in self._display:
             defines = [{**d, "DISPLAY_OUT": 1, "TONEMAP": TONEMAP_CODE[tonemap]}
                        for d in self._variants]  # fmt: skip
-            programs = _programs(self._shaders, defines, self.form, self._slots)
-            self._display[tonemap] = (programs, [self.ctx.vertex_array(p, []) for p in programs])
-        programs, vaos = self._display[tonemap]
-        for prog in programs:
-            prog["u_exposure"].value = exposure
-        self._shade(programs, vaos, target, gbuffer, camera)
+            self._display[tonemap] = _draws(self.ctx, self._shaders, defines, self.context[LIGHTS])
+        draws = self._display[tonemap]
+        for draw in draws:
+            draw.program["u_exposure"].value = exposure
+        self._shade(draws, target, camera)
 
     def _shade(
-        self,
-        programs: list[moderngl.Program],
-        vaos: list[moderngl.VertexArray],
-        target: moderngl.Framebuffer,
-        gbuffer: GBuffer,
-        camera: CameraFrame,
+        self, draws: list[FullscreenDraw], target: moderngl.Framebuffer, camera: CameraFrame
     ) -> None:
-        """Draw ``programs`` (one per model group) into ``target``, which has ``gbuffer``'s
+        """Draw ``draws`` (one per model group) into ``target``, which has the G-buffer's
         z-buffer attached with depth writes off."""
-        ctx = self.ctx
         # The full-screen triangle lies on the far plane and is tested against the
         # G-buffer's z-buffer with ">" (never written): where no surface was drawn z is
         # still the cleared 1 and llvmpipe skips the fragment shader before it runs, block
         # by block, where the shader would fetch RT2 and discard. Every pixel the test
         # passes has a drawn surface, which decode_gbuffer still checks, so the image is
         # the same (docs/performance.md, "Second part: fixed costs", measures the gain).
-        target.use()
-        ctx.viewport = (0, 0, *self.size)
-        ctx.disable(moderngl.BLEND)
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = ">"
-        textures = [
-            *gbuffer.samplers(),
-            ("u_lights", self.lights),
-            ("u_materials", self.materials),
-        ]
-        if self.ms_table is not None:
-            textures.append(("u_ms_table", self.ms_table))
-        if self.sheen_table is not None:
-            textures.append(("u_sheen_table", self.sheen_table))
-        if self.culler is not None:
-            textures.append(("u_tile_masks", self.culler.masks))
-        if self.ibl is not None:
-            textures.extend(self.ibl.samplers())
-        if self.shadows is not None:
-            textures.append(("u_shadow_atlas", self.shadows.atlas))
-        for unit, (_, tex) in enumerate(textures):
-            tex.use(unit)
-        camera_to_world = gl_bytes(camera.camera_to_world)
-        for prog, vao in zip(programs, vaos, strict=True):
-            for unit, (name, _) in enumerate(textures):
-                if name in prog:  # a permutation may not use every texture
-                    prog[name].value = unit
-            if "u_light_vec" in prog:  # LIGHT_UNIFORMS; the program may be another scene's
-                prog["u_light_vec"].write(self.light_bytes)
-            if "u_light_count" in prog:  # the tiled loop counts through its masks instead
-                prog["u_light_count"].value = self.light_count
-            prog["u_camera_pos"].value = tuple(float(x) for x in camera.position)
-            prog["u_camera_to_world"].write(camera_to_world)
-            prog["u_tan_half_fov"].value = camera.tan_half_fov
-            if self.culler is not None:
-                prog["u_first_local"].value = self.culler.first_local
-            if self.ibl is not None:
-                self.ibl.set_uniforms(prog)
-            if self.shadows is not None:
-                self.shadows.bind(prog)
-            vao.render(moderngl.TRIANGLES, vertices=3)
-        ctx.disable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
+        self.context.use()
+        for draw in draws:
+            self.context.bind(draw.program)
+            bind_camera(draw.program, camera)
+            draw.draw(target, viewport=(0, 0, *self.size), depth_func=">")
 
     def _z_target(self, gbuffer: GBuffer) -> moderngl.Framebuffer:
         """The HDR image with ``gbuffer``'s z-buffer, depth writes off; made again for a new
@@ -294,14 +287,11 @@ class LightingPass:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.vaos, self.fbo, self.hdr, self.lights, self.materials):
+        for obj in (*self.draws, self.fbo, self.hdr):
             obj.release()
         if self._z_fbo is not None:
             self._z_fbo.release()
-        for _, vaos in self._display.values():  # the programs are the shader cache's
-            for vao in vaos:
-                vao.release()
-        if self.ms_table is not None:
-            self.ms_table.release()
-        if self.sheen_table is not None:
-            self.sheen_table.release()
+        for draws in self._display.values():  # the programs are the shader cache's
+            for draw in draws:
+                draw.release()
+        self.inputs.release()  # the textures the frame's context made

@@ -31,7 +31,7 @@ from collections.abc import Iterable
 
 import moderngl
 
-from app.common.gbuffer import ENCODINGS
+from app.common.gbuffer import GBufferLayout
 from app.errors import InputError
 from app.scene.geometry import MeshPart
 from app.textures.maps import Texture
@@ -39,8 +39,6 @@ from app.untrusted.budget import describe
 
 MAX_TARGET_BYTES = 4 << 30
 
-# Bytes of one texel component per G-buffer storage (app/common/gbuffer.py ENCODINGS).
-_STORAGE_BYTES = {"f16": 2, "unorm16": 2, "f32": 4}
 _DEPTH_BUFFER = 4  # DEPTH24 (with its padding byte: drivers store it in 32 bits)
 _HDR = 16  # RGBA32F: the lighting pass's target, and the depth of field's
 
@@ -58,23 +56,12 @@ def max_dimension(ctx: moderngl.Context) -> int:
     )
 
 
-def target_bytes_per_pixel(
-    encoding: str,
-    tangents: bool,
-    coat_normals: bool,
-    depth_of_field: bool,
-    emission: bool = False,
-    constant_surfaces: bool = False,
-) -> int:
-    """Bytes a render-size pixel takes in the targets of app/render/gbuffer.py ``GBuffer``,
-    the lighting pass's HDR target and the depth-of-field target, as they are allocated
-    (``constant_surfaces``: no RT0, and RT1 two channels)."""
-    base, directions = (_STORAGE_BYTES[s] for s in ENCODINGS[encoding])
-    surface = 2 * directions if constant_surfaces else 4 * base + 4 * directions  # RT0, RT1
-    total = surface + 2 * 4 + _DEPTH_BUFFER + _HDR  # RT2, z, HDR
-    total += 4 * directions if tangents else 0
-    total += 2 * directions if coat_normals else 0
-    total += 4 * (2 if encoding == "f16" else 4) if emission else 0  # RT5 (glTF 2.0 core)
+def target_bytes_per_pixel(layout: GBufferLayout, depth_of_field: bool) -> int:
+    """Bytes a render-size pixel takes in the targets of app/render/gbuffer.py ``GBuffer``
+    of ``layout`` (its colour targets, ``GBufferLayout.bytes_per_pixel``, and the z-test's
+    renderbuffer), the lighting pass's HDR target and the depth-of-field target, as they
+    are allocated."""
+    total = layout.bytes_per_pixel() + _DEPTH_BUFFER + _HDR
     return total + (_HDR if depth_of_field else 0)
 
 
@@ -112,7 +99,7 @@ def check_render_size(
 
 
 def texture_bytes(tex: Texture) -> int:
-    """The GPU bytes of a map as ``upload_texture`` (app/render/gbuffer.py) stores it:
+    """The GPU bytes of a map as ``upload_texture`` (app/render/texture_upload.py) stores it:
     RGBA8 with the GL's mips (4/3 of level 0) for colour, 16-bit floats per level else."""
     level0 = tex.levels[0]
     if tex.srgb:
@@ -130,7 +117,7 @@ def _sampled(part: MeshPart) -> list[Texture]:
 def gpu_bytes(parts: Iterable[MeshPart]) -> tuple[int, int]:
     """(geometry, textures): the GPU bytes of the parts' vertex, index and extra attribute
     buffers, and of their maps, each ``Texture`` once (the G-buffer pass uploads a map
-    that parts share once, ``TextureUploads`` in app/render/gbuffer.py)."""
+    that parts share once, ``TextureUploads`` in app/render/texture_upload.py)."""
     geometry, textures = 0, {}
     for part in parts:
         geometry += part.vertices.nbytes + part.indices.nbytes

@@ -34,7 +34,7 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.gbuffer import GBufferData
+from app.common.gbuffer import GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
@@ -45,12 +45,15 @@ from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller, check_tile_masks, tiles_used
-from app.render.gbuffer import FLUSH_TRIANGLES, GBuffer, GBufferPass, masked, rotated
+from app.render.gbuffer import FLUSH_TRIANGLES, GBuffer, GBufferPass
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
+from app.render.inputs import ShadingContext, shading_context
 from app.render.lighting import LightingPass
 from app.render.limits import check_memory, check_render_size, target_bytes_per_pixel
+from app.render.mesh_drawable import masked, rotated
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
+from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
 
@@ -248,6 +251,7 @@ class Renderer:
         self.blend: BlendPass | None = None  # only where a part is alpha-blended
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
+        self.shading: ShadingContext | None = None  # the frame's shader inputs (lighting's)
         self.background: EnvironmentBackground | None = None  # [environment] background
         # the environment's light: the split sum (image, sky, studio) or the uniform
         # environment's quadrature (docs/ibl.md)
@@ -341,15 +345,14 @@ class Renderer:
             and not settings.specular_aa
         )
 
-    def _layout(self) -> tuple:
+    def _layout(self) -> GBufferLayout:
         """What decides the G-buffer targets' formats and attachments, and with them the
         defines of every pass that writes or decodes them (``GBuffer.defines``): the
-        encoding, the optional targets and constant surfaces."""
-        table = self.materials
-        return (
-            self.scene.render.gbuffer, table.needs_tangents, table.needs_coat_normals,
-            table.needs_emission, self._constant_surfaces(),
-        )  # fmt: skip
+        encoding, the optional targets and constant surfaces (frozen: a key)."""
+        defines = self.materials.gbuffer_defines()
+        return GBufferLayout.from_defines(
+            self.scene.render.gbuffer, defines, self._constant_surfaces()
+        )
 
     def _specular_aa(self) -> tuple[float, float] | None:
         settings = self.scene.render
@@ -392,11 +395,8 @@ class Renderer:
     def _check_gbuffer(self) -> None:
         """RefusedError before anything is allocated or released (app/render/limits.py):
         a renderer that refuses a size keeps its old targets."""
-        settings, table = self.scene.render, self.materials
-        per_pixel = target_bytes_per_pixel(
-            settings.gbuffer, table.needs_tangents, table.needs_coat_normals,
-            self.scene.camera.aperture > 0.0, table.needs_emission, self._constant_surfaces(),
-        )  # fmt: skip
+        settings = self.scene.render
+        per_pixel = target_bytes_per_pixel(self._layout(), self.scene.camera.aperture > 0.0)
         check_render_size(
             self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
             "size" if self._size is not None else "render.width, render.height",
@@ -410,11 +410,7 @@ class Renderer:
         )  # fmt: skip
 
     def _build_gbuffer(self) -> GBuffer:
-        settings, table = self.scene.render, self.materials
-        return GBuffer(
-            self.gl.ctx, self.render_size, settings.gbuffer, table.needs_tangents,
-            table.needs_coat_normals, table.needs_emission, self._constant_surfaces(),
-        )  # fmt: skip
+        return GBuffer(self.gl.ctx, self.render_size, self._layout())
 
     def _key_gbuffer_pass(self) -> Hashable:
         """The opaque parts' geometry and maps (a new frame's parts), which of them draw
@@ -499,11 +495,16 @@ class Renderer:
         )  # fmt: skip
 
     def _build_lighting(self) -> LightingPass:
+        options = self.options
+        # the frame's shader inputs (app/render/inputs.py), released with the lighting pass
+        self.shading = shading_context(
+            self.gl.ctx, self.lights, self.materials, gbuffer=self.gbuffer,
+            ms_table=options.ms_table, every_table=options.uber, environment=self.ibl,
+            shadows=self.shadows, tiles=self.culler,
+        )  # fmt: skip
         return LightingPass(
-            self.gl.ctx, self.shaders, self.render_size, self.lights, self.materials,
-            self.culler, self.scene.render.terms, self.options.uber, self.options.ms_table,
-            gbuffer=self.gbuffer.defines(), ibl=self.ibl, shadows=self.shadows,
-            form=self.options.light_form,
+            self.gl.ctx, self.shaders, self.render_size, self.shading, self.scene.render.terms,
+            options.uber, form=options.light_form,
         )  # fmt: skip
 
     def _key_blend(self) -> Hashable:
@@ -524,9 +525,9 @@ class Renderer:
         drawables = forward_drawables(
             self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
             self.materials, self.scene.render.terms, self._specular_aa(),
-            blend_defines(self.lighting),
+            blend_defines(self.shading),
         )  # fmt: skip
-        return BlendPass(self.gl.ctx, drawables)
+        return BlendPass(self.gl.ctx, drawables, self.shading)
 
     def _key_background(self) -> Hashable:
         """The environment behind the objects, only where ``[environment] background``."""
@@ -675,18 +676,11 @@ class Renderer:
         self.frame = frame
 
     def _edit(self, **changes: object) -> Scene:
-        """The scene with ``changes``, which becomes the renderer's scene; returns the old
-        one. A camera or settings table is already validated on its own and is swapped in
-        as it is (every orbit step); other changes are validated with the whole scene, as
-        a scene file's would be (materials named by objects, blends, lights)."""
+        """The scene with ``changes`` (``app.scene.edits.replace_parts``: a camera or
+        settings table swapped in as it is, other tables validated with the whole scene),
+        which becomes the renderer's scene; returns the old one."""
         old = self.scene
-        if set(changes) <= {"camera", "render", "background"} and all(
-            isinstance(v, Camera | RenderSettings) for k, v in changes.items() if k != "background"
-        ):
-            scene = old.model_copy(update=changes)
-        else:
-            scene = Scene.model_validate({**old.model_dump(), **changes})
-        self.loaded = dataclasses.replace(self.loaded, scene=scene)
+        self.loaded = dataclasses.replace(self.loaded, scene=replace_parts(old, **changes))
         return old
 
     def _edit_scene(self, **changes: object) -> tuple[str, ...]:
@@ -918,10 +912,10 @@ class Renderer:
 
 # Every object a renderer builds, in the order they are built (each after what it needs).
 # ``needs``: the objects it holds or compiles from, so it is built again with them: the
-# lighting pass binds the culler's tiles, the environment's light and the shadow maps; the
-# blend pass compiles with the lighting pass's defines. The G-buffer pass and the lighting
-# pass read the targets' layout, not the targets (a resize keeps the G-buffer pass): the
-# layout is in their keys.
+# lighting pass's shader inputs (``shading``, which it owns) bind the G-buffer's targets,
+# the culler's tiles, the environment's light and the shadow maps; the blend pass shades
+# with those inputs. The G-buffer pass reads the targets' layout, not the targets (a
+# resize keeps it): the layout is in its key.
 SCHEDULE: tuple[Built, ...] = (
     Built("matrices", Renderer._key_camera, Renderer._build_camera),
     Built("gbuffer", Renderer._key_gbuffer, Renderer._build_gbuffer,
@@ -934,7 +928,7 @@ SCHEDULE: tuple[Built, ...] = (
     Built("culler", Renderer._key_culler, Renderer._build_culler,
           check=Renderer._check_culler),
     Built("lighting", Renderer._key_lighting, Renderer._build_lighting,
-          needs=("culler", "ibl", "shadows")),
+          needs=("gbuffer", "culler", "ibl", "shadows")),
     Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
     Built("background", Renderer._key_background, Renderer._build_background),
     Built("dof", Renderer._key_dof, Renderer._build_dof),

@@ -45,8 +45,9 @@ from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference.shadows import ShadowMaps
-from app.render.gbuffer import MeshDrawable, masked
+from app.render.inputs import SHADOWS, ShaderInput
 from app.render.limits import max_dimension
+from app.render.mesh_drawable import MeshDrawable, masked
 from app.scene.geometry import MeshPart
 from app.scene.model import Light
 
@@ -380,8 +381,10 @@ class _MaskedCaster:
         self.drawable.release()
 
 
-class ShadowPass:
-    """The shadow maps of a frame's shadowed lights, packed in one depth atlas.
+class ShadowPass(ShaderInput):
+    """The shadow maps of a frame's shadowed lights, packed in one depth atlas; to the
+    lighting and blend passes a shader input (app/render/inputs.py): ``defines``, the
+    atlas ``u_shadow_atlas`` and the maps' uniforms.
 
     ``lights``: the frame's lights (ordered); ``parts``: the opaque parts that cast and
     receive; ``receivers``: parts that only receive (the blended ones), which a directional
@@ -389,6 +392,8 @@ class ShadowPass:
     one the part would have if it were opaque. The maps depend only on these, so ``run``
     renders each map at most once, when a camera first culls its light in (docs/shadows.md);
     a renderer builds a new pass when lights or geometry change."""
+
+    role = SHADOWS
 
     def __init__(
         self,
@@ -557,7 +562,10 @@ class ShadowPass:
             self.maps_rendered += 1
         ctx.polygon_offset = (0.0, 0.0)
 
-    def bind(self, prog: moderngl.Program) -> None:
+    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        return [("u_shadow_atlas", self.atlas)]
+
+    def uniforms(self, prog: moderngl.Program) -> None:
         """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
         for name, data in self._uniforms.items():
             prog[name].write(data)

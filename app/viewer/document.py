@@ -1,7 +1,8 @@
 """The scene the viewer edits, kept as the data a scene file holds.
 
-Every edit changes that data (``set_value`` with a key path as the CLI prints it:
-``materials.gold.roughness``, ``lights[2].range``) and is validated by the same
+Every edit changes that data (a key path as the CLI prints it: ``materials.gold.roughness``,
+``lights[2].range``; None removes the key) through app/scene/edits.py, in its lenient form
+(the file leaves tables out, which an edit creates), and is validated by the same
 ``parse_scene`` as ``pbs render``: a refused value raises the same ``InputError`` with the
 same one-line message, and nothing changes. Saving writes the data back as TOML with
 tomlkit into the document that was loaded, so the file's comments and layout survive
@@ -11,56 +12,18 @@ wherever the edit did not replace a whole table (docs/viewer.md says which).
 from __future__ import annotations
 
 import copy
-import dataclasses
-import itertools
 import os
-import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import tomlkit
 
 from app.output import atomic_write
+from app.scene.edits import edited_data
 from app.scene.loader import LoadedScene, parse_scene, read_text, read_toml
-from app.scene.model import TEXTURE_KEYS, Camera
+from app.scene.model import TEXTURE_KEYS
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
-
-_PART = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
-
-
-def split_key(key: str) -> list[str | int]:
-    """'lights[2].range' -> ['lights', 2, 'range']."""
-    parts: list[str | int] = []
-    for name, index in _PART.findall(key):
-        parts.append(int(index) if index else name)
-    return parts
-
-
-def get_value(data: dict, key: str, default: Any = None) -> Any:
-    node: Any = data
-    for part in split_key(key):
-        try:
-            node = node[part]
-        except (KeyError, IndexError, TypeError):
-            return default
-    return node
-
-
-def set_value(data: dict, key: str, value: Any) -> None:
-    """Set ``key`` in ``data`` (creating tables on the way); ``None`` removes the key, so
-    that the scene's default applies."""
-    parts = split_key(key)
-    node: Any = data
-    for part, following in itertools.pairwise(parts):
-        if isinstance(part, str) and part not in node:
-            node[part] = [] if isinstance(following, int) else {}
-        node = node[part]
-    last = parts[-1]
-    if value is None:
-        if isinstance(last, str):
-            node.pop(last, None)
-        return
-    node[last] = value
 
 
 class SceneDocument:
@@ -93,30 +56,18 @@ class SceneDocument:
     def scene(self):
         return self.loaded.scene
 
-    def edit(self, changes: dict[str, Any]) -> LoadedScene:
+    def edited(self, changes: Mapping[str, Any]) -> tuple[dict, LoadedScene]:
+        """The data with {key path: value} applied (None removes a key) and the scene it
+        validates to, as a scene file would be (``app.scene.edits``, lenient: the data is
+        the file as written, which leaves tables out); the document is not changed.
+        ``InputError`` where refused."""
+        return edited_data(self.loaded, changes, "viewer", data=self.data, lenient=True)
+
+    def edit(self, changes: Mapping[str, Any]) -> LoadedScene:
         """Apply {key path: value} to a copy of the data, validate it as a scene file
         would be, and keep it only if valid (InputError otherwise, nothing changed)."""
-        data = copy.deepcopy(self.data)
-        for key, value in changes.items():
-            set_value(data, key, value)
-        loaded = self._camera_only(data, changes) or parse_scene(data, self.path, self.policy)
-        self.data, self.loaded = data, loaded
-        return loaded
-
-    def _camera_only(self, data: dict, changes: dict[str, Any]) -> LoadedScene | None:
-        """An edit of the camera alone (every orbit step) validates just the camera table;
-        anything it refuses goes through ``parse_scene`` for the full message."""
-        if not all(key.startswith("camera.") for key in changes):
-            return None
-        try:
-            camera = Camera.model_validate(data.get("camera", {}))
-        except ValueError:
-            return None
-        if camera.from_file is not None:  # a glTF file's camera: resolved by parse_scene
-            return None
-        return dataclasses.replace(
-            self.loaded, scene=self.loaded.scene.model_copy(update={"camera": camera})
-        )
+        self.data, self.loaded = self.edited(changes)
+        return self.loaded
 
     def replace(self, data: dict) -> LoadedScene:
         """Validate whole new data (a reloaded file, an undo) and keep it if valid."""

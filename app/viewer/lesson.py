@@ -30,7 +30,7 @@ from app.walkthrough.mathsvg import latex_to_rgba
 from app.walkthrough.model import LoadedStep, Sweep, Text, resolve_scene_ref
 
 if TYPE_CHECKING:
-    from app.viewer.window import Viewer
+    from app.viewer.host import ViewerHost
 
 PLAY_PERIOD = 4.0  # seconds for a played sweep to go from its start to its end and back
 INLINE_SCALE = 1.1  # inline math's font size, relative to the panel's text
@@ -105,7 +105,7 @@ class MathTextures:
 class Lesson:
     """The walkthrough's steps, the step shown, the language and the selected sweep."""
 
-    def __init__(self, viewer: Viewer, steps: list[LoadedStep], lang: str = "en") -> None:
+    def __init__(self, viewer: ViewerHost, steps: list[LoadedStep], lang: str = "en") -> None:
         if not steps:
             raise ValueError("a lesson needs at least one step")
         self.viewer = viewer

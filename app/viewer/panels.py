@@ -46,7 +46,7 @@ from app.untrusted.policy import Limits
 from app.untrusted.structured import parse_toml
 
 if TYPE_CHECKING:
-    from app.viewer.window import Viewer
+    from app.viewer.host import ViewerHost
 
 RED = imgui.ImVec4(1.0, 0.35, 0.3, 1.0)
 AMBER = imgui.ImVec4(1.0, 0.8, 0.2, 1.0)
@@ -89,7 +89,7 @@ def grating_edit(key: str, on: bool) -> dict[str, Any]:
 class Panels:
     """The ImGui context, its glfw/OpenGL3 backends and the panels' own state."""
 
-    def __init__(self, viewer: Viewer) -> None:
+    def __init__(self, viewer: ViewerHost) -> None:
         self.viewer = viewer
         self.context = imgui.create_context()
         self.plot_context = implot.create_context()

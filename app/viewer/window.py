@@ -28,7 +28,6 @@ import copy
 import ctypes
 import re
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -46,12 +45,14 @@ from app.render.compare import CompareSpec, Comparison
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS, DebugPass
 from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
-from app.scene.loader import LoadedScene, parse_scene
+from app.scene.edits import get_key
+from app.scene.loader import LoadedScene
 from app.scene.model import Camera
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.viewer import orbit as orbit_controls
 from app.viewer import x11
-from app.viewer.document import SceneDocument, get_value, mesh_scene, set_value
+from app.viewer.document import SceneDocument, mesh_scene
+from app.viewer.host import Selection, ViewerState
 
 PREVIEW_SCALE = 2  # while interacting: render at 1/2 of the window in each direction
 REFINE_AFTER = 0.25  # seconds without input before the full-size frame
@@ -62,27 +63,6 @@ DIVIDER_DRAG = -1  # the drag "button" of a divider drag
 
 class ViewerError(RuntimeError):
     """The window cannot be opened (no display, no OpenGL 3.3)."""
-
-
-@dataclass
-class Selection:
-    """What a click picked: an object (index into scene.objects) and its material."""
-
-    object_index: int | None = None
-    material: str | None = None
-
-
-@dataclass
-class _State:
-    last_input: float = 0.0
-    dirty: bool = True  # the scene changed since the last render
-    rendered_scale: int = 0  # the scale the last image was rendered at
-    pending: list[dict[str, Any]] = field(default_factory=list)  # structural edits
-    notice: str = ""
-    error: str = ""  # shown in the Problems panel
-    glsl_mtime: float = 0.0
-    last_watch: float = 0.0
-    frame_ms: dict[str, float] = field(default_factory=dict)
 
 
 def _problem(exc: BaseException) -> str:
@@ -161,7 +141,7 @@ class Viewer:
         glfw.swap_interval(1 if vsync else 0)
         self.gl = GLContext(moderngl.create_context(require=330), "glfw")
         self.ctx = self.gl.ctx
-        self.state = _State(glsl_mtime=_glsl_mtime(), last_watch=time.perf_counter())
+        self.state = ViewerState(glsl_mtime=_glsl_mtime(), last_watch=time.perf_counter())
         self.selection = Selection()
         self.show_ui = ui
         self.renderer = Renderer(self.gl, self.document.loaded, self.framebuffer_size)
@@ -221,10 +201,7 @@ class Viewer:
         return self._apply(changes)
 
     def _validated(self, changes: dict[str, Any]) -> LoadedScene:
-        data = copy.deepcopy(self.document.data)
-        for key, value in changes.items():
-            set_value(data, key, value)
-        return parse_scene(data, self.document.path)
+        return self.document.edited(changes)[1]
 
     def _apply(self, changes: dict[str, Any]) -> bool:
         self._current()
@@ -658,7 +635,7 @@ class Viewer:
 
     def value(self, key: str, default: Any = None) -> Any:
         """A value of the edited scene data (what a scene file would hold)."""
-        return get_value(self.document.data, key, default)
+        return get_key(self.document.data, key, default)
 
     # --- input ------------------------------------------------------------------------------
 

@@ -24,8 +24,9 @@ from app.frame.camera import fit_scene
 from app.gl.context import GLContext
 from app.output import write_png
 from app.progress import Progress
-from app.render.compare import CompareSpec, Comparison, parse_key
+from app.render.compare import CompareSpec, Comparison
 from app.render.renderer import Renderer
+from app.scene.edits import parse_key
 from app.scene.loader import LoadedScene
 from app.walkthrough.labels import caption_band, find_font, font_size, label_objects
 from app.walkthrough.model import Comparison as ComparisonItem

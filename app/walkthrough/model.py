@@ -18,13 +18,12 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from app.errors import InputError
-from app.render.compare import parse_key, set_key
+from app.scene.edits import KeyPathError, edited, parse_key
 from app.scene.loader import (
     LoadedScene,
     describe_error,
     key_path,
     load_scene,
-    parse_scene,
     read_toml,
 )
 from app.untrusted import RefusedError, files
@@ -223,26 +222,24 @@ def with_values(
 ) -> LoadedScene:
     """``loaded`` with every key path set to ``value``, validated as a scene file: a
     missing key is an error at ``where``'s key, a refused value at ``origin``'s."""
-    data = loaded.scene.model_dump(exclude_none=True)
-    fields: dict[str, str] = {}  # the key as the scene loader names it -> the step's field
-    for j, key in enumerate(keys):
-        field = f"{where}.keys[{j}]" if where.startswith("sweeps") else f"{where}.key"
-        try:
-            parsed = parse_key(key, str(path))
-            set_key(data, parsed, value, str(loaded.path), where)
-        except InputError as exc:
-            raise _error(path, field, f"{exc.key}: {exc.message}") from None
-        fields[key_path(parsed)] = field
+    # The step's field of each key.
+    fields = [
+        f"{where}.keys[{j}]" if where.startswith("sweeps") else f"{where}.key"
+        for j in range(len(keys))
+    ]
     try:
-        return parse_scene(data, loaded.path)
+        return edited(loaded, [(key, value) for key in keys], where)
+    except KeyPathError as exc:  # malformed, or a step missing: the key is wrong
+        raise _error(path, fields[exc.edit or 0], f"{exc.key}: {exc.message}") from None
     except InputError as exc:
         scene = loaded.path.stem
         # A misspelt last name is added as a new key, which the scene refuses as unknown:
         # the key is wrong, not the value.
-        unknown = exc.message == "unknown key" and exc.key in fields
+        named = {key_path(parse_key(k)): field for k, field in zip(keys, fields, strict=True)}
+        unknown = exc.message == "unknown key" and exc.key in named
         raise _error(
             path,
-            fields[exc.key] if unknown else origin,
+            named[exc.key] if unknown else origin,
             f"{exc.key}: {exc.message} (scene {scene}, value {value!r})",
         ) from None
 

@@ -11,20 +11,8 @@
 #include "brdf/material.glsl"
 #include "gbuffer/layout.glsl"
 
-#if !GBUFFER_CONSTANT_SURFACES
-uniform sampler2D g_base_color;
-#endif
-uniform sampler2D g_normal;
-uniform sampler2D g_depth;
-#if GBUFFER_TANGENT
-uniform sampler2D g_tangent;    // only where a material is anisotropic (docs/gbuffer.md)
-#endif
-#if GBUFFER_COAT_NORMAL
-uniform sampler2D g_coat_normal;  // only where a coat's normal differs from its base's
-#endif
-#if GBUFFER_EMISSION
-uniform sampler2D g_emission;   // only where a material emits or has an occlusion map
-#endif
+// uniform sampler2D g_<target>; of every target present (gbuffer/layout.glsl)
+GBUFFER_SAMPLERS
 
 // A decoded G-buffer pixel.
 struct GBufferPixel {
@@ -42,7 +30,8 @@ struct GBufferPixel {
 // sanitising: (base colour, metallic) and (octahedral normal, perceptual roughness, F0).
 // Under GBUFFER_CONSTANT_SURFACES the surface numbers are the texels of the pixel's
 // material-table row (gbuffer/layout.glsl): the same float32 numbers, 24 fewer bytes per
-// pixel written and read. Twin: app/render/gbuffer.py GBuffer.read fills GBufferData alike.
+// pixel written and read. Twin: app/render/gbuffer.py GBuffer.read fills GBufferData alike
+// (GBufferTarget.surface_texel).
 void fetch_surface(ivec2 px, sampler2D materials, int material_id, out vec4 a, out vec4 b) {
 #if GBUFFER_CONSTANT_SURFACES
     a = texelFetch(materials, ivec2(SURFACE_TEXEL, material_id), 0);

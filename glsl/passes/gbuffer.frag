@@ -16,25 +16,10 @@ in vec4 v_color;
 in vec2 v_uv1;
 #endif
 
-#if GBUFFER_CONSTANT_SURFACES
-// Constant surfaces: the material table's row carries the surface numbers (RT0 absent).
-layout(location = 0) out vec2 g_normal;
-layout(location = 1) out vec2 g_depth;
-#else
-layout(location = 0) out vec4 g_base_color;
-layout(location = 1) out vec4 g_normal;
-layout(location = 2) out vec2 g_depth;
-#endif
-// The optional targets at the locations app/render/gbuffer.py binds them (GBuffer.defines).
-#if GBUFFER_TANGENT
-layout(location = GBUFFER_LOCATION_TANGENT) out vec4 g_tangent;
-#endif
-#if GBUFFER_COAT_NORMAL
-layout(location = GBUFFER_LOCATION_COAT_NORMAL) out vec2 g_coat_normal;
-#endif
-#if GBUFFER_EMISSION
-layout(location = GBUFFER_LOCATION_EMISSION) out vec4 g_emission;
-#endif
+// layout(location = i) out vecN g_<target>; of every target present, at the location
+// app/render/gbuffer.py binds it (gbuffer/layout.glsl). With constant surfaces the
+// material table's row carries the surface numbers: no g_base_color, g_normal a vec2.
+GBUFFER_OUTPUTS
 
 void main() {
 #if VERTEX_COLOR

@@ -1,0 +1,119 @@
+"""The full-screen triangle: the one draw every image-space pass makes.
+
+glsl/passes/fullscreen.vert makes one triangle that covers the viewport from
+``gl_VertexID`` alone, so a pass needs a program, an empty vertex array and a draw of 3
+vertices; with ``FAR_PLANE`` defined the triangle lies on the far plane, for passes that
+z-test it (">") against a G-buffer's z-buffer so that only pixels with a surface run the
+fragment shader. ``FullscreenDraw`` is that much, and the only place in app/ that makes the
+draw: post, downsample, depth of field, compare, the environment background and its
+prefilter, tile culling, lighting, the debug views, the bench's floor and limit passes and
+the GLSL kernels all draw through it.
+
+The draw state is explicit: ``draw`` disables blending, and the depth test unless a
+``depth_func`` asks for it, which it restores to off and "<" afterwards (the state every
+other pass expects). The viewport is the framebuffer's own (moderngl keeps one per
+framebuffer and sets it on ``use``) unless ``viewport`` sets another.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import moderngl
+
+from app.gl.shaders import ShaderCache
+
+FULLSCREEN_VERTEX = "passes/fullscreen.vert"
+
+Texture = moderngl.Texture | moderngl.TextureCube
+Textures = Mapping[str, Texture] | Iterable[tuple[str, Texture]]
+
+
+def set_uniforms(program: moderngl.Program, uniforms: Mapping[str, object]) -> None:
+    """Set each of ``uniforms`` the program has (the compiler drops what a permutation does
+    not use): ``bytes`` are written whole (arrays, matrices), anything else assigned."""
+    for name, value in uniforms.items():
+        if name not in program:
+            continue
+        if isinstance(value, bytes):
+            program[name].write(value)
+        else:
+            program[name].value = value
+
+
+def bind_textures(program: moderngl.Program, textures: Textures, first_unit: int = 0) -> int:
+    """Bind ``textures`` (sampler uniform -> texture) to units ``first_unit``, ... and point
+    the program's samplers at them (those it has); returns the next free unit."""
+    pairs = textures.items() if isinstance(textures, Mapping) else textures
+    unit = first_unit
+    for name, texture in pairs:
+        texture.use(unit)
+        if name in program:
+            program[name].value = unit
+        unit += 1
+    return unit
+
+
+class FullscreenDraw:
+    """One program drawn as the full-screen triangle: the program and its empty vertex
+    array. The program is the shader cache's (``of``) unless ``owns_program``."""
+
+    def __init__(
+        self, ctx: moderngl.Context, program: moderngl.Program, owns_program: bool = False
+    ) -> None:
+        self.ctx = ctx
+        self.program = program
+        self.vao = ctx.vertex_array(program, [])
+        self._owns_program = owns_program
+
+    @classmethod
+    def of(
+        cls,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        fragment: str,
+        defines: Mapping[str, object] | None = None,
+    ) -> FullscreenDraw:
+        """The draw of glsl/``fragment`` with ``defines`` behind passes/fullscreen.vert
+        (compiled with the same defines: ``FAR_PLANE`` moves the triangle)."""
+        return cls(ctx, shaders.program(FULLSCREEN_VERTEX, fragment, dict(defines or {})))
+
+    def draw(
+        self,
+        fbo: moderngl.Framebuffer | None = None,
+        uniforms: Mapping[str, object] | None = None,
+        textures: Textures | None = None,
+        *,
+        viewport: tuple[int, int, int, int] | None = None,
+        depth_func: str | None = None,
+        first_unit: int = 0,
+    ) -> None:
+        """Draw the triangle into ``fbo`` (None: the framebuffer bound now) with
+        ``textures`` bound from ``first_unit`` on and ``uniforms`` set (every draw: a shader
+        cache may hand the same program to passes of other parameters). ``depth_func``:
+        the depth test against ``fbo``'s depth attachment (">" for a far-plane triangle);
+        None draws without it."""
+        ctx = self.ctx
+        if fbo is not None:
+            fbo.use()
+        if viewport is not None:
+            ctx.viewport = viewport
+        if textures is not None:
+            bind_textures(self.program, textures, first_unit)
+        if uniforms:
+            set_uniforms(self.program, uniforms)
+        if depth_func is None:
+            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            self.vao.render(moderngl.TRIANGLES, vertices=3)
+            return
+        ctx.disable(moderngl.BLEND)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = depth_func
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+
+    def release(self) -> None:
+        self.vao.release()
+        if self._owns_program:
+            self.program.release()

@@ -1,0 +1,117 @@
+"""GPU textures of the material maps: a ``Texture`` (app/textures/maps.py: its levels, colour
+space, filters and wrap) uploaded once per pass, with the project's mips and glTF 2.0's
+sampler state. The G-buffer pass, the shadow pass's masked casters and the blend pass draw
+with these (app/render/mesh_drawable.py); app/render/limits.py counts their bytes.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import moderngl
+import numpy as np
+
+from app.gl.context import gl_function
+from app.textures.maps import Texture
+
+# Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
+# anisotropic) stepped between mip levels on the receding floor of
+# scenes/sec13_filtering.toml: bands of constant roughness, one per level (seen, and gone at
+# 1); it would also pick the roughness of the minor axis's footprint. docs/filtering.md.
+MAX_ANISOTROPY = 1.0
+
+
+class TextureUploads:
+    """The GL textures of one pass's material maps, one per ``Texture`` object: parts that
+    share a layer (a glTF mesh drawn by many nodes, one material on many primitives)
+    share its textures instead of each uploading its own copy. The owner releases them."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self._made: dict[int, tuple[Texture, moderngl.Texture]] = {}
+
+    def get(self, tex: Texture) -> moderngl.Texture:
+        made = self._made.get(id(tex))
+        if made is None:  # the Texture is kept, so its id is not reused while we hold it
+            made = self._made[id(tex)] = (tex, upload_texture(self.ctx, tex))
+        return made[1]
+
+    def release(self) -> None:
+        for _, gl_tex in self._made.values():
+            gl_tex.release()
+        self._made.clear()
+
+
+def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
+    """A material map with its mips: sRGB colour data decoded by the GL, which builds its
+    mips; every other map with the levels the project built (app/textures/), never the
+    GL's. Non-colour data is stored as 16-bit floats."""
+    level0 = tex.levels[0]
+    h, w = level0.shape[:2]
+    if tex.srgb:
+        internal = 0x8C43  # GL_SRGB8_ALPHA8: decoded to linear on fetch
+        gl_tex = ctx.texture((w, h), 4, level0[::-1].tobytes(), internal_format=internal)
+        gl_tex.build_mipmaps()
+    else:
+        comps = 1 if level0.ndim == 2 else level0.shape[2]
+
+        def data(level: np.ndarray) -> bytes:
+            return np.ascontiguousarray(level[::-1], np.float16).tobytes()
+
+        gl_tex = ctx.texture((w, h), comps, data(level0), dtype="f2")
+        if len(tex.levels) > 1:
+            gl_tex.build_mipmaps(0, len(tex.levels) - 1)  # allocates the levels ...
+            for k, level in enumerate(tex.levels[1:], start=1):
+                gl_tex.write(data(level), level=k)  # ... which ours then replace
+    mipmapped = tex.srgb or len(tex.levels) > 1
+    if tex.min_filter == "linear_mipmap_linear" and tex.mag_filter == "linear":
+        gl_tex.filter = (  # the default: trilinear where there are mips
+            moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
+            moderngl.LINEAR,
+        )
+    else:  # glTF 2.0 sampler filters; a mip filter without mips falls back to its base
+        minify = tex.min_filter if mipmapped else tex.min_filter.split("_mipmap_")[0]
+        gl_tex.filter = (GL_FILTERS[minify], GL_FILTERS[tex.mag_filter])
+    gl_tex.anisotropy = MAX_ANISOTROPY
+    if tex.wrap != ("repeat", "repeat"):
+        set_wrap(gl_tex, tex.wrap)
+    return gl_tex
+
+
+# glTF 2.0 sampler filters by name -> the GL's (moderngl's constants are the GL enums).
+GL_FILTERS = {
+    "nearest": moderngl.NEAREST,
+    "linear": moderngl.LINEAR,
+    "nearest_mipmap_nearest": moderngl.NEAREST_MIPMAP_NEAREST,
+    "linear_mipmap_nearest": moderngl.LINEAR_MIPMAP_NEAREST,
+    "nearest_mipmap_linear": moderngl.NEAREST_MIPMAP_LINEAR,
+    "linear_mipmap_linear": moderngl.LINEAR_MIPMAP_LINEAR,
+}
+GL_TEXTURE_2D = 0x0DE1
+GL_TEXTURE_WRAP = {"s": 0x2802, "t": 0x2803}
+GL_MIRRORED_REPEAT = 0x8370
+
+
+def set_wrap(gl_tex: moderngl.Texture, wrap: tuple[str, str]) -> None:
+    """glTF 2.0 wrapS/wrapT on a texture: "repeat", "clamp" (CLAMP_TO_EDGE) or "mirror"
+    (MIRRORED_REPEAT). moderngl's repeat_x/y choose only between REPEAT and CLAMP_TO_EDGE,
+    so a mirrored axis sets the GL parameter itself (``_gl_mirror``)."""
+    for axis, mode in zip(("x", "y"), wrap, strict=True):
+        setattr(gl_tex, f"repeat_{axis}", mode != "clamp")
+    mirrored = [
+        GL_TEXTURE_WRAP[axis] for axis, mode in zip("st", wrap, strict=True) if mode == "mirror"
+    ]
+    if mirrored:
+        _gl_mirror(gl_tex, mirrored)
+
+
+def _gl_mirror(gl_tex: moderngl.Texture, parameters: list[int]) -> None:
+    """GL_MIRRORED_REPEAT on the given wrap parameters of ``gl_tex``, through the GL
+    entry points (app/gl/context.py gl_function). moderngl binds its textures
+    again before every use, so the binding changed here is never relied on."""
+    uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
+    bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
+    set_parameter = gl_function(gl_tex.ctx, "glTexParameteri", [enum, enum, int_])
+    bind(GL_TEXTURE_2D, gl_tex.glo)
+    for parameter in parameters:
+        set_parameter(GL_TEXTURE_2D, parameter, GL_MIRRORED_REPEAT)
