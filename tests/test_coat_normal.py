@@ -140,8 +140,9 @@ if (dot(n, l) > 0.0) {
         v_base = clearcoat_refract_in(eta_c, n, v);
         compression = clearcoat_solid_angle_compression(eta_c);
     }
-    BrdfFactors b = base_brdf_factors(clearcoat_base_surface(s, p), clearcoat_base_params(p),
-                                      n, t, l_base, v_base);
+    ShadingPoint base = ShadingPoint(clearcoat_base_surface(s, p), clearcoat_base_params(p),
+                                     n, n, t, v_base, vec3(0.0));
+    BrdfFactors b = base_brdf_factors(base, l_base);
     float T = T_clearcoat_filament(c, F0c, NoL, NoV);
     vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
                                                      NoV), c);

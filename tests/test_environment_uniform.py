@@ -67,8 +67,8 @@ def converged_albedo(material: dict, v: np.ndarray) -> np.ndarray:
 BODY = """
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
 ModelParams p = fetch_model_params(u_materials, 0);
-result = vec4(uniform_environment_albedo(s, p, dir_n.xyz, dir_n.xyz, dir_t.xyz, dir_v.xyz,
-                                         COUNT), 0.0);
+ShadingPoint sp = ShadingPoint(s, p, dir_n.xyz, dir_n.xyz, dir_t.xyz, dir_v.xyz, vec3(0.0));
+result = vec4(uniform_environment_albedo(sp, COUNT), 0.0);
 """
 
 

@@ -36,7 +36,8 @@ INCLUDES = ("brdf/brdf.glsl",)
 _BODY = """
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
 ModelParams p = fetch_model_params(u_materials, 0);
-result = vec4(brdf_eval(s, p, dir_n.xyz, dir_nc.xyz, dir_t.xyz, dir_l.xyz, dir_v.xyz), 0.0);
+ShadingPoint sp = ShadingPoint(s, p, dir_n.xyz, dir_nc.xyz, dir_t.xyz, dir_v.xyz, vec3(0.0));
+result = vec4(brdf_eval(sp, dir_l.xyz), 0.0);
 """
 
 _context: GLContext | None = None
