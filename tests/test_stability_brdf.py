@@ -872,9 +872,10 @@ result = vec4(brdf_eval(sp, dir_l.xyz), 0.0);
         ref_material.Surface(a32[:, :3], a32[:, 3], b32[:, 0], b32[:, 1], b32[:, 2])
     )
     n_safe = ref_material.sanitize_direction(n, v)
-    ref = ref_material.brdf_eval(
-        s, unpack_model_params(table[0]), base.model, n_safe, np.array([1.0, 0.0, 0.0]), l, v
+    point = ref_material.ShadingPoint(
+        s, unpack_model_params(table[0]), n_safe, None, np.array([1.0, 0.0, 0.0]), v
     )
+    ref = ref_material.brdf_eval(point, base.model, l)
     assert relative_error(gpu, ref, ABS_FLOOR).max() <= MAX_REL_ERR
 
 
@@ -956,7 +957,8 @@ def f16_errors(name: str, roughness: float) -> tuple[float, float, float]:
         surface = ref_material.Surface(
             s["base_color"], s["metallic"], s["roughness"], s["f0"], s["anisotropy"]
         )
-        f = ref_material.brdf_eval(surface, params, p.model, nn, tt, l, v)
+        f = ref_material.brdf_eval(ref_material.ShadingPoint(surface, params, nn, None, tt, v),
+                                   p.model, l)  # fmt: skip
         return f, f * np.maximum(_dot(nn, l), 0.0)[:, None]
 
     f32_f, f32_fcos = shade(())

@@ -25,7 +25,7 @@ from app.common.models import (
 from app.errors import InputError
 from app.gl.context import GLContext, create_context, osmesa_changes
 from app.gl.kernel import run_kernel
-from app.reference.material import Surface, brdf_eval
+from app.reference.material import ShadingPoint, Surface, brdf_eval
 from app.scene.model import Material
 
 Backend = Literal["glsl", "reference"]
@@ -176,7 +176,7 @@ def evaluate(
 
     if backend == "reference":
         s, p = reference_inputs(params)
-        return brdf_eval(s, p, params.model, n_arr, t_arr, l_arr, v_arr, nc=nc_arr)
+        return brdf_eval(ShadingPoint(s, p, n_arr, nc_arr, t_arr, v_arr), params.model, l_arr)
     if backend != "glsl":
         raise ValueError(f"backend must be 'glsl' or 'reference', not {backend!r}")
 
