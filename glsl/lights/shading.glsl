@@ -44,8 +44,8 @@ vec3 sum_lights(ivec2 tile, ShadingPoint sp) {
         Lo += light_contribution(u_lights, i, sp);
     } while (++i < u_first_local);
 #endif
-    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, true,
-                           sp);   // the masks hold local lights only
+    // the masks hold local lights only
+    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, true, sp);
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above
