@@ -55,9 +55,8 @@ class Surface:
 @dataclass(frozen=True)
 class ShadingPoint:
     """One point (or array of points) being shaded: what the composition layer of the BRDF,
-    the lights and the environments takes instead of a loose (s, params, n, nc, t, v,
-    position) tuple. Twin of the GLSL's ``ShadingPoint`` (glsl/brdf/material.glsl), same
-    fields; the vectors broadcast like every twin's arrays (last axis 3). The model stays an
+    the lights and the environments takes, whole. Twin of the GLSL's ``ShadingPoint``
+    (glsl/brdf/material.glsl), same fields; the vectors broadcast like every twin's arrays (last axis 3). The model stays an
     argument of its own, as in the GLSL, where it is compile-time constants.
 
     ``nc`` None: no coat normal of its own (the GLSL without GBUFFER_COAT_NORMAL, where nc

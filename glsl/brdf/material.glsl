@@ -27,10 +27,10 @@ struct Surface {
 };
 
 // One point being shaded: everything the composition layer (this file's BRDF and the
-// lights, environments and passes above it) needs of it, passed whole instead of the loose
-// (s, params, n, nc, t, v, position) the functions once took one by one (Filament's
+// lights, environments and passes above it) needs of it, passed whole, so that every
+// function there takes the same inputs and a new one is one more field (Filament's
 // PixelParams, the glTF Sample Viewer's MaterialInfo). The terms of brdf/ (D, G, F, the
-// lobes) keep taking the few numbers they use. The lighting pass decodes it from the
+// lobes) take the few numbers they use. The lighting pass decodes it from the
 // G-buffer (gbuffer/decode.glsl), the forward pass builds it from a fragment. A value:
 // a function that changes a field (the clear coat's base, refracted v) changes its copy.
 // Twin: app/reference/material.py ShadingPoint.
