@@ -56,8 +56,9 @@ class Surface:
 class ShadingPoint:
     """One point (or array of points) being shaded: what the composition layer of the BRDF,
     the lights and the environments takes, whole. Twin of the GLSL's ``ShadingPoint``
-    (glsl/brdf/material.glsl), same fields; the vectors broadcast like every twin's arrays (last axis 3). The model stays an
-    argument of its own, as in the GLSL, where it is compile-time constants.
+    (glsl/brdf/material.glsl), same fields; the vectors broadcast like every twin's arrays
+    (last axis 3). The model stays an argument of its own, as in the GLSL, where it is
+    compile-time constants.
 
     ``nc`` None: no coat normal of its own (the GLSL without GBUFFER_COAT_NORMAL, where nc
     is n); the coat shades with n and the lights take one cosine. ``position`` None: a
