@@ -15,6 +15,7 @@ import numpy as np
 
 from app.brdf import reference_inputs, resolve_material
 from app.reference.environment_uniform import converged_albedo, uniform_environment_albedo
+from app.reference.material import ShadingPoint
 
 MODELS = {
     "standard (grey dielectric)": {"base_color": [0.5, 0.5, 0.5]},
@@ -42,7 +43,7 @@ def albedos(material: dict, v: np.ndarray, count: int | None) -> np.ndarray:
         return converged_albedo(s, p, params.model, v)
     n = np.broadcast_to([0.0, 0.0, 1.0], v.shape)
     t = np.broadcast_to([0.0, 1.0, 0.0], v.shape)
-    return uniform_environment_albedo(s, p, params.model, n, None, t, v, count)
+    return uniform_environment_albedo(ShadingPoint(s, p, n, None, t, v), params.model, count)
 
 
 def main() -> None:

@@ -30,6 +30,7 @@ from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.encoding import oct_decode
 from app.reference.illumination import decode_gbuffer, shade_gbuffer
 from app.reference.material import (
+    ShadingPoint,
     Surface,
     base_brdf_factors,
     brdf_eval,
@@ -140,8 +141,9 @@ if (dot(n, l) > 0.0) {
         v_base = clearcoat_refract_in(eta_c, n, v);
         compression = clearcoat_solid_angle_compression(eta_c);
     }
-    BrdfFactors b = base_brdf_factors(clearcoat_base_surface(s, p), clearcoat_base_params(p),
-                                      n, t, l_base, v_base);
+    ShadingPoint base = ShadingPoint(clearcoat_base_surface(s, p), clearcoat_base_params(p),
+                                     n, n, t, v_base, vec3(0.0));
+    BrdfFactors b = base_brdf_factors(base, l_base);
     float T = T_clearcoat_filament(c, F0c, NoL, NoV);
     vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
                                                      NoV), c);
@@ -178,9 +180,9 @@ def _single_normal_twin(params: MaterialParams, l: np.ndarray, v: np.ndarray) ->
         v_base = clearcoat.clearcoat_refract_in(eta_c, n, v)
         compression = clearcoat.clearcoat_solid_angle_compression(eta_c)
     base = dataclasses.replace(params.model, clearcoat="none")
-    b = base_brdf_factors(
-        clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l_base, v_base
-    )
+    point = ShadingPoint(clearcoat_base_surface(s, p), clearcoat_base_params(p), n, None, t,
+                         v_base)  # fmt: skip
+    b = base_brdf_factors(point, base, l_base)
     T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
     A = (
         1.0
@@ -331,9 +333,10 @@ def test_layered_cosines_keep_a_smooth_coat_off_the_base_bumps() -> None:
     l = np.array([[-0.9, 0.0, np.sqrt(0.19)]])  # the coat's mirror direction; n.l < 0
     t = np.array([[1.0, 0.0, 0.0]])
     assert float(n[0] @ l[0]) < 0.0
-    got = brdf_eval_layered_cos(s, params.params, params.model, n, nc, t, l, v)
-    f = brdf_factors(s, params.params, params.model, n, t, l, v, nc=nc)
+    point = ShadingPoint(s, params.params, n, nc, t, v)
+    got = brdf_eval_layered_cos(point, params.model, l)
+    f = brdf_factors(point, params.model, l)
     coat_term = np.repeat(f.f_coat[:, None], 3, -1) * (nc[0] @ l[0])
     np.testing.assert_allclose(got, coat_term, rtol=1e-15)
     assert got.max() > 1.0  # the coat's mirror highlight, not zero
-    assert np.all(brdf_eval(s, params.params, params.model, n, t, l, v, nc=nc) == 0.0)
+    assert np.all(brdf_eval(point, params.model, l) == 0.0)

@@ -75,16 +75,14 @@ class Frame:
             sel = g.material_id == row
             model = r.materials.models[int(table[row, 3, 0])]
             params = unpack_model_params(table[row])
-            s, n, t, p, v = g.surface.select(sel), g.n[sel], g.t[sel], g.p[sel], g.v[sel]
-            nc = None if g.nc is None else g.nc[sel]  # the coat's normal, with RT4
-            _, l = light_at(lamp, p)
-            NoL = np.sum(n * l, axis=-1)
+            point = g.point(sel, params)  # nc: the coat's normal, with RT4
+            _, l = light_at(lamp, point.position)
+            NoL = np.sum(point.n * l, axis=-1)
             away[sel] = np.abs(NoL) > 1e-3
             if view == "light":
-                value = illumination_sum(s, params, model, n, t, p, v, [lamp],
-                                         r.scene.render.terms, nc)  # fmt: skip
+                value = illumination_sum(point, model, [lamp], r.scene.render.terms)
             else:
-                b = brdf_factors(s, params, model, n, t, l, v, nc=nc)
+                b = brdf_factors(point, model, l)
                 value = {
                     "fresnel": b.F,
                     "ndf": np.repeat(b.D[:, None], 3, axis=-1),

@@ -13,7 +13,7 @@ from app.brdf import evaluate, resolve_material
 from app.frame import prepare_frame
 from app.reference import diffraction
 from app.reference._vec import dot
-from app.reference.material import Surface, grating_lobe, material_alpha
+from app.reference.material import ShadingPoint, Surface, grating_lobe, material_alpha
 from app.resources import scenes_dir
 from app.scene.loader import load_scene
 from tests.test_brdf_models import _dir, direction_pairs
@@ -34,7 +34,8 @@ def _surface_and_lobe(material: dict):
     params = resolve_material(material)
     s = Surface(np.asarray(params.base_color), params.metallic, params.roughness, params.f0)
     alpha = material_alpha(s)
-    return params, lambda l, v: grating_lobe(s, params.params, params.model, N, alpha, l, v)
+    point = ShadingPoint(s, params.params, N, None, N, N)  # grating_lobe takes its own v
+    return params, lambda l, v: grating_lobe(point, params.model, alpha, l, v)
 
 
 def test_tangent_convention():

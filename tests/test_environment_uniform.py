@@ -16,6 +16,7 @@ from app.gl.context import GLContext
 from app.reference.environment_uniform import converged_albedo as reference_albedo
 from app.reference.environment_uniform import uniform_environment_albedo
 from app.reference.illumination import shade_gbuffer
+from app.reference.material import ShadingPoint
 from app.render.renderer import Renderer
 from app.scene.loader import parse_scene
 from scripts.uniform_env_errors import MODELS as ERROR_MODELS
@@ -56,7 +57,7 @@ def twin_albedo(material: dict, v: np.ndarray, count: int = COUNT, terms: str = 
     s, p, model = twin_inputs(material)
     n = np.broadcast_to([0.0, 0.0, 1.0], v.shape)
     t = np.broadcast_to([0.0, 1.0, 0.0], v.shape)  # not along v: the anisotropic frame
-    return uniform_environment_albedo(s, p, model, n, None, t, v, count, terms)
+    return uniform_environment_albedo(ShadingPoint(s, p, n, None, t, v), model, count, terms)
 
 
 def converged_albedo(material: dict, v: np.ndarray) -> np.ndarray:
@@ -67,8 +68,8 @@ def converged_albedo(material: dict, v: np.ndarray) -> np.ndarray:
 BODY = """
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
 ModelParams p = fetch_model_params(u_materials, 0);
-result = vec4(uniform_environment_albedo(s, p, dir_n.xyz, dir_n.xyz, dir_t.xyz, dir_v.xyz,
-                                         COUNT), 0.0);
+ShadingPoint sp = ShadingPoint(s, p, dir_n.xyz, dir_n.xyz, dir_t.xyz, dir_v.xyz, vec3(0.0));
+result = vec4(uniform_environment_albedo(sp, COUNT), 0.0);
 """
 
 

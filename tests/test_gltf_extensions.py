@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from app.common.models import MaterialParams
-from app.reference.material import Surface, brdf_eval
+from app.reference.material import ShadingPoint, Surface, brdf_eval
 from app.reference.normal_mapping import rotate_tangent
 from app.reference.sheen import load_table, sheen_E
 from app.scene.gltf_document import GltfError
@@ -56,7 +56,7 @@ def twin(p: MaterialParams, l, v, t=X, terms: str = "all") -> np.ndarray:
     """The project's f(l, v) for the mapped parameters: the float64 twin, n = +Z."""
     s = Surface(np.asarray(p.base_color, np.float64), p.metallic, p.roughness, p.f0,
                 p.anisotropy)  # fmt: skip
-    return brdf_eval(s, p.params, p.model, N, t, l, v, terms=terms)
+    return brdf_eval(ShadingPoint(s, p.params, N, None, t, v), p.model, l, terms=terms)
 
 
 # --- the specifications' formulas ---
@@ -490,7 +490,7 @@ def print_tables() -> None:
                                              "iridescenceThicknessMaximum": d}}  # fmt: skip
         p = material_extensions(ext, core(), KEY)
         s = Surface(np.zeros(3), 0.0, 0.5, p.f0, 0.0)
-        ours = F_selected(s, p.params, p.model, mu)
+        ours = F_selected(ShadingPoint(s, p.params, N, None, X, N), p.model, mu)
         exact = thin_film.F_thin_film_spectral(1.3, 1.3, d, np.full(3, 1.5), np.zeros(3), mu)
         gltf = spec_iridescent_fresnel(1.3, 0.04, d, mu)
         diffs = [np.abs(a - b).max() for a, b in ((ours, gltf), (ours, exact), (gltf, exact))]

@@ -24,7 +24,7 @@ from app.common.models import MaterialParams, pack_model_params
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.fresnel import F_conductor, F_dielectric
 from app.reference.layered import LayeredAlbedo, random_walk
-from app.reference.material import Surface, clearcoat_factors, material_alpha
+from app.reference.material import ShadingPoint, Surface, clearcoat_factors, material_alpha
 from app.reference.quadrature import N, cosine_rule, direction, reflected_rule
 from app.scene.model import Material
 
@@ -92,7 +92,8 @@ def variant_albedo(m: MaterialParams, theta: float) -> tuple[float, np.ndarray]:
     def parts(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(the coat's lobe, the base's specular and diffuse lobes under it)."""
         lv = np.broadcast_to(l, v.shape)
-        b = clearcoat_factors(s, p, m.model, N, N, np.array([1.0, 0.0, 0.0]), lv, v)
+        point = ShadingPoint(s, p, N, N, np.array([1.0, 0.0, 0.0]), v)
+        b = clearcoat_factors(point, m.model, lv)
         return b.f_coat, b.f_spec, b.f_diffuse
 
     def integral(f: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:

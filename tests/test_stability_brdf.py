@@ -638,7 +638,8 @@ vec3 c_light = light_at(L, dir_p.xyz, l);
 vec3 n = dir_n.xyz;
 float NoL = dot(n, l);
 vec3 Lo = vec3(0.0);
-if (NoL > 0.0) Lo += brdf_eval(s, p, n, n, dir_t.xyz, l, dir_v.xyz) * c_light * NoL;
+ShadingPoint sp = ShadingPoint(s, p, n, n, dir_t.xyz, dir_v.xyz, dir_p.xyz);
+if (NoL > 0.0) Lo += brdf_eval(sp, l) * c_light * NoL;
 result = vec4(PI * Lo, NoL);
 """
 
@@ -856,7 +857,8 @@ def test_sanitized_nan_surfaces_shade_finite(gl_egl: GLContext, name: str) -> No
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
 ModelParams p = fetch_model_params(u_materials, 0);
 vec3 n = dir_n.xyz;
-result = vec4(brdf_eval(s, p, n, n, vec3(1.0, 0.0, 0.0), dir_l.xyz, dir_v.xyz), 0.0);
+ShadingPoint sp = ShadingPoint(s, p, n, n, vec3(1.0, 0.0, 0.0), dir_v.xyz, vec3(0.0));
+result = vec4(brdf_eval(sp, dir_l.xyz), 0.0);
 """
     safe = raw.replace("ModelParams p", "s = sanitize_surface(s);\nModelParams p").replace(
         "vec3 n = dir_n.xyz", "vec3 n = sanitize_direction(dir_n.xyz, dir_v.xyz)"
@@ -870,9 +872,10 @@ result = vec4(brdf_eval(s, p, n, n, vec3(1.0, 0.0, 0.0), dir_l.xyz, dir_v.xyz), 
         ref_material.Surface(a32[:, :3], a32[:, 3], b32[:, 0], b32[:, 1], b32[:, 2])
     )
     n_safe = ref_material.sanitize_direction(n, v)
-    ref = ref_material.brdf_eval(
-        s, unpack_model_params(table[0]), base.model, n_safe, np.array([1.0, 0.0, 0.0]), l, v
+    point = ref_material.ShadingPoint(
+        s, unpack_model_params(table[0]), n_safe, None, np.array([1.0, 0.0, 0.0]), v
     )
+    ref = ref_material.brdf_eval(point, base.model, l)
     assert relative_error(gpu, ref, ABS_FLOOR).max() <= MAX_REL_ERR
 
 
@@ -954,7 +957,8 @@ def f16_errors(name: str, roughness: float) -> tuple[float, float, float]:
         surface = ref_material.Surface(
             s["base_color"], s["metallic"], s["roughness"], s["f0"], s["anisotropy"]
         )
-        f = ref_material.brdf_eval(surface, params, p.model, nn, tt, l, v)
+        f = ref_material.brdf_eval(ref_material.ShadingPoint(surface, params, nn, None, tt, v),
+                                   p.model, l)  # fmt: skip
         return f, f * np.maximum(_dot(nn, l), 0.0)[:, None]
 
     f32_f, f32_fcos = shade(())

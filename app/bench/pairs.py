@@ -180,19 +180,18 @@ def reference_hdr(
                 sel = sel[in_row[sel]]
             if sel.size == 0:
                 continue
-            s = g.surface.select(sel)
+            point = g.point(sel, params)
             c_light, l = light_at(light, p[sel])
-            n = g.n[sel]
-            if g.nc is not None and model.clearcoat != "none":  # each layer's own cosine
-                nc = g.nc[sel]
-                f_cos = brdf_eval_layered_cos(s, params, model, n, nc, g.t[sel], l, g.v[sel])
+            n = point.n
+            if point.nc is not None and model.clearcoat != "none":  # each layer's own cosine
+                f_cos = brdf_eval_layered_cos(point, model, l)
                 Lo[sel] += f_cos * c_light
                 continue
             NoL = np.einsum("ij,ij->i", n, l)
             lit = NoL > 0.0
             if not np.any(lit):
                 continue
-            f = brdf_eval(s, params, model, n, g.t[sel], l, g.v[sel], ms_table)
+            f = brdf_eval(point, model, l, ms_table)
             Lo[sel] += np.where(lit[:, None], f * c_light * NoL[:, None], 0.0)
     out[covered] = PI * Lo
     return out

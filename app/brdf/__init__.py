@@ -25,7 +25,7 @@ from app.common.models import (
 from app.errors import InputError
 from app.gl.context import GLContext, create_context, osmesa_changes
 from app.gl.kernel import run_kernel
-from app.reference.material import Surface, brdf_eval
+from app.reference.material import ShadingPoint, Surface, brdf_eval
 from app.scene.model import Material
 
 Backend = Literal["glsl", "reference"]
@@ -36,7 +36,8 @@ INCLUDES = ("brdf/brdf.glsl",)
 _BODY = """
 Surface s = Surface(surface_a.rgb, surface_a.a, surface_b.x, surface_b.y, surface_b.z);
 ModelParams p = fetch_model_params(u_materials, 0);
-result = vec4(brdf_eval(s, p, dir_n.xyz, dir_nc.xyz, dir_t.xyz, dir_l.xyz, dir_v.xyz), 0.0);
+ShadingPoint sp = ShadingPoint(s, p, dir_n.xyz, dir_nc.xyz, dir_t.xyz, dir_v.xyz, vec3(0.0));
+result = vec4(brdf_eval(sp, dir_l.xyz), 0.0);
 """
 
 _context: GLContext | None = None
@@ -175,7 +176,7 @@ def evaluate(
 
     if backend == "reference":
         s, p = reference_inputs(params)
-        return brdf_eval(s, p, params.model, n_arr, t_arr, l_arr, v_arr, nc=nc_arr)
+        return brdf_eval(ShadingPoint(s, p, n_arr, nc_arr, t_arr, v_arr), params.model, l_arr)
     if backend != "glsl":
         raise ValueError(f"backend must be 'glsl' or 'reference', not {backend!r}")
 

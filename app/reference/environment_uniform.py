@@ -17,6 +17,7 @@ float32 rounding only. Also the float64 ray-caster's way to light a uniform envi
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -24,6 +25,7 @@ from app.common.models import BRDF_TERMS, TERM_SPECULAR, Model, ModelParams
 from app.reference._vec import dot, normalize
 from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, PI
 from app.reference.material import (
+    ShadingPoint,
     Surface,
     brdf_eval,
     brdf_factors,
@@ -127,26 +129,19 @@ def environment_local_view(frame: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def environment_integrand(
-    s: Surface,
-    p: ModelParams,
-    model: Model,
-    n: np.ndarray,
-    nc: np.ndarray | None,
-    t: np.ndarray,
-    l: np.ndarray,
-    v: np.ndarray,
-    terms: str = "all",
+    point: ShadingPoint, model: Model, l: np.ndarray, terms: str = "all"
 ) -> tuple[np.ndarray, np.ndarray]:
-    """g(l) = f(l, v) (n.l)+ as the lights take it (``brdf_eval``, or with a coat normal of
-    its own, ``nc`` not None, ``brdf_eval_layered_cos``'s cosine per layer), apart:
-    (the subsurface lobe's part, the surface reflection's part), each (..., 3); their sum
-    is ``brdf_eval`` (n.l)+ (RTR4 §9.1's two reflections, the terms ``terms`` keeps)."""
-    n = np.asarray(n, np.float64)
+    """g(l) = f(l, v) (n.l)+ at the point as the lights take it (``brdf_eval``, or with a
+    coat normal of its own, ``point.nc`` not None, ``brdf_eval_layered_cos``'s cosine per
+    layer), apart: (the subsurface lobe's part, the surface reflection's part), each
+    (..., 3); their sum is ``brdf_eval`` (n.l)+ (RTR4 §9.1's two reflections, the terms
+    ``terms`` keeps)."""
+    n = np.asarray(point.n, np.float64)
     l = np.asarray(l, np.float64)
     NoL = dot(n, l)
-    b = brdf_factors(s, p, model, n, t, l, v, nc=nc)
-    if nc is not None and model.clearcoat != "none":
-        NoLc = dot(np.asarray(nc, np.float64), l)
+    b = brdf_factors(point, model, l)
+    if point.nc is not None and model.clearcoat != "none":
+        NoLc = dot(np.asarray(point.nc, np.float64), l)
         base_d = selected_terms(b.f_diffuse, 0.0 * b.f_spec, terms)
         base_s = selected_terms(0.0 * b.f_diffuse, b.f_spec, terms)
         coat = np.asarray(b.f_coat, np.float64) if BRDF_TERMS[terms] & TERM_SPECULAR else 0.0
@@ -161,23 +156,18 @@ def environment_integrand(
 
 
 def uniform_environment_albedo(
-    s: Surface,
-    p: ModelParams,
-    model: Model,
-    n: np.ndarray,
-    nc: np.ndarray | None,
-    t: np.ndarray,
-    v: np.ndarray,
-    count: int,
-    terms: str = "all",
+    point: ShadingPoint, model: Model, count: int, terms: str = "all"
 ) -> np.ndarray:
-    """R(v) (..., 3) of the BRDF at unit n, v (..., 3) by ``count`` directions in all
-    (count // strategies per strategy). ``nc``: the coat's own normal (None: n). The
-    subsurface lobe is integrated by the cosine directions alone (exact for Lambert), the
-    surface reflection by every strategy with the balance heuristic (docs/ibl.md)."""
-    n = np.asarray(n, np.float64)
-    v = np.asarray(v, np.float64)
-    t = np.broadcast_to(np.asarray(t, np.float64), n.shape)
+    """R(v) (..., 3) of the BRDF at the point's unit n, v (..., 3) by ``count`` directions
+    in all (count // strategies per strategy). ``point.nc``: the coat's own normal (None:
+    n). The subsurface lobe is integrated by the cosine directions alone (exact for
+    Lambert), the surface reflection by every strategy with the balance heuristic
+    (docs/ibl.md)."""
+    s, p, nc = point.s, point.params, point.nc
+    n = np.asarray(point.n, np.float64)
+    v = np.asarray(point.v, np.float64)
+    t = np.broadcast_to(np.asarray(point.t, np.float64), n.shape)
+    point = replace(point, n=n, t=t, v=v)
     aniso_amount = np.broadcast_to(np.asarray(s.anisotropy, np.float64), n.shape[:-1])
     anisotropic = model.anisotropic & (aniso_amount != 0.0)
     alpha = np.broadcast_to(material_alpha(s), n.shape[:-1])
@@ -208,7 +198,7 @@ def uniform_environment_albedo(
             else:
                 h = sample_ggx_vndf(v_coat, alpha_c, alpha_c, u)
                 l = _to_world(frame_c, 2.0 * dot(v_coat, h)[..., None] * h - v_coat)
-            d, surface = environment_integrand(s, p, model, n, nc, t, l, v, terms)
+            d, surface = environment_integrand(point, model, l, terms)
             l_local = _to_local(frame, l)
             pdf_cos = np.maximum(l_local[..., 2], 0.0) / PI
             pdf = ggx_vndf_pdf(v_local, l_local, alpha_x, alpha_y) + pdf_cos
@@ -237,23 +227,14 @@ def converged_albedo(s: Surface, p: ModelParams, model: Model, v: np.ndarray) ->
         k = len(l)
         n = np.broadcast_to([0.0, 0.0, 1.0], (k, 3))
         t = np.broadcast_to([0.0, 1.0, 0.0], (k, 3))
-        f = brdf_eval(s, p, model, n, t, l, np.broadcast_to(view, (k, 3)))
+        f = brdf_eval(ShadingPoint(s, p, n, None, t, np.broadcast_to(view, (k, 3))), model, l)
         out.append(np.sum(f * (np.maximum(l[:, 2], 0.0) * w)[:, None], axis=0))
     return np.array(out)
 
 
 def uniform_environment_radiance(
-    radiance: np.ndarray,
-    s: Surface,
-    p: ModelParams,
-    model: Model,
-    n: np.ndarray,
-    nc: np.ndarray | None,
-    t: np.ndarray,
-    v: np.ndarray,
-    count: int,
-    terms: str = "all",
+    radiance: np.ndarray, point: ShadingPoint, model: Model, count: int, terms: str = "all"
 ) -> np.ndarray:
-    """L R(v): the uniform environment's light reflected towards v."""
-    albedo = uniform_environment_albedo(s, p, model, n, nc, t, v, count, terms)
+    """L R(v): the uniform environment's light reflected towards the point's v."""
+    albedo = uniform_environment_albedo(point, model, count, terms)
     return np.asarray(radiance, np.float64) * albedo

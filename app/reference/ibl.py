@@ -38,6 +38,7 @@ from app.common.models import DEFAULT_MODEL, Model, ModelParams
 from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.environment import rotate_y, texel_directions
 from app.reference.material import (
+    ShadingPoint,
     Surface,
     brdf_eval,
     material_F0,
@@ -91,7 +92,8 @@ def reference_radiance(
     d, l_domega = d[lit], l_domega[lit]
     if t is None:
         t = np.cross(n, [0.0, 0.0, 1.0] if abs(n[2]) < 0.9 else [1.0, 0.0, 0.0])
-    f = brdf_eval(surface, params or ModelParams(), model, n, t, d, v, ms_table)
+    point = ShadingPoint(surface, params or ModelParams(), n, None, t, v)
+    f = brdf_eval(point, model, d, ms_table)
     return np.sum(f * l_domega * (d @ n)[:, None], axis=0)
 
 

@@ -20,6 +20,7 @@ from app.reference.constants import PI
 from app.reference.encoding import oct_decode
 from app.reference.environment_uniform import uniform_environment_radiance
 from app.reference.material import (
+    ShadingPoint,
     Surface,
     brdf_eval,
     brdf_eval_layered_cos,
@@ -32,39 +33,34 @@ from app.reference.shadows import ShadowMaps, light_visibilities
 
 
 def illumination_sum(
-    s: Surface,
-    params: ModelParams,
+    point: ShadingPoint,
     model: Model,
-    n: np.ndarray,
-    t: np.ndarray,
-    p: np.ndarray,
-    v: np.ndarray,
     lights: list[PunctualLight],
     terms: str = "all",
-    nc: np.ndarray | None = None,
     visibility: list[np.ndarray | None] | None = None,
 ) -> np.ndarray:
-    """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at points ``p`` (..., 3);
-    ``terms`` as in ``brdf_eval``. ``nc``: the clear coat's normals where the G-buffer has
-    them (RT4): a coated model's layers then take their own cosines
+    """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at the points ``point.position``
+    (..., 3); ``terms`` as in ``brdf_eval``. ``point.nc``: the clear coat's normals where
+    the G-buffer has them (RT4): a coated model's layers then take their own cosines
     (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL.
     ``visibility``: per light, None or (...,) in [0, 1], the fraction of the light that
     reaches each point (a shadow; glsl/lights/illumination.glsl multiplies c_light by it
     under SHADOWS, docs/shadows.md)."""
+    p, n = point.position, point.n
     Lo = np.zeros(np.shape(p), np.float64)
     for k, light in enumerate(lights):
         c_light, l = light_at(light, p)
         if visibility is not None and visibility[k] is not None:
             c_light = c_light * np.asarray(visibility[k], np.float64)[..., None]
-        if nc is not None and model.clearcoat != "none":
-            layered = brdf_eval_layered_cos(s, params, model, n, nc, t, l, v, terms=terms)
+        if point.nc is not None and model.clearcoat != "none":
+            layered = brdf_eval_layered_cos(point, model, l, terms=terms)
             Lo += layered * c_light
             continue
         NoL = dot(n, l)
         lit = NoL > 0.0
         if not np.any(lit):
             continue
-        f = brdf_eval(s, params, model, n, t, l, v, terms=terms, nc=nc)
+        f = brdf_eval(point, model, l, terms=terms)
         Lo += np.where(lit[..., None], f * c_light * NoL[..., None], 0.0)
     return PI * Lo
 
@@ -91,6 +87,14 @@ class DecodedGBuffer:
     nc: np.ndarray | None = None  # (C, 3) unit coat normal (n where lost); None without RT4
     # (C, 4) emitted radiance and occlusion factor; None without RT5 (glTF 2.0 core)
     emission: np.ndarray | None = None
+
+    def point(self, sel: np.ndarray, params: ModelParams) -> ShadingPoint:
+        """The ShadingPoint of the pixels ``sel`` picks (one material: ``params``), as the
+        GLSL's decode_gbuffer returns it per pixel."""
+        return ShadingPoint(
+            self.surface.select(sel), params, self.n[sel],
+            None if self.nc is None else self.nc[sel], self.t[sel], self.v[sel], self.p[sel],
+        )  # fmt: skip
 
 
 def surface_positions(gbuffer: GBufferData, camera: CameraFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -154,17 +158,14 @@ def shade_gbuffer(
     for row in np.unique(g.material_id):
         sel = g.material_id == row
         model = models[int(table[row, 3, 0])]
-        params = unpack_model_params(table[row])
-        s, nc = g.surface.select(sel), None if g.nc is None else g.nc[sel]
+        point = g.point(sel, unpack_model_params(table[row]))
         shaded[sel] = illumination_sum(
-            s, params, model, g.n[sel], g.t[sel], g.p[sel], g.v[sel], lights, terms, nc,
-            [None if x is None else x[sel] for x in visibility],
-        )  # fmt: skip
+            point, model, lights, terms, [None if x is None else x[sel] for x in visibility]
+        )
         if environment is not None:  # after the sum, as the lighting pass adds it
             L_env = uniform_environment_radiance(
-                environment[0], s, params, model, g.n[sel], nc, g.t[sel], g.v[sel],
-                environment[1], terms,
-            )  # fmt: skip
+                environment[0], point, model, environment[1], terms
+            )
             if g.emission is not None:
                 L_env = g.emission[sel, 3:4] * L_env
             shaded[sel] += L_env

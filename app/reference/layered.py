@@ -33,7 +33,7 @@ import numpy as np
 
 from app.common.models import Model, ModelParams
 from app.reference.fresnel import F_dielectric
-from app.reference.material import Surface, brdf_eval, material_alpha
+from app.reference.material import ShadingPoint, Surface, brdf_eval, material_alpha
 from app.reference.ndf import D_GGX
 
 N = np.array([0.0, 0.0, 1.0])
@@ -121,7 +121,8 @@ def random_walk(
         )
         ok = v[:, 2] > 0.0
         v[~ok] = N  # placeholder; its weight is 0
-        f = brdf_eval(base, params, base_model, N, np.array([1.0, 0.0, 0.0]), l, v)
+        point = ShadingPoint(base, params, N, None, np.array([1.0, 0.0, 0.0]), v)
+        f = brdf_eval(point, base_model, l)
         pdf = _pdf_mixture(l, v, alpha, p_spec)
         with np.errstate(divide="ignore", invalid="ignore"):
             g = np.where((ok & (pdf > 0.0))[:, None], f * (v[:, 2] / pdf)[:, None], 0.0)

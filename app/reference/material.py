@@ -52,6 +52,27 @@ class Surface:
         )  # fmt: skip
 
 
+@dataclass(frozen=True)
+class ShadingPoint:
+    """One point (or array of points) being shaded: what the composition layer of the BRDF,
+    the lights and the environments takes, whole. Twin of the GLSL's ``ShadingPoint``
+    (glsl/brdf/material.glsl), same fields; the vectors broadcast like every twin's arrays
+    (last axis 3). The model stays an argument of its own, as in the GLSL, where it is
+    compile-time constants.
+
+    ``nc`` None: no coat normal of its own (the GLSL without GBUFFER_COAT_NORMAL, where nc
+    is n); the coat shades with n and the lights take one cosine. ``position`` None: a
+    BRDF-only probe with no place in a scene (the lights need one)."""
+
+    s: Surface  # sanitised where it came from a G-buffer
+    params: ModelParams  # the material's numbers (one material: scalars and RGB)
+    n: np.ndarray  # unit shading normal
+    nc: np.ndarray | None  # unit clear-coat normal, or None (n)
+    t: np.ndarray  # tangent as stored; orthonormal_tangent takes it against n
+    v: np.ndarray  # unit, from the point towards the eye
+    position: np.ndarray | None = None  # world position
+
+
 # --- sanitising what a G-buffer texel delivers (see the GLSL for why and where) ---
 
 # (lo, hi, fallback) of each Surface field: finite values are clamped to [lo, hi], NaN and
@@ -126,8 +147,9 @@ def _mix(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     return a * (1.0 - t) + b * t
 
 
-def F_base_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.ndarray:
+def F_base_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.ndarray:
     """F(h, l) of the model's Fresnel term, (..., 3)."""
+    s, p = point.s, point.params
     if model.fresnel == "schlick_generalized":
         return fresnel.F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH)
     if model.fresnel in ("dielectric", "conductor"):
@@ -153,11 +175,12 @@ def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
 
 
 def F_film_selected(
-    s: Surface, p: ModelParams, model: Model, LoH: np.ndarray, F_base: np.ndarray
+    point: ShadingPoint, model: Model, LoH: np.ndarray, F_base: np.ndarray
 ) -> np.ndarray:
     """The thin film over the material's base (see the GLSL): the dielectric part's index
     eta_dielectric, the metal part's the conductor's eta + i k or the F0 of base_color as a
     real index, mixed by metallic, faded in over F_base up to FILM_FADE_NM."""
+    s, p = point.s, point.params
     LoH = np.asarray(LoH, np.float64)
     film = (p.film_eta, p.film_ior, p.film_thickness)
     zero = np.zeros(3)
@@ -172,29 +195,27 @@ def F_film_selected(
     return _mix(F_base, _mix(dielectric, metal, s.metallic), fade)
 
 
-def F_selected(s: Surface, p: ModelParams, model: Model, LoH: np.ndarray) -> np.ndarray:
+def F_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.ndarray:
     """F(h, l) of the material: the base's (F_base_selected), or with ``model.thin_film``
     a thin film's over it (F_film_selected). (..., 3)."""
-    F = F_base_selected(s, p, model, LoH)
+    F = F_base_selected(point, model, LoH)
     if model.thin_film:
-        F = F_film_selected(s, p, model, LoH, F)
+        F = F_film_selected(point, model, LoH, F)
     return F
 
 
 def f_diffuse_selected(
-    s: Surface,
-    p: ModelParams,
+    point: ShadingPoint,
     model: Model,
     alpha: np.ndarray,
-    n: np.ndarray,
     l: np.ndarray,
-    v: np.ndarray,
     NoL: np.ndarray,
     NoV: np.ndarray,
     NoH: np.ndarray,
     LoH: np.ndarray,
 ) -> np.ndarray:
-    """The model's diffuse lobe, (..., 3)."""
+    """The model's diffuse lobe towards point.v, (..., 3)."""
+    s, p, n, v = point.s, point.params, point.n, point.v
     rho = material_rho_ss(s)
     match model.diffuse:
         case "shirley":
@@ -239,11 +260,13 @@ def orthonormal_tangent(n: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def grating_lobe(
-    s: Surface, p: ModelParams, model: Model, n: np.ndarray, alpha, l: np.ndarray, v: np.ndarray
+    point: ShadingPoint, model: Model, alpha, l: np.ndarray, v: np.ndarray
 ) -> np.ndarray:
-    """The material's single-scattering lobe F D V at any pair of upper-hemisphere
-    directions (the clamps and half vector of base_brdf_factors; the fused
-    height-correlated GGX visibility, the only G2 a grating takes), (..., 3)."""
+    """The material's single-scattering lobe F D V at any pair (l, v) of upper-hemisphere
+    directions, not only at point.v (the orders shift both; the clamps and half vector of
+    base_brdf_factors; the fused height-correlated GGX visibility, the only G2 a grating
+    takes), (..., 3)."""
+    n = point.n
     NoL = np.clip(dot(n, l), MIN_N_DOT_L, 1.0)
     NoV = np.clip(dot(n, v), MIN_N_DOT_V, 1.0)
     hv = l + v
@@ -251,20 +274,19 @@ def grating_lobe(
     with np.errstate(divide="ignore", invalid="ignore"):
         h = np.where((hv2 > 1e-12)[..., None], hv / np.sqrt(hv2)[..., None], n)
     LoH = np.clip(dot(l, h), 0.0, 1.0)
-    F = F_selected(s, p, model, LoH)
-    D = D_selected(model, n, h, alpha, p.gtr_gamma)
+    F = F_selected(point, model, LoH)
+    D = D_selected(model, n, h, alpha, point.params.gtr_gamma)
     return F * (D * masking.V_height_correlated_GGX(NoL, NoV, alpha))[..., None]
 
 
-def f_spec_grating_selected(
-    s: Surface, p: ModelParams, model: Model, n, t, l, v, NoL, NoV, alpha
-) -> np.ndarray:
-    """The grating's orders over the lobe (app/reference/diffraction.py), grooves along
-    the tangent t: g = n x t."""
-    g = diffraction.grating_direction(n, orthonormal_tangent(n, t))
+def f_spec_grating_selected(point: ShadingPoint, model: Model, l, NoL, NoV, alpha) -> np.ndarray:
+    """The grating's orders over the lobe (app/reference/diffraction.py) at point.v,
+    grooves along the tangent t: g = n x t."""
+    n, p = point.n, point.params
+    g = diffraction.grating_direction(n, orthonormal_tangent(n, point.t))
     return diffraction.f_spec_grating(
-        lambda a, b: grating_lobe(s, p, model, n, alpha, a, b),
-        n, g, l, v, NoL, NoV, p.grating_period, p.grating_depth,
+        lambda a, b: grating_lobe(point, model, alpha, a, b),
+        n, g, l, point.v, NoL, NoV, p.grating_period, p.grating_depth,
     )  # fmt: skip
 
 
@@ -307,25 +329,20 @@ def shading_cosines(
 
 
 def base_brdf_factors(
-    s: Surface,
-    p: ModelParams,
-    model: Model,
-    n: np.ndarray,
-    t: np.ndarray,
-    l: np.ndarray,
-    v: np.ndarray,
-    ms_table: np.ndarray | None = None,
+    point: ShadingPoint, model: Model, l: np.ndarray, ms_table: np.ndarray | None = None
 ) -> BrdfFactors:
-    """F, D, G2, f_spec and f_diffuse of ``model`` without its clear coat at each point
-    (twin of the GLSL's ``base_brdf_factors``). Where the model has a fused visibility
-    V = G2/(4 n.l n.v), f_spec is computed from V and G2 is V 4 n.l n.v, as in the GLSL.
-    ``ms_table`` as in brdf_eval."""
-    n, t, l, v = (np.asarray(x, np.float64) for x in (n, t, l, v))
+    """F, D, G2, f_spec and f_diffuse of ``model`` without its clear coat at each point,
+    lit from l (twin of the GLSL's ``base_brdf_factors``). Where the model has a fused
+    visibility V = G2/(4 n.l n.v), f_spec is computed from V and G2 is V 4 n.l n.v, as in
+    the GLSL. ``ms_table`` as in brdf_eval."""
+    s, p = point.s, point.params
+    n, t, l, v = (np.asarray(x, np.float64) for x in (point.n, point.t, l, point.v))
+    point = replace(point, n=n, t=t, v=v)
     lit, NoL, NoV, h = shading_cosines(n, l, v)
     NoH = np.clip(dot(n, h), 0.0, 1.0)
     LoH = np.clip(dot(l, h), 0.0, 1.0)
     alpha = material_alpha(s)
-    F = F_selected(s, p, model, LoH)
+    F = F_selected(point, model, LoH)
 
     if model.anisotropic:
         tn = orthonormal_tangent(n, t)
@@ -363,7 +380,7 @@ def base_brdf_factors(
         )
         f_spec = F * (D * G2 / (4.0 * NoL * NoV))[..., None]
     if model.diffraction == "grating":  # RTR4 §9.11: the orders replace the lobe
-        f_spec = f_spec_grating_selected(s, p, model, n, t, l, v, NoL, NoV, alpha)
+        f_spec = f_spec_grating_selected(point, model, l, NoL, NoV, alpha)
     if model.multiscatter:
         from app.reference import multiscatter  # its tables load only when a model uses them
 
@@ -372,7 +389,7 @@ def base_brdf_factors(
         f_spec = f_spec + multiscatter.f_ms_kulla_conty(
             ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
         )
-    f_diffuse = f_diffuse_selected(s, p, model, alpha, n, l, v, NoL, NoV, NoH, LoH)
+    f_diffuse = f_diffuse_selected(point, model, alpha, l, NoL, NoV, NoH, LoH)
     if model.fiber != "none":
         # micro-cylinder fibres (RTR4 §9.10, app/reference/fiber.py): the thread along the
         # tangent turned by fiber_rotation replaces both lobes; gamma_s = alpha.
@@ -422,16 +439,17 @@ def clearcoat_base_params(p: ModelParams) -> ModelParams:
     return replace(p, eta_dielectric=float(mix(p.eta_dielectric)), eta=mix(p.eta), k=mix(p.k))
 
 
+def clearcoat_base_point(point: ShadingPoint, v_base: np.ndarray) -> ShadingPoint:
+    """The base as the coat's underside sees it: its surface and parameters under the coat
+    and the view ``v_base`` (refracted into the coat for Weidlich-Wilkie, else point.v)."""
+    return replace(
+        point, s=clearcoat_base_surface(point.s, point.params),
+        params=clearcoat_base_params(point.params), v=v_base,
+    )  # fmt: skip
+
+
 def clearcoat_factors(
-    s: Surface,
-    p: ModelParams,
-    model: Model,
-    n: np.ndarray,
-    nc: np.ndarray,
-    t: np.ndarray,
-    l: np.ndarray,
-    v: np.ndarray,
-    ms_table: np.ndarray | None = None,
+    point: ShadingPoint, model: Model, l: np.ndarray, ms_table: np.ndarray | None = None
 ) -> BrdfFactors:
     """The coated BRDF's factors (twin of the GLSL's ``clearcoat_factors``): F, D, G2 the
     base's, f_coat the coat's lobe; "filament":
@@ -440,8 +458,11 @@ def clearcoat_factors(
     about the coat's normal: f = c f_coat + (...) f_base(l_t, v_t) / eta_c^2.
     Two normals (RTR4 §9.12, "layers may have different normals"; glTF
     KHR_materials_clearcoat): the coat's lobe, its crossings and the absorption's path
-    lengths take the coat's nc, the base's lobes its own n; nc = n is the single normal."""
-    n, nc, t, l, v = (np.asarray(x, np.float64) for x in (n, nc, t, l, v))
+    lengths take the coat's nc, the base's lobes its own n; nc = n (or None) is the single
+    normal."""
+    p = point.params
+    nc = point.n if point.nc is None else point.nc
+    n, nc, l, v = (np.asarray(x, np.float64) for x in (point.n, nc, l, point.v))
     coat_lit, _, NoV, h = shading_cosines(nc, l, v)  # the coat's cosines; n.l as the GLSL
     NoL = np.clip(dot(nc, l), MIN_N_DOT_L, 1.0)  # clamps it where l is below nc only
     LoH = np.clip(dot(l, h), 0.0, 1.0)
@@ -460,10 +481,7 @@ def clearcoat_factors(
         l_base = clearcoat.clearcoat_refract_in(eta_c, nc, l)
         v_base = clearcoat.clearcoat_refract_in(eta_c, nc, v)
         compression = clearcoat.clearcoat_solid_angle_compression(eta_c)
-    b = base_brdf_factors(
-        clearcoat_base_surface(s, p), clearcoat_base_params(p), base, n, t, l_base, v_base,
-        ms_table,
-    )  # fmt: skip
+    b = base_brdf_factors(clearcoat_base_point(point, v_base), base, l_base, ms_table)
     T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
     A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
     A = 1.0 - c + A * c
@@ -477,22 +495,13 @@ def clearcoat_factors(
 
 
 def brdf_factors(
-    s: Surface,
-    p: ModelParams,
-    model: Model,
-    n: np.ndarray,
-    t: np.ndarray,
-    l: np.ndarray,
-    v: np.ndarray,
-    ms_table: np.ndarray | None = None,
-    nc: np.ndarray | None = None,
+    point: ShadingPoint, model: Model, l: np.ndarray, ms_table: np.ndarray | None = None
 ) -> BrdfFactors:
-    """F, D, G2, f_coat, f_spec and f_diffuse of ``model`` at each point (twin of the
-    GLSL's ``brdf_factors``, whose coat normal ``nc`` is a keyword here: None is n): the
-    base's, or with a clear coat the coated ones."""
+    """F, D, G2, f_coat, f_spec and f_diffuse of ``model`` at each point, lit from l (twin
+    of the GLSL's ``brdf_factors``): the base's, or with a clear coat the coated ones."""
     if model.clearcoat != "none":
-        return clearcoat_factors(s, p, model, n, n if nc is None else nc, t, l, v, ms_table)
-    return base_brdf_factors(s, p, model, n, t, l, v, ms_table)
+        return clearcoat_factors(point, model, l, ms_table)
+    return base_brdf_factors(point, model, l, ms_table)
 
 
 def selected_terms(f_diffuse: np.ndarray, f_surface: np.ndarray, terms: str) -> np.ndarray:
@@ -504,38 +513,28 @@ def selected_terms(f_diffuse: np.ndarray, f_surface: np.ndarray, terms: str) -> 
 
 
 def brdf_eval(
-    s: Surface,
-    p: ModelParams,
+    point: ShadingPoint,
     model: Model,
-    n: np.ndarray,
-    t: np.ndarray,
     l: np.ndarray,
-    v: np.ndarray,
     ms_table: np.ndarray | None = None,
     terms: str = "all",
-    nc: np.ndarray | None = None,
 ) -> np.ndarray:
-    """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model``, (..., 3); 0 where n.l <= 0.
+    """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model`` at the point (v = point.v),
+    (..., 3); 0 where n.l <= 0.
 
     ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
     and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, RTR4
-    §9.1) keeps only the specular or only the diffuse reflection. ``nc``: the clear coat's
-    normal (None: n).
+    §9.1) keeps only the specular or only the diffuse reflection.
     """
-    b = brdf_factors(s, p, model, n, t, l, v, ms_table, nc)
+    b = brdf_factors(point, model, l, ms_table)
     f = selected_terms(b.f_diffuse, surface_reflection(b), terms)
     return np.where(b.lit[..., None], f, 0.0)
 
 
 def brdf_eval_layered_cos(
-    s: Surface,
-    p: ModelParams,
+    point: ShadingPoint,
     model: Model,
-    n: np.ndarray,
-    nc: np.ndarray,
-    t: np.ndarray,
     l: np.ndarray,
-    v: np.ndarray,
     ms_table: np.ndarray | None = None,
     terms: str = "all",
 ) -> np.ndarray:
@@ -543,10 +542,11 @@ def brdf_eval_layered_cos(
     GLSL's ``brdf_eval_layered_cos``): the coat's lobe times (nc.l)+, the base's lobes seen
     through the coat times (n.l)+ (Filament's surface shading with a clear-coat normal;
     glTF KHR_materials_clearcoat: the coat's normal "affects the top layer, but not the
-    base"), (..., 3); 0 where the light is below both."""
-    NoL = dot(np.asarray(n, np.float64), np.asarray(l, np.float64))
+    base"), (..., 3); 0 where the light is below both (point.nc None: n)."""
+    nc = point.n if point.nc is None else point.nc
+    NoL = dot(np.asarray(point.n, np.float64), np.asarray(l, np.float64))
     NoLc = dot(np.asarray(nc, np.float64), np.asarray(l, np.float64))
-    b = brdf_factors(s, p, model, n, t, l, v, ms_table, nc)
+    b = brdf_factors(point, model, l, ms_table)
     base = selected_terms(b.f_diffuse, b.f_spec, terms)
     coat = np.asarray(b.f_coat, np.float64) if BRDF_TERMS[terms] & TERM_SPECULAR else 0.0
     result = np.where((NoL > 0.0)[..., None], base * NoL[..., None], 0.0)
@@ -555,4 +555,4 @@ def brdf_eval_layered_cos(
 
 def brdf_standard(s: Surface, n: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarray:
     """f(l, v) under the standard model (Lambert + GGX, height-correlated Smith, Schlick)."""
-    return brdf_eval(s, ModelParams(), DEFAULT_MODEL, n, n, l, v)
+    return brdf_eval(ShadingPoint(s, ModelParams(), n, None, n, v), DEFAULT_MODEL, l)

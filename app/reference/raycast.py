@@ -30,7 +30,7 @@ from app.common.primitives import Primitive
 from app.reference._vec import dot, normalize
 from app.reference.environment_uniform import uniform_environment_radiance
 from app.reference.illumination import illumination_sum, pixel_ndc
-from app.reference.material import Surface, sanitize_surface
+from app.reference.material import ShadingPoint, Surface, sanitize_surface
 from app.reference.normal_mapping import rotate_tangent
 
 NO_HIT = -1  # primitive id of a pixel that hits nothing
@@ -364,14 +364,12 @@ def shade(
             a = mat.anisotropy_rotation
             t = rotate_tangent(hits.n[sel], t, 1.0, np.array([math.cos(a), math.sin(a)]))
         vis = None if visibility is None else [x if x is None else x[sel] for x in visibility]
-        out[sel] = illumination_sum(
-            surface, mat.params, mat.model, hits.n[sel], t, p, v, lights, terms, visibility=vis
-        )
+        point = ShadingPoint(surface, mat.params, hits.n[sel], None, t, v, p)
+        out[sel] = illumination_sum(point, mat.model, lights, terms, visibility=vis)
         if environment is not None:
             out[sel] += uniform_environment_radiance(
-                environment[0], surface, mat.params, mat.model, hits.n[sel], None, t, v,
-                environment[1], terms,
-            )  # fmt: skip
+                environment[0], point, mat.model, environment[1], terms
+            )
     return out
 
 

@@ -26,6 +26,24 @@ struct Surface {
     float anisotropy;          // -1..1: alpha_x = alpha (1 + a), alpha_y = alpha (1 - a)
 };
 
+// One point being shaded: everything the composition layer (this file's BRDF and the
+// lights, environments and passes above it) needs of it, passed whole, so that every
+// function there takes the same inputs and a new one is one more field (Filament's
+// PixelParams, the glTF Sample Viewer's MaterialInfo). The terms of brdf/ (D, G, F, the
+// lobes) take the few numbers they use. The lighting pass decodes it from the
+// G-buffer (gbuffer/decode.glsl), the forward pass builds it from a fragment. A value:
+// a function that changes a field (the clear coat's base, refracted v) changes its copy.
+// Twin: app/reference/material.py ShadingPoint.
+struct ShadingPoint {
+    Surface s;            // sanitised (sanitize_surface)
+    ModelParams params;   // the material's row of the table (brdf/model.glsl)
+    vec3 n;               // unit shading normal, sanitised (v where it was lost)
+    vec3 nc;              // unit clear-coat normal (n where the coat has none of its own)
+    vec3 t;               // tangent as stored; orthonormal_tangent takes it against n
+    vec3 v;               // unit, from the point towards the eye
+    vec3 position;        // world position: the lights and shadows (none in a BRDF probe)
+};
+
 // --- sanitising what a G-buffer texel delivers ---
 // Textures can hold NaN or Inf (a float texture, a degenerate mesh normal normalize(0) that
 // the G-buffer pass encodes as is) and out-of-range values (an RGBA16F channel holds up to
@@ -91,7 +109,9 @@ float material_alpha(Surface s) {
 // dielectric interface and the metal by metallic, as the metalness workflow does.
 // Like every dispatch function, a plain `if` on the constants of brdf/model.glsl: folded
 // at compile time in a specialized pass, a run-time branch under UBER_MODELS.
-vec3 F_base_selected(Surface s, ModelParams p, float LoH) {
+vec3 F_base_selected(ShadingPoint sp, float LoH) {
+    Surface s = sp.s;
+    ModelParams p = sp.params;
     if (FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED) {
         return F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH);
     }
@@ -119,7 +139,9 @@ vec3 F_base_selected(Surface s, ModelParams p, float LoH) {
 // between 0 and FILM_FADE_NM: zero thickness is the base's Fresnel exactly (mix(a, b, 0)
 // is a), whatever its model, and the film's exact interfaces take over without a jump.
 // (Belcour and Barla's code fades the film's index to the medium's for the same reason.)
-vec3 F_film_selected(Surface s, ModelParams p, float LoH, vec3 F_base) {
+vec3 F_film_selected(ShadingPoint sp, float LoH, vec3 F_base) {
+    Surface s = sp.s;
+    ModelParams p = sp.params;
     vec3 dielectric = F_thin_film(p.film_eta, p.film_ior, p.film_thickness,
                                   vec3(p.eta_dielectric), vec3(0.0), LoH);
     vec3 metal_eta = FRESNEL_MODEL == FRESNEL_CONDUCTOR ? p.eta : ior_from_f0_rgb(s.base_color);
@@ -131,17 +153,21 @@ vec3 F_film_selected(Surface s, ModelParams p, float LoH, vec3 F_base) {
 
 // F(h, l) of the material: the base's Fresnel (F_base_selected), or a thin film's over it
 // with THIN_FILM. Without a film this is F_base_selected alone, as it always was.
-vec3 F_selected(Surface s, ModelParams p, float LoH) {
-    vec3 F = F_base_selected(s, p, LoH);
+vec3 F_selected(ShadingPoint sp, float LoH) {
+    vec3 F = F_base_selected(sp, LoH);
 #if UBER_MODELS || THIN_FILM
-    if (THIN_FILM != 0) F = F_film_selected(s, p, LoH, F);
+    if (THIN_FILM != 0) F = F_film_selected(sp, LoH, F);
 #endif
     return F;
 }
 
-// The diffuse (subsurface) lobe of the selected model (RTR4 sec. 9.9).
-vec3 f_diffuse_selected(Surface s, ModelParams p, float alpha, vec3 n, vec3 l, vec3 v,
-                        float NoL, float NoV, float NoH, float LoH) {
+// The diffuse (subsurface) lobe of the selected model (RTR4 sec. 9.9) towards sp.v.
+vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float NoV, float NoH,
+                        float LoH) {
+    Surface s = sp.s;
+    ModelParams p = sp.params;
+    vec3 n = sp.n;
+    vec3 v = sp.v;
     vec3 rho_ss = material_rho_ss(s);
     float r = clamp(s.perceptual_roughness, 0.0, 1.0);
     if (DIFFUSE_MODEL == DIFFUSE_SHIRLEY) return Fd_shirley(rho_ss, material_F0(s), NoL, NoV);
@@ -188,25 +214,29 @@ void shading_cosines(vec3 n, vec3 l, vec3 v, out float NoL, out float NoV, out v
 
 #if UBER_MODELS || DIFFRACTION_MODEL != DIFFRACTION_NONE
 // --- diffraction grating (RTR4 sec. 9.11, brdf/diffraction.glsl) ---
-// The single-scattering lobe F D V at any pair of upper-hemisphere directions
-// (shading_cosines; the fused height-correlated GGX visibility, the only G2 a grating
-// takes).
-vec3 grating_lobe(Surface s, ModelParams p, vec3 n, float alpha, vec3 l, vec3 v) {
+// The single-scattering lobe F D V at any pair (l, v) of upper-hemisphere directions, not
+// only at sp.v: the orders shift v as well as l (shading_cosines; the fused
+// height-correlated GGX visibility, the only G2 a grating takes).
+vec3 grating_lobe(ShadingPoint sp, float alpha, vec3 l, vec3 v) {
+    vec3 n = sp.n;
     float NoL, NoV;
     vec3 h;
     shading_cosines(n, l, v, NoL, NoV, h);
     float LoH = clamp(dot(l, h), 0.0, 1.0);
-    vec3 F = F_selected(s, p, LoH);
-    float D = D_selected(n, h, alpha, p.gtr_gamma);
+    vec3 F = F_selected(sp, LoH);
+    float D = D_selected(n, h, alpha, sp.params.gtr_gamma);
     return F * (D * V_height_correlated_GGX(NoL, NoV, alpha));
 }
 
 // The grating's orders over the lobe, grooves along the tangent t (g = n x t):
 //   sum_lambda W(lambda) sum_|m|<=ORDERS eta_m (f(l, v'_m) + f(l'_m, v)) / 2 (m = 0: f),
-// clamped at 0 (a narrow band lies outside the sRGB gamut). f0 is f(l, v).
-vec3 f_spec_grating_selected(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v,
-                             float NoL, float NoV, float alpha, vec3 f0) {
-    vec3 g = cross(n, orthonormal_tangent(n, t));
+// clamped at 0 (a narrow band lies outside the sRGB gamut). f0 is f(l, v), v = sp.v.
+vec3 f_spec_grating_selected(ShadingPoint sp, vec3 l, float NoL, float NoV, float alpha,
+                             vec3 f0) {
+    ModelParams p = sp.params;
+    vec3 n = sp.n;
+    vec3 v = sp.v;
+    vec3 g = cross(n, orthonormal_tangent(n, sp.t));
     vec3 total = vec3(0.0);
     for (int j = 0; j < GRATING_SAMPLES; ++j) {
         float lambda_nm = grating_wavelength(j);
@@ -217,8 +247,8 @@ vec3 f_spec_grating_selected(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, v
             bool v_ok, l_ok;
             vec3 vm = grating_shifted(v, n, g, shift, v_ok);
             vec3 lm = grating_shifted(l, n, g, shift, l_ok);
-            vec3 half_sum = v_ok ? grating_lobe(s, p, n, alpha, l, vm) : vec3(0.0);
-            if (l_ok) half_sum += grating_lobe(s, p, n, alpha, lm, v);
+            vec3 half_sum = v_ok ? grating_lobe(sp, alpha, l, vm) : vec3(0.0);
+            if (l_ok) half_sum += grating_lobe(sp, alpha, lm, v);
             float eta = grating_efficiency(m, p.grating_depth, lambda_nm, NoL, NoV);
             band += (0.5 * eta) * half_sum;
         }
@@ -258,21 +288,26 @@ vec3 surface_reflection(BrdfFactors b) {
 #endif
 }
 
-// The factors for unit n, l, v with n.l > 0 (brdf_eval returns 0 before it calls this)
-// and the tangent t (used only by anisotropic NDFs). n.v is clamped to MIN_N_DOT_V as
+// The factors for unit l and the point's n, v with n.l > 0 (brdf_eval returns 0 before it
+// calls this) and tangent t (used only by anisotropic NDFs). n.v is clamped to MIN_N_DOT_V as
 // interpolated normals can face away from the eye, and n.l to MIN_N_DOT_L (1e-20) so that
 // no 1/(n.l) underflows (see constants.glsl). Where the model has a fused visibility term
 // V = G2/(4 n.l n.v), f_spec is computed from V as it always was and G2 is V 4 n.l n.v, a
 // value only the debug views read (the compiler drops it from brdf_eval).
 // The base's factors: the whole BRDF without a clear coat (brdf_factors adds the coat).
-BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, vec3 v) {
+BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
+    Surface s = sp.s;
+    ModelParams p = sp.params;
+    vec3 n = sp.n;
+    vec3 t = sp.t;
+    vec3 v = sp.v;
     float NoL, NoV;
     vec3 h;
     shading_cosines(n, l, v, NoL, NoV, h);
     float NoH = clamp(dot(n, h), 0.0, 1.0);
     float LoH = clamp(dot(l, h), 0.0, 1.0);
     float alpha = material_alpha(s);
-    vec3 F = F_selected(s, p, LoH);
+    vec3 F = F_selected(sp, LoH);
 
     float D;
     float alpha_v = alpha;
@@ -309,7 +344,7 @@ BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
 #if UBER_MODELS || DIFFRACTION_MODEL != DIFFRACTION_NONE
     // diffraction grating (RTR4 sec. 9.11): the orders replace the lobe
     if (DIFFRACTION_MODEL == DIFFRACTION_GRATING) {
-        f_spec = f_spec_grating_selected(s, p, n, t, l, v, NoL, NoV, alpha, f_spec);
+        f_spec = f_spec_grating_selected(sp, l, NoL, NoV, alpha, f_spec);
     }
 #endif
 #if UBER_MODELS || MULTISCATTER
@@ -318,7 +353,7 @@ BrdfFactors base_brdf_factors(Surface s, ModelParams p, vec3 n, vec3 t, vec3 l, 
         f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
     }
 #endif
-    vec3 f_diffuse = f_diffuse_selected(s, p, alpha, n, l, v, NoL, NoV, NoH, LoH);
+    vec3 f_diffuse = f_diffuse_selected(sp, alpha, l, NoL, NoV, NoH, LoH);
 #if UBER_MODELS || FIBER_MODEL != FIBER_NONE
     // micro-cylinder fibres (RTR4 sec. 9.10, brdf/fiber.glsl): the thread along the tangent
     // turned by fiber_rotation replaces both lobes (its surface reflection in f_spec, its
@@ -366,6 +401,16 @@ ModelParams clearcoat_base_params(ModelParams p) {
     return p;
 }
 
+// The base as the coat's underside sees it: its surface and parameters under the coat
+// and the view v_base (refracted into the coat for Weidlich-Wilkie, else sp.v).
+ShadingPoint clearcoat_base_point(ShadingPoint sp, vec3 v_base) {
+    ShadingPoint base = sp;
+    base.s = clearcoat_base_surface(sp.s, sp.params);
+    base.params = clearcoat_base_params(sp.params);
+    base.v = v_base;
+    return base;
+}
+
 // The coated BRDF's factors; F, D and G2 stay the base's (what the debug views show), the
 // coat's reflection is f_coat (surface reflection, RTR4 sec. 9.1: it joins f_spec in
 // surface_reflection) and the base's two lobes are weighted by what reaches them through the
@@ -386,8 +431,10 @@ ModelParams clearcoat_base_params(ModelParams p) {
 // Weidlich-Wilkie the coat's interface refracts, so l and v refract about nc and the base
 // evaluates the refracted directions about its own n. With nc = n every number is the one
 // a single normal gives, bit for bit (the same operations on the same values).
-BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l,
-                              vec3 v) {
+BrdfFactors clearcoat_factors(ShadingPoint sp, vec3 l) {
+    ModelParams p = sp.params;
+    vec3 nc = sp.nc;
+    vec3 v = sp.v;
     float NoL, NoV;
     vec3 h;
     shading_cosines(nc, l, v, NoL, NoV, h);   // the coat's cosines
@@ -406,8 +453,7 @@ BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t,
         v_base = clearcoat_refract_in(eta_c, nc, v);
         compression = clearcoat_solid_angle_compression(eta_c);
     }
-    BrdfFactors b = base_brdf_factors(clearcoat_base_surface(s, p), clearcoat_base_params(p),
-                                      n, t, l_base, v_base);
+    BrdfFactors b = base_brdf_factors(clearcoat_base_point(sp, v_base), l_base);
     float T = T_clearcoat_filament(c, F0c, NoL, NoV);
     vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
                                                      NoV), c);
@@ -423,11 +469,11 @@ BrdfFactors clearcoat_factors(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t,
 
 // The factors of the material's BRDF: the base's, or, with a clear coat, the coated ones
 // with the coat's normal nc (n where the coat has no normal of its own: docs/layered.md).
-BrdfFactors brdf_factors(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l, vec3 v) {
+BrdfFactors brdf_factors(ShadingPoint sp, vec3 l) {
 #if CLEARCOAT_ON
-    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) return clearcoat_factors(s, p, n, nc, t, l, v);
+    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) return clearcoat_factors(sp, l);
 #endif
-    return base_brdf_factors(s, p, n, t, l, v);
+    return base_brdf_factors(sp, l);
 }
 
 // The reflections BRDF_TERMS keeps of the base's lobes (the coat's is surface reflection).
@@ -441,12 +487,12 @@ vec3 selected_terms(vec3 f_diffuse, vec3 f_surface) {
 #endif
 }
 
-// f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit n, l, v,
-// the coat's normal nc (unused without a coat) and the tangent t; zero for lights below the
-// surface (brdf_factors for the clamps).
-vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l, vec3 v) {
-    if (dot(n, l) <= 0.0) return vec3(0.0);
-    BrdfFactors b = brdf_factors(s, p, n, nc, t, l, v);
+// f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit l and the
+// point's unit n, v, the coat's normal nc (unused without a coat) and the tangent t; zero
+// for lights below the surface (brdf_factors for the clamps).
+vec3 brdf_eval(ShadingPoint sp, vec3 l) {
+    if (dot(sp.n, l) <= 0.0) return vec3(0.0);
+    BrdfFactors b = brdf_factors(sp, l);
     return selected_terms(b.f_diffuse, surface_reflection(b));
 }
 
@@ -458,12 +504,11 @@ vec3 brdf_eval(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l, vec3 v
 // coat's normal "affects the top layer, but not the base". Zero where the light is below
 // both. Each term is selected, not multiplied by 0: a lobe at a direction below its
 // layer's horizon is evaluated with clamped cosines and never reaches the sum.
-vec3 brdf_eval_layered_cos(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l,
-                           vec3 v) {
-    float NoL = dot(n, l);
-    float NoLc = dot(nc, l);
+vec3 brdf_eval_layered_cos(ShadingPoint sp, vec3 l) {
+    float NoL = dot(sp.n, l);
+    float NoLc = dot(sp.nc, l);
     if (NoL <= 0.0 && NoLc <= 0.0) return vec3(0.0);
-    BrdfFactors b = brdf_factors(s, p, n, nc, t, l, v);
+    BrdfFactors b = brdf_factors(sp, l);
     vec3 base = selected_terms(b.f_diffuse, b.f_spec);
     float coat = (BRDF_TERMS & TERM_SPECULAR) != 0 ? b.f_coat : 0.0;
     vec3 result = NoL > 0.0 ? base * NoL : vec3(0.0);

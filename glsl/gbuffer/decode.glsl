@@ -1,5 +1,6 @@
-// Reading one pixel of the G-buffer (gbuffer/layout.glsl) back as the inputs of
-// light_contribution: the surface, its model's numbers, the shading frame and the position.
+// Reading one pixel of the G-buffer (gbuffer/layout.glsl) back as the ShadingPoint
+// (brdf/material.glsl) light_contribution takes: the surface, its model's numbers, the
+// shading frame, the view and the position.
 // The lighting pass and the bench's floor pass both call decode_gbuffer, so both shade the
 // very same values. Twin: app/reference/illumination.py decode_gbuffer.
 #ifndef PBS_GBUFFER_DECODE_GLSL
@@ -13,18 +14,6 @@
 
 // uniform sampler2D g_<target>; of every target present (gbuffer/layout.glsl)
 GBUFFER_SAMPLERS
-
-// A decoded G-buffer pixel.
-struct GBufferPixel {
-    Surface s;            // sanitised
-    ModelParams params;   // the material's row of the table
-    vec3 t;               // tangent as stored; brdf_eval orthonormalises it against n
-    vec3 p;               // world position
-    vec3 v;               // unit, from p towards the camera
-    vec3 n;               // unit shading normal, sanitised (v where it was lost)
-    vec3 nc;              // unit clear-coat normal, sanitised (n where it was lost); n
-                          // itself without RT4
-};
 
 // RT0 and RT1 of pixel px as the G-buffer pass wrote them, before the unorm mapping and
 // sanitising: (base colour, metallic) and (octahedral normal, perceptual roughness, F0).
@@ -47,8 +36,9 @@ void fetch_surface(ivec2 px, sampler2D materials, int material_id, out vec4 a, o
 // material table `materials` (brdf/model.glsl) and the camera. Discards the fragment, so
 // that the cleared background stays, where nothing was drawn (or the depth is not finite);
 // with MODEL_GROUP, also where the pixel's material belongs to another model group. Under
-// UBER_MODELS it sets the model codes of the pixel's material.
-GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_pos,
+// UBER_MODELS it sets the model codes of the pixel's material. The point's nc is the
+// decoded RT4 normal, sanitised (n where it was lost), or n itself without RT4.
+ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_pos,
                             mat3 camera_to_world, vec2 tan_half_fov) {
     ivec2 px = ivec2(frag_coord);
     vec2 depth_id = texelFetch(g_depth, px, 0).rg;
@@ -98,7 +88,7 @@ GBufferPixel decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
 #else
     vec3 nc = n;   // no coat has a normal of its own: the coat shades with n
 #endif
-    return GBufferPixel(s, params, t, p, v, n, nc);
+    return ShadingPoint(s, params, n, nc, t, v, p);
 }
 
 #if GBUFFER_EMISSION

@@ -97,20 +97,20 @@ vec3 environment_local_view(mat3 frame, vec3 v) {
     return normalize(local);
 }
 
-// g(l) = f(l, v) (n.l)+ as the lights take it (lights/illumination.glsl: brdf_eval, or
-// with a coat normal of its own, GBUFFER_COAT_NORMAL, each layer with its own cosine, as
-// brdf_eval_layered_cos), apart: the subsurface lobe's part d and the surface reflection's
-// part r (RTR4 sec. 9.1), each as selected_terms keeps it; d + r is brdf_eval (n.l)+.
-void environment_integrand(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 l,
-                           vec3 v, out vec3 d, out vec3 r) {
+// g(l) = f(l, v) (n.l)+ at the point sp as the lights take it (lights/illumination.glsl:
+// brdf_eval, or with a coat normal of its own, GBUFFER_COAT_NORMAL, each layer with its
+// own cosine, as brdf_eval_layered_cos), apart: the subsurface lobe's part d and the
+// surface reflection's part r (RTR4 sec. 9.1), each as selected_terms keeps it; d + r is
+// brdf_eval (n.l)+.
+void environment_integrand(ShadingPoint sp, vec3 l, out vec3 d, out vec3 r) {
     d = vec3(0.0);
     r = vec3(0.0);
-    float NoL = dot(n, l);
+    float NoL = dot(sp.n, l);
 #if GBUFFER_COAT_NORMAL && CLEARCOAT_ON
     if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {
-        float NoLc = dot(nc, l);
+        float NoLc = dot(sp.nc, l);
         if (NoL <= 0.0 && NoLc <= 0.0) return;
-        BrdfFactors b = brdf_factors(s, p, n, nc, t, l, v);
+        BrdfFactors b = brdf_factors(sp, l);
         if (NoL > 0.0) {
             d = selected_terms(b.f_diffuse, vec3(0.0)) * NoL;
             r = selected_terms(vec3(0.0), b.f_spec) * NoL;
@@ -121,16 +121,21 @@ void environment_integrand(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, ve
     }
 #endif
     if (NoL <= 0.0) return;
-    BrdfFactors b = brdf_factors(s, p, n, nc, t, l, v);
+    BrdfFactors b = brdf_factors(sp, l);
     d = selected_terms(b.f_diffuse, vec3(0.0)) * NoL;
     r = selected_terms(vec3(0.0), surface_reflection(b)) * NoL;
 }
 
-// R(v) of the pixel's BRDF by `count` directions in all (count / strategies each): the
+// R(v) of the point's BRDF by `count` directions in all (count / strategies each): the
 // subsurface lobe by the cosine directions alone (exact for Lambert), the surface
 // reflection by every strategy with the balance heuristic.
-vec3 uniform_environment_albedo(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t, vec3 v,
-                                int count) {
+vec3 uniform_environment_albedo(ShadingPoint sp, int count) {
+    Surface s = sp.s;
+    ModelParams p = sp.params;
+    vec3 n = sp.n;
+    vec3 nc = sp.nc;
+    vec3 t = sp.t;
+    vec3 v = sp.v;
     bool anisotropic = ANISOTROPIC != 0 && s.anisotropy != 0.0;
     float alpha = material_alpha(s);
     float alpha_min = MIN_PERCEPTUAL_ROUGHNESS * MIN_PERCEPTUAL_ROUGHNESS;
@@ -167,7 +172,7 @@ vec3 uniform_environment_albedo(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 
 #endif
             }
             vec3 d, r;
-            environment_integrand(s, p, n, nc, t, l, v, d, r);
+            environment_integrand(sp, l, d, r);
             vec3 l_local = l * frame;
             float pdf_cos = max(l_local.z, 0.0) * INV_PI;
             if (max(r.r, max(r.g, r.b)) > 0.0) {
@@ -189,9 +194,8 @@ uniform vec3 u_env_radiance;   // the environment's radiance L (linear RGB)
 // L R(v): the uniform environment's light reflected towards v, added once per pixel by
 // the lighting pass (and the blend pass) where ENVIRONMENT_UNIFORM, with
 // ENV_UNIFORM_SAMPLES directions (the scene's environment.samples).
-vec3 uniform_environment_radiance(Surface s, ModelParams p, vec3 n, vec3 nc, vec3 t,
-                                  vec3 v) {
-    return u_env_radiance * uniform_environment_albedo(s, p, n, nc, t, v, ENV_UNIFORM_SAMPLES);
+vec3 uniform_environment_radiance(ShadingPoint sp) {
+    return u_env_radiance * uniform_environment_albedo(sp, ENV_UNIFORM_SAMPLES);
 }
 #endif
 

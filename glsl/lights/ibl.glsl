@@ -95,7 +95,12 @@ vec3 anisotropic_bent_normal(vec3 n, vec3 t, vec3 v, float anisotropy, float alp
     return normalize(mix(n, towards_v, bend));
 }
 
-vec3 ibl_radiance(Surface s, vec3 n, vec3 t, vec3 v) {
+// The split sum at the point sp (its surface, n, t and v; the standard model's terms).
+vec3 ibl_radiance(ShadingPoint sp) {
+    Surface s = sp.s;
+    vec3 n = sp.n;
+    vec3 t = sp.t;
+    vec3 v = sp.v;
     float NoV = clamp(dot(n, v), MIN_N_DOT_V, 1.0);
     float r = clamp(s.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
     vec3 nb = n;

@@ -28,48 +28,45 @@ uniform vec4 u_light_vec[3 * LIGHT_UNIFORMS];
 #define READ_LIGHT(lights, i) fetch_light(lights, i)
 #endif
 
-// f(l, v) c_light (n.l)+ of a light that sends c_light along l (towards it) to p (light i:
-// its shadow map's index); nc is the clear coat's normal (n where the coat has none of
-// its own). With GBUFFER_COAT_NORMAL (a coat of the scene has a normal other than its
-// base's: gbuffer/layout.glsl) a coated material's layers take their own cosines
+// f(l, v) c_light (n.l)+ of a light that sends c_light along l (towards it) to the point
+// sp (light i: its shadow map's index); sp.nc is the clear coat's normal (n where the coat
+// has none of its own). With GBUFFER_COAT_NORMAL (a coat of the scene has a normal other
+// than its base's: gbuffer/layout.glsl) a coated material's layers take their own cosines
 // (brdf_eval_layered_cos in brdf/material.glsl).
-vec3 light_term_at(vec3 c_light, vec3 l, int i, Surface s, ModelParams params, vec3 n,
-                   vec3 nc, vec3 t, vec3 p, vec3 v) {
+vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp) {
 #if SHADOWS
-    c_light *= shadow_visibility(i, p, n, l);   // a shadowed light (lights/shadows.glsl)
+    // a shadowed light (lights/shadows.glsl)
+    c_light *= shadow_visibility(i, sp.position, sp.n, l);
 #endif
 #if GBUFFER_COAT_NORMAL && CLEARCOAT_ON
     if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {
-        return brdf_eval_layered_cos(s, params, n, nc, t, l, v) * c_light;
+        return brdf_eval_layered_cos(sp, l) * c_light;
     }
 #endif
-    float NoL = dot(n, l);
+    float NoL = dot(sp.n, l);
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
-    return brdf_eval(s, params, n, nc, t, l, v) * c_light * NoL;
+    return brdf_eval(sp, l) * c_light * NoL;
 }
 
-// The term of `light` at p, wherever the light was read from (light_contribution below:
+// The term of `light` at sp, wherever the light was read from (light_contribution below:
 // the light texture or the uniform array; the bench's limit pass: its own form).
-vec3 light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 n, vec3 nc,
-                vec3 t, vec3 p, vec3 v) {
+vec3 light_term(PunctualLight light, int i, ShadingPoint sp) {
     vec3 l;
-    vec3 c_light = light_at(light, p, l);
-    return light_term_at(c_light, l, i, s, params, n, nc, t, p, v);
+    vec3 c_light = light_at(light, sp.position, l);
+    return light_term_at(c_light, l, i, sp);
 }
 
 // light_term of a light known to be a point or spot light (local_light_at): the same
 // float32 operations for it, without the test for a directional light.
-vec3 local_light_term(PunctualLight light, int i, Surface s, ModelParams params, vec3 n,
-                      vec3 nc, vec3 t, vec3 p, vec3 v) {
+vec3 local_light_term(PunctualLight light, int i, ShadingPoint sp) {
     vec3 l;
-    vec3 c_light = local_light_at(light, p, l);
-    return light_term_at(c_light, l, i, s, params, n, nc, t, p, v);
+    vec3 c_light = local_light_at(light, sp.position, l);
+    return light_term_at(c_light, l, i, sp);
 }
 
 // light_term of light i of the light texture (or, with LIGHT_UNIFORMS, the uniform array).
-vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, vec3 n,
-                        vec3 nc, vec3 t, vec3 p, vec3 v) {
-    return light_term(READ_LIGHT(lights, i), i, s, params, n, nc, t, p, v);
+vec3 light_contribution(sampler2D lights, int i, ShadingPoint sp) {
+    return light_term(READ_LIGHT(lights, i), i, sp);
 }
 
 #ifdef TILE_QUADS
@@ -91,8 +88,7 @@ vec3 light_contribution(sampler2D lights, int i, Surface s, ModelParams params, 
 // rasteriser leave both loops together (docs/performance.md, "Second part: the light
 // loop", measures it against one flat loop).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
-                       bool local_only, Surface s, ModelParams params, vec3 n, vec3 nc,
-                       vec3 t, vec3 p, vec3 v) {
+                       bool local_only, ShadingPoint sp) {
     int chunk = 0;
     do {  // chunks of 1024 lights: one for up to 1024 lights
         TileMask mask = load_tile_mask(masks, cell, chunk);
@@ -108,9 +104,9 @@ vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, 
                 bits &= bits - 1u;                // clear that bit
                 int k = word_first + b;
                 if (local_only) {  // a compile-time constant at every call
-                    Lo += local_light_term(READ_LIGHT(lights, k), k, s, params, n, nc, t, p, v);
+                    Lo += local_light_term(READ_LIGHT(lights, k), k, sp);
                 } else {
-                    Lo += light_contribution(lights, k, s, params, n, nc, t, p, v);
+                    Lo += light_contribution(lights, k, sp);
                 }
             } while (bits != 0u);
             next_tile_word(mask, words, w, bits);

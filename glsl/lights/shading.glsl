@@ -31,8 +31,7 @@ uniform int u_first_local;         // lights [0, u_first_local) are directional
 
 // sum_i f(l_i, v) V_i c_light_i (n.l_i)+ over the frame's lights, in ascending light
 // order; with TILED_LIGHTS the local lights of screen tile `tile` only.
-vec3 sum_lights(ivec2 tile, Surface s, ModelParams params, vec3 n, vec3 nc, vec3 t,
-                vec3 p, vec3 v) {
+vec3 sum_lights(ivec2 tile, ShadingPoint sp) {
     vec3 Lo = vec3(0.0);
 #if TILED_LIGHTS
     // Directional lights reach everything; local lights only where their tile's mask
@@ -42,33 +41,32 @@ vec3 sum_lights(ivec2 tile, Surface s, ModelParams params, vec3 n, vec3 nc, vec3
 #if DIRECTIONAL_LIGHTS
     int i = 0;
     do {
-        Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);
+        Lo += light_contribution(u_lights, i, sp);
     } while (++i < u_first_local);
 #endif
-    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, true, s, params,
-                           n, nc, t, p, v);   // the masks hold local lights only
+    // the masks hold local lights only
+    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, true, sp);
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above
-        Lo += light_contribution(u_lights, i, s, params, n, nc, t, p, v);
+        Lo += light_contribution(u_lights, i, sp);
     } while (++i < u_light_count);
 #endif
     return Lo;
 }
 
-// L_o(v) of the surface at p: the lights' sum, then the environment's light, then the
+// L_o(v) of the point sp: the lights' sum, then the environment's light, then the
 // emission (emission.rgb; emission.a is the occlusion map's ao), each compiled in only
 // where the frame has it, so that a scene without one compiles as before it existed.
-vec3 surface_radiance(ivec2 tile, vec4 emission, Surface s, ModelParams params, vec3 n,
-                      vec3 nc, vec3 t, vec3 p, vec3 v) {
+vec3 surface_radiance(ivec2 tile, vec4 emission, ShadingPoint sp) {
     float ao = emission.a;
-    vec3 L = PI * sum_lights(tile, s, params, n, nc, t, p, v);
+    vec3 L = PI * sum_lights(tile, sp);
 #if ENVIRONMENT_IBL
     // The split sum (lights/ibl.glsl), once per point; the occlusion map darkens it.
-    L += AMBIENT_OCCLUSION * ibl_radiance(s, n, t, v);
+    L += AMBIENT_OCCLUSION * ibl_radiance(sp);
 #elif ENVIRONMENT_UNIFORM
     // A uniform radiance's quadrature (lights/environment_uniform.glsl), once per point.
-    L += AMBIENT_OCCLUSION * uniform_environment_radiance(s, params, n, nc, t, v);
+    L += AMBIENT_OCCLUSION * uniform_environment_radiance(sp);
 #endif
 #if GBUFFER_EMISSION
     L += emission.rgb;   // emitted radiance, after the sum (RTR4 sec. 9.4's L_o plus L_e)

@@ -54,8 +54,8 @@ void main() {
     frag_color = vec4(vec3(float(count)), 1.0);
 #else
     // Discards the background (and, with MODEL_GROUP, the other groups' pixels).
-    GBufferPixel g = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
-                                    u_camera_to_world, u_tan_half_fov);
+    ShadingPoint sp = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
+                                     u_camera_to_world, u_tan_half_fov);
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec3 value = vec3(0.0);
     vec4 a, b;   // RT0 and RT1 as stored, before sanitising
@@ -63,7 +63,7 @@ void main() {
 #if DEBUG_VIEW == DEBUG_BASE_COLOR
     value = a.rgb;
 #elif DEBUG_VIEW == DEBUG_NORMAL
-    value = g.n;                                        // the unit world normal shaded
+    value = sp.n;                                       // the unit world normal shaded
 #elif DEBUG_VIEW == DEBUG_ROUGHNESS
     value = vec3(b.b);                                  // perceptual roughness
 #elif DEBUG_VIEW == DEBUG_METALLIC
@@ -75,7 +75,7 @@ void main() {
 #elif DEBUG_VIEW == DEBUG_MATERIAL_ID
     value = vec3(texelFetch(g_depth, px, 0).g);         // the material table's row
 #elif DEBUG_VIEW == DEBUG_COAT_NORMAL
-    value = g.nc;                                       // the unit clear-coat normal shaded
+    value = sp.nc;                                      // the unit clear-coat normal shaded
 #elif DEBUG_VIEW == DEBUG_EMISSION
 #if GBUFFER_EMISSION
     value = decode_emission(gl_FragCoord.xy).rgb;       // emitted radiance (RT5)
@@ -88,15 +88,14 @@ void main() {
 #endif
 #elif DEBUG_VIEW == DEBUG_LIGHT
     // The very term the lighting pass adds for this light, times pi.
-    value = PI * light_contribution(u_lights, u_light, g.s, g.params, g.n, g.nc, g.t, g.p,
-                                    g.v);
+    value = PI * light_contribution(u_lights, u_light, sp);
 #else
     // F, D, G2, f_spec or f_diffuse of light u_light; 0 where the light is below the
     // surface, as brdf_eval returns there.
     vec3 l;
-    light_at(fetch_light(u_lights, u_light), g.p, l);
-    if (dot(g.n, l) > 0.0) {
-        BrdfFactors b = brdf_factors(g.s, g.params, g.n, g.nc, g.t, l, g.v);
+    light_at(fetch_light(u_lights, u_light), sp.position, l);
+    if (dot(sp.n, l) > 0.0) {
+        BrdfFactors b = brdf_factors(sp, l);
 #if DEBUG_VIEW == DEBUG_FRESNEL
         value = b.F;
 #elif DEBUG_VIEW == DEBUG_NDF

@@ -21,11 +21,10 @@ out vec4 frag_color;
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     // The lighting pass's decoding, sanitising included (docs/stability.md).
-    GBufferPixel g = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
-                                    u_camera_to_world, u_tan_half_fov);
+    ShadingPoint sp = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
+                                     u_camera_to_world, u_tan_half_fov);
     // FLOOR_LOCAL_ONLY: the scene has no directional light (app/bench/floor.py).
     vec3 Lo = add_masked_lights(vec3(0.0), u_pixel_masks, px, u_lights, 0,
-                                FLOOR_LOCAL_ONLY != 0, g.s, g.params, g.n, g.nc, g.t, g.p,
-                                g.v);
+                                FLOOR_LOCAL_ONLY != 0, sp);
     frag_color = vec4(PI * Lo, 1.0);
 }

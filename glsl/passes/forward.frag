@@ -92,13 +92,13 @@ void main() {
 #else
     vec3 nc = n;
 #endif
+    ShadingPoint sp = ShadingPoint(s, params, n, nc, t, v, p);
 #if ALPHA_BLEND
     // C_src of "over": the lighting pass's radiance (lights/shading.glsl: the sum with
     // shadows, the environment's light, emission); the blend unit computes
     // alpha C_src + (1 - alpha) C_dst.
-    frag_color = vec4(surface_radiance(ivec2(0), emission, s, params, n, nc, t, p, v), alpha);
+    frag_color = vec4(surface_radiance(ivec2(0), emission, sp), alpha);
 #else
-    frag_color = vec4(surface_radiance(ivec2(0), vec4(0.0, 0.0, 0.0, 1.0), s, params, n, nc, t,
-                                       p, v), 1.0);
+    frag_color = vec4(surface_radiance(ivec2(0), vec4(0.0, 0.0, 0.0, 1.0), sp), 1.0);
 #endif
 }

@@ -28,8 +28,8 @@ out vec4 frag_color;
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     // Discards the background (and, with MODEL_GROUP, the other groups' pixels).
-    GBufferPixel g = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
-                                    u_camera_to_world, u_tan_half_fov);
+    ShadingPoint sp = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
+                                     u_camera_to_world, u_tan_half_fov);
 #if GBUFFER_EMISSION
     vec4 emission = decode_emission(gl_FragCoord.xy);   // rgb emitted, a occlusion
 #else
@@ -40,7 +40,7 @@ void main() {
 #else
     ivec2 tile = px;
 #endif
-    vec3 L = surface_radiance(tile, emission, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+    vec3 L = surface_radiance(tile, emission, sp);
 #if DISPLAY_OUT
     frag_color = vec4(srgb_encode(tonemap_selected(L * u_exposure)), 1.0);
 #else

@@ -37,8 +37,8 @@ out vec4 frag_color;
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    GBufferPixel g = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
-                                    u_camera_to_world, u_tan_half_fov);
+    ShadingPoint sp = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
+                                     u_camera_to_world, u_tan_half_fov);
     uvec4 words[LIMIT_TEXELS];
     for (int k = 0; k < LIMIT_TEXELS; ++k) {
         words[k] = texelFetch(u_pixel_lights, ivec2(px.x * LIMIT_TEXELS + k, px.y), 0);
@@ -48,9 +48,9 @@ void main() {
         uint word = words[j / 8][(j / 2) % 4];
         int i = int((word >> uint(16 * (j % 2))) & 0xFFFFu);
 #if LIMIT_LOCAL_ONLY  // no directional light: the culled pass's local_light_term
-        Lo += local_light_term(LIMIT_LIGHT(i), i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+        Lo += local_light_term(LIMIT_LIGHT(i), i, sp);
 #else
-        Lo += light_term(LIMIT_LIGHT(i), i, g.s, g.params, g.n, g.nc, g.t, g.p, g.v);
+        Lo += light_term(LIMIT_LIGHT(i), i, sp);
 #endif
     }
     frag_color = vec4(PI * Lo, 1.0);
