@@ -4,6 +4,8 @@ frame to the 8-bit image. No test here asserts a time."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from app.bench.context import TINY, Context
@@ -51,7 +53,7 @@ def test_frame_passes_draw_the_renderers_frame(gl_egl):
         r.render()
         expected = r.read_ldr()
         for fuse in (True, False):
-            r.fuse_post = fuse
+            r.set_options(dataclasses.replace(r.options, fuse_post=fuse))
             r.post.fbo.clear(0.0, 0.0, 0.0, 1.0)
             passes = pbs_frame_passes(r)
             names.append([p.name for p in passes])

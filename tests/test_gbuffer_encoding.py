@@ -149,18 +149,18 @@ def test_flushing_in_runs_draws_the_same_targets(gl_egl, monkeypatch) -> None:
     80 triangles, is drawn in three runs)."""
     import app.render.gbuffer as gbuffer_module
     from app.bench.scenes import load, many_lights_scene
-    from app.render.renderer import Renderer
+    from app.render.renderer import Renderer, RenderOptions
 
     size = (96, 54)
     data = many_lights_scene(4, 12.0, size)
     r = Renderer(gl_egl, load(data), size)
     try:
         assert max(len(d.part.indices) // 3 for d in r.gbuffer_pass.drawables) > 60
-        r.gbuffer_pass.flush_triangles = 0  # one draw per part, no flush in between
+        r.set_options(RenderOptions(flush_triangles=0))  # one draw per part, no flush between
         r.render()
         whole, whole_image = r.read_gbuffer(), r.read_hdr()
         monkeypatch.setattr(gbuffer_module, "DRAW_RUN", 30)
-        r.gbuffer_pass.flush_triangles = 30
+        r.set_options(RenderOptions(flush_triangles=30))
         r.render()
         runs, runs_image = r.read_gbuffer(), r.read_hdr()
     finally:
@@ -207,7 +207,7 @@ def test_the_fused_display_image_is_the_post_pass_image(gl_egl, tonemap: str, ev
     image is the unfused frame's, to the bit."""
     from app.bench.scenes import load
     from app.bench.spheres import sphere_grid_scene
-    from app.render.renderer import Renderer
+    from app.render.renderer import Renderer, RenderOptions
 
     size = (96, 54)
     data = sphere_grid_scene(2, size)
@@ -224,7 +224,7 @@ def test_the_fused_display_image_is_the_post_pass_image(gl_egl, tonemap: str, ev
         hdr = r.read_hdr()  # the HDR lighting pass, run now
         r.post.run(r.hdr_texture, ev)  # every pixel through the post pass
         every = r.read_ldr()
-        r.fuse_post = False
+        r.set_options(RenderOptions(fuse_post=False))
         r.render()
         unfused_hdr, unfused = r.read_hdr(), r.read_ldr()
     finally:
@@ -237,26 +237,30 @@ def test_the_fused_display_image_is_the_post_pass_image(gl_egl, tonemap: str, ev
     assert background.tolist() != [0, 0, 0] and (every != background).any(axis=-1).mean() > 0.1
 
 
-def test_reading_the_hdr_image_every_frame_draws_it_with_the_frame(gl_egl) -> None:
-    """After a frame whose HDR image was read, the next frame draws the HDR image and runs
-    the post pass (one lighting pass, not a fused one and then the HDR one on demand);
-    a frame after one whose HDR image nobody read is fused again. Same bytes each way."""
+def test_frames_draw_the_hdr_image_where_it_is_wanted(gl_egl) -> None:
+    """``want_hdr(True)``: every frame draws the HDR image and runs the post pass (one
+    lighting pass for a caller that reads both images of every frame); ``want_hdr(False)``
+    (the default): a plain frame is fused and draws no HDR image, which ``read_hdr`` then
+    draws with the frame's camera. Reading it sets no state: the next frame draws what was
+    asked. Same bytes each way, HDR and display."""
     from app.bench.scenes import load
     from app.bench.spheres import sphere_grid_scene
     from app.render.renderer import Renderer
 
     size = (96, 54)
     r = Renderer(gl_egl, load(sphere_grid_scene(1, size)), size)
-    drawn, images = [], []
+    drawn, images, hdrs = [], [], []
     try:
-        for read_hdr in (True, True, False, False):
+        for wanted in (True, True, False, False):
+            r.want_hdr(wanted)
             r.lighting.fbo.clear(7.0, 7.0, 7.0, 1.0)
             r.render()
-            drawn.append(bool((r.lighting.read() != 7.0).any()))  # the frame drew HDR
+            drawn.append((r.hdr_drawn, bool((r.lighting.read() != 7.0).any())))
             images.append(r.read_ldr())
-            if read_hdr:
-                r.read_hdr()
+            hdrs.append(r.read_hdr())
+            assert r.hdr_drawn
     finally:
         r.release()
-    assert drawn == [False, True, True, False]
+    assert drawn == [(True, True), (True, True), (False, False), (False, False)]
     assert all(np.array_equal(image, images[0]) for image in images)
+    assert all(np.array_equal(hdr, hdrs[0]) for hdr in hdrs)

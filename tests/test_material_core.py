@@ -52,7 +52,7 @@ def render(gl: GLContext, data: dict, tmp_path: Path, wrap: tuple[str, str] | No
     try:
         if wrap is not None:
             r.frame.parts[0].layers[0].maps["base_color"].wrap = wrap
-            r._build_gbuffer_pass()  # upload the map again with its new sampler state
+            r.invalidate("gbuffer_pass")  # upload the map again with its new sampler state
         r.render()
         g = r.read_gbuffer()
         ref = shade_gbuffer(
@@ -208,7 +208,7 @@ def render_part(gl: GLContext, data: dict, tmp_path: Path, edit) -> tuple:
         edit(part, part.layers[0])
         table, ids = material_table(r.frame.parts)
         r.frame = dataclasses.replace(r.frame, materials=table, material_ids=ids)
-        r._build_targets()
+        r.invalidate("gbuffer_pass")  # the part's buffers; the keys see the new table
         r.render()
         return r.read_hdr().astype(np.float64), r.read_gbuffer()
     finally:

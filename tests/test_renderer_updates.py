@@ -94,6 +94,30 @@ def _settings(d: dict) -> None:
     d["render"].update(tonemap="aces", terms="specular", gbuffer="f32", light_culling="none")
 
 
+def _tonemap(d: dict) -> None:
+    d["render"]["tonemap"] = "reinhard"
+
+
+def _terms(d: dict) -> None:
+    d["render"]["terms"] = "diffuse"
+
+
+def _encoding(d: dict) -> None:
+    d["render"]["gbuffer"] = "f16"  # new targets, and no constant surfaces
+
+
+def _specular_aa(d: dict) -> None:
+    d["render"].update(specular_aa=True, specular_aa_variance=2.0)
+
+
+def _lens(d: dict) -> None:
+    d["camera"].update(aperture=0.2, focus_distance=3.0)  # the lens alone
+
+
+def _material_blended(d: dict) -> None:
+    d["materials"]["ball"].update(alpha=0.4, alpha_mode="blend")  # the blend pass comes
+
+
 def _supersample(d: dict) -> None:
     d["render"]["supersample"] = 2
 
@@ -111,6 +135,12 @@ EDITS = {
     "material models": _materials_models,
     "material values": _materials_values,
     "settings": _settings,
+    "tonemap": _tonemap,
+    "terms": _terms,
+    "gbuffer encoding": _encoding,
+    "specular aa": _specular_aa,
+    "lens": _lens,
+    "material blended": _material_blended,
     "supersample": _supersample,
     "background": _background,
 }
@@ -125,6 +155,24 @@ def test_update_renders_what_a_fresh_renderer_renders(gl_egl, base: LoadedScene,
     assert_same(got, want)
     # The edit shows: the image differs from the base scene's (the test can fail).
     assert not np.array_equal(before[0], got[0]) or not np.array_equal(before[1], got[1])
+
+
+# Edits the image does not show (the same image either way, by design), which must still
+# leave every pass as a fresh renderer's: tiled culling on (a culler comes, the lighting
+# pass binds it), normal-map filtering in a scene without normal maps (new parts).
+UNSEEN = {
+    "light culling": lambda d: d["render"].update(light_culling="tiled"),
+    "normal filter": lambda d: d["render"].update(normal_filter="naive"),
+}
+
+
+@pytest.mark.parametrize("name", list(UNSEEN))
+def test_an_edit_the_image_does_not_show(gl_egl, base: LoadedScene, name: str):
+    """``update(scene)`` with an edit that changes passes but not the image: the fresh
+    renderer's image, bit for bit."""
+    target = edited(base, UNSEEN[name])
+    _, got = updated_images(gl_egl, base, target)
+    assert_same(got, fresh_images(gl_egl, target))
 
 
 def test_each_setter_matches_a_fresh_renderer(gl_egl, base: LoadedScene):

@@ -327,6 +327,8 @@ class Comparison:
                 current.release()
             current = ComparePass(self.gl.ctx, self.shaders, self.size, mode, tonemap)
             self._passes[mode] = current
+        for renderer in self.renderers:  # the next frames draw what this mode reads
+            renderer.want_hdr(mode != "split")
         if mode == "split":
             current.run_split(a.display_texture, b.display_texture, divider)
         else:

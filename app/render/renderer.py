@@ -2,10 +2,20 @@
 (alpha-blended parts only, app/render/blend.py) -> post.
 
 ``Renderer`` owns the GPU objects of one scene at one size; ``render()`` runs the passes,
-and the ``read_*`` methods bring each stage's result back for output and tests. A renderer
-can change without being rebuilt: ``set_camera``, ``set_lights``, ``set_materials``,
-``set_settings``, ``resize`` (and ``update``, which takes a whole edited scene and calls
-whichever of them the edit needs) rebuild only the passes that depend on what changed.
+and the ``read_*`` methods bring each stage's result back for output and tests.
+
+A renderer changes without being rebuilt, as a scheduler: every object it builds (the
+G-buffer's targets, the G-buffer pass, the culler, the environment's light, the shadow
+maps, the lighting and blend passes, the environment background, depth of field, the
+resolve, post and the camera's matrices) is declared once in ``SCHEDULE`` with a key, a
+hashable value computed from exactly the inputs it is built from (scene, frame data,
+render settings, ``RenderOptions``, size), a build function, and the built objects it uses
+(``needs``). ``set_camera``, ``set_lights``, ``set_materials``, ``set_settings``,
+``set_options``, ``resize`` and ``update`` (an edited scene) change the inputs, then
+``_change`` recomputes every key and builds again exactly the objects whose key changed
+and those that need a rebuilt one, in the order of ``SCHEDULE``, releasing the old ones;
+``builds`` counts the builds per object (tests/test_renderer_schedule.py).
+
 Programs come from one ``ShaderCache`` that lives as long as the renderer, so a change
 compiles only a model combination it has never seen; renderers of the same context may
 share one cache (a comparison's two sides, app/render/compare.py), whose owner releases it.
@@ -15,14 +25,17 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections import Counter
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
+from functools import cached_property
 
 import moderngl
 import numpy as np
 
+from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
-from app.errors import InputError
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
 from app.frame.lights import environment_texels, frame_lights, uniform_environment
@@ -32,7 +45,7 @@ from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller, check_tile_masks, tiles_used
-from app.render.gbuffer import GBuffer, GBufferPass
+from app.render.gbuffer import FLUSH_TRIANGLES, GBuffer, GBufferPass
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.inputs import ShadingContext, shading_context
 from app.render.lighting import LightingPass
@@ -40,33 +53,123 @@ from app.render.limits import check_memory, check_render_size, target_bytes_per_
 from app.render.mesh_drawable import masked, rotated
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
+from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
 
 
 @dataclass(frozen=True)
 class RenderOptions:
-    """Pipeline variants that are not scene keys, for the bench and its tests.
+    """The pipeline's variants that are not scene keys: the bench's "before" and its
+    alternatives, and the tests' references. The renderer reads them only through the
+    keys of ``SCHEDULE`` (and the frame's plan, ``fused_display``), so changing one
+    (``Renderer.set_options``) builds again only what it changes.
 
     ``uber``: one lighting program with run-time model selection instead of one per model
     group (the ``specialization`` suite). ``ms_table``: a float32 (n, n, 2) Kulla-Conty table
-    other than the shipped 64 x 64 one (``app.reference.multiscatter.load_table(n)``).
+    other than the shipped 64 x 64 one (``app.reference.multiscatter.load_table(n)``); a key
+    holds the array itself, so a new array is a new table.
     ``light_form``: where the lighting pass reads its lights (app/render/lighting.py
     ``LIGHT_FORMS``); None lets the pass choose from the light count.
     ``constant_surfaces``: False keeps RT0 and RT1's surface numbers in the G-buffer even
     where the material table could give them (the bench's "before", and the tests'
     reference for the same image; docs/gbuffer.md, "Constant surfaces").
+    ``fuse_post``: a plain frame's lighting pass writes the display image (``fused_display``);
+    False: every frame draws the HDR image and runs the post pass on it.
+    ``flush_triangles``: the G-buffer pass flushes once this many triangles were drawn since
+    the last flush (app/render/gbuffer.py FLUSH_TRIANGLES); 0: one flush at the end.
     """
 
     uber: bool = False
-    ms_table: np.ndarray | None = None
+    ms_table: np.ndarray | None = dataclasses.field(default=None, compare=False)
     light_form: str | None = None
     constant_surfaces: bool = True
+    fuse_post: bool = True
+    flush_triangles: int = FLUSH_TRIANGLES
 
 
 def environment_source(env: Environment) -> EnvironmentSource:
     """An image, sky or studio environment's map (cached), rotation and intensity."""
     return EnvironmentSource(environment_texels(env), env.rotation, env.intensity)
+
+
+class Same:
+    """A part of a key that compares by identity: equal only to a ``Same`` of the very same
+    object. It holds the object, so that while a key is kept its object cannot be freed
+    and its id given to a new one. For inputs that are replaced, never edited in place
+    (the frame's parts and lights lists, a surface layer, an ``ms_table`` array)."""
+
+    __slots__ = ("obj",)
+
+    def __init__(self, obj: object) -> None:
+        self.obj = obj
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Same) and other.obj is self.obj
+
+    def __hash__(self) -> int:
+        return id(self.obj)
+
+    def __repr__(self) -> str:
+        return f"Same({type(self.obj).__name__} at {id(self.obj):#x})"
+
+
+class _FrameFacts:
+    """What the keys read from one ``FrameData``, computed once per frame object (a camera
+    move recomputes every key; the frame's parts are not walked again for it). A frame is
+    replaced, never edited in place, by every change the renderer makes (``restyle``
+    replaces layers of the same parts and returns a new ``FrameData``)."""
+
+    def __init__(self, frame: FrameData) -> None:
+        self.frame = frame
+        parts = frame.parts
+        # the parts the G-buffer pass draws and the shadow maps' casters: all but blended
+        self.opaque = tuple(i for i, part in enumerate(parts) if not blended(part))
+        self.blended = tuple(i for i, part in enumerate(parts) if blended(part))
+        # the G-buffer pass compiles a part's alpha test and tangent rotation in or out
+        self.compiled = tuple((masked(parts[i]), rotated(parts[i])) for i in self.opaque)
+        # an alpha-masked caster's coverage shapes its shadow (docs/shadows.md): its layer,
+        # which a material edit replaces (``restyle``)
+        self.masks = tuple((i, Same(parts[i].layers[0])) for i in self.opaque if masked(parts[i]))
+        self.blended_ids = tuple(tuple(frame.material_ids[i]) for i in self.blended)
+
+    @cached_property
+    def table(self) -> Hashable:
+        """The material table's content: what the lighting and blend passes upload and
+        compile from (a material edit that leaves it as it was keeps them)."""
+        t = self.frame.materials
+        return (
+            tuple(t.models), tuple(t.groups), t.packed().tobytes(), t.needs_tangents,
+            t.needs_coat_normals, t.needs_emission, t.constant_surfaces,
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class CameraMatrices:
+    """The camera's view and projection matrices (``size``'s aspect) and the lighting
+    pass's camera frame at ``render_size``."""
+
+    view: np.ndarray
+    proj: np.ndarray
+    frame: CameraFrame
+
+
+@dataclass(frozen=True)
+class Built:
+    """One object the renderer builds: the attribute that holds it (None where the frame
+    has none), its key (``key(renderer)``, a hashable value of exactly the inputs it is
+    built from; None: the frame has no such object), its build function, the built
+    objects it uses (rebuilt with them: ``needs``, all earlier in ``SCHEDULE``), a check
+    that refuses its inputs before anything is released (InputError, app/render/limits.py),
+    and ``refresh``: for a kept object, a key and an in-place update for it (the G-buffer
+    pass's material ids)."""
+
+    name: str
+    key: Callable[[Renderer], Hashable]
+    build: Callable[[Renderer], object]
+    needs: tuple[str, ...] = ()
+    check: Callable[[Renderer], None] | None = None
+    refresh: tuple[Callable[[Renderer], Hashable], Callable[[Renderer], None]] | None = None
 
 
 class _PassClock:
@@ -86,8 +189,26 @@ class _PassClock:
             self.last = now
 
 
+@dataclass
+class _Drawn:
+    """What the last frame drew with the passes as they are: its camera and background
+    (an HDR image completed later uses them, not an edit made since), whether the HDR
+    image exists and whether the lighting pass wrote the display image (fused)."""
+
+    camera: CameraFrame
+    background: np.ndarray
+    hdr: bool
+    display: bool
+
+
 # Render settings whose change needs new mesh parts (their maps' mips and baked blends).
 _PART_SETTINGS = ("normal_filter", "blend")
+
+_UNBUILT = object()  # the old key of an object never built
+
+# Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
+# display image): reading the HDR image then needs a new frame.
+_FRAME_OBJECTS = frozenset({"gbuffer", "lighting", "blend", "dof", "resolve", "post"})
 
 
 class Renderer:
@@ -95,10 +216,11 @@ class Renderer:
 
     With ``render.supersample = n`` every pass before post runs at n x n times the pixels
     (``render_size``) and a resolve box-filters the HDR image down to ``size``. ``size``
-    overrides the scene's render.width and render.height. ``shaders``: a cache of the same
-    context to take programs from (every pass sets its uniforms on each run, so passes of
-    two renderers can use one program); the renderer then leaves its release to the
-    caller, who releases it after every renderer that uses it.
+    overrides the scene's render.width and render.height. ``options``: the pipeline's
+    variants (``RenderOptions``). ``shaders``: a cache of the same context to take
+    programs from (every pass sets its uniforms on each run, so passes of two renderers
+    can use one program); the renderer then leaves its release to the caller, who
+    releases it after every renderer that uses it.
     """
 
     def __init__(
@@ -114,15 +236,17 @@ class Renderer:
         self._owns_shaders = shaders is None
         self.shaders = ShaderCache(gl.ctx) if shaders is None else shaders
         self.loaded = loaded
-        # A plain frame's lighting pass writes the display image (run_lighting); off, every
-        # frame draws the HDR image and runs the post pass on it.
-        self.fuse_post = True
-        # The HDR image was asked for since the last frame / before this frame began: a
-        # caller that reads it every frame gets it drawn with the frame (fused_display).
-        self._hdr_read = self._hdr_wanted = False
         self._size = size
+        self._hdr_wanted = False  # want_hdr: every frame draws the HDR image
+        self._drawn: _Drawn | None = None  # the last frame, until its passes are rebuilt
         self.frame: FrameData = prepare_frame(loaded)
-        self.gbuffer: GBuffer | None = None
+        self._facts: _FrameFacts | None = None
+        # the key each built object was built with; absent: not built (or released)
+        self._keys: dict[str, Hashable] = {}
+        self.builds: Counter[str] = Counter()  # builds per object over the renderer's life
+        self.rebuilt: tuple[str, ...] = ()  # the objects the last change built again
+        self.matrices: CameraMatrices | None = None
+        self.gbuffer: GBuffer | None = None  # the G-buffer's targets
         self.gbuffer_pass: GBufferPass | None = None
         self.blend: BlendPass | None = None  # only where a part is alpha-blended
         self.culler: LightCuller | None = None
@@ -136,7 +260,9 @@ class Renderer:
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
         self.post: PostPass | None = None
-        self._build_targets()
+        self._refreshed: dict[str, Hashable] = {}  # Built.refresh's key per kept object
+        self._restyled: list | None = None  # _change's rollback of a restyle
+        self._change()
 
     # --- what the renderer shows -----------------------------------------------------------
 
@@ -173,42 +299,37 @@ class Renderer:
         factor = self.scene.render.supersample
         return (self.size[0] * factor, self.size[1] * factor)
 
-    # --- building the passes -----------------------------------------------------------------
+    @property
+    def view(self) -> np.ndarray:
+        """World -> view matrix of the current camera."""
+        return self.matrices.view
 
-    def _build_targets(self, resized: bool = False) -> None:
-        """Everything whose size is the image's: the G-buffer and every pass after it.
-        ``resized``: only the image's size changed (``resize``; a width, height or
-        supersample edit), so the G-buffer pass's geometry, the shadow maps and the
-        environment's light and background, which do not depend on it, are kept (the
-        viewer switches between its preview and full size after every input)."""
-        settings = self.scene.render
-        table = self.materials
-        # RefusedError before anything is allocated or released (app/render/limits.py): a
-        # renderer that refuses a resize keeps its old targets.
-        constant = self._constant_surfaces()
-        layout = GBufferLayout.from_defines(settings.gbuffer, table.gbuffer_defines(), constant)
-        per_pixel = target_bytes_per_pixel(layout, self.scene.camera.aperture > 0.0)
-        check_render_size(
-            self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
-            "size" if self._size is not None else "render.width, render.height",
-        )  # fmt: skip
-        w, h = self.render_size
-        check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
-        check_memory(
-            self.frame.parts, self.frame.decoded, w * h * per_pixel,
-            shadow_atlas_bytes(self.scene.lights), self.loaded.policy.limits.max_memory,
-            str(self.loaded.path),
-        )  # fmt: skip
-        self._release(("gbuffer",))
-        self.gbuffer = GBuffer(self.gl.ctx, self.render_size, layout)
-        if resized:
-            self._build_culler()  # its tiles are the image's
-            self._build_shading()
-        else:
-            self._build_gbuffer_pass()
-            self._build_lighting()
-        self._build_post()
-        self._build_camera()
+    @property
+    def proj(self) -> np.ndarray:
+        """View -> clip matrix of the current camera at ``size``'s aspect."""
+        return self.matrices.proj
+
+    @property
+    def camera(self) -> CameraFrame:
+        """The lighting pass's camera frame at ``render_size``."""
+        return self.matrices.frame
+
+    @property
+    def fuse_post(self) -> bool:
+        """``options.fuse_post`` (read-only: change it with ``set_options``)."""
+        return self.options.fuse_post
+
+    @property
+    def keys(self) -> dict[str, Hashable]:
+        """The key each built object was built with (a copy; tests and debugging)."""
+        return dict(self._keys)
+
+    # --- the inputs the keys read ------------------------------------------------------------
+
+    def _frame_facts(self) -> _FrameFacts:
+        if self._facts is None or self._facts.frame is not self.frame:
+            self._facts = _FrameFacts(self.frame)
+        return self._facts
 
     def _constant_surfaces(self) -> bool:
         """Whether the G-buffer leaves the surface numbers to the material table
@@ -224,10 +345,14 @@ class Renderer:
             and not settings.specular_aa
         )
 
-    def _layout(self) -> dict[str, int]:
-        """What decides the G-buffer's targets: their optional ones and constant surfaces.
-        A change of it allocates new targets (``_build_targets``)."""
-        return self.materials.gbuffer_defines() | {"constant": int(self._constant_surfaces())}
+    def _layout(self) -> GBufferLayout:
+        """What decides the G-buffer targets' formats and attachments, and with them the
+        defines of every pass that writes or decodes them (``GBuffer.defines``): the
+        encoding, the optional targets and constant surfaces (frozen: a key)."""
+        defines = self.materials.gbuffer_defines()
+        return GBufferLayout.from_defines(
+            self.scene.render.gbuffer, defines, self._constant_surfaces()
+        )
 
     def _specular_aa(self) -> tuple[float, float] | None:
         settings = self.scene.render
@@ -237,263 +362,421 @@ class Renderer:
 
     def _opaque(self) -> list[int]:
         """Indices of the parts the G-buffer pass draws: all but the blended ones."""
-        return [i for i, part in enumerate(self.frame.parts) if not blended(part)]
+        return list(self._frame_facts().opaque)
 
-    def _build_gbuffer_pass(self) -> None:
-        self._release(("gbuffer_pass",))
+    def _environment_key(self) -> Hashable:
+        """A map environment as its map and light are made from it (``environment_source``:
+        the map's source settings, rotation, intensity), or a uniform one's radiance and
+        directions (``uniform_environment``); not ``background``, which only says whether
+        the map is drawn behind the objects."""
+        env = self.scene.environment
+        if env.source == "uniform":
+            return ("uniform", tuple(env.radiance), env.samples)
+        sun = None if env.sun_direction is None else tuple(env.sun_direction)
+        return (env.source, env.file, sun, env.turbidity, env.rotation, env.intensity)
+
+    # --- keys, checks and builds of each object (SCHEDULE, below the class) ----------------
+
+    def _key_camera(self) -> Hashable:
+        cam = self.scene.camera
+        place = (tuple(cam.position), tuple(cam.target), tuple(cam.up))
+        return (place, cam.fov_y, cam.near, cam.far, self.size, self.render_size)
+
+    def _build_camera(self) -> CameraMatrices:
+        cam = self.scene.camera
+        w, h = self.size
+        return CameraMatrices(
+            view_matrix(cam), projection_matrix(cam, w / h), camera_frame(cam, *self.render_size)
+        )
+
+    def _key_gbuffer(self) -> Hashable:
+        return (self.render_size, self._layout())
+
+    def _check_gbuffer(self) -> None:
+        """RefusedError before anything is allocated or released (app/render/limits.py):
+        a renderer that refuses a size keeps its old targets."""
+        settings = self.scene.render
+        per_pixel = target_bytes_per_pixel(self._layout(), self.scene.camera.aperture > 0.0)
+        check_render_size(
+            self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
+            "size" if self._size is not None else "render.width, render.height",
+        )  # fmt: skip
+        w, h = self.render_size
+        check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
+        check_memory(
+            self.frame.parts, self.frame.decoded, w * h * per_pixel,
+            shadow_atlas_bytes(self.scene.lights), self.loaded.policy.limits.max_memory,
+            str(self.loaded.path),
+        )  # fmt: skip
+
+    def _build_gbuffer(self) -> GBuffer:
+        return GBuffer(self.gl.ctx, self.render_size, self._layout())
+
+    def _key_gbuffer_pass(self) -> Hashable:
+        """The opaque parts' geometry and maps (a new frame's parts), which of them draw
+        (a part turned blended leaves), what each compiles in (alpha test, tangent
+        rotation), specular antialiasing, the targets' layout and the flush variant; not
+        the size (a resize keeps the pass) and not the material ids (``refresh``)."""
+        facts = self._frame_facts()
+        return (
+            Same(self.frame.parts), facts.opaque, facts.compiled, self._specular_aa(),
+            self._layout(), self.options.flush_triangles,
+        )  # fmt: skip
+
+    def _build_gbuffer_pass(self) -> GBufferPass:
         opaque = self._opaque()
-        self.gbuffer_pass = GBufferPass(
+        gbuffer_pass = GBufferPass(
             self.gl.ctx, self.shaders, [self.frame.parts[i] for i in opaque],
             [self.frame.material_ids[i] for i in opaque], self._specular_aa(),
             self.gbuffer.defines(),
         )  # fmt: skip
+        gbuffer_pass.flush_triangles = self.options.flush_triangles
+        return gbuffer_pass
 
-    def _build_blend(self) -> None:
-        """The blend pass, only where a part is alpha-blended (every other scene compiles
-        and renders as before it existed)."""
-        self._release(("blend",))
-        parts, ids = self.frame.parts, self.frame.material_ids
-        chosen = [i for i, part in enumerate(parts) if blended(part)]
-        if chosen:
-            drawables = forward_drawables(
-                self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
-                self.materials, self.scene.render.terms, self._specular_aa(),
-                blend_defines(self.shading),
-            )  # fmt: skip
-            self.blend = BlendPass(self.gl.ctx, drawables, self.shading)
+    def _refresh_key_gbuffer_pass(self) -> Hashable:
+        return Same(self.frame.material_ids)
 
-    def _build_lighting(self) -> None:
-        """The culler (where local lights and tiled culling), the environment's light, the
-        shadow maps, the lighting and blend passes and the environment background."""
-        ctx = self.gl.ctx
-        check_shadow_resolutions(ctx, self.scene.lights, str(self.loaded.path))
-        self._release(("lighting", "ibl"))
+    def _refresh_gbuffer_pass(self) -> None:
+        """A material edit that restyles the parts in place (``app.frame.restyle``) gives
+        them new material ids: the kept pass draws with them."""
+        for drawable, i in zip(self.gbuffer_pass.drawables, self._opaque(), strict=True):
+            drawable.material_ids = self.frame.material_ids[i]
+
+    def _key_ibl(self) -> Hashable:
         env = self.scene.environment
-        if env is not None and env.source != "uniform":  # docs/ibl.md
-            self.ibl = EnvironmentLighting(ctx, self.shaders, environment_source(env))
-        elif (uniform := uniform_environment(env)) is not None:
-            self.ibl = UniformEnvironment(*uniform)
-        self._build_culler()
-        self._build_shadows()
-        self._build_shading()
-        self._build_background()
+        if env is None:
+            return None
+        return self._environment_key()  # docs/ibl.md
 
-    def _build_shadows(self) -> None:
-        """The shadow maps, where a light casts shadows (docs/shadows.md): the opaque parts
-        cast (``_shadow_casters``), the blended ones only receive."""
-        self._release(("lighting", "shadows"))  # the lighting pass binds the old maps
-        self._shadow_casters = self._opaque()
-        if any(light.shadow is not None for light in self.lights):
-            opaque = self._shadow_casters
-            parts = [self.frame.parts[i] for i in opaque]
-            blends = [p for i, p in enumerate(self.frame.parts) if i not in set(opaque)]
-            self.shadows = ShadowPass(self.gl.ctx, self.shaders, self.lights, parts, blends)
+    def _build_ibl(self) -> EnvironmentLighting | UniformEnvironment:
+        env = self.scene.environment
+        if env.source != "uniform":
+            return EnvironmentLighting(self.gl.ctx, self.shaders, environment_source(env))
+        return UniformEnvironment(*uniform_environment(env))
 
-    def _build_culler(self) -> None:
-        """The tile culler, where the frame culls by tiles (``tiles_used``)."""
-        self._release(("culler",))
-        if tiles_used(self.scene.render.light_culling, self.lights):
-            check_tile_masks(
-                self.gl.ctx, self.render_size, self.lights, str(self.loaded.path)
-            )  # before any of its textures exists
-            self.culler = LightCuller(self.gl.ctx, self.shaders, self.render_size, self.lights)
+    def _key_shadows(self) -> Hashable:
+        """Where a light casts shadows (docs/shadows.md): the lights, the parts (the opaque
+        ones cast, the blended ones only receive) and each masked caster's layer."""
+        if not any(light.shadow is not None for light in self.lights):
+            return None
+        facts = self._frame_facts()
+        return (Same(self.lights), Same(self.frame.parts), facts.opaque, facts.masks)
 
-    def _build_shading(self) -> None:
-        """The lighting pass and the blend pass, on the culler, environment light and
-        shadow maps as they are: what a material edit needs again (``set_materials``)."""
-        self._display_done = self._hdr_missing = False  # run_lighting: set by each frame
-        self._release(("lighting",))
-        settings, options = self.scene.render, self.options
+    def _check_shadows(self) -> None:
+        check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
+
+    def _build_shadows(self) -> ShadowPass:
+        opaque = set(self._opaque())
+        parts = [p for i, p in enumerate(self.frame.parts) if i in opaque]
+        blends = [p for i, p in enumerate(self.frame.parts) if i not in opaque]
+        return ShadowPass(self.gl.ctx, self.shaders, self.lights, parts, blends)
+
+    def _key_culler(self) -> Hashable:
+        """The tile culler, where the frame culls by tiles (``tiles_used``): its tiles are
+        the image's."""
+        if not tiles_used(self.scene.render.light_culling, self.lights):
+            return None
+        return (self.render_size, Same(self.lights))
+
+    def _check_culler(self) -> None:
+        check_tile_masks(self.gl.ctx, self.render_size, self.lights, str(self.loaded.path))
+
+    def _build_culler(self) -> LightCuller:
+        return LightCuller(self.gl.ctx, self.shaders, self.render_size, self.lights)
+
+    def _key_lighting(self) -> Hashable:
+        """The lights, the material table's content, the terms, the targets' layout, its
+        HDR target's size and the variants; the culler, environment light and shadow maps
+        it binds are ``needs``."""
+        o = self.options
+        return (
+            self.render_size, Same(self.lights), self._frame_facts().table,
+            self.scene.render.terms, self._layout(), o.uber, Same(o.ms_table), o.light_form,
+        )  # fmt: skip
+
+    def _build_lighting(self) -> LightingPass:
+        options = self.options
         # the frame's shader inputs (app/render/inputs.py), released with the lighting pass
         self.shading = shading_context(
             self.gl.ctx, self.lights, self.materials, gbuffer=self.gbuffer,
             ms_table=options.ms_table, every_table=options.uber, environment=self.ibl,
             shadows=self.shadows, tiles=self.culler,
         )  # fmt: skip
-        self.lighting = LightingPass(
-            self.gl.ctx, self.shaders, self.render_size, self.shading, settings.terms,
+        return LightingPass(
+            self.gl.ctx, self.shaders, self.render_size, self.shading, self.scene.render.terms,
             options.uber, form=options.light_form,
         )  # fmt: skip
-        self._build_blend()  # it shades with the lights, material table and terms
 
-    def _build_background(self) -> None:
+    def _key_blend(self) -> Hashable:
+        """Only where a part is alpha-blended (every other scene compiles and renders as
+        before it existed): those parts, their rows, the table, terms and specular
+        antialiasing; it shades with the lighting pass's lights and defines (``needs``)."""
+        facts = self._frame_facts()
+        if not facts.blended:
+            return None
+        return (
+            Same(self.frame.parts), facts.blended, facts.blended_ids, facts.table,
+            self.scene.render.terms, self._specular_aa(),
+        )  # fmt: skip
+
+    def _build_blend(self) -> BlendPass:
+        parts, ids = self.frame.parts, self.frame.material_ids
+        chosen = self._frame_facts().blended
+        drawables = forward_drawables(
+            self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
+            self.materials, self.scene.render.terms, self._specular_aa(),
+            blend_defines(self.shading),
+        )  # fmt: skip
+        return BlendPass(self.gl.ctx, drawables, self.shading)
+
+    def _key_background(self) -> Hashable:
         """The environment behind the objects, only where ``[environment] background``."""
-        self._release(("background",))
         env = self.scene.environment
-        if env is not None and env.background:
-            self.background = EnvironmentBackground(
-                self.gl.ctx, self.shaders, environment_source(env)
-            )
+        if env is None or not env.background:
+            return None
+        return self._environment_key()
 
-    def _build_post(self) -> None:
-        """Depth of field (a camera with an aperture), the supersampling resolve, post."""
-        self._release(("dof", "resolve", "post"))
-        ctx, cam, settings = self.gl.ctx, self.scene.camera, self.scene.render
-        if cam.aperture > 0.0:
-            self.dof = DofPass(
-                ctx, self.shaders, self.render_size, cam.aperture, cam.focus, cam.fov_y
-            )
-        factor = settings.supersample
-        if factor > 1:
-            self.resolve = DownsamplePass(ctx, self.shaders, self.size, factor)
-        self.post = PostPass(ctx, self.shaders, self.size, settings.tonemap)
+    def _build_background(self) -> EnvironmentBackground:
+        env = self.scene.environment
+        return EnvironmentBackground(self.gl.ctx, self.shaders, environment_source(env))
 
-    def _build_camera(self) -> None:
+    def _key_dof(self) -> Hashable:
+        """Depth of field, only for a camera with an aperture: its lens and the image."""
         cam = self.scene.camera
-        w, h = self.size
-        self.view = view_matrix(cam)
-        self.proj = projection_matrix(cam, w / h)
-        self.camera = camera_frame(cam, *self.render_size)
+        if cam.aperture <= 0.0:
+            return None
+        return (self.render_size, cam.aperture, cam.focus, cam.fov_y)
 
-    def _release(self, names: tuple[str, ...]) -> None:
-        for name in names:
-            obj = getattr(self, name)
-            if obj is not None:
+    def _build_dof(self) -> DofPass:
+        cam = self.scene.camera
+        return DofPass(
+            self.gl.ctx, self.shaders, self.render_size, cam.aperture, cam.focus, cam.fov_y
+        )
+
+    def _key_resolve(self) -> Hashable:
+        """The supersampling resolve, only with ``render.supersample`` > 1."""
+        factor = self.scene.render.supersample
+        return None if factor <= 1 else (self.size, factor)
+
+    def _build_resolve(self) -> DownsamplePass:
+        factor = self.scene.render.supersample
+        return DownsamplePass(self.gl.ctx, self.shaders, self.size, factor)
+
+    def _key_post(self) -> Hashable:
+        return (self.size, self.scene.render.tonemap)
+
+    def _build_post(self) -> PostPass:
+        return PostPass(self.gl.ctx, self.shaders, self.size, self.scene.render.tonemap)
+
+    # --- the scheduler ------------------------------------------------------------------------
+
+    def _plan(self, force: frozenset[str] = frozenset()) -> tuple[dict[str, Hashable], list]:
+        """Every object's key now, and the objects to build again (or drop), in
+        ``SCHEDULE``'s order: a changed key, a forced name, or a needed object built again;
+        not an object absent before and after."""
+        keys = {b.name: b.key(self) for b in SCHEDULE}
+        rebuilt: set[str] = set()
+        plan: list[Built] = []
+        for b in SCHEDULE:
+            key, old = keys[b.name], self._keys.get(b.name, _UNBUILT)
+            changed = old != key or b.name in force or any(n in rebuilt for n in b.needs)
+            if changed and not (key is None and (old is None or old is _UNBUILT)):
+                plan.append(b)
+                rebuilt.add(b.name)
+        return keys, plan
+
+    def _change(
+        self, edit: Callable[[], object] | None = None, force: frozenset[str] = frozenset()
+    ) -> tuple[str, ...]:
+        """Apply ``edit`` (it changes the scene, size, options or frame data), then build
+        again what the change needs (``_plan``). Every check runs first: where the edit or
+        a check raises (InputError: past the GL's limits), every input goes back to what
+        it was (the parts' layers too: ``restyle`` replaces them in place) and every object
+        stays. Then the old objects are released and the new ones built in order, and the
+        kept ones refreshed. Returns the names built again or dropped."""
+        saved = (self.loaded, self._size, self.options, self.frame)
+        self._restyled = None  # the parts' layers before a restyle (_stage_frame)
+        try:
+            if edit is not None:
+                edit()
+            keys, plan = self._plan(force)
+            for b in plan:
+                if b.check is not None and keys[b.name] is not None:
+                    b.check(self)
+        except BaseException:
+            self.loaded, self._size, self.options, self.frame = saved
+            if self._restyled is not None:
+                for part, kept in zip(self.frame.parts, self._restyled, strict=True):
+                    part.layers = kept
+            raise
+        for b in reversed(plan):
+            obj = getattr(self, b.name)
+            self._keys.pop(b.name, None)
+            setattr(self, b.name, None)
+            if obj is not None and hasattr(obj, "release"):
                 obj.release()
-                setattr(self, name, None)
+        for b in plan:
+            key = keys[b.name]
+            if key is not None:
+                setattr(self, b.name, b.build(self))
+                self.builds[b.name] += 1
+            self._keys[b.name] = key
+        names = tuple(b.name for b in plan)
+        for b in SCHEDULE:  # kept, or absent before and after
+            self._keys.setdefault(b.name, keys[b.name])
+        for b in SCHEDULE:
+            if b.refresh is None or getattr(self, b.name) is None:
+                continue
+            stamp_of, refresh = b.refresh
+            stamp = stamp_of(self)
+            if b.name not in names and self._refreshed.get(b.name) != stamp:
+                refresh(self)
+            self._refreshed[b.name] = stamp
+        if _FRAME_OBJECTS.intersection(names):
+            self._drawn = None
+        self.rebuilt = names
+        return names
+
+    def invalidate(self, *names: str) -> tuple[str, ...]:
+        """Build the named objects of ``SCHEDULE`` again (and what needs them), with any
+        other whose key changed: for a caller that edited frame data in place, which keys
+        do not see (a map's sampler state, a part's vertex colours; tests)."""
+        unknown = set(names) - {b.name for b in SCHEDULE}
+        if unknown:
+            raise ValueError(f"not objects of the schedule: {', '.join(sorted(unknown))}")
+        return self._change(force=frozenset(names))
+
+    def _stage_frame(self, old: Scene, fields: set[str]) -> None:
+        """New frame data for the scene edit ``fields`` (top-level keys of the scene that
+        may differ from ``old``): new parts for new objects or part settings (their maps'
+        mips and bakes), restyled layers for new material constants where ``restyle`` can
+        (else new parts), new lights only where they differ."""
+        new = self.scene
+        parts = "objects" in fields and new.objects != old.objects
+        if "render" in fields:
+            parts |= any(getattr(old.render, k) != getattr(new.render, k) for k in _PART_SETTINGS)
+        frame = self.frame
+        if not parts and "materials" in fields and new.materials != old.materials:
+            changed = {k for k in new.materials if old.materials.get(k) != new.materials[k]}
+            restyled = None
+            if not set(old.materials) - set(new.materials):
+                self._restyled = [part.layers for part in frame.parts]  # _change's rollback
+                restyled = restyle(frame, self.loaded, changed)
+            if restyled is None:
+                parts = True
+            else:
+                frame = restyled
+        lights = frame.lights
+        if "lights" in fields and new.lights != old.lights:
+            lights = frame_lights(new.lights)
+        if parts:
+            frame = prepare_frame(self.loaded)
+        if frame.lights is not lights:
+            frame = dataclasses.replace(frame, lights=lights)
+        self.frame = frame
 
     def _edit(self, **changes: object) -> Scene:
-        """The scene with ``changes``, which becomes the renderer's scene; returns the old
-        one. A camera or settings table is already validated on its own and is swapped in
-        as it is (every orbit step); other changes are validated with the whole scene, as
-        a scene file's would be (materials named by objects, blends, lights)."""
+        """The scene with ``changes`` (``app.scene.edits.replace_parts``: a camera or
+        settings table swapped in as it is, other tables validated with the whole scene),
+        which becomes the renderer's scene; returns the old one."""
         old = self.scene
-        if set(changes) <= {"camera", "render", "background"} and all(
-            isinstance(v, Camera | RenderSettings) for k, v in changes.items() if k != "background"
-        ):
-            scene = old.model_copy(update=changes)
-        else:
-            scene = Scene.model_validate({**old.model_dump(), **changes})
-        self.loaded = dataclasses.replace(self.loaded, scene=scene)
+        self.loaded = dataclasses.replace(self.loaded, scene=replace_parts(old, **changes))
         return old
+
+    def _edit_scene(self, **changes: object) -> tuple[str, ...]:
+        """``_edit`` with ``changes``, the frame data staged for them, and the objects they
+        need built again."""
+
+        def edit() -> None:
+            old = self._edit(**changes)
+            self._stage_frame(old, set(changes))
+
+        return self._change(edit)
 
     # --- changing what is rendered --------------------------------------------------------------
 
     def set_camera(self, camera: Camera) -> None:
         """A new camera: new matrices, and a new depth-of-field pass where the lens changed."""
-        old = self._edit(camera=camera)
-        lens = ("aperture", "focus", "fov_y")
-        thin_lens = old.camera.aperture > 0.0 or camera.aperture > 0.0  # a pinhole has no pass
-        if thin_lens and any(getattr(old.camera, k) != getattr(camera, k) for k in lens):
-            self._build_post()
-        self._build_camera()
+        self._edit_scene(camera=camera)
 
     def set_lights(self, lights: list[Light], environment: Environment | None = None) -> None:
-        """New lights (and environment): new light textures, culler and lighting programs
-        (compiled only for a combination of light kinds not seen before)."""
-        self._edit(lights=lights, environment=environment)
-        self.frame = dataclasses.replace(self.frame, lights=frame_lights(self.scene.lights))
-        self._build_lighting()
+        """New lights (and environment): what reads them is built again (the culler, shadow
+        maps, lighting and blend passes for new lights; the environment's light and
+        background for a new environment); programs are compiled only for a combination
+        of light kinds not seen before."""
+        self._edit_scene(lights=lights, environment=environment)
 
     def set_materials(self, materials: dict[str, Material]) -> None:
         """New material definitions for the scene's objects: new constants, material table
         and lighting programs; the geometry is kept, and maps are built again only for
         materials that have them (``app.frame.restyle``)."""
-        old = self._edit(materials=materials).materials
-        new = self.scene.materials
-        changed = {name for name in new if old.get(name) != new[name]}
-        frame = None if set(old) - set(new) else restyle(self.frame, self.loaded, changed)
-        if frame is None:
-            self._rebuild_frame()
-            return
-        targets = self._layout()
-        self.frame = frame
-        if self._layout() != targets:  # the G-buffer gains or loses a target
-            self._build_targets()
-            return
-        opaque = self._opaque()
-        drawables = self.gbuffer_pass.drawables  # restyle edits the parts' layers in place
-        if len(drawables) != len(opaque) or any(blended(d.part) for d in drawables):
-            self._build_gbuffer_pass()  # a part became blended or stopped being blended
-        for drawable, i in zip(self.gbuffer_pass.drawables, opaque, strict=True):
-            drawable.material_ids = frame.material_ids[i]
-        if any(
-            d.alpha_mask != masked(d.part) or d.rotated != rotated(d.part)
-            for d in self.gbuffer_pass.drawables
-        ):  # an alpha_mode or anisotropy_rotation edit compiles its code in or out
-            self._build_gbuffer_pass()
-        casters = self._opaque()
-        masks = self.shadows is not None and (
-            self.shadows.masked or any(masked(self.frame.parts[i]) for i in casters)
-        )  # an alpha mask's coverage shapes its shadow (docs/shadows.md)
-        if casters != self._shadow_casters or masks:
-            self._build_shadows()  # the casters or their coverage change
-        # the culler and the environment's light and background stay
-        self._build_shading()
+        self._edit_scene(materials=materials)
 
     def set_settings(self, settings: RenderSettings) -> None:
-        """New render settings; rebuilds only what depends on the keys that changed."""
-        old = self._edit(render=settings).render
-        changed = {
-            k for k in RenderSettings.model_fields if getattr(old, k) != getattr(settings, k)
-        }
-        if changed & set(_PART_SETTINGS):
-            self._rebuild_frame()
-        specular_aa = changed & {"specular_aa", "specular_aa_variance", "specular_aa_threshold"}
-        layout = self.gbuffer.constant_surfaces != self._constant_surfaces()  # RT0 comes or goes
-        if changed & {"width", "height", "supersample", "gbuffer"} or layout:
-            try:
-                # a new encoding, layout or specular antialiasing compiles the G-buffer pass
-                # again; a new size alone keeps it
-                self._build_targets(resized=not ("gbuffer" in changed or specular_aa or layout))
-            except InputError:  # past the GL's limits: the old settings and targets stay
-                self._edit(render=old)
-                raise
-            return
-        if specular_aa:
-            self._build_gbuffer_pass()
-            self._build_blend()
-        if changed & {"light_culling", "terms"}:
-            self._build_lighting()
-        if "tonemap" in changed:
-            self._build_post()
+        """New render settings; rebuilds only what depends on the keys that changed. A
+        setting the GL cannot allocate (InputError) keeps the old settings and objects."""
+        self._edit_scene(render=settings)
+
+    def set_options(self, options: RenderOptions) -> None:
+        """Another pipeline variant (``RenderOptions``): what its keys read is built again."""
+
+        def edit() -> None:
+            self.options = options
+
+        self._change(edit)
 
     def resize(self, size: tuple[int, int]) -> None:
-        """A new output size (width, height): new targets for every pass."""
-        old, self._size = self._size, (int(size[0]), int(size[1]))
-        try:
-            self._build_targets(resized=True)
-        except InputError:  # past the GL's limits: the old size and targets stay
-            self._size = old
-            raise
+        """A new output size (width, height): new targets for every pass whose size is
+        the image's; the G-buffer pass's geometry, the shadow maps, the environment's
+        light and background are kept (the viewer switches between its preview and full
+        size after every input). A size past the GL's limits (InputError) keeps the old."""
+        new = (int(size[0]), int(size[1]))
+
+        def edit() -> None:
+            self._size = new
+
+        self._change(edit)
 
     def update(self, scene: Scene) -> None:
-        """Show ``scene``, an edit of the current one (same objects' files): each part of
-        it that differs goes through its own ``set_*``."""
+        """Show ``scene``, an edit of the current one (same objects' files): its parts that
+        differ from the current scene's, in one change."""
         old = self.scene
-        if scene.objects != old.objects:
-            self._edit(objects=scene.objects, materials=scene.materials)
-            self._rebuild_frame()
-        elif scene.materials != old.materials:
-            self.set_materials(scene.materials)
-        if scene.render != old.render:
-            self.set_settings(scene.render)
-        if scene.lights != old.lights or scene.environment != old.environment:
-            self.set_lights(scene.lights, scene.environment)
-        if scene.camera != old.camera:
-            self.set_camera(scene.camera)
-        if scene.background != old.background:
-            self._edit(background=scene.background)
-
-    def _rebuild_frame(self) -> None:
-        """New parts and material table (the lights stay), and the passes that use them."""
-        targets = self._layout()
-        self._release(("gbuffer_pass",))
-        self.frame = prepare_frame(self.loaded)
-        if self._layout() != targets:  # the G-buffer gains or loses a target
-            self._build_targets()
-            return
-        self._build_gbuffer_pass()
-        self._build_lighting()
+        fields = ("objects", "materials", "render", "lights", "environment", "camera", "background")
+        changes = {k: getattr(scene, k) for k in fields if getattr(scene, k) != getattr(old, k)}
+        if "lights" in changes or "environment" in changes:  # set together, as set_lights does
+            changes.update(lights=scene.lights, environment=scene.environment)
+        if "objects" in changes:  # the objects name their materials
+            changes["materials"] = scene.materials
+        if changes:
+            self._edit_scene(**changes)
 
     # --- the frame ---------------------------------------------------------------------------
+
+    def want_hdr(self, wanted: bool = True) -> None:
+        """Ask that every following frame draw the HDR image (True), so that ``read_hdr``
+        and ``hdr_texture`` read it without another lighting pass: a caller that reads the
+        HDR image of every frame (an EXR and a PNG per frame, a comparison's difference)
+        pays one lighting pass, not a fused one and the HDR one. False (the default): a
+        plain frame fuses post into the lighting pass and draws no HDR image, which
+        ``read_hdr`` then draws on demand (``complete_hdr``)."""
+        self._hdr_wanted = bool(wanted)
+
+    @property
+    def hdr_wanted(self) -> bool:
+        """Whether frames draw the HDR image (``want_hdr``)."""
+        return self._hdr_wanted
+
+    @property
+    def hdr_drawn(self) -> bool:
+        """Whether the last frame's HDR image exists: drawn with the frame or completed
+        since (False without a frame of the current passes)."""
+        return self._drawn is not None and self._drawn.hdr
 
     def render(self, timings: dict[str, float] | None = None) -> None:
         """Run all passes; results stay on the GPU until read. With ``timings`` each pass
         is waited for and its wall time in milliseconds recorded by name (the viewer's
         frame-time plot; the waits cost some throughput, so only when asked)."""
         clock = _PassClock(self.gl.ctx, timings)
-        self._hdr_wanted, self._hdr_read = self._hdr_read, False
         self.gbuffer_pass.run(self.gbuffer, self.view, self.proj, self.camera)
         clock.done("gbuffer")
         if self.culler is not None:
@@ -516,7 +799,7 @@ class Renderer:
             self.resolve.run(hdr)
             hdr = self.resolve.target
             clock.done("resolve")
-        if not self._display_done:  # else the lighting pass wrote the display image
+        if not self._drawn.display:  # else the lighting pass wrote the display image
             self.run_post(hdr)
             clock.done("post")
 
@@ -529,16 +812,16 @@ class Renderer:
     @property
     def fused_display(self) -> bool:
         """Whether a frame's lighting pass writes the display image (``run_lighting``): a
-        plain frame, unless the last frame's HDR image was read (a caller reading both
-        images of every frame would otherwise pay for two lighting passes)."""
-        return self.fuse_post and self._plain() and not self._hdr_wanted
+        plain frame, with ``options.fuse_post``, unless the HDR image is wanted with every
+        frame (``want_hdr``)."""
+        return self.options.fuse_post and self._plain() and not self._hdr_wanted
 
     def run_lighting(self) -> None:
         """The lighting pass, then the environment background over it where there is one.
         A plain frame (``_plain``) with ``fuse_post`` writes the display image directly
         (LightingPass.run_display: the post pass fused in, the same bytes) and no HDR
-        image; ``read_hdr`` and ``hdr_texture`` run the HDR lighting pass on the same
-        G-buffer when asked (docs/performance.md, "Third part", measures the frame)."""
+        image; ``read_hdr`` and ``hdr_texture`` draw it on demand (``complete_hdr``;
+        docs/performance.md, "Third part", measures the frame)."""
         background = np.asarray(self.scene.background, np.float64)
         if self.fused_display:
             exposure = self.scene.camera.exposure
@@ -547,29 +830,32 @@ class Renderer:
             self.lighting.run_display(
                 self.gbuffer, self.camera, target, self.scene.render.tonemap, 2.0**exposure
             )
-            self._display_done = self._hdr_missing = True
-            self._frame_view = (self.camera, background)  # what _complete_hdr draws with
+            self._drawn = _Drawn(self.camera, background, hdr=False, display=True)
             return
         self.lighting.run(self.gbuffer, self.camera, background)
-        self._display_done = self._hdr_missing = False
+        self._drawn = _Drawn(self.camera, background, hdr=True, display=False)
         if self.background is not None:
             self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
 
-    def _complete_hdr(self) -> None:
-        """The HDR image of a frame whose lighting pass wrote the display image only, with
-        that frame's camera and background (an edit since has not been rendered)."""
-        if self._hdr_missing:
-            camera, background = self._frame_view
-            self.lighting.run(self.gbuffer, camera, background)
-            self._hdr_missing = False
+    def complete_hdr(self) -> None:
+        """Draw the HDR image of a frame whose lighting pass wrote the display image only
+        (``fused_display``), with that frame's camera and background (an edit made since
+        without a render does not show): one more lighting pass on the same G-buffer,
+        whose display image stays as it was. Nothing where the frame drew it, or where no
+        frame was rendered since the passes were built again (the targets are read as
+        they are: the bench runs passes one by one)."""
+        drawn = self._drawn
+        if drawn is not None and not drawn.hdr:
+            self.lighting.run(self.gbuffer, drawn.camera, drawn.background)
+            drawn.hdr = True
 
     def run_post(self, hdr: moderngl.Texture) -> None:
         """The post pass on the frame's HDR image ``hdr``, unless the lighting pass wrote
         the display image itself (``run_lighting``); in a plain frame only on the
         surfaces' pixels (``PostPass.run_on_surfaces``)."""
-        if self._display_done and hdr is self.lighting.hdr:
+        if self._drawn is not None and self._drawn.display and hdr is self.lighting.hdr:
             return
-        self._complete_hdr()
+        self.complete_hdr()
         exposure = self.scene.camera.exposure
         if self._plain() and hdr is self.lighting.hdr:  # the background is the clear's
             background = tuple(float(x) for x in self.scene.background)
@@ -580,9 +866,9 @@ class Renderer:
     @property
     def hdr_texture(self) -> moderngl.Texture:
         """The last frame's linear HDR radiance on the GPU (RGBA32F, ``size``): what
-        ``read_hdr`` reads, for passes that combine frames (app/render/compare.py)."""
-        self._hdr_read = True
-        self._complete_hdr()
+        ``read_hdr`` reads, for passes that combine frames (app/render/compare.py); drawn
+        now where the frame fused it away (``complete_hdr``)."""
+        self.complete_hdr()
         if self.resolve is not None:
             return self.resolve.target
         return self.dof.target if self.dof is not None else self.lighting.hdr
@@ -594,9 +880,10 @@ class Renderer:
 
     def read_hdr(self) -> np.ndarray:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
-        where the camera has an aperture (resolved to ``size``)."""
-        self._hdr_read = True
-        self._complete_hdr()
+        where the camera has an aperture (resolved to ``size``). Where the last frame
+        fused post into the lighting pass, the HDR image is drawn now (``complete_hdr``:
+        one more lighting pass; ``want_hdr`` draws it with every frame instead)."""
+        self.complete_hdr()
         if self.resolve is not None:
             return self.resolve.read()
         return self.dof.read() if self.dof is not None else self.lighting.read()
@@ -611,9 +898,40 @@ class Renderer:
         return self.gbuffer.read(self.materials.surface_texels())
 
     def release(self) -> None:
-        self._release(
-            ("culler", "resolve", "dof", "blend", "gbuffer_pass", "gbuffer", "lighting", "post")
-        )
-        self._release(("background", "ibl", "shadows"))
+        """Release every GPU object (the camera's matrices stay readable)."""
+        for b in reversed(SCHEDULE):
+            obj = getattr(self, b.name)
+            if hasattr(obj, "release"):
+                obj.release()
+                setattr(self, b.name, None)
+                self._keys.pop(b.name, None)
+        self._drawn = None
         if self._owns_shaders:
             self.shaders.release()
+
+
+# Every object a renderer builds, in the order they are built (each after what it needs).
+# ``needs``: the objects it holds or compiles from, so it is built again with them: the
+# lighting pass's shader inputs (``shading``, which it owns) bind the G-buffer's targets,
+# the culler's tiles, the environment's light and the shadow maps; the blend pass shades
+# with those inputs. The G-buffer pass reads the targets' layout, not the targets (a
+# resize keeps it): the layout is in its key.
+SCHEDULE: tuple[Built, ...] = (
+    Built("matrices", Renderer._key_camera, Renderer._build_camera),
+    Built("gbuffer", Renderer._key_gbuffer, Renderer._build_gbuffer,
+          check=Renderer._check_gbuffer),
+    Built("gbuffer_pass", Renderer._key_gbuffer_pass, Renderer._build_gbuffer_pass,
+          refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_gbuffer_pass)),
+    Built("ibl", Renderer._key_ibl, Renderer._build_ibl),
+    Built("shadows", Renderer._key_shadows, Renderer._build_shadows,
+          check=Renderer._check_shadows),
+    Built("culler", Renderer._key_culler, Renderer._build_culler,
+          check=Renderer._check_culler),
+    Built("lighting", Renderer._key_lighting, Renderer._build_lighting,
+          needs=("gbuffer", "culler", "ibl", "shadows")),
+    Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
+    Built("background", Renderer._key_background, Renderer._build_background),
+    Built("dof", Renderer._key_dof, Renderer._build_dof),
+    Built("resolve", Renderer._key_resolve, Renderer._build_resolve),
+    Built("post", Renderer._key_post, Renderer._build_post),
+)  # fmt: skip

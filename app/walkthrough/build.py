@@ -92,6 +92,7 @@ def render_view(
     """The view's scene rendered at ``size`` (fitted) and labelled."""
     size = image_size(loaded, size)
     renderer = Renderer(gl, fit_scene(loaded, size), size)
+    renderer.want_hdr()  # both images: one lighting pass
     try:
         renderer.render()
         plain = renderer.read_ldr()
@@ -192,6 +193,7 @@ def render_sweep(
                               frame)  # fmt: skip
             if renderer is None:
                 renderer = Renderer(gl, scene, frame)
+                renderer.want_hdr()  # both images of every frame: one lighting pass each
             else:
                 renderer.update(scene.scene)
             renderer.render()
