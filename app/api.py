@@ -263,8 +263,16 @@ class OffscreenRenderer:
         """The display image (tone mapped, sRGB-encoded), (H, W, 3) uint8."""
         return self._rendered().read_ldr()
 
+    def want_hdr(self, wanted: bool = True) -> None:
+        """Ask that every following ``render()`` also draw the HDR image, for a caller
+        that reads ``hdr()`` after each frame: one lighting pass per frame then serves both
+        images. Without it a frame writes the display image directly and ``hdr()`` runs
+        the lighting pass a second time (the cheaper choice when HDR is read rarely)."""
+        self._live().want_hdr(wanted)
+
     def hdr(self) -> np.ndarray:
-        """Linear HDR radiance before exposure and tone mapping, (H, W, 3) float32."""
+        """Linear HDR radiance before exposure and tone mapping, (H, W, 3) float32
+        (``want_hdr`` when it is read every frame)."""
         return self._rendered().read_hdr()
 
     def gbuffer(self) -> GBufferData:

@@ -506,6 +506,7 @@ def cmd_render(args: argparse.Namespace) -> int:
             f"light {light} out of range: the scene has {count} light(s)"
             + (f", 0..{count - 1}" if count else ""),
         )  # fmt: skip
+    renderer.want_hdr(bool(args.hdr))  # both images from one HDR lighting pass
     renderer.render()
     ldr = renderer.read_ldr()
     hdr = renderer.read_hdr() if args.hdr else None

@@ -219,3 +219,18 @@ def test_emission_and_occlusion_channels(gl_egl):
         plain = r.channels(("emission", "occlusion"))
     np.testing.assert_array_equal(plain["emission"], 0.0)
     np.testing.assert_array_equal(plain["occlusion"], 1.0)
+
+
+def test_want_hdr_draws_both_images_with_the_frame(gl_egl):
+    """``want_hdr``: each frame draws the HDR image itself (the renderer's ``hdr_drawn``
+    before any read), and both images are the bytes of a frame that fuses post into the
+    lighting pass and draws the HDR image on demand."""
+    want = fresh(gl_egl, HORIZON)
+    with OffscreenRenderer(HORIZON, SIZE, gl=gl_egl) as r:
+        r.render()
+        assert not r._live().hdr_drawn  # a plain frame: the display image only
+        r.want_hdr()
+        for _ in range(2):
+            r.render()
+            assert r._live().hdr_drawn
+            assert_same(r, want)

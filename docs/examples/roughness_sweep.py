@@ -36,6 +36,7 @@ def sweep(
     radiance (the highlight's top), (n,) float32."""
     frames, peaks = [], []
     with OffscreenRenderer(SCENE, size=size) as r:
+        r.want_hdr()  # hdr() is read every frame: one lighting pass serves both images
         for value in roughness:
             r.set_material("ball", roughness=value)
             frames.append(r.render())
