@@ -355,7 +355,7 @@ def test_mutated_gltf_whole(tmp_path: Path) -> None:
 
 
 def _named_cases() -> dict[str, tuple[callable, str]]:
-    """The issue's own cases: each change of the rich seed, and the key its refusal names."""
+    """The named cases: each change of the rich seed, and the key its refusal names."""
 
     def set_at(path: tuple, value: object):
         def change(doc: dict) -> None:

@@ -1,4 +1,4 @@
-"""Shadow maps (issue 18, app/render/shadows.py, glsl/lights/shadows.glsl) against the
+"""Shadow maps (app/render/shadows.py, glsl/lights/shadows.glsl) against the
 float64 ray-caster's shadow rays (app/reference/raycast.py light_visibility).
 
 The GPU's visibility of one light at a pixel is read as the ratio of two renders of a

@@ -1,4 +1,4 @@
-"""The classroom walkthrough (issue 15): step validation, rendering in both languages,
+"""The classroom walkthrough: step validation, rendering in both languages,
 labels, projector-ready framing, and the offline handout in real headless Chromium.
 
 Real components throughout: the step files of walkthrough/ (all 13; 04 and 07 built), a real EGL

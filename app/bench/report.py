@@ -33,8 +33,8 @@ COLD_START_MAX_S = 3.0
 VIEWER_LATENCY_MAX_MS = 100.0  # an input's wait for its new image in pbs view
 SPECIALIZED_SPEEDUP_MIN = 1.5
 TARGET_LIGHTS = 256
-CULLED_LIMIT_MAX = 1.2  # issue 19: the culled lighting pass against the limit pass
-PYRENDER_SPEEDUP_MIN = 5.0  # issue 19: pyrender / pbs on the 35-sphere scene
+CULLED_LIMIT_MAX = 1.2  # the culled lighting pass against the limit pass
+PYRENDER_SPEEDUP_MIN = 5.0  # pyrender / pbs on the 35-sphere scene
 SPHERES_CASE = "35 spheres"  # app/bench/spheres.py's CASE (report imports no GL modules)
 SPHERES_PYRENDER = "pyrender"
 
@@ -228,11 +228,11 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
     return out
 
 
-# Issue 16: the whole pipeline at the default settings against the float64 ray-caster.
+# Accuracy targets: the whole pipeline at the default settings against the float64 ray-caster.
 PRIMITIVES_MEDIAN_MAX = 1e-5
 PRIMITIVES_P99_MAX = 1e-4
 PRIMITIVES_FLIP_MAX = 1e-3
-PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default spheres and encoding before issue 16
+PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default spheres and encoding before the analytic spheres
 
 
 def _default_row(rows: list[dict], case: str) -> dict | None:
@@ -251,7 +251,7 @@ def _primitives_verdicts(rows: list[dict]) -> list[Verdict]:
     )
     speed = (
         f"default frame (showcase) no slower than '{PRIMITIVES_BEFORE}' (the default before"
-        " issue 16)"
+        " the analytic spheres)"
     )
     if default is None:
         return [Verdict(what, "not run", "NOT MEASURED"), Verdict(speed, "not run", "NOT MEASURED")]
@@ -516,7 +516,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     ]
     if machine["mode"] != "full":
         lines += [
-            "The issue states its targets for the full mode (the culling suite at 1280x720, "
+            "The targets are stated for the full mode (the culling suite at 1280x720, "
             "frames of 20 s per row); in this mode the verdicts are indicative only: a "
             "smaller image weighs each pass's fixed cost more, and fewer frames leave more "
             "noise.",
@@ -758,7 +758,7 @@ def _culling_ratio_lines(members: list[dict]) -> list[str]:
 
 
 def _pyrender_verdicts(rows: list[dict]) -> list[Verdict]:
-    """Issue 19: pbs at least PYRENDER_SPEEDUP_MIN times faster than pyrender on the
+    """pbs at least PYRENDER_SPEEDUP_MIN times faster than pyrender on the
     35-sphere scene, per light count measured."""
     out = []
     for r in rows:
