@@ -232,7 +232,7 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
 PRIMITIVES_MEDIAN_MAX = 1e-5
 PRIMITIVES_P99_MAX = 1e-4
 PRIMITIVES_FLIP_MAX = 1e-3
-PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default spheres and encoding before the analytic spheres
+PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default before the analytic spheres
 
 
 def _default_row(rows: list[dict], case: str) -> dict | None:
