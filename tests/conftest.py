@@ -40,9 +40,28 @@ def xdisplay() -> str:
         pytest.fail(str(exc))
 
 
+# Markers (registered in pyproject.toml; README.md, "Tests"). A test that takes a fixture
+# below, directly or through another fixture, gets the marker by that alone; a test that
+# makes its GL context another way (a renderer built in the test, a `pbs` child process
+# that renders) carries `gl` itself, as a module's `pytestmark` or on the test.
+FIXTURE_MARKERS = {"gl": "gl", "gl_egl": "gl", "xdisplay": "viewer"}
+
+
+def _mark_by_fixtures(item: pytest.Item) -> None:
+    """``gl`` for the GL context fixtures, ``viewer`` (and so ``gl``) for the X server."""
+    used = set(getattr(item, "fixturenames", ()))
+    for marker in sorted({FIXTURE_MARKERS[f] for f in used & FIXTURE_MARKERS.keys()}):
+        item.add_marker(marker)
+    if "viewer" in item.keywords or "browser" in item.keywords:
+        item.add_marker("gl")  # a window draws with GL; the handout's images are rendered
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Tests marked ``whole`` (an attack suite at full size, docs/stability.md) run only
-    when ``-m`` names the marker; every run has their sampled versions."""
+    """Markers from fixtures (above); and tests marked ``whole`` (an attack suite at full
+    size, docs/stability.md) run only when ``-m`` names the marker; every run has their
+    sampled versions."""
+    for item in items:
+        _mark_by_fixtures(item)
     if "whole" in (config.getoption("-m") or ""):
         return
     skip = pytest.mark.skip(reason="the whole attack suite: run with -m whole")

@@ -20,7 +20,7 @@ def read_rgb(
     slicing off alpha, a strided copy, took 4x as long for 1280x720 RGBA8 here
     (docs/performance.md). ``scratch``: a buffer of the packed image's size to read into,
     kept by a caller that reads every frame (fresh memory for each read is paged in
-    again; docs/performance.md, "Third part"). The values are the same bytes either way."""
+    again; docs/performance.md, "The fused display image"). The same bytes either way."""
     w, h = size
     wait_before_read(fbo.ctx)
     item = np.dtype(np.float32 if dtype == "f4" else np.uint8)
@@ -116,7 +116,7 @@ class PostPass(_FullscreenPass):
         """``run`` for an HDR image whose pixels without a surface in ``zbuffer`` all hold
         ``background``: the pass runs only where the z-test (">", on the far plane, no
         writes) finds a surface, over ``display_target``'s cleared image; the bytes are
-        ``run``'s (docs/performance.md, "Second part: fixed costs")."""
+        ``run``'s (docs/performance.md, "Fixed costs")."""
         prog = self._far_program
         if self._far_vao is None:
             self._far_vao = self.ctx.vertex_array(prog, [])

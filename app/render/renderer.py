@@ -536,7 +536,7 @@ class Renderer:
         A plain frame (``_plain``) with ``fuse_post`` writes the display image directly
         (LightingPass.run_display: the post pass fused in, the same bytes) and no HDR
         image; ``read_hdr`` and ``hdr_texture`` run the HDR lighting pass on the same
-        G-buffer when asked (docs/performance.md, "Third part", measures the frame)."""
+        G-buffer when asked (docs/performance.md, "The fused display image")."""
         background = np.asarray(self.scene.background, np.float64)
         if self.fused_display:
             exposure = self.scene.camera.exposure
