@@ -30,6 +30,8 @@ from tests.attacks import Case, escapes, run_cases
 from tests.gltf_builder import GltfBuilder, png_rgb
 from tests.test_gltf_fuzz import _valid
 
+pytestmark = pytest.mark.gl  # the files that load are rendered
+
 REPO = Path(__file__).resolve().parent.parent
 CASES = 1200  # the whole suite (-m whole)
 CASES_SAMPLED = 240  # every test run

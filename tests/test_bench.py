@@ -54,6 +54,7 @@ def covered_relative_error(a: np.ndarray, b: np.ndarray, covered: np.ndarray) ->
     return relative_error(a[covered], b[covered], 1e-3 * peak)
 
 
+@pytest.mark.gl
 def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     """A whole (tiny) run: every suite, the required keys, the targets, two valid PNGs."""
     assert main(["--quick", "--tiny", "--out", str(tmp_path), "-q"]) == 0
