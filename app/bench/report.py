@@ -860,7 +860,7 @@ def _doc_header(payload: dict) -> list[str]:
         "",
         f"The last run: `pbs bench` in **{m['mode']}** mode on {m['date'][:10]} at git"
         f" {m['git']}: {m['cpu']}, {m['cores_usable']} usable cores, {m['gl_renderer']}"
-        f"{' (Mesa ' + gl_version + ')' if gl_version else ''} through {m['gl_backend'].upper()};"
+        f"{', Mesa ' + gl_version if gl_version else ''}, through {m['gl_backend'].upper()};"
         f" 1-minute load {load}; {m.get('wall_s', 0):.0f} s in all. Settings:"
         f" {payload.get('settings', '-')}.",
         "",
