@@ -47,11 +47,23 @@ def xdisplay() -> str:
 FIXTURE_MARKERS = {"gl": "gl", "gl_egl": "gl", "xdisplay": "viewer"}
 
 
-# `slow`: tests (node ids under tests/, or their prefix) that took 9 s or more in one run on
-# the project's 2-core machine under a 1-minute load of about 9 (`pytest --durations`);
-# `-m "not gl and not slow"` then runs in about 4 minutes on two workers. Slowness is a
-# measurement, not a property of the code, so it lives here rather than in the files.
+# `slow`: tests (node ids under tests/, or their prefix) that took 9 s or more in a run on
+# the project's 2-core machine (`pytest -n 2 --durations`, 1-minute loads of 4 to 10).
+# Slowness is a measurement, not a property of the code, so it lives here rather than in
+# the test files; a test that shares a slow module fixture is listed with the first user.
 SLOW = (
+    "test_bench.py::test_tiny_run_writes_json_markdown_and_both_plots",
+    "test_walkthrough.py::test_every_steps_pairs_and_sweeps_differ_at_their_ends",
+    "test_walkthrough.py::test_every_image_is_finite_and_non_negative",
+    "test_walkthrough.py::test_comparisons_and_sweeps_differ_between_their_ends",
+    "test_walkthrough.py::test_the_bundled_steps_load",
+    "test_walkthrough.py::test_no_hangul_font_is_one_line_naming_the_package",
+    "test_viewer.py::test_500_frames_of_interaction_leak_nothing",
+    "test_viewer.py::test_walkthrough_next_and_previous_through_all_steps",
+    "test_stability_renderer.py::test_no_gl_objects_or_memory_leak_over_1000_frames",
+    "test_stability_renderer.py::test_stress_scene_hdr_is_finite_and_non_negative",
+    "test_screenshots.py::test_scene_matches_its_screenshot[sec11_thin_film]",
+    "test_screenshots.py::test_scene_matches_its_screenshot[gltf_core_material]",
     "test_textures_procedural.py::test_write_then_check_then_tamper",
     "test_textures_procedural.py::test_png_bytes_are_deterministic_and_carry_no_metadata",
     "test_stability_brdf.py::test_f16_gbuffer_error_is_bounded[cd grating",
