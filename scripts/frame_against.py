@@ -1,4 +1,4 @@
-"""Time the 1-light frame of this working tree against another commit's: issue 19's
+"""Time the 1-light frame of this working tree against another commit's: the
 fixed-cost target ("at least 2x faster than the commit before the change").
 
     .venv/bin/python scripts/frame_against.py REV [--blocks 10] [--frames 6]

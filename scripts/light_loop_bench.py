@@ -1,4 +1,4 @@
-"""Issue 19's light-loop steps, timed interleaved against each other and the limit pass.
+"""The light-loop steps, timed interleaved against each other and the limit pass.
 
     .venv/bin/python scripts/light_loop_bench.py [LIGHTS] [WxH] [ROUNDS] [VARIANTS]
 

@@ -3,7 +3,7 @@
     .venv/bin/python scripts/raycast_table.py [--size 640x360] [--backend egl]
     .venv/bin/python scripts/raycast_table.py --scenes [--width 320]
 
-The first: issue 16's five-sphere scene (app/bench/raycast.py) at each setting of the
+The first: the five-sphere scene (app/bench/raycast.py) at each setting of the
 sphere (analytic or icosphere) and the G-buffer encoding, with directional and with point
 lights. The second (``--scenes``): every bundled scene the ray-caster takes, at its own
 settings. Both print Markdown.

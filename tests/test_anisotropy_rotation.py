@@ -224,7 +224,7 @@ def test_forward_pass_turns_the_tangent_too(gl_egl, tmp_path):
 def test_renderer_meets_the_raycaster_with_rotations(gl_egl, tmp_path):
     """The float64 ray-caster (app/reference/raycast.py) turns its tangent with the twin
     rotate_tangent; the renderer's image of anisotropic spheres turned by 0, 35, -70 and
-    90 degrees meets issue 16's targets against it."""
+    90 degrees meets the accuracy targets against it."""
     from app.bench.raycast import raycast_errors
     from tests.test_raycast import TARGET_MEDIAN, TARGET_P99
 

@@ -173,6 +173,7 @@ def test_reads_need_a_frame_of_the_current_scene_and_close_releases(gl_egl):
     assert not gl_egl.ctx.error or gl_egl.ctx.error == "GL_NO_ERROR"  # a shared context lives
 
 
+@pytest.mark.gl
 def test_own_context_is_released_on_exit():
     with OffscreenRenderer(scenes_dir() / "sec3_lambert.toml", (32, 16), backend="egl") as r:
         assert r.render().shape == (16, 32, 3)

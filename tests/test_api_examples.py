@@ -11,9 +11,12 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from tests.conftest import REPO
+
+pytestmark = pytest.mark.gl  # the examples render
 
 EXAMPLES = REPO / "docs" / "examples"
 

@@ -20,7 +20,11 @@ import struct
 import zlib
 from pathlib import Path
 
+import pytest
+
 from tests.attacks import Case, escapes, run_cases, scene_head
+
+pytestmark = pytest.mark.gl  # the bombs' scenes go as far as the renderer
 
 HEAD = scene_head() + "[materials.m]\nroughness = 0.5\n"
 MESH = '[[objects]]\nshape = "mesh"\nfile = "{f}"\n'

@@ -27,6 +27,8 @@ from PIL import Image
 from tests.attacks import SECRET, Case, escapes, run_cases, scene_head
 from tests.gltf_builder import GltfBuilder
 
+pytestmark = pytest.mark.gl  # the scenes that load are rendered
+
 SCENE_HEAD = scene_head() + "[materials.plain]\nroughness = 0.5\n"
 
 

@@ -30,6 +30,8 @@ from tests.attacks import Case, escapes, run_cases
 from tests.gltf_builder import GltfBuilder, png_rgb
 from tests.test_gltf_fuzz import _valid
 
+pytestmark = pytest.mark.gl  # the files that load are rendered
+
 REPO = Path(__file__).resolve().parent.parent
 CASES = 1200  # the whole suite (-m whole)
 CASES_SAMPLED = 240  # every test run
@@ -355,7 +357,7 @@ def test_mutated_gltf_whole(tmp_path: Path) -> None:
 
 
 def _named_cases() -> dict[str, tuple[callable, str]]:
-    """The issue's own cases: each change of the rich seed, and the key its refusal names."""
+    """The named cases: each change of the rich seed, and the key its refusal names."""
 
     def set_at(path: tuple, value: object):
         def change(doc: dict) -> None:

@@ -22,10 +22,13 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from tests.attacks import Case, escapes, run_cases, scene_head
 from tests.gltf_builder import GltfBuilder
+
+pytestmark = pytest.mark.gl  # the images that load are rendered
 
 MAX_MEMORY = "1G"
 

@@ -700,6 +700,7 @@ REFERENCE_CASES = [
     ("name", "changes", "damage", "fragment"),
     [pytest.param(*case[1:], id=case[0]) for case in REFERENCE_CASES],
 )
+@pytest.mark.gl
 def test_bad_gltf_references(
     work: tuple[Path, Path],
     capsys: pytest.CaptureFixture[str],
@@ -756,6 +757,7 @@ OBJ_QUAD += "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
         pytest.param("newmtl m\nmap_d gone.png\n", "map_d gone.png", id="map-d-missing"),
     ],
 )  # fmt: skip
+@pytest.mark.gl
 def test_bad_obj_references(
     work: tuple[Path, Path], capsys: pytest.CaptureFixture[str], mtl: str | None, fragment: str
 ) -> None:

@@ -172,6 +172,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("scene", "key", "fragment", "texture"), [c[1:] for c in CASES], ids=[c[0] for c in CASES]
 )
+@pytest.mark.gl
 def test_bad_texture_input(
     work: tuple[Path, Path],  # noqa: F811
     capsys: pytest.CaptureFixture[str],
@@ -196,6 +197,7 @@ def test_bad_texture_input(
     _check(rc, err, out, f"pbs: error: {path}: {key}:", fragment)
 
 
+@pytest.mark.gl
 def test_good_textured_scene_renders(
     work: tuple[Path, Path],  # noqa: F811
     capsys: pytest.CaptureFixture[str],

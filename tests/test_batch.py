@@ -85,6 +85,7 @@ def _render_with(tmp_path: Path, scene: Path, name: str, edit: dict, size: str) 
     return out.read_bytes()
 
 
+@pytest.mark.gl
 def test_orbit_two_workers_matches_render(tmp_path: Path, scene: Path) -> None:
     """4 frames at 64x64 on 2 spawned workers: each PNG equals ``pbs render`` of a scene
     file with that frame's camera, byte for byte; frame 2 (180 degrees) differs from 0."""
@@ -103,6 +104,7 @@ def test_orbit_two_workers_matches_render(tmp_path: Path, scene: Path) -> None:
     assert frames[0] != frames[2]
 
 
+@pytest.mark.gl
 def test_sweep_matches_render(tmp_path: Path, scene: Path) -> None:
     """A roughness range of 3 values in one process: each image is ``pbs render`` with
     that value, and the values give different images."""
@@ -123,6 +125,7 @@ def test_sweep_matches_render(tmp_path: Path, scene: Path) -> None:
     assert len(set(images)) == 3
 
 
+@pytest.mark.gl
 def test_resume_skips_valid_and_redoes_truncated(tmp_path: Path, scene: Path) -> None:
     jobs = _jobs(tmp_path, f'scene = "{scene.name}"\nsize = "48x32"\norbit = {{ frames = 3 }}\n')
     out = tmp_path / "out"
@@ -139,6 +142,7 @@ def test_resume_skips_valid_and_redoes_truncated(tmp_path: Path, scene: Path) ->
     assert {line["status"] for line in _manifest(out).values()} == {"ok"}
 
 
+@pytest.mark.gl
 def test_failed_job_alone(tmp_path: Path, scene: Path, capsys: pytest.CaptureFixture) -> None:
     """A missing scene file in a scene list fails its job only: the manifest says why,
     the other scenes render, the exit code is 1 and stderr names the job."""
@@ -187,6 +191,7 @@ def test_bad_job_file_exit_2(
     assert not out.exists()  # refused before anything ran
 
 
+@pytest.mark.gl
 def test_json_job_file(tmp_path: Path, scene: Path) -> None:
     jobs = _jobs(tmp_path, json.dumps({"scenes": ["scene.toml"], "size": [16, 16]}), "j.json")
     out = tmp_path / "out"
@@ -206,6 +211,7 @@ def test_dask_missing_exit_2(tmp_path: Path, scene: Path, capsys: pytest.Capture
 
 
 @pytest.mark.skipif(not HAVE_DASK, reason="needs the 'distributed' extra (Dask)")
+@pytest.mark.gl
 def test_dask_local_cluster(tmp_path: Path, scene: Path) -> None:
     """The orbit on a LocalCluster of 2 worker processes gives the in-process images."""
     jobs = _jobs(tmp_path, f'scene = "{scene.name}"\nsize = "32x32"\norbit = {{ frames = 4 }}\n')

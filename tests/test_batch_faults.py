@@ -110,6 +110,7 @@ def _lines(out: Path) -> int:
         return 0
 
 
+@pytest.mark.gl
 def test_a_killed_worker_fails_only_its_job(tmp_path: Path) -> None:
     jobs, out = _setup(tmp_path, 48, "320x180")  # long enough that both still work
     proc = _start(jobs, out, "--workers", "2")
@@ -130,6 +131,7 @@ def test_a_killed_worker_fails_only_its_job(tmp_path: Path) -> None:
     assert all(valid_output(Path(line["output"]), (320, 180)) for line in ok)
 
 
+@pytest.mark.gl
 def test_the_parent_killed_takes_its_workers(tmp_path: Path) -> None:
     jobs, out = _setup(tmp_path, 120, "320x180")
     proc = _start(jobs, out, "--workers", "2")
@@ -154,6 +156,7 @@ def test_the_parent_killed_takes_its_workers(tmp_path: Path) -> None:
     assert any(line["status"] == "skipped" for line in lines)
 
 
+@pytest.mark.gl
 def test_a_second_run_into_a_busy_folder_is_refused(tmp_path: Path) -> None:
     jobs, out = _setup(tmp_path, 120, "640x360")
     first = _start(jobs, out)

@@ -1,4 +1,4 @@
-"""pbs bench: the outputs exist and hold what the issue asks, and its two extra renderers
+"""pbs bench: the outputs exist and hold what the docs promise, and its two extra renderers
 are right: the forward baseline draws the deferred image, and the floor pass evaluates
 exactly the (pixel, light in range) pairs. No test here asserts a time."""
 
@@ -54,6 +54,7 @@ def covered_relative_error(a: np.ndarray, b: np.ndarray, covered: np.ndarray) ->
     return relative_error(a[covered], b[covered], 1e-3 * peak)
 
 
+@pytest.mark.gl
 def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     """A whole (tiny) run: every suite, the required keys, the targets, two valid PNGs."""
     assert main(["--quick", "--tiny", "--out", str(tmp_path), "-q"]) == 0
@@ -87,13 +88,13 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     for n in (1, 16):
         for v in ("culled", "unculled", "forward", "floor", "limit"):
             assert (n, v) in culling
-    # Issue 19's fixed cost: the whole 1-light frame, pass by pass, read-back included.
+    # The fixed cost: the whole 1-light frame, pass by pass, read-back included.
     frame = [r for r in rows if r["suite"] == "culling" and r["variant"] == "frame"]
     assert [r["lights"] for r in frame] == [1]
     # The scene's default light_culling ("auto") draws one light without tiles, and the
     # lighting pass of the plain frame writes the display image (no post pass).
     assert list(frame[0]["passes_ms"]) == ["gbuffer", "lighting", "read-back"]
-    # The limit row (issue 19): culled/limit per round, and its work close to the pairs'.
+    # The limit row: culled/limit per round, and its work close to the pairs'.
     for r in rows:
         if r["suite"] == "culling" and r["variant"] == "limit":
             ratio = r["culled_over_limit"]
@@ -143,8 +144,8 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     for r in spec.values():
         assert r["max_rel_diff_vs_specialized"] <= 1e-5, r  # tests/test_uber.py's bound
         assert all(isinstance(r[k], float) and np.isfinite(r[k]) for k in ERRORS), r
-    # primitives (issue 16): every sphere and encoding against the float64 ray-caster; the
-    # default (analytic, f32) meets the issue's targets, the old default (icosphere 4, f16)
+    # primitives: every sphere and encoding against the float64 ray-caster; the
+    # default (analytic, f32) meets the accuracy targets, the old default (icosphere 4, f16)
     # does not, and only the icospheres miss coverage.
     prims = {r["variant"]: r for r in rows if r["case"] == "primitives"}
     assert [v for v, r in prims.items() if r["default"]] == ["analytic f32"]
@@ -416,7 +417,7 @@ def test_pareto_front_and_targets_from_rows():
 
 
 def test_limit_and_pyrender_targets_from_rows():
-    """Issue 19's verdicts read the per-round ratios the rows carry: culled/limit of the
+    """The limit and pyrender verdicts read the per-round ratios the rows carry: culled/limit of the
     shading passes against 1.2, pyrender/pbs on the 35-sphere scene against 5."""
 
     def ratio(median):
@@ -480,7 +481,7 @@ def test_interleaved_timing_rotates_the_order_and_keeps_each_variants_frames(gl_
 
 
 def test_api_rows_first_and_next_frames(gl_egl):
-    """The startup suite's API rows (issue 17): per case a first frame and the next frames
+    """The startup suite's API rows: per case a first frame and the next frames
     after camera changes, which compiled nothing; the mesh case draws the helmet-sized
     icosphere. Times are recorded, never asserted."""
     from app.bench.context import TINY, Context

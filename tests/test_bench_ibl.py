@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from app.bench import main
 from app.bench.ibl import TINY_CHOICES
 from app.render.ibl import ENV_LEVELS, face_size, levels_bytes
@@ -17,6 +19,7 @@ def test_levels_bytes_counts_six_faces_of_every_level() -> None:
     assert levels_bytes(128) == 6 * 16 * (128**2 + 64**2 + 32**2 + 16**2 + 16**2 + 16**2)
 
 
+@pytest.mark.gl
 def test_tiny_ibl_suite_rows(tmp_path) -> None:
     assert main(["--tiny", "--suites", "ibl", "--out", str(tmp_path), "-q"]) == 0
     rows = json.loads((tmp_path / "bench.json").read_text())["rows"]

@@ -7,12 +7,14 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from app.bench import main
 from app.bench.report import shadow_fronts
 from app.bench.shadows import FILTERS, LIGHTS, mismatch
 
 
+@pytest.mark.gl
 def test_tiny_shadows_suite_writes_its_rows(tmp_path):
     """Per light type: no shadow, PCF and PCSS at the largest map, PCF and PCSS at each
     smaller one; each shadowed row's mismatch is a fraction, a front exists per light, and

@@ -1,5 +1,5 @@
-"""Issue 19's pyrender comparison scene and frame (app/bench/spheres.py): the scene is the
-one the issue describes, and the frame the bench times pass by pass is the renderer's own
+"""The pyrender comparison scene and frame (app/bench/spheres.py): the scene is the
+one docs/performance.md describes, and the frame the bench times pass by pass is the renderer's own
 frame to the 8-bit image. No test here asserts a time."""
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from app.render.renderer import Renderer
 SIZE = (96, 54)
 
 
-def test_sphere_grid_is_the_issues_scene():
+def test_sphere_grid_is_the_35_sphere_scene():
     data = sphere_grid_scene(4, (1280, 720))
     spheres = data["objects"]
     assert len(spheres) == 35 and {o["subdivisions"] for o in spheres} == {4}

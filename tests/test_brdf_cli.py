@@ -88,6 +88,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, str]
     return result
 
 
+@pytest.mark.gl
 def test_one_preset(runs: dict[str, tuple[Path, str]]) -> None:
     png, stdout = runs["preset"]
     assert _pixels(png, (360, 520)).std() > MIN_STD
@@ -95,6 +96,7 @@ def test_one_preset(runs: dict[str, tuple[Path, str]]) -> None:
     assert [p.name for p in png.parent.iterdir() if p.name.startswith(".")] == []  # no temp
 
 
+@pytest.mark.gl
 def test_two_materials_side_by_side(runs: dict[str, tuple[Path, str]]) -> None:
     png, stdout = runs["pair"]
     pixels = _pixels(png, (720, 520))
@@ -104,6 +106,7 @@ def test_two_materials_side_by_side(runs: dict[str, tuple[Path, str]]) -> None:
     assert pixels[:, 360:].std() > MIN_STD
 
 
+@pytest.mark.gl
 def test_scene_file(runs: dict[str, tuple[Path, str]]) -> None:
     png, stdout = runs["scene"]
     pixels = _pixels(png, (720, 520))
@@ -291,6 +294,7 @@ def test_lobe_peaks_at_the_mirror_direction(gl: GLContext) -> None:
     assert lobes(m, (0.0,), gl=gl)[0].value[:, 1].max() == pytest.approx(head_on, rel=1e-4)
 
 
+@pytest.mark.gl
 def test_the_default_context_survives_an_osmesa_context() -> None:
     """``evaluate`` without a context uses one per process; an OSMesa context created and
     destroyed meanwhile (as the test modules' ``gl`` fixture does) takes Mesa's dispatch

@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
+pytestmark = pytest.mark.gl  # pbs render children (all but --help and no arguments)
+
 REPO = Path(__file__).resolve().parent.parent
 W, H = 96, 54
 SIZE = f"{W}x{H}"

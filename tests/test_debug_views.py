@@ -323,6 +323,7 @@ def test_cli_writes_the_display_image(gl_egl, tmp_path):
         (["--debug", "depth", "--debug-light", "0"], "--debug-light"),
     ],
 )
+@pytest.mark.gl
 def test_cli_bad_debug_input_exits_2_with_one_line(tmp_path, capsys, args, option):
     out = tmp_path / "x.png"
     code = main(["render", "sec4_lights", "-o", str(out), "--size", "32x18", *args])

@@ -135,6 +135,7 @@ def test_efficiencies_sum_to_one():
 
 
 @pytest.mark.parametrize("backend", ["reference", "glsl"])
+@pytest.mark.gl
 def test_reciprocity(backend):
     """f(l, v) = f(v, l) for random pairs and a random tangent: the grating equation and
     a = pi depth (n.l + n.v)/lambda are symmetric, and so is the sum of the two halves."""

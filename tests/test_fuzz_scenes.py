@@ -51,6 +51,8 @@ from app.common.models import (
 from app.scene.presets import PRESETS
 from tests.conftest import REPO
 
+pytestmark = pytest.mark.gl  # the scenes render, in process and in pbs children
+
 SEEDS = {p.name: tomllib.loads(p.read_text("utf-8")) for p in sorted(REPO.glob("scenes/*.toml"))}
 SIZE = "32x18"  # every render is tiny: the fuzzer is after crashes, not pictures
 

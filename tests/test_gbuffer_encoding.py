@@ -112,7 +112,7 @@ def test_a_unorm_target_keeps_no_nan(gl) -> None:
 
 @pytest.mark.parametrize("encoding", ["f32", "unorm16"])
 def test_a_frame_clears_only_what_marks_the_background(gl_egl, encoding: str) -> None:
-    """The G-buffer pass clears RT2 and the z-buffer only (docs/performance.md, issue 19):
+    """The G-buffer pass clears RT2 and the z-buffer only (docs/performance.md):
     a pixel a surface left keeps stale texels in the other targets, yet ``read`` gives
     it the cleared value, the lighting pass shows the background there, and the frame
     equals a frame drawn into fully cleared targets."""

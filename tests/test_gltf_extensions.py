@@ -330,6 +330,7 @@ def test_sheen_matches_the_specification():
     np.testing.assert_allclose(twin(p, l, v), ref, rtol=1e-11)
 
 
+@pytest.mark.gl
 def test_glsl_matches_the_specification():
     """The lighting pass's GLSL (BRDF probe) for ior + specular + anisotropy against the
     specifications' formula, at float32 precision."""

@@ -1,4 +1,4 @@
-"""Damaged glTF files are bad input, never a crash or a hang (issue 17).
+"""Damaged glTF files are bad input, never a crash or a hang.
 
 A seeded loop of mutations of one valid, feature-rich file (tests/gltf_builder.py):
 truncated GLBs and buffers, flipped bytes, garbage JSON, and JSON values replaced by

@@ -1,4 +1,4 @@
-"""glTF file -> real Renderer -> image and G-buffer (issue 17).
+"""glTF file -> real Renderer -> image and G-buffer.
 
 Each test writes a glTF file through pygltflib (tests/gltf_builder.py), loads it as a
 scene's mesh object and renders it with the real GLSL on EGL, then checks one feature of

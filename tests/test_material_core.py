@@ -1,4 +1,4 @@
-"""The glTF 2.0 core material in the renderer (issue 17): emission, occlusion, alpha mask
+"""The glTF 2.0 core material in the renderer: emission, occlusion, alpha mask
 and sampler wrap modes, on scenes built from TOML keys, with the real GLSL.
 
 Each test renders a plane seen from above (u along +x, v along the image's rows) with and

@@ -37,7 +37,7 @@ INCLUDES = ["brdf/ndf.glsl", "brdf/masking.glsl"]
 
 ALPHA_FLOOR = 0.045**2  # the roughness floor of glsl/common/constants.glsl
 GAMMAS = (0.5, 1.0, 1.5, 2.0, 3.0, 10.0)
-REQUIRED = 1e-3  # the bound on the masking integral
+REQUIRED = 1e-3  # the required bound on the masking integral
 
 
 def f32(a: np.ndarray | float) -> np.ndarray:

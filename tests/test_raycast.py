@@ -1,5 +1,5 @@
 """The float64 ray-caster (app/reference/raycast.py) against closed forms, and the renderer
-against the ray-caster (issue 16).
+against the ray-caster.
 
 The closed forms are computed here the textbook way (the naive quadratic, the sphere's
 normal (p - c) / r), independently of the ray-caster's stable quadratic and model-matrix
@@ -252,10 +252,10 @@ def test_reference_scene_of_a_sphere_and_a_floor():
     assert np.all(np.isfinite(img.hdr)) and img.hdr[img.covered].max() > 0.0
 
 
-# Issue 16: the renderer against the ray-caster, the five spheres at 320x180 on interior
+# The renderer against the ray-caster, the five spheres at 320x180 on interior
 # pixels. Measured on llvmpipe at 640x360 (docs/accuracy.md): subdivisions 6 + f32 gives
 # median 4.1e-5, p99 5.3e-4. The bounds below are what the tessellated spheres meet today.
-# Issue 16's targets for the whole pipeline at the DEFAULT settings (analytic spheres, the
+# The accuracy targets for the whole pipeline at the DEFAULT settings (analytic spheres, the
 # default G-buffer encoding), interior pixels: docs/accuracy.md.
 TARGET_MEDIAN = 1e-5
 TARGET_P99 = 1e-4
@@ -312,7 +312,7 @@ def _analytic_scenes() -> list:
 @pytest.mark.parametrize("path", _analytic_scenes(), ids=lambda p: p.stem)
 def test_bundled_scene_meets_the_targets(gl_egl, path):
     """Every screenshot scene made of analytic primitives, at its own settings (160 px
-    wide), against the ray-caster: the issue's targets hold for all of them, the far
+    wide), against the ray-caster: the accuracy targets hold for all of them, the far
     cameras (sec1_*, sec11_*, sec12_*: 300 m away) and every BRDF model included.
     Shadows are switched off on both sides: a shadow map's filtered edge is not the shadow
     rays' hard one (mean FLIP 0.0022 on scenes/shadows.toml with them), and

@@ -4,8 +4,8 @@ The G-buffer is read back and shaded again in float64 by app.reference.illuminat
 so the comparison isolates the lighting pass's float32 arithmetic. Measured on
 llvmpipe (EGL and OSMesa alike) at 640x360: max relative error 2.4e-5 on the
 showcase's lit interior pixels (on the sharp highlights of the roughness-0.05 and
-0.18 spheres), median 6e-8; the teapots 3.6e-6. The issue's target is 1e-3; the
-test holds the GPU to 1e-4. Since issue 18 the showcase's and the teapot's lights cast
+0.18 spheres), median 6e-8; the teapots 3.6e-6. The required bound is 1e-3; the
+test holds the GPU to 1e-4. The showcase's and the teapot's lights cast
 shadows: the twin reads the GPU's shadow maps back (app/reference/shadows.py); max 9.1e-5
 and 5.6e-5 at 320x180 (docs/shadows.md).
 """

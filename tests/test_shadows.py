@@ -1,4 +1,4 @@
-"""Shadow maps (issue 18, app/render/shadows.py, glsl/lights/shadows.glsl) against the
+"""Shadow maps (app/render/shadows.py, glsl/lights/shadows.glsl) against the
 float64 ray-caster's shadow rays (app/reference/raycast.py light_visibility).
 
 The GPU's visibility of one light at a pixel is read as the ratio of two renders of a
@@ -415,6 +415,7 @@ def test_a_resolution_past_the_gl_limit_is_refused_naming_the_key(gl_egl):
         Renderer(gl_egl, loaded(data))
 
 
+@pytest.mark.gl
 def test_pbs_render_exits_2_naming_the_key(tmp_path, capsys):
     """The scene file's spot (its third light) asks for a map past any GL's texture size."""
     text = (REPO / "scenes" / "shadows.toml").read_text()

@@ -77,7 +77,7 @@ D_MAX = float(max(gtr_peak(ALPHA_MIN, 20.0), 1.0 / (PI * ALPHA_MIN**2)))
 # and Kulla-Conty's lobe at most 1.4e2 (its table's largest loss^2 / (pi loss_avg)): the
 # factor 2 covers both with room to spare.
 F_COS_BOUND = 2.0 * D_MAX / (4.0 * MIN_N_DOT_V)
-# The brightest light the issue asks for, at the distance floor of the inverse-square law.
+# The brightest light the stress suite covers, at the distance floor of the inverse-square law.
 INTENSITY_MAX = 1e6
 C_LIGHT_MAX = INTENSITY_MAX / LIGHT_MIN_DISTANCE**2
 # One light's contribution to the lighting pass's float32 sum, pi c_light f (n.l).
@@ -539,7 +539,7 @@ def test_every_model_survives_the_stress_grid(gl_egl: GLContext, grid: Grid, nam
 
 
 def test_the_grid_reaches_the_edges(grid: Grid) -> None:
-    """The grid holds what the issue lists (so the test above cannot pass vacuously), and the
+    """The grid holds every edge case listed here (so the test above cannot pass vacuously), and the
     well-conditioned mask keeps most rows."""
     nl, nv = _dot(grid.n, grid.l), _dot(grid.n, grid.v)
     assert (nl == 0.0).any() and (nv == 0.0).any()

@@ -327,12 +327,14 @@ def _check_clean_debug_view(rc: int, out: str, err: str, png: Path) -> None:
 DEBUG_ARGS = ("--size", "160x90", "--debug", "nan", "-q")
 
 
+@pytest.mark.gl
 def test_debug_nan_on_a_clean_scene_reports_zeros(tmp_path: Path):
     png = tmp_path / "nan.png"
     rc, out, err = _run_main("render", str(STRESS), "-o", str(png), *DEBUG_ARGS, "--backend", "egl")
     _check_clean_debug_view(rc, out, err, png)
 
 
+@pytest.mark.gl
 def test_debug_nan_on_a_clean_scene_reports_zeros_osmesa(tmp_path: Path):
     """In a subprocess: an OSMesa context destroyed in-process would leave the test
     session's other contexts without a current context."""
@@ -345,6 +347,7 @@ def test_debug_nan_on_a_clean_scene_reports_zeros_osmesa(tmp_path: Path):
     _check_clean_debug_view(proc.returncode, proc.stdout, proc.stderr, png)
 
 
+@pytest.mark.gl
 def test_debug_nan_through_the_cli_finds_injected_values(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ):

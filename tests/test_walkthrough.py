@@ -1,4 +1,4 @@
-"""The classroom walkthrough (issue 15): step validation, rendering in both languages,
+"""The classroom walkthrough: step validation, rendering in both languages,
 labels, projector-ready framing, and the offline handout in real headless Chromium.
 
 Real components throughout: the step files of walkthrough/ (all 13; 04 and 07 built), a real EGL
@@ -306,6 +306,7 @@ def _ink(png: bytes) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("L")) < 128
 
 
+@pytest.mark.browser
 @needs_chromium
 @pytest.mark.parametrize("lang", ["en", "ko"])
 def test_the_handout_opens_offline_in_chromium(built: dict, lang: str) -> None:
@@ -337,6 +338,7 @@ def test_the_handout_opens_offline_in_chromium(built: dict, lang: str) -> None:
             assert "Noto Sans CJK KR" in font
 
 
+@pytest.mark.browser
 @needs_chromium
 def test_hangul_renders_as_glyphs_not_tofu(built: dict) -> None:
     """The Korean heading's pixels: ink, and different from the same number of
@@ -374,6 +376,7 @@ def test_hangul_renders_as_glyphs_not_tofu(built: dict) -> None:
     assert first.shape != second.shape or (first != second).mean() > 0.05
 
 
+@pytest.mark.browser
 @needs_chromium
 def test_the_network_check_catches_a_remote_image(built: dict, tmp_path: Path) -> None:
     """A page that names a remote image: the request is recorded and refused (the

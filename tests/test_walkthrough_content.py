@@ -1,4 +1,4 @@
-"""The walkthrough's lesson content (walkthrough/NN-slug.toml, issue 15), checked without
+"""The walkthrough's lesson content (walkthrough/NN-slug.toml), checked without
 the engine that renders it: the files follow the step format (docs of the format: the
 ``section`` / ``title`` / ``text`` tables, ``equations``, ``views``, ``comparisons``,
 ``sweeps``, ``plots``), there is exactly one step per section 1..13 of the seed, every

@@ -1,5 +1,5 @@
 """A small glTF 2.0 sample asset made by the project: every core material feature the
-renderer reads (issue 17), on procedural textures, for scenes/gltf_material_sampler.toml.
+renderer reads, on procedural textures, for scenes/gltf_material_sampler.toml.
 
 Why generate it: users need a file to try the glTF path on without downloading sample
 models, and the screenshot needs one whose every texture is known. The primitives:

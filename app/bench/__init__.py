@@ -5,7 +5,7 @@
                   shadows]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
-issue's targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
+targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
 DIR/scaling.png. A progress bar runs on stderr. ``--quick`` uses smaller images and fewer
 light counts and frames (a few minutes on two cores); the full run takes tens of minutes,
 most of it in the unculled and forward renderers at 1024 lights.

@@ -1,4 +1,4 @@
-"""Suite ``batch`` of ``pbs bench``: images per second of an orbit, four ways (issue 17).
+"""Suite ``batch`` of ``pbs bench``: images per second of an orbit, four ways.
 
 The orbit: ``Settings.batch_frames`` frames (100 full, 20 quick) at ``batch_size``
 (512x512) of a helmet-sized mesh (suites.api_mesh_scene: an 81,920-triangle icosphere as

@@ -56,7 +56,7 @@ class Settings:
     # The layered models' comparisons (RTR4 §9.10-9.12): the grating's twin sums its orders
     # over 16 wavelengths per pixel and light, minutes at the accuracy size.
     layered_size: tuple[int, int] = (320, 180)
-    # Suite batch (app/bench/batch.py): issue 17's orbit, each way in rotated rounds.
+    # Suite batch (app/bench/batch.py): the orbit, each way in rotated rounds.
     batch_frames: int = 100
     batch_size: tuple[int, int] = (512, 512)
     batch_rounds: int = 3
@@ -66,7 +66,7 @@ class Settings:
     # also times no shadow, PCF and PCSS side by side).
     shadow_size: tuple[int, int] = (640, 384)
     shadow_resolutions: tuple[int, ...] = (256, 512, 1024, 2048)
-    # Issue 19's pyrender comparison (app/bench/spheres.py): its light counts.
+    # The pyrender comparison (app/bench/spheres.py): its light counts.
     pyrender_sphere_lights: tuple[int, ...] = (1, 4)
 
 
@@ -244,7 +244,7 @@ def pyrender_env() -> dict[str, str]:
 
 
 def api_mesh_scene(folder: Path, subdivisions: int = 6) -> dict:
-    """A helmet-sized mesh (issue 17's Damaged Helmet has tens of thousands of triangles):
+    """A helmet-sized mesh (glTF's Damaged Helmet has tens of thousands of triangles):
     an icosphere of ``subdivisions`` (20 * 4^n triangles: 81,920 for 6) written by trimesh
     as ``folder/mesh.glb``, on a floor, under the showcase's kind of light; a scene dict
     whose mesh path is relative to ``folder``."""

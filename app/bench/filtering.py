@@ -1,5 +1,5 @@
 """Normal and roughness filtering measured against a supersampled reference (seed
-section 13; issue: "Measured, not asserted by eye").
+section 13: measured, not asserted by eye).
 
 Each option renders scenes/sec13_filtering.toml (or any scene with normal maps); the
 reference renders the same view with ``supersample`` x ``supersample`` samples per pixel

@@ -14,7 +14,7 @@ copied, not computed):
   how visible the difference is on a display; 0 is identical, 1 the largest difference.
 
 ``interior_errors`` measures the whole pipeline instead, against the float64 ray-caster
-(app/reference/raycast.py, issue 16): the median, 99th percentile and largest relative
+(app/reference/raycast.py): the median, 99th percentile and largest relative
 error and the mean FLIP over the pixels away from silhouettes.
 """
 
@@ -92,7 +92,7 @@ def interior_errors(
     shading decides): the median, 99th percentile and largest ``relative_errors`` over
     those pixels and their channels, and the mean FLIP of those pixels after the scene's
     exposure and tone map (as ``image_errors`` computes it, averaged over the interior
-    only). Issue 16's targets: median <= 1e-5, p99 <= 1e-4, mean FLIP <= 1e-3."""
+    only). The accuracy targets: median <= 1e-5, p99 <= 1e-4, mean FLIP <= 1e-3."""
     if not np.any(interior):
         return {"median": None, "p99": None, "max": None, "flip_mean": None}
     rel = relative_errors(hdr, ref, interior)

@@ -10,7 +10,7 @@ after one warm-up render of the scene's camera, each camera in turn is set, rend
 read back and written as ``out/frame-NNNN.png`` with the project's PNG writer; ``ms``
 holds each frame's time, all of that included.
 
-A served request (issue 19's comparison, app/bench/spheres.py) is {"scene": scene dict,
+A served request (the 35-sphere comparison, app/bench/spheres.py) is {"scene": scene dict,
 "size": [w, h], "serve": true}: after the warm-up render the child writes one JSON line
 {"ready": true} and then renders one frame for each line ``frame`` it reads on stdin,
 answering each with {"ms": t}; the line ``end`` makes it write the whole result (as

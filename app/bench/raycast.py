@@ -1,8 +1,8 @@
-"""The whole pipeline against the float64 ray-caster (issue 16): the GPU's linear HDR of a
+"""The whole pipeline against the float64 ray-caster: the GPU's linear HDR of a
 scene of analytic primitives, compared on interior pixels with app/frame/raycast.py's
 reference of the same scene (app/bench/metrics.py ``interior_errors``).
 
-``five_spheres`` is issue 16's measuring scene: five spheres of the default model
+``five_spheres`` is the measuring scene: five spheres of the default model
 (GGX, Smith height-correlated, Schlick, Lambert) under two directional lights, and two point
 lights where asked; its two settings that matter, ``subdivisions`` (None: the analytic
 sphere) and ``gbuffer`` (None: the default encoding), are arguments.
@@ -87,7 +87,7 @@ def scene_with_spheres(
 ) -> LoadedScene:
     """A scene file with its analytic spheres drawn as icospheres of ``subdivisions``
     (None: kept analytic) and ``render.gbuffer`` set (None: the file's own): the same
-    scene as the pipeline drew it before issue 16, or with another encoding."""
+    scene as the pipeline drew it with icospheres, or with another encoding."""
     data = tomllib.loads(Path(path).read_text())
     for obj in data.get("objects", []):
         if obj.get("shape") == "sphere" and subdivisions is not None:

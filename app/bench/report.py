@@ -33,8 +33,8 @@ COLD_START_MAX_S = 3.0
 VIEWER_LATENCY_MAX_MS = 100.0  # an input's wait for its new image in pbs view
 SPECIALIZED_SPEEDUP_MIN = 1.5
 TARGET_LIGHTS = 256
-CULLED_LIMIT_MAX = 1.2  # issue 19: the culled lighting pass against the limit pass
-PYRENDER_SPEEDUP_MIN = 5.0  # issue 19: pyrender / pbs on the 35-sphere scene
+CULLED_LIMIT_MAX = 1.2  # the culled lighting pass against the limit pass
+PYRENDER_SPEEDUP_MIN = 5.0  # pyrender / pbs on the 35-sphere scene
 SPHERES_CASE = "35 spheres"  # app/bench/spheres.py's CASE (report imports no GL modules)
 SPHERES_PYRENDER = "pyrender"
 
@@ -228,11 +228,11 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
     return out
 
 
-# Issue 16: the whole pipeline at the default settings against the float64 ray-caster.
+# Accuracy targets: the whole pipeline at the default settings against the float64 ray-caster.
 PRIMITIVES_MEDIAN_MAX = 1e-5
 PRIMITIVES_P99_MAX = 1e-4
 PRIMITIVES_FLIP_MAX = 1e-3
-PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default spheres and encoding before issue 16
+PRIMITIVES_BEFORE = "icosphere 4 f16"  # the default before the analytic spheres
 
 
 def _default_row(rows: list[dict], case: str) -> dict | None:
@@ -251,7 +251,7 @@ def _primitives_verdicts(rows: list[dict]) -> list[Verdict]:
     )
     speed = (
         f"default frame (showcase) no slower than '{PRIMITIVES_BEFORE}' (the default before"
-        " issue 16)"
+        " the analytic spheres)"
     )
     if default is None:
         return [Verdict(what, "not run", "NOT MEASURED"), Verdict(speed, "not run", "NOT MEASURED")]
@@ -516,7 +516,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     ]
     if machine["mode"] != "full":
         lines += [
-            "The issue states its targets for the full mode (the culling suite at 1280x720, "
+            "The targets are stated for the full mode (the culling suite at 1280x720, "
             "frames of 20 s per row); in this mode the verdicts are indicative only: a "
             "smaller image weighs each pass's fixed cost more, and fewer frames leave more "
             "noise.",
@@ -758,7 +758,7 @@ def _culling_ratio_lines(members: list[dict]) -> list[str]:
 
 
 def _pyrender_verdicts(rows: list[dict]) -> list[Verdict]:
-    """Issue 19: pbs at least PYRENDER_SPEEDUP_MIN times faster than pyrender on the
+    """pbs at least PYRENDER_SPEEDUP_MIN times faster than pyrender on the
     35-sphere scene, per light count measured."""
     out = []
     for r in rows:
@@ -827,3 +827,331 @@ def _ibl_lines(rows: list[dict], members: list[dict]) -> list[str]:
 
 def write_markdown(path: Path, text: str) -> None:
     atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+# --- docs/performance.md's generated section ----------------------------------------------------
+
+DOC_BEGIN = (
+    "<!-- begin generated: scripts/performance_doc.py writes this section from a bench.json;"
+    " edit the generator, not the text -->"
+)
+DOC_END = "<!-- end generated -->"
+
+
+def _row_ms(rows: list[dict], suite: str, variant: str, lights: int) -> float | None:
+    row = find(rows, suite, variant, lights)
+    return row["ms_median"] if row else None
+
+
+def _div(a: float | None, b: float | None) -> float | None:
+    return a / b if a is not None and b else None
+
+
+def _doc_header(payload: dict) -> list[str]:
+    m = payload["machine"]
+    load = (
+        f"{m['load_avg_start'][0]:.1f} at the start, {m['load_avg_end'][0]:.1f} at the end"
+        if m.get("load_avg_end")
+        else f"{m['load_avg_start'][0]:.1f} at the start"
+    )
+    gl_version = str(m.get("gl_version", "")).split("Mesa")[-1].strip()
+    lines = [
+        "## Results",
+        "",
+        f"The last run: `pbs bench` in **{m['mode']}** mode on {m['date'][:10]} at git"
+        f" {m['git']}: {m['cpu']}, {m['cores_usable']} usable cores, {m['gl_renderer']}"
+        f"{', Mesa ' + gl_version if gl_version else ''}, through {m['gl_backend'].upper()};"
+        f" 1-minute load {load}; {m.get('wall_s', 0):.0f} s in all. Settings:"
+        f" {payload.get('settings', '-')}.",
+        "",
+    ]
+    if m["mode"] != "full":
+        lines += [
+            "The targets are stated for the full mode (the culling suite at 1280×720, up to"
+            " 20 s of frames per row): in this mode a smaller image weighs each pass's fixed"
+            " cost more and fewer frames leave more noise, so a verdict is indicative and a"
+            " Pareto verdict can turn on a difference inside the rows' min–max spread.",
+            "",
+        ]
+    return lines
+
+
+def _doc_targets(rows: list[dict]) -> list[str]:
+    """The verdicts; those of the Pareto fronts in one row (bench.md has each)."""
+    lines = ["### Targets", "", "| target | measured | result |", "| --- | --- | --- |"]
+    fronts = []
+    for v in evaluate_targets(rows):
+        if v.target.startswith("default of accuracy"):
+            fronts.append(v)
+            continue
+        lines.append(f"| {v.target} | {v.measured} | {v.status} |")
+    if fronts:
+        off = [v for v in fronts if v.status != "PASS"]
+        measured = f"{len(fronts) - len(off)} of {len(fronts)} on their fronts" + "".join(
+            f"; {v.target.split(chr(39))[1]}: {v.measured}" for v in off
+        )
+        lines.append(
+            f"| every default approximation on its accuracy comparison's Pareto front |"
+            f" {measured} | {'PASS' if not off else 'FAIL'} |"
+        )
+    return [*lines, ""]
+
+
+def _doc_culling(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "culling" and r["case"] != SPHERES_CASE]
+    if not members:
+        return []
+    w, h = members[0]["width"], members[0]["height"]
+    counts = sorted({r["lights"] for r in members if r["variant"] == "culled"})
+    lines = [
+        f"### culling ({w}×{h}, ms per frame to the HDR image)",
+        "",
+        "| lights | culled | floor | limit | unculled | forward | culled/floor |"
+        " unculled/culled | forward/culled | lights per pixel (tile lists) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for n in counts:
+        ms = {v: _row_ms(rows, "culling", v, n) for v in CULLING_DOC_VARIANTS}
+        culled = find(rows, "culling", "culled", n) or {}
+        tile = culled.get("lights_per_tile_mean")
+        lines.append(
+            f"| {n} | {' | '.join(_fmt(ms[v]) for v in CULLING_DOC_VARIANTS)} |"
+            f" {_fmt(_div(ms['culled'], ms['floor']), '.2f')} |"
+            f" {_fmt(_div(ms['unculled'], ms['culled']), '.2f')} |"
+            f" {_fmt(_div(ms['forward'], ms['culled']), '.2f')} |"
+            f" {_fmt(culled.get('lights_per_pixel'), '.2f')}"
+            f" ({_fmt(tile, '.1f')}) |"
+        )
+    lines.append("")
+    for r in (r for r in members if r["variant"] == "frame"):
+        lines += [
+            f"The fixed cost, the whole {r['lights']}-light frame to the caller's 8-bit image"
+            f" at {r['width']}×{r['height']}: {r['ms_median']:.1f} ms ({_passes_plain(r)}).",
+            "",
+        ]
+    spheres = [r for r in rows if r["case"] == SPHERES_CASE and r["variant"] != SPHERES_PYRENDER]
+    for r in spheres:
+        pyr = next(
+            (p for p in rows if p["case"] == SPHERES_CASE and p["variant"] == SPHERES_PYRENDER
+             and p["lights"] == r["lights"]),
+            None,
+        )  # fmt: skip
+        lines.append(
+            f"- {SPHERES_CASE}, {r['lights']} light(s), {r['width']}×{r['height']}: pbs"
+            f" {r['ms_median']:.1f} ms, pyrender {_fmt(pyr and pyr['ms_median'])} ms,"
+            f" pyrender/pbs {_ratio_text(r.get('pyrender_over_pbs'))}."
+        )
+    return [*lines, ""] if spheres else lines
+
+
+CULLING_DOC_VARIANTS = ("culled", "floor", "limit", "unculled", "forward")
+
+
+def _passes_plain(row: dict) -> str:
+    wall = row.get("passes_ms") or {}
+    return " + ".join(f"{name} {ms:.1f}" for name, ms in wall.items()) or "-"
+
+
+def _doc_resolution(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "resolution"]
+    if not members:
+        return []
+    lines = [
+        f"### resolution ({members[0]['lights']} lights, culled)",
+        "",
+        "| size | ms median | passes, ms | ns per pixel |",
+        "| --- | --- | --- | --- |",
+    ]
+    for r in members:
+        per_px = r["ms_median"] * 1e6 / (r["width"] * r["height"])
+        lines.append(
+            f"| {r['width']}×{r['height']} | {r['ms_median']:.1f} | {_passes_plain(r)} |"
+            f" {per_px:.0f} |"
+        )
+    return [*lines, ""]
+
+
+def _doc_accuracy(rows: list[dict]) -> list[str]:
+    fronts = pareto_by_comparison(rows)
+    if not fronts:
+        return []
+    lines = [
+        "### accuracy",
+        "",
+        "Defaults in bold; error against the float64 twin of the exact form (the ray-caster"
+        " for `primitives`, an 8×8-supersampled image for `mip_filtering`).",
+        "",
+        "| comparison | variant | ms median | lighting ms | rel_rmse | FLIP | on front |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for comp, front in fronts.items():
+        for i, r in enumerate(front["rows"]):
+            name = f"**{r['variant']}**" if r.get("default") else r["variant"]
+            lighting = (r.get("passes_ms") or {}).get("lighting")
+            lines.append(
+                f"| {comp if i == 0 else ''} | {name} | {_fmt(r['ms_median'])} |"
+                f" {_fmt(lighting)} | {_fmt(r['rel_rmse'], '.2e')} |"
+                f" {_fmt(r['flip_mean'], '.2e')} |"
+                f" {'yes' if r['variant'] in front['front'] else 'no'} |"
+            )
+    return [*lines, ""]
+
+
+def _doc_specialization(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "specialization"]
+    if not members:
+        return []
+    lines = [
+        "### specialization",
+        "",
+        "| scene | variant | lighting programs | ms median | lighting ms | uber/specialized |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in members:
+        ratio = specialization_ratio(rows, r["case"]) if r["variant"] == "uber" else None
+        lines.append(
+            f"| {r['case']} | {r['variant']} | {r.get('lighting_programs', '-')} |"
+            f" {_fmt(r['ms_median'])} | {_fmt((r.get('passes_ms') or {}).get('lighting'))} |"
+            f" {_fmt(ratio, '.2f')} |"
+        )
+    return [*lines, ""]
+
+
+def _doc_startup_viewer(rows: list[dict]) -> list[str]:
+    """Cold start, the API's frames and the viewer's waits, a line each."""
+    lines = []
+    start = [r for r in rows if r["suite"] == "startup"]
+    if start:
+        lines += ["### startup and viewer", ""]
+        lines += [
+            f"- {r['case']}, {r['variant']}: {r['ms_median']:.0f} ms"
+            + (f", peak RSS {r['peak_rss_mib']:.0f} MiB" if r.get("peak_rss_mib") else "")
+            + f" (n = {r['frames']})"
+            for r in start
+        ]
+    view = [r for r in rows if r["suite"] == "viewer"]
+    if view:
+        if not start:
+            lines += ["### startup and viewer", ""]
+        waits = "; ".join(
+            f"{r['variant']} {r['ms_median']:.0f} (p95 {_fmt(r.get('ms_p95'), '.0f')})"
+            for r in view
+        )
+        lines.append(
+            f"- viewer, an input's wait for its image in a {view[0]['width']}×"
+            f"{view[0]['height']} window, ms median: {waits}"
+        )
+    return [*lines, ""] if lines else []
+
+
+def _doc_batch(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "batch"]
+    if not members:
+        return []
+    lines = [
+        f"### batch ({members[0]['case']})",
+        "",
+        "| way | images/s (min–max over rounds) | ms per image, warm |",
+        "| --- | --- | --- |",
+    ]
+    for r in members:
+        if r.get("images_per_s") is None:
+            lines.append(f"| {r['variant']} | not measured: {r.get('not_measured', '-')} | |")
+            continue
+        lines.append(
+            f"| {r['variant']} | {r['images_per_s']:.2f} ({r['images_per_s_min']:.2f}–"
+            f"{r['images_per_s_max']:.2f}) | {_fmt(r.get('steady_ms_median'), '.0f')} |"
+        )
+    ratios = batch_ratios(rows)
+    measured = [f"{name} {v:.2f}" for name, v in ratios.items() if v is not None]
+    if measured:
+        lines += ["", "Ratios: " + "; ".join(measured) + "."]
+    return [*lines, ""]
+
+
+def _doc_ibl(rows: list[dict]) -> list[str]:
+    """Per environment: the renderer's prefilter choice, the spread of the error over all
+    choices, and the time-vs-error front (bench.md lists every choice)."""
+    fronts = pareto_by_comparison(rows, "ibl")
+    if not fronts:
+        return []
+    lines = [
+        "### ibl (prefilter: level-0 face size and GGX samples)",
+        "",
+        "| environment | the renderer's choice | its prefilter ms, cube maps MiB, rel_rmse |"
+        " rel_rmse over all choices | front |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for case, front in fronts.items():
+        default = next((r for r in front["rows"] if r.get("default")), front["rows"][0])
+        errors = [r["rel_rmse"] for r in front["rows"]]
+        lines.append(
+            f"| {case} | {default['face_size']}, {default['samples']} |"
+            f" {_fmt(default['prefilter_ms'])}, {default['prefilter_bytes'] / 2**20:.2f},"
+            f" {default['rel_rmse']:.3f} | {min(errors):.3f}–{max(errors):.3f} |"
+            f" {'; '.join(front['front'])} |"
+        )
+    return [*lines, ""]
+
+
+def _doc_shadows(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "shadows"]
+    if not members:
+        return []
+    sizes = sorted({r["shadow_resolution"] for r in members if r.get("shadow_resolution")})
+    lines = [
+        f"### shadows ({members[0]['width']}×{members[0]['height']}: ms per frame, lit/unlit"
+        " mismatch against the ray-caster)",
+        "",
+        "| light | filter | no shadow | " + " | ".join(f"map {n}" for n in sizes) + " |",
+        "| --- | --- | --- | " + " | ".join("---" for _ in sizes) + " |",
+    ]
+    for case in dict.fromkeys(r["case"] for r in members):
+        of_case = [r for r in members if r["case"] == case]
+        off = next((r for r in of_case if r.get("mismatch") is None), None)
+        filters = dict.fromkeys(
+            r["shadow_filter"] for r in of_case if r.get("mismatch") is not None
+        )
+        for i, name in enumerate(filters):
+            cells = []
+            for n in sizes:
+                r = next(
+                    (
+                        r
+                        for r in of_case
+                        if r.get("shadow_filter") == name and r.get("shadow_resolution") == n
+                    ),
+                    None,
+                )
+                cells.append(f"{r['ms_median']:.1f}, {r['mismatch']:.1e}" if r else "-")
+            first = _fmt(off["ms_median"]) if off and i == 0 else ""
+            lines.append(
+                f"| {case if i == 0 else ''} | {name} | {first} | " + " | ".join(cells) + " |"
+            )
+    return [*lines, ""]
+
+
+def performance_section(payload: dict) -> str:
+    """The generated part of docs/performance.md from one bench.json: the run, the targets'
+    verdicts, and a compact table per suite that ran (bench.md has every column)."""
+    rows = payload["rows"]
+    lines = _doc_header(payload) + _doc_targets(rows)
+    for part in (
+        _doc_culling, _doc_resolution, _doc_accuracy, _doc_specialization, _doc_startup_viewer,
+        _doc_batch, _doc_ibl, _doc_shadows,
+    ):  # fmt: skip
+        lines += part(rows)
+    notes = [n for n in payload.get("notes", []) if n]
+    if notes:
+        lines += ["Notes of the run: " + " ".join(n.rstrip(".") + "." for n in notes), ""]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def replace_generated(doc: str, section: str) -> str:
+    """``doc`` with the text between DOC_BEGIN and DOC_END replaced by ``section``; a doc
+    without both markers, in that order, is an error rather than a silent append."""
+    start, end = doc.find(DOC_BEGIN), doc.find(DOC_END)
+    if start < 0 or end < 0 or end < start:
+        raise ValueError(f"the markers {DOC_BEGIN!r} and {DOC_END!r} are not both there, in order")
+    head = doc[: start + len(DOC_BEGIN)]
+    return f"{head}\n{section}{doc[end:]}"

@@ -1,4 +1,4 @@
-"""Suite ``shadows`` (issue 18, docs/shadows.md): the frame time of a shadowed light by
+"""Suite ``shadows`` (docs/shadows.md): the frame time of a shadowed light by
 filter (no shadow, PCF, PCSS) and light type, and the shadow map's resolution against its
 error, on a time-vs-error front.
 

@@ -1,4 +1,4 @@
-"""Issue 19's pyrender comparison: the 35-sphere scene, render plus read-back per frame.
+"""The pyrender comparison: the 35-sphere scene, render plus read-back per frame.
 
 ``sphere_grid_scene``: a 7 x 5 grid of spheres of radius 0.5 m, 1.2 m apart, in the plane
 z = 0, seen from 9 m along +z with a 45 degree vertical field of view; roughness sweeps
@@ -41,7 +41,7 @@ PYRENDER = SPHERES_PYRENDER
 
 
 def sphere_grid_scene(lights: int, size: tuple[int, int]) -> dict:
-    """The issue's 35-sphere scene with ``lights`` (1-4) white point lights in front."""
+    """The 35-sphere scene with ``lights`` (1-4) white point lights in front."""
     cols, rows = GRID
     materials, objects = {}, []
     for j in range(rows):

@@ -69,7 +69,7 @@ from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene
 
 CULLING_VARIANTS = ("culled", "unculled", "forward", "floor", "limit")
-FIXED_COST_LIGHTS = 1  # issue 19: the frame whose fixed costs the "frame" row shows
+FIXED_COST_LIGHTS = 1  # the frame whose fixed costs the "frame" row shows
 
 
 def f32_reference(gl: GLContext, data: dict, pairs: LightPairs) -> tuple[np.ndarray, np.ndarray]:
@@ -169,7 +169,7 @@ def _culling_case(ctx: Context, count: int, size: tuple[int, int], pyrender: boo
             "forward": [Pass("forward", forward.render, forward.fbo)],
         }  # fmt: skip
         if count == FIXED_COST_LIGHTS:
-            # Issue 19's fixed cost: the whole frame to the caller's 8-bit image, with the
+            # The fixed cost: the whole frame to the caller's 8-bit image, with the
             # scene's default light culling ("auto": no tiles at one light), as a user gets.
             from app.bench.spheres import pbs_frame_passes
 
@@ -500,7 +500,7 @@ def run_accuracy(ctx: Context) -> None:
 
 # (variant, sphere subdivisions or None for the analytic sphere, G-buffer encoding): the
 # default, the analytic sphere through the cheaper encodings, and the icospheres (subdivision
-# 4 with f16 was the default before issue 16).
+# 4 with f16 was the default before the analytic spheres).
 PRIMITIVE_VARIANTS = (
     ("analytic f32", None, "f32"),
     ("analytic unorm16_base", None, "unorm16_base"),
@@ -514,16 +514,16 @@ PRIMITIVES_TITLE = (
     "directional and two point lights; interior pixels)"
 )
 SHOWCASE_TITLE = (
-    "the default scene (scenes/showcase.toml) as drawn now and before issue 16, against the "
+    "the default scene (scenes/showcase.toml) as drawn now and with icospheres, against the "
     "float64 ray-caster (interior pixels)"
 )
 
 
 def run_primitives(ctx: Context) -> None:
-    """Issue 16's comparisons: the whole pipeline (sphere geometry and G-buffer encoding)
+    """The primitives comparisons: the whole pipeline (sphere geometry and G-buffer encoding)
     against the independent float64 ray-caster of the same scene (app/reference/raycast.py),
     each variant's frames timed interleaved: every variant on the five spheres
-    (``primitives``), and the default against the pipeline before issue 16 on the default
+    (``primitives``), and the default against the icosphere pipeline on the default
     scene (``primitives_showcase``)."""
     _primitive_case(
         ctx, "primitives", PRIMITIVES_TITLE, PRIMITIVE_VARIANTS,
@@ -827,7 +827,7 @@ API_NEXT_FRAMES = 5  # camera changes timed after the first frame
 
 
 def run_api(ctx: Context, size: tuple[int, int]) -> None:
-    """Issue 17's API target, rows of the startup suite: ``OffscreenRenderer`` built and its
+    """The API's frame target, rows of the startup suite: ``OffscreenRenderer`` built and its
     first frame rendered and read (LDR), then ``API_NEXT_FRAMES`` frames each after a camera
     step on an orbit (set_camera, render, read), in one process and one run, for the
     showcase and a helmet-sized mesh. The first frame includes reading the scene and the

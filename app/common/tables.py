@@ -71,7 +71,7 @@ def read_sheen_table(size: int = SHEEN_TABLE_SIZE) -> np.ndarray:
     return _read_square(sheen_table_path(size), size, SHEEN_TABLE_CHANNELS)
 
 
-# --- image-based lighting (issue 18; docs/ibl.md) -------------------------------------------
+# --- image-based lighting (docs/ibl.md) -----------------------------------------------------
 # The split-sum DFG table (app/reference/ibl.py): float32 (n_r, n_mu, 2) of (A, B) with
 # integral f_spec (n.l) = F0 A + B for Schlick's F, on the Kulla-Conty table's grids.
 DFG_TABLE_SIZE = 64

@@ -101,7 +101,7 @@ class MaterialTable:
     # A clear coat of the frame shades with a normal other than its base's (a coat over a
     # normal-mapped base, or a coat normal map: SurfaceLayer.own_coat_normal; RTR4 §9.12).
     needs_coat_normals: bool = False
-    # A layer of the frame emits or has an occlusion map (glTF 2.0 core material, issue 17):
+    # A layer of the frame emits or has an occlusion map (glTF 2.0 core material):
     # only then does the G-buffer carry RT5 (emitted radiance, occlusion).
     needs_emission: bool = False
     # Every part the G-buffer draws has constant surface numbers (``constant_surface``):

@@ -1,5 +1,5 @@
 """A validated scene -> the float64 ray-caster's inputs and its reference image
-(app/reference/raycast.py, issue 16).
+(app/reference/raycast.py).
 
 The primitives are built from ``scene.objects`` directly (their model matrices by
 app.scene.geometry.model_matrix), not from the tessellated mesh parts, and the materials
@@ -57,7 +57,7 @@ def primitive_material(name: str, m: Material) -> PrimitiveMaterial:
         raise ValueError(f"materials.{name}: the ray-caster takes no texture maps ({maps[0]})")
     if m.blend is not None:
         raise ValueError(f"materials.{name}: the ray-caster takes no blends (blend)")
-    if any(m.emission) or m.alpha_mode != "opaque":  # glTF 2.0 core material (issue 17)
+    if any(m.emission) or m.alpha_mode != "opaque":  # glTF 2.0 core material
         key = "emissive" if any(m.emission) else "alpha_mode"
         raise ValueError(
             f"materials.{name}: the ray-caster takes no emission, alpha mask or blend ({key})"

@@ -1,5 +1,5 @@
 """An independent float64 ray-caster: the pipeline's reference image of a scene of analytic
-primitives (issue 16).
+primitives.
 
 It shares nothing with the rasteriser but the shading twins: rays leave the camera through
 the pixel centres the lighting pass reconstructs positions at (app/reference/position.py),

@@ -1,5 +1,5 @@
 """Float64 twin of glsl/lights/shadows.glsl: a shadowed light's visibility at a point,
-read from the shadow maps' depth atlas as the lighting pass reads it (RTR4 §7.4; issue 18).
+read from the shadow maps' depth atlas as the lighting pass reads it (RTR4 §7.4).
 
 The GPU renders the maps (app/render/shadows.py) and this module reads them back, so the
 comparison of the lighting pass with ``shade_gbuffer`` isolates the lookup's float32

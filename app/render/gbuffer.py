@@ -175,7 +175,7 @@ def _read_float_of_zero(dtype: str, signed: tuple[int, ...], components: int) ->
 # rasterise those while this thread bins the next ones; a part larger than DRAW_RUN
 # triangles is drawn in runs of that many, in its order. The triangles, their order and
 # so every target's texels are the same as in one flush at the end; measured on the
-# 35-sphere scene in docs/performance.md ("Second part: fixed costs").
+# 35-sphere scene in docs/performance.md ("Fixed costs").
 FLUSH_TRIANGLES = 4096
 DRAW_RUN = 8192
 

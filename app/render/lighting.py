@@ -7,7 +7,7 @@ texture height, not by uniform limits; the blend, debug and bench passes read th
 texture. The lighting pass itself reads the same texels from a uniform array
 (``LIGHT_UNIFORMS``, glsl/lights/illumination.glsl) wherever they fit the context's
 fragment uniform vectors: the array is the form a rasteriser such as llvmpipe reads
-fastest (docs/performance.md, "Second part: the light loop"), and the texture is the
+fastest (docs/performance.md, "The light loop"), and the texture is the
 fallback for scenes with more lights. The form is chosen when the programs are built,
 from the scene's light count (``light_form``).
 
@@ -264,7 +264,7 @@ class LightingPass:
         # still the cleared 1 and llvmpipe skips the fragment shader before it runs, block
         # by block, where the shader would fetch RT2 and discard. Every pixel the test
         # passes has a drawn surface, which decode_gbuffer still checks, so the image is
-        # the same (docs/performance.md, "Second part: fixed costs", measures the gain).
+        # the same (docs/performance.md, "Fixed costs", measures the gain).
         self.context.use()
         for draw in draws:
             self.context.bind(draw.program)

@@ -45,7 +45,7 @@ class PostPass(FullscreenPass):
         """``run`` for an HDR image whose pixels without a surface in ``zbuffer`` all hold
         ``background``: the pass runs only where the z-test (">", on the far plane, no
         writes) finds a surface, over ``display_target``'s cleared image; the bytes are
-        ``run``'s (docs/performance.md, "Second part: fixed costs")."""
+        ``run``'s (docs/performance.md, "Fixed costs")."""
         if self._far is None:
             self._far = FullscreenDraw(self.ctx, self._far_program)
         self._far.draw(

@@ -821,7 +821,7 @@ class Renderer:
         A plain frame (``_plain``) with ``fuse_post`` writes the display image directly
         (LightingPass.run_display: the post pass fused in, the same bytes) and no HDR
         image; ``read_hdr`` and ``hdr_texture`` draw it on demand (``complete_hdr``;
-        docs/performance.md, "Third part", measures the frame)."""
+        docs/performance.md, "The fused display image", measures the frame)."""
         background = np.asarray(self.scene.background, np.float64)
         if self.fused_display:
             exposure = self.scene.camera.exposure

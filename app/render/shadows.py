@@ -1,4 +1,4 @@
-"""Shadow maps for directional, spot and point lights (issue 18; RTR4 §7.4): depth-only
+"""Shadow maps for directional, spot and point lights (RTR4 §7.4): depth-only
 passes into one shared depth atlas (maps packed in rows), read by glsl/lights/shadows.glsl
 in the lighting pass (compiled in only where a light has ``shadow = true``: ``SHADOWS``).
 

@@ -192,7 +192,7 @@ ICOSPHERE_SUBDIVISIONS = 4  # a mesh sphere's tessellation where a consumer need
 # faces cover every pixel of the sphere once even with the camera inside the proxy. Which
 # pixels run the ray test is all the proxy decides; 80 faces (15 % more area than the
 # sphere's outline) drew the G-buffer faster than 320 (4 %) and 20 (58 %) on every scene
-# measured, the close-up included (docs/performance.md, "Fourth part").
+# measured, the close-up included (docs/performance.md, "Fewer G-buffer bytes").
 PROXY_SUBDIVISIONS = 1
 
 

@@ -192,7 +192,7 @@ class Light(_Strict):
     range: Positive | None = None  # metres; the window reaches exactly 0 here
     inner_angle: Annotated[Real, Field(ge=0.0, lt=90.0)] | None = None  # degrees, half-angle
     outer_angle: Annotated[Real, Field(gt=0.0, le=90.0)] | None = None  # degrees, half-angle
-    # Shadow maps (issue 18, docs/shadows.md); a point light's are six cube faces.
+    # Shadow maps (docs/shadows.md); a point light's are six cube faces.
     shadow: Annotated[bool, Field(strict=True)] = False
     shadow_resolution: Annotated[int, Field(strict=True, ge=16)] = 2048  # texels a side
     # [slope, normal]: the shadow pass's slope-scaled depth offset (glPolygonOffset's factor,
@@ -301,7 +301,7 @@ TEXTURE_KEYS = {
     ),
     # glTF KHR_materials_clearcoat's clearcoatNormalTexture (RTR4 §9.12)
     "clearcoat_normal_map": "the clear coat's own tangent-space normals, as normal_map",
-    # glTF 2.0 core material (issue 17): emissiveTexture and occlusionTexture
+    # glTF 2.0 core material: emissiveTexture and occlusionTexture
     "emissive_map": "sRGB colour; multiplies emissive (emitted radiance)",
     "occlusion_map": "linear, red channel; darkens environment light only",
 }
@@ -418,7 +418,7 @@ class Material(_Strict):
     normal_scale: Annotated[Real, Field(ge=0.0, le=10.0)] = 1.0  # glTF normalTexture.scale
     uv_scale: UvScale = [1.0, 1.0]  # texture repeats across the surface's UV range
     blend: Blend | None = None
-    # --- glTF 2.0 core material (issue 17; docs/scene-format.md) ---
+    # --- glTF 2.0 core material (docs/scene-format.md) ---
     emissive: EmissiveColor | None = None  # emitted radiance, linear RGB (W/(sr m^2))
     emissive_strength: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] = 1.0  # multiplies it
     emissive_map: TexturePath | None = None
@@ -496,7 +496,7 @@ class Material(_Strict):
         return self
 
     def _check_core(self) -> None:
-        """glTF core material keys (issue 17) that need another key to mean anything."""
+        """glTF core material keys that need another key to mean anything."""
         if self.emissive_map is not None and not any(self.emissive or ()):
             raise ValueError("emissive_map: multiplies 'emissive', which must be non-zero")
         if self.occlusion_strength is not None and self.occlusion_map is None:

@@ -50,7 +50,7 @@ SUPPORTED_EXTENSIONS: frozenset[str] = frozenset(
     | ({"EXT_meshopt_compression"} if meshopt_available() else set())
 )
 
-# Hints for required extensions users meet most (issue 17: a Draco .glb drew nothing).
+# Hints for required extensions users meet most (a Draco .glb used to draw nothing).
 _HINTS = {
     "EXT_meshopt_compression": "meshoptimizer-compressed geometry; "
     "pip install 'pbs-lab[meshopt]' to read it",

@@ -90,7 +90,7 @@ class SurfaceLayer:
     maps: dict[str, Texture] = field(default_factory=dict)
     uv_scale: tuple[float, float] = (1.0, 1.0)
     normal_mapped: bool = False
-    # glTF 2.0 core material beyond metallic-roughness (issue 17). ``emissive``: emitted
+    # glTF 2.0 core material beyond metallic-roughness. ``emissive``: emitted
     # radiance added to the pixel (emissiveFactor x KHR_materials_emissive_strength),
     # times the ``emissive`` map (sRGB RGB) where present. ``occlusion`` map (R, linear):
     # 1 + strength (occlusion - 1) darkens environment light only. ``alpha``: coverage

@@ -174,7 +174,7 @@ class Lesson:
         v.stop_compare()
         if not v.open_scene(self.path(ref)):
             return False
-        # Projector-ready framing (issue 15; ``pbs render --fit``): the window keeps the
+        # Projector-ready framing (``pbs render --fit``): the window keeps the
         # scene's whole framing whatever its aspect ratio.
         fov = fit_scene(v.document.loaded, v.framebuffer_size).scene.camera.fov_y
         if fov != v.scene.camera.fov_y and v.edit({"camera.fov_y": fov}, defer=False):

@@ -85,7 +85,7 @@ vec3 light_contribution(sampler2D lights, int i, ShadingPoint sp) {
 // fetched (docs/performance.md measures both). Two nested loops, the words outside and
 // a word's bits inside, so that the next word is looked up once per word, not tested for
 // after every light: in a tile every pixel walks the same mask, so the lanes of a SIMD
-// rasteriser leave both loops together (docs/performance.md, "Second part: the light
+// rasteriser leave both loops together (docs/performance.md, "The light
 // loop", measures it against one flat loop).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
                        bool local_only, ShadingPoint sp) {

@@ -37,7 +37,7 @@ float spot_cone(float cos_theta, float cos_outer, float cos_inner) {
 // light_at (below) of a point or spot light. The loops that visit only local lights (a
 // tile's list) call it directly: without light_at's test for a directional light, whose
 // early return a SIMD rasteriser runs masked for every light (docs/performance.md,
-// "Second part: the light loop").
+// "The light loop").
 vec3 local_light_at(PunctualLight L, vec3 p, out vec3 l) {
     vec3 d = L.position - p;
     float dist2 = dot(d, d);

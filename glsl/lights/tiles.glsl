@@ -90,7 +90,7 @@ uvec4 quad_bit(int c, int b) {
 // "chunk") in registers and visits the set bits of the non-zero words in ascending order.
 // Eight named fields, not an array: llvmpipe keeps a dynamically indexed local array in
 // memory, and indexing one per light slowed the lighting pass (measured in
-// docs/performance.md, "Results").
+// docs/performance.md, "The light loop").
 #ifdef TILE_QUADS
 struct TileMask {
     uvec4 q0, q1, q2, q3, q4, q5, q6, q7;
