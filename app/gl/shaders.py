@@ -9,7 +9,8 @@ each compiles on its own after the ``#version`` and defines header
 an ``#include`` inside ``#if`` is spliced (and counts as done) whatever the condition.
 
 Every program starts with the constants shared with Python (``app.common.glsl``: model
-names, ``TERM_*``, ``LIGHT_*``, ``TONEMAP_*``), generated from their one definition.
+names, ``TERM_*``, ``LIGHT_*``, ``TONEMAP_*``) and the material row's struct and fetch
+functions (``app.common.models.material_glsl``), generated from their one definition.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from pathlib import Path
 import moderngl
 
 from app.common.glsl import shared_defines
+from app.common.models import material_glsl
 from app.resources import glsl_dir
 
 GLSL_VERSION = "#version 330 core"
@@ -83,7 +85,15 @@ def _header(defines: Mapping[str, object] | None) -> str:
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")
+    lines.append(_material_row())
     return "\n".join(lines) + "\n#line 1\n"
+
+
+def _material_row() -> str:
+    """The material row's GLSL, generated from its one declaration (app/common/models.py
+    ``material_glsl``): struct ModelParams, fetch_model_params, fetch_model_group and,
+    under UBER_MODELS (hence after the program's defines), fetch_model_codes."""
+    return material_glsl()
 
 
 def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:
