@@ -25,7 +25,7 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from app.common.gbuffer import ENCODING_NAMES
-from app.common.material_fields import scene_default, scene_keys
+from app.common.material_fields import Control, scene_default, scene_keys
 from app.common.models import (
     CLEARCOAT_MODELS,
     CORRELATIONS,
@@ -56,6 +56,15 @@ VIEWS = (
     "split",
     "difference",
 )  # the comparison's views  # incident angles of the lobe plot, degrees
+
+
+def _control(name: str) -> Control:
+    """How the Material panel shows scene key ``name``: its label and range, declared with
+    its material field (app/common/material_fields.py)."""
+    control = scene_keys()[name].control
+    if control is None:
+        raise KeyError(f"{name}: the material-field table gives it no control")
+    return control
 
 
 def diffuse_edit(key: str, old: str, new: str) -> dict[str, Any]:
@@ -223,8 +232,7 @@ class Panels:
     def _field_slider(self, key: str, material: Any, name: str) -> None:
         """The slider of scene key ``name`` of material ``key``: its label, range and
         default from the material row's declaration (app/common/material_fields.py)."""
-        control = scene_keys()[name].control
-        assert control is not None, name
+        control = _control(name)
         flags = imgui.SliderFlags_.logarithmic if control.logarithmic else 0
         default = float(scene_default(name))  # type: ignore[arg-type]
         self._key_slider(
@@ -233,10 +241,8 @@ class Panels:
 
     def _field_color(self, key: str, material: Any, name: str) -> None:
         """The colour editor of scene key ``name`` of material ``key`` (unset: its default)."""
-        control = scene_keys()[name].control
-        assert control is not None, name
         rgb = getattr(material, name) or scene_default(name)
-        changed, rgb = imgui.color_edit3(control.label, [float(c) for c in rgb])  # type: ignore[union-attr]
+        changed, rgb = imgui.color_edit3(_control(name).label, [float(c) for c in rgb])
         if changed:
             self._edit(f"{key}.{name}", [float(c) for c in rgb])
 
@@ -350,16 +356,14 @@ class Panels:
         if changed:
             self._edit(f"{key}.multiscatter", on)
         if material.ndf == "gtr":
-            c = scene_keys()["gtr_gamma"].control
-            assert c is not None
+            c = _control("gtr_gamma")
             changed, value = imgui.slider_float(c.label, resolved.params.gtr_gamma, c.low, c.high)
             if changed:
                 self._edit(f"{key}.gtr_gamma", float(value))
         if material.fresnel == "schlick_generalized":
             self._field_color(key, material, "f90")
             p = 1.0 / resolved.params.fresnel_exponent
-            c = scene_keys()["fresnel_p"].control
-            assert c is not None
+            c = _control("fresnel_p")
             changed, value = imgui.slider_float(c.label, p, c.low, c.high)
             if changed:
                 self._edit(f"{key}.fresnel_p", float(value))
@@ -447,8 +451,7 @@ class Panels:
                 self._edit(f"{key}.sheen", names[i])
             self._field_color(key, material, "sheen_color")
             self._field_slider(key, material, "sheen_roughness")
-        c = scene_keys()["clearcoat"].control
-        assert c is not None
+        c = _control("clearcoat")
         changed, value = imgui.slider_float(c.label, material.clearcoat, c.low, c.high)
         if changed:
             off = {f"{key}.clearcoat_{k}": None for k in ("roughness", "ior", "color")}
