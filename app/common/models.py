@@ -302,6 +302,7 @@ _Slot = tuple[int, int, int, str]
 
 
 def _slots(layer: Layer) -> list[_Slot]:
+    """The slots of ``layer``'s fields, in the table's order."""
     return [
         (f.texel, f.first, f.first + f.size, f.name)
         for f in MATERIAL_FIELDS
@@ -309,6 +310,7 @@ def _slots(layer: Layer) -> list[_Slot]:
     ]
 
 
+_LAYER_SLOTS = {name: _slots(layer) for name, layer in LAYERS.items()}
 _ALWAYS_SLOTS = [s for layer in LAYERS.values() if layer.packed_always for s in _slots(layer)]
 _SWITCHED_SLOTS = [(layer, _slots(layer)) for layer in LAYERS.values() if not layer.packed_always]
 
@@ -350,7 +352,7 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
     t = np.asarray(texels, np.float64)
     values: dict[str, Any] = {}
     for layer in LAYERS.values():
-        slots = _slots(layer)
+        slots = _LAYER_SLOTS[layer.name]
         if layer.present is not None:
             name, channel = layer.present
             f = FIELDS[name]
@@ -370,7 +372,7 @@ def _glsl_struct() -> list[str]:
         "struct ModelParams {",
     ]
     lines += [
-        f"    {f.glsl_type} {f.name};  // {LAYERS[f.layer].name}, texel {f.texel}.{f.channels}"
+        f"    {f.glsl_type} {f.name};  // {f.layer}, texel {f.texel}.{f.channels}"
         + (f" ({f.unit})" if f.unit else "")
         for f in MATERIAL_FIELDS
     ]
