@@ -1,18 +1,33 @@
-"""Which model each term of the BRDF uses, and its parameters (glsl/brdf/model.glsl reads
-the same layout).
+"""Which model each term of the BRDF uses, and its parameters.
 
 A ``Model`` is the choice of Fresnel, NDF, Smith Lambda, G2, diffuse and multiple-scattering
 terms; the renderer compiles one shader permutation per distinct ``Model`` (its
-``defines()``), so a scene pays only for the models it uses. ``ModelParams`` holds the
-numbers those models need beyond the G-buffer's metallic-roughness values; the lighting
-pass reads them from a per-material table (``pack_model_params``).
+``defines()``), so a scene pays only for the models it uses. Each choice is declared once
+in ``MODEL_CODE_FIELDS`` (its define and its bits in the row's model codes).
+``ModelParams`` holds the numbers those models need beyond the G-buffer's
+metallic-roughness values; the lighting pass reads them from a per-material table
+(``pack_model_params``), whose row is declared once in app/common/material_fields.py.
+Both declarations generate the Python and the GLSL side (``material_glsl``, written into
+every program's header by app/gl/shaders.py), so neither is written twice.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields
+from functools import cache
+from typing import Any
 
 import numpy as np
+
+from app.common.material_fields import (
+    FIELDS,
+    LAYERS,
+    MATERIAL_FIELDS,
+    MATERIAL_TEXELS,
+    MODEL_CODES_TEXEL,
+    Layer,
+)
 
 # The names a scene file uses, in the order of the GLSL constants (index = value).
 FRESNEL_MODELS = ("schlick", "schlick_generalized", "dielectric", "conductor")
@@ -58,19 +73,76 @@ TERM_DIFFUSE = 2  # subsurface reflection: f_diffuse
 BRDF_TERMS = {"all": TERM_SPECULAR | TERM_DIFFUSE, "specular": TERM_SPECULAR,
               "diffuse": TERM_DIFFUSE}  # fmt: skip
 
+
+@dataclass(frozen=True)
+class CodeField:
+    """One choice of a ``Model``, declared once: its attribute ``attr``, the preprocessor
+    name ``define`` that selects it in a specialized pass (glsl/brdf/model.glsl), and its
+    bits in the row's model codes (texel 3, read by the uber lighting shader's
+    ``fetch_model_codes``): the code ``channel`` ("g" Fresnel, "b" specular, "a" diffuse),
+    ``shift`` and ``width``. ``names``: the scene's names in the order of their codes
+    (their GLSL constants are ``prefix``_NAME); None for a flag (0 or 1)."""
+
+    attr: str
+    define: str
+    channel: str
+    shift: int
+    width: int
+    names: tuple[str, ...] | None = None
+    prefix: str | None = None  # of the GLSL constants of ``names``: FRESNEL_SCHLICK, ...
+
+    def code(self, value: str | bool) -> int:
+        """The code of ``value`` (a name of ``names``, or a flag)."""
+        return self.names.index(value) if self.names is not None else int(value)  # type: ignore[arg-type]
+
+    def value(self, code: int) -> str | bool:
+        """Inverse of ``code``, from the code channel's integer."""
+        bits = (code >> self.shift) & ((1 << self.width) - 1)
+        return self.names[bits] if self.names is not None else bool(bits)
+
+
+# The order of Model.defines(). Fresnel code (.g): fresnel | internal << 2; specular code
+# (.b): ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
+# | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13 | diffraction << 14
+# | fiber << 16; diffuse code (.a): diffuse. Small integers, exact in float32.
+MODEL_CODE_FIELDS: tuple[CodeField, ...] = (
+    CodeField("fresnel", "FRESNEL_MODEL", "g", 0, 2, FRESNEL_MODELS, "FRESNEL"),
+    CodeField("ndf", "NDF_MODEL", "b", 0, 2, NDF_MODELS, "NDF"),
+    CodeField("lambda_form", "LAMBDA_FORM", "b", 2, 1, LAMBDA_FORMS, "LAMBDA"),
+    CodeField("g2", "G2_MODEL", "b", 3, 3, G2_MODELS, "G2"),
+    CodeField("correlation", "CORRELATION", "b", 6, 1, CORRELATIONS, "CORRELATION"),
+    CodeField("diffuse", "DIFFUSE_MODEL", "a", 0, 4, DIFFUSE_MODELS, "DIFFUSE"),
+    CodeField("multiscatter", "MULTISCATTER", "b", 8, 1),
+    CodeField("anisotropic", "ANISOTROPIC", "b", 7, 1),
+    CodeField("internal", "FRESNEL_INTERNAL", "g", 2, 1),  # Schlick at the transmitted angle
+    CodeField("thin_film", "THIN_FILM", "b", 13, 1),  # thin film (RTR4 §9.11)
+    CodeField("sheen", "SHEEN_MODEL", "b", 9, 2, SHEEN_MODELS, "SHEEN"),  # RTR4 §9.10
+    CodeField("clearcoat", "CLEARCOAT_MODEL", "b", 11, 2, CLEARCOAT_MODELS, "CLEARCOAT"),
+    CodeField("diffraction", "DIFFRACTION_MODEL", "b", 14, 2, DIFFRACTION_MODELS,
+              "DIFFRACTION"),  # diffraction grating (RTR4 §9.11)
+    CodeField("fiber", "FIBER_MODEL", "b", 16, 2, FIBER_MODELS, "FIBER"),  # fibres, §9.10
+)  # fmt: skip
+_CODE_CHANNELS = ("g", "b", "a")  # (Fresnel, specular, diffuse) of texel 3
+
+
+def _check_codes() -> None:
+    """Refuse, at import, codes whose bits overlap or whose names do not fit their width."""
+    taken: dict[tuple[str, int], str] = {}
+    for c in MODEL_CODE_FIELDS:
+        if c.channel not in _CODE_CHANNELS:
+            raise ValueError(f"model code {c.attr}: channel {c.channel!r}")
+        if c.names is not None and len(c.names) > 1 << c.width:
+            raise ValueError(f"model code {c.attr}: {len(c.names)} names in {c.width} bits")
+        for bit in range(c.shift, c.shift + c.width):
+            if (c.channel, bit) in taken:
+                raise ValueError(f"model code {c.attr}: bit {bit} taken by {taken[c.channel, bit]}")
+            taken[c.channel, bit] = c.attr
+
+
+_check_codes()
+
 # The GLSL name prefix of each term's model constants: FRESNEL_SCHLICK, NDF_GGX, ...
-_GLSL_PREFIXES = (
-    ("FRESNEL", FRESNEL_MODELS),
-    ("NDF", NDF_MODELS),
-    ("LAMBDA", LAMBDA_FORMS),
-    ("G2", G2_MODELS),
-    ("CORRELATION", CORRELATIONS),
-    ("DIFFUSE", DIFFUSE_MODELS),
-    ("SHEEN", SHEEN_MODELS),  # sheen (RTR4 §9.10)
-    ("CLEARCOAT", CLEARCOAT_MODELS),  # clear coat (RTR4 §9.12)
-    ("DIFFRACTION", DIFFRACTION_MODELS),  # diffraction grating (RTR4 §9.11)
-    ("FIBER", FIBER_MODELS),  # micro-cylinder fibres (RTR4 §9.10)
-)
+_GLSL_PREFIXES = tuple((c.prefix, c.names) for c in MODEL_CODE_FIELDS if c.names is not None)
 
 
 def glsl_constants() -> dict[str, int]:
@@ -109,23 +181,9 @@ class Model:
     fiber: str = "none"  # micro-cylinder fibres (RTR4 §9.10): a FIBER_MODELS name
 
     def defines(self) -> dict[str, int]:
-        """The preprocessor defines that select this model in glsl/brdf/model.glsl."""
-        return {
-            "FRESNEL_MODEL": FRESNEL_MODELS.index(self.fresnel),
-            "NDF_MODEL": NDF_MODELS.index(self.ndf),
-            "LAMBDA_FORM": LAMBDA_FORMS.index(self.lambda_form),
-            "G2_MODEL": G2_MODELS.index(self.g2),
-            "CORRELATION": CORRELATIONS.index(self.correlation),
-            "DIFFUSE_MODEL": DIFFUSE_MODELS.index(self.diffuse),
-            "MULTISCATTER": int(self.multiscatter),
-            "ANISOTROPIC": int(self.anisotropic),
-            "FRESNEL_INTERNAL": int(self.internal),
-            "THIN_FILM": int(self.thin_film),  # thin film (RTR4 §9.11)
-            "SHEEN_MODEL": SHEEN_MODELS.index(self.sheen),  # sheen (RTR4 §9.10)
-            "CLEARCOAT_MODEL": CLEARCOAT_MODELS.index(self.clearcoat),  # RTR4 §9.12
-            "DIFFRACTION_MODEL": DIFFRACTION_MODELS.index(self.diffraction),  # RTR4 §9.11
-            "FIBER_MODEL": FIBER_MODELS.index(self.fiber),  # micro-cylinder fibres, RTR4 §9.10
-        }
+        """The preprocessor defines that select this model in glsl/brdf/model.glsl
+        (``MODEL_CODE_FIELDS``)."""
+        return {c.define: c.code(getattr(self, c.attr)) for c in MODEL_CODE_FIELDS}
 
     def describe(self) -> str:
         """A short label naming every non-default choice, e.g. 'beckmann + separable'."""
@@ -154,204 +212,227 @@ class Model:
 DEFAULT_MODEL = Model()
 
 
-def _rgb(x: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> np.ndarray:
-    return np.asarray(x, np.float64)
+# Each material field's default (material_fields.py): ModelParams's.
+_DEFAULTS: dict[str, Any] = {f.name: f.default for f in MATERIAL_FIELDS}
+
+
+def _array(name: str) -> Callable[[], np.ndarray]:
+    """A factory of material field ``name``'s default as a fresh float64 array (a colour
+    or a 4-vector)."""
+    return lambda: np.array(_DEFAULTS[name], np.float64)
 
 
 @dataclass(frozen=True)
 class ModelParams:
     """Per-material numbers of the optional models (each broadcasts like Surface's fields).
 
+    One attribute per field of app/common/material_fields.py MATERIAL_FIELDS, in its order,
+    with its default (its texel, unit, range and meaning are declared there).
     Indices are relative: to the medium the light arrives from (``medium_ior``), so the
     RTR4's "in water" values follow from dividing by 1.33.
     """
 
-    f90: np.ndarray = field(default_factory=_rgb)  # generalised Schlick: F at 90 degrees
-    fresnel_exponent: float = 5.0  # generalised Schlick: 1/p
-    eta: np.ndarray = field(default_factory=lambda: _rgb((1.5, 1.5, 1.5)))  # conductor n / n1
-    eta_dielectric: float = 1.5  # dielectric n2 / n1
-    k: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))  # conductor k / n1
-    gtr_gamma: float = 2.0  # GTR tail exponent (2 = GGX)
-    # --- thin film (RTR4 §9.11), material-table texel 7 ---
-    film_thickness: float = 0.0  # nm; 0 = the base's Fresnel alone
-    film_eta: float = 1.33  # film index / medium index (n2 / n1)
-    film_ior: float = 1.33  # film index n2 itself (the optical path 2 n2 d cos(theta2))
-    # sheen (RTR4 §9.10), texel 6: the layer's colour (linear RGB; black = no layer) and
-    # its perceptual roughness (alpha = r^2)
-    sheen_color: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))
-    sheen_roughness: float = 0.0
-    # --- clear coat (RTR4 §9.12; material-table texels 4 and 5) ---
-    clearcoat: float = 0.0  # strength 0..1 (0: no coat, and Model.clearcoat is "none")
-    clearcoat_roughness: float = 0.0  # perceptual; the coat's alpha = r^2 (floored)
-    clearcoat_eta: float = 1.5  # the coat's index / the medium's (medium_ior)
-    # The coat's transmittance at normal incidence through its thickness, once (linear RGB):
-    # Beer-Lambert, T0 = exp(-sigma_a d); along a path at angle theta_t inside, T0^(1/cos).
-    clearcoat_color: np.ndarray = field(default_factory=_rgb)
-    # --- diffraction grating (RTR4 §9.11), material-table texel 8 ---
-    grating_period: float = 0.0  # nm, the groove spacing d
-    grating_depth: float = 0.0  # nm, the sinusoidal profile's peak-to-valley depth
-    # --- empirical cloth (RTR4 §9.10, diffuse = "cloth_empirical"; texels 9-11) ---
-    # (k_rim, a_rim, k_inner, a_inner); the defaults, with k_diff 1, white scatter, wrap 0
-    # and no sheen, make the model Lambert exactly.
-    cloth_rim_inner: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0, 1.0]))
-    cloth_diffuse: float = 1.0  # k_diff
-    cloth_scatter: np.ndarray = field(default_factory=_rgb)  # c_scatter (linear RGB)
-    cloth_wrap: float = 0.0  # w
-    cloth_sheen: np.ndarray = field(default_factory=lambda: _rgb((0.0, 0.0, 0.0)))  # k c_sheen
-    # --- micro-cylinder fibres (RTR4 §9.10; material-table texel 12), angles in radians ---
-    fiber_rotation: float = 0.0  # the thread's direction: the tangent turned about n
-    fiber_curvature: float = 0.0  # the thread's largest tilt out of the surface along its length
-    fiber_gamma_v: float = 0.3490658503988659  # Sadeghi's volume-scattering width (20 degrees)
-    fiber_kd: float = 0.3  # Sadeghi's isotropic share k_d of the volume scattering
+    # generalised Schlick: F at 90 degrees, 1/p; conductor n / n1, k / n1; dielectric n2 / n1
+    f90: np.ndarray = field(default_factory=_array("f90"))
+    fresnel_exponent: float = _DEFAULTS["fresnel_exponent"]
+    eta: np.ndarray = field(default_factory=_array("eta"))
+    eta_dielectric: float = _DEFAULTS["eta_dielectric"]
+    k: np.ndarray = field(default_factory=_array("k"))
+    gtr_gamma: float = _DEFAULTS["gtr_gamma"]  # GTR tail exponent (2 = GGX)
+    # --- thin film (RTR4 §9.11): nm (0 = the base's Fresnel alone), n2 / n1, n2 ---
+    film_thickness: float = _DEFAULTS["film_thickness"]
+    film_eta: float = _DEFAULTS["film_eta"]
+    film_ior: float = _DEFAULTS["film_ior"]
+    # --- sheen (RTR4 §9.10): colour (black = no layer), perceptual roughness ---
+    sheen_color: np.ndarray = field(default_factory=_array("sheen_color"))
+    sheen_roughness: float = _DEFAULTS["sheen_roughness"]
+    # --- clear coat (RTR4 §9.12): strength, perceptual roughness, coat / medium index,
+    # transmittance at normal incidence through the coat once ---
+    clearcoat: float = _DEFAULTS["clearcoat"]
+    clearcoat_roughness: float = _DEFAULTS["clearcoat_roughness"]
+    clearcoat_eta: float = _DEFAULTS["clearcoat_eta"]
+    clearcoat_color: np.ndarray = field(default_factory=_array("clearcoat_color"))
+    # --- diffraction grating (RTR4 §9.11): groove spacing d, peak-to-valley depth (nm) ---
+    grating_period: float = _DEFAULTS["grating_period"]
+    grating_depth: float = _DEFAULTS["grating_depth"]
+    # --- empirical cloth (RTR4 §9.10, diffuse = "cloth_empirical"): (k_rim, a_rim,
+    # k_inner, a_inner), k_diff, c_scatter, w, k_sheen c_sheen ---
+    cloth_rim_inner: np.ndarray = field(default_factory=_array("cloth_rim_inner"))
+    cloth_diffuse: float = _DEFAULTS["cloth_diffuse"]
+    cloth_scatter: np.ndarray = field(default_factory=_array("cloth_scatter"))
+    cloth_wrap: float = _DEFAULTS["cloth_wrap"]
+    cloth_sheen: np.ndarray = field(default_factory=_array("cloth_sheen"))
+    # --- micro-cylinder fibres (RTR4 §9.10), radians: rotation, curvature, gamma_v; k_d ---
+    fiber_rotation: float = _DEFAULTS["fiber_rotation"]
+    fiber_curvature: float = _DEFAULTS["fiber_curvature"]
+    fiber_gamma_v: float = _DEFAULTS["fiber_gamma_v"]
+    fiber_kd: float = _DEFAULTS["fiber_kd"]
 
 
-# Texels per material row. 0-3 hold the models of RTR4 §9.5-9.9 (pack_model_params); the
-# layered models of §9.10-9.12 have their own: 4-5 the clear coat (§9.12), 6 the sheen
-# (§9.10), 7 the thin film (§9.11), 8 a diffraction grating (§9.11), 9-11 the empirical
-# cloth terms (§9.10), 12 the micro-cylinder fibre (§9.10). The GLSL reads the width from
-# the generated MATERIAL_TEXELS.
-MATERIAL_TEXELS = 13
+if [f.name for f in fields(ModelParams)] != list(FIELDS):
+    raise ValueError("ModelParams: its attributes must be MATERIAL_FIELDS's, in order")
+
 # Where a table keyed by surface constants too (app/frame/materials.py, constant surfaces)
-# holds them, after the model texels: (base colour RGB, metallic), (perceptual roughness,
-# F0, 0, 0). The G-buffer then stores only the normal, depth and row (docs/gbuffer.md).
+# holds them, after the model texels (MATERIAL_TEXELS, material_fields.py): (base colour
+# RGB, metallic), (perceptual roughness, F0, 0, 0). The G-buffer then stores only the
+# normal, depth and row (docs/gbuffer.md).
 SURFACE_TEXEL = MATERIAL_TEXELS
 SURFACE_TEXELS = 2
 
 
 def model_codes(model: Model) -> tuple[int, int, int]:
     """The (Fresnel, specular, diffuse) codes of ``model`` in texel 3 of its table row, read
-    by the uber lighting shader (glsl/brdf/model.glsl fetch_model_codes):
-
-    * Fresnel: fresnel | internal << 2
-    * specular: ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
-      | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13
-      | diffraction << 14 | fiber << 16
-    * diffuse: diffuse
-
-    Small integers, exact in float32."""
-    d = model.defines()
-    fresnel = d["FRESNEL_MODEL"] | d["FRESNEL_INTERNAL"] << 2
-    specular = (
-        d["NDF_MODEL"]
-        | d["LAMBDA_FORM"] << 2
-        | d["G2_MODEL"] << 3
-        | d["CORRELATION"] << 6
-        | d["ANISOTROPIC"] << 7
-        | d["MULTISCATTER"] << 8
-        | d["THIN_FILM"] << 13  # thin film (RTR4 §9.11)
-        | d["SHEEN_MODEL"] << 9  # sheen (RTR4 §9.10): bits 9-10
-        | d["CLEARCOAT_MODEL"] << 11  # clear coat (RTR4 §9.12): bits 11-12
-        | d["DIFFRACTION_MODEL"] << 14  # diffraction (RTR4 §9.11): bits 14-15
-        | d["FIBER_MODEL"] << 16  # micro-cylinder fibres (RTR4 §9.10): bits 16-17
-    )
-    return fresnel, specular, d["DIFFUSE_MODEL"]
+    by the uber lighting shader (``fetch_model_codes``): each choice of
+    ``MODEL_CODE_FIELDS`` shifted into its channel. Small integers, exact in float32."""
+    codes = dict.fromkeys(_CODE_CHANNELS, 0)
+    for c in MODEL_CODE_FIELDS:
+        codes[c.channel] |= c.code(getattr(model, c.attr)) << c.shift
+    return codes["g"], codes["b"], codes["a"]
 
 
 def model_from_codes(fresnel: int, specular: int, diffuse: int) -> Model:
     """Inverse of ``model_codes``."""
-    return Model(
-        fresnel=FRESNEL_MODELS[fresnel & 3],
-        ndf=NDF_MODELS[specular & 3],
-        lambda_form=LAMBDA_FORMS[(specular >> 2) & 1],
-        g2=G2_MODELS[(specular >> 3) & 7],
-        correlation=CORRELATIONS[(specular >> 6) & 1],
-        diffuse=DIFFUSE_MODELS[diffuse],
-        multiscatter=bool((specular >> 8) & 1),
-        anisotropic=bool((specular >> 7) & 1),
-        internal=bool((fresnel >> 2) & 1),
-        thin_film=bool((specular >> 13) & 1),  # thin film (RTR4 §9.11)
-        sheen=SHEEN_MODELS[(specular >> 9) & 3],  # sheen (RTR4 §9.10)
-        clearcoat=CLEARCOAT_MODELS[(specular >> 11) & 3],  # clear coat (RTR4 §9.12)
-        diffraction=DIFFRACTION_MODELS[(specular >> 14) & 3],  # diffraction (RTR4 §9.11)
-        fiber=FIBER_MODELS[(specular >> 16) & 3],  # micro-cylinder fibres (RTR4 §9.10)
-    )
+    codes = dict(zip(_CODE_CHANNELS, (fresnel, specular, diffuse), strict=True))
+    return Model(**{c.attr: c.value(codes[c.channel]) for c in MODEL_CODE_FIELDS})
+
+
+# Each field's (texel, first channel, end channel, name), grouped by the layers the row
+# holds always and those it holds only where their model is on.
+_Slot = tuple[int, int, int, str]
+
+
+def _slots(layer: Layer) -> list[_Slot]:
+    """The slots of ``layer``'s fields, in the table's order."""
+    return [
+        (f.texel, f.first, f.first + f.size, f.name)
+        for f in MATERIAL_FIELDS
+        if f.layer == layer.name
+    ]
+
+
+_LAYER_SLOTS = {name: _slots(layer) for name, layer in LAYERS.items()}
+_ALWAYS_SLOTS = [s for layer in LAYERS.values() if layer.packed_always for s in _slots(layer)]
+_SWITCHED_SLOTS = [(layer, _slots(layer)) for layer in LAYERS.values() if not layer.packed_always]
 
 
 def pack_model_params(
     params: list[ModelParams], groups: list[int], models: list[Model] | None = None
 ) -> np.ndarray:
     """The lighting pass's material table: (M, MATERIAL_TEXELS, 4) float32, one row of RGBA
-    texels per material id: (f90, 1/p), (eta, eta_dielectric), (k, gtr_gamma), (model
-    group, Fresnel code, specular code, diffuse code), then the texels of the layered
-    models (``MATERIAL_TEXELS``): 4-5 the clear coat's (color, strength), (roughness, eta,
-    0, 0), its defaults where a material has none; the others zero. ``models`` gives
-    each row's model for the codes (``model_codes``; only the uber lighting shader reads
-    them); without it every row gets the standard model's codes."""
+    texels per material id: texel 3 (model group, Fresnel code, specular code, diffuse
+    code), the others each field of MATERIAL_FIELDS at its texel and channels. The fields
+    of a layer held always (the clear coat's, the cloth's, the fibre's, ...) are on every
+    row, their defaults where a material has none, so that the layer's formulas stay
+    finite (and equal the base) even where a pass forces them on, and a table packed
+    without its models (the tests' kernels) still shades such a row as the twin; those of
+    the thin film and the grating only where the row's model has them (zeros elsewhere).
+    ``models`` gives each row's model (``model_codes``; only the uber lighting shader reads
+    the codes); without it every row gets the standard model's."""
     table = np.zeros((max(len(params), 1), MATERIAL_TEXELS, 4), np.float32)
     models = models if models is not None else [DEFAULT_MODEL] * len(params)
     # Slices take a number or an RGB triple as they are (np.broadcast_to per texel cost a
     # viewer slider step more than the rest of the table).
     for row, (p, group, model) in enumerate(zip(params, groups, models, strict=True)):
-        table[row, 0, :3] = p.f90
-        table[row, 0, 3] = p.fresnel_exponent
-        table[row, 1, :3] = p.eta
-        table[row, 1, 3] = p.eta_dielectric
-        table[row, 2, :3] = p.k
-        table[row, 2, 3] = p.gtr_gamma
-        table[row, 3] = [group, *model_codes(model)]
-        if model.thin_film:  # thin film (RTR4 §9.11): (thickness nm, n2/n1, n2, 0)
-            table[row, 7] = [p.film_thickness, p.film_eta, p.film_ior, 0.0]
-        table[row, 6, :3] = p.sheen_color  # sheen
-        table[row, 6, 3] = p.sheen_roughness
-        if model.diffraction != "none":  # diffraction (RTR4 §9.11): (period, depth, 0, 0)
-            table[row, 8] = [p.grating_period, p.grating_depth, 0.0, 0.0]
-        # Clear coat (RTR4 §9.12), texels 4-5: (color, strength), (roughness, eta, 0, 0).
-        # Without a coat they hold the defaults (strength 0, eta 1.5, white), so the coat's
-        # formulas stay finite (and equal the base) even where a pass forces them on.
-        table[row, 4, :3] = p.clearcoat_color
-        table[row, 4, 3] = p.clearcoat
-        table[row, 5] = [p.clearcoat_roughness, p.clearcoat_eta, 0.0, 0.0]
-        # Empirical cloth (RTR4 §9.10), texels 9-11: (k_rim, a_rim, k_inner, a_inner),
-        # (c_scatter, w), (k_sheen c_sheen, k_diff). Every row holds them (the defaults,
-        # Lambert, where a material has none), like the clear coat's, so a table packed
-        # without its models (the tests' kernels) still shades a cloth row as the twin.
-        table[row, 9] = p.cloth_rim_inner  # numpy broadcasts one number to 4
-        table[row, 10, :3] = p.cloth_scatter
-        table[row, 10, 3] = p.cloth_wrap
-        table[row, 11, :3] = p.cloth_sheen
-        table[row, 11, 3] = p.cloth_diffuse
-        # Micro-cylinder fibre (RTR4 §9.10), texel 12: (rotation, curvature, gamma_v, k_d),
-        # on every row (the defaults where a material has none), as the cloth's.
-        table[row, 12] = [p.fiber_rotation, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd]
+        out = table[row]
+        out[MODEL_CODES_TEXEL] = [group, *model_codes(model)]
+        for texel, first, end, name in _ALWAYS_SLOTS:
+            out[texel, first:end] = getattr(p, name)
+        for layer, slots in _SWITCHED_SLOTS:
+            if layer.on(model):
+                for texel, first, end, name in slots:
+                    out[texel, first:end] = getattr(p, name)
     return table
 
 
 def unpack_model_params(texels: np.ndarray) -> ModelParams:
-    """Inverse of one row of ``pack_model_params`` (float32 values widened to float64)."""
+    """Inverse of one row of ``pack_model_params`` (float32 values widened to float64). A
+    layer whose ``present`` channel is not positive (a table from before its texels: zero)
+    keeps its defaults; the thin film's and the grating's texels are read as they are
+    (zeros where the row's model has none)."""
     t = np.asarray(texels, np.float64)
-    p = ModelParams(
-        t[0, :3], float(t[0, 3]), t[1, :3], float(t[1, 3]), t[2, :3], float(t[2, 3]),
-        # Thin film (RTR4 §9.11), texel 7.
-        film_thickness=float(t[7, 0]), film_eta=float(t[7, 1]), film_ior=float(t[7, 2]),
-        sheen_color=t[6, :3], sheen_roughness=float(t[6, 3]),  # sheen (RTR4 §9.10)
-        grating_period=float(t[8, 0]), grating_depth=float(t[8, 1]),  # grating (§9.11)
-    )  # fmt: skip
-    if t[5, 1] > 0.0:  # clear coat (RTR4 §9.12): texels 4-5 (a table from before: zero)
-        p = replace(
-            p,
-            clearcoat=float(t[4, 3]),
-            clearcoat_roughness=float(t[5, 0]),
-            clearcoat_eta=float(t[5, 1]),
-            clearcoat_color=t[4, :3],
-        )
-    if t[9, 1] > 0.0:  # empirical cloth (RTR4 §9.10): a_rim > 0 (a table from before: zero)
-        p = replace(
-            p,
-            cloth_rim_inner=t[9].copy(),
-            cloth_scatter=t[10, :3],
-            cloth_wrap=float(t[10, 3]),
-            cloth_sheen=t[11, :3],
-            cloth_diffuse=float(t[11, 3]),
-        )
-    if t.shape[0] > 12 and t[12, 2] > 0.0:  # fibre (RTR4 §9.10): gamma_v > 0 (before: 0)
-        p = replace(
-            p,
-            fiber_rotation=float(t[12, 0]),
-            fiber_curvature=float(t[12, 1]),
-            fiber_gamma_v=float(t[12, 2]),
-            fiber_kd=float(t[12, 3]),
-        )
-    return p
+    values: dict[str, Any] = {}
+    for layer in LAYERS.values():
+        slots = _LAYER_SLOTS[layer.name]
+        if layer.present is not None:
+            name, channel = layer.present
+            f = FIELDS[name]
+            if t.shape[0] <= max(s[0] for s in slots) or t[f.texel, f.first + channel] <= 0.0:
+                continue
+        for texel, first, end, name in slots:
+            values[name] = (
+                float(t[texel, first]) if end - first == 1 else t[texel, first:end].copy()
+            )
+    return ModelParams(**values)
+
+
+def _glsl_struct() -> list[str]:
+    lines = [
+        "// Per-material numbers of the optional models (app/common/material_fields.py,",
+        "// generated); indices are relative to the medium the light arrives from.",
+        "struct ModelParams {",
+    ]
+    lines += [
+        f"    {f.glsl_type} {f.name};  // {f.layer}, texel {f.texel}.{f.channels}"
+        + (f" ({f.unit})" if f.unit else "")
+        for f in MATERIAL_FIELDS
+    ]
+    return [*lines, "};"]
+
+
+def _glsl_fetch() -> list[str]:
+    texels = sorted({f.texel for f in MATERIAL_FIELDS})
+    lines = [
+        "// Row ``id`` of the material table (MATERIAL_TEXELS RGBA32F texels per material, then",
+        "// SURFACE_TEXELS more for constant surfaces; app/common/models.py pack_model_params).",
+        "ModelParams fetch_model_params(sampler2D table, int id) {",
+    ]
+    lines += [f"    vec4 t{t} = texelFetch(table, ivec2({t}, id), 0);" for t in texels]
+    args = [f"t{f.texel}.{f.channels}" for f in MATERIAL_FIELDS]
+    lines.append("    return ModelParams(")
+    lines += [
+        f"        {arg}{',' if i + 1 < len(args) else ''}  // {f.name}"
+        for i, (arg, f) in enumerate(zip(args, MATERIAL_FIELDS, strict=True))
+    ]
+    lines += ["    );", "}"]
+    lines += [
+        "// The model group of material ``id``: which lighting permutation shades its pixels.",
+        "int fetch_model_group(sampler2D table, int id) {",
+        f"    return int(texelFetch(table, ivec2({MODEL_CODES_TEXEL}, id), 0).r);",
+        "}",
+    ]
+    return lines
+
+
+def _glsl_uber() -> list[str]:
+    """UBER_MODELS 1 (glsl/brdf/model.glsl): each model name a global that
+    ``fetch_model_codes`` sets per pixel from texel 3 (``MODEL_CODE_FIELDS``)."""
+    lines = [
+        "#ifdef UBER_MODELS",
+        "#if UBER_MODELS",
+        "// Run-time model codes of the pixel being shaded (fetch_model_codes). A pass that",
+        "// also defines one of the compile-time names fails to compile (macro redefinition).",
+    ]
+    lines += [f"int uber_{c.define.lower()};" for c in MODEL_CODE_FIELDS]
+    lines += [f"#define {c.define} uber_{c.define.lower()}" for c in MODEL_CODE_FIELDS]
+    lines += [
+        "// Sets the run-time model codes from texel 3 of material ``id`` (exact small",
+        "// integers in float32; app/common/models.py model_codes).",
+        "void fetch_model_codes(sampler2D table, int id) {",
+        f"    ivec4 c = ivec4(texelFetch(table, ivec2({MODEL_CODES_TEXEL}, id), 0));",
+    ]
+    for c in MODEL_CODE_FIELDS:
+        shifted = f"(c.{c.channel} >> {c.shift})" if c.shift else f"c.{c.channel}"
+        lines.append(f"    uber_{c.define.lower()} = {shifted} & {(1 << c.width) - 1};")
+    return [*lines, "}", "#endif", "#endif"]
+
+
+@cache
+def material_glsl() -> str:
+    """The GLSL side of the material row, generated from MATERIAL_FIELDS and
+    MODEL_CODE_FIELDS: the ``ModelParams`` struct, ``fetch_model_params``,
+    ``fetch_model_group`` and, under UBER_MODELS, the run-time model codes with
+    ``fetch_model_codes``. app/gl/shaders.py writes it into every program's header."""
+    return "\n".join([*_glsl_struct(), *_glsl_fetch(), *_glsl_uber()])
 
 
 def unpack_model(texels: np.ndarray) -> tuple[int, Model]:

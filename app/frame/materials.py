@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.common.gbuffer import optional_defines
+from app.common.material_fields import MATERIAL_FIELDS
 from app.common.models import (
     SURFACE_TEXELS,
     MaterialParams,
@@ -39,30 +40,11 @@ def _spread(x: np.ndarray | float, n: int) -> tuple:
 
 
 def _params_key(p: ModelParams) -> tuple:
-    return (
-        _spread(p.f90, 3),
-        p.fresnel_exponent,
-        _spread(p.eta, 3),
-        p.eta_dielectric,
-        _spread(p.k, 3),
-        p.gtr_gamma,
-        (p.film_thickness, p.film_eta, p.film_ior),  # thin film (RTR4 §9.11)
-        _spread(p.sheen_color, 3),
-        p.sheen_roughness,  # sheen (RTR4 §9.10)
-        # clear coat (RTR4 §9.12)
-        p.clearcoat,
-        p.clearcoat_roughness,
-        p.clearcoat_eta,
-        _spread(p.clearcoat_color, 3),
-        (p.grating_period, p.grating_depth),  # diffraction grating (RTR4 §9.11)
-        # empirical cloth (RTR4 §9.10)
-        _spread(p.cloth_rim_inner, 4),
-        p.cloth_diffuse,
-        _spread(p.cloth_scatter, 3),
-        p.cloth_wrap,
-        _spread(p.cloth_sheen, 3),
-        # micro-cylinder fibre (RTR4 §9.10)
-        (p.fiber_rotation, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd),
+    """Every number of ``p`` (app/common/material_fields.py MATERIAL_FIELDS), hashable:
+    rows are shared by materials whose model and numbers are equal."""
+    return tuple(
+        _spread(getattr(p, f.name), f.size) if f.size > 1 else getattr(p, f.name)
+        for f in MATERIAL_FIELDS
     )
 
 

@@ -10,8 +10,10 @@ an ``#include`` inside ``#if`` is spliced (and counts as done) whatever the cond
 
 Every program starts with the constants shared with Python (``app.common.glsl``: model
 names, ``TERM_*``, ``LIGHT_*``, ``TONEMAP_*``), generated from their one definition, and,
-after its defines, the G-buffer's declarations generated from its one layout list
-(``app.common.gbuffer``: GBUFFER_OUTPUTS, GBUFFER_SAMPLERS and the layout's defaults).
+after its defines, the declarations generated from the render core's other one-place
+contracts: the G-buffer's (``app.common.gbuffer``: GBUFFER_OUTPUTS, GBUFFER_SAMPLERS and the
+layout's defaults) and the material row's struct and fetch functions
+(``app.common.models.material_glsl``).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import moderngl
 
 from app.common.gbuffer import glsl_declarations
 from app.common.glsl import shared_defines
+from app.common.models import material_glsl
 from app.resources import glsl_dir
 
 GLSL_VERSION = "#version 330 core"
@@ -95,8 +98,10 @@ def _generated(defines: Mapping[str, object]) -> list[str]:
     """Header lines generated from a Python declaration for a program of ``defines``: the
     G-buffer's (app/common/gbuffer.py ``glsl_declarations``: the layout's defines the
     program leaves out, at their defaults, and the GBUFFER_OUTPUTS / GBUFFER_SAMPLERS
-    declarations of its targets)."""
-    return glsl_declarations(defines)
+    declarations of its targets), then the material row's (app/common/models.py
+    ``material_glsl``: struct ModelParams, fetch_model_params, fetch_model_group and, under
+    UBER_MODELS, hence after the program's defines, fetch_model_codes)."""
+    return [*glsl_declarations(defines), material_glsl()]
 
 
 def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:

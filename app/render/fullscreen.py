@@ -31,7 +31,7 @@ def read_rgb(
     slicing off alpha, a strided copy, took 4x as long for 1280x720 RGBA8 here
     (docs/performance.md). ``scratch``: a buffer of the packed image's size to read into,
     kept by a caller that reads every frame (fresh memory for each read is paged in
-    again; docs/performance.md, "The fused display image"). The values are the same bytes either way."""
+    again; docs/performance.md, "The fused display image"). The same bytes either way."""
     w, h = size
     wait_before_read(fbo.ctx)
     item = np.dtype(np.float32 if dtype == "f4" else np.uint8)

@@ -36,8 +36,8 @@ def ms_texture(ctx: moderngl.Context, table: np.ndarray | None = None) -> modern
 
 def material_texture(ctx: moderngl.Context, table: MaterialTable) -> moderngl.Texture:
     """A new RGBA32F texture of the material table (app/frame/materials.py): one material
-    per row, MATERIAL_TEXELS wide, NEAREST (glsl/brdf/model.glsl fetch_model_params). The
-    caller releases it."""
+    per row, MATERIAL_TEXELS wide, NEAREST (read by fetch_model_params, which is generated
+    from app/common/material_fields.py). The caller releases it."""
     packed = table.packed()
     tex = ctx.texture((packed.shape[1], packed.shape[0]), 4, packed.tobytes(), dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import (
@@ -25,6 +25,7 @@ from pydantic import (
 
 from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES
 from app.common.ior import f0_from_ior, ior_from_f0
+from app.common.material_fields import FIELDS, scene_default
 from app.common.models import (
     CORRELATIONS,
     DIFFRACTION_MODELS,
@@ -336,6 +337,14 @@ CLOTH_KEYS = (
 )  # fmt: skip
 # Micro-cylinder fibres (RTR4 §9.10): every key needs a fibre model; the last two are
 # Sadeghi et al.'s alone.
+
+
+def _given(value: Any, key: str) -> Any:
+    """``value`` of scene key ``key``, or where unset (None) the key's default, declared
+    with its material field (app/common/material_fields.py)."""
+    return scene_default(key) if value is None else value
+
+
 FIBER_KEYS = ("fiber_rotation", "fiber_curvature", "fiber_gamma_v", "fiber_kd")
 SADEGHI_KEYS = ("fiber_gamma_v", "fiber_kd")
 
@@ -375,7 +384,7 @@ class Material(_Strict):
     sheen_color: UnitColor | None = None  # linear RGB
     sheen_roughness: Unit | None = None  # perceptual; alpha = sheen_roughness^2; default 0.5
     # --- clear coat (RTR4 §9.12; docs/layered.md) ---
-    clearcoat: Unit = 0.0  # strength; 0 = no coat (compiled out)
+    clearcoat: Unit = FIELDS["clearcoat"].default  # strength; 0 = no coat (compiled out)
     clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
     clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
     clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
@@ -557,7 +566,7 @@ class Material(_Strict):
         if self.clearcoat_normal_scale is not None and self.clearcoat_normal_map is None:
             raise ValueError("clearcoat_normal_scale: applies only with a 'clearcoat_normal_map'")
         medium = self._medium()
-        coat = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
+        coat = _given(self.clearcoat_ior, "clearcoat_ior")
         if coat < medium:
             raise ValueError(
                 "clearcoat_ior: must be at least the medium's index (light would be totally "
@@ -593,12 +602,12 @@ class Material(_Strict):
         if self.clearcoat == 0.0:
             return params
         medium = self._medium()
-        coat_ior = 1.5 if self.clearcoat_ior is None else self.clearcoat_ior
-        color = [1.0, 1.0, 1.0] if self.clearcoat_color is None else self.clearcoat_color
+        coat_ior = _given(self.clearcoat_ior, "clearcoat_ior")
+        color = _given(self.clearcoat_color, "clearcoat_color")
         model_params = replace(
             params.params,
             clearcoat=self.clearcoat,
-            clearcoat_roughness=self.clearcoat_roughness or 0.0,
+            clearcoat_roughness=_given(self.clearcoat_roughness, "clearcoat_roughness"),
             clearcoat_eta=coat_ior / medium,
             clearcoat_color=np.asarray(color, np.float64),
         )
@@ -634,25 +643,31 @@ class Material(_Strict):
             ior = float(ior_from_f0(min(f0, 0.99))) * medium  # gives F0 in this medium
         eta_d = ior / medium
         conductor = self._conductor_index()
-        eta, k = conductor if conductor is not None else (np.full(3, 1.5), np.zeros(3))
-        exponent = 5.0 if self.fresnel_p is None else 1.0 / self.fresnel_p
+        if conductor is not None:
+            eta, k = conductor
+        else:  # the fields' defaults (app/common/material_fields.py)
+            eta, k = np.array(FIELDS["eta"].default), np.array(FIELDS["k"].default)
+        exponent = (
+            FIELDS["fresnel_exponent"].default if self.fresnel_p is None else 1.0 / self.fresnel_p
+        )
+        film_ior = _given(self.film_ior, "film_ior")
         params = ModelParams(
-            f90=np.asarray(self.f90 if self.f90 is not None else [1.0, 1.0, 1.0], np.float64),
+            f90=np.asarray(_given(self.f90, "f90"), np.float64),
             fresnel_exponent=exponent,
             eta=eta / medium,
             eta_dielectric=eta_d,
             k=k / medium,
-            gtr_gamma=2.0 if self.gtr_gamma is None else self.gtr_gamma,
+            gtr_gamma=_given(self.gtr_gamma, "gtr_gamma"),
             # Thin film (RTR4 §9.11): indices relative to the medium, as eta's.
-            film_thickness=400.0 if self.film_thickness is None else self.film_thickness,
-            film_eta=(1.33 if self.film_ior is None else self.film_ior) / medium,
-            film_ior=1.33 if self.film_ior is None else self.film_ior,
+            film_thickness=_given(self.film_thickness, "film_thickness"),
+            film_eta=film_ior / medium,
+            film_ior=film_ior,
         )
         if self.diffraction != "none":  # diffraction grating (RTR4 §9.11)
             params = replace(
                 params,
-                grating_period=1600.0 if self.grating_period is None else self.grating_period,
-                grating_depth=120.0 if self.grating_depth is None else self.grating_depth,
+                grating_period=_given(self.grating_period, "grating_period"),
+                grating_depth=_given(self.grating_depth, "grating_depth"),
             )
         # sheen (RTR4 §9.10): only a non-black colour with a model makes a layer; without
         # one the parameters stay zero, so such materials share a row and a program.
@@ -663,29 +678,28 @@ class Material(_Strict):
             params = replace(
                 params,
                 sheen_color=np.asarray(self.sheen_color, np.float64),
-                sheen_roughness=0.5 if self.sheen_roughness is None else self.sheen_roughness,
+                sheen_roughness=_given(self.sheen_roughness, "sheen_roughness"),
             )
         if self.diffuse == "cloth_empirical":  # empirical cloth (RTR4 §9.10)
-            rim = [0.0, 1.0] if self.cloth_rim is None else self.cloth_rim
-            inner = [0.0, 1.0] if self.cloth_inner is None else self.cloth_inner
-            k_sheen = 0.0 if self.cloth_sheen is None else self.cloth_sheen
-            c_sheen = [1.0, 1.0, 1.0] if self.cloth_sheen_color is None else self.cloth_sheen_color
+            rim = _given(self.cloth_rim, "cloth_rim")
+            inner = _given(self.cloth_inner, "cloth_inner")
+            k_sheen = _given(self.cloth_sheen, "cloth_sheen")
+            c_sheen = _given(self.cloth_sheen_color, "cloth_sheen_color")
             params = replace(
                 params,
                 cloth_rim_inner=np.asarray([*rim, *inner], np.float64),
-                cloth_diffuse=1.0 if self.cloth_diffuse is None else self.cloth_diffuse,
-                cloth_scatter=np.asarray(self.cloth_scatter or [1.0, 1.0, 1.0], np.float64),
-                cloth_wrap=0.0 if self.cloth_wrap is None else self.cloth_wrap,
+                cloth_diffuse=_given(self.cloth_diffuse, "cloth_diffuse"),
+                cloth_scatter=np.asarray(_given(self.cloth_scatter, "cloth_scatter"), np.float64),
+                cloth_wrap=_given(self.cloth_wrap, "cloth_wrap"),
                 cloth_sheen=k_sheen * np.asarray(c_sheen, np.float64),
             )
         if self.fiber != "none":  # micro-cylinder fibres (RTR4 §9.10), degrees -> radians
-            gamma_v = 20.0 if self.fiber_gamma_v is None else self.fiber_gamma_v
             params = replace(
                 params,
-                fiber_rotation=math.radians(self.fiber_rotation or 0.0),
-                fiber_curvature=math.radians(self.fiber_curvature or 0.0),
-                fiber_gamma_v=math.radians(gamma_v),
-                fiber_kd=0.3 if self.fiber_kd is None else self.fiber_kd,
+                fiber_rotation=math.radians(_given(self.fiber_rotation, "fiber_rotation")),
+                fiber_curvature=math.radians(_given(self.fiber_curvature, "fiber_curvature")),
+                fiber_gamma_v=math.radians(_given(self.fiber_gamma_v, "fiber_gamma_v")),
+                fiber_kd=_given(self.fiber_kd, "fiber_kd"),
             )
         anisotropy = 0.0 if self.anisotropy is None else self.anisotropy
         model = Model(

@@ -25,6 +25,7 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from app.common.gbuffer import ENCODING_NAMES
+from app.common.material_fields import Control, scene_default, scene_keys
 from app.common.models import (
     CLEARCOAT_MODELS,
     CORRELATIONS,
@@ -55,6 +56,15 @@ VIEWS = (
     "split",
     "difference",
 )  # the comparison's views  # incident angles of the lobe plot, degrees
+
+
+def _control(name: str) -> Control:
+    """How the Material panel shows scene key ``name``: its label and range, declared with
+    its material field (app/common/material_fields.py)."""
+    control = scene_keys()[name].control
+    if control is None:
+        raise KeyError(f"{name}: the material-field table gives it no control")
+    return control
 
 
 def diffuse_edit(key: str, old: str, new: str) -> dict[str, Any]:
@@ -219,6 +229,23 @@ class Panels:
         if changed:
             self._edit(f"{key}.{field}", float(value))
 
+    def _field_slider(self, key: str, material: Any, name: str) -> None:
+        """The slider of scene key ``name`` of material ``key``: its label, range and
+        default from the material row's declaration (app/common/material_fields.py)."""
+        control = _control(name)
+        flags = imgui.SliderFlags_.logarithmic if control.logarithmic else 0
+        default = float(scene_default(name))  # type: ignore[arg-type]
+        self._key_slider(
+            key, material, name, control.label, default, control.low, control.high, flags
+        )
+
+    def _field_color(self, key: str, material: Any, name: str) -> None:
+        """The colour editor of scene key ``name`` of material ``key`` (unset: its default)."""
+        rgb = getattr(material, name) or scene_default(name)
+        changed, rgb = imgui.color_edit3(_control(name).label, [float(c) for c in rgb])
+        if changed:
+            self._edit(f"{key}.{name}", [float(c) for c in rgb])
+
     def _edit(self, key: str, value: Any) -> None:
         self.viewer.edit({key: value})
 
@@ -329,15 +356,15 @@ class Panels:
         if changed:
             self._edit(f"{key}.multiscatter", on)
         if material.ndf == "gtr":
-            changed, value = imgui.slider_float("gtr gamma", resolved.params.gtr_gamma, 0.1, 20.0)
+            c = _control("gtr_gamma")
+            changed, value = imgui.slider_float(c.label, resolved.params.gtr_gamma, c.low, c.high)
             if changed:
                 self._edit(f"{key}.gtr_gamma", float(value))
         if material.fresnel == "schlick_generalized":
-            changed, f90 = imgui.color_edit3("f90", [float(x) for x in resolved.params.f90])
-            if changed:
-                self._edit(f"{key}.f90", [float(c) for c in f90])
+            self._field_color(key, material, "f90")
             p = 1.0 / resolved.params.fresnel_exponent
-            changed, value = imgui.slider_float("fresnel p (exponent 1/p)", p, 0.01, 2.0)
+            c = _control("fresnel_p")
+            changed, value = imgui.slider_float(c.label, p, c.low, c.high)
             if changed:
                 self._edit(f"{key}.fresnel_p", float(value))
         if material.fresnel == "conductor":
@@ -385,13 +412,9 @@ class Panels:
             self.viewer.edit(fiber_edit(key, material.fiber, FIBER_MODELS[i]))
         if material.fiber == "none":
             return
-        sliders = [("fiber_rotation", "thread rotation (deg)", 0.0, -180.0, 180.0),
-                   ("fiber_curvature", "thread curvature (deg)", 0.0, 0.0, 60.0)]  # fmt: skip
-        if material.fiber == "sadeghi":
-            sliders += [("fiber_gamma_v", "volume lobe width (deg)", 20.0, 1.0, 90.0),
-                        ("fiber_kd", "isotropic share k_d", 0.3, 0.0, 1.0)]  # fmt: skip
-        for field, label, default, low, high in sliders:
-            self._key_slider(key, material, field, label, default, low, high)
+        for name in FIBER_KEYS:
+            if name not in SADEGHI_KEYS or material.fiber == "sadeghi":
+                self._field_slider(key, material, name)
 
     def _cloth_empirical(self, key: str, material: Any) -> None:
         """The empirical cloth terms of RTR4 §9.10 (diffuse = "cloth_empirical"); unset keys
@@ -404,20 +427,10 @@ class Panels:
             changed, value = imgui.slider_float(f"{label} exponent", float(a), 0.01, 64.0)
             if changed:
                 self._edit(f"{key}.{field}", [float(k), float(value)])
-        for field, label, default, top in (
-            ("cloth_diffuse", "k diffuse", 1.0, 10.0),
-            ("cloth_wrap", "wrap w", 0.0, 1.0),
-            ("cloth_sheen", "k sheen", 0.0, 10.0),
-        ):
-            self._key_slider(key, material, field, label, default, 0.0, top)
-        for field, label in (
-            ("cloth_scatter", "scatter colour"),
-            ("cloth_sheen_color", "sheen colour##cloth"),
-        ):
-            rgb = getattr(material, field) or [1.0, 1.0, 1.0]
-            changed, rgb = imgui.color_edit3(label, list(rgb))
-            if changed:
-                self._edit(f"{key}.{field}", [float(c) for c in rgb])
+        for name in ("cloth_diffuse", "cloth_wrap", "cloth_sheen"):
+            self._field_slider(key, material, name)
+        for name in ("cloth_scatter", "cloth_sheen_color"):
+            self._field_color(key, material, name)
 
     def _layers(self, key: str, material: Any) -> None:
         """The layers over the base (RTR4 §9.10-9.12). Turning one off removes its keys,
@@ -436,21 +449,17 @@ class Panels:
             changed, i = imgui.combo("sheen NDF", now, names)
             if changed:
                 self._edit(f"{key}.sheen", names[i])
-            changed, rgb = imgui.color_edit3("sheen colour", list(material.sheen_color))
-            if changed:
-                self._edit(f"{key}.sheen_color", [float(c) for c in rgb])
-            self._key_slider(key, material, "sheen_roughness", "sheen roughness", 0.5, 0.0, 1.0)
-        changed, value = imgui.slider_float("clear coat", material.clearcoat, 0.0, 1.0)
+            self._field_color(key, material, "sheen_color")
+            self._field_slider(key, material, "sheen_roughness")
+        c = _control("clearcoat")
+        changed, value = imgui.slider_float(c.label, material.clearcoat, c.low, c.high)
         if changed:
             off = {f"{key}.clearcoat_{k}": None for k in ("roughness", "ior", "color")}
             self.viewer.edit({f"{key}.clearcoat": float(value), **(off if value <= 0.0 else {})})
         if material.clearcoat > 0.0:
-            self._key_slider(key, material, "clearcoat_roughness", "coat roughness", 0.0, 0.0, 1.0)
-            self._key_slider(key, material, "clearcoat_ior", "coat index", 1.5, 1.0, 3.0)
-            color = material.clearcoat_color or [1.0, 1.0, 1.0]
-            changed, rgb = imgui.color_edit3("coat colour", list(color))
-            if changed:
-                self._edit(f"{key}.clearcoat_color", [float(c) for c in rgb])
+            for name in ("clearcoat_roughness", "clearcoat_ior"):
+                self._field_slider(key, material, name)
+            self._field_color(key, material, "clearcoat_color")
             names = [n for n in CLEARCOAT_MODELS if n != "none"]
             now = names.index(material.clearcoat_model)
             changed, i = imgui.combo("coat model", now, names)
@@ -465,19 +474,16 @@ class Panels:
                       f"{key}.film_ior": None}
             )  # fmt: skip
         if material.thin_film:
-            self._key_slider(key, material, "film_thickness", "film thickness (nm)", 400.0,
-                             0.0, 1000.0)  # fmt: skip
-            self._key_slider(key, material, "film_ior", "film index", 1.33, 1.0, 3.0)
+            for name in ("film_thickness", "film_ior"):
+                self._field_slider(key, material, name)
         # A grating's orders (RTR4 §9.11) move the isotropic GGX lobe: the scene format
         # refuses other bases, and the refusal shows in the Problems panel.
         changed, on = imgui.checkbox("diffraction grating", material.diffraction == "grating")
         if changed:
             self.viewer.edit(grating_edit(key, on))
         if material.diffraction == "grating":
-            self._key_slider(key, material, "grating_period", "groove period (nm)", 1600.0,
-                             200.0, 20000.0, imgui.SliderFlags_.logarithmic)  # fmt: skip
-            self._key_slider(key, material, "grating_depth", "groove depth (nm)", 120.0,
-                             0.0, 300.0)  # fmt: skip
+            for name in ("grating_period", "grating_depth"):
+                self._field_slider(key, material, name)
 
     def _lights_panel(self) -> None:
         v = self.viewer

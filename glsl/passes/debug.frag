@@ -18,7 +18,7 @@
 #include "gbuffer/decode.glsl"
 #include "lights/illumination.glsl"
 
-uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
+uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (app/common/material_fields.py)
 uniform sampler2D u_lights;     // RGBA32F, 3 texels per light, one light per row
 uniform int u_light;            // the light the BRDF views evaluate
 #if DEBUG_VIEW == DEBUG_TILES && defined(TILE_QUADS)

@@ -9,7 +9,7 @@
 #include "gbuffer/decode.glsl"
 #include "lights/illumination.glsl"
 
-uniform sampler2D u_materials;     // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
+uniform sampler2D u_materials;     // RGBA32F, MATERIAL_TEXELS per material (app/common/material_fields.py)
 uniform sampler2D u_lights;        // RGBA32F, 3 texels per light, one light per row
 uniform usampler2D u_pixel_masks;  // RGBA32UI: TILE_QUADS texels per pixel (app/bench/floor.py)
 uniform vec3 u_camera_pos;

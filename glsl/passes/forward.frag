@@ -25,7 +25,7 @@ in vec4 v_color;   // glTF COLOR_0 (passes/gbuffer.vert)
 in vec2 v_uv1;     // glTF TEXCOORD_1
 #endif
 
-uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
+uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (app/common/material_fields.py)
 // u_camera_pos, u_camera_to_world, u_tan_half_fov, u_image_size: geometry/analytic.glsl
 
 out vec4 frag_color;

@@ -8,7 +8,7 @@
 #include "lights/shading.glsl"
 #include "post/tonemap.glsl"
 
-uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
+uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (app/common/material_fields.py)
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
 uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)

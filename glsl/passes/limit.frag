@@ -12,7 +12,7 @@
 #include "gbuffer/decode.glsl"
 #include "lights/illumination.glsl"
 
-uniform sampler2D u_materials;      // RGBA32F, MATERIAL_TEXELS per material (brdf/model.glsl)
+uniform sampler2D u_materials;      // RGBA32F, MATERIAL_TEXELS per material (app/common/material_fields.py)
 uniform usampler2D u_pixel_lights;  // RGBA32UI: LIMIT_TEXELS texels per pixel
 uniform vec3 u_camera_pos;
 uniform mat3 u_camera_to_world;
