@@ -26,7 +26,7 @@ from pydantic import (
 from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES
 from app.common.ior import f0_from_ior, ior_from_f0
 from app.common.material_checks import MAP_KEYS, MAX_RADIANCE, material_problems
-from app.common.material_fields import FIELDS, scene_default
+from app.common.material_fields import FIELDS, scene_default, scene_keys
 from app.common.models import (
     CORRELATIONS,
     DIFFRACTION_MODELS,
@@ -275,12 +275,22 @@ class Light(_Strict):
 
 
 Ior = Annotated[Real, Field(ge=1.0, le=10.0)]
-PositiveColor = Annotated[
-    list[Annotated[Real, Field(gt=0.0, le=100.0)]], Field(min_length=3, max_length=3)
-]
-ExtinctionColor = Annotated[
-    list[Annotated[Real, Field(ge=0.0, le=100.0)]], Field(min_length=3, max_length=3)
-]
+# Scene keys whose lower bound is excluded: a conductor's refractive index n is positive.
+_EXCLUSIVE_LOW = frozenset({"eta"})
+
+
+def _table_key(name: str) -> Any:
+    """The schema type of material-table scene key ``name``: a number, or a list of as
+    many numbers as its default has, each within the bounds app/common/material_fields.py
+    declares for it (pydantic's own messages name them)."""
+    key = scene_keys()[name]
+    low = {"gt": key.low} if name in _EXCLUSIVE_LOW else {"ge": key.low}
+    number = Annotated[Real, Field(**low, le=key.high)]
+    default = scene_default(name)
+    if isinstance(default, float):
+        return number
+    size = len(default)
+    return Annotated[list[number], Field(min_length=size, max_length=size)]  # type: ignore[valid-type]
 
 
 TexturePath = Annotated[str, Field(min_length=1, max_length=4096)]
@@ -325,10 +335,6 @@ class Blend(_Strict):
 
 # Empirical cloth (RTR4 §9.10): a lobe's weight k and exponent a (a > 0: pow(0, a) is
 # defined in GLSL only for a > 0).
-ClothWeight = Annotated[Real, Field(ge=0.0, le=10.0)]
-ClothLobe = Annotated[
-    list[Annotated[Real, Field(ge=0.0, le=64.0)]], Field(min_length=2, max_length=2)
-]
 CLOTH_KEYS = (
     "cloth_rim", "cloth_inner", "cloth_diffuse", "cloth_scatter", "cloth_wrap", "cloth_sheen",
     "cloth_sheen_color",
@@ -361,12 +367,12 @@ class Material(_Strict):
     anisotropy: Annotated[Real, Field(ge=-1.0, le=1.0)] | None = None
     # Model of each term (RTR4 §9.5–9.9); the defaults are the standard model.
     fresnel: Literal[FRESNEL_MODELS] = "schlick"  # type: ignore[valid-type]
-    f90: UnitColor | None = None  # schlick_generalized
-    fresnel_p: Annotated[Real, Field(ge=0.01, le=10.0)] | None = None  # exponent 1/p
-    eta: PositiveColor | None = None  # conductor: n per RGB channel
-    k: ExtinctionColor | None = None  # conductor: k per RGB channel
+    f90: _table_key("f90") | None = None  # schlick_generalized
+    fresnel_p: _table_key("fresnel_p") | None = None  # exponent 1/p
+    eta: _table_key("eta") | None = None  # conductor: n per RGB channel
+    k: _table_key("k") | None = None  # conductor: k per RGB channel
     ndf: Literal[NDF_MODELS] = "ggx"  # type: ignore[valid-type]
-    gtr_gamma: Annotated[Real, Field(ge=0.1, le=20.0)] | None = None
+    gtr_gamma: _table_key("gtr_gamma") | None = None
     lambda_form: Literal[LAMBDA_FORMS] = "exact"  # type: ignore[valid-type]
     g2: Literal[G2_MODELS] = "height_correlated"  # type: ignore[valid-type]
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
@@ -374,18 +380,23 @@ class Material(_Strict):
     multiscatter: Annotated[bool, Field(strict=True)] = False
     # --- thin film (RTR4 §9.11): a dielectric film over the base replaces its F ---
     thin_film: Annotated[bool, Field(strict=True)] = False
-    film_thickness: Annotated[Real, Field(ge=0.0, le=5000.0)] | None = None  # nm (default 400)
-    film_ior: Ior | None = None  # the film's index (default 1.33, water/soap)
+    film_thickness: _table_key("film_thickness") | None = None  # nm (default 400)
+    film_ior: _table_key("film_ior") | None = None  # the film's index (default 1.33, water/soap)
     # Sheen (RTR4 §9.10): a cloth layer over the material above. No sheen_color (or black)
     # means no layer, compiled out; sheen picks the NDF ("none" turns a layer off).
     sheen: Literal[SHEEN_MODELS] = "charlie"  # type: ignore[valid-type]
-    sheen_color: UnitColor | None = None  # linear RGB
-    sheen_roughness: Unit | None = None  # perceptual; alpha = sheen_roughness^2; default 0.5
+    sheen_color: _table_key("sheen_color") | None = None  # linear RGB
+    # perceptual; alpha = sheen_roughness^2; default 0.5
+    sheen_roughness: _table_key("sheen_roughness") | None = None
     # --- clear coat (RTR4 §9.12; docs/layered.md) ---
-    clearcoat: Unit = FIELDS["clearcoat"].default  # strength; 0 = no coat (compiled out)
-    clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
-    clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
-    clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
+    # strength; 0 = no coat (compiled out)
+    clearcoat: _table_key("clearcoat") = FIELDS["clearcoat"].default
+    # perceptual (default 0: a polished coat)
+    clearcoat_roughness: _table_key("clearcoat_roughness") | None = None
+    # the coat's index (default 1.5), >= medium_ior
+    clearcoat_ior: _table_key("clearcoat_ior") | None = None
+    # transmittance at normal incidence, once
+    clearcoat_color: _table_key("clearcoat_color") | None = None
     # how the coat composes with the base (docs/layered.md): Filament's or Weidlich & Wilkie's
     clearcoat_model: Literal["filament", "weidlich_wilkie"] = "filament"
     # The coat's own normal map (glTF clearcoatNormalTexture; docs/layered.md): without it
@@ -393,24 +404,27 @@ class Material(_Strict):
     clearcoat_normal_map: TexturePath | None = None
     clearcoat_normal_scale: Annotated[Real, Field(ge=0.0, le=10.0)] | None = None  # default 1
     # --- empirical cloth (RTR4 §9.10): only with diffuse = "cloth_empirical" ---
-    cloth_rim: ClothLobe | None = None  # [k_rim, a_rim] (default [0, 1])
-    cloth_inner: ClothLobe | None = None  # [k_inner, a_inner] (default [0, 1])
-    cloth_diffuse: ClothWeight | None = None  # k_diff (default 1)
-    cloth_scatter: UnitColor | None = None  # c_scatter, linear RGB (default white: none)
-    cloth_wrap: Unit | None = None  # w (default 0: no wrap)
-    cloth_sheen: ClothWeight | None = None  # k_sheen (default 0)
-    cloth_sheen_color: UnitColor | None = None  # c_sheen, linear RGB (default white)
+    cloth_rim: _table_key("cloth_rim") | None = None  # [k_rim, a_rim] (default [0, 1])
+    cloth_inner: _table_key("cloth_inner") | None = None  # [k_inner, a_inner] (default [0, 1])
+    cloth_diffuse: _table_key("cloth_diffuse") | None = None  # k_diff (default 1)
+    # c_scatter, linear RGB (default white: none)
+    cloth_scatter: _table_key("cloth_scatter") | None = None
+    cloth_wrap: _table_key("cloth_wrap") | None = None  # w (default 0: no wrap)
+    cloth_sheen: _table_key("cloth_sheen") | None = None  # k_sheen (default 0)
+    # c_sheen, linear RGB (default white)
+    cloth_sheen_color: _table_key("cloth_sheen_color") | None = None
     # --- diffraction (RTR4 §9.11; docs/diffraction.md): a grating, grooves along the tangent
     diffraction: Literal[DIFFRACTION_MODELS] = "none"  # type: ignore[valid-type]
-    grating_period: Annotated[Real, Field(ge=200.0, le=20000.0)] | None = None  # nm (1600)
-    grating_depth: Annotated[Real, Field(ge=0.0, le=300.0)] | None = None  # nm (120)
+    grating_period: _table_key("grating_period") | None = None  # nm (1600)
+    grating_depth: _table_key("grating_depth") | None = None  # nm (120)
     # --- micro-cylinder fibres (RTR4 §9.10; docs/cloth.md "Micro-cylinder"): a thread along
     # the tangent replaces the specular and diffuse terms; angles in degrees
     fiber: Literal[FIBER_MODELS] = "none"  # type: ignore[valid-type]
-    fiber_rotation: Annotated[Real, Field(ge=-360.0, le=360.0)] | None = None  # about n (0)
-    fiber_curvature: Annotated[Real, Field(ge=0.0, le=60.0)] | None = None  # largest tilt (0)
-    fiber_gamma_v: Annotated[Real, Field(ge=1.0, le=90.0)] | None = None  # sadeghi (20)
-    fiber_kd: Unit | None = None  # sadeghi: isotropic share of the volume scattering (0.3)
+    fiber_rotation: _table_key("fiber_rotation") | None = None  # about n (0)
+    fiber_curvature: _table_key("fiber_curvature") | None = None  # largest tilt (0)
+    fiber_gamma_v: _table_key("fiber_gamma_v") | None = None  # sadeghi (20)
+    # sadeghi: isotropic share of the volume scattering (0.3)
+    fiber_kd: _table_key("fiber_kd") | None = None
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
