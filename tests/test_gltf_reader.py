@@ -233,6 +233,7 @@ def test_textures_samplers_and_transforms(tmp_path: Path) -> None:
         ),
         occlusionTexture=pygltflib.OcclusionTextureInfo(index=occ, strength=0.375),
         emissiveTexture=pygltflib.TextureInfo(index=emit, texCoord=1),
+        emissiveFactor=[1.0, 1.0, 1.0],  # the default, black, would leave the texture unread
     )
     b.quad(b.material(mat), uv1=QUAD_UV)
     (part,) = _parts(tmp_path, b)

@@ -6,8 +6,8 @@ vertices; with ``FAR_PLANE`` defined the triangle lies on the far plane, for pas
 z-test it (">") against a G-buffer's z-buffer so that only pixels with a surface run the
 fragment shader. ``FullscreenDraw`` is that much, and the only place in app/ that makes the
 draw: post, downsample, depth of field, compare, the environment background and its
-prefilter, tile culling, lighting, the debug views, the bench's floor and limit passes and
-the GLSL kernels all draw through it.
+prefilter, tile culling, lighting, the debug views, the bench's floor and limit passes,
+the GLSL kernels and the viewer's window (its image onto the screen) all draw through it.
 
 The draw state is explicit: ``draw`` disables blending, and the depth test unless a
 ``depth_func`` asks for it, which it restores to off and "<" afterwards (the state every

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import io
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ import numpy as np
 import trimesh
 from PIL import Image
 
+from app.common.material_checks import material_problems
 from app.common.models import MaterialParams
 from app.common.primitives import Primitive
 from app.errors import InputError
@@ -469,13 +471,40 @@ def _mtl_material(
         layer.emissive = tuple(max(c, 0.0) for c in ke)  # type: ignore[assignment]
     elif "map_ke" in images:
         layer.emissive = (1.0, 1.0, 1.0)
-    if "map_ke" in images:
+    if "map_ke" in images and any(layer.emissive):
         layer.maps["emissive"] = colour_texture(images["map_ke"])
+    elif "map_ke" in images:  # Ke 0 0 0 times the map: nothing is emitted (glTF's rule)
+        _LOG.warning(
+            "newmtl %s: map_Ke: Ke is black, so the map emits nothing; it is not used", mat.name
+        )
     d = _mtl_number(kwargs, "d")
     layer.alpha = 1.0 if d is None else min(max(d, 0.0), 1.0)
     if layer.alpha < 1.0 or "map_d" in images:
         layer.alpha_mode = "blend"
+    # The checks every material front-end shares (app/common/material_checks.py) on what
+    # this material became; a problem names the statement it comes from.
+    for problem in material_problems(layer.params, layer.maps, layer.emissive):
+        statement = _MTL_STATEMENTS.get(problem.key, "newmtl")
+        raise MtlMaterialError(mat.name, statement, problem.message)
     return layer
+
+
+class MtlMaterialError(ValueError):
+    """An MTL material the shared material checks refuse: the material's name, the
+    statement (``Ke``) and the message; ``build_parts`` names the MTL file and object."""
+
+    def __init__(self, material: str, statement: str, message: str) -> None:
+        super().__init__(f"newmtl {material}: {statement}: {message}")
+        self.material, self.statement, self.message = material, statement, message
+
+
+# The MTL statement that gives what a resolved check's scene-file key is about
+# (app/common/material_checks.py); any other: the material's ``newmtl``.
+_MTL_STATEMENTS = {
+    "emissive_map": "map_Ke",
+    "emissive_strength": "Ke",
+    "metallic": "Pm",
+}
 
 
 def _bump_multiplier(norm: MtlMap) -> float:
@@ -485,6 +514,7 @@ def _bump_multiplier(norm: MtlMap) -> float:
     return 1.0 if value is None else value
 
 
+_LOG = logging.getLogger("pbs.mtl")  # what an MTL material gives that does nothing
 _DEFAULT_MATERIAL = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
 
 
@@ -496,9 +526,12 @@ MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
 
 def _load_file(
     loaded: LoadedScene, index: int, obj: SceneObject, budget: Budget
-) -> tuple[list[tuple[trimesh.Trimesh, np.ndarray]], dict[str, dict[str, MtlMap]] | None]:
+) -> tuple[
+    list[tuple[trimesh.Trimesh, np.ndarray]], dict[str, dict[str, MtlMap]] | None, dict[str, str]
+]:
     """The file's triangle meshes with their node transforms and, for an OBJ that names
-    an MTL, its materials' maps by name (the materials then apply, ``_mtl_material``).
+    an MTL, its materials' maps by name (the materials then apply, ``_mtl_material``)
+    and the MTL file (as the OBJ names it) that defines each material.
 
     The file is read here (confined, a plain file, within the size limit) and trimesh
     parses the bytes; an OBJ's MTL files reach it through a resolver holding only the MTL
@@ -528,6 +561,7 @@ def _load_file(
     if problem is not None:
         raise InputError(scene_file, key, problem)
     mtl = obj_materials(mtls) if mtls else None
+    sources = {name: m.name for m in reversed(mtls) for name in m.materials}  # first wins
     resolver = {m.name: m.data for m in mtls}
     try:
         mesh_data = trimesh.load(
@@ -539,7 +573,7 @@ def _load_file(
         ) from None
     if isinstance(mesh_data, trimesh.Trimesh):
         if len(mesh_data.faces):
-            return [(mesh_data, np.eye(4))], mtl
+            return [(mesh_data, np.eye(4))], mtl, sources
     elif isinstance(mesh_data, trimesh.Scene):
         parts = []
         for node in mesh_data.graph.nodes_geometry:
@@ -548,7 +582,7 @@ def _load_file(
             if isinstance(geom, trimesh.Trimesh) and len(geom.faces):
                 parts.append((geom, np.asarray(transform, np.float64)))
         if parts:
-            return parts, mtl
+            return parts, mtl, sources
     raise InputError(scene_file, key, f"{path} holds no triangles")
 
 
@@ -702,7 +736,7 @@ def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshP
         if Path(obj.file or "").suffix.lower() in GLTF_SUFFIXES:
             built = _gltf_parts(loaded, i, model, chosen, builder.normal_filter, budget)
         else:
-            meshes, mtl = _load_file(loaded, i, obj, budget)
+            meshes, mtl, sources = _load_file(loaded, i, obj, budget)
             read = _image_reader(loaded, i, budget)
             built = []
             for mesh, local in meshes:
@@ -719,7 +753,11 @@ def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshP
                     layers, blend = chosen
                 else:
                     filt = builder.normal_filter
-                    layers = [_file_material(mesh, _DEFAULT_MATERIAL, filt, mtl, read)]
+                    try:
+                        layers = [_file_material(mesh, _DEFAULT_MATERIAL, filt, mtl, read)]
+                    except MtlMaterialError as exc:
+                        where = sources.get(exc.material, "its MTL file")
+                        raise InputError(scene_file, file_key, f"{where}: {exc}") from None
                     blend = None
                 vertices, indices = _interleave(mesh)
                 built.append(MeshPart(vertices, indices, layers, model @ local, blend, False, i))

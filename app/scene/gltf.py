@@ -43,11 +43,11 @@ from types import SimpleNamespace
 import numpy as np
 from PIL import Image
 
+from app.common.material_checks import MAX_RADIANCE, material_problems
 from app.common.models import MaterialParams
 from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matrices
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
 from app.scene.gltf_schema import MAX_COORDINATE
-from app.scene.model import MAX_RADIANCE
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
@@ -721,16 +721,27 @@ class GltfFile:
             layer.occlusion_strength = (
                 1.0 if strength is None else _number(strength, f"{okey}.strength", 0.0, 1.0)
             )
-        emissive = np.zeros(3)
+        emissive_factor = np.zeros(3)
         if m.emissiveFactor is not None:
-            emissive = _numbers(m.emissiveFactor, 3, f"{key}.emissiveFactor", 0.0, 1.0)
+            emissive_factor = _numbers(m.emissiveFactor, 3, f"{key}.emissiveFactor", 0.0, 1.0)
+        strength = 1.0
         strength_ext = extensions.get("KHR_materials_emissive_strength")
         if strength_ext is not None:
             skey = f"{key}.extensions.KHR_materials_emissive_strength"
             value = _object(strength_ext, skey).get("emissiveStrength", 1.0)
-            emissive = emissive * _number(value, f"{skey}.emissiveStrength", 0.0, MAX_RADIANCE)
+            strength = _number(value, f"{skey}.emissiveStrength", 0.0, MAX_RADIANCE)
+            emissive = emissive_factor * strength
+        else:
+            emissive = emissive_factor
         layer.emissive = (float(emissive[0]), float(emissive[1]), float(emissive[2]))
-        if m.emissiveTexture is not None:
+        if m.emissiveTexture is not None and not emissive_factor.any():
+            # The texture multiplies emissiveFactor, whose default is black: nothing is
+            # emitted (a scene file refuses emissive_map without emissive; glTF allows it).
+            _LOG.warning(
+                "%s: %s.emissiveTexture: emissiveFactor is black, so the texture emits "
+                "nothing; it is not read", self.path, key,
+            )  # fmt: skip
+        elif m.emissiveTexture is not None:
             img, sampler, tr = self._texture(m.emissiveTexture, f"{key}.emissiveTexture")
             self._map_cost(img, "colour", f"{key}.emissiveTexture")
             put("emissive", colour_texture(img), sampler, tr)
@@ -748,7 +759,35 @@ class GltfFile:
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
         layer.uv_transforms = transforms
         layer.anisotropy_rotation = mapping.anisotropy_rotation
+        # The checks every material front-end shares (app/common/material_checks.py), on
+        # what this material became; a problem names the JSON key it comes from.
+        for problem in material_problems(layer.params, maps, emissive_factor, strength):
+            raise GltfError(_problem_key(key, problem.key), problem.message)
         return layer
+
+
+# The JSON key (after "materials[i]") that gives what a resolved check's scene-file key is
+# about (app/common/material_checks.py); any other: the material itself.
+_PROBLEM_KEYS = {
+    "anisotropy": ".extensions.KHR_materials_anisotropy",
+    "anisotropy_map": ".extensions.KHR_materials_anisotropy",
+    "anisotropy_direction_map": ".extensions.KHR_materials_anisotropy",
+    "clearcoat": ".extensions.KHR_materials_clearcoat",
+    "clearcoat_ior": ".extensions.KHR_materials_clearcoat",
+    "clearcoat_normal_map": ".extensions.KHR_materials_clearcoat",
+    "emissive_map": ".emissiveTexture",
+    "emissive_strength": ".extensions.KHR_materials_emissive_strength",
+    "metallic": ".pbrMetallicRoughness.metallicFactor",
+    "sheen_color": ".extensions.KHR_materials_sheen",
+    "thin_film": ".extensions.KHR_materials_iridescence",
+    "fresnel": ".extensions.KHR_materials_specular",
+}
+
+
+def _problem_key(material: str, scene_key: str) -> str:
+    """The JSON key of material ``material`` (``materials[3]``) a problem about the scene
+    file's ``scene_key`` names."""
+    return material + _PROBLEM_KEYS.get(scene_key, "")
 
 
 def _texture_info(texture: ExtensionTexture) -> SimpleNamespace:

@@ -326,7 +326,12 @@ def _anisotropy(state: _State, ext: Mapping[str, Any], name: str) -> None:
     strength = _number(state, ext, name, "anisotropyStrength", 0.0, 0.0, 1.0)
     rotation = _number(state, ext, name, "anisotropyRotation", 0.0)
     texture = _texture(state, ext, name, "anisotropyTexture")
-    if strength == 0.0:
+    if strength == 0.0:  # no anisotropy for the texture to multiply or turn
+        if texture is not None:
+            state.notes.append(
+                f"{texture.key}: anisotropyStrength is 0, so the texture changes nothing; "
+                "it is not read"
+            )
         return
     p = state.params
     # The extension: alpha_t = mix(alpha, 1, strength^2) along the tangent, alpha_b = alpha.
@@ -404,6 +409,11 @@ def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
     if normal is not None:  # its scale, read by the reader with the map: a finite number
         _number(state, normal.info, f"{name}.clearcoatNormalTexture", "scale", 1.0)
     if strength == 0.0:  # "If clearcoatFactor is zero, the whole clearcoat layer is disabled"
+        if normal is not None:
+            state.notes.append(
+                f"{normal.key}: clearcoatFactor is 0, so there is no coat for the texture "
+                "to bend; it is not read"
+            )
         return
     if normal is not None:
         state.maps["coat_normal"] = normal

@@ -25,7 +25,8 @@ from pydantic import (
 
 from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES
 from app.common.ior import f0_from_ior, ior_from_f0
-from app.common.material_fields import FIELDS, scene_default
+from app.common.material_checks import MAP_KEYS, MAX_RADIANCE, material_problems
+from app.common.material_fields import FIELDS, scene_default, scene_keys
 from app.common.models import (
     CORRELATIONS,
     DIFFRACTION_MODELS,
@@ -52,12 +53,9 @@ MAX_LENGTH = 1e6
 Vec3 = Annotated[
     list[Annotated[Real, Field(ge=-MAX_LENGTH, le=MAX_LENGTH)]], Field(min_length=3, max_length=3)
 ]
-# Radiometric values (light colours and intensities, background, environment radiance)
-# stop at 1e15 so that the HDR image stays finite in float32 (max 3.4e38): near a light
-# the 1 cm distance floor and the largest f (n.l) multiply c_light by up to ~2.4e14, and
-# a frame sums at most a few thousand lights. Values above ~3.4e38 overflowed to +Inf in the HDR
-# image (found by tests/test_fuzz_scenes.py; docs/stability.md, "The renderer").
-MAX_RADIANCE = 1e15
+# Radiometric values (light colours and intensities, background, environment radiance,
+# emission) stop at MAX_RADIANCE (1e15; app/common/material_checks.py says why), so that
+# the HDR image stays finite in float32.
 # Entries of a scene's tables (docs/stability.md, "Limits"): far past any scene of the
 # project's (the bench's largest has 256 lights), and within what the passes can hold: a
 # light is three texels of one row of the lighting pass's light texture (at most 16384
@@ -277,12 +275,22 @@ class Light(_Strict):
 
 
 Ior = Annotated[Real, Field(ge=1.0, le=10.0)]
-PositiveColor = Annotated[
-    list[Annotated[Real, Field(gt=0.0, le=100.0)]], Field(min_length=3, max_length=3)
-]
-ExtinctionColor = Annotated[
-    list[Annotated[Real, Field(ge=0.0, le=100.0)]], Field(min_length=3, max_length=3)
-]
+# Scene keys whose lower bound is excluded: a conductor's refractive index n is positive.
+_EXCLUSIVE_LOW = frozenset({"eta"})
+
+
+def _table_key(name: str) -> Any:
+    """The schema type of material-table scene key ``name``: a number, or a list of as
+    many numbers as its default has, each within the bounds app/common/material_fields.py
+    declares for it (pydantic's own messages name them)."""
+    key = scene_keys()[name]
+    low = {"gt": key.low} if name in _EXCLUSIVE_LOW else {"ge": key.low}
+    number = Annotated[Real, Field(**low, le=key.high)]
+    default = scene_default(name)
+    if isinstance(default, float):
+        return number
+    size = len(default)
+    return Annotated[list[number], Field(min_length=size, max_length=size)]  # type: ignore[valid-type]
 
 
 TexturePath = Annotated[str, Field(min_length=1, max_length=4096)]
@@ -327,10 +335,6 @@ class Blend(_Strict):
 
 # Empirical cloth (RTR4 §9.10): a lobe's weight k and exponent a (a > 0: pow(0, a) is
 # defined in GLSL only for a > 0).
-ClothWeight = Annotated[Real, Field(ge=0.0, le=10.0)]
-ClothLobe = Annotated[
-    list[Annotated[Real, Field(ge=0.0, le=64.0)]], Field(min_length=2, max_length=2)
-]
 CLOTH_KEYS = (
     "cloth_rim", "cloth_inner", "cloth_diffuse", "cloth_scatter", "cloth_wrap", "cloth_sheen",
     "cloth_sheen_color",
@@ -363,12 +367,12 @@ class Material(_Strict):
     anisotropy: Annotated[Real, Field(ge=-1.0, le=1.0)] | None = None
     # Model of each term (RTR4 §9.5–9.9); the defaults are the standard model.
     fresnel: Literal[FRESNEL_MODELS] = "schlick"  # type: ignore[valid-type]
-    f90: UnitColor | None = None  # schlick_generalized
-    fresnel_p: Annotated[Real, Field(ge=0.01, le=10.0)] | None = None  # exponent 1/p
-    eta: PositiveColor | None = None  # conductor: n per RGB channel
-    k: ExtinctionColor | None = None  # conductor: k per RGB channel
+    f90: _table_key("f90") | None = None  # schlick_generalized
+    fresnel_p: _table_key("fresnel_p") | None = None  # exponent 1/p
+    eta: _table_key("eta") | None = None  # conductor: n per RGB channel
+    k: _table_key("k") | None = None  # conductor: k per RGB channel
     ndf: Literal[NDF_MODELS] = "ggx"  # type: ignore[valid-type]
-    gtr_gamma: Annotated[Real, Field(ge=0.1, le=20.0)] | None = None
+    gtr_gamma: _table_key("gtr_gamma") | None = None
     lambda_form: Literal[LAMBDA_FORMS] = "exact"  # type: ignore[valid-type]
     g2: Literal[G2_MODELS] = "height_correlated"  # type: ignore[valid-type]
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
@@ -376,18 +380,23 @@ class Material(_Strict):
     multiscatter: Annotated[bool, Field(strict=True)] = False
     # --- thin film (RTR4 §9.11): a dielectric film over the base replaces its F ---
     thin_film: Annotated[bool, Field(strict=True)] = False
-    film_thickness: Annotated[Real, Field(ge=0.0, le=5000.0)] | None = None  # nm (default 400)
-    film_ior: Ior | None = None  # the film's index (default 1.33, water/soap)
+    film_thickness: _table_key("film_thickness") | None = None  # nm (default 400)
+    film_ior: _table_key("film_ior") | None = None  # the film's index (default 1.33, water/soap)
     # Sheen (RTR4 §9.10): a cloth layer over the material above. No sheen_color (or black)
     # means no layer, compiled out; sheen picks the NDF ("none" turns a layer off).
     sheen: Literal[SHEEN_MODELS] = "charlie"  # type: ignore[valid-type]
-    sheen_color: UnitColor | None = None  # linear RGB
-    sheen_roughness: Unit | None = None  # perceptual; alpha = sheen_roughness^2; default 0.5
+    sheen_color: _table_key("sheen_color") | None = None  # linear RGB
+    # perceptual; alpha = sheen_roughness^2; default 0.5
+    sheen_roughness: _table_key("sheen_roughness") | None = None
     # --- clear coat (RTR4 §9.12; docs/layered.md) ---
-    clearcoat: Unit = FIELDS["clearcoat"].default  # strength; 0 = no coat (compiled out)
-    clearcoat_roughness: Unit | None = None  # perceptual (default 0: a polished coat)
-    clearcoat_ior: Ior | None = None  # the coat's index (default 1.5), >= medium_ior
-    clearcoat_color: UnitColor | None = None  # transmittance at normal incidence, once
+    # strength; 0 = no coat (compiled out)
+    clearcoat: _table_key("clearcoat") = FIELDS["clearcoat"].default
+    # perceptual (default 0: a polished coat)
+    clearcoat_roughness: _table_key("clearcoat_roughness") | None = None
+    # the coat's index (default 1.5), >= medium_ior
+    clearcoat_ior: _table_key("clearcoat_ior") | None = None
+    # transmittance at normal incidence, once
+    clearcoat_color: _table_key("clearcoat_color") | None = None
     # how the coat composes with the base (docs/layered.md): Filament's or Weidlich & Wilkie's
     clearcoat_model: Literal["filament", "weidlich_wilkie"] = "filament"
     # The coat's own normal map (glTF clearcoatNormalTexture; docs/layered.md): without it
@@ -395,24 +404,27 @@ class Material(_Strict):
     clearcoat_normal_map: TexturePath | None = None
     clearcoat_normal_scale: Annotated[Real, Field(ge=0.0, le=10.0)] | None = None  # default 1
     # --- empirical cloth (RTR4 §9.10): only with diffuse = "cloth_empirical" ---
-    cloth_rim: ClothLobe | None = None  # [k_rim, a_rim] (default [0, 1])
-    cloth_inner: ClothLobe | None = None  # [k_inner, a_inner] (default [0, 1])
-    cloth_diffuse: ClothWeight | None = None  # k_diff (default 1)
-    cloth_scatter: UnitColor | None = None  # c_scatter, linear RGB (default white: none)
-    cloth_wrap: Unit | None = None  # w (default 0: no wrap)
-    cloth_sheen: ClothWeight | None = None  # k_sheen (default 0)
-    cloth_sheen_color: UnitColor | None = None  # c_sheen, linear RGB (default white)
+    cloth_rim: _table_key("cloth_rim") | None = None  # [k_rim, a_rim] (default [0, 1])
+    cloth_inner: _table_key("cloth_inner") | None = None  # [k_inner, a_inner] (default [0, 1])
+    cloth_diffuse: _table_key("cloth_diffuse") | None = None  # k_diff (default 1)
+    # c_scatter, linear RGB (default white: none)
+    cloth_scatter: _table_key("cloth_scatter") | None = None
+    cloth_wrap: _table_key("cloth_wrap") | None = None  # w (default 0: no wrap)
+    cloth_sheen: _table_key("cloth_sheen") | None = None  # k_sheen (default 0)
+    # c_sheen, linear RGB (default white)
+    cloth_sheen_color: _table_key("cloth_sheen_color") | None = None
     # --- diffraction (RTR4 §9.11; docs/diffraction.md): a grating, grooves along the tangent
     diffraction: Literal[DIFFRACTION_MODELS] = "none"  # type: ignore[valid-type]
-    grating_period: Annotated[Real, Field(ge=200.0, le=20000.0)] | None = None  # nm (1600)
-    grating_depth: Annotated[Real, Field(ge=0.0, le=300.0)] | None = None  # nm (120)
+    grating_period: _table_key("grating_period") | None = None  # nm (1600)
+    grating_depth: _table_key("grating_depth") | None = None  # nm (120)
     # --- micro-cylinder fibres (RTR4 §9.10; docs/cloth.md "Micro-cylinder"): a thread along
     # the tangent replaces the specular and diffuse terms; angles in degrees
     fiber: Literal[FIBER_MODELS] = "none"  # type: ignore[valid-type]
-    fiber_rotation: Annotated[Real, Field(ge=-360.0, le=360.0)] | None = None  # about n (0)
-    fiber_curvature: Annotated[Real, Field(ge=0.0, le=60.0)] | None = None  # largest tilt (0)
-    fiber_gamma_v: Annotated[Real, Field(ge=1.0, le=90.0)] | None = None  # sadeghi (20)
-    fiber_kd: Unit | None = None  # sadeghi: isotropic share of the volume scattering (0.3)
+    fiber_rotation: _table_key("fiber_rotation") | None = None  # about n (0)
+    fiber_curvature: _table_key("fiber_curvature") | None = None  # largest tilt (0)
+    fiber_gamma_v: _table_key("fiber_gamma_v") | None = None  # sadeghi (20)
+    # sadeghi: isotropic share of the volume scattering (0.3)
+    fiber_kd: _table_key("fiber_kd") | None = None
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -439,11 +451,11 @@ class Material(_Strict):
 
     @model_validator(mode="after")
     def _check(self) -> Material:
-        if self.anisotropy_map is not None and not self.anisotropy:
-            raise ValueError("anisotropy_map: multiplies 'anisotropy', which must be non-zero")
-        for key in ("anisotropy_rotation", "anisotropy_direction_map"):
-            if getattr(self, key) and not self.anisotropy:
-                raise ValueError(f"{key}: turns the anisotropy, which must be non-zero")
+        """The keys as written (which go together, which need which): the scene file's
+        own rules. What the keys resolve to is checked last, by the checks every material
+        front-end shares (``_check_resolved``)."""
+        if self.anisotropy_rotation and not self.anisotropy:
+            raise ValueError("anisotropy_rotation: turns the anisotropy, which must be non-zero")
         if self.preset is not None and self.preset not in PRESETS:
             raise ValueError(
                 f"preset: unknown preset '{self.preset}' (known: {', '.join(sorted(PRESETS))})"
@@ -465,27 +477,8 @@ class Material(_Strict):
             if getattr(self, key) is not None and getattr(self, term) != value:
                 shown = "true" if value is True else f"'{value}'"
                 raise ValueError(f"{key}: applies only with {term} = {shown}")
-        if self.lambda_form == "rational" and self.ndf != "beckmann":
-            raise ValueError(
-                "lambda_form: 'rational' is Beckmann's approximation (ndf = 'beckmann')"
-            )
-        if self.g2 == "hammon" and (self.ndf != "ggx" or self.anisotropy):
-            raise ValueError("g2: 'hammon' approximates the isotropic GGX G2 (ndf = 'ggx')")
-        if self.anisotropy and self.ndf not in ("ggx", "beckmann"):
-            raise ValueError("anisotropy: only the 'ggx' and 'beckmann' NDFs are anisotropic")
-        if self.multiscatter and (self.ndf != "ggx" or self.anisotropy):
-            raise ValueError(
-                "multiscatter: the compensation tables are for the isotropic GGX (ndf = 'ggx')"
-            )
         if self.sheen_roughness is not None and self.sheen_color is None:  # sheen
             raise ValueError("sheen_roughness: applies only with a 'sheen_color'")
-        if self.diffraction != "none" and (
-            self.ndf != "ggx" or self.g2 != "height_correlated" or self.anisotropy
-        ):
-            raise ValueError(
-                "diffraction: the grating's orders move the isotropic GGX lobe with the "
-                "height-correlated G2 (ndf = 'ggx', g2 = 'height_correlated', no anisotropy)"
-            )
         self._check_clearcoat()
         self._check_core()
         self._check_fiber()
@@ -502,20 +495,25 @@ class Material(_Strict):
             raise ValueError(
                 "fresnel: 'conductor' needs 'eta' and 'k' (or a metal preset that has them)"
             )
+        self._check_resolved()
         return self
+
+    def _check_resolved(self) -> None:
+        """The material these keys resolve to, with the maps they name, through the
+        checks the glTF and MTL front-ends run on theirs (app/common/material_checks.py):
+        the first problem, named by its key."""
+        maps = [role for role, key in MAP_KEYS.items() if getattr(self, key) is not None]
+        emissive = self.emissive or (0.0, 0.0, 0.0)
+        problems = material_problems(self.resolve(), maps, emissive, self.emissive_strength)
+        if problems:
+            raise ValueError(f"{problems[0].key}: {problems[0].message}")
 
     def _check_core(self) -> None:
         """glTF core material keys that need another key to mean anything."""
-        if self.emissive_map is not None and not any(self.emissive or ()):
-            raise ValueError("emissive_map: multiplies 'emissive', which must be non-zero")
         if self.occlusion_strength is not None and self.occlusion_map is None:
             raise ValueError("occlusion_strength: applies only with an 'occlusion_map'")
         if self.alpha_cutoff is not None and self.alpha_mode != "mask":
             raise ValueError("alpha_cutoff: applies only with alpha_mode = 'mask'")
-        if max(self.emissive or (0.0,)) * self.emissive_strength > MAX_RADIANCE:
-            raise ValueError(
-                f"emissive_strength: emissive x emissive_strength must not exceed {MAX_RADIANCE:g}"
-            )
 
     @property
     def emission(self) -> tuple[float, float, float]:
@@ -525,58 +523,36 @@ class Material(_Strict):
                 e[2] * self.emissive_strength)  # fmt: skip
 
     def _check_fiber(self) -> None:
-        """Fibre keys (RTR4 §9.10) need their model; a fibre replaces the specular and
-        diffuse terms, so the keys that choose or layer over those are refused with it."""
+        """Fibre keys (RTR4 §9.10) need their model. (A fibre replaces the specular and
+        diffuse terms: the terms and layers it refuses are the resolved checks'; a
+        ``sheen_color`` that makes no layer is refused here as a key that does not apply.)"""
         for key in FIBER_KEYS:
             if getattr(self, key) is not None and self.fiber == "none":
                 raise ValueError(f"{key}: applies only with fiber = 'kajiya_kay' or 'sadeghi'")
         for key in SADEGHI_KEYS:
             if getattr(self, key) is not None and self.fiber != "sadeghi":
                 raise ValueError(f"{key}: applies only with fiber = 'sadeghi'")
-        if self.fiber == "none":
-            return
-        defaults = {
-            "fresnel": "schlick", "ndf": "ggx", "lambda_form": "exact",
-            "g2": "height_correlated", "correlation": "exp", "diffuse": "lambert",
-            "multiscatter": False, "thin_film": False, "diffraction": "none", "clearcoat": 0.0,
-        }  # fmt: skip
-        given = [key for key, value in defaults.items() if getattr(self, key) != value]
-        given += [key for key in ("anisotropy", "anisotropy_map", "sheen_color")
-                  if getattr(self, key)]  # fmt: skip
-        for key in given:
+        layer = self.sheen != "none" and max(self.sheen_color or (0.0,)) > 0.0
+        if self.fiber != "none" and self.sheen_color is not None and not layer:
             raise ValueError(
-                f"{key}: does not apply with fiber = '{self.fiber}' (the fibre replaces the "
-                "specular and diffuse terms; no other layer composes over it)"
+                f"sheen_color: does not apply with fiber = '{self.fiber}' (the fibre replaces "
+                "the specular and diffuse terms; no other layer composes over it)"
             )
-        if self.resolve_base().metallic > 0.0:
-            raise ValueError(f"metallic: a fibre (fiber = '{self.fiber}') is a dielectric")
 
     def _check_clearcoat(self) -> None:
-        """Clear coat keys (RTR4 §9.12) need a coat, and a coat needs a base it can lie on."""
+        """Clear coat keys (RTR4 §9.12) need a coat. (Its normal map without a coat, and
+        a coat its base or the medium cannot hold, are the resolved checks'.)"""
         if self.clearcoat == 0.0:
-            for key in (
-                "clearcoat_roughness", "clearcoat_ior", "clearcoat_color", "clearcoat_normal_map",
-                "clearcoat_normal_scale",
-            ):  # fmt: skip
+            for key in ("clearcoat_roughness", "clearcoat_ior", "clearcoat_color"):
                 if getattr(self, key) is not None:
                     raise ValueError(f"{key}: applies only with clearcoat > 0")
+            if self.clearcoat_normal_map is None and self.clearcoat_normal_scale is not None:
+                raise ValueError("clearcoat_normal_scale: applies only with clearcoat > 0")
             # clearcoat_model is not checked: without a coat it selects nothing, and tools
             # that rebuild a material from all its fields (pbs compare) set it explicitly.
             return
         if self.clearcoat_normal_scale is not None and self.clearcoat_normal_map is None:
             raise ValueError("clearcoat_normal_scale: applies only with a 'clearcoat_normal_map'")
-        medium = self._medium()
-        coat = _given(self.clearcoat_ior, "clearcoat_ior")
-        if coat < medium:
-            raise ValueError(
-                "clearcoat_ior: must be at least the medium's index (light would be totally "
-                "reflected going into the coat)"
-            )
-        base = self.resolve_base()
-        if base.model.internal:
-            raise ValueError(
-                "clearcoat: a coat over a base whose index is below the medium's is not supported"
-            )
 
     def _medium(self) -> float:
         """The index of the medium around the object (medium_ior, the preset's, or air)."""

@@ -37,6 +37,7 @@ import numpy as np
 
 from app.errors import InputError
 from app.gl.context import GLContext
+from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderError
 from app.output import write_hdr, write_png
 from app.reference.position import reconstruct_position
@@ -760,7 +761,9 @@ class Viewer:
 
 class _Present:
     """Draws the renderer's display image over the whole window: texel-exact (NEAREST)
-    when the image has the window's size, bilinear when a preview is magnified."""
+    when the image has the window's size, bilinear when a preview is magnified. The draw
+    is app/gl/fullscreen.py's ``FullscreenDraw`` with the window's own small program (no
+    shader cache or project header: the default framebuffer is all it writes)."""
 
     _VERTEX = """
 #version 330 core
@@ -781,8 +784,8 @@ void main() {
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        self.program = ctx.program(vertex_shader=self._VERTEX, fragment_shader=self._FRAGMENT)
-        self.vao = ctx.vertex_array(self.program, [])
+        program = ctx.program(vertex_shader=self._VERTEX, fragment_shader=self._FRAGMENT)
+        self.fullscreen = FullscreenDraw(ctx, program, owns_program=True)
         self.nearest = ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST), repeat_x=False,
                                    repeat_y=False)  # fmt: skip
         self.linear = ctx.sampler(filter=(moderngl.LINEAR, moderngl.LINEAR), repeat_x=False,
@@ -790,16 +793,15 @@ void main() {
 
     def draw(self, image: moderngl.Texture, window: tuple[int, int]) -> None:
         sampler = self.nearest if image.size == window else self.linear
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        self.ctx.disable(moderngl.CULL_FACE)  # the draw disables depth test and blending
         sampler.use(0)
-        image.use(0)
-        self.program["u_image"].value = 0
-        self.program["u_window"].value = (float(window[0]), float(window[1]))
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        uniforms = {"u_window": (float(window[0]), float(window[1]))}
+        self.fullscreen.draw(None, uniforms, {"u_image": image})
         sampler.clear(0)
 
     def release(self) -> None:
-        for obj in (self.vao, self.program, self.nearest, self.linear):
+        self.fullscreen.release()
+        for obj in (self.nearest, self.linear):
             obj.release()
 
 
