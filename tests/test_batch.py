@@ -248,3 +248,20 @@ def test_progress_lines_count_jobs(
         f"{k}/3 frame-{k - 1:04d} skipped" for k in range(1, 4)
     ]
     assert all(" (total " in ln and "jobs/s" not in ln and "ETA" not in ln for ln in lines)
+
+
+@pytest.mark.gl
+def test_output_folder_made_with_parents(
+    tmp_path: Path, scene: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """``-o DIR`` that does not exist yet, parents included, is made (as ``pbs render``
+    makes an output's folder); a ``DIR`` under a regular file is one line and exit 2."""
+    jobs = _jobs(tmp_path, f'scene = "{scene.name}"\nsize = "32x32"\norbit = {{ frames = 2 }}\n')
+    out = tmp_path / "new" / "deeper" / "frames"
+    assert main(["batch", str(jobs), "-o", str(out), "-q"]) == 0
+    assert {line["status"] for line in _manifest(out).values()} == {"ok"}
+    assert (out / "frame-0001.png").is_file()
+    (tmp_path / "plain").write_text("not a folder", encoding="utf-8")
+    assert main(["batch", str(jobs), "-o", str(tmp_path / "plain" / "frames"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "-o: cannot write" in err
