@@ -413,7 +413,9 @@ def _check_output(
     path: Path, option: str, inputs: set[Path] | frozenset[Path] = frozenset()
 ) -> None:
     """An output path that may be written: not an input of the command, not a device,
-    FIFO or folder (app/untrusted/files.py ``check_output``)."""
+    FIFO or folder (app/untrusted/files.py ``check_output``). A missing parent folder is
+    no refusal: writing makes it, like ``mkdir -p`` (app/output.py ``atomic_write``, and
+    ``run_batch`` for ``pbs batch -o``; docs/scene-format.md "Errors")."""
     try:
         files.check_output(path, inputs)
     except RefusedError as exc:

@@ -222,3 +222,46 @@ def test_dask_local_cluster(tmp_path: Path, scene: Path) -> None:
     for k in range(4):
         name = f"frame-{k:04d}.png"
         assert (dask / name).read_bytes() == (local / name).read_bytes()
+
+
+@pytest.mark.gl
+def test_progress_lines_count_jobs(
+    tmp_path: Path, scene: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """Without ``-q`` each job writes a progress line (stderr is not a terminal here)
+    that counts the jobs done, gives the job's own time, the rate and the time left; a
+    resumed run counts skipped jobs as done without a time or rate (they did no work)."""
+    jobs = _jobs(tmp_path, f'scene = "{scene.name}"\nsize = "32x32"\norbit = {{ frames = 3 }}\n')
+    out = tmp_path / "out"
+    assert main(["batch", str(jobs), "-o", str(out)]) == 0
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("[")]
+    assert len(lines) == 3
+    for k, line in enumerate(lines, 1):
+        assert f"] {k}/3 frame-{k - 1:04d} ok (" in line
+        assert "frames" not in line and "jobs/s" in line
+        took = line.split(" ok (")[1].split(";")[0]
+        assert took.endswith((" ms", " s")) and float(took.split()[0]) >= 0
+    assert "ETA" in lines[0] and "ETA" not in lines[-1]
+    assert main(["batch", str(jobs), "-o", str(out)]) == 0
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("[")]
+    assert [ln.split(" (")[0].split("] ")[1] for ln in lines] == [
+        f"{k}/3 frame-{k - 1:04d} skipped" for k in range(1, 4)
+    ]
+    assert all(" (total " in ln and "jobs/s" not in ln and "ETA" not in ln for ln in lines)
+
+
+@pytest.mark.gl
+def test_output_folder_made_with_parents(
+    tmp_path: Path, scene: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """``-o DIR`` that does not exist yet, parents included, is made (as ``pbs render``
+    makes an output's folder); a ``DIR`` under a regular file is one line and exit 2."""
+    jobs = _jobs(tmp_path, f'scene = "{scene.name}"\nsize = "32x32"\norbit = {{ frames = 2 }}\n')
+    out = tmp_path / "new" / "deeper" / "frames"
+    assert main(["batch", str(jobs), "-o", str(out), "-q"]) == 0
+    assert {line["status"] for line in _manifest(out).values()} == {"ok"}
+    assert (out / "frame-0001.png").is_file()
+    (tmp_path / "plain").write_text("not a folder", encoding="utf-8")
+    assert main(["batch", str(jobs), "-o", str(tmp_path / "plain" / "frames"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "-o: cannot write" in err

@@ -103,6 +103,25 @@ def test_quiet_prints_nothing(tmp_path: Path) -> None:
     _png(tmp_path / "q.png")
 
 
+def test_outputs_into_missing_folders(tmp_path: Path) -> None:
+    """``-o`` and ``--hdr`` in folders that do not exist yet: the folders are made (like
+    ``mkdir -p``, as ``pbs batch -o`` makes its folder); a path through a regular file
+    is one error line and exit 2, with nothing written."""
+    _ok(
+        _app(
+            "render", "showcase", "-o", "new/png/q.png", "--hdr", "other/hdr/q.npy",
+            "--size", SIZE, "-q", cwd=tmp_path,
+        )
+    )  # fmt: skip
+    _png(tmp_path / "new" / "png" / "q.png")
+    assert np.load(tmp_path / "other" / "hdr" / "q.npy").shape == (H, W, 3)
+    (tmp_path / "plain").write_text("not a folder", encoding="utf-8")
+    proc = _app("render", "showcase", "-o", "plain/q.png", "--size", SIZE, cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("pbs: error: plain/q.png: -o: cannot write")
+    assert proc.stderr.count("\n") == 1 and proc.stdout == ""
+
+
 # -- HDR output -------------------------------------------------------------------------
 
 

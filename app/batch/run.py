@@ -169,8 +169,8 @@ def run_batch(
                 os.write(fd, (json.dumps(line) + "\n").encode())  # one write: a whole line
                 results.append(line)
                 if progress is not None:
-                    progress.start(f"{line['job']} {line['status']}")
-                    progress.done()
+                    timed = line["status"] != "skipped"
+                    progress.job(f"{line['job']} {line['status']}", line["seconds"], timed)
                 if on_result is not None:
                     on_result(line)
 
