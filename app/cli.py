@@ -91,6 +91,53 @@ def _input_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _look_options(parser: argparse.ArgumentParser) -> None:
+    """How a model file (or a scene file without camera or lights) is shown
+    (app/scene/model_file.py, docs/scene-format.md)."""
+    from app.scene.model_file import VIEWS
+
+    parser.add_argument(
+        "--view",
+        choices=tuple(VIEWS),
+        default="three-quarter",
+        help="a model file's view: the camera's direction (default three-quarter)",
+    )
+    parser.add_argument(
+        "--azimuth", type=float, metavar="DEG", help="a model file's camera azimuth about +Y"
+    )
+    parser.add_argument(
+        "--elevation",
+        type=_number(lambda v: -90.0 <= v <= 90.0, "degrees within -90..90"),
+        metavar="DEG",
+        help="a model file's camera elevation above the horizon",
+    )
+    parser.add_argument(
+        "--camera",
+        choices=("auto", "file"),
+        default="auto",
+        help="a model file's camera: framed (auto, default) or the glTF file's first (file)",
+    )
+    parser.add_argument(
+        "--env",
+        default="studio",
+        metavar="studio|sky|FILE",
+        help="a model file's environment: the bundled studio (default), the sky, or an "
+        ".hdr/.exr image",
+    )
+
+
+def _look(args: argparse.Namespace) -> object:
+    """The ``Look`` of the look options, or an ``InputError`` naming the option."""
+    from app.scene.model_file import Look
+
+    if args.env not in ("studio", "sky") and Path(args.env).suffix.lower() not in (
+        ".hdr",
+        ".exr",
+    ):
+        raise InputError(args.env, "--env", "expected studio, sky or an .hdr/.exr file")
+    return Look(args.view, args.azimuth, args.elevation, args.camera, args.env)
+
+
 def _policy(args: argparse.Namespace) -> InputPolicy:
     return InputPolicy.from_options(args.allow_path, args.max_memory)
 
@@ -115,7 +162,11 @@ def _parser() -> argparse.ArgumentParser:
         epilog="debug views (--debug VIEW; docs/debug-views.md):\n"
         + "\n".join(f"  {name:12} {line}" for name, line in _debug_views().items()),
     )
-    render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
+    render.add_argument(
+        "scene",
+        help="scene file (TOML), a bundled scene's name, or a model file (.glb, .gltf, "
+        ".obj, .stl, .ply) to show framed and lit by the defaults",
+    )
     render.add_argument("-o", "--output", required=True, help="PNG file to write")
     render.add_argument(
         "--size",
@@ -171,6 +222,7 @@ def _parser() -> argparse.ArgumentParser:
         type=_gain,
         help="with --compare-mode difference: magnification of |A - B| (default 8)",
     )
+    _look_options(render)
     _input_options(render)
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
@@ -196,6 +248,7 @@ def _parser() -> argparse.ArgumentParser:
     view.add_argument(
         "--step", type=int, default=1, metavar="N", help="the walkthrough's step: RTR4 §9.N"
     )
+    _look_options(view)
     _input_options(view)
     sub.add_parser(
         "bench",
@@ -475,7 +528,13 @@ def cmd_render(args: argparse.Namespace) -> int:
     for path, option in outputs:
         _check_output(path, option, {scene_file.resolve()})
     with files.recording() as inputs:  # every file the scene names, for the outputs' check
-        loaded = scene_from(scene_file, allow_paths=args.allow_path, max_memory=args.max_memory)
+        loaded = scene_from(
+            scene_file,
+            allow_paths=args.allow_path,
+            max_memory=args.max_memory,
+            look=_look(args),  # type: ignore[arg-type]
+            size=args.size,
+        )
         if args.fit:
             from app.frame.camera import fit_scene
 

@@ -4,7 +4,9 @@ scene file's keys, or a scene already loaded; all validated the one way.
 ``scene_from`` is the Python API's way in (``app.api`` exports it) and the CLI's
 (``pbs render``, ``pbs view``): a bare name without a suffix that names no file is a
 bundled scene (``showcase`` -> scenes/showcase.toml), so ``pbs render showcase`` works from
-any folder.
+any folder. A model file (.glb, .gltf, .obj, .stl, .ply) is shown without a scene file:
+a scene framed and lit by the defaults of app/scene/model_file.py, which also fill in the
+camera and lights of a scene file that names meshes but gives neither.
 """
 
 from __future__ import annotations
@@ -16,9 +18,10 @@ from typing import Any
 
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene, parse_scene
+from app.scene.model_file import Look, is_model_file, model_scene, with_defaults
 from app.untrusted.policy import InputPolicy
 
-__all__ = ["PYTHON_SCENE", "SceneSource", "scene_from", "scene_path"]
+__all__ = ["PYTHON_SCENE", "Look", "SceneSource", "scene_from", "scene_path"]
 
 # The name a scene built in Python goes by in error messages (it has no file).
 PYTHON_SCENE = "<python scene>"
@@ -42,6 +45,8 @@ def scene_from(
     base_dir: str | Path | None = None,
     allow_paths: tuple[str | Path, ...] | list[str | Path] = (),
     max_memory: int | None = None,
+    look: Look | None = None,
+    size: tuple[int, int] | None = None,
 ) -> LoadedScene:
     """A validated scene from ``source``: a scene file's path, the name of a bundled scene
     (``"showcase"`` -> scenes/showcase.toml), a dict with a scene file's keys, or an already
@@ -52,12 +57,23 @@ def scene_from(
     Strict by default, as ``pbs render``: every file the scene names must resolve inside
     its folder (``base_dir`` for a dict) or the bundled data, unless ``allow_paths`` adds
     folders; ``max_memory`` (bytes; default 4 GiB) bounds what its decoded input and GPU
-    resources may take (docs/stability.md, "Untrusted input")."""
+    resources may take (docs/stability.md, "Untrusted input").
+
+    A model file's path (``"teapot.obj"``, ``"model.glb"``) gives a scene that frames and
+    lights it (app/scene/model_file.py); ``look`` picks the view, camera and environment
+    (a ``Look``), ``size`` the image size the camera frames for (default 1280x720). A
+    scene file that names meshes but no camera or no light gets the same defaults."""
     if isinstance(source, LoadedScene):
         return source
+    look = look or Look()
+    if look.env not in ("studio", "sky"):  # an environment image named by the caller
+        allow_paths = (*allow_paths, Path(look.env).resolve().parent)
     policy = InputPolicy.from_options(allow_paths, max_memory)
     if isinstance(source, Mapping):
         folder = Path.cwd() if base_dir is None else Path(base_dir)
         data = copy.deepcopy(dict(source))
         return parse_scene(data, folder.resolve() / PYTHON_SCENE, policy)
-    return load_scene(scene_path(source), policy)
+    path = scene_path(source)
+    if is_model_file(path):
+        return model_scene(path, policy, look, size)
+    return with_defaults(load_scene(path, policy), look)

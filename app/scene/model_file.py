@@ -1,0 +1,271 @@
+"""A model file (.glb, .gltf, .obj, .stl, .ply) rendered without a scene file, and the
+default camera and lighting of a scene file that names meshes but gives neither.
+
+The scene is written as data (a scene file's keys) and goes through the one validated
+path (``parse_scene``): the model is ``[[objects]] file = "<its name>"``, its folder is the
+confinement root and every budget applies, as for a scene file beside it. The camera is
+then fitted to the model's world-space bounds, read from the parts the geometry loader
+builds (every node transform applied), so it frames what will be drawn:
+
+- it looks at the centre of the model's box from ``VIEWS[view]`` (azimuth about +Y from
+  +Z towards +X, elevation above the horizon; a three-quarter view by default), as close
+  as lets every surface point fall inside both fields of view with ``MARGIN`` to spare;
+- near and far planes bracket the model's bounding sphere;
+- the look (``default_lighting``): the bundled studio (or another environment) as
+  image-based light and backdrop, one directional key light from above the camera's left
+  shoulder with PCSS soft shadows, the neutral tone map at ``EXPOSURE``.
+
+docs/scene-format.md ("A model file without a scene file") describes the same.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from app.errors import InputError
+from app.scene.geometry import build_parts
+from app.scene.loader import LoadedScene, parse_scene
+from app.textures.environment import environment_map
+from app.untrusted import RefusedError, files
+from app.untrusted.policy import InputPolicy
+
+__all__ = [
+    "ENVIRONMENTS",
+    "MODEL_SUFFIXES",
+    "VIEWS",
+    "Look",
+    "default_lighting",
+    "framed",
+    "is_model_file",
+    "model_scene",
+    "needs_defaults",
+    "with_defaults",
+]
+
+_LOG = logging.getLogger("pbs.scene")
+
+MODEL_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply")
+# (azimuth, elevation) in degrees of the camera about the model's centre.
+VIEWS: dict[str, tuple[float, float]] = {
+    "three-quarter": (40.0, 25.0),
+    "front": (0.0, 0.0),
+    "side": (90.0, 0.0),
+    "top": (0.0, 90.0),
+    "iso": (45.0, math.degrees(math.atan(1.0 / math.sqrt(2.0)))),
+}
+ENVIRONMENTS = ("studio", "sky")  # or an .hdr / .exr file
+FOV_Y = 35.0  # degrees
+MARGIN = 1.08  # the bounding sphere's angular radius times this fits the narrower field
+EXPOSURE = -1.0  # EV: the studio's boxes and the key light on a light grey stay below white
+KEY_INTENSITY = 1.5  # the key light's radiance scale (c_light)
+KEY_ANGLE = 2.0  # degrees: the key light's angular size, for PCSS penumbrae
+STUDIO_MEAN = 0.37  # the bundled studio's mean texel radiance
+STUDIO_TURN = 200.0  # the studio's rotation that puts its key box behind a +Z camera's left
+
+
+@dataclass(frozen=True)
+class Look:
+    """How a model is shown: a named view or an explicit azimuth/elevation (degrees),
+    ``camera = "file"`` for the glTF file's own first camera, and the environment."""
+
+    view: str = "three-quarter"
+    azimuth: float | None = None
+    elevation: float | None = None
+    camera: str = "auto"  # "auto" or "file"
+    env: str = "studio"  # "studio", "sky" or an .hdr/.exr path
+
+    def angles(self) -> tuple[float, float]:
+        """(azimuth, elevation) in degrees."""
+        azimuth, elevation = VIEWS[self.view]
+        if self.azimuth is not None:
+            azimuth = self.azimuth
+        if self.elevation is not None:
+            elevation = self.elevation
+        return azimuth, elevation
+
+
+def is_model_file(path: str | Path) -> bool:
+    """Whether ``path`` names a model file by its suffix."""
+    return Path(path).suffix.lower() in MODEL_SUFFIXES
+
+
+def _environment(look: Look, azimuth: float) -> dict[str, Any]:
+    """The ``[environment]`` table of ``look.env``, turned with the camera."""
+    turn = (STUDIO_TURN + azimuth + 360.0) % 720.0 - 360.0
+    if look.env in ENVIRONMENTS:
+        return {"source": look.env, "background": True, "rotation": turn}
+    return {"source": "image", "file": str(Path(look.env).resolve()), "background": True}
+
+
+def default_lighting(look: Look, azimuth: float) -> dict[str, Any]:
+    """The environment and key light of the default look, as scene keys."""
+    az, el = math.radians(azimuth - 50.0), math.radians(50.0)
+    towards = (math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az))
+    key = {
+        "type": "directional",
+        "direction": [-c for c in towards],
+        "color": [1.0, 0.97, 0.92],
+        "intensity": KEY_INTENSITY,
+        "shadow": True,
+        "shadow_filter": "pcss",
+        "shadow_light_angle": KEY_ANGLE,
+    }
+    return {"environment": _environment(look, azimuth), "lights": [key]}
+
+
+def _surface_points(loaded: LoadedScene) -> np.ndarray:
+    """(N, 3) world-space points of every drawn part's surface (node transforms applied)."""
+    points = [
+        part.surface_points() @ part.model[:3, :3].T + part.model[:3, 3]
+        for part in build_parts(loaded)
+    ]
+    return np.concatenate(points) if points else np.zeros((1, 3))
+
+
+def framing_camera(
+    points: np.ndarray, size: tuple[int, int], azimuth: float, elevation: float
+) -> dict[str, Any]:
+    """A ``[camera]`` table aimed at the centre of the world-space box of ``points`` from
+    ``azimuth``/``elevation``, as close as lets every point fall inside both fields of view
+    of an image of ``size`` with ``MARGIN`` to spare."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre = (lo + hi) / 2.0
+    radius = max(float(np.max(np.linalg.norm(points - centre, axis=1))), 1e-3)
+    az, el = math.radians(azimuth), math.radians(elevation)
+    back = np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
+    up = np.array([0.0, 1.0, 0.0])
+    if abs(elevation) > 89.0:  # looking straight down (or up): the model's -Z is up
+        up = np.array([-math.sin(az), 0.0, -math.cos(az)])
+    right = np.cross(up, back)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(back, right)
+    rel = points - centre
+    x, y, z = np.abs(rel @ right), np.abs(rel @ true_up), rel @ back
+    tan_y = math.tan(math.radians(FOV_Y) / 2.0) / MARGIN
+    tan_x = math.tan(math.radians(FOV_Y) / 2.0) * size[0] / size[1] / MARGIN
+    # A point (x, y, z) in the view's axes lies inside the field when x / (d - z) <= tan_x.
+    distance = float(max(np.max(z + x / tan_x), np.max(z + y / tan_y), 1e-3))
+    return {
+        "position": [float(v) for v in centre + distance * back],
+        "target": [float(v) for v in centre],
+        "up": [float(v) for v in up],
+        "fov_y": FOV_Y,
+        "near": max((distance - radius) * 0.5, radius * 1e-3),
+        "far": distance + 2.0 * radius,
+    }
+
+
+def exposure_for(loaded: LoadedScene) -> float:
+    """The default look's exposure (EV): ``EXPOSURE`` under an environment as bright as
+    the studio or darker, less by how many stops its mean radiance is brighter (the sky's
+    is 4 stops brighter), so that a light grey model stays below white."""
+    env = loaded.scene.environment
+    if env is None or env.source == "uniform":
+        return EXPOSURE
+    texels = environment_map(
+        env.source,
+        env.file,
+        env.sun_direction,
+        env.turbidity,
+        scene_file=str(loaded.path),
+        limits=loaded.policy.limits,
+    )
+    mean = float(np.mean(texels)) * env.intensity
+    return max(EXPOSURE - math.log2(max(mean, STUDIO_MEAN) / STUDIO_MEAN), -32.0)
+
+
+def framed(loaded: LoadedScene, look: Look, size: tuple[int, int], lit: bool = True) -> LoadedScene:
+    """``loaded`` with a camera framing its drawn parts; ``lit``: under the default
+    look, whose exposure it takes (``exposure_for``)."""
+    camera = framing_camera(_surface_points(loaded), size, *look.angles())
+    if lit:
+        camera["exposure"] = exposure_for(loaded)
+    data = loaded.scene.camera.model_dump(exclude_unset=True)
+    data.update(camera)
+    updated = loaded.scene.model_validate({**_dumped(loaded), "camera": data})
+    return loaded.with_scene(updated)
+
+
+def _dumped(loaded: LoadedScene) -> dict[str, Any]:
+    return loaded.scene.model_dump(exclude_unset=True)
+
+
+def model_scene(
+    path: str | Path,
+    policy: InputPolicy,
+    look: Look = Look(),
+    size: tuple[int, int] | None = None,
+) -> LoadedScene:
+    """The validated scene that shows the model file ``path`` (refusals name the file)."""
+    path = Path(path)
+    if not is_model_file(path):
+        raise InputError(str(path), "", f"not a model file (known: {', '.join(MODEL_SUFFIXES)})")
+    try:
+        files.check_readable(path, policy.limits.max_file_bytes)
+    except RefusedError as exc:
+        raise InputError(str(path), "", str(exc).removeprefix(f"{path}: ")) from None
+    width, height = size or (1280, 720)
+    azimuth = look.angles()[0]
+    data: dict[str, Any] = {
+        "render": {"width": width, "height": height, "tonemap": "neutral"},
+        "objects": [{"shape": "mesh", "file": path.name, "name": path.stem}],
+        **default_lighting(look, azimuth),
+    }
+    if look.camera == "file":
+        if path.suffix.lower() not in (".glb", ".gltf"):
+            raise InputError(str(path), "--camera", "a camera from the file needs a glTF file")
+        data["camera"] = {"from_file": 0}
+    loaded = parse_scene(data, path.resolve(), policy)
+    if look.camera == "file":
+        camera = {**loaded.scene.camera.model_dump(), "exposure": exposure_for(loaded)}
+        return loaded.with_scene(loaded.scene.model_validate({**_dumped(loaded), "camera": camera}))
+    return framed(loaded, look, (width, height))
+
+
+def needs_defaults(loaded: LoadedScene) -> tuple[bool, bool]:
+    """(camera, lighting): whether a scene file that names a mesh file gives no camera,
+    and whether it gives no light, environment or imported lights."""
+    scene = loaded.scene
+    if not any(obj.file is not None for obj in scene.objects):
+        return False, False
+    camera = "camera" not in scene.model_fields_set
+    lighting = (
+        not scene.lights
+        and scene.environment is None
+        and not any(obj.import_lights for obj in scene.objects)
+    )
+    return camera, lighting
+
+
+def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
+    """A scene file that names a mesh but no camera (or no light) with the model file's
+    defaults for what it lacks, and one note saying so; any other scene unchanged."""
+    camera, lighting = needs_defaults(loaded)
+    if not (camera or lighting):
+        return loaded
+    data = _dumped(loaded)
+    azimuth = look.angles()[0]
+    if lighting:
+        data.update(default_lighting(look, azimuth))
+    given = []
+    if camera:
+        given.append("a camera framing its meshes")
+    if lighting:
+        given.append("the studio environment and a key light")
+    _LOG.info(
+        "%s: gives no %s; using %s",
+        loaded.path,
+        " or ".join(w for w, g in (("camera", camera), ("light", lighting)) if g),
+        " and ".join(given),
+    )
+    result = parse_scene(data, loaded.path, loaded.policy)
+    if camera:
+        size = (result.scene.render.width, result.scene.render.height)
+        result = framed(result, look, size, lit=lighting)
+    return result
