@@ -135,6 +135,11 @@ def _look(args: argparse.Namespace) -> object:
         ".exr",
     ):
         raise InputError(args.env, "--env", "expected studio, sky or an .hdr/.exr file")
+    if args.env not in ("studio", "sky"):
+        try:
+            files.check_readable(Path(args.env), 1 << 62)  # its size is checked when read
+        except RefusedError as exc:
+            raise InputError(args.env, "--env", str(exc).removeprefix(f"{args.env}: ")) from None
     return Look(args.view, args.azimuth, args.elevation, args.camera, args.env)
 
 

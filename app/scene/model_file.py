@@ -221,11 +221,32 @@ def model_scene(
         if path.suffix.lower() not in (".glb", ".gltf"):
             raise InputError(str(path), "--camera", "a camera from the file needs a glTF file")
         data["camera"] = {"from_file": 0}
-    loaded = parse_scene(data, path.resolve(), policy)
-    if look.camera == "file":
-        camera = {**loaded.scene.camera.model_dump(), "exposure": exposure_for(loaded)}
-        return loaded.with_scene(loaded.scene.model_validate({**_dumped(loaded), "camera": camera}))
-    return framed(loaded, look, (width, height))
+    try:
+        loaded = parse_scene(data, path.resolve(), policy)
+        if look.camera == "file":
+            return _file_camera(loaded)
+        return framed(loaded, look, (width, height))
+    except InputError as exc:
+        raise _as_model_error(exc, path) from None
+
+
+def _as_model_error(exc: InputError, path: Path) -> InputError:
+    """A refusal of the synthesized scene's model object as the model file's own: the
+    file as given, no key of a scene file the user never wrote."""
+    if exc.file != str(path.resolve()):
+        return exc
+    message = exc.message.removeprefix(f"{path.resolve()}: ").removeprefix(f"{path.name}: ")
+    if exc.key.startswith("objects[0]"):
+        return InputError(str(path), "", message)
+    if exc.key.startswith("camera"):  # camera = "file" where the file has none
+        return InputError(str(path), "--camera", message)
+    return exc
+
+
+def _file_camera(loaded: LoadedScene) -> LoadedScene:
+    """The scene with the glTF file's camera, exposed for the default look."""
+    camera = {**loaded.scene.camera.model_dump(), "exposure": exposure_for(loaded)}
+    return loaded.with_scene(loaded.scene.model_validate({**_dumped(loaded), "camera": camera}))
 
 
 def needs_defaults(loaded: LoadedScene) -> tuple[bool, bool]:
@@ -258,7 +279,7 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
         given.append("a camera framing its meshes")
     if lighting:
         given.append("the studio environment and a key light")
-    _LOG.info(
+    _LOG.warning(
         "%s: gives no %s; using %s",
         loaded.path,
         " or ".join(w for w, g in (("camera", camera), ("light", lighting)) if g),

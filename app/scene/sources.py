@@ -16,9 +16,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from app.errors import InputError
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene, parse_scene
-from app.scene.model_file import Look, is_model_file, model_scene, with_defaults
+from app.scene.model_file import MODEL_SUFFIXES, Look, is_model_file, model_scene, with_defaults
 from app.untrusted.policy import InputPolicy
 
 __all__ = ["PYTHON_SCENE", "Look", "SceneSource", "scene_from", "scene_path"]
@@ -76,4 +77,11 @@ def scene_from(
     path = scene_path(source)
     if is_model_file(path):
         return model_scene(path, policy, look, size)
+    if path.suffix.lower() not in ("", ".toml"):
+        raise InputError(
+            str(path),
+            "",
+            f"unsupported file type '{path.suffix}': expected a scene file (.toml) or a model "
+            f"file ({', '.join(MODEL_SUFFIXES)})",
+        )
     return with_defaults(load_scene(path, policy), look)
