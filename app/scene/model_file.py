@@ -40,9 +40,10 @@ __all__ = [
     "MODEL_SUFFIXES",
     "VIEWS",
     "Look",
-    "default_lighting",
+    "default_environment",
     "framed",
     "is_model_file",
+    "key_light",
     "model_scene",
     "needs_defaults",
     "with_defaults",
@@ -62,9 +63,9 @@ VIEWS: dict[str, tuple[float, float]] = {
 ENVIRONMENTS = ("studio", "sky")  # or an .hdr / .exr file
 FOV_Y = 35.0  # degrees
 MARGIN = 1.08  # the bounding sphere's angular radius times this fits the narrower field
-EXPOSURE = -1.0  # EV: the studio's boxes and the key light on a light grey stay below white
+EXPOSURE = -1.5  # EV: the studio's boxes and the key light on a light grey stay below white
 KEY_INTENSITY = 1.5  # the key light's radiance scale (c_light)
-KEY_ANGLE = 2.0  # degrees: the key light's angular size, for PCSS penumbrae
+KEY_DISTANCE = 4.0  # the key light's distance from the model's centre, in its radii
 STUDIO_MEAN = 0.37  # the bundled studio's mean texel radiance
 STUDIO_TURN = 200.0  # the studio's rotation that puts its key box behind a +Z camera's left
 
@@ -103,20 +104,33 @@ def _environment(look: Look, azimuth: float) -> dict[str, Any]:
     return {"source": "image", "file": str(Path(look.env).resolve()), "background": True}
 
 
-def default_lighting(look: Look, azimuth: float) -> dict[str, Any]:
-    """The environment and key light of the default look, as scene keys."""
+def default_environment(look: Look, azimuth: float) -> dict[str, Any]:
+    """The default look's ``[environment]`` table."""
+    return {"environment": _environment(look, azimuth)}
+
+
+def key_light(centre: np.ndarray, radius: float, azimuth: float) -> dict[str, Any]:
+    """The default look's key light: a spot ``KEY_DISTANCE`` radii from the model's centre,
+    above the camera's left shoulder (50 degrees to its left, 50 up), aimed at the centre,
+    its cone a little wider than the model; its soft shadows by PCSS from a source a
+    tenth of the model's radius. Its fall-off over the model keeps even a flat model
+    from looking flat-lit."""
     az, el = math.radians(azimuth - 50.0), math.radians(50.0)
-    towards = (math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az))
-    key = {
-        "type": "directional",
-        "direction": [-c for c in towards],
+    towards = np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
+    distance = KEY_DISTANCE * radius
+    return {
+        "type": "spot",
+        "position": [float(v) for v in centre + distance * towards],
+        "direction": [float(-v) for v in towards],
         "color": [1.0, 0.97, 0.92],
-        "intensity": KEY_INTENSITY,
+        "intensity": KEY_INTENSITY * distance * distance,
+        "range": 2.0 * distance,
+        "inner_angle": 12.0,
+        "outer_angle": 24.0,
         "shadow": True,
         "shadow_filter": "pcss",
-        "shadow_light_angle": KEY_ANGLE,
+        "shadow_light_radius": min(0.1 * radius, 10.0),
     }
-    return {"environment": _environment(look, azimuth), "lights": [key]}
 
 
 def _surface_points(loaded: LoadedScene) -> np.ndarray:
@@ -128,15 +142,19 @@ def _surface_points(loaded: LoadedScene) -> np.ndarray:
     return np.concatenate(points) if points else np.zeros((1, 3))
 
 
+def _sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """(centre of the box of ``points``, distance from it to the farthest point)."""
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    return centre, max(float(np.max(np.linalg.norm(points - centre, axis=1))), 1e-3)
+
+
 def framing_camera(
     points: np.ndarray, size: tuple[int, int], azimuth: float, elevation: float
 ) -> dict[str, Any]:
     """A ``[camera]`` table aimed at the centre of the world-space box of ``points`` from
     ``azimuth``/``elevation``, as close as lets every point fall inside both fields of view
     of an image of ``size`` with ``MARGIN`` to spare."""
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    centre = (lo + hi) / 2.0
-    radius = max(float(np.max(np.linalg.norm(points - centre, axis=1))), 1e-3)
+    centre, radius = _sphere(points)
     az, el = math.radians(azimuth), math.radians(elevation)
     back = np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
     up = np.array([0.0, 1.0, 0.0])
@@ -183,13 +201,24 @@ def exposure_for(loaded: LoadedScene) -> float:
 def framed(loaded: LoadedScene, look: Look, size: tuple[int, int], lit: bool = True) -> LoadedScene:
     """``loaded`` with a camera framing its drawn parts; ``lit``: under the default
     look, whose exposure it takes (``exposure_for``)."""
-    camera = framing_camera(_surface_points(loaded), size, *look.angles())
-    if lit:
-        camera["exposure"] = exposure_for(loaded)
-    data = loaded.scene.camera.model_dump(exclude_unset=True)
-    data.update(camera)
-    updated = loaded.scene.model_validate({**_dumped(loaded), "camera": data})
-    return loaded.with_scene(updated)
+    points = _surface_points(loaded)
+    camera = loaded.scene.camera.model_dump(exclude_unset=True)
+    camera.update(framing_camera(points, size, *look.angles()))
+    return _lit(loaded, camera, points, look) if lit else _with(loaded, camera=camera)
+
+
+def _with(loaded: LoadedScene, **tables: Any) -> LoadedScene:
+    """``loaded`` with some top-level tables replaced, validated again."""
+    return loaded.with_scene(loaded.scene.model_validate({**_dumped(loaded), **tables}))
+
+
+def _lit(
+    loaded: LoadedScene, camera: dict[str, Any], points: np.ndarray, look: Look
+) -> LoadedScene:
+    """``loaded`` with ``camera`` at the default look's exposure and the key light."""
+    camera = {**camera, "exposure": exposure_for(loaded)}
+    key = key_light(*_sphere(points), look.angles()[0])
+    return _with(loaded, camera=camera, lights=[*_dumped(loaded).get("lights", []), key])
 
 
 def _dumped(loaded: LoadedScene) -> dict[str, Any]:
@@ -215,7 +244,7 @@ def model_scene(
     data: dict[str, Any] = {
         "render": {"width": width, "height": height, "tonemap": "neutral"},
         "objects": [{"shape": "mesh", "file": path.name, "name": path.stem}],
-        **default_lighting(look, azimuth),
+        **default_environment(look, azimuth),
     }
     if look.camera == "file":
         if path.suffix.lower() not in (".glb", ".gltf"):
@@ -224,7 +253,7 @@ def model_scene(
     try:
         loaded = parse_scene(data, path.resolve(), policy)
         if look.camera == "file":
-            return _file_camera(loaded)
+            return _file_camera(loaded, look)
         return framed(loaded, look, (width, height))
     except InputError as exc:
         raise _as_model_error(exc, path) from None
@@ -243,10 +272,10 @@ def _as_model_error(exc: InputError, path: Path) -> InputError:
     return exc
 
 
-def _file_camera(loaded: LoadedScene) -> LoadedScene:
+def _file_camera(loaded: LoadedScene, look: Look) -> LoadedScene:
     """The scene with the glTF file's camera, exposed for the default look."""
-    camera = {**loaded.scene.camera.model_dump(), "exposure": exposure_for(loaded)}
-    return loaded.with_scene(loaded.scene.model_validate({**_dumped(loaded), "camera": camera}))
+    camera = loaded.scene.camera.model_dump(exclude_unset=True)
+    return _lit(loaded, camera, _surface_points(loaded), look)
 
 
 def needs_defaults(loaded: LoadedScene) -> tuple[bool, bool]:
@@ -273,7 +302,7 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
     data = _dumped(loaded)
     azimuth = look.angles()[0]
     if lighting:
-        data.update(default_lighting(look, azimuth))
+        data.update(default_environment(look, azimuth))
     given = []
     if camera:
         given.append("a camera framing its meshes")
@@ -288,5 +317,6 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
     result = parse_scene(data, loaded.path, loaded.policy)
     if camera:
         size = (result.scene.render.width, result.scene.render.height)
-        result = framed(result, look, size, lit=lighting)
-    return result
+        return framed(result, look, size, lit=lighting)
+    key = key_light(*_sphere(_surface_points(result)), look.angles()[0])
+    return _with(result, lights=[key])  # the scene's own camera and exposure kept
