@@ -154,23 +154,24 @@ def test_sky_environment_and_file_camera(tmp_path: Path) -> None:
     assert own.position != framed.position
 
 
-BAD = {
-    "unsupported suffix": ("model.fbx", b"Kaydara FBX Binary"),
-    "missing file": ("missing.obj", None),
-    "malformed glb": ("broken.glb", b"glTF\x02\x00\x00\x00not a glb"),
+BAD = {  # name, content (None: no file), what the one line says
+    "unsupported suffix": ("model.fbx", b"Kaydara FBX Binary", "unsupported file type '.fbx'"),
+    "missing file": ("missing.obj", None, "missing.obj: no such file"),
+    "malformed glb": ("broken.glb", b"glTF\x02\x00\x00\x00not a glb", "not a glTF 2.0 file"),
 }
 
 
 @pytest.mark.parametrize("case", list(BAD))
 def test_bad_model_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
-    name, content = BAD[case]
+    name, content, says = BAD[case]
     if content is not None:
         (tmp_path / name).write_bytes(content)
     out = tmp_path / "out.png"
     proc = _app("render", name, "-o", out, "--size", SIZE, cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("pbs: error: ") and name in lines[0], lines
+    assert len(lines) == 1 and lines[0].startswith(f"pbs: error: {name}: "), lines
+    assert says in lines[0] and "objects[" not in lines[0], lines  # no key the user never wrote
     assert not out.exists()
 
 
