@@ -143,6 +143,18 @@ def _look(args: argparse.Namespace) -> object:
     return Look(args.view, args.azimuth, args.elevation, args.camera, args.env)
 
 
+@contextlib.contextmanager
+def _silenced(logger: str, quiet: bool) -> Iterator[None]:
+    """The ``logger``'s notes dropped while ``quiet`` (``-q``: nothing on success)."""
+    log = logging.getLogger(logger)
+    was = log.disabled
+    log.disabled = was or quiet
+    try:
+        yield
+    finally:
+        log.disabled = was
+
+
 def _policy(args: argparse.Namespace) -> InputPolicy:
     return InputPolicy.from_options(args.allow_path, args.max_memory)
 
@@ -533,13 +545,14 @@ def cmd_render(args: argparse.Namespace) -> int:
     for path, option in outputs:
         _check_output(path, option, {scene_file.resolve()})
     with files.recording() as inputs:  # every file the scene names, for the outputs' check
-        loaded = scene_from(
-            scene_file,
-            allow_paths=args.allow_path,
-            max_memory=args.max_memory,
-            look=_look(args),  # type: ignore[arg-type]
-            size=args.size,
-        )
+        with _silenced("pbs.scene", args.quiet):  # -q: no note on the defaults used
+            loaded = scene_from(
+                scene_file,
+                allow_paths=args.allow_path,
+                max_memory=args.max_memory,
+                look=_look(args),  # type: ignore[arg-type]
+                size=args.size,
+            )
         if args.fit:
             from app.frame.camera import fit_scene
 
