@@ -209,3 +209,25 @@ def test_bundled_scenes_keep_their_camera_and_lights() -> None:
     for name in ("teapot", "gltf_stage", "gltf_material_sampler", "showcase"):
         path = REPO / "scenes" / f"{name}.toml"
         assert scene_from(path).scene == load_scene(path).scene, name
+
+
+@pytest.mark.viewer
+def test_viewer_opens_a_model_file(xdisplay: str, tmp_path: Path) -> None:
+    """``pbs view MODEL``'s document: the model's framed, lit scene, saved beside it."""
+    from app.scene.model_file import model_document
+    from app.untrusted.policy import InputPolicy
+    from app.viewer.window import Viewer
+
+    model = tmp_path / "teapot.obj"
+    model.write_bytes((MESHES / "teapot.obj").read_bytes())
+    (tmp_path / "teapot.toml").write_text("# someone's own scene: not to be overwritten\n")
+    target, data = model_document(model, InputPolicy(), size=(W, H))
+    assert target == tmp_path / "teapot-2.toml" and not target.exists()
+    v = Viewer(target, (W, H), vsync=False, ui=False, data=data)
+    try:
+        v.settle()
+        assert v.document.scene.lights and v.document.scene.environment is not None
+        image = v.read_window().astype(np.float64)
+        assert _luminance(image).std() > 10.0  # the teapot lit against the backdrop
+    finally:
+        v.close()
