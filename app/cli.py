@@ -27,6 +27,7 @@ if TYPE_CHECKING:
 
     from app.render.renderer import Renderer
     from app.scene.loader import LoadedScene
+    from app.scene.model_file import Look
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -126,7 +127,7 @@ def _look_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _look(args: argparse.Namespace) -> object:
+def _look(args: argparse.Namespace) -> Look:
     """The ``Look`` of the look options, or an ``InputError`` naming the option."""
     from app.scene.model_file import Look
 
@@ -550,7 +551,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                 scene_file,
                 allow_paths=args.allow_path,
                 max_memory=args.max_memory,
-                look=_look(args),  # type: ignore[arg-type]
+                look=_look(args),
                 size=args.size,
             )
         if args.fit:
@@ -800,6 +801,7 @@ def cmd_walkthrough(args: argparse.Namespace) -> int:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
+    from app.scene.model_file import is_model_file, model_document
     from app.scene.sources import scene_path
     from app.viewer.window import Viewer, ViewerError
 
@@ -822,10 +824,16 @@ def cmd_view(args: argparse.Namespace) -> int:
 
         find_font("ko")  # no Hangul font: one line naming the package, exit 2
     scene = scene_path(args.scene) if args.scene else None
+    policy, data = _policy(args), None
+    if scene is not None and is_model_file(scene):  # shown framed and lit, saved beside it
+        look = _look(args)
+        if look.env not in ("studio", "sky"):
+            policy = InputPolicy((*policy.allowed, Path(look.env).resolve().parent), policy.limits)
+        scene, data = model_document(scene, policy, look, args.size)
     try:
         viewer = Viewer(
             scene, args.size, vsync=not args.no_vsync, hangul=args.lang == "ko",
-            policy=_policy(args),
+            policy=policy, data=data,
         )  # fmt: skip
     except ViewerError as exc:
         print(f"pbs: error: {exc}", file=sys.stderr)

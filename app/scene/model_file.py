@@ -44,6 +44,7 @@ __all__ = [
     "framed",
     "is_model_file",
     "key_light",
+    "model_document",
     "model_scene",
     "needs_defaults",
     "with_defaults",
@@ -320,3 +321,19 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
         return framed(result, look, size, lit=lighting)
     key = key_light(*_sphere(_surface_points(result)), look.angles()[0])
     return _with(result, lights=[key])  # the scene's own camera and exposure kept
+
+
+def model_document(
+    path: str | Path, policy: InputPolicy, look: Look = Look(), size: tuple[int, int] | None = None
+) -> tuple[Path, dict[str, Any]]:
+    """The scene of the model file ``path`` as the data a scene file would hold, and the
+    scene file it is saved as (beside the model, a name no file has yet): what the viewer
+    opens for ``pbs view MODEL``."""
+    data = _dumped(model_scene(path, policy, look, size))
+    path = Path(path).resolve()
+    target = path.with_suffix(".toml")
+    n = 2
+    while target.exists():
+        target = path.with_name(f"{path.stem}-{n}.toml")
+        n += 1
+    return target, data
