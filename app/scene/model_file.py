@@ -11,9 +11,13 @@ builds (every node transform applied), so it frames what will be drawn:
   +Z towards +X, elevation above the horizon; a three-quarter view by default), as close
   as lets every surface point fall inside both fields of view with ``MARGIN`` to spare;
 - near and far planes bracket the model's bounding sphere;
-- the look (``default_lighting``): the bundled studio (or another environment) as
-  image-based light and backdrop, one directional key light from above the camera's left
-  shoulder with PCSS soft shadows, the neutral tone map at ``EXPOSURE``.
+- the look: the bundled studio (or another environment; ``default_environment``) as
+  image-based light and backdrop, one spot key light from above the camera's left
+  shoulder with PCSS soft shadows (``key_light``), the neutral tone map at ``EXPOSURE``
+  less the stops the environment is brighter than the studio (``exposure_for``).
+
+The bounds come from the built parts, so the model's files are read twice (here and by
+the renderer): the price of keeping app/scene free of the frame and render layers.
 
 docs/scene-format.md ("A model file without a scene file") describes the same.
 """
