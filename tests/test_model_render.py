@@ -231,3 +231,22 @@ def test_viewer_opens_a_model_file(xdisplay: str, tmp_path: Path) -> None:
         assert _luminance(image).std() > 10.0  # the teapot lit against the backdrop
     finally:
         v.close()
+
+
+def test_env_image_from_another_folder(tmp_path: Path) -> None:
+    """--env FILE.exr lights the model from an image outside the model's folder (the
+    folder the option names is allowed too) and changes the image from the studio's."""
+    (tmp_path / "envs").mkdir()
+    (tmp_path / "model").mkdir()
+    env = tmp_path / "envs" / "room.exr"
+    env.write_bytes((REPO / "scenes" / "textures" / "window_room.exr").read_bytes())
+    model = tmp_path / "model" / "teapot.obj"
+    model.write_bytes((MESHES / "teapot.obj").read_bytes())
+    outs = {}
+    for name, argv in (("studio", ()), ("image", ("--env", env))):
+        outs[name] = tmp_path / f"{name}.png"
+        proc = _app("render", model, "-o", outs[name], "--size", SIZE, *argv, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr
+    image = _png(outs["image"])
+    assert 20.0 < _luminance(image).mean() < 230.0
+    assert np.abs(image - _png(outs["studio"])).mean() > 3.0
