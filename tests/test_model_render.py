@@ -250,3 +250,13 @@ def test_env_image_from_another_folder(tmp_path: Path) -> None:
     image = _png(outs["image"])
     assert 20.0 < _luminance(image).mean() < 230.0
     assert np.abs(image - _png(outs["studio"])).mean() > 3.0
+
+
+def test_look_options_on_a_scene_with_camera_and_lights_are_refused(tmp_path: Path) -> None:
+    """--view on a scene that gives its own camera and lights would do nothing: one line."""
+    out = tmp_path / "out.png"
+    proc = _app("render", "teapot", "-o", out, "--size", SIZE, "--view", "top", cwd=tmp_path)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "teapot.toml" in lines[0] and "gives its own camera" in lines[0]
+    assert not out.exists()

@@ -19,7 +19,14 @@ from typing import Any
 from app.errors import InputError
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene, parse_scene
-from app.scene.model_file import MODEL_SUFFIXES, Look, is_model_file, model_scene, with_defaults
+from app.scene.model_file import (
+    MODEL_SUFFIXES,
+    Look,
+    is_model_file,
+    model_scene,
+    needs_defaults,
+    with_defaults,
+)
 from app.untrusted.policy import InputPolicy
 
 __all__ = ["PYTHON_SCENE", "Look", "SceneSource", "scene_from", "scene_path"]
@@ -84,4 +91,12 @@ def scene_from(
             f"unsupported file type '{path.suffix}': expected a scene file (.toml) or a model "
             f"file ({', '.join(MODEL_SUFFIXES)})",
         )
-    return with_defaults(load_scene(path, policy), look)
+    loaded = load_scene(path, policy)
+    if look != Look() and needs_defaults(loaded) == (False, False):
+        raise InputError(
+            str(path),
+            "",
+            "gives its own camera and lights: a view, camera or environment option applies "
+            "only to a model file or a scene file that gives neither",
+        )
+    return with_defaults(loaded, look)
