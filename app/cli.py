@@ -104,7 +104,10 @@ def _look_options(parser: argparse.ArgumentParser) -> None:
         help="a model file's view: the camera's direction (default three-quarter)",
     )
     parser.add_argument(
-        "--azimuth", type=float, metavar="DEG", help="a model file's camera azimuth about +Y"
+        "--azimuth",
+        type=_number(lambda v: -360.0 <= v <= 360.0, "degrees within -360..360"),
+        metavar="DEG",
+        help="a model file's camera azimuth about +Y, from +Z towards +X",
     )
     parser.add_argument(
         "--elevation",
