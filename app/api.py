@@ -38,11 +38,11 @@ from app.render.renderer import Renderer
 from app.scene.edits import KeyPath, edited
 from app.scene.loader import LoadedScene, describe_error
 from app.scene.model import FILE_CAMERA_KEYS, Camera, RenderSettings, Scene
-from app.scene.sources import PYTHON_SCENE, SceneSource, scene_from
+from app.scene.sources import PYTHON_SCENE, Look, SceneSource, scene_from
 
 # ``scene_from`` (app/scene/sources.py, which the CLI shares) and ``PYTHON_SCENE`` are part
 # of the API.
-__all__ = ["CHANNELS", "PYTHON_SCENE", "OffscreenRenderer", "SceneSource", "scene_from"]
+__all__ = ["CHANNELS", "PYTHON_SCENE", "Look", "OffscreenRenderer", "SceneSource", "scene_from"]
 
 # The G-buffer channels ``OffscreenRenderer.channel`` reads, with their shapes (H, W[, C]):
 # what each means is in docs/api.md and app/common/gbuffer.py.
@@ -84,7 +84,9 @@ class OffscreenRenderer:
     ``render()`` runs every pass and returns the display image; the other reads
     (``hdr``, ``depth``, ``channel``, ``gbuffer``) read the same frame. Rows are top to
     bottom (row 0 is the top of the image) everywhere. ``allow_paths`` and ``max_memory``:
-    what the scene's files may reach and cost (``scene_from``).
+    what the scene's files may reach and cost (``scene_from``). A model file
+    (``OffscreenRenderer("model.glb")``) is framed for ``size`` and lit by the defaults;
+    ``look`` (``Look(view="front", env="sky")``) changes the view, camera or environment.
     """
 
     def __init__(
@@ -96,8 +98,9 @@ class OffscreenRenderer:
         base_dir: str | Path | None = None,
         allow_paths: tuple[str | Path, ...] | list[str | Path] = (),
         max_memory: int | None = None,
+        look: Look | None = None,
     ) -> None:
-        loaded = scene_from(scene, base_dir, allow_paths, max_memory)
+        loaded = scene_from(scene, base_dir, allow_paths, max_memory, look=look, size=size)
         if size is not None:
             size = self._checked_size(loaded, size)
         self._owns_gl = gl is None

@@ -27,6 +27,7 @@ if TYPE_CHECKING:
 
     from app.render.renderer import Renderer
     from app.scene.loader import LoadedScene
+    from app.scene.model_file import Look
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -91,6 +92,73 @@ def _input_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _look_options(parser: argparse.ArgumentParser) -> None:
+    """How a model file (or a scene file without camera or lights) is shown
+    (app/scene/model_file.py, docs/scene-format.md)."""
+    from app.scene.model_file import VIEWS
+
+    parser.add_argument(
+        "--view",
+        choices=tuple(VIEWS),
+        default="three-quarter",
+        help="a model file's view: the camera's direction (default three-quarter)",
+    )
+    parser.add_argument(
+        "--azimuth",
+        type=_number(lambda v: -360.0 <= v <= 360.0, "degrees within -360..360"),
+        metavar="DEG",
+        help="a model file's camera azimuth about +Y, from +Z towards +X",
+    )
+    parser.add_argument(
+        "--elevation",
+        type=_number(lambda v: -90.0 <= v <= 90.0, "degrees within -90..90"),
+        metavar="DEG",
+        help="a model file's camera elevation above the horizon",
+    )
+    parser.add_argument(
+        "--camera",
+        choices=("auto", "file"),
+        default="auto",
+        help="a model file's camera: framed (auto, default) or the glTF file's first (file)",
+    )
+    parser.add_argument(
+        "--env",
+        default="studio",
+        metavar="studio|sky|FILE",
+        help="a model file's environment: the bundled studio (default), the sky, or an "
+        ".hdr/.exr image",
+    )
+
+
+def _look(args: argparse.Namespace) -> Look:
+    """The ``Look`` of the look options, or an ``InputError`` naming the option."""
+    from app.scene.model_file import Look
+
+    if args.env not in ("studio", "sky") and Path(args.env).suffix.lower() not in (
+        ".hdr",
+        ".exr",
+    ):
+        raise InputError(args.env, "--env", "expected studio, sky or an .hdr/.exr file")
+    if args.env not in ("studio", "sky"):
+        try:
+            files.check_readable(Path(args.env), 1 << 62)  # its size is checked when read
+        except RefusedError as exc:
+            raise InputError(args.env, "--env", str(exc).removeprefix(f"{args.env}: ")) from None
+    return Look(args.view, args.azimuth, args.elevation, args.camera, args.env)
+
+
+@contextlib.contextmanager
+def _silenced(logger: str, quiet: bool) -> Iterator[None]:
+    """The ``logger``'s notes dropped while ``quiet`` (``-q``: nothing on success)."""
+    log = logging.getLogger(logger)
+    was = log.disabled
+    log.disabled = was or quiet
+    try:
+        yield
+    finally:
+        log.disabled = was
+
+
 def _policy(args: argparse.Namespace) -> InputPolicy:
     return InputPolicy.from_options(args.allow_path, args.max_memory)
 
@@ -115,7 +183,11 @@ def _parser() -> argparse.ArgumentParser:
         epilog="debug views (--debug VIEW; docs/debug-views.md):\n"
         + "\n".join(f"  {name:12} {line}" for name, line in _debug_views().items()),
     )
-    render.add_argument("scene", help="scene file (TOML); a bundled scene's name also works")
+    render.add_argument(
+        "scene",
+        help="scene file (TOML), a bundled scene's name, or a model file (.glb, .gltf, "
+        ".obj, .stl, .ply) to show framed and lit by the defaults",
+    )
     render.add_argument("-o", "--output", required=True, help="PNG file to write")
     render.add_argument(
         "--size",
@@ -171,6 +243,7 @@ def _parser() -> argparse.ArgumentParser:
         type=_gain,
         help="with --compare-mode difference: magnification of |A - B| (default 8)",
     )
+    _look_options(render)
     _input_options(render)
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
@@ -196,6 +269,7 @@ def _parser() -> argparse.ArgumentParser:
     view.add_argument(
         "--step", type=int, default=1, metavar="N", help="the walkthrough's step: RTR4 §9.N"
     )
+    _look_options(view)
     _input_options(view)
     sub.add_parser(
         "bench",
@@ -477,7 +551,14 @@ def cmd_render(args: argparse.Namespace) -> int:
     for path, option in outputs:
         _check_output(path, option, {scene_file.resolve()})
     with files.recording() as inputs:  # every file the scene names, for the outputs' check
-        loaded = scene_from(scene_file, allow_paths=args.allow_path, max_memory=args.max_memory)
+        with _silenced("pbs.scene", args.quiet):  # -q: no note on the defaults used
+            loaded = scene_from(
+                scene_file,
+                allow_paths=args.allow_path,
+                max_memory=args.max_memory,
+                look=_look(args),
+                size=args.size,
+            )
         if args.fit:
             from app.frame.camera import fit_scene
 
@@ -725,6 +806,7 @@ def cmd_walkthrough(args: argparse.Namespace) -> int:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
+    from app.scene.model_file import is_model_file, model_document
     from app.scene.sources import scene_path
     from app.viewer.window import Viewer, ViewerError
 
@@ -747,10 +829,16 @@ def cmd_view(args: argparse.Namespace) -> int:
 
         find_font("ko")  # no Hangul font: one line naming the package, exit 2
     scene = scene_path(args.scene) if args.scene else None
+    policy, data = _policy(args), None
+    if scene is not None and is_model_file(scene):  # shown framed and lit, saved beside it
+        look = _look(args)
+        if look.env not in ("studio", "sky"):
+            policy = InputPolicy((*policy.allowed, Path(look.env).resolve().parent), policy.limits)
+        scene, data = model_document(scene, policy, look, args.size)
     try:
         viewer = Viewer(
             scene, args.size, vsync=not args.no_vsync, hangul=args.lang == "ko",
-            policy=_policy(args),
+            policy=policy, data=data,
         )  # fmt: skip
     except ViewerError as exc:
         print(f"pbs: error: {exc}", file=sys.stderr)

@@ -115,11 +115,14 @@ class Viewer:
         ui: bool = True,
         hangul: bool = False,
         policy: InputPolicy = DEFAULT_POLICY,
+        data: dict | None = None,
     ) -> None:
-        """``hangul`` merges a Hangul font into the panels' (``Panels.load_hangul``): for
-        the Korean walkthrough, asked for before the first frame. ``policy``: what the
-        scenes' files may reach and cost (``--allow-path``, ``--max-memory``)."""
-        self.document = SceneDocument(scene or scenes_dir() / "showcase.toml", policy=policy)
+        """``data``: the scene's keys where it is not read from ``scene`` (a model file's
+        scene, saved as ``scene``). ``hangul`` merges a Hangul font into the panels'
+        (``Panels.load_hangul``): for the Korean walkthrough, asked for before the first
+        frame. ``policy``: what the scenes' files may reach and cost (``--allow-path``,
+        ``--max-memory``)."""
+        self.document = SceneDocument(scene or scenes_dir() / "showcase.toml", data, policy)
         self.base_camera = self.document.scene.camera  # what "reset camera" goes back to
         if not glfw.init():
             raise ViewerError("glfw could not initialise (is there a display? DISPLAY unset?)")

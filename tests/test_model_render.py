@@ -1,0 +1,262 @@
+"""A model file rendered without a scene file (``pbs render MODEL``, ``OffscreenRenderer(
+"model.glb")``): framed by the camera, lit by the default look, views that differ, and bad
+input refused in one line (app/scene/model_file.py)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from PIL import Image
+
+from app.api import OffscreenRenderer
+from app.scene.loader import load_scene
+from app.scene.model_file import Look
+from app.scene.sources import scene_from
+
+pytestmark = pytest.mark.gl
+
+REPO = Path(__file__).resolve().parent.parent
+MESHES = REPO / "scenes" / "meshes"
+W, H = 160, 120
+SIZE = f"{W}x{H}"
+BUNDLED = ("material_sampler.glb", "stage.gltf", "teapot.obj")
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An STL (a box on a capsule, off the origin) and a PLY (a torus-like annulus) that
+    the test writes with trimesh."""
+    folder = tmp_path_factory.mktemp("models")
+    box = trimesh.creation.box((1.0, 0.5, 2.0))
+    capsule = trimesh.creation.capsule(height=1.0, radius=0.3)
+    capsule.apply_translation((0.0, 1.0, 0.0))
+    stl = trimesh.util.concatenate([box, capsule])
+    stl.apply_translation((5.0, -2.0, 3.0))  # the framing must follow the model
+    stl.export(folder / "part.stl")
+    ply = trimesh.creation.annulus(r_min=0.5, r_max=1.0, height=0.3)
+    ply.apply_scale(30.0)  # centimetres: the framing must follow the size too
+    ply.export(folder / "ring.ply")
+    return folder
+
+
+def _models(made: Path) -> list[Path]:
+    return [MESHES / name for name in BUNDLED] + [made / "part.stl", made / "ring.ply"]
+
+
+MODEL_IDS = [*BUNDLED, "part.stl", "ring.ply"]
+
+
+def _model(made: Path, name: str) -> Path:
+    return next(p for p in _models(made) if p.name == name)
+
+
+def _app(*argv: str | Path, cwd: Path) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    return subprocess.run(
+        [sys.executable, "-m", "app", *map(str, argv)],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=180,
+        check=False,
+    )
+
+
+def _png(path: Path) -> np.ndarray:
+    with Image.open(path) as image:
+        assert image.size == (W, H)
+        return np.asarray(image.convert("RGB"), np.float64)
+
+
+def _luminance(rgb: np.ndarray) -> np.ndarray:
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def _check_framed_and_lit(covered: np.ndarray, image: np.ndarray, what: str) -> None:
+    """The model covers a sane share of the image around its centre, and its pixels are
+    lit, not black and not flat."""
+    share = float(covered.mean())
+    assert 0.15 <= share <= 0.85, f"{what}: the model covers {share:.0%} of the image"
+    rows, cols = np.nonzero(covered)
+    centre_x = (cols.min() + cols.max()) / 2.0 / (W - 1)
+    centre_y = (rows.min() + rows.max()) / 2.0 / (H - 1)
+    assert abs(centre_x - 0.5) < 0.12 and abs(centre_y - 0.5) < 0.12, (
+        f"{what}: the model's box is centred at ({centre_x:.2f}, {centre_y:.2f})"
+    )
+    lum = _luminance(image[covered])
+    assert lum.mean() > 25.0, f"{what}: the model is dark (mean {lum.mean():.1f} of 255)"
+    assert np.percentile(lum, 90) - np.percentile(lum, 10) > 20.0, f"{what}: flat lighting"
+
+
+@pytest.mark.parametrize("name", MODEL_IDS)
+def test_cli_renders_a_model_file_framed_and_lit(made: Path, tmp_path: Path, name: str) -> None:
+    model = _model(made, name)
+    out, depth = tmp_path / "out.png", tmp_path / "depth.png"
+    proc = _app("render", model, "-o", out, "--size", SIZE, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    proc = _app("render", model, "-o", depth, "--size", SIZE, "--debug", "depth", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    covered = _png(depth).max(axis=2) > 0.0  # the depth view leaves empty pixels black
+    _check_framed_and_lit(covered, _png(out), name)
+
+
+@pytest.mark.parametrize("name", MODEL_IDS)
+def test_api_renders_a_model_file_framed_and_lit(made: Path, name: str) -> None:
+    with OffscreenRenderer(_model(made, name), size=(W, H)) as r:
+        r.render()
+        covered = r.depth() > 0.0
+        image = r.ldr().astype(np.float64)
+    _check_framed_and_lit(covered, image, name)
+
+
+def test_views_change_the_image(tmp_path: Path) -> None:
+    """Every named view and an explicit azimuth give another image of the teapot."""
+    images = {}
+    for view in ("front", "side", "top", "iso"):
+        with OffscreenRenderer(MESHES / "teapot.obj", (W, H), look=Look(view=view)) as r:
+            r.render()
+            images[view] = r.ldr().astype(np.float64)
+    with OffscreenRenderer(MESHES / "teapot.obj", (W, H), look=Look(azimuth=200.0)) as r:
+        r.render()
+        images["azimuth"] = r.ldr().astype(np.float64)
+    names = list(images)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            diff = np.abs(images[a] - images[b]).mean()
+            assert diff > 3.0, f"--view {a} and {b} differ by only {diff:.2f}"
+    # and through the CLI
+    for view in ("front", "top"):
+        proc = _app("render", MESHES / "teapot.obj", "-o", tmp_path / f"{view}.png",
+                    "--size", SIZE, "--view", view, cwd=tmp_path)  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+    diff = np.abs(_png(tmp_path / "front.png") - _png(tmp_path / "top.png")).mean()
+    assert diff > 3.0
+
+
+def test_sky_environment_and_file_camera(tmp_path: Path) -> None:
+    """--env sky lights the model as sanely as the studio; --camera file takes the glTF
+    file's camera (stage.gltf's looks at the floor from its own place)."""
+    out = tmp_path / "sky.png"
+    proc = _app("render", MESHES / "teapot.obj", "-o", out, "--size", SIZE, "--env", "sky",
+                cwd=tmp_path)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    lum = _luminance(_png(out))
+    assert 20.0 < lum.mean() < 230.0
+    framed = scene_from(MESHES / "stage.gltf", size=(W, H)).scene.camera
+    own = scene_from(MESHES / "stage.gltf", look=Look(camera="file"), size=(W, H)).scene.camera
+    assert own.position != framed.position
+
+
+BAD = {  # name, content (None: no file), what the one line says
+    "unsupported suffix": ("model.fbx", b"Kaydara FBX Binary", "unsupported file type '.fbx'"),
+    "missing file": ("missing.obj", None, "missing.obj: no such file"),
+    "malformed glb": ("broken.glb", b"glTF\x02\x00\x00\x00not a glb", "not a glTF 2.0 file"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_model_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
+    name, content, says = BAD[case]
+    if content is not None:
+        (tmp_path / name).write_bytes(content)
+    out = tmp_path / "out.png"
+    proc = _app("render", name, "-o", out, "--size", SIZE, cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"pbs: error: {name}: "), lines
+    assert says in lines[0] and "objects[" not in lines[0], lines  # no key the user never wrote
+    assert not out.exists()
+
+
+def test_bad_env_and_file_camera_are_one_line(tmp_path: Path) -> None:
+    for argv, option in (
+        (("--env", "nowhere.hdr"), "--env"),
+        (("--camera", "file"), "--camera"),  # material_sampler.glb holds no camera
+    ):
+        out = tmp_path / "out.png"
+        model = MESHES / "material_sampler.glb"
+        proc = _app("render", model, "-o", out, "--size", SIZE, *argv, cwd=tmp_path)
+        assert proc.returncode == 2
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and option in lines[0], lines
+        assert not out.exists()
+
+
+def test_scene_file_with_a_mesh_and_no_camera_or_light(tmp_path: Path) -> None:
+    """A scene file naming only a mesh gets the defaults and one note, not a black image."""
+    (tmp_path / "teapot.obj").write_bytes((MESHES / "teapot.obj").read_bytes())
+    (tmp_path / "only.toml").write_text('[[objects]]\nshape = "mesh"\nfile = "teapot.obj"\n')
+    out, depth = tmp_path / "out.png", tmp_path / "depth.png"
+    proc = _app("render", "only.toml", "-o", out, "--size", SIZE, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if line.startswith("pbs: note:")]
+    assert len(notes) == 1 and "only.toml" in notes[0], proc.stderr
+    proc = _app("render", "only.toml", "-o", depth, "--size", SIZE, "--debug", "depth",
+                cwd=tmp_path)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), "only.toml")
+
+
+def test_bundled_scenes_keep_their_camera_and_lights() -> None:
+    """The defaults touch no scene that gives a camera and lights."""
+    for name in ("teapot", "gltf_stage", "gltf_material_sampler", "showcase"):
+        path = REPO / "scenes" / f"{name}.toml"
+        assert scene_from(path).scene == load_scene(path).scene, name
+
+
+@pytest.mark.viewer
+def test_viewer_opens_a_model_file(xdisplay: str, tmp_path: Path) -> None:
+    """``pbs view MODEL``'s document: the model's framed, lit scene, saved beside it."""
+    from app.scene.model_file import model_document
+    from app.untrusted.policy import InputPolicy
+    from app.viewer.window import Viewer
+
+    model = tmp_path / "teapot.obj"
+    model.write_bytes((MESHES / "teapot.obj").read_bytes())
+    (tmp_path / "teapot.toml").write_text("# someone's own scene: not to be overwritten\n")
+    target, data = model_document(model, InputPolicy(), size=(W, H))
+    assert target == tmp_path / "teapot-2.toml" and not target.exists()
+    v = Viewer(target, (W, H), vsync=False, ui=False, data=data)
+    try:
+        v.settle()
+        assert v.document.scene.lights and v.document.scene.environment is not None
+        image = v.read_window().astype(np.float64)
+        assert _luminance(image).std() > 10.0  # the teapot lit against the backdrop
+    finally:
+        v.close()
+
+
+def test_env_image_from_another_folder(tmp_path: Path) -> None:
+    """--env FILE.exr lights the model from an image outside the model's folder (the
+    folder the option names is allowed too) and changes the image from the studio's."""
+    (tmp_path / "envs").mkdir()
+    (tmp_path / "model").mkdir()
+    env = tmp_path / "envs" / "room.exr"
+    env.write_bytes((REPO / "scenes" / "textures" / "window_room.exr").read_bytes())
+    model = tmp_path / "model" / "teapot.obj"
+    model.write_bytes((MESHES / "teapot.obj").read_bytes())
+    outs = {}
+    for name, argv in (("studio", ()), ("image", ("--env", env))):
+        outs[name] = tmp_path / f"{name}.png"
+        proc = _app("render", model, "-o", outs[name], "--size", SIZE, *argv, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr
+    image = _png(outs["image"])
+    assert 20.0 < _luminance(image).mean() < 230.0
+    assert np.abs(image - _png(outs["studio"])).mean() > 3.0
+
+
+def test_look_options_on_a_scene_with_camera_and_lights_are_refused(tmp_path: Path) -> None:
+    """--view on a scene that gives its own camera and lights would do nothing: one line."""
+    out = tmp_path / "out.png"
+    proc = _app("render", "teapot", "-o", out, "--size", SIZE, "--view", "top", cwd=tmp_path)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "teapot.toml" in lines[0] and "gives its own camera" in lines[0]
+    assert not out.exists()
