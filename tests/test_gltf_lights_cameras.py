@@ -345,9 +345,15 @@ def test_python_api_switches_to_a_file_camera_and_keeps_file_lights_once(
     ]
     _write(tmp_path / "a.gltf", nodes, [0, 1], [_perspective("eye", 0.5, 0.1, 40.0)],
            [{"type": "directional", "intensity": 3.0}])  # fmt: skip
-    text = SPHERE + '[[objects]]\nshape = "mesh"\nfile = "a.gltf"\nimport_lights = true\n'
+    # A camera of the scene's own: without one, a scene naming a mesh file is framed
+    # (app/scene/model_file.py), and this file's hidden triangle lies 500 m below.
+    text = (
+        "[camera]\nposition = [0.0, 1.0, 6.0]\n"
+        + SPHERE
+        + '[[objects]]\nshape = "mesh"\nfile = "a.gltf"\nimport_lights = true\n'
+    )
     with OffscreenRenderer(_scene(tmp_path, text), (32, 18), gl=gl_egl) as r:
-        assert r.scene.camera.position == [0.0, 1.0, 6.0]  # the format's default camera
+        assert r.scene.camera.position == [0.0, 1.0, 6.0]
         r.set_camera(from_file="eye", exposure=0.5)
         cam = r.scene.camera
         assert cam.position == [2.0, 1.0, 5.0] and cam.exposure == 0.5
