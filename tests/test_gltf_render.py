@@ -242,7 +242,7 @@ def spec_matrix(offset=(0.0, 0.0), rotation: float = 0.0, scale=(1.0, 1.0)) -> n
     (KhronosGroup/glTF, extensions/2.0/Khronos/KHR_texture_transform/README.md). That
     fixes R = [[cos, sin], [-sin, cos]] by rows, the rotation Blender, Babylon.js and the
     sample model TextureTransformTest use; the README's GLSL listing read column-major is
-    its transpose, which reads the top right quadrant instead (glTF issue #1563, open)."""
+    its transpose, which reads the top right quadrant instead."""
     c, s = math.cos(rotation), math.sin(rotation)
     t = np.array([[1.0, 0.0, offset[0]], [0.0, 1.0, offset[1]], [0.0, 0.0, 1.0]])
     rot = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -44,7 +44,7 @@ def uv_matrix(t: UvTransform) -> np.ndarray:
     left quadrant of the source image, rotated clockwise 90 degrees"; glTF
     KHR_texture_transform, Khronos 2018) and Blender, Babylon.js and the sample model
     TextureTransformTest use. The README's GLSL listing, mat3(cos, sin, 0, -sin, cos, 0,
-    0, 0, 1), read column-major is its transpose (KhronosGroup/glTF issue #1563); this
+    0, 0, 1), read column-major is its transpose, which no viewer follows; this
     function used it before, and rotated every texture the wrong way."""
     c, s = np.cos(t.rotation), np.sin(t.rotation)
     translate = np.array([[1.0, 0.0, t.offset[0]], [0.0, 1.0, t.offset[1]], [0.0, 0.0, 1.0]])
