@@ -22,6 +22,7 @@ from app.errors import InputError
 from app.scene.geometry import build_parts
 from app.scene.loader import load_scene, parse_scene
 from tests.gltf_builder import GltfBuilder, png_rgb
+from tests.test_assets import QUAD
 from tests.test_gltf import SCENE
 
 GREY = MaterialParams((0.8, 0.8, 0.8), 0.0, 0.5, 0.04)
@@ -140,21 +141,7 @@ def test_scene_file_refuses_each_problem_with_its_key(
 
 # --- the MTL ---
 
-OBJ_QUAD = """\
-mtllib quad.mtl
-usemtl m
-v -1 -1 0
-v 1 -1 0
-v 1 1 0
-v -1 1 0
-vt 0 0
-vt 1 0
-vt 1 1
-vt 0 1
-vn 0 0 1
-f 1/1/1 2/2/1 3/3/1
-f 1/1/1 3/3/1 4/4/1
-"""
+OBJ_QUAD = "mtllib quad.mtl\nusemtl m\n" + QUAD  # test_assets.py's unit quad, one material
 
 
 def _mtl_parts(folder: Path, mtl: str) -> list:

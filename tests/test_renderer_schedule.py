@@ -59,6 +59,12 @@ def images(r: Renderer) -> tuple[np.ndarray, np.ndarray]:
     return r.read_hdr(), r.read_ldr()
 
 
+def assert_same_images(got: tuple[np.ndarray, np.ndarray], want: tuple[np.ndarray, np.ndarray]):
+    """HDR and display images equal bit for bit."""
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+
+
 def _set_camera(**changes) -> Callable[[Renderer], None]:
     return lambda r: r.set_camera(r.scene.camera.model_copy(update=changes))
 
@@ -211,8 +217,7 @@ def test_an_edit_builds_exactly_its_objects(gl_egl, name: str) -> None:
         want = images(fresh)
     finally:
         fresh.release()
-    np.testing.assert_array_equal(got[0], want[0])
-    np.testing.assert_array_equal(got[1], want[1])
+    assert_same_images(got, want)
 
 
 def test_builds_follow_the_schedule_order(gl_egl) -> None:
@@ -262,8 +267,7 @@ def test_a_refused_change_keeps_every_object(gl_egl, monkeypatch) -> None:
         again = images(r)
     finally:
         r.release()
-    np.testing.assert_array_equal(again[0], first[0])
-    np.testing.assert_array_equal(again[1], first[1])
+    assert_same_images(again, first)
 
 
 def test_hdr_is_read_from_the_frame_that_drew_it(gl_egl) -> None:
