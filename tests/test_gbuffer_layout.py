@@ -105,13 +105,13 @@ def test_locations_are_contiguous_and_named_by_the_defines(gl_egl, layout: GBuff
         g.release()
 
 
-WRITE_EACH = """#include "gbuffer/layout.glsl"
+WRITE_EACH = """
 GBUFFER_OUTPUTS
 void main() {{
 {writes}
 }}
 """
-SAMPLE_EACH = """#include "gbuffer/layout.glsl"
+SAMPLE_EACH = """
 GBUFFER_SAMPLERS
 out vec4 f_out;
 void main() {{

@@ -48,8 +48,9 @@ STORAGE_DTYPES = {"f16": "f2", "unorm16": "nu2", "f32": "f4"}
 
 def encoding_defines(encoding: str) -> dict[str, int]:
     """The defines of every pass that writes or decodes a G-buffer of ``encoding``
-    (gbuffer/layout.glsl): GBUFFER_UNORM_DIRECTIONS where the direction targets are unorm16
-    (their signed values then pass through snorm_to_unorm / unorm_to_snorm). Nothing for
+    (passes/gbuffer.frag, gbuffer/decode.glsl): GBUFFER_UNORM_DIRECTIONS where the
+    direction targets are unorm16 (their signed values then pass through snorm_to_unorm /
+    unorm_to_snorm). Nothing for
     float targets, so their programs compile exactly as before the encodings existed."""
     return {"GBUFFER_UNORM_DIRECTIONS": 1} if ENCODINGS[encoding][1] == "unorm16" else {}
 
@@ -77,7 +78,7 @@ class GBufferTarget:
     constant_channels: int
     surface_texel: int | None = None
     # The define that says the target exists (None: always), its value in a program that
-    # does not name it (gbuffer/layout.glsl), and whether a G-buffer without the target
+    # does not name it (the generated header sets it), and whether a G-buffer without the target
     # names it as 0 (else it is named only where present: the define came later, and the
     # programs of scenes without the target kept their defines).
     define: str | None = None

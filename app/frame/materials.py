@@ -134,7 +134,7 @@ class MaterialTable:
 
     def gbuffer_defines(self) -> dict[str, int]:
         """The G-buffer's optional targets as the defines of every pass that writes or
-        decodes it (gbuffer/layout.glsl): RT3 (tangent), RT4 (coat normal) and RT5
+        decodes it (app/common/gbuffer.py GBUFFER_TARGETS): RT3 (tangent), RT4 (coat normal) and RT5
         (emission and occlusion; named only where present, so that every other scene's
         programs compile exactly as before it existed)."""
         return optional_defines(

@@ -1,4 +1,4 @@
-// Reading one pixel of the G-buffer (gbuffer/layout.glsl) back as the ShadingPoint
+// Reading one pixel of the G-buffer (app/common/gbuffer.py GBUFFER_TARGETS) back as the ShadingPoint
 // (brdf/material.glsl) light_contribution takes: the surface, its model's numbers, the
 // shading frame, the view and the position.
 // The lighting pass and the bench's floor pass both call decode_gbuffer, so both shade the
@@ -10,15 +10,14 @@
 #include "common/position.glsl"
 #include "brdf/model.glsl"
 #include "brdf/material.glsl"
-#include "gbuffer/layout.glsl"
 
-// uniform sampler2D g_<target>; of every target present (gbuffer/layout.glsl)
+// uniform sampler2D g_<target>; of every target present (app/common/gbuffer.py GBUFFER_TARGETS)
 GBUFFER_SAMPLERS
 
 // RT0 and RT1 of pixel px as the G-buffer pass wrote them, before the unorm mapping and
 // sanitising: (base colour, metallic) and (octahedral normal, perceptual roughness, F0).
 // Under GBUFFER_CONSTANT_SURFACES the surface numbers are the texels of the pixel's
-// material-table row (gbuffer/layout.glsl): the same float32 numbers, 24 fewer bytes per
+// material-table row (app/common/gbuffer.py GBUFFER_TARGETS): the same float32 numbers, 24 fewer bytes per
 // pixel written and read. Twin: app/render/gbuffer.py GBuffer.read fills GBufferData alike
 // (GBufferTarget.surface_texel).
 void fetch_surface(ivec2 px, sampler2D materials, int material_id, out vec4 a, out vec4 b) {

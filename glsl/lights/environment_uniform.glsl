@@ -20,7 +20,6 @@
 
 #include "common/constants.glsl"
 #include "brdf/material.glsl"
-#include "gbuffer/layout.glsl"
 
 // Hammersley point i of m: ((i + 1/2) / m, the base-2 radical inverse of i). The radical
 // inverse reverses i's 32 bits (Warren's swaps), scaled by 2^-32.

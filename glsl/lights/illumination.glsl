@@ -6,7 +6,6 @@
 #define PBS_ILLUMINATION_GLSL
 
 #include "brdf/material.glsl"
-#include "gbuffer/layout.glsl"
 #include "lights/punctual.glsl"
 #include "lights/shadows.glsl"
 // For the masked loop only (TILE_QUADS), but included always: app/gl/shaders.py splices
@@ -31,7 +30,7 @@ uniform vec4 u_light_vec[3 * LIGHT_UNIFORMS];
 // f(l, v) c_light (n.l)+ of a light that sends c_light along l (towards it) to the point
 // sp (light i: its shadow map's index); sp.nc is the clear coat's normal (n where the coat
 // has none of its own). With GBUFFER_COAT_NORMAL (a coat of the scene has a normal other
-// than its base's: gbuffer/layout.glsl) a coated material's layers take their own cosines
+// than its base's: app/common/gbuffer.py GBUFFER_TARGETS) a coated material's layers take their own cosines
 // (brdf_eval_layered_cos in brdf/material.glsl).
 vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp) {
 #if SHADOWS

@@ -6,7 +6,6 @@
 #ifndef PBS_LAYERS_GLSL
 #define PBS_LAYERS_GLSL
 
-#include "gbuffer/layout.glsl"
 #include "geometry/analytic.glsl"
 #include "material/blend.glsl"
 #include "material/filtering.glsl"

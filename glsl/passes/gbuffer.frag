@@ -1,7 +1,6 @@
 // G-buffer pass, fragment stage: writes the material parameters of the nearest surface.
-// The targets: gbuffer/layout.glsl (docs/gbuffer.md).
+// The targets: app/common/gbuffer.py GBUFFER_TARGETS (docs/gbuffer.md).
 #include "common/encoding.glsl"
-#include "gbuffer/layout.glsl"
 #include "geometry/analytic.glsl"
 #include "material/layers.glsl"
 
@@ -17,7 +16,7 @@ in vec2 v_uv1;
 #endif
 
 // layout(location = i) out vecN g_<target>; of every target present, at the location
-// app/render/gbuffer.py binds it (gbuffer/layout.glsl). With constant surfaces the
+// app/render/gbuffer.py binds it (app/common/gbuffer.py GBUFFER_TARGETS). With constant surfaces the
 // material table's row carries the surface numbers: no g_base_color, g_normal a vec2.
 GBUFFER_OUTPUTS
 
