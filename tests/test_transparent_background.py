@@ -102,6 +102,61 @@ def test_edge_colours_are_not_darkened(scene: Path) -> None:
     assert np.abs(image[visible][:, :3] - inside).max() <= 1
 
 
+def test_plain_frame_alpha_is_the_coverage(scene: Path) -> None:
+    """Without supersampling (a frame that would fuse post into the lighting pass): alpha
+    is 255 exactly where the G-buffer has a surface, 0 elsewhere."""
+    with OffscreenRenderer(scene) as r:
+        r.set_settings(supersample=1)
+        image = r.render()
+        covered = r.channel("covered")
+    assert covered.any() and not covered.all()
+    np.testing.assert_array_equal(image[..., 3], np.where(covered, 255, 0))
+
+
+def test_depth_of_field_blurs_alpha_with_the_colour(scene: Path) -> None:
+    """An out-of-focus sphere: the gather spreads coverage as it spreads radiance, so the
+    blurred rim has fractional alpha and, every sample being the same emissive colour,
+    the straight colour is still the interior's."""
+    with OffscreenRenderer(scene) as r:
+        r.set_settings(supersample=1)
+        r.set_camera(aperture=0.4, focus_distance=12.0)
+        image = r.render().astype(np.int32)
+    alpha = image[..., 3]
+    rim = (alpha > 0) & (alpha < 255)
+    assert rim.sum() >= 40 and alpha[0, 0] == 0 and alpha[H // 2, W // 2] == 255
+    inside = image[H // 2, W // 2, :3]
+    assert np.abs(image[alpha >= 8][:, :3] - inside).max() <= 2
+
+
+def test_blended_part_over_nothing_has_its_alpha(tmp_path: Path) -> None:
+    """An alpha-blended pane (alpha 0.4) beside the sphere over empty space: its coverage
+    is 0.4 (alpha composited "over" as colour is), 1 where it is over the sphere."""
+    text = SCENE.replace("supersample = 2", "supersample = 1") + """
+[materials.pane]
+base_color = [0.0, 0.0, 0.0]
+emissive = [0.2, 0.5, 0.9]
+alpha = 0.4
+alpha_mode = "blend"
+[[objects]]
+shape = "box"
+size = [2.4, 0.5, 0.05]
+position = [0.0, 0.0, 1.2]
+material = "pane"
+"""
+    path = tmp_path / "pane.toml"
+    path.write_text(text, encoding="utf-8")
+    with OffscreenRenderer(path) as r:
+        image = r.render()
+        covered = r.channel("covered")
+    alpha = image[..., 3]
+    row = alpha[H // 2]
+    assert row[W // 2] == 255 and covered[H // 2, W // 2]
+    beside = ~covered[H // 2] & (row > 0)
+    assert beside.sum() >= 4, "the pane shows beside the sphere"
+    assert np.all(np.abs(row[beside].astype(int) - 102) <= 1)  # 0.4 x 255
+    assert alpha[0, 0] == 0
+
+
 def test_opaque_stays_rgb_with_alpha_one(scene: Path) -> None:
     """The default background: a 3-channel image, alpha 255 everywhere, the background
     colour where nothing is."""
