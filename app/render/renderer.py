@@ -897,7 +897,8 @@ class Renderer:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
         where the camera has an aperture (resolved to ``size``). Where the last frame
         fused post into the lighting pass, the HDR image is drawn now (``complete_hdr``:
-        one more lighting pass; ``want_hdr`` draws it with every frame instead)."""
+        one more lighting pass; ``want_hdr`` draws it with every frame instead). Where
+        ``transparent`` the radiance is premultiplied by the coverage (``read_hdr_rgba``)."""
         self.complete_hdr()
         if self.resolve is not None:
             return self.resolve.read()
