@@ -51,6 +51,21 @@ intensity = 0.0
 """
 
 
+# An alpha-blended pane in front of the sphere, wider than it.
+PANE = """
+[materials.pane]
+base_color = [0.0, 0.0, 0.0]
+emissive = [0.2, 0.5, 0.9]
+alpha = 0.4
+alpha_mode = "blend"
+[[objects]]
+shape = "box"
+size = [2.4, 0.5, 0.05]
+position = [0.0, 0.0, 1.2]
+material = "pane"
+"""
+
+
 @pytest.fixture
 def scene(tmp_path: Path) -> Path:
     path = tmp_path / "scene.toml"
@@ -66,7 +81,7 @@ def _coverage(covered: np.ndarray, factor: int) -> np.ndarray:
 
 def test_alpha_is_the_supersampled_coverage(scene: Path) -> None:
     """Alpha 255 inside the sphere, 0 in empty space, and at the silhouette exactly the
-    fraction of the 2 x 2 samples the G-buffer covered (rounded to 8 bits); the HDR
+    fraction of the 2 x 2 samples the G-buffer covered (to the nearest 8-bit step); the HDR
     image's alpha is that fraction in float."""
     with OffscreenRenderer(scene) as r:
         image = r.render()
@@ -80,7 +95,8 @@ def test_alpha_is_the_supersampled_coverage(scene: Path) -> None:
     edge = (coverage > 0.0) & (coverage < 1.0)
     assert edge.sum() >= 20, "a sphere's silhouette has fractional pixels at 2 x 2"
     assert np.all((alpha[edge] > 0) & (alpha[edge] < 255))
-    np.testing.assert_array_equal(alpha, np.rint(coverage * 255.0).astype(np.uint8))
+    # within one step: how a GL rounds a half (0.5 x 255) to unorm8 is its own choice
+    assert np.abs(alpha.astype(np.int32) - coverage * 255.0).max() <= 0.5 + 1e-6
     np.testing.assert_allclose(hdr[..., 3], coverage, atol=1e-6)
     assert np.all(hdr[coverage == 0.0] == 0.0), "the background colour leaked in"
 
@@ -131,18 +147,7 @@ def test_depth_of_field_blurs_alpha_with_the_colour(scene: Path) -> None:
 def test_blended_part_over_nothing_has_its_alpha(tmp_path: Path) -> None:
     """An alpha-blended pane (alpha 0.4) beside the sphere over empty space: its coverage
     is 0.4 (alpha composited "over" as colour is), 1 where it is over the sphere."""
-    text = SCENE.replace("supersample = 2", "supersample = 1") + """
-[materials.pane]
-base_color = [0.0, 0.0, 0.0]
-emissive = [0.2, 0.5, 0.9]
-alpha = 0.4
-alpha_mode = "blend"
-[[objects]]
-shape = "box"
-size = [2.4, 0.5, 0.05]
-position = [0.0, 0.0, 1.2]
-material = "pane"
-"""
+    text = SCENE.replace("supersample = 2", "supersample = 1") + PANE
     path = tmp_path / "pane.toml"
     path.write_text(text, encoding="utf-8")
     with OffscreenRenderer(path) as r:
@@ -214,7 +219,7 @@ def test_cli_writes_rgba_png_and_hdr_with_alpha(scene: Path, tmp_path: Path) -> 
     assert np.any((alpha > 0) & (alpha < 255))
     from_npy = np.load(npy)
     assert from_npy.shape == (H, W, 4)
-    np.testing.assert_array_equal(np.rint(from_npy[..., 3] * 255.0), alpha)
+    assert np.abs(from_npy[..., 3] * 255.0 - alpha).max() <= 0.5 + 1e-6
     import OpenEXR
 
     with OpenEXR.File(str(exr)) as f:
