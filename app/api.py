@@ -250,11 +250,13 @@ class OffscreenRenderer:
     # --- the frame and its read-backs ----------------------------------------------------------
 
     def render(self) -> np.ndarray:
-        """Run every pass; returns the display image, (H, W, 3) uint8 sRGB."""
+        """Run every pass; returns the display image, (H, W, 3) uint8 sRGB, or with
+        ``render.background = "transparent"`` (H, W, 4): straight alpha, the antialiased
+        coverage (``ldr``)."""
         r = self._live()
         r.render()
         self._frame = True
-        return r.read_ldr()
+        return r.read_image()
 
     def _rendered(self) -> Renderer:
         r = self._live()
@@ -263,8 +265,11 @@ class OffscreenRenderer:
         return r
 
     def ldr(self) -> np.ndarray:
-        """The display image (tone mapped, sRGB-encoded), (H, W, 3) uint8."""
-        return self._rendered().read_ldr()
+        """The display image (tone mapped, sRGB-encoded), (H, W, 3) uint8; with
+        ``render.background = "transparent"`` (``set_settings(background="transparent")``)
+        (H, W, 4), the fourth channel straight (not premultiplied) alpha: the coverage,
+        fractional at edges under supersampling, as a PNG stores it."""
+        return self._rendered().read_image()
 
     def want_hdr(self, wanted: bool = True) -> None:
         """Ask that every following ``render()`` also draw the HDR image, for a caller
@@ -275,8 +280,9 @@ class OffscreenRenderer:
 
     def hdr(self) -> np.ndarray:
         """Linear HDR radiance before exposure and tone mapping, (H, W, 3) float32
-        (``want_hdr`` when it is read every frame)."""
-        return self._rendered().read_hdr()
+        (``want_hdr`` when it is read every frame); with a transparent background (H, W, 4),
+        the radiance premultiplied by the coverage in the fourth channel."""
+        return self._rendered().read_hdr_image()
 
     def gbuffer(self) -> GBufferData:
         """Every G-buffer target as stored (octahedral directions), at ``render_size``."""

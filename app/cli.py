@@ -205,6 +205,13 @@ def _parser() -> argparse.ArgumentParser:
         "more at the sides)",
     )
     render.add_argument("--hdr", help="also write the linear HDR image (.exr or .npy)")
+    render.add_argument(
+        "--background",
+        choices=("opaque", "transparent"),
+        help="transparent: an RGBA PNG whose alpha is the antialiased coverage (straight "
+        "alpha), and an --hdr image with premultiplied RGB and A; opaque: the scene's "
+        "background (default: the scene's render.background)",
+    )
     _gl_backend(render)
     render.add_argument(
         "--debug",
@@ -563,6 +570,10 @@ def cmd_render(args: argparse.Namespace) -> int:
             from app.frame.camera import fit_scene
 
             loaded = fit_scene(loaded, args.size)
+        if args.background is not None:
+            from app.scene.edits import edited
+
+            loaded = edited(loaded, {"render.background": args.background}, "--background")
         if args.compare is not None:
             return _render_comparison(args, loaded, out, start, inputs)
         for option, value in (
@@ -591,8 +602,8 @@ def cmd_render(args: argparse.Namespace) -> int:
         )  # fmt: skip
     renderer.want_hdr(bool(args.hdr))  # both images from one HDR lighting pass
     renderer.render()
-    ldr = renderer.read_ldr()
-    hdr = renderer.read_hdr() if args.hdr else None
+    ldr = renderer.read_image()  # RGBA with a transparent background
+    hdr = renderer.read_hdr_image() if args.hdr else None
     report = None
     if args.debug is not None:
         ldr, report = _debug_image(renderer, args.debug, light, out, scene_file)
@@ -621,7 +632,11 @@ def _render_comparison(
     from app.gl.context import create_context
     from app.render.compare import Comparison, divider_column, parse_compare
 
-    for option, value in (("--hdr", args.hdr), ("--debug", args.debug)):
+    for option, value in (
+        ("--hdr", args.hdr),
+        ("--debug", args.debug),
+        ("--background", args.background),
+    ):
         if value is not None:
             raise InputError(option, "", "does not combine with --compare")
     mode = args.compare_mode or "split"

@@ -1,4 +1,8 @@
-"""Writing images without leaving partial files: temp file in the same folder, then rename."""
+"""Writing images without leaving partial files: temp file in the same folder, then rename.
+
+An image with a fourth channel carries alpha (a transparent background, docs/architecture.md
+"Alpha"): a PNG's is straight (PNG stores colour not premultiplied), an HDR file's is
+premultiplied radiance plus coverage (OpenEXR's convention, kept for .npy)."""
 
 from __future__ import annotations
 
@@ -35,15 +39,24 @@ def atomic_write(path: Path, write: Callable[[Path], None]) -> None:
         raise
 
 
-def write_png(path: Path, rgb: np.ndarray) -> None:
-    """(H, W, 3) uint8 -> PNG."""
-    atomic_write(path, lambda tmp: Image.fromarray(rgb, "RGB").save(tmp, format="PNG"))
+def write_png(path: Path, image: np.ndarray) -> None:
+    """(H, W, 3) uint8 -> RGB PNG; (H, W, 4) uint8 (sRGB colour, straight alpha) -> RGBA PNG."""
+    mode = _png_mode(image)
+    atomic_write(path, lambda tmp: Image.fromarray(image, mode).save(tmp, format="PNG"))
+
+
+def _png_mode(image: np.ndarray) -> str:
+    """PIL's mode of an (H, W, 3) or (H, W, 4) uint8 image; ValueError for another shape."""
+    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] not in (3, 4):
+        raise ValueError(f"expected (H, W, 3) or (H, W, 4) uint8, got {image.shape} {image.dtype}")
+    return "RGB" if image.shape[2] == 3 else "RGBA"
 
 
 def _write_exr(tmp: Path, hdr: np.ndarray) -> None:
     import OpenEXR
 
-    channels = {"RGB": np.ascontiguousarray(hdr[..., :3], dtype=np.float32)}
+    name = "RGBA" if hdr.shape[-1] == 4 else "RGB"  # A: coverage, RGB premultiplied by it
+    channels = {name: np.ascontiguousarray(hdr[..., : len(name)], dtype=np.float32)}
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     try:
         with OpenEXR.File(header, channels) as f:
@@ -53,7 +66,8 @@ def _write_exr(tmp: Path, hdr: np.ndarray) -> None:
 
 
 def write_hdr(path: Path, hdr: np.ndarray) -> None:
-    """(H, W, 3) float32 linear radiance -> OpenEXR (.exr) or numpy (.npy)."""
+    """(H, W, 3) float32 linear radiance, or (H, W, 4) radiance premultiplied by the
+    coverage in the fourth channel -> OpenEXR (.exr; channels R, G, B[, A]) or numpy (.npy)."""
     path = Path(path)
     if path.suffix == ".npy":
         atomic_write(path, lambda tmp: np.save(tmp, np.asarray(hdr, np.float32)))

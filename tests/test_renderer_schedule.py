@@ -142,6 +142,8 @@ CASES: dict[str, tuple[Callable[[Renderer], None], set[str]]] = {
         {"gbuffer_pass", "shadows", "lighting", "blend"},
     ),
     "tonemap": (_set_render(tonemap="aces"), {"post"}),
+    # post un-premultiplies and writes alpha; the environment is no longer drawn behind
+    "transparent background": (_set_render(background="transparent"), {"post", "background"}),
     "terms": (_set_render(terms="specular"), {"lighting"}),
     "light culling": (_set_render(light_culling="none"), {"culler", "lighting"}),
     # the size: everything sized as the image; the geometry, maps and environment stay

@@ -122,6 +122,11 @@ def _supersample(d: dict) -> None:
     d["render"]["supersample"] = 2
 
 
+def _transparent(d: dict) -> None:
+    d["render"]["background"] = "transparent"  # straight-alpha post, no fused frame
+    d["camera"]["target"] = [0.0, 6.0, -10.0]  # the floor fills the base view: show the sky
+
+
 def _background(d: dict) -> None:
     d["background"] = [0.3, 0.1, 0.05]
     d["camera"]["target"] = [0.0, 6.0, -10.0]  # the floor fills the base view: show the sky
@@ -143,6 +148,7 @@ EDITS = {
     "material blended": _material_blended,
     "supersample": _supersample,
     "background": _background,
+    "transparent background": _transparent,
 }
 
 

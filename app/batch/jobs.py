@@ -19,6 +19,7 @@ is missing or broken fails its own job (its manifest line), never the others.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from dataclasses import dataclass, field
@@ -36,7 +37,8 @@ from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.untrusted.structured import parse_json, parse_toml
 
 KINDS = ("orbit", "sweep", "scenes")
-_TOP_KEYS = {"scene", "size", *KINDS}
+_TOP_KEYS = {"scene", "size", "background", *KINDS}
+BACKGROUNDS = ("opaque", "transparent")  # render.background's values
 MAX_JOBS = 100_000  # a typo in a count must not plan a billion images
 
 
@@ -59,6 +61,7 @@ class Job:
     value: object = None
     expected: tuple[int, int] | None = None
     policy: InputPolicy = field(default=DEFAULT_POLICY, compare=False)
+    background: str | None = None  # render.background over the scene's (RGBA: transparent)
 
 
 @dataclass(frozen=True)
@@ -274,5 +277,13 @@ def plan_jobs(path: str | Path, out: str | Path, policy: InputPolicy = DEFAULT_P
     if len(kinds) != 1:
         raise _bad(file, "", f"expected exactly one of {', '.join(KINDS)}, found {len(kinds)}")
     size = _size(file, data["size"]) if "size" in data else None
+    background = data.get("background")
+    if background is not None and background not in BACKGROUNDS:
+        raise _bad(
+            file, "background", f"expected one of {', '.join(BACKGROUNDS)}, got {background!r}"
+        )
     make = {"orbit": _orbit, "sweep": _sweep, "scenes": _scenes}[kinds[0]]
-    return Plan(str(file), kinds[0], make(file, data, Path(out), size, policy))
+    jobs = make(file, data, Path(out), size, policy)
+    if background is not None:
+        jobs = [dataclasses.replace(job, background=background) for job in jobs]
+    return Plan(str(file), kinds[0], jobs)

@@ -81,6 +81,9 @@ def _show(renderer: Renderer, base: LoadedScene, job: Job) -> None:
         scene = scene.model_copy(update={"camera": Camera.model_validate(job.camera)})
     elif job.key is not None:
         scene = edited(base, {job.key: job.value}, "sweep").scene
+    if job.background is not None:  # the job file's background, over the scene's
+        settings = scene.render.model_copy(update={"background": job.background})
+        scene = scene.model_copy(update={"render": settings})
     renderer.update(scene)
 
 
@@ -106,7 +109,7 @@ def run_job(job: Job, backend: str = "auto") -> dict:
         renderer, base = _renderer(warm, job)
         _show(renderer, base, job)
         renderer.render()
-        write_png(Path(job.output), renderer.read_ldr())
+        write_png(Path(job.output), renderer.read_image())  # RGBA: a transparent background
         status, error = "ok", None
     except Exception as exc:  # a failed job is a manifest line, never the batch's end
         status, error = "failed", _one_line(exc)

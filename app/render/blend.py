@@ -166,9 +166,10 @@ class BlendPass:
         ctx.enable_only(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.depth_func = "<"
         fbo.depth_mask = False  # tested against the opaque surfaces, never written
-        # RGB "over"; the target's alpha (1 everywhere) is kept.
+        # RGB "over"; alpha (coverage: 1 on opaque surfaces, 0 on a transparent background)
+        # "over" too, a_src + (1 - a_src) a_dst, so the target stays premultiplied RGBA.
         over = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
-        ctx.blend_func = (*over, moderngl.ZERO, moderngl.ONE)
+        ctx.blend_func = (*over, moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
         ctx.blend_equation = moderngl.FUNC_ADD
         view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
         image_size = tuple(float(x) for x in size)

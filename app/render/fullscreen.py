@@ -45,6 +45,17 @@ def read_rgb(
     return out
 
 
+def read_rgba(fbo: moderngl.Framebuffer, size: tuple[int, int], dtype: str) -> np.ndarray:
+    """``fbo``'s first attachment with its alpha, (H, W, 4) float32 ("f4") or uint8
+    ("f1"), rows top to bottom (a transparent background's image, docs/architecture.md
+    "Alpha")."""
+    w, h = size
+    wait_before_read(fbo.ctx)
+    item = np.dtype(np.float32 if dtype == "f4" else np.uint8)
+    data = fbo.read(components=4, alignment=1, dtype=dtype)
+    return np.ascontiguousarray(np.frombuffer(data, item, h * w * 4).reshape(h, w, 4)[::-1])
+
+
 class FullscreenPass:
     """A full-screen pass of glsl/``fragment`` (with ``defines``) into its own RGBA target
     of ``size`` (``dtype`` "f4": linear HDR, NEAREST; "f1": the 8-bit display image)."""

@@ -225,10 +225,12 @@ class LightingPass:
 
     def run(self, gbuffer: GBuffer, camera: CameraFrame, background: np.ndarray) -> None:
         """The HDR image: ``background`` where ``gbuffer`` has no surface, the radiance of
-        every surface pixel elsewhere."""
+        every surface pixel elsewhere (alpha 1). ``background``: RGB (alpha 1), or RGBA:
+        (0, 0, 0, 0) for a transparent background (docs/architecture.md, "Alpha")."""
         self.fbo.use()
         self.ctx.viewport = (0, 0, *self.size)
-        self.fbo.clear(*(float(x) for x in background), 1.0)  # pixels no surface covers
+        clear = [float(x) for x in background]
+        self.fbo.clear(*clear, *([1.0] if len(clear) == 3 else []))  # pixels no surface covers
         self._shade(self.draws, self._z_target(gbuffer), camera)
 
     def run_display(

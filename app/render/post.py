@@ -15,12 +15,24 @@ __all__ = ["DofPass", "DownsamplePass", "PostPass", "read_rgb"]  # read_rgb: mov
 
 
 class PostPass(FullscreenPass):
-    """HDR texture -> RGBA8 display image: exposure (2^EV), tone map, sRGB encoding."""
+    """HDR texture -> RGBA8 display image: exposure (2^EV), tone map, sRGB encoding.
+
+    ``straight_alpha`` (a transparent background): the HDR image is RGBA premultiplied by
+    coverage; the pass divides the colour by alpha before exposure and the tone map and
+    writes that alpha, straight, as the display image's (passes/post.frag,
+    docs/architecture.md "Alpha"). Without it alpha is 1 and the program is unchanged."""
 
     def __init__(
-        self, ctx: moderngl.Context, shaders: ShaderCache, size: tuple[int, int], tonemap: str
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        tonemap: str,
+        straight_alpha: bool = False,
     ) -> None:
         defines = {"TONEMAP": TONEMAP_CODE[tonemap]}
+        if straight_alpha:
+            defines["STRAIGHT_ALPHA"] = 1
         super().__init__(ctx, shaders, "passes/post.frag", defines, size, dtype="f1")
         # run_on_surfaces's program on the far plane (compiled with the pass, so that a
         # frame that first needs it compiles nothing), its triangle made at first use

@@ -45,6 +45,7 @@ from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller, check_tile_masks, tiles_used
+from app.render.fullscreen import read_rgba
 from app.render.gbuffer import FLUSH_TRIANGLES, GBuffer, GBufferPass
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.inputs import ShadingContext, shading_context
@@ -315,6 +316,13 @@ class Renderer:
         return self.matrices.frame
 
     @property
+    def transparent(self) -> bool:
+        """``render.background = "transparent"``: pixels no surface covers hold nothing
+        (alpha 0), the HDR image is RGBA premultiplied by coverage and the display image
+        RGBA with straight alpha (``read_rgba``; docs/architecture.md, "Alpha")."""
+        return self.scene.render.background == "transparent"
+
+    @property
     def fuse_post(self) -> bool:
         """``options.fuse_post`` (read-only: change it with ``set_options``)."""
         return self.options.fuse_post
@@ -530,9 +538,10 @@ class Renderer:
         return BlendPass(self.gl.ctx, drawables, self.shading)
 
     def _key_background(self) -> Hashable:
-        """The environment behind the objects, only where ``[environment] background``."""
+        """The environment behind the objects, only where ``[environment] background``
+        and the background is not transparent (which leaves those pixels empty)."""
         env = self.scene.environment
-        if env is None or not env.background:
+        if env is None or not env.background or self.transparent:
             return None
         return self._environment_key()
 
@@ -563,10 +572,12 @@ class Renderer:
         return DownsamplePass(self.gl.ctx, self.shaders, self.size, factor)
 
     def _key_post(self) -> Hashable:
-        return (self.size, self.scene.render.tonemap)
+        return (self.size, self.scene.render.tonemap, self.transparent)
 
     def _build_post(self) -> PostPass:
-        return PostPass(self.gl.ctx, self.shaders, self.size, self.scene.render.tonemap)
+        return PostPass(
+            self.gl.ctx, self.shaders, self.size, self.scene.render.tonemap, self.transparent
+        )
 
     # --- the scheduler ------------------------------------------------------------------------
 
@@ -805,9 +816,11 @@ class Renderer:
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of
-        field, resolve, blended parts or environment background."""
+        field, resolve, blended parts or environment background; and an opaque background,
+        whose display value the fused and surface-only post passes clear to (a transparent
+        one has the post pass write every pixel's alpha)."""
         extra = (self.dof, self.resolve, self.blend, self.background)
-        return all(x is None for x in extra)
+        return all(x is None for x in extra) and not self.transparent
 
     @property
     def fused_display(self) -> bool:
@@ -823,6 +836,8 @@ class Renderer:
         image; ``read_hdr`` and ``hdr_texture`` draw it on demand (``complete_hdr``;
         docs/performance.md, "The fused display image", measures the frame)."""
         background = np.asarray(self.scene.background, np.float64)
+        if self.transparent:  # RGBA: no radiance, no coverage
+            background = np.zeros(4, np.float64)
         if self.fused_display:
             exposure = self.scene.camera.exposure
             bg = tuple(float(x) for x in background)
@@ -882,7 +897,8 @@ class Renderer:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
         where the camera has an aperture (resolved to ``size``). Where the last frame
         fused post into the lighting pass, the HDR image is drawn now (``complete_hdr``:
-        one more lighting pass; ``want_hdr`` draws it with every frame instead)."""
+        one more lighting pass; ``want_hdr`` draws it with every frame instead). Where
+        ``transparent`` the radiance is premultiplied by the coverage (``read_hdr_rgba``)."""
         self.complete_hdr()
         if self.resolve is not None:
             return self.resolve.read()
@@ -891,6 +907,30 @@ class Renderer:
     def read_ldr(self) -> np.ndarray:
         """The display image, (H, W, 3) uint8 sRGB."""
         return self.post.read()
+
+    def read_rgba(self) -> np.ndarray:
+        """The display image with its alpha, (H, W, 4) uint8: sRGB colour and straight
+        (not premultiplied) linear alpha, the antialiased coverage where ``transparent``
+        (alpha 255 everywhere otherwise)."""
+        return read_rgba(self.post.fbo, self.size, "f1")
+
+    def read_hdr_rgba(self) -> np.ndarray:
+        """``read_hdr`` with the HDR image's alpha, (H, W, 4) float32: where
+        ``transparent``, radiance premultiplied by coverage and the coverage (OpenEXR's
+        convention); alpha 1 everywhere otherwise."""
+        self.complete_hdr()
+        source = self.resolve or self.dof or self.lighting
+        return read_rgba(source.fbo, self.size, "f4")
+
+    def read_image(self) -> np.ndarray:
+        """What a PNG of the frame holds: ``read_rgba`` where ``transparent``, else
+        ``read_ldr``."""
+        return self.read_rgba() if self.transparent else self.read_ldr()
+
+    def read_hdr_image(self) -> np.ndarray:
+        """What an HDR file of the frame holds: ``read_hdr_rgba`` where ``transparent``,
+        else ``read_hdr``."""
+        return self.read_hdr_rgba() if self.transparent else self.read_hdr()
 
     def read_gbuffer(self) -> GBufferData:
         """The G-buffer's targets (with constant surfaces, the surface numbers from the

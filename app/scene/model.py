@@ -164,6 +164,10 @@ class RenderSettings(_Strict):
     # RTR4 §9.1: the surface (specular) and subsurface (diffuse) reflections as
     # separate contributions: both, or one of them alone.
     terms: Literal["all", "specular", "diffuse"] = "all"
+    # What pixels no surface covers hold: "opaque", the scene's background colour (or its
+    # environment, [environment] background = true); "transparent", nothing: alpha is the
+    # antialiased coverage, and the PNG is RGBA with straight alpha (docs/scene-format.md).
+    background: Literal["opaque", "transparent"] = "opaque"
 
     @model_validator(mode="after")
     def _check(self) -> RenderSettings:

@@ -1,7 +1,9 @@
 // Depth of field: each pixel's radiance scattered over its circle of confusion, written as
 // a gather over a fixed disc of DOF_SAMPLES offsets (app/reference/dof.py explains the
 // weights). Linear HDR in, linear HDR out: the blur happens before exposure and tone
-// mapping, as a lens would.
+// mapping, as a lens would. All four channels with the same weights: the HDR image is
+// premultiplied by coverage (alpha), so a transparent background's alpha is the coverage
+// blurred as the colour is (docs/architecture.md, "Alpha").
 #include "common/constants.glsl"
 #include "post/dof.glsl"
 
@@ -32,7 +34,7 @@ void main() {
     float zi = depth_or_far(z);
     float ri = coc_radius(z, u_aperture, u_focus, u_scale, u_max_coc);
     float wi = disc_weight(ri);
-    vec3 acc = texelFetch(u_hdr, px, 0).rgb * wi;
+    vec4 acc = texelFetch(u_hdr, px, 0) * wi;
     float total = wi;
     for (int k = 0; k < DOF_SAMPLES; ++k) {
         ivec2 o = u_offsets[k];
@@ -41,8 +43,8 @@ void main() {
         float rj = coc_radius(zj_raw, u_aperture, u_focus, u_scale, u_max_coc);
         if (depth_or_far(zj_raw) > zi) rj = min(rj, ri);   // behind: no bleeding forwards
         float wj = length(vec2(o)) <= rj ? disc_weight(rj) : 0.0;
-        acc += texelFetch(u_hdr, q, 0).rgb * wj;
+        acc += texelFetch(u_hdr, q, 0) * wj;
         total += wj;
     }
-    frag_color = vec4(acc / total, 1.0);
+    frag_color = acc / total;
 }
