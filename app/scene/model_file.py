@@ -13,7 +13,8 @@ builds (every node transform applied), so it frames what will be drawn:
 - near and far planes bracket the model's bounding sphere;
 - the look: the bundled studio (or another environment; ``default_environment``) as
   image-based light, one spot key light from above the camera's left shoulder with PCSS
-  soft shadows (``key_light``), or the glTF file's own KHR_lights_punctual lights where
+  soft shadows (``key_light``) and a fill light two stops under it from the camera's
+  right (``fill_light``), or the glTF file's own KHR_lights_punctual lights where
   it has any (``file_lights_note``), and the neutral tone map at the exposure metered for
   the asset (``metered_exposure``);
 - the backdrop: under the studio, a light neutral grey of its own (``BACKDROP``, set in
@@ -54,6 +55,7 @@ __all__ = [
     "VIEWS",
     "Look",
     "default_environment",
+    "fill_light",
     "framed",
     "is_model_file",
     "key_light",
@@ -80,6 +82,7 @@ MARGIN = 1.08  # the bounding sphere's angular radius times this fits the narrow
 EXPOSURE = -1.5  # EV: the studio's boxes and the key light on a light grey stay below white
 KEY_INTENSITY = 1.5  # the key light's radiance scale (c_light)
 KEY_DISTANCE = 4.0  # the key light's distance from the model's centre, in its radii
+FILL_RATIO = 0.25  # the fill light's radiance scale to the key's: 2 stops under it
 STUDIO_MEAN = 0.37  # the bundled studio's mean texel radiance
 STUDIO_TURN = 200.0  # the studio's rotation that puts its key box behind a +Z camera's left
 # Reflected-light metering (``metered_exposure``): the asset's mean albedo against a mid
@@ -155,6 +158,22 @@ def key_light(centre: np.ndarray, radius: float, azimuth: float) -> dict[str, An
         "shadow": True,
         "shadow_filter": "pcss",
         "shadow_light_radius": min(0.1 * radius, 10.0),
+    }
+
+
+def fill_light(azimuth: float) -> dict[str, Any]:
+    """The default look's fill light: a directional light from the camera's right (60
+    degrees to its right, 20 up), ``FILL_RATIO`` of the key's radiance, slightly cool and
+    shadowless, so that the faces the key light leaves to the studio's dark backdrop are
+    lifted, as the key-and-fill pair the glTF Sample Viewer lights a file without lights
+    with, and as a product photographer's fill card does."""
+    az, el = math.radians(azimuth + 60.0), math.radians(20.0)
+    towards = np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
+    return {
+        "type": "directional",
+        "direction": [float(-v) for v in towards],
+        "color": [0.92, 0.96, 1.0],
+        "intensity": KEY_INTENSITY * FILL_RATIO,
     }
 
 
@@ -344,7 +363,8 @@ def _lit(
     centre, radius = _sphere(_surface_points(parts))
     lights = _dumped(loaded).get("lights", [])
     if not file_lights:
-        lights = [*lights, key_light(centre, radius, look.angles()[0])]
+        azimuth = look.angles()[0]
+        lights = [*lights, key_light(centre, radius, azimuth), fill_light(azimuth)]
     keyed = _with(loaded, lights=lights)
     incident = exposure_for(keyed, centre if file_lights else None)
     exposure = metered_exposure(incident, mean_albedo(parts))
@@ -393,7 +413,7 @@ def model_scene(
         if file_lights:
             _LOG.warning(
                 "%s: lit by its own %d KHR_lights_punctual light(s) and the %s environment "
-                "instead of the default key light",
+                "instead of the default key and fill lights",
                 path,
                 len(loaded.scene.lights),
                 look.env if look.env in ENVIRONMENTS else "image",
@@ -463,8 +483,9 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
     if camera:
         size = (result.scene.render.width, result.scene.render.height)
         return framed(result, look, size, lit=lighting, parts=parts)
-    key = key_light(*_sphere(_surface_points(parts)), look.angles()[0])
-    tables: dict[str, Any] = {"lights": [key]}  # the scene's own camera and exposure kept
+    azimuth = look.angles()[0]
+    key = key_light(*_sphere(_surface_points(parts)), azimuth)
+    tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
     if look.env == "studio" and "background" not in result.scene.model_fields_set:
         exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
         tables["background"] = [backdrop_radiance(exposure, tone)] * 3
