@@ -186,7 +186,7 @@ def _surface_points(parts: list[MeshPart]) -> np.ndarray:
 def _part_albedo(part: MeshPart) -> tuple[float, float]:
     """(luminance of the part's mean base colour, its world-space area): the base colour
     factor times its map (and vertex colours) at each triangle's centroid, weighted by the
-    triangle's area."""
+    triangle's area (the map's UV transform left out: a meter's estimate)."""
     v = part.vertices.astype(np.float64)
     tri = part.indices.reshape(-1, 3)
     if len(tri) == 0:
@@ -207,7 +207,8 @@ def _part_albedo(part: MeshPart) -> tuple[float, float]:
         uv = v[tri, 6:8].mean(axis=1) * np.array(layer.uv_scale)
         col = (np.floor(np.mod(uv[:, 0], 1.0) * w).astype(np.int64)).clip(0, w - 1)
         row = (np.floor(np.mod(1.0 - uv[:, 1], 1.0) * h).astype(np.int64)).clip(0, h - 1)
-        texels = pixels[row, col, :3].astype(np.float64)
+        texels = pixels[row, col].reshape(len(tri), -1).astype(np.float64)
+        texels = texels[:, :3] if texels.shape[1] >= 3 else texels[:, :1]  # grey (+ alpha)
         if pixels.dtype == np.uint8:
             texels /= 255.0
         colour = colour * (srgb_decode(texels) if texture.srgb else texels)
