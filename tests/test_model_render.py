@@ -319,3 +319,16 @@ def test_backdrop_is_one_light_grey_whatever_the_exposure() -> None:
             exposures.append(r.scene.camera.exposure)
         assert np.all(np.abs(background - 255.0 * BACKDROP) <= 2.0), model.name
     assert abs(exposures[0] - exposures[1]) > 0.2, exposures
+
+
+@pytest.mark.parametrize("tonemap", ["linear", "neutral", "aces", "reinhard"])
+def test_backdrop_radiance_inverts_the_post_pass(tonemap: str) -> None:
+    """The backdrop's radiance shows as BACKDROP through the post pass's twin at every
+    exposure the metering may choose, under every tone map."""
+    from app.reference.tonemap import post_process
+    from app.scene.model_file import BACKDROP, backdrop_radiance
+
+    for exposure in (-8.0, -2.0, -0.7, 0.0, 3.0):
+        radiance = backdrop_radiance(exposure, tonemap)
+        shown = post_process(np.full(3, radiance), exposure, tonemap)
+        assert np.allclose(shown, BACKDROP, atol=1e-9), (exposure, shown)
