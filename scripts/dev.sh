@@ -83,7 +83,7 @@ case "$cmd" in
     render)
         setup
         mkdir -p screenshots
-        "$VENV/bin/pbs" render scenes/showcase.toml -o screenshots/showcase.png ;;
+        "$VENV/bin/pbs" render scenes/product_shot.toml -o screenshots/product_shot.png ;;
     shots)
         setup
         "$VENV/bin/python" -m app.screenshots ;;

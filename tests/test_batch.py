@@ -265,3 +265,62 @@ def test_output_folder_made_with_parents(
     assert main(["batch", str(jobs), "-o", str(tmp_path / "plain" / "frames"), "-q"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "-o: cannot write" in err
+
+
+MESHES = Path(__file__).resolve().parent.parent / "scenes" / "meshes"
+
+
+@pytest.mark.gl
+def test_model_file_jobs_match_pbs_render(tmp_path: Path) -> None:
+    """A job file names a model file directly, as ``scene`` (an orbit, with a look) and in
+    a ``scenes`` list: frame 0 and the list's image equal ``pbs render MODEL`` with the
+    same options byte for byte, and the orbit's second frame shows another side."""
+    model = tmp_path / "teapot.obj"
+    model.write_bytes((MESHES / "teapot.obj").read_bytes())
+    orbit = _jobs(
+        tmp_path,
+        'scene = "teapot.obj"\nsize = "64x48"\nlook = { view = "front", elevation = 10 }\n'
+        "orbit = { frames = 2, degrees = 90 }\n",
+        "orbit.toml",
+    )
+    listed = _jobs(tmp_path, 'scenes = ["teapot.obj"]\nsize = [64, 48]\n', "list.toml")
+    for jobs, argv, image in (
+        (orbit, ["--view", "front", "--elevation", "10"], "frame-0000.png"),
+        (listed, [], "0000-teapot.png"),
+    ):
+        out = tmp_path / jobs.stem
+        assert main(["batch", str(jobs), "-o", str(out), "-q"]) == 0
+        assert all(line["status"] == "ok" for line in _manifest(out).values())
+        expected = tmp_path / f"{jobs.stem}.png"
+        render = ["render", str(model), "-o", str(expected), "--size", "64x48", "-q"]
+        assert main([*render, *argv]) == 0
+        assert (out / image).read_bytes() == expected.read_bytes(), jobs.name
+    frames = [(tmp_path / "orbit" / f"frame-{k:04d}.png").read_bytes() for k in range(2)]
+    assert frames[0] != frames[1]
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ('scene = "teapot.obj"\nlook = { view = "sideways" }\norbit = { frames = 1 }\n',
+         "look.view"),
+        ('scene = "teapot.obj"\nlook = { zoom = 2 }\norbit = { frames = 1 }\n', "look.zoom"),
+        ('scene = "teapot.obj"\nlook = { env = "room.png" }\norbit = { frames = 1 }\n',
+         "look.env"),
+        ('scene = "teapot.obj"\nlook = { env = "../room.hdr" }\norbit = { frames = 1 }\n',
+         "look.env"),
+        ('scene = "teapot.obj"\nlook = { azimuth = 400 }\norbit = { frames = 1 }\n',
+         "look.azimuth"),
+    ],
+)  # fmt: skip
+def test_bad_model_look_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture, text: str, key: str
+) -> None:
+    """A bad ``look`` is one line naming the job file and the key, nothing rendered."""
+    (tmp_path / "teapot.obj").write_bytes((MESHES / "teapot.obj").read_bytes())
+    jobs = _jobs(tmp_path, text)
+    out = tmp_path / "out"
+    assert main(["batch", str(jobs), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(jobs) in err and key in err, err
+    assert not out.exists()

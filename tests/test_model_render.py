@@ -260,3 +260,75 @@ def test_look_options_on_a_scene_with_camera_and_lights_are_refused(tmp_path: Pa
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "teapot.toml" in lines[0] and "gives its own camera" in lines[0]
     assert not out.exists()
+
+
+def _lamp(folder: Path, intensity: float) -> Path:
+    """A glTF box with one KHR_lights_punctual point light of ``intensity`` candela in
+    front of it and above (trimesh writes the box; the light is added to its JSON)."""
+    import pygltflib
+
+    glb = folder / "box.glb"
+    trimesh.creation.box((1.0, 1.0, 1.0)).export(glb)
+    doc = pygltflib.GLTF2().load(str(glb))
+    doc.extensions = {"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1.0, 0.9, 0.8], "intensity": intensity}
+    ]}}  # fmt: skip
+    doc.extensionsUsed = [*(doc.extensionsUsed or []), "KHR_lights_punctual"]
+    light = pygltflib.Node(translation=[1.0, 2.0, 2.0], extensions={"KHR_lights_punctual": {
+        "light": 0}})  # fmt: skip
+    doc.nodes.append(light)
+    doc.scenes[doc.scene or 0].nodes.append(len(doc.nodes) - 1)
+    path = folder / f"lamp-{intensity:g}.glb"
+    doc.save(str(path))
+    return path
+
+
+def test_a_file_with_lights_is_lit_by_them(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A glTF file's own KHR_lights_punctual light replaces the key light (the studio
+    stays), one note says so, the exposure follows how bright the light is, and the box
+    renders lit by it."""
+    dim, bright = _lamp(tmp_path, 10.0), _lamp(tmp_path, 160.0)
+    with caplog.at_level("WARNING", logger="pbs.scene"):
+        scene = scene_from(dim, size=(W, H)).scene
+    notes = [r.getMessage() for r in caplog.records if "KHR_lights_punctual" in r.getMessage()]
+    assert len(notes) == 1 and dim.name in notes[0], notes
+    assert [light.type for light in scene.lights] == ["point"]  # no key spot light
+    assert scene.environment is not None and scene.environment.source == "studio"
+    brighter = scene_from(bright, size=(W, H)).scene.camera.exposure
+    assert scene.camera.exposure - brighter > 1.0, (scene.camera.exposure, brighter)
+    with OffscreenRenderer(dim, size=(W, H)) as r:
+        r.render()
+        covered = r.depth() > 0.0
+        image = r.ldr().astype(np.float64)
+    _check_framed_and_lit(covered, image, dim.name)
+
+
+def test_backdrop_is_one_light_grey_whatever_the_exposure() -> None:
+    """Under the studio the pixels off the model are the light neutral backdrop, the same
+    grey for models whose metered exposures differ (the white teapot, the colours)."""
+    from app.scene.model_file import BACKDROP
+
+    exposures = []
+    for model in (MESHES / "teapot.obj", MESHES / "material_sampler.glb"):
+        with OffscreenRenderer(model, size=(W, H)) as r:
+            r.render()
+            off = r.depth() == 0.0
+            background = r.ldr()[..., :3][off].astype(np.float64)
+            exposures.append(r.scene.camera.exposure)
+        assert np.all(np.abs(background - 255.0 * BACKDROP) <= 2.0), model.name
+    assert abs(exposures[0] - exposures[1]) > 0.2, exposures
+
+
+@pytest.mark.parametrize("tonemap", ["linear", "neutral", "aces", "reinhard"])
+def test_backdrop_radiance_inverts_the_post_pass(tonemap: str) -> None:
+    """The backdrop's radiance shows as BACKDROP through the post pass's twin at every
+    exposure the metering may choose, under every tone map."""
+    from app.reference.tonemap import post_process
+    from app.scene.model_file import BACKDROP, backdrop_radiance
+
+    for exposure in (-8.0, -2.0, -0.7, 0.0, 3.0):
+        radiance = backdrop_radiance(exposure, tonemap)
+        shown = post_process(np.full(3, radiance), exposure, tonemap)
+        assert np.allclose(shown, BACKDROP, atol=1e-9), (exposure, shown)

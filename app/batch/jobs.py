@@ -8,7 +8,14 @@ keys (docs/batch.md)::
     orbit = { frames = 100, degrees = 360 } # N frames turning the camera about its up axis
     # sweep = { key = "materials.gold.roughness", values = [0.1, 0.5] }
     # sweep = { key = "materials.gold.roughness", start = 0.1, stop = 0.9, count = 9 }
-    # scenes = ["a.toml", "b.toml"]         # a list of scene files (no top-level scene)
+    # scenes = ["a.toml", "b.glb"]          # a list of scene or model files (no top-level scene)
+    look = { view = "front", env = "sky" }   # optional: how model files are shown
+
+A ``scene`` or ``scenes`` entry may name a model file (.glb, .gltf, .obj, .stl, .ply):
+it renders as ``pbs render MODEL`` shows it (app/scene/model_file.py: framed for the
+image's size, the default look), and ``look`` takes the CLI's look options (``view``,
+``azimuth``, ``elevation``, ``camera``, ``env``: studio, sky or an .hdr/.exr image
+relative to the job file).
 
 Everything the job file says is checked here, before any GL work, and a problem is an
 ``InputError`` naming the job file and the key (the CLI's exit 2). The orbit's cameras and
@@ -22,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -32,23 +39,35 @@ from app.resources import scenes_dir
 from app.scene.edits import KeyPathError, edited, parse_key
 from app.scene.loader import LoadedScene, load_scene, read_text
 from app.scene.model import Camera
+from app.scene.model_file import (
+    VIEWS,
+    Look,
+    is_model_file,
+    model_scene,
+    needs_defaults,
+    with_defaults,
+)
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.untrusted.structured import parse_json, parse_toml
 
 KINDS = ("orbit", "sweep", "scenes")
-_TOP_KEYS = {"scene", "size", "background", *KINDS}
+_TOP_KEYS = {"scene", "size", "background", "look", *KINDS}
 BACKGROUNDS = ("opaque", "transparent")  # render.background's values
+_LOOK_KEYS = {"view", "azimuth", "elevation", "camera", "env"}
 MAX_JOBS = 100_000  # a typo in a count must not plan a billion images
+MODEL_SIZE = (1280, 720)  # a model file's image without a size (as pbs render MODEL)
 
 
 @dataclass(frozen=True)
 class Job:
     """One image: what to render and where (picklable: it crosses to worker processes).
 
-    ``scene``: the scene file. ``camera``: an orbit frame's camera (a ``Camera`` dump), or
-    None. ``key``/``value``: a sweep step's key path and value, or None. ``size``: the
-    image's (width, height), or None for the scene's own. ``expected``: the size the PNG
+    ``scene``: the scene file or model file. ``look``: how a model file (or a scene file
+    without camera or lights) is shown, None for the defaults. ``camera``: an orbit
+    frame's camera (a ``Camera`` dump), or None. ``key``/``value``: a sweep step's key
+    path and value, or None. ``size``: the image's (width, height), or None for the
+    scene's own. ``expected``: the size the PNG
     will have, where it is known before rendering (resume checks outputs against it).
     """
 
@@ -60,8 +79,10 @@ class Job:
     key: str | None = None
     value: object = None
     expected: tuple[int, int] | None = None
+    _: KW_ONLY  # the rest by name: two of them are optional str-like values, easily swapped
     policy: InputPolicy = field(default=DEFAULT_POLICY, compare=False)
     background: str | None = None  # render.background over the scene's (RGBA: transparent)
+    look: Look | None = None
 
 
 @dataclass(frozen=True)
@@ -128,6 +149,59 @@ def _table(file: Path, key: str, value: object, allowed: set[str]) -> dict:
     return value
 
 
+def load_source(
+    path: str | Path, policy: InputPolicy, look: Look | None, size: tuple[int, int] | None
+) -> LoadedScene:
+    """The scene a job renders: a model file framed (for ``size``) and lit by the default
+    look, or a scene file, given the defaults it lacks (camera, lights) as ``pbs render``
+    gives them; ``look`` on a scene file that has both is refused (app/scene/sources.py)."""
+    if is_model_file(path):
+        return model_scene(path, policy, look or Look(), size)
+    loaded = load_scene(path, policy)
+    if look is not None and look != Look() and needs_defaults(loaded) == (False, False):
+        raise InputError(
+            str(path),
+            "",
+            "gives its own camera and lights: a look applies only to a model file or a "
+            "scene file that gives neither",
+        )
+    return with_defaults(loaded, look or Look())
+
+
+def _look(file: Path, data: dict, policy: InputPolicy) -> tuple[Look | None, InputPolicy]:
+    """The job file's ``look`` table as a ``Look`` (None without one), and the policy
+    that lets the scene read its environment image (a file inside the job file's folder)."""
+    if "look" not in data:
+        return None, policy
+    spec = _table(file, "look", data["look"], _LOOK_KEYS)
+    view = spec.get("view", "three-quarter")
+    if view not in VIEWS:
+        raise _bad(file, "look.view", f"expected one of {', '.join(VIEWS)}, got {view!r}")
+    angles = {}
+    for name, bound in (("azimuth", 360.0), ("elevation", 90.0)):
+        if name in spec:
+            angles[name] = _number(file, f"look.{name}", spec[name], -bound, bound)
+    camera = spec.get("camera", "auto")
+    if camera not in ("auto", "file"):
+        raise _bad(file, "look.camera", f'expected "auto" or "file", got {camera!r}')
+    env = spec.get("env", "studio")
+    if not isinstance(env, str) or not env:
+        raise _bad(file, "look.env", f"expected studio, sky or an .hdr/.exr file, got {env!r}")
+    if env not in ("studio", "sky"):
+        if Path(env).suffix.lower() not in (".hdr", ".exr"):
+            raise _bad(file, "look.env", f"expected studio, sky or an .hdr/.exr file, got {env!r}")
+        try:
+            image = files.confine(env, file, policy)
+        except RefusedError as exc:
+            raise _bad(file, "look.env", str(exc)) from None
+        if not image.is_file():
+            raise _bad(file, "look.env", f"no such file: {image}")
+        env = str(image)
+        policy = InputPolicy(allowed=(*policy.allowed, image.parent), limits=policy.limits)
+    look = Look(view, angles.get("azimuth"), angles.get("elevation"), camera, env)
+    return look, policy
+
+
 def resolve_scene(name: str, job_file: Path, policy: InputPolicy, key: str) -> Path:
     """A scene named in a job file: a bundled scene's name (``showcase``), as ``pbs
     render`` takes it, or a path relative to the job file's folder, confined to the
@@ -142,7 +216,9 @@ def resolve_scene(name: str, job_file: Path, policy: InputPolicy, key: str) -> P
         raise _bad(job_file, key, str(exc)) from None
 
 
-def _load_base(file: Path, data: dict, policy: InputPolicy) -> LoadedScene:
+def _load_base(
+    file: Path, data: dict, policy: InputPolicy, look: Look | None, size: tuple[int, int] | None
+) -> LoadedScene:
     if "scene" not in data:
         raise _bad(file, "scene", "missing: the scene file that the orbit or sweep renders")
     if not isinstance(data["scene"], str) or not data["scene"]:
@@ -150,7 +226,7 @@ def _load_base(file: Path, data: dict, policy: InputPolicy) -> LoadedScene:
     path = resolve_scene(data["scene"], file, policy, "scene")
     if not path.is_file():
         raise _bad(file, "scene", f"no such scene file: {path}")
-    return load_scene(path, policy)
+    return load_source(path, policy, look, size)
 
 
 def _image_size(loaded: LoadedScene, size: tuple[int, int] | None) -> tuple[int, int]:
@@ -177,21 +253,26 @@ def orbit_cameras(camera: Camera, frames: int, degrees: float) -> list[Camera]:
 
 
 def _orbit(
-    file: Path, data: dict, out: Path, size: tuple[int, int] | None, policy: InputPolicy
+    file: Path,
+    data: dict,
+    out: Path,
+    size: tuple[int, int] | None,
+    policy: InputPolicy,
+    look: Look | None,
 ) -> list[Job]:
     spec = _table(file, "orbit", data["orbit"], {"frames", "degrees"})
     if "frames" not in spec:
         raise _bad(file, "orbit.frames", "missing: the number of frames")
     frames = _count(file, "orbit.frames", spec["frames"])
     degrees = _number(file, "orbit.degrees", spec.get("degrees", 360.0), -36000.0, 36000.0)
-    loaded = _load_base(file, data, policy)
+    loaded = _load_base(file, data, policy, look, size)
     expected = _image_size(loaded, size)
     jobs = []
     for k, camera in enumerate(orbit_cameras(loaded.scene.camera, frames, degrees)):
         name = f"frame-{k:04d}"
         output = str(out / f"{name}.png")
-        jobs.append(Job(name, output, str(loaded.path), size, camera.model_dump(), None, None,
-                        expected, policy))  # fmt: skip
+        jobs.append(Job(name, output, str(loaded.path), size, camera.model_dump(),
+                        expected=expected, policy=policy, look=look))  # fmt: skip
     return jobs
 
 
@@ -215,7 +296,12 @@ def _sweep_values(file: Path, spec: dict) -> list[object]:
 
 
 def _sweep(
-    file: Path, data: dict, out: Path, size: tuple[int, int] | None, policy: InputPolicy
+    file: Path,
+    data: dict,
+    out: Path,
+    size: tuple[int, int] | None,
+    policy: InputPolicy,
+    look: Look | None,
 ) -> list[Job]:
     spec = _table(file, "sweep", data["sweep"], {"key", "values", "start", "stop", "count"})
     if not isinstance(spec.get("key"), str):
@@ -223,7 +309,7 @@ def _sweep(
     origin = f"{file}: sweep.key"
     path = parse_key(spec["key"], str(file))
     values = _sweep_values(file, spec)
-    loaded = _load_base(file, data, policy)
+    loaded = _load_base(file, data, policy, look, size)
     jobs = []
     for i, value in enumerate(values):
         try:
@@ -235,14 +321,19 @@ def _sweep(
         name = f"sweep-{i:04d}"
         output = str(out / f"{name}.png")
         expected = _image_size(swept, size)
-        jobs.append(
-            Job(name, output, str(loaded.path), size, None, spec["key"], value, expected, policy)
-        )
+        job = Job(name, output, str(loaded.path), size, None, spec["key"], value, expected,
+                  policy=policy, look=look)  # fmt: skip
+        jobs.append(job)
     return jobs
 
 
 def _scenes(
-    file: Path, data: dict, out: Path, size: tuple[int, int] | None, policy: InputPolicy
+    file: Path,
+    data: dict,
+    out: Path,
+    size: tuple[int, int] | None,
+    policy: InputPolicy,
+    look: Look | None,
 ) -> list[Job]:
     names = data["scenes"]
     if "scene" in data:
@@ -260,8 +351,11 @@ def _scenes(
             expected = _image_size(load_scene(path, policy), size)
         except InputError:
             expected = None
+        if is_model_file(path):  # framed for the size it renders at
+            expected = size or MODEL_SIZE
         output = str(out / f"{job_id}.png")
-        jobs.append(Job(job_id, output, str(path), size=size, expected=expected, policy=policy))
+        jobs.append(Job(job_id, output, str(path), size=size, expected=expected, policy=policy,
+                        look=look))  # fmt: skip
     return jobs
 
 
@@ -282,8 +376,9 @@ def plan_jobs(path: str | Path, out: str | Path, policy: InputPolicy = DEFAULT_P
         raise _bad(
             file, "background", f"expected one of {', '.join(BACKGROUNDS)}, got {background!r}"
         )
+    look, policy = _look(file, data, policy)
     make = {"orbit": _orbit, "sweep": _sweep, "scenes": _scenes}[kinds[0]]
-    jobs = make(file, data, Path(out), size, policy)
+    jobs = make(file, data, Path(out), size, policy, look)
     if background is not None:
         jobs = [dataclasses.replace(job, background=background) for job in jobs]
     return Plan(str(file), kinds[0], jobs)

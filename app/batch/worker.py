@@ -19,14 +19,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.batch.jobs import Job
+from app.batch.jobs import Job, load_source
 from app.errors import InputError
 from app.gl.context import GLContext, create_context
 from app.gl.shaders import ShaderCache
 from app.output import write_png
 from app.render.renderer import Renderer
 from app.scene.edits import edited
-from app.scene.loader import LoadedScene, load_scene
+from app.scene.loader import LoadedScene
 from app.scene.model import Camera
 
 
@@ -68,7 +68,7 @@ def _renderer(warm: _Warm, job: Job) -> tuple[Renderer, LoadedScene]:
         if warm.renderer is not None:
             warm.renderer.release()
             warm.renderer, warm.key = None, None
-        warm.base = load_scene(job.scene, job.policy)
+        warm.base = load_source(job.scene, job.policy, job.look, job.size)
         warm.renderer = Renderer(warm.gl, warm.base, job.size, shaders=warm.shaders)
         warm.key = key
     return warm.renderer, warm.base

@@ -12,9 +12,17 @@ builds (every node transform applied), so it frames what will be drawn:
   as lets every surface point fall inside both fields of view with ``MARGIN`` to spare;
 - near and far planes bracket the model's bounding sphere;
 - the look: the bundled studio (or another environment; ``default_environment``) as
-  image-based light and backdrop, one spot key light from above the camera's left
-  shoulder with PCSS soft shadows (``key_light``), the neutral tone map at ``EXPOSURE``
-  less the stops the environment is brighter than the studio (``exposure_for``).
+  image-based light, one spot key light from above the camera's left shoulder with PCSS
+  soft shadows (``key_light``) and a fill light two stops under it from the camera's
+  right (``fill_light``), or the glTF file's own KHR_lights_punctual lights where
+  it has any (``file_lights_note``), and the neutral tone map at the exposure metered for
+  the asset (``metered_exposure``);
+- the backdrop: under the studio, a light neutral grey of its own (``BACKDROP``, set in
+  display values so that the asset's exposure does not move it: ``backdrop_radiance``),
+  as product-shot and look-dev tools keep the backdrop apart from the lighting
+  environment (KeyShot's backdrop colour, Blender's look-dev world opacity, f3d's
+  background colour); a sky or an environment image the user names is shown itself,
+  as the glTF Sample Viewer shows its environment.
 
 The bounds come from the built parts, so the model's files are read twice (here and by
 the renderer): the price of keeping app/scene free of the frame and render layers.
@@ -33,8 +41,10 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from app.scene.geometry import build_parts
+from app.reference.tonemap import post_process, srgb_decode
+from app.scene.geometry import MeshPart, build_parts
 from app.scene.loader import LoadedScene, parse_scene
+from app.scene.model import Light
 from app.textures.environment import environment_map
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import InputPolicy
@@ -45,6 +55,7 @@ __all__ = [
     "VIEWS",
     "Look",
     "default_environment",
+    "fill_light",
     "framed",
     "is_model_file",
     "key_light",
@@ -71,8 +82,16 @@ MARGIN = 1.08  # the bounding sphere's angular radius times this fits the narrow
 EXPOSURE = -1.5  # EV: the studio's boxes and the key light on a light grey stay below white
 KEY_INTENSITY = 1.5  # the key light's radiance scale (c_light)
 KEY_DISTANCE = 4.0  # the key light's distance from the model's centre, in its radii
+FILL_RATIO = 0.25  # the fill light's radiance scale to the key's: 2 stops under it
 STUDIO_MEAN = 0.37  # the bundled studio's mean texel radiance
 STUDIO_TURN = 200.0  # the studio's rotation that puts its key box behind a +Z camera's left
+# Reflected-light metering (``metered_exposure``): the asset's mean albedo against a mid
+# reflectance, half of the difference in stops taken (a dark asset is lifted towards
+# mid-grey but stays darker than a light one), within the bounds.
+ALBEDO_REFERENCE = 0.5
+ALBEDO_WEIGHT = 0.75
+METER_BOUNDS = (-1.0, 1.5)  # EV about the incident exposure
+BACKDROP = 0.78  # the studio backdrop's display value: sRGB-encoded, a light neutral grey
 
 
 @dataclass(frozen=True)
@@ -102,8 +121,12 @@ def is_model_file(path: str | Path) -> bool:
 
 
 def _environment(look: Look, azimuth: float) -> dict[str, Any]:
-    """The ``[environment]`` table of ``look.env``, turned with the camera."""
+    """The ``[environment]`` table of ``look.env``, turned with the camera: the studio
+    lights the asset and stays out of sight (its own backdrop is ``BACKDROP``); a sky or
+    an image is shown behind the asset too."""
     turn = (STUDIO_TURN + azimuth + 360.0) % 720.0 - 360.0
+    if look.env == "studio":
+        return {"source": "studio", "rotation": turn}
     if look.env in ENVIRONMENTS:
         return {"source": look.env, "background": True, "rotation": turn}
     return {"source": "image", "file": str(Path(look.env).resolve()), "background": True}
@@ -138,13 +161,93 @@ def key_light(centre: np.ndarray, radius: float, azimuth: float) -> dict[str, An
     }
 
 
-def _surface_points(loaded: LoadedScene) -> np.ndarray:
+def fill_light(azimuth: float) -> dict[str, Any]:
+    """The default look's fill light: a directional light from the camera's right (60
+    degrees to its right, 20 up), ``FILL_RATIO`` of the key's radiance, slightly cool and
+    shadowless, so that the faces the key light leaves to the studio's dark backdrop are
+    lifted, as the key-and-fill pair the glTF Sample Viewer lights a file without lights
+    with, and as a product photographer's fill card does."""
+    az, el = math.radians(azimuth + 60.0), math.radians(20.0)
+    towards = np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
+    return {
+        "type": "directional",
+        "direction": [float(-v) for v in towards],
+        "color": [0.92, 0.96, 1.0],
+        "intensity": KEY_INTENSITY * FILL_RATIO,
+    }
+
+
+def _surface_points(parts: list[MeshPart]) -> np.ndarray:
     """(N, 3) world-space points of every drawn part's surface (node transforms applied)."""
-    points = [
-        part.surface_points() @ part.model[:3, :3].T + part.model[:3, 3]
-        for part in build_parts(loaded)
-    ]
+    points = [part.surface_points() @ part.model[:3, :3].T + part.model[:3, 3] for part in parts]
     return np.concatenate(points) if points else np.zeros((1, 3))
+
+
+def _part_albedo(part: MeshPart) -> tuple[float, float]:
+    """(luminance of the part's mean base colour, its world-space area): the base colour
+    factor times its map (and vertex colours) at each triangle's centroid, weighted by the
+    triangle's area (the map's UV transform left out: a meter's estimate)."""
+    v = part.vertices.astype(np.float64)
+    tri = part.indices.reshape(-1, 3)
+    if len(tri) == 0:
+        return 0.0, 0.0
+    p = v[:, :3] @ part.model[:3, :3].T
+    area = 0.5 * np.linalg.norm(
+        np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]]), axis=1
+    )
+    total = float(area.sum())
+    if total <= 0.0 or not math.isfinite(total):
+        return 0.0, 0.0
+    layer = part.layers[0]
+    colour = np.broadcast_to(np.array(layer.params.base_color, np.float64), (len(tri), 3))
+    texture = layer.maps.get("base_color")
+    if texture is not None:
+        pixels = texture.pixels
+        h, w = pixels.shape[:2]
+        uv = v[tri, 6:8].mean(axis=1) * np.array(layer.uv_scale)
+        col = (np.floor(np.mod(uv[:, 0], 1.0) * w).astype(np.int64)).clip(0, w - 1)
+        row = (np.floor(np.mod(1.0 - uv[:, 1], 1.0) * h).astype(np.int64)).clip(0, h - 1)
+        texels = pixels[row, col].reshape(len(tri), -1).astype(np.float64)
+        texels = texels[:, :3] if texels.shape[1] >= 3 else texels[:, :1]  # grey (+ alpha)
+        if pixels.dtype == np.uint8:
+            texels /= 255.0
+        colour = colour * (srgb_decode(texels) if texture.srgb else texels)
+    if part.colors is not None:
+        colour = colour * part.colors[tri, :3].astype(np.float64).mean(axis=1)
+    luminance = colour @ np.array([0.2126, 0.7152, 0.0722])
+    return float(luminance @ area) / total, total
+
+
+def mean_albedo(parts: list[MeshPart]) -> float:
+    """The area-weighted mean luminance of the base colour over every drawn surface: what
+    a reflected-light meter reads of the asset under white light."""
+    pairs = [_part_albedo(part) for part in parts]
+    area = sum(a for _, a in pairs)
+    return sum(x * a for x, a in pairs) / area if area > 0.0 else ALBEDO_REFERENCE
+
+
+def metered_exposure(incident: float, albedo: float) -> float:
+    """The exposure (EV) of the default look: the incident exposure (``exposure_for``, the
+    light falling on the asset) moved by reflected-light metering of the asset's albedo,
+    ``ALBEDO_WEIGHT`` of its stops from ``ALBEDO_REFERENCE`` within ``METER_BOUNDS``."""
+    stops = ALBEDO_WEIGHT * math.log2(ALBEDO_REFERENCE / max(albedo, 1e-3))
+    return incident + min(max(stops, METER_BOUNDS[0]), METER_BOUNDS[1])
+
+
+def backdrop_radiance(exposure: float, tonemap: str) -> float:
+    """The grey radiance that the post pass (``exposure`` EV, then ``tonemap``, then sRGB)
+    shows as ``BACKDROP``: the backdrop stays one light grey whatever the asset's exposure.
+    Bisection on the post pass's float64 twin (monotonic in the radiance)."""
+    low, high = 0.0, 1.0
+    while post_process(np.full(3, high), exposure, tonemap)[0] < BACKDROP and high < 1e9:
+        high *= 2.0
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        if post_process(np.full(3, mid), exposure, tonemap)[0] < BACKDROP:
+            low = mid
+        else:
+            high = mid
+    return 0.5 * (low + high)
 
 
 def _sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
@@ -184,32 +287,63 @@ def framing_camera(
     }
 
 
-def exposure_for(loaded: LoadedScene) -> float:
-    """The default look's exposure (EV): ``EXPOSURE`` under an environment as bright as
-    the studio or darker, less by how many stops its mean radiance is brighter (the sky's
-    is 4 stops brighter), so that a light grey model stays below white."""
+def _light_at(light: Light, centre: np.ndarray) -> float:
+    """The luminance of ``light``'s c_light (RTR4 §9.4) arriving at ``centre``: inverse
+    square for a point or spot light, nothing outside a spot's cone."""
+    scale = light.intensity * float(np.array(light.color) @ np.array([0.2126, 0.7152, 0.0722]))
+    if light.type == "directional" or light.position is None:
+        return scale
+    offset = centre - np.array(light.position)
+    distance = max(float(np.linalg.norm(offset)), 1e-6)
+    if light.type == "spot" and light.direction is not None:
+        axis = np.array(light.direction) / max(float(np.linalg.norm(light.direction)), 1e-12)
+        outer = light.outer_angle if light.outer_angle is not None else 45.0
+        if float(axis @ offset) / distance < math.cos(math.radians(outer)):
+            return 0.0
+    return scale / (distance * distance)
+
+
+def exposure_for(loaded: LoadedScene, centre: np.ndarray | None = None) -> float:
+    """The default look's incident exposure (EV): ``EXPOSURE`` under an environment as
+    bright as the studio or darker, less by how many stops its mean radiance is brighter
+    (the sky's is 4 stops brighter), so that a light grey model stays below white; where
+    the scene's lights are the glTF file's instead of the key light, less (or more) by
+    how much more (or less) light they bring to the model's ``centre`` than the key light
+    with the studio (a Lambertian surface's radiance per unit albedo: the environment's
+    mean radiance plus each light's c_light / pi)."""
     env = loaded.scene.environment
-    if env is None or env.source == "uniform":
-        return EXPOSURE
-    texels = environment_map(
-        env.source,
-        env.file,
-        env.sun_direction,
-        env.turbidity,
-        scene_file=str(loaded.path),
-        limits=loaded.policy.limits,
-    )
-    mean = float(np.mean(texels)) * env.intensity
-    return max(EXPOSURE - math.log2(max(mean, STUDIO_MEAN) / STUDIO_MEAN), -32.0)
+    exposure = EXPOSURE
+    if env is not None and env.source != "uniform":
+        texels = environment_map(
+            env.source,
+            env.file,
+            env.sun_direction,
+            env.turbidity,
+            scene_file=str(loaded.path),
+            limits=loaded.policy.limits,
+        )
+        mean = float(np.mean(texels)) * env.intensity
+        exposure -= math.log2(max(mean, STUDIO_MEAN) / STUDIO_MEAN)
+    if centre is not None:
+        keyed = STUDIO_MEAN + KEY_INTENSITY / math.pi
+        lit = STUDIO_MEAN + sum(_light_at(light, centre) for light in loaded.scene.lights) / math.pi
+        exposure -= math.log2(lit / keyed)
+    return min(max(exposure, -32.0), 32.0)
 
 
-def framed(loaded: LoadedScene, look: Look, size: tuple[int, int], lit: bool = True) -> LoadedScene:
-    """``loaded`` with a camera framing its drawn parts; ``lit``: under the default
-    look, whose exposure it takes (``exposure_for``)."""
-    points = _surface_points(loaded)
+def framed(
+    loaded: LoadedScene,
+    look: Look,
+    size: tuple[int, int],
+    lit: bool = True,
+    parts: list[MeshPart] | None = None,
+) -> LoadedScene:
+    """``loaded`` with a camera framing its drawn parts (``parts``: those already built);
+    ``lit``: under the default look, whose exposure it takes (``metered_exposure``)."""
+    parts = build_parts(loaded) if parts is None else parts
     camera = loaded.scene.camera.model_dump(exclude_unset=True)
-    camera.update(framing_camera(points, size, *look.angles()))
-    return _lit(loaded, camera, points, look) if lit else _with(loaded, camera=camera)
+    camera.update(framing_camera(_surface_points(parts), size, *look.angles()))
+    return _lit(loaded, camera, parts, look) if lit else _with(loaded, camera=camera)
 
 
 def _with(loaded: LoadedScene, **tables: Any) -> LoadedScene:
@@ -218,12 +352,28 @@ def _with(loaded: LoadedScene, **tables: Any) -> LoadedScene:
 
 
 def _lit(
-    loaded: LoadedScene, camera: dict[str, Any], points: np.ndarray, look: Look
+    loaded: LoadedScene,
+    camera: dict[str, Any],
+    parts: list[MeshPart],
+    look: Look,
+    file_lights: bool = False,
 ) -> LoadedScene:
-    """``loaded`` with ``camera`` at the default look's exposure and the key light."""
-    camera = {**camera, "exposure": exposure_for(loaded)}
-    key = key_light(*_sphere(points), look.angles()[0])
-    return _with(loaded, camera=camera, lights=[*_dumped(loaded).get("lights", []), key])
+    """``loaded`` with ``camera`` at the default look's metered exposure, the key light
+    (unless ``file_lights``: the scene's lights are the glTF file's) and, under the
+    studio, the backdrop."""
+    centre, radius = _sphere(_surface_points(parts))
+    lights = _dumped(loaded).get("lights", [])
+    if not file_lights:
+        azimuth = look.angles()[0]
+        lights = [*lights, key_light(centre, radius, azimuth), fill_light(azimuth)]
+    keyed = _with(loaded, lights=lights)
+    incident = exposure_for(keyed, centre if file_lights else None)
+    exposure = metered_exposure(incident, mean_albedo(parts))
+    tables: dict[str, Any] = {"camera": {**camera, "exposure": exposure}, "lights": lights}
+    if look.env == "studio" and "background" not in loaded.scene.model_fields_set:
+        tone = loaded.scene.render.tonemap
+        tables["background"] = [backdrop_radiance(exposure, tone)] * 3
+    return _with(loaded, **tables)
 
 
 def _dumped(loaded: LoadedScene) -> dict[str, Any]:
@@ -255,11 +405,27 @@ def model_scene(
         if path.suffix.lower() not in (".glb", ".gltf"):
             raise InputError(str(path), "--camera", "a camera from the file needs a glTF file")
         data["camera"] = {"from_file": 0}
+    gltf = path.suffix.lower() in (".glb", ".gltf")
+    if gltf:  # the file's KHR_lights_punctual lights, where it has any
+        data["objects"][0]["import_lights"] = True
     try:
         loaded = parse_scene(data, path.resolve(), policy)
+        file_lights = bool(loaded.scene.lights)
+        if file_lights:
+            _LOG.warning(
+                "%s: lit by its own %d KHR_lights_punctual light(s) and the %s environment "
+                "instead of the default key and fill lights",
+                path,
+                len(loaded.scene.lights),
+                look.env if look.env in ENVIRONMENTS else "image",
+            )
+        parts = build_parts(loaded)
         if look.camera == "file":
-            return _file_camera(loaded, look)
-        return framed(loaded, look, (width, height))
+            camera = loaded.scene.camera.model_dump(exclude_unset=True)
+            return _lit(loaded, camera, parts, look, file_lights)
+        camera = loaded.scene.camera.model_dump(exclude_unset=True)
+        camera.update(framing_camera(_surface_points(parts), (width, height), *look.angles()))
+        return _lit(loaded, camera, parts, look, file_lights)
     except InputError as exc:
         raise _as_model_error(exc, path) from None
 
@@ -275,12 +441,6 @@ def _as_model_error(exc: InputError, path: Path) -> InputError:
     if exc.key.startswith("camera"):  # camera = "file" where the file has none
         return InputError(str(path), "--camera", message)
     return exc
-
-
-def _file_camera(loaded: LoadedScene, look: Look) -> LoadedScene:
-    """The scene with the glTF file's camera, exposed for the default look."""
-    camera = loaded.scene.camera.model_dump(exclude_unset=True)
-    return _lit(loaded, camera, _surface_points(loaded), look)
 
 
 def needs_defaults(loaded: LoadedScene) -> tuple[bool, bool]:
@@ -320,11 +480,17 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
         " and ".join(given),
     )
     result = parse_scene(data, loaded.path, loaded.policy)
+    parts = build_parts(result)
     if camera:
         size = (result.scene.render.width, result.scene.render.height)
-        return framed(result, look, size, lit=lighting)
-    key = key_light(*_sphere(_surface_points(result)), look.angles()[0])
-    return _with(result, lights=[key])  # the scene's own camera and exposure kept
+        return framed(result, look, size, lit=lighting, parts=parts)
+    azimuth = look.angles()[0]
+    key = key_light(*_sphere(_surface_points(parts)), azimuth)
+    tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
+    if look.env == "studio" and "background" not in result.scene.model_fields_set:
+        exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
+        tables["background"] = [backdrop_radiance(exposure, tone)] * 3
+    return _with(result, **tables)
 
 
 def model_document(
