@@ -6,6 +6,10 @@ does: masks, metallic and anisotropy get box-filtered mips (mips.box_mips), and 
 travels with the normals in one RGBA16F chain (xyz = tangent-space normal, a =
 perceptual roughness) built by app/textures/mips.py, so that the variance of the normals a
 texel averages moves into its roughness (the scene's ``render.normal_filter``).
+
+The chains a file's images give are kept in app/textures/cache.py's content-keyed cache
+(``normal_roughness_map``, ``channel_texture``): a second load of the same images, in this
+process or the next, reads them instead of building them.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from PIL import Image
 
 from app.common.models import MaterialParams
 from app.errors import InputError
+from app.textures.cache import code_version, prepared_cache
 from app.textures.mips import box_mips, build_chain, decode_normal_map
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
@@ -281,3 +286,68 @@ def coat_normal_texture(image: Image.Image, scale: float) -> Texture:
     the normals alone, renormalised on sampling."""
     coat = decode_normals(image, scale)
     return normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+
+
+def _prepared_version() -> str:
+    """The code version of what this module prepares (app/textures/cache.py): this file,
+    the mip chains and the filtering formulas they apply."""
+    global _VERSION
+    if _VERSION is None:
+        here = Path(__file__).resolve().parent
+        reference = here.parent / "reference" / "filtering.py"
+        _VERSION = code_version(Path(__file__), here / "mips.py", reference)
+    return _VERSION
+
+
+_VERSION: str | None = None
+
+
+def _image_part(image: Image.Image | None) -> tuple:
+    """An image's content as a cache key part: mode, size and decoded bytes."""
+    if image is None:
+        return (None,)
+    return (image.mode, image.size, image.tobytes())
+
+
+def normal_roughness_map(
+    normal_image: Image.Image | None,
+    scale: float,
+    factor: float,
+    roughness_image: Image.Image | None,
+    normal_filter: str,
+) -> Texture:
+    """A glTF material's normal/roughness chain: ``decode_normals`` of ``normal_image``
+    (None: flat) with ``scale``, and roughness ``factor`` times the green channel of
+    ``roughness_image`` (glTF metallicRoughnessTexture; None: the factor alone), through
+    ``normal_roughness_chain``; kept in the prepared-texture cache by the images' content
+    and the parameters."""
+
+    def build() -> list[np.ndarray]:
+        normals = None if normal_image is None else decode_normals(normal_image, scale)
+        values = None
+        if roughness_image is not None:
+            rgb = np.asarray(roughness_image.convert("RGB"), np.float64)
+            values = rgb[..., 1] / 255.0
+        return normal_roughness_chain(normals, factor, values, normal_filter).levels
+
+    parts = (
+        _prepared_version(),
+        _image_part(normal_image),
+        float(scale),
+        float(factor),
+        _image_part(roughness_image),
+        normal_filter,
+    )
+    return Texture(list(prepared_cache().arrays("normal_roughness", parts, build)))
+
+
+def channel_texture(image: Image.Image, channel: int) -> Texture:
+    """``scalar_texture`` of one 8-bit RGB channel of ``image`` in [0, 1] (a glTF metallic
+    (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content."""
+
+    def build() -> list[np.ndarray]:
+        rgb = np.asarray(image.convert("RGB"), np.float64)
+        return scalar_texture(rgb[..., channel] / 255.0).levels
+
+    parts = (_prepared_version(), _image_part(image), int(channel))
+    return Texture(list(prepared_cache().arrays("channel", parts, build)))

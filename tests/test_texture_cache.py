@@ -1,0 +1,161 @@
+"""The content-keyed cache of prepared textures (app/textures/cache.py): a second load of
+the same images reads the chains instead of building them and gets the same arrays, a
+corrupt entry is detected by its checksum and rebuilt, the cache can be turned off and
+stays within its size, and a glTF material's maps go through it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.textures import cache as cache_module
+from app.textures.cache import PreparedCache, entry_key, prepared_cache
+from app.textures.maps import channel_texture, normal_roughness_map
+
+
+def images(seed: int = 7) -> tuple[Image.Image, Image.Image]:
+    """A random normal map and metallic-roughness image (odd sizes: blocks of three)."""
+    rng = np.random.default_rng(seed)
+    normal = rng.integers(0, 256, (37, 29, 3), dtype=np.uint8)
+    normal[..., 2] = rng.integers(128, 256, (37, 29), dtype=np.uint8)
+    mr = rng.integers(0, 256, (37, 29, 3), dtype=np.uint8)
+    return Image.fromarray(normal, "RGB"), Image.fromarray(mr, "RGB")
+
+
+def chain(cache_dir: Path, monkeypatch: pytest.MonkeyPatch, seed: int = 7) -> list[np.ndarray]:
+    monkeypatch.setenv("PBS_CACHE_DIR", str(cache_dir))
+    normal, mr = images(seed)
+    return normal_roughness_map(normal, 0.8, 0.9, mr, "variance").levels
+
+
+def test_second_load_hits_and_is_identical(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    first = chain(tmp_path, monkeypatch)
+    cache = prepared_cache()
+    assert cache.events[-1] == "built"
+    assert len(list((tmp_path / "textures").glob("*.npz"))) == 1
+    again = chain(tmp_path, monkeypatch)  # the same process: from memory
+    assert cache.events[-1] == "memory"
+    cache.clear_memory()  # another process: from disk
+    third = chain(tmp_path, monkeypatch)
+    assert cache.events[-1] == "disk"
+    for a, b, c in zip(first, again, third, strict=True):
+        assert a.dtype == b.dtype == c.dtype == np.float32
+        assert np.array_equal(a, b) and np.array_equal(a, c)
+        assert not c.flags.writeable  # shared: nobody may change them in place
+    # Another image, another filter, another scale: other keys, built.
+    chain(tmp_path, monkeypatch, seed=8)
+    assert cache.events[-1] == "built"
+    normal, mr = images()
+    normal_roughness_map(normal, 0.8, 0.9, mr, "toksvig")
+    normal_roughness_map(normal, 0.7, 0.9, mr, "variance")
+    assert cache.events[-2:] == ["built", "built"]
+
+
+def test_cached_chain_is_what_the_builder_makes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With the cache off, the same call builds every time; the cached arrays equal it."""
+    cached = chain(tmp_path, monkeypatch)
+    monkeypatch.setenv("PBS_CACHE", "off")
+    cache = prepared_cache()
+    built = chain(tmp_path, monkeypatch)
+    built_again = chain(tmp_path, monkeypatch)
+    assert not cache.enabled and cache.events == ["built", "built"]
+    for a, b, c in zip(cached, built, built_again, strict=True):
+        assert np.array_equal(a, b) and np.array_equal(a, c)
+    # Off means off: nothing written (a fresh folder stays empty).
+    chain(tmp_path / "off", monkeypatch)
+    assert not (tmp_path / "off").exists()
+
+
+def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    first = chain(tmp_path, monkeypatch)
+    cache = prepared_cache()
+    (entry,) = (tmp_path / "textures").glob("*.npz")
+    # Flip bytes inside an array's data (the zip still opens: the checksum must catch it).
+    data = bytearray(entry.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 8] = bytes(b ^ 0xFF for b in data[middle : middle + 8])
+    entry.write_bytes(bytes(data))
+    cache.clear_memory()
+    again = chain(tmp_path, monkeypatch)
+    assert cache.events[-2:] == ["rebuilt", "built"]
+    for a, b in zip(first, again, strict=True):
+        assert np.array_equal(a, b)
+    # Rewritten whole: the next process reads it.
+    cache.clear_memory()
+    chain(tmp_path, monkeypatch)
+    assert cache.events[-1] == "disk"
+    # A well-formed archive whose data is not what its checksum says (the zip's own CRCs
+    # agree with it): only the entry's checksum can tell.
+    with np.load(entry, allow_pickle=False) as data:
+        named = {name: data[name] for name in data.files}
+    named["a0"] = named["a0"] + np.float32(0.5)
+    np.savez(entry, **named)
+    cache.clear_memory()
+    chain(tmp_path, monkeypatch)
+    assert cache.events[-2:] == ["rebuilt", "built"]
+    # Not a zip at all, or truncated: rebuilt too.
+    entry.write_bytes(b"not an npz")
+    cache.clear_memory()
+    chain(tmp_path, monkeypatch)
+    assert cache.events[-2:] == ["rebuilt", "built"]
+
+
+def test_entries_are_data_not_pickles(tmp_path: Path) -> None:
+    """An entry holding an object array (what a pickle would smuggle in) is refused and
+    rebuilt, never unpickled."""
+    cache = PreparedCache(tmp_path)
+    key = entry_key("test", ("x",))
+    np.savez(tmp_path / f"{key}.npz", a0=np.array([{"x": 1}], dtype=object), checksum=np.zeros(32))
+    arrays = cache.arrays("test", ("x",), lambda: [np.arange(3.0)])
+    assert cache.events == ["rebuilt", "built"]
+    assert np.array_equal(arrays[0], np.arange(3.0))
+
+
+def test_disk_size_is_bounded(tmp_path: Path) -> None:
+    """Past ``disk_bytes`` the least recently used entries go; in memory likewise."""
+    cache = PreparedCache(tmp_path, disk_bytes=3 * 8200, memory_bytes=2 * 8000)
+    for k in range(5):
+        cache.arrays("test", (k,), lambda k=k: [np.full(1000, float(k))])
+    on_disk = sorted(tmp_path.glob("*.npz"))
+    assert 1 <= len(on_disk) <= 3
+    assert sum(p.stat().st_size for p in on_disk) <= 3 * 8200
+    assert len(cache._memory) == 2
+    cache.clear_memory()
+    cache.arrays("test", (4,), lambda: [np.full(1000, 4.0)])  # the newest survived
+    assert cache.events[-1] == "disk"
+
+
+def test_key_separates_inputs() -> None:
+    assert entry_key("k", (b"ab", b"c")) != entry_key("k", (b"a", b"bc"))
+    assert entry_key("k", (np.zeros(2, np.float32),)) != entry_key("k", (np.zeros(1),))
+    assert entry_key("k", (1,)) != entry_key("k", (1.0,))
+    assert entry_key("a", ()) != entry_key("b", ())
+
+
+def test_default_directory(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.delenv("PBS_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert cache_module.cache_directory() == tmp_path / "pbs"
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "mine"))
+    assert cache_module.cache_directory() == tmp_path / "mine"
+
+
+def test_channel_texture_cached(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    _, mr = images()
+    a = channel_texture(mr, 2).levels
+    cache = prepared_cache()
+    cache.clear_memory()
+    b = channel_texture(mr, 2).levels
+    assert cache.events[-2:] == ["built", "disk"]
+    expected = np.asarray(mr, np.float64)[..., 2] / 255.0
+    assert np.array_equal(a[0][..., 0], expected.astype(np.float32))
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
