@@ -159,3 +159,59 @@ def test_channel_texture_cached(tmp_path: Path, monkeypatch: pytest.MonkeyPatch)
     expected = np.asarray(mr, np.float64)[..., 2] / 255.0
     assert np.array_equal(a[0][..., 0], expected.astype(np.float32))
     assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+def test_prefiltered_environment_from_disk(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The IBL prefilter's levels (app/render/ibl.py ``prepared_prefilter``): a second
+    process (memory cleared, the prefilter's own cache too) reads them from disk, equal."""
+    from app.gl.shaders import ShaderCache
+    from app.render.ibl import clear_cache, prepared_prefilter
+    from app.textures.environment import studio
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    env = studio(64)
+    shaders = ShaderCache(gl_egl.ctx)
+    try:
+        first = prepared_prefilter(gl_egl.ctx, shaders, env, base=16, samples=8)
+        cache = prepared_cache()
+        cache.clear_memory()
+        clear_cache()
+        again = prepared_prefilter(gl_egl.ctx, shaders, env, base=16, samples=8)
+        other = prepared_prefilter(gl_egl.ctx, shaders, env, base=16, samples=16)
+    finally:
+        shaders.release()
+    assert cache.events == ["built", "disk", "built"]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    assert not all(np.array_equal(a, b) for a, b in zip(first, other, strict=True))
+
+
+def test_open_image_keys_by_file_bytes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An image open_image decoded is keyed by its file's digest: the same bytes hit, one
+    changed pixel (another file) misses."""
+    import io
+
+    from app.textures.maps import SOURCE_DIGEST, open_image
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    _, mr = images()
+
+    def png(image: Image.Image) -> bytes:
+        out = io.BytesIO()
+        image.save(out, "PNG")
+        return out.getvalue()
+
+    data = png(mr)
+    first = open_image(data)
+    assert isinstance(first.info[SOURCE_DIGEST], str)
+    channel_texture(first, 1)
+    channel_texture(open_image(data), 1)
+    cache = prepared_cache()
+    assert cache.events[-2:] == ["built", "memory"]
+    changed = np.asarray(mr).copy()
+    changed[0, 0, 1] ^= 1
+    channel_texture(open_image(png(Image.fromarray(changed, "RGB"))), 1)
+    assert cache.events[-1] == "built"

@@ -14,12 +14,14 @@ process or the next, reads them instead of building them.
 
 from __future__ import annotations
 
+import hashlib
 import io
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import PIL
 from PIL import Image
 
 from app.common.models import MaterialParams
@@ -35,6 +37,8 @@ MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default lim
 # exporters write. Pillow's other readers (EPS runs Ghostscript, PSD, ICNS, ...) are never
 # asked to parse an input.
 IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
+# Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
+SOURCE_DIGEST = "pbs_source_sha256"
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
 _BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
@@ -139,9 +143,10 @@ def open_image(
     budget = budget or Budget()
     try:
         if isinstance(source, bytes):
-            stream = io.BytesIO(source)
+            encoded = source
         else:
-            stream = io.BytesIO(files.read_bytes(Path(source), budget.limits.max_file_bytes))
+            encoded = files.read_bytes(Path(source), budget.limits.max_file_bytes)
+        stream = io.BytesIO(encoded)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             with Image.open(stream, formats=IMAGE_FORMATS) as image:
@@ -152,7 +157,11 @@ def open_image(
                 budget.texture(width, height, kind, "the image")
                 budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
                 image.load()
-                return image.copy()
+                decoded = image.copy()
+                # What the prepared-texture cache keys this image by (_image_part): the
+                # file's bytes, a few MiB to hash where the decoded texels are tens.
+                decoded.info[SOURCE_DIGEST] = hashlib.sha256(encoded).hexdigest()
+                return decoded
     except RefusedError:
         raise
     except Image.DecompressionBombError:
@@ -303,9 +312,14 @@ _VERSION: str | None = None
 
 
 def _image_part(image: Image.Image | None) -> tuple:
-    """An image's content as a cache key part: mode, size and decoded bytes."""
+    """An image's content as a cache key part: its mode and size, and the digest of the
+    file it was decoded from (with the decoder's version) where open_image read it, else
+    its decoded bytes."""
     if image is None:
         return (None,)
+    digest = image.info.get(SOURCE_DIGEST)
+    if isinstance(digest, str):
+        return (image.mode, image.size, "encoded", PIL.__version__, digest)
     return (image.mode, image.size, image.tobytes())
 
 
