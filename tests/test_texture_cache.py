@@ -13,7 +13,7 @@ from PIL import Image
 
 from app.textures import cache as cache_module
 from app.textures.cache import PreparedCache, entry_key, prepared_cache
-from app.textures.maps import channel_texture, normal_roughness_map
+from app.textures.maps import Texture, channel_texture, normal_roughness_map
 
 
 def images(seed: int = 7) -> tuple[Image.Image, Image.Image]:
@@ -215,3 +215,37 @@ def test_open_image_keys_by_file_bytes(tmp_path: Path, monkeypatch: pytest.Monke
     changed[0, 0, 1] ^= 1
     channel_texture(open_image(png(Image.fromarray(changed, "RGB"))), 1)
     assert cache.events[-1] == "built"
+
+
+def test_colour_mips_kept_are_the_gls(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A colour map's mips: the GL builds them the first time (kept); a second process
+    defines them from the kept bytes, and every level holds the same bytes as the GL's."""
+    import io
+
+    from app.render.texture_upload import read_level, upload_texture
+    from app.textures.maps import colour_texture, open_image
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, _ = images()
+    out = io.BytesIO()
+    normal.save(out, "PNG")
+    tex = colour_texture(open_image(out.getvalue()))
+    assert tex.source_key is not None
+    reference = Texture([tex.levels[0]], srgb=True)  # no key: the GL's mips, nothing kept
+    made = [upload_texture(gl_egl.ctx, t) for t in (reference, tex)]
+    cache = prepared_cache()
+    cache.clear_memory()
+    made.append(upload_texture(gl_egl.ctx, tex))
+    assert cache.events == ["built", "disk"]
+    try:
+        count = max(tex.levels[0].shape[:2]).bit_length()
+        for k in range(count):
+            want = read_level(made[0], k)
+            assert np.array_equal(read_level(made[1], k), want)
+            assert np.array_equal(read_level(made[2], k), want), k
+    finally:
+        for t in made:
+            t.release()

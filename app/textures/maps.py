@@ -59,6 +59,9 @@ class Texture:
     wrap: tuple[str, str] = ("repeat", "repeat")
     min_filter: str = "linear_mipmap_linear"
     mag_filter: str = "linear"
+    # For colour data: what its file's content is (``SOURCE_DIGEST`` and Pillow's version),
+    # where known, so that the GL's mips of it can be kept (app/render/texture_upload.py).
+    source_key: str | None = None
 
     @property
     def pixels(self) -> np.ndarray:
@@ -256,7 +259,11 @@ def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
 
 def colour_texture(image: Image.Image) -> Texture:
     """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips)."""
-    return Texture([np.asarray(image.convert("RGBA"), np.uint8)], srgb=True)
+    digest = image.info.get(SOURCE_DIGEST)
+    key = None
+    if isinstance(digest, str):
+        key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
+    return Texture([np.asarray(image.convert("RGBA"), np.uint8)], srgb=True, source_key=key)
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
