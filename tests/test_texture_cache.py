@@ -207,6 +207,10 @@ def test_open_image_keys_by_file_bytes(tmp_path: Path, monkeypatch: pytest.Monke
     data = png(mr)
     first = open_image(data)
     assert isinstance(first.info[SOURCE_DIGEST], str)
+    # Decoded once per process: a second open is a copy of the same texels, not the object.
+    second = open_image(data)
+    assert second is not first and second.tobytes() == first.tobytes() == mr.tobytes()
+    assert second.info[SOURCE_DIGEST] == first.info[SOURCE_DIGEST]
     channel_texture(first, 1)
     channel_texture(open_image(data), 1)
     cache = prepared_cache()

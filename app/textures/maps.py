@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import io
 import warnings
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -159,12 +160,18 @@ def open_image(
                 bands = len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
                 budget.texture(width, height, kind, "the image")
                 budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
-                image.load()
-                decoded = image.copy()
                 # What the prepared-texture cache keys this image by (_image_part): the
                 # file's bytes, a few MiB to hash where the decoded texels are tens.
-                decoded.info[SOURCE_DIGEST] = hashlib.sha256(encoded).hexdigest()
-                return decoded
+                digest = hashlib.sha256(encoded).hexdigest()
+                kept = _DECODED.get(digest)
+                if kept is not None:  # decoded before in this process: a copy of that
+                    _DECODED.move_to_end(digest)
+                    return kept.copy()
+                image.load()
+                decoded = image.copy()
+                decoded.info[SOURCE_DIGEST] = digest
+                _keep_decoded(digest, decoded)
+                return decoded.copy()
     except RefusedError:
         raise
     except Image.DecompressionBombError:
@@ -173,6 +180,25 @@ def open_image(
         ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
         raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+# Images decoded in this process by their file's digest (a model file's parts are built
+# once to frame the camera and again for the frame; a batch's frames, a viewer's reload),
+# least recently used out past _DECODED_BYTES of texels. Callers get copies.
+_DECODED: OrderedDict[str, Image.Image] = OrderedDict()
+_DECODED_BYTES = 256 << 20
+
+
+def _keep_decoded(digest: str, image: Image.Image) -> None:
+    _DECODED[digest] = image
+    total = sum(_image_bytes(im) for im in _DECODED.values())
+    while total > _DECODED_BYTES and len(_DECODED) > 1:
+        _, old = _DECODED.popitem(last=False)
+        total -= _image_bytes(old)
+
+
+def _image_bytes(image: Image.Image) -> int:
+    return image.width * image.height * len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
 
 
 def read_image(
