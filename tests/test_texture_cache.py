@@ -36,7 +36,7 @@ def test_second_load_hits_and_is_identical(tmp_path: Path, monkeypatch: pytest.M
     first = chain(tmp_path, monkeypatch)
     cache = prepared_cache()
     assert cache.events[-1] == "built"
-    assert len(list((tmp_path / "textures").glob("*.npz"))) == 1
+    assert len(list((tmp_path / "textures").glob("*.npy"))) == 1
     again = chain(tmp_path, monkeypatch)  # the same process: from memory
     assert cache.events[-1] == "memory"
     cache.clear_memory()  # another process: from disk
@@ -76,8 +76,8 @@ def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     monkeypatch.delenv("PBS_CACHE", raising=False)
     first = chain(tmp_path, monkeypatch)
     cache = prepared_cache()
-    (entry,) = (tmp_path / "textures").glob("*.npz")
-    # Flip bytes inside an array's data (the zip still opens: the checksum must catch it).
+    (entry,) = (tmp_path / "textures").glob("*.npy")
+    # Flip bytes inside the data (the file still loads: only the checksum can tell).
     data = bytearray(entry.read_bytes())
     middle = len(data) // 2
     data[middle : middle + 8] = bytes(b ^ 0xFF for b in data[middle : middle + 8])
@@ -91,17 +91,15 @@ def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     cache.clear_memory()
     chain(tmp_path, monkeypatch)
     assert cache.events[-1] == "disk"
-    # A well-formed archive whose data is not what its checksum says (the zip's own CRCs
-    # agree with it): only the entry's checksum can tell.
-    with np.load(entry, allow_pickle=False) as data:
-        named = {name: data[name] for name in data.files}
-    named["a0"] = named["a0"] + np.float32(0.5)
-    np.savez(entry, **named)
+    # A well-formed .npy whose header names another checksum: rebuilt.
+    packed = np.load(entry, allow_pickle=False).copy()
+    packed[-1] ^= 1
+    np.save(entry, packed)
     cache.clear_memory()
     chain(tmp_path, monkeypatch)
     assert cache.events[-2:] == ["rebuilt", "built"]
-    # Not a zip at all, or truncated: rebuilt too.
-    entry.write_bytes(b"not an npz")
+    # Not an entry at all: rebuilt too.
+    entry.write_bytes(b"not an npy")
     cache.clear_memory()
     chain(tmp_path, monkeypatch)
     assert cache.events[-2:] == ["rebuilt", "built"]
@@ -112,7 +110,7 @@ def test_entries_are_data_not_pickles(tmp_path: Path) -> None:
     rebuilt, never unpickled."""
     cache = PreparedCache(tmp_path)
     key = entry_key("test", ("x",))
-    np.savez(tmp_path / f"{key}.npz", a0=np.array([{"x": 1}], dtype=object), checksum=np.zeros(32))
+    np.save(tmp_path / f"{key}.npy", np.array([{"x": 1}], dtype=object), allow_pickle=True)
     arrays = cache.arrays("test", ("x",), lambda: [np.arange(3.0)])
     assert cache.events == ["rebuilt", "built"]
     assert np.array_equal(arrays[0], np.arange(3.0))
@@ -123,7 +121,7 @@ def test_disk_size_is_bounded(tmp_path: Path) -> None:
     cache = PreparedCache(tmp_path, disk_bytes=3 * 8200, memory_bytes=2 * 8000)
     for k in range(5):
         cache.arrays("test", (k,), lambda k=k: [np.full(1000, float(k))])
-    on_disk = sorted(tmp_path.glob("*.npz"))
+    on_disk = sorted(tmp_path.glob("*.npy"))
     assert 1 <= len(on_disk) <= 3
     assert sum(p.stat().st_size for p in on_disk) <= 3 * 8200
     assert len(cache._memory) == 2

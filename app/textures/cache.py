@@ -10,9 +10,10 @@ a new key and nothing stale is ever returned. Two levels:
 * in process: the arrays themselves, read-only, least recently used first out past
   ``memory_bytes``; a batch's frames, a viewer's reload and a second Renderer of the same
   asset reuse them;
-* on disk: one ``.npz`` per entry (arrays only, read with ``allow_pickle=False``: an entry
-  is data, never code), with a SHA-256 of its arrays stored beside them and checked on every
-  read; a corrupt or unreadable entry is deleted and rebuilt. Written to a temporary file
+* on disk: one ``.npy`` per entry, a flat uint8 array (``pack_entry``: a JSON header of
+  dtypes, shapes and offsets, and a SHA-256 of the data checked on every read), read with
+  ``allow_pickle=False``: an entry is data, never code; a corrupt or unreadable entry is
+  deleted and rebuilt. Written to a temporary file
   and renamed, so a killed process leaves no half entry. Bounded by ``disk_bytes``: the
   least recently used entries (by modification time, refreshed on each hit) go first.
 
@@ -23,11 +24,11 @@ Where: ``$PBS_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/pbs`` (``~/.cache/pbs``
 from __future__ import annotations
 
 import hashlib
+import json
 import logging
 import os
 import tempfile
 import threading
-import zipfile
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -41,8 +42,8 @@ ENV_SWITCH = "PBS_CACHE"
 OFF_VALUES = ("off", "0", "no", "false")
 MEMORY_BYTES = 1 << 30  # in-process entries kept (DamagedHelmet's prepared maps: ~140 MiB)
 DISK_BYTES = 4 << 30  # on-disk entries kept
-_CHECKSUM = "checksum"
-_SUFFIX = ".npz"
+_SUFFIX = ".npy"
+_ALIGN = 64
 
 Part = bytes | str | int | float | bool | None | np.ndarray | tuple
 
@@ -83,12 +84,48 @@ def _feed(digest: hashlib._Hash, part: Part) -> None:
         digest.update(f"|{type(part).__name__}:{part!r}|".encode())
 
 
-def arrays_checksum(arrays: Sequence[np.ndarray]) -> np.ndarray:
-    """SHA-256 of the arrays' dtypes, shapes and bytes, as 32 uint8 (stored in an entry)."""
-    digest = hashlib.sha256()
+def pack_entry(arrays: Sequence[np.ndarray]) -> np.ndarray:
+    """Arrays as one entry, a flat uint8 array: an 8-byte little-endian header length, a
+    JSON header ({"arrays": [[dtype, shape, offset], ...], "sha256": hex of the data}),
+    then each array's bytes at a 64-byte aligned offset. One read, no per-array copies."""
+    layout, offset = [], 0
     for a in arrays:
-        _feed(digest, np.ascontiguousarray(a))
-    return np.frombuffer(digest.digest(), np.uint8)
+        offset = -(-offset // _ALIGN) * _ALIGN
+        layout.append([a.dtype.str, list(a.shape), offset])
+        offset += a.nbytes
+    data = np.zeros(offset, np.uint8)
+    for a, (_, _, at) in zip(arrays, layout, strict=True):
+        data[at : at + a.nbytes] = np.frombuffer(np.ascontiguousarray(a).data, np.uint8)
+    header = json.dumps({"arrays": layout, "sha256": hashlib.sha256(data.data).hexdigest()})
+    head = header.encode()
+    size = -(-(8 + len(head)) // _ALIGN) * _ALIGN
+    prefix = np.zeros(size, np.uint8)
+    prefix[:8] = np.frombuffer(len(head).to_bytes(8, "little"), np.uint8)
+    prefix[8 : 8 + len(head)] = np.frombuffer(head, np.uint8)
+    return np.concatenate([prefix, data])
+
+
+def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The arrays of ``pack_entry``'s output (views of it); ValueError when it is not one
+    or its data's SHA-256 is not the header's."""
+    if entry.dtype != np.uint8 or entry.ndim != 1 or entry.size < 8:
+        raise ValueError("not an entry")
+    length = int.from_bytes(entry[:8].tobytes(), "little")
+    if length > min(entry.size - 8, 1 << 20):
+        raise ValueError("header length out of range")
+    header = json.loads(entry[8 : 8 + length].tobytes())
+    start = -(-(8 + length) // _ALIGN) * _ALIGN
+    data = entry[start:]
+    if hashlib.sha256(data.data).hexdigest() != header["sha256"]:
+        raise ValueError("checksum mismatch")
+    arrays = []
+    for dtype_str, shape, offset in header["arrays"]:
+        dtype = np.dtype(dtype_str)
+        if dtype.hasobject:
+            raise ValueError("object arrays are never read")
+        count = int(np.prod(shape, dtype=np.int64))
+        arrays.append(np.frombuffer(data, dtype, count, int(offset)).reshape(shape))
+    return tuple(arrays)
 
 
 class PreparedCache:
@@ -168,15 +205,10 @@ class PreparedCache:
         if path is None or not path.is_file():
             return None
         try:
-            with np.load(path, allow_pickle=False) as data:
-                count = len(data.files) - 1
-                arrays = tuple(data[f"a{k}"] for k in range(count))
-                stored = data[_CHECKSUM]
-            if not np.array_equal(stored, arrays_checksum(arrays)):
-                raise ValueError("checksum mismatch")
+            arrays = unpack_entry(np.load(path, allow_pickle=False))
             os.utime(path)  # most recently used
             return arrays
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
             _LOG.warning("texture cache: %s is unreadable (%s); rebuilding it", path, exc)
             self.events.append("rebuilt")
             path.unlink(missing_ok=True)
@@ -188,12 +220,10 @@ class PreparedCache:
             return
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            named = {f"a{k}": a for k, a in enumerate(arrays)}
-            named[_CHECKSUM] = arrays_checksum(arrays)
             fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=_SUFFIX, dir=path.parent)
             try:
                 with os.fdopen(fd, "wb") as out:
-                    np.savez(out, **named)
+                    np.save(out, pack_entry(arrays), allow_pickle=False)
                 os.replace(tmp, path)
             except BaseException:
                 Path(tmp).unlink(missing_ok=True)
