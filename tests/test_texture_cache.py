@@ -251,3 +251,17 @@ def test_colour_mips_kept_are_the_gls(
     finally:
         for t in made:
             t.release()
+
+
+def test_eviction_spares_writes_in_progress(tmp_path: Path) -> None:
+    """Another process's temporary file is not evicted while fresh; a stale one (a killed
+    writer's) is removed."""
+    import os
+
+    fresh, stale = tmp_path / ".tmp-fresh.npy", tmp_path / ".tmp-stale.npy"
+    for path in (fresh, stale):
+        path.write_bytes(b"x" * 50_000)
+    os.utime(stale, (1.0, 1.0))
+    cache = PreparedCache(tmp_path, disk_bytes=10)
+    cache.arrays("test", (1,), lambda: [np.zeros(4)])
+    assert fresh.exists() and not stale.exists()

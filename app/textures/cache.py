@@ -29,6 +29,7 @@ import logging
 import os
 import tempfile
 import threading
+import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
@@ -43,6 +44,8 @@ OFF_VALUES = ("off", "0", "no", "false")
 MEMORY_BYTES = 1 << 30  # in-process entries kept (DamagedHelmet's prepared maps: ~140 MiB)
 DISK_BYTES = 4 << 30  # on-disk entries kept
 _SUFFIX = ".npy"
+_TEMPORARY = ".tmp-"  # prefix of an entry being written (renamed into place when whole)
+_STALE_NS = 3600 * 10**9  # a temporary file this old was left by a killed process
 _ALIGN = 64
 
 Part = bytes | str | int | float | bool | None | np.ndarray | tuple
@@ -220,7 +223,7 @@ class PreparedCache:
             return
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=_SUFFIX, dir=path.parent)
+            fd, tmp = tempfile.mkstemp(prefix=_TEMPORARY, suffix=_SUFFIX, dir=path.parent)
             try:
                 with os.fdopen(fd, "wb") as out:
                     np.save(out, pack_entry(arrays), allow_pickle=False)
@@ -236,10 +239,15 @@ class PreparedCache:
         """Delete the least recently used entries until the directory fits ``disk_bytes``."""
         assert self.directory is not None
         entries = []
+        now = time.time_ns()
         for entry in self.directory.glob(f"*{_SUFFIX}"):
             try:
                 stat = entry.stat()
             except OSError:
+                continue
+            if entry.name.startswith(_TEMPORARY):  # another process's write in progress,
+                if now - stat.st_mtime_ns > _STALE_NS:  # or a killed one's leftover
+                    entry.unlink(missing_ok=True)
                 continue
             entries.append((stat.st_mtime_ns, stat.st_size, entry))
         total = sum(size for _, size, _ in entries)
