@@ -11,6 +11,16 @@ from app.gl.context import GLContext, create_context
 REPO = Path(__file__).resolve().parent.parent
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _prepared_cache_dir(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """The prepared-texture cache (app/textures/cache.py) in a folder of this session's, so
+    that tests neither read a user's entries nor leave their own behind."""
+    import os
+
+    os.environ["PBS_CACHE_DIR"] = str(tmp_path_factory.mktemp("pbs-cache"))
+    os.environ.pop("PBS_CACHE", None)
+
+
 @pytest.fixture(scope="module", params=["egl", "osmesa"])
 def gl(request: pytest.FixtureRequest) -> GLContext:
     """A headless OpenGL 3.3 context from each backend in turn."""

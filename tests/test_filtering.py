@@ -10,7 +10,7 @@ from app.bench.filtering import measure
 from app.gl.context import GLContext
 from app.reference.filtering import SPECULAR_AA_KAPPA, SPECULAR_AA_SIGMA2
 from app.render.renderer import Renderer
-from app.render.texture_upload import upload_texture
+from app.render.texture_upload import read_level, upload_texture
 from app.scene.loader import load_scene, parse_scene
 from app.scene.model import RenderSettings
 from app.textures.maps import normal_roughness_texture
@@ -43,7 +43,8 @@ def _levels(gl_tex: moderngl.Texture, count: int) -> list[np.ndarray]:
     w, h = gl_tex.size
     for k in range(count):
         lw, lh = max(1, w >> k), max(1, h >> k)
-        data = np.frombuffer(gl_tex.read(level=k), np.float16).reshape(lh, lw, -1)
+        data = read_level(gl_tex, k)
+        assert data.shape[:2] == (lh, lw)
         out.append(data[::-1].astype(np.float32))
     return out
 

@@ -314,3 +314,28 @@ def test_box_mips_are_exact_footprint_means() -> None:
     np.testing.assert_allclose(levels[1][0, 2], values[0:2, 4:7].mean(axis=(0, 1)), rtol=1e-6)
     np.testing.assert_allclose(levels[2][0, 0], values.mean(axis=(0, 1)), rtol=1e-6)
     assert box_mips(values[..., 0])[2].shape == (1, 1)
+
+
+@pytest.mark.parametrize("shape", [(12, 20), (7, 13), (1, 9), (33, 1), (5, 5)])
+def test_fast_forms_match_the_textbook_forms_bit_for_bit(shape: tuple[int, int]) -> None:
+    """The decode (a table of the 256 values, |n| summed by hand) and the block sums (two
+    strided views, a block of three added in order) are the same float64 operations as
+    v/255*2-1 over the texels, np.linalg.norm and np.add.reduceat: the same bits, so that
+    the faster chain changes no pixel."""
+    from app.textures.mips import _halve
+
+    rgb = np.random.default_rng(RNG_SEED).integers(0, 256, (*shape, 3), dtype=np.uint8)
+    textbook = rgb.astype(np.float64) * (2.0 / 255.0) - 1.0
+    textbook /= np.linalg.norm(textbook, axis=-1, keepdims=True)
+    low = textbook[..., 2] < MIN_NORMAL_Z
+    xy = textbook[low, :2]
+    scale = math.sqrt(1.0 - MIN_NORMAL_Z**2) / np.linalg.norm(xy, axis=-1, keepdims=True)
+    textbook[low, :2] = xy * scale
+    textbook[low, 2] = MIN_NORMAL_Z
+    assert np.array_equal(decode_normal_map(rgb), textbook)
+    values = np.random.default_rng(RNG_SEED + 1).random((*shape, 4))
+    blocks = values
+    for axis in (0, 1):
+        starts = np.arange(0, 2 * max(1, blocks.shape[axis] // 2), 2)
+        blocks = np.add.reduceat(blocks, starts, axis=axis)
+    assert np.array_equal(_halve(values), blocks)

@@ -2,7 +2,7 @@
 
     python -m app.bench [--quick] [--out DIR]
         [--suites culling,resolution,accuracy,specialization,startup,viewer,batch,ibl,
-                  shadows]
+                  shadows,assets]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -28,8 +28,10 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
 __all__ = ["main"]
 SUITES = (
     "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
-    "shadows",
+    "shadows", "assets",
 )  # fmt: skip
+# Run only when named: whole processes of pbs and of a third-party renderer (f3d), minutes.
+OPT_IN_SUITES = ("assets",)
 PYRENDER_SUITES = ("culling", "batch")  # the suites with a pyrender row
 
 
@@ -49,8 +51,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--suites",
-        default=",".join(SUITES),
-        help=f"comma-separated subset of {','.join(SUITES)} (default: all)",
+        default=",".join(s for s in SUITES if s not in OPT_IN_SUITES),
+        help=f"comma-separated subset of {','.join(SUITES)} (default: all but "
+        f"{','.join(OPT_IN_SUITES)})",
     )
     parser.add_argument(
         "--backend", choices=("egl", "osmesa"), default="egl", help="headless GL (default egl)"
@@ -157,7 +160,14 @@ def main(argv: list[str] | None = None) -> int:
         suites.planned_tasks(chosen, settings, use_pyrender), enabled=not args.quiet
     )
     ctx = suites.Context(
-        gl, settings, queries, progress, notes=notes, pyrender=use_pyrender, pyrender_why=why
+        gl,
+        settings,
+        queries,
+        progress,
+        notes=notes,
+        pyrender=use_pyrender,
+        pyrender_why=why,
+        out=out,
     )
     timer = f"{TIMER_FINISH}; {TIMER_QUERY}" if queries else f"{TIMER_FINISH} (no timer queries)"
     machine = report.machine_info(gl, timer, settings.mode)

@@ -147,6 +147,7 @@ class Context:
     pyrender: bool = True
     pyrender_why: str = ""  # why pyrender is not used, where it is not
     ranges: dict[int, float] = field(default_factory=dict)
+    out: Path | None = None  # the output folder (for a suite's images: assets' contact sheet)
 
     def time(self, passes: list[Pass]) -> FrameTimes:
         return time_frames(self.gl, passes, self.settings.budget, self.queries, self.progress.tick)

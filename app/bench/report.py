@@ -223,9 +223,70 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
             out.append(Verdict(f"default of accuracy '{comp}' on its Pareto front", measured,
                                _status(on)))  # fmt: skip
     out.extend(_pyrender_verdicts(rows))
+    out.extend(_assets_verdicts(rows))
     out.append(_specialization_verdict(rows))
     out.extend(_primitives_verdicts(rows))
     return out
+
+
+ASSETS_F3D_MAX = 0.5  # a model file's whole pbs render <= this x f3d's wall time
+
+
+def _assets_verdicts(rows: list[dict]) -> list[Verdict]:
+    """Suite assets: per asset, pbs's whole-process wall time (texture cache warm, and
+    cold) against f3d's; nothing where the suite did not run."""
+    out = []
+    for case in dict.fromkeys(r["case"] for r in rows if r["suite"] == "assets"):
+        f3d = find_case(rows, "assets", case, "f3d")
+        for variant in ("pbs warm", "pbs cold"):
+            pbs = find_case(rows, "assets", case, variant)
+            if pbs is None:
+                continue
+            what = (
+                f"{case}: {variant} render (whole process, {pbs['width']}x{pbs['height']})"
+                f" <= {ASSETS_F3D_MAX:g}x f3d's wall time"
+            )
+            if f3d is None:
+                out.append(Verdict(what, "f3d not run", "NOT MEASURED"))
+                continue
+            ratio = pbs["ms_median"] / f3d["ms_median"]
+            measured = (
+                f"pbs/f3d = {ratio:.2f}x ({pbs['ms_median'] / 1e3:.2f} / "
+                f"{f3d['ms_median'] / 1e3:.2f} s; CPU {pbs['cpu_s_median']:.2f} / "
+                f"{f3d['cpu_s_median']:.2f} s)"
+            )
+            out.append(Verdict(what, measured, _status(ratio <= ASSETS_F3D_MAX)))
+    return out
+
+
+def find_case(rows: list[dict], suite: str, case: str, variant: str) -> dict | None:
+    """The row of ``suite`` with this case and variant, or None."""
+    for r in rows:
+        if r["suite"] == suite and r["case"] == case and r["variant"] == variant:
+            return r
+    return None
+
+
+def _assets_lines(members: list[dict]) -> list[str]:
+    lines = [
+        "| asset | way | wall s median | min | max | CPU s median | peak RSS MiB | runs |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in members:
+        lines.append(
+            f"| {r['case']} ({r['width']}x{r['height']}) | {r['variant']} |"
+            f" {r['ms_median'] / 1e3:.2f} | {r['ms_min'] / 1e3:.2f} | {r['ms_max'] / 1e3:.2f} |"
+            f" {r['cpu_s_median']:.2f} | {r['peak_rss_mib']:.0f} | {r['frames']} |"
+        )
+    return lines
+
+
+def _doc_assets(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "assets"]
+    if not members:
+        return []
+    title = "### assets (a model file, whole process, against f3d)"
+    return [title, "", *_assets_lines(members), ""]
 
 
 # Accuracy targets: the whole pipeline at the default settings against the float64 ray-caster.
@@ -528,7 +589,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     lines += ["", "## Results", ""]
     suites = (
         "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
-        "shadows",
+        "shadows", "assets",
     )  # fmt: skip
     for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
@@ -635,6 +696,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
             lines += _ibl_lines(rows, members)
         elif suite == "shadows":
             lines += _shadow_lines(members)
+        elif suite == "assets":
+            lines += _assets_lines(members)
         else:
             lines += [
                 "| case | variant | to PNG ms median | min | max | peak RSS MiB | runs |",
@@ -1138,7 +1201,7 @@ def performance_section(payload: dict) -> str:
     lines = _doc_header(payload) + _doc_targets(rows)
     for part in (
         _doc_culling, _doc_resolution, _doc_accuracy, _doc_specialization, _doc_startup_viewer,
-        _doc_batch, _doc_ibl, _doc_shadows,
+        _doc_batch, _doc_ibl, _doc_shadows, _doc_assets,
     ):  # fmt: skip
         lines += part(rows)
     notes = [n for n in payload.get("notes", []) if n]

@@ -917,6 +917,14 @@ def run_batch(ctx: Context) -> None:
     run(ctx)
 
 
+def run_assets(ctx: Context) -> None:
+    """Suite ``assets``: a model file, whole process, pbs (cold and warm texture cache)
+    against f3d (app/bench/assets.py)."""
+    from app.bench.assets import run_assets as run
+
+    run(ctx)
+
+
 def run_ibl(ctx: Context) -> None:
     """Suite ``ibl``: the prefilter's (face size, samples) against time, memory and error
     (app/bench/ibl.py)."""
@@ -935,6 +943,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "batch": run_batch,
     "ibl": run_ibl,
     "shadows": run_shadows,
+    "assets": run_assets,
 }
 
 
@@ -950,6 +959,7 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "batch": 0,
         "ibl": 0,
         "shadows": shadows_tasks(settings),
+        "assets": 3 * max(1, settings.startup_runs),
     }
     if "batch" in suites:
         from app.bench.batch import batch_tasks, batch_workers

@@ -12,6 +12,7 @@ import moderngl
 import numpy as np
 
 from app.gl.context import gl_function
+from app.textures.cache import prepared_cache
 from app.textures.maps import Texture
 
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
@@ -49,9 +50,11 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
     level0 = tex.levels[0]
     h, w = level0.shape[:2]
     if tex.srgb:
-        internal = 0x8C43  # GL_SRGB8_ALPHA8: decoded to linear on fetch
-        gl_tex = ctx.texture((w, h), 4, level0[::-1].tobytes(), internal_format=internal)
-        gl_tex.build_mipmaps()
+        gl_tex = ctx.texture((w, h), 4, level0[::-1].tobytes(), internal_format=GL_SRGB8_ALPHA8)
+        if tex.source_key is None:
+            gl_tex.build_mipmaps()
+        else:
+            _srgb_mips(ctx, gl_tex, tex.source_key)
     else:
         comps = 1 if level0.ndim == 2 else level0.shape[2]
 
@@ -60,9 +63,7 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
 
         gl_tex = ctx.texture((w, h), comps, data(level0), dtype="f2")
         if len(tex.levels) > 1:
-            gl_tex.build_mipmaps(0, len(tex.levels) - 1)  # allocates the levels ...
-            for k, level in enumerate(tex.levels[1:], start=1):
-                gl_tex.write(data(level), level=k)  # ... which ours then replace
+            _define_levels(gl_tex, comps, [data(level) for level in tex.levels[1:]])
     mipmapped = tex.srgb or len(tex.levels) > 1
     if tex.min_filter == "linear_mipmap_linear" and tex.mag_filter == "linear":
         gl_tex.filter = (  # the default: trilinear where there are mips
@@ -88,6 +89,14 @@ GL_FILTERS = {
     "linear_mipmap_linear": moderngl.LINEAR_MIPMAP_LINEAR,
 }
 GL_TEXTURE_2D = 0x0DE1
+GL_TEXTURE_BASE_LEVEL, GL_TEXTURE_MAX_LEVEL = 0x813C, 0x813D
+GL_UNPACK_ALIGNMENT, GL_PACK_ALIGNMENT = 0x0CF5, 0x0D05
+GL_HALF_FLOAT = 0x140B
+GL_UNSIGNED_BYTE = 0x1401
+GL_SRGB8_ALPHA8 = 0x8C43  # colour maps: decoded to linear on fetch
+# 16-bit float internal formats and the client formats of 1-4 components.
+GL_HALF_FORMATS = {1: 0x822D, 2: 0x822F, 3: 0x881B, 4: 0x881A}  # R16F ... RGBA16F
+GL_CLIENT_FORMATS = {1: 0x1903, 2: 0x8227, 3: 0x1907, 4: 0x1908}  # RED, RG, RGB, RGBA
 GL_TEXTURE_WRAP = {"s": 0x2802, "t": 0x2803}
 GL_MIRRORED_REPEAT = 0x8370
 
@@ -115,3 +124,77 @@ def _gl_mirror(gl_tex: moderngl.Texture, parameters: list[int]) -> None:
     bind(GL_TEXTURE_2D, gl_tex.glo)
     for parameter in parameters:
         set_parameter(GL_TEXTURE_2D, parameter, GL_MIRRORED_REPEAT)
+
+
+def _srgb_mips(ctx: moderngl.Context, gl_tex: moderngl.Texture, source_key: str) -> None:
+    """The GL's own mips of a colour map, kept in the prepared-texture cache
+    (app/textures/cache.py) by the image file's content and the GL's renderer and version:
+    built and read back the first time, defined from the kept bytes after that (the same
+    bytes, so the same texture, without the GL's filtering pass over a 2048^2 map)."""
+    info = ctx.info
+    parts = ("srgb8 mips", source_key, str(info.get("GL_RENDERER")), str(info.get("GL_VERSION")))
+
+    def build() -> list[np.ndarray]:
+        gl_tex.build_mipmaps()
+        w, h = gl_tex.size
+        count = max(w, h).bit_length()  # levels 1 .. floor(log2(max side))
+        return [np.frombuffer(gl_tex.read(level=k), np.uint8).copy() for k in range(1, count)]
+
+    built: list[bool] = []
+    levels = prepared_cache().arrays("srgb_mips", parts, lambda: built.append(True) or build())
+    if not built:
+        _define_levels(gl_tex, 4, [a.tobytes() for a in levels], GL_SRGB8_ALPHA8)
+
+
+def _define_levels(
+    gl_tex: moderngl.Texture, comps: int, levels: list[bytes], internal: int | None = None
+) -> None:
+    """Levels 1..n of a 16-bit float texture defined straight from the project's mips
+    (glTexImage2D per level, GL sizes), and the texture's level range set to 0..n; with
+    ``internal`` (GL_SRGB8_ALPHA8), 8-bit RGBA levels of that format instead.
+
+    moderngl can write only to levels that exist, and the one way it has to make them,
+    ``build_mipmaps``, first computes the GL's own mips of level 0 (a 2048^2 map's whole
+    chain, under llvmpipe on the CPU) only for ours to overwrite them."""
+    uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
+    bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
+    set_parameter = gl_function(gl_tex.ctx, "glTexParameteri", [enum, enum, int_])
+    store = gl_function(gl_tex.ctx, "glPixelStorei", [enum, int_])
+    image = gl_function(
+        gl_tex.ctx,
+        "glTexImage2D",
+        [enum, int_, int_, ctypes.c_int, ctypes.c_int, int_, enum, enum, ctypes.c_void_p],
+    )
+    w, h = gl_tex.size
+    bind(GL_TEXTURE_2D, gl_tex.glo)
+    store(GL_UNPACK_ALIGNMENT, 1)  # rows of 2-byte texels are not 4-byte aligned
+    for k, level in enumerate(levels, start=1):
+        size_w, size_h = max(1, w >> k), max(1, h >> k)
+        texel = 1 if internal is not None else 2
+        assert len(level) == size_w * size_h * comps * texel, "a level of another size"
+        image(
+            GL_TEXTURE_2D, k, internal or GL_HALF_FORMATS[comps], size_w, size_h, 0,
+            GL_CLIENT_FORMATS[comps], GL_UNSIGNED_BYTE if internal else GL_HALF_FLOAT, level,
+        )  # fmt: skip
+    set_parameter(GL_TEXTURE_2D, GL_TEXTURE_BASE_LEVEL, 0)
+    set_parameter(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, len(levels))
+
+
+def read_level(gl_tex: moderngl.Texture, level: int) -> np.ndarray:
+    """Level ``level`` of a 16-bit float (or 8-bit) texture as the GL holds it, (h, w,
+    comps) float16 (uint8) rows bottom first (glGetTexImage: moderngl's ``read`` refuses
+    levels it did not make with ``build_mipmaps``, and ``_define_levels`` makes them
+    without it)."""
+    uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
+    comps = gl_tex.components
+    w, h = max(1, gl_tex.width >> level), max(1, gl_tex.height >> level)
+    byte = gl_tex.dtype == "f1"
+    out = np.empty((h, w, comps), np.uint8 if byte else np.float16)
+    bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
+    store = gl_function(gl_tex.ctx, "glPixelStorei", [enum, int_])
+    get = gl_function(gl_tex.ctx, "glGetTexImage", [enum, int_, enum, enum, ctypes.c_void_p])
+    bind(GL_TEXTURE_2D, gl_tex.glo)
+    store(GL_PACK_ALIGNMENT, 1)
+    kind = GL_UNSIGNED_BYTE if byte else GL_HALF_FLOAT
+    get(GL_TEXTURE_2D, level, GL_CLIENT_FORMATS[comps], kind, out.ctypes.data)
+    return out

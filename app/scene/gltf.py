@@ -52,11 +52,11 @@ from app.textures.maps import (
     SurfaceLayer,
     Texture,
     UvTransform,
+    channel_texture,
     coat_normal_texture,
     colour_texture,
-    decode_normals,
     direction_texture,
-    normal_roughness_chain,
+    normal_roughness_map,
     open_image,
     scalar_texture,
 )
@@ -687,9 +687,9 @@ class GltfFile:
             # Roughness joins the normal chain: built at the normal map's size where there
             # is one (charged with it), else at this image's.
             self._map_cost(mr[0], "scalar" if m.normalTexture is not None else "normal", tkey)
-            mr_pixels = np.asarray(mr[0].convert("RGB"), np.float64) / 255.0
-            put("metallic", scalar_texture(mr_pixels[..., 2]), mr[1], mr[2])
-        normals = None
+            put("metallic", channel_texture(mr[0], 2), mr[1], mr[2])
+        normal_image = None
+        scale = 1.0
         if m.normalTexture is not None:
             nkey = f"{key}.normalTexture"
             img, n_sampler, n_tr = self._texture(m.normalTexture, nkey)
@@ -698,25 +698,25 @@ class GltfFile:
             # Bounded so that scaled x and y cannot overflow float64 (the map's normals
             # are already flat to the eye past a few hundred).
             scale = 1.0 if scale is None else _number(scale, f"{nkey}.scale", -1e3, 1e3)
-            normals = decode_normals(img, scale)
-        if normals is not None or mr is not None:
+            normal_image = img
+        if normal_image is not None or mr is not None:
             # One chain for normals and roughness (app/textures/mips.py): built at the normal
             # map's size with its sampler and UVs where there is one (the roughness image is
             # resampled to it), else at the metallic-roughness image's.
-            values = None if mr is None else mr_pixels[..., 1]
-            chain = normal_roughness_chain(normals, roughness, values, normal_filter)
-            if normals is not None:
+            # (Prepared once per image content: app/textures/cache.py.)
+            mr_image = None if mr is None else mr[0]
+            chain = normal_roughness_map(normal_image, scale, roughness, mr_image, normal_filter)
+            if normal_image is not None:
                 put("normal_roughness", chain, n_sampler, n_tr)
             else:
                 assert mr is not None
                 put("normal_roughness", chain, mr[1], mr[2])
-        layer = SurfaceLayer(params, maps, normal_mapped=normals is not None)
+        layer = SurfaceLayer(params, maps, normal_mapped=normal_image is not None)
         if m.occlusionTexture is not None:
             okey = f"{key}.occlusionTexture"
             img, sampler, tr = self._texture(m.occlusionTexture, okey)
             self._map_cost(img, "scalar", okey)
-            red = np.asarray(img.convert("RGB"), np.float64)[..., 0] / 255.0
-            put("occlusion", scalar_texture(red), sampler, tr)
+            put("occlusion", channel_texture(img, 0), sampler, tr)
             strength = getattr(m.occlusionTexture, "strength", None)
             layer.occlusion_strength = (
                 1.0 if strength is None else _number(strength, f"{okey}.strength", 0.0, 1.0)

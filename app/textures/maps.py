@@ -6,20 +6,28 @@ does: masks, metallic and anisotropy get box-filtered mips (mips.box_mips), and 
 travels with the normals in one RGBA16F chain (xyz = tangent-space normal, a =
 perceptual roughness) built by app/textures/mips.py, so that the variance of the normals a
 texel averages moves into its roughness (the scene's ``render.normal_filter``).
+
+The chains a file's images give are kept in app/textures/cache.py's content-keyed cache
+(``normal_roughness_map``, ``channel_texture``): a second load of the same images, in this
+process or the next, reads them instead of building them.
 """
 
 from __future__ import annotations
 
+import hashlib
 import io
 import warnings
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import PIL
 from PIL import Image
 
 from app.common.models import MaterialParams
 from app.errors import InputError
+from app.textures.cache import code_version, prepared_cache
 from app.textures.mips import box_mips, build_chain, decode_normal_map
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
@@ -30,6 +38,8 @@ MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default lim
 # exporters write. Pillow's other readers (EPS runs Ghostscript, PSD, ICNS, ...) are never
 # asked to parse an input.
 IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
+# Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
+SOURCE_DIGEST = "pbs_source_sha256"
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
 _BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
@@ -50,6 +60,9 @@ class Texture:
     wrap: tuple[str, str] = ("repeat", "repeat")
     min_filter: str = "linear_mipmap_linear"
     mag_filter: str = "linear"
+    # For colour data: what its file's content is (``SOURCE_DIGEST`` and Pillow's version),
+    # where known, so that the GL's mips of it can be kept (app/render/texture_upload.py).
+    source_key: str | None = None
 
     @property
     def pixels(self) -> np.ndarray:
@@ -134,9 +147,10 @@ def open_image(
     budget = budget or Budget()
     try:
         if isinstance(source, bytes):
-            stream = io.BytesIO(source)
+            encoded = source
         else:
-            stream = io.BytesIO(files.read_bytes(Path(source), budget.limits.max_file_bytes))
+            encoded = files.read_bytes(Path(source), budget.limits.max_file_bytes)
+        stream = io.BytesIO(encoded)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             with Image.open(stream, formats=IMAGE_FORMATS) as image:
@@ -146,8 +160,18 @@ def open_image(
                 bands = len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
                 budget.texture(width, height, kind, "the image")
                 budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
+                # What the prepared-texture cache keys this image by (_image_part): the
+                # file's bytes, a few MiB to hash where the decoded texels are tens.
+                digest = hashlib.sha256(encoded).hexdigest()
+                kept = _DECODED.get(digest)
+                if kept is not None:  # decoded before in this process: a copy of that
+                    _DECODED.move_to_end(digest)
+                    return kept.copy()
                 image.load()
-                return image.copy()
+                decoded = image.copy()
+                decoded.info[SOURCE_DIGEST] = digest
+                _keep_decoded(digest, decoded)
+                return decoded.copy()
     except RefusedError:
         raise
     except Image.DecompressionBombError:
@@ -156,6 +180,25 @@ def open_image(
         ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
         raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+# Images decoded in this process by their file's digest (a model file's parts are built
+# once to frame the camera and again for the frame; a batch's frames, a viewer's reload),
+# least recently used out past _DECODED_BYTES of texels. Callers get copies.
+_DECODED: OrderedDict[str, Image.Image] = OrderedDict()
+_DECODED_BYTES = 256 << 20
+
+
+def _keep_decoded(digest: str, image: Image.Image) -> None:
+    _DECODED[digest] = image
+    total = sum(_image_bytes(im) for im in _DECODED.values())
+    while total > _DECODED_BYTES and len(_DECODED) > 1:
+        _, old = _DECODED.popitem(last=False)
+        total -= _image_bytes(old)
+
+
+def _image_bytes(image: Image.Image) -> int:
+    return image.width * image.height * len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
 
 
 def read_image(
@@ -242,7 +285,11 @@ def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
 
 def colour_texture(image: Image.Image) -> Texture:
     """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips)."""
-    return Texture([np.asarray(image.convert("RGBA"), np.uint8)], srgb=True)
+    digest = image.info.get(SOURCE_DIGEST)
+    key = None
+    if isinstance(digest, str):
+        key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
+    return Texture([np.asarray(image.convert("RGBA"), np.uint8)], srgb=True, source_key=key)
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
@@ -281,3 +328,73 @@ def coat_normal_texture(image: Image.Image, scale: float) -> Texture:
     the normals alone, renormalised on sampling."""
     coat = decode_normals(image, scale)
     return normal_roughness_texture(coat, 0.0, coat.shape[:2], "naive")
+
+
+def _prepared_version() -> str:
+    """The code version of what this module prepares (app/textures/cache.py): this file,
+    the mip chains and the filtering formulas they apply."""
+    global _VERSION
+    if _VERSION is None:
+        here = Path(__file__).resolve().parent
+        reference = here.parent / "reference" / "filtering.py"
+        _VERSION = code_version(Path(__file__), here / "mips.py", reference)
+    return _VERSION
+
+
+_VERSION: str | None = None
+
+
+def _image_part(image: Image.Image | None) -> tuple:
+    """An image's content as a cache key part: its mode and size, and the digest of the
+    file it was decoded from (with the decoder's version) where open_image read it, else
+    its decoded bytes."""
+    if image is None:
+        return (None,)
+    digest = image.info.get(SOURCE_DIGEST)
+    if isinstance(digest, str):
+        return (image.mode, image.size, "encoded", PIL.__version__, digest)
+    return (image.mode, image.size, image.tobytes())
+
+
+def normal_roughness_map(
+    normal_image: Image.Image | None,
+    scale: float,
+    factor: float,
+    roughness_image: Image.Image | None,
+    normal_filter: str,
+) -> Texture:
+    """A glTF material's normal/roughness chain: ``decode_normals`` of ``normal_image``
+    (None: flat) with ``scale``, and roughness ``factor`` times the green channel of
+    ``roughness_image`` (glTF metallicRoughnessTexture; None: the factor alone), through
+    ``normal_roughness_chain``; kept in the prepared-texture cache by the images' content
+    and the parameters."""
+
+    def build() -> list[np.ndarray]:
+        normals = None if normal_image is None else decode_normals(normal_image, scale)
+        values = None
+        if roughness_image is not None:
+            rgb = np.asarray(roughness_image.convert("RGB"), np.float64)
+            values = rgb[..., 1] / 255.0
+        return normal_roughness_chain(normals, factor, values, normal_filter).levels
+
+    parts = (
+        _prepared_version(),
+        _image_part(normal_image),
+        float(scale),
+        float(factor),
+        _image_part(roughness_image),
+        normal_filter,
+    )
+    return Texture(list(prepared_cache().arrays("normal_roughness", parts, build)))
+
+
+def channel_texture(image: Image.Image, channel: int) -> Texture:
+    """``scalar_texture`` of one 8-bit RGB channel of ``image`` in [0, 1] (a glTF metallic
+    (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content."""
+
+    def build() -> list[np.ndarray]:
+        rgb = np.asarray(image.convert("RGB"), np.float64)
+        return scalar_texture(rgb[..., channel] / 255.0).levels
+
+    parts = (_prepared_version(), _image_part(image), int(channel))
+    return Texture(list(prepared_cache().arrays("channel", parts, build)))

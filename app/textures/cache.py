@@ -1,0 +1,284 @@
+"""A content-keyed cache of prepared texture data: mip chains of material maps, prefiltered
+environments, anything that is a list of numpy arrays computed from some source data by
+code that does not change between runs.
+
+An entry's key is a SHA-256 over the kind of data, the source's bytes (or its arrays' dtype,
+shape and bytes), the preparation's parameters and a code version (a hash of the source
+files of the code that prepares it), so an edited image, another filter or edited code is
+a new key and nothing stale is ever returned. Two levels:
+
+* in process: the arrays themselves, read-only, least recently used first out past
+  ``memory_bytes``; a batch's frames, a viewer's reload and a second Renderer of the same
+  asset reuse them;
+* on disk: one ``.npy`` per entry, a flat uint8 array (``pack_entry``: a JSON header of
+  dtypes, shapes and offsets, and a SHA-256 of the data checked on every read), read with
+  ``allow_pickle=False``: an entry is data, never code; a corrupt or unreadable entry is
+  deleted and rebuilt. Written to a temporary file
+  and renamed, so a killed process leaves no half entry. Bounded by ``disk_bytes``: the
+  least recently used entries (by modification time, refreshed on each hit) go first.
+
+Where: ``$PBS_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/pbs`` (``~/.cache/pbs``).
+``PBS_CACHE=off`` (or ``0``, ``no``, ``false``) turns both levels off: every call builds.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import tempfile
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+_LOG = logging.getLogger(__name__)
+
+ENV_DIR = "PBS_CACHE_DIR"
+ENV_SWITCH = "PBS_CACHE"
+OFF_VALUES = ("off", "0", "no", "false")
+MEMORY_BYTES = 1 << 30  # in-process entries kept (DamagedHelmet's prepared maps: ~140 MiB)
+DISK_BYTES = 4 << 30  # on-disk entries kept
+_SUFFIX = ".npy"
+_TEMPORARY = ".tmp-"  # prefix of an entry being written (renamed into place when whole)
+_STALE_NS = 3600 * 10**9  # a temporary file this old was left by a killed process
+_ALIGN = 64
+
+Part = bytes | str | int | float | bool | None | np.ndarray | tuple
+
+
+def code_version(*files: str | Path) -> str:
+    """A hash of the given source files' bytes: the code-version part of a key, so that an
+    edit to the code that prepares an entry retires every entry it made."""
+    digest = hashlib.sha256()
+    for name in files:
+        path = Path(name)
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def entry_key(kind: str, parts: Iterable[Part]) -> str:
+    """The SHA-256 (hex) of ``kind`` and ``parts``, each part tagged with its type (and an
+    array with its dtype and shape) so that no two different inputs run together."""
+    digest = hashlib.sha256(kind.encode())
+    for part in parts:
+        _feed(digest, part)
+    return digest.hexdigest()
+
+
+def _feed(digest: hashlib._Hash, part: Part) -> None:
+    if isinstance(part, np.ndarray):
+        a = np.ascontiguousarray(part)
+        digest.update(f"|a{a.dtype.str}{a.shape}|".encode())
+        digest.update(a.data)
+    elif isinstance(part, bytes):
+        digest.update(f"|b{len(part)}|".encode())
+        digest.update(part)
+    elif isinstance(part, tuple):
+        digest.update(f"|t{len(part)}|".encode())
+        for item in part:
+            _feed(digest, item)
+    else:
+        digest.update(f"|{type(part).__name__}:{part!r}|".encode())
+
+
+def pack_entry(arrays: Sequence[np.ndarray]) -> np.ndarray:
+    """Arrays as one entry, a flat uint8 array: an 8-byte little-endian header length, a
+    JSON header ({"arrays": [[dtype, shape, offset], ...], "sha256": hex of the data}),
+    then each array's bytes at a 64-byte aligned offset. One read, no per-array copies."""
+    layout, offset = [], 0
+    for a in arrays:
+        offset = -(-offset // _ALIGN) * _ALIGN
+        layout.append([a.dtype.str, list(a.shape), offset])
+        offset += a.nbytes
+    data = np.zeros(offset, np.uint8)
+    for a, (_, _, at) in zip(arrays, layout, strict=True):
+        data[at : at + a.nbytes] = np.frombuffer(np.ascontiguousarray(a).data, np.uint8)
+    header = json.dumps({"arrays": layout, "sha256": hashlib.sha256(data.data).hexdigest()})
+    head = header.encode()
+    size = -(-(8 + len(head)) // _ALIGN) * _ALIGN
+    prefix = np.zeros(size, np.uint8)
+    prefix[:8] = np.frombuffer(len(head).to_bytes(8, "little"), np.uint8)
+    prefix[8 : 8 + len(head)] = np.frombuffer(head, np.uint8)
+    return np.concatenate([prefix, data])
+
+
+def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The arrays of ``pack_entry``'s output (views of it); ValueError when it is not one
+    or its data's SHA-256 is not the header's."""
+    if entry.dtype != np.uint8 or entry.ndim != 1 or entry.size < 8:
+        raise ValueError("not an entry")
+    length = int.from_bytes(entry[:8].tobytes(), "little")
+    if length > min(entry.size - 8, 1 << 20):
+        raise ValueError("header length out of range")
+    header = json.loads(entry[8 : 8 + length].tobytes())
+    start = -(-(8 + length) // _ALIGN) * _ALIGN
+    data = entry[start:]
+    if hashlib.sha256(data.data).hexdigest() != header["sha256"]:
+        raise ValueError("checksum mismatch")
+    arrays = []
+    for dtype_str, shape, offset in header["arrays"]:
+        dtype = np.dtype(dtype_str)
+        if dtype.hasobject:
+            raise ValueError("object arrays are never read")
+        count = int(np.prod(shape, dtype=np.int64))
+        arrays.append(np.frombuffer(data, dtype, count, int(offset)).reshape(shape))
+    return tuple(arrays)
+
+
+class PreparedCache:
+    """The two-level cache (module docstring). ``directory`` None: in process only;
+    ``enabled`` False: nothing is kept anywhere."""
+
+    def __init__(
+        self,
+        directory: Path | None,
+        enabled: bool = True,
+        memory_bytes: int = MEMORY_BYTES,
+        disk_bytes: int = DISK_BYTES,
+    ) -> None:
+        self.directory = directory
+        self.enabled = enabled
+        self.memory_bytes = memory_bytes
+        self.disk_bytes = disk_bytes
+        self._memory: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
+        self._held = 0
+        self._lock = threading.Lock()
+        # What happened to each lookup, for tests and the bench: memory, disk, built, rebuilt.
+        self.events: list[str] = []
+
+    def arrays(
+        self, kind: str, parts: Iterable[Part], build: Callable[[], Sequence[np.ndarray]]
+    ) -> tuple[np.ndarray, ...]:
+        """The arrays ``build()`` makes from the source and parameters in ``parts``: from
+        memory, else from disk (checksum verified), else built and stored in both. The
+        returned arrays are read-only (they may be shared)."""
+        if not self.enabled:
+            self.events.append("built")
+            return tuple(np.asarray(a) for a in build())
+        key = entry_key(kind, parts)
+        with self._lock:
+            held = self._memory.get(key)
+            if held is not None:
+                self._memory.move_to_end(key)
+                self.events.append("memory")
+                return held
+        arrays = self._read(key)
+        if arrays is not None:
+            self.events.append("disk")
+        else:
+            arrays = tuple(np.ascontiguousarray(a) for a in build())
+            self._write(key, arrays)
+            self.events.append("built")
+        for a in arrays:
+            a.setflags(write=False)
+        self._remember(key, arrays)
+        return arrays
+
+    def clear_memory(self) -> None:
+        """Forget the in-process entries (a second process's view of the disk level)."""
+        with self._lock:
+            self._memory.clear()
+            self._held = 0
+
+    def _remember(self, key: str, arrays: tuple[np.ndarray, ...]) -> None:
+        size = sum(a.nbytes for a in arrays)
+        if size > self.memory_bytes:
+            return
+        with self._lock:
+            if key in self._memory:
+                return
+            self._memory[key] = arrays
+            self._held += size
+            while self._held > self.memory_bytes:
+                _, old = self._memory.popitem(last=False)
+                self._held -= sum(a.nbytes for a in old)
+
+    def path(self, key: str) -> Path | None:
+        """Where entry ``key`` lives on disk (None without a directory)."""
+        return None if self.directory is None else self.directory / f"{key}{_SUFFIX}"
+
+    def _read(self, key: str) -> tuple[np.ndarray, ...] | None:
+        path = self.path(key)
+        if path is None or not path.is_file():
+            return None
+        try:
+            arrays = unpack_entry(np.load(path, allow_pickle=False))
+            os.utime(path)  # most recently used
+            return arrays
+        except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
+            _LOG.warning("texture cache: %s is unreadable (%s); rebuilding it", path, exc)
+            self.events.append("rebuilt")
+            path.unlink(missing_ok=True)
+            return None
+
+    def _write(self, key: str, arrays: tuple[np.ndarray, ...]) -> None:
+        path = self.path(key)
+        if path is None:
+            return
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=_TEMPORARY, suffix=_SUFFIX, dir=path.parent)
+            try:
+                with os.fdopen(fd, "wb") as out:
+                    np.save(out, pack_entry(arrays), allow_pickle=False)
+                os.replace(tmp, path)
+            except BaseException:
+                Path(tmp).unlink(missing_ok=True)
+                raise
+            self._evict()
+        except OSError as exc:  # a read-only or full disk: the cache is an optimisation
+            _LOG.warning("texture cache: cannot write %s (%s)", path, exc)
+
+    def _evict(self) -> None:
+        """Delete the least recently used entries until the directory fits ``disk_bytes``."""
+        assert self.directory is not None
+        entries = []
+        now = time.time_ns()
+        for entry in self.directory.glob(f"*{_SUFFIX}"):
+            try:
+                stat = entry.stat()
+            except OSError:
+                continue
+            if entry.name.startswith(_TEMPORARY):  # another process's write in progress,
+                if now - stat.st_mtime_ns > _STALE_NS:  # or a killed one's leftover
+                    entry.unlink(missing_ok=True)
+                continue
+            entries.append((stat.st_mtime_ns, stat.st_size, entry))
+        total = sum(size for _, size, _ in entries)
+        for _, size, entry in sorted(entries):
+            if total <= self.disk_bytes:
+                break
+            entry.unlink(missing_ok=True)
+            total -= size
+
+
+def cache_directory() -> Path:
+    """``$PBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/pbs``, else ``~/.cache/pbs``."""
+    given = os.environ.get(ENV_DIR)
+    if given:
+        return Path(given)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "pbs"
+
+
+def cache_enabled() -> bool:
+    return os.environ.get(ENV_SWITCH, "").strip().lower() not in OFF_VALUES
+
+
+_SHARED: dict[tuple[str, bool], PreparedCache] = {}
+
+
+def prepared_cache() -> PreparedCache:
+    """The process's cache for the current environment variables (one per setting, so a
+    test or a bench that changes them gets a fresh one)."""
+    setting = (str(cache_directory()), cache_enabled())
+    cache = _SHARED.get(setting)
+    if cache is None:
+        cache = _SHARED[setting] = PreparedCache(Path(setting[0]) / "textures", setting[1])
+    return cache

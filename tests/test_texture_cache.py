@@ -1,0 +1,267 @@
+"""The content-keyed cache of prepared textures (app/textures/cache.py): a second load of
+the same images reads the chains instead of building them and gets the same arrays, a
+corrupt entry is detected by its checksum and rebuilt, the cache can be turned off and
+stays within its size, and a glTF material's maps go through it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.textures import cache as cache_module
+from app.textures.cache import PreparedCache, entry_key, prepared_cache
+from app.textures.maps import Texture, channel_texture, normal_roughness_map
+
+
+def images(seed: int = 7) -> tuple[Image.Image, Image.Image]:
+    """A random normal map and metallic-roughness image (odd sizes: blocks of three)."""
+    rng = np.random.default_rng(seed)
+    normal = rng.integers(0, 256, (37, 29, 3), dtype=np.uint8)
+    normal[..., 2] = rng.integers(128, 256, (37, 29), dtype=np.uint8)
+    mr = rng.integers(0, 256, (37, 29, 3), dtype=np.uint8)
+    return Image.fromarray(normal, "RGB"), Image.fromarray(mr, "RGB")
+
+
+def chain(cache_dir: Path, monkeypatch: pytest.MonkeyPatch, seed: int = 7) -> list[np.ndarray]:
+    monkeypatch.setenv("PBS_CACHE_DIR", str(cache_dir))
+    normal, mr = images(seed)
+    return normal_roughness_map(normal, 0.8, 0.9, mr, "variance").levels
+
+
+def test_second_load_hits_and_is_identical(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    first = chain(tmp_path, monkeypatch)
+    cache = prepared_cache()
+    assert cache.events[-1] == "built"
+    assert len(list((tmp_path / "textures").glob("*.npy"))) == 1
+    again = chain(tmp_path, monkeypatch)  # the same process: from memory
+    assert cache.events[-1] == "memory"
+    cache.clear_memory()  # another process: from disk
+    third = chain(tmp_path, monkeypatch)
+    assert cache.events[-1] == "disk"
+    for a, b, c in zip(first, again, third, strict=True):
+        assert a.dtype == b.dtype == c.dtype == np.float32
+        assert np.array_equal(a, b) and np.array_equal(a, c)
+        assert not c.flags.writeable  # shared: nobody may change them in place
+    # Another image, another filter, another scale: other keys, built.
+    chain(tmp_path, monkeypatch, seed=8)
+    assert cache.events[-1] == "built"
+    normal, mr = images()
+    normal_roughness_map(normal, 0.8, 0.9, mr, "toksvig")
+    normal_roughness_map(normal, 0.7, 0.9, mr, "variance")
+    assert cache.events[-2:] == ["built", "built"]
+
+
+def test_cached_chain_is_what_the_builder_makes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With the cache off, the same call builds every time; the cached arrays equal it."""
+    cached = chain(tmp_path, monkeypatch)
+    monkeypatch.setenv("PBS_CACHE", "off")
+    cache = prepared_cache()
+    built = chain(tmp_path, monkeypatch)
+    built_again = chain(tmp_path, monkeypatch)
+    assert not cache.enabled and cache.events == ["built", "built"]
+    for a, b, c in zip(cached, built, built_again, strict=True):
+        assert np.array_equal(a, b) and np.array_equal(a, c)
+    # Off means off: nothing written (a fresh folder stays empty).
+    chain(tmp_path / "off", monkeypatch)
+    assert not (tmp_path / "off").exists()
+
+
+def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    first = chain(tmp_path, monkeypatch)
+    cache = prepared_cache()
+    (entry,) = (tmp_path / "textures").glob("*.npy")
+    # Flip bytes inside the data (the file still loads: only the checksum can tell).
+    data = bytearray(entry.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 8] = bytes(b ^ 0xFF for b in data[middle : middle + 8])
+    entry.write_bytes(bytes(data))
+    cache.clear_memory()
+    again = chain(tmp_path, monkeypatch)
+    assert cache.events[-2:] == ["rebuilt", "built"]
+    for a, b in zip(first, again, strict=True):
+        assert np.array_equal(a, b)
+    # Rewritten whole: the next process reads it.
+    cache.clear_memory()
+    chain(tmp_path, monkeypatch)
+    assert cache.events[-1] == "disk"
+    # A well-formed .npy whose header names another checksum: rebuilt.
+    packed = np.load(entry, allow_pickle=False).copy()
+    packed[-1] ^= 1
+    np.save(entry, packed)
+    cache.clear_memory()
+    chain(tmp_path, monkeypatch)
+    assert cache.events[-2:] == ["rebuilt", "built"]
+    # Not an entry at all: rebuilt too.
+    entry.write_bytes(b"not an npy")
+    cache.clear_memory()
+    chain(tmp_path, monkeypatch)
+    assert cache.events[-2:] == ["rebuilt", "built"]
+
+
+def test_entries_are_data_not_pickles(tmp_path: Path) -> None:
+    """An entry holding an object array (what a pickle would smuggle in) is refused and
+    rebuilt, never unpickled."""
+    cache = PreparedCache(tmp_path)
+    key = entry_key("test", ("x",))
+    np.save(tmp_path / f"{key}.npy", np.array([{"x": 1}], dtype=object), allow_pickle=True)
+    arrays = cache.arrays("test", ("x",), lambda: [np.arange(3.0)])
+    assert cache.events == ["rebuilt", "built"]
+    assert np.array_equal(arrays[0], np.arange(3.0))
+
+
+def test_disk_size_is_bounded(tmp_path: Path) -> None:
+    """Past ``disk_bytes`` the least recently used entries go; in memory likewise."""
+    cache = PreparedCache(tmp_path, disk_bytes=3 * 8200, memory_bytes=2 * 8000)
+    for k in range(5):
+        cache.arrays("test", (k,), lambda k=k: [np.full(1000, float(k))])
+    on_disk = sorted(tmp_path.glob("*.npy"))
+    assert 1 <= len(on_disk) <= 3
+    assert sum(p.stat().st_size for p in on_disk) <= 3 * 8200
+    assert len(cache._memory) == 2
+    cache.clear_memory()
+    cache.arrays("test", (4,), lambda: [np.full(1000, 4.0)])  # the newest survived
+    assert cache.events[-1] == "disk"
+
+
+def test_key_separates_inputs() -> None:
+    assert entry_key("k", (b"ab", b"c")) != entry_key("k", (b"a", b"bc"))
+    assert entry_key("k", (np.zeros(2, np.float32),)) != entry_key("k", (np.zeros(1),))
+    assert entry_key("k", (1,)) != entry_key("k", (1.0,))
+    assert entry_key("a", ()) != entry_key("b", ())
+
+
+def test_default_directory(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.delenv("PBS_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert cache_module.cache_directory() == tmp_path / "pbs"
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "mine"))
+    assert cache_module.cache_directory() == tmp_path / "mine"
+
+
+def test_channel_texture_cached(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    _, mr = images()
+    a = channel_texture(mr, 2).levels
+    cache = prepared_cache()
+    cache.clear_memory()
+    b = channel_texture(mr, 2).levels
+    assert cache.events[-2:] == ["built", "disk"]
+    expected = np.asarray(mr, np.float64)[..., 2] / 255.0
+    assert np.array_equal(a[0][..., 0], expected.astype(np.float32))
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+def test_prefiltered_environment_from_disk(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The IBL prefilter's levels (app/render/ibl.py ``prepared_prefilter``): a second
+    process (memory cleared, the prefilter's own cache too) reads them from disk, equal."""
+    from app.gl.shaders import ShaderCache
+    from app.render.ibl import clear_cache, prepared_prefilter
+    from app.textures.environment import studio
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    env = studio(64)
+    shaders = ShaderCache(gl_egl.ctx)
+    try:
+        first = prepared_prefilter(gl_egl.ctx, shaders, env, base=16, samples=8)
+        cache = prepared_cache()
+        cache.clear_memory()
+        clear_cache()
+        again = prepared_prefilter(gl_egl.ctx, shaders, env, base=16, samples=8)
+        other = prepared_prefilter(gl_egl.ctx, shaders, env, base=16, samples=16)
+    finally:
+        shaders.release()
+    assert cache.events == ["built", "disk", "built"]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    assert not all(np.array_equal(a, b) for a, b in zip(first, other, strict=True))
+
+
+def test_open_image_keys_by_file_bytes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An image open_image decoded is keyed by its file's digest: the same bytes hit, one
+    changed pixel (another file) misses."""
+    import io
+
+    from app.textures.maps import SOURCE_DIGEST, open_image
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    _, mr = images()
+
+    def png(image: Image.Image) -> bytes:
+        out = io.BytesIO()
+        image.save(out, "PNG")
+        return out.getvalue()
+
+    data = png(mr)
+    first = open_image(data)
+    assert isinstance(first.info[SOURCE_DIGEST], str)
+    # Decoded once per process: a second open is a copy of the same texels, not the object.
+    second = open_image(data)
+    assert second is not first and second.tobytes() == first.tobytes() == mr.tobytes()
+    assert second.info[SOURCE_DIGEST] == first.info[SOURCE_DIGEST]
+    channel_texture(first, 1)
+    channel_texture(open_image(data), 1)
+    cache = prepared_cache()
+    assert cache.events[-2:] == ["built", "memory"]
+    changed = np.asarray(mr).copy()
+    changed[0, 0, 1] ^= 1
+    channel_texture(open_image(png(Image.fromarray(changed, "RGB"))), 1)
+    assert cache.events[-1] == "built"
+
+
+def test_colour_mips_kept_are_the_gls(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A colour map's mips: the GL builds them the first time (kept); a second process
+    defines them from the kept bytes, and every level holds the same bytes as the GL's."""
+    import io
+
+    from app.render.texture_upload import read_level, upload_texture
+    from app.textures.maps import colour_texture, open_image
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, _ = images()
+    out = io.BytesIO()
+    normal.save(out, "PNG")
+    tex = colour_texture(open_image(out.getvalue()))
+    assert tex.source_key is not None
+    reference = Texture([tex.levels[0]], srgb=True)  # no key: the GL's mips, nothing kept
+    made = [upload_texture(gl_egl.ctx, t) for t in (reference, tex)]
+    cache = prepared_cache()
+    cache.clear_memory()
+    made.append(upload_texture(gl_egl.ctx, tex))
+    assert cache.events == ["built", "disk"]
+    try:
+        count = max(tex.levels[0].shape[:2]).bit_length()
+        for k in range(count):
+            want = read_level(made[0], k)
+            assert np.array_equal(read_level(made[1], k), want)
+            assert np.array_equal(read_level(made[2], k), want), k
+    finally:
+        for t in made:
+            t.release()
+
+
+def test_eviction_spares_writes_in_progress(tmp_path: Path) -> None:
+    """Another process's temporary file is not evicted while fresh; a stale one (a killed
+    writer's) is removed."""
+    import os
+
+    fresh, stale = tmp_path / ".tmp-fresh.npy", tmp_path / ".tmp-stale.npy"
+    for path in (fresh, stale):
+        path.write_bytes(b"x" * 50_000)
+    os.utime(stale, (1.0, 1.0))
+    cache = PreparedCache(tmp_path, disk_bytes=10)
+    cache.arrays("test", (1,), lambda: [np.zeros(4)])
+    assert fresh.exists() and not stale.exists()
