@@ -128,20 +128,24 @@ def test_real_mouse_drag_orbits_the_camera(viewer):
 
 
 def test_click_selects_the_object_and_material_under_the_cursor(viewer):
+    """A click maps into the image area (left of the docked panels); a click on the panels'
+    column selects nothing."""
     v = viewer
     cam = v.scene.camera
-    # The left ball (objects[1]) projected into the window.
+    # The left ball (objects[1]) projected into the image area.
     from app.frame.camera import projection_matrix, view_matrix
 
-    w, h = v.framebuffer_size
+    ix, iy, w, h = v.image_rect
+    assert w < v.framebuffer_size[0]  # the panels' column is beside the image
     centre = np.array([*v.scene.objects[1].position, 1.0])
     clip = projection_matrix(cam, w / h) @ view_matrix(cam) @ centre
-    x = (clip[0] / clip[3] * 0.5 + 0.5) * w
-    y = (0.5 - clip[1] / clip[3] * 0.5) * h
+    x = ix + (clip[0] / clip[3] * 0.5 + 0.5) * w
+    y = iy + (0.5 - clip[1] / clip[3] * 0.5) * h
     chosen = v.select_pixel(x, y)
     assert (chosen.object_index, chosen.material) == (1, "ball")
-    floor = v.select_pixel(w / 2, h - 2)
+    floor = v.select_pixel(ix + w / 2, iy + h - 2)
     assert (floor.object_index, floor.material) == (0, "floor")
+    assert v.select_pixel(ix + w + 4, iy + h - 2).object_index is None  # on the panels
 
 
 def test_edit_save_load_renders_the_same(viewer, gl_egl, tmp_path):
@@ -540,11 +544,12 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
     assert v.open_walkthrough(lesson_steps, "en", 5)
     c = v.lesson.current.step.comparisons[0]
     assert v.lesson.compare(0) and v.comparison is not None
+    fitted = v.image_size  # the step fits its framing to the image area beside the panels
     shown = window_image(v)
     gl = create_context("egl")
     try:
         with gl.ctx:
-            loaded = fit_scene(load_scene(scenes_dir() / f"{c.scene}.toml"), v.framebuffer_size)
+            loaded = fit_scene(load_scene(scenes_dir() / f"{c.scene}.toml"), fitted)
             comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size)
             try:
                 comp.render()
@@ -571,8 +576,9 @@ def test_walkthrough_sweep_value_and_reset(viewer, lesson_steps, gl_egl):
     sweep = lesson.current.step.sweeps[i]
     assert lesson.select_sweep(i)
     assert lesson.set_sweep(0.35)
+    fitted = v.image_size  # the step fits its framing to the image area beside the panels
     shown = window_image(v)
-    loaded = fit_scene(lesson.current.scene(sweep.scene), v.framebuffer_size)
+    loaded = fit_scene(lesson.current.scene(sweep.scene), fitted)
     want = with_values(loaded, sweep.keys, 0.35, lesson.current.path, "sweeps[0]", "sweeps[0]")
     assert_close(shown, headless(gl_egl, want, v.framebuffer_size))
     assert all(v.value(key) == 0.35 for key in sweep.keys)

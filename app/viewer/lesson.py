@@ -174,9 +174,9 @@ class Lesson:
         v.stop_compare()
         if not v.open_scene(self.path(ref)):
             return False
-        # Projector-ready framing (``pbs render --fit``): the window keeps the
+        # Projector-ready framing (``pbs render --fit``): the image area keeps the
         # scene's whole framing whatever its aspect ratio.
-        fov = fit_scene(v.document.loaded, v.framebuffer_size).scene.camera.fov_y
+        fov = fit_scene(v.document.loaded, v.image_size).scene.camera.fov_y
         if fov != v.scene.camera.fov_y and v.edit({"camera.fov_y": fov}, defer=False):
             v.base_camera = v.scene.camera
         self.scene_ref = ref
@@ -262,15 +262,14 @@ class LessonPanel:
     def draw(self, lesson: Lesson, panels: Any) -> None:
         lang = lesson.lang
         step = lesson.current.step
-        if panels._window("Walkthrough", -8, 8, min(460, 0.42 * panels.viewer.framebuffer_size[0]),
-                          0.96):  # fmt: skip
+        if panels._window("Walkthrough"):
             pos, size = imgui.get_window_pos(), imgui.get_window_size()
             self.window_rect = (pos.x, pos.y, pos.x + size.x, pos.y + size.y)
             self._header(lesson, panels)
             imgui.separator()
             if self.title_font is not None:
                 imgui.push_font(self.title_font, 0.0)
-            imgui.text(f"{HEADING[lang].format(step.section)} {step.title.get(lang)}")
+            imgui.text_wrapped(f"{HEADING[lang].format(step.section)} {step.title.get(lang)}")
             if self.title_font is not None:
                 imgui.pop_font()
             lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
@@ -285,21 +284,20 @@ class LessonPanel:
                 for plot in step.plots:
                     self.flow(lesson, lesson.text(plot.caption))
                     imgui.text_wrapped("pbs brdf " + " ".join(f"'{m}'" for m in plot.materials))
-        imgui.end()
+        panels._end()
 
     def _header(self, lesson: Lesson, panels: Any) -> None:
         lang = lesson.lang
-        if imgui.button(_ui("previous", lang)):
+        # "< previous  3 / 13  next >" (the count a disabled button: a label in the row)
+        count = f"{lesson.index + 1} / {len(lesson.steps)}##count"
+        clicked = panels._buttons(_ui("previous", lang), count, _ui("next", lang),
+                                  _ui("reset", lang))  # fmt: skip
+        if clicked == _ui("previous", lang):
             lesson.previous()
-        imgui.same_line()
-        imgui.text(f"{lesson.index + 1} / {len(lesson.steps)}")
-        imgui.same_line()
-        if imgui.button(_ui("next", lang)):
+        elif clicked == _ui("next", lang):
             lesson.next()
-        imgui.same_line()
-        if imgui.button(_ui("reset", lang)):
+        elif clicked == _ui("reset", lang):
             lesson.reset()
-        imgui.same_line()
         if imgui.radio_button("EN", lang == "en"):
             lesson.lang = "en"
         imgui.same_line()
@@ -418,7 +416,11 @@ class LessonPanel:
             label = f"{c.label_a.get(lang)}  |  {c.label_b.get(lang)}"
             if imgui.button(label):
                 lesson.compare(i)
-            imgui.text_disabled(f"{c.scene}: {c.key}")
+            imgui.push_style_color(
+                imgui.Col_.text, imgui.get_style_color_vec4(imgui.Col_.text_disabled)
+            )
+            imgui.text_wrapped(f"{c.scene}: {c.key}")
+            imgui.pop_style_color()
             if c.caption is not None:
                 self.flow(lesson, lesson.text(c.caption))
             imgui.pop_id()
