@@ -645,3 +645,89 @@ def test_pbs_view_lang_ko_without_a_hangul_font_is_one_line_exit_2(monkeypatch, 
         labels.find_font.cache_clear()
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "fonts-noto-cjk" in err
+
+
+# --- idle and Escape ---------------------------------------------------------------------------
+
+
+def _xdotool(*args: str) -> subprocess.Popen:
+    if shutil.which("xdotool") is None:
+        pytest.fail("xdotool is missing: run `bash scripts/dev.sh setup` (it installs it)")
+    return subprocess.Popen(["xdotool", *args])
+
+
+def _step_while(v, proc: subprocess.Popen, seconds: float = 10.0) -> None:
+    """Frames while xdotool delivers its input, and a few after."""
+    deadline = time.monotonic() + seconds
+    while proc.poll() is None and time.monotonic() < deadline:
+        v.step()
+    v.step(3)
+    assert proc.returncode == 0
+
+
+def test_an_idle_window_draws_no_frames_and_input_wakes_it(viewer):
+    """``run`` with nothing happening draws no frame in 2 s (a count, not a time: the
+    loop sleeps in glfw.wait_events_timeout); a real mouse move over the window wakes it
+    for a few frames, and a scene edit draws again."""
+    import glfw
+
+    v = viewer
+    v.run(1.0)  # the settle frames after the fixture's input
+    frames = v.frames
+    v.run(2.0)
+    assert v.frames == frames, f"{v.frames - frames} frames drawn while idle"
+    window = str(glfw.get_x11_window(v.window))
+    mover = _xdotool("mousemove", "--window", window, "40", "40", "sleep", "0.1",
+                     "mousemove", "--window", window, "60", "50")  # fmt: skip
+    v.run(1.5)
+    assert mover.wait(10) == 0
+    woken = v.frames - frames
+    assert 0 < woken <= 20, woken
+    v.edit({"materials.ball.roughness": 0.6})
+    frames = v.frames
+    v.run(1.0)
+    assert v.frames > frames
+    assert not v.state.dirty
+
+
+def test_escape_quits_while_a_widget_is_held_and_ends_typing_first(xdisplay, scene_copy):
+    """Real key presses (xdotool) on the X server, in a 960x540 window: Escape quits while
+    a panel's button is held down (ImGui has the keyboard: an active widget); in the
+    save-as text field the first Escape ends the typing and the second quits."""
+
+    from app.viewer.window import Viewer
+
+    v = Viewer(scene_copy, (960, 540), vsync=False)
+    try:
+        v.settle()
+        v.step(3)
+        _escape(v)
+    finally:
+        v.close()
+
+
+def _escape(v) -> None:
+    import glfw
+
+    window = str(glfw.get_x11_window(v.window))
+
+    def centre(name: str) -> tuple[str, str]:
+        x0, y0, x1, y1 = v.panels.rects[name]
+        return str(round((x0 + x1) / 2)), str(round((y0 + y1) / 2))
+
+    x, y = centre("frame")
+    _step_while(v, _xdotool("mousemove", "--window", window, x, y, "mousedown", "1",
+                            "sleep", "0.3"))  # fmt: skip
+    assert v.panels.wants_keyboard() and not v.panels.typing()  # the button is active
+    _step_while(v, _xdotool("key", "--window", window, "Escape"))
+    assert glfw.window_should_close(v.window)
+    _step_while(v, _xdotool("mouseup", "1"))
+    glfw.set_window_should_close(v.window, False)
+    x, y = centre("save")
+    _step_while(v, _xdotool("mousemove", "--window", window, x, y, "click", "1",
+                            "sleep", "0.2", "type", "--window", window, "abc"))  # fmt: skip
+    assert v.panels.typing() and v.panels.save_path == "abc"
+    _step_while(v, _xdotool("key", "--window", window, "Escape"))
+    assert not glfw.window_should_close(v.window) and not v.panels.typing()
+    _step_while(v, _xdotool("key", "--window", window, "Escape"))
+    assert glfw.window_should_close(v.window)

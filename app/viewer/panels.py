@@ -155,7 +155,10 @@ class Panels:
         # The central node's rectangle in framebuffer pixels (x, y from the top, w, h):
         # where the window draws the image; None before the first frame.
         self.central: tuple[int, int, int, int] | None = None
-        self.save_rect: tuple[float, float, float, float] | None = None  # the save-as field
+        # Where a few widgets were drawn (screen units: x0, y0, x1, y1), for tests that
+        # click them with real input: "save" (the save-as field), "frame" (its button).
+        self.rects: dict[str, tuple[float, float, float, float]] = {}
+        self._first_rect = (0.0, 0.0, 0.0, 0.0)  # the last row of buttons' first
         self.hangul = False  # a Hangul font merged into the default one (load_hangul)
         from app.viewer.lesson import LessonPanel
 
@@ -350,6 +353,9 @@ class Panels:
                     imgui.same_line()
             if (imgui.small_button if small else imgui.button)(label):
                 clicked = label
+            if i == 0:
+                lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+                self._first_rect = (lo.x, lo.y, hi.x, hi.y)
         return clicked
 
     def _section(self, label: str) -> bool:
@@ -395,6 +401,7 @@ class Panels:
         if self._window("Scene"):
             imgui.text(v.document.path.name)
             clicked = self._buttons("Frame (F)", "Reset camera (R)")
+            self.rects["frame"] = self._first_rect
             if clicked == "Frame (F)":
                 v.frame_selection()
             elif clicked == "Reset camera (R)":
@@ -404,7 +411,7 @@ class Panels:
                 "##save", "save as... (empty: over the file)", self.save_path
             )
             lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
-            self.save_rect = (lo.x, lo.y, hi.x, hi.y)
+            self.rects["save"] = (lo.x, lo.y, hi.x, hi.y)
             clicked = self._buttons("Save scene (Ctrl+S)", "Screenshot (P)", "Lesson")
             if clicked == "Save scene (Ctrl+S)":
                 v.save_scene(self.save_path or None)
