@@ -245,6 +245,19 @@ class Lesson:
         self.math.release()
 
 
+def wrap_label(text: str, width: float) -> str:
+    """``text`` with line breaks where its words would pass ``width`` pixels (ImGui's
+    buttons and radio buttons do not wrap their labels: a long one would be cut at the
+    panel's edge). A single word wider than ``width`` keeps its own line."""
+    lines: list[str] = []
+    for word in text.split(" "):
+        if lines and imgui.calc_text_size(f"{lines[-1]} {word}").x <= width:
+            lines[-1] = f"{lines[-1]} {word}"
+        else:
+            lines.append(word)
+    return "\n".join(lines)
+
+
 def _ui(word: str, lang: str) -> str:
     return UI[word][lang]
 
@@ -301,7 +314,10 @@ class LessonPanel:
         if imgui.radio_button("EN", lang == "en"):
             lesson.lang = "en"
         imgui.same_line()
-        if imgui.radio_button("한국어", lang == "ko") and panels.load_hangul():
+        # Without the Hangul font (not merged until Korean is asked for) the name in
+        # Hangul would be boxes.
+        korean = "한국어" if panels.hangul else "Korean"
+        if imgui.radio_button(f"{korean}##ko", lang == "ko") and panels.load_hangul():
             lesson.lang = "ko"
 
     # --- text with inline math ------------------------------------------------------------
@@ -399,7 +415,8 @@ class LessonPanel:
         for i, view in enumerate(step.views):
             imgui.push_id(f"view{i}")
             shown = lesson.viewer.comparison is None and lesson.scene_ref == view.scene
-            if imgui.selectable(view.scene, shown)[0]:
+            if imgui.selectable(wrap_label(view.scene, imgui.get_content_region_avail().x),
+                                shown)[0]:  # fmt: skip
                 lesson.open_view(i)
             if view.caption is not None:
                 imgui.indent()
@@ -414,7 +431,8 @@ class LessonPanel:
         for i, c in enumerate(step.comparisons):
             imgui.push_id(f"comparison{i}")
             label = f"{c.label_a.get(lang)}  |  {c.label_b.get(lang)}"
-            if imgui.button(label):
+            room = imgui.get_content_region_avail().x - 2 * imgui.get_style().frame_padding.x
+            if imgui.button(wrap_label(label, room)):
                 lesson.compare(i)
             imgui.push_style_color(
                 imgui.Col_.text, imgui.get_style_color_vec4(imgui.Col_.text_disabled)
@@ -434,7 +452,10 @@ class LessonPanel:
         for i, sweep in enumerate(step.sweeps):
             imgui.push_id(f"sweep{i}")
             label = ", ".join(sweep.keys)
-            if imgui.radio_button(f"{sweep.scene}: {label}", lesson.sweep == i):
+            style = imgui.get_style()
+            room = imgui.get_content_region_avail().x - imgui.get_frame_height()
+            room -= style.item_inner_spacing.x
+            if imgui.radio_button(wrap_label(f"{sweep.scene}: {label}", room), lesson.sweep == i):
                 lesson.select_sweep(i)
             if sweep.caption is not None:
                 self.flow(lesson, lesson.text(sweep.caption))

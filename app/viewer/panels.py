@@ -68,6 +68,7 @@ TOP = ("Scene",)
 TABS = ("Walkthrough", "Material", "Lights", "Render", "Plots", "Compare")
 FOOT = ("Problems",)
 TOP_SHARE = 0.4  # at most, of the column's height above the tabs
+LESSON_SHARE = 0.72  # of it while a walkthrough is open: the Walkthrough in front of Scene
 FOOT_LINES = 3  # the Problems panel's height, lines of text (an error wraps to more)
 SIDE_MAX = 0.5  # the column never takes more of the window's width than this
 WIDGET_TEXT = "-0.000 -0.000 -0.000"  # what a widget beside its label should fit (a drag_float3)
@@ -283,7 +284,9 @@ class Panels:
 
     def _build_layout(self, viewport: Any) -> None:
         """Split the dock space: a column on the right of ``side_width`` (at most
-        ``SIDE_MAX`` of the window), in it ``TOP``, the ``TABS`` and ``FOOT``."""
+        ``SIDE_MAX`` of the window), in it ``TOP``, the ``TABS`` and ``FOOT``; while a
+        walkthrough is open, the Walkthrough joins the top, in front of Scene, and the top
+        takes ``LESSON_SHARE`` of the column (the lesson's text is what is read then)."""
         internal = imgui.internal
         self._measure()
         dock = self.dock_id
@@ -303,9 +306,13 @@ class Panels:
         lines = len(self.viewer.scene.objects) + 8
         top_h = lines * imgui.get_frame_height_with_spacing()
         top_share = min(top_h / max(height - foot_h, 1.0), TOP_SHARE)
+        top_titles, tab_titles = TOP, TABS
+        if self.viewer.lesson is not None:
+            top_share, top_titles = LESSON_SHARE, ("Walkthrough", *TOP)
+            tab_titles = tuple(t for t in TABS if t != "Walkthrough")
         split = internal.dock_builder_split_node(rest, imgui.Dir.up, top_share)
         top, tabs = split.id_at_dir, split.id_at_opposite_dir
-        for titles, node in ((TOP, top), (TABS, tabs), (FOOT, foot)):
+        for titles, node in ((top_titles, top), (tab_titles, tabs), (FOOT, foot)):
             for title in titles:
                 internal.dock_builder_dock_window(title, node)
         internal.dock_builder_finish(dock)

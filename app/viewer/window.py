@@ -433,6 +433,7 @@ class Viewer:
             self.lesson.close()
         self.lesson = Lesson(self, steps, lang)
         if self.panels is not None:
+            self.panels.relayout()  # the Walkthrough docked above the other panels
             self.panels.expand("Walkthrough")
         return self.lesson.go_section(section)
 
