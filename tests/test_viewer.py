@@ -731,3 +731,41 @@ def _escape(v) -> None:
     assert not glfw.window_should_close(v.window) and not v.panels.typing()
     _step_while(v, _xdotool("key", "--window", window, "Escape"))
     assert glfw.window_should_close(v.window)
+
+
+@pytest.mark.parametrize("size", [(960, 540), (1600, 900)])
+def test_no_panel_covers_the_image_and_no_label_passes_a_panels_edge(xdisplay, size, lesson_steps):
+    """At 960x540 and 1600x900: the image area is the window left of the docked column
+    (the whole height, at least half the width) and the renderer renders at its size;
+    every panel, each brought to the front in turn (the gold material with every section
+    open, every walkthrough step with its lists), draws no item past its right edge (a
+    label there would be cut)."""
+    from app.viewer.window import Selection, Viewer
+
+    v = Viewer(scenes_dir() / "showcase.toml", size, vsync=False)
+    try:
+        v.settle()
+        x, y, w, h = v.image_rect
+        assert (x, y, h) == (0, 0, size[1]) and size[0] / 2 <= w < size[0]
+        assert v.renderer.size == (w, h)
+        gold = next(i for i, o in enumerate(v.scene.objects) if o.material == "gold")
+        v.selection = Selection(gold, "gold")
+        v.panels.open_sections = True
+        seen = {}
+        for title in ("Material", "Lights", "Render", "Plots", "Compare"):
+            v.panels.expand(title)
+            v.step(3)
+            seen[title] = v.panels.overflow[title]
+        assert v.open_walkthrough(lesson_steps, "en", 1)
+        for index in range(len(lesson_steps)):
+            assert v.lesson.go(index)
+            if v.lesson.current.step.sweeps:
+                assert v.lesson.select_sweep(0)  # its slider and play drawn too
+            v.step(3)
+            seen[f"step {index + 1}"] = v.panels.overflow["Walkthrough"]
+        seen["Scene"], seen["Problems"] = v.panels.overflow["Scene"], v.panels.overflow["Problems"]
+        assert v.image_rect[2] == w  # the lesson's layout keeps the column's width
+        cut = {title: round(px) for title, px in seen.items() if px > 0.5}
+        assert not cut, f"items past the panel's edge (pixels): {cut}"
+    finally:
+        v.close()

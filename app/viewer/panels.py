@@ -160,6 +160,9 @@ class Panels:
         # click them with real input: "save" (the save-as field), "frame" (its button).
         self.rects: dict[str, tuple[float, float, float, float]] = {}
         self._first_rect = (0.0, 0.0, 0.0, 0.0)  # the last row of buttons' first
+        # Per panel, how many pixels its widest item passed its right edge when it was last
+        # drawn (0 or less: nothing cut); tests read it at the window sizes they check.
+        self.overflow: dict[str, float] = {}
         self.hangul = False  # a Hangul font merged into the default one (load_hangul)
         from app.viewer.lesson import LessonPanel
 
@@ -344,7 +347,12 @@ class Panels:
         return visible
 
     def _end(self) -> None:
+        """End a panel, noting how far its widest item passed the panel's right edge
+        (``overflow``: above 0, something in it is cut)."""
         imgui.pop_item_width()
+        window = imgui.internal.get_current_window()
+        if not window.skip_items:  # drawn this frame (a docked panel behind a tab is not)
+            self.overflow[window.name] = window.dc.cursor_max_pos.x - window.work_rect.max.x
         imgui.end()
 
     def _buttons(self, *labels: str, small: bool = False) -> str | None:
