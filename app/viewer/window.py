@@ -18,8 +18,10 @@ panels (Tab, ``ui=False``) the image is the whole window.
 
 **Idle.** ``run`` draws a frame only when one would differ from the last: input arrived
 (the panels get ``UI_SETTLE_FRAMES`` more to settle hover and focus), an edit or a pending
-compile, a resize, the full-size frame after a preview, a played sweep, or a renderer that
-is still refining (``refining``, a hook for progressive accumulation). Otherwise it sleeps
+compile, a resize, the full-size frame after a preview, a played sweep, or an image still
+refining (``refining``): with ``render.antialiasing = "jitter"`` each change draws jittered
+sample 0 and the idle frames after it add samples 1 .. N-1 to the mean
+(``Renderer.render_sample``), then the loop sleeps on the finished image. Otherwise it sleeps
 in ``glfw.wait_events_timeout`` until an event or the next hot-reload check, so an idle
 window costs no frames (docs/viewer.md measures its CPU).
 
@@ -182,9 +184,10 @@ class Viewer:
         self.frames = 0  # frames drawn and swapped (an idle window draws none)
         self._settle = UI_SETTLE_FRAMES  # frames still to draw for the panels to settle
         # Progressive refinement: a callable that says whether another frame of the same
-        # scene state would still improve the image (accumulated samples); while it does,
-        # ``run`` keeps rendering. Default: the renderer's own ``refining`` flag, if it has one.
-        self.refining: Callable[[], bool] = lambda: bool(getattr(self.renderer, "refining", False))
+        # scene state would still improve the image; while it does, ``run`` keeps
+        # rendering. Default: jittered samples still to add (``_samples_left``).
+        self.refining: Callable[[], bool] = self._samples_left
+        self._sample = 0  # the next jittered sample of the progressive mean
         if ui:
             from app.viewer.panels import Panels
 
@@ -499,6 +502,8 @@ class Viewer:
         the scene unless ``path`` says otherwise."""
         self._current()
         self._render(scale=1)
+        while self.comparison is None and self._mean_unfinished():  # the whole mean
+            self._render(scale=1)
         stem = self.document.path.with_suffix("")
         path = Path(path) if path is not None else stem.parent / f"{stem.name}-view.png"
         write_png(path, self.renderer.read_ldr())
@@ -590,18 +595,46 @@ class Viewer:
         refining = self.comparison is None and self.refining()
         if not (self.state.dirty or self.state.rendered_scale != scale or refining):
             return
+        changed = self.state.dirty or self.state.rendered_scale != scale
         if self.comparison is not None:  # the two sides, composited; the base is not drawn
             self.comparison.render()
             self.comparison.composite(self.compare_mode, self.divider, self.gain)
         else:
             timings: dict[str, float] = {}
-            self.renderer.render(timings if self.panels and self.panels.timing else None)
+            asked = timings if self.panels and self.panels.timing else None
+            if self._progressive():
+                self._sample = 0 if changed else self._sample
+                self.renderer.render_sample(self._sample, self._sample == 0, asked)
+                self._sample += 1
+            else:
+                self.renderer.render(asked)
             if timings:
                 self.state.frame_ms = timings
             if self.debug_view is not None:
                 self._run_debug()
         self.state.dirty = False
         self.state.rendered_scale = scale
+
+    def _sample_count(self) -> int:
+        """The jittered samples of the progressive mean (``render.antialiasing = "jitter"``
+        on a renderer with ``render_sample``), else 1: one ``render()`` a change."""
+        if getattr(self.renderer, "accumulate", None) is None:
+            return 1
+        return int(getattr(self.scene.render, "antialiasing_samples", 1))
+
+    def _progressive(self) -> bool:
+        """Whether frames are drawn as samples of a progressive mean (not for a debug
+        view, which reads the last frame's G-buffer and light terms)."""
+        return self.debug_view is None and self._sample_count() > 1
+
+    def _mean_unfinished(self) -> bool:
+        """Whether the progressive mean drawn last still lacks samples."""
+        return self._progressive() and 0 < self._sample < self._sample_count()
+
+    def _samples_left(self) -> bool:
+        """Whether the full-size image still lacks samples of its mean (never while a
+        preview is shown: input is arriving, each change restarts at sample 0)."""
+        return self.state.rendered_scale == 1 and self._scale() == 1 and self._mean_unfinished()
 
     @property
     def window_gone(self) -> bool:
@@ -650,6 +683,8 @@ class Viewer:
         for _ in range(3):  # the panels' first frame moves the image area: once more
             if not self.state.dirty:
                 break
+            self.step()
+        while self.comparison is None and self.refining():  # the whole progressive mean
             self.step()
 
     def needs_frame(self) -> bool:
