@@ -646,6 +646,9 @@ class Viewer:
         self._current()
         for _ in range(frames):
             glfw.poll_events()
+            # A round trip to the X server (the window's size) makes it report a window
+            # destroyed from outside now, before the panels ask for its size mid-frame.
+            glfw.get_window_size(self.window)
             if self.window_gone:  # destroyed from outside: the loop ends, nothing drawn
                 glfw.set_window_should_close(self.window, True)
                 return
@@ -741,7 +744,11 @@ class Viewer:
         self._present.draw(self._shown(), (x, fh - y - h, w, h))
         self.ctx.viewport = (0, 0, fw, fh)
         if self.panels is not None and self.show_ui:
-            self.panels.draw()
+            try:
+                self.panels.draw()
+            except RuntimeError:  # ImGui's check of the window's size, the window gone
+                if not self.window_gone:
+                    raise
 
     def _run_debug(self) -> None:
         """The debug view of the frame just rendered, on a DebugPass of this renderer at
