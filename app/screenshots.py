@@ -95,7 +95,7 @@ def viewer_walkthrough_screenshot(out: Path, section: int = 1, lang: str = "ko")
 
 def viewer_screenshot(out: Path, material: str = "gold") -> None:
     """The viewer's window on scenes/showcase.toml with the first object of ``material``
-    selected (its material, lobes and albedo in the panels), written as PNG to ``out``."""
+    selected (its Material panel in front of the docked tabs), written as PNG to ``out``."""
     from app.viewer.window import Selection, Viewer
     from app.viewer.xvfb import xvfb
 
@@ -105,7 +105,7 @@ def viewer_screenshot(out: Path, material: str = "gold") -> None:
             objects = viewer.scene.objects
             index = next(i for i, obj in enumerate(objects) if obj.material == material)
             viewer.selection = Selection(index, material)
-            viewer.panels.expand("Material", "Plots")
+            viewer.panels.expand("Material")
             viewer.settle()
             viewer.step(3)  # the panels laid out, the plots drawn
             write_png(out, viewer.read_window())

@@ -74,6 +74,9 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
         if row.get("not_measured"):  # a batch way that could not run says why, untimed
             assert row["suite"] == "batch" and row["ms_median"] is None, row
             continue
+        if row["suite"] == "viewer" and row["variant"] == "idle":  # CPU, not a time
+            assert row["ms_median"] is None and row["cpu_percent"] >= 0.0, row
+            continue
         assert row["ms_min"] <= row["ms_median"] <= row["ms_max"]
     suites = {r["suite"] for r in rows}
     assert suites == {
@@ -82,7 +85,8 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     }  # fmt: skip
     viewer = {r["variant"]: r for r in rows if r["suite"] == "viewer"}
     assert set(viewer) == {"orbit", "roughness", "refine", "new model notice",
-                           "new model compiled"}  # fmt: skip
+                           "new model compiled", "idle"}  # fmt: skip
+    viewer.pop("idle")
     assert all(r["ms_min"] <= r["ms_p95"] <= r["ms_max"] for r in viewer.values())
     culling = {(r["lights"], r["variant"]) for r in rows if r["suite"] == "culling"}
     for n in (1, 16):
@@ -164,6 +168,7 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     assert "| mip_filtering | variance |" in text and "Shimmer" in text
     assert "## Targets" in text and "culled faster than forward at 16 lights" in text
     assert "viewer: an input (orbit) waits <= 100 ms" in text and "### viewer" in text
+    assert "viewer: an idle window takes <= 2 % of a core" in text
     assert "### specialization" in text and "uber/specialized = " in text
     assert "**PASS**" in text or "**FAIL**" in text
     assert "in this mode the verdicts are indicative only" in text  # not the full mode

@@ -128,20 +128,24 @@ def test_real_mouse_drag_orbits_the_camera(viewer):
 
 
 def test_click_selects_the_object_and_material_under_the_cursor(viewer):
+    """A click maps into the image area (left of the docked panels); a click on the panels'
+    column selects nothing."""
     v = viewer
     cam = v.scene.camera
-    # The left ball (objects[1]) projected into the window.
+    # The left ball (objects[1]) projected into the image area.
     from app.frame.camera import projection_matrix, view_matrix
 
-    w, h = v.framebuffer_size
+    ix, iy, w, h = v.image_rect
+    assert w < v.framebuffer_size[0]  # the panels' column is beside the image
     centre = np.array([*v.scene.objects[1].position, 1.0])
     clip = projection_matrix(cam, w / h) @ view_matrix(cam) @ centre
-    x = (clip[0] / clip[3] * 0.5 + 0.5) * w
-    y = (0.5 - clip[1] / clip[3] * 0.5) * h
+    x = ix + (clip[0] / clip[3] * 0.5 + 0.5) * w
+    y = iy + (0.5 - clip[1] / clip[3] * 0.5) * h
     chosen = v.select_pixel(x, y)
     assert (chosen.object_index, chosen.material) == (1, "ball")
-    floor = v.select_pixel(w / 2, h - 2)
+    floor = v.select_pixel(ix + w / 2, iy + h - 2)
     assert (floor.object_index, floor.material) == (0, "floor")
+    assert v.select_pixel(ix + w + 4, iy + h - 2).object_index is None  # on the panels
 
 
 def test_edit_save_load_renders_the_same(viewer, gl_egl, tmp_path):
@@ -540,11 +544,12 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
     assert v.open_walkthrough(lesson_steps, "en", 5)
     c = v.lesson.current.step.comparisons[0]
     assert v.lesson.compare(0) and v.comparison is not None
+    fitted = v.image_size  # the step fits its framing to the image area beside the panels
     shown = window_image(v)
     gl = create_context("egl")
     try:
         with gl.ctx:
-            loaded = fit_scene(load_scene(scenes_dir() / f"{c.scene}.toml"), v.framebuffer_size)
+            loaded = fit_scene(load_scene(scenes_dir() / f"{c.scene}.toml"), fitted)
             comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size)
             try:
                 comp.render()
@@ -571,8 +576,9 @@ def test_walkthrough_sweep_value_and_reset(viewer, lesson_steps, gl_egl):
     sweep = lesson.current.step.sweeps[i]
     assert lesson.select_sweep(i)
     assert lesson.set_sweep(0.35)
+    fitted = v.image_size  # the step fits its framing to the image area beside the panels
     shown = window_image(v)
-    loaded = fit_scene(lesson.current.scene(sweep.scene), v.framebuffer_size)
+    loaded = fit_scene(lesson.current.scene(sweep.scene), fitted)
     want = with_values(loaded, sweep.keys, 0.35, lesson.current.path, "sweeps[0]", "sweeps[0]")
     assert_close(shown, headless(gl_egl, want, v.framebuffer_size))
     assert all(v.value(key) == 0.35 for key in sweep.keys)
@@ -639,3 +645,127 @@ def test_pbs_view_lang_ko_without_a_hangul_font_is_one_line_exit_2(monkeypatch, 
         labels.find_font.cache_clear()
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "fonts-noto-cjk" in err
+
+
+# --- idle and Escape ---------------------------------------------------------------------------
+
+
+def _xdotool(*args: str) -> subprocess.Popen:
+    if shutil.which("xdotool") is None:
+        pytest.fail("xdotool is missing: run `bash scripts/dev.sh setup` (it installs it)")
+    return subprocess.Popen(["xdotool", *args])
+
+
+def _step_while(v, proc: subprocess.Popen, seconds: float = 10.0) -> None:
+    """Frames while xdotool delivers its input, and a few after."""
+    deadline = time.monotonic() + seconds
+    while proc.poll() is None and time.monotonic() < deadline:
+        v.step()
+    v.step(3)
+    assert proc.returncode == 0
+
+
+def test_an_idle_window_draws_no_frames_and_input_wakes_it(viewer):
+    """``run`` with nothing happening draws no frame in 2 s (a count, not a time: the
+    loop sleeps in glfw.wait_events_timeout); a real mouse move over the window wakes it
+    for a few frames, and a scene edit draws again."""
+    import glfw
+
+    v = viewer
+    v.run(1.0)  # the settle frames after the fixture's input
+    frames = v.frames
+    v.run(2.0)
+    assert v.frames == frames, f"{v.frames - frames} frames drawn while idle"
+    window = str(glfw.get_x11_window(v.window))
+    mover = _xdotool("mousemove", "--window", window, "40", "40", "sleep", "0.1",
+                     "mousemove", "--window", window, "60", "50")  # fmt: skip
+    v.run(1.5)
+    assert mover.wait(10) == 0
+    woken = v.frames - frames
+    assert 0 < woken <= 20, woken
+    v.edit({"materials.ball.roughness": 0.6})
+    frames = v.frames
+    v.run(1.0)
+    assert v.frames > frames
+    assert not v.state.dirty
+
+
+def test_escape_quits_while_a_widget_is_held_and_ends_typing_first(xdisplay, scene_copy):
+    """Real key presses (xdotool) on the X server, in a 960x540 window: Escape quits while
+    a panel's button is held down (ImGui has the keyboard: an active widget); in the
+    save-as text field the first Escape ends the typing and the second quits."""
+
+    from app.viewer.window import Viewer
+
+    v = Viewer(scene_copy, (960, 540), vsync=False)
+    try:
+        v.settle()
+        v.step(3)
+        _escape(v)
+    finally:
+        v.close()
+
+
+def _escape(v) -> None:
+    import glfw
+
+    window = str(glfw.get_x11_window(v.window))
+
+    def centre(name: str) -> tuple[str, str]:
+        x0, y0, x1, y1 = v.panels.rects[name]
+        return str(round((x0 + x1) / 2)), str(round((y0 + y1) / 2))
+
+    x, y = centre("frame")
+    _step_while(v, _xdotool("mousemove", "--window", window, x, y, "mousedown", "1",
+                            "sleep", "0.3"))  # fmt: skip
+    assert v.panels.wants_keyboard() and not v.panels.typing()  # the button is active
+    _step_while(v, _xdotool("key", "--window", window, "Escape"))
+    assert glfw.window_should_close(v.window)
+    _step_while(v, _xdotool("mouseup", "1"))
+    glfw.set_window_should_close(v.window, False)
+    x, y = centre("save")
+    _step_while(v, _xdotool("mousemove", "--window", window, x, y, "click", "1",
+                            "sleep", "0.2", "type", "--window", window, "abc"))  # fmt: skip
+    assert v.panels.typing() and v.panels.save_path == "abc"
+    _step_while(v, _xdotool("key", "--window", window, "Escape"))
+    assert not glfw.window_should_close(v.window) and not v.panels.typing()
+    _step_while(v, _xdotool("key", "--window", window, "Escape"))
+    assert glfw.window_should_close(v.window)
+
+
+@pytest.mark.parametrize("size", [(960, 540), (1600, 900)])
+def test_no_panel_covers_the_image_and_no_label_passes_a_panels_edge(xdisplay, size, lesson_steps):
+    """At 960x540 and 1600x900: the image area is the window left of the docked column
+    (the whole height, at least half the width) and the renderer renders at its size;
+    every panel, each brought to the front in turn (the gold material with every section
+    open, every walkthrough step with its lists), draws no item past its right edge (a
+    label there would be cut)."""
+    from app.viewer.window import Selection, Viewer
+
+    v = Viewer(scenes_dir() / "showcase.toml", size, vsync=False)
+    try:
+        v.settle()
+        x, y, w, h = v.image_rect
+        assert (x, y, h) == (0, 0, size[1]) and size[0] / 2 <= w < size[0]
+        assert v.renderer.size == (w, h)
+        gold = next(i for i, o in enumerate(v.scene.objects) if o.material == "gold")
+        v.selection = Selection(gold, "gold")
+        v.panels.open_sections = True
+        seen = {}
+        for title in ("Material", "Lights", "Render", "Plots", "Compare"):
+            v.panels.expand(title)
+            v.step(3)
+            seen[title] = v.panels.overflow[title]
+        assert v.open_walkthrough(lesson_steps, "en", 1)
+        for index in range(len(lesson_steps)):
+            assert v.lesson.go(index)
+            if v.lesson.current.step.sweeps:
+                assert v.lesson.select_sweep(0)  # its slider and play drawn too
+            v.step(3)
+            seen[f"step {index + 1}"] = v.panels.overflow["Walkthrough"]
+        seen["Scene"], seen["Problems"] = v.panels.overflow["Scene"], v.panels.overflow["Problems"]
+        assert v.image_rect[2] == w  # the lesson's layout keeps the column's width
+        cut = {title: round(px) for title, px in seen.items() if px > 0.5}
+        assert not cut, f"items past the panel's edge (pixels): {cut}"
+    finally:
+        v.close()

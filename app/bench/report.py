@@ -31,6 +31,7 @@ CULLED_FLOOR_MAX = 1.5
 UNCULLED_SPEEDUP_MIN = 8.0
 COLD_START_MAX_S = 3.0
 VIEWER_LATENCY_MAX_MS = 100.0  # an input's wait for its new image in pbs view
+VIEWER_IDLE_CPU_MAX = 2.0  # percent of one core an idle pbs view window may take
 SPECIALIZED_SPEEDUP_MIN = 1.5
 TARGET_LIGHTS = 256
 CULLED_LIMIT_MAX = 1.2  # the culled lighting pass against the limit pass
@@ -143,6 +144,11 @@ def find(rows: list[dict], suite: str, variant: str, lights: int | None = None) 
     return None
 
 
+def _viewer_idle(rows: list[dict]) -> dict | None:
+    """The viewer suite's idle row (CPU, not a time: ``find`` skips it)."""
+    return next((r for r in rows if r["suite"] == "viewer" and r["variant"] == "idle"), None)
+
+
 def _status(ok: bool) -> str:
     return "PASS" if ok else "FAIL"
 
@@ -209,6 +215,11 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
         )
         measured = f"p95 {row['ms_p95']:.0f} ms, median {row['ms_median']:.0f} ms"
         out.append(Verdict(what, measured, _status(row["ms_p95"] <= VIEWER_LATENCY_MAX_MS)))
+    idle = _viewer_idle(rows)
+    if idle is not None:
+        what = f"viewer: an idle window takes <= {VIEWER_IDLE_CPU_MAX:g} % of a core"
+        measured = f"{idle['cpu_percent']:.2f} % ({idle['frames']} frames drawn while idle)"
+        out.append(Verdict(what, measured, _status(idle["cpu_percent"] <= VIEWER_IDLE_CPU_MAX)))
     for comp, front in pareto_by_comparison(rows).items():
         for row in front["rows"]:
             if not row.get("default"):
@@ -681,14 +692,14 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
                 )
         elif suite == "viewer":
             lines += [
-                "| interaction | window | ms median | p95 | min | max | frames |",
-                "|---|---|---|---|---|---|---|",
+                "| interaction | window | ms median | p95 | min | max | frames | CPU % of a core |",
+                "|---|---|---|---|---|---|---|---|",
             ]
             for r in members:
                 lines.append(
                     f"| {r['variant']} | {r['width']}x{r['height']} | {_fmt(r['ms_median'])} |"
                     f" {_fmt(r.get('ms_p95'))} | {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} |"
-                    f" {r['frames']} |"
+                    f" {r['frames']} | {_fmt(r.get('cpu_percent'), '.2f')} |"
                 )
         elif suite == "batch":
             lines += _batch_lines(members)
@@ -1092,7 +1103,8 @@ def _doc_startup_viewer(rows: list[dict]) -> list[str]:
             + f" (n = {r['frames']})"
             for r in start
         ]
-    view = [r for r in rows if r["suite"] == "viewer"]
+    view = [r for r in rows if r["suite"] == "viewer" and r["variant"] != "idle"]
+    idle = _viewer_idle(rows)
     if view:
         if not start:
             lines += ["### startup and viewer", ""]
@@ -1103,6 +1115,11 @@ def _doc_startup_viewer(rows: list[dict]) -> list[str]:
         lines.append(
             f"- viewer, an input's wait for its image in a {view[0]['width']}×"
             f"{view[0]['height']} window, ms median: {waits}"
+        )
+    if idle is not None:
+        lines.append(
+            f"- viewer, idle: {idle['cpu_percent']:.2f} % of a core,"
+            f" {idle['frames']} frames drawn ({idle['timer']})"
         )
     return [*lines, ""] if lines else []
 

@@ -890,7 +890,7 @@ def run_api(ctx: Context, size: tuple[int, int]) -> None:
 
 def run_viewer(ctx: Context) -> None:
     """Suite ``viewer``: input-to-image latency of the desktop viewer (app/bench/viewer.py)."""
-    from app.bench.viewer import ORBIT_MOVES, run_child, summary_ms
+    from app.bench.viewer import IDLE_SECONDS, ORBIT_MOVES, run_child, summary_ms
 
     size = VIEWER_SIZE
     ctx.progress.start(f"viewer: interactions at {size[0]}x{size[1]}")
@@ -899,11 +899,19 @@ def run_viewer(ctx: Context) -> None:
     if "error" in result:
         ctx.notes.append(f"viewer: not measured: {result['error']}")
         return
-    for interaction, values in result["ms"].items():
+    ms = dict(result["ms"])
+    idle_cpu, idle_frames = ms.pop("idle cpu percent", None), ms.pop("idle frames", None)
+    for interaction, values in ms.items():
         ctx.rows.append(
             make_row("viewer", "showcase.toml", interaction, size, 5, None,
                      frames=len(values), timer="input call to swapped frame (ctx.finish)",
                      **summary_ms(values))
+        )  # fmt: skip
+    if idle_cpu is not None and idle_frames is not None:
+        ctx.rows.append(
+            make_row("viewer", "showcase.toml", "idle", size, 5, None,
+                     frames=int(idle_frames[0]), cpu_percent=idle_cpu[0],
+                     timer=f"process CPU time over {IDLE_SECONDS:g} s of Viewer.run, no input")
         )  # fmt: skip
 
 

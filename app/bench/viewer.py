@@ -12,6 +12,10 @@ swapped, the GL finished (``ctx.finish``):
 * ``refine``: the full-size frame the viewer draws once input stops;
 * ``new model``: an NDF never compiled before, from the edit to the "compiling..."
   frame (``notice``) and to the image with the new model (``compiled``).
+
+And what an idle window costs: ``idle``, the process's CPU time (every thread: Python, the
+driver's) over ``IDLE_SECONDS`` of the interactive loop (``Viewer.run``) with no input, as a
+percentage of one core, and the frames drawn meanwhile; the target is ``IDLE_CPU_MAX``.
 """
 
 from __future__ import annotations
@@ -26,6 +30,8 @@ from pathlib import Path
 
 ORBIT_MOVES = 40  # preview frames timed per interaction
 NEW_MODELS = ("beckmann", "blinn_phong", "gtr")  # NDFs the showcase does not use
+IDLE_SECONDS = 10.0  # how long the idle window is watched
+IDLE_CPU_MAX = 2.0  # percent of one core an idle viewer may take
 
 
 def _finish(v) -> None:
@@ -73,6 +79,13 @@ def measure(size: tuple[int, int], moves: int) -> dict[str, list[float]]:
             v.step()  # the edit, its compile and the image
             _finish(v)
             out["new model compiled"].append((time.perf_counter() - start) * 1e3)
+        v.settle()
+        v.run(1.0)  # the panels' last frames after the input above
+        frames, cpu, wall = v.frames, time.process_time(), time.perf_counter()
+        v.run(IDLE_SECONDS)
+        cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+        out["idle cpu percent"] = [100.0 * cpu / wall]
+        out["idle frames"] = [float(v.frames - frames)]
     finally:
         v.close()
     return out

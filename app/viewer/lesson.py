@@ -174,9 +174,9 @@ class Lesson:
         v.stop_compare()
         if not v.open_scene(self.path(ref)):
             return False
-        # Projector-ready framing (``pbs render --fit``): the window keeps the
+        # Projector-ready framing (``pbs render --fit``): the image area keeps the
         # scene's whole framing whatever its aspect ratio.
-        fov = fit_scene(v.document.loaded, v.framebuffer_size).scene.camera.fov_y
+        fov = fit_scene(v.document.loaded, v.image_size).scene.camera.fov_y
         if fov != v.scene.camera.fov_y and v.edit({"camera.fov_y": fov}, defer=False):
             v.base_camera = v.scene.camera
         self.scene_ref = ref
@@ -245,6 +245,19 @@ class Lesson:
         self.math.release()
 
 
+def wrap_label(text: str, width: float) -> str:
+    """``text`` with line breaks where its words would pass ``width`` pixels (ImGui's
+    buttons and radio buttons do not wrap their labels: a long one would be cut at the
+    panel's edge). A single word wider than ``width`` keeps its own line."""
+    lines: list[str] = []
+    for word in text.split(" "):
+        if lines and imgui.calc_text_size(f"{lines[-1]} {word}").x <= width:
+            lines[-1] = f"{lines[-1]} {word}"
+        else:
+            lines.append(word)
+    return "\n".join(lines)
+
+
 def _ui(word: str, lang: str) -> str:
     return UI[word][lang]
 
@@ -262,15 +275,14 @@ class LessonPanel:
     def draw(self, lesson: Lesson, panels: Any) -> None:
         lang = lesson.lang
         step = lesson.current.step
-        if panels._window("Walkthrough", -8, 8, min(460, 0.42 * panels.viewer.framebuffer_size[0]),
-                          0.96):  # fmt: skip
+        if panels._window("Walkthrough"):
             pos, size = imgui.get_window_pos(), imgui.get_window_size()
             self.window_rect = (pos.x, pos.y, pos.x + size.x, pos.y + size.y)
             self._header(lesson, panels)
             imgui.separator()
             if self.title_font is not None:
                 imgui.push_font(self.title_font, 0.0)
-            imgui.text(f"{HEADING[lang].format(step.section)} {step.title.get(lang)}")
+            imgui.text_wrapped(f"{HEADING[lang].format(step.section)} {step.title.get(lang)}")
             if self.title_font is not None:
                 imgui.pop_font()
             lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
@@ -285,25 +297,27 @@ class LessonPanel:
                 for plot in step.plots:
                     self.flow(lesson, lesson.text(plot.caption))
                     imgui.text_wrapped("pbs brdf " + " ".join(f"'{m}'" for m in plot.materials))
-        imgui.end()
+        panels._end()
 
     def _header(self, lesson: Lesson, panels: Any) -> None:
         lang = lesson.lang
-        if imgui.button(_ui("previous", lang)):
+        # "< previous  3 / 13  next >" (the count a disabled button: a label in the row)
+        count = f"{lesson.index + 1} / {len(lesson.steps)}##count"
+        clicked = panels._buttons(_ui("previous", lang), count, _ui("next", lang),
+                                  _ui("reset", lang))  # fmt: skip
+        if clicked == _ui("previous", lang):
             lesson.previous()
-        imgui.same_line()
-        imgui.text(f"{lesson.index + 1} / {len(lesson.steps)}")
-        imgui.same_line()
-        if imgui.button(_ui("next", lang)):
+        elif clicked == _ui("next", lang):
             lesson.next()
-        imgui.same_line()
-        if imgui.button(_ui("reset", lang)):
+        elif clicked == _ui("reset", lang):
             lesson.reset()
-        imgui.same_line()
         if imgui.radio_button("EN", lang == "en"):
             lesson.lang = "en"
         imgui.same_line()
-        if imgui.radio_button("한국어", lang == "ko") and panels.load_hangul():
+        # Without the Hangul font (not merged until Korean is asked for) the name in
+        # Hangul would be boxes.
+        korean = "한국어" if panels.hangul else "Korean"
+        if imgui.radio_button(f"{korean}##ko", lang == "ko") and panels.load_hangul():
             lesson.lang = "ko"
 
     # --- text with inline math ------------------------------------------------------------
@@ -401,7 +415,8 @@ class LessonPanel:
         for i, view in enumerate(step.views):
             imgui.push_id(f"view{i}")
             shown = lesson.viewer.comparison is None and lesson.scene_ref == view.scene
-            if imgui.selectable(view.scene, shown)[0]:
+            if imgui.selectable(wrap_label(view.scene, imgui.get_content_region_avail().x),
+                                shown)[0]:  # fmt: skip
                 lesson.open_view(i)
             if view.caption is not None:
                 imgui.indent()
@@ -416,9 +431,14 @@ class LessonPanel:
         for i, c in enumerate(step.comparisons):
             imgui.push_id(f"comparison{i}")
             label = f"{c.label_a.get(lang)}  |  {c.label_b.get(lang)}"
-            if imgui.button(label):
+            room = imgui.get_content_region_avail().x - 2 * imgui.get_style().frame_padding.x
+            if imgui.button(wrap_label(label, room)):
                 lesson.compare(i)
-            imgui.text_disabled(f"{c.scene}: {c.key}")
+            imgui.push_style_color(
+                imgui.Col_.text, imgui.get_style_color_vec4(imgui.Col_.text_disabled)
+            )
+            imgui.text_wrapped(f"{c.scene}: {c.key}")
+            imgui.pop_style_color()
             if c.caption is not None:
                 self.flow(lesson, lesson.text(c.caption))
             imgui.pop_id()
@@ -432,7 +452,10 @@ class LessonPanel:
         for i, sweep in enumerate(step.sweeps):
             imgui.push_id(f"sweep{i}")
             label = ", ".join(sweep.keys)
-            if imgui.radio_button(f"{sweep.scene}: {label}", lesson.sweep == i):
+            style = imgui.get_style()
+            room = imgui.get_content_region_avail().x - imgui.get_frame_height()
+            room -= style.item_inner_spacing.x
+            if imgui.radio_button(wrap_label(f"{sweep.scene}: {label}", room), lesson.sweep == i):
                 lesson.select_sweep(i)
             if sweep.caption is not None:
                 self.flow(lesson, lesson.text(sweep.caption))

@@ -13,6 +13,16 @@ a panel can do exactly what a scene file can, with the same validation and messa
 * Problems: the last refused edit, scene error or GLSL error (file and line).
 * Walkthrough: the classroom lesson's step (app/viewer/lesson.py), when one is open.
 
+**Layout.** The panels are docked (Dear ImGui docking) in a side column on the right: Scene
+at the top, the other panels as tabs below it, Problems at the foot. The rest of the window,
+the dock space's central node, is the image: the window draws the renderer's image there
+(``image_rect``), sized and aspected to it, so no panel covers the scene, a picked object or
+either half of a comparison. The column's width comes from the font's text sizes (the
+longest control label and a widget beside it, the widest tab row), not from constants, and
+every widget leaves its label that room (``push_item_width(-label)``), so no label is cut.
+A user may still drag the column's edge or undock a panel; the image follows the central
+node either way.
+
 ImGui's default font has no Hangul: ``load_hangul`` merges a system font with Hangul
 glyphs (the one the walkthrough's labels use) into it, only when Korean is asked for.
 """
@@ -51,11 +61,27 @@ if TYPE_CHECKING:
 
 RED = imgui.ImVec4(1.0, 0.35, 0.3, 1.0)
 AMBER = imgui.ImVec4(1.0, 0.8, 0.2, 1.0)
-LOBE_ANGLES = (30.0, 60.0)
-VIEWS = (
-    "split",
-    "difference",
-)  # the comparison's views  # incident angles of the lobe plot, degrees
+LOBE_ANGLES = (30.0, 60.0)  # incident angles of the lobe plot, degrees
+VIEWS = ("split", "difference")  # the comparison's views
+# The docked layout: the top of the side column, its tabs below, the foot.
+TOP = ("Scene",)
+TABS = ("Walkthrough", "Material", "Lights", "Render", "Plots", "Compare")
+FOOT = ("Problems",)
+TOP_SHARE = 0.4  # at most, of the column's height above the tabs
+LESSON_SHARE = 0.72  # of it while a walkthrough is open: the Walkthrough in front of Scene
+FOOT_LINES = 3  # the Problems panel's height, lines of text (an error wraps to more)
+SIDE_MAX = 0.5  # the column never takes more of the window's width than this
+WIDGET_TEXT = "-0.000 -0.000 -0.000"  # what a widget beside its label should fit (a drag_float3)
+# Labels of the panels' own widgets, for the label column's width; the Material panel's
+# field labels come from the material-field table (``scene_keys``).
+LABELS = (
+    "index of refraction", "f0 (dielectric)", "medium index", "eta (R, G, B)",
+    "k (R, G, B)", "blend threshold", "blend softness", "fibre model", "inner exponent",
+    "sheen NDF", "coat model", "exposure (EV)", "field of view", "aperture (m)",
+    "focus distance", "normal_filter", "light_culling", "supersample", "debug view",
+    "of light", "intensity", "direction", "outer angle", "inner angle", "A (left)",
+    "B (right)", "lambda_form", "correlation", "multiple scattering", "base colour",
+)  # fmt: skip
 
 
 def _control(name: str) -> Control:
@@ -113,11 +139,30 @@ class Panels:
         self.compare_mode = 0
         self._curves: tuple[object, Any] | None = None  # (material key, (lobes, albedo))
         self._backend = False
-        self._expand: set[str] = set()  # panels to open on the next frame
+        # Panels to bring to the front of their tabs, and for how many more frames (a
+        # panel docked on its first frame takes its tab on the next).
+        self._expand: dict[str, int] = {}
         self._selected: object = None  # the selection the panels last saw
         # Every section of the Material panel drawn open (the docs' screenshot and the
         # test that draws each layered material's controls).
         self.open_sections = False
+        io = imgui.get_io()
+        io.config_flags |= imgui.ConfigFlags_.docking_enable
+        io.config_input_text_cursor_blink = False  # an idle viewer draws nothing
+        self.dock_id = 0
+        self._layout = False  # the dock layout is built (first frame, or again on request)
+        self.side_width = 0.0  # the column's width, screen units (set with the layout)
+        self.label_width = 0.0  # the label column every widget leaves free
+        # The central node's rectangle in framebuffer pixels (x, y from the top, w, h):
+        # where the window draws the image; None before the first frame.
+        self.central: tuple[int, int, int, int] | None = None
+        # Where a few widgets were drawn (screen units: x0, y0, x1, y1), for tests that
+        # click them with real input: "save" (the save-as field), "frame" (its button).
+        self.rects: dict[str, tuple[float, float, float, float]] = {}
+        self._first_rect = (0.0, 0.0, 0.0, 0.0)  # the last row of buttons' first
+        # Per panel, how many pixels its widest item passed its right edge when it was last
+        # drawn (0 or less: nothing cut); tests read it at the window sizes they check.
+        self.overflow: dict[str, float] = {}
         self.hangul = False  # a Hangul font merged into the default one (load_hangul)
         from app.viewer.lesson import LessonPanel
 
@@ -125,7 +170,7 @@ class Panels:
 
     def expand(self, *titles: str) -> None:
         """Open these panels (by title) on the next frame, e.g. Material after a click."""
-        self._expand.update(titles)
+        self._expand.update(dict.fromkeys(titles, 2))
 
     def load_hangul(self) -> bool:
         """Merge the system's Hangul font (``find_font("ko")``, Noto Sans CJK KR) into
@@ -163,6 +208,26 @@ class Panels:
     def wants_keyboard(self) -> bool:
         return bool(imgui.get_io().want_capture_keyboard)
 
+    def typing(self) -> bool:
+        """Whether a text field has the keyboard (Escape then ends the typing, not the
+        viewer)."""
+        return bool(imgui.get_io().want_text_input)
+
+    def relayout(self) -> None:
+        """Build the docked layout again on the next frame (panels back in their places)."""
+        self._layout = False
+
+    def image_rect(self, framebuffer: tuple[int, int]) -> tuple[int, int, int, int]:
+        """Where the image goes in a framebuffer of this size: the central node's rectangle
+        of the last frame (x, y from the top, w, h); before the first frame, the window
+        less a column of ``SIDE_MAX`` / 2 of its width."""
+        fw, fh = framebuffer
+        if self.central is None:
+            return 0, 0, max(fw - int(fw * SIDE_MAX / 2), 1), fh
+        x, y, w, h = self.central
+        x, y = min(max(x, 0), fw - 1), min(max(y, 0), fh - 1)
+        return x, y, max(min(w, fw - x), 1), max(min(h, fh - y), 1)
+
     def shutdown(self) -> None:
         if self._backend:
             imgui.backends.opengl3_shutdown()
@@ -181,6 +246,7 @@ class Panels:
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
         imgui.new_frame()
+        self._dock_space()
         self._scene_panel()
         self._material_panel()
         self._lights_panel()
@@ -190,26 +256,122 @@ class Panels:
         if self.viewer.lesson is not None:
             self.lesson_panel.draw(self.viewer.lesson, self)
         self._problems_panel()
+        self._central_node()
         imgui.render()
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
-    def _window(
-        self, title: str, x: float, y: float, w: float, h: float, collapsed: bool = False
-    ) -> bool:
-        """Begin a panel; its first position and size are fractions of the window where
-        below 1 (x, y, w, h), pixels otherwise, negative x from the right edge."""
-        fw, fh = self.viewer.framebuffer_size
-        x, w = (x * fw if abs(x) < 1 else x), (w * fw if w < 1 else w)
-        y, h = (y * fh if abs(y) < 1 else y), (h * fh if h < 1 else h)
-        if x < 0:
-            x = fw + x - w
-        imgui.set_next_window_pos(imgui.ImVec2(x, y), imgui.Cond_.first_use_ever)
-        imgui.set_next_window_collapsed(collapsed, imgui.Cond_.first_use_ever)
+    def _measure(self) -> None:
+        """The label column and the side column's width, from the font's text sizes: the
+        longest label beside a widget that fits ``WIDGET_TEXT``, or the row of tabs,
+        whichever is wider, with the window's padding and a scrollbar."""
+        style = imgui.get_style()
+        labels = [*LABELS, *(c.label for k in scene_keys().values() if (c := k.control))]
+        self.label_width = max(imgui.calc_text_size(t).x for t in labels)
+        self.label_width += style.item_inner_spacing.x
+        widget = imgui.calc_text_size(WIDGET_TEXT).x + 6 * style.frame_padding.x
+        tab = 2 * style.frame_padding.x + style.item_inner_spacing.x
+        tabs = sum(imgui.calc_text_size(t).x + tab for t in TABS)
+        inner = max(self.label_width + widget, tabs)
+        self.side_width = inner + 2 * style.window_padding.x + style.scrollbar_size
+
+    def _dock_space(self) -> None:
+        """The dock space over the whole window, its central node see-through (the image
+        is drawn under it); its layout built on the first frame and on ``relayout``."""
+        viewport = imgui.get_main_viewport()
+        self.dock_id = imgui.get_id("pbs dock space")
+        if not self._layout:
+            self._build_layout(viewport)
+        imgui.dock_space_over_viewport(
+            self.dock_id, viewport, imgui.DockNodeFlags_.passthru_central_node
+        )
+
+    def _build_layout(self, viewport: Any) -> None:
+        """Split the dock space: a column on the right of ``side_width`` (at most
+        ``SIDE_MAX`` of the window), in it ``TOP``, the ``TABS`` and ``FOOT``; while a
+        walkthrough is open, the Walkthrough joins the top, in front of Scene, and the top
+        takes ``LESSON_SHARE`` of the column (the lesson's text is what is read then)."""
+        internal = imgui.internal
+        self._measure()
+        dock = self.dock_id
+        internal.dock_builder_remove_node(dock)
+        internal.dock_builder_add_node(dock, internal.DockNodeFlagsPrivate_.dock_space)
+        internal.dock_builder_set_node_size(dock, viewport.size)
+        width, height = max(viewport.size.x, 1.0), max(viewport.size.y, 1.0)
+        split = internal.dock_builder_split_node(
+            dock, imgui.Dir.right, min(self.side_width / width, SIDE_MAX)
+        )
+        side = split.id_at_dir
+        foot_h = imgui.get_frame_height() + FOOT_LINES * imgui.get_text_line_height_with_spacing()
+        foot_h += 2 * imgui.get_style().window_padding.y
+        split = internal.dock_builder_split_node(side, imgui.Dir.down, min(foot_h / height, 0.3))
+        foot, rest = split.id_at_dir, split.id_at_opposite_dir
+        # The Scene panel's height: its actions and its objects (a longer list scrolls).
+        lines = len(self.viewer.scene.objects) + 8
+        top_h = lines * imgui.get_frame_height_with_spacing()
+        top_share = min(top_h / max(height - foot_h, 1.0), TOP_SHARE)
+        top_titles, tab_titles = TOP, TABS
+        if self.viewer.lesson is not None:
+            top_share, top_titles = LESSON_SHARE, ("Walkthrough", *TOP)
+            tab_titles = tuple(t for t in TABS if t != "Walkthrough")
+        split = internal.dock_builder_split_node(rest, imgui.Dir.up, top_share)
+        top, tabs = split.id_at_dir, split.id_at_opposite_dir
+        for titles, node in ((top_titles, top), (tab_titles, tabs), (FOOT, foot)):
+            for title in titles:
+                internal.dock_builder_dock_window(title, node)
+        internal.dock_builder_finish(dock)
+        self._layout = True
+
+    def _central_node(self) -> None:
+        """Note the central node's rectangle in framebuffer pixels (``image_rect``)."""
+        node = imgui.internal.dock_builder_get_central_node(self.dock_id)
+        if node is None:
+            return
+        sx, sy = imgui.get_io().display_framebuffer_scale
+        sx, sy = sx or 1.0, sy or 1.0
+        rect = (round(node.pos.x * sx), round(node.pos.y * sy), round(node.size.x * sx),
+                round(node.size.y * sy))  # fmt: skip
+        if rect != self.central:
+            self.central = rect
+            self.viewer.state.dirty = True  # the image is rendered again at its new size
+
+    def _window(self, title: str) -> bool:
+        """Begin a panel (docked by the layout); a panel ``expand`` asked for comes to the
+        front of its tabs. Every widget leaves ``label_width`` for its label."""
         if title in self._expand:
-            self._expand.discard(title)
-            imgui.set_next_window_collapsed(False, imgui.Cond_.always)
-        imgui.set_next_window_size(imgui.ImVec2(w, h), imgui.Cond_.first_use_ever)
-        return imgui.begin(title)[0]
+            self._expand[title] -= 1
+            if not self._expand[title]:
+                del self._expand[title]
+            imgui.set_next_window_focus()
+        visible = imgui.begin(title)[0]
+        imgui.push_item_width(-self.label_width)
+        return visible
+
+    def _end(self) -> None:
+        """End a panel, noting how far its widest item passed the panel's right edge
+        (``overflow``: above 0, something in it is cut)."""
+        imgui.pop_item_width()
+        window = imgui.internal.get_current_window()
+        if not window.skip_items:  # drawn this frame (a docked panel behind a tab is not)
+            self.overflow[window.name] = window.dc.cursor_max_pos.x - window.work_rect.max.x
+        imgui.end()
+
+    def _buttons(self, *labels: str, small: bool = False) -> str | None:
+        """A row of buttons that wraps where the next one would not fit; the label of the
+        one clicked, or None."""
+        style = imgui.get_style()
+        clicked = None
+        for i, label in enumerate(labels):
+            width = imgui.calc_text_size(label.split("##")[0]).x + 2 * style.frame_padding.x
+            if i > 0:  # the cursor is at the next line's start: its right edge is the row's
+                right = imgui.get_cursor_screen_pos().x + imgui.get_content_region_avail().x
+                if imgui.get_item_rect_max().x + style.item_spacing.x + width <= right:
+                    imgui.same_line()
+            if (imgui.small_button if small else imgui.button)(label):
+                clicked = label
+            if i == 0:
+                lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+                self._first_rect = (lo.x, lo.y, hi.x, hi.y)
+        return clicked
 
     def _section(self, label: str) -> bool:
         """A collapsing header of the Material panel (held open by ``open_sections``)."""
@@ -251,8 +413,27 @@ class Panels:
 
     def _scene_panel(self) -> None:
         v = self.viewer
-        if self._window("Scene", 8, 8, 270, 0.34):
+        if self._window("Scene"):
             imgui.text(v.document.path.name)
+            clicked = self._buttons("Frame (F)", "Reset camera (R)")
+            self.rects["frame"] = self._first_rect
+            if clicked == "Frame (F)":
+                v.frame_selection()
+            elif clicked == "Reset camera (R)":
+                v.reset_camera()
+            imgui.set_next_item_width(-1)  # no label: the whole row
+            _, self.save_path = imgui.input_text_with_hint(
+                "##save", "save as... (empty: over the file)", self.save_path
+            )
+            lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+            self.rects["save"] = (lo.x, lo.y, hi.x, hi.y)
+            clicked = self._buttons("Save scene (Ctrl+S)", "Screenshot (P)", "Lesson")
+            if clicked == "Save scene (Ctrl+S)":
+                v.save_scene(self.save_path or None)
+            elif clicked == "Screenshot (P)":
+                v.screenshot()
+            elif clicked == "Lesson":
+                v.open_walkthrough()
             if imgui.collapsing_header("Objects", imgui.TreeNodeFlags_.default_open):
                 for i, obj in enumerate(v.scene.objects):
                     label = f"{obj.name or obj.shape} #{i}  ({obj.material or 'default'})"
@@ -263,34 +444,17 @@ class Panels:
                 for name in v.scene.materials:
                     if imgui.selectable(name, v.selection.material == name)[0]:
                         v.selection.material = name
-            imgui.separator()
-            if imgui.button("Frame (F)"):
-                v.frame_selection()
-            imgui.same_line()
-            if imgui.button("Reset camera (R)"):
-                v.reset_camera()
-            _, self.save_path = imgui.input_text_with_hint(
-                "##save", "save as... (empty: over the file)", self.save_path
-            )
-            if imgui.button("Save scene (Ctrl+S)"):
-                v.save_scene(self.save_path or None)
-            imgui.same_line()
-            if imgui.button("Screenshot (P)"):
-                v.screenshot()
-            imgui.same_line()
-            if imgui.button("Lesson"):
-                v.open_walkthrough()
-        imgui.end()
+        self._end()
 
     def _material_panel(self) -> None:
         v = self.viewer
         name = v.selection.material
-        if self._window("Material", 8, 0.36, 300, 0.62, collapsed=True):
+        if self._window("Material"):
             if name is None or name not in v.scene.materials:
-                imgui.text("Click an object, or pick a material in Scene.")
+                imgui.text_wrapped("Click an object, or pick a material in Scene.")
             else:
                 self._material_editor(name)
-        imgui.end()
+        self._end()
 
     def _material_editor(self, name: str) -> None:
         v = self.viewer
@@ -298,6 +462,7 @@ class Panels:
         material = v.scene.materials[name]
         resolved = material.resolve()
         imgui.text(name)
+        imgui.set_next_item_width(-1)
         _, self.preset_filter = imgui.input_text_with_hint(
             "##presets", "search presets", self.preset_filter
         )
@@ -394,7 +559,7 @@ class Panels:
                     self._edit(f"{key}.{k}", text or None)
             if material.blend is not None:
                 b = material.blend
-                imgui.text(f"blend: {b.material} through {b.mask}")
+                imgui.text_wrapped(f"blend: {b.material} through {b.mask}")
                 changed, value = imgui.slider_float("blend threshold", b.threshold, 0.0, 1.0)
                 if changed:
                     self._edit(f"{key}.blend.threshold", float(value))
@@ -487,12 +652,14 @@ class Panels:
 
     def _lights_panel(self) -> None:
         v = self.viewer
-        if self._window("Lights", -8, 8, 310, 0.4, collapsed=True):
+        if self._window("Lights"):
             # The scene's own lights; a glTF file's (import_lights) follow them and are
             # edited in the file (docs/gltf-lights-cameras.md).
             own = len(v.document.data.get("lights", []))
             if len(v.scene.lights) > own:
-                imgui.text(f"+{len(v.scene.lights) - own} lights from glTF files (not editable)")
+                imgui.text_wrapped(
+                    f"+{len(v.scene.lights) - own} lights from glTF files (not editable)"
+                )
             for i, light in enumerate(v.scene.lights[:own]):
                 imgui.push_id(f"light{i}")
                 if imgui.collapsing_header(f"{i}: {light.type}"):
@@ -538,17 +705,15 @@ class Panels:
                         self.viewer.remove_light(i)
                 imgui.pop_id()
             imgui.separator()
-            for kind in ("directional", "point", "spot"):
-                if imgui.button(f"+ {kind}"):
-                    self.viewer.add_light(kind)
-                imgui.same_line()
-            imgui.new_line()
-        imgui.end()
+            clicked = self._buttons("+ directional", "+ point", "+ spot")
+            if clicked is not None:
+                self.viewer.add_light(clicked[2:])
+        self._end()
 
     def _render_panel(self) -> None:
         v = self.viewer
         s, cam = v.scene.render, v.scene.camera
-        if self._window("Render", -8, 40, 310, 0.5, collapsed=v.lesson is not None):
+        if self._window("Render"):
             changed, i = imgui.combo("tone map", TONEMAPS.index(s.tonemap), list(TONEMAPS))
             if changed:
                 self._edit("render.tonemap", TONEMAPS[i])
@@ -594,11 +759,11 @@ class Panels:
             changed, on = imgui.checkbox("vsync", v.vsync)
             if changed:
                 v.set_vsync(on)
-        imgui.end()
+        self._end()
 
     def _plots_panel(self) -> None:
         v = self.viewer
-        if self._window("Plots", 316, 0.56, 380, 0.42, collapsed=True):
+        if self._window("Plots"):
             name = v.selection.material
             if name is not None and name in v.scene.materials:
                 self._material_plots(name)
@@ -615,7 +780,7 @@ class Panels:
                 )
                 implot.plot_bars("ms", np.array(list(times.values()), np.float64))
                 implot.end_plot()
-        imgui.end()
+        self._end()
 
     def _material_plots(self, name: str) -> None:
         from app.brdf.plot import NamedMaterial, albedo_curve, lobes
@@ -670,9 +835,11 @@ class Panels:
 
     def _compare_panel(self) -> None:
         v = self.viewer
-        if self._window("Compare", 316, 8, 380, 0.3, collapsed=True):
-            for label, key, a, b in self._compare_presets():
-                if imgui.small_button(label):
+        if self._window("Compare"):
+            presets = self._compare_presets()
+            clicked = self._buttons(*(p[0] for p in presets), small=True)
+            for label, key, a, b in presets:
+                if clicked == label:
                     self.compare_key, self.compare_a, self.compare_b = key, a, b
             _, self.compare_key = imgui.input_text("key", self.compare_key)
             _, self.compare_a = imgui.input_text("A (left)", self.compare_a)
@@ -703,16 +870,16 @@ class Panels:
                 if changed:
                     v.gain = float(value)
                     v.state.dirty = True
-        imgui.end()
+        self._end()
 
     def _problems_panel(self) -> None:
         v = self.viewer
-        if not (v.state.error or v.state.notice):
-            return
-        if self._window("Problems", 316, 0.32, 380, 110):
+        if self._window("Problems"):
             if v.state.notice:
                 imgui.text_colored(AMBER, v.state.notice)
             if v.state.error:
                 imgui.text_colored(RED, "The last good state keeps running:")
                 imgui.text_wrapped(v.state.error)
-        imgui.end()
+            elif not v.state.notice:
+                imgui.text_disabled("No problems.")
+        self._end()

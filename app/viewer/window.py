@@ -11,6 +11,25 @@ here, so scripts and tests drive the same code as the mouse:
     viewer.step()                                          # one frame
     image = viewer.read_window()                           # the window's pixels
 
+**Layout.** The panels sit in a docked side column (app/viewer/panels.py); the image fills
+the rest, ``image_rect``: the renderer renders at that rectangle's size (so the camera's
+aspect is the area's), the window draws it there 1:1, and a click maps into it. Without the
+panels (Tab, ``ui=False``) the image is the whole window.
+
+**Idle.** ``run`` draws a frame only when one would differ from the last: input arrived
+(the panels get ``UI_SETTLE_FRAMES`` more to settle hover and focus), an edit or a pending
+compile, a resize, the full-size frame after a preview, a played sweep, or an image still
+refining (``refining``): with ``render.antialiasing = "jitter"`` each change draws jittered
+sample 0 and the idle frames after it add samples 1 .. N-1 to the mean
+(``Renderer.render_sample``), then the loop sleeps on the finished image. Otherwise it sleeps
+in ``glfw.wait_events_timeout`` until an event or the next hot-reload check, so an idle
+window costs no frames (docs/viewer.md measures its CPU).
+
+**Escape** quits, whatever has the focus, except while a text field is being typed into:
+then the first Escape ends the typing (ImGui's own cancel) and the second quits, as a
+console in f3d takes the first Escape: a half-typed file name is not a reason to lose the
+session, and nothing else swallows the key.
+
 **Responsive on a software rasteriser.** While input arrives the renderer runs at
 1/``PREVIEW_SCALE`` of the window's size; ``REFINE_AFTER`` seconds after the last input it
 renders once more at full size (docs/viewer.md measures the latency). An edit that may need
@@ -28,6 +47,7 @@ import copy
 import ctypes
 import re
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +80,7 @@ REFINE_AFTER = 0.25  # seconds without input before the full-size frame
 WATCH_INTERVAL = 0.5  # seconds between checks of the scene file and glsl/
 DIVIDER_GRAB = 6  # pixels either side of a split's divider that a drag moves it by
 DIVIDER_DRAG = -1  # the drag "button" of a divider drag
+UI_SETTLE_FRAMES = 3  # frames drawn after an input event, for ImGui's hover and focus
 
 
 class ViewerError(RuntimeError):
@@ -160,6 +181,13 @@ class Viewer:
         self._drag: tuple[int, float, float] | None = None  # button, last x, last y
         self.panels = None
         self.lesson = None  # the walkthrough (app/viewer/lesson.py), when one is open
+        self.frames = 0  # frames drawn and swapped (an idle window draws none)
+        self._settle = UI_SETTLE_FRAMES  # frames still to draw for the panels to settle
+        # Progressive refinement: a callable that says whether another frame of the same
+        # scene state would still improve the image; while it does, ``run`` keeps
+        # rendering. Default: jittered samples still to add (``_samples_left``).
+        self.refining: Callable[[], bool] = self._samples_left
+        self._sample = 0  # the next jittered sample of the progressive mean
         if ui:
             from app.viewer.panels import Panels
 
@@ -167,6 +195,9 @@ class Viewer:
             if hangul:
                 self.panels.load_hangul()
         self._install_callbacks()
+        if self.panels is not None:  # the docked layout (sized on its second frame), so
+            for _ in range(2):  # that image_size is the image area's from the start
+                self.panels.draw()
 
     # --- sizes and the image --------------------------------------------------------------
 
@@ -175,6 +206,20 @@ class Viewer:
         """The window's size in pixels (on HiDPI screens larger than in screen units)."""
         w, h = glfw.get_framebuffer_size(self.window)
         return max(int(w), 1), max(int(h), 1)
+
+    @property
+    def image_rect(self) -> tuple[int, int, int, int]:
+        """Where the image is drawn, framebuffer pixels (x, y from the top, w, h): the
+        docked layout's central node, or the whole window without panels."""
+        size = self.framebuffer_size
+        if self.panels is None or not self.show_ui:
+            return 0, 0, size[0], size[1]
+        return self.panels.image_rect(size)
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """The image area's size in pixels: what the renderer renders at full size."""
+        return self.image_rect[2:]
 
     @property
     def scene(self):
@@ -254,12 +299,12 @@ class Viewer:
     def orbit(self, dx: float, dy: float) -> None:
         """A left-drag of (dx, dy) pixels: turn around the target."""
         self.touch()
-        self.set_camera(orbit_controls.orbit(self.scene.camera, dx, dy, self.framebuffer_size[1]))
+        self.set_camera(orbit_controls.orbit(self.scene.camera, dx, dy, self.image_size[1]))
 
     def pan(self, dx: float, dy: float) -> None:
         """A right- or shift-drag of (dx, dy) pixels: slide in the view plane."""
         self.touch()
-        self.set_camera(orbit_controls.pan(self.scene.camera, dx, dy, self.framebuffer_size[1]))
+        self.set_camera(orbit_controls.pan(self.scene.camera, dx, dy, self.image_size[1]))
 
     def zoom(self, steps: float) -> None:
         """Wheel steps towards the target (negative: away)."""
@@ -291,10 +336,14 @@ class Viewer:
     def select_pixel(self, x: float, y: float) -> Selection:
         """Select the object and material under window pixel (x, y), y down from the top:
         the first surface the pixel's view ray meets (the one the G-buffer shows there;
-        nothing where the G-buffer holds no surface)."""
+        nothing where the G-buffer holds no surface or the pixel is outside the image)."""
         self._current()
         r = self.comparison.renderers[0] if self.comparison is not None else self.renderer
-        fw, fh = self.framebuffer_size
+        ix, iy, fw, fh = self.image_rect
+        x, y = x - ix, y - iy
+        if not (0 <= x < fw and 0 <= y < fh):
+            self.selection = Selection()
+            return self.selection
         w, h = r.render_size
         px = min(int(x * w / fw), w - 1)
         py = min(int((fh - 1 - y) * h / fh), h - 1)  # GL rows bottom-up
@@ -387,6 +436,7 @@ class Viewer:
             self.lesson.close()
         self.lesson = Lesson(self, steps, lang)
         if self.panels is not None:
+            self.panels.relayout()  # the Walkthrough docked above the other panels
             self.panels.expand("Walkthrough")
         return self.lesson.go_section(section)
 
@@ -452,6 +502,8 @@ class Viewer:
         the scene unless ``path`` says otherwise."""
         self._current()
         self._render(scale=1)
+        while self.comparison is None and self._mean_unfinished():  # the whole mean
+            self._render(scale=1)
         stem = self.document.path.with_suffix("")
         path = Path(path) if path is not None else stem.parent / f"{stem.name}-view.png"
         write_png(path, self.renderer.read_ldr())
@@ -473,7 +525,7 @@ class Viewer:
                 data = mesh_scene(path)
                 name = path.with_name(f"{path.stem}-view.toml")
                 document = SceneDocument(name, data, policy)
-            renderer = Renderer(self.gl, document.loaded, self.framebuffer_size)
+            renderer = Renderer(self.gl, document.loaded, self.image_size)
         except Exception as exc:
             return self._refuse(exc)
         self.stop_compare()  # a comparison of the old scene would hide the new one
@@ -517,7 +569,7 @@ class Viewer:
         and False is returned."""
         self._current()
         try:
-            renderer = Renderer(self.gl, self.document.loaded, self.framebuffer_size)
+            renderer = Renderer(self.gl, self.document.loaded, self.image_size)
         except Exception as exc:
             self.state.error = _problem(exc)
             return False
@@ -530,8 +582,9 @@ class Viewer:
     # --- frames ---------------------------------------------------------------------------
 
     def _render(self, scale: int) -> None:
-        """Render at the window size / scale if anything changed since the last frame."""
-        fw, fh = self.framebuffer_size
+        """Render at the image area's size / scale if anything changed since the last
+        frame (or the renderer is still refining)."""
+        fw, fh = self.image_size
         size = (max(fw // scale, 1), max(fh // scale, 1))
         if self.renderer.size != size:
             self.renderer.resize(size)
@@ -539,20 +592,49 @@ class Viewer:
         if self.comparison is not None and self.comparison.size != size:
             self.comparison.resize(size)
             self.state.dirty = True
-        if not (self.state.dirty or self.state.rendered_scale != scale):
+        refining = self.comparison is None and self.refining()
+        if not (self.state.dirty or self.state.rendered_scale != scale or refining):
             return
+        changed = self.state.dirty or self.state.rendered_scale != scale
         if self.comparison is not None:  # the two sides, composited; the base is not drawn
             self.comparison.render()
             self.comparison.composite(self.compare_mode, self.divider, self.gain)
         else:
             timings: dict[str, float] = {}
-            self.renderer.render(timings if self.panels and self.panels.timing else None)
+            asked = timings if self.panels and self.panels.timing else None
+            if self._progressive():
+                self._sample = 0 if changed else self._sample
+                self.renderer.render_sample(self._sample, self._sample == 0, asked)
+                self._sample += 1
+            else:
+                self.renderer.render(asked)
             if timings:
                 self.state.frame_ms = timings
             if self.debug_view is not None:
                 self._run_debug()
         self.state.dirty = False
         self.state.rendered_scale = scale
+
+    def _sample_count(self) -> int:
+        """The jittered samples of the progressive mean (``render.antialiasing = "jitter"``
+        on a renderer with ``render_sample``), else 1: one ``render()`` a change."""
+        if getattr(self.renderer, "accumulate", None) is None:
+            return 1
+        return int(getattr(self.scene.render, "antialiasing_samples", 1))
+
+    def _progressive(self) -> bool:
+        """Whether frames are drawn as samples of a progressive mean (not for a debug
+        view, which reads the last frame's G-buffer and light terms)."""
+        return self.debug_view is None and self._sample_count() > 1
+
+    def _mean_unfinished(self) -> bool:
+        """Whether the progressive mean drawn last still lacks samples."""
+        return self._progressive() and 0 < self._sample < self._sample_count()
+
+    def _samples_left(self) -> bool:
+        """Whether the full-size image still lacks samples of its mean (never while a
+        preview is shown: input is arriving, each change restarts at sample 0)."""
+        return self.state.rendered_scale == 1 and self._scale() == 1 and self._mean_unfinished()
 
     @property
     def window_gone(self) -> bool:
@@ -564,23 +646,35 @@ class Viewer:
         self._current()
         for _ in range(frames):
             glfw.poll_events()
+            # A round trip to the X server (the window's size) makes it report a window
+            # destroyed from outside now, before the panels ask for its size mid-frame.
+            glfw.get_window_size(self.window)
             if self.window_gone:  # destroyed from outside: the loop ends, nothing drawn
                 glfw.set_window_should_close(self.window, True)
                 return
             self._watch()
             if self.state.pending and self.state.notice:
                 self._draw()  # the last image with the notice, before the compile
-                glfw.swap_buffers(self.window)
+                self._swap()
                 self.state.notice = ""
                 continue
             while self.state.pending:
                 self._apply(self.state.pending.pop(0))
             if self.lesson is not None:
                 self.lesson.tick()  # a played sweep's next value
-            interacting = time.perf_counter() - self.state.last_input < REFINE_AFTER
-            self._render(PREVIEW_SCALE if interacting else 1)
+            self._render(self._scale())
             self._draw()
-            glfw.swap_buffers(self.window)
+            self._swap()
+
+    def _scale(self) -> int:
+        """The scale to render at now: the preview while input is recent, else full size."""
+        interacting = time.perf_counter() - self.state.last_input < REFINE_AFTER
+        return PREVIEW_SCALE if interacting else 1
+
+    def _swap(self) -> None:
+        glfw.swap_buffers(self.window)
+        self.frames += 1
+        self._settle = max(self._settle - 1, 0)
 
     def settle(self) -> None:
         """Frames until every pending edit is applied and the full-size image is shown
@@ -589,19 +683,72 @@ class Viewer:
         while self.state.pending or self.state.notice:
             self.step()
         self.step()
-
-    def run(self) -> None:
-        """The interactive loop, until the window is closed."""
-        while not glfw.window_should_close(self.window):
+        for _ in range(3):  # the panels' first frame moves the image area: once more
+            if not self.state.dirty:
+                break
+            self.step()
+        while self.comparison is None and self.refining():  # the whole progressive mean
             self.step()
 
+    def needs_frame(self) -> bool:
+        """Whether a frame now would show something the last one did not (module
+        docstring, "Idle")."""
+        s = self.state
+        return bool(
+            self._settle
+            or s.dirty
+            or s.pending
+            or s.notice
+            or s.rendered_scale != self._scale()
+            or (self.lesson is not None and self.lesson.playing)
+            or (self.comparison is None and self.refining())
+        )
+
+    def _idle_wait(self, until: float | None) -> float:
+        """Seconds to sleep for events: to the next hot-reload check, the full-size frame
+        after a preview, or ``until``, whichever is first."""
+        now = time.perf_counter()
+        wake = [self.state.last_watch + WATCH_INTERVAL]
+        if self.state.rendered_scale != 1:
+            wake.append(self.state.last_input + REFINE_AFTER)
+        if until is not None:
+            wake.append(until)
+        return min(max(min(wake) - now, 0.0), WATCH_INTERVAL)
+
+    def run(self, seconds: float | None = None) -> None:
+        """The interactive loop, until the window is closed (or for ``seconds``): a frame
+        when ``needs_frame``, else a sleep until an event arrives."""
+        until = None if seconds is None else time.perf_counter() + seconds
+        while not glfw.window_should_close(self.window):
+            if until is not None and time.perf_counter() >= until:
+                return
+            if self.needs_frame():
+                self.step()
+                continue
+            self._current()
+            glfw.wait_events_timeout(self._idle_wait(until))
+            if self.window_gone:
+                glfw.set_window_should_close(self.window, True)
+                return
+            self._watch()  # hot reload marks the state dirty when a file changed
+
     def _draw(self) -> None:
+        """The image into ``image_rect``, the panels around it."""
         fw, fh = self.framebuffer_size
+        x, y, w, h = self.image_rect
         self.ctx.screen.use()
         self.ctx.viewport = (0, 0, fw, fh)
-        self._present.draw(self._shown(), (fw, fh))
+        if (w, h) != (fw, fh):
+            self.ctx.clear(0.0, 0.0, 0.0)  # what the panels leave uncovered stays dark
+        self.ctx.viewport = (x, fh - y - h, w, h)  # GL rows from the bottom
+        self._present.draw(self._shown(), (x, fh - y - h, w, h))
+        self.ctx.viewport = (0, 0, fw, fh)
         if self.panels is not None and self.show_ui:
-            self.panels.draw()
+            try:
+                self.panels.draw()
+            except RuntimeError:  # ImGui's check of the window's size, the window gone
+                if not self.window_gone:
+                    raise
 
     def _run_debug(self) -> None:
         """The debug view of the frame just rendered, on a DebugPass of this renderer at
@@ -650,13 +797,23 @@ class Viewer:
         glfw.set_key_callback(self.window, self._on_key)
         glfw.set_drop_callback(self.window, self._on_drop)
         glfw.set_framebuffer_size_callback(self.window, lambda *_: self._on_resize())
+        # Events only the panels read: each wakes the idle loop for a few frames.
+        glfw.set_char_callback(self.window, lambda *_: self._wake())
+        glfw.set_cursor_enter_callback(self.window, lambda *_: self._wake())
+        glfw.set_window_focus_callback(self.window, lambda *_: self._wake())
+        glfw.set_window_refresh_callback(self.window, lambda *_: self._wake())
         if self.panels is not None:
             self.panels.install_backend(ctypes.cast(self.window, ctypes.c_void_p).value)
+
+    def _wake(self) -> None:
+        """An input event: draw ``UI_SETTLE_FRAMES`` frames (the panels react to it)."""
+        self._settle = UI_SETTLE_FRAMES
 
     def _ui_wants_mouse(self) -> bool:
         return self.panels is not None and self.show_ui and self.panels.wants_mouse()
 
     def _on_button(self, window, button: int, action: int, mods: int) -> None:
+        self._wake()
         if action == glfw.PRESS and not self._ui_wants_mouse():
             x, y = glfw.get_cursor_pos(window)
             self._drag = (button, x, y)
@@ -676,7 +833,8 @@ class Viewer:
         """Whether window pixel column x grabs the split's divider."""
         if self.comparison is None or self.compare_mode != "split":
             return False
-        return abs(x - self.divider * self.framebuffer_size[0]) <= DIVIDER_GRAB
+        ix, _, w, _ = self.image_rect
+        return abs(x - ix - self.divider * w) <= DIVIDER_GRAB
 
     def _to_pixels(self, x: float, y: float) -> tuple[float, float]:
         """Screen units (cursor) to framebuffer pixels (HiDPI)."""
@@ -685,13 +843,15 @@ class Viewer:
         return x * fw / max(ww, 1), y * fh / max(wh, 1)
 
     def _on_cursor(self, window, x: float, y: float) -> None:
+        self._wake()
         if self._drag is None:
             return
         button, lx, ly = self._drag
         self._drag = (button, x, y)
         if button == DIVIDER_DRAG:
             self.touch()
-            self.set_divider(self._to_pixels(x, y)[0] / self.framebuffer_size[0])
+            ix, _, w, _ = self.image_rect
+            self.set_divider((self._to_pixels(x, y)[0] - ix) / w)
             return
         dx, dy = self._to_pixels(x - lx, y - ly)
         shift = glfw.get_key(window, glfw.KEY_LEFT_SHIFT) == glfw.PRESS
@@ -701,13 +861,20 @@ class Viewer:
             self.pan(dx, dy)
 
     def _on_scroll(self, window, dx: float, dy: float) -> None:
+        self._wake()
         if not self._ui_wants_mouse():
             self.zoom(dy)
 
     def _on_key(self, window, key: int, scancode: int, action: int, mods: int) -> None:
+        self._wake()
         if action not in (glfw.PRESS, glfw.REPEAT):
             return
-        if self.panels is not None and self.show_ui and self.panels.wants_keyboard():
+        ui = self.panels is not None and self.show_ui
+        if key == glfw.KEY_ESCAPE and action == glfw.PRESS:
+            if not (ui and self.panels.typing()):  # typing: ImGui's Escape ends it first
+                glfw.set_window_should_close(window, True)
+            return
+        if ui and self.panels.wants_keyboard():
             return
         step = 20.0  # pixels of drag per key press
         moves = {
@@ -725,8 +892,6 @@ class Viewer:
             self.save_scene()
         elif key == glfw.KEY_P or key == glfw.KEY_F12:
             self.screenshot(hdr=bool(mods & glfw.MOD_SHIFT))
-        elif key == glfw.KEY_ESCAPE:
-            glfw.set_window_should_close(window, True)
         elif key in (glfw.KEY_PAGE_UP, glfw.KEY_PAGE_DOWN) and self.lesson is not None:
             self.lesson.go(self.lesson.index + (1 if key == glfw.KEY_PAGE_DOWN else -1))
         elif key in moves:
@@ -741,6 +906,7 @@ class Viewer:
             self.open_scene(Path(paths[0]))
 
     def _on_resize(self) -> None:
+        self._wake()
         self.touch()
         self.state.dirty = True
 
@@ -763,8 +929,9 @@ class Viewer:
 
 
 class _Present:
-    """Draws the renderer's display image over the whole window: texel-exact (NEAREST)
-    when the image has the window's size, bilinear when a preview is magnified. The draw
+    """Draws the renderer's display image into a rectangle of the window (the viewport the
+    caller set): texel-exact (NEAREST) when the image has the rectangle's size, bilinear
+    when a preview is magnified. The draw
     is app/gl/fullscreen.py's ``FullscreenDraw`` with the window's own small program (no
     shader cache or project header: the default framebuffer is all it writes)."""
 
@@ -778,10 +945,11 @@ void main() {
     _FRAGMENT = """
 #version 330 core
 uniform sampler2D u_image;
-uniform vec2 u_window;
+uniform vec2 u_origin;  // the rectangle's lower-left corner, window pixels
+uniform vec2 u_size;    // its size
 out vec4 frag_color;
 void main() {
-    frag_color = vec4(texture(u_image, gl_FragCoord.xy / u_window).rgb, 1.0);
+    frag_color = vec4(texture(u_image, (gl_FragCoord.xy - u_origin) / u_size).rgb, 1.0);
 }
 """
 
@@ -794,11 +962,13 @@ void main() {
         self.linear = ctx.sampler(filter=(moderngl.LINEAR, moderngl.LINEAR), repeat_x=False,
                                   repeat_y=False)  # fmt: skip
 
-    def draw(self, image: moderngl.Texture, window: tuple[int, int]) -> None:
-        sampler = self.nearest if image.size == window else self.linear
+    def draw(self, image: moderngl.Texture, rect: tuple[int, int, int, int]) -> None:
+        """``image`` over ``rect`` (x, y from the bottom, w, h: the viewport set)."""
+        x, y, w, h = rect
+        sampler = self.nearest if image.size == (w, h) else self.linear
         self.ctx.disable(moderngl.CULL_FACE)  # the draw disables depth test and blending
         sampler.use(0)
-        uniforms = {"u_window": (float(window[0]), float(window[1]))}
+        uniforms = {"u_origin": (float(x), float(y)), "u_size": (float(w), float(h))}
         self.fullscreen.draw(None, uniforms, {"u_image": image})
         sampler.clear(0)
 
