@@ -26,9 +26,15 @@ from app.output import write_png
 from app.progress import Progress
 from app.render.compare import CompareSpec, Comparison
 from app.render.renderer import Renderer
-from app.scene.edits import parse_key
 from app.scene.loader import LoadedScene
-from app.walkthrough.labels import caption_band, find_font, font_size, label_objects
+from app.walkthrough.labels import (
+    PlacedLabel,
+    band_layout,
+    caption_band,
+    find_font,
+    font_size,
+    label_objects,
+)
 from app.walkthrough.model import Comparison as ComparisonItem
 from app.walkthrough.model import Lang, LoadedStep, Plot, Sweep, View, with_values
 
@@ -62,13 +68,19 @@ def _hstack(images: list[np.ndarray]) -> np.ndarray:
 
 @dataclass
 class ViewImages:
-    """A view: the plain render, the labelled image, the label boxes (left, top, right,
-    bottom; right and bottom exclusive) and the linear HDR radiance."""
+    """A view: the plain render, the labelled image, the labels (each with its box: left,
+    top, right, bottom, right and bottom exclusive, and its leader line if it has one),
+    the objects whose label found no free place, and the linear HDR radiance."""
 
     plain: np.ndarray
     labelled: np.ndarray
-    boxes: list[tuple[int, int, int, int]]
+    labels: list[PlacedLabel]
+    left_out: list[int]
     hdr: np.ndarray
+
+    @property
+    def boxes(self) -> list[tuple[int, int, int, int]]:
+        return [label.box for label in self.labels]
 
 
 def label_texts(view: View, loaded: LoadedScene, lang: Lang) -> dict[int, str]:
@@ -97,12 +109,12 @@ def render_view(
         renderer.render()
         plain = renderer.read_ldr()
         hdr = renderer.read_hdr()
-        labelled, placed = label_objects(
+        labelled, placed, left_out = label_objects(
             plain, renderer, label_texts(view, loaded, lang), find_font(lang)
         )
     finally:
         renderer.release()
-    return ViewImages(plain, labelled, [p.box for p in placed], hdr)
+    return ViewImages(plain, labelled, placed, left_out, hdr)
 
 
 @dataclass
@@ -166,10 +178,9 @@ def sweep_frame_size(size: tuple[int, int], steps: int) -> tuple[int, int]:
     return frame_w, max(16, round(frame_w * h / w))
 
 
-def sweep_label(sweep: Sweep, value: float) -> str:
-    """``roughness = 0.50``: the first key's last name and the formatted value."""
-    names = [p for p in parse_key(sweep.keys[0]) if isinstance(p, str)]
-    return f"{names[-1]} = {sweep.format.format(value)}"
+def sweep_label(sweep: Sweep, value: float, lang: Lang) -> str:
+    """The text under a sweep's frame (``Sweep.value_text``)."""
+    return sweep.value_text(value, lang)
 
 
 def render_sweep(
@@ -203,11 +214,12 @@ def render_sweep(
         if renderer is not None:
             renderer.release()
     face = find_font(lang)
-    text = font_size(frame[1], sweep.steps * frame[0])
+    texts = [sweep_label(sweep, v, lang) for v in sweep.values()]
+    size, rows = band_layout(texts, face, font_size(frame[1], sweep.steps * frame[0]), frame[0])
     strip = _hstack(
         [
-            caption_band(im, sweep_label(sweep, v), face, text, where="below")
-            for im, v in zip(frames, sweep.values(), strict=True)
+            caption_band(im, text, face, size, where="below", rows=rows)
+            for im, text in zip(frames, texts, strict=True)
         ]
     )
     return SweepImages(sweep.values(), frames, strip, hdrs)
