@@ -250,3 +250,49 @@ def test_a_sweep_label_is_checked_in_both_languages(tmp_path) -> None:
     sweep = loaded.step.sweeps[0]
     assert sweep.value_text(0.5, "ko") == "거칠기 0.50"
     assert sweep.value_text(0.5, "en") == "roughness 0.50"
+
+
+# --- the BRDF plots' words ------------------------------------------------------------------
+
+# Latin words a plot's text may keep besides UNTRANSLATED: the quantities' symbols and
+# the names of code.
+PLOT_TOKENS = {"f", "l", "v", "n", "i", "cos", "dv", "sr", "R", "G", "B", "RGB", "GLSL",
+               "float64", "app", "brdf", "evaluate", "e", "R_8192", "R_2048"}  # fmt: skip
+
+
+def _foreign_words(text: str) -> list[str]:
+    words = re.findall(r"[A-Za-z][A-Za-z0-9_]*", text.replace("e-", " "))
+    return [w for w in words if w not in UNTRANSLATED | PLOT_TOKENS]
+
+
+def _figure_texts(lang: str) -> list[str]:
+    """Every text the handout's BRDF figure draws in ``lang``, but the materials' names
+    and models (the plot's input, as written in the step file: `standard`, `dielectric
+    + none`)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.text import Text
+
+    from app.brdf import plot as brdf_plot
+    from app.walkthrough.build import figure_words
+
+    material = brdf_plot.parse_material_args(['{ ndf = "ggx", roughness = 0.3 }'])
+    columns = brdf_plot.compute_columns(material, (30.0,), "fcos", "reference")
+    figure = brdf_plot.render_figure(
+        columns, "fcos", dpi=40, backend="reference", words=figure_words(lang)
+    )
+    FigureCanvasAgg(figure).draw()
+    name = material[0].name
+    texts = [t.get_text() for t in figure.findobj(Text) if t.get_text().strip()]
+    return [t.split("\n", 1)[1].split(", ", 1)[1] if t.startswith(name) else t for t in texts]
+
+
+def test_the_korean_plots_words_are_korean() -> None:
+    """The BRDF figure on the Korean handout (``pbs brdf``'s, its words given by the
+    walkthrough): its title, axis names, legend and notes are Korean; the same check
+    finds the English figure's words (it can fail)."""
+    korean = _figure_texts("ko")
+    assert any(re.search("[가-힣]", t) for t in korean)
+    foreign = [(t, _foreign_words(t)) for t in korean if _foreign_words(t)]
+    assert not foreign, foreign
+    english = [t for t in _figure_texts("en") if _foreign_words(t)]
+    assert len(english) >= 5, english

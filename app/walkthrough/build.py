@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from app.render.compare import CompareSpec, Comparison
 from app.render.renderer import Renderer
 from app.scene.loader import LoadedScene
 from app.walkthrough.labels import (
+    HANGUL_FAMILY,
     PlacedLabel,
     band_layout,
     caption_band,
@@ -37,6 +39,9 @@ from app.walkthrough.labels import (
 )
 from app.walkthrough.model import Comparison as ComparisonItem
 from app.walkthrough.model import Lang, LoadedStep, Plot, Sweep, View, with_values
+
+if TYPE_CHECKING:
+    from app.brdf.plot import FigureWords
 
 GAIN = 8.0  # the difference image's magnification, as pbs render --compare-mode difference
 SEPARATOR = 4  # pixels of dark grey between the panels of a comparison or a sweep
@@ -232,14 +237,44 @@ def plot_dpi(size: tuple[int, int] | None) -> int:
     return max(40, min(100, round(100 * size[1] / 540)))
 
 
-def render_plot(gl: GLContext, plot: Plot, size: tuple[int, int] | None, path: Path) -> None:
-    """``pbs brdf``'s figure of the plot's materials, written as PNG to ``path``."""
+def figure_words(lang: Lang) -> FigureWords:
+    """The words of ``pbs brdf``'s figure in ``lang``: English as ``pbs brdf`` writes
+    them, or Korean in the labels' Hangul font (its Latin and Greek too)."""
+    from app.brdf.plot import FigureWords
+
+    if lang == "en":
+        return FigureWords()
+    face = find_font(lang)
+    return FigureWords(
+        evaluated_by="{where}로 계산한 f(l, v) (app.brdf.evaluate)",
+        glsl="렌더러의 GLSL",
+        reference="float64 기준 구현",
+        subtitle="{model}, 거칠기 {roughness:g}, 금속성 {metallic:g}",
+        angle="각도: θv (+ = 정반사 쪽, 점선: −θi 방향의 빛)",
+        radius="반지름: {what} [1/sr], {how}{scale}",
+        luminance="휘도",
+        log_radius=", 로그 반지름",
+        light_theta="빛의 입사각 θ (도)",
+        albedo="방향 알베도 R(θ) = ∫ f (n·v) dv",
+        quadrature="수치 적분 오차 ~ {error:.0e} (|R_8192 − R_2048|)",
+        font=(HANGUL_FAMILY, "DejaVu Sans"),
+        font_files=(str(face.path),),
+    )
+
+
+def render_plot(
+    gl: GLContext, plot: Plot, size: tuple[int, int] | None, path: Path, lang: Lang = "en"
+) -> None:
+    """``pbs brdf``'s figure of the plot's materials, its words in ``lang``, written as
+    PNG to ``path``."""
     from app.brdf import plot as brdf_plot
 
     materials = brdf_plot.parse_material_args(plot.materials)
     thetas = tuple(plot.theta) if plot.theta else brdf_plot.DEFAULT_THETAS
     columns = brdf_plot.compute_columns(materials, thetas, "fcos", "glsl", gl=gl)
-    figure = brdf_plot.render_figure(columns, "fcos", dpi=plot_dpi(size), backend="glsl")
+    figure = brdf_plot.render_figure(
+        columns, "fcos", dpi=plot_dpi(size), backend="glsl", words=figure_words(lang)
+    )
     brdf_plot.save_png(figure, path)
 
 
@@ -317,7 +352,7 @@ def build(
             else:
                 assert isinstance(item, Plot)
                 path.parent.mkdir(parents=True, exist_ok=True)
-                render_plot(gl, item, size, path)
+                render_plot(gl, item, size, path, lang)
                 result = None
                 alt = "BRDF: " + "; ".join(item.materials)
             caption = item.caption.get(lang) if item.caption is not None else None

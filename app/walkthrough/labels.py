@@ -26,6 +26,7 @@ from app.errors import InputError
 from app.render.renderer import Renderer
 
 HANGUL_PACKAGE = "fonts-noto-cjk"
+HANGUL_FAMILY = "Noto Sans CJK KR"  # the family name matplotlib knows the face by
 _LATIN_PATTERN = "DejaVu Sans"
 _HANGUL_PATTERN = "Noto Sans CJK KR:lang=ko"
 _MISSING = "\U0010fffd"  # a private-use code point no font draws: its .notdef box
