@@ -68,6 +68,7 @@ SLOW = (
     "test_walkthrough.py::test_comparisons_and_sweeps_differ_between_their_ends",
     "test_walkthrough.py::test_the_bundled_steps_load",
     "test_walkthrough.py::test_no_hangul_font_is_one_line_naming_the_package",
+    "test_handout_labels.py::test_no_two_labels_overlap_in_any_view",
     "test_viewer.py::test_500_frames_of_interaction_leak_nothing",
     "test_viewer.py::test_walkthrough_next_and_previous_through_all_steps",
     "test_viewer.py::test_no_panel_covers_the_image_and_no_label_passes_a_panels_edge",

@@ -40,10 +40,10 @@ ITEM_KEYS = {
     "equations": ({"latex"}, {"caption"}),
     "views": ({"scene"}, {"caption", "labels"}),
     "comparisons": ({"scene", "key", "a", "b", "label_a", "label_b"}, {"caption"}),
-    "sweeps": ({"scene", "keys", "from", "to", "steps"}, {"caption", "format"}),
+    "sweeps": ({"scene", "keys", "from", "to", "steps"}, {"caption", "format", "label"}),
     "plots": ({"materials"}, {"theta", "caption"}),
 }
-LANG_KEYS = {"title", "text", "caption", "label_a", "label_b"}
+LANG_KEYS = {"title", "text", "caption", "label_a", "label_b", "label"}
 # Words per language in a step's text: the brief asks for 120-250 in English; Korean
 # counts space-separated eojeol, which carry a particle each, so fewer of them say as much.
 EN_WORDS = (120, 250)
@@ -120,6 +120,9 @@ def test_format(path: Path) -> None:
         assert sweep["keys"], f"sweeps[{i}].keys"
         if "format" in sweep:
             sweep["format"].format(sweep["from"])
+        assert not {"format", "label"} <= set(sweep), f"sweeps[{i}]: label and format"
+        for lang in ("en", "ko") if "label" in sweep else ():
+            sweep["label"][lang].format(sweep["from"])
     for i, view in enumerate(step.get("views", [])):
         labels = view.get("labels", "names")
         assert isinstance(labels, list) or labels in ("names", "none"), f"views[{i}].labels"

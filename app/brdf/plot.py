@@ -46,6 +46,31 @@ if TYPE_CHECKING:
 
 Quantity = Literal["fcos", "f"]
 
+
+@dataclass(frozen=True)
+class FigureWords:
+    """Every word the figure writes, so that a caller can set it in another language
+    (the walkthrough's Korean handout); ``font``: the font families to draw them with
+    (None: matplotlib's default), each family registered from ``font_files`` first.
+    The defaults are ``pbs brdf``'s English."""
+
+    evaluated_by: str = "f(l, v) as evaluated by {where} (app.brdf.evaluate)"
+    glsl: str = "the renderer's GLSL"
+    reference: str = "the float64 reference twin"
+    subtitle: str = "{model}, roughness {roughness:g}, metallic {metallic:g}"
+    angle: str = "angle: θv (+ = mirror side; dotted: the light at −θi)"
+    radius: str = "radius: {what} [1/sr], {how}{scale}"
+    luminance: str = "luminance"
+    log_radius: str = ", log radius"
+    light_theta: str = "θ of the light (deg)"
+    albedo: str = "directional albedo R(θ) = ∫ f (n·v) dv"
+    quadrature: str = "quadrature error ~ {error:.0e} (|R_8192 − R_2048|)"
+    font: tuple[str, ...] | None = None
+    font_files: tuple[str, ...] = ()
+
+
+ENGLISH = FigureWords()
+
 # Rec. 709 / sRGB primaries: the luminance Y of linear RGB (ITU-R BT.709-6, item 3.2).
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -360,9 +385,10 @@ def albedo_curve(
 # -- the figure ----------------------------------------------------------------------------
 
 
-def _subtitle(params: MaterialParams) -> str:
-    r, m = params.roughness, params.metallic
-    return f"{params.model.describe()}, roughness {r:g}, metallic {m:g}"
+def _subtitle(params: MaterialParams, words: FigureWords = ENGLISH) -> str:
+    return words.subtitle.format(
+        model=params.model.describe(), roughness=params.roughness, metallic=params.metallic
+    )
 
 
 def _log_radius(values: list[np.ndarray], decades: float) -> tuple[list[np.ndarray], float]:
@@ -375,7 +401,12 @@ def _log_radius(values: list[np.ndarray], decades: float) -> tuple[list[np.ndarr
 
 
 def _plot_lobes(
-    ax: PolarAxes, curves: list[Lobe], quantity: Quantity, rgb: bool, log: bool
+    ax: PolarAxes,
+    curves: list[Lobe],
+    quantity: Quantity,
+    rgb: bool,
+    log: bool,
+    words: FigureWords = ENGLISH,
 ) -> None:
     from matplotlib import colormaps
     from matplotlib.ticker import MaxNLocator
@@ -416,8 +447,8 @@ def _plot_lobes(
         ax.yaxis.set_major_locator(MaxNLocator(4))
         ax.tick_params(axis="y", labelsize=7)
     what = "f(l,v)·cos θv" if quantity == "fcos" else "f(l,v)"
-    how = "RGB" if rgb else "luminance"
-    scale = ", log radius" if log else ""
+    how = "RGB" if rgb else words.luminance
+    scale = words.log_radius if log else ""
     # The polar axes keep a square box and draw the half disc in its middle half, so the
     # quarters above and below would stay empty: the title goes into the upper one (see
     # render_figure), the legend and the axis description into the lower one.
@@ -425,25 +456,24 @@ def _plot_lobes(
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.25), bbox_transform=below,
               ncol=4, fontsize=7, frameon=False, handlelength=1.5, columnspacing=1.0)  # fmt: skip
     ax.annotate(
-        "angle: θv (+ = mirror side; dotted: the light at −θi)\n"
-        f"radius: {what} [1/sr], {how}{scale}",
+        f"{words.angle}\n{words.radius.format(what=what, how=how, scale=scale)}",
         xy=(0.5, 0.25), xycoords="axes fraction", xytext=(0.0, -30.0),
         textcoords="offset points", ha="center", va="top", fontsize=8,
     )  # fmt: skip
 
 
-def _plot_albedo(ax: Axes, curve: AlbedoCurve) -> None:
+def _plot_albedo(ax: Axes, curve: AlbedoCurve, words: FigureWords = ENGLISH) -> None:
     for k, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
         ax.plot(curve.theta, curve.albedo[:, k], color=colour, lw=1.0, label="RGB"[k])
-    ax.plot(curve.theta, curve.luminance, color="black", lw=1.8, label="luminance")
+    ax.plot(curve.theta, curve.luminance, color="black", lw=1.8, label=words.luminance)
     ax.axhline(1.0, color="grey", ls="--", lw=1.0, label="R = 1")
     ax.set_xlim(0.0, 90.0)
     ax.set_xticks(range(0, 91, 15))
-    ax.set_xlabel("θ of the light (deg)", fontsize=8)
-    ax.set_ylabel("directional albedo R(θ) = ∫ f (n·v) dv", fontsize=8)
+    ax.set_xlabel(words.light_theta, fontsize=8)
+    ax.set_ylabel(words.albedo, fontsize=8)
     ax.tick_params(labelsize=7)
     ax.grid(alpha=0.3)
-    note = f"quadrature error ~ {curve.error.max():.0e} (|R_8192 − R_2048|)"
+    note = words.quadrature.format(error=curve.error.max())
     ax.text(0.02, 0.02, note, transform=ax.transAxes, fontsize=7, color="dimgrey")
     ax.legend(fontsize=7, loc="best", ncol=2, frameon=False)
 
@@ -495,8 +525,32 @@ def render_figure(
     size: tuple[int, int] | None = None,
     dpi: int | None = None,
     backend: Backend = "glsl",
+    words: FigureWords = ENGLISH,
 ) -> Figure:
-    """A matplotlib ``Figure`` (no pyplot, no window) with one column per material."""
+    """A matplotlib ``Figure`` (no pyplot, no window) with one column per material, its
+    words ``words`` (English by default)."""
+    from matplotlib import rc_context
+
+    if words.font is None:
+        return _render_figure(columns, quantity, rgb, log, size, dpi, backend, words)
+    from matplotlib import font_manager
+
+    for file in words.font_files:
+        font_manager.fontManager.addfont(file)
+    with rc_context({"font.family": list(words.font)}):
+        return _render_figure(columns, quantity, rgb, log, size, dpi, backend, words)
+
+
+def _render_figure(
+    columns: Sequence[Column],
+    quantity: Quantity,
+    rgb: bool,
+    log: bool,
+    size: tuple[int, int] | None,
+    dpi: int | None,
+    backend: Backend,
+    words: FigureWords,
+) -> Figure:
     from matplotlib.figure import Figure
 
     width, height, dpi = figure_size(len(columns), size, dpi)
@@ -505,18 +559,21 @@ def render_figure(
     share = None
     for j, col in enumerate(columns):
         polar = fig.add_subplot(grid[0, j], projection="polar")
-        _plot_lobes(polar, col.lobes, quantity, rgb, log)
+        _plot_lobes(polar, col.lobes, quantity, rgb, log, words)
         # Above the 0 degree label, in the empty upper quarter of the square polar box.
         polar.set_title(
-            f"{col.material.name}\n{_subtitle(col.material.params)}", fontsize=9, y=0.75, pad=24
+            f"{col.material.name}\n{_subtitle(col.material.params, words)}",
+            fontsize=9,
+            y=0.75,
+            pad=24,
         )
         ax = fig.add_subplot(grid[1, j], sharey=share)
         share = share or ax
-        _plot_albedo(ax, col.albedo)
+        _plot_albedo(ax, col.albedo, words)
     top = max(1.1, *(float(c.albedo.albedo.max()) * 1.05 for c in columns))
     share.set_ylim(0.0, top)
-    where = "the renderer's GLSL" if backend == "glsl" else "the float64 reference twin"
-    fig.suptitle(f"f(l, v) as evaluated by {where} (app.brdf.evaluate)", fontsize=10)
+    where = words.glsl if backend == "glsl" else words.reference
+    fig.suptitle(words.evaluated_by.format(where=where), fontsize=10)
     return fig
 
 

@@ -471,7 +471,7 @@ class LessonPanel:
                 changed, on = imgui.checkbox(_ui("play", lang), lesson.playing)
                 if changed:
                     lesson.play(on)
-                imgui.text(sweep.format.format(lesson.sweep_value))
+                imgui.text(sweep.value_text(lesson.sweep_value, lang))
             imgui.pop_id()
 
 

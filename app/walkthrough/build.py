@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,11 +27,21 @@ from app.output import write_png
 from app.progress import Progress
 from app.render.compare import CompareSpec, Comparison
 from app.render.renderer import Renderer
-from app.scene.edits import parse_key
 from app.scene.loader import LoadedScene
-from app.walkthrough.labels import caption_band, find_font, font_size, label_objects
+from app.walkthrough.labels import (
+    HANGUL_FAMILY,
+    PlacedLabel,
+    band_layout,
+    caption_band,
+    find_font,
+    font_size,
+    label_objects,
+)
 from app.walkthrough.model import Comparison as ComparisonItem
 from app.walkthrough.model import Lang, LoadedStep, Plot, Sweep, View, with_values
+
+if TYPE_CHECKING:
+    from app.brdf.plot import FigureWords
 
 GAIN = 8.0  # the difference image's magnification, as pbs render --compare-mode difference
 SEPARATOR = 4  # pixels of dark grey between the panels of a comparison or a sweep
@@ -62,13 +73,19 @@ def _hstack(images: list[np.ndarray]) -> np.ndarray:
 
 @dataclass
 class ViewImages:
-    """A view: the plain render, the labelled image, the label boxes (left, top, right,
-    bottom; right and bottom exclusive) and the linear HDR radiance."""
+    """A view: the plain render, the labelled image, the labels (each with its box: left,
+    top, right, bottom, right and bottom exclusive, and its leader line if it has one),
+    the objects whose label found no free place, and the linear HDR radiance."""
 
     plain: np.ndarray
     labelled: np.ndarray
-    boxes: list[tuple[int, int, int, int]]
+    labels: list[PlacedLabel]
+    left_out: list[int]
     hdr: np.ndarray
+
+    @property
+    def boxes(self) -> list[tuple[int, int, int, int]]:
+        return [label.box for label in self.labels]
 
 
 def label_texts(view: View, loaded: LoadedScene, lang: Lang) -> dict[int, str]:
@@ -97,12 +114,12 @@ def render_view(
         renderer.render()
         plain = renderer.read_ldr()
         hdr = renderer.read_hdr()
-        labelled, placed = label_objects(
+        labelled, placed, left_out = label_objects(
             plain, renderer, label_texts(view, loaded, lang), find_font(lang)
         )
     finally:
         renderer.release()
-    return ViewImages(plain, labelled, [p.box for p in placed], hdr)
+    return ViewImages(plain, labelled, placed, left_out, hdr)
 
 
 @dataclass
@@ -166,10 +183,9 @@ def sweep_frame_size(size: tuple[int, int], steps: int) -> tuple[int, int]:
     return frame_w, max(16, round(frame_w * h / w))
 
 
-def sweep_label(sweep: Sweep, value: float) -> str:
-    """``roughness = 0.50``: the first key's last name and the formatted value."""
-    names = [p for p in parse_key(sweep.keys[0]) if isinstance(p, str)]
-    return f"{names[-1]} = {sweep.format.format(value)}"
+def sweep_label(sweep: Sweep, value: float, lang: Lang) -> str:
+    """The text under a sweep's frame (``Sweep.value_text``)."""
+    return sweep.value_text(value, lang)
 
 
 def render_sweep(
@@ -203,11 +219,12 @@ def render_sweep(
         if renderer is not None:
             renderer.release()
     face = find_font(lang)
-    text = font_size(frame[1], sweep.steps * frame[0])
+    texts = [sweep_label(sweep, v, lang) for v in sweep.values()]
+    size, rows = band_layout(texts, face, font_size(frame[1], sweep.steps * frame[0]), frame[0])
     strip = _hstack(
         [
-            caption_band(im, sweep_label(sweep, v), face, text, where="below")
-            for im, v in zip(frames, sweep.values(), strict=True)
+            caption_band(im, text, face, size, where="below", rows=rows)
+            for im, text in zip(frames, texts, strict=True)
         ]
     )
     return SweepImages(sweep.values(), frames, strip, hdrs)
@@ -220,14 +237,44 @@ def plot_dpi(size: tuple[int, int] | None) -> int:
     return max(40, min(100, round(100 * size[1] / 540)))
 
 
-def render_plot(gl: GLContext, plot: Plot, size: tuple[int, int] | None, path: Path) -> None:
-    """``pbs brdf``'s figure of the plot's materials, written as PNG to ``path``."""
+def figure_words(lang: Lang) -> FigureWords:
+    """The words of ``pbs brdf``'s figure in ``lang``: English as ``pbs brdf`` writes
+    them, or Korean in the labels' Hangul font (its Latin and Greek too)."""
+    from app.brdf.plot import FigureWords
+
+    if lang == "en":
+        return FigureWords()
+    face = find_font(lang)
+    return FigureWords(
+        evaluated_by="{where}로 계산한 f(l, v) (app.brdf.evaluate)",
+        glsl="렌더러의 GLSL",
+        reference="float64 기준 구현",
+        subtitle="{model}, 거칠기 {roughness:g}, 금속성 {metallic:g}",
+        angle="각도: θv (+ = 정반사 쪽, 점선: −θi 방향의 빛)",
+        radius="반지름: {what} [1/sr], {how}{scale}",
+        luminance="휘도",
+        log_radius=", 로그 반지름",
+        light_theta="빛의 입사각 θ (도)",
+        albedo="방향 알베도 R(θ) = ∫ f (n·v) dv",
+        quadrature="수치 적분 오차 ~ {error:.0e} (|R_8192 − R_2048|)",
+        font=(HANGUL_FAMILY, "DejaVu Sans"),
+        font_files=(str(face.path),),
+    )
+
+
+def render_plot(
+    gl: GLContext, plot: Plot, size: tuple[int, int] | None, path: Path, lang: Lang = "en"
+) -> None:
+    """``pbs brdf``'s figure of the plot's materials, its words in ``lang``, written as
+    PNG to ``path``."""
     from app.brdf import plot as brdf_plot
 
     materials = brdf_plot.parse_material_args(plot.materials)
     thetas = tuple(plot.theta) if plot.theta else brdf_plot.DEFAULT_THETAS
     columns = brdf_plot.compute_columns(materials, thetas, "fcos", "glsl", gl=gl)
-    figure = brdf_plot.render_figure(columns, "fcos", dpi=plot_dpi(size), backend="glsl")
+    figure = brdf_plot.render_figure(
+        columns, "fcos", dpi=plot_dpi(size), backend="glsl", words=figure_words(lang)
+    )
     brdf_plot.save_png(figure, path)
 
 
@@ -305,7 +352,7 @@ def build(
             else:
                 assert isinstance(item, Plot)
                 path.parent.mkdir(parents=True, exist_ok=True)
-                render_plot(gl, item, size, path)
+                render_plot(gl, item, size, path, lang)
                 result = None
                 alt = "BRDF: " + "; ".join(item.materials)
             caption = item.caption.get(lang) if item.caption is not None else None

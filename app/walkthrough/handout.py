@@ -53,6 +53,7 @@ code { font-family: "DejaVu Sans Mono", monospace; background: #f2f2f2; padding:
 .equation { text-align: center; margin: 0.8em 0; }
 .equation figcaption, figure.image figcaption { font-size: 0.9em; color: #333; }
 .math svg { vertical-align: middle; }
+.equation svg { max-width: 100%; height: auto; }
 figure.image { margin: 1em 0; break-inside: avoid; }
 figure.image img { display: block; max-width: 100%; height: auto; margin: 0 auto; }
 @page { size: A4; margin: 14mm; }

@@ -87,7 +87,10 @@ class Comparison(_Strict):
 
 
 class Sweep(_Strict):
-    """``steps`` images with every key of ``keys`` set to values from ``from`` to ``to``."""
+    """``steps`` images with every key of ``keys`` set to values from ``from`` to ``to``.
+    Under each frame: ``label`` in the handout's language, a format of the value
+    (``{ en = "roughness {:.2f}", ko = "거칠기 {:.2f}" }``), or, without one, the first
+    key's last name and the value in ``format``."""
 
     model_config = ConfigDict(populate_by_name=True)
 
@@ -98,9 +101,12 @@ class Sweep(_Strict):
     steps: Annotated[int, Field(strict=True, ge=2, le=MAX_SWEEP_STEPS)]
     caption: Text | None = None
     format: str = "{:.2f}"
+    label: Text | None = None
 
     @model_validator(mode="after")
     def _check(self) -> Sweep:
+        if self.label is not None and "format" in self.model_fields_set:
+            raise ValueError("label: give either label (the whole text) or format, not both")
         try:
             self.format.format(self.start)
         except (ValueError, IndexError, KeyError) as exc:
@@ -110,6 +116,14 @@ class Sweep(_Strict):
     def values(self) -> list[float]:
         """The swept values, ``from`` to ``to`` in ``steps`` even steps."""
         return [float(v) for v in np.linspace(self.start, self.to, self.steps)]
+
+    def value_text(self, value: float, lang: Lang) -> str:
+        """The text under a frame: ``label`` in ``lang`` with the value (``거칠기 0.50``),
+        else the first key's last name and the value in ``format`` (``roughness = 0.50``)."""
+        if self.label is not None:
+            return self.label.get(lang).format(value)
+        names = [p for p in parse_key(self.keys[0]) if isinstance(p, str)]
+        return f"{names[-1]} = {self.format.format(value)}"
 
 
 class Plot(_Strict):
@@ -282,6 +296,18 @@ def _check_math(step: Step, path: Path) -> None:
                     raise _error(path, f"{kind}[{i}].caption.{lang}", why)
 
 
+def _check_sweep_labels(step: Step, path: Path) -> None:
+    for i, sweep in enumerate(step.sweeps):
+        if sweep.label is None:
+            continue
+        for lang in LANGUAGES:
+            try:
+                sweep.label.get(lang).format(sweep.start)
+            except (ValueError, IndexError, KeyError) as exc:
+                why = f"not a Python format for one number ({exc})"
+                raise _error(path, f"sweeps[{i}].label.{lang}", why) from None
+
+
 def _check_plots(step: Step, path: Path) -> None:
     from app.brdf.plot import parse_material_arg
 
@@ -303,6 +329,7 @@ def parse_step(data: dict, path: Path) -> LoadedStep:
         key, message = describe_error({**error, "loc": loc})
         raise _error(path, key, message) from None
     _check_math(step, path)
+    _check_sweep_labels(step, path)
     scenes = _load_scenes(step, path)
     _check_keys(step, scenes, path)
     _check_plots(step, path)
