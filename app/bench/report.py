@@ -37,6 +37,15 @@ CULLED_LIMIT_MAX = 1.2  # the culled lighting pass against the limit pass
 PYRENDER_SPEEDUP_MIN = 5.0  # pyrender / pbs on the 35-sphere scene
 SPHERES_CASE = "35 spheres"  # app/bench/spheres.py's CASE (report imports no GL modules)
 SPHERES_PYRENDER = "pyrender"
+# Suite antialiasing (app/bench/antialiasing.py, docs/antialiasing.md): the still default
+# removes >= AA_STILL_REDUCTION_MIN x of the aliased frame's silhouette error (against the
+# 4x4 supersampled frame) at <= AA_STILL_COST_MAX x its time; the viewer's interactive
+# mode costs <= AA_VIEWER_COST_MAX x; both on the suite's time-vs-error front.
+AA_STILL_DEFAULT = "fxaa"
+AA_VIEWER_INTERACTIVE = "fxaa"
+AA_STILL_REDUCTION_MIN = 3.0
+AA_STILL_COST_MAX = 2.0
+AA_VIEWER_COST_MAX = 1.3
 
 
 def _cpu_model() -> str:
@@ -225,7 +234,80 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
     out.extend(_pyrender_verdicts(rows))
     out.append(_specialization_verdict(rows))
     out.extend(_primitives_verdicts(rows))
+    out.extend(aa_verdicts(rows))
     return out
+
+
+def aa_front(members: list[dict]) -> list[str]:
+    """The antialiasing candidates on the front of (time ratio, silhouette error vs the
+    4x4 supersampled frame): the timed ones."""
+    points = {
+        r["variant"]: (r["time_ratio"], r["error_silhouette_4"])
+        for r in members
+        if r.get("time_ratio") is not None
+    }
+    return pareto_front(points)
+
+
+def aa_verdicts(rows: list[dict]) -> list[Verdict]:
+    """The antialiasing suite's targets (nothing where it did not run)."""
+    members = [r for r in rows if r["suite"] == "antialiasing"]
+    by = {r["variant"]: r for r in members}
+    if not members or "none" not in by:
+        return []
+    front = aa_front(members)
+    none = by["none"]["error_silhouette_4"]
+    out = []
+    still = by.get(AA_STILL_DEFAULT)
+    if still is not None:
+        reduction = none / max(still["error_silhouette_4"], 1e-12)
+        cost = still["time_ratio"]
+        on = AA_STILL_DEFAULT in front
+        ok = reduction >= AA_STILL_REDUCTION_MIN and cost <= AA_STILL_COST_MAX and on
+        out.append(Verdict(
+            f"antialiasing: still default '{AA_STILL_DEFAULT}' removes >="
+            f" {AA_STILL_REDUCTION_MIN:g}x of the silhouette error at <= {AA_STILL_COST_MAX:g}x"
+            " the frame, on the front",
+            f"{reduction:.2f}x less error at {cost:.2f}x the time;"
+            f" {'on' if on else 'not on'} the front ({', '.join(front)})",
+            _status(ok),
+        ))  # fmt: skip
+    viewer = by.get(AA_VIEWER_INTERACTIVE)
+    if viewer is not None:
+        cost = viewer["time_ratio"]
+        on = AA_VIEWER_INTERACTIVE in front
+        out.append(Verdict(
+            f"antialiasing: viewer's interactive mode '{AA_VIEWER_INTERACTIVE}' <="
+            f" {AA_VIEWER_COST_MAX:g}x the frame, on the front",
+            f"{cost:.2f}x; {'on' if on else 'not on'} the front",
+            _status(cost <= AA_VIEWER_COST_MAX and on),
+        ))  # fmt: skip
+    return out
+
+
+def _aa_lines(members: list[dict]) -> list[str]:
+    """The antialiasing suite's table: time ratio to "none", errors against the 4x4 and
+    8x8 supersampled frames over every pixel, the silhouettes and the highlight."""
+    front = aa_front(members)
+    first = members[0]
+    lines = [
+        f"{first['silhouette_pixels']} silhouette pixels, {first['highlight_pixels']} highlight"
+        " pixels; errors: mean |display - supersampled display| per channel (0..1).",
+        "",
+        "| variant | ms median | x none | all, 4x4 | all, 8x8 | silhouette, 4x4 |"
+        " silhouette, 8x8 | highlight, 8x8 | on front |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in members:
+        timed = r.get("time_ratio") is not None
+        lines.append(
+            f"| {r['variant']} | {_fmt(r['ms_median'])} | {_fmt(r.get('time_ratio'), '.2f')} |"
+            f" {_fmt(r['error_all_4'], '.2e')} | {_fmt(r['error_all_8'], '.2e')} |"
+            f" {_fmt(r['error_silhouette_4'], '.2e')} | {_fmt(r['error_silhouette_8'], '.2e')} |"
+            f" {_fmt(r['error_highlight_8'], '.2e')} |"
+            f" {('yes' if r['variant'] in front else 'no') if timed else ''} |"
+        )
+    return lines
 
 
 # Accuracy targets: the whole pipeline at the default settings against the float64 ray-caster.
@@ -528,7 +610,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     lines += ["", "## Results", ""]
     suites = (
         "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
-        "shadows",
+        "shadows", "antialiasing",
     )  # fmt: skip
     for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
@@ -635,6 +717,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
             lines += _ibl_lines(rows, members)
         elif suite == "shadows":
             lines += _shadow_lines(members)
+        elif suite == "antialiasing":
+            lines += _aa_lines(members)
         else:
             lines += [
                 "| case | variant | to PNG ms median | min | max | peak RSS MiB | runs |",
