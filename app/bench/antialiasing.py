@@ -8,9 +8,11 @@ highlight covers under a pixel. Each candidate's display image (sRGB, 0..1) is c
 with the supersampled frames' in three masks: every pixel, the silhouette pixels (those
 whose 4x4 block of G-buffer samples holds more than one surface or the background:
 geometric aliasing), and the highlight pixels (the smooth sphere's interior pixels where
-the 8x8 frame is bright, and one pixel around: specular aliasing). The times are one
-``render()`` each, timed in alternating rounds with the aliased frame ("none"), whose
-ratio to it each row holds.
+the 8x8 frame is bright, and two pixels around: specular aliasing). The times are one
+``render()`` each, timed in alternating rounds with the aliased frame ("none"); each
+row holds the median over the rounds of its frame's time over "none"'s in that round.
+The "+specular_aa" rows add ``render.specular_aa`` (the highlight's question); the
+time-vs-error front is over the antialiasing modes alone.
 
 "jitter-display:N" is not a renderer mode: the mean of the display images of N jittered
 samples (each tone-mapped, then averaged), computed here to answer which order matches
@@ -31,17 +33,20 @@ from app.scene.loader import LoadedScene
 from app.scene.sources import scene_from
 
 SUITE = "antialiasing"
-# The candidates: (variant name, render.antialiasing, antialiasing_samples).
-CANDIDATES: tuple[tuple[str, str, int], ...] = (
-    ("none", "none", 8),
-    ("fxaa", "fxaa", 8),
-    ("jitter:2", "jitter", 2),
-    ("jitter:4", "jitter", 4),
-    ("jitter:8", "jitter", 8),
-    ("jitter:16", "jitter", 16),
+# The candidates: (variant name, render.antialiasing, antialiasing_samples, specular_aa).
+CANDIDATES: tuple[tuple[str, str, int, bool], ...] = (
+    ("none", "none", 8, False),
+    ("fxaa", "fxaa", 8, False),
+    ("jitter:2", "jitter", 2, False),
+    ("jitter:4", "jitter", 4, False),
+    ("jitter:8", "jitter", 8, False),
+    ("jitter:16", "jitter", 16, False),
+    ("none+specular_aa", "none", 8, True),
+    ("fxaa+specular_aa", "fxaa", 8, True),
 )
 DISPLAY_MEAN_SAMPLES = 8  # "jitter-display:N"'s N
-HIGHLIGHT_LEVEL = 0.6  # display value (max of RGB) above which a pixel is in the highlight
+HIGHLIGHT_LEVEL = 0.5  # display value (max of RGB) above which a pixel is in the highlight
+SMOOTH = 1  # the scene's object with the smooth metal (roughness 0.05)
 
 
 def _sphere(radius: float, position: list[float], material: str) -> dict:
@@ -73,12 +78,17 @@ def aa_scene_data(size: tuple[int, int]) -> dict:
     }
 
 
-def with_aa(loaded: LoadedScene, mode: str, samples: int, supersample: int = 1) -> LoadedScene:
-    """``loaded`` with ``render.antialiasing``, its samples and ``render.supersample`` set."""
+def with_aa(
+    loaded: LoadedScene, mode: str, samples: int, supersample: int = 1, specular_aa: bool = False
+) -> LoadedScene:
+    """``loaded`` with ``render.antialiasing``, its samples, ``render.supersample`` and
+    ``render.specular_aa`` set."""
     scene = loaded.scene
-    render = scene.render.model_copy(
-        update={"antialiasing": mode, "antialiasing_samples": samples, "supersample": supersample}
-    )
+    update = {
+        "antialiasing": mode, "antialiasing_samples": samples, "supersample": supersample,
+        "specular_aa": specular_aa,
+    }  # fmt: skip
+    render = scene.render.model_copy(update=update)
     return dataclasses.replace(loaded, scene=replace_parts(scene, render=render))
 
 
@@ -87,20 +97,24 @@ def display(r: Renderer) -> np.ndarray:
     return r.read_ldr().astype(np.float64) / 255.0
 
 
-def _reference(ctx: Context, loaded: LoadedScene, factor: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ``factor`` x ``factor`` supersampled display image, and per pixel whether its
-    block of G-buffer samples holds more than one surface or the background."""
+def _reference(
+    ctx: Context, loaded: LoadedScene, factor: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ``factor`` x ``factor`` supersampled display image; per pixel whether its block
+    of G-buffer samples holds more than one surface or the background (a silhouette);
+    and whether every sample of it lies on the smooth sphere (``SMOOTH``)."""
     r = Renderer(ctx.gl, with_aa(loaded, "none", 8, factor))
     try:
         r.render()
         image = display(r)
         g = r.read_gbuffer()
+        smooth_id = r.frame.material_ids[SMOOTH][0]
     finally:
         r.release()
     w, h = r.size
     ids = np.where(g.covered, g.material_id.astype(np.int64), -1).reshape(h, factor, w, factor)
-    mixed = ids.min(axis=(1, 3)) != ids.max(axis=(1, 3))
-    return image, mixed
+    low, high = ids.min(axis=(1, 3)), ids.max(axis=(1, 3))
+    return image, low != high, (low == smooth_id) & (high == smooth_id)
 
 
 def _errors(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None) -> float:
@@ -140,16 +154,16 @@ def run_antialiasing(ctx: Context) -> None:
     size = s.antialiasing_size
     loaded = scene_from(aa_scene_data(size))
     ctx.progress.start("antialiasing: references")
-    ref4, edges = _reference(ctx, loaded, 4)
-    ref8, _ = _reference(ctx, loaded, 8)
+    ref4, edges, _ = _reference(ctx, loaded, 4)
+    ref8, _, smooth = _reference(ctx, loaded, 8)
     ctx.progress.done()
-    # the highlight: bright pixels of the 8x8 frame off the silhouettes, and one around
-    highlight = _dilate((ref8.max(axis=2) > HIGHLIGHT_LEVEL) & ~edges) & ~edges
+    # the highlight: the smooth sphere's bright pixels in the 8x8 frame, and two around
+    highlight = _dilate(_dilate(smooth & (ref8.max(axis=2) > HIGHLIGHT_LEVEL))) & smooth
     ctx.progress.start("antialiasing: candidates")
     renderers = {}
     try:
-        for name, mode, n in CANDIDATES:
-            renderers[name] = Renderer(ctx.gl, with_aa(loaded, mode, n))
+        for name, mode, n, specular_aa in CANDIDATES:
+            renderers[name] = Renderer(ctx.gl, with_aa(loaded, mode, n, 1, specular_aa))
         times = ctx.time_interleaved(
             {name: [Pass("frame", r.render, None)] for name, r in renderers.items()}
         )
@@ -164,11 +178,12 @@ def run_antialiasing(ctx: Context) -> None:
         ctx, loaded, DISPLAY_MEAN_SAMPLES
     )
     ctx.progress.done()
-    base = times["none"].wall_ms
-    base_ms = float(np.median(base))
+    base = np.asarray(times["none"].wall_ms)
     for name, image in images.items():
         t = times.get(name)
-        ratio = None if t is None else float(np.median(t.wall_ms)) / base_ms
+        # the median of the per-round ratios: a round times one frame of each variant,
+        # so a change in the machine's load falls on both sides of each ratio
+        ratio = None if t is None else float(np.median(np.asarray(t.wall_ms) / base))
         ctx.rows.append(
             make_row(
                 SUITE, "spheres", name, size, 2, t,
