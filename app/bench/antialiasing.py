@@ -199,8 +199,43 @@ def run_antialiasing(ctx: Context) -> None:
             )
         )  # fmt: skip
 
+    run_showcase(ctx)
+
+
+# The frame of the viewer's scene (scenes/showcase.toml at the viewer's window): the
+# modes' cost on a frame of real work, the viewer target's measure.
+SHOWCASE_MODES: tuple[tuple[str, str, int], ...] = (
+    ("none", "none", 8),
+    ("fxaa", "fxaa", 8),
+    ("jitter:4", "jitter", 4),
+)
+
+
+def run_showcase(ctx: Context) -> None:
+    """scenes/showcase.toml at ``antialiasing_viewer_size``: each of ``SHOWCASE_MODES``
+    timed against "none" in alternating rounds (no error: it has no reference here)."""
+    size = ctx.settings.antialiasing_viewer_size
+    loaded = scene_from("showcase", size=size)
+    ctx.progress.start("antialiasing: showcase")
+    renderers = {}
+    try:
+        for name, mode, n in SHOWCASE_MODES:
+            renderers[name] = Renderer(ctx.gl, with_aa(loaded, mode, n), size)
+        times = ctx.time_interleaved(
+            {name: [Pass("frame", r.render, None)] for name, r in renderers.items()}
+        )
+        lights = len(renderers["none"].lights)
+    finally:
+        for r in renderers.values():
+            r.release()
+    ctx.progress.done()
+    base = np.asarray(times["none"].wall_ms)
+    for name, t in times.items():
+        ratio = float(np.median(np.asarray(t.wall_ms) / base))
+        ctx.rows.append(make_row(SUITE, "showcase", name, size, lights, t, time_ratio=ratio))
+
 
 def antialiasing_tasks(settings: object) -> int:
     """The progress bar's ticks: warm-up and timed frames of every candidate."""
     b = settings.budget
-    return len(CANDIDATES) * (b.warmup + b.max_frames)
+    return (len(CANDIDATES) + len(SHOWCASE_MODES)) * (b.warmup + b.max_frames)

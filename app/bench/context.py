@@ -68,6 +68,7 @@ class Settings:
     shadow_resolutions: tuple[int, ...] = (256, 512, 1024, 2048)
     # Suite antialiasing (app/bench/antialiasing.py): the image (8x8 supersampled too).
     antialiasing_size: tuple[int, int] = (640, 360)
+    antialiasing_viewer_size: tuple[int, int] = (960, 540)  # showcase, the viewer's window
     # The pyrender comparison (app/bench/spheres.py): its light counts.
     pyrender_sphere_lights: tuple[int, ...] = (1, 4)
 
@@ -105,6 +106,7 @@ QUICK = replace(
     batch_rounds=2,
     batch_cli_frames=2,
     antialiasing_size=(320, 180),
+    antialiasing_viewer_size=(480, 270),
 )
 # For tests/test_bench.py only: every suite runs, on images small enough to take seconds.
 TINY = replace(
@@ -134,6 +136,7 @@ TINY = replace(
     shadow_size=(64, 40),
     shadow_resolutions=(64, 128),
     antialiasing_size=(64, 36),
+    antialiasing_viewer_size=(64, 36),
     pyrender_sphere_lights=(1,),
 )
 

@@ -245,17 +245,20 @@ def aa_front(members: list[dict]) -> list[str]:
     points = {
         r["variant"]: (r["time_ratio"], r["error_silhouette_4"])
         for r in members
-        if r.get("time_ratio") is not None and "+" not in r["variant"]
+        if r.get("error_silhouette_4") is not None and "+" not in r["variant"]
     }
     return pareto_front(points)
 
 
 def aa_verdicts(rows: list[dict]) -> list[Verdict]:
     """The antialiasing suite's targets (nothing where it did not run)."""
-    members = [r for r in rows if r["suite"] == "antialiasing"]
+    members = [r for r in rows if r["suite"] == "antialiasing" and r["case"] == "spheres"]
     by = {r["variant"]: r for r in members}
     if not members or "none" not in by:
         return []
+    frames = {
+        r["variant"]: r for r in rows if r["suite"] == "antialiasing" and r["case"] != "spheres"
+    }
     front = aa_front(members)
     none = by["none"]["error_silhouette_4"]
     out = []
@@ -273,14 +276,15 @@ def aa_verdicts(rows: list[dict]) -> list[Verdict]:
             f" {'on' if on else 'not on'} the front ({', '.join(front)})",
             _status(ok),
         ))  # fmt: skip
-    viewer = by.get(AA_VIEWER_INTERACTIVE)
+    viewer = frames.get(AA_VIEWER_INTERACTIVE, by.get(AA_VIEWER_INTERACTIVE))
     if viewer is not None:
         cost = viewer["time_ratio"]
         on = AA_VIEWER_INTERACTIVE in front
         out.append(Verdict(
             f"antialiasing: viewer's interactive mode '{AA_VIEWER_INTERACTIVE}' <="
             f" {AA_VIEWER_COST_MAX:g}x the frame, on the front",
-            f"{cost:.2f}x; {'on' if on else 'not on'} the front",
+            f"{cost:.2f}x on {viewer['case']} {viewer['width']}x{viewer['height']};"
+            f" {'on' if on else 'not on'} the front",
             _status(cost <= AA_VIEWER_COST_MAX and on),
         ))  # fmt: skip
     return out
@@ -289,6 +293,8 @@ def aa_verdicts(rows: list[dict]) -> list[Verdict]:
 def _aa_lines(members: list[dict]) -> list[str]:
     """The antialiasing suite's table: time ratio to "none", errors against the 4x4 and
     8x8 supersampled frames over every pixel, the silhouettes and the highlight."""
+    frames = [r for r in members if r["case"] != "spheres"]
+    members = [r for r in members if r["case"] == "spheres"]
     front = aa_front(members)
     first = members[0]
     lines = [
@@ -308,6 +314,18 @@ def _aa_lines(members: list[dict]) -> list[str]:
             f" {_fmt(r['error_highlight_8'], '.2e')} |"
             f" {('yes' if r['variant'] in front else 'no') if ranked else ''} |"
         )
+    if frames:
+        lines += [
+            "",
+            "| frame | variant | ms median | min | max | x none |",
+            "|---|---|---|---|---|---|",
+        ]
+        for r in frames:
+            lines.append(
+                f"| {r['case']} {r['width']}x{r['height']} | {r['variant']} |"
+                f" {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} |"
+                f" {_fmt(r['time_ratio'], '.2f')} |"
+            )
     return lines
 
 
