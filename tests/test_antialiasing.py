@@ -129,7 +129,7 @@ def test_samples_one_by_one_are_the_still(gl_egl: GLContext, loaded: LoadedScene
 def test_switching_mode_builds_only_its_pass(gl_egl: GLContext, loaded: LoadedScene) -> None:
     """The mode is a key of the schedule: "none" -> "fxaa" builds the filter alone, and
     "fxaa" -> "jitter" drops it and builds the accumulation (post stays)."""
-    r = Renderer(gl_egl, loaded)
+    r = Renderer(gl_egl, with_aa(loaded, "none", 8))
     try:
         settings = r.scene.render
         r.set_settings(settings.model_copy(update={"antialiasing": "fxaa"}))

@@ -25,7 +25,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
-from app.render.fullscreen import FullscreenPass, read_rgb
+from app.render.fullscreen import read_rgb
 
 ANTIALIASING = ("none", "fxaa", "jitter")
 
@@ -68,13 +68,16 @@ def jittered_frame(
     return moved, dataclasses.replace(frame, camera_to_world=rays, jitter=j)
 
 
-class FxaaPass(FullscreenPass):
-    """The display image (RGBA8, sRGB-encoded) -> its FXAA-class filtered copy, alpha
-    filtered with the colour. Luma is taken from the encoded values, as FXAA does: edges
-    are found where they are seen. Two draws: the mark (a copy, and window depth 0 at
-    edge pixels, 1 elsewhere), then the filter on the far plane with the test ">", so
-    that only the blocks of pixels with an edge run the search (llvmpipe shades every
-    branch of a fragment shader for its whole block of pixels; the z-test skips blocks)."""
+class FxaaPass:
+    """The display image (RGBA8, sRGB-encoded) filtered in place: its FXAA-class filtered
+    image, alpha filtered with the colour. Luma is taken from the encoded values, as FXAA
+    does: edges are found where they are seen. Two draws: the mark copies the image into
+    ``source`` (the filter's input: bilinear, clamped) and writes window depth 0 at edge
+    pixels, 1 elsewhere; the filter then draws into the display image itself on the far
+    plane with the test ">", so that only the blocks of pixels with an edge run the
+    search (llvmpipe shades every branch of a fragment shader for its whole block of
+    pixels; the z-test skips blocks), and every other pixel keeps its bytes. So whatever
+    shows the post pass's target shows the filtered image."""
 
     def __init__(
         self,
@@ -84,38 +87,38 @@ class FxaaPass(FullscreenPass):
         tuning: dict[str, float] | None = None,
     ):
         tuning = dict(tuning or {})  # FXAA_SUBPIX, FXAA_EDGE_THRESHOLD(_MIN): the bench's
-        super().__init__(
-            ctx, shaders, "passes/fxaa.frag", {**tuning, "FXAA_MARK": 1}, size, dtype="f1"
-        )
-        self.depth = ctx.depth_renderbuffer(size)
-        self.marked = ctx.framebuffer([self.target], self.depth)
+        self.ctx, self.size = ctx, size
+        self.mark = FullscreenDraw.of(ctx, shaders, "passes/fxaa.frag", {**tuning, "FXAA_MARK": 1})
         self.filter = FullscreenDraw.of(
             ctx, shaders, "passes/fxaa.frag", {**tuning, "FAR_PLANE": 1}
         )
+        self.source = ctx.texture(size, 4, dtype="f1")
+        self.source.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.source.repeat_x = self.source.repeat_y = False
+        self.depth = ctx.depth_renderbuffer(size)
+        self.marked = ctx.framebuffer([self.source], self.depth)
+        self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
+        self._out_target: moderngl.Texture | None = None
 
     def run(self, display: moderngl.Texture) -> None:
-        """Filter ``display`` (bilinear reads for the search: its filter and wrap are set
-        for the draws and put back)."""
-        kept = (display.filter, display.repeat_x, display.repeat_y)
-        display.filter = (moderngl.LINEAR, moderngl.LINEAR)
-        display.repeat_x = display.repeat_y = False
+        """Filter ``display`` (RGBA8 of ``size``) in place."""
+        if self._out is None or self._out_target is not display:
+            if self._out is not None:
+                self._out.release()
+            self._out = self.ctx.framebuffer([display], self.depth)
+            self._out.depth_mask = False
+            self._out_target = display
         viewport = (0, 0, *self.size)
-        try:
-            self.marked.depth_mask = True
-            self.fullscreen.draw(
-                self.marked, {}, {"u_display": display}, viewport=viewport, depth_func="1"
-            )
-            self.marked.depth_mask = False
-            self.filter.draw(
-                self.marked, {}, {"u_display": display}, viewport=viewport, depth_func=">"
-            )
-        finally:
-            display.filter, display.repeat_x, display.repeat_y = kept
+        self.marked.depth_mask = True
+        self.mark.draw(self.marked, {}, {"u_display": display}, viewport=viewport, depth_func="1")
+        self.filter.draw(
+            self._out, {}, {"u_display": self.source}, viewport=viewport, depth_func=">"
+        )
 
     def release(self) -> None:
-        super().release()
-        for obj in (self.filter, self.marked, self.depth):
-            obj.release()
+        for obj in (self.mark, self.filter, self._out, self.marked, self.depth, self.source):
+            if obj is not None:
+                obj.release()
 
 
 class AccumulatePass:

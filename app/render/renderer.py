@@ -863,7 +863,8 @@ class Renderer:
 
     def _finish(self, hdr: moderngl.Texture, clock: _PassClock) -> None:
         """Post on ``hdr`` (unless the lighting pass wrote the display image), then the
-        display image's FXAA-class filter where ``render.antialiasing = "fxaa"``."""
+        display image's FXAA-class filter, in place, where ``render.antialiasing =
+        "fxaa"``."""
         if not self._drawn.display:  # else the lighting pass wrote the display image
             self.run_post(hdr)
             clock.done("post")
@@ -948,7 +949,7 @@ class Renderer:
     @property
     def display_texture(self) -> moderngl.Texture:
         """The last frame's display image on the GPU (RGBA8 sRGB): what ``read_ldr`` reads."""
-        return self.fxaa.target if self.fxaa is not None else self.post.target
+        return self.post.target
 
     def read_hdr(self) -> np.ndarray:
         """Linear HDR radiance before exposure, (H, W, 3) float32, after depth of field
@@ -964,7 +965,7 @@ class Renderer:
 
     def read_ldr(self) -> np.ndarray:
         """The display image, (H, W, 3) uint8 sRGB."""
-        return self.fxaa.read() if self.fxaa is not None else self.post.read()
+        return self.post.read()
 
     def read_gbuffer(self) -> GBufferData:
         """The G-buffer's targets (with constant surfaces, the surface numbers from the
