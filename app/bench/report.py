@@ -245,7 +245,9 @@ def aa_front(members: list[dict]) -> list[str]:
     points = {
         r["variant"]: (r["time_ratio"], r["error_silhouette_4"])
         for r in members
-        if r.get("error_silhouette_4") is not None and "+" not in r["variant"]
+        if r.get("time_ratio") is not None
+        and r.get("error_silhouette_4") is not None
+        and "+" not in r["variant"]
     }
     return pareto_front(points)
 
