@@ -44,7 +44,12 @@ def render_and_reference(
         loaded.scene.model_copy(
             update={
                 "render": loaded.scene.render.model_copy(
-                    update={"gbuffer": gbuffer, "tonemap": tonemap or loaded.scene.render.tonemap}
+                    # antialiasing "none": the display image is post's alone, its twin's
+                    update={
+                        "gbuffer": gbuffer,
+                        "tonemap": tonemap or loaded.scene.render.tonemap,
+                        "antialiasing": "none",
+                    }
                 )
             }
         ),

@@ -144,12 +144,15 @@ CASES: dict[str, tuple[Callable[[Renderer], None], set[str]]] = {
     "tonemap": (_set_render(tonemap="aces"), {"post"}),
     # post un-premultiplies and writes alpha; the environment is no longer drawn behind
     "transparent background": (_set_render(background="transparent"), {"post", "background"}),
+    # the antialiasing mode (default "fxaa"): its own pass alone (docs/antialiasing.md)
+    "antialiasing none": (_set_render(antialiasing="none"), {"fxaa"}),
+    "antialiasing jitter": (_set_render(antialiasing="jitter"), {"fxaa", "accumulate"}),
     "terms": (_set_render(terms="specular"), {"lighting"}),
     "light culling": (_set_render(light_culling="none"), {"culler", "lighting"}),
     # the size: everything sized as the image; the geometry, maps and environment stay
     "size": (
         _set_render(width=48, height=32),
-        {"matrices", "gbuffer", "culler", "lighting", "post"},
+        {"matrices", "gbuffer", "culler", "lighting", "post", "fxaa"},
     ),
     "supersample": (
         _set_render(supersample=2),
@@ -203,7 +206,8 @@ def test_an_edit_builds_exactly_its_objects(gl_egl, name: str) -> None:
     edit, expected = CASES[name]
     r = Renderer(gl_egl, load(scene_data()))
     try:
-        assert r.builds == {n: 1 for n in NAMES if n not in ("blend", "dof", "resolve")}
+        absent = ("blend", "dof", "resolve", "accumulate")
+        assert r.builds == {n: 1 for n in NAMES if n not in absent}
         images(r)
         built = rebuilt_by(r, edit)
         assert all((getattr(r, n) is None) == (r.keys[n] is None) for n in NAMES)
@@ -229,7 +233,7 @@ def test_builds_follow_the_schedule_order(gl_egl) -> None:
     try:
         _set_render(width=48, height=32)(r)
         assert r.rebuilt == tuple(n for n in NAMES if n in r.rebuilt)
-        assert set(r.rebuilt) == {"matrices", "gbuffer", "culler", "lighting", "post"}
+        assert set(r.rebuilt) == {"matrices", "gbuffer", "culler", "lighting", "post", "fxaa"}
         r.invalidate("ibl")  # the lighting pass binds the environment's light
         assert r.rebuilt == ("ibl", "lighting")
         with pytest.raises(ValueError, match="not objects"):

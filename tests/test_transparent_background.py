@@ -24,7 +24,9 @@ W, H = 48, 36
 
 # One sphere on a bright background colour (which must not leak into the image), its
 # material black but emissive: every pixel it covers has the same radiance, so an edge
-# pixel's straight colour must be the interior's, whatever its coverage.
+# pixel's straight colour must be the interior's, whatever its coverage. Antialiasing
+# "none": the alpha is compared with the supersampled G-buffer's coverage (the
+# antialiasing modes' alpha has a test of its own below).
 SCENE = f"""
 background = [0.9, 0.2, 0.6]
 [render]
@@ -32,6 +34,7 @@ width = {W}
 height = {H}
 supersample = 2
 background = "transparent"
+antialiasing = "none"
 [camera]
 position = [0.0, 0.0, 4.0]
 target = [0.0, 0.0, 0.0]
@@ -179,7 +182,7 @@ def test_environment_background_is_left_out(tmp_path: Path) -> None:
     pixels empty (the environment still lights the objects)."""
     with OffscreenRenderer("ibl_studio", size=(W, H)) as r:
         opaque = r.render()
-        r.set_settings(background="transparent")
+        r.set_settings(background="transparent", antialiasing="none")  # alpha 0 or 1
         image = r.render()
         covered = r.channel("covered")
     assert opaque[0, 0].max() > 0, "the opaque frame shows the environment"
@@ -288,3 +291,26 @@ def test_bad_background_is_one_line_exit_2(
     if where != "option":
         assert str(scene if where == "scene" else tmp_path / "jobs.toml") in lines[0]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("mode", ["fxaa", "jitter"])
+def test_antialiased_alpha_is_fractional_and_edges_keep_their_colour(
+    scene: Path, mode: str
+) -> None:
+    """Under each antialiasing mode without supersampling, the silhouette's alpha takes
+    values between 0 and 1 (the antialiased coverage) while the straight colour of every
+    pixel with alpha >= 0.25 stays the sphere's own: neither FXAA nor the jittered mean
+    mixes in the black of the empty pixels."""
+    text = scene.read_text(encoding="utf-8")
+    text = text.replace("supersample = 2", "supersample = 1")
+    scene.write_text(text.replace('antialiasing = "none"', f'antialiasing = "{mode}"'))
+    with OffscreenRenderer(scene) as r:
+        rgba = r.render()
+    alpha = rgba[..., 3].astype(np.int32)
+    partial = (alpha > 0) & (alpha < 255)
+    assert partial.sum() >= 20, f"{mode}: {partial.sum()} fractional alpha pixels"
+    interior = rgba[alpha == 255][:, :3].astype(np.int32)
+    colour = np.median(interior, axis=0)
+    visible = alpha >= 64
+    worst = np.abs(rgba[visible][:, :3].astype(np.int32) - colour).max()
+    assert worst <= 3, f"{mode}: an edge colour is {worst} codes off the sphere's {colour}"

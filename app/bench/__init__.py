@@ -2,7 +2,7 @@
 
     python -m app.bench [--quick] [--out DIR]
         [--suites culling,resolution,accuracy,specialization,startup,viewer,batch,ibl,
-                  shadows,assets]
+                  shadows,antialiasing,assets]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
 __all__ = ["main"]
 SUITES = (
     "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
-    "shadows", "assets",
+    "shadows", "antialiasing", "assets",
 )  # fmt: skip
 # Run only when named: whole processes of pbs and of a third-party renderer (f3d), minutes.
 OPT_IN_SUITES = ("assets",)
@@ -40,8 +40,9 @@ def _parser() -> argparse.ArgumentParser:
         prog="pbs bench",
         description="Measure run time against error: light culling, image size, the accuracy "
         "of each approximation, specialized vs uber lighting shader, cold start, batch "
-        "throughput, image-based lighting's prefilter, shadow filters and map sizes "
-        "(docs/performance.md, docs/ibl.md, docs/shadows.md).",
+        "throughput, image-based lighting's prefilter, shadow filters and map sizes, "
+        "antialiasing (docs/performance.md, docs/ibl.md, docs/shadows.md, "
+        "docs/antialiasing.md).",
     )
     parser.add_argument(
         "--quick", action="store_true", help="smaller images, fewer light counts and frames"
@@ -93,6 +94,9 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
         w, h = s.shadow_size
         sizes = ", ".join(str(n) for n in s.shadow_resolutions)
         parts.append(f"shadows {w}x{h}, maps of {sizes}")
+    if "antialiasing" in suites:
+        w, h = s.antialiasing_size
+        parts.append(f"antialiasing {w}x{h} against its 4x4 and 8x8 supersampled frames")
     b = s.budget
     parts.append(
         f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"

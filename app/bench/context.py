@@ -66,6 +66,9 @@ class Settings:
     # also times no shadow, PCF and PCSS side by side).
     shadow_size: tuple[int, int] = (640, 384)
     shadow_resolutions: tuple[int, ...] = (256, 512, 1024, 2048)
+    # Suite antialiasing (app/bench/antialiasing.py): the image (8x8 supersampled too).
+    antialiasing_size: tuple[int, int] = (640, 360)
+    antialiasing_viewer_size: tuple[int, int] = (960, 540)  # showcase, the viewer's window
     # The pyrender comparison (app/bench/spheres.py): its light counts.
     pyrender_sphere_lights: tuple[int, ...] = (1, 4)
 
@@ -102,6 +105,8 @@ QUICK = replace(
     batch_frames=20,
     batch_rounds=2,
     batch_cli_frames=2,
+    antialiasing_size=(320, 180),
+    antialiasing_viewer_size=(480, 270),
 )
 # For tests/test_bench.py only: every suite runs, on images small enough to take seconds.
 TINY = replace(
@@ -130,6 +135,8 @@ TINY = replace(
     batch_subdivisions=2,
     shadow_size=(64, 40),
     shadow_resolutions=(64, 128),
+    antialiasing_size=(64, 36),
+    antialiasing_viewer_size=(64, 36),
     pyrender_sphere_lights=(1,),
 )
 

@@ -38,6 +38,15 @@ CULLED_LIMIT_MAX = 1.2  # the culled lighting pass against the limit pass
 PYRENDER_SPEEDUP_MIN = 5.0  # pyrender / pbs on the 35-sphere scene
 SPHERES_CASE = "35 spheres"  # app/bench/spheres.py's CASE (report imports no GL modules)
 SPHERES_PYRENDER = "pyrender"
+# Suite antialiasing (app/bench/antialiasing.py, docs/antialiasing.md): the still default
+# removes >= AA_STILL_REDUCTION_MIN x of the aliased frame's silhouette error (against the
+# 4x4 supersampled frame) at <= AA_STILL_COST_MAX x its time; the viewer's interactive
+# mode costs <= AA_VIEWER_COST_MAX x; both on the suite's time-vs-error front.
+AA_STILL_DEFAULT = "fxaa"
+AA_VIEWER_INTERACTIVE = "fxaa"
+AA_STILL_REDUCTION_MIN = 3.0
+AA_STILL_COST_MAX = 2.0
+AA_VIEWER_COST_MAX = 1.3
 
 
 def _cpu_model() -> str:
@@ -237,6 +246,7 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
     out.extend(_assets_verdicts(rows))
     out.append(_specialization_verdict(rows))
     out.extend(_primitives_verdicts(rows))
+    out.extend(aa_verdicts(rows))
     return out
 
 
@@ -298,6 +308,99 @@ def _doc_assets(rows: list[dict]) -> list[str]:
         return []
     title = "### assets (a model file, whole process, against f3d)"
     return [title, "", *_assets_lines(members), ""]
+
+
+def aa_front(members: list[dict]) -> list[str]:
+    """The antialiasing modes on the front of (time ratio, silhouette error vs the 4x4
+    supersampled frame): the timed rows, not those with another setting added
+    ("fxaa+specular_aa")."""
+    points = {
+        r["variant"]: (r["time_ratio"], r["error_silhouette_4"])
+        for r in members
+        if r.get("time_ratio") is not None
+        and r.get("error_silhouette_4") is not None
+        and "+" not in r["variant"]
+    }
+    return pareto_front(points)
+
+
+def aa_verdicts(rows: list[dict]) -> list[Verdict]:
+    """The antialiasing suite's targets (nothing where it did not run)."""
+    members = [r for r in rows if r["suite"] == "antialiasing" and r["case"] == "spheres"]
+    by = {r["variant"]: r for r in members}
+    if not members or "none" not in by:
+        return []
+    frames = {
+        r["variant"]: r for r in rows if r["suite"] == "antialiasing" and r["case"] != "spheres"
+    }
+    front = aa_front(members)
+    none = by["none"]["error_silhouette_4"]
+    out = []
+    still = by.get(AA_STILL_DEFAULT)
+    if still is not None:
+        reduction = none / max(still["error_silhouette_4"], 1e-12)
+        cost = still["time_ratio"]
+        on = AA_STILL_DEFAULT in front
+        ok = reduction >= AA_STILL_REDUCTION_MIN and cost <= AA_STILL_COST_MAX and on
+        out.append(Verdict(
+            f"antialiasing: still default '{AA_STILL_DEFAULT}' removes >="
+            f" {AA_STILL_REDUCTION_MIN:g}x of the silhouette error at <= {AA_STILL_COST_MAX:g}x"
+            " the frame, on the front",
+            f"{reduction:.2f}x less error at {cost:.2f}x the time;"
+            f" {'on' if on else 'not on'} the front ({', '.join(front)})",
+            _status(ok),
+        ))  # fmt: skip
+    viewer = frames.get(AA_VIEWER_INTERACTIVE, by.get(AA_VIEWER_INTERACTIVE))
+    if viewer is not None:
+        cost = viewer["time_ratio"]
+        on = AA_VIEWER_INTERACTIVE in front
+        out.append(Verdict(
+            f"antialiasing: viewer's interactive mode '{AA_VIEWER_INTERACTIVE}' <="
+            f" {AA_VIEWER_COST_MAX:g}x the frame, on the front",
+            f"{cost:.2f}x on {viewer['case']} {viewer['width']}x{viewer['height']};"
+            f" {'on' if on else 'not on'} the front",
+            _status(cost <= AA_VIEWER_COST_MAX and on),
+        ))  # fmt: skip
+    return out
+
+
+def _aa_lines(members: list[dict]) -> list[str]:
+    """The antialiasing suite's table: time ratio to "none", errors against the 4x4 and
+    8x8 supersampled frames over every pixel, the silhouettes and the highlight."""
+    frames = [r for r in members if r["case"] != "spheres"]
+    members = [r for r in members if r["case"] == "spheres"]
+    front = aa_front(members)
+    first = members[0]
+    lines = [
+        f"{first['silhouette_pixels']} silhouette pixels, {first['highlight_pixels']} highlight"
+        " pixels; errors: mean |display - supersampled display| per channel (0..1).",
+        "",
+        "| variant | ms median | x none | all, 4x4 | all, 8x8 | silhouette, 4x4 |"
+        " silhouette, 8x8 | highlight, 8x8 | on front |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in members:
+        ranked = r.get("time_ratio") is not None and "+" not in r["variant"]
+        lines.append(
+            f"| {r['variant']} | {_fmt(r['ms_median'])} | {_fmt(r.get('time_ratio'), '.2f')} |"
+            f" {_fmt(r['error_all_4'], '.2e')} | {_fmt(r['error_all_8'], '.2e')} |"
+            f" {_fmt(r['error_silhouette_4'], '.2e')} | {_fmt(r['error_silhouette_8'], '.2e')} |"
+            f" {_fmt(r['error_highlight_8'], '.2e')} |"
+            f" {('yes' if r['variant'] in front else 'no') if ranked else ''} |"
+        )
+    if frames:
+        lines += [
+            "",
+            "| frame | variant | ms median | min | max | x none |",
+            "|---|---|---|---|---|---|",
+        ]
+        for r in frames:
+            lines.append(
+                f"| {r['case']} {r['width']}x{r['height']} | {r['variant']} |"
+                f" {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])} | {_fmt(r['ms_max'])} |"
+                f" {_fmt(r['time_ratio'], '.2f')} |"
+            )
+    return lines
 
 
 # Accuracy targets: the whole pipeline at the default settings against the float64 ray-caster.
@@ -601,6 +704,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     suites = (
         "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
         "shadows", "assets",
+        "shadows", "antialiasing",
     )  # fmt: skip
     for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
@@ -709,6 +813,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
             lines += _shadow_lines(members)
         elif suite == "assets":
             lines += _assets_lines(members)
+        elif suite == "antialiasing":
+            lines += _aa_lines(members)
         else:
             lines += [
                 "| case | variant | to PNG ms median | min | max | peak RSS MiB | runs |",
@@ -1174,6 +1280,20 @@ def _doc_ibl(rows: list[dict]) -> list[str]:
     return [*lines, ""]
 
 
+def _doc_antialiasing(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "antialiasing"]
+    if not members:
+        return []
+    size = f"{members[0]['width']}×{members[0]['height']}"
+    return [
+        f"### antialiasing ({size}: time against the aliased frame, error against the"
+        " renderer's 4×4 and 8×8 supersampled frames; docs/antialiasing.md)",
+        "",
+        *_aa_lines(members),
+        "",
+    ]
+
+
 def _doc_shadows(rows: list[dict]) -> list[str]:
     members = [r for r in rows if r["suite"] == "shadows"]
     if not members:
@@ -1219,6 +1339,7 @@ def performance_section(payload: dict) -> str:
     for part in (
         _doc_culling, _doc_resolution, _doc_accuracy, _doc_specialization, _doc_startup_viewer,
         _doc_batch, _doc_ibl, _doc_shadows, _doc_assets,
+        _doc_batch, _doc_ibl, _doc_shadows, _doc_antialiasing,
     ):  # fmt: skip
         lines += part(rows)
     notes = [n for n in payload.get("notes", []) if n]

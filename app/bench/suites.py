@@ -941,6 +941,14 @@ def run_ibl(ctx: Context) -> None:
     run(ctx)
 
 
+def run_antialiasing(ctx: Context) -> None:
+    """Suite ``antialiasing``: each candidate's time against its error to a supersampled
+    frame (app/bench/antialiasing.py)."""
+    from app.bench.antialiasing import run_antialiasing as run
+
+    run(ctx)
+
+
 RUNNERS: dict[str, Callable[[Context], None]] = {
     "culling": run_culling,
     "resolution": run_resolution,
@@ -951,6 +959,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "batch": run_batch,
     "ibl": run_ibl,
     "shadows": run_shadows,
+    "antialiasing": run_antialiasing,
     "assets": run_assets,
 }
 
@@ -967,12 +976,17 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "batch": 0,
         "ibl": 0,
         "shadows": shadows_tasks(settings),
+        "antialiasing": 0,
         "assets": 3 * max(1, settings.startup_runs),
     }
     if "batch" in suites:
         from app.bench.batch import batch_tasks, batch_workers
 
         counts["batch"] = batch_tasks(pyrender, settings.batch_rounds, batch_workers())
+    if "antialiasing" in suites:
+        from app.bench.antialiasing import antialiasing_tasks
+
+        counts["antialiasing"] = antialiasing_tasks(settings)
     if "ibl" in suites:
         from app.bench.ibl import ibl_tasks
 

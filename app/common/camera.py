@@ -17,3 +17,7 @@ class CameraFrame:
     tan_half_fov: tuple[float, float]  # (tan(fov_y/2) * aspect, tan(fov_y/2))
     near: float
     far: float
+    # The projection's sub-pixel jitter as an NDC offset (antialiasing = "jitter",
+    # app/render/antialias.py); where it is not zero, camera_to_world is the rotation times
+    # the shear that moves each pixel's ray by the same offset, no longer orthonormal.
+    jitter: tuple[float, float] = (0.0, 0.0)

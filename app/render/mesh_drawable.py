@@ -163,7 +163,9 @@ class MeshDrawable:
         object_camera = inverse[:3, :3] @ camera.position + inverse[:3, 3]  # float64
         # The ray through the centre (geometry/analytic.glsl, pixel_ray), in float64: its
         # view depth, window pixel and object-space direction (view-axis component 1).
-        centre = rotation.T @ (self.part.model[:3, 3] - camera.position)  # camera space
+        # camera space (a jittered frame's camera_to_world is sheared: its inverse, not .T)
+        to_camera = rotation.T if camera.jitter == (0.0, 0.0) else np.linalg.inv(rotation)
+        centre = to_camera @ (self.part.model[:3, 3] - camera.position)
         depth = float(-centre[2])
         tan = np.asarray(camera.tan_half_fov, np.float64)
         use_centre = depth > 0.5 * camera.near

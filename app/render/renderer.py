@@ -42,6 +42,7 @@ from app.frame.lights import environment_texels, frame_lights, uniform_environme
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
+from app.render.antialias import AccumulatePass, FxaaPass, jitter_offsets, jittered_frame
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller, check_tile_masks, tiles_used
@@ -209,7 +210,9 @@ _UNBUILT = object()  # the old key of an object never built
 
 # Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
 # display image): reading the HDR image then needs a new frame.
-_FRAME_OBJECTS = frozenset({"gbuffer", "lighting", "blend", "dof", "resolve", "post"})
+_FRAME_OBJECTS = frozenset(
+    {"gbuffer", "lighting", "blend", "dof", "resolve", "accumulate", "post", "fxaa"}
+)
 
 
 class Renderer:
@@ -260,7 +263,11 @@ class Renderer:
         self.shadows: ShadowPass | None = None  # only where a light casts shadows
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
+        # render.antialiasing (docs/antialiasing.md): the jittered frames' running mean,
+        # and the display image's FXAA-class filter
+        self.accumulate: AccumulatePass | None = None
         self.post: PostPass | None = None
+        self.fxaa: FxaaPass | None = None
         self._refreshed: dict[str, Hashable] = {}  # Built.refresh's key per kept object
         self._restyled: list | None = None  # _change's rollback of a restyle
         self._change()
@@ -571,6 +578,20 @@ class Renderer:
         factor = self.scene.render.supersample
         return DownsamplePass(self.gl.ctx, self.shaders, self.size, factor)
 
+    def _key_accumulate(self) -> Hashable:
+        """The jittered frames' running mean, only with ``render.antialiasing = "jitter"``."""
+        return (self.size,) if self.scene.render.antialiasing == "jitter" else None
+
+    def _build_accumulate(self) -> AccumulatePass:
+        return AccumulatePass(self.gl.ctx, self.shaders, self.size)
+
+    def _key_fxaa(self) -> Hashable:
+        """The display image's filter, only with ``render.antialiasing = "fxaa"``."""
+        return (self.size,) if self.scene.render.antialiasing == "fxaa" else None
+
+    def _build_fxaa(self) -> FxaaPass:
+        return FxaaPass(self.gl.ctx, self.shaders, self.size)
+
     def _key_post(self) -> Hashable:
         return (self.size, self.scene.render.tonemap, self.transparent)
 
@@ -786,20 +807,59 @@ class Renderer:
     def render(self, timings: dict[str, float] | None = None) -> None:
         """Run all passes; results stay on the GPU until read. With ``timings`` each pass
         is waited for and its wall time in milliseconds recorded by name (the viewer's
-        frame-time plot; the waits cost some throughput, so only when asked)."""
+        frame-time plot; the waits cost some throughput, so only when asked). With
+        ``render.antialiasing = "jitter"`` the frame is the mean of
+        ``render.antialiasing_samples`` jittered frames (``render_sample``), tone-mapped
+        once."""
         clock = _PassClock(self.gl.ctx, timings)
-        self.gbuffer_pass.run(self.gbuffer, self.view, self.proj, self.camera)
+        if self.accumulate is None:
+            self._finish(self._draw(self.matrices, clock), clock)
+            return
+        for index in range(self.scene.render.antialiasing_samples):
+            self._draw_sample(index, index == 0, clock)
+        self._finish(self.accumulate.target, clock)
+
+    def render_sample(
+        self, index: int, restart: bool | None = None, timings: dict[str, float] | None = None
+    ) -> None:
+        """One jittered sample of ``render.antialiasing = "jitter"``: draw the frame with
+        the projection moved by offset ``index`` of ``jitter_offsets(N)`` (N =
+        ``render.antialiasing_samples``, index taken modulo N), add it to the running
+        mean (``restart``, by default ``index == 0``: a new mean, after any change of the
+        scene or camera) and show the mean so far (post and the read-backs read it). A
+        viewer draws sample 0 while the view moves and 1, ..., N - 1 while it is idle,
+        then stops: the image is then ``render()``'s."""
+        if self.accumulate is None:
+            raise ValueError('render_sample needs render.antialiasing = "jitter"')
+        clock = _PassClock(self.gl.ctx, timings)
+        self._draw_sample(index, index == 0 if restart is None else restart, clock)
+        self._finish(self.accumulate.target, clock)
+
+    def _draw_sample(self, index: int, restart: bool, clock: _PassClock) -> None:
+        """Jittered sample ``index`` drawn and added to the running mean."""
+        offsets = jitter_offsets(self.scene.render.antialiasing_samples)
+        offset = offsets[index % len(offsets)]
+        proj, camera = jittered_frame(self.proj, self.camera, tuple(offset), self.size)
+        matrices = CameraMatrices(self.view, proj, camera)
+        self.accumulate.add(self._draw(matrices, clock), restart)
+        clock.done("accumulate")
+
+    def _draw(self, m: CameraMatrices, clock: _PassClock) -> moderngl.Texture:
+        """The passes up to the frame's HDR image (after blend, depth of field and resolve)
+        with the camera's matrices ``m``; returns that image (a fused frame's lighting pass
+        wrote the display image instead)."""
+        self.gbuffer_pass.run(self.gbuffer, m.view, m.proj, m.frame)
         clock.done("gbuffer")
         if self.culler is not None:
-            self.culler.run(self.gbuffer, self.view, self.camera)
+            self.culler.run(self.gbuffer, m.view, m.frame)
             clock.done("culling")
         if self.shadows is not None:  # each map once, when its light is first culled in
-            self.shadows.run(self.proj @ self.view)
+            self.shadows.run(m.proj @ m.view)
             clock.done("shadows")
-        self.run_lighting()
+        self.run_lighting(m.frame)
         clock.done("lighting")
         if self.blend is not None:  # composited before depth of field, resolve and post
-            self.blend.run(self.gbuffer, self.lighting, self.view, self.proj, self.camera)
+            self.blend.run(self.gbuffer, self.lighting, m.view, m.proj, m.frame)
             clock.done("blend")
         hdr = self.lighting.hdr
         if self.dof is not None:
@@ -810,16 +870,25 @@ class Renderer:
             self.resolve.run(hdr)
             hdr = self.resolve.target
             clock.done("resolve")
+        return hdr
+
+    def _finish(self, hdr: moderngl.Texture, clock: _PassClock) -> None:
+        """Post on ``hdr`` (unless the lighting pass wrote the display image), then the
+        display image's FXAA-class filter, in place, where ``render.antialiasing =
+        "fxaa"``."""
         if not self._drawn.display:  # else the lighting pass wrote the display image
             self.run_post(hdr)
             clock.done("post")
+        if self.fxaa is not None:
+            self.fxaa.run(self.post.target)
+            clock.done("fxaa")
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of
-        field, resolve, blended parts or environment background; and an opaque background,
-        whose display value the fused and surface-only post passes clear to (a transparent
-        one has the post pass write every pixel's alpha)."""
-        extra = (self.dof, self.resolve, self.blend, self.background)
+        field, resolve, accumulation, blended parts or environment background; and an
+        opaque background, whose display value the fused and surface-only post passes clear
+        to (a transparent one has the post pass write every pixel's alpha)."""
+        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate)
         return all(x is None for x in extra) and not self.transparent
 
     @property
@@ -829,8 +898,9 @@ class Renderer:
         frame (``want_hdr``)."""
         return self.options.fuse_post and self._plain() and not self._hdr_wanted
 
-    def run_lighting(self) -> None:
-        """The lighting pass, then the environment background over it where there is one.
+    def run_lighting(self, camera: CameraFrame | None = None) -> None:
+        """The lighting pass, then the environment background over it where there is one,
+        with ``camera`` (None: the scene's; a jittered sample's frame otherwise).
         A plain frame (``_plain``) with ``fuse_post`` writes the display image directly
         (LightingPass.run_display: the post pass fused in, the same bytes) and no HDR
         image; ``read_hdr`` and ``hdr_texture`` draw it on demand (``complete_hdr``;
@@ -838,19 +908,20 @@ class Renderer:
         background = np.asarray(self.scene.background, np.float64)
         if self.transparent:  # RGBA: no radiance, no coverage
             background = np.zeros(4, np.float64)
+        camera = self.camera if camera is None else camera
         if self.fused_display:
             exposure = self.scene.camera.exposure
             bg = tuple(float(x) for x in background)
             target = self.post.display_target(self.gbuffer.zbuffer, bg, exposure)
             self.lighting.run_display(
-                self.gbuffer, self.camera, target, self.scene.render.tonemap, 2.0**exposure
+                self.gbuffer, camera, target, self.scene.render.tonemap, 2.0**exposure
             )
-            self._drawn = _Drawn(self.camera, background, hdr=False, display=True)
+            self._drawn = _Drawn(camera, background, hdr=False, display=True)
             return
-        self.lighting.run(self.gbuffer, self.camera, background)
-        self._drawn = _Drawn(self.camera, background, hdr=True, display=False)
+        self.lighting.run(self.gbuffer, camera, background)
+        self._drawn = _Drawn(camera, background, hdr=True, display=False)
         if self.background is not None:
-            self.background.run(self.gbuffer, self.lighting.fbo, self.camera)
+            self.background.run(self.gbuffer, self.lighting.fbo, camera)
 
     def complete_hdr(self) -> None:
         """Draw the HDR image of a frame whose lighting pass wrote the display image only
@@ -884,6 +955,8 @@ class Renderer:
         ``read_hdr`` reads, for passes that combine frames (app/render/compare.py); drawn
         now where the frame fused it away (``complete_hdr``)."""
         self.complete_hdr()
+        if self.accumulate is not None:
+            return self.accumulate.target
         if self.resolve is not None:
             return self.resolve.target
         return self.dof.target if self.dof is not None else self.lighting.hdr
@@ -900,6 +973,8 @@ class Renderer:
         one more lighting pass; ``want_hdr`` draws it with every frame instead). Where
         ``transparent`` the radiance is premultiplied by the coverage (``read_hdr_rgba``)."""
         self.complete_hdr()
+        if self.accumulate is not None:
+            return self.accumulate.read()
         if self.resolve is not None:
             return self.resolve.read()
         return self.dof.read() if self.dof is not None else self.lighting.read()
@@ -919,7 +994,7 @@ class Renderer:
         ``transparent``, radiance premultiplied by coverage and the coverage (OpenEXR's
         convention); alpha 1 everywhere otherwise."""
         self.complete_hdr()
-        source = self.resolve or self.dof or self.lighting
+        source = self.accumulate or self.resolve or self.dof or self.lighting
         return read_rgba(source.fbo, self.size, "f4")
 
     def read_image(self) -> np.ndarray:
@@ -973,5 +1048,7 @@ SCHEDULE: tuple[Built, ...] = (
     Built("background", Renderer._key_background, Renderer._build_background),
     Built("dof", Renderer._key_dof, Renderer._build_dof),
     Built("resolve", Renderer._key_resolve, Renderer._build_resolve),
+    Built("accumulate", Renderer._key_accumulate, Renderer._build_accumulate),
     Built("post", Renderer._key_post, Renderer._build_post),
+    Built("fxaa", Renderer._key_fxaa, Renderer._build_fxaa),
 )  # fmt: skip
