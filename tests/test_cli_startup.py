@@ -116,3 +116,27 @@ def test_a_render_imports_the_gl_stack(tmp_path: Path) -> None:
     assert result["code"] == 0, result["stderr"]
     assert out.is_file()
     assert {"moderngl", "app.render.renderer", "app.gl.context"} <= set(result["modules"])
+
+
+def test_the_bench_times_both_quick_answers() -> None:
+    """``pbs bench --suites startup``'s rows: both answers given as they should be (help
+    exit 0; the bad scene exit 2, one line naming the misspelt key, no PNG), and a
+    verdict for each target. The times are recorded, never asserted."""
+    from app.bench.context import make_row
+    from app.bench.report import evaluate_targets
+    from app.bench.startup import BAD_SCENE, HELP, quick_answers
+
+    answers = quick_answers(runs=1)
+    assert set(answers) == {HELP, BAD_SCENE}
+    assert all(answer["ok"] for answer in answers.values()), answers
+    rows = [
+        make_row(
+            "startup", a["command"], name, (0, 0), 0, None, ms_median=a["exit_s_median"] * 1e3,
+            ms_min=0.0, ms_max=0.0, frames=1, cpu_ms_median=a["cpu_s_median"] * 1e3,
+            answered_as_expected=a["ok"],
+        )
+        for name, a in answers.items()
+    ]  # fmt: skip
+    verdicts = [v for v in evaluate_targets(rows) if "spawn to exit" in v.target]
+    assert len(verdicts) == 2
+    assert all(v.status in ("PASS", "FAIL") for v in verdicts)
