@@ -694,7 +694,6 @@ def cmd_batch(args: argparse.Namespace) -> int:
     """Render a job file's images (app/batch). The job file, and the scenes of an orbit or
     a sweep, are validated before any GL work; a failed job is reported, not fatal."""
     from app.batch.jobs import plan_jobs
-    from app.batch.run import dask_client, run_batch
     from app.progress import Progress
 
     start = time.perf_counter()
@@ -702,6 +701,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InputError(str(out), "-o", "not a folder")
     plan = plan_jobs(args.jobs, out, _policy(args))
+    from app.batch.run import dask_client, run_batch  # the workers and GL: a valid plan only
+
     client = None
     if args.scheduler is not None or args.dask_local is not None:
         option = "--scheduler" if args.scheduler is not None else "--dask-local"

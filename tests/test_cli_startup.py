@@ -107,6 +107,17 @@ def test_a_bad_scene_is_refused_without_the_gl_stack(tmp_path: Path, case: str) 
     assert among(result["modules"], GL_STACK) == []
 
 
+def test_a_bad_job_file_is_refused_without_the_gl_stack(tmp_path: Path) -> None:
+    jobs = tmp_path / "jobs.toml"
+    jobs.write_text('scene = "showcase"\n[orbit]\nframes = "many"\n', encoding="utf-8")
+    result = run_cli("batch", str(jobs), "-o", str(tmp_path / "out"))
+    assert result["code"] == 2
+    assert "orbit.frames" in result["stderr"], result["stderr"]
+    # app.batch.jobs reads the job file; its workers (app.batch.run, .worker, .pool) hold GL.
+    heavy = (*(n for n in GL_STACK if n != "app.batch"), "app.batch.run", "app.batch.worker")
+    assert among(result["modules"], heavy) == []
+
+
 @pytest.mark.gl
 def test_a_render_imports_the_gl_stack(tmp_path: Path) -> None:
     """The probe sees what a command imports: a render that succeeds lists GL and the
