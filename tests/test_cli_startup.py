@@ -151,3 +151,31 @@ def test_the_bench_times_both_quick_answers() -> None:
     verdicts = [v for v in evaluate_targets(rows) if "spawn to exit" in v.target]
     assert len(verdicts) == 2
     assert all(v.status in ("PASS", "FAIL") for v in verdicts)
+
+
+@pytest.mark.parametrize(
+    ("help_s", "bad_s", "as_expected", "statuses"),
+    [
+        (0.25, 0.45, True, ["PASS", "PASS"]),
+        (0.35, 0.55, True, ["FAIL", "FAIL"]),
+        (0.25, 0.45, False, ["FAIL", "FAIL"]),  # fast, but not the right answer
+    ],
+)
+def test_the_quick_answer_targets(
+    help_s: float, bad_s: float, as_expected: bool, statuses: list[str]
+) -> None:
+    """``pbs --help`` <= 0.3 s and a bad scene refused <= 0.5 s, on the rows' medians."""
+    from app.bench.context import make_row
+    from app.bench.report import evaluate_targets
+    from app.bench.startup import BAD_SCENE, HELP
+
+    rows = [
+        make_row(
+            "startup", name, name, (0, 0), 0, None, ms_median=s * 1e3, ms_min=s * 900,
+            ms_max=s * 1100, frames=9, cpu_ms_median=s * 500, answered_as_expected=as_expected,
+        )
+        for name, s in ((HELP, help_s), (BAD_SCENE, bad_s))
+    ]  # fmt: skip
+    verdicts = [v for v in evaluate_targets(rows) if "spawn to exit" in v.target]
+    assert [v.status for v in verdicts] == statuses
+    assert f"{help_s:.2f} s median of 9" in verdicts[0].measured

@@ -51,7 +51,7 @@ from app.bench.scenes import (
     specialization_scene,
 )
 from app.bench.shadows import run_shadows, shadows_tasks
-from app.bench.startup import ANSWER_RUNS, cold_start, quick_answers
+from app.bench.startup import cold_start, quick_answers
 from app.bench.timing import (
     Budget,
     Pass,
@@ -823,9 +823,11 @@ def run_startup(ctx: Context) -> None:
 
 def run_quick_answers(ctx: Context) -> None:
     """Rows of the startup suite: ``pbs --help`` and a bad scene refused, whole processes
-    from spawn to exit, alternating (app/bench/startup.py ``quick_answers``)."""
-    ctx.progress.start(f"startup: pbs --help and a bad scene refused, {ANSWER_RUNS} runs each")
-    for name, answer in quick_answers().items():
+    from spawn to exit, alternating (app/bench/startup.py ``quick_answers``): three runs
+    per cold start's (9 in the full mode, 6 quick)."""
+    runs = 3 * ctx.settings.startup_runs
+    ctx.progress.start(f"startup: pbs --help and a bad scene refused, {runs} runs each")
+    for name, answer in quick_answers(runs).items():
         ms = [r["exit_s"] * 1e3 for r in answer["runs"]]
         med, lo, hi = summary(ms)
         if not answer["ok"]:
