@@ -116,8 +116,8 @@ def spawn_and_measure(
 
 
 ANSWER_RUNS = 9  # timed runs of each quick answer, after one untimed round
-HELP = "pbs --help"
-BAD_SCENE = "pbs render, a bad scene"
+HELP = "help answered"  # the rows' variants
+BAD_SCENE = "bad scene refused"
 # The showcase's render table with a misspelt key: refused by validation, exit 2.
 MISSPELT = ("[render]\n", "[render]\nsupersampel = 2\n")
 MISSPELT_KEY = "render.supersampel"  # what the one error line names
