@@ -17,8 +17,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from app.common.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
 from app.errors import EXIT_BAD_INPUT, InputError
-from app.output import HDR_SUFFIXES, write_hdr, write_png
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import InputPolicy
 
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 
     from app.render.renderer import Renderer
     from app.scene.loader import LoadedScene
-    from app.scene.model_file import Look
+    from app.scene.look import Look
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -51,13 +51,6 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         message = _one_line(message)
         self.exit(EXIT_BAD_INPUT, f"pbs: error: {message} (see '{self.prog} --help')\n")
-
-
-def _debug_views() -> dict[str, str]:
-    """The debug views of ``pbs render --debug``, name -> one line (app/render/debug_views.py)."""
-    from app.render.debug_views import DEBUG_VIEWS
-
-    return DEBUG_VIEWS
 
 
 def _memory(text: str) -> int:
@@ -95,7 +88,7 @@ def _input_options(parser: argparse.ArgumentParser) -> None:
 def _look_options(parser: argparse.ArgumentParser) -> None:
     """How a model file (or a scene file without camera or lights) is shown
     (app/scene/model_file.py, docs/scene-format.md)."""
-    from app.scene.model_file import VIEWS
+    from app.scene.look import VIEWS
 
     parser.add_argument(
         "--view",
@@ -132,7 +125,7 @@ def _look_options(parser: argparse.ArgumentParser) -> None:
 
 def _look(args: argparse.Namespace) -> Look:
     """The ``Look`` of the look options, or an ``InputError`` naming the option."""
-    from app.scene.model_file import Look
+    from app.scene.look import Look
 
     if args.env not in ("studio", "sky") and Path(args.env).suffix.lower() not in (
         ".hdr",
@@ -181,7 +174,7 @@ def _parser() -> argparse.ArgumentParser:
         help="render a scene file headless to PNG",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="debug views (--debug VIEW; docs/debug-views.md):\n"
-        + "\n".join(f"  {name:12} {line}" for name, line in _debug_views().items()),
+        + "\n".join(f"  {name:12} {line}" for name, line in DEBUG_VIEWS.items()),
     )
     render.add_argument(
         "scene",
@@ -216,7 +209,7 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument(
         "--debug",
         metavar="VIEW",
-        choices=tuple(_debug_views()),
+        choices=tuple(DEBUG_VIEWS),
         help="write a debug view instead of the render: one of the views listed below",
     )
     render.add_argument(
@@ -537,18 +530,20 @@ def _size_option(exc: InputError) -> InputError:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from app.gl.context import create_context
-    from app.render.renderer import Renderer
+    """Render a scene to PNG. Each layer is imported when the command reaches it: the
+    scene's (pydantic, numpy) to validate it, GL and the renderer only once it is valid,
+    so a bad scene is refused without them (docs/performance.md, "Start-up")."""
     from app.scene.sources import scene_from, scene_path
 
     start = time.perf_counter()
     out = Path(args.output)
     if out.suffix.lower() != ".png":
         raise InputError(str(out), "-o", "the output must be a .png file")
-    if args.hdr and Path(args.hdr).suffix not in HDR_SUFFIXES:  # write_hdr: lower case only
-        raise InputError(args.hdr, "--hdr", "the HDR output must end in .exr or .npy")
-    from app.render.debug_views import LIGHT_VIEWS
+    if args.hdr:
+        from app.output import HDR_SUFFIXES
 
+        if Path(args.hdr).suffix not in HDR_SUFFIXES:  # write_hdr: lower case only
+            raise InputError(args.hdr, "--hdr", "the HDR output must end in .exr or .npy")
     if args.debug_light is not None and args.debug not in LIGHT_VIEWS:
         raise InputError("--debug-light", "", f"applies only to --debug {', '.join(LIGHT_VIEWS)}")
     scene_file = scene_path(args.scene)
@@ -583,6 +578,9 @@ def cmd_render(args: argparse.Namespace) -> int:
         ):
             if value is not None:
                 raise InputError(option, "", "applies only with --compare")
+        from app.gl.context import create_context
+        from app.render.renderer import Renderer
+
         gl = create_context(args.backend)
         try:
             renderer = Renderer(gl, loaded, args.size)
@@ -608,6 +606,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.debug is not None:
         ldr, report = _debug_image(renderer, args.debug, light, out, scene_file)
     renderer.release()
+    from app.output import write_hdr, write_png
+
     if args.hdr:
         _write(Path(args.hdr), "--hdr", lambda p: write_hdr(p, hdr))
     _write(out, "-o", lambda p: write_png(p, ldr))
@@ -659,6 +659,8 @@ def _render_comparison(
     ldr = comparison.read_ldr()
     w, h = comparison.size
     comparison.release()
+    from app.output import write_png
+
     _write(out, "-o", lambda p: write_png(p, ldr))
     if not args.quiet:
         if mode == "split":
@@ -707,7 +709,6 @@ def cmd_batch(args: argparse.Namespace) -> int:
     """Render a job file's images (app/batch). The job file, and the scenes of an orbit or
     a sweep, are validated before any GL work; a failed job is reported, not fatal."""
     from app.batch.jobs import plan_jobs
-    from app.batch.run import dask_client, run_batch
     from app.progress import Progress
 
     start = time.perf_counter()
@@ -715,6 +716,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InputError(str(out), "-o", "not a folder")
     plan = plan_jobs(args.jobs, out, _policy(args))
+    from app.batch.run import dask_client, run_batch  # the workers and GL: a valid plan only
+
     client = None
     if args.scheduler is not None or args.dask_local is not None:
         option = "--scheduler" if args.scheduler is not None else "--dask-local"

@@ -38,15 +38,8 @@ from app.errors import InputError
 from app.resources import scenes_dir
 from app.scene.edits import KeyPathError, edited, parse_key
 from app.scene.loader import LoadedScene, load_scene, read_text
+from app.scene.look import VIEWS, Look, is_model_file
 from app.scene.model import Camera
-from app.scene.model_file import (
-    VIEWS,
-    Look,
-    is_model_file,
-    model_scene,
-    needs_defaults,
-    with_defaults,
-)
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.untrusted.structured import parse_json, parse_toml
@@ -154,7 +147,11 @@ def load_source(
 ) -> LoadedScene:
     """The scene a job renders: a model file framed (for ``size``) and lit by the default
     look, or a scene file, given the defaults it lacks (camera, lights) as ``pbs render``
-    gives them; ``look`` on a scene file that has both is refused (app/scene/sources.py)."""
+    gives them; ``look`` on a scene file that has both is refused (app/scene/sources.py).
+    The model-file code (geometry, trimesh, decoders) is imported here, not with the job
+    file's checks, so a bad job file is refused without it (docs/architecture.md)."""
+    from app.scene.model_file import model_scene, needs_defaults, with_defaults
+
     if is_model_file(path):
         return model_scene(path, policy, look or Look(), size)
     loaded = load_scene(path, policy)

@@ -1,4 +1,5 @@
-"""Cold start and peak memory of ``pbs render scenes/showcase.toml -o out.png``.
+"""Cold start and peak memory of ``pbs render scenes/showcase.toml -o out.png``, and how
+soon ``pbs`` answers when it renders nothing (``quick_answers``).
 
 Each run is a fresh process (the ``pbs`` script beside this interpreter, or
 ``python -m app``): the time from just before the process is spawned to the PNG's
@@ -13,12 +14,21 @@ the bench itself: ``subprocess`` spawns with vfork, and a child's ``ru_maxrss`` 
 address space it shared with its parent before ``exec``, so a child of the bench (1.3 GB
 of references and light lists by then) measured 1336 MiB for a render that peaks near
 265 MiB. The launcher times from just before its own spawn, so its start-up is not counted.
+
+``quick_answers`` times the two answers that need no GL: ``pbs --help``, and ``pbs render``
+refusing a scene with a misspelt key (the showcase's text with one key changed, so the
+whole scene is read and validated before the refusal). Each is a whole process, spawned
+by the bench itself (no memory is measured) and timed from just before the spawn to its
+exit, the two alternating so that a change of the machine's load falls on both; the CPU
+time (user + system, from ``os.wait4``) is kept beside the wall time, as it moves less
+with the load of a shared machine.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -102,6 +112,84 @@ def spawn_and_measure(
         "returncode": proc.returncode,
         "command": " ".join(["pbs", *cmd[len(pbs_command()) :]]),
         "stderr": stderr[-500:],
+    }
+
+
+ANSWER_RUNS = 9  # timed runs of each quick answer, after one untimed round
+HELP = "help answered"  # the rows' variants
+BAD_SCENE = "bad scene refused"
+# The showcase's render table with a misspelt key: refused by validation, exit 2.
+MISSPELT = ("[render]\n", "[render]\nsupersampel = 2\n")
+MISSPELT_KEY = "render.supersampel"  # what the one error line names
+
+
+def _run_to_exit(cmd: list[str], env: dict[str, str], timeout: float) -> dict:
+    """One process from spawn to exit: {"exit_s", "cpu_s", "returncode", "stderr"}."""
+    with tempfile.TemporaryFile() as log:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=log)
+        deadline = t0 + timeout
+        while True:
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() > deadline:
+                proc.kill()
+                pid, status, usage = os.wait4(proc.pid, 0)
+                break
+            time.sleep(0.001)
+        exit_s = time.perf_counter() - t0
+        log.seek(0)
+        stderr = log.read().decode(errors="replace")
+    return {
+        "exit_s": exit_s,
+        "cpu_s": usage.ru_utime + usage.ru_stime,
+        "returncode": os.waitstatus_to_exitcode(status),
+        "stderr": stderr[-500:],
+    }
+
+
+def quick_answers(runs: int = ANSWER_RUNS, timeout: float = 60.0) -> dict[str, dict]:
+    """``pbs --help`` and ``pbs render BAD.toml -o out.png``, ``runs`` times each after
+    one untimed round, alternating: per answer {"command", "runs": [_run_to_exit's dict
+    per run], "ok": whether every run exited as it should (0; 2 with one error line
+    naming the key and no PNG), "exit_s_median", "cpu_s_median"}."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = repo_pythonpath(env)
+    with tempfile.TemporaryDirectory(prefix="pbs-bench-cli-") as tmp:
+        scene = Path(tmp) / "bad.toml"
+        text = (scenes_dir() / "showcase.toml").read_text(encoding="utf-8")
+        assert MISSPELT[0] in text, "the showcase has no [render] table to misspell"
+        scene.write_text(text.replace(*MISSPELT, 1), encoding="utf-8")
+        out = Path(tmp) / "bad.png"
+        commands = {
+            HELP: [*pbs_command(), "--help"],
+            BAD_SCENE: [*pbs_command(), "render", str(scene), "-o", str(out)],
+        }
+        results: dict[str, list[dict]] = {name: [] for name in commands}
+        for i in range(runs + 1):
+            for name, cmd in commands.items():
+                run = _run_to_exit(cmd, env, timeout)
+                if i > 0:
+                    results[name].append(run)
+        written = out.exists()
+
+    def ok(name: str, run: dict) -> bool:
+        if name == HELP:
+            return run["returncode"] == 0
+        lines = run["stderr"].splitlines()
+        return run["returncode"] == 2 and len(lines) == 1 and MISSPELT_KEY in lines[0]
+
+    shown = {HELP: "pbs --help", BAD_SCENE: "pbs render bad.toml -o bad.png"}
+    return {
+        name: {
+            "command": shown[name],
+            "runs": got,
+            "ok": all(ok(name, r) for r in got) and not (name == BAD_SCENE and written),
+            "exit_s_median": statistics.median(r["exit_s"] for r in got),
+            "cpu_s_median": statistics.median(r["cpu_s"] for r in got),
+        }
+        for name, got in results.items()
     }
 
 

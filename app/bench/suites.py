@@ -51,7 +51,7 @@ from app.bench.scenes import (
     specialization_scene,
 )
 from app.bench.shadows import run_shadows, shadows_tasks
-from app.bench.startup import cold_start
+from app.bench.startup import cold_start, quick_answers
 from app.bench.timing import (
     Budget,
     Pass,
@@ -783,7 +783,7 @@ def run_specialization(ctx: Context) -> None:
 
 
 def startup_tasks(settings: Settings) -> int:
-    return 2 * settings.startup_runs + len(API_CASES)
+    return 2 * settings.startup_runs + 1 + len(API_CASES)
 
 
 def run_startup(ctx: Context) -> None:
@@ -817,7 +817,31 @@ def run_startup(ctx: Context) -> None:
                 command=ok[0]["command"], runs=runs,
             )
         )  # fmt: skip
+    run_quick_answers(ctx)
     run_api(ctx, size)
+
+
+def run_quick_answers(ctx: Context) -> None:
+    """Rows of the startup suite: ``pbs --help`` and a bad scene refused, whole processes
+    from spawn to exit, alternating (app/bench/startup.py ``quick_answers``): three runs
+    per cold start's (9 in the full mode, 6 quick)."""
+    runs = 3 * ctx.settings.startup_runs
+    ctx.progress.start(f"startup: pbs --help and a bad scene refused, {runs} runs each")
+    for name, answer in quick_answers(runs).items():
+        ms = [r["exit_s"] * 1e3 for r in answer["runs"]]
+        med, lo, hi = summary(ms)
+        if not answer["ok"]:
+            ctx.notes.append(f"startup ({name}): not as expected: {answer['runs'][-1]}")
+        ctx.rows.append(
+            make_row(
+                "startup", answer["command"], name, (0, 0), 0, None,
+                ms_median=med, ms_min=lo, ms_max=hi, frames=len(ms),
+                timer="process spawn to exit, alternating runs",
+                cpu_ms_median=answer["cpu_s_median"] * 1e3, answered_as_expected=answer["ok"],
+                runs=answer["runs"],
+            )
+        )  # fmt: skip
+    ctx.progress.done()
 
 
 # --- the Python API: a renderer's first frame against its next ones ---------------------------

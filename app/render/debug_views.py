@@ -68,7 +68,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from app.common.debug_views import DEBUG_VIEW_CODE, GPU_DEBUG_VIEWS
+from app.common.debug_views import DEBUG_VIEW_CODE, DEBUG_VIEWS, LIGHT_VIEWS
 from app.common.models import BRDF_TERMS
 from app.gl.context import wait_before_read
 from app.gl.fullscreen import FullscreenDraw
@@ -85,31 +85,6 @@ from app.render.inputs import (
 from app.render.lighting import LightingPass
 from app.render.renderer import Renderer
 
-# Name -> one line for ``pbs render --help``, in the order the help lists them.
-DEBUG_VIEWS: dict[str, str] = {
-    "base_color": "G-buffer base colour (linear; sRGB-encoded)",
-    "normal": "world normal as n*0.5+0.5",
-    "roughness": "perceptual roughness, grey 0..1",
-    "metallic": "metallic, grey 0..1",
-    "f0": "the dielectric F0 channel (sRGB-encoded)",
-    "depth": "linear view depth: the frame's nearest white, farthest dark grey",
-    "material_id": "material table row, one colour per id",
-    "coat_normal": "clear-coat normal as n*0.5+0.5 (the normal where RT4 is absent)",
-    "fresnel": "F of the --debug-light light, RGB (sRGB-encoded)",
-    "ndf": "D of that light's half vector, grey log scale 1e-3..1e3",
-    "g2": "masking-shadowing G2 for that light, grey 0..1",
-    "specular": "f_spec for that light, shown as x/(1+x) of x = pi f_spec",
-    "diffuse": "f_diffuse for that light, as x/(1+x) of x = pi f_diffuse",
-    "light": "that light's pi f c_light (n.l)+ alone, shown as x/(1+x)",
-    "tiles": "local lights per 8x8 tile of the culler, fixed heat ramp",
-    "emission": "emitted radiance (glTF emissive), shown as x/(1+x)",
-    "occlusion": "occlusion factor on environment light, grey 0..1 (1 without a map)",
-    "nan": "NaN/Inf/negative HDR pixels in colours, counts printed (even -q)",
-}
-assert tuple(DEBUG_VIEWS)[: len(GPU_DEBUG_VIEWS)] == GPU_DEBUG_VIEWS
-
-# The views that evaluate one light (the ``light`` argument of ``run``).
-LIGHT_VIEWS = ("fresnel", "ndf", "g2", "specular", "diffuse", "light")
 # Views whose values come straight from the G-buffer (the G-buffer's texels, exactly).
 GBUFFER_VIEWS = (
     "base_color", "normal", "roughness", "metallic", "f0", "depth", "material_id", "coat_normal",

@@ -13,9 +13,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from app.errors import InputError
-from app.scene.gltf_lights_cameras import resolve
 from app.scene.model import MAX_RADIANCE, TEXTURE_KEYS, Scene
-from app.textures.environment import environment_map
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.untrusted.structured import parse_toml
@@ -152,6 +150,8 @@ def parse_scene(data: dict, path: Path, policy: InputPolicy = DEFAULT_POLICY) ->
         # Read (and checked) now, so that a bad image is one error naming the key; the
         # path is made absolute, the way the frame (which knows no scene file) reads it.
         target = _check_readable(loaded, env.file, "environment.file")
+        from app.textures.environment import environment_map  # imported only when used
+
         texels = environment_map("image", str(target), scene_file=str(path), limits=policy.limits)
         brightest = float(texels.max(initial=0.0)) * env.intensity
         if brightest > MAX_RADIANCE:  # what the light sum keeps finite in float32
@@ -164,7 +164,10 @@ def parse_scene(data: dict, path: Path, policy: InputPolicy = DEFAULT_POLICY) ->
         env = env.model_copy(update={"file": str(target)})
         loaded = loaded.with_scene(scene.model_copy(update={"environment": env}))
     if scene.camera.from_file is not None or any(obj.import_lights for obj in scene.objects):
-        # A glTF file's camera and lights become the scene's own (docs/gltf-lights-cameras.md).
+        # A glTF file's camera and lights become the scene's own (docs/gltf-lights-cameras.md);
+        # the glTF reader is imported only here, so that most scenes validate without it.
+        from app.scene.gltf_lights_cameras import resolve
+
         loaded = loaded.with_scene(resolve(loaded.scene, path, policy))
     return loaded
 

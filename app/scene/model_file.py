@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +43,7 @@ from app.errors import InputError
 from app.reference.tonemap import post_process, srgb_decode
 from app.scene.geometry import MeshPart, build_parts
 from app.scene.loader import LoadedScene, parse_scene
+from app.scene.look import ENVIRONMENTS, MODEL_SUFFIXES, VIEWS, Look, is_model_file
 from app.scene.model import Light
 from app.textures.environment import environment_map
 from app.untrusted import RefusedError, files
@@ -67,16 +67,6 @@ __all__ = [
 
 _LOG = logging.getLogger("pbs.scene")
 
-MODEL_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply")
-# (azimuth, elevation) in degrees of the camera about the model's centre.
-VIEWS: dict[str, tuple[float, float]] = {
-    "three-quarter": (40.0, 25.0),
-    "front": (0.0, 0.0),
-    "side": (90.0, 0.0),
-    "top": (0.0, 90.0),
-    "iso": (45.0, math.degrees(math.atan(1.0 / math.sqrt(2.0)))),
-}
-ENVIRONMENTS = ("studio", "sky")  # or an .hdr / .exr file
 FOV_Y = 35.0  # degrees
 MARGIN = 1.08  # the bounding sphere's angular radius times this fits the narrower field
 EXPOSURE = -1.5  # EV: the studio's boxes and the key light on a light grey stay below white
@@ -92,32 +82,6 @@ ALBEDO_REFERENCE = 0.5
 ALBEDO_WEIGHT = 0.75
 METER_BOUNDS = (-1.0, 1.5)  # EV about the incident exposure
 BACKDROP = 0.78  # the studio backdrop's display value: sRGB-encoded, a light neutral grey
-
-
-@dataclass(frozen=True)
-class Look:
-    """How a model is shown: a named view or an explicit azimuth/elevation (degrees),
-    ``camera = "file"`` for the glTF file's own first camera, and the environment."""
-
-    view: str = "three-quarter"
-    azimuth: float | None = None
-    elevation: float | None = None
-    camera: str = "auto"  # "auto" or "file"
-    env: str = "studio"  # "studio", "sky" or an .hdr/.exr path
-
-    def angles(self) -> tuple[float, float]:
-        """(azimuth, elevation) in degrees."""
-        azimuth, elevation = VIEWS[self.view]
-        if self.azimuth is not None:
-            azimuth = self.azimuth
-        if self.elevation is not None:
-            elevation = self.elevation
-        return azimuth, elevation
-
-
-def is_model_file(path: str | Path) -> bool:
-    """Whether ``path`` names a model file by its suffix."""
-    return Path(path).suffix.lower() in MODEL_SUFFIXES
 
 
 def _environment(look: Look, azimuth: float) -> dict[str, Any]:

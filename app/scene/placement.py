@@ -7,13 +7,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import trimesh
 
 from app.scene.model import SceneObject
 
 
 def model_matrix(obj: SceneObject) -> np.ndarray:
-    """T @ Rz @ Ry @ Rx @ S: scale, then rotate about X, Y, Z (degrees), then translate."""
+    """T @ Rz @ Ry @ Rx @ S: scale, then rotate about X, Y, Z (degrees), then translate.
+    trimesh is imported here, not with the module: the scene loader imports this module
+    (a glTF file's cameras and lights), and a scene refused by validation needs no mesh
+    library (docs/performance.md, "Start-up")."""
+    import trimesh
+
     scale = np.broadcast_to(np.asarray(obj.scale, np.float64), (3,))
     rx, ry, rz = (math.radians(a) for a in obj.rotation)
     r = (

@@ -19,14 +19,7 @@ from typing import Any
 from app.errors import InputError
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene, parse_scene
-from app.scene.model_file import (
-    MODEL_SUFFIXES,
-    Look,
-    is_model_file,
-    model_scene,
-    needs_defaults,
-    with_defaults,
-)
+from app.scene.look import MODEL_SUFFIXES, Look, is_model_file
 from app.untrusted.policy import InputPolicy
 
 __all__ = ["PYTHON_SCENE", "Look", "SceneSource", "scene_from", "scene_path"]
@@ -83,6 +76,8 @@ def scene_from(
         return parse_scene(data, folder.resolve() / PYTHON_SCENE, policy)
     path = scene_path(source)
     if is_model_file(path):
+        from app.scene.model_file import model_scene
+
         return model_scene(path, policy, look, size)
     if path.suffix.lower() not in ("", ".toml"):
         raise InputError(
@@ -92,6 +87,10 @@ def scene_from(
             f"file ({', '.join(MODEL_SUFFIXES)})",
         )
     loaded = load_scene(path, policy)
+    # The framing defaults build geometry (trimesh, the texture decoders): imported once
+    # the scene is valid, so that a refused one costs no more than its validation.
+    from app.scene.model_file import needs_defaults, with_defaults
+
     if look != Look() and needs_defaults(loaded) == (False, False):
         raise InputError(
             str(path),

@@ -1,0 +1,54 @@
+"""How a model file is shown: its named views, the bundled environments and the ``Look``
+that picks among them, and which files are model files.
+
+Declared apart from app/scene/model_file.py (which frames and lights a model, and so
+imports the geometry loader, trimesh and the texture decoders) in a module that imports
+nothing else of ``app``: the CLI's parser takes its ``--view`` choices from here, and
+``scene_from`` tells a model file from a scene file without loading either
+(docs/performance.md, "Start-up").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["ENVIRONMENTS", "MODEL_SUFFIXES", "VIEWS", "Look", "is_model_file"]
+
+MODEL_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply")
+# (azimuth, elevation) in degrees of the camera about the model's centre.
+VIEWS: dict[str, tuple[float, float]] = {
+    "three-quarter": (40.0, 25.0),
+    "front": (0.0, 0.0),
+    "side": (90.0, 0.0),
+    "top": (0.0, 90.0),
+    "iso": (45.0, math.degrees(math.atan(1.0 / math.sqrt(2.0)))),
+}
+ENVIRONMENTS = ("studio", "sky")  # or an .hdr / .exr file
+
+
+@dataclass(frozen=True)
+class Look:
+    """How a model is shown: a named view or an explicit azimuth/elevation (degrees),
+    ``camera = "file"`` for the glTF file's own first camera, and the environment."""
+
+    view: str = "three-quarter"
+    azimuth: float | None = None
+    elevation: float | None = None
+    camera: str = "auto"  # "auto" or "file"
+    env: str = "studio"  # "studio", "sky" or an .hdr/.exr path
+
+    def angles(self) -> tuple[float, float]:
+        """(azimuth, elevation) in degrees."""
+        azimuth, elevation = VIEWS[self.view]
+        if self.azimuth is not None:
+            azimuth = self.azimuth
+        if self.elevation is not None:
+            elevation = self.elevation
+        return azimuth, elevation
+
+
+def is_model_file(path: str | Path) -> bool:
+    """Whether ``path`` names a model file by its suffix."""
+    return Path(path).suffix.lower() in MODEL_SUFFIXES

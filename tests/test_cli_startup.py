@@ -1,0 +1,181 @@
+"""What ``pbs`` imports before it answers: the parser alone for ``--help`` and a bad
+option, the scene layer alone for a bad scene, GL and the renderer only for a render.
+
+Structural, not timed (the wall-clock targets are rows of ``pbs bench --suites startup``,
+docs/performance.md "Start-up"): each case runs ``app.cli.main`` in a fresh interpreter
+and lists the modules it left in ``sys.modules``, and a module that the command did not
+need is a failure however fast the machine is.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import REPO
+
+# Run app.cli.main(argv) in this interpreter, then print its exit code, its stderr and
+# every module imported by then.
+PROBE = """
+import contextlib, io, json, sys
+from app.cli import main
+err = io.StringIO()
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+    code = main(sys.argv[1:])
+print(json.dumps({"code": code, "stderr": err.getvalue(), "modules": sorted(sys.modules)}))
+"""
+
+# The GL stack and everything above the scene layer: a render needs them, nothing else does.
+GL_STACK = (
+    "moderngl", "glcontext", "OpenGL", "glfw", "imgui_bundle", "matplotlib",
+    "app.gl", "app.frame", "app.render", "app.api", "app.brdf", "app.batch",
+    "app.walkthrough", "app.viewer", "app.bench",
+)  # fmt: skip
+# What the parser alone must not import either: the array, image, mesh and validation
+# libraries and the modules built on them.
+PARSER_HEAVY = (
+    *GL_STACK, "numpy", "pydantic", "PIL", "trimesh", "scipy",
+    "app.output", "app.reference", "app.textures", "app.scene.model", "app.scene.loader",
+)  # fmt: skip
+
+
+def run_cli(*argv: str, cwd: Path = REPO) -> dict:
+    """``pbs ARGV`` in a fresh interpreter: {"code", "stderr", "modules"}."""
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    proc = subprocess.run(
+        [sys.executable, "-c", PROBE, *argv],
+        cwd=cwd, env=env, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.splitlines()[-1])
+
+
+def among(modules: list[str], names: tuple[str, ...]) -> list[str]:
+    """The ``modules`` that are one of ``names`` or inside one of them."""
+    return [m for m in modules if any(m == n or m.startswith(n + ".") for n in names)]
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ("--help",),
+        ("render", "--help"),
+        ("view", "--help"),
+        ("brdf", "--help"),
+        ("batch", "--help"),
+        ("walkthrough", "--help"),
+        ("textures", "--help"),
+    ],
+    ids=lambda argv: " ".join(argv),
+)
+def test_help_imports_the_parser_alone(argv: tuple[str, ...]) -> None:
+    result = run_cli(*argv)
+    assert result["code"] == 0
+    assert among(result["modules"], PARSER_HEAVY) == []
+
+
+def test_a_bad_option_is_refused_by_the_parser_alone(tmp_path: Path) -> None:
+    result = run_cli("render", "scene.toml", "-o", str(tmp_path / "x.png"), "--debug", "nope")
+    assert result["code"] == 2
+    assert "--debug" in result["stderr"]
+    assert among(result["modules"], PARSER_HEAVY) == []
+
+
+BAD_SCENES = {
+    "unknown key": ("[camera]\ncolour = 3\n", "camera.colour"),
+    "bad value": ('[render]\nwidth = "wide"\n', "render.width"),
+    "malformed TOML": ("not [ toml\n", "malformed TOML"),
+    "bad material": ("[materials.m]\nroughness = 2.0\n", "materials.m.roughness"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_SCENES)
+def test_a_bad_scene_is_refused_without_the_gl_stack(tmp_path: Path, case: str) -> None:
+    text, named = BAD_SCENES[case]
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text, encoding="utf-8")
+    out = tmp_path / "x.png"
+    result = run_cli("render", str(scene), "-o", str(out))
+    assert result["code"] == 2
+    assert named in result["stderr"] and len(result["stderr"].splitlines()) == 1
+    assert not out.exists()
+    assert among(result["modules"], GL_STACK) == []
+
+
+def test_a_bad_job_file_is_refused_without_the_gl_stack(tmp_path: Path) -> None:
+    jobs = tmp_path / "jobs.toml"
+    jobs.write_text('scene = "showcase"\n[orbit]\nframes = "many"\n', encoding="utf-8")
+    result = run_cli("batch", str(jobs), "-o", str(tmp_path / "out"))
+    assert result["code"] == 2
+    assert "orbit.frames" in result["stderr"], result["stderr"]
+    # app.batch.jobs reads the job file; its workers (app.batch.run, .worker, .pool) hold GL.
+    heavy = (*(n for n in GL_STACK if n != "app.batch"), "app.batch.run", "app.batch.worker")
+    assert among(result["modules"], heavy) == []
+
+
+@pytest.mark.gl
+def test_a_render_imports_the_gl_stack(tmp_path: Path) -> None:
+    """The probe sees what a command imports: a render that succeeds lists GL and the
+    renderer (else the tests above could pass on a probe that lists nothing)."""
+    out = tmp_path / "x.png"
+    result = run_cli("render", "sec3_lambert", "-o", str(out), "--size", "16x9", "-q")
+    assert result["code"] == 0, result["stderr"]
+    assert out.is_file()
+    assert {"moderngl", "app.render.renderer", "app.gl.context"} <= set(result["modules"])
+
+
+def test_the_bench_times_both_quick_answers() -> None:
+    """``pbs bench --suites startup``'s rows: both answers given as they should be (help
+    exit 0; the bad scene exit 2, one line naming the misspelt key, no PNG), and a
+    verdict for each target. The times are recorded, never asserted."""
+    from app.bench.context import make_row
+    from app.bench.report import evaluate_targets
+    from app.bench.startup import BAD_SCENE, HELP, quick_answers
+
+    answers = quick_answers(runs=1)
+    assert set(answers) == {HELP, BAD_SCENE}
+    assert all(answer["ok"] for answer in answers.values()), answers
+    rows = [
+        make_row(
+            "startup", a["command"], name, (0, 0), 0, None, ms_median=a["exit_s_median"] * 1e3,
+            ms_min=0.0, ms_max=0.0, frames=1, cpu_ms_median=a["cpu_s_median"] * 1e3,
+            answered_as_expected=a["ok"],
+        )
+        for name, a in answers.items()
+    ]  # fmt: skip
+    verdicts = [v for v in evaluate_targets(rows) if "spawn to exit" in v.target]
+    assert len(verdicts) == 2
+    assert all(v.status in ("PASS", "FAIL") for v in verdicts)
+
+
+@pytest.mark.parametrize(
+    ("help_s", "bad_s", "as_expected", "statuses"),
+    [
+        (0.25, 0.45, True, ["PASS", "PASS"]),
+        (0.35, 0.55, True, ["FAIL", "FAIL"]),
+        (0.25, 0.45, False, ["FAIL", "FAIL"]),  # fast, but not the right answer
+    ],
+)
+def test_the_quick_answer_targets(
+    help_s: float, bad_s: float, as_expected: bool, statuses: list[str]
+) -> None:
+    """``pbs --help`` <= 0.3 s and a bad scene refused <= 0.5 s, on the rows' medians."""
+    from app.bench.context import make_row
+    from app.bench.report import evaluate_targets
+    from app.bench.startup import BAD_SCENE, HELP
+
+    rows = [
+        make_row(
+            "startup", name, name, (0, 0), 0, None, ms_median=s * 1e3, ms_min=s * 900,
+            ms_max=s * 1100, frames=9, cpu_ms_median=s * 500, answered_as_expected=as_expected,
+        )
+        for name, s in ((HELP, help_s), (BAD_SCENE, bad_s))
+    ]  # fmt: skip
+    verdicts = [v for v in evaluate_targets(rows) if "spawn to exit" in v.target]
+    assert [v.status for v in verdicts] == statuses
+    assert f"{help_s:.2f} s median of 9" in verdicts[0].measured
