@@ -124,3 +124,33 @@ def test_exposure_is_metered_for_the_asset() -> None:
     helmet = scene_from(HELMET, size=(W, H)).scene.camera.exposure
     box = scene_from(BOX, size=(W, H)).scene.camera.exposure
     assert helmet > box + 0.4, (helmet, box)
+
+
+@pytest.mark.parametrize("name", [HELMET.name, BOX.name])
+def test_transparent_background_cuts_the_model_out(renders: dict, name: str) -> None:
+    """``--background transparent`` on a real asset (the API's ``background`` setting): no
+    backdrop anywhere clear of the model (alpha 0, colour 0); without antialiasing the
+    model opaque with the opaque render's colours to the code; with the default FXAA its
+    silhouette antialiased (fractional alpha). (FXAA's edge walk ends where the luma
+    changes, at the backdrop in one image and at nothing in the other, so its pixels near
+    the silhouette may differ between the two.)"""
+    path = HELMET if name == HELMET.name else BOX
+    covered = renders[name][1]
+    with OffscreenRenderer(path, size=(W, H)) as r:
+        r.set_settings(antialiasing="none")
+        opaque = r.render().astype(np.int32)
+        r.set_settings(background="transparent")
+        plain = r.render().astype(np.int32)
+        r.set_settings(antialiasing="fxaa")
+        filtered = r.render().astype(np.int32)
+    clear = clear_of(covered)
+    for rgba in (plain, filtered):
+        assert rgba.shape == (H, W, 4)
+        assert np.all(rgba[clear] == 0), name
+    np.testing.assert_array_equal(plain[..., 3], np.where(covered, 255, 0))
+    diff = np.abs(plain[covered][:, :3] - opaque[covered][:, :3])
+    assert diff.max() <= 1, f"{name}: the model's colours {diff.max()} codes off the opaque"
+    edge = ~clear & ~clear_of(~covered)
+    alpha = filtered[..., 3][edge]
+    partial = (alpha > 0) & (alpha < 255)
+    assert partial.mean() > 0.2, f"{name}: {partial.mean():.0%} of the edge has partial alpha"
