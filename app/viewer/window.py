@@ -825,8 +825,8 @@ class Viewer:
         split comparison of one (the split copies each side's alpha); not a debug view
         or the difference view, whose alpha is 1."""
         if self.comparison is not None:
-            transparent = self.comparison.renderers[0].transparent
-            return transparent and self.compare_mode == "split"
+            transparent = any(r.transparent for r in self.comparison.renderers)
+            return transparent and self.compare_mode == "split"  # an opaque side: alpha 1
         return self.renderer.transparent and self._shown() is self.renderer.post.target
 
     def read_window(self) -> np.ndarray:
