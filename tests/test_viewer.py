@@ -852,6 +852,19 @@ def test_a_narrow_image_area_shows_the_scenes_whole_width(showcase):
     assert v.image_size == NARROW and v.renderer.scene.camera.fov_y == 40.0
 
 
+def test_a_pan_in_the_fitted_frame_keeps_the_point_under_the_cursor(showcase):
+    """A pan of 40 pixels in the narrow area moves the point at the target's depth by 40
+    pixels in the drawn frame (metres per pixel from the displayed field of view, not the
+    scene's narrower one)."""
+    v = showcase
+    target = v.scene.camera.target
+    x0, y0 = _shown_at(v, target)
+    v.pan(40, 0)
+    v.settle()
+    x1, y1 = _shown_at(v, target)
+    assert (x1 - x0, y1 - y0) == (pytest.approx(40.0, abs=0.05), pytest.approx(0.0, abs=0.05))
+
+
 def test_the_fitted_scene_keeps_the_files_policy(tmp_path):
     """The scene the window hands its renderer (``fit_scene``) reads its files under the
     document's policy (``--allow-path``, ``--max-memory``), not the default one."""
