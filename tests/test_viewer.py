@@ -2,7 +2,9 @@
 what the headless renderer renders for the same scene state (one code path), real mouse
 input moves the camera, edits save and reload to the same image, bad edits (a value, a
 scene file, a GLSL file) leave the last good state running with the error on screen, and
-hundreds of frames leak no GL object."""
+hundreds of frames leak no GL object. The window fits each scene's framing to its image area
+(the sensor fit, ``fit_scene``), so the headless render it equals is ``pbs render --fit``'s
+at the area's size."""
 
 from __future__ import annotations
 
@@ -84,7 +86,8 @@ def test_window_equals_the_headless_render_after_scripted_edits(viewer, gl_egl):
     assert v.edit({"materials.floor.ndf": "beckmann", "render.tonemap": "aces"})
     after = window_image(v)
     assert not np.array_equal(before, after)  # the edits show
-    assert_close(after, headless(gl_egl, v.document.loaded, v.framebuffer_size))
+    size = v.framebuffer_size  # sec4_lights is 2.4:1, the 16:9 window shows it fitted
+    assert_close(after, headless(gl_egl, fit_scene(v.document.loaded, size), size))
 
 
 def test_a_structural_edit_shows_the_notice_before_it_compiles(viewer):
@@ -131,14 +134,11 @@ def test_click_selects_the_object_and_material_under_the_cursor(viewer):
     """A click maps into the image area (left of the docked panels); a click on the panels'
     column selects nothing."""
     v = viewer
-    cam = v.scene.camera
-    # The left ball (objects[1]) projected into the image area.
-    from app.frame.camera import projection_matrix, view_matrix
-
+    # The left ball (objects[1]) projected into the image area by the drawn frame's camera.
     ix, iy, w, h = v.image_rect
     assert w < v.framebuffer_size[0]  # the panels' column is beside the image
     centre = np.array([*v.scene.objects[1].position, 1.0])
-    clip = projection_matrix(cam, w / h) @ view_matrix(cam) @ centre
+    clip = v.renderer.proj @ v.renderer.view @ centre
     x = ix + (clip[0] / clip[3] * 0.5 + 0.5) * w
     y = iy + (0.5 - clip[1] / clip[3] * 0.5) * h
     chosen = v.select_pixel(x, y)
@@ -164,7 +164,8 @@ def test_edit_save_load_renders_the_same(viewer, gl_egl, tmp_path):
     assert text.startswith("# RTR4 §9.4")  # the file's opening comment kept
     loaded = load_scene(out)
     assert loaded.scene == v.scene
-    assert np.array_equal(headless(gl_egl, loaded, v.framebuffer_size), shown)
+    size = v.framebuffer_size
+    assert np.array_equal(headless(gl_egl, fit_scene(loaded, size), size), shown)
 
 
 def test_a_refused_value_changes_nothing_and_says_what_the_cli_says(viewer):
@@ -333,7 +334,8 @@ def test_comparison_in_the_window_equals_the_headless_comparison(viewer):
     try:
         with gl.ctx:
             spec = CompareSpec("materials.ball.roughness", 0.1, 0.8)
-            c = Comparison(gl, v.document.loaded, spec, v.framebuffer_size)
+            size = v.framebuffer_size
+            c = Comparison(gl, fit_scene(v.document.loaded, size), spec, size)
             try:
                 c.render()
                 c.composite("split", 0.3)
@@ -367,7 +369,8 @@ def test_debug_views_in_the_window_equal_the_headless_ones(viewer, view, light):
     gl = create_context("egl")
     try:
         with gl.ctx:
-            r = Renderer(gl, v.document.loaded, v.framebuffer_size)
+            size = v.framebuffer_size
+            r = Renderer(gl, fit_scene(v.document.loaded, size), size)
             debug = DebugPass(r)
             try:
                 r.render()
@@ -544,7 +547,7 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
     assert v.open_walkthrough(lesson_steps, "en", 5)
     c = v.lesson.current.step.comparisons[0]
     assert v.lesson.compare(0) and v.comparison is not None
-    fitted = v.image_size  # the step fits its framing to the image area beside the panels
+    fitted = v.framebuffer_size  # the fit is to the image area: the window, panels hidden
     shown = window_image(v)
     gl = create_context("egl")
     try:
@@ -576,7 +579,7 @@ def test_walkthrough_sweep_value_and_reset(viewer, lesson_steps, gl_egl):
     sweep = lesson.current.step.sweeps[i]
     assert lesson.select_sweep(i)
     assert lesson.set_sweep(0.35)
-    fitted = v.image_size  # the step fits its framing to the image area beside the panels
+    fitted = v.framebuffer_size  # the fit is to the image area: the window, panels hidden
     shown = window_image(v)
     loaded = fit_scene(lesson.current.scene(sweep.scene), fitted)
     want = with_values(loaded, sweep.keys, 0.35, lesson.current.path, "sweeps[0]", "sweeps[0]")
@@ -769,3 +772,186 @@ def test_no_panel_covers_the_image_and_no_label_passes_a_panels_edge(xdisplay, s
         assert not cut, f"items past the panel's edge (pixels): {cut}"
     finally:
         v.close()
+
+
+# --- the sensor fit, the image area's rows, a transparent background ---------------------------
+
+NARROW = (720, 405)  # the panels' column leaves the image area narrower than 16:9
+
+
+@pytest.fixture
+def showcase(xdisplay: str, tmp_path: Path):
+    """The showcase (a 1280x720 scene: two rows of spheres across the frame) in a window
+    whose image area, beside the panels, is narrower than the scene."""
+    from app.viewer.window import Viewer
+
+    path = tmp_path / "showcase.toml"
+    shutil.copy(scenes_dir() / "showcase.toml", path)
+    v = Viewer(path, NARROW, vsync=False)
+    v.settle()
+    yield v
+    v.close()
+
+
+def _shown_at(v, point) -> tuple[float, float]:
+    """Where a world point falls in the window (pixels from the top-left) through the
+    projection the drawn frame was rendered with (the renderer's, not the document's)."""
+    ix, iy, w, h = v.image_rect
+    clip = v.renderer.proj @ v.renderer.view @ np.array([*point, 1.0])
+    return ix + (clip[0] / clip[3] * 0.5 + 0.5) * w, iy + (0.5 - clip[1] / clip[3] * 0.5) * h
+
+
+def _row_ends(scene) -> list[int]:
+    """The leftmost and rightmost sphere of each row (front: radius 0.6, back: 0.42)."""
+    ends = []
+    for radius in (0.6, 0.42):
+        row = [i for i, o in enumerate(scene.objects) if o.shape == "sphere" and o.radius == radius]
+        ends += [min(row, key=lambda i: scene.objects[i].position[0]),
+                 max(row, key=lambda i: scene.objects[i].position[0])]  # fmt: skip
+    return ends
+
+
+def test_a_narrow_image_area_shows_the_scenes_whole_width(showcase):
+    """Sensor fit: in an image area narrower than the scene's 16:9 the drawn frame widens
+    its vertical field of view so that its horizontal extent is the scene's own, so the
+    outermost sphere of each row lies inside the image (its centre projected with the
+    drawn frame's matrices) and a click there picks it (picking reads the same frame); the
+    document keeps fov_y 40, under which those spheres would fall outside the area. A real
+    click (xdotool) on the leftmost metal sphere selects it. With the panels hidden the
+    area is 16:9 again and the frame is the scene's own."""
+    import glfw
+
+    from app.frame.camera import projection_matrix, view_matrix
+
+    v = showcase
+    ix, iy, w, h = v.image_rect
+    scene_aspect = v.scene.render.width / v.scene.render.height
+    assert w / h < scene_aspect - 0.2
+    assert v.scene.camera.fov_y == 40.0  # the document's camera
+    cam = v.scene.camera
+    own = projection_matrix(cam, w / h) @ view_matrix(cam)
+    for index in _row_ends(v.scene):
+        centre = v.scene.objects[index].position
+        x, y = _shown_at(v, centre)
+        assert ix + 2 <= x < ix + w - 2 and iy <= y < iy + h, (index, x, y)
+        chosen = v.select_pixel(x, y)
+        assert chosen.object_index == index, (index, chosen)
+        clip = own @ np.array([*centre, 1.0])
+        assert abs(clip[0] / clip[3]) > 1.0  # the scene's own fov_y would cut it off
+    shown = v.renderer.camera.tan_half_fov  # the framing's width is the scene's own
+    assert shown[0] == pytest.approx(np.tan(np.radians(20.0)) * scene_aspect)
+    left = _row_ends(v.scene)[2]  # the back row's leftmost, nearest the image's edge
+    v.selection = type(v.selection)()
+    x, y = _shown_at(v, v.scene.objects[left].position)
+    window = str(glfw.get_x11_window(v.window))
+    _step_while(v, _xdotool("mousemove", "--window", window, str(round(x)), str(round(y)),
+                            "click", "1"))  # fmt: skip
+    assert v.selection.object_index == left
+    v.show_ui = False  # Tab: the image is the whole 16:9 window
+    v.settle()
+    assert v.image_size == NARROW and v.renderer.scene.camera.fov_y == 40.0
+
+
+def test_a_pan_in_the_fitted_frame_keeps_the_point_under_the_cursor(showcase):
+    """A pan of 40 pixels in the narrow area moves the point at the target's depth by 40
+    pixels in the drawn frame (metres per pixel from the displayed field of view, not the
+    scene's narrower one)."""
+    v = showcase
+    target = v.scene.camera.target
+    x0, y0 = _shown_at(v, target)
+    v.pan(40, 0)
+    v.settle()
+    x1, y1 = _shown_at(v, target)
+    assert (x1 - x0, y1 - y0) == (pytest.approx(40.0, abs=0.05), pytest.approx(0.0, abs=0.05))
+
+
+def test_the_fitted_scene_keeps_the_files_policy(tmp_path):
+    """The scene the window hands its renderer (``fit_scene``) reads its files under the
+    document's policy (``--allow-path``, ``--max-memory``), not the default one."""
+    from app.untrusted.policy import InputPolicy
+
+    policy = InputPolicy.from_options([tmp_path], 1 << 30)
+    loaded = load_scene(scenes_dir() / "showcase.toml", policy=policy)
+    fitted = fit_scene(loaded, NARROW[::-1])
+    assert fitted.scene.camera.fov_y > loaded.scene.camera.fov_y
+    assert fitted.policy is policy
+
+
+def test_viewing_keeps_the_scenes_fov_and_the_area_is_the_fitted_frame(showcase, gl_egl, tmp_path):
+    """After an orbit, a pan and a zoom in the narrow area, the saved scene has the file's
+    fov_y (the fit is the window's, not the document's) and the camera the window moved;
+    the image area, every row from its top, is the renderer's frame pixel for pixel, and
+    that frame is ``pbs render --fit``'s of the saved scene at the area's size (within
+    1/255). The dark rows at the top are the scene's own: its background colour where no
+    surface is, past the floor's far edge."""
+    v = showcase
+    v.orbit(30, -10)
+    v.pan(12, 4)
+    v.zoom(-0.5)
+    v.settle()
+    out = tmp_path / "saved.toml"
+    v.save_scene(out)
+    loaded = load_scene(out)
+    assert loaded.scene.camera.fov_y == 40.0 and loaded.scene == v.scene
+    ix, iy, w, h = v.image_rect
+    area = v.read_window()[iy : iy + h, ix : ix + w]
+    frame = v.renderer.read_ldr()
+    assert frame.shape == area.shape
+    assert np.array_equal(area[:32], frame[:32])  # the top rows: no strip of anything else
+    assert np.array_equal(area, frame)
+    assert_close(area, headless(gl_egl, fit_scene(loaded, (w, h)), (w, h)))
+    assert not v.renderer.read_gbuffer().covered[:4].any()  # no surface: the background
+
+
+def _checkerboard(shape: tuple[int, int]) -> np.ndarray:
+    """The viewer's checkerboard under a transparent frame, rows from the top of an
+    image area of ``shape`` (its squares start at the area's lower-left corner)."""
+    from app.viewer.window import CHECKER, CHECKER_GREYS
+
+    h, w = shape
+    rows = (h - 1 - np.arange(h))[:, None] // CHECKER  # GL rows count from the bottom
+    cols = np.arange(w)[None, :] // CHECKER
+    return np.where((rows + cols) % 2 == 0, *CHECKER_GREYS).astype(np.float64)
+
+
+def _srgb_decode(c: np.ndarray) -> np.ndarray:
+    c = c / 255.0
+    return np.where(c < 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _srgb_encode(c: np.ndarray) -> np.ndarray:
+    s = np.where(c < 0.0031308, c * 12.92, 1.055 * np.power(np.maximum(c, 0.0), 1 / 2.4) - 0.055)
+    return np.clip(np.round(s * 255.0), 0, 255)
+
+
+def test_a_transparent_background_shows_over_a_checkerboard(showcase, tmp_path):
+    """``render.background = "transparent"`` (the Render panel's background combo makes
+    this edit): where no surface covers a pixel the window shows the checkerboard, not
+    black; elsewhere the frame's colour mixed over it by its alpha in linear light (1/255);
+    "opaque" brings the scene's background back; a screenshot is RGBA, as ``pbs render``'s."""
+    from PIL import Image
+
+    from app.viewer.panels import BACKGROUNDS
+
+    v = showcase
+    assert BACKGROUNDS == ("opaque", "transparent")
+    v.show_ui = False
+    v.settle()
+    opaque = v.read_window()
+    assert v.edit({"render.background": "transparent"})
+    shown = window_image(v)
+    rgba = v.renderer.read_rgba()
+    alpha = rgba[..., 3:].astype(np.float64) / 255.0
+    under = _srgb_decode(_checkerboard(shown.shape[:2]))[..., None]
+    want = _srgb_encode(
+        alpha * _srgb_decode(rgba[..., :3].astype(np.float64)) + (1 - alpha) * under
+    )
+    assert (alpha == 0).any() and (alpha == 1).any()
+    assert_close(shown, want.astype(np.uint8))
+    empty = alpha[..., 0] == 0
+    assert set(np.unique(shown[empty])) == {153, 204}  # the checkerboard's two greys
+    assert not np.array_equal(shown[empty], opaque[empty])
+    path = v.screenshot(tmp_path / "shot.png")
+    assert Image.open(path).mode == "RGBA"
+    assert v.edit({"render.background": "opaque"})
+    assert np.array_equal(window_image(v), opaque)

@@ -82,4 +82,4 @@ def fit_scene(loaded: LoadedScene, size: tuple[int, int] | None) -> LoadedScene:
     if fov == cam.fov_y:
         return loaded
     camera = cam.model_copy(update={"fov_y": fov})
-    return LoadedScene(loaded.scene.model_copy(update={"camera": camera}), loaded.path)
+    return loaded.with_scene(loaded.scene.model_copy(update={"camera": camera}))

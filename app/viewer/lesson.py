@@ -24,7 +24,6 @@ import moderngl
 import numpy as np
 from imgui_bundle import imgui
 
-from app.frame.camera import fit_scene
 from app.walkthrough.markup import blocks, spans
 from app.walkthrough.mathsvg import latex_to_rgba
 from app.walkthrough.model import LoadedStep, Sweep, Text, resolve_scene_ref
@@ -174,11 +173,9 @@ class Lesson:
         v.stop_compare()
         if not v.open_scene(self.path(ref)):
             return False
-        # Projector-ready framing (``pbs render --fit``): the image area keeps the
-        # scene's whole framing whatever its aspect ratio.
-        fov = fit_scene(v.document.loaded, v.image_size).scene.camera.fov_y
-        if fov != v.scene.camera.fov_y and v.edit({"camera.fov_y": fov}, defer=False):
-            v.base_camera = v.scene.camera
+        # Projector-ready framing (``pbs render --fit``) is the window's own: it shows
+        # every scene fitted to the image area (``Viewer.display_scene``), so the step's
+        # scene keeps its file's fov_y here.
         self.scene_ref = ref
         return True
 

@@ -70,9 +70,11 @@ def orbit(camera: Camera, dx: float, dy: float, height: int) -> Camera:
     return Orbit(o.target, o.distance, o.yaw - dx * scale, pitch).camera(camera)
 
 
-def pan(camera: Camera, dx: float, dy: float, height: int) -> Camera:
+def pan(camera: Camera, dx: float, dy: float, height: int, fov_y: float | None = None) -> Camera:
     """Slide camera and target in the view plane by a drag of (dx, dy) pixels: the point
-    at the target's depth under the cursor follows it."""
+    at the target's depth under the cursor follows it. ``fov_y``: the vertical field of
+    view the image is shown with, where it is not the camera's (the viewer's sensor fit
+    widens it for a narrow image area); the camera's own is kept either way."""
     position = np.asarray(camera.position, np.float64)
     target = np.asarray(camera.target, np.float64)
     forward = target - position
@@ -81,7 +83,8 @@ def pan(camera: Camera, dx: float, dy: float, height: int) -> Camera:
     right = np.cross(forward, np.asarray(camera.up, np.float64))
     right /= np.linalg.norm(right)
     up = np.cross(right, forward)
-    metres_per_pixel = 2.0 * distance * math.tan(math.radians(camera.fov_y) / 2.0) / height
+    shown = camera.fov_y if fov_y is None else fov_y
+    metres_per_pixel = 2.0 * distance * math.tan(math.radians(shown) / 2.0) / height
     shift = (-dx * right + dy * up) * metres_per_pixel
     return Camera.model_validate(
         {

@@ -7,7 +7,8 @@ a panel can do exactly what a scene file can, with the same validation and messa
 * Scene: objects, materials and lights; a click in the image selects what is under it.
 * Material: the selected material's preset (searchable), parameters and model of each term.
 * Lights: add, remove, move, colour, intensity, range, cone.
-* Render: tone map, exposure, lens, G-buffer precision, culling, filtering, terms, vsync.
+* Render: tone map, exposure, lens, G-buffer precision, culling, filtering, terms,
+  background (opaque or transparent), vsync.
 * Plots: the selected material's lobes and directional albedo from the GLSL probe that
   ``pbs brdf`` uses, and the frame time of each pass.
 * Problems: the last refused edit, scene error or GLSL error (file and line).
@@ -29,7 +30,7 @@ glyphs (the one the walkthrough's labels use) into it, only when Korean is asked
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, get_args
 
 import numpy as np
 from imgui_bundle import imgui, implot
@@ -50,7 +51,7 @@ from app.common.models import (
 from app.common.tonemaps import TONEMAPS
 from app.errors import InputError
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
-from app.scene.model import CLOTH_KEYS, FIBER_KEYS, SADEGHI_KEYS, TEXTURE_KEYS
+from app.scene.model import CLOTH_KEYS, FIBER_KEYS, SADEGHI_KEYS, TEXTURE_KEYS, RenderSettings
 from app.scene.presets import PRESETS
 from app.untrusted import RefusedError
 from app.untrusted.policy import Limits
@@ -63,6 +64,8 @@ RED = imgui.ImVec4(1.0, 0.35, 0.3, 1.0)
 AMBER = imgui.ImVec4(1.0, 0.8, 0.2, 1.0)
 LOBE_ANGLES = (30.0, 60.0)  # incident angles of the lobe plot, degrees
 VIEWS = ("split", "difference")  # the comparison's views
+# render.background's values ("opaque", "transparent"), as the scene format declares them
+BACKGROUNDS: tuple[str, ...] = get_args(RenderSettings.model_fields["background"].annotation)
 # The docked layout: the top of the side column, its tabs below, the foot.
 TOP = ("Scene",)
 TABS = ("Walkthrough", "Material", "Lights", "Render", "Plots", "Compare")
@@ -735,6 +738,7 @@ class Panels:
                 ("terms", ("all", "specular", "diffuse")),
                 ("blend", ("runtime", "baked")),
                 ("light_culling", ("auto", "tiled", "none")),
+                ("background", BACKGROUNDS),
             ):
                 now = getattr(s, field)
                 changed, i = imgui.combo(field, names.index(now), list(names))

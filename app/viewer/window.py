@@ -16,6 +16,15 @@ the rest, ``image_rect``: the renderer renders at that rectangle's size (so the 
 aspect is the area's), the window draws it there 1:1, and a click maps into it. Without the
 panels (Tab, ``ui=False``) the image is the whole window.
 
+**Sensor fit.** The renderer is handed the scene with its vertical field of view fitted to
+the image area (``display_scene``: ``fit_scene``, as ``pbs render --fit``): an area
+narrower than the scene's render.width x render.height keeps the framing's whole width
+(Blender's and f3d's viewports keep the framed scene in view). The document keeps the
+file's fov_y: a save, orbit, pan and zoom never see the fitted one. Picking reads the drawn
+frame's camera, so a click lands where the frame shows it.
+
+**Alpha.** A transparent background's frame is shown over a checkerboard (``_Present``).
+
 **Idle.** ``run`` draws a frame only when one would differ from the last: input arrived
 (the panels get ``UI_SETTLE_FRAMES`` more to settle hover and focus), an edit or a pending
 compile, a resize, the full-size frame after a preview, a played sweep, or an image still
@@ -56,6 +65,7 @@ import moderngl
 import numpy as np
 
 from app.errors import InputError
+from app.frame.camera import fit_scene
 from app.gl.context import GLContext
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderError
@@ -81,6 +91,10 @@ WATCH_INTERVAL = 0.5  # seconds between checks of the scene file and glsl/
 DIVIDER_GRAB = 6  # pixels either side of a split's divider that a drag moves it by
 DIVIDER_DRAG = -1  # the drag "button" of a divider drag
 UI_SETTLE_FRAMES = 3  # frames drawn after an input event, for ImGui's hover and focus
+# A transparent frame is shown over a checkerboard, as image editors show alpha: squares of
+# CHECKER pixels in two light greys (sRGB-encoded 8-bit values).
+CHECKER = 8
+CHECKER_GREYS = (204, 153)
 
 
 class ViewerError(RuntimeError):
@@ -169,7 +183,8 @@ class Viewer:
         self.state = ViewerState(glsl_mtime=_glsl_mtime(), last_watch=time.perf_counter())
         self.selection = Selection()
         self.show_ui = ui
-        self.renderer = Renderer(self.gl, self.document.loaded, self.framebuffer_size)
+        self.panels = None  # until the panels exist (below), the image is the whole window
+        self.renderer = Renderer(self.gl, self.display_scene(), self.image_size)
         self.comparison: Comparison | None = None
         self.compare_mode: str = "split"  # or "difference"
         self.divider = 0.5  # where the split falls, a fraction of the width
@@ -179,7 +194,6 @@ class Viewer:
         self._debug: DebugPass | None = None
         self._present = _Present(self.ctx)
         self._drag: tuple[int, float, float] | None = None  # button, last x, last y
-        self.panels = None
         self.lesson = None  # the walkthrough (app/viewer/lesson.py), when one is open
         self.frames = 0  # frames drawn and swapped (an idle window draws none)
         self._settle = UI_SETTLE_FRAMES  # frames still to draw for the panels to settle
@@ -225,6 +239,15 @@ class Viewer:
     def scene(self):
         return self.document.scene
 
+    def display_scene(self, loaded: LoadedScene | None = None) -> LoadedScene:
+        """``loaded`` (default: the document's scene) as the window shows it: its camera's
+        vertical field of view fitted to the image area (the sensor fit, ``fit_scene``, as
+        ``pbs render --fit`` does), so that an area narrower than the scene's own
+        render.width x render.height keeps the framing's whole width; a wider one keeps
+        fov_y. Only the renderer gets this camera: the document, what a save writes and
+        what orbit, pan and zoom edit, keeps the scene's own fov_y."""
+        return fit_scene(self.document.loaded if loaded is None else loaded, self.image_size)
+
     def _title(self) -> str:
         return f"pbs view - {self.document.path.name}"
 
@@ -264,15 +287,16 @@ class Viewer:
         self.state.error = ""
         try:
             camera_only = loaded.scene.model_copy(update={"camera": old.camera}) == old
+            shown = self.display_scene(loaded)
             if camera_only:
-                self.renderer.set_camera(loaded.scene.camera)
+                self.renderer.set_camera(shown.scene.camera)
             else:
-                self.renderer.update(loaded.scene)
+                self.renderer.update(shown.scene)
             if self.comparison is not None:
                 if camera_only:
-                    self.comparison.set_camera(loaded.scene.camera)
+                    self.comparison.set_camera(shown.scene.camera)
                 else:
-                    self.comparison.update_base(loaded)
+                    self.comparison.update_base(shown)
         except InputError as exc:  # the edit is valid, but not on a comparison's side
             self.document.replace(previous)
             self._rebuild()
@@ -304,7 +328,10 @@ class Viewer:
     def pan(self, dx: float, dy: float) -> None:
         """A right- or shift-drag of (dx, dy) pixels: slide in the view plane."""
         self.touch()
-        self.set_camera(orbit_controls.pan(self.scene.camera, dx, dy, self.image_size[1]))
+        fov_y = self.display_scene().scene.camera.fov_y  # the cursor's point follows it
+        self.set_camera(
+            orbit_controls.pan(self.scene.camera, dx, dy, self.image_size[1], fov_y)
+        )  # fmt: skip
 
     def zoom(self, steps: float) -> None:
         """Wheel steps towards the target (negative: away)."""
@@ -401,7 +428,7 @@ class Viewer:
         self.touch()
         try:
             spec = CompareSpec(key, a, b, origin="compare")
-            comparison = Comparison(self.gl, self.document.loaded, spec, self.renderer.size)
+            comparison = Comparison(self.gl, self.display_scene(), spec, self.renderer.size)
         except (InputError, ShaderError, moderngl.Error) as exc:
             return self._refuse(exc)
         self.stop_compare()
@@ -498,17 +525,18 @@ class Viewer:
         return path
 
     def screenshot(self, path: Path | None = None, hdr: bool = False) -> Path:
-        """The full-size image (PNG; with ``hdr`` also the linear radiance as .exr) next to
-        the scene unless ``path`` says otherwise."""
+        """The full-size image as shown (the image area's size and fitted camera; PNG,
+        RGBA with a transparent background; with ``hdr`` also the linear radiance as .exr)
+        next to the scene unless ``path`` says otherwise."""
         self._current()
         self._render(scale=1)
         while self.comparison is None and self._mean_unfinished():  # the whole mean
             self._render(scale=1)
         stem = self.document.path.with_suffix("")
         path = Path(path) if path is not None else stem.parent / f"{stem.name}-view.png"
-        write_png(path, self.renderer.read_ldr())
+        write_png(path, self.renderer.read_image())  # RGBA where transparent, as pbs render
         if hdr:
-            write_hdr(path.with_suffix(".exr"), self.renderer.read_hdr())
+            write_hdr(path.with_suffix(".exr"), self.renderer.read_hdr_image())
         return path
 
     def open_scene(self, path: Path) -> bool:
@@ -525,7 +553,8 @@ class Viewer:
                 data = mesh_scene(path)
                 name = path.with_name(f"{path.stem}-view.toml")
                 document = SceneDocument(name, data, policy)
-            renderer = Renderer(self.gl, document.loaded, self.image_size)
+            renderer = Renderer(self.gl, fit_scene(document.loaded, self.image_size),
+                                self.image_size)  # fmt: skip
         except Exception as exc:
             return self._refuse(exc)
         self.stop_compare()  # a comparison of the old scene would hide the new one
@@ -569,7 +598,7 @@ class Viewer:
         and False is returned."""
         self._current()
         try:
-            renderer = Renderer(self.gl, self.document.loaded, self.image_size)
+            renderer = Renderer(self.gl, self.display_scene(), self.image_size)
         except Exception as exc:
             self.state.error = _problem(exc)
             return False
@@ -592,6 +621,7 @@ class Viewer:
         if self.comparison is not None and self.comparison.size != size:
             self.comparison.resize(size)
             self.state.dirty = True
+        self._fit_camera()
         refining = self.comparison is None and self.refining()
         if not (self.state.dirty or self.state.rendered_scale != scale or refining):
             return
@@ -614,6 +644,19 @@ class Viewer:
                 self._run_debug()
         self.state.dirty = False
         self.state.rendered_scale = scale
+
+    def _fit_camera(self) -> None:
+        """Give the renderer (and a comparison's sides) the camera fitted to the image
+        area's aspect now (``display_scene``): the area changes with the window, the
+        panels' column and Tab. The full-size area decides, so that the preview (half of
+        it, rounded down) shows the same field of view."""
+        camera = self.display_scene().scene.camera
+        if self.renderer.scene.camera != camera:
+            self.renderer.set_camera(camera)
+            self.state.dirty = True
+        if self.comparison is not None and self.comparison.base.scene.camera != camera:
+            self.comparison.set_camera(camera)
+            self.state.dirty = True
 
     def _sample_count(self) -> int:
         """The jittered samples of the progressive mean (``render.antialiasing = "jitter"``
@@ -741,7 +784,7 @@ class Viewer:
         if (w, h) != (fw, fh):
             self.ctx.clear(0.0, 0.0, 0.0)  # what the panels leave uncovered stays dark
         self.ctx.viewport = (x, fh - y - h, w, h)  # GL rows from the bottom
-        self._present.draw(self._shown(), (x, fh - y - h, w, h))
+        self._present.draw(self._shown(), (x, fh - y - h, w, h), self._shows_alpha())
         self.ctx.viewport = (0, 0, fw, fh)
         if self.panels is not None and self.show_ui:
             try:
@@ -775,6 +818,16 @@ class Viewer:
         if self.debug_view is not None and self._debug is not None and self._debug.view:
             return self._debug.display
         return self.renderer.post.target
+
+    def _shows_alpha(self) -> bool:
+        """Whether the image shown carries a coverage alpha to show over the checkerboard:
+        a transparent background's frame (``render.background = "transparent"``), or a
+        split comparison of one (the split copies each side's alpha); not a debug view
+        or the difference view, whose alpha is 1."""
+        if self.comparison is not None:
+            transparent = any(r.transparent for r in self.comparison.renderers)
+            return transparent and self.compare_mode == "split"  # an opaque side: alpha 1
+        return self.renderer.transparent and self._shown() is self.renderer.post.target
 
     def read_window(self) -> np.ndarray:
         """The window's framebuffer as the last frame drew it, (H, W, 3) uint8, rows top
@@ -931,8 +984,11 @@ class Viewer:
 class _Present:
     """Draws the renderer's display image into a rectangle of the window (the viewport the
     caller set): texel-exact (NEAREST) when the image has the rectangle's size, bilinear
-    when a preview is magnified. The draw
-    is app/gl/fullscreen.py's ``FullscreenDraw`` with the window's own small program (no
+    when a preview is magnified. An image with a coverage alpha (a transparent background)
+    is composited over a checkerboard of ``CHECKER`` pixel squares fixed to the
+    rectangle's lower-left corner: straight alpha, blended in linear light (the sRGB
+    curve, IEC 61966-2-1, undone and redone), as coverage mixes radiance. The draw is
+    app/gl/fullscreen.py's ``FullscreenDraw`` with the window's own small program (no
     shader cache or project header: the default framebuffer is all it writes)."""
 
     _VERTEX = """
@@ -947,9 +1003,28 @@ void main() {
 uniform sampler2D u_image;
 uniform vec2 u_origin;  // the rectangle's lower-left corner, window pixels
 uniform vec2 u_size;    // its size
+uniform int u_alpha;    // 1: the image's straight alpha over the checkerboard; 0: opaque
+uniform float u_checker;       // the checkerboard's square, pixels
+uniform vec2 u_checker_greys;  // its two greys, sRGB-encoded
 out vec4 frag_color;
+vec3 srgb_to_linear(vec3 c) {
+    return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(0.04045, c));
+}
+vec3 linear_to_srgb(vec3 c) {
+    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+}
 void main() {
-    frag_color = vec4(texture(u_image, (gl_FragCoord.xy - u_origin) / u_size).rgb, 1.0);
+    vec2 local = gl_FragCoord.xy - u_origin;
+    vec4 texel = texture(u_image, local / u_size);
+    if (u_alpha == 0) {
+        frag_color = vec4(texel.rgb, 1.0);
+        return;
+    }
+    ivec2 cell = ivec2(floor(local / u_checker));
+    float grey = ((cell.x + cell.y) & 1) == 0 ? u_checker_greys.x : u_checker_greys.y;
+    vec3 under = srgb_to_linear(vec3(grey));
+    vec3 over = srgb_to_linear(texel.rgb);
+    frag_color = vec4(linear_to_srgb(mix(under, over, texel.a)), 1.0);
 }
 """
 
@@ -962,13 +1037,22 @@ void main() {
         self.linear = ctx.sampler(filter=(moderngl.LINEAR, moderngl.LINEAR), repeat_x=False,
                                   repeat_y=False)  # fmt: skip
 
-    def draw(self, image: moderngl.Texture, rect: tuple[int, int, int, int]) -> None:
-        """``image`` over ``rect`` (x, y from the bottom, w, h: the viewport set)."""
+    def draw(
+        self, image: moderngl.Texture, rect: tuple[int, int, int, int], alpha: bool = False
+    ) -> None:
+        """``image`` over ``rect`` (x, y from the bottom, w, h: the viewport set); with
+        ``alpha``, its alpha over the checkerboard."""
         x, y, w, h = rect
         sampler = self.nearest if image.size == (w, h) else self.linear
         self.ctx.disable(moderngl.CULL_FACE)  # the draw disables depth test and blending
         sampler.use(0)
-        uniforms = {"u_origin": (float(x), float(y)), "u_size": (float(w), float(h))}
+        uniforms = {
+            "u_origin": (float(x), float(y)),
+            "u_size": (float(w), float(h)),
+            "u_alpha": int(alpha),
+            "u_checker": float(CHECKER),
+            "u_checker_greys": tuple(g / 255.0 for g in CHECKER_GREYS),
+        }
         self.fullscreen.draw(None, uniforms, {"u_image": image})
         sampler.clear(0)
 
