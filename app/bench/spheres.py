@@ -73,14 +73,15 @@ def sphere_grid_scene(lights: int, size: tuple[int, int]) -> dict:
 
 def pbs_frame_passes(r: Renderer) -> list[Pass]:
     """A whole frame to the caller's 8-bit image, pass by pass: G-buffer, tile culling,
-    lighting, post (exposure, tone map, sRGB; fused into lighting in a plain frame) and
-    the read-back. The scene must have no
-    depth of field, supersampling, blended parts, shadows or an environment background
-    (what ``Renderer.render`` adds for those is not here)."""
-    extra = (r.dof, r.resolve, r.blend, r.shadows, r.background)
+    lighting, post (exposure, tone map, sRGB; fused into lighting in a plain frame), the
+    display image's FXAA where ``render.antialiasing = "fxaa"`` (the default) and the
+    read-back. The scene must have no depth of field, supersampling, jittered
+    accumulation, blended parts, shadows or an environment background (what
+    ``Renderer.render`` adds for those is not here)."""
+    extra = (r.dof, r.resolve, r.accumulate, r.blend, r.shadows, r.background)
     if any(x is not None for x in extra):
         raise ValueError("pbs_frame_passes: a scene with depth of field, supersampling, "
-                         "blended parts, shadows or an environment")  # fmt: skip
+                         "accumulation, blended parts, shadows or an environment")  # fmt: skip
     *passes, _ = deferred_passes(r)
     # as Renderer.render runs them: the lighting pass writes the display image itself
     # where the frame is plain (Renderer.fused_display), else the post pass follows
@@ -88,6 +89,9 @@ def pbs_frame_passes(r: Renderer) -> list[Pass]:
     passes.append(Pass("lighting", r.run_lighting, lit))
     if not r.fused_display:
         passes.append(Pass("post", lambda: r.run_post(r.lighting.hdr), r.post.fbo))
+    fxaa = r.fxaa
+    if fxaa is not None:
+        passes.append(Pass("fxaa", lambda: fxaa.run(r.post.target), r.post.fbo))
     return [*passes, Pass("read-back", r.read_ldr)]
 
 
