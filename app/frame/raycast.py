@@ -117,8 +117,7 @@ def area_reference_scene(
     (``edge_samples`` x ``edge_samples`` where a silhouette crosses it), box-averaged in
     linear radiance with the background, an environment drawn behind the scene included,
     whatever ``render.supersample`` says: what the renderer's pixels converge to
-    (docs/accuracy.md, "Every pixel"). Lights' shadows are ignored: call it on a scene
-    without them (app/bench/raycast.py ``unshadowed``)."""
+    (docs/accuracy.md, "Every pixel")."""
     scene = loaded.scene
     if scene.camera.aperture > 0.0:
         raise ValueError("camera.aperture: the ray-caster is a pinhole camera (no depth of field)")

@@ -483,7 +483,11 @@ def _sample_mean(
         ndc = centres[None, :, :] + offsets[:, None, :]  # (k, P, 2)
         hits = cast(primitives, camera, (0, 0), ndc)
         bg = background(ndc) if callable(background) else background
-        total += shade(hits, materials, camera, lights, bg, terms, None, environment).sum(0)
+        visibility = None
+        if any(light.shadow is not None for light in lights):  # shadow rays, as render_reference
+            visibility = shadow_visibility(primitives, hits, lights)
+        radiance = shade(hits, materials, camera, lights, bg, terms, visibility, environment)
+        total += radiance.sum(axis=0)
         covered |= hits.covered.any(axis=0)
         if start == 0:
             first = hits.ids[0]
@@ -510,8 +514,8 @@ def area_reference(
     (``multi_jittered``); the edge pixels (``edge_mask``: some of those samples disagree,
     and their neighbours), where coverage converges slowest, are cast again with
     ``edge_samples`` x ``edge_samples``. ``background``: a colour, or a function of the
-    samples' NDC giving the environment drawn behind the scene. No shadows (the renderer's
-    are measured against shadow rays on their own, docs/shadows.md). ``ids``: as
+    samples' NDC giving the environment drawn behind the scene. Shadows as
+    ``render_reference`` casts them (exact hard shadows). ``ids``: as
     ``render_reference``'s, over the first ``samples`` x ``samples``."""
     width, height = size
     centres = pixel_ndc(height, width).reshape(-1, 2)
