@@ -128,7 +128,9 @@ def raycast_errors(
 ) -> dict[str, float | None]:
     """``interior_errors`` of the renderer's HDR of ``loaded`` against the ray-caster's,
     on the pixels 2 px or more inside a silhouette (``interior_mask``), plus the share of
-    pixels covered by one and not the other (``coverage_mismatch``)."""
+    pixels covered by one and not the other (``coverage_mismatch``). The renderer draws
+    the pixel-centre image (``pixel_centres``), the one this comparison is about."""
+    loaded = pixel_centres(loaded)
     ref = reference_scene(loaded, size)
     hdr, covered = gpu_hdr(gl, loaded, size)
     cam, render = loaded.scene.camera, loaded.scene.render
@@ -138,6 +140,16 @@ def raycast_errors(
 
 
 # The every-pixel comparison ---------------------------------------------------------------
+
+
+def pixel_centres(loaded: LoadedScene) -> LoadedScene:
+    """``loaded`` with ``render.antialiasing = "none"`` where the settings have that key:
+    one sample at each pixel centre (``render.supersample`` aside), the image the
+    interior-pixel comparison holds to its targets (docs/accuracy.md)."""
+    render = loaded.scene.render
+    if "antialiasing" not in type(render).model_fields:
+        return loaded
+    return with_settings(loaded, {"render.antialiasing": "none"})
 
 
 def unshadowed(loaded: LoadedScene) -> LoadedScene:

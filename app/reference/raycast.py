@@ -447,6 +447,12 @@ def multi_jittered(n: int, seed: int = 1) -> np.ndarray:
     return np.stack([x.ravel(), y.ravel()], axis=1) - 0.5
 
 
+# A pixel whose samples' radiance spreads over more than this share of its mean (or of
+# RELATIVE_SPREAD_FLOOR of the image's peak, where darker) is refined like an edge pixel:
+# its shading, not only its coverage, changes within it.
+SPREAD = 0.5
+RELATIVE_SPREAD_FLOOR = 1e-3
+
 Background = Callable[[np.ndarray], np.ndarray]  # image points (..., 2) NDC -> radiance
 
 
@@ -466,13 +472,15 @@ def _sample_mean(
     background: np.ndarray | Background,
     terms: str,
     environment: tuple[np.ndarray, int] | None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Mean radiance (P, 3) over ``pattern``'s offsets around each NDC point of
     ``centres`` (P, 2) (``pixel``: a pixel's NDC width and height), whether any sample
-    hits a surface, and the primitive all samples hit (``MIXED`` where they differ);
-    the samples of a batch of offsets are cast as one (offsets, P) image."""
+    hits a surface, the primitive all samples hit (``MIXED`` where they differ) and the
+    spread (largest minus smallest) of the samples' mean over channels; the samples of a
+    batch of offsets are cast as one (offsets, P) image."""
     count = len(centres)
     total = np.zeros((count, 3))
+    low, high = np.full(count, np.inf), np.full(count, -np.inf)
     covered = np.zeros(count, bool)
     first = np.full(count, NO_HIT, np.int64)
     same = np.ones(count, bool)
@@ -488,11 +496,13 @@ def _sample_mean(
             visibility = shadow_visibility(primitives, hits, lights)
         radiance = shade(hits, materials, camera, lights, bg, terms, visibility, environment)
         total += radiance.sum(axis=0)
+        level = radiance.mean(axis=-1)
+        low, high = np.minimum(low, level.min(axis=0)), np.maximum(high, level.max(axis=0))
         covered |= hits.covered.any(axis=0)
         if start == 0:
             first = hits.ids[0]
         same &= np.all(hits.ids == first, axis=0)
-    return total / len(pattern), covered, np.where(same, first, MIXED)
+    return total / len(pattern), covered, np.where(same, first, MIXED), high - low
 
 
 def area_reference(
@@ -511,9 +521,11 @@ def area_reference(
     mean, in linear radiance, of rays spread over its whole area, surfaces and background
     alike, so that a pixel a silhouette crosses holds its true coverage mix (the box
     filter over the pixel, integrated). Every pixel takes ``samples`` x ``samples``
-    (``multi_jittered``); the edge pixels (``edge_mask``: some of those samples disagree,
-    and their neighbours), where coverage converges slowest, are cast again with
-    ``edge_samples`` x ``edge_samples``. ``background``: a colour, or a function of the
+    (``multi_jittered``); the pixels where that converges slowest are cast again with
+    ``edge_samples`` x ``edge_samples``: the edge pixels (``edge_mask``: some of those
+    samples disagree on the primitive, and their neighbours) and the pixels whose samples'
+    radiance spreads over more than ``SPREAD`` of the pixel's mean (a highlight smaller
+    than the pixel), and their neighbours. ``background``: a colour, or a function of the
     samples' NDC giving the environment drawn behind the scene. Shadows as
     ``render_reference`` casts them (exact hard shadows). ``ids``: as
     ``render_reference``'s, over the first ``samples`` x ``samples``."""
@@ -521,7 +533,7 @@ def area_reference(
     centres = pixel_ndc(height, width).reshape(-1, 2)
     pixel = (2.0 / width, 2.0 / height)
     args = (lights, background, terms, environment)
-    hdr, covered, ids = _sample_mean(
+    hdr, covered, ids, spread = _sample_mean(
         primitives, materials, camera, centres, pixel, multi_jittered(samples), *args
     )
     hdr, covered, ids = (
@@ -530,8 +542,11 @@ def area_reference(
         ids.reshape(height, width),
     )
     if edge_samples > samples:
-        edge = edge_mask(ids)
-        fine, fine_covered, _ = _sample_mean(
+        level = hdr.mean(axis=-1)
+        floor = RELATIVE_SPREAD_FLOOR * max(float(level.max()), np.finfo(np.float64).tiny)
+        varied = spread.reshape(height, width) > SPREAD * np.maximum(level, floor)
+        edge = edge_mask(np.where(varied, MIXED, ids))
+        fine, fine_covered, _, _ = _sample_mean(
             primitives, materials, camera, centres.reshape(height, width, 2)[edge], pixel,
             multi_jittered(edge_samples), *args,
         )  # fmt: skip
