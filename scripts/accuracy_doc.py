@@ -40,6 +40,7 @@ SETTINGS = ["", "render.supersample=2", "render.supersample=4"]
 TARGET_FLIP = 1e-3  # mean FLIP over every pixel (docs/accuracy.md)
 BEGIN = "<!-- begin generated: scripts/accuracy_doc.py writes this section; edit the script -->"
 END = "<!-- end generated: scripts/accuracy_doc.py -->"
+CHANGES_IMAGE = {"render.terms", "render.width", "render.height"}  # the truth would differ
 CONVERGENCE = ["five spheres", "sec3_lambert", "sec6_roughness"]  # the truth checked by a finer one
 
 
@@ -57,6 +58,13 @@ def measure(args: argparse.Namespace) -> dict:
     from app.gl.context import create_context
 
     overrides = [parse_overrides(s) for s in args.setting or SETTINGS]
+    for o in overrides:
+        for key in o:
+            if not key.startswith("render.") or key in CHANGES_IMAGE:
+                raise ValueError(
+                    f"setting {key}: only render.* keys that change how the image is"
+                    " sampled (the truth is the scene's)"
+                )
     gl = create_context(args.backend)
     start = time.perf_counter()
     rows, convergence = [], []
