@@ -2,6 +2,7 @@
 float64 ray-cast, every pixel, under a list of settings.
 
     python scripts/accuracy_doc.py [--setting OVERRIDES]... [--json FILE] [--width 160]
+                                   [--scenes NAME...] [--jobs 2]
     python scripts/accuracy_doc.py --from-json FILE [--check]
 
 The first measures (app/bench/raycast.py ``every_pixel_row``): the five-sphere scene and
@@ -19,6 +20,7 @@ import argparse
 import json
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from app.bench.raycast import (
@@ -44,14 +46,28 @@ CHANGES_IMAGE = {"render.terms", "render.width", "render.height"}  # the truth w
 CONVERGENCE = ["five spheres", "sec3_lambert", "sec6_roughness"]  # the truth checked by a finer one
 
 
-def _scenes(width: int) -> list[tuple[str, LoadedScene, tuple[int, int]]]:
-    out = []
-    for name, loaded in [("five spheres", five_spheres())] + [
-        (p.stem, unshadowed(load_scene(p))) for p in analytic_scenes(ROOT / "scenes")
-    ]:
-        render = loaded.scene.render
-        out.append((name, loaded, (width, max(8, round(width * render.height / render.width)))))
-    return out
+def _scene(name: str) -> LoadedScene:
+    """The measured scene ``name``: the five spheres, or a bundled scene without shadows."""
+    if name == "five spheres":
+        return five_spheres()
+    return unshadowed(load_scene(ROOT / "scenes" / f"{name}.toml"))
+
+
+def _size(loaded: LoadedScene, width: int) -> tuple[int, int]:
+    render = loaded.scene.render
+    return (width, max(8, round(width * render.height / render.width)))
+
+
+def _truths(name: str, width: int, samples: int, edge: int) -> tuple:
+    """The truth of scene ``name`` and, for the CONVERGENCE scenes, a finer one (None
+    otherwise): a worker process's job."""
+    loaded = _scene(name)
+    size = _size(loaded, width)
+    truth = area_reference_scene(loaded, size, samples, edge)
+    finer = None
+    if name in CONVERGENCE:
+        finer = area_reference_scene(loaded, size, 2 * samples, 2 * edge)
+    return truth, finer
 
 
 def measure(args: argparse.Namespace) -> dict:
@@ -65,23 +81,34 @@ def measure(args: argparse.Namespace) -> dict:
                     f"setting {key}: only render.* keys that change how the image is"
                     " sampled (the truth is the scene's)"
                 )
-    gl = create_context(args.backend)
+    names = ["five spheres"] + [p.stem for p in analytic_scenes(ROOT / "scenes")]
+    if args.scenes:
+        unknown = sorted(set(args.scenes) - set(names))
+        if unknown:
+            raise ValueError(f"--scenes: not a measured scene: {', '.join(unknown)}")
+        names = [n for n in names if n in args.scenes]
     start = time.perf_counter()
     rows, convergence = [], []
-    try:
-        for name, loaded, size in _scenes(args.width):
-            truth = area_reference_scene(loaded, size, args.samples, args.edge_samples)
-            cam, render = loaded.scene.camera, loaded.scene.render
-            for o in overrides:
-                e = every_pixel_row(gl, loaded, size, truth, o)
-                rows.append({"scene": name, "size": list(size), "settings": settings_label(o), **e})
-            if name in CONVERGENCE:
-                finer = area_reference_scene(loaded, size, 2 * args.samples, 2 * args.edge_samples)
-                e = truth_errors(truth, finer, cam.exposure, render.tonemap)
-                convergence.append({"scene": name, "size": list(size), **e})
-            print(f"accuracy_doc: {name} {size[0]}x{size[1]}", file=sys.stderr)
-    finally:
-        gl.release()
+    # The truths (numpy, one core each) in worker processes; the renders here, in order
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        jobs = [pool.submit(_truths, n, args.width, args.samples, args.edge_samples) for n in names]
+        gl = create_context(args.backend)
+        try:
+            for name, job in zip(names, jobs, strict=True):
+                truth, finer = job.result()
+                loaded = _scene(name)
+                size = _size(loaded, args.width)
+                cam, render = loaded.scene.camera, loaded.scene.render
+                for o in overrides:
+                    e = every_pixel_row(gl, loaded, size, truth, o)
+                    label = settings_label(o)
+                    rows.append({"scene": name, "size": list(size), "settings": label, **e})
+                if finer is not None:
+                    e = truth_errors(truth, finer, cam.exposure, render.tonemap)
+                    convergence.append({"scene": name, "size": list(size), **e})
+                print(f"accuracy_doc: {name} {size[0]}x{size[1]}", file=sys.stderr)
+        finally:
+            gl.release()
     return {
         "width": args.width,
         "samples": args.samples,
@@ -176,6 +203,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--samples", type=int, default=8, help="truth: n x n rays per pixel")
     parser.add_argument("--edge-samples", type=int, default=32, help="truth: on edge pixels")
     parser.add_argument("--backend", default="egl", choices=["egl", "osmesa"])
+    parser.add_argument("--scenes", nargs="+", help='only these ("five spheres", file stems)')
+    parser.add_argument("--jobs", type=int, default=2, help="processes computing the truths")
     args = parser.parse_args(argv)
     if args.from_json is not None:
         payload = json.loads(args.from_json.read_text(encoding="utf-8"))
