@@ -129,7 +129,8 @@ def section(payload: dict) -> str:
     full table."""
     n, e = payload["samples"], payload["edge_samples"]
     lines = [
-        f"Truth: {n} × {n} multi-jittered rays per pixel, {e} × {e} on edge pixels;"
+        f"Truth: {n} × {n} multi-jittered rays per pixel, {e} × {e} on edge pixels and"
+        " sub-pixel highlights;"
         f" {payload['width']} pixels wide; {len({r['scene'] for r in payload['rows']})} scenes;"
         f" {payload['seconds']:.0f} s on llvmpipe (EGL), 2 cores.",
         "",
