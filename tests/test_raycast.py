@@ -14,7 +14,7 @@ import re
 import numpy as np
 import pytest
 
-from app.bench.raycast import five_spheres, raycast_errors
+from app.bench.raycast import analytic_scenes, five_spheres, raycast_errors
 from app.common.camera import CameraFrame
 from app.common.lights import LightType, PunctualLight
 from app.common.models import DEFAULT_MODEL, ModelParams
@@ -31,7 +31,6 @@ from app.reference.raycast import (
     render_reference,
 )
 from app.scene.loader import load_scene, parse_scene
-from app.screenshots import scene_files
 from tests.agreement import without_shadows
 from tests.conftest import REPO
 
@@ -289,24 +288,13 @@ def test_the_targets_fail_a_tessellated_or_half_float_pipeline(gl_egl):
 
 def _analytic_scenes() -> list:
     """The bundled scenes the ray-caster takes whose spheres are all analytic (stress.toml
-    keeps two icospheres of subdivision 0 and 1 on purpose). Scenes lit by an image, sky or
-    studio environment are left to the image-based lighting's own tests: the split sum is
-    an approximation by design, its error against brute force measured in
-    tests/test_ibl_reference.py and tabulated in docs/ibl.md (up to tens of percent at
-    grazing angles), far above these targets for an exact pipeline."""
-    out = []
-    for path in scene_files():
-        loaded = load_scene(path)
-        env = loaded.scene.environment
-        if env is not None and env.source != "uniform":
-            continue
-        try:
-            reference_scene(loaded, (4, 4))
-        except ValueError:
-            continue
-        if all(obj.subdivisions is None for obj in loaded.scene.objects):
-            out.append(path)
-    return out
+    keeps two icospheres of subdivision 0 and 1 on purpose), punctual lights or a uniform
+    environment (``analytic_scenes``). Scenes lit by an image, sky or studio environment
+    are left to the image-based lighting's own tests: the split sum is an approximation by
+    design, its error against brute force measured in tests/test_ibl_reference.py and
+    tabulated in docs/ibl.md (up to tens of percent at grazing angles), far above these
+    targets for an exact pipeline."""
+    return analytic_scenes(REPO / "scenes", environments=True)
 
 
 @pytest.mark.parametrize("path", _analytic_scenes(), ids=lambda p: p.stem)

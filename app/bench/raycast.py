@@ -7,6 +7,11 @@ reference of the same scene (app/bench/metrics.py ``interior_errors``).
 lights where asked; its two settings that matter, ``subdivisions`` (None: the analytic
 sphere) and ``gbuffer`` (None: the default encoding), are arguments.
 scripts/raycast_table.py prints docs/accuracy.md's table from it.
+
+``every_pixel_errors`` compares every pixel instead, edges included, with the
+pixel-area-integrated truth (``reference_scene`` with many samples per pixel): the mean
+FLIP over the whole image and split into edge and interior pixels, for the renderer under
+any settings overrides (``with_settings``); scripts/accuracy_doc.py tabulates it.
 """
 
 from __future__ import annotations
@@ -19,8 +24,11 @@ import numpy as np
 from app.bench.metrics import interior_errors
 from app.frame.raycast import reference_scene
 from app.gl.context import GLContext
+from app.reference.raycast import RaycastImage, edge_mask
+from app.reference.tonemap import post_process
 from app.render.renderer import Renderer
-from app.scene.loader import LoadedScene, parse_scene
+from app.scene.loader import LoadedScene, load_scene, parse_scene
+from app.scene.model import Light
 
 # (base_color, metallic, roughness): a spread of roughness over dielectrics and metals,
 # none below 0.3 so that no highlight is sharper than a few pixels at 640x360.
@@ -120,10 +128,195 @@ def raycast_errors(
 ) -> dict[str, float | None]:
     """``interior_errors`` of the renderer's HDR of ``loaded`` against the ray-caster's,
     on the pixels 2 px or more inside a silhouette (``interior_mask``), plus the share of
-    pixels covered by one and not the other (``coverage_mismatch``)."""
+    pixels covered by one and not the other (``coverage_mismatch``). The renderer draws
+    the pixel-centre image (``pixel_centres``), the one this comparison is about."""
+    loaded = pixel_centres(loaded)
     ref = reference_scene(loaded, size)
     hdr, covered = gpu_hdr(gl, loaded, size)
     cam, render = loaded.scene.camera, loaded.scene.render
     errors = interior_errors(hdr, ref.hdr, ref.interior(), cam.exposure, render.tonemap, flip)
     errors["coverage_mismatch"] = float(np.mean(covered != ref.covered))
     return errors
+
+
+# The every-pixel comparison ---------------------------------------------------------------
+
+
+def pixel_centres(loaded: LoadedScene) -> LoadedScene:
+    """``loaded`` with ``render.antialiasing = "none"`` where the settings have that key:
+    one sample at each pixel centre (``render.supersample`` aside), the image the
+    interior-pixel comparison holds to its targets (docs/accuracy.md)."""
+    render = loaded.scene.render
+    if "antialiasing" not in type(render).model_fields:
+        return loaded
+    return with_settings(loaded, {"render.antialiasing": "none"})
+
+
+def unshadowed(loaded: LoadedScene) -> LoadedScene:
+    """``loaded`` with every light's shadow off (the shadow keys at their defaults): a
+    shadow map's filtered edge is not the ray-caster's hard shadow-ray edge, and shadows
+    are measured on their own (docs/shadows.md)."""
+    keys = {key for key in Light.model_fields if key.startswith("shadow")}
+    lights = [
+        type(light).model_validate(light.model_dump(exclude=keys)) for light in loaded.scene.lights
+    ]
+    return LoadedScene(loaded.scene.model_copy(update={"lights": lights}), loaded.path)
+
+
+def parse_overrides(text: str) -> dict[str, object]:
+    """``"render.supersample=2,render.gbuffer=f16"`` -> {"render.supersample": 2, ...}: each
+    value read as a TOML value where it is one (numbers, booleans, quoted strings), else
+    kept as the bare string (``render.antialiasing=fxaa``); "" is no override."""
+    out: dict[str, object] = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        key, sep, value = item.partition("=")
+        if not sep or "." not in key:
+            raise ValueError(f"setting {item!r}: expected SECTION.KEY=VALUE")
+        try:
+            out[key.strip()] = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key.strip()] = value.strip()
+    return out
+
+
+def with_settings(loaded: LoadedScene, overrides: dict[str, object]) -> LoadedScene:
+    """``loaded`` with each ``SECTION.KEY`` of ``overrides`` set (``render.supersample``,
+    ``render.antialiasing``...), validated as a scene file's value is: a ValueError names
+    the key it refuses."""
+    scene = loaded.scene
+    for dotted, value in overrides.items():
+        section, key = dotted.split(".", 1)
+        sub = getattr(scene, section, None)
+        if sub is None or not hasattr(sub, "model_dump"):
+            raise ValueError(f"{dotted}: no settings section {section!r}")
+        try:
+            new = type(sub).model_validate({**sub.model_dump(), key: value})
+        except Exception as exc:  # pydantic's ValidationError, one line of it
+            raise ValueError(f"{dotted}: {str(exc).splitlines()[-1].strip()}") from exc
+        scene = scene.model_copy(update={section: new})
+    return LoadedScene(scene, loaded.path)
+
+
+def settings_label(overrides: dict[str, object]) -> str:
+    """``render.supersample=2`` style, "defaults" for none."""
+    return ", ".join(f"{k}={v}" for k, v in overrides.items()) or "defaults"
+
+
+def gpu_images(
+    gl: GLContext, loaded: LoadedScene, size: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The renderer's resolved linear HDR (H, W, 3) float64 and its display image (H, W, 3)
+    in [0, 1] (the 8-bit sRGB the user gets, after every post pass) of ``loaded``."""
+    r = Renderer(gl, loaded, size)
+    try:
+        r.render()
+        ldr = r.read_ldr().astype(np.float64) / 255.0
+        hdr = r.read_hdr().astype(np.float64)
+    finally:
+        r.release()
+    return hdr, ldr
+
+
+def _flip(reference: np.ndarray, test: np.ndarray) -> np.ndarray:
+    """NVIDIA's FLIP (LDR) map (H, W) between two display images in [0, 1]."""
+    import flip_evaluator
+
+    error_map, _, _ = flip_evaluator.evaluate(
+        np.ascontiguousarray(reference, np.float32),
+        np.ascontiguousarray(test, np.float32),
+        "LDR",
+        applyMagma=False,
+    )
+    return np.asarray(error_map, np.float64).reshape(reference.shape[:2])
+
+
+def _mean(a: np.ndarray, sel: np.ndarray) -> float | None:
+    return float(a[sel].mean()) if np.any(sel) else None
+
+
+def every_pixel_errors(
+    hdr: np.ndarray,
+    truth: RaycastImage,
+    exposure_ev: float,
+    tonemap: str,
+    display: np.ndarray | None = None,
+    margin: int = 1,
+) -> dict[str, float | None]:
+    """``hdr`` against the pixel-area-integrated ``truth`` over every pixel:
+
+    * ``flip_mean``: mean FLIP (LDR) of the whole image, both tone mapped by the scene's
+      exposure and tone map in float64 (app/bench/metrics.py ``flip_map``'s convention);
+      ``flip_edge`` and ``flip_interior`` the same map averaged over the edge pixels
+      (``edge_mask(truth.ids, margin)``: pixels a silhouette or a boundary between
+      primitives crosses, and their neighbours) and over the rest;
+    * ``rel_rmse``: RMS of the linear HDR error over the RMS of the truth, all pixels and
+      channels (``rel_rmse_edge``: the edge pixels' RMS error, same denominator);
+    * ``display_flip_mean`` (with ``display``, the renderer's 8-bit display image in
+      [0, 1]): mean FLIP against the truth's display image rounded to 8 bits as the
+      display target rounds it, so that post passes on the display image count;
+    * ``edge_share``: the fraction of the image's pixels that are edge pixels."""
+    want = np.asarray(truth.hdr, np.float64)
+    got = np.asarray(hdr, np.float64)
+    ref_ldr = np.clip(post_process(want, exposure_ev, tonemap), 0.0, 1.0)
+    test_ldr = np.clip(post_process(got, exposure_ev, tonemap), 0.0, 1.0)
+    flip = _flip(ref_ldr, test_ldr)
+    edge = edge_mask(truth.ids, margin)
+    err2 = ((got - want) ** 2).sum(axis=-1)
+    norm = float(np.sqrt(np.mean(want * want)))
+    out: dict[str, float | None] = {
+        "flip_mean": float(flip.mean()),
+        "flip_edge": _mean(flip, edge),
+        "flip_interior": _mean(flip, ~edge),
+        "rel_rmse": float(np.sqrt(err2.mean() / 3.0)) / norm if norm > 0 else None,
+        "rel_rmse_edge": (
+            float(np.sqrt(err2[edge].mean() / 3.0)) / norm if norm > 0 and edge.any() else None
+        ),
+        "display_flip_mean": None,
+        "edge_share": float(edge.mean()),
+    }
+    if display is not None:
+        quantised = np.round(ref_ldr * 255.0) / 255.0
+        out["display_flip_mean"] = float(_flip(quantised, display).mean())
+    return out
+
+
+def truth_errors(a: RaycastImage, b: RaycastImage, exposure_ev: float, tonemap: str) -> dict:
+    """How far two truths (e.g. 8 x 8 and 16 x 16 samples per pixel) are apart, by
+    ``every_pixel_errors`` of one against the other: the truth's own convergence."""
+    return every_pixel_errors(a.hdr, b, exposure_ev, tonemap)
+
+
+def analytic_scenes(scenes: Path, environments: bool = False) -> list[Path]:
+    """The bundled scenes the ray-caster takes whose spheres are all analytic, lit by
+    punctual lights only (``environments``: a uniform environment allowed too; its
+    quadrature per sample makes a supersampled truth 10 to 100 times dearer). Scenes lit
+    by an image, sky or studio are left out: the split sum is an approximation by design
+    (docs/ibl.md)."""
+    out = []
+    for path in sorted(Path(scenes).glob("*.toml")):
+        loaded = load_scene(path)
+        env = loaded.scene.environment
+        if env is not None and (env.source != "uniform" or not environments):
+            continue
+        try:
+            reference_scene(loaded, (4, 4))
+        except ValueError:
+            continue
+        if all(obj.subdivisions is None for obj in loaded.scene.objects):
+            out.append(path)
+    return out
+
+
+def every_pixel_row(
+    gl: GLContext,
+    loaded: LoadedScene,
+    size: tuple[int, int],
+    truth: RaycastImage,
+    overrides: dict[str, object],
+) -> dict[str, float | None]:
+    """``every_pixel_errors`` of the renderer's image of ``loaded`` under ``overrides``
+    against ``truth`` (which the overrides do not change: it is the scene's)."""
+    variant = with_settings(loaded, overrides)
+    hdr, ldr = gpu_images(gl, variant, size)
+    cam, render = variant.scene.camera, variant.scene.render
+    return every_pixel_errors(hdr, truth, cam.exposure, render.tonemap, ldr)

@@ -21,9 +21,12 @@ from app.frame.lights import environment_texels, frame_lights, map_lights, unifo
 from app.reference.environment import equirect_uv, sample_bilinear
 from app.reference.material import Surface
 from app.reference.raycast import (
+    Background,
     PrimitiveMaterial,
     RaycastImage,
+    area_reference,
     camera_rays,
+    ndc_rays,
     render_reference,
 )
 from app.scene.loader import LoadedScene
@@ -101,3 +104,49 @@ def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) ->
     return render_reference(
         prims, materials, camera, size, lights, background, scene.render.terms, factor, uniform
     )
+
+
+def area_reference_scene(
+    loaded: LoadedScene,
+    size: tuple[int, int] | None = None,
+    samples: int = 8,
+    edge_samples: int = 32,
+) -> RaycastImage:
+    """The pixel-area-integrated truth of ``loaded`` at ``size`` (default the scene's
+    render size): ``area_reference``'s ``samples`` x ``samples`` rays per pixel
+    (``edge_samples`` x ``edge_samples`` where a silhouette crosses it), box-averaged in
+    linear radiance with the background, an environment drawn behind the scene included,
+    whatever ``render.supersample`` says: what the renderer's pixels converge to
+    (docs/accuracy.md, "Every pixel")."""
+    scene = loaded.scene
+    if scene.camera.aperture > 0.0:
+        raise ValueError("camera.aperture: the ray-caster is a pinhole camera (no depth of field)")
+    if size is None:
+        size = (scene.render.width, scene.render.height)
+    prims, materials = [], []
+    for i, obj in enumerate(scene.objects):
+        prims.append(primitive(i, obj))
+        assert obj.material is not None  # the scene model requires one for every shape
+        materials.append(primitive_material(obj.material, scene.materials[obj.material]))
+    camera = camera_frame(scene.camera, size[0], size[1])
+    lights = frame_lights(scene.lights)
+    if scene.environment is not None and scene.environment.source != "uniform":
+        lights = lights + map_lights(scene.environment)  # as reference_scene
+    env = scene.environment
+    background: np.ndarray | Background = np.asarray(scene.background, np.float64)
+    if env is not None and env.background:  # as app/render/background.py draws it
+        texels, rotation, intensity = (
+            environment_texels(env),
+            math.radians(env.rotation),
+            env.intensity,
+        )
+
+        def drawn(ndc: np.ndarray) -> np.ndarray:
+            return intensity * sample_bilinear(texels, equirect_uv(ndc_rays(camera, ndc), rotation))
+
+        background = drawn
+
+    return area_reference(
+        prims, materials, camera, size, lights, background, scene.render.terms, samples,
+        edge_samples, uniform_environment(env),
+    )  # fmt: skip

@@ -19,6 +19,7 @@ whose parameter ``t`` is the view depth (the distance along the view axis), so a
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,9 +86,14 @@ def camera_rays(camera: CameraFrame, width: int, height: int) -> np.ndarray:
     """World directions (H, W, 3) of the rays through the pixel centres, not normalised:
     R (ndc.x tan_x, ndc.y tan_y, -1), whose parameter is the view depth (the ray the
     lighting pass reconstructs positions along, app/reference/position.py)."""
-    ndc = pixel_ndc(height, width)
+    return ndc_rays(camera, pixel_ndc(height, width))
+
+
+def ndc_rays(camera: CameraFrame, ndc: np.ndarray) -> np.ndarray:
+    """World directions (..., 3) of the rays through the image points ``ndc`` (..., 2), as
+    ``camera_rays`` makes them for pixel centres: any point of a pixel's area."""
     tan = np.asarray(camera.tan_half_fov, np.float64)
-    local = np.concatenate([ndc * tan, -np.ones((height, width, 1))], axis=-1)
+    local = np.concatenate([ndc * tan, -np.ones((*ndc.shape[:-1], 1))], axis=-1)
     return local @ np.asarray(camera.camera_to_world, np.float64).T
 
 
@@ -175,12 +181,21 @@ def _frame(
     return n, t, np.stack([u, v], axis=-1)
 
 
-def cast(primitives: list[Primitive], camera: CameraFrame, size: tuple[int, int]) -> Hits:
+def cast(
+    primitives: list[Primitive],
+    camera: CameraFrame,
+    size: tuple[int, int],
+    ndc: np.ndarray | None = None,
+) -> Hits:
     """The nearest hit over all primitives of the ray through each pixel centre of an image
     of ``size`` (width, height), with t in (camera.near, camera.far) as the rasteriser
-    clips. A tie goes to the earlier primitive."""
-    width, height = size
-    d = camera_rays(camera, width, height)
+    clips. A tie goes to the earlier primitive. ``ndc`` (h, w, 2): the rays through those
+    image points instead (``size`` unused), e.g. samples spread over pixels' areas."""
+    if ndc is None:
+        d = camera_rays(camera, size[0], size[1])
+    else:
+        d = ndc_rays(camera, np.asarray(ndc, np.float64))
+    height, width = d.shape[:2]
     origin = np.asarray(camera.position, np.float64)
     best = np.full((height, width), np.inf)
     ids = np.full((height, width), NO_HIT, np.int64)
@@ -411,6 +426,147 @@ def render_reference(
     same = np.all(samples == samples[..., :1], axis=-1)
     ids = np.where(same, samples[..., 0], MIXED)
     return RaycastImage(hdr, np.any(samples >= 0, axis=-1), ids)
+
+
+def multi_jittered(n: int, seed: int = 1) -> np.ndarray:
+    """(n * n, 2) sample offsets (x right, y down) in pixels from a pixel's centre, within
+    (-0.5, 0.5): Chiu, Shirley & Wang 1994, "Multi-jittered sampling" (Graphics Gems IV):
+    one sample in each cell of an n x n grid over the pixel and at once one in each of its
+    n^2 columns and n^2 rows (the canonical arrangement with the sub-columns shuffled within
+    each column of cells and the sub-rows within each row of cells, by a fixed seed so
+    every run is the same), each at its sub-cell's centre."""
+    rng = np.random.default_rng(seed)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")  # cell column i, row j
+    sx, sy = j.copy(), i.copy()  # the canonical arrangement's sub-column and sub-row
+    for col in range(n):
+        sx[col, :] = rng.permutation(sx[col, :])
+    for row in range(n):
+        sy[:, row] = rng.permutation(sy[:, row])
+    x = (i + (sx + 0.5) / n) / n
+    y = (j + (sy + 0.5) / n) / n
+    return np.stack([x.ravel(), y.ravel()], axis=1) - 0.5
+
+
+# A pixel whose samples' radiance spreads over more than this share of its mean (or of
+# RELATIVE_SPREAD_FLOOR of the image's peak, where darker) is refined like an edge pixel:
+# its shading, not only its coverage, changes within it.
+SPREAD = 0.5
+RELATIVE_SPREAD_FLOOR = 1e-3
+
+Background = Callable[[np.ndarray], np.ndarray]  # image points (..., 2) NDC -> radiance
+
+
+# Rays cast and shaded at once by ``area_reference``: a few dozen float64 values each,
+# so a batch stays near a hundred MB.
+BATCH_RAYS = 1 << 18
+
+
+def _sample_mean(
+    primitives: list[Primitive],
+    materials: list[PrimitiveMaterial],
+    camera: CameraFrame,
+    centres: np.ndarray,
+    pixel: tuple[float, float],
+    pattern: np.ndarray,
+    lights: list[PunctualLight],
+    background: np.ndarray | Background,
+    terms: str,
+    environment: tuple[np.ndarray, int] | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Mean radiance (P, 3) over ``pattern``'s offsets around each NDC point of
+    ``centres`` (P, 2) (``pixel``: a pixel's NDC width and height), whether any sample
+    hits a surface, the primitive all samples hit (``MIXED`` where they differ) and the
+    spread (largest minus smallest) of the samples' mean over channels; the samples of a
+    batch of offsets are cast as one (offsets, P) image."""
+    count = len(centres)
+    total = np.zeros((count, 3))
+    low, high = np.full(count, np.inf), np.full(count, -np.inf)
+    covered = np.zeros(count, bool)
+    first = np.full(count, NO_HIT, np.int64)
+    same = np.ones(count, bool)
+    step = max(1, BATCH_RAYS // max(count, 1))
+    scale = np.array([pixel[0], -pixel[1]])
+    for start in range(0, len(pattern), step):
+        offsets = pattern[start : start + step] * scale  # (k, 2) NDC
+        ndc = centres[None, :, :] + offsets[:, None, :]  # (k, P, 2)
+        hits = cast(primitives, camera, (0, 0), ndc)
+        bg = background(ndc) if callable(background) else background
+        visibility = None
+        if any(light.shadow is not None for light in lights):  # shadow rays, as render_reference
+            visibility = shadow_visibility(primitives, hits, lights)
+        radiance = shade(hits, materials, camera, lights, bg, terms, visibility, environment)
+        total += radiance.sum(axis=0)
+        level = radiance.mean(axis=-1)
+        low, high = np.minimum(low, level.min(axis=0)), np.maximum(high, level.max(axis=0))
+        covered |= hits.covered.any(axis=0)
+        if start == 0:
+            first = hits.ids[0]
+        same &= np.all(hits.ids == first, axis=0)
+    return total / len(pattern), covered, np.where(same, first, MIXED), high - low
+
+
+def area_reference(
+    primitives: list[Primitive],
+    materials: list[PrimitiveMaterial],
+    camera: CameraFrame,
+    size: tuple[int, int],
+    lights: list[PunctualLight],
+    background: np.ndarray | Background,
+    terms: str = "all",
+    samples: int = 8,
+    edge_samples: int = 32,
+    environment: tuple[np.ndarray, int] | None = None,
+) -> RaycastImage:
+    """The pixel-area-integrated reference of ``size`` (width, height): each pixel the
+    mean, in linear radiance, of rays spread over its whole area, surfaces and background
+    alike, so that a pixel a silhouette crosses holds its true coverage mix (the box
+    filter over the pixel, integrated). Every pixel takes ``samples`` x ``samples``
+    (``multi_jittered``); the pixels where that converges slowest are cast again with
+    ``edge_samples`` x ``edge_samples``: the edge pixels (``edge_mask``: some of those
+    samples disagree on the primitive, and their neighbours) and the pixels whose samples'
+    radiance spreads over more than ``SPREAD`` of the pixel's mean (a highlight smaller
+    than the pixel), and their neighbours. ``background``: a colour, or a function of the
+    samples' NDC giving the environment drawn behind the scene. Shadows as
+    ``render_reference`` casts them (exact hard shadows). ``ids``: as
+    ``render_reference``'s, over the first ``samples`` x ``samples``."""
+    width, height = size
+    centres = pixel_ndc(height, width).reshape(-1, 2)
+    pixel = (2.0 / width, 2.0 / height)
+    args = (lights, background, terms, environment)
+    hdr, covered, ids, spread = _sample_mean(
+        primitives, materials, camera, centres, pixel, multi_jittered(samples), *args
+    )
+    hdr, covered, ids = (
+        hdr.reshape(height, width, 3),
+        covered.reshape(height, width),
+        ids.reshape(height, width),
+    )
+    if edge_samples > samples:
+        level = hdr.mean(axis=-1)
+        floor = RELATIVE_SPREAD_FLOOR * max(float(level.max()), np.finfo(np.float64).tiny)
+        varied = spread.reshape(height, width) > SPREAD * np.maximum(level, floor)
+        edge = edge_mask(np.where(varied, MIXED, ids))
+        fine, fine_covered, _, _ = _sample_mean(
+            primitives, materials, camera, centres.reshape(height, width, 2)[edge], pixel,
+            multi_jittered(edge_samples), *args,
+        )  # fmt: skip
+        hdr[edge] = fine
+        covered[edge] |= fine_covered
+    return RaycastImage(hdr, covered, ids)
+
+
+def edge_mask(ids: np.ndarray, margin: int = 1) -> np.ndarray:
+    """The edge pixels: those whose samples disagree (``MIXED``: a silhouette or a
+    boundary between primitives crosses the pixel) and every pixel within ``margin`` of
+    one. The rest are whole pixels of one primitive or of the background, where shading
+    rather than coverage decides the error."""
+    h, w = ids.shape
+    mixed = np.pad(ids == MIXED, margin, constant_values=False)
+    out = np.zeros((h, w), bool)
+    for dy in range(2 * margin + 1):
+        for dx in range(2 * margin + 1):
+            out |= mixed[dy : dy + h, dx : dx + w]
+    return out
 
 
 def interior_mask(ids: np.ndarray, margin: int = 2) -> np.ndarray:

@@ -1,0 +1,236 @@
+"""docs/accuracy.md's every-pixel tables: the renderer against the pixel-area-integrated
+float64 ray-cast, every pixel, under a list of settings.
+
+    python scripts/accuracy_doc.py [--setting OVERRIDES]... [--json FILE] [--width 160]
+                                   [--scenes NAME...] [--jobs 2]
+    python scripts/accuracy_doc.py --from-json FILE [--check]
+
+The first measures (app/bench/raycast.py ``every_pixel_row``): the five-sphere scene and
+every bundled scene of analytic primitives lit by punctual lights (``analytic_scenes``,
+shadows off), each at ``--width`` pixels, against ``area_reference_scene``'s truth, once
+per ``--setting`` (comma-separated SECTION.KEY=VALUE overrides; "" is the scene's own
+settings, "defaults"); it writes the JSON (default docs/accuracy_every_pixel.json) and the
+doc's generated section from it. The second rewrites the section from a JSON, or with
+``--check`` writes nothing and exits 1 where the doc's section differs from it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from app.bench.raycast import (
+    analytic_scenes,
+    every_pixel_row,
+    five_spheres,
+    parse_overrides,
+    settings_label,
+    truth_errors,
+    unshadowed,
+)
+from app.frame.raycast import area_reference_scene
+from app.scene.loader import LoadedScene, load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC = ROOT / "docs" / "accuracy.md"
+JSON = ROOT / "docs" / "accuracy_every_pixel.json"
+SETTINGS = ["", "render.supersample=2", "render.supersample=4"]
+TARGET_FLIP = 1e-3  # mean FLIP over every pixel (docs/accuracy.md)
+BEGIN = "<!-- begin generated: scripts/accuracy_doc.py writes this section; edit the script -->"
+END = "<!-- end generated: scripts/accuracy_doc.py -->"
+CHANGES_IMAGE = {"render.terms", "render.width", "render.height"}  # the truth would differ
+CONVERGENCE = ["five spheres", "sec3_lambert", "sec6_roughness"]  # the truth checked by a finer one
+
+
+def _scene(name: str) -> LoadedScene:
+    """The measured scene ``name``: the five spheres, or a bundled scene without shadows."""
+    if name == "five spheres":
+        return five_spheres()
+    return unshadowed(load_scene(ROOT / "scenes" / f"{name}.toml"))
+
+
+def _size(loaded: LoadedScene, width: int) -> tuple[int, int]:
+    render = loaded.scene.render
+    return (width, max(8, round(width * render.height / render.width)))
+
+
+def _truths(name: str, width: int, samples: int, edge: int) -> tuple:
+    """The truth of scene ``name`` and, for the CONVERGENCE scenes, a finer one (None
+    otherwise): a worker process's job."""
+    loaded = _scene(name)
+    size = _size(loaded, width)
+    truth = area_reference_scene(loaded, size, samples, edge)
+    finer = None
+    if name in CONVERGENCE:
+        finer = area_reference_scene(loaded, size, 2 * samples, 2 * edge)
+    return truth, finer
+
+
+def measure(args: argparse.Namespace) -> dict:
+    from app.gl.context import create_context
+
+    overrides = [parse_overrides(s) for s in args.setting or SETTINGS]
+    for o in overrides:
+        for key in o:
+            if not key.startswith("render.") or key in CHANGES_IMAGE:
+                raise ValueError(
+                    f"setting {key}: only render.* keys that change how the image is"
+                    " sampled (the truth is the scene's)"
+                )
+    names = ["five spheres"] + [p.stem for p in analytic_scenes(ROOT / "scenes")]
+    if args.scenes:
+        unknown = sorted(set(args.scenes) - set(names))
+        if unknown:
+            raise ValueError(f"--scenes: not a measured scene: {', '.join(unknown)}")
+        names = [n for n in names if n in args.scenes]
+    start = time.perf_counter()
+    rows, convergence = [], []
+    # The truths (numpy, one core each) in worker processes; the renders here, in order
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        jobs = [pool.submit(_truths, n, args.width, args.samples, args.edge_samples) for n in names]
+        gl = create_context(args.backend)
+        try:
+            for name, job in zip(names, jobs, strict=True):
+                truth, finer = job.result()
+                loaded = _scene(name)
+                size = _size(loaded, args.width)
+                cam, render = loaded.scene.camera, loaded.scene.render
+                for o in overrides:
+                    e = every_pixel_row(gl, loaded, size, truth, o)
+                    label = settings_label(o)
+                    rows.append({"scene": name, "size": list(size), "settings": label, **e})
+                if finer is not None:
+                    e = truth_errors(truth, finer, cam.exposure, render.tonemap)
+                    convergence.append({"scene": name, "size": list(size), **e})
+                print(f"accuracy_doc: {name} {size[0]}x{size[1]}", file=sys.stderr)
+        finally:
+            gl.release()
+    return {
+        "width": args.width,
+        "samples": args.samples,
+        "edge_samples": args.edge_samples,
+        "settings": [settings_label(o) for o in overrides],
+        "rows": rows,
+        "convergence": convergence,
+        "seconds": round(time.perf_counter() - start, 1),
+    }
+
+
+def _f(x: float | None) -> str:
+    return "–" if x is None else f"{x:.2e}"
+
+
+def section(payload: dict) -> str:
+    """The generated Markdown: the verdict per setting, the truth's convergence and the
+    full table."""
+    n, e = payload["samples"], payload["edge_samples"]
+    lines = [
+        f"Truth: {n} × {n} multi-jittered rays per pixel, {e} × {e} on edge pixels and"
+        " sub-pixel highlights;"
+        f" {payload['width']} pixels wide; {len({r['scene'] for r in payload['rows']})} scenes;"
+        f" {payload['seconds']:.0f} s on llvmpipe (EGL), 2 cores.",
+        "",
+        f"| settings | mean FLIP, mean over scenes | worst scene | scenes ≤ {TARGET_FLIP:.0e} |"
+        " 8-bit display FLIP, mean over scenes | rel RMSE, mean over scenes |",
+        "|---|---|---|---|---|---|",
+    ]
+    for label in payload["settings"]:
+        rows = [r for r in payload["rows"] if r["settings"] == label]
+        flips = [r["flip_mean"] for r in rows]
+        worst = max(rows, key=lambda r: r["flip_mean"])
+        ok = sum(f <= TARGET_FLIP for f in flips)
+        shown = [r["display_flip_mean"] for r in rows if r["display_flip_mean"] is not None]
+        rmse = [r["rel_rmse"] for r in rows if r["rel_rmse"] is not None]
+        lines.append(
+            f"| {label} | {sum(flips) / len(flips):.2e} | {worst['flip_mean']:.2e}"
+            f" (`{worst['scene']}`) | {ok} of {len(rows)} |"
+            f" {_f(sum(shown) / len(shown) if shown else None)} |"
+            f" {_f(sum(rmse) / len(rmse) if rmse else None)} |"
+        )
+    lines += [
+        "",
+        f"The truth against one with twice the rays per side ({2 * n} × {2 * n},"
+        f" {2 * e} × {2 * e} on edges):",
+        "",
+        "| scene | size | mean FLIP | edge FLIP | interior FLIP | rel RMSE |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in payload["convergence"]:
+        lines.append(
+            f"| `{c['scene']}` | {c['size'][0]}×{c['size'][1]} | {_f(c['flip_mean'])} |"
+            f" {_f(c['flip_edge'])} | {_f(c['flip_interior'])} | {_f(c['rel_rmse'])} |"
+        )
+    lines += [
+        "",
+        "| scene | size | settings | mean FLIP | edge FLIP | interior FLIP | 8-bit display FLIP"
+        " | rel RMSE | edge rel RMSE | edge pixels |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in payload["rows"]:
+        lines.append(
+            f"| `{r['scene']}` | {r['size'][0]}×{r['size'][1]} | {r['settings']} |"
+            f" {_f(r['flip_mean'])} | {_f(r['flip_edge'])} | {_f(r['flip_interior'])} |"
+            f" {_f(r['display_flip_mean'])} | {_f(r['rel_rmse'])} | {_f(r['rel_rmse_edge'])} |"
+            f" {100 * r['edge_share']:.1f} % |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def replace_section(doc: str, text: str) -> str:
+    """``doc`` with the text between BEGIN and END replaced; both must be there, in order."""
+    start, end = doc.find(BEGIN), doc.find(END)
+    if start < 0 or end < start:
+        raise ValueError(f"the markers {BEGIN!r} and {END!r} are not both there, in order")
+    return f"{doc[: start + len(BEGIN)]}\n{text}{doc[end:]}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--setting",
+        action="append",
+        help='overrides of one row, e.g. "render.supersample=4" ("" for the defaults);'
+        " repeat for more rows (default: defaults, supersample 2, supersample 4)",
+    )
+    parser.add_argument("--json", type=Path, default=JSON, help="the measurements' JSON")
+    parser.add_argument("--from-json", type=Path, help="write (or --check) the doc from a JSON")
+    parser.add_argument("--check", action="store_true", help="with --from-json: exit 1 if stale")
+    parser.add_argument("--doc", type=Path, default=DOC)
+    parser.add_argument("--width", type=int, default=160)
+    parser.add_argument("--samples", type=int, default=8, help="truth: n x n rays per pixel")
+    parser.add_argument("--edge-samples", type=int, default=32, help="truth: on edge pixels")
+    parser.add_argument("--backend", default="egl", choices=["egl", "osmesa"])
+    parser.add_argument("--scenes", nargs="+", help='only these ("five spheres", file stems)')
+    parser.add_argument("--jobs", type=int, default=2, help="processes computing the truths")
+    args = parser.parse_args(argv)
+    if args.from_json is not None:
+        payload = json.loads(args.from_json.read_text(encoding="utf-8"))
+    else:
+        try:
+            payload = measure(args)
+        except ValueError as exc:
+            print(f"accuracy_doc: {exc}", file=sys.stderr)
+            return 2
+        args.json.write_text(json.dumps(payload, indent=1) + "\n", encoding="utf-8")
+    old = args.doc.read_text(encoding="utf-8")
+    try:
+        new = replace_section(old, section(payload))
+    except ValueError as exc:
+        print(f"accuracy_doc: {args.doc}: {exc}", file=sys.stderr)
+        return 2
+    if args.check:
+        if new != old:
+            print(f"accuracy_doc: {args.doc}'s generated section differs from {args.from_json}")
+            return 1
+        return 0
+    args.doc.write_text(new, encoding="utf-8")
+    print(f"accuracy_doc: {args.doc} written")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
