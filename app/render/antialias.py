@@ -13,21 +13,40 @@ as the supersampling resolve does). ``jittered_matrices`` moves the camera: the
 projection's NDC offset, and the camera frame's ray matrix sheared by the same offset so
 that every pass that rebuilds a pixel's ray from its window position (the lighting pass,
 analytic primitives, the environment background) follows the jittered raster.
+
+"sraa": ``SraaPass``, subpixel reconstruction antialiasing after Chajdas, McGuire &
+Luebke, "Subpixel Reconstruction Antialiasing for Deferred Shading" (I3D 2011): the frame
+is shaded once per pixel; a second G-buffer pass rasterises only geometry at
+``SRAA_SAMPLES`` samples per pixel (a multisampled target; an analytic sphere ray-casts
+each sample's coverage itself, gl_SampleMask), and each sample takes the shaded colour
+of the neighbouring pixel whose centre saw its surface (glsl/passes/sraa.frag, written
+here); the mean of the pixel's centre and its samples is resolved in linear HDR before
+tone mapping.
 """
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 
 import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
+from app.common.gbuffer import GBufferLayout
+from app.gl.context import gl_function
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.render.fullscreen import read_rgb
+from app.render.gbuffer import GBuffer, GBufferPass
+from app.scene.geometry import MeshPart
 
-ANTIALIASING = ("none", "fxaa", "jitter")
+ANTIALIASING = ("none", "fxaa", "jitter", "sraa")
+SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample count)
+# A sample sees a neighbour's surface where their material ids agree and their view
+# depths differ by at most this fraction of the sample's
+SRAA_DEPTH_TOLERANCE = 0.1
+_GL_SAMPLE_POSITION = 0x8E50
 
 
 def halton(index: int, base: int) -> float:
@@ -165,4 +184,80 @@ class AccumulatePass:
     def release(self) -> None:
         self.fullscreen.release()
         for obj in (*self.fbos, *self.targets):
+            obj.release()
+
+
+def sample_positions(ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> np.ndarray:
+    """(samples, 2) positions of ``fbo``'s samples inside a pixel, in pixels from its
+    lower-left corner, as the GL rasterises them (glGetMultisamplefv)."""
+    get = gl_function(ctx, "glGetMultisamplefv", [ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p])
+    fbo.use()
+    out = np.zeros(2, np.float32)
+    positions = []
+    for i in range(fbo.samples):
+        get(_GL_SAMPLE_POSITION, i, out.ctypes.data)
+        positions.append(out.copy())
+    return np.array(positions)
+
+
+class SraaPass:
+    """Subpixel reconstruction (module docstring): ``run`` draws the opaque parts'
+    geometry into a multisampled G-buffer (``samples``: its RT2, view depth and material
+    id per sample) and reconstructs each sample's colour from the pixel-centre frame's
+    HDR image and RT2; ``target`` holds the resolved linear HDR RGBA (the mean of the
+    centre and the samples, alpha averaged with the colour)."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        layout: GBufferLayout,
+        parts: list[MeshPart],
+        material_ids: list[list[int]],
+    ) -> None:
+        self.ctx, self.size = ctx, size
+        self.samples = GBuffer(ctx, size, layout, samples=SRAA_SAMPLES)
+        defines = {**self.samples.defines(), "GBUFFER_SAMPLE_MASK": SRAA_SAMPLES}
+        self.geometry = GBufferPass(ctx, shaders, parts, material_ids, None, defines)
+        positions = sample_positions(ctx, self.samples.fbo).astype(np.float32)
+        for d in self.geometry.drawables:
+            if "u_sample_positions" in d.uniforms:
+                d.program["u_sample_positions"].write(positions.tobytes())
+        self.positions = positions
+        self.reconstruct = FullscreenDraw.of(
+            ctx, shaders, "passes/sraa.frag", {"SAMPLES": SRAA_SAMPLES}
+        )
+        self.target = ctx.texture(size, 4, dtype="f4")
+        self.target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.fbo = ctx.framebuffer([self.target])
+
+    def run(
+        self,
+        gbuffer: GBuffer,
+        hdr: moderngl.Texture,
+        view: np.ndarray,
+        proj: np.ndarray,
+        camera: CameraFrame,
+    ) -> None:
+        """The geometry samples of the camera (``view``, ``proj``, ``camera``: the frame
+        ``gbuffer`` and ``hdr`` were drawn with), then the reconstruction into ``target``."""
+        positions = self.positions.tobytes()
+        for d in self.geometry.drawables:
+            if "u_sample_positions" in d.uniforms:  # a shader cache may share the program
+                d.program["u_sample_positions"].write(positions)
+        self.geometry.run(self.samples, view, proj, camera)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.reconstruct.draw(
+            self.fbo,
+            {"u_depth_tolerance": SRAA_DEPTH_TOLERANCE},
+            {"u_hdr": hdr, "u_depth": gbuffer.depth, "u_samples": self.samples.depth},
+            viewport=(0, 0, *self.size),
+        )
+
+    def read(self) -> np.ndarray:
+        return read_rgb(self.fbo, self.size, "f4")
+
+    def release(self) -> None:
+        for obj in (self.geometry, self.samples, self.reconstruct, self.fbo, self.target):
             obj.release()
