@@ -200,12 +200,46 @@ def sample_positions(ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> np.nda
     return np.array(positions)
 
 
+class SampleTargets:
+    """The geometry samples' targets, drawn by a ``GBufferPass`` as a ``GBuffer`` is:
+    RT2 (view depth, material id) multisampled and sampled by the reconstruction; every
+    other target of ``layout`` (the pass writes them all) a one-channel 8-bit
+    multisampled renderbuffer, never read (a quarter of the bytes of RG32F); the z-test's
+    multisampled renderbuffer."""
+
+    def __init__(
+        self, ctx: moderngl.Context, size: tuple[int, int], layout: GBufferLayout, samples: int
+    ) -> None:
+        self.size = size
+        self.depth = ctx.texture(size, 2, dtype="f4", samples=samples)
+        attachments = [
+            self.depth if target.name == "depth"
+            else ctx.renderbuffer(size, 1, samples=samples, dtype="f1")
+            for target, _ in layout.targets()
+        ]  # fmt: skip
+        self._unread = [a for a in attachments if a is not self.depth]
+        self.zbuffer = ctx.depth_renderbuffer(size, samples=samples)
+        self.fbo = ctx.framebuffer(attachments, self.zbuffer)
+        self.clear_fbo = ctx.framebuffer([self.depth], self.zbuffer)
+
+    def clear(self) -> None:
+        """No surface in any sample (RT2's depth 0), the far z."""
+        self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+
+    def release(self) -> None:
+        for obj in (self.fbo, self.clear_fbo, self.depth, *self._unread, self.zbuffer):
+            obj.release()
+
+
 class SraaPass:
     """Subpixel reconstruction (module docstring): ``run`` draws the opaque parts'
-    geometry into a multisampled G-buffer (``samples``: its RT2, view depth and material
-    id per sample) and reconstructs each sample's colour from the pixel-centre frame's
-    HDR image and RT2; ``target`` holds the resolved linear HDR RGBA (the mean of the
-    centre and the samples, alpha averaged with the colour)."""
+    geometry into ``samples`` (``SampleTargets``: RT2, view depth and material id per
+    sample) and reconstructs each sample's colour from the pixel-centre frame's HDR image
+    and RT2, in two draws (glsl/passes/sraa.frag): a mark that copies the image into
+    ``target`` and marks the edge pixels (a sample on another surface than the centre)
+    in a depth buffer, and the reconstruction z-tested to them. ``target`` holds the
+    resolved linear HDR RGBA (the mean of the centre and the samples, alpha averaged with
+    the colour)."""
 
     def __init__(
         self,
@@ -217,20 +251,19 @@ class SraaPass:
         material_ids: list[list[int]],
     ) -> None:
         self.ctx, self.size = ctx, size
-        self.samples = GBuffer(ctx, size, layout, samples=SRAA_SAMPLES)
-        defines = {**self.samples.defines(), "GBUFFER_SAMPLE_MASK": SRAA_SAMPLES}
+        self.samples = SampleTargets(ctx, size, layout, SRAA_SAMPLES)
+        defines = {**layout.defines(), "GBUFFER_SAMPLE_MASK": SRAA_SAMPLES}
         self.geometry = GBufferPass(ctx, shaders, parts, material_ids, None, defines)
-        positions = sample_positions(ctx, self.samples.fbo).astype(np.float32)
-        for d in self.geometry.drawables:
-            if "u_sample_positions" in d.uniforms:
-                d.program["u_sample_positions"].write(positions.tobytes())
-        self.positions = positions
+        self.positions = sample_positions(ctx, self.samples.fbo).astype(np.float32)
+        defines = {"SAMPLES": SRAA_SAMPLES}
+        self.mark = FullscreenDraw.of(ctx, shaders, "passes/sraa.frag", {**defines, "SRAA_MARK": 1})
         self.reconstruct = FullscreenDraw.of(
-            ctx, shaders, "passes/sraa.frag", {"SAMPLES": SRAA_SAMPLES}
+            ctx, shaders, "passes/sraa.frag", {**defines, "FAR_PLANE": 1}
         )
         self.target = ctx.texture(size, 4, dtype="f4")
         self.target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.fbo = ctx.framebuffer([self.target])
+        self.edges = ctx.depth_renderbuffer(size)
+        self.fbo = ctx.framebuffer([self.target], self.edges)
 
     def run(
         self,
@@ -247,17 +280,19 @@ class SraaPass:
             if "u_sample_positions" in d.uniforms:  # a shader cache may share the program
                 d.program["u_sample_positions"].write(positions)
         self.geometry.run(self.samples, view, proj, camera)
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.reconstruct.draw(
-            self.fbo,
-            {"u_depth_tolerance": SRAA_DEPTH_TOLERANCE},
-            {"u_hdr": hdr, "u_depth": gbuffer.depth, "u_samples": self.samples.depth},
-            viewport=(0, 0, *self.size),
-        )
+        uniforms = {"u_depth_tolerance": SRAA_DEPTH_TOLERANCE}
+        textures = {"u_hdr": hdr, "u_depth": gbuffer.depth, "u_samples": self.samples.depth}
+        viewport = (0, 0, *self.size)
+        self.fbo.depth_mask = True
+        self.mark.draw(self.fbo, uniforms, textures, viewport=viewport, depth_func="1")
+        self.fbo.depth_mask = False
+        self.reconstruct.draw(self.fbo, uniforms, textures, viewport=viewport, depth_func=">")
+        self.fbo.depth_mask = True
 
     def read(self) -> np.ndarray:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (self.geometry, self.samples, self.reconstruct, self.fbo, self.target):
+        for obj in (self.geometry, self.samples, self.mark, self.reconstruct, self.fbo,
+                    self.edges, self.target):  # fmt: skip
             obj.release()

@@ -8,6 +8,12 @@
 // a background sample), the nearest in depth; the pixel's colour is the mean of its
 // centre and its samples. Linear HDR, alpha with the colour: premultiplied RGBA stays
 // premultiplied, so a transparent background's coverage becomes fractional alpha.
+//
+// Two draws, as the FXAA pass does (llvmpipe runs every branch of a fragment shader for
+// its whole block of pixels; the z-test skips blocks): SRAA_MARK copies every pixel's
+// colour and writes window depth 0 where a sample saw another surface than the centre
+// (an edge), 1 elsewhere; the reconstruction is drawn on the far plane with the test ">"
+// and so runs at the edge pixels alone.
 uniform sampler2D u_hdr;        // linear HDR RGBA of the pixel-centre frame
 uniform sampler2D u_depth;      // the frame's RT2: view depth (0: background), material id
 uniform sampler2DMS u_samples;  // the multisampled RT2
@@ -22,9 +28,17 @@ bool same_surface(vec2 centre, vec2 s) {
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    ivec2 last = textureSize(u_depth, 0) - 1;
     vec4 own = texelFetch(u_hdr, px, 0);
     vec2 g0 = texelFetch(u_depth, px, 0).xy;
+#ifdef SRAA_MARK
+    bool edge = false;
+    for (int s = 0; s < SAMPLES; ++s) {
+        edge = edge || !same_surface(g0, texelFetch(u_samples, px, s).xy);
+    }
+    frag_color = own;
+    gl_FragDepth = edge ? 0.0 : 1.0;
+#else
+    ivec2 last = textureSize(u_depth, 0) - 1;
     vec4 sum = own;   // the centre's sample
     for (int s = 0; s < SAMPLES; ++s) {
         vec2 gs = texelFetch(u_samples, px, s).xy;
@@ -47,4 +61,5 @@ void main() {
         sum += colour;
     }
     frag_color = sum / float(SAMPLES + 1);
+#endif
 }
