@@ -1,7 +1,8 @@
 """render.antialiasing (docs/antialiasing.md): "none" is the aliased frame, bit for bit;
 "fxaa", "jitter" and "sraa" come closer to the renderer's own 4x4 supersampled frame at
-the silhouettes; "sraa"'s geometry samples see an analytic sphere's edge per sample; jittered accumulation converges as its samples grow; a bad value is one
-error line naming the key, exit 2."""
+the silhouettes; "sraa"'s geometry samples see an analytic sphere's edge per sample;
+jittered accumulation converges as its samples grow; a bad value is one error line
+naming the key, exit 2."""
 
 from __future__ import annotations
 
@@ -103,7 +104,7 @@ def test_each_mode_lowers_the_silhouette_error(
 def test_subpixel_reconstruction_beats_fxaa(
     gl_egl: GLContext, loaded: LoadedScene, truth: tuple[np.ndarray, np.ndarray]
 ) -> None:
-    """"sraa" against the 4x4 supersampled frame at the silhouettes: at least 2.8x below
+    """ "sraa" against the 4x4 supersampled frame at the silhouettes: at least 2.8x below
     "none" and below FXAA (measured at 96x54: 3.2x below "none", FXAA 1.8x;
     docs/antialiasing.md); the mark and the reconstruction leave the interior's pixels
     as they were shaded."""
