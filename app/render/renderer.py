@@ -578,6 +578,12 @@ class Renderer:
             [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
         )  # fmt: skip
 
+    def _refresh_sraa(self) -> None:
+        """A restyle's new material ids, in the geometry samples too (their RT2 ids are
+        matched against the frame's)."""
+        for drawable, i in zip(self.sraa.geometry.drawables, self._opaque(), strict=True):
+            drawable.material_ids = self.frame.material_ids[i]
+
     def _key_dof(self) -> Hashable:
         """Depth of field, only for a camera with an aperture: its lens and the image."""
         cam = self.scene.camera
@@ -1076,7 +1082,8 @@ SCHEDULE: tuple[Built, ...] = (
           needs=("gbuffer", "culler", "ibl", "shadows")),
     Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
     Built("background", Renderer._key_background, Renderer._build_background),
-    Built("sraa", Renderer._key_sraa, Renderer._build_sraa),
+    Built("sraa", Renderer._key_sraa, Renderer._build_sraa,
+          refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_sraa)),
     Built("dof", Renderer._key_dof, Renderer._build_dof),
     Built("resolve", Renderer._key_resolve, Renderer._build_resolve),
     Built("accumulate", Renderer._key_accumulate, Renderer._build_accumulate),
