@@ -39,6 +39,7 @@ from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer, GBufferPass
+from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
 ANTIALIASING = ("none", "fxaa", "jitter", "sraa")
@@ -249,11 +250,14 @@ class SraaPass:
         layout: GBufferLayout,
         parts: list[MeshPart],
         material_ids: list[list[int]],
+        uploads: TextureUploads | None = None,
     ) -> None:
+        """``parts``, ``material_ids``: the G-buffer pass's; ``uploads``: its material
+        maps, drawn with rather than uploaded again."""
         self.ctx, self.size = ctx, size
         self.samples = SampleTargets(ctx, size, layout, SRAA_SAMPLES)
         defines = {**layout.defines(), "GBUFFER_SAMPLE_MASK": SRAA_SAMPLES}
-        self.geometry = GBufferPass(ctx, shaders, parts, material_ids, None, defines)
+        self.geometry = GBufferPass(ctx, shaders, parts, material_ids, None, defines, uploads)
         self.positions = sample_positions(ctx, self.samples.fbo).astype(np.float32)
         defines = {"SAMPLES": SRAA_SAMPLES}
         self.mark = FullscreenDraw.of(ctx, shaders, "passes/sraa.frag", {**defines, "SRAA_MARK": 1})

@@ -566,7 +566,8 @@ class Renderer:
 
     def _key_sraa(self) -> Hashable:
         """The subpixel reconstruction, only with ``render.antialiasing = "sraa"``: its
-        geometry pass draws the G-buffer pass's parts into its own multisampled targets."""
+        geometry pass draws the G-buffer pass's parts into its own multisampled targets,
+        with that pass's material maps (``needs``)."""
         if self.scene.render.antialiasing != "sraa":
             return None
         return (self.render_size, self._key_gbuffer_pass())
@@ -576,6 +577,7 @@ class Renderer:
         return SraaPass(
             self.gl.ctx, self.shaders, self.render_size, self._layout(),
             [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
+            self.gbuffer_pass.uploads,
         )  # fmt: skip
 
     def _refresh_sraa(self) -> None:
@@ -1082,7 +1084,7 @@ SCHEDULE: tuple[Built, ...] = (
           needs=("gbuffer", "culler", "ibl", "shadows")),
     Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
     Built("background", Renderer._key_background, Renderer._build_background),
-    Built("sraa", Renderer._key_sraa, Renderer._build_sraa,
+    Built("sraa", Renderer._key_sraa, Renderer._build_sraa, needs=("gbuffer_pass",),
           refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_sraa)),
     Built("dof", Renderer._key_dof, Renderer._build_dof),
     Built("resolve", Renderer._key_resolve, Renderer._build_resolve),
