@@ -45,13 +45,10 @@ class GBuffer:
     attributes by the targets' names (``base_color``, ``normal``, ``depth``, ``tangent``,
     ``coat_normal``, ``emission``; None where absent), and the z-test's renderbuffer."""
 
-    def __init__(
-        self, ctx: moderngl.Context, size: tuple[int, int], layout: GBufferLayout, samples: int = 0
-    ) -> None:
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], layout: GBufferLayout) -> None:
         """Allocate ``layout``'s targets, each at the location its place in
         ``GBUFFER_TARGETS`` gives it among those present (passes/gbuffer.frag declares
-        them there, ``defines``); ``samples`` > 0: multisampled targets (texelFetch by
-        sample, never filtered; render.antialiasing = "sraa"'s geometry samples)."""
+        them there, ``defines``)."""
         self.layout = layout
         self.encoding = layout.encoding
         self.size = size
@@ -59,16 +56,14 @@ class GBuffer:
         self._targets: list[moderngl.Texture] = []
         self._by_name: dict[str, moderngl.Texture] = {}
         for target, channels in layout.targets():
-            dtype = STORAGE_DTYPES[layout.storage(target)]
-            tex = ctx.texture(size, channels, dtype=dtype, samples=samples)
-            if not samples:
-                tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-                tex.repeat_x = tex.repeat_y = False
+            tex = ctx.texture(size, channels, dtype=STORAGE_DTYPES[layout.storage(target)])
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            tex.repeat_x = tex.repeat_y = False
             self._targets.append(tex)
             self._by_name[target.name] = tex
         for target in GBUFFER_TARGETS:
             setattr(self, target.name, self._by_name.get(target.name))
-        self.zbuffer = ctx.depth_renderbuffer(size, samples=samples)
+        self.zbuffer = ctx.depth_renderbuffer(size)
         self.fbo = ctx.framebuffer(self._targets, self.zbuffer)
         # What a frame clears: RT2 and the z-buffer. Every pass that reads the other
         # targets reads them only where RT2's depth says a surface was drawn (decode.glsl,
