@@ -293,14 +293,14 @@ def test_bad_background_is_one_line_exit_2(
     assert not out.exists()
 
 
-@pytest.mark.parametrize("mode", ["fxaa", "jitter"])
+@pytest.mark.parametrize("mode", ["fxaa", "jitter", "sraa"])
 def test_antialiased_alpha_is_fractional_and_edges_keep_their_colour(
     scene: Path, mode: str
 ) -> None:
     """Under each antialiasing mode without supersampling, the silhouette's alpha takes
     values between 0 and 1 (the antialiased coverage) while the straight colour of every
     pixel with alpha >= 0.25 stays the sphere's own: neither FXAA nor the jittered mean
-    mixes in the black of the empty pixels."""
+    mixes in the black of the empty pixels, nor does the subpixel reconstruction."""
     text = scene.read_text(encoding="utf-8")
     text = text.replace("supersample = 2", "supersample = 1")
     scene.write_text(text.replace('antialiasing = "none"', f'antialiasing = "{mode}"'))

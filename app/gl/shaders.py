@@ -87,6 +87,8 @@ def _header(defines: Mapping[str, object] | None) -> str:
     generated from them (``_generated``), then ``#line 1``: the compiler numbers the
     expanded source from 1."""
     lines = [GLSL_VERSION]
+    if "GBUFFER_SAMPLE_MASK" in (defines or {}):  # gl_SampleMask (passes/gbuffer.frag)
+        lines.append("#extension GL_ARB_sample_shading : require")
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")

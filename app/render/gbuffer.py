@@ -192,15 +192,19 @@ class GBufferPass:
         material_ids: list[list[int]],
         specular_aa: tuple[float, float] | None = None,
         defines: dict[str, int] | None = None,
+        uploads: TextureUploads | None = None,
     ) -> None:
         """``defines``: the targets to write, ``GBuffer.defines()`` of the target it
-        draws into."""
+        draws into. ``uploads``: another pass's material maps to draw with (that pass
+        owns and releases them; render.antialiasing = "sraa"'s geometry samples), else
+        this pass uploads its own."""
         self.ctx = ctx
         self._gl_flush = gl_function(ctx, "glFlush", [])
         self._unflushed = 0  # triangles drawn since the last flush
         self.flush_triangles = FLUSH_TRIANGLES  # 0: one flush at the end (the bench's "before")
         defines = dict(defines or {"GBUFFER_TANGENT": 1})
-        self.uploads = TextureUploads(ctx)
+        self._owns_uploads = uploads is None
+        self.uploads = TextureUploads(ctx) if uploads is None else uploads
         self.drawables = [
             MeshDrawable(
                 ctx,
@@ -250,4 +254,5 @@ class GBufferPass:
     def release(self) -> None:
         for d in self.drawables:
             d.release()
-        self.uploads.release()
+        if self._owns_uploads:
+            self.uploads.release()

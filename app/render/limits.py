@@ -150,3 +150,18 @@ def check_memory(
             f"{describe(textures)}, render targets {describe(target_bytes)}, shadow maps "
             f"{describe(shadow_bytes)}), past the limit of {describe(limit)} (--max-memory)",
         )
+
+
+def check_multisampling(ctx: moderngl.Context, samples: int, file: str, key: str) -> None:
+    """InputError naming ``key`` where this GL cannot draw ``samples`` samples a pixel
+    with per-sample coverage written by the fragment shader (``GL_MAX_SAMPLES`` and
+    ``gl_SampleMask``: GL_ARB_sample_shading, core from OpenGL 4.0), which the geometry
+    samples of ``render.antialiasing = "sraa"`` need; refused before anything is built,
+    rather than a shader or framebuffer error later."""
+    most = int(ctx.info.get("GL_MAX_SAMPLES", 0) or 0)
+    shading = ctx.version_code >= 400 or "GL_ARB_sample_shading" in ctx.extensions
+    if most < samples or not shading:
+        why = f"at most {most} samples a pixel" if most < samples else "no sample shading"
+        raise InputError(
+            file, key, f"needs {samples} samples a pixel and sample shading; this GL has {why}"
+        )

@@ -42,7 +42,14 @@ from app.frame.lights import environment_texels, frame_lights, uniform_environme
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
-from app.render.antialias import AccumulatePass, FxaaPass, jitter_offsets, jittered_frame
+from app.render.antialias import (
+    SRAA_SAMPLES,
+    AccumulatePass,
+    FxaaPass,
+    SraaPass,
+    jitter_offsets,
+    jittered_frame,
+)
 from app.render.background import EnvironmentBackground, EnvironmentSource
 from app.render.blend import BlendPass, blend_defines, blended, forward_drawables
 from app.render.culling import LightCuller, check_tile_masks, tiles_used
@@ -51,7 +58,12 @@ from app.render.gbuffer import FLUSH_TRIANGLES, GBuffer, GBufferPass
 from app.render.ibl import EnvironmentLighting, UniformEnvironment
 from app.render.inputs import ShadingContext, shading_context
 from app.render.lighting import LightingPass
-from app.render.limits import check_memory, check_render_size, target_bytes_per_pixel
+from app.render.limits import (
+    check_memory,
+    check_multisampling,
+    check_render_size,
+    target_bytes_per_pixel,
+)
 from app.render.mesh_drawable import masked, rotated
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
@@ -211,7 +223,7 @@ _UNBUILT = object()  # the old key of an object never built
 # Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
 # display image): reading the HDR image then needs a new frame.
 _FRAME_OBJECTS = frozenset(
-    {"gbuffer", "lighting", "blend", "dof", "resolve", "accumulate", "post", "fxaa"}
+    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa"}
 )
 
 
@@ -266,6 +278,8 @@ class Renderer:
         # render.antialiasing (docs/antialiasing.md): the jittered frames' running mean,
         # and the display image's FXAA-class filter
         self.accumulate: AccumulatePass | None = None
+        # the subpixel reconstruction's geometry samples and resolved HDR image ("sraa")
+        self.sraa: SraaPass | None = None
         self.post: PostPass | None = None
         self.fxaa: FxaaPass | None = None
         self._refreshed: dict[str, Hashable] = {}  # Built.refresh's key per kept object
@@ -555,6 +569,31 @@ class Renderer:
     def _build_background(self) -> EnvironmentBackground:
         env = self.scene.environment
         return EnvironmentBackground(self.gl.ctx, self.shaders, environment_source(env))
+
+    def _key_sraa(self) -> Hashable:
+        """The subpixel reconstruction, only with ``render.antialiasing = "sraa"``: its
+        geometry pass draws the G-buffer pass's parts into its own multisampled targets,
+        with that pass's material maps (``needs``)."""
+        if self.scene.render.antialiasing != "sraa":
+            return None
+        return (self.render_size, self._key_gbuffer_pass())
+
+    def _check_sraa(self) -> None:
+        check_multisampling(self.gl.ctx, SRAA_SAMPLES, str(self.loaded.path), "render.antialiasing")
+
+    def _build_sraa(self) -> SraaPass:
+        opaque = self._opaque()
+        return SraaPass(
+            self.gl.ctx, self.shaders, self.render_size, self._layout(),
+            [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
+            self.gbuffer_pass.uploads,
+        )  # fmt: skip
+
+    def _refresh_sraa(self) -> None:
+        """A restyle's new material ids, in the geometry samples too (their RT2 ids are
+        matched against the frame's)."""
+        for drawable, i in zip(self.sraa.geometry.drawables, self._opaque(), strict=True):
+            drawable.material_ids = self.frame.material_ids[i]
 
     def _key_dof(self) -> Hashable:
         """Depth of field, only for a camera with an aperture: its lens and the image."""
@@ -862,6 +901,10 @@ class Renderer:
             self.blend.run(self.gbuffer, self.lighting, m.view, m.proj, m.frame)
             clock.done("blend")
         hdr = self.lighting.hdr
+        if self.sraa is not None:  # the samples' colours from the shaded pixels
+            self.sraa.run(self.gbuffer, hdr, m.view, m.proj, m.frame)
+            hdr = self.sraa.target
+            clock.done("sraa")
         if self.dof is not None:
             self.dof.run(hdr, self.gbuffer.depth)
             hdr = self.dof.target
@@ -888,7 +931,7 @@ class Renderer:
         field, resolve, accumulation, blended parts or environment background; and an
         opaque background, whose display value the fused and surface-only post passes clear
         to (a transparent one has the post pass write every pixel's alpha)."""
-        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate)
+        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate, self.sraa)
         return all(x is None for x in extra) and not self.transparent
 
     @property
@@ -959,7 +1002,9 @@ class Renderer:
             return self.accumulate.target
         if self.resolve is not None:
             return self.resolve.target
-        return self.dof.target if self.dof is not None else self.lighting.hdr
+        if self.dof is not None:
+            return self.dof.target
+        return self.sraa.target if self.sraa is not None else self.lighting.hdr
 
     @property
     def display_texture(self) -> moderngl.Texture:
@@ -977,7 +1022,9 @@ class Renderer:
             return self.accumulate.read()
         if self.resolve is not None:
             return self.resolve.read()
-        return self.dof.read() if self.dof is not None else self.lighting.read()
+        if self.dof is not None:
+            return self.dof.read()
+        return self.sraa.read() if self.sraa is not None else self.lighting.read()
 
     def read_ldr(self) -> np.ndarray:
         """The display image, (H, W, 3) uint8 sRGB."""
@@ -994,7 +1041,7 @@ class Renderer:
         ``transparent``, radiance premultiplied by coverage and the coverage (OpenEXR's
         convention); alpha 1 everywhere otherwise."""
         self.complete_hdr()
-        source = self.accumulate or self.resolve or self.dof or self.lighting
+        source = self.accumulate or self.resolve or self.dof or self.sraa or self.lighting
         return read_rgba(source.fbo, self.size, "f4")
 
     def read_image(self) -> np.ndarray:
@@ -1046,6 +1093,9 @@ SCHEDULE: tuple[Built, ...] = (
           needs=("gbuffer", "culler", "ibl", "shadows")),
     Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
     Built("background", Renderer._key_background, Renderer._build_background),
+    Built("sraa", Renderer._key_sraa, Renderer._build_sraa, needs=("gbuffer_pass",),
+          check=Renderer._check_sraa,
+          refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_sraa)),
     Built("dof", Renderer._key_dof, Renderer._build_dof),
     Built("resolve", Renderer._key_resolve, Renderer._build_resolve),
     Built("accumulate", Renderer._key_accumulate, Renderer._build_accumulate),

@@ -98,19 +98,24 @@ vec3 ray_sphere(vec3 o, vec3 d, float r) {
 // (o = -t_c d_c exactly, as the ray meets the centre), the pixel's direction is
 // d = d_c + delta, delta coming from the pixel's offset from the centre's own pixel, and
 // o + t d = t_c delta + (t - t_c) d: only small numbers, exact for any distance.
-void pixel_ray(out vec3 w, out vec3 d, out float t0) {
+void pixel_ray_at(vec2 window, out vec3 w, out vec3 d, out float t0) {
     if (u_centre_depth > 0.0) {
-        vec2 offset = (gl_FragCoord.xy - u_centre_pixel) * (2.0 / u_image_size);
+        vec2 offset = (window - u_centre_pixel) * (2.0 / u_image_size);
         vec3 delta = u_camera_to_object * vec3(offset * u_tan_half_fov, 0.0);
         d = u_centre_direction + delta;
         w = u_centre_depth * delta;
         t0 = u_centre_depth;
     } else {
-        vec2 ndc = (gl_FragCoord.xy / u_image_size) * 2.0 - 1.0;
+        vec2 ndc = (window / u_image_size) * 2.0 - 1.0;
         d = u_camera_to_object * vec3(ndc * u_tan_half_fov, -1.0);
         w = u_object_camera;
         t0 = 0.0;
     }
+}
+
+// The ray through the pixel centre.
+void pixel_ray(out vec3 w, out vec3 d, out float t0) {
+    pixel_ray_at(gl_FragCoord.xy, w, d, t0);
 }
 
 AnalyticHit analytic_surface() {
@@ -149,5 +154,34 @@ AnalyticHit analytic_surface() {
                          0.0, 1.0);
     return h;
 }
+
+#if ANALYTIC_SPHERE && defined(GBUFFER_SAMPLE_MASK)
+// A multisampled geometry pass (render.antialiasing = "sraa", app/render/antialias.py):
+// the pixel's samples the sphere covers, each ray-cast at its own position in the pixel
+// (u_sample_positions, the target's, in pixels from the pixel's corner), as a bit mask
+// for gl_SampleMask; a discard or depth of the centre alone would give every sample the
+// centre's coverage and leave the sphere's edge aliased. ``depth``: the view depth of
+// the first covered sample (0 where none is covered).
+uniform vec2 u_sample_positions[GBUFFER_SAMPLE_MASK];
+
+int analytic_sample_mask(out float depth) {
+    float near = u_proj[3][2] / (u_proj[2][2] - 1.0);
+    float far = u_proj[3][2] / (u_proj[2][2] + 1.0);
+    int mask = 0;
+    depth = 0.0;
+    for (int i = 0; i < GBUFFER_SAMPLE_MASK; ++i) {
+        vec3 o, d;
+        float t0;
+        pixel_ray_at(floor(gl_FragCoord.xy) + u_sample_positions[i], o, d, t0);
+        vec3 roots = ray_sphere(o, d, u_radius);
+        float t = t0 + roots.x;
+        if (roots.z >= 0.0 && t >= near && t <= far) {
+            if (mask == 0) depth = t;
+            mask |= 1 << i;
+        }
+    }
+    return mask;
+}
+#endif
 
 #endif

@@ -86,7 +86,20 @@ void main() {
     // cutoff (after the lookups above, whose derivatives need the whole quad).
     if (!(coverage(uv) >= u_alpha_cutoff0)) discard;
 #endif
-#if ANALYTIC
+#if ANALYTIC && defined(GBUFFER_SAMPLE_MASK)
+    // A multisampled target: each sample's own coverage; a pixel whose centre misses
+    // takes the depth of a sample it covers (only RT2's depth and id are read there).
+    float sample_depth;
+    int mask = analytic_sample_mask(sample_depth);
+    if (mask == 0) discard;
+    gl_SampleMask[0] = mask;
+    if (!hit.hit) {
+        g_depth = vec2(sample_depth, m.material_id);
+        hit.frag_depth = clamp(0.5 * (-u_proj[2][2] + u_proj[3][2] / sample_depth) + 0.5,
+                               0.0, 1.0);
+    }
+    gl_FragDepth = hit.frag_depth;
+#elif ANALYTIC
     // After every derivative above, so that a missing pixel still served its quad.
     gl_FragDepth = hit.frag_depth;
     if (!hit.hit) discard;
