@@ -72,10 +72,14 @@ def primitive_material(name: str, m: Material) -> PrimitiveMaterial:
     return PrimitiveMaterial(surface, p.params, p.model, math.radians(m.anisotropy_rotation))
 
 
-def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) -> RaycastImage:
-    """The ray-cast reference image of ``loaded`` at ``size`` (width, height; default the
-    scene's render size), supersampled as ``render.supersample`` says, with the same camera
-    frame the renderer gives its lighting pass (app/render/renderer.py)."""
+def _scene_inputs(
+    loaded: LoadedScene, size: tuple[int, int] | None
+) -> tuple[tuple[int, int], list, list, list]:
+    """What both references cast from ``loaded``: the image size (default the scene's
+    render size), the primitives and their materials in object order, and the lights,
+    an image, sky or studio environment's cell lights included (the reference integrates
+    those by brute force, the renderer by the split sum: the two converge as the cells
+    grow; a uniform environment is the renderer's own quadrature, through the twin)."""
     scene = loaded.scene
     if scene.camera.aperture > 0.0:
         raise ValueError("camera.aperture: the ray-caster is a pinhole camera (no depth of field)")
@@ -86,13 +90,20 @@ def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) ->
         prims.append(primitive(i, obj))
         assert obj.material is not None  # the scene model requires one for every shape
         materials.append(primitive_material(obj.material, scene.materials[obj.material]))
-    factor = scene.render.supersample
-    camera = camera_frame(scene.camera, size[0] * factor, size[1] * factor)
     lights = frame_lights(scene.lights)
     if scene.environment is not None and scene.environment.source != "uniform":
-        # The reference integrates an image, sky or studio by its cell lights (the
-        # renderer by the split sum): the brute force converges as samples grows.
         lights = lights + map_lights(scene.environment)
+    return size, prims, materials, lights
+
+
+def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) -> RaycastImage:
+    """The ray-cast reference image of ``loaded`` at ``size`` (width, height; default the
+    scene's render size), supersampled as ``render.supersample`` says, with the same camera
+    frame the renderer gives its lighting pass (app/render/renderer.py)."""
+    scene = loaded.scene
+    size, prims, materials, lights = _scene_inputs(loaded, size)
+    factor = scene.render.supersample
+    camera = camera_frame(scene.camera, size[0] * factor, size[1] * factor)
     # A uniform environment: the renderer's own quadrature, through the twin (docs/ibl.md)
     uniform = uniform_environment(scene.environment)
     background = np.asarray(scene.background, np.float64)
@@ -119,19 +130,8 @@ def area_reference_scene(
     whatever ``render.supersample`` says: what the renderer's pixels converge to
     (docs/accuracy.md, "Every pixel")."""
     scene = loaded.scene
-    if scene.camera.aperture > 0.0:
-        raise ValueError("camera.aperture: the ray-caster is a pinhole camera (no depth of field)")
-    if size is None:
-        size = (scene.render.width, scene.render.height)
-    prims, materials = [], []
-    for i, obj in enumerate(scene.objects):
-        prims.append(primitive(i, obj))
-        assert obj.material is not None  # the scene model requires one for every shape
-        materials.append(primitive_material(obj.material, scene.materials[obj.material]))
+    size, prims, materials, lights = _scene_inputs(loaded, size)
     camera = camera_frame(scene.camera, size[0], size[1])
-    lights = frame_lights(scene.lights)
-    if scene.environment is not None and scene.environment.source != "uniform":
-        lights = lights + map_lights(scene.environment)  # as reference_scene
     env = scene.environment
     background: np.ndarray | Background = np.asarray(scene.background, np.float64)
     if env is not None and env.background:  # as app/render/background.py draws it
