@@ -167,11 +167,10 @@ def open_image(
                 if kept is not None:  # decoded before in this process: a copy of that
                     _DECODED.move_to_end(digest)
                     return kept.copy()
-                image.load()
-                decoded = image.copy()
-                decoded.info[SOURCE_DIGEST] = digest
-                _keep_decoded(digest, decoded)
-                return decoded.copy()
+                image.load()  # kept as decoded (its file closes with the block; the
+                image.info[SOURCE_DIGEST] = digest  # texels stay): one copy, the caller's
+                _keep_decoded(digest, image)
+                return image.copy()
     except RefusedError:
         raise
     except Image.DecompressionBombError:
