@@ -122,6 +122,8 @@ def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
     header = json.loads(entry[8 : 8 + length].tobytes())
     start = -(-(8 + length) // _ALIGN) * _ALIGN
     data = entry[start:]
+    if "crc32" not in header:  # an entry of an older pbs, checked by a SHA-256
+        raise ValueError("an entry of an older format")
     if zlib.crc32(data.data) != header["crc32"]:
         raise ValueError("checksum mismatch")
     arrays = []
