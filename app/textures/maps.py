@@ -80,8 +80,10 @@ class PreparedLevels(Sequence[np.ndarray]):
     every level as float16, rows bottom first, kept as an entry of its own under the same
     key parts. A render then reads those (half the bytes of the float32 levels, which it
     never reads) and converts nothing; the float32 levels are still what ``levels[k]`` is
-    for a consumer on the CPU. On a miss both are built from the float32 levels, so the
-    float16 ones are exactly ``np.float16`` of them (the conversion upload did before)."""
+    for a consumer on the CPU. On a miss the float16 levels are built from the float32
+    ones (exactly ``np.float16`` of them, the conversion upload did before), which are
+    kept on disk only when something indexes them: a render's entries are the float16
+    levels alone (docs/filtering.md)."""
 
     def __init__(self, kind: str, parts: tuple, build: Callable[[], Sequence[np.ndarray]]) -> None:
         self.kind, self.parts, self._build = kind, parts, build
@@ -102,7 +104,9 @@ class PreparedLevels(Sequence[np.ndarray]):
         """Every level as the GL takes it: float16, rows bottom first, contiguous."""
 
         def build() -> list[np.ndarray]:
-            return [np.ascontiguousarray(level[::-1], np.float16) for level in self._loaded()]
+            if self._levels is None:  # built, not kept: a render never reads them again
+                self._levels = [np.asarray(level) for level in self._build()]
+            return [np.ascontiguousarray(level[::-1], np.float16) for level in self._levels]
 
         return list(prepared_cache().arrays(f"{self.kind} f16 rows up", self.parts, build))
 
