@@ -242,8 +242,8 @@ def test_colour_mips_kept_are_the_gls(
     cache = prepared_cache()
     cache.clear_memory()
     made.append(upload_texture(gl_egl.ctx, tex))
-    # The first lookup: open_image's record that these bytes decode (maps.open_image).
-    assert cache.events[1:] == ["built", "disk"]
+    # The first lookups: open_image's record that these bytes decode, the RGBA texels.
+    assert cache.events[2:] == ["built", "disk"]
     try:
         count = max(tex.levels[0].shape[:2]).bit_length()
         for k in range(count):
@@ -343,3 +343,29 @@ def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.M
     assert all(a.tobytes() == b.tobytes() for a, b in zip(half, half_again, strict=True))
     plain = Texture([np.asarray(level) for level in tex.levels])  # not prepared: converted
     assert all(a.tobytes() == b.tobytes() for a, b in zip(half, upload_levels(plain), strict=True))
+
+
+def test_colour_texels_kept_and_file_not_decoded_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A colour map's RGBA texels are kept by its file's content: a later process gets the
+    same texels with the image left undecoded."""
+    from app.textures import maps
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    monkeypatch.setattr(maps, "_DECODED", type(maps._DECODED)())
+    data = _jpeg(5)
+    first = maps.colour_texture(maps.open_image(data))
+    cache = prepared_cache()
+    assert cache.events[-1] == "built"
+    cache.clear_memory()
+    maps._DECODED.clear()  # the next process
+    image = maps.open_image(data)
+    again = maps.colour_texture(image)
+    assert cache.events[-1] == "disk"
+    assert _undecoded(image)  # the texels came from the cache, not the decoder
+    assert again.source_key == first.source_key is not None
+    assert again.levels[0].dtype == np.uint8 and again.levels[0].shape == (24, 40, 4)
+    assert np.array_equal(again.levels[0], first.levels[0])
+    assert np.array_equal(first.levels[0], np.asarray(image.convert("RGBA")))

@@ -348,12 +348,20 @@ def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
 
 
 def colour_texture(image: Image.Image) -> Texture:
-    """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips)."""
+    """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips). An image
+    ``open_image`` read has its RGBA texels kept in the prepared-texture cache by its
+    file's content (with Pillow's version, whose decoder made them): a later load reads
+    them instead of decoding the file (``open_image`` then returns it undecoded)."""
+
+    def rgba() -> list[np.ndarray]:
+        return [np.asarray(image.convert("RGBA"), np.uint8)]
+
     digest = image.info.get(SOURCE_DIGEST)
-    key = None
-    if isinstance(digest, str):
-        key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
-    return Texture([np.asarray(image.convert("RGBA"), np.uint8)], srgb=True, source_key=key)
+    if not isinstance(digest, str):
+        return Texture(rgba(), srgb=True)
+    key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
+    (texels,) = prepared_cache().arrays("colour rgba8", (key,), rgba)
+    return Texture([texels], srgb=True, source_key=key)
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
