@@ -369,3 +369,23 @@ def test_colour_texels_kept_and_file_not_decoded_again(
     assert again.levels[0].dtype == np.uint8 and again.levels[0].shape == (24, 40, 4)
     assert np.array_equal(again.levels[0], first.levels[0])
     assert np.array_equal(first.levels[0], np.asarray(image.convert("RGBA")))
+
+
+def test_prefetch_reads_an_entry_in_the_background(tmp_path: Path) -> None:
+    """``prefetch`` reads a kept entry into memory (the lookup after it is a memory hit),
+    leaves a missing one to ``arrays`` to build, and records no lookup itself."""
+    cache = PreparedCache(tmp_path)
+    cache.arrays("test", ("kept",), lambda: [np.arange(5.0)])
+    cache.clear_memory()
+    future = cache.prefetch("test", ("kept",))
+    assert future is not None
+    future.result()
+    assert cache.events == ["built"]  # the prefetch itself records nothing
+    assert np.array_equal(cache.arrays("test", ("kept",), lambda: []), [np.arange(5.0)])
+    assert cache.events[-1] == "memory"
+    assert cache.prefetch("test", ("kept",)) is None  # already in memory
+    missing = cache.prefetch("test", ("missing",))
+    assert missing is not None and missing.result() is None
+    cache.arrays("test", ("missing",), lambda: [np.zeros(2)])
+    assert cache.events[-1] == "built"
+    assert PreparedCache(tmp_path, enabled=False).prefetch("test", ("kept",)) is None

@@ -56,6 +56,7 @@ from app.textures.maps import (
     decode_normals,
     linear_channel,
     normal_roughness_chain,
+    prefetch_uploads,
     read_image,
     resample,
     scalar_texture,
@@ -684,6 +685,7 @@ def _gltf_parts(
         raise InputError(scene_file, key, f"{path}: {exc}") from None
     if not parts:
         raise InputError(scene_file, key, f"{path} holds no triangles")
+    prefetch_uploads(layer for part in parts for layer in part.layers)
     return parts
 
 

@@ -35,6 +35,7 @@ import time
 import zlib
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -185,6 +186,28 @@ class PreparedCache:
         self._remember(key, arrays)
         return arrays
 
+    def prefetch(self, kind: str, parts: Iterable[Part]) -> Future | None:
+        """Start reading the entry of ``kind`` and ``parts`` from disk into memory on a
+        background thread (reading and checking a file release the GIL): its caller has
+        other work to do before it asks for it. Only a read: a missing entry is left to
+        ``arrays`` to build, and no lookup is recorded in ``events``. None where there is
+        nothing to read (off, no directory, already in memory); else a future the caller
+        waits on before its own lookup, so that the file is not read twice."""
+        if not self.enabled or self.directory is None:
+            return None
+        key = entry_key(kind, parts)
+        with self._lock:
+            if key in self._memory:
+                return None
+        return _prefetcher().submit(self._fetch, key)
+
+    def _fetch(self, key: str) -> None:
+        arrays = self._read(key)
+        if arrays is not None:
+            for a in arrays:
+                a.setflags(write=False)
+            self._remember(key, arrays)
+
     def clear_memory(self) -> None:
         """Forget the in-process entries (a second process's view of the disk level)."""
         with self._lock:
@@ -261,6 +284,18 @@ class PreparedCache:
                 break
             entry.unlink(missing_ok=True)
             total -= size
+
+
+_PREFETCHER: ThreadPoolExecutor | None = None
+
+
+def _prefetcher() -> ThreadPoolExecutor:
+    """One background reader a process (entries are read one after another, as a disk
+    likes them)."""
+    global _PREFETCHER
+    if _PREFETCHER is None:
+        _PREFETCHER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-read")
+    return _PREFETCHER
 
 
 def cache_directory() -> Path:

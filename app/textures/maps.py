@@ -20,7 +20,8 @@ import hashlib
 import io
 import warnings
 from collections import OrderedDict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -88,6 +89,7 @@ class PreparedLevels(Sequence[np.ndarray]):
     def __init__(self, kind: str, parts: tuple, build: Callable[[], Sequence[np.ndarray]]) -> None:
         self.kind, self.parts, self._build = kind, parts, build
         self._levels: list[np.ndarray] | None = None
+        self._prefetched: Future | None = None
 
     def _loaded(self) -> list[np.ndarray]:
         if self._levels is None:
@@ -100,15 +102,37 @@ class PreparedLevels(Sequence[np.ndarray]):
     def __len__(self) -> int:
         return len(self._loaded())
 
+    def prefetch(self) -> None:
+        """Start reading the float16 levels from disk in the background (``upload_levels``
+        waits for that read instead of making its own)."""
+        if self._prefetched is None:
+            self._prefetched = prepared_cache().prefetch(_UPLOAD_KIND % self.kind, self.parts)
+
     def upload_levels(self) -> list[np.ndarray]:
         """Every level as the GL takes it: float16, rows bottom first, contiguous."""
+        if self._prefetched is not None:
+            self._prefetched.result()  # in memory now, unless it was not on disk
+            self._prefetched = None
 
         def build() -> list[np.ndarray]:
             if self._levels is None:  # built, not kept: a render never reads them again
                 self._levels = [np.asarray(level) for level in self._build()]
             return [np.ascontiguousarray(level[::-1], np.float16) for level in self._levels]
 
-        return list(prepared_cache().arrays(f"{self.kind} f16 rows up", self.parts, build))
+        return list(prepared_cache().arrays(_UPLOAD_KIND % self.kind, self.parts, build))
+
+
+_UPLOAD_KIND = "%s f16 rows up"  # the cache kind of a chain's float16 levels
+
+
+def prefetch_uploads(layers: Iterable[SurfaceLayer]) -> None:
+    """Start reading the float16 levels of the layers' prepared maps in the background:
+    a model file's parts are built (and its camera framed, its exposure metered, the GL
+    started) well before the renderer uploads them."""
+    for layer in layers:
+        for tex in layer.maps.values():
+            if isinstance(tex.levels, PreparedLevels):
+                tex.levels.prefetch()
 
 
 def upload_levels(tex: Texture) -> list[np.ndarray]:
