@@ -715,8 +715,9 @@ def _material_layers(
     return result
 
 
-# What the camera, the lights and the background change: not the parts.
-_NOT_PARTS = {"camera", "lights", "background"}
+# What the camera, the lights and the background (its radiance, and whether the image
+# keeps it or is transparent, ``--background``) change: not the parts.
+_NOT_PARTS: dict = {"camera": True, "lights": True, "background": True, "render": {"background"}}
 
 
 def _parts_key(loaded: LoadedScene) -> str:
@@ -736,6 +737,8 @@ def take_built(loaded: LoadedScene) -> tuple[list[MeshPart], int] | None:
     """The parts ``keep_built`` kept for a scene with these objects, materials and
     settings, once (a frame may edit its parts' layers in place: a second frame builds
     its own); None where none were kept or the scene has changed since."""
+    if not loaded.built:  # nothing kept: no key to compute
+        return None
     return loaded.built.pop(_parts_key(loaded), None)
 
 
