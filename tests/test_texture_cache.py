@@ -28,7 +28,7 @@ def images(seed: int = 7) -> tuple[Image.Image, Image.Image]:
 def chain(cache_dir: Path, monkeypatch: pytest.MonkeyPatch, seed: int = 7) -> list[np.ndarray]:
     monkeypatch.setenv("PBS_CACHE_DIR", str(cache_dir))
     normal, mr = images(seed)
-    return normal_roughness_map(normal, 0.8, 0.9, mr, "variance").levels
+    return list(normal_roughness_map(normal, 0.8, 0.9, mr, "variance").levels)  # looked up
 
 
 def test_second_load_hits_and_is_identical(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -50,8 +50,8 @@ def test_second_load_hits_and_is_identical(tmp_path: Path, monkeypatch: pytest.M
     chain(tmp_path, monkeypatch, seed=8)
     assert cache.events[-1] == "built"
     normal, mr = images()
-    normal_roughness_map(normal, 0.8, 0.9, mr, "toksvig")
-    normal_roughness_map(normal, 0.7, 0.9, mr, "variance")
+    normal_roughness_map(normal, 0.8, 0.9, mr, "toksvig").levels[0]
+    normal_roughness_map(normal, 0.7, 0.9, mr, "variance").levels[0]
     assert cache.events[-2:] == ["built", "built"]
 
 
@@ -149,10 +149,10 @@ def test_channel_texture_cached(tmp_path: Path, monkeypatch: pytest.MonkeyPatch)
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("PBS_CACHE", raising=False)
     _, mr = images()
-    a = channel_texture(mr, 2).levels
+    a = list(channel_texture(mr, 2).levels)
     cache = prepared_cache()
     cache.clear_memory()
-    b = channel_texture(mr, 2).levels
+    b = list(channel_texture(mr, 2).levels)
     assert cache.events[-2:] == ["built", "disk"]
     expected = np.asarray(mr, np.float64)[..., 2] / 255.0
     assert np.array_equal(a[0][..., 0], expected.astype(np.float32))
@@ -209,13 +209,14 @@ def test_open_image_keys_by_file_bytes(tmp_path: Path, monkeypatch: pytest.Monke
     second = open_image(data)
     assert second is not first and second.tobytes() == first.tobytes() == mr.tobytes()
     assert second.info[SOURCE_DIGEST] == first.info[SOURCE_DIGEST]
-    channel_texture(first, 1)
-    channel_texture(open_image(data), 1)
     cache = prepared_cache()
-    assert cache.events[-2:] == ["built", "memory"]
+    channel_texture(first, 1).levels[0]
+    assert cache.events[-1] == "built"
+    channel_texture(open_image(data), 1).levels[0]
+    assert cache.events[-1] == "memory"
     changed = np.asarray(mr).copy()
     changed[0, 0, 1] ^= 1
-    channel_texture(open_image(png(Image.fromarray(changed, "RGB"))), 1)
+    channel_texture(open_image(png(Image.fromarray(changed, "RGB"))), 1).levels[0]
     assert cache.events[-1] == "built"
 
 
@@ -241,7 +242,8 @@ def test_colour_mips_kept_are_the_gls(
     cache = prepared_cache()
     cache.clear_memory()
     made.append(upload_texture(gl_egl.ctx, tex))
-    assert cache.events == ["built", "disk"]
+    # The first lookups: open_image's record that these bytes decode, the RGBA texels.
+    assert cache.events[2:] == ["built", "disk"]
     try:
         count = max(tex.levels[0].shape[:2]).bit_length()
         for k in range(count):
@@ -265,3 +267,125 @@ def test_eviction_spares_writes_in_progress(tmp_path: Path) -> None:
     cache = PreparedCache(tmp_path, disk_bytes=10)
     cache.arrays("test", (1,), lambda: [np.zeros(4)])
     assert fresh.exists() and not stale.exists()
+
+
+def _jpeg(seed: int = 3) -> bytes:
+    import io
+
+    rng = np.random.default_rng(seed)
+    out = io.BytesIO()
+    Image.fromarray(rng.integers(0, 256, (24, 40, 3), dtype=np.uint8), "RGB").save(out, "JPEG")
+    return out.getvalue()
+
+
+def _undecoded(image: Image.Image) -> bool:
+    """Whether Pillow has yet to decode ``image`` (its tile list, emptied by ``load``; a
+    copy of a decoded image has none)."""
+    return bool(getattr(image, "tile", None))
+
+
+def test_image_known_to_decode_is_decoded_when_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """open_image decodes an image the first time (and records that its bytes decode);
+    a later process gets it undecoded, the same texels once read; a broken image is
+    refused every time, never recorded."""
+    from app.textures import maps
+    from app.untrusted import RefusedError
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    monkeypatch.setattr(maps, "_DECODED", type(maps._DECODED)())
+    data = _jpeg()
+    first = maps.open_image(data)
+    assert not _undecoded(first)
+    expected = first.tobytes()
+    cache = prepared_cache()
+    cache.clear_memory()
+    maps._DECODED.clear()  # the next process
+    later = maps.open_image(data)
+    assert _undecoded(later)  # nothing has read its texels yet
+    assert later.info[maps.SOURCE_DIGEST] == first.info[maps.SOURCE_DIGEST]
+    assert later.size == first.size and later.mode == first.mode
+    assert later.tobytes() == expected  # decoded on first read, the same texels
+    broken = data[: len(data) // 2]  # a whole header, half the scan
+    for _ in range(2):
+        with pytest.raises(RefusedError):
+            maps.open_image(broken)
+        cache.clear_memory()
+    monkeypatch.setenv("PBS_CACHE", "off")  # no record: always decoded here
+    assert not _undecoded(maps.open_image(data))
+
+
+def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A prepared chain's float16 upload levels (rows bottom first) are exactly
+    np.float16 of its float32 levels, and a later process reads them without looking up
+    the float32 levels."""
+    from app.textures.maps import PreparedLevels, upload_levels
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, mr = images()
+    tex = normal_roughness_map(normal, 0.8, 0.9, mr, "variance")
+    assert isinstance(tex.levels, PreparedLevels)
+    cache = prepared_cache()
+    assert cache.events == []  # nothing looked up until a level is wanted
+    half = upload_levels(tex)
+    assert cache.events == ["built"]  # the float16 rows alone: the float32 chain not kept
+    for level, h in zip(tex.levels, half, strict=True):
+        assert h.dtype == np.float16 and h.flags.c_contiguous
+        assert h.tobytes() == np.ascontiguousarray(level[::-1], np.float16).tobytes()
+    cache.clear_memory()
+    again = normal_roughness_map(normal, 0.8, 0.9, mr, "variance")
+    half_again = upload_levels(again)
+    assert cache.events[1:] == ["disk"]  # the float16 entry alone
+    assert len(list((tmp_path / "textures").glob("*.npy"))) == 1
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(half, half_again, strict=True))
+    plain = Texture([np.asarray(level) for level in tex.levels])  # not prepared: converted
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(half, upload_levels(plain), strict=True))
+
+
+def test_colour_texels_kept_and_file_not_decoded_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A colour map's RGBA texels are kept by its file's content: a later process gets the
+    same texels with the image left undecoded."""
+    from app.textures import maps
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    monkeypatch.setattr(maps, "_DECODED", type(maps._DECODED)())
+    data = _jpeg(5)
+    first = maps.colour_texture(maps.open_image(data))
+    cache = prepared_cache()
+    assert cache.events[-1] == "built"
+    cache.clear_memory()
+    maps._DECODED.clear()  # the next process
+    image = maps.open_image(data)
+    again = maps.colour_texture(image)
+    assert cache.events[-1] == "disk"
+    assert _undecoded(image)  # the texels came from the cache, not the decoder
+    assert again.source_key == first.source_key is not None
+    assert again.levels[0].dtype == np.uint8 and again.levels[0].shape == (24, 40, 4)
+    assert np.array_equal(again.levels[0], first.levels[0])
+    assert np.array_equal(first.levels[0], np.asarray(image.convert("RGBA")))
+
+
+def test_prefetch_reads_an_entry_in_the_background(tmp_path: Path) -> None:
+    """``prefetch`` reads a kept entry into memory (the lookup after it is a memory hit),
+    leaves a missing one to ``arrays`` to build, and records no lookup itself."""
+    cache = PreparedCache(tmp_path)
+    cache.arrays("test", ("kept",), lambda: [np.arange(5.0)])
+    cache.clear_memory()
+    future = cache.prefetch("test", ("kept",))
+    assert future is not None
+    future.result()
+    assert cache.events == ["built"]  # the prefetch itself records nothing
+    assert np.array_equal(cache.arrays("test", ("kept",), lambda: []), [np.arange(5.0)])
+    assert cache.events[-1] == "memory"
+    assert cache.prefetch("test", ("kept",)) is None  # already in memory
+    missing = cache.prefetch("test", ("missing",))
+    assert missing is not None and missing.result() is None
+    cache.arrays("test", ("missing",), lambda: [np.zeros(2)])
+    assert cache.events[-1] == "built"
+    assert PreparedCache(tmp_path, enabled=False).prefetch("test", ("kept",)) is None

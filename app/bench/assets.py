@@ -12,7 +12,11 @@ same image size:
 Each is measured by a launcher process (this module run as a script, as the startup suite
 does, so the child's peak RSS is its own): wall time from spawn to exit, CPU time (user +
 system, ``os.wait4``), peak RSS. Mesa's on-disk shader cache is warm for every run (the
-machine's state, not the project's). ``$PBS_BENCH_ASSET_ARGS`` adds arguments to the pbs
+machine's state, not the project's), and so is Python's bytecode (a folder of the run's,
+``PYTHONPYCACHEPREFIX``, written by an untimed run of each way first, as ``pip install``
+compiles an installed package's: a checkout run with ``PYTHONDONTWRITEBYTECODE`` would
+otherwise compile pbs's modules from source in every run, a quarter of a second).
+``$PBS_BENCH_ASSET_ARGS`` adds arguments to the pbs
 command (e.g. an antialiasing setting). The target row compares pbs's warm and cold medians
 with f3d's; a contact sheet (pbs's image beside f3d's) goes to the output folder as
 ``assets-NAME.png``. Without f3d the pbs rows are still measured and the note says why.
@@ -124,11 +128,16 @@ def run_assets(ctx) -> None:  # ctx: app.bench.context.Context
             continue
         with tempfile.TemporaryDirectory(prefix="pbs-assets-") as tmp_name:
             tmp = Path(tmp_name)
-            warm_env = dict(base_env, PBS_CACHE_DIR=str(tmp / "warm-cache"))
+            # Python's bytecode as an installed package has it (pip compiles it on install):
+            # written by the untimed runs below, whatever PYTHONDONTWRITEBYTECODE says here.
+            env_all = dict(base_env, PYTHONPYCACHEPREFIX=str(tmp / "bytecode"))
+            env_all.pop("PYTHONDONTWRITEBYTECODE", None)
+            warm_env = dict(env_all, PBS_CACHE_DIR=str(tmp / "warm-cache"))
             fill = measured(pbs_render_command(model, tmp / "fill.png", size), warm_env)
             if fill["returncode"] != 0:
                 ctx.notes.append(f"assets: pbs render {model.name} failed: {fill['stderr']}")
                 continue
+            measured(f3d_command(model, tmp / "f3d-fill.png", size), env_all)  # as warm
             runs: dict[str, list[dict]] = {"pbs cold": [], "pbs warm": [], "f3d": []}
             f3d_why = ""
             for i in range(rounds):
@@ -140,13 +149,13 @@ def run_assets(ctx) -> None:  # ctx: app.bench.context.Context
                     ctx.progress.start(f"assets {model.name}: {way}, round {i + 1}/{rounds}")
                     png = tmp / f"{way.replace(' ', '-')}.png"
                     if way == "f3d":
-                        result = measured(f3d_command(model, png, size), base_env)
+                        result = measured(f3d_command(model, png, size), env_all)
                         if result["returncode"] == F3D_UNAVAILABLE:
                             f3d_why = result["stderr"].strip().splitlines()[-1]
                     else:
                         env = warm_env
                         if way == "pbs cold":
-                            env = dict(base_env, PBS_CACHE_DIR=str(tmp / f"cold-{i}"))
+                            env = dict(env_all, PBS_CACHE_DIR=str(tmp / f"cold-{i}"))
                         result = measured(pbs_render_command(model, png, size), env)
                     ctx.progress.done()
                     if result["returncode"] == 0:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from app.common.lights import PunctualLight
 from app.frame.lights import frame_lights
 from app.frame.materials import MaterialTable, material_table
-from app.scene.geometry import MeshPart, build_parts
+from app.scene.geometry import MeshPart, build_parts, take_built
 from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
 from app.scene.model import TEXTURE_KEYS
@@ -39,11 +39,14 @@ class FrameData:
 
 def prepare_frame(loaded: LoadedScene) -> FrameData:
     """Load the scene's geometry and maps and build its material table and lights."""
-    budget = Budget(loaded.policy.limits)
-    parts = build_parts(loaded, budget)
+    kept = take_built(loaded)  # a model file's parts, built to frame its camera
+    if kept is None:
+        budget = Budget(loaded.policy.limits)
+        kept = build_parts(loaded, budget), budget.spent
+    parts, spent = kept
     table, ids = material_table(parts)
     scene = loaded.scene
-    return FrameData(parts, table, ids, frame_lights(scene.lights), budget.spent)
+    return FrameData(parts, table, ids, frame_lights(scene.lights), spent)
 
 
 def restyle(frame: FrameData, loaded: LoadedScene, changed: set[str]) -> FrameData | None:

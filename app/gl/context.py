@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -167,10 +168,17 @@ def gl_function(ctx: moderngl.Context, name: str, argtypes: list[type]) -> ctype
     if isinstance(ctx.extra, _OSMesaLoader):
         address = ctx.extra.load_opengl_function(name)
         return ctypes.CFUNCTYPE(None, *argtypes)(address)
-    lib = ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
-    function = getattr(lib, name)
+    function = getattr(_system_gl(), name)
     function.argtypes, function.restype = argtypes, None
     return function
+
+
+@functools.cache
+def _system_gl() -> ctypes.CDLL:
+    """The system libGL, looked up once a process: ``ctypes.util.find_library`` runs
+    ``ldconfig -p`` in a child process on every call (tens of milliseconds on a loaded
+    machine, and a render asks for a few dozen entry points)."""
+    return ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
 
 
 def create_context(backend: Backend = "auto") -> GLContext:

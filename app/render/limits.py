@@ -34,7 +34,7 @@ import moderngl
 from app.common.gbuffer import GBufferLayout
 from app.errors import InputError
 from app.scene.geometry import MeshPart
-from app.textures.maps import Texture
+from app.textures.maps import Texture, upload_levels
 from app.untrusted.budget import describe
 
 MAX_TARGET_BYTES = 4 << 30
@@ -101,10 +101,10 @@ def check_render_size(
 def texture_bytes(tex: Texture) -> int:
     """The GPU bytes of a map as ``upload_texture`` (app/render/texture_upload.py) stores it:
     RGBA8 with the GL's mips (4/3 of level 0) for colour, 16-bit floats per level else."""
-    level0 = tex.levels[0]
     if tex.srgb:
+        level0 = tex.levels[0]
         return level0.shape[0] * level0.shape[1] * 4 * 4 // 3
-    return sum(level.size * 2 for level in tex.levels)
+    return sum(level.size * 2 for level in upload_levels(tex))  # what upload reads
 
 
 def _sampled(part: MeshPart) -> list[Texture]:

@@ -7,13 +7,14 @@ with these (app/render/mesh_drawable.py); app/render/limits.py counts their byte
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Sequence
 
 import moderngl
 import numpy as np
 
 from app.gl.context import gl_function
 from app.textures.cache import prepared_cache
-from app.textures.maps import Texture
+from app.textures.maps import Texture, upload_levels
 
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -47,24 +48,23 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
     """A material map with its mips: sRGB colour data decoded by the GL, which builds its
     mips; every other map with the levels the project built (app/textures/), never the
     GL's. Non-colour data is stored as 16-bit floats."""
-    level0 = tex.levels[0]
-    h, w = level0.shape[:2]
     if tex.srgb:
+        level0 = tex.levels[0]
+        h, w = level0.shape[:2]
         gl_tex = ctx.texture((w, h), 4, level0[::-1].tobytes(), internal_format=GL_SRGB8_ALPHA8)
         if tex.source_key is None:
             gl_tex.build_mipmaps()
         else:
             _srgb_mips(ctx, gl_tex, tex.source_key)
-    else:
-        comps = 1 if level0.ndim == 2 else level0.shape[2]
-
-        def data(level: np.ndarray) -> bytes:
-            return np.ascontiguousarray(level[::-1], np.float16).tobytes()
-
-        gl_tex = ctx.texture((w, h), comps, data(level0), dtype="f2")
-        if len(tex.levels) > 1:
-            _define_levels(gl_tex, comps, [data(level) for level in tex.levels[1:]])
-    mipmapped = tex.srgb or len(tex.levels) > 1
+        mipmapped = True
+    else:  # float16 rows bottom first (a prepared chain's kept as such: maps.PreparedLevels)
+        levels = upload_levels(tex)
+        h, w = levels[0].shape[:2]
+        comps = 1 if levels[0].ndim == 2 else levels[0].shape[2]
+        gl_tex = ctx.texture((w, h), comps, levels[0], dtype="f2")
+        if len(levels) > 1:
+            _define_levels(gl_tex, comps, levels[1:])
+        mipmapped = len(levels) > 1
     if tex.min_filter == "linear_mipmap_linear" and tex.mag_filter == "linear":
         gl_tex.filter = (  # the default: trilinear where there are mips
             moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
@@ -143,11 +143,14 @@ def _srgb_mips(ctx: moderngl.Context, gl_tex: moderngl.Texture, source_key: str)
     built: list[bool] = []
     levels = prepared_cache().arrays("srgb_mips", parts, lambda: built.append(True) or build())
     if not built:
-        _define_levels(gl_tex, 4, [a.tobytes() for a in levels], GL_SRGB8_ALPHA8)
+        _define_levels(gl_tex, 4, list(levels), GL_SRGB8_ALPHA8)
 
 
 def _define_levels(
-    gl_tex: moderngl.Texture, comps: int, levels: list[bytes], internal: int | None = None
+    gl_tex: moderngl.Texture,
+    comps: int,
+    levels: Sequence[bytes | np.ndarray],
+    internal: int | None = None,
 ) -> None:
     """Levels 1..n of a 16-bit float texture defined straight from the project's mips
     (glTexImage2D per level, GL sizes), and the texture's level range set to 0..n; with
@@ -171,10 +174,15 @@ def _define_levels(
     for k, level in enumerate(levels, start=1):
         size_w, size_h = max(1, w >> k), max(1, h >> k)
         texel = 1 if internal is not None else 2
-        assert len(level) == size_w * size_h * comps * texel, "a level of another size"
+        if isinstance(level, np.ndarray):  # its own buffer, no copy into bytes
+            level = np.ascontiguousarray(level)
+            nbytes, pointer = level.nbytes, level.ctypes.data
+        else:
+            nbytes, pointer = len(level), level
+        assert nbytes == size_w * size_h * comps * texel, "a level of another size"
         image(
             GL_TEXTURE_2D, k, internal or GL_HALF_FORMATS[comps], size_w, size_h, 0,
-            GL_CLIENT_FORMATS[comps], GL_UNSIGNED_BYTE if internal else GL_HALF_FLOAT, level,
+            GL_CLIENT_FORMATS[comps], GL_UNSIGNED_BYTE if internal else GL_HALF_FLOAT, pointer,
         )  # fmt: skip
     set_parameter(GL_TEXTURE_2D, GL_TEXTURE_BASE_LEVEL, 0)
     set_parameter(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, len(levels))

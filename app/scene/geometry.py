@@ -24,9 +24,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 from PIL import Image
 
 from app.common.material_checks import material_problems
@@ -56,6 +56,7 @@ from app.textures.maps import (
     decode_normals,
     linear_channel,
     normal_roughness_chain,
+    prefetch_uploads,
     read_image,
     resample,
     scalar_texture,
@@ -65,6 +66,9 @@ from app.untrusted.budget import Budget
 
 VERTEX_FORMAT = "3f 3f 2f 4f"
 VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
+
+if TYPE_CHECKING:  # trimesh is imported where a mesh needs it: a glTF file never does
+    import trimesh
 
 
 @dataclass
@@ -130,6 +134,8 @@ def _crease_normals(mesh: trimesh.Trimesh, crease_deg: float = 40.0) -> trimesh.
     Each face corner gets the area-weighted mean of the normals of the faces around
     its vertex that lie within the crease angle of its own face.
     """
+    import trimesh
+
     faces = mesh.faces
     fn = mesh.face_normals * mesh.area_faces[:, None]
     unit = mesh.face_normals
@@ -155,6 +161,8 @@ def _crease_normals(mesh: trimesh.Trimesh, crease_deg: float = 40.0) -> trimesh.
 
 def _plane(size: list[float]) -> trimesh.Trimesh:
     """A quad in the XZ plane facing +Y, with UVs over [0, 1]^2."""
+    import trimesh
+
     sx, sz = size[0] / 2.0, size[1] / 2.0
     v = np.array([[-sx, 0, -sz], [-sx, 0, sz], [sx, 0, sz], [sx, 0, -sz]], np.float64)
     uv = np.array([[0, 1], [0, 0], [1, 0], [1, 1]], np.float64)
@@ -200,6 +208,8 @@ PROXY_SUBDIVISIONS = 1
 
 def _icosphere(radius: float, subdivisions: int) -> trimesh.Trimesh:
     """An icosphere mesh with exact sphere normals and seam-split equirectangular UVs."""
+    import trimesh
+
     # A unit icosphere scaled here: trimesh's radius divides by the vertices' lengths,
     # 0/0 for a radius under ~1e-15 m (NaN vertices and a RuntimeWarning on stderr;
     # found by tests/test_fuzz_scenes.py). Normals from the unit sphere likewise.
@@ -215,6 +225,8 @@ def _icosphere(radius: float, subdivisions: int) -> trimesh.Trimesh:
 @functools.cache
 def _unit_proxy() -> tuple[np.ndarray, np.ndarray, float]:
     """The proxy's unit directions, faces and inradius, built once per process."""
+    import trimesh
+
     unit = trimesh.creation.icosphere(subdivisions=PROXY_SUBDIVISIONS, radius=1.0)
     v = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
     f = np.asarray(unit.faces)
@@ -240,6 +252,8 @@ def sphere_proxy(radius: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _primitive(obj: SceneObject) -> trimesh.Trimesh:
+    import trimesh
+
     if obj.shape == "sphere":
         subdivisions = ICOSPHERE_SUBDIVISIONS if obj.subdivisions is None else obj.subdivisions
         return _icosphere(obj.radius or 0.5, subdivisions)
@@ -356,6 +370,8 @@ def _file_material(
     ``obj_materials``), the MTL's material (``_mtl_material``; ``read`` opens its maps);
     otherwise ``fallback``. (OBJ, PLY and STL carry no other material trimesh reads; glTF
     materials come from app/scene/gltf.py.)"""
+    import trimesh
+
     mat = getattr(mesh.visual, "material", None)
     if (
         mtl is not None
@@ -537,6 +553,8 @@ def _load_file(
     parses the bytes; an OBJ's MTL files reach it through a resolver holding only the MTL
     files this module confined and read, so trimesh opens no file itself (it would take
     any ``mtllib ../../x`` and image name it finds)."""
+    import trimesh
+
     scene_file, key = str(loaded.path), f"objects[{index}].file"
     path = loaded.resolve_file(obj.file or "", key)
     policy = loaded.policy
@@ -667,6 +685,7 @@ def _gltf_parts(
         raise InputError(scene_file, key, f"{path}: {exc}") from None
     if not parts:
         raise InputError(scene_file, key, f"{path} holds no triangles")
+    prefetch_uploads(layer for part in parts for layer in part.layers)
     return parts
 
 
@@ -694,6 +713,33 @@ def _material_layers(
             result = ([base, top], BlendMask(chain, blend.threshold, blend.softness))
     cache[name] = result
     return result
+
+
+# What the camera, the lights and the background (its radiance, and whether the image
+# keeps it or is transparent, ``--background``) change: not the parts.
+_NOT_PARTS: dict = {"camera": True, "lights": True, "background": True, "render": {"background"}}
+
+
+def _parts_key(loaded: LoadedScene) -> str:
+    """Everything of the scene that its parts are built from (objects, materials, textures,
+    render settings, the files they name), as one string."""
+    return repr((str(loaded.path), loaded.scene.model_dump(exclude=_NOT_PARTS)))
+
+
+def keep_built(loaded: LoadedScene, parts: list[MeshPart], spent: int) -> None:
+    """Keep ``parts`` (built from ``loaded`` with ``spent`` bytes charged) for the next
+    ``take_built`` of this scene or one derived from it with the same objects."""
+    loaded.built.clear()
+    loaded.built[_parts_key(loaded)] = (parts, spent)
+
+
+def take_built(loaded: LoadedScene) -> tuple[list[MeshPart], int] | None:
+    """The parts ``keep_built`` kept for a scene with these objects, materials and
+    settings, once (a frame may edit its parts' layers in place: a second frame builds
+    its own); None where none were kept or the scene has changed since."""
+    if not loaded.built:  # nothing kept: no key to compute
+        return None
+    return loaded.built.pop(_parts_key(loaded), None)
 
 
 def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshPart]:

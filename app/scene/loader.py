@@ -29,6 +29,11 @@ class LoadedScene:
     scene: Scene
     path: Path
     policy: InputPolicy = field(default=DEFAULT_POLICY, compare=False)
+    # Mesh parts already built from this scene's objects (app/scene/geometry.py
+    # ``keep_built``): a model file's parts are built to frame the camera, and the frame
+    # takes them instead of reading the file and its images again. Shared by the scenes
+    # ``with_scene`` derives, keyed by what the parts depend on, taken once.
+    built: dict = field(default_factory=dict, compare=False, repr=False)
 
     def resolve_file(self, relative: str, key: str) -> Path:
         """A path the scene names at ``key``, relative to the scene file's folder and

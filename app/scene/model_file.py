@@ -41,12 +41,13 @@ import numpy as np
 
 from app.errors import InputError
 from app.reference.tonemap import post_process, srgb_decode
-from app.scene.geometry import MeshPart, build_parts
+from app.scene.geometry import MeshPart, build_parts, keep_built
 from app.scene.loader import LoadedScene, parse_scene
 from app.scene.look import ENVIRONMENTS, MODEL_SUFFIXES, VIEWS, Look, is_model_file
 from app.scene.model import Light
 from app.textures.environment import environment_map
 from app.untrusted import RefusedError, files
+from app.untrusted.budget import Budget
 from app.untrusted.policy import InputPolicy
 
 __all__ = [
@@ -383,13 +384,14 @@ def model_scene(
                 len(loaded.scene.lights),
                 look.env if look.env in ENVIRONMENTS else "image",
             )
-        parts = build_parts(loaded)
-        if look.camera == "file":
-            camera = loaded.scene.camera.model_dump(exclude_unset=True)
-            return _lit(loaded, camera, parts, look, file_lights)
+        budget = Budget(policy.limits)
+        parts = build_parts(loaded, budget)
         camera = loaded.scene.camera.model_dump(exclude_unset=True)
-        camera.update(framing_camera(_surface_points(parts), (width, height), *look.angles()))
-        return _lit(loaded, camera, parts, look, file_lights)
+        if look.camera != "file":
+            camera.update(framing_camera(_surface_points(parts), (width, height), *look.angles()))
+        result = _lit(loaded, camera, parts, look, file_lights)
+        keep_built(result, parts, budget.spent)  # the frame takes them (app/frame)
+        return result
     except InputError as exc:
         raise _as_model_error(exc, path) from None
 

@@ -11,7 +11,9 @@ a new key and nothing stale is ever returned. Two levels:
   ``memory_bytes``; a batch's frames, a viewer's reload and a second Renderer of the same
   asset reuse them;
 * on disk: one ``.npy`` per entry, a flat uint8 array (``pack_entry``: a JSON header of
-  dtypes, shapes and offsets, and a SHA-256 of the data checked on every read), read with
+  dtypes, shapes and offsets, and a CRC-32 of the data checked on every read: a torn or
+  flipped entry is caught, as by a SHA-256, in a fraction of its time; the key is what
+  SHA-256 secures), read with
   ``allow_pickle=False``: an entry is data, never code; a corrupt or unreadable entry is
   deleted and rebuilt. Written to a temporary file
   and renamed, so a killed process leaves no half entry. Bounded by ``disk_bytes``: the
@@ -30,8 +32,10 @@ import os
 import tempfile
 import threading
 import time
+import zlib
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -89,7 +93,7 @@ def _feed(digest: hashlib._Hash, part: Part) -> None:
 
 def pack_entry(arrays: Sequence[np.ndarray]) -> np.ndarray:
     """Arrays as one entry, a flat uint8 array: an 8-byte little-endian header length, a
-    JSON header ({"arrays": [[dtype, shape, offset], ...], "sha256": hex of the data}),
+    JSON header ({"arrays": [[dtype, shape, offset], ...], "crc32": of the data}),
     then each array's bytes at a 64-byte aligned offset. One read, no per-array copies."""
     layout, offset = [], 0
     for a in arrays:
@@ -99,7 +103,7 @@ def pack_entry(arrays: Sequence[np.ndarray]) -> np.ndarray:
     data = np.zeros(offset, np.uint8)
     for a, (_, _, at) in zip(arrays, layout, strict=True):
         data[at : at + a.nbytes] = np.frombuffer(np.ascontiguousarray(a).data, np.uint8)
-    header = json.dumps({"arrays": layout, "sha256": hashlib.sha256(data.data).hexdigest()})
+    header = json.dumps({"arrays": layout, "crc32": zlib.crc32(data.data)})
     head = header.encode()
     size = -(-(8 + len(head)) // _ALIGN) * _ALIGN
     prefix = np.zeros(size, np.uint8)
@@ -110,7 +114,7 @@ def pack_entry(arrays: Sequence[np.ndarray]) -> np.ndarray:
 
 def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
     """The arrays of ``pack_entry``'s output (views of it); ValueError when it is not one
-    or its data's SHA-256 is not the header's."""
+    or its data's CRC-32 is not the header's."""
     if entry.dtype != np.uint8 or entry.ndim != 1 or entry.size < 8:
         raise ValueError("not an entry")
     length = int.from_bytes(entry[:8].tobytes(), "little")
@@ -119,7 +123,9 @@ def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
     header = json.loads(entry[8 : 8 + length].tobytes())
     start = -(-(8 + length) // _ALIGN) * _ALIGN
     data = entry[start:]
-    if hashlib.sha256(data.data).hexdigest() != header["sha256"]:
+    if "crc32" not in header:  # an entry of an older pbs, checked by a SHA-256
+        raise ValueError("an entry of an older format")
+    if zlib.crc32(data.data) != header["crc32"]:
         raise ValueError("checksum mismatch")
     arrays = []
     for dtype_str, shape, offset in header["arrays"]:
@@ -179,6 +185,28 @@ class PreparedCache:
             a.setflags(write=False)
         self._remember(key, arrays)
         return arrays
+
+    def prefetch(self, kind: str, parts: Iterable[Part]) -> Future | None:
+        """Start reading the entry of ``kind`` and ``parts`` from disk into memory on a
+        background thread (reading and checking a file release the GIL): its caller has
+        other work to do before it asks for it. Only a read: a missing entry is left to
+        ``arrays`` to build, and no lookup is recorded in ``events``. None where there is
+        nothing to read (off, no directory, already in memory); else a future the caller
+        waits on before its own lookup, so that the file is not read twice."""
+        if not self.enabled or self.directory is None:
+            return None
+        key = entry_key(kind, parts)
+        with self._lock:
+            if key in self._memory:
+                return None
+        return _prefetcher().submit(self._fetch, key)
+
+    def _fetch(self, key: str) -> None:
+        arrays = self._read(key)
+        if arrays is not None:
+            for a in arrays:
+                a.setflags(write=False)
+            self._remember(key, arrays)
 
     def clear_memory(self) -> None:
         """Forget the in-process entries (a second process's view of the disk level)."""
@@ -256,6 +284,18 @@ class PreparedCache:
                 break
             entry.unlink(missing_ok=True)
             total -= size
+
+
+_PREFETCHER: ThreadPoolExecutor | None = None
+
+
+def _prefetcher() -> ThreadPoolExecutor:
+    """One background reader a process (entries are read one after another, as a disk
+    likes them)."""
+    global _PREFETCHER
+    if _PREFETCHER is None:
+        _PREFETCHER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-read")
+    return _PREFETCHER
 
 
 def cache_directory() -> Path:

@@ -9,7 +9,9 @@ texel averages moves into its roughness (the scene's ``render.normal_filter``).
 
 The chains a file's images give are kept in app/textures/cache.py's content-keyed cache
 (``normal_roughness_map``, ``channel_texture``): a second load of the same images, in this
-process or the next, reads them instead of building them.
+process or the next, reads them instead of building them. Such a chain's levels
+(``PreparedLevels``) are read only when first indexed; the GL's 16-bit float levels are an
+entry of their own, so that a render reads half the bytes and converts none.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ import hashlib
 import io
 import warnings
 from collections import OrderedDict
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -52,7 +56,7 @@ class Texture:
     (``levels`` then holds level 0 only); otherwise every level is given here.
     """
 
-    levels: list[np.ndarray]  # (h, w, c) uint8 or float32
+    levels: Sequence[np.ndarray]  # (h, w, c) uint8 or float32 (a list, or PreparedLevels)
     srgb: bool = False
     # Sampler state (glTF 2.0 ``samplers``): wrap along u and v, each "repeat", "clamp"
     # or "mirror"; the GL's minification and magnification filters by their glTF names
@@ -67,6 +71,75 @@ class Texture:
     @property
     def pixels(self) -> np.ndarray:
         return self.levels[0]
+
+
+class PreparedLevels(Sequence[np.ndarray]):
+    """The float32 levels of a chain kept in the prepared-texture cache (app/textures/
+    cache.py), looked up (read, or built and kept) when first indexed, not when made.
+
+    ``upload_levels`` gives what the GL stores instead (app/render/texture_upload.py):
+    every level as float16, rows bottom first, kept as an entry of its own under the same
+    key parts. A render then reads those (half the bytes of the float32 levels, which it
+    never reads) and converts nothing; the float32 levels are still what ``levels[k]`` is
+    for a consumer on the CPU. On a miss the float16 levels are built from the float32
+    ones (exactly ``np.float16`` of them, the conversion upload did before), which are
+    kept on disk only when something indexes them: a render's entries are the float16
+    levels alone (docs/filtering.md)."""
+
+    def __init__(self, kind: str, parts: tuple, build: Callable[[], Sequence[np.ndarray]]) -> None:
+        self.kind, self.parts, self._build = kind, parts, build
+        self._levels: list[np.ndarray] | None = None
+        self._prefetched: Future | None = None
+
+    def _loaded(self) -> list[np.ndarray]:
+        if self._levels is None:
+            self._levels = list(prepared_cache().arrays(self.kind, self.parts, self._build))
+        return self._levels
+
+    def __getitem__(self, index):  # type: ignore[override]  # an int or a slice, as a list's
+        return self._loaded()[index]
+
+    def __len__(self) -> int:
+        return len(self._loaded())
+
+    def prefetch(self) -> None:
+        """Start reading the float16 levels from disk in the background (``upload_levels``
+        waits for that read instead of making its own)."""
+        if self._prefetched is None:
+            self._prefetched = prepared_cache().prefetch(_UPLOAD_KIND % self.kind, self.parts)
+
+    def upload_levels(self) -> list[np.ndarray]:
+        """Every level as the GL takes it: float16, rows bottom first, contiguous."""
+        if self._prefetched is not None:
+            self._prefetched.result()  # in memory now, unless it was not on disk
+            self._prefetched = None
+
+        def build() -> list[np.ndarray]:
+            if self._levels is None:  # built, not kept: a render never reads them again
+                self._levels = [np.asarray(level) for level in self._build()]
+            return [np.ascontiguousarray(level[::-1], np.float16) for level in self._levels]
+
+        return list(prepared_cache().arrays(_UPLOAD_KIND % self.kind, self.parts, build))
+
+
+_UPLOAD_KIND = "%s f16 rows up"  # the cache kind of a chain's float16 levels
+
+
+def prefetch_uploads(layers: Iterable[SurfaceLayer]) -> None:
+    """Start reading the float16 levels of the layers' prepared maps in the background:
+    a model file's parts are built (and its camera framed, its exposure metered, the GL
+    started) well before the renderer uploads them."""
+    for layer in layers:
+        for tex in layer.maps.values():
+            if isinstance(tex.levels, PreparedLevels):
+                tex.levels.prefetch()
+
+
+def upload_levels(tex: Texture) -> list[np.ndarray]:
+    """A non-colour map's levels as the GL stores them (float16, rows bottom first)."""
+    if isinstance(tex.levels, PreparedLevels):
+        return tex.levels.upload_levels()
+    return [np.ascontiguousarray(level[::-1], np.float16) for level in tex.levels]
 
 
 @dataclass(frozen=True)
@@ -138,6 +211,13 @@ def open_image(
 ) -> Image.Image:
     """A texture (a plain file, or bytes from a glTF buffer) decoded, or ``RefusedError``.
 
+    Decoded here unless the prepared-texture cache (app/textures/cache.py) records that
+    these very bytes decoded before under this Pillow: an entry "decodes" keyed by their
+    SHA-256 is written only after a decode succeeds, so a broken image is still refused
+    here, and an image known to decode is returned undecoded, its texels decoded when
+    first read. A warm render of a model file then decodes only the maps it uploads from
+    the texels (colour maps), not those whose prepared chains it reads from the cache.
+
     The size the header declares is checked before a pixel is decoded: at most
     ``Limits.max_texture_side`` a side, and the decoded texels plus what the map of
     ``kind`` (colour, scalar, normal, direction; None: the caller charges the map) builds
@@ -150,28 +230,36 @@ def open_image(
             encoded = source
         else:
             encoded = files.read_bytes(Path(source), budget.limits.max_file_bytes)
-        stream = io.BytesIO(encoded)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            with Image.open(stream, formats=IMAGE_FORMATS) as image:
-                width, height = image.size  # from the header: checked before decoding
-                if width <= 0 or height <= 0:
-                    raise RefusedError(f"declares a {width}x{height} image")
-                bands = len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
-                budget.texture(width, height, kind, "the image")
-                budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
-                # What the prepared-texture cache keys this image by (_image_part): the
-                # file's bytes, a few MiB to hash where the decoded texels are tens.
-                digest = hashlib.sha256(encoded).hexdigest()
-                kept = _DECODED.get(digest)
-                if kept is not None:  # decoded before in this process: a copy of that
-                    _DECODED.move_to_end(digest)
-                    return kept.copy()
-                image.load()
-                decoded = image.copy()
-                decoded.info[SOURCE_DIGEST] = digest
-                _keep_decoded(digest, decoded)
-                return decoded.copy()
+            # Not a ``with`` block: an image returned undecoded reads its stream later.
+            image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+        width, height = image.size  # from the header: checked before decoding
+        if width <= 0 or height <= 0:
+            raise RefusedError(f"declares a {width}x{height} image")
+        bands = len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
+        budget.texture(width, height, kind, "the image")
+        budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
+        # What the prepared-texture cache keys this image by (_image_part): the
+        # file's bytes, a few MiB to hash where the decoded texels are tens.
+        digest = hashlib.sha256(encoded).hexdigest()
+        image.info[SOURCE_DIGEST] = digest
+        kept = _DECODED.get(digest)
+        if kept is not None:  # decoded before in this process: a copy of that
+            _DECODED.move_to_end(digest)
+            return kept.copy()
+        decoded: list[bool] = []
+
+        def decode() -> list[np.ndarray]:
+            image.load()  # a broken image raises here, before anything is kept
+            decoded.append(True)
+            return [np.array([width, height], np.int64)]
+
+        prepared_cache().arrays("decodes", (PIL.__version__, image.format, digest), decode)
+        if not decoded:  # these bytes decoded before: decoded when their texels are read
+            return image
+        _keep_decoded(digest, image)
+        return image.copy()
     except RefusedError:
         raise
     except Image.DecompressionBombError:
@@ -284,12 +372,20 @@ def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
 
 
 def colour_texture(image: Image.Image) -> Texture:
-    """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips)."""
+    """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips). An image
+    ``open_image`` read has its RGBA texels kept in the prepared-texture cache by its
+    file's content (with Pillow's version, whose decoder made them): a later load reads
+    them instead of decoding the file (``open_image`` then returns it undecoded)."""
+
+    def rgba() -> list[np.ndarray]:
+        return [np.asarray(image.convert("RGBA"), np.uint8)]
+
     digest = image.info.get(SOURCE_DIGEST)
-    key = None
-    if isinstance(digest, str):
-        key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
-    return Texture([np.asarray(image.convert("RGBA"), np.uint8)], srgb=True, source_key=key)
+    if not isinstance(digest, str):
+        return Texture(rgba(), srgb=True)
+    key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
+    (texels,) = prepared_cache().arrays("colour rgba8", (key,), rgba)
+    return Texture([texels], srgb=True, source_key=key)
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
@@ -385,7 +481,7 @@ def normal_roughness_map(
         _image_part(roughness_image),
         normal_filter,
     )
-    return Texture(list(prepared_cache().arrays("normal_roughness", parts, build)))
+    return Texture(PreparedLevels("normal_roughness", parts, build))
 
 
 def channel_texture(image: Image.Image, channel: int) -> Texture:
@@ -397,4 +493,4 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
         return scalar_texture(rgb[..., channel] / 255.0).levels
 
     parts = (_prepared_version(), _image_part(image), int(channel))
-    return Texture(list(prepared_cache().arrays("channel", parts, build)))
+    return Texture(PreparedLevels("channel", parts, build))
