@@ -30,7 +30,6 @@ import shlex
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 ASSET_SIZE = (480, 480)
@@ -83,29 +82,10 @@ def measured(cmd: list[str], env: dict[str, str], timeout: float = 300.0) -> dic
 
 def _spawn_and_measure(cmd: list[str], env: dict[str, str], timeout: float) -> dict:
     """The launcher's work: spawn ``cmd``, wait with ``os.wait4``, measure."""
-    with tempfile.TemporaryFile() as log:
-        t0 = time.perf_counter()
-        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=log)
-        deadline = t0 + timeout
-        while True:
-            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
-            if pid:
-                break
-            if time.perf_counter() > deadline:
-                proc.kill()
-                pid, status, usage = os.wait4(proc.pid, 0)
-                break
-            time.sleep(0.002)
-        wall = time.perf_counter() - t0
-        log.seek(0)
-        stderr = log.read().decode(errors="replace")
-    return {
-        "wall_s": wall,
-        "cpu_s": usage.ru_utime + usage.ru_stime,
-        "maxrss_mib": usage.ru_maxrss / 1024.0,  # Linux: KiB
-        "returncode": os.waitstatus_to_exitcode(status),
-        "stderr": stderr[-500:],
-    }
+    from app.bench.startup import run_to_exit
+
+    run = run_to_exit(cmd, env, timeout)
+    return {"wall_s": run.pop("exit_s"), **run}
 
 
 def run_assets(ctx) -> None:  # ctx: app.bench.context.Context

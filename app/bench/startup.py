@@ -87,31 +87,15 @@ def spawn_and_measure(
         if size is not None:
             cmd += ["--size", f"{size[0]}x{size[1]}"]
         start_ns = time.time_ns()
-        t0 = time.perf_counter()
-        log = (Path(tmp) / "stderr.txt").open("wb")
-        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=log)
-        deadline = t0 + timeout
-        while True:
-            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
-            if pid:
-                break
-            if time.perf_counter() > deadline:
-                proc.kill()
-                pid, status, usage = os.wait4(proc.pid, 0)
-                break
-            time.sleep(0.002)
-        exit_s = time.perf_counter() - t0
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        log.close()
-        stderr = (Path(tmp) / "stderr.txt").read_text(errors="replace")
+        run = run_to_exit(cmd, env, timeout)
         to_png = (out.stat().st_mtime_ns - start_ns) / 1e9 if out.is_file() else None
     return {
         "to_png_s": to_png,
-        "exit_s": exit_s,
-        "maxrss_mib": usage.ru_maxrss / 1024.0,  # Linux: KiB
-        "returncode": proc.returncode,
+        "exit_s": run["exit_s"],
+        "maxrss_mib": run["maxrss_mib"],
+        "returncode": run["returncode"],
         "command": " ".join(["pbs", *cmd[len(pbs_command()) :]]),
-        "stderr": stderr[-500:],
+        "stderr": run["stderr"],
     }
 
 
@@ -123,8 +107,10 @@ MISSPELT = ("[render]\n", "[render]\nsupersampel = 2\n")
 MISSPELT_KEY = "render.supersampel"  # what the one error line names
 
 
-def _run_to_exit(cmd: list[str], env: dict[str, str], timeout: float) -> dict:
-    """One process from spawn to exit: {"exit_s", "cpu_s", "returncode", "stderr"}."""
+def run_to_exit(cmd: list[str], env: dict[str, str], timeout: float) -> dict:
+    """One process from spawn to exit, killed past ``timeout``: {"exit_s", "cpu_s",
+    "maxrss_mib", "returncode", "stderr"} (CPU time and peak resident set from
+    ``os.wait4``, which reports that child alone; the tail of its stderr)."""
     with tempfile.TemporaryFile() as log:
         t0 = time.perf_counter()
         proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=log)
@@ -144,6 +130,7 @@ def _run_to_exit(cmd: list[str], env: dict[str, str], timeout: float) -> dict:
     return {
         "exit_s": exit_s,
         "cpu_s": usage.ru_utime + usage.ru_stime,
+        "maxrss_mib": usage.ru_maxrss / 1024.0,  # Linux: KiB
         "returncode": os.waitstatus_to_exitcode(status),
         "stderr": stderr[-500:],
     }
@@ -151,7 +138,7 @@ def _run_to_exit(cmd: list[str], env: dict[str, str], timeout: float) -> dict:
 
 def quick_answers(runs: int = ANSWER_RUNS, timeout: float = 60.0) -> dict[str, dict]:
     """``pbs --help`` and ``pbs render BAD.toml -o out.png``, ``runs`` times each after
-    one untimed round, alternating: per answer {"command", "runs": [_run_to_exit's dict
+    one untimed round, alternating: per answer {"command", "runs": [run_to_exit's dict
     per run], "ok": whether every run exited as it should (0; 2 with one error line
     naming the key and no PNG), "exit_s_median", "cpu_s_median"}."""
     env = dict(os.environ)
@@ -169,7 +156,7 @@ def quick_answers(runs: int = ANSWER_RUNS, timeout: float = 60.0) -> dict[str, d
         results: dict[str, list[dict]] = {name: [] for name in commands}
         for i in range(runs + 1):
             for name, cmd in commands.items():
-                run = _run_to_exit(cmd, env, timeout)
+                run = run_to_exit(cmd, env, timeout)
                 if i > 0:
                     results[name].append(run)
         written = out.exists()
