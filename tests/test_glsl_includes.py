@@ -77,3 +77,14 @@ def test_library_file_compiles_alone(gl_egl, path, features):
         fragment_shader=assemble_text(SHADER.format(path=path), defines),
     )
     program.release()
+
+
+def test_fragment_only_extension_stays_out_of_the_vertex_stage():
+    """The geometry samples' program (GBUFFER_SAMPLE_MASK) names GL_ARB_sample_shading
+    for gl_SampleMask in its fragment stage only: the extension adds nothing to a vertex
+    shader, where a strict compiler may refuse it."""
+    defines = {"GBUFFER_SAMPLE_MASK": 4}
+    extension = "#extension GL_ARB_sample_shading : require"
+    assert extension in assemble("passes/gbuffer.frag", defines)
+    assert extension not in assemble("passes/gbuffer.vert", defines)
+    assert extension not in assemble("passes/gbuffer.frag", {})

@@ -82,12 +82,12 @@ def expand_text(text: str, root: Path | None = None) -> str:
     return "\n".join(_expand("<text>", text, glsl_dir() if root is None else root, set())[0])
 
 
-def _header(defines: Mapping[str, object] | None) -> str:
+def _header(defines: Mapping[str, object] | None, fragment: bool = True) -> str:
     """``#version``, the shared constants, a program's feature ``defines``, the lines
     generated from them (``_generated``), then ``#line 1``: the compiler numbers the
-    expanded source from 1."""
+    expanded source from 1. ``fragment``: the stage may name fragment-only extensions."""
     lines = [GLSL_VERSION]
-    if "GBUFFER_SAMPLE_MASK" in (defines or {}):  # gl_SampleMask (passes/gbuffer.frag)
+    if fragment and "GBUFFER_SAMPLE_MASK" in (defines or {}):  # gl_SampleMask, gbuffer.frag
         lines.append("#extension GL_ARB_sample_shading : require")
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
@@ -108,7 +108,7 @@ def _generated(defines: Mapping[str, object]) -> list[str]:
 
 def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:
     """``#version`` line, then the defines, then the expanded source of a file."""
-    return _header(defines) + expand_includes(relative)
+    return _header(defines, not relative.endswith(".vert")) + expand_includes(relative)
 
 
 def assemble_text(text: str, defines: Mapping[str, object] | None = None) -> str:
