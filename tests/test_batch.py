@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 import tomlkit
+from PIL import Image
 
 from app.batch.jobs import plan_jobs
 from app.cli import main
@@ -140,6 +141,17 @@ def test_resume_skips_valid_and_redoes_truncated(tmp_path: Path, scene: Path) ->
     jobs.write_text(f'scene = "{scene.name}"\nsize = "32x32"\norbit = {{ frames = 3 }}\n')
     assert main(["batch", str(jobs), "-o", str(out), "-q"]) == 0
     assert {line["status"] for line in _manifest(out).values()} == {"ok"}
+    # An RGB PNG is not a transparent job's output (the job file's background changed),
+    # and the rerun's RGBA PNGs are kept by the next resume.
+    transparent = 'background = "transparent"\n'
+    jobs.write_text(
+        f'scene = "{scene.name}"\nsize = "32x32"\n{transparent}orbit = {{ frames = 3 }}\n'
+    )
+    for expected in ("ok", "skipped"):
+        assert main(["batch", str(jobs), "-o", str(out), "-q"]) == 0
+        assert {line["status"] for line in _manifest(out).values()} == {expected}
+    with Image.open(out / "frame-0001.png") as image:
+        assert image.mode == "RGBA"
 
 
 @pytest.mark.gl

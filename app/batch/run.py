@@ -42,17 +42,26 @@ DASK_HINT = "needs Dask distributed (pip install 'pbs-lab[distributed]')"
 SCHEDULER_TIMEOUT = 10.0  # seconds to reach a --scheduler before the run is refused
 
 
-def valid_output(path: Path, expected: tuple[int, int] | None) -> bool:
+def valid_output(path: Path, expected: tuple[int, int] | None, mode: str | None = None) -> bool:
     """Whether ``path`` is a PNG that decodes whole (a truncated file does not) and has
-    the expected (width, height) where that is known."""
+    the expected (width, height) and PIL mode ("RGB", or "RGBA" for a transparent
+    background) where those are known."""
     try:
         with Image.open(path) as image:
-            if image.format != "PNG":
+            if image.format != "PNG" or (mode is not None and image.mode != mode):
                 return False
             image.load()  # decodes every row: a truncated file raises here
             return expected is None or image.size == tuple(expected)
     except (OSError, SyntaxError, ValueError):  # PIL's ways of saying "not an image"
         return False
+
+
+def _mode(job: Job) -> str | None:
+    """The PNG mode a job writes where its job file sets the background (a scene's own
+    ``render.background`` is read only when the job renders)."""
+    if job.background is None:
+        return None
+    return "RGBA" if job.background == "transparent" else "RGB"
 
 
 def _in_process(jobs: list[Job], backend: str) -> Iterator[dict]:
@@ -175,7 +184,7 @@ def run_batch(
                     on_result(line)
 
             for job in plan.jobs:
-                if resume and valid_output(Path(job.output), job.expected):
+                if resume and valid_output(Path(job.output), job.expected, _mode(job)):
                     line = {"job": job.id, "output": job.output, "seconds": 0.0}
                     record({**line, "status": "skipped", "error": None})
                 else:
