@@ -27,7 +27,6 @@ from __future__ import annotations
 import json
 import os
 import shlex
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -64,20 +63,14 @@ def f3d_command(model: Path, out: Path, size: tuple[int, int]) -> list[str]:
 def measured(cmd: list[str], env: dict[str, str], timeout: float = 300.0) -> dict:
     """One whole process through the launcher: {"wall_s", "cpu_s", "maxrss_mib",
     "returncode", "stderr"}."""
-    from app.bench.startup import repo_pythonpath
+    from app.bench.startup import launch
 
-    launcher_env = dict(os.environ)
-    launcher_env["PYTHONPATH"] = repo_pythonpath(launcher_env)
-    request = json.dumps({"cmd": cmd, "env": env, "timeout": timeout})
-    proc = subprocess.run(
-        [sys.executable, "-m", "app.bench.assets", request],
-        capture_output=True, text=True, env=launcher_env, timeout=timeout + 60,
-    )  # fmt: skip
-    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
-    if not lines:
+    request = {"cmd": cmd, "env": env, "timeout": timeout}
+    answer, stderr, returncode = launch("app.bench.assets", request, timeout)
+    if answer is None:
         return {"wall_s": None, "cpu_s": None, "maxrss_mib": None,
-                "returncode": proc.returncode, "stderr": proc.stderr[-500:]}  # fmt: skip
-    return json.loads(lines[-1])
+                "returncode": returncode, "stderr": stderr}  # fmt: skip
+    return answer
 
 
 def _spawn_and_measure(cmd: list[str], env: dict[str, str], timeout: float) -> dict:

@@ -51,25 +51,33 @@ def repo_pythonpath(env: dict[str, str]) -> str:
     ).rstrip(os.pathsep)
 
 
+def launch(module: str, request: dict, timeout: float) -> tuple[dict | None, str, int]:
+    """``python -m module REQUEST`` with the repository on PYTHONPATH (a launcher: see the
+    module docstring): its last JSON line (None without one), its stderr's tail and its
+    exit code."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = repo_pythonpath(env)
+    proc = subprocess.run(
+        [sys.executable, "-m", module, json.dumps(request)],
+        capture_output=True, text=True, env=env, timeout=timeout + 60,
+    )  # fmt: skip
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
+    return (json.loads(lines[-1]) if lines else None), proc.stderr[-500:], proc.returncode
+
+
 def cold_start(
     size: tuple[int, int] | None = None, shader_cache: bool = True, timeout: float = 120.0
 ) -> dict:
     """One run, through a launcher process (see the module docstring):
     {"to_png_s", "exit_s", "maxrss_mib", "returncode", "command", "stderr"}."""
-    env = dict(os.environ)
-    env["PYTHONPATH"] = repo_pythonpath(env)
-    request = json.dumps({"size": size, "shader_cache": shader_cache, "timeout": timeout})
-    proc = subprocess.run(
-        [sys.executable, "-m", "app.bench.startup", request],
-        capture_output=True, text=True, env=env, timeout=timeout + 60,
-    )  # fmt: skip
-    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
-    if not lines:
+    request = {"size": size, "shader_cache": shader_cache, "timeout": timeout}
+    answer, stderr, returncode = launch("app.bench.startup", request, timeout)
+    if answer is None:
         return {
-            "to_png_s": None, "exit_s": None, "maxrss_mib": None, "returncode": proc.returncode,
-            "command": "pbs render", "stderr": proc.stderr[-500:],
+            "to_png_s": None, "exit_s": None, "maxrss_mib": None, "returncode": returncode,
+            "command": "pbs render", "stderr": stderr,
         }  # fmt: skip
-    return json.loads(lines[-1])
+    return answer
 
 
 def spawn_and_measure(
