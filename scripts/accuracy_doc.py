@@ -32,6 +32,7 @@ from app.bench.raycast import (
     truth_errors,
     unshadowed,
 )
+from app.bench.report import update_generated
 from app.frame.raycast import area_reference_scene
 from app.scene.loader import LoadedScene, load_scene
 
@@ -180,14 +181,6 @@ def section(payload: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def replace_section(doc: str, text: str) -> str:
-    """``doc`` with the text between BEGIN and END replaced; both must be there, in order."""
-    start, end = doc.find(BEGIN), doc.find(END)
-    if start < 0 or end < start:
-        raise ValueError(f"the markers {BEGIN!r} and {END!r} are not both there, in order")
-    return f"{doc[: start + len(BEGIN)]}\n{text}{doc[end:]}"
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -216,20 +209,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"accuracy_doc: {exc}", file=sys.stderr)
             return 2
         args.json.write_text(json.dumps(payload, indent=1) + "\n", encoding="utf-8")
-    old = args.doc.read_text(encoding="utf-8")
-    try:
-        new = replace_section(old, section(payload))
-    except ValueError as exc:
-        print(f"accuracy_doc: {args.doc}: {exc}", file=sys.stderr)
-        return 2
-    if args.check:
-        if new != old:
-            print(f"accuracy_doc: {args.doc}'s generated section differs from {args.from_json}")
-            return 1
-        return 0
-    args.doc.write_text(new, encoding="utf-8")
-    print(f"accuracy_doc: {args.doc} written")
-    return 0
+    source = args.from_json or args.json
+    return update_generated(
+        "accuracy_doc", args.doc, section(payload), source, args.check, (BEGIN, END)
+    )
 
 
 if __name__ == "__main__":

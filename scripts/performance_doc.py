@@ -16,7 +16,7 @@ import json
 import sys
 from pathlib import Path
 
-from app.bench.report import performance_section, replace_generated
+from app.bench.report import DOC_BEGIN, DOC_END, performance_section, update_generated
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "performance.md"
 
@@ -29,20 +29,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     source = args.bench / "bench.json" if args.bench.is_dir() else args.bench
     payload = json.loads(source.read_text(encoding="utf-8"))
-    old = args.doc.read_text(encoding="utf-8")
-    try:
-        new = replace_generated(old, performance_section(payload))
-    except ValueError as exc:
-        print(f"performance_doc: {args.doc}: {exc}", file=sys.stderr)
-        return 2
-    if args.check:
-        if new != old:
-            print(f"performance_doc: {args.doc}'s generated section differs from {source}")
-            return 1
-        return 0
-    args.doc.write_text(new, encoding="utf-8")
-    print(f"performance_doc: {args.doc} written from {source}")
-    return 0
+    section = performance_section(payload)
+    return update_generated(
+        "performance_doc", args.doc, section, source, args.check, (DOC_BEGIN, DOC_END)
+    )
 
 
 if __name__ == "__main__":

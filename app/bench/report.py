@@ -1381,11 +1381,33 @@ def performance_section(payload: dict) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def replace_generated(doc: str, section: str) -> str:
-    """``doc`` with the text between DOC_BEGIN and DOC_END replaced by ``section``; a doc
-    without both markers, in that order, is an error rather than a silent append."""
-    start, end = doc.find(DOC_BEGIN), doc.find(DOC_END)
-    if start < 0 or end < 0 or end < start:
-        raise ValueError(f"the markers {DOC_BEGIN!r} and {DOC_END!r} are not both there, in order")
-    head = doc[: start + len(DOC_BEGIN)]
-    return f"{head}\n{section}{doc[end:]}"
+def replace_generated(doc: str, section: str, begin: str = DOC_BEGIN, end: str = DOC_END) -> str:
+    """``doc`` with the text between the ``begin`` and ``end`` markers replaced by
+    ``section``; a doc without both markers, in that order, is an error rather than a
+    silent append."""
+    first, last = doc.find(begin), doc.find(end)
+    if first < 0 or last < 0 or last < first:
+        raise ValueError(f"the markers {begin!r} and {end!r} are not both there, in order")
+    return f"{doc[: first + len(begin)]}\n{section}{doc[last:]}"
+
+
+def update_generated(
+    tool: str, doc: Path, section: str, source: object, check: bool, markers: tuple[str, str]
+) -> int:
+    """A doc-generating script's end: put ``section`` between ``markers`` in ``doc``, or
+    with ``check`` only compare; the exit code (0, 1 when ``check`` finds the doc stale,
+    2 when the markers are missing), each outcome one line naming ``tool`` and the doc."""
+    old = doc.read_text(encoding="utf-8")
+    try:
+        new = replace_generated(old, section, *markers)
+    except ValueError as exc:
+        print(f"{tool}: {doc}: {exc}", file=sys.stderr)
+        return 2
+    if check:
+        if new != old:
+            print(f"{tool}: {doc}'s generated section differs from {source}")
+            return 1
+        return 0
+    doc.write_text(new, encoding="utf-8")
+    print(f"{tool}: {doc} written from {source}")
+    return 0
