@@ -662,8 +662,8 @@ def cmd_render(args: argparse.Namespace) -> int:
         h, w = ldr.shape[:2]  # a debug view has the G-buffer's size (render_size)
         print(
             f"{out}: {w}x{h}, {len(renderer.lights)} lights"
-            f"{' (environment included)' if loaded.scene.environment else ''}, {gl.where} "
-            f"({gl.renderer}), {time.perf_counter() - start:.2f} s"
+            f"{' (environment included)' if loaded.scene.environment else ''}, "
+            f"{gl.described}, {time.perf_counter() - start:.2f} s"
         )
     gl.release()
     return 0
@@ -713,7 +713,7 @@ def _render_comparison(
             how = f"difference |A - B| x {gain:g}"
         print(
             f"{out}: {w}x{h}, {spec.describe()}, {how}, "
-            f"{gl.where} ({gl.renderer}), {time.perf_counter() - start:.2f} s"
+            f"{gl.described}, {time.perf_counter() - start:.2f} s"
         )
     gl.release()
     return 0

@@ -177,7 +177,7 @@ def test_the_variable_and_the_flag_choose_the_device(
     for extra, device in (((), 1), (("--device", "0"), 0)):
         proc = _pbs(*render, *extra, env=env)
         assert proc.returncode == 0, proc.stderr
-        assert f", egl device {device} (" in proc.stdout, proc.stdout
+        assert ", egl (" in proc.stdout and f") on device {device}, " in proc.stdout, proc.stdout
 
 
 def test_osmesa_ignores_a_device_in_one_note(tmp_path: Path) -> None:

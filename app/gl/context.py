@@ -122,9 +122,11 @@ class GLContext:
         return str(self.ctx.info.get("GL_RENDERER", "?"))
 
     @property
-    def where(self) -> str:
-        """The backend, with the EGL device where known: ``egl device 1``."""
-        return self.backend if self.device is None else f"{self.backend} device {self.device}"
+    def described(self) -> str:
+        """The backend, the renderer and the EGL device where known, for a summary line:
+        ``egl (llvmpipe (LLVM 15.0.6, 256 bits)) on device 1``."""
+        on = "" if self.device is None else f" on device {self.device}"
+        return f"{self.backend} ({self.renderer}){on}"
 
     def release(self) -> None:
         """Destroy the context (OSMesa's too)."""
