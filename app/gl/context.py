@@ -217,8 +217,7 @@ def device_requests(
     requests = [r for index in asked if (r := device_request(index, option)) is not None]
     if backend == "osmesa" and requests:
         listed = ",".join(str(r.index) for r in requests)
-        named = requests[0].named if len(requests) == 1 else f"{option} {listed}"
-        _log.warning("OSMesa has no devices: %s is ignored", named)
+        _ignored(requests[0].named if len(requests) == 1 else f"{option} {listed}")
         return ()
     for request in requests:
         check_device(request)
@@ -306,10 +305,20 @@ def _system_gl() -> ctypes.CDLL:
     return ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
 
 
+def _ignored(named: str) -> None:
+    """The note that OSMesa ignores a device, once a process per device asked for."""
+    if named not in _ignored_noted:
+        _ignored_noted.add(named)
+        _log.warning("OSMesa has no devices: %s is ignored", named)
+
+
+_ignored_noted: set[str] = set()
+
+
 def _osmesa_ignoring(request: DeviceRequest | None) -> GLContext:
     """An OSMesa context; a note where a device was asked for (OSMesa has none)."""
     if request is not None:
-        _log.warning("OSMesa has no devices: %s is ignored", request.named)
+        _ignored(request.named)
     return _create_osmesa()
 
 
