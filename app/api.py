@@ -78,7 +78,9 @@ class OffscreenRenderer:
     ``scene``: anything ``scene_from`` takes. ``size``: (width, height) of the output,
     overriding the scene's render.width/height. ``backend``: the headless context to
     create (``"auto"`` tries EGL, then OSMesa; app/gl/context.py), unless ``gl`` is an
-    existing context to render with (it is then left to its owner). Use it as a context
+    existing context to render with (it is then left to its owner); ``device``: the EGL
+    device to make it on (its index in ``pbs devices``; default ``PBS_EGL_DEVICE``, else
+    EGL's first; one out of range is an ``InputError``). Use it as a context
     manager, or call ``close()``: both release every GL object (and the context it made).
 
     ``render()`` runs every pass and returns the display image; the other reads
@@ -99,12 +101,13 @@ class OffscreenRenderer:
         allow_paths: tuple[str | Path, ...] | list[str | Path] = (),
         max_memory: int | None = None,
         look: Look | None = None,
+        device: int | None = None,
     ) -> None:
         loaded = scene_from(scene, base_dir, allow_paths, max_memory, look=look, size=size)
         if size is not None:
             size = self._checked_size(loaded, size)
         self._owns_gl = gl is None
-        self.gl = create_context(backend) if gl is None else gl
+        self.gl = create_context(backend, device) if gl is None else gl
         try:
             self.renderer: Renderer | None = Renderer(self.gl, loaded, size)
         except BaseException:

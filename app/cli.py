@@ -25,6 +25,7 @@ from app.untrusted.policy import InputPolicy
 if TYPE_CHECKING:
     import numpy as np
 
+    from app.gl.context import GLContext
     from app.render.renderer import Renderer
     from app.scene.loader import LoadedScene
     from app.scene.look import Look
@@ -156,14 +157,41 @@ def _policy(args: argparse.Namespace) -> InputPolicy:
     return InputPolicy.from_options(args.allow_path, args.max_memory)
 
 
-def _gl_backend(parser: argparse.ArgumentParser) -> None:
-    """The ``--backend`` option of the commands that render headless."""
+def _gl_backend(parser: argparse.ArgumentParser, devices: bool = False) -> None:
+    """The ``--backend`` and ``--device`` options of the commands that render headless
+    (with ``devices``, ``pbs batch``'s ``--devices`` too, the two exclusive)."""
     parser.add_argument(
         "--backend",
         choices=("auto", "egl", "osmesa"),
         default="auto",
         help="headless OpenGL backend (default: EGL, then OSMesa)",
     )
+    group = parser.add_mutually_exclusive_group() if devices else parser
+    group.add_argument(
+        "--device",
+        type=_device_index,
+        metavar="N",
+        help="the EGL device to render on: its index in 'pbs devices' (default: "
+        "$PBS_EGL_DEVICE, else EGL's first); OSMesa ignores it",
+    )
+    if devices:
+        group.add_argument(
+            "--devices",
+            type=_device_list,
+            metavar="N,M",
+            help="EGL devices the workers spread over, round-robin: worker k on the "
+            "(k mod count)-th listed",
+        )
+
+
+def _device_list(text: str) -> tuple[int, ...]:
+    """``--devices``: comma-separated EGL device indexes."""
+    try:
+        return tuple(_device_index(part.strip()) for part in text.split(","))
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated device indexes (0,1), got '{text}'"
+        ) from None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -248,6 +276,14 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     _brdf_parser(sub)
     _batch_parser(sub)
+    sub.add_parser(
+        "devices",
+        help="list the devices EGL enumerates (for --device), with the GL of each",
+        description="One line per device EGL enumerates (eglQueryDevicesEXT), in the order "
+        "--device and PBS_EGL_DEVICE count: its index, its kind (Mesa's software "
+        "device, a DRM device file, a CUDA device) and GL_VENDOR and GL_RENDERER of an "
+        "OpenGL 3.3 context made on it. Exit 1 where EGL cannot enumerate devices.",
+    )
     _textures_parser(sub)
     _walkthrough_parser(sub)
     view = sub.add_parser(
@@ -325,6 +361,7 @@ def _integer(low: int, high: int) -> Callable[[str], int]:
 
 _dpi = _integer(10, 1200)
 _workers = _integer(1, 256)
+_device_index = _integer(0, 1023)
 
 
 def _brdf_parser(sub: argparse._SubParsersAction) -> None:
@@ -451,7 +488,7 @@ def _batch_parser(sub: argparse._SubParsersAction) -> None:
         "--dask-local", type=_workers, metavar="N",
         help="run the jobs on a new local Dask cluster of N worker processes",
     )  # fmt: skip
-    _gl_backend(batch)
+    _gl_backend(batch, devices=True)
     _input_options(batch)
     batch.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
 
@@ -529,6 +566,15 @@ def _size_option(exc: InputError) -> InputError:
     return InputError(exc.file, "--size" if exc.key == "size" else exc.key, exc.message)
 
 
+def _context(args: argparse.Namespace) -> GLContext:
+    """The headless context of ``--backend`` on ``--device`` (app/gl/context.py): an
+    index EGL does not enumerate is one line naming the option (or PBS_EGL_DEVICE) and
+    how many devices there are, exit 2, before anything is written."""
+    from app.gl.context import create_context
+
+    return create_context(args.backend, args.device, "--device")
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     """Render a scene to PNG. Each layer is imported when the command reaches it: the
     scene's (pydantic, numpy) to validate it, GL and the renderer only once it is valid,
@@ -578,10 +624,9 @@ def cmd_render(args: argparse.Namespace) -> int:
         ):
             if value is not None:
                 raise InputError(option, "", "applies only with --compare")
-        from app.gl.context import create_context
         from app.render.renderer import Renderer
 
-        gl = create_context(args.backend)
+        gl = _context(args)
         try:
             renderer = Renderer(gl, loaded, args.size)
         except InputError as exc:
@@ -617,8 +662,8 @@ def cmd_render(args: argparse.Namespace) -> int:
         h, w = ldr.shape[:2]  # a debug view has the G-buffer's size (render_size)
         print(
             f"{out}: {w}x{h}, {len(renderer.lights)} lights"
-            f"{' (environment included)' if loaded.scene.environment else ''}, {gl.backend} "
-            f"({gl.renderer}), {time.perf_counter() - start:.2f} s"
+            f"{' (environment included)' if loaded.scene.environment else ''}, "
+            f"{gl.described}, {time.perf_counter() - start:.2f} s"
         )
     gl.release()
     return 0
@@ -629,7 +674,6 @@ def _render_comparison(
 ) -> int:
     """``render --compare KEY=A,B``: both sides validated before any GL work, then the
     split or difference composite written as the PNG (app/render/compare.py)."""
-    from app.gl.context import create_context
     from app.render.compare import Comparison, divider_column, parse_compare
 
     for option, value in (
@@ -648,7 +692,7 @@ def _render_comparison(
     gain = 8.0 if args.gain is None else args.gain
     spec = parse_compare(args.compare)
     spec.scenes(loaded, args.size)  # every refusal here, before a context exists
-    gl = create_context(args.backend)
+    gl = _context(args)
     try:
         comparison = Comparison(gl, loaded, spec, args.size)
     except InputError as exc:
@@ -669,7 +713,7 @@ def _render_comparison(
             how = f"difference |A - B| x {gain:g}"
         print(
             f"{out}: {w}x{h}, {spec.describe()}, {how}, "
-            f"{gl.backend} ({gl.renderer}), {time.perf_counter() - start:.2f} s"
+            f"{gl.described}, {time.perf_counter() - start:.2f} s"
         )
     gl.release()
     return 0
@@ -717,6 +761,12 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise InputError(str(out), "-o", "not a folder")
     plan = plan_jobs(args.jobs, out, _policy(args))
     from app.batch.run import dask_client, run_batch  # the workers and GL: a valid plan only
+    from app.gl.context import device_requests
+
+    # Every device checked here, before a worker starts or DIR is made.
+    asked = args.devices if args.devices is not None else args.device
+    option = "--devices" if args.devices is not None else "--device"
+    devices = device_requests(asked, option, args.backend)
 
     client = None
     if args.scheduler is not None or args.dask_local is not None:
@@ -725,8 +775,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
     progress = Progress(len(plan.jobs), enabled=not args.quiet)
     try:
         results = run_batch(
-            plan, out, args.workers, args.backend, not args.no_resume, progress, client
-        )
+            plan, out, args.workers, args.backend, not args.no_resume, progress, client,
+            devices=devices,
+        )  # fmt: skip
     except OSError as exc:
         why = f"{exc.strerror}: {exc.filename}" if exc.filename else str(exc)
         raise InputError(str(out), "-o", f"cannot write ({why})") from None
@@ -746,6 +797,23 @@ def cmd_batch(args: argparse.Namespace) -> int:
         for r in failed:
             print(f"  {r['job']}: {_one_line(r['error'] or '')}", file=sys.stderr)
         return 1
+    return 0
+
+
+def cmd_devices(args: argparse.Namespace) -> int:
+    """List the EGL devices (app/gl/egl.py): ctypes on libEGL alone, no moderngl."""
+    from app.gl import egl
+
+    try:
+        found = egl.devices()
+    except egl.EGLUnavailableError as exc:
+        print(f"pbs: error: EGL cannot enumerate devices: {exc}", file=sys.stderr)
+        return 1
+    if not found:
+        print("pbs: error: EGL enumerates no devices", file=sys.stderr)
+        return 1
+    for device in found:
+        print(_one_line(device.line()))
     return 0
 
 
@@ -790,7 +858,6 @@ def cmd_textures(args: argparse.Namespace) -> int:
 def cmd_walkthrough(args: argparse.Namespace) -> int:
     """Render the walkthrough's steps and write the handout (app/walkthrough). The steps
     and the fonts are checked before any GL work."""
-    from app.gl.context import create_context
     from app.progress import Progress
     from app.resources import walkthrough_dir
     from app.walkthrough.build import build, count_items
@@ -804,7 +871,7 @@ def cmd_walkthrough(args: argparse.Namespace) -> int:
         raise InputError(str(out), "--out", "not a folder")
     steps = load_walkthrough(args.folder or walkthrough_dir(), args.steps)
     find_font(args.lang)
-    gl = create_context(args.backend)
+    gl = _context(args)
     progress = Progress(count_items(steps), enabled=not args.quiet)
     try:
         rendered = build(gl, steps, out, args.lang, args.size, progress)
@@ -887,6 +954,7 @@ def main(argv: list[str] | None = None) -> int:
         "brdf": cmd_brdf,
         "batch": cmd_batch,
         "textures": cmd_textures,
+        "devices": cmd_devices,
         "walkthrough": cmd_walkthrough,
         "view": cmd_view,
     }

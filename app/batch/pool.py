@@ -17,7 +17,9 @@ smaller and keeps three promises (docs/batch.md, "Faults"):
   parent does.
 
 Jobs and results cross the pipes as length-prefixed pickles; the worker side is
-``python -m app.batch.pool CHILD JOBS_FD RESULTS_FD PARENT_PID``.
+``python -m app.batch.pool CHILD JOBS_FD RESULTS_FD PARENT_PID BACKEND DEVICE``. With
+``devices`` (``pbs batch --devices 0,1``) worker k makes its context on
+``devices[k % len(devices)]``, and a worker started in a dead one's place takes its device.
 """
 
 from __future__ import annotations
@@ -82,14 +84,14 @@ def _die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
-def _child(jobs_fd: int, results_fd: int, parent: int, backend: str) -> None:
+def _child(jobs_fd: int, results_fd: int, parent: int, backend: str, device: int | None) -> None:
     """The worker's loop: a job in, its manifest line out, until the pipe closes."""
     _die_with_parent(parent)
     from app.batch.worker import release_all, run_job
 
     try:
         while (job := _receive(jobs_fd)) is not None:
-            _send(results_fd, run_job(job, backend))  # type: ignore[arg-type]
+            _send(results_fd, run_job(job, backend, device))  # type: ignore[arg-type]
     finally:
         release_all()
 
@@ -99,6 +101,7 @@ class _Worker:
     proc: subprocess.Popen
     jobs_fd: int
     results_fd: int
+    slot: int  # which of the pool's places it holds: its device
     job: Job | None = None
     done: int = 0
 
@@ -124,23 +127,25 @@ class WorkerPool:
 
     size: int
     backend: str = "auto"
+    devices: tuple[int, ...] = ()  # EGL devices, round-robin over the slots; () for none
     workers: list[_Worker] = field(default_factory=list)
 
-    def _start(self) -> _Worker:
+    def _start(self, slot: int) -> _Worker:
         jobs_read, jobs_write = os.pipe()
         results_read, results_write = os.pipe()
         package_root = str(Path(__file__).resolve().parents[2])
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH")) if p)
+        device = str(self.devices[slot % len(self.devices)]) if self.devices else "-"
         argv = [sys.executable, "-m", "app.batch.pool", "CHILD", str(jobs_read),
-                str(results_write), str(os.getpid()), self.backend]  # fmt: skip
+                str(results_write), str(os.getpid()), self.backend, device]  # fmt: skip
         proc = subprocess.Popen(
             argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL, pass_fds=(jobs_read, results_write), env=env,
         )  # fmt: skip
         os.close(jobs_read)
         os.close(results_write)
-        return _Worker(proc, jobs_write, results_read)
+        return _Worker(proc, jobs_write, results_read, slot)
 
     def run(self, jobs: list[Job]) -> Iterator[dict]:
         """Every job's manifest line, in the order they end."""
@@ -148,8 +153,8 @@ class WorkerPool:
         early_deaths = 0
         selector = selectors.DefaultSelector()
         try:
-            for _ in range(min(self.size, len(jobs))):
-                self.workers.append(self._start())
+            for slot in range(min(self.size, len(jobs))):
+                self.workers.append(self._start(slot))
             for w in self.workers:
                 selector.register(w.results_fd, selectors.EVENT_READ, w)
             busy = 0
@@ -180,7 +185,7 @@ class WorkerPool:
                         while pending:
                             yield lost(pending.pop(), why)
                     if pending:
-                        fresh = self._start()
+                        fresh = self._start(w.slot)
                         self.workers.append(fresh)
                         selector.register(fresh.results_fd, selectors.EVENT_READ, fresh)
                         busy += self._give(fresh, pending)
@@ -215,8 +220,12 @@ def lost(job: Job, why: str) -> dict:
     """The manifest line of a job whose worker died under it (a crash in the driver, a
     signal, Dask's workers lost past its retries)."""
     error = " ".join(f"worker lost: {why}".split())
-    return {"job": job.id, "output": job.output, "seconds": 0.0, "status": "failed", "error": error}
+    line = {"job": job.id, "output": job.output, "seconds": 0.0, "status": "failed"}
+    return {**line, "error": error, "device": None}
 
 
 if __name__ == "__main__" and sys.argv[1:2] == ["CHILD"]:
-    _child(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
+    _child(
+        int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5],
+        None if sys.argv[6] == "-" else int(sys.argv[6]),
+    )  # fmt: skip

@@ -13,7 +13,8 @@ manifest with the first's; the kernel releases it however the holder ends. A run
 removes the temporary files (``.NAME.*.png``) that a killed run left beside its outputs.
 
 ``manifest.jsonl`` in the output folder gets one JSON line per job as it ends (``job``,
-``output``, ``seconds``, ``status``: ``ok``, ``skipped`` or ``failed``, ``error``), each
+``output``, ``seconds``, ``status``: ``ok``, ``skipped`` or ``failed``, ``error``,
+``device``: the EGL device the job rendered on), each
 written by one ``write`` of an ``O_APPEND`` descriptor, so a run that is killed leaves
 whole lines of the jobs that ended. It is written anew by every run; ``skipped`` marks an
 output a previous run already wrote whole.
@@ -32,7 +33,7 @@ from PIL import Image
 
 from app.batch.jobs import Job, Plan
 from app.batch.pool import WorkerPool, lost
-from app.batch.worker import release_all, run_job
+from app.batch.worker import release_all, run_dask_job, run_job
 from app.errors import InputError
 from app.progress import Progress
 
@@ -64,16 +65,18 @@ def _mode(job: Job) -> str | None:
     return "RGBA" if job.background == "transparent" else "RGB"
 
 
-def _in_process(jobs: list[Job], backend: str) -> Iterator[dict]:
+def _in_process(jobs: list[Job], backend: str, devices: tuple[int, ...]) -> Iterator[dict]:
     try:
         for job in jobs:
-            yield run_job(job, backend)
+            yield run_job(job, backend, devices[0] if devices else None)
     finally:
         release_all()
 
 
-def _processes(jobs: list[Job], workers: int, backend: str) -> Iterator[dict]:
-    yield from WorkerPool(workers, backend).run(jobs)
+def _processes(
+    jobs: list[Job], workers: int, backend: str, devices: tuple[int, ...]
+) -> Iterator[dict]:
+    yield from WorkerPool(workers, backend, devices).run(jobs)
 
 
 def dask_client(scheduler: str | None, local: int | None, option: str) -> object:
@@ -98,10 +101,20 @@ def dask_client(scheduler: str | None, local: int | None, option: str) -> object
     return Client(cluster)
 
 
-def _dask(jobs: list[Job], client: object, backend: str) -> Iterator[dict]:
+def _dask(
+    jobs: list[Job], client: object, backend: str, devices: tuple[int, ...]
+) -> Iterator[dict]:
     from distributed import as_completed as dask_completed
 
-    futures = client.map(run_job, jobs, backend=backend, pure=False)  # type: ignore[attr-defined]
+    if devices:  # worker k (by address, sorted) on devices[k % len(devices)]
+        workers = sorted(client.scheduler_info()["workers"])  # type: ignore[attr-defined]
+        by_worker = {a: devices[k % len(devices)] for k, a in enumerate(workers)}
+        futures = client.map(  # type: ignore[attr-defined]
+            run_dask_job, jobs, backend=backend, devices=by_worker or {"": devices[0]},
+            pure=False,
+        )  # fmt: skip
+    else:
+        futures = client.map(run_job, jobs, backend=backend, pure=False)  # type: ignore[attr-defined]
     by_key = {f.key: job for f, job in zip(futures, jobs, strict=True)}
     for future in dask_completed(futures):
         try:
@@ -154,12 +167,15 @@ def run_batch(
     progress: Progress | None = None,
     client: object | None = None,
     on_result: Callable[[dict], None] | None = None,
+    devices: tuple[int, ...] = (),
 ) -> list[dict]:
     """Render ``plan`` into ``out``; the manifest lines, in the order the jobs ended.
 
     With ``resume``, a job whose output is already a valid PNG of the expected size is
     not rendered again (status ``skipped``). ``workers`` > 1 starts that many worker
     processes; ``client`` (a ``distributed.Client``) runs the jobs on its workers instead.
+    ``devices``: EGL device indexes, spread round-robin over the workers (one process:
+    the first); () leaves each worker to ``PBS_EGL_DEVICE`` or EGL's first device.
     The folder is locked for the run (``folder_lock``) and cleared of stale temporary
     files first (``remove_stale``).
     """
@@ -186,15 +202,15 @@ def run_batch(
             for job in plan.jobs:
                 if resume and valid_output(Path(job.output), job.expected, _mode(job)):
                     line = {"job": job.id, "output": job.output, "seconds": 0.0}
-                    record({**line, "status": "skipped", "error": None})
+                    record({**line, "status": "skipped", "error": None, "device": None})
                 else:
                     todo.append(job)
             if client is not None:
-                stream = _dask(todo, client, backend)
+                stream = _dask(todo, client, backend, devices)
             elif workers > 1 and len(todo) > 1:
-                stream = _processes(todo, min(workers, len(todo)), backend)
+                stream = _processes(todo, min(workers, len(todo)), backend, devices)
             else:
-                stream = _in_process(todo, backend)
+                stream = _in_process(todo, backend, devices)
             for line in stream:
                 record(line)
         finally:

@@ -9,7 +9,9 @@ file, or another size, gets a new ``Renderer`` on the same context and shader ca
 program any earlier job compiled is reused.
 
 ``run_job`` never raises: every failure becomes a result with status ``"failed"`` and a
-one-line message, so one bad job never stops the others.
+one-line message, so one bad job never stops the others. Its result names the EGL device
+the process's context is on (``device``, as EGL reports it; None for OSMesa), so a run
+over ``--devices`` shows where each job went.
 """
 
 from __future__ import annotations
@@ -41,14 +43,15 @@ class _Warm:
     key: tuple[str, tuple[int, int] | None] | None = None  # (scene file, size) of renderer
 
 
-_WARM: dict[str, _Warm] = {}  # backend -> state; one entry per process in practice
+# (backend, EGL device) -> state; one entry per process in practice.
+_WARM: dict[tuple[str, int | None], _Warm] = {}
 
 
-def _warm(backend: str) -> _Warm:
-    if backend not in _WARM:
-        gl = create_context(backend)  # type: ignore[arg-type]
-        _WARM[backend] = _Warm(gl, ShaderCache(gl.ctx))
-    return _WARM[backend]
+def _warm(backend: str, device: int | None) -> _Warm:
+    if (backend, device) not in _WARM:
+        gl = create_context(backend, device, "--devices")  # type: ignore[arg-type]
+        _WARM[backend, device] = _Warm(gl, ShaderCache(gl.ctx))
+    return _WARM[backend, device]
 
 
 def release_all() -> None:
@@ -87,9 +90,9 @@ def _show(renderer: Renderer, base: LoadedScene, job: Job) -> None:
     renderer.update(scene)
 
 
-def _forget(backend: str) -> None:
+def _forget(backend: str, device: int | None) -> None:
     """Drop the renderer after a failure (it may be half updated); the context stays."""
-    warm = _WARM.get(backend)
+    warm = _WARM.get((backend, device))
     if warm is not None and warm.renderer is not None:
         with contextlib.suppress(Exception):
             warm.renderer.release()
@@ -101,11 +104,13 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
-def run_job(job: Job, backend: str = "auto") -> dict:
-    """Render ``job`` into its output PNG (written atomically); its manifest line."""
+def run_job(job: Job, backend: str = "auto", device: int | None = None) -> dict:
+    """Render ``job`` into its output PNG (written atomically) on the EGL ``device``
+    (None: ``PBS_EGL_DEVICE``, else EGL's first); its manifest line."""
     start = time.perf_counter()
+    warm = None
     try:
-        warm = _warm(backend)
+        warm = _warm(backend, device)
         renderer, base = _renderer(warm, job)
         _show(renderer, base, job)
         renderer.render()
@@ -113,11 +118,22 @@ def run_job(job: Job, backend: str = "auto") -> dict:
         status, error = "ok", None
     except Exception as exc:  # a failed job is a manifest line, never the batch's end
         status, error = "failed", _one_line(exc)
-        _forget(backend)
+        _forget(backend, device)
     return {
         "job": job.id,
         "output": job.output,
         "seconds": round(time.perf_counter() - start, 4),
         "status": status,
         "error": error,
+        "device": None if warm is None else warm.gl.device,
     }
+
+
+def run_dask_job(job: Job, backend: str, devices: dict[str, int]) -> dict:
+    """``run_job`` on a Dask worker, on the device ``devices`` gives its address (the
+    round-robin of ``pbs batch --devices``); a worker that joined after the run started
+    takes the first listed device."""
+    from distributed import get_worker
+
+    device = devices.get(get_worker().address, next(iter(devices.values())))
+    return run_job(job, backend, device)

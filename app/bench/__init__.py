@@ -59,6 +59,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--backend", choices=("egl", "osmesa"), default="egl", help="headless GL (default egl)"
     )
+    parser.add_argument(
+        "--device", type=int, metavar="N",
+        help="the EGL device (pbs devices; default $PBS_EGL_DEVICE, else the first)",
+    )  # fmt: skip
     parser.add_argument("--no-pyrender", action="store_true", help="skip the pyrender comparison")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     # Test-only: every suite on tiny images (tests/test_bench.py), numbers meaningless.
@@ -127,6 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     from app.bench import plots, report, suites
     from app.bench.context import FULL, QUICK, TINY
     from app.bench.timing import TIMER_FINISH, TIMER_QUERY, GLTimerQueries
+    from app.errors import InputError
     from app.gl.context import create_context
     from app.progress import Progress
 
@@ -143,10 +148,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     settings = TINY if args.tiny else QUICK if args.quick else FULL
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-
     started = time.perf_counter()
-    gl = create_context(args.backend)
+    try:  # before the folder is made: a device out of range writes nothing
+        gl = create_context(args.backend, args.device, "--device")
+    except InputError as exc:
+        print(f"pbs bench: error: {exc}", file=sys.stderr)
+        return 2
+    if gl.device is not None and args.device is not None:
+        # The child processes (pbs batch workers, cold starts, pyrender) on the same device.
+        os.environ["PBS_EGL_DEVICE"] = os.environ["EGL_DEVICE_ID"] = str(gl.device)
+    out.mkdir(parents=True, exist_ok=True)
     queries = GLTimerQueries.create(gl)
     notes: list[str] = []
     if queries is None:

@@ -5,6 +5,14 @@ the GPU's driver elsewhere. OSMesa renders into client memory with no display at
 moderngl accepts any object with ``load_opengl_function(name) -> address`` through
 ``moderngl.init_context(loader=...)``, and OSMesa gives those addresses through
 ``OSMesaGetProcAddress``. OpenGL 3.3 core is the baseline either way.
+
+The EGL device: EGL enumerates devices (``eglQueryDevicesEXT``: Mesa's software device,
+each GPU) and glcontext makes the context on the N-th, the first by default. ``device``
+(the CLI's ``--device``) chooses it, else the ``PBS_EGL_DEVICE`` environment variable;
+an index EGL does not enumerate is bad input. OSMesa has no devices: a device asked of it
+is ignored, with a note. GL entry points come through the context's own loader: EGL's
+``eglGetProcAddress`` (app/gl/egl.py), OSMesa's ``OSMesaGetProcAddress``, never the GLX
+``libGL`` (a GLX-less server has none).
 """
 
 from __future__ import annotations
@@ -12,10 +20,16 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import functools
+import logging
+import os
+import re
 from dataclasses import dataclass, field
 from typing import Literal
 
 import moderngl
+
+from app.errors import InputError
+from app.gl import egl
 
 Backend = Literal["auto", "egl", "osmesa"]
 REQUIRED_GL = 330
@@ -101,10 +115,18 @@ class GLContext:
     ctx: moderngl.Context
     backend: str
     _keepalive: object = field(default=None, repr=False)
+    device: int | None = None  # the EGL device its display is on, as EGL reports it
 
     @property
     def renderer(self) -> str:
         return str(self.ctx.info.get("GL_RENDERER", "?"))
+
+    @property
+    def described(self) -> str:
+        """The backend, the renderer and the EGL device where known, for a summary line:
+        ``egl (llvmpipe (LLVM 15.0.6, 256 bits)) on device 1``."""
+        on = "" if self.device is None else f" on device {self.device}"
+        return f"{self.backend} ({self.renderer}){on}"
 
     def release(self) -> None:
         """Destroy the context (OSMesa's too)."""
@@ -129,9 +151,106 @@ def osmesa_changes() -> int:
     return _osmesa_changes
 
 
-def _create_egl() -> GLContext:
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_GL)
-    return GLContext(ctx, "egl")
+DEVICE_ENV = "PBS_EGL_DEVICE"
+# glcontext's own variable: it overrides the device_index it is given.
+_GLCONTEXT_DEVICE_ENV = "GLCONTEXT_DEVICE_INDEX"
+_log = logging.getLogger("pbs.gl")
+
+
+@dataclass(frozen=True)
+class DeviceRequest:
+    """An EGL device asked for, and by what (``--device``, ``PBS_EGL_DEVICE``), for the
+    one-line refusal of an index EGL does not enumerate."""
+
+    index: int
+    asked_by: str
+
+    @property
+    def named(self) -> str:
+        """How the user wrote it: ``--device 3``, ``PBS_EGL_DEVICE=3``."""
+        joint = "=" if self.asked_by == DEVICE_ENV else " "
+        return f"{self.asked_by}{joint}{self.index}"
+
+    def refused(self, count: int) -> InputError:
+        have = f"{count} device" + ("" if count == 1 else "s")
+        valid = "" if not count else " (index 0)" if count == 1 else f" (0..{count - 1})"
+        return InputError(self.named, "", f"out of range: EGL enumerates {have}{valid}")
+
+
+def device_request(device: int | None, option: str = "device") -> DeviceRequest | None:
+    """The device asked for: ``device`` (named ``option`` in errors) over the
+    ``PBS_EGL_DEVICE`` environment variable; None where neither asks (EGL's first device).
+    A variable that is not a whole number >= 0 is bad input."""
+    if device is not None:
+        if device < 0:
+            raise InputError(f"{option} {device}", "", "expected a device index >= 0")
+        return DeviceRequest(device, option)
+    text = os.environ.get(DEVICE_ENV, "").strip()
+    if not text:
+        return None
+    if not re.fullmatch(r"\d+", text):
+        raise InputError(
+            f"{DEVICE_ENV}={text}", "", "expected a device index (0, 1, ...; pbs devices)"
+        )
+    return DeviceRequest(int(text), DEVICE_ENV)
+
+
+def check_device(request: DeviceRequest) -> None:
+    """Refuse (``InputError``) an index that EGL does not enumerate; where EGL cannot
+    enumerate at all, the context's creation says so."""
+    try:
+        count = egl.device_count()
+    except egl.EGLUnavailableError:
+        return
+    if request.index >= count:
+        raise request.refused(count)
+
+
+def device_requests(
+    devices: int | tuple[int, ...] | None, option: str, backend: Backend = "auto"
+) -> tuple[int, ...]:
+    """The EGL devices a batch's workers spread over: ``devices`` (one index or several,
+    named ``option``) over ``PBS_EGL_DEVICE``; () where neither asks. Each is checked
+    against what EGL enumerates (``InputError`` naming the first out of range); with
+    ``backend`` osmesa they are ignored, with a note."""
+    asked = devices if isinstance(devices, tuple) else (devices,)
+    requests = [r for index in asked if (r := device_request(index, option)) is not None]
+    if backend == "osmesa" and requests:
+        listed = ",".join(str(r.index) for r in requests)
+        _ignored(requests[0].named if len(requests) == 1 else f"{option} {listed}")
+        return ()
+    for request in requests:
+        check_device(request)
+    return tuple(r.index for r in requests)
+
+
+class _EGLEntryPoints:
+    """``gl_function``'s loader for an EGL context: ``eglGetProcAddress``."""
+
+    @staticmethod
+    def load_opengl_function(name: str) -> int:
+        return egl.proc_address(name)
+
+
+def _create_egl(request: DeviceRequest | None = None) -> GLContext:
+    if request is not None:
+        check_device(request)
+    # glcontext opens the library it loads GL functions from ("libgl") by name, and runs
+    # find_library (ldconfig -p) for any it is not given. libEGL for both: every GL
+    # function comes through eglGetProcAddress (libEGL exports none), never the GLX libGL.
+    ctx = moderngl.create_context(
+        standalone=True, backend="egl", require=REQUIRED_GL, libgl=egl.LIBEGL,
+        libegl=egl.LIBEGL, device_index=0 if request is None else request.index,
+    )  # fmt: skip
+    ctx.extra = _EGLEntryPoints()
+    device = egl.current_device()
+    if request is not None and device is not None and device != request.index:
+        ctx.release()
+        raise ContextError(
+            f"{request.named} asked for, but the context is on device "
+            f"{device} ({_GLCONTEXT_DEVICE_ENV} is set?)"
+        )
+    return GLContext(ctx, "egl", device=device)
 
 
 def _create_osmesa() -> GLContext:
@@ -163,10 +282,15 @@ def wait_before_read(ctx: moderngl.Context) -> None:
 
 def gl_function(ctx: moderngl.Context, name: str, argtypes: list[type]) -> ctypes._CFuncPtr:
     """A GL entry point of ``ctx`` that moderngl does not wrap (e.g. glTexParameteri for
-    GL_MIRRORED_REPEAT), called with ``argtypes``: OSMesa's own address for an OSMesa
-    context; else the system libGL's, which glvnd dispatches to the current EGL context."""
-    if isinstance(ctx.extra, _OSMesaLoader):
-        address = ctx.extra.load_opengl_function(name)
+    GL_MIRRORED_REPEAT), called with ``argtypes``, from the loader of the backend that
+    made the context: ``eglGetProcAddress`` for EGL (looked up once per name), OSMesa's
+    ``OSMesaGetProcAddress``. A context made elsewhere (the viewer's glfw window, GLX)
+    gets the system libGL's."""
+    loader = ctx.extra
+    if isinstance(loader, _EGLEntryPoints | _OSMesaLoader):
+        address = loader.load_opengl_function(name)
+        if not address:
+            raise ContextError(f"no GL entry point {name}")
         return ctypes.CFUNCTYPE(None, *argtypes)(address)
     function = getattr(_system_gl(), name)
     function.argtypes, function.restype = argtypes, None
@@ -175,22 +299,52 @@ def gl_function(ctx: moderngl.Context, name: str, argtypes: list[type]) -> ctype
 
 @functools.cache
 def _system_gl() -> ctypes.CDLL:
-    """The system libGL, looked up once a process: ``ctypes.util.find_library`` runs
-    ``ldconfig -p`` in a child process on every call (tens of milliseconds on a loaded
-    machine, and a render asks for a few dozen entry points)."""
+    """The system libGL (a window's GLX context), looked up once a process:
+    ``ctypes.util.find_library`` runs ``ldconfig -p`` in a child process on every call
+    (tens of milliseconds on a loaded machine, and a render asks for a few dozen)."""
     return ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
 
 
-def create_context(backend: Backend = "auto") -> GLContext:
-    """A headless OpenGL >= 3.3 core context. ``auto`` tries EGL, then OSMesa."""
+def _ignored(named: str) -> None:
+    """The note that OSMesa ignores a device, once a process per device asked for."""
+    if named not in _ignored_noted:
+        _ignored_noted.add(named)
+        _log.warning("OSMesa has no devices: %s is ignored", named)
+
+
+_ignored_noted: set[str] = set()
+
+
+def _osmesa_ignoring(request: DeviceRequest | None) -> GLContext:
+    """An OSMesa context; a note where a device was asked for (OSMesa has none)."""
+    if request is not None:
+        _ignored(request.named)
+    return _create_osmesa()
+
+
+def create_context(
+    backend: Backend = "auto", device: int | None = None, option: str = "device"
+) -> GLContext:
+    """A headless OpenGL >= 3.3 core context. ``auto`` tries EGL, then OSMesa.
+
+    ``device``: the EGL device's index in ``eglQueryDevicesEXT``'s order (``pbs devices``),
+    over ``PBS_EGL_DEVICE``; default EGL's first. One EGL does not enumerate is an
+    ``InputError`` naming ``option`` (or the variable) and the count, whatever the
+    backend would have fallen back to."""
+    request = device_request(device, option)
     if backend == "egl":
-        return _create_egl()
+        return _create_egl(request)
     if backend == "osmesa":
-        return _create_osmesa()
+        return _osmesa_ignoring(request)
     errors = []
-    for make in (_create_egl, _create_osmesa):
-        try:
-            return make()
-        except Exception as exc:  # each backend fails in its own way; report both
-            errors.append(f"{make.__name__[8:]}: {exc}")
+    try:
+        return _create_egl(request)
+    except InputError:
+        raise
+    except Exception as exc:  # each backend fails in its own way; report both
+        errors.append(f"egl: {exc}")
+    try:
+        return _osmesa_ignoring(request)
+    except Exception as exc:
+        errors.append(f"osmesa: {exc}")
     raise ContextError("no headless OpenGL 3.3 context: " + "; ".join(errors))
