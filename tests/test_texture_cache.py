@@ -371,21 +371,24 @@ def test_colour_texels_kept_and_file_not_decoded_again(
     assert np.array_equal(first.levels[0], np.asarray(image.convert("RGBA")))
 
 
-def test_prefetch_reads_an_entry_in_the_background(tmp_path: Path) -> None:
-    """``prefetch`` reads a kept entry into memory (the lookup after it is a memory hit),
-    leaves a missing one to ``arrays`` to build, and records no lookup itself."""
+def test_prepare_looks_up_an_entry_in_the_background(tmp_path: Path) -> None:
+    """``prepare`` does ``arrays``'s lookup on the background thread: a kept entry read
+    from disk, a missing one built there (and kept: the lookup after it is a memory hit),
+    a build's exception raised by the future."""
     cache = PreparedCache(tmp_path)
     cache.arrays("test", ("kept",), lambda: [np.arange(5.0)])
     cache.clear_memory()
-    future = cache.prefetch("test", ("kept",))
-    assert future is not None
-    future.result()
-    assert cache.events == ["built"]  # the prefetch itself records nothing
-    assert np.array_equal(cache.arrays("test", ("kept",), lambda: []), [np.arange(5.0)])
-    assert cache.events[-1] == "memory"
-    assert cache.prefetch("test", ("kept",)) is None  # already in memory
-    missing = cache.prefetch("test", ("missing",))
-    assert missing is not None and missing.result() is None
-    cache.arrays("test", ("missing",), lambda: [np.zeros(2)])
+    kept = cache.prepare("test", ("kept",), lambda: [])
+    assert np.array_equal(kept.result(), [np.arange(5.0)])
+    assert cache.events == ["built", "disk"]
+    built = cache.prepare("test", ("missing",), lambda: [np.zeros(2)])
+    assert np.array_equal(built.result(), [np.zeros(2)])
     assert cache.events[-1] == "built"
-    assert PreparedCache(tmp_path, enabled=False).prefetch("test", ("kept",)) is None
+    cache.arrays("test", ("missing",), lambda: [])
+    assert cache.events[-1] == "memory"
+
+    def broken() -> list[np.ndarray]:
+        raise ValueError("not an image")
+
+    with pytest.raises(ValueError, match="not an image"):
+        cache.prepare("test", ("broken",), broken).result()

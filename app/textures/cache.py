@@ -186,27 +186,18 @@ class PreparedCache:
         self._remember(key, arrays)
         return arrays
 
-    def prefetch(self, kind: str, parts: Iterable[Part]) -> Future | None:
-        """Start reading the entry of ``kind`` and ``parts`` from disk into memory on a
-        background thread (reading and checking a file release the GIL): its caller has
-        other work to do before it asks for it. Only a read: a missing entry is left to
-        ``arrays`` to build, and no lookup is recorded in ``events``. None where there is
-        nothing to read (off, no directory, already in memory); else a future the caller
-        waits on before its own lookup, so that the file is not read twice."""
-        if not self.enabled or self.directory is None:
-            return None
-        key = entry_key(kind, parts)
-        with self._lock:
-            if key in self._memory:
-                return None
-        return _prefetcher().submit(self._fetch, key)
-
-    def _fetch(self, key: str) -> None:
-        arrays = self._read(key)
-        if arrays is not None:
-            for a in arrays:
-                a.setflags(write=False)
-            self._remember(key, arrays)
+    def prepare(
+        self, kind: str, parts: Iterable[Part], build: Callable[[], Sequence[np.ndarray]]
+    ) -> Future:
+        """``arrays(kind, parts, build)`` on a background thread, started now: its caller
+        has other work to do before it needs them (a model file's maps are looked up from
+        the moment its parts are built, while the camera is framed, the GL started and
+        the environment prefiltered). Reading a file, checking it, numpy's arithmetic on
+        large arrays and Pillow's decoding release the GIL, so a read or a build runs
+        beside that work. The future's result is what ``arrays`` returns (its exception
+        where ``build`` raised one)."""
+        parts = tuple(parts)
+        return _preparer().submit(self.arrays, kind, parts, build)
 
     def clear_memory(self) -> None:
         """Forget the in-process entries (a second process's view of the disk level)."""
@@ -286,16 +277,16 @@ class PreparedCache:
             total -= size
 
 
-_PREFETCHER: ThreadPoolExecutor | None = None
+_PREPARER: ThreadPoolExecutor | None = None
 
 
-def _prefetcher() -> ThreadPoolExecutor:
-    """One background reader a process (entries are read one after another, as a disk
-    likes them)."""
-    global _PREFETCHER
-    if _PREFETCHER is None:
-        _PREFETCHER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-read")
-    return _PREFETCHER
+def _preparer() -> ThreadPoolExecutor:
+    """One background worker a process for ``prepare``: entries are read one after another,
+    as a disk likes them, and a build beside the main thread uses the second core."""
+    global _PREPARER
+    if _PREPARER is None:
+        _PREPARER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-prepare")
+    return _PREPARER
 
 
 def cache_directory() -> Path:
