@@ -36,6 +36,7 @@ def test_second_load_hits_and_is_identical(tmp_path: Path, monkeypatch: pytest.M
     first = chain(tmp_path, monkeypatch)
     cache = prepared_cache()
     assert cache.events[-1] == "built"
+    cache.flush()  # written on the cache's writer thread
     assert len(list((tmp_path / "textures").glob("*.npy"))) == 1
     again = chain(tmp_path, monkeypatch)  # the same process: from memory
     assert cache.events[-1] == "memory"
@@ -76,6 +77,7 @@ def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     monkeypatch.delenv("PBS_CACHE", raising=False)
     first = chain(tmp_path, monkeypatch)
     cache = prepared_cache()
+    cache.flush()
     (entry,) = (tmp_path / "textures").glob("*.npy")
     # Flip bytes inside the data (the file still loads: only the checksum can tell).
     data = bytearray(entry.read_bytes())
@@ -99,6 +101,7 @@ def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     chain(tmp_path, monkeypatch)
     assert cache.events[-2:] == ["rebuilt", "built"]
     # Not an entry at all: rebuilt too.
+    cache.flush()
     entry.write_bytes(b"not an npy")
     cache.clear_memory()
     chain(tmp_path, monkeypatch)
@@ -121,6 +124,7 @@ def test_disk_size_is_bounded(tmp_path: Path) -> None:
     cache = PreparedCache(tmp_path, disk_bytes=3 * 8200, memory_bytes=2 * 8000)
     for k in range(5):
         cache.arrays("test", (k,), lambda k=k: [np.full(1000, float(k))])
+    cache.flush()
     on_disk = sorted(tmp_path.glob("*.npy"))
     assert 1 <= len(on_disk) <= 3
     assert sum(p.stat().st_size for p in on_disk) <= 3 * 8200
@@ -266,6 +270,7 @@ def test_eviction_spares_writes_in_progress(tmp_path: Path) -> None:
     os.utime(stale, (1.0, 1.0))
     cache = PreparedCache(tmp_path, disk_bytes=10)
     cache.arrays("test", (1,), lambda: [np.zeros(4)])
+    cache.flush()
     assert fresh.exists() and not stale.exists()
 
 

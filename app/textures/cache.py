@@ -155,6 +155,7 @@ class PreparedCache:
         self._memory: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
         self._held = 0
         self._lock = threading.Lock()
+        self._writing: dict[str, Future] = {}  # entries being written (``_write``) by key
         # What happened to each lookup, for tests and the bench: memory, disk, built, rebuilt.
         self.events: list[str] = []
 
@@ -199,8 +200,18 @@ class PreparedCache:
         parts = tuple(parts)
         return _preparer().submit(self.arrays, kind, parts, build)
 
+    def flush(self) -> None:
+        """Wait until every entry handed to the writer is on disk."""
+        while self._writing:
+            with self._lock:
+                pending = list(self._writing.values())
+            for future in pending:
+                future.result()
+
     def clear_memory(self) -> None:
-        """Forget the in-process entries (a second process's view of the disk level)."""
+        """Forget the in-process entries (a second process's view of the disk level:
+        what was built is on disk first)."""
+        self.flush()
         with self._lock:
             self._memory.clear()
             self._held = 0
@@ -223,6 +234,9 @@ class PreparedCache:
         return None if self.directory is None else self.directory / f"{key}{_SUFFIX}"
 
     def _read(self, key: str) -> tuple[np.ndarray, ...] | None:
+        writing = self._writing.get(key)
+        if writing is not None:  # this process is writing it: read it whole
+            writing.result()
         path = self.path(key)
         if path is None or not path.is_file():
             return None
@@ -237,6 +251,23 @@ class PreparedCache:
             return None
 
     def _write(self, key: str, arrays: tuple[np.ndarray, ...]) -> None:
+        """Hand the entry to the writer thread (``_writer``): the caller goes on with the
+        arrays at once while the entry is packed, checksummed and written. The process
+        still waits for the writes at exit (the executor's threads are joined then), so
+        none is lost; a lookup of the key in this process waits for its write."""
+        if self.directory is None:
+            return
+        future = _writer().submit(self._write_now, key, arrays)
+        with self._lock:
+            self._writing[key] = future
+        future.add_done_callback(lambda _: self._written(key, future))
+
+    def _written(self, key: str, future: Future) -> None:
+        with self._lock:
+            if self._writing.get(key) is future:
+                del self._writing[key]
+
+    def _write_now(self, key: str, arrays: tuple[np.ndarray, ...]) -> None:
         path = self.path(key)
         if path is None:
             return
@@ -287,6 +318,17 @@ def _preparer() -> ThreadPoolExecutor:
     if _PREPARER is None:
         _PREPARER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-prepare")
     return _PREPARER
+
+
+_WRITER: ThreadPoolExecutor | None = None
+
+
+def _writer() -> ThreadPoolExecutor:
+    """One background writer a process (entries are written one after another)."""
+    global _WRITER
+    if _WRITER is None:
+        _WRITER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-write")
+    return _WRITER
 
 
 def cache_directory() -> Path:

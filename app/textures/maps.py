@@ -35,6 +35,7 @@ from app.errors import InputError
 from app.textures.cache import code_version, prepared_cache
 from app.textures.mips import (
     BandSource,
+    box_levels,
     box_mips,
     chain_inputs,
     chain_levels,
@@ -551,8 +552,11 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
     (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content."""
 
     def build() -> list[np.ndarray]:
-        rgb = np.asarray(_decoded(image).convert("RGB"), np.float64)
-        return scalar_texture(rgb[..., channel] / 255.0).levels
+        # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
+        # of rows at a time (mips.box_levels: the same bits)
+        rgb = np.asarray(_decoded(image).convert("RGB"), np.uint8)
+        h, w = rgb.shape[:2]
+        return box_levels(lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0, (h, w, 1))
 
     parts = (_prepared_version(), _image_part(image), int(channel))
     return Texture(PreparedLevels("channel", parts, build))

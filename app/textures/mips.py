@@ -209,14 +209,34 @@ def box_mips(values: np.ndarray) -> list[np.ndarray]:
     each texel the exact mean of the source texels under its footprint (the moments'
     averaging above, for data that is averaged as it is: masks, metallic, colour)."""
     a = np.asarray(values, np.float64)
-    levels = [a.astype(np.float32)]
-    sums = a if a.ndim == 3 else a[..., None]
-    counts_y, counts_x = np.ones(a.shape[0]), np.ones(a.shape[1])
-    while max(counts_y.size, counts_x.size) > 1:
-        sums = _halve(sums)
+    if a.ndim == 3:
+        return box_levels(lambda y0, y1: a[y0:y1], a.shape)
+    levels = box_levels(lambda y0, y1: a[y0:y1, :, None], (*a.shape, 1))
+    return [level[..., 0] for level in levels]
+
+
+def box_levels(
+    source: Callable[[int, int], np.ndarray], shape: tuple[int, int, int]
+) -> list[np.ndarray]:
+    """``box_mips``'s levels, (h_k, w_k, C) float32, of the (H, W, C) float64 data that
+    ``source(y0, y1)`` gives a band of rows at a time (as ``chain_levels`` reads its
+    source, with the same bits as the whole map at once)."""
+    h, w, c = shape
+    level0 = np.empty((h, w, c), np.float32)
+    sums = None if max(h, w) == 1 else np.empty((max(1, h >> 1), max(1, w >> 1), c))
+    for y0, y1 in _bands(h):
+        band = source(y0, y1)
+        level0[y0:y1] = band  # float64 -> float32, as astype rounds
+        if sums is not None:
+            sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)] = _halve(band)
+    levels = [level0]
+    counts_y, counts_x = np.ones(h), np.ones(w)
+    while sums is not None and max(counts_y.size, counts_x.size) > 1:
+        if len(levels) > 1:
+            sums = _halve(sums)
         counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
         means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
-        levels.append((means if a.ndim == 3 else means[..., 0]).astype(np.float32))
+        levels.append(means.astype(np.float32))
     return levels
 
 
