@@ -326,7 +326,7 @@ def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.M
     """A prepared chain's float16 upload levels (rows bottom first) are exactly
     np.float16 of its float32 levels, and a later process reads them without looking up
     the float32 levels."""
-    from app.textures.maps import PreparedLevels, upload_levels
+    from app.textures.maps import PreparedLevels, upload_bytes, upload_levels
 
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("PBS_CACHE", raising=False)
@@ -335,8 +335,13 @@ def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.M
     assert isinstance(tex.levels, PreparedLevels)
     cache = prepared_cache()
     assert cache.events == []  # nothing looked up until a level is wanted
+    assert upload_bytes(tex) == 4 * 2 * sum(  # declared: known before a level is built
+        max(1, 37 >> k) * max(1, 29 >> k) for k in range(6)
+    )
+    assert cache.events == []
     half = upload_levels(tex)
     assert cache.events == ["built"]  # the float16 rows alone: the float32 chain not kept
+    assert upload_bytes(tex) == sum(h.nbytes for h in half)
     for level, h in zip(tex.levels, half, strict=True):
         assert h.dtype == np.float16 and h.flags.c_contiguous
         assert h.tobytes() == np.ascontiguousarray(level[::-1], np.float16).tobytes()
@@ -397,3 +402,22 @@ def test_prepare_looks_up_an_entry_in_the_background(tmp_path: Path) -> None:
 
     with pytest.raises(ValueError, match="not an image"):
         cache.prepare("test", ("broken",), broken).result()
+
+
+@pytest.mark.parametrize("method", ["none", "variance"])
+def test_declared_upload_bytes_are_the_built_levels(
+    method: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A prepared map's GL bytes (what the memory check counts before anything is built)
+    are those of the levels it builds: a chain with and without mips, a channel's mips,
+    a chain from the roughness image alone."""
+    from app.textures.maps import upload_bytes, upload_levels
+
+    monkeypatch.setenv("PBS_CACHE", "off")
+    normal, mr = images()
+    for tex in (
+        normal_roughness_map(normal, 1.0, 0.5, mr, method),
+        normal_roughness_map(None, 1.0, 0.5, mr.resize((5, 3)), method),
+        channel_texture(mr, 2),
+    ):
+        assert upload_bytes(tex) == sum(level.nbytes for level in upload_levels(tex))

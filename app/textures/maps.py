@@ -94,8 +94,17 @@ class PreparedLevels(Sequence[np.ndarray]):
     kept on disk only when something indexes them: a render's entries are the float16
     levels alone (docs/filtering.md)."""
 
-    def __init__(self, kind: str, parts: tuple, build: Callable[[], Sequence[np.ndarray]]) -> None:
+    def __init__(
+        self,
+        kind: str,
+        parts: tuple,
+        build: Callable[[], Sequence[np.ndarray]],
+        layout: tuple[int, int, int, bool],
+    ) -> None:
         self.kind, self.parts, self._build = kind, parts, build
+        # (height, width, components, level 0 alone) of what build makes: its GL bytes are
+        # known (``upload_bytes``) before the levels are read or built
+        self.layout = layout
         self._levels: list[np.ndarray] | None = None
         self._prefetched: Future | None = None
 
@@ -143,6 +152,20 @@ def prefetch_uploads(layers: Iterable[SurfaceLayer]) -> None:
         for tex in layer.maps.values():
             if isinstance(tex.levels, PreparedLevels):
                 tex.levels.prefetch()
+
+
+def upload_bytes(tex: Texture) -> int:
+    """The bytes of a non-colour map's float16 levels (``upload_levels``), without reading
+    or building a prepared chain's (its declared layout: GL sizes down to 1x1)."""
+    if not isinstance(tex.levels, PreparedLevels):
+        return sum(level.size * 2 for level in upload_levels(tex))
+    h, w, comps, single = tex.levels.layout
+    total, k = 0, 0
+    while True:
+        total += max(1, h >> k) * max(1, w >> k) * comps * 2
+        if single or max(h >> k, w >> k) <= 1:
+            return total
+        k += 1
 
 
 def upload_levels(tex: Texture) -> list[np.ndarray]:
@@ -501,7 +524,10 @@ def normal_roughness_map(
         _image_part(roughness_image),
         normal_filter,
     )
-    return Texture(PreparedLevels("normal_roughness", parts, build))
+    sized = normal_image if normal_image is not None else roughness_image
+    assert sized is not None, "a chain needs a normal or a roughness map"
+    layout = (sized.height, sized.width, 4, normal_filter == "none")
+    return Texture(PreparedLevels("normal_roughness", parts, build, layout))
 
 
 def _map_chain_levels(
@@ -559,4 +585,4 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
         return box_levels(lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0, (h, w, 1))
 
     parts = (_prepared_version(), _image_part(image), int(channel))
-    return Texture(PreparedLevels("channel", parts, build))
+    return Texture(PreparedLevels("channel", parts, build, (image.height, image.width, 1, False)))
