@@ -278,9 +278,9 @@ def open_image(
         digest = hashlib.sha256(encoded).hexdigest()
         image.info[SOURCE_DIGEST] = digest
         kept = _DECODED.get(digest)
-        if kept is not None:  # decoded before in this process: a copy of that
+        if kept is not None:  # decoded before in this process: that image
             _DECODED.move_to_end(digest)
-            return kept.copy()
+            return kept
         decoded: list[bool] = []
 
         def decode() -> list[np.ndarray]:
@@ -292,7 +292,7 @@ def open_image(
         if not decoded:  # these bytes decoded before: decoded when their texels are read
             return image
         _keep_decoded(digest, image)
-        return image.copy()
+        return image
     except RefusedError:
         raise
     except Image.DecompressionBombError:
@@ -305,7 +305,9 @@ def open_image(
 
 # Images decoded in this process by their file's digest (a model file's parts are built
 # once to frame the camera and again for the frame; a batch's frames, a viewer's reload),
-# least recently used out past _DECODED_BYTES of texels. Callers get copies.
+# least recently used out past _DECODED_BYTES of texels. Callers share them and only read
+# them (every map is made from a ``convert`` or an array of the texels): a copy of each
+# for each caller was 60 MiB of memcpy and fresh pages for DamagedHelmet's five maps.
 _DECODED: OrderedDict[str, Image.Image] = OrderedDict()
 _DECODED_BYTES = 256 << 20
 
