@@ -227,11 +227,10 @@ class PreparedCache:
 
     def flush(self) -> None:
         """Wait until every entry handed to the writer is on disk."""
-        while self._writing:
-            with self._lock:
-                pending = list(self._writing.values())
-            for future in pending:
-                future.result()
+        with self._lock:
+            pending = list(self._writing.values())
+        for future in pending:  # a write handed over meanwhile follows one of these
+            future.result()
 
     def clear_memory(self) -> None:
         """Forget the in-process entries (a second process's view of the disk level:
