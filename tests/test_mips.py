@@ -339,3 +339,28 @@ def test_fast_forms_match_the_textbook_forms_bit_for_bit(shape: tuple[int, int])
         starts = np.arange(0, 2 * max(1, blocks.shape[axis] // 2), 2)
         blocks = np.add.reduceat(blocks, starts, axis=axis)
     assert np.array_equal(_halve(values), blocks)
+
+
+@pytest.mark.parametrize("shape", [(131, 37), (129, 6), (64, 9), (67, 1)])
+def test_bands_give_the_bits_of_the_whole_map(
+    shape: tuple[int, int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The chain and the box mips are made ``BAND_ROWS`` rows at a time (an odd last row
+    joining the band before it): every level equals, bit for bit, the one made from the
+    whole map in one band, for taller-than-a-band maps with odd and even heights."""
+    from app.textures import mips
+
+    rng = np.random.default_rng(RNG_SEED + 7)
+    n = decode_normal_map(rng.integers(0, 256, (*shape, 3), dtype=np.uint8))
+    r = rng.uniform(0.0, 1.0, shape)
+    values = rng.uniform(0.0, 1.0, (*shape, 2))
+    monkeypatch.setattr(mips, "BAND_ROWS", 16)
+    banded = {m: build_chain(n, r, m) for m in NORMAL_FILTERS}
+    boxes = box_mips(values)
+    monkeypatch.setattr(mips, "BAND_ROWS", 1 << 20)  # one band: the whole map
+    for method, chain in banded.items():
+        whole = build_chain(n, r, method)
+        pairs = zip(chain.normals + chain.roughness, whole.normals + whole.roughness, strict=True)
+        for a, b in pairs:
+            assert a.tobytes() == b.tobytes(), method
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(boxes, box_mips(values), strict=True))

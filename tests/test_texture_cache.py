@@ -36,6 +36,7 @@ def test_second_load_hits_and_is_identical(tmp_path: Path, monkeypatch: pytest.M
     first = chain(tmp_path, monkeypatch)
     cache = prepared_cache()
     assert cache.events[-1] == "built"
+    cache.flush()  # written on the cache's writer thread
     assert len(list((tmp_path / "textures").glob("*.npy"))) == 1
     again = chain(tmp_path, monkeypatch)  # the same process: from memory
     assert cache.events[-1] == "memory"
@@ -76,6 +77,7 @@ def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     monkeypatch.delenv("PBS_CACHE", raising=False)
     first = chain(tmp_path, monkeypatch)
     cache = prepared_cache()
+    cache.flush()
     (entry,) = (tmp_path / "textures").glob("*.npy")
     # Flip bytes inside the data (the file still loads: only the checksum can tell).
     data = bytearray(entry.read_bytes())
@@ -99,6 +101,7 @@ def test_corrupt_entry_is_rebuilt(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     chain(tmp_path, monkeypatch)
     assert cache.events[-2:] == ["rebuilt", "built"]
     # Not an entry at all: rebuilt too.
+    cache.flush()
     entry.write_bytes(b"not an npy")
     cache.clear_memory()
     chain(tmp_path, monkeypatch)
@@ -121,6 +124,7 @@ def test_disk_size_is_bounded(tmp_path: Path) -> None:
     cache = PreparedCache(tmp_path, disk_bytes=3 * 8200, memory_bytes=2 * 8000)
     for k in range(5):
         cache.arrays("test", (k,), lambda k=k: [np.full(1000, float(k))])
+    cache.flush()
     on_disk = sorted(tmp_path.glob("*.npy"))
     assert 1 <= len(on_disk) <= 3
     assert sum(p.stat().st_size for p in on_disk) <= 3 * 8200
@@ -205,9 +209,9 @@ def test_open_image_keys_by_file_bytes(tmp_path: Path, monkeypatch: pytest.Monke
     data = png(mr)
     first = open_image(data)
     assert isinstance(first.info[SOURCE_DIGEST], str)
-    # Decoded once per process: a second open is a copy of the same texels, not the object.
+    # Decoded once per process: a second open is the same decoded image (callers only read).
     second = open_image(data)
-    assert second is not first and second.tobytes() == first.tobytes() == mr.tobytes()
+    assert second is first and second.tobytes() == mr.tobytes()
     assert second.info[SOURCE_DIGEST] == first.info[SOURCE_DIGEST]
     cache = prepared_cache()
     channel_texture(first, 1).levels[0]
@@ -266,6 +270,7 @@ def test_eviction_spares_writes_in_progress(tmp_path: Path) -> None:
     os.utime(stale, (1.0, 1.0))
     cache = PreparedCache(tmp_path, disk_bytes=10)
     cache.arrays("test", (1,), lambda: [np.zeros(4)])
+    cache.flush()
     assert fresh.exists() and not stale.exists()
 
 
@@ -321,7 +326,7 @@ def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.M
     """A prepared chain's float16 upload levels (rows bottom first) are exactly
     np.float16 of its float32 levels, and a later process reads them without looking up
     the float32 levels."""
-    from app.textures.maps import PreparedLevels, upload_levels
+    from app.textures.maps import PreparedLevels, upload_bytes, upload_levels
 
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("PBS_CACHE", raising=False)
@@ -330,8 +335,13 @@ def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.M
     assert isinstance(tex.levels, PreparedLevels)
     cache = prepared_cache()
     assert cache.events == []  # nothing looked up until a level is wanted
+    assert upload_bytes(tex) == 4 * 2 * sum(  # declared: known before a level is built
+        max(1, 37 >> k) * max(1, 29 >> k) for k in range(6)
+    )
+    assert cache.events == []
     half = upload_levels(tex)
     assert cache.events == ["built"]  # the float16 rows alone: the float32 chain not kept
+    assert upload_bytes(tex) == sum(h.nbytes for h in half)
     for level, h in zip(tex.levels, half, strict=True):
         assert h.dtype == np.float16 and h.flags.c_contiguous
         assert h.tobytes() == np.ascontiguousarray(level[::-1], np.float16).tobytes()
@@ -371,21 +381,43 @@ def test_colour_texels_kept_and_file_not_decoded_again(
     assert np.array_equal(first.levels[0], np.asarray(image.convert("RGBA")))
 
 
-def test_prefetch_reads_an_entry_in_the_background(tmp_path: Path) -> None:
-    """``prefetch`` reads a kept entry into memory (the lookup after it is a memory hit),
-    leaves a missing one to ``arrays`` to build, and records no lookup itself."""
+def test_prepare_looks_up_an_entry_in_the_background(tmp_path: Path) -> None:
+    """``prepare`` does ``arrays``'s lookup on the background thread: a kept entry read
+    from disk, a missing one built there (and kept: the lookup after it is a memory hit),
+    a build's exception raised by the future."""
     cache = PreparedCache(tmp_path)
     cache.arrays("test", ("kept",), lambda: [np.arange(5.0)])
     cache.clear_memory()
-    future = cache.prefetch("test", ("kept",))
-    assert future is not None
-    future.result()
-    assert cache.events == ["built"]  # the prefetch itself records nothing
-    assert np.array_equal(cache.arrays("test", ("kept",), lambda: []), [np.arange(5.0)])
-    assert cache.events[-1] == "memory"
-    assert cache.prefetch("test", ("kept",)) is None  # already in memory
-    missing = cache.prefetch("test", ("missing",))
-    assert missing is not None and missing.result() is None
-    cache.arrays("test", ("missing",), lambda: [np.zeros(2)])
+    kept = cache.prepare("test", ("kept",), lambda: [])
+    assert np.array_equal(kept.result(), [np.arange(5.0)])
+    assert cache.events == ["built", "disk"]
+    built = cache.prepare("test", ("missing",), lambda: [np.zeros(2)])
+    assert np.array_equal(built.result(), [np.zeros(2)])
     assert cache.events[-1] == "built"
-    assert PreparedCache(tmp_path, enabled=False).prefetch("test", ("kept",)) is None
+    cache.arrays("test", ("missing",), lambda: [])
+    assert cache.events[-1] == "memory"
+
+    def broken() -> list[np.ndarray]:
+        raise ValueError("not an image")
+
+    with pytest.raises(ValueError, match="not an image"):
+        cache.prepare("test", ("broken",), broken).result()
+
+
+@pytest.mark.parametrize("method", ["none", "variance"])
+def test_declared_upload_bytes_are_the_built_levels(
+    method: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A prepared map's GL bytes (what the memory check counts before anything is built)
+    are those of the levels it builds: a chain with and without mips, a channel's mips,
+    a chain from the roughness image alone."""
+    from app.textures.maps import upload_bytes, upload_levels
+
+    monkeypatch.setenv("PBS_CACHE", "off")
+    normal, mr = images()
+    for tex in (
+        normal_roughness_map(normal, 1.0, 0.5, mr, method),
+        normal_roughness_map(None, 1.0, 0.5, mr.resize((5, 3)), method),
+        channel_texture(mr, 2),
+    ):
+        assert upload_bytes(tex) == sum(level.nbytes for level in upload_levels(tex))

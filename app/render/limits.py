@@ -34,7 +34,7 @@ import moderngl
 from app.common.gbuffer import GBufferLayout
 from app.errors import InputError
 from app.scene.geometry import MeshPart
-from app.textures.maps import Texture, upload_levels
+from app.textures.maps import Texture, upload_bytes
 from app.untrusted.budget import describe
 
 MAX_TARGET_BYTES = 4 << 30
@@ -104,7 +104,7 @@ def texture_bytes(tex: Texture) -> int:
     if tex.srgb:
         level0 = tex.levels[0]
         return level0.shape[0] * level0.shape[1] * 4 * 4 // 3
-    return sum(level.size * 2 for level in upload_levels(tex))  # what upload reads
+    return upload_bytes(tex)  # what upload reads, known before a chain is built
 
 
 def _sampled(part: MeshPart) -> list[Texture]:

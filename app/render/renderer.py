@@ -1078,13 +1078,16 @@ class Renderer:
 # the culler's tiles, the environment's light and the shadow maps; the blend pass shades
 # with those inputs. The G-buffer pass reads the targets' layout, not the targets (a
 # resize keeps it): the layout is in its key.
+# The environment's light comes before the G-buffer pass: its prefilter runs on the GL
+# while a model's maps are still being prepared on the texture cache's background thread
+# (app/textures/cache.py ``prepare``), which the G-buffer pass's uploads wait for.
 SCHEDULE: tuple[Built, ...] = (
     Built("matrices", Renderer._key_camera, Renderer._build_camera),
+    Built("ibl", Renderer._key_ibl, Renderer._build_ibl),
     Built("gbuffer", Renderer._key_gbuffer, Renderer._build_gbuffer,
           check=Renderer._check_gbuffer),
     Built("gbuffer_pass", Renderer._key_gbuffer_pass, Renderer._build_gbuffer_pass,
           refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_gbuffer_pass)),
-    Built("ibl", Renderer._key_ibl, Renderer._build_ibl),
     Built("shadows", Renderer._key_shadows, Renderer._build_shadows,
           check=Renderer._check_shadows),
     Built("culler", Renderer._key_culler, Renderer._build_culler,

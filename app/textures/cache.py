@@ -29,6 +29,7 @@ import hashlib
 import json
 import logging
 import os
+import sys
 import tempfile
 import threading
 import time
@@ -37,6 +38,7 @@ from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -51,6 +53,7 @@ _SUFFIX = ".npy"
 _TEMPORARY = ".tmp-"  # prefix of an entry being written (renamed into place when whole)
 _STALE_NS = 3600 * 10**9  # a temporary file this old was left by a killed process
 _ALIGN = 64
+SWITCH_INTERVAL_S = 0.001  # the GIL's switch interval once a background build can run
 
 Part = bytes | str | int | float | bool | None | np.ndarray | tuple
 
@@ -95,21 +98,43 @@ def pack_entry(arrays: Sequence[np.ndarray]) -> np.ndarray:
     """Arrays as one entry, a flat uint8 array: an 8-byte little-endian header length, a
     JSON header ({"arrays": [[dtype, shape, offset], ...], "crc32": of the data}),
     then each array's bytes at a 64-byte aligned offset. One read, no per-array copies."""
-    layout, offset = [], 0
+    prefix, pieces = _entry_pieces(arrays)
+    return np.concatenate([np.frombuffer(prefix, np.uint8), *pieces])
+
+
+def write_entry(out: BinaryIO, arrays: Sequence[np.ndarray]) -> None:
+    """``np.save(out, pack_entry(arrays))`` byte for byte, written piece by piece: the
+    .npy header, the entry's prefix and each array's own buffer, never a packed copy
+    (a render's entries are ~100 MiB)."""
+    prefix, pieces = _entry_pieces(arrays)
+    size = len(prefix) + sum(p.nbytes for p in pieces)
+    header = {"descr": "|u1", "fortran_order": False, "shape": (size,)}
+    np.lib.format.write_array_header_1_0(out, header)
+    out.write(prefix)
+    for piece in pieces:
+        out.write(piece.data)
+
+
+def _entry_pieces(arrays: Sequence[np.ndarray]) -> tuple[bytes, list[np.ndarray]]:
+    """An entry's prefix (header length and JSON header, padded) and its data, as the
+    arrays' bytes and the zero padding between them (the CRC-32 taken over them in turn)."""
+    pieces: list[np.ndarray] = []
+    layout, offset, crc = [], 0, 0
     for a in arrays:
-        offset = -(-offset // _ALIGN) * _ALIGN
+        pad = -(-offset // _ALIGN) * _ALIGN - offset
+        if pad:
+            pieces.append(np.zeros(pad, np.uint8))
+            offset += pad
         layout.append([a.dtype.str, list(a.shape), offset])
+        piece = np.frombuffer(np.ascontiguousarray(a).data, np.uint8)
+        pieces.append(piece)
         offset += a.nbytes
-    data = np.zeros(offset, np.uint8)
-    for a, (_, _, at) in zip(arrays, layout, strict=True):
-        data[at : at + a.nbytes] = np.frombuffer(np.ascontiguousarray(a).data, np.uint8)
-    header = json.dumps({"arrays": layout, "crc32": zlib.crc32(data.data)})
-    head = header.encode()
+    for piece in pieces:
+        crc = zlib.crc32(piece.data, crc)
+    head = json.dumps({"arrays": layout, "crc32": crc}).encode()
     size = -(-(8 + len(head)) // _ALIGN) * _ALIGN
-    prefix = np.zeros(size, np.uint8)
-    prefix[:8] = np.frombuffer(len(head).to_bytes(8, "little"), np.uint8)
-    prefix[8 : 8 + len(head)] = np.frombuffer(head, np.uint8)
-    return np.concatenate([prefix, data])
+    prefix = len(head).to_bytes(8, "little") + head
+    return prefix + bytes(size - len(prefix)), pieces
 
 
 def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -155,6 +180,7 @@ class PreparedCache:
         self._memory: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
         self._held = 0
         self._lock = threading.Lock()
+        self._writing: dict[str, Future] = {}  # entries being written (``_write``) by key
         # What happened to each lookup, for tests and the bench: memory, disk, built, rebuilt.
         self.events: list[str] = []
 
@@ -186,30 +212,30 @@ class PreparedCache:
         self._remember(key, arrays)
         return arrays
 
-    def prefetch(self, kind: str, parts: Iterable[Part]) -> Future | None:
-        """Start reading the entry of ``kind`` and ``parts`` from disk into memory on a
-        background thread (reading and checking a file release the GIL): its caller has
-        other work to do before it asks for it. Only a read: a missing entry is left to
-        ``arrays`` to build, and no lookup is recorded in ``events``. None where there is
-        nothing to read (off, no directory, already in memory); else a future the caller
-        waits on before its own lookup, so that the file is not read twice."""
-        if not self.enabled or self.directory is None:
-            return None
-        key = entry_key(kind, parts)
-        with self._lock:
-            if key in self._memory:
-                return None
-        return _prefetcher().submit(self._fetch, key)
+    def prepare(
+        self, kind: str, parts: Iterable[Part], build: Callable[[], Sequence[np.ndarray]]
+    ) -> Future:
+        """``arrays(kind, parts, build)`` on a background thread, started now: its caller
+        has other work to do before it needs them (a model file's maps are looked up from
+        the moment its parts are built, while the camera is framed, the GL started and
+        the environment prefiltered). Reading a file, checking it, numpy's arithmetic on
+        large arrays and Pillow's decoding release the GIL, so a read or a build runs
+        beside that work. The future's result is what ``arrays`` returns (its exception
+        where ``build`` raised one)."""
+        parts = tuple(parts)
+        return _preparer().submit(self.arrays, kind, parts, build)
 
-    def _fetch(self, key: str) -> None:
-        arrays = self._read(key)
-        if arrays is not None:
-            for a in arrays:
-                a.setflags(write=False)
-            self._remember(key, arrays)
+    def flush(self) -> None:
+        """Wait until every entry handed to the writer is on disk."""
+        with self._lock:
+            pending = list(self._writing.values())
+        for future in pending:  # a write handed over meanwhile follows one of these
+            future.result()
 
     def clear_memory(self) -> None:
-        """Forget the in-process entries (a second process's view of the disk level)."""
+        """Forget the in-process entries (a second process's view of the disk level:
+        what was built is on disk first)."""
+        self.flush()
         with self._lock:
             self._memory.clear()
             self._held = 0
@@ -232,6 +258,9 @@ class PreparedCache:
         return None if self.directory is None else self.directory / f"{key}{_SUFFIX}"
 
     def _read(self, key: str) -> tuple[np.ndarray, ...] | None:
+        writing = self._writing.get(key)
+        if writing is not None:  # this process is writing it: read it whole
+            writing.result()
         path = self.path(key)
         if path is None or not path.is_file():
             return None
@@ -246,6 +275,23 @@ class PreparedCache:
             return None
 
     def _write(self, key: str, arrays: tuple[np.ndarray, ...]) -> None:
+        """Hand the entry to the writer thread (``_writer``): the caller goes on with the
+        arrays at once while the entry is packed, checksummed and written. The process
+        still waits for the writes at exit (the executor's threads are joined then), so
+        none is lost; a lookup of the key in this process waits for its write."""
+        if self.directory is None:
+            return
+        future = _writer().submit(self._write_now, key, arrays)
+        with self._lock:
+            self._writing[key] = future
+        future.add_done_callback(lambda _: self._written(key, future))
+
+    def _written(self, key: str, future: Future) -> None:
+        with self._lock:
+            if self._writing.get(key) is future:
+                del self._writing[key]
+
+    def _write_now(self, key: str, arrays: tuple[np.ndarray, ...]) -> None:
         path = self.path(key)
         if path is None:
             return
@@ -254,7 +300,7 @@ class PreparedCache:
             fd, tmp = tempfile.mkstemp(prefix=_TEMPORARY, suffix=_SUFFIX, dir=path.parent)
             try:
                 with os.fdopen(fd, "wb") as out:
-                    np.save(out, pack_entry(arrays), allow_pickle=False)
+                    write_entry(out, arrays)
                 os.replace(tmp, path)
             except BaseException:
                 Path(tmp).unlink(missing_ok=True)
@@ -286,16 +332,32 @@ class PreparedCache:
             total -= size
 
 
-_PREFETCHER: ThreadPoolExecutor | None = None
+_PREPARER: ThreadPoolExecutor | None = None
 
 
-def _prefetcher() -> ThreadPoolExecutor:
-    """One background reader a process (entries are read one after another, as a disk
-    likes them)."""
-    global _PREFETCHER
-    if _PREFETCHER is None:
-        _PREFETCHER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-read")
-    return _PREFETCHER
+def _preparer() -> ThreadPoolExecutor:
+    """One background worker a process for ``prepare``: entries are read one after another,
+    as a disk likes them, and a build beside the main thread uses the second core."""
+    global _PREPARER
+    if _PREPARER is None:
+        _PREPARER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-prepare")
+        # A build takes the GIL back after each numpy call (a chain makes over a thousand,
+        # docs/filtering.md); while the main thread runs Python each such wait lasts up to
+        # the switch interval, 5 ms by default. A 2048^2 chain beside 0.4 s of Python took
+        # 0.90-1.16 s at 5 ms and 0.52-0.86 s at 1 ms (0.4-0.5 s alone, load 5).
+        sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
+    return _PREPARER
+
+
+_WRITER: ThreadPoolExecutor | None = None
+
+
+def _writer() -> ThreadPoolExecutor:
+    """One background writer a process (entries are written one after another)."""
+    global _WRITER
+    if _WRITER is None:
+        _WRITER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-write")
+    return _WRITER
 
 
 def cache_directory() -> Path:

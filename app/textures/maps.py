@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import threading
 import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
@@ -32,7 +33,14 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.textures.cache import code_version, prepared_cache
-from app.textures.mips import box_mips, build_chain, decode_normal_map
+from app.textures.mips import (
+    BandSource,
+    box_levels,
+    box_mips,
+    chain_inputs,
+    chain_levels,
+    decode_normal_map,
+)
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
@@ -86,8 +94,17 @@ class PreparedLevels(Sequence[np.ndarray]):
     kept on disk only when something indexes them: a render's entries are the float16
     levels alone (docs/filtering.md)."""
 
-    def __init__(self, kind: str, parts: tuple, build: Callable[[], Sequence[np.ndarray]]) -> None:
+    def __init__(
+        self,
+        kind: str,
+        parts: tuple,
+        build: Callable[[], Sequence[np.ndarray]],
+        layout: tuple[int, int, int, bool],
+    ) -> None:
         self.kind, self.parts, self._build = kind, parts, build
+        # (height, width, components, level 0 alone) of what build makes: its GL bytes are
+        # known (``upload_bytes``) before the levels are read or built
+        self.layout = layout
         self._levels: list[np.ndarray] | None = None
         self._prefetched: Future | None = None
 
@@ -103,23 +120,25 @@ class PreparedLevels(Sequence[np.ndarray]):
         return len(self._loaded())
 
     def prefetch(self) -> None:
-        """Start reading the float16 levels from disk in the background (``upload_levels``
-        waits for that read instead of making its own)."""
+        """Start getting the float16 levels on the cache's background thread (read from
+        disk, or built and kept where they are not there): ``upload_levels`` then waits
+        for that instead of doing it itself."""
         if self._prefetched is None:
-            self._prefetched = prepared_cache().prefetch(_UPLOAD_KIND % self.kind, self.parts)
+            self._prefetched = prepared_cache().prepare(
+                _UPLOAD_KIND % self.kind, self.parts, self._upload_build
+            )
 
     def upload_levels(self) -> list[np.ndarray]:
         """Every level as the GL takes it: float16, rows bottom first, contiguous."""
         if self._prefetched is not None:
-            self._prefetched.result()  # in memory now, unless it was not on disk
-            self._prefetched = None
+            return list(self._prefetched.result())
+        kind = _UPLOAD_KIND % self.kind
+        return list(prepared_cache().arrays(kind, self.parts, self._upload_build))
 
-        def build() -> list[np.ndarray]:
-            if self._levels is None:  # built, not kept: a render never reads them again
-                self._levels = [np.asarray(level) for level in self._build()]
-            return [np.ascontiguousarray(level[::-1], np.float16) for level in self._levels]
-
-        return list(prepared_cache().arrays(_UPLOAD_KIND % self.kind, self.parts, build))
+    def _upload_build(self) -> list[np.ndarray]:
+        if self._levels is None:  # built, not kept on disk: a render never reads them again
+            self._levels = [np.asarray(level) for level in self._build()]
+        return [np.ascontiguousarray(level[::-1], np.float16) for level in self._levels]
 
 
 _UPLOAD_KIND = "%s f16 rows up"  # the cache kind of a chain's float16 levels
@@ -133,6 +152,20 @@ def prefetch_uploads(layers: Iterable[SurfaceLayer]) -> None:
         for tex in layer.maps.values():
             if isinstance(tex.levels, PreparedLevels):
                 tex.levels.prefetch()
+
+
+def upload_bytes(tex: Texture) -> int:
+    """The bytes of a non-colour map's float16 levels (``upload_levels``), without reading
+    or building a prepared chain's (its declared layout: GL sizes down to 1x1)."""
+    if not isinstance(tex.levels, PreparedLevels):
+        return sum(level.size * 2 for level in upload_levels(tex))
+    h, w, comps, single = tex.levels.layout
+    total, k = 0, 0
+    while True:
+        total += max(1, h >> k) * max(1, w >> k) * comps * 2
+        if single or max(h >> k, w >> k) <= 1:
+            return total
+        k += 1
 
 
 def upload_levels(tex: Texture) -> list[np.ndarray]:
@@ -245,9 +278,9 @@ def open_image(
         digest = hashlib.sha256(encoded).hexdigest()
         image.info[SOURCE_DIGEST] = digest
         kept = _DECODED.get(digest)
-        if kept is not None:  # decoded before in this process: a copy of that
+        if kept is not None:  # decoded before in this process: that image
             _DECODED.move_to_end(digest)
-            return kept.copy()
+            return kept
         decoded: list[bool] = []
 
         def decode() -> list[np.ndarray]:
@@ -259,7 +292,7 @@ def open_image(
         if not decoded:  # these bytes decoded before: decoded when their texels are read
             return image
         _keep_decoded(digest, image)
-        return image.copy()
+        return image
     except RefusedError:
         raise
     except Image.DecompressionBombError:
@@ -272,7 +305,9 @@ def open_image(
 
 # Images decoded in this process by their file's digest (a model file's parts are built
 # once to frame the camera and again for the frame; a batch's frames, a viewer's reload),
-# least recently used out past _DECODED_BYTES of texels. Callers get copies.
+# least recently used out past _DECODED_BYTES of texels. Callers share them and only read
+# them (every map is made from a ``convert`` or an array of the texels): a copy of each
+# for each caller was 60 MiB of memcpy and fresh pages for DamagedHelmet's five maps.
 _DECODED: OrderedDict[str, Image.Image] = OrderedDict()
 _DECODED_BYTES = 256 << 20
 
@@ -287,6 +322,20 @@ def _keep_decoded(digest: str, image: Image.Image) -> None:
 
 def _image_bytes(image: Image.Image) -> int:
     return image.width * image.height * len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
+
+
+def _decoded(image: Image.Image) -> Image.Image:
+    """``image`` with its texels decoded, one thread at a time: an image ``open_image``
+    returned undecoded decodes on first read, and the prepared maps are built on the
+    cache's background thread (``PreparedLevels.prefetch``) while the main thread may read
+    the same image (one image can be a glTF material's colour and its metallic-roughness
+    map); Pillow's ``load`` is not safe to run twice at once."""
+    with _DECODE_LOCK:
+        image.load()
+    return image
+
+
+_DECODE_LOCK = threading.Lock()
 
 
 def read_image(
@@ -349,16 +398,17 @@ def normal_roughness_texture(
     if normals is None:
         normals = np.zeros((*shape, 3))
         normals[..., 2] = 1.0
-    # "none": level 0 alone, bilinear without mips: each sample sees the source normals,
-    # aliasing included (what a supersampled reference averages).
-    chain = build_chain(normals, roughness, "naive" if method == "none" else method)
+    n, r = chain_inputs(normals, roughness, "naive" if method == "none" else method)
+    return Texture(_chain_levels(lambda y0, y1: (n[y0:y1], r[y0:y1]), n.shape[:2], method))
+
+
+def _chain_levels(source: BandSource, shape: tuple[int, int], method: str) -> list[np.ndarray]:
+    """mips.chain_levels with the project's ``none``: level 0 alone, bilinear without mips:
+    each sample sees the source normals, aliasing included (what a supersampled reference
+    averages)."""
     if method == "none":
-        chain.normals, chain.roughness = chain.normals[:1], chain.roughness[:1]
-    levels = [
-        np.concatenate([n, r[..., None]], axis=-1).astype(np.float32)
-        for n, r in zip(chain.normals, chain.roughness, strict=True)
-    ]
-    return Texture(levels)
+        return chain_levels(source, shape, "naive", count=1)
+    return chain_levels(source, shape, method)
 
 
 def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
@@ -378,7 +428,7 @@ def colour_texture(image: Image.Image) -> Texture:
     them instead of decoding the file (``open_image`` then returns it undecoded)."""
 
     def rgba() -> list[np.ndarray]:
-        return [np.asarray(image.convert("RGBA"), np.uint8)]
+        return [np.asarray(_decoded(image).convert("RGBA"), np.uint8)]
 
     digest = image.info.get(SOURCE_DIGEST)
     if not isinstance(digest, str):
@@ -466,12 +516,7 @@ def normal_roughness_map(
     and the parameters."""
 
     def build() -> list[np.ndarray]:
-        normals = None if normal_image is None else decode_normals(normal_image, scale)
-        values = None
-        if roughness_image is not None:
-            rgb = np.asarray(roughness_image.convert("RGB"), np.float64)
-            values = rgb[..., 1] / 255.0
-        return normal_roughness_chain(normals, factor, values, normal_filter).levels
+        return _map_chain_levels(normal_image, scale, factor, roughness_image, normal_filter)
 
     parts = (
         _prepared_version(),
@@ -481,7 +526,53 @@ def normal_roughness_map(
         _image_part(roughness_image),
         normal_filter,
     )
-    return Texture(PreparedLevels("normal_roughness", parts, build))
+    sized = normal_image if normal_image is not None else roughness_image
+    assert sized is not None, "a chain needs a normal or a roughness map"
+    layout = (sized.height, sized.width, 4, normal_filter == "none")
+    return Texture(PreparedLevels("normal_roughness", parts, build, layout))
+
+
+def _map_chain_levels(
+    normal_image: Image.Image | None,
+    scale: float,
+    factor: float,
+    roughness_image: Image.Image | None,
+    normal_filter: str,
+) -> list[np.ndarray]:
+    """``normal_roughness_chain(decode_normals(normal_image, scale), factor, green / 255,
+    normal_filter).levels``, bit for bit, with the images decoded to float64 a band of
+    rows at a time as the chain reads them (mips.chain_levels) instead of whole: the
+    8-bit texels are all that is held. The inputs need no check: decoded normals are unit
+    and a glTF roughness factor lies in [0, 1] (app/scene/gltf.py)."""
+    rgb = None
+    if normal_image is not None:
+        rgb = np.asarray(_decoded(normal_image).convert("RGB"), np.uint8)
+    green = None
+    if roughness_image is not None:
+        green = np.asarray(_decoded(roughness_image).convert("RGB"), np.uint8)[..., 1]
+    shape = rgb.shape[:2] if rgb is not None else green.shape  # type: ignore[union-attr]
+    values = None
+    if green is not None and green.shape != shape:  # resampled to the normal map's size
+        values = factor * resample(green / 255.0, shape)
+
+    def source(y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        if rgb is None:
+            n = np.zeros((y1 - y0, shape[1], 3))
+            n[..., 2] = 1.0
+        else:
+            n = decode_normal_map(rgb[y0:y1])
+            if scale != 1.0:
+                n[..., :2] *= scale
+                n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        if values is not None:
+            r = values[y0:y1]
+        elif green is not None:
+            r = factor * (green[y0:y1].astype(np.float64) / 255.0)
+        else:
+            r = np.full((y1 - y0, shape[1]), float(factor))
+        return n, r
+
+    return _chain_levels(source, shape, normal_filter)
 
 
 def channel_texture(image: Image.Image, channel: int) -> Texture:
@@ -489,8 +580,11 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
     (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content."""
 
     def build() -> list[np.ndarray]:
-        rgb = np.asarray(image.convert("RGB"), np.float64)
-        return scalar_texture(rgb[..., channel] / 255.0).levels
+        # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
+        # of rows at a time (mips.box_levels: the same bits)
+        rgb = np.asarray(_decoded(image).convert("RGB"), np.uint8)
+        h, w = rgb.shape[:2]
+        return box_levels(lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0, (h, w, 1))
 
     parts = (_prepared_version(), _image_part(image), int(channel))
-    return Texture(PreparedLevels("channel", parts, build))
+    return Texture(PreparedLevels("channel", parts, build, (image.height, image.width, 1, False)))

@@ -26,6 +26,7 @@ footprint unequally.)
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,6 +104,16 @@ class FilteredChain:
     roughness: list[np.ndarray]  # level k: (h_k, w_k) float32 perceptual roughness r (alpha = r^2)
 
 
+# A chain's source, a band of rows at a time: (y0, y1) -> (normals (y1 - y0, W, 3), perceptual
+# roughness (y1 - y0, W)), float64, the texels of rows y0 .. y1 - 1 of level 0.
+BandSource = Callable[[int, int], tuple[np.ndarray, np.ndarray]]
+
+# Rows of level 0 read, summed into level 1 and written at a time: ~130k texels of a 2048-wide
+# map, a few MiB of float64 temporaries that stay in the caches and in the allocator's
+# free memory, where moments of the whole map were hundreds of MiB of fresh pages.
+BAND_ROWS = 64
+
+
 def build_chain(normals: np.ndarray, roughness: np.ndarray | float, method: str) -> FilteredChain:
     """Mip chain down to 1x1 (GL sizes: h_k = max(1, h >> k)). Level 0 is exactly the source.
 
@@ -110,25 +121,87 @@ def build_chain(normals: np.ndarray, roughness: np.ndarray | float, method: str)
     roughness in [0, 1] or one value for every texel; ``method`` one of NORMAL_FILTERS.
     Raises ValueError on anything else (the caller names the file and the scene key).
     """
-    n, r = _checked(normals, roughness, method)
-    levels_n = [n.astype(np.float32)]
-    levels_r = [r.astype(np.float32)]
+    n, r = chain_inputs(normals, roughness, method)
+    levels = chain_levels(lambda y0, y1: (n[y0:y1], r[y0:y1]), n.shape[:2], method)
+    return FilteredChain([lv[..., :3] for lv in levels], [lv[..., 3] for lv in levels])
+
+
+def chain_levels(
+    source: BandSource, shape: tuple[int, int], method: str, count: int | None = None
+) -> list[np.ndarray]:
+    """``build_chain``'s levels as (h_k, w_k, 4) float32 arrays (xyz normal, a roughness),
+    the first ``count`` of them (None: down to 1x1), from a ``source`` read band by band
+    (``BAND_ROWS``) and not checked: the caller's normals are unit and its roughness in
+    [0, 1] by construction (``decode_normal_map`` and 8-bit maps, or ``build_chain``'s
+    checks).
+
+    Level 0 is the source; level 1's moment sums are made a band of level 0 at a time,
+    each band an even number of rows but the last (which keeps an odd last row's block of
+    three whole), so that every texel gets the same float64 operations in the same order
+    as on the whole map at once: the same bits, in a fraction of the memory traffic.
+    Levels 2 and up are made from level 1's sums as before."""
+    if method not in NORMAL_FILTERS:
+        raise ValueError(f"unknown normal filter {method!r}; one of {', '.join(NORMAL_FILTERS)}")
+    h, w = shape
     names = _CHANNELS[method]
-    sums: np.ndarray | None = None
-    counts_y = np.ones(n.shape[0])
-    counts_x = np.ones(n.shape[1])
-    while max(counts_y.size, counts_x.size) > 1:
-        if sums is None:  # level 1 straight from the source, one moment at a time
-            sums = np.stack([_halve(_moment(name, n, r)) for name in names], axis=-1)
-        else:
+    level0 = np.empty((h, w, 4), np.float32)
+    single = max(h, w) == 1 or count == 1
+    sums = None if single else np.empty((max(1, h >> 1), max(1, w >> 1), len(names)))
+    for y0, y1 in _bands(h):
+        n, r = source(y0, y1)
+        level0[y0:y1, :, :3] = n  # float64 -> float32, as astype rounds
+        level0[y0:y1, :, 3] = r
+        if sums is not None:
+            half = sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)]
+            for c, moment in enumerate(_band_moments(names, n, r)):
+                half[..., c] = _halve(moment)
+    levels = [level0]
+    counts_y = np.ones(h)
+    counts_x = np.ones(w)
+    while sums is not None and max(counts_y.size, counts_x.size) > 1:
+        if len(levels) > 1:
             sums = _halve(sums)
         counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
-        means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
-        moments = dict(zip(names, np.moveaxis(means, -1, 0), strict=True))
-        normal, r_level = _filtered(method, moments)
-        levels_n.append(normal.astype(np.float32))
-        levels_r.append(r_level.astype(np.float32))
-    return FilteredChain(levels_n, levels_r)
+        level = np.empty((counts_y.size, counts_x.size, 4), np.float32)
+        rows = max(1, BAND_ROWS * w // 2 // counts_x.size)  # as many texels as a band
+        for y0 in range(0, counts_y.size, rows):  # per texel: bands change no bit
+            y1 = min(y0 + rows, counts_y.size)
+            means = sums[y0:y1] / (counts_y[y0:y1, None, None] * counts_x[None, :, None])
+            moments = dict(zip(names, np.moveaxis(means, -1, 0), strict=True))
+            normal, r_level = _filtered(method, moments)
+            level[y0:y1, :, :3] = normal
+            level[y0:y1, :, 3] = r_level
+        levels.append(level)
+        if count is not None and len(levels) >= count:
+            break
+    return levels
+
+
+def _bands(height: int) -> list[tuple[int, int]]:
+    """Row ranges (y0, y1) covering 0 .. height: ``BAND_ROWS`` each (an even number), the
+    last taking what remains, and a lone odd last row joining the band before it (its
+    footprint at level 1 is a block of three rows)."""
+    starts = list(range(0, height, BAND_ROWS))
+    ends = [*starts[1:], height]
+    if len(starts) > 1 and ends[-1] - starts[-1] == 1:
+        starts.pop()
+        ends.pop(-2)
+    return list(zip(starts, ends, strict=True))
+
+
+def _band_moments(names: tuple[str, ...], n: np.ndarray, r: np.ndarray) -> list[np.ndarray]:
+    """``_moment`` of each name over one band, a slope computed once for its square."""
+    out: dict[str, np.ndarray] = {}
+    nz = None
+    for name in names:
+        if name in ("sx", "sy"):
+            if nz is None:
+                nz = np.maximum(n[..., 2], MIN_NORMAL_Z)
+            s = -n[..., "xy".index(name[1])] / nz
+            out[name], out[name[0] + name[1] * 2] = s, s * s
+        elif name not in out:
+            out[name] = _moment(name, n, r)
+    return [out[name] for name in names]
 
 
 def box_mips(values: np.ndarray) -> list[np.ndarray]:
@@ -136,20 +209,42 @@ def box_mips(values: np.ndarray) -> list[np.ndarray]:
     each texel the exact mean of the source texels under its footprint (the moments'
     averaging above, for data that is averaged as it is: masks, metallic, colour)."""
     a = np.asarray(values, np.float64)
-    levels = [a.astype(np.float32)]
-    sums = a if a.ndim == 3 else a[..., None]
-    counts_y, counts_x = np.ones(a.shape[0]), np.ones(a.shape[1])
-    while max(counts_y.size, counts_x.size) > 1:
-        sums = _halve(sums)
+    if a.ndim == 3:
+        return box_levels(lambda y0, y1: a[y0:y1], a.shape)
+    levels = box_levels(lambda y0, y1: a[y0:y1, :, None], (*a.shape, 1))
+    return [level[..., 0] for level in levels]
+
+
+def box_levels(
+    source: Callable[[int, int], np.ndarray], shape: tuple[int, int, int]
+) -> list[np.ndarray]:
+    """``box_mips``'s levels, (h_k, w_k, C) float32, of the (H, W, C) float64 data that
+    ``source(y0, y1)`` gives a band of rows at a time (as ``chain_levels`` reads its
+    source, with the same bits as the whole map at once)."""
+    h, w, c = shape
+    level0 = np.empty((h, w, c), np.float32)
+    sums = None if max(h, w) == 1 else np.empty((max(1, h >> 1), max(1, w >> 1), c))
+    for y0, y1 in _bands(h):
+        band = source(y0, y1)
+        level0[y0:y1] = band  # float64 -> float32, as astype rounds
+        if sums is not None:
+            sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)] = _halve(band)
+    levels = [level0]
+    counts_y, counts_x = np.ones(h), np.ones(w)
+    while sums is not None and max(counts_y.size, counts_x.size) > 1:
+        if len(levels) > 1:
+            sums = _halve(sums)
         counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
         means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
-        levels.append((means if a.ndim == 3 else means[..., 0]).astype(np.float32))
+        levels.append(means.astype(np.float32))
     return levels
 
 
-def _checked(
+def chain_inputs(
     normals: np.ndarray, roughness: np.ndarray | float, method: str
 ) -> tuple[np.ndarray, np.ndarray]:
+    """``build_chain``'s arguments checked: (normals, roughness per texel), float64; a
+    ValueError naming what is wrong."""
     if method not in NORMAL_FILTERS:
         raise ValueError(f"unknown normal filter {method!r}; one of {', '.join(NORMAL_FILTERS)}")
     n = np.asarray(normals, np.float64)
