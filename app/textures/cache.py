@@ -341,10 +341,10 @@ def _preparer() -> ThreadPoolExecutor:
     global _PREPARER
     if _PREPARER is None:
         _PREPARER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbs-cache-prepare")
-        # A build takes the GIL back after each numpy call (a chain makes over a thousand,
-        # docs/filtering.md); while the main thread runs Python each such wait lasts up to
-        # the switch interval, 5 ms by default. A 2048^2 chain beside 0.4 s of Python took
-        # 0.90-1.16 s at 5 ms and 0.52-0.86 s at 1 ms (0.4-0.5 s alone, load 5).
+        # A build takes the GIL back after each numpy call (a chain makes over a thousand);
+        # while the main thread runs Python each such wait lasts up to the switch interval,
+        # 5 ms by default, so the interval is shortened for the process (docs/filtering.md,
+        # "Prepared textures are cached", measures both).
         sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
     return _PREPARER
 
