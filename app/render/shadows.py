@@ -449,6 +449,8 @@ class ShadowPass(ShaderInput):
             for (x, y), size, f in zip(origins, sizes, pcf, strict=True)
         ]
         self._frame_lights = lights
+        # per shadowed light: its index and first map (glsl/lights/shadows.glsl u_shadowed)
+        self.shadowed = [(i, self.lights.index(i)) for i in dict.fromkeys(self.lights)]
         self._pack_uniforms()
         self.atlas = ctx.depth_texture((width, height))
         self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
@@ -477,7 +479,7 @@ class ShadowPass(ShaderInput):
         """The lighting and blend programs' defines: SHADOWS, SHADOW_PCSS only where a map
         uses PCSS and SHADOW_CASCADES only where a light has cascades (a scene without
         compiles as before they existed)."""
-        defines = {"SHADOWS": self.count}
+        defines = {"SHADOWS": self.count, "SHADOW_LIGHTS": len(self.shadowed)}
         if self.has_pcss:
             defines["SHADOW_PCSS"] = 1
         if self._cascaded:
@@ -500,6 +502,10 @@ class ShadowPass(ShaderInput):
             "u_shadow_matrix": b"".join(gl_bytes(m) for m in self.matrices),
             "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
             "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
+            "u_shadowed": np.asarray(self.shadowed, np.int32).tobytes(),
+            "u_shadow_position": np.asarray(
+                [self._frame_lights[i].position for i, _ in self.shadowed], np.float32
+            ).tobytes(),
         }
         if self.has_pcss:
             self._uniforms["u_shadow_pcss"] = np.asarray(self.pcss, np.float32).tobytes()
@@ -568,7 +574,8 @@ class ShadowPass(ShaderInput):
     def uniforms(self, prog: moderngl.Program) -> None:
         """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
         for name, data in self._uniforms.items():
-            prog[name].write(data)
+            if name in prog:  # the compiler drops what a program does not read
+                prog[name].write(data)
 
     def read(self) -> ShadowMaps:
         """The maps as the float64 twin takes them (app/reference/shadows.py): the atlas's

@@ -193,31 +193,50 @@ bool in_cascade(int k, vec3 p, vec3 n) {
 }
 #endif
 
-// Visibility of light i at p, l the unit direction from p to the light: its map's, for a
-// point light the cube face along the major axis of -l, for a cascaded light its first
-// cascade that holds p (else its last); 1 for a light without a map.
-float shadow_visibility(int i, vec3 p, vec3 n, vec3 l) {
-    for (int k = 0; k < SHADOWS; ++k) {
-        if (u_shadow_light[k] != i) continue;
+// SHADOW_LIGHTS: the number of lights with maps. Their visibilities are looked up once per
+// shaded point, before the light loop (shadow_prepare), not inside it: llvmpipe skips no
+// branch, so a lookup inside the loop ran, masked, for every light of the frame times every
+// map (docs/shadows.md, "Cost"). Shadowed light j: x its light index, y its first map.
+uniform ivec2 u_shadowed[SHADOW_LIGHTS];
+uniform vec3 u_shadow_position[SHADOW_LIGHTS];   // shadowed light j's position (point lights)
+float shadow_vis[SHADOW_LIGHTS];                 // shadow_prepare's visibilities at the point
+
+// The visibility of each shadowed light at p with normal n, into shadow_vis: its map's, for
+// a point light the cube face along the major axis of the direction from the light to p
+// (the sign and order of l's components, unnormalised), for a cascaded light its first
+// cascade that holds p (else its last).
+void shadow_prepare(vec3 p, vec3 n) {
+    for (int j = 0; j < SHADOW_LIGHTS; ++j) {
+        int k = u_shadowed[j].y;
         int map = k;
 #if SHADOW_CASCADES
         if (u_shadow_offset[k].y > 2.5) {        // cascades: the first that holds p
+            int i = u_shadowed[j].x;
             for (int c = k; c < SHADOWS; ++c) {
                 if (u_shadow_light[c] != i) break;
                 map = c;
                 if (in_cascade(c, p, n)) break;
             }
-            return shadow_map_visibility(map, p, n);
         }
 #endif
-        if (u_shadow_offset[k].y > 1.5) {        // faces k .. k + 5
-            vec3 a = abs(l);
+        if (u_shadow_offset[k].y > 1.5 && u_shadow_offset[k].y < 2.5) {   // faces k .. k + 5
+            vec3 d = p - u_shadow_position[j];
+            vec3 a = abs(d);
             int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
-            map += 2 * axis + (-l[axis] < 0.0 ? 1 : 0);
+            map += 2 * axis + (d[axis] < 0.0 ? 1 : 0);
         }
-        return shadow_map_visibility(map, p, n);
+        shadow_vis[j] = shadow_map_visibility(map, p, n);
     }
-    return 1.0;
+}
+
+// Visibility of light i at the point shadow_prepare was given: its map's, 1 for a light
+// without one (selects over the shadowed lights, no indexed read).
+float shadow_visibility(int i) {
+    float v = 1.0;
+    for (int j = 0; j < SHADOW_LIGHTS; ++j) {
+        v = u_shadowed[j].x == i ? shadow_vis[j] : v;
+    }
+    return v;
 }
 #endif
 
