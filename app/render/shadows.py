@@ -183,6 +183,10 @@ FILTER_CODES = {"none": 0.0, "pcf": 1.0, "pcss": 2.0}
 # cascade is orthographic, one of its light's consecutive maps, nearest slice first.
 ORTHOGRAPHIC, PERSPECTIVE, CUBE, CASCADE = 0.0, 1.0, 2.0, 3.0
 
+# Shadowed lights whose lookups glsl/lights/shadows.glsl compiles in steps of their own
+# (their projection and filter as constants); any further ones share a loop.
+SHADOW_UNROLLED = 8
+
 # The practical split scheme's weight of the logarithmic split (Zhang et al. 2006,
 # "Parallel-Split Shadow Maps on Programmable GPUs"): d_j = w d_log + (1 - w) d_uniform.
 CASCADE_LOG_WEIGHT = 0.75
@@ -453,8 +457,12 @@ class ShadowPass(ShaderInput):
         self.shadowed = [(i, self.lights.index(i)) for i in dict.fromkeys(self.lights)]
         self._pack_uniforms()
         self.atlas = ctx.depth_texture((width, height))
-        self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
-        self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        if self.has_pcss:  # PCSS's blocker search reads depths: shadow_test compares
+            self.atlas.compare_func = ""
+            self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        else:  # sampler2DShadow: a bilinear 2 x 2 comparison per lookup (SHADOW_COMPARE)
+            self.atlas.compare_func = "<="
+            self.atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.atlas.repeat_x = self.atlas.repeat_y = False
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
         self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
@@ -480,8 +488,14 @@ class ShadowPass(ShaderInput):
         uses PCSS and SHADOW_CASCADES only where a light has cascades (a scene without
         compiles as before they existed)."""
         defines = {"SHADOWS": self.count, "SHADOW_LIGHTS": len(self.shadowed)}
+        # the first SHADOW_UNROLLED lights' projection and filter, compiled into their steps
+        for j, (_, k) in enumerate(self.shadowed[:SHADOW_UNROLLED]):
+            defines[f"SHADOW_PROJ_{j}"] = int(self.offsets[k][1])
+            defines[f"SHADOW_FILTER_{j}"] = int(self.rects[k][3])
         if self.has_pcss:
             defines["SHADOW_PCSS"] = 1
+        else:
+            defines["SHADOW_COMPARE"] = 1
         if self._cascaded:
             defines["SHADOW_CASCADES"] = 1
         return defines
