@@ -272,8 +272,8 @@ float shadowed_light_visibility(int j, int proj, int filt, vec3 p, vec3 n) {
             map = c;
             if (in_cascade(c, p, n)) break;
         }
-        return shadow_map_visibility(map, u_shadow_matrix[map], u_shadow_rect[map], off,
-                                     filt, p, n);
+        return shadow_map_visibility(map, u_shadow_matrix[map], u_shadow_rect[map],
+                                     u_shadow_offset[map], filt, p, n);
     }
 #endif
     if (proj == 2) {                             // faces k .. k + 5: +x -x +y -y +z -z
