@@ -582,3 +582,45 @@ def test_a_mask_edit_draws_the_maps_again(gl_egl, tmp_path):
         fresh.release()
     np.testing.assert_array_equal(got, want)
     assert not np.array_equal(got, first)
+
+
+# Lit/unlit mismatch of the whole covered region against the ray-caster with the 16-read
+# PCF this filter replaced (docs/shadows.md's table, 1024 maps): the hardware comparison
+# computes the same weights, so it may differ by float rounding only.
+PCF_MISMATCH_1024 = {"directional": 14, "spot": 2, "point": 10}
+
+
+@pytest.mark.parametrize("kind", ["directional", "spot", "point"])
+def test_hardware_pcf_matches_the_ray_caster_as_the_texel_reads_did(gl_egl, kind):
+    """The PCF of bilinear depth comparisons (sampler2DShadow) against the ray-caster's
+    shadow rays: no more differing pixels than the 16 texel reads had, all covered pixels."""
+    light = {"directional": SUN, "spot": SPOT, "point": POINT}[kind]
+    data = scene_data([FLOOR, *SPHERES], light)
+    ratio, lit, _ = gpu_visibility(gl_egl, data, shadow_resolution=1024)
+    vis, ids, _ = reference_visibility(data)
+    region = lit & (ids >= 0)
+    wrong = ((ratio > 0.5) != (vis > 0.5)) & region
+    assert region.sum() > 7000
+    assert wrong.sum() <= PCF_MISMATCH_1024[kind], f"{wrong.sum()} of {region.sum()} differ"
+
+
+def test_the_pcf_atlas_is_read_with_its_compare_mode(gl_egl):
+    """Without PCSS the lighting program reads the atlas through sampler2DShadow, which
+    needs the texture's compare mode (<=) and LINEAR filter: the image then matches the twin
+    (16 texel reads of the maps read back); with the compare mode off the reads return
+    depths, not comparisons."""
+    scene = loaded(scene_data([FLOOR, *SPHERES], dict(SPOT, shadow=True)))
+    r = Renderer(gl_egl, scene)
+    try:
+        r.render()
+        assert "SHADOW_COMPARE" in r.shadows.defines()
+        hdr, g, maps = r.read_hdr().astype(np.float64), r.read_gbuffer(), r.shadows.read()
+    finally:
+        r.release()
+    ref = shade_gbuffer(
+        g, r.camera, r.lights, scene.scene.background, r.materials.models,
+        r.materials.packed(), shadows=maps,
+    )  # fmt: skip
+    covered = g.depth > 0.0
+    rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * ref[covered].max())
+    assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"
