@@ -624,3 +624,37 @@ def test_the_pcf_atlas_is_read_with_its_compare_mode(gl_egl):
     covered = g.depth > 0.0
     rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * ref[covered].max())
     assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"
+
+
+def test_shadowed_lights_past_the_unrolled_steps_match_the_twin(gl_egl):
+    """SHADOW_UNROLLED + 2 shadowed lights (a sun, spots and a point light last): those past
+    the unrolled steps of shadow_prepare read their projection and filter from the uniforms
+    in a loop; the lighting pass against the twin on the maps read back, as the test above."""
+    from app.render.shadows import SHADOW_UNROLLED
+
+    spots = [
+        dict(SPOT, position=[-1.5 + 0.4 * i, 3.0, 1.2], intensity=2.0, shadow=True,
+             shadow_resolution=256)
+        for i in range(SHADOW_UNROLLED)
+    ]  # fmt: skip
+    point = dict(POINT, intensity=3.0, shadow=True, shadow_resolution=128)
+    data = scene_data([FLOOR, *SPHERES], dict(SUN, shadow=True, shadow_resolution=512))
+    data["lights"] += [*spots, point]
+    scene = loaded(data)
+    r = Renderer(gl_egl, scene)
+    try:
+        r.render()
+        assert r.shadows.defines()["SHADOW_LIGHTS"] == SHADOW_UNROLLED + 2
+        hdr, g, maps = r.read_hdr().astype(np.float64), r.read_gbuffer(), r.shadows.read()
+    finally:
+        r.release()
+    ref = shade_gbuffer(
+        g, r.camera, r.lights, scene.scene.background, r.materials.models,
+        r.materials.packed(), shadows=maps,
+    )  # fmt: skip
+    d = decode_gbuffer(g, r.camera)
+    vis = light_visibilities(maps, r.lights, d.p, d.n)
+    assert all((v < 0.5).sum() > 50 for v in vis[-2:])  # the looped lights shadow something
+    covered = g.depth > 0.0
+    rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * ref[covered].max())
+    assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"

@@ -166,9 +166,10 @@ float pcss_visibility(int k, vec3 q, vec3 n, vec2 pos, float z) {
 // away from the light does not shadow itself between texel centres (acne); the shadow
 // pass adds the slope-scaled depth offset (glPolygonOffset), docs/shadows.md.
 float shadow_map_visibility(int k, mat4 m, vec4 rect, vec2 off, int filt, vec3 p, vec3 n) {
-    vec4 clip = m * vec4(p, 1.0);
-    float scale = off.y > 0.5 ? clip.w : 1.0;
-    clip = m * vec4(p + n * (off.x * scale), 1.0);
+    // the distance scale of a perspective map: clip w of p alone, its matrix's last row
+    float w = dot(vec4(m[0][3], m[1][3], m[2][3], m[3][3]), vec4(p, 1.0));
+    float scale = off.y > 0.5 ? w : 1.0;
+    vec4 clip = m * vec4(p + n * (off.x * scale), 1.0);
     if (clip.w <= 0.0) return 1.0;               // behind a spot: no cone there
     vec3 ndc = clip.xyz / clip.w;
     // Outside the map: lit. A cube face was chosen to hold p, so a point that its normal
@@ -192,19 +193,22 @@ float shadow_map_visibility(int k, mat4 m, vec4 rect, vec2 off, int filt, vec3 p
     vec2 f = q - cell;
     ivec2 base = lo + ivec2(cell);
 #if SHADOW_COMPARE
-    // The same 4 x 4 weights in four bilinear comparisons (2 x 2 texels each): per axis,
-    // texels (-1, 0) weigh (1 - f, 1), a comparison 1 / (2 - f) of the way from -1 to 0,
-    // times 2 - f; texels (1, 2) weigh (1, f), f / (1 + f) of the way, times 1 + f. A
-    // position clamped to the map's edge texel centres reads the edge texel alone, as the
-    // texel clamp of the 16 reads does.
+    // The same weights in four bilinear comparisons (sampler2DShadow, 2 x 2 texels each):
+    // per axis, texels (-1, 0) weigh (1 - f, 1): a comparison 1 / (2 - f) of the way from
+    // -1 to 0, times 2 - f; texels (1, 2) weigh (1, f): f / (1 + f) of the way, times
+    // 1 + f. A position clamped to the map's edge texel centres reads the edge texel
+    // alone, as the texel clamp of the 16 reads does. The tap positions are float32
+    // texture coordinates: a fraction rounds to ulp(position), 1.2e-4 texel below 2048
+    // (docs/shadows.md, "The twin of the lookup").
     vec2 wa = 2.0 - f;
     vec2 wb = 1.0 + f;
-    vec2 xa = clamp(vec2(base) - 0.5 + 1.0 / wa, vec2(lo) + 0.5, vec2(hi) + 0.5);
-    vec2 xb = clamp(vec2(base) + 1.5 + f / wb, vec2(lo) + 0.5, vec2(hi) + 0.5);
-    float sum = wa.x * wa.y * shadow_compare(xa, z)
-              + wb.x * wa.y * shadow_compare(vec2(xb.x, xa.y), z)
-              + wa.x * wb.y * shadow_compare(vec2(xa.x, xb.y), z)
-              + wb.x * wb.y * shadow_compare(xb, z);
+    vec2 inv = 1.0 / vec2(textureSize(u_shadow_atlas, 0));   // texels -> coordinates
+    vec2 xa = clamp(vec2(base) - 0.5 + 1.0 / wa, vec2(lo) + 0.5, vec2(hi) + 0.5) * inv;
+    vec2 xb = clamp(vec2(base) + 1.5 + f / wb, vec2(lo) + 0.5, vec2(hi) + 0.5) * inv;
+    float sum = wa.x * wa.y * texture(u_shadow_atlas, vec3(xa, z))
+              + wb.x * wa.y * texture(u_shadow_atlas, vec3(xb.x, xa.y, z))
+              + wa.x * wb.y * texture(u_shadow_atlas, vec3(xa.x, xb.y, z))
+              + wb.x * wb.y * texture(u_shadow_atlas, vec3(xb, z));
     return sum / 9.0;
 #else
     float wx[4] = float[4](1.0 - f.x, 1.0, 1.0, f.x);
