@@ -13,7 +13,8 @@
 #if SHADOWS
 // SHADOW_COMPARE (no map of the frame uses PCSS, whose blocker search reads depths): the
 // atlas has GL_COMPARE_REF_TO_TEXTURE (<=) and LINEAR filtering, so one texture() call is a
-// bilinear 2 x 2 comparison (GL 4.5 core spec sec. 8.23.1). Otherwise depths are read.
+// bilinear 2 x 2 comparison (GL 4.5 core spec sec. 8.23, Texture Comparison Modes).
+// Otherwise depths are read (texelFetch).
 #if SHADOW_COMPARE
 uniform sampler2DShadow u_shadow_atlas;      // DEPTH24, the maps packed in rows
 #else
