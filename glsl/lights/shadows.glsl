@@ -162,17 +162,19 @@ float pcss_visibility(int k, vec3 q, vec3 n, vec2 pos, float z) {
 
 // Visibility through map k (m, rect, off: its u_shadow_matrix, u_shadow_rect and
 // u_shadow_offset, read by the caller) of the point p with normal n; filt its filter
-// (u_shadow_rect's w: 0 none, 1 PCF, 2 PCSS), a constant where the caller can give one.
+// (u_shadow_rect's w: 0 none, 1 PCF, 2 PCSS) and ortho whether the map is orthographic
+// (its clip w is exactly 1: no scale, no division), constants where the caller has them.
 // Normal offset: p moves along n by a fixed number of shadow texels, so a surface tilted
 // away from the light does not shadow itself between texel centres (acne); the shadow
 // pass adds the slope-scaled depth offset (glPolygonOffset), docs/shadows.md.
-float shadow_map_visibility(int k, mat4 m, vec4 rect, vec2 off, int filt, vec3 p, vec3 n) {
+float shadow_map_visibility(int k, mat4 m, vec4 rect, vec2 off, int filt, bool ortho,
+                            vec3 p, vec3 n) {
     // the distance scale of a perspective map: clip w of p alone, its matrix's last row
-    float w = dot(vec4(m[0][3], m[1][3], m[2][3], m[3][3]), vec4(p, 1.0));
-    float scale = off.y > 0.5 ? w : 1.0;
+    float scale = 1.0;
+    if (!ortho) scale = dot(vec4(m[0][3], m[1][3], m[2][3], m[3][3]), vec4(p, 1.0));
     vec4 clip = m * vec4(p + n * (off.x * scale), 1.0);
-    if (clip.w <= 0.0) return 1.0;               // behind a spot: no cone there
-    vec3 ndc = clip.xyz / clip.w;
+    if (!ortho && clip.w <= 0.0) return 1.0;     // behind a spot: no cone there
+    vec3 ndc = ortho ? clip.xyz : clip.xyz / clip.w;
     // Outside the map: lit. A cube face was chosen to hold p, so a point that its normal
     // offset moves just past the face's edge keeps the edge texels (the clamp below).
     bvec3 outside = greaterThan(abs(ndc), vec3(1.0));
@@ -278,7 +280,7 @@ float shadowed_light_visibility(int j, int proj, int filt, vec3 p, vec3 n) {
             if (in_cascade(c, p, n)) break;
         }
         return shadow_map_visibility(map, u_shadow_matrix[map], u_shadow_rect[map],
-                                     u_shadow_offset[map], filt, p, n);
+                                     u_shadow_offset[map], filt, true, p, n);
     }
 #endif
     if (proj == 2) {                             // faces k .. k + 5: +x -x +y -y +z -z
@@ -286,9 +288,11 @@ float shadowed_light_visibility(int j, int proj, int filt, vec3 p, vec3 n) {
         vec3 a = abs(d);
         int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
         int f = 2 * axis + (d[axis] < 0.0 ? 1 : 0);
-        return shadow_map_visibility(k + f, face_matrix(k, f), face_rect(k, f), off, filt, p, n);
+        return shadow_map_visibility(k + f, face_matrix(k, f), face_rect(k, f), off, filt,
+                                     false, p, n);
     }
-    return shadow_map_visibility(k, u_shadow_matrix[k], u_shadow_rect[k], off, filt, p, n);
+    return shadow_map_visibility(k, u_shadow_matrix[k], u_shadow_rect[k], off, filt,
+                                 proj == 0 || proj == 3, p, n);
 }
 
 // shadow_prepare's step for shadowed light j (a literal), with its constants.
