@@ -184,7 +184,8 @@ FILTER_CODES = {"none": 0.0, "pcf": 1.0, "pcss": 2.0}
 ORTHOGRAPHIC, PERSPECTIVE, CUBE, CASCADE = 0.0, 1.0, 2.0, 3.0
 
 # Shadowed lights whose lookups glsl/lights/shadows.glsl compiles in steps of their own
-# (their projection and filter as constants); any further ones share a loop.
+# (their projection and filter as constants); any further ones share a loop. The GLSL has
+# this many SHADOW_STEP lines (tests/test_shadows.py renders two lights past them).
 SHADOW_UNROLLED = 8
 
 # The practical split scheme's weight of the logarithmic split (Zhang et al. 2006,
@@ -484,9 +485,12 @@ class ShadowPass(ShaderInput):
         return len(self.lights)
 
     def defines(self) -> dict[str, int]:
-        """The lighting and blend programs' defines: SHADOWS, SHADOW_PCSS only where a map
-        uses PCSS and SHADOW_CASCADES only where a light has cascades (a scene without
-        compiles as before they existed)."""
+        """The lighting and blend programs' defines: SHADOWS (maps) and SHADOW_LIGHTS
+        (shadowed lights), the first SHADOW_UNROLLED lights' projection and filter
+        (SHADOW_PROJ_j, SHADOW_FILTER_j: their lookup steps compile only their own kind),
+        SHADOW_PCSS only where a map uses PCSS, else SHADOW_COMPARE (the atlas read through
+        sampler2DShadow), and SHADOW_CASCADES only where a light has cascades (a scene
+        without compiles as before they existed)."""
         defines = {"SHADOWS": self.count, "SHADOW_LIGHTS": len(self.shadowed)}
         # the first SHADOW_UNROLLED lights' projection and filter, compiled into their steps
         for j, (_, k) in enumerate(self.shadowed[:SHADOW_UNROLLED]):

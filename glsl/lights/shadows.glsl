@@ -242,7 +242,8 @@ bool in_cascade(int k, vec3 p, vec3 n) {
 // SHADOW_LIGHTS: the number of lights with maps. Their visibilities are looked up once per
 // shaded point, before the light loop (shadow_prepare), not inside it: llvmpipe skips no
 // branch, so a lookup inside the loop ran, masked, for every light of the frame times every
-// map (docs/shadows.md, "Cost"). Shadowed light j: x its light index, y its first map.
+// map (docs/shadows.md, "One lookup per shadowed light and point"). Shadowed light j: x
+// its light index, y its first map.
 uniform ivec2 u_shadowed[SHADOW_LIGHTS];
 uniform vec3 u_shadow_position[SHADOW_LIGHTS];   // shadowed light j's position (point lights)
 float shadow_vis[SHADOW_LIGHTS];                 // shadow_prepare's visibilities at the point
@@ -301,7 +302,7 @@ float shadowed_light_visibility(int j, int proj, int filt, vec3 p, vec3 n) {
 // Every shadowed light's visibility at p with normal n, into shadow_vis: the first
 // SHADOW_UNROLLED lights in steps of their own (every array index a constant), any further
 // ones in a loop that reads their projection and filter from the uniforms.
-const int SHADOW_UNROLLED = 8;
+const int SHADOW_UNROLLED = 8;   // the steps below; app/render/shadows.py SHADOW_UNROLLED
 void shadow_prepare(vec3 p, vec3 n) {
     SHADOW_STEP(0)
 #if SHADOW_LIGHTS > 1
