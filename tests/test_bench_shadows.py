@@ -11,7 +11,7 @@ import pytest
 
 from app.bench import main
 from app.bench.report import shadow_fronts
-from app.bench.shadows import FILTERS, LIGHTS, mismatch
+from app.bench.shadows import FILTERS, LIGHTS, SHOWCASE, SHOWCASE_VARIANTS, mismatch
 
 
 @pytest.mark.gl
@@ -26,6 +26,10 @@ def test_tiny_shadows_suite_writes_its_rows(tmp_path):
     for kind in LIGHTS:
         want = {(kind, "off")} | {(kind, f"{f} {n}") for f in FILTERS[1:] for n in (64, 128)}
         assert want <= got, want - got
+    showcase = {r["variant"]: r for r in rows if r["case"] == SHOWCASE}
+    assert set(showcase) == set(SHOWCASE_VARIANTS)  # the target's rows, shadows on and off
+    assert showcase["shadows"]["shadowed_lights"] == 2
+    rows = [r for r in rows if r["case"] != SHOWCASE]
     for r in rows:
         assert r["ms_min"] <= r["ms_median"] <= r["ms_max"]
         assert r["lit_pixels"] > 100
@@ -37,6 +41,7 @@ def test_tiny_shadows_suite_writes_its_rows(tmp_path):
     assert set(fronts) == set(LIGHTS) and all(fronts.values())
     text = (tmp_path / "bench.md").read_text()
     assert "### shadows" in text and "mismatch vs ray-caster" in text
+    assert "shadowed showcase frame <=" in text
 
 
 def test_mismatch_counts_only_lit_pixels_whose_state_differs():

@@ -30,6 +30,11 @@ FEATURES = {
         "SHADOWS": 2,  # lights/shadows.glsl: two shadow maps
         "SHADOW_PCSS": 1,  # and their PCSS filter
         "SHADOW_CASCADES": 1,  # and a directional light's cascades
+        "SHADOW_LIGHTS": 2,  # two shadowed lights' lookup steps: a point light with PCSS
+        "SHADOW_PROJ_0": 2,
+        "SHADOW_FILTER_0": 2,
+        "SHADOW_PROJ_1": 3,  # and a cascaded directional light with PCF
+        "SHADOW_FILTER_1": 1,
     },
     # ENVIRONMENT_IBL and ENVIRONMENT_UNIFORM are alternatives (lights/shading.glsl):
     # one set each, with the lighting pass's tiled walk, light array and emission target.
@@ -37,6 +42,11 @@ FEATURES = {
         "ENVIRONMENT_UNIFORM": 1,
         "ENV_UNIFORM_SAMPLES": 64,
         "LIGHT_UNIFORMS": 16,  # lights/illumination.glsl: the lights in a uniform array
+        "SHADOWS": 1,  # lights/shadows.glsl through sampler2DShadow: one PCF spot
+        "SHADOW_COMPARE": 1,
+        "SHADOW_LIGHTS": 1,
+        "SHADOW_PROJ_0": 1,
+        "SHADOW_FILTER_0": 1,
         "TILED_LIGHTS": 1,
         "TILE_SIZE": 16,
         "TILE_QUADS": 2,

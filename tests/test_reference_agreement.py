@@ -23,6 +23,11 @@ from app.scene.loader import load_scene
 from tests.conftest import REPO
 
 MAX_REL_ERR = 1e-4
+# The showcase's shadows: its PCF reads the atlas through sampler2DShadow, whose four tap
+# positions are float32 texture coordinates; a tap's fraction rounds to ulp(position),
+# 1.2e-4 texel in its 2048 map, beside the lookup's own float32 position, and the worst
+# penumbra pixel moves by 1.5e-4 (docs/shadows.md, "The twin of the lookup").
+SCENE_MAX_REL_ERR = {"showcase.toml": 2e-4}
 
 
 def interior(covered: np.ndarray) -> np.ndarray:
@@ -80,7 +85,8 @@ def test_lighting_pass_matches_float64_reference(gl, scene, gbuffer):
     lit = sel & (ref.max(axis=-1) > 1e-3 * peak)
     assert lit.sum() > 0.2 * sel.sum(), "too few lit pixels to mean anything"
     rel = np.abs(hdr - ref)[lit] / np.maximum(ref[lit], 1e-3 * peak)
-    assert rel.max() <= MAX_REL_ERR, f"max relative error {rel.max():.2e}"
+    bound = SCENE_MAX_REL_ERR.get(scene, MAX_REL_ERR)
+    assert rel.max() <= bound, f"max relative error {rel.max():.2e}"
     # The background is passed through exactly.
     assert np.allclose(hdr[g.depth <= 0.0], ref[g.depth <= 0.0], rtol=0, atol=1e-7)
 

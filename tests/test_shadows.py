@@ -582,3 +582,79 @@ def test_a_mask_edit_draws_the_maps_again(gl_egl, tmp_path):
         fresh.release()
     np.testing.assert_array_equal(got, want)
     assert not np.array_equal(got, first)
+
+
+# Lit/unlit mismatch of the whole covered region against the ray-caster with the 16-read
+# PCF this filter replaced (docs/shadows.md's table, 1024 maps): the hardware comparison
+# computes the same weights, so it may differ by float rounding only.
+PCF_MISMATCH_1024 = {"directional": 14, "spot": 2, "point": 10}
+
+
+@pytest.mark.parametrize("kind", ["directional", "spot", "point"])
+def test_hardware_pcf_matches_the_ray_caster_as_the_texel_reads_did(gl_egl, kind):
+    """The PCF of bilinear depth comparisons (sampler2DShadow) against the ray-caster's
+    shadow rays: no more differing pixels than the 16 texel reads had, all covered pixels."""
+    light = {"directional": SUN, "spot": SPOT, "point": POINT}[kind]
+    data = scene_data([FLOOR, *SPHERES], light)
+    ratio, lit, _ = gpu_visibility(gl_egl, data, shadow_resolution=1024)
+    vis, ids, _ = reference_visibility(data)
+    region = lit & (ids >= 0)
+    wrong = ((ratio > 0.5) != (vis > 0.5)) & region
+    assert region.sum() > 7000
+    assert wrong.sum() <= PCF_MISMATCH_1024[kind], f"{wrong.sum()} of {region.sum()} differ"
+
+
+def test_the_pcf_atlas_is_read_with_its_compare_mode(gl_egl):
+    """Without PCSS the lighting program reads the atlas through sampler2DShadow, which
+    needs the texture's compare mode (<=) and LINEAR filter: the image then matches the twin
+    (16 texel reads of the maps read back); with the compare mode off the reads return
+    depths, not comparisons."""
+    scene = loaded(scene_data([FLOOR, *SPHERES], dict(SPOT, shadow=True)))
+    r = Renderer(gl_egl, scene)
+    try:
+        r.render()
+        assert "SHADOW_COMPARE" in r.shadows.defines()
+        hdr, g, maps = r.read_hdr().astype(np.float64), r.read_gbuffer(), r.shadows.read()
+    finally:
+        r.release()
+    ref = shade_gbuffer(
+        g, r.camera, r.lights, scene.scene.background, r.materials.models,
+        r.materials.packed(), shadows=maps,
+    )  # fmt: skip
+    covered = g.depth > 0.0
+    rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * ref[covered].max())
+    assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"
+
+
+def test_shadowed_lights_past_the_unrolled_steps_match_the_twin(gl_egl):
+    """SHADOW_UNROLLED + 2 shadowed lights (a sun, spots and a point light last): those past
+    the unrolled steps of shadow_prepare read their projection and filter from the uniforms
+    in a loop; the lighting pass against the twin on the maps read back, as the test above."""
+    from app.render.shadows import SHADOW_UNROLLED
+
+    spots = [
+        dict(SPOT, position=[-1.5 + 0.4 * i, 3.0, 1.2], intensity=2.0, shadow=True,
+             shadow_resolution=256)
+        for i in range(SHADOW_UNROLLED)
+    ]  # fmt: skip
+    point = dict(POINT, intensity=3.0, shadow=True, shadow_resolution=128)
+    data = scene_data([FLOOR, *SPHERES], dict(SUN, shadow=True, shadow_resolution=512))
+    data["lights"] += [*spots, point]
+    scene = loaded(data)
+    r = Renderer(gl_egl, scene)
+    try:
+        r.render()
+        assert r.shadows.defines()["SHADOW_LIGHTS"] == SHADOW_UNROLLED + 2
+        hdr, g, maps = r.read_hdr().astype(np.float64), r.read_gbuffer(), r.shadows.read()
+    finally:
+        r.release()
+    ref = shade_gbuffer(
+        g, r.camera, r.lights, scene.scene.background, r.materials.models,
+        r.materials.packed(), shadows=maps,
+    )  # fmt: skip
+    d = decode_gbuffer(g, r.camera)
+    vis = light_visibilities(maps, r.lights, d.p, d.n)
+    assert all((v < 0.5).sum() > 50 for v in vis[-2:])  # the looped lights shadow something
+    covered = g.depth > 0.0
+    rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * ref[covered].max())
+    assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"

@@ -66,6 +66,7 @@ class Settings:
     # also times no shadow, PCF and PCSS side by side).
     shadow_size: tuple[int, int] = (640, 384)
     shadow_resolutions: tuple[int, ...] = (256, 512, 1024, 2048)
+    shadow_showcase_size: tuple[int, int] = (1280, 720)  # the showcase, shadows on and off
     # Suite antialiasing (app/bench/antialiasing.py): the image (8x8 supersampled too).
     antialiasing_size: tuple[int, int] = (640, 360)
     antialiasing_viewer_size: tuple[int, int] = (960, 540)  # showcase, the viewer's window
@@ -135,6 +136,7 @@ TINY = replace(
     batch_subdivisions=2,
     shadow_size=(64, 40),
     shadow_resolutions=(64, 128),
+    shadow_showcase_size=(64, 36),
     antialiasing_size=(64, 36),
     antialiasing_viewer_size=(64, 36),
     pyrender_sphere_lights=(1,),

@@ -52,6 +52,7 @@ AA_VIEWER_INTERACTIVE = "fxaa"
 AA_STILL_REDUCTION_MIN = 3.0
 AA_STILL_COST_MAX = 2.0
 AA_VIEWER_COST_MAX = 1.3
+SHADOWED_SHOWCASE_MAX = 1.5  # the showcase's frame with its shadows / with none
 
 
 def _cpu_model() -> str:
@@ -253,7 +254,34 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
     out.append(_specialization_verdict(rows))
     out.extend(_primitives_verdicts(rows))
     out.extend(aa_verdicts(rows))
+    out.extend(_shadow_verdicts(rows))
     return out
+
+
+def _shadow_verdicts(rows: list[dict]) -> list[Verdict]:
+    """The shadows suite's target: the showcase's frame with its shadows against the same
+    scene with none (app/bench/shadows.py ``run_showcase``); beside it the PCF rows'
+    lit/unlit mismatch against the ray-caster at the largest map (nothing where the suite
+    did not run)."""
+    on = next((r for r in rows if r["suite"] == "shadows" and r["case"] == "showcase"
+               and r["variant"] == "shadows"), None)  # fmt: skip
+    off = next((r for r in rows if r["suite"] == "shadows" and r["case"] == "showcase"
+                and r["variant"] == "no shadows"), None)  # fmt: skip
+    if on is None or off is None:
+        return []
+    ratio = on["ms_median"] / off["ms_median"]
+    pcf = [r for r in rows if r["suite"] == "shadows" and str(r["variant"]).startswith("pcf ")]
+    largest = max((r["shadow_resolution"] for r in pcf), default=None)
+    errors = ", ".join(
+        f"{r['case']} {r['mismatch']:.2e}" for r in pcf if r["shadow_resolution"] == largest
+    )
+    measured = (
+        f"{ratio:.2f}x ({on['ms_median']:.0f} / {off['ms_median']:.0f} ms,"
+        f" {on['width']}x{on['height']})"
+        + (f"; PCF {largest} mismatch vs ray-caster: {errors}" if errors else "")
+    )
+    what = f"shadowed showcase frame <= {SHADOWED_SHOWCASE_MAX:g}x the same scene without shadows"
+    return [Verdict(what, measured, _status(ratio <= SHADOWED_SHOWCASE_MAX))]
 
 
 ASSETS_F3D_MAX = 0.5  # a model file's whole pbs render <= this x f3d's wall time
@@ -883,7 +911,8 @@ def shadow_fronts(rows: list[dict]) -> dict[str, list[str]]:
             for r in rows
             if r["suite"] == "shadows" and r["case"] == case and r.get("mismatch") is not None
         }
-        out[case] = pareto_front(points)
+        if points:  # the showcase's rows (on and off) have no mismatch
+            out[case] = pareto_front(points)
     return out
 
 

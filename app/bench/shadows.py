@@ -12,6 +12,10 @@ differs from the float64 ray-caster's shadow rays (app/reference/raycast.py
 shadowed render over the unshadowed one above 0.5. PCSS is measured against the same hard
 reference: its wider penumbra counts as error here (its own accuracy, the penumbra's width
 against an area light, is tests/test_shadows.py's).
+
+Case ``showcase``: scenes/showcase.toml's whole frame (``Renderer.render``, the maps drawn
+once, as a still camera has them) as it is and with every ``shadow`` off, in alternating
+rounds; app/bench/report.py's target asks the shadowed frame for at most 1.5x the other.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from app.frame.raycast import primitive
 from app.reference.raycast import cast, shadow_visibility
 from app.render.renderer import Renderer
 from app.resources import scenes_dir
-from app.scene.loader import LoadedScene, parse_scene
+from app.scene.loader import LoadedScene, parse_scene, read_toml
 
 LIGHTS = {
     "directional": {"type": "directional", "direction": [-1.0, -0.6, -0.3], "intensity": 2.0},
@@ -125,8 +129,44 @@ def mismatch(image: np.ndarray, plain: np.ndarray, lit_ref: np.ndarray) -> tuple
 
 
 def shadows_tasks(settings: Settings) -> int:
-    """Progress steps: per light type the filters at the largest map, then the others."""
-    return len(LIGHTS) * (1 + int(len(settings.shadow_resolutions) > 1))
+    """Progress steps: per light type the filters at the largest map, then the others; the
+    showcase."""
+    return len(LIGHTS) * (1 + int(len(settings.shadow_resolutions) > 1)) + 1
+
+
+SHOWCASE = "showcase"  # the case of the showcase's rows (app/bench/report.py's target)
+SHOWCASE_VARIANTS = ("shadows", "no shadows")
+
+
+def run_showcase(ctx: Context) -> None:
+    """scenes/showcase.toml at ``shadow_showcase_size``: the whole frame with its shadows
+    and with every light's ``shadow`` off, in alternating rounds."""
+    size = ctx.settings.shadow_showcase_size
+    ctx.progress.start("shadows showcase: on and off")
+    data = read_toml(scenes_dir() / "showcase.toml")
+    plain = copy.deepcopy(data)
+    for light in plain.get("lights", []):
+        light.pop("shadow", None)
+    scenes = {"shadows": data, "no shadows": plain}
+    renderers = {}
+    try:
+        for name, d in scenes.items():
+            renderers[name] = Renderer(
+                ctx.gl, parse_scene(copy.deepcopy(d), scenes_dir() / "showcase.toml"), size
+            )
+        times = ctx.time_interleaved(
+            {name: [Pass("frame", r.render, None)] for name, r in renderers.items()}
+        )
+        shadowed = sum(bool(light.get("shadow")) for light in data.get("lights", []))
+        for name in SHOWCASE_VARIANTS:
+            ctx.rows.append(
+                make_row("shadows", SHOWCASE, name, size, len(data.get("lights", [])),
+                         times[name], shadowed_lights=shadowed if name == "shadows" else 0)
+            )  # fmt: skip
+    finally:
+        for r in renderers.values():
+            r.release()
+    ctx.progress.done()
 
 
 def run_shadows(ctx: Context) -> None:
@@ -179,3 +219,4 @@ def run_shadows(ctx: Context) -> None:
                     )
                 )  # fmt: skip
             ctx.progress.done()
+    run_showcase(ctx)

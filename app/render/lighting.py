@@ -53,9 +53,10 @@ from app.render.inputs import (
 
 LIGHT_FORMS = ("texture", "uniform")
 # Fragment uniform vectors left to everything but the lights (camera, IBL, counts) and,
-# per shadow map, to its matrix and parameters (glsl/lights/shadows.glsl: 8 vectors).
+# per shadow map, to its matrix and parameters (glsl/lights/shadows.glsl: 8 vectors, and
+# 2 per shadowed light, which has at least one map).
 _OTHER_VECTORS = 64
-_VECTORS_PER_SHADOW_MAP = 8
+_VECTORS_PER_SHADOW_MAP = 10
 _MIN_UNIFORM_SLOTS = 16  # the smallest array (uniform_slots)
 
 

@@ -183,6 +183,11 @@ FILTER_CODES = {"none": 0.0, "pcf": 1.0, "pcss": 2.0}
 # cascade is orthographic, one of its light's consecutive maps, nearest slice first.
 ORTHOGRAPHIC, PERSPECTIVE, CUBE, CASCADE = 0.0, 1.0, 2.0, 3.0
 
+# Shadowed lights whose lookups glsl/lights/shadows.glsl compiles in steps of their own
+# (their projection and filter as constants); any further ones share a loop. The GLSL has
+# this many SHADOW_STEP lines (tests/test_shadows.py renders two lights past them).
+SHADOW_UNROLLED = 8
+
 # The practical split scheme's weight of the logarithmic split (Zhang et al. 2006,
 # "Parallel-Split Shadow Maps on Programmable GPUs"): d_j = w d_log + (1 - w) d_uniform.
 CASCADE_LOG_WEIGHT = 0.75
@@ -449,10 +454,16 @@ class ShadowPass(ShaderInput):
             for (x, y), size, f in zip(origins, sizes, pcf, strict=True)
         ]
         self._frame_lights = lights
+        # per shadowed light: its index and first map (glsl/lights/shadows.glsl u_shadowed)
+        self.shadowed = [(i, self.lights.index(i)) for i in dict.fromkeys(self.lights)]
         self._pack_uniforms()
         self.atlas = ctx.depth_texture((width, height))
-        self.atlas.compare_func = ""  # read as depth values (shadow_test compares)
-        self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        if self.has_pcss:  # PCSS's blocker search reads depths: shadow_test compares
+            self.atlas.compare_func = ""
+            self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        else:  # sampler2DShadow: a bilinear 2 x 2 comparison per lookup (SHADOW_COMPARE)
+            self.atlas.compare_func = "<="
+            self.atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.atlas.repeat_x = self.atlas.repeat_y = False
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
         self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
@@ -474,12 +485,21 @@ class ShadowPass(ShaderInput):
         return len(self.lights)
 
     def defines(self) -> dict[str, int]:
-        """The lighting and blend programs' defines: SHADOWS, SHADOW_PCSS only where a map
-        uses PCSS and SHADOW_CASCADES only where a light has cascades (a scene without
-        compiles as before they existed)."""
-        defines = {"SHADOWS": self.count}
+        """The lighting and blend programs' defines: SHADOWS (maps) and SHADOW_LIGHTS
+        (shadowed lights), the first SHADOW_UNROLLED lights' projection and filter
+        (SHADOW_PROJ_j, SHADOW_FILTER_j: their lookup steps compile only their own kind),
+        SHADOW_PCSS only where a map uses PCSS, else SHADOW_COMPARE (the atlas read through
+        sampler2DShadow), and SHADOW_CASCADES only where a light has cascades (a scene
+        without compiles as before they existed)."""
+        defines = {"SHADOWS": self.count, "SHADOW_LIGHTS": len(self.shadowed)}
+        # the first SHADOW_UNROLLED lights' projection and filter, compiled into their steps
+        for j, (_, k) in enumerate(self.shadowed[:SHADOW_UNROLLED]):
+            defines[f"SHADOW_PROJ_{j}"] = int(self.offsets[k][1])
+            defines[f"SHADOW_FILTER_{j}"] = int(self.rects[k][3])
         if self.has_pcss:
             defines["SHADOW_PCSS"] = 1
+        else:
+            defines["SHADOW_COMPARE"] = 1
         if self._cascaded:
             defines["SHADOW_CASCADES"] = 1
         return defines
@@ -500,6 +520,10 @@ class ShadowPass(ShaderInput):
             "u_shadow_matrix": b"".join(gl_bytes(m) for m in self.matrices),
             "u_shadow_rect": np.asarray(self.rects, np.float32).tobytes(),
             "u_shadow_offset": np.asarray(self.offsets, np.float32).tobytes(),
+            "u_shadowed": np.asarray(self.shadowed, np.int32).tobytes(),
+            "u_shadow_position": np.asarray(
+                [self._frame_lights[i].position for i, _ in self.shadowed], np.float32
+            ).tobytes(),
         }
         if self.has_pcss:
             self._uniforms["u_shadow_pcss"] = np.asarray(self.pcss, np.float32).tobytes()
@@ -568,7 +592,8 @@ class ShadowPass(ShaderInput):
     def uniforms(self, prog: moderngl.Program) -> None:
         """Set a lighting program's shadow uniforms (glsl/lights/shadows.glsl)."""
         for name, data in self._uniforms.items():
-            prog[name].write(data)
+            if name in prog:  # the compiler drops what a program does not read
+                prog[name].write(data)
 
     def read(self) -> ShadowMaps:
         """The maps as the float64 twin takes them (app/reference/shadows.py): the atlas's

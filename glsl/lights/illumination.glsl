@@ -34,8 +34,8 @@ uniform vec4 u_light_vec[3 * LIGHT_UNIFORMS];
 // (brdf_eval_layered_cos in brdf/material.glsl).
 vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp) {
 #if SHADOWS
-    // a shadowed light (lights/shadows.glsl)
-    c_light *= shadow_visibility(i, sp.position, sp.n, l);
+    // a shadowed light (lights/shadows.glsl: looked up by shadow_prepare, before the loop)
+    c_light *= shadow_visibility(i);
 #endif
 #if GBUFFER_COAT_NORMAL && CLEARCOAT_ON
     if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {

@@ -33,6 +33,9 @@ uniform int u_first_local;         // lights [0, u_first_local) are directional
 // order; with TILED_LIGHTS the local lights of screen tile `tile` only.
 vec3 sum_lights(ivec2 tile, ShadingPoint sp) {
     vec3 Lo = vec3(0.0);
+#if SHADOWS
+    shadow_prepare(sp.position, sp.n);   // every shadowed light's visibility, once
+#endif
 #if TILED_LIGHTS
     // Directional lights reach everything; local lights only where their tile's mask
     // says so, visited in ascending order like the plain loop below. Bottom-tested loops,

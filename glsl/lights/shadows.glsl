@@ -11,7 +11,15 @@
 #endif
 
 #if SHADOWS
+// SHADOW_COMPARE (no map of the frame uses PCSS, whose blocker search reads depths): the
+// atlas has GL_COMPARE_REF_TO_TEXTURE (<=) and LINEAR filtering, so one texture() call is a
+// bilinear 2 x 2 comparison (GL 4.5 core spec sec. 8.23, Texture Comparison Modes).
+// Otherwise depths are read (texelFetch).
+#if SHADOW_COMPARE
+uniform sampler2DShadow u_shadow_atlas;      // DEPTH24, the maps packed in rows
+#else
 uniform sampler2D u_shadow_atlas;            // DEPTH24, the maps packed in rows; no compare mode
+#endif
 uniform int u_shadow_light[SHADOWS];         // the light (index into u_lights) of map k
 uniform mat4 u_shadow_matrix[SHADOWS];       // world -> map k's clip space
 // Map k: x, y its first texel in the atlas, z its size in texels, w 1 for PCF, 0 for none,
@@ -23,10 +31,24 @@ uniform vec4 u_shadow_rect[SHADOWS];
 // 3 for a directional light's cascade (orthographic; its cascades in a row, nearest first).
 uniform vec2 u_shadow_offset[SHADOWS];
 
+#if SHADOW_COMPARE
+// The bilinear comparison at texel position x of the atlas (texel i's centre at i + 0.5):
+// the four texels around x compared with z, weighted by x's fractions.
+float shadow_compare(vec2 x, float z) {
+    return texture(u_shadow_atlas, vec3(x / vec2(textureSize(u_shadow_atlas, 0)), z));
+}
+
+// 1 where the receiver's window depth z is not behind the occluder depth in texel t: the
+// comparison at its centre, where the bilinear weights are (1, 0, 0, 0).
+float shadow_test(ivec2 t, float z) {
+    return shadow_compare(vec2(t) + 0.5, z);
+}
+#else
 // 1 where the receiver's window depth z is not behind the occluder depth in texel t.
 float shadow_test(ivec2 t, float z) {
     return z <= texelFetch(u_shadow_atlas, t, 0).r ? 1.0 : 0.0;
 }
+#endif
 
 #if SHADOW_PCSS
 // Map k's PCSS constants (app/render/shadows.py): x the light's size (radius in metres for
@@ -138,30 +160,34 @@ float pcss_visibility(int k, vec3 q, vec3 n, vec2 pos, float z) {
 }
 #endif
 
-// Visibility through map k of the point p with normal n.
+// Visibility through map k (m, rect, off: its u_shadow_matrix, u_shadow_rect and
+// u_shadow_offset, read by the caller) of the point p with normal n; filt its filter
+// (u_shadow_rect's w: 0 none, 1 PCF, 2 PCSS) and ortho whether the map is orthographic
+// (its clip w is exactly 1: no scale, no division), constants where the caller has them.
 // Normal offset: p moves along n by a fixed number of shadow texels, so a surface tilted
 // away from the light does not shadow itself between texel centres (acne); the shadow
 // pass adds the slope-scaled depth offset (glPolygonOffset), docs/shadows.md.
-float shadow_map_visibility(int k, vec3 p, vec3 n) {
-    vec4 clip = u_shadow_matrix[k] * vec4(p, 1.0);
-    float scale = u_shadow_offset[k].y > 0.5 ? clip.w : 1.0;
-    clip = u_shadow_matrix[k] * vec4(p + n * (u_shadow_offset[k].x * scale), 1.0);
-    if (clip.w <= 0.0) return 1.0;               // behind a spot: no cone there
-    vec3 ndc = clip.xyz / clip.w;
+float shadow_map_visibility(int k, mat4 m, vec4 rect, vec2 off, int filt, bool ortho,
+                            vec3 p, vec3 n) {
+    // the distance scale of a perspective map: clip w of p alone, its matrix's last row
+    float scale = 1.0;
+    if (!ortho) scale = dot(vec4(m[0][3], m[1][3], m[2][3], m[3][3]), vec4(p, 1.0));
+    vec4 clip = m * vec4(p + n * (off.x * scale), 1.0);
+    if (!ortho && clip.w <= 0.0) return 1.0;     // behind a spot: no cone there
+    vec3 ndc = ortho ? clip.xyz : clip.xyz / clip.w;
     // Outside the map: lit. A cube face was chosen to hold p, so a point that its normal
     // offset moves just past the face's edge keeps the edge texels (the clamp below).
     bvec3 outside = greaterThan(abs(ndc), vec3(1.0));
-    if (outside.z || (u_shadow_offset[k].y < 1.5 && any(outside.xy))) return 1.0;
+    if (outside.z || (off.y < 1.5 && any(outside.xy))) return 1.0;
     float z = ndc.z * 0.5 + 0.5;                 // window depth, glDepthRange(0, 1)
-    vec4 rect = u_shadow_rect[k];
     // Texel coordinates within the map, the atlas offset added as an integer: float32
     // resolves a position of 2048 to 1.2e-4 texel, one of 4096 (a second map) to 2.4e-4.
     vec2 pos = (ndc.xy * 0.5 + 0.5) * rect.z;
     ivec2 lo = ivec2(rect.xy);
     ivec2 hi = lo + ivec2(rect.z) - 1;
-    if (rect.w < 0.5) return shadow_test(clamp(lo + ivec2(floor(pos)), lo, hi), z);
+    if (filt == 0) return shadow_test(clamp(lo + ivec2(floor(pos)), lo, hi), z);
 #if SHADOW_PCSS
-    if (rect.w > 1.5) return pcss_visibility(k, p + n * (u_shadow_offset[k].x * scale), n, pos, z);
+    if (filt == 2) return pcss_visibility(k, p + n * (off.x * scale), n, pos, z);
 #endif
     // PCF: a 3 x 3 box of bilinear comparisons one texel apart, which sums to 4 x 4 texels
     // with separable weights ((1 - f), 1, 1, f) / 3 around the texel below pos - 0.5.
@@ -169,6 +195,25 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
     vec2 cell = floor(q);
     vec2 f = q - cell;
     ivec2 base = lo + ivec2(cell);
+#if SHADOW_COMPARE
+    // The same weights in four bilinear comparisons (sampler2DShadow, 2 x 2 texels each):
+    // per axis, texels (-1, 0) weigh (1 - f, 1): a comparison 1 / (2 - f) of the way from
+    // -1 to 0, times 2 - f; texels (1, 2) weigh (1, f): f / (1 + f) of the way, times
+    // 1 + f. A position clamped to the map's edge texel centres reads the edge texel
+    // alone, as the texel clamp of the 16 reads does. The tap positions are float32
+    // texture coordinates: a fraction rounds to ulp(position), 1.2e-4 texel below 2048
+    // (docs/shadows.md, "The twin of the lookup").
+    vec2 wa = 2.0 - f;
+    vec2 wb = 1.0 + f;
+    vec2 inv = 1.0 / vec2(textureSize(u_shadow_atlas, 0));   // texels -> coordinates
+    vec2 xa = clamp(vec2(base) - 0.5 + 1.0 / wa, vec2(lo) + 0.5, vec2(hi) + 0.5) * inv;
+    vec2 xb = clamp(vec2(base) + 1.5 + f / wb, vec2(lo) + 0.5, vec2(hi) + 0.5) * inv;
+    float sum = wa.x * wa.y * texture(u_shadow_atlas, vec3(xa, z))
+              + wb.x * wa.y * texture(u_shadow_atlas, vec3(xb.x, xa.y, z))
+              + wa.x * wb.y * texture(u_shadow_atlas, vec3(xa.x, xb.y, z))
+              + wb.x * wb.y * texture(u_shadow_atlas, vec3(xb, z));
+    return sum / 9.0;
+#else
     float wx[4] = float[4](1.0 - f.x, 1.0, 1.0, f.x);
     float wy[4] = float[4](1.0 - f.y, 1.0, 1.0, f.y);
     float sum = 0.0;
@@ -179,6 +224,7 @@ float shadow_map_visibility(int k, vec3 p, vec3 n) {
         }
     }
     return sum / 9.0;
+#endif
 }
 
 #if SHADOW_CASCADES
@@ -193,31 +239,110 @@ bool in_cascade(int k, vec3 p, vec3 n) {
 }
 #endif
 
-// Visibility of light i at p, l the unit direction from p to the light: its map's, for a
-// point light the cube face along the major axis of -l, for a cascaded light its first
-// cascade that holds p (else its last); 1 for a light without a map.
-float shadow_visibility(int i, vec3 p, vec3 n, vec3 l) {
-    for (int k = 0; k < SHADOWS; ++k) {
-        if (u_shadow_light[k] != i) continue;
-        int map = k;
+// SHADOW_LIGHTS: the number of lights with maps. Their visibilities are looked up once per
+// shaded point, before the light loop (shadow_prepare), not inside it: llvmpipe skips no
+// branch, so a lookup inside the loop ran, masked, for every light of the frame times every
+// map (docs/shadows.md, "One lookup per shadowed light and point"). Shadowed light j: x
+// its light index, y its first map.
+uniform ivec2 u_shadowed[SHADOW_LIGHTS];
+uniform vec3 u_shadow_position[SHADOW_LIGHTS];   // shadowed light j's position (point lights)
+float shadow_vis[SHADOW_LIGHTS];                 // shadow_prepare's visibilities at the point
+
+// Map k + f's matrix and rectangle for a per-point face f (0..5) of a point light: selects
+// over the six, so that every array index stays uniform (an index that differs between a
+// SIMD rasteriser's lanes makes each read of the array a gather per lane).
+mat4 face_matrix(int k, int f) {
+    mat4 m = u_shadow_matrix[k];
+    for (int c = 1; c < 6; ++c) m = f == c ? u_shadow_matrix[k + c] : m;
+    return m;
+}
+vec4 face_rect(int k, int f) {
+    vec4 r = u_shadow_rect[k];
+    for (int c = 1; c < 6; ++c) r = f == c ? u_shadow_rect[k + c] : r;
+    return r;
+}
+
+// The visibility of shadowed light j at p with normal n; proj and filt its first map's
+// projection (u_shadow_offset's y) and filter, constants in shadow_prepare's unrolled
+// steps (app/render/shadows.py SHADOW_PROJ_j, SHADOW_FILTER_j), so that each step compiles
+// only its own kind of lookup. A point light reads the cube face along the major axis of
+// the direction from the light to p (ties to x, then y); a cascaded light its first
+// cascade that holds p (else its last).
+float shadowed_light_visibility(int j, int proj, int filt, vec3 p, vec3 n) {
+    int k = u_shadowed[j].y;
+    vec2 off = u_shadow_offset[k];
 #if SHADOW_CASCADES
-        if (u_shadow_offset[k].y > 2.5) {        // cascades: the first that holds p
-            for (int c = k; c < SHADOWS; ++c) {
-                if (u_shadow_light[c] != i) break;
-                map = c;
-                if (in_cascade(c, p, n)) break;
-            }
-            return shadow_map_visibility(map, p, n);
+    if (proj == 3) {                             // cascades: the first that holds p
+        int i = u_shadowed[j].x;
+        int map = k;
+        for (int c = k; c < SHADOWS; ++c) {
+            if (u_shadow_light[c] != i) break;
+            map = c;
+            if (in_cascade(c, p, n)) break;
         }
-#endif
-        if (u_shadow_offset[k].y > 1.5) {        // faces k .. k + 5
-            vec3 a = abs(l);
-            int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
-            map += 2 * axis + (-l[axis] < 0.0 ? 1 : 0);
-        }
-        return shadow_map_visibility(map, p, n);
+        return shadow_map_visibility(map, u_shadow_matrix[map], u_shadow_rect[map],
+                                     u_shadow_offset[map], filt, true, p, n);
     }
-    return 1.0;
+#endif
+    if (proj == 2) {                             // faces k .. k + 5: +x -x +y -y +z -z
+        vec3 d = p - u_shadow_position[j];
+        vec3 a = abs(d);
+        int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+        int f = 2 * axis + (d[axis] < 0.0 ? 1 : 0);
+        return shadow_map_visibility(k + f, face_matrix(k, f), face_rect(k, f), off, filt,
+                                     false, p, n);
+    }
+    return shadow_map_visibility(k, u_shadow_matrix[k], u_shadow_rect[k], off, filt,
+                                 proj == 0 || proj == 3, p, n);
+}
+
+// shadow_prepare's step for shadowed light j (a literal), with its constants.
+#define SHADOW_STEP(j) shadow_vis[j] = shadowed_light_visibility(j, SHADOW_PROJ_##j, SHADOW_FILTER_##j, p, n);
+
+// Every shadowed light's visibility at p with normal n, into shadow_vis: the first
+// SHADOW_UNROLLED lights in steps of their own (every array index a constant), any further
+// ones in a loop that reads their projection and filter from the uniforms.
+const int SHADOW_UNROLLED = 8;   // the steps below; app/render/shadows.py SHADOW_UNROLLED
+void shadow_prepare(vec3 p, vec3 n) {
+    SHADOW_STEP(0)
+#if SHADOW_LIGHTS > 1
+    SHADOW_STEP(1)
+#endif
+#if SHADOW_LIGHTS > 2
+    SHADOW_STEP(2)
+#endif
+#if SHADOW_LIGHTS > 3
+    SHADOW_STEP(3)
+#endif
+#if SHADOW_LIGHTS > 4
+    SHADOW_STEP(4)
+#endif
+#if SHADOW_LIGHTS > 5
+    SHADOW_STEP(5)
+#endif
+#if SHADOW_LIGHTS > 6
+    SHADOW_STEP(6)
+#endif
+#if SHADOW_LIGHTS > 7
+    SHADOW_STEP(7)
+#endif
+#if SHADOW_LIGHTS > 8
+    for (int j = SHADOW_UNROLLED; j < SHADOW_LIGHTS; ++j) {
+        int k = u_shadowed[j].y;
+        shadow_vis[j] = shadowed_light_visibility(j, int(u_shadow_offset[k].y),
+                                                  int(u_shadow_rect[k].w), p, n);
+    }
+#endif
+}
+
+// Visibility of light i at the point shadow_prepare was given: its map's, 1 for a light
+// without one (selects over the shadowed lights, no indexed read).
+float shadow_visibility(int i) {
+    float v = 1.0;
+    for (int j = 0; j < SHADOW_LIGHTS; ++j) {
+        v = u_shadowed[j].x == i ? shadow_vis[j] : v;
+    }
+    return v;
 }
 #endif
 
