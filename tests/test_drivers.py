@@ -114,10 +114,12 @@ def test_lighting_and_post_match_their_twins_on_a_small_image(gl_egl, scene: str
     assert np.abs(ldr.astype(np.float64) - expected).max() <= 1.0
 
 
+# Mesa's driver choices, dropped from this process's environment before a driver's own.
+MESA_CHOICES = ("GALLIUM_DRIVER", "LIBGL_ALWAYS_SOFTWARE", "MESA_LOADER_DRIVER_OVERRIDE")
+
+
 def _env(driver: Driver) -> dict[str, str]:
-    env = {
-        k: v for k, v in os.environ.items() if k not in ("GALLIUM_DRIVER", "LIBGL_ALWAYS_SOFTWARE")
-    }
+    env = {k: v for k, v in os.environ.items() if k not in MESA_CHOICES}
     env.update(driver.env)
     env["PYTHONPATH"] = str(REPO)
     return env
