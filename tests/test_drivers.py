@@ -47,12 +47,17 @@ class Driver:
     backends: tuple[str, ...]
 
 
+# LIBGL_ALWAYS_SOFTWARE: EGL's software screen, where GALLIUM_DRIVER picks the driver;
+# without it zink's EGL looks for a hardware device and fails, and on a machine with a
+# Mesa GPU driver softpipe's would draw on the GPU.
+SOFTWARE = {"LIBGL_ALWAYS_SOFTWARE": "1"}
 DRIVERS = (
-    Driver("softpipe", {"GALLIUM_DRIVER": "softpipe"}, "softpipe", ("egl", "osmesa")),
-    # LIBGL_ALWAYS_SOFTWARE: EGL's software screen, where GALLIUM_DRIVER picks zink; without
-    # it EGL looks for a hardware device and fails (MESA_LOADER_DRIVER_OVERRIDE alike).
-    Driver("zink", {"LIBGL_ALWAYS_SOFTWARE": "1", "GALLIUM_DRIVER": "zink"}, "zink (", ("egl",)),
+    Driver("softpipe", {**SOFTWARE, "GALLIUM_DRIVER": "softpipe"}, "softpipe", ("egl", "osmesa")),
+    Driver("zink", {**SOFTWARE, "GALLIUM_DRIVER": "zink"}, "zink (", ("egl",)),
 )
+# glvnd's list of EGL vendors cut to Mesa's, so that a GPU vendor's EGL (which knows
+# nothing of GALLIUM_DRIVER) cannot take the child's contexts.
+MESA_EGL_VENDORS = sorted(Path("/usr/share/glvnd/egl_vendor.d").glob("*mesa*.json"))
 
 
 def subset(backends: tuple[str, ...]) -> list[str]:
@@ -115,12 +120,17 @@ def test_lighting_and_post_match_their_twins_on_a_small_image(gl_egl, scene: str
 
 
 # Mesa's driver choices, dropped from this process's environment before a driver's own.
-MESA_CHOICES = ("GALLIUM_DRIVER", "LIBGL_ALWAYS_SOFTWARE", "MESA_LOADER_DRIVER_OVERRIDE")
+MESA_CHOICES = (
+    "GALLIUM_DRIVER", "LIBGL_ALWAYS_SOFTWARE", "MESA_LOADER_DRIVER_OVERRIDE",
+    "__EGL_VENDOR_LIBRARY_FILENAMES",
+)  # fmt: skip
 
 
 def _env(driver: Driver) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k not in MESA_CHOICES}
     env.update(driver.env)
+    if MESA_EGL_VENDORS:
+        env["__EGL_VENDOR_LIBRARY_FILENAMES"] = str(MESA_EGL_VENDORS[0])
     env["PYTHONPATH"] = str(REPO)
     return env
 
@@ -204,3 +214,17 @@ def test_sraa_on_softpipe_is_refused_in_one_line(tmp_path: Path) -> None:
     assert len(lines) == 1 and "render.antialiasing" in lines[0] and "s.toml" in lines[0], lines
     assert "at most 1 samples a pixel" in lines[0], lines
     assert not out.exists()
+
+
+def test_osmesa_refuses_a_driver_it_cannot_draw_with() -> None:
+    """Where EGL refuses a GALLIUM_DRIVER (zink without Vulkan, a misspelt name), the `auto`
+    backend falls back to OSMesa, which Mesa 22.3 crashes under such a driver (SIGSEGV):
+    app/gl/context.py refuses it first, so the process ends on a ContextError naming both
+    backends' reasons."""
+    driver = Driver("misspelt", {"GALLIUM_DRIVER": "softpipee"}, "", ("egl",))
+    code = "from app.gl.context import create_context; create_context('auto')"
+    proc = _run(["-c", code], driver, REPO)
+    assert proc.returncode == 1, (proc.returncode, proc.stderr[-2000:])
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith("app.gl.context.ContextError: no headless OpenGL 3.3 context"), last
+    assert "egl: " in last and "osmesa: " in last and "GALLIUM_DRIVER=softpipee" in last, last
