@@ -4,7 +4,8 @@
 #   bash scripts/dev.sh test     run the whole test suite
 #   bash scripts/dev.sh shots    regenerate screenshots/ for every scene in scenes/
 #   bash scripts/dev.sh setup    set up only
-# Set-up (idempotent): Debian's Mesa EGL + llvmpipe, OSMesa, Xvfb, the Noto CJK fonts
+# Set-up (idempotent): Debian's Mesa EGL + llvmpipe (softpipe and zink over lavapipe for
+# tests/test_drivers.py), OSMesa, Xvfb, the Noto CJK fonts
 # and Chromium (the walkthrough's Hangul and its handout's tests) (apt-get when
 # root, else the exact packages to install are printed), a virtual environment in
 # .venv, and the project with its test tools installed into it.
@@ -14,7 +15,7 @@ ROOT=$(pwd)
 VENV="$ROOT/.venv"
 
 APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth xdotool
-              fonts-noto-cjk fontconfig chromium)
+              fonts-noto-cjk fontconfig chromium mesa-vulkan-drivers libvulkan1)
 PY_APT_PACKAGES=(python3 python3-venv python3-pip)
 
 have_system_libs() {
@@ -23,6 +24,11 @@ have_system_libs() {
     "$ldconfig" -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' &&
     "$ldconfig" -p 2>/dev/null | grep -q 'libOSMesa.so' &&
     ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 &&
+    # the second Mesa driver's tests (tests/test_drivers.py, docs/drivers.md): zink over
+    # lavapipe, Mesa's Vulkan rasteriser, through the Vulkan loader
+    ls /usr/lib/*/dri/zink_dri.so >/dev/null 2>&1 &&
+    "$ldconfig" -p 2>/dev/null | grep -q 'libvulkan.so.1' &&
+    ls /usr/share/vulkan/icd.d/lvp_icd.*.json >/dev/null 2>&1 &&
     command -v Xvfb >/dev/null 2>&1 &&
     command -v xdotool >/dev/null 2>&1 &&
     # the walkthrough: Hangul labels and text (Noto Sans CJK), its handout's tests (Chromium)

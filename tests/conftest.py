@@ -91,6 +91,8 @@ SLOW = (
     "test_brdf_cli.py::test_one_preset",
     "test_brdf_cli.py::test_two_materials_side_by_side",
     "test_brdf_cli.py::test_scene_file",
+    "test_drivers.py::test_the_gl_subset_passes_on_the_driver[softpipe]",
+    "test_drivers.py::test_the_bench_tiny_mode_runs_on_the_driver[softpipe]",
 )
 
 

@@ -33,6 +33,8 @@ from app.gl import egl
 
 Backend = Literal["auto", "egl", "osmesa"]
 REQUIRED_GL = 330
+# The GALLIUM_DRIVER values OSMesa can draw with ("" = unset: llvmpipe).
+OSMESA_DRIVERS = ("", "llvmpipe", "softpipe")
 
 # OSMesa attribute tokens (GL/osmesa.h).
 _OSMESA_FORMAT = 0x22
@@ -57,6 +59,14 @@ class _OSMesaLoader:
     """
 
     def __init__(self) -> None:
+        # OSMesa draws with a software rasteriser only: Mesa 22.3's OSMesaCreateContextAttribs
+        # crashes the process (SIGSEGV) under any other GALLIUM_DRIVER (zink, a misspelt
+        # name), which is where `auto` lands when EGL refuses that driver (docs/drivers.md).
+        driver = os.environ.get("GALLIUM_DRIVER", "")
+        if driver not in OSMESA_DRIVERS:
+            raise ContextError(
+                f"OSMesa renders with llvmpipe or softpipe, not GALLIUM_DRIVER={driver}"
+            )
         name = ctypes.util.find_library("OSMesa") or "libOSMesa.so.8"
         try:
             lib = ctypes.CDLL(name)
