@@ -34,8 +34,6 @@ import pytest
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache, assemble
 
-pytestmark = pytest.mark.gl
-
 REPO = Path(__file__).resolve().parent.parent
 SIZE = (16, 16)  # every frame's size: the programs do not depend on it
 STAGES = {"vertex_shader": "vert", "fragment_shader": "frag", "geometry_shader": "geom",
