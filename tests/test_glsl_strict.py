@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 from collections.abc import Callable, Iterator
@@ -34,7 +35,6 @@ import pytest
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache, assemble
 
-REPO = Path(__file__).resolve().parent.parent
 SIZE = (16, 16)  # every frame's size: the programs do not depend on it
 STAGES = {"vertex_shader": "vert", "fragment_shader": "frag", "geometry_shader": "geom",
           "tess_control_shader": "tesc", "tess_evaluation_shader": "tese"}  # fmt: skip
@@ -86,15 +86,20 @@ def recorded(sources: Sources) -> Iterator[None]:
         moderngl.Context.program = compile_program
 
 
-def validate(sources: dict[str, tuple[str, str, str]], folder: Path) -> dict[str, str]:
+def validate(
+    sources: dict[str, tuple[str, str, str]], folder: Path, workers: int | None = None
+) -> dict[str, str]:
     """glslangValidator on each source (written to ``folder`` as KEY.STAGE, the stage
     from the extension): the log of each one it rejects. Sources go to the validator in
-    one batch per CPU, run in parallel; each file's log follows its name in the output."""
+    one batch per worker (default: per CPU), run in parallel; the validator compiles each
+    file of a batch on its own and prints each one's log after its name."""
     tool = validator()
     names = sorted(sources)
+    if not names:
+        return {}
     for name in names:
         (folder / name).write_text(sources[name][1], encoding="utf-8")
-    workers = max(1, min(len(names), os.cpu_count() or 1))
+    workers = max(1, min(len(names), workers or os.cpu_count() or 1))
     batches = [names[i::workers] for i in range(workers)]
 
     def run(batch: list[str]) -> tuple[int, str, list[str]]:
@@ -117,6 +122,22 @@ def validate(sources: dict[str, tuple[str, str, str]], folder: Path) -> dict[str
                 bad = {batch[0]: output.strip() or f"exit code {code}"}
             rejected.update(bad)
     return rejected
+
+
+_LOCATION = re.compile(r"ERROR: \d+:(\d+):")
+
+
+def first_error(text: str, log: str) -> str:
+    """The log's first error with the source line it points at: the assembled text
+    restarts its numbering at its ``#line 1`` (app/gl/shaders.py), after the header."""
+    errors = [line for line in log.splitlines() if line.startswith("ERROR")] or [log]
+    match = _LOCATION.match(errors[0])
+    if match is None:
+        return errors[0]
+    body = text.split("\n#line 1\n", 1)[-1].split("\n")
+    number = int(match[1])
+    quoted = body[number - 1].strip() if 1 <= number <= len(body) else "?"
+    return f"{errors[0].strip()} at `{quoted}`"
 
 
 # --- what is driven -------------------------------------------------------------------------
@@ -333,11 +354,22 @@ def _ibl_prefilter(gl: GLContext, sources: Sources) -> None:
 
 
 def _brdf_probe(gl: GLContext, sources: Sources) -> None:
+    """The BRDF probe's kernel (``pbs brdf``, the walkthrough's plots) for each model the
+    walkthrough plots: its source depends on the material's model alone."""
     from app.brdf import evaluate
+    from app.brdf.plot import parse_material_args
+    from app.resources import walkthrough_dir
+    from app.walkthrough.model import load_walkthrough
 
-    sources.origin = "BRDF probe kernel"
-    evaluate({"base_color": [0.5, 0.5, 0.5], "roughness": 0.5}, [0.0, 0.0, 1.0],
-             [0.0, 0.6, 0.8], gl=gl)  # fmt: skip
+    seen = set()
+    for step in load_walkthrough(walkthrough_dir()):
+        for plot in step.step.plots:
+            for material in parse_material_args(plot.materials):
+                if material.params.model in seen:
+                    continue
+                seen.add(material.params.model)
+                sources.origin = f"BRDF probe kernel, {step.slug} plot {material.name}"
+                evaluate(material.params, [0.0, 0.0, 1.0], [0.0, 0.6, 0.8], gl=gl)
 
 
 def _viewer_present(gl: GLContext, sources: Sources) -> None:
@@ -361,13 +393,19 @@ DRIVERS: tuple[Callable[[GLContext, Sources], None], ...] = (
 )
 
 
-def collect(gl: GLContext) -> Sources:
-    """The source of every stage of every program the drivers above link."""
+def collect(
+    gl: GLContext, each: Callable[[dict[str, tuple[str, str, str]]], None] | None = None
+) -> Sources:
+    """The source of every stage of every program the drivers above link; ``each`` is
+    handed the sources new after each driver (the test validates them meanwhile)."""
     sources = Sources(shaders=ShaderCache(gl.ctx))
     try:
         with recorded(sources):
             for drive in DRIVERS:
+                before = set(sources.stages)
                 drive(gl, sources)
+                if each is not None:
+                    each({k: v for k, v in sources.stages.items() if k not in before})
     finally:
         sources.shaders.release()
     return sources
@@ -377,13 +415,18 @@ def collect(gl: GLContext) -> Sources:
 
 
 def test_every_assembled_program_passes_glslang(gl_egl, tmp_path):
-    """glslangValidator accepts every stage of every program the project links."""
+    """glslangValidator accepts every stage of every program the project links. Each
+    driver's new sources are validated on another thread while the next driver compiles."""
     validator()
-    sources = collect(gl_egl)
+    with ThreadPoolExecutor(1) as pool:
+        pending = []
+        sources = collect(
+            gl_egl, lambda new: pending.append(pool.submit(validate, new, tmp_path, 1))
+        )
+        rejected = {k: v for future in pending for k, v in future.result().items()}
     assert sources.programs > 100 and len(sources.stages) > 100, sources.programs
-    rejected = validate(sources.stages, tmp_path)
     report = [
-        f"{name} ({sources.stages[name][2]}): {log.splitlines()[0] if log else ''}"
+        f"{name} ({sources.stages[name][2]}): {first_error(sources.stages[name][1], log)}"
         for name, log in sorted(rejected.items())
     ]
     assert not rejected, (
@@ -399,6 +442,7 @@ def test_a_planted_line_continuation_is_rejected(tmp_path):
     planted = clean.replace("#line 1\n", "#line 1\n#define X 1 \\\n + 1\n", 1)
     assert planted != clean
     stages = {"clean.frag": ("frag", clean, "clean"), "planted.frag": ("frag", planted, "planted")}
-    rejected = validate(stages, tmp_path)
+    rejected = validate(stages, tmp_path, workers=1)  # one batch: each file's own log
     assert set(rejected) == {"planted.frag"}, rejected
-    assert "line continuation" in rejected["planted.frag"]
+    error = first_error(planted, rejected["planted.frag"])
+    assert "line continuation" in error and "at `#define X 1 \\`" in error, error
