@@ -15,7 +15,7 @@ ROOT=$(pwd)
 VENV="$ROOT/.venv"
 
 APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth xdotool
-              fonts-noto-cjk fontconfig chromium mesa-vulkan-drivers libvulkan1)
+              fonts-noto-cjk fontconfig chromium mesa-vulkan-drivers libvulkan1 glslang-tools)
 PY_APT_PACKAGES=(python3 python3-venv python3-pip)
 
 have_system_libs() {
@@ -33,7 +33,9 @@ have_system_libs() {
     command -v xdotool >/dev/null 2>&1 &&
     # the walkthrough: Hangul labels and text (Noto Sans CJK), its handout's tests (Chromium)
     fc-match -f '%{file}' 'Noto Sans CJK KR' 2>/dev/null | grep -qi 'NotoSansCJK' &&
-    command -v chromium >/dev/null 2>&1
+    command -v chromium >/dev/null 2>&1 &&
+    # Khronos' reference GLSL compiler: every assembled program (tests/test_glsl_strict.py)
+    command -v glslangValidator >/dev/null 2>&1
 }
 
 pick_python() {

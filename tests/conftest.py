@@ -70,6 +70,7 @@ SLOW = (
     "test_walkthrough.py::test_no_hangul_font_is_one_line_naming_the_package",
     "test_handout_labels.py::test_no_two_labels_overlap_in_any_view",
     "test_viewer.py::test_500_frames_of_interaction_leak_nothing",
+    "test_glsl_strict.py::test_every_assembled_program_passes_glslang",
     "test_viewer.py::test_walkthrough_next_and_previous_through_all_steps",
     "test_viewer.py::test_no_panel_covers_the_image_and_no_label_passes_a_panels_edge",
     "test_stability_renderer.py::test_no_gl_objects_or_memory_leak_over_1000_frames",

@@ -248,14 +248,20 @@ class LightingPass:
         ``run``'s in float32, then passes/post.frag's arithmetic with ``tonemap`` and the
         linear ``exposure`` (DISPLAY_OUT in passes/lighting.frag), so the bytes are the
         post pass's; the HDR image is not written."""
+        draws = self.display_draws(tonemap)
+        for draw in draws:
+            draw.program["u_exposure"].value = exposure
+        self._shade(draws, target, camera)
+
+    def display_draws(self, tonemap: str) -> list[FullscreenDraw]:
+        """``run_display``'s draws for ``tonemap`` (DISPLAY_OUT), compiled at their first
+        use: a renderer that never draws a plain frame never compiles them
+        (tests/test_glsl_strict.py builds them without drawing)."""
         if tonemap not in self._display:
             defines = [{**d, "DISPLAY_OUT": 1, "TONEMAP": TONEMAP_CODE[tonemap]}
                        for d in self._variants]  # fmt: skip
             self._display[tonemap] = _draws(self.ctx, self._shaders, defines, self.context[LIGHTS])
-        draws = self._display[tonemap]
-        for draw in draws:
-            draw.program["u_exposure"].value = exposure
-        self._shade(draws, target, camera)
+        return self._display[tonemap]
 
     def _shade(
         self, draws: list[FullscreenDraw], target: moderngl.Framebuffer, camera: CameraFrame

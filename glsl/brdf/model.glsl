@@ -85,9 +85,10 @@
 // SPECULAR_LAMBDA_G2 is false where the specular term has a fused visibility form
 // V = G2/(4 n.l n.v) (the standard height-correlated GGX, or Hammon's approximation of it),
 // true where it goes through the Smith Lambdas and the selected G2. A constant expression
-// in a specialized pass, a per-pixel one under UBER_MODELS.
-#define SPECULAR_FUSED_V (G2_MODEL == G2_HAMMON || (G2_MODEL == G2_HEIGHT_CORRELATED && \
-                          NDF_MODEL == NDF_GGX && ANISOTROPIC == 0))
+// in a specialized pass, a per-pixel one under UBER_MODELS. Each macro is one line: GLSL
+// before 4.20 has no backslash line continuation (docs/architecture.md, "Portable GLSL").
+#define SPECULAR_GGX_ISOTROPIC (NDF_MODEL == NDF_GGX && ANISOTROPIC == 0)
+#define SPECULAR_FUSED_V (G2_MODEL == G2_HAMMON || (G2_MODEL == G2_HEIGHT_CORRELATED && SPECULAR_GGX_ISOTROPIC))
 #define SPECULAR_LAMBDA_G2 (!SPECULAR_FUSED_V)
 
 // The per-material numbers (struct ModelParams), fetch_model_params(), fetch_model_group()

@@ -21,11 +21,14 @@
 // the same float32 texels either way, so the two forms give the same image.
 #ifdef LIGHT_UNIFORMS
 uniform vec4 u_light_vec[3 * LIGHT_UNIFORMS];
-#define READ_LIGHT(lights, i) \
-    unpack_light(u_light_vec[3 * (i)], u_light_vec[3 * (i) + 1], u_light_vec[3 * (i) + 2])
-#else
-#define READ_LIGHT(lights, i) fetch_light(lights, i)
 #endif
+PunctualLight read_light(sampler2D lights, int i) {
+#ifdef LIGHT_UNIFORMS
+    return unpack_light(u_light_vec[3 * i], u_light_vec[3 * i + 1], u_light_vec[3 * i + 2]);
+#else
+    return fetch_light(lights, i);
+#endif
+}
 
 // f(l, v) c_light (n.l)+ of a light that sends c_light along l (towards it) to the point
 // sp (light i: its shadow map's index); sp.nc is the clear coat's normal (n where the coat
@@ -65,7 +68,7 @@ vec3 local_light_term(PunctualLight light, int i, ShadingPoint sp) {
 
 // light_term of light i of the light texture (or, with LIGHT_UNIFORMS, the uniform array).
 vec3 light_contribution(sampler2D lights, int i, ShadingPoint sp) {
-    return light_term(READ_LIGHT(lights, i), i, sp);
+    return light_term(read_light(lights, i), i, sp);
 }
 
 #ifdef TILE_QUADS
@@ -103,7 +106,7 @@ vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, 
                 bits &= bits - 1u;                // clear that bit
                 int k = word_first + b;
                 if (local_only) {  // a compile-time constant at every call
-                    Lo += local_light_term(READ_LIGHT(lights, k), k, sp);
+                    Lo += local_light_term(read_light(lights, k), k, sp);
                 } else {
                     Lo += light_contribution(lights, k, sp);
                 }

@@ -97,35 +97,36 @@ struct TileMask {
 };
 
 // Texel k (0 ... 7) of chunk `chunk` of the tile's mask, zero past the tile's last texel.
-#define TILE_QUAD(masks, tile, chunk, k) \
-    ((chunk) * 8 + (k) < TILE_QUADS \
-        ? texelFetch(masks, ivec2((tile).x * TILE_QUADS + (chunk) * 8 + (k), (tile).y), 0) \
-        : uvec4(0u))
+uvec4 tile_quad(usampler2D masks, ivec2 tile, int chunk, int k) {
+    int texel = chunk * 8 + k;
+    if (texel >= TILE_QUADS) return uvec4(0u);
+    return texelFetch(masks, ivec2(tile.x * TILE_QUADS + texel, tile.y), 0);
+}
 
 TileMask load_tile_mask(usampler2D masks, ivec2 tile, int chunk) {
     TileMask m = TileMask(uvec4(0u), uvec4(0u), uvec4(0u), uvec4(0u),
                           uvec4(0u), uvec4(0u), uvec4(0u), uvec4(0u));
-    m.q0 = TILE_QUAD(masks, tile, chunk, 0);
+    m.q0 = tile_quad(masks, tile, chunk, 0);
 #if TILE_QUADS > 1
-    m.q1 = TILE_QUAD(masks, tile, chunk, 1);
+    m.q1 = tile_quad(masks, tile, chunk, 1);
 #endif
 #if TILE_QUADS > 2
-    m.q2 = TILE_QUAD(masks, tile, chunk, 2);
+    m.q2 = tile_quad(masks, tile, chunk, 2);
 #endif
 #if TILE_QUADS > 3
-    m.q3 = TILE_QUAD(masks, tile, chunk, 3);
+    m.q3 = tile_quad(masks, tile, chunk, 3);
 #endif
 #if TILE_QUADS > 4
-    m.q4 = TILE_QUAD(masks, tile, chunk, 4);
+    m.q4 = tile_quad(masks, tile, chunk, 4);
 #endif
 #if TILE_QUADS > 5
-    m.q5 = TILE_QUAD(masks, tile, chunk, 5);
+    m.q5 = tile_quad(masks, tile, chunk, 5);
 #endif
 #if TILE_QUADS > 6
-    m.q6 = TILE_QUAD(masks, tile, chunk, 6);
+    m.q6 = tile_quad(masks, tile, chunk, 6);
 #endif
 #if TILE_QUADS > 7
-    m.q7 = TILE_QUAD(masks, tile, chunk, 7);
+    m.q7 = tile_quad(masks, tile, chunk, 7);
 #endif
     return m;
 }

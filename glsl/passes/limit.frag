@@ -20,18 +20,24 @@ uniform vec2 u_tan_half_fov;        // tan(fov_y/2) * aspect, tan(fov_y/2)
 
 #if LIMIT_FORM == 0
 uniform sampler2D u_lights;         // RGBA32F, 3 texels per light, one light per row
-#define LIMIT_LIGHT(i) fetch_light(u_lights, i)
 #elif LIMIT_FORM == 1
 uniform vec4 u_light_vec[3 * LIMIT_LIGHTS];
-#define LIMIT_LIGHT(i) unpack_light(u_light_vec[3 * (i)], u_light_vec[3 * (i) + 1], \
-                                    u_light_vec[3 * (i) + 2])
 #else
 layout(std140) uniform LimitLights {
     vec4 u_light_block[3 * LIMIT_LIGHTS];
 };
-#define LIMIT_LIGHT(i) unpack_light(u_light_block[3 * (i)], u_light_block[3 * (i) + 1], \
-                                    u_light_block[3 * (i) + 2])
 #endif
+
+// Light i, from where LIMIT_FORM keeps it.
+PunctualLight limit_light(int i) {
+#if LIMIT_FORM == 0
+    return fetch_light(u_lights, i);
+#elif LIMIT_FORM == 1
+    return unpack_light(u_light_vec[3 * i], u_light_vec[3 * i + 1], u_light_vec[3 * i + 2]);
+#else
+    return unpack_light(u_light_block[3 * i], u_light_block[3 * i + 1], u_light_block[3 * i + 2]);
+#endif
+}
 
 out vec4 frag_color;
 
@@ -48,9 +54,9 @@ void main() {
         uint word = words[j / 8][(j / 2) % 4];
         int i = int((word >> uint(16 * (j % 2))) & 0xFFFFu);
 #if LIMIT_LOCAL_ONLY  // no directional light: the culled pass's local_light_term
-        Lo += local_light_term(LIMIT_LIGHT(i), i, sp);
+        Lo += local_light_term(limit_light(i), i, sp);
 #else
-        Lo += light_term(LIMIT_LIGHT(i), i, sp);
+        Lo += light_term(limit_light(i), i, sp);
 #endif
     }
     frag_color = vec4(PI * Lo, 1.0);
