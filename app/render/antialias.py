@@ -22,6 +22,15 @@ each sample's coverage itself, gl_SampleMask), and each sample takes the shaded 
 of the neighbouring pixel whose centre saw its surface (glsl/passes/sraa.frag, written
 here); the mean of the pixel's centre and its samples is resolved in linear HDR before
 tone mapping.
+
+"gbaa": ``GbaaPass``, geometric edge antialiasing after E. Persson, "Geometric Buffer
+Antialiasing" (SIGGRAPH 2011) and Malan, "Edge Anti-aliasing by Post-Processing" (GPU
+Pro, 2010): the G-buffer pass writes each pixel's distance to its surface's edge along
+the four axis directions (the G-buffer's ``edge`` target: a mesh's triangle edges through a
+geometry stage's barycentrics, an analytic sphere's silhouette from the ray's distance
+inside it), and a resolve mixes each silhouette pixel's linear HDR colour with its
+neighbour's across the edge by the area the edge gives it (glsl/passes/gbaa.frag,
+written here), writing the display image there.
 """
 
 from __future__ import annotations
@@ -42,7 +51,7 @@ from app.render.gbuffer import GBuffer, GBufferPass
 from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
-ANTIALIASING = ("none", "fxaa", "jitter", "sraa")
+ANTIALIASING = ("none", "fxaa", "jitter", "sraa", "gbaa")
 SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample count)
 # A sample sees a neighbour's surface where their material ids agree and their view
 # depths differ by at most this fraction of the sample's
@@ -300,3 +309,58 @@ class SraaPass:
         for obj in (self.geometry, self.samples, self.mark, self.reconstruct, self.fbo,
                     self.edges, self.target):  # fmt: skip
             obj.release()
+
+
+class GbaaPass:
+    """Geometric edge antialiasing (module docstring): ``run`` reads the G-buffer's RT2
+    (surfaces) and ``edge`` target (distances to the surface's edge) and the frame's
+    linear HDR image, and writes the display image's silhouette pixels, resolved, over
+    the post pass's image. Two draws (glsl/passes/gbaa.frag): a mark that writes window
+    depth 0 where a pixel and a 4-neighbour hold different surfaces, and the resolve
+    on the far plane z-tested (">") to those pixels, so that only blocks of pixels with a
+    silhouette run it (llvmpipe shades every branch for its whole block). The other
+    pixels keep post's bytes. ``tonemap`` and ``straight_alpha`` are post's."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        tonemap_code: int,
+        straight_alpha: bool = False,
+    ) -> None:
+        self.ctx, self.size = ctx, size
+        defines: dict[str, object] = {"TONEMAP": tonemap_code}
+        if straight_alpha:
+            defines["STRAIGHT_ALPHA"] = 1
+        self.mark = FullscreenDraw.of(ctx, shaders, "passes/gbaa.frag", {**defines, "GBAA_MARK": 1})
+        self.resolve = FullscreenDraw.of(
+            ctx, shaders, "passes/gbaa.frag", {**defines, "FAR_PLANE": 1}
+        )
+        self.depth = ctx.depth_renderbuffer(size)
+        self.marked = ctx.framebuffer([], self.depth)
+        self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
+        self._out_target: moderngl.Texture | None = None
+
+    def run(
+        self, gbuffer: GBuffer, hdr: moderngl.Texture, display: moderngl.Texture, exposure_ev: float
+    ) -> None:
+        """Resolve the silhouettes of ``gbuffer``'s frame from ``hdr`` (its linear HDR
+        image, ``size``) into ``display`` (post's RGBA8 image of it)."""
+        if self._out is None or self._out_target is not display:
+            if self._out is not None:
+                self._out.release()
+            self._out = self.ctx.framebuffer([display], self.depth)
+            self._out.depth_mask = False
+            self._out_target = display
+        viewport = (0, 0, *self.size)
+        textures = {"u_depth": gbuffer.depth, "u_edge": gbuffer.edge, "u_hdr": hdr}
+        uniforms = {"u_exposure": 2.0**exposure_ev}
+        self.marked.depth_mask = True
+        self.mark.draw(self.marked, {}, textures, viewport=viewport, depth_func="1")
+        self.resolve.draw(self._out, uniforms, textures, viewport=viewport, depth_func=">")
+
+    def release(self) -> None:
+        for obj in (self.mark, self.resolve, self._out, self.marked, self.depth):
+            if obj is not None:
+                obj.release()

@@ -90,7 +90,13 @@ class MeshDrawable:
         defines.update(uv_defines(part))
         extra = vertex_extras(part)
         self.specular_aa = specular_aa
-        self.program = shaders.program(*shader_pair, defines)
+        # render.antialiasing = "gbaa": a mesh's triangles carry their barycentrics to the
+        # fragment stage (its edges' distances); an analytic part finds its own silhouette
+        geometry = None
+        if defines.get("GBUFFER_EDGE") and part.analytic is None:
+            defines["GBUFFER_EDGE_GEOMETRY"] = 1
+            geometry = "passes/gbuffer_edge.geom"
+        self.program = shaders.program(*shader_pair, defines, geometry)
         # The uniforms the compiler kept: ``name in program`` walks every member, which
         # took a tenth of the G-buffer pass's Python time for twelve analytic spheres.
         self.uniforms = frozenset(self.program)

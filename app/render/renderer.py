@@ -36,6 +36,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
+from app.common.tonemaps import TONEMAP_CODE
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
 from app.frame.lights import environment_texels, frame_lights, uniform_environment
@@ -46,6 +47,7 @@ from app.render.antialias import (
     SRAA_SAMPLES,
     AccumulatePass,
     FxaaPass,
+    GbaaPass,
     SraaPass,
     jitter_offsets,
     jittered_frame,
@@ -223,7 +225,8 @@ _UNBUILT = object()  # the old key of an object never built
 # Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
 # display image): reading the HDR image then needs a new frame.
 _FRAME_OBJECTS = frozenset(
-    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa"}
+    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa",
+     "gbaa"}
 )
 
 
@@ -282,6 +285,8 @@ class Renderer:
         self.sraa: SraaPass | None = None
         self.post: PostPass | None = None
         self.fxaa: FxaaPass | None = None
+        # the geometric edge resolve of the display image's silhouettes ("gbaa")
+        self.gbaa: GbaaPass | None = None
         self._refreshed: dict[str, Hashable] = {}  # Built.refresh's key per kept object
         self._restyled: list | None = None  # _change's rollback of a restyle
         self._change()
@@ -379,9 +384,17 @@ class Renderer:
         defines of every pass that writes or decodes them (``GBuffer.defines``): the
         encoding, the optional targets and constant surfaces (frozen: a key)."""
         defines = self.materials.gbuffer_defines()
+        if self._gbaa():  # the edge distances of the geometric resolve
+            defines["GBUFFER_EDGE"] = 1
         return GBufferLayout.from_defines(
             self.scene.render.gbuffer, defines, self._constant_surfaces()
         )
+
+    def _gbaa(self) -> bool:
+        """``render.antialiasing = "gbaa"`` at one sample per pixel (with supersampling
+        the resolve is the box filter's; the G-buffer then has no ``edge`` target)."""
+        settings = self.scene.render
+        return settings.antialiasing == "gbaa" and settings.supersample == 1
 
     def _specular_aa(self) -> tuple[float, float] | None:
         settings = self.scene.render
@@ -630,6 +643,19 @@ class Renderer:
 
     def _build_fxaa(self) -> FxaaPass:
         return FxaaPass(self.gl.ctx, self.shaders, self.size)
+
+    def _key_gbaa(self) -> Hashable:
+        """The geometric edge resolve, only with ``render.antialiasing = "gbaa"`` (and no
+        supersampling): it writes the display image as post does."""
+        if not self._gbaa():
+            return None
+        return (self.size, self.scene.render.tonemap, self.transparent)
+
+    def _build_gbaa(self) -> GbaaPass:
+        return GbaaPass(
+            self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
+            self.transparent,
+        )  # fmt: skip
 
     def _key_post(self) -> Hashable:
         return (self.size, self.scene.render.tonemap, self.transparent)
@@ -925,13 +951,17 @@ class Renderer:
         if self.fxaa is not None:
             self.fxaa.run(self.post.target)
             clock.done("fxaa")
+        if self.gbaa is not None:
+            self.gbaa.run(self.gbuffer, hdr, self.post.target, self.scene.camera.exposure)
+            clock.done("gbaa")
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of
         field, resolve, accumulation, blended parts or environment background; and an
         opaque background, whose display value the fused and surface-only post passes clear
         to (a transparent one has the post pass write every pixel's alpha)."""
-        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate, self.sraa)
+        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate, self.sraa,
+                 self.gbaa)  # fmt: skip
         return all(x is None for x in extra) and not self.transparent
 
     @property
@@ -1101,4 +1131,5 @@ SCHEDULE: tuple[Built, ...] = (
     Built("accumulate", Renderer._key_accumulate, Renderer._build_accumulate),
     Built("post", Renderer._key_post, Renderer._build_post),
     Built("fxaa", Renderer._key_fxaa, Renderer._build_fxaa),
+    Built("gbaa", Renderer._key_gbaa, Renderer._build_gbaa),
 )  # fmt: skip

@@ -14,6 +14,24 @@ in vec4 v_color;
 #if VERTEX_UV1
 in vec2 v_uv1;
 #endif
+#if GBUFFER_EDGE_GEOMETRY
+// The triangle's barycentric coordinates, linear in window space (passes/gbuffer_edge.geom)
+noperspective in vec3 v_edge_barycentric;
+#endif
+
+#if GBUFFER_EDGE
+// render.antialiasing = "gbaa" (docs/antialiasing.md): the distance in pixels from the
+// pixel centre along +x, -x, +y, -y to where f, a quantity linear in window space across
+// the pixel that is positive inside the surface and zero on its edge, reaches zero
+// (Persson 2011, "Geometric Buffer Antialiasing"; the 1D distance along an axis gives a
+// half-plane's box-filtered coverage). EDGE_FAR: no edge nearer in that direction.
+const float EDGE_FAR = 16.0;
+vec4 edge_distances(float f, vec2 grad) {
+    vec4 slope = vec4(-grad.x, grad.x, -grad.y, grad.y);   // f's fall per pixel each way
+    vec4 d = vec4(f) / max(slope, vec4(1e-30));
+    return mix(vec4(EDGE_FAR), clamp(d, 0.0, EDGE_FAR), greaterThan(slope, vec4(0.0)));
+}
+#endif
 
 // layout(location = i) out vecN g_<target>; of every target present, at the location
 // app/render/gbuffer.py binds it (app/common/gbuffer.py GBUFFER_TARGETS). With constant surfaces the
@@ -42,6 +60,20 @@ void main() {
     float view_depth = v_view_depth;
 #endif
     Layer l = m.layer;
+#if GBUFFER_EDGE && ANALYTIC
+    // The ray's distance inside the sphere's silhouette, r - |f|, is smooth across it:
+    // to first order its zero is the silhouette (the quad's helper lanes give the slope).
+    g_edge = edge_distances(hit.inside, vec2(dFdx(hit.inside), dFdy(hit.inside)));
+#elif GBUFFER_EDGE_GEOMETRY
+    // The triangle's edges: the nearest in each direction, each barycentric coordinate
+    // being linear in window space and zero on the edge opposite its vertex.
+    vec3 bx = dFdx(v_edge_barycentric), by = dFdy(v_edge_barycentric);
+    g_edge = min(min(edge_distances(v_edge_barycentric.x, vec2(bx.x, by.x)),
+                     edge_distances(v_edge_barycentric.y, vec2(bx.y, by.y))),
+                 edge_distances(v_edge_barycentric.z, vec2(bx.z, by.z)));
+#elif GBUFFER_EDGE
+    g_edge = vec4(EDGE_FAR);
+#endif
 #if GBUFFER_CONSTANT_SURFACES
     // The layer's constants, which the decode reads from the pixel's table row instead.
 #if GBUFFER_UNORM_DIRECTIONS

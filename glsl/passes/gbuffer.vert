@@ -1,6 +1,16 @@
 // G-buffer pass, vertex stage: object -> world -> clip. The bench's forward pass
 // (app/bench/forward.py) draws with it too, so both passes rasterise the same pixels
 // and interpolate the same view depth.
+#if GBUFFER_EDGE_GEOMETRY
+// A geometry stage follows (passes/gbuffer_edge.geom): it reads these outputs under the
+// vs_ names and passes them on to the fragment stage under their own.
+#define v_normal vs_normal
+#define v_uv vs_uv
+#define v_tangent vs_tangent
+#define v_view_depth vs_view_depth
+#define v_color vs_color
+#define v_uv1 vs_uv1
+#endif
 in vec3 in_position;
 in vec3 in_normal;
 in vec2 in_uv;
