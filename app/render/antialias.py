@@ -312,14 +312,17 @@ class SraaPass:
 
 
 class GbaaPass:
-    """Geometric edge antialiasing (module docstring): ``run`` reads the G-buffer's RT2
+    """Geometric edge antialiasing (module docstring): reads the G-buffer's RT2
     (surfaces) and ``edge`` target (distances to the surface's edge) and the frame's
     linear HDR image, and writes the display image's silhouette pixels, resolved, over
-    the post pass's image. Two draws (glsl/passes/gbaa.frag): a mark that writes window
-    depth 0 where a pixel and a 4-neighbour hold different surfaces, and the resolve
-    on the far plane z-tested (">") to those pixels, so that only blocks of pixels with a
-    silhouette run it (llvmpipe shades every branch for its whole block). The other
-    pixels keep post's bytes. ``tonemap`` and ``straight_alpha`` are post's."""
+    the post pass's image. Two draws (glsl/passes/gbaa.frag): ``mark`` writes window
+    depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces, and
+    ``resolve`` runs on the far plane z-tested (">") to those pixels, so that only blocks
+    of pixels with a silhouette run it (llvmpipe shades every branch for its whole
+    block). The other pixels keep post's bytes. The resolve reads the HDR image only at
+    marked pixels: a frame whose lighting pass wrote the display image shades them alone
+    between the two (``LightingPass.run_masked``) and gives the background's radiance as
+    a uniform. ``tonemap_code`` and ``straight_alpha`` are post's."""
 
     def __init__(
         self,
@@ -333,34 +336,64 @@ class GbaaPass:
         defines: dict[str, object] = {"TONEMAP": tonemap_code}
         if straight_alpha:
             defines["STRAIGHT_ALPHA"] = 1
-        self.mark = FullscreenDraw.of(ctx, shaders, "passes/gbaa.frag", {**defines, "GBAA_MARK": 1})
-        self.resolve = FullscreenDraw.of(
+        self.marker = FullscreenDraw.of(
+            ctx, shaders, "passes/gbaa.frag", {**defines, "GBAA_MARK": 1}
+        )
+        self.resolver = FullscreenDraw.of(
             ctx, shaders, "passes/gbaa.frag", {**defines, "FAR_PLANE": 1}
         )
         self.depth = ctx.depth_renderbuffer(size)
         self.marked = ctx.framebuffer([], self.depth)
+        self.linear = ctx.sampler(
+            filter=(moderngl.LINEAR, moderngl.LINEAR), repeat_x=False, repeat_y=False
+        )
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
         self._out_target: moderngl.Texture | None = None
 
-    def run(
-        self, gbuffer: GBuffer, hdr: moderngl.Texture, display: moderngl.Texture, exposure_ev: float
+    def mark(self, gbuffer: GBuffer) -> None:
+        """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame, 1 elsewhere."""
+        self.marked.depth_mask = True
+        self.linear.use(0)  # u_depth's unit: the mark samples RT2 bilinearly
+        try:
+            self.marker.draw(
+                self.marked, {}, {"u_depth": gbuffer.depth}, viewport=(0, 0, *self.size),
+                depth_func="1",
+            )  # fmt: skip
+        finally:
+            self.linear.clear(0)
+
+    def resolve(
+        self,
+        gbuffer: GBuffer,
+        hdr: moderngl.Texture,
+        display: moderngl.Texture,
+        exposure_ev: float,
+        background: np.ndarray | None = None,
     ) -> None:
-        """Resolve the silhouettes of ``gbuffer``'s frame from ``hdr`` (its linear HDR
-        image, ``size``) into ``display`` (post's RGBA8 image of it)."""
+        """Resolve the marked pixels of ``gbuffer``'s frame from ``hdr`` (its linear HDR
+        image, ``size``) into ``display`` (post's RGBA8 image of it). ``background``: the
+        RGBA radiance of every pixel without a surface, where ``hdr`` holds only the
+        marked surface pixels (None: ``hdr`` holds every pixel)."""
         if self._out is None or self._out_target is not display:
             if self._out is not None:
                 self._out.release()
             self._out = self.ctx.framebuffer([display], self.depth)
             self._out.depth_mask = False
             self._out_target = display
-        viewport = (0, 0, *self.size)
         textures = {"u_depth": gbuffer.depth, "u_edge": gbuffer.edge, "u_hdr": hdr}
-        uniforms = {"u_exposure": 2.0**exposure_ev}
-        self.marked.depth_mask = True
-        self.mark.draw(self.marked, {}, textures, viewport=viewport, depth_func="1")
-        self.resolve.draw(self._out, uniforms, textures, viewport=viewport, depth_func=">")
+        rgba = np.zeros(4) if background is None else np.resize(np.asarray(background), 4)
+        if background is not None and len(background) == 3:
+            rgba[3] = 1.0
+        uniforms = {
+            "u_exposure": 2.0**exposure_ev,
+            "u_uniform_background": 0.0 if background is None else 1.0,
+            "u_background": tuple(float(x) for x in rgba),
+        }
+        self.resolver.draw(
+            self._out, uniforms, textures, viewport=(0, 0, *self.size), depth_func=">"
+        )
 
     def release(self) -> None:
-        for obj in (self.mark, self.resolve, self._out, self.marked, self.depth):
+        for obj in (self.marker, self.resolver, self._out, self.marked, self.depth, self.linear):
             if obj is not None:
                 obj.release()

@@ -180,6 +180,8 @@ class LightingPass:
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
+        self._mask_fbo: moderngl.Framebuffer | None = None  # hdr + a mask's z (run_masked)
+        self._mask_source: moderngl.Renderbuffer | None = None
         self._z_source: GBuffer | None = None
         self._shaders = shaders
         self.size = size
@@ -232,6 +234,21 @@ class LightingPass:
         clear = [float(x) for x in background]
         self.fbo.clear(*clear, *([1.0] if len(clear) == 3 else []))  # pixels no surface covers
         self._shade(self.draws, self._z_target(gbuffer), camera)
+
+    def run_masked(
+        self, gbuffer: GBuffer, camera: CameraFrame, mask: moderngl.Renderbuffer
+    ) -> None:
+        """The HDR image's surface pixels where ``mask`` (a depth renderbuffer of
+        ``size``) holds less than 1, the others left as they were (not cleared): the
+        radiance that render.antialiasing = "gbaa" mixes at the silhouettes of a frame
+        whose lighting pass wrote the display image (app/render/antialias.py)."""
+        if self._mask_fbo is None or self._mask_source is not mask:
+            if self._mask_fbo is not None:
+                self._mask_fbo.release()
+            self._mask_fbo = self.ctx.framebuffer([self.hdr], mask)
+            self._mask_fbo.depth_mask = False
+            self._mask_source = mask
+        self._shade(self.draws, self._mask_fbo, camera)
 
     def run_display(
         self,
@@ -291,8 +308,9 @@ class LightingPass:
     def release(self) -> None:
         for obj in (*self.draws, self.fbo, self.hdr):
             obj.release()
-        if self._z_fbo is not None:
-            self._z_fbo.release()
+        for fbo in (self._z_fbo, self._mask_fbo):
+            if fbo is not None:
+                fbo.release()
         for draws in self._display.values():  # the programs are the shader cache's
             for draw in draws:
                 draw.release()

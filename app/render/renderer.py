@@ -225,8 +225,7 @@ _UNBUILT = object()  # the old key of an object never built
 # Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
 # display image): reading the HDR image then needs a new frame.
 _FRAME_OBJECTS = frozenset(
-    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa",
-     "gbaa"}
+    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa", "gbaa"}
 )
 
 
@@ -952,16 +951,30 @@ class Renderer:
             self.fxaa.run(self.post.target)
             clock.done("fxaa")
         if self.gbaa is not None:
-            self.gbaa.run(self.gbuffer, hdr, self.post.target, self.scene.camera.exposure)
+            self._resolve_edges(hdr)
             clock.done("gbaa")
+
+    def _resolve_edges(self, hdr: moderngl.Texture) -> None:
+        """``render.antialiasing = "gbaa"``: the display image's silhouette pixels
+        resolved from the frame's HDR image ``hdr``; where the lighting pass wrote the
+        display image (fused), the HDR radiance of the marked pixels alone is shaded
+        first (``LightingPass.run_masked``), the background's given as a uniform."""
+        self.gbaa.mark(self.gbuffer)
+        background = None
+        if not self._drawn.hdr:
+            drawn = self._drawn
+            self.lighting.run_masked(self.gbuffer, drawn.camera, self.gbaa.depth)
+            hdr, background = self.lighting.hdr, drawn.background
+        self.gbaa.resolve(
+            self.gbuffer, hdr, self.post.target, self.scene.camera.exposure, background
+        )
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of
         field, resolve, accumulation, blended parts or environment background; and an
         opaque background, whose display value the fused and surface-only post passes clear
         to (a transparent one has the post pass write every pixel's alpha)."""
-        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate, self.sraa,
-                 self.gbaa)  # fmt: skip
+        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate, self.sraa)
         return all(x is None for x in extra) and not self.transparent
 
     @property

@@ -15,7 +15,8 @@
 // Two draws (app/render/antialias.py GbaaPass): GBAA_MARK writes window depth 0 where a
 // pixel differs in surface from a 4-neighbour, 1 elsewhere; the resolve runs on the far
 // plane with the test ">", so only blocks with a silhouette pay for it (llvmpipe shades
-// every branch for a whole block), and writes the display image there.
+// every branch for a whole block), and writes the display image there. It reads the HDR
+// radiance of marked pixels only (a neighbour it mixes in differs from it, so is marked).
 #include "post/tonemap.glsl"
 
 #ifndef STRAIGHT_ALPHA
@@ -29,6 +30,10 @@ uniform sampler2D u_depth;   // RT2: view depth (0: background), material id
 uniform sampler2D u_edge;    // RT6: distances to the surface's edge along +x, -x, +y, -y
 uniform sampler2D u_hdr;     // linear HDR RGBA (premultiplied where transparent)
 uniform float u_exposure;    // linear scale, 2^EV
+// 1: the background pixels' radiance is u_background, not u_hdr's (which the lighting
+// pass then wrote at the marked surface pixels only: LightingPass.run_masked)
+uniform float u_uniform_background;
+uniform vec4 u_background;
 
 out vec4 frag_color;
 
@@ -49,18 +54,36 @@ bool in_front(vec2 a, vec2 b) {
     return other && a.x < b.x;
 }
 
+// The HDR radiance of pixel px whose RT2 texel is surface.
+vec4 radiance(ivec2 px, vec2 surface) {
+    if (u_uniform_background > 0.0 && !(surface.x > 0.0)) return u_background;
+    return texelFetch(u_hdr, clamp(px, ivec2(0), g_last), 0);
+}
+
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     g_last = textureSize(u_depth, 0) - 1;
     vec2 centre = surface_at(px);
+#ifdef GBAA_MARK
+    // Another surface in a 4-neighbour, conservatively and cheaply: u_depth is sampled
+    // bilinearly here (app/render/antialias.py binds a linear sampler), at the pixel's
+    // upper-right and lower-left corners, the means of the 2x2 blocks that hold the
+    // centre and its four neighbours (and two diagonal ones); a block of one surface
+    // keeps the centre's material id and, within a quarter of the tolerance, its depth.
+    vec2 texel = 1.0 / vec2(textureSize(u_depth, 0));
+    vec2 upper = texture(u_depth, (gl_FragCoord.xy + 0.5) * texel).xy;
+    vec2 lower = texture(u_depth, (gl_FragCoord.xy - 0.5) * texel).xy;
+    vec2 id_step = abs(vec2(upper.y, lower.y) - centre.y);
+    vec2 depth_step = abs(vec2(upper.x, lower.x) - centre.x);
+    // in arithmetic, without branches (a background centre's depth step is any surface)
+    float step_ratio = max(max(id_step.x, id_step.y) * 1e3,
+                           max(depth_step.x, depth_step.y)
+                               / max(0.25 * GBAA_DEPTH_TOLERANCE * centre.x, 1e-30));
+    frag_color = vec4(0.0);
+    gl_FragDepth = step(step_ratio, 1.0);   // 0: another surface near
+#else
     vec2 around[4];
     for (int k = 0; k < 4; ++k) around[k] = surface_at(px + STEPS[k]);
-#ifdef GBAA_MARK
-    bool edge = false;
-    for (int k = 0; k < 4; ++k) edge = edge || in_front(centre, around[k]) || in_front(around[k], centre);
-    frag_color = vec4(0.0);
-    gl_FragDepth = edge ? 0.0 : 1.0;
-#else
     // this pixel's own edge: the nearest toward a neighbour behind it
     vec4 own = texelFetch(u_edge, px, 0);
     float weight[4] = float[4](0.0, 0.0, 0.0, 0.0);
@@ -84,9 +107,9 @@ void main() {
     }
     float total = weight[0] + weight[1] + weight[2] + weight[3];
     float scale = total > 1.0 ? 1.0 / total : 1.0;
-    vec4 c = texelFetch(u_hdr, px, 0) * (1.0 - min(total, 1.0));
+    vec4 c = radiance(px, centre) * (1.0 - min(total, 1.0));
     for (int k = 0; k < 4; ++k) {
-        if (weight[k] > 0.0) c += weight[k] * scale * texelFetch(u_hdr, clamp(px + STEPS[k], ivec2(0), g_last), 0);
+        if (weight[k] > 0.0) c += weight[k] * scale * radiance(px + STEPS[k], around[k]);
     }
 #if STRAIGHT_ALPHA
     float a = clamp(c.a, 0.0, 1.0);

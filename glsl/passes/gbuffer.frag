@@ -2,6 +2,7 @@
 // The targets: app/common/gbuffer.py GBUFFER_TARGETS (docs/gbuffer.md).
 #include "common/encoding.glsl"
 #include "geometry/analytic.glsl"
+#include "geometry/edge.glsl"
 #include "material/layers.glsl"
 
 in vec3 v_normal;
@@ -15,23 +16,13 @@ in vec4 v_color;
 in vec2 v_uv1;
 #endif
 #if GBUFFER_EDGE_GEOMETRY
-// The triangle's barycentric coordinates, linear in window space (passes/gbuffer_edge.geom)
+// The triangle's barycentric coordinates, linear in window space; which of its edges can
+// be a silhouette; the neighbours' far edges (passes/gbuffer_edge.geom)
 noperspective in vec3 v_edge_barycentric;
+flat in vec3 v_edge_kind;
+flat in vec3 v_edge_beyond[6];
 #endif
 
-#if GBUFFER_EDGE
-// render.antialiasing = "gbaa" (docs/antialiasing.md): the distance in pixels from the
-// pixel centre along +x, -x, +y, -y to where f, a quantity linear in window space across
-// the pixel that is positive inside the surface and zero on its edge, reaches zero
-// (Persson 2011, "Geometric Buffer Antialiasing"; the 1D distance along an axis gives a
-// half-plane's box-filtered coverage). EDGE_FAR: no edge nearer in that direction.
-const float EDGE_FAR = 16.0;
-vec4 edge_distances(float f, vec2 grad) {
-    vec4 slope = vec4(-grad.x, grad.x, -grad.y, grad.y);   // f's fall per pixel each way
-    vec4 d = vec4(f) / max(slope, vec4(1e-30));
-    return mix(vec4(EDGE_FAR), clamp(d, 0.0, EDGE_FAR), greaterThan(slope, vec4(0.0)));
-}
-#endif
 
 // layout(location = i) out vecN g_<target>; of every target present, at the location
 // app/render/gbuffer.py binds it (app/common/gbuffer.py GBUFFER_TARGETS). With constant surfaces the
@@ -65,12 +56,33 @@ void main() {
     // to first order its zero is the silhouette (the quad's helper lanes give the slope).
     g_edge = edge_distances(hit.inside, vec2(dFdx(hit.inside), dFdy(hit.inside)));
 #elif GBUFFER_EDGE_GEOMETRY
-    // The triangle's edges: the nearest in each direction, each barycentric coordinate
-    // being linear in window space and zero on the edge opposite its vertex.
+    // Each direction leaves the triangle through the edge nearest that way (each
+    // barycentric coordinate is linear in window space and zero on the edge opposite its
+    // vertex): a silhouette's distance is the answer, and past an inner edge the surface
+    // goes on, unless the neighbour beyond is a sliver (a smooth mesh's rim): then the
+    // way out of it through its far edges (lines in window space).
     vec3 bx = dFdx(v_edge_barycentric), by = dFdy(v_edge_barycentric);
-    g_edge = min(min(edge_distances(v_edge_barycentric.x, vec2(bx.x, by.x)),
-                     edge_distances(v_edge_barycentric.y, vec2(bx.y, by.y))),
-                 edge_distances(v_edge_barycentric.z, vec2(bx.z, by.z)));
+    vec4 exits[3];
+    for (int j = 0; j < 3; ++j) exits[j] = edge_distances(v_edge_barycentric[j], vec2(bx[j], by[j]));
+    vec4 first = min(min(exits[0], exits[1]), exits[2]);
+    g_edge = vec4(EDGE_FAR);
+    for (int j = 0; j < 3; ++j) {
+        bvec4 through = equal(exits[j], first);
+        if (v_edge_kind[j] == EDGE_SILHOUETTE) g_edge = mix(g_edge, exits[j], through);
+    }
+    // one branch for the whole triangle: only blocks near a rim pay for the slivers
+    if (any(equal(v_edge_kind, vec3(EDGE_SLIVER)))) {
+        for (int j = 0; j < 3; ++j) {
+            if (v_edge_kind[j] != EDGE_SLIVER) continue;
+            vec4 out_of = vec4(EDGE_FAR);
+            for (int e = 2 * j; e < 2 * j + 2; ++e) {
+                vec3 line = v_edge_beyond[e];
+                out_of = min(out_of, edge_distances(dot(line.xy, gl_FragCoord.xy) + line.z,
+                                                    line.xy));
+            }
+            g_edge = mix(g_edge, max(exits[j], out_of), equal(exits[j], first));
+        }
+    }
 #elif GBUFFER_EDGE
     g_edge = vec4(EDGE_FAR);
 #endif
