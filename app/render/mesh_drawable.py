@@ -152,7 +152,7 @@ class MeshDrawable:
         """The camera uniforms of an analytic part's ray (geometry/analytic.glsl): the
         camera in world and object space, the pixel rays' frame, the target's size."""
         if self.part.analytic is None:
-            if self.per_triangle == 6:  # the edge stage's window coordinates ("gbaa")
+            if "u_image_size" in self.uniforms:  # the edge stage's window space ("gbaa")
                 self.program["u_image_size"].value = tuple(float(x) for x in image_size)
             return
         prog, cached = self.program, self._camera_values

@@ -7,10 +7,10 @@
 // No edge nearer than this many pixels in a direction (the target holds float16).
 const float EDGE_FAR = 16.0;
 // A triangle edge's kind (passes/gbuffer_edge.geom): 0 the surface goes on past it;
-// EDGE_SILHOUETTE it can be a silhouette; EDGE_SLIVER the neighbour past it is a sliver
-// whose far edges bound the surface.
+// EDGE_SILHOUETTE it can be a silhouette; EDGE_RIM the neighbour past it is the last
+// triangle before a smooth mesh's rim, whose far edges bound the surface.
 const float EDGE_SILHOUETTE = 1.0;
-const float EDGE_SLIVER = 2.0;
+const float EDGE_RIM = 2.0;
 
 // The distance in pixels from the pixel centre along +x, -x, +y, -y to where f, a
 // quantity linear in window space across the pixel with gradient grad, positive inside

@@ -59,8 +59,8 @@ void main() {
     // Each direction leaves the triangle through the edge nearest that way (each
     // barycentric coordinate is linear in window space and zero on the edge opposite its
     // vertex): a silhouette's distance is the answer, and past an inner edge the surface
-    // goes on, unless the neighbour beyond is a sliver (a smooth mesh's rim): then the
-    // way out of it through its far edges (lines in window space).
+    // goes on, unless the neighbour beyond is the last before a smooth mesh's rim (a
+    // sliver on screen): then the way out of it through its far edges (window lines).
     vec3 bx = dFdx(v_edge_barycentric), by = dFdy(v_edge_barycentric);
     vec4 exits[3];
     for (int j = 0; j < 3; ++j) exits[j] = edge_distances(v_edge_barycentric[j], vec2(bx[j], by[j]));
@@ -70,10 +70,10 @@ void main() {
         bvec4 through = equal(exits[j], first);
         if (v_edge_kind[j] == EDGE_SILHOUETTE) g_edge = mix(g_edge, exits[j], through);
     }
-    // one branch for the whole triangle: only blocks near a rim pay for the slivers
-    if (any(equal(v_edge_kind, vec3(EDGE_SLIVER)))) {
+    // one branch for the whole triangle: only blocks near a rim pay for it
+    if (any(equal(v_edge_kind, vec3(EDGE_RIM)))) {
         for (int j = 0; j < 3; ++j) {
-            if (v_edge_kind[j] != EDGE_SLIVER) continue;
+            if (v_edge_kind[j] != EDGE_RIM) continue;
             vec4 out_of = vec4(EDGE_FAR);
             for (int e = 2 * j; e < 2 * j + 2; ++e) {
                 vec3 line = v_edge_beyond[e];

@@ -10,6 +10,7 @@
 #define v_view_depth vs_view_depth
 #define v_color vs_color
 #define v_uv1 vs_uv1
+out vec3 vs_view_position;   // the geometry stage's facing of each triangle
 #endif
 in vec3 in_position;
 in vec3 in_normal;
@@ -48,5 +49,8 @@ void main() {
     v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w * u_tangent_sign);   // tangents transform with the surface
     vec4 view = u_view * (u_model * vec4(in_position, 1.0));
     v_view_depth = -view.z;
+#if GBUFFER_EDGE_GEOMETRY
+    vs_view_position = view.xyz;
+#endif
     gl_Position = u_proj * view;
 }
