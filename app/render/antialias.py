@@ -319,10 +319,11 @@ class GbaaPass:
     depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces, and
     ``resolve`` runs on the far plane z-tested (">") to those pixels, so that only blocks
     of pixels with a silhouette run it (llvmpipe shades every branch for its whole
-    block). The other pixels keep post's bytes. The resolve reads the HDR image only at
-    marked pixels: a frame whose lighting pass wrote the display image shades them alone
-    between the two (``LightingPass.run_masked``) and gives the background's radiance as
-    a uniform. ``tonemap_code`` and ``straight_alpha`` are post's."""
+    block). The other pixels keep post's bytes. The resolve reads the HDR image at
+    marked pixels only (a neighbour it mixes in holds another surface, so is marked):
+    where the lighting pass wrote the display image it wrote the surfaces' radiance too
+    (``Renderer.run_lighting``), and the background's is given as a uniform.
+    ``tonemap_code`` and ``straight_alpha`` are post's."""
 
     def __init__(
         self,
@@ -344,23 +345,16 @@ class GbaaPass:
         )
         self.depth = ctx.depth_renderbuffer(size)
         self.marked = ctx.framebuffer([], self.depth)
-        self.linear = ctx.sampler(
-            filter=(moderngl.LINEAR, moderngl.LINEAR), repeat_x=False, repeat_y=False
-        )
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
         self._out_target: moderngl.Texture | None = None
 
     def mark(self, gbuffer: GBuffer) -> None:
         """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame, 1 elsewhere."""
         self.marked.depth_mask = True
-        self.linear.use(0)  # u_depth's unit: the mark samples RT2 bilinearly
-        try:
-            self.marker.draw(
-                self.marked, {}, {"u_depth": gbuffer.depth}, viewport=(0, 0, *self.size),
-                depth_func="1",
-            )  # fmt: skip
-        finally:
-            self.linear.clear(0)
+        self.marker.draw(
+            self.marked, {}, {"u_depth": gbuffer.depth}, viewport=(0, 0, *self.size),
+            depth_func="1",
+        )  # fmt: skip
 
     def resolve(
         self,
@@ -394,6 +388,6 @@ class GbaaPass:
         )
 
     def release(self) -> None:
-        for obj in (self.marker, self.resolver, self._out, self.marked, self.depth, self.linear):
+        for obj in (self.marker, self.resolver, self._out, self.marked, self.depth):
             if obj is not None:
                 obj.release()

@@ -175,13 +175,11 @@ class LightingPass:
         self.programs = [draw.program for draw in self.draws]
         self._variants = variants
         # run_display's draws, per tone map, compiled at first use
-        self._display: dict[str, list[FullscreenDraw]] = {}
+        self._display: dict[tuple[str, bool], list[FullscreenDraw]] = {}
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
-        self._mask_fbo: moderngl.Framebuffer | None = None  # hdr + a mask's z (run_masked)
-        self._mask_source: moderngl.Renderbuffer | None = None
         self._z_source: GBuffer | None = None
         self._shaders = shaders
         self.size = size
@@ -235,21 +233,6 @@ class LightingPass:
         self.fbo.clear(*clear, *([1.0] if len(clear) == 3 else []))  # pixels no surface covers
         self._shade(self.draws, self._z_target(gbuffer), camera)
 
-    def run_masked(
-        self, gbuffer: GBuffer, camera: CameraFrame, mask: moderngl.Renderbuffer
-    ) -> None:
-        """The HDR image's surface pixels where ``mask`` (a depth renderbuffer of
-        ``size``) holds less than 1, the others left as they were (not cleared): the
-        radiance that render.antialiasing = "gbaa" mixes at the silhouettes of a frame
-        whose lighting pass wrote the display image (app/render/antialias.py)."""
-        if self._mask_fbo is None or self._mask_source is not mask:
-            if self._mask_fbo is not None:
-                self._mask_fbo.release()
-            self._mask_fbo = self.ctx.framebuffer([self.hdr], mask)
-            self._mask_fbo.depth_mask = False
-            self._mask_source = mask
-        self._shade(self.draws, self._mask_fbo, camera)
-
     def run_display(
         self,
         gbuffer: GBuffer,
@@ -257,18 +240,23 @@ class LightingPass:
         target: moderngl.Framebuffer,
         tonemap: str,
         exposure: float,
+        hdr_out: bool = False,
     ) -> None:
         """The display image of every surface pixel straight into ``target``: the post
         pass's RGBA8 image with ``gbuffer``'s z-buffer attached, its other pixels already
         the background's display value (PostPass.display_target). The same radiance as
         ``run``'s in float32, then passes/post.frag's arithmetic with ``tonemap`` and the
         linear ``exposure`` (DISPLAY_OUT in passes/lighting.frag), so the bytes are the
-        post pass's; the HDR image is not written."""
-        if tonemap not in self._display:
-            defines = [{**d, "DISPLAY_OUT": 1, "TONEMAP": TONEMAP_CODE[tonemap]}
+        post pass's; the HDR image is not written, unless ``hdr_out``: then ``target``'s
+        second attachment takes the surface pixels' radiance (HDR_OUT; its background
+        pixels are left as they were)."""
+        key = (tonemap, hdr_out)
+        if key not in self._display:
+            out = {"HDR_OUT": 1} if hdr_out else {}
+            defines = [{**d, "DISPLAY_OUT": 1, "TONEMAP": TONEMAP_CODE[tonemap], **out}
                        for d in self._variants]  # fmt: skip
-            self._display[tonemap] = _draws(self.ctx, self._shaders, defines, self.context[LIGHTS])
-        draws = self._display[tonemap]
+            self._display[key] = _draws(self.ctx, self._shaders, defines, self.context[LIGHTS])
+        draws = self._display[key]
         for draw in draws:
             draw.program["u_exposure"].value = exposure
         self._shade(draws, target, camera)
@@ -308,9 +296,8 @@ class LightingPass:
     def release(self) -> None:
         for obj in (*self.draws, self.fbo, self.hdr):
             obj.release()
-        for fbo in (self._z_fbo, self._mask_fbo):
-            if fbo is not None:
-                fbo.release()
+        if self._z_fbo is not None:
+            self._z_fbo.release()
         for draws in self._display.values():  # the programs are the shader cache's
             for draw in draws:
                 draw.release()

@@ -957,14 +957,12 @@ class Renderer:
     def _resolve_edges(self, hdr: moderngl.Texture) -> None:
         """``render.antialiasing = "gbaa"``: the display image's silhouette pixels
         resolved from the frame's HDR image ``hdr``; where the lighting pass wrote the
-        display image (fused), the HDR radiance of the marked pixels alone is shaded
-        first (``LightingPass.run_masked``), the background's given as a uniform."""
+        display image (fused), it wrote the surface pixels' radiance too (``run_lighting``)
+        and the background's is given as a uniform."""
         self.gbaa.mark(self.gbuffer)
         background = None
         if not self._drawn.hdr:
-            drawn = self._drawn
-            self.lighting.run_masked(self.gbuffer, drawn.camera, self.gbaa.depth)
-            hdr, background = self.lighting.hdr, drawn.background
+            hdr, background = self.lighting.hdr, self._drawn.background
         self.gbaa.resolve(
             self.gbuffer, hdr, self.post.target, self.scene.camera.exposure, background
         )
@@ -998,10 +996,13 @@ class Renderer:
         if self.fused_display:
             exposure = self.scene.camera.exposure
             bg = tuple(float(x) for x in background)
-            target = self.post.display_target(self.gbuffer.zbuffer, bg, exposure)
+            # "gbaa" mixes the radiance at the silhouettes: the surfaces' is written too
+            hdr = self.lighting.hdr if self.gbaa is not None else None
+            target = self.post.display_target(self.gbuffer.zbuffer, bg, exposure, hdr)
             self.lighting.run_display(
-                self.gbuffer, camera, target, self.scene.render.tonemap, 2.0**exposure
-            )
+                self.gbuffer, camera, target, self.scene.render.tonemap, 2.0**exposure,
+                hdr is not None,
+            )  # fmt: skip
             self._drawn = _Drawn(camera, background, hdr=False, display=True)
             return
         self.lighting.run(self.gbuffer, camera, background)

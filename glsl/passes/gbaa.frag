@@ -15,7 +15,9 @@
 // Two draws (app/render/antialias.py GbaaPass): GBAA_MARK writes window depth 0 where a
 // pixel differs in surface from a 4-neighbour, 1 elsewhere; the resolve runs on the far
 // plane with the test ">", so only blocks with a silhouette pay for it (llvmpipe shades
-// every branch for a whole block), and writes the display image there. It reads the HDR
+// every branch for a whole block: one draw that discards the other pixels took 10 ms at
+// 640x360, the two 3 ms), and writes the display image there. GBAA_ONE_DRAW: that one
+// draw, kept for the measurement. It reads the HDR
 // radiance of marked pixels only (a neighbour it mixes in differs from it, so is marked).
 #include "post/tonemap.glsl"
 
@@ -30,8 +32,8 @@ uniform sampler2D u_depth;   // RT2: view depth (0: background), material id
 uniform sampler2D u_edge;    // RT6: distances to the surface's edge along +x, -x, +y, -y
 uniform sampler2D u_hdr;     // linear HDR RGBA (premultiplied where transparent)
 uniform float u_exposure;    // linear scale, 2^EV
-// 1: the background pixels' radiance is u_background, not u_hdr's (which the lighting
-// pass then wrote at the marked surface pixels only: LightingPass.run_masked)
+// 1: the background pixels' radiance is u_background, not u_hdr's (where the lighting
+// pass wrote the display image and the surfaces' radiance alone: Renderer.run_lighting)
 uniform float u_uniform_background;
 uniform vec4 u_background;
 
@@ -64,26 +66,22 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     g_last = textureSize(u_depth, 0) - 1;
     vec2 centre = surface_at(px);
-#ifdef GBAA_MARK
-    // Another surface in a 4-neighbour, conservatively and cheaply: u_depth is sampled
-    // bilinearly here (app/render/antialias.py binds a linear sampler), at the pixel's
-    // upper-right and lower-left corners, the means of the 2x2 blocks that hold the
-    // centre and its four neighbours (and two diagonal ones); a block of one surface
-    // keeps the centre's material id and, within a quarter of the tolerance, its depth.
-    vec2 texel = 1.0 / vec2(textureSize(u_depth, 0));
-    vec2 upper = texture(u_depth, (gl_FragCoord.xy + 0.5) * texel).xy;
-    vec2 lower = texture(u_depth, (gl_FragCoord.xy - 0.5) * texel).xy;
-    vec2 id_step = abs(vec2(upper.y, lower.y) - centre.y);
-    vec2 depth_step = abs(vec2(upper.x, lower.x) - centre.x);
-    // in arithmetic, without branches (a background centre's depth step is any surface)
-    float step_ratio = max(max(id_step.x, id_step.y) * 1e3,
-                           max(depth_step.x, depth_step.y)
-                               / max(0.25 * GBAA_DEPTH_TOLERANCE * centre.x, 1e-30));
-    frag_color = vec4(0.0);
-    gl_FragDepth = step(step_ratio, 1.0);   // 0: another surface near
-#else
     vec2 around[4];
     for (int k = 0; k < 4; ++k) around[k] = surface_at(px + STEPS[k]);
+    // another surface in a 4-neighbour (in_front either way), in arithmetic
+    bvec4 other = bvec4(false);
+    for (int k = 0; k < 4; ++k) {
+        vec2 q = around[k];
+        other[k] = (q.x > 0.0) != (centre.x > 0.0) || (centre.x > 0.0 &&
+                   (q.y != centre.y || abs(q.x - centre.x) > GBAA_DEPTH_TOLERANCE * min(q.x, centre.x)));
+    }
+#ifdef GBAA_MARK
+    frag_color = vec4(0.0);
+    gl_FragDepth = any(other) ? 0.0 : 1.0;
+#else
+#ifdef GBAA_ONE_DRAW
+    if (!any(other)) discard;
+#endif
     // this pixel's own edge: the nearest toward a neighbour behind it
     vec4 own = texelFetch(u_edge, px, 0);
     float weight[4] = float[4](0.0, 0.0, 0.0, 0.0);
