@@ -323,7 +323,10 @@ class GbaaPass:
     marked pixels only (a neighbour it mixes in holds another surface, so is marked):
     where the lighting pass wrote the display image it wrote the surfaces' radiance too
     (``Renderer.run_lighting``), and the background's is given as a uniform.
-    ``tonemap_code`` and ``straight_alpha`` are post's."""
+    ``tonemap_code`` and ``straight_alpha`` are post's. ``corners``: (K, 4) world-space
+    corners of the opaque parts' bounding boxes: both draws are scissored to their
+    window rectangle and a pixel around it (no silhouette lies outside), which on a
+    frame of a few objects spares most of the full-screen mark."""
 
     def __init__(
         self,
@@ -332,8 +335,10 @@ class GbaaPass:
         size: tuple[int, int],
         tonemap_code: int,
         straight_alpha: bool = False,
+        corners: np.ndarray | None = None,
     ) -> None:
         self.ctx, self.size = ctx, size
+        self.corners = None if corners is None else np.asarray(corners, np.float64)
         defines: dict[str, object] = {"TONEMAP": tonemap_code}
         if straight_alpha:
             defines["STRAIGHT_ALPHA"] = 1
@@ -348,8 +353,29 @@ class GbaaPass:
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
         self._out_target: moderngl.Texture | None = None
 
-    def mark(self, gbuffer: GBuffer) -> None:
-        """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame, 1 elsewhere."""
+    def scissor(self, view: np.ndarray, proj: np.ndarray) -> tuple[int, int, int, int] | None:
+        """The window rectangle (x, y, w, h) of ``corners`` seen through ``view`` and
+        ``proj``, a pixel wider each way and clamped to the image; None (everything)
+        where a corner lies behind the camera; an empty rectangle without corners."""
+        if self.corners is None:
+            return None
+        if len(self.corners) == 0:
+            return (0, 0, 0, 0)
+        clip = self.corners @ (np.asarray(proj, np.float64) @ np.asarray(view, np.float64)).T
+        if np.any(clip[:, 3] <= 1e-9):
+            return None
+        window = (clip[:, :2] / clip[:, 3:4] * 0.5 + 0.5) * np.asarray(self.size, np.float64)
+        w, h = self.size
+        x0 = int(np.clip(np.floor(window[:, 0].min()) - 1, 0, w))
+        y0 = int(np.clip(np.floor(window[:, 1].min()) - 1, 0, h))
+        x1 = int(np.clip(np.ceil(window[:, 0].max()) + 1, 0, w))
+        y1 = int(np.clip(np.ceil(window[:, 1].max()) + 1, 0, h))
+        return (x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
+
+    def mark(self, gbuffer: GBuffer, scissor: tuple[int, int, int, int] | None = None) -> None:
+        """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame, 1 elsewhere
+        (inside ``scissor``, when given: the resolve's then too)."""
+        self.marked.scissor = scissor
         self.marked.depth_mask = True
         self.marker.draw(
             self.marked, {}, {"u_depth": gbuffer.depth}, viewport=(0, 0, *self.size),
@@ -383,6 +409,7 @@ class GbaaPass:
             "u_uniform_background": 0.0 if background is None else 1.0,
             "u_background": tuple(float(x) for x in rgba),
         }
+        self._out.scissor = self.marked.scissor
         self.resolver.draw(
             self._out, uniforms, textures, viewport=(0, 0, *self.size), depth_func=">"
         )

@@ -648,12 +648,21 @@ class Renderer:
         supersampling): it writes the display image as post does."""
         if not self._gbaa():
             return None
-        return (self.size, self.scene.render.tonemap, self.transparent)
+        parts = (Same(self.frame.parts), self._frame_facts().opaque)
+        return (self.size, self.scene.render.tonemap, self.transparent, parts)
 
     def _build_gbaa(self) -> GbaaPass:
+        # the opaque parts' bounding boxes, world space: the resolve's scissor rectangle
+        corners = []
+        for i in self._opaque():
+            part = self.frame.parts[i]
+            lo, hi = part.vertices[:, :3].min(axis=0), part.vertices[:, :3].max(axis=0)
+            box = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])  # fmt: skip
+            corners.append(box @ np.asarray(part.model, np.float64).T)
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
-            self.transparent,
+            self.transparent, np.concatenate(corners) if corners else np.zeros((0, 4)),
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:
@@ -959,7 +968,8 @@ class Renderer:
         resolved from the frame's HDR image ``hdr``; where the lighting pass wrote the
         display image (fused), it wrote the surface pixels' radiance too (``run_lighting``)
         and the background's is given as a uniform."""
-        self.gbaa.mark(self.gbuffer)
+        m = self.matrices  # the frame's (no jitter in this mode)
+        self.gbaa.mark(self.gbuffer, self.gbaa.scissor(m.view, m.proj))
         background = None
         if not self._drawn.hdr:
             hdr, background = self.lighting.hdr, self._drawn.background
