@@ -324,6 +324,12 @@ def test_geometric_resolve_lowers_the_silhouette_error(gl_egl: GLContext, edge_t
     interior[:, 1:] &= ~edges[:, :-1]
     interior[:, :-1] &= ~edges[:, 1:]
     assert np.abs(image - none_image)[interior].max() <= 1.0 / 255.0
+    # with supersampling the box filter is the resolve: no edge target, no pass
+    r = Renderer(gl_egl, with_aa(loaded, "gbaa", 8, 2))
+    try:
+        assert r.gbaa is None and r.gbuffer.edge is None
+    finally:
+        r.release()
 
 
 def test_edge_coverage_of_analytic_spheres_and_meshes(gl_egl: GLContext, edge_truth) -> None:
