@@ -6,13 +6,15 @@
 // edge opposite its vertex); which of its edges can be a silhouette, those whose
 // neighbouring triangle (GL_TRIANGLES_ADJACENCY, app/render/adjacency.py) faces the other
 // way, is degenerate on screen or missing; and across each other edge, where the surface
-// goes on into the neighbour, whether the neighbour is the last triangle before the rim
-// of a smooth mesh, a sliver on screen whose far edges are the silhouette (only the
-// neighbours, not theirs, are known here): under RIM_HEIGHT pixels high, and the cosine
-// between the view ray and the normal, extrapolated linearly from this triangle across
-// the neighbour to the next, falls to half of this triangle's or below. Then the
-// neighbour's far edges follow, as window-space lines. (The height alone, or the
-// extrapolated cosine alone, left more coverage error on the bench's icosphere.)
+// goes on into the neighbour, whether the neighbour may be the last triangle before the
+// rim of a smooth mesh, a sliver on screen whose far edges are the silhouette (only the
+// neighbours, not theirs, are known here): under RIM_HEIGHT pixels high, and turned
+// further from the camera than this triangle (the cosine between its normal and the view
+// ray no greater). Then the neighbour's far edges follow, as window-space lines: only a
+// distance under a pixel is used, so a neighbour that is no sliver changes nothing.
+// (Measured on the bench's icosphere: a neighbour under 2 pixels whose cosine,
+// extrapolated past it, falls to half of this triangle's left 1.2x the silhouette error,
+// the height alone more; no height limit as little as 6 pixels, for more fragment work.)
 // passes/gbuffer.vert names its outputs vs_* here.
 #include "geometry/edge.glsl"
 
@@ -45,7 +47,7 @@ flat out vec3 v_edge_kind;
 // per edge j, the neighbour's far edges as lines n.x + c >= 0 inside it (window pixels)
 flat out vec3 v_edge_beyond[6];
 
-const float RIM_HEIGHT = 2.0;   // pixels
+const float RIM_HEIGHT = 6.0;   // pixels
 
 // The orientation of a, b, c on screen times the sign of their w's product: the
 // determinant of their (x, y, w); its sign compares two triangles' facing.
@@ -106,11 +108,9 @@ void main() {
                           view_cosine(q[0], q[1], q[2]));
         vec3 high = vec3(height(s[2], s[4], s[3]), height(s[4], s[0], s[5]),
                          height(s[0], s[2], s[1]));
-        // a sliver under RIM_HEIGHT pixels high past which the cosine, extrapolated
-        // (2 there - here; signs taken as this triangle's), falls to half of here or below
+        // under RIM_HEIGHT pixels high and turned further away (signs as this triangle's)
         bvec3 rim = bvec3(vec3(lessThan(high, vec3(RIM_HEIGHT)))
-                          * vec3(lessThanEqual((2.0 * there - here) * sign(here),
-                                               vec3(0.5 * abs(here)))));
+                          * vec3(lessThanEqual(there * sign(here), vec3(abs(here)))));
         kind = mix(kind, vec3(EDGE_RIM), bvec3(rim.x && !silhouette.x, rim.y && !silhouette.y,
                                                rim.z && !silhouette.z));
         beyond[0] = line_toward(s[2], s[3], s[4]);   // edge 2-4 (opposite vertex 0)
