@@ -16,8 +16,7 @@
 // pixel differs in surface from a 4-neighbour, 1 elsewhere; the resolve runs on the far
 // plane with the test ">", so only blocks with a silhouette pay for it (llvmpipe shades
 // every branch for a whole block: one draw that discards the other pixels took 10 ms at
-// 640x360, the two 3 ms), and writes the display image there. GBAA_ONE_DRAW: that one
-// draw, kept for the measurement. It reads the HDR
+// 640x360, the two 3 ms), and writes the display image there. It reads the HDR
 // radiance of marked pixels only (a neighbour it mixes in differs from it, so is marked).
 #include "post/tonemap.glsl"
 
@@ -79,9 +78,6 @@ void main() {
     frag_color = vec4(0.0);
     gl_FragDepth = any(other) ? 0.0 : 1.0;
 #else
-#ifdef GBAA_ONE_DRAW
-    if (!any(other)) discard;
-#endif
     // this pixel's own edge: the nearest toward a neighbour behind it
     vec4 own = texelFetch(u_edge, px, 0);
     float weight[4] = float[4](0.0, 0.0, 0.0, 0.0);
