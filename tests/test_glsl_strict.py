@@ -161,7 +161,9 @@ def _display_programs(renderer: object) -> None:
     compiled at its first draw: built here without drawing (a draw would add llvmpipe's JIT
     of each shader, most of the collection's time)."""
     if renderer.fused_display and renderer.lighting is not None:
-        renderer.lighting.display_draws(renderer.scene.render.tonemap)
+        # "gbaa" frames also write the surfaces' radiance (HDR_OUT)
+        hdr_out = getattr(renderer, "gbaa", None) is not None
+        renderer.lighting.display_draws(renderer.scene.render.tonemap, hdr_out)
 
 
 def _bundled_scenes(gl: GLContext, sources: Sources) -> None:

@@ -293,7 +293,7 @@ def test_bad_background_is_one_line_exit_2(
     assert not out.exists()
 
 
-@pytest.mark.parametrize("mode", ["fxaa", "jitter", "sraa"])
+@pytest.mark.parametrize("mode", ["fxaa", "jitter", "sraa", "gbaa"])
 def test_antialiased_alpha_is_fractional_and_edges_keep_their_colour(
     scene: Path, mode: str
 ) -> None:

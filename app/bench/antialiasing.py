@@ -42,6 +42,7 @@ CANDIDATES: tuple[tuple[str, str, int, bool], ...] = (
     ("jitter:8", "jitter", 8, False),
     ("jitter:16", "jitter", 16, False),
     ("sraa", "sraa", 8, False),
+    ("gbaa", "gbaa", 8, False),
     ("none+specular_aa", "none", 8, True),
     ("fxaa+specular_aa", "fxaa", 8, True),
 )
@@ -210,6 +211,7 @@ SHOWCASE_MODES: tuple[tuple[str, str, int], ...] = (
     ("fxaa", "fxaa", 8),
     ("jitter:4", "jitter", 4),
     ("sraa", "sraa", 8),
+    ("gbaa", "gbaa", 8),
 )
 
 

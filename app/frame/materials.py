@@ -142,6 +142,7 @@ class MaterialTable:
                 "tangent": self.needs_tangents,
                 "coat_normal": self.needs_coat_normals,
                 "emission": self.needs_emission,
+                "edge": False,  # the renderer's, by render.antialiasing (Renderer._layout)
             }
         )
 

@@ -108,7 +108,7 @@ def _generated(defines: Mapping[str, object]) -> list[str]:
 
 def assemble(relative: str, defines: Mapping[str, object] | None = None) -> str:
     """``#version`` line, then the defines, then the expanded source of a file."""
-    return _header(defines, not relative.endswith(".vert")) + expand_includes(relative)
+    return _header(defines, not relative.endswith((".vert", ".geom"))) + expand_includes(relative)
 
 
 def assemble_text(text: str, defines: Mapping[str, object] | None = None) -> str:
@@ -152,21 +152,32 @@ class ShaderCache:
         self._programs: dict[tuple, moderngl.Program] = {}
 
     def program(
-        self, vertex: str, fragment: str, defines: Mapping[str, object] | None = None
+        self,
+        vertex: str,
+        fragment: str,
+        defines: Mapping[str, object] | None = None,
+        geometry: str | None = None,
     ) -> moderngl.Program:
+        """The program of ``vertex`` and ``fragment`` (and a ``geometry`` stage between
+        them where named) with ``defines``, compiled at its first request."""
         key = (vertex, fragment, tuple(sorted((defines or {}).items())))
+        if geometry is not None:
+            key += (geometry,)
         prog = self._programs.get(key)
         if prog is None:
             try:
                 prog = self._ctx.program(
                     vertex_shader=assemble(vertex, defines),
                     fragment_shader=assemble(fragment, defines),
+                    geometry_shader=None if geometry is None else assemble(geometry, defines),
                 )
             except moderngl.Error as exc:
                 stages = {
                     "vertex_shader": _expand_file(vertex)[1],
                     "fragment_shader": _expand_file(fragment)[1],
                 }
+                if geometry is not None:
+                    stages["geometry_shader"] = _expand_file(geometry)[1]
                 message = describe_log(str(exc), stages)
                 raise ShaderError(f"{vertex} + {fragment}: {message}") from None
             self._programs[key] = prog

@@ -22,6 +22,15 @@ each sample's coverage itself, gl_SampleMask), and each sample takes the shaded 
 of the neighbouring pixel whose centre saw its surface (glsl/passes/sraa.frag, written
 here); the mean of the pixel's centre and its samples is resolved in linear HDR before
 tone mapping.
+
+"gbaa": ``GbaaPass``, geometric edge antialiasing after E. Persson, "Geometric Buffer
+Antialiasing" (SIGGRAPH 2011) and Malan, "Edge Anti-aliasing by Post-Processing" (GPU
+Pro, 2010): the G-buffer pass writes each pixel's distance to its surface's edge along
+the four axis directions (the G-buffer's ``edge`` target: a mesh's triangle edges through a
+geometry stage's barycentrics, an analytic sphere's silhouette from the ray's distance
+inside it), and a resolve mixes each silhouette pixel's linear HDR colour with its
+neighbour's across the edge by the area the edge gives it (glsl/passes/gbaa.frag,
+written here), writing the display image there.
 """
 
 from __future__ import annotations
@@ -42,7 +51,7 @@ from app.render.gbuffer import GBuffer, GBufferPass
 from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
-ANTIALIASING = ("none", "fxaa", "jitter", "sraa")
+ANTIALIASING = ("none", "fxaa", "jitter", "sraa", "gbaa")
 SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample count)
 # A sample sees a neighbour's surface where their material ids agree and their view
 # depths differ by at most this fraction of the sample's
@@ -300,3 +309,112 @@ class SraaPass:
         for obj in (self.geometry, self.samples, self.mark, self.reconstruct, self.fbo,
                     self.edges, self.target):  # fmt: skip
             obj.release()
+
+
+class GbaaPass:
+    """Geometric edge antialiasing (module docstring): reads the G-buffer's RT2
+    (surfaces) and ``edge`` target (distances to the surface's edge) and the frame's
+    linear HDR image, and writes the display image's silhouette pixels, resolved, over
+    the post pass's image. Two draws (glsl/passes/gbaa.frag): ``mark`` writes window
+    depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces, and
+    ``resolve`` runs on the far plane z-tested (">") to those pixels, so that only blocks
+    of pixels with a silhouette run it (llvmpipe shades every branch for its whole
+    block). The other pixels keep post's bytes. The resolve reads the HDR image at
+    marked pixels only (a neighbour it mixes in holds another surface, so is marked):
+    where the lighting pass wrote the display image it wrote the surfaces' radiance too
+    (``Renderer.run_lighting``), and the background's is given as a uniform.
+    ``tonemap_code`` and ``straight_alpha`` are post's. ``corners``: (K, 4) world-space
+    corners of the opaque parts' bounding boxes: both draws are scissored to their
+    window rectangle and a pixel around it (no silhouette lies outside), which on a
+    frame of a few objects spares most of the full-screen mark."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        tonemap_code: int,
+        straight_alpha: bool = False,
+        corners: np.ndarray | None = None,
+    ) -> None:
+        self.ctx, self.size = ctx, size
+        self.corners = None if corners is None else np.asarray(corners, np.float64)
+        defines: dict[str, object] = {"TONEMAP": tonemap_code}
+        if straight_alpha:
+            defines["STRAIGHT_ALPHA"] = 1
+        self.marker = FullscreenDraw.of(
+            ctx, shaders, "passes/gbaa.frag", {**defines, "GBAA_MARK": 1}
+        )
+        self.resolver = FullscreenDraw.of(
+            ctx, shaders, "passes/gbaa.frag", {**defines, "FAR_PLANE": 1}
+        )
+        self.depth = ctx.depth_renderbuffer(size)
+        self.marked = ctx.framebuffer([], self.depth)
+        self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
+        self._out_target: moderngl.Texture | None = None
+
+    def scissor(self, view: np.ndarray, proj: np.ndarray) -> tuple[int, int, int, int] | None:
+        """The window rectangle (x, y, w, h) of ``corners`` seen through ``view`` and
+        ``proj``, a pixel wider each way and clamped to the image; None (everything)
+        where a corner lies behind the camera; an empty rectangle without corners."""
+        if self.corners is None:
+            return None
+        if len(self.corners) == 0:
+            return (0, 0, 0, 0)
+        clip = self.corners @ (np.asarray(proj, np.float64) @ np.asarray(view, np.float64)).T
+        if np.any(clip[:, 3] <= 1e-9):
+            return None
+        window = (clip[:, :2] / clip[:, 3:4] * 0.5 + 0.5) * np.asarray(self.size, np.float64)
+        w, h = self.size
+        x0 = int(np.clip(np.floor(window[:, 0].min()) - 1, 0, w))
+        y0 = int(np.clip(np.floor(window[:, 1].min()) - 1, 0, h))
+        x1 = int(np.clip(np.ceil(window[:, 0].max()) + 1, 0, w))
+        y1 = int(np.clip(np.ceil(window[:, 1].max()) + 1, 0, h))
+        return (x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
+
+    def mark(self, gbuffer: GBuffer, scissor: tuple[int, int, int, int] | None = None) -> None:
+        """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame, 1 elsewhere
+        (inside ``scissor``, when given: the resolve's then too)."""
+        self.marked.scissor = scissor
+        self.marked.depth_mask = True
+        self.marker.draw(
+            self.marked, {}, {"u_depth": gbuffer.depth}, viewport=(0, 0, *self.size),
+            depth_func="1",
+        )  # fmt: skip
+
+    def resolve(
+        self,
+        gbuffer: GBuffer,
+        hdr: moderngl.Texture,
+        display: moderngl.Texture,
+        exposure_ev: float,
+        background: np.ndarray | None = None,
+    ) -> None:
+        """Resolve the marked pixels of ``gbuffer``'s frame from ``hdr`` (its linear HDR
+        image, ``size``) into ``display`` (post's RGBA8 image of it). ``background``: the
+        RGBA radiance of every pixel without a surface, where ``hdr`` holds only the
+        marked surface pixels (None: ``hdr`` holds every pixel)."""
+        if self._out is None or self._out_target is not display:
+            if self._out is not None:
+                self._out.release()
+            self._out = self.ctx.framebuffer([display], self.depth)
+            self._out.depth_mask = False
+            self._out_target = display
+        textures = {"u_depth": gbuffer.depth, "u_edge": gbuffer.edge, "u_hdr": hdr}
+        rgba = np.zeros(4) if background is None else np.resize(np.asarray(background), 4)
+        if background is not None and len(background) == 3:
+            rgba[3] = 1.0
+        uniforms = {
+            "u_exposure": 2.0**exposure_ev,
+            "u_uniform_background": 0.0 if background is None else 1.0,
+            "u_background": tuple(float(x) for x in rgba),
+        }
+        self._out.scissor = self.marked.scissor
+        self.resolver.draw(
+            self._out, uniforms, textures, viewport=(0, 0, *self.size), depth_func=">"
+        )
+
+    def release(self) -> None:
+        for obj in (self.marker, self.resolver, self._out, self.marked, self.depth):
+            if obj is not None:
+                obj.release()

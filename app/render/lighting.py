@@ -176,7 +176,7 @@ class LightingPass:
         self.programs = [draw.program for draw in self.draws]
         self._variants = variants
         # run_display's draws, per tone map, compiled at first use
-        self._display: dict[str, list[FullscreenDraw]] = {}
+        self._display: dict[tuple[str, bool], list[FullscreenDraw]] = {}
         self.hdr = ctx.texture(size, 4, dtype="f4")
         self.hdr.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.fbo = ctx.framebuffer([self.hdr])
@@ -241,27 +241,32 @@ class LightingPass:
         target: moderngl.Framebuffer,
         tonemap: str,
         exposure: float,
+        hdr_out: bool = False,
     ) -> None:
         """The display image of every surface pixel straight into ``target``: the post
         pass's RGBA8 image with ``gbuffer``'s z-buffer attached, its other pixels already
         the background's display value (PostPass.display_target). The same radiance as
         ``run``'s in float32, then passes/post.frag's arithmetic with ``tonemap`` and the
         linear ``exposure`` (DISPLAY_OUT in passes/lighting.frag), so the bytes are the
-        post pass's; the HDR image is not written."""
-        draws = self.display_draws(tonemap)
+        post pass's; the HDR image is not written, unless ``hdr_out``: then ``target``'s
+        second attachment takes the surface pixels' radiance (HDR_OUT; its background
+        pixels are left as they were)."""
+        draws = self.display_draws(tonemap, hdr_out)
         for draw in draws:
             draw.program["u_exposure"].value = exposure
         self._shade(draws, target, camera)
 
-    def display_draws(self, tonemap: str) -> list[FullscreenDraw]:
-        """``run_display``'s draws for ``tonemap`` (DISPLAY_OUT), compiled at their first
-        use: a renderer that never draws a plain frame never compiles them
-        (tests/test_glsl_strict.py builds them without drawing)."""
-        if tonemap not in self._display:
-            defines = [{**d, "DISPLAY_OUT": 1, "TONEMAP": TONEMAP_CODE[tonemap]}
+    def display_draws(self, tonemap: str, hdr_out: bool = False) -> list[FullscreenDraw]:
+        """``run_display``'s draws for ``tonemap`` (DISPLAY_OUT, and HDR_OUT where
+        ``hdr_out``), compiled at their first use: a renderer that never draws a plain
+        frame never compiles them (tests/test_glsl_strict.py builds them without drawing)."""
+        key = (tonemap, hdr_out)
+        if key not in self._display:
+            out = {"HDR_OUT": 1} if hdr_out else {}
+            defines = [{**d, "DISPLAY_OUT": 1, "TONEMAP": TONEMAP_CODE[tonemap], **out}
                        for d in self._variants]  # fmt: skip
-            self._display[tonemap] = _draws(self.ctx, self._shaders, defines, self.context[LIGHTS])
-        return self._display[tonemap]
+            self._display[key] = _draws(self.ctx, self._shaders, defines, self.context[LIGHTS])
+        return self._display[key]
 
     def _shade(
         self, draws: list[FullscreenDraw], target: moderngl.Framebuffer, camera: CameraFrame

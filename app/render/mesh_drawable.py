@@ -16,6 +16,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.frame.camera import gl_bytes
 from app.gl.shaders import ShaderCache
+from app.render.adjacency import adjacency_indices
 from app.render.texture_upload import TextureUploads, upload_texture
 from app.render.uv import layer_maps_define, uv_defines, uv_transform_bytes
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
@@ -90,14 +91,25 @@ class MeshDrawable:
         defines.update(uv_defines(part))
         extra = vertex_extras(part)
         self.specular_aa = specular_aa
-        self.program = shaders.program(*shader_pair, defines)
+        # render.antialiasing = "gbaa": a mesh's triangles carry their barycentrics to the
+        # fragment stage (its edges' distances); an analytic part finds its own silhouette
+        geometry = None
+        indices = part.indices
+        self.mode, self.per_triangle = moderngl.TRIANGLES, 3
+        if defines.get("GBUFFER_EDGE") and part.analytic is None:
+            defines["GBUFFER_EDGE_GEOMETRY"] = 1
+            geometry = "passes/gbuffer_edge.geom"
+            # each triangle with its neighbours' far vertices (app/render/adjacency.py)
+            indices = adjacency_indices(part.vertices[:, :3], part.indices)
+            self.mode, self.per_triangle = moderngl.TRIANGLES_ADJACENCY, 6
+        self.program = shaders.program(*shader_pair, defines, geometry)
         # The uniforms the compiler kept: ``name in program`` walks every member, which
         # took a tenth of the G-buffer pass's Python time for twelve analytic spheres.
         self.uniforms = frozenset(self.program)
         # bind_camera's float64 values for the last (camera, image size) it was given
         self._camera_values: tuple[CameraFrame, tuple[int, int], list, bytes, bytes] | None = None
         self.vbo = ctx.buffer(part.vertices.tobytes())
-        self.ibo = ctx.buffer(part.indices.tobytes())
+        self.ibo = ctx.buffer(indices.tobytes())
         buffers = [(self.vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)]
         self.extra_vbo = None  # COLOR_0 / TEXCOORD_1: a second buffer, only where present
         if extra is not None:
@@ -140,6 +152,8 @@ class MeshDrawable:
         """The camera uniforms of an analytic part's ray (geometry/analytic.glsl): the
         camera in world and object space, the pixel rays' frame, the target's size."""
         if self.part.analytic is None:
+            if "u_image_size" in self.uniforms:  # the edge stage's window space ("gbaa")
+                self.program["u_image_size"].value = tuple(float(x) for x in image_size)
             return
         prog, cached = self.program, self._camera_values
         if cached is None or cached[0] is not camera or cached[1] != image_size:
@@ -265,13 +279,14 @@ class MeshDrawable:
         self.bind_camera(camera, size)
         self.bind_material()
         if between is None:
-            self.vao.render(moderngl.TRIANGLES)
+            self.vao.render(self.mode)
             return
-        count = len(self.part.indices)
-        for first in range(0, count, 3 * run_triangles):
-            run = min(3 * run_triangles, count - first)
-            self.vao.render(moderngl.TRIANGLES, vertices=run, first=first)
-            between(run // 3)
+        per = self.per_triangle
+        count = len(self.part.indices) // 3 * per
+        for first in range(0, count, per * run_triangles):
+            run = min(per * run_triangles, count - first)
+            self.vao.render(self.mode, vertices=run, first=first)
+            between(run // per)
 
     def release(self) -> None:
         owned = [t for _, t in self.textures] if self._owns_textures else []

@@ -41,7 +41,7 @@ class PostPass(FullscreenPass):
         )
         self._far: FullscreenDraw | None = None
         self._z_fbo: moderngl.Framebuffer | None = None  # target + a G-buffer's z-buffer
-        self._z_source: moderngl.Renderbuffer | None = None
+        self._z_source: tuple[moderngl.Renderbuffer, moderngl.Texture | None] | None = None
         self._background: tuple[tuple[float, ...], float, tuple[int, ...]] | None = None
 
     def run(self, hdr: moderngl.Texture, exposure_ev: float) -> None:
@@ -73,17 +73,21 @@ class PostPass(FullscreenPass):
         zbuffer: moderngl.Renderbuffer,
         background: tuple[float, float, float],
         exposure_ev: float,
+        second: moderngl.Texture | None = None,
     ) -> moderngl.Framebuffer:
         """The display image cleared to the value this pass gives ``background``
         (``background_display``), with ``zbuffer`` attached (depth writes off): for a pass
-        that then writes the surfaces' pixels only (the lighting pass's ``run_display``)."""
+        that then writes the surfaces' pixels only (the lighting pass's ``run_display``).
+        ``second``: a second colour attachment, not cleared (the HDR image that
+        render.antialiasing = "gbaa" has the lighting pass write too)."""
         value = self.background_display(background, exposure_ev)
-        if self._z_fbo is None or self._z_source is not zbuffer:
+        if self._z_fbo is None or self._z_source != (zbuffer, second):
             if self._z_fbo is not None:
                 self._z_fbo.release()
-            self._z_fbo = self.ctx.framebuffer([self.target], zbuffer)
+            attachments = [self.target] if second is None else [self.target, second]
+            self._z_fbo = self.ctx.framebuffer(attachments, zbuffer)
             self._z_fbo.depth_mask = False
-            self._z_source = zbuffer
+            self._z_source = (zbuffer, second)
         # k / 255 converts back to the byte k in the GL's float -> unorm8 rounding.
         self.fbo.clear(*(k / 255.0 for k in value))
         return self._z_fbo

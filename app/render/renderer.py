@@ -36,6 +36,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
+from app.common.tonemaps import TONEMAP_CODE
 from app.frame import FrameData, prepare_frame, restyle
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
 from app.frame.lights import environment_texels, frame_lights, uniform_environment
@@ -46,6 +47,7 @@ from app.render.antialias import (
     SRAA_SAMPLES,
     AccumulatePass,
     FxaaPass,
+    GbaaPass,
     SraaPass,
     jitter_offsets,
     jittered_frame,
@@ -223,7 +225,7 @@ _UNBUILT = object()  # the old key of an object never built
 # Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
 # display image): reading the HDR image then needs a new frame.
 _FRAME_OBJECTS = frozenset(
-    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa"}
+    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa", "gbaa"}
 )
 
 
@@ -282,6 +284,8 @@ class Renderer:
         self.sraa: SraaPass | None = None
         self.post: PostPass | None = None
         self.fxaa: FxaaPass | None = None
+        # the geometric edge resolve of the display image's silhouettes ("gbaa")
+        self.gbaa: GbaaPass | None = None
         self._refreshed: dict[str, Hashable] = {}  # Built.refresh's key per kept object
         self._restyled: list | None = None  # _change's rollback of a restyle
         self._change()
@@ -379,9 +383,17 @@ class Renderer:
         defines of every pass that writes or decodes them (``GBuffer.defines``): the
         encoding, the optional targets and constant surfaces (frozen: a key)."""
         defines = self.materials.gbuffer_defines()
+        if self._gbaa():  # the edge distances of the geometric resolve
+            defines["GBUFFER_EDGE"] = 1
         return GBufferLayout.from_defines(
             self.scene.render.gbuffer, defines, self._constant_surfaces()
         )
+
+    def _gbaa(self) -> bool:
+        """``render.antialiasing = "gbaa"`` at one sample per pixel (with supersampling
+        the resolve is the box filter's; the G-buffer then has no ``edge`` target)."""
+        settings = self.scene.render
+        return settings.antialiasing == "gbaa" and settings.supersample == 1
 
     def _specular_aa(self) -> tuple[float, float] | None:
         settings = self.scene.render
@@ -630,6 +642,28 @@ class Renderer:
 
     def _build_fxaa(self) -> FxaaPass:
         return FxaaPass(self.gl.ctx, self.shaders, self.size)
+
+    def _key_gbaa(self) -> Hashable:
+        """The geometric edge resolve, only with ``render.antialiasing = "gbaa"`` (and no
+        supersampling): it writes the display image as post does."""
+        if not self._gbaa():
+            return None
+        parts = (Same(self.frame.parts), self._frame_facts().opaque)
+        return (self.size, self.scene.render.tonemap, self.transparent, parts)
+
+    def _build_gbaa(self) -> GbaaPass:
+        # the opaque parts' bounding boxes, world space: the resolve's scissor rectangle
+        corners = []
+        for i in self._opaque():
+            part = self.frame.parts[i]
+            lo, hi = part.vertices[:, :3].min(axis=0), part.vertices[:, :3].max(axis=0)
+            box = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])  # fmt: skip
+            corners.append(box @ np.asarray(part.model, np.float64).T)
+        return GbaaPass(
+            self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
+            self.transparent, np.concatenate(corners) if corners else np.zeros((0, 4)),
+        )  # fmt: skip
 
     def _key_post(self) -> Hashable:
         return (self.size, self.scene.render.tonemap, self.transparent)
@@ -925,6 +959,23 @@ class Renderer:
         if self.fxaa is not None:
             self.fxaa.run(self.post.target)
             clock.done("fxaa")
+        if self.gbaa is not None:
+            self._resolve_edges(hdr)
+            clock.done("gbaa")
+
+    def _resolve_edges(self, hdr: moderngl.Texture) -> None:
+        """``render.antialiasing = "gbaa"``: the display image's silhouette pixels
+        resolved from the frame's HDR image ``hdr``; where the lighting pass wrote the
+        display image (fused), it wrote the surface pixels' radiance too (``run_lighting``)
+        and the background's is given as a uniform."""
+        m = self.matrices  # the frame's (no jitter in this mode)
+        self.gbaa.mark(self.gbuffer, self.gbaa.scissor(m.view, m.proj))
+        background = None
+        if not self._drawn.hdr:
+            hdr, background = self.lighting.hdr, self._drawn.background
+        self.gbaa.resolve(
+            self.gbuffer, hdr, self.post.target, self.scene.camera.exposure, background
+        )
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of
@@ -955,10 +1006,13 @@ class Renderer:
         if self.fused_display:
             exposure = self.scene.camera.exposure
             bg = tuple(float(x) for x in background)
-            target = self.post.display_target(self.gbuffer.zbuffer, bg, exposure)
+            # "gbaa" mixes the radiance at the silhouettes: the surfaces' is written too
+            hdr = self.lighting.hdr if self.gbaa is not None else None
+            target = self.post.display_target(self.gbuffer.zbuffer, bg, exposure, hdr)
             self.lighting.run_display(
-                self.gbuffer, camera, target, self.scene.render.tonemap, 2.0**exposure
-            )
+                self.gbuffer, camera, target, self.scene.render.tonemap, 2.0**exposure,
+                hdr is not None,
+            )  # fmt: skip
             self._drawn = _Drawn(camera, background, hdr=False, display=True)
             return
         self.lighting.run(self.gbuffer, camera, background)
@@ -1104,4 +1158,5 @@ SCHEDULE: tuple[Built, ...] = (
     Built("accumulate", Renderer._key_accumulate, Renderer._build_accumulate),
     Built("post", Renderer._key_post, Renderer._build_post),
     Built("fxaa", Renderer._key_fxaa, Renderer._build_fxaa),
+    Built("gbaa", Renderer._key_gbaa, Renderer._build_gbaa),
 )  # fmt: skip

@@ -56,6 +56,9 @@ struct AnalyticHit {
     vec2 uv_ddy;
     float view_depth;   // metres along the view axis
     float frag_depth;   // window depth for gl_FragDepth
+    // How far the ray passes inside the silhouette, r - |f| (object units; negative for a
+    // miss): smooth across the silhouette, zero on it (render.antialiasing = "gbaa").
+    float inside;
 };
 
 // d(u)/dx of a longitude coordinate u in [0, 1): across the seam u jumps by 1, so the
@@ -148,6 +151,8 @@ AnalyticHit analytic_surface() {
     h.uv_ddx = vec2(du.x, dFdx(v));
     h.uv_ddy = vec2(du.y, dFdy(v));
     h.view_depth = h.hit ? t : 0.0;
+    // r^2 - |f|^2 = (r - |f|)(r + |f|), divided by r + |f| without cancelling
+    h.inside = roots.z / (u_radius + sqrt(max(u_radius * u_radius - roots.z, 0.0)));
 #endif
     // Window depth of view depth z: ndc_z = (P22 (-z) + P32) / z, depth range [0, 1].
     h.frag_depth = clamp(0.5 * (-u_proj[2][2] + u_proj[3][2] / max(h.view_depth, 1e-30)) + 0.5,

@@ -2,6 +2,7 @@
 // The targets: app/common/gbuffer.py GBUFFER_TARGETS (docs/gbuffer.md).
 #include "common/encoding.glsl"
 #include "geometry/analytic.glsl"
+#include "geometry/edge.glsl"
 #include "material/layers.glsl"
 
 in vec3 v_normal;
@@ -14,6 +15,14 @@ in vec4 v_color;
 #if VERTEX_UV1
 in vec2 v_uv1;
 #endif
+#if GBUFFER_EDGE_GEOMETRY
+// The triangle's barycentric coordinates, linear in window space; which of its edges can
+// be a silhouette; the neighbours' far edges (passes/gbuffer_edge.geom)
+noperspective in vec3 v_edge_barycentric;
+flat in vec3 v_edge_kind;
+flat in vec3 v_edge_beyond[6];
+#endif
+
 
 // layout(location = i) out vecN g_<target>; of every target present, at the location
 // app/render/gbuffer.py binds it (app/common/gbuffer.py GBUFFER_TARGETS). With constant surfaces the
@@ -42,6 +51,41 @@ void main() {
     float view_depth = v_view_depth;
 #endif
     Layer l = m.layer;
+#if GBUFFER_EDGE && ANALYTIC
+    // The ray's distance inside the sphere's silhouette, r - |f|, is smooth across it:
+    // to first order its zero is the silhouette (the quad's helper lanes give the slope).
+    g_edge = edge_distances(hit.inside, vec2(dFdx(hit.inside), dFdy(hit.inside)));
+#elif GBUFFER_EDGE_GEOMETRY
+    // Each direction leaves the triangle through the edge nearest that way (each
+    // barycentric coordinate is linear in window space and zero on the edge opposite its
+    // vertex): a silhouette's distance is the answer, and past an inner edge the surface
+    // goes on, unless the neighbour beyond is the last before a smooth mesh's rim (a
+    // sliver on screen): then the way out of it through its far edges (window lines).
+    vec3 bx = dFdx(v_edge_barycentric), by = dFdy(v_edge_barycentric);
+    vec4 exits[3];
+    for (int j = 0; j < 3; ++j) exits[j] = edge_distances(v_edge_barycentric[j], vec2(bx[j], by[j]));
+    vec4 first = min(min(exits[0], exits[1]), exits[2]);
+    g_edge = vec4(EDGE_FAR);
+    for (int j = 0; j < 3; ++j) {
+        bvec4 through = equal(exits[j], first);
+        if (v_edge_kind[j] == EDGE_SILHOUETTE) g_edge = mix(g_edge, exits[j], through);
+    }
+    // one branch for the whole triangle: only blocks near a rim pay for it
+    if (any(equal(v_edge_kind, vec3(EDGE_RIM)))) {
+        for (int j = 0; j < 3; ++j) {
+            if (v_edge_kind[j] != EDGE_RIM) continue;
+            vec4 out_of = vec4(EDGE_FAR);
+            for (int e = 2 * j; e < 2 * j + 2; ++e) {
+                vec3 line = v_edge_beyond[e];
+                out_of = min(out_of, edge_distances(dot(line.xy, gl_FragCoord.xy) + line.z,
+                                                    line.xy));
+            }
+            g_edge = mix(g_edge, max(exits[j], out_of), equal(exits[j], first));
+        }
+    }
+#elif GBUFFER_EDGE
+    g_edge = vec4(EDGE_FAR);
+#endif
 #if GBUFFER_CONSTANT_SURFACES
     // The layer's constants, which the decode reads from the pixel's table row instead.
 #if GBUFFER_UNORM_DIRECTIONS

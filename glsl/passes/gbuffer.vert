@@ -1,6 +1,17 @@
 // G-buffer pass, vertex stage: object -> world -> clip. The bench's forward pass
 // (app/bench/forward.py) draws with it too, so both passes rasterise the same pixels
 // and interpolate the same view depth.
+#if GBUFFER_EDGE_GEOMETRY
+// A geometry stage follows (passes/gbuffer_edge.geom): it reads these outputs under the
+// vs_ names and passes them on to the fragment stage under their own.
+#define v_normal vs_normal
+#define v_uv vs_uv
+#define v_tangent vs_tangent
+#define v_view_depth vs_view_depth
+#define v_color vs_color
+#define v_uv1 vs_uv1
+out vec3 vs_view_position;   // the geometry stage's facing of each triangle
+#endif
 in vec3 in_position;
 in vec3 in_normal;
 in vec2 in_uv;
@@ -38,5 +49,8 @@ void main() {
     v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w * u_tangent_sign);   // tangents transform with the surface
     vec4 view = u_view * (u_model * vec4(in_position, 1.0));
     v_view_depth = -view.z;
+#if GBUFFER_EDGE_GEOMETRY
+    vs_view_position = view.xyz;
+#endif
     gl_Position = u_proj * view;
 }

@@ -23,7 +23,14 @@ uniform vec2 u_tan_half_fov;     // tan(fov_y/2) * aspect, tan(fov_y/2)
 uniform float u_exposure;   // linear scale, 2^EV
 #endif
 
+#if DISPLAY_OUT && defined(HDR_OUT)
+// The radiance as well, at the same pixels (render.antialiasing = "gbaa" mixes it at the
+// silhouettes: app/render/renderer.py, Renderer.run_lighting).
+layout(location = 0) out vec4 frag_color;
+layout(location = 1) out vec4 hdr_color;
+#else
 out vec4 frag_color;
+#endif
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -43,6 +50,9 @@ void main() {
     vec3 L = surface_radiance(tile, emission, sp);
 #if DISPLAY_OUT
     frag_color = vec4(srgb_encode(tonemap_selected(L * u_exposure)), 1.0);
+#ifdef HDR_OUT
+    hdr_color = vec4(L, 1.0);
+#endif
 #else
     frag_color = vec4(L, 1.0);
 #endif
