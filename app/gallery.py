@@ -8,6 +8,8 @@ repositories lay them out: ``NAME/glTF/NAME.gltf`` (or ``NAME/glTF-Binary/NAME.g
 in the folder is a model too, its reference ``NAME.png``/``.jpg`` beside it. Each model
 becomes one cell: this renderer's image on the left, the reference on the right (letterboxed
 into the same square), the model's name under both (docs/gltf.md, "Conformance gallery").
+A model that the view covers no pixel of (a flat model seen edge-on) is shown from
+``FALLBACK_VIEW`` instead, its label saying so.
 
 Every model is loaded, validated and rendered before the sheet is written, so a bad model
 or reference image is one ``InputError`` naming its file (exit 2) and no sheet.
@@ -42,6 +44,8 @@ REFERENCE_BYTES = 64 << 20  # a reference screenshot larger than this is refused
 REFERENCE_PIXELS = 64 << 20
 BACKDROP = (40, 40, 40)  # around a letterboxed reference, and where a model has none
 GUTTER = 4  # pixels between cells
+# The view of a model that the asked view does not see at all (a plane edge-on).
+FALLBACK_VIEW = "three-quarter"
 
 
 @dataclass(frozen=True)
@@ -130,13 +134,15 @@ def letterbox(image: np.ndarray, size: int) -> np.ndarray:
 
 def render_model(
     gl: GLContext, model: GalleryModel, size: int, look: Look, **policy: object
-) -> np.ndarray:
-    """``pbs render MODEL --size SIZExSIZE``'s image of ``model`` (H, W, 3) uint8."""
+) -> tuple[np.ndarray, bool]:
+    """``pbs render MODEL --size SIZExSIZE``'s image of ``model`` (H, W, 3) uint8, and
+    whether it covers any pixel (a flat model seen edge-on covers none)."""
     loaded = scene_from(model.model, look=look, size=(size, size), **policy)
     renderer = Renderer(gl, loaded, (size, size))
     try:
         renderer.render()
-        return np.ascontiguousarray(renderer.read_ldr()[..., :3])
+        image = np.ascontiguousarray(renderer.read_ldr()[..., :3])
+        return image, bool(renderer.read_gbuffer().covered.any())
     finally:
         renderer.release()
 
@@ -181,7 +187,14 @@ def render_gallery(
     ``policy``: ``scene_from``'s ``allow_paths`` and ``max_memory``."""
     references = [read_reference(m.reference) if m.reference else None for m in models]
     cells = []
+    look = look or Look()
     for model, reference in zip(models, references, strict=True):
-        rendered = render_model(gl, model, size, look or Look(), **policy)
-        cells.append((model.name, rendered, reference))
+        rendered, covered = render_model(gl, model, size, look, **policy)
+        name = model.name
+        if not covered and look.azimuth is None and look.elevation is None:
+            # a flat model the named view sees edge-on (TwoSidedPlane from the front)
+            seen = Look(FALLBACK_VIEW, camera=look.camera, env=look.env)
+            rendered, _ = render_model(gl, model, size, seen, **policy)
+            name = f"{name} ({FALLBACK_VIEW})"
+        cells.append((name, rendered, reference))
     return contact_sheet(cells, size, min(columns, len(cells)))
