@@ -50,6 +50,9 @@ LIGHTS = {
         type="spot", position=[-3.0, 0.0, 4.0], direction=[1.0, 0.0, -1.0], intensity=60.0,
         range=20.0, inner_angle=40.0, outer_angle=50.0, shadow=True,
     ),
+    "point": Light(
+        type="point", position=[-3.0, 0.0, 4.0], intensity=60.0, range=20.0, shadow=True
+    ),
 }  # fmt: skip
 
 
