@@ -285,6 +285,7 @@ def _parser() -> argparse.ArgumentParser:
         "OpenGL 3.3 context made on it. Exit 1 where EGL cannot enumerate devices.",
     )
     _textures_parser(sub)
+    _gallery_parser(sub)
     _walkthrough_parser(sub)
     view = sub.add_parser(
         "view",
@@ -573,6 +574,82 @@ def _context(args: argparse.Namespace) -> GLContext:
     from app.gl.context import create_context
 
     return create_context(args.backend, args.device, "--device")
+
+
+def _gallery_parser(sub: argparse._SubParsersAction) -> None:
+    gallery = sub.add_parser(
+        "gallery",
+        help="render a folder of sample models beside their reference screenshots into "
+        "one contact sheet PNG",
+        description="Each subfolder NAME of FOLDER is a model as the Khronos glTF sample "
+        "repositories lay them out (NAME/glTF/NAME.gltf, NAME/glTF-Binary/NAME.glb or "
+        "NAME/NAME.glb, its reference NAME/screenshot/screenshot.png or .jpg); a .gltf/.glb "
+        "in FOLDER itself is a model too (reference NAME.png beside it). Each is rendered "
+        "as 'pbs render MODEL --view front' would (no scene file) beside its reference, "
+        "labelled. A bad "
+        "model or reference exits 2 naming its file, and writes nothing. docs/gltf.md, "
+        "'Conformance gallery'.",
+    )
+    gallery.add_argument("folder", help="folder of sample models")
+    gallery.add_argument("-o", "--output", required=True, help="contact sheet PNG to write")
+    gallery.add_argument(
+        "--size",
+        type=_number(lambda v: 16 <= v <= 2048 and v == int(v), "an integer within 16..2048"),
+        default=256,
+        metavar="PIXELS",
+        help="each panel's side (default 256)",
+    )
+    gallery.add_argument(
+        "--columns",
+        type=_number(lambda v: 1 <= v <= 64 and v == int(v), "an integer within 1..64"),
+        default=3,
+        metavar="N",
+        help="models a row (default 3)",
+    )
+    _gl_backend(gallery)
+    _look_options(gallery)
+    gallery.set_defaults(view="front")  # the view of most Khronos reference screenshots
+    _input_options(gallery)
+    gallery.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+
+
+def cmd_gallery(args: argparse.Namespace) -> int:
+    """Render a folder of models beside their references into one sheet (app/gallery.py);
+    every model and reference is read before the sheet is written."""
+    from app.gallery import find_models, render_gallery
+
+    start = time.perf_counter()
+    out = Path(args.output)
+    if out.suffix.lower() != ".png":
+        raise InputError(str(out), "-o", "the output must be a .png file")
+    folder = Path(args.folder)
+    models = find_models(folder)
+    inputs = {m.model.resolve() for m in models} | {
+        m.reference.resolve() for m in models if m.reference is not None
+    }
+    _check_output(out, "-o", inputs)
+    look = _look(args)
+    gl = _context(args)
+    try:
+        with _silenced("pbs.scene", args.quiet):
+            sheet = render_gallery(
+                gl, models, int(args.size), int(args.columns), look,
+                allow_paths=args.allow_path, max_memory=args.max_memory,
+            )  # fmt: skip
+        described = gl.described
+    finally:
+        gl.release()
+    from app.output import write_png
+
+    _write(out, "-o", lambda p: write_png(p, sheet))
+    if not args.quiet:
+        h, w = sheet.shape[:2]
+        with_reference = sum(m.reference is not None for m in models)
+        print(
+            f"{out}: {w}x{h}, {len(models)} models ({with_reference} with a reference), "
+            f"{described}, {time.perf_counter() - start:.2f} s"
+        )
+    return 0
 
 
 def cmd_render(args: argparse.Namespace) -> int:
@@ -954,6 +1031,7 @@ def main(argv: list[str] | None = None) -> int:
         "brdf": cmd_brdf,
         "batch": cmd_batch,
         "textures": cmd_textures,
+        "gallery": cmd_gallery,
         "devices": cmd_devices,
         "walkthrough": cmd_walkthrough,
         "view": cmd_view,

@@ -37,7 +37,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("app.brdf", "app.assets", "app.batch"),
     ("app.walkthrough",),  # the classroom lesson: renders, plots, labels, handout
     ("app.viewer",),
-    ("app.bench",),  # it measures the viewer too
+    ("app.bench", "app.gallery"),  # the bench measures the viewer too
     ("app.cli", "app.screenshots"),
     ("app.__main__",),
 ]

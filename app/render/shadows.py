@@ -21,6 +21,14 @@ subdivisions 0.11 % of the radius (measured; docs/shadows.md), so its shadow is 
 much smaller. Alpha-masked parts cast the shadow of their whole surface; blended parts
 cast none.
 
+Sides. A single-sided surface (a glTF material without ``doubleSided``, a closed
+primitive) casts only with the faces that face the light: the camera pass culls its back
+faces, so a surface invisible from one side also lets through the light arriving from
+that side (``cull_back_faces``; docs/shadows.md, "Single-sided surfaces"). A closed mesh's
+map is unchanged by this (its nearest surface seen from outside is a front face); an open
+single-sided one (TextureSettingsTest's reversed panel) no longer shadows what the camera
+sees through it. Two-sided parts and analytic proxies cast with both sides.
+
 Culling. A map is rendered only once its light is culled in: its reach (``light_bounds``)
 meets the camera's frustum (``culled_in``); a light outside lights no visible point.
 
@@ -333,6 +341,25 @@ def culled_in(light: PunctualLight, view_proj: np.ndarray) -> bool:
     return bool(np.all(distances >= -radius))
 
 
+def cull_back_faces(part: MeshPart) -> bool:
+    """Whether ``part`` casts only with the faces that face the light: a single-sided mesh
+    (``closed``: the camera pass culls its back faces), not an analytic primitive's proxy
+    (whose sphere casts whole)."""
+    return part.closed and part.analytic is None
+
+
+def set_sides(ctx: moderngl.Context, part: MeshPart) -> None:
+    """The face culling ``part`` casts with (``cull_back_faces``), its winding reversed
+    where its model matrix mirrors, as in the camera pass (``MeshDrawable.cull``)."""
+    if cull_back_faces(part):
+        mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
+        ctx.front_face = "cw" if mirrored else "ccw"
+        ctx.cull_face = "back"
+        ctx.enable(moderngl.CULL_FACE)
+    else:
+        ctx.disable(moderngl.CULL_FACE)
+
+
 class _Caster:
     """One part's triangles for the shadow pass: positions only."""
 
@@ -342,9 +369,11 @@ class _Caster:
         self.ibo = ctx.buffer(np.ascontiguousarray(indices, np.uint32).tobytes())
         self.vao = ctx.vertex_array(prog, [(self.vbo, "3f 36x", "in_position")], self.ibo, 4)
         self.model = gl_bytes(part.model)
+        self.ctx, self.part = ctx, part
 
     def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
         """Draw into the bound map; ``prog`` (the pass's) already has ``light_matrix``."""
+        set_sides(self.ctx, self.part)
         prog["u_model"].write(self.model)
         self.vao.render(moderngl.TRIANGLES)
 
@@ -374,10 +403,12 @@ class _MaskedCaster:
         self.drawable = MeshDrawable(
             ctx, shaders, shown, [0], ("passes/gbuffer.vert", "passes/shadow_mask.frag")
         )
+        self.ctx = ctx
 
     def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
         """Draw into the bound map with its own program (``prog`` is the pass's)."""
         d = self.drawable
+        set_sides(self.ctx, d.part)
         d.bind_transform(_IDENTITY, light_matrix)
         d.bind_material()
         d.vao.render(moderngl.TRIANGLES)
@@ -568,7 +599,7 @@ class ShadowPass(ShaderInput):
             return
         ctx = self.ctx
         self.fbo.use()
-        ctx.enable_only(moderngl.DEPTH_TEST)  # two-sided: planes and open meshes cast
+        ctx.enable_only(moderngl.DEPTH_TEST)  # each caster sets its sides (set_sides)
         ctx.depth_func = "<"
         if not self._cleared:
             self.fbo.clear(depth=1.0)
@@ -585,6 +616,8 @@ class ShadowPass(ShaderInput):
             self.rendered.add(k)
             self.maps_rendered += 1
         ctx.polygon_offset = (0.0, 0.0)
+        ctx.disable(moderngl.CULL_FACE)
+        ctx.front_face = "ccw"
 
     def samplers(self) -> list[tuple[str, moderngl.Texture]]:
         return [("u_shadow_atlas", self.atlas)]

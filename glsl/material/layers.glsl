@@ -192,7 +192,12 @@ struct MaterialSample {
 };
 
 // `normal` and `tangent` (xyz along +u, w = handedness) are the interpolated vertex frame
-// in world space; back faces of two-sided surfaces flip the normal towards the viewer.
+// in world space; back faces of two-sided surfaces reverse the shading normals towards the
+// viewer (glTF 2.0 material.doubleSided: "The back-face must have its normals reversed").
+// The normal maps and the anisotropy direction are applied in the front face's frame and
+// the mapped normals then reversed whole: reversing only the geometric normal first would
+// also reverse the frame's bitangent cross(ng, t) but not t, so a back face would show the
+// map's tilt along t mirrored and its anisotropy turned the other way.
 MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_facing) {
     Layer l = read_layer(u_layer0, 0, LAYER0_MAPS, uv, u_base_color_map0, u_metallic_map0,
                          u_anisotropy_map0, u_normal_roughness_map0, u_f0_map0);
@@ -216,7 +221,8 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     if (sample_layer_map(u_select_map0, uv, u_layer0.uv_scale, 0, MAP_INDEX_SELECT).r >= 0.5)
         id = u_material_id1;
 #endif
-    vec3 ng = normalize(front_facing ? normal : -normal);
+    float side = front_facing ? 1.0 : -1.0;
+    vec3 ng = normalize(normal);
     float t_len = length(tangent.xyz);
     vec3 t = t_len > 0.0 ? tangent.xyz / t_len : vec3(0.0);
     vec3 n = ng;
@@ -254,6 +260,8 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     l.perceptual_roughness = perceptual_roughness_specular_aa(
         l.perceptual_roughness, dFdx(n), dFdy(n), u_specular_aa.x, u_specular_aa.y);
 #endif
+    n *= side;
+    nc *= side;
     return MaterialSample(l, n, nc, t_len > 0.0 ? t : n, id);
 }
 
