@@ -86,16 +86,16 @@ def _input_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _look_options(parser: argparse.ArgumentParser) -> None:
+def _look_options(parser: argparse.ArgumentParser, view: str = "three-quarter") -> None:
     """How a model file (or a scene file without camera or lights) is shown
-    (app/scene/model_file.py, docs/scene-format.md)."""
+    (app/scene/model_file.py, docs/scene-format.md); ``view`` the default view."""
     from app.scene.look import VIEWS
 
     parser.add_argument(
         "--view",
         choices=tuple(VIEWS),
-        default="three-quarter",
-        help="a model file's view: the camera's direction (default three-quarter)",
+        default=view,
+        help=f"a model file's view: the camera's direction (default {view})",
     )
     parser.add_argument(
         "--azimuth",
@@ -607,8 +607,7 @@ def _gallery_parser(sub: argparse._SubParsersAction) -> None:
         help="models a row (default 3)",
     )
     _gl_backend(gallery)
-    _look_options(gallery)
-    gallery.set_defaults(view="front")  # the view of most Khronos reference screenshots
+    _look_options(gallery, view="front")  # the view of most Khronos reference screenshots
     _input_options(gallery)
     gallery.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
 
