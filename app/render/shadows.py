@@ -343,10 +343,10 @@ def culled_in(light: PunctualLight, view_proj: np.ndarray) -> bool:
 # depth once (0 or 1; docs/shadows.md, "Hardware PCF, where it is exact").
 # The probe: a 2 x 2 DEPTH24 texture (rows y, columns x) sampled at texel positions whose
 # bilinear fractions are no multiples of 1/256 (a filter with 8-bit weights misses by up
-# to 2e-3), each against the three reference depths.
+# to 2e-3), each against four reference depths.
 PROBE_DEPTHS = np.array([[0.2, 0.6], [0.4, 0.8]])
 PROBE_POSITIONS = ((0.8, 1.2), (1.2, 0.6), (0.55, 1.35))  # texel i's centre at i + 0.5
-PROBE_REFERENCES = (0.3, 0.5, 0.7)
+PROBE_REFERENCES = (0.3, 0.45, 0.55, 0.7)
 # The largest difference from the weighted average that counts as exact: float32 weights
 # (a coordinate of 1.2 / 2 rounds to 6e-8 of a texel) are well inside it, 8-bit ones not.
 PCF_PROBE_TOLERANCE = 1e-5
