@@ -24,6 +24,11 @@ cast none.
 Culling. A map is rendered only once its light is culled in: its reach (``light_bounds``)
 meets the camera's frustum (``culled_in``); a light outside lights no visible point.
 
+Lookup. Where no map uses PCSS and this GL's LINEAR depth comparison is the weighted
+2 x 2 average (``probe_hardware_pcf``, once per GL per process; softpipe's is not), the
+atlas has compare mode and the PCF takes four hardware comparisons; otherwise texel reads
+(``ShadowPass.hardware_pcf``; docs/shadows.md, "Hardware PCF, where it is exact").
+
 Bias. The pass offsets depth by glPolygonOffset(slope, 1): ``slope`` times the triangle's
 depth slope plus one depth unit (the slope-scaled bias); the lighting pass moves the
 shaded point along its normal by ``normal_offset`` shadow texels (normal offset). Both
