@@ -5,10 +5,11 @@ what only llvmpipe does (its read-back waits, its float rounding, its limits) sh
 Mesa chooses its driver once per process from the environment, so each driver's subset
 runs in a child process with that environment: existing tests in a child pytest (context
 creation, the G-buffer targets written and read back, the encodings' round trip through
-real targets, the lighting and post passes against their float64 twins), the bench's tiny
-mode, and, on softpipe, the refusal of "sraa", which needs multisampling it does not have.
-Each child names the GL_RENDERER it ran on (tests/gl_renderer_header.py, the bench's
-bench.json), and the test fails where the override fell back to another driver.
+real targets, the lighting and post passes against their float64 twins, the shadow PCF
+probe's verdict), the bench's tiny mode, and, on softpipe, the refusal of "sraa", which
+needs multisampling it does not have. Each child names the GL_RENDERER it ran on
+(tests/gl_renderer_header.py, the bench's bench.json), and the test fails where the
+override fell back to another driver.
 """
 
 from __future__ import annotations
@@ -64,8 +65,8 @@ MESA_EGL_VENDORS = sorted(Path("/usr/share/glvnd/egl_vendor.d").glob("*mesa*.jso
 
 def subset(backends: tuple[str, ...]) -> list[str]:
     """The node ids of the subset: every G-buffer layout's targets written and read back,
-    each encoding's round trip through a real target (per backend), and the lighting and
-    post passes against their twins on a small image."""
+    each encoding's round trip through a real target (per backend), the lighting and
+    post passes against their twins on a small image, and the shadow PCF probe."""
     return [
         "tests/test_gbuffer_layout.py::test_generated_declarations_write_and_sample_each_target",
         "tests/test_gbuffer_layout.py::test_read_fills_every_field",
