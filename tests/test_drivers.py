@@ -5,10 +5,11 @@ what only llvmpipe does (its read-back waits, its float rounding, its limits) sh
 Mesa chooses its driver once per process from the environment, so each driver's subset
 runs in a child process with that environment: existing tests in a child pytest (context
 creation, the G-buffer targets written and read back, the encodings' round trip through
-real targets, the lighting and post passes against their float64 twins), the bench's tiny
-mode, and, on softpipe, the refusal of "sraa", which needs multisampling it does not have.
-Each child names the GL_RENDERER it ran on (tests/gl_renderer_header.py, the bench's
-bench.json), and the test fails where the override fell back to another driver.
+real targets, the lighting and post passes against their float64 twins, the shadow PCF
+probe's verdict), the bench's tiny mode, and, on softpipe, the refusal of "sraa", which
+needs multisampling it does not have. Each child names the GL_RENDERER it ran on
+(tests/gl_renderer_header.py, the bench's bench.json), and the test fails where the
+override fell back to another driver.
 """
 
 from __future__ import annotations
@@ -21,12 +22,14 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import moderngl
 import numpy as np
 import pytest
 
 from app.reference.illumination import shade_gbuffer
 from app.reference.tonemap import post_process
 from app.render.renderer import Renderer
+from app.render.shadows import measure_pcf, probe_hardware_pcf
 from app.scene.loader import LoadedScene, load_scene
 from tests.gl_renderer_header import HEADER
 from tests.test_reference_agreement import MAX_REL_ERR, interior
@@ -62,8 +65,8 @@ MESA_EGL_VENDORS = sorted(Path("/usr/share/glvnd/egl_vendor.d").glob("*mesa*.jso
 
 def subset(backends: tuple[str, ...]) -> list[str]:
     """The node ids of the subset: every G-buffer layout's targets written and read back,
-    each encoding's round trip through a real target (per backend), and the lighting and
-    post passes against their twins on a small image."""
+    each encoding's round trip through a real target (per backend), the lighting and
+    post passes against their twins on a small image, and the shadow PCF probe."""
     return [
         "tests/test_gbuffer_layout.py::test_generated_declarations_write_and_sample_each_target",
         "tests/test_gbuffer_layout.py::test_read_fills_every_field",
@@ -74,6 +77,7 @@ def subset(backends: tuple[str, ...]) -> list[str]:
             for storage in ("f32", "unorm16", "f16")
         ),
         "tests/test_drivers.py::test_lighting_and_post_match_their_twins_on_a_small_image",
+        "tests/test_drivers.py::test_the_pcf_probe_names_the_drivers_depth_comparison",
     ]
 
 
@@ -117,6 +121,27 @@ def test_lighting_and_post_match_their_twins_on_a_small_image(gl_egl, scene: str
     camera = loaded.scene.camera
     expected = post_process(hdr, camera.exposure, loaded.scene.render.tonemap) * 255.0
     assert np.abs(ldr.astype(np.float64) - expected).max() <= 1.0
+
+
+# What each driver's LINEAR depth comparison computes (app/render/shadows.py
+# probe_models), measured: the weighted 2 x 2 average (the lookup's hardware comparisons
+# are exact: SHADOW_COMPARE), or softpipe's comparison of the filtered depth (the lookup
+# reads texels instead; docs/shadows.md).
+PCF_BEHAVIOUR = {"llvmpipe": "weighted", "softpipe": "filtered depth", "zink": "weighted"}
+
+
+def test_the_pcf_probe_names_the_drivers_depth_comparison(gl_egl) -> None:
+    """The probe that chooses the shadow lookup's path finds this driver's LINEAR depth
+    comparison as measured (``PCF_BEHAVIOUR``; on a GL not listed, only that its verdict
+    is "exact" for the weighted average alone), and a NEAREST-filtered comparison, which
+    any GL makes, not exact."""
+    probe = probe_hardware_pcf(gl_egl.ctx)
+    name = next((k for k in PCF_BEHAVIOUR if gl_egl.renderer.startswith(k)), None)
+    if name is not None:
+        assert probe.behaviour == PCF_BEHAVIOUR[name], probe
+    assert probe.exact == (probe.behaviour == "weighted"), probe
+    nearest = measure_pcf(gl_egl.ctx, moderngl.NEAREST)
+    assert nearest.behaviour == "nearest" and not nearest.exact, nearest
 
 
 # Mesa's driver choices, dropped from this process's environment before a driver's own.
@@ -183,6 +208,7 @@ def test_the_bench_tiny_mode_runs_on_the_driver(driver: Driver, tmp_path: Path) 
     rows = data["rows"]
     assert {(r["suite"], r["width"]) for r in rows} == {("resolution", 160), ("resolution", 320)}
     assert all(np.isfinite(r["ms_median"]) and r["ms_median"] > 0.0 for r in rows), rows
+    assert data["machine"]["shadow_pcf"]["behaviour"] == PCF_BEHAVIOUR[driver.name]
 
 
 SRAA_SCENE = """

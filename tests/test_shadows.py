@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
+import moderngl
 import numpy as np
 import pytest
 
@@ -30,7 +31,14 @@ from app.reference.raycast import (
 )
 from app.reference.shadows import light_visibilities
 from app.render.renderer import Renderer
-from app.render.shadows import atlas_layout, check_shadow_resolutions, culled_in, light_bounds
+from app.render.shadows import (
+    HARDWARE_PCF_ENV,
+    atlas_layout,
+    check_shadow_resolutions,
+    culled_in,
+    hardware_pcf,
+    light_bounds,
+)
 from app.scene.loader import LoadedScene, load_scene, parse_scene
 
 REPO = Path(__file__).resolve().parent.parent
@@ -624,6 +632,37 @@ def test_the_pcf_atlas_is_read_with_its_compare_mode(gl_egl):
     covered = g.depth > 0.0
     rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * ref[covered].max())
     assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"
+
+
+def test_the_texel_reads_taken_without_exact_hardware_pcf_match_the_twin(gl_egl, monkeypatch):
+    """The path a GL whose LINEAR comparison is not the weighted 2 x 2 average takes
+    (softpipe's, docs/shadows.md), forced here with PBS_HARDWARE_PCF=0: the atlas without
+    compare mode, read with texelFetch (no SHADOW_COMPARE), and the image the twin's."""
+    monkeypatch.setenv(HARDWARE_PCF_ENV, "0")
+    scene = loaded(scene_data([FLOOR, *SPHERES], dict(SPOT, shadow=True)))
+    r = Renderer(gl_egl, scene)
+    try:
+        r.render()
+        assert not r.shadows.hardware_pcf and "SHADOW_COMPARE" not in r.shadows.defines()
+        assert r.shadows.atlas.filter == (moderngl.NEAREST, moderngl.NEAREST)
+        hdr, g, maps = r.read_hdr().astype(np.float64), r.read_gbuffer(), r.shadows.read()
+    finally:
+        r.release()
+    ref = shade_gbuffer(
+        g, r.camera, r.lights, scene.scene.background, r.materials.models,
+        r.materials.packed(), shadows=maps,
+    )  # fmt: skip
+    covered = g.depth > 0.0
+    d = decode_gbuffer(g, r.camera)
+    assert (light_visibilities(maps, r.lights, d.p, d.n)[0] < 0.5).sum() > 100  # shadowed
+    rel = np.abs(hdr - ref)[covered] / np.maximum(ref[covered], 1e-3 * ref[covered].max())
+    assert rel.max() <= TWIN_MAX_REL_ERR, f"max relative error {rel.max():.2e}"
+
+
+def test_a_hardware_pcf_override_other_than_0_or_1_is_refused(gl_egl, monkeypatch):
+    monkeypatch.setenv(HARDWARE_PCF_ENV, "yes")
+    with pytest.raises(InputError, match="PBS_HARDWARE_PCF=yes: expected 0 or 1"):
+        hardware_pcf(gl_egl.ctx)
 
 
 def test_shadowed_lights_past_the_unrolled_steps_match_the_twin(gl_egl):

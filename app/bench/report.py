@@ -22,13 +22,14 @@ import platform
 import subprocess
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
 from app.bench.startup import BAD_SCENE, HELP
 from app.gl.context import GLContext
 from app.output import atomic_write
+from app.render.shadows import hardware_pcf, probe_hardware_pcf
 
 CULLED_FLOOR_MAX = 1.5
 UNCULLED_SPEEDUP_MIN = 8.0
@@ -108,6 +109,8 @@ def machine_info(gl: GLContext, timer: str, mode: str) -> dict:
         "gl_renderer": str(info.get("GL_RENDERER")),
         "gl_version": str(info.get("GL_VERSION")),
         "gl_vendor": str(info.get("GL_VENDOR")),
+        # the shadow lookup's path (hardware comparisons or texel reads) and why
+        "shadow_pcf": {**asdict(probe_hardware_pcf(gl.ctx)), "hardware": hardware_pcf(gl.ctx)},
         "lp_num_threads": os.environ.get("LP_NUM_THREADS", "default (one per core)"),
         "pass_timer": timer,
         "python": sys.version.split()[0],

@@ -32,6 +32,11 @@ sees through it. Two-sided parts and analytic proxies cast with both sides.
 Culling. A map is rendered only once its light is culled in: its reach (``light_bounds``)
 meets the camera's frustum (``culled_in``); a light outside lights no visible point.
 
+Lookup. Where no map uses PCSS and this GL's LINEAR depth comparison is the weighted
+2 x 2 average (``probe_hardware_pcf``, once per GL per process; softpipe's is not), the
+atlas has compare mode and the PCF takes four hardware comparisons; otherwise texel reads
+(``ShadowPass.hardware_pcf``; docs/shadows.md, "Hardware PCF, where it is exact").
+
 Bias. The pass offsets depth by glPolygonOffset(slope, 1): ``slope`` times the triangle's
 depth slope plus one depth unit (the slope-scaled bias); the lighting pass moves the
 shaded point along its normal by ``normal_offset`` shadow texels (normal offset). Both
@@ -43,6 +48,8 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import os
+import time
 
 import moderngl
 import numpy as np
@@ -51,7 +58,7 @@ from app.common.lights import LightType, PunctualLight
 from app.errors import InputError
 from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
-from app.gl.shaders import ShaderCache
+from app.gl.shaders import ShaderCache, assemble
 from app.reference.shadows import ShadowMaps
 from app.render.inputs import SHADOWS, ShaderInput
 from app.render.limits import max_dimension
@@ -360,6 +367,128 @@ def set_sides(ctx: moderngl.Context, part: MeshPart) -> None:
         ctx.disable(moderngl.CULL_FACE)
 
 
+# The hardware PCF probe. OpenGL leaves LINEAR depth-comparison filtering to the
+# implementation (OpenGL 4.6 core sec. 8.23.1: r from the 2 x 2 comparisons "in an
+# implementation-dependent manner", a weighted average recommended); the lookup's four
+# hardware comparisons (SHADOW_COMPARE) equal its 16 texel reads, and the float64 twin,
+# only where it is that average. softpipe filters the depths and compares the filtered
+# depth once (0 or 1; docs/shadows.md, "Hardware PCF, where it is exact").
+# The probe: a 2 x 2 DEPTH24 texture (rows y, columns x) sampled at texel positions whose
+# bilinear fractions are no multiples of 1/256 (a filter with 8-bit weights misses by up
+# to 2e-3), each against four reference depths.
+PROBE_DEPTHS = np.array([[0.2, 0.6], [0.4, 0.8]])
+PROBE_POSITIONS = ((0.8, 1.2), (1.2, 0.6), (0.55, 1.35))  # texel i's centre at i + 0.5
+PROBE_REFERENCES = (0.3, 0.45, 0.55, 0.7)
+# The largest difference from the weighted average that counts as exact: float32 weights
+# (a coordinate of 1.2 / 2 rounds to 6e-8 of a texel) are well inside it, 8-bit ones not.
+PCF_PROBE_TOLERANCE = 1e-5
+# Set to 0 or 1, the lookup's path without the probe: 1 the hardware comparisons, 0 the
+# 16 texel reads (tests; a GPU whose PCF is not exact but good enough to look at).
+HARDWARE_PCF_ENV = "PBS_HARDWARE_PCF"
+
+
+def probe_models() -> dict[str, np.ndarray]:
+    """What each known implementation of a LINEAR comparison (``<=``) returns at the
+    probe's points (``PROBE_POSITIONS`` x ``PROBE_REFERENCES``, positions outer): the
+    bilinearly weighted average of the four comparisons (what the lookup needs), the
+    comparison of the bilinearly filtered depth (softpipe), the nearest texel's comparison
+    (a NEAREST-only compare)."""
+    out: dict[str, list[float]] = {"weighted": [], "filtered depth": [], "nearest": []}
+    d = PROBE_DEPTHS
+    for x, y in PROBE_POSITIONS:
+        fx, fy = x - 0.5, y - 0.5  # both texels 0 and 1 in range: no edge clamp
+        w = np.array([[(1 - fx) * (1 - fy), fx * (1 - fy)], [(1 - fx) * fy, fx * fy]])
+        for z in PROBE_REFERENCES:
+            out["weighted"].append(float((w * (z <= d)).sum()))
+            out["filtered depth"].append(float(z <= (w * d).sum()))
+            out["nearest"].append(float(z <= d[int(y), int(x)]))
+    return {name: np.array(v) for name, v in out.items()}
+
+
+@dataclasses.dataclass(frozen=True)
+class PcfProbe:
+    """What a GL's LINEAR depth comparison measured: ``exact`` where it is the weighted
+    2 x 2 average within ``PCF_PROBE_TOLERANCE`` at every probe point; ``behaviour`` the
+    model of ``probe_models`` it matches ("other" where none does); ``max_error`` its
+    largest difference from the weighted average; ``seconds`` the probe's wall time (its
+    first run in the process: later renderers reuse it)."""
+
+    exact: bool
+    behaviour: str
+    max_error: float
+    seconds: float
+
+
+# Per GL (vendor, renderer, version): Mesa chooses its driver once per process, so one
+# probe serves every context of the process.
+_PCF_PROBES: dict[tuple[str, str, str], PcfProbe] = {}
+
+
+def probe_hardware_pcf(ctx: moderngl.Context) -> PcfProbe:
+    """Measure (once per GL per process) whether ``ctx``'s LINEAR comparison is the
+    weighted 2 x 2 average: one draw of ``len(PROBE_POSITIONS) * len(PROBE_REFERENCES)``
+    pixels, each a ``texture()`` of a sampler2DShadow (glsl/passes/shadow_probe.frag) on a
+    texture set up as the atlas is (DEPTH24, ``<=``, LINEAR, clamped to its edge)."""
+    info = ctx.info
+    key = (str(info.get("GL_VENDOR")), str(info.get("GL_RENDERER")), str(info.get("GL_VERSION")))
+    known = _PCF_PROBES.get(key)
+    if known is None:
+        known = _PCF_PROBES[key] = measure_pcf(ctx)
+    return known
+
+
+def measure_pcf(ctx: moderngl.Context, texture_filter: int = moderngl.LINEAR) -> PcfProbe:
+    """``probe_hardware_pcf``'s draw and verdict, uncached; ``texture_filter`` the probe
+    texture's (``moderngl.NEAREST`` makes any GL a nearest-only compare: the probe's own
+    test)."""
+    start = time.perf_counter()
+    models = probe_models()
+    n = len(models["weighted"])
+    size = PROBE_DEPTHS.shape[1], PROBE_DEPTHS.shape[0]
+    depth = ctx.depth_texture(size, PROBE_DEPTHS.astype(np.float32).tobytes())
+    depth.compare_func = "<="
+    depth.filter = (texture_filter, texture_filter)
+    depth.repeat_x = depth.repeat_y = False
+    target = ctx.texture((n, 1), 4, dtype="f4")
+    fbo = ctx.framebuffer(color_attachments=[target])
+    prog = ctx.program(
+        vertex_shader=assemble("passes/fullscreen.vert"),
+        fragment_shader=assemble("passes/shadow_probe.frag", {"PROBE_POINTS": n}),
+    )
+    vao = ctx.vertex_array(prog, [])
+    points = [(x / size[0], y / size[1], z) for x, y in PROBE_POSITIONS for z in PROBE_REFERENCES]
+    prog["u_probe"].write(np.asarray(points, np.float32).tobytes())
+    try:
+        fbo.use()
+        ctx.viewport = (0, 0, n, 1)
+        depth.use(0)
+        prog["u_depth"].value = 0
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        wait_before_read(ctx)
+        got = np.frombuffer(target.read(), np.float32).reshape(n, 4)[:, 0].astype(np.float64)
+    finally:
+        for obj in (vao, prog, fbo, target, depth):
+            obj.release()
+    errors = {name: float(np.abs(got - want).max()) for name, want in models.items()}
+    behaviour = min(errors, key=errors.__getitem__)
+    if errors[behaviour] > PCF_PROBE_TOLERANCE:
+        behaviour = "other"
+    exact = errors["weighted"] <= PCF_PROBE_TOLERANCE
+    return PcfProbe(exact, behaviour, errors["weighted"], time.perf_counter() - start)
+
+
+def hardware_pcf(ctx: moderngl.Context) -> bool:
+    """Whether the PCF lookup takes the hardware comparisons (SHADOW_COMPARE) on ``ctx``:
+    ``PBS_HARDWARE_PCF`` (0 or 1) where set, else the probe's verdict (exact or not)."""
+    text = os.environ.get(HARDWARE_PCF_ENV, "").strip()
+    if text in ("0", "1"):
+        return text == "1"
+    if text:
+        raise InputError(f"{HARDWARE_PCF_ENV}={text}", "", "expected 0 or 1 (unset: probe)")
+    return probe_hardware_pcf(ctx).exact
+
+
 class _Caster:
     """One part's triangles for the shadow pass: positions only."""
 
@@ -488,13 +617,18 @@ class ShadowPass(ShaderInput):
         # per shadowed light: its index and first map (glsl/lights/shadows.glsl u_shadowed)
         self.shadowed = [(i, self.lights.index(i)) for i in dict.fromkeys(self.lights)]
         self._pack_uniforms()
+        # The lookup's path: sampler2DShadow, a bilinear 2 x 2 comparison per lookup
+        # (SHADOW_COMPARE), where no map uses PCSS (its blocker search reads depths) and
+        # this GL's LINEAR comparison is the weighted average (``hardware_pcf``); else
+        # texelFetch, the comparisons in the shader.
+        self.hardware_pcf = not self.has_pcss and hardware_pcf(ctx)
         self.atlas = ctx.depth_texture((width, height))
-        if self.has_pcss:  # PCSS's blocker search reads depths: shadow_test compares
-            self.atlas.compare_func = ""
-            self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        else:  # sampler2DShadow: a bilinear 2 x 2 comparison per lookup (SHADOW_COMPARE)
+        if self.hardware_pcf:
             self.atlas.compare_func = "<="
             self.atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        else:
+            self.atlas.compare_func = ""
+            self.atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.atlas.repeat_x = self.atlas.repeat_y = False
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
         self.prog = shaders.program("passes/shadow.vert", "passes/shadow.frag", {})
@@ -519,9 +653,9 @@ class ShadowPass(ShaderInput):
         """The lighting and blend programs' defines: SHADOWS (maps) and SHADOW_LIGHTS
         (shadowed lights), the first SHADOW_UNROLLED lights' projection and filter
         (SHADOW_PROJ_j, SHADOW_FILTER_j: their lookup steps compile only their own kind),
-        SHADOW_PCSS only where a map uses PCSS, else SHADOW_COMPARE (the atlas read through
-        sampler2DShadow), and SHADOW_CASCADES only where a light has cascades (a scene
-        without compiles as before they existed)."""
+        SHADOW_PCSS only where a map uses PCSS, SHADOW_COMPARE where the atlas is read
+        through sampler2DShadow (``hardware_pcf``), and SHADOW_CASCADES only where a light
+        has cascades (a scene without compiles as before they existed)."""
         defines = {"SHADOWS": self.count, "SHADOW_LIGHTS": len(self.shadowed)}
         # the first SHADOW_UNROLLED lights' projection and filter, compiled into their steps
         for j, (_, k) in enumerate(self.shadowed[:SHADOW_UNROLLED]):
@@ -529,7 +663,7 @@ class ShadowPass(ShaderInput):
             defines[f"SHADOW_FILTER_{j}"] = int(self.rects[k][3])
         if self.has_pcss:
             defines["SHADOW_PCSS"] = 1
-        else:
+        if self.hardware_pcf:
             defines["SHADOW_COMPARE"] = 1
         if self._cascaded:
             defines["SHADOW_CASCADES"] = 1
