@@ -68,16 +68,25 @@ def _loaded(request: dict):
 
 
 def _build(request: dict):
+    return scene_of(_loaded(request), request["size"])
+
+
+def scene_of(loaded, size):
+    """The pyrender scene of a loaded scene at ``size``: (scene, lights dropped, lights
+    per type, camera node). Also the pyrender peer's (app/bench/peer_child.py)."""
     import numpy as np
     import pyrender
 
     from app.frame.camera import view_matrix
     from app.scene.geometry import build_parts
 
-    loaded = _loaded(request)
     scene_model = loaded.scene
-    w, h = request["size"]
-    scene = pyrender.Scene(ambient_light=[0.0, 0.0, 0.0], bg_color=[*scene_model.background, 1.0])
+    w, h = size
+    from app.reference.tonemap import srgb_encode
+
+    # glClearColor's value is the display's: the linear background encoded
+    background = srgb_encode(np.asarray(scene_model.background, np.float64))
+    scene = pyrender.Scene(ambient_light=[0.0, 0.0, 0.0], bg_color=[*background, 1.0])
     for part in build_parts(loaded):
         v, indices = part.triangles()  # an analytic sphere as the icosphere it replaced
         m = part.material
@@ -95,25 +104,28 @@ def _build(request: dict):
         scene.add(pyrender.Mesh([primitive]), pose=part.model)
     kinds = {"point": 0, "spot": 0, "directional": 0}
     for light in scene_model.lights:
+        # pbs's intensity is c_light, RTR4 eq. 9.13's L = pi f c_light (n.l); pyrender's
+        # radiance is f I (n.l) (glTF's punctual lights): I = pi c_light
+        intensity = math.pi * light.intensity
         kinds[light.type] += 1
         colour = list(light.color)
         if light.type == "point":
             pose = np.eye(4)
             pose[:3, 3] = light.position
-            node = pyrender.PointLight(colour, light.intensity, light.effective_range)
+            node = pyrender.PointLight(colour, intensity, light.effective_range)
         elif light.type == "spot":
             inner, outer = light.cone
             pose = _spot_pose(light.position, light.direction)
             node = pyrender.SpotLight(
                 colour,
-                light.intensity,
+                intensity,
                 light.effective_range,
                 innerConeAngle=math.radians(inner),
                 outerConeAngle=math.radians(outer),
             )
         else:
             pose = _spot_pose([0.0, 0.0, 0.0], light.direction)
-            node = pyrender.DirectionalLight(colour, light.intensity)
+            node = pyrender.DirectionalLight(colour, intensity)
         scene.add(node, pose=pose)
     cam = scene_model.camera
     camera = pyrender.PerspectiveCamera(
