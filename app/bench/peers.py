@@ -92,10 +92,9 @@ def peers_scene(lights: int, size: tuple[int, int]) -> dict:
         "render": {"width": size[0], "height": size[1], "tonemap": "linear"},
         "materials": materials,
         "lights": [
-            {"type": "point", "position": p, "intensity": TOTAL_INTENSITY / lights,
-             "range": 100.0}
+            {"type": "point", "position": p, "intensity": TOTAL_INTENSITY / lights, "range": 100.0}
             for p in _light_positions(lights)
-        ],  # fmt: skip
+        ],
         "objects": objects,
     }
 
@@ -116,7 +115,7 @@ class PeerChild:
     def __init__(self, peer: str, data: dict, size: tuple[int, int], image: Path) -> None:
         request = {"peer": peer, "scene": data, "size": list(size), "image": str(image)}
         self.peer = peer
-        self.log = tempfile.TemporaryFile()
+        self.log = tempfile.TemporaryFile()  # noqa: SIM115 (the child's stderr; close())
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "app.bench.peer_child"], stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, stderr=self.log, text=True, env=child_env(),
@@ -228,8 +227,8 @@ def peers_tasks(settings) -> int:
 def run_peers(ctx: Context, peers: tuple[str, ...] = PEER_NAMES) -> None:
     """Suite ``peers`` (module docstring): per light count, a row for pbs and one per peer."""
     from app.bench.scenes import load
-    from app.render.renderer import Renderer
     from app.reference.tonemap import srgb_encode
+    from app.render.renderer import Renderer
 
     mode = ctx.settings.mode
     size = SIZES.get(mode, SIZES["full"])
