@@ -15,6 +15,8 @@ VENV="$ROOT/.venv"
 
 APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth xdotool
               fonts-noto-cjk fontconfig chromium)
+# pygfx (the optional peers extra, pbs bench --suites peers) draws offscreen on Vulkan: lavapipe
+APT_PACKAGES+=(libvulkan1 mesa-vulkan-drivers)
 PY_APT_PACKAGES=(python3 python3-venv python3-pip)
 
 have_system_libs() {
