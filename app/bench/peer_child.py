@@ -31,9 +31,12 @@ import json
 import math
 import os
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -257,6 +260,73 @@ def serve(request: dict, lines, say: Callable[[dict], None]) -> None:
     np.save(request["image"], np.ascontiguousarray(image, np.uint8))
     say({"ok": True, "ms": times, "ms_median": statistics.median(times) if times else None,
          **info})  # fmt: skip
+
+
+# --- the parent's end ------------------------------------------------------------------------
+
+
+def child_env() -> dict[str, str]:
+    """A peer child's environment: this checkout's ``app``, PyOpenGL on EGL, VTK's EGL
+    window (no X server is tried first)."""
+    from app.bench.startup import repo_pythonpath
+
+    env = dict(os.environ)
+    env["PYTHONPATH"] = repo_pythonpath(env)
+    env.setdefault("PYOPENGL_PLATFORM", "egl")
+    env.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    return env
+
+
+class PeerChild:
+    """A served peer (app/bench/peer_child.py): one frame per ``frame()``."""
+
+    def __init__(self, peer: str, data: dict, size: tuple[int, int], image: Path) -> None:
+        request = {"peer": peer, "scene": data, "size": list(size), "image": str(image)}
+        self.peer = peer
+        self.log = tempfile.TemporaryFile()  # noqa: SIM115 (the child's stderr; close())
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "app.bench.peer_child"], stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, stderr=self.log, text=True, env=child_env(),
+        )  # fmt: skip
+        self._send(json.dumps(request))
+        self.info = self._answer()
+        if not self.info.get("ready"):
+            self.close()
+            raise RuntimeError(self.info.get("why") or f"{peer} child did not start")
+
+    def _send(self, line: str) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+
+    def _answer(self) -> dict:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            if line.startswith("{"):
+                return json.loads(line)
+        code = self.proc.wait()
+        self.log.seek(0)
+        tail = (self.log.read().decode(errors="replace").strip().splitlines() or ["?"])[-1]
+        return {"ok": False, "why": f"{self.peer} child ended (exit code {code}): {tail}"}
+
+    def frame(self) -> None:
+        """One frame of the peer, its 8-bit image read back into numpy."""
+        self._send("frame")
+        if "ms" not in self._answer():
+            raise RuntimeError(f"{self.peer} child failed a frame")
+
+    def finish(self) -> dict:
+        """Its whole result, the last image written, the child ended."""
+        self._send("end")
+        result = self._answer()
+        self.close()
+        return result
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self.log.close()
 
 
 def main() -> int:

@@ -26,17 +26,13 @@ linear values decoded from both 8-bit images); and a contact sheet per light cou
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from app.bench.context import Context, make_row
-from app.bench.startup import repo_pythonpath
+from app.bench.peer_child import PeerChild
 from app.bench.timing import Pass, round_ratios
 
 PEER_NAMES = ("pygfx", "pyvista", "pyrender")
@@ -50,9 +46,10 @@ TOTAL_INTENSITY = 16.0  # candela, shared by the lights
 # Per mode: the image and the light counts (tiny: the test's).
 SIZES = {"full": (1280, 720), "quick": (640, 360), "tiny": (64, 36), "look": (320, 180)}
 LIGHTS = {"full": (1, 4, 32), "quick": (1, 4, 32), "tiny": (1,)}
-# The ray-cast's rays per pixel (n x n) and on edge pixels: a reference converged well
-# below the renderers' differences, in minutes at 1280x720 and 32 lights.
-REFERENCE_SAMPLES = {"full": (2, 6), "quick": (2, 6), "tiny": (2, 4)}
+# The ray-cast's rays per pixel (n x n) and on edge pixels (n x n, where a silhouette
+# crosses): the renderers differ by far more than the reference's noise; about two
+# minutes at 1280x720 and 32 lights on two loaded cores.
+REFERENCE_SAMPLES = {"full": (1, 4), "quick": (2, 4), "tiny": (2, 4)}
 
 
 def _light_positions(count: int) -> list[list[float]]:
@@ -97,68 +94,6 @@ def peers_scene(lights: int, size: tuple[int, int]) -> dict:
         ],
         "objects": objects,
     }
-
-
-def child_env() -> dict[str, str]:
-    """A peer child's environment: this checkout's ``app``, PyOpenGL on EGL, VTK's EGL
-    window (no X server is tried first)."""
-    env = dict(os.environ)
-    env["PYTHONPATH"] = repo_pythonpath(env)
-    env.setdefault("PYOPENGL_PLATFORM", "egl")
-    env.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    return env
-
-
-class PeerChild:
-    """A served peer (app/bench/peer_child.py): one frame per ``frame()``."""
-
-    def __init__(self, peer: str, data: dict, size: tuple[int, int], image: Path) -> None:
-        request = {"peer": peer, "scene": data, "size": list(size), "image": str(image)}
-        self.peer = peer
-        self.log = tempfile.TemporaryFile()  # noqa: SIM115 (the child's stderr; close())
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "app.bench.peer_child"], stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE, stderr=self.log, text=True, env=child_env(),
-        )  # fmt: skip
-        self._send(json.dumps(request))
-        self.info = self._answer()
-        if not self.info.get("ready"):
-            self.close()
-            raise RuntimeError(self.info.get("why") or f"{peer} child did not start")
-
-    def _send(self, line: str) -> None:
-        assert self.proc.stdin is not None
-        self.proc.stdin.write(line + "\n")
-        self.proc.stdin.flush()
-
-    def _answer(self) -> dict:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            if line.startswith("{"):
-                return json.loads(line)
-        code = self.proc.wait()
-        self.log.seek(0)
-        tail = (self.log.read().decode(errors="replace").strip().splitlines() or ["?"])[-1]
-        return {"ok": False, "why": f"{self.peer} child ended (exit code {code}): {tail}"}
-
-    def frame(self) -> None:
-        """One frame of the peer, its 8-bit image read back into numpy."""
-        self._send("frame")
-        if "ms" not in self._answer():
-            raise RuntimeError(f"{self.peer} child failed a frame")
-
-    def finish(self) -> dict:
-        """Its whole result, the last image written, the child ended."""
-        self._send("end")
-        result = self._answer()
-        self.close()
-        return result
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-        self.proc.wait()
-        self.log.close()
 
 
 def pbs_passes(r) -> list[Pass]:

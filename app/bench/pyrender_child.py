@@ -10,12 +10,9 @@ after one warm-up render of the scene's camera, each camera in turn is set, rend
 read back and written as ``out/frame-NNNN.png`` with the project's PNG writer; ``ms``
 holds each frame's time, all of that included.
 
-A served request (the 35-sphere comparison, app/bench/spheres.py) is {"scene": scene dict,
-"size": [w, h], "serve": true}: after the warm-up render the child writes one JSON line
-{"ready": true} and then renders one frame for each line ``frame`` it reads on stdin,
-answering each with {"ms": t}; the line ``end`` makes it write the whole result (as
-above) and exit. So the bench can alternate one of its own frames with one of
-pyrender's, and a change of the machine's load falls on both alike.
+The 35-sphere comparison (app/bench/spheres.py) and the peers suite serve pyrender frame
+by frame through app/bench/peer_child.py, the one protocol of every peer, on this
+module's ``scene_of``.
 
 A separate process because pyrender makes its own EGL context current through PyOpenGL,
 which must not meet the bench's moderngl contexts, and because pyrender is optional (the
@@ -160,21 +157,6 @@ def _orbit(renderer, scene, camera_node, request: dict):
     return times, color
 
 
-def _serve(renderer, scene, color):
-    """One frame per ``frame`` line on stdin, each answered with its ms, until ``end``:
-    the ms of each frame, and the last colour image."""
-    print(json.dumps({"ready": True}), flush=True)
-    times = []
-    for line in sys.stdin:
-        if line.strip() != "frame":
-            break
-        t0 = time.perf_counter()
-        color, _depth = renderer.render(scene)
-        times.append((time.perf_counter() - t0) * 1e3)
-        print(json.dumps({"ms": times[-1]}), flush=True)
-    return times, color
-
-
 def run(request: dict) -> dict:
     """Time pyrender on the request's scene; never raises."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
@@ -201,8 +183,6 @@ def run(request: dict) -> dict:
         started = time.perf_counter()
         if "cameras" in request:
             times, color = _orbit(renderer, scene, camera_node, request)
-        elif request.get("serve"):
-            times, color = _serve(renderer, scene, color)
         else:
             while len(times) < request["max_frames"] and (
                 len(times) < request["min_frames"]
@@ -230,7 +210,7 @@ def run(request: dict) -> dict:
 
 
 def main() -> int:
-    request = json.loads(sys.stdin.readline())  # one line: a served child reads on
+    request = json.loads(sys.stdin.readline())
     print(json.dumps(run(request)))
     return 0
 
