@@ -73,3 +73,20 @@ def test_tiny_peers_run_with_every_peer(tmp_path) -> None:
     [verdict] = [t for t in data["targets"] if t["target"].startswith("pbs >= 3x")]
     assert verdict["status"] in ("PASS", "FAIL")
     assert Image.open(tmp_path / "peers-1.png").width == 3 * SIZES["tiny"][0]
+
+
+def _row(variant: str, ms: float | None, over: float | None = None, **extra) -> dict:
+    ratio = {"median": over, "min": over, "max": over, "rounds": 3} if over else None
+    return {"suite": "peers", "case": CASE, "variant": variant, "width": 1280, "height": 720,
+            "lights": 32, "ms_median": ms, "over_pbs": ratio, **extra}  # fmt: skip
+
+
+def test_the_target_takes_the_fastest_peer_that_shades_every_light() -> None:
+    """pyrender, faster here because it drops 28 of the 32 lights, is not the peer the
+    target compares with; pygfx, slower but shading them all, is."""
+    rows = [_row(PBS, 100.0), _row("pygfx", 400.0, 4.0), _row("pyvista", 900.0, 9.0),
+            _row("pyrender", 150.0, 1.5, lights_dropped=28)]  # fmt: skip
+    [verdict] = peers_verdicts(rows)
+    assert verdict.status == "PASS" and verdict.measured.startswith("pygfx/pbs = 4.00x")
+    [alone] = peers_verdicts([rows[0], rows[3], _row("pygfx", None, skipped="not installed")])
+    assert alone.status == "NOT MEASURED" and "pygfx: not installed" in alone.measured

@@ -152,11 +152,8 @@ def _reference(data: dict, size: tuple[int, int], mode: str):
 
 
 def peers_tasks(settings) -> int:
-    """Progress ticks: per light count, the frames of pbs and the peers (a guess: the
-    budget's most), and the reference."""
-    b = settings.budget
-    counts = LIGHTS.get(settings.mode, LIGHTS["full"])
-    return len(counts) * ((1 + len(PEER_NAMES)) * (b.warmup + b.max_frames) + 1)
+    """Progress tasks: per light count, the interleaved frames and the ray-cast."""
+    return 2 * len(LIGHTS.get(settings.mode, LIGHTS["full"]))
 
 
 def run_peers(ctx: Context, peers: tuple[str, ...] = PEER_NAMES) -> None:
@@ -190,6 +187,7 @@ def run_peers(ctx: Context, peers: tuple[str, ...] = PEER_NAMES) -> None:
                 for peer, child in children.items():
                     results[peer] = child.finish()
             finally:
+                ctx.progress.done()
                 for child in children.values():
                     child.close()
                 antialiasing = r.scene.render.antialiasing
@@ -225,6 +223,9 @@ def run_peers(ctx: Context, peers: tuple[str, ...] = PEER_NAMES) -> None:
         if out_dir is not None:
             shown = srgb_encode(np.clip(ref.hdr * 2.0**exposure, 0.0, 1.0))
             tiles = [(images[PBS], f"pbs ({antialiasing})")]
-            tiles += [(images[p], p) for p in peers if p in images]
+            for p in (p for p in peers if p in images):
+                dropped = results[p].get("lights_dropped") or 0
+                shaded = f" ({count - dropped} of {count} lights)" if dropped else ""
+                tiles.append((images[p], f"{p}{shaded}"))
             tiles.append((np.round(shown * 255.0).astype(np.uint8), "float64 ray-cast"))
             contact_sheet(tiles, Path(out_dir) / f"peers-{count}.png")
