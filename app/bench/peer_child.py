@@ -188,6 +188,7 @@ def _pyvista(loaded, size: tuple[int, int]) -> tuple[Frame, dict]:
         window.GetPixelData(0, 0, w - 1, h - 1, 1, data, 0)
         return vtk_to_numpy(data).reshape(h, w, 3)[::-1]
 
+    frame()  # the GL context exists once it has drawn: then it reports its renderer
     capabilities = window.ReportCapabilities().splitlines()
     gl = next((line for line in capabilities if "OpenGL renderer" in line), "?")
     return frame, {
