@@ -15,9 +15,11 @@ from PIL import Image
 
 from app.bench import OPT_IN_SUITES, SUITES, _parser, main
 from app.bench.context import TINY, Context
-from app.bench.peers import CASE, PBS, PEER_NAMES, SIZES, run_peers
+from app.bench.peers import CASE, PBS, PEER_NAMES, SIZES, pbs_passes, peers_scene, run_peers
 from app.bench.report import peers_verdicts
+from app.bench.scenes import load
 from app.progress import Progress
+from app.render.renderer import Renderer
 
 
 def test_peers_is_opt_in() -> None:
@@ -90,3 +92,20 @@ def test_the_target_takes_the_fastest_peer_that_shades_every_light() -> None:
     assert verdict.status == "PASS" and verdict.measured.startswith("pygfx/pbs = 4.00x")
     [alone] = peers_verdicts([rows[0], rows[3], _row("pygfx", None, skipped="not installed")])
     assert alone.status == "NOT MEASURED" and "pygfx: not installed" in alone.measured
+
+
+@pytest.mark.gl
+def test_pbs_frame_is_split_into_passes_only_where_they_draw_the_whole_frame(gl_egl) -> None:
+    """FXAA's frame splits into its passes (the same image); "sraa" adds a pass the split
+    does not know, so its frame is timed whole rather than without it."""
+    names = {}
+    for aa in ("fxaa", "sraa"):
+        data = peers_scene(4, (96, 54))
+        data["render"]["antialiasing"] = aa
+        r = Renderer(gl_egl, load(data), (96, 54))
+        try:
+            names[aa] = [p.name for p in pbs_passes(r)]
+        finally:
+            r.release()
+    assert names == {"fxaa": ["gbuffer", "lighting", "fxaa", "read-back"],
+                     "sraa": ["render", "read-back"]}  # fmt: skip
