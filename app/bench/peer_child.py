@@ -19,9 +19,10 @@ Every peer is given the same triangles (app.scene.geometry.build_parts: an icosp
 sphere as pbs draws it with ``subdivisions``), per-vertex normals, the camera, the point
 lights' positions, colours and intensities (inverse-square falloff, no range window), the
 background colour and each material's base colour, metallic and roughness, in the colour
-space the peer expects (pygfx and pyrender linear factors; VTK a 2.2-gamma colour it
-decodes). Antialiasing on: pygfx's FXAA (``ppaa``, at pixel ratio 1: no supersampling),
-VTK's FXAA, pyrender's 4x MSAA (built in). What each shades differently is in
+space the peer expects (linear base and light colours in all; the clear colour, which no
+shader touches, display-encoded for VTK and pyrender). Antialiasing on: pygfx's FXAA
+(``ppaa``, at pixel ratio 1: no supersampling), VTK's FXAA (``vtkRenderer.UseFXAA``),
+pyrender's 4x MSAA (built in). What each shades differently is in
 docs/performance.md, "Peers".
 """
 
@@ -130,7 +131,9 @@ def _pygfx(loaded, size: tuple[int, int]) -> tuple[Frame, dict]:
     return frame, {
         "version": gfx.__version__,
         "backend": f"wgpu {wgpu.__version__}, {info.get('backend_type')}: {info.get('device')}",
-        "antialiasing": "FXAA (renderer.ppaa), pixel_ratio 1",
+        # read back from the renderer: what it applies, not what was asked
+        "antialiasing": f"{renderer.ppaa.upper()} (renderer.ppaa), pixel_ratio"
+        f" {renderer.pixel_ratio:g}",
     }
 
 
@@ -179,7 +182,9 @@ def _pyvista(loaded, size: tuple[int, int]) -> tuple[Frame, dict]:
     plotter.camera.up = tuple(up)
     plotter.camera.view_angle = float(scene_model.camera.fov_y)
     plotter.camera.clipping_range = (scene_model.camera.near, scene_model.camera.far)
-    plotter.enable_anti_aliasing("fxaa")
+    # VTK's own FXAA: pyvista's enable_anti_aliasing("fxaa") puts its SSAA pass (2 x 2
+    # the pixels) in FXAA's place where VTK draws through EGL, and FXAA works here
+    plotter.renderer.SetUseFXAA(True)
     window = plotter.ren_win
     data = vtk.vtkUnsignedCharArray()
 
@@ -194,7 +199,9 @@ def _pyvista(loaded, size: tuple[int, int]) -> tuple[Frame, dict]:
     return frame, {
         "version": f"pyvista {pv.__version__}, VTK {vtk.vtkVersion.GetVTKVersion()}",
         "backend": f"{type(window).__name__}, {gl.split(':', 1)[-1].strip()}",
-        "antialiasing": "FXAA (enable_anti_aliasing('fxaa'))",
+        "antialiasing": "FXAA (vtkRenderer.UseFXAA)"
+        if plotter.renderer.GetUseFXAA()
+        else "none (FXAA did not take)",
     }
 
 
