@@ -21,8 +21,8 @@ lights' positions, colours and intensities (inverse-square falloff, no range win
 background colour and each material's base colour, metallic and roughness, in the colour
 space the peer expects (linear base and light colours in all; the clear colour, which no
 shader touches, display-encoded for VTK and pyrender). Antialiasing on: pygfx's FXAA
-(``ppaa``, at pixel ratio 1: no supersampling), VTK's FXAA (``vtkRenderer.UseFXAA``),
-pyrender's 4x MSAA (built in). What each shades differently is in
+(``ppaa``, at pixel ratio 1: no supersampling), VTK's SSAA pass (its FXAA draws black
+through EGL here), pyrender's 4x MSAA (built in). What each shades differently is in
 docs/performance.md, "Peers".
 """
 
@@ -182,9 +182,10 @@ def _pyvista(loaded, size: tuple[int, int]) -> tuple[Frame, dict]:
     plotter.camera.up = tuple(up)
     plotter.camera.view_angle = float(scene_model.camera.fov_y)
     plotter.camera.clipping_range = (scene_model.camera.near, scene_model.camera.far)
-    # VTK's own FXAA: pyvista's enable_anti_aliasing("fxaa") puts its SSAA pass (2 x 2
-    # the pixels) in FXAA's place where VTK draws through EGL, and FXAA works here
-    plotter.renderer.SetUseFXAA(True)
+    # Through EGL here VTK's FXAA (vtkRenderer.UseFXAA) draws a black image and its
+    # multisampling changes no pixel, so its antialiasing is pyvista's SSAA render pass
+    # (vtkSSAAPass), which is what pyvista's own "fxaa" falls back to under EGL.
+    plotter.enable_anti_aliasing("ssaa")
     window = plotter.ren_win
     data = vtk.vtkUnsignedCharArray()
 
@@ -199,9 +200,7 @@ def _pyvista(loaded, size: tuple[int, int]) -> tuple[Frame, dict]:
     return frame, {
         "version": f"pyvista {pv.__version__}, VTK {vtk.vtkVersion.GetVTKVersion()}",
         "backend": f"{type(window).__name__}, {gl.split(':', 1)[-1].strip()}",
-        "antialiasing": "FXAA (vtkRenderer.UseFXAA)"
-        if plotter.renderer.GetUseFXAA()
-        else "none (FXAA did not take)",
+        "antialiasing": "SSAA (vtkSSAAPass)",
     }
 
 
