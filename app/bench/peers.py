@@ -43,6 +43,9 @@ SPACING = 1.2  # m between sphere centres
 RADIUS = 0.5  # m
 SUBDIVISIONS = 4  # icospheres of 20 * 4^4 = 5,120 triangles, in every renderer
 TOTAL_INTENSITY = 16.0  # candela, shared by the lights
+# A peer shading the scene it was given lands within 0.1 of the ray-cast's FLIP (a black
+# or mis-lit image near 0.4-0.7): past this the run's notes ask for a look.
+FAR_FLIP = 0.2
 # Per mode: the image and the light counts (tiny: the test's).
 SIZES = {"full": (1280, 720), "quick": (640, 360), "tiny": (64, 36), "look": (320, 180)}
 LIGHTS = {"full": (1, 4, 32), "quick": (1, 4, 32), "tiny": (1,)}
@@ -222,6 +225,10 @@ def run_peers(ctx: Context, peers: tuple[str, ...] = PEER_NAMES) -> None:
                 ctx.notes.append(f"peers: {peer} skipped: {skipped[peer]}")
                 continue
             info = {k: v for k, v in results[peer].items() if k not in ("ok", "ms", "ready")}
+            flip = errors.get(peer, {}).get("flip_mean")
+            if flip is not None and flip > FAR_FLIP and not info.get("lights_dropped"):
+                far = f"FLIP {flip:.2f} against the ray-cast: look at its contact sheet"
+                ctx.notes.append(f"peers: {peer}'s image at {count} light(s) is far off ({far})")
             ctx.rows.append(
                 make_row("peers", CASE, peer, size, count, times[peer], **errors.get(peer, {}),
                          over_pbs=round_ratios(times[peer], times[PBS]),
