@@ -47,7 +47,7 @@ TOTAL_INTENSITY = 16.0  # candela, shared by the lights
 # or mis-lit image near 0.4-0.7): past this the run's notes ask for a look.
 FAR_FLIP = 0.2
 # Per mode: the image and the light counts (tiny: the test's).
-SIZES = {"full": (1280, 720), "quick": (640, 360), "tiny": (64, 36), "look": (320, 180)}
+SIZES = {"full": (1280, 720), "quick": (640, 360), "tiny": (64, 36)}
 LIGHTS = {"full": (1, 4, 32), "quick": (1, 4, 32), "tiny": (1,)}
 # The ray-cast's rays per pixel (n x n) and on edge pixels (n x n, where a silhouette
 # crosses): the renderers differ by far more than the reference's noise; about two
