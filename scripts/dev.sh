@@ -16,6 +16,8 @@ VENV="$ROOT/.venv"
 
 APT_PACKAGES=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libosmesa6 xvfb xauth xdotool
               fonts-noto-cjk fontconfig chromium mesa-vulkan-drivers libvulkan1 glslang-tools)
+# mesa-vulkan-drivers (lavapipe) and libvulkan1: zink in tests/test_drivers.py, and pygfx
+# (the optional peers extra, pbs bench --suites peers), which draws offscreen on Vulkan
 PY_APT_PACKAGES=(python3 python3-venv python3-pip)
 
 have_system_libs() {

@@ -2,7 +2,7 @@
 
     python -m app.bench [--quick] [--out DIR]
         [--suites culling,resolution,accuracy,specialization,startup,viewer,batch,ibl,
-                  shadows,antialiasing,assets]
+                  shadows,antialiasing,assets,peers]
 
 writes DIR/bench.json ({"machine": {...}, "rows": [...]}), DIR/bench.md (tables, and the
 targets with PASS/FAIL and the measured ratios), DIR/pareto.png and
@@ -28,10 +28,10 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
 __all__ = ["main"]
 SUITES = (
     "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
-    "shadows", "antialiasing", "assets",
+    "shadows", "antialiasing", "assets", "peers",
 )  # fmt: skip
-# Run only when named: whole processes of pbs and of a third-party renderer (f3d), minutes.
-OPT_IN_SUITES = ("assets",)
+# Run only when named: third-party renderers (f3d; pygfx, PyVista, pyrender), minutes.
+OPT_IN_SUITES = ("assets", "peers")
 PYRENDER_SUITES = ("culling", "batch")  # the suites with a pyrender row
 
 

@@ -10,12 +10,9 @@ after one warm-up render of the scene's camera, each camera in turn is set, rend
 read back and written as ``out/frame-NNNN.png`` with the project's PNG writer; ``ms``
 holds each frame's time, all of that included.
 
-A served request (the 35-sphere comparison, app/bench/spheres.py) is {"scene": scene dict,
-"size": [w, h], "serve": true}: after the warm-up render the child writes one JSON line
-{"ready": true} and then renders one frame for each line ``frame`` it reads on stdin,
-answering each with {"ms": t}; the line ``end`` makes it write the whole result (as
-above) and exit. So the bench can alternate one of its own frames with one of
-pyrender's, and a change of the machine's load falls on both alike.
+The 35-sphere comparison (app/bench/spheres.py) and the peers suite serve pyrender frame
+by frame through app/bench/peer_child.py, the one protocol of every peer, on this
+module's ``scene_of``.
 
 A separate process because pyrender makes its own EGL context current through PyOpenGL,
 which must not meet the bench's moderngl contexts, and because pyrender is optional (the
@@ -68,16 +65,25 @@ def _loaded(request: dict):
 
 
 def _build(request: dict):
+    return scene_of(_loaded(request), request["size"])
+
+
+def scene_of(loaded, size):
+    """The pyrender scene of a loaded scene at ``size``: (scene, lights dropped, lights
+    per type, camera node). Also the pyrender peer's (app/bench/peer_child.py)."""
     import numpy as np
     import pyrender
 
     from app.frame.camera import view_matrix
     from app.scene.geometry import build_parts
 
-    loaded = _loaded(request)
     scene_model = loaded.scene
-    w, h = request["size"]
-    scene = pyrender.Scene(ambient_light=[0.0, 0.0, 0.0], bg_color=[*scene_model.background, 1.0])
+    w, h = size
+    from app.reference.tonemap import srgb_encode
+
+    # glClearColor's value is the display's: the linear background encoded
+    background = srgb_encode(np.asarray(scene_model.background, np.float64))
+    scene = pyrender.Scene(ambient_light=[0.0, 0.0, 0.0], bg_color=[*background, 1.0])
     for part in build_parts(loaded):
         v, indices = part.triangles()  # an analytic sphere as the icosphere it replaced
         m = part.material
@@ -95,25 +101,28 @@ def _build(request: dict):
         scene.add(pyrender.Mesh([primitive]), pose=part.model)
     kinds = {"point": 0, "spot": 0, "directional": 0}
     for light in scene_model.lights:
+        # pbs's intensity is c_light, RTR4 eq. 9.13's L = pi f c_light (n.l); pyrender's
+        # radiance is f I (n.l) (glTF's punctual lights): I = pi c_light
+        intensity = math.pi * light.intensity
         kinds[light.type] += 1
         colour = list(light.color)
         if light.type == "point":
             pose = np.eye(4)
             pose[:3, 3] = light.position
-            node = pyrender.PointLight(colour, light.intensity, light.effective_range)
+            node = pyrender.PointLight(colour, intensity, light.effective_range)
         elif light.type == "spot":
             inner, outer = light.cone
             pose = _spot_pose(light.position, light.direction)
             node = pyrender.SpotLight(
                 colour,
-                light.intensity,
+                intensity,
                 light.effective_range,
                 innerConeAngle=math.radians(inner),
                 outerConeAngle=math.radians(outer),
             )
         else:
             pose = _spot_pose([0.0, 0.0, 0.0], light.direction)
-            node = pyrender.DirectionalLight(colour, light.intensity)
+            node = pyrender.DirectionalLight(colour, intensity)
         scene.add(node, pose=pose)
     cam = scene_model.camera
     camera = pyrender.PerspectiveCamera(
@@ -148,21 +157,6 @@ def _orbit(renderer, scene, camera_node, request: dict):
     return times, color
 
 
-def _serve(renderer, scene, color):
-    """One frame per ``frame`` line on stdin, each answered with its ms, until ``end``:
-    the ms of each frame, and the last colour image."""
-    print(json.dumps({"ready": True}), flush=True)
-    times = []
-    for line in sys.stdin:
-        if line.strip() != "frame":
-            break
-        t0 = time.perf_counter()
-        color, _depth = renderer.render(scene)
-        times.append((time.perf_counter() - t0) * 1e3)
-        print(json.dumps({"ms": times[-1]}), flush=True)
-    return times, color
-
-
 def run(request: dict) -> dict:
     """Time pyrender on the request's scene; never raises."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
@@ -189,8 +183,6 @@ def run(request: dict) -> dict:
         started = time.perf_counter()
         if "cameras" in request:
             times, color = _orbit(renderer, scene, camera_node, request)
-        elif request.get("serve"):
-            times, color = _serve(renderer, scene, color)
         else:
             while len(times) < request["max_frames"] and (
                 len(times) < request["min_frames"]
@@ -218,7 +210,7 @@ def run(request: dict) -> dict:
 
 
 def main() -> int:
-    request = json.loads(sys.stdin.readline())  # one line: a served child reads on
+    request = json.loads(sys.stdin.readline())
     print(json.dumps(run(request)))
     return 0
 

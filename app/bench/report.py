@@ -54,6 +54,10 @@ AA_STILL_REDUCTION_MIN = 3.0
 AA_STILL_COST_MAX = 2.0
 AA_VIEWER_COST_MAX = 1.3
 SHADOWED_SHOWCASE_MAX = 1.5  # the showcase's frame with its shadows / with none
+# Suite peers (app/bench/peers.py): pbs's frame with read-back >= this x faster than the
+# fastest peer's (pygfx, PyVista, pyrender), antialiasing on in all, at each light count.
+PEERS_SPEEDUP_MIN = 3.0
+PEERS_PBS = "pbs"  # app/bench/peers.py's PBS (report imports no GL modules)
 
 
 def _cpu_model() -> str:
@@ -258,6 +262,7 @@ def evaluate_targets(rows: list[dict]) -> list[Verdict]:
     out.extend(_primitives_verdicts(rows))
     out.extend(aa_verdicts(rows))
     out.extend(_shadow_verdicts(rows))
+    out.extend(peers_verdicts(rows))
     return out
 
 
@@ -285,6 +290,88 @@ def _shadow_verdicts(rows: list[dict]) -> list[Verdict]:
     )
     what = f"shadowed showcase frame <= {SHADOWED_SHOWCASE_MAX:g}x the same scene without shadows"
     return [Verdict(what, measured, _status(ratio <= SHADOWED_SHOWCASE_MAX))]
+
+
+def fastest_peer(rows: list[dict], lights: int) -> dict | None:
+    """The peers suite's timed peer row with the lowest median at ``lights``, among the
+    peers that shade every light (pyrender drops those past 4 per type: a cheaper frame
+    of another image)."""
+    timed = [
+        r for r in rows
+        if r["suite"] == "peers" and r["lights"] == lights and r["variant"] != PEERS_PBS
+        and r.get("ms_median") is not None and not r.get("lights_dropped")
+    ]  # fmt: skip
+    return min(timed, key=lambda r: r["ms_median"]) if timed else None
+
+
+def peers_verdicts(rows: list[dict]) -> list[Verdict]:
+    """Suite peers: per light count, pbs against the fastest peer, the ratio of their
+    frames per round (timing.round_ratios); NOT MEASURED, with the reasons, where no
+    peer ran."""
+    out = []
+    for pbs in (r for r in rows if r["suite"] == "peers" and r["variant"] == PEERS_PBS):
+        n = pbs["lights"]
+        what = (
+            f"pbs >= {PEERS_SPEEDUP_MIN:g}x faster than the fastest peer, {pbs['case']},"
+            f" {n} light(s), {pbs['width']}x{pbs['height']}, frame + 8-bit read-back,"
+            " antialiasing on in all"
+        )
+        peer = fastest_peer(rows, n)
+        if peer is None or not peer.get("over_pbs"):
+            why = "; ".join(
+                f"{r['variant']}: {r['skipped']}" for r in rows
+                if r["suite"] == "peers" and r["lights"] == n and r.get("skipped")
+            )  # fmt: skip
+            out.append(Verdict(what, f"no peer ran ({why or 'none measured'})", "NOT MEASURED"))
+            continue
+        ratio = peer["over_pbs"]
+        measured = (
+            f"{peer['variant']}/pbs = {_ratio_text(ratio)} ({peer['ms_median']:.1f} /"
+            f" {pbs['ms_median']:.1f} ms)"
+        )
+        out.append(Verdict(what, measured, _status(ratio["median"] >= PEERS_SPEEDUP_MIN)))
+    return out
+
+
+def peers_lines(members: list[dict]) -> list[str]:
+    """The peers suite's table: per light count, pbs and each peer (or why it was
+    skipped), time, the ratio to pbs per round, error against the ray-cast."""
+    lines = [
+        "| lights | renderer | ms median | min | max | renderer / pbs per round |"
+        " FLIP (mean) | rel RMSE | antialiasing | version |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in members:
+        if r.get("skipped"):
+            lines.append(f"| {r['lights']} | {r['variant']} | skipped: {r['skipped']} |"
+                         " | | | | | | |")  # fmt: skip
+            continue
+        ratio = r.get("over_pbs")
+        version = r.get("version", "-")
+        name = r["variant"]
+        if r.get("lights_dropped"):
+            name += f" (shades {r['lights'] - r['lights_dropped']} of {r['lights']} lights)"
+        lines.append(
+            f"| {r['lights']} | {name} | {_fmt(r['ms_median'])} | {_fmt(r['ms_min'])}"
+            f" | {_fmt(r['ms_max'])} | {_ratio_text(ratio) if ratio else '-'} |"
+            f" {_fmt(r['flip_mean'], '.3f')} | {_fmt(r['rel_rmse'], '.3f')} |"
+            f" {r.get('antialiasing', '-')} | {version} |"
+        )
+    return lines
+
+
+def _doc_peers(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "peers"]
+    if not members:
+        return []
+    size = f"{members[0]['width']}×{members[0]['height']}"
+    return [
+        f"### peers ({members[0]['case']}, {size}: frame + 8-bit read-back, interleaved;"
+        ' error against the float64 ray-cast; docs/performance.md, "Peers")',
+        "",
+        *peers_lines(members),
+        "",
+    ]
 
 
 ASSETS_F3D_MAX = 0.5  # a model file's whole pbs render <= this x f3d's wall time
@@ -765,7 +852,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     suites = (
         "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
         "shadows", "assets",
-        "shadows", "antialiasing",
+        "shadows", "antialiasing", "peers",
     )  # fmt: skip
     for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
@@ -876,6 +963,8 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
             lines += _assets_lines(members)
         elif suite == "antialiasing":
             lines += _aa_lines(members)
+        elif suite == "peers":
+            lines += peers_lines(members)
         else:
             lines += [
                 "| case | variant | ms median (to PNG, or to exit) | min | max | peak RSS MiB |"
@@ -1404,7 +1493,7 @@ def performance_section(payload: dict) -> str:
     for part in (
         _doc_culling, _doc_resolution, _doc_accuracy, _doc_specialization, _doc_startup_viewer,
         _doc_batch, _doc_ibl, _doc_shadows, _doc_assets,
-        _doc_batch, _doc_ibl, _doc_shadows, _doc_antialiasing,
+        _doc_batch, _doc_ibl, _doc_shadows, _doc_antialiasing, _doc_peers,
     ):  # fmt: skip
         lines += part(rows)
     notes = [n for n in payload.get("notes", []) if n]

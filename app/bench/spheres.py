@@ -12,20 +12,20 @@ comparison stops at 4.
 ``run_pyrender_spheres`` (part of the culling suite): for each light count, pbs frames
 (``Renderer.render`` then ``read_ldr``, split into its passes: the G-buffer, the tile
 culling, lighting, post and the 8-bit read-back, each ended by glFinish) alternate with
-pyrender's, rendered by a served child process (app/bench/pyrender_child.py; each
-``render()`` returns colour and depth in numpy), one frame of each per round with the
-order rotated (timing.time_interleaved), so a change of the machine's load falls on
-both; the ratio pyrender/pbs is taken per round. (Timing the two in blocks of frames,
+pyrender's, rendered by a served child process (app/bench/peer_child.py, the peers'
+protocol; each ``render()`` returns colour and depth in numpy), one frame of each per
+round with the order rotated (timing.time_interleaved), so a change of the machine's
+load falls on both; the ratio pyrender/pbs is taken per round. (Timing the two in blocks of frames,
 the first version, gave 1.3-3.0x at 1 light within one run on the loaded machine.)
 """
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
+import tempfile
+from pathlib import Path
 
-from app.bench.context import Context, Settings, deferred_passes, make_row, pyrender_env
+from app.bench.context import Context, Settings, deferred_passes, make_row
+from app.bench.peer_child import PeerChild
 from app.bench.report import SPHERES_CASE, SPHERES_PYRENDER
 from app.bench.scenes import load
 from app.bench.timing import Pass, round_ratios
@@ -95,52 +95,6 @@ def pbs_frame_passes(r: Renderer) -> list[Pass]:
     return [*passes, Pass("read-back", r.read_ldr)]
 
 
-class PyrenderChild:
-    """A served pyrender child (app/bench/pyrender_child.py): one frame per ``frame()``."""
-
-    def __init__(self, data: dict, size: tuple[int, int]) -> None:
-        request = {"scene": data, "size": list(size), "warmup": 1, "serve": True}
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "app.bench.pyrender_child"], stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=pyrender_env(),
-        )  # fmt: skip
-        self._send(json.dumps(request))
-        first = self._answer()
-        if not first.get("ready"):
-            self.close()
-            raise RuntimeError(first.get("why") or "pyrender child did not start")
-
-    def _send(self, line: str) -> None:
-        assert self.proc.stdin is not None
-        self.proc.stdin.write(line + "\n")
-        self.proc.stdin.flush()
-
-    def _answer(self) -> dict:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            if line.startswith("{"):
-                return json.loads(line)
-        return {"ok": False, "why": f"pyrender child ended (exit code {self.proc.wait()})"}
-
-    def frame(self) -> None:
-        """One pyrender ``render()`` (colour and depth read back into numpy)."""
-        self._send("frame")
-        if "ms" not in self._answer():
-            raise RuntimeError("pyrender child failed a frame")
-
-    def finish(self) -> dict:
-        """Its whole result (pyrender_child.run's), the child ended."""
-        self._send("end")
-        result = self._answer()
-        self.close()
-        return result
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-        self.proc.wait()
-
-
 def run_pyrender_spheres(ctx: Context) -> None:
     """The comparison's rows: per light count, ``pbs`` and ``pyrender``, one frame of each
     in turn (timing.time_interleaved, pyrender's frame a request to its served child),
@@ -153,11 +107,12 @@ def run_pyrender_spheres(ctx: Context) -> None:
         r = Renderer(ctx.gl, load(data), size)
         child = None
         try:
-            child = PyrenderChild(data, size)
-            times = ctx.time_interleaved(
-                {PBS: pbs_frame_passes(r), PYRENDER: [Pass("render()", child.frame)]}
-            )
-            result = child.finish()
+            with tempfile.TemporaryDirectory(prefix="pbs-spheres-") as tmp:
+                child = PeerChild("pyrender", data, size, Path(tmp) / "pyrender.npy")
+                times = ctx.time_interleaved(
+                    {PBS: pbs_frame_passes(r), PYRENDER: [Pass("render()", child.frame)]}
+                )
+                result = child.finish()
         except (OSError, RuntimeError) as exc:
             ctx.notes.append(f"pyrender ({CASE}, {count} lights): {exc}")
             continue

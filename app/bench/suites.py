@@ -957,6 +957,14 @@ def run_assets(ctx: Context) -> None:
     run(ctx)
 
 
+def run_peers(ctx: Context) -> None:
+    """Suite ``peers``: pbs against pygfx, PyVista and pyrender on one scene, time and
+    error against the ray-cast (app/bench/peers.py)."""
+    from app.bench.peers import run_peers as run
+
+    run(ctx)
+
+
 def run_ibl(ctx: Context) -> None:
     """Suite ``ibl``: the prefilter's (face size, samples) against time, memory and error
     (app/bench/ibl.py)."""
@@ -985,6 +993,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "shadows": run_shadows,
     "antialiasing": run_antialiasing,
     "assets": run_assets,
+    "peers": run_peers,
 }
 
 
@@ -1002,6 +1011,7 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "shadows": shadows_tasks(settings),
         "antialiasing": 0,
         "assets": 3 * max(1, settings.startup_runs),
+        "peers": 0,
     }
     if "batch" in suites:
         from app.bench.batch import batch_tasks, batch_workers
@@ -1011,6 +1021,10 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         from app.bench.antialiasing import antialiasing_tasks
 
         counts["antialiasing"] = antialiasing_tasks(settings)
+    if "peers" in suites:
+        from app.bench.peers import peers_tasks
+
+        counts["peers"] = peers_tasks(settings)
     if "ibl" in suites:
         from app.bench.ibl import ibl_tasks
 
