@@ -1,0 +1,370 @@
+"""glTF animation, skins, morph targets and KHR_materials_variants (app/scene/gltf_animation.py).
+
+Every file is written by the test as JSON with its accessors in one base64 ``data:`` buffer,
+so each value the reader sees is one the test chose; the expected results are computed
+here independently of the reader (the interpolations written out, the skin as each joint's
+rigid motion). Bad animation data goes through ``pbs render MODEL`` in process: exit 2,
+one line naming the file and the key, no image.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from app.scene.gltf import GltfFile
+from app.scene.gltf_animation import PoseError, PoseRequest
+
+FLOAT, UBYTE, USHORT = 5126, 5121, 5123
+_TYPES = {1: "SCALAR", 3: "VEC3", 4: "VEC4", 16: "MAT4"}
+_DTYPES = {FLOAT: "<f4", UBYTE: "<u1", USHORT: "<u2"}
+
+
+class Doc:
+    """A glTF document grown by the test: accessors packed into one base64 buffer."""
+
+    def __init__(self) -> None:
+        self.json: dict = {
+            "asset": {"version": "2.0"},
+            "scene": 0,
+            "scenes": [{"nodes": []}],
+            "nodes": [],
+            "meshes": [],
+            "accessors": [],
+            "bufferViews": [],
+        }
+        self.blob = bytearray()
+
+    def accessor(self, values: object, width: int, component: int = FLOAT, **extra: object) -> int:
+        array = np.asarray(values, _DTYPES[component]).reshape(-1, width)
+        self.blob += b"\0" * (-len(self.blob) % 4)
+        data = array.tobytes()
+        self.json["bufferViews"].append(
+            {"buffer": 0, "byteOffset": len(self.blob), "byteLength": len(data)}
+        )
+        self.blob += data
+        entry = {
+            "bufferView": len(self.json["bufferViews"]) - 1,
+            "componentType": component,
+            "count": len(array),
+            "type": _TYPES[width],
+            **extra,
+        }
+        if width == 3 and component == FLOAT and extra.get("position"):
+            del entry["position"]
+            entry["min"] = [float(v) for v in array.min(axis=0)]
+            entry["max"] = [float(v) for v in array.max(axis=0)]
+        self.json["accessors"].append(entry)
+        return len(self.json["accessors"]) - 1
+
+    def node(self, root: bool = True, **fields: object) -> int:
+        self.json["nodes"].append(dict(fields))
+        index = len(self.json["nodes"]) - 1
+        if root:
+            self.json["scenes"][0]["nodes"].append(index)
+        return index
+
+    def triangle(self, **primitive: object) -> int:
+        """A mesh of one triangle in the XY plane."""
+        pos = self.accessor([[0, 0, 0], [1, 0, 0], [0, 1, 0]], 3, position=True)
+        self.json["meshes"].append({"primitives": [{"attributes": {"POSITION": pos}, **primitive}]})
+        return len(self.json["meshes"]) - 1
+
+    def animate(self, node: int, path: str, times: list, values: object, width: int,
+                interpolation: str = "LINEAR", name: str | None = None) -> None:  # fmt: skip
+        sampler = {
+            "input": self.accessor(times, 1),
+            "output": self.accessor(values, width),
+            "interpolation": interpolation,
+        }
+        animation = {
+            "channels": [{"sampler": 0, "target": {"node": node, "path": path}}],
+            "samplers": [sampler],
+        }
+        if name is not None:
+            animation["name"] = name
+        self.json.setdefault("animations", []).append(animation)
+
+    def save(self, path: Path) -> Path:
+        data = base64.b64encode(bytes(self.blob)).decode()
+        self.json["buffers"] = [
+            {"byteLength": len(self.blob), "uri": f"data:application/octet-stream;base64,{data}"}
+        ]
+        path.write_text(json.dumps(self.json), encoding="utf-8")
+        return path
+
+
+def _prims(path: Path, **request: object) -> list:
+    return GltfFile(path, pose=PoseRequest(**request)).primitives()
+
+
+def _moved(tmp_path: Path, path: str, times: list, values: object, width: int,
+           interpolation: str, t: float) -> np.ndarray:  # fmt: skip
+    """The world matrix of a one-triangle node animated on ``path``, at time ``t``."""
+    doc = Doc()
+    mesh = doc.triangle()
+    node = doc.node(mesh=mesh)
+    doc.animate(node, path, times, values, width, interpolation, name="move")
+    (prim,) = _prims(doc.save(tmp_path / "moved.gltf"), animation="move", time=t)
+    return prim.world
+
+
+def test_linear_translation_at_a_mid_time(tmp_path: Path) -> None:
+    world = _moved(tmp_path, "translation", [0.0, 2.0], [[0, 0, 0], [4, -2, 6]], 3, "LINEAR", 0.5)
+    np.testing.assert_allclose(world[:3, 3], [1.0, -0.5, 1.5], atol=1e-12)  # a quarter of the way
+
+
+def test_linear_rotation_is_slerp(tmp_path: Path) -> None:
+    # Identity to 120 degrees about Y: a quarter of the way is 30 degrees about Y (a linear
+    # blend of the quaternions, normalised, would give 35.2 degrees).
+    half = math.radians(120.0) / 2.0
+    values = [[0, 0, 0, 1], [0, math.sin(half), 0, math.cos(half)]]
+    world = _moved(tmp_path, "rotation", [0.0, 1.0], values, 4, "LINEAR", 0.25)
+    a = math.radians(30.0)
+    expected = [[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]]
+    np.testing.assert_allclose(world[:3, :3], expected, atol=1e-6)  # float32 keyframes
+
+
+def test_cubicspline_against_a_hand_computation(tmp_path: Path) -> None:
+    # Keys at 0 s and 2 s; per key (in-tangent, value, out-tangent): v0 = 0, b0 = 1,
+    # a1 = 2, v1 = 3 (x). At t = 0.5: s = 0.25, interval 2; the Hermite basis
+    # h00 = 0.84375, h10 = 0.140625, h01 = 0.15625, h11 = -0.046875, so
+    # x = 0.84375 * 0 + 0.140625 * 2 * 1 + 0.15625 * 3 - 0.046875 * 2 * 2 = 0.5625.
+    values = [[9, 9, 9], [0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0], [9, 9, 9]]
+    world = _moved(tmp_path, "translation", [0.0, 2.0], values, 3, "CUBICSPLINE", 0.5)
+    np.testing.assert_allclose(world[:3, 3], [0.5625, 0.0, 0.0], atol=1e-12)
+
+
+def test_step_holds_each_key_until_the_next(tmp_path: Path) -> None:
+    values = [[0, 0, 0], [5, 0, 0], [7, 0, 0]]
+    for t, x in ((0.999, 0.0), (1.0, 5.0), (1.5, 5.0), (2.0, 7.0)):
+        world = _moved(tmp_path, "translation", [0.0, 1.0, 2.0], values, 3, "STEP", t)
+        assert world[0, 3] == x, t
+
+
+def test_a_time_outside_the_animation_is_clamped_with_a_note(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    with caplog.at_level("WARNING", logger="pbs.gltf"):
+        world = _moved(tmp_path, "translation", [1.0, 2.0], [[1, 0, 0], [3, 0, 0]], 3, "LINEAR", 9)
+    assert world[0, 3] == 3.0
+    notes = [r.getMessage() for r in caplog.records if "outside" in r.getMessage()]
+    assert len(notes) == 1 and "1..2 s" in notes[0], notes
+
+
+# --- a skinned bar ------------------------------------------------------------------------
+
+# A bar along +Y from 0 to 2, square section, rings of 4 vertices at these heights; joint
+# 0 at the origin, joint 1 at y = 1 (its child). Below y = 1 a vertex follows joint 0, above
+# it joint 1, at y = 1 half each.
+HEIGHTS = [0.0, 0.5, 1.0, 1.5, 2.0]
+
+
+def _bar(tmp_path: Path, joints_of: list | None = None) -> Path:
+    doc = Doc()
+    ring = np.array([[-0.1, 0, -0.1], [0.1, 0, -0.1], [0.1, 0, 0.1], [-0.1, 0, 0.1]])
+    positions = np.concatenate([ring + np.array([0.0, h, 0.0]) for h in HEIGHTS])
+    normals = np.concatenate([ring / np.linalg.norm(ring, axis=1, keepdims=True)] * len(HEIGHTS))
+    faces = []
+    for r in range(len(HEIGHTS) - 1):
+        for k in range(4):
+            a, b = 4 * r + k, 4 * r + (k + 1) % 4
+            faces += [a, b, b + 4, a, b + 4, a + 4]
+    w1 = np.clip(np.array([h for h in HEIGHTS for _ in range(4)]) - 0.5, 0.0, 1.0)
+    weights = np.stack([1.0 - w1, w1, 0 * w1, 0 * w1], axis=1)
+    joints = joints_of or [[0, 1, 0, 0]] * len(positions)
+    attributes = {
+        "POSITION": doc.accessor(positions, 3, position=True),
+        "NORMAL": doc.accessor(normals, 3),
+        "JOINTS_0": doc.accessor(joints, 4, UBYTE),
+        "WEIGHTS_0": doc.accessor(weights, 4),
+    }
+    indices = doc.accessor(faces, 1, USHORT)
+    doc.json["meshes"].append({"primitives": [{"attributes": attributes, "indices": indices}]})
+    inverse_bind = [np.eye(4), np.eye(4)]
+    inverse_bind[1][1, 3] = -1.0  # joint 1's bind pose is a translation by +1 in y
+    ibm = doc.accessor(np.concatenate([m.T.reshape(-1) for m in inverse_bind]), 16)
+    doc.json["skins"] = [{"joints": [1, 2], "inverseBindMatrices": ibm}]
+    # The mesh node's own transform must be ignored (glTF 2.0 sec. 3.7.3).
+    doc.node(mesh=0, skin=0, translation=[5.0, 0.0, 0.0])
+    doc.node(children=[2])
+    doc.node(root=False, translation=[0.0, 1.0, 0.0])
+    # Joint 1 turns 90 degrees about +Z over one second.
+    s = math.sin(math.pi / 4)
+    doc.animate(2, "rotation", [0.0, 1.0], [[0, 0, 0, 1], [0, 0, s, s]], 4, name="bend")
+    return doc.save(tmp_path / "bar.gltf")
+
+
+def test_a_two_joint_skin_bends_the_bar(tmp_path: Path) -> None:
+    path = _bar(tmp_path)
+    (rest,) = _prims(path)
+    (bent,) = _prims(path, animation="bend", time=1.0)
+    np.testing.assert_array_equal(rest.world, np.eye(4))
+    np.testing.assert_array_equal(bent.world, np.eye(4))
+    # Independently: joint 1 turns the vertex about (0, 1, 0); weights blend the two joints.
+    p = rest.positions
+    w1 = np.clip(p[:, 1] - 0.5, 0.0, 1.0)[:, None]
+    turned = (p - [0, 1, 0]) @ np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1.0]]) + [0, 1, 0]
+    expected = (1.0 - w1) * p + w1 * turned
+    np.testing.assert_allclose(bent.positions, expected, atol=1e-6)
+    top = np.argmax(p[:, 1])  # the tip now points along -x
+    assert bent.positions[top, 0] < -0.8 and abs(bent.positions[top, 1] - 1.0) < 0.2
+    # The tip's normals turn with it (rotation: the inverse transpose is the rotation).
+    tip = p[:, 1] > 1.9
+    rotated = rest.normals[tip] @ np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1.0]])
+    np.testing.assert_allclose(bent.normals[tip], rotated, atol=1e-6)
+
+
+def test_joint_matrix_uses_the_pose_not_the_bind(tmp_path: Path) -> None:
+    # At rest the joints stand at their bind pose: the skin gives the mesh back as written.
+    (rest,) = _prims(_bar(tmp_path))
+    heights = sorted({round(float(y), 6) for y in rest.positions[:, 1]})
+    assert heights == HEIGHTS
+    assert np.all(np.abs(rest.positions[:, 0]) <= 0.1 + 1e-6)  # not moved by the node's +5
+
+
+# --- morph targets and variants -----------------------------------------------------------
+
+
+def _morphed(tmp_path: Path) -> Path:
+    doc = Doc()
+    mesh = doc.triangle()
+    delta = doc.accessor([[0, 0, 0], [0, 0, 0], [0, 0, 2]], 3)
+    doc.json["meshes"][mesh]["primitives"][0]["targets"] = [{"POSITION": delta}]
+    doc.json["meshes"][mesh]["weights"] = [0.25]
+    node = doc.node(mesh=mesh)
+    doc.animate(node, "weights", [0.0, 1.0], [0.0, 1.0], 1, name="grow")
+    return doc.save(tmp_path / "morph.gltf")
+
+
+def test_a_morph_target_weight(tmp_path: Path) -> None:
+    path = _morphed(tmp_path)
+    (rest,) = _prims(path)  # the mesh's own weight 0.25
+    assert rest.positions[2, 2] == pytest.approx(0.5, abs=1e-12)
+    (mid,) = _prims(path, animation="grow", time=0.5)  # the animation's weight 0.5
+    assert mid.positions[2, 2] == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_array_equal(mid.positions[:2], rest.positions[:2])
+
+
+def _variants(tmp_path: Path) -> Path:
+    doc = Doc()
+    doc.triangle(
+        material=0,
+        extensions={"KHR_materials_variants": {"mappings": [{"material": 1, "variants": [1]}]}},
+    )
+    doc.node(mesh=0)
+    doc.json["materials"] = [
+        {"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]}},
+        {"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 1, 1]}},
+    ]
+    doc.json["extensionsUsed"] = ["KHR_materials_variants"]
+    doc.json["extensions"] = {
+        "KHR_materials_variants": {"variants": [{"name": "red"}, {"name": "blue"}]}
+    }
+    return doc.save(tmp_path / "variants.gltf")
+
+
+def test_variants_select_their_materials(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    path = _variants(tmp_path)
+    with caplog.at_level("WARNING", logger="pbs.gltf"):
+        (default,) = _prims(path)
+    assert default.material == 0
+    assert sum("material variant" in r.getMessage() for r in caplog.records) == 1
+    assert _prims(path, variant="red")[0].material == 0  # no mapping: its own material
+    assert _prims(path, variant="blue")[0].material == 1
+    with pytest.raises(PoseError, match="'red', 'blue'"):
+        _prims(path, variant="green")
+
+
+# --- bad input: exit 2, one line, no image --------------------------------------------------
+
+
+def _render(capsys: pytest.CaptureFixture[str], path: Path, *options: str) -> str:
+    out = path.parent / "out"
+    out.mkdir(exist_ok=True)
+    capsys.readouterr()
+    rc = main(["render", str(path), "-o", str(out / "x.png"), "--size", "32x24", *options])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert not list(out.iterdir()), "no output"
+    assert str(path) in lines[0] or path.name in lines[0], lines[0]
+    return lines[0]
+
+
+def _bad_sampler(tmp_path: Path, change: str) -> Path:
+    doc = Doc()
+    mesh = doc.triangle()
+    node = doc.node(mesh=mesh)
+    if change == "type":  # a rotation given as VEC3
+        doc.animate(node, "rotation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0]], 3)
+    elif change == "count":  # three values for two keyframes
+        doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0], [2, 0, 0]], 3)
+    elif change == "times":  # times not increasing
+        doc.animate(node, "translation", [0.0, 1.0, 1.0], [[0, 0, 0]] * 3, 3)
+    return doc.save(tmp_path / f"bad-{change}.gltf")
+
+
+@pytest.mark.parametrize(
+    ("change", "key", "fragment"),
+    [
+        ("type", "animations[0].samplers[0].output", "cannot be rotation"),
+        ("count", "animations[0].samplers[0].output", "2 keyframes"),
+        ("times", "animations[0].samplers[0].input", "increase strictly"),
+    ],
+)
+def test_bad_sampler_data_is_bad_input(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: str, key: str, fragment: str
+) -> None:
+    line = _render(capsys, _bad_sampler(tmp_path, change), "--time", "0.5")
+    assert key in line and fragment in line, line
+
+
+def test_joints_out_of_range_are_bad_input(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _bar(tmp_path, joints_of=[[0, 2, 0, 0]] * 20)  # the skin has joints 0 and 1
+    line = _render(capsys, path)
+    assert "meshes[0].primitives[0].attributes.JOINTS_0" in line and "joint 2" in line, line
+
+
+def test_a_weights_count_mismatch_is_bad_input(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    doc = json.loads(_morphed(tmp_path).read_text())
+    doc["meshes"][0]["weights"] = [0.25, 0.5]  # one target
+    del doc["animations"]
+    path = tmp_path / "weights.gltf"
+    path.write_text(json.dumps(doc))
+    line = _render(capsys, path)
+    assert "meshes[0].weights" in line and "2 weights for 1 morph targets" in line, line
+
+
+def test_an_unknown_animation_lists_the_file_s(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    line = _render(capsys, _bar(tmp_path), "--animation", "walk")
+    assert "--animation" in line and "no animation 'walk'" in line and "0 'bend'" in line, line
+
+
+def test_an_unknown_variant_lists_the_file_s(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    line = _render(capsys, _variants(tmp_path), "--variant", "green")
+    assert "--variant" in line and "'red', 'blue'" in line, line
+
+
+def test_a_time_for_a_file_without_animations(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    doc = Doc()
+    doc.node(mesh=doc.triangle())
+    line = _render(capsys, doc.save(tmp_path / "still.gltf"), "--time", "1")
+    assert "--time" in line and "no animations" in line, line
