@@ -368,3 +368,63 @@ def test_a_time_for_a_file_without_animations(
     doc.node(mesh=doc.triangle())
     line = _render(capsys, doc.save(tmp_path / "still.gltf"), "--time", "1")
     assert "--time" in line and "no animations" in line, line
+
+
+# --- EXT_texture_webp and KHR_texture_basisu ---------------------------------------------
+
+
+def _image_uri(colour: tuple[int, int, int], fmt: str) -> str:
+    import io
+
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    options = {"lossless": True} if fmt == "WEBP" else {}
+    Image.new("RGB", (4, 4), colour).save(buffer, fmt, **options)
+    mime = {"WEBP": "image/webp", "PNG": "image/png"}[fmt]
+    return f"data:{mime};base64,{base64.b64encode(buffer.getvalue()).decode()}"
+
+
+def _textured(tmp_path: Path, extension: str, fallback: bool = True) -> Path:
+    """A triangle whose base colour texture is a WebP (green) or a KTX2 image (here bytes
+    no decoder reads), with a red PNG as the texture's fallback ``source``."""
+    doc = Doc()
+    doc.node(mesh=doc.triangle(material=0))
+    doc.json["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]
+    (tmp_path / "x.ktx2").write_bytes(b"\xabKTX 20\xbb\r\n\x1a\n" + bytes(64))
+    special = (
+        {"uri": _image_uri((0, 255, 0), "WEBP")} if extension == "EXT_texture_webp"
+        else {"uri": "x.ktx2", "mimeType": "image/ktx2"}
+    )  # fmt: skip
+    doc.json["images"] = [{"uri": _image_uri((255, 0, 0), "PNG")}, special]
+    texture: dict = {"extensions": {extension: {"source": 1}}}
+    if fallback:
+        texture["source"] = 0
+    doc.json["textures"] = [texture]
+    doc.json["extensionsUsed"] = [extension]
+    return doc.save(tmp_path / f"{extension}.gltf")
+
+
+def _base_colour(path: Path) -> np.ndarray:
+    from app.scene.geometry import _DEFAULT_MATERIAL
+
+    layer = GltfFile(path).layer(0, _DEFAULT_MATERIAL, "naive")
+    return np.asarray(layer.maps["base_color"].pixels)[0, 0, :3]
+
+
+def test_a_webp_texture_is_read(tmp_path: Path) -> None:
+    np.testing.assert_array_equal(
+        _base_colour(_textured(tmp_path, "EXT_texture_webp")), [0, 255, 0]
+    )
+
+
+def test_a_ktx2_texture_falls_back_with_a_note(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _textured(tmp_path, "KHR_texture_basisu")
+    with caplog.at_level("WARNING", logger="pbs.gltf"):
+        np.testing.assert_array_equal(_base_colour(path), [255, 0, 0])
+    notes = [r.getMessage() for r in caplog.records if "KHR_texture_basisu" in r.getMessage()]
+    assert len(notes) == 1 and "images[0]" in notes[0], notes
+    line = _render(capsys, _textured(tmp_path, "KHR_texture_basisu", fallback=False))
+    assert "textures[0].source" in line and "no PNG or JPEG fallback" in line, line

@@ -41,7 +41,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-from PIL import Image
+from PIL import Image, features
 
 from app.common.material_checks import MAX_RADIANCE, material_problems
 from app.common.models import MaterialParams
@@ -721,6 +721,33 @@ class GltfFile:
                 raise GltfError(ikey, str(exc)) from None
         return self._images[i]
 
+    def _source(self, tex: JsonObject, tkey: str) -> tuple[object, str]:
+        """The image a texture reads and its JSON key: EXT_texture_webp's WebP image
+        (Pillow decodes it), else ``source``; KHR_texture_basisu's KTX2 image is not
+        decoded (no maintained decoder installs from PyPI here), so its PNG/JPEG
+        fallback ``source`` is read, with one note per texture."""
+        extensions = _object(tex.extensions, f"{tkey}.extensions")
+        webp = extensions.get("EXT_texture_webp")
+        if webp is not None and features.check("webp"):
+            wkey = f"{tkey}.extensions.EXT_texture_webp"
+            return _object(webp, wkey).get("source"), f"{wkey}.source"
+        if webp is not None:
+            self.note(f"{tkey}: this Pillow decodes no WebP; its fallback source is read")
+        if "KHR_texture_basisu" in extensions:
+            if tex.source is None:
+                raise GltfError(
+                    f"{tkey}.source",
+                    "is missing: its KHR_texture_basisu (KTX2) image is not decoded by pbs "
+                    "and the file gives no PNG or JPEG fallback",
+                )
+            self.note(
+                f"{tkey}: its KHR_texture_basisu (KTX2) image is not decoded; the fallback "
+                f"images[{tex.source}] is used"
+            )
+        if tex.source is None:
+            raise GltfError(f"{tkey}.source", "is missing")
+        return tex.source, f"{tkey}.source"
+
     def _map_cost(self, image: Image.Image, kind: str, key: str) -> None:
         """Charge the map of ``kind`` about to be built from ``image``."""
         try:
@@ -734,11 +761,8 @@ class GltfFile:
         t = _int(getattr(info, "index", None), f"{key}.index", len(textures))
         tex = textures[t]
         tkey = f"textures[{t}]"
-        if tex.source is None:
-            raise GltfError(
-                f"{tkey}.source", "is missing (image formats from extensions are not read)"
-            )
-        image = self.image(tex.source, f"{tkey}.source")
+        source, skey = self._source(tex, tkey)
+        image = self.image(source, skey)
         sampler: dict = {}
         if tex.sampler is not None:
             samplers = self._table("samplers")
