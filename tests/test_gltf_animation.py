@@ -428,3 +428,55 @@ def test_a_ktx2_texture_falls_back_with_a_note(
     assert len(notes) == 1 and "images[0]" in notes[0], notes
     line = _render(capsys, _textured(tmp_path, "KHR_texture_basisu", fallback=False))
     assert "textures[0].source" in line and "no PNG or JPEG fallback" in line, line
+
+
+# --- pbs batch: a pose in the look table, time swept as a scene key ------------------------
+
+
+def test_a_job_file_poses_a_model_and_sweeps_its_time(tmp_path: Path) -> None:
+    from app.batch.jobs import plan_jobs
+    from app.errors import InputError
+
+    _bar(tmp_path)
+    jobs = tmp_path / "jobs.toml"
+    jobs.write_text(
+        'scene = "bar.gltf"\nlook = { animation = 0, variant = "v", time = 0.5 }\n'
+        'sweep = { key = "objects[0].time", values = [0.0, 1.0] }\n'
+    )
+    with pytest.raises(InputError, match="variant"):  # the file has no variants
+        plan_jobs(jobs, tmp_path / "out")
+    jobs.write_text(jobs.read_text().replace(', variant = "v"', ""))
+    plan = plan_jobs(jobs, tmp_path / "out")
+    assert [job.value for job in plan.jobs] == [0.0, 1.0]
+    assert plan.jobs[0].look is not None and plan.jobs[0].look.pose() == {
+        "animation": "0",
+        "time": 0.5,
+    }
+    jobs.write_text('scene = "bar.gltf"\nlook = { time = "noon" }\norbit = { frames = 1 }\n')
+    with pytest.raises(InputError, match=r"look\.time"):
+        plan_jobs(jobs, tmp_path / "out")
+
+
+@pytest.mark.gl
+def test_a_time_sweep_renders_the_bar_bending(tmp_path: Path) -> None:
+    from PIL import Image
+
+    _bar(tmp_path)
+    jobs = tmp_path / "jobs.toml"
+    jobs.write_text(
+        'scene = "bar.gltf"\nsize = "48x48"\nlook = { animation = "bend", view = "front" }\n'
+        'sweep = { key = "objects[0].time", values = [0.0, 1.0] }\n'
+    )
+    assert main(["batch", str(jobs), "-o", str(tmp_path / "out"), "-q"]) == 0
+    first, last = (
+        np.asarray(Image.open(tmp_path / "out" / f"sweep-000{i}.png"), np.int16) for i in (0, 1)
+    )
+    # The camera stays (framed at the sweep's base); the bar's tip leaves the top middle
+    # and the bent part reaches the left of the image.
+    assert np.abs(first - last).max() > 50
+    background = first[0, 0]
+    drawn = np.abs(last - background).sum(axis=2) > 30
+    assert (
+        drawn[:, : 48 // 3].any()
+        and not (np.abs(first - background).sum(axis=2) > 30)[:, : 48 // 3].any()
+    )
