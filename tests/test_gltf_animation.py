@@ -480,3 +480,45 @@ def test_a_time_sweep_renders_the_bar_bending(tmp_path: Path) -> None:
         drawn[:, : 48 // 3].any()
         and not (np.abs(first - background).sum(axis=2) > 30)[:, : 48 // 3].any()
     )
+
+
+# --- a real asset: Cesium Man walking (tests/assets/CesiumMan.glb, CC-BY 4.0 Cesium) -----
+
+CESIUM_MAN = Path(__file__).resolve().parent / "assets" / "CesiumMan.glb"
+
+
+def _extent(time: float | None) -> tuple[np.ndarray, float]:
+    """(the world-space box size of the posed man, his longest triangle edge)."""
+    (prim,) = _prims(CESIUM_MAN, time=time)
+    world = prim.positions @ prim.world[:3, :3].T + prim.world[:3, 3]
+    edges = world[prim.faces] - world[np.roll(prim.faces, 1, axis=1)]
+    return np.ptp(world, axis=0), float(np.linalg.norm(edges, axis=2).max())
+
+
+def test_cesium_man_walks() -> None:
+    rest, rest_edge = _extent(None)
+    # At rest the joints stand in the bind pose: a T-pose, arms out (1.14 m wide, 0.31 deep).
+    assert rest[0] > 1.0 and rest[2] < 0.4, rest
+    for time in (0.5, 1.0, 1.5):
+        size, edge = _extent(time)
+        # Walking: arms down (narrow), legs apart (deep), as tall (1.46-1.51 m), and no
+        # triangle torn (a wrong joint matrix scatters vertices across the model).
+        assert size[0] < 0.55 and size[2] > 0.6 and abs(size[1] - rest[1]) < 0.06, (time, size)
+        assert edge < 1.3 * rest_edge, (time, edge, rest_edge)
+    assert _extent(1.0)[0][2] > _extent(0.5)[0][2] + 0.15  # the stride opens from 0.5 s to 1 s
+
+
+@pytest.mark.gl
+def test_cesium_man_renders_at_two_times() -> None:
+    from app.api import OffscreenRenderer
+    from app.scene.look import Look
+
+    images = []
+    for time in (0.5, 1.0):
+        with OffscreenRenderer(CESIUM_MAN, size=(64, 64), look=Look("front", time=time)) as r:
+            image = r.render().astype(np.int16)
+            images.append((image, r.depth() > 0.0))
+    (first, covered_first), (second, covered_second) = images
+    assert 0.05 < covered_first.mean() < 0.6 and 0.05 < covered_second.mean() < 0.6
+    assert (covered_first != covered_second).mean() > 0.02  # the legs and arms moved
+    assert np.abs(first - second).max() > 50
