@@ -221,6 +221,19 @@ def test_a_two_joint_skin_bends_the_bar(tmp_path: Path) -> None:
     np.testing.assert_allclose(bent.normals[tip], rotated, atol=1e-6)
 
 
+def test_skinning_in_chunks_gives_the_same_vertices(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from app.scene import gltf_animation
+
+    path = _bar(tmp_path)
+    (whole,) = _prims(path, animation="bend", time=0.7)
+    monkeypatch.setattr(gltf_animation, "SKIN_CHUNK", 7)  # 20 vertices: chunks of 7, 7, 6
+    (chunked,) = _prims(path, animation="bend", time=0.7)
+    np.testing.assert_array_equal(chunked.positions, whole.positions)
+    np.testing.assert_array_equal(chunked.normals, whole.normals)
+
+
 def test_joint_matrix_uses_the_pose_not_the_bind(tmp_path: Path) -> None:
     # At rest the joints stand at their bind pose: the skin gives the mesh back as written.
     (rest,) = _prims(_bar(tmp_path))

@@ -48,7 +48,7 @@ INTERPOLATIONS = ("LINEAR", "STEP", "CUBICSPLINE")
 # A channel's target path -> the components of one keyframe value (weights: one per target).
 PATHS = {"translation": 3, "rotation": 4, "scale": 3, "weights": 1}
 VARIANTS = "KHR_materials_variants"
-TIME_LIMIT = 1e9  # seconds: the largest |time| a scene object takes
+SKIN_CHUNK = 65536  # vertices skinned at once: bounds the blended matrices' memory
 
 
 @dataclass(frozen=True)
@@ -435,23 +435,25 @@ def skin(
     matrix times the determinant's sign), tangents (xyz) by M, w kept. Joint indices are
     checked by the caller."""
     n = len(attrs["POSITION"])
-    blended = np.zeros((n, 4, 4))
-    for joints, weights in sets:
-        for c in range(joints.shape[1]):
-            blended += weights[:, c, None, None] * matrices[joints[:, c]]
-    out = dict(attrs)
-    m3 = blended[:, :3, :3]
-    out["POSITION"] = np.einsum("nij,nj->ni", m3, attrs["POSITION"][:, :3]) + blended[:, :3, 3]
-    if "NORMAL" in attrs:
-        a, b, c = m3[:, :, 0], m3[:, :, 1], m3[:, :, 2]
-        cofactor = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=2)
-        sign = np.where(np.einsum("ni,ni->n", a, np.cross(b, c)) < 0.0, -1.0, 1.0)
-        normals = np.einsum("nij,nj->ni", cofactor, attrs["NORMAL"][:, :3]) * sign[:, None]
-        out["NORMAL"] = normals
-    if "TANGENT" in attrs:
-        t = attrs["TANGENT"].copy()
-        t[:, :3] = np.einsum("nij,nj->ni", m3, t[:, :3])
-        out["TANGENT"] = t
+    out = {name: values.copy() for name, values in attrs.items()}
+    for start in range(0, n, SKIN_CHUNK):  # bounded temporaries (48 float64 per vertex)
+        part = slice(start, min(start + SKIN_CHUNK, n))
+        blended = np.zeros((part.stop - start, 3, 4))
+        for joints, weights in sets:
+            for c in range(joints.shape[1]):
+                blended += weights[part, c, None, None] * matrices[joints[part, c], :3]
+        m3 = blended[:, :, :3]
+        p = attrs["POSITION"][part, :3]
+        out["POSITION"][part, :3] = np.einsum("nij,nj->ni", m3, p) + blended[:, :, 3]
+        if "NORMAL" in attrs:
+            a, b, c = m3[:, :, 0], m3[:, :, 1], m3[:, :, 2]
+            cofactor = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=2)
+            sign = np.where(np.einsum("ni,ni->n", a, np.cross(b, c)) < 0.0, -1.0, 1.0)
+            normal = attrs["NORMAL"][part, :3]
+            out["NORMAL"][part, :3] = np.einsum("nij,nj->ni", cofactor, normal) * sign[:, None]
+        if "TANGENT" in attrs:
+            tangent = attrs["TANGENT"][part, :3]
+            out["TANGENT"][part, :3] = np.einsum("nij,nj->ni", m3, tangent)
     return out
 
 

@@ -746,6 +746,14 @@ class SceneObject(_Strict):
         except ValidationError:
             raise ValueError("must be a number > 0 or a list of 3 numbers > 0") from None
 
+    @field_validator("animation", mode="wrap")
+    @classmethod
+    def _animation(cls, value: object, handler: ValidatorFunctionWrapHandler) -> object:
+        try:
+            return handler(value)
+        except ValidationError:
+            raise ValueError("must be an animation's name or its index (an integer >= 0)") from None
+
     @model_validator(mode="after")
     def _check(self) -> SceneObject:
         allowed = {
