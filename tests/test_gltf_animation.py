@@ -535,3 +535,28 @@ def test_cesium_man_renders_at_two_times() -> None:
     assert 0.05 < covered_first.mean() < 0.6 and 0.05 < covered_second.mean() < 0.6
     assert (covered_first != covered_second).mean() > 0.02  # the legs and arms moved
     assert np.abs(first - second).max() > 50
+
+
+def test_a_scene_file_poses_its_gltf_object(tmp_path: Path) -> None:
+    from app.errors import InputError
+    from app.scene.geometry import build_parts
+    from app.scene.loader import load_scene
+
+    _bar(tmp_path)
+    scene = tmp_path / "scene.toml"
+    base = '[[objects]]\nshape = "mesh"\nfile = "bar.gltf"\nposition = [0.0, 0.0, 3.0]\n'
+    scene.write_text(base + 'animation = "bend"\ntime = 1.0\n')
+    (part,) = build_parts(load_scene(scene))
+    tip = part.vertices[:, :3].astype(np.float64) @ part.model[:3, :3].T + part.model[:3, 3]
+    assert tip[:, 0].min() < -0.8 and tip[:, 2].min() > 2.8  # bent, and placed by the object
+    scene.write_text(base + 'animation = "walk"\n')
+    with pytest.raises(InputError) as caught:
+        build_parts(load_scene(scene))
+    assert caught.value.key == "objects[0].animation" and "0 'bend'" in str(caught.value)
+    scene.write_text(base + "animation = -1\n")
+    with pytest.raises(InputError, match="name or its index") as caught:
+        load_scene(scene)
+    assert caught.value.key == "objects[0].animation"
+    scene.write_text(base.replace("bar.gltf", "bar.obj") + "time = 1.0\n")
+    with pytest.raises(InputError, match="needs a glTF file"):
+        load_scene(scene)
