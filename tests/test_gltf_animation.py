@@ -560,3 +560,18 @@ def test_a_scene_file_poses_its_gltf_object(tmp_path: Path) -> None:
     scene.write_text(base.replace("bar.gltf", "bar.obj") + "time = 1.0\n")
     with pytest.raises(InputError, match="needs a glTF file"):
         load_scene(scene)
+
+
+def test_an_extension_the_reader_does_not_honour_gets_one_note(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    doc = Doc()
+    doc.node(mesh=doc.triangle())
+    doc.json["extensionsUsed"] = ["EXT_mesh_gpu_instancing", "KHR_texture_transform"]
+    path = doc.save(tmp_path / "instanced.gltf")
+    with caplog.at_level("WARNING", logger="pbs.gltf"):
+        gltf = GltfFile(path)
+        gltf.primitives()
+        gltf.primitives()
+    notes = [r.getMessage() for r in caplog.records]
+    assert len(notes) == 1 and "EXT_mesh_gpu_instancing" in notes[0], notes
