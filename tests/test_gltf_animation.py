@@ -575,3 +575,17 @@ def test_an_extension_the_reader_does_not_honour_gets_one_note(
         gltf.primitives()
     notes = [r.getMessage() for r in caplog.records]
     assert len(notes) == 1 and "EXT_mesh_gpu_instancing" in notes[0], notes
+
+
+def test_pose_accessors_are_charged_before_they_are_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A sampler input of 16M times and no bufferView (zeros): refused by the budget
+    # before 400 MB of float64 exist, not read and then refused for its times.
+    doc = Doc()
+    node = doc.node(mesh=doc.triangle())
+    doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0]], 3)
+    doc.json["accessors"].append({"componentType": FLOAT, "count": 1 << 24, "type": "SCALAR"})
+    doc.json["animations"][0]["samplers"][0]["input"] = len(doc.json["accessors"]) - 1
+    line = _render(capsys, doc.save(tmp_path / "huge.gltf"), "--time", "0", "--max-memory", "64M")
+    assert "accessors[3]" in line and "--max-memory" in line, line

@@ -46,7 +46,7 @@ from PIL import Image, features
 from app.common.material_checks import MAX_RADIANCE, material_problems
 from app.common.models import MaterialParams
 from app.scene import gltf_animation as animation
-from app.scene.gltf_animation import Pose, PoseRequest
+from app.scene.gltf_animation import PATHS, Pose, PoseRequest
 from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matrices
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
 from app.scene.gltf_schema import MAX_COORDINATE
@@ -104,6 +104,8 @@ _SEMANTICS: dict[str, tuple[tuple[str, ...], tuple[int, ...]]] = {
 # Integer components of these must be normalized (JOINTS_n never are: they are indices).
 _NORMALIZED = ("NORMAL", "TANGENT", "COLOR_0", "WEIGHTS_0", "WEIGHTS_1", "rotation", "weights")
 _SKIN_SETS = (("JOINTS_0", "WEIGHTS_0"), ("JOINTS_1", "WEIGHTS_1"))
+# Accessors of a pose (morph targets, skins, animations), charged to the budget as read.
+_POSE_SEMANTICS = ("target", "inverseBindMatrices", "input", *PATHS)
 _DRAWN = ("POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "COLOR_0")
 # Extensions read elsewhere or noted where they are met (the material extensions per
 # material, KHR_texture_basisu per texture, KHR_lights_punctual by import_lights); any other
@@ -363,6 +365,11 @@ class GltfFile:
         (a mesh that several nodes show is decoded once)."""
         i = _int(index, key, len(self._table("accessors")))
         if (i, semantic) not in self._accessors:
+            if semantic in _POSE_SEMANTICS:  # not charged with a primitive's vertices
+                a = self._table("accessors")[i]
+                count = _int(a.count, f"accessors[{i}].count", low=1)
+                size = count * _TYPES.get(a.type, 16) * 8  # float64 values
+                self._charge(size, "byte", f"accessors[{i}]", f"{count} {semantic} values")
             self._accessors[(i, semantic)] = self._accessor(i, semantic)
         return self._accessors[(i, semantic)]
 
