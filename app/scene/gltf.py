@@ -223,9 +223,8 @@ class GltfFile:
         self.policy = policy
         self.budget = budget or Budget(policy.limits)
         self.doc = open_gltf(path, policy)
-        self.request = (
-            pose or PoseRequest()
-        )  # the animation, time and variant shown (gltf_animation.py)
+        # The animation, time and variant shown (app/scene/gltf_animation.py).
+        self.request = pose or PoseRequest()
         self._noted: set[str] = set()  # notes logged once per file
         self._buffers: dict[int, memoryview] = {}
         self._views: dict[int, memoryview] = {}
