@@ -23,6 +23,12 @@ What is read (docs/scene-format.md, "Mesh files"):
   flipped (glTF's origin is the image's top left, the project's the bottom left); the
   tangent's w keeps its meaning (the file's bitangent points up the image in both).
 - Materials -> ``SurfaceLayer`` at full float64 precision (``GltfFile.layer``).
+- The pose (``PoseRequest``: an animation at a time, a KHR_materials_variants variant):
+  animation channels sampled, node matrices recomputed, morph targets and skins applied
+  to the decoded attributes in float64 (app/scene/gltf_animation.py), the variant's
+  materials given to the primitives.
+- Texture images by ``source``, EXT_texture_webp's WebP, or KHR_texture_basisu's
+  fallback ``source`` (KTX2 is not decoded; one note per texture).
 
 Untrusted input (docs/stability.md): the document is checked against glTF 2.0's schema
 before it is read (app/scene/gltf_document.py); buffer and image URIs are confined to the
