@@ -265,6 +265,24 @@ def test_a_morph_target_weight(tmp_path: Path) -> None:
     np.testing.assert_array_equal(mid.positions[:2], rest.positions[:2])
 
 
+def test_a_cubicspline_morph_weight(tmp_path: Path) -> None:
+    # The translation case's spline as the weight (0.5625 at 0.5 s), the target's delta 2.
+    doc = json.loads(_morphed(tmp_path).read_text())
+    path = tmp_path / "cubic-morph.gltf"
+    path.write_text(json.dumps(doc))
+    built = Doc()
+    built.json, built.blob = (
+        doc,
+        bytearray(base64.b64decode(doc["buffers"][0]["uri"].split(",")[1])),
+    )
+    sampler = doc["animations"][0]["samplers"][0]
+    sampler["input"] = built.accessor([0.0, 2.0], 1)
+    sampler["output"] = built.accessor([9.0, 0.0, 1.0, 2.0, 3.0, 9.0], 1)
+    sampler["interpolation"] = "CUBICSPLINE"
+    (prim,) = _prims(built.save(path), animation="grow", time=0.5)
+    assert prim.positions[2, 2] == pytest.approx(2 * 0.5625, abs=1e-12)
+
+
 def _variants(tmp_path: Path) -> Path:
     doc = Doc()
     doc.triangle(
