@@ -20,6 +20,7 @@ import pytest
 from app.cli import main
 from app.scene.gltf import GltfFile
 from app.scene.gltf_animation import PoseError, PoseRequest
+from app.scene.gltf_document import GltfError
 
 FLOAT, UBYTE, USHORT = 5126, 5121, 5123
 _TYPES = {1: "SCALAR", 3: "VEC3", 4: "VEC4", 16: "MAT4"}
@@ -607,3 +608,85 @@ def test_pose_accessors_are_charged_before_they_are_read(
     doc.json["animations"][0]["samplers"][0]["input"] = len(doc.json["accessors"]) - 1
     line = _render(capsys, doc.save(tmp_path / "huge.gltf"), "--time", "0", "--max-memory", "64M")
     assert "accessors[3]" in line and "--max-memory" in line, line
+
+
+def _rich(tmp_path: Path) -> dict:
+    """The bar with a morph target, a CUBICSPLINE weights animation, a STEP translation
+    and variants: every part of the pose in one small file (JSON, buffer in a data URI)."""
+    doc = json.loads(_bar(tmp_path).read_text())
+    rich = Doc()
+    rich.json = doc
+    rich.blob = bytearray(base64.b64decode(doc["buffers"][0]["uri"].split(",")[1]))
+    primitive = doc["meshes"][0]["primitives"][0]
+    primitive["targets"] = [{"POSITION": rich.accessor(np.full((20, 3), 0.1), 3)}]
+    primitive["material"] = 0
+    primitive["extensions"] = {
+        "KHR_materials_variants": {"mappings": [{"material": 1, "variants": [0]}]}
+    }
+    doc["meshes"][0]["weights"] = [0.5]
+    doc["materials"] = [{}, {"pbrMetallicRoughness": {"metallicFactor": 0.0}}]
+    doc["extensions"] = {"KHR_materials_variants": {"variants": [{"name": "v"}]}}
+    doc["nodes"].append({"mesh": 0, "translation": [0.0, 0.0, 1.0]})
+    doc["scenes"][0]["nodes"].append(3)
+    sampler_weights = {
+        "input": rich.accessor([0.0, 1.0], 1),
+        "output": rich.accessor([0, 0.2, 1, 1, 0.8, 0], 1),
+        "interpolation": "CUBICSPLINE",
+    }
+    sampler_step = {
+        "input": rich.accessor([0.0, 0.5, 1.0], 1),
+        "output": rich.accessor([[0, 0, 1], [1, 0, 1], [2, 0, 1]], 3),
+        "interpolation": "STEP",
+    }
+    doc["animations"].append(
+        {
+            "name": "all",
+            "channels": [
+                {"sampler": 0, "target": {"node": 3, "path": "weights"}},
+                {"sampler": 1, "target": {"node": 3, "path": "translation"}},
+            ],
+            "samplers": [sampler_weights, sampler_step],
+        }
+    )
+    rich.save(tmp_path / "rich.gltf")
+    return json.loads((tmp_path / "rich.gltf").read_text())
+
+
+def test_mutated_pose_data_is_bad_input_or_parts(tmp_path: Path) -> None:
+    """Seeded mutations of the animations, skins, targets, variants and accessors of a
+    file with every part of a pose: each reads or is one GltfError, nothing else."""
+    import random
+
+    from tests.test_gltf_fuzz import BAD_VALUES, _leaves
+
+    valid = _rich(tmp_path)
+    path = tmp_path / "case.gltf"
+    requests = [
+        PoseRequest(animation="all", time=0.7, variant="v"),
+        PoseRequest(animation=0, time=0.3),
+    ]
+    for request in requests:
+        path.write_text(json.dumps(valid))
+        assert len(GltfFile(path, pose=request).primitives()) == 2
+    rng = random.Random(5)
+    roots = ("animations", "skins", "meshes", "accessors", "nodes", "extensions")
+    paths = [p for p in _leaves(valid) if p[0] in roots and p[-1] != "uri"]
+    outcomes = {"parts": 0, "error": 0}
+    for case in range(200):
+        doc = json.loads(json.dumps(valid))
+        where = rng.choice(paths)
+        target = doc
+        for key in where[:-1]:
+            target = target[key]
+        value = rng.choice(BAD_VALUES)
+        target[where[-1]] = value
+        path.write_text(json.dumps(doc))
+        try:
+            GltfFile(path, pose=requests[case % 2]).primitives()
+            outcomes["parts"] += 1
+        except GltfError as exc:
+            assert "\n" not in str(exc), (case, where, value, str(exc))
+            outcomes["error"] += 1
+        except Exception as exc:  # the point: nothing else escapes
+            pytest.fail(f"case {case} ({where} = {value!r}): {type(exc).__name__}: {exc}")
+    assert outcomes["parts"] >= 10 and outcomes["error"] >= 100, outcomes
