@@ -690,3 +690,20 @@ def test_mutated_pose_data_is_bad_input_or_parts(tmp_path: Path) -> None:
         except Exception as exc:  # the point: nothing else escapes
             pytest.fail(f"case {case} ({where} = {value!r}): {type(exc).__name__}: {exc}")
     assert outcomes["parts"] >= 10 and outcomes["error"] >= 150, outcomes
+
+
+def test_a_scene_given_default_framing_reads_its_gltf_once(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # A scene file with no camera or light is framed from its built parts, which the
+    # frame then takes: the file is read once, so its note appears once.
+    from app.frame import prepare_frame
+    from app.scene.sources import scene_from
+
+    _bar(tmp_path)
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[[objects]]\nshape = "mesh"\nfile = "bar.gltf"\ntime = 9.0\n')
+    with caplog.at_level("WARNING", logger="pbs.gltf"):
+        prepare_frame(scene_from(scene))
+    notes = [r.getMessage() for r in caplog.records if "outside" in r.getMessage()]
+    assert len(notes) == 1, notes

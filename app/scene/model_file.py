@@ -452,17 +452,21 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
         " and ".join(given),
     )
     result = parse_scene(data, loaded.path, loaded.policy)
-    parts = build_parts(result)
+    budget = Budget(result.policy.limits)
+    parts = build_parts(result, budget)
     if camera:
         size = (result.scene.render.width, result.scene.render.height)
-        return framed(result, look, size, lit=lighting, parts=parts)
-    azimuth = look.angles()[0]
-    key = key_light(*_sphere(_surface_points(parts)), azimuth)
-    tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
-    if look.env == "studio" and "background" not in result.scene.model_fields_set:
-        exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
-        tables["background"] = [backdrop_radiance(exposure, tone)] * 3
-    return _with(result, **tables)
+        final = framed(result, look, size, lit=lighting, parts=parts)
+    else:
+        azimuth = look.angles()[0]
+        key = key_light(*_sphere(_surface_points(parts)), azimuth)
+        tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
+        if look.env == "studio" and "background" not in result.scene.model_fields_set:
+            exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
+            tables["background"] = [backdrop_radiance(exposure, tone)] * 3
+        final = _with(result, **tables)
+    keep_built(final, parts, budget.spent)  # the frame takes them, as a model file's
+    return final
 
 
 def model_document(
