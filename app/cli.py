@@ -116,6 +116,23 @@ def _look_options(parser: argparse.ArgumentParser, view: str = "three-quarter") 
         help="a model file's camera: framed (auto, default) or the glTF file's first (file)",
     )
     parser.add_argument(
+        "--animation",
+        metavar="NAME|INDEX",
+        help="a glTF model's animation to pose it by, by name or index (default: none, the "
+        "rest pose; with --time alone, the first); docs/gltf.md",
+    )
+    parser.add_argument(
+        "--time",
+        type=_number(lambda v: -1e9 <= v <= 1e9, "seconds within -1e9..1e9"),
+        metavar="SECONDS",
+        help="the time of the animation shown, clamped to its range (default: its start)",
+    )
+    parser.add_argument(
+        "--variant",
+        metavar="NAME",
+        help="a glTF model's KHR_materials_variants variant (default: its own materials)",
+    )
+    parser.add_argument(
         "--env",
         default="studio",
         metavar="studio|sky|FILE",
@@ -138,7 +155,10 @@ def _look(args: argparse.Namespace) -> Look:
             files.check_readable(Path(args.env), 1 << 62)  # its size is checked when read
         except RefusedError as exc:
             raise InputError(args.env, "--env", str(exc).removeprefix(f"{args.env}: ")) from None
-    return Look(args.view, args.azimuth, args.elevation, args.camera, args.env)
+    return Look(
+        args.view, args.azimuth, args.elevation, args.camera, args.env,
+        args.animation, args.time, args.variant,
+    )  # fmt: skip
 
 
 @contextlib.contextmanager

@@ -47,7 +47,7 @@ from app.untrusted.structured import parse_json, parse_toml
 KINDS = ("orbit", "sweep", "scenes")
 _TOP_KEYS = {"scene", "size", "background", "look", *KINDS}
 BACKGROUNDS = ("opaque", "transparent")  # render.background's values
-_LOOK_KEYS = {"view", "azimuth", "elevation", "camera", "env"}
+_LOOK_KEYS = {"view", "azimuth", "elevation", "camera", "env", "animation", "time", "variant"}
 MAX_JOBS = 100_000  # a typo in a count must not plan a billion images
 MODEL_SIZE = (1280, 720)  # a model file's image without a size (as pbs render MODEL)
 
@@ -154,6 +154,13 @@ def load_source(
 
     if is_model_file(path):
         return model_scene(path, policy, look or Look(), size)
+    if look is not None and look.pose():
+        raise InputError(
+            str(path),
+            "",
+            "a look's animation, time or variant applies only to a model file; a scene "
+            "file poses a glTF object with its own keys",
+        )
     loaded = load_scene(path, policy)
     if look is not None and look != Look() and needs_defaults(loaded) == (False, False):
         raise InputError(
@@ -195,8 +202,29 @@ def _look(file: Path, data: dict, policy: InputPolicy) -> tuple[Look | None, Inp
             raise _bad(file, "look.env", f"no such file: {image}")
         env = str(image)
         policy = InputPolicy(allowed=(*policy.allowed, image.parent), limits=policy.limits)
-    look = Look(view, angles.get("azimuth"), angles.get("elevation"), camera, env)
+    pose = _pose(file, spec)
+    look = Look(view, angles.get("azimuth"), angles.get("elevation"), camera, env, **pose)
     return look, policy
+
+
+def _pose(file: Path, spec: dict) -> dict:
+    """The ``look`` table's glTF pose: ``animation`` (a name, or an index), ``time``
+    (seconds) and ``variant`` (a name), as ``Look`` fields."""
+    pose: dict = {}
+    if "animation" in spec:
+        value = spec["animation"]
+        if type(value) is int and value >= 0:
+            value = str(value)
+        if not isinstance(value, str) or not value:
+            raise _bad(file, "look.animation", f"expected a name or an index, got {value!r}")
+        pose["animation"] = value
+    if "time" in spec:
+        pose["time"] = _number(file, "look.time", spec["time"], -1e9, 1e9)
+    if "variant" in spec:
+        if not isinstance(spec["variant"], str) or not spec["variant"]:
+            raise _bad(file, "look.variant", f"expected a variant's name, got {spec['variant']!r}")
+        pose["variant"] = spec["variant"]
+    return pose
 
 
 def resolve_scene(name: str, job_file: Path, policy: InputPolicy, key: str) -> Path:

@@ -34,6 +34,7 @@ from app.common.models import MaterialParams
 from app.common.primitives import Primitive
 from app.errors import InputError
 from app.scene.gltf import GltfFile
+from app.scene.gltf_animation import PoseError, PoseRequest
 from app.scene.gltf_document import GltfError
 from app.scene.gltf_schema import MAX_COORDINATE
 from app.scene.layers import LayerBuilder
@@ -657,7 +658,9 @@ def _gltf_parts(
     path = loaded.resolve_file(loaded.scene.objects[index].file or "", key)
     parts: list[MeshPart] = []
     try:
-        gltf = GltfFile(path, loaded.policy, budget)
+        obj = loaded.scene.objects[index]
+        pose = PoseRequest(obj.animation, obj.time, obj.variant)
+        gltf = GltfFile(path, loaded.policy, budget, pose)
         problem = gltf_problem(gltf.doc, path, loaded.policy)  # missing files, extensions
         if problem is not None:
             raise InputError(scene_file, key, problem)
@@ -681,6 +684,8 @@ def _gltf_parts(
             part = MeshPart(vertices, indices, layers, model @ prim.world, blend, closed, index)
             part.uv1, part.colors = uv1, colors
             parts.append(part)
+    except PoseError as exc:  # an animation, time or variant the file does not have
+        raise InputError(scene_file, f"objects[{index}].{exc.option}", f"{path}: {exc}") from None
     except GltfError as exc:
         raise InputError(scene_file, key, f"{path}: {exc}") from None
     if not parts:

@@ -23,6 +23,12 @@ What is read (docs/scene-format.md, "Mesh files"):
   flipped (glTF's origin is the image's top left, the project's the bottom left); the
   tangent's w keeps its meaning (the file's bitangent points up the image in both).
 - Materials -> ``SurfaceLayer`` at full float64 precision (``GltfFile.layer``).
+- The pose (``PoseRequest``: an animation at a time, a KHR_materials_variants variant):
+  animation channels sampled, node matrices recomputed, morph targets and skins applied
+  to the decoded attributes in float64 (app/scene/gltf_animation.py), the variant's
+  materials given to the primitives.
+- Texture images by ``source``, EXT_texture_webp's WebP, or KHR_texture_basisu's
+  fallback ``source`` (KTX2 is not decoded; one note per texture).
 
 Untrusted input (docs/stability.md): the document is checked against glTF 2.0's schema
 before it is read (app/scene/gltf_document.py); buffer and image URIs are confined to the
@@ -41,10 +47,12 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-from PIL import Image
+from PIL import Image, features
 
 from app.common.material_checks import MAX_RADIANCE, material_problems
 from app.common.models import MaterialParams
+from app.scene import gltf_animation as animation
+from app.scene.gltf_animation import PATHS, Pose, PoseRequest
 from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matrices
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
 from app.scene.gltf_schema import MAX_COORDINATE
@@ -85,7 +93,39 @@ _SEMANTICS: dict[str, tuple[tuple[str, ...], tuple[int, ...]]] = {
     "TEXCOORD_1": (("VEC2",), (5126, 5120, 5121, 5122, 5123)),
     "COLOR_0": (("VEC3", "VEC4"), (5126, 5121, 5123)),
     "indices": (("SCALAR",), (5121, 5123, 5125)),
+    # Skins and morph targets (sec. 3.7.3, 3.7.2.2; KHR_mesh_quantization's integer deltas).
+    "JOINTS_0": (("VEC4",), (5121, 5123)),
+    "JOINTS_1": (("VEC4",), (5121, 5123)),
+    "WEIGHTS_0": (("VEC4",), (5126, 5121, 5123)),
+    "WEIGHTS_1": (("VEC4",), (5126, 5121, 5123)),
+    "target": (("VEC3",), (5126, 5120, 5121, 5122, 5123)),
+    "inverseBindMatrices": (("MAT4",), (5126,)),
+    # Animation samplers (sec. 3.11): keyframe times, and the output of each target path.
+    "input": (("SCALAR",), (5126,)),
+    "translation": (("VEC3",), (5126,)),
+    "scale": (("VEC3",), (5126,)),
+    "rotation": (("VEC4",), (5126, 5120, 5121, 5122, 5123)),
+    "weights": (("SCALAR",), (5126, 5120, 5121, 5122, 5123)),
 }
+# Integer components of these must be normalized (JOINTS_n never are: they are indices).
+_NORMALIZED = ("NORMAL", "TANGENT", "COLOR_0", "WEIGHTS_0", "WEIGHTS_1", "rotation", "weights")
+_SKIN_SETS = (("JOINTS_0", "WEIGHTS_0"), ("JOINTS_1", "WEIGHTS_1"))
+# Accessors of a pose (morph targets, skins, animations), charged to the budget as read.
+_POSE_SEMANTICS = ("target", "inverseBindMatrices", "input", *PATHS)
+_DRAWN = ("POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "COLOR_0")
+# Extensions read elsewhere or noted where they are met (the material extensions per
+# material, KHR_texture_basisu per texture, KHR_lights_punctual by import_lights); any other
+# the file uses gets one note that it is not read.
+_READ_EXTENSIONS = (
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_lights_punctual",
+    "KHR_materials_variants",
+    "EXT_texture_webp",
+    "KHR_texture_basisu",
+)
 _TRIANGLE_MODES = (4, 5, 6)  # TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN
 _WRAP = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 _FILTERS = {
@@ -130,6 +170,15 @@ class GltfPrimitive:
     colors: np.ndarray | None = None  # (N, 4) linear RGBA
 
 
+@dataclass
+class _Deform:
+    """What poses a node's primitives: its morph weights (None: no targets) and its
+    skin's joint matrices (None: not skinned)."""
+
+    weights: np.ndarray | None = None
+    joints: np.ndarray | None = None
+
+
 def _int(value: object, key: str, count: int | None = None, low: int = 0) -> int:
     """``value`` as an index (``count``: the number of entries it may name) or a size."""
     if isinstance(value, bool) or not isinstance(value, int):
@@ -170,12 +219,19 @@ class GltfFile:
     """A glTF/GLB opened and its buffers and images read on demand, each once."""
 
     def __init__(
-        self, path: Path, policy: InputPolicy = DEFAULT_POLICY, budget: Budget | None = None
+        self,
+        path: Path,
+        policy: InputPolicy = DEFAULT_POLICY,
+        budget: Budget | None = None,
+        pose: PoseRequest | None = None,
     ) -> None:
         self.path = path
         self.policy = policy
         self.budget = budget or Budget(policy.limits)
         self.doc = open_gltf(path, policy)
+        # The animation, time and variant shown (app/scene/gltf_animation.py).
+        self.request = pose or PoseRequest()
+        self._noted: set[str] = set()  # notes logged once per file
         self._buffers: dict[int, memoryview] = {}
         self._views: dict[int, memoryview] = {}
         self._accessors: dict[tuple[int, str], np.ndarray] = {}
@@ -314,6 +370,11 @@ class GltfFile:
         (a mesh that several nodes show is decoded once)."""
         i = _int(index, key, len(self._table("accessors")))
         if (i, semantic) not in self._accessors:
+            if semantic in _POSE_SEMANTICS:  # not charged with a primitive's vertices
+                a = self._table("accessors")[i]
+                count = _int(a.count, f"accessors[{i}].count", low=1)
+                size = count * _TYPES.get(a.type, 16) * 8  # float64 values
+                self._charge(size, "byte", f"accessors[{i}]", f"{count} {semantic} values")
             self._accessors[(i, semantic)] = self._accessor(i, semantic)
         return self._accessors[(i, semantic)]
 
@@ -344,7 +405,7 @@ class GltfFile:
             if not divisor:
                 raise GltfError(f"{akey}.normalized", "only integer components are normalized")
             out = np.maximum(out / divisor, -1.0)
-        elif a.componentType not in (5126,) and semantic in ("NORMAL", "TANGENT", "COLOR_0"):
+        elif a.componentType not in (5126,) and semantic in _NORMALIZED:
             raise GltfError(f"{akey}.normalized", f"integer {semantic} must be normalized")
         if not np.all(np.abs(out) <= MAX_COORDINATE):  # NaN and infinities fail too
             raise GltfError(
@@ -403,21 +464,58 @@ class GltfFile:
 
     # --- geometry ----------------------------------------------------------------------
 
+    def note(self, text: str) -> None:
+        """Log ``text`` about this file once (a note of what is approximated or left out)."""
+        if text not in self._noted:
+            self._noted.add(text)
+            _LOG.warning("%s: %s", self.path, text)
+
+    def pose(self) -> Pose:
+        """The pose ``request`` asks for (app/scene/gltf_animation.py), its notes logged."""
+        pose = animation.posed(self.doc, self.request, self.accessor)
+        for text in pose.notes:
+            self.note(text)
+        return pose
+
     def primitives(self) -> list[GltfPrimitive]:
-        """Every triangle primitive of every node of the shown scene."""
+        """Every triangle primitive of every node of the shown scene, posed: the chosen
+        animation at the chosen time (else the rest pose), morph targets and skins
+        applied, each primitive with the chosen variant's material."""
         meshes = self._table("meshes")
+        for name in self.doc.extensionsUsed or []:
+            if name not in _READ_EXTENSIONS and not name.startswith("KHR_materials_"):
+                self.note(f"uses the extension {name}, which pbs does not read (ignored)")
+        pose = self.pose()
+        notes: list[str] = []
+        variant = animation.choose_variant(self.doc, self.request.variant, notes)
+        variants = len(animation.variant_names(self.doc))
+        for text in notes:
+            self.note(text)
+        worlds = world_matrices(self.doc, self.policy.limits.max_node_depth, pose.local)
         out = []
-        for node_index, world in world_matrices(
-            self.doc, self.policy.limits.max_node_depth
-        ).items():
+        for node_index, world in worlds.items():
             node = self.doc.nodes[node_index]
             if node.mesh is None:
                 continue
             m = _int(node.mesh, f"nodes[{node_index}].mesh", len(meshes))
             if not np.all(np.isfinite(world)):  # finite factors whose product overflows
                 raise GltfError(f"nodes[{node_index}]", "its world matrix is not finite")
+            deform = _Deform()
+            targets = animation.target_count(self.doc, node_index)
+            deform.weights = animation.morph_weights(self.doc, node_index, m, targets, pose)
+            if node.skin is not None:
+                skins = self._table("skins")
+                skin = _int(node.skin, f"nodes[{node_index}].skin", len(skins))
+                deform.joints = animation.joint_matrices(self.doc, skin, worlds, self.accessor)
             for p, prim in enumerate(meshes[m].primitives or []):
-                part = self._primitive(prim, f"meshes[{m}].primitives[{p}]", world)
+                key = f"meshes[{m}].primitives[{p}]"
+                material = prim.material
+                if variant is not None:
+                    chosen = animation.variant_material(
+                        prim, key, variant, variants, len(self._table("materials"))
+                    )
+                    material = material if chosen is None else chosen
+                part = self._primitive(prim, key, world, deform, material)
                 if part is not None:
                     out.append(part)
         return out
@@ -433,7 +531,7 @@ class GltfFile:
         if prim.attributes.POSITION is None:
             raise GltfError(f"{key}.attributes", "has no POSITION")
         vertices = count(prim.attributes.POSITION, f"{key}.attributes.POSITION")
-        for name in ("NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "COLOR_0"):
+        for name in (*_DRAWN[1:], *(n for pair in _SKIN_SETS for n in pair)):
             index = prim.attributes.get(name)
             if index is not None and (n := count(index, f"{key}.attributes.{name}")) != vertices:
                 raise GltfError(
@@ -442,7 +540,16 @@ class GltfFile:
         indices = vertices if prim.indices is None else count(prim.indices, f"{key}.indices")
         return vertices, indices
 
-    def _primitive(self, prim: JsonObject, key: str, world: np.ndarray) -> GltfPrimitive | None:
+    def _primitive(
+        self,
+        prim: JsonObject,
+        key: str,
+        world: np.ndarray,
+        deform: _Deform | None = None,
+        material_index: object = None,
+    ) -> GltfPrimitive | None:
+        """One primitive decoded, posed by ``deform`` (its node's morph weights and joint
+        matrices), with material ``material_index`` (the variant's or its own)."""
         mode = _int(prim.mode if prim.mode is not None else 4, f"{key}.mode")
         if mode not in _TRIANGLE_MODES:
             if mode > 6:
@@ -450,8 +557,8 @@ class GltfFile:
             return None  # points and lines: nothing the G-buffer can draw
         materials = self._table("materials")
         material = None
-        if prim.material is not None:
-            material = _int(prim.material, f"{key}.material", len(materials))
+        if material_index is not None:
+            material = _int(material_index, f"{key}.material", len(materials))
         vertices, index_count = self._declared(prim, key)
         triangles = index_count // 3 if mode == 4 else max(index_count - 2, 0)
         # Without NORMAL every triangle gets three vertices of its own (flat normals).
@@ -472,7 +579,9 @@ class GltfFile:
                 )
         else:
             attrs = {}
-            for name in ("POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "COLOR_0"):
+            skinned = deform is not None and deform.joints is not None
+            names = (*_DRAWN, *(n for pair in _SKIN_SETS for n in pair)) if skinned else _DRAWN
+            for name in names:
                 index = getattr(prim.attributes, name, None)
                 if index is not None:
                     attrs[name] = self.accessor(index, f"{key}.attributes.{name}", name)
@@ -494,7 +603,63 @@ class GltfFile:
         faces = _triangles(indices, mode)
         if not len(faces):
             return None
+        if deform is not None:
+            attrs, world = self._deform(prim, key, attrs, world, deform, draco is not None)
         return _assemble(key, attrs, faces, world, material)
+
+    def _deform(
+        self,
+        prim: JsonObject,
+        key: str,
+        attrs: dict[str, np.ndarray],
+        world: np.ndarray,
+        deform: _Deform,
+        draco: bool,
+    ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """The primitive's attributes with its morph targets (weighted) and its skin
+        applied (app/scene/gltf_animation.py), and the matrix they are drawn under (the
+        identity once skinned: skinned vertices are in the file's root space)."""
+        targets = prim.targets or []
+        if targets and deform.weights is not None:
+            if len(deform.weights) != len(targets):
+                raise GltfError(
+                    f"{key}.targets", f"{len(targets)} targets for {len(deform.weights)} weights"
+                )
+            if draco:  # Draco may reorder vertices; the targets' accessors are not
+                self.note(f"{key}: morph targets on a Draco primitive are not applied")
+            elif np.any(deform.weights != 0.0):
+                count = len(attrs["POSITION"])
+                deltas = []
+                for t, target in enumerate(targets):
+                    delta = {}
+                    for name in ("POSITION", "NORMAL", "TANGENT"):
+                        index = target.get(name)
+                        if index is None or name not in attrs:
+                            continue
+                        tkey = f"{key}.targets[{t}].{name}"
+                        values = self.accessor(index, tkey, "target")
+                        if len(values) != count:
+                            raise GltfError(tkey, f"{len(values)} elements, POSITION has {count}")
+                        delta[name] = values
+                    deltas.append(delta)
+                attrs = animation.morph(attrs, deltas, deform.weights)
+        if deform.joints is None or "JOINTS_0" not in attrs or "WEIGHTS_0" not in attrs:
+            return attrs, world
+        sets = []
+        for joints_name, weights_name in _SKIN_SETS:
+            if joints_name not in attrs or weights_name not in attrs:
+                continue
+            joints = attrs.pop(joints_name)
+            weights = attrs.pop(weights_name)
+            if len(joints) and not 0 <= int(joints.max()) < len(deform.joints):
+                raise GltfError(
+                    f"{key}.attributes.{joints_name}",
+                    f"joint {int(joints.max())} is not one of the skin's {len(deform.joints)}",
+                )
+            if len(joints) and int(joints.min()) < 0:
+                raise GltfError(f"{key}.attributes.{joints_name}", "a joint index is negative")
+            sets.append((joints.astype(np.int64), weights))
+        return animation.skin(attrs, sets, deform.joints), np.eye(4)
 
     def _draco(
         self, prim: JsonObject, ext: dict, key: str
@@ -568,6 +733,33 @@ class GltfFile:
                 raise GltfError(ikey, str(exc)) from None
         return self._images[i]
 
+    def _source(self, tex: JsonObject, tkey: str) -> tuple[object, str]:
+        """The image a texture reads and its JSON key: EXT_texture_webp's WebP image
+        (Pillow decodes it), else ``source``; KHR_texture_basisu's KTX2 image is not
+        decoded (no maintained decoder installs from PyPI here), so its PNG/JPEG
+        fallback ``source`` is read, with one note per texture."""
+        extensions = _object(tex.extensions, f"{tkey}.extensions")
+        webp = extensions.get("EXT_texture_webp")
+        if webp is not None and features.check("webp"):
+            wkey = f"{tkey}.extensions.EXT_texture_webp"
+            return _object(webp, wkey).get("source"), f"{wkey}.source"
+        if webp is not None:
+            self.note(f"{tkey}: this Pillow decodes no WebP; its fallback source is read")
+        if "KHR_texture_basisu" in extensions:
+            if tex.source is None:
+                raise GltfError(
+                    f"{tkey}.source",
+                    "is missing: its KHR_texture_basisu (KTX2) image is not decoded by pbs "
+                    "and the file gives no PNG or JPEG fallback",
+                )
+            self.note(
+                f"{tkey}: its KHR_texture_basisu (KTX2) image is not decoded; the fallback "
+                f"images[{tex.source}] is used"
+            )
+        if tex.source is None:
+            raise GltfError(f"{tkey}.source", "is missing")
+        return tex.source, f"{tkey}.source"
+
     def _map_cost(self, image: Image.Image, kind: str, key: str) -> None:
         """Charge the map of ``kind`` about to be built from ``image``."""
         try:
@@ -581,11 +773,8 @@ class GltfFile:
         t = _int(getattr(info, "index", None), f"{key}.index", len(textures))
         tex = textures[t]
         tkey = f"textures[{t}]"
-        if tex.source is None:
-            raise GltfError(
-                f"{tkey}.source", "is missing (image formats from extensions are not read)"
-            )
-        image = self.image(tex.source, f"{tkey}.source")
+        source, skey = self._source(tex, tkey)
+        image = self.image(source, skey)
         sampler: dict = {}
         if tex.sampler is not None:
             samplers = self._table("samplers")

@@ -182,12 +182,17 @@ def node_matrix(node: JsonObject, index: int) -> np.ndarray:
 
 
 def world_matrices(
-    doc: GltfDocument, max_depth: int = DEFAULT_POLICY.limits.max_node_depth
+    doc: GltfDocument,
+    max_depth: int = DEFAULT_POLICY.limits.max_node_depth,
+    local: dict[int, np.ndarray] | None = None,
 ) -> dict[int, np.ndarray]:
     """Each node of the shown scene (``scene``, else the first, else every root node) to
     its world matrix, parents first. A node reached twice (a cycle, or a node with two
     parents) is bad input, as glTF 2.0 forbids it; so is a hierarchy deeper than
-    ``max_depth`` or a world matrix with an entry past ``MAX_WORLD_ENTRY``."""
+    ``max_depth`` or a world matrix with an entry past ``MAX_WORLD_ENTRY``. ``local``
+    replaces the local matrices of some nodes (an animation's pose,
+    app/scene/gltf_animation.py)."""
+    local = local or {}
     nodes = doc.nodes or []
     if doc.scenes:
         index = doc.scene if doc.scene is not None else 0
@@ -209,7 +214,7 @@ def world_matrices(
             raise GltfError(key, f"node {i} is reached twice (a cycle or two parents)")
         if level > max_depth:
             raise GltfError(f"nodes[{i}]", f"the node hierarchy is deeper than {max_depth}")
-        world = parent @ node_matrix(nodes[i], i)
+        world = parent @ (local[i] if i in local else node_matrix(nodes[i], i))
         if not np.all(np.abs(world) <= MAX_WORLD_ENTRY):  # NaN fails too
             raise GltfError(
                 f"nodes[{i}]",

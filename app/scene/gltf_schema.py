@@ -10,8 +10,7 @@ enumeration and range, with the JSON path of the first one that is wrong
 extras included: every number is finite (Python reads ``1e400`` as infinity) and no array
 is longer than ``Limits.max_entries``.
 
-Properties of objects pbs does not read (skins, animations) are checked only for being
-objects; unknown properties are ignored, as the specification lets a reader do.
+Unknown properties are ignored, as the specification lets a reader do.
 """
 
 from __future__ import annotations
@@ -233,8 +232,38 @@ SCHEMA = _obj(
                 ("type",),
             )
         ),
-        "skins": Arr(Obj()),
-        "animations": Arr(Obj()),
+        "skins": Arr(
+            _obj(
+                {"inverseBindMatrices": Int(), "skeleton": Int(), "joints": Arr(Int(), 1)},
+                ("joints",),
+            )
+        ),
+        "animations": Arr(
+            _obj(
+                {
+                    "channels": Arr(
+                        _obj(
+                            {
+                                "sampler": Int(),
+                                "target": _obj({"node": Int(), "path": Str()}, ("path",)),
+                            },
+                            ("sampler", "target"),
+                        ),
+                        1,
+                    ),
+                    # The interpolation is checked where an animation is sampled (an
+                    # extension may name its own; the file is refused only if it is used).
+                    "samplers": Arr(
+                        _obj(
+                            {"input": Int(), "interpolation": Str(), "output": Int()},
+                            ("input", "output"),
+                        ),
+                        1,
+                    ),
+                },
+                ("channels", "samplers"),
+            )
+        ),
     },
     ("asset",),
 )

@@ -31,13 +31,24 @@ ENVIRONMENTS = ("studio", "sky")  # or an .hdr / .exr file
 @dataclass(frozen=True)
 class Look:
     """How a model is shown: a named view or an explicit azimuth/elevation (degrees),
-    ``camera = "file"`` for the glTF file's own first camera, and the environment."""
+    ``camera = "file"`` for the glTF file's own first camera, and the environment; and a
+    glTF file's pose: an animation (name or index) at a time in seconds, a
+    ``KHR_materials_variants`` variant (the model object's ``animation``, ``time`` and
+    ``variant``; docs/gltf.md, "Animation")."""
 
     view: str = "three-quarter"
     azimuth: float | None = None
     elevation: float | None = None
     camera: str = "auto"  # "auto" or "file"
     env: str = "studio"  # "studio", "sky" or an .hdr/.exr path
+    animation: str | None = None  # a name, or an index written as digits
+    time: float | None = None  # seconds
+    variant: str | None = None
+
+    def pose(self) -> dict[str, str | float]:
+        """The model object's pose keys this look sets (none: the rest pose)."""
+        keys = {"animation": self.animation, "time": self.time, "variant": self.variant}
+        return {key: value for key, value in keys.items() if value is not None}
 
     def angles(self) -> tuple[float, float]:
         """(azimuth, elevation) in degrees."""

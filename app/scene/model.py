@@ -732,6 +732,11 @@ class SceneObject(_Strict):
     # cameras.md); c_light = light_scale x color x intensity / pi.
     import_lights: Annotated[bool, Field(strict=True)] = False
     light_scale: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] | None = None
+    # A glTF file's pose (docs/gltf.md, "Animation"): an animation by name or index, a
+    # time in seconds (clamped to the animation's range), a KHR_materials_variants name.
+    animation: str | Annotated[int, Field(strict=True, ge=0)] | None = None
+    time: Annotated[Real, Field(ge=-1e9, le=1e9)] | None = None
+    variant: str | None = None
 
     @field_validator("scale", mode="wrap")
     @classmethod
@@ -741,6 +746,14 @@ class SceneObject(_Strict):
             return handler(value)
         except ValidationError:
             raise ValueError("must be a number > 0 or a list of 3 numbers > 0") from None
+
+    @field_validator("animation", mode="wrap")
+    @classmethod
+    def _animation(cls, value: object, handler: ValidatorFunctionWrapHandler) -> object:
+        try:
+            return handler(value)
+        except ValidationError:
+            raise ValueError("must be an animation's name or its index (an integer >= 0)") from None
 
     @model_validator(mode="after")
     def _check(self) -> SceneObject:
@@ -760,6 +773,9 @@ class SceneObject(_Strict):
         gltf = self.file is not None and self.file.lower().endswith((".gltf", ".glb"))
         if self.import_lights and not gltf:
             raise ValueError("import_lights: needs a glTF file (.gltf or .glb) as file")
+        for key in ("animation", "time", "variant"):
+            if getattr(self, key) is not None and not gltf:
+                raise ValueError(f"{key}: needs a glTF file (.gltf or .glb) as file")
         if self.light_scale is not None and not self.import_lights:
             raise ValueError("light_scale: applies only with import_lights = true")
         if self.shape != "mesh" and self.material is None:

@@ -363,9 +363,12 @@ def model_scene(
     azimuth = look.angles()[0]
     data: dict[str, Any] = {
         "render": {"width": width, "height": height, "tonemap": "neutral"},
-        "objects": [{"shape": "mesh", "file": path.name, "name": path.stem}],
+        "objects": [{"shape": "mesh", "file": path.name, "name": path.stem, **look.pose()}],
         **default_environment(look, azimuth),
     }
+    if look.pose() and path.suffix.lower() not in (".glb", ".gltf"):
+        option = f"--{next(iter(look.pose()))}"
+        raise InputError(str(path), option, "animations and variants need a glTF file")
     if look.camera == "file":
         if path.suffix.lower() not in (".glb", ".gltf"):
             raise InputError(str(path), "--camera", "a camera from the file needs a glTF file")
@@ -402,6 +405,9 @@ def _as_model_error(exc: InputError, path: Path) -> InputError:
     if exc.file != str(path.resolve()):
         return exc
     message = exc.message.removeprefix(f"{path.resolve()}: ").removeprefix(f"{path.name}: ")
+    for key in ("animation", "time", "variant"):  # the option that asked for it
+        if exc.key == f"objects[0].{key}":
+            return InputError(str(path), f"--{key}", message.removeprefix(f"{path.resolve()}: "))
     if exc.key.startswith("objects[0]"):
         return InputError(str(path), "", message)
     if exc.key.startswith("camera"):  # camera = "file" where the file has none
@@ -446,17 +452,21 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
         " and ".join(given),
     )
     result = parse_scene(data, loaded.path, loaded.policy)
-    parts = build_parts(result)
+    budget = Budget(result.policy.limits)
+    parts = build_parts(result, budget)
     if camera:
         size = (result.scene.render.width, result.scene.render.height)
-        return framed(result, look, size, lit=lighting, parts=parts)
-    azimuth = look.angles()[0]
-    key = key_light(*_sphere(_surface_points(parts)), azimuth)
-    tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
-    if look.env == "studio" and "background" not in result.scene.model_fields_set:
-        exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
-        tables["background"] = [backdrop_radiance(exposure, tone)] * 3
-    return _with(result, **tables)
+        final = framed(result, look, size, lit=lighting, parts=parts)
+    else:
+        azimuth = look.angles()[0]
+        key = key_light(*_sphere(_surface_points(parts)), azimuth)
+        tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
+        if look.env == "studio" and "background" not in result.scene.model_fields_set:
+            exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
+            tables["background"] = [backdrop_radiance(exposure, tone)] * 3
+        final = _with(result, **tables)
+    keep_built(final, parts, budget.spent)  # the frame takes them, as a model file's
+    return final
 
 
 def model_document(

@@ -25,7 +25,7 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-from PIL import Image
+from PIL import Image, features
 
 from app.scene.gltf import meshopt_available
 from app.scene.gltf_document import GltfDocument
@@ -45,8 +45,10 @@ SUPPORTED_EXTENSIONS: frozenset[str] = frozenset(
         "KHR_texture_transform",
         "KHR_materials_emissive_strength",
         "KHR_lights_punctual",
+        "KHR_materials_variants",
         *MATERIAL_EXTENSIONS,
     }
+    | ({"EXT_texture_webp"} if features.check("webp") else set())
     | ({"EXT_meshopt_compression"} if meshopt_available() else set())
 )
 
@@ -79,6 +81,23 @@ def _unreadable(file: Path, image: bool, policy: InputPolicy) -> str | None:
     return None
 
 
+def _ktx2_only(doc: GltfDocument) -> set[int]:
+    """The images only KHR_texture_basisu names (KTX2, never decoded: the reader takes
+    the texture's fallback ``source``), whose headers are not checked."""
+    basisu, read = set(), set()
+    for tex in doc.textures or []:
+        extensions = tex.extensions or {}
+        ktx2 = extensions.get("KHR_texture_basisu")
+        if isinstance(ktx2, dict) and isinstance(ktx2.get("source"), int):
+            basisu.add(ktx2["source"])
+        webp = extensions.get("EXT_texture_webp")
+        if isinstance(webp, dict) and isinstance(webp.get("source"), int):
+            read.add(webp["source"])
+        if tex.source is not None:
+            read.add(tex.source)
+    return basisu - read
+
+
 def gltf_problem(doc: GltfDocument, path: Path, policy: InputPolicy) -> str | None:
     """The first problem with a glTF/GLB's required extensions or referenced files."""
     for name in doc.extensionsRequired or []:
@@ -88,10 +107,11 @@ def gltf_problem(doc: GltfDocument, path: Path, policy: InputPolicy) -> str | No
                 f"{path} requires the glTF extension {name}{what}, which pbs does not "
                 "read; export the file without it"
             )
+    ktx2 = _ktx2_only(doc)
     for table, image in (("buffers", False), ("images", True)):
         for i, entry in enumerate(getattr(doc, table) or []):
             uri = entry.uri
-            if uri is None or uri.startswith("data:"):
+            if uri is None or uri.startswith("data:") or (image and i in ktx2):
                 continue
             try:
                 file = files.confine_uri(uri, path, policy)

@@ -86,6 +86,13 @@ def scene_from(
             f"unsupported file type '{path.suffix}': expected a scene file (.toml) or a model "
             f"file ({', '.join(MODEL_SUFFIXES)})",
         )
+    if look.pose():
+        raise InputError(
+            str(path),
+            f"--{next(iter(look.pose()))}",
+            "applies only to a model file; a scene file poses a glTF object with its "
+            "animation, time and variant keys",
+        )
     loaded = load_scene(path, policy)
     # The framing defaults build geometry (trimesh, the texture decoders): imported once
     # the scene is valid, so that a refused one costs no more than its validation.
