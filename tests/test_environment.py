@@ -13,6 +13,8 @@ import pytest
 from app.errors import InputError
 from app.frame.lights import cell_integrals, fibonacci_sphere, map_lights, uniform_environment
 from app.reference.environment import texel_directions
+from app.reference.tonemap import post_process
+from app.scene import model_file
 from app.scene.loader import load_scene
 from app.textures import environment as envmod
 from app.textures.environment import (
@@ -138,11 +140,37 @@ def test_preetham_turbidity_whitens_and_brightens_zenith() -> None:
 
 def test_studio_boxes() -> None:
     s = studio(width=256)
-    assert s.min() == pytest.approx(envmod.BACKDROP)
+    assert s.min() == pytest.approx(envmod.FLOOR)
     az, el = (math.radians(a) for a in envmod.STUDIO_BOXES[0][:2])
     key = np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
     assert lookup(s, key)[0] == pytest.approx(envmod.STUDIO_BOXES[0][4])
-    assert lookup(s, np.array([0.0, -1.0, 0.0]))[0] == pytest.approx(envmod.BACKDROP)
+    assert lookup(s, np.array([0.0, -1.0, 0.0]))[0] == pytest.approx(envmod.FLOOR)
+    # between the boxes: the walls, brighter than the floor, brightening upwards
+    low, high = (lookup(s, np.array([math.cos(a), math.sin(a), 0.0]))[0] for a in (0.1, 0.6))
+    assert envmod.FLOOR < low < high < envmod.CEILING
+
+
+def test_studio_mean_is_the_default_looks_constant() -> None:
+    """The default look meters other environments against the studio's mean radiance."""
+    assert float(np.mean(studio())) == pytest.approx(model_file.STUDIO_MEAN, rel=0.01)
+
+
+def test_mirror_sphere_reads_the_studio() -> None:
+    """A mirror-smooth white metal sphere seen by the default look's camera (on +Z, the
+    studio turned by STUDIO_TURN, the default exposure and tone map) reflects a readable
+    room: its mean display value is well above black and its brightest texels (the soft
+    boxes) are near white, so metals show both the room and highlights."""
+    n = 256
+    y, x = np.mgrid[-1 : 1 : n * 1j, -1 : 1 : n * 1j]
+    disc = x * x + y * y < 1.0
+    normal = np.stack([x[disc], -y[disc], np.sqrt(1.0 - x[disc] ** 2 - y[disc] ** 2)], -1)
+    view = np.array([0.0, 0.0, 1.0])  # towards the camera
+    reflected = 2.0 * (normal @ view)[:, None] * normal - view
+    radiance = lookup(studio(), reflected, model_file.STUDIO_TURN)
+    display = post_process(radiance, model_file.EXPOSURE, "neutral")[..., 0]
+    # measured: mean 0.35, median 0.35 (a dark studio, a 0.03 backdrop: 0.06 and 0.009)
+    assert display.mean() > 0.25 and np.median(display) > 0.25, display.mean()
+    assert np.percentile(display, 99) > 0.9
 
 
 def test_cell_integrals_partition_the_sphere() -> None:

@@ -80,15 +80,15 @@ def test_background_and_lit_sphere_match_the_ray_caster(
     assert empty.sum() > 1000 and np.ptp(ref.hdr[empty][:, 0]) > 0.1 * peak  # not flat
     err = np.abs(hdr[empty] - ref.hdr[empty]) / peak
     print("background error / peak: p99", np.quantile(err, 0.99), "max", err.max())
-    assert err.max() < 2.0 / 256.0, err.max()  # measured 4.0e-3 (studio), 2e-4 (sky)
+    assert err.max() < 2.0 / 256.0, err.max()  # measured 3.6e-3 (studio), 2e-4 (sky)
     # The sphere: the renderer's split sum (for a rough grey dielectric, mostly the SH9
     # irradiance) against the ray-caster's brute force over 64 cell lights.
     inner = ref.interior()
     rel = np.abs(hdr[inner] - ref.hdr[inner]).sum(-1) / ref.hdr[inner].sum(-1)
     print(source, "sphere: median", np.median(rel), "p90", np.quantile(rel, 0.9))
-    # measured medians: sky 9.6e-3, studio 0.10 (SH9 rings on its compact boxes: docs/
-    # ibl.md), ramp 2.9e-3; the cell lights' own error is part of it
-    bound = {"sky": 0.02, "studio": 0.2, "image": 0.01}[source]
+    # measured medians: sky 9.6e-3, studio 1.4e-2 (SH9 rings on its compact boxes, in a
+    # grey room: docs/ibl.md), ramp 2.9e-3; the cell lights' own error is part of it
+    bound = {"sky": 0.02, "studio": 0.04, "image": 0.01}[source]
     assert inner.sum() > 200 and np.median(rel) < bound, np.median(rel)
 
 

@@ -70,11 +70,15 @@ _LOG = logging.getLogger("pbs.scene")
 
 FOV_Y = 35.0  # degrees
 MARGIN = 1.08  # the bounding sphere's angular radius times this fits the narrower field
-EXPOSURE = -1.5  # EV: the studio's boxes and the key light on a light grey stay below white
+EXPOSURE = -2.4  # EV: the studio's room, boxes and key light on a light grey stay below white
 KEY_INTENSITY = 1.5  # the key light's radiance scale (c_light)
 KEY_DISTANCE = 4.0  # the key light's distance from the model's centre, in its radii
 FILL_RATIO = 0.25  # the fill light's radiance scale to the key's: 2 stops under it
-STUDIO_MEAN = 0.37  # the bundled studio's mean texel radiance
+STUDIO_MEAN = 1.13  # the bundled studio's mean texel radiance
+# Another environment (the sky, an image) with the key light: METER_EXPOSURE under a mean
+# texel radiance of METER_MEAN or less, one stop less per doubling above it.
+METER_EXPOSURE = -1.5  # EV
+METER_MEAN = 0.37
 STUDIO_TURN = 200.0  # the studio's rotation that puts its key box behind a +Z camera's left
 # Reflected-light metering (``metered_exposure``): the asset's mean albedo against a mid
 # reflectance, half of the difference in stops taken (a dark asset is lifted towards
@@ -129,7 +133,7 @@ def key_light(centre: np.ndarray, radius: float, azimuth: float) -> dict[str, An
 def fill_light(azimuth: float) -> dict[str, Any]:
     """The default look's fill light: a directional light from the camera's right (60
     degrees to its right, 20 up), ``FILL_RATIO`` of the key's radiance, slightly cool and
-    shadowless, so that the faces the key light leaves to the studio's dark backdrop are
+    shadowless, so that the faces the key light leaves to the studio's room are
     lifted, as the key-and-fill pair the glTF Sample Viewer lights a file without lights
     with, and as a product photographer's fill card does."""
     az, el = math.radians(azimuth + 60.0), math.radians(20.0)
@@ -269,13 +273,14 @@ def _light_at(light: Light, centre: np.ndarray) -> float:
 
 
 def exposure_for(loaded: LoadedScene, centre: np.ndarray | None = None) -> float:
-    """The default look's incident exposure (EV): ``EXPOSURE`` under an environment as
-    bright as the studio or darker, less by how many stops its mean radiance is brighter
-    (the sky's is 4 stops brighter), so that a light grey model stays below white; where
-    the scene's lights are the glTF file's instead of the key light, less (or more) by
-    how much more (or less) light they bring to the model's ``centre`` than the key light
-    with the studio (a Lambertian surface's radiance per unit albedo: the environment's
-    mean radiance plus each light's c_light / pi)."""
+    """The default look's incident exposure (EV): ``EXPOSURE`` under the studio (less by
+    how many stops a brighter ``intensity`` makes it); under another environment
+    ``METER_EXPOSURE``, less by how many stops its mean radiance is brighter than
+    ``METER_MEAN`` (the sky's is 4 stops brighter), so that a light grey model stays
+    below white; where the scene's lights are the glTF file's instead of the key light,
+    less (or more) by how much more (or less) light they bring to the model's ``centre``
+    than the key light with the studio (a Lambertian surface's radiance per unit albedo:
+    the environment's mean radiance plus each light's c_light / pi)."""
     env = loaded.scene.environment
     exposure = EXPOSURE
     if env is not None and env.source != "uniform":
@@ -288,7 +293,10 @@ def exposure_for(loaded: LoadedScene, centre: np.ndarray | None = None) -> float
             limits=loaded.policy.limits,
         )
         mean = float(np.mean(texels)) * env.intensity
-        exposure -= math.log2(max(mean, STUDIO_MEAN) / STUDIO_MEAN)
+        if env.source == "studio":
+            exposure -= math.log2(max(mean, STUDIO_MEAN) / STUDIO_MEAN)
+        else:
+            exposure = METER_EXPOSURE - math.log2(max(mean, METER_MEAN) / METER_MEAN)
     if centre is not None:
         keyed = STUDIO_MEAN + KEY_INTENSITY / math.pi
         lit = STUDIO_MEAN + sum(_light_at(light, centre) for light in loaded.scene.lights) / math.pi
