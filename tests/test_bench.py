@@ -99,8 +99,9 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     frame = [r for r in rows if r["suite"] == "culling" and r["variant"] == "frame"]
     assert [r["lights"] for r in frame] == [1]
     # The scene's default light_culling ("auto") draws one light without tiles, and the
-    # lighting pass of the plain frame writes the display image (no post pass); FXAA follows.
-    assert list(frame[0]["passes_ms"]) == ["gbuffer", "lighting", "fxaa", "read-back"]
+    # lighting pass of the plain frame writes the display image (no post pass); the
+    # geometric edge resolve (the default antialiasing, "gbaa") follows.
+    assert list(frame[0]["passes_ms"]) == ["gbuffer", "lighting", "gbaa", "read-back"]
     # The limit row: culled/limit per round, and its work close to the pairs'.
     for r in rows:
         if r["suite"] == "culling" and r["variant"] == "limit":

@@ -63,8 +63,8 @@ def test_frame_passes_draw_the_renderers_frame(gl_egl):
     finally:
         r.release()
     # two lights: the default light_culling ("auto") draws them without tiles
-    assert names == [["gbuffer", "lighting", "fxaa", "read-back"],
-                     ["gbuffer", "lighting", "post", "fxaa", "read-back"]]  # fmt: skip
+    assert names == [["gbuffer", "lighting", "gbaa", "read-back"],
+                     ["gbuffer", "lighting", "post", "gbaa", "read-back"]]  # fmt: skip
     assert expected.shape == (SIZE[1], SIZE[0], 3) and expected.max() > 50
     for image in images:
         assert np.array_equal(image, expected)

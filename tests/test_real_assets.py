@@ -130,7 +130,7 @@ def test_exposure_is_metered_for_the_asset() -> None:
 def test_transparent_background_cuts_the_model_out(renders: dict, name: str) -> None:
     """``--background transparent`` on a real asset (the API's ``background`` setting): no
     backdrop anywhere clear of the model (alpha 0, colour 0); without antialiasing the
-    model opaque with the opaque render's colours to the code; with the default FXAA its
+    model opaque with the opaque render's colours to the code; with FXAA (set here) its
     silhouette antialiased (fractional alpha). (FXAA's edge walk ends where the luma
     changes, at the backdrop in one image and at nothing in the other, so its pixels near
     the silhouette may differ between the two.)"""

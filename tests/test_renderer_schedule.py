@@ -139,24 +139,39 @@ CASES: dict[str, tuple[Callable[[Renderer], None], set[str]]] = {
     # a part turned blended leaves the G-buffer pass and the casters; the blend pass comes
     "material blended": (
         _set_material("ball", alpha=0.5, alpha_mode="blend"),
-        {"gbuffer_pass", "shadows", "lighting", "blend"},
+        {"gbuffer_pass", "shadows", "lighting", "blend", "gbaa"},
     ),
-    "tonemap": (_set_render(tonemap="aces"), {"post"}),
+    # the geometric edge resolve (the default "gbaa") writes display values as post does
+    "tonemap": (_set_render(tonemap="aces"), {"post", "gbaa"}),
     # post un-premultiplies and writes alpha; the environment is no longer drawn behind
-    "transparent background": (_set_render(background="transparent"), {"post", "background"}),
-    # the antialiasing mode (default "fxaa"): its own pass alone (docs/antialiasing.md)
-    "antialiasing none": (_set_render(antialiasing="none"), {"fxaa"}),
-    "antialiasing jitter": (_set_render(antialiasing="jitter"), {"fxaa", "accumulate"}),
+    "transparent background": (
+        _set_render(background="transparent"),
+        {"post", "background", "gbaa"},
+    ),
+    # the antialiasing mode (default "gbaa", docs/antialiasing.md): leaving it drops the
+    # G-buffer's edge target (a new layout, the G-buffer pass without its edge outputs)
+    "antialiasing none": (
+        _set_render(antialiasing="none"),
+        {"gbaa", "gbuffer", "gbuffer_pass", "lighting"},
+    ),
+    "antialiasing jitter": (
+        _set_render(antialiasing="jitter"),
+        {"gbaa", "gbuffer", "gbuffer_pass", "lighting", "accumulate"},
+    ),
+    "antialiasing fxaa": (
+        _set_render(antialiasing="fxaa"),
+        {"gbaa", "gbuffer", "gbuffer_pass", "lighting", "fxaa"},
+    ),
     "terms": (_set_render(terms="specular"), {"lighting"}),
     "light culling": (_set_render(light_culling="none"), {"culler", "lighting"}),
     # the size: everything sized as the image; the geometry, maps and environment stay
     "size": (
         _set_render(width=48, height=32),
-        {"matrices", "gbuffer", "culler", "lighting", "post", "fxaa"},
+        {"matrices", "gbuffer", "culler", "lighting", "post", "gbaa"},
     ),
     "supersample": (
         _set_render(supersample=2),
-        {"matrices", "gbuffer", "culler", "lighting", "resolve"},
+        {"matrices", "gbuffer", "gbuffer_pass", "culler", "lighting", "resolve", "gbaa"},
     ),
     "gbuffer encoding": (_set_render(gbuffer="f16"), {"gbuffer", "gbuffer_pass", "lighting"}),
     # specular antialiasing widens roughness per pixel: no constant surfaces (a layout)
@@ -165,7 +180,7 @@ CASES: dict[str, tuple[Callable[[Renderer], None], set[str]]] = {
     # lighting pass that binds the maps; the table is the same
     "normal filter": (
         _set_render(normal_filter="toksvig"),
-        {"gbuffer_pass", "shadows", "lighting"},
+        {"gbuffer_pass", "shadows", "lighting", "gbaa"},
     ),
     "background colour": (
         lambda r: r.update(r.scene.model_copy(update={"background": [0.3, 0.1, 0.0]})),
@@ -206,7 +221,7 @@ def test_an_edit_builds_exactly_its_objects(gl_egl, name: str) -> None:
     edit, expected = CASES[name]
     r = Renderer(gl_egl, load(scene_data()))
     try:
-        absent = ("blend", "sraa", "dof", "resolve", "accumulate", "gbaa")
+        absent = ("blend", "sraa", "dof", "resolve", "accumulate", "fxaa")
         assert r.builds == {n: 1 for n in NAMES if n not in absent}
         images(r)
         built = rebuilt_by(r, edit)
@@ -233,7 +248,7 @@ def test_builds_follow_the_schedule_order(gl_egl) -> None:
     try:
         _set_render(width=48, height=32)(r)
         assert r.rebuilt == tuple(n for n in NAMES if n in r.rebuilt)
-        assert set(r.rebuilt) == {"matrices", "gbuffer", "culler", "lighting", "post", "fxaa"}
+        assert set(r.rebuilt) == {"matrices", "gbuffer", "culler", "lighting", "post", "gbaa"}
         r.invalidate("ibl")  # the lighting pass binds the environment's light
         assert r.rebuilt == ("ibl", "lighting")
         with pytest.raises(ValueError, match="not objects"):

@@ -30,6 +30,7 @@ from app.bench.startup import BAD_SCENE, HELP
 from app.gl.context import GLContext
 from app.output import atomic_write
 from app.render.shadows import hardware_pcf, probe_hardware_pcf
+from app.scene.model import RenderSettings
 
 CULLED_FLOOR_MAX = 1.5
 UNCULLED_SPEEDUP_MIN = 8.0
@@ -48,8 +49,10 @@ SPHERES_PYRENDER = "pyrender"
 # removes >= AA_STILL_REDUCTION_MIN x of the aliased frame's silhouette error (against the
 # 4x4 supersampled frame) at <= AA_STILL_COST_MAX x its time; the viewer's interactive
 # mode costs <= AA_VIEWER_COST_MAX x; both on the suite's time-vs-error front.
-AA_STILL_DEFAULT = "fxaa"
-AA_VIEWER_INTERACTIVE = "fxaa"
+# The still default is the scene model's; the viewer draws the scene's mode while input
+# arrives too (its idle frames add jittered samples only where the mode is "jitter").
+AA_STILL_DEFAULT: str = RenderSettings.model_fields["antialiasing"].default
+AA_VIEWER_INTERACTIVE = AA_STILL_DEFAULT
 AA_STILL_REDUCTION_MIN = 3.0
 AA_STILL_COST_MAX = 2.0
 AA_VIEWER_COST_MAX = 1.3

@@ -74,10 +74,10 @@ def sphere_grid_scene(lights: int, size: tuple[int, int]) -> dict:
 def pbs_frame_passes(r: Renderer) -> list[Pass]:
     """A whole frame to the caller's 8-bit image, pass by pass: G-buffer, tile culling,
     lighting, post (exposure, tone map, sRGB; fused into lighting in a plain frame), the
-    display image's FXAA where ``render.antialiasing = "fxaa"`` (the default) and the
-    read-back. The scene must have no depth of field, supersampling, jittered
-    accumulation, blended parts, shadows or an environment background (what
-    ``Renderer.render`` adds for those is not here)."""
+    display image's FXAA where ``render.antialiasing = "fxaa"``, its geometric edge
+    resolve where ``"gbaa"`` (the default) and the read-back. The scene must have no
+    depth of field, supersampling, jittered accumulation, blended parts, shadows or an
+    environment background (what ``Renderer.render`` adds for those is not here)."""
     extra = (r.dof, r.resolve, r.accumulate, r.blend, r.shadows, r.background)
     if any(x is not None for x in extra):
         raise ValueError("pbs_frame_passes: a scene with depth of field, supersampling, "
@@ -92,6 +92,8 @@ def pbs_frame_passes(r: Renderer) -> list[Pass]:
     fxaa = r.fxaa
     if fxaa is not None:
         passes.append(Pass("fxaa", lambda: fxaa.run(r.post.target), r.post.fbo))
+    if r.gbaa is not None:  # the HDR image the lighting pass wrote (not read where fused)
+        passes.append(Pass("gbaa", lambda: r.resolve_edges(r.lighting.hdr), r.post.fbo))
     return [*passes, Pass("read-back", r.read_ldr)]
 
 

@@ -960,10 +960,10 @@ class Renderer:
             self.fxaa.run(self.post.target)
             clock.done("fxaa")
         if self.gbaa is not None:
-            self._resolve_edges(hdr)
+            self.resolve_edges(hdr)
             clock.done("gbaa")
 
-    def _resolve_edges(self, hdr: moderngl.Texture) -> None:
+    def resolve_edges(self, hdr: moderngl.Texture) -> None:
         """``render.antialiasing = "gbaa"``: the display image's silhouette pixels
         resolved from the frame's HDR image ``hdr``; where the lighting pass wrote the
         display image (fused), it wrote the surface pixels' radiance too (``run_lighting``)

@@ -165,9 +165,9 @@ class RenderSettings(_Strict):
     # luma-edge filter of the display image (after Lottes' FXAA 3.11); "jitter", the mean
     # of antialiasing_samples frames with the projection jittered by Halton (2, 3)
     # sub-pixel offsets; "sraa", subpixel reconstruction from 4 geometry samples per
-    # pixel; "gbaa", the silhouettes resolved from each pixel's distance to its surface's
-    # edge, written by the G-buffer pass (app/render/antialias.py).
-    antialiasing: Literal["none", "fxaa", "jitter", "sraa", "gbaa"] = "fxaa"
+    # pixel; "gbaa" (the default), the silhouettes resolved from each pixel's distance to
+    # its surface's edge, written by the G-buffer pass (app/render/antialias.py).
+    antialiasing: Literal["none", "fxaa", "jitter", "sraa", "gbaa"] = "gbaa"
     antialiasing_samples: Annotated[int, Field(strict=True, ge=1, le=256)] = 8
     # RTR4 §9.1: the surface (specular) and subsurface (diffuse) reflections as
     # separate contributions: both, or one of them alone.
