@@ -146,11 +146,20 @@ def test_white_specular_color_above_one_is_clamped_exactly():
     assert m.params.f0 == 1.0 and m.notes == ()  # min(0.04 x 30, 1) = 1
 
 
-def test_coloured_specular_is_approximated_by_its_luminance_and_noted():
-    ext = {"KHR_materials_specular": {"specularColorFactor": [2.0, 1.0, 0.5]}}
+def test_coloured_specular_is_its_largest_channel_times_the_specular_color():
+    ext = {"KHR_materials_specular": {"specularColorFactor": [2.0, 1.0, 0.5],
+                                      "specularFactor": 0.7}}  # fmt: skip
     m = map_material_extensions(ext, core(), KEY)
-    assert m.params.f0 == pytest.approx(0.2126 * 0.08 + 0.7152 * 0.04 + 0.0722 * 0.02)
-    assert any("specularColorFactor" in n and "luminance" in n for n in m.notes)
+    f0_rgb = spec_dielectric_f0(1.5, [2.0, 1.0, 0.5], 0.7)  # (0.056, 0.028, 0.014)
+    assert m.params.f0 == pytest.approx(f0_rgb.max(), rel=1e-15) and m.notes == ()
+    np.testing.assert_allclose(m.params.f0 * m.params.params.specular_color, f0_rgb, rtol=1e-15)
+    # the twin's f(l, v): the specification's coloured dielectric Fresnel, exactly
+    l, v = pairs()
+    h = half(l, v)
+    f = twin(m.params, l, v, terms="specular")
+    F = spec_schlick(f0_rgb, 0.7, np.sum(v * h, axis=-1)[:, None])
+    ref = F * spec_ggx(h[:, 2], l[:, 2], v[:, 2], 0.25)[:, None]
+    np.testing.assert_allclose(f, ref, rtol=1e-12)
 
 
 def test_anisotropy_parameters():

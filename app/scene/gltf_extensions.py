@@ -12,8 +12,8 @@ what it approximates; docs/gltf.md has the table.
   infinite index whose Fresnel is 1 at every angle) becomes F0 = 1 (Schlick then gives 1
   exactly) with the index ``IOR_ZERO_ETA``.
 * KHR_materials_specular: F0 = min(F0_ior specularColor, 1) specular and F90 = specular,
-  through the generalised Schlick (RTR4 §9.5); the project's F0 is one number, so a
-  coloured specularColor is approximated by the luminance of its F0.
+  through the generalised Schlick (RTR4 §9.5); a coloured F0 is its largest channel (the
+  G-buffer's F0) times the material row's ``specular_color``, exact.
 * KHR_materials_anisotropy: alpha_t = mix(alpha, 1, strength^2), alpha_b = alpha, written
   exactly in the project's (roughness, anisotropy) (RTR4 §9.8); the rotation (any angle)
   and the texture's direction (RG) turn the tangent the G-buffer pass writes.
@@ -50,8 +50,6 @@ IOR_ZERO_ETA = 1e6
 # The thickest film the project's thin film takes (the scene format's film_thickness limit;
 # docs/thin-film.md measures its series up to there).
 MAX_FILM_THICKNESS_NM = 5000.0
-# Rec. 709 luminance weights (linear RGB), for the one F0 a coloured specularColor gets.
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 SUPPORTED = (
     "KHR_materials_ior",
@@ -283,25 +281,25 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
         f0_ior, eta = (1.0, IOR_ZERO_ETA) if ior == 0.0 else (float(f0_from_ior(ior)), ior)
         state.applied.append(name)
     f0, f90 = f0_ior, 1.0
+    specular_color = np.ones(3)
     if spec_ext is not None:
         name = "KHR_materials_specular"
         weight = _number(state, spec_ext, name, "specularFactor", 1.0, 0.0, 1.0)
         color = _color(state, spec_ext, name, "specularColorFactor", (1.0, 1.0, 1.0), math.inf)
         # dielectric_f0 = min(F0_ior specularColor, 1) specular; dielectric_f90 = specular.
         f0_rgb = np.minimum(f0_ior * color, 1.0) * weight
-        if np.all(f0_rgb == f0_rgb[0]):
-            f0 = float(f0_rgb[0])
-        else:  # one F0 per material: the luminance of the coloured one (docs/gltf.md)
-            f0 = float(LUMINANCE @ f0_rgb)
-            state.notes.append(
-                f"{state.path(name, 'specularColorFactor')}: coloured F0 {f0_rgb.tolist()} "
-                f"approximated by its luminance {f0:.6g} (the project's F0 is one number)"
-            )
+        # The G-buffer's one F0 is the largest channel, the material row's specular_color
+        # the colour it is scaled by (its largest channel 1): f0 specular_color = f0_rgb.
+        f0 = float(f0_rgb.max())
+        if f0 > 0.0 and not np.all(f0_rgb == f0):
+            specular_color = f0_rgb / f0
         f90 = weight
         state.applied.append(name)
     if ior_ext is None and spec_ext is None:
         return
-    model, params = p.model, replace(p.params, eta_dielectric=eta)
+    tinted = bool(np.any(specular_color != 1.0))
+    model = replace(p.model, specular_color=tinted) if tinted else p.model
+    params = replace(p.params, eta_dielectric=eta, specular_color=specular_color)
     if f90 != 1.0:
         if model.fresnel == "schlick" and not model.internal:
             # Generalised Schlick (RTR4 §9.5), exponent 5: F = F0 + (F90 - F0)(1 - l.h)^5 with

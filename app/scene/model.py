@@ -384,6 +384,7 @@ class Material(_Strict):
     k: _table_key("k") | None = None  # conductor: k per RGB channel
     ndf: Literal[NDF_MODELS] = "ggx"  # type: ignore[valid-type]
     gtr_gamma: _table_key("gtr_gamma") | None = None
+    specular_color: _table_key("specular_color") | None = None  # the dielectric F0's colour
     lambda_form: Literal[LAMBDA_FORMS] = "exact"  # type: ignore[valid-type]
     g2: Literal[G2_MODELS] = "height_correlated"  # type: ignore[valid-type]
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
@@ -645,6 +646,7 @@ class Material(_Strict):
             eta_dielectric=eta_d,
             k=k / medium,
             gtr_gamma=_given(self.gtr_gamma, "gtr_gamma"),
+            specular_color=np.asarray(_given(self.specular_color, "specular_color"), np.float64),
             # Thin film (RTR4 §9.11): indices relative to the medium, as eta's.
             film_thickness=_given(self.film_thickness, "film_thickness"),
             film_eta=film_ior / medium,
@@ -699,6 +701,8 @@ class Material(_Strict):
             multiscatter=self.multiscatter,
             anisotropic=anisotropy != 0.0,
             internal=self.fresnel == "schlick" and eta_d < 1.0,
+            # a coloured dielectric F0 (RTR4 §9.5): compiled in only where it is not white
+            specular_color=bool(np.any(np.asarray(params.specular_color) != 1.0)),
             thin_film=self.thin_film,  # thin film (RTR4 §9.11)
             sheen=self.sheen if sheen_on else "none",  # sheen
             diffraction=self.diffraction,  # diffraction (RTR4 §9.11)
