@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pygltflib
+from PIL import Image
 
 from app.reference.illumination import shade_gbuffer
 from app.render.renderer import Renderer
@@ -95,3 +96,97 @@ def test_yellow_specular_color_tints_the_highlight_as_the_twin(gl_egl, tmp_path)
     # B: F0 = 0, so a small part of the untinted sphere's
     assert (tinted[highlight, 2] < 0.1 * untinted[highlight, 2]).all()
     assert (tinted[highlight, 0] > 10.0 * tinted[highlight, 2]).all()
+
+
+# --- extension textures: per-pixel factors of the row (G-buffer RT6) ---
+
+QUAD_N = 32  # the test quad fills a 90-degree view from 1 m (tests/test_gltf_render.py)
+QUAD_SCENE = SCENE.replace("[0.0, 0.0, 3.0]", "[0.0, 0.0, 1.0]").replace("60.0", "90.0")
+ON_AXIS = Light(type="point", position=[0.0, 0.0, 1.5], intensity=2.0, range=10.0)
+NEAREST = {"magFilter": 9728, "minFilter": 9728}
+
+
+def halves(left: tuple[int, int, int], right: tuple[int, int, int]) -> Image.Image:
+    """A 4 x 4 image: its left two columns ``left``, its right two ``right`` (on the
+    quad: u < 0.5 and u > 0.5, split at pixel column QUAD_N / 2)."""
+    texels = np.zeros((4, 4, 3), np.uint8)
+    texels[:, :2] = left
+    texels[:, 2:] = right
+    return Image.fromarray(texels)
+
+
+def render_quad(gl, tmp_path, b: GltfBuilder, extensions: list[str]):
+    """(HDR image, the twin's image of its G-buffer, G-buffer) of the quad lit on the axis:
+    the scene is symmetric about the YZ plane, so column j mirrors column N - 1 - j."""
+    b.doc.extensionsUsed = extensions
+    b.save(tmp_path / "m.glb")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(QUAD_SCENE, encoding="utf-8")
+    loaded = load_scene(scene)
+    r = Renderer(gl, loaded, (QUAD_N, QUAD_N))
+    try:
+        r.set_lights([ON_AXIS])
+        r.render()
+        hdr = r.read_hdr().astype(np.float64)
+        g = r.read_gbuffer()
+        ref = shade_gbuffer(
+            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
+            r.materials.packed(),
+        )  # fmt: skip
+    finally:
+        r.release()
+    assert g.covered.all()
+    return hdr, ref, g
+
+
+# specularFactor 0: no base specular lobe, and the base is black, so the image is the
+# layer under test alone
+NO_BASE = {"KHR_materials_specular": {"specularFactor": 0.0}}
+
+
+def test_sheen_color_texture_darkens_the_cloth_where_it_is_dark(gl_egl, tmp_path):
+    """sheenColorTexture (sRGB) multiplies sheenColorFactor per pixel: dark (40, 40, 40)
+    on the quad's left half, white on its right. The left half's sheen is decode(40) =
+    0.021 of its mirror pixel's on the right, RT6 holds the decoded texels, and every
+    pixel is the twin's. Fails with the texture ignored (both halves alike)."""
+    b = GltfBuilder()
+    tex = b.texture(halves((40, 40, 40), (255, 255, 255)), NEAREST)
+    sheen = {"sheenColorFactor": [1.0, 1.0, 1.0], "sheenRoughnessFactor": 0.5,
+             "sheenColorTexture": {"index": tex}}  # fmt: skip
+    mat = dielectric({**NO_BASE, "KHR_materials_sheen": sheen})
+    b.quad(b.material(mat))
+    hdr, ref, g = render_quad(
+        gl_egl, tmp_path, b, ["KHR_materials_sheen", "KHR_materials_specular"]
+    )
+    dark = ((40 / 255 + 0.055) / 1.055) ** 2.4  # the sRGB transfer function
+    assert g.layer_maps is not None
+    np.testing.assert_allclose(g.layer_maps[:, : QUAD_N // 2, :3], dark, atol=2e-3)
+    np.testing.assert_array_equal(g.layer_maps[:, QUAD_N // 2 :], 1.0)
+    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
+    right = hdr[:, QUAD_N // 2 :]
+    left_mirrored = hdr[:, : QUAD_N // 2][:, ::-1]
+    lit = right[..., 1] > 1e-3
+    assert lit.sum() > 100  # the sheen shows away from the centre
+    ratio = left_mirrored[lit] / right[lit]
+    assert (ratio < 0.05).all() and (ratio > 0.0).all(), (ratio.min(), ratio.max())
+
+
+def test_clearcoat_texture_zero_has_no_coat_highlight(gl_egl, tmp_path):
+    """clearcoatTexture (R) multiplies clearcoatFactor per pixel: 0 on the quad's left
+    half, 1 on its right. Over a black base without a specular lobe the left half is
+    black (no coat, no highlight) while its mirror image on the right shows the coat's
+    highlight; every pixel is the twin's. Fails with the texture ignored."""
+    b = GltfBuilder()
+    tex = b.texture(halves((0, 0, 0), (255, 0, 0)), NEAREST)
+    coat = {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.3,
+            "clearcoatTexture": {"index": tex}}  # fmt: skip
+    mat = dielectric({**NO_BASE, "KHR_materials_clearcoat": coat})
+    b.quad(b.material(mat))
+    extensions = ["KHR_materials_clearcoat", "KHR_materials_specular"]
+    hdr, ref, g = render_quad(gl_egl, tmp_path, b, extensions)
+    assert g.layer_maps is not None
+    np.testing.assert_array_equal(g.layer_maps[:, : QUAD_N // 2, 3], 0.0)
+    np.testing.assert_array_equal(g.layer_maps[:, QUAD_N // 2 :, 3], 1.0)
+    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
+    assert hdr[:, : QUAD_N // 2].max() < 1e-6  # no coat: nothing reflects
+    assert hdr[:, QUAD_N // 2 :].max() > 0.05  # the coat's highlight

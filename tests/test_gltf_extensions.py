@@ -202,7 +202,8 @@ def test_clearcoat_parameters_and_normal_map():
     np.testing.assert_array_equal(p.params.clearcoat_color, [1.0, 1.0, 1.0])
     assert m.maps["coat_normal"].info == info
     assert m.maps["coat_normal"].key.endswith("KHR_materials_clearcoat.clearcoatNormalTexture")
-    assert [n for n in m.notes if "clearcoatTexture" in n]
+    assert m.maps["clearcoat"].channel == "r" and m.maps["clearcoat"].info == {"index": 1}
+    assert not m.notes  # the strength texture is sampled (G-buffer RT6)
     off = {"KHR_materials_clearcoat": {"clearcoatRoughnessFactor": 0.2}}
     plain = core()
     assert material_extensions(off, plain, KEY) is plain

@@ -129,6 +129,11 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
     # RT5: emitted radiance RGB, occlusion factor; where a material emits or occludes
     GBufferTarget("emission", 4, RADIANCE_STORAGE, constant_channels=4,
                   define="GBUFFER_EMISSION", fields=("emission",)),
+    # RT6: per-pixel scales of the material row's sheen colour (RGB) and clear-coat
+    # strength (A), from glTF's sheenColorTexture and clearcoatTexture; where a material
+    # has one (1 where it has none)
+    GBufferTarget("layer_maps", 4, BASE_STORAGE, constant_channels=4,
+                  define="GBUFFER_LAYER_MAPS", fields=("layer_maps",)),
 )  # fmt: skip
 OPTIONAL_TARGETS = tuple(t.name for t in GBUFFER_TARGETS if t.define is not None)
 # The optional targets of a program that names none of their defines (RT3 alone).
@@ -279,6 +284,9 @@ class GBufferData:
     # (H, W, 4): emitted radiance (linear RGB), occlusion factor of environment light; None
     # where the G-buffer has no RT5 (nothing emits and no occlusion map: glTF 2.0 core)
     emission: np.ndarray | None = None
+    # (H, W, 4): the factors the extension maps put on the row's sheen colour (RGB) and
+    # clear-coat strength (A); None where the G-buffer has no RT6 (no such map)
+    layer_maps: np.ndarray | None = None
 
     @property
     def covered(self) -> np.ndarray:

@@ -436,13 +436,18 @@ def clearcoat_base_surface(s: Surface, p: ModelParams) -> Surface:
 def clearcoat_base_params(p: ModelParams) -> ModelParams:
     """The base under the coat: the exact Fresnel models' indices divided by the coat's,
     mixed in by strength (exact at 0 and 1)."""
-    c, eta_c = p.clearcoat, p.clearcoat_eta
+    c, eta_c = np.asarray(p.clearcoat, np.float64), p.clearcoat_eta
+    c_rgb = c[..., None]  # a strength per point (the G-buffer's RT6) against RGB indices
 
-    def mix(x: np.ndarray | float) -> np.ndarray:
+    def mix(x: np.ndarray | float, c: np.ndarray) -> np.ndarray:
         x = np.asarray(x, np.float64)
         return x * (1.0 - c) + (x / eta_c) * c
 
-    return replace(p, eta_dielectric=float(mix(p.eta_dielectric)), eta=mix(p.eta), k=mix(p.k))
+    eta_d = mix(p.eta_dielectric, c)
+    return replace(
+        p, eta_dielectric=float(eta_d) if eta_d.ndim == 0 else eta_d,
+        eta=mix(p.eta, c_rgb if c.ndim else c), k=mix(p.k, c_rgb if c.ndim else c),
+    )  # fmt: skip
 
 
 def clearcoat_base_point(point: ShadingPoint, v_base: np.ndarray) -> ShadingPoint:
@@ -479,7 +484,7 @@ def clearcoat_factors(
 
     base = replace(model, clearcoat="none")
     l_base, v_base, compression = l, v, 1.0
-    if model.clearcoat == "weidlich_wilkie" and c > 0.0:
+    if model.clearcoat == "weidlich_wilkie" and np.any(np.asarray(c) > 0.0):
         # Weidlich & Wilkie 2007: the base sees the directions refracted into the coat (about
         # the coat's normal: its interface refracts), at eta_c = mix(1, eta, c), and the
         # result is compressed by 1/eta_c^2 (GLSL's comment).
@@ -490,7 +495,9 @@ def clearcoat_factors(
     b = base_brdf_factors(clearcoat_base_point(point, v_base), base, l_base, ms_table)
     T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
     A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
-    A = 1.0 - c + A * c
+    # a strength per point (the G-buffer's RT6) or the row's one number
+    c_rgb = np.asarray(c, np.float64)[..., None] if np.ndim(c) else c
+    A = 1.0 - c_rgb + A * c_rgb
     w = (T * compression)[..., None] * A
     # chi+(nc.l): no coat lobe for a light below the coat's horizon (GLSL's comment)
     f_coat = np.where(

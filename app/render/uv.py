@@ -22,6 +22,8 @@ MAP_BITS = {
     "emissive": 128,
     "occlusion": 256,
     "anisotropy_direction": 512,
+    "sheen_color": 1024,
+    "clearcoat": 2048,
 }
 
 

@@ -24,10 +24,11 @@ what it approximates; docs/gltf.md has the table.
 * KHR_materials_iridescence: Belcour & Barla 2017's thin film at the maximum thickness
   (RTR4 §9.11); approximated (the project's film has no strength and uses exact Fresnel).
 
-Textures: only factors are mapped; ``map_material_extensions`` also returns the textures
-the project can sample (``maps``: the clear coat's normal map, the anisotropy strength and
-direction) and
-a note for each texture or parameter it cannot honour, for the reader to attach and report.
+Textures: ``map_material_extensions`` also returns the textures the project samples
+(``maps``: the clear coat's normal map and strength, the sheen colour, the anisotropy
+strength and direction; the strength and sheen colour scale the material row per pixel
+through G-buffer RT6) and a note for each texture or parameter it cannot honour, for the
+reader to attach and report.
 """
 
 from __future__ import annotations
@@ -67,11 +68,9 @@ UNSUPPORTED_TEXTURES = {
         "specularColorTexture": "the factor alone is used",
     },
     "KHR_materials_sheen": {
-        "sheenColorTexture": "sheenColorFactor alone is used",
         "sheenRoughnessTexture": "sheenRoughnessFactor alone is used",
     },
     "KHR_materials_clearcoat": {
-        "clearcoatTexture": "clearcoatFactor alone is used",
         "clearcoatRoughnessTexture": "clearcoatRoughnessFactor alone is used",
     },
     "KHR_materials_iridescence": {
@@ -99,11 +98,11 @@ class ExtensionTexture:
 class ExtensionMapping:
     """What ``map_material_extensions`` made of a material's extensions.
 
-    ``maps``: SurfaceLayer map keys ("coat_normal", "anisotropy", "anisotropy_direction")
-    to the textures that fill
-    them. ``notes``: one line per texture, parameter or extension that is approximated or
-    left out (the reader reports them; docs/gltf.md explains each). ``applied``: the
-    extension names that changed the parameters.
+    ``maps``: SurfaceLayer map keys ("coat_normal", "clearcoat", "sheen_color",
+    "anisotropy", "anisotropy_direction") to the textures that fill them. ``notes``: one
+    line per texture, parameter or extension that is approximated or left out (the reader
+    reports them; docs/gltf.md explains each). ``applied``: the extension names that
+    changed the parameters.
     """
 
     params: MaterialParams
@@ -387,8 +386,11 @@ def _iridescence(state: _State, ext: Mapping[str, Any], name: str) -> None:
 def _sheen(state: _State, ext: Mapping[str, Any], name: str) -> None:
     color = _color(state, ext, name, "sheenColorFactor", (0.0, 0.0, 0.0), 1.0)
     roughness = _number(state, ext, name, "sheenRoughnessFactor", 0.0, 0.0, 1.0)
+    texture = _texture(state, ext, name, "sheenColorTexture")
     if float(color.max()) == 0.0:  # "If sheenColorFactor is zero, the whole sheen layer
         return  # is disabled": no layer, compiled out, as a scene file's black sheen_color
+    if texture is not None:  # RGB, sRGB: multiplies the factor per pixel (G-buffer RT6)
+        state.maps["sheen_color"] = texture
     # The specification's Charlie NDF with Estevez & Kulla's Smith visibility, and its
     # albedo scaling 1 - max(sheenColor) max(E(n.l), E(n.v)): the project's charlie_smith.
     sheen = {"sheen_color": color, "sheen_roughness": roughness}
@@ -415,6 +417,9 @@ def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
         return
     if normal is not None:
         state.maps["coat_normal"] = normal
+    texture = _texture(state, ext, name, "clearcoatTexture")
+    if texture is not None:  # R: multiplies the strength per pixel (G-buffer RT6)
+        state.maps["clearcoat"] = replace(texture, channel="r")
     # The medium is air (glTF has no other), so the coat's eta is its index.
     coat = {
         "clearcoat": strength,
