@@ -190,3 +190,21 @@ def test_clearcoat_texture_zero_has_no_coat_highlight(gl_egl, tmp_path):
     np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
     assert hdr[:, : QUAD_N // 2].max() < 1e-6  # no coat: nothing reflects
     assert hdr[:, QUAD_N // 2 :].max() > 0.05  # the coat's highlight
+
+
+def test_specular_texture_alpha_scales_the_f0(gl_egl, tmp_path):
+    """specularTexture's A multiplies the dielectric F0 per pixel (the layer's f0 map):
+    A = 0 on the quad's left half, 255 on its right, specularFactor 1 at ior 1.5, so
+    RT1's F0 is 0 on the left and 0.04 on the right; the image is the twin's (F90 stays
+    the factor's: a note says so). Fails with the texture ignored (0.04 everywhere)."""
+    b = GltfBuilder()
+    texels = np.full((4, 4, 4), 255, np.uint8)
+    texels[:, :2, 3] = 0
+    tex = b.texture(Image.fromarray(texels, "RGBA"), NEAREST)
+    spec = {"KHR_materials_specular": {"specularTexture": {"index": tex}}}
+    b.quad(b.material(dielectric(spec)))
+    hdr, ref, g = render_quad(gl_egl, tmp_path, b, ["KHR_materials_specular"])
+    np.testing.assert_array_equal(g.normal[:, : QUAD_N // 2, 3], 0.0)
+    np.testing.assert_allclose(g.normal[:, QUAD_N // 2 :, 3], 0.04, rtol=1e-6)
+    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
+    assert hdr[:, QUAD_N // 2 :].max() > 10.0 * hdr[:, : QUAD_N // 2].max()

@@ -64,7 +64,6 @@ SUPPORTED = (
 # material names gives a note; docs/gltf.md lists them).
 UNSUPPORTED_TEXTURES = {
     "KHR_materials_specular": {
-        "specularTexture": "the factor alone is used",
         "specularColorTexture": "the factor alone is used",
     },
     "KHR_materials_sheen": {
@@ -293,6 +292,13 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
         if f0 > 0.0 and not np.all(f0_rgb == f0):
             specular_color = f0_rgb / f0
         f90 = weight
+        texture = _texture(state, spec_ext, name, "specularTexture")
+        if texture is not None:  # A: multiplies the dielectric F0 per pixel (the f0 map)
+            state.maps["f0"] = replace(texture, channel="a")
+            state.notes.append(
+                f"{texture.key}: multiplies F0 per pixel; F90 stays specularFactor "
+                f"{weight!r} (the project's F90 is one per material)"
+            )
         state.applied.append(name)
     if ior_ext is None and spec_ext is None:
         return
