@@ -171,6 +171,40 @@ def test_sheen_color_texture_darkens_the_cloth_where_it_is_dark(gl_egl, tmp_path
     assert (ratio < 0.05).all() and (ratio > 0.0).all(), (ratio.min(), ratio.max())
 
 
+def test_a_blended_part_samples_the_sheen_texture_as_the_deferred_one(gl_egl, tmp_path):
+    """The blend pass shades alpha-blended parts forward (no G-buffer): the same quad and
+    sheen colour texture as above, alphaMode BLEND at alpha 1, gives the opaque quad's
+    image (the forward pass scales the row by the same factors). Fails with the forward
+    pass ignoring the texture (its dark half as bright as the white one)."""
+    images = []
+    for mode in ("OPAQUE", "BLEND"):
+        b = GltfBuilder()
+        tex = b.texture(halves((40, 40, 40), (255, 255, 255)), NEAREST)
+        sheen = {"sheenColorFactor": [1.0, 1.0, 1.0], "sheenRoughnessFactor": 0.5,
+                 "sheenColorTexture": {"index": tex}}  # fmt: skip
+        mat = dielectric({**NO_BASE, "KHR_materials_sheen": sheen})
+        mat.alphaMode = mode
+        b.quad(b.material(mat))
+        extensions = ["KHR_materials_sheen", "KHR_materials_specular"]
+        if mode == "OPAQUE":
+            images.append(render_quad(gl_egl, tmp_path, b, extensions)[0])
+            continue
+        b.doc.extensionsUsed = extensions
+        b.save(tmp_path / "m.glb")
+        (tmp_path / "scene.toml").write_text(QUAD_SCENE, encoding="utf-8")
+        r = Renderer(gl_egl, load_scene(tmp_path / "scene.toml"), (QUAD_N, QUAD_N))
+        try:
+            assert r.frame.parts[0].layers[0].alpha_mode == "blend"
+            r.set_lights([ON_AXIS])
+            r.render()
+            images.append(r.read_hdr().astype(np.float64))
+        finally:
+            r.release()
+    opaque, blended = images
+    assert opaque[:, QUAD_N // 2 :].max() > 1e-3
+    np.testing.assert_allclose(blended, opaque, rtol=1e-3, atol=1e-6)
+
+
 def test_clearcoat_texture_zero_has_no_coat_highlight(gl_egl, tmp_path):
     """clearcoatTexture (R) multiplies clearcoatFactor per pixel: 0 on the quad's left
     half, 1 on its right. Over a black base without a specular lobe the left half is
@@ -208,3 +242,29 @@ def test_specular_texture_alpha_scales_the_f0(gl_egl, tmp_path):
     np.testing.assert_allclose(g.normal[:, QUAD_N // 2 :, 3], 0.04, rtol=1e-6)
     np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
     assert hdr[:, QUAD_N // 2 :].max() > 10.0 * hdr[:, : QUAD_N // 2].max()
+
+
+def test_extension_textures_take_texcoord_and_texture_transform(gl_egl, tmp_path):
+    """An extension texture reads its texCoord and KHR_texture_transform as a core map
+    does: the clear-coat halves texture through an offset of half a turn in u reads the
+    coated half on the quad's left; the sheen colour texture on TEXCOORD_1 (u mirrored)
+    reads its dark half on the right. Fails with the transform or the UV set ignored."""
+    b = GltfBuilder()
+    coat_tex = b.texture(halves((0, 0, 0), (255, 0, 0)), NEAREST)
+    sheen_tex = b.texture(halves((40, 40, 40), (255, 255, 255)), NEAREST)
+    moved = {"KHR_texture_transform": {"offset": [0.5, 0.0]}}
+    coat = {"clearcoatFactor": 1.0, "clearcoatTexture": {"index": coat_tex, "extensions": moved}}
+    sheen = {"sheenColorFactor": [1.0, 1.0, 1.0],
+             "sheenColorTexture": {"index": sheen_tex, "texCoord": 1}}  # fmt: skip
+    ext = {**NO_BASE, "KHR_materials_clearcoat": coat, "KHR_materials_sheen": sheen}
+    uv1 = np.array([[1, 1], [0, 1], [0, 0], [1, 0]], np.float32)  # QUAD_UV with u mirrored
+    b.quad(b.material(dielectric(ext)), uv1=uv1)
+    names = ["KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular"]
+    _, _, g = render_quad(gl_egl, tmp_path, b, [*names, "KHR_texture_transform"])
+    f = g.layer_maps
+    assert f is not None
+    np.testing.assert_array_equal(f[:, : QUAD_N // 2, 3], 1.0)
+    np.testing.assert_array_equal(f[:, QUAD_N // 2 :, 3], 0.0)
+    np.testing.assert_array_equal(f[:, : QUAD_N // 2, :3], 1.0)
+    dark = ((40 / 255 + 0.055) / 1.055) ** 2.4
+    np.testing.assert_allclose(f[:, QUAD_N // 2 :, :3], dark, atol=2e-3)

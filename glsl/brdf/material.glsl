@@ -87,6 +87,19 @@ vec3 sanitize_direction(vec3 d, vec3 fallback) {
     return finite && is_finite(len2) && len2 > 1e-12 ? d * inversesqrt(len2) : fallback;
 }
 
+#if GBUFFER_LAYER_MAPS
+// The material row's numbers that extension textures scale per pixel (G-buffer RT6,
+// material/layers.glsl sample_layer_maps): the sheen colour by f.rgb, the clear coat's
+// strength by f.a, each factor clamped to [0, 1] (NaN: 1, no change). The lighting pass
+// applies it to the decoded row, the forward pass to the fragment's.
+ModelParams scale_by_layer_maps(ModelParams p, vec4 f) {
+    p.sheen_color *= vec3(sanitize_value(f.r, 0.0, 1.0, 1.0), sanitize_value(f.g, 0.0, 1.0, 1.0),
+                          sanitize_value(f.b, 0.0, 1.0, 1.0));
+    p.clearcoat *= sanitize_value(f.a, 0.0, 1.0, 1.0);
+    return p;
+}
+#endif
+
 // The metalness workflow (glTF 2.0 Appendix B; Burley 2012): one base colour serves
 // as the diffuse albedo of a dielectric and as the F0 of a metal.
 //   F0      = mix(f0_dielectric specular_color, base_color, metallic)

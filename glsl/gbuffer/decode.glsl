@@ -73,12 +73,7 @@ ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     ModelParams params = fetch_model_params(materials, material_id);
 #if GBUFFER_LAYER_MAPS
     // RT6: the extension maps' factors on the row's sheen colour and coat strength
-    // (material/layers.glsl sample_layer_maps), each in [0, 1] (NaN: 1, no change).
-    vec4 f = texelFetch(g_layer_maps, px, 0);
-    params.sheen_color *= vec3(sanitize_value(f.r, 0.0, 1.0, 1.0),
-                               sanitize_value(f.g, 0.0, 1.0, 1.0),
-                               sanitize_value(f.b, 0.0, 1.0, 1.0));
-    params.clearcoat *= sanitize_value(f.a, 0.0, 1.0, 1.0);
+    params = scale_by_layer_maps(params, texelFetch(g_layer_maps, px, 0));
 #endif
     vec3 t = oct_decode(c.rg);
 
