@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pygltflib
+import pytest
 from PIL import Image
 
 from app.reference.illumination import shade_gbuffer
@@ -268,3 +269,17 @@ def test_extension_textures_take_texcoord_and_texture_transform(gl_egl, tmp_path
     np.testing.assert_array_equal(f[:, : QUAD_N // 2, :3], 1.0)
     dark = ((40 / 255 + 0.055) / 1.055) ** 2.4
     np.testing.assert_allclose(f[:, QUAD_N // 2 :, :3], dark, atol=2e-3)
+
+
+def test_scene_key_specular_color_is_the_gltf_row():
+    """A scene file's specular_color gives the row and model the glTF mapping gives
+    (SPECULAR_COLOR on only where it is not white); with an exact Fresnel model, which
+    takes the index and not an F0, the key is an error."""
+    from app.scene.model import Material
+
+    p = Material(f0=0.04, specular_color=[1.0, 1.0, 0.0]).resolve()
+    assert p.model.specular_color and p.model.defines()["SPECULAR_COLOR"] == 1
+    np.testing.assert_array_equal(p.params.specular_color, [1.0, 1.0, 0.0])
+    assert not Material(f0=0.04, specular_color=[1.0, 1.0, 1.0]).resolve().model.specular_color
+    with pytest.raises(ValueError, match="specular_color: applies only with fresnel"):
+        Material(ior=1.5, fresnel="dielectric", specular_color=[1.0, 0.5, 0.5])

@@ -491,6 +491,10 @@ class Material(_Strict):
                 raise ValueError(f"{key}: applies only with {term} = {shown}")
         if self.sheen_roughness is not None and self.sheen_color is None:  # sheen
             raise ValueError("sheen_roughness: applies only with a 'sheen_color'")
+        if self.specular_color is not None and self.fresnel in ("dielectric", "conductor"):
+            raise ValueError(  # the exact Fresnel models take the index, not an F0
+                "specular_color: applies only with fresnel = 'schlick' or 'schlick_generalized'"
+            )
         self._check_clearcoat()
         self._check_core()
         self._check_fiber()
