@@ -227,6 +227,31 @@ def test_clearcoat_texture_zero_has_no_coat_highlight(gl_egl, tmp_path):
     assert hdr[:, QUAD_N // 2 :].max() > 0.05  # the coat's highlight
 
 
+def test_specular_color_texture_tints_the_highlight_per_pixel(gl_egl, tmp_path):
+    """specularColorTexture (sRGB) multiplies specularColorFactor per pixel (through RT6,
+    the row's specular_color_map saying so): yellow (255, 255, 0) on the quad's left half,
+    white on its right. The left half keeps R and G of its mirror pixel on the right and
+    has almost no B (only Schlick's (1 - F0)(1 - l.h)^5); every pixel is the twin's.
+    Fails with the texture ignored (both halves white)."""
+    b = GltfBuilder()
+    tex = b.texture(halves((255, 255, 0), (255, 255, 255)), NEAREST)
+    spec = {"KHR_materials_specular": {"specularColorTexture": {"index": tex}}}
+    b.quad(b.material(dielectric(spec)))
+    hdr, ref, g = render_quad(gl_egl, tmp_path, b, ["KHR_materials_specular"])
+    assert g.layer_maps is not None
+    np.testing.assert_array_equal(
+        g.layer_maps[:, : QUAD_N // 2, :3],
+        np.broadcast_to([1.0, 1.0, 0.0], (QUAD_N, QUAD_N // 2, 3)),
+    )
+    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
+    left_mirrored = hdr[:, : QUAD_N // 2][:, ::-1]
+    right = hdr[:, QUAD_N // 2 :]
+    lit = right[..., 1] > 1e-3
+    assert lit.sum() > 100
+    np.testing.assert_allclose(left_mirrored[lit][:, :2], right[lit][:, :2], rtol=1e-3)
+    assert (left_mirrored[lit][:, 2] < 0.1 * right[lit][:, 2]).all()
+
+
 def test_specular_texture_alpha_scales_the_f0(gl_egl, tmp_path):
     """specularTexture's A multiplies the dielectric F0 per pixel (the layer's f0 map):
     A = 0 on the quad's left half, 255 on its right, specularFactor 1 at ior 1.5, so

@@ -162,6 +162,24 @@ def test_coloured_specular_is_its_largest_channel_times_the_specular_color():
     np.testing.assert_allclose(f, ref, rtol=1e-12)
 
 
+def test_specular_color_texture_is_a_map_of_the_specular_color():
+    """specularColorTexture becomes maps["specular_color"] (RGB), turns SPECULAR_COLOR on
+    even under a white factor and marks the row (specular_color_map 1: RT6's RGB scales
+    the specular colour); a sheen colour texture beside it is left out with a note."""
+    tex = {"index": 2, "texCoord": 1}
+    ext = {"KHR_materials_specular": {"specularColorTexture": tex},
+           "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1],
+                                   "sheenColorTexture": {"index": 3}}}  # fmt: skip
+    m = map_material_extensions(ext, core(), KEY)
+    assert m.maps["specular_color"].info == tex and m.maps["specular_color"].channel == "rgb"
+    assert m.params.model.specular_color and m.params.params.specular_color_map == 1.0
+    np.testing.assert_array_equal(m.params.params.specular_color, [1.0, 1.0, 1.0])
+    assert "sheen_color" not in m.maps
+    assert [n for n in m.notes if "sheenColorTexture" in n and "specularColorTexture" in n]
+    plain = map_material_extensions({"KHR_materials_specular": {}}, core(), KEY).params
+    assert not plain.model.specular_color and plain.params.specular_color_map == 0.0
+
+
 def test_anisotropy_parameters():
     ext = {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6}}
     p = material_extensions(ext, core(roughness=0.4), KEY)

@@ -129,9 +129,10 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
     # RT5: emitted radiance RGB, occlusion factor; where a material emits or occludes
     GBufferTarget("emission", 4, RADIANCE_STORAGE, constant_channels=4,
                   define="GBUFFER_EMISSION", fields=("emission",)),
-    # RT6: per-pixel scales of the material row's sheen colour (RGB) and clear-coat
-    # strength (A), from glTF's sheenColorTexture and clearcoatTexture; where a material
-    # has one (1 where it has none)
+    # RT6: per-pixel scales of the material row's sheen or specular colour (RGB; the row's
+    # specular_color_map says which) and clear-coat strength (A), from glTF's
+    # sheenColorTexture / specularColorTexture and clearcoatTexture; where a material has
+    # one (1 where it has none)
     GBufferTarget("layer_maps", 4, BASE_STORAGE, constant_channels=4,
                   define="GBUFFER_LAYER_MAPS", fields=("layer_maps",)),
 )  # fmt: skip
@@ -284,8 +285,8 @@ class GBufferData:
     # (H, W, 4): emitted radiance (linear RGB), occlusion factor of environment light; None
     # where the G-buffer has no RT5 (nothing emits and no occlusion map: glTF 2.0 core)
     emission: np.ndarray | None = None
-    # (H, W, 4): the factors the extension maps put on the row's sheen colour (RGB) and
-    # clear-coat strength (A); None where the G-buffer has no RT6 (no such map)
+    # (H, W, 4): the factors the extension maps put on the row's sheen or specular colour
+    # (RGB) and clear-coat strength (A); None where the G-buffer has no RT6 (no such map)
     layer_maps: np.ndarray | None = None
 
     @property

@@ -246,6 +246,8 @@ class ModelParams:
     gtr_gamma: float = _DEFAULTS["gtr_gamma"]  # GTR tail exponent (2 = GGX)
     # the dielectric F0's colour: F0 = f0_dielectric specular_color (white: f0 alone)
     specular_color: np.ndarray = field(default_factory=_array("specular_color"))
+    # 1: the G-buffer's RT6 RGB scales specular_color, 0: sheen_color (a texture of either)
+    specular_color_map: float = _DEFAULTS["specular_color_map"]
     # --- thin film (RTR4 §9.11): nm (0 = the base's Fresnel alone), n2 / n1, n2 ---
     film_thickness: float = _DEFAULTS["film_thickness"]
     film_eta: float = _DEFAULTS["film_eta"]

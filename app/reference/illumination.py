@@ -87,7 +87,8 @@ class DecodedGBuffer:
     nc: np.ndarray | None = None  # (C, 3) unit coat normal (n where lost); None without RT4
     # (C, 4) emitted radiance and occlusion factor; None without RT5 (glTF 2.0 core)
     emission: np.ndarray | None = None
-    # (C, 4) the factors on the row's sheen colour (RGB) and coat strength (A), sanitised;
+    # (C, 4) the factors on the row's sheen or specular colour (RGB: specular_color_map
+    # says which) and coat strength (A), sanitised;
     # None without RT6 (no extension map)
     layer_maps: np.ndarray | None = None
 
@@ -97,9 +98,10 @@ class DecodedGBuffer:
         coat strength times the pixels' factors)."""
         if self.layer_maps is not None:
             f = self.layer_maps[sel]
+            rgb = "specular_color" if params.specular_color_map > 0.5 else "sheen_color"
             params = replace(
-                params, sheen_color=np.asarray(params.sheen_color) * f[:, :3],
-                clearcoat=params.clearcoat * f[:, 3],
+                params, clearcoat=params.clearcoat * f[:, 3],
+                **{rgb: np.asarray(getattr(params, rgb)) * f[:, :3]},
             )  # fmt: skip
         return ShadingPoint(
             self.surface.select(sel), params, self.n[sel],

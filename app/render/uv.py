@@ -24,6 +24,7 @@ MAP_BITS = {
     "anisotropy_direction": 512,
     "sheen_color": 1024,
     "clearcoat": 2048,
+    "specular_color": 4096,
 }
 
 

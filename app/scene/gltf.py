@@ -756,7 +756,7 @@ class GltfFile:
             img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
             kind = {
                 "coat_normal": "normal", "anisotropy_direction": "direction",
-                "sheen_color": "colour",
+                "sheen_color": "colour", "specular_color": "colour",
             }.get(name)  # fmt: skip
             self._map_cost(img, kind or "scalar", ext_texture.key)
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
@@ -813,7 +813,7 @@ def _extension_map(name: str, texture: ExtensionTexture, image: Image.Image) -> 
         return coat_normal_texture(image, scale)
     if name == "anisotropy_direction":
         return direction_texture(image)
-    if name == "sheen_color":  # sRGB colour, decoded by the GL as the base colour's
+    if name in ("sheen_color", "specular_color"):  # sRGB, decoded by the GL
         return colour_texture(image)
     channel = "rgba".index(texture.channel)
     pixels = np.asarray(image.convert("RGBA"), np.float64) / 255.0

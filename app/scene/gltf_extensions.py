@@ -13,7 +13,8 @@ what it approximates; docs/gltf.md has the table.
   exactly) with the index ``IOR_ZERO_ETA``.
 * KHR_materials_specular: F0 = min(F0_ior specularColor, 1) specular and F90 = specular,
   through the generalised Schlick (RTR4 §9.5); a coloured F0 is its largest channel (the
-  G-buffer's F0) times the material row's ``specular_color``, exact.
+  G-buffer's F0) times the material row's ``specular_color``, exact; specularTexture's A
+  multiplies F0 per pixel (the F0 map), specularColorTexture the colour (G-buffer RT6).
 * KHR_materials_anisotropy: alpha_t = mix(alpha, 1, strength^2), alpha_b = alpha, written
   exactly in the project's (roughness, anisotropy) (RTR4 §9.8); the rotation (any angle)
   and the texture's direction (RG) turn the tangent the G-buffer pass writes.
@@ -25,10 +26,10 @@ what it approximates; docs/gltf.md has the table.
   (RTR4 §9.11); approximated (the project's film has no strength and uses exact Fresnel).
 
 Textures: ``map_material_extensions`` also returns the textures the project samples
-(``maps``: the clear coat's normal map and strength, the sheen colour, the anisotropy
-strength and direction; the strength and sheen colour scale the material row per pixel
-through G-buffer RT6) and a note for each texture or parameter it cannot honour, for the
-reader to attach and report.
+(``maps``: the clear coat's normal map and strength, the sheen colour, the specular
+F0 and colour, the anisotropy strength and direction; the coat strength and the sheen or
+specular colour scale the material row per pixel through G-buffer RT6) and a note for
+each texture or parameter it cannot honour, for the reader to attach and report.
 """
 
 from __future__ import annotations
@@ -63,9 +64,6 @@ SUPPORTED = (
 # The extensions' textures the project cannot sample, and what is used instead (each one a
 # material names gives a note; docs/gltf.md lists them).
 UNSUPPORTED_TEXTURES = {
-    "KHR_materials_specular": {
-        "specularColorTexture": "the factor alone is used",
-    },
     "KHR_materials_sheen": {
         "sheenRoughnessTexture": "sheenRoughnessFactor alone is used",
     },
@@ -292,6 +290,9 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
         if f0 > 0.0 and not np.all(f0_rgb == f0):
             specular_color = f0_rgb / f0
         f90 = weight
+        colour = _texture(state, spec_ext, name, "specularColorTexture")
+        if colour is not None:  # sRGB RGB: multiplies specular_color per pixel (RT6)
+            state.maps["specular_color"] = colour
         texture = _texture(state, spec_ext, name, "specularTexture")
         if texture is not None:  # A: multiplies the dielectric F0 per pixel (the f0 map)
             state.maps["f0"] = replace(texture, channel="a")
@@ -302,9 +303,13 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
         state.applied.append(name)
     if ior_ext is None and spec_ext is None:
         return
-    tinted = bool(np.any(specular_color != 1.0))
+    textured = "specular_color" in state.maps
+    tinted = textured or bool(np.any(specular_color != 1.0))
     model = replace(p.model, specular_color=tinted) if tinted else p.model
-    params = replace(p.params, eta_dielectric=eta, specular_color=specular_color)
+    params = replace(
+        p.params, eta_dielectric=eta, specular_color=specular_color,
+        specular_color_map=1.0 if textured else 0.0,
+    )  # fmt: skip
     if f90 != 1.0:
         if model.fresnel == "schlick" and not model.internal:
             # Generalised Schlick (RTR4 §9.5), exponent 5: F = F0 + (F90 - F0)(1 - l.h)^5 with
@@ -395,7 +400,12 @@ def _sheen(state: _State, ext: Mapping[str, Any], name: str) -> None:
     texture = _texture(state, ext, name, "sheenColorTexture")
     if float(color.max()) == 0.0:  # "If sheenColorFactor is zero, the whole sheen layer
         return  # is disabled": no layer, compiled out, as a scene file's black sheen_color
-    if texture is not None:  # RGB, sRGB: multiplies the factor per pixel (G-buffer RT6)
+    if texture is not None and "specular_color" in state.maps:
+        state.notes.append(  # RT6 has one colour per pixel: the specular colour's
+            f"{texture.key}: not supported beside a specularColorTexture; "
+            "sheenColorFactor alone is used"
+        )
+    elif texture is not None:  # RGB, sRGB: multiplies the factor per pixel (G-buffer RT6)
         state.maps["sheen_color"] = texture
     # The specification's Charlie NDF with Estevez & Kulla's Smith visibility, and its
     # albedo scaling 1 - max(sheenColor) max(E(n.l), E(n.v)): the project's charlie_smith.
