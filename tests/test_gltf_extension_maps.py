@@ -206,6 +206,31 @@ def test_a_blended_part_samples_the_sheen_texture_as_the_deferred_one(gl_egl, tm
     np.testing.assert_allclose(blended, opaque, rtol=1e-3, atol=1e-6)
 
 
+def test_sheen_roughness_texture_scales_the_roughness_per_pixel(gl_egl, tmp_path):
+    """sheenRoughnessTexture's A multiplies sheenRoughnessFactor per pixel (RT6's A, the
+    row's sheen_roughness_map saying so): A = 51 (0.2) on the quad's left half, 255 on
+    its right, factor 1. RT6 holds the texels, every pixel is the twin's, and the halves'
+    sheen differs from their mirror pixels. Fails with the texture ignored."""
+    b = GltfBuilder()
+    texels = np.full((4, 4, 4), 255, np.uint8)
+    texels[:, :2, 3] = 51
+    tex = b.texture(Image.fromarray(texels, "RGBA"), NEAREST)
+    sheen = {"sheenColorFactor": [1.0, 1.0, 1.0], "sheenRoughnessFactor": 1.0,
+             "sheenRoughnessTexture": {"index": tex}}  # fmt: skip
+    mat = dielectric({**NO_BASE, "KHR_materials_sheen": sheen})
+    b.quad(b.material(mat))
+    hdr, ref, g = render_quad(
+        gl_egl, tmp_path, b, ["KHR_materials_sheen", "KHR_materials_specular"]
+    )
+    assert g.layer_maps is not None
+    np.testing.assert_allclose(g.layer_maps[:, : QUAD_N // 2, 3], 0.2, atol=1e-4)  # float16
+    np.testing.assert_array_equal(g.layer_maps[:, QUAD_N // 2 :, 3], 1.0)
+    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
+    left_mirrored = hdr[:, : QUAD_N // 2][:, ::-1]
+    right = hdr[:, QUAD_N // 2 :]
+    assert np.abs(left_mirrored - right).max() > 0.1 * right.max() > 0.0
+
+
 def test_clearcoat_texture_zero_has_no_coat_highlight(gl_egl, tmp_path):
     """clearcoatTexture (R) multiplies clearcoatFactor per pixel: 0 on the quad's left
     half, 1 on its right. Over a black base without a specular lobe the left half is

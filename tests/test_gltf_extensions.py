@@ -180,6 +180,20 @@ def test_specular_color_texture_is_a_map_of_the_specular_color():
     assert not plain.model.specular_color and plain.params.specular_color_map == 0.0
 
 
+def test_sheen_roughness_texture_is_a_map_of_the_sheen_roughness():
+    """sheenRoughnessTexture's A becomes maps["sheen_roughness"] and marks the row
+    (sheen_roughness_map 1: RT6's A scales the sheen roughness); a clearcoatTexture
+    beside it is left out with a note."""
+    ext = {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1],
+                                   "sheenRoughnessTexture": {"index": 2}},
+           "KHR_materials_clearcoat": {"clearcoatFactor": 1.0,
+                                       "clearcoatTexture": {"index": 3}}}  # fmt: skip
+    m = map_material_extensions(ext, core(), KEY)
+    assert m.maps["sheen_roughness"].channel == "a"
+    assert m.params.params.sheen_roughness_map == 1.0 and "clearcoat" not in m.maps
+    assert [n for n in m.notes if "clearcoatTexture" in n and "sheenRoughnessTexture" in n]
+
+
 def test_anisotropy_parameters():
     ext = {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6}}
     p = material_extensions(ext, core(roughness=0.4), KEY)

@@ -130,9 +130,9 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
     GBufferTarget("emission", 4, RADIANCE_STORAGE, constant_channels=4,
                   define="GBUFFER_EMISSION", fields=("emission",)),
     # RT6: per-pixel scales of the material row's sheen or specular colour (RGB; the row's
-    # specular_color_map says which) and clear-coat strength (A), from glTF's
-    # sheenColorTexture / specularColorTexture and clearcoatTexture; where a material has
-    # one (1 where it has none)
+    # specular_color_map says which) and clear-coat strength or sheen roughness (A; the
+    # row's sheen_roughness_map), from glTF's sheenColorTexture / specularColorTexture and
+    # clearcoatTexture / sheenRoughnessTexture; where a material has one (1 where none)
     GBufferTarget("layer_maps", 4, BASE_STORAGE, constant_channels=4,
                   define="GBUFFER_LAYER_MAPS", fields=("layer_maps",)),
 )  # fmt: skip

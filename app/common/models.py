@@ -248,6 +248,8 @@ class ModelParams:
     specular_color: np.ndarray = field(default_factory=_array("specular_color"))
     # 1: the G-buffer's RT6 RGB scales specular_color, 0: sheen_color (a texture of either)
     specular_color_map: float = _DEFAULTS["specular_color_map"]
+    # 1: RT6's A scales sheen_roughness, 0: the clear coat's strength (a texture of either)
+    sheen_roughness_map: float = _DEFAULTS["sheen_roughness_map"]
     # --- thin film (RTR4 §9.11): nm (0 = the base's Fresnel alone), n2 / n1, n2 ---
     film_thickness: float = _DEFAULTS["film_thickness"]
     film_eta: float = _DEFAULTS["film_eta"]

@@ -58,7 +58,7 @@ def _surface_key(m: MaterialParams) -> tuple:
 # targets. Keys of SurfaceLayer.maps.
 SURFACE_MAPS = frozenset({"base_color", "metallic", "normal_roughness", "f0", "select"})
 # The maps whose texels scale numbers of the material row per pixel (G-buffer RT6).
-LAYER_MAPS = frozenset({"sheen_color", "clearcoat", "specular_color"})
+LAYER_MAPS = frozenset({"sheen_color", "clearcoat", "specular_color", "sheen_roughness"})
 
 
 def constant_surface(part: MeshPart) -> bool:
@@ -88,9 +88,9 @@ class MaterialTable:
     # A layer of the frame emits or has an occlusion map (glTF 2.0 core material):
     # only then does the G-buffer carry RT5 (emitted radiance, occlusion).
     needs_emission: bool = False
-    # A layer of the frame has a sheen colour, specular colour or clear-coat map (glTF
-    # sheenColorTexture, specularColorTexture, clearcoatTexture): only then does the
-    # G-buffer carry RT6, their per-pixel factors.
+    # A layer of the frame has a sheen colour, specular colour, clear-coat or sheen
+    # roughness map (glTF sheenColorTexture, specularColorTexture, clearcoatTexture,
+    # sheenRoughnessTexture): only then does the G-buffer carry RT6, their factors.
     needs_layer_maps: bool = False
     # Every part the G-buffer draws has constant surface numbers (``constant_surface``):
     # then ``surfaces`` holds each row's (base colour, metallic, roughness, F0), the rows

@@ -99,8 +99,9 @@ class DecodedGBuffer:
         if self.layer_maps is not None:
             f = self.layer_maps[sel]
             rgb = "specular_color" if params.specular_color_map > 0.5 else "sheen_color"
+            a = "sheen_roughness" if params.sheen_roughness_map > 0.5 else "clearcoat"
             params = replace(
-                params, clearcoat=params.clearcoat * f[:, 3],
+                params, **{a: getattr(params, a) * f[:, 3]},
                 **{rgb: np.asarray(getattr(params, rgb)) * f[:, :3]},
             )  # fmt: skip
         return ShadingPoint(

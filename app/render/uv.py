@@ -25,6 +25,7 @@ MAP_BITS = {
     "sheen_color": 1024,
     "clearcoat": 2048,
     "specular_color": 4096,
+    "sheen_roughness": 8192,
 }
 
 

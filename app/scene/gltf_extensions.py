@@ -64,9 +64,6 @@ SUPPORTED = (
 # The extensions' textures the project cannot sample, and what is used instead (each one a
 # material names gives a note; docs/gltf.md lists them).
 UNSUPPORTED_TEXTURES = {
-    "KHR_materials_sheen": {
-        "sheenRoughnessTexture": "sheenRoughnessFactor alone is used",
-    },
     "KHR_materials_clearcoat": {
         "clearcoatRoughnessTexture": "clearcoatRoughnessFactor alone is used",
     },
@@ -407,9 +404,13 @@ def _sheen(state: _State, ext: Mapping[str, Any], name: str) -> None:
         )
     elif texture is not None:  # RGB, sRGB: multiplies the factor per pixel (G-buffer RT6)
         state.maps["sheen_color"] = texture
+    rough = _texture(state, ext, name, "sheenRoughnessTexture")
+    if rough is not None:  # A: multiplies the roughness factor per pixel (RT6's A)
+        state.maps["sheen_roughness"] = replace(rough, channel="a")
     # The specification's Charlie NDF with Estevez & Kulla's Smith visibility, and its
     # albedo scaling 1 - max(sheenColor) max(E(n.l), E(n.v)): the project's charlie_smith.
-    sheen = {"sheen_color": color, "sheen_roughness": roughness}
+    sheen = {"sheen_color": color, "sheen_roughness": roughness,
+             "sheen_roughness_map": 1.0 if rough is not None else 0.0}  # fmt: skip
     _apply(state, name, {"sheen": "charlie_smith"}, sheen)
 
 
@@ -434,7 +435,12 @@ def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
     if normal is not None:
         state.maps["coat_normal"] = normal
     texture = _texture(state, ext, name, "clearcoatTexture")
-    if texture is not None:  # R: multiplies the strength per pixel (G-buffer RT6)
+    if texture is not None and "sheen_roughness" in state.maps:
+        state.notes.append(  # RT6 has one A per pixel: the sheen roughness's
+            f"{texture.key}: not supported beside a sheenRoughnessTexture; "
+            "clearcoatFactor alone is used"
+        )
+    elif texture is not None:  # R: multiplies the strength per pixel (G-buffer RT6)
         state.maps["clearcoat"] = replace(texture, channel="r")
     # The medium is air (glTF has no other), so the coat's eta is its index.
     coat = {

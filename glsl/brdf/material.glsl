@@ -90,8 +90,9 @@ vec3 sanitize_direction(vec3 d, vec3 fallback) {
 #if GBUFFER_LAYER_MAPS
 // The material row's numbers that extension textures scale per pixel (G-buffer RT6,
 // material/layers.glsl sample_layer_maps): the sheen colour by f.rgb, or the specular
-// colour where the row's specular_color_map is 1, the clear coat's strength by f.a, each
-// factor clamped to [0, 1] (NaN: 1, no change). The lighting pass applies it to the
+// colour where the row's specular_color_map is 1, the clear coat's strength by f.a, or the
+// sheen roughness where the row's sheen_roughness_map is 1, each factor clamped to
+// [0, 1] (NaN: 1, no change). The lighting pass applies it to the
 // decoded row, the forward pass to the fragment's.
 ModelParams scale_by_layer_maps(ModelParams p, vec4 f) {
     vec3 rgb = vec3(sanitize_value(f.r, 0.0, 1.0, 1.0), sanitize_value(f.g, 0.0, 1.0, 1.0),
@@ -101,7 +102,12 @@ ModelParams scale_by_layer_maps(ModelParams p, vec4 f) {
     } else {
         p.sheen_color *= rgb;
     }
-    p.clearcoat *= sanitize_value(f.a, 0.0, 1.0, 1.0);
+    float a = sanitize_value(f.a, 0.0, 1.0, 1.0);
+    if (p.sheen_roughness_map > 0.5) {
+        p.sheen_roughness *= a;
+    } else {
+        p.clearcoat *= a;
+    }
     return p;
 }
 #endif
