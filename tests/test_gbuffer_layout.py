@@ -151,7 +151,7 @@ def test_generated_declarations_write_and_sample_each_target(gl_egl, layout: GBu
         vao.render(moderngl.TRIANGLES, vertices=3)
         for k, target in present:
             tex = getattr(g, target.name)
-            texels = np.frombuffer(tex.read(), np.dtype(tex.dtype))  # f4, or f2 (RT6)
+            texels = np.frombuffer(tex.read(), np.dtype(tex.dtype))  # f4, or f2 (RT7, edge)
             assert np.all(texels == k + 1), target.name
         uniforms = {name for name in sampler if isinstance(sampler[name], moderngl.Uniform)}
         assert uniforms == {name for name, _ in g.samplers()}

@@ -146,11 +146,52 @@ def test_white_specular_color_above_one_is_clamped_exactly():
     assert m.params.f0 == 1.0 and m.notes == ()  # min(0.04 x 30, 1) = 1
 
 
-def test_coloured_specular_is_approximated_by_its_luminance_and_noted():
-    ext = {"KHR_materials_specular": {"specularColorFactor": [2.0, 1.0, 0.5]}}
+def test_coloured_specular_is_its_largest_channel_times_the_specular_color():
+    ext = {"KHR_materials_specular": {"specularColorFactor": [2.0, 1.0, 0.5],
+                                      "specularFactor": 0.7}}  # fmt: skip
     m = map_material_extensions(ext, core(), KEY)
-    assert m.params.f0 == pytest.approx(0.2126 * 0.08 + 0.7152 * 0.04 + 0.0722 * 0.02)
-    assert any("specularColorFactor" in n and "luminance" in n for n in m.notes)
+    f0_rgb = spec_dielectric_f0(1.5, [2.0, 1.0, 0.5], 0.7)  # (0.056, 0.028, 0.014)
+    assert m.params.f0 == pytest.approx(f0_rgb.max(), rel=1e-15) and m.notes == ()
+    np.testing.assert_allclose(m.params.f0 * m.params.params.specular_color, f0_rgb, rtol=1e-15)
+    # the twin's f(l, v): the specification's coloured dielectric Fresnel, exactly
+    l, v = pairs()
+    h = half(l, v)
+    f = twin(m.params, l, v, terms="specular")
+    F = spec_schlick(f0_rgb, 0.7, np.sum(v * h, axis=-1)[:, None])
+    ref = F * spec_ggx(h[:, 2], l[:, 2], v[:, 2], 0.25)[:, None]
+    np.testing.assert_allclose(f, ref, rtol=1e-12)
+
+
+def test_specular_color_texture_is_a_map_of_the_specular_color():
+    """specularColorTexture becomes maps["specular_color"] (RGB), turns SPECULAR_COLOR on
+    even under a white factor and marks the row (specular_color_map 1: RT6's RGB scales
+    the specular colour); a sheen colour texture beside it is left out with a note."""
+    tex = {"index": 2, "texCoord": 1}
+    ext = {"KHR_materials_specular": {"specularColorTexture": tex},
+           "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1],
+                                   "sheenColorTexture": {"index": 3}}}  # fmt: skip
+    m = map_material_extensions(ext, core(), KEY)
+    assert m.maps["specular_color"].info == tex and m.maps["specular_color"].channel == "rgb"
+    assert m.params.model.specular_color and m.params.params.specular_color_map == 1.0
+    np.testing.assert_array_equal(m.params.params.specular_color, [1.0, 1.0, 1.0])
+    assert "sheen_color" not in m.maps
+    assert [n for n in m.notes if "sheenColorTexture" in n and "specularColorTexture" in n]
+    plain = map_material_extensions({"KHR_materials_specular": {}}, core(), KEY).params
+    assert not plain.model.specular_color and plain.params.specular_color_map == 0.0
+
+
+def test_sheen_roughness_texture_is_a_map_of_the_sheen_roughness():
+    """sheenRoughnessTexture's A becomes maps["sheen_roughness"] and marks the row
+    (sheen_roughness_map 1: RT6's A scales the sheen roughness); a clearcoatTexture
+    beside it is left out with a note."""
+    ext = {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1],
+                                   "sheenRoughnessTexture": {"index": 2}},
+           "KHR_materials_clearcoat": {"clearcoatFactor": 1.0,
+                                       "clearcoatTexture": {"index": 3}}}  # fmt: skip
+    m = map_material_extensions(ext, core(), KEY)
+    assert m.maps["sheen_roughness"].channel == "a"
+    assert m.params.params.sheen_roughness_map == 1.0 and "clearcoat" not in m.maps
+    assert [n for n in m.notes if "clearcoatTexture" in n and "sheenRoughnessTexture" in n]
 
 
 def test_anisotropy_parameters():
@@ -193,7 +234,8 @@ def test_clearcoat_parameters_and_normal_map():
     np.testing.assert_array_equal(p.params.clearcoat_color, [1.0, 1.0, 1.0])
     assert m.maps["coat_normal"].info == info
     assert m.maps["coat_normal"].key.endswith("KHR_materials_clearcoat.clearcoatNormalTexture")
-    assert [n for n in m.notes if "clearcoatTexture" in n]
+    assert m.maps["clearcoat"].channel == "r" and m.maps["clearcoat"].info == {"index": 1}
+    assert not m.notes  # the strength texture is sampled (G-buffer RT6)
     off = {"KHR_materials_clearcoat": {"clearcoatRoughnessFactor": 0.2}}
     plain = core()
     assert material_extensions(off, plain, KEY) is plain

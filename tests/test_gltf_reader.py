@@ -475,8 +475,8 @@ def test_normal_map_tilts_the_gbuffer_normal(
 
 
 def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) -> None:
-    """A material with KHR_materials_transmission (no model here) and a sheen colour
-    texture (sheen mapped, its texture not): `pbs render` writes the image, exits 0 and
+    """A material with KHR_materials_transmission (no model here) and a coat roughness
+    texture (the coat mapped, that texture not): `pbs render` writes the image, exits 0 and
     says each on one line of stderr naming the glTF file, nothing else."""
     import subprocess
     import sys
@@ -485,7 +485,10 @@ def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) ->
     tex = b.texture(png_rgb((200, 100, 50)))
     ext = {
         "KHR_materials_transmission": {"transmissionFactor": 0.5},
-        "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1], "sheenColorTexture": {"index": tex}},
+        "KHR_materials_clearcoat": {
+            "clearcoatFactor": 1.0,
+            "clearcoatRoughnessTexture": {"index": tex},
+        },
     }
     b.quad(b.material(pygltflib.Material(extensions=ext)))
     b.save(tmp_path / "m.glb")
@@ -502,4 +505,4 @@ def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) ->
     assert len(lines) == 2, result.stderr
     assert all(str(tmp_path / "m.glb") in line for line in lines)
     assert any("KHR_materials_transmission" in line for line in lines)
-    assert any("sheenColorTexture" in line for line in lines)
+    assert any("clearcoatRoughnessTexture" in line for line in lines)

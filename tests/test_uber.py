@@ -82,6 +82,7 @@ CHOICES = {
     "multiscatter": (False, True),
     "anisotropic": (False, True),
     "internal": (False, True),
+    "specular_color": (False, True),  # a coloured dielectric F0 (glTF KHR_materials_specular)
     "thin_film": (False, True),  # thin film (RTR4 §9.11)
     "sheen": SHEEN_MODELS,  # sheen (RTR4 §9.10)
     "clearcoat": CLEARCOAT_MODELS,  # clear coat (RTR4 §9.12)

@@ -61,7 +61,7 @@ DIRECTION_STORAGE = {name: pair[1] for name, pair in ENCODINGS.items()}  # RT1, 
 FLOAT32_STORAGE = dict.fromkeys(ENCODINGS, "f32")  # RT2: a depth and an exact integer id
 # RT5: radiance has no upper bound a unorm could hold, so float16 with f16, else float32
 RADIANCE_STORAGE = {name: "f16" if name == "f16" else "f32" for name in ENCODINGS}
-# RT6: distances in pixels, a few pixels at most, whatever the encoding: float16 (11 bits)
+# RT7: distances in pixels, a few pixels at most, whatever the encoding: float16 (11 bits)
 HALF_STORAGE = dict.fromkeys(ENCODINGS, "f16")
 
 
@@ -131,7 +131,13 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
     # RT5: emitted radiance RGB, occlusion factor; where a material emits or occludes
     GBufferTarget("emission", 4, RADIANCE_STORAGE, constant_channels=4,
                   define="GBUFFER_EMISSION", fields=("emission",)),
-    # RT6: the distance in pixels from the pixel centre to the drawn surface's edge along
+    # RT6: per-pixel scales of the material row's sheen or specular colour (RGB; the row's
+    # specular_color_map says which) and clear-coat strength or sheen roughness (A; the
+    # row's sheen_roughness_map), from glTF's sheenColorTexture / specularColorTexture and
+    # clearcoatTexture / sheenRoughnessTexture; where a material has one (1 where none)
+    GBufferTarget("layer_maps", 4, BASE_STORAGE, constant_channels=4,
+                  define="GBUFFER_LAYER_MAPS", fields=("layer_maps",)),
+    # RT7: the distance in pixels from the pixel centre to the drawn surface's edge along
     # +x, -x, +y, -y (window axes; 16 where no edge comes nearer), for the geometric edge
     # resolve; only with render.antialiasing = "gbaa" (docs/antialiasing.md)
     GBufferTarget("edge", 4, HALF_STORAGE, constant_channels=4, define="GBUFFER_EDGE",
@@ -286,6 +292,9 @@ class GBufferData:
     # (H, W, 4): emitted radiance (linear RGB), occlusion factor of environment light; None
     # where the G-buffer has no RT5 (nothing emits and no occlusion map: glTF 2.0 core)
     emission: np.ndarray | None = None
+    # (H, W, 4): the factors the extension maps put on the row's sheen or specular colour
+    # (RGB) and clear-coat strength (A); None where the G-buffer has no RT6 (no such map)
+    layer_maps: np.ndarray | None = None
     # (H, W, 4): distances in pixels from the centre to the surface's edge along +x, -x,
     # +y (up), -y, 16 where none is nearer; None where the G-buffer has no edge target
     # (render.antialiasing is not "gbaa")

@@ -167,6 +167,18 @@ MATERIAL_FIELDS: tuple[MaterialField, ...] = (
     MaterialField("gtr_gamma", 2, "a", 2.0, "core", 0.1, 20.0, "",
                   "GTR tail exponent (2 = GGX)",
                   (SceneKey("gtr_gamma", 0.1, 20.0, control=Control("gtr gamma", 0.1, 20.0)),)),
+    # --- texel 13: the dielectric F0's colour (glTF KHR_materials_specular) ---
+    MaterialField("specular_color", 13, "rgb", WHITE, "core", 0.0, 1.0, "",
+                  "the dielectric F0's colour: F0 = f0 specular_color (linear RGB; white: "
+                  "the G-buffer's one F0 alone)",
+                  (SceneKey("specular_color", 0.0, 1.0,
+                            control=Control("specular colour", color=True)),)),
+    MaterialField("specular_color_map", 13, "a", 0.0, "core", 0.0, 1.0, "",
+                  "what G-buffer RT6's RGB scales: 1 specular_color (glTF "
+                  "specularColorTexture), 0 sheen_color (sheenColorTexture)"),
+    MaterialField("sheen_roughness_map", 5, "b", 0.0, "core", 0.0, 1.0, "",
+                  "what G-buffer RT6's A scales: 1 sheen_roughness (glTF "
+                  "sheenRoughnessTexture), 0 clearcoat (clearcoatTexture)"),
     # --- texel 7: thin film (RTR4 §9.11), only where Model.thin_film ---
     MaterialField("film_thickness", 7, "r", 0.0, "thin_film", 0.0, 5000.0, "nm",
                   "the film's thickness; 0 = the base's Fresnel alone",

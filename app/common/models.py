@@ -101,7 +101,8 @@ class CodeField:
         return self.names[bits] if self.names is not None else bool(bits)
 
 
-# The order of Model.defines(). Fresnel code (.g): fresnel | internal << 2; specular code
+# The order of Model.defines(). Fresnel code (.g): fresnel | internal << 2
+# | specular_color << 3; specular code
 # (.b): ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
 # | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13 | diffraction << 14
 # | fiber << 16; diffuse code (.a): diffuse. Small integers, exact in float32.
@@ -115,6 +116,7 @@ MODEL_CODE_FIELDS: tuple[CodeField, ...] = (
     CodeField("multiscatter", "MULTISCATTER", "b", 8, 1),
     CodeField("anisotropic", "ANISOTROPIC", "b", 7, 1),
     CodeField("internal", "FRESNEL_INTERNAL", "g", 2, 1),  # Schlick at the transmitted angle
+    CodeField("specular_color", "SPECULAR_COLOR", "g", 3, 1),  # F0 times specular_color
     CodeField("thin_film", "THIN_FILM", "b", 13, 1),  # thin film (RTR4 §9.11)
     CodeField("sheen", "SHEEN_MODEL", "b", 9, 2, SHEEN_MODELS, "SHEEN"),  # RTR4 §9.10
     CodeField("clearcoat", "CLEARCOAT_MODEL", "b", 11, 2, CLEARCOAT_MODELS, "CLEARCOAT"),
@@ -173,6 +175,9 @@ class Model:
     multiscatter: bool = False
     anisotropic: bool = False
     internal: bool = False  # Schlick evaluated at the transmitted angle (n1 > n2)
+    # the dielectric F0 times the row's specular_color (glTF KHR_materials_specular's
+    # coloured F0); off: the G-buffer's one F0 in every channel, the field not read
+    specular_color: bool = False
     # --- thin film (RTR4 §9.11): F replaced by a film's interference reflectance ---
     thin_film: bool = False
     sheen: str = "none"  # sheen (RTR4 §9.10): the cloth layer's NDF, SHEEN_MODELS
@@ -196,7 +201,7 @@ class Model:
             parts.append(f"{self.lambda_form} Lambda")
         if self.g2 in ("direction_correlated", "height_direction_correlated"):
             parts.append(f"{self.correlation} lambda(phi)")
-        flags = ("multiscatter", "anisotropic", "internal", "thin_film")
+        flags = ("multiscatter", "anisotropic", "internal", "specular_color", "thin_film")
         parts += [name for name in flags if getattr(self, name)]
         if self.sheen != "none":  # sheen (RTR4 §9.10)
             parts.append(f"{self.sheen} sheen")
@@ -239,6 +244,12 @@ class ModelParams:
     eta_dielectric: float = _DEFAULTS["eta_dielectric"]
     k: np.ndarray = field(default_factory=_array("k"))
     gtr_gamma: float = _DEFAULTS["gtr_gamma"]  # GTR tail exponent (2 = GGX)
+    # the dielectric F0's colour: F0 = f0_dielectric specular_color (white: f0 alone)
+    specular_color: np.ndarray = field(default_factory=_array("specular_color"))
+    # 1: the G-buffer's RT6 RGB scales specular_color, 0: sheen_color (a texture of either)
+    specular_color_map: float = _DEFAULTS["specular_color_map"]
+    # 1: RT6's A scales sheen_roughness, 0: the clear coat's strength (a texture of either)
+    sheen_roughness_map: float = _DEFAULTS["sheen_roughness_map"]
     # --- thin film (RTR4 §9.11): nm (0 = the base's Fresnel alone), n2 / n1, n2 ---
     film_thickness: float = _DEFAULTS["film_thickness"]
     film_eta: float = _DEFAULTS["film_eta"]
@@ -346,9 +357,9 @@ def pack_model_params(
 
 def unpack_model_params(texels: np.ndarray) -> ModelParams:
     """Inverse of one row of ``pack_model_params`` (float32 values widened to float64). A
-    layer whose ``present`` channel is not positive (a table from before its texels: zero)
-    keeps its defaults; the thin film's and the grating's texels are read as they are
-    (zeros where the row's model has none)."""
+    field past the row's texels keeps its default, and so does a layer whose ``present``
+    channel is not positive (a table from before its texels: zero); the thin film's and the
+    grating's texels are read as they are (zeros where the row's model has none)."""
     t = np.asarray(texels, np.float64)
     values: dict[str, Any] = {}
     for layer in LAYERS.values():
@@ -359,6 +370,8 @@ def unpack_model_params(texels: np.ndarray) -> ModelParams:
             if t.shape[0] <= max(s[0] for s in slots) or t[f.texel, f.first + channel] <= 0.0:
                 continue
         for texel, first, end, name in slots:
+            if texel >= t.shape[0]:  # a table from before the field's texel: its default
+                continue
             values[name] = (
                 float(t[texel, first]) if end - first == 1 else t[texel, first:end].copy()
             )

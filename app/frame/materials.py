@@ -57,6 +57,8 @@ def _surface_key(m: MaterialParams) -> tuple:
 # others (anisotropy, its direction, the coat normal, emission, occlusion) feed other
 # targets. Keys of SurfaceLayer.maps.
 SURFACE_MAPS = frozenset({"base_color", "metallic", "normal_roughness", "f0", "select"})
+# The maps whose texels scale numbers of the material row per pixel (G-buffer RT6).
+LAYER_MAPS = frozenset({"sheen_color", "clearcoat", "specular_color", "sheen_roughness"})
 
 
 def constant_surface(part: MeshPart) -> bool:
@@ -86,6 +88,10 @@ class MaterialTable:
     # A layer of the frame emits or has an occlusion map (glTF 2.0 core material):
     # only then does the G-buffer carry RT5 (emitted radiance, occlusion).
     needs_emission: bool = False
+    # A layer of the frame has a sheen colour, specular colour, clear-coat or sheen
+    # roughness map (glTF sheenColorTexture, specularColorTexture, clearcoatTexture,
+    # sheenRoughnessTexture): only then does the G-buffer carry RT6, their factors.
+    needs_layer_maps: bool = False
     # Every part the G-buffer draws has constant surface numbers (``constant_surface``):
     # then ``surfaces`` holds each row's (base colour, metallic, roughness, F0), the rows
     # are distinct in them too, and ``packed`` appends them (SURFACE_TEXEL).
@@ -142,6 +148,7 @@ class MaterialTable:
                 "tangent": self.needs_tangents,
                 "coat_normal": self.needs_coat_normals,
                 "emission": self.needs_emission,
+                "layer_maps": self.needs_layer_maps,
                 "edge": False,  # the renderer's, by render.antialiasing (Renderer._layout)
             }
         )
@@ -181,6 +188,7 @@ def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]
         any(layer.emissive) or "emissive" in layer.maps or "occlusion" in layer.maps
         for layer in layers
     )
+    table.needs_layer_maps = any(LAYER_MAPS & layer.maps.keys() for layer in layers)
     ids, i = [], 0
     for p in parts:
         ids.append(flat[i : i + len(p.layers)])

@@ -238,6 +238,7 @@ def split_sum_radiance(
     dominant: bool = True,
     t: np.ndarray | None = None,
     bent: bool = True,
+    params: ModelParams | None = None,
 ) -> np.ndarray:
     """The standard model's environment term by the split sum (module docstring), (3,):
     rho_ss E(n)/pi + L_pre(R', r) (F0 A + B) [+ the Kulla-Conty colour (1 - E(n.v)) E(n)/pi
@@ -245,7 +246,8 @@ def split_sum_radiance(
     turned towards n by ``specular_dominant_direction`` (``dominant=False``: R itself, the
     plain split sum, kept to measure the correction in docs/ibl.md). With a tangent ``t``
     (an anisotropic model) R is reflected about ``anisotropic_bent_normal`` instead of n
-    (``bent=False``: about n, the isotropic split sum)."""
+    (``bent=False``: about n, the isotropic split sum). ``params``: the material's row
+    (its specular_color colours F0; None: the defaults)."""
     n, v = np.asarray(n, np.float64), np.asarray(v, np.float64)
     NoV = float(np.clip(n @ v, MIN_N_DOT_V, 1.0))
     r = float(np.maximum(surface.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS))
@@ -254,7 +256,7 @@ def split_sum_radiance(
     R = 2.0 * (nb @ v) * nb - v
     if dominant:
         R = specular_dominant_direction(n, R, r * r)
-    F0 = material_F0(surface)
+    F0 = material_F0(surface, params if params is not None else ModelParams())
     A, B = dfg_lookup(dfg_table, NoV, r)
     E_n = np.maximum(sh9_irradiance(sh, n), 0.0)  # as the GLSL: SH ringing can dip below 0
     out = material_rho_ss(surface) * E_n / math.pi
@@ -320,8 +322,9 @@ def split_sum_errors(
         for j, a in enumerate(angles):
             v = view_direction(nn, a)
             split = split_sum_radiance(
-                env, 0.0, s_split, nn, v, dfg, sh, dominant=dominant, t=tt, bent=bent
-            )
+                env, 0.0, s_split, nn, v, dfg, sh,
+                dominant=dominant, t=tt, bent=bent, params=params,
+            )  # fmt: skip
             ref = reference_radiance(env, 0.0, s, nn, v, model, params, t=tt)
             out[i, j] = np.mean((split - ref) / ref)
     return out

@@ -7,7 +7,7 @@ from the very G-buffer values the GPU shaded, so the comparison isolates the lig
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -87,10 +87,23 @@ class DecodedGBuffer:
     nc: np.ndarray | None = None  # (C, 3) unit coat normal (n where lost); None without RT4
     # (C, 4) emitted radiance and occlusion factor; None without RT5 (glTF 2.0 core)
     emission: np.ndarray | None = None
+    # (C, 4) the factors on the row's sheen or specular colour (RGB: specular_color_map
+    # says which) and coat strength (A), sanitised;
+    # None without RT6 (no extension map)
+    layer_maps: np.ndarray | None = None
 
     def point(self, sel: np.ndarray, params: ModelParams) -> ShadingPoint:
         """The ShadingPoint of the pixels ``sel`` picks (one material: ``params``), as the
-        GLSL's decode_gbuffer returns it per pixel."""
+        GLSL's decode_gbuffer returns it per pixel (with RT6, the row's sheen colour and
+        coat strength times the pixels' factors)."""
+        if self.layer_maps is not None:
+            f = self.layer_maps[sel]
+            rgb = "specular_color" if params.specular_color_map > 0.5 else "sheen_color"
+            a = "sheen_roughness" if params.sheen_roughness_map > 0.5 else "clearcoat"
+            params = replace(
+                params, **{a: getattr(params, a) * f[:, 3]},
+                **{rgb: np.asarray(getattr(params, rgb)) * f[:, :3]},
+            )  # fmt: skip
         return ShadingPoint(
             self.surface.select(sel), params, self.n[sel],
             None if self.nc is None else self.nc[sel], self.t[sel], self.v[sel], self.p[sel],
@@ -127,7 +140,11 @@ def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
     emission = None  # no RT5: nothing emits, nothing is occluded
     if gbuffer.emission is not None:
         emission = np.asarray(gbuffer.emission, np.float64)[covered]
-    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc, emission)
+    layer_maps = None  # no RT6: the rows' numbers as they are
+    if gbuffer.layer_maps is not None:
+        f = np.asarray(gbuffer.layer_maps, np.float64)[covered]
+        layer_maps = np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0)
+    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc, emission, layer_maps)
 
 
 def shade_gbuffer(

@@ -122,10 +122,14 @@ def sanitize_direction(d: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     return np.where(ok[..., None], unit, fallback)
 
 
-def material_F0(s: Surface) -> np.ndarray:
-    """glTF 2.0 Appendix B; Burley 2012: F0 = mix(f0_dielectric, base_color, metallic)."""
+def material_F0(s: Surface, p: ModelParams) -> np.ndarray:
+    """glTF 2.0 Appendix B; Burley 2012: F0 = mix(f0_dielectric specular_color, base_color,
+    metallic); the material's specular_color (glTF KHR_materials_specular) colours the
+    dielectric's F0, white leaves it f0_dielectric."""
     m = np.asarray(s.metallic, np.float64)[..., None]
-    f0 = np.asarray(s.f0_dielectric, np.float64)[..., None]
+    f0 = np.asarray(s.f0_dielectric, np.float64)[..., None] * np.asarray(
+        p.specular_color, np.float64
+    )
     return f0 * (1.0 - m) + np.asarray(s.base_color, np.float64) * m
 
 
@@ -151,7 +155,7 @@ def F_base_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.nd
     """F(h, l) of the model's Fresnel term, (..., 3)."""
     s, p = point.s, point.params
     if model.fresnel == "schlick_generalized":
-        return fresnel.F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH)
+        return fresnel.F_schlick_generalized(material_F0(s, p), p.f90, p.fresnel_exponent, LoH)
     if model.fresnel in ("dielectric", "conductor"):
         dielectric = np.asarray(fresnel.F_dielectric(p.eta_dielectric, LoH), np.float64)
         dielectric = np.broadcast_to(dielectric[..., None], (*dielectric.shape, 3))
@@ -162,8 +166,10 @@ def F_base_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.nd
         )
         return _mix(dielectric, metal, s.metallic)
     if model.internal:
-        return fresnel.F_schlick(material_F0(s), fresnel.cos_theta_schlick(p.eta_dielectric, LoH))
-    return fresnel.F_schlick(material_F0(s), LoH)
+        return fresnel.F_schlick(
+            material_F0(s, p), fresnel.cos_theta_schlick(p.eta_dielectric, LoH)
+        )
+    return fresnel.F_schlick(material_F0(s, p), LoH)
 
 
 # --- thin film (RTR4 §9.11) ---
@@ -219,9 +225,9 @@ def f_diffuse_selected(
     rho = material_rho_ss(s)
     match model.diffuse:
         case "shirley":
-            return diffuse.Fd_shirley(rho, material_F0(s), NoL, NoV)
+            return diffuse.Fd_shirley(rho, material_F0(s, p), NoL, NoV)
         case "ashikhmin_shirley":
-            return diffuse.Fd_ashikhmin_shirley(rho, material_F0(s), NoL, NoV)
+            return diffuse.Fd_ashikhmin_shirley(rho, material_F0(s, p), NoL, NoV)
         case "burley":
             r = np.clip(np.asarray(s.perceptual_roughness, np.float64), 0.0, 1.0)
             return diffuse.Fd_burley(rho, r, NoL, NoV, LoH)
@@ -231,7 +237,7 @@ def f_diffuse_selected(
         case "oren_nayar":
             return diffuse.Fd_oren_nayar(rho, alpha, n, l, v)
         case "hammon":
-            return diffuse.Fd_hammon(rho, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v))
+            return diffuse.Fd_hammon(rho, material_F0(s, p), alpha, NoL, NoV, NoH, dot(l, v))
         case "none":
             return np.zeros_like(rho)
         case "cloth_empirical":  # RTR4 §9.10 (app/reference/cloth.py)
@@ -387,7 +393,7 @@ def base_brdf_factors(
         if ms_table is None:
             ms_table = multiscatter.load_table()
         f_spec = f_spec + multiscatter.f_ms_kulla_conty(
-            ms_table, material_F0(s), s.perceptual_roughness, NoL, NoV
+            ms_table, material_F0(s, p), s.perceptual_roughness, NoL, NoV
         )
     f_diffuse = f_diffuse_selected(point, model, alpha, l, NoL, NoV, NoH, LoH)
     if model.fiber != "none":
@@ -395,7 +401,7 @@ def base_brdf_factors(
         # tangent turned by fiber_rotation replaces both lobes; gamma_s = alpha.
         tf = fiber.fiber_rotate(n, orthonormal_tangent(n, t), p.fiber_rotation)
         f_spec, f_diffuse = fiber.f_fiber(
-            model.fiber == "sadeghi", n, tf, l, v, NoL, material_rho_ss(s), material_F0(s),
+            model.fiber == "sadeghi", n, tf, l, v, NoL, material_rho_ss(s), material_F0(s, p),
             p.eta_dielectric, alpha, p.fiber_curvature, p.fiber_gamma_v, p.fiber_kd,
         )  # fmt: skip
     if model.sheen != "none":
@@ -430,13 +436,18 @@ def clearcoat_base_surface(s: Surface, p: ModelParams) -> Surface:
 def clearcoat_base_params(p: ModelParams) -> ModelParams:
     """The base under the coat: the exact Fresnel models' indices divided by the coat's,
     mixed in by strength (exact at 0 and 1)."""
-    c, eta_c = p.clearcoat, p.clearcoat_eta
+    c, eta_c = np.asarray(p.clearcoat, np.float64), p.clearcoat_eta
+    c_rgb = c[..., None]  # a strength per point (the G-buffer's RT6) against RGB indices
 
-    def mix(x: np.ndarray | float) -> np.ndarray:
+    def mix(x: np.ndarray | float, c: np.ndarray) -> np.ndarray:
         x = np.asarray(x, np.float64)
         return x * (1.0 - c) + (x / eta_c) * c
 
-    return replace(p, eta_dielectric=float(mix(p.eta_dielectric)), eta=mix(p.eta), k=mix(p.k))
+    eta_d = mix(p.eta_dielectric, c)
+    return replace(
+        p, eta_dielectric=float(eta_d) if eta_d.ndim == 0 else eta_d,
+        eta=mix(p.eta, c_rgb if c.ndim else c), k=mix(p.k, c_rgb if c.ndim else c),
+    )  # fmt: skip
 
 
 def clearcoat_base_point(point: ShadingPoint, v_base: np.ndarray) -> ShadingPoint:
@@ -473,7 +484,7 @@ def clearcoat_factors(
 
     base = replace(model, clearcoat="none")
     l_base, v_base, compression = l, v, 1.0
-    if model.clearcoat == "weidlich_wilkie" and c > 0.0:
+    if model.clearcoat == "weidlich_wilkie" and np.any(np.asarray(c) > 0.0):
         # Weidlich & Wilkie 2007: the base sees the directions refracted into the coat (about
         # the coat's normal: its interface refracts), at eta_c = mix(1, eta, c), and the
         # result is compressed by 1/eta_c^2 (GLSL's comment).
@@ -484,7 +495,9 @@ def clearcoat_factors(
     b = base_brdf_factors(clearcoat_base_point(point, v_base), base, l_base, ms_table)
     T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
     A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
-    A = 1.0 - c + A * c
+    # a strength per point (the G-buffer's RT6) or the row's one number
+    c_rgb = np.asarray(c, np.float64)[..., None] if np.ndim(c) else c
+    A = 1.0 - c_rgb + A * c_rgb
     w = (T * compression)[..., None] * A
     # chi+(nc.l): no coat lobe for a light below the coat's horizon (GLSL's comment)
     f_coat = np.where(

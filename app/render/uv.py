@@ -22,6 +22,10 @@ MAP_BITS = {
     "emissive": 128,
     "occlusion": 256,
     "anisotropy_direction": 512,
+    "sheen_color": 1024,
+    "clearcoat": 2048,
+    "specular_color": 4096,
+    "sheen_roughness": 8192,
 }
 
 

@@ -943,7 +943,10 @@ class GltfFile:
             layer.alpha_cutoff = _number(m.alphaCutoff, f"{key}.alphaCutoff", 0.0)
         for name, ext_texture in mapping.maps.items():
             img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
-            kind = {"coat_normal": "normal", "anisotropy_direction": "direction"}.get(name)
+            kind = {
+                "coat_normal": "normal", "anisotropy_direction": "direction",
+                "sheen_color": "colour", "specular_color": "colour",
+            }.get(name)  # fmt: skip
             self._map_cost(img, kind or "scalar", ext_texture.key)
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
         layer.uv_transforms = transforms
@@ -999,6 +1002,8 @@ def _extension_map(name: str, texture: ExtensionTexture, image: Image.Image) -> 
         return coat_normal_texture(image, scale)
     if name == "anisotropy_direction":
         return direction_texture(image)
+    if name in ("sheen_color", "specular_color"):  # sRGB, decoded by the GL
+        return colour_texture(image)
     channel = "rgba".index(texture.channel)
     pixels = np.asarray(image.convert("RGBA"), np.float64) / 255.0
     return scalar_texture(pixels[..., channel])

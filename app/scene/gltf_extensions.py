@@ -12,8 +12,9 @@ what it approximates; docs/gltf.md has the table.
   infinite index whose Fresnel is 1 at every angle) becomes F0 = 1 (Schlick then gives 1
   exactly) with the index ``IOR_ZERO_ETA``.
 * KHR_materials_specular: F0 = min(F0_ior specularColor, 1) specular and F90 = specular,
-  through the generalised Schlick (RTR4 §9.5); the project's F0 is one number, so a
-  coloured specularColor is approximated by the luminance of its F0.
+  through the generalised Schlick (RTR4 §9.5); a coloured F0 is its largest channel (the
+  G-buffer's F0) times the material row's ``specular_color``, exact; specularTexture's A
+  multiplies F0 per pixel (the F0 map), specularColorTexture the colour (G-buffer RT6).
 * KHR_materials_anisotropy: alpha_t = mix(alpha, 1, strength^2), alpha_b = alpha, written
   exactly in the project's (roughness, anisotropy) (RTR4 §9.8); the rotation (any angle)
   and the texture's direction (RG) turn the tangent the G-buffer pass writes.
@@ -24,10 +25,11 @@ what it approximates; docs/gltf.md has the table.
 * KHR_materials_iridescence: Belcour & Barla 2017's thin film at the maximum thickness
   (RTR4 §9.11); approximated (the project's film has no strength and uses exact Fresnel).
 
-Textures: only factors are mapped; ``map_material_extensions`` also returns the textures
-the project can sample (``maps``: the clear coat's normal map, the anisotropy strength and
-direction) and
-a note for each texture or parameter it cannot honour, for the reader to attach and report.
+Textures: ``map_material_extensions`` also returns the textures the project samples
+(``maps``: the clear coat's normal map and strength, the sheen colour, the specular
+F0 and colour, the anisotropy strength and direction; the coat strength and the sheen or
+specular colour scale the material row per pixel through G-buffer RT6) and a note for
+each texture or parameter it cannot honour, for the reader to attach and report.
 """
 
 from __future__ import annotations
@@ -50,8 +52,6 @@ IOR_ZERO_ETA = 1e6
 # The thickest film the project's thin film takes (the scene format's film_thickness limit;
 # docs/thin-film.md measures its series up to there).
 MAX_FILM_THICKNESS_NM = 5000.0
-# Rec. 709 luminance weights (linear RGB), for the one F0 a coloured specularColor gets.
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 SUPPORTED = (
     "KHR_materials_ior",
@@ -64,16 +64,7 @@ SUPPORTED = (
 # The extensions' textures the project cannot sample, and what is used instead (each one a
 # material names gives a note; docs/gltf.md lists them).
 UNSUPPORTED_TEXTURES = {
-    "KHR_materials_specular": {
-        "specularTexture": "the factor alone is used",
-        "specularColorTexture": "the factor alone is used",
-    },
-    "KHR_materials_sheen": {
-        "sheenColorTexture": "sheenColorFactor alone is used",
-        "sheenRoughnessTexture": "sheenRoughnessFactor alone is used",
-    },
     "KHR_materials_clearcoat": {
-        "clearcoatTexture": "clearcoatFactor alone is used",
         "clearcoatRoughnessTexture": "clearcoatRoughnessFactor alone is used",
     },
     "KHR_materials_iridescence": {
@@ -101,11 +92,11 @@ class ExtensionTexture:
 class ExtensionMapping:
     """What ``map_material_extensions`` made of a material's extensions.
 
-    ``maps``: SurfaceLayer map keys ("coat_normal", "anisotropy", "anisotropy_direction")
-    to the textures that fill
-    them. ``notes``: one line per texture, parameter or extension that is approximated or
-    left out (the reader reports them; docs/gltf.md explains each). ``applied``: the
-    extension names that changed the parameters.
+    ``maps``: SurfaceLayer map keys ("coat_normal", "clearcoat", "sheen_color",
+    "anisotropy", "anisotropy_direction") to the textures that fill them. ``notes``: one
+    line per texture, parameter or extension that is approximated or left out (the reader
+    reports them; docs/gltf.md explains each). ``applied``: the extension names that
+    changed the parameters.
     """
 
     params: MaterialParams
@@ -283,25 +274,39 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
         f0_ior, eta = (1.0, IOR_ZERO_ETA) if ior == 0.0 else (float(f0_from_ior(ior)), ior)
         state.applied.append(name)
     f0, f90 = f0_ior, 1.0
+    specular_color = np.ones(3)
     if spec_ext is not None:
         name = "KHR_materials_specular"
         weight = _number(state, spec_ext, name, "specularFactor", 1.0, 0.0, 1.0)
         color = _color(state, spec_ext, name, "specularColorFactor", (1.0, 1.0, 1.0), math.inf)
         # dielectric_f0 = min(F0_ior specularColor, 1) specular; dielectric_f90 = specular.
         f0_rgb = np.minimum(f0_ior * color, 1.0) * weight
-        if np.all(f0_rgb == f0_rgb[0]):
-            f0 = float(f0_rgb[0])
-        else:  # one F0 per material: the luminance of the coloured one (docs/gltf.md)
-            f0 = float(LUMINANCE @ f0_rgb)
-            state.notes.append(
-                f"{state.path(name, 'specularColorFactor')}: coloured F0 {f0_rgb.tolist()} "
-                f"approximated by its luminance {f0:.6g} (the project's F0 is one number)"
-            )
+        # The G-buffer's one F0 is the largest channel, the material row's specular_color
+        # the colour it is scaled by (its largest channel 1): f0 specular_color = f0_rgb.
+        f0 = float(f0_rgb.max())
+        if f0 > 0.0 and not np.all(f0_rgb == f0):
+            specular_color = f0_rgb / f0
         f90 = weight
+        colour = _texture(state, spec_ext, name, "specularColorTexture")
+        if colour is not None:  # sRGB RGB: multiplies specular_color per pixel (RT6)
+            state.maps["specular_color"] = colour
+        texture = _texture(state, spec_ext, name, "specularTexture")
+        if texture is not None:  # A: multiplies the dielectric F0 per pixel (the f0 map)
+            state.maps["f0"] = replace(texture, channel="a")
+            state.notes.append(
+                f"{texture.key}: multiplies F0 per pixel; F90 stays specularFactor "
+                f"{weight!r} (the project's F90 is one per material)"
+            )
         state.applied.append(name)
     if ior_ext is None and spec_ext is None:
         return
-    model, params = p.model, replace(p.params, eta_dielectric=eta)
+    textured = "specular_color" in state.maps
+    tinted = textured or bool(np.any(specular_color != 1.0))
+    model = replace(p.model, specular_color=tinted) if tinted else p.model
+    params = replace(
+        p.params, eta_dielectric=eta, specular_color=specular_color,
+        specular_color_map=1.0 if textured else 0.0,
+    )  # fmt: skip
     if f90 != 1.0:
         if model.fresnel == "schlick" and not model.internal:
             # Generalised Schlick (RTR4 §9.5), exponent 5: F = F0 + (F90 - F0)(1 - l.h)^5 with
@@ -389,11 +394,23 @@ def _iridescence(state: _State, ext: Mapping[str, Any], name: str) -> None:
 def _sheen(state: _State, ext: Mapping[str, Any], name: str) -> None:
     color = _color(state, ext, name, "sheenColorFactor", (0.0, 0.0, 0.0), 1.0)
     roughness = _number(state, ext, name, "sheenRoughnessFactor", 0.0, 0.0, 1.0)
+    texture = _texture(state, ext, name, "sheenColorTexture")
     if float(color.max()) == 0.0:  # "If sheenColorFactor is zero, the whole sheen layer
         return  # is disabled": no layer, compiled out, as a scene file's black sheen_color
+    if texture is not None and "specular_color" in state.maps:
+        state.notes.append(  # RT6 has one colour per pixel: the specular colour's
+            f"{texture.key}: not supported beside a specularColorTexture; "
+            "sheenColorFactor alone is used"
+        )
+    elif texture is not None:  # RGB, sRGB: multiplies the factor per pixel (G-buffer RT6)
+        state.maps["sheen_color"] = texture
+    rough = _texture(state, ext, name, "sheenRoughnessTexture")
+    if rough is not None:  # A: multiplies the roughness factor per pixel (RT6's A)
+        state.maps["sheen_roughness"] = replace(rough, channel="a")
     # The specification's Charlie NDF with Estevez & Kulla's Smith visibility, and its
     # albedo scaling 1 - max(sheenColor) max(E(n.l), E(n.v)): the project's charlie_smith.
-    sheen = {"sheen_color": color, "sheen_roughness": roughness}
+    sheen = {"sheen_color": color, "sheen_roughness": roughness,
+             "sheen_roughness_map": 1.0 if rough is not None else 0.0}  # fmt: skip
     _apply(state, name, {"sheen": "charlie_smith"}, sheen)
 
 
@@ -417,6 +434,14 @@ def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
         return
     if normal is not None:
         state.maps["coat_normal"] = normal
+    texture = _texture(state, ext, name, "clearcoatTexture")
+    if texture is not None and "sheen_roughness" in state.maps:
+        state.notes.append(  # RT6 has one A per pixel: the sheen roughness's
+            f"{texture.key}: not supported beside a sheenRoughnessTexture; "
+            "clearcoatFactor alone is used"
+        )
+    elif texture is not None:  # R: multiplies the strength per pixel (G-buffer RT6)
+        state.maps["clearcoat"] = replace(texture, channel="r")
     # The medium is air (glTF has no other), so the coat's eta is its index.
     coat = {
         "clearcoat": strength,

@@ -385,6 +385,7 @@ class Material(_Strict):
     k: _table_key("k") | None = None  # conductor: k per RGB channel
     ndf: Literal[NDF_MODELS] = "ggx"  # type: ignore[valid-type]
     gtr_gamma: _table_key("gtr_gamma") | None = None
+    specular_color: _table_key("specular_color") | None = None  # the dielectric F0's colour
     lambda_form: Literal[LAMBDA_FORMS] = "exact"  # type: ignore[valid-type]
     g2: Literal[G2_MODELS] = "height_correlated"  # type: ignore[valid-type]
     correlation: Literal[CORRELATIONS] = "exp"  # type: ignore[valid-type]
@@ -491,6 +492,10 @@ class Material(_Strict):
                 raise ValueError(f"{key}: applies only with {term} = {shown}")
         if self.sheen_roughness is not None and self.sheen_color is None:  # sheen
             raise ValueError("sheen_roughness: applies only with a 'sheen_color'")
+        if self.specular_color is not None and self.fresnel in ("dielectric", "conductor"):
+            raise ValueError(  # the exact Fresnel models take the index, not an F0
+                "specular_color: applies only with fresnel = 'schlick' or 'schlick_generalized'"
+            )
         self._check_clearcoat()
         self._check_core()
         self._check_fiber()
@@ -646,6 +651,7 @@ class Material(_Strict):
             eta_dielectric=eta_d,
             k=k / medium,
             gtr_gamma=_given(self.gtr_gamma, "gtr_gamma"),
+            specular_color=np.asarray(_given(self.specular_color, "specular_color"), np.float64),
             # Thin film (RTR4 §9.11): indices relative to the medium, as eta's.
             film_thickness=_given(self.film_thickness, "film_thickness"),
             film_eta=film_ior / medium,
@@ -700,6 +706,8 @@ class Material(_Strict):
             multiscatter=self.multiscatter,
             anisotropic=anisotropy != 0.0,
             internal=self.fresnel == "schlick" and eta_d < 1.0,
+            # a coloured dielectric F0 (RTR4 §9.5): compiled in only where it is not white
+            specular_color=bool(np.any(np.asarray(params.specular_color) != 1.0)),
             thin_film=self.thin_film,  # thin film (RTR4 §9.11)
             sheen=self.sheen if sheen_on else "none",  # sheen
             diffraction=self.diffraction,  # diffraction (RTR4 §9.11)

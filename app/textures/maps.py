@@ -201,8 +201,11 @@ class SurfaceLayer:
     in (t, b), decoded to [-1, 1]; ``direction_texture``), and
     ``normal_roughness`` (RGBA: normal xyz, absolute perceptual roughness; present when the
     material has a normal or a roughness map), ``coat_normal`` (RGBA: the clear coat's own
-    normal xyz, its own mips; RTR4 §9.12). ``normal_mapped``: the base's normals come from a
-    normal map (a roughness map alone keeps them flat).
+    normal xyz, its own mips; RTR4 §9.12), ``sheen_color`` or ``specular_color`` (sRGB) and
+    ``clearcoat`` (R): per-pixel factors on the material row's sheen or specular colour and
+    coat strength (glTF sheenColorTexture, specularColorTexture, clearcoatTexture;
+    G-buffer RT6). ``normal_mapped``: the base's
+    normals come from a normal map (a roughness map alone keeps them flat).
     """
 
     params: MaterialParams

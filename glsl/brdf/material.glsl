@@ -87,11 +87,44 @@ vec3 sanitize_direction(vec3 d, vec3 fallback) {
     return finite && is_finite(len2) && len2 > 1e-12 ? d * inversesqrt(len2) : fallback;
 }
 
+#if GBUFFER_LAYER_MAPS
+// The material row's numbers that extension textures scale per pixel (G-buffer RT6,
+// material/layers.glsl sample_layer_maps): the sheen colour by f.rgb, or the specular
+// colour where the row's specular_color_map is 1, the clear coat's strength by f.a, or the
+// sheen roughness where the row's sheen_roughness_map is 1, each factor clamped to
+// [0, 1] (NaN: 1, no change). The lighting pass applies it to the
+// decoded row, the forward pass to the fragment's.
+ModelParams scale_by_layer_maps(ModelParams p, vec4 f) {
+    vec3 rgb = vec3(sanitize_value(f.r, 0.0, 1.0, 1.0), sanitize_value(f.g, 0.0, 1.0, 1.0),
+                    sanitize_value(f.b, 0.0, 1.0, 1.0));
+    if (p.specular_color_map > 0.5) {
+        p.specular_color *= rgb;
+    } else {
+        p.sheen_color *= rgb;
+    }
+    float a = sanitize_value(f.a, 0.0, 1.0, 1.0);
+    if (p.sheen_roughness_map > 0.5) {
+        p.sheen_roughness *= a;
+    } else {
+        p.clearcoat *= a;
+    }
+    return p;
+}
+#endif
+
 // The metalness workflow (glTF 2.0 Appendix B; Burley 2012): one base colour serves
 // as the diffuse albedo of a dielectric and as the F0 of a metal.
-//   F0      = mix(f0_dielectric, base_color, metallic)
+//   F0      = mix(f0_dielectric specular_color, base_color, metallic)
 //   rho_ss  = (1 - metallic) base_color
-vec3 material_F0(Surface s) {
+// With SPECULAR_COLOR the dielectric's F0 is the G-buffer's one number times the
+// material's specular_color (glTF KHR_materials_specular's coloured F0); without it the
+// row's colour (white) is not read, and the F0 is what it always was.
+vec3 material_F0(Surface s, ModelParams p) {
+#if UBER_MODELS || SPECULAR_COLOR
+    if (SPECULAR_COLOR != 0) {
+        return mix(s.f0_dielectric * p.specular_color, s.base_color, s.metallic);
+    }
+#endif
     return mix(vec3(s.f0_dielectric), s.base_color, s.metallic);
 }
 
@@ -113,7 +146,7 @@ vec3 F_base_selected(ShadingPoint sp, float LoH) {
     Surface s = sp.s;
     ModelParams p = sp.params;
     if (FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED) {
-        return F_schlick_generalized(material_F0(s), p.f90, p.fresnel_exponent, LoH);
+        return F_schlick_generalized(material_F0(s, p), p.f90, p.fresnel_exponent, LoH);
     }
     if (FRESNEL_MODEL == FRESNEL_DIELECTRIC) {
         return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_schlick(s.base_color, LoH),
@@ -125,9 +158,9 @@ vec3 F_base_selected(ShadingPoint sp, float LoH) {
     }
     if (FRESNEL_INTERNAL != 0) {
         // n1 > n2: Schlick at the transmitted angle, exactly 1 past the critical angle.
-        return F_schlick(material_F0(s), cos_theta_schlick(p.eta_dielectric, LoH));
+        return F_schlick(material_F0(s, p), cos_theta_schlick(p.eta_dielectric, LoH));
     }
-    return F_schlick(material_F0(s), LoH);
+    return F_schlick(material_F0(s, p), LoH);
 }
 
 // --- thin film (RTR4 sec. 9.11) ---
@@ -170,9 +203,11 @@ vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float N
     vec3 v = sp.v;
     vec3 rho_ss = material_rho_ss(s);
     float r = clamp(s.perceptual_roughness, 0.0, 1.0);
-    if (DIFFUSE_MODEL == DIFFUSE_SHIRLEY) return Fd_shirley(rho_ss, material_F0(s), NoL, NoV);
+    if (DIFFUSE_MODEL == DIFFUSE_SHIRLEY) {
+        return Fd_shirley(rho_ss, material_F0(s, p), NoL, NoV);
+    }
     if (DIFFUSE_MODEL == DIFFUSE_ASHIKHMIN_SHIRLEY) {
-        return Fd_ashikhmin_shirley(rho_ss, material_F0(s), NoL, NoV);
+        return Fd_ashikhmin_shirley(rho_ss, material_F0(s, p), NoL, NoV);
     }
     if (DIFFUSE_MODEL == DIFFUSE_BURLEY) return Fd_burley(rho_ss, r, NoL, NoV, LoH);
     if (DIFFUSE_MODEL == DIFFUSE_BURLEY_RENORMALIZED) {
@@ -180,7 +215,7 @@ vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float N
     }
     if (DIFFUSE_MODEL == DIFFUSE_OREN_NAYAR) return Fd_oren_nayar(rho_ss, alpha, n, l, v);
     if (DIFFUSE_MODEL == DIFFUSE_HAMMON) {
-        return Fd_hammon(rho_ss, material_F0(s), alpha, NoL, NoV, NoH, dot(l, v));
+        return Fd_hammon(rho_ss, material_F0(s, p), alpha, NoL, NoV, NoH, dot(l, v));
     }
     if (DIFFUSE_MODEL == DIFFUSE_NONE) return vec3(0.0);
     if (DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL) {  // RTR4 sec. 9.10 (brdf/cloth.glsl)
@@ -350,7 +385,7 @@ BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
 #if UBER_MODELS || MULTISCATTER
     // brdf/multiscatter.glsl declares the table and its functions only under this condition.
     if (MULTISCATTER != 0) {
-        f_spec += f_ms_kulla_conty(material_F0(s), s.perceptual_roughness, NoL, NoV);
+        f_spec += f_ms_kulla_conty(material_F0(s, p), s.perceptual_roughness, NoL, NoV);
     }
 #endif
     vec3 f_diffuse = f_diffuse_selected(sp, alpha, l, NoL, NoV, NoH, LoH);
@@ -362,7 +397,7 @@ BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
     if (FIBER_MODEL != FIBER_NONE) {
         vec3 tf = fiber_rotate(n, orthonormal_tangent(n, t), p.fiber_rotation);
         f_fiber(FIBER_MODEL == FIBER_SADEGHI, n, tf, l, v, NoL, material_rho_ss(s),
-                material_F0(s), p.eta_dielectric, alpha, p.fiber_curvature, p.fiber_gamma_v,
+                material_F0(s, p), p.eta_dielectric, alpha, p.fiber_curvature, p.fiber_gamma_v,
                 p.fiber_kd, f_spec, f_diffuse);
     }
 #endif

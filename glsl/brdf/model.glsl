@@ -52,6 +52,10 @@
 #ifndef FRESNEL_INTERNAL
 #define FRESNEL_INTERNAL 0
 #endif
+// A coloured dielectric F0 (glTF KHR_materials_specular): F0 times the row's specular_color.
+#ifndef SPECULAR_COLOR
+#define SPECULAR_COLOR 0
+#endif
 // Thin film (RTR4 sec. 9.11): 1 where the material's F is a film's (brdf/thin_film.glsl).
 #ifndef THIN_FILM
 #define THIN_FILM 0

@@ -107,7 +107,7 @@ vec3 ibl_radiance(ShadingPoint sp) {
     if (ANISOTROPIC != 0) nb = anisotropic_bent_normal(n, t, v, s.anisotropy, r * r);
     vec3 R = specular_dominant_direction(n, reflect(-v, nb), r * r);
     vec3 E_n = max(sh9_irradiance(n), vec3(0.0));  // SH ringing can dip below 0
-    vec3 F0 = material_F0(s);
+    vec3 F0 = material_F0(s, sp.params);
     vec2 AB = dfg_lookup(NoV, r);
     vec3 pre = u_env_intensity * prefiltered_radiance(R, r);
     vec3 spec = pre * (F0 * AB.x + AB.y);

@@ -21,6 +21,10 @@
 #define MAP_EMISSIVE 128        // sRGB: multiplies the emitted radiance (layer 0 only)
 #define MAP_OCCLUSION 256       // R: ambient occlusion of environment light (layer 0 only)
 #define MAP_ANISOTROPY_DIRECTION 512  // RG: direction of anisotropy in (t, b), decoded 2 rg - 1 (layer 0 only)
+#define MAP_SHEEN_COLOR 1024    // sRGB: multiplies the row's sheen colour (layer 0 only; RT6)
+#define MAP_CLEARCOAT 2048      // R: multiplies the row's clear-coat strength (layer 0 only; RT6)
+#define MAP_SPECULAR_COLOR 4096 // sRGB: multiplies the row's specular colour (layer 0 only; RT6)
+#define MAP_SHEEN_ROUGHNESS 8192 // R: multiplies the row's sheen roughness (layer 0 only; RT6)
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -64,6 +68,10 @@
 #define MAP_INDEX_EMISSIVE 7
 #define MAP_INDEX_OCCLUSION 8
 #define MAP_INDEX_ANISOTROPY_DIRECTION 9
+#define MAP_INDEX_SHEEN_COLOR 10
+#define MAP_INDEX_CLEARCOAT 11
+#define MAP_INDEX_SPECULAR_COLOR 12
+#define MAP_INDEX_SHEEN_ROUGHNESS 13
 
 struct LayerConstants {
     vec3 base_color;
@@ -112,7 +120,7 @@ uniform float u_alpha0;              // glTF baseColorFactor's A
 uniform float u_alpha_cutoff0;
 #endif
 #if UV_TRANSFORM_MAPS0 != 0
-uniform mat3 u_uv_transform0[10];     // uv' = M uv per map index, before uv_scale
+uniform mat3 u_uv_transform0[14];     // uv' = M uv per map index, before uv_scale
 #endif
 // glTF COLOR_0 and TEXCOORD_1 of the fragment, set by the pass's main() from its inputs
 // (identity and unused where the mesh has none).
@@ -281,6 +289,41 @@ vec4 sample_emission(vec2 uv) {
     ao = 1.0 + u_occlusion_strength0 * (occlusion - 1.0);
 #endif
     return vec4(e, ao);
+}
+#endif
+
+#if GBUFFER_LAYER_MAPS
+uniform sampler2D u_sheen_color_map0;
+uniform sampler2D u_clearcoat_map0;
+uniform sampler2D u_specular_color_map0;
+uniform sampler2D u_sheen_roughness_map0;
+
+// RT6: the factors layer 0's extension maps put on its material row per pixel (1 where
+// it has no such map): glTF KHR_materials_sheen's sheenColorTexture (RGB, sRGB decoded
+// by the GL) on the sheen colour, or KHR_materials_specular's specularColorTexture (the
+// same) on the specular colour (the row's specular_color_map says which),
+// KHR_materials_clearcoat's clearcoatTexture (R) on the coat's strength, or
+// sheenRoughnessTexture (its A, stored in R) on the sheen roughness (the row's
+// sheen_roughness_map says which). The lighting pass multiplies the row's numbers by them
+// (gbuffer/decode.glsl).
+vec4 sample_layer_maps(vec2 uv) {
+    vec4 f = vec4(1.0);
+#if (LAYER0_MAPS & MAP_SHEEN_COLOR) != 0
+    f.rgb = sample_layer_map(u_sheen_color_map0, uv, u_layer0.uv_scale, 0,
+                             MAP_INDEX_SHEEN_COLOR).rgb;
+#endif
+#if (LAYER0_MAPS & MAP_SPECULAR_COLOR) != 0
+    f.rgb = sample_layer_map(u_specular_color_map0, uv, u_layer0.uv_scale, 0,
+                             MAP_INDEX_SPECULAR_COLOR).rgb;
+#endif
+#if (LAYER0_MAPS & MAP_CLEARCOAT) != 0
+    f.a = sample_layer_map(u_clearcoat_map0, uv, u_layer0.uv_scale, 0, MAP_INDEX_CLEARCOAT).r;
+#endif
+#if (LAYER0_MAPS & MAP_SHEEN_ROUGHNESS) != 0
+    f.a = sample_layer_map(u_sheen_roughness_map0, uv, u_layer0.uv_scale, 0,
+                           MAP_INDEX_SHEEN_ROUGHNESS).r;
+#endif
+    return f;
 }
 #endif
 

@@ -44,6 +44,9 @@ void main() {
     analytic_uv_ddy = hit.uv_ddy;
     MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
     float view_depth = hit.view_depth;
+#if GBUFFER_LAYER_MAPS
+    vec4 layer_factors = sample_layer_maps(hit.uv);   // as the G-buffer pass's RT6
+#endif
 #if ALPHA_BLEND
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
     float alpha = coverage(hit.uv);
@@ -56,6 +59,9 @@ void main() {
 #else
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
     float view_depth = v_view_depth;
+#if GBUFFER_LAYER_MAPS
+    vec4 layer_factors = sample_layer_maps(v_uv);   // as the G-buffer pass's RT6
+#endif
 #if ALPHA_BLEND
     vec4 emission = sample_emission(v_uv);
     float alpha = coverage(v_uv);
@@ -77,6 +83,9 @@ void main() {
     Surface s = sanitize_surface(
         Surface(l.base_color, l.metallic, l.perceptual_roughness, l.f0, l.anisotropy));
     ModelParams params = fetch_model_params(u_materials, int(m.material_id));
+#if GBUFFER_LAYER_MAPS
+    params = scale_by_layer_maps(params, layer_factors);
+#endif
 
     // The lighting pass's position: the pixel centre's view ray times the interpolated view
     // depth. An interpolated world position is as valid, but across the two 40 m triangles

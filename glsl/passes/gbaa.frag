@@ -28,7 +28,7 @@
 #endif
 
 uniform sampler2D u_depth;   // RT2: view depth (0: background), material id
-uniform sampler2D u_edge;    // RT6: distances to the surface's edge along +x, -x, +y, -y
+uniform sampler2D u_edge;    // RT7: distances to the surface's edge along +x, -x, +y, -y
 uniform sampler2D u_hdr;     // linear HDR RGBA (premultiplied where transparent)
 uniform float u_exposure;    // linear scale, 2^EV
 // 1: the background pixels' radiance is u_background, not u_hdr's (where the lighting
