@@ -371,3 +371,27 @@ def test_adjacency_finds_each_edge_s_neighbour() -> None:
     adj = adjacency_indices(tetra, faces).reshape(-1, 6)
     for tri in adj:
         assert len(set(tri[0::2].tolist()) | set(tri[1::2].tolist())) == 4
+
+
+def test_the_default_falls_back_to_fxaa_on_a_dense_mesh(gl_egl: GLContext) -> None:
+    """A scene that leaves render.antialiasing at its default draws gbaa up to
+    GBAA_DEFAULT_TRIANGLES opaque mesh triangles and FXAA past them (gbaa's geometry stage
+    runs once per triangle); a scene that names "gbaa" keeps it at any count."""
+    data = aa_scene_data(SIZE)
+    light, dense = dict(data), dict(data)
+    # subdivision 5: 20,480 triangles, past the 20,000 of GBAA_DEFAULT_TRIANGLES
+    dense["objects"] = [*data["objects"][:3], {**data["objects"][3], "subdivisions": 5}]
+    named = {**dense, "render": {**dense["render"], "antialiasing": "gbaa"}}
+    drawn = {}
+    for name, scene in (("light", light), ("dense", dense), ("named", named)):
+        r = Renderer(gl_egl, scene_from(scene), SIZE)
+        try:
+            r.render()
+            drawn[name] = (r.antialiasing, r.gbaa is not None, r.fxaa is not None)
+        finally:
+            r.release()
+    assert drawn == {
+        "light": ("gbaa", True, False),
+        "dense": ("fxaa", False, True),
+        "named": ("gbaa", True, False),
+    }

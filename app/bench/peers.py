@@ -201,7 +201,7 @@ def run_peers(ctx: Context, peers: tuple[str, ...] = PEER_NAMES) -> None:
                 ctx.progress.done()
                 for child in children.values():
                     child.close()
-                antialiasing = r.scene.render.antialiasing
+                antialiasing = r.antialiasing
                 r.release()
             images = {PBS: pbs_image}
             for peer in children:

@@ -220,6 +220,11 @@ class _Drawn:
 # Render settings whose change needs new mesh parts (their maps' mips and baked blends).
 _PART_SETTINGS = ("normal_filter", "blend")
 
+# Past this many opaque mesh triangles a scene that leaves render.antialiasing at its
+# default draws "fxaa" instead of "gbaa" (``Renderer.antialiasing``; docs/antialiasing.md
+# measures both sides of it).
+GBAA_DEFAULT_TRIANGLES = 20_000
+
 _UNBUILT = object()  # the old key of an object never built
 
 # Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
@@ -389,11 +394,28 @@ class Renderer:
             self.scene.render.gbuffer, defines, self._constant_surfaces()
         )
 
-    def _gbaa(self) -> bool:
-        """``render.antialiasing = "gbaa"`` at one sample per pixel (with supersampling
-        the resolve is the box filter's; the G-buffer then has no ``edge`` target)."""
+    @property
+    def antialiasing(self) -> str:
+        """The antialiasing this renderer draws: ``render.antialiasing``, except that a
+        scene which leaves it at its default ("gbaa") and has more than
+        ``GBAA_DEFAULT_TRIANGLES`` opaque mesh triangles gets "fxaa": gbaa's geometry
+        stage runs once per triangle, on llvmpipe on one thread, and on a dense scene it
+        cost more than the rest of the frame (docs/antialiasing.md, "The choice"). A
+        scene that names "gbaa" gets it whatever its triangles."""
         settings = self.scene.render
-        return settings.antialiasing == "gbaa" and settings.supersample == 1
+        mode = settings.antialiasing
+        if mode != "gbaa" or "antialiasing" in settings.model_fields_set:
+            return mode
+        parts = self.frame.parts
+        triangles = sum(
+            len(parts[i].indices) // 3 for i in self._opaque() if parts[i].analytic is None
+        )
+        return "fxaa" if triangles > GBAA_DEFAULT_TRIANGLES else mode
+
+    def _gbaa(self) -> bool:
+        """``antialiasing`` "gbaa" at one sample per pixel (with supersampling the resolve
+        is the box filter's; the G-buffer then has no ``edge`` target)."""
+        return self.antialiasing == "gbaa" and self.scene.render.supersample == 1
 
     def _specular_aa(self) -> tuple[float, float] | None:
         settings = self.scene.render
@@ -586,7 +608,7 @@ class Renderer:
         """The subpixel reconstruction, only with ``render.antialiasing = "sraa"``: its
         geometry pass draws the G-buffer pass's parts into its own multisampled targets,
         with that pass's material maps (``needs``)."""
-        if self.scene.render.antialiasing != "sraa":
+        if self.antialiasing != "sraa":
             return None
         return (self.render_size, self._key_gbuffer_pass())
 
@@ -631,14 +653,14 @@ class Renderer:
 
     def _key_accumulate(self) -> Hashable:
         """The jittered frames' running mean, only with ``render.antialiasing = "jitter"``."""
-        return (self.size,) if self.scene.render.antialiasing == "jitter" else None
+        return (self.size,) if self.antialiasing == "jitter" else None
 
     def _build_accumulate(self) -> AccumulatePass:
         return AccumulatePass(self.gl.ctx, self.shaders, self.size)
 
     def _key_fxaa(self) -> Hashable:
         """The display image's filter, only with ``render.antialiasing = "fxaa"``."""
-        return (self.size,) if self.scene.render.antialiasing == "fxaa" else None
+        return (self.size,) if self.antialiasing == "fxaa" else None
 
     def _build_fxaa(self) -> FxaaPass:
         return FxaaPass(self.gl.ctx, self.shaders, self.size)
