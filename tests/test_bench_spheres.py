@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from app.bench.context import TINY, Context
 from app.bench.scenes import load
@@ -42,12 +43,17 @@ def test_sphere_grid_is_the_35_sphere_scene():
     assert len(sphere_grid_scene(1, (64, 36))["lights"]) == 1
 
 
-def test_frame_passes_draw_the_renderers_frame(gl_egl):
+@pytest.mark.parametrize("mode", ["default", "gbaa"])
+def test_frame_passes_draw_the_renderers_frame(gl_egl, mode):
     """The timed passes, run in order, end with the image render() + read_ldr() give; the
     read-back pass returns it (a pass left out would leave another image). A plain frame
     has no post pass (the lighting pass writes the display image); with ``fuse_post`` off
-    it has one, and the same image."""
-    r = Renderer(gl_egl, load(sphere_grid_scene(2, SIZE)), SIZE)
+    it has one, and the same image. The 35 mesh spheres (179,200 triangles) draw FXAA by
+    default (past GBAA_DEFAULT_TRIANGLES) and gbaa where the scene names it."""
+    data = sphere_grid_scene(2, SIZE)
+    if mode != "default":
+        data = {**data, "render": {**data.get("render", {}), "antialiasing": mode}}
+    r = Renderer(gl_egl, load(data), SIZE)
     images, names = [], []
     try:
         r.render()
@@ -63,8 +69,9 @@ def test_frame_passes_draw_the_renderers_frame(gl_egl):
     finally:
         r.release()
     # two lights: the default light_culling ("auto") draws them without tiles
-    assert names == [["gbuffer", "lighting", "gbaa", "read-back"],
-                     ["gbuffer", "lighting", "post", "gbaa", "read-back"]]  # fmt: skip
+    aa = "fxaa" if mode == "default" else mode
+    assert names == [["gbuffer", "lighting", aa, "read-back"],
+                     ["gbuffer", "lighting", "post", aa, "read-back"]]  # fmt: skip
     assert expected.shape == (SIZE[1], SIZE[0], 3) and expected.max() > 50
     for image in images:
         assert np.array_equal(image, expected)

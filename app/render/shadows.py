@@ -58,6 +58,7 @@ from app.common.lights import LightType, PunctualLight
 from app.errors import InputError
 from app.frame.camera import gl_bytes
 from app.gl.context import wait_before_read
+from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache, assemble
 from app.reference.shadows import ShadowMaps
 from app.render.inputs import SHADOWS, ShaderInput
@@ -455,20 +456,16 @@ def measure_pcf(ctx: moderngl.Context, texture_filter: int = moderngl.LINEAR) ->
         vertex_shader=assemble("passes/fullscreen.vert"),
         fragment_shader=assemble("passes/shadow_probe.frag", {"PROBE_POINTS": n}),
     )
-    vao = ctx.vertex_array(prog, [])
+    draw = FullscreenDraw(ctx, prog, owns_program=True)
     points = [(x / size[0], y / size[1], z) for x, y in PROBE_POSITIONS for z in PROBE_REFERENCES]
     prog["u_probe"].write(np.asarray(points, np.float32).tobytes())
     try:
-        fbo.use()
-        ctx.viewport = (0, 0, n, 1)
-        depth.use(0)
-        prog["u_depth"].value = 0
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        vao.render(moderngl.TRIANGLES, vertices=3)
+        draw.draw(fbo, textures={"u_depth": depth}, viewport=(0, 0, n, 1))
         wait_before_read(ctx)
         got = np.frombuffer(target.read(), np.float32).reshape(n, 4)[:, 0].astype(np.float64)
     finally:
-        for obj in (vao, prog, fbo, target, depth):
+        draw.release()
+        for obj in (fbo, target, depth):
             obj.release()
     errors = {name: float(np.abs(got - want).max()) for name, want in models.items()}
     behaviour = min(errors, key=errors.__getitem__)
