@@ -11,13 +11,8 @@ import pytest
 
 from app.bench.context import TINY, Context
 from app.bench.scenes import load
-from app.bench.spheres import (
-    RADIUS,
-    SPACING,
-    pbs_frame_passes,
-    run_pyrender_spheres,
-    sphere_grid_scene,
-)
+from app.bench.sphere_grid import RADIUS, SPACING
+from app.bench.spheres import pbs_frame_passes, run_pyrender_spheres, sphere_grid_scene
 from app.progress import Progress
 from app.render.renderer import Renderer
 

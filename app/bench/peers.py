@@ -33,15 +33,12 @@ import numpy as np
 
 from app.bench.context import Context, make_row
 from app.bench.peer_child import PeerChild
+from app.bench.sphere_grid import SUBDIVISIONS, sphere_grid
 from app.bench.timing import Pass, round_ratios
 
 PEER_NAMES = ("pygfx", "pyvista", "pyrender")
 CASE = "35 spheres + floor"
 PBS = "pbs"
-GRID = (7, 5)  # columns, rows
-SPACING = 1.2  # m between sphere centres
-RADIUS = 0.5  # m
-SUBDIVISIONS = 4  # icospheres of 20 * 4^4 = 5,120 triangles, in every renderer
 TOTAL_INTENSITY = 16.0  # candela, shared by the lights
 # A peer shading the scene it was given lands within 0.1 of the ray-cast's FLIP (a black
 # or mis-lit image near 0.4-0.7): past this the run's notes ask for a look.
@@ -71,21 +68,9 @@ def _light_positions(count: int) -> list[list[float]]:
 
 def peers_scene(lights: int, size: tuple[int, int]) -> dict:
     """The suite's scene (module docstring) with ``lights`` point lights, as a scene dict."""
-    cols, rows = GRID
-    materials: dict = {"floor": {"base_color": [0.45, 0.45, 0.45], "roughness": 0.8}}
-    objects: list[dict] = [{"shape": "plane", "size": [14.0, 10.0], "material": "floor"}]
-    for j in range(rows):
-        for i in range(cols):
-            name = f"s{j}_{i}"
-            metal = j % 2 == 1
-            materials[name] = {
-                "base_color": [1.0, 0.78, 0.34] if metal else [0.8, 0.25, 0.2],
-                "metallic": 1.0 if metal else 0.0,
-                "roughness": round(0.1 + 0.8 * i / (cols - 1), 4),
-            }
-            position = [SPACING * (i - (cols - 1) / 2), RADIUS, SPACING * (j - (rows - 1) / 2)]
-            objects.append({"shape": "sphere", "radius": RADIUS, "subdivisions": SUBDIVISIONS,
-                            "material": name, "position": position})  # fmt: skip
+    spheres, grid = sphere_grid(on_floor=True)
+    materials = {"floor": {"base_color": [0.45, 0.45, 0.45], "roughness": 0.8}, **spheres}
+    objects = [{"shape": "plane", "size": [14.0, 10.0], "material": "floor"}, *grid]
     return {
         "background": [0.05, 0.05, 0.06],
         "camera": {"position": [0.0, 5.5, 8.5], "target": [0.0, 0.2, 0.3], "fov_y": 45.0},

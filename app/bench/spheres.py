@@ -28,13 +28,10 @@ from app.bench.context import Context, Settings, deferred_passes, make_row
 from app.bench.peer_child import PeerChild
 from app.bench.report import SPHERES_CASE, SPHERES_PYRENDER
 from app.bench.scenes import load
+from app.bench.sphere_grid import SUBDIVISIONS, sphere_grid
 from app.bench.timing import Pass, round_ratios
 from app.render.renderer import Renderer
 
-GRID = (7, 5)  # columns, rows
-SPACING = 1.2  # m between sphere centres
-RADIUS = 0.5  # m
-SUBDIVISIONS = 4  # icospheres of 20 * 4^4 = 5,120 triangles, in both renderers
 CASE = SPHERES_CASE
 PBS = "pbs render+read-back"
 PYRENDER = SPHERES_PYRENDER
@@ -42,22 +39,7 @@ PYRENDER = SPHERES_PYRENDER
 
 def sphere_grid_scene(lights: int, size: tuple[int, int]) -> dict:
     """The 35-sphere scene with ``lights`` (1-4) white point lights in front."""
-    cols, rows = GRID
-    materials, objects = {}, []
-    for j in range(rows):
-        for i in range(cols):
-            name = f"s{j}_{i}"
-            metal = j % 2 == 1
-            materials[name] = {
-                "base_color": [1.0, 0.78, 0.34] if metal else [0.8, 0.25, 0.2],
-                "metallic": 1.0 if metal else 0.0,
-                "roughness": round(0.1 + 0.8 * i / (cols - 1), 4),
-            }
-            objects.append({
-                "shape": "sphere", "radius": RADIUS, "subdivisions": SUBDIVISIONS,
-                "material": name,
-                "position": [SPACING * (i - (cols - 1) / 2), SPACING * (j - (rows - 1) / 2), 0.0],
-            })  # fmt: skip
+    materials, objects = sphere_grid(on_floor=False)
     spots = ([-3.0, 2.5, 5.0], [3.0, 2.5, 5.0], [-3.0, -2.5, 5.0], [3.0, -2.5, 5.0])
     return {
         "camera": {"position": [0.0, 0.0, 9.0], "target": [0.0, 0.0, 0.0], "fov_y": 45.0},

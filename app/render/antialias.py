@@ -97,6 +97,24 @@ def jittered_frame(
     return moved, dataclasses.replace(frame, camera_to_world=rays, jitter=j)
 
 
+def _display_with_depth(
+    ctx: moderngl.Context,
+    current: moderngl.Framebuffer | None,
+    display: moderngl.Texture,
+    depth: moderngl.Renderbuffer,
+) -> moderngl.Framebuffer:
+    """The framebuffer of ``display`` with a pass's marked ``depth`` attached, read-only
+    (its z-test picks the marked pixels): ``current`` where it already draws into
+    ``display``, else a new one (``current`` released)."""
+    if current is not None and current.color_attachments[0] is display:
+        return current
+    if current is not None:
+        current.release()
+    fbo = ctx.framebuffer([display], depth)
+    fbo.depth_mask = False
+    return fbo
+
+
 class FxaaPass:
     """The display image (RGBA8, sRGB-encoded) filtered in place: its FXAA-class filtered
     image, alpha filtered with the colour. Luma is taken from the encoded values, as FXAA
@@ -127,16 +145,10 @@ class FxaaPass:
         self.depth = ctx.depth_renderbuffer(size)
         self.marked = ctx.framebuffer([self.source], self.depth)
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
-        self._out_target: moderngl.Texture | None = None
 
     def run(self, display: moderngl.Texture) -> None:
         """Filter ``display`` (RGBA8 of ``size``) in place."""
-        if self._out is None or self._out_target is not display:
-            if self._out is not None:
-                self._out.release()
-            self._out = self.ctx.framebuffer([display], self.depth)
-            self._out.depth_mask = False
-            self._out_target = display
+        self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
         viewport = (0, 0, *self.size)
         self.marked.depth_mask = True
         self.mark.draw(self.marked, {}, {"u_display": display}, viewport=viewport, depth_func="1")
@@ -351,7 +363,6 @@ class GbaaPass:
         self.depth = ctx.depth_renderbuffer(size)
         self.marked = ctx.framebuffer([], self.depth)
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
-        self._out_target: moderngl.Texture | None = None
 
     def scissor(self, view: np.ndarray, proj: np.ndarray) -> tuple[int, int, int, int] | None:
         """The window rectangle (x, y, w, h) of ``corners`` seen through ``view`` and
@@ -394,12 +405,7 @@ class GbaaPass:
         image, ``size``) into ``display`` (post's RGBA8 image of it). ``background``: the
         RGBA radiance of every pixel without a surface, where ``hdr`` holds only the
         marked surface pixels (None: ``hdr`` holds every pixel)."""
-        if self._out is None or self._out_target is not display:
-            if self._out is not None:
-                self._out.release()
-            self._out = self.ctx.framebuffer([display], self.depth)
-            self._out.depth_mask = False
-            self._out_target = display
+        self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
         textures = {"u_depth": gbuffer.depth, "u_edge": gbuffer.edge, "u_hdr": hdr}
         rgba = np.zeros(4) if background is None else np.resize(np.asarray(background), 4)
         if background is not None and len(background) == 3:
