@@ -148,6 +148,11 @@ class _FrameFacts:
         # which a material edit replaces (``restyle``)
         self.masks = tuple((i, Same(parts[i].layers[0])) for i in self.opaque if masked(parts[i]))
         self.blended_ids = tuple(tuple(frame.material_ids[i]) for i in self.blended)
+        # the opaque mesh triangles, which choose the default antialiasing
+        # (``Renderer.antialiasing``)
+        self.mesh_triangles = sum(
+            len(parts[i].indices) // 3 for i in self.opaque if parts[i].analytic is None
+        )
 
     @cached_property
     def table(self) -> Hashable:
@@ -406,11 +411,8 @@ class Renderer:
         mode = settings.antialiasing
         if mode != "gbaa" or "antialiasing" in settings.model_fields_set:
             return mode
-        parts = self.frame.parts
-        triangles = sum(
-            len(parts[i].indices) // 3 for i in self._opaque() if parts[i].analytic is None
-        )
-        return "fxaa" if triangles > GBAA_DEFAULT_TRIANGLES else mode
+        dense = self._frame_facts().mesh_triangles > GBAA_DEFAULT_TRIANGLES
+        return "fxaa" if dense else mode
 
     def _gbaa(self) -> bool:
         """``antialiasing`` "gbaa" at one sample per pixel (with supersampling the resolve
