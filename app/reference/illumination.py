@@ -29,7 +29,7 @@ from app.reference.material import (
 )
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
-from app.reference.shadows import ShadowMaps, light_visibilities
+from app.reference.shadows import ShadowMaps, face_normals, light_visibilities
 
 
 def illumination_sum(
@@ -171,7 +171,10 @@ def shade_gbuffer(
     g = decode_gbuffer(gbuffer, camera)
     out = np.broadcast_to(np.asarray(background, np.float64), (*g.covered.shape, 3)).copy()
     shaded = np.zeros((len(g.material_id), 3))
-    visibility = light_visibilities(shadows, lights, g.p, g.n)
+    visibility: list[np.ndarray | None] = [None] * len(lights)
+    if shadows is not None:  # offset along the geometric normal, not the mapped one
+        ng = face_normals(gbuffer.depth, camera.camera_to_world, camera.tan_half_fov, g.v, g.n)
+        visibility = light_visibilities(shadows, lights, g.p, ng)
     for row in np.unique(g.material_id):
         sel = g.material_id == row
         model = models[int(table[row, 3, 0])]
