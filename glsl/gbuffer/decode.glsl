@@ -75,6 +75,10 @@ ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     // RT6: the extension maps' factors on the row's sheen colour and coat strength
     params = scale_by_layer_maps(params, texelFetch(g_layer_maps, px, 0));
 #endif
+#if GBUFFER_COAT_FILM_MAPS
+    // RT8: the clear-coat roughness and iridescence maps' factors on the row
+    params = scale_by_coat_film_maps(params, texelFetch(g_coat_film_maps, px, 0));
+#endif
     vec3 t = oct_decode(c.rg);
 
     // World position from the depth buffer at the pixel centre.

@@ -48,6 +48,9 @@ void main() {
 #if GBUFFER_LAYER_MAPS
     vec4 layer_factors = sample_layer_maps(hit.uv);   // as the G-buffer pass's RT6
 #endif
+#if GBUFFER_COAT_FILM_MAPS
+    vec4 coat_film_factors = sample_coat_film_maps(hit.uv);   // as the G-buffer pass's RT8
+#endif
 #if ALPHA_BLEND
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
     float alpha = coverage(hit.uv);
@@ -65,6 +68,9 @@ void main() {
     vec3 ng = gl_FrontFacing ? v_normal : -v_normal;
 #if GBUFFER_LAYER_MAPS
     vec4 layer_factors = sample_layer_maps(v_uv);   // as the G-buffer pass's RT6
+#endif
+#if GBUFFER_COAT_FILM_MAPS
+    vec4 coat_film_factors = sample_coat_film_maps(v_uv);   // as the G-buffer pass's RT8
 #endif
 #if ALPHA_BLEND
     vec4 emission = sample_emission(v_uv);
@@ -89,6 +95,9 @@ void main() {
     ModelParams params = fetch_model_params(u_materials, int(m.material_id));
 #if GBUFFER_LAYER_MAPS
     params = scale_by_layer_maps(params, layer_factors);
+#endif
+#if GBUFFER_COAT_FILM_MAPS
+    params = scale_by_coat_film_maps(params, coat_film_factors);
 #endif
 
     // The lighting pass's position: the pixel centre's view ray times the interpolated view
