@@ -11,11 +11,15 @@ import numpy as np
 import pytest
 
 from app.common.gbuffer import GBufferLayout
+from app.render.renderer import Renderer
+from app.scene.loader import load_scene
 from tests.gltf_builder import GltfBuilder
 from tests.test_gltf_extension_maps import (
     NEAREST,
     NO_BASE,
+    ON_AXIS,
     QUAD_N,
+    QUAD_SCENE,
     dielectric,
     halves,
     render_quad,
@@ -116,3 +120,32 @@ def test_a_scene_without_these_maps_allocates_no_rt8():
     with_maps = GBufferLayout(optional=plain.optional | {"coat_film_maps"})
     assert "coat_film_maps" not in {t.name for t, _ in plain.targets()}
     assert with_maps.bytes_per_pixel() - plain.bytes_per_pixel() == 16  # RGBA32F
+
+
+def test_a_blended_film_samples_its_strength_texture_as_the_deferred_one(gl_egl, tmp_path):
+    """The blend pass shades alpha-blended parts forward (no G-buffer): the film quad of
+    the strength texture above, alphaMode BLEND at alpha 1, gives the opaque quad's
+    image (the forward pass scales the row by RT8's factors too). Fails with the forward
+    pass ignoring the texture (its grey half coloured)."""
+    images = []
+    for mode in ("OPAQUE", "BLEND"):
+        b = GltfBuilder()
+        tex = b.texture(halves((0, 0, 0), (255, 0, 0)), NEAREST)
+        film = _film({"iridescenceTexture": {"index": tex}})
+        mat = dielectric({"KHR_materials_iridescence": film})
+        mat.alphaMode = mode
+        b.quad(b.material(mat))
+        b.doc.extensionsUsed = ["KHR_materials_iridescence"]
+        b.save(tmp_path / "m.glb")
+        (tmp_path / "scene.toml").write_text(QUAD_SCENE, encoding="utf-8")
+        r = Renderer(gl_egl, load_scene(tmp_path / "scene.toml"), (QUAD_N, QUAD_N))
+        try:
+            assert r.frame.parts[0].layers[0].alpha_mode == mode.lower()
+            r.set_lights([ON_AXIS])
+            r.render()
+            images.append(r.read_hdr().astype(np.float64))
+        finally:
+            r.release()
+    opaque, blended = images
+    assert _hue_spread(opaque[:, HALF:][opaque[:, HALF:].max(axis=-1) > 1e-3]).mean() > 0.2
+    np.testing.assert_allclose(blended, opaque, rtol=1e-3, atol=1e-6)
