@@ -190,8 +190,10 @@ def shade_gbuffer(
     out = np.broadcast_to(np.asarray(background, np.float64), (*g.covered.shape, 3)).copy()
     shaded = np.zeros((len(g.material_id), 3))
     visibility: list[np.ndarray | None] = [None] * len(lights)
-    if shadows is not None:  # offset along the geometric normal, not the mapped one
-        ng = face_normals(gbuffer.depth, camera.camera_to_world, camera.tan_half_fov, g.v, g.n)
+    if shadows is not None:  # offset along the geometric normal, not a mapped one
+        ng = g.n
+        if shadows.face_normal:
+            ng = face_normals(gbuffer.depth, camera.camera_to_world, camera.tan_half_fov, g.v, g.n)
         visibility = light_visibilities(shadows, lights, g.p, ng)
     for row in np.unique(g.material_id):
         sel = g.material_id == row

@@ -31,6 +31,9 @@ class ShadowMaps:
     rects: tuple[tuple[float, float, float, float], ...]
     offsets: tuple[tuple[float, float], ...]
     pcss: tuple[tuple[float, float, float, float], ...] = ()
+    # the lighting pass offsets along the depths' plane (a receiver's normal is mapped:
+    # SHADOW_FACE_NORMAL, ``face_normals``), else along the G-buffer's normal
+    face_normal: bool = False
 
 
 # PCSS's taps (blocker search, variable PCF) and widest radius in texels, as the GLSL's.

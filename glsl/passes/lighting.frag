@@ -47,8 +47,9 @@ void main() {
 #else
     ivec2 tile = px;
 #endif
-#if SHADOWS
-    // the shadow lookup's offset along the geometric normal, not the mapped sp.n
+#if SHADOWS && defined(SHADOW_FACE_NORMAL)
+    // a receiver's normal is mapped: the shadow lookup's offset along the plane the depths
+    // give, not the mapped sp.n (elsewhere sp.n is the geometric normal)
     vec3 ng = face_normal(px, texelFetch(g_depth, px, 0).r, u_camera_to_world,
                           u_tan_half_fov, sp.v, sp.n);
 #else
