@@ -26,6 +26,7 @@ import pytest
 from app.common.gbuffer import (
     ENCODING_NAMES,
     GBUFFER_TARGETS,
+    MAX_COLOR_TARGETS,
     OPTIONAL_TARGETS,
     STORAGE_BYTES,
     GBufferData,
@@ -43,8 +44,9 @@ SUBSETS = [
     for c in itertools.combinations(OPTIONAL_TARGETS, k)
 ]  # fmt: skip
 LAYOUTS = [
-    GBufferLayout(encoding, optional, constant)
+    layout
     for encoding in ENCODING_NAMES for optional in SUBSETS for constant in (False, True)
+    if (layout := GBufferLayout(encoding, optional, constant)).fits()
 ]  # fmt: skip
 # Bytes of one texel channel by moderngl dtype, as the GL stores it.
 DTYPE_BYTES = {"f2": 2, "nu2": 2, "f4": 4}
@@ -236,3 +238,15 @@ def test_a_program_without_gbuffer_defines_gets_the_defaults() -> None:
     assert "#define GBUFFER_LOCATION_TANGENT 3" in lines
     outputs = next(x for x in lines if x.startswith("#define GBUFFER_OUTPUTS "))
     assert outputs.count(" out ") == 4 and "g_coat_normal" not in outputs
+
+
+def test_a_layout_past_the_draw_buffers_sheds_the_coat_film_maps() -> None:
+    """Every optional target at once is 9 colour targets, past GL 3.3's 8 draw buffers:
+    the renderer's layout leaves RT8 out (its materials use their factors alone), and
+    every other layout is kept whole."""
+    every = GBufferLayout(optional=frozenset(OPTIONAL_TARGETS))
+    assert len(every.targets()) == MAX_COLOR_TARGETS + 1 and not every.fits()
+    fitted = every.fitted()
+    assert fitted.fits() and fitted.optional == every.optional - {"coat_film_maps"}
+    for layout in LAYOUTS:
+        assert layout.fitted() == layout

@@ -381,8 +381,44 @@ def _viewer_present(gl: GLContext, sources: Sources) -> None:
     _Present(gl.ctx).release()
 
 
+def _normal_mapped_shadows_and_coat_film_maps(gl: GLContext, sources: Sources) -> None:
+    """What no bundled scene has: a shadowed normal-mapped receiver (SHADOW_FACE_NORMAL,
+    tests/test_shadow_offset.py) and glTF clear-coat roughness and iridescence textures
+    (G-buffer RT8), opaque and alpha-blended (the forward pass)."""
+    import tempfile
+
+    from app.scene.loader import load_scene, parse_scene
+    from tests.gltf_builder import GltfBuilder
+    from tests.test_gltf_extension_maps import NEAREST, QUAD_SCENE, dielectric, halves
+    from tests.test_shadow_offset import _scene
+
+    with tempfile.TemporaryDirectory() as folder:
+        here = Path(folder)
+        sources.origin = "a shadowed normal-mapped quad"
+        _frame(gl, sources, parse_scene(_scene(here, shadow=True), here / "t.toml"))
+        for mode in ("OPAQUE", "BLEND"):
+            b = GltfBuilder()
+            tex = {"index": b.texture(halves((0, 0, 0), (255, 255, 0)), NEAREST)}
+            ext = {
+                "KHR_materials_clearcoat": {"clearcoatFactor": 1.0,
+                                            "clearcoatRoughnessTexture": tex},
+                "KHR_materials_iridescence": {"iridescenceFactor": 1.0,
+                                              "iridescenceTexture": tex,
+                                              "iridescenceThicknessTexture": tex},
+            }  # fmt: skip
+            material = dielectric(ext)
+            material.alphaMode = mode
+            b.quad(b.material(material))
+            b.doc.extensionsUsed = sorted(ext)
+            b.save(here / "m.glb")
+            (here / "scene.toml").write_text(QUAD_SCENE, encoding="utf-8")
+            sources.origin = f"a glTF quad with RT8's maps, {mode}"
+            _frame(gl, sources, load_scene(here / "scene.toml"))
+
+
 DRIVERS: tuple[Callable[[GLContext, Sources], None], ...] = (
     _bundled_scenes,
+    _normal_mapped_shadows_and_coat_film_maps,
     _walkthrough,
     _compare_composites,
     _debug_views,

@@ -258,8 +258,10 @@ def test_iridescence_parameters():
         }
     }
     m = map_material_extensions(partial, core(), KEY)
-    assert m.params.params.film_thickness == 400.0  # the default maximum
-    assert len(m.notes) == 2  # the strength 0.5 and the thickness texture
+    film = m.params.params
+    # the default maximum and minimum; the strength and the thickness texture are read
+    assert (film.film_thickness, film.film_thickness_min, film.film_factor) == (400.0, 100.0, 0.5)
+    assert m.notes == () and m.maps["film_thickness"].channel == "g"
     plain = core()
     assert material_extensions({"KHR_materials_iridescence": {}}, plain, KEY) is plain
 

@@ -170,7 +170,7 @@ def test_glsl_reads_the_film_flag(gl_egl) -> None:
     assert model_codes(Model(thin_film=True))[1] == 1 << 13 | model_codes(Model())[1]
     params = ModelParams(film_thickness=321.0, film_eta=1.25, film_ior=1.5)
     table = pack_model_params([params] * 3, [0] * 3, models)
-    np.testing.assert_array_equal(table[0, 7], [321.0, 1.25, 1.5, 0.0])
+    np.testing.assert_array_equal(table[0, 7], [321.0, 1.25, 1.5, 1.0])  # A: film_factor
     np.testing.assert_array_equal(table[1, 7], 0.0)  # no film: texel 7 unused
     ctx = gl_egl.ctx
     textures = []

@@ -142,8 +142,20 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
     # resolve; only with render.antialiasing = "gbaa" (docs/antialiasing.md)
     GBufferTarget("edge", 4, HALF_STORAGE, constant_channels=4, define="GBUFFER_EDGE",
                   fields=("edge",)),
+    # RT8: per-pixel factors of glTF's clearcoatRoughnessTexture (R, on the row's
+    # clearcoat_roughness), iridescenceTexture (G, on film_factor) and
+    # iridescenceThicknessTexture (B: the film's thickness mix(film_thickness_min,
+    # film_thickness, B)); A unused (1); where a material has one (1 where none)
+    GBufferTarget("coat_film_maps", 4, BASE_STORAGE, constant_channels=4,
+                  define="GBUFFER_COAT_FILM_MAPS", fields=("coat_film_maps",)),
 )  # fmt: skip
 OPTIONAL_TARGETS = tuple(t.name for t in GBUFFER_TARGETS if t.define is not None)
+# The most colour targets one G-buffer pass may write: GL 3.3's least GL_MAX_DRAW_BUFFERS.
+MAX_COLOR_TARGETS = 8
+# The optional targets a layout past MAX_COLOR_TARGETS leaves out, first to last, and what
+# that costs: RT8's per-pixel factors (the rows' own clear-coat roughness and film
+# strength and thickness are used; only a frame with every other target needs this).
+SHED_TARGETS = ("coat_film_maps",)
 # The optional targets of a program that names none of their defines (RT3 alone).
 DEFAULT_OPTIONAL = frozenset(t.name for t in GBUFFER_TARGETS if t.define is not None and t.default)
 # The layout's other defines and their values in a program that does not name them.
@@ -213,6 +225,21 @@ class GBufferLayout:
         """(target, channels allocated) of every target present, in binding order: the
         index is the framebuffer location."""
         return _allocated(self.optional, self.constant_surfaces)
+
+    def fits(self) -> bool:
+        """Whether its colour targets are at most MAX_COLOR_TARGETS."""
+        return len(self.targets()) <= MAX_COLOR_TARGETS
+
+    def fitted(self) -> GBufferLayout:
+        """This layout, less the SHED_TARGETS (in order) it needs to leave out to fit."""
+        layout = self
+        for name in SHED_TARGETS:
+            if layout.fits():
+                break
+            layout = GBufferLayout(
+                layout.encoding, layout.optional - {name}, layout.constant_surfaces
+            )
+        return layout
 
     def storage(self, target: GBufferTarget) -> str:
         """The target's storage under this layout's encoding."""
@@ -299,6 +326,10 @@ class GBufferData:
     # +y (up), -y, 16 where none is nearer; None where the G-buffer has no edge target
     # (render.antialiasing is not "gbaa")
     edge: np.ndarray | None = None
+    # (H, W, 4): the factors the clear-coat roughness and iridescence maps put on the row's
+    # clearcoat_roughness (R), film_factor (G) and film thickness (B, between
+    # film_thickness_min and film_thickness); None where the G-buffer has no RT8
+    coat_film_maps: np.ndarray | None = None
 
     @property
     def covered(self) -> np.ndarray:

@@ -189,6 +189,12 @@ MATERIAL_FIELDS: tuple[MaterialField, ...] = (
     MaterialField("film_ior", 7, "b", 1.33, "thin_film", 1.0, 10.0, "",
                   "the film's index n2 itself (the optical path 2 n2 d cos(theta2))",
                   (SceneKey("film_ior", 1.0, 10.0, control=Control("film index", 1.0, 3.0)),)),
+    MaterialField("film_factor", 7, "a", 1.0, "thin_film", 0.0, 1.0, "",
+                  "the film's strength: F = mix(F_base, F_film, film_factor) (glTF "
+                  "iridescenceFactor; 1 for a scene file's film)"),
+    MaterialField("film_thickness_min", 8, "b", 0.0, "thin_film", 0.0, 5000.0, "nm",
+                  "the thickness where a thickness map reads 0 (glTF "
+                  "iridescenceThicknessMinimum; film_thickness where it reads 1)"),
     # --- texel 6: sheen (RTR4 §9.10); black = no layer ---
     MaterialField("sheen_color", 6, "rgb", BLACK, "sheen", 0.0, 1.0, "",
                   "the cloth layer's colour, linear RGB; black: no layer",

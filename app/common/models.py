@@ -250,10 +250,13 @@ class ModelParams:
     specular_color_map: float = _DEFAULTS["specular_color_map"]
     # 1: RT6's A scales sheen_roughness, 0: the clear coat's strength (a texture of either)
     sheen_roughness_map: float = _DEFAULTS["sheen_roughness_map"]
-    # --- thin film (RTR4 §9.11): nm (0 = the base's Fresnel alone), n2 / n1, n2 ---
+    # --- thin film (RTR4 §9.11): nm (0 = the base's Fresnel alone), n2 / n1, n2, strength
+    # (glTF iridescenceFactor), nm where a thickness map reads 0 ---
     film_thickness: float = _DEFAULTS["film_thickness"]
     film_eta: float = _DEFAULTS["film_eta"]
     film_ior: float = _DEFAULTS["film_ior"]
+    film_factor: float = _DEFAULTS["film_factor"]
+    film_thickness_min: float = _DEFAULTS["film_thickness_min"]
     # --- sheen (RTR4 §9.10): colour (black = no layer), perceptual roughness ---
     sheen_color: np.ndarray = field(default_factory=_array("sheen_color"))
     sheen_roughness: float = _DEFAULTS["sheen_roughness"]

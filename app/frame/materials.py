@@ -59,6 +59,9 @@ def _surface_key(m: MaterialParams) -> tuple:
 SURFACE_MAPS = frozenset({"base_color", "metallic", "normal_roughness", "f0", "select"})
 # The maps whose texels scale numbers of the material row per pixel (G-buffer RT6).
 LAYER_MAPS = frozenset({"sheen_color", "clearcoat", "specular_color", "sheen_roughness"})
+# The maps whose texels scale the clear coat's roughness and the thin film's strength and
+# thickness per pixel (G-buffer RT8).
+COAT_FILM_MAPS = frozenset({"clearcoat_roughness", "film_factor", "film_thickness"})
 
 
 def constant_surface(part: MeshPart) -> bool:
@@ -92,6 +95,10 @@ class MaterialTable:
     # roughness map (glTF sheenColorTexture, specularColorTexture, clearcoatTexture,
     # sheenRoughnessTexture): only then does the G-buffer carry RT6, their factors.
     needs_layer_maps: bool = False
+    # A layer of the frame has a clear-coat roughness, film strength or film thickness map
+    # (glTF clearcoatRoughnessTexture, iridescenceTexture, iridescenceThicknessTexture):
+    # only then does the G-buffer carry RT8, their factors.
+    needs_coat_film_maps: bool = False
     # Every part the G-buffer draws has constant surface numbers (``constant_surface``):
     # then ``surfaces`` holds each row's (base colour, metallic, roughness, F0), the rows
     # are distinct in them too, and ``packed`` appends them (SURFACE_TEXEL).
@@ -150,6 +157,7 @@ class MaterialTable:
                 "emission": self.needs_emission,
                 "layer_maps": self.needs_layer_maps,
                 "edge": False,  # the renderer's, by render.antialiasing (Renderer._layout)
+                "coat_film_maps": self.needs_coat_film_maps,
             }
         )
 
@@ -189,6 +197,7 @@ def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]
         for layer in layers
     )
     table.needs_layer_maps = any(LAYER_MAPS & layer.maps.keys() for layer in layers)
+    table.needs_coat_film_maps = any(COAT_FILM_MAPS & layer.maps.keys() for layer in layers)
     ids, i = [], 0
     for p in parts:
         ids.append(flat[i : i + len(p.layers)])

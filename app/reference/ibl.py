@@ -38,6 +38,7 @@ from app.common.models import DEFAULT_MODEL, Model, ModelParams
 from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.environment import rotate_y, texel_directions
 from app.reference.material import (
+    F_film_selected,
     ShadingPoint,
     Surface,
     brdf_eval,
@@ -239,6 +240,7 @@ def split_sum_radiance(
     t: np.ndarray | None = None,
     bent: bool = True,
     params: ModelParams | None = None,
+    model: Model | None = None,
 ) -> np.ndarray:
     """The standard model's environment term by the split sum (module docstring), (3,):
     rho_ss E(n)/pi + L_pre(R', r) (F0 A + B) [+ the Kulla-Conty colour (1 - E(n.v)) E(n)/pi
@@ -247,7 +249,9 @@ def split_sum_radiance(
     plain split sum, kept to measure the correction in docs/ibl.md). With a tangent ``t``
     (an anisotropic model) R is reflected about ``anisotropic_bent_normal`` instead of n
     (``bent=False``: about n, the isotropic split sum). ``params``: the material's row
-    (its specular_color colours F0; None: the defaults)."""
+    (its specular_color colours F0; None: the defaults). ``model`` with ``thin_film``: the
+    film's Fresnel at n.v times the lobe's albedo A + B replaces F0 A + B, mixed over it
+    as ``F_film_selected`` mixes (glsl/lights/ibl.glsl)."""
     n, v = np.asarray(n, np.float64), np.asarray(v, np.float64)
     NoV = float(np.clip(n @ v, MIN_N_DOT_V, 1.0))
     r = float(np.maximum(surface.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS))
@@ -260,7 +264,15 @@ def split_sum_radiance(
     A, B = dfg_lookup(dfg_table, NoV, r)
     E_n = np.maximum(sh9_irradiance(sh, n), 0.0)  # as the GLSL: SH ringing can dip below 0
     out = material_rho_ss(surface) * E_n / math.pi
-    out = out + prefiltered_radiance(env, rotation, R, r) * (F0 * A + B)
+    scale = F0 * A + B
+    if model is not None and model.thin_film:
+        albedo = max(A + B, 1e-6)
+        point = ShadingPoint(
+            surface, params if params is not None else ModelParams(), n, None,
+            t if t is not None else n, v,
+        )  # fmt: skip
+        scale = F_film_selected(point, model, np.float64(NoV), scale / albedo) * albedo
+    out = out + prefiltered_radiance(env, rotation, R, r) * scale
     if ms_table is not None:
         E_avg = ms_E_avg(ms_table, r)
         F_avg = F_avg_schlick(F0)

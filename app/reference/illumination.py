@@ -29,7 +29,7 @@ from app.reference.material import (
 )
 from app.reference.position import reconstruct_position
 from app.reference.punctual import light_at
-from app.reference.shadows import ShadowMaps, light_visibilities
+from app.reference.shadows import ShadowMaps, face_normals, light_visibilities
 
 
 def illumination_sum(
@@ -91,6 +91,9 @@ class DecodedGBuffer:
     # says which) and coat strength (A), sanitised;
     # None without RT6 (no extension map)
     layer_maps: np.ndarray | None = None
+    # (C, 4) the factors on the row's coat roughness (R), film strength (G) and the film's
+    # thickness between its minimum and maximum (B), sanitised; None without RT8
+    coat_film_maps: np.ndarray | None = None
 
     def point(self, sel: np.ndarray, params: ModelParams) -> ShadingPoint:
         """The ShadingPoint of the pixels ``sel`` picks (one material: ``params``), as the
@@ -104,6 +107,15 @@ class DecodedGBuffer:
                 params, **{a: getattr(params, a) * f[:, 3]},
                 **{rgb: np.asarray(getattr(params, rgb)) * f[:, :3]},
             )  # fmt: skip
+        if self.coat_film_maps is not None:  # RT8: the coat's roughness, the film's
+            f = self.coat_film_maps[sel]  # strength and thickness per pixel
+            params = replace(
+                params,
+                clearcoat_roughness=params.clearcoat_roughness * f[:, 0],
+                film_factor=params.film_factor * f[:, 1],
+                film_thickness=params.film_thickness_min
+                + (params.film_thickness - params.film_thickness_min) * f[:, 2],
+            )
         return ShadingPoint(
             self.surface.select(sel), params, self.n[sel],
             None if self.nc is None else self.nc[sel], self.t[sel], self.v[sel], self.p[sel],
@@ -144,7 +156,13 @@ def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
     if gbuffer.layer_maps is not None:
         f = np.asarray(gbuffer.layer_maps, np.float64)[covered]
         layer_maps = np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0)
-    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc, emission, layer_maps)
+    coat_film_maps = None  # no RT8: the rows' numbers as they are
+    if gbuffer.coat_film_maps is not None:
+        f = np.asarray(gbuffer.coat_film_maps, np.float64)[covered]
+        coat_film_maps = np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0)
+    return DecodedGBuffer(
+        covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc, emission, layer_maps, coat_film_maps
+    )
 
 
 def shade_gbuffer(
@@ -171,7 +189,12 @@ def shade_gbuffer(
     g = decode_gbuffer(gbuffer, camera)
     out = np.broadcast_to(np.asarray(background, np.float64), (*g.covered.shape, 3)).copy()
     shaded = np.zeros((len(g.material_id), 3))
-    visibility = light_visibilities(shadows, lights, g.p, g.n)
+    visibility: list[np.ndarray | None] = [None] * len(lights)
+    if shadows is not None:  # offset along the geometric normal, not a mapped one
+        ng = g.n
+        if shadows.face_normal:
+            ng = face_normals(gbuffer.depth, camera.camera_to_world, camera.tan_half_fov, g.v, g.n)
+        visibility = light_visibilities(shadows, lights, g.p, ng)
     for row in np.unique(g.material_id):
         sel = g.material_id == row
         model = models[int(table[row, 3, 0])]

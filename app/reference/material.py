@@ -185,7 +185,8 @@ def F_film_selected(
 ) -> np.ndarray:
     """The thin film over the material's base (see the GLSL): the dielectric part's index
     eta_dielectric, the metal part's the conductor's eta + i k or the F0 of base_color as a
-    real index, mixed by metallic, faded in over F_base up to FILM_FADE_NM."""
+    real index, mixed by metallic, faded in over F_base up to FILM_FADE_NM and weighed by
+    the film's strength film_factor."""
     s, p = point.s, point.params
     LoH = np.asarray(LoH, np.float64)
     film = (p.film_eta, p.film_ior, p.film_thickness)
@@ -198,7 +199,8 @@ def F_film_selected(
         metal_k = np.zeros_like(metal_eta)
     metal = thin_film.F_thin_film(*film, metal_eta, metal_k, LoH)
     fade = _smoothstep(0.0, thin_film.FILM_FADE_NM, p.film_thickness)
-    return _mix(F_base, _mix(dielectric, metal, s.metallic), fade)
+    # film_factor: glTF iridescenceFactor, the film's strength
+    return _mix(F_base, _mix(dielectric, metal, s.metallic), fade * np.asarray(p.film_factor))
 
 
 def F_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.ndarray:
@@ -479,7 +481,7 @@ def clearcoat_factors(
     LoH = np.clip(dot(l, h), 0.0, 1.0)
     c = p.clearcoat
     F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
-    rc = max(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS)
+    rc = np.maximum(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS)  # per point with RT8
     alpha_c = rc * rc
 
     base = replace(model, clearcoat="none")

@@ -31,6 +31,9 @@ class ShadowMaps:
     rects: tuple[tuple[float, float, float, float], ...]
     offsets: tuple[tuple[float, float], ...]
     pcss: tuple[tuple[float, float, float, float], ...] = ()
+    # the lighting pass offsets along the depths' plane (a receiver's normal is mapped:
+    # SHADOW_FACE_NORMAL, ``face_normals``), else along the G-buffer's normal
+    face_normal: bool = False
 
 
 # PCSS's taps (blocker search, variable PCF) and widest radius in texels, as the GLSL's.
@@ -285,3 +288,54 @@ def light_visibilities(
                 v[sel] = shadow_map_visibility(maps, k + f, p[sel], np.asarray(n)[sel])
         out[i] = v
     return out
+
+
+def face_normals(
+    depth: np.ndarray,
+    camera_to_world: np.ndarray,
+    tan_half_fov: tuple[float, float],
+    v: np.ndarray,
+    n: np.ndarray,
+) -> np.ndarray:
+    """(C, 3) the geometric normals of the covered pixels (``depth`` > 0 and finite, (H, W)
+    view depths, row 0 at the top), row-major as ``v`` and ``n`` (C, 3): the shadow
+    lookup's offset direction, twin of glsl/gbuffer/decode.glsl ``face_normal``. The plane
+    through the view-space points of a pixel and, per image axis, the neighbour nearer in
+    depth (a tie takes +x, +y, i.e. the row above), the background and the image's outside
+    not taken; facing ``v``; ``n`` where an axis has no neighbour or its two neighbours'
+    depth steps differ by more than a factor 3 and 1e-4 of the depth (a depth edge beside
+    the pixel)."""
+    z = np.asarray(depth, np.float64)
+    h, w = z.shape
+    valid = np.isfinite(z) & (z > 0.0)
+    zs = np.where(valid, z, 0.0)
+    xs = (np.arange(w) + 0.5) / w * 2.0 - 1.0
+    ys = 1.0 - (np.arange(h) + 0.5) / h * 2.0
+    tx, ty = tan_half_fov
+    points = np.stack(
+        np.broadcast_arrays(zs * xs[None, :] * tx, zs * ys[:, None] * ty, -zs), axis=-1
+    )
+    # padded by one invalid pixel all round: a neighbour outside the image is not taken
+    zp = np.pad(zs, 1)
+    okp = np.pad(valid, 1)
+    pp = np.pad(points, ((1, 1), (1, 1), (0, 0)))
+    rows, cols = np.nonzero(valid)
+    r, c = rows + 1, cols + 1
+    here = pp[r, c]
+    z0 = zp[r, c]
+    edges = []
+    missing = np.zeros(len(r), bool)
+    for (ra, ca), (rb, cb) in (((r, c + 1), (r, c - 1)), ((r - 1, c), (r + 1, c))):
+        ok_a, ok_b = okp[ra, ca], okp[rb, cb]
+        da, db = np.abs(zp[ra, ca] - z0), np.abs(z0 - zp[rb, cb])
+        edge = ok_a & ok_b & (np.abs(da - db) > 0.5 * (da + db) + 1e-4 * z0)
+        missing |= (~ok_a & ~ok_b) | edge
+        take_a = ok_a & (~ok_b | (da <= db))
+        edges.append(np.where(take_a[:, None], pp[ra, ca] - here, here - pp[rb, cb]))
+    m = np.asarray(camera_to_world, np.float64)
+    g = np.cross(edges[0] @ m.T, edges[1] @ m.T)
+    length = np.linalg.norm(g, axis=-1)
+    good = ~missing & np.isfinite(length) & (length > 0.0)
+    g = g / np.where(good, length, 1.0)[:, None]
+    g = np.where((np.sum(g * v, axis=-1) < 0.0)[:, None], -g, g)
+    return np.where(good[:, None], g, np.asarray(n, np.float64))

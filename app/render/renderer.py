@@ -24,6 +24,7 @@ share one cache (a comparison's two sides, app/render/compare.py), whose owner r
 from __future__ import annotations
 
 import dataclasses
+import logging
 import time
 from collections import Counter
 from collections.abc import Callable, Hashable
@@ -34,7 +35,7 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.gbuffer import GBufferData, GBufferLayout
+from app.common.gbuffer import MAX_COLOR_TARGETS, GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
 from app.common.tonemaps import TONEMAP_CODE
 from app.frame import FrameData, prepare_frame, restyle
@@ -72,6 +73,9 @@ from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atla
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
+
+# Layouts whose shed targets were noted (once a process each; Renderer._layout).
+_SHED_NOTED: set[GBufferLayout] = set()
 
 
 @dataclass(frozen=True)
@@ -395,9 +399,19 @@ class Renderer:
         defines = self.materials.gbuffer_defines()
         if self._gbaa():  # the edge distances of the geometric resolve
             defines["GBUFFER_EDGE"] = 1
-        return GBufferLayout.from_defines(
+        layout = GBufferLayout.from_defines(
             self.scene.render.gbuffer, defines, self._constant_surfaces()
         )
+        fitted = layout.fitted()
+        if fitted != layout and layout not in _SHED_NOTED:  # more than a pass may write
+            _SHED_NOTED.add(layout)
+            logging.getLogger("pbs").info(
+                "the G-buffer would need %d colour targets, past the %d a pass may write: "
+                "%s left out (those materials use their factors alone)",
+                len(layout.targets()), MAX_COLOR_TARGETS,
+                ", ".join(sorted(layout.optional - fitted.optional)),
+            )  # fmt: skip
+        return fitted
 
     @property
     def antialiasing(self) -> str:

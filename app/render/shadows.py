@@ -580,6 +580,15 @@ class ShadowPass(ShaderInput):
         # near and far (perspective) or 0 and the depth extent (orthographic), texel size.
         self.pcss: list[tuple[float, float, float, float]] = []
         self._points = points
+        # A receiver whose normal is mapped: its G-buffer normal is not the surface the maps
+        # hold, and the lighting pass offsets its lookups along the plane the depths give
+        # (SHADOW_FACE_NORMAL, glsl/gbuffer/decode.glsl face_normal); elsewhere the G-buffer
+        # normal is the geometric one and is used as it is.
+        self.face_normal = any(
+            "normal_roughness" in layer.maps
+            for part in [*parts, *(receivers or [])]
+            for layer in part.layers
+        )
         # (first map, light index, cascades) of each cascaded light, refitted per camera
         self._cascaded: list[tuple[int, int, int]] = []
         self._cascade_camera: np.ndarray | None = None
@@ -652,7 +661,8 @@ class ShadowPass(ShaderInput):
         (SHADOW_PROJ_j, SHADOW_FILTER_j: their lookup steps compile only their own kind),
         SHADOW_PCSS only where a map uses PCSS, SHADOW_COMPARE where the atlas is read
         through sampler2DShadow (``hardware_pcf``), and SHADOW_CASCADES only where a light
-        has cascades (a scene without compiles as before they existed)."""
+        has cascades (a scene without compiles as before they existed), SHADOW_FACE_NORMAL
+        where a receiver's normal is mapped (``face_normal``)."""
         defines = {"SHADOWS": self.count, "SHADOW_LIGHTS": len(self.shadowed)}
         # the first SHADOW_UNROLLED lights' projection and filter, compiled into their steps
         for j, (_, k) in enumerate(self.shadowed[:SHADOW_UNROLLED]):
@@ -664,6 +674,8 @@ class ShadowPass(ShaderInput):
             defines["SHADOW_COMPARE"] = 1
         if self._cascaded:
             defines["SHADOW_CASCADES"] = 1
+        if self.face_normal:
+            defines["SHADOW_FACE_NORMAL"] = 1
         return defines
 
     def needed(self, view_proj: np.ndarray | None) -> list[int]:
@@ -767,7 +779,7 @@ class ShadowPass(ShaderInput):
         depth = np.frombuffer(self.atlas.read(), np.float32).reshape(h, w).astype(np.float64)
         return ShadowMaps(
             depth, tuple(self.lights), tuple(self.matrices), tuple(self.rects),
-            tuple(self.offsets), tuple(self.pcss),
+            tuple(self.offsets), tuple(self.pcss), self.face_normal,
         )  # fmt: skip
 
     def release(self) -> None:

@@ -26,6 +26,9 @@ MAP_BITS = {
     "clearcoat": 2048,
     "specular_color": 4096,
     "sheen_roughness": 8192,
+    "clearcoat_roughness": 16384,
+    "film_factor": 32768,
+    "film_thickness": 65536,
 }
 
 

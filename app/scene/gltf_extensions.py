@@ -63,15 +63,7 @@ SUPPORTED = (
 )
 # The extensions' textures the project cannot sample, and what is used instead (each one a
 # material names gives a note; docs/gltf.md lists them).
-UNSUPPORTED_TEXTURES = {
-    "KHR_materials_clearcoat": {
-        "clearcoatRoughnessTexture": "clearcoatRoughnessFactor alone is used",
-    },
-    "KHR_materials_iridescence": {
-        "iridescenceTexture": "iridescenceFactor alone is used",
-        "iridescenceThicknessTexture": "it is read as 1.0: iridescenceThicknessMaximum everywhere",
-    },
-}
+UNSUPPORTED_TEXTURES: dict[str, dict[str, str]] = {}
 # Material extensions another part of the reader maps (the emissive strength joins the
 # core material's emissive factor).
 HANDLED_ELSEWHERE = ("KHR_materials_emissive_strength",)
@@ -371,20 +363,27 @@ def _anisotropy(state: _State, ext: Mapping[str, Any], name: str) -> None:
 def _iridescence(state: _State, ext: Mapping[str, Any], name: str) -> None:
     factor = _number(state, ext, name, "iridescenceFactor", 0.0, 0.0, 1.0)
     film_ior = _number(state, ext, name, "iridescenceIor", 1.3, lo=1.0)
-    _number(state, ext, name, "iridescenceThicknessMinimum", 100.0, 0.0, MAX_FILM_THICKNESS_NM)
+    thinnest = _number(
+        state, ext, name, "iridescenceThicknessMinimum", 100.0, 0.0, MAX_FILM_THICKNESS_NM
+    )
     thickness = _number(
         state, ext, name, "iridescenceThicknessMaximum", 400.0, 0.0, MAX_FILM_THICKNESS_NM
     )
+    strength = _texture(state, ext, name, "iridescenceTexture")
+    thick = _texture(state, ext, name, "iridescenceThicknessTexture")
     if factor == 0.0:
         return
-    if factor < 1.0:
-        state.notes.append(
-            f"{state.path(name, 'iridescenceFactor')}: {factor!r} is rendered as 1 (the "
-            "project's thin film has no strength)"
-        )
-    # Without the thickness texture the film is iridescenceThicknessMaximum thick; the
-    # outside medium is air (the specification's outside_ior 1), so film_eta = film_ior.
-    film = {"film_thickness": thickness, "film_ior": film_ior, "film_eta": film_ior}
+    if strength is not None:  # R: multiplies iridescenceFactor per pixel (G-buffer RT8)
+        state.maps["film_factor"] = replace(strength, channel="r")
+    if thick is not None:  # G: the thickness mix(minimum, maximum, G) per pixel (RT8)
+        state.maps["film_thickness"] = replace(thick, channel="g")
+    # Without the thickness texture the film is iridescenceThicknessMaximum thick (RT8's B
+    # reads 1); the outside medium is air (the specification's outside_ior 1), so film_eta
+    # = film_ior. The factor mixes the film's Fresnel with the base's.
+    film = {
+        "film_thickness": thickness, "film_thickness_min": thinnest, "film_factor": factor,
+        "film_ior": film_ior, "film_eta": film_ior,
+    }  # fmt: skip
     _apply(state, name, {"thin_film": True}, film)
 
 
@@ -442,6 +441,9 @@ def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
         )
     elif texture is not None:  # R: multiplies the strength per pixel (G-buffer RT6)
         state.maps["clearcoat"] = replace(texture, channel="r")
+    rough = _texture(state, ext, name, "clearcoatRoughnessTexture")
+    if rough is not None:  # G: multiplies the roughness factor per pixel (G-buffer RT8)
+        state.maps["clearcoat_roughness"] = replace(rough, channel="g")
     # The medium is air (glTF has no other), so the coat's eta is its index.
     coat = {
         "clearcoat": strength,

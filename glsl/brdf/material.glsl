@@ -112,6 +112,23 @@ ModelParams scale_by_layer_maps(ModelParams p, vec4 f) {
 }
 #endif
 
+#if GBUFFER_COAT_FILM_MAPS
+// The material row's numbers that the clear-coat roughness and iridescence textures set
+// per pixel (G-buffer RT8, material/layers.glsl sample_coat_film_maps): the coat's
+// roughness by f.r, the film's strength by f.g, and the film's thickness
+// mix(film_thickness_min, film_thickness, f.b) (glTF KHR_materials_iridescence: the
+// thickness texture's G between the minimum and the maximum; 1 without one: the
+// maximum), each factor clamped to [0, 1] (NaN: 1). The lighting pass applies it to the
+// decoded row, the forward pass to the fragment's.
+ModelParams scale_by_coat_film_maps(ModelParams p, vec4 f) {
+    p.clearcoat_roughness *= sanitize_value(f.r, 0.0, 1.0, 1.0);
+    p.film_factor *= sanitize_value(f.g, 0.0, 1.0, 1.0);
+    p.film_thickness = mix(p.film_thickness_min, p.film_thickness,
+                           sanitize_value(f.b, 0.0, 1.0, 1.0));
+    return p;
+}
+#endif
+
 // The metalness workflow (glTF 2.0 Appendix B; Burley 2012): one base colour serves
 // as the diffuse albedo of a dielectric and as the F0 of a metal.
 //   F0      = mix(f0_dielectric specular_color, base_color, metallic)
@@ -181,7 +198,8 @@ vec3 F_film_selected(ShadingPoint sp, float LoH, vec3 F_base) {
     vec3 metal_k = FRESNEL_MODEL == FRESNEL_CONDUCTOR ? p.k : vec3(0.0);
     vec3 metal = F_thin_film(p.film_eta, p.film_ior, p.film_thickness, metal_eta, metal_k, LoH);
     vec3 film = mix(dielectric, metal, s.metallic);
-    return mix(F_base, film, smoothstep(0.0, FILM_FADE_NM, p.film_thickness));
+    // film_factor: glTF iridescenceFactor, the film's strength (mix(F_base, F_film, f))
+    return mix(F_base, film, smoothstep(0.0, FILM_FADE_NM, p.film_thickness) * p.film_factor);
 }
 
 // F(h, l) of the material: the base's Fresnel (F_base_selected), or a thin film's over it

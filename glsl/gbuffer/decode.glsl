@@ -75,6 +75,10 @@ ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     // RT6: the extension maps' factors on the row's sheen colour and coat strength
     params = scale_by_layer_maps(params, texelFetch(g_layer_maps, px, 0));
 #endif
+#if GBUFFER_COAT_FILM_MAPS
+    // RT8: the clear-coat roughness and iridescence maps' factors on the row
+    params = scale_by_coat_film_maps(params, texelFetch(g_coat_film_maps, px, 0));
+#endif
     vec3 t = oct_decode(c.rg);
 
     // World position from the depth buffer at the pixel centre.
@@ -93,6 +97,57 @@ ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
 #endif
     return ShadingPoint(s, params, n, nc, t, v, p);
 }
+
+#if SHADOWS
+// The step in view space from pixel px (view depth z) to its neighbour q = px +- one pixel
+// along an axis (view depth zq), written as dz (zq - z, or z - zq for the one before) times
+// q's ray plus z times the rays' difference, so that float32 keeps it to a few ulp of the
+// step rather than of the points (common/position.glsl's ray before the camera's rotation).
+vec3 view_step(ivec2 q, float dz, float z, vec2 axis_step, vec2 size, vec2 tan_half_fov) {
+    vec2 ndc = (vec2(q) + 0.5) / size * 2.0 - 1.0;
+    return vec3((dz * ndc + z * axis_step) * tan_half_fov, -dz);
+}
+
+// The geometric normal at pixel px (view depth z), the shadow lookup's offset direction
+// (lights/shadows.glsl): the G-buffer's normal is the normal-mapped one, which on a
+// strong map over a coarse fold (ToyCar's cloth) can tilt below the triangle the shadow
+// map holds, so that an offset along it moves into the surface, which shadows itself in
+// specks. The plane through the view-space points of px and, per image axis, the
+// neighbour nearer in depth (the background and pixels outside the image are not taken, a
+// tie takes +x, +y), facing the viewer v; n where an axis has no neighbour, or where its
+// two neighbours' depth steps differ by more than a factor 3 and 1e-4 z (a depth edge
+// beside px: a silhouette, a one-pixel sliver, whose plane the depths do not tell). Twin:
+// app/reference/shadows.py face_normals.
+vec3 face_normal(ivec2 px, float z, mat3 camera_to_world, vec2 tan_half_fov, vec3 v,
+                 vec3 n) {
+    ivec2 size = textureSize(g_depth, 0);
+    vec3 e[2];
+    for (int axis = 0; axis < 2; ++axis) {
+        ivec2 d = axis == 0 ? ivec2(1, 0) : ivec2(0, 1);
+        ivec2 a = min(px + d, size - 1);
+        ivec2 b = max(px - d, ivec2(0));
+        float za = texelFetch(g_depth, a, 0).r;
+        float zb = texelFetch(g_depth, b, 0).r;
+        bool ok_a = a != px && is_finite(za) && za > 0.0;
+        bool ok_b = b != px && is_finite(zb) && zb > 0.0;
+        if (!ok_a && !ok_b) return n;
+        float da = abs(za - z), db = abs(z - zb);
+        // both sides one plane (their steps within a factor 3, or both within 1e-4 z: the
+        // two triangles' rounding of a depth that hardly changes along the axis), else a
+        // depth edge is beside px, and which side is its own surface is a guess: n
+        if (ok_a && ok_b && abs(da - db) > 0.5 * (da + db) + 1e-4 * z) return n;
+        bool take_a = ok_a && (!ok_b || da <= db);
+        vec2 axis_step = 2.0 * vec2(d) / vec2(size);
+        e[axis] = take_a ? view_step(a, za - z, z, axis_step, vec2(size), tan_half_fov)
+                         : view_step(b, z - zb, z, axis_step, vec2(size), tan_half_fov);
+    }
+    vec3 g = cross(camera_to_world * e[0], camera_to_world * e[1]);
+    float len = length(g);
+    if (!(len > 0.0 && is_finite(len))) return n;
+    g /= len;
+    return dot(g, v) < 0.0 ? -g : g;
+}
+#endif
 
 #if GBUFFER_EMISSION
 // RT5 at window position frag_coord: emitted radiance (rgb) and the occlusion factor of

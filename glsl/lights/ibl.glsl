@@ -4,9 +4,10 @@
 //   L_o ~ rho_ss E(n) / pi                                     (SH9 irradiance)
 //       + L_pre(R, r) (F0 A(n.v, r) + B(n.v, r))                (Karis 2013's split sum)
 //       + colour (1 - E(n.v)) E(n) / pi                          (Kulla-Conty, MULTISCATTER)
-// The standard model's terms only: other NDFs, Fresnel and diffuse models, sheen, coat and
-// thin film get this same approximation (RTR4 sec. 10.5.2); anisotropy bends the normal the
-// map is read about (anisotropic_bent_normal).
+// The standard model's terms only: other NDFs, Fresnel and diffuse models, sheen and coat
+// get this same approximation (RTR4 sec. 10.5.2); anisotropy bends the normal the map is
+// read about (anisotropic_bent_normal); a thin film's Fresnel replaces F0 A + B by
+// F_film(n.v) (A + B) (ibl_radiance).
 #ifndef PBS_LIGHTS_IBL_GLSL
 #define PBS_LIGHTS_IBL_GLSL
 
@@ -110,7 +111,18 @@ vec3 ibl_radiance(ShadingPoint sp) {
     vec3 F0 = material_F0(s, sp.params);
     vec2 AB = dfg_lookup(NoV, r);
     vec3 pre = u_env_intensity * prefiltered_radiance(R, r);
-    vec3 spec = pre * (F0 * AB.x + AB.y);
+    vec3 scale = F0 * AB.x + AB.y;   // the base's Schlick F over the lobe
+#if UBER_MODELS || THIN_FILM
+    // A thin film (RTR4 sec. 9.11; glTF KHR_materials_iridescence): its Fresnel is not
+    // Schlick's, so no scale and bias carry it; it is taken at n.v, the lobe's own
+    // direction (for the mirror direction l.h = n.v), times the lobe's albedo A + B, and
+    // mixed over the base's as F_film_selected mixes the two (strength, fade-in).
+    if (THIN_FILM != 0) {
+        float albedo = max(AB.x + AB.y, 1e-6);
+        scale = F_film_selected(sp, NoV, scale / albedo) * albedo;
+    }
+#endif
+    vec3 spec = pre * scale;
 #if MULTISCATTER
     vec3 F_avg = F0 + (1.0 - F0) / 21.0;
     float E_avg = ms_E_avg(r);

@@ -30,11 +30,12 @@ uniform int u_first_local;         // lights [0, u_first_local) are directional
 #endif
 
 // sum_i f(l_i, v) V_i c_light_i (n.l_i)+ over the frame's lights, in ascending light
-// order; with TILED_LIGHTS the local lights of screen tile `tile` only.
-vec3 sum_lights(ivec2 tile, ShadingPoint sp) {
+// order; with TILED_LIGHTS the local lights of screen tile `tile` only. ng: the unit
+// geometric normal (no normal map), the direction of the shadow lookup's offset.
+vec3 sum_lights(ivec2 tile, ShadingPoint sp, vec3 ng) {
     vec3 Lo = vec3(0.0);
 #if SHADOWS
-    shadow_prepare(sp.position, sp.n);   // every shadowed light's visibility, once
+    shadow_prepare(sp.position, ng);   // every shadowed light's visibility, once
 #endif
 #if TILED_LIGHTS
     // Directional lights reach everything; local lights only where their tile's mask
@@ -61,9 +62,10 @@ vec3 sum_lights(ivec2 tile, ShadingPoint sp) {
 // L_o(v) of the point sp: the lights' sum, then the environment's light, then the
 // emission (emission.rgb; emission.a is the occlusion map's ao), each compiled in only
 // where the frame has it, so that a scene without one compiles as before it existed.
-vec3 surface_radiance(ivec2 tile, vec4 emission, ShadingPoint sp) {
+// ng: the geometric normal, for the shadow lookup (sum_lights).
+vec3 surface_radiance(ivec2 tile, vec4 emission, ShadingPoint sp, vec3 ng) {
     float ao = emission.a;
-    vec3 L = PI * sum_lights(tile, sp);
+    vec3 L = PI * sum_lights(tile, sp, ng);
 #if ENVIRONMENT_IBL
     // The split sum (lights/ibl.glsl), once per point; the occlusion map darkens it.
     L += AMBIENT_OCCLUSION * ibl_radiance(sp);

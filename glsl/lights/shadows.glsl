@@ -166,7 +166,9 @@ float pcss_visibility(int k, vec3 q, vec3 n, vec2 pos, float z) {
 // (its clip w is exactly 1: no scale, no division), constants where the caller has them.
 // Normal offset: p moves along n by a fixed number of shadow texels, so a surface tilted
 // away from the light does not shadow itself between texel centres (acne); the shadow
-// pass adds the slope-scaled depth offset (glPolygonOffset), docs/shadows.md.
+// pass adds the slope-scaled depth offset (glPolygonOffset), docs/shadows.md. n is the
+// geometric normal (the lighting pass's face_normal, gbuffer/decode.glsl), not the
+// normal-mapped one, which tilts off the surface the map holds.
 float shadow_map_visibility(int k, mat4 m, vec4 rect, vec2 off, int filt, bool ortho,
                             vec3 p, vec3 n) {
     // the distance scale of a perspective map: clip w of p alone, its matrix's last row

@@ -25,6 +25,9 @@
 #define MAP_CLEARCOAT 2048      // R: multiplies the row's clear-coat strength (layer 0 only; RT6)
 #define MAP_SPECULAR_COLOR 4096 // sRGB: multiplies the row's specular colour (layer 0 only; RT6)
 #define MAP_SHEEN_ROUGHNESS 8192 // R: multiplies the row's sheen roughness (layer 0 only; RT6)
+#define MAP_CLEARCOAT_ROUGHNESS 16384 // R: multiplies the row's coat roughness (layer 0 only; RT8)
+#define MAP_FILM_FACTOR 32768   // R: multiplies the row's film strength (layer 0 only; RT8)
+#define MAP_FILM_THICKNESS 65536 // R: the film's thickness between the row's min and max (RT8)
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -72,6 +75,9 @@
 #define MAP_INDEX_CLEARCOAT 11
 #define MAP_INDEX_SPECULAR_COLOR 12
 #define MAP_INDEX_SHEEN_ROUGHNESS 13
+#define MAP_INDEX_CLEARCOAT_ROUGHNESS 14
+#define MAP_INDEX_FILM_FACTOR 15
+#define MAP_INDEX_FILM_THICKNESS 16
 
 struct LayerConstants {
     vec3 base_color;
@@ -120,7 +126,7 @@ uniform float u_alpha0;              // glTF baseColorFactor's A
 uniform float u_alpha_cutoff0;
 #endif
 #if UV_TRANSFORM_MAPS0 != 0
-uniform mat3 u_uv_transform0[14];     // uv' = M uv per map index, before uv_scale
+uniform mat3 u_uv_transform0[17];     // uv' = M uv per map index, before uv_scale
 #endif
 // glTF COLOR_0 and TEXCOORD_1 of the fragment, set by the pass's main() from its inputs
 // (identity and unused where the mesh has none).
@@ -322,6 +328,36 @@ vec4 sample_layer_maps(vec2 uv) {
 #if (LAYER0_MAPS & MAP_SHEEN_ROUGHNESS) != 0
     f.a = sample_layer_map(u_sheen_roughness_map0, uv, u_layer0.uv_scale, 0,
                            MAP_INDEX_SHEEN_ROUGHNESS).r;
+#endif
+    return f;
+}
+#endif
+
+#if GBUFFER_COAT_FILM_MAPS
+uniform sampler2D u_clearcoat_roughness_map0;
+uniform sampler2D u_film_factor_map0;
+uniform sampler2D u_film_thickness_map0;
+
+// RT8: the factors layer 0's clear-coat roughness and iridescence maps put on its material
+// row per pixel (1 where it has no such map): glTF KHR_materials_clearcoat's
+// clearcoatRoughnessTexture (its G, stored in R) on the coat's roughness,
+// KHR_materials_iridescence's iridescenceTexture (R) on the film's strength and its
+// iridescenceThicknessTexture (its G, stored in R) as the fraction of the way from the
+// row's film_thickness_min to film_thickness. The lighting pass applies them
+// (gbuffer/decode.glsl, brdf/material.glsl scale_by_coat_film_maps).
+vec4 sample_coat_film_maps(vec2 uv) {
+    vec4 f = vec4(1.0);
+#if (LAYER0_MAPS & MAP_CLEARCOAT_ROUGHNESS) != 0
+    f.r = sample_layer_map(u_clearcoat_roughness_map0, uv, u_layer0.uv_scale, 0,
+                           MAP_INDEX_CLEARCOAT_ROUGHNESS).r;
+#endif
+#if (LAYER0_MAPS & MAP_FILM_FACTOR) != 0
+    f.g = sample_layer_map(u_film_factor_map0, uv, u_layer0.uv_scale, 0,
+                           MAP_INDEX_FILM_FACTOR).r;
+#endif
+#if (LAYER0_MAPS & MAP_FILM_THICKNESS) != 0
+    f.b = sample_layer_map(u_film_thickness_map0, uv, u_layer0.uv_scale, 0,
+                           MAP_INDEX_FILM_THICKNESS).r;
 #endif
     return f;
 }

@@ -44,8 +44,12 @@ void main() {
     analytic_uv_ddy = hit.uv_ddy;
     MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
     float view_depth = hit.view_depth;
+    vec3 ng = hit.normal;   // the geometric normal: the shadow lookup's offset
 #if GBUFFER_LAYER_MAPS
     vec4 layer_factors = sample_layer_maps(hit.uv);   // as the G-buffer pass's RT6
+#endif
+#if GBUFFER_COAT_FILM_MAPS
+    vec4 coat_film_factors = sample_coat_film_maps(hit.uv);   // as the G-buffer pass's RT8
 #endif
 #if ALPHA_BLEND
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
@@ -59,8 +63,14 @@ void main() {
 #else
     MaterialSample m = sample_material(v_normal, v_tangent, v_uv, gl_FrontFacing);
     float view_depth = v_view_depth;
+    // the geometric normal (the interpolated vertex normal, reversed on a back face as
+    // sample_material reverses n): the shadow lookup's offset, never the mapped normal
+    vec3 ng = gl_FrontFacing ? v_normal : -v_normal;
 #if GBUFFER_LAYER_MAPS
     vec4 layer_factors = sample_layer_maps(v_uv);   // as the G-buffer pass's RT6
+#endif
+#if GBUFFER_COAT_FILM_MAPS
+    vec4 coat_film_factors = sample_coat_film_maps(v_uv);   // as the G-buffer pass's RT8
 #endif
 #if ALPHA_BLEND
     vec4 emission = sample_emission(v_uv);
@@ -86,6 +96,9 @@ void main() {
 #if GBUFFER_LAYER_MAPS
     params = scale_by_layer_maps(params, layer_factors);
 #endif
+#if GBUFFER_COAT_FILM_MAPS
+    params = scale_by_coat_film_maps(params, coat_film_factors);
+#endif
 
     // The lighting pass's position: the pixel centre's view ray times the interpolated view
     // depth. An interpolated world position is as valid, but across the two 40 m triangles
@@ -102,12 +115,13 @@ void main() {
     vec3 nc = n;
 #endif
     ShadingPoint sp = ShadingPoint(s, params, n, nc, t, v, p);
+    ng = sanitize_direction(normalize(ng), n);
 #if ALPHA_BLEND
     // C_src of "over": the lighting pass's radiance (lights/shading.glsl: the sum with
     // shadows, the environment's light, emission); the blend unit computes
     // alpha C_src + (1 - alpha) C_dst.
-    frag_color = vec4(surface_radiance(ivec2(0), emission, sp), alpha);
+    frag_color = vec4(surface_radiance(ivec2(0), emission, sp, ng), alpha);
 #else
-    frag_color = vec4(surface_radiance(ivec2(0), vec4(0.0, 0.0, 0.0, 1.0), sp), 1.0);
+    frag_color = vec4(surface_radiance(ivec2(0), vec4(0.0, 0.0, 0.0, 1.0), sp, ng), 1.0);
 #endif
 }

@@ -47,7 +47,15 @@ void main() {
 #else
     ivec2 tile = px;
 #endif
-    vec3 L = surface_radiance(tile, emission, sp);
+#if SHADOWS && defined(SHADOW_FACE_NORMAL)
+    // a receiver's normal is mapped: the shadow lookup's offset along the plane the depths
+    // give, not the mapped sp.n (elsewhere sp.n is the geometric normal)
+    vec3 ng = face_normal(px, texelFetch(g_depth, px, 0).r, u_camera_to_world,
+                          u_tan_half_fov, sp.v, sp.n);
+#else
+    vec3 ng = sp.n;
+#endif
+    vec3 L = surface_radiance(tile, emission, sp, ng);
 #if DISPLAY_OUT
     frag_color = vec4(srgb_encode(tonemap_selected(L * u_exposure)), 1.0);
 #ifdef HDR_OUT
