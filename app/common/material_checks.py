@@ -96,6 +96,17 @@ def material_problems(
             "(ndf = 'ggx', g2 = 'height_correlated', no anisotropy)",
         )
     _clearcoat(params, maps, problem)
+    if model.diffuse == "cloth_empirical" and extra.cloth_wrap > 0.0:
+        # the light wrapped past the terminator (RTR4 §9.10) is the lobes' alone, unweighted
+        layers = (["a clear coat"] if extra.clearcoat != 0.0 else []) + (
+            ["a sheen layer"] if model.sheen != "none" else []
+        )
+        if layers:
+            problem(
+                "cloth_wrap",
+                f"the light wrapped past the terminator does not pass through {layers[0]}: "
+                "use cloth_sheen for the empirical sheen, or no wrap",
+            )
     if "emissive" in maps and not any(emissive):
         problem("emissive_map", "multiplies 'emissive', which must be non-zero")
     if max(emissive, default=0.0) * emissive_strength > MAX_RADIANCE:

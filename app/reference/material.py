@@ -11,6 +11,7 @@ import numpy as np
 from app.common.models import (
     BRDF_TERMS,
     DEFAULT_MODEL,
+    TERM_DIFFUSE,
     TERM_SPECULAR,
     Model,
     ModelParams,
@@ -242,8 +243,8 @@ def f_diffuse_selected(
             return np.zeros_like(rho)
         case "cloth_empirical":  # RTR4 §9.10 (app/reference/cloth.py)
             return cloth.f_cloth_empirical(
-                rho, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap,
-                p.cloth_sheen, NoL, NoV, LoH,
+                model.cloth_wrap_form == "rtr4", rho, p.cloth_rim_inner, p.cloth_diffuse,
+                p.cloth_scatter, p.cloth_wrap, p.cloth_sheen, NoL, NoV, LoH,
             )  # fmt: skip
     return diffuse.Fd_lambert(rho)
 
@@ -542,6 +543,25 @@ def brdf_eval(
     b = brdf_factors(point, model, l, ms_table)
     f = selected_terms(b.f_diffuse, surface_reflection(b), terms)
     return np.where(b.lit[..., None], f, 0.0)
+
+
+def cloth_wrapped_term(
+    point: ShadingPoint, model: Model, NoL: np.ndarray, terms: str = "all"
+) -> np.ndarray:
+    """Wrap lighting past the terminator (RTR4 §9.10; twin of the GLSL's
+    ``cloth_wrapped_term``): f (n.l) of a light at n.l <= CLOTH_WRAP_MIN_N_DOT_L on an
+    empirical cloth with wrap w > 0, the wrapped lobes alone, (..., 3); zero where ``terms``
+    leaves the diffuse out."""
+    p = point.params
+    rho = material_rho_ss(point.s)
+    if not BRDF_TERMS[terms] & TERM_DIFFUSE:
+        return np.zeros(np.broadcast_shapes(np.shape(rho), (*np.shape(NoL), 3)))
+    NoV = np.clip(dot(np.asarray(point.n, np.float64), np.asarray(point.v, np.float64)),
+                  MIN_N_DOT_V, 1.0)  # fmt: skip
+    return cloth.f_cloth_empirical_past_terminator(
+        model.cloth_wrap_form == "rtr4", rho, p.cloth_rim_inner, p.cloth_diffuse,
+        p.cloth_scatter, p.cloth_wrap, NoL, NoV,
+    )  # fmt: skip
 
 
 def brdf_eval_layered_cos(

@@ -219,8 +219,9 @@ vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float N
     }
     if (DIFFUSE_MODEL == DIFFUSE_NONE) return vec3(0.0);
     if (DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL) {  // RTR4 sec. 9.10 (brdf/cloth.glsl)
-        return f_cloth_empirical(rho_ss, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter,
-                                 p.cloth_wrap, p.cloth_sheen, NoL, NoV, LoH);
+        return f_cloth_empirical(CLOTH_WRAP_FORM == CLOTH_WRAP_RTR4, rho_ss, p.cloth_rim_inner,
+                                 p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap, p.cloth_sheen,
+                                 NoL, NoV, LoH);
     }
     return Fd_lambert(rho_ss);
 }
@@ -530,6 +531,23 @@ vec3 brdf_eval(ShadingPoint sp, vec3 l) {
     BrdfFactors b = brdf_factors(sp, l);
     return selected_terms(b.f_diffuse, surface_reflection(b));
 }
+
+#if UBER_MODELS || DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL
+// Wrap lighting past the terminator (RTR4 sec. 9.10): f (n.l) of a light at n.l <=
+// CLOTH_WRAP_MIN_N_DOT_L on an empirical cloth with wrap w > 0 (the illumination sum asks
+// only there), the wrapped lobes alone (brdf/cloth.glsl). A diffuse reflection: zero where
+// BRDF_TERMS leaves the diffuse out. The scene format refuses a wrap under a clear coat or a
+// sheen layer (app/common/material_checks.py), whose weights this does not apply.
+vec3 cloth_wrapped_term(ShadingPoint sp, float NoL) {
+    if ((BRDF_TERMS & TERM_DIFFUSE) == 0) return vec3(0.0);
+    ModelParams p = sp.params;
+    float NoV = clamp(dot(sp.n, sp.v), MIN_N_DOT_V, 1.0);
+    return f_cloth_empirical_past_terminator(CLOTH_WRAP_FORM == CLOTH_WRAP_RTR4,
+                                             material_rho_ss(sp.s), p.cloth_rim_inner,
+                                             p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap,
+                                             NoL, NoV);
+}
+#endif
 
 #if CLEARCOAT_ON
 // f(l, v) times the cosine, for a coat whose normal nc is not the base's n: each layer's
