@@ -211,6 +211,21 @@ def F_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.ndarray
     return F
 
 
+def F_avg_selected(point: ShadingPoint, model: Model) -> np.ndarray:
+    """F_avg = 2 int F mu dmu of the material's Fresnel for the multiple-scattering lobe
+    (twin of the GLSL's): with the exact conductor model the averages of the exact Fresnel
+    of its dielectric part (eta_dielectric) and metal part (eta + i k) mixed by metallic,
+    otherwise Schlick's F0 + (1 - F0)/21, (..., 3)."""
+    from app.reference import multiscatter
+
+    s, p = point.s, point.params
+    if model.fresnel == "conductor":
+        d = multiscatter.F_avg_dielectric(p.eta_dielectric)
+        d = np.broadcast_to(d[..., None], (*d.shape, 3))
+        return _mix(d, multiscatter.F_avg_conductor(p.eta, p.k), s.metallic)
+    return multiscatter.F_avg_schlick(material_F0(s, p))
+
+
 def f_diffuse_selected(
     point: ShadingPoint,
     model: Model,
@@ -393,8 +408,8 @@ def base_brdf_factors(
 
         if ms_table is None:
             ms_table = multiscatter.load_table()
-        f_spec = f_spec + multiscatter.f_ms_kulla_conty(
-            ms_table, material_F0(s, p), s.perceptual_roughness, NoL, NoV
+        f_spec = f_spec + multiscatter.f_ms_kulla_conty_F_avg(
+            ms_table, F_avg_selected(point, model), s.perceptual_roughness, NoL, NoV
         )
     f_diffuse = f_diffuse_selected(point, model, alpha, l, NoL, NoV, NoH, LoH)
     if model.fiber != "none":

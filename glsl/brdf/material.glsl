@@ -163,6 +163,24 @@ vec3 F_base_selected(ShadingPoint sp, float LoH) {
     return F_schlick(material_F0(s, p), LoH);
 }
 
+#if UBER_MODELS || MULTISCATTER
+// The hemispherical average F_avg = 2 int F mu dmu of the material's Fresnel, for the
+// multiple-scattering lobe (brdf/multiscatter.glsl): with the exact conductor model, the
+// averages of the exact Fresnel of its dielectric and metal parts (from eta_dielectric and
+// from eta + i k) mixed by metallic, as F_base_selected mixes F; otherwise Schlick's
+// F0 + (1 - F0)/21 of the material's F0.
+vec3 F_avg_selected(ShadingPoint sp) {
+    Surface s = sp.s;
+    ModelParams p = sp.params;
+    if (FRESNEL_MODEL == FRESNEL_CONDUCTOR) {
+        return mix(vec3(F_avg_dielectric(p.eta_dielectric)), F_avg_conductor(p.eta, p.k),
+                   s.metallic);
+    }
+    vec3 F0 = material_F0(s, p);
+    return F0 + (1.0 - F0) / 21.0;
+}
+#endif
+
 // --- thin film (RTR4 sec. 9.11) ---
 // The film over the material's base (brdf/thin_film.glsl): over the dielectric part the
 // base index is eta_dielectric; over the metal part it is the conductor's eta + i k with
@@ -386,7 +404,7 @@ BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
 #if UBER_MODELS || MULTISCATTER
     // brdf/multiscatter.glsl declares the table and its functions only under this condition.
     if (MULTISCATTER != 0) {
-        f_spec += f_ms_kulla_conty(material_F0(s, p), s.perceptual_roughness, NoL, NoV);
+        f_spec += f_ms_kulla_conty_F_avg(F_avg_selected(sp), s.perceptual_roughness, NoL, NoV);
     }
 #endif
     vec3 f_diffuse = f_diffuse_selected(sp, alpha, l, NoL, NoV, NoH, LoH);
