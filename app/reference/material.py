@@ -213,17 +213,27 @@ def F_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.ndarray
 
 def F_avg_selected(point: ShadingPoint, model: Model) -> np.ndarray:
     """F_avg = 2 int F mu dmu of the material's Fresnel for the multiple-scattering lobe
-    (twin of the GLSL's): with the exact conductor model the averages of the exact Fresnel
-    of its dielectric part (eta_dielectric) and metal part (eta + i k) mixed by metallic,
-    otherwise Schlick's F0 + (1 - F0)/21, (..., 3)."""
+    (twin of the GLSL's), (..., 3): the exact models average the exact Fresnel of their
+    dielectric part (eta_dielectric) and of their metal part (the conductor's eta + i k, or
+    Schlick's of the base colour), mixed by metallic; the generalised Schlick
+    F0 + (F90 - F0) 2 / ((e + 1)(e + 2)); Schlick's F0 + (1 - F0)/21 otherwise."""
     from app.reference import multiscatter
 
     s, p = point.s, point.params
-    if model.fresnel == "conductor":
+    if model.fresnel in ("conductor", "dielectric"):
         d = multiscatter.F_avg_dielectric(p.eta_dielectric)
         d = np.broadcast_to(d[..., None], (*d.shape, 3))
-        return _mix(d, multiscatter.F_avg_conductor(p.eta, p.k), s.metallic)
-    return multiscatter.F_avg_schlick(material_F0(s, p))
+        metal = (
+            multiscatter.F_avg_conductor(p.eta, p.k)
+            if model.fresnel == "conductor"
+            else multiscatter.F_avg_schlick(s.base_color)
+        )
+        return _mix(d, metal, s.metallic)
+    F0 = material_F0(s, p)
+    if model.fresnel == "schlick_generalized":
+        e = np.asarray(p.fresnel_exponent, np.float64)[..., None]
+        return F0 + (np.asarray(p.f90, np.float64) - F0) * (2.0 / ((e + 1.0) * (e + 2.0)))
+    return multiscatter.F_avg_schlick(F0)
 
 
 def f_diffuse_selected(

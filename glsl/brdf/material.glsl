@@ -164,11 +164,12 @@ vec3 F_base_selected(ShadingPoint sp, float LoH) {
 }
 
 #if UBER_MODELS || MULTISCATTER
-// The hemispherical average F_avg = 2 int F mu dmu of the material's Fresnel, for the
-// multiple-scattering lobe (brdf/multiscatter.glsl): with the exact conductor model, the
-// averages of the exact Fresnel of its dielectric and metal parts (from eta_dielectric and
-// from eta + i k) mixed by metallic, as F_base_selected mixes F; otherwise Schlick's
-// F0 + (1 - F0)/21 of the material's F0.
+// The hemispherical average F_avg = 2 int F mu dmu of the material's Fresnel (as
+// F_base_selected computes F), for the multiple-scattering lobe (brdf/multiscatter.glsl):
+// the exact models average the exact Fresnel of their dielectric part (eta_dielectric) and
+// of their metal part (the conductor's eta + i k, or Schlick's of the base colour), mixed
+// by metallic; the generalised Schlick F0 + (F90 - F0) 2 / ((e + 1)(e + 2)), e its exponent
+// (2 int_0^1 (1 - mu)^e mu dmu = 2 B(2, e + 1)); Schlick's F0 + (1 - F0)/21 (e = 5) otherwise.
 vec3 F_avg_selected(ShadingPoint sp) {
     Surface s = sp.s;
     ModelParams p = sp.params;
@@ -176,7 +177,15 @@ vec3 F_avg_selected(ShadingPoint sp) {
         return mix(vec3(F_avg_dielectric(p.eta_dielectric)), F_avg_conductor(p.eta, p.k),
                    s.metallic);
     }
+    if (FRESNEL_MODEL == FRESNEL_DIELECTRIC) {
+        return mix(vec3(F_avg_dielectric(p.eta_dielectric)),
+                   s.base_color + (1.0 - s.base_color) / 21.0, s.metallic);
+    }
     vec3 F0 = material_F0(s, p);
+    if (FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED) {
+        float e = p.fresnel_exponent;
+        return F0 + (p.f90 - F0) * (2.0 / ((e + 1.0) * (e + 2.0)));
+    }
     return F0 + (1.0 - F0) / 21.0;
 }
 #endif
