@@ -8,15 +8,19 @@ numbers printed by ``python -m tests.test_cloth`` are those of docs/cloth.md, "E
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
 from app.brdf import evaluate
 from app.errors import InputError
 from app.reference import cloth
+from app.reference.cloth import CLOTH_WRAP_MIN_N_DOT_L
 from app.reference.constants import MIN_N_DOT_V
 from app.reference.quadrature import cosine_rule, gauss_legendre
 from app.scene.model import CLOTH_KEYS
+from tests.conftest import REPO
 from tests.test_brdf_models import direction_pairs
 
 N = np.array([0.0, 0.0, 1.0])
@@ -34,14 +38,15 @@ EVERY_WEIGHT_1 = {"cloth_rim": [1.0, 1.0], "cloth_inner": [1.0, 1.0], "cloth_she
 # above 1, or any sheen over a full diffuse lobe, reflect more than arrives.
 FURNACE: tuple[tuple[str, dict, float], ...] = (
     ("defaults (Lambert)", {}, 1.0),
-    ("wrap 0.5, white scatter", {"cloth_wrap": 0.5}, 0.888869),
-    ("wrap 1, white scatter", {"cloth_wrap": 1.0}, 0.749978),
+    ("wrap 0.5, white scatter", {"cloth_wrap": 0.5}, 0.999982),
+    ("wrap 1, white scatter", {"cloth_wrap": 1.0}, 0.999978),
+    ("wrap 0.5, the book's form", {"cloth_wrap": 0.5, "cloth_wrap_form": "rtr4"}, 1.333304),
     ("wrap 0.5, black scatter", {"cloth_wrap": 0.5, "cloth_scatter": [0.0, 0.0, 0.0]}, 0.518519),
     ("rim [1, 4] + diffuse 0", {"cloth_rim": [1.0, 4.0], "cloth_diffuse": 0.0}, 1.0),
     ("inner [1, 2] + diffuse 0", {"cloth_inner": [1.0, 2.0], "cloth_diffuse": 0.0}, 0.9998),
     ("sheen 1 alone", {"cloth_sheen": 1.0, "cloth_diffuse": 0.0}, 0.088428),
     ("every weight 1, no wrap", EVERY_WEIGHT_1, 2.088428),
-    ("all keys (the test's)", ALL_KEYS, 0.928432),
+    ("all keys (the test's)", ALL_KEYS, 1.001766),
 )
 
 
@@ -51,7 +56,7 @@ def _params(keys: dict):
     return Material(**{"diffuse": "cloth_empirical", **keys}).resolve().params
 
 
-def f_twin(p, rho: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarray:
+def f_twin(p, rho: np.ndarray, l: np.ndarray, v: np.ndarray, rtr4: bool = False) -> np.ndarray:
     """The cloth term of the twin at unit l, v over n = +Z (the caller's clamps applied)."""
     NoL = np.clip(l @ N, 1e-20, 1.0)
     NoV = np.clip(v @ N, MIN_N_DOT_V, 1.0)
@@ -59,19 +64,28 @@ def f_twin(p, rho: np.ndarray, l: np.ndarray, v: np.ndarray) -> np.ndarray:
     h = h / np.linalg.norm(h, axis=-1, keepdims=True)
     LoH = np.clip(np.sum(l * h, axis=-1), 0.0, 1.0)
     return cloth.f_cloth_empirical(
-        rho, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap, p.cloth_sheen,
-        NoL, NoV, LoH,
+        rtr4, rho, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap,
+        p.cloth_sheen, NoL, NoV, LoH,
     )  # fmt: skip
 
 
 def furnace_albedo(keys: dict, mu_v: float) -> float:
-    """int f(l, v) (n.l) dl with rho_ss = 1 (the largest channel), Gauss-Legendre 256 in n.l
-    x 256 in azimuth."""
+    """int f(l, v) (n.l) dl with rho_ss = 1 (the largest channel) as the illumination sum
+    takes it: f (n.l) above n.l = 1e-4, the wrapped lobes' f (n.l) at and below (past the
+    terminator, RTR4 §9.10); Gauss-Legendre 256 in |n.l| x 256 in azimuth per hemisphere."""
     p = _params(keys)
+    rtr4 = keys.get("cloth_wrap_form") == "rtr4"
     d, w = cosine_rule(256, 256)
     v = np.array([np.sqrt(1.0 - mu_v * mu_v), 0.0, mu_v])
-    f = f_twin(p, np.ones(3), d, np.broadcast_to(v, d.shape))
-    return float(np.max(np.sum(f * (d[:, 2] * w)[:, None], axis=0)))
+    f = f_twin(p, np.ones(3), d, np.broadcast_to(v, d.shape), rtr4)
+    upper = np.sum(f * (d[:, 2] * w)[:, None], axis=0)
+    lower = np.sum(
+        cloth.f_cloth_empirical_past_terminator(
+            rtr4, np.ones(3), p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter,
+            p.cloth_wrap, -d[:, 2], np.full(len(d), max(mu_v, MIN_N_DOT_V)),
+        ) * w[:, None], axis=0,
+    )  # fmt: skip
+    return float(np.max(upper + lower))
 
 
 MU_V = (MIN_N_DOT_V, 0.01, 0.05, 0.1, 0.2, 0.5, 0.8, 1.0)
@@ -119,39 +133,111 @@ def test_reciprocity_what_holds() -> None:
         return cloth.Fd_cloth_empirical(rho, p.cloth_rim_inner, p.cloth_diffuse, x @ N)
 
     def W(x: np.ndarray) -> np.ndarray:
-        return cloth.wrap_cloth_empirical(p.cloth_scatter, p.cloth_wrap, x @ N)
+        return cloth.wrap_cloth_empirical(False, p.cloth_scatter, p.cloth_wrap, x @ N)
 
     np.testing.assert_allclose(asym, g(v) * W(l) - g(l) * W(v), rtol=1e-9, atol=1e-12)
 
 
-# --- the wrap form conserves energy ---
+# --- the wrap forms: energy, and light past the terminator ---
 
 
 @pytest.mark.parametrize("w", WRAPS)
 def test_wrap_integrates_to_lambert_over_the_sphere(w: float) -> None:
-    """int (n.l + w)+ / (1 + w)^2 dl over the whole sphere is pi = int (n.l)+ dl (exact:
-    2 pi / (1 + w)^2 int_{-w}^{1} (mu + w) dmu); the renderer's hemisphere keeps
-    pi (1 + 2w)/(1 + w)^2 of it, through the twin's W (n.l)."""
-    mu, wt = gauss_legendre(-w, 1.0, 8) if w > 0 else gauss_legendre(0.0, 1.0, 8)
-    sphere = 2.0 * np.pi * np.sum(wt * (mu + w)) / (1.0 + w) ** 2
-    assert abs(sphere - np.pi) <= 1e-13
-    # The twin's factor times n.l over the upper hemisphere (c_scatter white).
-    mu, wt = gauss_legendre(0.0, 1.0, 64)
-    Wl = cloth.wrap_cloth_empirical(np.ones(3), w, mu)[:, 0]
-    upper = 2.0 * np.pi * np.sum(wt * Wl * mu)
-    # Below n.l = 1e-4 the floored division gives (mu + w) mu/1e-4: almost none of it.
-    assert abs(upper - np.pi * (1.0 + 2.0 * w) / (1.0 + w) ** 2) <= 2e-4 * np.pi
+    """Filament's wrapped cosine (n.l + w)+ / (1 + w)^2 integrates to pi = int (n.l)+ dl
+    over the whole sphere (exact: 2 pi / (1 + w)^2 int_{-w}^{1} (mu + w) dmu), the book's
+    clamp(n.l + w, 0, 1) / (1 + w) to pi (1 + 2w)/(1 + w); and the illumination sum's two
+    sides (the lit side's W (n.l), the wrapped lobes past the terminator) add up to it."""
+    lo = -w if w > 0 else 0.0
+    for rtr4, expected in ((False, np.pi), (True, np.pi * (1.0 + 2.0 * w) / (1.0 + w))):
+        # the book's form has a kink at n.l = 1 - w: split the rule there
+        knots = sorted({lo, max(lo, 1.0 - w), 1.0})
+        sphere = sum(
+            2.0 * np.pi * np.sum(wt * cloth.wrapped_cosine_cloth_empirical(rtr4, w, mu))
+            for a, b in itertools.pairwise(knots) if b > a
+            for mu, wt in [gauss_legendre(a, b, 8)]
+        )  # fmt: skip
+        assert abs(sphere - expected) <= 1e-13, (rtr4, sphere)
+        mu, wt = gauss_legendre(CLOTH_WRAP_MIN_N_DOT_L, 1.0, 256)
+        upper = (
+            2.0
+            * np.pi
+            * np.sum(wt * cloth.wrap_cloth_empirical(rtr4, np.ones(3), w, mu)[:, 0] * mu)
+        )
+        mu, wt = gauss_legendre(-1.0, CLOTH_WRAP_MIN_N_DOT_L, 256)
+        past = cloth.f_cloth_empirical_past_terminator(
+            rtr4, np.full(3, np.pi), np.zeros(4), 1.0, np.ones(3), w, mu, np.ones_like(mu)
+        )[:, 0]  # rho_ss = pi: the lobes are 1
+        assert abs(upper + 2.0 * np.pi * np.sum(wt * past) - expected) <= 2e-3 * np.pi, rtr4
 
 
-def test_wrap_behind_the_surface_is_not_added(gl_egl) -> None:
-    """The illumination sum adds nothing for n.l <= 0: the BRDF is 0 there on both backends
-    (so a white furnace loses w^2/(1 + w)^2 of the wrapped light)."""
+def test_the_probe_brdf_is_zero_behind_the_surface(gl_egl) -> None:
+    """The BRDF probe's f (brdf_eval) is 0 for n.l <= 0 on both backends: the wrapped light
+    past the terminator is the illumination sum's (test_wrap_lights_past_the_terminator)."""
     l = np.array([[0.6, 0.0, -0.2], [0.8, 0.0, 0.0]])
     l = l / np.linalg.norm(l, axis=-1, keepdims=True)
     v = np.array([[0.0, 0.0, 1.0]] * 2)
     for backend in ("reference", "glsl"):
         f = evaluate(ALL_KEYS, l, v, backend=backend, gl=gl_egl if backend == "glsl" else None)
         assert np.all(f == 0.0)
+
+
+def _wrapped_sphere(gl_egl, form: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A white-scatter cloth sphere with wrap 0.5 lit from +x, seen from +z (48 x 48, f32
+    G-buffer, no antialiasing): the GPU's HDR, the twin's, and n.l per covered pixel."""
+    from app.reference.illumination import decode_gbuffer, shade_gbuffer
+    from app.render.renderer import Renderer
+    from app.scene.loader import parse_scene
+
+    data = {
+        "camera": {"position": [0, 0, 4], "target": [0, 0, 0], "fov_y": 35.0},
+        "render": {"gbuffer": "f32", "antialiasing": "none"},
+        "materials": {"cotton": {
+            "base_color": [0.8, 0.8, 0.8], "diffuse": "cloth_empirical", "f0": 0.0,
+            "cloth_wrap": 0.5, "cloth_wrap_form": form,
+        }},
+        "objects": [{"shape": "sphere", "radius": 1.0, "material": "cotton"}],
+        "lights": [{"type": "directional", "direction": [-1, 0, 0], "intensity": 2.0}],
+    }  # fmt: skip
+    loaded = parse_scene(data, REPO / "inline.toml")
+    r = Renderer(gl_egl, loaded, (48, 48))
+    try:
+        r.render()
+        hdr = r.read_hdr().astype(np.float64)
+        g = r.read_gbuffer()
+        ref = shade_gbuffer(
+            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
+            r.materials.packed(),
+        )  # fmt: skip
+        dec = decode_gbuffer(g, r.camera)
+    finally:
+        r.release()
+    NoL = np.full(g.depth.shape, np.nan)
+    NoL[dec.covered] = dec.n[:, 0]  # l = +x
+    return hdr, ref, NoL
+
+
+@pytest.mark.parametrize("form", ["filament", "rtr4"])
+def test_wrap_lights_past_the_terminator(gl_egl, form: str) -> None:
+    """RTR4 §9.10: wrap lighting lights the surface past the terminator, down to n.l = -w,
+    so the terminator is a gradient, not a step: every pixel with -0.4 < n.l < -0.02 is lit,
+    the radiance falls smoothly through n.l = 0, and the GPU agrees with the twin."""
+    hdr, ref, NoL = _wrapped_sphere(gl_egl, form)
+    sel = np.isfinite(NoL)
+    np.testing.assert_allclose(hdr[sel], ref[sel], rtol=1e-4, atol=1e-6)
+    past = sel & (NoL < -0.02) & (NoL > -0.4)
+    assert past.sum() > 20 and np.all(hdr[past][:, 0] > 0.0), "nothing lit past the terminator"
+    assert np.all(hdr[sel & (NoL < -0.52)] == 0.0), "lit beyond n.l = -w"
+    # no step at the terminator: the row through the centre falls in small steps
+    row = hdr[24, :, 0][np.isfinite(NoL[24])]
+    assert np.abs(np.diff(row)).max() < 0.2 * row.max()
+
+
+def test_wrap_refused_under_a_coat_or_a_sheen_layer() -> None:
+    """The wrapped lobes past the terminator carry no coat or sheen-layer weights: refused."""
+    for extra in ({"clearcoat": 0.5}, {"sheen_color": [0.5, 0.5, 0.5]}):
+        with pytest.raises(InputError, match="cloth_wrap: the light wrapped past the terminator"):
+            evaluate({"diffuse": "cloth_empirical", "cloth_wrap": 0.5, **extra},
+                     [[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]], backend="reference")  # fmt: skip
 
 
 # --- white furnace ---
@@ -170,7 +256,7 @@ def test_white_furnace_albedo(name: str, keys: dict, pinned: float) -> None:
 @pytest.mark.parametrize("key", CLOTH_KEYS)
 def test_cloth_keys_need_the_model(key: str) -> None:
     value = {"cloth_rim": [0.5, 2.0], "cloth_inner": [0.5, 2.0], "cloth_scatter": [0.5] * 3,
-             "cloth_sheen_color": [0.5] * 3}.get(key, 0.5)  # fmt: skip
+             "cloth_sheen_color": [0.5] * 3, "cloth_wrap_form": "rtr4"}.get(key, 0.5)  # fmt: skip
     with pytest.raises(InputError, match=f"{key}: applies only with diffuse = 'cloth_empirical'"):
         evaluate({key: value}, [[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]], backend="reference")
     evaluate({key: value, "diffuse": "cloth_empirical"}, [[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]],

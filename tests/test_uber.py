@@ -24,6 +24,7 @@ import pytest
 
 from app.common.models import (
     CLEARCOAT_MODELS,
+    CLOTH_WRAP_FORMS,
     CORRELATIONS,
     DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
@@ -88,6 +89,7 @@ CHOICES = {
     "clearcoat": CLEARCOAT_MODELS,  # clear coat (RTR4 §9.12)
     "diffraction": DIFFRACTION_MODELS,  # diffraction grating (RTR4 §9.11)
     "fiber": FIBER_MODELS,  # micro-cylinder fibres (RTR4 §9.10)
+    "cloth_wrap_form": CLOTH_WRAP_FORMS,  # the empirical cloth's wrapped cosine (RTR4 §9.10)
 }
 
 

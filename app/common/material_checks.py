@@ -87,6 +87,15 @@ def material_problems(
         problem("anisotropy", "only the 'ggx' and 'beckmann' NDFs are anisotropic")
     if model.multiscatter and (model.ndf != "ggx" or anisotropic):
         problem("multiscatter", "the compensation tables are for the isotropic GGX (ndf = 'ggx')")
+    elif model.multiscatter and model.g2 not in ("height_correlated", "hammon"):
+        # the tables hold E of the height-correlated G2: with another G2 the white furnace
+        # reads 0.80 (separable), 0.83 (direction-correlated), 1.01 (height-direction) at
+        # n.v = 0.1, roughness 1 (docs/diffuse-and-multiscatter.md)
+        problem(
+            "multiscatter",
+            "the compensation tables are for the height-correlated G2 (g2 = "
+            f"'height_correlated', or 'hammon' that approximates it), not g2 = '{model.g2}'",
+        )
     if model.diffraction != "none" and (
         model.ndf != "ggx" or model.g2 != "height_correlated" or anisotropic
     ):
@@ -96,6 +105,17 @@ def material_problems(
             "(ndf = 'ggx', g2 = 'height_correlated', no anisotropy)",
         )
     _clearcoat(params, maps, problem)
+    if model.diffuse == "cloth_empirical" and extra.cloth_wrap > 0.0:
+        # the light wrapped past the terminator (RTR4 §9.10) is the lobes' alone, unweighted
+        layers = (["a clear coat"] if extra.clearcoat != 0.0 else []) + (
+            ["a sheen layer"] if model.sheen != "none" else []
+        )
+        if layers:
+            problem(
+                "cloth_wrap",
+                f"the light wrapped past the terminator does not pass through {layers[0]}: "
+                "use cloth_sheen for the empirical sheen, or no wrap",
+            )
     if "emissive" in maps and not any(emissive):
         problem("emissive_map", "multiplies 'emissive', which must be non-zero")
     if max(emissive, default=0.0) * emissive_strength > MAX_RADIANCE:

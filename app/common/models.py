@@ -52,6 +52,11 @@ DIFFUSE_MODELS = (
     "burley_renormalized",
     "cloth_empirical",  # RTR4 §9.10: the empirical cloth terms (app/reference/cloth.py)
 )
+# --- wrap lighting of the empirical cloth (RTR4 §9.10): the cosine that replaces (n.l)+.
+# "filament": Filament's Fd_Wrap, (n.l + w)+ / (1 + w)^2, which conserves energy over the
+# sphere; "rtr4": the book's (and the curriculum's) clamp(n.l + w, 0, 1) / (1 + w), which
+# reflects (1 + 2w)/(1 + w) of Lambert's in a white furnace (app/reference/cloth.py).
+CLOTH_WRAP_FORMS = ("filament", "rtr4")
 # --- sheen (RTR4 §9.10): the cloth layer's NDF; "none" (code 0) compiles the layer out ---
 # "charlie" and "ashikhmin" take Neubelt's visibility; "charlie_smith" is Charlie's NDF with
 # Estevez & Kulla 2017's fitted Smith Lambda (appended: the older codes keep their values;
@@ -105,7 +110,8 @@ class CodeField:
 # | specular_color << 3; specular code
 # (.b): ndf | lambda_form << 2 | g2 << 3 | correlation << 6 | anisotropic << 7
 # | multiscatter << 8 | sheen << 9 | clearcoat << 11 | thin_film << 13 | diffraction << 14
-# | fiber << 16; diffuse code (.a): diffuse. Small integers, exact in float32.
+# | fiber << 16; diffuse code (.a): diffuse | cloth_wrap_form << 4. Small integers, exact
+# in float32.
 MODEL_CODE_FIELDS: tuple[CodeField, ...] = (
     CodeField("fresnel", "FRESNEL_MODEL", "g", 0, 2, FRESNEL_MODELS, "FRESNEL"),
     CodeField("ndf", "NDF_MODEL", "b", 0, 2, NDF_MODELS, "NDF"),
@@ -123,6 +129,8 @@ MODEL_CODE_FIELDS: tuple[CodeField, ...] = (
     CodeField("diffraction", "DIFFRACTION_MODEL", "b", 14, 2, DIFFRACTION_MODELS,
               "DIFFRACTION"),  # diffraction grating (RTR4 §9.11)
     CodeField("fiber", "FIBER_MODEL", "b", 16, 2, FIBER_MODELS, "FIBER"),  # fibres, §9.10
+    CodeField("cloth_wrap_form", "CLOTH_WRAP_FORM", "a", 4, 1, CLOTH_WRAP_FORMS,
+              "CLOTH_WRAP"),  # the empirical cloth's wrapped cosine (RTR4 §9.10)
 )  # fmt: skip
 _CODE_CHANNELS = ("g", "b", "a")  # (Fresnel, specular, diffuse) of texel 3
 
@@ -184,6 +192,8 @@ class Model:
     clearcoat: str = "none"  # clear coat (RTR4 §9.12): a CLEARCOAT_MODELS name
     diffraction: str = "none"  # diffraction (RTR4 §9.11): a DIFFRACTION_MODELS name
     fiber: str = "none"  # micro-cylinder fibres (RTR4 §9.10): a FIBER_MODELS name
+    # the empirical cloth's wrapped cosine (RTR4 §9.10): a CLOTH_WRAP_FORMS name
+    cloth_wrap_form: str = "filament"
 
     def defines(self) -> dict[str, int]:
         """The preprocessor defines that select this model in glsl/brdf/model.glsl
@@ -211,6 +221,8 @@ class Model:
             parts.append(f"{self.diffraction} diffraction")
         if self.fiber != "none":  # micro-cylinder fibres (RTR4 §9.10)
             parts.append(f"{self.fiber} fibre")
+        if self.cloth_wrap_form != "filament":  # the empirical cloth's wrap (RTR4 §9.10)
+            parts.append(f"{self.cloth_wrap_form} wrap")
         return " + ".join(parts) or "standard"
 
 

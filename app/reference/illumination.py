@@ -16,6 +16,7 @@ from app.common.gbuffer import GBufferData
 from app.common.lights import PunctualLight
 from app.common.models import Model, ModelParams, unpack_model_params
 from app.reference._vec import dot, normalize
+from app.reference.cloth import CLOTH_WRAP_MIN_N_DOT_L
 from app.reference.constants import PI
 from app.reference.encoding import oct_decode
 from app.reference.environment_uniform import uniform_environment_radiance
@@ -24,6 +25,7 @@ from app.reference.material import (
     Surface,
     brdf_eval,
     brdf_eval_layered_cos,
+    cloth_wrapped_term,
     sanitize_direction,
     sanitize_surface,
 )
@@ -40,7 +42,9 @@ def illumination_sum(
     visibility: list[np.ndarray | None] | None = None,
 ) -> np.ndarray:
     """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at the points ``point.position``
-    (..., 3); ``terms`` as in ``brdf_eval``. ``point.nc``: the clear coat's normals where
+    (..., 3); ``terms`` as in ``brdf_eval``. An empirical cloth with wrap w > 0 takes the
+    light past its terminator, down to n.l = -w (RTR4 §9.10, ``cloth_wrapped_term``).
+    ``point.nc``: the clear coat's normals where
     the G-buffer has them (RT4): a coated model's layers then take their own cosines
     (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL.
     ``visibility``: per light, None or (...,) in [0, 1], the fraction of the light that
@@ -58,6 +62,12 @@ def illumination_sum(
             continue
         NoL = dot(n, l)
         lit = NoL > 0.0
+        if model.diffuse == "cloth_empirical" and float(point.params.cloth_wrap) > 0.0:
+            # wrap lighting (RTR4 §9.10): the wrapped lobes' f (n.l) at and below 1e-4
+            past = NoL <= CLOTH_WRAP_MIN_N_DOT_L
+            lit = ~past
+            wrapped = cloth_wrapped_term(point, model, NoL, terms)
+            Lo += np.where(past[..., None], wrapped * c_light, 0.0)
         if not np.any(lit):
             continue
         f = brdf_eval(point, model, l, terms=terms)

@@ -11,6 +11,7 @@ import numpy as np
 from app.common.models import (
     BRDF_TERMS,
     DEFAULT_MODEL,
+    TERM_DIFFUSE,
     TERM_SPECULAR,
     Model,
     ModelParams,
@@ -212,6 +213,31 @@ def F_selected(point: ShadingPoint, model: Model, LoH: np.ndarray) -> np.ndarray
     return F
 
 
+def F_avg_selected(point: ShadingPoint, model: Model) -> np.ndarray:
+    """F_avg = 2 int F mu dmu of the material's Fresnel for the multiple-scattering lobe
+    (twin of the GLSL's), (..., 3): the exact models average the exact Fresnel of their
+    dielectric part (eta_dielectric) and of their metal part (the conductor's eta + i k, or
+    Schlick's of the base colour), mixed by metallic; the generalised Schlick
+    F0 + (F90 - F0) 2 / ((e + 1)(e + 2)); Schlick's F0 + (1 - F0)/21 otherwise."""
+    from app.reference import multiscatter
+
+    s, p = point.s, point.params
+    if model.fresnel in ("conductor", "dielectric"):
+        d = multiscatter.F_avg_dielectric(p.eta_dielectric)
+        d = np.broadcast_to(d[..., None], (*d.shape, 3))
+        metal = (
+            multiscatter.F_avg_conductor(p.eta, p.k)
+            if model.fresnel == "conductor"
+            else multiscatter.F_avg_schlick(s.base_color)
+        )
+        return _mix(d, metal, s.metallic)
+    F0 = material_F0(s, p)
+    if model.fresnel == "schlick_generalized":
+        e = np.asarray(p.fresnel_exponent, np.float64)[..., None]
+        return F0 + (np.asarray(p.f90, np.float64) - F0) * (2.0 / ((e + 1.0) * (e + 2.0)))
+    return multiscatter.F_avg_schlick(F0)
+
+
 def f_diffuse_selected(
     point: ShadingPoint,
     model: Model,
@@ -244,8 +270,8 @@ def f_diffuse_selected(
             return np.zeros_like(rho)
         case "cloth_empirical":  # RTR4 §9.10 (app/reference/cloth.py)
             return cloth.f_cloth_empirical(
-                rho, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap,
-                p.cloth_sheen, NoL, NoV, LoH,
+                model.cloth_wrap_form == "rtr4", rho, p.cloth_rim_inner, p.cloth_diffuse,
+                p.cloth_scatter, p.cloth_wrap, p.cloth_sheen, NoL, NoV, LoH,
             )  # fmt: skip
     return diffuse.Fd_lambert(rho)
 
@@ -394,8 +420,8 @@ def base_brdf_factors(
 
         if ms_table is None:
             ms_table = multiscatter.load_table()
-        f_spec = f_spec + multiscatter.f_ms_kulla_conty(
-            ms_table, material_F0(s, p), s.perceptual_roughness, NoL, NoV
+        f_spec = f_spec + multiscatter.f_ms_kulla_conty_F_avg(
+            ms_table, F_avg_selected(point, model), s.perceptual_roughness, NoL, NoV
         )
     f_diffuse = f_diffuse_selected(point, model, alpha, l, NoL, NoV, NoH, LoH)
     if model.fiber != "none":
@@ -544,6 +570,25 @@ def brdf_eval(
     b = brdf_factors(point, model, l, ms_table)
     f = selected_terms(b.f_diffuse, surface_reflection(b), terms)
     return np.where(b.lit[..., None], f, 0.0)
+
+
+def cloth_wrapped_term(
+    point: ShadingPoint, model: Model, NoL: np.ndarray, terms: str = "all"
+) -> np.ndarray:
+    """Wrap lighting past the terminator (RTR4 §9.10; twin of the GLSL's
+    ``cloth_wrapped_term``): f (n.l) of a light at n.l <= CLOTH_WRAP_MIN_N_DOT_L on an
+    empirical cloth with wrap w > 0, the wrapped lobes alone, (..., 3); zero where ``terms``
+    leaves the diffuse out."""
+    p = point.params
+    rho = material_rho_ss(point.s)
+    if not BRDF_TERMS[terms] & TERM_DIFFUSE:
+        return np.zeros(np.broadcast_shapes(np.shape(rho), (*np.shape(NoL), 3)))
+    NoV = np.clip(dot(np.asarray(point.n, np.float64), np.asarray(point.v, np.float64)),
+                  MIN_N_DOT_V, 1.0)  # fmt: skip
+    return cloth.f_cloth_empirical_past_terminator(
+        model.cloth_wrap_form == "rtr4", rho, p.cloth_rim_inner, p.cloth_diffuse,
+        p.cloth_scatter, p.cloth_wrap, NoL, NoV,
+    )  # fmt: skip
 
 
 def brdf_eval_layered_cos(

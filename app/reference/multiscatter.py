@@ -65,6 +65,7 @@ from pathlib import Path
 import numpy as np
 
 from app.common.tables import DEFAULT_SIZE, read_ms_table, table_path
+from app.reference import fresnel
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS, PI
 from app.reference.quadrature import N, directional_albedo, gauss_legendre, reflected_rule
 from app.reference.specular import f_spec_GGX
@@ -259,15 +260,49 @@ def F_avg_schlick(F0: np.ndarray) -> np.ndarray:
     return F0 + (1.0 - F0) / 21.0
 
 
+# The nodes of F_avg's quadrature: the midpoint rule in mu on F_AVG_NODES cells.
+F_AVG_NODES = 16
+
+
+def _F_avg_nodes() -> np.ndarray:
+    return (np.arange(F_AVG_NODES) + 0.5) / F_AVG_NODES
+
+
+def F_avg_conductor(eta: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Kulla & Conty 2017: F_avg = 2 int_0^1 F(mu) mu dmu of the exact conductor Fresnel
+    (index eta + i k, (..., 3)), by the midpoint rule on 16 cells (as the GLSL), (..., 3)."""
+    eta = np.asarray(eta, np.float64)[..., None, :]
+    k = np.asarray(k, np.float64)[..., None, :]
+    mu = _F_avg_nodes()
+    F = fresnel.F_conductor(eta, k, mu)  # (..., 16, 3)
+    return np.sum(F * mu[:, None], axis=-2) * (2.0 / F_AVG_NODES)
+
+
+def F_avg_dielectric(eta: np.ndarray | float) -> np.ndarray:
+    """The same average of the exact dielectric Fresnel (relative index eta), (...)."""
+    eta = np.asarray(eta, np.float64)[..., None]
+    mu = _F_avg_nodes()
+    F = np.asarray(fresnel.F_dielectric(eta, mu), np.float64)  # (..., 16)
+    return np.sum(F * mu, axis=-1) * (2.0 / F_AVG_NODES)
+
+
 def f_ms_kulla_conty(
     table: np.ndarray, F0: np.ndarray, r: np.ndarray, NoL: np.ndarray, NoV: np.ndarray
 ) -> np.ndarray:
+    """The lobe with Schlick's F: ``f_ms_kulla_conty_F_avg`` of F0 + (1 - F0)/21."""
+    return f_ms_kulla_conty_F_avg(table, F_avg_schlick(F0), r, NoL, NoV)
+
+
+def f_ms_kulla_conty_F_avg(
+    table: np.ndarray, F_avg: np.ndarray, r: np.ndarray, NoL: np.ndarray, NoV: np.ndarray
+) -> np.ndarray:
     """Kulla & Conty 2017: the added lobe (1 - E(n.l))(1 - E(n.v)) / (pi (1 - E_avg)) times
-    F_avg^2 E_avg / (1 - F_avg (1 - E_avg)); returns (..., 3)."""
+    F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), F_avg the hemispherical average of the
+    material's Fresnel; returns (..., 3)."""
     loss_l = ms_loss(table, NoL, r)
     loss_v = ms_loss(table, NoV, r)
     loss_avg = ms_loss_avg(table, r)
-    F_avg = F_avg_schlick(F0)
+    F_avg = np.asarray(F_avg, np.float64)
     la = loss_avg[..., None]
     colour = F_avg * F_avg * (1.0 - la) / (1.0 - F_avg * la)
     lobe = loss_l * loss_v / (PI * np.maximum(loss_avg, MS_MIN_LOSS_AVG))

@@ -28,6 +28,7 @@ from app.common.ior import f0_from_ior, ior_from_f0
 from app.common.material_checks import MAP_KEYS, MAX_RADIANCE, material_problems
 from app.common.material_fields import FIELDS, scene_default, scene_keys
 from app.common.models import (
+    CLOTH_WRAP_FORMS,
     CORRELATIONS,
     DIFFRACTION_MODELS,
     DIFFUSE_MODELS,
@@ -349,7 +350,7 @@ class Blend(_Strict):
 # defined in GLSL only for a > 0).
 CLOTH_KEYS = (
     "cloth_rim", "cloth_inner", "cloth_diffuse", "cloth_scatter", "cloth_wrap", "cloth_sheen",
-    "cloth_sheen_color",
+    "cloth_sheen_color", "cloth_wrap_form",
 )  # fmt: skip
 # Micro-cylinder fibres (RTR4 §9.10): every key needs a fibre model; the last two are
 # Sadeghi et al.'s alone.
@@ -423,6 +424,8 @@ class Material(_Strict):
     # c_scatter, linear RGB (default white: none)
     cloth_scatter: _table_key("cloth_scatter") | None = None
     cloth_wrap: _table_key("cloth_wrap") | None = None  # w (default 0: no wrap)
+    # the wrapped cosine: "filament" (default, conserves energy) or "rtr4" (the book's)
+    cloth_wrap_form: Literal[CLOTH_WRAP_FORMS] | None = None  # type: ignore[valid-type]
     cloth_sheen: _table_key("cloth_sheen") | None = None  # k_sheen (default 0)
     # c_sheen, linear RGB (default white)
     cloth_sheen_color: _table_key("cloth_sheen_color") | None = None
@@ -712,6 +715,8 @@ class Material(_Strict):
             sheen=self.sheen if sheen_on else "none",  # sheen
             diffraction=self.diffraction,  # diffraction (RTR4 §9.11)
             fiber=self.fiber,  # micro-cylinder fibres (RTR4 §9.10)
+            # the empirical cloth's wrapped cosine (RTR4 §9.10)
+            cloth_wrap_form=self.cloth_wrap_form or "filament",
         )
         roughness = 0.5 if self.roughness is None else self.roughness
         return MaterialParams(

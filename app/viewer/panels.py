@@ -39,6 +39,7 @@ from app.common.gbuffer import ENCODING_NAMES
 from app.common.material_fields import Control, scene_default, scene_keys
 from app.common.models import (
     CLEARCOAT_MODELS,
+    CLOTH_WRAP_FORMS,
     CORRELATIONS,
     DIFFUSE_MODELS,
     FIBER_MODELS,
@@ -597,6 +598,11 @@ class Panels:
                 self._edit(f"{key}.{field}", [float(k), float(value)])
         for name in ("cloth_diffuse", "cloth_wrap", "cloth_sheen"):
             self._field_slider(key, material, name)
+        # the wrapped cosine: Filament's (conserves energy) or the book's (RTR4 §9.10)
+        now = CLOTH_WRAP_FORMS.index(material.cloth_wrap_form or "filament")
+        changed, i = imgui.combo("wrap form", now, list(CLOTH_WRAP_FORMS))
+        if changed:
+            self._edit(f"{key}.cloth_wrap_form", CLOTH_WRAP_FORMS[i])
         for name in ("cloth_scatter", "cloth_sheen_color"):
             self._field_color(key, material, name)
 

@@ -180,6 +180,33 @@ vec3 F_base_selected(ShadingPoint sp, float LoH) {
     return F_schlick(material_F0(s, p), LoH);
 }
 
+#if UBER_MODELS || MULTISCATTER
+// The hemispherical average F_avg = 2 int F mu dmu of the material's Fresnel (as
+// F_base_selected computes F), for the multiple-scattering lobe (brdf/multiscatter.glsl):
+// the exact models average the exact Fresnel of their dielectric part (eta_dielectric) and
+// of their metal part (the conductor's eta + i k, or Schlick's of the base colour), mixed
+// by metallic; the generalised Schlick F0 + (F90 - F0) 2 / ((e + 1)(e + 2)), e its exponent
+// (2 int_0^1 (1 - mu)^e mu dmu = 2 B(2, e + 1)); Schlick's F0 + (1 - F0)/21 (e = 5) otherwise.
+vec3 F_avg_selected(ShadingPoint sp) {
+    Surface s = sp.s;
+    ModelParams p = sp.params;
+    if (FRESNEL_MODEL == FRESNEL_CONDUCTOR) {
+        return mix(vec3(F_avg_dielectric(p.eta_dielectric)), F_avg_conductor(p.eta, p.k),
+                   s.metallic);
+    }
+    if (FRESNEL_MODEL == FRESNEL_DIELECTRIC) {
+        return mix(vec3(F_avg_dielectric(p.eta_dielectric)),
+                   s.base_color + (1.0 - s.base_color) / 21.0, s.metallic);
+    }
+    vec3 F0 = material_F0(s, p);
+    if (FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED) {
+        float e = p.fresnel_exponent;
+        return F0 + (p.f90 - F0) * (2.0 / ((e + 1.0) * (e + 2.0)));
+    }
+    return F0 + (1.0 - F0) / 21.0;
+}
+#endif
+
 // --- thin film (RTR4 sec. 9.11) ---
 // The film over the material's base (brdf/thin_film.glsl): over the dielectric part the
 // base index is eta_dielectric; over the metal part it is the conductor's eta + i k with
@@ -237,8 +264,9 @@ vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float N
     }
     if (DIFFUSE_MODEL == DIFFUSE_NONE) return vec3(0.0);
     if (DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL) {  // RTR4 sec. 9.10 (brdf/cloth.glsl)
-        return f_cloth_empirical(rho_ss, p.cloth_rim_inner, p.cloth_diffuse, p.cloth_scatter,
-                                 p.cloth_wrap, p.cloth_sheen, NoL, NoV, LoH);
+        return f_cloth_empirical(CLOTH_WRAP_FORM == CLOTH_WRAP_RTR4, rho_ss, p.cloth_rim_inner,
+                                 p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap, p.cloth_sheen,
+                                 NoL, NoV, LoH);
     }
     return Fd_lambert(rho_ss);
 }
@@ -403,7 +431,7 @@ BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
 #if UBER_MODELS || MULTISCATTER
     // brdf/multiscatter.glsl declares the table and its functions only under this condition.
     if (MULTISCATTER != 0) {
-        f_spec += f_ms_kulla_conty(material_F0(s, p), s.perceptual_roughness, NoL, NoV);
+        f_spec += f_ms_kulla_conty_F_avg(F_avg_selected(sp), s.perceptual_roughness, NoL, NoV);
     }
 #endif
     vec3 f_diffuse = f_diffuse_selected(sp, alpha, l, NoL, NoV, NoH, LoH);
@@ -548,6 +576,23 @@ vec3 brdf_eval(ShadingPoint sp, vec3 l) {
     BrdfFactors b = brdf_factors(sp, l);
     return selected_terms(b.f_diffuse, surface_reflection(b));
 }
+
+#if UBER_MODELS || DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL
+// Wrap lighting past the terminator (RTR4 sec. 9.10): f (n.l) of a light at n.l <=
+// CLOTH_WRAP_MIN_N_DOT_L on an empirical cloth with wrap w > 0 (the illumination sum asks
+// only there), the wrapped lobes alone (brdf/cloth.glsl). A diffuse reflection: zero where
+// BRDF_TERMS leaves the diffuse out. The scene format refuses a wrap under a clear coat or a
+// sheen layer (app/common/material_checks.py), whose weights this does not apply.
+vec3 cloth_wrapped_term(ShadingPoint sp, float NoL) {
+    if ((BRDF_TERMS & TERM_DIFFUSE) == 0) return vec3(0.0);
+    ModelParams p = sp.params;
+    float NoV = clamp(dot(sp.n, sp.v), MIN_N_DOT_V, 1.0);
+    return f_cloth_empirical_past_terminator(CLOTH_WRAP_FORM == CLOTH_WRAP_RTR4,
+                                             material_rho_ss(sp.s), p.cloth_rim_inner,
+                                             p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap,
+                                             NoL, NoV);
+}
+#endif
 
 #if CLEARCOAT_ON
 // f(l, v) times the cosine, for a coat whose normal nc is not the base's n: each layer's

@@ -76,6 +76,10 @@
 #ifndef FIBER_MODEL
 #define FIBER_MODEL FIBER_NONE
 #endif
+// The empirical cloth's wrapped cosine (RTR4 sec. 9.10): Filament's unless a pass says otherwise.
+#ifndef CLOTH_WRAP_FORM
+#define CLOTH_WRAP_FORM CLOTH_WRAP_FILAMENT
+#endif
 #endif  // !UBER_MODELS
 
 // Whether the coat's code is compiled in (always under UBER_MODELS, where the model is a

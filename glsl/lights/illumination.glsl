@@ -1,5 +1,5 @@
 // The terms of the illumination sum L_o(v) = pi sum_i f(l_i, v) c_light_i (n.l_i)+
-// (RTR4 sec. 9.4), shared by the lighting, floor and forward passes so that every
+// (RTR4 sec. 9.4; a wrapped model's term past the terminator, RTR4 sec. 9.10, below), shared by the lighting, floor and forward passes so that every
 // variant the bench compares adds the same float32 terms in the same order.
 // Twin: app/reference/illumination.py.
 #ifndef PBS_ILLUMINATION_GLSL
@@ -46,6 +46,15 @@ vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp) {
     }
 #endif
     float NoL = dot(sp.n, l);
+#if UBER_MODELS || DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL
+    // Wrap lighting (RTR4 sec. 9.10): a model that wants light past its terminator gets it.
+    // The empirical cloth with wrap w > 0 takes f (n.l) from its wrapped lobes at and below
+    // n.l = CLOTH_WRAP_MIN_N_DOT_L, down to -w (brdf/cloth.glsl); no other model does.
+    if (DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL && sp.params.cloth_wrap > 0.0
+            && NoL <= CLOTH_WRAP_MIN_N_DOT_L) {
+        return cloth_wrapped_term(sp, NoL) * c_light;
+    }
+#endif
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
     return brdf_eval(sp, l) * c_light * NoL;
 }
