@@ -89,6 +89,18 @@ def test_background_shows_through_a_thin_walled_sphere(gl_egl, tmp_path):
 
 
 @pytest.mark.gl
+def test_a_transmissive_part_emits(gl_egl, tmp_path):
+    """Emission adds to the transmitted light, as on any surface. Fails with the
+    transmission pass compiled without the emission lookup."""
+    emissive = np.array([0.1, 0.05, 0.02])
+    material = {"transmission": 1.0, "emissive": emissive.tolist()}
+    image, _ = render(gl_egl, scene(material), tmp_path)
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    expected = weight * behind(image) + emissive
+    np.testing.assert_allclose(centre(image), expected, rtol=TOLERANCE)
+
+
+@pytest.mark.gl
 @pytest.mark.parametrize("scale", [1.0, 2.0])
 def test_attenuation_colour_tints_the_light_behind(gl_egl, tmp_path, scale):
     """A volume of thickness 0.5 (object units; the model's scale multiplies it) with

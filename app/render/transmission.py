@@ -36,8 +36,9 @@ from app.render.lighting import LightingPass
 from app.render.mesh_drawable import MeshDrawable
 from app.scene.geometry import MeshPart
 
-# forward.frag as the transmission pass.
-TRANSMISSION_DEFINES = {"TRANSMISSION": 1}
+# forward.frag as the transmission pass, emission and occlusion compiled in as the blend
+# pass's (GBUFFER_EMISSION selects layers.glsl's lookups; this pass writes no G-buffer).
+TRANSMISSION_DEFINES = {"TRANSMISSION": 1, "GBUFFER_EMISSION": 1}
 
 
 def transmissive(part: MeshPart) -> bool:

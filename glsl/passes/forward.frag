@@ -59,8 +59,10 @@ void main() {
 #if GBUFFER_LAYER_MAPS
     vec4 layer_factors = sample_layer_maps(hit.uv);   // as the G-buffer pass's RT6
 #endif
-#if ALPHA_BLEND
+#if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
+#endif
+#if ALPHA_BLEND
     float alpha = coverage(hit.uv);
 #endif
     gl_FragDepth = hit.frag_depth;
@@ -74,8 +76,10 @@ void main() {
 #if GBUFFER_LAYER_MAPS
     vec4 layer_factors = sample_layer_maps(v_uv);   // as the G-buffer pass's RT6
 #endif
-#if ALPHA_BLEND
+#if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(v_uv);
+#endif
+#if ALPHA_BLEND
     float alpha = coverage(v_uv);
 #endif
 #if ALPHA_MASK
@@ -122,7 +126,7 @@ void main() {
 #endif
     ShadingPoint sp = ShadingPoint(s, params, n, nc, t, v, p);
 #if TRANSMISSION
-    vec3 radiance = surface_radiance(ivec2(0), vec4(0.0, 0.0, 0.0, 1.0), sp);
+    vec3 radiance = surface_radiance(ivec2(0), emission, sp);   // emission, occlusion too
     // The volume's thickness in world units: the object's, times the model matrix's scale
     // (the cube root of its determinant: a uniform scale exactly).
     float scale = pow(abs(determinant(mat3(u_model))), 1.0 / 3.0);
