@@ -17,9 +17,11 @@ import numpy as np
 import pygltflib
 import pytest
 
+from app.common.ior import f0_from_ior
 from app.gl.context import GLContext
 from app.reference.transmission import (
     beer_lambert,
+    dispersion_iors,
     refracted_direction,
     transmission_exit,
     transmission_lod,
@@ -115,6 +117,44 @@ def test_attenuation_colour_tints_the_light_behind(gl_egl, tmp_path, scale):
     tint = beer_lambert(np.array([0.8, 0.5, 0.2]), 0.25, 0.5 * scale)
     np.testing.assert_allclose(centre(image), weight * tint * behind(image), rtol=TOLERANCE)
     assert tint[2] < 0.2  # the blue is mostly absorbed: the test can tell
+
+
+@pytest.mark.gl
+def test_dispersion_is_one_index_per_channel(gl_egl, tmp_path):
+    """With dispersion each channel is the image refracted by its own index (the twin's
+    dispersion_iors): channel c of the dispersed sphere equals channel c of a sphere
+    without dispersion at index iors[c], over the whole image (every F0 held at the red
+    index's through specular_color, so that only the refraction differs). Fails with one
+    index for all three channels (red and blue then differ at the rim, where the volume
+    bends most)."""
+    iors = dispersion_iors(1.5, 5.0)
+    assert iors[2] - iors[0] > 0.05  # a spread the rim can show
+    f0 = f0_from_ior(iors[0])
+
+    def glass(ior: float, **extra: float) -> dict:
+        scale = float(f0 / f0_from_ior(ior))
+        return {"transmission": 1.0, "thickness": 1.0, "roughness": 0.0, "ior": float(ior),
+                "specular_color": [scale] * 3, **extra}  # fmt: skip
+
+    def halves(material: dict) -> dict:
+        """The sphere before a wall of two emitting halves, orange left, blue right (emitted
+        radiance: no light needed), so that where a lookup lands changes its colour."""
+        data = scene(material)
+        wall = {"shape": "plane", "size": [2.0, 3.0], "rotation": [90.0, 0.0, 0.0]}
+        data["materials"] |= {"left": {"emissive": [1.0, 0.4, 0.1]},
+                              "right": {"emissive": [0.1, 0.4, 1.0]}}  # fmt: skip
+        data["objects"] += [
+            {**wall, "position": [-1.0, 0.0, -1.0], "material": "left"},
+            {**wall, "position": [1.0, 0.0, -1.0], "material": "right"},
+        ]
+        return data
+
+    dispersed, _ = render(gl_egl, halves(glass(1.5, dispersion=5.0)), tmp_path)
+    images = [render(gl_egl, halves(glass(ior)), tmp_path)[0] for ior in iors]
+    channels = np.stack([image[..., c] for c, image in enumerate(images)], axis=-1)
+    np.testing.assert_allclose(dispersed[..., :3], channels, atol=1e-5)
+    # the index moves the lookup across the halves' edge: red and blue indices differ
+    assert np.abs(images[0] - images[2]).max() > 0.1
 
 
 @pytest.mark.gl

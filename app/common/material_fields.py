@@ -287,6 +287,11 @@ MATERIAL_FIELDS: tuple[MaterialField, ...] = (
                   (SceneKey("attenuation_distance", 0.0, 1.0e6, "m",
                             control=Control("attenuation distance (m)", 0.01, 100.0,
                                             logarithmic=True)),)),
+    MaterialField("dispersion", 15, "b", 0.0, "core", 0.0, 100.0, "",
+                  "KHR_materials_dispersion: 20 / V_d (the Abbe number); spreads the index "
+                  "over the three channels' wavelengths (0: one index)",
+                  (SceneKey("dispersion", 0.0, 100.0,
+                            control=Control("dispersion (20 / Abbe)", 0.0, 1.0)),)),
 )
 # fmt: on
 

@@ -284,6 +284,7 @@ class ModelParams:
     transmission: float = _DEFAULTS["transmission"]
     thickness: float = _DEFAULTS["thickness"]
     attenuation_distance: float = _DEFAULTS["attenuation_distance"]
+    dispersion: float = _DEFAULTS["dispersion"]  # 20 / Abbe number (0: one index)
 
 
 if [f.name for f in fields(ModelParams)] != list(FIELDS):

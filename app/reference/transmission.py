@@ -46,6 +46,17 @@ def transmission_exit(
     return np.asarray(p, np.float64) + refracted_direction(v, n, eta) * t
 
 
+# The three channels' wavelengths (nm) for KHR_materials_dispersion's index.
+CHANNEL_WAVELENGTHS = np.array([630.0, 532.0, 465.0])
+
+
+def dispersion_iors(ior: float, dispersion: float) -> np.ndarray:
+    """KHR_materials_dispersion: (3,) indices at ``CHANNEL_WAVELENGTHS``,
+    max(ior + (ior - 1) dispersion / 20 (523655 / lambda^2 - 1.5168), 1)."""
+    spread = 523655.0 / CHANNEL_WAVELENGTHS**2 - 1.5168
+    return np.maximum(ior + (ior - 1.0) * dispersion / 20.0 * spread, 1.0)
+
+
 def beer_lambert(
     attenuation_color: np.ndarray, attenuation_distance: np.ndarray, d: np.ndarray
 ) -> np.ndarray:

@@ -27,7 +27,8 @@ what it approximates; docs/gltf.md has the table.
 * KHR_materials_transmission and KHR_materials_volume (RTR4 §14.5): the material row's
   transmission, thickness and Beer-Lambert attenuation, drawn by the screen-space
   transmission pass (app/render/transmission.py); approximated (docs/transmission.md
-  measures it against the ray-caster's exact refraction).
+  measures it against the ray-caster's exact refraction); KHR_materials_dispersion spreads
+  its index over the three channels.
 
 Textures: ``map_material_extensions`` also returns the textures the project samples
 (``maps``: the clear coat's normal map and strength, the sheen colour, the specular
@@ -66,6 +67,7 @@ SUPPORTED = (
     "KHR_materials_iridescence",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_materials_dispersion",
 )
 # The extensions' textures the project cannot sample, and what is used instead (each one a
 # material names gives a note; docs/gltf.md lists them).
@@ -139,6 +141,7 @@ def map_material_extensions(
     layers = (
         ("KHR_materials_transmission", _transmission),
         ("KHR_materials_volume", _volume),
+        ("KHR_materials_dispersion", _dispersion),
         ("KHR_materials_anisotropy", _anisotropy),
         ("KHR_materials_iridescence", _iridescence),
         ("KHR_materials_sheen", _sheen),
@@ -357,6 +360,12 @@ def _volume(state: _State, ext: Mapping[str, Any], name: str) -> None:
         "attenuation_distance": 0.0 if distance is None else distance,
     }  # fmt: skip
     _apply(state, name, {}, volume)
+
+
+def _dispersion(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    # 20 / V_d; the project's row holds up to 100 (an Abbe number of 0.2)
+    dispersion = _number(state, ext, name, "dispersion", 0.0, 0.0, 100.0)
+    _apply(state, name, {}, {"dispersion": dispersion})
 
 
 # --- KHR_materials_anisotropy (RTR4 §9.8) ---

@@ -445,6 +445,7 @@ class Material(_Strict):
     thickness: _table_key("thickness") | None = None
     attenuation_color: _table_key("attenuation_color") | None = None
     attenuation_distance: _table_key("attenuation_distance") | None = None
+    dispersion: _table_key("dispersion") | None = None  # 20 / Abbe number (0)
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -669,6 +670,7 @@ class Material(_Strict):
                 _given(self.attenuation_color, "attenuation_color"), np.float64
             ),
             attenuation_distance=_given(self.attenuation_distance, "attenuation_distance"),
+            dispersion=_given(self.dispersion, "dispersion"),
         )
         if self.diffraction != "none":  # diffraction grating (RTR4 §9.11)
             params = replace(

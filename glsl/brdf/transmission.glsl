@@ -32,6 +32,15 @@ vec3 transmission_exit(vec3 p, vec3 v, vec3 n, float eta, float thickness) {
     return p + refracted_direction(v, n, eta) * thickness;
 }
 
+// KHR_materials_dispersion: the index at the three channels' wavelengths (630, 532 and
+// 465 nm), n(lambda) = max(ior + (ior - 1) / V_d (523655 / lambda^2 - 1.5168), 1), with
+// 1 / V_d = dispersion / 20 (the extension's formula; lambda in nm).
+vec3 dispersion_iors(float ior, float dispersion) {
+    vec3 lambda = vec3(630.0, 532.0, 465.0);
+    vec3 spread = 523655.0 / (lambda * lambda) - 1.5168;
+    return max(ior + (ior - 1.0) * dispersion / 20.0 * spread, vec3(1.0));
+}
+
 // Beer-Lambert transmittance over a path of length d: attenuation_color^(d / distance), as
 // exp(-sigma d); attenuation_distance <= 0 is no attenuation (the specification's infinity).
 vec3 beer_lambert(vec3 attenuation_color, float attenuation_distance, float d) {

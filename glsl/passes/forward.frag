@@ -131,11 +131,24 @@ void main() {
     // (the cube root of its determinant: a uniform scale exactly).
     float scale = pow(abs(determinant(mat3(u_model))), 1.0 / 3.0);
     float thickness = params.thickness * scale;
-    vec3 exit = transmission_exit(p, v, n, params.eta_dielectric, thickness);
-    vec4 clip = u_proj * (u_view * vec4(exit, 1.0));
-    vec2 uv = clip.w > 0.0 ? clip.xy / clip.w * 0.5 + 0.5 : gl_FragCoord.xy / u_image_size;
     float lod = transmission_lod(s.perceptual_roughness, params.eta_dielectric, u_image_size.x);
-    vec4 behind = textureLod(u_transmission_image, uv, lod);
+    // One lookup per channel where the index disperses (KHR_materials_dispersion), else one.
+    vec3 iors = dispersion_iors(params.eta_dielectric, params.dispersion);
+    int lookups = params.dispersion > 0.0 ? 3 : 1;
+    vec4 behind = vec4(0.0);
+    for (int c = 0; c < lookups; ++c) {
+        float eta = lookups == 1 ? params.eta_dielectric : iors[c];
+        vec3 exit = transmission_exit(p, v, n, eta, thickness);
+        vec4 clip = u_proj * (u_view * vec4(exit, 1.0));
+        vec2 uv = clip.w > 0.0 ? clip.xy / clip.w * 0.5 + 0.5 : gl_FragCoord.xy / u_image_size;
+        vec4 texel = textureLod(u_transmission_image, uv, lod);
+        if (lookups == 1) {
+            behind = texel;
+        } else {
+            behind[c] = texel[c];
+            behind.a += texel.a / 3.0;
+        }
+    }
     vec3 weight = transmission_weight(s.f0_dielectric * params.specular_color,
                                       clamp(dot(n, v), 0.0, 1.0), params.transmission,
                                       s.metallic);
