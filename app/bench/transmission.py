@@ -46,6 +46,7 @@ class GlassCase:
     ior: float
     thickness: float = 0.0
     attenuation: tuple[float, float, float] | None = None  # colour at 1 m
+    x: float = 0.0  # the sphere's centre along the image's width (m at its depth)
 
     def material(self) -> dict:
         m = {"base_color": [1.0, 1.0, 1.0], "roughness": self.roughness, "ior": self.ior,
@@ -64,6 +65,7 @@ CASES = (
     GlassCase("solid, ior 1.5", 0.0, 1.5, 2 * RADIUS),
     GlassCase("solid, ior 1.5, roughness 0.2", 0.2, 1.5, 2 * RADIUS),
     GlassCase("solid, ior 1.5, amber", 0.0, 1.5, 2 * RADIUS, (0.9, 0.6, 0.3)),
+    GlassCase("solid, ior 1.5, at the image's edge", 0.0, 1.5, 2 * RADIUS, x=0.85),
 )
 QUICK_CASES = (CASES[0], CASES[2], CASES[5])
 TINY_CASES = (CASES[0], CASES[5])
@@ -79,14 +81,16 @@ def _plan(mode: str) -> tuple[tuple[GlassCase, ...], tuple[int, int], int]:
 
 
 def glass_scene(case: GlassCase, size: tuple[int, int]) -> dict:
-    """The scene: the sphere at the origin, a wall of 12 stripes 0.4 m wide at z = -1.5."""
+    """The scene: the sphere at (x, 0, 0), a wall of 12 stripes 0.4 m wide at z = -1.5."""
     materials = {f"stripe{i}": {"base_color": c, "roughness": 0.7} for i, c in enumerate(STRIPES)}
     objects = [
         {"shape": "plane", "size": [0.4, 3.0], "position": [-2.2 + 0.4 * i, 0.0, -1.5],
          "rotation": [90.0, 0.0, 0.0], "material": f"stripe{i % len(STRIPES)}"}
         for i in range(12)
     ]  # fmt: skip
-    objects.append({"shape": "sphere", "radius": RADIUS, "material": "glass"})
+    objects.append(
+        {"shape": "sphere", "radius": RADIUS, "position": [case.x, 0.0, 0.0], "material": "glass"}
+    )
     return {
         "background": [0.02, 0.02, 0.03],
         "camera": {"position": [0.0, 0.0, 3.0], "target": [0.0, 0.0, 0.0], "fov_y": 30.0},
