@@ -468,7 +468,10 @@ class Renderer:
         """RefusedError before anything is allocated or released (app/render/limits.py):
         a renderer that refuses a size keeps its old targets."""
         settings = self.scene.render
-        per_pixel = target_bytes_per_pixel(self._layout(), self.scene.camera.aperture > 0.0)
+        glass = bool(self._frame_facts().transmissive)  # the transmission pass's copy
+        per_pixel = target_bytes_per_pixel(
+            self._layout(), self.scene.camera.aperture > 0.0, transmission=glass
+        )
         check_render_size(
             self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
             "size" if self._size is not None else "render.width, render.height",
