@@ -84,7 +84,7 @@ def test_tiny_run_writes_json_markdown_and_both_plots(tmp_path):
     suites = {r["suite"] for r in rows}
     assert suites == {
         "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
-        "shadows", "antialiasing",
+        "shadows", "antialiasing", "transmission",
     }  # fmt: skip
     viewer = {r["variant"]: r for r in rows if r["suite"] == "viewer"}
     assert set(viewer) == {"orbit", "roughness", "refine", "new model notice",

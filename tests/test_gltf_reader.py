@@ -475,7 +475,7 @@ def test_normal_map_tilts_the_gbuffer_normal(
 
 
 def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) -> None:
-    """A material with KHR_materials_transmission (no model here) and a coat roughness
+    """A material with KHR_materials_diffuse_transmission (no model here) and a coat roughness
     texture (the coat mapped, that texture not): `pbs render` writes the image, exits 0 and
     says each on one line of stderr naming the glTF file, nothing else."""
     import subprocess
@@ -484,7 +484,7 @@ def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) ->
     b = GltfBuilder()
     tex = b.texture(png_rgb((200, 100, 50)))
     ext = {
-        "KHR_materials_transmission": {"transmissionFactor": 0.5},
+        "KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 0.5},
         "KHR_materials_clearcoat": {
             "clearcoatFactor": 1.0,
             "clearcoatRoughnessTexture": {"index": tex},
@@ -504,5 +504,5 @@ def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) ->
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert len(lines) == 2, result.stderr
     assert all(str(tmp_path / "m.glb") in line for line in lines)
-    assert any("KHR_materials_transmission" in line for line in lines)
+    assert any("KHR_materials_diffuse_transmission" in line for line in lines)
     assert any("clearcoatRoughnessTexture" in line for line in lines)

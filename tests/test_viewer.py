@@ -413,6 +413,7 @@ def test_a_dropped_mesh_opens_framed_and_a_bad_file_is_reported(viewer, tmp_path
     [
         "sec10_cloth.toml", "sec10_cloth_empirical.toml", "sec10_cloth_fibers.toml",
         "sec11_thin_film.toml", "sec11_diffraction.toml", "sec12_layered_variants.toml",
+        "transmission.toml",
     ],
 )  # fmt: skip
 def test_the_layered_controls_draw_and_their_toggles_are_valid_edits(viewer, tmp_path, scene):

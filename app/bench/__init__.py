@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # the suites import numpy and GL; app.bench.startup's launche
 __all__ = ["main"]
 SUITES = (
     "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
-    "shadows", "antialiasing", "assets", "peers",
+    "shadows", "antialiasing", "assets", "peers", "transmission",
 )  # fmt: skip
 # Run only when named: third-party renderers (f3d; pygfx, PyVista, pyrender), minutes.
 OPT_IN_SUITES = ("assets", "peers")

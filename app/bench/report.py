@@ -855,7 +855,7 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
     suites = (
         "culling", "resolution", "accuracy", "specialization", "startup", "viewer", "batch", "ibl",
         "shadows", "assets",
-        "shadows", "antialiasing", "peers",
+        "shadows", "antialiasing", "peers", "transmission",
     )  # fmt: skip
     for suite in suites:
         members = [r for r in rows if r["suite"] == suite]
@@ -968,6 +968,10 @@ def markdown(machine: dict, rows: list[dict], notes: list[str], settings_text: s
             lines += _aa_lines(members)
         elif suite == "peers":
             lines += peers_lines(members)
+        elif suite == "transmission":
+            from app.bench.transmission import transmission_lines
+
+            lines += transmission_lines(members)
         else:
             lines += [
                 "| case | variant | ms median (to PNG, or to exit) | min | max | peak RSS MiB |"

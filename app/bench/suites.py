@@ -981,6 +981,14 @@ def run_antialiasing(ctx: Context) -> None:
     run(ctx)
 
 
+def run_transmission(ctx: Context) -> None:
+    """Suite ``transmission``: the screen-space transmission pass's frame time against
+    its error to exact refraction through a sphere (app/bench/transmission.py)."""
+    from app.bench.transmission import run_transmission as run
+
+    run(ctx)
+
+
 RUNNERS: dict[str, Callable[[Context], None]] = {
     "culling": run_culling,
     "resolution": run_resolution,
@@ -994,6 +1002,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "antialiasing": run_antialiasing,
     "assets": run_assets,
     "peers": run_peers,
+    "transmission": run_transmission,
 }
 
 
@@ -1012,6 +1021,7 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "antialiasing": 0,
         "assets": 3 * max(1, settings.startup_runs),
         "peers": 0,
+        "transmission": 0,
     }
     if "batch" in suites:
         from app.bench.batch import batch_tasks, batch_workers
@@ -1025,6 +1035,10 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         from app.bench.peers import peers_tasks
 
         counts["peers"] = peers_tasks(settings)
+    if "transmission" in suites:
+        from app.bench.transmission import transmission_tasks
+
+        counts["transmission"] = transmission_tasks(settings)
     if "ibl" in suites:
         from app.bench.ibl import ibl_tasks
 

@@ -268,6 +268,36 @@ MATERIAL_FIELDS: tuple[MaterialField, ...] = (
                   "Sadeghi's isotropic share k_d of the volume scattering",
                   (SceneKey("fiber_kd", 0.0, 1.0,
                             control=Control("isotropic share k_d", 0.0, 1.0)),)),
+    # --- texels 14-15: transmission and volume (RTR4 §14.5; glTF KHR_materials_transmission,
+    # KHR_materials_volume): core fields, every row holds them (transmission 0: an opaque
+    # surface); the transmission pass (app/render/transmission.py) draws the parts whose
+    # row has transmission > 0 ---
+    MaterialField("attenuation_color", 14, "rgb", WHITE, "core", 0.0, 1.0, "",
+                  "the colour white light becomes after attenuation_distance inside the "
+                  "volume (Beer-Lambert, linear RGB)",
+                  (SceneKey("attenuation_color", 0.0, 1.0,
+                            control=Control("attenuation colour", color=True)),)),
+    MaterialField("transmission", 14, "a", 0.0, "core", 0.0, 1.0, "",
+                  "the share of the dielectric base's light refracted through the surface "
+                  "instead of diffused (0: opaque, drawn in the G-buffer)",
+                  (SceneKey("transmission", 0.0, 1.0,
+                            control=Control("transmission", 0.0, 1.0)),)),
+    MaterialField("thickness", 15, "r", 0.0, "core", 0.0, 1.0e4, "m",
+                  "the volume's thickness in object units (0: thin-walled, no refraction "
+                  "offset); the model matrix scales it",
+                  (SceneKey("thickness", 0.0, 1.0e4, "m",
+                            control=Control("thickness (m)", 0.0, 2.0)),)),
+    MaterialField("attenuation_distance", 15, "g", 0.0, "core", 0.0, 1.0e6, "m",
+                  "the distance at which white light becomes attenuation_color (0: no "
+                  "attenuation, the specification's infinity)",
+                  (SceneKey("attenuation_distance", 0.0, 1.0e6, "m",
+                            control=Control("attenuation distance (m)", 0.01, 100.0,
+                                            logarithmic=True)),)),
+    MaterialField("dispersion", 15, "b", 0.0, "core", 0.0, 100.0, "",
+                  "KHR_materials_dispersion: 20 / V_d (the Abbe number); spreads the index "
+                  "over the three channels' wavelengths (0: one index)",
+                  (SceneKey("dispersion", 0.0, 100.0,
+                            control=Control("dispersion (20 / Abbe)", 0.0, 1.0)),)),
 )
 # fmt: on
 

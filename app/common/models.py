@@ -293,6 +293,13 @@ class ModelParams:
     fiber_curvature: float = _DEFAULTS["fiber_curvature"]
     fiber_gamma_v: float = _DEFAULTS["fiber_gamma_v"]
     fiber_kd: float = _DEFAULTS["fiber_kd"]
+    # --- transmission and volume (RTR4 §14.5): attenuation colour, transmission share;
+    # thickness (object units, 0 thin-walled), attenuation distance (0: none) ---
+    attenuation_color: np.ndarray = field(default_factory=_array("attenuation_color"))
+    transmission: float = _DEFAULTS["transmission"]
+    thickness: float = _DEFAULTS["thickness"]
+    attenuation_distance: float = _DEFAULTS["attenuation_distance"]
+    dispersion: float = _DEFAULTS["dispersion"]  # 20 / Abbe number (0: one index)
 
 
 if [f.name for f in fields(ModelParams)] != list(FIELDS):

@@ -56,13 +56,17 @@ def max_dimension(ctx: moderngl.Context) -> int:
     )
 
 
-def target_bytes_per_pixel(layout: GBufferLayout, depth_of_field: bool) -> int:
+def target_bytes_per_pixel(
+    layout: GBufferLayout, depth_of_field: bool, transmission: bool = False
+) -> int:
     """Bytes a render-size pixel takes in the targets of app/render/gbuffer.py ``GBuffer``
     of ``layout`` (its colour targets, ``GBufferLayout.bytes_per_pixel``, and the z-test's
-    renderbuffer), the lighting pass's HDR target and the depth-of-field target, as they
+    renderbuffer), the lighting pass's HDR target, the depth-of-field target and the
+    transmission pass's copy of the HDR image with its mip chain (a third more), as they
     are allocated."""
     total = layout.bytes_per_pixel() + _DEPTH_BUFFER + _HDR
-    return total + (_HDR if depth_of_field else 0)
+    total += _HDR if depth_of_field else 0
+    return total + (_HDR + _HDR // 3 if transmission else 0)
 
 
 def check_render_size(

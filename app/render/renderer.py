@@ -70,6 +70,7 @@ from app.render.limits import (
 from app.render.mesh_drawable import masked, rotated
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
+from app.render.transmission import TransmissionPass, transmission_defines, transmissive
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
@@ -144,8 +145,12 @@ class _FrameFacts:
         self.frame = frame
         parts = frame.parts
         # the parts the G-buffer pass draws and the shadow maps' casters: all but blended
-        self.opaque = tuple(i for i, part in enumerate(parts) if not blended(part))
-        self.blended = tuple(i for i, part in enumerate(parts) if blended(part))
+        # and transmissive ones (a transmissive part is drawn by the transmission pass)
+        glass = [transmissive(part) for part in parts]
+        self.transmissive = tuple(i for i, part in enumerate(parts) if glass[i])
+        self.opaque = tuple(i for i, part in enumerate(parts) if not blended(part) and not glass[i])
+        self.blended = tuple(i for i, part in enumerate(parts) if blended(part) and not glass[i])
+        self.transmissive_ids = tuple(tuple(frame.material_ids[i]) for i in self.transmissive)
         # the G-buffer pass compiles a part's alpha test and tangent rotation in or out
         self.compiled = tuple((masked(parts[i]), rotated(parts[i])) for i in self.opaque)
         # an alpha-masked caster's coverage shapes its shadow (docs/shadows.md): its layer,
@@ -239,7 +244,8 @@ _UNBUILT = object()  # the old key of an object never built
 # Built objects whose rebuild drops what the last frame drew (its G-buffer, HDR or
 # display image): reading the HDR image then needs a new frame.
 _FRAME_OBJECTS = frozenset(
-    {"gbuffer", "lighting", "blend", "sraa", "dof", "resolve", "accumulate", "post", "fxaa", "gbaa"}
+    {"gbuffer", "lighting", "transmission", "blend", "sraa", "dof", "resolve", "accumulate"}
+    | {"post", "fxaa", "gbaa"}
 )
 
 
@@ -281,6 +287,7 @@ class Renderer:
         self.gbuffer: GBuffer | None = None  # the G-buffer's targets
         self.gbuffer_pass: GBufferPass | None = None
         self.blend: BlendPass | None = None  # only where a part is alpha-blended
+        self.transmission: TransmissionPass | None = None  # only where a part transmits
         self.culler: LightCuller | None = None
         self.lighting: LightingPass | None = None
         self.shading: ShadingContext | None = None  # the frame's shader inputs (lighting's)
@@ -475,7 +482,10 @@ class Renderer:
         """RefusedError before anything is allocated or released (app/render/limits.py):
         a renderer that refuses a size keeps its old targets."""
         settings = self.scene.render
-        per_pixel = target_bytes_per_pixel(self._layout(), self.scene.camera.aperture > 0.0)
+        glass = bool(self._frame_facts().transmissive)  # the transmission pass's copy
+        per_pixel = target_bytes_per_pixel(
+            self._layout(), self.scene.camera.aperture > 0.0, transmission=glass
+        )
         check_render_size(
             self.gl.ctx, self.size, settings.supersample, per_pixel, str(self.loaded.path),
             "size" if self._size is not None else "render.width, render.height",
@@ -585,6 +595,28 @@ class Renderer:
             self.gl.ctx, self.shaders, self.render_size, self.shading, self.scene.render.terms,
             options.uber, form=options.light_form,
         )  # fmt: skip
+
+    def _key_transmission(self) -> Hashable:
+        """Only where a part is transmissive (every other scene compiles and renders as
+        before it existed): those parts, their rows, the table, terms and specular
+        antialiasing; it shades with the lighting pass's inputs (``needs``)."""
+        facts = self._frame_facts()
+        if not facts.transmissive:
+            return None
+        return (
+            Same(self.frame.parts), facts.transmissive, facts.transmissive_ids, facts.table,
+            self.scene.render.terms, self._specular_aa(),
+        )  # fmt: skip
+
+    def _build_transmission(self) -> TransmissionPass:
+        parts, ids = self.frame.parts, self.frame.material_ids
+        chosen = self._frame_facts().transmissive
+        drawables = forward_drawables(
+            self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
+            self.materials, self.scene.render.terms, self._specular_aa(),
+            transmission_defines(self.shading),
+        )  # fmt: skip
+        return TransmissionPass(self.gl.ctx, drawables, self.shading)
 
     def _key_blend(self) -> Hashable:
         """Only where a part is alpha-blended (every other scene compiles and renders as
@@ -969,6 +1001,9 @@ class Renderer:
             clock.done("shadows")
         self.run_lighting(m.frame)
         clock.done("lighting")
+        if self.transmission is not None:  # refracts the opaque image, before the blend
+            self.transmission.run(self.gbuffer, self.lighting, m.view, m.proj, m.frame)
+            clock.done("transmission")
         if self.blend is not None:  # composited before depth of field, resolve and post
             self.blend.run(self.gbuffer, self.lighting, m.view, m.proj, m.frame)
             clock.done("blend")
@@ -1020,7 +1055,10 @@ class Renderer:
         field, resolve, accumulation, blended parts or environment background; and an
         opaque background, whose display value the fused and surface-only post passes clear
         to (a transparent one has the post pass write every pixel's alpha)."""
-        extra = (self.dof, self.resolve, self.blend, self.background, self.accumulate, self.sraa)
+        extra = (
+            self.dof, self.resolve, self.blend, self.transmission, self.background,
+            self.accumulate, self.sraa,
+        )  # fmt: skip
         return all(x is None for x in extra) and not self.transparent
 
     @property
@@ -1186,6 +1224,8 @@ SCHEDULE: tuple[Built, ...] = (
           check=Renderer._check_culler),
     Built("lighting", Renderer._key_lighting, Renderer._build_lighting,
           needs=("gbuffer", "culler", "ibl", "shadows")),
+    Built("transmission", Renderer._key_transmission, Renderer._build_transmission,
+          needs=("lighting",)),
     Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
     Built("background", Renderer._key_background, Renderer._build_background),
     Built("sraa", Renderer._key_sraa, Renderer._build_sraa, needs=("gbuffer_pass",),

@@ -24,6 +24,11 @@ what it approximates; docs/gltf.md has the table.
   §9.12); approximated (docs/gltf.md lists the differences).
 * KHR_materials_iridescence: Belcour & Barla 2017's thin film at the maximum thickness
   (RTR4 §9.11); approximated (the project's film has no strength and uses exact Fresnel).
+* KHR_materials_transmission and KHR_materials_volume (RTR4 §14.5): the material row's
+  transmission, thickness and Beer-Lambert attenuation, drawn by the screen-space
+  transmission pass (app/render/transmission.py); approximated (docs/transmission.md
+  measures it against the ray-caster's exact refraction); KHR_materials_dispersion spreads
+  its index over the three channels.
 
 Textures: ``map_material_extensions`` also returns the textures the project samples
 (``maps``: the clear coat's normal map and strength, the sheen colour, the specular
@@ -60,10 +65,16 @@ SUPPORTED = (
     "KHR_materials_sheen",
     "KHR_materials_clearcoat",
     "KHR_materials_iridescence",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_dispersion",
 )
 # The extensions' textures the project cannot sample, and what is used instead (each one a
 # material names gives a note; docs/gltf.md lists them).
-UNSUPPORTED_TEXTURES: dict[str, dict[str, str]] = {}
+UNSUPPORTED_TEXTURES: dict[str, dict[str, str]] = {
+    "KHR_materials_transmission": {"transmissionTexture": "transmissionFactor alone is used"},
+    "KHR_materials_volume": {"thicknessTexture": "thicknessFactor alone is used"},
+}
 # Material extensions another part of the reader maps (the emissive strength joins the
 # core material's emissive factor).
 HANDLED_ELSEWHERE = ("KHR_materials_emissive_strength",)
@@ -121,6 +132,9 @@ def map_material_extensions(
     # (anisotropy), the film on it (iridescence), then sheen, then the coat on top.
     _ior_and_specular(state, extensions)
     layers = (
+        ("KHR_materials_transmission", _transmission),
+        ("KHR_materials_volume", _volume),
+        ("KHR_materials_dispersion", _dispersion),
         ("KHR_materials_anisotropy", _anisotropy),
         ("KHR_materials_iridescence", _iridescence),
         ("KHR_materials_sheen", _sheen),
@@ -314,6 +328,37 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
                 f"not applied under the '{model.fresnel}' Fresnel model"
             )
     state.params = replace(p, f0=f0, model=model, params=params)
+
+
+# --- KHR_materials_transmission and KHR_materials_volume (RTR4 §14.5) ---
+
+
+def _transmission(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    factor = _number(state, ext, name, "transmissionFactor", 0.0, 0.0, 1.0)
+    _apply(state, name, {}, {"transmission": factor})
+
+
+def _volume(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    thickness = _number(state, ext, name, "thicknessFactor", 0.0, 0.0, 1.0e4)
+    # attenuationDistance: > 0, default +infinity (no attenuation), the row's 0
+    distance = ext.get("attenuationDistance")
+    if distance is not None:
+        distance = _number(state, ext, name, "attenuationDistance", 1.0, 0.0, math.inf)
+        if distance <= 0.0:
+            raise GltfError(state.path(name, "attenuationDistance"), "must be positive")
+        distance = min(distance, 1.0e6)  # the row's range; past it, no visible attenuation
+    color = _color(state, ext, name, "attenuationColor", (1.0, 1.0, 1.0), 1.0)
+    volume = {
+        "thickness": thickness, "attenuation_color": color,
+        "attenuation_distance": 0.0 if distance is None else distance,
+    }  # fmt: skip
+    _apply(state, name, {}, volume)
+
+
+def _dispersion(state: _State, ext: Mapping[str, Any], name: str) -> None:
+    # 20 / V_d; the project's row holds up to 100 (an Abbe number of 0.2)
+    dispersion = _number(state, ext, name, "dispersion", 0.0, 0.0, 100.0)
+    _apply(state, name, {}, {"dispersion": dispersion})
 
 
 # --- KHR_materials_anisotropy (RTR4 §9.8) ---

@@ -289,7 +289,7 @@ class Light(_Strict):
 
 Ior = Annotated[Real, Field(ge=1.0, le=10.0)]
 # Scene keys whose lower bound is excluded: a conductor's refractive index n is positive.
-_EXCLUSIVE_LOW = frozenset({"eta"})
+_EXCLUSIVE_LOW = frozenset({"eta", "attenuation_distance"})
 
 
 def _table_key(name: str) -> Any:
@@ -441,6 +441,14 @@ class Material(_Strict):
     fiber_gamma_v: _table_key("fiber_gamma_v") | None = None  # sadeghi (20)
     # sadeghi: isotropic share of the volume scattering (0.3)
     fiber_kd: _table_key("fiber_kd") | None = None
+    # Transmission and volume (RTR4 §14.5; glTF KHR_materials_transmission/volume): the
+    # refracted share of the dielectric base (0), the volume's thickness in object units
+    # (0: thin-walled), Beer-Lambert's colour at a distance (white; unset: no attenuation)
+    transmission: _table_key("transmission") | None = None
+    thickness: _table_key("thickness") | None = None
+    attenuation_color: _table_key("attenuation_color") | None = None
+    attenuation_distance: _table_key("attenuation_distance") | None = None
+    dispersion: _table_key("dispersion") | None = None  # 20 / Abbe number (0)
     # Textures (RTR4 §9.13), paths relative to the scene file; see TEXTURE_KEYS.
     base_color_map: TexturePath | None = None
     metallic_map: TexturePath | None = None
@@ -659,6 +667,13 @@ class Material(_Strict):
             film_thickness=_given(self.film_thickness, "film_thickness"),
             film_eta=film_ior / medium,
             film_ior=film_ior,
+            transmission=_given(self.transmission, "transmission"),
+            thickness=_given(self.thickness, "thickness"),
+            attenuation_color=np.asarray(
+                _given(self.attenuation_color, "attenuation_color"), np.float64
+            ),
+            attenuation_distance=_given(self.attenuation_distance, "attenuation_distance"),
+            dispersion=_given(self.dispersion, "dispersion"),
         )
         if self.diffraction != "none":  # diffraction grating (RTR4 §9.11)
             params = replace(

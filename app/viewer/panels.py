@@ -658,6 +658,13 @@ class Panels:
         if material.diffraction == "grating":
             for name in ("grating_period", "grating_depth"):
                 self._field_slider(key, material, name)
+        # Transmission and volume (RTR4 §14.5, docs/transmission.md): glass drawn by the
+        # transmission pass once transmission is above 0; the volume's keys beside it.
+        self._field_slider(key, material, "transmission")
+        if (material.transmission or 0.0) > 0.0:
+            for name in ("thickness", "attenuation_distance", "dispersion"):
+                self._field_slider(key, material, name)
+            self._field_color(key, material, "attenuation_color")
 
     def _lights_panel(self) -> None:
         v = self.viewer

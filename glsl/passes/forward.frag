@@ -8,11 +8,17 @@
 // the fragment's full outgoing radiance (surface_radiance: the sum with shadows, the
 // environment's light, emission, occlusion) with its coverage as alpha, composited
 // "over" the lit HDR image by the fixed-function blend.
+// With TRANSMISSION it is the transmission pass (app/render/transmission.py): the diffuse
+// base weighted by (1 - transmission), plus the light of the opaque image behind the
+// surface refracted through it (brdf/transmission.glsl), written over the pixel.
 #include "brdf/brdf.glsl"
 #include "common/position.glsl"
 #include "geometry/analytic.glsl"
 #include "lights/shading.glsl"
 #include "material/layers.glsl"
+#if TRANSMISSION
+#include "brdf/transmission.glsl"
+#endif
 
 in vec3 v_normal;
 in vec2 v_uv;
@@ -27,6 +33,12 @@ in vec2 v_uv1;     // glTF TEXCOORD_1
 
 uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (app/common/material_fields.py)
 // u_camera_pos, u_camera_to_world, u_tan_half_fov, u_image_size: geometry/analytic.glsl
+
+#if TRANSMISSION
+// The opaque HDR image (premultiplied RGBA) with its mip chain (app/render/transmission.py)
+uniform sampler2D u_transmission_image;
+uniform mat4 u_view;   // passes/gbuffer.vert's (geometry/analytic.glsl: u_model, u_proj)
+#endif
 
 out vec4 frag_color;
 
@@ -51,8 +63,10 @@ void main() {
 #if GBUFFER_COAT_FILM_MAPS
     vec4 coat_film_factors = sample_coat_film_maps(hit.uv);   // as the G-buffer pass's RT8
 #endif
-#if ALPHA_BLEND
+#if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
+#endif
+#if ALPHA_BLEND
     float alpha = coverage(hit.uv);
 #endif
     gl_FragDepth = hit.frag_depth;
@@ -72,8 +86,10 @@ void main() {
 #if GBUFFER_COAT_FILM_MAPS
     vec4 coat_film_factors = sample_coat_film_maps(v_uv);   // as the G-buffer pass's RT8
 #endif
-#if ALPHA_BLEND
+#if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(v_uv);
+#endif
+#if ALPHA_BLEND
     float alpha = coverage(v_uv);
 #endif
 #if ALPHA_MASK
@@ -114,9 +130,49 @@ void main() {
 #else
     vec3 nc = n;
 #endif
+#if TRANSMISSION
+    // KHR_materials_transmission: the diffuse share (1 - transmission) of the base; its
+    // base colour tints the refracted light instead (exact for metallic 0; a metallic
+    // part's F0 is scaled with it, docs/transmission.md).
+    vec3 base_color = s.base_color;
+    s.base_color *= 1.0 - params.transmission;
+#endif
     ShadingPoint sp = ShadingPoint(s, params, n, nc, t, v, p);
     ng = sanitize_direction(normalize(ng), n);
-#if ALPHA_BLEND
+#if TRANSMISSION
+    vec3 radiance = surface_radiance(ivec2(0), emission, sp, ng);   // emission, occlusion too
+    // The volume's thickness in world units: the object's, times the model matrix's scale
+    // (the cube root of its determinant: a uniform scale exactly).
+    float scale = pow(abs(determinant(mat3(u_model))), 1.0 / 3.0);
+    float thickness = params.thickness * scale;
+    float lod = transmission_lod(s.perceptual_roughness, params.eta_dielectric, u_image_size.x);
+    // One lookup per channel where the index disperses (KHR_materials_dispersion), else one.
+    vec3 iors = dispersion_iors(params.eta_dielectric, params.dispersion);
+    int lookups = params.dispersion > 0.0 ? 3 : 1;
+    vec4 behind = vec4(0.0);
+    for (int c = 0; c < lookups; ++c) {
+        float eta = lookups == 1 ? params.eta_dielectric : iors[c];
+        vec3 exit = transmission_exit(p, v, n, eta, thickness);
+        vec4 clip = u_proj * (u_view * vec4(exit, 1.0));
+        vec2 uv = clip.w > 0.0 ? clip.xy / clip.w * 0.5 + 0.5 : gl_FragCoord.xy / u_image_size;
+        vec4 texel = textureLod(u_transmission_image, uv, lod);
+        if (lookups == 1) {
+            behind = texel;
+        } else {
+            behind[c] = texel[c];
+            behind.a += texel.a / 3.0;
+        }
+    }
+    vec3 weight = transmission_weight(s.f0_dielectric * params.specular_color,
+                                      clamp(dot(n, v), 0.0, 1.0), params.transmission,
+                                      s.metallic);
+    vec3 transmittance = beer_lambert(params.attenuation_color, params.attenuation_distance,
+                                      thickness);
+    radiance += transmitted_radiance(behind.rgb, base_color, weight, transmittance);
+    // Premultiplied coverage: what shows through keeps the coverage of what is behind.
+    float seen = dot(weight, vec3(1.0 / 3.0));
+    frag_color = vec4(radiance, 1.0 - seen * (1.0 - behind.a));
+#elif ALPHA_BLEND
     // C_src of "over": the lighting pass's radiance (lights/shading.glsl: the sum with
     // shadows, the environment's light, emission); the blend unit computes
     // alpha C_src + (1 - alpha) C_dst.

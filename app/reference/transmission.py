@@ -1,0 +1,101 @@
+"""Twin of glsl/brdf/transmission.glsl: the transmitted term of a dielectric surface (RTR4
+§14.5; glTF KHR_materials_transmission and KHR_materials_volume), float64, same names.
+
+    L_t = transmission (1 - metallic) (1 - F(n.v)) base_color T(d) L_behind
+
+F is the dielectric base's Schlick Fresnel, T(d) = exp(-sigma d) with sigma =
+-ln(attenuation_color) / attenuation_distance (Beer-Lambert), and L_behind the opaque
+image at the screen projection of the refracted ray's exit point, read at the mip level
+``transmission_lod`` (the glTF Sample Viewer's and Filament's screen-space approximation
+of rough refraction, which Walter et al. 2007, "Microfacet Models for Refraction through
+Rough Surfaces", derive exactly). The exact refraction through an analytic sphere, which
+measures this approximation, is app/reference/raycast.py's (docs/transmission.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.reference.fresnel import F_schlick
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.sum(np.asarray(a, np.float64) * np.asarray(b, np.float64), axis=-1)
+
+
+def refracted_direction(v: np.ndarray, n: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Snell's law for the view ray -v entering relative index ``eta`` (n2 / n1) through
+    the unit normal ``n`` (GLSL refract()'s formula); total internal reflection gives the
+    mirrored ray. ``v``, ``n`` (..., 3) unit; ``eta`` (...)."""
+    v = np.asarray(v, np.float64)
+    n = np.asarray(n, np.float64)
+    cos_i = _dot(n, v)[..., None]
+    inv = 1.0 / np.asarray(eta, np.float64)[..., None]
+    k = 1.0 - inv * inv * (1.0 - cos_i * cos_i)
+    refracted = -inv * v - (np.sqrt(np.maximum(k, 0.0)) - inv * cos_i) * n
+    mirrored = -v + 2.0 * cos_i * n
+    return np.where(k < 0.0, mirrored, refracted)
+
+
+def transmission_exit(
+    p: np.ndarray, v: np.ndarray, n: np.ndarray, eta: np.ndarray, thickness: np.ndarray
+) -> np.ndarray:
+    """The point ``thickness`` (world units) along the refracted ray from ``p``; ``p``
+    itself for a thin-walled surface (thickness 0)."""
+    t = np.asarray(thickness, np.float64)[..., None]
+    return np.asarray(p, np.float64) + refracted_direction(v, n, eta) * t
+
+
+# The three channels' wavelengths (nm) for KHR_materials_dispersion's index.
+CHANNEL_WAVELENGTHS = np.array([630.0, 532.0, 465.0])
+
+
+def dispersion_iors(ior: float, dispersion: float) -> np.ndarray:
+    """KHR_materials_dispersion: (3,) indices at ``CHANNEL_WAVELENGTHS``,
+    max(ior + (ior - 1) dispersion / 20 (523655 / lambda^2 - 1.5168), 1)."""
+    spread = 523655.0 / CHANNEL_WAVELENGTHS**2 - 1.5168
+    return np.maximum(ior + (ior - 1.0) * dispersion / 20.0 * spread, 1.0)
+
+
+def beer_lambert(
+    attenuation_color: np.ndarray, attenuation_distance: np.ndarray, d: np.ndarray
+) -> np.ndarray:
+    """Beer-Lambert transmittance exp(-sigma d), sigma = -ln(c) / attenuation_distance,
+    over a path of length ``d``; 1 where attenuation_distance <= 0 (no attenuation).
+    ``attenuation_color`` (..., 3); returns (..., 3)."""
+    c = np.maximum(np.asarray(attenuation_color, np.float64), 1e-30)
+    dist = np.asarray(attenuation_distance, np.float64)[..., None]
+    d = np.asarray(d, np.float64)[..., None]
+    safe = np.where(dist > 0.0, dist, 1.0)
+    sigma = -np.log(c) / safe
+    return np.where(dist > 0.0, np.exp(-sigma * d), 1.0)
+
+
+def transmission_lod(
+    perceptual_roughness: np.ndarray, eta: np.ndarray, image_width: float
+) -> np.ndarray:
+    """The mip level of the opaque image: log2(width) r clamp(2 eta - 2, 0, 1)."""
+    r = np.asarray(perceptual_roughness, np.float64)
+    scale = np.clip(2.0 * np.asarray(eta, np.float64) - 2.0, 0.0, 1.0)
+    return np.log2(float(image_width)) * r * scale
+
+
+def transmission_weight(
+    f0_dielectric: np.ndarray, NoV: np.ndarray, transmission: np.ndarray, metallic: np.ndarray
+) -> np.ndarray:
+    """transmission (1 - metallic) (1 - F_schlick(F0, n.v)) per channel; ``f0_dielectric``
+    (..., 3)."""
+    scale = np.asarray(transmission, np.float64) * (1.0 - np.asarray(metallic, np.float64))
+    return scale[..., None] * (1.0 - F_schlick(f0_dielectric, NoV))
+
+
+def transmitted_radiance(
+    behind: np.ndarray, base_color: np.ndarray, weight: np.ndarray, transmittance: np.ndarray
+) -> np.ndarray:
+    """L_t = weight base_color transmittance L_behind (all (..., 3))."""
+    return (
+        np.asarray(weight, np.float64)
+        * np.asarray(base_color, np.float64)
+        * np.asarray(transmittance, np.float64)
+        * np.asarray(behind, np.float64)
+    )

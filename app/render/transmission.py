@@ -1,0 +1,168 @@
+"""The transmission pass: KHR_materials_transmission and KHR_materials_volume (RTR4 §14.5),
+screen-space refraction of the opaque image behind a transmissive surface.
+
+A part whose (first) layer has ``transmission`` > 0 is, like a blended part, left out of
+the G-buffer (the culler, the lighting pass and the shadow maps see what is behind it) and
+drawn here, after the lighting pass and the environment background and before the blend
+pass. First the lighting pass's HDR image is copied into a texture with a mip chain (only
+in a frame with a transmissive part); then each transmissive part is shaded forward by
+glsl/passes/forward.frag with ``TRANSMISSION``: the lighting pass's ``surface_radiance``
+with the diffuse base weighted by (1 - transmission), plus the transmitted term of
+glsl/brdf/transmission.glsl (twin app/reference/transmission.py): the view ray refracted by
+the material's index, offset by the volume's thickness (none where thin-walled), projected
+to the screen and read from the copy at a mip level set by roughness and index, times the
+base colour, (1 - F) and Beer-Lambert's exp(-sigma d). The result replaces the pixel (no
+blending: the light behind is already in it), depth-tested against the G-buffer's depth.
+
+What it cannot see (docs/transmission.md measures it against the ray-caster's exact
+refraction): anything not on screen or hidden behind another opaque surface at the exit
+point's pixel, other transmissive or blended parts (one layer of glass, farthest first),
+the back face's second refraction and internal reflections (the exit point is one straight
+offset), and punctual lights seen through the glass (no BTDF lobe for lights). Transmissive
+parts cast no shadows.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from app.common.camera import CameraFrame
+from app.frame.camera import gl_bytes
+from app.render.blend import BLEND_INPUTS, world_centre
+from app.render.gbuffer import GBuffer
+from app.render.inputs import LIGHTS, MATERIALS, ShadingContext, bind_camera
+from app.render.lighting import LightingPass
+from app.render.mesh_drawable import MeshDrawable
+from app.scene.geometry import MeshPart
+
+# forward.frag as the transmission pass, emission and occlusion compiled in as the blend
+# pass's (GBUFFER_EMISSION selects layers.glsl's lookups; this pass writes no G-buffer).
+TRANSMISSION_DEFINES = {"TRANSMISSION": 1, "GBUFFER_EMISSION": 1}
+
+
+def transmissive(part: MeshPart) -> bool:
+    """Whether the part is drawn by the transmission pass: ``transmission`` > 0 on its
+    (first) layer, the one the pass shades (a transmissive part that is also alpha-blended
+    is drawn here, opaque to what is behind but for the light it transmits)."""
+    return float(part.layers[0].params.params.transmission) > 0.0
+
+
+def transmission_defines(context: ShadingContext) -> dict[str, int]:
+    """``TRANSMISSION_DEFINES`` plus the defines of the frame's inputs the pass reads
+    (``BLEND_INPUTS``, as the blend pass), so a transmissive part is lit as an opaque one."""
+    return {**TRANSMISSION_DEFINES, **context.only(*BLEND_INPUTS).defines()}
+
+
+class TransmissionPass:
+    """The transmissive parts of a frame, drawn over the lighting pass's HDR image."""
+
+    def __init__(
+        self, ctx: moderngl.Context, drawables: list[MeshDrawable], context: ShadingContext
+    ) -> None:
+        """``drawables``: ``forward_drawables`` of the transmissive parts, compiled with
+        ``transmission_defines(context)``; ``context``: the lighting pass's inputs, of which
+        the pass binds ``BLEND_INPUTS``."""
+        context.require("the transmission pass", LIGHTS, MATERIALS)
+        self.ctx = ctx
+        self.context = context.only(*BLEND_INPUTS)
+        self.drawables = drawables
+        self._centres = [world_centre(d.part) for d in drawables]
+        self.image: moderngl.Texture | None = None  # the opaque image with its mips
+        self._source: moderngl.Framebuffer | None = None
+        self._copy: moderngl.Framebuffer | None = None  # the copy's level 0
+        self._fbo: moderngl.Framebuffer | None = None
+        self._attached: tuple[moderngl.Texture, moderngl.Renderbuffer] | None = None
+
+    def _targets(
+        self, hdr: moderngl.Texture, zbuffer: moderngl.Renderbuffer
+    ) -> moderngl.Framebuffer:
+        """The copy's texture (with a mip chain, trilinear) and the framebuffers of the
+        HDR image (the copy's source) and of the HDR image with the G-buffer's depth (the
+        draw's target), made again when either is new."""
+        attached = self._attached
+        if attached is None or attached[0] is not hdr or attached[1] is not zbuffer:
+            self._release_targets()
+            self._source = self.ctx.framebuffer([hdr])
+            self._fbo = self.ctx.framebuffer([hdr], zbuffer)
+            image = self.ctx.texture(hdr.size, 4, dtype="f4")
+            image.build_mipmaps()  # allocates the chain; filled each frame
+            image.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            image.repeat_x = image.repeat_y = False
+            self.image = image
+            # a framebuffer-to-framebuffer blit keeps float32 (a copy into the texture
+            # itself went through 8 bits per channel on llvmpipe: 0.3 read back 76/255)
+            self._copy = self.ctx.framebuffer([image])
+            self._attached = (hdr, zbuffer)
+        assert self._fbo is not None
+        return self._fbo
+
+    def copy_opaque(self, hdr: moderngl.Texture, zbuffer: moderngl.Renderbuffer) -> None:
+        """The opaque HDR image into ``image`` and its mip chain (box-filtered levels: the
+        GL's glGenerateMipmap), which the fragments read at a roughness-dependent level."""
+        self._targets(hdr, zbuffer)
+        assert self._source is not None and self._copy is not None and self.image is not None
+        self.ctx.copy_framebuffer(self._copy, self._source)
+        self.image.build_mipmaps()
+
+    def run(
+        self,
+        gbuffer: GBuffer,
+        lighting: LightingPass,
+        view: np.ndarray,
+        proj: np.ndarray,
+        camera: CameraFrame,
+    ) -> None:
+        """Copy the opaque image, then draw every transmissive part, farthest first, over
+        ``lighting.hdr``."""
+        ctx = self.ctx
+        self.copy_opaque(lighting.hdr, gbuffer.zbuffer)
+        fbo = self._targets(lighting.hdr, gbuffer.zbuffer)
+        fbo.use()
+        size = lighting.size
+        ctx.viewport = (0, 0, *size)
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        fbo.depth_mask = False  # tested against the opaque surfaces, never written
+        view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
+        image_size = tuple(float(x) for x in size)
+        unit = self.context.use()  # the copy on the next unit, the layers' maps after it
+        assert self.image is not None
+        self.image.use(location=unit)
+        depths = [-float((view @ c)[2]) for c in self._centres]
+        order = sorted(range(len(depths)), key=lambda k: -depths[k])
+        for d in (self.drawables[k] for k in order):
+            prog = d.program
+            d.bind_transform(view_bytes, proj_bytes)
+            d.bind_camera(camera, size)
+            bind_camera(prog, camera)
+            d.bind_material(first_unit=unit + 1)
+            if "u_image_size" in prog:
+                prog["u_image_size"].value = image_size
+            if "u_transmission_image" in prog:
+                prog["u_transmission_image"].value = unit
+            self.context.bind(prog)
+            d.cull(ctx)
+            if d.part.closed:
+                d.vao.render(moderngl.TRIANGLES)
+                continue
+            ctx.enable(moderngl.CULL_FACE)  # two-sided: the far side first, then the near
+            for face in ("front", "back"):
+                ctx.cull_face = face
+                d.vao.render(moderngl.TRIANGLES)
+        fbo.depth_mask = True
+        ctx.disable(moderngl.CULL_FACE)
+        ctx.cull_face = "back"
+        ctx.front_face = "ccw"
+
+    def _release_targets(self) -> None:
+        for obj in (self._source, self._copy, self._fbo, self.image):
+            if obj is not None:
+                obj.release()
+        self._source = self._copy = self._fbo = self.image = None
+        self._attached = None
+
+    def release(self) -> None:
+        for d in self.drawables:
+            d.release()
+        self._release_targets()

@@ -1,0 +1,70 @@
+// Transmission and volume (RTR4 sec. 14.5; glTF KHR_materials_transmission and
+// KHR_materials_volume): the light of the scene behind a dielectric surface that is
+// refracted through it, as a screen-space lookup into the opaque HDR image.
+//   L_t = transmission (1 - metallic) (1 - F(n.v)) base_color T(d) L_behind
+// with F the dielectric base's Schlick Fresnel (what the surface reflects it does not
+// transmit), T(d) = exp(-sigma d), sigma = -ln(attenuation_color) / attenuation_distance
+// (Beer-Lambert; KHR_materials_volume), and L_behind the opaque image at the projection of
+// the refracted ray's exit point, blurred by roughness through its mip chain (the glTF
+// Sample Viewer's and Filament's approach; rough refraction itself: Walter et al. 2007,
+// "Microfacet Models for Refraction through Rough Surfaces"). The float64 twin is
+// app/reference/transmission.py, same names.
+#ifndef PBS_TRANSMISSION_GLSL
+#define PBS_TRANSMISSION_GLSL
+
+#include "brdf/fresnel.glsl"
+
+// The refracted direction of the view ray -v entering a medium of relative index eta
+// (n2 / n1) through normal n (Snell's law, GLSL refract()'s formula); total internal
+// reflection (only for eta < 1) gives the mirrored ray instead of refract()'s zero.
+vec3 refracted_direction(vec3 v, vec3 n, float eta) {
+    float cos_i = dot(n, v);
+    float inv = 1.0 / eta;
+    float k = 1.0 - inv * inv * (1.0 - cos_i * cos_i);
+    if (k < 0.0) return reflect(-v, n);
+    return -inv * v - (sqrt(k) - inv * cos_i) * n;
+}
+
+// Where the refracted ray leaves the volume: thickness (world units; the object's thickness
+// scaled by its model matrix) along the refracted direction; a thin-walled surface
+// (thickness 0) leaves at p itself, so the lookup is the pixel's own (no offset).
+vec3 transmission_exit(vec3 p, vec3 v, vec3 n, float eta, float thickness) {
+    return p + refracted_direction(v, n, eta) * thickness;
+}
+
+// KHR_materials_dispersion: the index at the three channels' wavelengths (630, 532 and
+// 465 nm), n(lambda) = max(ior + (ior - 1) / V_d (523655 / lambda^2 - 1.5168), 1), with
+// 1 / V_d = dispersion / 20 (the extension's formula; lambda in nm).
+vec3 dispersion_iors(float ior, float dispersion) {
+    vec3 lambda = vec3(630.0, 532.0, 465.0);
+    vec3 spread = 523655.0 / (lambda * lambda) - 1.5168;
+    return max(ior + (ior - 1.0) * dispersion / 20.0 * spread, vec3(1.0));
+}
+
+// Beer-Lambert transmittance over a path of length d: attenuation_color^(d / distance), as
+// exp(-sigma d); attenuation_distance <= 0 is no attenuation (the specification's infinity).
+vec3 beer_lambert(vec3 attenuation_color, float attenuation_distance, float d) {
+    if (attenuation_distance <= 0.0) return vec3(1.0);
+    vec3 sigma = -log(max(attenuation_color, vec3(1e-30))) / attenuation_distance;
+    return exp(-sigma * d);
+}
+
+// The mip level of the opaque image read for a rough surface: log2 of the image width
+// times the perceptual roughness, scaled by how much the index bends light,
+// clamp(2 eta - 2, 0, 1) (the glTF Sample Viewer's choice: an index of 1 does not blur).
+float transmission_lod(float perceptual_roughness, float eta, float image_width) {
+    return log2(image_width) * perceptual_roughness * clamp(2.0 * eta - 2.0, 0.0, 1.0);
+}
+
+// The weight of the light behind: transmission (1 - metallic) (1 - F_schlick(F0, n.v)) per
+// channel, with F0 the dielectric base's (f0 specular_color).
+vec3 transmission_weight(vec3 f0_dielectric, float NoV, float transmission, float metallic) {
+    return transmission * (1.0 - metallic) * (1.0 - F_schlick(f0_dielectric, NoV));
+}
+
+// L_t: the light behind, tinted by the base colour and the volume's transmittance.
+vec3 transmitted_radiance(vec3 behind, vec3 base_color, vec3 weight, vec3 transmittance) {
+    return weight * base_color * transmittance * behind;
+}
+
+#endif

@@ -1,0 +1,198 @@
+"""Transmission and volume (RTR4 §14.5; glTF KHR_materials_transmission and
+KHR_materials_volume): a transmissive sphere drawn by the transmission pass
+(app/render/transmission.py) shows the image behind it, with the real GLSL.
+
+A sphere of white glass in front of a uniform background colour, lit by nothing that
+reaches its front (a sun shining from in front of the camera, onto the sphere's far side):
+the only light leaving its front is the transmitted term, so the pixel at its centre is the
+twin's (app/reference/transmission.py) weight times the background, (1 - F(1)) = 0.96 at
+ior 1.5, times Beer-Lambert's transmittance over the volume's thickness.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+
+from app.common.ior import f0_from_ior
+from app.gl.context import GLContext
+from app.reference.transmission import (
+    beer_lambert,
+    dispersion_iors,
+    refracted_direction,
+    transmission_exit,
+    transmission_lod,
+    transmission_weight,
+)
+from app.render.renderer import Renderer
+from app.scene.loader import parse_scene
+from tests.gltf_builder import GltfBuilder
+
+SIZE = (40, 32)
+BACKGROUND = [0.2, 0.6, 0.3]
+# The sun shines towards the camera (+z): the sphere's front hemisphere is not lit.
+BACKLIGHT = {"type": "directional", "direction": [0.0, 0.0, 1.0], "intensity": 2.0}
+# float32 shading, the image copy and its trilinear read at level 0
+TOLERANCE = 1e-4
+
+
+def scene(material: dict, objects: list[dict] | None = None, scale: float = 1.0) -> dict:
+    sphere = {"shape": "sphere", "radius": 0.5, "scale": scale, "material": "glass"}
+    return {
+        "background": BACKGROUND,
+        "camera": {"position": [0.0, 0.0, 3.0], "target": [0.0, 0.0, 0.0], "fov_y": 40.0},
+        "materials": {
+            "glass": {"base_color": [1.0, 1.0, 1.0], "roughness": 0.05, "ior": 1.5, **material}
+        },
+        "objects": objects if objects is not None else [sphere],
+        "lights": [BACKLIGHT],
+        "render": {"width": SIZE[0], "height": SIZE[1], "gbuffer": "f32"},
+    }
+
+
+def render(gl: GLContext, data: dict, tmp_path: Path) -> tuple[np.ndarray, tuple[bool, int]]:
+    """The HDR image, whether the frame had a transmission pass and how many parts the
+    G-buffer pass drew."""
+    r = Renderer(gl, parse_scene(data, tmp_path / "inline.toml"))
+    try:
+        r.render()
+        passes = (r.transmission is not None, len(r.gbuffer_pass.drawables))
+        return r.read_hdr().astype(np.float64), passes
+    finally:
+        r.release()
+
+
+def centre(image: np.ndarray) -> np.ndarray:
+    """The mean of the four pixels around the image centre (the sphere's centre)."""
+    h, w = image.shape[:2]
+    return image[h // 2 - 1 : h // 2 + 1, w // 2 - 1 : w // 2 + 1, :3].mean(axis=(0, 1))
+
+
+def behind(image: np.ndarray) -> np.ndarray:
+    """The background's radiance as the HDR image holds it (a corner pixel)."""
+    return image[0, 0, :3]
+
+
+@pytest.mark.gl
+def test_background_shows_through_a_thin_walled_sphere(gl_egl, tmp_path):
+    """Thin-walled (thickness 0): the centre is (1 - F) x the background, and the sphere is
+    drawn by the transmission pass, not the G-buffer. Fails with the transmitted term left
+    out (the unlit front is black) or the part left in the G-buffer."""
+    image, passes = render(gl_egl, scene({"transmission": 1.0}), tmp_path)
+    assert passes == (True, 0)
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    np.testing.assert_allclose(centre(image), weight * behind(image), rtol=TOLERANCE)
+    # half the transmission: half the light behind, the other half diffused (unlit: black)
+    half, _ = render(gl_egl, scene({"transmission": 0.5}), tmp_path)
+    np.testing.assert_allclose(centre(half), 0.5 * weight * behind(image), rtol=TOLERANCE)
+
+
+@pytest.mark.gl
+def test_a_transmissive_part_emits(gl_egl, tmp_path):
+    """Emission adds to the transmitted light, as on any surface. Fails with the
+    transmission pass compiled without the emission lookup."""
+    emissive = np.array([0.1, 0.05, 0.02])
+    material = {"transmission": 1.0, "emissive": emissive.tolist()}
+    image, _ = render(gl_egl, scene(material), tmp_path)
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    expected = weight * behind(image) + emissive
+    np.testing.assert_allclose(centre(image), expected, rtol=TOLERANCE)
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("scale", [1.0, 2.0])
+def test_attenuation_colour_tints_the_light_behind(gl_egl, tmp_path, scale):
+    """A volume of thickness 0.5 (object units; the model's scale multiplies it) with
+    attenuation_color c at distance 0.25: Beer-Lambert's c^(d / 0.25) on the light behind.
+    Fails with the attenuation left out, or the thickness not scaled by the model."""
+    material = {
+        "transmission": 1.0, "thickness": 0.5, "attenuation_color": [0.8, 0.5, 0.2],
+        "attenuation_distance": 0.25,
+    }  # fmt: skip
+    image, _ = render(gl_egl, scene(material, scale=scale), tmp_path)
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    tint = beer_lambert(np.array([0.8, 0.5, 0.2]), 0.25, 0.5 * scale)
+    np.testing.assert_allclose(centre(image), weight * tint * behind(image), rtol=TOLERANCE)
+    assert tint[2] < 0.2  # the blue is mostly absorbed: the test can tell
+
+
+@pytest.mark.gl
+def test_dispersion_is_one_index_per_channel(gl_egl, tmp_path):
+    """With dispersion each channel is the image refracted by its own index (the twin's
+    dispersion_iors): channel c of the dispersed sphere equals channel c of a sphere
+    without dispersion at index iors[c], over the whole image (every F0 held at the red
+    index's through specular_color, so that only the refraction differs). Fails with one
+    index for all three channels (red and blue then differ at the rim, where the volume
+    bends most)."""
+    iors = dispersion_iors(1.5, 5.0)
+    assert iors[2] - iors[0] > 0.05  # a spread the rim can show
+    f0 = f0_from_ior(iors[0])
+
+    def glass(ior: float, **extra: float) -> dict:
+        scale = float(f0 / f0_from_ior(ior))
+        return {"transmission": 1.0, "thickness": 1.0, "roughness": 0.0, "ior": float(ior),
+                "specular_color": [scale] * 3, **extra}  # fmt: skip
+
+    def halves(material: dict) -> dict:
+        """The sphere before a wall of two emitting halves, orange left, blue right (emitted
+        radiance: no light needed), so that where a lookup lands changes its colour."""
+        data = scene(material)
+        wall = {"shape": "plane", "size": [2.0, 3.0], "rotation": [90.0, 0.0, 0.0]}
+        data["materials"] |= {"left": {"emissive": [1.0, 0.4, 0.1]},
+                              "right": {"emissive": [0.1, 0.4, 1.0]}}  # fmt: skip
+        data["objects"] += [
+            {**wall, "position": [-1.0, 0.0, -1.0], "material": "left"},
+            {**wall, "position": [1.0, 0.0, -1.0], "material": "right"},
+        ]
+        return data
+
+    dispersed, _ = render(gl_egl, halves(glass(1.5, dispersion=5.0)), tmp_path)
+    images = [render(gl_egl, halves(glass(ior)), tmp_path)[0] for ior in iors]
+    channels = np.stack([image[..., c] for c, image in enumerate(images)], axis=-1)
+    np.testing.assert_allclose(dispersed[..., :3], channels, atol=1e-5)
+    # the index moves the lookup across the halves' edge: red and blue indices differ
+    assert np.abs(images[0] - images[2]).max() > 0.1
+
+
+@pytest.mark.gl
+def test_gltf_transmission_and_volume_are_read(gl_egl, tmp_path):
+    """A .glb quad with KHR_materials_transmission, _volume and _ior goes through the
+    transmission pass with the extensions' numbers. Fails with the reader ignoring the
+    extensions (the quad is then opaque and unlit: black)."""
+    b = GltfBuilder()
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.0
+    )
+    ext = {
+        "KHR_materials_transmission": {"transmissionFactor": 1.0},
+        "KHR_materials_volume": {
+            "thicknessFactor": 0.5, "attenuationDistance": 0.25,
+            "attenuationColor": [0.8, 0.5, 0.2],
+        },
+        "KHR_materials_ior": {"ior": 1.5},
+    }  # fmt: skip
+    material = pygltflib.Material(pbrMetallicRoughness=pbr, extensions=ext)
+    b.quad(b.material(material))
+    path = b.save(tmp_path / "glass.glb")
+    objects = [{"shape": "mesh", "file": str(path), "position": [0.0, 0.0, 0.5]}]
+    image, passes = render(gl_egl, scene({}, objects), tmp_path)
+    assert passes == (True, 0)
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    tint = beer_lambert(np.array([0.8, 0.5, 0.2]), 0.25, 0.5)
+    np.testing.assert_allclose(centre(image), weight * tint * behind(image), rtol=TOLERANCE)
+
+
+def test_twin_refraction_and_lod():
+    """The twin's Snell refraction keeps the tangential component n1 sin = n2 sin, and the
+    lookup level: 0 for a smooth surface or an index of 1, log2(width) for roughness 1."""
+    n = np.array([0.0, 0.0, 1.0])
+    v = np.array([np.sin(0.5), 0.0, np.cos(0.5)])
+    t = refracted_direction(v, n, 1.5)
+    assert np.isclose(np.linalg.norm(t), 1.0)
+    assert np.isclose(np.sin(0.5), 1.5 * t[0] * -1.0)
+    assert np.allclose(transmission_exit(np.zeros(3), v, n, 1.5, 0.0), 0.0)
+    assert transmission_lod(0.0, 1.5, 512) == 0.0 and transmission_lod(1.0, 1.0, 512) == 0.0
+    assert np.isclose(transmission_lod(1.0, 1.5, 512), 9.0)
