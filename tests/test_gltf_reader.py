@@ -475,9 +475,9 @@ def test_normal_map_tilts_the_gbuffer_normal(
 
 
 def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) -> None:
-    """A material with KHR_materials_diffuse_transmission (no model here) and a coat roughness
-    texture (the coat mapped, that texture not): `pbs render` writes the image, exits 0 and
-    says each on one line of stderr naming the glTF file, nothing else."""
+    """A material with KHR_materials_diffuse_transmission (no model here) and a volume's
+    thickness texture (the volume mapped, that texture not): `pbs render` writes the image,
+    exits 0 and says each on one line of stderr naming the glTF file, nothing else."""
     import subprocess
     import sys
 
@@ -485,9 +485,9 @@ def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) ->
     tex = b.texture(png_rgb((200, 100, 50)))
     ext = {
         "KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 0.5},
-        "KHR_materials_clearcoat": {
-            "clearcoatFactor": 1.0,
-            "clearcoatRoughnessTexture": {"index": tex},
+        "KHR_materials_volume": {
+            "thicknessFactor": 0.1,
+            "thicknessTexture": {"index": tex},
         },
     }
     b.quad(b.material(pygltflib.Material(extensions=ext)))
@@ -505,4 +505,4 @@ def test_an_extension_without_a_model_is_one_note_and_renders(tmp_path: Path) ->
     assert len(lines) == 2, result.stderr
     assert all(str(tmp_path / "m.glb") in line for line in lines)
     assert any("KHR_materials_diffuse_transmission" in line for line in lines)
-    assert any("clearcoatRoughnessTexture" in line for line in lines)
+    assert any("thicknessTexture" in line for line in lines)
