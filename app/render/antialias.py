@@ -57,6 +57,8 @@ SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample 
 # depths differ by at most this fraction of the sample's
 SRAA_DEPTH_TOLERANCE = 0.1
 _GL_SAMPLE_POSITION = 0x8E50
+# The fine derivatives gbaa's draws take a 2x2 quad's neighbour from (GL 4.5 core)
+QUAD_EXTENSION = "GL_ARB_derivative_control"
 
 
 def halton(index: int, base: int) -> float:
@@ -354,6 +356,8 @@ class GbaaPass:
         defines: dict[str, object] = {"TONEMAP": tonemap_code}
         if straight_alpha:
             defines["STRAIGHT_ALPHA"] = 1
+        if QUAD_EXTENSION in ctx.extensions:  # three fetches of each target, not five
+            defines["QUAD_NEIGHBOURS"] = 1
         self.marker = FullscreenDraw.of(
             ctx, shaders, "passes/gbaa.frag", {**defines, "GBAA_MARK": 1}
         )
