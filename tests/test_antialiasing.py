@@ -21,7 +21,7 @@ from app.gl.context import GLContext
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import GLSL_VERSION
 from app.render.adjacency import adjacency_indices
-from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets
+from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets, sphere_window_rect
 from app.render.renderer import Renderer
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
@@ -371,6 +371,39 @@ def test_adjacency_finds_each_edge_s_neighbour() -> None:
     adj = adjacency_indices(tetra, faces).reshape(-1, 6)
     for tri in adj:
         assert len(set(tri[0::2].tolist()) | set(tri[1::2].tolist())) == 4
+
+
+def test_gbaa_window_rectangle_of_a_sphere_holds_its_silhouette() -> None:
+    """The window rectangle gbaa's draws cover for an analytic sphere (the planes through
+    the eye that touch it) is its silhouette's: every projected point of the sphere lies
+    inside, and each side lies within a hundredth of a pixel of the nearest one (a box's
+    corners, as for a mesh, project pixels outside it)."""
+    size, tan_y = (640, 360), np.tan(np.radians(16.0))
+    near, far, aspect = 0.1, 100.0, size[0] / size[1]
+    proj = np.zeros((4, 4))
+    proj[0, 0], proj[1, 1] = 1.0 / (tan_y * aspect), 1.0 / tan_y
+    proj[2, 2], proj[2, 3], proj[3, 2] = (
+        (far + near) / (near - far),
+        2 * far * near / (near - far),
+        -1,
+    )
+    view = np.eye(4)
+    view[:3, 3] = (0.3, -0.8, -0.2)  # the eye moved: the spheres' view positions differ
+    rng = np.random.default_rng(7)
+    directions = rng.normal(size=(200_000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    for centre, radius in (
+        ((-1.9, 0.0, -6.0), 0.6),
+        ((2.5, 1.2, -4.0), 0.9),
+        ((0.0, 0.0, -3.0), 0.2),
+    ):
+        rect = np.array(sphere_window_rect(np.array(centre), radius, view, proj, size))
+        points = np.c_[np.array(centre) + radius * directions, np.ones(len(directions))]
+        clip = points @ (proj @ view).T
+        window = (clip[:, :2] / clip[:, 3:] * 0.5 + 0.5) * size
+        lo, hi = window.min(axis=0), window.max(axis=0)
+        assert np.all(rect[:2] <= lo + 1e-6) and np.all(rect[2:] >= hi - 1e-6), (rect, lo, hi)
+        assert np.all(rect[:2] >= lo - 0.01) and np.all(rect[2:] <= hi + 0.01), (rect, lo, hi)
 
 
 def test_the_default_falls_back_to_fxaa_on_a_dense_mesh(gl_egl: GLContext) -> None:

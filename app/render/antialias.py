@@ -341,7 +341,7 @@ def _box_rect(corners: np.ndarray, clip_from_world: np.ndarray, size: tuple[int,
     return (*window.min(axis=0), *window.max(axis=0))
 
 
-def _sphere_rect(
+def sphere_window_rect(
     centre: np.ndarray, radius: float, view: np.ndarray, proj: np.ndarray, size: tuple[int, int]
 ):
     """The window rectangle (float pixels) of a sphere's silhouette: along each window
@@ -449,7 +449,7 @@ class GbaaPass:
             return whole
         view, proj = np.asarray(view, np.float64), np.asarray(proj, np.float64)
         found = [_box_rect(box, proj @ view, self.size) for box in self.boxes]
-        found += [_sphere_rect(s[:3], s[3], view, proj, self.size) for s in self.spheres]
+        found += [sphere_window_rect(s[:3], s[3], view, proj, self.size) for s in self.spheres]
         if any(r is None for r in found):
             return whole
         rects = []
