@@ -19,7 +19,8 @@ import pytest
 from app.bench.antialiasing import aa_scene_data, with_aa
 from app.gl.context import GLContext
 from app.gl.fullscreen import FullscreenDraw
-from app.gl.shaders import GLSL_VERSION
+from app.gl.shaders import GLSL_VERSION, ShaderCache
+from app.render import antialias
 from app.render.adjacency import adjacency_indices
 from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets, sphere_window_rect
 from app.render.renderer import Renderer
@@ -330,6 +331,20 @@ def test_geometric_resolve_lowers_the_silhouette_error(gl_egl: GLContext, edge_t
         assert r.gbaa is None and r.gbuffer.edge is None
     finally:
         r.release()
+
+
+def test_gbaa_quad_neighbours_are_the_fetched_ones(
+    gl_egl: GLContext, edge_truth, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """gbaa's draws taking a 2x2 quad's inner neighbour from the derivative (where the GL's
+    dFdx and dFdy are fine, as llvmpipe's) give the display bytes of the five fetches
+    they replace (the path of a GL whose derivatives are coarse)."""
+    loaded = edge_truth[0]
+    assert antialias.fine_derivatives(gl_egl.ctx, ShaderCache(gl_egl.ctx))
+    quad, _ = _display(gl_egl, loaded, "gbaa")
+    monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
+    fetched, _ = _display(gl_egl, loaded, "gbaa")
+    assert np.array_equal(quad, fetched)
 
 
 def test_edge_coverage_of_analytic_spheres_and_meshes(gl_egl: GLContext, edge_truth) -> None:

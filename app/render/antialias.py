@@ -57,8 +57,6 @@ SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample 
 # depths differ by at most this fraction of the sample's
 SRAA_DEPTH_TOLERANCE = 0.1
 _GL_SAMPLE_POSITION = 0x8E50
-# The fine derivatives gbaa's draws take a 2x2 quad's neighbour from (GL 4.5 core)
-QUAD_EXTENSION = "GL_ARB_derivative_control"
 
 
 def halton(index: int, base: int) -> float:
@@ -325,6 +323,31 @@ class SraaPass:
             obj.release()
 
 
+# Contexts whose dFdx and dFdy were found fine (or not), by id and renderer
+_FINE_DERIVATIVES: dict[tuple[int, str], bool] = {}
+
+
+def fine_derivatives(ctx: moderngl.Context, shaders: ShaderCache) -> bool:
+    """Whether ``ctx``'s dFdx and dFdy are fine, each row and column of a 2x2 quad its own
+    difference (llvmpipe's are; GLSL 3.30 allows coarse ones, and the fine built-ins need
+    GL 4.0 or an extension): drawn once on a 4x4 image (glsl/passes/gbaa_probe.frag) and
+    remembered for the context."""
+    key = (id(ctx), str(ctx.info.get("GL_RENDERER")))
+    if key not in _FINE_DERIVATIVES:
+        target = ctx.texture((4, 4), 4, dtype="f4")
+        fbo = ctx.framebuffer([target])
+        probe = FullscreenDraw.of(ctx, shaders, "passes/gbaa_probe.frag")
+        try:
+            probe.draw(fbo, viewport=(0, 0, 4, 4))
+            texels = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+            ddx, ddy, x, y = texels.reshape(-1, 4).T
+            _FINE_DERIVATIVES[key] = bool(np.all(ddx == y) and np.all(ddy == x))
+        finally:
+            for obj in (probe, fbo, target):
+                obj.release()
+    return _FINE_DERIVATIVES[key]
+
+
 # The most window rectangles gbaa's draws cover separately (glsl/passes/gbaa_rects.vert's
 # uniform array); more are drawn as their union.
 GBAA_MAX_RECTS = 16
@@ -428,7 +451,7 @@ class GbaaPass:
         defines: dict[str, object] = {"TONEMAP": tonemap_code, "GBAA_MAX_RECTS": GBAA_MAX_RECTS}
         if straight_alpha:
             defines["STRAIGHT_ALPHA"] = 1
-        if QUAD_EXTENSION in ctx.extensions:  # three fetches of each target, not five
+        if fine_derivatives(ctx, shaders):  # three fetches of each target, not five
             defines["QUAD_NEIGHBOURS"] = 1
         vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
         self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})

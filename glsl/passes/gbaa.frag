@@ -18,10 +18,10 @@
 // every branch for a whole block: one draw that discards the other pixels took 10 ms at
 // 640x360, the two 3 ms), and writes the display image there. It reads the HDR
 // radiance of marked pixels only (a neighbour it mixes in differs from it, so is marked).
-// With QUAD_NEIGHBOURS (GL_ARB_derivative_control, app/render/antialias.py) each lane
-// fetches its own texel and its two neighbours outside its 2x2 quad, and takes the one
-// inside the quad from the fine derivative: three fetches of each target instead of five
-// (a fetch is most of these draws' cost on llvmpipe).
+// With QUAD_NEIGHBOURS (where dFdx and dFdy are fine: app/render/antialias.py
+// fine_derivatives) each lane fetches its own texel and its two neighbours outside its 2x2
+// quad, and takes the one inside the quad from the derivative: three fetches of each
+// target instead of five (a fetch is most of these draws' cost on llvmpipe).
 #include "post/tonemap.glsl"
 
 #ifndef STRAIGHT_ALPHA
@@ -51,7 +51,7 @@ vec2 surface_at(ivec2 px) {
 }
 
 #if QUAD_NEIGHBOURS
-// Whether this lane is the first (left, lower) of its quad along x and y: the fine
+// Whether this lane is the first (left, lower) of its quad along x and y: the (fine)
 // derivative of the position's parity is +1 where a quad's first lane is even.
 bvec2 g_first;
 // The lane's step to its neighbour outside the quad, along x and along y.
@@ -59,19 +59,19 @@ ivec2 g_out;
 
 void quad_lanes(ivec2 px) {
     vec2 parity = vec2(px & 1);
-    vec2 even_first = vec2(dFdxFine(parity.x), dFdyFine(parity.y));
+    vec2 even_first = vec2(dFdx(parity.x), dFdy(parity.y));
     g_first = equal(equal(parity, vec2(0.0)), greaterThan(even_first, vec2(0.0)));
     g_out = ivec2(g_first.x ? -1 : 1, g_first.y ? -1 : 1);
 }
 
 // The 4-neighbours (+x, -x, +y, -y) of value v, given the values at the neighbours
-// outside the quad: the ones inside are v plus or minus its fine derivative (exactly
+// outside the quad: the ones inside are v plus or minus its derivative (exactly
 // the neighbour's value where the two lie within a factor 2 of each other, Sterbenz's
 // lemma; a surface's depth and a background's 0 stay exact, an id is an integer).
 // Derivatives are taken here, in uniform control flow, every lane alive.
 vec4[4] quad_around(vec4 v, vec4 out_x, vec4 out_y) {
-    vec4 in_x = g_first.x ? v + dFdxFine(v) : v - dFdxFine(v);
-    vec4 in_y = g_first.y ? v + dFdyFine(v) : v - dFdyFine(v);
+    vec4 in_x = g_first.x ? v + dFdx(v) : v - dFdx(v);
+    vec4 in_y = g_first.y ? v + dFdy(v) : v - dFdy(v);
     return vec4[4](g_first.x ? in_x : out_x, g_first.x ? out_x : in_x,
                    g_first.y ? in_y : out_y, g_first.y ? out_y : in_y);
 }
