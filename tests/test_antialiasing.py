@@ -22,7 +22,7 @@ from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import GLSL_VERSION, ShaderCache
 from app.render import antialias
 from app.render.adjacency import adjacency_indices
-from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets, sphere_window_rect
+from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets, sphere_window_rects
 from app.render.renderer import Renderer
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
@@ -412,7 +412,7 @@ def test_gbaa_window_rectangle_of_a_sphere_holds_its_silhouette() -> None:
         ((2.5, 1.2, -4.0), 0.9),
         ((0.0, 0.0, -3.0), 0.2),
     ):
-        rect = np.array(sphere_window_rect(np.array(centre), radius, view, proj, size))
+        rect = sphere_window_rects(np.array([[*centre, radius]]), view, proj, size)[0]
         points = np.c_[np.array(centre) + radius * directions, np.ones(len(directions))]
         clip = points @ (proj @ view).T
         window = (clip[:, :2] / clip[:, 3:] * 0.5 + 0.5) * size

@@ -354,46 +354,50 @@ GBAA_MAX_RECTS = 16
 Rect = tuple[int, int, int, int]  # window pixels x0, y0, x1, y1 (x1, y1 past the last)
 
 
-def _box_rect(corners: np.ndarray, clip_from_world: np.ndarray, size: tuple[int, int]):
-    """The window rectangle (float pixels) of world-space ``corners`` (N, 4); None where
-    one lies behind the camera (its projection is not bounded by the others')."""
-    clip = corners @ clip_from_world.T
-    if np.any(clip[:, 3] <= 1e-9):
+def box_window_rects(
+    boxes: np.ndarray, view: np.ndarray, proj: np.ndarray, size: tuple[int, int]
+) -> np.ndarray | None:
+    """(K, 4) window rectangles (float pixels x0, y0, x1, y1) of world-space box corners
+    ``boxes`` (K, 8, 4); None where a corner lies behind the camera (its projection is not
+    bounded by the others')."""
+    clip = boxes @ (proj @ view).T
+    if np.any(clip[..., 3] <= 1e-9):
         return None
-    window = (clip[:, :2] / clip[:, 3:4] * 0.5 + 0.5) * np.asarray(size, np.float64)
-    return (*window.min(axis=0), *window.max(axis=0))
+    window = (clip[..., :2] / clip[..., 3:4] * 0.5 + 0.5) * np.asarray(size, np.float64)
+    return np.concatenate([window.min(axis=1), window.max(axis=1)], axis=1)
 
 
-def sphere_window_rect(
-    centre: np.ndarray, radius: float, view: np.ndarray, proj: np.ndarray, size: tuple[int, int]
-):
-    """The window rectangle (float pixels) of a sphere's silhouette: along each window
-    axis, the two planes through the eye that touch the sphere, found in the plane of
-    that axis and the view direction (their tangent points there project to the
-    silhouette's extremes, the projection's x depending on view x and z alone, y on y
-    and z); None where the eye lies within the sphere's slab or a tangent point lies
-    behind it."""
-    c = (view @ np.append(centre, 1.0))[:3]
-    bounds = []
+def sphere_window_rects(
+    spheres: np.ndarray, view: np.ndarray, proj: np.ndarray, size: tuple[int, int]
+) -> np.ndarray | None:
+    """(S, 4) window rectangles (float pixels x0, y0, x1, y1) of the silhouettes of
+    ``spheres`` (S, 4: world centre, radius): along each window axis, the two planes
+    through the eye that touch the sphere, found in the plane of that axis and the view
+    direction (their tangent points there project to the silhouette's extremes: the
+    projection's x depends on view x and z alone, y on y and z); None where the eye lies
+    within a sphere's slab or a tangent point lies behind it."""
+    c = spheres[:, :3] @ view[:3, :3].T + view[:3, 3]
+    r = spheres[:, 3]
+    out = np.empty((len(spheres), 4))
     for axis in (0, 1):
-        a, z = c[axis], c[2]
+        a, z = c[:, axis], c[:, 2]
         d2 = a * a + z * z
-        tangent2 = d2 - radius * radius
-        if tangent2 <= 1e-12 * d2:
+        tangent2 = d2 - r * r
+        if np.any(tangent2 <= 1e-12 * d2):
             return None
-        points = []
+        ends = []
         for side in (-1.0, 1.0):
             # the tangent point: (L^2 C + side L r C_perp) / d^2, L the tangent's length
-            t = (np.array([a, z]) * tangent2
-                 + side * np.array([-z, a]) * np.sqrt(tangent2) * radius) / d2  # fmt: skip
-            if t[1] >= -1e-9:
+            s = side * np.sqrt(tangent2) * r
+            ta, tz = (a * tangent2 - s * z) / d2, (z * tangent2 + s * a) / d2
+            if np.any(tz >= -1e-9):
                 return None
             p = c.copy()
-            p[axis], p[2] = t
-            clip = proj @ np.append(p, 1.0)
-            points.append((clip[axis] / clip[3] * 0.5 + 0.5) * size[axis])
-        bounds.append((min(points), max(points)))
-    return (bounds[0][0], bounds[1][0], bounds[0][1], bounds[1][1])
+            p[:, axis], p[:, 2] = ta, tz
+            clip = p @ proj[:, :3].T + proj[:, 3]
+            ends.append((clip[:, axis] / clip[:, 3] * 0.5 + 0.5) * size[axis])
+        out[:, axis], out[:, axis + 2] = np.minimum(*ends), np.maximum(*ends)
+    return out
 
 
 def merged_rects(rects: list[Rect]) -> list[Rect]:
@@ -460,31 +464,34 @@ class GbaaPass:
         self.depth = ctx.depth_renderbuffer(size)
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
         self._rects: list[Rect] = []
+        self._rects_for: tuple[bytes, list[Rect]] | None = None  # (camera, rects())
+        self._ndc: tuple[list[Rect] | None, bytes] = (None, b"")  # (rects, u_rects)
 
     def rects(self, view: np.ndarray, proj: np.ndarray) -> list[Rect]:
         """The window rectangles (x0, y0, x1, y1) of the opaque parts seen through
         ``view`` and ``proj``, a pixel wider each way, clamped to the image and merged
         where they overlap; the whole image where a part's cannot be bounded (without
-        ``boxes``, or a part behind or around the camera); none without parts."""
-        w, h = self.size
-        whole = [(0, 0, w, h)]
-        if self.boxes is None:
-            return whole
+        ``boxes``, or a part behind or around the camera); none without parts. Kept for
+        the last camera (a frame's Python time counts: the bench draws 1.3 ms frames)."""
         view, proj = np.asarray(view, np.float64), np.asarray(proj, np.float64)
-        found = [_box_rect(box, proj @ view, self.size) for box in self.boxes]
-        found += [sphere_window_rect(s[:3], s[3], view, proj, self.size) for s in self.spheres]
-        if any(r is None for r in found):
-            return whole
-        rects = []
-        for x0, y0, x1, y1 in found:
-            lo = np.clip(np.floor((x0, y0)) - 1, 0, (w, h)).astype(int)
-            hi = np.clip(np.ceil((x1, y1)) + 1, 0, (w, h)).astype(int)
-            if hi[0] > lo[0] and hi[1] > lo[1]:
-                rects.append((int(lo[0]), int(lo[1]), int(hi[0]), int(hi[1])))
-        rects = merged_rects(rects)
-        if len(rects) > GBAA_MAX_RECTS:
-            return merged_rects([(min(r[0] for r in rects), min(r[1] for r in rects),
-                                  max(r[2] for r in rects), max(r[3] for r in rects))])  # fmt: skip
+        key = view.tobytes() + proj.tobytes()
+        if self._rects_for is not None and self._rects_for[0] == key:
+            return self._rects_for[1]
+        w, h = self.size
+        rects = [(0, 0, w, h)]
+        if self.boxes is not None:
+            found = [box_window_rects(self.boxes, view, proj, self.size),
+                     sphere_window_rects(self.spheres, view, proj, self.size)]  # fmt: skip
+            if all(f is not None for f in found):
+                bounds = np.concatenate(found)
+                lo = np.clip(np.floor(bounds[:, :2]) - 1, 0, (w, h)).astype(int)
+                hi = np.clip(np.ceil(bounds[:, 2:]) + 1, 0, (w, h)).astype(int)
+                keep = np.all(hi > lo, axis=1)
+                rects = merged_rects([tuple(r) for r in np.c_[lo, hi][keep].tolist()])
+                if len(rects) > GBAA_MAX_RECTS:
+                    rects = [(min(q[0] for q in rects), min(q[1] for q in rects),
+                              max(q[2] for q in rects), max(q[3] for q in rects))]  # fmt: skip
+        self._rects_for = (key, rects)
         return rects
 
     def _draw(
@@ -500,14 +507,16 @@ class GbaaPass:
             return
         program = (self.marker, self.resolver)[which]
         w, h = self.size
-        ndc = np.zeros((GBAA_MAX_RECTS, 4), np.float32)
-        ndc[: len(self._rects)] = np.asarray(self._rects, np.float64) / (w, h, w, h) * 2 - 1
+        if self._ndc[0] != self._rects:  # the rectangles in NDC, once for both draws
+            ndc = np.zeros((GBAA_MAX_RECTS, 4), np.float32)
+            ndc[: len(self._rects)] = np.asarray(self._rects, np.float64) / (w, h, w, h) * 2 - 1
+            self._ndc = (self._rects, ndc.tobytes())
         ctx = self.ctx
         self._out.use()
         self._out.scissor = None
         ctx.viewport = (0, 0, w, h)
         bind_textures(program, textures)
-        set_uniforms(program, {**uniforms, "u_rects": ndc.tobytes()})
+        set_uniforms(program, {**uniforms, "u_rects": self._ndc[1]})
         ctx.disable(moderngl.BLEND)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = depth_func
