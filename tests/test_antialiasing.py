@@ -19,9 +19,10 @@ import pytest
 from app.bench.antialiasing import aa_scene_data, with_aa
 from app.gl.context import GLContext
 from app.gl.fullscreen import FullscreenDraw
-from app.gl.shaders import GLSL_VERSION
+from app.gl.shaders import GLSL_VERSION, ShaderCache
+from app.render import antialias
 from app.render.adjacency import adjacency_indices
-from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets
+from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets, sphere_window_rects
 from app.render.renderer import Renderer
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
@@ -332,6 +333,20 @@ def test_geometric_resolve_lowers_the_silhouette_error(gl_egl: GLContext, edge_t
         r.release()
 
 
+def test_gbaa_quad_neighbours_are_the_fetched_ones(
+    gl_egl: GLContext, edge_truth, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """gbaa's draws taking a 2x2 quad's inner neighbour from the derivative (where the GL's
+    dFdx and dFdy are fine, as llvmpipe's) give the display bytes of the five fetches
+    they replace (the path of a GL whose derivatives are coarse)."""
+    loaded = edge_truth[0]
+    assert antialias.fine_derivatives(gl_egl.ctx, ShaderCache(gl_egl.ctx))
+    quad, _ = _display(gl_egl, loaded, "gbaa")
+    monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
+    fetched, _ = _display(gl_egl, loaded, "gbaa")
+    assert np.array_equal(quad, fetched)
+
+
 def test_edge_coverage_of_analytic_spheres_and_meshes(gl_egl: GLContext, edge_truth) -> None:
     """With a transparent background the resolve's coverage is the display image's
     alpha: against the 4x4 samples' coverage at the silhouettes, at least 4x closer than
@@ -371,6 +386,39 @@ def test_adjacency_finds_each_edge_s_neighbour() -> None:
     adj = adjacency_indices(tetra, faces).reshape(-1, 6)
     for tri in adj:
         assert len(set(tri[0::2].tolist()) | set(tri[1::2].tolist())) == 4
+
+
+def test_gbaa_window_rectangle_of_a_sphere_holds_its_silhouette() -> None:
+    """The window rectangle gbaa's draws cover for an analytic sphere (the planes through
+    the eye that touch it) is its silhouette's: every projected point of the sphere lies
+    inside, and each side lies within a hundredth of a pixel of the nearest one (a box's
+    corners, as for a mesh, project pixels outside it)."""
+    size, tan_y = (640, 360), np.tan(np.radians(16.0))
+    near, far, aspect = 0.1, 100.0, size[0] / size[1]
+    proj = np.zeros((4, 4))
+    proj[0, 0], proj[1, 1] = 1.0 / (tan_y * aspect), 1.0 / tan_y
+    proj[2, 2], proj[2, 3], proj[3, 2] = (
+        (far + near) / (near - far),
+        2 * far * near / (near - far),
+        -1,
+    )
+    view = np.eye(4)
+    view[:3, 3] = (0.3, -0.8, -0.2)  # the eye moved: the spheres' view positions differ
+    rng = np.random.default_rng(7)
+    directions = rng.normal(size=(200_000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    for centre, radius in (
+        ((-1.9, 0.0, -6.0), 0.6),
+        ((2.5, 1.2, -4.0), 0.9),
+        ((0.0, 0.0, -3.0), 0.2),
+    ):
+        rect = sphere_window_rects(np.array([[*centre, radius]]), view, proj, size)[0]
+        points = np.c_[np.array(centre) + radius * directions, np.ones(len(directions))]
+        clip = points @ (proj @ view).T
+        window = (clip[:, :2] / clip[:, 3:] * 0.5 + 0.5) * size
+        lo, hi = window.min(axis=0), window.max(axis=0)
+        assert np.all(rect[:2] <= lo + 1e-6) and np.all(rect[2:] >= hi - 1e-6), (rect, lo, hi)
+        assert np.all(rect[:2] >= lo - 0.01) and np.all(rect[2:] <= hi + 0.01), (rect, lo, hi)
 
 
 def test_the_default_falls_back_to_fxaa_on_a_dense_mesh(gl_egl: GLContext) -> None:

@@ -44,7 +44,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferLayout
 from app.gl.context import gl_function
-from app.gl.fullscreen import FullscreenDraw
+from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer, GBufferPass
@@ -323,6 +323,103 @@ class SraaPass:
             obj.release()
 
 
+# Contexts whose dFdx and dFdy were found fine (or not), by id and renderer
+_FINE_DERIVATIVES: dict[tuple[int, str], bool] = {}
+
+
+def fine_derivatives(ctx: moderngl.Context, shaders: ShaderCache) -> bool:
+    """Whether ``ctx``'s dFdx and dFdy are fine, each row and column of a 2x2 quad its own
+    difference (llvmpipe's are; GLSL 3.30 allows coarse ones, and the fine built-ins need
+    GL 4.0 or an extension): drawn once on a 4x4 image (glsl/passes/gbaa_probe.frag) and
+    remembered for the context."""
+    key = (id(ctx), str(ctx.info.get("GL_RENDERER")))
+    if key not in _FINE_DERIVATIVES:
+        target = ctx.texture((4, 4), 4, dtype="f4")
+        fbo = ctx.framebuffer([target])
+        probe = FullscreenDraw.of(ctx, shaders, "passes/gbaa_probe.frag")
+        try:
+            probe.draw(fbo, viewport=(0, 0, 4, 4))
+            texels = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+            ddx, ddy, x, y = texels.reshape(-1, 4).T
+            _FINE_DERIVATIVES[key] = bool(np.all(ddx == y) and np.all(ddy == x))
+        finally:
+            for obj in (probe, fbo, target):
+                obj.release()
+    return _FINE_DERIVATIVES[key]
+
+
+# The most window rectangles gbaa's draws cover separately (glsl/passes/gbaa_rects.vert's
+# uniform array); more are drawn as their union.
+GBAA_MAX_RECTS = 16
+Rect = tuple[int, int, int, int]  # window pixels x0, y0, x1, y1 (x1, y1 past the last)
+
+
+def box_window_rects(
+    boxes: np.ndarray, view: np.ndarray, proj: np.ndarray, size: tuple[int, int]
+) -> np.ndarray | None:
+    """(K, 4) window rectangles (float pixels x0, y0, x1, y1) of world-space box corners
+    ``boxes`` (K, 8, 4); None where a corner lies behind the camera (its projection is not
+    bounded by the others')."""
+    clip = boxes @ (proj @ view).T
+    if np.any(clip[..., 3] <= 1e-9):
+        return None
+    window = (clip[..., :2] / clip[..., 3:4] * 0.5 + 0.5) * np.asarray(size, np.float64)
+    return np.concatenate([window.min(axis=1), window.max(axis=1)], axis=1)
+
+
+def sphere_window_rects(
+    spheres: np.ndarray, view: np.ndarray, proj: np.ndarray, size: tuple[int, int]
+) -> np.ndarray | None:
+    """(S, 4) window rectangles (float pixels x0, y0, x1, y1) of the silhouettes of
+    ``spheres`` (S, 4: world centre, radius): along each window axis, the two planes
+    through the eye that touch the sphere, found in the plane of that axis and the view
+    direction (their tangent points there project to the silhouette's extremes: the
+    projection's x depends on view x and z alone, y on y and z); None where the eye lies
+    within a sphere's slab or a tangent point lies behind it."""
+    c = spheres[:, :3] @ view[:3, :3].T + view[:3, 3]
+    r = spheres[:, 3]
+    out = np.empty((len(spheres), 4))
+    for axis in (0, 1):
+        a, z = c[:, axis], c[:, 2]
+        d2 = a * a + z * z
+        tangent2 = d2 - r * r
+        if np.any(tangent2 <= 1e-12 * d2):
+            return None
+        ends = []
+        for side in (-1.0, 1.0):
+            # the tangent point: (L^2 C + side L r C_perp) / d^2, L the tangent's length
+            s = side * np.sqrt(tangent2) * r
+            ta, tz = (a * tangent2 - s * z) / d2, (z * tangent2 + s * a) / d2
+            if np.any(tz >= -1e-9):
+                return None
+            p = c.copy()
+            p[:, axis], p[:, 2] = ta, tz
+            clip = p @ proj[:, :3].T + proj[:, 3]
+            ends.append((clip[:, axis] / clip[:, 3] * 0.5 + 0.5) * size[axis])
+        out[:, axis], out[:, axis + 2] = np.minimum(*ends), np.maximum(*ends)
+    return out
+
+
+def merged_rects(rects: list[Rect]) -> list[Rect]:
+    """``rects`` with every two that overlap replaced by the rectangle around both, until
+    none overlap (a pixel drawn twice is shaded twice)."""
+    out = list(rects)
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(out)):
+            for j in range(i + 1, len(out)):
+                a, b = out[i], out[j]
+                if a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]:
+                    out[i] = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+                    del out[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return out
+
+
 class GbaaPass:
     """Geometric edge antialiasing (module docstring): reads the G-buffer's RT2
     (surfaces) and ``edge`` target (distances to the surface's edge) and the frame's
@@ -335,10 +432,12 @@ class GbaaPass:
     marked pixels only (a neighbour it mixes in holds another surface, so is marked):
     where the lighting pass wrote the display image it wrote the surfaces' radiance too
     (``Renderer.run_lighting``), and the background's is given as a uniform.
-    ``tonemap_code`` and ``straight_alpha`` are post's. ``corners``: (K, 4) world-space
-    corners of the opaque parts' bounding boxes: both draws are scissored to their
-    window rectangle and a pixel around it (no silhouette lies outside), which on a
-    frame of a few objects spares most of the full-screen mark."""
+    ``tonemap_code`` and ``straight_alpha`` are post's. Both draws cover the window
+    rectangles of the opaque parts and a pixel around them (no silhouette lies outside;
+    glsl/passes/gbaa_rects.vert), merged where they overlap: ``boxes``, (K, 8, 4)
+    world-space corners of the mesh parts' bounding boxes; ``spheres``, (S, 4) world
+    centre and radius of the analytic spheres, whose rectangle is their silhouette's
+    (a box's corners project well outside a sphere's). None: the whole image."""
 
     def __init__(
         self,
@@ -347,51 +446,97 @@ class GbaaPass:
         size: tuple[int, int],
         tonemap_code: int,
         straight_alpha: bool = False,
-        corners: np.ndarray | None = None,
+        boxes: np.ndarray | None = None,
+        spheres: np.ndarray | None = None,
     ) -> None:
         self.ctx, self.size = ctx, size
-        self.corners = None if corners is None else np.asarray(corners, np.float64)
-        defines: dict[str, object] = {"TONEMAP": tonemap_code}
+        self.boxes = None if boxes is None else np.asarray(boxes, np.float64).reshape(-1, 8, 4)
+        self.spheres = np.zeros((0, 4)) if spheres is None else np.asarray(spheres, np.float64)
+        defines: dict[str, object] = {"TONEMAP": tonemap_code, "GBAA_MAX_RECTS": GBAA_MAX_RECTS}
         if straight_alpha:
             defines["STRAIGHT_ALPHA"] = 1
-        self.marker = FullscreenDraw.of(
-            ctx, shaders, "passes/gbaa.frag", {**defines, "GBAA_MARK": 1}
-        )
-        self.resolver = FullscreenDraw.of(
-            ctx, shaders, "passes/gbaa.frag", {**defines, "FAR_PLANE": 1}
-        )
+        if fine_derivatives(ctx, shaders):  # three fetches of each target, not five
+            defines["QUAD_NEIGHBOURS"] = 1
+        vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
+        self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})
+        self.resolver = shaders.program(vertex, fragment, {**defines, "FAR_PLANE": 1})
+        self._vaos = [ctx.vertex_array(p, []) for p in (self.marker, self.resolver)]
         self.depth = ctx.depth_renderbuffer(size)
-        self.marked = ctx.framebuffer([], self.depth)
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
+        self._rects: list[Rect] = []
+        self._rects_for: tuple[bytes, list[Rect]] | None = None  # (camera, rects())
+        self._ndc: tuple[list[Rect] | None, bytes] = (None, b"")  # (rects, u_rects)
 
-    def scissor(self, view: np.ndarray, proj: np.ndarray) -> tuple[int, int, int, int] | None:
-        """The window rectangle (x, y, w, h) of ``corners`` seen through ``view`` and
-        ``proj``, a pixel wider each way and clamped to the image; None (everything)
-        where a corner lies behind the camera; an empty rectangle without corners."""
-        if self.corners is None:
-            return None
-        if len(self.corners) == 0:
-            return (0, 0, 0, 0)
-        clip = self.corners @ (np.asarray(proj, np.float64) @ np.asarray(view, np.float64)).T
-        if np.any(clip[:, 3] <= 1e-9):
-            return None
-        window = (clip[:, :2] / clip[:, 3:4] * 0.5 + 0.5) * np.asarray(self.size, np.float64)
+    def rects(self, view: np.ndarray, proj: np.ndarray) -> list[Rect]:
+        """The window rectangles (x0, y0, x1, y1) of the opaque parts seen through
+        ``view`` and ``proj``, a pixel wider each way, clamped to the image and merged
+        where they overlap; the whole image where a part's cannot be bounded (without
+        ``boxes``, or a part behind or around the camera); none without parts. Kept for
+        the last camera (a frame's Python time counts: the bench draws 1.3 ms frames)."""
+        view, proj = np.asarray(view, np.float64), np.asarray(proj, np.float64)
+        key = view.tobytes() + proj.tobytes()
+        if self._rects_for is not None and self._rects_for[0] == key:
+            return self._rects_for[1]
         w, h = self.size
-        x0 = int(np.clip(np.floor(window[:, 0].min()) - 1, 0, w))
-        y0 = int(np.clip(np.floor(window[:, 1].min()) - 1, 0, h))
-        x1 = int(np.clip(np.ceil(window[:, 0].max()) + 1, 0, w))
-        y1 = int(np.clip(np.ceil(window[:, 1].max()) + 1, 0, h))
-        return (x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
+        rects = [(0, 0, w, h)]
+        if self.boxes is not None:
+            found = [box_window_rects(self.boxes, view, proj, self.size),
+                     sphere_window_rects(self.spheres, view, proj, self.size)]  # fmt: skip
+            if all(f is not None for f in found):
+                bounds = np.concatenate(found)
+                lo = np.clip(np.floor(bounds[:, :2]) - 1, 0, (w, h)).astype(int)
+                hi = np.clip(np.ceil(bounds[:, 2:]) + 1, 0, (w, h)).astype(int)
+                keep = np.all(hi > lo, axis=1)
+                rects = merged_rects([tuple(r) for r in np.c_[lo, hi][keep].tolist()])
+                if len(rects) > GBAA_MAX_RECTS:
+                    rects = [(min(q[0] for q in rects), min(q[1] for q in rects),
+                              max(q[2] for q in rects), max(q[3] for q in rects))]  # fmt: skip
+        self._rects_for = (key, rects)
+        return rects
 
-    def mark(self, gbuffer: GBuffer, scissor: tuple[int, int, int, int] | None = None) -> None:
-        """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame, 1 elsewhere
-        (inside ``scissor``, when given: the resolve's then too)."""
-        self.marked.scissor = scissor
-        self.marked.depth_mask = True
-        self.marker.draw(
-            self.marked, {}, {"u_depth": gbuffer.depth}, viewport=(0, 0, *self.size),
-            depth_func="1",
-        )  # fmt: skip
+    def _draw(
+        self,
+        which: int,
+        uniforms: dict[str, object],
+        textures: dict[str, moderngl.Texture],
+        depth_func: str,
+    ) -> None:
+        """Draw program ``which`` (0 the mark, 1 the resolve) over ``_rects`` into
+        ``_out`` with the depth test ``depth_func``."""
+        if not self._rects:
+            return
+        program = (self.marker, self.resolver)[which]
+        w, h = self.size
+        if self._ndc[0] != self._rects:  # the rectangles in NDC, once for both draws
+            ndc = np.zeros((GBAA_MAX_RECTS, 4), np.float32)
+            ndc[: len(self._rects)] = np.asarray(self._rects, np.float64) / (w, h, w, h) * 2 - 1
+            self._ndc = (self._rects, ndc.tobytes())
+        ctx = self.ctx
+        self._out.use()
+        self._out.scissor = None
+        ctx.viewport = (0, 0, w, h)
+        bind_textures(program, textures)
+        set_uniforms(program, {**uniforms, "u_rects": self._ndc[1]})
+        ctx.disable(moderngl.BLEND)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = depth_func
+        self._vaos[which].render(moderngl.TRIANGLES, vertices=6 * len(self._rects))
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+
+    def mark(self, gbuffer: GBuffer, display: moderngl.Texture, rects: list[Rect]) -> None:
+        """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame inside ``rects``
+        (``rects()``: the resolve's then too), 1 at their other pixels. Drawn through the
+        framebuffer the resolve draws into, ``display`` (the post pass's image) with
+        ``depth``, its colour writes off: one framebuffer for both draws, which llvmpipe
+        then runs without a flush between them."""
+        self._rects = list(rects)
+        self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
+        self._out.color_mask = (False, False, False, False)
+        self._out.depth_mask = True
+        self._draw(0, {}, {"u_depth": gbuffer.depth}, "1")
+        self._out.color_mask = (True, True, True, True)
+        self._out.depth_mask = False
 
     def resolve(
         self,
@@ -415,12 +560,9 @@ class GbaaPass:
             "u_uniform_background": 0.0 if background is None else 1.0,
             "u_background": tuple(float(x) for x in rgba),
         }
-        self._out.scissor = self.marked.scissor
-        self.resolver.draw(
-            self._out, uniforms, textures, viewport=(0, 0, *self.size), depth_func=">"
-        )
+        self._draw(1, uniforms, textures, ">")
 
     def release(self) -> None:
-        for obj in (self.marker, self.resolver, self._out, self.marked, self.depth):
+        for obj in (*self._vaos, self._out, self.depth):
             if obj is not None:
                 obj.release()

@@ -722,17 +722,23 @@ class Renderer:
         return (self.size, self.scene.render.tonemap, self.transparent, parts)
 
     def _build_gbaa(self) -> GbaaPass:
-        # the opaque parts' bounding boxes, world space: the resolve's scissor rectangle
-        corners = []
+        # the opaque parts' extents, world space: the window rectangles the resolve covers
+        # (an analytic sphere's its silhouette's, a mesh's its bounding box's)
+        boxes, spheres = [], []
         for i in self._opaque():
             part = self.frame.parts[i]
+            model = np.asarray(part.model, np.float64)
+            if part.analytic is not None and part.analytic.kind == "sphere":
+                scale = float(np.linalg.norm(model[:3, :3], axis=0).max())
+                spheres.append([*model[:3, 3], part.analytic.radius * scale])
+                continue
             lo, hi = part.vertices[:, :3].min(axis=0), part.vertices[:, :3].max(axis=0)
             box = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
-            corners.append(box @ np.asarray(part.model, np.float64).T)
+            boxes.append(box @ model.T)
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
-            self.transparent, np.concatenate(corners) if corners else np.zeros((0, 4)),
+            self.transparent, np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4),
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:
@@ -1042,7 +1048,7 @@ class Renderer:
         display image (fused), it wrote the surface pixels' radiance too (``run_lighting``)
         and the background's is given as a uniform."""
         m = self.matrices  # the frame's (no jitter in this mode)
-        self.gbaa.mark(self.gbuffer, self.gbaa.scissor(m.view, m.proj))
+        self.gbaa.mark(self.gbuffer, self.post.target, self.gbaa.rects(m.view, m.proj))
         background = None
         if not self._drawn.hdr:
             hdr, background = self.lighting.hdr, self._drawn.background

@@ -18,6 +18,10 @@
 // every branch for a whole block: one draw that discards the other pixels took 10 ms at
 // 640x360, the two 3 ms), and writes the display image there. It reads the HDR
 // radiance of marked pixels only (a neighbour it mixes in differs from it, so is marked).
+// With QUAD_NEIGHBOURS (where dFdx and dFdy are fine: app/render/antialias.py
+// fine_derivatives) each lane fetches its own texel and its two neighbours outside its 2x2
+// quad, and takes the one inside the quad from the derivative: three fetches of each
+// target instead of five (a fetch is most of these draws' cost on llvmpipe).
 #include "post/tonemap.glsl"
 
 #ifndef STRAIGHT_ALPHA
@@ -46,6 +50,33 @@ vec2 surface_at(ivec2 px) {
     return texelFetch(u_depth, clamp(px, ivec2(0), g_last), 0).xy;
 }
 
+#if QUAD_NEIGHBOURS
+// Whether this lane is the first (left, lower) of its quad along x and y: the (fine)
+// derivative of the position's parity is +1 where a quad's first lane is even.
+bvec2 g_first;
+// The lane's step to its neighbour outside the quad, along x and along y.
+ivec2 g_out;
+
+void quad_lanes(ivec2 px) {
+    vec2 parity = vec2(px & 1);
+    vec2 even_first = vec2(dFdx(parity.x), dFdy(parity.y));
+    g_first = equal(equal(parity, vec2(0.0)), greaterThan(even_first, vec2(0.0)));
+    g_out = ivec2(g_first.x ? -1 : 1, g_first.y ? -1 : 1);
+}
+
+// The 4-neighbours (+x, -x, +y, -y) of value v, given the values at the neighbours
+// outside the quad: the ones inside are v plus or minus its derivative (exactly
+// the neighbour's value where the two lie within a factor 2 of each other, Sterbenz's
+// lemma; a surface's depth and a background's 0 stay exact, an id is an integer).
+// Derivatives are taken here, in uniform control flow, every lane alive.
+vec4[4] quad_around(vec4 v, vec4 out_x, vec4 out_y) {
+    vec4 in_x = g_first.x ? v + dFdx(v) : v - dFdx(v);
+    vec4 in_y = g_first.y ? v + dFdy(v) : v - dFdy(v);
+    return vec4[4](g_first.x ? in_x : out_x, g_first.x ? out_x : in_x,
+                   g_first.y ? in_y : out_y, g_first.y ? out_y : in_y);
+}
+#endif
+
 // Whether surface a (RT2 texel) lies in front of surface b and is another one: a surface
 // before the background, or another material or a depth jump, the nearer.
 bool in_front(vec2 a, vec2 b) {
@@ -66,7 +97,15 @@ void main() {
     g_last = textureSize(u_depth, 0) - 1;
     vec2 centre = surface_at(px);
     vec2 around[4];
+#if QUAD_NEIGHBOURS
+    quad_lanes(px);
+    vec4 surfaces[4] = quad_around(vec4(centre, 0.0, 0.0),
+                                   vec4(surface_at(px + ivec2(g_out.x, 0)), 0.0, 0.0),
+                                   vec4(surface_at(px + ivec2(0, g_out.y)), 0.0, 0.0));
+    for (int k = 0; k < 4; ++k) around[k] = surfaces[k].xy;
+#else
     for (int k = 0; k < 4; ++k) around[k] = surface_at(px + STEPS[k]);
+#endif
     // another surface in a 4-neighbour (in_front either way), in arithmetic
     bvec4 other = bvec4(false);
     for (int k = 0; k < 4; ++k) {
@@ -80,6 +119,20 @@ void main() {
 #else
     // this pixel's own edge: the nearest toward a neighbour behind it
     vec4 own = texelFetch(u_edge, px, 0);
+    vec4 edges[4];   // the neighbours' edge distances
+    vec4 here = radiance(px, centre);
+    vec4 colours[4];   // the neighbours' radiance
+#if QUAD_NEIGHBOURS
+    edges = quad_around(own, texelFetch(u_edge, clamp(px + ivec2(g_out.x, 0), ivec2(0), g_last), 0),
+                        texelFetch(u_edge, clamp(px + ivec2(0, g_out.y), ivec2(0), g_last), 0));
+    colours = quad_around(here, radiance(px + ivec2(g_out.x, 0), g_out.x > 0 ? around[0] : around[1]),
+                          radiance(px + ivec2(0, g_out.y), g_out.y > 0 ? around[2] : around[3]));
+#else
+    for (int k = 0; k < 4; ++k) {
+        edges[k] = texelFetch(u_edge, clamp(px + STEPS[k], ivec2(0), g_last), 0);
+        colours[k] = radiance(px + STEPS[k], around[k]);
+    }
+#endif
     float weight[4] = float[4](0.0, 0.0, 0.0, 0.0);
     float nearest = 0.5;
     int toward = -1;
@@ -93,7 +146,7 @@ void main() {
     // the neighbours in front whose edge reaches into this pixel, along their major axis
     for (int k = 0; k < 4; ++k) {
         if (!in_front(around[k], centre)) continue;
-        vec4 theirs = texelFetch(u_edge, clamp(px + STEPS[k], ivec2(0), g_last), 0);
+        vec4 theirs = edges[k];
         int back = k ^ 1;   // from the neighbour toward this pixel
         float d = theirs[back];
         float across = k < 2 ? min(theirs.z, theirs.w) : min(theirs.x, theirs.y);
@@ -101,9 +154,9 @@ void main() {
     }
     float total = weight[0] + weight[1] + weight[2] + weight[3];
     float scale = total > 1.0 ? 1.0 / total : 1.0;
-    vec4 c = radiance(px, centre) * (1.0 - min(total, 1.0));
+    vec4 c = here * (1.0 - min(total, 1.0));
     for (int k = 0; k < 4; ++k) {
-        if (weight[k] > 0.0) c += weight[k] * scale * radiance(px + STEPS[k], around[k]);
+        if (weight[k] > 0.0) c += weight[k] * scale * colours[k];
     }
 #if STRAIGHT_ALPHA
     float a = clamp(c.a, 0.0, 1.0);

@@ -70,18 +70,33 @@ void main() {
         bvec4 through = equal(exits[j], first);
         if (v_edge_kind[j] == EDGE_SILHOUETTE) g_edge = mix(g_edge, exits[j], through);
     }
-    // one branch for the whole triangle: only blocks near a rim pay for it
+    // Where a direction leaves through a rim edge, the way on through the sliver's far
+    // edges: each direction follows only its own exit edge's two lines (picked per
+    // component), not every rim edge's six. One branch for the whole triangle: where no
+    // edge is a rim the loop below ends after its first turn (llvmpipe runs a loop only
+    // while a lane of the block is in it).
     if (any(equal(v_edge_kind, vec3(EDGE_RIM)))) {
+        bvec4 rim = bvec4(false);
+        vec4 fa = vec4(0.0), fb = vec4(0.0);   // the two far lines' values
+        vec4 ax = vec4(0.0), ay = vec4(0.0), bx_ = vec4(0.0), by_ = vec4(0.0);   // normals
         for (int j = 0; j < 3; ++j) {
-            if (v_edge_kind[j] != EDGE_RIM) continue;
-            vec4 out_of = vec4(EDGE_FAR);
-            for (int e = 2 * j; e < 2 * j + 2; ++e) {
-                vec3 line = v_edge_beyond[e];
-                out_of = min(out_of, edge_distances(dot(line.xy, gl_FragCoord.xy) + line.z,
-                                                    line.xy));
-            }
-            g_edge = mix(g_edge, max(exits[j], out_of), equal(exits[j], first));
+            bvec4 through = v_edge_kind[j] == EDGE_RIM ? equal(exits[j], first) : bvec4(false);
+            vec3 a = v_edge_beyond[2 * j], b = v_edge_beyond[2 * j + 1];
+            fa = mix(fa, vec4(dot(a.xy, gl_FragCoord.xy) + a.z), through);
+            fb = mix(fb, vec4(dot(b.xy, gl_FragCoord.xy) + b.z), through);
+            ax = mix(ax, vec4(a.x), through);
+            ay = mix(ay, vec4(a.y), through);
+            bx_ = mix(bx_, vec4(b.x), through);
+            by_ = mix(by_, vec4(b.y), through);
+            rim = bvec4(uvec4(rim) | uvec4(through));
         }
+        // edge_distances of each line, its slope per direction as there
+        vec4 sa = vec4(-ax.x, ax.y, -ay.z, ay.w), sb = vec4(-bx_.x, bx_.y, -by_.z, by_.w);
+        vec4 da = mix(vec4(EDGE_FAR), clamp(fa / max(sa, vec4(1e-30)), 0.0, EDGE_FAR),
+                      greaterThan(sa, vec4(0.0)));
+        vec4 db = mix(vec4(EDGE_FAR), clamp(fb / max(sb, vec4(1e-30)), 0.0, EDGE_FAR),
+                      greaterThan(sb, vec4(0.0)));
+        g_edge = mix(g_edge, max(first, min(da, db)), rim);
     }
 #elif GBUFFER_EDGE
     g_edge = vec4(EDGE_FAR);
