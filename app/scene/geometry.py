@@ -34,23 +34,11 @@ from app.common.material_checks import material_problems
 from app.common.models import MaterialParams
 from app.common.primitives import Primitive
 from app.errors import InputError
-from app.scene.gltf import GltfFile
-from app.scene.gltf_animation import PoseError, PoseRequest
-from app.scene.gltf_document import GltfError
-from app.scene.gltf_schema import MAX_COORDINATE
 from app.scene.icosphere import unit_icosphere
 from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
 from app.scene.placement import model_matrix
-from app.scene.references import (
-    MtlMap,
-    gltf_problem,
-    obj_libraries,
-    obj_materials,
-    obj_mtl_files,
-    obj_problem,
-)
 from app.textures.bake import bake_blend
 from app.textures.maps import (
     SurfaceLayer,
@@ -72,6 +60,8 @@ VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
 
 if TYPE_CHECKING:  # trimesh is imported where a mesh needs it: a glTF file never does
     import trimesh
+
+    from app.scene.references import MtlMap
 
 
 @dataclass
@@ -570,6 +560,8 @@ def _load_file(
     any ``mtllib ../../x`` and image name it finds)."""
     import trimesh
 
+    from app.scene.references import obj_libraries, obj_materials, obj_mtl_files, obj_problem
+
     scene_file, key = str(loaded.path), f"objects[{index}].file"
     path = loaded.resolve_file(obj.file or "", key)
     policy = loaded.policy
@@ -638,6 +630,8 @@ def check_extent(part: MeshPart, scene_file: str, key: str) -> None:
     """A mesh part's world-space corners finite and within ``MAX_COORDINATE`` metres (a
     file's NaN vertex, or coordinates whose squares overflow float32 in the light loop);
     an InputError naming the object otherwise."""
+    from app.scene.gltf_schema import MAX_COORDINATE  # a mesh file's parts only
+
     p = part.vertices[:, :3]
     with np.errstate(all="ignore"):  # NaN and overflow are what is checked
         # A NaN or infinite vertex makes its box's corners NaN or infinite too.
@@ -668,6 +662,13 @@ def _gltf_parts(
     ``model @ node``. The file's material gives the layer and, through ``doubleSided``,
     whether back faces are culled; a scene material replaces it and keeps the part
     two-sided, as for other mesh files. Any problem with the file is one InputError."""
+    # The glTF reader (its schema, extensions, animation) is imported by a scene that
+    # names a glTF file, not by one of primitives (docs/performance.md, "Start-up").
+    from app.scene.gltf import GltfFile
+    from app.scene.gltf_animation import PoseError, PoseRequest
+    from app.scene.gltf_document import GltfError
+    from app.scene.references import gltf_problem
+
     scene_file, key = str(loaded.path), f"objects[{index}].file"
     path = loaded.resolve_file(loaded.scene.objects[index].file or "", key)
     parts: list[MeshPart] = []
@@ -801,6 +802,8 @@ def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshP
         if Path(obj.file or "").suffix.lower() in GLTF_SUFFIXES:
             built = _gltf_parts(loaded, i, model, chosen, builder.normal_filter, budget)
         else:
+            from app.scene.gltf_schema import MAX_COORDINATE
+
             meshes, mtl, sources = _load_file(loaded, i, obj, budget)
             read = _image_reader(loaded, i, budget)
             built = []
