@@ -50,3 +50,22 @@ def test_plane_vertices_are_unchanged() -> None:
     want = geometry._interleave(mesh)
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g.view(np.uint8), w.view(np.uint8))
+
+
+def test_analytic_spheres_share_their_triangles() -> None:
+    """The shadow pass takes every analytic sphere's triangles: one build per radius,
+    read-only, the arrays the mesh sphere of that radius has."""
+    from app.bench.scenes import load
+
+    data = {
+        "materials": {"m": {"base_color": [0.5, 0.5, 0.5]}},
+        "lights": [{"type": "point", "position": [0.0, 3.0, 0.0], "intensity": 1.0}],
+        "objects": [{"shape": "sphere", "radius": 0.6, "material": "m", "position": [x, 0, 0]}
+                    for x in (0.0, 2.0)],
+    }  # fmt: skip
+    a, b = geometry.build_parts(load(data))
+    (va, ia), (vb, ib) = a.triangles(), b.triangles()
+    assert va is vb and ia is ib
+    assert not va.flags.writeable and not ia.flags.writeable
+    want = geometry._interleave(geometry._icosphere(0.6, geometry.ICOSPHERE_SUBDIVISIONS))
+    assert np.array_equal(va, want[0]) and np.array_equal(ia, want[1])
