@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from app.bench.startup import BYTECODE_FOLDER, bytecode_env, repo_pythonpath
+from app.bench.startup import BYTECODE_FOLDER, PHASES_BOOT, bytecode_env, repo_pythonpath
 from app.resources import scenes_dir
 
 STEPS = (
@@ -28,7 +28,7 @@ def test_the_steps_write_the_clis_png(tmp_path: Path) -> None:
     ours, cli = tmp_path / "steps.png", tmp_path / "cli.png"
     request = {"t0": time.time(), "scene": scene, "out": str(ours), "size": [48, 27]}
     proc = subprocess.run(
-        [sys.executable, "-m", "app.bench.startup_phases", json.dumps(request)],
+        [sys.executable, "-c", PHASES_BOOT, json.dumps(request)],
         capture_output=True, text=True, env=env, timeout=120, check=True,
     )  # fmt: skip
     answer = json.loads(proc.stdout.splitlines()[-1])

@@ -131,6 +131,18 @@ def spawn_and_measure(
     }
 
 
+# The step-by-step child (app/bench/startup_phases.py): the interpreter's start and the
+# CLI's imports stamped here, before anything else of ``app`` is imported.
+PHASES_BOOT = """
+import time
+stamps = [("interpreter", time.time(), time.process_time())]
+import app.cli
+stamps.append(("imports: the CLI", time.time(), time.process_time()))
+from app.bench.startup_phases import main
+main(stamps)
+"""
+
+
 def startup_phases(
     size: tuple[int, int] | None = None, runs: int = 3, timeout: float = 120.0
 ) -> dict:
@@ -143,7 +155,7 @@ def startup_phases(
         for i in range(runs + 1):
             request = {"t0": 0.0, "scene": str(scenes_dir() / "showcase.toml"),
                        "out": str(Path(tmp) / "x.png"), "size": size}  # fmt: skip
-            cmd = [sys.executable, "-m", "app.bench.startup_phases"]
+            cmd = [sys.executable, "-c", PHASES_BOOT]
             request["t0"] = time.time()
             proc = subprocess.run([*cmd, json.dumps(request)], capture_output=True, text=True,
                                   env=env, timeout=timeout)  # fmt: skip

@@ -1,43 +1,44 @@
-"""Where a cold start's time goes: ``python -m app.bench.startup_phases REQUEST``.
+"""Where a cold start's time goes: the steps of ``pbs render`` in a fresh process.
 
-A fresh process that does what ``pbs render SCENE -o OUT`` does (app/cli.py
-``cmd_render``), in the same order, and stamps each step: the interpreter's start (from
-the launcher's spawn, whose wall-clock time comes in the request), the CLI's imports,
-reading and validating the scene (with the scene layer's imports), the GL stack's
-imports, the EGL context, ``Renderer()`` (the frame's parts and material table, uploads,
-the programs: compiling and linking them is timed apart, as ``ShaderCache`` builds them),
-the first frame (``render()`` to a ``glFinish``: llvmpipe turns each program into machine
-code at its first draw), the read-back and the PNG (encoding and writing). Each step has
-its wall time and the process's CPU time (all threads: llvmpipe's rasterisers too),
-which a shared machine's load moves less. The request is {"t0": spawn time (time.time()),
-"scene": path, "out": png path, "size": [w, h] or null}; the answer one JSON line
-{"phases": [[name, wall_s, cpu_s], ...], "programs_s": ..., "programs": n}.
+Run by app/bench/startup.py ``startup_phases`` as ``python -c PHASES_BOOT REQUEST``: the
+bootstrap stamps the interpreter's start and the CLI's imports (``import app.cli``, as
+``pbs`` makes them; from a child process, as the bench runs ``pbs`` itself, not an import
+of this layer), then calls ``main``, which does what app/cli.py ``cmd_render`` does, in the
+same order, and stamps each step: reading and validating the scene (with the scene
+layer's imports), the GL stack's imports, the EGL context, ``Renderer()`` (the frame's
+parts and material table, uploads, the programs: compiling and linking them is timed
+apart, as ``ShaderCache`` builds them), the first frame (``render()`` to a ``glFinish``:
+llvmpipe turns each program into machine code at its first draw), the read-back and the
+PNG (encoding and writing). Each step has its wall time (the first from the launcher's
+spawn, whose wall-clock time comes in the request) and the process's CPU time (all
+threads: llvmpipe's rasterisers too), which a shared machine's load moves less. The
+request is {"t0": spawn time (time.time()), "scene": path, "out": png path, "size":
+[w, h] or null}; the answer one JSON line {"phases": [[name, wall_s, cpu_s], ...],
+"programs_s": ..., "programs": n}.
 
-It is the bench's (app/bench/startup.py ``startup_phases``), not the CLI's: the CLI has
-no timing hooks, and the two must draw the same steps (tests/test_bench_startup_phases.py
-checks the PNG is the CLI's, byte for byte).
+It is the bench's, not the CLI's: the CLI has no timing hooks, and the two must draw the
+same steps (tests/test_bench_startup_phases.py checks the PNG is the CLI's, byte for
+byte).
 """
 
 from __future__ import annotations
 
+import json
+import sys
 import time
+from pathlib import Path
 
-_STAMPS: list[tuple[str, float, float]] = [("interpreter", time.time(), time.process_time())]
-
-import json  # noqa: E402 (after the first stamp: these are the interpreter's own)
-import sys  # noqa: E402
-from pathlib import Path  # noqa: E402
+_STAMPS: list[tuple[str, float, float]] = []
 
 
 def _stamp(name: str) -> None:
     _STAMPS.append((name, time.time(), time.process_time()))
 
 
-def run(request: dict) -> dict:
-    """The steps of ``pbs render`` with a stamp after each (module docstring)."""
-    import app.cli  # noqa: F401 (the CLI's imports, as pbs makes them)
-
-    _stamp("imports: the CLI")
+def run(request: dict, stamps: list[tuple[str, float, float]]) -> dict:
+    """The steps of ``pbs render`` after the bootstrap's ``stamps`` (module docstring),
+    with a stamp after each."""
+    _STAMPS[:] = stamps
     from app.scene.sources import scene_from
 
     size = tuple(request["size"]) if request.get("size") else None
@@ -85,5 +86,6 @@ def run(request: dict) -> dict:
     return {"phases": phases, "programs_s": built["s"], "programs": built["n"]}
 
 
-if __name__ == "__main__":
-    print(json.dumps(run(json.loads(sys.argv[1]))))
+def main(stamps: list[tuple[str, float, float]]) -> None:
+    """The bootstrap's entry: the request from ``sys.argv[1]``, the answer on stdout."""
+    print(json.dumps(run(json.loads(sys.argv[1]), stamps)))
