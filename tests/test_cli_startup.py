@@ -129,6 +129,21 @@ def test_a_render_imports_the_gl_stack(tmp_path: Path) -> None:
     assert {"moderngl", "app.render.renderer", "app.gl.context"} <= set(result["modules"])
 
 
+@pytest.mark.gl
+def test_a_render_of_primitives_imports_no_mesh_reader(tmp_path: Path) -> None:
+    """The showcase (a plane and analytic spheres, shadowed: the shadow pass takes each
+    sphere's icosphere; no mesh file, no environment) is built without trimesh and its
+    scipy (app/scene/icosphere.py gives trimesh's icosphere without importing it), the glTF
+    reader, the model-file defaults and the environment's twins."""
+    out = tmp_path / "x.png"
+    result = run_cli("render", "showcase", "-o", str(out), "--size", "32x18", "-q")
+    assert result["code"] == 0, result["stderr"]
+    assert out.is_file()
+    unused = ("trimesh", "scipy", "app.scene.gltf", "app.scene.gltf_schema",
+              "app.scene.model_file", "app.textures.environment", "app.reference.ibl")  # fmt: skip
+    assert among(result["modules"], unused) == []
+
+
 def test_the_bench_times_both_quick_answers() -> None:
     """``pbs bench --suites startup``'s rows: both answers given as they should be (help
     exit 0; the bad scene exit 2, one line naming the misspelt key, no PNG), and a

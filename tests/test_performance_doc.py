@@ -99,3 +99,20 @@ def test_the_page_has_its_markers_once_and_in_order() -> None:
     text = (REPO / "docs" / "performance.md").read_text(encoding="utf-8")
     assert text.count(DOC_BEGIN) == 1 and text.count(DOC_END) == 1
     assert text.index(DOC_BEGIN) < text.index(DOC_END)
+
+
+def test_the_cold_start_steps_are_a_table() -> None:
+    """The startup suite's step-by-step row (app/bench/startup_phases.py) is a table of
+    its steps with their wall and CPU times, the total and the programs' share."""
+    payload = _payload()
+    steps = [["interpreter", 0.02, 0.015], ["imports: the CLI", 0.04, 0.035],
+             ["PNG encoded and written", 0.09, 0.085]]  # fmt: skip
+    payload["rows"].append(
+        _row("startup", "showcase.toml", "step by step", 21, 150.0, phases=steps,
+             programs_ms=12.0, programs=9)
+    )  # fmt: skip
+    lines = performance_section(payload).splitlines()
+    assert "| imports: the CLI | 40 | 35 |" in lines
+    assert "| all | 150 | 135 |" in lines
+    assert any("its 9 programs" in line and "12 ms" in line for line in lines)
+    assert not any(line.startswith("- showcase.toml, step by step") for line in lines)

@@ -9,6 +9,16 @@ alone). Mesa keeps compiled shaders in an on-disk cache, so runs after the first
 them; runs with ``MESA_SHADER_CACHE_DISABLE=true`` show the start of a machine that has
 never compiled them.
 
+Python's bytecode cache is warm as Mesa's shader cache is: an installed pbs has its
+modules compiled (pip writes the .pyc at install), and a checkout writes them at its first
+run, unless the environment says not to (``PYTHONDONTWRITEBYTECODE``, as on the machine
+the bench was written on: every run then compiled every module of ``app`` from source,
+0.13 s of CPU); there the bench gives its children a bytecode folder of its own
+(``bytecode_env``: ``PYTHONPYCACHEPREFIX``), filled by an untimed first run.
+
+``startup_phases`` breaks the cold start down step by step (app/bench/startup_phases.py,
+the same steps in a fresh process, each stamped), medians over a few runs.
+
 The render is spawned by a small launcher process (this module run as a script), not by
 the bench itself: ``subprocess`` spawns with vfork, and a child's ``ru_maxrss`` counts the
 address space it shared with its parent before ``exec``, so a child of the bench (1.3 GB
@@ -36,6 +46,19 @@ import time
 from pathlib import Path
 
 from app.resources import scenes_dir
+
+BYTECODE_FOLDER = "pbs-bench-pycache"  # under the temporary folder (bytecode_env)
+
+
+def bytecode_env(env: dict[str, str]) -> dict[str, str]:
+    """``env`` for a timed child with Python's bytecode cache (module docstring): as it is
+    where the environment lets Python write bytecode, else with a bytecode folder of the
+    bench's own."""
+    if not env.get("PYTHONDONTWRITEBYTECODE"):
+        return env
+    env = {k: v for k, v in env.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env.setdefault("PYTHONPYCACHEPREFIX", str(Path(tempfile.gettempdir()) / BYTECODE_FOLDER))
+    return env
 
 
 def pbs_command() -> list[str]:
@@ -89,6 +112,7 @@ def spawn_and_measure(
     if not shader_cache:
         env["MESA_SHADER_CACHE_DISABLE"] = "true"
     env["PYTHONPATH"] = repo_pythonpath(env)
+    env = bytecode_env(env)
     with tempfile.TemporaryDirectory(prefix="pbs-bench-") as tmp:
         out = Path(tmp) / "showcase.png"
         cmd = [*pbs_command(), "render", str(scene), "-o", str(out), "-q"]
@@ -104,6 +128,54 @@ def spawn_and_measure(
         "returncode": run["returncode"],
         "command": " ".join(["pbs", *cmd[len(pbs_command()) :]]),
         "stderr": run["stderr"],
+    }
+
+
+# The step-by-step child (app/bench/startup_phases.py): the interpreter's start and the
+# CLI's imports stamped here, before anything else of ``app`` is imported.
+PHASES_BOOT = """
+import time
+stamps = [("interpreter", time.time(), time.process_time())]
+import app.cli
+stamps.append(("imports: the CLI", time.time(), time.process_time()))
+from app.bench.startup_phases import main
+main(stamps)
+"""
+
+
+def startup_phases(
+    size: tuple[int, int] | None = None, runs: int = 3, timeout: float = 120.0
+) -> dict:
+    """``runs`` cold starts of the showcase step by step (app/bench/startup_phases.py),
+    after one untimed run: {"phases": [[name, wall_s median, cpu_s median], ...],
+    "programs_s", "programs", "totals_s" (each run's), "runs"}, or {"error": why}."""
+    env = bytecode_env({**os.environ, "PYTHONPATH": repo_pythonpath(dict(os.environ))})
+    got = []
+    with tempfile.TemporaryDirectory(prefix="pbs-bench-phases-") as tmp:
+        for i in range(runs + 1):
+            request = {"t0": 0.0, "scene": str(scenes_dir() / "showcase.toml"),
+                       "out": str(Path(tmp) / "x.png"), "size": size}  # fmt: skip
+            cmd = [sys.executable, "-c", PHASES_BOOT]
+            request["t0"] = time.time()
+            proc = subprocess.run([*cmd, json.dumps(request)], capture_output=True, text=True,
+                                  env=env, timeout=timeout)  # fmt: skip
+            lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
+            if proc.returncode != 0 or not lines:
+                return {"error": (proc.stderr.strip().splitlines() or ["?"])[-1]}
+            if i > 0:
+                got.append(json.loads(lines[-1]))
+    names = [p[0] for p in got[0]["phases"]]
+    phases = [
+        [name, statistics.median(r["phases"][k][1] for r in got),
+         statistics.median(r["phases"][k][2] for r in got)]
+        for k, name in enumerate(names)
+    ]  # fmt: skip
+    return {
+        "phases": phases,
+        "programs_s": statistics.median(r["programs_s"] for r in got),
+        "programs": got[0]["programs"],
+        "totals_s": [sum(p[1] for p in r["phases"]) for r in got],
+        "runs": len(got),
     }
 
 

@@ -51,7 +51,7 @@ from app.bench.scenes import (
     specialization_scene,
 )
 from app.bench.shadows import run_shadows, shadows_tasks
-from app.bench.startup import cold_start, quick_answers
+from app.bench.startup import cold_start, quick_answers, startup_phases
 from app.bench.timing import (
     Budget,
     Pass,
@@ -786,14 +786,21 @@ def startup_tasks(settings: Settings) -> int:
     return 2 * settings.startup_runs + 1 + len(API_CASES)
 
 
+PHASES = "step by step"  # the startup row of startup_phases
+
+
 def run_startup(ctx: Context) -> None:
-    """Cold start (process start to PNG written) and peak memory of pbs render."""
+    """Cold start (process start to PNG written) and peak memory of pbs render, after an
+    untimed run that fills the caches; the same start step by step."""
     from app.resources import scenes_dir
     from app.scene.loader import load_scene
 
     s = ctx.settings
     showcase = load_scene(scenes_dir() / "showcase.toml").scene
     size = s.startup_size or (showcase.render.width, showcase.render.height)
+    ctx.progress.start("startup: an untimed run (Mesa's shader and Python's bytecode caches)")
+    cold_start(s.startup_size, shader_cache=True)
+    ctx.progress.done()
     for variant, cache in (("shader cache", True), ("no shader cache", False)):
         runs = []
         for i in range(s.startup_runs):
@@ -815,6 +822,23 @@ def run_startup(ctx: Context) -> None:
                 peak_rss_mib_median=statistics.median(r["maxrss_mib"] for r in ok),
                 exit_ms_median=statistics.median(r["exit_s"] * 1e3 for r in ok),
                 command=ok[0]["command"], runs=runs,
+            )
+        )  # fmt: skip
+    ctx.progress.start(f"startup: the cold start step by step, {s.startup_runs} runs")
+    steps = startup_phases(s.startup_size, s.startup_runs)
+    ctx.progress.done()
+    if "error" in steps:
+        ctx.notes.append(f"startup phases: {steps['error']}")
+    else:
+        ctx.rows.append(
+            make_row(
+                "startup", "showcase.toml", PHASES, size, len(showcase.lights), None,
+                ms_median=statistics.median(steps["totals_s"]) * 1e3,
+                ms_min=min(steps["totals_s"]) * 1e3, ms_max=max(steps["totals_s"]) * 1e3,
+                frames=steps["runs"],
+                timer="stamps in a fresh process doing pbs render's steps (startup_phases.py)",
+                phases=steps["phases"], programs_ms=steps["programs_s"] * 1e3,
+                programs=steps["programs"],
             )
         )  # fmt: skip
     run_quick_answers(ctx)

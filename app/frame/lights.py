@@ -8,9 +8,7 @@ import math
 import numpy as np
 
 from app.common.lights import LightType, PunctualLight, ShadowSettings, order_lights
-from app.reference.ibl import map_texels
 from app.scene.model import Environment, Light
-from app.textures.environment import environment_map
 
 
 def light_record(light: Light) -> PunctualLight:
@@ -63,6 +61,8 @@ def cell_integrals(env_map: np.ndarray, directions: np.ndarray, rotation: float)
     sum over the cell's texels of L dOmega (N, 3): every texel (turned ``rotation`` degrees
     about +Y into the world) goes to its nearest direction, so the cells partition the
     sphere and the integrals sum to the whole map's integral."""
+    from app.reference.ibl import map_texels  # environment scenes only (start-up)
+
     d, weighted = map_texels(env_map, math.radians(rotation))
     out = np.zeros((len(directions), 3))
     for start in range(0, len(d), 65536):  # chunks bound the (texels x N) dot products
@@ -74,6 +74,8 @@ def cell_integrals(env_map: np.ndarray, directions: np.ndarray, rotation: float)
 def environment_texels(env: Environment) -> np.ndarray:
     """The equirect map (float32, read-only, cached) of an image, sky or studio environment,
     before rotation and intensity."""
+    from app.textures.environment import environment_map  # environment scenes only
+
     sun = None if env.sun_direction is None else tuple(env.sun_direction)
     return environment_map(env.source, env.file, sun, env.turbidity)
 

@@ -22,7 +22,6 @@ import numpy as np
 from app.common.tables import read_dfg_table
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
-from app.reference.ibl import sh9_project
 from app.render.background import EnvironmentSource, equirect_texture
 from app.render.inputs import ENVIRONMENT, ShaderInput
 from app.resources import glsl_dir
@@ -179,7 +178,10 @@ class EnvironmentLighting(ShaderInput):
         self.dfg.repeat_x = self.dfg.repeat_y = False
         self.rotation = math.radians(env.rotation)
         self.intensity = float(env.intensity)
-        # SH9 of the turned map, in the world frame (float64 twin), times the intensity.
+        # SH9 of the turned map, in the world frame (float64 twin), times the intensity;
+        # the twin imported by a frame with an environment (docs/performance.md, "Start-up")
+        from app.reference.ibl import sh9_project
+
         self.sh = (sh9_project(env.texels, self.rotation) * env.intensity).astype(np.float32)
 
     def defines(self) -> dict[str, int]:

@@ -3,12 +3,13 @@
 A sphere without ``subdivisions`` is analytic (``MeshPart.analytic``): its vertices are a
 convex proxy around it, and the G-buffer pass intersects each pixel's view ray with the
 exact sphere (glsl/geometry/analytic.glsl), so that its normals, UVs, depth and silhouette
-are the sphere's own (docs/gbuffer.md, "Analytic primitives"). Other primitives come from
-trimesh; OBJ, PLY and STL files are read through trimesh (an OBJ's MTL material comes
-through: base colour, PBR roughness, metallic and normal maps, emission, dissolve;
-``_mtl_material``), glTF/GLB through the project's
-own reader (app/scene/gltf.py: every primitive, attribute and core material field); the
-files a mesh file names are checked first (app/scene/references.py). Every mesh ends up as
+are the sphere's own (docs/gbuffer.md, "Analytic primitives"). A plane is built here and a
+mesh sphere's icosphere by app/scene/icosphere.py, neither importing trimesh; the other
+primitives come from trimesh; OBJ, PLY and STL files are read through trimesh (an OBJ's
+MTL material comes through: base colour, PBR roughness, metallic and normal maps,
+emission, dissolve; ``_mtl_material``), glTF/GLB through the project's own reader
+(app/scene/gltf.py: every primitive, attribute and core material field); the files a mesh
+file names are checked first (app/scene/references.py). Every mesh ends up as
 interleaved float32 ``position, normal, uv`` vertices and uint32 triangle indices, in
 object space, with its model matrix. Tangents come from the UVs where a mesh has usable
 ones and from the direction around the object's Y axis otherwise (so anisotropic
@@ -33,22 +34,11 @@ from app.common.material_checks import material_problems
 from app.common.models import MaterialParams
 from app.common.primitives import Primitive
 from app.errors import InputError
-from app.scene.gltf import GltfFile
-from app.scene.gltf_animation import PoseError, PoseRequest
-from app.scene.gltf_document import GltfError
-from app.scene.gltf_schema import MAX_COORDINATE
+from app.scene.icosphere import unit_icosphere
 from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
 from app.scene.model import SceneObject
 from app.scene.placement import model_matrix
-from app.scene.references import (
-    MtlMap,
-    gltf_problem,
-    obj_libraries,
-    obj_materials,
-    obj_mtl_files,
-    obj_problem,
-)
 from app.textures.bake import bake_blend
 from app.textures.maps import (
     SurfaceLayer,
@@ -70,6 +60,8 @@ VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_tangent")
 
 if TYPE_CHECKING:  # trimesh is imported where a mesh needs it: a glTF file never does
     import trimesh
+
+    from app.scene.references import MtlMap
 
 
 @dataclass
@@ -126,7 +118,18 @@ class MeshPart:
         sphere an icosphere of 5,120 triangles (the mesh sphere's default)."""
         if self.analytic is None:
             return self.vertices, self.indices
-        return _interleave(_icosphere(self.analytic.radius, ICOSPHERE_SUBDIVISIONS))
+        return _sphere_triangles(self.analytic.radius)
+
+
+@functools.lru_cache(maxsize=64)
+def _sphere_triangles(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """An analytic sphere's triangles (``MeshPart.triangles``), read-only, built once per
+    radius: the shadow pass asks for every shadowed sphere's, and a scene's spheres
+    mostly share a few radii (the showcase: 21 spheres, 2 radii)."""
+    vertices, indices = _interleave(_icosphere(radius, ICOSPHERE_SUBDIVISIONS))
+    vertices.setflags(write=False)
+    indices.setflags(write=False)
+    return vertices, indices
 
 
 def _crease_normals(mesh: trimesh.Trimesh, crease_deg: float = 40.0) -> trimesh.Trimesh:
@@ -160,18 +163,24 @@ def _crease_normals(mesh: trimesh.Trimesh, crease_deg: float = 40.0) -> trimesh.
     return out
 
 
-def _plane(size: list[float]) -> trimesh.Trimesh:
-    """A quad in the XZ plane facing +Y, with UVs over [0, 1]^2."""
-    import trimesh
+@dataclass(frozen=True)
+class PrimitiveMesh:
+    """A primitive's triangles with the normals and UVs it is made with: what ``_interleave``
+    reads of a trimesh mesh, without importing trimesh for a plane or a sphere."""
 
+    vertices: np.ndarray  # (N, 3) float64
+    faces: np.ndarray  # (M, 3) int64
+    vertex_normals: np.ndarray  # (N, 3) float64
+    uv: np.ndarray  # (N, 2) float64
+
+
+def _plane(size: list[float]) -> PrimitiveMesh:
+    """A quad in the XZ plane facing +Y, with UVs over [0, 1]^2."""
     sx, sz = size[0] / 2.0, size[1] / 2.0
     v = np.array([[-sx, 0, -sz], [-sx, 0, sz], [sx, 0, sz], [sx, 0, -sz]], np.float64)
     uv = np.array([[0, 1], [0, 0], [1, 0], [1, 1]], np.float64)
-    mesh = trimesh.Trimesh(
-        v, [[0, 1, 2], [0, 2, 3]], vertex_normals=np.tile([0.0, 1.0, 0.0], (4, 1)), process=False
-    )
-    mesh.visual = trimesh.visual.TextureVisuals(uv=uv)
-    return mesh
+    faces = np.array([[0, 1, 2], [0, 2, 3]], np.int64)
+    return PrimitiveMesh(v, faces, np.tile([0.0, 1.0, 0.0], (4, 1)), uv)
 
 
 def _sphere_uv(unit: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -207,30 +216,35 @@ ICOSPHERE_SUBDIVISIONS = 4  # a mesh sphere's tessellation where a consumer need
 PROXY_SUBDIVISIONS = 1
 
 
-def _icosphere(radius: float, subdivisions: int) -> trimesh.Trimesh:
-    """An icosphere mesh with exact sphere normals and seam-split equirectangular UVs."""
-    import trimesh
-
-    # A unit icosphere scaled here: trimesh's radius divides by the vertices' lengths,
-    # 0/0 for a radius under ~1e-15 m (NaN vertices and a RuntimeWarning on stderr;
-    # found by tests/test_fuzz_scenes.py). Normals from the unit sphere likewise.
-    unit = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+@functools.cache
+def _unit_sphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The unit icosphere's seam-split positions (its exact normals too), faces and UVs,
+    read-only, built once per process and count (a shadowed scene's analytic spheres each
+    ask for their triangles)."""
+    unit, faces = unit_icosphere(subdivisions)
     # The exact sphere normal, not an average of facet normals.
-    normals = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
-    positions, faces, uv = _sphere_uv(normals, np.asarray(unit.faces))
-    mesh = trimesh.Trimesh(positions * radius, faces, vertex_normals=positions, process=False)
-    mesh.visual = trimesh.visual.TextureVisuals(uv=uv)
-    return mesh
+    normals = unit / np.linalg.norm(unit, axis=1, keepdims=True)
+    positions, faces, uv = _sphere_uv(normals, np.asarray(faces))
+    for array in (positions, faces, uv):
+        array.setflags(write=False)
+    return positions, faces, uv
+
+
+def _icosphere(radius: float, subdivisions: int) -> PrimitiveMesh:
+    """An icosphere mesh with exact sphere normals and seam-split equirectangular UVs."""
+    # A unit icosphere scaled here (app/scene/icosphere.py: trimesh's, without trimesh):
+    # trimesh's radius divides by the vertices' lengths, 0/0 for a radius under ~1e-15 m
+    # (NaN vertices and a RuntimeWarning on stderr; found by tests/test_fuzz_scenes.py).
+    positions, faces, uv = _unit_sphere(subdivisions)
+    return PrimitiveMesh(positions * radius, faces, positions, uv)
 
 
 @functools.cache
 def _unit_proxy() -> tuple[np.ndarray, np.ndarray, float]:
     """The proxy's unit directions, faces and inradius, built once per process."""
-    import trimesh
-
-    unit = trimesh.creation.icosphere(subdivisions=PROXY_SUBDIVISIONS, radius=1.0)
-    v = unit.vertices / np.linalg.norm(unit.vertices, axis=1, keepdims=True)
-    f = np.asarray(unit.faces)
+    unit, faces = unit_icosphere(PROXY_SUBDIVISIONS)
+    v = unit / np.linalg.norm(unit, axis=1, keepdims=True)
+    f = np.array(faces)
     normals = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     inradius = float(np.min(np.abs(np.sum(normals * v[f[:, 0]], axis=1))))
@@ -252,16 +266,16 @@ def sphere_proxy(radius: float) -> tuple[np.ndarray, np.ndarray]:
     return vertices, f.astype(np.uint32).ravel()
 
 
-def _primitive(obj: SceneObject) -> trimesh.Trimesh:
-    import trimesh
-
+def _primitive(obj: SceneObject) -> trimesh.Trimesh | PrimitiveMesh:
     if obj.shape == "sphere":
         subdivisions = ICOSPHERE_SUBDIVISIONS if obj.subdivisions is None else obj.subdivisions
         return _icosphere(obj.radius or 0.5, subdivisions)
-    if obj.shape == "box":
-        return _crease_normals(trimesh.creation.box(extents=obj.size or [1.0, 1.0, 1.0]))
     if obj.shape == "plane":
         return _plane(obj.size or [10.0, 10.0])
+    import trimesh  # the other primitives (a plane or sphere alone does not import it)
+
+    if obj.shape == "box":
+        return _crease_normals(trimesh.creation.box(extents=obj.size or [1.0, 1.0, 1.0]))
     if obj.shape == "cylinder":
         mesh = trimesh.creation.cylinder(
             radius=obj.radius or 0.5, height=obj.height or 1.0, sections=64
@@ -274,13 +288,14 @@ def _primitive(obj: SceneObject) -> trimesh.Trimesh:
     raise AssertionError(obj.shape)
 
 
-def vertex_normals(mesh: trimesh.Trimesh) -> np.ndarray:
+def vertex_normals(mesh: trimesh.Trimesh | PrimitiveMesh) -> np.ndarray:
     """The mesh's own vertex normals, or area-weighted face normals summed per vertex.
 
     Computed here rather than by trimesh, whose fallback without scipy is O(V*F) and
     logs a traceback; a vertex no face touches gets +Y rather than NaN.
     """
-    if "vertex_normals" in mesh._cache:  # given by the file or by our primitives
+    if isinstance(mesh, PrimitiveMesh) or "vertex_normals" in mesh._cache:  # given
+        # by our primitives or by the file
         return np.asarray(mesh.vertex_normals, np.float64)
     v = np.asarray(mesh.vertices, np.float64)
     f = np.asarray(mesh.faces, np.int64)
@@ -332,10 +347,10 @@ def vertex_tangents(
     return np.hstack([t, handed[:, None]])
 
 
-def _interleave(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
+def _interleave(mesh: trimesh.Trimesh | PrimitiveMesh) -> tuple[np.ndarray, np.ndarray]:
     positions = np.asarray(mesh.vertices, np.float64)
     normals = vertex_normals(mesh)
-    uv = getattr(mesh.visual, "uv", None)
+    uv = mesh.uv if isinstance(mesh, PrimitiveMesh) else getattr(mesh.visual, "uv", None)
     uv = None if uv is None or len(uv) != len(positions) else np.asarray(uv, np.float64)
     return _vertex_array(positions, normals, uv, None, mesh.faces)
 
@@ -556,6 +571,8 @@ def _load_file(
     any ``mtllib ../../x`` and image name it finds)."""
     import trimesh
 
+    from app.scene.references import obj_libraries, obj_materials, obj_mtl_files, obj_problem
+
     scene_file, key = str(loaded.path), f"objects[{index}].file"
     path = loaded.resolve_file(obj.file or "", key)
     policy = loaded.policy
@@ -624,6 +641,8 @@ def check_extent(part: MeshPart, scene_file: str, key: str) -> None:
     """A mesh part's world-space corners finite and within ``MAX_COORDINATE`` metres (a
     file's NaN vertex, or coordinates whose squares overflow float32 in the light loop);
     an InputError naming the object otherwise."""
+    from app.scene.gltf_schema import MAX_COORDINATE  # a mesh file's parts only
+
     p = part.vertices[:, :3]
     with np.errstate(all="ignore"):  # NaN and overflow are what is checked
         # A NaN or infinite vertex makes its box's corners NaN or infinite too.
@@ -654,6 +673,13 @@ def _gltf_parts(
     ``model @ node``. The file's material gives the layer and, through ``doubleSided``,
     whether back faces are culled; a scene material replaces it and keeps the part
     two-sided, as for other mesh files. Any problem with the file is one InputError."""
+    # The glTF reader (its schema, extensions, animation) is imported by a scene that
+    # names a glTF file, not by one of primitives (docs/performance.md, "Start-up").
+    from app.scene.gltf import GltfFile
+    from app.scene.gltf_animation import PoseError, PoseRequest
+    from app.scene.gltf_document import GltfError
+    from app.scene.references import gltf_problem
+
     scene_file, key = str(loaded.path), f"objects[{index}].file"
     path = loaded.resolve_file(loaded.scene.objects[index].file or "", key)
     parts: list[MeshPart] = []
@@ -787,6 +813,8 @@ def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshP
         if Path(obj.file or "").suffix.lower() in GLTF_SUFFIXES:
             built = _gltf_parts(loaded, i, model, chosen, builder.normal_filter, budget)
         else:
+            from app.scene.gltf_schema import MAX_COORDINATE
+
             meshes, mtl, sources = _load_file(loaded, i, obj, budget)
             read = _image_reader(loaded, i, budget)
             built = []

@@ -4,7 +4,8 @@ that picks among them, and which files are model files.
 Declared apart from app/scene/model_file.py (which frames and lights a model, and so
 imports the geometry loader, trimesh and the texture decoders) in a module that imports
 nothing else of ``app``: the CLI's parser takes its ``--view`` choices from here, and
-``scene_from`` tells a model file from a scene file without loading either
+``scene_from`` tells a model file from a scene file without loading either, and a scene
+file that needs the model file's defaults (``needs_defaults``) from one that does not
 (docs/performance.md, "Start-up").
 """
 
@@ -13,8 +14,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["ENVIRONMENTS", "MODEL_SUFFIXES", "VIEWS", "Look", "is_model_file"]
+if TYPE_CHECKING:
+    from app.scene.loader import LoadedScene
+
+__all__ = ["ENVIRONMENTS", "MODEL_SUFFIXES", "VIEWS", "Look", "is_model_file", "needs_defaults"]
 
 MODEL_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply")
 # (azimuth, elevation) in degrees of the camera about the model's centre.
@@ -63,3 +68,19 @@ class Look:
 def is_model_file(path: str | Path) -> bool:
     """Whether ``path`` names a model file by its suffix."""
     return Path(path).suffix.lower() in MODEL_SUFFIXES
+
+
+def needs_defaults(loaded: LoadedScene) -> tuple[bool, bool]:
+    """(camera, lighting): whether a scene file that names a mesh file gives no camera,
+    and whether it gives no light, environment or imported lights (app/scene/model_file.py
+    ``with_defaults`` then fills them in)."""
+    scene = loaded.scene
+    if not any(obj.file is not None for obj in scene.objects):
+        return False, False
+    camera = "camera" not in scene.model_fields_set
+    lighting = (
+        not scene.lights
+        and scene.environment is None
+        and not any(obj.import_lights for obj in scene.objects)
+    )
+    return camera, lighting

@@ -43,7 +43,14 @@ from app.errors import InputError
 from app.reference.tonemap import post_process, srgb_decode
 from app.scene.geometry import MeshPart, build_parts, keep_built
 from app.scene.loader import LoadedScene, parse_scene
-from app.scene.look import ENVIRONMENTS, MODEL_SUFFIXES, VIEWS, Look, is_model_file
+from app.scene.look import (
+    ENVIRONMENTS,
+    MODEL_SUFFIXES,
+    VIEWS,
+    Look,
+    is_model_file,
+    needs_defaults,
+)
 from app.scene.model import Light
 from app.textures.environment import environment_map
 from app.untrusted import RefusedError, files
@@ -421,21 +428,6 @@ def _as_model_error(exc: InputError, path: Path) -> InputError:
     if exc.key.startswith("camera"):  # camera = "file" where the file has none
         return InputError(str(path), "--camera", message)
     return exc
-
-
-def needs_defaults(loaded: LoadedScene) -> tuple[bool, bool]:
-    """(camera, lighting): whether a scene file that names a mesh file gives no camera,
-    and whether it gives no light, environment or imported lights."""
-    scene = loaded.scene
-    if not any(obj.file is not None for obj in scene.objects):
-        return False, False
-    camera = "camera" not in scene.model_fields_set
-    lighting = (
-        not scene.lights
-        and scene.environment is None
-        and not any(obj.import_lights for obj in scene.objects)
-    )
-    return camera, lighting
 
 
 def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:

@@ -19,7 +19,7 @@ from typing import Any
 from app.errors import InputError
 from app.resources import scenes_dir
 from app.scene.loader import LoadedScene, load_scene, parse_scene
-from app.scene.look import MODEL_SUFFIXES, Look, is_model_file
+from app.scene.look import MODEL_SUFFIXES, Look, is_model_file, needs_defaults
 from app.untrusted.policy import InputPolicy
 
 __all__ = ["PYTHON_SCENE", "Look", "SceneSource", "scene_from", "scene_path"]
@@ -94,15 +94,17 @@ def scene_from(
             "animation, time and variant keys",
         )
     loaded = load_scene(path, policy)
-    # The framing defaults build geometry (trimesh, the texture decoders): imported once
-    # the scene is valid, so that a refused one costs no more than its validation.
-    from app.scene.model_file import needs_defaults, with_defaults
+    if needs_defaults(loaded) == (False, False):
+        if look != Look():
+            raise InputError(
+                str(path),
+                "",
+                "gives its own camera and lights: a view, camera or environment option "
+                "applies only to a model file or a scene file that gives neither",
+            )
+        return loaded
+    # The framing defaults build geometry (the mesh readers, the texture and environment
+    # decoders): imported by a scene file that needs them, once it is valid.
+    from app.scene.model_file import with_defaults
 
-    if look != Look() and needs_defaults(loaded) == (False, False):
-        raise InputError(
-            str(path),
-            "",
-            "gives its own camera and lights: a view, camera or environment option applies "
-            "only to a model file or a scene file that gives neither",
-        )
     return with_defaults(loaded, look)
