@@ -421,3 +421,63 @@ def test_declared_upload_bytes_are_the_built_levels(
         channel_texture(mr, 2),
     ):
         assert upload_bytes(tex) == sum(level.nbytes for level in upload_levels(tex))
+
+
+def test_seed_entry_is_read_never_written(tmp_path: Path) -> None:
+    """A read-only seed folder (an installation's entries) answers a lookup the disk level
+    misses; nothing is written to the cache or the seed, and an unreadable seed entry is
+    skipped (built, the seed file left as it was)."""
+    made = PreparedCache(tmp_path / "made")
+    built = made.arrays("k", ("x",), lambda: [np.arange(6.0)])
+    made.flush()
+    seed = tmp_path / "made"
+    cache = PreparedCache(tmp_path / "user", seeds=[tmp_path / "none", seed])
+    got = cache.arrays("k", ("x",), lambda: [np.zeros(6)])
+    cache.flush()
+    assert cache.events == ["seed"]
+    assert np.array_equal(got[0], built[0])
+    assert not (tmp_path / "user").exists()
+    (entry,) = seed.glob("*.npy")
+    entry.write_bytes(entry.read_bytes()[:-8] + b"corrupt!")
+    again = PreparedCache(tmp_path / "user2", seeds=[seed])
+    assert np.array_equal(again.arrays("k", ("x",), lambda: [np.ones(6)])[0], np.ones(6))
+    assert again.events == ["built"] and entry.is_file()
+
+
+def test_seed_directories(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    import os
+    import sys
+
+    monkeypatch.setenv("PBS_CACHE_SEED", f"{tmp_path / 'a'}{os.pathsep}{tmp_path / 'b'}")
+    assert cache_module.seed_directories() == [tmp_path / "a", tmp_path / "b"]
+    monkeypatch.setenv("PBS_CACHE_SEED", "")
+    assert cache_module.seed_directories() == []
+    monkeypatch.delenv("PBS_CACHE_SEED")
+    assert cache_module.seed_directories() == [Path(sys.prefix) / "share/pbs/prepared"]
+
+
+def test_seeded_environment_is_not_prefiltered_again(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """app/render/prepared_seed.py writes the bundled environments' levels; a process with
+    an empty cache reads them from the seed, the same arrays the prefilter makes."""
+    from app.gl.shaders import ShaderCache
+    from app.render import ibl, prepared_seed
+    from app.textures.environment import environment_map
+
+    monkeypatch.setattr(ibl, "_SETTINGS", [16, 8])  # a small prefilter: the same path
+    written = prepared_seed.seed(tmp_path / "seed")
+    assert len(written) == len(prepared_seed.BUNDLED)
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "empty"))
+    monkeypatch.setenv("PBS_CACHE_SEED", str(tmp_path / "seed"))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    ibl.clear_cache()
+    shaders = ShaderCache(gl_egl.ctx)
+    try:
+        seeded = ibl.prepared_prefilter(gl_egl.ctx, shaders, environment_map("studio"), 16, 8)
+        assert prepared_cache().events == ["seed"]
+        ibl.clear_cache()
+        made = ibl.prefilter(gl_egl.ctx, shaders, environment_map("studio"), 16, 8)
+    finally:
+        shaders.release()
+    assert all(np.array_equal(a, b) for a, b in zip(seeded, made, strict=True))
