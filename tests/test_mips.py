@@ -364,3 +364,39 @@ def test_bands_give_the_bits_of_the_whole_map(
         for a, b in pairs:
             assert a.tobytes() == b.tobytes(), method
     assert all(a.tobytes() == b.tobytes() for a, b in zip(boxes, box_mips(values), strict=True))
+
+
+def test_bands_are_made_on_two_threads(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A chain's bands are shared between the calling thread and a helper (the render
+    waiting for the map leaves a core idle), with the bits of one thread's chain, and a
+    band's exception is raised to the caller."""
+    import threading
+    import time
+
+    from app.textures import mips
+
+    rng = np.random.default_rng(RNG_SEED + 8)
+    n = decode_normal_map(rng.integers(0, 256, (96, 20, 3), dtype=np.uint8))
+    r = rng.uniform(0.0, 1.0, (96, 20))
+    threads: set[str] = set()
+
+    def source(y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        threads.add(threading.current_thread().name)
+        time.sleep(0.01)  # long enough that the helper takes a band too
+        return n[y0:y1], r[y0:y1]
+
+    monkeypatch.setattr(mips, "BAND_ROWS", 8)
+    both = mips.chain_levels(source, (96, 20), "variance")
+    assert len(threads) == 2, threads
+    monkeypatch.setattr(mips, "BAND_THREADS", 1)
+    one = mips.chain_levels(source, (96, 20), "variance")
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(both, one, strict=True))
+    monkeypatch.setattr(mips, "BAND_THREADS", 2)
+
+    def broken(y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        if y0 == 40:
+            raise ValueError("band 40")
+        return n[y0:y1], r[y0:y1]
+
+    with pytest.raises(ValueError, match="band 40"):
+        mips.chain_levels(broken, (96, 20), "variance")

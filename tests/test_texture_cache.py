@@ -481,3 +481,24 @@ def test_seeded_environment_is_not_prefiltered_again(
     finally:
         shaders.release()
     assert all(np.array_equal(a, b) for a, b in zip(seeded, made, strict=True))
+
+
+def test_float16_levels_converted_in_bands_are_the_cast() -> None:
+    """``float16_rows_up`` (two threads, bands of rows) gives the bits of the one-call cast
+    of the rows flipped: rounding, subnormals and overflow alike."""
+    import warnings
+
+    from app.textures.maps import float16_rows_up
+
+    rng = np.random.default_rng(3)
+    for shape in [(1030, 300, 4), (5, 3, 1), (1, 1, 4)]:
+        scale = rng.choice([1e-7, 1e-5, 1.0, 7e4], shape)
+        level = (rng.standard_normal(shape) * scale).astype(np.float32)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # overflow to inf, as the cast
+            got = float16_rows_up(level)
+            want = np.ascontiguousarray(level[::-1], np.float16)
+        assert (
+            got.flags.c_contiguous
+            and got.view(np.uint16).tobytes() == want.view(np.uint16).tobytes()
+        )

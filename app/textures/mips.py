@@ -26,7 +26,9 @@ footprint unequally.)
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -147,7 +149,8 @@ def chain_levels(
     level0 = np.empty((h, w, 4), np.float32)
     single = max(h, w) == 1 or count == 1
     sums = None if single else np.empty((max(1, h >> 1), max(1, w >> 1), len(names)))
-    for y0, y1 in _bands(h):
+
+    def band(y0: int, y1: int) -> None:
         n, r = source(y0, y1)
         level0[y0:y1, :, :3] = n  # float64 -> float32, as astype rounds
         level0[y0:y1, :, 3] = r
@@ -155,6 +158,8 @@ def chain_levels(
             half = sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)]
             for c, moment in enumerate(_band_moments(names, n, r)):
                 half[..., c] = _halve(moment)
+
+    each_band(band, _bands(h))
     levels = [level0]
     counts_y = np.ones(h)
     counts_x = np.ones(w)
@@ -164,17 +169,69 @@ def chain_levels(
         counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
         level = np.empty((counts_y.size, counts_x.size, 4), np.float32)
         rows = max(1, BAND_ROWS * w // 2 // counts_x.size)  # as many texels as a band
-        for y0 in range(0, counts_y.size, rows):  # per texel: bands change no bit
-            y1 = min(y0 + rows, counts_y.size)
-            means = sums[y0:y1] / (counts_y[y0:y1, None, None] * counts_x[None, :, None])
+
+        def filtered(y0: int, y1: int, sums=sums, cy=counts_y, cx=counts_x, level=level) -> None:
+            means = sums[y0:y1] / (cy[y0:y1, None, None] * cx[None, :, None])
             moments = dict(zip(names, np.moveaxis(means, -1, 0), strict=True))
             normal, r_level = _filtered(method, moments)
             level[y0:y1, :, :3] = normal
             level[y0:y1, :, 3] = r_level
+
+        starts = range(0, counts_y.size, rows)  # per texel: bands change no bit
+        each_band(filtered, [(y0, min(y0 + rows, counts_y.size)) for y0 in starts])
         levels.append(level)
         if count is not None and len(levels) >= count:
             break
     return levels
+
+
+# Threads a chain's bands are made on: each band reads its own rows of the source and
+# writes its own rows of the levels, so any order gives the same bits; numpy releases the
+# GIL inside each operation, so two threads use both cores where the caller (a render
+# waiting for its maps, app/textures/cache.py ``prepare``) has nothing else to run.
+BAND_THREADS = 2
+_BAND_POOL: ThreadPoolExecutor | None = None
+_BAND_POOL_LOCK = threading.Lock()
+
+
+def each_band(work: Callable[[int, int], None], bands: list[tuple[int, int]]) -> None:
+    """``work(y0, y1)`` for every band, on ``BAND_THREADS`` threads (the calling one and
+    the pool's), each taking the next band when it is done with one; the first exception
+    raised is raised here once every band has run or been skipped."""
+    if len(bands) < 2 or BAND_THREADS < 2:
+        for y0, y1 in bands:
+            work(y0, y1)
+        return
+    global _BAND_POOL
+    with _BAND_POOL_LOCK:
+        if _BAND_POOL is None:
+            _BAND_POOL = ThreadPoolExecutor(BAND_THREADS - 1, thread_name_prefix="pbs-bands")
+        pool = _BAND_POOL
+    queue = iter(bands)
+    lock = threading.Lock()
+    failed: list[BaseException] = []
+
+    def drain() -> None:
+        while True:
+            with lock:
+                if failed:
+                    return
+                y = next(queue, None)
+            if y is None:
+                return
+            try:
+                work(*y)
+            except BaseException as exc:  # raised on the caller's thread below
+                with lock:
+                    failed.append(exc)
+                return
+
+    helpers = [pool.submit(drain) for _ in range(BAND_THREADS - 1)]
+    drain()
+    for helper in helpers:
+        helper.result()
+    if failed:
+        raise failed[0]
 
 
 def _bands(height: int) -> list[tuple[int, int]]:
@@ -224,11 +281,14 @@ def box_levels(
     h, w, c = shape
     level0 = np.empty((h, w, c), np.float32)
     sums = None if max(h, w) == 1 else np.empty((max(1, h >> 1), max(1, w >> 1), c))
-    for y0, y1 in _bands(h):
-        band = source(y0, y1)
-        level0[y0:y1] = band  # float64 -> float32, as astype rounds
+
+    def band(y0: int, y1: int) -> None:
+        values = source(y0, y1)
+        level0[y0:y1] = values  # float64 -> float32, as astype rounds
         if sums is not None:
-            sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)] = _halve(band)
+            sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)] = _halve(values)
+
+    each_band(band, _bands(h))
     levels = [level0]
     counts_y, counts_x = np.ones(h), np.ones(w)
     while sums is not None and max(counts_y.size, counts_x.size) > 1:
