@@ -66,6 +66,7 @@ from app.textures.maps import (
     direction_texture,
     normal_roughness_map,
     open_image,
+    prefetch_uploads,
     scalar_texture,
 )
 from app.untrusted import RefusedError, files
@@ -955,6 +956,7 @@ class GltfFile:
         # what this material became; a problem names the JSON key it comes from.
         for problem in material_problems(layer.params, maps, emissive_factor, strength):
             raise GltfError(_problem_key(key, problem.key), problem.message)
+        prefetch_uploads([layer])  # its prepared maps made in the background from now on
         return layer
 
 
