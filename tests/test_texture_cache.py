@@ -502,3 +502,50 @@ def test_float16_levels_converted_in_bands_are_the_cast() -> None:
             got.flags.c_contiguous
             and got.view(np.uint16).tobytes() == want.view(np.uint16).tobytes()
         )
+
+
+def test_kept_maps_upload_without_moderngl_data_calls(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A glTF map's texels and a colour map's GL mips go through ctypes (which lets go of
+    the GIL while llvmpipe copies and filters, so the cache's background thread goes on),
+    never through moderngl's ``build_mipmaps``, ``read`` or a texture made with data
+    (which hold it); the levels are the GL's own mips, as the reference path makes them."""
+    import io
+
+    import moderngl
+
+    from app.render.texture_upload import read_level, upload_texture
+    from app.textures.maps import colour_texture, open_image
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, mr = images(11)
+    out = io.BytesIO()
+    normal.save(out, "PNG")
+    tex = colour_texture(open_image(out.getvalue()))
+    chain = normal_roughness_map(normal, 1.0, 1.0, mr, "variance")
+    reference = upload_texture(gl_egl.ctx, Texture([tex.levels[0]], srgb=True))
+    made_with_data = gl_egl.ctx.texture
+
+    def no_data(*args, **kwargs):
+        data = args[2] if len(args) > 2 else kwargs.get("data")
+        assert data is None, "a texture made with its data holds the GIL"
+        return made_with_data(*args, **kwargs)
+
+    def refused(*args, **kwargs):
+        raise AssertionError("holds the GIL")
+
+    monkeypatch.setattr(gl_egl.ctx, "texture", no_data)
+    monkeypatch.setattr(moderngl.Texture, "build_mipmaps", refused)
+    monkeypatch.setattr(moderngl.Texture, "read", refused)
+    made = [upload_texture(gl_egl.ctx, t) for t in (tex, chain)]
+    monkeypatch.undo()
+    try:
+        for k in range(max(tex.levels[0].shape[:2]).bit_length()):
+            assert np.array_equal(read_level(made[0], k), read_level(reference, k)), k
+        want = chain.levels.upload_levels()
+        assert all(np.array_equal(read_level(made[1], k), level) for k, level in enumerate(want))
+    finally:
+        for t in (*made, reference):
+            t.release()
