@@ -549,3 +549,57 @@ def test_kept_maps_upload_without_moderngl_data_calls(
     finally:
         for t in (*made, reference):
             t.release()
+
+
+def test_colour_maps_uploaded_before_prepared_chains(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``TextureUploads.upload_ready_first``: the maps with nothing to wait for (colour)
+    go to the GL before the prepared chains the background thread may still be making,
+    each once; a drawable's later ``get`` finds them made."""
+    from app.render import texture_upload
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    normal, mr = images(12)
+    chain = normal_roughness_map(normal, 1.0, 1.0, mr, "variance")
+    metallic = channel_texture(mr, 2)
+    colour = Texture([np.zeros((4, 4, 4), np.uint8)], srgb=True)
+    order: list[Texture] = []
+    upload = texture_upload.upload_texture
+
+    def recorded(ctx, tex):
+        order.append(tex)
+        return upload(ctx, tex)
+
+    monkeypatch.setattr(texture_upload, "upload_texture", recorded)
+    uploads = texture_upload.TextureUploads(gl_egl.ctx)
+    try:
+        uploads.upload_ready_first([chain, metallic, colour, chain])
+        assert order == [colour, chain, metallic]
+        assert uploads.get(chain) is uploads.get(chain) and len(order) == 3
+    finally:
+        uploads.release()
+
+
+def test_gltf_material_maps_prepared_from_when_read(tmp_path: Path) -> None:
+    """A glTF material's prepared maps (metallic mips, normal/roughness chain) start on
+    the cache's background thread as the material is read, before any part is built."""
+    import pygltflib
+
+    from app.scene.geometry import _DEFAULT_MATERIAL
+    from app.scene.gltf import GltfFile
+    from tests.gltf_builder import GltfBuilder
+
+    normal, mr = images(13)
+    b = GltfBuilder()
+    pbr = pygltflib.PbrMetallicRoughness(
+        metallicRoughnessTexture=pygltflib.TextureInfo(index=b.texture(mr))
+    )
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pbr,
+        normalTexture=pygltflib.NormalMaterialTexture(index=b.texture(normal)),
+    )
+    b.quad(material=b.material(material))
+    layer = GltfFile(b.save(tmp_path / "maps.glb")).layer(0, _DEFAULT_MATERIAL, "variance")
+    prepared = [layer.maps[name].levels for name in ("metallic", "normal_roughness")]
+    assert all(levels._prefetched is not None for levels in prepared)

@@ -7,14 +7,14 @@ with these (app/render/mesh_drawable.py); app/render/limits.py counts their byte
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import moderngl
 import numpy as np
 
 from app.gl.context import gl_function
 from app.textures.cache import prepared_cache
-from app.textures.maps import Texture, upload_levels
+from app.textures.maps import PreparedLevels, Texture, upload_levels
 
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -37,6 +37,16 @@ class TextureUploads:
         if made is None:  # the Texture is kept, so its id is not reused while we hold it
             made = self._made[id(tex)] = (tex, upload_texture(self.ctx, tex))
         return made[1]
+
+    def upload_ready_first(self, maps: Iterable[Texture]) -> None:
+        """Upload ``maps`` (a pass's, mesh_drawable.drawn_maps), those with nothing to wait
+        for first: a colour map (its texels at hand, its GL mips made here) before a
+        prepared chain, which may still be being built on the cache's background thread
+        (maps.PreparedLevels): the GL's work on the colour maps runs while the chain is
+        made, not after it. The drawables then find every map uploaded."""
+        unique = list({id(t): t for t in maps}.values())
+        for tex in sorted(unique, key=lambda t: isinstance(t.levels, PreparedLevels)):
+            self.get(tex)
 
     def release(self) -> None:
         for _, gl_tex in self._made.values():

@@ -166,8 +166,14 @@ def prefetch_uploads(layers: Iterable[SurfaceLayer]) -> None:
     started) well before the renderer uploads them."""
     for layer in layers:
         for tex in layer.maps.values():
-            if isinstance(tex.levels, PreparedLevels):
-                tex.levels.prefetch()
+            prefetch_map(tex)
+
+
+def prefetch_map(tex: Texture) -> None:
+    """``PreparedLevels.prefetch`` of a prepared map (nothing for any other): a glTF
+    material's maps start as they are read (app/scene/gltf.py)."""
+    if isinstance(tex.levels, PreparedLevels):
+        tex.levels.prefetch()
 
 
 def upload_bytes(tex: Texture) -> int:
