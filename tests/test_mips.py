@@ -400,3 +400,37 @@ def test_bands_are_made_on_two_threads(monkeypatch: pytest.MonkeyPatch) -> None:
 
     with pytest.raises(ValueError, match="band 40"):
         mips.chain_levels(broken, (96, 20), "variance")
+
+
+@pytest.mark.parametrize("shape", [(131, 37), (64, 9), (1, 5)])
+def test_float16_levels_made_directly_are_the_cast_levels(
+    shape: tuple[int, int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``rows_up_float16`` (what a render uploads, without float32 copies of the levels):
+    every level is the float16 cast of the float32 level, rows bottom first, bit for bit,
+    for the chain (each method, and level 0 alone) and the box mips."""
+    from app.textures import mips
+
+    monkeypatch.setattr(mips, "BAND_ROWS", 16)
+    rng = np.random.default_rng(RNG_SEED + 9)
+    n = decode_normal_map(rng.integers(0, 256, (*shape, 3), dtype=np.uint8))
+    r = rng.uniform(0.0, 1.0, shape)
+    values = rng.uniform(0.0, 1.0, (*shape, 1))
+
+    def source(y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        return n[y0:y1], r[y0:y1]
+
+    def same(made: list[np.ndarray], levels: list[np.ndarray]) -> bool:
+        want = [mips.float16_rows_up(level) for level in levels]
+        return len(made) == len(want) and all(
+            a.dtype == np.float16 and a.tobytes() == b.tobytes()
+            for a, b in zip(made, want, strict=True)
+        )
+
+    for method in NORMAL_FILTERS:
+        for count in (None, 1):
+            direct = mips.chain_levels(source, shape, method, count, rows_up_float16=True)
+            assert same(direct, mips.chain_levels(source, shape, method, count)), method
+    band = lambda y0, y1: values[y0:y1]  # noqa: E731
+    direct = mips.box_levels(band, (*shape, 1), rows_up_float16=True)
+    assert same(direct, mips.box_levels(band, (*shape, 1)))

@@ -342,15 +342,16 @@ def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.M
     half = upload_levels(tex)
     assert cache.events == ["built"]  # the float16 rows alone: the float32 chain not kept
     assert upload_bytes(tex) == sum(h.nbytes for h in half)
-    for level, h in zip(tex.levels, half, strict=True):
-        assert h.dtype == np.float16 and h.flags.c_contiguous
-        assert h.tobytes() == np.ascontiguousarray(level[::-1], np.float16).tobytes()
     cache.clear_memory()
     again = normal_roughness_map(normal, 0.8, 0.9, mr, "variance")
     half_again = upload_levels(again)
     assert cache.events[1:] == ["disk"]  # the float16 entry alone
     assert len(list((tmp_path / "textures").glob("*.npy"))) == 1
     assert all(a.tobytes() == b.tobytes() for a, b in zip(half, half_again, strict=True))
+    # made directly (mips.chain_levels' rows_up_float16), the cast of the float32 levels
+    for level, h in zip(tex.levels, half, strict=True):
+        assert h.dtype == np.float16 and h.flags.c_contiguous
+        assert h.tobytes() == np.ascontiguousarray(level[::-1], np.float16).tobytes()
     plain = Texture([np.asarray(level) for level in tex.levels])  # not prepared: converted
     assert all(a.tobytes() == b.tobytes() for a, b in zip(half, upload_levels(plain), strict=True))
 
@@ -488,7 +489,7 @@ def test_float16_levels_converted_in_bands_are_the_cast() -> None:
     of the rows flipped: rounding, subnormals and overflow alike."""
     import warnings
 
-    from app.textures.maps import float16_rows_up
+    from app.textures.mips import float16_rows_up
 
     rng = np.random.default_rng(3)
     for shape in [(1030, 300, 4), (5, 3, 1), (1, 1, 4)]:
