@@ -90,10 +90,14 @@ setup() {
     # first render starts with its environment made. Only where the seed is missing or
     # older than the code that makes it; a GL that cannot start just leaves it out.
     seed_dir="$VENV/share/pbs/prepared"
-    if [ ! -d "$seed_dir" ] || [ -n "$(find app/render/ibl.py app/render/prepared_seed.py glsl/passes/env_prefilter.frag app/textures/environment.py -newer "$seed_dir" 2>/dev/null)" ]; then
-        "$VENV/bin/python" -m app.render.prepared_seed "$seed_dir" \
-            || echo "setup: no prefiltered environments seeded (first renders prefilter them)"
-        touch "$seed_dir" 2>/dev/null || true
+    seed_code=(app/render/ibl.py app/render/prepared_seed.py app/textures/environment.py
+               glsl/passes/env_prefilter.frag glsl/passes/fullscreen.vert glsl/env glsl/common)
+    if [ ! -d "$seed_dir" ] || [ -n "$(find "${seed_code[@]}" -newer "$seed_dir" 2>/dev/null)" ]; then
+        if "$VENV/bin/python" -m app.render.prepared_seed "$seed_dir"; then
+            touch "$seed_dir"
+        else
+            echo "setup: no prefiltered environments seeded (first renders prefilter them)"
+        fi
     fi
 }
 
