@@ -18,6 +18,7 @@ def _prepared_cache_dir(tmp_path_factory: pytest.TempPathFactory) -> None:
     import os
 
     os.environ["PBS_CACHE_DIR"] = str(tmp_path_factory.mktemp("pbs-cache"))
+    os.environ["PBS_CACHE_SEED"] = ""  # nor an installation's seed (tests count the builds)
     os.environ.pop("PBS_CACHE", None)
 
 

@@ -21,10 +21,14 @@ def test_assets_is_opt_in() -> None:
 @pytest.mark.slow
 def test_tiny_assets_run(tmp_path, monkeypatch) -> None:
     monkeypatch.delenv("PBS_BENCH_ASSETS", raising=False)  # the bundled glb
+    seed = tmp_path / "seed"  # an installation's seed (one entry no key names): the
+    seed.mkdir()  # cold run is also measured without it
+    (seed / "unused.npy").write_bytes(b"")
+    monkeypatch.setenv("PBS_CACHE_SEED", str(seed))
     assert main(["--quick", "--tiny", "--suites", "assets", "--out", str(tmp_path), "-q"]) == 0
     data = json.loads((tmp_path / "bench.json").read_text())
     rows = {r["variant"]: r for r in data["rows"] if r["suite"] == "assets"}
-    assert {"pbs cold", "pbs warm"} <= set(rows)
+    assert {"pbs cold", "pbs warm", "pbs cold, unseeded"} <= set(rows)
     for r in rows.values():
         assert r["case"] == "material_sampler.glb" and r["frames"] == 1
         assert r["ms_median"] > 0 and r["cpu_s_median"] > 0 and r["peak_rss_mib"] > 10

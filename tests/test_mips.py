@@ -364,3 +364,73 @@ def test_bands_give_the_bits_of_the_whole_map(
         for a, b in pairs:
             assert a.tobytes() == b.tobytes(), method
     assert all(a.tobytes() == b.tobytes() for a, b in zip(boxes, box_mips(values), strict=True))
+
+
+def test_bands_are_made_on_two_threads(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A chain's bands are shared between the calling thread and a helper (the render
+    waiting for the map leaves a core idle), with the bits of one thread's chain, and a
+    band's exception is raised to the caller."""
+    import threading
+    import time
+
+    from app.textures import mips
+
+    rng = np.random.default_rng(RNG_SEED + 8)
+    n = decode_normal_map(rng.integers(0, 256, (96, 20, 3), dtype=np.uint8))
+    r = rng.uniform(0.0, 1.0, (96, 20))
+    threads: set[str] = set()
+
+    def source(y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        threads.add(threading.current_thread().name)
+        time.sleep(0.01)  # long enough that the helper takes a band too
+        return n[y0:y1], r[y0:y1]
+
+    monkeypatch.setattr(mips, "BAND_ROWS", 8)
+    both = mips.chain_levels(source, (96, 20), "variance")
+    assert len(threads) == 2, threads
+    monkeypatch.setattr(mips, "BAND_THREADS", 1)
+    one = mips.chain_levels(source, (96, 20), "variance")
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(both, one, strict=True))
+    monkeypatch.setattr(mips, "BAND_THREADS", 2)
+
+    def broken(y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        if y0 == 40:
+            raise ValueError("band 40")
+        return n[y0:y1], r[y0:y1]
+
+    with pytest.raises(ValueError, match="band 40"):
+        mips.chain_levels(broken, (96, 20), "variance")
+
+
+@pytest.mark.parametrize("shape", [(131, 37), (64, 9), (1, 5)])
+def test_float16_levels_made_directly_are_the_cast_levels(
+    shape: tuple[int, int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``rows_up_float16`` (what a render uploads, without float32 copies of the levels):
+    every level is the float16 cast of the float32 level, rows bottom first, bit for bit,
+    for the chain (each method, and level 0 alone) and the box mips."""
+    from app.textures import mips
+
+    monkeypatch.setattr(mips, "BAND_ROWS", 16)
+    rng = np.random.default_rng(RNG_SEED + 9)
+    n = decode_normal_map(rng.integers(0, 256, (*shape, 3), dtype=np.uint8))
+    r = rng.uniform(0.0, 1.0, shape)
+    values = rng.uniform(0.0, 1.0, (*shape, 1))
+
+    def source(y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        return n[y0:y1], r[y0:y1]
+
+    def same(made: list[np.ndarray], levels: list[np.ndarray]) -> bool:
+        want = [mips.float16_rows_up(level) for level in levels]
+        return len(made) == len(want) and all(
+            a.dtype == np.float16 and a.tobytes() == b.tobytes()
+            for a, b in zip(made, want, strict=True)
+        )
+
+    for method in NORMAL_FILTERS:
+        for count in (None, 1):
+            direct = mips.chain_levels(source, shape, method, count, rows_up_float16=True)
+            assert same(direct, mips.chain_levels(source, shape, method, count)), method
+    band = lambda y0, y1: values[y0:y1]  # noqa: E731
+    direct = mips.box_levels(band, (*shape, 1), rows_up_float16=True)
+    assert same(direct, mips.box_levels(band, (*shape, 1)))

@@ -342,15 +342,16 @@ def test_upload_levels_are_their_own_entry(tmp_path: Path, monkeypatch: pytest.M
     half = upload_levels(tex)
     assert cache.events == ["built"]  # the float16 rows alone: the float32 chain not kept
     assert upload_bytes(tex) == sum(h.nbytes for h in half)
-    for level, h in zip(tex.levels, half, strict=True):
-        assert h.dtype == np.float16 and h.flags.c_contiguous
-        assert h.tobytes() == np.ascontiguousarray(level[::-1], np.float16).tobytes()
     cache.clear_memory()
     again = normal_roughness_map(normal, 0.8, 0.9, mr, "variance")
     half_again = upload_levels(again)
     assert cache.events[1:] == ["disk"]  # the float16 entry alone
     assert len(list((tmp_path / "textures").glob("*.npy"))) == 1
     assert all(a.tobytes() == b.tobytes() for a, b in zip(half, half_again, strict=True))
+    # made directly (mips.chain_levels' rows_up_float16), the cast of the float32 levels
+    for level, h in zip(tex.levels, half, strict=True):
+        assert h.dtype == np.float16 and h.flags.c_contiguous
+        assert h.tobytes() == np.ascontiguousarray(level[::-1], np.float16).tobytes()
     plain = Texture([np.asarray(level) for level in tex.levels])  # not prepared: converted
     assert all(a.tobytes() == b.tobytes() for a, b in zip(half, upload_levels(plain), strict=True))
 
@@ -421,3 +422,185 @@ def test_declared_upload_bytes_are_the_built_levels(
         channel_texture(mr, 2),
     ):
         assert upload_bytes(tex) == sum(level.nbytes for level in upload_levels(tex))
+
+
+def test_seed_entry_is_read_never_written(tmp_path: Path) -> None:
+    """A read-only seed folder (an installation's entries) answers a lookup the disk level
+    misses; nothing is written to the cache or the seed, and an unreadable seed entry is
+    skipped (built, the seed file left as it was)."""
+    made = PreparedCache(tmp_path / "made")
+    built = made.arrays("k", ("x",), lambda: [np.arange(6.0)])
+    made.flush()
+    seed = tmp_path / "made"
+    cache = PreparedCache(tmp_path / "user", seeds=[tmp_path / "none", seed])
+    got = cache.arrays("k", ("x",), lambda: [np.zeros(6)])
+    cache.flush()
+    assert cache.events == ["seed"]
+    assert np.array_equal(got[0], built[0])
+    assert not (tmp_path / "user").exists()
+    (entry,) = seed.glob("*.npy")
+    entry.write_bytes(entry.read_bytes()[:-8] + b"corrupt!")
+    again = PreparedCache(tmp_path / "user2", seeds=[seed])
+    assert np.array_equal(again.arrays("k", ("x",), lambda: [np.ones(6)])[0], np.ones(6))
+    assert again.events == ["built"] and entry.is_file()
+
+
+def test_seed_directories(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    import os
+    import sys
+
+    monkeypatch.setenv("PBS_CACHE_SEED", f"{tmp_path / 'a'}{os.pathsep}{tmp_path / 'b'}")
+    assert cache_module.seed_directories() == [tmp_path / "a", tmp_path / "b"]
+    monkeypatch.setenv("PBS_CACHE_SEED", "")
+    assert cache_module.seed_directories() == []
+    monkeypatch.delenv("PBS_CACHE_SEED")
+    assert cache_module.seed_directories() == [Path(sys.prefix) / "share/pbs/prepared"]
+
+
+def test_seeded_environment_is_not_prefiltered_again(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """app/render/prepared_seed.py writes the bundled environments' levels; a process with
+    an empty cache reads them from the seed, the same arrays the prefilter makes."""
+    from app.gl.shaders import ShaderCache
+    from app.render import ibl, prepared_seed
+    from app.textures.environment import environment_map
+
+    monkeypatch.setattr(ibl, "_SETTINGS", [16, 8])  # a small prefilter: the same path
+    written = prepared_seed.seed(tmp_path / "seed")
+    assert len(written) == len(prepared_seed.BUNDLED)
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "empty"))
+    monkeypatch.setenv("PBS_CACHE_SEED", str(tmp_path / "seed"))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    ibl.clear_cache()
+    shaders = ShaderCache(gl_egl.ctx)
+    try:
+        seeded = ibl.prepared_prefilter(gl_egl.ctx, shaders, environment_map("studio"), 16, 8)
+        assert prepared_cache().events == ["seed"]
+        ibl.clear_cache()
+        made = ibl.prefilter(gl_egl.ctx, shaders, environment_map("studio"), 16, 8)
+    finally:
+        shaders.release()
+    assert all(np.array_equal(a, b) for a, b in zip(seeded, made, strict=True))
+
+
+def test_float16_levels_converted_in_bands_are_the_cast() -> None:
+    """``float16_rows_up`` (two threads, bands of rows) gives the bits of the one-call cast
+    of the rows flipped: rounding, subnormals and overflow alike."""
+    import warnings
+
+    from app.textures.mips import float16_rows_up
+
+    rng = np.random.default_rng(3)
+    for shape in [(1030, 300, 4), (5, 3, 1), (1, 1, 4)]:
+        scale = rng.choice([1e-7, 1e-5, 1.0, 7e4], shape)
+        level = (rng.standard_normal(shape) * scale).astype(np.float32)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # overflow to inf, as the cast
+            got = float16_rows_up(level)
+            want = np.ascontiguousarray(level[::-1], np.float16)
+        assert (
+            got.flags.c_contiguous
+            and got.view(np.uint16).tobytes() == want.view(np.uint16).tobytes()
+        )
+
+
+def test_kept_maps_upload_without_moderngl_data_calls(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A glTF map's texels and a colour map's GL mips go through ctypes (which lets go of
+    the GIL while llvmpipe copies and filters, so the cache's background thread goes on),
+    never through moderngl's ``build_mipmaps``, ``read`` or a texture made with data
+    (which hold it); the levels are the GL's own mips, as the reference path makes them."""
+    import io
+
+    import moderngl
+
+    from app.render.texture_upload import read_level, upload_texture
+    from app.textures.maps import colour_texture, open_image
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, mr = images(11)
+    out = io.BytesIO()
+    normal.save(out, "PNG")
+    tex = colour_texture(open_image(out.getvalue()))
+    chain = normal_roughness_map(normal, 1.0, 1.0, mr, "variance")
+    reference = upload_texture(gl_egl.ctx, Texture([tex.levels[0]], srgb=True))
+    made_with_data = gl_egl.ctx.texture
+
+    def no_data(*args, **kwargs):
+        data = args[2] if len(args) > 2 else kwargs.get("data")
+        assert data is None, "a texture made with its data holds the GIL"
+        return made_with_data(*args, **kwargs)
+
+    def refused(*args, **kwargs):
+        raise AssertionError("holds the GIL")
+
+    monkeypatch.setattr(gl_egl.ctx, "texture", no_data)
+    monkeypatch.setattr(moderngl.Texture, "build_mipmaps", refused)
+    monkeypatch.setattr(moderngl.Texture, "read", refused)
+    made = [upload_texture(gl_egl.ctx, t) for t in (tex, chain)]
+    monkeypatch.undo()
+    try:
+        for k in range(max(tex.levels[0].shape[:2]).bit_length()):
+            assert np.array_equal(read_level(made[0], k), read_level(reference, k)), k
+        want = chain.levels.upload_levels()
+        assert all(np.array_equal(read_level(made[1], k), level) for k, level in enumerate(want))
+    finally:
+        for t in (*made, reference):
+            t.release()
+
+
+def test_colour_maps_uploaded_before_prepared_chains(
+    gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``TextureUploads.upload_ready_first``: the maps with nothing to wait for (colour)
+    go to the GL before the prepared chains the background thread may still be making,
+    each once; a drawable's later ``get`` finds them made."""
+    from app.render import texture_upload
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    normal, mr = images(12)
+    chain = normal_roughness_map(normal, 1.0, 1.0, mr, "variance")
+    metallic = channel_texture(mr, 2)
+    colour = Texture([np.zeros((4, 4, 4), np.uint8)], srgb=True)
+    order: list[Texture] = []
+    upload = texture_upload.upload_texture
+
+    def recorded(ctx, tex):
+        order.append(tex)
+        return upload(ctx, tex)
+
+    monkeypatch.setattr(texture_upload, "upload_texture", recorded)
+    uploads = texture_upload.TextureUploads(gl_egl.ctx)
+    try:
+        uploads.upload_ready_first([chain, metallic, colour, chain])
+        assert order == [colour, chain, metallic]
+        assert uploads.get(chain) is uploads.get(chain) and len(order) == 3
+    finally:
+        uploads.release()
+
+
+def test_gltf_material_maps_prepared_from_when_read(tmp_path: Path) -> None:
+    """A glTF material's prepared maps (metallic mips, normal/roughness chain) start on
+    the cache's background thread as the material is read, before any part is built."""
+    import pygltflib
+
+    from app.scene.geometry import _DEFAULT_MATERIAL
+    from app.scene.gltf import GltfFile
+    from tests.gltf_builder import GltfBuilder
+
+    normal, mr = images(13)
+    b = GltfBuilder()
+    pbr = pygltflib.PbrMetallicRoughness(
+        metallicRoughnessTexture=pygltflib.TextureInfo(index=b.texture(mr))
+    )
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pbr,
+        normalTexture=pygltflib.NormalMaterialTexture(index=b.texture(normal)),
+    )
+    b.quad(material=b.material(material))
+    layer = GltfFile(b.save(tmp_path / "maps.glb")).layer(0, _DEFAULT_MATERIAL, "variance")
+    prepared = [layer.maps[name].levels for name in ("metallic", "normal_roughness")]
+    assert all(levels._prefetched is not None for levels in prepared)

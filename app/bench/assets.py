@@ -6,6 +6,10 @@ same image size:
 
 * ``pbs cold``: ``pbs render MODEL -o out.png --size WxH`` with an empty prepared-texture
   cache (a fresh ``PBS_CACHE_DIR``: every mip chain built, app/textures/cache.py);
+* ``pbs cold, unseeded``: the same without the installation's seed either
+  (``PBS_CACHE_SEED`` empty: the bundled environment prefiltered too), measured where a
+  seed exists (``scripts/dev.sh setup`` writes one; app/render/prepared_seed.py), so
+  that the run shows what the seed buys;
 * ``pbs warm``: the same with the cache filled by one untimed run before the rounds;
 * ``f3d``: app/bench/f3d_child.py (f3d with its antialiasing, HDRI and tone mapping).
 
@@ -45,6 +49,14 @@ def bench_assets() -> list[Path]:
     from app.resources import scenes_dir
 
     return [scenes_dir() / "meshes" / "material_sampler.glb"]
+
+
+def seeded() -> bool:
+    """Whether this installation's prepared-texture cache has a seed with entries in it
+    (app/textures/cache.py ``seed_directories``)."""
+    from app.textures.cache import seed_directories
+
+    return any(any(d.glob("*.npy")) for d in seed_directories() if d.is_dir())
 
 
 def pbs_render_command(model: Path, out: Path, size: tuple[int, int]) -> list[str]:
@@ -112,10 +124,12 @@ def run_assets(ctx) -> None:  # ctx: app.bench.context.Context
                 continue
             measured(f3d_command(model, tmp / "f3d-fill.png", size), env_all)  # as warm
             runs: dict[str, list[dict]] = {"pbs cold": [], "pbs warm": [], "f3d": []}
+            if seeded():
+                runs["pbs cold, unseeded"] = []
             f3d_why = ""
             for i in range(rounds):
-                order = ["pbs cold", "pbs warm", "f3d"]
-                order = order[i % 3 :] + order[: i % 3]  # rotated: no way always first
+                order = list(runs)
+                order = order[i % len(order) :] + order[: i % len(order)]  # rotated
                 for way in order:
                     if way == "f3d" and f3d_why:
                         continue
@@ -127,8 +141,11 @@ def run_assets(ctx) -> None:  # ctx: app.bench.context.Context
                             f3d_why = result["stderr"].strip().splitlines()[-1]
                     else:
                         env = warm_env
-                        if way == "pbs cold":
-                            env = dict(env_all, PBS_CACHE_DIR=str(tmp / f"cold-{i}"))
+                        if way.startswith("pbs cold"):
+                            cold = way.replace(",", "").replace(" ", "-")  # a folder per way, round
+                            env = dict(env_all, PBS_CACHE_DIR=str(tmp / f"{cold}-{i}"))
+                        if way == "pbs cold, unseeded":
+                            env["PBS_CACHE_SEED"] = ""
                         result = measured(pbs_render_command(model, png, size), env)
                     ctx.progress.done()
                     if result["returncode"] == 0:

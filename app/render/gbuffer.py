@@ -33,7 +33,7 @@ from app.frame.camera import gl_bytes
 from app.gl.context import gl_function, wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference.encoding import unorm_to_snorm
-from app.render.mesh_drawable import MeshDrawable
+from app.render.mesh_drawable import MeshDrawable, drawn_maps
 from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
@@ -205,6 +205,7 @@ class GBufferPass:
         defines = dict(defines or {"GBUFFER_TANGENT": 1})
         self._owns_uploads = uploads is None
         self.uploads = TextureUploads(ctx) if uploads is None else uploads
+        self.uploads.upload_ready_first(t for p in parts for _, t in drawn_maps(p))
         self.drawables = [
             MeshDrawable(
                 ctx,

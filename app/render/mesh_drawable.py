@@ -20,6 +20,7 @@ from app.render.adjacency import adjacency_indices
 from app.render.texture_upload import TextureUploads, upload_texture
 from app.render.uv import layer_maps_define, uv_defines, uv_transform_bytes
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
+from app.textures.maps import Texture
 
 
 def vertex_extras(part: MeshPart) -> tuple[np.ndarray, str, tuple[str, ...]] | None:
@@ -52,6 +53,18 @@ def rotated(part: MeshPart) -> bool:
     anisotropy_rotation, compiled in (ANISOTROPY_ROTATION) only where it is not 0, so
     that every other part's program is the one it was before the rotation existed."""
     return part.layers[0].anisotropy_rotation != 0.0
+
+
+def drawn_maps(part: MeshPart) -> list[tuple[str, Texture]]:
+    """(sampler uniform, map) of every map a part's drawable samples: its material's
+    (and the painted layer's and the mask, where it blends), in texture-unit order."""
+    maps = []
+    for i, layer in enumerate(part.layers[:2] if part.blend else part.layers[:1]):
+        for name, tex in layer.maps.items():
+            maps.append((f"u_{name}_map{i}", tex))
+    if part.blend is not None:
+        maps.append(("u_blend_mask", part.blend.mask))
+    return maps
 
 
 class MeshDrawable:
@@ -121,11 +134,8 @@ class MeshDrawable:
         self.textures: list[tuple[str, moderngl.Texture]] = []
         self._owns_textures = uploads is None
         upload = (lambda tex: upload_texture(ctx, tex)) if uploads is None else uploads.get
-        for i, layer in enumerate(part.layers[:2] if part.blend else part.layers[:1]):
-            for name, tex in layer.maps.items():
-                self.textures.append((f"u_{name}_map{i}", upload(tex)))
-        if part.blend is not None:
-            self.textures.append(("u_blend_mask", upload(part.blend.mask)))
+        for uniform, tex in drawn_maps(part):
+            self.textures.append((uniform, upload(tex)))
         self.part = part
         self.material_ids = material_ids
         normal_matrix = np.linalg.inv(part.model[:3, :3]).T

@@ -7,14 +7,14 @@ with these (app/render/mesh_drawable.py); app/render/limits.py counts their byte
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import moderngl
 import numpy as np
 
 from app.gl.context import gl_function
 from app.textures.cache import prepared_cache
-from app.textures.maps import Texture, upload_levels
+from app.textures.maps import PreparedLevels, Texture, upload_levels
 
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -38,6 +38,16 @@ class TextureUploads:
             made = self._made[id(tex)] = (tex, upload_texture(self.ctx, tex))
         return made[1]
 
+    def upload_ready_first(self, maps: Iterable[Texture]) -> None:
+        """Upload ``maps`` (a pass's, mesh_drawable.drawn_maps), those with nothing to wait
+        for first: a colour map (its texels at hand, its GL mips made here) before a
+        prepared chain, which may still be being built on the cache's background thread
+        (maps.PreparedLevels): the GL's work on the colour maps runs while the chain is
+        made, not after it. The drawables then find every map uploaded."""
+        unique = list({id(t): t for t in maps}.values())
+        for tex in sorted(unique, key=lambda t: isinstance(t.levels, PreparedLevels)):
+            self.get(tex)
+
     def release(self) -> None:
         for _, gl_tex in self._made.values():
             gl_tex.release()
@@ -51,17 +61,21 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
     if tex.srgb:
         level0 = tex.levels[0]
         h, w = level0.shape[:2]
-        gl_tex = ctx.texture((w, h), 4, level0[::-1].tobytes(), internal_format=GL_SRGB8_ALPHA8)
         if tex.source_key is None:
+            data = level0[::-1].tobytes()
+            gl_tex = ctx.texture((w, h), 4, data, internal_format=GL_SRGB8_ALPHA8)
             gl_tex.build_mipmaps()
         else:
+            gl_tex = ctx.texture((w, h), 4, None, internal_format=GL_SRGB8_ALPHA8)
+            _write_level0(gl_tex, 4, np.ascontiguousarray(level0[::-1]), GL_UNSIGNED_BYTE)
             _srgb_mips(ctx, gl_tex, tex.source_key)
         mipmapped = True
     else:  # float16 rows bottom first (a prepared chain's kept as such: maps.PreparedLevels)
         levels = upload_levels(tex)
         h, w = levels[0].shape[:2]
         comps = 1 if levels[0].ndim == 2 else levels[0].shape[2]
-        gl_tex = ctx.texture((w, h), comps, levels[0], dtype="f2")
+        gl_tex = ctx.texture((w, h), comps, None, dtype="f2")
+        _write_level0(gl_tex, comps, levels[0], GL_HALF_FLOAT)
         if len(levels) > 1:
             _define_levels(gl_tex, comps, levels[1:])
         mipmapped = len(levels) > 1
@@ -135,15 +149,43 @@ def _srgb_mips(ctx: moderngl.Context, gl_tex: moderngl.Texture, source_key: str)
     parts = ("srgb8 mips", source_key, str(info.get("GL_RENDERER")), str(info.get("GL_VERSION")))
 
     def build() -> list[np.ndarray]:
-        gl_tex.build_mipmaps()
+        # glGenerateMipmap and glGetTexImage through ctypes, which lets go of the GIL for
+        # the call (moderngl's build_mipmaps and read hold it): llvmpipe's mips of a 2048^2
+        # map take a few tenths of a second, during which the cache's background thread
+        # goes on preparing the model's other maps.
+        uint, enum = ctypes.c_uint, ctypes.c_uint
+        gl_function(ctx, "glBindTexture", [enum, uint])(GL_TEXTURE_2D, gl_tex.glo)
+        gl_function(ctx, "glGenerateMipmap", [enum])(GL_TEXTURE_2D)
         w, h = gl_tex.size
         count = max(w, h).bit_length()  # levels 1 .. floor(log2(max side))
-        return [np.frombuffer(gl_tex.read(level=k), np.uint8).copy() for k in range(1, count)]
+        return [read_level(gl_tex, k).reshape(-1) for k in range(1, count)]
 
     built: list[bool] = []
     levels = prepared_cache().arrays("srgb_mips", parts, lambda: built.append(True) or build())
     if not built:
         _define_levels(gl_tex, 4, list(levels), GL_SRGB8_ALPHA8)
+
+
+def _write_level0(gl_tex: moderngl.Texture, comps: int, level: np.ndarray, kind: int) -> None:
+    """Level 0's texels (rows bottom first, contiguous) into ``gl_tex``, made without data,
+    through ctypes: the GL's copy of a 2048^2 map (16-32 MiB, a tenth of a second on
+    llvmpipe) runs without the GIL, which moderngl's ``texture(..., data)`` holds, so the
+    cache's background thread is not held up meanwhile."""
+    uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
+    level = np.ascontiguousarray(level)
+    w, h = gl_tex.size
+    texel = 1 if kind == GL_UNSIGNED_BYTE else 2
+    assert level.nbytes == w * h * comps * texel, "level 0 of another size"
+    bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
+    store = gl_function(gl_tex.ctx, "glPixelStorei", [enum, int_])
+    sub_image = gl_function(
+        gl_tex.ctx,
+        "glTexSubImage2D",
+        [enum, int_, int_, int_, ctypes.c_int, ctypes.c_int, enum, enum, ctypes.c_void_p],
+    )
+    bind(GL_TEXTURE_2D, gl_tex.glo)
+    store(GL_UNPACK_ALIGNMENT, 1)
+    sub_image(GL_TEXTURE_2D, 0, 0, 0, w, h, GL_CLIENT_FORMATS[comps], kind, level.ctypes.data)
 
 
 def _define_levels(

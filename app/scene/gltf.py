@@ -66,6 +66,7 @@ from app.textures.maps import (
     direction_texture,
     normal_roughness_map,
     open_image,
+    prefetch_map,
     scalar_texture,
 )
 from app.untrusted import RefusedError, files
@@ -863,6 +864,9 @@ class GltfFile:
             maps[name] = texture
             if not transform.identity:
                 transforms[name] = transform
+            # A prepared map is made on the cache's background thread from now on, while
+            # the material's other images are decoded and the parts built.
+            prefetch_map(texture)
 
         if pbr is not None and pbr.baseColorTexture is not None:
             tkey = f"{pkey}.baseColorTexture"

@@ -21,6 +21,13 @@ a new key and nothing stale is ever returned. Two levels:
 
 Where: ``$PBS_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/pbs`` (``~/.cache/pbs``).
 ``PBS_CACHE=off`` (or ``0``, ``no``, ``false``) turns both levels off: every call builds.
+
+Below the disk level, read-only **seed** folders (``seed_directories``: ``$PBS_CACHE_SEED``,
+folders separated by ``os.pathsep``, else ``<sys.prefix>/share/pbs/prepared``): entries made
+when the project was installed (app/render/prepared_seed.py: the bundled environments'
+prefiltered levels, which depend on nothing a scene brings), looked up by the same key when
+the disk level has none. A seed is never written, refreshed or pruned here; an unreadable
+seed entry is skipped (and the entry built as on any miss).
 """
 
 from __future__ import annotations
@@ -46,6 +53,7 @@ _LOG = logging.getLogger(__name__)
 
 ENV_DIR = "PBS_CACHE_DIR"
 ENV_SWITCH = "PBS_CACHE"
+ENV_SEED = "PBS_CACHE_SEED"
 OFF_VALUES = ("off", "0", "no", "false")
 MEMORY_BYTES = 1 << 30  # in-process entries kept (DamagedHelmet's prepared maps: ~140 MiB)
 DISK_BYTES = 4 << 30  # on-disk entries kept
@@ -172,8 +180,10 @@ class PreparedCache:
         enabled: bool = True,
         memory_bytes: int = MEMORY_BYTES,
         disk_bytes: int = DISK_BYTES,
+        seeds: Sequence[Path] = (),
     ) -> None:
         self.directory = directory
+        self.seeds = tuple(seeds)  # read-only folders of entries made at install
         self.enabled = enabled
         self.memory_bytes = memory_bytes
         self.disk_bytes = disk_bytes
@@ -181,7 +191,8 @@ class PreparedCache:
         self._held = 0
         self._lock = threading.Lock()
         self._writing: dict[str, Future] = {}  # entries being written (``_write``) by key
-        # What happened to each lookup, for tests and the bench: memory, disk, built, rebuilt.
+        # What happened to each lookup, for tests and the bench: memory, disk, seed, built,
+        # rebuilt.
         self.events: list[str] = []
 
     def arrays(
@@ -203,6 +214,8 @@ class PreparedCache:
         arrays = self._read(key)
         if arrays is not None:
             self.events.append("disk")
+        elif (arrays := self._seeded(key)) is not None:
+            self.events.append("seed")
         else:
             arrays = tuple(np.ascontiguousarray(a) for a in build())
             self._write(key, arrays)
@@ -273,6 +286,19 @@ class PreparedCache:
             self.events.append("rebuilt")
             path.unlink(missing_ok=True)
             return None
+
+    def _seeded(self, key: str) -> tuple[np.ndarray, ...] | None:
+        """Entry ``key`` from the first seed folder that holds a readable one (read-only:
+        never refreshed, and a bad one is left where it is and skipped)."""
+        for seed in self.seeds:
+            path = seed / f"{key}{_SUFFIX}"
+            if not path.is_file():
+                continue
+            try:
+                return unpack_entry(np.load(path, allow_pickle=False))
+            except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
+                _LOG.warning("texture cache: seed entry %s is unreadable (%s)", path, exc)
+        return None
 
     def _write(self, key: str, arrays: tuple[np.ndarray, ...]) -> None:
         """Hand the entry to the writer thread (``_writer``): the caller goes on with the
@@ -369,18 +395,34 @@ def cache_directory() -> Path:
     return (Path(xdg) if xdg else Path.home() / ".cache") / "pbs"
 
 
+def seed_directories() -> list[Path]:
+    """The read-only seed folders: ``$PBS_CACHE_SEED`` (folders separated by
+    ``os.pathsep``; set and empty: none), else ``<sys.prefix>/share/pbs/prepared``, where
+    ``scripts/dev.sh`` seeds an installation (app/render/prepared_seed.py)."""
+    given = os.environ.get(ENV_SEED)
+    if given is not None:
+        return [Path(p) for p in given.split(os.pathsep) if p.strip()]
+    return [default_seed_directory()]
+
+
+def default_seed_directory() -> Path:
+    return Path(sys.prefix) / "share" / "pbs" / "prepared"
+
+
 def cache_enabled() -> bool:
     return os.environ.get(ENV_SWITCH, "").strip().lower() not in OFF_VALUES
 
 
-_SHARED: dict[tuple[str, bool], PreparedCache] = {}
+_SHARED: dict[tuple[str, bool, tuple[Path, ...]], PreparedCache] = {}
 
 
 def prepared_cache() -> PreparedCache:
     """The process's cache for the current environment variables (one per setting, so a
     test or a bench that changes them gets a fresh one)."""
-    setting = (str(cache_directory()), cache_enabled())
+    seeds = tuple(seed_directories())
+    setting = (str(cache_directory()), cache_enabled(), seeds)
     cache = _SHARED.get(setting)
     if cache is None:
-        cache = _SHARED[setting] = PreparedCache(Path(setting[0]) / "textures", setting[1])
+        directory = Path(setting[0]) / "textures"
+        cache = _SHARED[setting] = PreparedCache(directory, setting[1], seeds=seeds)
     return cache

@@ -40,6 +40,7 @@ from app.textures.mips import (
     chain_inputs,
     chain_levels,
     decode_normal_map,
+    float16_rows_up,
 )
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
@@ -100,8 +101,12 @@ class PreparedLevels(Sequence[np.ndarray]):
         parts: tuple,
         build: Callable[[], Sequence[np.ndarray]],
         layout: tuple[int, int, int, bool],
+        build_upload: Callable[[], Sequence[np.ndarray]] | None = None,
     ) -> None:
         self.kind, self.parts, self._build = kind, parts, build
+        # ``upload_levels``'s float16 levels made directly (the same bits as converting
+        # ``build``'s, without holding float32 copies of the levels), where given
+        self._build_upload = build_upload
         # (height, width, components, level 0 alone) of what build makes: its GL bytes are
         # known (``upload_bytes``) before the levels are read or built
         self.layout = layout
@@ -136,9 +141,11 @@ class PreparedLevels(Sequence[np.ndarray]):
         return list(prepared_cache().arrays(kind, self.parts, self._upload_build))
 
     def _upload_build(self) -> list[np.ndarray]:
+        if self._levels is None and self._build_upload is not None:
+            return list(self._build_upload())
         if self._levels is None:  # built, not kept on disk: a render never reads them again
             self._levels = [np.asarray(level) for level in self._build()]
-        return [np.ascontiguousarray(level[::-1], np.float16) for level in self._levels]
+        return [float16_rows_up(level) for level in self._levels]
 
 
 _UPLOAD_KIND = "%s f16 rows up"  # the cache kind of a chain's float16 levels
@@ -150,8 +157,14 @@ def prefetch_uploads(layers: Iterable[SurfaceLayer]) -> None:
     started) well before the renderer uploads them."""
     for layer in layers:
         for tex in layer.maps.values():
-            if isinstance(tex.levels, PreparedLevels):
-                tex.levels.prefetch()
+            prefetch_map(tex)
+
+
+def prefetch_map(tex: Texture) -> None:
+    """``PreparedLevels.prefetch`` of a prepared map (nothing for any other): a glTF
+    material's maps start as they are read (app/scene/gltf.py)."""
+    if isinstance(tex.levels, PreparedLevels):
+        tex.levels.prefetch()
 
 
 def upload_bytes(tex: Texture) -> int:
@@ -405,13 +418,15 @@ def normal_roughness_texture(
     return Texture(_chain_levels(lambda y0, y1: (n[y0:y1], r[y0:y1]), n.shape[:2], method))
 
 
-def _chain_levels(source: BandSource, shape: tuple[int, int], method: str) -> list[np.ndarray]:
+def _chain_levels(
+    source: BandSource, shape: tuple[int, int], method: str, rows_up_float16: bool = False
+) -> list[np.ndarray]:
     """mips.chain_levels with the project's ``none``: level 0 alone, bilinear without mips:
     each sample sees the source normals, aliasing included (what a supersampled reference
     averages)."""
     if method == "none":
-        return chain_levels(source, shape, "naive", count=1)
-    return chain_levels(source, shape, method)
+        return chain_levels(source, shape, "naive", 1, rows_up_float16)
+    return chain_levels(source, shape, method, None, rows_up_float16)
 
 
 def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
@@ -518,8 +533,10 @@ def normal_roughness_map(
     ``normal_roughness_chain``; kept in the prepared-texture cache by the images' content
     and the parameters."""
 
-    def build() -> list[np.ndarray]:
-        return _map_chain_levels(normal_image, scale, factor, roughness_image, normal_filter)
+    def build(rows_up_float16: bool = False) -> list[np.ndarray]:
+        return _map_chain_levels(
+            normal_image, scale, factor, roughness_image, normal_filter, rows_up_float16
+        )
 
     parts = (
         _prepared_version(),
@@ -532,7 +549,8 @@ def normal_roughness_map(
     sized = normal_image if normal_image is not None else roughness_image
     assert sized is not None, "a chain needs a normal or a roughness map"
     layout = (sized.height, sized.width, 4, normal_filter == "none")
-    return Texture(PreparedLevels("normal_roughness", parts, build, layout))
+    upload = lambda: build(rows_up_float16=True)  # noqa: E731
+    return Texture(PreparedLevels("normal_roughness", parts, build, layout, upload))
 
 
 def _map_chain_levels(
@@ -541,9 +559,11 @@ def _map_chain_levels(
     factor: float,
     roughness_image: Image.Image | None,
     normal_filter: str,
+    rows_up_float16: bool = False,
 ) -> list[np.ndarray]:
     """``normal_roughness_chain(decode_normals(normal_image, scale), factor, green / 255,
-    normal_filter).levels``, bit for bit, with the images decoded to float64 a band of
+    normal_filter).levels`` (``rows_up_float16``: as the GL takes them, mips.chain_levels),
+    bit for bit, with the images decoded to float64 a band of
     rows at a time as the chain reads them (mips.chain_levels) instead of whole: the
     8-bit texels are all that is held. The inputs need no check: decoded normals are unit
     and a glTF roughness factor lies in [0, 1] (app/scene/gltf.py)."""
@@ -575,19 +595,22 @@ def _map_chain_levels(
             r = np.full((y1 - y0, shape[1]), float(factor))
         return n, r
 
-    return _chain_levels(source, shape, normal_filter)
+    return _chain_levels(source, shape, normal_filter, rows_up_float16)
 
 
 def channel_texture(image: Image.Image, channel: int) -> Texture:
     """``scalar_texture`` of one 8-bit RGB channel of ``image`` in [0, 1] (a glTF metallic
     (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content."""
 
-    def build() -> list[np.ndarray]:
+    def build(rows_up_float16: bool = False) -> list[np.ndarray]:
         # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
-        # of rows at a time (mips.box_levels: the same bits)
+        # of rows at a time (mips.box_levels: the same bits; rows_up_float16 as there)
         rgb = np.asarray(_decoded(image).convert("RGB"), np.uint8)
         h, w = rgb.shape[:2]
-        return box_levels(lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0, (h, w, 1))
+        band = lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0  # noqa: E731
+        return box_levels(band, (h, w, 1), rows_up_float16)
 
     parts = (_prepared_version(), _image_part(image), int(channel))
-    return Texture(PreparedLevels("channel", parts, build, (image.height, image.width, 1, False)))
+    layout = (image.height, image.width, 1, False)
+    upload = lambda: build(rows_up_float16=True)  # noqa: E731
+    return Texture(PreparedLevels("channel", parts, build, layout, upload))

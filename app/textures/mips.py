@@ -26,7 +26,9 @@ footprint unequally.)
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -127,7 +129,11 @@ def build_chain(normals: np.ndarray, roughness: np.ndarray | float, method: str)
 
 
 def chain_levels(
-    source: BandSource, shape: tuple[int, int], method: str, count: int | None = None
+    source: BandSource,
+    shape: tuple[int, int],
+    method: str,
+    count: int | None = None,
+    rows_up_float16: bool = False,
 ) -> list[np.ndarray]:
     """``build_chain``'s levels as (h_k, w_k, 4) float32 arrays (xyz normal, a roughness),
     the first ``count`` of them (None: down to 1x1), from a ``source`` read band by band
@@ -139,22 +145,32 @@ def chain_levels(
     each band an even number of rows but the last (which keeps an odd last row's block of
     three whole), so that every texel gets the same float64 operations in the same order
     as on the whole map at once: the same bits, in a fraction of the memory traffic.
-    Levels 2 and up are made from level 1's sums as before."""
+    Levels 2 and up are made from level 1's sums as before.
+
+    ``rows_up_float16``: each level as the GL takes it instead, ``float16_rows_up`` of the
+    float32 level (rows bottom first; the same bits), level 0 converted a band at a time
+    without a float32 copy of the whole level."""
     if method not in NORMAL_FILTERS:
         raise ValueError(f"unknown normal filter {method!r}; one of {', '.join(NORMAL_FILTERS)}")
     h, w = shape
     names = _CHANNELS[method]
-    level0 = np.empty((h, w, 4), np.float32)
+    level0 = np.empty((h, w, 4), np.float16 if rows_up_float16 else np.float32)
     single = max(h, w) == 1 or count == 1
     sums = None if single else np.empty((max(1, h >> 1), max(1, w >> 1), len(names)))
-    for y0, y1 in _bands(h):
+
+    def band(y0: int, y1: int) -> None:
         n, r = source(y0, y1)
-        level0[y0:y1, :, :3] = n  # float64 -> float32, as astype rounds
-        level0[y0:y1, :, 3] = r
+        rows = np.empty((y1 - y0, w, 4), np.float32) if rows_up_float16 else level0[y0:y1]
+        rows[..., :3] = n  # float64 -> float32, as astype rounds
+        rows[..., 3] = r
+        if rows_up_float16:
+            level0[h - y1 : h - y0] = rows[::-1]  # float32 -> float16, as astype rounds
         if sums is not None:
             half = sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)]
             for c, moment in enumerate(_band_moments(names, n, r)):
                 half[..., c] = _halve(moment)
+
+    each_band(band, _bands(h))
     levels = [level0]
     counts_y = np.ones(h)
     counts_x = np.ones(w)
@@ -164,17 +180,69 @@ def chain_levels(
         counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
         level = np.empty((counts_y.size, counts_x.size, 4), np.float32)
         rows = max(1, BAND_ROWS * w // 2 // counts_x.size)  # as many texels as a band
-        for y0 in range(0, counts_y.size, rows):  # per texel: bands change no bit
-            y1 = min(y0 + rows, counts_y.size)
-            means = sums[y0:y1] / (counts_y[y0:y1, None, None] * counts_x[None, :, None])
+
+        def filtered(y0: int, y1: int, sums=sums, cy=counts_y, cx=counts_x, level=level) -> None:
+            means = sums[y0:y1] / (cy[y0:y1, None, None] * cx[None, :, None])
             moments = dict(zip(names, np.moveaxis(means, -1, 0), strict=True))
             normal, r_level = _filtered(method, moments)
             level[y0:y1, :, :3] = normal
             level[y0:y1, :, 3] = r_level
-        levels.append(level)
+
+        starts = range(0, counts_y.size, rows)  # per texel: bands change no bit
+        each_band(filtered, [(y0, min(y0 + rows, counts_y.size)) for y0 in starts])
+        levels.append(float16_rows_up(level) if rows_up_float16 else level)
         if count is not None and len(levels) >= count:
             break
     return levels
+
+
+# Threads a chain's bands are made on: each band reads its own rows of the source and
+# writes its own rows of the levels, so any order gives the same bits; numpy releases the
+# GIL inside each operation, so two threads use both cores where the caller (a render
+# waiting for its maps, app/textures/cache.py ``prepare``) has nothing else to run.
+BAND_THREADS = 2
+_BAND_POOL: ThreadPoolExecutor | None = None
+_BAND_POOL_LOCK = threading.Lock()
+
+
+def each_band(work: Callable[[int, int], None], bands: list[tuple[int, int]]) -> None:
+    """``work(y0, y1)`` for every band, on ``BAND_THREADS`` threads (the calling one and
+    the pool's), each taking the next band when it is done with one; the first exception
+    raised is raised here once every band has run or been skipped."""
+    if len(bands) < 2 or BAND_THREADS < 2:
+        for y0, y1 in bands:
+            work(y0, y1)
+        return
+    global _BAND_POOL
+    with _BAND_POOL_LOCK:
+        if _BAND_POOL is None:
+            _BAND_POOL = ThreadPoolExecutor(BAND_THREADS - 1, thread_name_prefix="pbs-bands")
+        pool = _BAND_POOL
+    queue = iter(bands)
+    lock = threading.Lock()
+    failed: list[BaseException] = []
+
+    def drain() -> None:
+        while True:
+            with lock:
+                if failed:
+                    return
+                y = next(queue, None)
+            if y is None:
+                return
+            try:
+                work(*y)
+            except BaseException as exc:  # raised on the caller's thread below
+                with lock:
+                    failed.append(exc)
+                return
+
+    helpers = [pool.submit(drain) for _ in range(BAND_THREADS - 1)]
+    drain()
+    for helper in helpers:
+        helper.result()
+    if failed:
+        raise failed[0]
 
 
 def _bands(height: int) -> list[tuple[int, int]]:
@@ -216,19 +284,27 @@ def box_mips(values: np.ndarray) -> list[np.ndarray]:
 
 
 def box_levels(
-    source: Callable[[int, int], np.ndarray], shape: tuple[int, int, int]
+    source: Callable[[int, int], np.ndarray],
+    shape: tuple[int, int, int],
+    rows_up_float16: bool = False,
 ) -> list[np.ndarray]:
     """``box_mips``'s levels, (h_k, w_k, C) float32, of the (H, W, C) float64 data that
     ``source(y0, y1)`` gives a band of rows at a time (as ``chain_levels`` reads its
-    source, with the same bits as the whole map at once)."""
+    source, with the same bits as the whole map at once); ``rows_up_float16`` as there."""
     h, w, c = shape
-    level0 = np.empty((h, w, c), np.float32)
+    level0 = np.empty((h, w, c), np.float16 if rows_up_float16 else np.float32)
     sums = None if max(h, w) == 1 else np.empty((max(1, h >> 1), max(1, w >> 1), c))
-    for y0, y1 in _bands(h):
-        band = source(y0, y1)
-        level0[y0:y1] = band  # float64 -> float32, as astype rounds
+
+    def band(y0: int, y1: int) -> None:
+        values = source(y0, y1)
+        if rows_up_float16:  # float64 -> float32 -> float16, each as astype rounds
+            level0[h - y1 : h - y0] = values.astype(np.float32)[::-1]
+        else:
+            level0[y0:y1] = values  # float64 -> float32, as astype rounds
         if sums is not None:
-            sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)] = _halve(band)
+            sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)] = _halve(values)
+
+    each_band(band, _bands(h))
     levels = [level0]
     counts_y, counts_x = np.ones(h), np.ones(w)
     while sums is not None and max(counts_y.size, counts_x.size) > 1:
@@ -236,8 +312,24 @@ def box_levels(
             sums = _halve(sums)
         counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
         means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
-        levels.append(means.astype(np.float32))
+        level = means.astype(np.float32)
+        levels.append(float16_rows_up(level) if rows_up_float16 else level)
     return levels
+
+
+def float16_rows_up(level: np.ndarray) -> np.ndarray:
+    """``np.ascontiguousarray(level[::-1], np.float16)`` (the same bits: each texel's own
+    cast), converted a band of rows at a time on two threads (``each_band``): numpy's
+    float16 cast is a scalar loop, 0.1 s for a 2048^2 RGBA level."""
+    out = np.empty(level.shape, np.float16)
+    flipped = level[::-1]
+    rows = max(1, (1 << 18) // max(1, level[0].size))  # ~256k values a band
+
+    def band(y0: int, y1: int) -> None:
+        np.copyto(out[y0:y1], flipped[y0:y1], casting="same_kind")
+
+    each_band(band, [(y, min(y + rows, len(level))) for y in range(0, len(level), rows)])
+    return out
 
 
 def chain_inputs(
