@@ -16,12 +16,14 @@
 // pixel differs in surface from a 4-neighbour, 1 elsewhere; the resolve runs on the far
 // plane with the test ">", so only blocks with a silhouette pay for it (llvmpipe shades
 // every branch for a whole block: one draw that discards the other pixels took 10 ms at
-// 640x360, the two 3 ms), and writes the display image there. It reads the HDR
-// radiance of marked pixels only (a neighbour it mixes in differs from it, so is marked).
+// 640x360, the two 3 ms), and writes the display image there.
 #include "post/tonemap.glsl"
 
 #ifndef STRAIGHT_ALPHA
 #define STRAIGHT_ALPHA 0
+#endif
+#ifndef GBAA_AXIS_TIE
+#define GBAA_AXIS_TIE 1.1   // a neighbour's edge counts along an axis within 10 % of its nearest
 #endif
 #ifndef GBAA_DEPTH_TOLERANCE
 #define GBAA_DEPTH_TOLERANCE 0.1   // view depths further apart than this fraction differ
@@ -61,6 +63,24 @@ vec4 radiance(ivec2 px, vec2 surface) {
     return texelFetch(u_hdr, clamp(px, ivec2(0), g_last), 0);
 }
 
+// The radiance of surface pixel px at `shift` pixels from its centre toward `step` (the
+// centroid of the part of a pixel its surface covers, not the centre it was shaded at):
+// linear through px's radiance and its neighbour's on the other side (px - step) where
+// that one holds the same surface, else px's own. A rim's shading falls steeply toward
+// the silhouette (n.l, n.v to 0): with the centre's shading alone a rim lit from the
+// viewer drew a line darker inside and brighter outside than the area mean
+// (docs/accuracy.md, "Every pixel"). That neighbour need not be marked: the HDR image
+// holds every surface pixel's radiance.
+vec4 covered_radiance(ivec2 px, vec2 surface, ivec2 step, float shift) {
+    vec4 c = radiance(px, surface);
+    vec2 beyond = surface_at(px - step);
+    bool same = beyond.x > 0.0 && beyond.y == surface.y &&
+                abs(beyond.x - surface.x) <= GBAA_DEPTH_TOLERANCE * min(beyond.x, surface.x);
+    if (!same) return c;
+    vec4 b = radiance(px - step, beyond);
+    return max(c + shift * (c - b), vec4(0.0));
+}
+
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     g_last = textureSize(u_depth, 0) - 1;
@@ -91,19 +111,35 @@ void main() {
     }
     if (toward >= 0) weight[toward] = 0.5 - nearest;
     // the neighbours in front whose edge reaches into this pixel, along their major axis
+    float front[4] = float[4](0.0, 0.0, 0.0, 0.0);
     for (int k = 0; k < 4; ++k) {
         if (!in_front(around[k], centre)) continue;
         vec4 theirs = texelFetch(u_edge, clamp(px + STEPS[k], ivec2(0), g_last), 0);
         int back = k ^ 1;   // from the neighbour toward this pixel
         float d = theirs[back];
         float across = k < 2 ? min(theirs.z, theirs.w) : min(theirs.x, theirs.y);
-        if (d > 0.5 && d < 1.0 && d <= across) weight[k] += d - 0.5;
+        if (d > 0.5 && d < 1.0 && d <= GBAA_AXIS_TIE * across) front[k] = d - 0.5;
     }
+    // Near 45 degrees the two axes tie: the neighbours across x and across y see the same
+    // corner of this pixel (each alone measures it); keep the axis that sees more of it.
+    float fx = front[0] + front[1], fy = front[2] + front[3];
+    if (fx > 0.0 && fy > 0.0) {
+        if (fx >= fy) { front[2] = 0.0; front[3] = 0.0; } else { front[0] = 0.0; front[1] = 0.0; }
+    }
+    for (int k = 0; k < 4; ++k) weight[k] += front[k];
     float total = weight[0] + weight[1] + weight[2] + weight[3];
     float scale = total > 1.0 ? 1.0 / total : 1.0;
-    vec4 c = radiance(px, centre) * (1.0 - min(total, 1.0));
+    // own part: covered from -0.5 to `nearest` toward the edge, centroid (0.5 - nearest)/2
+    // away from it; a neighbour's sliver: from 0.5 to d of its centre, centroid (0.5 + d)/2
+    vec4 c = (toward >= 0 ? covered_radiance(px, centre, STEPS[toward], -0.5 * weight[toward])
+                          : radiance(px, centre)) * (1.0 - min(total, 1.0));
     for (int k = 0; k < 4; ++k) {
-        if (weight[k] > 0.0) c += weight[k] * scale * radiance(px + STEPS[k], around[k]);
+        if (weight[k] > 0.0 && k != toward) {
+            float shift = 0.5 * (weight[k] + 1.0);   // (0.5 + d)/2, d = weight + 0.5
+            c += weight[k] * scale * covered_radiance(px + STEPS[k], around[k], -STEPS[k], shift);
+        } else if (weight[k] > 0.0) {
+            c += weight[k] * scale * radiance(px + STEPS[k], around[k]);
+        }
     }
 #if STRAIGHT_ALPHA
     float a = clamp(c.a, 0.0, 1.0);
