@@ -170,7 +170,7 @@ def test_gbaa_rim_takes_the_covered_part_s_shading(gl_egl):
     centre that lies nearer the silhouette: on a rim whose n.l falls to 0 the centre's
     shading drew a line darker (inside) and brighter (outside) than the area truth, and the
     display image was 1.19x further from it than the aliased frame's (mean absolute error
-    of linear display values over the image); now 0.82x."""
+    of linear display values over the image); now 0.83x."""
     loaded = _retro_spheres()
     size = (64, 40)
     truth = area_reference_scene(loaded, size, 4, 16)

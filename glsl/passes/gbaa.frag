@@ -78,7 +78,8 @@ vec4 covered_radiance(ivec2 px, vec2 surface, ivec2 step, float shift) {
                 abs(beyond.x - surface.x) <= GBAA_DEPTH_TOLERANCE * min(beyond.x, surface.x);
     if (!same) return c;
     vec4 b = radiance(px - step, beyond);
-    return max(c + shift * (c - b), vec4(0.0));
+    // within a factor of 2 of px's own: a highlight or a texture beyond is no slope
+    return clamp(c + shift * (c - b), 0.5 * c, 2.0 * c);
 }
 
 void main() {
