@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from app.bench.raycast import (
+    every_pixel_floor,
     every_pixel_row,
     five_spheres,
     gpu_images,
@@ -142,6 +143,16 @@ def test_every_pixel_error_falls_as_the_renderer_supersamples(gl_egl, truth):
     assert flips[2] <= SUPERSAMPLE_4_FLIP, rows
     assert rows[0]["flip_edge"] > 3.0 * rows[0]["flip_interior"], rows
     assert rows[0]["rel_rmse"] > 3.0 * rows[2]["rel_rmse"], rows
+
+
+def test_floor_parts_rank_as_measured(gl_egl, truth):
+    """every_pixel_floor's parts at 96 x 54: rounding one side alone is far above a
+    converged frame's FLIP, the 8 x 8 box below the 4 x 4 and both far below the aliased
+    frame, the default between, and rounding both sides adds little to a box's float FLIP."""
+    e = every_pixel_floor(gl_egl, five_spheres(), SIZE_GL, truth)
+    assert e["8x8_8bit"] < e["4x4_8bit"] < e["defaults_8bit"] < e["none_8bit"], e
+    assert e["4x4_8bit"] < e["none_8bit"] / 3.0 and e["quantisation"] > 3.0 * e["8x8_8bit"], e
+    assert abs(e["8x8_8bit"] - e["8x8_float"]) < 1e-3 and e["defaults_float"] is None, e
 
 
 def _retro_spheres() -> LoadedScene:
