@@ -78,6 +78,10 @@ vec4 covered_radiance(ivec2 px, vec2 surface, ivec2 step, float shift) {
                 abs(beyond.x - surface.x) <= GBAA_DEPTH_TOLERANCE * min(beyond.x, surface.x);
     if (!same) return c;
     vec4 b = radiance(px - step, beyond);
+    // A pixel's own part is moved inward only where the shading falls toward the rim
+    // (brighter inside): where it rises (sheen, a grazing highlight) the line through two
+    // centres undershoots the peak at the silhouette, and the centre's own measured closer.
+    if (shift < 0.0 && dot(c.rgb, vec3(1.0)) >= dot(b.rgb, vec3(1.0))) return c;
     // within a factor of 2 of px's own: a highlight or a texture beyond is no slope
     return clamp(c + shift * (c - b), 0.5 * c, 2.0 * c);
 }
