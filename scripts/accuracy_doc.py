@@ -152,6 +152,16 @@ def section(payload: dict) -> str:
             f" {_f(sum(shown) / len(shown) if shown else None)} |"
             f" {_f(sum(rmse) / len(rmse) if rmse else None)} |"
         )
+    defaults = [r["display_flip_mean"] for r in payload["rows"] if r["settings"] == "defaults"]
+    if defaults and None not in defaults:
+        shown = sum(defaults) / len(defaults)
+        verdict = "PASS" if shown <= TARGET_FLIP else "FAIL"
+        lines += [
+            "",
+            f"**{verdict}**: the target as stated (the defaults' 8-bit display FLIP against the"
+            f" area truth, mean over the scenes, ≤ {TARGET_FLIP:.0e}) at"
+            f" {payload['width']} pixels wide: {shown:.2e}, {shown / TARGET_FLIP:.1f}× the target.",
+        ]
     lines += [
         "",
         f"The truth against one with twice the rays per side ({2 * n} × {2 * n},"

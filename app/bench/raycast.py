@@ -320,3 +320,56 @@ def every_pixel_row(
     hdr, ldr = gpu_images(gl, variant, size)
     cam, render = variant.scene.camera, variant.scene.render
     return every_pixel_errors(hdr, truth, cam.exposure, render.tonemap, ldr)
+
+
+# What the every-pixel error is made of --------------------------------------------------
+
+# The rows of ``every_pixel_floor``: the default, the aliased frame, and box filters of 4 x 4
+# and 8 x 8 samples (the last two the floor a converging image reaches at this size).
+FLOOR_ROWS = {
+    "defaults": {},
+    "none": {"render.antialiasing": "none"},
+    "4x4": {"render.antialiasing": "none", "render.supersample": 4},
+    "8x8": {"render.antialiasing": "none", "render.supersample": 8},
+}
+
+
+def every_pixel_floor(
+    gl: GLContext,
+    loaded: LoadedScene,
+    size: tuple[int, int],
+    truth: RaycastImage,
+    finer: RaycastImage | None = None,
+) -> dict[str, float | None]:
+    """Where the every-pixel FLIP of ``loaded`` at ``size`` comes from, against ``truth``:
+
+    * ``quantisation``: the truth's own display image in float against it rounded to 8 bits
+      (what FLIP makes of rounding alone, where only one side is rounded);
+    * ``truth``: ``truth`` against ``finer`` (twice the rays per side), its convergence;
+    * per row of ``FLOOR_ROWS``: ``<row>_8bit`` (the display image against the rounded
+      truth, the issue's number), ``<row>_edge`` and ``<row>_interior`` (that map over the
+      edge pixels and the rest), and ``<row>_float`` (the resolved HDR through the tone map
+      in float64 against the unrounded truth: no rounding on either side; None for the
+      defaults, whose edge resolve is in the 8-bit display image only)."""
+    cam, render = loaded.scene.camera, loaded.scene.render
+    ref = np.clip(post_process(truth.hdr, cam.exposure, render.tonemap), 0.0, 1.0)
+    rounded = np.round(ref * 255.0) / 255.0
+    edge = edge_mask(truth.ids, 1)
+    out: dict[str, float | None] = {
+        "quantisation": float(_flip(ref, rounded).mean()),
+        "truth": None,
+        "edge_share": float(edge.mean()),
+    }
+    if finer is not None:
+        out["truth"] = truth_errors(truth, finer, cam.exposure, render.tonemap)["flip_mean"]
+    for label, overrides in FLOOR_ROWS.items():
+        hdr, ldr = gpu_images(gl, with_settings(loaded, overrides), size)
+        shown = _flip(rounded, ldr)
+        out[f"{label}_8bit"] = float(shown.mean())
+        out[f"{label}_edge"] = _mean(shown, edge)
+        out[f"{label}_interior"] = _mean(shown, ~edge)
+        out[f"{label}_float"] = None
+        if label != "defaults":
+            test = np.clip(post_process(hdr, cam.exposure, render.tonemap), 0.0, 1.0)
+            out[f"{label}_float"] = float(_flip(ref, test).mean())
+    return out

@@ -16,8 +16,7 @@
 // pixel differs in surface from a 4-neighbour, 1 elsewhere; the resolve runs on the far
 // plane with the test ">", so only blocks with a silhouette pay for it (llvmpipe shades
 // every branch for a whole block: one draw that discards the other pixels took 10 ms at
-// 640x360, the two 3 ms), and writes the display image there. It reads the HDR
-// radiance of marked pixels only (a neighbour it mixes in differs from it, so is marked).
+// 640x360, the two 3 ms), and writes the display image there.
 // With QUAD_NEIGHBOURS (where dFdx and dFdy are fine: app/render/antialias.py
 // fine_derivatives) each lane fetches its own texel and its two neighbours outside its 2x2
 // quad, and takes the one inside the quad from the derivative: three fetches of each
@@ -26,6 +25,9 @@
 
 #ifndef STRAIGHT_ALPHA
 #define STRAIGHT_ALPHA 0
+#endif
+#ifndef GBAA_AXIS_TIE
+#define GBAA_AXIS_TIE 1.1   // a neighbour's edge counts along an axis within 10 % of its nearest
 #endif
 #ifndef GBAA_DEPTH_TOLERANCE
 #define GBAA_DEPTH_TOLERANCE 0.1   // view depths further apart than this fraction differ
@@ -92,6 +94,28 @@ vec4 radiance(ivec2 px, vec2 surface) {
     return texelFetch(u_hdr, clamp(px, ivec2(0), g_last), 0);
 }
 
+// Whether RT2 texels a and b hold the same surface (neither the background).
+bool same_surface(vec2 a, vec2 b) {
+    return a.x > 0.0 && b.x > 0.0 && a.y == b.y &&
+           abs(a.x - b.x) <= GBAA_DEPTH_TOLERANCE * min(a.x, b.x);
+}
+
+// Radiance c of a surface pixel moved `shift` pixels from its centre (to the centroid of
+// the part of the pixel its surface covers, not the centre it was shaded at), linear through
+// c and the radiance b of the pixel beyond it on the other side, which holds the same
+// surface. A rim's shading falls steeply toward the silhouette (n.l, n.v to 0): with the
+// centre's shading alone a rim lit from the viewer drew a line darker inside and brighter
+// outside than the area mean (docs/accuracy.md, "Every pixel"). The pixel beyond need not
+// be marked: the HDR image holds every surface pixel.
+vec4 centroid_radiance(vec4 c, vec4 b, float shift) {
+    // A pixel's own part is moved inward only where the shading falls toward the rim
+    // (brighter inside): where it rises (sheen, a grazing highlight) the line through two
+    // centres undershoots the peak at the silhouette, and the centre's own measured closer.
+    if (shift < 0.0 && dot(c.rgb, vec3(1.0)) >= dot(b.rgb, vec3(1.0))) return c;
+    // within a factor of 2 of c: a highlight or a texture beyond is no slope
+    return clamp(c + shift * (c - b), 0.5 * c, 2.0 * c);
+}
+
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     g_last = textureSize(u_depth, 0) - 1;
@@ -144,19 +168,46 @@ void main() {
     }
     if (toward >= 0) weight[toward] = 0.5 - nearest;
     // the neighbours in front whose edge reaches into this pixel, along their major axis
+    float front[4] = float[4](0.0, 0.0, 0.0, 0.0);
     for (int k = 0; k < 4; ++k) {
         if (!in_front(around[k], centre)) continue;
         vec4 theirs = edges[k];
         int back = k ^ 1;   // from the neighbour toward this pixel
         float d = theirs[back];
         float across = k < 2 ? min(theirs.z, theirs.w) : min(theirs.x, theirs.y);
-        if (d > 0.5 && d < 1.0 && d <= across) weight[k] += d - 0.5;
+        if (d > 0.5 && d < 1.0 && d <= GBAA_AXIS_TIE * across) front[k] = d - 0.5;
     }
+    // Near 45 degrees the two axes tie: the neighbours across x and across y see the same
+    // corner of this pixel (each alone measures it); keep the axis that sees more of it.
+    float fx = front[0] + front[1], fy = front[2] + front[3];
+    if (fx > 0.0 && fy > 0.0) {
+        if (fx >= fy) { front[2] = 0.0; front[3] = 0.0; } else { front[0] = 0.0; front[1] = 0.0; }
+    }
+    for (int k = 0; k < 4; ++k) weight[k] += front[k];
     float total = weight[0] + weight[1] + weight[2] + weight[3];
     float scale = total > 1.0 ? 1.0 / total : 1.0;
-    vec4 c = here * (1.0 - min(total, 1.0));
+    // own part: covered from -0.5 to `nearest` toward the edge, its centroid (0.5 - nearest)/2
+    // away from the centre, the pixel beyond it the opposite 4-neighbour (toward ^ 1)
+    vec4 c = here;
+    if (toward >= 0 && same_surface(centre, around[toward ^ 1])) {
+        c = centroid_radiance(here, colours[toward ^ 1], -0.5 * weight[toward]);
+    }
+    c *= 1.0 - min(total, 1.0);
+    // a neighbour's sliver: from 0.5 to d of its centre, its centroid (0.5 + d)/2 toward this
+    // pixel; the pixel beyond it two steps away
     for (int k = 0; k < 4; ++k) {
-        if (weight[k] > 0.0) c += weight[k] * scale * colours[k];
+        if (weight[k] > 0.0 && k != toward) {
+            ivec2 far_px = px + 2 * STEPS[k];
+            vec2 beyond = surface_at(far_px);
+            vec4 sliver = colours[k];
+            if (same_surface(around[k], beyond)) {
+                float shift = 0.5 * (weight[k] + 1.0);   // (0.5 + d)/2, d = weight + 0.5
+                sliver = centroid_radiance(sliver, radiance(far_px, beyond), shift);
+            }
+            c += weight[k] * scale * sliver;
+        } else if (weight[k] > 0.0) {
+            c += weight[k] * scale * colours[k];
+        }
     }
 #if STRAIGHT_ALPHA
     float a = clamp(c.a, 0.0, 1.0);
