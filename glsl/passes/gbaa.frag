@@ -193,21 +193,28 @@ void main() {
         c = centroid_radiance(here, colours[toward ^ 1], -0.5 * weight[toward]);
     }
     c *= 1.0 - min(total, 1.0);
-    // a neighbour's sliver: from 0.5 to d of its centre, its centroid (0.5 + d)/2 toward this
-    // pixel; the pixel beyond it two steps away
+    // A neighbour's sliver: from 0.5 to d of its centre, its centroid (0.5 + d)/2 toward
+    // this pixel, the pixel beyond it two steps away. Only the widest sliver is moved to its
+    // centroid: a second one (a pixel between two nearer surfaces along one axis) is rare, and
+    // each costs two more fetches for every resolved pixel (llvmpipe runs both sides of a
+    // branch for a whole block).
+    int widest = -1;
     for (int k = 0; k < 4; ++k) {
-        if (weight[k] > 0.0 && k != toward) {
-            ivec2 far_px = px + 2 * STEPS[k];
-            vec2 beyond = surface_at(far_px);
-            vec4 sliver = colours[k];
-            if (same_surface(around[k], beyond)) {
-                float shift = 0.5 * (weight[k] + 1.0);   // (0.5 + d)/2, d = weight + 0.5
-                sliver = centroid_radiance(sliver, radiance(far_px, beyond), shift);
-            }
-            c += weight[k] * scale * sliver;
-        } else if (weight[k] > 0.0) {
-            c += weight[k] * scale * colours[k];
+        if (k != toward && weight[k] > 0.0 && (widest < 0 || weight[k] > weight[widest])) {
+            widest = k;
         }
+    }
+    vec4 sliver[4] = colours;
+    if (widest >= 0) {
+        ivec2 far_px = px + 2 * STEPS[widest];
+        vec2 beyond = surface_at(far_px);
+        if (same_surface(around[widest], beyond)) {
+            float shift = 0.5 * (weight[widest] + 1.0);   // (0.5 + d)/2, d = weight + 0.5
+            sliver[widest] = centroid_radiance(colours[widest], radiance(far_px, beyond), shift);
+        }
+    }
+    for (int k = 0; k < 4; ++k) {
+        if (weight[k] > 0.0) c += weight[k] * scale * sliver[k];
     }
 #if STRAIGHT_ALPHA
     float a = clamp(c.a, 0.0, 1.0);
