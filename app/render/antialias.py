@@ -127,10 +127,10 @@ class FxaaPass:
     filter's input: bilinear, clamped; a blit), then two draws: the mark, one fragment per
     ``FXAA_BLOCK`` square block of pixels, writes 1 into ``marks`` where the block holds an
     edge pixel; the filter draws into the display image itself one point of the block's
-    size per marked block (glsl/passes/fxaa_blocks.vert), so that only those blocks run
-    the search, and every other pixel keeps its bytes (a marked block's pixels that are
-    no edge get their own bytes back). So whatever shows the post pass's target shows the
-    filtered image."""
+    size per marked block (glsl/passes/fxaa_blocks.vert; the list of marked blocks read
+    back from ``marks``), so that only those blocks run the search, and every other pixel
+    keeps its bytes (a marked block's pixels that are no edge get their own bytes back).
+    So whatever shows the post pass's target shows the filtered image."""
 
     def __init__(
         self,
@@ -147,7 +147,8 @@ class FxaaPass:
             ctx, shaders, "passes/fxaa.frag", {**defines, "FXAA_BLOCK_MARK": 1}
         )
         self.filter = shaders.program("passes/fxaa_blocks.vert", "passes/fxaa.frag", defines)
-        self._points = ctx.vertex_array(self.filter, [])
+        self._blocks = ctx.buffer(reserve=4 * self.grid[0] * self.grid[1], dynamic=True)
+        self._points = ctx.vertex_array(self.filter, [(self._blocks, "i", "a_block")])
         self.source = ctx.texture(size, 4, dtype="f1")
         self.source.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.source.repeat_x = self.source.repeat_y = False
@@ -177,13 +178,21 @@ class FxaaPass:
         ctx = self.ctx
         if self._out is None or self._out.color_attachments[0] is not display:
             raise ValueError("FxaaPass.filter_blocks: mark_blocks(display) first")
+        # the marked blocks' list, read back: the filter waits for the mark in any case,
+        # and the points' vertex stage (llvmpipe runs it on the submitting thread) then
+        # takes the marked blocks alone, not every block of the grid
+        blocks = np.flatnonzero(np.frombuffer(self.marks.read(alignment=1), np.uint8))
+        if blocks.size == 0:
+            return
+        self._blocks.write(blocks.astype(np.int32).tobytes())
         self._out.use()
         self._out.scissor = None
         ctx.viewport = (0, 0, self.grid[0] * FXAA_BLOCK, self.grid[1] * FXAA_BLOCK)
-        bind_textures(self.filter, {"u_display": self.source, "u_mark": self.marks})
+        bind_textures(self.filter, {"u_display": self.source})
+        set_uniforms(self.filter, {"u_grid": self.grid})
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.enable(moderngl.PROGRAM_POINT_SIZE)
-        self._points.render(moderngl.POINTS, vertices=self.grid[0] * self.grid[1])
+        self._points.render(moderngl.POINTS, vertices=int(blocks.size))
         ctx.disable(moderngl.PROGRAM_POINT_SIZE)
         ctx.viewport = (0, 0, *self.size)
 
@@ -191,6 +200,7 @@ class FxaaPass:
         for obj in (
             self.mark,
             self._points,  # the program is the shader cache's
+            self._blocks,
             self._out,
             self._source_fbo,
             self.source,
