@@ -172,6 +172,7 @@ class FxaaPass:
             self._out = ctx.framebuffer([display])
         ctx.copy_framebuffer(self._source_fbo, self._out)
         self.mark.draw(self._marks_fbo, {}, {"u_display": display}, viewport=(0, 0, *self.grid))
+        ctx.viewport = (0, 0, *self.size)
 
     def filter_blocks(self, display: moderngl.Texture) -> None:
         """``display``'s blocks that ``marks`` names, filtered from ``source``."""
