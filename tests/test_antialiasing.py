@@ -443,3 +443,24 @@ def test_the_default_falls_back_to_fxaa_on_a_dense_mesh(gl_egl: GLContext) -> No
         "dense": ("fxaa", False, True),
         "named": ("gbaa", True, False),
     }
+
+
+def test_fxaa_marked_blocks_hold_every_edge(gl_egl: GLContext, loaded: LoadedScene) -> None:
+    """FXAA's mark names every block of pixels the filter would change: filtering only the
+    marked blocks gives the bytes of filtering every block (the filter decides each pixel
+    itself), on an image whose height is no multiple of the block (54 rows)."""
+    r = Renderer(gl_egl, with_aa(loaded, "fxaa", 1))
+    try:
+        r.render()
+        fx, display = r.fxaa, r.post.target
+        assert fx is not None and SIZE[1] % antialias.FXAA_BLOCK
+        marked = np.frombuffer(fx.marks.read(), np.uint8)
+        assert 0 < np.count_nonzero(marked) < marked.size
+        unfiltered, filtered = fx.source.read(), display.read()
+        assert unfiltered != filtered
+        display.write(unfiltered)
+        fx.marks.write(np.full(marked.size, 255, np.uint8).tobytes())
+        fx.filter_blocks(display)
+        assert display.read() == filtered
+    finally:
+        r.release()

@@ -115,16 +115,22 @@ def _display_with_depth(
     return fbo
 
 
+# The side of the blocks FXAA marks and filters: llvmpipe's rasteriser block (it shades a
+# fragment shader's every branch for all 4x4 pixels of a block with any pixel in it).
+FXAA_BLOCK = 4
+
+
 class FxaaPass:
     """The display image (RGBA8, sRGB-encoded) filtered in place: its FXAA-class filtered
     image, alpha filtered with the colour. Luma is taken from the encoded values, as FXAA
-    does: edges are found where they are seen. Two draws: the mark copies the image into
-    ``source`` (the filter's input: bilinear, clamped) and writes window depth 0 at edge
-    pixels, 1 elsewhere; the filter then draws into the display image itself on the far
-    plane with the test ">", so that only the blocks of pixels with an edge run the
-    search (llvmpipe shades every branch of a fragment shader for its whole block of
-    pixels; the z-test skips blocks), and every other pixel keeps its bytes. So whatever
-    shows the post pass's target shows the filtered image."""
+    does: edges are found where they are seen. A copy of the image into ``source`` (the
+    filter's input: bilinear, clamped; a blit), then two draws: the mark, one fragment per
+    ``FXAA_BLOCK`` square block of pixels, writes 1 into ``marks`` where the block holds an
+    edge pixel; the filter draws into the display image itself one point of the block's
+    size per marked block (glsl/passes/fxaa_blocks.vert; the list of marked blocks read
+    back from ``marks``), so that only those blocks run the search, and every other pixel
+    keeps its bytes (a marked block's pixels that are no edge get their own bytes back).
+    So whatever shows the post pass's target shows the filtered image."""
 
     def __init__(
         self,
@@ -134,30 +140,74 @@ class FxaaPass:
         tuning: dict[str, float] | None = None,
     ):
         tuning = dict(tuning or {})  # FXAA_SUBPIX, FXAA_EDGE_THRESHOLD(_MIN): the bench's
+        defines = {**tuning, "FXAA_BLOCK": FXAA_BLOCK}
         self.ctx, self.size = ctx, size
-        self.mark = FullscreenDraw.of(ctx, shaders, "passes/fxaa.frag", {**tuning, "FXAA_MARK": 1})
-        self.filter = FullscreenDraw.of(
-            ctx, shaders, "passes/fxaa.frag", {**tuning, "FAR_PLANE": 1}
+        self.grid = (-(-size[0] // FXAA_BLOCK), -(-size[1] // FXAA_BLOCK))
+        self.mark = FullscreenDraw.of(
+            ctx, shaders, "passes/fxaa.frag", {**defines, "FXAA_BLOCK_MARK": 1}
         )
+        self.filter = shaders.program("passes/fxaa_blocks.vert", "passes/fxaa.frag", defines)
+        self._blocks = ctx.buffer(reserve=4 * self.grid[0] * self.grid[1], dynamic=True)
+        self._points = ctx.vertex_array(self.filter, [(self._blocks, "i", "a_block")])
         self.source = ctx.texture(size, 4, dtype="f1")
         self.source.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.source.repeat_x = self.source.repeat_y = False
-        self.depth = ctx.depth_renderbuffer(size)
-        self.marked = ctx.framebuffer([self.source], self.depth)
-        self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
+        self._source_fbo = ctx.framebuffer([self.source])
+        self.marks = ctx.texture(self.grid, 1, dtype="f1")
+        self.marks.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._marks_fbo = ctx.framebuffer([self.marks])
+        self._out: moderngl.Framebuffer | None = None  # the display image's
 
     def run(self, display: moderngl.Texture) -> None:
         """Filter ``display`` (RGBA8 of ``size``) in place."""
-        self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
-        viewport = (0, 0, *self.size)
-        self.marked.depth_mask = True
-        self.mark.draw(self.marked, {}, {"u_display": display}, viewport=viewport, depth_func="1")
-        self.filter.draw(
-            self._out, {}, {"u_display": self.source}, viewport=viewport, depth_func=">"
-        )
+        self.mark_blocks(display)
+        self.filter_blocks(display)
+
+    def mark_blocks(self, display: moderngl.Texture) -> None:
+        """``source``: a copy of ``display``; ``marks``: 1 at its blocks with an edge pixel."""
+        ctx = self.ctx
+        if self._out is None or self._out.color_attachments[0] is not display:
+            if self._out is not None:
+                self._out.release()
+            self._out = ctx.framebuffer([display])
+        ctx.copy_framebuffer(self._source_fbo, self._out)
+        self.mark.draw(self._marks_fbo, {}, {"u_display": display}, viewport=(0, 0, *self.grid))
+        ctx.viewport = (0, 0, *self.size)
+
+    def filter_blocks(self, display: moderngl.Texture) -> None:
+        """``display``'s blocks that ``marks`` names, filtered from ``source``."""
+        ctx = self.ctx
+        if self._out is None or self._out.color_attachments[0] is not display:
+            raise ValueError("FxaaPass.filter_blocks: mark_blocks(display) first")
+        # the marked blocks' list, read back: the filter waits for the mark in any case,
+        # and the points' vertex stage (llvmpipe runs it on the submitting thread) then
+        # takes the marked blocks alone, not every block of the grid
+        blocks = np.flatnonzero(np.frombuffer(self.marks.read(alignment=1), np.uint8))
+        if blocks.size == 0:
+            return
+        self._blocks.write(blocks.astype(np.int32).tobytes())
+        self._out.use()
+        self._out.scissor = None
+        ctx.viewport = (0, 0, self.grid[0] * FXAA_BLOCK, self.grid[1] * FXAA_BLOCK)
+        bind_textures(self.filter, {"u_display": self.source})
+        set_uniforms(self.filter, {"u_grid": self.grid})
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        ctx.enable(moderngl.PROGRAM_POINT_SIZE)
+        self._points.render(moderngl.POINTS, vertices=int(blocks.size))
+        ctx.disable(moderngl.PROGRAM_POINT_SIZE)
+        ctx.viewport = (0, 0, *self.size)
 
     def release(self) -> None:
-        for obj in (self.mark, self.filter, self._out, self.marked, self.depth, self.source):
+        for obj in (
+            self.mark,
+            self._points,  # the program is the shader cache's
+            self._blocks,
+            self._out,
+            self._source_fbo,
+            self.source,
+            self._marks_fbo,
+            self.marks,
+        ):
             if obj is not None:
                 obj.release()
 

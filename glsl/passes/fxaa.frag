@@ -4,9 +4,13 @@
 // its ends, and resample the pixel across the edge by the fraction of the pixel the
 // nearer end says the edge covers; a sub-pixel term blends single-pixel features (a
 // highlight, a thin silhouette) with their neighbourhood. Written for this project.
-// Two passes (app/render/antialias.py): FXAA_MARK copies the image and writes window
-// depth 0 where the contrast is an edge, 1 elsewhere; the filter then runs on the far
-// plane with the test ">", so only edge pixels pay for the search. The resampling
+// Two draws (app/render/antialias.py FxaaPass), after a copy of the image (the filter's
+// input): FXAA_BLOCK_MARK, one fragment per FXAA_BLOCK x FXAA_BLOCK block of pixels,
+// marks the blocks holding an edge pixel; the filter is then drawn as one point of that
+// size per marked block (passes/fxaa_blocks.vert), so only those blocks pay for the
+// search (llvmpipe shades every branch of a fragment shader for its whole 4x4 block of
+// pixels, and a fullscreen mark paid per pixel what this pays per block). The filter
+// leaves a block's other pixels as they were (it writes their own bytes back). The resampling
 // across the edge mixes the pixel with its neighbour in linear light (sRGB decoded),
 // not in the encoded values, as the supersampled pixel integral does.
 #include "post/tonemap.glsl"
@@ -52,6 +56,38 @@ float luma_at(int dx, int dy) {
     return luma(texelFetch(u_display, clamp(g_px + ivec2(dx, dy), ivec2(0), g_last), 0));
 }
 
+#ifdef FXAA_BLOCK_MARK
+// A block is marked where any of its pixels' 4-neighbourhood contrast passes the edge
+// test of the filter below (the same lumas, the same test), by a margin of 1e-6 that
+// covers any rounding a compiler may do otherwise here: marking more blocks than needed
+// changes no pixel (the filter decides each pixel itself), marking fewer would.
+const int B = FXAA_BLOCK;
+const int SIDE = B + 2;  // the block and its ring of neighbours
+
+void main() {
+    g_last = textureSize(u_display, 0) - 1;
+    g_px = ivec2(gl_FragCoord.xy) * B - 1;  // the ring's lower-left texel
+    float l[SIDE * SIDE];
+    for (int j = 0; j < SIDE; ++j) {
+        for (int i = 0; i < SIDE; ++i) {
+            bool corner = (i == 0 || i == SIDE - 1) && (j == 0 || j == SIDE - 1);
+            l[j * SIDE + i] = corner ? 0.0 : luma_at(i, j);
+        }
+    }
+    bool marked = false;
+    for (int j = 1; j <= B; ++j) {
+        for (int i = 1; i <= B; ++i) {
+            float m = l[j * SIDE + i];
+            float n = l[(j + 1) * SIDE + i], s = l[(j - 1) * SIDE + i];
+            float e = l[j * SIDE + i + 1], w = l[j * SIDE + i - 1];
+            float lo = min(m, min(min(n, s), min(e, w)));
+            float hi = max(m, max(max(n, s), max(e, w)));
+            marked = marked || hi - lo >= max(EDGE_THRESHOLD_MIN, hi * EDGE_THRESHOLD) - 1e-6;
+        }
+    }
+    frag_color = vec4(marked ? 1.0 : 0.0);
+}
+#else
 void main() {
     vec2 size = vec2(textureSize(u_display, 0));
     vec2 texel = 1.0 / size;
@@ -64,10 +100,6 @@ void main() {
     float hi = max(m, max(max(n, s), max(e, w)));
     float range = hi - lo;
     bool edge = range >= max(EDGE_THRESHOLD_MIN, hi * EDGE_THRESHOLD);
-#ifdef FXAA_MARK
-    frag_color = centre;
-    gl_FragDepth = edge ? 0.0 : 1.0;
-#else
     if (!edge) {
         frag_color = centre;
         return;
@@ -132,5 +164,5 @@ void main() {
     vec3 rgb = mix(srgb_decode(centre.rgb) * centre.a, srgb_decode(other.rgb) * other.a, offset);
     rgb = alpha > 0.0 ? rgb / alpha : vec3(0.0);
     frag_color = vec4(srgb_encode(rgb), alpha);
-#endif
 }
+#endif
