@@ -118,6 +118,51 @@ def world_centre(part: MeshPart) -> np.ndarray:
     return part.model @ np.append(centre, 1.0)
 
 
+def draw_farthest_first(
+    ctx: moderngl.Context,
+    context: ShadingContext,
+    drawables: list[MeshDrawable],
+    centres: list[np.ndarray],
+    view: np.ndarray,
+    proj: np.ndarray,
+    camera: CameraFrame,
+    size: tuple[int, int],
+    first_map: int,
+    uniforms: dict[str, object] | None = None,
+) -> None:
+    """Draw a forward pass's parts (``drawables``, whose world bounding-box centres are
+    ``centres``) farthest first, into the bound target with the GL state the pass set:
+    each with its transform, camera and material (its maps from unit ``first_map`` on) and
+    the shader inputs of ``context``, ``u_image_size`` and ``uniforms`` where its program
+    has them. A closed part draws its front faces; an open (two-sided) part its back faces,
+    then its front faces. The sort is by the view depth of each centre, stable, so parts
+    at one depth keep scene order (what this approximates: the module docstring)."""
+    view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
+    image_size = tuple(float(x) for x in size)
+    depths = [-float((view @ c)[2]) for c in centres]  # metres along the view axis
+    order = sorted(range(len(depths)), key=lambda k: -depths[k])
+    for d in (drawables[k] for k in order):
+        prog = d.program
+        d.bind_transform(view_bytes, proj_bytes)
+        d.bind_camera(camera, size)
+        bind_camera(prog, camera)
+        d.bind_material(first_unit=first_map)
+        if "u_image_size" in prog:  # the compiler drops what a permutation does not use
+            prog["u_image_size"].value = image_size
+        for name, value in (uniforms or {}).items():
+            if name in prog:
+                prog[name].value = value
+        context.bind(prog)
+        d.cull(ctx)
+        if d.part.closed:
+            d.vao.render(moderngl.TRIANGLES)
+            continue
+        ctx.enable(moderngl.CULL_FACE)  # two-sided: the far side first, then the near
+        for face in ("front", "back"):
+            ctx.cull_face = face
+            d.vao.render(moderngl.TRIANGLES)
+
+
 class BlendPass:
     """The blended parts of a frame, composited over the lighting pass's HDR image."""
 
@@ -173,29 +218,10 @@ class BlendPass:
         over = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
         ctx.blend_func = (*over, moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
         ctx.blend_equation = moderngl.FUNC_ADD
-        view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
-        image_size = tuple(float(x) for x in size)
         first_map = self.context.use()  # the layers' maps on the units after the inputs'
-        # Farthest first; a stable sort keeps scene order between parts at one depth.
-        depths = [-float((view @ c)[2]) for c in self._centres]  # metres along the view axis
-        order = sorted(range(len(depths)), key=lambda k: -depths[k])
-        for d in (self.drawables[k] for k in order):
-            prog = d.program
-            d.bind_transform(view_bytes, proj_bytes)
-            d.bind_camera(camera, size)
-            bind_camera(prog, camera)
-            d.bind_material(first_unit=first_map)
-            if "u_image_size" in prog:  # the compiler drops what a permutation does not use
-                prog["u_image_size"].value = image_size
-            self.context.bind(prog)
-            d.cull(ctx)
-            if d.part.closed:
-                d.vao.render(moderngl.TRIANGLES)
-                continue
-            ctx.enable(moderngl.CULL_FACE)  # two-sided: the far side first, then the near
-            for face in ("front", "back"):
-                ctx.cull_face = face
-                d.vao.render(moderngl.TRIANGLES)
+        draw_farthest_first(
+            ctx, self.context, self.drawables, self._centres, view, proj, camera, size, first_map
+        )
         fbo.depth_mask = True
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         ctx.cull_face = "back"

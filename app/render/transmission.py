@@ -28,10 +28,9 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.frame.camera import gl_bytes
-from app.render.blend import BLEND_INPUTS, world_centre
+from app.render.blend import BLEND_INPUTS, draw_farthest_first, world_centre
 from app.render.gbuffer import GBuffer
-from app.render.inputs import LIGHTS, MATERIALS, ShadingContext, bind_camera
+from app.render.inputs import LIGHTS, MATERIALS, ShadingContext
 from app.render.lighting import LightingPass
 from app.render.mesh_drawable import MeshDrawable
 from app.scene.geometry import MeshPart
@@ -124,32 +123,21 @@ class TransmissionPass:
         ctx.enable_only(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
         fbo.depth_mask = False  # tested against the opaque surfaces, never written
-        view_bytes, proj_bytes = gl_bytes(view), gl_bytes(proj)
-        image_size = tuple(float(x) for x in size)
         unit = self.context.use()  # the copy on the next unit, the layers' maps after it
         assert self.image is not None
         self.image.use(location=unit)
-        depths = [-float((view @ c)[2]) for c in self._centres]
-        order = sorted(range(len(depths)), key=lambda k: -depths[k])
-        for d in (self.drawables[k] for k in order):
-            prog = d.program
-            d.bind_transform(view_bytes, proj_bytes)
-            d.bind_camera(camera, size)
-            bind_camera(prog, camera)
-            d.bind_material(first_unit=unit + 1)
-            if "u_image_size" in prog:
-                prog["u_image_size"].value = image_size
-            if "u_transmission_image" in prog:
-                prog["u_transmission_image"].value = unit
-            self.context.bind(prog)
-            d.cull(ctx)
-            if d.part.closed:
-                d.vao.render(moderngl.TRIANGLES)
-                continue
-            ctx.enable(moderngl.CULL_FACE)  # two-sided: the far side first, then the near
-            for face in ("front", "back"):
-                ctx.cull_face = face
-                d.vao.render(moderngl.TRIANGLES)
+        draw_farthest_first(
+            ctx,
+            self.context,
+            self.drawables,
+            self._centres,
+            view,
+            proj,
+            camera,
+            size,
+            unit + 1,
+            {"u_transmission_image": unit},
+        )
         fbo.depth_mask = True
         ctx.disable(moderngl.CULL_FACE)
         ctx.cull_face = "back"
