@@ -116,3 +116,20 @@ def test_the_cold_start_steps_are_a_table() -> None:
     assert "| all | 150 | 135 |" in lines
     assert any("its 9 programs" in line and "12 ms" in line for line in lines)
     assert not any(line.startswith("- showcase.toml, step by step") for line in lines)
+
+
+def test_each_suite_is_one_section_and_transmission_has_its_table() -> None:
+    """The transmission suite's rows make a table of time against exact refraction, and
+    the page's generated section holds each suite's table once (the generator once listed
+    batch, ibl and shadows twice)."""
+    payload = _payload()
+    payload["rows"].append(
+        _row("transmission", "thin, smooth", "screen-space", 1, 2.9, rel_rmse=1.1e-7,
+             max_rel_err=1.2e-6, opaque_ms_median=1.5, unseen=0.0, width=160, height=120)
+    )  # fmt: skip
+    section = performance_section(payload)
+    assert "| thin, smooth | 2.9 | 1.5 | 1.1e-07 | 1.2e-06 | 0.00 |" in section
+    page = (REPO / "docs" / "performance.md").read_text(encoding="utf-8")
+    generated = page[page.index(DOC_BEGIN) : page.index(DOC_END)]
+    headings = [line for line in generated.splitlines() if line.startswith("### ")]
+    assert len(headings) == len(set(headings)), headings

@@ -1481,6 +1481,26 @@ def _doc_antialiasing(rows: list[dict]) -> list[str]:
     ]
 
 
+def _doc_transmission(rows: list[dict]) -> list[str]:
+    members = [r for r in rows if r["suite"] == "transmission"]
+    if not members:
+        return []
+    size = f"{members[0]['width']}×{members[0]['height']}"
+    lines = [
+        f"### transmission ({size}: the frame with the glass sphere against the same frame"
+        " without it, error against exact refraction; docs/transmission.md)",
+        "",
+        "| sphere | ms median | without it | rel_rmse | largest rel. error | unseen |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in members:
+        lines.append(
+            f"| {r['case']} | {r['ms_median']:.1f} | {r['opaque_ms_median']:.1f} | "
+            f"{r['rel_rmse']:.2g} | {r['max_rel_err']:.3g} | {r['unseen']:.2f} |"
+        )
+    return [*lines, ""]
+
+
 def _doc_shadows(rows: list[dict]) -> list[str]:
     members = [r for r in rows if r["suite"] == "shadows"]
     if not members:
@@ -1525,8 +1545,8 @@ def performance_section(payload: dict) -> str:
     lines = _doc_header(payload) + _doc_targets(rows)
     for part in (
         _doc_culling, _doc_resolution, _doc_accuracy, _doc_specialization, _doc_startup_viewer,
-        _doc_batch, _doc_ibl, _doc_shadows, _doc_assets,
-        _doc_batch, _doc_ibl, _doc_shadows, _doc_antialiasing, _doc_peers,
+        _doc_batch, _doc_ibl, _doc_shadows, _doc_assets, _doc_antialiasing, _doc_transmission,
+        _doc_peers,
     ):  # fmt: skip
         lines += part(rows)
     notes = [n for n in payload.get("notes", []) if n]
