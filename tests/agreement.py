@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from app.scene.loader import LoadedScene
 from app.scene.model import Light
+
+if TYPE_CHECKING:
+    from app.render.gbuffer import GBufferData
+    from app.render.renderer import Renderer
 
 
 def relative_error(gpu: np.ndarray, ref: np.ndarray, floor: float) -> np.ndarray:
@@ -29,3 +35,15 @@ def without_shadows(loaded: LoadedScene) -> LoadedScene:
         type(light).model_validate(light.model_dump(exclude=keys)) for light in loaded.scene.lights
     ]
     return LoadedScene(loaded.scene.model_copy(update={"lights": lights}), loaded.path)
+
+
+def hdr_and_twin(r: Renderer, background: np.ndarray) -> tuple[np.ndarray, np.ndarray, GBufferData]:
+    """Render ``r``'s frame and shade its G-buffer with the float64 twins: (the GLSL HDR
+    image as float64, the twin's image of the same G-buffer, the G-buffer read back)."""
+    from app.reference.illumination import shade_gbuffer
+
+    r.render()
+    hdr = r.read_hdr().astype(np.float64)
+    g = r.read_gbuffer()
+    ref = shade_gbuffer(g, r.camera, r.lights, background, r.materials.models, r.materials.packed())
+    return hdr, ref, g

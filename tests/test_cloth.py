@@ -20,6 +20,7 @@ from app.reference.cloth import CLOTH_WRAP_MIN_N_DOT_L
 from app.reference.constants import MIN_N_DOT_V
 from app.reference.quadrature import cosine_rule, gauss_legendre
 from app.scene.model import CLOTH_KEYS
+from tests.agreement import hdr_and_twin
 from tests.conftest import REPO
 from tests.test_brdf_models import direction_pairs
 
@@ -184,7 +185,7 @@ def test_the_probe_brdf_is_zero_behind_the_surface(gl_egl) -> None:
 def _wrapped_sphere(gl_egl, form: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A white-scatter cloth sphere with wrap 0.5 lit from +x, seen from +z (48 x 48, f32
     G-buffer, no antialiasing): the GPU's HDR, the twin's, and n.l per covered pixel."""
-    from app.reference.illumination import decode_gbuffer, shade_gbuffer
+    from app.reference.illumination import decode_gbuffer
     from app.render.renderer import Renderer
     from app.scene.loader import parse_scene
 
@@ -201,13 +202,7 @@ def _wrapped_sphere(gl_egl, form: str) -> tuple[np.ndarray, np.ndarray, np.ndarr
     loaded = parse_scene(data, REPO / "inline.toml")
     r = Renderer(gl_egl, loaded, (48, 48))
     try:
-        r.render()
-        hdr = r.read_hdr().astype(np.float64)
-        g = r.read_gbuffer()
-        ref = shade_gbuffer(
-            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
-            r.materials.packed(),
-        )  # fmt: skip
+        hdr, ref, g = hdr_and_twin(r, loaded.scene.background)
         dec = decode_gbuffer(g, r.camera)
     finally:
         r.release()

@@ -28,7 +28,7 @@ from app.frame import prepare_frame
 from app.reference import clearcoat
 from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.encoding import oct_decode
-from app.reference.illumination import decode_gbuffer, shade_gbuffer
+from app.reference.illumination import decode_gbuffer
 from app.reference.material import (
     ShadingPoint,
     Surface,
@@ -43,7 +43,7 @@ from app.reference.material import (
 from app.reference.normal_mapping import perturb_normal, tangent_space_normal
 from app.render.renderer import Renderer
 from app.scene.loader import LoadedScene, parse_scene
-from tests.agreement import relative_error
+from tests.agreement import hdr_and_twin, relative_error
 from tests.test_brdf_models import direction_pairs
 
 N = np.array([0.0, 0.0, 1.0])
@@ -284,13 +284,7 @@ def test_rt4_round_trip_and_lighting(gl_egl, tmp_path: Path, case: str, gbuffer:
     r = Renderer(gl_egl, loaded)
     try:
         assert (r.gbuffer.coat_normal is not None) is wanted
-        r.render()
-        hdr = r.read_hdr().astype(np.float64)
-        g = r.read_gbuffer()
-        ref = shade_gbuffer(
-            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
-            r.materials.packed(),
-        )  # fmt: skip
+        hdr, ref, g = hdr_and_twin(r, loaded.scene.background)
         vertex = r.frame.parts[0].vertices[0]
     finally:
         r.release()

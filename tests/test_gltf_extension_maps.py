@@ -14,10 +14,10 @@ import pygltflib
 import pytest
 from PIL import Image
 
-from app.reference.illumination import shade_gbuffer
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
 from app.scene.model import Light
+from tests.agreement import hdr_and_twin
 from tests.gltf_builder import GltfBuilder
 from tests.test_gltf_render import sphere
 
@@ -54,13 +54,7 @@ def render_with_twin(gl, tmp_path, b: GltfBuilder, extensions: list[str]):
     r = Renderer(gl, loaded, (N, N))
     try:
         r.set_lights([LIGHT])
-        r.render()
-        hdr = r.read_hdr().astype(np.float64)
-        g = r.read_gbuffer()
-        ref = shade_gbuffer(
-            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
-            r.materials.packed(),
-        )  # fmt: skip
+        hdr, ref, g = hdr_and_twin(r, loaded.scene.background)
     finally:
         r.release()
     return hdr, ref, g.covered
@@ -127,13 +121,7 @@ def render_quad(gl, tmp_path, b: GltfBuilder, extensions: list[str]):
     r = Renderer(gl, loaded, (QUAD_N, QUAD_N))
     try:
         r.set_lights([ON_AXIS])
-        r.render()
-        hdr = r.read_hdr().astype(np.float64)
-        g = r.read_gbuffer()
-        ref = shade_gbuffer(
-            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
-            r.materials.packed(),
-        )  # fmt: skip
+        hdr, ref, g = hdr_and_twin(r, loaded.scene.background)
     finally:
         r.release()
     assert g.covered.all()

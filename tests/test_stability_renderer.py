@@ -43,13 +43,14 @@ from app.common.models import (
 )
 from app.gl.context import GLContext
 from app.reference.encoding import oct_decode
-from app.reference.illumination import pixel_ndc, shade_gbuffer
+from app.reference.illumination import pixel_ndc
 from app.reference.position import reconstruct_position
 from app.render.debug import DIM, KIND_COLORS, classify, describe, nan_debug_image
 from app.render.gbuffer import GBufferData
 from app.render.lighting import LightingPass
 from app.render.renderer import Renderer
 from app.scene.loader import LoadedScene, load_scene
+from tests.agreement import hdr_and_twin
 from tests.conftest import REPO
 
 STRESS = REPO / "scenes" / "stress.toml"
@@ -181,13 +182,7 @@ def test_stress_scene_matches_float64_twin(gl: GLContext, gbuffer: str):
     loaded = _with_gbuffer(load_scene(STRESS), gbuffer)
     r = Renderer(gl, loaded, (320, 180))
     try:
-        r.render()
-        hdr = r.read_hdr().astype(np.float64)
-        g = r.read_gbuffer()
-        ref = shade_gbuffer(
-            g, r.camera, r.lights, loaded.scene.background, r.materials.models,
-            r.materials.packed(),
-        )  # fmt: skip
+        hdr, ref, g = hdr_and_twin(r, loaded.scene.background)
     finally:
         r.release()
     assert np.all(np.isfinite(ref)) and ref.min() >= 0.0
