@@ -13,6 +13,7 @@ from PIL import Image
 
 from app.scene.loader import LoadedScene
 from app.scene.model import Material
+from app.textures.lean import LEAN, lean_params
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
@@ -20,6 +21,7 @@ from app.textures.maps import (
     colour_texture,
     decode_normals,
     direction_texture,
+    lean_normal_maps,
     linear_channel,
     normal_roughness_chain,
     read_image,
@@ -87,9 +89,14 @@ class LayerBuilder:
             r = None
             if m.roughness_map is not None:
                 r = linear_channel(self.image(name, "roughness_map"))
-            maps["normal_roughness"] = normal_roughness_chain(
-                normals, params.roughness, r, self.normal_filter
-            )
+            if normals is not None and self.normal_filter == LEAN:
+                # the normals' spread as a covariance: anisotropic roughness per pixel
+                maps.update(lean_normal_maps(normals, params.roughness, r))
+                params = lean_params(params)
+            else:
+                maps["normal_roughness"] = normal_roughness_chain(
+                    normals, params.roughness, r, self.normal_filter
+                )
         if m.clearcoat_normal_map is not None:  # RTR4 §9.12: the coat's own normals
             scale = 1.0 if m.clearcoat_normal_scale is None else m.clearcoat_normal_scale
             image = self.image(name, "clearcoat_normal_map")
