@@ -194,11 +194,11 @@ def _streak_width(hdr: np.ndarray) -> float:
 def test_lean_keeps_a_groove_map_a_brushed_highlight(gl_egl: GLContext) -> None:
     """scenes/sec13_grooves.toml at 160x90 against an 8x8 supersampled reference from
     level 0: far off, the grooves' normals spread only across the grooves, so the reference
-    keeps a narrow streak (luminance-weighted width 2.42 px, mean radiance 4.03). Isotropic
-    variance mips widen it (7.79 px, 5.17); mips without the spread (naive) keep it narrow
-    but twice as bright (1.87 px, 7.68: a mirror's peak where the reference's is spread
-    along the view); LEAN's anisotropic roughness gives 2.40 px and 3.76, and cuts the
-    mean FLIP 10-fold from variance's (0.151 -> 0.0145). Asserted: LEAN's width and mean
+    keeps a narrow streak (luminance-weighted width 2.45 px, mean radiance 3.98). Isotropic
+    variance mips widen it (7.93 px, 5.04); mips without the spread (naive) keep it narrow
+    but twice as bright (1.89 px, 7.84: a mirror's peak where the reference's is spread
+    along the view); LEAN's anisotropic roughness gives 2.56 px and 3.63, and cuts the
+    mean FLIP 7.7-fold from variance's (0.155 -> 0.020). Asserted: LEAN's width and mean
     radiance within 15% of the reference's, its width at most half of variance's and its
     FLIP at most a quarter of variance's."""
     options = [(m, {"normal_filter": m}) for m in ("variance", "lean")]

@@ -56,7 +56,7 @@ MAX_FLAKE_TILT_DEG = 20.0
 # "Orange peel", the clear coat's gentle waviness: its steepest slope in degrees.
 ORANGE_PEEL_SLOPE_DEG = 12.0
 # Grooves along u (scenes/sec13_grooves.toml): their steepest slope in degrees, and the map's
-# side (small: the grooves are 32 lattice cells across, 4 texels each at the finest octave).
+# side (small: 16 lattice cells across the grooves, 8 texels each).
 MAX_GROOVE_SLOPE_DEG = 30.0
 GROOVE_MAP_SIZE = 128
 
@@ -306,12 +306,12 @@ def orange_peel_normal_map(size: int = NORMAL_MAP_SIZE, seed: int = 48) -> np.nd
 
 def groove_normal_map(size: int = GROOVE_MAP_SIZE, seed: int = 49) -> np.ndarray:
     """Unit tangent-space normals (size, size, 3) of fine grooves running along u (brushed
-    or lathe-turned metal): a height field of noise stretched 16-fold along u (lattice
-    periods (2, 32) and two finer octaves), scaled so that its steepest slope is
+    or lathe-turned metal): a height field of noise stretched 8-fold along u (lattice
+    periods (2, 16) and one finer octave), scaled so that its steepest slope is
     ``MAX_GROOVE_SLOPE_DEG``. The normals tilt almost only across the grooves (along v):
     their spread is anisotropic, what ``render.normal_filter = "lean"`` keeps
     (docs/filtering.md)."""
-    height = fbm(size, seed, period=(2, 32), octaves=3, gain=0.5) / size
+    height = fbm(size, seed, period=(2, 16), octaves=2, gain=0.5) / size
     du, dv = height_gradient(height)
     steepest = float(np.sqrt(du * du + dv * dv).max())
     return normals_from_height(height * (np.tan(np.radians(MAX_GROOVE_SLOPE_DEG)) / steepest))
