@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import moderngl
 import numpy as np
+import pygltflib
+from PIL import Image
 
 from app.bench.filtering import measure
 from app.gl.context import GLContext
+from app.reference.encoding import oct_decode
 from app.reference.filtering import (
     SPECULAR_AA_KAPPA,
     SPECULAR_AA_SIGMA2,
@@ -19,7 +22,9 @@ from app.render.texture_upload import read_level, upload_texture
 from app.scene.loader import load_scene, parse_scene
 from app.scene.model import RenderSettings
 from app.textures.maps import lean_normal_maps, normal_roughness_texture
+from app.textures.mips import decode_normal_map
 from tests.conftest import REPO
+from tests.gltf_builder import GltfBuilder
 
 SCENE = REPO / "scenes" / "sec13_filtering.toml"
 
@@ -215,3 +220,59 @@ def test_lean_keeps_a_groove_map_a_brushed_highlight(gl_egl: GLContext) -> None:
     assert abs(radiance - 1.0) <= 0.15, radiance
     assert width["lean"] <= 0.5 * width["variance"], width
     assert flip["lean"] * 4.0 <= flip["variance"], flip
+
+
+def test_lean_reaches_a_gltf_material_s_gbuffer(gl_egl: GLContext, tmp_path) -> None:
+    """A glTF quad whose 256^2 normal map tilts its rows alternately towards +b and -b
+    (grooves along u), seen whole at 16x16 pixels (mip level ~4, where every texel holds
+    the same spread): under ``lean`` the G-buffer stores the twin's anisotropic roughness
+    for that covariance (perceptual roughness 0.598 and anisotropy 0.748, within 5e-4;
+    measured 2e-5 and 7e-5: the float16 covariance) and a tangent along the quad's bitangent (world +y), the direction across
+    the grooves; under ``variance`` the material stays isotropic (no tangent target)."""
+    tilt = 0.4
+    rows = np.where(np.arange(256) % 2 == 0, tilt, -tilt)
+    n = np.zeros((256, 256, 3))
+    n[..., 1] = rows[:, None]
+    n[..., 2] = np.sqrt(1.0 - tilt * tilt)
+    texels = np.round((n + 1.0) * 0.5 * 255.0).astype(np.uint8)
+    b = GltfBuilder()
+    mat = pygltflib.Material(
+        pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+            baseColorFactor=[0.9, 0.9, 0.9, 1.0], metallicFactor=1.0, roughnessFactor=0.3
+        ),
+        normalTexture=pygltflib.NormalMaterialTexture(
+            index=b.texture(Image.fromarray(texels, "RGB"))
+        ),
+    )
+    b.quad(b.material(mat))
+    b.save(tmp_path / "m.glb")
+    scene = tmp_path / "scene.toml"
+    gbuffers = {}
+    for method in ("variance", "lean"):
+        scene.write_text(
+            f'[render]\nnormal_filter = "{method}"\n[camera]\nposition = [0.0, 0.0, 1.0]\n'
+            'target = [0.0, 0.0, 0.0]\nfov_y = 90.0\n[[objects]]\nshape = "mesh"\n'
+            'file = "m.glb"\n[[lights]]\ntype = "directional"\ndirection = [0.0, 0.0, -1.0]\n',
+            encoding="utf-8",
+        )
+        r = Renderer(gl_egl, load_scene(scene), (16, 16))
+        try:
+            r.render()
+            gbuffers[method] = r.read_gbuffer()
+        finally:
+            r.release()
+    assert not gbuffers["variance"].tangent.any()
+    g = gbuffers["lean"]
+    centre = g.covered.copy()
+    centre[[0, -1], :] = centre[:, [0, -1]] = False  # the quad's edges meet the background
+    assert centre.sum() >= 100
+    # the 8-bit texels decoded as the chain decodes them: slopes +-s, variance s^2 along y
+    decoded = decode_normal_map(texels[:2, :1])[:, 0]
+    s = decoded[:, 1] / decoded[:, 2]
+    sigma = np.array([0.0, float(np.mean(s * s) - np.mean(s) ** 2), 0.0])
+    r_want, a_want, d_want = lean_anisotropic_roughness(0.3, 0.0, np.array([1.0, 0.0]), sigma)
+    assert abs(d_want[1]) == 1.0
+    np.testing.assert_allclose(g.normal[centre, 2], r_want, atol=5e-4)
+    np.testing.assert_allclose(g.tangent[centre, 2], a_want, atol=5e-4)
+    t = oct_decode(g.tangent[centre, :2].astype(np.float64))
+    np.testing.assert_allclose(np.abs(t[:, 1]), 1.0, atol=1e-3)

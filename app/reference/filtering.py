@@ -8,7 +8,10 @@ roughness), because the variance of a distribution of slopes adds to the NDF's a
   ``perceptual_roughness_specular_aa`` (the GLSL functions of the same names);
 * texture space, per mip texel, on the CPU: ``alpha2_toksvig`` and
   ``alpha2_from_slope_variance``, which app/textures/mips.py applies to the moments of each
-  texel's footprint. They have no GLSL counterpart: the renderer samples their result.
+  texel's footprint, and ``slope_covariance`` (app/textures/lean.py). They have no GLSL
+  counterpart: the renderer samples their result;
+* both: LEAN's covariance, sampled per pixel and added to the material's lobe as
+  anisotropic roughness, ``lean_anisotropic_roughness`` (the GLSL function of that name).
 
 Every function is float64 and broadcasts over leading axes (vectors on the last axis).
 """

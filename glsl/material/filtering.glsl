@@ -1,5 +1,6 @@
-// Geometric specular antialiasing: roughness that absorbs the normals a pixel averages
-// (RTR4 sec. 9.13). Twin: app/reference/filtering.py.
+// Roughness that absorbs the normals a pixel averages (RTR4 sec. 9.13): geometric specular
+// antialiasing, and LEAN's slope covariance turned into anisotropic roughness.
+// Twin: app/reference/filtering.py.
 #ifndef PBS_FILTERING_GLSL
 #define PBS_FILTERING_GLSL
 
