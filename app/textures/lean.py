@@ -53,17 +53,16 @@ def lean_chain_levels(
     k the normal of the footprint's mean slope and E[alpha^2]^(1/4), the material's own
     roughness alone (the spread travels in ``covariance_levels``)."""
     h, w = shape
+    level0 = np.empty((h, w, 4), np.float32)
 
     def moments(y0: int, y1: int) -> np.ndarray:
         n, r = source(y0, y1)
+        level0[y0:y1, :, :3] = n  # each band its own rows (mips.each_band)
+        level0[y0:y1, :, 3] = r
         sx, sy = _slopes(n)
         return np.stack([sx, sy, r**4], axis=-1)
 
     means = box_levels(moments, (h, w, 3))
-    level0 = np.empty((h, w, 4), np.float32)
-    n, r = source(0, h)
-    level0[..., :3] = n
-    level0[..., 3] = r
     levels = [level0]
     for level in means[1:]:
         m = level.astype(np.float64)
