@@ -905,6 +905,7 @@ class GltfFile:
                 put("normal_roughness", chain, n_sampler, n_tr)
                 if normal_filter == LEAN:  # the normals' spread as a covariance map, read
                     # through the normal map's UVs (app/textures/lean.py)
+                    self._map_cost(normal_image, "normal", nkey)  # charged as one more
                     covariance = slope_covariance_map(normal_image, scale)
                     put("slope_covariance", covariance, n_sampler, UvTransform())
                     params = lean_params(params)
