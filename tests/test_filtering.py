@@ -8,7 +8,7 @@ import numpy as np
 import pygltflib
 from PIL import Image
 
-from app.bench.filtering import measure
+from app.bench.filtering import measure, with_settings
 from app.gl.context import GLContext
 from app.reference.encoding import oct_decode
 from app.reference.filtering import (
@@ -227,8 +227,9 @@ def test_lean_reaches_a_gltf_material_s_gbuffer(gl_egl: GLContext, tmp_path) -> 
     (grooves along u), seen whole at 16x16 pixels (mip level ~4, where every texel holds
     the same spread): under ``lean`` the G-buffer stores the twin's anisotropic roughness
     for that covariance (perceptual roughness 0.598 and anisotropy 0.748, within 5e-4;
-    measured 2e-5 and 7e-5: the float16 covariance) and a tangent along the quad's bitangent (world +y), the direction across
-    the grooves; under ``variance`` the material stays isotropic (no tangent target)."""
+    measured 2e-5 and 7e-5: the float16 covariance) and a tangent along the quad's
+    bitangent (world +y), the direction across the grooves; under ``variance`` the
+    material stays isotropic (no tangent target)."""
     tilt = 0.4
     rows = np.where(np.arange(256) % 2 == 0, tilt, -tilt)
     n = np.zeros((256, 256, 3))
@@ -276,3 +277,31 @@ def test_lean_reaches_a_gltf_material_s_gbuffer(gl_egl: GLContext, tmp_path) -> 
     np.testing.assert_allclose(g.tangent[centre, 2], a_want, atol=5e-4)
     t = oct_decode(g.tangent[centre, :2].astype(np.float64))
     np.testing.assert_allclose(np.abs(t[:, 1]), 1.0, atol=1e-3)
+
+
+def test_switching_to_lean_and_back_renders_what_a_fresh_renderer_renders(gl_egl) -> None:
+    """``update`` from variance to lean (new maps, an anisotropic model, the tangent target)
+    and back gives the fresh renderer's image bit for bit (the viewer's normal-filter
+    choice), and the two images differ."""
+    scenes = {}
+    for method in ("variance", "lean"):
+        scenes[method] = with_settings(load_scene(GROOVES), (64, 36), normal_filter=method)
+
+    def fresh(method: str) -> np.ndarray:
+        r = Renderer(gl_egl, scenes[method])
+        try:
+            r.render()
+            return r.read_hdr()
+        finally:
+            r.release()
+
+    want = {m: fresh(m) for m in scenes}
+    assert not np.array_equal(want["variance"], want["lean"])
+    r = Renderer(gl_egl, scenes["variance"])
+    try:
+        for method in ("lean", "variance"):
+            r.update(scenes[method].scene)
+            r.render()
+            np.testing.assert_array_equal(r.read_hdr(), want[method])
+    finally:
+        r.release()
