@@ -8,7 +8,8 @@ alpha2 (all terms >= 0, so relative errors do not grow): <= 6 roundings of U = 2
 3.6e-7. perceptual_roughness_specular_aa adds r^4 (3 roundings) before, and two square roots
 (each halves the relative error and adds one rounding) after. Bound asserted: 1e-6 (~17 U).
 Values below 1e-30 are compared absolutely: float32 flushes below 1.2e-38 (derivatives
-< 1e-19 square to 0 on the GPU, not in float64).
+< 1e-19 square to 0 on the GPU, not in float64). LEAN's covariance-to-roughness conversion
+(lean_anisotropic_roughness) is compared by its outputs' absolute error and axis.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from app.reference.filtering import (
     SPECULAR_AA_KAPPA,
     SPECULAR_AA_SIGMA2,
     alpha2_specular_aa,
+    lean_anisotropic_roughness,
     perceptual_roughness_specular_aa,
 )
 from tests.agreement import relative_error
@@ -129,3 +131,54 @@ def test_sigma2_is_the_pixel_filter_variance() -> None:
         dndx = np.array([k, 0.0, 0.0])  # d/dx of (sin kx, 0, cos kx) at x = 0
         kernel = alpha2_specular_aa(0.0, dndx, np.zeros(3), SPECULAR_AA_SIGMA2, 1.0)
         assert abs(kernel / (2.0 * var) - 1.0) <= 4e-4
+
+
+LEAN_BODY = """
+vec4 lean = lean_anisotropic_roughness(p.x, p.y, d.xy, s.xyz);
+result = lean;
+"""
+
+
+def lean_inputs(n: int = 4000) -> dict[str, np.ndarray]:
+    """Olano & Baker 2010's conversion on random materials and covariances: r in [0, 1],
+    anisotropy in [-1, 1] (a quarter 0), a unit direction, and a positive semi-definite
+    Sigma of eigenvalues 10^U(-6, 0) (a quarter of them rank 1, an eighth 0) at a random
+    angle."""
+    rng = np.random.default_rng(RNG_SEED + 1)
+    r = rng.uniform(0.0, 1.0, n)
+    a = np.where(rng.uniform(size=n) < 0.25, 0.0, rng.uniform(-1.0, 1.0, n))
+    phi = rng.uniform(0.0, 2.0 * np.pi, n)
+    theta = rng.uniform(0.0, np.pi, n)
+    lam = 10.0 ** rng.uniform(-6.0, 0.0, (n, 2))
+    lam[::4, 1] = 0.0
+    lam[::8] = 0.0
+    c, s = np.cos(theta), np.sin(theta)
+    sigma = np.stack(
+        [lam[:, 0] * c * c + lam[:, 1] * s * s, lam[:, 0] * s * s + lam[:, 1] * c * c,
+         (lam[:, 0] - lam[:, 1]) * c * s], axis=-1,
+    )  # fmt: skip
+    return {
+        "p": f32(np.stack([r, a], axis=-1)),
+        "d": f32(np.stack([np.cos(phi), np.sin(phi)], axis=-1)),
+        "s": f32(sigma),
+    }
+
+
+def test_lean_glsl_matches_twin(gl: GLContext) -> None:
+    """lean_anisotropic_roughness against its twin on the float32 inputs: r' within 1e-4 and
+    a' within 1e-3 absolute (measured on llvmpipe 3.3e-5 and 2.6e-4: the minor eigenvalue
+    m - q loses float32's digits where the sum is nearly rank 1, and alpha_y' = sqrt(m - q)
+    amplifies that where it is tiny), and the direction the same axis, |d'.d| >= 1 - 1e-5
+    (measured 1 - 1.1e-7), wherever a' > 1e-3 (elsewhere every axis is nearly one)."""
+    x = lean_inputs()
+    p = x["p"]
+    out = run_kernel(gl.ctx, INCLUDES, LEAN_BODY, x)
+    assert np.all(np.isfinite(out))
+    r, a, d = lean_anisotropic_roughness(p[:, 0], p[:, 1], x["d"][:, :2], x["s"])
+    assert np.abs(out[:, 0] - r).max() <= 1e-4
+    assert np.abs(out[:, 1] - a).max() <= 1e-3
+    assert np.allclose(np.linalg.norm(out[:, 2:], axis=-1), 1.0, atol=1e-6)
+    distinct = a > 1e-3
+    assert distinct.sum() > 2000
+    axis = np.abs(np.sum(out[:, 2:] * d, axis=-1))
+    assert axis[distinct].min() >= 1.0 - 1e-5

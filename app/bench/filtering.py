@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -148,12 +149,85 @@ def measure(
     return results, ref_row
 
 
+def grooves(gl: GLContext, out: Path) -> None:
+    """docs/filtering.md's LEAN table: scenes/sec13_grooves.toml at 320x180 against a 16x16
+    reference, isotropic ``variance`` mips against ``lean`` (and ``naive``), with the
+    floor's Beckmann NDF and again with GGX; ``filtering-grooves.png``: reference,
+    variance, lean (Beckmann) over the same with GGX; ``filtering-groove-spheres.png``:
+    ``GROOVE_SPHERES`` as the reference, variance and lean draw it."""
+    from PIL import Image
+
+    from app.resources import scenes_dir
+    from app.scene.loader import load_scene
+
+    loaded = load_scene(scenes_dir() / "sec13_grooves.toml")
+    cam, settings = loaded.scene.camera, loaded.scene.render
+    options = [(m, {"normal_filter": m}) for m in ("naive", "variance", "lean")]
+    print("| NDF | option | ms / frame | rel. RMSE | mean FLIP | shimmer |")
+    print("|---|---|---:|---:|---:|---:|")
+    rows = []
+    for ndf in ("beckmann", "ggx"):
+        materials = {
+            name: m.model_copy(update={"ndf": ndf}) for name, m in loaded.scene.materials.items()
+        }
+        scene = LoadedScene(loaded.scene.model_copy(update={"materials": materials}), loaded.path)
+        results, ref = measure(gl, scene, (320, 180), supersample=16, options=options)
+        tiles = [ref["hdr"]] + [r.hdr for r in results if r.variant != "naive"]
+        ldr = [
+            np.clip(post_process(h.astype(np.float64), cam.exposure, settings.tonemap), 0, 1)
+            for h in tiles
+        ]
+        rows.append(np.concatenate([(x * 255.0 + 0.5).astype(np.uint8) for x in ldr], axis=1))
+        for r in results:
+            print(
+                f"| {ndf} | {r.variant} | {r.ms:.1f} | {r.rel_rmse:.3f} | {r.flip_mean:.3f} | "
+                f"{r.shimmer:.5f} |"
+            )
+    Image.fromarray(np.concatenate(rows, axis=0)).save(out / "filtering-grooves.png")
+    # Khronos AnisotropyRotationTest's point: a groove normal map seen from afar should
+    # spread a light like an anisotropic material. An anisotropic sphere (no normal map)
+    # beside a grooved one, with each filter and the 8x8 reference from level 0:
+    # ``filtering-groove-spheres.png``.
+    from app.scene.sources import scene_from
+
+    pair = scene_from(GROOVE_SPHERES, base_dir=scenes_dir())
+    tiles = []
+    for render in ({"normal_filter": "none", "supersample": 8}, {"normal_filter": "variance"},
+                   {"normal_filter": "lean"}):  # fmt: skip
+        hdr = render_hdr(gl, with_settings(pair, (320, 160), **render))
+        ldr = np.clip(post_process(hdr.astype(np.float64), 0.0, "neutral"), 0, 1)
+        tiles.append((ldr * 255.0 + 0.5).astype(np.uint8))
+    Image.fromarray(np.concatenate(tiles, axis=1)).save(out / "filtering-groove-spheres.png")
+
+
+# Two silver spheres: anisotropic (stretched along the bitangent, no normal map) and
+# grooved along u (scenes/textures/groove_normal.png, 256 grooves from pole to pole).
+GROOVE_SPHERES = {
+    "background": [0.05, 0.05, 0.07],
+    "camera": {"position": [0.0, 0.0, 12.0], "target": [0.0, 0.0, 0.0], "fov_y": 20.0},
+    "materials": {
+        "anisotropic": {"preset": "silver", "roughness": 0.35, "anisotropy": -0.8},
+        "grooved": {
+            "preset": "silver",
+            "roughness": 0.15,
+            "normal_map": "textures/groove_normal.png",
+            "uv_scale": [8.0, 16.0],
+        },
+    },
+    "lights": [{"type": "directional", "direction": [-0.3, -0.2, -1.0], "intensity": 3.0}],
+    "objects": [
+        {"shape": "sphere", "radius": 1.0, "position": [-1.3, 0.0, 0.0], "material": "anisotropic"},
+        {"shape": "sphere", "radius": 1.0, "position": [1.3, 0.0, 0.0], "material": "grooved"},
+    ],
+}
+
+
 def main() -> None:
-    """``python -m app.bench.filtering [OUT_DIR]``: the table and the image grid
+    """``python -m app.bench.filtering [OUT_DIR] [grooves]``: the table and the image grid
     (``filtering-grid.png``) of docs/filtering.md (320x180, 16x16 reference, 5-step
-    sweep), and the naive and variance rows again with the floor's NDF switched to GGX."""
+    sweep), and the naive and variance rows again with the floor's NDF switched to GGX;
+    with ``grooves``, the LEAN table instead (``grooves``)."""
     import sys
-    from pathlib import Path
 
     from PIL import Image
 
@@ -162,6 +236,11 @@ def main() -> None:
     from app.scene.loader import load_scene
 
     out = Path(sys.argv[1] if len(sys.argv) > 1 else "docs/images")
+    if sys.argv[2:3] == ["grooves"]:
+        gl = create_context()
+        grooves(gl, out)
+        gl.release()
+        return
     loaded = load_scene(scenes_dir() / "sec13_filtering.toml")
     gl = create_context()
     results, ref = measure(gl, loaded, (320, 180), supersample=16, reference_shimmer=True)

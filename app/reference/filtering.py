@@ -8,7 +8,10 @@ roughness), because the variance of a distribution of slopes adds to the NDF's a
   ``perceptual_roughness_specular_aa`` (the GLSL functions of the same names);
 * texture space, per mip texel, on the CPU: ``alpha2_toksvig`` and
   ``alpha2_from_slope_variance``, which app/textures/mips.py applies to the moments of each
-  texel's footprint. They have no GLSL counterpart: the renderer samples their result.
+  texel's footprint, and ``slope_covariance`` (app/textures/lean.py). They have no GLSL
+  counterpart: the renderer samples their result;
+* both: LEAN's covariance, sampled per pixel and added to the material's lobe as
+  anisotropic roughness, ``lean_anisotropic_roughness`` (the GLSL function of that name).
 
 Every function is float64 and broadcasts over leading axes (vectors on the last axis).
 """
@@ -95,3 +98,70 @@ def alpha2_from_slope_variance(
     independent slopes add, so alpha'^2 = min(1, alpha^2 + 2 sigma^2) with sigma^2 the
     per-axis variance of the slopes of the normals a texel averages."""
     return np.minimum(1.0, _f64(alpha2) + 2.0 * np.maximum(_f64(sigma2), 0.0))
+
+
+def slope_covariance(moments: np.ndarray) -> np.ndarray:
+    """Olano & Baker 2010, "LEAN Mapping": the covariance of a footprint's tangent-space
+    slopes from its mean moments, Sigma = M - B B^T with B = E[s] and M = E[s s^T].
+
+    ``moments`` (..., 5): E[s.x], E[s.y], E[s.x^2], E[s.y^2], E[s.x s.y]; returns (..., 3):
+    Sigma_xx, Sigma_yy, Sigma_xy, the variances clamped at 0 against the rounding of
+    E[s^2] - E[s]^2."""
+    m = _f64(moments)
+    bx, by = m[..., 0], m[..., 1]
+    var_x = np.maximum(m[..., 2] - bx * bx, 0.0)
+    var_y = np.maximum(m[..., 3] - by * by, 0.0)
+    return np.stack([var_x, var_y, m[..., 4] - bx * by], axis=-1)
+
+
+def lean_anisotropic_roughness(
+    r: np.ndarray | float,
+    anisotropy: np.ndarray | float,
+    direction: np.ndarray,
+    sigma: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Olano & Baker 2010, "LEAN Mapping": a filtered normal map's slope covariance
+    ``sigma`` (..., 3: Sigma_xx, Sigma_yy, Sigma_xy in the tangent frame (t, b)) added to the
+    material's own lobe, and the sum turned back into the anisotropic GGX/Beckmann
+    parameters the G-buffer stores (RTR4 §9.8: alpha_x = alpha (1 + a) along the tangent,
+    alpha_y = alpha (1 - a) across it, alpha = r^2).
+
+    The material's lobe (perceptual roughness ``r``, ``anisotropy`` a, unit ``direction``
+    (..., 2) of its tangent in (t, b)) is the alpha^2 tensor
+    A = alpha_x^2 d d^T + alpha_y^2 d_perp d_perp^T; a lobe of roughness alpha has slope
+    variance alpha^2/2 per axis (Beckmann), so the normal map's spread adds 2 Sigma:
+    A' = A + 2 Sigma. Its eigenvalues lambda_1 >= lambda_2 (clamped to [0, 1]) are
+    alpha_x'^2 and alpha_y'^2, its major eigenvector the new tangent direction:
+    lambda = m +- q, m = (A'_xx + A'_yy)/2, q = sqrt(((A'_xx - A'_yy)/2)^2 + A'_xy^2); the
+    eigenvector of lambda_1 is ((A'_xx - A'_yy)/2 + q, A'_xy) where A'_xx >= A'_yy, else
+    (A'_xy, (A'_yy - A'_xx)/2 + q) (each the longer of the two forms, never a cancellation),
+    ``direction`` itself where q = 0 (an isotropic sum: every axis is one).
+    Returns (r', a', direction'): r' = sqrt((alpha_x' + alpha_y')/2),
+    a' = (alpha_x' - alpha_y')/(alpha_x' + alpha_y') (0 where both are 0), direction' unit.
+    With sigma = 0 this gives back the material (up to the sign of d and a, one axis).
+    Every argument broadcasts over leading axes."""
+    alpha = _f64(r) * _f64(r)
+    a = _f64(anisotropy)
+    d = _f64(direction)
+    s = _f64(sigma)
+    ax2 = (alpha * (1.0 + a)) ** 2
+    ay2 = (alpha * (1.0 - a)) ** 2
+    dx, dy = d[..., 0], d[..., 1]
+    axx = ax2 * dx * dx + ay2 * dy * dy + 2.0 * s[..., 0]
+    ayy = ax2 * dy * dy + ay2 * dx * dx + 2.0 * s[..., 1]
+    axy = (ax2 - ay2) * dx * dy + 2.0 * s[..., 2]
+    half = 0.5 * (axx - ayy)
+    mean = 0.5 * (axx + ayy)
+    q = np.sqrt(half * half + axy * axy)
+    l1 = np.clip(mean + q, 0.0, 1.0)
+    l2 = np.clip(mean - q, 0.0, 1.0)
+    ex = np.where(half >= 0.0, half + q, axy)
+    ey = np.where(half >= 0.0, axy, -half + q)
+    length = np.sqrt(ex * ex + ey * ey)
+    ok = length > 0.0
+    safe = np.where(ok, length, 1.0)
+    e = np.stack([np.where(ok, ex / safe, dx), np.where(ok, ey / safe, dy)], axis=-1)
+    alpha_x, alpha_y = np.sqrt(l1), np.sqrt(l2)
+    total = alpha_x + alpha_y
+    a_new = np.where(total > 0.0, (alpha_x - alpha_y) / np.where(total > 0.0, total, 1.0), 0.0)
+    return np.sqrt(0.5 * total), a_new, e

@@ -29,6 +29,9 @@ MAP_BITS = {
     "clearcoat_roughness": 16384,
     "film_factor": 32768,
     "film_thickness": 65536,
+    # the normal map's slope covariance (render.normal_filter = "lean"; app/textures/lean.py),
+    # read through the normal map's UVs and transform: never a transform of its own
+    "slope_covariance": 131072,
 }
 
 

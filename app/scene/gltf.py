@@ -56,6 +56,7 @@ from app.scene.gltf_animation import PATHS, Pose, PoseRequest
 from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matrices
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
 from app.scene.gltf_schema import MAX_COORDINATE
+from app.textures.lean import LEAN, lean_params
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
@@ -68,6 +69,7 @@ from app.textures.maps import (
     open_image,
     prefetch_map,
     scalar_texture,
+    slope_covariance_map,
 )
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
@@ -901,6 +903,12 @@ class GltfFile:
             chain = normal_roughness_map(normal_image, scale, roughness, mr_image, normal_filter)
             if normal_image is not None:
                 put("normal_roughness", chain, n_sampler, n_tr)
+                if normal_filter == LEAN:  # the normals' spread as a covariance map, read
+                    # through the normal map's UVs (app/textures/lean.py)
+                    self._map_cost(normal_image, "normal", nkey)  # charged as one more
+                    covariance = slope_covariance_map(normal_image, scale)
+                    put("slope_covariance", covariance, n_sampler, UvTransform())
+                    params = lean_params(params)
             else:
                 assert mr is not None
                 put("normal_roughness", chain, mr[1], mr[2])

@@ -11,8 +11,10 @@ from functools import lru_cache
 import numpy as np
 from PIL import Image
 
+from app.errors import InputError
 from app.scene.loader import LoadedScene
 from app.scene.model import Material
+from app.textures.lean import LEAN, lean_params
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
@@ -20,11 +22,13 @@ from app.textures.maps import (
     colour_texture,
     decode_normals,
     direction_texture,
+    lean_normal_maps,
     linear_channel,
     normal_roughness_chain,
     read_image,
     scalar_texture,
 )
+from app.untrusted import RefusedError
 from app.untrusted.budget import Budget
 
 # The map each texture key becomes, which decides what it costs (app/untrusted/budget.py).
@@ -59,6 +63,15 @@ class LayerBuilder:
             kind = "scalar"  # resampled into the normal map's chain, charged with it
         return self._images(relative, f"materials.{material}.{key}", kind)
 
+    def _charge(self, material: str, key: str, shape: tuple[int, int], kind: str) -> None:
+        """Charge a map of ``kind`` built from ``materials.<material>.<key>``'s texels to the
+        scene's budget: an ``InputError`` naming that key where it does not fit."""
+        try:
+            self.budget.texture(shape[1], shape[0], kind, "its slope covariance map")
+        except RefusedError as exc:
+            key = f"materials.{material}.{key}"
+            raise InputError(str(self.loaded.path), key, str(exc)) from None
+
     def mask(self, material: str) -> np.ndarray:
         """The blend mask of ``material`` as float64 (H, W) in [0, 1]."""
         blend = self.loaded.scene.materials[material].blend
@@ -87,9 +100,16 @@ class LayerBuilder:
             r = None
             if m.roughness_map is not None:
                 r = linear_channel(self.image(name, "roughness_map"))
-            maps["normal_roughness"] = normal_roughness_chain(
-                normals, params.roughness, r, self.normal_filter
-            )
+            if normals is not None and self.normal_filter == LEAN:
+                # the normals' spread as a covariance: anisotropic roughness per pixel; its
+                # map charged as one more normal map
+                self._charge(name, "normal_map", normals.shape[:2], "normal")
+                maps.update(lean_normal_maps(normals, params.roughness, r))
+                params = lean_params(params)
+            else:
+                maps["normal_roughness"] = normal_roughness_chain(
+                    normals, params.roughness, r, self.normal_filter
+                )
         if m.clearcoat_normal_map is not None:  # RTR4 §9.12: the coat's own normals
             scale = 1.0 if m.clearcoat_normal_scale is None else m.clearcoat_normal_scale
             image = self.image(name, "clearcoat_normal_map")

@@ -153,8 +153,9 @@ class RenderSettings(_Strict):
     # "auto": tiles only from app/render/culling.py TILED_MIN_LOCAL_LIGHTS local lights on.
     light_culling: Literal["auto", "tiled", "none"] = "auto"
     # RTR4 §9.13: how normal-map mips carry the variance of the normals they average
-    # into roughness (app/textures/mips.py), and screen-space geometric specular AA.
-    normal_filter: Literal["none", "naive", "toksvig", "variance"] = "variance"
+    # into roughness (app/textures/mips.py; "lean": as an anisotropic covariance,
+    # app/textures/lean.py), and screen-space geometric specular AA.
+    normal_filter: Literal["none", "naive", "toksvig", "variance", "lean"] = "variance"
     specular_aa: Annotated[bool, Field(strict=True)] = False
     # Tokuyoshi & Kaplanyan 2019's sigma^2 (pixel filter) and kappa (the most alpha^2 the
     # filter may add), as the twin defines them (app/reference/filtering.py).

@@ -33,6 +33,7 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.textures.cache import code_version, prepared_cache
+from app.textures.lean import LEAN, covariance_levels, lean_chain_levels
 from app.textures.mips import (
     BandSource,
     box_levels,
@@ -410,11 +411,21 @@ def normal_roughness_texture(
     normals: np.ndarray | None, roughness: np.ndarray | float, shape: tuple[int, int], method: str
 ) -> Texture:
     """The RGBA chain of a layer's normals (flat where it has no normal map) and absolute
-    perceptual roughness, filtered with ``method`` (app/textures/mips.py)."""
+    perceptual roughness, filtered with ``method`` (app/textures/mips.py). ``lean`` gives
+    ``variance``'s chain: lean's own is made only beside its covariance map
+    (``lean_normal_maps``), so a map built without one (a bake, a coat) keeps the spread."""
+    method = "variance" if method == LEAN else method
+    return _normal_roughness_texture(normals, roughness, shape, method)
+
+
+def _normal_roughness_texture(
+    normals: np.ndarray | None, roughness: np.ndarray | float, shape: tuple[int, int], method: str
+) -> Texture:
+    """``normal_roughness_texture``, ``lean``'s own chain included."""
     if normals is None:
         normals = np.zeros((*shape, 3))
         normals[..., 2] = 1.0
-    n, r = chain_inputs(normals, roughness, "naive" if method == "none" else method)
+    n, r = chain_inputs(normals, roughness, "naive" if method in ("none", LEAN) else method)
     return Texture(_chain_levels(lambda y0, y1: (n[y0:y1], r[y0:y1]), n.shape[:2], method))
 
 
@@ -426,6 +437,8 @@ def _chain_levels(
     averages)."""
     if method == "none":
         return chain_levels(source, shape, "naive", 1, rows_up_float16)
+    if method == LEAN:  # the spread travels in the slope_covariance map (app/textures/lean.py)
+        return lean_chain_levels(source, shape, rows_up_float16)
     return chain_levels(source, shape, method, None, rows_up_float16)
 
 
@@ -476,14 +489,38 @@ def normal_roughness_chain(
 ) -> Texture:
     """A layer's one normal/roughness chain: ``normals`` (decoded; None: flat) with the
     roughness ``factor`` times the roughness map's ``values`` where there is one (else the
-    factor alone), resampled to the normal map's size when both are given."""
+    factor alone), resampled to the normal map's size when both are given. ``lean`` is
+    built as ``variance`` here (``normal_roughness_texture``): an OBJ's material, made
+    without the covariance map ``lean_normal_maps`` adds, keeps the isotropic spread."""
+    roughness, shape = _chain_roughness(normals, factor, values)
+    return normal_roughness_texture(normals, roughness, shape, normal_filter)
+
+
+def _chain_roughness(
+    normals: np.ndarray | None, factor: float, values: np.ndarray | None
+) -> tuple[np.ndarray | float, tuple[int, int]]:
+    """``normal_roughness_chain``'s roughness per texel (or one value) and the chain's size."""
     roughness: np.ndarray | float = factor
     if values is not None:
         if normals is not None:  # the chain is built at the normal map's size
             values = resample(values, normals.shape[:2])
         roughness = factor * values
     shape = normals.shape[:2] if normals is not None else np.shape(roughness)
-    return normal_roughness_texture(normals, roughness, shape, normal_filter)
+    return roughness, shape
+
+
+def lean_normal_maps(
+    normals: np.ndarray, factor: float, values: np.ndarray | None
+) -> dict[str, Texture]:
+    """``render.normal_filter = "lean"`` (Olano & Baker 2010): the ``normal_roughness``
+    chain of the mean slopes with the material's own roughness, and the
+    ``slope_covariance`` map of the same normals (app/textures/lean.py); arguments as
+    ``normal_roughness_chain``'s."""
+    roughness, shape = _chain_roughness(normals, factor, values)
+    return {
+        "normal_roughness": _normal_roughness_texture(normals, roughness, shape, LEAN),
+        "slope_covariance": slope_covariance_texture(normals),
+    }
 
 
 def coat_normal_texture(image: Image.Image, scale: float) -> Texture:
@@ -501,7 +538,7 @@ def _prepared_version() -> str:
     if _VERSION is None:
         here = Path(__file__).resolve().parent
         reference = here.parent / "reference" / "filtering.py"
-        _VERSION = code_version(Path(__file__), here / "mips.py", reference)
+        _VERSION = code_version(Path(__file__), here / "mips.py", here / "lean.py", reference)
     return _VERSION
 
 
@@ -596,6 +633,36 @@ def _map_chain_levels(
         return n, r
 
     return _chain_levels(source, shape, normal_filter, rows_up_float16)
+
+
+def slope_covariance_texture(normals: np.ndarray) -> Texture:
+    """The ``slope_covariance`` map of decoded unit normals (H, W, 3): per level the
+    covariance of the slopes under each texel (app/textures/lean.py), beside the ``lean``
+    normal/roughness chain of the same normals."""
+    return Texture(covariance_levels(normals, normals.shape[:2]))
+
+
+def slope_covariance_map(normal_image: Image.Image, scale: float) -> Texture:
+    """``slope_covariance_texture`` of a glTF normal map (``decode_normals`` with ``scale``),
+    the normals decoded a band of rows at a time, kept in the prepared-texture cache by the
+    image's content."""
+
+    def build(rows_up_float16: bool = False) -> list[np.ndarray]:
+        rgb = np.asarray(_decoded(normal_image).convert("RGB"), np.uint8)
+
+        def source(y0: int, y1: int) -> tuple[np.ndarray, None]:
+            n = decode_normal_map(rgb[y0:y1])
+            if scale != 1.0:
+                n[..., :2] *= scale
+                n /= np.linalg.norm(n, axis=-1, keepdims=True)
+            return n, None
+
+        return covariance_levels(source, rgb.shape[:2], rows_up_float16)
+
+    parts = (_prepared_version(), _image_part(normal_image), float(scale))
+    layout = (normal_image.height, normal_image.width, 3, False)
+    upload = lambda: build(rows_up_float16=True)  # noqa: E731
+    return Texture(PreparedLevels("slope_covariance", parts, build, layout, upload))
 
 
 def channel_texture(image: Image.Image, channel: int) -> Texture:

@@ -55,6 +55,10 @@ FLAKE_CELLS = 48
 MAX_FLAKE_TILT_DEG = 20.0
 # "Orange peel", the clear coat's gentle waviness: its steepest slope in degrees.
 ORANGE_PEEL_SLOPE_DEG = 12.0
+# Grooves along u (scenes/sec13_grooves.toml): their steepest slope in degrees, and the map's
+# side (small: 16 lattice cells across the grooves, 8 texels each).
+MAX_GROOVE_SLOPE_DEG = 30.0
+GROOVE_MAP_SIZE = 128
 
 
 # -- random numbers and noise ------------------------------------------------------------------
@@ -300,6 +304,19 @@ def orange_peel_normal_map(size: int = NORMAL_MAP_SIZE, seed: int = 48) -> np.nd
     return normals_from_height(height * (np.tan(np.radians(ORANGE_PEEL_SLOPE_DEG)) / steepest))
 
 
+def groove_normal_map(size: int = GROOVE_MAP_SIZE, seed: int = 49) -> np.ndarray:
+    """Unit tangent-space normals (size, size, 3) of fine grooves running along u (brushed
+    or lathe-turned metal): a height field of noise stretched 8-fold along u (lattice
+    periods (2, 16) and one finer octave), scaled so that its steepest slope is
+    ``MAX_GROOVE_SLOPE_DEG``. The normals tilt almost only across the grooves (along v):
+    their spread is anisotropic, what ``render.normal_filter = "lean"`` keeps
+    (docs/filtering.md)."""
+    height = fbm(size, seed, period=(2, 16), octaves=2, gain=0.5) / size
+    du, dv = height_gradient(height)
+    steepest = float(np.sqrt(du * du + dv * dv).max())
+    return normals_from_height(height * (np.tan(np.radians(MAX_GROOVE_SLOPE_DEG)) / steepest))
+
+
 def brushed_anisotropy(size: int = TEXTURE_SIZE, seed: int = 44) -> np.ndarray:
     """Anisotropy strength in [0.5, 0.9] of brushed metal, streaked along u.
 
@@ -416,6 +433,12 @@ TEXTURES: tuple[ProceduralTexture, ...] = (
         "RGB",
         "clear-coat orange-peel tangent-space normal map (slopes up to 12 deg), n*0.5+0.5",
         lambda: encode_normals(orange_peel_normal_map()),
+    ),
+    ProceduralTexture(
+        "groove_normal.png",
+        "RGB",
+        "grooves along u, tangent-space normals (slopes up to 30 deg across u), n*0.5+0.5",
+        lambda: encode_normals(groove_normal_map()),
     ),
     ProceduralTexture(
         "rusted_through.png",

@@ -747,7 +747,7 @@ class Panels:
                 self._edit("camera.focus_distance", float(value))
             for field, names in (
                 ("gbuffer", ENCODING_NAMES),
-                ("normal_filter", ("none", "naive", "toksvig", "variance")),
+                ("normal_filter", ("none", "naive", "toksvig", "variance", "lean")),
                 ("terms", ("all", "specular", "diffuse")),
                 ("blend", ("runtime", "baked")),
                 ("light_culling", ("auto", "tiled", "none")),

@@ -1,5 +1,6 @@
-// Geometric specular antialiasing: roughness that absorbs the normals a pixel averages
-// (RTR4 sec. 9.13). Twin: app/reference/filtering.py.
+// Roughness that absorbs the normals a pixel averages (RTR4 sec. 9.13): geometric specular
+// antialiasing, and LEAN's slope covariance turned into anisotropic roughness.
+// Twin: app/reference/filtering.py.
 #ifndef PBS_FILTERING_GLSL
 #define PBS_FILTERING_GLSL
 
@@ -28,6 +29,40 @@ float perceptual_roughness_specular_aa(float r, vec3 dndx, vec3 dndy, float sigm
                                        float kappa) {
     float alpha = r * r;
     return sqrt(sqrt(alpha2_specular_aa(alpha * alpha, dndx, dndy, sigma2, kappa)));
+}
+
+// Olano & Baker 2010, "LEAN Mapping": the filtered normal map's slope covariance added to the
+// material's own lobe, turned back into the anisotropic parameters the G-buffer stores
+// (RTR4 sec. 9.8: alpha_x = alpha (1 + a) along the tangent, alpha_y = alpha (1 - a)).
+// r, anisotropy a and the unit direction d (in the tangent frame (t, b)) are the material's;
+// sigma = (Sxx, Syy, Sxy), the covariance of the slopes under the texel's footprint
+// (app/textures/lean.py). A lobe of roughness alpha has slope variance alpha^2/2 per axis, so
+// A' = alpha_x^2 d d^T + alpha_y^2 d_perp d_perp^T + 2 Sigma; its eigenvalues (clamped to
+// [0, 1]) are alpha_x'^2 >= alpha_y'^2 and its major eigenvector the new direction: the longer
+// of the two closed forms ((Axx - Ayy)/2 + q, Axy) and (Axy, (Ayy - Axx)/2 + q), which never
+// cancels; d itself where A' is isotropic. Returns vec4(r', a', direction'), r' =
+// sqrt((alpha_x' + alpha_y')/2), a' = (alpha_x' - alpha_y')/(alpha_x' + alpha_y').
+// Twin: app/reference/filtering.py lean_anisotropic_roughness.
+vec4 lean_anisotropic_roughness(float r, float anisotropy, vec2 d, vec3 sigma) {
+    float alpha = r * r;
+    float ax2 = alpha * (1.0 + anisotropy);
+    float ay2 = alpha * (1.0 - anisotropy);
+    ax2 *= ax2;
+    ay2 *= ay2;
+    float axx = ax2 * d.x * d.x + ay2 * d.y * d.y + 2.0 * sigma.x;
+    float ayy = ax2 * d.y * d.y + ay2 * d.x * d.x + 2.0 * sigma.y;
+    float axy = (ax2 - ay2) * d.x * d.y + 2.0 * sigma.z;
+    float half_diff = 0.5 * (axx - ayy);
+    float mean = 0.5 * (axx + ayy);
+    float q = sqrt(half_diff * half_diff + axy * axy);
+    float alpha_x = sqrt(clamp(mean + q, 0.0, 1.0));
+    float alpha_y = sqrt(clamp(mean - q, 0.0, 1.0));
+    vec2 e = half_diff >= 0.0 ? vec2(half_diff + q, axy) : vec2(axy, q - half_diff);
+    float len = length(e);
+    vec2 dir = len > 0.0 ? e / len : d;
+    float total = alpha_x + alpha_y;
+    float a = total > 0.0 ? (alpha_x - alpha_y) / total : 0.0;
+    return vec4(sqrt(0.5 * total), a, dir);
 }
 
 #endif

@@ -28,6 +28,7 @@
 #define MAP_CLEARCOAT_ROUGHNESS 16384 // R: multiplies the row's coat roughness (layer 0 only; RT8)
 #define MAP_FILM_FACTOR 32768   // R: multiplies the row's film strength (layer 0 only; RT8)
 #define MAP_FILM_THICKNESS 65536 // R: the film's thickness between the row's min and max (RT8)
+#define MAP_SLOPE_COVARIANCE 131072 // RGB: the normal map's slope covariance (xx, yy, xy; LEAN)
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -47,6 +48,10 @@
 #ifndef VERTEX_COLOR
 #define VERTEX_COLOR 0
 #endif
+// render.normal_filter = "lean": a layer's normal map comes with the covariance of its slopes
+// (app/textures/lean.py), which becomes anisotropic roughness and a tangent per pixel. The
+// map is made from the normal map and read through its UVs and transform.
+#define LEAN_FILTERING (((LAYER0_MAPS | LAYER1_MAPS) & MAP_SLOPE_COVARIANCE) != 0)
 // Layer 0 turns its tangent about the normal by a constant angle (glTF
 // KHR_materials_anisotropy's anisotropyRotation; the scene key anisotropy_rotation).
 #ifndef ANISOTROPY_ROTATION
@@ -98,6 +103,10 @@ uniform sampler2D u_normal_roughness_map0;
 uniform sampler2D u_f0_map0;
 uniform sampler2D u_select_map0;
 uniform sampler2D u_coat_normal_map0;
+#if LEAN_FILTERING
+uniform sampler2D u_slope_covariance_map0;
+uniform sampler2D u_slope_covariance_map1;
+#endif
 #if BLEND
 uniform LayerConstants u_layer1;
 uniform sampler2D u_base_color_map1;
@@ -219,6 +228,15 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     l.base_color *= vertex_color.rgb;   // glTF COLOR_0 multiplies the base colour
 #endif
     float id = u_material_id0;
+#if LEAN_FILTERING
+    // Olano & Baker 2010: the covariance of the slopes under the pixel's texels (0 where a
+    // layer has no normal map); a blend mixes its layers' covariances as it mixes roughness.
+    vec3 sigma = vec3(0.0);
+#if (LAYER0_MAPS & MAP_SLOPE_COVARIANCE) != 0
+    sigma = sample_layer_map(u_slope_covariance_map0, uv, u_layer0.uv_scale, 0,
+                             MAP_INDEX_NORMAL_ROUGHNESS).rgb;
+#endif
+#endif
 #if BLEND
     // Only a baked blend has an F0 map, and it has no second layer: layer 1 never samples
     // one, so layer 0's sampler fills the slot.
@@ -227,6 +245,11 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     float w = blend_weight(sample_map(u_blend_mask, uv, u_layer0.uv_scale).r, u_blend.x,
                            u_blend.y);
     l = blend_layers(l, top, w);
+#if LEAN_FILTERING && (LAYER1_MAPS & MAP_SLOPE_COVARIANCE) != 0
+    sigma = mix(sigma, sample_map(u_slope_covariance_map1, uv, u_layer1.uv_scale).rgb, w);
+#elif LEAN_FILTERING
+    sigma *= 1.0 - w;
+#endif
     // The optional models' numbers (eta, k, ...) cannot be mixed per pixel: the layer
     // that dominates gives the row.
     if (w >= 0.5) id = u_material_id1;
@@ -256,7 +279,7 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
     // direction map's texel (else +t), turned counter-clockwise from t towards b by the
     // rotation, in the geometric frame that normal mapping uses. The G-buffer stores the
     // turned tangent, so the lighting pass reads it as any other.
-#if ANISOTROPY_ROTATION || (LAYER0_MAPS & MAP_ANISOTROPY_DIRECTION) != 0
+#if ANISOTROPY_ROTATION || (LAYER0_MAPS & MAP_ANISOTROPY_DIRECTION) != 0 || LEAN_FILTERING
     vec2 dir = vec2(1.0, 0.0);
 #if (LAYER0_MAPS & MAP_ANISOTROPY_DIRECTION) != 0
     dir = anisotropy_direction(sample_layer_map(u_anisotropy_direction_map0, uv,
@@ -266,6 +289,14 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
 #if ANISOTROPY_ROTATION
     vec2 cs = u_anisotropy_rotation0;
     dir = vec2(cs.x * dir.x - cs.y * dir.y, cs.y * dir.x + cs.x * dir.y);
+#endif
+#if LEAN_FILTERING
+    // The material's lobe widened by the covariance: anisotropic roughness along the
+    // covariance's major axis (material/filtering.glsl; RTR4 sec. 9.8 and 9.13).
+    vec4 lean = lean_anisotropic_roughness(l.perceptual_roughness, l.anisotropy, dir, sigma);
+    l.perceptual_roughness = lean.x;
+    l.anisotropy = lean.y;
+    dir = lean.zw;
 #endif
     if (t_len > 0.0) t = rotate_tangent(ng, t, tangent.w, dir);
 #endif
