@@ -72,12 +72,26 @@ def beer_lambert(
 
 
 def transmission_lod(
-    perceptual_roughness: np.ndarray, eta: np.ndarray, image_width: float
+    perceptual_roughness: np.ndarray,
+    eta: np.ndarray,
+    thin: np.ndarray | bool,
+    path: np.ndarray,
+    depth_behind: np.ndarray,
+    focal_px: float,
 ) -> np.ndarray:
-    """The mip level of the opaque image: log2(width) r clamp(2 eta - 2, 0, 1)."""
+    """The mip level of the opaque image: log2 of the rough lobe's footprint diameter in
+    pixels on what lies behind, 2 path tan(spread) focal_px / depth_behind (at least one
+    pixel), spread = 2 atan(alpha) for a thin wall (the mirrored reflection lobe),
+    atan(alpha) (1 - 1/eta) through a volume's refraction (glsl/brdf/transmission.glsl)."""
     r = np.asarray(perceptual_roughness, np.float64)
-    scale = np.clip(2.0 * np.asarray(eta, np.float64) - 2.0, 0.0, 1.0)
-    return np.log2(float(image_width)) * r * scale
+    tilt = np.arctan(r * r)
+    bend = np.maximum(1.0 - 1.0 / np.asarray(eta, np.float64), 0.0)
+    spread = np.where(thin, 2.0 * tilt, tilt * bend)
+    pixels = (
+        2.0 * np.asarray(path, np.float64) * np.tan(np.minimum(spread, 1.5)) * focal_px
+        / np.maximum(np.asarray(depth_behind, np.float64), 1e-6)
+    )  # fmt: skip
+    return np.log2(np.maximum(pixels, 1.0))
 
 
 def transmission_weight(

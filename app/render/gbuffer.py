@@ -137,6 +137,10 @@ class GBuffer:
                     fields[name] = defaults[name]
         return GBufferData(**fields)
 
+    def texture(self, name: str) -> moderngl.Texture:
+        """The target ``name`` of GBUFFER_TARGETS (the transmission pass reads "depth")."""
+        return self._by_name[name]
+
     def samplers(self) -> list[tuple[str, moderngl.Texture]]:
         """(uniform, texture) of every target a pass decodes (the GLSL declares them as
         GBUFFER_SAMPLERS, gbuffer/decode.glsl), the optional ones only where they exist."""

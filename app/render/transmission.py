@@ -126,6 +126,7 @@ class TransmissionPass:
         unit = self.context.use()  # the copy on the next unit, the layers' maps after it
         assert self.image is not None
         self.image.use(location=unit)
+        gbuffer.texture("depth").use(location=unit + 1)  # what lies behind: the blur's width
         draw_farthest_first(
             ctx,
             self.context,
@@ -135,8 +136,8 @@ class TransmissionPass:
             proj,
             camera,
             size,
-            unit + 1,
-            {"u_transmission_image": unit},
+            unit + 2,
+            {"u_transmission_image": unit, "u_transmission_depth": unit + 1},
         )
         fbo.depth_mask = True
         ctx.disable(moderngl.CULL_FACE)

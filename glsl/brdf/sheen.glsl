@@ -172,6 +172,44 @@ float sheen_scaling(vec3 sheen_color, float sheen_roughness, float NoL, float No
     return clamp(1.0 - c * E, 0.0, 1.0);
 }
 
+// --- the sheen under image-based light (twin: sheen_environment) ---
+// L = sheen_color E(n.v) L_charlie(n, r) + L_base (1 - max(sheen_color) E(n.v)): the glTF
+// Sample Viewer's split sum for the sheen, with L_charlie the environment prefiltered by the
+// Charlie lobe (weight D_charlie(h) (R.l)+ about the read direction, n = v = R), a zonal
+// kernel, so it is the environment's SH9 with band l scaled by k_l (Funk-Hecke). With
+// p = 1/(2 alpha) the kernel is mu (1 - mu)^p in mu = R.l (Beta-function moments):
+// k0 = 1, k1 = 2/(p + 3), k2 = 9/((p + 3)(p + 4)) - 1/2 (docs/cloth.md, "Under an
+// environment"). Read along n, not R: measured closer to the lobe's integral (docs/cloth.md).
+vec2 charlie_sh_bands(float sheen_roughness) {
+    float p = 0.5 / sheen_alpha(sheen_roughness);
+    return vec2(2.0 / (p + 3.0), 9.0 / ((p + 3.0) * (p + 4.0)) - 0.5);
+}
+
+// L_charlie(d, r) from the SH9 coefficients L (order of app/reference/ibl.py sh9_basis):
+// Ramamoorthi & Hanrahan's irradiance sums per band (which carry A_0 = pi, A_1 = 2 pi/3,
+// A_2 = pi/4), reweighted by k_l / A_l; clamped at 0 (SH ringing).
+vec3 charlie_prefiltered_sh(vec3 L[9], vec3 d, float sheen_roughness) {
+    const float c1 = 0.429043, c2 = 0.511664, c3 = 0.743125, c4 = 0.886227, c5 = 0.247708;
+    vec2 k = charlie_sh_bands(sheen_roughness);
+    vec3 band0 = c4 * L[0];
+    vec3 band1 = 2.0 * c2 * (L[3] * d.x + L[1] * d.y + L[2] * d.z);
+    vec3 band2 = c1 * L[8] * (d.x * d.x - d.y * d.y) + c3 * L[6] * d.z * d.z - c5 * L[6]
+               + 2.0 * c1 * (L[4] * d.x * d.y + L[7] * d.x * d.z + L[5] * d.y * d.z);
+    return max((band0 + 1.5 * k.x * band1 + 4.0 * k.y * band2) * INV_PI, vec3(0.0));
+}
+
+// The environment's sheen over the base's environment light (diffuse, surface: its split
+// sum's two parts, which render.terms selects): the base scaled by 1 - max(c) E(n.v) (E at
+// n.v alone: a whole environment has no single n.l), the sheen added as surface reflection.
+void sheen_environment(vec3 sheen_color, float sheen_roughness, float NoV, vec3 n, vec3 L[9],
+                       inout vec3 diffuse, inout vec3 surface) {
+    float E = sheen_E(NoV, sheen_roughness);
+    float c = max(sheen_color.r, max(sheen_color.g, sheen_color.b));
+    float scale = clamp(1.0 - c * E, 0.0, 1.0);
+    diffuse *= scale;
+    surface = surface * scale + sheen_color * (E * charlie_prefiltered_sh(L, n, sheen_roughness));
+}
+
 #endif  // UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
 
 #endif

@@ -49,11 +49,20 @@ vec3 beer_lambert(vec3 attenuation_color, float attenuation_distance, float d) {
     return exp(-sigma * d);
 }
 
-// The mip level of the opaque image read for a rough surface: log2 of the image width
-// times the perceptual roughness, scaled by how much the index bends light,
-// clamp(2 eta - 2, 0, 1) (the glTF Sample Viewer's choice: an index of 1 does not blur).
-float transmission_lod(float perceptual_roughness, float eta, float image_width) {
-    return log2(image_width) * perceptual_roughness * clamp(2.0 * eta - 2.0, 0.0, 1.0);
+// The mip level of the opaque image read for a rough surface: the level whose texel spans
+// the rough lobe's footprint on what lies behind. GGX normals tilt by about atan(alpha)
+// (alpha is the median of tan(theta_m)); a thin wall's lobe is the reflection lobe mirrored
+// through the surface (glTF's thin-walled BTDF), so directions spread by twice the tilt; a
+// volume's refraction turns a tilt delta into delta (1 - 1/eta) (Snell's law to first
+// order; Walter et al. 2007). Over the path length s to what lies behind, the footprint's
+// diameter is 2 s tan(spread), in pixels times focal_px / depth_behind (focal_px =
+// height / (2 tan(fov_y / 2))): LOD = log2 of it, 0 where it is under a pixel.
+float transmission_lod(float perceptual_roughness, float eta, bool thin, float path,
+                       float depth_behind, float focal_px) {
+    float tilt = atan(perceptual_roughness * perceptual_roughness);
+    float spread = thin ? 2.0 * tilt : tilt * max(1.0 - 1.0 / eta, 0.0);
+    float pixels = 2.0 * path * tan(min(spread, 1.5)) * focal_px / max(depth_behind, 1e-6);
+    return log2(max(pixels, 1.0));
 }
 
 // The weight of the light behind: transmission (1 - metallic) (1 - F_schlick(F0, n.v)) per

@@ -4,8 +4,9 @@
 //   L_o ~ rho_ss E(n) / pi                                     (SH9 irradiance)
 //       + L_pre(R, r) (F0 A(n.v, r) + B(n.v, r))                (Karis 2013's split sum)
 //       + colour (1 - E(n.v)) E(n) / pi                          (Kulla-Conty, MULTISCATTER)
-// The standard model's terms only: other NDFs, Fresnel and diffuse models, sheen and coat
-// get this same approximation (RTR4 sec. 10.5.2); anisotropy bends the normal the map is
+// The standard model's terms only: other NDFs, Fresnel and diffuse models and the coat
+// get this same approximation (RTR4 sec. 10.5.2); a sheen layer adds its own split sum
+// (brdf/sheen.glsl sheen_environment); anisotropy bends the normal the map is
 // read about (anisotropic_bent_normal); a thin film's Fresnel replaces F0 A + B by
 // F_film(n.v) (A + B) (ibl_radiance).
 #ifndef PBS_LIGHTS_IBL_GLSL
@@ -129,8 +130,16 @@ vec3 ibl_radiance(ShadingPoint sp) {
     vec3 colour = F_avg * F_avg * E_avg / (1.0 - F_avg * (1.0 - E_avg));
     spec += colour * ms_loss(NoV, r) * E_n * INV_PI;
 #endif
+    vec3 diffuse = material_rho_ss(s) * E_n * INV_PI;
+#if UBER_MODELS || SHEEN_MODEL != SHEEN_NONE
+    // a sheen layer over the base (brdf/sheen.glsl sheen_environment; docs/cloth.md)
+    if (SHEEN_MODEL != SHEEN_NONE) {
+        sheen_environment(sp.params.sheen_color, sp.params.sheen_roughness, NoV, n, u_env_sh,
+                          diffuse, spec);
+    }
+#endif
     // the reflections render.terms keeps, as for lights (brdf/material.glsl)
-    return selected_terms(material_rho_ss(s) * E_n * INV_PI, spec);
+    return selected_terms(diffuse, spec);
 }
 
 #endif  // ENVIRONMENT_IBL

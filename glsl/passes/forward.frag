@@ -37,6 +37,7 @@ uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (app/co
 #if TRANSMISSION
 // The opaque HDR image (premultiplied RGBA) with its mip chain (app/render/transmission.py)
 uniform sampler2D u_transmission_image;
+uniform sampler2D u_transmission_depth;  // the G-buffer's RT2: view depth (0: nothing)
 uniform mat4 u_view;   // passes/gbuffer.vert's (geometry/analytic.glsl: u_model, u_proj)
 #endif
 
@@ -145,7 +146,7 @@ void main() {
     // (the cube root of its determinant: a uniform scale exactly).
     float scale = pow(abs(determinant(mat3(u_model))), 1.0 / 3.0);
     float thickness = params.thickness * scale;
-    float lod = transmission_lod(s.perceptual_roughness, params.eta_dielectric, u_image_size.x);
+    float focal_px = 0.5 * u_image_size.y / u_tan_half_fov.y;
     // One lookup per channel where the index disperses (KHR_materials_dispersion), else one.
     vec3 iors = dispersion_iors(params.eta_dielectric, params.dispersion);
     int lookups = params.dispersion > 0.0 ? 3 : 1;
@@ -155,6 +156,15 @@ void main() {
         vec3 exit = transmission_exit(p, v, n, eta, thickness);
         vec4 clip = u_proj * (u_view * vec4(exit, 1.0));
         vec2 uv = clip.w > 0.0 ? clip.xy / clip.w * 0.5 + 0.5 : gl_FragCoord.xy / u_image_size;
+        // the rough lobe's footprint on what lies behind the exit (its view depth; the
+        // background as far away), over the path from p (brdf/transmission.glsl)
+        ivec2 px = clamp(ivec2(uv * u_image_size), ivec2(0), ivec2(u_image_size) - 1);
+        float exit_depth = -(u_view * vec4(exit, 1.0)).z;
+        float far = texelFetch(u_transmission_depth, px, 0).r;
+        far = far > 0.0 ? far : 1e4 * max(exit_depth, 1e-6);
+        float path = length(exit - p) + max(far - exit_depth, 0.0);
+        float lod = transmission_lod(s.perceptual_roughness, eta, thickness <= 0.0, path, far,
+                                     focal_px);
         vec4 texel = textureLod(u_transmission_image, uv, lod);
         if (lookups == 1) {
             behind = texel;
