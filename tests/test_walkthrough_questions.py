@@ -217,3 +217,46 @@ def test_a_broken_question_is_one_error_naming_its_key(tmp_path: Path, question,
 def test_the_bundled_steps_load_with_their_questions() -> None:
     loaded = load_step(REPO / "walkthrough" / "05-fresnel-reflectance.toml")
     assert len(loaded.step.questions) == 2
+
+
+_needs_chromium = pytest.mark.skipif(
+    __import__("shutil").which("chromium") is None and not Path("/usr/bin/chromium").is_file(),
+    reason="Debian's chromium is not installed (bash scripts/dev.sh setup)",
+)
+
+_STATE = """(() => {
+  const q = document.querySelector('.question');
+  const a = q.querySelector('.answer'), key = document.querySelector('.answer-key');
+  return {answer: a.getBoundingClientRect().height,
+          key: key.getBoundingClientRect().height,
+          turn: getComputedStyle(key.querySelector('.upside-down')).transform};
+})()"""
+
+
+@_needs_chromium
+def test_chromium_hides_the_answer_until_reveal_and_prints_it_upside_down(steps, tmp_path):
+    """In headless Chromium the first answer takes no room until its Reveal label is
+    clicked (no script in the page: a checkbox and its label); printed, the answers stand
+    below the fold, turned 180 degrees, and the Reveal controls are gone."""
+    from app.walkthrough.browser import Browser
+
+    page, _ = _page(steps[2:3], "ko")
+    path = tmp_path / "index.html"
+    path.write_text(page, encoding="utf-8")
+    with Browser(900, 1200) as browser:
+        browser.open(path)
+        before = browser.evaluate(_STATE)
+        assert before["answer"] == 0 and before["key"] == 0
+        browser.evaluate("document.querySelector('label.reveal').click()")
+        after = browser.evaluate(_STATE)
+        assert after["answer"] > 20
+        browser.call("Emulation.setEmulatedMedia", {"media": "print"}, session=True)
+        printed = browser.evaluate(_STATE)
+        labels = browser.evaluate(
+            "document.querySelector('label.reveal').getBoundingClientRect().height"
+        )
+    assert printed["answer"] == 0 and labels == 0
+    assert printed["key"] > 20
+    # rotate(180deg) as a matrix: (-1, ~0, ~0, -1, 0, 0)
+    values = [float(x) for x in printed["turn"].removeprefix("matrix(").rstrip(")").split(",")]
+    assert values[0] == pytest.approx(-1) and values[3] == pytest.approx(-1)

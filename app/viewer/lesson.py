@@ -124,6 +124,7 @@ class Lesson:
         self._play_start = 0.0
         self.math = MathTextures(viewer.ctx)
         self.revealed: set[int] = set()  # the step's questions whose answer is shown
+        self.focus: int | None = None  # a question the panel scrolls to when next drawn
 
     @property
     def current(self) -> LoadedStep:
@@ -144,7 +145,7 @@ class Lesson:
         comparison, no sweep; the last step's formula textures are released."""
         self.index = int(np.clip(index, 0, len(self.steps) - 1))
         self.math.release()
-        self.revealed = set()
+        self.revealed, self.focus = set(), None
         self.sweep, self.playing = None, False
         refs = self.scene_refs()
         if not refs:  # a step of plots only: the scene shown stays
@@ -509,6 +510,9 @@ class LessonPanel:
             return
         for i, question in enumerate(step.questions):
             imgui.push_id(f"question{i}")
+            if lesson.focus == i:  # scrolled to the top of the panel once (Lesson.focus)
+                imgui.set_scroll_here_y(0.0)
+                lesson.focus = None
             self.flow(lesson, f"**Q{i + 1}.** {question.ask.get(lang)}")  # type: ignore[arg-type]
             for j, choice in enumerate(question.choices or []):
                 self.flow(lesson, f"{'ABCD'[j]}. {choice.get(lang)}")  # type: ignore[arg-type]

@@ -146,8 +146,7 @@ def _answer_html(question: Question, lang: Lang) -> str:
     if question.correct is not None:
         head += f" {_letter(question.correct)}"
     text = question.answer_text(lang, formatted(question.numbers))
-    body = to_html(text, _math_inline)
-    return f"<p><strong>{html.escape(head)}.</strong></p>{body}"
+    return to_html(f"**{head}.** {text}", _math_inline)
 
 
 def _questions_html(done: RenderedStep, lang: Lang) -> str:
@@ -161,8 +160,8 @@ def _questions_html(done: RenderedStep, lang: Lang) -> str:
     for i, q in enumerate(step.questions):
         qid = f"{slug}-q{i + 1}"
         out.append(f'<div class="question" id="{html.escape(qid)}">')
-        ask = to_html(q.ask.get(lang), _math_inline)
-        out.append(f'<div class="ask"><strong>Q{i + 1}.</strong> {ask}</div>')
+        ask = to_html(f"**Q{i + 1}.** {q.ask.get(lang)}", _math_inline)
+        out.append(f'<div class="ask">{ask}</div>')
         if q.choices:
             items = "".join(f"<li>{to_html(c.get(lang), _math_inline)}</li>" for c in q.choices)
             out.append(f'<ol class="choices" type="A">{items}</ol>')
@@ -178,7 +177,7 @@ def _questions_html(done: RenderedStep, lang: Lang) -> str:
             f'<div class="answer">{answer}{image}</div>'
         )
         out.append("</div>")
-        key.append(f'<div class="key-item"><strong>Q{i + 1}.</strong> {answer}</div>')
+        key.append(f'<div class="key-item">{to_html(f"Q{i + 1}.", _math_inline)}{answer}</div>')
     out.append(
         f'<div class="answer-key"><div class="fold">{html.escape(WORDS["fold"][lang])}</div>'
         f'<div class="upside-down">{"".join(key)}</div></div>'
