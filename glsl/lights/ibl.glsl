@@ -106,7 +106,10 @@ vec3 ibl_radiance(ShadingPoint sp) {
     float r = clamp(s.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
     vec3 nb = n;
     if (ANISOTROPIC != 0) nb = anisotropic_bent_normal(n, t, v, s.anisotropy, r * r);
-    vec3 R = specular_dominant_direction(n, reflect(-v, nb), r * r);
+    vec3 R = reflect(-v, nb);
+#ifndef IBL_MIRROR_DIRECTION  // defined only to measure the correction (docs/ibl.md)
+    R = specular_dominant_direction(n, R, r * r);
+#endif
     vec3 E_n = max(sh9_irradiance(n), vec3(0.0));  // SH ringing can dip below 0
     vec3 F0 = material_F0(s, sp.params);
     vec2 AB = dfg_lookup(NoV, r);
