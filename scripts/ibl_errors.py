@@ -168,6 +168,7 @@ SPHERE_MATERIALS = (
 RIM_COS = 0.34  # n.v below it: views past ~70 degrees, the split sum's grazing failure
 SPHERE_SIZE = (360, 150)
 MC_SAMPLES = 512  # per pixel and strategy, in two independent halves
+DIRECTIONS = ("mirror", "dominant", "view-dependent")  # app.render.ibl.reflection_direction
 
 
 def spheres_scene(folder: Path, name: str, env: np.ndarray) -> Path:
@@ -217,7 +218,7 @@ def sphere_distributions(gl: object, width: int = 128) -> list[dict]:
         for ename, env in environments(width):
             path = spheres_scene(Path(tmp), ename, env)
             images = {}
-            for direction in ("mirror", "dominant"):
+            for direction in DIRECTIONS:
                 with reflection_direction(direction):
                     images[direction], _ = render(gl, path)
             first = images["dominant"]
@@ -281,13 +282,12 @@ def spheres_table(rows: list[dict]) -> None:
     for env in sorted({r["environment"] for r in rows}, key=lambda e: order.get(e, 9)):
         for mat, _ in SPHERE_MATERIALS:
             for rough in SPHERE_ROUGHNESS:
-                a, b = keyed[(env, mat, rough, "mirror")], keyed[(env, mat, rough, "dominant")]
+                found = [keyed.get((env, mat, rough, d)) for d in DIRECTIONS]
+                found = [f for f in found if f is not None]
                 cells = []
                 for key, _, digits in cols:
                     scale, unit = (100.0, " %") if key.startswith("rel") else (1.0, "")
-                    cells.append(
-                        f"{scale * a[key]:.{digits}f} -> {scale * b[key]:.{digits}f}{unit}"
-                    )
+                    cells.append(" -> ".join(f"{scale * f[key]:.{digits}f}" for f in found) + unit)
                 print(f"| {names.get(env, env)} | {mat} | {rough:g} | {' | '.join(cells)} |")
     print("\n| environment | FLIP mean | spheres' FLIP p95 | rim FLIP mean | truth's noise |")
     print("|---|---|---|---|---|")
@@ -295,11 +295,12 @@ def spheres_table(rows: list[dict]) -> None:
         out = []
         for key in ("flip_mean", "flip_p95", "flip_rim"):
             vals = []
-            for d in ("mirror", "dominant"):
+            for d in DIRECTIONS:
                 sel = [r for r in rows if r["environment"] == env and r["direction"] == d]
-                w = np.array([r["pixels"] for r in sel], float)
-                vals.append(float(np.average([r[key] for r in sel], weights=w)))
-            out.append(f"{vals[0]:.3f} -> {vals[1]:.3f}")
+                if sel:
+                    w = np.array([r["pixels"] for r in sel], float)
+                    vals.append(float(np.average([r[key] for r in sel], weights=w)))
+            out.append(" -> ".join(f"{x:.3f}" for x in vals))
         sel = [r for r in rows if r["environment"] == env and r["direction"] == "dominant"]
         noise = np.average([r["truth_noise_flip"] for r in sel], weights=[r["pixels"] for r in sel])
         print(f"| {names.get(env, env)} | {' | '.join(out)} | {noise:.3f} |")

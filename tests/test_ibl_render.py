@@ -287,6 +287,8 @@ def test_the_mirror_direction_switch_changes_only_off_normal_pixels(
     dominant, _ = render(gl_egl, path)
     with reflection_direction("mirror"):
         mirror, _ = render(gl_egl, path)
+    with reflection_direction("view-dependent"):
+        centroid, _ = render(gl_egl, path)
     assert _DIRECTION == ["dominant"]
     dec = decode_gbuffer(dominant.gbuffer, dominant.camera)
     nov = np.einsum("ij,ij->i", dec.n, dec.v)
@@ -294,5 +296,7 @@ def test_the_mirror_direction_switch_changes_only_off_normal_pixels(
     rel = np.abs(a - b).max(axis=1) / np.maximum(a.max(axis=1), 1e-6)
     assert rel[nov < 0.5].max() > 0.05, rel[nov < 0.5].max()
     assert rel[nov > 0.999].max() < 1e-3 if np.any(nov > 0.999) else True
+    c = centroid.hdr[dec.covered][:, :3]  # the measured view-dependent fit: another image
+    assert (np.abs(c - a).max(axis=1) / np.maximum(a.max(axis=1), 1e-6))[nov < 0.3].max() > 0.01
     with pytest.raises(ValueError), reflection_direction("halfway"):
         pass
