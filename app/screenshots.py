@@ -9,6 +9,9 @@ the desktop viewer's window (a real glfw window on a private Xvfb) on the Korean
 walkthrough's step 1 with its first comparison in the split screen.
 ``python -m app.screenshots --viewer`` writes ``screenshots/viewer.png``: the viewer on the
 showcase with its gold sphere selected (README, docs/viewer.md).
+``--handout-questions`` and ``--viewer-questions`` write ``screenshots/walkthrough-questions.png``
+and ``screenshots/viewer-questions.png``: step 3's predict-then-reveal question in the Korean
+handout and in the viewer, its answer revealed (docs/walkthrough.md, "Questions").
 """
 
 from __future__ import annotations
@@ -69,7 +72,62 @@ def handout_screenshot(gl: GLContext, out: Path, lang: str = "ko") -> None:
     atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
 
 
+def handout_questions_screenshot(
+    gl: GLContext, out: Path, section: int = 3, lang: str = "ko"
+) -> None:
+    """The questions of the handout's step of RTR4 §9.``section`` in ``lang`` (images
+    640x360) as Chromium shows them with the first answer revealed (its Reveal label
+    clicked), cropped to the questions' box, written as PNG to ``out``."""
+    import tempfile
+
+    from app.output import atomic_write
+    from app.resources import walkthrough_dir
+    from app.walkthrough.browser import Browser
+    from app.walkthrough.build import build
+    from app.walkthrough.handout import write_handout
+    from app.walkthrough.model import load_walkthrough
+
+    with tempfile.TemporaryDirectory(prefix="pbs-handout-") as tmp:
+        folder = Path(tmp)
+        steps = load_walkthrough(walkthrough_dir(), {section})
+        rendered = build(gl, steps, folder, lang, (640, 360))
+        page, _ = write_handout(folder, rendered, lang)
+        with Browser(900, 1400) as browser:
+            browser.open(page)
+            browser.evaluate("document.querySelector('label.reveal').click()")
+            box = browser.evaluate(
+                "(() => { const q = document.querySelector('.questions');"
+                " q.scrollIntoView(); const r = q.getBoundingClientRect();"
+                " return {x: r.x - 8, y: r.y + window.scrollY - 8,"
+                " width: r.width + 16, height: r.height + 16}; })()"
+            )
+            png = browser.screenshot(clip=box, full_page=True)
+    atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
+
+
 VIEWER_WINDOW = (1280, 720)
+
+
+def viewer_questions_screenshot(out: Path, section: int = 3, lang: str = "ko") -> None:
+    """The viewer on the walkthrough's step of RTR4 §9.``section`` in ``lang`` with its
+    first question revealed (the question's view opened, the panel scrolled to it),
+    written as PNG to ``out``."""
+    from app.viewer.window import Viewer
+    from app.viewer.xvfb import xvfb
+
+    with xvfb():
+        viewer = Viewer(None, VIEWER_WINDOW, vsync=False, hangul=lang == "ko")
+        try:
+            if not viewer.open_walkthrough(lang=lang, section=section):
+                raise RuntimeError(viewer.state.error)
+            if not viewer.lesson.reveal(0):
+                raise RuntimeError(viewer.state.error)
+            viewer.lesson.focus = 0
+            viewer.settle()
+            viewer.step(4)  # laid out, scrolled to the question, every formula uploaded
+            write_png(out, viewer.read_window())
+        finally:
+            viewer.close()
 
 
 def viewer_walkthrough_screenshot(out: Path, section: int = 1, lang: str = "ko") -> None:
@@ -129,7 +187,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--viewer", action="store_true", help="write only screenshots/viewer.png (needs Xvfb)"
     )
+    parser.add_argument(
+        "--handout-questions",
+        action="store_true",
+        help="write only screenshots/walkthrough-questions.png (needs chromium)",
+    )
+    parser.add_argument(
+        "--viewer-questions",
+        action="store_true",
+        help="write only screenshots/viewer-questions.png (needs Xvfb)",
+    )
     args = parser.parse_args(argv)
+    if args.viewer_questions:
+        out = SHOTS / "viewer-questions.png"
+        viewer_questions_screenshot(out)
+        print(out.relative_to(REPO))
+        return 0
     if args.viewer:
         out = SHOTS / "viewer.png"
         viewer_screenshot(out)
@@ -141,6 +214,12 @@ def main(argv: list[str] | None = None) -> int:
         print(out.relative_to(REPO))
         return 0
     gl = create_context(args.backend)
+    if args.handout_questions:
+        out = SHOTS / "walkthrough-questions.png"
+        handout_questions_screenshot(gl, out)
+        print(out.relative_to(REPO))
+        gl.release()
+        return 0
     if args.handout:
         out = SHOTS / "walkthrough-handout.png"
         handout_screenshot(gl, out)

@@ -22,6 +22,18 @@ whole images: the renderer's split sum of four spheres (96 x 64, maps 128 wide) 
 the brute-force float64 image of the same G-buffer (app/bench/ibl.py), relative RMSE and
 mean FLIP per environment (needs a GL context).
 
+    .venv/bin/python scripts/ibl_errors.py --spheres [--json out.json | --from-json out.json]
+
+the distribution of the renderer's error over whole spheres: per environment (sky, studio,
+window room, maps 128 wide) and roughness, a gold and a grey dielectric sphere rendered by
+the GPU split sum read along the mirror direction R and along the dominant direction,
+each pixel against a Monte Carlo truth of the same G-buffer (``monte_carlo_radiance``: 512
+GGX visible-normal, 512 cosine and 512 map-luminance directions per pixel, the map read
+bilinearly; its noise measured as the FLIP between its two independent halves):
+FLIP per pixel (mean, median, 95th percentile) and the relative error of the pixel's
+luminance, over the whole sphere and over its grazing rim (n.v < 0.34, views past 70
+degrees) (needs a GL context; about 10 minutes on two cores).
+
     .venv/bin/python scripts/ibl_errors.py
 
 The HDR image is written as EXR to a temporary folder and read back through the scene
@@ -148,7 +160,172 @@ def flip_rows() -> None:
         print(f"| {row['environment']} | {row['rel_rmse']:.3f} | {row['flip_mean']:.3f} |")
 
 
+SPHERE_ROUGHNESS = (0.1, 0.25, 0.5, 0.75, 1.0)
+SPHERE_MATERIALS = (
+    ("gold", 'preset = "gold"'),
+    ("grey dielectric", "base_color = [0.5, 0.5, 0.5]\nmetallic = 0.0"),
+)
+RIM_COS = 0.34  # n.v below it: views past ~70 degrees, the split sum's grazing failure
+SPHERE_SIZE = (360, 150)
+MC_SAMPLES = 512  # per pixel and strategy, in two independent halves
+DIRECTIONS = ("mirror", "dominant", "view-dependent")  # app.render.ibl.reflection_direction
+
+
+def spheres_scene(folder: Path, name: str, env: np.ndarray) -> Path:
+    """A row of spheres per material (SPHERE_MATERIALS), one per SPHERE_ROUGHNESS, lit by
+    ``env`` as an EXR image (so the renderer prefilters the texels the reference sums),
+    black background, neutral tone map; written to ``folder``."""
+    import OpenEXR
+
+    exr = folder / f"{name}.exr"
+    with OpenEXR.File({"type": OpenEXR.scanlineimage}, {"RGB": env.astype(np.float32)}) as f:
+        f.write(str(exr))
+    width, height = SPHERE_SIZE
+    text = (
+        f'background = [0.0, 0.0, 0.0]\n[environment]\nsource = "image"\nfile = "{exr.name}"\n'
+        f'[render]\nwidth = {width}\nheight = {height}\ntonemap = "neutral"\n'
+        "[camera]\nposition = [0.0, 0.0, 14.0]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 10.5\n"
+    )
+    objects = ""
+    for row, (_label, body) in enumerate(SPHERE_MATERIALS):
+        for col, r in enumerate(SPHERE_ROUGHNESS):
+            key = f"m{row}-{col}"
+            text += f"[materials.{key}]\n{body}\nroughness = {r}\n"
+            x = (col - (len(SPHERE_ROUGHNESS) - 1) / 2) * 1.1
+            y = 0.55 - 1.1 * row
+            objects += (
+                f'[[objects]]\nshape = "sphere"\nradius = 0.5\nposition = [{x:.3f}, {y:.3f}, 0.0]'
+                f'\nmaterial = "{key}"\n'
+            )
+    path = folder / f"{name}.toml"
+    path.write_text(text + objects)
+    return path
+
+
+def sphere_distributions(gl: object, width: int = 128) -> list[dict]:
+    """Per environment, material, roughness and direction ("mirror", "dominant"): the
+    FLIP and relative-error distribution of the sphere's pixels against the texel sum."""
+    from app.bench.ibl import environments, render
+    from app.bench.metrics import flip_map
+    from app.reference.ibl import monte_carlo_radiance
+    from app.reference.illumination import decode_gbuffer
+    from app.reference.material import ShadingPoint
+    from app.render.ibl import reflection_direction
+
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for ename, env in environments(width):
+            path = spheres_scene(Path(tmp), ename, env)
+            images = {}
+            for direction in DIRECTIONS:
+                with reflection_direction(direction):
+                    images[direction], _ = render(gl, path)
+            first = images["dominant"]
+            dec = decode_gbuffer(first.gbuffer, first.camera)
+            point = ShadingPoint(dec.surface, ModelParams(), dec.n, None, dec.t, dec.v)
+            halves = monte_carlo_radiance(env, 0.0, point, MC_SAMPLES, seed=7)
+            ref = np.zeros((*dec.covered.shape, 3))
+            ref[dec.covered] = halves.mean(0)
+            half_a, half_b = np.zeros_like(ref), np.zeros_like(ref)
+            half_a[dec.covered], half_b[dec.covered] = halves[0], halves[1]
+            noise = flip_map(half_a, half_b, first.exposure, first.tonemap)[0]
+            nov = np.zeros(dec.covered.shape)
+            nov[dec.covered] = np.einsum("ij,ij->i", dec.n, dec.v)
+            # which sphere a pixel shows: the nearest column, the row by the image's half
+            h, w = dec.covered.shape
+            centre_x = np.round(np.arange(w)[None, :] / w * len(SPHERE_ROUGHNESS) - 0.5).clip(
+                0, len(SPHERE_ROUGHNESS) - 1
+            )
+            sphere = np.broadcast_to(centre_x, (h, w)) + np.where(
+                np.arange(h)[:, None] < h / 2, 0, len(SPHERE_ROUGHNESS)
+            )
+            for direction, image in images.items():
+                fmap = flip_map(image.hdr, ref, image.exposure, image.tonemap)[0]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    rel = (image.hdr @ lum - ref @ lum) / (ref @ lum)
+                for row, (mname, _) in enumerate(SPHERE_MATERIALS):
+                    for col, r in enumerate(SPHERE_ROUGHNESS):
+                        mask = dec.covered & (sphere == row * len(SPHERE_ROUGHNESS) + col)
+                        # the sphere's own pixels, its silhouette's last ring left out
+                        # (their G-buffer normal is the edge's, and FLIP's filter
+                        # reaches the black background there)
+                        inner = mask & (nov > 0.12)
+                        rim = inner & (nov < RIM_COS)
+                        f, e = fmap[inner], np.abs(rel[inner])
+                        rows.append({
+                            "environment": ename, "material": mname, "roughness": r,
+                            "direction": direction, "pixels": int(inner.sum()),
+                            "flip_mean": float(f.mean()), "flip_median": float(np.median(f)),
+                            "flip_p95": float(np.percentile(f, 95)),
+                            "flip_rim": float(fmap[rim].mean()),
+                            "rel_median": float(np.median(e)),
+                            "rel_p95": float(np.percentile(e, 95)),
+                            "rel_rim": float(np.median(np.abs(rel[rim]))),
+                            "truth_noise_flip": float(noise[inner].mean()),
+                        })  # fmt: skip
+    return rows
+
+
+def spheres_table(rows: list[dict]) -> None:
+    """The markdown tables of docs/ibl.md from ``sphere_distributions``' rows: each cell
+    mirror -> dominant."""
+    keyed = {(r["environment"], r["material"], r["roughness"], r["direction"]): r for r in rows}
+    cols = [("flip_mean", "FLIP mean", 3), ("flip_p95", "FLIP p95", 3),
+            ("flip_rim", "rim FLIP mean", 3), ("rel_median", "\\|rel. err.\\| median", 1),
+            ("rel_p95", "\\|rel. err.\\| p95", 0)]  # fmt: skip
+    names = {"image": "window room"}
+    head = " | ".join(c[1] for c in cols)
+    print(f"| environment | material | r | {head} |")
+    print("|---|---|---|" + "---|" * len(cols))
+    order = {n: i for i, n in enumerate(("sky", "studio", "image"))}
+    for env in sorted({r["environment"] for r in rows}, key=lambda e: order.get(e, 9)):
+        for mat, _ in SPHERE_MATERIALS:
+            for rough in SPHERE_ROUGHNESS:
+                found = [keyed.get((env, mat, rough, d)) for d in DIRECTIONS]
+                found = [f for f in found if f is not None]
+                cells = []
+                for key, _, digits in cols:
+                    scale, unit = (100.0, " %") if key.startswith("rel") else (1.0, "")
+                    cells.append(" -> ".join(f"{scale * f[key]:.{digits}f}" for f in found) + unit)
+                print(f"| {names.get(env, env)} | {mat} | {rough:g} | {' | '.join(cells)} |")
+    print("\n| environment | FLIP mean | spheres' FLIP p95 | rim FLIP mean | truth's noise |")
+    print("|---|---|---|---|---|")
+    for env in sorted({r["environment"] for r in rows}, key=lambda e: order.get(e, 9)):
+        out = []
+        for key in ("flip_mean", "flip_p95", "flip_rim"):
+            vals = []
+            for d in DIRECTIONS:
+                sel = [r for r in rows if r["environment"] == env and r["direction"] == d]
+                if sel:
+                    w = np.array([r["pixels"] for r in sel], float)
+                    vals.append(float(np.average([r[key] for r in sel], weights=w)))
+            out.append(" -> ".join(f"{x:.3f}" for x in vals))
+        sel = [r for r in rows if r["environment"] == env and r["direction"] == "dominant"]
+        noise = np.average([r["truth_noise_flip"] for r in sel], weights=[r["pixels"] for r in sel])
+        print(f"| {names.get(env, env)} | {' | '.join(out)} | {noise:.3f} |")
+
+
 def main() -> None:
+    if "--spheres" in sys.argv[1:]:
+        import json
+
+        from app.gl.context import create_context
+
+        args = sys.argv[1:]
+        if "--from-json" in args:  # the tables again from a run's rows
+            rows = json.loads(Path(args[args.index("--from-json") + 1]).read_text())
+            spheres_table(rows)
+            return
+        gl = create_context("egl")
+        try:
+            rows = sphere_distributions(gl)
+        finally:
+            gl.release()
+        if "--json" in args:
+            Path(args[args.index("--json") + 1]).write_text(json.dumps(rows, indent=1))
+        spheres_table(rows)
+        return
     if "--flip" in sys.argv[1:]:
         flip_rows()
         return

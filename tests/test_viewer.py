@@ -956,3 +956,29 @@ def test_a_transparent_background_shows_over_a_checkerboard(showcase, tmp_path):
     assert Image.open(path).mode == "RGBA"
     assert v.edit({"render.background": "opaque"})
     assert np.array_equal(window_image(v), opaque)
+
+
+def test_walkthrough_reveal_shows_the_answer_and_its_view(viewer, lesson_steps):
+    """Every step's questions draw hidden; "Reveal" shows the answer with the numbers the
+    twins compute (none left as a place) and opens the question's view; a step change
+    hides them again."""
+    from app.walkthrough.questions import formatted
+
+    v = viewer
+    assert v.open_walkthrough(lesson_steps, "ko", 1)
+    for index in range(len(lesson_steps)):
+        assert v.lesson.go(index)
+        questions = v.lesson.current.step.questions
+        assert questions and not v.lesson.revealed
+        for i, q in enumerate(questions):
+            assert v.lesson.reveal(i)
+            v.step(2)
+            assert not v.state.error, (v.lesson.current.slug, v.state.error)
+            text = v.lesson.answer(i)
+            assert "{=" not in text
+            assert all(shown in text for shown in formatted(q.numbers))
+            if q.view is not None:
+                want = v.lesson.path(v.lesson.current.step.views[q.view].scene)
+                assert v.document.path == want
+        assert v.lesson.revealed == set(range(len(questions)))
+    assert v.lesson.previous() and not v.lesson.revealed

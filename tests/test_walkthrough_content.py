@@ -35,15 +35,19 @@ SECTIONS = range(1, 14)
 LANGS = {"en", "ko"}
 
 # The keys the step format allows at each level (unknown keys are errors there too).
-TOP_KEYS = {"section", "title", "text", "equations", "views", "comparisons", "sweeps", "plots"}
+TOP_KEYS = {
+    "section", "title", "text", "equations", "views", "comparisons", "sweeps", "plots",
+    "questions",
+}  # fmt: skip
 ITEM_KEYS = {
     "equations": ({"latex"}, {"caption"}),
     "views": ({"scene"}, {"caption", "labels"}),
     "comparisons": ({"scene", "key", "a", "b", "label_a", "label_b"}, {"caption"}),
     "sweeps": ({"scene", "keys", "from", "to", "steps"}, {"caption", "format", "label"}),
     "plots": ({"materials"}, {"theta", "caption"}),
+    "questions": ({"ask", "answer"}, {"choices", "correct", "view", "numbers"}),
 }
-LANG_KEYS = {"title", "text", "caption", "label_a", "label_b", "label"}
+LANG_KEYS = {"title", "text", "caption", "label_a", "label_b", "label", "ask", "answer"}
 # Words per language in a step's text: the brief asks for 120-250 in English; Korean
 # counts space-separated eojeol, which carry a particle each, so fewer of them say as much.
 EN_WORDS = (120, 250)
@@ -76,6 +80,8 @@ def _lang_tables(step: dict[str, Any]) -> list[tuple[str, Any]]:
         for i, item in enumerate(step.get(group, [])):
             for key in LANG_KEYS & set(item):
                 found.append((f"{group}[{i}].{key}", item[key]))
+            for j, choice in enumerate(item.get("choices", []) if group == "questions" else []):
+                found.append((f"{group}[{i}].choices[{j}]", choice))
             labels = item.get("labels")
             if isinstance(labels, list):
                 for j, label in enumerate(labels):

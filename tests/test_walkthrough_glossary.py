@@ -77,6 +77,20 @@ def test_the_glossary_is_read() -> None:
     assert any(t.korean == "복사휘도" and "radiance" in t.english for t in terms)
 
 
+def test_the_glossary_reads_every_question() -> None:
+    """The pairs the glossary check reads include every question's prompt, choices and
+    answer (the predict-then-reveal questions of docs/walkthrough.md)."""
+    keys = [key for key, _, _ in step_pairs()]
+    for path in STEPS:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        for i, q in enumerate(data.get("questions", [])):
+            for part in ("ask", "answer"):
+                assert f"{path.name}:questions[{i}].{part}" in keys
+            for j in range(len(q.get("choices", []))):
+                assert f"{path.name}:questions[{i}].choices[{j}]" in keys
+    assert sum(".ask" in k for k in keys) >= 13
+
+
 def test_the_korean_text_follows_the_glossary() -> None:
     """Where the English names a concept, the Korean holds its term; a banned word appears
     only beside an English concept whose Korean term contains it, and no English string

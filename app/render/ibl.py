@@ -51,6 +51,32 @@ def prefilter_settings(base: int, samples: int) -> Iterator[None]:
         _SETTINGS[:] = old
 
 
+# Where the prefiltered map is read: along the dominant direction (the renderer's), or
+# along the mirror direction R alone where a caller measuring the correction asks
+# (``reflection_direction``; scripts/ibl_errors.py --spheres).
+_DIRECTION = ["dominant"]
+DIRECTION_DEFINES = {
+    "dominant": {},
+    "mirror": {"IBL_MIRROR_DIRECTION": 1},
+    "view-dependent": {"IBL_VIEW_DEPENDENT_DIRECTION": 1},
+}
+
+
+@contextmanager
+def reflection_direction(name: str) -> Iterator[None]:
+    """Renderers made inside read the prefiltered map along ``name``: "dominant" (the
+    default, Lagarde & de Rousiers 2014), "mirror" (R itself) or "view-dependent" (the
+    lobe-centroid fit, ``specular_centroid_direction``); restored on exit."""
+    if name not in DIRECTION_DEFINES:
+        raise ValueError(f"reflection direction {name!r}: one of {sorted(DIRECTION_DEFINES)}")
+    old = list(_DIRECTION)
+    _DIRECTION[:] = [name]
+    try:
+        yield
+    finally:
+        _DIRECTION[:] = old
+
+
 def clear_cache() -> None:
     """Forget every prefiltered map (the bench times the prefilter itself)."""
     _CACHE.clear()
@@ -185,7 +211,7 @@ class EnvironmentLighting(ShaderInput):
         self.sh = (sh9_project(env.texels, self.rotation) * env.intensity).astype(np.float32)
 
     def defines(self) -> dict[str, int]:
-        return {"ENVIRONMENT_IBL": 1, "ENV_LEVELS": ENV_LEVELS}
+        return {"ENVIRONMENT_IBL": 1, "ENV_LEVELS": ENV_LEVELS, **DIRECTION_DEFINES[_DIRECTION[0]]}
 
     def samplers(self) -> list[tuple[str, moderngl.Texture | moderngl.TextureCube]]:
         """(uniform, texture) pairs: the ENV_LEVELS cube maps and the DFG table."""

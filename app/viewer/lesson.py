@@ -27,6 +27,7 @@ from imgui_bundle import imgui
 from app.walkthrough.markup import blocks, spans
 from app.walkthrough.mathsvg import latex_to_rgba
 from app.walkthrough.model import LoadedStep, Sweep, Text, resolve_scene_ref
+from app.walkthrough.questions import formatted
 
 if TYPE_CHECKING:
     from app.viewer.host import ViewerHost
@@ -49,6 +50,11 @@ UI = {  # the panel's own words
                "ko": "값 바꾸기 (선택 후 슬라이더 또는 재생)"},
     "plots": {"en": "BRDF plots (pbs brdf)", "ko": "BRDF 그래프 (pbs brdf)"},
     "play": {"en": "play", "ko": "재생"},
+    "questions": {"en": "Predict, then reveal", "ko": "예측하고 확인하기"},
+    "reveal": {"en": "Reveal", "ko": "정답 보기"},
+    "hide": {"en": "Hide", "ko": "숨기기"},
+    "answer": {"en": "Answer", "ko": "정답"},
+    "open view": {"en": "show the view", "ko": "그림 보기"},
     "stop": {"en": "stop comparing", "ko": "비교 끄기"},
 }  # fmt: skip
 
@@ -117,6 +123,8 @@ class Lesson:
         self.playing = False
         self._play_start = 0.0
         self.math = MathTextures(viewer.ctx)
+        self.revealed: set[int] = set()  # the step's questions whose answer is shown
+        self.focus: int | None = None  # a question the panel scrolls to when next drawn
 
     @property
     def current(self) -> LoadedStep:
@@ -137,6 +145,7 @@ class Lesson:
         comparison, no sweep; the last step's formula textures are released."""
         self.index = int(np.clip(index, 0, len(self.steps) - 1))
         self.math.release()
+        self.revealed, self.focus = set(), None
         self.sweep, self.playing = None, False
         refs = self.scene_refs()
         if not refs:  # a step of plots only: the scene shown stays
@@ -228,6 +237,29 @@ class Lesson:
         phase = 2.0 * t if t < 0.5 else 2.0 - 2.0 * t
         self.set_sweep(sweep.start + (sweep.to - sweep.start) * phase)
 
+    def reveal(self, i: int, shown: bool = True) -> bool:
+        """Show (or hide) question ``i``'s answer: its numbers computed by the twins (the
+        first time), and its view opened, as the handout's "Reveal" shows them."""
+        question = self.current.step.questions[i]
+        if not shown:
+            self.revealed.discard(i)
+            return True
+        self.revealed.add(i)
+        formatted(question.numbers)  # computed now, not while the panel draws
+        if question.view is not None:
+            return self.open_view(question.view)
+        return True
+
+    def answer(self, i: int) -> str:
+        """Question ``i``'s answer in the lesson's language: the right choice's letter and
+        the text with its computed numbers."""
+        question = self.current.step.questions[i]
+        head = UI["answer"][self.lang]
+        if question.correct is not None:
+            head += f" {'ABCD'[question.correct]}"
+        text = question.answer_text(self.lang, formatted(question.numbers))  # type: ignore[arg-type]
+        return f"**{head}.** {text}"
+
     def reset(self) -> bool:
         """The step's scene shown now, again from its file: edits, comparison and sweep
         dropped."""
@@ -290,6 +322,7 @@ class LessonPanel:
             self._views(lesson)
             self._comparisons(lesson)
             self._sweeps(lesson)
+            self._questions(lesson)
             if step.plots and imgui.collapsing_header(_ui("plots", lang)):
                 for plot in step.plots:
                     self.flow(lesson, lesson.text(plot.caption))
@@ -469,6 +502,31 @@ class LessonPanel:
                 if changed:
                     lesson.play(on)
                 imgui.text(sweep.value_text(lesson.sweep_value, lang))
+            imgui.pop_id()
+
+    def _questions(self, lesson: Lesson) -> None:
+        step, lang = lesson.current.step, lesson.lang
+        if not _open_list(step.questions, "questions", lang):
+            return
+        for i, question in enumerate(step.questions):
+            imgui.push_id(f"question{i}")
+            if lesson.focus == i:  # scrolled to the top of the panel once (Lesson.focus)
+                imgui.set_scroll_here_y(0.0)
+                lesson.focus = None
+            self.flow(lesson, f"**Q{i + 1}.** {question.ask.get(lang)}")  # type: ignore[arg-type]
+            for j, choice in enumerate(question.choices or []):
+                self.flow(lesson, f"{'ABCD'[j]}. {choice.get(lang)}")  # type: ignore[arg-type]
+            shown = i in lesson.revealed
+            if imgui.button(_ui("hide" if shown else "reveal", lang)):
+                lesson.reveal(i, not shown)
+                shown = not shown
+            if shown:
+                if question.view is not None:
+                    imgui.same_line()
+                    if imgui.button(_ui("open view", lang)):
+                        lesson.open_view(question.view)
+                self.flow(lesson, lesson.answer(i))
+            imgui.separator()
             imgui.pop_id()
 
 

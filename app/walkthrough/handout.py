@@ -17,7 +17,8 @@ from app.output import atomic_write
 from app.walkthrough.build import RenderedStep
 from app.walkthrough.markup import to_html
 from app.walkthrough.mathsvg import latex_to_svg
-from app.walkthrough.model import Lang
+from app.walkthrough.model import Lang, Question
+from app.walkthrough.questions import formatted
 
 WORDS: dict[str, dict[Lang, str]] = {
     "title": {
@@ -32,6 +33,13 @@ WORDS: dict[str, dict[Lang, str]] = {
     },
     "equations": {"en": "Equations", "ko": "수식"},
     "contents": {"en": "Contents", "ko": "목차"},
+    "questions": {"en": "Predict, then reveal", "ko": "예측하고 확인하기"},
+    "reveal": {"en": "Reveal", "ko": "정답 보기"},
+    "answer": {"en": "Answer", "ko": "정답"},
+    "fold": {
+        "en": "Fold here: the answers below are printed upside down",
+        "ko": "여기를 접으세요: 아래 정답은 거꾸로 인쇄되어 있습니다",
+    },
 }
 
 # Latin first for English (DejaVu Sans, the labels' font), Noto Sans CJK KR first for
@@ -56,8 +64,27 @@ code { font-family: "DejaVu Sans Mono", monospace; background: #f2f2f2; padding:
 .equation svg { max-width: 100%; height: auto; }
 figure.image { margin: 1em 0; break-inside: avoid; }
 figure.image img { display: block; max-width: 100%; height: auto; margin: 0 auto; }
+.questions { border: 1px solid #bbb; border-radius: 6px; padding: 0.2em 1em 0.6em;
+             margin: 1.2em 0; background: #fafafa; break-inside: avoid; }
+.questions h3 { font-size: 1.1em; margin: 0.6em 0 0.3em; }
+.question { margin: 0.6em 0; }
+.question ol.choices { margin: 0.2em 0; }
+input.reveal { position: absolute; opacity: 0; }
+label.reveal { display: inline-block; cursor: pointer; border: 1px solid #666;
+               border-radius: 4px; padding: 0.1em 0.7em; font-size: 0.9em; background: #fff; }
+input.reveal:focus-visible + label.reveal { outline: 2px solid #36c; }
+.question .answer { display: none; border-left: 3px solid #4a4; padding-left: 0.8em;
+                    margin-top: 0.4em; }
+input.reveal:checked + label.reveal + .answer { display: block; }
+.answer img { max-width: 70%; height: auto; display: block; margin: 0.4em 0; }
+.answer-key { display: none; }
 @page { size: A4; margin: 14mm; }
 @media print {
+  label.reveal, .question .answer { display: none !important; }
+  .answer-key { display: block; margin-top: 0.8em; }
+  .answer-key .fold { border-top: 1px dashed #666; text-align: center; font-size: 0.85em;
+                      color: #444; padding-top: 0.2em; }
+  .answer-key .upside-down { transform: rotate(180deg); font-size: 0.92em; }
   body { max-width: none; padding: 0; font-size: 10.5pt; }
   nav { display: none; }
   section.step { break-before: page; }
@@ -103,8 +130,60 @@ def _step_html(done: RenderedStep, lang: Lang) -> str:
             f'<figure class="image {figure.kind}"><img src="{html.escape(figure.image)}" '
             f'alt="{html.escape(figure.alt)}">{caption}</figure>'
         )
+    if step.questions:
+        parts.append(_questions_html(done, lang))
     parts.append("</section>")
     return "\n".join(parts)
+
+
+def _letter(i: int) -> str:
+    return "ABCD"[i]
+
+
+def _answer_html(question: Question, lang: Lang) -> str:
+    """The reveal's text: the right choice's letter, the answer with its computed numbers."""
+    head = WORDS["answer"][lang]
+    if question.correct is not None:
+        head += f" {_letter(question.correct)}"
+    text = question.answer_text(lang, formatted(question.numbers))
+    return to_html(f"**{head}.** {text}", _math_inline)
+
+
+def _questions_html(done: RenderedStep, lang: Lang) -> str:
+    """The step's questions: each with its choices and a "Reveal" control (a checkbox and
+    its label: no script) that shows the answer with its view; in print the answers move
+    below a fold line, upside down."""
+    step, slug = done.loaded.step, done.loaded.slug
+    views = [f for f in done.figures if f.kind == "view"]
+    out = [f'<div class="questions"><h3>{html.escape(WORDS["questions"][lang])}</h3>']
+    key = []
+    for i, q in enumerate(step.questions):
+        qid = f"{slug}-q{i + 1}"
+        out.append(f'<div class="question" id="{html.escape(qid)}">')
+        ask = to_html(f"**Q{i + 1}.** {q.ask.get(lang)}", _math_inline)
+        out.append(f'<div class="ask">{ask}</div>')
+        if q.choices:
+            items = "".join(f"<li>{to_html(c.get(lang), _math_inline)}</li>" for c in q.choices)
+            out.append(f'<ol class="choices" type="A">{items}</ol>')
+        answer = _answer_html(q, lang)
+        image = ""
+        if q.view is not None and q.view < len(views):
+            figure = views[q.view]
+            image = f'<img src="{html.escape(figure.image)}" alt="{html.escape(figure.alt)}">'
+        out.append(
+            f'<input type="checkbox" class="reveal" id="{html.escape(qid)}-reveal">'
+            f'<label class="reveal" for="{html.escape(qid)}-reveal">'
+            f"{html.escape(WORDS['reveal'][lang])}</label>"
+            f'<div class="answer">{answer}{image}</div>'
+        )
+        out.append("</div>")
+        key.append(f'<div class="key-item">{to_html(f"Q{i + 1}.", _math_inline)}{answer}</div>')
+    out.append(
+        f'<div class="answer-key"><div class="fold">{html.escape(WORDS["fold"][lang])}</div>'
+        f'<div class="upside-down">{"".join(key)}</div></div>'
+    )
+    out.append("</div>")
+    return "\n".join(out)
 
 
 def handout_html(rendered: list[RenderedStep], lang: Lang) -> str:
@@ -143,6 +222,22 @@ def handout_markdown(rendered: list[RenderedStep], lang: Lang) -> str:
             lines += [f"![{figure.caption or figure.alt}]({figure.image})", ""]
             if figure.caption:
                 lines += [f"*{figure.caption}*", ""]
+        if step.questions:
+            lines += [f"### {WORDS['questions'][lang]}", ""]
+        views = [f for f in done.figures if f.kind == "view"]
+        for i, q in enumerate(step.questions):
+            lines += [f"**Q{i + 1}.** {q.ask.get(lang)}", ""]
+            for j, choice in enumerate(q.choices or []):
+                lines.append(f"- {_letter(j)}. {choice.get(lang)}")
+            head = WORDS["answer"][lang]
+            if q.correct is not None:
+                head += f" {_letter(q.correct)}"
+            text = q.answer_text(lang, formatted(q.numbers))
+            lines += ["", f"<details><summary>{WORDS['reveal'][lang]}</summary>", "",
+                      f"**{head}.** {text}", ""]  # fmt: skip
+            if q.view is not None and q.view < len(views):
+                lines += [f"![{views[q.view].alt}]({views[q.view].image})", ""]
+            lines += ["</details>", ""]
     return "\n".join(lines)
 
 

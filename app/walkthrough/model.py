@@ -28,11 +28,15 @@ from app.scene.loader import (
 )
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import DEFAULT_POLICY
+from app.walkthrough.questions import Quantity
 
 LANGUAGES: tuple[str, ...] = ("en", "ko")
 Lang = Literal["en", "ko"]
 SECTIONS = range(1, 14)  # RTR4 §9.1 .. §9.13, the seed's 13 sections
 MAX_SWEEP_STEPS = 9
+MAX_QUESTIONS = 2  # per step: predict, then reveal (docs/walkthrough.md, "Questions")
+# A number's place in a question's answer: {=0}, {=1}, ... (braces alone are LaTeX's)
+NUMBER_SLOT = re.compile(r"\{=(\d+)\}")
 
 # A loc part that pydantic adds for a union member (``list[Label]``), not a key of the file.
 _KEY_PART = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -136,6 +140,52 @@ class Plot(_Strict):
     caption: Text | None = None
 
 
+class Question(_Strict):
+    """Predict, then reveal: ``ask`` the class, with ``choices`` (``correct`` the right
+    one's index) or none (a short answer said aloud); the reveal is ``answer`` with the
+    step's view ``view`` and the ``numbers`` the twins compute, each in its place
+    ``{=k}`` of the answer in its ``format`` (app/walkthrough/questions.py)."""
+
+    ask: Text
+    choices: Annotated[list[Text], Field(min_length=2, max_length=4)] | None = None
+    correct: Annotated[int, Field(strict=True, ge=0)] | None = None
+    answer: Text
+    view: Annotated[int, Field(strict=True, ge=0)] | None = None
+    numbers: list[Quantity] = []
+
+    @model_validator(mode="after")
+    def _check(self) -> Question:
+        if (self.choices is None) != (self.correct is None):
+            raise ValueError("correct: give choices and the correct one's index together")
+        if (
+            self.choices is not None
+            and self.correct is not None
+            and (self.correct >= len(self.choices))
+        ):
+            raise ValueError(f"correct: {self.correct} is past the {len(self.choices)} choices")
+        if self.view is None and not self.numbers:
+            raise ValueError("answer: a reveal shows a view of the step or a computed number")
+        for lang in LANGUAGES:
+            used = {int(k) for k in NUMBER_SLOT.findall(self.answer.get(lang))}  # type: ignore[arg-type]
+            wanted = set(range(len(self.numbers)))
+            if used != wanted:
+                raise ValueError(
+                    f"answer: the {lang} text places {sorted(used)} for {len(self.numbers)} "
+                    "numbers (each number once or more as {=0}, {=1}, ...)"
+                )
+        for i, number in enumerate(self.numbers):
+            try:
+                number.format.format(1.0)
+            except (ValueError, IndexError, KeyError) as exc:
+                why = f"numbers: number {i}'s format does not format a number ({exc})"
+                raise ValueError(why) from None
+        return self
+
+    def answer_text(self, lang: Lang, values: list[str]) -> str:
+        """The answer in ``lang`` with the formatted numbers in their places."""
+        return NUMBER_SLOT.sub(lambda m: values[int(m.group(1))], self.answer.get(lang))
+
+
 class Step(_Strict):
     """One step of the walkthrough: one section of RTR4 chapter 9."""
 
@@ -147,6 +197,7 @@ class Step(_Strict):
     comparisons: list[Comparison] = []
     sweeps: list[Sweep] = []
     plots: list[Plot] = []
+    questions: Annotated[list[Question], Field(max_length=MAX_QUESTIONS)] = []
 
     @model_validator(mode="after")
     def _check(self) -> Step:
@@ -286,6 +337,14 @@ def _check_math(step: Step, path: Path) -> None:
         why = check_latex(equation.latex)
         if why is not None:
             raise _error(path, f"equations[{i}].latex", f"mathtext cannot lay it out: {why}")
+    for i, question in enumerate(step.questions):
+        texts = [("ask", question.ask), ("answer", question.answer)]
+        texts += [(f"choices[{j}]", c) for j, c in enumerate(question.choices or [])]
+        for key, text in texts:
+            for lang in LANGUAGES:
+                why = problem(text.get(lang))  # type: ignore[arg-type]
+                if why is not None:
+                    raise _error(path, f"questions[{i}].{key}.{lang}", why)
     for kind in ("equations", "views", "comparisons", "sweeps", "plots"):
         for i, item in enumerate(getattr(step, kind)):
             if item.caption is None:
@@ -311,6 +370,15 @@ def _check_sweep_labels(step: Step, path: Path) -> None:
 def _check_plots(step: Step, path: Path) -> None:
     from app.brdf.plot import parse_material_arg
 
+    for i, question in enumerate(step.questions):
+        for j, number in enumerate(question.numbers):
+            material = getattr(number, "material", None)
+            if material is None:
+                continue
+            try:
+                parse_material_arg(material)
+            except InputError as exc:
+                raise _error(path, f"questions[{i}].numbers[{j}].material", str(exc)) from None
     for i, plot in enumerate(step.plots):
         for j, material in enumerate(plot.materials):
             try:
@@ -328,6 +396,10 @@ def parse_step(data: dict, path: Path) -> LoadedStep:
         loc = tuple(p for p in error["loc"] if isinstance(p, int) or _KEY_PART.match(p))
         key, message = describe_error({**error, "loc": loc})
         raise _error(path, key, message) from None
+    for i, question in enumerate(step.questions):
+        if question.view is not None and question.view >= len(step.views):
+            why = f"no view {question.view}: the step has {len(step.views)}"
+            raise _error(path, f"questions[{i}].view", why)
     _check_math(step, path)
     _check_sweep_labels(step, path)
     scenes = _load_scenes(step, path)

@@ -84,6 +84,17 @@ vec3 specular_dominant_direction(vec3 n, vec3 R, float alpha) {
     return normalize(mix(n, R, s * (sqrt(s) + alpha)));
 }
 
+// The same turn made to follow the view: the lerp factor scaled by
+// (1 - 0.87 alpha^0.7 (1 - n.v)^1.6), a fit (made here, docs/ibl.md) of the centroid of the
+// GGX lobe f (n.l) with height-correlated G2, which bends further towards n at grazing
+// view than the view-independent fit. Compiled only where IBL_VIEW_DEPENDENT_DIRECTION
+// (the measurement of docs/ibl.md). Twin: app/reference/ibl.py.
+vec3 specular_centroid_direction(vec3 n, vec3 R, float alpha, float NoV) {
+    float s = 1.0 - alpha;
+    float t = s * (sqrt(s) + alpha) * (1.0 - 0.87 * pow(alpha, 0.7) * pow(1.0 - NoV, 1.6));
+    return normalize(mix(n, R, t));
+}
+
 // The normal an anisotropic surface reflects the isotropic map about: n bent towards v
 // with its component along the smoother direction removed (the bitangent for a >= 0,
 // where alpha_x = alpha (1 + a) along t is the rougher), by |a| min(5 alpha, 1): the bent
@@ -107,7 +118,12 @@ vec3 ibl_radiance(ShadingPoint sp) {
     float r = clamp(s.perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
     vec3 nb = n;
     if (ANISOTROPIC != 0) nb = anisotropic_bent_normal(n, t, v, s.anisotropy, r * r);
-    vec3 R = specular_dominant_direction(n, reflect(-v, nb), r * r);
+    vec3 R = reflect(-v, nb);
+#if defined(IBL_VIEW_DEPENDENT_DIRECTION)  // measured against the default (docs/ibl.md)
+    R = specular_centroid_direction(n, R, r * r, NoV);
+#elif !defined(IBL_MIRROR_DIRECTION)  // defined only to measure the correction
+    R = specular_dominant_direction(n, R, r * r);
+#endif
     vec3 E_n = max(sh9_irradiance(n), vec3(0.0));  // SH ringing can dip below 0
     vec3 F0 = material_F0(s, sp.params);
     vec2 AB = dfg_lookup(NoV, r);
