@@ -418,10 +418,12 @@ def base_brdf_factors(
     if model.multiscatter:
         from app.reference import multiscatter  # its tables load only when a model uses them
 
-        if ms_table is None:
-            ms_table = multiscatter.load_table()
         f_spec = f_spec + multiscatter.f_ms_kulla_conty_F_avg(
-            ms_table, F_avg_selected(point, model), s.perceptual_roughness, NoL, NoV
+            multiscatter.table_for(model, ms_table),  # the table of the model's own G2
+            F_avg_selected(point, model),
+            s.perceptual_roughness,
+            NoL,
+            NoV,
         )
     f_diffuse = f_diffuse_selected(point, model, alpha, l, NoL, NoV, NoH, LoH)
     if model.fiber != "none":
@@ -563,9 +565,10 @@ def brdf_eval(
     """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model`` at the point (v = point.v),
     (..., 3); 0 where n.l <= 0.
 
-    ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
-    and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, RTR4
-    §9.1) keeps only the specular or only the diffuse reflection.
+    ``ms_table`` is the stack of multiple-scattering tables
+    (app.reference.multiscatter.load_tables; a single (n, n, 2) table is used as it is;
+    None: the shipped ones); the model's G2 picks its table (``table_for``). ``terms`` (a
+    key of BRDF_TERMS, RTR4 §9.1) keeps only the specular or only the diffuse reflection.
     """
     b = brdf_factors(point, model, l, ms_table)
     f = selected_terms(b.f_diffuse, surface_reflection(b), terms)
