@@ -69,6 +69,7 @@ SCENES = (
     "sec10_cloth_empirical",  # the empirical cloth terms (RTR4 §9.10)
     "sec12_layered",  # clear coat (RTR4 §9.12)
     "sec12_layered_variants",  # both clear-coat compositions
+    "sec12_layered_furnace",  # and the inter-reflection series
     "sec11_diffraction",  # diffraction grating (RTR4 §9.11)
     "sec10_cloth_fibers",  # micro-cylinder fibres (RTR4 §9.10)
 )

@@ -41,7 +41,7 @@ ITEM_KEYS = {
     "views": ({"scene"}, {"caption", "labels"}),
     "comparisons": ({"scene", "key", "a", "b", "label_a", "label_b"}, {"caption"}),
     "sweeps": ({"scene", "keys", "from", "to", "steps"}, {"caption", "format", "label"}),
-    "plots": ({"materials"}, {"theta", "caption"}),
+    "plots": ({"materials"}, {"theta", "caption", "kind"}),
 }
 LANG_KEYS = {"title", "text", "caption", "label_a", "label_b", "label"}
 # Words per language in a step's text: the brief asks for 120-250 in English; Korean
