@@ -274,8 +274,12 @@ def render_plot(
     if plot.kind != "lobes":  # app/brdf/figures.py, from the float64 twins
         from app.brdf import figures
 
-        named = [(f"clearcoat_model = {m.params.model.clearcoat}", m.params) for m in materials]
-        figure = figures.layered_furnace_figure(named, dpi=plot_dpi(size))
+        if plot.kind == "vndf":
+            rough = sorted({m.params.roughness for m in materials})
+            figure = figures.vndf_figure(rough, thetas, dpi=plot_dpi(size))
+        else:
+            named = [(f"clearcoat_model = {m.params.model.clearcoat}", m.params) for m in materials]
+            figure = figures.layered_furnace_figure(named, dpi=plot_dpi(size))
         brdf_plot.save_png(figure, path)
         return
     columns = brdf_plot.compute_columns(materials, thetas, "fcos", "glsl", gl=gl)
