@@ -120,6 +120,22 @@ MODELS: dict[str, dict] = {
         "preset": "copper", "fresnel": "conductor", "clearcoat": 1.0, "clearcoat_ior": 2.0,
         "clearcoat_roughness": 0.1, "clearcoat_model": "weidlich_wilkie",
     },
+    # the same with the coat-base inter-reflection series (docs/layered.md)
+    "weidlich-wilkie series coat over plastic": {
+        "base_color": [0.8, 0.3, 0.1], "clearcoat": 1.0,
+        "clearcoat_model": "weidlich_wilkie_series",
+    },
+    "weidlich-wilkie series tinted rough half coat over gold": {
+        "preset": "gold", "clearcoat": 0.5, "clearcoat_roughness": 0.4,
+        "clearcoat_color": [0.9, 0.6, 0.3], "clearcoat_ior": 1.6,
+        "clearcoat_model": "weidlich_wilkie_series",
+    },
+    # --- multiple scattering with another G2: each reads its own table (RTR4 §9.8) ---
+    "multiscatter separable gold": {"preset": "gold", "multiscatter": True, "g2": "separable"},
+    "multiscatter direction-correlated rational copper": {
+        "preset": "copper", "multiscatter": True, "g2": "direction_correlated",
+        "correlation": "rational",
+    },
     # --- empirical cloth (RTR4 §9.10): not reciprocal (NOT_RECIPROCAL; tests/test_cloth.py) ---
     "empirical cloth defaults (lambert)": {"diffuse": "cloth_empirical"},
     "empirical cloth velvet": {

@@ -311,7 +311,7 @@ def _bench_variants(gl: GLContext, sources: Sources) -> None:
     from app.bench.shadows import FILTERS, LIGHTS, shadow_scene, with_shadow
     from app.bench.shadows import _load as shadow_load
     from app.bench.suites import comparisons, layered_comparisons
-    from app.reference.multiscatter import load_table
+    from app.reference.multiscatter import load_tables
     from app.render.renderer import RenderOptions
     from app.resources import scenes_dir
     from app.scene.loader import load_scene
@@ -325,7 +325,11 @@ def _bench_variants(gl: GLContext, sources: Sources) -> None:
                 continue
             seen.add(key)
             sources.origin = f"bench accuracy {comp.name} {variant.name}"
-            ms = None if variant.ms_size is None else load_table(variant.ms_size)
+            ms = (
+                None
+                if variant.ms_size is None
+                else load_tables(variant.ms_size, ("height_correlated",))
+            )
             scene = load(accuracy_scene(SIZE, variant.model, variant.gbuffer))
             _frame(gl, sources, scene, RenderOptions(ms_table=ms))
     for kind, light in LIGHTS.items():

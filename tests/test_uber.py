@@ -43,9 +43,10 @@ from app.common.models import (
     unpack_model,
     unpack_model_params,
 )
+from app.common.tables import MS_FORMS
 from app.frame import prepare_frame
 from app.gl.kernel import run_kernel
-from app.reference.multiscatter import load_table
+from app.reference.multiscatter import load_tables
 from app.render.renderer import Renderer, RenderOptions
 from app.resources import scenes_dir
 from app.scene.loader import load_scene
@@ -68,6 +69,7 @@ SCENES = (
     "sec10_cloth_empirical",  # the empirical cloth terms (RTR4 §9.10)
     "sec12_layered",  # clear coat (RTR4 §9.12)
     "sec12_layered_variants",  # both clear-coat compositions
+    "sec12_layered_furnace",  # and the inter-reflection series
     "sec11_diffraction",  # diffraction grating (RTR4 §9.11)
     "sec10_cloth_fibers",  # micro-cylinder fibres (RTR4 §9.10)
 )
@@ -290,15 +292,17 @@ def test_uber_pass_compiles_every_table(gl_egl):
 
 
 def test_ms_table_option(gl_egl):
-    """RenderOptions(ms_table=load_table(n)) binds the n x n Kulla-Conty table (default: the
-    shipped 64 x 64), and the image changes with it (the interpolation error differs)."""
+    """RenderOptions(ms_table=load_tables(n)) binds the n x n Kulla-Conty tables, one block
+    per G2 form (default: the shipped 64 x 64), and the image changes with it (the
+    interpolation error differs)."""
     loaded = load_scene(scenes_dir() / "sec8_furnace.toml")
     images = {}
     for size in (None, 16):
-        table = None if size is None else load_table(size)
+        table = None if size is None else load_tables(size)
         r = Renderer(gl_egl, loaded, SIZE, RenderOptions(ms_table=table))
         try:
-            assert r.lighting.ms_table.size == ((64, 64) if size is None else (16, 16))
+            n = 64 if size is None else 16
+            assert r.lighting.ms_table.size == (n, n * len(MS_FORMS))
             r.render()
             images[size] = r.read_hdr()
         finally:

@@ -44,7 +44,7 @@ ITEM_KEYS = {
     "views": ({"scene"}, {"caption", "labels"}),
     "comparisons": ({"scene", "key", "a", "b", "label_a", "label_b"}, {"caption"}),
     "sweeps": ({"scene", "keys", "from", "to", "steps"}, {"caption", "format", "label"}),
-    "plots": ({"materials"}, {"theta", "caption"}),
+    "plots": ({"materials"}, {"theta", "caption", "kind"}),
     "questions": ({"ask", "answer"}, {"choices", "correct", "view", "numbers"}),
 }
 LANG_KEYS = {"title", "text", "caption", "label_a", "label_b", "label", "ask", "answer"}

@@ -62,7 +62,7 @@ from app.common.gbuffer import DEFAULT_ENCODING, ENCODING_NAMES
 from app.common.tables import DEFAULT_SIZE
 from app.frame.raycast import reference_scene
 from app.gl.context import GLContext
-from app.reference.multiscatter import load_table
+from app.reference.multiscatter import load_tables
 from app.render.culling import TILE_SIZE
 from app.render.renderer import Renderer, RenderOptions
 from app.resources import scenes_dir
@@ -481,10 +481,15 @@ def accuracy_tasks(settings: Settings) -> int:
     return 2 * len(comparisons(settings)) + len(FILTER_OPTIONS) + 2 + 2 + 4
 
 
+# The table sizes' scenes are gold with the standard (height-correlated) G2: the other G2
+# forms' tables are not computed for them (NaN blocks, app.reference.multiscatter.load_tables).
+_MS_FORMS = ("height_correlated",)
+
+
 def _accuracy_renderer(ctx: Context, variant: Variant, size: tuple[int, int]) -> Renderer:
     # The GLSL reads the multiple-scattering table's size from the texture.
     scene = load(accuracy_scene(size, variant.model, variant.gbuffer))
-    ms_table = None if variant.ms_size is None else load_table(variant.ms_size)
+    ms_table = None if variant.ms_size is None else load_tables(variant.ms_size, _MS_FORMS)
     return Renderer(ctx.gl, scene, size, RenderOptions(ms_table=ms_table))
 
 
@@ -596,7 +601,7 @@ def run_comparison(ctx: Context, comp: Comparison) -> None:
         g = ref_r.read_gbuffer()
         ms_table = None
         if comp.ms_reference is not None:
-            ms_table = load_table(comp.ms_reference)
+            ms_table = load_tables(comp.ms_reference, _MS_FORMS)
         scene = ref_r.scene
         ref = reference_hdr(
             g, ref_r.camera, ref_r.lights, scene.background, ref_r.materials.models,

@@ -86,16 +86,8 @@ def material_problems(
     if anisotropic and model.ndf not in ("ggx", "beckmann"):
         problem("anisotropy", "only the 'ggx' and 'beckmann' NDFs are anisotropic")
     if model.multiscatter and (model.ndf != "ggx" or anisotropic):
+        # one table per G2 form of the isotropic GGX (app/common/tables.py MS_FORMS)
         problem("multiscatter", "the compensation tables are for the isotropic GGX (ndf = 'ggx')")
-    elif model.multiscatter and model.g2 not in ("height_correlated", "hammon"):
-        # the tables hold E of the height-correlated G2: with another G2 the white furnace
-        # reads 0.80 (separable), 0.83 (direction-correlated), 1.01 (height-direction) at
-        # n.v = 0.1, roughness 1 (docs/diffuse-and-multiscatter.md)
-        problem(
-            "multiscatter",
-            "the compensation tables are for the height-correlated G2 (g2 = "
-            f"'height_correlated', or 'hammon' that approximates it), not g2 = '{model.g2}'",
-        )
     if model.diffraction != "none" and (
         model.ndf != "ggx" or model.g2 != "height_correlated" or anisotropic
     ):

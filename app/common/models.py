@@ -65,7 +65,9 @@ SHEEN_MODELS = ("none", "charlie", "ashikhmin", "charlie_smith")
 # --- clear coat (RTR4 §9.12) ---
 # A transparent layer over any base model: none (compiled out), Filament's / glTF
 # KHR_materials_clearcoat's cheap composition, Weidlich & Wilkie 2007's refracted one.
-CLEARCOAT_MODELS = ("none", "filament", "weidlich_wilkie")
+# "weidlich_wilkie_series": Weidlich & Wilkie's with the coat-base inter-reflection series
+# (docs/layered.md), an option beside the plain one, whose figures it would change.
+CLEARCOAT_MODELS = ("none", "filament", "weidlich_wilkie", "weidlich_wilkie_series")
 # --- diffraction (RTR4 §9.11): a periodic grating's orders over the specular lobe ---
 DIFFRACTION_MODELS = ("none", "grating")
 # --- micro-cylinder fibres (RTR4 §9.10): a thread along the tangent replaces the base's

@@ -113,3 +113,53 @@ def clearcoat_solid_angle_compression(eta: np.ndarray | float) -> np.ndarray:
     is worth 1/eta^2 of itself outside, since cos_t d omega_t = cos d omega / eta^2."""
     eta = _f64(eta)
     return 1.0 / (eta * eta)
+
+
+# --- the coat-base inter-reflection series ("weidlich_wilkie_series") ----------------------
+# Least-squares fit of the GGX single-scattering average albedo's loss 1 - E_avg(r) (the
+# height-correlated table of app/reference/multiscatter.py) on r in [0, 1]:
+# r^2 (a + b r + c r^2), within 2.2e-3 of the table; the series needs it without a table.
+E_AVG_LOSS_FIT = (-0.258, 2.087, -1.240)
+
+
+def E_avg_ggx_fit(perceptual_roughness: np.ndarray | float) -> np.ndarray:
+    """E_avg(r) of the GGX specular with F = 1 (Kulla & Conty 2017's average albedo), by the
+    fit E_AVG_LOSS_FIT, in [0, 1]."""
+    r = np.clip(_f64(perceptual_roughness), 0.0, 1.0)
+    a, b, c = E_AVG_LOSS_FIT
+    return 1.0 - np.maximum(r * r * (a + r * (b + r * c)), 0.0)
+
+
+def clearcoat_internal_reflectance(
+    c: np.ndarray | float, F0c: np.ndarray | float, eta_c: np.ndarray | float
+) -> np.ndarray:
+    """r_i: the fraction of diffuse (cosine-distributed) light inside the coat that its top
+    reflects back down, 1 - (1 - c F_avg)/eta_c^2, F_avg = F0 + (1 - F0)/21 Schlick's
+    hemispherical average (the crossings' own F). What escapes, (1 - c F_avg)/eta_c^2, is
+    what a Lambertian base's lobe through the coat, f_base(l_t, v_t)/eta_c^2 with the
+    crossing 1 - c F(n.v), integrates to (Stokes/reciprocity: the n^2 law)."""
+    c, F0c, eta_c = _f64(c), _f64(F0c), _f64(eta_c)
+    F_avg = F0c + (1.0 - F0c) / 21.0
+    return 1.0 - (1.0 - c * F_avg) / (eta_c * eta_c)
+
+
+def clearcoat_lobe_trapping(
+    c: np.ndarray | float,
+    F0c: np.ndarray | float,
+    eta_c: np.ndarray | float,
+    r_i: np.ndarray,
+    alpha: np.ndarray | float,
+) -> np.ndarray:
+    """r_s: the fraction of a GGX base lobe of width alpha that the coat's top reflects
+    back down on its first return. A smooth lobe leaves near its mirror direction, where
+    the coat reflects its normal-incidence c F0; a rough one spreads past the critical angle
+    like diffuse light (r_i). The weight s is the lobe's share beyond the critical angle at
+    normal incidence: GGX's cosine-weighted half-vector CDF (Walter et al. 2007),
+    P(theta_h > theta_c/2) = alpha^2 / (alpha^2 + tan^2(theta_c/2)),
+    tan^2(theta_c/2) = (1 - cos theta_c)/(1 + cos theta_c), cos theta_c = sqrt(1 - 1/eta_c^2)."""
+    eta_c, alpha = _f64(eta_c), _f64(alpha)
+    cos_c = np.sqrt(np.maximum(1.0 - 1.0 / (eta_c * eta_c), 0.0))
+    tan2 = (1.0 - cos_c) / (1.0 + cos_c)
+    a2 = alpha * alpha
+    s = a2 / (a2 + tan2)
+    return (1.0 - s) * (_f64(c) * _f64(F0c)) + s * r_i

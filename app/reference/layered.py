@@ -32,9 +32,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.common.models import Model, ModelParams
+from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.fresnel import F_dielectric
-from app.reference.material import ShadingPoint, Surface, brdf_eval, material_alpha
+from app.reference.material import (
+    ShadingPoint,
+    Surface,
+    brdf_eval,
+    clearcoat_factors,
+    material_alpha,
+)
 from app.reference.ndf import D_GGX
+from app.reference.quadrature import cosine_rule, direction, reflected_rule
 
 N = np.array([0.0, 0.0, 1.0])
 
@@ -151,3 +159,31 @@ def random_walk(
         exits=np.concatenate(exits),
         weights=np.concatenate(deposits) / paths,
     )
+
+
+def coated_albedo(
+    s: Surface, params: ModelParams, model: Model, theta_deg: float
+) -> tuple[float, np.ndarray]:
+    """(coat, substrate) directional albedo of a coated material's float64 twin at
+    incidence ``theta_deg``, by deterministic quadrature in three pieces with a rule each:
+    the coat's lobe (a rule on its roughness), the base's specular lobe under the coat (on
+    the base's roughness, widened by eta for the refracted compositions) and the diffuse
+    lobe with the inter-reflection series (a cosine rule)."""
+    l = direction(theta_deg, 30.0)
+    rc = max(float(params.clearcoat_roughness), MIN_PERCEPTUAL_ROUGHNESS)
+
+    def parts(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        point = ShadingPoint(s, params, N, N, np.array([1.0, 0.0, 0.0]), v)
+        b = clearcoat_factors(point, model, np.broadcast_to(l, v.shape))
+        return np.asarray(b.f_coat, np.float64), b.f_spec, b.f_diffuse
+
+    def integral(f: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return np.sum(f * (np.maximum(v @ N, 0.0) * w).reshape(-1, *[1] * (f.ndim - 1)), axis=0)
+
+    v, w = reflected_rule(l, rc * rc, 48, 32)
+    coat = float(integral(parts(v)[0], v, w))
+    widen = float(params.clearcoat_eta) if model.clearcoat.startswith("weidlich") else 1.0
+    v, w = reflected_rule(l, max(float(material_alpha(s)), 0.002) * widen, 48, 32)
+    spec = integral(parts(v)[1], v, w)
+    v, w = cosine_rule(48, 64)
+    return coat, spec + integral(parts(v)[2], v, w)

@@ -418,10 +418,12 @@ def base_brdf_factors(
     if model.multiscatter:
         from app.reference import multiscatter  # its tables load only when a model uses them
 
-        if ms_table is None:
-            ms_table = multiscatter.load_table()
         f_spec = f_spec + multiscatter.f_ms_kulla_conty_F_avg(
-            ms_table, F_avg_selected(point, model), s.perceptual_roughness, NoL, NoV
+            multiscatter.table_for(model, ms_table),  # the table of the model's own G2
+            F_avg_selected(point, model),
+            s.perceptual_roughness,
+            NoL,
+            NoV,
         )
     f_diffuse = f_diffuse_selected(point, model, alpha, l, NoL, NoV, NoH, LoH)
     if model.fiber != "none":
@@ -512,7 +514,8 @@ def clearcoat_factors(
 
     base = replace(model, clearcoat="none")
     l_base, v_base, compression = l, v, 1.0
-    if model.clearcoat == "weidlich_wilkie" and np.any(np.asarray(c) > 0.0):
+    refracts = model.clearcoat in ("weidlich_wilkie", "weidlich_wilkie_series")
+    if refracts and np.any(np.asarray(c) > 0.0):
         # Weidlich & Wilkie 2007: the base sees the directions refracted into the coat (about
         # the coat's normal: its interface refracts), at eta_c = mix(1, eta, c), and the
         # result is compressed by 1/eta_c^2 (GLSL's comment).
@@ -532,7 +535,43 @@ def clearcoat_factors(
         coat_lit, c * clearcoat.f_clearcoat_ggx(alpha_c, F0c, nc, h, NoL, NoV, LoH), 0.0
     )
     lit = dot(n, l) > 0.0  # brdf_eval's test, on the base's normal and the light itself
-    return replace(b, lit=lit, f_coat=f_coat, f_spec=w * b.f_spec, f_diffuse=w * b.f_diffuse)
+    f_diffuse = w * b.f_diffuse
+    if model.clearcoat == "weidlich_wilkie_series":
+        f_diffuse = f_diffuse + w * clearcoat_series(point, c) / np.pi
+    return replace(b, lit=lit, f_coat=f_coat, f_spec=w * b.f_spec, f_diffuse=f_diffuse)
+
+
+def clearcoat_series(point: ShadingPoint, c: np.ndarray | float) -> np.ndarray:
+    """K of the coat-base inter-reflection series (twin of the GLSL's ``clearcoat_series``),
+    (..., 3): the light the coat's top reflects back down, summed over its bounces, leaves
+    as the lobe w K / pi (w: the crossings, absorption and 1/eta_c^2 of the single pass).
+    With the base's average albedo R = R_d + R_s (R_d its diffuse albedo rho_ss, R_s =
+    F_avg E_avg(r) its specular one, Schlick's F_avg of its F0 under the coat; both scaled
+    down together where they sum past 1), the
+    share of it trapped on the first return Q = R_d r_i + R_s r_s (r_i the coat's
+    hemispherical internal reflectance, r_s a GGX lobe's), and a round trip's absorption
+    A_rt = T0^4 (the mean path of diffuse light is 2/cos per leg):
+    K = Q A_rt R / (1 - R r_i A_rt), the geometric sum of the bounces after the first."""
+    s, p = point.s, point.params
+    base = clearcoat_base_surface(s, p)
+    c = np.asarray(c, np.float64)
+    eta_c = 1.0 - c + p.clearcoat_eta * c
+    F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
+    r_i = clearcoat.clearcoat_internal_reflectance(c, F0c, eta_c)
+    r_s = clearcoat.clearcoat_lobe_trapping(c, F0c, eta_c, r_i, material_alpha(base))
+    F0 = material_F0(base, clearcoat_base_params(p))
+    R_s = (F0 + (1.0 - F0) / 21.0) * clearcoat.E_avg_ggx_fit(base.perceptual_roughness)[..., None]
+    R_d = material_rho_ss(base)
+    # a base that reflects more than it receives (Lambert beside an unweighted specular
+    # lobe) counts as white: both albedos scaled by the same factor
+    scale = 1.0 / np.maximum(R_d + R_s, 1.0)
+    R_d, R_s = R_d * scale, R_s * scale
+    R = R_d + R_s
+    Q = R_d * r_i[..., None] + R_s * r_s[..., None]
+    c_rgb = c[..., None]
+    T0 = np.asarray(p.clearcoat_color, np.float64)
+    A_rt = 1.0 - c_rgb + (T0 * T0) * (T0 * T0) * c_rgb
+    return Q * A_rt * R / (1.0 - R * r_i[..., None] * A_rt)
 
 
 def brdf_factors(
@@ -563,9 +602,10 @@ def brdf_eval(
     """f(l, v) = f_diffuse + f_spec (+ f_ms) under ``model`` at the point (v = point.v),
     (..., 3); 0 where n.l <= 0.
 
-    ``ms_table`` is the multiple-scattering table (app.reference.multiscatter.load_table)
-    and is needed only when ``model.multiscatter``. ``terms`` (a key of BRDF_TERMS, RTR4
-    §9.1) keeps only the specular or only the diffuse reflection.
+    ``ms_table`` is the stack of multiple-scattering tables
+    (app.reference.multiscatter.load_tables; a single (n, n, 2) table is used as it is;
+    None: the shipped ones); the model's G2 picks its table (``table_for``). ``terms`` (a
+    key of BRDF_TERMS, RTR4 §9.1) keeps only the specular or only the diffuse reflection.
     """
     b = brdf_factors(point, model, l, ms_table)
     f = selected_terms(b.f_diffuse, surface_reflection(b), terms)

@@ -64,11 +64,13 @@ from pathlib import Path
 
 import numpy as np
 
-from app.common.tables import DEFAULT_SIZE, read_ms_table, table_path
-from app.reference import fresnel
-from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS, PI
+from app.common.models import Model
+from app.common.tables import DEFAULT_SIZE, MS_FORMS, ms_form, read_ms_table, table_path
+from app.reference import fresnel, masking
+from app.reference.constants import MIN_N_DOT_V, MIN_PERCEPTUAL_ROUGHNESS, PI
+from app.reference.ndf import D_GGX
 from app.reference.quadrature import N, directional_albedo, gauss_legendre, reflected_rule
-from app.reference.specular import f_spec_GGX
+from app.reference.specular import G2_selected, f_spec_GGX
 
 # Quadrature of one albedo: reflected_rule(l, alpha, QUAD_PSI, QUAD_PHI). Against a
 # (24, 96) rule the difference is at most 1.3e-6 at the two most grazing nodes
@@ -121,31 +123,78 @@ def r_coord(r: np.ndarray, n_r: int) -> np.ndarray:
 # --- the quadrature ----------------------------------------------------------------------
 
 
-def single_scatter_albedo(mu: float, perceptual_roughness: float) -> float:
-    """E(mu, r): directional albedo of f_spec_GGX with F = 1 (F0 = 1), by quadrature.
+# mu = 0 of a form other than the height-correlated one is integrated at this mu: the
+# rule needs n.l > 0, and only the height-correlated limit (1) is known in closed form.
+# (The separable form's E(0) is below 1: G1(v) multiplies the height-correlated limit.)
+GRAZING_MU = 1e-8
 
-    mu = 0 returns the limit 1 (see the module docstring); the rule needs n.l > 0.
+
+def form_model(form: str) -> Model:
+    """The GGX model whose G2 the table ``form`` (MS_FORMS) integrates."""
+    if form not in MS_FORMS:
+        raise ValueError(f"no multiple-scattering table for the G2 form {form!r}")
+    for correlation in ("exp", "rational"):
+        if form.endswith(f"_{correlation}"):
+            return Model(g2=form.removesuffix(f"_{correlation}"), correlation=correlation)
+    return Model(g2=form)
+
+
+def f_spec_GGX_form(form: str, alpha: float, l: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """D G2 / (4 n.l n.v) with F = 1, GGX D and the G2 of ``form`` from the GGX Lambdas
+    (the renderer's Lambda path, app.reference.specular.G2_selected; Hammon's fit as the
+    fused V = G2/(4 n.l n.v) the renderer evaluates), n.v clamped at
+    MIN_N_DOT_V as the renderer clamps it: (M,)."""
+    n = np.broadcast_to(N, v.shape)
+    NoL = float(l @ N)
+    NoV = np.clip(v @ N, MIN_N_DOT_V, 1.0)
+    h = l + v
+    h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+    if form == "hammon":  # the renderer's fused V of Hammon's fit
+        return D_GGX(n, h, alpha) * masking.V_hammon_GGX(NoL, NoV, alpha)
+    G2 = G2_selected(
+        form_model(form),
+        masking.Lambda_GGX(NoV, alpha),
+        masking.Lambda_GGX(np.full_like(NoV, NoL), alpha),
+        n,
+        np.broadcast_to(l, v.shape),
+        v,
+    )
+    return D_GGX(n, h, alpha) * G2 / (4.0 * NoL * NoV)
+
+
+def single_scatter_albedo(
+    mu: float, perceptual_roughness: float, form: str = "height_correlated"
+) -> float:
+    """E(mu, r): directional albedo with F = 1 of the single-scattering GGX specular with
+    the G2 of ``form`` (MS_FORMS), by quadrature. The height-correlated one is
+    f_spec_GGX's (the renderer's fused V) and returns the limit 1 at mu = 0 (see the module
+    docstring); the others integrate mu = 0 at GRAZING_MU.
     """
+    hc = form == "height_correlated"
     if mu <= 0.0:
-        return 1.0
+        if hc:
+            return 1.0
+        mu = GRAZING_MU
     r = max(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS)
     alpha = r * r
     l = np.array([np.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu])
     v, w = reflected_rule(l, alpha, QUAD_PSI, QUAD_PHI)
-    return float(directional_albedo(f_spec_GGX(1.0, alpha, N, l, v), v, w)[0])
+    f = f_spec_GGX(1.0, alpha, N, l, v) if hc else f_spec_GGX_form(form, alpha, l, v)[:, None]
+    return float(directional_albedo(f, v, w)[0])
 
 
-def average_albedo(perceptual_roughness: float) -> float:
+def average_albedo(perceptual_roughness: float, form: str = "height_correlated") -> float:
     """E_avg(r) = 2 int_0^1 E(mu) mu dmu = 4 int_0^1 E(x^2) x^3 dx (Gauss-Legendre in x)."""
     x, w = gauss_legendre(0.0, 1.0, AVG_NODES)
-    E = np.array([single_scatter_albedo(xi * xi, perceptual_roughness) for xi in x])
+    E = np.array([single_scatter_albedo(xi * xi, perceptual_roughness, form) for xi in x])
     return float(4.0 * np.sum(w * x**3 * E))
 
 
 def compute_tables(
-    n_mu: int, n_r: int, rows: Sequence[int] | None = None
+    n_mu: int, n_r: int, rows: Sequence[int] | None = None, form: str = "height_correlated"
 ) -> tuple[np.ndarray, np.ndarray]:
-    """E (n_r, n_mu) on mu_grid x roughness_grid and E_avg (n_r,), in float64.
+    """E (n_r, n_mu) on mu_grid x roughness_grid and E_avg (n_r,) of the G2 ``form``
+    (MS_FORMS), in float64: the same generator for every form, only the G2 differs.
 
     ``rows`` selects some roughness rows only (the tests check the shipped table that way:
     the whole 64 x 64 table takes ~10 s).
@@ -154,8 +203,8 @@ def compute_tables(
     rs = roughness_grid(n_r)
     if rows is not None:
         rs = rs[list(rows)]
-    E = np.array([[single_scatter_albedo(m, r) for m in mus] for r in rs])
-    E_avg = np.array([average_albedo(r) for r in rs])
+    E = np.array([[single_scatter_albedo(m, r, form) for m in mus] for r in rs])
+    E_avg = np.array([average_albedo(r, form) for r in rs])
     return E, E_avg
 
 
@@ -183,26 +232,52 @@ def _save(path: Path, table: np.ndarray) -> None:
         raise
 
 
-def generate(size: int) -> Path:
-    """Compute the size x size table and write it where load_table looks for it."""
-    path = table_path(size)
-    _save(path, pack_table(*compute_tables(size, size)))
+def generate(size: int, form: str = "height_correlated") -> Path:
+    """Compute the size x size table of the G2 ``form`` and write it where load_table
+    looks for it."""
+    path = table_path(size, form)
+    _save(path, pack_table(*compute_tables(size, size, form=form)))
     return path
 
 
 @cache
-def load_table(size: int = DEFAULT_SIZE) -> np.ndarray:
-    """The float32 (size, size, 2) loss table (read-only), computed and cached on first use.
+def load_table(size: int = DEFAULT_SIZE, form: str = "height_correlated") -> np.ndarray:
+    """The float32 (size, size, 2) loss table of the G2 ``form`` (MS_FORMS; read-only),
+    computed and cached on first use.
 
     The shipped sizes (32, 64, 128) are read from app/common/data; other sizes come from
     the cache directory, or are computed (seconds to minutes) and stored there.
     """
     if size < 2:
         raise ValueError(f"a table needs at least 2 nodes per axis, not {size}")
-    path = table_path(size)
+    path = table_path(size, form)
     if not path.is_file():
-        _save(path, pack_table(*compute_tables(size, size)))
-    return read_ms_table(size)
+        _save(path, pack_table(*compute_tables(size, size, form=form)))
+    return read_ms_table(size, form)
+
+
+@cache
+def load_tables(size: int = DEFAULT_SIZE, forms: tuple[str, ...] = MS_FORMS) -> np.ndarray:
+    """The forms' tables, float32 (len(MS_FORMS), size, size, 2) in MS_FORMS order, as the
+    renderer's texture stacks them (read-only): what ``RenderOptions.ms_table`` and the
+    twin's ``ms_table`` arguments take. A form left out of ``forms`` is a block of NaN, so
+    a material with that G2 shades NaN instead of another G2's compensation (the bench's
+    table sizes, which only the height-correlated G2 uses, need not compute the rest)."""
+    nan = np.full((size, size, 2), np.nan, np.float32)
+    stack = np.stack([load_table(size, f) if f in forms else nan for f in MS_FORMS])
+    stack.setflags(write=False)
+    return stack
+
+
+def table_for(model: Model, tables: np.ndarray | None = None) -> np.ndarray:
+    """The (n, n, 2) table of ``model``'s G2 (``ms_form``): from the stack ``tables``
+    (load_tables), or the shipped default size's where None; a single (n, n, 2) table is
+    taken as it is (the caller chose it)."""
+    form = ms_form(model.g2, model.correlation)
+    if tables is None:
+        return load_table(DEFAULT_SIZE, form)
+    tables = np.asarray(tables)
+    return tables[MS_FORMS.index(form)] if tables.ndim == 4 else tables
 
 
 # --- the shading functions (twins of the GLSL) -------------------------------------------

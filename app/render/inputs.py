@@ -313,10 +313,11 @@ def shading_context(
 ) -> ShadingContext:
     """A frame's context: ``gbuffer`` (where the passes decode one), the light texture,
     the material table's texture, the lookup tables its models read (every one with
-    ``every_table``, the uber program's; ``ms_table``: a Kulla-Conty table other than the
-    shipped one), then the renderer's ``tiles`` (LightCuller), ``environment``
-    (EnvironmentLighting or UniformEnvironment) and ``shadows`` (ShadowPass) where the
-    frame has them. The context owns (releases) the textures it made here."""
+    ``every_table``, the uber program's; ``ms_table``: Kulla-Conty tables (a stack, one
+    per G2 form) other than the shipped ones), then the renderer's ``tiles``
+    (LightCuller), ``environment`` (EnvironmentLighting or UniformEnvironment) and
+    ``shadows`` (ShadowPass) where the frame has them. The context owns (releases) the
+    textures it made here."""
     owned: list[ShaderInput] = [LightInput(ctx, lights), MaterialInput(ctx, table)]
     if every_table or any(model.multiscatter for model in table.models):
         owned.append(LookupTable(MS_TABLE, "u_ms_table", ms_texture(ctx, ms_table)))

@@ -87,8 +87,9 @@ class RenderOptions:
     (``Renderer.set_options``) builds again only what it changes.
 
     ``uber``: one lighting program with run-time model selection instead of one per model
-    group (the ``specialization`` suite). ``ms_table``: a float32 (n, n, 2) Kulla-Conty table
-    other than the shipped 64 x 64 one (``app.reference.multiscatter.load_table(n)``); a key
+    group (the ``specialization`` suite). ``ms_table``: the float32 (forms, n, n, 2) Kulla-Conty
+    tables of every G2 form at a size other than the shipped 64 x 64
+    (``app.reference.multiscatter.load_tables(n)``); a key
     holds the array itself, so a new array is a new table.
     ``light_form``: where the lighting pass reads its lights (app/render/lighting.py
     ``LIGHT_FORMS``); None lets the pass choose from the light count.

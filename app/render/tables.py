@@ -1,11 +1,13 @@
 """Look-up tables the shaders read, uploaded to GL.
 
-The Kulla-Conty multiple-scattering table (app/common/tables.py; computed by the twin
-app/reference/multiscatter.py) becomes the RG32F
+The Kulla-Conty multiple-scattering tables (app/common/tables.py; computed by the twin
+app/reference/multiscatter.py), one per G2 form, become the RG32F
 texture ``u_ms_table`` of glsl/brdf/multiscatter.glsl:
 
-* width n_mu, height n_r; texel (x = j, y = i) holds (1 - E(mu_j, r_i), 1 - E_avg(r_i)),
-  the energy lost by single scattering, with mu_j = (j/(n_mu - 1))^4 and
+* width n_mu, height len(MS_FORMS) n_r: the forms' tables stacked along y in MS_FORMS
+  order (the height-correlated one first); in block b, texel (x = j, y = b n_r + i) holds
+  (1 - E(mu_j, r_i), 1 - E_avg(r_i)), the energy lost by single scattering, with
+  mu_j = (j/(n_mu - 1))^4 and
   r_i = 0.045 + 0.955 (i/(n_r - 1))^2 (app.reference.multiscatter.mu_grid, roughness_grid);
 * NEAREST filtering and texelFetch only: the GLSL interpolates by hand in float32 exactly
   as the float64 twin does. Hardware bilinear filtering weighs texels with fixed-point
@@ -18,16 +20,19 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from app.common.tables import read_ms_table, read_sheen_table
+from app.common.tables import MS_FORMS, read_ms_tables, read_sheen_table
 from app.frame.materials import MaterialTable
 
 
-def ms_texture(ctx: moderngl.Context, table: np.ndarray | None = None) -> moderngl.Texture:
-    """A new RG32F texture of a float32 (n_r, n_mu, 2) table (None: the shipped default,
+def ms_texture(ctx: moderngl.Context, tables: np.ndarray | None = None) -> moderngl.Texture:
+    """A new RG32F texture of the float32 (len(MS_FORMS), n_r, n_mu, 2) stack of every G2
+    form's table (app.reference.multiscatter.load_tables; None: the shipped default,
     64 x 64). The caller releases it."""
-    table = read_ms_table() if table is None else np.ascontiguousarray(table, np.float32)
-    n_r, n_mu = table.shape[:2]  # rows are texture rows (y = r)
-    tex = ctx.texture((n_mu, n_r), 2, table.tobytes(), dtype="f4")
+    tables = read_ms_tables() if tables is None else np.ascontiguousarray(tables, np.float32)
+    if tables.ndim != 4 or tables.shape[0] != len(MS_FORMS):
+        raise ValueError(f"expected one table per G2 form {MS_FORMS}, got {tables.shape}")
+    forms, n_r, n_mu = tables.shape[:3]  # rows are texture rows (y = form block, r)
+    tex = ctx.texture((n_mu, forms * n_r), 2, tables.tobytes(), dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     tex.repeat_x = False
     tex.repeat_y = False

@@ -413,7 +413,7 @@ class Material(_Strict):
     # transmittance at normal incidence, once
     clearcoat_color: _table_key("clearcoat_color") | None = None
     # how the coat composes with the base (docs/layered.md): Filament's or Weidlich & Wilkie's
-    clearcoat_model: Literal["filament", "weidlich_wilkie"] = "filament"
+    clearcoat_model: Literal["filament", "weidlich_wilkie", "weidlich_wilkie_series"] = "filament"
     # The coat's own normal map (glTF clearcoatNormalTexture; docs/layered.md): without it
     # the coat keeps the vertex normal, whatever normal map the base has.
     clearcoat_normal_map: TexturePath | None = None

@@ -271,6 +271,17 @@ def render_plot(
 
     materials = brdf_plot.parse_material_args(plot.materials)
     thetas = tuple(plot.theta) if plot.theta else brdf_plot.DEFAULT_THETAS
+    if plot.kind != "lobes":  # app/brdf/figures.py, from the float64 twins
+        from app.brdf import figures
+
+        if plot.kind == "vndf":
+            rough = sorted({m.params.roughness for m in materials})
+            figure = figures.vndf_figure(rough, thetas, dpi=plot_dpi(size))
+        else:
+            named = [(f"clearcoat_model = {m.params.model.clearcoat}", m.params) for m in materials]
+            figure = figures.layered_furnace_figure(named, dpi=plot_dpi(size))
+        brdf_plot.save_png(figure, path)
+        return
     columns = brdf_plot.compute_columns(materials, thetas, "fcos", "glsl", gl=gl)
     figure = brdf_plot.render_figure(
         columns, "fcos", dpi=plot_dpi(size), backend="glsl", words=figure_words(lang)

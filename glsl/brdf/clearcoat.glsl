@@ -109,4 +109,34 @@ float clearcoat_solid_angle_compression(float eta) {
     return 1.0 / (eta * eta);
 }
 
+// --- the coat-base inter-reflection series (CLEARCOAT_WEIDLICH_WILKIE_SERIES) ---
+// Least-squares fit of the GGX single-scattering average albedo's loss 1 - E_avg(r)
+// (Kulla & Conty 2017; the height-correlated table of app/reference/multiscatter.py) on r
+// in [0, 1]: r^2 (a + b r + c r^2), within 2.2e-3 of the table, so the series needs no table.
+float E_avg_ggx_fit(float perceptual_roughness) {
+    float r = clamp(perceptual_roughness, 0.0, 1.0);
+    return 1.0 - max(r * r * (-0.258 + r * (2.087 + r * -1.240)), 0.0);
+}
+
+// r_i: the fraction of diffuse light inside the coat that its top reflects back down,
+// 1 - (1 - c F_avg)/eta_c^2, F_avg = F0 + (1 - F0)/21 (Schlick's hemispherical average, the
+// crossings' own F). What escapes, (1 - c F_avg)/eta_c^2, is what a Lambertian base seen
+// through the coat, f_base(l_t, v_t)/eta_c^2 times 1 - c F(n.v), integrates to.
+float clearcoat_internal_reflectance(float c, float F0c, float eta_c) {
+    float F_avg = F0c + (1.0 - F0c) / 21.0;
+    return 1.0 - (1.0 - c * F_avg) / (eta_c * eta_c);
+}
+
+// r_s: the share of a GGX base lobe of width alpha that the coat's top reflects back down
+// on its first return: c F0 near the mirror direction (a smooth lobe), r_i for the part
+// past the critical angle, weighted by GGX's cosine-weighted half-vector CDF at normal
+// incidence (Walter et al. 2007), s = alpha^2 / (alpha^2 + tan^2(theta_c/2)).
+float clearcoat_lobe_trapping(float c, float F0c, float eta_c, float r_i, float alpha) {
+    float cos_c = sqrt(max(1.0 - 1.0 / (eta_c * eta_c), 0.0));
+    float tan2 = (1.0 - cos_c) / (1.0 + cos_c);
+    float a2 = alpha * alpha;
+    float s = a2 / (a2 + tan2);
+    return (1.0 - s) * (c * F0c) + s * r_i;
+}
+
 #endif

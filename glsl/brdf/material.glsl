@@ -492,6 +492,34 @@ ShadingPoint clearcoat_base_point(ShadingPoint sp, vec3 v_base) {
     return base;
 }
 
+// K of the coat-base inter-reflection series (CLEARCOAT_WEIDLICH_WILKIE_SERIES; twin
+// clearcoat_series): the light the coat's top reflects back down, summed over its bounces,
+// leaves as the broad lobe w K / pi (w: the single pass's crossings, absorption and
+// 1/eta_c^2), in f_diffuse. R = R_d + R_s the base's average albedo under the coat (R_d its
+// rho_ss, R_s Schlick's F_avg of its F0 times E_avg(r); scaled down together where they
+// sum past 1), Q = R_d r_i + R_s r_s the share trapped on the first return, A_rt = T0^4 a
+// round trip's absorption (diffuse light's mean path is 2/cos per leg):
+//   K = Q A_rt R / (1 - R r_i A_rt), the geometric sum of the bounces after the first.
+vec3 clearcoat_series(ShadingPoint sp, float c) {
+    ModelParams p = sp.params;
+    Surface base = clearcoat_base_surface(sp.s, p);
+    float eta_c = mix(1.0, p.clearcoat_eta, c);
+    float F0c = clearcoat_F0(p.clearcoat_eta);
+    float r_i = clearcoat_internal_reflectance(c, F0c, eta_c);
+    float r_s = clearcoat_lobe_trapping(c, F0c, eta_c, r_i, material_alpha(base));
+    vec3 F0 = material_F0(base, clearcoat_base_params(p));
+    vec3 R_s = (F0 + (1.0 - F0) / 21.0) * E_avg_ggx_fit(base.perceptual_roughness);
+    vec3 R_d = material_rho_ss(base);
+    vec3 scale = 1.0 / max(R_d + R_s, vec3(1.0));
+    R_d *= scale;
+    R_s *= scale;
+    vec3 R = R_d + R_s;
+    vec3 Q = R_d * r_i + R_s * r_s;
+    vec3 T0 = p.clearcoat_color;
+    vec3 A_rt = mix(vec3(1.0), (T0 * T0) * (T0 * T0), c);
+    return Q * A_rt * R / (1.0 - R * r_i * A_rt);
+}
+
 // The coated BRDF's factors; F, D and G2 stay the base's (what the debug views show), the
 // coat's reflection is f_coat (surface reflection, RTR4 sec. 9.1: it joins f_spec in
 // surface_reflection) and the base's two lobes are weighted by what reaches them through the
@@ -503,8 +531,8 @@ ShadingPoint clearcoat_base_point(ShadingPoint sp, vec3 v_base) {
 //   f = c f_coat(l, v) + (1 - c F(nc.l)) (1 - c F(nc.v)) mix(1, A, c) f_base(l_t, v_t) / eta_c^2,
 // l_t, v_t by Snell's law at eta_c = mix(1, eta, c) (the medium's index at c = 0: the base
 // unchanged), 1/eta_c^2 the solid-angle compression of the refraction (clearcoat.glsl).
-// Left out, as in the paper: the light the coat reflects back down (no inter-reflection
-// between coat and base), refraction through the coat's microfacets (the macro normal
+// CLEARCOAT_WEIDLICH_WILKIE_SERIES: the same plus the light the coat reflects back down
+// to the base, summed over its bounces (clearcoat_series). Left out, as in the paper: refraction through the coat's microfacets (the macro normal
 // refracts), and the paper's empirical compensation term t.
 // Two normals (RTR4 sec. 9.12: "layers may have different normals"): the coat's nc and the
 // base's n. The coat's lobe, its Fresnel crossings 1 - c F and the Beer-Lambert path lengths
@@ -528,7 +556,9 @@ BrdfFactors clearcoat_factors(ShadingPoint sp, vec3 l) {
     vec3 l_base = l;
     vec3 v_base = v;
     float compression = 1.0;
-    if (CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE && c > 0.0) {
+    bool refracts = CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE
+                 || CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE_SERIES;
+    if (refracts && c > 0.0) {
         float eta_c = mix(1.0, p.clearcoat_eta, c);
         l_base = clearcoat_refract_in(eta_c, nc, l);
         v_base = clearcoat_refract_in(eta_c, nc, v);
@@ -544,6 +574,9 @@ BrdfFactors clearcoat_factors(ShadingPoint sp, vec3 l) {
     b.f_coat = dot(nc, l) > 0.0 ? c * f_clearcoat_ggx(alpha_c, F0c, nc, h, NoL, NoV, LoH) : 0.0;
     b.f_spec = w * b.f_spec;
     b.f_diffuse = w * b.f_diffuse;
+    if (CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE_SERIES) {
+        b.f_diffuse += w * clearcoat_series(sp, c) * (1.0 / PI);
+    }
     return b;
 }
 #endif

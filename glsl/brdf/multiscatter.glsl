@@ -3,8 +3,11 @@
 // Everything is inside #if MULTISCATTER (or UBER_MODELS, the uber-shader that compiles every
 // model; brdf/model.glsl), so a program built without it pays nothing.
 //
-// u_ms_table (app/render/tables.py, ms_texture): RG32F, NEAREST, width n_mu, height n_r;
-// texel (j, i) = (1 - E(mu_j, r_i), 1 - E_avg(r_i)), the energy LOST by single scattering,
+// u_ms_table (app/render/tables.py, ms_texture): RG32F, NEAREST, width n_mu, height
+// MS_FORMS n_r: one n_r-row block per G2 form (app/common/tables.py MS_FORMS), each E of
+// the GGX specular with that G2, so the compensation is what the material's own G2 loses;
+// in block b, texel (j, b n_r + i) = (1 - E(mu_j, r_i), 1 - E_avg(r_i)), the energy LOST by
+// single scattering,
 // on mu_j = (j/(n_mu - 1))^4 and r_i = 0.045 + 0.955 (i/(n_r - 1))^2: nodes crowded toward
 // grazing and smooth, where E changes fastest. Storing the loss keeps its 7 digits in
 // float32 where 1 - E would keep 1-3 for a smooth surface.
@@ -26,6 +29,23 @@ uniform sampler2D u_ms_table;
 // Below every real 1 - E_avg of the table (2.7e-5 at the roughness floor): only keeps a
 // row that loses nothing (so 1 - E = 0 there too) from dividing 0 by 0.
 const float MS_MIN_LOSS_AVG = 1e-6;
+
+// The block of u_ms_table holding the material's G2 (MS_FORM_* generated from
+// app/common/tables.py; a form that depends on lambda(phi) has one block per correlation,
+// in CORRELATION order). A constant in a specialized pass, per pixel under UBER_MODELS.
+int ms_form() {
+    if (G2_MODEL == G2_DIRECTION_CORRELATED) return MS_FORM_DIRECTION_CORRELATED + CORRELATION;
+    if (G2_MODEL == G2_HEIGHT_DIRECTION_CORRELATED) return MS_FORM_HEIGHT_DIRECTION_CORRELATED + CORRELATION;
+    if (G2_MODEL == G2_SEPARABLE) return MS_FORM_SEPARABLE;
+    if (G2_MODEL == G2_HAMMON) return MS_FORM_HAMMON;
+    return MS_FORM_HEIGHT_CORRELATED;
+}
+
+// The table's size of one block: (n_mu, n_r).
+ivec2 ms_size() {
+    ivec2 size = textureSize(u_ms_table, 0);
+    return ivec2(size.x, size.y / MS_FORMS);
+}
 
 // Grid coordinate s in [0, n - 1] -> cell index in [0, n - 2] and the fraction within it.
 int ms_cell(float s, int n, out float t) {
@@ -49,10 +69,10 @@ float ms_r_coord(float perceptual_roughness, int n_r) {
 // 1 - E(mu, r). (1 - t) a + t b rather than a + t (b - a): all terms are >= 0, so the
 // result keeps its relative precision where neighbouring losses differ tenfold.
 float ms_loss(float mu, float perceptual_roughness) {
-    ivec2 size = textureSize(u_ms_table, 0);
+    ivec2 size = ms_size();
     float tx, ty;
     int j = ms_cell(ms_mu_coord(mu, size.x), size.x, tx);
-    int i = ms_cell(ms_r_coord(perceptual_roughness, size.y), size.y, ty);
+    int i = ms_cell(ms_r_coord(perceptual_roughness, size.y), size.y, ty) + ms_form() * size.y;
     float a = texelFetch(u_ms_table, ivec2(j, i), 0).r;
     float b = texelFetch(u_ms_table, ivec2(j + 1, i), 0).r;
     float c = texelFetch(u_ms_table, ivec2(j, i + 1), 0).r;
@@ -64,17 +84,17 @@ float ms_loss(float mu, float perceptual_roughness) {
 
 // 1 - E_avg(r), linear in r (every column holds it; column 0 is read).
 float ms_loss_avg(float perceptual_roughness) {
-    int n_r = textureSize(u_ms_table, 0).y;
+    int n_r = ms_size().y;
     float ty;
-    int i = ms_cell(ms_r_coord(perceptual_roughness, n_r), n_r, ty);
+    int i = ms_cell(ms_r_coord(perceptual_roughness, n_r), n_r, ty) + ms_form() * n_r;
     float a = texelFetch(u_ms_table, ivec2(0, i), 0).g;
     float b = texelFetch(u_ms_table, ivec2(0, i + 1), 0).g;
     return (1.0 - ty) * a + ty * b;
 }
 
-// Kulla & Conty 2017: E(mu, r), the directional albedo with F = 1 of the standard model's
-// single-scattering specular (brdf_eval's; integrated from its float64 twin,
-// app/reference/specular.py f_spec_GGX).
+// Kulla & Conty 2017: E(mu, r), the directional albedo with F = 1 of the single-scattering
+// GGX specular with the material's G2 (brdf_eval's; integrated from its float64 twin,
+// app/reference/multiscatter.py single_scatter_albedo).
 float ms_E(float mu, float perceptual_roughness) {
     return 1.0 - ms_loss(mu, perceptual_roughness);
 }
