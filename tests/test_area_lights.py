@@ -41,8 +41,8 @@ def _light(kind: LightType, centre, u=Z, w=Z, radius: float = 0.0) -> PunctualLi
 def _lights() -> list[PunctualLight]:
     """One light of each shape, 0.9 to 1.2 m over the floor y = 0, facing it."""
     return [
-        _light(LightType.RECT, [0.3, 1.2, 0.2], [0.5, 0.0, 0.0], [0.0, 0.0, -0.25]),
-        _light(LightType.DISK, [-0.4, 1.0, 0.3], [0.35, 0.0, 0.0], [0.0, -0.1, -0.336]),
+        _light(LightType.RECT, [0.3, 1.2, 0.2], [0.5, 0.0, 0.0], [0.0, 0.0, 0.25]),
+        _light(LightType.DISK, [-0.4, 1.0, 0.3], [0.35, 0.0, 0.0], [0.0, 0.1, 0.336]),
         _light(LightType.SPHERE, [0.5, 0.9, -0.3], radius=0.3),
         _light(LightType.TUBE, [0.0, 1.1, -0.2], [0.6, 0.0, 0.1], radius=0.06),
     ]
@@ -133,15 +133,16 @@ def test_a_point_light_is_not_an_area_light(monkeypatch: pytest.MonkeyPatch) -> 
 
 @pytest.mark.gl
 def test_glsl_area_lights_match_their_twin(gl_egl) -> None:
-    """A frame with one light of each shape over a floor and two spheres (rough and
-    glossy): the lighting pass's HDR against the twin's shading of the same G-buffer,
-    within TWIN_RTOL (float32 against float64)."""
+    """A frame with one light of each shape over a floor and a metal sphere, culled by
+    tiles: the lighting pass's HDR against the twin's shading of the same G-buffer, within
+    TWIN_RTOL (float32 against float64)."""
+    from app.render.inputs import AREA_LIGHTS, TILES
     from app.render.renderer import Renderer
     from app.scene.loader import parse_scene
 
     data = {
         "camera": {"position": [0, 2.5, 4], "target": [0, 0.3, 0], "fov_y": 45.0},
-        "render": {"gbuffer": "f32", "antialiasing": "none"},
+        "render": {"gbuffer": "f32", "antialiasing": "none", "light_culling": "tiled"},
         "materials": {
             "floor": {"base_color": [0.5, 0.5, 0.5], "roughness": 0.2},
             "metal": {"base_color": [0.9, 0.6, 0.3], "metallic": 1.0, "roughness": 0.4},
@@ -164,6 +165,9 @@ def test_glsl_area_lights_match_their_twin(gl_egl) -> None:
     r = Renderer(gl_egl, loaded, (96, 64))
     try:
         hdr, ref, g = hdr_and_twin(r, loaded.scene.background)
+        # through the tile masks, with the area input's table compiled in
+        assert TILES in r.shading and AREA_LIGHTS in r.shading
+        assert r.shading.defines()["AREA_LIGHTS"] == 1
     finally:
         r.release()
     sel = g.covered
