@@ -26,7 +26,7 @@ Writes app/common/data/ltc_ggx_<N>.npy: (N, N, 8) float64, axis 0 the perceptual
 r_i = MIN + (1 - MIN) i / (N - 1), axis 1 t_j = j / (N - 1) with n.v = 1 - t_j^2 (floored
 at 1e-3); channels a, b, c, d, n_D, f_b, the fit's L1 error integral |D_o - D_target|, 0.
 
-    python scripts/ltc_tables.py [--size 32] [--jobs 4]
+    python scripts/ltc_tables.py [--size 32] [--jobs 4] [--refit ROW ...]
 """
 
 from __future__ import annotations
@@ -47,6 +47,7 @@ from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.ibl import dfg_terms
 from app.reference.masking import V_height_correlated_GGX
 
+REFIT_ROWS = 2  # the smoothest rows, fitted again from their rougher neighbours
 SAMPLES = 32  # strata per side for each of the two sampling strategies
 
 
@@ -203,19 +204,53 @@ def fit_rows(size: int, rows: range) -> np.ndarray:
     return table
 
 
+def refit_rows(table: np.ndarray, rows: list[int]) -> None:
+    """Fit ``rows`` again (descending), each cell from the cell of the next rougher row with
+    a, b, c scaled by the ratio of the alphas (the lobe narrows with alpha): the smoothest
+    rows' fits along n.v alone can run off to a degenerate matrix (entries of 1e7 and
+    more), which this start does not."""
+    size = table.shape[0]
+    for i in sorted(rows, reverse=True):
+        r = MIN_PERCEPTUAL_ROUGHNESS + (1.0 - MIN_PERCEPTUAL_ROUGHNESS) * i / (size - 1)
+        r_up = MIN_PERCEPTUAL_ROUGHNESS + (1.0 - MIN_PERCEPTUAL_ROUGHNESS) * (i + 1) / (size - 1)
+        k = (r_up / r) ** 2
+        for j in range(size):
+            t = j / (size - 1)
+            nov = max(1.0 - t * t, LTC_MIN_NOV)
+            v = np.array([np.sqrt(1.0 - nov * nov), 0.0, nov])
+            guess = table[i + 1, j, :4] * np.array([k, k, k, 1.0])
+            lg, pg = sample_ggx(v, r * r)
+            n_d = table[i, j, 4]
+            res = minimize(
+                fit_error, guess, args=(v, r * r, n_d, lg, pg), method="Nelder-Mead",
+                options={"xatol": 1e-6, "fatol": 0.0, "maxfev": 600},
+            )  # fmt: skip
+            table[i, j, :4] = res.x
+            table[i, j, 6] = l1_error(res.x, v, r * r, n_d, lg, pg)
+        print(f"r {r:.3f} again: worst L1 {table[i, :, 6].max():.3f}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=32)
     parser.add_argument("--jobs", type=int, default=4, help="processes, each a band of rows")
+    parser.add_argument("--refit", type=int, nargs="*", help="only fit these rows again")
     args = parser.parse_args()
     t0 = time.perf_counter()
+    path = ltc_table_path(args.size)
+    if args.refit:
+        table = np.load(path)
+        refit_rows(table, args.refit)
+        np.save(path, table)
+        print(f"wrote {path} in {time.perf_counter() - t0:.0f} s")
+        return
     bands = np.array_split(np.arange(args.size), args.jobs)
     with ProcessPoolExecutor(args.jobs) as pool:
         parts = pool.map(
             fit_rows, [args.size] * len(bands), [range(b[0], b[-1] + 1) for b in bands]
         )
         table = sum(parts)
-    path = ltc_table_path(args.size)
+    refit_rows(table, list(range(REFIT_ROWS)))
     np.save(path, table)
     print(f"wrote {path} in {time.perf_counter() - t0:.0f} s")
 
