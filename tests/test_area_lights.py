@@ -26,8 +26,9 @@ from tests.conftest import REPO
 
 Z = np.zeros(3)
 # Budgets (docs/area_lights.md, "Error against the truth"): the LTC's radiance against the
-# exact integral, relative to the largest of the set, per roughness band.
-LTC_BUDGET = {0.1: 0.30, 0.3: 0.12, 0.6: 0.06, 1.0: 0.06}
+# exact integral, |LTC - exact| over the set's largest value, (largest, mean) per roughness.
+LTC_BUDGET = {0.1: (0.03, 0.004), 0.3: (0.30, 0.03), 0.6: (0.10, 0.025), 1.0: (0.03, 0.006)}
+EXACT_SAMPLES = 2048  # per strategy: the truth's noise is under 0.5 % of the largest value
 TWIN_RTOL = 2e-3  # GLSL against the twin, float32 against float64 (relative, above a floor)
 
 
@@ -48,7 +49,7 @@ def _lights() -> list[PunctualLight]:
     ]
 
 
-def _points(roughness: float, count: int = 24) -> ShadingPoint:
+def _points(roughness: float, count: int = 16) -> ShadingPoint:
     """``count`` points on the floor y = 0 near the origin, viewed from 30 to 80 degrees."""
     rng = np.random.default_rng(3)
     p = np.stack([rng.uniform(-0.8, 0.8, count), np.zeros(count), rng.uniform(-0.8, 0.8, count)], 1)
@@ -99,11 +100,12 @@ def test_ltc_matches_the_exact_integral(roughness: float) -> None:
     relative to the set's largest value. A point light of the same power at the centre
     fails it (test_a_point_light_is_not_an_area_light)."""
     point = _points(roughness)
+    top, mean = LTC_BUDGET[roughness]
     for light in _lights():
         got = area_light_term(point, DEFAULT_MODEL, light)
-        want = area_light_exact(point, DEFAULT_MODEL, light, samples=4096)
-        err = np.abs(got - want).max() / want.max()
-        assert err <= LTC_BUDGET[roughness], (light.type.name, roughness, err)
+        want = area_light_exact(point, DEFAULT_MODEL, light, samples=EXACT_SAMPLES)
+        err = np.abs(got - want) / want.max()
+        assert err.max() <= top and err.mean() <= mean, (light.type.name, err.max(), err.mean())
 
 
 def test_a_point_light_is_not_an_area_light(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -125,10 +127,11 @@ def test_a_point_light_is_not_an_area_light(monkeypatch: pytest.MonkeyPatch) -> 
         nol = np.maximum(np.sum(l * sp.n, axis=-1), 0.0)
         return brdf_eval(sp, model, l) * power * (nol * cos_l / d2)[:, None] / math.pi
 
-    want = area_light_exact(point, DEFAULT_MODEL, rect, samples=4096)
+    want = area_light_exact(point, DEFAULT_MODEL, rect, samples=EXACT_SAMPLES)
     monkeypatch.setattr(area_lights, "area_light_term", as_point)
     got = area_lights.area_light_term(point, DEFAULT_MODEL, rect)
-    assert np.abs(got - want).max() / want.max() > LTC_BUDGET[0.3]
+    err = np.abs(got - want) / want.max()
+    assert err.max() > LTC_BUDGET[0.3][0] or err.mean() > LTC_BUDGET[0.3][1]
 
 
 @pytest.mark.gl
