@@ -216,11 +216,11 @@ def area_radiance(kind: LightType, c_light: np.ndarray, u: np.ndarray, w: np.nda
     """The emitted radiance L of an area light whose power matches a point light of
     c_light (RTR4 §9.4's c_light at 1 m): far away, head-on (a rectangle or disk facing
     the point, a tube seen side-on), both give a white Lambert surface c_light / d^2:
-    L = pi c_light / A with A the projected area (4 |u| |w|, pi r^2, pi r^2,
+    L = pi c_light / A with A the projected area (4 |u| |w|, pi |u| |w|, pi r^2,
     4 r |u| + pi r^2)."""
     area = {
         LightType.RECT: 4.0 * float(np.linalg.norm(u) * np.linalg.norm(w)),
-        LightType.DISK: math.pi * r * r,
+        LightType.DISK: math.pi * float(np.linalg.norm(u) * np.linalg.norm(w)),
         LightType.SPHERE: math.pi * r * r,
         LightType.TUBE: 4.0 * r * float(np.linalg.norm(u)) + math.pi * r * r,
     }[kind]
