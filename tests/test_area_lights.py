@@ -177,3 +177,31 @@ def test_glsl_area_lights_match_their_twin(gl_egl) -> None:
     err = relative_error(hdr[sel], ref[sel], floor=0.02 * ref[sel].max())
     assert ref[sel].max() > 0.1
     assert err.max() <= TWIN_RTOL, err.max()
+
+
+def test_area_light_keys_are_checked() -> None:
+    """Each shape needs its size keys, refuses the others' and a shadow map, one line
+    naming the key; the viewer's new lights (AREA_LIGHT_DEFAULTS) are valid as they are."""
+    from app.errors import InputError
+    from app.scene.loader import parse_scene
+    from app.viewer.window import AREA_LIGHT_DEFAULTS
+
+    def scene(light: dict) -> dict:
+        return {"materials": {"m": {}}, "objects": [{"shape": "sphere", "material": "m"}],
+                "lights": [light]}  # fmt: skip
+
+    bad = [
+        ({"type": "rect", "position": [0, 1, 0], "direction": [0, -1, 0]}, "size"),
+        ({"type": "sphere", "position": [0, 1, 0], "radius": 0.1, "size": [1, 1]}, "size"),
+        ({"type": "tube", "position": [0, 1, 0], "direction": [1, 0, 0], "radius": 0.1}, "length"),
+        ({"type": "disk", "position": [0, 1, 0], "direction": [0, -1, 0], "radius": 0.2,
+          "shadow": True}, "shadow"),
+    ]  # fmt: skip
+    for light, key in bad:
+        with pytest.raises(InputError, match=key):
+            parse_scene(scene(light), REPO / "inline.toml")
+    for kind, keys in AREA_LIGHT_DEFAULTS.items():
+        light = {"type": kind, "position": [0, 2, 0], **keys}
+        if kind != "sphere":
+            light["direction"] = [0.0, -1.0, -0.2]
+        parse_scene(scene(light), REPO / "inline.toml")
