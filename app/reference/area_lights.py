@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.common.lights import AREA_TYPES, LightType, PunctualLight
+from app.common.lights import LightType, PunctualLight
 from app.common.models import Model
 from app.common.tables import DATA_DIR
 from app.reference._vec import dot, normalize
@@ -503,8 +503,3 @@ def _normal_at(light: PunctualLight, q: np.ndarray) -> np.ndarray:
     ax = u / max(half, 1e-300)
     s = np.clip((q - c) @ ax, -half, half)
     return normalize(q - (c + s[..., None] * ax))
-
-
-def is_area(light: PunctualLight) -> bool:
-    """An area light (rectangle, disk, sphere, tube)."""
-    return light.type in AREA_TYPES
