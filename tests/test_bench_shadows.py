@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 from app.bench import main
+from app.bench.area_lights import AREA_LIGHTS
+from app.bench.area_lights import CASE as AREA_CASE
 from app.bench.report import shadow_fronts
 from app.bench.shadows import FILTERS, LIGHTS, SHOWCASE, SHOWCASE_VARIANTS, mismatch
 
@@ -29,7 +31,10 @@ def test_tiny_shadows_suite_writes_its_rows(tmp_path):
     showcase = {r["variant"]: r for r in rows if r["case"] == SHOWCASE}
     assert set(showcase) == set(SHOWCASE_VARIANTS)  # the target's rows, shadows on and off
     assert showcase["shadows"]["shadowed_lights"] == 2
-    rows = [r for r in rows if r["case"] != SHOWCASE]
+    # the area lights' case (app/bench/area_lights.py): one row per shape, timed
+    area = {r["variant"]: r for r in rows if r["case"] == AREA_CASE}
+    assert set(area) == set(AREA_LIGHTS) and all(r["ms_median"] > 0 for r in area.values())
+    rows = [r for r in rows if r["case"] not in (SHOWCASE, AREA_CASE)]
     for r in rows:
         assert r["ms_min"] <= r["ms_median"] <= r["ms_max"]
         assert r["lit_pixels"] > 100

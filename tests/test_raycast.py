@@ -31,6 +31,7 @@ from app.reference.raycast import (
     render_reference,
 )
 from app.scene.loader import load_scene, parse_scene
+from app.scene.model import AREA_LIGHT_TYPES
 from tests.agreement import without_shadows
 from tests.conftest import REPO
 
@@ -259,6 +260,9 @@ def test_reference_scene_of_a_sphere_and_a_floor():
 TARGET_MEDIAN = 1e-5
 TARGET_P99 = 1e-4
 TARGET_FLIP = 1e-3
+# A scene with an area light: its LTC against the exact integral over the light
+# (docs/area_lights.md, "Error against the truth"): median, 99th percentile, mean FLIP.
+AREA_TARGETS = (1e-5, 0.12, 6e-3)
 
 
 @pytest.mark.parametrize("point_lights", [False, True], ids=["directional", "point"])
@@ -309,7 +313,11 @@ def test_bundled_scene_meets_the_targets(gl_egl, path):
     render = loaded.scene.render
     size = (160, max(8, round(160 * render.height / render.width)))
     errors = raycast_errors(gl_egl, loaded, size)
-    assert errors["median"] <= TARGET_MEDIAN, errors
-    assert errors["p99"] <= TARGET_P99, errors
-    assert errors["flip_mean"] <= TARGET_FLIP, errors
+    median, p99, flip_mean = TARGET_MEDIAN, TARGET_P99, TARGET_FLIP
+    if any(light.type in AREA_LIGHT_TYPES for light in loaded.scene.lights):
+        # linearly transformed cosines against the exact integral (docs/area_lights.md)
+        median, p99, flip_mean = AREA_TARGETS
+    assert errors["median"] <= median, errors
+    assert errors["p99"] <= p99, errors
+    assert errors["flip_mean"] <= flip_mean, errors
     assert errors["coverage_mismatch"] == 0.0, errors

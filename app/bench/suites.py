@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.bench.area_lights import run_area_lights
 from app.bench.context import (
     Context,
     Settings,
@@ -1018,6 +1019,13 @@ def run_transmission(ctx: Context) -> None:
     run(ctx)
 
 
+def run_shadows_and_area_lights(ctx: Context) -> None:
+    """Suite ``shadows``: its cases (app/bench/shadows.py), then an area light of each
+    shape against a point light on the same scene (app/bench/area_lights.py)."""
+    run_shadows(ctx)
+    run_area_lights(ctx)
+
+
 RUNNERS: dict[str, Callable[[Context], None]] = {
     "culling": run_culling,
     "resolution": run_resolution,
@@ -1027,7 +1035,7 @@ RUNNERS: dict[str, Callable[[Context], None]] = {
     "viewer": run_viewer,
     "batch": run_batch,
     "ibl": run_ibl,
-    "shadows": run_shadows,
+    "shadows": run_shadows_and_area_lights,
     "antialiasing": run_antialiasing,
     "assets": run_assets,
     "peers": run_peers,
@@ -1046,7 +1054,7 @@ def planned_tasks(suites: list[str], settings: Settings, pyrender: bool) -> int:
         "viewer": 1,
         "batch": 0,
         "ibl": 0,
-        "shadows": shadows_tasks(settings),
+        "shadows": shadows_tasks(settings) + 1,  # and the area lights' case
         "antialiasing": 0,
         "assets": 3 * max(1, settings.startup_runs),
         "peers": 0,

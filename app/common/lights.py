@@ -3,7 +3,7 @@ light types): one typed record per light, and its texture layout."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import IntEnum
 
 import numpy as np
@@ -15,6 +15,15 @@ class LightType(IntEnum):
     DIRECTIONAL = 0
     POINT = 1
     SPOT = 2
+    # area lights (glsl/lights/area.glsl; docs/area_lights.md): local lights of a size
+    RECT = 3
+    DISK = 4
+    SPHERE = 5
+    TUBE = 6
+
+
+# The area lights' types, in the order of their texel codes (AREA_CODE_BASE - k).
+AREA_TYPES = (LightType.RECT, LightType.DISK, LightType.SPHERE, LightType.TUBE)
 
 
 @dataclass(frozen=True)
@@ -55,10 +64,17 @@ class PunctualLight:
     # Its shadow maps' settings where the light casts shadows (one map; six for a point;
     # one per cascade for a directional light with shadow_cascades > 1).
     shadow: ShadowSettings | None = None
+    # Area lights (``AREA_TYPES``): ``color`` is then the emitted radiance L; ``position``
+    # the centre; ``axis_u``, ``axis_v`` the half-extent vectors of a rectangle or disk
+    # (its normal u x v the way it emits), ``axis_u`` a tube's half axis; ``radius`` a
+    # sphere's, tube's (a disk's is |axis_u|). Zero for punctual lights.
+    axis_u: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    axis_v: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    radius: float = 0.0
 
     @property
     def is_local(self) -> bool:
-        """A point or spot light: it reaches only the points within its range."""
+        """A point, spot or area light: it reaches only the points within its range."""
         return self.type != LightType.DIRECTIONAL
 
 
@@ -66,6 +82,10 @@ class PunctualLight:
 # light, cos_outer < -1 a point light (no cone).
 DIRECTIONAL_RANGE = -1.0
 POINT_COS_OUTER = -2.0
+# An area light's cos_outer texel: AREA_CODE_BASE - k for AREA_TYPES[k] (below -2.5);
+# its other texels: centre and radius, axis_u and range, radiance (pack_lights), and
+# axis_v in a texture of its own (pack_area_shapes).
+AREA_CODE_BASE = -3.0
 
 
 def pack_lights(lights: list[PunctualLight]) -> np.ndarray:
@@ -78,12 +98,32 @@ def pack_lights(lights: list[PunctualLight]) -> np.ndarray:
     """
     out = np.zeros((max(len(lights), 1), 3, 4), np.float32)
     for i, light in enumerate(lights):
+        if light.type in AREA_TYPES:
+            code = AREA_CODE_BASE - AREA_TYPES.index(light.type)
+            out[i, 0] = (*light.position, light.radius)
+            out[i, 1] = (*light.axis_u, light.range)
+            out[i, 2] = (*light.color, code)
+            continue
         light_range = DIRECTIONAL_RANGE if light.type == LightType.DIRECTIONAL else light.range
         cos_outer = POINT_COS_OUTER if light.type == LightType.POINT else light.cos_outer
         out[i, 0] = (*light.position, light.cos_inner)
         out[i, 1] = (*light.direction, light_range)
         out[i, 2] = (*light.color, cos_outer)
     return out
+
+
+def pack_area_shapes(lights: list[PunctualLight]) -> np.ndarray:
+    """(N, 4) float32: each light's axis_v (zero for the others), the texel
+    glsl/lights/area.glsl's area_shape() reads beside the light's three."""
+    out = np.zeros((max(len(lights), 1), 4), np.float32)
+    for i, light in enumerate(lights):
+        out[i, :3] = light.axis_v
+    return out
+
+
+def has_area_lights(lights: list[PunctualLight]) -> bool:
+    """Whether any of ``lights`` is an area light (AREA_LIGHTS is compiled in)."""
+    return any(light.type in AREA_TYPES for light in lights)
 
 
 def order_lights(lights: list[PunctualLight]) -> list[PunctualLight]:

@@ -8,11 +8,49 @@ import math
 import numpy as np
 
 from app.common.lights import LightType, PunctualLight, ShadowSettings, order_lights
-from app.scene.model import Environment, Light
+from app.scene.model import AREA_LIGHT_TYPES, Environment, Light
+
+
+def area_record(light: Light) -> PunctualLight:
+    """A rect, disk, sphere or tube light as its record (docs/area_lights.md): centre, half
+    extents and radius, and the radiance of a point light's power (``area_radiance``)."""
+    from app.reference.area_lights import area_radiance  # area-light scenes only
+
+    kind = LightType[light.type.upper()]
+    d = np.zeros(3) if light.direction is None else np.asarray(light.direction, float)
+    if light.direction is not None:
+        d = d / np.linalg.norm(d)
+    # a rectangle's width horizontal: across d and the world's up (X where d is vertical)
+    across = np.cross([0.0, 1.0, 0.0], d)
+    if np.linalg.norm(across) < 1e-6:
+        across = np.array([1.0, 0.0, 0.0])
+    e_u = across / np.linalg.norm(across)
+    e_v = np.cross(d, e_u)  # e_u x e_v = d: the side it emits to
+    u = w = np.zeros(3)
+    radius = float(light.radius or 0.0)
+    if kind == LightType.RECT:
+        u, w = 0.5 * light.size[0] * e_u, 0.5 * light.size[1] * e_v
+    elif kind == LightType.DISK:
+        u, w = radius * e_u, radius * e_v
+    elif kind == LightType.TUBE:
+        u = 0.5 * float(light.length) * d
+    c_light = np.asarray(light.color, float) * light.intensity
+    return PunctualLight(
+        type=kind,
+        position=np.asarray(light.position, float),
+        direction=d,
+        color=area_radiance(kind, c_light, u, w, radius),
+        range=light.effective_range,
+        axis_u=u,
+        axis_v=w,
+        radius=radius,
+    )
 
 
 def light_record(light: Light) -> PunctualLight:
     """One scene light as glsl/lights/punctual.glsl's PunctualLight, in float64."""
+    if light.type in AREA_LIGHT_TYPES:
+        return area_record(light)
     direction = np.zeros(3) if light.direction is None else np.asarray(light.direction, float)
     if light.direction is not None:
         direction = direction / np.linalg.norm(direction)

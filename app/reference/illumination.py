@@ -13,9 +13,10 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferData
-from app.common.lights import PunctualLight
+from app.common.lights import AREA_TYPES, PunctualLight
 from app.common.models import Model, ModelParams, unpack_model_params
 from app.reference._vec import dot, normalize
+from app.reference.area_lights import area_light_exact, area_light_term
 from app.reference.cloth import CLOTH_WRAP_MIN_N_DOT_L
 from app.reference.constants import PI
 from app.reference.encoding import oct_decode
@@ -40,6 +41,7 @@ def illumination_sum(
     lights: list[PunctualLight],
     terms: str = "all",
     visibility: list[np.ndarray | None] | None = None,
+    area: str = "ltc",
 ) -> np.ndarray:
     """RTR4 §9.4: pi sum_i f(l_i, v) c_light_i (n.l_i)+ at the points ``point.position``
     (..., 3); ``terms`` as in ``brdf_eval``. An empirical cloth with wrap w > 0 takes the
@@ -49,10 +51,16 @@ def illumination_sum(
     (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL.
     ``visibility``: per light, None or (...,) in [0, 1], the fraction of the light that
     reaches each point (a shadow; glsl/lights/illumination.glsl multiplies c_light by it
-    under SHADOWS, docs/shadows.md)."""
+    under SHADOWS, docs/shadows.md). An area light adds its integral over the light
+    (app/reference/area_lights.py): by ``area`` "ltc" as the GLSL does, "exact" by the
+    float64 integral (the ray-caster's truth)."""
     p, n = point.position, point.n
     Lo = np.zeros(np.shape(p), np.float64)
     for k, light in enumerate(lights):
+        if light.type in AREA_TYPES:
+            term = area_light_exact if area == "exact" else area_light_term
+            Lo += term(point, model, light, terms)
+            continue
         c_light, l = light_at(light, p)
         if visibility is not None and visibility[k] is not None:
             c_light = c_light * np.asarray(visibility[k], np.float64)[..., None]

@@ -380,7 +380,8 @@ def shade(
             t = rotate_tangent(hits.n[sel], t, 1.0, np.array([math.cos(a), math.sin(a)]))
         vis = None if visibility is None else [x if x is None else x[sel] for x in visibility]
         point = ShadingPoint(surface, mat.params, hits.n[sel], None, t, v, p)
-        out[sel] = illumination_sum(point, mat.model, lights, terms, visibility=vis)
+        # area lights by their exact float64 integral (app/reference/area_lights.py)
+        out[sel] = illumination_sum(point, mat.model, lights, terms, visibility=vis, area="exact")
         if environment is not None:
             out[sel] += uniform_environment_radiance(
                 environment[0], point, mat.model, environment[1], terms

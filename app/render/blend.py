@@ -35,6 +35,7 @@ from app.frame.materials import MaterialTable
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
 from app.render.inputs import (
+    AREA_LIGHTS,
     ENVIRONMENT,
     LIGHTS,
     MATERIALS,
@@ -57,7 +58,7 @@ BLEND_DEFINES = {"ALPHA_BLEND": 1, "GBUFFER_EMISSION": 1}
 # The shader inputs a blended part reads (app/render/inputs.py): the lighting pass's
 # lights (as the texture), material table, lookup tables, environment light and shadow
 # maps; not the G-buffer (it writes none) nor the tiles (it loops over every light).
-BLEND_INPUTS = (LIGHTS, MATERIALS, MS_TABLE, SHEEN_TABLE, ENVIRONMENT, SHADOWS)
+BLEND_INPUTS = (LIGHTS, MATERIALS, MS_TABLE, SHEEN_TABLE, ENVIRONMENT, SHADOWS, AREA_LIGHTS)
 
 
 def blend_defines(context: ShadingContext) -> dict[str, int]:

@@ -35,7 +35,7 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.lights import PunctualLight, pack_lights
+from app.common.lights import PunctualLight, has_area_lights, pack_area_shapes, pack_lights
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
 from app.gl.fullscreen import Texture
@@ -47,9 +47,10 @@ GBUFFER, LIGHTS, MATERIALS, MS_TABLE, SHEEN_TABLE = (
     "gbuffer", "lights", "materials", "ms_table", "sheen_table",
 )  # fmt: skip
 TILES, ENVIRONMENT, SHADOWS = "tiles", "environment", "shadows"
+AREA_LIGHTS = "area_lights"
 # What a pass that decodes the G-buffer and evaluates the BRDF of the table's materials
 # reads (the debug views, the bench's floor).
-SURFACE_ROLES = (GBUFFER, LIGHTS, MATERIALS, MS_TABLE, SHEEN_TABLE)
+SURFACE_ROLES = (GBUFFER, LIGHTS, MATERIALS, MS_TABLE, SHEEN_TABLE, AREA_LIGHTS)
 
 
 class MissingInputError(ValueError):
@@ -189,6 +190,40 @@ class LookupTable(ShaderInput):
         self.texture.release()
 
 
+class AreaLightInput(ShaderInput):
+    """The area lights' inputs (glsl/lights/area.glsl; docs/area_lights.md): the LTC table
+    ``u_ltc_table`` (app/reference/area_lights.py ``ltc_table``: M^-1's four entries, then
+    n_D and f_b, side by side, RGBA32F) and ``u_area_shapes`` (each light's axis_v,
+    ``pack_area_shapes``). ``AREA_LIGHTS`` and ``LTC_SIZE`` compile the area term in; a
+    frame without an area light has no such input, so its programs are as before."""
+
+    role = AREA_LIGHTS
+
+    def __init__(self, ctx: moderngl.Context, lights: list[PunctualLight]) -> None:
+        from app.reference.area_lights import ltc_table  # area-light frames only
+
+        table = ltc_table()
+        self.size = table.shape[0]
+        texels = np.zeros((self.size, 2 * self.size, 4), np.float32)  # rows: roughness
+        texels[:, : self.size] = table[..., :4]
+        texels[:, self.size :, :2] = table[..., 4:6]
+        self.table = ctx.texture((2 * self.size, self.size), 4, texels.tobytes(), dtype="f4")
+        shapes = pack_area_shapes(lights)
+        self.shapes = ctx.texture((len(shapes), 1), 4, shapes.tobytes(), dtype="f4")
+        for tex in (self.table, self.shapes):
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def defines(self) -> dict[str, int]:
+        return {"AREA_LIGHTS": 1, "LTC_SIZE": self.size}
+
+    def samplers(self) -> list[tuple[str, Texture]]:
+        return [("u_ltc_table", self.table), ("u_area_shapes", self.shapes)]
+
+    def release(self) -> None:
+        self.table.release()
+        self.shapes.release()
+
+
 def bind_camera(program: moderngl.Program, camera: CameraFrame) -> None:
     """The camera's uniforms of a pass that rebuilds positions from view depth (those the
     program has): its position, camera-to-world rotation and tan(fov_y / 2)."""
@@ -324,6 +359,8 @@ def shading_context(
     if every_table or any(model.sheen != "none" for model in table.models):
         # sheen (RTR4 §9.10): the albedo table, where a model uses it
         owned.append(LookupTable(SHEEN_TABLE, "u_sheen_table", sheen_texture(ctx)))
+    if has_area_lights(lights):  # the LTC table and the shapes (docs/area_lights.md)
+        owned.append(AreaLightInput(ctx, lights))
     inputs = [GBufferInput(gbuffer)] if gbuffer is not None else []
     inputs += [*owned, *(x for x in (tiles, environment, shadows) if x is not None)]
     return ShadingContext(inputs, owned)

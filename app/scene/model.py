@@ -194,10 +194,16 @@ class RenderSettings(_Strict):
 MAX_SHADOW_SPOT_ANGLE = 80.0
 
 
-class Light(_Strict):
-    """A punctual light. ``c_light = color * intensity`` (at 1 m for point and spot lights)."""
+# The area lights' types (docs/area_lights.md): shapes of a size, shaded by LTC.
+AREA_LIGHT_TYPES = ("rect", "disk", "sphere", "tube")
 
-    type: Literal["directional", "point", "spot"]
+
+class Light(_Strict):
+    """A punctual or area light. ``c_light = color * intensity`` (at 1 m for point and spot
+    lights); an area light emits the radiance that gives a point light of that c_light's
+    power (docs/area_lights.md)."""
+
+    type: Literal["directional", "point", "spot", "rect", "disk", "sphere", "tube"]
     color: Color = [1.0, 1.0, 1.0]
     intensity: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] = 1.0
     position: Vec3 | None = None
@@ -205,6 +211,11 @@ class Light(_Strict):
     range: Positive | None = None  # metres; the window reaches exactly 0 here
     inner_angle: Annotated[Real, Field(ge=0.0, lt=90.0)] | None = None  # degrees, half-angle
     outer_angle: Annotated[Real, Field(gt=0.0, le=90.0)] | None = None  # degrees, half-angle
+    # Area lights: a rectangle's [width, height] (its width horizontal, across direction),
+    # a disk's, sphere's or tube's radius, a tube's length along its direction (metres).
+    size: Annotated[list[Positive], Field(min_length=2, max_length=2)] | None = None
+    radius: Positive | None = None
+    length: Positive | None = None
     # Shadow maps (docs/shadows.md); a point light's are six cube faces.
     shadow: Annotated[bool, Field(strict=True)] = False
     shadow_resolution: Annotated[int, Field(strict=True, ge=16)] = 2048  # texels a side
@@ -227,19 +238,23 @@ class Light(_Strict):
             "directional": {"direction"},
             "point": {"position"},
             "spot": {"position", "direction"},
+            "rect": {"position", "direction", "size"},
+            "disk": {"position", "direction", "radius"},
+            "sphere": {"position", "radius"},
+            "tube": {"position", "direction", "radius", "length"},
         }[self.type]
-        allowed = (
-            needs
-            | {
-                "directional": set(),
-                "point": {"range"},
-                "spot": {"range", "inner_angle", "outer_angle"},
-            }[self.type]
-        )
+        allowed = needs | {
+            "directional": set(),
+            "point": {"range"},
+            "spot": {"range", "inner_angle", "outer_angle"},
+        }.get(self.type, {"range"})
         for key in sorted(needs):
             if getattr(self, key) is None:
                 raise ValueError(f"{key}: a {self.type} light needs it")
-        for key in ("position", "direction", "range", "inner_angle", "outer_angle"):
+        if self.shadow and self.type in AREA_LIGHT_TYPES:
+            raise ValueError(f"shadow: a {self.type} light casts no shadow map")
+        keys = ("position", "direction", "range", "inner_angle", "outer_angle", "size", "radius")
+        for key in (*keys, "length"):
             if key not in allowed and getattr(self, key) is not None:
                 raise ValueError(f"{key}: does not apply to a {self.type} light")
         _nonzero(self.direction, "direction")

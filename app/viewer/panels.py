@@ -85,6 +85,7 @@ LABELS = (
     "focus distance", "normal_filter", "light_culling", "supersample", "debug view",
     "of light", "intensity", "direction", "outer angle", "inner angle", "A (left)",
     "B (right)", "lambda_form", "correlation", "multiple scattering", "base colour",
+    "size (m)", "radius (m)", "length (m)",
 )  # fmt: skip
 
 
@@ -717,6 +718,7 @@ class Panels:
                         changed, value = imgui.slider_float("inner angle", inner, 0.0, outer - 0.01)
                         if changed:
                             self._edit(f"{key}.inner_angle", float(value))
+                    self._area_light_controls(key, light)
                     if imgui.button("remove"):
                         self.viewer.remove_light(i)
                 imgui.pop_id()
@@ -724,7 +726,29 @@ class Panels:
             clicked = self._buttons("+ directional", "+ point", "+ spot")
             if clicked is not None:
                 self.viewer.add_light(clicked[2:])
+            # area lights (docs/area_lights.md): shaded by linearly transformed cosines
+            clicked = self._buttons("+ rect", "+ disk", "+ sphere", "+ tube")
+            if clicked is not None:
+                self.viewer.add_light(clicked[2:])
         self._end()
+
+    def _area_light_controls(self, key: str, light: Any) -> None:
+        """An area light's size (docs/area_lights.md): a rectangle's width and height, a
+        disk's, sphere's or tube's radius, a tube's length, in metres."""
+        if light.size is not None:
+            changed, size = imgui.drag_float2("size (m)", list(light.size), 0.01, 0.01, 20.0)
+            if changed and min(size) > 0.0:
+                self._edit(f"{key}.size", [float(x) for x in size])
+        if light.radius is not None:
+            changed, value = imgui.slider_float(
+                "radius (m)", light.radius, 0.005, 5.0, "%.3f", imgui.SliderFlags_.logarithmic
+            )
+            if changed and value > 0.0:
+                self._edit(f"{key}.radius", float(value))
+        if light.length is not None:
+            changed, value = imgui.slider_float("length (m)", light.length, 0.01, 20.0)
+            if changed and value > 0.0:
+                self._edit(f"{key}.length", float(value))
 
     def _render_panel(self) -> None:
         v = self.viewer

@@ -93,6 +93,13 @@ DIVIDER_DRAG = -1  # the drag "button" of a divider drag
 UI_SETTLE_FRAMES = 3  # frames drawn after an input event, for ImGui's hover and focus
 # A transparent frame is shown over a checkerboard, as image editors show alpha: squares of
 # CHECKER pixels in two light greys (sRGB-encoded 8-bit values).
+# A new area light's size keys (docs/area_lights.md): what add_light gives each shape.
+AREA_LIGHT_DEFAULTS: dict[str, dict[str, Any]] = {
+    "rect": {"size": [1.0, 0.5]},
+    "disk": {"radius": 0.4},
+    "sphere": {"radius": 0.25},
+    "tube": {"radius": 0.05, "length": 1.0},
+}
 CHECKER = 8
 CHECKER_GREYS = (204, 153)
 
@@ -394,12 +401,14 @@ class Viewer:
         return self.selection
 
     def add_light(self, kind: str) -> bool:
-        """A new light of ``kind`` ("directional", "point" or "spot") 2 m above the
-        camera's target, pointing down."""
+        """A new light of ``kind`` ("directional", "point", "spot", or an area light:
+        "rect", "disk", "sphere", "tube", with a size of its own) 2 m above the camera's
+        target, pointing down."""
         target = [float(x) for x in self.scene.camera.target]
         above = [target[0], target[1] + 2.0, target[2]]
         light: dict[str, Any] = {"type": kind, "intensity": 1.0 if kind == "directional" else 4.0}
-        if kind != "point":
+        light.update(AREA_LIGHT_DEFAULTS.get(kind, {}))
+        if kind not in ("point", "sphere"):
             light["direction"] = [0.0, -1.0, -0.2]
         if kind != "directional":
             light["position"] = above

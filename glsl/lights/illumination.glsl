@@ -8,6 +8,7 @@
 #include "brdf/material.glsl"
 #include "lights/punctual.glsl"
 #include "lights/shadows.glsl"
+#include "lights/area.glsl"
 // For the masked loop only (TILE_QUADS), but included always: app/gl/shaders.py splices
 // includes before the preprocessor runs, so one inside #ifdef would count as included
 // even where the #ifdef drops it. Without TILE_QUADS it adds functions nothing calls.
@@ -62,6 +63,9 @@ vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp) {
 // The term of `light` at sp, wherever the light was read from (light_contribution below:
 // the light texture or the uniform array; the bench's limit pass: its own form).
 vec3 light_term(PunctualLight light, int i, ShadingPoint sp) {
+#if AREA_LIGHTS
+    if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp);  // lights/area.glsl
+#endif
     vec3 l;
     vec3 c_light = light_at(light, sp.position, l);
     return light_term_at(c_light, l, i, sp);
@@ -70,6 +74,9 @@ vec3 light_term(PunctualLight light, int i, ShadingPoint sp) {
 // light_term of a light known to be a point or spot light (local_light_at): the same
 // float32 operations for it, without the test for a directional light.
 vec3 local_light_term(PunctualLight light, int i, ShadingPoint sp) {
+#if AREA_LIGHTS
+    if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp);  // lights/area.glsl
+#endif
     vec3 l;
     vec3 c_light = local_light_at(light, sp.position, l);
     return light_term_at(c_light, l, i, sp);

@@ -3,8 +3,14 @@
 #ifndef PBS_PUNCTUAL_GLSL
 #define PBS_PUNCTUAL_GLSL
 
-// The light types LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT are generated from
-// app/common/lights.py LightType at the top of every program.
+// The light types LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT (and the area lights'
+// LIGHT_RECT, ...) are generated from app/common/lights.py LightType at the top of every
+// program.
+
+// AREA_LIGHTS: 1 where the frame has an area light (lights/area.glsl), else absent.
+#ifndef AREA_LIGHTS
+#define AREA_LIGHTS 0
+#endif
 
 // Distance floor for the inverse-square law (RTR4 eq. 5.11: a light is never closer
 // than about 1 cm), so a light touching a surface stays finite.
@@ -65,6 +71,10 @@ vec3 light_at(PunctualLight L, vec3 p, out vec3 l) {
 // block in the bench's limit pass (glsl/passes/limit.frag).
 PunctualLight unpack_light(vec4 t0, vec4 t1, vec4 t2) {
     int type = t1.w < 0.0 ? LIGHT_DIRECTIONAL : (t2.w < -1.0 ? LIGHT_POINT : LIGHT_SPOT);
+#if AREA_LIGHTS
+    // an area light's code (app/common/lights.py AREA_CODE_BASE - k): below -2.5
+    if (t2.w < -2.5) type = LIGHT_RECT + int(-t2.w - 2.5);
+#endif
     return PunctualLight(type, t0.xyz, t1.xyz, t2.rgb, t1.w, t2.w, t0.w);
 }
 

@@ -1,0 +1,202 @@
+// Area lights (rectangle, disk, sphere, tube) by linearly transformed cosines: Heitz,
+// Dupuy, Hill and Neubelt 2016, "Real-Time Polygonal-Light Shading with Linearly
+// Transformed Cosines". Compiled in only with AREA_LIGHTS (a frame with an area light:
+// app/render/inputs.py AreaLightInput). Twin: app/reference/area_lights.py, same names.
+//
+// A light of radiance L adds integral f(l, v) L (n.l)+ dl over its solid angle. Both lobes
+// are clamped-cosine integrals of the light's polygon (Lambert's edge formula): the
+// diffuse one directly (the LTC of Lambert is the cosine itself), the GGX one after the
+// polygon is transformed by the fitted M^-1 (scripts/ltc_tables.py, table u_ltc_table):
+//   L_o / pi = L [ f_diffuse(l_rep) I(P) + (F0 (n_D - f_b) + f_b) I(M^-1 P) / pi ] / pi
+#ifndef PBS_AREA_GLSL
+#define PBS_AREA_GLSL
+
+#include "common/constants.glsl"
+#include "brdf/material.glsl"
+#include "lights/punctual.glsl"
+
+#if AREA_LIGHTS
+// LTC_SIZE x LTC_SIZE cells per half: texel (j, i) holds M^-1's a, b, c, d and texel
+// (LTC_SIZE + j, i) n_D, f_b at roughness row i, column j = sqrt(1 - n.v) (RGBA32F).
+uniform sampler2D u_ltc_table;
+// Texel i: light i's axis_v (app/common/lights.py pack_area_shapes).
+uniform sampler2D u_area_shapes;
+
+const float LTC_MIN_NOV = 1e-3;
+const int POLYGON_SIDES = 24;
+const int TUBE_CAP_SIDES = 12;
+const int MAX_POLYGON = 26;  // 2 (TUBE_CAP_SIDES + 1)
+
+// The table bilinearly between cell centres, by four texelFetch reads (no filtering
+// hardware's reduced weight precision): (a, b, c, d) and (n_D, f_b).
+void ltc_lookup(float roughness, float NoV, out vec4 m, out vec2 amp) {
+    float r = clamp(roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    float nov = clamp(NoV, LTC_MIN_NOV, 1.0);
+    float x = (r - MIN_PERCEPTUAL_ROUGHNESS) / (1.0 - MIN_PERCEPTUAL_ROUGHNESS)
+            * float(LTC_SIZE - 1);
+    float y = sqrt(1.0 - nov) * float(LTC_SIZE - 1);
+    int x0 = clamp(int(floor(x)), 0, LTC_SIZE - 2);
+    int y0 = clamp(int(floor(y)), 0, LTC_SIZE - 2);
+    float fx = x - float(x0);
+    float fy = y - float(y0);
+    vec4 m00 = texelFetch(u_ltc_table, ivec2(y0, x0), 0);
+    vec4 m01 = texelFetch(u_ltc_table, ivec2(y0 + 1, x0), 0);
+    vec4 m10 = texelFetch(u_ltc_table, ivec2(y0, x0 + 1), 0);
+    vec4 m11 = texelFetch(u_ltc_table, ivec2(y0 + 1, x0 + 1), 0);
+    m = mix(mix(m00, m01, fy), mix(m10, m11, fy), fx);
+    vec2 a00 = texelFetch(u_ltc_table, ivec2(LTC_SIZE + y0, x0), 0).xy;
+    vec2 a01 = texelFetch(u_ltc_table, ivec2(LTC_SIZE + y0 + 1, x0), 0).xy;
+    vec2 a10 = texelFetch(u_ltc_table, ivec2(LTC_SIZE + y0, x0 + 1), 0).xy;
+    vec2 a11 = texelFetch(u_ltc_table, ivec2(LTC_SIZE + y0 + 1, x0 + 1), 0).xy;
+    amp = mix(mix(a00, a01, fy), mix(a10, a11, fy), fx);
+}
+
+// A unit vector perpendicular to unit a.
+vec3 area_perpendicular(vec3 a) {
+    vec3 helper = abs(a.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    return normalize(cross(a, helper));
+}
+
+// The circumradius of the regular n-gon of a unit disk's area (the polygon keeps the area).
+float disk_scale(int sides) {
+    float n = float(sides);
+    return sqrt(2.0 * PI / (n * sin(2.0 * PI / n)));
+}
+
+// The light's polygon's vertices relative to p (world), in the twin's order
+// (light_polygon); returns the vertex count.
+int area_polygon(PunctualLight L, vec3 axis_v, vec3 p, out vec3 verts[MAX_POLYGON]) {
+    vec3 c = L.position;
+    vec3 u = L.direction;   // axis_u: a rectangle's or disk's half extent, a tube's half axis
+    vec3 w = axis_v;
+    float r = L.cos_inner;  // radius (sphere, tube)
+    if (L.type == LIGHT_RECT) {
+        verts[0] = c - u - w - p;
+        verts[1] = c + u - w - p;
+        verts[2] = c + u + w - p;
+        verts[3] = c - u + w - p;
+        return 4;
+    }
+    if (L.type == LIGHT_DISK) {
+        float k = disk_scale(POLYGON_SIDES);
+        for (int i = 0; i < POLYGON_SIDES; ++i) {
+            float a = 2.0 * PI * float(i) / float(POLYGON_SIDES);
+            verts[i] = c + k * (cos(a) * u + sin(a) * w) - p;
+        }
+        return POLYGON_SIDES;
+    }
+    vec3 d = c - p;
+    float dist = length(d);
+    vec3 axis = d / max(dist, 1e-20);
+    if (L.type == LIGHT_SPHERE) {
+        // the silhouette circle: the cone tangent to the sphere, the same directions
+        float d2 = max(dist * dist - r * r, 0.0);
+        vec3 centre = d - (r * r / max(dist, 1e-20)) * axis;
+        float rad = r * sqrt(d2) / max(dist, 1e-20) * disk_scale(POLYGON_SIDES);
+        vec3 e1 = area_perpendicular(axis);
+        vec3 e2 = cross(axis, e1);
+        for (int i = 0; i < POLYGON_SIDES; ++i) {
+            float a = 2.0 * PI * float(i) / float(POLYGON_SIDES);
+            verts[i] = centre + rad * (cos(a) * e1 + sin(a) * e2);
+        }
+        return POLYGON_SIDES;
+    }
+    // tube: the axis segment widened by r perpendicular to it and to the point, with
+    // half-polygon caps (a stadium; the twin's docstring states the approximation)
+    vec3 t = u / max(length(u), 1e-20);
+    vec3 side = cross(t, axis);
+    float side_len = length(side);
+    side = side_len > 1e-9 ? side / side_len : area_perpendicular(t);
+    float k = r * disk_scale(2 * TUBE_CAP_SIDES);
+    for (int i = 0; i <= TUBE_CAP_SIDES; ++i) {
+        float a = -0.5 * PI + PI * float(i) / float(TUBE_CAP_SIDES);
+        vec3 o = k * (cos(a) * t + sin(a) * side);
+        verts[i] = d + u + o;
+        verts[TUBE_CAP_SIDES + 1 + i] = d - u - o;
+    }
+    return 2 * (TUBE_CAP_SIDES + 1);
+}
+
+// The edge's vector integral: angle(a, b) times the unit normal of the plane through a
+// and b; the angle by atan of |a x b| and a.b, accurate for short edges (acos is not).
+vec3 area_edge(vec3 a, vec3 b) {
+    vec3 c = cross(a, b);
+    float s = length(c);
+    if (s <= 0.0) return vec3(0.0);
+    return c * (atan(s, dot(a, b)) / s);
+}
+
+// The vector form factor of the convex polygon (n vertices, either winding) clipped to the
+// horizon z >= 0; its z is the clamped-cosine integral I (made positive).
+vec3 clipped_form_factor(vec3 verts[MAX_POLYGON], int n) {
+    vec3 total = vec3(0.0);
+    vec3 exit_pt = vec3(0.0);
+    vec3 entry_pt = vec3(0.0);
+    bool crossed = false;
+    for (int i = 0; i < n; ++i) {
+        vec3 a = verts[i];
+        vec3 b = verts[i + 1 < n ? i + 1 : 0];
+        float denom = a.z - b.z;
+        vec3 x = a + (b - a) * (a.z / (denom == 0.0 ? 1.0 : denom));
+        x.z = 0.0;
+        bool above_a = a.z >= 0.0;
+        bool above_b = b.z >= 0.0;
+        if (above_a || above_b) {
+            total += area_edge(above_a ? a : x, above_b ? b : x);
+        }
+        if (above_a && !above_b) {
+            exit_pt = x;
+            crossed = true;
+        }
+        if (!above_a && above_b) entry_pt = x;
+    }
+    if (crossed) total += area_edge(exit_pt, entry_pt);
+    vec3 F = 0.5 * total;
+    return F.z < 0.0 ? -F : F;
+}
+
+// f(l, v) L (n.l)+ integrated over area light i (L: its radiance, light.color), divided by
+// pi: the term the illumination sum adds (it multiplies the sum by pi). A one-sided
+// rectangle or disk lights only the side its normal u x v faces; the window falloff is
+// the centre's, as a point light's, so the tiles cull it by its range.
+vec3 area_light_term(PunctualLight light, int i, ShadingPoint sp) {
+    vec3 axis_v = texelFetch(u_area_shapes, ivec2(i, 0), 0).xyz;
+    vec3 p = sp.position;
+    vec3 to_centre = light.position - p;
+    if ((light.type == LIGHT_RECT || light.type == LIGHT_DISK)
+            && dot(-to_centre, cross(light.direction, axis_v)) <= 0.0) {
+        return vec3(0.0);
+    }
+    vec3 n = sp.n;
+    vec3 t1 = sp.v - n * dot(n, sp.v);
+    float t1_len = length(t1);
+    t1 = t1_len > 1e-6 ? t1 / t1_len : area_perpendicular(n);
+    vec3 t2 = cross(n, t1);
+    vec3 world[MAX_POLYGON];
+    int count = area_polygon(light, axis_v, p, world);
+    vec3 local[MAX_POLYGON];
+    vec3 warped[MAX_POLYGON];
+    float NoV = clamp(dot(n, sp.v), LTC_MIN_NOV, 1.0);
+    vec4 m;
+    vec2 amp;
+    ltc_lookup(sp.s.perceptual_roughness, NoV, m, amp);
+    for (int k = 0; k < count; ++k) {
+        vec3 x = vec3(dot(world[k], t1), dot(world[k], t2), dot(world[k], n));
+        local[k] = x;
+        // M^-1 = [[a, 0, b], [0, c, 0], [d, 0, 1]]
+        warped[k] = vec3(m.x * x.x + m.y * x.z, m.z * x.y, m.w * x.x + x.z);
+    }
+    vec3 F_d = clipped_form_factor(local, count);
+    if (F_d.z <= 0.0) return vec3(0.0);
+    float I_s = clipped_form_factor(warped, count).z;
+    vec3 F0 = material_F0(sp.s, sp.params);
+    vec3 spec = (F0 * (amp.x - amp.y) + amp.y) * (I_s / PI);
+    // f_diffuse at the representative direction: the form factor's (exact for Lambert)
+    vec3 l_rep = normalize(F_d.x * t1 + F_d.y * t2 + F_d.z * n);
+    vec3 f_d = brdf_factors(sp, l_rep).f_diffuse;
+    vec3 Lo = selected_terms(f_d * F_d.z, spec);
+    return Lo * light.color * (window_falloff(dot(to_centre, to_centre), light.range) / PI);
+}
+#endif
+
+#endif
