@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pygltflib
 import pytest
+from PIL import Image
 
 from app.common.ior import f0_from_ior
 from app.gl.context import GLContext
@@ -196,3 +197,81 @@ def test_twin_refraction_and_lod():
     assert np.allclose(transmission_exit(np.zeros(3), v, n, 1.5, 0.0), 0.0)
     assert transmission_lod(0.0, 1.5, 512) == 0.0 and transmission_lod(1.0, 1.0, 512) == 0.0
     assert np.isclose(transmission_lod(1.0, 1.5, 512), 9.0)
+
+
+# --- glTF transmissionTexture (R) and thicknessTexture (G): per-pixel factors ---
+
+NEAREST = {"magFilter": 9728, "minFilter": 9728}
+
+
+def split_texture(left: tuple[int, int, int], right: tuple[int, int, int]) -> Image.Image:
+    """A 4 x 4 image, ``left`` in its two left columns (the quad's u < 0.5, x < 0) and
+    ``right`` in the others."""
+    texels = np.zeros((4, 4, 3), np.uint8)
+    texels[:, :2] = left
+    texels[:, 2:] = right
+    return Image.fromarray(texels)
+
+
+def textured_glass(gl: GLContext, tmp_path: Path, ext: dict, texture: Image.Image) -> np.ndarray:
+    """The HDR image of a white .glb glass quad at z = 0.5 (x in [-1, 1]) before the
+    background, with ``ext`` whose textureInfos name texture 0 (``texture``, nearest)."""
+    b = GltfBuilder()
+    assert b.texture(texture, NEAREST) == 0
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.0
+    )
+    b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=pbr, extensions=ext)))
+    b.doc.extensionsUsed = list(ext)
+    path = b.save(tmp_path / "glass.glb")
+    objects = [{"shape": "mesh", "file": str(path), "position": [0.0, 0.0, 0.5]}]
+    image, passes = render(gl, scene({}, objects), tmp_path)
+    assert passes == (True, 0)
+    return image
+
+
+# Pixels well inside the quad's left half (x < 0) and right half (x > 0), away from the
+# texture's edge at x = 0 (columns 19 and 20 of 40).
+LEFT = (slice(10, 22), slice(8, 16))
+RIGHT = (slice(10, 22), slice(24, 32))
+
+
+@pytest.mark.gl
+def test_transmission_texture_makes_its_black_half_opaque(gl_egl, tmp_path):
+    """transmissionTexture's R multiplies transmissionFactor 1 per pixel: R = 0 on the
+    quad's left half (G and B 255, so a reader of another channel fails), 255 on its right.
+    The right half transmits (1 - F) x the background; the left half is the opaque white
+    base, which the backlight leaves black. Fails with the texture ignored (both halves
+    transmit)."""
+    ext = {"KHR_materials_transmission": {"transmissionFactor": 1.0,
+                                          "transmissionTexture": {"index": 0}}}  # fmt: skip
+    image = textured_glass(gl_egl, tmp_path, ext, split_texture((0, 255, 255), (255, 0, 0)))
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    right = image[RIGHT][..., :3].reshape(-1, 3)
+    np.testing.assert_allclose(right, np.tile(weight * behind(image), (len(right), 1)),
+                               rtol=TOLERANCE)  # fmt: skip
+    np.testing.assert_array_equal(image[LEFT][..., :3], 0.0)
+
+
+@pytest.mark.gl
+def test_thickness_texture_scales_the_volume_per_pixel(gl_egl, tmp_path):
+    """thicknessTexture's G multiplies thicknessFactor 0.5 per pixel: G = 0 on the quad's
+    left half (R and B 255), 255 on its right. Through the right half the attenuation
+    colour (0.8, 0.5, 0.2) at distance 0.25 tints the background by Beer-Lambert over 0.5;
+    the left half is thin-walled, untinted. Fails with the texture ignored (both halves
+    tinted)."""
+    ext = {
+        "KHR_materials_transmission": {"transmissionFactor": 1.0},
+        "KHR_materials_volume": {
+            "thicknessFactor": 0.5, "attenuationDistance": 0.25,
+            "attenuationColor": [0.8, 0.5, 0.2], "thicknessTexture": {"index": 0},
+        },
+    }  # fmt: skip
+    image = textured_glass(gl_egl, tmp_path, ext, split_texture((255, 0, 255), (0, 255, 0)))
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    tint = beer_lambert(np.array([0.8, 0.5, 0.2]), 0.25, 0.5)
+    for where, expected in ((LEFT, weight), (RIGHT, weight * tint)):
+        pixels = image[where][..., :3].reshape(-1, 3)
+        np.testing.assert_allclose(
+            pixels, np.tile(expected * behind(image), (len(pixels), 1)), rtol=TOLERANCE
+        )

@@ -7,11 +7,12 @@ from the very G-buffer values the GPU shaded, so the comparison isolates the lig
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from app.common.camera import CameraFrame
+from app.common.extension_maps import scale_row
 from app.common.gbuffer import GBufferData
 from app.common.lights import PunctualLight
 from app.common.models import Model, ModelParams, unpack_model_params
@@ -109,23 +110,10 @@ class DecodedGBuffer:
         """The ShadingPoint of the pixels ``sel`` picks (one material: ``params``), as the
         GLSL's decode_gbuffer returns it per pixel (with RT6, the row's sheen colour and
         coat strength times the pixels' factors)."""
-        if self.layer_maps is not None:
-            f = self.layer_maps[sel]
-            rgb = "specular_color" if params.specular_color_map > 0.5 else "sheen_color"
-            a = "sheen_roughness" if params.sheen_roughness_map > 0.5 else "clearcoat"
-            params = replace(
-                params, **{a: getattr(params, a) * f[:, 3]},
-                **{rgb: np.asarray(getattr(params, rgb)) * f[:, :3]},
-            )  # fmt: skip
-        if self.coat_film_maps is not None:  # RT8: the coat's roughness, the film's
-            f = self.coat_film_maps[sel]  # strength and thickness per pixel
-            params = replace(
-                params,
-                clearcoat_roughness=params.clearcoat_roughness * f[:, 0],
-                film_factor=params.film_factor * f[:, 1],
-                film_thickness=params.film_thickness_min
-                + (params.film_thickness - params.film_thickness_min) * f[:, 2],
-            )
+        for target, factors in (("layer_maps", self.layer_maps),
+                                ("coat_film_maps", self.coat_film_maps)):  # fmt: skip
+            if factors is not None:  # RT6, RT8: app/common/extension_maps.py's slots
+                params = scale_row(params, target, factors[sel])
         return ShadingPoint(
             self.surface.select(sel), params, self.n[sel],
             None if self.nc is None else self.nc[sel], self.t[sel], self.v[sel], self.p[sel],

@@ -63,6 +63,9 @@ void main() {
 #if GBUFFER_COAT_FILM_MAPS
     vec4 coat_film_factors = sample_coat_film_maps(hit.uv);   // as the G-buffer pass's RT8
 #endif
+#if TRANSMISSION && TRANSMISSION_MAPS
+    vec4 transmission_factors = sample_transmission_maps(hit.uv);   // glass's own maps
+#endif
 #if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
 #endif
@@ -85,6 +88,9 @@ void main() {
 #endif
 #if GBUFFER_COAT_FILM_MAPS
     vec4 coat_film_factors = sample_coat_film_maps(v_uv);   // as the G-buffer pass's RT8
+#endif
+#if TRANSMISSION && TRANSMISSION_MAPS
+    vec4 transmission_factors = sample_transmission_maps(v_uv);   // glass's own maps
 #endif
 #if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(v_uv);
@@ -114,6 +120,12 @@ void main() {
 #endif
 #if GBUFFER_COAT_FILM_MAPS
     params = scale_by_coat_film_maps(params, coat_film_factors);
+#endif
+#if TRANSMISSION && TRANSMISSION_MAPS
+    // glTF transmissionTexture (R) and thicknessTexture (G) on the row's transmission and
+    // thickness (app/common/extension_maps.py): a texel of 0 makes the pixel opaque, or
+    // thin-walled
+    params = scale_by_transmission_maps(params, transmission_factors);
 #endif
 
     // The lighting pass's position: the pixel centre's view ray times the interpolated view
