@@ -2,11 +2,12 @@
 KHR_materials_volume): a transmissive sphere drawn by the transmission pass
 (app/render/transmission.py) shows the image behind it, with the real GLSL.
 
-A sphere of white glass in front of a uniform background colour, lit by nothing that
-reaches its front (a sun shining from in front of the camera, onto the sphere's far side):
-the only light leaving its front is the transmitted term, so the pixel at its centre is the
-twin's (app/reference/transmission.py) weight times the background, (1 - F(1)) = 0.96 at
-ior 1.5, times Beer-Lambert's transmittance over the volume's thickness.
+A sphere of white glass in front of a uniform background colour, lit by nothing (a sun of
+intensity 0: a light behind the glass is seen through it, the last tests' transmitted
+lobe): the only light leaving its front is the transmitted term, so the pixel at its
+centre is the twin's (app/reference/transmission.py) weight times the background,
+(1 - F(1)) = 0.96 at ior 1.5, times Beer-Lambert's transmittance over the volume's
+thickness.
 """
 
 from __future__ import annotations
@@ -20,13 +21,16 @@ from PIL import Image
 
 from app.common.ior import f0_from_ior
 from app.gl.context import GLContext
+from app.reference.punctual import light_at
 from app.reference.transmission import (
     beer_lambert,
     dispersion_iors,
     refracted_direction,
+    transmission_alpha,
     transmission_exit,
     transmission_lod,
     transmission_weight,
+    transmitted_light,
 )
 from app.render.renderer import Renderer
 from app.scene.loader import parse_scene
@@ -34,8 +38,8 @@ from tests.gltf_builder import GltfBuilder
 
 SIZE = (40, 32)
 BACKGROUND = [0.2, 0.6, 0.3]
-# The sun shines towards the camera (+z): the sphere's front hemisphere is not lit.
-BACKLIGHT = {"type": "directional", "direction": [0.0, 0.0, 1.0], "intensity": 2.0}
+# A sun that adds no light (neither on the sphere's front nor through it).
+BACKLIGHT = {"type": "directional", "direction": [0.0, 0.0, 1.0], "intensity": 0.0}
 # float32 shading, the image copy and its trilinear read at level 0
 TOLERANCE = 1e-4
 
@@ -275,3 +279,57 @@ def test_thickness_texture_scales_the_volume_per_pixel(gl_egl, tmp_path):
         np.testing.assert_allclose(
             pixels, np.tile(expected * behind(image), (len(pixels), 1)), rtol=TOLERANCE
         )
+
+
+# --- punctual lights seen through the glass: the transmitted GGX lobe ---
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("thickness", [0.0, 0.4])
+def test_a_light_behind_rough_glass_is_the_twins_transmitted_lobe(gl_egl, tmp_path, thickness):
+    """A point light 1 m behind a rough (0.3) glass quad, seen through it: every pixel of
+    the quad is the light behind, (1 - F(n.v)) x the background, plus the twin's
+    transmitted lobe pi T f_t c_light |n.l| (brdf/transmission.glsl transmitted_light),
+    the light reached from the view ray's exit point (the surface's own point where
+    thin-walled). The lobe's peak is thousands of times the tolerance. Fails with the
+    lights' term left out, without the cosine, or with the light's direction taken from
+    the entry point of a volume."""
+    glass = {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+    if thickness:
+        glass["KHR_materials_volume"] = {"thicknessFactor": thickness}
+    b = GltfBuilder()
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.3
+    )
+    b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=pbr, extensions=glass)))
+    b.doc.extensionsUsed = list(glass)
+    path = b.save(tmp_path / "glass.glb")
+    data = scene({}, [{"shape": "mesh", "file": str(path), "position": [0.0, 0.0, 0.5]}])
+    data["lights"] = [{"type": "point", "position": [0.0, 0.2, -0.5], "intensity": 0.5,
+                       "range": 20.0}]  # fmt: skip
+    r = Renderer(gl_egl, parse_scene(data, tmp_path / "inline.toml"))
+    try:
+        r.render()
+        image = r.read_hdr().astype(np.float64)
+        light = r.frame.lights[0]
+    finally:
+        r.release()
+    # Each pixel centre's point on the quad (z = 0.5), from the camera at z = 3.
+    w, h = SIZE
+    tan = np.tan(np.radians(20.0))
+    x = ((np.arange(w) + 0.5) / w * 2.0 - 1.0) * tan * w / h
+    y = (1.0 - (np.arange(h) + 0.5) / h * 2.0) * tan
+    p = np.stack(np.broadcast_arrays(x[None, :] * 2.5, y[:, None] * 2.5, 0.5), axis=-1)
+    quad = (np.abs(p[..., 0]) < 0.97) & (np.abs(p[..., 1]) < 0.97)
+    camera = np.array([0.0, 0.0, 3.0])
+    v = camera - p
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    n = np.broadcast_to([0.0, 0.0, 1.0], p.shape)
+    f0 = np.full(3, 0.04)
+    exit_point = transmission_exit(p, v, n, np.full(p.shape[:2], 1.5), thickness)
+    c_light, l = light_at(light, exit_point)
+    alpha_t = transmission_alpha(0.09, 1.5)
+    lobe = np.pi * transmitted_light(n, v, l, alpha_t, f0, 1.0, 0.0) * c_light
+    seen = transmission_weight(f0, np.sum(n * v, axis=-1), 1.0, 0.0) * behind(image)
+    np.testing.assert_allclose(image[quad], (seen + lobe)[quad], rtol=2e-3, atol=2e-5)
+    assert lobe[quad].max() > 5.0 * seen[quad].max()  # a highlight the test can see

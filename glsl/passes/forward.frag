@@ -10,7 +10,8 @@
 // "over" the lit HDR image by the fixed-function blend.
 // With TRANSMISSION it is the transmission pass (app/render/transmission.py): the diffuse
 // base weighted by (1 - transmission), plus the light of the opaque image behind the
-// surface refracted through it (brdf/transmission.glsl), written over the pixel.
+// surface refracted through it and the punctual lights seen through it
+// (brdf/transmission.glsl), written over the pixel.
 #include "brdf/brdf.glsl"
 #include "common/position.glsl"
 #include "geometry/analytic.glsl"
@@ -38,6 +39,7 @@ uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (app/co
 // The opaque HDR image (premultiplied RGBA) with its mip chain (app/render/transmission.py)
 uniform sampler2D u_transmission_image;
 uniform mat4 u_view;   // passes/gbuffer.vert's (geometry/analytic.glsl: u_model, u_proj)
+uniform float u_thickness_scale;   // |det(model)|^(1/3): object units to world units
 #endif
 
 out vec4 frag_color;
@@ -154,9 +156,9 @@ void main() {
 #if TRANSMISSION
     vec3 radiance = surface_radiance(ivec2(0), emission, sp, ng);   // emission, occlusion too
     // The volume's thickness in world units: the object's, times the model matrix's scale
-    // (the cube root of its determinant: a uniform scale exactly).
-    float scale = pow(abs(determinant(mat3(u_model))), 1.0 / 3.0);
-    float thickness = params.thickness * scale;
+    // (the cube root of its determinant, a uniform scale exactly: per part, in float64 on
+    // the CPU, MeshDrawable.thickness_scale).
+    float thickness = params.thickness * u_thickness_scale;
     float lod = transmission_lod(s.perceptual_roughness, params.eta_dielectric, u_image_size.x);
     // One lookup per channel where the index disperses (KHR_materials_dispersion), else one.
     vec3 iors = dispersion_iors(params.eta_dielectric, params.dispersion);
@@ -181,6 +183,20 @@ void main() {
     vec3 transmittance = beer_lambert(params.attenuation_color, params.attenuation_distance,
                                       thickness);
     radiance += transmitted_radiance(behind.rgb, base_color, weight, transmittance);
+    // Punctual lights seen through the surface (brdf/transmission.glsl transmitted_light:
+    // the transmitted GGX lobe about each light mirrored through the surface), reaching
+    // it from where the view ray leaves the volume, tinted as the light behind:
+    //   pi sum_i base_color T(d) f_t(l_i, v) c_light_i |n.l_i|
+    float alpha_t = transmission_alpha(material_alpha(s), params.eta_dielectric);
+    vec3 exit_point = transmission_exit(p, v, n, params.eta_dielectric, thickness);
+    vec3 through = vec3(0.0);
+    for (int i = 0; i < u_light_count; ++i) {
+        vec3 l;
+        vec3 c_light = light_at(read_light(u_lights, i), exit_point, l);
+        through += transmitted_light(n, v, l, alpha_t, s.f0_dielectric * params.specular_color,
+                                     params.transmission, s.metallic) * c_light;
+    }
+    radiance += PI * base_color * transmittance * through;
     // Premultiplied coverage: what shows through keeps the coverage of what is behind.
     float seen = dot(weight, vec3(1.0 / 3.0));
     frag_color = vec4(radiance, 1.0 - seen * (1.0 - behind.a));
