@@ -31,10 +31,13 @@ what it approximates; docs/gltf.md has the table.
   its index over the three channels.
 
 Textures: ``map_material_extensions`` also returns the textures the project samples
-(``maps``: the clear coat's normal map and strength, the sheen colour, the specular
-F0 and colour, the anisotropy strength and direction; the coat strength and the sheen or
-specular colour scale the material row per pixel through G-buffer RT6) and a note for
-each texture or parameter it cannot honour, for the reader to attach and report.
+(``maps``: the clear coat's normal map, the specular F0, the anisotropy strength and
+direction, and the extension maps declared in app/common/extension_maps.py, each read
+with its declared texture key and channel by ``_declared``: the sheen colour and
+roughness, the specular colour and the coat strength (G-buffer RT6), the coat roughness
+and the film's strength and thickness (RT8), the transmission and the volume's thickness
+(the transmission pass)) and a note for each texture or parameter it cannot honour, for
+the reader to attach and report.
 """
 
 from __future__ import annotations
