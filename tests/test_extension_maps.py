@@ -15,10 +15,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from app.common import extension_maps
 from app.common.extension_maps import (
     EXTENSION_MAPS,
     FACTOR_TARGETS,
     MAP_BITS,
+    ExtensionMap,
+    sampling_glsl,
     scale_row,
     selectors,
     slots,
@@ -92,13 +95,10 @@ def _rows() -> list[ModelParams]:
     return [replace(p, **dict.fromkeys(flags, v)) for v in (0.0, 1.0)]
 
 
-@pytest.mark.gl
-@pytest.mark.parametrize("target", [t.name for t in FACTOR_TARGETS])
-def test_generated_scaling_is_the_twins(gl_egl, target):
-    """scale_by_<target> (generated into brdf/material.glsl) on rows fetched from a packed
-    table and random factors in [0, 1] gives every declared field as scale_row does, for
-    both values of each selector. Fails where a slot's channels, its selector or the
-    mix's end differ between the GLSL and the twin."""
+def _scaled_fields(gl, target: str) -> None:
+    """Run scale_by_<target> (generated into brdf/material.glsl) on rows fetched from a
+    packed table and random factors in [0, 1], and compare every field a declared map of
+    the target applies to with scale_row's, for both values of each selector."""
     model = Model(thin_film=True, sheen="charlie_smith", clearcoat="filament")
     table = pack_model_params(_rows(), [0, 0], [model, model])
     rows = [unpack_model_params(table[i]) for i in range(2)]
@@ -106,7 +106,7 @@ def test_generated_scaling_is_the_twins(gl_egl, target):
     n = 32
     row = np.arange(n) % 2
     f = rng.uniform(0.0, 1.0, (n, 4))
-    ctx = gl_egl.ctx
+    ctx = gl.ctx
     textures = []
 
     def bind(program, unit: int) -> None:
@@ -116,7 +116,7 @@ def test_generated_scaling_is_the_twins(gl_egl, target):
         program["u_materials"].value = unit
 
     define = next(t.define for t in FACTOR_TARGETS if t.name == target)
-    fields = sorted({m.field for m in EXTENSION_MAPS if m.target == target})
+    fields = sorted({m.field for m in extension_maps.EXTENSION_MAPS if m.target == target})
     f32 = f.astype(np.float32).astype(np.float64)
     try:
         for field in fields:
@@ -142,3 +142,34 @@ def test_generated_scaling_is_the_twins(gl_egl, target):
     finally:
         for tex in textures:
             tex.release()
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("target", [t.name for t in FACTOR_TARGETS])
+def test_generated_scaling_is_the_twins(gl_egl, target):
+    """Every factor target's generated scaling against the twin's. Fails where a slot's
+    channels, its selector or the mix's ends differ between the GLSL and the twin."""
+    _scaled_fields(gl_egl, target)
+
+
+@pytest.mark.gl
+def test_one_declaration_is_sampled_and_scaled_with_no_other_edit(gl_egl, monkeypatch):
+    """A hypothetical texture declared on RT8's free A channel (scaling the row's
+    film_ior) is, with no other edit, a map bit, a sampler writing f.a in
+    sample_coat_film_maps, and a line of the GLSL scale_by_coat_film_maps that agrees with
+    scale_row. Fails where any of them is written by hand instead of from the list."""
+    new = ExtensionMap("film_ior_test", "KHR_test", "testTexture", "r", False,
+                       "coat_film_maps", "a", "film_ior")  # fmt: skip
+    maps = (*EXTENSION_MAPS, new)
+    index = {**extension_maps.MAP_INDEX, new.key: len(extension_maps.MAP_INDEX)}
+    monkeypatch.setattr(extension_maps, "EXTENSION_MAPS", maps)
+    monkeypatch.setattr(extension_maps, "EXTENSION_MAP", {m.key: m for m in maps})
+    monkeypatch.setattr(extension_maps, "MAP_INDEX", index)
+    monkeypatch.setattr(extension_maps, "MAP_BITS", {k: 1 << i for k, i in index.items()})
+    extension_maps._check()
+    assert "#define MAP_FILM_IOR_TEST 524288" in extension_maps.map_glsl()
+    glsl = sampling_glsl()
+    assert "uniform sampler2D u_film_ior_test_map0;" in glsl
+    assert "    f.a = sample_layer_map(u_film_ior_test_map0," in glsl
+    assert targets_of(["film_ior_test"]) == {"coat_film_maps"}
+    _scaled_fields(gl_egl, "coat_film_maps")  # film_ior among the compared fields
