@@ -32,6 +32,7 @@ from app.common.gbuffer import (
     MAX_COLOR_TARGETS,
     OPTIONAL_TARGETS,
     SHED_TARGETS,
+    GBufferData,
     GBufferLayout,
 )
 from app.common.models import Model, ModelParams, pack_model_params, unpack_model_params
@@ -62,6 +63,7 @@ def test_the_gbuffer_factor_targets_and_their_shedding_follow_the_declarations()
     for name, factor in declared.items():
         assert name in OPTIONAL_TARGETS and by_name[name].channels == 4
         assert by_name[name].define == factor.define and by_name[name].shed == factor.shed
+        assert name in GBufferData.__dataclass_fields__  # read back, and decoded by the twin
     assert SHED_TARGETS == ("coat_film_maps", "layer_maps")
     every = GBufferLayout(optional=frozenset(OPTIONAL_TARGETS))
     assert len(every.targets()) == MAX_COLOR_TARGETS + 1

@@ -58,12 +58,26 @@ class FactorTarget:
     # The order in which a G-buffer layout past MAX_COLOR_TARGETS leaves it out, lowest
     # first (None: never); its materials then use the row's numbers alone.
     shed: int | None = None
+    # The define of the only pass that applies it, where one pass alone does (the
+    # transmission pass's TRANSMISSION); None: every pass that reads the material.
+    pass_define: str | None = None
+
+    @property
+    def macro(self) -> str:
+        return self.name.upper()
+
+    @property
+    def condition(self) -> str:
+        """The #if under which a program samples and applies it."""
+        return self.define if self.pass_define is None else f"{self.define} && {self.pass_define}"
 
 
 FACTOR_TARGETS: tuple[FactorTarget, ...] = (
     FactorTarget("layer_maps", "GBUFFER_LAYER_MAPS", shed=2),  # RT6
     FactorTarget("coat_film_maps", "GBUFFER_COAT_FILM_MAPS", shed=1),  # RT8
-    FactorTarget("transmission_maps", "TRANSMISSION_MAPS", gbuffer=False),
+    FactorTarget(
+        "transmission_maps", "TRANSMISSION_MAPS", gbuffer=False, pass_define="TRANSMISSION"
+    ),
 )
 FACTOR_TARGET = {t.name: t for t in FACTOR_TARGETS}
 
@@ -209,7 +223,11 @@ def sampling_glsl() -> str:
     ``vec4 sample_<target>(vec2 uv)``, each map's texels in its slot (1 where the layer
     has no such map), read as any layer-0 map (sample_layer_map: its UV set and texture
     transform). A colour map's texture is sRGB-decoded RGB; a linear one holds its one
-    channel in R (app/scene/gltf.py)."""
+    channel in R (app/scene/gltf.py). Then the passes' call sites, as macros empty where a
+    target is absent: WRITE_FACTOR_TARGETS(uv), the G-buffer pass's ``g_<target> =
+    sample_<target>(uv);`` of each G-buffer target, and SAMPLE_FACTOR_TARGETS(uv), the
+    forward pass's ``vec4 <target>_factors = sample_<target>(uv);`` of each target it
+    applies (before any discard: the lookups' derivatives need the whole quad)."""
     lines = ["// Generated from app/common/extension_maps.py (EXTENSION_MAPS)"]
     for target in FACTOR_TARGETS:
         maps = [m for m in EXTENSION_MAPS if m.target == target.name]
@@ -226,6 +244,22 @@ def sampling_glsl() -> str:
                 "#endif",
             ]
         lines += ["    return f;", "}", "#endif"]
+    for target in FACTOR_TARGETS:
+        m = target.macro
+        lines.append(f"#if {target.condition}")
+        lines.append(
+            f"#define SAMPLE_{m}(uv) vec4 {target.name}_factors = sample_{target.name}(uv);"
+        )
+        if target.gbuffer:
+            lines.append(f"#define WRITE_{m}(uv) g_{target.name} = sample_{target.name}(uv);")
+        lines += ["#else", f"#define SAMPLE_{m}(uv)"]
+        if target.gbuffer:
+            lines.append(f"#define WRITE_{m}(uv)")
+        lines.append("#endif")
+    write = " ".join(f"WRITE_{t.macro}(uv)" for t in FACTOR_TARGETS if t.gbuffer)
+    lines.append(f"#define WRITE_FACTOR_TARGETS(uv) {write}")
+    sample = " ".join(f"SAMPLE_{t.macro}(uv)" for t in FACTOR_TARGETS)
+    lines.append(f"#define SAMPLE_FACTOR_TARGETS(uv) {sample}")
     return "\n".join(lines)
 
 
@@ -238,7 +272,11 @@ def _apply_glsl(m: ExtensionMap, value: str) -> str:
 def scaling_glsl() -> str:
     """Per factor target, under its define: ``ModelParams scale_by_<target>(ModelParams p,
     vec4 f)``: each slot's factors clamped to [0, 1] (NaN: 1, no change), applied to the
-    field of the map its selector picks (a product, or a mix from ``low``)."""
+    field of the map its selector picks (a product, or a mix from ``low``). Then the
+    passes' call sites, as macros empty where a target is absent:
+    SCALE_BY_GBUFFER_FACTORS(p, px), the lighting pass's scaling of the decoded row by each
+    G-buffer target's texel at px, and SCALE_BY_FACTOR_TARGETS(p), the forward pass's by
+    the factors SAMPLE_FACTOR_TARGETS sampled."""
     lines = ["// Generated from app/common/extension_maps.py (EXTENSION_MAPS)"]
     for target in FACTOR_TARGETS:
         lines += [f"#if {target.define}",
@@ -260,6 +298,21 @@ def scaling_glsl() -> str:
                 lines.append(f"        {_apply_glsl(m, f'f_{slot}')}")
             lines.append("    }")
         lines += ["    return p;", "}", "#endif"]
+    for target in FACTOR_TARGETS:
+        m, name = target.macro, target.name
+        lines.append(f"#if {target.condition}")
+        lines.append(f"#define SCALE_BY_{m}(p) p = scale_by_{name}(p, {name}_factors);")
+        if target.gbuffer:
+            fetch = f"texelFetch(g_{name}, px, 0)"
+            lines.append(f"#define SCALE_BY_G_{m}(p, px) p = scale_by_{name}(p, {fetch});")
+        lines += ["#else", f"#define SCALE_BY_{m}(p)"]
+        if target.gbuffer:
+            lines.append(f"#define SCALE_BY_G_{m}(p, px)")
+        lines.append("#endif")
+    gbuffer = " ".join(f"SCALE_BY_G_{t.macro}(p, px)" for t in FACTOR_TARGETS if t.gbuffer)
+    lines.append(f"#define SCALE_BY_GBUFFER_FACTORS(p, px) {gbuffer}")
+    every = " ".join(f"SCALE_BY_{t.macro}(p)" for t in FACTOR_TARGETS)
+    lines.append(f"#define SCALE_BY_FACTOR_TARGETS(p) {every}")
     return "\n".join(lines)
 
 

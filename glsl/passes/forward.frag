@@ -59,15 +59,7 @@ void main() {
     MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
     float view_depth = hit.view_depth;
     vec3 ng = hit.normal;   // the geometric normal: the shadow lookup's offset
-#if GBUFFER_LAYER_MAPS
-    vec4 layer_factors = sample_layer_maps(hit.uv);   // as the G-buffer pass's RT6
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    vec4 coat_film_factors = sample_coat_film_maps(hit.uv);   // as the G-buffer pass's RT8
-#endif
-#if TRANSMISSION && TRANSMISSION_MAPS
-    vec4 transmission_factors = sample_transmission_maps(hit.uv);   // glass's own maps
-#endif
+    SAMPLE_FACTOR_TARGETS(hit.uv)   // as the G-buffer pass's RT6 and RT8, and glass's maps
 #if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
 #endif
@@ -85,15 +77,7 @@ void main() {
     // the geometric normal (the interpolated vertex normal, reversed on a back face as
     // sample_material reverses n): the shadow lookup's offset, never the mapped normal
     vec3 ng = gl_FrontFacing ? v_normal : -v_normal;
-#if GBUFFER_LAYER_MAPS
-    vec4 layer_factors = sample_layer_maps(v_uv);   // as the G-buffer pass's RT6
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    vec4 coat_film_factors = sample_coat_film_maps(v_uv);   // as the G-buffer pass's RT8
-#endif
-#if TRANSMISSION && TRANSMISSION_MAPS
-    vec4 transmission_factors = sample_transmission_maps(v_uv);   // glass's own maps
-#endif
+    SAMPLE_FACTOR_TARGETS(v_uv)   // as the G-buffer pass's RT6 and RT8, and glass's maps
 #if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(v_uv);
 #endif
@@ -117,18 +101,11 @@ void main() {
     Surface s = sanitize_surface(
         Surface(l.base_color, l.metallic, l.perceptual_roughness, l.f0, l.anisotropy));
     ModelParams params = fetch_model_params(u_materials, int(m.material_id));
-#if GBUFFER_LAYER_MAPS
-    params = scale_by_layer_maps(params, layer_factors);
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    params = scale_by_coat_film_maps(params, coat_film_factors);
-#endif
-#if TRANSMISSION && TRANSMISSION_MAPS
-    // glTF transmissionTexture (R) and thicknessTexture (G) on the row's transmission and
-    // thickness (app/common/extension_maps.py): a texel of 0 makes the pixel opaque, or
-    // thin-walled
-    params = scale_by_transmission_maps(params, transmission_factors);
-#endif
+    // The extension maps' factors on the row (app/common/extension_maps.py): RT6's and RT8's
+    // as the lighting pass applies them, and under TRANSMISSION glTF transmissionTexture (R)
+    // and thicknessTexture (G) on the row's transmission and thickness (a texel of 0 makes
+    // the pixel opaque, or thin-walled)
+    SCALE_BY_FACTOR_TARGETS(params)
 
     // The lighting pass's position: the pixel centre's view ray times the interpolated view
     // depth. An interpolated world position is as valid, but across the two 40 m triangles
