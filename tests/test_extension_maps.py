@@ -35,8 +35,15 @@ from app.common.gbuffer import (
     GBufferData,
     GBufferLayout,
 )
-from app.common.models import Model, ModelParams, pack_model_params, unpack_model_params
+from app.common.models import (
+    MaterialParams,
+    Model,
+    ModelParams,
+    pack_model_params,
+    unpack_model_params,
+)
 from app.gl.kernel import run_kernel
+from app.scene.gltf_extensions import map_material_extensions
 
 # The bits every map had before the declarations existed: a program's LAYER<i>_MAPS, and
 # so its cache key and compiled code, stay what they were (appending keeps them).
@@ -175,3 +182,35 @@ def test_one_declaration_is_sampled_and_scaled_with_no_other_edit(gl_egl, monkey
     assert "    f.a = sample_layer_map(u_film_ior_test_map0," in glsl
     assert targets_of(["film_ior_test"]) == {"coat_film_maps"}
     _scaled_fields(gl_egl, "coat_film_maps")  # film_ior among the compared fields
+
+
+def test_the_reader_takes_each_declared_texture_with_its_channel_and_selector():
+    """map_material_extensions reads a declared texture under its extension's key with the
+    declared channel (transmissionTexture R, thicknessTexture G, sheenRoughnessTexture A)
+    and sets the slot's selector; a texture the factor disables, or whose slot another
+    map holds, is a note, not a map."""
+    core = MaterialParams((1.0, 1.0, 1.0), 0.0, 0.5, 0.04)
+    ext = {
+        "KHR_materials_transmission": {"transmissionFactor": 1.0,
+                                       "transmissionTexture": {"index": 0}},
+        "KHR_materials_volume": {"thicknessFactor": 0.5, "thicknessTexture": {"index": 1}},
+        "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1],
+                                "sheenRoughnessTexture": {"index": 2}},
+        "KHR_materials_clearcoat": {"clearcoatFactor": 1.0, "clearcoatTexture": {"index": 3}},
+    }  # fmt: skip
+    m = map_material_extensions(ext, core, "materials[0]")
+    assert {k: t.channel for k, t in m.maps.items()} == {
+        "transmission": "r", "thickness": "g", "sheen_roughness": "a"}  # fmt: skip
+    assert m.maps["thickness"].key.endswith("KHR_materials_volume.thicknessTexture")
+    assert m.params.params.sheen_roughness_map == 1.0  # RT6's A is the sheen roughness's
+    assert any("clearcoatTexture: not supported beside a sheenRoughnessTexture" in note
+               for note in m.notes)  # fmt: skip
+    off = {
+        "KHR_materials_transmission": {
+            "transmissionFactor": 0.0,
+            "transmissionTexture": {"index": 0},
+        },
+        "KHR_materials_volume": {"thicknessFactor": 0.5, "thicknessTexture": {"index": 1}},
+    }
+    m = map_material_extensions(off, core, "materials[0]")
+    assert not m.maps and len(m.notes) == 2  # nothing transmits: both textures noted
