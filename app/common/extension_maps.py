@@ -15,7 +15,9 @@ Derived from the declarations, nowhere restated: each map's bit and index in a l
 ``LAYER<i>_MAPS`` define (``MAP_BITS``, ``MAP_INDEX``, after the core maps ``CORE_MAPS``)
 and their GLSL ``#define``s (``map_glsl``); the samplers and ``sample_<target>(uv)`` of
 glsl/material/layers.glsl (``sampling_glsl``); the ``scale_by_<target>(p, f)`` of
-glsl/brdf/material.glsl (``scaling_glsl``) and their float64 twin ``scale_row``; which
+glsl/brdf/material.glsl (``scaling_glsl``) and their float64 twin ``scale_row``; the
+passes' call sites of every factor target (the WRITE_FACTOR_TARGETS, SAMPLE_FACTOR_TARGETS,
+SCALE_BY_GBUFFER_FACTORS and SCALE_BY_FACTOR_TARGETS macros of the same two texts); which
 targets a layer's maps need (``targets_of``); the glTF reader's texture keys, channels and
 colour spaces (app/scene/gltf_extensions.py, app/scene/gltf.py). app/gl/shaders.py
 splices the GLSL in where a file includes ``GENERATED_INCLUDES``' names.
@@ -64,6 +66,7 @@ class FactorTarget:
 
     @property
     def macro(self) -> str:
+        """Its part of the generated macros' names (SAMPLE_LAYER_MAPS, ...)."""
         return self.name.upper()
 
     @property
