@@ -2,11 +2,12 @@
 KHR_materials_volume): a transmissive sphere drawn by the transmission pass
 (app/render/transmission.py) shows the image behind it, with the real GLSL.
 
-A sphere of white glass in front of a uniform background colour, lit by nothing that
-reaches its front (a sun shining from in front of the camera, onto the sphere's far side):
-the only light leaving its front is the transmitted term, so the pixel at its centre is the
-twin's (app/reference/transmission.py) weight times the background, (1 - F(1)) = 0.96 at
-ior 1.5, times Beer-Lambert's transmittance over the volume's thickness.
+A sphere of white glass in front of a uniform background colour, lit by nothing (a sun of
+intensity 0: a light behind the glass is seen through it, the last tests' transmitted
+lobe): the only light leaving its front is the transmitted term, so the pixel at its
+centre is the twin's (app/reference/transmission.py) weight times the background,
+(1 - F(1)) = 0.96 at ior 1.5, times Beer-Lambert's transmittance over the volume's
+thickness.
 """
 
 from __future__ import annotations
@@ -16,16 +17,20 @@ from pathlib import Path
 import numpy as np
 import pygltflib
 import pytest
+from PIL import Image
 
 from app.common.ior import f0_from_ior
 from app.gl.context import GLContext
+from app.reference.punctual import light_at
 from app.reference.transmission import (
     beer_lambert,
     dispersion_iors,
     refracted_direction,
+    transmission_alpha,
     transmission_exit,
     transmission_lod,
     transmission_weight,
+    transmitted_light,
 )
 from app.render.renderer import Renderer
 from app.scene.loader import parse_scene
@@ -33,8 +38,8 @@ from tests.gltf_builder import GltfBuilder
 
 SIZE = (40, 32)
 BACKGROUND = [0.2, 0.6, 0.3]
-# The sun shines towards the camera (+z): the sphere's front hemisphere is not lit.
-BACKLIGHT = {"type": "directional", "direction": [0.0, 0.0, 1.0], "intensity": 2.0}
+# A sun that adds no light (neither on the sphere's front nor through it).
+BACKLIGHT = {"type": "directional", "direction": [0.0, 0.0, 1.0], "intensity": 0.0}
 # float32 shading, the image copy and its trilinear read at level 0
 TOLERANCE = 1e-4
 
@@ -219,3 +224,135 @@ def test_rough_glass_blurs_as_wide_as_its_lobe(gl_egl, name, bound):
 
     case = next(c for c in CASES if c.name == name)
     assert case_errors(gl_egl, case, (80, 60), 8)["rel_rmse"] < bound
+
+
+# --- glTF transmissionTexture (R) and thicknessTexture (G): per-pixel factors ---
+
+NEAREST = {"magFilter": 9728, "minFilter": 9728}
+
+
+def split_texture(left: tuple[int, int, int], right: tuple[int, int, int]) -> Image.Image:
+    """A 4 x 4 image, ``left`` in its two left columns (the quad's u < 0.5, x < 0) and
+    ``right`` in the others."""
+    texels = np.zeros((4, 4, 3), np.uint8)
+    texels[:, :2] = left
+    texels[:, 2:] = right
+    return Image.fromarray(texels)
+
+
+def textured_glass(gl: GLContext, tmp_path: Path, ext: dict, texture: Image.Image) -> np.ndarray:
+    """The HDR image of a white .glb glass quad at z = 0.5 (x in [-1, 1]) before the
+    background, with ``ext`` whose textureInfos name texture 0 (``texture``, nearest)."""
+    b = GltfBuilder()
+    assert b.texture(texture, NEAREST) == 0
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.0
+    )
+    b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=pbr, extensions=ext)))
+    b.doc.extensionsUsed = list(ext)
+    path = b.save(tmp_path / "glass.glb")
+    objects = [{"shape": "mesh", "file": str(path), "position": [0.0, 0.0, 0.5]}]
+    image, passes = render(gl, scene({}, objects), tmp_path)
+    assert passes == (True, 0)
+    return image
+
+
+# Pixels well inside the quad's left half (x < 0) and right half (x > 0), away from the
+# texture's edge at x = 0 (columns 19 and 20 of 40).
+LEFT = (slice(10, 22), slice(8, 16))
+RIGHT = (slice(10, 22), slice(24, 32))
+
+
+@pytest.mark.gl
+def test_transmission_texture_makes_its_black_half_opaque(gl_egl, tmp_path):
+    """transmissionTexture's R multiplies transmissionFactor 1 per pixel: R = 0 on the
+    quad's left half (G and B 255, so a reader of another channel fails), 255 on its right.
+    The right half transmits (1 - F) x the background; the left half is the opaque white
+    base, which the backlight leaves black. Fails with the texture ignored (both halves
+    transmit)."""
+    ext = {"KHR_materials_transmission": {"transmissionFactor": 1.0,
+                                          "transmissionTexture": {"index": 0}}}  # fmt: skip
+    image = textured_glass(gl_egl, tmp_path, ext, split_texture((0, 255, 255), (255, 0, 0)))
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    right = image[RIGHT][..., :3].reshape(-1, 3)
+    np.testing.assert_allclose(right, np.tile(weight * behind(image), (len(right), 1)),
+                               rtol=TOLERANCE)  # fmt: skip
+    np.testing.assert_array_equal(image[LEFT][..., :3], 0.0)
+
+
+@pytest.mark.gl
+def test_thickness_texture_scales_the_volume_per_pixel(gl_egl, tmp_path):
+    """thicknessTexture's G multiplies thicknessFactor 0.5 per pixel: G = 0 on the quad's
+    left half (R and B 255), 255 on its right. Through the right half the attenuation
+    colour (0.8, 0.5, 0.2) at distance 0.25 tints the background by Beer-Lambert over 0.5;
+    the left half is thin-walled, untinted. Fails with the texture ignored (both halves
+    tinted)."""
+    ext = {
+        "KHR_materials_transmission": {"transmissionFactor": 1.0},
+        "KHR_materials_volume": {
+            "thicknessFactor": 0.5, "attenuationDistance": 0.25,
+            "attenuationColor": [0.8, 0.5, 0.2], "thicknessTexture": {"index": 0},
+        },
+    }  # fmt: skip
+    image = textured_glass(gl_egl, tmp_path, ext, split_texture((255, 0, 255), (0, 255, 0)))
+    weight = transmission_weight(np.full(3, 0.04), 1.0, 1.0, 0.0)
+    tint = beer_lambert(np.array([0.8, 0.5, 0.2]), 0.25, 0.5)
+    for where, expected in ((LEFT, weight), (RIGHT, weight * tint)):
+        pixels = image[where][..., :3].reshape(-1, 3)
+        np.testing.assert_allclose(
+            pixels, np.tile(expected * behind(image), (len(pixels), 1)), rtol=TOLERANCE
+        )
+
+
+# --- punctual lights seen through the glass: the transmitted GGX lobe ---
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("thickness", [0.0, 0.4])
+def test_a_light_behind_rough_glass_is_the_twins_transmitted_lobe(gl_egl, tmp_path, thickness):
+    """A point light 1 m behind a rough (0.3) glass quad, seen through it: every pixel of
+    the quad is the light behind, (1 - F(n.v)) x the background, plus the twin's
+    transmitted lobe pi T f_t c_light |n.l| (brdf/transmission.glsl transmitted_light),
+    the light reached from the view ray's exit point (the surface's own point where
+    thin-walled). The lobe's peak is thousands of times the tolerance. Fails with the
+    lights' term left out, without the cosine, or with the light's direction taken from
+    the entry point of a volume."""
+    glass = {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+    if thickness:
+        glass["KHR_materials_volume"] = {"thicknessFactor": thickness}
+    b = GltfBuilder()
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.3
+    )
+    b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=pbr, extensions=glass)))
+    b.doc.extensionsUsed = list(glass)
+    path = b.save(tmp_path / "glass.glb")
+    data = scene({}, [{"shape": "mesh", "file": str(path), "position": [0.0, 0.0, 0.5]}])
+    data["lights"] = [{"type": "point", "position": [0.0, 0.2, -0.5], "intensity": 0.5,
+                       "range": 20.0}]  # fmt: skip
+    r = Renderer(gl_egl, parse_scene(data, tmp_path / "inline.toml"))
+    try:
+        r.render()
+        image = r.read_hdr().astype(np.float64)
+        light = r.frame.lights[0]
+    finally:
+        r.release()
+    # Each pixel centre's point on the quad (z = 0.5), from the camera at z = 3.
+    w, h = SIZE
+    tan = np.tan(np.radians(20.0))
+    x = ((np.arange(w) + 0.5) / w * 2.0 - 1.0) * tan * w / h
+    y = (1.0 - (np.arange(h) + 0.5) / h * 2.0) * tan
+    p = np.stack(np.broadcast_arrays(x[None, :] * 2.5, y[:, None] * 2.5, 0.5), axis=-1)
+    quad = (np.abs(p[..., 0]) < 0.97) & (np.abs(p[..., 1]) < 0.97)
+    camera = np.array([0.0, 0.0, 3.0])
+    v = camera - p
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    n = np.broadcast_to([0.0, 0.0, 1.0], p.shape)
+    f0 = np.full(3, 0.04)
+    exit_point = transmission_exit(p, v, n, np.full(p.shape[:2], 1.5), thickness)
+    c_light, l = light_at(light, exit_point)
+    alpha_t = transmission_alpha(0.09, 1.5)
+    lobe = np.pi * transmitted_light(n, v, l, alpha_t, f0, 1.0, 0.0) * c_light
+    seen = transmission_weight(f0, np.sum(n * v, axis=-1), 1.0, 0.0) * behind(image)
+    np.testing.assert_allclose(image[quad], (seen + lobe)[quad], rtol=2e-3, atol=2e-5)
+    assert lobe[quad].max() > 5.0 * seen[quad].max()  # a highlight the test can see

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.common.extension_maps import FACTOR_TARGET, FACTOR_TARGETS
+
 # Storage of the colour targets per ``render.gbuffer`` value (docs/gbuffer.md, "Encodings"):
 # RT0 base colour + metallic, then the targets holding octahedral directions (RT1 normal +
 # roughness + F0, RT3 tangent + anisotropy, RT4 coat normal). RT2 (view depth, material id)
@@ -91,6 +93,9 @@ class GBufferTarget:
     signed: tuple[int, ...] = ()
     # The GBufferData fields it fills: one field takes every channel, several one each.
     fields: tuple[str, ...] = ()
+    # The order in which a layout past MAX_COLOR_TARGETS leaves it out, lowest first (None:
+    # never): a factor target's (app/common/extension_maps.py FactorTarget.shed).
+    shed: int | None = None
 
     @property
     def glsl_name(self) -> str:
@@ -105,6 +110,15 @@ class GBufferTarget:
     def channels_in(self, constant_surfaces: bool) -> int:
         """The channels allocated: all, or with constant surfaces ``constant_channels``."""
         return self.constant_channels if constant_surfaces else self.channels
+
+
+def _factor_target(name: str) -> GBufferTarget:
+    """The G-buffer target of a factor target (app/common/extension_maps.py): four
+    channels stored as RT0 is, kept with constant surfaces, its own GBufferData field,
+    left out past the draw buffers in its declared order."""
+    factor = FACTOR_TARGET[name]
+    return GBufferTarget(name, 4, BASE_STORAGE, constant_channels=4, define=factor.define,
+                         fields=(name,), shed=factor.shed)  # fmt: skip
 
 
 # The G-buffer's colour targets in the order they are bound: each present one at the next
@@ -134,9 +148,9 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
     # RT6: per-pixel scales of the material row's sheen or specular colour (RGB; the row's
     # specular_color_map says which) and clear-coat strength or sheen roughness (A; the
     # row's sheen_roughness_map), from glTF's sheenColorTexture / specularColorTexture and
-    # clearcoatTexture / sheenRoughnessTexture; where a material has one (1 where none)
-    GBufferTarget("layer_maps", 4, BASE_STORAGE, constant_channels=4,
-                  define="GBUFFER_LAYER_MAPS", fields=("layer_maps",)),
+    # clearcoatTexture / sheenRoughnessTexture; where a material has one (1 where none).
+    # Its channels are declared by the maps (app/common/extension_maps.py EXTENSION_MAPS).
+    _factor_target("layer_maps"),
     # RT7: the distance in pixels from the pixel centre to the drawn surface's edge along
     # +x, -x, +y, -y (window axes; 16 where no edge comes nearer), for the geometric edge
     # resolve; only with render.antialiasing = "gbaa" (docs/antialiasing.md)
@@ -146,16 +160,21 @@ GBUFFER_TARGETS: tuple[GBufferTarget, ...] = (
     # clearcoat_roughness), iridescenceTexture (G, on film_factor) and
     # iridescenceThicknessTexture (B: the film's thickness mix(film_thickness_min,
     # film_thickness, B)); A unused (1); where a material has one (1 where none)
-    GBufferTarget("coat_film_maps", 4, BASE_STORAGE, constant_channels=4,
-                  define="GBUFFER_COAT_FILM_MAPS", fields=("coat_film_maps",)),
+    _factor_target("coat_film_maps"),
 )  # fmt: skip
 OPTIONAL_TARGETS = tuple(t.name for t in GBUFFER_TARGETS if t.define is not None)
+if {t.name for t in FACTOR_TARGETS if t.gbuffer} - set(OPTIONAL_TARGETS):
+    raise ValueError("a G-buffer factor target (app/common/extension_maps.py) has no target")
 # The most colour targets one G-buffer pass may write: GL 3.3's least GL_MAX_DRAW_BUFFERS.
 MAX_COLOR_TARGETS = 8
-# The optional targets a layout past MAX_COLOR_TARGETS leaves out, first to last, and what
-# that costs: RT8's per-pixel factors (the rows' own clear-coat roughness and film
-# strength and thickness are used; only a frame with every other target needs this).
-SHED_TARGETS = ("coat_film_maps",)
+# The optional targets a layout past MAX_COLOR_TARGETS leaves out, first to last: the
+# factor targets by their declared order (RT8, then RT6), whose materials then use the
+# rows' own numbers (only a frame with every other target needs this).
+SHED_TARGETS = tuple(
+    t.name for t in sorted(
+        (t for t in GBUFFER_TARGETS if t.shed is not None), key=lambda t: t.shed or 0
+    )
+)  # fmt: skip
 # The optional targets of a program that names none of their defines (RT3 alone).
 DEFAULT_OPTIONAL = frozenset(t.name for t in GBUFFER_TARGETS if t.define is not None and t.default)
 # The layout's other defines and their values in a program that does not name them.

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.common.extension_maps import FACTOR_TARGETS, targets_of
 from app.common.gbuffer import optional_defines
 from app.common.material_fields import MATERIAL_FIELDS
 from app.common.models import (
@@ -57,11 +58,6 @@ def _surface_key(m: MaterialParams) -> tuple:
 # others (anisotropy, its direction, the coat normal, emission, occlusion) feed other
 # targets. Keys of SurfaceLayer.maps.
 SURFACE_MAPS = frozenset({"base_color", "metallic", "normal_roughness", "f0", "select"})
-# The maps whose texels scale numbers of the material row per pixel (G-buffer RT6).
-LAYER_MAPS = frozenset({"sheen_color", "clearcoat", "specular_color", "sheen_roughness"})
-# The maps whose texels scale the clear coat's roughness and the thin film's strength and
-# thickness per pixel (G-buffer RT8).
-COAT_FILM_MAPS = frozenset({"clearcoat_roughness", "film_factor", "film_thickness"})
 
 
 def constant_surface(part: MeshPart) -> bool:
@@ -91,14 +87,11 @@ class MaterialTable:
     # A layer of the frame emits or has an occlusion map (glTF 2.0 core material):
     # only then does the G-buffer carry RT5 (emitted radiance, occlusion).
     needs_emission: bool = False
-    # A layer of the frame has a sheen colour, specular colour, clear-coat or sheen
-    # roughness map (glTF sheenColorTexture, specularColorTexture, clearcoatTexture,
-    # sheenRoughnessTexture): only then does the G-buffer carry RT6, their factors.
-    needs_layer_maps: bool = False
-    # A layer of the frame has a clear-coat roughness, film strength or film thickness map
-    # (glTF clearcoatRoughnessTexture, iridescenceTexture, iridescenceThicknessTexture):
-    # only then does the G-buffer carry RT8, their factors.
-    needs_coat_film_maps: bool = False
+    # The factor targets the extension maps of the frame's layers fill
+    # (app/common/extension_maps.py targets_of): only a G-buffer target among them is
+    # allocated (RT6 ``layer_maps``, RT8 ``coat_film_maps``), and the forward passes
+    # compile in the sampling of each (``factor_defines``).
+    factor_targets: frozenset[str] = frozenset()
     # Every part the G-buffer draws has constant surface numbers (``constant_surface``):
     # then ``surfaces`` holds each row's (base colour, metallic, roughness, F0), the rows
     # are distinct in them too, and ``packed`` appends them (SURFACE_TEXEL).
@@ -155,11 +148,16 @@ class MaterialTable:
                 "tangent": self.needs_tangents,
                 "coat_normal": self.needs_coat_normals,
                 "emission": self.needs_emission,
-                "layer_maps": self.needs_layer_maps,
                 "edge": False,  # the renderer's, by render.antialiasing (Renderer._layout)
-                "coat_film_maps": self.needs_coat_film_maps,
+                **{t.name: t.name in self.factor_targets for t in FACTOR_TARGETS if t.gbuffer},
             }
         )
+
+    def factor_defines(self) -> dict[str, int]:
+        """The define of each factor target the frame's maps fill, G-buffer or not: what
+        a forward pass (app/render/blend.py forward_drawables) compiles in to sample them
+        as the G-buffer pass does."""
+        return {t.define: 1 for t in FACTOR_TARGETS if t.name in self.factor_targets}
 
     def packed(self) -> np.ndarray:
         """(M, MATERIAL_TEXELS, 4) float32 texels, see app.common.models.pack_model_params;
@@ -196,8 +194,7 @@ def material_table(parts: list[MeshPart]) -> tuple[MaterialTable, list[list[int]
         any(layer.emissive) or "emissive" in layer.maps or "occlusion" in layer.maps
         for layer in layers
     )
-    table.needs_layer_maps = any(LAYER_MAPS & layer.maps.keys() for layer in layers)
-    table.needs_coat_film_maps = any(COAT_FILM_MAPS & layer.maps.keys() for layer in layers)
+    table.factor_targets = frozenset().union(*(targets_of(layer.maps) for layer in layers))
     ids, i = [], 0
     for p in parts:
         ids.append(flat[i : i + len(p.layers)])

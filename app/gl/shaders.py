@@ -13,7 +13,9 @@ names, ``TERM_*``, ``LIGHT_*``, ``TONEMAP_*``), generated from their one definit
 after its defines, the declarations generated from the render core's other one-place
 contracts: the G-buffer's (``app.common.gbuffer``: GBUFFER_OUTPUTS, GBUFFER_SAMPLERS and the
 layout's defaults) and the material row's struct and fetch functions
-(``app.common.models.material_glsl``).
+(``app.common.models.material_glsl``). An ``#include`` of a name in
+``app.common.extension_maps.GENERATED_INCLUDES`` ("generated/...") splices the text
+generated from the extension maps' declarations instead of a file.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from pathlib import Path
 
 import moderngl
 
+from app.common.extension_maps import GENERATED_INCLUDES
 from app.common.gbuffer import glsl_declarations
 from app.common.glsl import shared_defines
 from app.common.models import material_glsl
@@ -54,7 +57,8 @@ def _expand(name: str, text: str, root: Path, seen: set[str]) -> tuple[list[str]
             origins.append((name, number))
             continue
         seen.add(child)
-        body = (root / child).read_text(encoding="utf-8")
+        generated = GENERATED_INCLUDES.get(child)
+        body = generated() if generated is not None else (root / child).read_text("utf-8")
         child_lines, child_origins = _expand(child, body, root, seen)
         lines += child_lines
         origins += child_origins

@@ -7,11 +7,12 @@ from the very G-buffer values the GPU shaded, so the comparison isolates the lig
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from app.common.camera import CameraFrame
+from app.common.extension_maps import FACTOR_TARGETS, scale_row
 from app.common.gbuffer import GBufferData
 from app.common.lights import AREA_TYPES, PunctualLight
 from app.common.models import Model, ModelParams, unpack_model_params
@@ -105,35 +106,17 @@ class DecodedGBuffer:
     nc: np.ndarray | None = None  # (C, 3) unit coat normal (n where lost); None without RT4
     # (C, 4) emitted radiance and occlusion factor; None without RT5 (glTF 2.0 core)
     emission: np.ndarray | None = None
-    # (C, 4) the factors on the row's sheen or specular colour (RGB: specular_color_map
-    # says which) and coat strength (A), sanitised;
-    # None without RT6 (no extension map)
-    layer_maps: np.ndarray | None = None
-    # (C, 4) the factors on the row's coat roughness (R), film strength (G) and the film's
-    # thickness between its minimum and maximum (B), sanitised; None without RT8
-    coat_film_maps: np.ndarray | None = None
+    # G-buffer factor target (app/common/extension_maps.py FACTOR_TARGETS: RT6
+    # "layer_maps", RT8 "coat_film_maps") -> its (C, 4) factors on the row, sanitised; a
+    # target the G-buffer lacks is not a key (the rows' numbers as they are)
+    factors: dict[str, np.ndarray] = field(default_factory=dict)
 
     def point(self, sel: np.ndarray, params: ModelParams) -> ShadingPoint:
         """The ShadingPoint of the pixels ``sel`` picks (one material: ``params``), as the
-        GLSL's decode_gbuffer returns it per pixel (with RT6, the row's sheen colour and
-        coat strength times the pixels' factors)."""
-        if self.layer_maps is not None:
-            f = self.layer_maps[sel]
-            rgb = "specular_color" if params.specular_color_map > 0.5 else "sheen_color"
-            a = "sheen_roughness" if params.sheen_roughness_map > 0.5 else "clearcoat"
-            params = replace(
-                params, **{a: getattr(params, a) * f[:, 3]},
-                **{rgb: np.asarray(getattr(params, rgb)) * f[:, :3]},
-            )  # fmt: skip
-        if self.coat_film_maps is not None:  # RT8: the coat's roughness, the film's
-            f = self.coat_film_maps[sel]  # strength and thickness per pixel
-            params = replace(
-                params,
-                clearcoat_roughness=params.clearcoat_roughness * f[:, 0],
-                film_factor=params.film_factor * f[:, 1],
-                film_thickness=params.film_thickness_min
-                + (params.film_thickness - params.film_thickness_min) * f[:, 2],
-            )
+        GLSL's decode_gbuffer returns it per pixel (with RT6 and RT8, the row's numbers
+        times the pixels' factors: scale_row, SCALE_BY_GBUFFER_FACTORS's twin)."""
+        for target, factors in self.factors.items():
+            params = scale_row(params, target, factors[sel])
         return ShadingPoint(
             self.surface.select(sel), params, self.n[sel],
             None if self.nc is None else self.nc[sel], self.t[sel], self.v[sel], self.p[sel],
@@ -170,17 +153,13 @@ def decode_gbuffer(gbuffer: GBufferData, camera: CameraFrame) -> DecodedGBuffer:
     emission = None  # no RT5: nothing emits, nothing is occluded
     if gbuffer.emission is not None:
         emission = np.asarray(gbuffer.emission, np.float64)[covered]
-    layer_maps = None  # no RT6: the rows' numbers as they are
-    if gbuffer.layer_maps is not None:
-        f = np.asarray(gbuffer.layer_maps, np.float64)[covered]
-        layer_maps = np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0)
-    coat_film_maps = None  # no RT8: the rows' numbers as they are
-    if gbuffer.coat_film_maps is not None:
-        f = np.asarray(gbuffer.coat_film_maps, np.float64)[covered]
-        coat_film_maps = np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0)
-    return DecodedGBuffer(
-        covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc, emission, layer_maps, coat_film_maps
-    )
+    factors = {}  # RT6, RT8 where present (GBufferData's field of each factor target)
+    for target in FACTOR_TARGETS:
+        stored = getattr(gbuffer, target.name) if target.gbuffer else None
+        if stored is not None:
+            f = np.asarray(stored, np.float64)[covered]
+            factors[target.name] = np.where(np.isfinite(f), np.clip(f, 0.0, 1.0), 1.0)
+    return DecodedGBuffer(covered, s, ids, p, v, n, oct_decode(c[:, :2]), nc, emission, factors)
 
 
 def shade_gbuffer(

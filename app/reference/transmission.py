@@ -16,7 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS
 from app.reference.fresnel import F_schlick
+from app.reference.masking import V_height_correlated_GGX
+from app.reference.ndf import D_GGX
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -113,3 +116,41 @@ def transmitted_radiance(
         * np.asarray(transmittance, np.float64)
         * np.asarray(behind, np.float64)
     )
+
+
+# --- punctual lights seen through the surface ---
+
+
+def transmission_alpha(alpha: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """The transmitted lobe's roughness: alpha clamp(2 eta - 2, 0, 1), floored at
+    MIN_PERCEPTUAL_ROUGHNESS^2."""
+    scale = np.clip(2.0 * np.asarray(eta, np.float64) - 2.0, 0.0, 1.0)
+    return np.maximum(np.asarray(alpha, np.float64) * scale, MIN_PERCEPTUAL_ROUGHNESS**2)
+
+
+def transmitted_light(
+    n: np.ndarray,
+    v: np.ndarray,
+    l: np.ndarray,
+    alpha_t: np.ndarray,
+    f0_dielectric: np.ndarray,
+    transmission: np.ndarray,
+    metallic: np.ndarray,
+) -> np.ndarray:
+    """transmission (1 - metallic) (1 - F(v.h')) D(h') V(n.l', n.v) n.l' of a light behind
+    a thin surface (KHR_materials_transmission's specular BTDF about the mirrored light
+    l' = l - 2 (n.l) n, h' = |l' + v|); 0 for a light in front. ``n``, ``v``, ``l``
+    (..., 3) unit; returns (..., 3)."""
+    n = np.asarray(n, np.float64)
+    v = np.asarray(v, np.float64)
+    NoL = -_dot(n, l)
+    behind = NoL > 0.0
+    l_mirror = np.asarray(l, np.float64) + 2.0 * NoL[..., None] * n
+    h = l_mirror + v
+    h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+    NoV = np.maximum(_dot(n, v), 0.0)
+    cos = np.maximum(NoL, 0.0)
+    lobe = D_GGX(n, h, alpha_t) * V_height_correlated_GGX(cos, NoV, alpha_t) * cos
+    VoH = np.clip(_dot(v, h), 0.0, 1.0)
+    weight = transmission_weight(f0_dielectric, VoH, transmission, metallic)
+    return np.where(behind[..., None], weight * lobe[..., None], 0.0)

@@ -93,8 +93,7 @@ def forward_drawables(
     common = {
         "BRDF_TERMS": BRDF_TERMS[terms],
         "GBUFFER_COAT_NORMAL": int(table.needs_coat_normals),
-        **({"GBUFFER_LAYER_MAPS": 1} if table.needs_layer_maps else {}),
-        **({"GBUFFER_COAT_FILM_MAPS": 1} if table.needs_coat_film_maps else {}),
+        **table.factor_defines(),  # the extension maps' factors, sampled per fragment
         **(defines or {}),
     }
     group_defines = [{**model.defines(), **common} for model in table.models]

@@ -143,6 +143,9 @@ class MeshDrawable:
         self.normal_bytes = gl_bytes(normal_matrix)
         # A matrix with a negative determinant mirrors the triangles' winding.
         self.mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
+        # The volume's object-to-world scale (KHR_materials_volume's thickness is in object
+        # units): the cube root of |det|, a uniform scale exactly; float64, once per part.
+        self.thickness_scale = float(np.cbrt(abs(np.linalg.det(part.model[:3, :3]))))
         self.world_to_object = np.linalg.inv(part.model)
 
     def cull(self, ctx: moderngl.Context) -> None:
@@ -269,6 +272,8 @@ class MeshDrawable:
         ):  # fmt: skip
             if name in self.uniforms:  # an analytic fragment may use the model, a proxy not
                 prog[name].write(data)
+        if "u_thickness_scale" in self.uniforms:  # the transmission pass's volumes
+            prog["u_thickness_scale"].value = self.thickness_scale
         if "u_tangent_sign" in self.uniforms:  # used only where a layer has a normal map
             prog["u_tangent_sign"].value = -1.0 if self.mirrored else 1.0
 

@@ -11,15 +11,18 @@ with the diffuse base weighted by (1 - transmission), plus the transmitted term 
 glsl/brdf/transmission.glsl (twin app/reference/transmission.py): the view ray refracted by
 the material's index, offset by the volume's thickness (none where thin-walled), projected
 to the screen and read from the copy at a mip level set by roughness and index, times the
-base colour, (1 - F) and Beer-Lambert's exp(-sigma d). The result replaces the pixel (no
-blending: the light behind is already in it), depth-tested against the G-buffer's depth.
+base colour, (1 - F) and Beer-Lambert's exp(-sigma d), plus each punctual light seen
+through the surface (the transmitted GGX lobe about the light mirrored through the
+surface, KHR_materials_transmission's BTDF, lit from the refracted ray's exit point). The
+result replaces the pixel (no blending: the light behind is already in it), depth-tested
+against the G-buffer's depth.
 
 What it cannot see (docs/transmission.md measures it against the ray-caster's exact
 refraction): anything not on screen or hidden behind another opaque surface at the exit
 point's pixel, other transmissive or blended parts (one layer of glass, farthest first),
 the back face's second refraction and internal reflections (the exit point is one straight
-offset), and punctual lights seen through the glass (no BTDF lobe for lights). Transmissive
-parts cast no shadows.
+offset), and shadows on the lights seen through the glass. Transmissive parts cast no
+shadows.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""Which maps a layer samples and with which UVs: the map bits of its LAYER<i>_MAPS define,
+"""Which maps a layer samples and with which UVs: the map bits of its LAYER<i>_MAPS define
+(``MAP_BITS``, declared with the extension maps in app/common/extension_maps.py),
 KHR_texture_transform's matrices in this project's UV space, and the UV defines of a part
 (glsl/material/layers.glsl reads them). Pure numbers: no GL here.
 """
@@ -7,41 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.common.extension_maps import MAP_BITS, MAP_INDEX
 from app.scene.geometry import MeshPart
 from app.textures.maps import SurfaceLayer, UvTransform
-
-# Bit of each map in a layer's LAYER<i>_MAPS define (glsl/material/layers.glsl).
-MAP_BITS = {
-    "base_color": 1,
-    "metallic": 2,
-    "anisotropy": 4,
-    "normal_roughness": 8,
-    "f0": 16,
-    "select": 32,
-    "coat_normal": 64,
-    "emissive": 128,
-    "occlusion": 256,
-    "anisotropy_direction": 512,
-    "sheen_color": 1024,
-    "clearcoat": 2048,
-    "specular_color": 4096,
-    "sheen_roughness": 8192,
-    "clearcoat_roughness": 16384,
-    "film_factor": 32768,
-    "film_thickness": 65536,
-    # the normal map's slope covariance (render.normal_filter = "lean"; app/textures/lean.py),
-    # read through the normal map's UVs and transform: never a transform of its own
-    "slope_covariance": 131072,
-}
 
 
 def layer_maps_define(layer: SurfaceLayer) -> int:
     """The LAYER<i>_MAPS bitmask of a layer's maps."""
     return sum(MAP_BITS[name] for name in layer.maps)
-
-
-# Map keys in the order of their MAP_INDEX_* (glsl/material/layers.glsl): bit = 1 << index.
-MAP_INDEX = {name: bit.bit_length() - 1 for name, bit in MAP_BITS.items()}
 
 
 def uv_matrix(t: UvTransform) -> np.ndarray:

@@ -49,6 +49,7 @@ from types import SimpleNamespace
 import numpy as np
 from PIL import Image, features
 
+from app.common.extension_maps import EXTENSION_MAP
 from app.common.material_checks import MAX_RADIANCE, material_problems
 from app.common.models import MaterialParams
 from app.scene import gltf_animation as animation
@@ -955,10 +956,10 @@ class GltfFile:
             layer.alpha_cutoff = _number(m.alphaCutoff, f"{key}.alphaCutoff", 0.0)
         for name, ext_texture in mapping.maps.items():
             img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
-            kind = {
-                "coat_normal": "normal", "anisotropy_direction": "direction",
-                "sheen_color": "colour", "specular_color": "colour",
-            }.get(name)  # fmt: skip
+            declared = EXTENSION_MAP.get(name)
+            kind = {"coat_normal": "normal", "anisotropy_direction": "direction"}.get(name)
+            if declared is not None:
+                kind = "colour" if declared.srgb else "scalar"
             self._map_cost(img, kind or "scalar", ext_texture.key)
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
         layer.uv_transforms = transforms
@@ -1014,7 +1015,8 @@ def _extension_map(name: str, texture: ExtensionTexture, image: Image.Image) -> 
         return coat_normal_texture(image, scale)
     if name == "anisotropy_direction":
         return direction_texture(image)
-    if name in ("sheen_color", "specular_color"):  # sRGB, decoded by the GL
+    declared = EXTENSION_MAP.get(name)  # app/common/extension_maps.py
+    if declared is not None and declared.srgb:  # sRGB, decoded by the GL
         return colour_texture(image)
     channel = "rgba".index(texture.channel)
     pixels = np.asarray(image.convert("RGBA"), np.float64) / 255.0

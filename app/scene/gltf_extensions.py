@@ -31,10 +31,13 @@ what it approximates; docs/gltf.md has the table.
   its index over the three channels.
 
 Textures: ``map_material_extensions`` also returns the textures the project samples
-(``maps``: the clear coat's normal map and strength, the sheen colour, the specular
-F0 and colour, the anisotropy strength and direction; the coat strength and the sheen or
-specular colour scale the material row per pixel through G-buffer RT6) and a note for
-each texture or parameter it cannot honour, for the reader to attach and report.
+(``maps``: the clear coat's normal map, the specular F0, the anisotropy strength and
+direction, and the extension maps declared in app/common/extension_maps.py, each read
+with its declared texture key and channel by ``_declared``: the sheen colour and
+roughness, the specular colour and the coat strength (G-buffer RT6), the coat roughness
+and the film's strength and thickness (RT8), the transmission and the volume's thickness
+(the transmission pass)) and a note for each texture or parameter it cannot honour, for
+the reader to attach and report.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from app.common.extension_maps import EXTENSION_MAP, selectors, slots
 from app.common.ior import f0_from_ior
 from app.common.models import MaterialParams
 from app.scene.gltf_document import GltfError
@@ -70,11 +74,9 @@ SUPPORTED = (
     "KHR_materials_dispersion",
 )
 # The extensions' textures the project cannot sample, and what is used instead (each one a
-# material names gives a note; docs/gltf.md lists them).
-UNSUPPORTED_TEXTURES: dict[str, dict[str, str]] = {
-    "KHR_materials_transmission": {"transmissionTexture": "transmissionFactor alone is used"},
-    "KHR_materials_volume": {"thicknessTexture": "thicknessFactor alone is used"},
-}
+# material names gives a note; docs/gltf.md lists them). Those it samples are declared in
+# app/common/extension_maps.py (EXTENSION_MAPS) and read by ``_declared``.
+UNSUPPORTED_TEXTURES: dict[str, dict[str, str]] = {}
 # Material extensions another part of the reader maps (the emissive strength joins the
 # core material's emissive factor).
 HANDLED_ELSEWHERE = ("KHR_materials_emissive_strength",)
@@ -147,6 +149,10 @@ def map_material_extensions(
     for name in sorted(extensions):
         if name.startswith("KHR_materials_") and name not in SUPPORTED + HANDLED_ELSEWHERE:
             state.notes.append(f"{name}: not supported; the material renders without it")
+    flags = selectors(state.maps)  # which map fills a slot two maps share (the row's flags)
+    if flags:
+        p = state.params
+        state.params = replace(p, params=replace(p.params, **flags))
     return ExtensionMapping(
         state.params, state.maps, tuple(state.notes), tuple(state.applied),
         state.anisotropy_rotation,
@@ -240,6 +246,25 @@ def _texture(
     return ExtensionTexture(info, "rgb", state.path(name, prop))
 
 
+def _declared(state: _State, ext: Mapping[str, Any], key: str) -> ExtensionTexture | None:
+    """The texture of extension map ``key`` (app/common/extension_maps.py EXTENSION_MAPS:
+    its extension, texture property and channels), or None where the material names none."""
+    decl = EXTENSION_MAP[key]
+    texture = _texture(state, ext, decl.extension, decl.texture)
+    return None if texture is None else replace(texture, channel=decl.channels)
+
+
+def _attach(state: _State, key: str, texture: ExtensionTexture, instead: str) -> None:
+    """Extension map ``key`` sampled from ``texture``, unless a map already attached fills
+    the same factor slot (one value per pixel): then a note, and ``instead`` is used."""
+    decl = EXTENSION_MAP[key]
+    for other in slots(decl.target)[decl.slot]:
+        if other.key in state.maps:
+            state.notes.append(f"{texture.key}: not supported beside a {other.texture}; {instead}")
+            return
+    state.maps[key] = texture
+
+
 def _extension(state: _State, extensions: Mapping[str, Any], name: str) -> Mapping[str, Any] | None:
     """The extension's object (None where the material has none), with a note for each
     texture it names that the project cannot sample (UNSUPPORTED_TEXTURES)."""
@@ -293,7 +318,7 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
         if f0 > 0.0 and not np.all(f0_rgb == f0):
             specular_color = f0_rgb / f0
         f90 = weight
-        colour = _texture(state, spec_ext, name, "specularColorTexture")
+        colour = _declared(state, spec_ext, "specular_color")
         if colour is not None:  # sRGB RGB: multiplies specular_color per pixel (RT6)
             state.maps["specular_color"] = colour
         texture = _texture(state, spec_ext, name, "specularTexture")
@@ -309,10 +334,7 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
     textured = "specular_color" in state.maps
     tinted = textured or bool(np.any(specular_color != 1.0))
     model = replace(p.model, specular_color=tinted) if tinted else p.model
-    params = replace(
-        p.params, eta_dielectric=eta, specular_color=specular_color,
-        specular_color_map=1.0 if textured else 0.0,
-    )  # fmt: skip
+    params = replace(p.params, eta_dielectric=eta, specular_color=specular_color)
     if f90 != 1.0:
         if model.fresnel == "schlick" and not model.internal:
             # Generalised Schlick (RTR4 §9.5), exponent 5: F = F0 + (F90 - F0)(1 - l.h)^5 with
@@ -335,6 +357,14 @@ def _ior_and_specular(state: _State, extensions: Mapping[str, Any]) -> None:
 
 def _transmission(state: _State, ext: Mapping[str, Any], name: str) -> None:
     factor = _number(state, ext, name, "transmissionFactor", 0.0, 0.0, 1.0)
+    texture = _declared(state, ext, "transmission")
+    if texture is not None and factor == 0.0:
+        state.notes.append(
+            f"{texture.key}: transmissionFactor is 0, so the texture changes nothing; "
+            "it is not read"
+        )
+    elif texture is not None:  # R: multiplies the factor per pixel (the transmission pass)
+        state.maps["transmission"] = texture
     _apply(state, name, {}, {"transmission": factor})
 
 
@@ -348,6 +378,14 @@ def _volume(state: _State, ext: Mapping[str, Any], name: str) -> None:
             raise GltfError(state.path(name, "attenuationDistance"), "must be positive")
         distance = min(distance, 1.0e6)  # the row's range; past it, no visible attenuation
     color = _color(state, ext, name, "attenuationColor", (1.0, 1.0, 1.0), 1.0)
+    texture = _declared(state, ext, "thickness")
+    if texture is not None and (thickness == 0.0 or state.params.params.transmission == 0.0):
+        state.notes.append(
+            f"{texture.key}: the volume is thin-walled or does not transmit, so the "
+            "texture changes nothing; it is not read"
+        )
+    elif texture is not None:  # G: multiplies thicknessFactor per pixel (the same pass)
+        state.maps["thickness"] = texture
     volume = {
         "thickness": thickness, "attenuation_color": color,
         "attenuation_distance": 0.0 if distance is None else distance,
@@ -414,14 +452,14 @@ def _iridescence(state: _State, ext: Mapping[str, Any], name: str) -> None:
     thickness = _number(
         state, ext, name, "iridescenceThicknessMaximum", 400.0, 0.0, MAX_FILM_THICKNESS_NM
     )
-    strength = _texture(state, ext, name, "iridescenceTexture")
-    thick = _texture(state, ext, name, "iridescenceThicknessTexture")
+    strength = _declared(state, ext, "film_factor")
+    thick = _declared(state, ext, "film_thickness")
     if factor == 0.0:
         return
     if strength is not None:  # R: multiplies iridescenceFactor per pixel (G-buffer RT8)
-        state.maps["film_factor"] = replace(strength, channel="r")
+        state.maps["film_factor"] = strength
     if thick is not None:  # G: the thickness mix(minimum, maximum, G) per pixel (RT8)
-        state.maps["film_thickness"] = replace(thick, channel="g")
+        state.maps["film_thickness"] = thick
     # Without the thickness texture the film is iridescenceThicknessMaximum thick (RT8's B
     # reads 1); the outside medium is air (the specification's outside_ior 1), so film_eta
     # = film_ior. The factor mixes the film's Fresnel with the base's.
@@ -438,23 +476,18 @@ def _iridescence(state: _State, ext: Mapping[str, Any], name: str) -> None:
 def _sheen(state: _State, ext: Mapping[str, Any], name: str) -> None:
     color = _color(state, ext, name, "sheenColorFactor", (0.0, 0.0, 0.0), 1.0)
     roughness = _number(state, ext, name, "sheenRoughnessFactor", 0.0, 0.0, 1.0)
-    texture = _texture(state, ext, name, "sheenColorTexture")
+    texture = _declared(state, ext, "sheen_color")
     if float(color.max()) == 0.0:  # "If sheenColorFactor is zero, the whole sheen layer
         return  # is disabled": no layer, compiled out, as a scene file's black sheen_color
-    if texture is not None and "specular_color" in state.maps:
-        state.notes.append(  # RT6 has one colour per pixel: the specular colour's
-            f"{texture.key}: not supported beside a specularColorTexture; "
-            "sheenColorFactor alone is used"
-        )
-    elif texture is not None:  # RGB, sRGB: multiplies the factor per pixel (G-buffer RT6)
-        state.maps["sheen_color"] = texture
-    rough = _texture(state, ext, name, "sheenRoughnessTexture")
+    if texture is not None:  # RGB, sRGB: multiplies the factor per pixel (G-buffer RT6),
+        # where the specular colour's texture does not fill RT6's RGB already
+        _attach(state, "sheen_color", texture, "sheenColorFactor alone is used")
+    rough = _declared(state, ext, "sheen_roughness")
     if rough is not None:  # A: multiplies the roughness factor per pixel (RT6's A)
-        state.maps["sheen_roughness"] = replace(rough, channel="a")
+        state.maps["sheen_roughness"] = rough
     # The specification's Charlie NDF with Estevez & Kulla's Smith visibility, and its
     # albedo scaling 1 - max(sheenColor) max(E(n.l), E(n.v)): the project's charlie_smith.
-    sheen = {"sheen_color": color, "sheen_roughness": roughness,
-             "sheen_roughness_map": 1.0 if rough is not None else 0.0}  # fmt: skip
+    sheen = {"sheen_color": color, "sheen_roughness": roughness}
     _apply(state, name, {"sheen": "charlie_smith"}, sheen)
 
 
@@ -478,17 +511,13 @@ def _clearcoat(state: _State, ext: Mapping[str, Any], name: str) -> None:
         return
     if normal is not None:
         state.maps["coat_normal"] = normal
-    texture = _texture(state, ext, name, "clearcoatTexture")
-    if texture is not None and "sheen_roughness" in state.maps:
-        state.notes.append(  # RT6 has one A per pixel: the sheen roughness's
-            f"{texture.key}: not supported beside a sheenRoughnessTexture; "
-            "clearcoatFactor alone is used"
-        )
-    elif texture is not None:  # R: multiplies the strength per pixel (G-buffer RT6)
-        state.maps["clearcoat"] = replace(texture, channel="r")
-    rough = _texture(state, ext, name, "clearcoatRoughnessTexture")
+    texture = _declared(state, ext, "clearcoat")
+    if texture is not None:  # R: multiplies the strength per pixel (G-buffer RT6's A),
+        # where the sheen roughness's texture does not fill it already
+        _attach(state, "clearcoat", texture, "clearcoatFactor alone is used")
+    rough = _declared(state, ext, "clearcoat_roughness")
     if rough is not None:  # G: multiplies the roughness factor per pixel (G-buffer RT8)
-        state.maps["clearcoat_roughness"] = replace(rough, channel="g")
+        state.maps["clearcoat_roughness"] = rough
     # The medium is air (glTF has no other), so the coat's eta is its index.
     coat = {
         "clearcoat": strength,

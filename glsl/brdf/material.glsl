@@ -87,47 +87,16 @@ vec3 sanitize_direction(vec3 d, vec3 fallback) {
     return finite && is_finite(len2) && len2 > 1e-12 ? d * inversesqrt(len2) : fallback;
 }
 
-#if GBUFFER_LAYER_MAPS
-// The material row's numbers that extension textures scale per pixel (G-buffer RT6,
-// material/layers.glsl sample_layer_maps): the sheen colour by f.rgb, or the specular
-// colour where the row's specular_color_map is 1, the clear coat's strength by f.a, or the
-// sheen roughness where the row's sheen_roughness_map is 1, each factor clamped to
-// [0, 1] (NaN: 1, no change). The lighting pass applies it to the
-// decoded row, the forward pass to the fragment's.
-ModelParams scale_by_layer_maps(ModelParams p, vec4 f) {
-    vec3 rgb = vec3(sanitize_value(f.r, 0.0, 1.0, 1.0), sanitize_value(f.g, 0.0, 1.0, 1.0),
-                    sanitize_value(f.b, 0.0, 1.0, 1.0));
-    if (p.specular_color_map > 0.5) {
-        p.specular_color *= rgb;
-    } else {
-        p.sheen_color *= rgb;
-    }
-    float a = sanitize_value(f.a, 0.0, 1.0, 1.0);
-    if (p.sheen_roughness_map > 0.5) {
-        p.sheen_roughness *= a;
-    } else {
-        p.clearcoat *= a;
-    }
-    return p;
-}
-#endif
-
-#if GBUFFER_COAT_FILM_MAPS
-// The material row's numbers that the clear-coat roughness and iridescence textures set
-// per pixel (G-buffer RT8, material/layers.glsl sample_coat_film_maps): the coat's
-// roughness by f.r, the film's strength by f.g, and the film's thickness
-// mix(film_thickness_min, film_thickness, f.b) (glTF KHR_materials_iridescence: the
-// thickness texture's G between the minimum and the maximum; 1 without one: the
-// maximum), each factor clamped to [0, 1] (NaN: 1). The lighting pass applies it to the
-// decoded row, the forward pass to the fragment's.
-ModelParams scale_by_coat_film_maps(ModelParams p, vec4 f) {
-    p.clearcoat_roughness *= sanitize_value(f.r, 0.0, 1.0, 1.0);
-    p.film_factor *= sanitize_value(f.g, 0.0, 1.0, 1.0);
-    p.film_thickness = mix(p.film_thickness_min, p.film_thickness,
-                           sanitize_value(f.b, 0.0, 1.0, 1.0));
-    return p;
-}
-#endif
+// The material row's numbers that extension textures scale per pixel, generated from
+// app/common/extension_maps.py per factor target under its define:
+// ModelParams scale_by_<target>(ModelParams p, vec4 f), each slot's factors clamped to
+// [0, 1] (NaN: 1, no change) on the field of the map the row's selector picks (RT6: the
+// sheen colour, or the specular colour where specular_color_map is 1, by RGB; the coat's
+// strength, or the sheen roughness where sheen_roughness_map is 1, by A. RT8: the coat's
+// roughness by R, the film's strength by G, its thickness mix(film_thickness_min,
+// film_thickness, B)). The lighting pass applies them to the decoded row
+// (gbuffer/decode.glsl), the forward pass to the fragment's.
+#include "generated/extension_scaling.glsl"
 
 // The metalness workflow (glTF 2.0 Appendix B; Burley 2012): one base colour serves
 // as the diffuse albedo of a dielectric and as the F0 of a metal.

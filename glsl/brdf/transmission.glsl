@@ -7,12 +7,15 @@
 // (Beer-Lambert; KHR_materials_volume), and L_behind the opaque image at the projection of
 // the refracted ray's exit point, blurred by roughness through its mip chain (the glTF
 // Sample Viewer's and Filament's approach; rough refraction itself: Walter et al. 2007,
-// "Microfacet Models for Refraction through Rough Surfaces"). The float64 twin is
+// "Microfacet Models for Refraction through Rough Surfaces"). A punctual light behind the
+// surface adds the transmitted GGX lobe (transmitted_light, below). The float64 twin is
 // app/reference/transmission.py, same names.
 #ifndef PBS_TRANSMISSION_GLSL
 #define PBS_TRANSMISSION_GLSL
 
 #include "brdf/fresnel.glsl"
+#include "brdf/masking.glsl"
+#include "brdf/ndf.glsl"
 
 // The refracted direction of the view ray -v entering a medium of relative index eta
 // (n2 / n1) through normal n (Snell's law, GLSL refract()'s formula); total internal
@@ -74,6 +77,34 @@ vec3 transmission_weight(vec3 f0_dielectric, float NoV, float transmission, floa
 // L_t: the light behind, tinted by the base colour and the volume's transmittance.
 vec3 transmitted_radiance(vec3 behind, vec3 base_color, vec3 weight, vec3 transmittance) {
     return weight * base_color * transmittance * behind;
+}
+
+// --- punctual lights seen through the surface ---
+
+// The transmitted lobe's roughness: alpha clamp(2 eta - 2, 0, 1) (the glTF Sample Viewer's
+// applyIorToRoughness: an index of 1 does not bend, so does not spread, the light), floored
+// at the BRDF's smallest alpha (MIN_PERCEPTUAL_ROUGHNESS^2) so the lobe stays finite.
+float transmission_alpha(float alpha, float eta) {
+    float alpha_min = MIN_PERCEPTUAL_ROUGHNESS * MIN_PERCEPTUAL_ROUGHNESS;
+    return max(alpha * clamp(2.0 * eta - 2.0, 0.0, 1.0), alpha_min);
+}
+
+// f_t(l, v) |n.l| / (base_color T(d)) of a punctual light behind a thin surface, towards
+// l (n.l < 0): KHR_materials_transmission's specular BTDF, the light mirrored through the
+// surface's plane, l' = l - 2 (n.l) n, and the GGX lobe about it,
+//   f_t = transmission (1 - metallic) (1 - F(v.h')) D(h') V(n.l', n.v),  h' = |l' + v|,
+// times its cosine n.l' = |n.l| (the rendering equation's; the glTF Sample Viewer leaves
+// the cosine out). 0 for a light in front of the surface.
+vec3 transmitted_light(vec3 n, vec3 v, vec3 l, float alpha_t, vec3 f0_dielectric,
+                       float transmission, float metallic) {
+    float NoL = -dot(n, l);
+    if (NoL <= 0.0) return vec3(0.0);
+    vec3 l_mirror = l + 2.0 * NoL * n;
+    vec3 h = normalize(l_mirror + v);
+    float NoV = max(dot(n, v), 0.0);
+    float lobe = D_GGX(n, h, alpha_t) * V_height_correlated_GGX(NoL, NoV, alpha_t) * NoL;
+    return transmission_weight(f0_dielectric, clamp(dot(v, h), 0.0, 1.0), transmission,
+                               metallic) * lobe;
 }
 
 #endif

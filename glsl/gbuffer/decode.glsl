@@ -71,14 +71,9 @@ ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     // NaN radiance (docs/stability.md).
     Surface s = sanitize_surface(Surface(a.rgb, a.a, b.b, b.a, c.b));
     ModelParams params = fetch_model_params(materials, material_id);
-#if GBUFFER_LAYER_MAPS
-    // RT6: the extension maps' factors on the row's sheen colour and coat strength
-    params = scale_by_layer_maps(params, texelFetch(g_layer_maps, px, 0));
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    // RT8: the clear-coat roughness and iridescence maps' factors on the row
-    params = scale_by_coat_film_maps(params, texelFetch(g_coat_film_maps, px, 0));
-#endif
+    // RT6, RT8: the extension maps' factors on the row, each G-buffer factor target's
+    // scale_by_<target> (brdf/material.glsl, generated from app/common/extension_maps.py)
+    SCALE_BY_GBUFFER_FACTORS(params, px)
     vec3 t = oct_decode(c.rg);
 
     // World position from the depth buffer at the pixel centre.

@@ -11,24 +11,9 @@
 #include "material/filtering.glsl"
 #include "material/normal_mapping.glsl"
 
-#define MAP_BASE_COLOR 1        // sRGB (decoded by the GL) or linear: multiplies base_color
-#define MAP_METALLIC 2          // R: multiplies metallic
-#define MAP_ANISOTROPY 4        // R: multiplies anisotropy
-#define MAP_NORMAL_ROUGHNESS 8  // RGB: tangent-space normal, A: perceptual roughness (absolute)
-#define MAP_F0 16               // R: multiplies the dielectric F0 (baked blends)
-#define MAP_SELECT 32           // R: >= 0.5 picks layer 1's material row (baked blends)
-#define MAP_COAT_NORMAL 64      // RGB: the clear coat's tangent-space normal (layer 0 only)
-#define MAP_EMISSIVE 128        // sRGB: multiplies the emitted radiance (layer 0 only)
-#define MAP_OCCLUSION 256       // R: ambient occlusion of environment light (layer 0 only)
-#define MAP_ANISOTROPY_DIRECTION 512  // RG: direction of anisotropy in (t, b), decoded 2 rg - 1 (layer 0 only)
-#define MAP_SHEEN_COLOR 1024    // sRGB: multiplies the row's sheen colour (layer 0 only; RT6)
-#define MAP_CLEARCOAT 2048      // R: multiplies the row's clear-coat strength (layer 0 only; RT6)
-#define MAP_SPECULAR_COLOR 4096 // sRGB: multiplies the row's specular colour (layer 0 only; RT6)
-#define MAP_SHEEN_ROUGHNESS 8192 // R: multiplies the row's sheen roughness (layer 0 only; RT6)
-#define MAP_CLEARCOAT_ROUGHNESS 16384 // R: multiplies the row's coat roughness (layer 0 only; RT8)
-#define MAP_FILM_FACTOR 32768   // R: multiplies the row's film strength (layer 0 only; RT8)
-#define MAP_FILM_THICKNESS 65536 // R: the film's thickness between the row's min and max (RT8)
-#define MAP_SLOPE_COVARIANCE 131072 // RGB: the normal map's slope covariance (xx, yy, xy; LEAN)
+// MAP_<KEY>: each map's bit in LAYER<i>_MAPS, MAP_INDEX_<KEY> its index (bit = 1 << index),
+// MAP_COUNT: generated from app/common/extension_maps.py (core, extension, shared-UV maps).
+#include "generated/map_bits.glsl"
 
 #ifndef LAYER0_MAPS
 #define LAYER0_MAPS 0
@@ -65,25 +50,6 @@
 #ifndef UV_SET1_MAPS0
 #define UV_SET1_MAPS0 0
 #endif
-// Index of each map in u_uv_transform0 (its MAP_* bit is 1 << index).
-#define MAP_INDEX_BASE_COLOR 0
-#define MAP_INDEX_METALLIC 1
-#define MAP_INDEX_ANISOTROPY 2
-#define MAP_INDEX_NORMAL_ROUGHNESS 3
-#define MAP_INDEX_F0 4
-#define MAP_INDEX_SELECT 5
-#define MAP_INDEX_COAT_NORMAL 6
-#define MAP_INDEX_EMISSIVE 7
-#define MAP_INDEX_OCCLUSION 8
-#define MAP_INDEX_ANISOTROPY_DIRECTION 9
-#define MAP_INDEX_SHEEN_COLOR 10
-#define MAP_INDEX_CLEARCOAT 11
-#define MAP_INDEX_SPECULAR_COLOR 12
-#define MAP_INDEX_SHEEN_ROUGHNESS 13
-#define MAP_INDEX_CLEARCOAT_ROUGHNESS 14
-#define MAP_INDEX_FILM_FACTOR 15
-#define MAP_INDEX_FILM_THICKNESS 16
-
 struct LayerConstants {
     vec3 base_color;
     float metallic;
@@ -135,7 +101,7 @@ uniform float u_alpha0;              // glTF baseColorFactor's A
 uniform float u_alpha_cutoff0;
 #endif
 #if UV_TRANSFORM_MAPS0 != 0
-uniform mat3 u_uv_transform0[17];     // uv' = M uv per map index, before uv_scale
+uniform mat3 u_uv_transform0[MAP_COUNT];  // uv' = M uv per map index, before uv_scale
 #endif
 // glTF COLOR_0 and TEXCOORD_1 of the fragment, set by the pass's main() from its inputs
 // (identity and unused where the mesh has none).
@@ -329,70 +295,14 @@ vec4 sample_emission(vec2 uv) {
 }
 #endif
 
-#if GBUFFER_LAYER_MAPS
-uniform sampler2D u_sheen_color_map0;
-uniform sampler2D u_clearcoat_map0;
-uniform sampler2D u_specular_color_map0;
-uniform sampler2D u_sheen_roughness_map0;
-
-// RT6: the factors layer 0's extension maps put on its material row per pixel (1 where
-// it has no such map): glTF KHR_materials_sheen's sheenColorTexture (RGB, sRGB decoded
-// by the GL) on the sheen colour, or KHR_materials_specular's specularColorTexture (the
-// same) on the specular colour (the row's specular_color_map says which),
-// KHR_materials_clearcoat's clearcoatTexture (R) on the coat's strength, or
-// sheenRoughnessTexture (its A, stored in R) on the sheen roughness (the row's
-// sheen_roughness_map says which). The lighting pass multiplies the row's numbers by them
-// (gbuffer/decode.glsl).
-vec4 sample_layer_maps(vec2 uv) {
-    vec4 f = vec4(1.0);
-#if (LAYER0_MAPS & MAP_SHEEN_COLOR) != 0
-    f.rgb = sample_layer_map(u_sheen_color_map0, uv, u_layer0.uv_scale, 0,
-                             MAP_INDEX_SHEEN_COLOR).rgb;
-#endif
-#if (LAYER0_MAPS & MAP_SPECULAR_COLOR) != 0
-    f.rgb = sample_layer_map(u_specular_color_map0, uv, u_layer0.uv_scale, 0,
-                             MAP_INDEX_SPECULAR_COLOR).rgb;
-#endif
-#if (LAYER0_MAPS & MAP_CLEARCOAT) != 0
-    f.a = sample_layer_map(u_clearcoat_map0, uv, u_layer0.uv_scale, 0, MAP_INDEX_CLEARCOAT).r;
-#endif
-#if (LAYER0_MAPS & MAP_SHEEN_ROUGHNESS) != 0
-    f.a = sample_layer_map(u_sheen_roughness_map0, uv, u_layer0.uv_scale, 0,
-                           MAP_INDEX_SHEEN_ROUGHNESS).r;
-#endif
-    return f;
-}
-#endif
-
-#if GBUFFER_COAT_FILM_MAPS
-uniform sampler2D u_clearcoat_roughness_map0;
-uniform sampler2D u_film_factor_map0;
-uniform sampler2D u_film_thickness_map0;
-
-// RT8: the factors layer 0's clear-coat roughness and iridescence maps put on its material
-// row per pixel (1 where it has no such map): glTF KHR_materials_clearcoat's
-// clearcoatRoughnessTexture (its G, stored in R) on the coat's roughness,
-// KHR_materials_iridescence's iridescenceTexture (R) on the film's strength and its
-// iridescenceThicknessTexture (its G, stored in R) as the fraction of the way from the
-// row's film_thickness_min to film_thickness. The lighting pass applies them
-// (gbuffer/decode.glsl, brdf/material.glsl scale_by_coat_film_maps).
-vec4 sample_coat_film_maps(vec2 uv) {
-    vec4 f = vec4(1.0);
-#if (LAYER0_MAPS & MAP_CLEARCOAT_ROUGHNESS) != 0
-    f.r = sample_layer_map(u_clearcoat_roughness_map0, uv, u_layer0.uv_scale, 0,
-                           MAP_INDEX_CLEARCOAT_ROUGHNESS).r;
-#endif
-#if (LAYER0_MAPS & MAP_FILM_FACTOR) != 0
-    f.g = sample_layer_map(u_film_factor_map0, uv, u_layer0.uv_scale, 0,
-                           MAP_INDEX_FILM_FACTOR).r;
-#endif
-#if (LAYER0_MAPS & MAP_FILM_THICKNESS) != 0
-    f.b = sample_layer_map(u_film_thickness_map0, uv, u_layer0.uv_scale, 0,
-                           MAP_INDEX_FILM_THICKNESS).r;
-#endif
-    return f;
-}
-#endif
+// The extension maps (app/common/extension_maps.py EXTENSION_MAPS), generated per factor
+// target under its define: its maps' samplers and vec4 sample_<target>(uv), each map's
+// texels in its slot, 1 where layer 0 has no such map. sample_layer_maps (RT6: the sheen
+// or specular colour in RGB, the coat's strength or the sheen roughness in A),
+// sample_coat_film_maps (RT8: the coat's roughness, the film's strength and thickness) and
+// sample_transmission_maps (the transmission pass: glass's share and thickness); the
+// lighting pass and the forward pass apply them with brdf/material.glsl's scale_by_<target>.
+#include "generated/extension_sampling.glsl"
 
 #if ALPHA_MASK || ALPHA_BLEND
 // glTF 2.0 coverage: the layer's alpha times the base colour map's A and COLOR_0's A.

@@ -10,7 +10,8 @@
 // "over" the lit HDR image by the fixed-function blend.
 // With TRANSMISSION it is the transmission pass (app/render/transmission.py): the diffuse
 // base weighted by (1 - transmission), plus the light of the opaque image behind the
-// surface refracted through it (brdf/transmission.glsl), written over the pixel.
+// surface refracted through it and the punctual lights seen through it
+// (brdf/transmission.glsl), written over the pixel.
 #include "brdf/brdf.glsl"
 #include "common/position.glsl"
 #include "geometry/analytic.glsl"
@@ -39,6 +40,7 @@ uniform sampler2D u_materials;  // RGBA32F, MATERIAL_TEXELS per material (app/co
 uniform sampler2D u_transmission_image;
 uniform sampler2D u_transmission_depth;  // the G-buffer's RT2: view depth (0: nothing)
 uniform mat4 u_view;   // passes/gbuffer.vert's (geometry/analytic.glsl: u_model, u_proj)
+uniform float u_thickness_scale;   // |det(model)|^(1/3): object units to world units
 #endif
 
 out vec4 frag_color;
@@ -58,12 +60,7 @@ void main() {
     MaterialSample m = sample_material(hit.normal, hit.tangent, hit.uv, true);
     float view_depth = hit.view_depth;
     vec3 ng = hit.normal;   // the geometric normal: the shadow lookup's offset
-#if GBUFFER_LAYER_MAPS
-    vec4 layer_factors = sample_layer_maps(hit.uv);   // as the G-buffer pass's RT6
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    vec4 coat_film_factors = sample_coat_film_maps(hit.uv);   // as the G-buffer pass's RT8
-#endif
+    SAMPLE_FACTOR_TARGETS(hit.uv)   // as the G-buffer pass's RT6 and RT8, and glass's maps
 #if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(hit.uv);   // lookups before any discard (derivatives)
 #endif
@@ -81,12 +78,7 @@ void main() {
     // the geometric normal (the interpolated vertex normal, reversed on a back face as
     // sample_material reverses n): the shadow lookup's offset, never the mapped normal
     vec3 ng = gl_FrontFacing ? v_normal : -v_normal;
-#if GBUFFER_LAYER_MAPS
-    vec4 layer_factors = sample_layer_maps(v_uv);   // as the G-buffer pass's RT6
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    vec4 coat_film_factors = sample_coat_film_maps(v_uv);   // as the G-buffer pass's RT8
-#endif
+    SAMPLE_FACTOR_TARGETS(v_uv)   // as the G-buffer pass's RT6 and RT8, and glass's maps
 #if ALPHA_BLEND || TRANSMISSION
     vec4 emission = sample_emission(v_uv);
 #endif
@@ -110,12 +102,11 @@ void main() {
     Surface s = sanitize_surface(
         Surface(l.base_color, l.metallic, l.perceptual_roughness, l.f0, l.anisotropy));
     ModelParams params = fetch_model_params(u_materials, int(m.material_id));
-#if GBUFFER_LAYER_MAPS
-    params = scale_by_layer_maps(params, layer_factors);
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    params = scale_by_coat_film_maps(params, coat_film_factors);
-#endif
+    // The extension maps' factors on the row (app/common/extension_maps.py): RT6's and RT8's
+    // as the lighting pass applies them, and under TRANSMISSION glTF transmissionTexture (R)
+    // and thicknessTexture (G) on the row's transmission and thickness (a texel of 0 makes
+    // the pixel opaque, or thin-walled)
+    SCALE_BY_FACTOR_TARGETS(params)
 
     // The lighting pass's position: the pixel centre's view ray times the interpolated view
     // depth. An interpolated world position is as valid, but across the two 40 m triangles
@@ -143,9 +134,9 @@ void main() {
 #if TRANSMISSION
     vec3 radiance = surface_radiance(ivec2(0), emission, sp, ng);   // emission, occlusion too
     // The volume's thickness in world units: the object's, times the model matrix's scale
-    // (the cube root of its determinant: a uniform scale exactly).
-    float scale = pow(abs(determinant(mat3(u_model))), 1.0 / 3.0);
-    float thickness = params.thickness * scale;
+    // (the cube root of its determinant, a uniform scale exactly: per part, in float64 on
+    // the CPU, MeshDrawable.thickness_scale).
+    float thickness = params.thickness * u_thickness_scale;
     float focal_px = 0.5 * u_image_size.y / u_tan_half_fov.y;
     // One lookup per channel where the index disperses (KHR_materials_dispersion), else one.
     vec3 iors = dispersion_iors(params.eta_dielectric, params.dispersion);
@@ -179,6 +170,20 @@ void main() {
     vec3 transmittance = beer_lambert(params.attenuation_color, params.attenuation_distance,
                                       thickness);
     radiance += transmitted_radiance(behind.rgb, base_color, weight, transmittance);
+    // Punctual lights seen through the surface (brdf/transmission.glsl transmitted_light:
+    // the transmitted GGX lobe about each light mirrored through the surface), reaching
+    // it from where the view ray leaves the volume, tinted as the light behind:
+    //   pi sum_i base_color T(d) f_t(l_i, v) c_light_i |n.l_i|
+    float alpha_t = transmission_alpha(material_alpha(s), params.eta_dielectric);
+    vec3 exit_point = transmission_exit(p, v, n, params.eta_dielectric, thickness);
+    vec3 through = vec3(0.0);
+    for (int i = 0; i < u_light_count; ++i) {
+        vec3 l;
+        vec3 c_light = light_at(read_light(u_lights, i), exit_point, l);
+        through += transmitted_light(n, v, l, alpha_t, s.f0_dielectric * params.specular_color,
+                                     params.transmission, s.metallic) * c_light;
+    }
+    radiance += PI * base_color * transmittance * through;
     // Premultiplied coverage: what shows through keeps the coverage of what is behind.
     float seen = dot(weight, vec3(1.0 / 3.0));
     frag_color = vec4(radiance, 1.0 - seen * (1.0 - behind.a));

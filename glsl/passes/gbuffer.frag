@@ -140,12 +140,9 @@ void main() {
 #if GBUFFER_EMISSION
     g_emission = sample_emission(uv);
 #endif
-#if GBUFFER_LAYER_MAPS
-    g_layer_maps = sample_layer_maps(uv);
-#endif
-#if GBUFFER_COAT_FILM_MAPS
-    g_coat_film_maps = sample_coat_film_maps(uv);
-#endif
+    // RT6, RT8: each G-buffer factor target's sample_<target>(uv) (material/layers.glsl,
+    // generated from app/common/extension_maps.py; nothing where none is present)
+    WRITE_FACTOR_TARGETS(uv)
 #if ALPHA_MASK
     // glTF 2.0 alphaMode MASK: the surface is absent where its coverage is below the
     // cutoff (after the lookups above, whose derivatives need the whole quad).
