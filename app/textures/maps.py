@@ -452,8 +452,11 @@ def colour_texture(image: Image.Image) -> Texture:
     if not isinstance(digest, str):
         return Texture(rgba(), srgb=True)
     key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
-    (texels,) = prepared_cache().arrays("colour rgba8", (key,), rgba)
-    return Texture([texels], srgb=True, source_key=key)
+    # Kept rows bottom first, as the GL takes them: level 0 is a view of the entry read
+    # backwards, and the upload's rows-up copy of it is the entry itself (no 16 MiB copy).
+    rows_up = lambda: [np.ascontiguousarray(rgba()[0][::-1])]  # noqa: E731
+    (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
+    return Texture([texels[::-1]], srgb=True, source_key=key)
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
