@@ -14,8 +14,8 @@ a new key and nothing stale is ever returned. Two levels:
   dtypes, shapes and offsets, and a CRC-32 of the data checked on every read: a torn or
   flipped entry is caught, as by a SHA-256, in a fraction of its time; the key is what
   SHA-256 secures), mapped (``np.load`` with ``mmap_mode="r"``: no copy, no fresh
-  memory) with ``allow_pickle=False``: an entry is data, never code; a corrupt or unreadable entry is
-  deleted and rebuilt. Written to a temporary file
+  memory) with ``allow_pickle=False``: an entry is data, never code; a corrupt or
+  unreadable entry is deleted and rebuilt. Written to a temporary file
   and renamed, so a killed process leaves no half entry. Bounded by ``disk_bytes``: the
   least recently used entries (by modification time, refreshed on each hit) go first.
 

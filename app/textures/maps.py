@@ -354,6 +354,35 @@ def _decoded(image: Image.Image) -> Image.Image:
 _DECODE_LOCK = threading.Lock()
 
 
+def rgb_texels(image: Image.Image) -> np.ndarray:
+    """``np.asarray(image.convert("RGB"), np.uint8)``, the same values, made once for an
+    image ``open_image`` read (by its file's digest) and shared, read-only, by every map
+    built from it (glTF's metallic-roughness image gives the metallic mips and the
+    normal/roughness chain), without the copy that ``convert`` makes of an RGB image."""
+    digest = image.info.get(SOURCE_DIGEST)
+    with _RGB_LOCK:
+        kept = _RGB.get(digest) if isinstance(digest, str) else None
+    if kept is not None:
+        return kept
+    decoded = _decoded(image)
+    source = decoded if decoded.mode == "RGB" else decoded.convert("RGB")
+    texels = np.asarray(source, np.uint8)
+    texels.setflags(write=False)
+    if isinstance(digest, str):
+        with _RGB_LOCK:
+            _RGB[digest] = texels
+            while len(_RGB) > _RGB_KEPT:
+                _RGB.popitem(last=False)
+    return texels
+
+
+# Texels of the last few images ``rgb_texels`` made, by digest (a material's maps ask
+# for one image's texels twice, one after the other, on the cache's background thread).
+_RGB: OrderedDict[str, np.ndarray] = OrderedDict()
+_RGB_KEPT = 2
+_RGB_LOCK = threading.Lock()
+
+
 def read_image(
     path: str | Path, scene_file: str, key: str, budget: Budget | None = None, kind: str = "colour"
 ) -> Image.Image:
@@ -452,9 +481,15 @@ def colour_texture(image: Image.Image) -> Texture:
     if not isinstance(digest, str):
         return Texture(rgba(), srgb=True)
     key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
-    # Kept rows bottom first, as the GL takes them: level 0 is a view of the entry read
-    # backwards, and the upload's rows-up copy of it is the entry itself (no 16 MiB copy).
-    rows_up = lambda: [np.ascontiguousarray(rgba()[0][::-1])]  # noqa: E731
+
+    def rows_up() -> list[np.ndarray]:
+        # Kept rows bottom first, as the GL takes them: level 0 is a view of the entry read
+        # backwards, and the upload's rows-up copy of it is the entry itself. Pillow's raw
+        # encoder writes the rows in that order (orientation -1): one copy of the texels.
+        converted = _decoded(image).convert("RGBA")
+        data = converted.tobytes("raw", "RGBA", 0, -1)
+        return [np.frombuffer(data, np.uint8).reshape(converted.height, converted.width, 4)]
+
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
 
@@ -572,10 +607,10 @@ def _map_chain_levels(
     and a glTF roughness factor lies in [0, 1] (app/scene/gltf.py)."""
     rgb = None
     if normal_image is not None:
-        rgb = np.asarray(_decoded(normal_image).convert("RGB"), np.uint8)
+        rgb = rgb_texels(normal_image)
     green = None
     if roughness_image is not None:
-        green = np.asarray(_decoded(roughness_image).convert("RGB"), np.uint8)[..., 1]
+        green = rgb_texels(roughness_image)[..., 1]
     shape = rgb.shape[:2] if rgb is not None else green.shape  # type: ignore[union-attr]
     values = None
     if green is not None and green.shape != shape:  # resampled to the normal map's size
@@ -608,7 +643,7 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
     def build(rows_up_float16: bool = False) -> list[np.ndarray]:
         # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
         # of rows at a time (mips.box_levels: the same bits; rows_up_float16 as there)
-        rgb = np.asarray(_decoded(image).convert("RGB"), np.uint8)
+        rgb = rgb_texels(image)
         h, w = rgb.shape[:2]
         band = lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0  # noqa: E731
         return box_levels(band, (h, w, 1), rows_up_float16)
