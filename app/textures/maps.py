@@ -22,7 +22,7 @@ import threading
 import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import Future
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -256,7 +256,10 @@ class SurfaceLayer:
 
 
 def open_image(
-    source: Path | bytes, budget: Budget | None = None, kind: str | None = "colour"
+    source: Path | bytes,
+    budget: Budget | None = None,
+    kind: str | None = "colour",
+    decode_later: bool = False,
 ) -> Image.Image:
     """A texture (a plain file, or bytes from a glTF buffer) decoded, or ``RefusedError``.
 
@@ -272,7 +275,14 @@ def open_image(
     ``kind`` (colour, scalar, normal, direction; None: the caller charges the map) builds
     from them charged to ``budget``.
     Only ``IMAGE_FORMATS`` are parsed, and Pillow's own size warnings stay off stderr
-    (the header check above is what refuses an oversized image)."""
+    (the header check above is what refuses an oversized image).
+
+    ``decode_later``: the header is read, checked and charged here as above, and the
+    decode (with its check against the cache's record) runs on a pool of two threads
+    (Pillow lets go of the GIL while it decodes): a caller that opens several images
+    decodes them side by side and beside its own work. Whoever reads the texels waits
+    for it (``_decoded``); the caller asks ``wait_decoded`` for the verdict (the
+    ``RefusedError`` a broken image raises) before it relies on one."""
     budget = budget or Budget()
     try:
         if isinstance(source, bytes):
@@ -293,21 +303,15 @@ def open_image(
         # file's bytes, a few MiB to hash where the decoded texels are tens.
         digest = hashlib.sha256(encoded).hexdigest()
         image.info[SOURCE_DIGEST] = digest
-        kept = _DECODED.get(digest)
-        if kept is not None:  # decoded before in this process: that image
-            _DECODED.move_to_end(digest)
-            return kept
-        decoded: list[bool] = []
-
-        def decode() -> list[np.ndarray]:
-            image.load()  # a broken image raises here, before anything is kept
-            decoded.append(True)
-            return [np.array([width, height], np.int64)]
-
-        prepared_cache().arrays("decodes", (PIL.__version__, image.format, digest), decode)
-        if not decoded:  # these bytes decoded before: decoded when their texels are read
+        with _KEEP_LOCK:
+            kept = _DECODED.get(digest)
+            if kept is not None:  # decoded before in this process: that image
+                _DECODED.move_to_end(digest)
+                return kept
+        if decode_later:
+            setattr(image, _PENDING, _decoder().submit(_decode_refused, image, digest))
             return image
-        _keep_decoded(digest, image)
+        _decode(image, digest)
         return image
     except RefusedError:
         raise
@@ -317,6 +321,54 @@ def open_image(
         ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
         raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+def _decode(image: Image.Image, digest: str) -> None:
+    """``open_image``'s decode: none where the cache records that these bytes decoded
+    before (their texels are decoded when first read), else Pillow's, recorded once it
+    succeeded (a broken image raises here, before anything is kept)."""
+    decoded: list[bool] = []
+
+    def decode() -> list[np.ndarray]:
+        image.load()
+        decoded.append(True)
+        return [np.array(image.size, np.int64)]
+
+    prepared_cache().arrays("decodes", (PIL.__version__, image.format, digest), decode)
+    if decoded:
+        _keep_decoded(digest, image)
+
+
+def _decode_refused(image: Image.Image, digest: str) -> None:
+    """``_decode`` on the decoder pool, what fails as ``open_image`` refuses it."""
+    try:
+        _decode(image, digest)
+    except Image.DecompressionBombError:
+        raise RefusedError("declares more texels than the texture limit allows") from None
+    except Exception as exc:  # Pillow raises many types for data it cannot decode
+        raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+def wait_decoded(image: Image.Image) -> None:
+    """Wait for ``image``'s decode where ``open_image`` started one (``decode_later``);
+    the ``RefusedError`` of a broken image is raised here (and to every later caller)."""
+    pending = getattr(image, _PENDING, None)
+    if pending is not None:
+        pending.result()
+
+
+# The attribute of an image that holds its decode on the pool (``decode_later``): a
+# Future, its result None or its exception the RefusedError.
+_PENDING = "_pbs_decode"
+_DECODER: ThreadPoolExecutor | None = None
+DECODE_THREADS = 2
+
+
+def _decoder() -> ThreadPoolExecutor:
+    global _DECODER
+    if _DECODER is None:
+        _DECODER = ThreadPoolExecutor(DECODE_THREADS, thread_name_prefix="pbs-decode")
+    return _DECODER
 
 
 # Images decoded in this process by their file's digest (a model file's parts are built
@@ -329,11 +381,15 @@ _DECODED_BYTES = 256 << 20
 
 
 def _keep_decoded(digest: str, image: Image.Image) -> None:
-    _DECODED[digest] = image
-    total = sum(_image_bytes(im) for im in _DECODED.values())
-    while total > _DECODED_BYTES and len(_DECODED) > 1:
-        _, old = _DECODED.popitem(last=False)
-        total -= _image_bytes(old)
+    with _KEEP_LOCK:
+        _DECODED[digest] = image
+        total = sum(_image_bytes(im) for im in _DECODED.values())
+        while total > _DECODED_BYTES and len(_DECODED) > 1:
+            _, old = _DECODED.popitem(last=False)
+            total -= _image_bytes(old)
+
+
+_KEEP_LOCK = threading.Lock()
 
 
 def _image_bytes(image: Image.Image) -> int:
@@ -345,7 +401,9 @@ def _decoded(image: Image.Image) -> Image.Image:
     returned undecoded decodes on first read, and the prepared maps are built on the
     cache's background thread (``PreparedLevels.prefetch``) while the main thread may read
     the same image (one image can be a glTF material's colour and its metallic-roughness
-    map); Pillow's ``load`` is not safe to run twice at once."""
+    map); Pillow's ``load`` is not safe to run twice at once. A decode ``open_image``
+    started on its pool is waited for (its ``RefusedError`` raised)."""
+    wait_decoded(image)
     with _DECODE_LOCK:
         image.load()
     return image
