@@ -41,6 +41,7 @@ from app.textures.mips import (
     chain_levels,
     decode_normal_map,
     float16_rows_up,
+    unorm8_float16,
 )
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
@@ -704,7 +705,8 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
         rgb = rgb_texels(image)
         h, w = rgb.shape[:2]
         band = lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0  # noqa: E731
-        return box_levels(band, (h, w, 1), rows_up_float16)
+        halves = lambda y0, y1: unorm8_float16(rgb[y0:y1, :, channel, None])  # noqa: E731
+        return box_levels(band, (h, w, 1), rows_up_float16, halves)
 
     parts = (_prepared_version(), _image_part(image), int(channel))
     layout = (image.height, image.width, 1, False)
