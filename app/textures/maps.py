@@ -545,9 +545,19 @@ def colour_texture(image: Image.Image) -> Texture:
         # Kept rows bottom first, as the GL takes them: level 0 is a view of the entry read
         # backwards, and the upload's rows-up copy of it is the entry itself. Pillow's raw
         # encoder writes the rows in that order (orientation -1): one copy of the texels.
-        converted = _decoded(image).convert("RGBA")
+        decoded = _decoded(image)
+        shape = (decoded.height, decoded.width, 4)
+        if decoded.mode == "RGB":
+            # An RGB image's texels are stored 4 bytes each; a decoder's 4th byte is 255,
+            # so the raw "RGBX" bytes are convert("RGBA")'s, without the converted copy.
+            # Checked, since an image made otherwise may hold another 4th byte.
+            texels = np.frombuffer(decoded.tobytes("raw", "RGBX", 0, -1), np.uint8)
+            texels = texels.reshape(shape)
+            if texels.size and texels[..., 3].min() == 255:
+                return [texels]
+        converted = decoded.convert("RGBA")
         data = converted.tobytes("raw", "RGBA", 0, -1)
-        return [np.frombuffer(data, np.uint8).reshape(converted.height, converted.width, 4)]
+        return [np.frombuffer(data, np.uint8).reshape(shape)]
 
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
