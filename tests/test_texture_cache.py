@@ -627,3 +627,25 @@ def test_colour_texels_kept_rows_up_are_convert_rgba(
         assert np.array_equal(colour_texture(image).levels[0], want), image.mode
         prepared_cache().clear_memory()
         assert np.array_equal(colour_texture(image).levels[0], want), image.mode
+
+
+def test_entry_read_where_it_cannot_be_mapped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Entries are mapped (no copy); where the file system refuses the mapping, the entry
+    is read instead, not taken for a corrupt one and rebuilt."""
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    first = chain(tmp_path, monkeypatch)
+    cache = prepared_cache()
+    cache.clear_memory()
+    load = np.load
+
+    def unmappable(path: Path, mmap_mode: str | None = None, **kwargs: object) -> np.ndarray:
+        if mmap_mode is not None:
+            raise OSError("mmap refused")
+        return load(path, **kwargs)
+
+    monkeypatch.setattr(np, "load", unmappable)
+    again = chain(tmp_path, monkeypatch)
+    assert cache.events[-1] == "disk"
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))

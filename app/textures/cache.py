@@ -175,8 +175,12 @@ def _load(path: Path) -> np.ndarray:
     the file (read-only, as every entry is handed out), so a render's ~100 MiB of levels
     cost no fresh memory and no copy before the GL takes its own (page faults are dear in
     a virtual machine: docs/performance.md). An entry is never changed in place (written
-    whole and renamed; evicted by unlinking, which leaves a mapping valid)."""
-    return np.load(path, mmap_mode="r", allow_pickle=False)
+    whole and renamed; evicted by unlinking, which leaves a mapping valid). A file system
+    that cannot map the file has it read instead."""
+    try:
+        return np.load(path, mmap_mode="r", allow_pickle=False)
+    except OSError:
+        return np.load(path, allow_pickle=False)
 
 
 class PreparedCache:
