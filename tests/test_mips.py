@@ -434,3 +434,21 @@ def test_float16_levels_made_directly_are_the_cast_levels(
     band = lambda y0, y1: values[y0:y1]  # noqa: E731
     direct = mips.box_levels(band, (*shape, 1), rows_up_float16=True)
     assert same(direct, mips.box_levels(band, (*shape, 1)))
+
+
+def test_box_levels_float16_table_is_the_cast(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An 8-bit channel's float16 level 0 through ``unorm8_float16`` (what channel_texture
+    gives box_levels) is the cast of its float64 values, bit for bit, for every 8-bit
+    value, and so is every other level."""
+    from app.textures import mips
+
+    monkeypatch.setattr(mips, "BAND_ROWS", 16)
+    rng = np.random.default_rng(RNG_SEED + 10)
+    texels = rng.integers(0, 256, (37, 41), dtype=np.uint8)
+    texels.reshape(-1)[:256] = np.arange(256)  # every value at least once
+    band = lambda y0, y1: texels[y0:y1, :, None] / 255.0  # noqa: E731
+    table = lambda y0, y1: mips.unorm8_float16(texels[y0:y1, :, None])  # noqa: E731
+    direct = mips.box_levels(band, (37, 41, 1), rows_up_float16=True, float16_rows=table)
+    cast = mips.box_levels(band, (37, 41, 1), rows_up_float16=True)
+    assert len(direct) == len(cast)
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(direct, cast, strict=True))

@@ -604,3 +604,48 @@ def test_gltf_material_maps_prepared_from_when_read(tmp_path: Path) -> None:
     layer = GltfFile(b.save(tmp_path / "maps.glb")).layer(0, _DEFAULT_MATERIAL, "variance")
     prepared = [layer.maps[name].levels for name in ("metallic", "normal_roughness")]
     assert all(levels._prefetched is not None for levels in prepared)
+
+
+def test_colour_texels_kept_rows_up_are_convert_rgba(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A colour map's kept RGBA8 texels (rows bottom first, read back to front) are
+    ``convert("RGBA")``'s, from the cache and from disk: a decoded RGB image's raw bytes
+    where their 4th byte is 255, and also for an RGB image whose 4th byte is not (made in
+    the process, not decoded) and an RGBA one."""
+    from app.textures.maps import SOURCE_DIGEST, colour_texture
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    rng = np.random.default_rng(5)
+    decoded = Image.fromarray(rng.integers(0, 256, (7, 5, 3), dtype=np.uint8), "RGB")
+    made = Image.new("RGB", (5, 7))  # black: Pillow leaves its 4th bytes 0
+    rgba = Image.fromarray(rng.integers(0, 256, (7, 5, 4), dtype=np.uint8), "RGBA")
+    for k, image in enumerate((decoded, made, rgba)):
+        image.info[SOURCE_DIGEST] = f"digest {k}"
+        want = np.asarray(image.convert("RGBA"))
+        assert np.array_equal(colour_texture(image).levels[0], want), image.mode
+        prepared_cache().clear_memory()
+        assert np.array_equal(colour_texture(image).levels[0], want), image.mode
+
+
+def test_entry_read_where_it_cannot_be_mapped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Entries are mapped (no copy); where the file system refuses the mapping, the entry
+    is read instead, not taken for a corrupt one and rebuilt."""
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    first = chain(tmp_path, monkeypatch)
+    cache = prepared_cache()
+    cache.clear_memory()
+    load = np.load
+
+    def unmappable(path: Path, mmap_mode: str | None = None, **kwargs: object) -> np.ndarray:
+        if mmap_mode is not None:
+            raise OSError("mmap refused")
+        return load(path, **kwargs)
+
+    monkeypatch.setattr(np, "load", unmappable)
+    again = chain(tmp_path, monkeypatch)
+    assert cache.events[-1] == "disk"
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))

@@ -65,8 +65,8 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
             data = level0[::-1].tobytes()
             gl_tex = ctx.texture((w, h), 4, data, internal_format=GL_SRGB8_ALPHA8)
             gl_tex.build_mipmaps()
-        else:
-            gl_tex = ctx.texture((w, h), 4, None, internal_format=GL_SRGB8_ALPHA8)
+        else:  # every level's storage at once: the GL's mips go into it, no second copy
+            gl_tex = _allocated(ctx, (w, h), 4, max(w, h).bit_length(), GL_SRGB8_ALPHA8)
             _write_level0(gl_tex, 4, np.ascontiguousarray(level0[::-1]), GL_UNSIGNED_BYTE)
             _srgb_mips(ctx, gl_tex, tex.source_key)
         mipmapped = True
@@ -74,7 +74,7 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
         levels = upload_levels(tex)
         h, w = levels[0].shape[:2]
         comps = 1 if levels[0].ndim == 2 else levels[0].shape[2]
-        gl_tex = ctx.texture((w, h), comps, None, dtype="f2")
+        gl_tex = _allocated(ctx, (w, h), comps, len(levels), GL_HALF_FORMATS[comps])
         _write_level0(gl_tex, comps, levels[0], GL_HALF_FLOAT)
         if len(levels) > 1:
             _define_levels(gl_tex, comps, levels[1:])
@@ -140,6 +140,47 @@ def _gl_mirror(gl_tex: moderngl.Texture, parameters: list[int]) -> None:
         set_parameter(GL_TEXTURE_2D, parameter, GL_MIRRORED_REPEAT)
 
 
+class AllocatedTexture(moderngl.Texture):
+    """A texture whose every level's storage was allocated at once (``_allocated``), which
+    its ``release`` deletes (moderngl leaves a texture it did not make to its maker)."""
+
+    def release(self) -> None:
+        if not isinstance(self.mglo, moderngl.InvalidObject):
+            name = ctypes.c_uint(self.glo)
+            super().release()
+            uint, size = ctypes.c_uint, ctypes.c_int
+            delete = gl_function(self.ctx, "glDeleteTextures", [size, ctypes.POINTER(uint)])
+            delete(1, ctypes.byref(name))
+
+
+def _allocated(
+    ctx: moderngl.Context, size: tuple[int, int], comps: int, levels: int, internal: int
+) -> moderngl.Texture:
+    """A texture of ``levels`` levels (GL sizes) with the storage of all of them allocated
+    at once (glTexStorage2D, GL 4.2 or ARB_texture_storage), ready for their texels.
+
+    ``ctx.texture`` allocates level 0 alone; the GL then keeps each further level that
+    ``_define_levels`` or glGenerateMipmap makes apart and, at the first draw, allocates
+    the whole chain again and copies every level into it: twice the pages and a second
+    copy of each map (page faults are dear on a virtual machine: docs/performance.md).
+    Where the GL has no texture storage, ``ctx.texture`` as before."""
+    w, h = size
+    byte = internal == GL_SRGB8_ALPHA8
+    if ctx.version_code < 420 and "GL_ARB_texture_storage" not in ctx.extensions:
+        if byte:
+            return ctx.texture(size, comps, None, internal_format=internal)
+        return ctx.texture(size, comps, None, dtype="f2")
+    uint, enum, size_t = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
+    name = uint(0)
+    gl_function(ctx, "glGenTextures", [size_t, ctypes.POINTER(uint)])(1, ctypes.byref(name))
+    gl_function(ctx, "glBindTexture", [enum, uint])(GL_TEXTURE_2D, name.value)
+    storage = gl_function(ctx, "glTexStorage2D", [enum, size_t, enum, size_t, size_t])
+    storage(GL_TEXTURE_2D, levels, internal, w, h)
+    gl_tex = ctx.external_texture(name.value, size, comps, 0, "f1" if byte else "f2")
+    gl_tex.__class__ = AllocatedTexture
+    return gl_tex
+
+
 def _srgb_mips(ctx: moderngl.Context, gl_tex: moderngl.Texture, source_key: str) -> None:
     """The GL's own mips of a colour map, kept in the prepared-texture cache
     (app/textures/cache.py) by the image file's content and the GL's renderer and version:
@@ -195,8 +236,9 @@ def _define_levels(
     internal: int | None = None,
 ) -> None:
     """Levels 1..n of a 16-bit float texture defined straight from the project's mips
-    (glTexImage2D per level, GL sizes), and the texture's level range set to 0..n; with
-    ``internal`` (GL_SRGB8_ALPHA8), 8-bit RGBA levels of that format instead.
+    (glTexImage2D per level, GL sizes; glTexSubImage2D into an ``AllocatedTexture``'s
+    storage), and the texture's level range set to 0..n; with ``internal``
+    (GL_SRGB8_ALPHA8), 8-bit RGBA levels of that format instead.
 
     moderngl can write only to levels that exist, and the one way it has to make them,
     ``build_mipmaps``, first computes the GL's own mips of level 0 (a 2048^2 map's whole
@@ -210,6 +252,12 @@ def _define_levels(
         "glTexImage2D",
         [enum, int_, int_, ctypes.c_int, ctypes.c_int, int_, enum, enum, ctypes.c_void_p],
     )
+    sub_image = gl_function(
+        gl_tex.ctx,
+        "glTexSubImage2D",
+        [enum, int_, int_, int_, ctypes.c_int, ctypes.c_int, enum, enum, ctypes.c_void_p],
+    )
+    allocated = isinstance(gl_tex, AllocatedTexture)  # its levels exist: written, not made
     w, h = gl_tex.size
     bind(GL_TEXTURE_2D, gl_tex.glo)
     store(GL_UNPACK_ALIGNMENT, 1)  # rows of 2-byte texels are not 4-byte aligned
@@ -222,10 +270,16 @@ def _define_levels(
         else:
             nbytes, pointer = len(level), level
         assert nbytes == size_w * size_h * comps * texel, "a level of another size"
-        image(
-            GL_TEXTURE_2D, k, internal or GL_HALF_FORMATS[comps], size_w, size_h, 0,
-            GL_CLIENT_FORMATS[comps], GL_UNSIGNED_BYTE if internal else GL_HALF_FLOAT, pointer,
-        )  # fmt: skip
+        kind = GL_UNSIGNED_BYTE if internal else GL_HALF_FLOAT
+        if allocated:
+            sub_image(
+                GL_TEXTURE_2D, k, 0, 0, size_w, size_h, GL_CLIENT_FORMATS[comps], kind, pointer
+            )
+        else:
+            image(
+                GL_TEXTURE_2D, k, internal or GL_HALF_FORMATS[comps], size_w, size_h, 0,
+                GL_CLIENT_FORMATS[comps], kind, pointer,
+            )  # fmt: skip
     set_parameter(GL_TEXTURE_2D, GL_TEXTURE_BASE_LEVEL, 0)
     set_parameter(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, len(levels))
 

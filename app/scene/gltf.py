@@ -71,6 +71,7 @@ from app.textures.maps import (
     prefetch_map,
     scalar_texture,
     slope_covariance_map,
+    wait_decoded,
 )
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
@@ -732,10 +733,21 @@ class GltfFile:
             else:
                 raise GltfError(ikey, "has neither uri nor bufferView")
             try:
-                self._images[i] = open_image(data, self.budget, None)
+                self._images[i] = open_image(data, self.budget, None, decode_later=True)
             except RefusedError as exc:
                 raise GltfError(ikey, str(exc)) from None
         return self._images[i]
+
+    def _decodes_checked(self) -> None:
+        """Wait for the decodes of the images opened so far (``image`` starts each on a
+        pool, so that a material's images decode side by side); the first broken one,
+        in the order they were opened, as the ``GltfError`` naming its key that opening
+        it would have raised."""
+        for i, image in self._images.items():
+            try:
+                wait_decoded(image)
+            except RefusedError as exc:
+                raise GltfError(f"images[{i}]", str(exc)) from None
 
     def _source(self, tex: JsonObject, tkey: str) -> tuple[object, str]:
         """The image a texture reads and its JSON key: EXT_texture_webp's WebP image
@@ -830,7 +842,13 @@ class GltfFile:
             return SurfaceLayer(fallback)
         cache_key = (material, normal_filter, id(fallback))
         if cache_key not in self._layers:
-            self._layers[cache_key] = self._layer(material, fallback, normal_filter)
+            try:
+                layer = self._layer(material, fallback, normal_filter)
+            except (GltfError, RefusedError):
+                self._decodes_checked()  # a broken image opened before the problem first
+                raise
+            self._decodes_checked()
+            self._layers[cache_key] = layer
         return self._layers[cache_key]
 
     def _layer(self, index: int, fallback: MaterialParams, normal_filter: str) -> SurfaceLayer:
@@ -961,6 +979,7 @@ class GltfFile:
             if declared is not None:
                 kind = "colour" if declared.srgb else "scalar"
             self._map_cost(img, kind or "scalar", ext_texture.key)
+            wait_decoded(img)  # read here with Pillow's own calls, not through _decoded
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
         layer.uv_transforms = transforms
         layer.anisotropy_rotation = mapping.anisotropy_rotation

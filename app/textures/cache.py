@@ -13,9 +13,9 @@ a new key and nothing stale is ever returned. Two levels:
 * on disk: one ``.npy`` per entry, a flat uint8 array (``pack_entry``: a JSON header of
   dtypes, shapes and offsets, and a CRC-32 of the data checked on every read: a torn or
   flipped entry is caught, as by a SHA-256, in a fraction of its time; the key is what
-  SHA-256 secures), read with
-  ``allow_pickle=False``: an entry is data, never code; a corrupt or unreadable entry is
-  deleted and rebuilt. Written to a temporary file
+  SHA-256 secures), mapped (``np.load`` with ``mmap_mode="r"``: no copy, no fresh
+  memory) with ``allow_pickle=False``: an entry is data, never code; a corrupt or
+  unreadable entry is deleted and rebuilt. Written to a temporary file
   and renamed, so a killed process leaves no half entry. Bounded by ``disk_bytes``: the
   least recently used entries (by modification time, refreshed on each hit) go first.
 
@@ -170,6 +170,19 @@ def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
     return tuple(arrays)
 
 
+def _load(path: Path) -> np.ndarray:
+    """An entry file mapped, not read: its arrays are views of the page cache's copy of
+    the file (read-only, as every entry is handed out), so a render's ~100 MiB of levels
+    cost no fresh memory and no copy before the GL takes its own (page faults are dear in
+    a virtual machine: docs/performance.md). An entry is never changed in place (written
+    whole and renamed; evicted by unlinking, which leaves a mapping valid). A file system
+    that cannot map the file has it read instead."""
+    try:
+        return np.load(path, mmap_mode="r", allow_pickle=False)
+    except OSError:
+        return np.load(path, allow_pickle=False)
+
+
 class PreparedCache:
     """The two-level cache (module docstring). ``directory`` None: in process only;
     ``enabled`` False: nothing is kept anywhere."""
@@ -278,7 +291,7 @@ class PreparedCache:
         if path is None or not path.is_file():
             return None
         try:
-            arrays = unpack_entry(np.load(path, allow_pickle=False))
+            arrays = unpack_entry(_load(path))
             os.utime(path)  # most recently used
             return arrays
         except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
@@ -295,7 +308,7 @@ class PreparedCache:
             if not path.is_file():
                 continue
             try:
-                return unpack_entry(np.load(path, allow_pickle=False))
+                return unpack_entry(_load(path))
             except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
                 _LOG.warning("texture cache: seed entry %s is unreadable (%s)", path, exc)
         return None

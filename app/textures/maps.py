@@ -22,7 +22,7 @@ import threading
 import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import Future
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,6 +42,7 @@ from app.textures.mips import (
     chain_levels,
     decode_normal_map,
     float16_rows_up,
+    unorm8_float16,
 )
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
@@ -257,7 +258,10 @@ class SurfaceLayer:
 
 
 def open_image(
-    source: Path | bytes, budget: Budget | None = None, kind: str | None = "colour"
+    source: Path | bytes,
+    budget: Budget | None = None,
+    kind: str | None = "colour",
+    decode_later: bool = False,
 ) -> Image.Image:
     """A texture (a plain file, or bytes from a glTF buffer) decoded, or ``RefusedError``.
 
@@ -273,7 +277,14 @@ def open_image(
     ``kind`` (colour, scalar, normal, direction; None: the caller charges the map) builds
     from them charged to ``budget``.
     Only ``IMAGE_FORMATS`` are parsed, and Pillow's own size warnings stay off stderr
-    (the header check above is what refuses an oversized image)."""
+    (the header check above is what refuses an oversized image).
+
+    ``decode_later``: the header is read, checked and charged here as above, and the
+    decode (with its check against the cache's record) runs on a pool of two threads
+    (Pillow lets go of the GIL while it decodes): a caller that opens several images
+    decodes them side by side and beside its own work. Whoever reads the texels waits
+    for it (``_decoded``); the caller asks ``wait_decoded`` for the verdict (the
+    ``RefusedError`` a broken image raises) before it relies on one."""
     budget = budget or Budget()
     try:
         if isinstance(source, bytes):
@@ -294,21 +305,15 @@ def open_image(
         # file's bytes, a few MiB to hash where the decoded texels are tens.
         digest = hashlib.sha256(encoded).hexdigest()
         image.info[SOURCE_DIGEST] = digest
-        kept = _DECODED.get(digest)
-        if kept is not None:  # decoded before in this process: that image
-            _DECODED.move_to_end(digest)
-            return kept
-        decoded: list[bool] = []
-
-        def decode() -> list[np.ndarray]:
-            image.load()  # a broken image raises here, before anything is kept
-            decoded.append(True)
-            return [np.array([width, height], np.int64)]
-
-        prepared_cache().arrays("decodes", (PIL.__version__, image.format, digest), decode)
-        if not decoded:  # these bytes decoded before: decoded when their texels are read
+        with _KEEP_LOCK:
+            kept = _DECODED.get(digest)
+            if kept is not None:  # decoded before in this process: that image
+                _DECODED.move_to_end(digest)
+                return kept
+        if decode_later:
+            setattr(image, _PENDING, _decoder().submit(_decode_refused, image, digest))
             return image
-        _keep_decoded(digest, image)
+        _decode(image, digest)
         return image
     except RefusedError:
         raise
@@ -318,6 +323,54 @@ def open_image(
         ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
         raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+def _decode(image: Image.Image, digest: str) -> None:
+    """``open_image``'s decode: none where the cache records that these bytes decoded
+    before (their texels are decoded when first read), else Pillow's, recorded once it
+    succeeded (a broken image raises here, before anything is kept)."""
+    decoded: list[bool] = []
+
+    def decode() -> list[np.ndarray]:
+        image.load()
+        decoded.append(True)
+        return [np.array(image.size, np.int64)]
+
+    prepared_cache().arrays("decodes", (PIL.__version__, image.format, digest), decode)
+    if decoded:
+        _keep_decoded(digest, image)
+
+
+def _decode_refused(image: Image.Image, digest: str) -> None:
+    """``_decode`` on the decoder pool, what fails as ``open_image`` refuses it."""
+    try:
+        _decode(image, digest)
+    except Image.DecompressionBombError:
+        raise RefusedError("declares more texels than the texture limit allows") from None
+    except Exception as exc:  # Pillow raises many types for data it cannot decode
+        raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+def wait_decoded(image: Image.Image) -> None:
+    """Wait for ``image``'s decode where ``open_image`` started one (``decode_later``);
+    the ``RefusedError`` of a broken image is raised here (and to every later caller)."""
+    pending = getattr(image, _PENDING, None)
+    if pending is not None:
+        pending.result()
+
+
+# The attribute of an image that holds its decode on the pool (``decode_later``): a
+# Future, its result None or its exception the RefusedError.
+_PENDING = "_pbs_decode"
+_DECODER: ThreadPoolExecutor | None = None
+DECODE_THREADS = 2
+
+
+def _decoder() -> ThreadPoolExecutor:
+    global _DECODER
+    if _DECODER is None:
+        _DECODER = ThreadPoolExecutor(DECODE_THREADS, thread_name_prefix="pbs-decode")
+    return _DECODER
 
 
 # Images decoded in this process by their file's digest (a model file's parts are built
@@ -330,11 +383,15 @@ _DECODED_BYTES = 256 << 20
 
 
 def _keep_decoded(digest: str, image: Image.Image) -> None:
-    _DECODED[digest] = image
-    total = sum(_image_bytes(im) for im in _DECODED.values())
-    while total > _DECODED_BYTES and len(_DECODED) > 1:
-        _, old = _DECODED.popitem(last=False)
-        total -= _image_bytes(old)
+    with _KEEP_LOCK:
+        _DECODED[digest] = image
+        total = sum(_image_bytes(im) for im in _DECODED.values())
+        while total > _DECODED_BYTES and len(_DECODED) > 1:
+            _, old = _DECODED.popitem(last=False)
+            total -= _image_bytes(old)
+
+
+_KEEP_LOCK = threading.Lock()
 
 
 def _image_bytes(image: Image.Image) -> int:
@@ -346,13 +403,44 @@ def _decoded(image: Image.Image) -> Image.Image:
     returned undecoded decodes on first read, and the prepared maps are built on the
     cache's background thread (``PreparedLevels.prefetch``) while the main thread may read
     the same image (one image can be a glTF material's colour and its metallic-roughness
-    map); Pillow's ``load`` is not safe to run twice at once."""
+    map); Pillow's ``load`` is not safe to run twice at once. A decode ``open_image``
+    started on its pool is waited for (its ``RefusedError`` raised)."""
+    wait_decoded(image)
     with _DECODE_LOCK:
         image.load()
     return image
 
 
 _DECODE_LOCK = threading.Lock()
+
+
+def rgb_texels(image: Image.Image) -> np.ndarray:
+    """``np.asarray(image.convert("RGB"), np.uint8)``, the same values, made once for an
+    image ``open_image`` read (by its file's digest) and shared, read-only, by every map
+    built from it (glTF's metallic-roughness image gives the metallic mips and the
+    normal/roughness chain), without the copy that ``convert`` makes of an RGB image."""
+    digest = image.info.get(SOURCE_DIGEST)
+    with _RGB_LOCK:
+        kept = _RGB.get(digest) if isinstance(digest, str) else None
+    if kept is not None:
+        return kept
+    decoded = _decoded(image)
+    source = decoded if decoded.mode == "RGB" else decoded.convert("RGB")
+    texels = np.asarray(source, np.uint8)
+    texels.setflags(write=False)
+    if isinstance(digest, str):
+        with _RGB_LOCK:
+            _RGB[digest] = texels
+            while len(_RGB) > _RGB_KEPT:
+                _RGB.popitem(last=False)
+    return texels
+
+
+# Texels of the last few images ``rgb_texels`` made, by digest (a material's maps ask
+# for one image's texels twice, one after the other, on the cache's background thread).
+_RGB: OrderedDict[str, np.ndarray] = OrderedDict()
+_RGB_KEPT = 2
+_RGB_LOCK = threading.Lock()
 
 
 def read_image(
@@ -465,8 +553,27 @@ def colour_texture(image: Image.Image) -> Texture:
     if not isinstance(digest, str):
         return Texture(rgba(), srgb=True)
     key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
-    (texels,) = prepared_cache().arrays("colour rgba8", (key,), rgba)
-    return Texture([texels], srgb=True, source_key=key)
+
+    def rows_up() -> list[np.ndarray]:
+        # Kept rows bottom first, as the GL takes them: level 0 is a view of the entry read
+        # backwards, and the upload's rows-up copy of it is the entry itself. Pillow's raw
+        # encoder writes the rows in that order (orientation -1): one copy of the texels.
+        decoded = _decoded(image)
+        shape = (decoded.height, decoded.width, 4)
+        if decoded.mode == "RGB":
+            # An RGB image's texels are stored 4 bytes each; a decoder's 4th byte is 255,
+            # so the raw "RGBX" bytes are convert("RGBA")'s, without the converted copy.
+            # Checked, since an image made otherwise may hold another 4th byte.
+            texels = np.frombuffer(decoded.tobytes("raw", "RGBX", 0, -1), np.uint8)
+            texels = texels.reshape(shape)
+            if texels.size and texels[..., 3].min() == 255:
+                return [texels]
+        converted = decoded.convert("RGBA")
+        data = converted.tobytes("raw", "RGBA", 0, -1)
+        return [np.frombuffer(data, np.uint8).reshape(shape)]
+
+    (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
+    return Texture([texels[::-1]], srgb=True, source_key=key)
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
@@ -606,10 +713,10 @@ def _map_chain_levels(
     and a glTF roughness factor lies in [0, 1] (app/scene/gltf.py)."""
     rgb = None
     if normal_image is not None:
-        rgb = np.asarray(_decoded(normal_image).convert("RGB"), np.uint8)
+        rgb = rgb_texels(normal_image)
     green = None
     if roughness_image is not None:
-        green = np.asarray(_decoded(roughness_image).convert("RGB"), np.uint8)[..., 1]
+        green = rgb_texels(roughness_image)[..., 1]
     shape = rgb.shape[:2] if rgb is not None else green.shape  # type: ignore[union-attr]
     values = None
     if green is not None and green.shape != shape:  # resampled to the normal map's size
@@ -672,10 +779,11 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
     def build(rows_up_float16: bool = False) -> list[np.ndarray]:
         # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
         # of rows at a time (mips.box_levels: the same bits; rows_up_float16 as there)
-        rgb = np.asarray(_decoded(image).convert("RGB"), np.uint8)
+        rgb = rgb_texels(image)
         h, w = rgb.shape[:2]
         band = lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0  # noqa: E731
-        return box_levels(band, (h, w, 1), rows_up_float16)
+        halves = lambda y0, y1: unorm8_float16(rgb[y0:y1, :, channel, None])  # noqa: E731
+        return box_levels(band, (h, w, 1), rows_up_float16, halves)
 
     parts = (_prepared_version(), _image_part(image), int(channel))
     layout = (image.height, image.width, 1, False)

@@ -74,7 +74,7 @@ def decode_normal_map(rgb: np.ndarray) -> np.ndarray:
     # A table of the 256 decoded values (the same float64 operations per value as decoding
     # each texel), then |n| as sqrt(x^2 + y^2 + z^2) summed in that order: bit for bit
     # what np.linalg.norm gives, without its temporaries.
-    n = _DECODE_UNORM8[a[..., :3]]
+    n = np.take(_DECODE_UNORM8, a[..., :3])  # as indexing, without its intp copy
     n /= _length(n)[..., None]
     low = n[..., 2] < MIN_NORMAL_Z
     if np.any(low):
@@ -287,17 +287,23 @@ def box_levels(
     source: Callable[[int, int], np.ndarray],
     shape: tuple[int, int, int],
     rows_up_float16: bool = False,
+    float16_rows: Callable[[int, int], np.ndarray] | None = None,
 ) -> list[np.ndarray]:
     """``box_mips``'s levels, (h_k, w_k, C) float32, of the (H, W, C) float64 data that
     ``source(y0, y1)`` gives a band of rows at a time (as ``chain_levels`` reads its
-    source, with the same bits as the whole map at once); ``rows_up_float16`` as there."""
+    source, with the same bits as the whole map at once); ``rows_up_float16`` as there.
+    ``float16_rows(y0, y1)``, where given with ``rows_up_float16``: the band's level-0
+    rows as float16 (rows top first), the same bits as the cast of ``source``'s, made
+    cheaper by the caller (``unorm8_float16``: numpy's float16 cast is a scalar loop)."""
     h, w, c = shape
     level0 = np.empty((h, w, c), np.float16 if rows_up_float16 else np.float32)
     sums = None if max(h, w) == 1 else np.empty((max(1, h >> 1), max(1, w >> 1), c))
 
     def band(y0: int, y1: int) -> None:
         values = source(y0, y1)
-        if rows_up_float16:  # float64 -> float32 -> float16, each as astype rounds
+        if rows_up_float16 and float16_rows is not None:
+            level0[h - y1 : h - y0] = float16_rows(y0, y1)[::-1]
+        elif rows_up_float16:  # float64 -> float32 -> float16, each as astype rounds
             level0[h - y1 : h - y0] = values.astype(np.float32)[::-1]
         else:
             level0[y0:y1] = values  # float64 -> float32, as astype rounds
@@ -315,6 +321,17 @@ def box_levels(
         level = means.astype(np.float32)
         levels.append(float16_rows_up(level) if rows_up_float16 else level)
     return levels
+
+
+# v / 255 for each 8-bit value v, cast float64 -> float32 -> float16 as astype rounds: an
+# 8-bit channel's level-0 texels through ``np.take`` of this are the same bits as the
+# casts of its float64 values.
+UNORM8_FLOAT16 = (np.arange(256, dtype=np.uint8) / 255.0).astype(np.float32).astype(np.float16)
+
+
+def unorm8_float16(texels: np.ndarray) -> np.ndarray:
+    """uint8 texels as float16 ``v / 255`` (``UNORM8_FLOAT16``)."""
+    return np.take(UNORM8_FLOAT16, texels)
 
 
 def float16_rows_up(level: np.ndarray) -> np.ndarray:

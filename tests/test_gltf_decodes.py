@@ -1,0 +1,61 @@
+"""A glTF file's images decode on a pool while the file is read (app/textures/maps.py
+``open_image(decode_later=True)``, app/scene/gltf.py): a broken image is still bad input
+naming its key, and the first problem in reading order is the one reported."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+from PIL import Image
+
+from tests.gltf_builder import GltfBuilder, png_rgb
+from tests.test_bad_input import _check, _run_inproc, work  # noqa: F401
+
+SIZE = "32x24"
+
+
+def _truncated_png() -> bytes:
+    """A PNG whose header is whole and whose pixel data stops half way: it opens, and
+    fails only when it is decoded."""
+    noise = np.random.default_rng(3).integers(0, 256, (64, 64, 3), np.uint8)
+    data = io.BytesIO()
+    Image.fromarray(noise).save(data, format="PNG")
+    return data.getvalue()[: len(data.getvalue()) // 2]
+
+
+def _model(root: Path, scale: float = 1.0) -> Path:
+    """A quad whose base colour is a good PNG (images[0]) and whose normal map is a
+    truncated one (images[1])."""
+    b = GltfBuilder()
+    colour = b.texture(png_rgb((200, 120, 40), 8))
+    broken = b.view(_truncated_png())
+    b.doc.images.append(pygltflib.Image(bufferView=broken, mimeType="image/png"))
+    b.doc.textures.append(pygltflib.Texture(source=len(b.doc.images) - 1))
+    normal = len(b.doc.textures) - 1
+    pbr = pygltflib.PbrMetallicRoughness(baseColorTexture=pygltflib.TextureInfo(index=colour))
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pbr,
+        normalTexture=pygltflib.NormalMaterialTexture(index=normal, scale=scale),
+    )
+    b.quad(material=b.material(material))
+    return b.save(root / "model.glb")
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("scale", [1.0, 1e9])
+def test_broken_image_named(
+    work: tuple[Path, Path],  # noqa: F811
+    capsys: pytest.CaptureFixture[str],
+    scale: float,
+) -> None:
+    """The truncated image is refused with its key, exit 2, no output; with a material
+    problem read after it (a normalTexture.scale out of range), still the image: opening
+    it comes first."""
+    root, out = work
+    path = _model(root, scale)
+    rc, err = _run_inproc(capsys, str(path), "-o", str(out / "x.png"), "--size", SIZE)
+    _check(rc, err, out, f"pbs: error: {path}: images[1]:", "is not an image pbs reads")
