@@ -3,7 +3,8 @@ uniform array where the scene's lights fit the context's fragment uniform vector
 light texture beyond. Both forms hand the shader the same float32 texels, so the image
 is the same bit for bit, culled or not, over one chunk of the tile masks and over two;
 the form follows the queried limit; and programs shared by two scenes of one light count
-(the shader cache) each shade with their own scene's lights.
+(the shader cache) each shade with their own scene's lights. A frame without spot lights
+compiles the cone out of the loop (SPOT_LIGHTS), one with a spot keeps it.
 """
 
 from __future__ import annotations
@@ -101,3 +102,26 @@ def test_uniform_array_the_driver_refuses_falls_back_to_the_texture(gl_egl, monk
         assert np.array_equal(image, expected)
     finally:
         r.release()
+
+
+def test_spot_cone_compiled_in_only_where_the_frame_has_a_spot(gl_egl):
+    """SPOT_LIGHTS (app/render/inputs.py LightInput, glsl/lights/punctual.glsl): a frame of
+    point lights compiles the cone out of the light loop; one spot light brings it back,
+    and its cone still darkens what lies outside it."""
+    mixed = many_lights_scene(8, "none", SIZE)  # lights 0 and 4 are spots
+    points = {**mixed, "lights": [
+        {k: v for k, v in light.items() if k != "direction"} | {"type": "point"}
+        if light["type"] == "spot" else light
+        for light in mixed["lights"]
+    ]}  # fmt: skip
+    with_spots, r1 = render(gl_egl, mixed)
+    without, r2 = render(gl_egl, points)
+    try:
+        assert r1.lighting.context.defines()["SPOT_LIGHTS"] == 1
+        assert r2.lighting.context.defines()["SPOT_LIGHTS"] == 0
+        assert np.isfinite(with_spots).all() and np.isfinite(without).all()
+        # the spots' cones cut light that the same lights as points give
+        assert (with_spots <= without + 1e-6).all() and (with_spots < without - 1e-3).any()
+    finally:
+        r1.release()
+        r2.release()

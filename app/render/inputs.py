@@ -35,7 +35,13 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.lights import PunctualLight, has_area_lights, pack_area_shapes, pack_lights
+from app.common.lights import (
+    LightType,
+    PunctualLight,
+    has_area_lights,
+    pack_area_shapes,
+    pack_lights,
+)
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
 from app.gl.fullscreen import Texture
@@ -121,6 +127,8 @@ class LightInput(ShaderInput):
         self.texture = ctx.texture((3, self.rows), 4, self.texels, dtype="f4")
         self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.count = len(lights)
+        # whether the cone is compiled in (SPOT_LIGHTS, glsl/lights/punctual.glsl)
+        self.spots = any(light.type == LightType.SPOT for light in lights)
         self.form = "texture"
         self.slots = 0
         self.array = b""  # u_light_vec's bytes, "uniform" only
@@ -139,7 +147,8 @@ class LightInput(ShaderInput):
         return view
 
     def defines(self) -> dict[str, int]:
-        return {"LIGHT_UNIFORMS": self.slots} if self.form == "uniform" else {}
+        form = {"LIGHT_UNIFORMS": self.slots} if self.form == "uniform" else {}
+        return {"SPOT_LIGHTS": int(self.spots), **form}
 
     def samplers(self) -> list[tuple[str, Texture]]:
         return [("u_lights", self.texture)]

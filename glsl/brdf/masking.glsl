@@ -42,11 +42,22 @@ float G2_height_correlated_GGX(float NoL, float NoV, float alpha) {
 //   V = 0.5 / (n.l sqrt((n.v)^2 (1 - a^2) + a^2) + n.v sqrt((n.l)^2 (1 - a^2) + a^2)).
 // Algebraically identical to G2/(4 n.l n.v), but with no division by the cosines, so
 // it stays finite and accurate as n.l or n.v go to 0 (Heitz 2014; Lagarde 2014).
-float V_height_correlated_GGX(float NoL, float NoV, float alpha) {
-    float a2 = alpha * alpha;
-    float lambda_v = NoL * sqrt(NoV * NoV * (1.0 - a2) + a2);
-    float lambda_l = NoV * sqrt(NoL * NoL * (1.0 - a2) + a2);
+// The square root of one direction's term, sqrt((n.x)^2 (1 - a2) + a2): the view's is the
+// same for every light (brdf/material.glsl BrdfView computes it once per point).
+float V_height_correlated_GGX_root(float NoX, float a2) {
+    return sqrt(NoX * NoX * (1.0 - a2) + a2);
+}
+
+// V_height_correlated_GGX with the view's root given (root_v: _root(NoV, alpha^2)).
+float V_height_correlated_GGX_view(float NoL, float NoV, float alpha, float root_v) {
+    float lambda_v = NoL * root_v;
+    float lambda_l = NoV * V_height_correlated_GGX_root(NoL, alpha * alpha);
     return 0.5 / (lambda_v + lambda_l);
+}
+
+float V_height_correlated_GGX(float NoL, float NoV, float alpha) {
+    return V_height_correlated_GGX_view(NoL, NoV, alpha,
+                                        V_height_correlated_GGX_root(NoV, alpha * alpha));
 }
 
 // Hammon 2017, "PBR Diffuse Lighting for GGX+Smith Microsurfaces" (GDC): a fast fit of

@@ -124,15 +124,35 @@ float material_alpha(Surface s) {
     return r * r;
 }
 
+// What f(l, v) needs of the point alone, the same for every light: brdf_view computes it
+// once per point and each light's term (brdf_eval_view) reuses it, since llvmpipe's JIT
+// moves nothing out of a loop (LLVM's LICM pass is not in its pipeline) and a light loop
+// would otherwise recompute it per light (docs/performance.md, "Peers"). The same float32
+// operations on the same values as inside the loop: the terms are bit for bit as before.
+struct BrdfView {
+    float NoV;            // n.v, clamped as shading_cosines clamps it
+    float alpha;          // material_alpha
+    vec3 F0;              // material_F0
+    vec3 f_lambert;       // Fd_lambert of rho_ss
+    float lambda_v_root;  // sqrt((n.v)^2 (1 - alpha^2) + alpha^2): V_height_correlated_GGX's
+};
+
+BrdfView brdf_view(ShadingPoint sp) {
+    float NoV = clamp(dot(sp.n, sp.v), MIN_N_DOT_V, 1.0);
+    float alpha = material_alpha(sp.s);
+    return BrdfView(NoV, alpha, material_F0(sp.s, sp.params), Fd_lambert(material_rho_ss(sp.s)),
+                    V_height_correlated_GGX_root(NoV, alpha * alpha));
+}
+
 // F(h, l) of the selected Fresnel model (RTR4 sec. 9.5). The exact models blend the
 // dielectric interface and the metal by metallic, as the metalness workflow does.
 // Like every dispatch function, a plain `if` on the constants of brdf/model.glsl: folded
 // at compile time in a specialized pass, a run-time branch under UBER_MODELS.
-vec3 F_base_selected(ShadingPoint sp, float LoH) {
+vec3 F_base_selected(ShadingPoint sp, vec3 F0, float LoH) {
     Surface s = sp.s;
     ModelParams p = sp.params;
     if (FRESNEL_MODEL == FRESNEL_SCHLICK_GENERALIZED) {
-        return F_schlick_generalized(material_F0(s, p), p.f90, p.fresnel_exponent, LoH);
+        return F_schlick_generalized(F0, p.f90, p.fresnel_exponent, LoH);
     }
     if (FRESNEL_MODEL == FRESNEL_DIELECTRIC) {
         return mix(vec3(F_dielectric(p.eta_dielectric, LoH)), F_schlick(s.base_color, LoH),
@@ -144,9 +164,9 @@ vec3 F_base_selected(ShadingPoint sp, float LoH) {
     }
     if (FRESNEL_INTERNAL != 0) {
         // n1 > n2: Schlick at the transmitted angle, exactly 1 past the critical angle.
-        return F_schlick(material_F0(s, p), cos_theta_schlick(p.eta_dielectric, LoH));
+        return F_schlick(F0, cos_theta_schlick(p.eta_dielectric, LoH));
     }
-    return F_schlick(material_F0(s, p), LoH);
+    return F_schlick(F0, LoH);
 }
 
 #if UBER_MODELS || MULTISCATTER
@@ -200,8 +220,9 @@ vec3 F_film_selected(ShadingPoint sp, float LoH, vec3 F_base) {
 
 // F(h, l) of the material: the base's Fresnel (F_base_selected), or a thin film's over it
 // with THIN_FILM. Without a film this is F_base_selected alone, as it always was.
-vec3 F_selected(ShadingPoint sp, float LoH) {
-    vec3 F = F_base_selected(sp, LoH);
+// F0: material_F0 of sp (a BrdfView's, computed once per point).
+vec3 F_selected(ShadingPoint sp, vec3 F0, float LoH) {
+    vec3 F = F_base_selected(sp, F0, LoH);
 #if UBER_MODELS || THIN_FILM
     if (THIN_FILM != 0) F = F_film_selected(sp, LoH, F);
 #endif
@@ -209,19 +230,21 @@ vec3 F_selected(ShadingPoint sp, float LoH) {
 }
 
 // The diffuse (subsurface) lobe of the selected model (RTR4 sec. 9.9) towards sp.v.
-vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float NoV, float NoH,
+// bv: sp's BrdfView (its alpha, F0 and Lambert lobe).
+vec3 f_diffuse_selected(ShadingPoint sp, BrdfView bv, vec3 l, float NoL, float NoV, float NoH,
                         float LoH) {
     Surface s = sp.s;
     ModelParams p = sp.params;
     vec3 n = sp.n;
     vec3 v = sp.v;
+    float alpha = bv.alpha;
     vec3 rho_ss = material_rho_ss(s);
     float r = clamp(s.perceptual_roughness, 0.0, 1.0);
     if (DIFFUSE_MODEL == DIFFUSE_SHIRLEY) {
-        return Fd_shirley(rho_ss, material_F0(s, p), NoL, NoV);
+        return Fd_shirley(rho_ss, bv.F0, NoL, NoV);
     }
     if (DIFFUSE_MODEL == DIFFUSE_ASHIKHMIN_SHIRLEY) {
-        return Fd_ashikhmin_shirley(rho_ss, material_F0(s, p), NoL, NoV);
+        return Fd_ashikhmin_shirley(rho_ss, bv.F0, NoL, NoV);
     }
     if (DIFFUSE_MODEL == DIFFUSE_BURLEY) return Fd_burley(rho_ss, r, NoL, NoV, LoH);
     if (DIFFUSE_MODEL == DIFFUSE_BURLEY_RENORMALIZED) {
@@ -229,7 +252,7 @@ vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float N
     }
     if (DIFFUSE_MODEL == DIFFUSE_OREN_NAYAR) return Fd_oren_nayar(rho_ss, alpha, n, l, v);
     if (DIFFUSE_MODEL == DIFFUSE_HAMMON) {
-        return Fd_hammon(rho_ss, material_F0(s, p), alpha, NoL, NoV, NoH, dot(l, v));
+        return Fd_hammon(rho_ss, bv.F0, alpha, NoL, NoV, NoH, dot(l, v));
     }
     if (DIFFUSE_MODEL == DIFFUSE_NONE) return vec3(0.0);
     if (DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL) {  // RTR4 sec. 9.10 (brdf/cloth.glsl)
@@ -237,7 +260,7 @@ vec3 f_diffuse_selected(ShadingPoint sp, float alpha, vec3 l, float NoL, float N
                                  p.cloth_diffuse, p.cloth_scatter, p.cloth_wrap, p.cloth_sheen,
                                  NoL, NoV, LoH);
     }
-    return Fd_lambert(rho_ss);
+    return bv.f_lambert;
 }
 
 // A unit tangent perpendicular to n: t with its normal component removed, or any
@@ -273,7 +296,7 @@ vec3 grating_lobe(ShadingPoint sp, float alpha, vec3 l, vec3 v) {
     vec3 h;
     shading_cosines(n, l, v, NoL, NoV, h);
     float LoH = clamp(dot(l, h), 0.0, 1.0);
-    vec3 F = F_selected(sp, LoH);
+    vec3 F = F_selected(sp, material_F0(sp.s, sp.params), LoH);
     float D = D_selected(n, h, alpha, sp.params.gtr_gamma);
     return F * (D * V_height_correlated_GGX(NoL, NoV, alpha));
 }
@@ -345,19 +368,22 @@ vec3 surface_reflection(BrdfFactors b) {
 // V = G2/(4 n.l n.v), f_spec is computed from V as it always was and G2 is V 4 n.l n.v, a
 // value only the debug views read (the compiler drops it from brdf_eval).
 // The base's factors: the whole BRDF without a clear coat (brdf_factors adds the coat).
-BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
+// bv: brdf_view(sp), the factors of the point alone (the view's n.v and root are used
+// where they equal shading_cosines' and V_height_correlated_GGX's own).
+BrdfFactors base_brdf_factors_view(ShadingPoint sp, BrdfView bv, vec3 l) {
     Surface s = sp.s;
     ModelParams p = sp.params;
     vec3 n = sp.n;
     vec3 t = sp.t;
     vec3 v = sp.v;
-    float NoL, NoV;
+    float NoL, NoV_unused;
     vec3 h;
-    shading_cosines(n, l, v, NoL, NoV, h);
+    shading_cosines(n, l, v, NoL, NoV_unused, h);
+    float NoV = bv.NoV;
     float NoH = clamp(dot(n, h), 0.0, 1.0);
     float LoH = clamp(dot(l, h), 0.0, 1.0);
-    float alpha = material_alpha(s);
-    vec3 F = F_selected(sp, LoH);
+    float alpha = bv.alpha;
+    vec3 F = F_selected(sp, bv.F0, LoH);
 
     float D;
     float alpha_v = alpha;
@@ -383,7 +409,7 @@ BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
         G2 = V * (4.0 * NoL * NoV);
     } else if (!SPECULAR_LAMBDA_G2) {
         // The division-free visibility form: accurate as n.l or n.v -> 0.
-        float V = V_height_correlated_GGX(NoL, NoV, alpha);
+        float V = V_height_correlated_GGX_view(NoL, NoV, alpha, bv.lambda_v_root);
         f_spec = F * (D * V);
         G2 = V * (4.0 * NoL * NoV);
     } else {
@@ -403,7 +429,7 @@ BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
         f_spec += f_ms_kulla_conty_F_avg(F_avg_selected(sp), s.perceptual_roughness, NoL, NoV);
     }
 #endif
-    vec3 f_diffuse = f_diffuse_selected(sp, alpha, l, NoL, NoV, NoH, LoH);
+    vec3 f_diffuse = f_diffuse_selected(sp, bv, l, NoL, NoV, NoH, LoH);
 #if UBER_MODELS || FIBER_MODEL != FIBER_NONE
     // micro-cylinder fibres (RTR4 sec. 9.10, brdf/fiber.glsl): the thread along the tangent
     // turned by fiber_rotation replaces both lobes (its surface reflection in f_spec, its
@@ -428,6 +454,10 @@ BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
     }
 #endif
     return BrdfFactors(F, D, G2, 0.0, f_spec, f_diffuse);
+}
+
+BrdfFactors base_brdf_factors(ShadingPoint sp, vec3 l) {
+    return base_brdf_factors_view(sp, brdf_view(sp), l);
 }
 
 #if CLEARCOAT_ON
@@ -552,11 +582,16 @@ BrdfFactors clearcoat_factors(ShadingPoint sp, vec3 l) {
 
 // The factors of the material's BRDF: the base's, or, with a clear coat, the coated ones
 // with the coat's normal nc (n where the coat has no normal of its own: docs/layered.md).
-BrdfFactors brdf_factors(ShadingPoint sp, vec3 l) {
+// bv: brdf_view(sp) (a coat computes its base's own: the base sees another point).
+BrdfFactors brdf_factors_view(ShadingPoint sp, BrdfView bv, vec3 l) {
 #if CLEARCOAT_ON
     if (CLEARCOAT_MODEL != CLEARCOAT_NONE) return clearcoat_factors(sp, l);
 #endif
-    return base_brdf_factors(sp, l);
+    return base_brdf_factors_view(sp, bv, l);
+}
+
+BrdfFactors brdf_factors(ShadingPoint sp, vec3 l) {
+    return brdf_factors_view(sp, brdf_view(sp), l);
 }
 
 // The reflections BRDF_TERMS keeps of the base's lobes (the coat's is surface reflection).
@@ -572,11 +607,16 @@ vec3 selected_terms(vec3 f_diffuse, vec3 f_surface) {
 
 // f(l, v) = f_diffuse + f_spec (+ f_ms): the BRDF, without the cosine, for unit l and the
 // point's unit n, v, the coat's normal nc (unused without a coat) and the tangent t; zero
-// for lights below the surface (brdf_factors for the clamps).
-vec3 brdf_eval(ShadingPoint sp, vec3 l) {
+// for lights below the surface (brdf_factors for the clamps). bv: brdf_view(sp), computed
+// once for all the point's lights (a light loop's caller); brdf_eval computes it itself.
+vec3 brdf_eval_view(ShadingPoint sp, BrdfView bv, vec3 l) {
     if (dot(sp.n, l) <= 0.0) return vec3(0.0);
-    BrdfFactors b = brdf_factors(sp, l);
+    BrdfFactors b = brdf_factors_view(sp, bv, l);
     return selected_terms(b.f_diffuse, surface_reflection(b));
+}
+
+vec3 brdf_eval(ShadingPoint sp, vec3 l) {
+    return brdf_eval_view(sp, brdf_view(sp), l);
 }
 
 #if UBER_MODELS || DIFFUSE_MODEL == DIFFUSE_CLOTH_EMPIRICAL

@@ -35,8 +35,9 @@ PunctualLight read_light(sampler2D lights, int i) {
 // sp (light i: its shadow map's index); sp.nc is the clear coat's normal (n where the coat
 // has none of its own). With GBUFFER_COAT_NORMAL (a coat of the scene has a normal other
 // than its base's: app/common/gbuffer.py GBUFFER_TARGETS) a coated material's layers take their own cosines
-// (brdf_eval_layered_cos in brdf/material.glsl).
-vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp) {
+// (brdf_eval_layered_cos in brdf/material.glsl). bv: brdf_view(sp), computed once before
+// the point's light loop (brdf/material.glsl says why), here and in the functions below.
+vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp, BrdfView bv) {
 #if SHADOWS
     // a shadowed light (lights/shadows.glsl: looked up by shadow_prepare, before the loop)
     c_light *= shadow_visibility(i);
@@ -57,34 +58,34 @@ vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp) {
     }
 #endif
     if (NoL <= 0.0) return vec3(0.0);          // (n.l)+ : lights behind the surface add nothing
-    return brdf_eval(sp, l) * c_light * NoL;
+    return brdf_eval_view(sp, bv, l) * c_light * NoL;
 }
 
 // The term of `light` at sp, wherever the light was read from (light_contribution below:
 // the light texture or the uniform array; the bench's limit pass: its own form).
-vec3 light_term(PunctualLight light, int i, ShadingPoint sp) {
+vec3 light_term(PunctualLight light, int i, ShadingPoint sp, BrdfView bv) {
 #if AREA_LIGHTS
     if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp);  // lights/area.glsl
 #endif
     vec3 l;
     vec3 c_light = light_at(light, sp.position, l);
-    return light_term_at(c_light, l, i, sp);
+    return light_term_at(c_light, l, i, sp, bv);
 }
 
 // light_term of a light known to be a point or spot light (local_light_at): the same
 // float32 operations for it, without the test for a directional light.
-vec3 local_light_term(PunctualLight light, int i, ShadingPoint sp) {
+vec3 local_light_term(PunctualLight light, int i, ShadingPoint sp, BrdfView bv) {
 #if AREA_LIGHTS
     if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp);  // lights/area.glsl
 #endif
     vec3 l;
     vec3 c_light = local_light_at(light, sp.position, l);
-    return light_term_at(c_light, l, i, sp);
+    return light_term_at(c_light, l, i, sp, bv);
 }
 
 // light_term of light i of the light texture (or, with LIGHT_UNIFORMS, the uniform array).
-vec3 light_contribution(sampler2D lights, int i, ShadingPoint sp) {
-    return light_term(read_light(lights, i), i, sp);
+vec3 light_contribution(sampler2D lights, int i, ShadingPoint sp, BrdfView bv) {
+    return light_term(read_light(lights, i), i, sp, bv);
 }
 
 #ifdef TILE_QUADS
@@ -106,7 +107,7 @@ vec3 light_contribution(sampler2D lights, int i, ShadingPoint sp) {
 // rasteriser leave both loops together (docs/performance.md, "The light
 // loop", measures it against one flat loop).
 vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, int base,
-                       bool local_only, ShadingPoint sp) {
+                       bool local_only, ShadingPoint sp, BrdfView bv) {
     int chunk = 0;
     do {  // chunks of 1024 lights: one for up to 1024 lights
         TileMask mask = load_tile_mask(masks, cell, chunk);
@@ -122,9 +123,9 @@ vec3 add_masked_lights(vec3 Lo, usampler2D masks, ivec2 cell, sampler2D lights, 
                 bits &= bits - 1u;                // clear that bit
                 int k = word_first + b;
                 if (local_only) {  // a compile-time constant at every call
-                    Lo += local_light_term(read_light(lights, k), k, sp);
+                    Lo += local_light_term(read_light(lights, k), k, sp, bv);
                 } else {
-                    Lo += light_contribution(lights, k, sp);
+                    Lo += light_contribution(lights, k, sp, bv);
                 }
             } while (bits != 0u);
             next_tile_word(mask, words, w, bits);

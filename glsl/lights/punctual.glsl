@@ -16,6 +16,14 @@
 // than about 1 cm), so a light touching a surface stays finite.
 const float LIGHT_MIN_DISTANCE = 0.01;
 
+// SPOT_LIGHTS 0: the frame has no spot light (app/render/inputs.py LightInput), so the cone
+// is compiled out of local_light_at. A SIMD rasteriser such as llvmpipe evaluates an `if`'s
+// body for every light, masked, so a point light would pay for the cone it never applies
+// (docs/performance.md, "Peers", measures it). Every pass that does not say assumes spots.
+#ifndef SPOT_LIGHTS
+#define SPOT_LIGHTS 1
+#endif
+
 struct PunctualLight {
     int type;
     vec3 position;        // world space (point, spot)
@@ -50,7 +58,9 @@ vec3 local_light_at(PunctualLight L, vec3 p, out vec3 l) {
     l = d * inversesqrt(max(dist2, 1e-20));
     float atten = window_falloff(dist2, L.range)
                 / max(dist2, LIGHT_MIN_DISTANCE * LIGHT_MIN_DISTANCE);
+#if SPOT_LIGHTS
     if (L.type == LIGHT_SPOT) atten *= spot_cone(dot(-l, L.direction), L.cos_outer, L.cos_inner);
+#endif
     return L.color * atten;
 }
 

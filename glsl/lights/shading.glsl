@@ -34,6 +34,7 @@ uniform int u_first_local;         // lights [0, u_first_local) are directional
 // geometric normal (no normal map), the direction of the shadow lookup's offset.
 vec3 sum_lights(ivec2 tile, ShadingPoint sp, vec3 ng) {
     vec3 Lo = vec3(0.0);
+    BrdfView bv = brdf_view(sp);   // the BRDF's factors of the point alone, once
 #if SHADOWS
     shadow_prepare(sp.position, ng);   // every shadowed light's visibility, once
 #endif
@@ -45,15 +46,15 @@ vec3 sum_lights(ivec2 tile, ShadingPoint sp, vec3 ng) {
 #if DIRECTIONAL_LIGHTS
     int i = 0;
     do {
-        Lo += light_contribution(u_lights, i, sp);
+        Lo += light_contribution(u_lights, i, sp, bv);
     } while (++i < u_first_local);
 #endif
     // the masks hold local lights only
-    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, true, sp);
+    Lo = add_masked_lights(Lo, u_tile_masks, tile, u_lights, u_first_local, true, sp, bv);
 #else
     int i = 0;
     if (u_light_count > 0) do {  // bottom-tested, as the tiled loop above
-        Lo += light_contribution(u_lights, i, sp);
+        Lo += light_contribution(u_lights, i, sp, bv);
     } while (++i < u_light_count);
 #endif
     return Lo;

@@ -88,7 +88,7 @@ void main() {
 #endif
 #elif DEBUG_VIEW == DEBUG_LIGHT
     // The very term the lighting pass adds for this light, times pi.
-    value = PI * light_contribution(u_lights, u_light, sp);
+    value = PI * light_contribution(u_lights, u_light, sp, brdf_view(sp));
 #else
     // F, D, G2, f_spec or f_diffuse of light u_light; 0 where the light is below the
     // surface, as brdf_eval returns there.

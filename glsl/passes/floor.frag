@@ -25,6 +25,6 @@ void main() {
                                      u_camera_to_world, u_tan_half_fov);
     // FLOOR_LOCAL_ONLY: the scene has no directional light (app/bench/floor.py).
     vec3 Lo = add_masked_lights(vec3(0.0), u_pixel_masks, px, u_lights, 0,
-                                FLOOR_LOCAL_ONLY != 0, sp);
+                                FLOOR_LOCAL_ONLY != 0, sp, brdf_view(sp));
     frag_color = vec4(PI * Lo, 1.0);
 }

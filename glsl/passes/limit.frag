@@ -50,13 +50,14 @@ void main() {
         words[k] = texelFetch(u_pixel_lights, ivec2(px.x * LIMIT_TEXELS + k, px.y), 0);
     }
     vec3 Lo = vec3(0.0);
+    BrdfView bv = brdf_view(sp);   // once per point, as the lighting pass's sum_lights
     for (int j = 0; j < LIMIT_COUNT; ++j) {  // constant trip count: unrolled
         uint word = words[j / 8][(j / 2) % 4];
         int i = int((word >> uint(16 * (j % 2))) & 0xFFFFu);
 #if LIMIT_LOCAL_ONLY  // no directional light: the culled pass's local_light_term
-        Lo += local_light_term(limit_light(i), i, sp);
+        Lo += local_light_term(limit_light(i), i, sp, bv);
 #else
-        Lo += light_term(limit_light(i), i, sp);
+        Lo += light_term(limit_light(i), i, sp, bv);
 #endif
     }
     frag_color = vec4(PI * Lo, 1.0);
