@@ -277,6 +277,9 @@ def render_plot(
         if plot.kind == "vndf":
             rough = sorted({m.params.roughness for m in materials})
             figure = figures.vndf_figure(rough, thetas, dpi=plot_dpi(size))
+        elif plot.kind == "prefilter":
+            rough = sorted({m.params.roughness for m in materials})
+            figure = figures.prefilter_figure(figures.prefilter_strip(gl, rough), plot_dpi(size))
         else:
             named = [(f"clearcoat_model = {m.params.model.clearcoat}", m.params) for m in materials]
             figure = figures.layered_furnace_figure(named, dpi=plot_dpi(size))
