@@ -26,7 +26,7 @@ from imgui_bundle import imgui
 
 from app.walkthrough.markup import blocks, spans
 from app.walkthrough.mathsvg import latex_to_rgba
-from app.walkthrough.model import LoadedStep, Sweep, Text, resolve_scene_ref
+from app.walkthrough.model import LoadedStep, Plot, Sweep, Text, resolve_scene_ref
 from app.walkthrough.questions import formatted
 
 if TYPE_CHECKING:
@@ -48,7 +48,7 @@ UI = {  # the panel's own words
                     "ko": "A/B 비교 (클릭: 화면 분할)"},
     "sweeps": {"en": "Sweeps (select, then drag or play)",
                "ko": "값 바꾸기 (선택 후 슬라이더 또는 재생)"},
-    "plots": {"en": "BRDF plots (pbs brdf)", "ko": "BRDF 그래프 (pbs brdf)"},
+    "plots": {"en": "Plots", "ko": "그래프"},
     "play": {"en": "play", "ko": "재생"},
     "questions": {"en": "Predict, then reveal", "ko": "예측하고 확인하기"},
     "reveal": {"en": "Reveal", "ko": "정답 보기"},
@@ -57,6 +57,44 @@ UI = {  # the panel's own words
     "open view": {"en": "show the view", "ko": "그림 보기"},
     "stop": {"en": "stop comparing", "ko": "비교 끄기"},
 }  # fmt: skip
+
+# What each plot kind draws (app/walkthrough/model.py ``Plot``): ``pbs brdf``'s lobes, or
+# a figure of app/brdf/figures.py, which only the handout draws (no command of its own).
+PLOT_KINDS = {
+    "lobes": {"en": "BRDF lobes and directional albedo", "ko": "BRDF 로브와 방향 알베도"},
+    "vndf": {"en": "Visible-normal sampling (Heitz 2018) and the albedo estimators' variance",
+             "ko": "가시 법선 샘플링 (Heitz 2018)과 알베도 추정의 분산"},
+    "layered_furnace": {"en": "White furnace of the coated materials beside the random walk",
+                        "ko": "코팅 재질의 화이트 퍼니스와 랜덤 워크"},
+    "prefilter": {"en": "Environment prefilter: Monte Carlo at N samples against the exact "
+                        "integral",
+                  "ko": "환경 사전 필터링: N개 샘플의 몬테카를로 대 정확한 적분"},
+}  # fmt: skip
+PLOT_PARAMS = {
+    "roughness": {"en": "roughness", "ko": "거칠기"},
+    "theta": {"en": "view angles", "ko": "시선 각도"},
+}
+
+
+def plot_command(plot: Plot, section: int, lang: str) -> tuple[str, str]:
+    """(what the plot shows, the command that draws it) in ``lang``: ``pbs brdf`` with its
+    materials and angles for the lobes; for a figure of app/brdf/figures.py, its
+    roughnesses (and view angles) and ``pbs walkthrough`` of the step, which draws it."""
+    what = PLOT_KINDS[plot.kind][lang]
+    if plot.kind == "lobes":
+        theta = f" --theta {','.join(f'{t:g}' for t in plot.theta)}" if plot.theta else ""
+        materials = " ".join(f"'{m}'" for m in plot.materials)
+        return what, f"pbs brdf -o plot.png{theta} {materials}"
+    if plot.kind in ("vndf", "prefilter"):
+        from app.brdf.plot import parse_material_args
+
+        rough = sorted({m.params.roughness for m in parse_material_args(plot.materials)})
+        what += f"; {PLOT_PARAMS['roughness'][lang]} {', '.join(f'{r:g}' for r in rough)}"
+        if plot.kind == "vndf" and plot.theta:
+            what += f"; {PLOT_PARAMS['theta'][lang]} {', '.join(f'{t:g}°' for t in plot.theta)}"
+    else:
+        what += ": " + " ".join(f"'{m}'" for m in plot.materials)
+    return what, f"pbs walkthrough --out handout --steps {section}"
 
 
 @dataclass
@@ -325,8 +363,10 @@ class LessonPanel:
             self._questions(lesson)
             if step.plots and imgui.collapsing_header(_ui("plots", lang)):
                 for plot in step.plots:
+                    what, command = plot_command(plot, step.section, lang)
+                    imgui.text_wrapped(what)
                     self.flow(lesson, lesson.text(plot.caption))
-                    imgui.text_wrapped("pbs brdf " + " ".join(f"'{m}'" for m in plot.materials))
+                    imgui.text_colored(CODE_COLOR, command)
         panels._end()
 
     def _header(self, lesson: Lesson, panels: Any) -> None:
