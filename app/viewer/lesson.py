@@ -15,6 +15,7 @@ them per (LaTeX, size) and releases them all when the step changes or the viewer
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -79,21 +80,30 @@ PLOT_PARAMS = {
 def plot_command(plot: Plot, section: int, lang: str) -> tuple[str, str]:
     """(what the plot shows, the command that draws it) in ``lang``: ``pbs brdf`` with its
     materials and angles for the lobes; for a figure of app/brdf/figures.py, its
-    roughnesses (and view angles) and ``pbs walkthrough`` of the step, which draws it."""
-    what = PLOT_KINDS[plot.kind][lang]
-    if plot.kind == "lobes":
-        theta = f" --theta {','.join(f'{t:g}' for t in plot.theta)}" if plot.theta else ""
-        materials = " ".join(f"'{m}'" for m in plot.materials)
-        return what, f"pbs brdf -o plot.png{theta} {materials}"
-    if plot.kind in ("vndf", "prefilter"):
+    roughnesses (and view angles) and ``pbs walkthrough`` of the step, which draws it.
+    Made once per plot and language (the panel asks every frame)."""
+    theta = tuple(plot.theta) if plot.theta else ()
+    return _plot_line(plot.kind, tuple(plot.materials), theta, section, lang)
+
+
+@functools.lru_cache(maxsize=64)
+def _plot_line(
+    kind: str, materials: tuple[str, ...], theta: tuple[float, ...], section: int, lang: str
+) -> tuple[str, str]:
+    what = PLOT_KINDS[kind][lang]
+    quoted = " ".join(f"'{m}'" for m in materials)
+    if kind == "lobes":
+        angles = f" --theta {','.join(f'{t:g}' for t in theta)}" if theta else ""
+        return what, f"pbs brdf -o plot.png{angles} {quoted}"
+    if kind in ("vndf", "prefilter"):
         from app.brdf.plot import parse_material_args
 
-        rough = sorted({m.params.roughness for m in parse_material_args(plot.materials)})
+        rough = sorted({m.params.roughness for m in parse_material_args(materials)})
         what += f"; {PLOT_PARAMS['roughness'][lang]} {', '.join(f'{r:g}' for r in rough)}"
-        if plot.kind == "vndf" and plot.theta:
-            what += f"; {PLOT_PARAMS['theta'][lang]} {', '.join(f'{t:g}°' for t in plot.theta)}"
+        if kind == "vndf" and theta:
+            what += f"; {PLOT_PARAMS['theta'][lang]} {', '.join(f'{t:g}°' for t in theta)}"
     else:
-        what += ": " + " ".join(f"'{m}'" for m in plot.materials)
+        what += ": " + quoted
     return what, f"pbs walkthrough --out handout --steps {section}"
 
 
@@ -338,6 +348,7 @@ class LessonPanel:
         self.equation_rects: list[tuple[float, float, float, float]] = []
         self.window_rect: tuple[float, float, float, float] | None = None
         self.title_font: Any = None  # None: the panel's font (a test swaps it)
+        self.show_plots = False  # True: the Plots header open, scrolled to (a script's)
 
     def draw(self, lesson: Lesson, panels: Any) -> None:
         lang = lesson.lang
@@ -361,7 +372,11 @@ class LessonPanel:
             self._comparisons(lesson)
             self._sweeps(lesson)
             self._questions(lesson)
+            if step.plots and self.show_plots:
+                imgui.set_next_item_open(True)
             if step.plots and imgui.collapsing_header(_ui("plots", lang)):
+                if self.show_plots:
+                    imgui.set_scroll_here_y(0.0)
                 for plot in step.plots:
                     what, command = plot_command(plot, step.section, lang)
                     imgui.text_wrapped(what)
