@@ -12,6 +12,9 @@ showcase with its gold sphere selected (README, docs/viewer.md).
 ``--handout-questions`` and ``--viewer-questions`` write ``screenshots/walkthrough-questions.png``
 and ``screenshots/viewer-questions.png``: step 3's predict-then-reveal question in the Korean
 handout and in the viewer, its answer revealed (docs/walkthrough.md, "Questions").
+``--handout-prefilter`` writes ``screenshots/walkthrough-prefilter.png``: step 4's figure of
+the environment prefilter's Monte Carlo against its exact integral in the Korean handout
+(docs/ibl.md).
 """
 
 from __future__ import annotations
