@@ -12,6 +12,9 @@ showcase with its gold sphere selected (README, docs/viewer.md).
 ``--handout-questions`` and ``--viewer-questions`` write ``screenshots/walkthrough-questions.png``
 and ``screenshots/viewer-questions.png``: step 3's predict-then-reveal question in the Korean
 handout and in the viewer, its answer revealed (docs/walkthrough.md, "Questions").
+``--handout-prefilter`` writes ``screenshots/walkthrough-prefilter.png``: step 4's figure of
+the environment prefilter's Monte Carlo against its exact integral in the Korean handout
+(docs/ibl.md).
 """
 
 from __future__ import annotations
@@ -98,6 +101,39 @@ def handout_questions_screenshot(
             box = browser.evaluate(
                 "(() => { const q = document.querySelector('.questions');"
                 " q.scrollIntoView(); const r = q.getBoundingClientRect();"
+                " return {x: r.x - 8, y: r.y + window.scrollY - 8,"
+                " width: r.width + 16, height: r.height + 16}; })()"
+            )
+            png = browser.screenshot(clip=box, full_page=True)
+    atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
+
+
+def handout_plot_screenshot(
+    gl: GLContext, out: Path, section: int = 4, plot: int = 0, lang: str = "ko"
+) -> None:
+    """Plot ``plot`` of the handout's step of RTR4 §9.``section`` in ``lang`` (images
+    640x360) as Chromium shows it with its caption, cropped to its figure, written as PNG
+    to ``out`` (step 4's: the environment prefilter's Monte Carlo against its exact
+    integral)."""
+    import tempfile
+
+    from app.output import atomic_write
+    from app.resources import walkthrough_dir
+    from app.walkthrough.browser import Browser
+    from app.walkthrough.build import build
+    from app.walkthrough.handout import write_handout
+    from app.walkthrough.model import load_walkthrough
+
+    with tempfile.TemporaryDirectory(prefix="pbs-handout-") as tmp:
+        folder = Path(tmp)
+        steps = load_walkthrough(walkthrough_dir(), {section})
+        rendered = build(gl, steps, folder, lang, (640, 360))
+        page, _ = write_handout(folder, rendered, lang)
+        with Browser(900, 1400) as browser:
+            browser.open(page)
+            box = browser.evaluate(
+                f"(() => {{ const f = document.querySelector('img[src$=\"-plot-{plot}.png\"]')"
+                ".closest('figure'); f.scrollIntoView(); const r = f.getBoundingClientRect();"
                 " return {x: r.x - 8, y: r.y + window.scrollY - 8,"
                 " width: r.width + 16, height: r.height + 16}; })()"
             )
@@ -193,6 +229,11 @@ def main(argv: list[str] | None = None) -> int:
         help="write only screenshots/walkthrough-questions.png (needs chromium)",
     )
     parser.add_argument(
+        "--handout-prefilter",
+        action="store_true",
+        help="write only screenshots/walkthrough-prefilter.png (needs chromium)",
+    )
+    parser.add_argument(
         "--viewer-questions",
         action="store_true",
         help="write only screenshots/viewer-questions.png (needs Xvfb)",
@@ -217,6 +258,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.handout_questions:
         out = SHOTS / "walkthrough-questions.png"
         handout_questions_screenshot(gl, out)
+        print(out.relative_to(REPO))
+        gl.release()
+        return 0
+    if args.handout_prefilter:
+        out = SHOTS / "walkthrough-prefilter.png"
+        handout_plot_screenshot(gl, out)
         print(out.relative_to(REPO))
         gl.release()
         return 0

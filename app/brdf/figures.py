@@ -28,6 +28,8 @@ from app.reference.multiscatter import single_scatter_albedo
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from app.gl.context import GLContext
+
 
 VNDF_CLOUD = 300  # directions drawn per cloud
 VNDF_VARIANCE_SAMPLES = 20_000  # per variance estimate
@@ -191,4 +193,181 @@ def layered_furnace_figure(
     ax.set_xlim(0.0, 90.0)
     ax.legend(fontsize=7, loc="lower left")
     ax.set_title("White furnace of a coated white Lambertian base", fontsize=9)
+    return fig
+
+
+# --- the environment prefilter's Monte Carlo against its exact integral -----------------------
+
+PREFILTER_SAMPLE_COUNTS = (1, 4, 16, 64, 256, 1024)  # the GPU estimator's samples per texel
+PREFILTER_SHOWN = (4, 16, 256)  # the counts whose strips the figure draws
+PREFILTER_FACE = 32  # face size of the prefiltered cube the strip is read from
+PREFILTER_ROW = 10  # the side faces' texel row of the strip: about 14-19 degrees up,
+# through four of the studio's five soft boxes (app/textures/environment.py STUDIO_BOXES)
+_STRIPS: dict[tuple, PrefilterStrip] = {}  # the last studio strip, per GL renderer
+
+
+@dataclass(frozen=True)
+class PrefilterStrip:
+    """The prefiltered studio along a strip of directions (M, 3) round the horizon (the
+    texel centres of row PREFILTER_ROW of the four side faces), sorted by azimuth (M,)
+    in degrees: the exact texel sum (R, M) per roughness and the renderer's Monte Carlo
+    (R, S, M) per roughness and sample count, each the mean of RGB; ``errors`` (R, S)
+    the relative RMS error of each estimate over the strip."""
+
+    roughnesses: tuple[float, ...]
+    sample_counts: tuple[int, ...]
+    directions: np.ndarray
+    azimuth: np.ndarray
+    exact: np.ndarray
+    estimates: np.ndarray
+
+    @property
+    def errors(self) -> np.ndarray:
+        rel = (self.estimates - self.exact[:, None, :]) / self.exact[:, None, :]
+        return np.sqrt(np.mean(rel * rel, axis=-1))
+
+
+def strip_directions(size: int = PREFILTER_FACE, row: int = PREFILTER_ROW) -> np.ndarray:
+    """Unit directions (4, size, 3) of the texel centres of ``row`` of the side faces
+    +X, -X, +Z, -Z of a cube face of ``size`` texels (cube faces 0, 1, 4, 5)."""
+    from app.reference.environment import cube_direction
+
+    st = np.stack([(np.arange(size) + 0.5) / size, np.full(size, (row + 0.5) / size)], -1)
+    d = np.stack([cube_direction(face, st) for face in (0, 1, 4, 5)])
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def prefilter_strip(
+    gl: GLContext,
+    roughnesses: Sequence[float],
+    sample_counts: Sequence[int] = PREFILTER_SAMPLE_COUNTS,
+    env: np.ndarray | None = None,
+) -> PrefilterStrip:
+    """The prefiltered ``env`` (default: the studio) along the strip: by the renderer's
+    GLSL prefilter (glsl/passes/env_prefilter.frag, app/render/ibl.py) on the context
+    ``gl`` at each sample count, and by the float64 texel sum (app/reference/ibl.py
+    ``prefiltered_radiance``) at each roughness."""
+    from app.gl.shaders import ShaderCache
+    from app.reference.ibl import prefiltered_radiance
+    from app.render.ibl import prefilter_estimates
+    from app.textures.environment import studio
+
+    key = (tuple(roughnesses), tuple(sample_counts), gl.renderer)
+    if env is None and key in _STRIPS:  # the handout draws it once per language
+        return _STRIPS[key]
+    studio_strip = env is None
+    env = studio() if env is None else env
+    size, row = PREFILTER_FACE, PREFILTER_ROW
+    shaders = ShaderCache(gl.ctx)
+    try:
+        counts = list(sample_counts)
+        faces = prefilter_estimates(gl.ctx, shaders, env, list(roughnesses), size, counts)
+    finally:
+        shaders.release()
+    # faces (R, S, 6, size, size, 3): row ``row`` of faces +X, -X, +Z, -Z
+    mc = faces[:, :, (0, 1, 4, 5), row].mean(-1).reshape(len(roughnesses), len(sample_counts), -1)
+    d = strip_directions(size, row).reshape(-1, 3)
+    azimuth = np.degrees(np.arctan2(d[:, 0], d[:, 2]))
+    order = np.argsort(azimuth)
+    exact = np.stack([prefiltered_radiance(env, 0.0, d, r).mean(-1) for r in roughnesses])
+    strip = PrefilterStrip(
+        tuple(float(r) for r in roughnesses),
+        tuple(int(n) for n in sample_counts),
+        d[order],
+        azimuth[order],
+        exact[:, order],
+        mc[:, :, order].astype(np.float64),
+    )
+    if studio_strip:
+        _STRIPS.clear()
+        _STRIPS[key] = strip
+    return strip
+
+
+PREFILTER_WORDS = {  # the figure's words per language (Korean: docs/walkthrough.md glossary)
+    "en": {
+        "title": "The environment prefilter (GGX lobe, weights n·l): the renderer's GLSL Monte "
+        "Carlo against the exact float64 integral\nthe studio along a strip 14-19° above "
+        "the horizon",
+        "mc": "Monte Carlo, N = {n}",
+        "exact": "exact (sum over every texel)",
+        "azimuth": "azimuth of R (deg)",
+        "radiance": "prefiltered radiance L_pre(R)",
+        "roughness": "roughness {r:g}",
+        "samples": "samples per texel N",
+        "error": "relative RMS error over the strip (%)",
+    },
+    "ko": {
+        "title": "환경 사전 필터링 (GGX 로브, 가중치 n·l): 렌더러의 GLSL 몬테카를로 대 "
+        "정확한 float64 적분\n수평선 위 14-19°의 띠를 따라 본 스튜디오",
+        "mc": "몬테카를로, N = {n}",
+        "exact": "정확한 값 (모든 텍셀의 합)",
+        "azimuth": "R의 방위각 (도)",
+        "radiance": "사전 필터링된 복사휘도 L_pre(R)",
+        "roughness": "거칠기 {r:g}",
+        "samples": "텍셀당 샘플 수 N",
+        "error": "띠 위의 상대 RMS 오차 (%)",
+    },
+}
+
+
+def prefilter_figure(
+    strip: PrefilterStrip,
+    dpi: int = 100,
+    lang: str = "en",
+    font: tuple[str, ...] | None = None,
+    font_files: tuple[str, ...] = (),
+) -> Figure:
+    """One panel per roughness: the prefiltered radiance along the strip by the renderer's
+    Monte Carlo at PREFILTER_SHOWN sample counts and by the exact texel sum; under them
+    the relative RMS error over the strip against the sample count (log-log). Its words
+    in ``lang`` (PREFILTER_WORDS), in the ``font`` families registered from
+    ``font_files`` (the handout's Hangul font for Korean; None: matplotlib's default)."""
+    if font is None:
+        return _prefilter_figure(strip, dpi, PREFILTER_WORDS[lang])
+    from matplotlib import font_manager, rc_context
+
+    for file in font_files:
+        font_manager.fontManager.addfont(file)
+    with rc_context({"font.family": list(font)}):
+        return _prefilter_figure(strip, dpi, PREFILTER_WORDS[lang])
+
+
+def _prefilter_figure(strip: PrefilterStrip, dpi: int, words: dict[str, str]) -> Figure:
+    from matplotlib.figure import Figure
+
+    cols = len(strip.roughnesses)
+    fig = Figure(figsize=(3.0 * cols + 0.4, 5.6), dpi=dpi, layout="constrained")
+    grid = fig.add_gridspec(2, cols, height_ratios=(1.0, 0.9))
+    colours = ("tab:red", "tab:orange", "tab:blue")
+    for i, r in enumerate(strip.roughnesses):
+        ax = fig.add_subplot(grid[0, i])
+        for colour, n in zip(colours, PREFILTER_SHOWN, strict=False):
+            if n in strip.sample_counts:
+                k = strip.sample_counts.index(n)
+                ax.plot(strip.azimuth, strip.estimates[i, k], color=colour, lw=0.9,
+                        label=words["mc"].format(n=n))  # fmt: skip
+        ax.plot(strip.azimuth, strip.exact[i], color="k", lw=1.6, ls="--",
+                label=words["exact"])  # fmt: skip
+        ax.set_xlim(-180.0, 180.0)
+        ax.set_xticks((-180, -90, 0, 90, 180))
+        ax.set_xlabel(words["azimuth"], fontsize=8)
+        if i == 0:
+            ax.set_ylabel(words["radiance"], fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.set_title(words["roughness"].format(r=r), fontsize=9)
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    ax = fig.add_subplot(grid[1, :])
+    n = np.array(strip.sample_counts, np.float64)
+    for i, r in enumerate(strip.roughnesses):
+        label = words["roughness"].format(r=r)
+        ax.loglog(n, 100.0 * strip.errors[i], marker="o", ms=4, label=label)
+    guide = 100.0 * strip.errors[:, 0].max() / np.sqrt(n)
+    ax.loglog(n, guide, color="0.6", ls=":", label="1/√N")
+    ax.set_xlabel(words["samples"], fontsize=8)
+    ax.set_ylabel(words["error"], fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.legend(handles + ax.get_legend_handles_labels()[0],
+              labels + ax.get_legend_handles_labels()[1], fontsize=7, ncols=2)  # fmt: skip
+    fig.suptitle(words["title"], fontsize=9)
     return fig

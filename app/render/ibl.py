@@ -111,28 +111,11 @@ def prefilter(
         return _CACHE[key]
     source = equirect_texture(ctx, env_map, mipmaps=True)
     fullscreen = FullscreenDraw.of(ctx, shaders, "passes/env_prefilter.frag")
-    levels = []
     try:
-        for k in range(ENV_LEVELS):
-            size = face_size(k, base)
-            target = ctx.texture((size, size), 4, dtype="f4")
-            fbo = ctx.framebuffer([target])
-            faces = []
-            try:
-                for face in range(6):
-                    uniforms = {
-                        "u_samples": samples,
-                        "u_face_size": size,
-                        "u_roughness": level_roughness(k),
-                        "u_face": face,
-                    }
-                    fullscreen.draw(fbo, uniforms, {"u_source": source})
-                    data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
-                    faces.append(data.reshape(size, size, 4)[..., :3].copy())
-            finally:
-                fbo.release()
-                target.release()
-            levels.append(np.stack(faces))
+        levels = [
+            _prefilter_faces(ctx, fullscreen, source, level_roughness(k), size, samples)
+            for k, size in ((k, face_size(k, base)) for k in range(ENV_LEVELS))
+        ]
     finally:
         fullscreen.release()
         source.release()
@@ -140,6 +123,60 @@ def prefilter(
         _CACHE.pop(next(iter(_CACHE)))
     _CACHE[key] = levels
     return levels
+
+
+def _prefilter_faces(
+    ctx: moderngl.Context,
+    fullscreen: FullscreenDraw,
+    source: moderngl.Texture,
+    roughness: float,
+    size: int,
+    samples: int,
+) -> np.ndarray:
+    """The six faces (6, size, size, 3) of the map prefiltered for ``roughness`` by the
+    prefilter's ``samples`` GGX samples per texel, from the equirect ``source``."""
+    target = ctx.texture((size, size), 4, dtype="f4")
+    fbo = ctx.framebuffer([target])
+    faces = []
+    try:
+        for face in range(6):
+            uniforms = {
+                "u_samples": samples,
+                "u_face_size": size,
+                "u_roughness": roughness,
+                "u_face": face,
+            }
+            fullscreen.draw(fbo, uniforms, {"u_source": source})
+            data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+            faces.append(data.reshape(size, size, 4)[..., :3].copy())
+    finally:
+        fbo.release()
+        target.release()
+    return np.stack(faces)
+
+
+def prefilter_estimates(
+    ctx: moderngl.Context,
+    shaders: ShaderCache,
+    env_map: np.ndarray,
+    roughnesses: list[float],
+    size: int,
+    sample_counts: list[int],
+) -> np.ndarray:
+    """The renderer's own Monte Carlo prefilter of ``env_map`` at each roughness and
+    sample count, uncached: (len(roughnesses), len(sample_counts), 6, size, size, 3), the
+    faces of ``size`` texels (the walkthrough's figure of the estimator against the exact
+    texel sum, app/brdf/figures.py)."""
+    source = equirect_texture(ctx, env_map, mipmaps=True)
+    fullscreen = FullscreenDraw.of(ctx, shaders, "passes/env_prefilter.frag")
+    try:
+        return np.stack([
+            np.stack([_prefilter_faces(ctx, fullscreen, source, r, size, n) for n in sample_counts])
+            for r in roughnesses
+        ])  # fmt: skip
+    finally:
+        fullscreen.release()
+        source.release()
 
 
 def prepared_prefilter(

@@ -15,6 +15,7 @@ them per (LaTeX, size) and releases them all when the step changes or the viewer
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +27,7 @@ from imgui_bundle import imgui
 
 from app.walkthrough.markup import blocks, spans
 from app.walkthrough.mathsvg import latex_to_rgba
-from app.walkthrough.model import LoadedStep, Sweep, Text, resolve_scene_ref
+from app.walkthrough.model import LoadedStep, Plot, Sweep, Text, resolve_scene_ref
 from app.walkthrough.questions import formatted
 
 if TYPE_CHECKING:
@@ -48,7 +49,7 @@ UI = {  # the panel's own words
                     "ko": "A/B 비교 (클릭: 화면 분할)"},
     "sweeps": {"en": "Sweeps (select, then drag or play)",
                "ko": "값 바꾸기 (선택 후 슬라이더 또는 재생)"},
-    "plots": {"en": "BRDF plots (pbs brdf)", "ko": "BRDF 그래프 (pbs brdf)"},
+    "plots": {"en": "Plots", "ko": "그래프"},
     "play": {"en": "play", "ko": "재생"},
     "questions": {"en": "Predict, then reveal", "ko": "예측하고 확인하기"},
     "reveal": {"en": "Reveal", "ko": "정답 보기"},
@@ -57,6 +58,53 @@ UI = {  # the panel's own words
     "open view": {"en": "show the view", "ko": "그림 보기"},
     "stop": {"en": "stop comparing", "ko": "비교 끄기"},
 }  # fmt: skip
+
+# What each plot kind draws (app/walkthrough/model.py ``Plot``): ``pbs brdf``'s lobes, or
+# a figure of app/brdf/figures.py, which only the handout draws (no command of its own).
+PLOT_KINDS = {
+    "lobes": {"en": "BRDF lobes and directional albedo", "ko": "BRDF 로브와 방향 알베도"},
+    "vndf": {"en": "Visible-normal sampling (Heitz 2018) and the albedo estimators' variance",
+             "ko": "가시 법선 샘플링 (Heitz 2018)과 알베도 추정의 분산"},
+    "layered_furnace": {"en": "White furnace of the coated materials beside the random walk",
+                        "ko": "코팅 재질의 화이트 퍼니스와 랜덤 워크"},
+    "prefilter": {"en": "Environment prefilter: Monte Carlo at N samples against the exact "
+                        "integral",
+                  "ko": "환경 사전 필터링: N개 샘플의 몬테카를로 대 정확한 적분"},
+}  # fmt: skip
+PLOT_PARAMS = {
+    "roughness": {"en": "roughness", "ko": "거칠기"},
+    "theta": {"en": "view angles", "ko": "시선 각도"},
+}
+
+
+def plot_command(plot: Plot, section: int, lang: str) -> tuple[str, str]:
+    """(what the plot shows, the command that draws it) in ``lang``: ``pbs brdf`` with its
+    materials and angles for the lobes; for a figure of app/brdf/figures.py, its
+    roughnesses (and view angles) and ``pbs walkthrough`` of the step, which draws it.
+    Made once per plot and language (the panel asks every frame)."""
+    theta = tuple(plot.theta) if plot.theta else ()
+    return _plot_line(plot.kind, tuple(plot.materials), theta, section, lang)
+
+
+@functools.lru_cache(maxsize=64)
+def _plot_line(
+    kind: str, materials: tuple[str, ...], theta: tuple[float, ...], section: int, lang: str
+) -> tuple[str, str]:
+    what = PLOT_KINDS[kind][lang]
+    quoted = " ".join(f"'{m}'" for m in materials)
+    if kind == "lobes":
+        angles = f" --theta {','.join(f'{t:g}' for t in theta)}" if theta else ""
+        return what, f"pbs brdf -o plot.png{angles} {quoted}"
+    if kind in ("vndf", "prefilter"):
+        from app.brdf.plot import parse_material_args
+
+        rough = sorted({m.params.roughness for m in parse_material_args(materials)})
+        what += f"; {PLOT_PARAMS['roughness'][lang]} {', '.join(f'{r:g}' for r in rough)}"
+        if kind == "vndf" and theta:
+            what += f"; {PLOT_PARAMS['theta'][lang]} {', '.join(f'{t:g}°' for t in theta)}"
+    else:
+        what += ": " + quoted
+    return what, f"pbs walkthrough --out handout --steps {section}"
 
 
 @dataclass
@@ -300,6 +348,7 @@ class LessonPanel:
         self.equation_rects: list[tuple[float, float, float, float]] = []
         self.window_rect: tuple[float, float, float, float] | None = None
         self.title_font: Any = None  # None: the panel's font (a test swaps it)
+        self.show_plots = False  # True: the Plots header open, scrolled to (a script's)
 
     def draw(self, lesson: Lesson, panels: Any) -> None:
         lang = lesson.lang
@@ -323,10 +372,16 @@ class LessonPanel:
             self._comparisons(lesson)
             self._sweeps(lesson)
             self._questions(lesson)
+            if step.plots and self.show_plots:
+                imgui.set_next_item_open(True)
             if step.plots and imgui.collapsing_header(_ui("plots", lang)):
+                if self.show_plots:
+                    imgui.set_scroll_here_y(0.0)
                 for plot in step.plots:
+                    what, command = plot_command(plot, step.section, lang)
+                    imgui.text_wrapped(what)
                     self.flow(lesson, lesson.text(plot.caption))
-                    imgui.text_wrapped("pbs brdf " + " ".join(f"'{m}'" for m in plot.materials))
+                    imgui.text_colored(CODE_COLOR, command)
         panels._end()
 
     def _header(self, lesson: Lesson, panels: Any) -> None:

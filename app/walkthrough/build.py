@@ -277,6 +277,13 @@ def render_plot(
         if plot.kind == "vndf":
             rough = sorted({m.params.roughness for m in materials})
             figure = figures.vndf_figure(rough, thetas, dpi=plot_dpi(size))
+        elif plot.kind == "prefilter":
+            rough = sorted({m.params.roughness for m in materials})
+            words = figure_words(lang)  # the handout's Hangul font for Korean
+            strip = figures.prefilter_strip(gl, rough)
+            figure = figures.prefilter_figure(
+                strip, plot_dpi(size), lang, words.font, words.font_files
+            )
         else:
             named = [(f"clearcoat_model = {m.params.model.clearcoat}", m.params) for m in materials]
             figure = figures.layered_furnace_figure(named, dpi=plot_dpi(size))

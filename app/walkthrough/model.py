@@ -134,9 +134,11 @@ class Plot(_Strict):
     """BRDF lobes and albedo of materials, as ``pbs brdf`` plots them (``kind = "lobes"``);
     or a figure of app/brdf/figures.py: ``"vndf"``, the visible-normal sample clouds and the
     albedo estimators' variance at the materials' roughnesses and the ``theta`` views;
-    ``"layered_furnace"``, the coated materials' white furnace beside the random walk."""
+    ``"layered_furnace"``, the coated materials' white furnace beside the random walk;
+    ``"prefilter"``, the environment prefilter's Monte Carlo at several sample counts
+    against its exact integral, at the materials' roughnesses."""
 
-    kind: Literal["lobes", "vndf", "layered_furnace"] = "lobes"
+    kind: Literal["lobes", "vndf", "layered_furnace", "prefilter"] = "lobes"
     materials: Annotated[list[str], Field(min_length=1)]
     theta: Annotated[list[Annotated[float, Field(ge=0.0, le=90.0)]], Field(min_length=1)] | None = (
         None
