@@ -19,7 +19,11 @@ G-buffer pass writes per pixel from the camera's ray, is drawn here as the icosp
 the sphere by at most 1 - (the nearest face plane's distance from the centre), at 4
 subdivisions 0.11 % of the radius (measured; docs/shadows.md), so its shadow is that
 much smaller. Alpha-masked parts cast the shadow of their whole surface; blended parts
-cast none.
+cast none. Transmissive parts (glass) cast no depth: where a frame has them, a second
+target beside the atlas (RGBA float32, same layout) holds per texel the product of the
+transmittances of the glass surfaces in front of the opaque depth and the nearest glass
+depth, and the lookup multiplies a receiver behind that depth by the product: a coloured,
+lighter shadow (``_run_glass``, glsl/passes/shadow_glass.frag; docs/shadows.md, "Glass").
 
 Sides. A single-sided surface (a glTF material without ``doubleSided``, a closed
 primitive) casts only with the faces that face the light: the camera pass culls its back
@@ -567,10 +571,18 @@ class _GlassCaster(_Caster):
         extra = m.params
         scale = abs(float(np.linalg.det(part.model[:3, :3]))) ** (1.0 / 3.0)
         self.glass = np.array(
-            [float(extra.transmission), float(m.metallic), float(m.f0), float(extra.thickness) * scale],
+            [
+                float(extra.transmission),
+                float(m.metallic),
+                float(m.f0),
+                float(extra.thickness) * scale,
+            ],
             np.float32,
         ).tobytes()
-        attenuation = [*np.asarray(extra.attenuation_color, np.float64)[:3], extra.attenuation_distance]
+        attenuation = [
+            *np.asarray(extra.attenuation_color, np.float64)[:3],
+            extra.attenuation_distance,
+        ]
         self.attenuation = np.asarray(attenuation, np.float32).tobytes()
         self.base_color = np.asarray(m.base_color, np.float32).tobytes()
 
@@ -855,7 +867,9 @@ class ShadowPass(ShaderInput):
         assert self.glass_atlas is not None
         w, h = self.glass_atlas.size
         wait_before_read(self.ctx)
-        return np.frombuffer(self.glass_atlas.read(), np.float32).reshape(h, w, 4).astype(np.float64)
+        return (
+            np.frombuffer(self.glass_atlas.read(), np.float32).reshape(h, w, 4).astype(np.float64)
+        )
 
     def samplers(self) -> list[tuple[str, moderngl.Texture]]:
         if self.glass_atlas is not None:
