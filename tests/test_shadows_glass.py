@@ -34,8 +34,20 @@ OPAQUE = {"base_color": [0.8, 0.8, 0.8], "roughness": 0.6}
 PROBES = [(-0.85, 0.0, 0.1), (-0.95, 0.0, -0.1), (-0.8, 0.0, -0.2)]
 
 
-def scene(ball: dict, shadow: bool = True) -> dict:
-    sun = {"type": "directional", "direction": [-1.0, -1.0, 0.0], "intensity": 2.0}
+# The lights, each along (-1, -1, 0) through the sphere's centre: a spot and a point light
+# 4.2 m from it (a spot's map and a cube face take the glass target as a sun's does).
+LIGHTS = {
+    "directional": {"type": "directional", "direction": [-1.0, -1.0, 0.0], "intensity": 2.0},
+    "spot": {
+        "type": "spot", "position": [3.0, 3.5, 0.0], "direction": [-1.0, -1.0, 0.0],
+        "intensity": 30.0, "range": 10.0, "inner_angle": 20.0, "outer_angle": 30.0,
+    },
+    "point": {"type": "point", "position": [3.0, 3.5, 0.0], "intensity": 30.0, "range": 10.0},
+}  # fmt: skip
+
+
+def scene(ball: dict, shadow: bool = True, light: str = "directional") -> dict:
+    sun = dict(LIGHTS[light])
     if shadow:
         sun.update(shadow=True, shadow_resolution=512)
     return {
@@ -75,10 +87,10 @@ def render(gl, data: dict) -> tuple[np.ndarray, list[tuple[int, int]], object]:
         renderer.release()
 
 
-def floor_visibility(gl, ball: dict) -> np.ndarray:
+def floor_visibility(gl, ball: dict, light: str = "directional") -> np.ndarray:
     """(probes, 3) the shadowed render over the unshadowed one at the probes."""
-    lit, pixels, _ = render(gl, scene(ball, shadow=False))
-    dark, _, _ = render(gl, scene(ball))
+    lit, pixels, _ = render(gl, scene(ball, shadow=False, light=light))
+    dark, _, _ = render(gl, scene(ball, light=light))
     return np.array([dark[r, c, :3] / lit[r, c, :3] for r, c in pixels])
 
 
@@ -90,9 +102,10 @@ def amber_transmittance() -> np.ndarray:
     )  # fmt: skip
 
 
-def test_a_glass_sphere_s_shadow_is_lighter_and_amber(gl_egl):
-    opaque = floor_visibility(gl_egl, OPAQUE)
-    glass = floor_visibility(gl_egl, AMBER)
+@pytest.mark.parametrize("light", list(LIGHTS))
+def test_a_glass_sphere_s_shadow_is_lighter_and_amber(gl_egl, light):
+    opaque = floor_visibility(gl_egl, OPAQUE, light)
+    glass = floor_visibility(gl_egl, AMBER, light)
     want = amber_transmittance()  # 0.912, 0.672, 0.336
     assert opaque.max() < 0.05, opaque
     assert glass.mean() > opaque.mean() + 0.3, (glass, opaque)

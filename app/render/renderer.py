@@ -495,7 +495,7 @@ class Renderer:
         check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
         check_memory(
             self.frame.parts, self.frame.decoded, w * h * per_pixel,
-            shadow_atlas_bytes(self.scene.lights), self.loaded.policy.limits.max_memory,
+            shadow_atlas_bytes(self.scene.lights, glass), self.loaded.policy.limits.max_memory,
             str(self.loaded.path),
         )  # fmt: skip
 

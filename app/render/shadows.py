@@ -125,9 +125,11 @@ def shadow_map_sizes(lights: list[Light]) -> list[tuple[int, int]]:
     return out
 
 
-def shadow_atlas_bytes(lights: list[Light]) -> int:
-    """The bytes of the shadow atlas's depth texels (4 each) for ``lights``' maps."""
-    return sum(4 * size * size for _, size in shadow_map_sizes(lights))
+def shadow_atlas_bytes(lights: list[Light], glass: bool = False) -> int:
+    """The bytes of the shadow atlas's depth texels (4 each) for ``lights``' maps, and of
+    the glass target's (RGBA float32, 16 each) where ``glass`` (a transmissive part)."""
+    per_texel = 4 + (16 if glass else 0)
+    return sum(per_texel * size * size for _, size in shadow_map_sizes(lights))
 
 
 def check_shadow_resolutions(ctx: moderngl.Context, lights: list[Light], file: str) -> None:
