@@ -495,7 +495,7 @@ class Renderer:
         check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
         check_memory(
             self.frame.parts, self.frame.decoded, w * h * per_pixel,
-            shadow_atlas_bytes(self.scene.lights), self.loaded.policy.limits.max_memory,
+            shadow_atlas_bytes(self.scene.lights, glass), self.loaded.policy.limits.max_memory,
             str(self.loaded.path),
         )  # fmt: skip
 
@@ -550,7 +550,8 @@ class Renderer:
         if not any(light.shadow is not None for light in self.lights):
             return None
         facts = self._frame_facts()
-        return (Same(self.lights), Same(self.frame.parts), facts.opaque, facts.masks)
+        glass = tuple(Same(self.frame.parts[i].layers[0]) for i in facts.transmissive)
+        return (Same(self.lights), Same(self.frame.parts), facts.opaque, facts.masks, glass)
 
     def _check_shadows(self) -> None:
         check_shadow_resolutions(self.gl.ctx, self.scene.lights, str(self.loaded.path))
@@ -559,7 +560,9 @@ class Renderer:
         opaque = set(self._opaque())
         parts = [p for i, p in enumerate(self.frame.parts) if i in opaque]
         blends = [p for i, p in enumerate(self.frame.parts) if i not in opaque]
-        return ShadowPass(self.gl.ctx, self.shaders, self.lights, parts, blends)
+        # transmissive parts tint the light through them (docs/shadows.md, "Glass")
+        glass = [self.frame.parts[i] for i in self._frame_facts().transmissive]
+        return ShadowPass(self.gl.ctx, self.shaders, self.lights, parts, blends, glass)
 
     def _key_culler(self) -> Hashable:
         """The tile culler, where the frame culls by tiles (``tiles_used``): its tiles are

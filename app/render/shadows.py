@@ -19,7 +19,11 @@ G-buffer pass writes per pixel from the camera's ray, is drawn here as the icosp
 the sphere by at most 1 - (the nearest face plane's distance from the centre), at 4
 subdivisions 0.11 % of the radius (measured; docs/shadows.md), so its shadow is that
 much smaller. Alpha-masked parts cast the shadow of their whole surface; blended parts
-cast none.
+cast none. Transmissive parts (glass) cast no depth: where a frame has them, a second
+target beside the atlas (RGBA float32, same layout) holds per texel the product of the
+transmittances of the glass surfaces in front of the opaque depth and the nearest glass
+depth, and the lookup multiplies a receiver behind that depth by the product: a coloured,
+lighter shadow (``_run_glass``, glsl/passes/shadow_glass.frag; docs/shadows.md, "Glass").
 
 Sides. A single-sided surface (a glTF material without ``doubleSided``, a closed
 primitive) casts only with the faces that face the light: the camera pass culls its back
@@ -121,9 +125,11 @@ def shadow_map_sizes(lights: list[Light]) -> list[tuple[int, int]]:
     return out
 
 
-def shadow_atlas_bytes(lights: list[Light]) -> int:
-    """The bytes of the shadow atlas's depth texels (4 each) for ``lights``' maps."""
-    return sum(4 * size * size for _, size in shadow_map_sizes(lights))
+def shadow_atlas_bytes(lights: list[Light], glass: bool = False) -> int:
+    """The bytes of the shadow atlas's depth texels (4 each) for ``lights``' maps, and of
+    the glass target's (RGBA float32, 16 each) where ``glass`` (a transmissive part)."""
+    per_texel = 4 + (16 if glass else 0)
+    return sum(per_texel * size * size for _, size in shadow_map_sizes(lights))
 
 
 def check_shadow_resolutions(ctx: moderngl.Context, lights: list[Light], file: str) -> None:
@@ -543,6 +549,58 @@ class _MaskedCaster:
         self.drawable.release()
 
 
+def set_glass_sides(ctx: moderngl.Context, part: MeshPart) -> None:
+    """The faces a transmissive part casts its tint with: those facing the light where the
+    part is closed (a sphere, a box, a single-sided glTF mesh), so that the light crosses
+    each closed body once, as the transmission pass's one interface and one thickness
+    model it (docs/shadows.md, "Glass"); both sides of an open part (one pane)."""
+    if part.closed:
+        mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
+        ctx.front_face = "cw" if mirrored else "ccw"
+        ctx.cull_face = "back"
+        ctx.enable(moderngl.CULL_FACE)
+    else:
+        ctx.disable(moderngl.CULL_FACE)
+
+
+class _GlassCaster(_Caster):
+    """A transmissive part for the glass pass: its triangles and the constants of its
+    transmittance (glsl/passes/shadow_glass.frag, twin app/reference/glass_shadows.py)."""
+
+    def __init__(self, ctx: moderngl.Context, prog: moderngl.Program, part: MeshPart) -> None:
+        super().__init__(ctx, prog, part)
+        m = part.material
+        extra = m.params
+        scale = abs(float(np.linalg.det(part.model[:3, :3]))) ** (1.0 / 3.0)
+        self.glass = np.array(
+            [
+                float(extra.transmission),
+                float(m.metallic),
+                float(m.f0),
+                float(extra.thickness) * scale,
+            ],
+            np.float32,
+        ).tobytes()
+        attenuation = [
+            *np.asarray(extra.attenuation_color, np.float64)[:3],
+            extra.attenuation_distance,
+        ]
+        self.attenuation = np.asarray(attenuation, np.float32).tobytes()
+        self.base_color = np.asarray(m.base_color, np.float32).tobytes()
+
+    def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
+        set_glass_sides(self.ctx, self.part)
+        prog["u_model"].write(self.model)
+        for name, data in (
+            ("u_glass", self.glass),
+            ("u_glass_attenuation", self.attenuation),
+            ("u_glass_base_color", self.base_color),
+        ):
+            if name in prog:
+                prog[name].write(data)
+        self.vao.render(moderngl.TRIANGLES)
+
+
 class ShadowPass(ShaderInput):
     """The shadow maps of a frame's shadowed lights, packed in one depth atlas; to the
     lighting and blend passes a shader input (app/render/inputs.py): ``defines``, the
@@ -564,6 +622,7 @@ class ShadowPass(ShaderInput):
         lights: list[PunctualLight],
         parts: list[MeshPart],
         receivers: list[MeshPart] | None = None,
+        glass: list[MeshPart] | None = None,
     ) -> None:
         self.ctx = ctx
         points = world_points([*parts, *(receivers or [])])
@@ -647,6 +706,19 @@ class ShadowPass(ShaderInput):
             for part in parts
         ]
         self.masked = any(isinstance(c, _MaskedCaster) for c in self.casters)
+        # Glass (transmissive parts, ``glass``): a second target beside the depth atlas,
+        # RGBA float32, rgb the product of the transmittances of the glass surfaces in front
+        # of the opaque depth, alpha the nearest glass depth (docs/shadows.md, "Glass").
+        # Only where the frame has glass: a scene without compiles and renders as before.
+        self.glass_atlas: moderngl.Texture | None = None
+        self.glass_casters: list[_GlassCaster] = []
+        if glass:
+            self.glass_prog = shaders.program("passes/shadow.vert", "passes/shadow_glass.frag", {})
+            self.glass_casters = [_GlassCaster(ctx, self.glass_prog, part) for part in glass]
+            self.glass_atlas = ctx.texture((width, height), 4, dtype="f4")
+            self.glass_atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.glass_atlas.repeat_x = self.glass_atlas.repeat_y = False
+            self.glass_fbo = ctx.framebuffer([self.glass_atlas], self.atlas)
         self.rendered: set[int] = set()  # the maps drawn so far (indices into the lists)
         self.maps_rendered = 0  # maps drawn over this pass's life (tests, bench)
         self._cleared = False
@@ -676,6 +748,8 @@ class ShadowPass(ShaderInput):
             defines["SHADOW_CASCADES"] = 1
         if self.face_normal:
             defines["SHADOW_FACE_NORMAL"] = 1
+        if self.glass_atlas is not None:
+            defines["SHADOW_GLASS"] = 1
         return defines
 
     def needed(self, view_proj: np.ndarray | None) -> list[int]:
@@ -758,11 +832,50 @@ class ShadowPass(ShaderInput):
                 caster.draw(self.prog, light_matrix)
             self.rendered.add(k)
             self.maps_rendered += 1
+        if self.glass_casters:
+            self._run_glass(todo)
         ctx.polygon_offset = (0.0, 0.0)
         ctx.disable(moderngl.CULL_FACE)
         ctx.front_face = "ccw"
 
+    def _run_glass(self, todo: list[int]) -> None:
+        """The glass target of maps ``todo`` (their opaque depths drawn): cleared to
+        (1, 1, 1, 1), then every glass surface in front of the opaque depth (depth test
+        ``<``, no depth writes) multiplies rgb by its transmittance (blend ZERO, SRC_COLOR)
+        and keeps the nearest window depth in alpha (blend equation MIN)."""
+        ctx = self.ctx
+        self.glass_fbo.use()
+        self.glass_fbo.depth_mask = False
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = (moderngl.ZERO, moderngl.SRC_COLOR, moderngl.ONE, moderngl.ONE)
+        ctx.blend_equation = (moderngl.FUNC_ADD, moderngl.MIN)
+        for k in todo:
+            rect = self.rects[k]
+            ctx.viewport = (int(rect[0]), int(rect[1]), int(rect[2]), int(rect[2]))
+            self.glass_fbo.clear(1.0, 1.0, 1.0, 1.0, viewport=ctx.viewport)
+            ctx.polygon_offset = (self.slopes[k], 1.0)
+            light_matrix = gl_bytes(self.matrices[k])
+            self.glass_prog["u_light_matrix"].write(light_matrix)
+            for caster in self.glass_casters:
+                caster.draw(self.glass_prog, light_matrix)
+        ctx.disable(moderngl.BLEND)
+        ctx.blend_func = moderngl.DEFAULT_BLENDING
+        ctx.blend_equation = moderngl.FUNC_ADD
+        self.glass_fbo.depth_mask = True
+
+    def read_glass(self) -> np.ndarray:
+        """The glass target (rows from the bottom, as texelFetch indexes them): (h, w, 4),
+        rgb the transmittance product, alpha the nearest glass window depth."""
+        assert self.glass_atlas is not None
+        w, h = self.glass_atlas.size
+        wait_before_read(self.ctx)
+        return (
+            np.frombuffer(self.glass_atlas.read(), np.float32).reshape(h, w, 4).astype(np.float64)
+        )
+
     def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        if self.glass_atlas is not None:
+            return [("u_shadow_atlas", self.atlas), ("u_shadow_glass", self.glass_atlas)]
         return [("u_shadow_atlas", self.atlas)]
 
     def uniforms(self, prog: moderngl.Program) -> None:
@@ -783,7 +896,10 @@ class ShadowPass(ShaderInput):
         )  # fmt: skip
 
     def release(self) -> None:
-        for caster in self.casters:
+        for caster in [*self.casters, *self.glass_casters]:
             caster.release()
+        if self.glass_atlas is not None:
+            self.glass_fbo.release()
+            self.glass_atlas.release()
         self.fbo.release()
         self.atlas.release()

@@ -160,6 +160,40 @@ float pcss_visibility(int k, vec3 q, vec3 n, vec2 pos, float z) {
 }
 #endif
 
+#if SHADOW_GLASS
+// Glass (app/render/shadows.py, docs/shadows.md "Glass"): the glass target beside the
+// atlas, rgb the product of the transmittances of the glass surfaces in front of the
+// opaque depth, alpha the nearest glass window depth (1 where none).
+uniform sampler2D u_shadow_glass;
+// The transmittance the last shadow_map_visibility found at its point (1: no glass).
+vec3 shadow_glass_tint = vec3(1.0);
+
+// Texel t's transmittance for a receiver at window depth z: the product where the
+// receiver lies behind the nearest glass, 1 in front of it (lit glass does not shadow
+// itself: its lit face is the nearest glass, and its normal offset moves it forward).
+vec3 glass_texel(ivec2 t, float z) {
+    vec4 g = texelFetch(u_shadow_glass, t, 0);
+    return z > g.a ? g.rgb : vec3(1.0);
+}
+
+// The transmittance at texel position pos of the map whose texels are lo .. hi: the four
+// texels around pos, each tested against z, bilinearly weighted (a soft tinted edge).
+vec3 glass_transmittance_at(ivec2 lo, ivec2 hi, vec2 pos, float z) {
+    vec2 q = pos - 0.5;
+    vec2 cell = floor(q);
+    vec2 f = q - cell;
+    ivec2 b = lo + ivec2(cell);
+    vec3 t00 = glass_texel(clamp(b, lo, hi), z);
+    vec3 t10 = glass_texel(clamp(b + ivec2(1, 0), lo, hi), z);
+    vec3 t01 = glass_texel(clamp(b + ivec2(0, 1), lo, hi), z);
+    vec3 t11 = glass_texel(clamp(b + ivec2(1, 1), lo, hi), z);
+    return mix(mix(t00, t10, f.x), mix(t01, t11, f.x), f.y);
+}
+#define SHADOW_VISIBILITY vec3
+#else
+#define SHADOW_VISIBILITY float
+#endif
+
 // Visibility through map k (m, rect, off: its u_shadow_matrix, u_shadow_rect and
 // u_shadow_offset, read by the caller) of the point p with normal n; filt its filter
 // (u_shadow_rect's w: 0 none, 1 PCF, 2 PCSS) and ortho whether the map is orthographic
@@ -187,6 +221,9 @@ float shadow_map_visibility(int k, mat4 m, vec4 rect, vec2 off, int filt, bool o
     vec2 pos = (ndc.xy * 0.5 + 0.5) * rect.z;
     ivec2 lo = ivec2(rect.xy);
     ivec2 hi = lo + ivec2(rect.z) - 1;
+#if SHADOW_GLASS
+    shadow_glass_tint = glass_transmittance_at(lo, hi, pos, z);
+#endif
     if (filt == 0) return shadow_test(clamp(lo + ivec2(floor(pos)), lo, hi), z);
 #if SHADOW_PCSS
     if (filt == 2) return pcss_visibility(k, p + n * (off.x * scale), n, pos, z);
@@ -248,7 +285,9 @@ bool in_cascade(int k, vec3 p, vec3 n) {
 // its light index, y its first map.
 uniform ivec2 u_shadowed[SHADOW_LIGHTS];
 uniform vec3 u_shadow_position[SHADOW_LIGHTS];   // shadowed light j's position (point lights)
-float shadow_vis[SHADOW_LIGHTS];                 // shadow_prepare's visibilities at the point
+// shadow_prepare's visibilities at the point (with glass, SHADOW_GLASS: coloured, the map's
+// visibility times the glass's transmittance)
+SHADOW_VISIBILITY shadow_vis[SHADOW_LIGHTS];
 
 // Map k + f's matrix and rectangle for a per-point face f (0..5) of a point light: selects
 // over the six, so that every array index stays uniform (an index that differs between a
@@ -299,7 +338,11 @@ float shadowed_light_visibility(int j, int proj, int filt, vec3 p, vec3 n) {
 }
 
 // shadow_prepare's step for shadowed light j (a literal), with its constants.
+#if SHADOW_GLASS
+#define SHADOW_STEP(j) shadow_glass_tint = vec3(1.0); shadow_vis[j] = shadowed_light_visibility(j, SHADOW_PROJ_##j, SHADOW_FILTER_##j, p, n) * shadow_glass_tint;
+#else
 #define SHADOW_STEP(j) shadow_vis[j] = shadowed_light_visibility(j, SHADOW_PROJ_##j, SHADOW_FILTER_##j, p, n);
+#endif
 
 // Every shadowed light's visibility at p with normal n, into shadow_vis: the first
 // SHADOW_UNROLLED lights in steps of their own (every array index a constant), any further
@@ -331,16 +374,23 @@ void shadow_prepare(vec3 p, vec3 n) {
 #if SHADOW_LIGHTS > 8
     for (int j = SHADOW_UNROLLED; j < SHADOW_LIGHTS; ++j) {
         int k = u_shadowed[j].y;
+#if SHADOW_GLASS
+        shadow_glass_tint = vec3(1.0);
+#endif
         shadow_vis[j] = shadowed_light_visibility(j, int(u_shadow_offset[k].y),
-                                                  int(u_shadow_rect[k].w), p, n);
+                                                  int(u_shadow_rect[k].w), p, n)
+#if SHADOW_GLASS
+                        * shadow_glass_tint
+#endif
+                        ;
     }
 #endif
 }
 
 // Visibility of light i at the point shadow_prepare was given: its map's, 1 for a light
 // without one (selects over the shadowed lights, no indexed read).
-float shadow_visibility(int i) {
-    float v = 1.0;
+SHADOW_VISIBILITY shadow_visibility(int i) {
+    SHADOW_VISIBILITY v = SHADOW_VISIBILITY(1.0);
     for (int j = 0; j < SHADOW_LIGHTS; ++j) {
         v = u_shadowed[j].x == i ? shadow_vis[j] : v;
     }

@@ -1,0 +1,148 @@
+"""Glass casts coloured, lighter shadows (docs/shadows.md, "Glass"): a transmissive sphere
+on a floor under a shadowed sun leaves on the floor a shadow whose light is the sphere's
+transmittance (transmission, Fresnel at normal incidence, base colour, Beer-Lambert over
+its thickness), checked against the float64 twin (app/reference/glass_shadows.py); an
+opaque sphere's shadow is dark; a scene without glass builds no glass target.
+
+The scene: a 0.5 m sphere resting on an 8 m floor, a sun travelling along (-1, -1, 0)
+(its shadow's centre at x = -0.5 on the floor), no environment light, so that a floor
+pixel's light is the sun's alone and its ratio to the unshadowed render is the visibility.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.reference.glass_shadows import glass_transmittance, transmittance_product
+from app.render.renderer import Renderer
+from app.scene.loader import parse_scene
+
+pytestmark = pytest.mark.gl
+
+REPO = Path(__file__).resolve().parent.parent
+SIZE = (96, 64)
+AMBER = {
+    "base_color": [1.0, 1.0, 1.0], "roughness": 0.05, "ior": 1.5, "transmission": 1.0,
+    "thickness": 0.3, "attenuation_color": [0.95, 0.7, 0.35], "attenuation_distance": 0.3,
+}  # fmt: skip
+OPAQUE = {"base_color": [0.8, 0.8, 0.8], "roughness": 0.6}
+# floor points inside the shadow of the sphere, away from its edge and not hidden by it
+PROBES = [(-0.85, 0.0, 0.1), (-0.95, 0.0, -0.1), (-0.8, 0.0, -0.2)]
+
+
+# The lights, each along (-1, -1, 0) through the sphere's centre: a spot and a point light
+# 4.2 m from it (a spot's map and a cube face take the glass target as a sun's does).
+LIGHTS = {
+    "directional": {"type": "directional", "direction": [-1.0, -1.0, 0.0], "intensity": 2.0},
+    "spot": {
+        "type": "spot", "position": [3.0, 3.5, 0.0], "direction": [-1.0, -1.0, 0.0],
+        "intensity": 30.0, "range": 10.0, "inner_angle": 20.0, "outer_angle": 30.0,
+    },
+    "point": {"type": "point", "position": [3.0, 3.5, 0.0], "intensity": 30.0, "range": 10.0},
+}  # fmt: skip
+
+
+def scene(ball: dict, shadow: bool = True, light: str = "directional") -> dict:
+    sun = dict(LIGHTS[light])
+    if shadow:
+        sun.update(shadow=True, shadow_resolution=512)
+    return {
+        "render": {"width": SIZE[0], "height": SIZE[1]},
+        "camera": {"position": [-0.6, 4.0, 3.0], "target": [-0.6, 0.0, 0.0], "fov_y": 40.0},
+        "materials": {"ball": ball, "floor": {"base_color": [0.8, 0.8, 0.8], "roughness": 0.6}},
+        "objects": [
+            {"shape": "plane", "size": [8.0, 8.0], "material": "floor"},
+            {"shape": "sphere", "radius": 0.5, "position": [0.0, 0.5, 0.0], "material": "ball"},
+        ],
+        "lights": [sun],
+    }  # fmt: skip
+
+
+def render(gl, data: dict) -> tuple[np.ndarray, list[tuple[int, int]], object]:
+    """The HDR image, the probes' pixels (row from the top, column) and the glass target
+    read back (None without one)."""
+    loaded = parse_scene(copy.deepcopy(data), REPO / "scenes" / "t.toml")
+    renderer = Renderer(gl, loaded)
+    try:
+        renderer.render()
+        hdr = renderer.read_hdr().astype(np.float64)
+        view_proj = np.asarray(renderer.proj, np.float64) @ np.asarray(renderer.view, np.float64)
+        pixels = []
+        for p in PROBES:
+            clip = view_proj @ np.array([*p, 1.0])
+            ndc = clip[:3] / clip[3]
+            col = int((ndc[0] * 0.5 + 0.5) * SIZE[0])
+            row = int((0.5 - ndc[1] * 0.5) * SIZE[1])
+            pixels.append((row, col))
+        shadows = renderer.shadows
+        glass = None
+        if shadows is not None and shadows.glass_atlas is not None:
+            glass = shadows.read_glass()
+        return hdr, pixels, glass
+    finally:
+        renderer.release()
+
+
+def floor_visibility(gl, ball: dict, light: str = "directional") -> np.ndarray:
+    """(probes, 3) the shadowed render over the unshadowed one at the probes."""
+    lit, pixels, _ = render(gl, scene(ball, shadow=False, light=light))
+    dark, _, _ = render(gl, scene(ball, light=light))
+    return np.array([dark[r, c, :3] / lit[r, c, :3] for r, c in pixels])
+
+
+def amber_transmittance() -> np.ndarray:
+    f0 = ((1.5 - 1.0) / (1.5 + 1.0)) ** 2
+    return glass_transmittance(
+        AMBER["base_color"], 1.0, 0.0, f0, AMBER["thickness"],
+        np.array(AMBER["attenuation_color"]), AMBER["attenuation_distance"],
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("light", list(LIGHTS))
+def test_a_glass_sphere_s_shadow_is_lighter_and_amber(gl_egl, light):
+    opaque = floor_visibility(gl_egl, OPAQUE, light)
+    glass = floor_visibility(gl_egl, AMBER, light)
+    want = amber_transmittance()  # 0.912, 0.672, 0.336
+    assert opaque.max() < 0.05, opaque
+    assert glass.mean() > opaque.mean() + 0.3, (glass, opaque)
+    # tinted: red passes twice as well as blue, as the attenuation colour says
+    assert np.all(glass[:, 0] > 2.0 * glass[:, 2]), glass
+    # and the light is the twin's transmittance (the sun's alone: no environment)
+    np.testing.assert_allclose(glass, np.broadcast_to(want, glass.shape), rtol=2e-3)
+
+
+def test_the_glass_target_holds_the_twin_s_transmittance(gl_egl):
+    _, _, target = render(gl_egl, scene(AMBER))
+    assert target is not None
+    rgb, depth = target[..., :3], target[..., 3]
+    covered = depth < 1.0
+    assert covered.sum() > 100  # the sphere's disc in the 512 map
+    want = transmittance_product([(0.5, amber_transmittance())], 0.9)
+    np.testing.assert_allclose(rgb[covered], np.broadcast_to(want, rgb[covered].shape), rtol=1e-5)
+    np.testing.assert_allclose(rgb[~covered], 1.0)
+
+
+def test_the_twin_s_product_and_its_receiver_test():
+    a, b = np.array([0.5, 0.6, 0.7]), np.array([0.9, 0.8, 0.1])
+    np.testing.assert_allclose(transmittance_product([(0.4, a), (0.6, b)], 0.7), a * b)
+    np.testing.assert_allclose(transmittance_product([(0.4, a), (0.6, b)], 0.3), 1.0)
+    np.testing.assert_allclose(transmittance_product([], 0.3), 1.0)
+    # thin-walled clear glass: only the Fresnel share at normal incidence is lost
+    clear = glass_transmittance([1.0, 1.0, 1.0], 1.0, 0.0, 0.04, 0.0, np.ones(3), 0.0)
+    np.testing.assert_allclose(clear, 0.96)
+
+
+def test_a_scene_without_glass_builds_no_glass_target(gl_egl):
+    loaded = parse_scene(copy.deepcopy(scene(OPAQUE)), REPO / "scenes" / "t.toml")
+    renderer = Renderer(gl_egl, loaded)
+    try:
+        renderer.render()
+        assert renderer.shadows is not None
+        assert renderer.shadows.glass_atlas is None
+        assert "SHADOW_GLASS" not in renderer.shadows.defines()
+    finally:
+        renderer.release()
