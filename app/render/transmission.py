@@ -2,7 +2,8 @@
 screen-space refraction of the opaque image behind a transmissive surface.
 
 A part whose (first) layer has ``transmission`` > 0 is, like a blended part, left out of
-the G-buffer (the culler, the lighting pass and the shadow maps see what is behind it) and
+the G-buffer and of the shadow maps' depth (the culler and the lighting pass see what is
+behind it; under a shadowed light it tints the shadow pass's glass target) and
 drawn here, after the lighting pass and the environment background and before the blend
 pass. First the lighting pass's HDR image is copied into a texture with a mip chain (only
 in a frame with a transmissive part); then each transmissive part is shaded forward by
@@ -10,7 +11,7 @@ glsl/passes/forward.frag with ``TRANSMISSION``: the lighting pass's ``surface_ra
 with the diffuse base weighted by (1 - transmission), plus the transmitted term of
 glsl/brdf/transmission.glsl (twin app/reference/transmission.py): the view ray refracted by
 the material's index, offset by the volume's thickness (none where thin-walled), projected
-to the screen and read from the copy at a mip level set by roughness and index, times the
+to the screen and read from the copy at the mip level of the rough lobe's footprint, times the
 base colour, (1 - F) and Beer-Lambert's exp(-sigma d), plus each punctual light seen
 through the surface (the transmitted GGX lobe about the light mirrored through the
 surface, KHR_materials_transmission's BTDF, lit from the refracted ray's exit point). The
@@ -21,8 +22,7 @@ What it cannot see (docs/transmission.md measures it against the ray-caster's ex
 refraction): anything not on screen or hidden behind another opaque surface at the exit
 point's pixel, other transmissive or blended parts (one layer of glass, farthest first),
 the back face's second refraction and internal reflections (the exit point is one straight
-offset), and shadows on the lights seen through the glass. Transmissive parts cast no
-shadows.
+offset), shadows on the lights seen through the glass, and caustics.
 """
 
 from __future__ import annotations
