@@ -1,0 +1,133 @@
+"""The antialiasing passes against their float64 twins (app/reference/antialiasing.py;
+docs/antialiasing.md, "Twins"): a small frame of the bench's antialiasing scene is drawn
+on real GL in each mode, the pass's inputs are read back from its targets, and the
+twin's output from those inputs is compared with the pass's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.bench.antialiasing import aa_scene_data, with_aa
+from app.gl.context import GLContext
+from app.reference import antialiasing as twin
+from app.render.antialias import jitter_offsets
+from app.render.renderer import Renderer
+from app.scene.sources import scene_from
+
+pytestmark = pytest.mark.gl
+
+# gbaa at the size test_antialiasing.py draws it (the icosphere's triangles are under 2
+# pixels at 96x54); FXAA and the accumulation at the smaller one
+GBAA_SIZE = (192, 108)
+SIZE = (96, 54)
+
+
+def texels(texture) -> np.ndarray:
+    """A texture's texels as float64 (H, W, components), rows bottom-up (GL's order)."""
+    dtype = {"f1": np.uint8, "f2": np.float16, "f4": np.float32}[texture.dtype]
+    w, h = texture.size
+    data = np.frombuffer(texture.read(alignment=1), dtype)
+    return data.reshape(h, w, texture.components).astype(np.float64)
+
+
+def bytes_off(twin_image: np.ndarray, gl_bytes: np.ndarray) -> np.ndarray:
+    """How far the GL's 8-bit values lie from the twin's unrounded ones, in 8-bit steps,
+    beyond the half step that rounding to 8 bits may take."""
+    return np.maximum(np.abs(twin_image * 255.0 - gl_bytes) - 0.5, 0.0)
+
+
+# A pixel the twin and the GL agree on lies within this many 8-bit steps beyond the half
+# step of rounding: the float32 shader and the float64 twin differ by a few float32
+# rounding errors of the radiance, the tone map and pow (about 1e-6 relative, 3e-4 of a
+# step at 255), far below it; a changed term moves a pixel by a tenth of a step and more.
+STEP_TOLERANCE = 0.02
+
+
+@pytest.mark.parametrize("fused", [False, True], ids=["hdr", "fused"])
+def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool) -> None:
+    """gbaa's resolve (glsl/passes/gbaa.frag) against ``gbaa_resolve`` on the RT2, edge
+    and HDR texels it read: every pixel of the display image within ``STEP_TOLERANCE``
+    of the twin's (beyond rounding), the marked pixels the twin's ``gbaa_marked``, and
+    the resolve changing some of them (measured at 192x108: 798 marked, 387 changed,
+    none off by more than rounding). ``fused``: the lighting pass wrote the display
+    image and the surfaces' radiance alone, the background's a uniform."""
+    loaded = scene_from(aa_scene_data(GBAA_SIZE))
+    r = Renderer(gl_egl, with_aa(loaded, "gbaa", 1))
+    try:
+        r.want_hdr(not fused)
+        r.render()
+        assert r.gbaa is not None and r.fused_display == fused
+        resolved = texels(r.post.target)
+        surface, edge = texels(r.gbuffer.depth), texels(r.gbuffer.edge)
+        hdr = texels(r.lighting.hdr)
+        background = None
+        if fused:  # the display before the resolve is not kept: the marked pixels decide
+            display = resolved
+            background = np.r_[np.asarray(r.scene.background, np.float64), 1.0]
+        else:
+            r.run_post(r.lighting.hdr)
+            display = texels(r.post.target)
+        scene = r.scene
+    finally:
+        r.release()
+    expected = twin.gbaa_resolve(
+        surface, edge, hdr, display, scene.camera.exposure, scene.render.tonemap,
+        background=background,
+    )  # fmt: skip
+    marked = twin.gbaa_marked(surface)
+    off = bytes_off(expected, resolved).max(axis=-1)
+    assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
+    assert 0 < marked.sum() < marked.size // 4
+    if not fused:
+        changed = np.any(resolved != display, axis=-1)
+        assert changed.sum() > 100 and not np.any(changed & ~marked)
+
+
+def test_fxaa_filter_is_its_twin(gl_egl: GLContext) -> None:
+    """FXAA's filter (glsl/passes/fxaa.frag) against ``fxaa_filter`` on the copy of the
+    display image it read: every pixel whose comparisons the twin finds clear of a tie
+    (``fxaa_filter_with_ties``' margin over 1e-6: an exact tie, common in sums of 8-bit
+    lumas, the float32 shader's rounding decides) within ``STEP_TOLERANCE`` of the twin's,
+    beyond rounding (measured at 96x54: 620 edge pixels, 65 at a tie, 4 of them
+    differing); the ties a small part of the edge pixels."""
+    loaded = scene_from(aa_scene_data(SIZE))
+    r = Renderer(gl_egl, with_aa(loaded, "fxaa", 1))
+    try:
+        r.render()
+        assert r.fxaa is not None
+        source, filtered = texels(r.fxaa.source), texels(r.post.target)
+    finally:
+        r.release()
+    expected, margin = twin.fxaa_filter_with_ties(source)
+    edge, _ = twin.fxaa_edge(twin.fxaa_luma(source / 255.0))
+    off = bytes_off(expected, filtered).max(axis=-1)
+    clear = margin > 1e-6
+    assert off[clear].max() <= STEP_TOLERANCE, np.argwhere(clear & (off > STEP_TOLERANCE))[:8]
+    assert edge.sum() > 300 and np.count_nonzero(~clear & edge) <= 0.15 * edge.sum()
+    assert np.count_nonzero(np.any(filtered != source, axis=-1)) > 300
+
+
+def test_accumulation_is_its_twin(gl_egl: GLContext) -> None:
+    """The jittered accumulation (glsl/passes/accumulate.frag): after each of 4 samples
+    the pass's running mean (RGBA32F) is ``accumulate``'s of the samples' HDR images
+    within float32 rounding (1e-6 relative; measured 1.4e-7), and the frames were
+    drawn at ``jitter_offsets``' points, the twin's Halton (2, 3) points centred."""
+    n = 4
+    assert np.array_equal(twin.jitter_offsets(8), jitter_offsets(8))
+    assert np.allclose(twin.jitter_offsets(4)[0], [0.5 - 1.625 / 4, 1 / 3 - 14 / 36], atol=1e-15)
+    loaded = scene_from(aa_scene_data(SIZE))
+    r = Renderer(gl_egl, with_aa(loaded, "jitter", n))
+    try:
+        samples, means = [], []
+        for k in range(n):
+            r.render_sample(k)
+            samples.append(texels(r.lighting.hdr))
+            means.append(texels(r.accumulate.target))
+    finally:
+        r.release()
+    samples, means = np.array(samples), np.array(means)
+    expected = twin.accumulate(samples)
+    scale = np.abs(expected).max()
+    assert np.abs(samples[0] - samples[1]).max() > 0.01 * scale  # the jitter moved the frame
+    assert np.abs(means - expected).max() <= 1e-6 * scale, np.abs(means - expected).max()
