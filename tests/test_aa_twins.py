@@ -5,6 +5,8 @@ twin's output from those inputs is compared with the pass's."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -131,3 +133,86 @@ def test_accumulation_is_its_twin(gl_egl: GLContext) -> None:
     scale = np.abs(expected).max()
     assert np.abs(samples[0] - samples[1]).max() > 0.01 * scale  # the jitter moved the frame
     assert np.abs(means - expected).max() <= 1e-6 * scale, np.abs(means - expected).max()
+
+
+def synthetic_gbaa_inputs(size: tuple[int, int], seed: int) -> dict[str, np.ndarray]:
+    """RT2, edge, HDR and display texels that take every branch of the resolve, which a
+    scene of a few spheres leaves untaken: blocks of surfaces and single pixels, some
+    sharing a material id at view depths within and past ``GBAA_DEPTH_TOLERANCE`` of
+    each other, and the background; edge distances across (0, 1.2), 30 % of them on a
+    grid of quarters (so that two axes' slivers and two edges tie exactly), 15 % at 15/16,
+    16 (no edge) elsewhere; in the bottom 8 rows one-pixel gaps between two-pixel columns
+    of a nearer surface, whose slivers and the gap's own part sum past the pixel; radiance
+    rising and falling between pixels past the 1/2-2x clamp; random display bytes."""
+    rng = np.random.default_rng(seed)
+    w, h = size
+    blocks = rng.integers(0, 7, (h // 4 + 1, w // 4 + 1))
+    label = np.kron(blocks, np.ones((4, 4), np.int64))[:h, :w]
+    label = np.where(rng.random((h, w)) < 0.5, rng.integers(0, 7, (h, w)), label)
+    # the bottom rows: one-pixel gaps between two-pixel columns, over the background
+    ys, xs = np.mgrid[0:h, 0:w]
+    stripes = np.where(xs % 3 != 0, 5, np.where(ys % 2 == 0, 4, 0))
+    label = np.where(ys < 8, stripes, label)
+    ids = np.array([0, 1, 1, 1, 1, 2, 3])  # labels 1-4: one material at four depths
+    depths = np.array([0.0, 5.0, 5.3, 5.55, 6.2, 4.0, 7.0])  # 1-2 within 10 %, 1-3 11 %
+    depth = depths[label] * (1.0 + 0.002 * (xs - ys) / w)
+    surface = np.stack([np.where(label > 0, depth, 0.0), ids[label]], axis=-1)
+    edge = rng.uniform(0.0, 1.2, (h, w, 4))
+    pick = rng.random((h, w, 4))
+    edge = np.where(pick < 0.3, np.round(edge * 4) / 4, edge)
+    edge = np.where((pick >= 0.3) & (pick < 0.45), 0.9375, edge)
+    edge = np.where(pick >= 0.75, 16.0, edge)
+    # the gaps' neighbours reach into them along x by 3/8 or 7/16 each (equal half the
+    # time), the gaps' own edges lie under half a pixel along y, toward the background
+    far = np.full((h, w, 2), 16.0)
+    near = np.concatenate([rng.choice([0.875, 0.9375], (h, w, 2)), far], axis=-1)
+    gap = np.concatenate([far, rng.uniform(0.0, 0.5, (h, w, 2))], axis=-1)
+    striped = np.where((xs % 3 != 0)[..., None], near, gap)
+    edge = np.where((ys < 8)[..., None], striped, edge).astype(np.float16)
+    hdr = rng.uniform(0.0, 1.0, (h, w, 4)) ** 2 * 4.0 + 0.01
+    hdr[..., 3] = 1.0
+    display = rng.integers(0, 256, (h, w, 4)).astype(np.uint8)
+    return {"surface": surface.astype(np.float32), "edge": edge, "hdr": hdr.astype(np.float32),
+            "display": display}  # fmt: skip
+
+
+@pytest.mark.parametrize("quad", [True, False], ids=["quad", "fetched"])
+def test_gbaa_resolve_is_its_twin_on_every_branch(
+    gl_egl: GLContext, quad: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``GbaaPass`` drawn on synthetic texels (``synthetic_gbaa_inputs``, 64x48) against
+    ``gbaa_resolve``: every pixel within ``STEP_TOLERANCE`` of the twin's beyond rounding,
+    with the quad's inner neighbours from the derivatives (``quad``) and fetched; the
+    depth tolerance, the 45-degree tie of the axes and the clamp all decide pixels here
+    (a twin without any one of them fails)."""
+    from app.common.tonemaps import TONEMAP_CODE
+    from app.gl.shaders import ShaderCache
+    from app.render import antialias
+
+    size = (64, 48)
+    inputs = synthetic_gbaa_inputs(size, seed=3)
+    ctx = gl_egl.ctx
+    if not quad:
+        monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
+    gbaa = antialias.GbaaPass(ctx, ShaderCache(ctx), size, TONEMAP_CODE["neutral"])
+    textures = {
+        "surface": ctx.texture(size, 2, inputs["surface"].tobytes(), dtype="f4"),
+        "edge": ctx.texture(size, 4, inputs["edge"].tobytes(), dtype="f2"),
+        "hdr": ctx.texture(size, 4, inputs["hdr"].tobytes(), dtype="f4"),
+        "display": ctx.texture(size, 4, inputs["display"].tobytes(), dtype="f1"),
+    }
+    gbuffer = SimpleNamespace(depth=textures["surface"], edge=textures["edge"])
+    try:
+        gbaa.mark(gbuffer, textures["display"], [(0, 0, *size)])
+        gbaa.resolve(gbuffer, textures["hdr"], textures["display"], 0.5)
+        resolved = texels(textures["display"])
+    finally:
+        gbaa.release()
+        for t in textures.values():
+            t.release()
+    expected = twin.gbaa_resolve(
+        inputs["surface"], inputs["edge"], inputs["hdr"], inputs["display"], 0.5, "neutral"
+    )
+    off = bytes_off(expected, resolved).max(axis=-1)
+    assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
+    assert np.count_nonzero(np.any(resolved != inputs["display"], axis=-1)) > 0.3 * off.size
