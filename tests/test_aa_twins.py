@@ -1,0 +1,264 @@
+"""The antialiasing passes against their float64 twins (app/reference/antialiasing.py;
+docs/antialiasing.md, "Twins"): a small frame of the bench's antialiasing scene is drawn
+on real GL in each mode, the pass's inputs are read back from its targets, and the
+twin's output from those inputs is compared with the pass's."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from app.bench.antialiasing import aa_scene_data, with_aa
+from app.gl.context import GLContext
+from app.reference import antialiasing as twin
+from app.render.antialias import jitter_offsets
+from app.render.renderer import Renderer
+from app.scene.sources import scene_from
+
+pytestmark = pytest.mark.gl
+
+# gbaa at the size test_antialiasing.py draws it (the icosphere's triangles are under 2
+# pixels at 96x54); FXAA and the accumulation at the smaller one
+GBAA_SIZE = (192, 108)
+SIZE = (96, 54)
+
+
+def texels(texture) -> np.ndarray:
+    """A texture's texels as float64 (H, W, components), rows bottom-up (GL's order)."""
+    dtype = {"f1": np.uint8, "f2": np.float16, "f4": np.float32}[texture.dtype]
+    w, h = texture.size
+    data = np.frombuffer(texture.read(alignment=1), dtype)
+    return data.reshape(h, w, texture.components).astype(np.float64)
+
+
+def bytes_off(twin_image: np.ndarray, gl_bytes: np.ndarray) -> np.ndarray:
+    """How far the GL's 8-bit values lie from the twin's unrounded ones, in 8-bit steps,
+    beyond the half step that rounding to 8 bits may take."""
+    return np.maximum(np.abs(twin_image * 255.0 - gl_bytes) - 0.5, 0.0)
+
+
+# A pixel the twin and the GL agree on lies within this many 8-bit steps beyond the half
+# step of rounding: the float32 shader and the float64 twin differ by a few float32
+# rounding errors of the radiance, the tone map and pow (about 1e-6 relative, 3e-4 of a
+# step at 255), far below it; a changed term moves a pixel by a tenth of a step and more.
+STEP_TOLERANCE = 0.02
+
+
+@pytest.mark.parametrize("fused", [False, True], ids=["hdr", "fused"])
+def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool) -> None:
+    """gbaa's resolve (glsl/passes/gbaa.frag) against ``gbaa_resolve`` on the RT2, edge
+    and HDR texels it read: every pixel of the display image within ``STEP_TOLERANCE``
+    of the twin's (beyond rounding), the marked pixels the twin's ``gbaa_marked``, and
+    the resolve changing some of them (measured at 192x108: 798 marked, 387 changed,
+    none off by more than rounding). ``fused``: the lighting pass wrote the display
+    image and the surfaces' radiance alone, the background's a uniform."""
+    loaded = scene_from(aa_scene_data(GBAA_SIZE))
+    r = Renderer(gl_egl, with_aa(loaded, "gbaa", 1))
+    try:
+        r.want_hdr(not fused)
+        r.render()
+        assert r.gbaa is not None and r.fused_display == fused
+        interior = hasattr(r.gbaa, "interior")  # a third draw for the unmarked pixels
+        resolved = texels(r.post.target)
+        surface, edge = texels(r.gbuffer.depth), texels(r.gbuffer.edge)
+        hdr = texels(r.lighting.hdr)
+        background = None
+        if fused:  # the display before the resolve is not kept: the marked pixels decide
+            display = resolved
+            background = np.r_[np.asarray(r.scene.background, np.float64), 1.0]
+        else:
+            r.run_post(r.lighting.hdr)
+            display = texels(r.post.target)
+        scene = r.scene
+    finally:
+        r.release()
+    expected = twin.gbaa_resolve(
+        surface, edge, hdr, display, scene.camera.exposure, scene.render.tonemap,
+        background=background, interior=interior,
+    )  # fmt: skip
+    marked = twin.gbaa_marked(surface)
+    off = bytes_off(expected, resolved).max(axis=-1)
+    assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
+    assert 0 < marked.sum() < marked.size // 4
+    if not fused and not interior:
+        changed = np.any(resolved != display, axis=-1)
+        assert changed.sum() > 100 and not np.any(changed & ~marked)
+
+
+def test_fxaa_filter_is_its_twin(gl_egl: GLContext) -> None:
+    """FXAA's filter (glsl/passes/fxaa.frag) against ``fxaa_filter`` on the copy of the
+    display image it read: every pixel whose comparisons the twin finds clear of a tie
+    (``fxaa_filter_with_ties``' margin over 1e-6: an exact tie, common in sums of 8-bit
+    lumas, the float32 shader's rounding decides) within ``STEP_TOLERANCE`` of the twin's,
+    beyond rounding (measured at 96x54: 620 edge pixels, 65 at a tie, 4 of them
+    differing); the ties a small part of the edge pixels."""
+    loaded = scene_from(aa_scene_data(SIZE))
+    r = Renderer(gl_egl, with_aa(loaded, "fxaa", 1))
+    try:
+        r.render()
+        assert r.fxaa is not None
+        source, filtered = texels(r.fxaa.source), texels(r.post.target)
+    finally:
+        r.release()
+    expected, margin = twin.fxaa_filter_with_ties(source)
+    edge, _ = twin.fxaa_edge(twin.fxaa_luma(source / 255.0))
+    off = bytes_off(expected, filtered).max(axis=-1)
+    clear = margin > 1e-6
+    assert off[clear].max() <= STEP_TOLERANCE, np.argwhere(clear & (off > STEP_TOLERANCE))[:8]
+    assert edge.sum() > 300 and np.count_nonzero(~clear & edge) <= 0.15 * edge.sum()
+    assert np.count_nonzero(np.any(filtered != source, axis=-1)) > 300
+
+
+def test_accumulation_is_its_twin(gl_egl: GLContext) -> None:
+    """The jittered accumulation (glsl/passes/accumulate.frag): after each of 4 samples
+    the pass's running mean (RGBA32F) is ``accumulate``'s of the samples' HDR images
+    within float32 rounding (1e-6 relative; measured 1.4e-7), and the frames were
+    drawn at ``jitter_offsets``' points, the twin's Halton (2, 3) points centred."""
+    n = 4
+    assert np.array_equal(twin.jitter_offsets(8), jitter_offsets(8))
+    assert np.allclose(twin.jitter_offsets(4)[0], [0.5 - 1.625 / 4, 1 / 3 - 14 / 36], atol=1e-15)
+    loaded = scene_from(aa_scene_data(SIZE))
+    r = Renderer(gl_egl, with_aa(loaded, "jitter", n))
+    try:
+        samples, means = [], []
+        for k in range(n):
+            r.render_sample(k)
+            samples.append(texels(r.lighting.hdr))
+            means.append(texels(r.accumulate.target))
+    finally:
+        r.release()
+    samples, means = np.array(samples), np.array(means)
+    expected = twin.accumulate(samples)
+    scale = np.abs(expected).max()
+    assert np.abs(samples[0] - samples[1]).max() > 0.01 * scale  # the jitter moved the frame
+    assert np.abs(means - expected).max() <= 1e-6 * scale, np.abs(means - expected).max()
+
+
+def synthetic_gbaa_inputs(size: tuple[int, int], seed: int) -> dict[str, np.ndarray]:
+    """RT2, edge, HDR and display texels that take every branch of the resolve, which a
+    scene of a few spheres leaves untaken: blocks of surfaces and single pixels, some
+    sharing a material id at view depths within and past ``GBAA_DEPTH_TOLERANCE`` of
+    each other, and the background; edge distances across (0, 1.2), 30 % of them on a
+    grid of quarters (so that two axes' slivers and two edges tie exactly), 15 % at 15/16,
+    16 (no edge) elsewhere; in the bottom 8 rows one-pixel gaps between two-pixel columns
+    of a nearer surface, whose slivers and the gap's own part sum past the pixel; radiance
+    rising and falling between pixels past the 1/2-2x clamp; random display bytes."""
+    rng = np.random.default_rng(seed)
+    w, h = size
+    blocks = rng.integers(0, 7, (h // 4 + 1, w // 4 + 1))
+    label = np.kron(blocks, np.ones((4, 4), np.int64))[:h, :w]
+    label = np.where(rng.random((h, w)) < 0.5, rng.integers(0, 7, (h, w)), label)
+    # the bottom rows: one-pixel gaps between two-pixel columns, over the background
+    ys, xs = np.mgrid[0:h, 0:w]
+    stripes = np.where(xs % 3 != 0, 5, np.where(ys % 2 == 0, 4, 0))
+    label = np.where(ys < 8, stripes, label)
+    ids = np.array([0, 1, 1, 1, 1, 2, 3])  # labels 1-4: one material at four depths
+    depths = np.array([0.0, 5.0, 5.3, 5.55, 6.2, 4.0, 7.0])  # 1-2 within 10 %, 1-3 11 %
+    depth = depths[label] * (1.0 + 0.002 * (xs - ys) / w)
+    surface = np.stack([np.where(label > 0, depth, 0.0), ids[label]], axis=-1)
+    edge = rng.uniform(0.0, 1.2, (h, w, 4))
+    pick = rng.random((h, w, 4))
+    edge = np.where(pick < 0.3, np.round(edge * 4) / 4, edge)
+    edge = np.where((pick >= 0.3) & (pick < 0.45), 0.9375, edge)
+    edge = np.where(pick >= 0.75, 16.0, edge)
+    # the gaps' neighbours reach into them along x by 3/8 or 7/16 each (equal half the
+    # time), the gaps' own edges lie under half a pixel along y, toward the background
+    far = np.full((h, w, 2), 16.0)
+    near = np.concatenate([rng.choice([0.875, 0.9375], (h, w, 2)), far], axis=-1)
+    gap = np.concatenate([far, rng.uniform(0.0, 0.5, (h, w, 2))], axis=-1)
+    striped = np.where((xs % 3 != 0)[..., None], near, gap)
+    edge = np.where((ys < 8)[..., None], striped, edge).astype(np.float16)
+    hdr = rng.uniform(0.0, 1.0, (h, w, 4)) ** 2 * 4.0 + 0.01
+    hdr[..., 3] = 1.0
+    display = rng.integers(0, 256, (h, w, 4)).astype(np.uint8)
+    return {"surface": surface.astype(np.float32), "edge": edge, "hdr": hdr.astype(np.float32),
+            "display": display}  # fmt: skip
+
+
+@pytest.mark.parametrize("variant", ["quad", "fetched", "straight"])
+def test_gbaa_resolve_is_its_twin_on_every_branch(
+    gl_egl: GLContext, variant: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``GbaaPass`` drawn on synthetic texels (``synthetic_gbaa_inputs``, 64x48) against
+    ``gbaa_resolve``: every pixel within ``STEP_TOLERANCE`` of the twin's beyond rounding,
+    with the quad's inner neighbours from the derivatives (``quad``), fetched, and with
+    premultiplied alpha in (0, 1] written straight (a transparent background's); the
+    depth tolerance, the 45-degree tie of the axes and the clamp all decide pixels here
+    (a twin without any one of them fails)."""
+    from app.common.tonemaps import TONEMAP_CODE
+    from app.gl.shaders import ShaderCache
+    from app.render import antialias
+
+    size = (64, 48)
+    inputs = synthetic_gbaa_inputs(size, seed=3)
+    straight = variant == "straight"
+    if straight:
+        alpha = np.random.default_rng(4).uniform(0.05, 1.0, size[::-1]).astype(np.float32)
+        inputs["hdr"][..., :3] *= alpha[..., None]
+        inputs["hdr"][..., 3] = alpha
+    ctx = gl_egl.ctx
+    if variant == "fetched":
+        monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
+    gbaa = antialias.GbaaPass(ctx, ShaderCache(ctx), size, TONEMAP_CODE["neutral"], straight)
+    textures = {
+        "surface": ctx.texture(size, 2, inputs["surface"].tobytes(), dtype="f4"),
+        "edge": ctx.texture(size, 4, inputs["edge"].tobytes(), dtype="f2"),
+        "hdr": ctx.texture(size, 4, inputs["hdr"].tobytes(), dtype="f4"),
+        "display": ctx.texture(size, 4, inputs["display"].tobytes(), dtype="f1"),
+    }
+    gbuffer = SimpleNamespace(depth=textures["surface"], edge=textures["edge"])
+    interior = hasattr(gbaa, "interior")  # a third draw for the unmarked pixels
+    try:
+        gbaa.mark(gbuffer, textures["display"], [(0, 0, *size)])
+        gbaa.resolve(gbuffer, textures["hdr"], textures["display"], 0.5)
+        resolved = texels(textures["display"])
+    finally:
+        gbaa.release()
+        for t in textures.values():
+            t.release()
+    expected = twin.gbaa_resolve(
+        inputs["surface"], inputs["edge"], inputs["hdr"], inputs["display"], 0.5, "neutral",
+        straight_alpha=straight, interior=interior,
+    )  # fmt: skip
+    off = bytes_off(expected, resolved).max(axis=-1)
+    assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
+    assert np.count_nonzero(np.any(resolved != inputs["display"], axis=-1)) > 0.3 * off.size
+
+
+def test_fxaa_filter_is_its_twin_on_alpha_and_borders(gl_egl: GLContext) -> None:
+    """``FxaaPass`` on a synthetic RGBA8 image (61x35, no multiple of the 4-pixel blocks:
+    blocks of colour and single pixels, alpha in 1..255, edges at every border) against
+    ``fxaa_filter``: the pixels clear of a tie within ``STEP_TOLERANCE`` of the twin's,
+    colour and alpha (the mix premultiplied in linear light, divided again); measured:
+    1861 edge pixels, 252 at a tie, 28 of them differing, none elsewhere (with the exact
+    bilinear mix, not llvmpipe's 8-bit one, 8 pixels clear of a tie differ by up to 72
+    steps)."""
+    from app.gl.shaders import ShaderCache
+    from app.render.antialias import FxaaPass
+
+    size = (61, 35)
+    rng = np.random.default_rng(5)
+    w, h = size
+    blocks = rng.integers(0, 256, (h // 3 + 1, w // 3 + 1, 4))
+    image = np.kron(blocks, np.ones((3, 3, 1), np.int64))[:h, :w]
+    image = np.where(rng.random((h, w, 1)) < 0.15, rng.integers(0, 256, (h, w, 4)), image)
+    image[..., 3] = np.maximum(image[..., 3], 1)
+    image = image.astype(np.uint8)
+    ctx = gl_egl.ctx
+    fxaa = FxaaPass(ctx, ShaderCache(ctx), size)
+    display = ctx.texture(size, 4, image.tobytes(), dtype="f1")
+    try:
+        fxaa.run(display)
+        filtered = texels(display)
+    finally:
+        fxaa.release()
+        display.release()
+    expected, margin = twin.fxaa_filter_with_ties(image)
+    edge, _ = twin.fxaa_edge(twin.fxaa_luma(image / 255.0))
+    off = bytes_off(expected, filtered).max(axis=-1)
+    clear = margin > 1e-6
+    assert off[clear].max() <= STEP_TOLERANCE, np.argwhere(clear & (off > STEP_TOLERANCE))[:8]
+    assert edge.sum() > 0.5 * edge.size and np.count_nonzero(~clear & edge) <= 0.15 * edge.sum()
+    assert np.count_nonzero(np.any(filtered != image, axis=-1)) > 0.4 * edge.size
