@@ -199,3 +199,22 @@ def test_the_doc_table_is_the_json():
     from scripts.accuracy_doc import JSON, main
 
     assert main(["--from-json", str(JSON), "--check"]) == 0
+
+
+def test_gbaa_interior_takes_the_pixel_s_area_mean(gl_egl):
+    """gbaa's third draw moves each interior pixel (every 4-neighbour the same surface) from
+    its centre's radiance toward the pixel's area mean by the box filter's 5-tap correction:
+    away from the silhouettes the display image comes closer to the area truth than the
+    aliased frame's, which the default drew there before (the same bytes). Measured on
+    llvmpipe at 160 x 90 (mean absolute error of linear display values over the pixels
+    2 px or more inside a silhouette): 0.74x the aliased frame's; 1.00x without the draw."""
+    loaded = five_spheres()
+    size = (160, 90)
+    truth = area_reference_scene(loaded, size, 4, 16)
+    inside = ~edge_mask(truth.ids, 2)
+    want = srgb_decode(np.clip(post_process(truth.hdr, 0.0, "neutral"), 0.0, 1.0))[inside]
+    err = {}
+    for mode in ("none", "gbaa"):
+        _, ldr = gpu_images(gl_egl, with_settings(loaded, {"render.antialiasing": mode}), size)
+        err[mode] = float(np.abs(srgb_decode(ldr)[inside] - want).mean())
+    assert err["gbaa"] < 0.85 * err["none"], err

@@ -478,7 +478,10 @@ class GbaaPass:
     depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces, and
     ``resolve`` runs on the far plane z-tested (">") to those pixels, so that only blocks
     of pixels with a silhouette run it (llvmpipe shades every branch for its whole
-    block). The other pixels keep post's bytes. The resolve reads the HDR image at
+    block). A third draw, ``interior``, z-tested ("<=") to the unmarked pixels, writes
+    each surface pixel there from its radiance and its 4-neighbours' (the same surface):
+    the box filter's second-order correction of a pixel-centre sample (glsl/passes/gbaa.frag,
+    GBAA_INTERIOR); the background keeps post's bytes. The resolve reads the HDR image at
     marked pixels only (a neighbour it mixes in holds another surface, so is marked):
     where the lighting pass wrote the display image it wrote the surfaces' radiance too
     (``Renderer.run_lighting``), and the background's is given as a uniform.
@@ -510,7 +513,11 @@ class GbaaPass:
         vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
         self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})
         self.resolver = shaders.program(vertex, fragment, {**defines, "FAR_PLANE": 1})
-        self._vaos = [ctx.vertex_array(p, []) for p in (self.marker, self.resolver)]
+        self.interior = shaders.program(
+            vertex, fragment, {**defines, "FAR_PLANE": 1, "GBAA_INTERIOR": 1}
+        )
+        programs = (self.marker, self.resolver, self.interior)
+        self._vaos = [ctx.vertex_array(p, []) for p in programs]
         self.depth = ctx.depth_renderbuffer(size)
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
         self._rects: list[Rect] = []
@@ -551,11 +558,11 @@ class GbaaPass:
         textures: dict[str, moderngl.Texture],
         depth_func: str,
     ) -> None:
-        """Draw program ``which`` (0 the mark, 1 the resolve) over ``_rects`` into
-        ``_out`` with the depth test ``depth_func``."""
+        """Draw program ``which`` (0 the mark, 1 the resolve, 2 the interior) over
+        ``_rects`` into ``_out`` with the depth test ``depth_func``."""
         if not self._rects:
             return
-        program = (self.marker, self.resolver)[which]
+        program = (self.marker, self.resolver, self.interior)[which]
         w, h = self.size
         if self._ndc[0] != self._rects:  # the rectangles in NDC, once for both draws
             ndc = np.zeros((GBAA_MAX_RECTS, 4), np.float32)
@@ -599,7 +606,10 @@ class GbaaPass:
         """Resolve the marked pixels of ``gbuffer``'s frame from ``hdr`` (its linear HDR
         image, ``size``) into ``display`` (post's RGBA8 image of it). ``background``: the
         RGBA radiance of every pixel without a surface, where ``hdr`` holds only the
-        marked surface pixels (None: ``hdr`` holds every pixel)."""
+        surface pixels (None: ``hdr`` holds every pixel). Then the unmarked surface pixels
+        (the mark's depth 1, "<=" on the far plane) from ``hdr``'s 5-tap box correction:
+        the pixel-centre radiance taken toward the pixel's area mean (glsl/passes/gbaa.frag,
+        GBAA_INTERIOR; docs/accuracy.md, "Every pixel")."""
         self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
         textures = {"u_depth": gbuffer.depth, "u_edge": gbuffer.edge, "u_hdr": hdr}
         rgba = np.zeros(4) if background is None else np.resize(np.asarray(background), 4)
@@ -611,6 +621,7 @@ class GbaaPass:
             "u_background": tuple(float(x) for x in rgba),
         }
         self._draw(1, uniforms, textures, ">")
+        self._draw(2, uniforms, textures, "<=")
 
     def release(self) -> None:
         for obj in (*self._vaos, self._out, self.depth):

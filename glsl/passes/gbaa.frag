@@ -21,6 +21,13 @@
 // fine_derivatives) each lane fetches its own texel and its two neighbours outside its 2x2
 // quad, and takes the one inside the quad from the derivative: three fetches of each
 // target instead of five (a fetch is most of these draws' cost on llvmpipe).
+// GBAA_INTERIOR, a third draw z-tested to the pixels the mark left unmarked (every
+// 4-neighbour holds the same surface), writes their display value from the pixel-centre
+// radiance corrected toward the pixel's box-filtered mean: the midpoint rule's error of a
+// smooth image is (f_xx + f_yy) / 24, so the 5-tap [1/24 around, 1 - 4/24 centre] (whose
+// variance per axis, 2/24, is the unit box's 1/12) takes the sample to the pixel's area mean
+// to second order: a highlight's peak, a terminator's kink and a rim's curvature as the
+// pixel-area truth holds them (docs/accuracy.md, "Every pixel").
 #include "post/tonemap.glsl"
 
 #ifndef STRAIGHT_ALPHA
@@ -28,6 +35,9 @@
 #endif
 #ifndef GBAA_AXIS_TIE
 #define GBAA_AXIS_TIE 1.1   // a neighbour's edge counts along an axis within 10 % of its nearest
+#endif
+#ifndef GBAA_BOX_WEIGHT
+#define GBAA_BOX_WEIGHT (1.0 / 24.0)   // each 4-neighbour's weight in the interior's 5-tap
 #endif
 #ifndef GBAA_DEPTH_TOLERANCE
 #define GBAA_DEPTH_TOLERANCE 0.1   // view depths further apart than this fraction differ
@@ -116,6 +126,29 @@ vec4 centroid_radiance(vec4 c, vec4 b, float shift) {
     return clamp(c + shift * (c - b), 0.5 * c, 2.0 * c);
 }
 
+// The display value of linear HDR RGBA c, as passes/post.frag writes it.
+vec4 display_value(vec4 c) {
+#if STRAIGHT_ALPHA
+    float a = clamp(c.a, 0.0, 1.0);
+    vec3 rgb = (a > 0.0 ? c.rgb / a : vec3(0.0)) * u_exposure;
+    return vec4(srgb_encode(tonemap_selected(rgb)), a);
+#else
+    return vec4(srgb_encode(tonemap_selected(c.rgb * u_exposure)), 1.0);
+#endif
+}
+
+#ifdef GBAA_INTERIOR
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    g_last = textureSize(u_depth, 0) - 1;
+    // the background keeps post's bytes; a surface pixel here has its surface all round
+    if (!(texelFetch(u_depth, px, 0).x > 0.0)) discard;
+    vec4 around = vec4(0.0);
+    for (int k = 0; k < 4; ++k) around += texelFetch(u_hdr, clamp(px + STEPS[k], ivec2(0), g_last), 0);
+    vec4 c = texelFetch(u_hdr, px, 0);
+    frag_color = display_value(c + GBAA_BOX_WEIGHT * (around - 4.0 * c));
+}
+#else
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     g_last = textureSize(u_depth, 0) - 1;
@@ -216,12 +249,7 @@ void main() {
     for (int k = 0; k < 4; ++k) {
         if (weight[k] > 0.0) c += weight[k] * scale * sliver[k];
     }
-#if STRAIGHT_ALPHA
-    float a = clamp(c.a, 0.0, 1.0);
-    vec3 rgb = (a > 0.0 ? c.rgb / a : vec3(0.0)) * u_exposure;
-    frag_color = vec4(srgb_encode(tonemap_selected(rgb)), a);
-#else
-    frag_color = vec4(srgb_encode(tonemap_selected(c.rgb * u_exposure)), 1.0);
-#endif
+    frag_color = display_value(c);
 #endif
 }
+#endif
