@@ -21,7 +21,7 @@ import argparse
 import json
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +50,7 @@ BEGIN = "<!-- begin generated: scripts/accuracy_doc.py writes this section; edit
 END = "<!-- end generated: scripts/accuracy_doc.py -->"
 CHANGES_IMAGE = {"render.terms", "render.width", "render.height"}  # the truth would differ
 # The truth checked by a finer one (twice the rays per side: four times the cost)
-CONVERGENCE = ["five spheres", "sec6_roughness"]
+CONVERGENCE = ["five spheres"]
 
 
 def _scene(name: str) -> LoadedScene:
@@ -124,17 +124,32 @@ def measure(args: argparse.Namespace) -> dict:
         if unknown:
             raise ValueError(f"--scenes: not a measured scene: {', '.join(unknown)}")
         names = [n for n in names if n in args.scenes]
+    # The cheapest truths first (pixels times primitives), so that a run stopped early
+    # (--json is written after every scene) holds the most scenes.
+    names.sort(key=lambda n: _cost(_scene(n), args.width))
     start = time.perf_counter()
-    rows, convergence = [], []
-    # The truths (numpy, one core each) in worker processes; the renders here, in order
+    payload: dict = {
+        "width": args.width,
+        "samples": args.samples,
+        "edge_samples": args.edge_samples,
+        "settings": [settings_label(o) for o in overrides],
+        "rows": [],
+        "convergence": [],
+        "unmeasured": list(names),
+        "seconds": 0.0,
+    }
+    _write_json(args.json, payload)
+    # The truths (numpy, one core each) in worker processes; the renders here, as each
+    # truth arrives
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        jobs = [
-            pool.submit(_truths, n, args.width, args.samples, args.edge_samples, args.cache)
+        jobs = {
+            pool.submit(_truths, n, args.width, args.samples, args.edge_samples, args.cache): n
             for n in names
-        ]
+        }
         gl = create_context(args.backend)
         try:
-            for name, job in zip(names, jobs, strict=True):
+            for job in as_completed(jobs):
+                name = jobs[job]
                 truth, finer = job.result()
                 loaded = _scene(name)
                 size = _size(loaded, args.width)
@@ -142,22 +157,41 @@ def measure(args: argparse.Namespace) -> dict:
                 for o in overrides:
                     e = every_pixel_row(gl, loaded, size, truth, o)
                     label = settings_label(o)
-                    rows.append({"scene": name, "size": list(size), "settings": label, **e})
+                    payload["rows"].append(
+                        {"scene": name, "size": list(size), "settings": label, **e}
+                    )
                 if finer is not None:
                     e = truth_errors(truth, finer, cam.exposure, render.tonemap)
-                    convergence.append({"scene": name, "size": list(size), **e})
-                print(f"accuracy_doc: {name} {size[0]}x{size[1]}", file=sys.stderr)
+                    payload["convergence"].append({"scene": name, "size": list(size), **e})
+                payload["unmeasured"].remove(name)
+                payload["seconds"] = round(time.perf_counter() - start, 1)
+                _write_json(args.json, payload)
+                print(f"accuracy_doc: {name} {size[0]}x{size[1]}", file=sys.stderr, flush=True)
         finally:
             gl.release()
-    return {
-        "width": args.width,
-        "samples": args.samples,
-        "edge_samples": args.edge_samples,
-        "settings": [settings_label(o) for o in overrides],
-        "rows": rows,
-        "convergence": convergence,
-        "seconds": round(time.perf_counter() - start, 1),
+    return payload
+
+
+def _cost(loaded: LoadedScene, width: int | None) -> int:
+    """A truth's relative cost: its pixels times its objects."""
+    w, h = _size(loaded, width)
+    return w * h * max(1, len(loaded.scene.objects))
+
+
+def _write_json(path: Path, payload: dict) -> None:
+    """``payload`` with its rows in scene order (the five spheres first), to ``path``."""
+
+    def scene(r: dict) -> str:
+        return "" if r["scene"] == "five spheres" else r["scene"]
+
+    out = {
+        **payload,
+        "rows": sorted(
+            payload["rows"], key=lambda r: (scene(r), payload["settings"].index(r["settings"]))
+        ),
+        "convergence": sorted(payload["convergence"], key=scene),
     }
+    path.write_text(json.dumps(out, indent=1) + "\n", encoding="utf-8")
 
 
 def _f(x: float | None) -> str:
@@ -217,6 +251,12 @@ def section(payload: dict) -> str:
             f" truth, mean over the scenes, ≤ {TARGET_FLIP:.0e}), {_where(payload)}:"
             f" {shown:.2e}, {shown / TARGET_FLIP:.2f}× the target; {ok} of {len(defaults)}"
             " scenes within it on their own.",
+        ]
+    if payload.get("unmeasured"):
+        missing = ", ".join(f"`{n}`" for n in payload["unmeasured"])
+        lines += [
+            "",
+            f"Not measured (the run was stopped before their truths were done): {missing}.",
         ]
     others = [label for label in payload["settings"] if label != "defaults"]
     head = " | ".join(others)
@@ -296,11 +336,11 @@ def main(argv: list[str] | None = None) -> int:
         payload = json.loads(args.from_json.read_text(encoding="utf-8"))
     else:
         try:
-            payload = measure(args)
+            measure(args)
         except ValueError as exc:
             print(f"accuracy_doc: {exc}", file=sys.stderr)
             return 2
-        args.json.write_text(json.dumps(payload, indent=1) + "\n", encoding="utf-8")
+        payload = json.loads(args.json.read_text(encoding="utf-8"))
     source = args.from_json or args.json
     return update_generated(
         "accuracy_doc", args.doc, section(payload), source, args.check, (BEGIN, END)

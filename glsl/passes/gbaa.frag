@@ -39,6 +39,9 @@
 #ifndef GBAA_BOX_WEIGHT
 #define GBAA_BOX_WEIGHT (1.0 / 24.0)   // each 4-neighbour's weight in the interior's 5-tap
 #endif
+#ifndef GBAA_BOX_LIMIT
+#define GBAA_BOX_LIMIT 1.5   // the interior's corrected radiance within this factor of its own
+#endif
 #ifndef GBAA_DEPTH_TOLERANCE
 #define GBAA_DEPTH_TOLERANCE 0.1   // view depths further apart than this fraction differ
 #endif
@@ -141,12 +144,24 @@ vec4 display_value(vec4 c) {
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     g_last = textureSize(u_depth, 0) - 1;
+    vec4 c = texelFetch(u_hdr, px, 0);
+    vec4 around = vec4(0.0);
+#if QUAD_NEIGHBOURS
+    // three fetches: the neighbours inside the quad from the derivatives (every lane alive)
+    quad_lanes(px);
+    vec4 n[4] = quad_around(c, texelFetch(u_hdr, clamp(px + ivec2(g_out.x, 0), ivec2(0), g_last), 0),
+                            texelFetch(u_hdr, clamp(px + ivec2(0, g_out.y), ivec2(0), g_last), 0));
+    for (int k = 0; k < 4; ++k) around += n[k];
+#else
+    for (int k = 0; k < 4; ++k) around += texelFetch(u_hdr, clamp(px + STEPS[k], ivec2(0), g_last), 0);
+#endif
     // the background keeps post's bytes; a surface pixel here has its surface all round
     if (!(texelFetch(u_depth, px, 0).x > 0.0)) discard;
-    vec4 around = vec4(0.0);
-    for (int k = 0; k < 4; ++k) around += texelFetch(u_hdr, clamp(px + STEPS[k], ivec2(0), g_last), 0);
-    vec4 c = texelFetch(u_hdr, px, 0);
-    frag_color = display_value(c + GBAA_BOX_WEIGHT * (around - 4.0 * c));
+    vec4 boxed = c + GBAA_BOX_WEIGHT * (around - 4.0 * c);
+    // A highlight smaller than the pixel is no smooth image: its 1/24 would draw a bright
+    // cross on its 4-neighbours, whose area means hold none of it (the area truth, and a
+    // supersampled frame, keep it in one pixel). The correction stays within a factor.
+    frag_color = display_value(clamp(boxed, c / GBAA_BOX_LIMIT, c * GBAA_BOX_LIMIT));
 }
 #else
 void main() {
