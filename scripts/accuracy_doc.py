@@ -248,7 +248,8 @@ def section(payload: dict) -> str:
         lines += [
             "",
             f"**{verdict}**: the target (the defaults' 8-bit display FLIP against the area"
-            f" truth, mean over the scenes, ≤ {TARGET_FLIP:.0e}), {_where(payload)}:"
+            f" truth, mean over the {len(defaults)} scenes measured, ≤ {TARGET_FLIP:.0e}),"
+            f" {_where(payload)}:"
             f" {shown:.2e}, {shown / TARGET_FLIP:.2f}× the target; {ok} of {len(defaults)}"
             " scenes within it on their own.",
         ]
