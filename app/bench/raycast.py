@@ -253,7 +253,9 @@ def every_pixel_errors(
       channels (``rel_rmse_edge``: the edge pixels' RMS error, same denominator);
     * ``display_flip_mean`` (with ``display``, the renderer's 8-bit display image in
       [0, 1]): mean FLIP against the truth's display image rounded to 8 bits as the
-      display target rounds it, so that post passes on the display image count;
+      display target rounds it, so that post passes on the display image count, and
+      ``display_flip_edge`` / ``display_flip_interior`` that map over the edge pixels and
+      the rest;
     * ``edge_share``: the fraction of the image's pixels that are edge pixels."""
     want = np.asarray(truth.hdr, np.float64)
     got = np.asarray(hdr, np.float64)
@@ -272,11 +274,16 @@ def every_pixel_errors(
             float(np.sqrt(err2[edge].mean() / 3.0)) / norm if norm > 0 and edge.any() else None
         ),
         "display_flip_mean": None,
+        "display_flip_edge": None,
+        "display_flip_interior": None,
         "edge_share": float(edge.mean()),
     }
     if display is not None:
         quantised = np.round(ref_ldr * 255.0) / 255.0
-        out["display_flip_mean"] = float(_flip(quantised, display).mean())
+        shown = _flip(quantised, display)
+        out["display_flip_mean"] = float(shown.mean())
+        out["display_flip_edge"] = _mean(shown, edge)
+        out["display_flip_interior"] = _mean(shown, ~edge)
     return out
 
 
