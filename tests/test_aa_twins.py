@@ -60,7 +60,6 @@ def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool) -> None:
         r.want_hdr(not fused)
         r.render()
         assert r.gbaa is not None and r.fused_display == fused
-        interior = hasattr(r.gbaa, "interior")  # a third draw for the unmarked pixels
         resolved = texels(r.post.target)
         surface, edge = texels(r.gbuffer.depth), texels(r.gbuffer.edge)
         hdr = texels(r.lighting.hdr)
@@ -76,13 +75,13 @@ def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool) -> None:
         r.release()
     expected = twin.gbaa_resolve(
         surface, edge, hdr, display, scene.camera.exposure, scene.render.tonemap,
-        background=background, interior=interior,
+        background=background,
     )  # fmt: skip
     marked = twin.gbaa_marked(surface)
     off = bytes_off(expected, resolved).max(axis=-1)
     assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
     assert 0 < marked.sum() < marked.size // 4
-    if not fused and not interior:
+    if not fused:
         changed = np.any(resolved != display, axis=-1)
         assert changed.sum() > 100 and not np.any(changed & ~marked)
 
@@ -209,7 +208,6 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
         "display": ctx.texture(size, 4, inputs["display"].tobytes(), dtype="f1"),
     }
     gbuffer = SimpleNamespace(depth=textures["surface"], edge=textures["edge"])
-    interior = hasattr(gbaa, "interior")  # a third draw for the unmarked pixels
     try:
         gbaa.mark(gbuffer, textures["display"], [(0, 0, *size)])
         gbaa.resolve(gbuffer, textures["hdr"], textures["display"], 0.5)
@@ -220,7 +218,7 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
             t.release()
     expected = twin.gbaa_resolve(
         inputs["surface"], inputs["edge"], inputs["hdr"], inputs["display"], 0.5, "neutral",
-        straight_alpha=straight, interior=interior,
+        straight_alpha=straight,
     )  # fmt: skip
     off = bytes_off(expected, resolved).max(axis=-1)
     assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())

@@ -204,24 +204,6 @@ def gbaa_display_value(
     return np.concatenate([rgb, np.ones_like(rgb[..., :1])], axis=-1)
 
 
-# The interior draw of everypixel's branch (not on 1a96f1a; GbaaPass.interior there):
-# each 4-neighbour's weight in the 5-tap and the factor the result stays within
-GBAA_BOX_WEIGHT = 1.0 / 24.0
-GBAA_BOX_LIMIT = 1.5
-
-
-def gbaa_interior_radiance(hdr: np.ndarray) -> np.ndarray:
-    """(H, W, 4) an unmarked surface pixel's radiance taken toward its box-filtered mean:
-    c + (sum of the 4-neighbours - 4 c) / 24 (the midpoint rule's error of a smooth image
-    is (f_xx + f_yy) / 24), kept within ``GBAA_BOX_LIMIT`` of c either way (a sub-pixel
-    highlight is no smooth image). The GLSL of the draw (GBAA_INTERIOR) is not on the
-    commit these twins were written at; this follows the branch that adds it."""
-    c = np.asarray(hdr, np.float64)
-    around = sum(shifted(c, dx, dy) for dx, dy in STEPS)
-    boxed = c + GBAA_BOX_WEIGHT * (around - 4.0 * c)
-    return np.minimum(np.maximum(boxed, c / GBAA_BOX_LIMIT), c * GBAA_BOX_LIMIT)
-
-
 def gbaa_resolve(
     surface: np.ndarray,
     edge: np.ndarray,
@@ -231,21 +213,14 @@ def gbaa_resolve(
     tonemap: str,
     straight_alpha: bool = False,
     background: np.ndarray | None = None,
-    interior: bool = False,
 ) -> np.ndarray:
     """(H, W, 4) the display image after the resolve, in 0..1 (unrounded): at the marked
     pixels the resolved radiance's ``gbaa_display_value``, elsewhere ``display``'s bytes
-    (post's image, RGBA8) / 255; with ``interior`` (a pass with the interior draw) the
-    unmarked surface pixels' ``gbaa_interior_radiance``'s display value."""
+    (post's image, RGBA8) / 255."""
     surface = np.asarray(surface, np.float64)
     c = gbaa_resolve_radiance(surface, edge, hdr, background)
     out = np.asarray(display, np.float64) / 255.0
     marked = gbaa_marked(surface)
-    if interior:
-        inner = gbaa_display_value(
-            gbaa_interior_radiance(hdr), exposure_ev, tonemap, straight_alpha
-        )
-        out = np.where((~marked & (surface[..., 0] > 0))[..., None], inner, out)
     resolved = gbaa_display_value(c, exposure_ev, tonemap, straight_alpha)
     return np.where(marked[..., None], resolved, out)
 
