@@ -9,8 +9,11 @@
 2. scenes/sec4_area_lights.toml rendered by the GPU (the LTC) against the float64
    ray-caster (app/frame/raycast.py, area lights integrated exactly): relative error of
    the interior pixels' radiance where the area light dominates.
+3. ``--sides``: per curved shape and polygon sides, the error against the truth and
+   against a 96-gon (the polygon's own error), over the roughness set.
 
     python scripts/area_light_errors.py [--samples 16384] [--scene-size 192 80]
+        [--skip-table] [--skip-scene] [--sides]
 """
 
 from __future__ import annotations
@@ -151,6 +154,7 @@ def main() -> None:
     parser.add_argument("--scene-samples", type=int, default=1024)
     parser.add_argument("--skip-table", action="store_true")
     parser.add_argument("--sides", action="store_true", help="only the error against sides")
+    parser.add_argument("--skip-scene", action="store_true", help="no scene table")
     args = parser.parse_args()
     t0 = time.perf_counter()
     if args.sides:
@@ -159,7 +163,8 @@ def main() -> None:
         return
     if not args.skip_table:
         print("\n".join(ltc_table(args.samples)))
-    print("\n".join(scene_errors(tuple(args.scene_size), args.scene_samples)))
+    if not args.skip_scene:
+        print("\n".join(scene_errors(tuple(args.scene_size), args.scene_samples)))
     print(f"({time.perf_counter() - t0:.0f} s)")
 
 

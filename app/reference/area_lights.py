@@ -14,11 +14,13 @@ scripts/ltc_tables.py fitted to the project's GGX lobe (height-correlated Smith 
 
 f_diffuse at the representative direction l_rep (the clipped polygon's vector form factor):
 exact for Lambert, whose LTC is the cosine itself. Shapes as polygons: a rectangle exactly;
-a disk as a regular ``POLYGON_SIDES``-gon of the same area; a sphere as its silhouette disk
-(the cone of directions it subtends from the point: the same set of directions, so exact
-but for the polygon); a tube (a capsule) as the stadium that its silhouette would be
-without perspective: its axis segment widened by the radius perpendicular to the direction
-to the point, with half-polygon caps (an approximation, measured in docs/area_lights.md).
+a disk as a regular polygon of the same area, its sides by roughness (``polygon_sides``:
+24, 12 or 8); a sphere as its silhouette disk (the cone of directions it subtends from the
+point: the same set of directions, so exact but for the polygon), its diffuse lobe in
+closed form (``sphere_form_factor``, Snyder 1996); a tube (a capsule) as a stadium: its
+axis segment widened, perpendicular to the direction to the point, by the cylinder's
+silhouette half-width, with half-polygon caps of ``TUBE_CAP_SIDES`` sides (exact for the
+cylinder's straight part, an approximation at the caps, measured in docs/area_lights.md).
 Not included: the clear coat, sheen, fibre and grating layers, multiple scattering, other
 NDFs and anisotropy (the lobe is the isotropic GGX of the material's roughness and F0).
 
@@ -203,11 +205,18 @@ def _polygon(light: PunctualLight, p: np.ndarray, sides: int) -> np.ndarray:
         (side_len > 1e-9)[:, None], side / np.maximum(side_len, 1e-300)[:, None],
         _perpendicular(np.broadcast_to(t, axis.shape)),
     )  # fmt: skip
+    # the half-width: the tangent planes' from the point to the cylinder meet the plane
+    # through the axis at r D / sqrt(D^2 - r^2), D the point's distance to the axis line
+    off_axis = d - dot(d, t)[:, None] * t
+    D2 = np.maximum(dot(off_axis, off_axis), 4.0 * r * r)
+    width = r * np.sqrt(D2 / (D2 - r * r))
     cap = max(sides // 2, 2)
-    k = np.full(cap + 1, r * cap_scale(cap))
-    k[0] = k[-1] = r  # the straight sides keep the tube's width
+    k = np.full(cap + 1, cap_scale(cap))
+    k[0] = k[-1] = 1.0  # the straight sides keep the width
     cs, sn = _ring(cap, -0.5 * math.pi, 0.5 * math.pi, False)
-    ring = k[None, :, None] * (cs[None, :, None] * t + sn[None, :, None] * side[:, None])
+    ring = (width[:, None] * k[None, :])[..., None] * (
+        cs[None, :, None] * t + sn[None, :, None] * side[:, None]
+    )
     cap_b = (d + u)[:, None] + ring
     cap_a = (d - u)[:, None] - ring
     return np.concatenate([cap_b, cap_a], axis=1)

@@ -120,17 +120,23 @@ int area_polygon(PunctualLight L, vec3 axis_v, vec3 p, int sides,
         }
         return sides;
     }
-    // tube: the axis segment widened by r perpendicular to it and to the point, with
-    // half-polygon caps (a stadium; the twin's docstring states the approximation)
+    // tube: the axis segment widened perpendicular to it and to the point by the
+    // cylinder's silhouette half-width, with half-polygon caps (a stadium; the twin's
+    // docstring states the approximation)
     vec3 t = u / max(length(u), 1e-20);
     vec3 side = cross(t, axis);
     float side_len = length(side);
     side = side_len > 1e-9 ? side / side_len : area_perpendicular(t);
-    float k = r * cap_scale(TUBE_CAP_SIDES);
+    // the half-width: the tangent planes' from p to the cylinder meet the plane through
+    // the axis at r D / sqrt(D^2 - r^2), D p's distance to the axis line
+    vec3 off_axis = d - dot(d, t) * t;
+    float D2 = max(dot(off_axis, off_axis), 4.0 * r * r);
+    float width = r * sqrt(D2 / (D2 - r * r));
+    float k = width * cap_scale(TUBE_CAP_SIDES);
     for (int i = 0; i <= TUBE_CAP_SIDES; ++i) {
         float a = -0.5 * PI + PI * float(i) / float(TUBE_CAP_SIDES);
-        // the ends at the tube's radius: the straight sides keep its width
-        float rad = (i == 0 || i == TUBE_CAP_SIDES) ? r : k;
+        // the ends at the half-width: the straight sides keep it
+        float rad = (i == 0 || i == TUBE_CAP_SIDES) ? width : k;
         vec3 o = rad * (cos(a) * t + sin(a) * side);
         verts[i] = d + u + o;
         verts[TUBE_CAP_SIDES + 1 + i] = d - u - o;
