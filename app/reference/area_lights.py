@@ -39,15 +39,18 @@ import numpy as np
 from app.common.lights import LightType, PunctualLight
 from app.common.models import Model
 from app.common.tables import DATA_DIR
+from app.reference import clearcoat
 from app.reference._vec import dot, normalize
-from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS, PI
+from app.reference.constants import MIN_N_DOT_L, MIN_PERCEPTUAL_ROUGHNESS, PI
 from app.reference.material import (
     ShadingPoint,
     Surface,
     brdf_eval,
     brdf_factors,
+    clearcoat_base_point,
     material_F0,
     selected_terms,
+    shading_cosines,
 )
 from app.reference.punctual import window_falloff
 
@@ -337,6 +340,49 @@ def _local(verts: np.ndarray, t1: np.ndarray, t2: np.ndarray, n: np.ndarray) -> 
     return np.stack([dot(verts, t1[:, None]), dot(verts, t2[:, None]), dot(verts, n[:, None])], -1)
 
 
+def coat_weight(point: ShadingPoint, model: Model, l: np.ndarray) -> np.ndarray:
+    """(N, 3) what reaches the base's specular lobe through the coat and back, at the
+    direction ``l`` (the light's representative one), as the punctual coated BRDF weights
+    it (material.clearcoat_factors' w: the coat's two Fresnel crossings, Weidlich-Wilkie's
+    solid-angle compression, Beer-Lambert absorption), the coat's normal nc's cosines."""
+    p = point.params
+    nc = point.n if point.nc is None else point.nc
+    _, _, NoV, _ = shading_cosines(nc, l, point.v)
+    NoL = np.clip(dot(nc, l), MIN_N_DOT_L, 1.0)
+    c = p.clearcoat
+    F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
+    compression = 1.0
+    refracts = model.clearcoat in ("weidlich_wilkie", "weidlich_wilkie_series")
+    if refracts and np.any(np.asarray(c) > 0.0):
+        eta_c = 1.0 - c + p.clearcoat_eta * c
+        compression = clearcoat.clearcoat_solid_angle_compression(eta_c)
+    T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
+    A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
+    c_rgb = np.asarray(c, np.float64)[..., None] if np.ndim(c) else c
+    return (T * compression)[..., None] * (1.0 - c_rgb + A * c_rgb)
+
+
+def coat_lobe(point: ShadingPoint, verts: np.ndarray) -> np.ndarray:
+    """(N,) the clear coat's own lobe over the light's polygon ``verts`` (N, K, 3, from the
+    points): c f_coat(l, v) (nc.l)+ integrated, by the same LTC table at the coat's
+    roughness and nc.v in the frame of the coat's normal nc (the coat's lobe is the
+    table's GGX with the height-correlated G2 and Schlick's F at F0c), divided by pi."""
+    p = point.params
+    n, v = point.n, point.v
+    nc = n if point.nc is None else np.broadcast_to(point.nc, n.shape)
+    count = len(n)
+    t1, t2 = view_frame(nc, v)
+    local = _local(verts, t1, t2, nc)
+    rc = np.broadcast_to(np.maximum(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS), (count,))
+    fit = ltc_lookup(rc, np.clip(dot(nc, v), LTC_MIN_NOV, 1.0))
+    minv = np.zeros((count, 3, 3))
+    minv[:, 0, 0], minv[:, 0, 2], minv[:, 1, 1] = fit[:, 0], fit[:, 1], fit[:, 2]
+    minv[:, 2, 0], minv[:, 2, 2] = fit[:, 3], 1.0
+    I_c, _ = clipped_form_factor(np.einsum("nij,nkj->nki", minv, local))
+    F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
+    return p.clearcoat * (F0c * (fit[:, 4] - fit[:, 5]) + fit[:, 5]) * I_c / PI
+
+
 def view_frame(n: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(t1, t2): t1 the unit tangent towards v (any where v is n), t2 = n x t1."""
     t1 = v - n * dot(n, v)[..., None]
@@ -379,7 +425,12 @@ def area_light_term(
     minv[:, 0, 0], minv[:, 0, 2], minv[:, 1, 1], minv[:, 2, 0], minv[:, 2, 2] = a, b, c, d, 1.0
     I_s, _ = clipped_form_factor(np.einsum("nij,nkj->nki", minv, local))
     F0 = material_F0(point.s, point.params)
+    if model.clearcoat != "none":
+        base = clearcoat_base_point(point, v)  # the base's F0 relative to the coat
+        F0 = material_F0(base.s, base.params)
     spec = (F0 * (fit[..., 4:5] - fit[..., 5:6]) + fit[..., 5:6]) * (I_s / PI)[:, None]
+    if model.clearcoat != "none":
+        spec = coat_weight(point, model, l_rep) * spec + coat_lobe(point, verts)[:, None]
     f_d = brdf_factors(point, model, l_rep).f_diffuse
     Lo = selected_terms(f_d * I_d[:, None], spec, terms)
     window = window_falloff(dot(light.position - p, light.position - p), light.range)

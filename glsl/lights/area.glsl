@@ -182,6 +182,58 @@ vec3 clipped_form_factor(vec3 verts[MAX_POLYGON], int n) {
     return F.z < 0.0 ? -F : F;
 }
 
+// M^-1 P for the fitted (a, b, c, d) of one polygon vertex x (local frame).
+vec3 ltc_warp(vec4 m, vec3 x) {
+    // M^-1 = [[a, 0, b], [0, c, 0], [d, 0, 1]]
+    return vec3(m.x * x.x + m.y * x.z, m.z * x.y, m.w * x.x + x.z);
+}
+
+#if CLEARCOAT_ON
+// What reaches the base's specular lobe through the coat and back at direction l (the
+// light's representative one), as clearcoat_factors weights the punctual base: the twin's
+// coat_weight.
+vec3 area_coat_weight(ShadingPoint sp, vec3 l) {
+    ModelParams p = sp.params;
+    float NoL, NoV;
+    vec3 h;
+    shading_cosines(sp.nc, l, sp.v, NoL, NoV, h);
+    float c = p.clearcoat;
+    float F0c = clearcoat_F0(p.clearcoat_eta);
+    float compression = 1.0;
+    if ((CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE
+            || CLEARCOAT_MODEL == CLEARCOAT_WEIDLICH_WILKIE_SERIES) && c > 0.0) {
+        compression = clearcoat_solid_angle_compression(mix(1.0, p.clearcoat_eta, c));
+    }
+    float T = T_clearcoat_filament(c, F0c, NoL, NoV);
+    vec3 A = mix(vec3(1.0), A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL,
+                                                     NoV), c);
+    return (T * compression) * A;
+}
+
+// The clear coat's own lobe over the polygon (world, from p): c f_coat (nc.l)+ integrated
+// by the LTC table at the coat's roughness in the coat normal's frame, over pi (twin:
+// coat_lobe).
+float area_coat_lobe(ShadingPoint sp, vec3 world[MAX_POLYGON], int count) {
+    ModelParams p = sp.params;
+    vec3 nc = sp.nc;
+    vec3 t1 = sp.v - nc * dot(nc, sp.v);
+    float t1_len = length(t1);
+    t1 = t1_len > 1e-6 ? t1 / t1_len : area_perpendicular(nc);
+    vec3 t2 = cross(nc, t1);
+    vec4 m;
+    vec2 amp;
+    ltc_lookup(max(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS),
+               clamp(dot(nc, sp.v), LTC_MIN_NOV, 1.0), m, amp);
+    vec3 warped[MAX_POLYGON];
+    for (int k = 0; k < count; ++k) {
+        warped[k] = ltc_warp(m, vec3(dot(world[k], t1), dot(world[k], t2), dot(world[k], nc)));
+    }
+    float I_c = clipped_form_factor(warped, count).z;
+    float F0c = clearcoat_F0(p.clearcoat_eta);
+    return p.clearcoat * (F0c * (amp.x - amp.y) + amp.y) * (I_c / PI);
+}
+#endif
+
 // The clamped-cosine integral of a sphere's cone of directions (half-angle sigma, at
 // angle theta from the normal) clipped to the horizon, in closed form (Snyder 1996,
 // "Area Light Sources for Real-Time Graphics"; Lagarde and de Rousiers 2014, "Moving
@@ -249,7 +301,18 @@ vec3 area_light_term(PunctualLight light, int i, ShadingPoint sp) {
     if (I_d <= 0.0) return vec3(0.0);
     float I_s = clipped_form_factor(warped, count).z;
     vec3 F0 = material_F0(sp.s, sp.params);
+#if CLEARCOAT_ON
+    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {
+        ShadingPoint base = clearcoat_base_point(sp, sp.v);  // F0 relative to the coat
+        F0 = material_F0(base.s, base.params);
+    }
+#endif
     vec3 spec = (F0 * (amp.x - amp.y) + amp.y) * (I_s / PI);
+#if CLEARCOAT_ON
+    if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {
+        spec = area_coat_weight(sp, l_rep) * spec + vec3(area_coat_lobe(sp, world, count));
+    }
+#endif
     vec3 f_d = brdf_factors(sp, l_rep).f_diffuse;
     vec3 Lo = selected_terms(f_d * I_d, spec);
     return Lo * light.color * (window_falloff(dot(to_centre, to_centre), light.range) / PI);
