@@ -21,8 +21,10 @@ closed form (``sphere_form_factor``, Snyder 1996); a tube (a capsule) as a stadi
 axis segment widened, perpendicular to the direction to the point, by the cylinder's
 silhouette half-width, with half-polygon caps of ``TUBE_CAP_SIDES`` sides (exact for the
 cylinder's straight part, an approximation at the caps, measured in docs/area_lights.md).
-Not included: the clear coat, sheen, fibre and grating layers, multiple scattering, other
-NDFs and anisotropy (the lobe is the isotropic GGX of the material's roughness and F0).
+A clear coat adds its own lobe, a second LTC at the coat's roughness (``coat_lobe``), and
+weights the base's lobes through the coat (``coat_weight``). Not included: sheen, fibre
+and grating layers, multiple scattering, other NDFs and anisotropy (the base's lobe is
+the isotropic GGX of the material's roughness and F0).
 
 ``area_light_exact`` is the ray-caster's truth: the same integral sampled over the light's
 surface and the GGX lobe in float64 (balance heuristic), with the whole BRDF.

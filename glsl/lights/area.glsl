@@ -8,6 +8,9 @@
 // diffuse one directly (the LTC of Lambert is the cosine itself), the GGX one after the
 // polygon is transformed by the fitted M^-1 (scripts/ltc_tables.py, table u_ltc_table):
 //   L_o / pi = L [ f_diffuse(l_rep) I(P) + (F0 (n_D - f_b) + f_b) I(M^-1 P) / pi ] / pi
+// A sphere's I(P) is in closed form (sphere_form_factor); a clear coat adds its own lobe,
+// the same table at the coat's roughness (area_coat_lobe), and weights the base's specular
+// lobe through the coat (area_coat_weight).
 #ifndef PBS_AREA_GLSL
 #define PBS_AREA_GLSL
 
