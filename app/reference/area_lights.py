@@ -407,7 +407,12 @@ def area_light_term(
     p, n, v = point.position, point.n, point.v
     count = len(p)
     if sides is None and light.type in (LightType.DISK, LightType.SPHERE):
+        # by the smoothest lobe that sees the polygon (a clear coat's, if smoother)
         roughness = np.broadcast_to(point.s.perceptual_roughness, (count,))
+        if model.clearcoat != "none":
+            coated = np.broadcast_to(point.params.clearcoat, (count,)) > 0.0
+            coat_r = np.broadcast_to(point.params.clearcoat_roughness, (count,))
+            roughness = np.where(coated, np.minimum(roughness, coat_r), roughness)
         sides = polygon_sides(roughness)
     verts = light_polygon(light, p, sides)
     t1, t2 = view_frame(n, v)

@@ -269,9 +269,15 @@ vec3 area_light_term(PunctualLight light, int i, ShadingPoint sp) {
     float t1_len = length(t1);
     t1 = t1_len > 1e-6 ? t1 / t1_len : area_perpendicular(n);
     vec3 t2 = cross(n, t1);
+    // the polygon's sides by the smoothest lobe that sees it (a clear coat's, if smoother)
+    float lobe_roughness = sp.s.perceptual_roughness;
+#if CLEARCOAT_ON
+    if (CLEARCOAT_MODEL != CLEARCOAT_NONE && sp.params.clearcoat > 0.0) {
+        lobe_roughness = min(lobe_roughness, sp.params.clearcoat_roughness);
+    }
+#endif
     vec3 world[MAX_POLYGON];
-    int count = area_polygon(light, axis_v, p, polygon_sides(sp.s.perceptual_roughness),
-                             world);
+    int count = area_polygon(light, axis_v, p, polygon_sides(lobe_roughness), world);
     vec3 local[MAX_POLYGON];
     vec3 warped[MAX_POLYGON];
     float NoV = clamp(dot(n, sp.v), LTC_MIN_NOV, 1.0);
