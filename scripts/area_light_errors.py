@@ -9,8 +9,11 @@
 2. scenes/sec4_area_lights.toml rendered by the GPU (the LTC) against the float64
    ray-caster (app/frame/raycast.py, area lights integrated exactly): relative error of
    the interior pixels' radiance where the area light dominates.
+3. ``--sides``: per curved shape and polygon sides, the error against the truth and
+   against a 96-gon (the polygon's own error), over the roughness set.
 
     python scripts/area_light_errors.py [--samples 16384] [--scene-size 192 80]
+        [--skip-table] [--skip-scene] [--sides]
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from app.reference.area_lights import area_light_exact, area_light_term
 from tests.test_area_lights import _lights, _points
 
 ROUGHNESS = (0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0)
+SIDES = (6, 8, 10, 12, 16, 24, 96)  # the sides table's polygons (a tube's caps: half)
 
 
 def point_equivalent(point, light) -> np.ndarray:
@@ -63,6 +67,38 @@ def ltc_table(samples: int) -> list[str]:
             rows.append(
                 f"| {light.type.name.lower()} | {r:g} | {e.max():.3f} | {e.mean():.4f} | "
                 f"{ep.max():.3f} | {ep.mean():.4f} |"
+            )
+            print(rows[-1], flush=True)
+    return rows
+
+
+def sides_table(samples: int) -> list[str]:
+    """Per curved shape (disk, sphere, tube) and polygon sides: the largest and mean
+    |LTC - exact| over the set's largest value, the largest over the roughness set (64
+    points each), and the largest |LTC(sides) - LTC(96)| (the polygon's own error)."""
+    rows = [
+        "| shape | sides | LTC max | LTC mean (worst roughness) | polygon's own max |",
+        "|---|---|---|---|---|",
+    ]
+    for light in _lights()[1:]:
+        exact = {}
+        fine = {}
+        for r in ROUGHNESS:
+            point = _points(r, 64)
+            exact[r] = area_light_exact(point, DEFAULT_MODEL, light, samples=samples)
+            fine[r] = area_light_term(point, DEFAULT_MODEL, light, sides=96)
+        for sides in SIDES:
+            worst_max = worst_mean = own = 0.0
+            for r in ROUGHNESS:
+                got = area_light_term(_points(r, 64), DEFAULT_MODEL, light, sides=sides)
+                top = exact[r].max()
+                e = np.abs(got - exact[r]) / top
+                worst_max = max(worst_max, e.max())
+                worst_mean = max(worst_mean, e.mean())
+                own = max(own, float((np.abs(got - fine[r]) / top).max()))
+            rows.append(
+                f"| {light.type.name.lower()} | {sides} | {worst_max:.3f} | {worst_mean:.4f} | "
+                f"{own:.4f} |"
             )
             print(rows[-1], flush=True)
     return rows
@@ -117,11 +153,18 @@ def main() -> None:
     parser.add_argument("--scene-size", type=int, nargs=2, default=(192, 80))
     parser.add_argument("--scene-samples", type=int, default=1024)
     parser.add_argument("--skip-table", action="store_true")
+    parser.add_argument("--sides", action="store_true", help="only the error against sides")
+    parser.add_argument("--skip-scene", action="store_true", help="no scene table")
     args = parser.parse_args()
     t0 = time.perf_counter()
+    if args.sides:
+        print("\n".join(sides_table(args.samples)))
+        print(f"({time.perf_counter() - t0:.0f} s)")
+        return
     if not args.skip_table:
         print("\n".join(ltc_table(args.samples)))
-    print("\n".join(scene_errors(tuple(args.scene_size), args.scene_samples)))
+    if not args.skip_scene:
+        print("\n".join(scene_errors(tuple(args.scene_size), args.scene_samples)))
     print(f"({time.perf_counter() - t0:.0f} s)")
 
 

@@ -14,13 +14,17 @@ scripts/ltc_tables.py fitted to the project's GGX lobe (height-correlated Smith 
 
 f_diffuse at the representative direction l_rep (the clipped polygon's vector form factor):
 exact for Lambert, whose LTC is the cosine itself. Shapes as polygons: a rectangle exactly;
-a disk as a regular ``POLYGON_SIDES``-gon of the same area; a sphere as its silhouette disk
-(the cone of directions it subtends from the point: the same set of directions, so exact
-but for the polygon); a tube (a capsule) as the stadium that its silhouette would be
-without perspective: its axis segment widened by the radius perpendicular to the direction
-to the point, with half-polygon caps (an approximation, measured in docs/area_lights.md).
-Not included: the clear coat, sheen, fibre and grating layers, multiple scattering, other
-NDFs and anisotropy (the lobe is the isotropic GGX of the material's roughness and F0).
+a disk as a regular polygon of the same area, its sides by roughness (``polygon_sides``:
+24, 12 or 8); a sphere as its silhouette disk (the cone of directions it subtends from the
+point: the same set of directions, so exact but for the polygon), its diffuse lobe in
+closed form (``sphere_form_factor``, Snyder 1996); a tube (a capsule) as a stadium: its
+axis segment widened, perpendicular to the direction to the point, by the cylinder's
+silhouette half-width, with half-polygon caps of ``TUBE_CAP_SIDES`` sides (exact for the
+cylinder's straight part, an approximation at the caps, measured in docs/area_lights.md).
+A clear coat adds its own lobe, a second LTC at the coat's roughness (``coat_lobe``), and
+weights the base's lobes through the coat (``coat_weight``). Not included: sheen, fibre
+and grating layers, multiple scattering, other NDFs and anisotropy (the base's lobe is
+the isotropic GGX of the material's roughness and F0).
 
 ``area_light_exact`` is the ray-caster's truth: the same integral sampled over the light's
 surface and the GGX lobe in float64 (balance heuristic), with the whole BRDF.
@@ -37,23 +41,31 @@ import numpy as np
 from app.common.lights import LightType, PunctualLight
 from app.common.models import Model
 from app.common.tables import DATA_DIR
+from app.reference import clearcoat
 from app.reference._vec import dot, normalize
-from app.reference.constants import MIN_PERCEPTUAL_ROUGHNESS, PI
+from app.reference.constants import MIN_N_DOT_L, MIN_PERCEPTUAL_ROUGHNESS, PI
 from app.reference.material import (
     ShadingPoint,
     Surface,
     brdf_eval,
     brdf_factors,
+    clearcoat_base_point,
     material_F0,
     selected_terms,
+    shading_cosines,
 )
 from app.reference.punctual import window_falloff
 
 LTC_SIZE = 32  # the table's cells per axis (roughness, sqrt(1 - n.v))
 LTC_MIN_NOV = 1e-3  # the grazing column's n.v (the fit's and the lookup's floor)
-POLYGON_SIDES = 24  # a disk's (and a sphere's silhouette's) polygon; a tube's caps: half
-TUBE_CAP_SIDES = POLYGON_SIDES // 2
-MAX_POLYGON = 2 * (TUBE_CAP_SIDES + 1)  # the most vertices a shape has
+# A disk's (and a sphere's silhouette's) polygon's sides by perceptual roughness: a smooth
+# lobe sees the polygon's corners, a rough one does not (polygon_sides; the error against
+# sides is scripts/area_light_errors.py's, docs/area_lights.md "Polygon sides").
+POLYGON_SIDES = 24  # roughness < SIDES_ROUGH_12
+SIDES_ROUGH_12 = 0.15  # from here 12 sides
+SIDES_ROUGH_8 = 0.25  # from here 8 sides
+TUBE_CAP_SIDES = 4  # each of a tube's two half-polygon caps
+MAX_POLYGON = max(POLYGON_SIDES, 2 * (TUBE_CAP_SIDES + 1))  # the most vertices a shape has
 # The exact integral's samples per strategy (area_light_exact; the ray-caster's default)
 EXACT_SAMPLES = 1024
 
@@ -115,9 +127,52 @@ def disk_scale(sides: int = POLYGON_SIDES) -> float:
     return math.sqrt(2.0 * math.pi / (sides * math.sin(2.0 * math.pi / sides)))
 
 
-def light_polygon(light: PunctualLight, p: np.ndarray) -> np.ndarray:
+def polygon_sides(roughness: np.ndarray) -> np.ndarray:
+    """A disk's or sphere's polygon's sides at these perceptual roughnesses (24, 12, 8)."""
+    r = np.asarray(roughness, np.float64)
+    return np.where(r < SIDES_ROUGH_12, POLYGON_SIDES, np.where(r < SIDES_ROUGH_8, 12, 8))
+
+
+def cap_scale(sides: int) -> float:
+    """The radius, over the tube's, of a half-polygon cap's inner vertices (``sides`` edges,
+    its two ends at the tube's radius so the straight sides keep its width) that gives the
+    cap a half-disk's area: the root of (sides - 2)/2 sin(d) s^2 + sin(d) s = pi/2, d = pi /
+    sides (the fan of triangles from the end's centre)."""
+    sin_d = math.sin(math.pi / sides)
+    qa = 0.5 * (sides - 2) * sin_d
+    if qa == 0.0:
+        return 0.5 * math.pi / sin_d
+    return (-sin_d + math.sqrt(sin_d * sin_d + 2.0 * math.pi * qa)) / (2.0 * qa)
+
+
+def light_polygon(
+    light: PunctualLight, p: np.ndarray, sides: int | np.ndarray | None = None
+) -> np.ndarray:
     """(N, K, 3) the light's polygon's vertices relative to the points ``p`` (N, 3), in the
-    order the GLSL builds them (area_polygon)."""
+    order the GLSL builds them (area_polygon). ``sides``: a disk's or sphere's polygon's
+    sides, twice a tube's caps' (by default ``POLYGON_SIDES``, a tube's 2 TUBE_CAP_SIDES;
+    the error against sides is scripts/area_light_errors.py's); one per point (N,) gives
+    each its own polygon, padded by its last vertex repeated (an edge of no length adds
+    nothing to the integral)."""
+    p = np.asarray(p, np.float64)
+    if sides is None:
+        sides = 2 * TUBE_CAP_SIDES if light.type == LightType.TUBE else POLYGON_SIDES
+    per_point = np.broadcast_to(np.asarray(sides, int), (len(p),))
+    counts = np.unique(per_point)
+    if len(counts) == 1:
+        return _polygon(light, p, int(counts[0]))
+    width = max(int(k) + (2 if light.type == LightType.TUBE else 0) for k in counts)
+    out = np.zeros((len(p), width, 3))
+    for k in counts:
+        rows = per_point == k
+        poly = _polygon(light, p[rows], int(k))
+        out[rows, : poly.shape[1]] = poly
+        out[rows, poly.shape[1] :] = poly[:, -1:]
+    return out
+
+
+def _polygon(light: PunctualLight, p: np.ndarray, sides: int) -> np.ndarray:
+    """light_polygon's (N, K, 3) for one ``sides`` at every point."""
     p = np.asarray(p, np.float64)
     c = np.asarray(light.position, np.float64)
     u = np.asarray(light.axis_u, np.float64)
@@ -126,8 +181,8 @@ def light_polygon(light: PunctualLight, p: np.ndarray) -> np.ndarray:
         corners = np.array([c - u - w, c + u - w, c + u + w, c - u + w])
         return corners[None] - p[:, None]
     if light.type == LightType.DISK:
-        cs, sn = _ring(POLYGON_SIDES, 0.0, 2.0 * math.pi, True)
-        k = disk_scale()
+        cs, sn = _ring(sides, 0.0, 2.0 * math.pi, True)
+        k = disk_scale(sides)
         ring = c + k * (cs[:, None] * u + sn[:, None] * w)
         return ring[None] - p[:, None]
     d = c - p  # towards the centre
@@ -139,10 +194,10 @@ def light_polygon(light: PunctualLight, p: np.ndarray) -> np.ndarray:
         # r sqrt(dist^2 - r^2) / dist (the cone tangent to the sphere); inside: none
         d2 = np.maximum(dist * dist - r * r, 0.0)
         back = (r * r / np.maximum(dist, 1e-300))[:, None] * axis
-        rad = (r * np.sqrt(d2) / np.maximum(dist, 1e-300)) * disk_scale()
+        rad = (r * np.sqrt(d2) / np.maximum(dist, 1e-300)) * disk_scale(sides)
         e1 = _perpendicular(axis)
         e2 = np.cross(axis, e1)
-        cs, sn = _ring(POLYGON_SIDES, 0.0, 2.0 * math.pi, True)
+        cs, sn = _ring(sides, 0.0, 2.0 * math.pi, True)
         return (d - back)[:, None] + rad[:, None, None] * (
             cs[None, :, None] * e1[:, None] + sn[None, :, None] * e2[:, None]
         )
@@ -155,10 +210,20 @@ def light_polygon(light: PunctualLight, p: np.ndarray) -> np.ndarray:
         (side_len > 1e-9)[:, None], side / np.maximum(side_len, 1e-300)[:, None],
         _perpendicular(np.broadcast_to(t, axis.shape)),
     )  # fmt: skip
-    k = r * disk_scale(2 * TUBE_CAP_SIDES)
-    cs, sn = _ring(TUBE_CAP_SIDES, -0.5 * math.pi, 0.5 * math.pi, False)
-    cap_b = (d + u)[:, None] + k * (cs[None, :, None] * t + sn[None, :, None] * side[:, None])
-    cap_a = (d - u)[:, None] - k * (cs[None, :, None] * t + sn[None, :, None] * side[:, None])
+    # the half-width: the tangent planes' from the point to the cylinder meet the plane
+    # through the axis at r D / sqrt(D^2 - r^2), D the point's distance to the axis line
+    off_axis = d - dot(d, t)[:, None] * t
+    D2 = np.maximum(dot(off_axis, off_axis), 4.0 * r * r)
+    width = r * np.sqrt(D2 / (D2 - r * r))
+    cap = max(sides // 2, 2)
+    k = np.full(cap + 1, cap_scale(cap))
+    k[0] = k[-1] = 1.0  # the straight sides keep the width
+    cs, sn = _ring(cap, -0.5 * math.pi, 0.5 * math.pi, False)
+    ring = (width[:, None] * k[None, :])[..., None] * (
+        cs[None, :, None] * t + sn[None, :, None] * side[:, None]
+    )
+    cap_b = (d + u)[:, None] + ring
+    cap_a = (d - u)[:, None] - ring
     return np.concatenate([cap_b, cap_a], axis=1)
 
 
@@ -236,8 +301,88 @@ def emitting_side(light: PunctualLight, p: np.ndarray) -> np.ndarray:
     return dot(np.asarray(p, np.float64) - light.position, normal) > 0.0
 
 
+def sphere_form_factor(cos_theta: np.ndarray, sin2_sigma: np.ndarray) -> np.ndarray:
+    """The clamped-cosine integral of a sphere's directions (a cone of half-angle sigma
+    around a direction at angle theta from the normal), clipped to the horizon, in closed
+    form (Snyder 1996, "Area Light Sources for Real-Time Graphics", MSR-TR-96-11; as in
+    Lagarde and de Rousiers 2014, "Moving Frostbite to PBR", section 4.7.2):
+    pi sin^2 sigma cos theta when the cone is wholly above the horizon, 0 when wholly
+    below, and between, with x = cot sigma, y = -x cot theta,
+    sin^2 sigma (cos theta acos y - x sin theta sqrt(1 - y^2))
+    + atan(sin theta sqrt(1 - y^2) / x)."""
+    c = np.clip(np.asarray(cos_theta, np.float64), -1.0, 1.0)
+    s2 = np.clip(np.asarray(sin2_sigma, np.float64), 1e-300, 1.0)
+    sin_t = np.sqrt(np.maximum(1.0 - c * c, 1e-300))
+    x = np.sqrt(np.maximum(1.0 / s2 - 1.0, 0.0))
+    y = np.clip(-x * c / sin_t, -1.0, 1.0)
+    q = sin_t * np.sqrt(1.0 - y * y)
+    crossing = s2 * (c * np.arccos(y) - x * q) + np.arctan2(q, x)
+    whole = math.pi * s2 * np.maximum(c, 0.0)
+    return np.maximum(np.where(c * c > s2, whole, crossing), 0.0)
+
+
+def sphere_diffuse(light: PunctualLight, p: np.ndarray, n: np.ndarray) -> tuple:
+    """(I, l_rep): a sphere light's clamped-cosine integral at the points (closed form,
+    ``sphere_form_factor``; 0 inside it, as the truth, which sees no surface from there)
+    and the direction the diffuse model is taken at: the centre's, moved up to the horizon
+    where it is below (exact for Lambert, which does not use it)."""
+    d = np.asarray(light.position, np.float64) - p
+    d2 = dot(d, d)
+    axis = d / np.sqrt(np.maximum(d2, 1e-300))[:, None]
+    r2 = light.radius * light.radius
+    cos_t = dot(axis, n)
+    I = np.where(d2 > r2, sphere_form_factor(cos_t, r2 / np.maximum(d2, 1e-300)), 0.0)
+    lifted = axis - n * np.minimum(cos_t, 0.0)[:, None]
+    length = np.linalg.norm(lifted, axis=-1)
+    l_rep = np.where((length > 1e-6)[:, None], lifted / np.maximum(length, 1e-300)[:, None], n)
+    return I, l_rep
+
+
 def _local(verts: np.ndarray, t1: np.ndarray, t2: np.ndarray, n: np.ndarray) -> np.ndarray:
     return np.stack([dot(verts, t1[:, None]), dot(verts, t2[:, None]), dot(verts, n[:, None])], -1)
+
+
+def coat_weight(point: ShadingPoint, model: Model, l: np.ndarray) -> np.ndarray:
+    """(N, 3) what reaches the base's specular lobe through the coat and back, at the
+    direction ``l`` (the light's representative one), as the punctual coated BRDF weights
+    it (material.clearcoat_factors' w: the coat's two Fresnel crossings, Weidlich-Wilkie's
+    solid-angle compression, Beer-Lambert absorption), the coat's normal nc's cosines."""
+    p = point.params
+    nc = point.n if point.nc is None else point.nc
+    _, _, NoV, _ = shading_cosines(nc, l, point.v)
+    NoL = np.clip(dot(nc, l), MIN_N_DOT_L, 1.0)
+    c = p.clearcoat
+    F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
+    compression = 1.0
+    refracts = model.clearcoat in ("weidlich_wilkie", "weidlich_wilkie_series")
+    if refracts and np.any(np.asarray(c) > 0.0):
+        eta_c = 1.0 - c + p.clearcoat_eta * c
+        compression = clearcoat.clearcoat_solid_angle_compression(eta_c)
+    T = clearcoat.T_clearcoat_filament(c, F0c, NoL, NoV)
+    A = clearcoat.A_clearcoat_beer_lambert(p.clearcoat_color, p.clearcoat_eta, NoL, NoV)
+    c_rgb = np.asarray(c, np.float64)[..., None] if np.ndim(c) else c
+    return (T * compression)[..., None] * (1.0 - c_rgb + A * c_rgb)
+
+
+def coat_lobe(point: ShadingPoint, verts: np.ndarray) -> np.ndarray:
+    """(N,) the clear coat's own lobe over the light's polygon ``verts`` (N, K, 3, from the
+    points): c f_coat(l, v) (nc.l)+ integrated, by the same LTC table at the coat's
+    roughness and nc.v in the frame of the coat's normal nc (the coat's lobe is the
+    table's GGX with the height-correlated G2 and Schlick's F at F0c), divided by pi."""
+    p = point.params
+    n, v = point.n, point.v
+    nc = n if point.nc is None else np.broadcast_to(point.nc, n.shape)
+    count = len(n)
+    t1, t2 = view_frame(nc, v)
+    local = _local(verts, t1, t2, nc)
+    rc = np.broadcast_to(np.maximum(p.clearcoat_roughness, MIN_PERCEPTUAL_ROUGHNESS), (count,))
+    fit = ltc_lookup(rc, np.clip(dot(nc, v), LTC_MIN_NOV, 1.0))
+    minv = np.zeros((count, 3, 3))
+    minv[:, 0, 0], minv[:, 0, 2], minv[:, 1, 1] = fit[:, 0], fit[:, 1], fit[:, 2]
+    minv[:, 2, 0], minv[:, 2, 2] = fit[:, 3], 1.0
+    I_c, _ = clipped_form_factor(np.einsum("nij,nkj->nki", minv, local))
+    F0c = clearcoat.clearcoat_F0(p.clearcoat_eta)
+    return p.clearcoat * (F0c * (fit[:, 4] - fit[:, 5]) + fit[:, 5]) * I_c / PI
 
 
 def view_frame(n: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -251,16 +396,35 @@ def view_frame(n: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def area_light_term(
-    point: ShadingPoint, model: Model, light: PunctualLight, terms: str = "all"
+    point: ShadingPoint,
+    model: Model,
+    light: PunctualLight,
+    terms: str = "all",
+    sides: int | None = None,
 ) -> np.ndarray:
     """(N, 3) the light's L_o / pi at the points (the illumination sum multiplies by pi),
-    by LTC (the module docstring)."""
+    by LTC (the module docstring); ``sides`` as ``light_polygon``'s."""
     p, n, v = point.position, point.n, point.v
     count = len(p)
-    verts = light_polygon(light, p)
+    if sides is None and light.type in (LightType.DISK, LightType.SPHERE):
+        # by the smoothest lobe that sees the polygon (a clear coat's, if smoother)
+        roughness = np.broadcast_to(point.s.perceptual_roughness, (count,))
+        if model.clearcoat != "none":
+            coated = np.broadcast_to(point.params.clearcoat, (count,)) > 0.0
+            coat_r = np.broadcast_to(point.params.clearcoat_roughness, (count,))
+            roughness = np.where(coated, np.minimum(roughness, coat_r), roughness)
+        sides = polygon_sides(roughness)
+    verts = light_polygon(light, p, sides)
     t1, t2 = view_frame(n, v)
     local = _local(verts, t1, t2, n)
-    I_d, F_d = clipped_form_factor(local)
+    if light.type == LightType.SPHERE:
+        I_d, l_rep = sphere_diffuse(light, p, n)
+    else:
+        I_d, F_d = clipped_form_factor(local)
+        # f_diffuse at the representative direction: the form factor's, in the world
+        l_rep = F_d[:, 0:1] * t1 + F_d[:, 1:2] * t2 + F_d[:, 2:3] * n
+        length = np.linalg.norm(l_rep, axis=-1)
+        l_rep = np.where((length > 0.0)[:, None], l_rep / np.maximum(length, 1e-300)[:, None], n)
     NoV = np.clip(dot(n, v), LTC_MIN_NOV, 1.0)
     fit = ltc_lookup(point.s.perceptual_roughness, NoV)
     a, b, c, d = (fit[..., i] for i in range(4))
@@ -268,11 +432,12 @@ def area_light_term(
     minv[:, 0, 0], minv[:, 0, 2], minv[:, 1, 1], minv[:, 2, 0], minv[:, 2, 2] = a, b, c, d, 1.0
     I_s, _ = clipped_form_factor(np.einsum("nij,nkj->nki", minv, local))
     F0 = material_F0(point.s, point.params)
+    if model.clearcoat != "none":
+        base = clearcoat_base_point(point, v)  # the base's F0 relative to the coat
+        F0 = material_F0(base.s, base.params)
     spec = (F0 * (fit[..., 4:5] - fit[..., 5:6]) + fit[..., 5:6]) * (I_s / PI)[:, None]
-    # f_diffuse at the representative direction: the form factor's, in the world
-    l_rep = F_d[:, 0:1] * t1 + F_d[:, 1:2] * t2 + F_d[:, 2:3] * n
-    length = np.linalg.norm(l_rep, axis=-1)
-    l_rep = np.where((length > 0.0)[:, None], l_rep / np.maximum(length, 1e-300)[:, None], n)
+    if model.clearcoat != "none":
+        spec = coat_weight(point, model, l_rep) * spec + coat_lobe(point, verts)[:, None]
     f_d = brdf_factors(point, model, l_rep).f_diffuse
     Lo = selected_terms(f_d * I_d[:, None], spec, terms)
     window = window_falloff(dot(light.position - p, light.position - p), light.range)
