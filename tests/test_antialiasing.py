@@ -20,9 +20,10 @@ from app.bench.antialiasing import aa_scene_data, with_aa
 from app.gl.context import GLContext
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import GLSL_VERSION, ShaderCache
+from app.reference.antialiasing import halton, jitter_offsets
 from app.render import antialias
 from app.render.adjacency import adjacency_indices
-from app.render.antialias import SRAA_SAMPLES, halton, jitter_offsets, sphere_window_rects
+from app.render.antialias import SRAA_SAMPLES, sphere_window_rects
 from app.render.renderer import Renderer
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene

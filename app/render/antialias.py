@@ -59,25 +59,6 @@ SRAA_DEPTH_TOLERANCE = 0.1
 _GL_SAMPLE_POSITION = 0x8E50
 
 
-def halton(index: int, base: int) -> float:
-    """The radical inverse of ``index`` >= 1 in ``base``: the Halton sequence's element."""
-    f, r = 1.0, 0.0
-    while index > 0:
-        f /= base
-        r += f * (index % base)
-        index //= base
-    return r
-
-
-def jitter_offsets(n: int) -> np.ndarray:
-    """(n, 2) sub-pixel offsets in pixels: Halton (2, 3) points 1..n over the pixel's
-    square (the box filter's support), moved together so that their mean is the pixel's
-    centre (the first four points' mean lies 0.1 pixel off it: the mean image would
-    shift by as much)."""
-    points = np.array([(halton(k, 2), halton(k, 3)) for k in range(1, n + 1)])
-    return points - points.mean(axis=0)
-
-
 def jittered_frame(
     proj: np.ndarray, frame: CameraFrame, offset: tuple[float, float], size: tuple[int, int]
 ) -> tuple[np.ndarray, CameraFrame]:

@@ -44,13 +44,13 @@ from app.frame.lights import environment_texels, frame_lights, uniform_environme
 from app.frame.materials import MaterialTable
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
+from app.reference.antialiasing import jitter_offsets
 from app.render.antialias import (
     SRAA_SAMPLES,
     AccumulatePass,
     FxaaPass,
     GbaaPass,
     SraaPass,
-    jitter_offsets,
     jittered_frame,
 )
 from app.render.background import EnvironmentBackground, EnvironmentSource
