@@ -20,6 +20,7 @@ the environment prefilter's Monte Carlo against its exact integral in the Korean
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -207,72 +208,39 @@ def viewer_screenshot(out: Path, material: str = "gold") -> None:
             viewer.close()
 
 
+# The screenshots that are not a scene's: flag -> (file, what it needs, how it is made;
+# the handout's take the GL context, the viewer's open their own window).
+SINGLE_SHOTS: dict[str, tuple[str, str, Callable[..., None]]] = {
+    "handout": ("walkthrough-handout.png", "chromium", handout_screenshot),
+    "handout-questions": ("walkthrough-questions.png", "chromium", handout_questions_screenshot),
+    "handout-prefilter": ("walkthrough-prefilter.png", "chromium", handout_plot_screenshot),
+    "viewer": ("viewer.png", "Xvfb", viewer_screenshot),
+    "viewer-walkthrough": ("viewer-walkthrough.png", "Xvfb", viewer_walkthrough_screenshot),
+    "viewer-questions": ("viewer-questions.png", "Xvfb", viewer_questions_screenshot),
+}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
-    parser.add_argument(
-        "--handout",
-        action="store_true",
-        help="write only screenshots/walkthrough-handout.png (needs chromium)",
-    )
-    parser.add_argument(
-        "--viewer-walkthrough",
-        action="store_true",
-        help="write only screenshots/viewer-walkthrough.png (needs Xvfb)",
-    )
-    parser.add_argument(
-        "--viewer", action="store_true", help="write only screenshots/viewer.png (needs Xvfb)"
-    )
-    parser.add_argument(
-        "--handout-questions",
-        action="store_true",
-        help="write only screenshots/walkthrough-questions.png (needs chromium)",
-    )
-    parser.add_argument(
-        "--handout-prefilter",
-        action="store_true",
-        help="write only screenshots/walkthrough-prefilter.png (needs chromium)",
-    )
-    parser.add_argument(
-        "--viewer-questions",
-        action="store_true",
-        help="write only screenshots/viewer-questions.png (needs Xvfb)",
-    )
+    for flag, (name, needs, _) in SINGLE_SHOTS.items():
+        parser.add_argument(
+            f"--{flag}", action="store_true", help=f"write only screenshots/{name} (needs {needs})"
+        )
     args = parser.parse_args(argv)
-    if args.viewer_questions:
-        out = SHOTS / "viewer-questions.png"
-        viewer_questions_screenshot(out)
-        print(out.relative_to(REPO))
-        return 0
-    if args.viewer:
-        out = SHOTS / "viewer.png"
-        viewer_screenshot(out)
-        print(out.relative_to(REPO))
-        return 0
-    if args.viewer_walkthrough:
-        out = SHOTS / "viewer-walkthrough.png"
-        viewer_walkthrough_screenshot(out)
+    for flag, (name, needs, make) in SINGLE_SHOTS.items():
+        if not getattr(args, flag.replace("-", "_")):
+            continue
+        out = SHOTS / name
+        if needs == "Xvfb":
+            make(out)
+        else:
+            gl = create_context(args.backend)
+            make(gl, out)
+            gl.release()
         print(out.relative_to(REPO))
         return 0
     gl = create_context(args.backend)
-    if args.handout_questions:
-        out = SHOTS / "walkthrough-questions.png"
-        handout_questions_screenshot(gl, out)
-        print(out.relative_to(REPO))
-        gl.release()
-        return 0
-    if args.handout_prefilter:
-        out = SHOTS / "walkthrough-prefilter.png"
-        handout_plot_screenshot(gl, out)
-        print(out.relative_to(REPO))
-        gl.release()
-        return 0
-    if args.handout:
-        out = SHOTS / "walkthrough-handout.png"
-        handout_screenshot(gl, out)
-        print(out.relative_to(REPO))
-        gl.release()
-        return 0
     for path in scene_files():
         out = SHOTS / f"{path.stem}.png"
         write_png(out, render_scene(gl, path))
