@@ -80,7 +80,7 @@ WORDS: dict[str, dict[str, dict[str, str]]] = {  # language -> figure kind -> it
             "표: 알베도 추정값의 샘플당 분산, F = 1",
         },
         "layered_furnace": {
-            "model": "클리어 코트 모델 {model}",
+            "model": "클리어 코트 모델: {model}",
             "walk": "코팅 속 랜덤 워크 (기준값, ±2 표준 오차)",
             "light": "빛의 입사각 θ (도)",
             "albedo": "방향 알베도 (RGB 평균)",
