@@ -10,7 +10,10 @@
   directional albedo of each composition against the angle of incidence, beside the
   Monte-Carlo random walk through the coat (app/reference/layered.py).
 
-The numbers are seeded: the same figure every build.
+The numbers are seeded: the same figure every build. Every figure writes its words from
+``WORDS`` in the language it is given (English or Korean, docs/walkthrough.md's
+glossary) and draws them in the font it is given (app/brdf/plot.py ``figure_font``: the
+walkthrough's Hangul font for Korean).
 """
 
 from __future__ import annotations
@@ -30,6 +33,72 @@ if TYPE_CHECKING:
 
     from app.gl.context import GLContext
 
+
+WORDS: dict[str, dict[str, dict[str, str]]] = {  # language -> figure kind -> its words
+    "en": {
+        "vndf": {
+            "cloud": "r = {r:g}, θv = {t:g}°\nbelow horizon {below:.0f} %",
+            "quadrature": "E (quadrature)",
+            "var": "var {method}",
+            "vndf": "VNDF",
+            "cosine": "cosine",
+            "uniform": "uniform",
+            "title": "Visible-normal sampling (Heitz 2018): directions l seen from above\n"
+            "★ mirror of v; × below the horizon (weight 0)\n"
+            "table: per-sample variance of the albedo estimate, F = 1",
+        },
+        "layered_furnace": {
+            "model": "clearcoat_model = {model}",
+            "walk": "random walk through the coat (reference, ±2 s.e.)",
+            "light": "θ of the light (deg)",
+            "albedo": "directional albedo (mean of RGB)",
+            "title": "White furnace of a coated white Lambertian base",
+        },
+        "prefilter": {
+            "title": "The environment prefilter (GGX lobe, weights n·l): the renderer's GLSL "
+            "Monte Carlo against the exact float64 integral\nthe studio along a strip 14-19° "
+            "above the horizon",
+            "mc": "Monte Carlo, N = {n}",
+            "exact": "exact (sum over every texel)",
+            "azimuth": "azimuth of R (deg)",
+            "radiance": "prefiltered radiance L_pre(R)",
+            "roughness": "roughness {r:g}",
+            "samples": "samples per texel N",
+            "error": "relative RMS error over the strip (%)",
+        },
+    },
+    "ko": {
+        "vndf": {
+            "cloud": "r = {r:g}, θv = {t:g}°\n수평선 아래 {below:.0f} %",
+            "quadrature": "E (수치 적분)",
+            "var": "{method} 분산",
+            "vndf": "VNDF",
+            "cosine": "코사인",
+            "uniform": "균등",
+            "title": "가시 법선 샘플링 (Heitz 2018): 위에서 내려다본 방향 l\n"
+            "★ v의 정반사 방향, × 수평선 아래 (가중치 0)\n"
+            "표: 알베도 추정값의 샘플당 분산, F = 1",
+        },
+        "layered_furnace": {
+            "model": "클리어 코트 모델: {model}",
+            "walk": "코팅 속 랜덤 워크 (기준값, ±2 표준 오차)",
+            "light": "빛의 입사각 θ (도)",
+            "albedo": "방향 알베도 (RGB 평균)",
+            "title": "흰 램버트 기판에 코팅한 재질의 화이트 퍼니스",
+        },
+        "prefilter": {
+            "title": "환경 사전 필터링 (GGX 로브, 가중치 n·l): 렌더러의 GLSL 몬테카를로 대 "
+            "정확한 float64 적분\n수평선 위 14-19°의 띠를 따라 본 스튜디오",
+            "mc": "몬테카를로, N = {n}",
+            "exact": "정확한 값 (모든 텍셀의 합)",
+            "azimuth": "R의 방위각 (도)",
+            "radiance": "사전 필터링된 복사휘도 L_pre(R)",
+            "roughness": "거칠기 {r:g}",
+            "samples": "텍셀당 샘플 수 N",
+            "error": "띠 위의 상대 RMS 오차 (%)",
+        },
+    },
+}
 
 VNDF_CLOUD = 300  # directions drawn per cloud
 VNDF_VARIANCE_SAMPLES = 20_000  # per variance estimate
@@ -64,10 +133,27 @@ def vndf_variances(roughnesses: Sequence[float], thetas: Sequence[float]) -> lis
     return rows
 
 
-def vndf_figure(roughnesses: Sequence[float], thetas: Sequence[float], dpi: int = 100) -> Figure:
+def vndf_figure(
+    roughnesses: Sequence[float],
+    thetas: Sequence[float],
+    dpi: int = 100,
+    lang: str = "en",
+    font: tuple[str, ...] | None = None,
+    font_files: tuple[str, ...] = (),
+) -> Figure:
     """Sample clouds (rows: roughness, columns: view angle) of the directions l reflected
     about visible normals, seen from above (the disc is the hemisphere, x = l.x, y = l.y),
-    with the view's mirror direction; under them the variance table."""
+    with the view's mirror direction; under them the variance table. Its words in
+    ``lang`` (WORDS), in ``font`` (``figure_font``)."""
+    from app.brdf.plot import figure_font
+
+    with figure_font(font, font_files):
+        return _vndf_figure(roughnesses, thetas, dpi, WORDS[lang]["vndf"])
+
+
+def _vndf_figure(
+    roughnesses: Sequence[float], thetas: Sequence[float], dpi: int, words: dict[str, str]
+) -> Figure:
     from matplotlib.figure import Figure
 
     rows, cols = len(roughnesses), len(thetas)
@@ -95,7 +181,7 @@ def vndf_figure(roughnesses: Sequence[float], thetas: Sequence[float], dpi: int 
             ax.set_xticks([])
             ax.set_yticks([])
             below = 100.0 * float(np.mean(~up))
-            ax.set_title(f"r = {r:g}, θv = {t:g}°\nbelow horizon {below:.0f} %", fontsize=8)
+            ax.set_title(words["cloud"].format(r=r, t=t, below=below), fontsize=8)
     table = vndf_variances(roughnesses, thetas)
     ax = fig.add_subplot(grid[rows, :])
     ax.axis("off")
@@ -104,20 +190,14 @@ def vndf_figure(roughnesses: Sequence[float], thetas: Sequence[float], dpi: int 
          *(f"{row.variances[m]:.3g}" for m in vndf.VNDF_METHODS)]
         for row in table
     ]  # fmt: skip
+    variances = [words["var"].format(method=words[m]) for m in vndf.VNDF_METHODS]
     tab = ax.table(
-        cellText=cells,
-        colLabels=["r", "θv", "E (quadrature)", "var VNDF", "var cosine", "var uniform"],
-        loc="center",
+        cellText=cells, colLabels=["r", "θv", words["quadrature"], *variances], loc="center"
     )
     tab.auto_set_font_size(False)
     tab.set_fontsize(7)
     tab.scale(1.0, 0.95)
-    fig.suptitle(
-        "Visible-normal sampling (Heitz 2018): directions l seen from above\n"
-        "★ mirror of v; × below the horizon (weight 0)\n"
-        "table: per-sample variance of the albedo estimate, F = 1",
-        fontsize=9,
-    )
+    fig.suptitle(words["title"], fontsize=9)
     return fig
 
 
@@ -162,12 +242,26 @@ def walk_albedo(params: MaterialParams, thetas: Sequence[float]) -> tuple[np.nda
 
 
 def layered_furnace_figure(
-    materials: Sequence[tuple[str, MaterialParams]], dpi: int = 100
+    materials: Sequence[MaterialParams],
+    dpi: int = 100,
+    lang: str = "en",
+    font: tuple[str, ...] | None = None,
+    font_files: tuple[str, ...] = (),
 ) -> Figure:
     """The directional albedo (mean over RGB) of each coated material (labelled by its
-    name) against the angle of incidence, by quadrature on its twin, and the random walk
-    through the coat of the first one's base (points with twice their standard error);
-    the line 1 is the white furnace."""
+    clear-coat model) against the angle of incidence, by quadrature on its twin, and the
+    random walk through the coat of the first one's base (points with twice their
+    standard error); the line 1 is the white furnace. Its words in ``lang`` (WORDS), in
+    ``font`` (``figure_font``)."""
+    from app.brdf.plot import figure_font
+
+    with figure_font(font, font_files):
+        return _layered_furnace_figure(materials, dpi, WORDS[lang]["layered_furnace"])
+
+
+def _layered_furnace_figure(
+    materials: Sequence[MaterialParams], dpi: int, words: dict[str, str]
+) -> Figure:
     from matplotlib.figure import Figure
 
     from app.reference.layered import coated_albedo
@@ -177,22 +271,23 @@ def layered_furnace_figure(
     fig = Figure(figsize=(6.4, 3.6), dpi=dpi, layout="constrained")
     ax = fig.add_subplot()
     ax.axhline(1.0, color="0.6", lw=0.8, ls="--")
-    for name, p in materials:
+    for p in materials:
         s = Surface(np.asarray(p.base_color, np.float64), p.metallic, p.roughness, p.f0, 0.0)
         total = [
             (lambda cs: cs[0] + float(np.mean(cs[1])))(coated_albedo(s, p.params, p.model, t))
             for t in thetas
         ]
-        ax.plot(thetas, total, marker="o", ms=3, label=name)
-    walk, err = walk_albedo(materials[0][1], thetas)
+        label = words["model"].format(model=p.model.clearcoat)
+        ax.plot(thetas, total, marker="o", ms=3, label=label)
+    walk, err = walk_albedo(materials[0], thetas)
     ax.errorbar(thetas, walk, yerr=2.0 * err, fmt="k*", ms=8, capsize=3,
-                label="random walk through the coat (reference, ±2 s.e.)")  # fmt: skip
-    ax.set_xlabel("θ of the light (deg)")
-    ax.set_ylabel("directional albedo (mean of RGB)")
+                label=words["walk"])  # fmt: skip
+    ax.set_xlabel(words["light"])
+    ax.set_ylabel(words["albedo"])
     ax.set_ylim(0.0, 1.1)
     ax.set_xlim(0.0, 90.0)
     ax.legend(fontsize=7, loc="lower left")
-    ax.set_title("White furnace of a coated white Lambertian base", fontsize=9)
+    ax.set_title(words["title"], fontsize=9)
     return fig
 
 
@@ -284,33 +379,6 @@ def prefilter_strip(
     return strip
 
 
-PREFILTER_WORDS = {  # the figure's words per language (Korean: docs/walkthrough.md glossary)
-    "en": {
-        "title": "The environment prefilter (GGX lobe, weights n·l): the renderer's GLSL Monte "
-        "Carlo against the exact float64 integral\nthe studio along a strip 14-19° above "
-        "the horizon",
-        "mc": "Monte Carlo, N = {n}",
-        "exact": "exact (sum over every texel)",
-        "azimuth": "azimuth of R (deg)",
-        "radiance": "prefiltered radiance L_pre(R)",
-        "roughness": "roughness {r:g}",
-        "samples": "samples per texel N",
-        "error": "relative RMS error over the strip (%)",
-    },
-    "ko": {
-        "title": "환경 사전 필터링 (GGX 로브, 가중치 n·l): 렌더러의 GLSL 몬테카를로 대 "
-        "정확한 float64 적분\n수평선 위 14-19°의 띠를 따라 본 스튜디오",
-        "mc": "몬테카를로, N = {n}",
-        "exact": "정확한 값 (모든 텍셀의 합)",
-        "azimuth": "R의 방위각 (도)",
-        "radiance": "사전 필터링된 복사휘도 L_pre(R)",
-        "roughness": "거칠기 {r:g}",
-        "samples": "텍셀당 샘플 수 N",
-        "error": "띠 위의 상대 RMS 오차 (%)",
-    },
-}
-
-
 def prefilter_figure(
     strip: PrefilterStrip,
     dpi: int = 100,
@@ -321,16 +389,11 @@ def prefilter_figure(
     """One panel per roughness: the prefiltered radiance along the strip by the renderer's
     Monte Carlo at PREFILTER_SHOWN sample counts and by the exact texel sum; under them
     the relative RMS error over the strip against the sample count (log-log). Its words
-    in ``lang`` (PREFILTER_WORDS), in the ``font`` families registered from
-    ``font_files`` (the handout's Hangul font for Korean; None: matplotlib's default)."""
-    if font is None:
-        return _prefilter_figure(strip, dpi, PREFILTER_WORDS[lang])
-    from matplotlib import font_manager, rc_context
+    in ``lang`` (WORDS), in ``font`` (``figure_font``)."""
+    from app.brdf.plot import figure_font
 
-    for file in font_files:
-        font_manager.fontManager.addfont(file)
-    with rc_context({"font.family": list(font)}):
-        return _prefilter_figure(strip, dpi, PREFILTER_WORDS[lang])
+    with figure_font(font, font_files):
+        return _prefilter_figure(strip, dpi, WORDS[lang]["prefilter"])
 
 
 def _prefilter_figure(strip: PrefilterStrip, dpi: int, words: dict[str, str]) -> Figure:

@@ -20,7 +20,8 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -529,16 +530,26 @@ def render_figure(
 ) -> Figure:
     """A matplotlib ``Figure`` (no pyplot, no window) with one column per material, its
     words ``words`` (English by default)."""
-    from matplotlib import rc_context
-
-    if words.font is None:
+    with figure_font(words.font, words.font_files):
         return _render_figure(columns, quantity, rgb, log, size, dpi, backend, words)
-    from matplotlib import font_manager
 
-    for file in words.font_files:
+
+@contextmanager
+def figure_font(font: tuple[str, ...] | None, font_files: tuple[str, ...] = ()) -> Iterator[None]:
+    """Inside it, matplotlib draws text in the ``font`` families, each registered from
+    ``font_files`` first (the walkthrough's Hangul font for its Korean figures, with its
+    Latin and Greek); ``font`` None leaves matplotlib's default. Every figure of
+    ``pbs brdf`` and of app/brdf/figures.py is built inside it (the font is read when
+    the text artists are made)."""
+    if font is None:
+        yield
+        return
+    from matplotlib import font_manager, rc_context
+
+    for file in font_files:
         font_manager.fontManager.addfont(file)
-    with rc_context({"font.family": list(words.font)}):
-        return _render_figure(columns, quantity, rgb, log, size, dpi, backend, words)
+    with rc_context({"font.family": list(font)}):
+        yield
 
 
 def _render_figure(

@@ -237,6 +237,15 @@ def plot_dpi(size: tuple[int, int] | None) -> int:
     return max(40, min(100, round(100 * size[1] / 540)))
 
 
+def figure_font(lang: Lang) -> tuple[tuple[str, ...] | None, tuple[str, ...]]:
+    """The font families and files every figure of ``lang`` draws its words in
+    (app/brdf/plot.py ``figure_font``): matplotlib's default for English, the labels'
+    Hangul font (its Latin and Greek too) for Korean."""
+    if lang == "en":
+        return None, ()
+    return (HANGUL_FAMILY, "DejaVu Sans"), (str(find_font(lang).path),)
+
+
 def figure_words(lang: Lang) -> FigureWords:
     """The words of ``pbs brdf``'s figure in ``lang``: English as ``pbs brdf`` writes
     them, or Korean in the labels' Hangul font (its Latin and Greek too)."""
@@ -244,7 +253,7 @@ def figure_words(lang: Lang) -> FigureWords:
 
     if lang == "en":
         return FigureWords()
-    face = find_font(lang)
+    font, font_files = figure_font(lang)
     return FigureWords(
         evaluated_by="{where}로 계산한 f(l, v) (app.brdf.evaluate)",
         glsl="렌더러의 GLSL",
@@ -257,8 +266,8 @@ def figure_words(lang: Lang) -> FigureWords:
         light_theta="빛의 입사각 θ (도)",
         albedo="방향 알베도 R(θ) = ∫ f (n·v) dv",
         quadrature="수치 적분 오차 ~ {error:.0e} (|R_8192 − R_2048|)",
-        font=(HANGUL_FAMILY, "DejaVu Sans"),
-        font_files=(str(face.path),),
+        font=font,
+        font_files=font_files,
     )
 
 
@@ -274,19 +283,15 @@ def render_plot(
     if plot.kind != "lobes":  # app/brdf/figures.py, from the float64 twins
         from app.brdf import figures
 
+        dpi, font = plot_dpi(size), figure_font(lang)  # words: figures.WORDS[lang]
+        rough = sorted({m.params.roughness for m in materials})
         if plot.kind == "vndf":
-            rough = sorted({m.params.roughness for m in materials})
-            figure = figures.vndf_figure(rough, thetas, dpi=plot_dpi(size))
+            figure = figures.vndf_figure(rough, thetas, dpi, lang, *font)
         elif plot.kind == "prefilter":
-            rough = sorted({m.params.roughness for m in materials})
-            words = figure_words(lang)  # the handout's Hangul font for Korean
-            strip = figures.prefilter_strip(gl, rough)
-            figure = figures.prefilter_figure(
-                strip, plot_dpi(size), lang, words.font, words.font_files
-            )
+            figure = figures.prefilter_figure(figures.prefilter_strip(gl, rough), dpi, lang, *font)
         else:
-            named = [(f"clearcoat_model = {m.params.model.clearcoat}", m.params) for m in materials]
-            figure = figures.layered_furnace_figure(named, dpi=plot_dpi(size))
+            params = [m.params for m in materials]
+            figure = figures.layered_furnace_figure(params, dpi, lang, *font)
         brdf_plot.save_png(figure, path)
         return
     columns = brdf_plot.compute_columns(materials, thetas, "fcos", "glsl", gl=gl)
