@@ -76,12 +76,12 @@ def handout_screenshot(gl: GLContext, out: Path, lang: str = "ko") -> None:
     atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
 
 
-def handout_questions_screenshot(
-    gl: GLContext, out: Path, section: int = 3, lang: str = "ko"
+def _handout_element_screenshot(
+    gl: GLContext, out: Path, section: int, lang: str, element_js: str, before_js: str = ""
 ) -> None:
-    """The questions of the handout's step of RTR4 §9.``section`` in ``lang`` (images
-    640x360) as Chromium shows them with the first answer revealed (its Reveal label
-    clicked), cropped to the questions' box, written as PNG to ``out``."""
+    """The handout's step of RTR4 §9.``section`` in ``lang`` (images 640x360) as Chromium
+    shows it after running ``before_js``, cropped to the element ``element_js`` (a JS
+    expression) with an 8-pixel margin, written as PNG to ``out``."""
     import tempfile
 
     from app.output import atomic_write
@@ -98,48 +98,40 @@ def handout_questions_screenshot(
         page, _ = write_handout(folder, rendered, lang)
         with Browser(900, 1400) as browser:
             browser.open(page)
-            browser.evaluate("document.querySelector('label.reveal').click()")
+            if before_js:
+                browser.evaluate(before_js)
             box = browser.evaluate(
-                "(() => { const q = document.querySelector('.questions');"
-                " q.scrollIntoView(); const r = q.getBoundingClientRect();"
+                f"(() => {{ const e = {element_js}; e.scrollIntoView();"
+                " const r = e.getBoundingClientRect();"
                 " return {x: r.x - 8, y: r.y + window.scrollY - 8,"
                 " width: r.width + 16, height: r.height + 16}; })()"
             )
             png = browser.screenshot(clip=box, full_page=True)
     atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
+
+
+def handout_questions_screenshot(
+    gl: GLContext, out: Path, section: int = 3, lang: str = "ko"
+) -> None:
+    """The questions of the handout's step of RTR4 §9.``section`` in ``lang`` as Chromium
+    shows them with the first answer revealed (its Reveal label clicked), cropped to the
+    questions' box, written as PNG to ``out``."""
+    _handout_element_screenshot(
+        gl, out, section, lang, "document.querySelector('.questions')",
+        "document.querySelector('label.reveal').click()",
+    )  # fmt: skip
 
 
 def handout_plot_screenshot(
     gl: GLContext, out: Path, section: int = 4, plot: int = 0, lang: str = "ko"
 ) -> None:
-    """Plot ``plot`` of the handout's step of RTR4 §9.``section`` in ``lang`` (images
-    640x360) as Chromium shows it with its caption, cropped to its figure, written as PNG
-    to ``out`` (step 4's: the environment prefilter's Monte Carlo against its exact
-    integral)."""
-    import tempfile
-
-    from app.output import atomic_write
-    from app.resources import walkthrough_dir
-    from app.walkthrough.browser import Browser
-    from app.walkthrough.build import build
-    from app.walkthrough.handout import write_handout
-    from app.walkthrough.model import load_walkthrough
-
-    with tempfile.TemporaryDirectory(prefix="pbs-handout-") as tmp:
-        folder = Path(tmp)
-        steps = load_walkthrough(walkthrough_dir(), {section})
-        rendered = build(gl, steps, folder, lang, (640, 360))
-        page, _ = write_handout(folder, rendered, lang)
-        with Browser(900, 1400) as browser:
-            browser.open(page)
-            box = browser.evaluate(
-                f"(() => {{ const f = document.querySelector('img[src$=\"-plot-{plot}.png\"]')"
-                ".closest('figure'); f.scrollIntoView(); const r = f.getBoundingClientRect();"
-                " return {x: r.x - 8, y: r.y + window.scrollY - 8,"
-                " width: r.width + 16, height: r.height + 16}; })()"
-            )
-            png = browser.screenshot(clip=box, full_page=True)
-    atomic_write(out, lambda tmp_file: tmp_file.write_bytes(png))
+    """Plot ``plot`` of the handout's step of RTR4 §9.``section`` in ``lang`` as Chromium
+    shows it with its caption, cropped to its figure, written as PNG to ``out`` (step 4's:
+    the environment prefilter's Monte Carlo against its exact integral)."""
+    _handout_element_screenshot(
+        gl, out, section, lang,
+        f"document.querySelector('img[src$=\"-plot-{plot}.png\"]').closest('figure')",
+    )  # fmt: skip
 
 
 VIEWER_WINDOW = (1280, 720)
