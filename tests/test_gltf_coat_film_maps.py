@@ -7,10 +7,13 @@ these maps has no RT8 (its bytes per pixel unchanged)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from app.common.gbuffer import GBufferLayout
+from app.gl.context import GLContext
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
 from tests.gltf_builder import GltfBuilder
@@ -69,6 +72,23 @@ def _hue_spread(rgb: np.ndarray) -> np.ndarray:
     return (rgb.max(axis=-1) - rgb.min(axis=-1)) / np.maximum(rgb.max(axis=-1), 1e-12)
 
 
+def _grey_left_film_right(gl: GLContext, tmp_path: Path, b: GltfBuilder, channel: int) -> None:
+    """Render ``b``'s iridescent quad: RT8's ``channel`` reads 0 on the left half and 1 on
+    the right, every pixel is the twin's, the left half reflects grey Fresnel alone and the
+    right half the film's colours."""
+    hdr, ref, g = render_quad(gl, tmp_path, b, ["KHR_materials_iridescence"])
+    f = g.coat_film_maps
+    assert f is not None
+    np.testing.assert_array_equal(f[:, :HALF, channel], 0.0)
+    np.testing.assert_array_equal(f[:, HALF:, channel], 1.0)
+    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
+    grey, film_half = _mirrored_halves(hdr)
+    lit = film_half.max(axis=-1) > 1e-3
+    assert lit.sum() > 100
+    assert _hue_spread(grey[lit]).max() < 1e-3
+    assert _hue_spread(film_half[lit]).mean() > 0.2
+
+
 def test_iridescence_texture_zero_removes_the_film_colour_there(gl_egl, tmp_path):
     """iridescenceTexture (R) multiplies iridescenceFactor per pixel: 0 on the quad's left
     half, 1 on its right. The left half reflects the base's grey Fresnel alone, the right
@@ -78,17 +98,7 @@ def test_iridescence_texture_zero_removes_the_film_colour_there(gl_egl, tmp_path
     tex = b.texture(halves((0, 0, 0), (255, 0, 0)), NEAREST)
     film = _film({"iridescenceTexture": {"index": tex}})
     b.quad(b.material(dielectric({"KHR_materials_iridescence": film})))
-    hdr, ref, g = render_quad(gl_egl, tmp_path, b, ["KHR_materials_iridescence"])
-    f = g.coat_film_maps
-    assert f is not None
-    np.testing.assert_array_equal(f[:, :HALF, 1], 0.0)
-    np.testing.assert_array_equal(f[:, HALF:, 1], 1.0)
-    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
-    grey, film_half = _mirrored_halves(hdr)
-    lit = film_half.max(axis=-1) > 1e-3
-    assert lit.sum() > 100
-    assert _hue_spread(grey[lit]).max() < 1e-3
-    assert _hue_spread(film_half[lit]).mean() > 0.2
+    _grey_left_film_right(gl_egl, tmp_path, b, 1)
 
 
 def test_iridescence_thickness_texture_sets_the_film_between_min_and_max(gl_egl, tmp_path):
@@ -101,17 +111,7 @@ def test_iridescence_thickness_texture_sets_the_film_between_min_and_max(gl_egl,
     film = _film({"iridescenceThicknessMinimum": 0.0,
                   "iridescenceThicknessTexture": {"index": tex}})  # fmt: skip
     b.quad(b.material(dielectric({"KHR_materials_iridescence": film})))
-    hdr, ref, g = render_quad(gl_egl, tmp_path, b, ["KHR_materials_iridescence"])
-    f = g.coat_film_maps
-    assert f is not None
-    np.testing.assert_array_equal(f[:, :HALF, 2], 0.0)
-    np.testing.assert_array_equal(f[:, HALF:, 2], 1.0)
-    np.testing.assert_allclose(hdr, ref, rtol=2e-3, atol=1e-6)
-    grey, film_half = _mirrored_halves(hdr)
-    lit = film_half.max(axis=-1) > 1e-3
-    assert lit.sum() > 100
-    assert _hue_spread(grey[lit]).max() < 1e-3
-    assert _hue_spread(film_half[lit]).mean() > 0.2
+    _grey_left_film_right(gl_egl, tmp_path, b, 2)
 
 
 def test_a_scene_without_these_maps_allocates_no_rt8():
