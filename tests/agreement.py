@@ -10,6 +10,8 @@ from app.scene.loader import LoadedScene
 from app.scene.model import Light
 
 if TYPE_CHECKING:
+    from app.common.models import Model, ModelParams
+    from app.reference.illumination import DecodedGBuffer
     from app.render.gbuffer import GBufferData
     from app.render.renderer import Renderer
 
@@ -47,3 +49,21 @@ def hdr_and_twin(r: Renderer, background: np.ndarray) -> tuple[np.ndarray, np.nd
     g = r.read_gbuffer()
     ref = shade_gbuffer(g, r.camera, r.lights, background, r.materials.models, r.materials.packed())
     return hdr, ref, g
+
+
+def one_material_frame(r: Renderer) -> tuple[np.ndarray, DecodedGBuffer, Model, ModelParams]:
+    """Render ``r``'s frame of a scene with one material and release ``r``: (the GLSL HDR
+    image as float64, its decoded G-buffer, the material's model, its unpacked
+    parameters), for comparing a sphere's pixels with a twin."""
+    from app.common.models import unpack_model_params
+    from app.reference.illumination import decode_gbuffer
+
+    try:
+        r.render()
+        hdr = r.read_hdr().astype(np.float64)
+        dec = decode_gbuffer(r.read_gbuffer(), r.camera)
+        model = r.materials.models[0]
+        params = unpack_model_params(r.materials.packed()[0])
+    finally:
+        r.release()
+    return hdr, dec, model, params

@@ -16,11 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.common.models import unpack_model_params
 from app.common.tables import read_dfg_table
 from app.frame.lights import environment_texels
 from app.reference.ibl import sh9_project, split_sum_radiance
-from app.reference.illumination import decode_gbuffer
 from app.reference.material import Surface
 from app.reference.sheen_ibl import (
     charlie_sh_bands,
@@ -29,6 +27,7 @@ from app.reference.sheen_ibl import (
 )
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
+from tests.agreement import one_material_frame
 from tests.test_ibl_render import write_scene
 
 CLOTH = (
@@ -47,15 +46,7 @@ def test_the_charlie_bands_closed_form_is_the_quadrature(r: float):
 @pytest.mark.gl
 def test_a_sheen_sphere_under_the_studio_is_the_sheen_split_sum(gl_egl, tmp_path: Path):
     loaded = load_scene(write_scene(tmp_path, STUDIO, CLOTH))
-    renderer = Renderer(gl_egl, loaded)
-    try:
-        renderer.render()
-        hdr = renderer.read_hdr().astype(np.float64)
-        dec = decode_gbuffer(renderer.read_gbuffer(), renderer.camera)
-        model = renderer.materials.models[0]
-        params = unpack_model_params(renderer.materials.packed()[0])
-    finally:
-        renderer.release()
+    hdr, dec, model, params = one_material_frame(Renderer(gl_egl, loaded))
     assert model.sheen == "charlie_smith"
     gpu = hdr[dec.covered]
     envcfg = loaded.scene.environment

@@ -17,14 +17,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.common.models import unpack_model_params
 from app.common.tables import read_dfg_table
 from app.frame.lights import environment_texels
 from app.reference.ibl import sh9_project, split_sum_radiance
-from app.reference.illumination import decode_gbuffer
 from app.reference.material import Surface
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
+from tests.agreement import one_material_frame
 from tests.test_ibl_render import write_scene
 
 pytestmark = pytest.mark.gl
@@ -40,15 +39,7 @@ def _hue_spread(rgb: np.ndarray) -> np.ndarray:
 
 def test_a_film_sphere_reflects_the_environment_in_varying_hues(gl_egl, tmp_path: Path):
     loaded = load_scene(write_scene(tmp_path, STUDIO, FILM))
-    renderer = Renderer(gl_egl, loaded)
-    try:
-        renderer.render()
-        hdr = renderer.read_hdr().astype(np.float64)
-        dec = decode_gbuffer(renderer.read_gbuffer(), renderer.camera)
-        model = renderer.materials.models[0]
-        params = unpack_model_params(renderer.materials.packed()[0])
-    finally:
-        renderer.release()
+    hdr, dec, model, params = one_material_frame(Renderer(gl_egl, loaded))
     assert model.thin_film
     gpu = hdr[dec.covered]
     lit = gpu.max(axis=-1) > 1e-3 * gpu.max()
