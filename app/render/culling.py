@@ -54,7 +54,7 @@ RANGE_MARGIN = 1.001  # ranges grow by 0.1% so float32 rounding can never cull a
 #                      whose window is still (barely) above zero at a tile's edge
 # render.light_culling = "auto" (the default) culls only from this many local lights on.
 # Below it the three passes cost more than the lights they save (measured with 1-16
-# lights in docs/performance.md, "Fixed costs"; tiles paid at 16 lights in
+# lights in docs/performance.md, "Tiled culling"; tiles paid at 16 lights in
 # the bench's full run).
 TILED_MIN_LOCAL_LIGHTS = 9
 CONE_MARGIN = 1e-3  # radians: spot cones widen so float32 rounding never culls a lit pixel
