@@ -132,15 +132,7 @@ def fit_error(p: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg) ->
     minv = minv_of(p)
     if abs(np.linalg.det(minv)) < 1e-12 or p[0] <= 0.0 or p[2] <= 0.0:
         return 1e30
-    lo = sample_ltc(minv)
-    total = 0.0
-    for l, p_other in ((lo, None), (lg, pg)):
-        d_o = ltc_pdf(l, minv)
-        d_t = ggx_target(l, v, alpha) / n_d
-        pdf_g = p_other if p_other is not None else _ggx_pdf(l, v, alpha)
-        denom = d_o + pdf_g
-        total += float(np.sum(np.where(denom > 0.0, np.abs(d_o - d_t) ** 3 / denom, 0.0)))
-    return total / len(U1)
+    return _balanced_error(minv, v, alpha, n_d, lg, pg, 3)
 
 
 def _ggx_pdf(l: np.ndarray, v: np.ndarray, alpha: float) -> np.ndarray:
@@ -157,7 +149,15 @@ def _ggx_pdf(l: np.ndarray, v: np.ndarray, alpha: float) -> np.ndarray:
 @np.errstate(invalid="ignore", divide="ignore")
 def l1_error(p: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg) -> float:
     """integral |D_o - D_t| (0: exact, 2: disjoint), the fit's quality per cell."""
-    minv = minv_of(p)
+    return _balanced_error(minv_of(p), v, alpha, n_d, lg, pg, 1)
+
+
+def _balanced_error(
+    minv: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg, power: int
+) -> float:
+    """integral |D_o - D_t|^power over the sphere, estimated from both strategies' samples
+    (the LTC's, drawn here, and the GGX's ``lg`` with their densities ``pg``) by the
+    balance heuristic: each sample weighs 1 / (D_o + pdf_GGX)."""
     lo = sample_ltc(minv)
     total = 0.0
     for l, p_other in ((lo, None), (lg, pg)):
@@ -165,7 +165,10 @@ def l1_error(p: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg) -> 
         d_t = ggx_target(l, v, alpha) / n_d
         pdf_g = p_other if p_other is not None else _ggx_pdf(l, v, alpha)
         denom = d_o + pdf_g
-        total += float(np.sum(np.where(denom > 0.0, np.abs(d_o - d_t) / denom, 0.0)))
+        error = np.abs(d_o - d_t)
+        if power != 1:
+            error = error**power
+        total += float(np.sum(np.where(denom > 0.0, error / denom, 0.0)))
     return total / len(U1)
 
 
