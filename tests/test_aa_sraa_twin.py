@@ -55,17 +55,32 @@ def read_samples(r: Renderer) -> np.ndarray:
     return np.stack(samples, axis=2)
 
 
-def test_sraa_resolve_is_its_twin(gl_egl: GLContext) -> None:
+# Where only the material id or only the depth tolerance tells two surfaces apart, which
+# the bench's scene (each sphere its own material, far apart in depth) never asks: two
+# spheres of two materials that intersect (the seam: equal depths), and one sphere of
+# the first material further back (the same id, 25 % deeper).
+SEAM_OBJECTS = [
+    {"shape": "sphere", "radius": 0.6, "position": [-0.35, 0.0, 0.0], "material": "white"},
+    {"shape": "sphere", "radius": 0.6, "position": [0.45, 0.0, 0.0], "material": "red"},
+    {"shape": "sphere", "radius": 0.6, "position": [-1.3, 0.4, -1.5], "material": "white"},
+]
+
+
+@pytest.mark.parametrize("objects", ["bench", "seam"])
+def test_sraa_resolve_is_its_twin(gl_egl: GLContext, objects: str) -> None:
     """``SraaPass``'s target against ``sraa_resolve`` of the HDR image, RT2 and geometry
     samples it read: the unmarked pixels copied bit for bit, the edge pixels the twin's
     mean within float32 rounding (1e-6 of the image's largest value; the mean of five
     float32 colours), the marked pixels the twin's ``sraa_edges``, and the reconstruction
-    changing a good part of them (measured at 96x54: 163 edge pixels, all changed, the
-    largest difference 4.0e-8 of the scale; the twin without its neighbour search is off
-    by 0.22 of it)."""
+    changing a good part of them (measured at 96x54: 163 edge pixels on the bench's scene,
+    86 on ``SEAM_OBJECTS``, all changed, the largest difference 4.0e-8 and 3.2e-8 of the
+    scale; a twin without its neighbour search, its material-id test or its depth
+    tolerance fails)."""
     assert twin.SRAA_DEPTH_TOLERANCE == SRAA_DEPTH_TOLERANCE
-    loaded = scene_from(aa_scene_data(SIZE))
-    r = Renderer(gl_egl, with_aa(loaded, "sraa", 1))
+    data = aa_scene_data(SIZE)
+    if objects == "seam":
+        data["objects"] = SEAM_OBJECTS
+    r = Renderer(gl_egl, with_aa(scene_from(data), "sraa", 1))
     try:
         r.render()
         assert r.sraa is not None
@@ -81,5 +96,5 @@ def test_sraa_resolve_is_its_twin(gl_egl: GLContext) -> None:
     assert np.array_equal(resolved[~edges], hdr[~edges])
     assert off.max() <= 1e-6 * scale, (np.argwhere(off > 1e-6 * scale)[:8], off.max() / scale)
     changed = np.any(resolved != hdr, axis=-1)
-    assert 100 < edges.sum() < edges.size // 4
+    assert 50 < edges.sum() < edges.size // 4
     assert changed.sum() > 0.5 * edges.sum() and not np.any(changed & ~edges)
