@@ -3,7 +3,7 @@
 1. Per shape and perceptual roughness: the twin's LTC radiance (app/reference/area_lights.py
    ``area_light_term``, what the GLSL computes) against ``area_light_exact`` (the integral
    over the light, both sampling strategies, float64) at 64 points on a dielectric floor
-   lit from 1 to 2 m (the tests' set, tests/test_area_lights.py), viewed from 10 to 60
+   lit from 1 to 2 m (app/reference/area_light_sets.py, the tests' set too), viewed from 10 to 60
    degrees over the floor: the largest and the mean |LTC - exact| over the set's largest
    value; and the same for a point light of the light's power at its centre.
 2. scenes/sec4_area_lights.toml rendered by the GPU (the LTC) against the float64
@@ -28,8 +28,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.common.models import DEFAULT_MODEL
+from app.reference.area_light_sets import floor_points, sample_lights
 from app.reference.area_lights import area_light_exact, area_light_term
-from tests.test_area_lights import _lights, _points
 
 ROUGHNESS = (0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0)
 SIDES = (6, 8, 10, 12, 16, 24, 96)  # the sides table's polygons (a tube's caps: half)
@@ -55,9 +55,9 @@ def ltc_table(samples: int) -> list[str]:
         "| shape | roughness | LTC max | LTC mean | point light max | point light mean |",
         "|---|---|---|---|---|---|",
     ]
-    for light in _lights():
+    for light in sample_lights():
         for r in ROUGHNESS:
-            point = _points(r, 64)
+            point = floor_points(r, 64)
             want = area_light_exact(point, DEFAULT_MODEL, light, samples=samples)
             got = area_light_term(point, DEFAULT_MODEL, light)
             pt = point_equivalent(point, light)
@@ -80,17 +80,17 @@ def sides_table(samples: int) -> list[str]:
         "| shape | sides | LTC max | LTC mean (worst roughness) | polygon's own max |",
         "|---|---|---|---|---|",
     ]
-    for light in _lights()[1:]:
+    for light in sample_lights()[1:]:
         exact = {}
         fine = {}
         for r in ROUGHNESS:
-            point = _points(r, 64)
+            point = floor_points(r, 64)
             exact[r] = area_light_exact(point, DEFAULT_MODEL, light, samples=samples)
             fine[r] = area_light_term(point, DEFAULT_MODEL, light, sides=96)
         for sides in SIDES:
             worst_max = worst_mean = own = 0.0
             for r in ROUGHNESS:
-                got = area_light_term(_points(r, 64), DEFAULT_MODEL, light, sides=sides)
+                got = area_light_term(floor_points(r, 64), DEFAULT_MODEL, light, sides=sides)
                 top = exact[r].max()
                 e = np.abs(got - exact[r]) / top
                 worst_max = max(worst_max, e.max())

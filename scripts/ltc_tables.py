@@ -132,15 +132,7 @@ def fit_error(p: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg) ->
     minv = minv_of(p)
     if abs(np.linalg.det(minv)) < 1e-12 or p[0] <= 0.0 or p[2] <= 0.0:
         return 1e30
-    lo = sample_ltc(minv)
-    total = 0.0
-    for l, p_other in ((lo, None), (lg, pg)):
-        d_o = ltc_pdf(l, minv)
-        d_t = ggx_target(l, v, alpha) / n_d
-        pdf_g = p_other if p_other is not None else _ggx_pdf(l, v, alpha)
-        denom = d_o + pdf_g
-        total += float(np.sum(np.where(denom > 0.0, np.abs(d_o - d_t) ** 3 / denom, 0.0)))
-    return total / len(U1)
+    return _balanced_error(minv, v, alpha, n_d, lg, pg, 3)
 
 
 def _ggx_pdf(l: np.ndarray, v: np.ndarray, alpha: float) -> np.ndarray:
@@ -157,7 +149,15 @@ def _ggx_pdf(l: np.ndarray, v: np.ndarray, alpha: float) -> np.ndarray:
 @np.errstate(invalid="ignore", divide="ignore")
 def l1_error(p: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg) -> float:
     """integral |D_o - D_t| (0: exact, 2: disjoint), the fit's quality per cell."""
-    minv = minv_of(p)
+    return _balanced_error(minv_of(p), v, alpha, n_d, lg, pg, 1)
+
+
+def _balanced_error(
+    minv: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg, power: int
+) -> float:
+    """integral |D_o - D_t|^power over the sphere, estimated from both strategies' samples
+    (the LTC's, drawn here, and the GGX's ``lg`` with their densities ``pg``) by the
+    balance heuristic: each sample weighs 1 / (D_o + pdf_GGX)."""
     lo = sample_ltc(minv)
     total = 0.0
     for l, p_other in ((lo, None), (lg, pg)):
@@ -165,8 +165,39 @@ def l1_error(p: np.ndarray, v: np.ndarray, alpha: float, n_d: float, lg, pg) -> 
         d_t = ggx_target(l, v, alpha) / n_d
         pdf_g = p_other if p_other is not None else _ggx_pdf(l, v, alpha)
         denom = d_o + pdf_g
-        total += float(np.sum(np.where(denom > 0.0, np.abs(d_o - d_t) / denom, 0.0)))
+        error = np.abs(d_o - d_t)
+        if power != 1:
+            error = error**power
+        total += float(np.sum(np.where(denom > 0.0, error / denom, 0.0)))
     return total / len(U1)
+
+
+def row_roughness(i: int, size: int) -> float:
+    """The perceptual roughness of table row ``i`` of ``size``: MIN_PERCEPTUAL_ROUGHNESS
+    to 1 in equal steps."""
+    return MIN_PERCEPTUAL_ROUGHNESS + (1.0 - MIN_PERCEPTUAL_ROUGHNESS) * i / (size - 1)
+
+
+def cell_view(j: int, size: int) -> tuple[float, np.ndarray]:
+    """Column ``j``'s n.v (its sqrt(1 - n.v) in equal steps, floored at LTC_MIN_NOV) and
+    the view direction in the normal's frame (in the x-z plane)."""
+    t = j / (size - 1)
+    nov = max(1.0 - t * t, LTC_MIN_NOV)
+    return nov, np.array([np.sqrt(1.0 - nov * nov), 0.0, nov])
+
+
+def fit_cell(
+    guess: np.ndarray, v: np.ndarray, alpha: float, n_d: float
+) -> tuple[np.ndarray, float]:
+    """One cell's fitted (a, b, c, d) of M^-1 from ``guess`` (Nelder-Mead on ``fit_error``
+    over the GGX samples of view ``v``, roughness ``alpha``, the lobe normalised by its
+    albedo ``n_d``) and the fit's ``l1_error``."""
+    lg, pg = sample_ggx(v, alpha)
+    res = minimize(
+        fit_error, guess, args=(v, alpha, n_d, lg, pg), method="Nelder-Mead",
+        options={"xatol": 1e-6, "fatol": 0.0, "maxfev": 600},
+    )  # fmt: skip
+    return res.x, l1_error(res.x, v, alpha, n_d, lg, pg)
 
 
 def fit_rows(size: int, rows: range) -> np.ndarray:
@@ -176,27 +207,19 @@ def fit_rows(size: int, rows: range) -> np.ndarray:
     table = np.zeros((size, size, 8))
     start_row = None
     for i in reversed(rows):  # rough to smooth
-        r = MIN_PERCEPTUAL_ROUGHNESS + (1.0 - MIN_PERCEPTUAL_ROUGHNESS) * i / (size - 1)
+        r = row_roughness(i, size)
         alpha = r * r
         if start_row is None:
             k = min(1.0, 1.0 / (2.0 * alpha))
             start_row = np.array([k, 0.0, k, 0.0])
         guess = start_row
         for j in range(size):
-            t = j / (size - 1)
-            nov = max(1.0 - t * t, LTC_MIN_NOV)
-            v = np.array([np.sqrt(1.0 - nov * nov), 0.0, nov])
+            nov, v = cell_view(j, size)
             A, B = dfg_terms(nov, r)  # the project's quadrature (app/reference/ibl.py)
             n_d, f_b = A + B, B
-            lg, pg = sample_ggx(v, alpha)
-            res = minimize(
-                fit_error, guess, args=(v, alpha, n_d, lg, pg), method="Nelder-Mead",
-                options={"xatol": 1e-6, "fatol": 0.0, "maxfev": 600},
-            )  # fmt: skip
-            p = res.x
+            p, table[i, j, 6] = fit_cell(guess, v, alpha, n_d)
             table[i, j, :4] = p
             table[i, j, 4:6] = n_d, f_b
-            table[i, j, 6] = l1_error(p, v, alpha, n_d, lg, pg)
             guess = p
             if j == 0:
                 start_row = p
@@ -211,22 +234,12 @@ def refit_rows(table: np.ndarray, rows: list[int]) -> None:
     more), which this start does not."""
     size = table.shape[0]
     for i in sorted(rows, reverse=True):
-        r = MIN_PERCEPTUAL_ROUGHNESS + (1.0 - MIN_PERCEPTUAL_ROUGHNESS) * i / (size - 1)
-        r_up = MIN_PERCEPTUAL_ROUGHNESS + (1.0 - MIN_PERCEPTUAL_ROUGHNESS) * (i + 1) / (size - 1)
-        k = (r_up / r) ** 2
+        r = row_roughness(i, size)
+        k = (row_roughness(i + 1, size) / r) ** 2
         for j in range(size):
-            t = j / (size - 1)
-            nov = max(1.0 - t * t, LTC_MIN_NOV)
-            v = np.array([np.sqrt(1.0 - nov * nov), 0.0, nov])
+            _, v = cell_view(j, size)
             guess = table[i + 1, j, :4] * np.array([k, k, k, 1.0])
-            lg, pg = sample_ggx(v, r * r)
-            n_d = table[i, j, 4]
-            res = minimize(
-                fit_error, guess, args=(v, r * r, n_d, lg, pg), method="Nelder-Mead",
-                options={"xatol": 1e-6, "fatol": 0.0, "maxfev": 600},
-            )  # fmt: skip
-            table[i, j, :4] = res.x
-            table[i, j, 6] = l1_error(res.x, v, r * r, n_d, lg, pg)
+            table[i, j, :4], table[i, j, 6] = fit_cell(guess, v, r * r, table[i, j, 4])
         print(f"r {r:.3f} again: worst L1 {table[i, :, 6].max():.3f}", flush=True)
 
 

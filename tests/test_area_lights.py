@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from app.common.lights import LightType, PunctualLight
-from app.common.models import DEFAULT_MODEL, ModelParams
+from app.common.models import DEFAULT_MODEL
 from app.reference import area_lights
+from app.reference.area_light_sets import ZERO, floor_points, sample_lights, unit_light
 from app.reference.area_lights import (
     _hit_distance,
     _light_samples,
@@ -22,47 +23,15 @@ from app.reference.area_lights import (
     polygon_sides,
     sphere_diffuse,
 )
-from app.reference.material import ShadingPoint, Surface
+from app.reference.material import ShadingPoint
 from tests.agreement import hdr_and_twin, relative_error
 from tests.conftest import REPO
 
-Z = np.zeros(3)
 # Budgets (docs/area_lights.md, "Error against the truth"): the LTC's radiance against the
 # exact integral, |LTC - exact| over the set's largest value, (largest, mean) per roughness.
 LTC_BUDGET = {0.1: (0.03, 0.004), 0.3: (0.30, 0.03), 0.6: (0.10, 0.025), 1.0: (0.03, 0.006)}
 EXACT_SAMPLES = 2048  # per strategy: the truth's noise is under 0.5 % of the largest value
 TWIN_RTOL = 2e-3  # GLSL against the twin, float32 against float64 (relative, above a floor)
-
-
-def _light(kind: LightType, centre, u=Z, w=Z, radius: float = 0.0) -> PunctualLight:
-    """A light of radiance 1 and range 10 m."""
-    u, w = np.asarray(u, float), np.asarray(w, float)
-    return PunctualLight(kind, np.asarray(centre, float), Z, np.ones(3), 10.0,
-                         axis_u=u, axis_v=w, radius=radius)  # fmt: skip
-
-
-def _lights() -> list[PunctualLight]:
-    """One light of each shape, 0.9 to 1.2 m over the floor y = 0, facing it."""
-    return [
-        _light(LightType.RECT, [0.3, 1.2, 0.2], [0.5, 0.0, 0.0], [0.0, 0.0, 0.25]),
-        _light(LightType.DISK, [-0.4, 1.0, 0.3], [0.35, 0.0, 0.0], [0.0, 0.1, 0.336]),
-        _light(LightType.SPHERE, [0.5, 0.9, -0.3], radius=0.3),
-        _light(LightType.TUBE, [0.0, 1.1, -0.2], [0.6, 0.0, 0.1], radius=0.06),
-    ]
-
-
-def _points(roughness: float, count: int = 16) -> ShadingPoint:
-    """``count`` points on the floor y = 0 near the origin, viewed from 30 to 80 degrees."""
-    rng = np.random.default_rng(3)
-    p = np.stack([rng.uniform(-0.8, 0.8, count), np.zeros(count), rng.uniform(-0.8, 0.8, count)], 1)
-    elev = np.radians(rng.uniform(10.0, 60.0, count))
-    az = rng.uniform(0.0, 2.0 * math.pi, count)
-    v = np.stack([np.cos(elev) * np.cos(az), np.sin(elev), np.cos(elev) * np.sin(az)], 1)
-    n = np.broadcast_to([0.0, 1.0, 0.0], p.shape)
-    s = Surface(np.full((count, 3), 0.5), np.zeros(count), np.full(count, roughness),
-                np.full(count, 0.04), np.zeros(count))  # fmt: skip
-    t = np.broadcast_to([1.0, 0.0, 0.0], p.shape)
-    return ShadingPoint(s, ModelParams(), n, None, t, v, p)
 
 
 def _cosine_truth(light: PunctualLight, p: np.ndarray, samples: int = 200_000) -> float:
@@ -84,13 +53,13 @@ def test_polygon_integral_is_lamberts_with_the_horizon_clipped() -> None:
     horizon or not, is the integral over its surface to 1e-3 (the sampling's noise); a
     sphere's silhouette polygon within 1 %, a tube's stadium within 3 %
     (docs/area_lights.md)."""
-    rect = _light(LightType.RECT, [0.3, 0.2, 0.1], [0.5, 0.0, 0.0], [0.0, 0.4, 0.3])
-    above = _light(LightType.RECT, [0.3, 0.2, 1.0], [0.5, 0.0, 0.0], [0.0, -0.3, 0.0])
-    sphere = _light(LightType.SPHERE, [0.3, 0.2, 0.2], radius=0.4)
-    tube = _light(LightType.TUBE, [0.3, 0.2, 0.5], [0.5, 0.2, 0.1], radius=0.1)
+    rect = unit_light(LightType.RECT, [0.3, 0.2, 0.1], [0.5, 0.0, 0.0], [0.0, 0.4, 0.3])
+    above = unit_light(LightType.RECT, [0.3, 0.2, 1.0], [0.5, 0.0, 0.0], [0.0, -0.3, 0.0])
+    sphere = unit_light(LightType.SPHERE, [0.3, 0.2, 0.2], radius=0.4)
+    tube = unit_light(LightType.TUBE, [0.3, 0.2, 0.5], [0.5, 0.2, 0.1], radius=0.1)
     for light, tol in ((rect, 1e-3), (above, 1e-3), (sphere, 1e-2), (tube, 3e-2)):
         got, _ = clipped_form_factor(light_polygon(light, np.zeros((1, 3))))
-        want = _cosine_truth(light, Z)
+        want = _cosine_truth(light, ZERO)
         assert want > 0.05
         assert abs(got[0] - want) <= tol * want, (light.type.name, got[0], want)
 
@@ -107,9 +76,9 @@ def test_sphere_diffuse_closed_form_is_the_integral() -> None:
         ([0.8, -0.3, -0.1], 0.35),  # crossing, centre below
         ([0.2, 0.5, -0.3], 0.5),  # mostly below
     ):
-        light = _light(LightType.SPHERE, centre, radius=radius)
+        light = unit_light(LightType.SPHERE, centre, radius=radius)
         got, l_rep = sphere_diffuse(light, np.zeros((1, 3)), n)
-        want = _cosine_truth(light, Z)
+        want = _cosine_truth(light, ZERO)
         assert want > 0.01
         assert abs(got[0] - want) <= 2e-3 * max(want, 0.1), (centre, got[0], want)
         assert l_rep[0, 2] >= 0.0
@@ -126,9 +95,9 @@ def test_polygon_sides_by_roughness_keep_the_circle(roughness: float) -> None:
     """A disk's and a sphere's specular lobe with the sides ``polygon_sides`` gives them is
     within SIDES_BUDGET of the 96-gon's at each roughness (8 sides everywhere fails the
     smooth bands)."""
-    point = _points(roughness, 64)
+    point = floor_points(roughness, 64)
     assert len(np.unique(polygon_sides(np.full(64, roughness)))) == 1
-    for light in _lights()[1:3]:
+    for light in sample_lights()[1:3]:
         got = area_light_term(point, DEFAULT_MODEL, light, terms="specular")
         fine = area_light_term(point, DEFAULT_MODEL, light, terms="specular", sides=96)
         err = np.abs(got - fine).max() / fine.max()
@@ -142,9 +111,9 @@ def test_polygon_sides_follow_a_smoother_clear_coat() -> None:
     from dataclasses import replace
 
     model = replace(DEFAULT_MODEL, clearcoat="filament")
-    point = _points(0.6, 64)
+    point = floor_points(0.6, 64)
     point = replace(point, params=replace(point.params, clearcoat=1.0, clearcoat_roughness=0.05))
-    sphere = _lights()[2]
+    sphere = sample_lights()[2]
     got = area_light_term(point, model, sphere, terms="specular")
     fine = area_light_term(point, model, sphere, terms="specular", sides=96)
     err = np.abs(got - fine).max() / fine.max()
@@ -157,9 +126,9 @@ def test_ltc_matches_the_exact_integral(roughness: float) -> None:
     the light (both strategies, balance heuristic), within the roughness band's budget,
     relative to the set's largest value. A point light of the same power at the centre
     fails it (test_a_point_light_is_not_an_area_light)."""
-    point = _points(roughness)
+    point = floor_points(roughness)
     top, mean = LTC_BUDGET[roughness]
-    for light in _lights():
+    for light in sample_lights():
         got = area_light_term(point, DEFAULT_MODEL, light)
         want = area_light_exact(point, DEFAULT_MODEL, light, samples=EXACT_SAMPLES)
         err = np.abs(got - want) / want.max()
@@ -180,7 +149,7 @@ def test_clear_coat_lobe_over_area_lights() -> None:
     from dataclasses import replace
 
     model = replace(DEFAULT_MODEL, clearcoat="filament")
-    point = _points(0.6)
+    point = floor_points(0.6)
     point = replace(
         point,
         s=replace(point.s, metallic=np.ones(16), base_color=np.tile([0.7, 0.05, 0.03], (16, 1))),
@@ -188,7 +157,7 @@ def test_clear_coat_lobe_over_area_lights() -> None:
     )
     top, mean = COAT_BUDGET
     bare_fails = []
-    for light in _lights():
+    for light in sample_lights():
         want = area_light_exact(point, model, light, samples=EXACT_SAMPLES)
         got = area_light_term(point, model, light)
         err = np.abs(got - want) / want.max()
@@ -202,8 +171,8 @@ def test_clear_coat_lobe_over_area_lights() -> None:
 def test_a_point_light_is_not_an_area_light(monkeypatch: pytest.MonkeyPatch) -> None:
     """The budget is tight enough to tell: the rectangle's term replaced by a point light of
     its power at its centre misses the exact integral by more than the budget."""
-    rect = _lights()[0]
-    point = _points(0.3)
+    rect = sample_lights()[0]
+    point = floor_points(0.3)
 
     def as_point(sp: ShadingPoint, model, light, terms="all") -> np.ndarray:
         from app.reference.material import brdf_eval

@@ -1,6 +1,7 @@
 """What every suite of the bench shares, below the suites themselves: the modes'
 ``Settings`` (``FULL``, ``QUICK``, ``TINY``), the ``Context`` a suite runs in, the row
-every suite writes (``make_row``), the deferred frame's passes as the bench times them,
+every suite writes (``make_row``) and the cells and rows of its report's tables (``cell``,
+``table_lines``), the deferred frame's passes as the bench times them,
 the environment of a pyrender child and the helmet-sized mesh scene. The suites' modules
 (app/bench/suites.py and the suites of their own: batch, ibl, shadows, spheres) import
 from here, so none of them imports another.
@@ -172,6 +173,26 @@ class Context:
         if count not in self.ranges:
             self.ranges[count] = calibrate_range(self.gl, count, self.settings.lights_per_pixel)
         return self.ranges[count]
+
+
+def cell(x: object, spec: str = ".1f") -> str:
+    """One cell of a report's table: a float by ``spec``, None (not measured) "-", anything
+    else as it prints."""
+    if x is None:
+        return "-"
+    if isinstance(x, float):
+        return format(x, spec)
+    return str(x)
+
+
+def table_lines(header: list[str], rows: list[list[str]]) -> list[str]:
+    """A Markdown table of a report: ``header``'s row, the separator of as many columns, and
+    a row of each list of cells (an empty cell left blank)."""
+
+    def row(cells: list[str]) -> str:
+        return "|" + "|".join(f" {c} " if c else " " for c in cells) + "|"
+
+    return [row(header), "|" + "---|" * len(header), *(row(cells) for cells in rows)]
 
 
 def make_row(

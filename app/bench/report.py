@@ -26,6 +26,8 @@ from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
+from app.bench.context import cell as _fmt
+from app.bench.context import table_lines
 from app.bench.startup import BAD_SCENE, HELP
 from app.gl.context import GLContext
 from app.output import atomic_write
@@ -416,17 +418,14 @@ def find_case(rows: list[dict], suite: str, case: str, variant: str) -> dict | N
 
 
 def _assets_lines(members: list[dict]) -> list[str]:
-    lines = [
-        "| asset | way | wall s median | min | max | CPU s median | peak RSS MiB | runs |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for r in members:
-        lines.append(
-            f"| {r['case']} ({r['width']}x{r['height']}) | {r['variant']} |"
-            f" {r['ms_median'] / 1e3:.2f} | {r['ms_min'] / 1e3:.2f} | {r['ms_max'] / 1e3:.2f} |"
-            f" {r['cpu_s_median']:.2f} | {r['peak_rss_mib']:.0f} | {r['frames']} |"
-        )
-    return lines
+    header = ["asset", "way", "wall s median", "min", "max", "CPU s median", "peak RSS MiB",
+              "runs"]  # fmt: skip
+    return table_lines(header, [
+        [f"{r['case']} ({r['width']}x{r['height']})", r["variant"], f"{r['ms_median'] / 1e3:.2f}",
+         f"{r['ms_min'] / 1e3:.2f}", f"{r['ms_max'] / 1e3:.2f}", f"{r['cpu_s_median']:.2f}",
+         f"{r['peak_rss_mib']:.0f}", str(r["frames"])]
+        for r in members
+    ])  # fmt: skip
 
 
 def _doc_assets(rows: list[dict]) -> list[str]:
@@ -775,14 +774,6 @@ def pareto_by_comparison(rows: list[dict], suite: str = "accuracy") -> dict[str,
 # --- markdown -----------------------------------------------------------------------------------
 
 
-def _fmt(x: object, spec: str = ".1f") -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, float):
-        return format(x, spec)
-    return str(x)
-
-
 def _passes(row: dict) -> str:
     """Each pass's wall time, and its timer query in parentheses where it was plausible."""
     wall = row.get("passes_ms") or {}
@@ -1116,22 +1107,21 @@ def _pyrender_verdicts(rows: list[dict]) -> list[Verdict]:
 
 def _batch_lines(members: list[dict]) -> list[str]:
     """The batch suite's table (images/s median and range over rounds) and its ratios."""
-    lines = [
-        "| orbit | way | images/s | min | max | ms per image (whole run) | ms per image (warm)"
-        " | images | rounds |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
+    header = ["orbit", "way", "images/s", "min", "max", "ms per image (whole run)",
+              "ms per image (warm)", "images", "rounds"]  # fmt: skip
+    rows = []
     for r in members:
         if r.get("images_per_s") is None:
-            lines.append(f"| {r['case']} | {r['variant']} | not measured: {r['not_measured']}"
-                         " | | | | | | |")  # fmt: skip
+            rows.append([r["case"], r["variant"], f"not measured: {r['not_measured']}"]
+                        + [""] * 6)  # fmt: skip
             continue
-        lines.append(
-            f"| {r['case']} ({r['width']}x{r['height']}) | {r['variant']} |"
-            f" {_fmt(r['images_per_s'], '.2f')} | {_fmt(r['images_per_s_min'], '.2f')} |"
-            f" {_fmt(r['images_per_s_max'], '.2f')} | {_fmt(r['ms_median'], '.0f')} |"
-            f" {_fmt(r['steady_ms_median'], '.0f')} | {r['frames']} | {r['rounds']} |"
-        )
+        rows.append([
+            f"{r['case']} ({r['width']}x{r['height']})", r["variant"],
+            _fmt(r["images_per_s"], ".2f"), _fmt(r["images_per_s_min"], ".2f"),
+            _fmt(r["images_per_s_max"], ".2f"), _fmt(r["ms_median"], ".0f"),
+            _fmt(r["steady_ms_median"], ".0f"), str(r["frames"]), str(r["rounds"]),
+        ])  # fmt: skip
+    lines = table_lines(header, rows)
     ratios = next((r["ratios"] for r in members if "ratios" in r), {})
     lines += ["", "Ratios, this run:", ""]
     lines += [f"- {name}: {_fmt(v, '.2f')}" for name, v in ratios.items()]

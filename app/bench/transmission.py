@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.bench.context import Context, deferred_passes, make_row
+from app.bench.context import Context, cell, deferred_passes, make_row, table_lines
 from app.bench.metrics import image_errors
 from app.bench.timing import Pass
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
@@ -207,20 +207,11 @@ def transmission_tasks(settings: object) -> int:
 
 def transmission_lines(members: list[dict]) -> list[str]:
     """The report's table of suite ``transmission``'s rows (app/bench/report.py)."""
-    lines = [
-        "| sphere | size | frame ms (median) | opaque frame ms | rel_rmse | max_rel_err |"
-        " unseen share |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for r in members:
-
-        def num(key: str, spec: str = ".2f", r: dict = r) -> str:
-            value = r.get(key)
-            return "—" if value is None else format(value, spec)
-
-        lines.append(
-            f"| {r['case']} | {r['width']}x{r['height']} | {num('ms_median')} |"
-            f" {num('opaque_ms_median')} | {num('rel_rmse', '.3f')} |"
-            f" {num('max_rel_err')} | {num('unseen')} |"
-        )
-    return lines
+    header = ["sphere", "size", "frame ms (median)", "opaque frame ms", "rel_rmse",
+              "max_rel_err", "unseen share"]  # fmt: skip
+    return table_lines(header, [
+        [r["case"], f"{r['width']}x{r['height']}", cell(r.get("ms_median"), ".2f"),
+         cell(r.get("opaque_ms_median"), ".2f"), cell(r.get("rel_rmse"), ".3f"),
+         cell(r.get("max_rel_err"), ".2f"), cell(r.get("unseen"), ".2f")]
+        for r in members
+    ])  # fmt: skip

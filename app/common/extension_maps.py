@@ -251,23 +251,44 @@ def sampling_glsl() -> str:
                 "#endif",
             ]
         lines += ["    return f;", "}", "#endif"]
-    for target in FACTOR_TARGETS:
-        m = target.macro
-        lines.append(f"#if {target.condition}")
-        lines.append(
-            f"#define SAMPLE_{m}(uv) vec4 {target.name}_factors = sample_{target.name}(uv);"
-        )
-        if target.gbuffer:
-            lines.append(f"#define WRITE_{m}(uv) g_{target.name} = sample_{target.name}(uv);")
-        lines += ["#else", f"#define SAMPLE_{m}(uv)"]
-        if target.gbuffer:
-            lines.append(f"#define WRITE_{m}(uv)")
-        lines.append("#endif")
-    write = " ".join(f"WRITE_{t.macro}(uv)" for t in FACTOR_TARGETS if t.gbuffer)
-    lines.append(f"#define WRITE_FACTOR_TARGETS(uv) {write}")
-    sample = " ".join(f"SAMPLE_{t.macro}(uv)" for t in FACTOR_TARGETS)
-    lines.append(f"#define SAMPLE_FACTOR_TARGETS(uv) {sample}")
+    lines += _call_site_macros(
+        _CallSite("SAMPLE_FACTOR_TARGETS", "SAMPLE", "uv",
+                  lambda t: f"vec4 {t.name}_factors = sample_{t.name}(uv);"),
+        _CallSite("WRITE_FACTOR_TARGETS", "WRITE", "uv",
+                  lambda t: f"g_{t.name} = sample_{t.name}(uv);"),
+    )  # fmt: skip
     return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class _CallSite:
+    """One pass's call site of the factor targets, as generated macros: per target
+    ``<prefix>_<TARGET>(<args>)`` expanding to ``body(target)``, and ``name(<args>)``, the
+    targets' macros in a row."""
+
+    name: str  # the macro over all targets: SAMPLE_FACTOR_TARGETS
+    prefix: str  # a target's macro's: SAMPLE -> SAMPLE_LAYER_MAPS
+    args: str  # the macros' parameters: "uv"
+    body: Callable[[FactorTarget], str]  # what a present target's macro expands to
+
+
+def _call_site_macros(every: _CallSite, gbuffer: _CallSite) -> list[str]:
+    """The macros of two call sites, ``every`` of every factor target and ``gbuffer`` of
+    the G-buffer's alone: each target's under its condition, empty where it is absent
+    (one text, so a target's #if/#else holds both of its call sites), then the one of the
+    G-buffer call site over its targets and the one of ``every`` over all."""
+    lines = []
+    for target in FACTOR_TARGETS:
+        sites = [every, gbuffer] if target.gbuffer else [every]
+        heads = [f"#define {site.prefix}_{target.macro}({site.args})" for site in sites]
+        lines.append(f"#if {target.condition}")
+        lines += [f"{head} {site.body(target)}" for head, site in zip(heads, sites, strict=True)]
+        lines += ["#else", *heads, "#endif"]
+    for site, targets in ((gbuffer, [t for t in FACTOR_TARGETS if t.gbuffer]),
+                          (every, FACTOR_TARGETS)):  # fmt: skip
+        calls = " ".join(f"{site.prefix}_{t.macro}({site.args})" for t in targets)
+        lines.append(f"#define {site.name}({site.args}) {calls}")
+    return lines
 
 
 def _apply_glsl(m: ExtensionMap, value: str) -> str:
@@ -305,21 +326,12 @@ def scaling_glsl() -> str:
                 lines.append(f"        {_apply_glsl(m, f'f_{slot}')}")
             lines.append("    }")
         lines += ["    return p;", "}", "#endif"]
-    for target in FACTOR_TARGETS:
-        m, name = target.macro, target.name
-        lines.append(f"#if {target.condition}")
-        lines.append(f"#define SCALE_BY_{m}(p) p = scale_by_{name}(p, {name}_factors);")
-        if target.gbuffer:
-            fetch = f"texelFetch(g_{name}, px, 0)"
-            lines.append(f"#define SCALE_BY_G_{m}(p, px) p = scale_by_{name}(p, {fetch});")
-        lines += ["#else", f"#define SCALE_BY_{m}(p)"]
-        if target.gbuffer:
-            lines.append(f"#define SCALE_BY_G_{m}(p, px)")
-        lines.append("#endif")
-    gbuffer = " ".join(f"SCALE_BY_G_{t.macro}(p, px)" for t in FACTOR_TARGETS if t.gbuffer)
-    lines.append(f"#define SCALE_BY_GBUFFER_FACTORS(p, px) {gbuffer}")
-    every = " ".join(f"SCALE_BY_{t.macro}(p)" for t in FACTOR_TARGETS)
-    lines.append(f"#define SCALE_BY_FACTOR_TARGETS(p) {every}")
+    lines += _call_site_macros(
+        _CallSite("SCALE_BY_FACTOR_TARGETS", "SCALE_BY", "p",
+                  lambda t: f"p = scale_by_{t.name}(p, {t.name}_factors);"),
+        _CallSite("SCALE_BY_GBUFFER_FACTORS", "SCALE_BY_G", "p, px",
+                  lambda t: f"p = scale_by_{t.name}(p, texelFetch(g_{t.name}, px, 0));"),
+    )  # fmt: skip
     return "\n".join(lines)
 
 

@@ -144,35 +144,54 @@ class MaterialField:
 WHITE = (1.0, 1.0, 1.0)
 BLACK = (0.0, 0.0, 0.0)
 
+
+def _keyed(
+    name: str,
+    texel: int,
+    channels: str,
+    default: float | tuple[float, ...],
+    layer: str,
+    low: float,
+    high: float,
+    unit: str,
+    doc: str,
+    control: Control | None = None,
+    key_default: float | tuple[float, ...] | None = None,
+) -> MaterialField:
+    """A field made from the one scene key of its own name, range and unit (most fields
+    are), so that its row says them once; ``control``: the viewer's, ``key_default``: the
+    scene's default where it is not the field's (``SceneKey``)."""
+    key = SceneKey(name, low, high, unit, key_default, control)
+    return MaterialField(name, texel, channels, default, layer, low, high, unit, doc, (key,))
+
+
 # The order is ModelParams's (its positional order) and the GLSL struct's. Columns: name,
-# texel, channels, default, layer, low, high, unit, meaning, scene keys.
+# texel, channels, default, layer, low, high, unit, meaning, scene keys (``_keyed``: the one
+# of the field's own name, range and unit, then its viewer control).
 # fmt: off
 MATERIAL_FIELDS: tuple[MaterialField, ...] = (
     # --- texels 0-2: the models of RTR4 §9.5-9.9 ---
-    MaterialField("f90", 0, "rgb", WHITE, "core", 0.0, 1.0, "",
-                  "generalised Schlick: F at 90 degrees",
-                  (SceneKey("f90", 0.0, 1.0, control=Control("f90", color=True)),)),
+    _keyed("f90", 0, "rgb", WHITE, "core", 0.0, 1.0, "",
+           "generalised Schlick: F at 90 degrees",
+           Control("f90", color=True)),
     MaterialField("fresnel_exponent", 0, "a", 5.0, "core", 0.1, 100.0, "",
                   "generalised Schlick: 1/p (the scene gives p)",
                   (SceneKey("fresnel_p", 0.01, 10.0,
                             control=Control("fresnel p (exponent 1/p)", 0.01, 2.0)),)),
-    MaterialField("eta", 1, "rgb", (1.5, 1.5, 1.5), "core", 0.0, 100.0, "",
-                  "conductor: n / n1 per channel (eta / medium_ior)",
-                  (SceneKey("eta", 0.0, 100.0),)),
+    _keyed("eta", 1, "rgb", (1.5, 1.5, 1.5), "core", 0.0, 100.0, "",
+           "conductor: n / n1 per channel (eta / medium_ior)"),
     MaterialField("eta_dielectric", 1, "a", 1.5, "core", 0.1, 10.0, "",
                   "dielectric: n2 / n1 (from ior or f0, and medium_ior)"),
-    MaterialField("k", 2, "rgb", BLACK, "core", 0.0, 100.0, "",
-                  "conductor: k / n1 per channel (k / medium_ior)",
-                  (SceneKey("k", 0.0, 100.0),)),
-    MaterialField("gtr_gamma", 2, "a", 2.0, "core", 0.1, 20.0, "",
-                  "GTR tail exponent (2 = GGX)",
-                  (SceneKey("gtr_gamma", 0.1, 20.0, control=Control("gtr gamma", 0.1, 20.0)),)),
+    _keyed("k", 2, "rgb", BLACK, "core", 0.0, 100.0, "",
+           "conductor: k / n1 per channel (k / medium_ior)"),
+    _keyed("gtr_gamma", 2, "a", 2.0, "core", 0.1, 20.0, "",
+           "GTR tail exponent (2 = GGX)",
+           Control("gtr gamma", 0.1, 20.0)),
     # --- texel 13: the dielectric F0's colour (glTF KHR_materials_specular) ---
-    MaterialField("specular_color", 13, "rgb", WHITE, "core", 0.0, 1.0, "",
-                  "the dielectric F0's colour: F0 = f0 specular_color (linear RGB; white: "
-                  "the G-buffer's one F0 alone)",
-                  (SceneKey("specular_color", 0.0, 1.0,
-                            control=Control("specular colour", color=True)),)),
+    _keyed("specular_color", 13, "rgb", WHITE, "core", 0.0, 1.0, "",
+           "the dielectric F0's colour: F0 = f0 specular_color (linear RGB; white: "
+           "the G-buffer's one F0 alone)",
+           Control("specular colour", color=True)),
     MaterialField("specular_color_map", 13, "a", 0.0, "core", 0.0, 1.0, "",
                   "what G-buffer RT6's RGB scales: 1 specular_color (glTF "
                   "specularColorTexture), 0 sheen_color (sheenColorTexture)"),
@@ -180,15 +199,14 @@ MATERIAL_FIELDS: tuple[MaterialField, ...] = (
                   "what G-buffer RT6's A scales: 1 sheen_roughness (glTF "
                   "sheenRoughnessTexture), 0 clearcoat (clearcoatTexture)"),
     # --- texel 7: thin film (RTR4 §9.11), only where Model.thin_film ---
-    MaterialField("film_thickness", 7, "r", 0.0, "thin_film", 0.0, 5000.0, "nm",
-                  "the film's thickness; 0 = the base's Fresnel alone",
-                  (SceneKey("film_thickness", 0.0, 5000.0, "nm", 400.0,
-                            Control("film thickness (nm)", 0.0, 1000.0)),)),
+    _keyed("film_thickness", 7, "r", 0.0, "thin_film", 0.0, 5000.0, "nm",
+           "the film's thickness; 0 = the base's Fresnel alone",
+           Control("film thickness (nm)", 0.0, 1000.0), key_default=400.0),
     MaterialField("film_eta", 7, "g", 1.33, "thin_film", 0.1, 10.0, "",
                   "film index / medium index (n2 / n1: film_ior / medium_ior)"),
-    MaterialField("film_ior", 7, "b", 1.33, "thin_film", 1.0, 10.0, "",
-                  "the film's index n2 itself (the optical path 2 n2 d cos(theta2))",
-                  (SceneKey("film_ior", 1.0, 10.0, control=Control("film index", 1.0, 3.0)),)),
+    _keyed("film_ior", 7, "b", 1.33, "thin_film", 1.0, 10.0, "",
+           "the film's index n2 itself (the optical path 2 n2 d cos(theta2))",
+           Control("film index", 1.0, 3.0)),
     MaterialField("film_factor", 7, "a", 1.0, "thin_film", 0.0, 1.0, "",
                   "the film's strength: F = mix(F_base, F_film, film_factor) (glTF "
                   "iridescenceFactor; 1 for a scene file's film)"),
@@ -196,55 +214,48 @@ MATERIAL_FIELDS: tuple[MaterialField, ...] = (
                   "the thickness where a thickness map reads 0 (glTF "
                   "iridescenceThicknessMinimum; film_thickness where it reads 1)"),
     # --- texel 6: sheen (RTR4 §9.10); black = no layer ---
-    MaterialField("sheen_color", 6, "rgb", BLACK, "sheen", 0.0, 1.0, "",
-                  "the cloth layer's colour, linear RGB; black: no layer",
-                  (SceneKey("sheen_color", 0.0, 1.0,
-                            control=Control("sheen colour", color=True)),)),
-    MaterialField("sheen_roughness", 6, "a", 0.0, "sheen", 0.0, 1.0, "",
-                  "its perceptual roughness (alpha = r^2)",
-                  (SceneKey("sheen_roughness", 0.0, 1.0, "", 0.5,
-                            Control("sheen roughness", 0.0, 1.0)),)),
+    _keyed("sheen_color", 6, "rgb", BLACK, "sheen", 0.0, 1.0, "",
+           "the cloth layer's colour, linear RGB; black: no layer",
+           Control("sheen colour", color=True)),
+    _keyed("sheen_roughness", 6, "a", 0.0, "sheen", 0.0, 1.0, "",
+           "its perceptual roughness (alpha = r^2)",
+           Control("sheen roughness", 0.0, 1.0), key_default=0.5),
     # --- texels 4-5: clear coat (RTR4 §9.12), the defaults where a material has none ---
-    MaterialField("clearcoat", 4, "a", 0.0, "clearcoat", 0.0, 1.0, "",
-                  "strength 0..1 (0: no coat, and Model.clearcoat is 'none')",
-                  (SceneKey("clearcoat", 0.0, 1.0, control=Control("clear coat", 0.0, 1.0)),)),
-    MaterialField("clearcoat_roughness", 5, "r", 0.0, "clearcoat", 0.0, 1.0, "",
-                  "perceptual; the coat's alpha = r^2 (floored)",
-                  (SceneKey("clearcoat_roughness", 0.0, 1.0,
-                            control=Control("coat roughness", 0.0, 1.0)),)),
+    _keyed("clearcoat", 4, "a", 0.0, "clearcoat", 0.0, 1.0, "",
+           "strength 0..1 (0: no coat, and Model.clearcoat is 'none')",
+           Control("clear coat", 0.0, 1.0)),
+    _keyed("clearcoat_roughness", 5, "r", 0.0, "clearcoat", 0.0, 1.0, "",
+           "perceptual; the coat's alpha = r^2 (floored)",
+           Control("coat roughness", 0.0, 1.0)),
     MaterialField("clearcoat_eta", 5, "g", 1.5, "clearcoat", 0.1, 10.0, "",
                   "the coat's index / the medium's (clearcoat_ior / medium_ior)",
                   (SceneKey("clearcoat_ior", 1.0, 10.0,
                             control=Control("coat index", 1.0, 3.0)),)),
-    MaterialField("clearcoat_color", 4, "rgb", WHITE, "clearcoat", 0.0, 1.0, "",
-                  "transmittance at normal incidence through the coat, once (linear RGB): "
-                  "T0 = exp(-sigma_a d); along a path at theta_t inside, T0^(1/cos)",
-                  (SceneKey("clearcoat_color", 0.0, 1.0,
-                            control=Control("coat colour", color=True)),)),
+    _keyed("clearcoat_color", 4, "rgb", WHITE, "clearcoat", 0.0, 1.0, "",
+           "transmittance at normal incidence through the coat, once (linear RGB): "
+           "T0 = exp(-sigma_a d); along a path at theta_t inside, T0^(1/cos)",
+           Control("coat colour", color=True)),
     # --- texel 8: diffraction grating (RTR4 §9.11), only where Model.diffraction ---
     MaterialField("grating_period", 8, "r", 0.0, "grating", 0.0, 20000.0, "nm",
                   "the groove spacing d",
                   (SceneKey("grating_period", 200.0, 20000.0, "nm", 1600.0,
                             Control("groove period (nm)", 200.0, 20000.0, logarithmic=True)),)),
-    MaterialField("grating_depth", 8, "g", 0.0, "grating", 0.0, 300.0, "nm",
-                  "the sinusoidal profile's peak-to-valley depth",
-                  (SceneKey("grating_depth", 0.0, 300.0, "nm", 120.0,
-                            Control("groove depth (nm)", 0.0, 300.0)),)),
+    _keyed("grating_depth", 8, "g", 0.0, "grating", 0.0, 300.0, "nm",
+           "the sinusoidal profile's peak-to-valley depth",
+           Control("groove depth (nm)", 0.0, 300.0), key_default=120.0),
     # --- texels 9-11: empirical cloth (RTR4 §9.10, diffuse = "cloth_empirical"); the
     # defaults, with no sheen, make the model Lambert exactly ---
     MaterialField("cloth_rim_inner", 9, "rgba", (0.0, 1.0, 0.0, 1.0), "cloth", 0.0, 64.0, "",
                   "(k_rim, a_rim, k_inner, a_inner): cloth_rim, then cloth_inner",
                   (SceneKey("cloth_rim", 0.0, 64.0, "", (0.0, 1.0)),
                    SceneKey("cloth_inner", 0.0, 64.0, "", (0.0, 1.0)))),
-    MaterialField("cloth_diffuse", 11, "a", 1.0, "cloth", 0.0, 10.0, "", "k_diff",
-                  (SceneKey("cloth_diffuse", 0.0, 10.0,
-                            control=Control("k diffuse", 0.0, 10.0)),)),
-    MaterialField("cloth_scatter", 10, "rgb", WHITE, "cloth", 0.0, 1.0, "",
-                  "c_scatter (linear RGB)",
-                  (SceneKey("cloth_scatter", 0.0, 1.0,
-                            control=Control("scatter colour", color=True)),)),
-    MaterialField("cloth_wrap", 10, "a", 0.0, "cloth", 0.0, 1.0, "", "w",
-                  (SceneKey("cloth_wrap", 0.0, 1.0, control=Control("wrap w", 0.0, 1.0)),)),
+    _keyed("cloth_diffuse", 11, "a", 1.0, "cloth", 0.0, 10.0, "", "k_diff",
+           Control("k diffuse", 0.0, 10.0)),
+    _keyed("cloth_scatter", 10, "rgb", WHITE, "cloth", 0.0, 1.0, "",
+           "c_scatter (linear RGB)",
+           Control("scatter colour", color=True)),
+    _keyed("cloth_wrap", 10, "a", 0.0, "cloth", 0.0, 1.0, "", "w",
+           Control("wrap w", 0.0, 1.0)),
     MaterialField("cloth_sheen", 11, "rgb", BLACK, "cloth", 0.0, 10.0, "",
                   "k_sheen c_sheen: cloth_sheen times cloth_sheen_color",
                   (SceneKey("cloth_sheen", 0.0, 10.0, "", 0.0,
@@ -264,40 +275,34 @@ MATERIAL_FIELDS: tuple[MaterialField, ...] = (
                   math.radians(1.0), math.pi / 2.0, "rad", "Sadeghi's volume-scattering width",
                   (SceneKey("fiber_gamma_v", 1.0, 90.0, "deg", 20.0,
                             Control("volume lobe width (deg)", 1.0, 90.0)),)),
-    MaterialField("fiber_kd", 12, "a", 0.3, "fiber", 0.0, 1.0, "",
-                  "Sadeghi's isotropic share k_d of the volume scattering",
-                  (SceneKey("fiber_kd", 0.0, 1.0,
-                            control=Control("isotropic share k_d", 0.0, 1.0)),)),
+    _keyed("fiber_kd", 12, "a", 0.3, "fiber", 0.0, 1.0, "",
+           "Sadeghi's isotropic share k_d of the volume scattering",
+           Control("isotropic share k_d", 0.0, 1.0)),
     # --- texels 14-15: transmission and volume (RTR4 §14.5; glTF KHR_materials_transmission,
     # KHR_materials_volume): core fields, every row holds them (transmission 0: an opaque
     # surface); the transmission pass (app/render/transmission.py) draws the parts whose
     # row has transmission > 0 ---
-    MaterialField("attenuation_color", 14, "rgb", WHITE, "core", 0.0, 1.0, "",
-                  "the colour white light becomes after attenuation_distance inside the "
-                  "volume (Beer-Lambert, linear RGB)",
-                  (SceneKey("attenuation_color", 0.0, 1.0,
-                            control=Control("attenuation colour", color=True)),)),
-    MaterialField("transmission", 14, "a", 0.0, "core", 0.0, 1.0, "",
-                  "the share of the dielectric base's light refracted through the surface "
-                  "instead of diffused (0: opaque, drawn in the G-buffer)",
-                  (SceneKey("transmission", 0.0, 1.0,
-                            control=Control("transmission", 0.0, 1.0)),)),
-    MaterialField("thickness", 15, "r", 0.0, "core", 0.0, 1.0e4, "m",
-                  "the volume's thickness in object units (0: thin-walled, no refraction "
-                  "offset); the model matrix scales it",
-                  (SceneKey("thickness", 0.0, 1.0e4, "m",
-                            control=Control("thickness (m)", 0.0, 2.0)),)),
-    MaterialField("attenuation_distance", 15, "g", 0.0, "core", 0.0, 1.0e6, "m",
-                  "the distance at which white light becomes attenuation_color (0: no "
-                  "attenuation, the specification's infinity)",
-                  (SceneKey("attenuation_distance", 0.0, 1.0e6, "m",
-                            control=Control("attenuation distance (m)", 0.01, 100.0,
-                                            logarithmic=True)),)),
-    MaterialField("dispersion", 15, "b", 0.0, "core", 0.0, 100.0, "",
-                  "KHR_materials_dispersion: 20 / V_d (the Abbe number); spreads the index "
-                  "over the three channels' wavelengths (0: one index)",
-                  (SceneKey("dispersion", 0.0, 100.0,
-                            control=Control("dispersion (20 / Abbe)", 0.0, 1.0)),)),
+    _keyed("attenuation_color", 14, "rgb", WHITE, "core", 0.0, 1.0, "",
+           "the colour white light becomes after attenuation_distance inside the "
+           "volume (Beer-Lambert, linear RGB)",
+           Control("attenuation colour", color=True)),
+    _keyed("transmission", 14, "a", 0.0, "core", 0.0, 1.0, "",
+           "the share of the dielectric base's light refracted through the surface "
+           "instead of diffused (0: opaque, drawn in the G-buffer)",
+           Control("transmission", 0.0, 1.0)),
+    _keyed("thickness", 15, "r", 0.0, "core", 0.0, 1.0e4, "m",
+           "the volume's thickness in object units (0: thin-walled, no refraction "
+           "offset); the model matrix scales it",
+           Control("thickness (m)", 0.0, 2.0)),
+    _keyed("attenuation_distance", 15, "g", 0.0, "core", 0.0, 1.0e6, "m",
+           "the distance at which white light becomes attenuation_color (0: no "
+           "attenuation, the specification's infinity)",
+           Control("attenuation distance (m)", 0.01, 100.0,
+                                            logarithmic=True)),
+    _keyed("dispersion", 15, "b", 0.0, "core", 0.0, 100.0, "",
+           "KHR_materials_dispersion: 20 / V_d (the Abbe number); spreads the index "
+           "over the three channels' wavelengths (0: one index)",
+           Control("dispersion (20 / Abbe)", 0.0, 1.0)),
 )
 # fmt: on
 

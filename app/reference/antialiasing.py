@@ -1,6 +1,7 @@
 """Float64 twins of the antialiasing passes (docs/antialiasing.md, "Twins"): gbaa's resolve
-(glsl/passes/gbaa.frag), FXAA (glsl/passes/fxaa.frag) and the jittered accumulation
-(glsl/passes/accumulate.frag with ``jitter_offsets``' Halton (2, 3) points).
+(glsl/passes/gbaa.frag), FXAA (glsl/passes/fxaa.frag), the jittered accumulation
+(glsl/passes/accumulate.frag with ``jitter_offsets``' Halton (2, 3) points) and the
+subpixel reconstruction's resolve (glsl/passes/sraa.frag).
 
 Each function takes what its shader reads, as read back from the real targets: arrays
 indexed ``[y, x]`` in GL's order (row 0 at the bottom, +y up), the G-buffer's RT2 (view
@@ -410,3 +411,68 @@ def accumulate(samples: np.ndarray) -> np.ndarray:
         mean = mean + (sample - mean) * (1.0 / (k + 1))
         means[k] = mean
     return means
+
+
+# ---------------------------------------------------------------------------------------
+# subpixel reconstruction (glsl/passes/sraa.frag, app/render/antialias.py SraaPass)
+
+# sraa.frag's u_depth_tolerance (app/render/antialias.py SRAA_DEPTH_TOLERANCE): a sample
+# and a pixel centre on one material see one surface within this fraction of the
+# sample's view depth
+SRAA_DEPTH_TOLERANCE = 0.1
+
+
+def sraa_same_surface(
+    centre: np.ndarray, sample: np.ndarray, tolerance: float = SRAA_DEPTH_TOLERANCE
+) -> np.ndarray:
+    """Whether RT2 texels ``centre`` and ``sample`` (..., 2: view depth, 0 the background;
+    material id) saw the same surface (sraa.frag's ``same_surface``): both the background,
+    or neither and one material id at view depths within ``tolerance`` of the sample's."""
+    dc, ds = centre[..., 0], sample[..., 0]
+    either_background = (dc == 0) | (ds == 0)
+    same = (centre[..., 1] == sample[..., 1]) & (np.abs(dc - ds) <= tolerance * ds)
+    return np.where(either_background, (dc == 0) & (ds == 0), same)
+
+
+def sraa_edges(
+    surface: np.ndarray, samples: np.ndarray, tolerance: float = SRAA_DEPTH_TOLERANCE
+) -> np.ndarray:
+    """(H, W) bool: the pixels the mark draw marks, those with a geometry sample (``samples``
+    (H, W, S, 2), the multisampled RT2) on another surface than the centre's RT2
+    (``surface`` (H, W, 2))."""
+    return ~np.all(sraa_same_surface(surface[:, :, None], samples, tolerance), axis=-1)
+
+
+def sraa_resolve(
+    hdr: np.ndarray,
+    surface: np.ndarray,
+    samples: np.ndarray,
+    tolerance: float = SRAA_DEPTH_TOLERANCE,
+) -> np.ndarray:
+    """(H, W, 4) the pass's target from the pixel-centre frame's linear HDR RGBA ``hdr``
+    (H, W, 4), its RT2 ``surface`` (H, W, 2) and the geometry samples' RT2 ``samples``
+    (H, W, S, 2). A sample on the centre's surface takes the pixel's own colour; another
+    takes that of the pixel among its own and its eight neighbours (clamped to the image)
+    whose centre saw the sample's surface, the nearest in view depth, the first in
+    sraa.frag's order (rows bottom-up, then left to right) on a tie, the pixel's own where
+    none did. Edge pixels (``sraa_edges``) hold the mean of the centre and the samples,
+    every other pixel its own colour, copied (Chajdas, McGuire and Luebke 2011)."""
+    hdr = np.asarray(hdr, np.float64)
+    surface = np.asarray(surface, np.float64)
+    samples = np.asarray(samples, np.float64)
+    total = hdr.copy()
+    for s in range(samples.shape[2]):
+        gs = samples[:, :, s]
+        search = ~sraa_same_surface(surface, gs, tolerance)
+        colour = hdr.copy()
+        best = np.full(hdr.shape[:2], 1e30)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                gq = shifted(surface, dx, dy)
+                distance = np.abs(gq[..., 0] - gs[..., 0])
+                nearer = search & sraa_same_surface(gq, gs, tolerance) & (distance < best)
+                best = np.where(nearer, distance, best)
+                colour = np.where(nearer[..., None], shifted(hdr, dx, dy), colour)
+        total += colour
+    mean = total / (samples.shape[2] + 1)
+    return np.where(sraa_edges(surface, samples, tolerance)[..., None], mean, hdr)

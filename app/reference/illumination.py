@@ -52,7 +52,8 @@ def illumination_sum(
     (``brdf_eval_layered_cos``), as the GLSL does with GBUFFER_COAT_NORMAL.
     ``visibility``: per light, None or (...,) in [0, 1], the fraction of the light that
     reaches each point (a shadow; glsl/lights/illumination.glsl multiplies c_light by it
-    under SHADOWS, docs/shadows.md). An area light adds its integral over the light
+    under SHADOWS, docs/shadows.md), or (..., 3) per channel (glass in front:
+    SHADOW_GLASS). An area light adds its integral over the light
     (app/reference/area_lights.py): by ``area`` "ltc" as the GLSL does, "exact" by the
     float64 integral (the ray-caster's truth)."""
     p, n = point.position, point.n
@@ -64,7 +65,8 @@ def illumination_sum(
             continue
         c_light, l = light_at(light, p)
         if visibility is not None and visibility[k] is not None:
-            c_light = c_light * np.asarray(visibility[k], np.float64)[..., None]
+            v = np.asarray(visibility[k], np.float64)
+            c_light = c_light * (v if v.ndim == np.ndim(p) else v[..., None])
         if point.nc is not None and model.clearcoat != "none":
             layered = brdf_eval_layered_cos(point, model, l, terms=terms)
             Lo += layered * c_light

@@ -34,6 +34,11 @@ class ShadowMaps:
     # the lighting pass offsets along the depths' plane (a receiver's normal is mapped:
     # SHADOW_FACE_NORMAL, ``face_normals``), else along the G-buffer's normal
     face_normal: bool = False
+    # the glass target beside the atlas where the frame has transmissive parts
+    # (SHADOW_GLASS): (H, W, 4) float64, rgb the product of the glass transmittances in
+    # front of the opaque depth, alpha the nearest glass window depth (1 where none), row 0
+    # the bottom; with it every visibility is a colour, (N, 3)
+    glass: np.ndarray | None = None
 
 
 # PCSS's taps (blocker search, variable PCF) and widest radius in texels, as the GLSL's.
@@ -183,32 +188,87 @@ def pcf_weights(f: np.ndarray) -> np.ndarray:
     return np.stack([1.0 - f, one, one, f], axis=-1)
 
 
-def shadow_map_visibility(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """(N,) visibility through map ``k`` of points ``p`` (N, 3) with normals ``n``: the
-    normal offset, the projection, and the nearest texel's or the PCF kernel's
-    comparisons, in the GLSL's order (shadow_map_visibility)."""
+def glass_transmittance_at(
+    glass: np.ndarray, lo: np.ndarray, hi: np.ndarray, pos: np.ndarray, z: np.ndarray
+) -> np.ndarray:
+    """(N, 3) the glass target's transmittance at texel positions ``pos`` (N, 2) of the map
+    whose texels are ``lo`` .. ``hi``, for receivers at window depths ``z`` (N,): each of
+    the four texels around ``pos`` its product where the receiver lies behind its nearest
+    glass, else 1 (lit glass does not shadow itself), bilinearly weighted, as
+    glass_transmittance_at in glsl/lights/shadows.glsl reads it (a soft tinted edge)."""
+    qpos = pos - 0.5
+    cell = np.floor(qpos)
+    f = qpos - cell
+    base = lo + cell.astype(np.int64)
+
+    def texel(dx: int, dy: int) -> np.ndarray:
+        tx = np.clip(base[:, 0] + dx, lo[0], hi[0])
+        ty = np.clip(base[:, 1] + dy, lo[1], hi[1])
+        g = glass[ty, tx]
+        return np.where((z > g[:, 3])[:, None], g[:, :3], 1.0)
+
+    fx, fy = f[:, :1], f[:, 1:]
+    bottom = texel(0, 0) + (texel(1, 0) - texel(0, 0)) * fx
+    top = texel(0, 1) + (texel(1, 1) - texel(0, 1)) * fx
+    return bottom + (top - bottom) * fy
+
+
+def map_positions(
+    maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where the lookup of map ``k`` reaches the map for points ``p`` (N, 3) with normals
+    ``n``, in the GLSL's order (shadow_map_visibility): ``q`` (N, 3) the points moved by
+    the normal offset, ``inside`` (N,) those that reach the map (not behind a spot, within
+    its depth and, but for a cube face, which keeps its edge texels, its square), and for
+    those (M,) their texel positions within the map (M, 2) and window depths (M,)."""
     m = np.asarray(maps.matrices[k], np.float64)
     p = np.asarray(p, np.float64)
     n = np.asarray(n, np.float64)
     offset, kind = maps.offsets[k]  # kind: 0 orthographic, 1 spot, 2 cube face
-    clip = p @ m[:3, :3].T + m[:3, 3]
     w = p @ m[3, :3] + m[3, 3]
     scale = w if kind > 0.5 else np.ones_like(w)
     q = p + n * (offset * scale)[:, None]
     clip = q @ m[:3, :3].T + m[:3, 3]
     w = q @ m[3, :3] + m[3, 3]
-    out = np.ones(len(p))
     with np.errstate(divide="ignore", invalid="ignore"):
         ndc = clip / w[:, None]
     # a cube face (chosen to hold p) keeps a point its normal offset moved past its edge
     outside_xy = np.any(np.abs(ndc[:, :2]) > 1.0, axis=-1) & (kind < 1.5)
     inside = (w > 0.0) & (np.abs(ndc[:, 2]) <= 1.0) & ~outside_xy
-    if not np.any(inside):
-        return out
     ndc = ndc[inside]
-    z = ndc[:, 2] * 0.5 + 0.5
-    x0, y0, size, pcf = maps.rects[k]
+    size = maps.rects[k][2]
     pos = (ndc[:, :2] * 0.5 + 0.5) * size  # within the map; the atlas offset is lo
+    return q, inside, pos, ndc[:, 2] * 0.5 + 0.5
+
+
+def shadow_map_visibility(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """(N,) visibility through map ``k`` of points ``p`` (N, 3) with normals ``n``: the
+    normal offset, the projection (``map_positions``), and the nearest texel's or the PCF
+    kernel's comparisons, in the GLSL's order (shadow_map_visibility). With
+    ``maps.glass``, (N, 3): that visibility times the glass's transmittance at the same
+    position and depth (``glass_transmittance_at``; 1 where the lookup does not reach the
+    map), as shadow_prepare multiplies them."""
+    q, inside, pos, z = map_positions(maps, k, p, n)
+    out = np.ones(len(q))
+    if np.any(inside):
+        out[inside] = _depth_visibility(maps, k, q[inside], np.asarray(n)[inside], pos, z)
+    if maps.glass is None:
+        return out
+    tint = np.ones((len(q), 3))
+    if np.any(inside):
+        x0, y0, size, _ = maps.rects[k]
+        lo = np.array([int(x0), int(y0)])
+        tint[inside] = glass_transmittance_at(maps.glass, lo, lo + int(size) - 1, pos, z)
+    return out[:, None] * tint
+
+
+def _depth_visibility(
+    maps: ShadowMaps, k: int, q: np.ndarray, n: np.ndarray, pos: np.ndarray, z: np.ndarray
+) -> np.ndarray:
+    """(M,) the depth atlas's visibility of the points that reach map ``k`` (``q`` moved by
+    the normal offset, ``pos`` their texel positions, ``z`` their window depths): the
+    nearest texel's comparison, PCSS's, or the PCF kernel's."""
+    x0, y0, size, pcf = maps.rects[k]
     lo = np.array([int(x0), int(y0)])
     hi = lo + int(size) - 1
     depth = maps.depth
@@ -219,11 +279,9 @@ def shadow_map_visibility(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray
 
     if pcf < 0.5:
         texel = lo + np.floor(pos).astype(np.int64)
-        out[inside] = test(texel[:, 0], texel[:, 1])
-        return out
+        return test(texel[:, 0], texel[:, 1])
     if pcf > 1.5:
-        out[inside] = pcss_visibility(maps, k, q[inside], n[inside], pos, z)
-        return out
+        return pcss_visibility(maps, k, q, n, pos, z)
     qpos = pos - 0.5
     cell = np.floor(qpos)
     f = qpos - cell
@@ -233,8 +291,7 @@ def shadow_map_visibility(maps: ShadowMaps, k: int, p: np.ndarray, n: np.ndarray
     for j in range(4):
         for i in range(4):
             total += wx[:, i] * wy[:, j] * test(base[:, 0] + i - 1, base[:, 1] + j - 1)
-    out[inside] = total / 9.0
-    return out
+    return total / 9.0
 
 
 def cube_face(d: np.ndarray) -> np.ndarray:
@@ -248,12 +305,19 @@ def cube_face(d: np.ndarray) -> np.ndarray:
     return 2 * axis + negative
 
 
+def _unshadowed(maps: ShadowMaps, count: int) -> np.ndarray:
+    """The visibility of ``count`` points before any map is read: (count,) ones, or
+    (count, 3) with the glass target (a colour)."""
+    return np.ones((count, 3) if maps.glass is not None else count)
+
+
 def light_visibilities(
     maps: ShadowMaps | None, lights: list[PunctualLight], p: np.ndarray, n: np.ndarray
 ) -> list[np.ndarray | None]:
     """Per light: its map's visibility at ``p`` (for a point light, per point, the cube
     face ``cube_face`` picks), or None for a light without one (glsl/lights/shadows.glsl
-    shadow_visibility; ``illumination_sum``'s argument)."""
+    shadow_visibility; ``illumination_sum``'s argument): (N,), or (N, 3) coloured by the
+    glass in front where ``maps.glass`` is read back (SHADOW_GLASS)."""
     out: list[np.ndarray | None] = [None] * len(lights)
     if maps is None:
         return out
@@ -270,7 +334,7 @@ def light_visibilities(
                 take = left & in_cascade(maps, c, p, n)
                 choice[take] = c
                 left &= ~take
-            v = np.ones(len(p))
+            v = _unshadowed(maps, len(p))
             for c in cascades:
                 sel = choice == c
                 if np.any(sel):
@@ -281,7 +345,7 @@ def light_visibilities(
             out[i] = shadow_map_visibility(maps, k, p, n)
             continue
         face = cube_face(p - np.asarray(lights[i].position, np.float64))
-        v = np.ones(len(p))
+        v = _unshadowed(maps, len(p))
         for f in range(6):
             sel = face == f
             if np.any(sel):

@@ -163,6 +163,43 @@ def draw_farthest_first(
             d.vao.render(moderngl.TRIANGLES)
 
 
+class OverOpaqueTarget:
+    """The framebuffer a forward pass draws into over the opaque image: the lighting
+    pass's HDR image with the G-buffer's depth buffer (z-tested, not written), made again
+    when either is new (a resize or a new lighting pass). The blend and the transmission
+    pass each keep one."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self.fbo: moderngl.Framebuffer | None = None
+        self._attached: tuple[moderngl.Texture, moderngl.Renderbuffer] | None = None
+
+    def attach(self, hdr: moderngl.Texture, zbuffer: moderngl.Renderbuffer) -> bool:
+        """Make ``fbo`` of ``hdr`` and ``zbuffer`` where it holds others (or none yet);
+        whether it did (what the pass keeps beside it is then stale too)."""
+        attached = self._attached
+        if attached is not None and attached[0] is hdr and attached[1] is zbuffer:
+            return False
+        self.release()
+        self.fbo = self.ctx.framebuffer([hdr], zbuffer)
+        self._attached = (hdr, zbuffer)
+        return True
+
+    def framebuffer(
+        self, hdr: moderngl.Texture, zbuffer: moderngl.Renderbuffer
+    ) -> moderngl.Framebuffer:
+        """``fbo``, attached to ``hdr`` and ``zbuffer`` (``attach``)."""
+        self.attach(hdr, zbuffer)
+        assert self.fbo is not None
+        return self.fbo
+
+    def release(self) -> None:
+        if self.fbo is not None:
+            self.fbo.release()
+        self.fbo = None
+        self._attached = None
+
+
 class BlendPass:
     """The blended parts of a frame, composited over the lighting pass's HDR image."""
 
@@ -178,21 +215,7 @@ class BlendPass:
         self.context = context.only(*BLEND_INPUTS)
         self.drawables = drawables
         self._centres = [world_centre(d.part) for d in drawables]  # once: parts do not move
-        self._fbo: moderngl.Framebuffer | None = None
-        self._attached: tuple[moderngl.Texture, moderngl.Renderbuffer] | None = None
-
-    def _target(
-        self, hdr: moderngl.Texture, zbuffer: moderngl.Renderbuffer
-    ) -> moderngl.Framebuffer:
-        """A framebuffer of the lighting pass's HDR image and the G-buffer's depth buffer,
-        made again when either is new (a resize or a new lighting pass)."""
-        attached = self._attached
-        if attached is None or attached[0] is not hdr or attached[1] is not zbuffer:
-            if self._fbo is not None:
-                self._fbo.release()
-            self._fbo = self.ctx.framebuffer([hdr], zbuffer)
-            self._attached = (hdr, zbuffer)
-        return self._fbo
+        self._target = OverOpaqueTarget(ctx)
 
     def run(
         self,
@@ -206,7 +229,7 @@ class BlendPass:
         inputs (lights, material table, lookup tables, environment, shadow maps) are the
         context's, the lighting pass's."""
         ctx = self.ctx
-        fbo = self._target(lighting.hdr, gbuffer.zbuffer)
+        fbo = self._target.framebuffer(lighting.hdr, gbuffer.zbuffer)
         fbo.use()
         size = lighting.size
         ctx.viewport = (0, 0, *size)
@@ -230,5 +253,4 @@ class BlendPass:
     def release(self) -> None:
         for d in self.drawables:
             d.release()
-        if self._fbo is not None:
-            self._fbo.release()
+        self._target.release()

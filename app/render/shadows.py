@@ -886,13 +886,15 @@ class ShadowPass(ShaderInput):
 
     def read(self) -> ShadowMaps:
         """The maps as the float64 twin takes them (app/reference/shadows.py): the atlas's
-        window depths, row 0 at the bottom as texelFetch indexes them, and the uniforms."""
+        window depths, row 0 at the bottom as texelFetch indexes them, the uniforms, and
+        the glass target (``read_glass``) where the frame has one."""
         w, h = self.atlas.size
         wait_before_read(self.atlas.ctx)
         depth = np.frombuffer(self.atlas.read(), np.float32).reshape(h, w).astype(np.float64)
+        glass = self.read_glass() if self.glass_atlas is not None else None
         return ShadowMaps(
             depth, tuple(self.lights), tuple(self.matrices), tuple(self.rects),
-            tuple(self.offsets), tuple(self.pcss), self.face_normal,
+            tuple(self.offsets), tuple(self.pcss), self.face_normal, glass,
         )  # fmt: skip
 
     def release(self) -> None:

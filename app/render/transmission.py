@@ -31,7 +31,7 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.render.blend import BLEND_INPUTS, draw_farthest_first, world_centre
+from app.render.blend import BLEND_INPUTS, OverOpaqueTarget, draw_farthest_first, world_centre
 from app.render.gbuffer import GBuffer
 from app.render.inputs import LIGHTS, MATERIALS, ShadingContext
 from app.render.lighting import LightingPass
@@ -73,8 +73,7 @@ class TransmissionPass:
         self.image: moderngl.Texture | None = None  # the opaque image with its mips
         self._source: moderngl.Framebuffer | None = None
         self._copy: moderngl.Framebuffer | None = None  # the copy's level 0
-        self._fbo: moderngl.Framebuffer | None = None
-        self._attached: tuple[moderngl.Texture, moderngl.Renderbuffer] | None = None
+        self._target = OverOpaqueTarget(ctx)
 
     def _targets(
         self, hdr: moderngl.Texture, zbuffer: moderngl.Renderbuffer
@@ -82,11 +81,9 @@ class TransmissionPass:
         """The copy's texture (with a mip chain, trilinear) and the framebuffers of the
         HDR image (the copy's source) and of the HDR image with the G-buffer's depth (the
         draw's target), made again when either is new."""
-        attached = self._attached
-        if attached is None or attached[0] is not hdr or attached[1] is not zbuffer:
-            self._release_targets()
+        if self._target.attach(hdr, zbuffer):
+            self._release_copy()
             self._source = self.ctx.framebuffer([hdr])
-            self._fbo = self.ctx.framebuffer([hdr], zbuffer)
             image = self.ctx.texture(hdr.size, 4, dtype="f4")
             image.build_mipmaps()  # allocates the chain; filled each frame
             image.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
@@ -95,9 +92,8 @@ class TransmissionPass:
             # a framebuffer-to-framebuffer blit keeps float32 (a copy into the texture
             # itself went through 8 bits per channel on llvmpipe: 0.3 read back 76/255)
             self._copy = self.ctx.framebuffer([image])
-            self._attached = (hdr, zbuffer)
-        assert self._fbo is not None
-        return self._fbo
+        assert self._target.fbo is not None
+        return self._target.fbo
 
     def copy_opaque(self, hdr: moderngl.Texture, zbuffer: moderngl.Renderbuffer) -> None:
         """The opaque HDR image into ``image`` and its mip chain (box-filtered levels: the
@@ -147,14 +143,14 @@ class TransmissionPass:
         ctx.cull_face = "back"
         ctx.front_face = "ccw"
 
-    def _release_targets(self) -> None:
-        for obj in (self._source, self._copy, self._fbo, self.image):
+    def _release_copy(self) -> None:
+        for obj in (self._source, self._copy, self.image):
             if obj is not None:
                 obj.release()
-        self._source = self._copy = self._fbo = self.image = None
-        self._attached = None
+        self._source = self._copy = self.image = None
 
     def release(self) -> None:
         for d in self.drawables:
             d.release()
-        self._release_targets()
+        self._release_copy()
+        self._target.release()

@@ -255,8 +255,9 @@ float sphere_form_factor(float cos_t, float sin2_sigma) {
 // f(l, v) L (n.l)+ integrated over area light i (L: its radiance, light.color), divided by
 // pi: the term the illumination sum adds (it multiplies the sum by pi). A one-sided
 // rectangle or disk lights only the side its normal u x v faces; the window falloff is
-// the centre's, as a point light's, so the tiles cull it by its range.
-vec3 area_light_term(PunctualLight light, int i, ShadingPoint sp) {
+// the centre's, as a point light's, so the tiles cull it by its range. bv: brdf_view(sp),
+// computed once before the point's light loop (its F0 and the diffuse lobe's factors).
+vec3 area_light_term(PunctualLight light, int i, ShadingPoint sp, BrdfView bv) {
     vec3 axis_v = texelFetch(u_area_shapes, ivec2(i, 0), 0).xyz;
     vec3 p = sp.position;
     vec3 to_centre = light.position - p;
@@ -309,7 +310,7 @@ vec3 area_light_term(PunctualLight light, int i, ShadingPoint sp) {
     }
     if (I_d <= 0.0) return vec3(0.0);
     float I_s = clipped_form_factor(warped, count).z;
-    vec3 F0 = material_F0(sp.s, sp.params);
+    vec3 F0 = bv.F0;
 #if CLEARCOAT_ON
     if (CLEARCOAT_MODEL != CLEARCOAT_NONE) {
         ShadingPoint base = clearcoat_base_point(sp, sp.v);  // F0 relative to the coat
@@ -322,7 +323,7 @@ vec3 area_light_term(PunctualLight light, int i, ShadingPoint sp) {
         spec = area_coat_weight(sp, l_rep) * spec + vec3(area_coat_lobe(sp, world, count));
     }
 #endif
-    vec3 f_d = brdf_factors(sp, l_rep).f_diffuse;
+    vec3 f_d = brdf_factors_view(sp, bv, l_rep).f_diffuse;
     vec3 Lo = selected_terms(f_d * I_d, spec);
     return Lo * light.color * (window_falloff(dot(to_centre, to_centre), light.range) / PI);
 }

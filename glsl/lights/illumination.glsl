@@ -65,7 +65,7 @@ vec3 light_term_at(vec3 c_light, vec3 l, int i, ShadingPoint sp, BrdfView bv) {
 // the light texture or the uniform array; the bench's limit pass: its own form).
 vec3 light_term(PunctualLight light, int i, ShadingPoint sp, BrdfView bv) {
 #if AREA_LIGHTS
-    if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp);  // lights/area.glsl
+    if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp, bv);  // lights/area.glsl
 #endif
     vec3 l;
     vec3 c_light = light_at(light, sp.position, l);
@@ -76,7 +76,7 @@ vec3 light_term(PunctualLight light, int i, ShadingPoint sp, BrdfView bv) {
 // float32 operations for it, without the test for a directional light.
 vec3 local_light_term(PunctualLight light, int i, ShadingPoint sp, BrdfView bv) {
 #if AREA_LIGHTS
-    if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp);  // lights/area.glsl
+    if (light.type >= LIGHT_RECT) return area_light_term(light, i, sp, bv);  // lights/area.glsl
 #endif
     vec3 l;
     vec3 c_light = local_light_at(light, sp.position, l);
