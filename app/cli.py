@@ -605,8 +605,9 @@ def _gallery_parser(sub: argparse._SubParsersAction) -> None:
         "repositories lay them out (NAME/glTF/NAME.gltf, NAME/glTF-Binary/NAME.glb or "
         "NAME/NAME.glb, its reference NAME/screenshot/screenshot.png or .jpg); a .gltf/.glb "
         "in FOLDER itself is a model too (reference NAME.png beside it). Each is rendered "
-        "as 'pbs render MODEL --view front' would (no scene file) beside its reference, "
-        "labelled. A bad "
+        "as 'pbs render MODEL --view front' frames it (no scene file), in the reference "
+        "viewer's look (image-based light only, a fixed exposure of 0 EV, the neutral tone "
+        "map), beside its reference, labelled. A bad "
         "model or reference exits 2 naming its file, and writes nothing. docs/gltf.md, "
         "'Conformance gallery'.",
     )

@@ -1,5 +1,7 @@
-"""``pbs gallery``: a contact sheet of model files rendered with ``pbs render MODEL``'s
-defaults (no scene file: app/scene/model_file.py) beside their reference screenshots.
+"""``pbs gallery``: a contact sheet of model files framed as ``pbs render MODEL`` frames
+them (no scene file: app/scene/model_file.py) but lit and exposed as the reference viewer
+shows them (``reference_look``: the glTF Sample Viewer's image-based light only, fixed
+exposure, neutral tone map), beside their reference screenshots.
 
 A gallery folder holds one sample model per subfolder, as the Khronos glTF sample
 repositories lay them out: ``NAME/glTF/NAME.gltf`` (or ``NAME/glTF-Binary/NAME.glb``, or a
@@ -28,7 +30,9 @@ from PIL import Image, UnidentifiedImageError
 from app.errors import InputError
 from app.gl.context import GLContext
 from app.render.renderer import Renderer
+from app.scene.loader import LoadedScene
 from app.scene.look import Look
+from app.scene.model_file import backdrop_radiance, fill_light
 from app.scene.sources import scene_from
 from app.untrusted import RefusedError, files
 from app.walkthrough.labels import caption_band, find_font, font_size
@@ -46,6 +50,36 @@ BACKDROP = (40, 40, 40)  # around a letterboxed reference, and where a model has
 GUTTER = 4  # pixels between cells
 # The view of a model that the asked view does not see at all (a plane edge-on).
 FALLBACK_VIEW = "three-quarter"
+# The reference viewer's look (docs/gltf.md, "Conformance gallery"): the glTF Sample
+# Viewer renders at a fixed exposure, with image-based light only (its default key and
+# fill lights come on only with the environment's light off) and the Khronos PBR Neutral
+# tone map. The gallery does the same with the studio: this fixed exposure (EV), not the
+# default look's metering, and no key or fill light.
+REFERENCE_EXPOSURE = 0.0
+REFERENCE_TONEMAP = "neutral"
+
+
+def reference_look(loaded: LoadedScene, look: Look) -> LoadedScene:
+    """A model file's default scene (``scene_from``) in the reference viewer's look: its
+    own lights only (the default key and fill lights dropped), ``REFERENCE_EXPOSURE`` and
+    ``REFERENCE_TONEMAP``, and the studio's backdrop kept at its light grey."""
+    scene = loaded.scene
+    lights = list(scene.lights)
+    fill = fill_light(look.angles()[0])
+    if (
+        len(lights) >= 2
+        and lights[-1].type == "directional"
+        and np.allclose(lights[-1].direction, fill["direction"])
+        and lights[-2].type == "spot"
+    ):
+        lights = lights[:-2]  # the default look's key and fill (the file has no lights)
+    data = scene.model_dump(exclude_unset=True)
+    data["lights"] = [light.model_dump(exclude_unset=True) for light in lights]
+    data["camera"] = {**data.get("camera", {}), "exposure": REFERENCE_EXPOSURE}
+    data["render"] = {**data.get("render", {}), "tonemap": REFERENCE_TONEMAP}
+    if look.env == "studio" and "background" in data:
+        data["background"] = [backdrop_radiance(REFERENCE_EXPOSURE, REFERENCE_TONEMAP)] * 3
+    return loaded.with_scene(scene.model_validate(data))
 
 
 @dataclass(frozen=True)
@@ -138,6 +172,7 @@ def render_model(
     """``pbs render MODEL --size SIZExSIZE``'s image of ``model`` (H, W, 3) uint8, and
     whether it covers any pixel (a flat model seen edge-on covers none)."""
     loaded = scene_from(model.model, look=look, size=(size, size), **policy)
+    loaded = reference_look(loaded, look)
     renderer = Renderer(gl, loaded, (size, size))
     try:
         renderer.render()

@@ -14,7 +14,19 @@ from PIL import Image
 
 from app.cli import main
 from app.errors import EXIT_BAD_INPUT
-from app.gallery import BACKDROP, GUTTER, find_models, letterbox, read_reference
+from app.gallery import (
+    BACKDROP,
+    GUTTER,
+    REFERENCE_EXPOSURE,
+    find_models,
+    letterbox,
+    read_reference,
+    reference_look,
+    render_model,
+)
+from app.render.renderer import Renderer
+from app.scene.look import Look
+from app.scene.sources import scene_from
 
 ASSETS = Path(__file__).resolve().parent / "assets" / "gallery"
 NAMES = ["TextureCoordinateTest", "TextureSettingsTest"]
@@ -73,3 +85,32 @@ def test_a_folder_without_models_is_refused(tmp_path, capsys):
     assert main(["gallery", str(tmp_path), "-o", str(out)]) == EXIT_BAD_INPUT
     assert "holds no .gltf/.glb model" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.gl
+def test_the_gallery_shows_models_in_the_reference_viewers_look(gl_egl):
+    """The gallery's look (docs/gltf.md, "Conformance gallery"): a model without lights is
+    shown without the default look's key and fill lights and at the fixed
+    ``REFERENCE_EXPOSURE`` instead of the metered one, as the glTF Sample Viewer shows its
+    screenshots (image-based light only, a fixed exposure). Fails with the default look
+    (``pbs render MODEL``'s) rendered as it is."""
+    model = find_models(ASSETS)[0]
+    look = Look("front")
+    default = scene_from(model.model, look=look, size=(SIZE, SIZE))
+    gallery = reference_look(default, look)
+    assert len(default.scene.lights) == 2  # the default look's key and fill
+    assert default.scene.camera.exposure != REFERENCE_EXPOSURE  # metered
+    assert gallery.scene.lights == [] and gallery.scene.camera.exposure == REFERENCE_EXPOSURE
+
+    def shown(loaded):
+        renderer = Renderer(gl_egl, loaded, (SIZE, SIZE))
+        try:
+            renderer.render()
+            return renderer.read_ldr()[..., :3]
+        finally:
+            renderer.release()
+
+    rendered, covered = render_model(gl_egl, model, SIZE, look)
+    assert covered
+    np.testing.assert_array_equal(rendered, shown(reference_look(default, look)))
+    assert np.abs(rendered.astype(int) - shown(default).astype(int)).max() > 20

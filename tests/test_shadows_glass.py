@@ -15,6 +15,7 @@ import copy
 from pathlib import Path
 
 import numpy as np
+import pygltflib
 import pytest
 
 from app.reference.glass_shadows import glass_transmittance, transmittance_product
@@ -146,3 +147,81 @@ def test_a_scene_without_glass_builds_no_glass_target(gl_egl):
         assert "SHADOW_GLASS" not in renderer.shadows.defines()
     finally:
         renderer.release()
+
+
+# --- a textured pane: its maps shape the tint as they shape the transmission pass ---
+
+# Floor points under the pane's left (u < 0.5) and right halves, in the sun's shadow of a
+# 1 m pane 1 m above the floor, centred on the origin (the sun along (-1, -1, 0) moves the
+# shadow 1 m to -x), and seen past the pane by the camera.
+PANE_PROBES = [(-1.3, 0.0, 0.0), (-0.7, 0.0, 0.0)]
+
+
+def pane_visibility(gl, tmp_path: Path, ext: dict, texture: np.ndarray, key: str) -> np.ndarray:
+    """(2, 3) the floor's light at ``PANE_PROBES`` with a .glb glass pane over it (white,
+    ``ext`` and a 4 x 4 nearest ``texture`` as its ``key`` map: "baseColorTexture" or the
+    extension's textureInfo) over the light without the pane."""
+    from PIL import Image
+
+    from tests.gltf_builder import GltfBuilder
+    from tests.test_transmission import NEAREST
+
+    b = GltfBuilder()
+    assert b.texture(Image.fromarray(texture), NEAREST) == 0
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=0.0
+    )
+    if key == "baseColorTexture":
+        pbr.baseColorTexture = pygltflib.TextureInfo(index=0)
+    b.quad(b.material(pygltflib.Material(pbrMetallicRoughness=pbr, extensions=ext)))
+    b.doc.extensionsUsed = list(ext)
+    path = b.save(tmp_path / "pane.glb")
+    data = scene(OPAQUE)
+    data["camera"] = {"position": [-1.0, 5.0, 5.0], "target": [-1.0, 0.0, 0.0], "fov_y": 30.0}
+    pane = {"shape": "mesh", "file": str(path), "position": [0.0, 1.0, 0.0],
+            "rotation": [-90.0, 0.0, 0.0], "scale": 0.5}  # fmt: skip
+    data["objects"] = [data["objects"][0], pane]
+    bare = copy.deepcopy(data)
+    bare["objects"] = bare["objects"][:1]
+    out = []
+    for d in (data, bare):
+        loaded = parse_scene(copy.deepcopy(d), tmp_path / "t.toml")
+        r = Renderer(gl, loaded)
+        try:
+            r.render()
+            hdr = r.read_hdr().astype(np.float64)
+            view_proj = np.asarray(r.proj, np.float64) @ np.asarray(r.view, np.float64)
+        finally:
+            r.release()
+        values = []
+        for p in PANE_PROBES:
+            ndc = view_proj @ np.array([*p, 1.0])
+            ndc = ndc[:3] / ndc[3]
+            col, row = int((ndc[0] * 0.5 + 0.5) * SIZE[0]), int((0.5 - ndc[1] * 0.5) * SIZE[1])
+            values.append(hdr[row, col, :3])
+        out.append(np.array(values))
+    return out[0] / out[1]
+
+
+def halves(left: tuple[int, int, int], right: tuple[int, int, int]) -> np.ndarray:
+    texels = np.zeros((4, 4, 3), np.uint8)
+    texels[:, :2], texels[:, 2:] = left, right
+    return texels
+
+
+@pytest.mark.parametrize("key", ["baseColorTexture", "transmissionTexture"])
+def test_a_textured_pane_tints_its_shadow_by_its_maps(gl_egl, tmp_path, key):
+    """A thin white glass pane whose left half is red in its base colour map, or opaque
+    (R = 0) in its transmissionTexture, casts the twin's transmittance of each half's
+    texels: (0.96, 0, 0) or 0 on the left, 0.96 on the right. Fails with the pane's tint
+    taken from its constants alone (0.96 on both halves)."""
+    ext = {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+    if key == "transmissionTexture":
+        ext["KHR_materials_transmission"]["transmissionTexture"] = {"index": 0}
+        texture, left = halves((0, 255, 255), (255, 0, 0)), ([1.0] * 3, 0.0)
+    else:
+        texture, left = halves((255, 0, 0), (255, 255, 255)), ([1.0, 0.0, 0.0], 1.0)
+    seen = pane_visibility(gl_egl, tmp_path, ext, texture, key)
+    want_left = glass_transmittance(left[0], left[1], 0.0, 0.04, 0.0, np.ones(3), 0.0)
+    want_right = glass_transmittance([1.0] * 3, 1.0, 0.0, 0.04, 0.0, np.ones(3), 0.0)
+    np.testing.assert_allclose(seen, [want_left, want_right], rtol=2e-3, atol=1e-4)

@@ -27,8 +27,8 @@ from app.reference.transmission import (
     dispersion_iors,
     refracted_direction,
     transmission_alpha,
-    transmission_exit,
     transmission_lod,
+    transmission_ray,
     transmission_weight,
     transmitted_light,
 )
@@ -199,7 +199,8 @@ def test_twin_refraction_and_lod():
     t = refracted_direction(v, n, 1.5)
     assert np.isclose(np.linalg.norm(t), 1.0)
     assert np.isclose(np.sin(0.5), 1.5 * t[0] * -1.0)
-    assert np.allclose(transmission_exit(np.zeros(3), v, n, 1.5, 0.0), 0.0)
+    exit_point, direction = transmission_ray(np.zeros(3), v, n, np.float64(1.5), 0.0)
+    assert np.allclose(exit_point, 0.0) and np.allclose(direction, -v)  # thin: unbent
     assert transmission_lod(0.0, 1.5, True, 1.0, 3.0, 500.0) == 0.0
     assert transmission_lod(1.0, 1.0, False, 1.0, 3.0, 500.0) == 0.0
     # thin wall, alpha 0.25: spread 2 atan(0.25); 1 m behind, seen at 3 m, focal 500 px
@@ -208,6 +209,58 @@ def test_twin_refraction_and_lod():
     # through a volume of index 1.5 the tilt bends by 1 - 1/1.5
     pixels = 2.0 * np.tan(np.arctan(0.25) / 3.0) * 500.0 / 3.0
     assert np.isclose(transmission_lod(0.5, 1.5, False, 1.0, 3.0, 500.0), np.log2(pixels))
+
+
+def test_twin_ray_leaves_a_sphere_as_exact_refraction():
+    """transmission_ray with the thickness a sphere's diameter is the exact path through
+    it: the exit point on the sphere's far side and the direction of Snell's second
+    refraction at the sphere's normal there (the front's mirrored across the chord's
+    normal plane is the sphere's own)."""
+    rng = np.random.default_rng(7)
+    n = rng.normal(size=(200, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n[:, 2] = np.abs(n[:, 2]) + 0.2
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    p = 0.5 * n  # a sphere of radius 0.5 at the origin, seen from z = 3
+    v = np.array([0.0, 0.0, 3.0]) - p
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    eta = np.full(len(p), 1.5)
+    exit_point, direction = transmission_ray(p, v, n, eta, 1.0)
+    np.testing.assert_allclose(np.linalg.norm(exit_point, axis=1), 0.5, atol=1e-12)
+    inside = refracted_direction(v, n, eta)
+    exact = refracted_direction(-inside, -exit_point / 0.5, 1.0 / eta)
+    np.testing.assert_allclose(direction, exact, atol=1e-12)
+
+
+@pytest.mark.gl
+def test_a_solid_ball_shows_what_is_behind_it_inverted(gl_egl, tmp_path):
+    """A solid glass ball (radius 0.5, thickness its diameter, ior 1.5: focal length 0.75 m
+    from its centre) 1.5 m before a dark wall with a bright band above the ball's centre:
+    through the ball, as through a real lens beyond its focal length, the band appears
+    below the centre. Fails with the ray projected from the exit point without the second
+    refraction (glTF Sample Viewer's offset), which shows the band magnified and upright,
+    above the centre."""
+    data = scene({"transmission": 1.0, "thickness": 1.0, "roughness": 0.0})
+    data["background"] = [0.0, 0.0, 0.0]
+    data["render"] |= {"width": 48, "height": 48}
+    data["materials"] |= {
+        "band": {"emissive": [4.0, 4.0, 4.0], "base_color": [0.0] * 3},
+        "wall": {"base_color": [0.0] * 3},
+    }
+    data["objects"] += [{"shape": "box", "size": [3.0, 0.12, 0.05],
+                         "position": [0.0, 0.2, -1.5], "material": "band"},
+                         {"shape": "plane", "size": [6.0, 6.0], "rotation": [90.0, 0.0, 0.0],
+                          "position": [0.0, 0.0, -1.6], "material": "wall"}]  # fmt: skip
+    image, _ = render(gl_egl, data, tmp_path)
+    luminance = image[..., :3].mean(axis=-1)
+    column = luminance[:, 22:26].mean(axis=1)  # the ball's middle columns, top row first
+    side = luminance[:, 1:4].mean(axis=1)  # the band itself, beside the ball
+    ball = slice(14, 34)  # rows well inside the ball (it spans about 12 to 36)
+    rows = np.arange(48)[ball]
+    assert rows[np.argmax(side[ball])] < 24  # the band is above the centre (image rows down)
+    seen = rows[np.argmax(column[ball])]
+    assert seen > 24, f"the band seen through the ball at row {seen}: upright"
+    assert column[ball].max() > 0.5  # the band's light reaches the ball's middle
 
 
 @pytest.mark.gl
@@ -349,7 +402,7 @@ def test_a_light_behind_rough_glass_is_the_twins_transmitted_lobe(gl_egl, tmp_pa
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
     n = np.broadcast_to([0.0, 0.0, 1.0], p.shape)
     f0 = np.full(3, 0.04)
-    exit_point = transmission_exit(p, v, n, np.full(p.shape[:2], 1.5), thickness)
+    exit_point, _ = transmission_ray(p, v, n, np.full(p.shape[:2], 1.5), thickness)
     c_light, l = light_at(light, exit_point)
     alpha_t = transmission_alpha(0.09, 1.5)
     lobe = np.pi * transmitted_light(n, v, l, alpha_t, f0, 1.0, 0.0) * c_light

@@ -8,7 +8,10 @@ A transmissive body between a light and a receiver lets through, per channel,
 
 the transmission pass's weight at normal incidence (one interface, Schlick's F at n.v = 1
 is F0) and Beer-Lambert over the volume's thickness d (KHR_materials_volume), once per
-body. Several bodies along the light's straight line multiply; a receiver in front of the
+body. Where the glass has a base colour, transmission or thickness map, the three are the
+material's constants times the texels at the shadow map texel's UV (the transmission pass's
+factors; glsl/passes/shadow_glass.frag GLASS_MAPS): ``glass_transmittance`` takes them as
+they are. Several bodies along the light's straight line multiply; a receiver in front of the
 nearest glass (the glass's own lit face) is not tinted. No caustics: the light refracted
 by the glass is not redirected, only attenuated along the straight line.
 """

@@ -5,7 +5,8 @@
 
 F is the dielectric base's Schlick Fresnel, T(d) = exp(-sigma d) with sigma =
 -ln(attenuation_color) / attenuation_distance (Beer-Lambert), and L_behind the opaque
-image at the screen projection of the refracted ray's exit point, read at the mip level
+image where the ray leaving the volume (``transmission_ray``: refracted in and out of a
+sphere) meets the opaque surfaces, read at the mip level
 ``transmission_lod`` (the glTF Sample Viewer's and Filament's screen-space approximation
 of rough refraction, which Walter et al. 2007, "Microfacet Models for Refraction through
 Rough Surfaces", derive exactly). The exact refraction through an analytic sphere, which
@@ -40,13 +41,27 @@ def refracted_direction(v: np.ndarray, n: np.ndarray, eta: np.ndarray) -> np.nda
     return np.where(k < 0.0, mirrored, refracted)
 
 
-def transmission_exit(
+def transmission_ray(
     p: np.ndarray, v: np.ndarray, n: np.ndarray, eta: np.ndarray, thickness: np.ndarray
-) -> np.ndarray:
-    """The point ``thickness`` (world units) along the refracted ray from ``p``; ``p``
-    itself for a thin-walled surface (thickness 0)."""
-    t = np.asarray(thickness, np.float64)[..., None]
-    return np.asarray(p, np.float64) + refracted_direction(v, n, eta) * t
+) -> tuple[np.ndarray, np.ndarray]:
+    """A volume's light path as through a solid sphere of diameter ``thickness`` (world
+    units) touching the surface at ``p`` (Filament's "solid" refraction): refracted in at
+    ``p`` by ``eta``, along the chord of length thickness cos(theta_t) to the far side,
+    whose outward normal is n - 2 (n.t) t, refracted out there by 1 / eta. Returns the exit
+    point and the outgoing unit direction (..., 3); ``p`` and -v for a thin-walled surface
+    (thickness 0). A ball beyond its focal length is thus seen inverted."""
+    p = np.asarray(p, np.float64)
+    v = np.asarray(v, np.float64)
+    n = np.asarray(n, np.float64)
+    eta = np.asarray(eta, np.float64)
+    thick = np.broadcast_to(np.asarray(thickness, np.float64), eta.shape)[..., None]
+    t = refracted_direction(v, n, eta)
+    NoT = _dot(n, t)[..., None]
+    exit_point = p + t * (thick * np.maximum(-NoT, 0.0))
+    n_back = n - 2.0 * NoT * t
+    out = refracted_direction(-t, -n_back, 1.0 / eta)
+    thin = thick <= 0.0
+    return np.where(thin, p, exit_point), np.where(thin, -v, out)
 
 
 # The three channels' wavelengths (nm) for KHR_materials_dispersion's index.

@@ -58,6 +58,7 @@ import time
 import moderngl
 import numpy as np
 
+from app.common.extension_maps import FACTOR_TARGETS, targets_of
 from app.common.lights import LightType, PunctualLight
 from app.errors import InputError
 from app.frame.camera import gl_bytes
@@ -569,36 +570,86 @@ class _GlassCaster(_Caster):
 
     def __init__(self, ctx: moderngl.Context, prog: moderngl.Program, part: MeshPart) -> None:
         super().__init__(ctx, prog, part)
+        self.glass = self.constants(part)
+
+    @staticmethod
+    def constants(part: MeshPart) -> list[tuple[str, bytes]]:
+        """The uniforms of the part's transmittance: ``u_glass`` (transmission, metallic,
+        F0, thickness in metres: the object's times its scale), ``u_glass_attenuation``
+        and ``u_glass_base_color``."""
         m = part.material
         extra = m.params
         scale = abs(float(np.linalg.det(part.model[:3, :3]))) ** (1.0 / 3.0)
-        self.glass = np.array(
-            [
-                float(extra.transmission),
-                float(m.metallic),
-                float(m.f0),
-                float(extra.thickness) * scale,
-            ],
-            np.float32,
-        ).tobytes()
+        glass = [float(extra.transmission), float(m.metallic), float(m.f0),
+                 float(extra.thickness) * scale]  # fmt: skip
         attenuation = [
             *np.asarray(extra.attenuation_color, np.float64)[:3],
             extra.attenuation_distance,
         ]
-        self.attenuation = np.asarray(attenuation, np.float32).tobytes()
-        self.base_color = np.asarray(m.base_color, np.float32).tobytes()
+        return [
+            ("u_glass", np.asarray(glass, np.float32).tobytes()),
+            ("u_glass_attenuation", np.asarray(attenuation, np.float32).tobytes()),
+            ("u_glass_base_color", np.asarray(m.base_color, np.float32).tobytes()),
+        ]
 
     def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
         set_glass_sides(self.ctx, self.part)
         prog["u_model"].write(self.model)
-        for name, data in (
-            ("u_glass", self.glass),
-            ("u_glass_attenuation", self.attenuation),
-            ("u_glass_base_color", self.base_color),
-        ):
+        for name, data in self.glass:
             if name in prog:
                 prog[name].write(data)
         self.vao.render(moderngl.TRIANGLES)
+
+
+# The maps of a transmissive part's layer 0 that shape its shadow's tint, as they shape
+# the transmission pass's weight (glsl/passes/shadow_glass.frag GLASS_MAPS).
+GLASS_MAPS = ("base_color", "transmission", "thickness")
+
+
+def glass_textured(part: MeshPart) -> bool:
+    """Whether a transmissive mesh's tint varies over it: a base colour, transmission or
+    thickness map on layer 0, or COLOR_0 (an analytic sphere's tint stays its constants,
+    as an analytic mask casts whole)."""
+    layer = part.layers[0]
+    colours = part.colors is not None
+    return part.analytic is None and (colours or any(k in layer.maps for k in GLASS_MAPS))
+
+
+class _TexturedGlassCaster:
+    """A transmissive mesh whose tint varies over it (``glass_textured``): its triangles
+    with UVs (and COLOR_0, TEXCOORD_1) and the maps of ``GLASS_MAPS`` it has, drawn by
+    passes/gbuffer.vert and passes/shadow_glass.frag with GLASS_MAPS, which multiplies the
+    constants by the texels the transmission pass reads at the same UV (as
+    ``_MaskedCaster`` draws a masked part with its coverage)."""
+
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart) -> None:
+        layer = part.layers[0]
+        maps = {k: v for k, v in layer.maps.items() if k in GLASS_MAPS}
+        shown = dataclasses.replace(
+            part, layers=[dataclasses.replace(layer, maps=maps)], blend=None
+        )
+        defines = {"GLASS_MAPS": 1, **{t.define: 1 for t in FACTOR_TARGETS
+                                        if t.name in targets_of(maps)}}  # fmt: skip
+        self.drawable = MeshDrawable(
+            ctx, shaders, shown, [0], ("passes/gbuffer.vert", "passes/shadow_glass.frag"),
+            defines,
+        )  # fmt: skip
+        self.constants = _GlassCaster.constants(part)
+        self.ctx = ctx
+
+    def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
+        """Draw into the bound glass target with its own program (``prog`` is the pass's)."""
+        d = self.drawable
+        set_glass_sides(self.ctx, d.part)
+        d.bind_transform(_IDENTITY, light_matrix)
+        d.bind_material()
+        for name, data in self.constants:
+            if name in d.uniforms:
+                d.program[name].write(data)
+        d.vao.render(moderngl.TRIANGLES)
+
+    def release(self) -> None:
+        self.drawable.release()
 
 
 class ShadowPass(ShaderInput):
@@ -711,10 +762,15 @@ class ShadowPass(ShaderInput):
         # of the opaque depth, alpha the nearest glass depth (docs/shadows.md, "Glass").
         # Only where the frame has glass: a scene without compiles and renders as before.
         self.glass_atlas: moderngl.Texture | None = None
-        self.glass_casters: list[_GlassCaster] = []
+        self.glass_casters: list[_GlassCaster | _TexturedGlassCaster] = []
         if glass:
             self.glass_prog = shaders.program("passes/shadow.vert", "passes/shadow_glass.frag", {})
-            self.glass_casters = [_GlassCaster(ctx, self.glass_prog, part) for part in glass]
+            self.glass_casters = [
+                _TexturedGlassCaster(ctx, shaders, part)
+                if glass_textured(part)
+                else _GlassCaster(ctx, self.glass_prog, part)
+                for part in glass
+            ]
             self.glass_atlas = ctx.texture((width, height), 4, dtype="f4")
             self.glass_atlas.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self.glass_atlas.repeat_x = self.glass_atlas.repeat_y = False

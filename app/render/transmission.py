@@ -9,9 +9,10 @@ pass. First the lighting pass's HDR image is copied into a texture with a mip ch
 in a frame with a transmissive part); then each transmissive part is shaded forward by
 glsl/passes/forward.frag with ``TRANSMISSION``: the lighting pass's ``surface_radiance``
 with the diffuse base weighted by (1 - transmission), plus the transmitted term of
-glsl/brdf/transmission.glsl (twin app/reference/transmission.py): the view ray refracted by
-the material's index, offset by the volume's thickness (none where thin-walled), projected
-to the screen and read from the copy at the mip level of the rough lobe's footprint, times the
+glsl/brdf/transmission.glsl (twin app/reference/transmission.py): the view ray refracted
+into and out of a sphere of diameter the volume's thickness (straight on where
+thin-walled), followed on screen to the opaque surface it meets (the G-buffer's depth) and
+read from the copy there at the mip level of the rough lobe's footprint, times the
 base colour, (1 - F) and Beer-Lambert's exp(-sigma d), plus each punctual light seen
 through the surface (the transmitted GGX lobe about the light mirrored through the
 surface, KHR_materials_transmission's BTDF, lit from the refracted ray's exit point). The
@@ -21,8 +22,8 @@ against the G-buffer's depth.
 What it cannot see (docs/transmission.md measures it against the ray-caster's exact
 refraction): anything not on screen or hidden behind another opaque surface at the exit
 point's pixel, other transmissive or blended parts (one layer of glass, farthest first),
-the back face's second refraction and internal reflections (the exit point is one straight
-offset), shadows on the lights seen through the glass, and caustics.
+a far side other than a sphere's, internal reflections, shadows on the lights seen through
+the glass, and caustics.
 """
 
 from __future__ import annotations

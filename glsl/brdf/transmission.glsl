@@ -4,9 +4,10 @@
 //   L_t = transmission (1 - metallic) (1 - F(n.v)) base_color T(d) L_behind
 // with F the dielectric base's Schlick Fresnel (what the surface reflects it does not
 // transmit), T(d) = exp(-sigma d), sigma = -ln(attenuation_color) / attenuation_distance
-// (Beer-Lambert; KHR_materials_volume), and L_behind the opaque image at the projection of
-// the refracted ray's exit point, blurred by roughness through its mip chain (the glTF
-// Sample Viewer's and Filament's approach; rough refraction itself: Walter et al. 2007,
+// (Beer-Lambert; KHR_materials_volume), and L_behind the opaque image where the ray that
+// leaves the volume (transmission_ray: refracted in and out of a sphere) reaches the opaque
+// surfaces, blurred by roughness through its mip chain (the glTF Sample Viewer's and
+// Filament's screen-space approach; rough refraction itself: Walter et al. 2007,
 // "Microfacet Models for Refraction through Rough Surfaces"). A punctual light behind the
 // surface adds the transmitted GGX lobe (transmitted_light, below). The float64 twin is
 // app/reference/transmission.py, same names.
@@ -28,11 +29,27 @@ vec3 refracted_direction(vec3 v, vec3 n, float eta) {
     return -inv * v - (sqrt(k) - inv * cos_i) * n;
 }
 
-// Where the refracted ray leaves the volume: thickness (world units; the object's thickness
-// scaled by its model matrix) along the refracted direction; a thin-walled surface
-// (thickness 0) leaves at p itself, so the lookup is the pixel's own (no offset).
-vec3 transmission_exit(vec3 p, vec3 v, vec3 n, float eta, float thickness) {
-    return p + refracted_direction(v, n, eta) * thickness;
+// A volume's light path, as through a solid sphere of diameter `thickness` that the surface
+// touches at p (Filament's "solid" refraction; KHR_materials_volume gives only a thickness
+// and leaves the far side's shape to the renderer): the view ray refracts in at p (index
+// eta), crosses the chord, of length thickness cos(theta_t), to the far side, whose outward
+// normal is n mirrored across the plane normal to the chord, n - 2 (n.t) t (the sphere's
+// symmetry), and refracts out there (index 1 / eta). The second refraction bends the ray
+// again towards the axis, so that beyond the sphere's focal length (n R / (2 (n - 1)) from
+// its centre) what lies behind is seen inverted, as through a real ball. A thin-walled
+// surface (thickness 0) leaves at p along -v, unbent.
+struct TransmissionRay {
+    vec3 exit;        // where the ray leaves the volume (world space)
+    vec3 direction;   // its unit direction after the second refraction
+};
+
+TransmissionRay transmission_ray(vec3 p, vec3 v, vec3 n, float eta, float thickness) {
+    if (thickness <= 0.0) return TransmissionRay(p, -v);
+    vec3 t = refracted_direction(v, n, eta);
+    float NoT = dot(n, t);
+    vec3 exit = p + t * (thickness * max(-NoT, 0.0));
+    vec3 n_back = n - 2.0 * NoT * t;   // outward at the exit
+    return TransmissionRay(exit, refracted_direction(-t, -n_back, 1.0 / eta));
 }
 
 // KHR_materials_dispersion: the index at the three channels' wavelengths (630, 532 and

@@ -41,6 +41,21 @@ uniform sampler2D u_transmission_image;
 uniform sampler2D u_transmission_depth;  // the G-buffer's RT2: view depth (0: nothing)
 uniform mat4 u_view;   // passes/gbuffer.vert's (geometry/analytic.glsl: u_model, u_proj)
 uniform float u_thickness_scale;   // |det(model)|^(1/3): object units to world units
+
+// Fixed-point steps of the search for where the ray leaving a volume meets the opaque image.
+const int BEHIND_STEPS = 3;
+
+// The screen position (0..1) of the world point q; `own` where q is behind the camera.
+vec2 screen_uv(vec3 q, vec2 own) {
+    vec4 clip = u_proj * (u_view * vec4(q, 1.0));
+    return clip.w > 0.0 ? clip.xy / clip.w * 0.5 + 0.5 : own;
+}
+
+// The G-buffer's view depth at the screen position uv (0: nothing drawn there).
+float depth_at(vec2 uv) {
+    ivec2 px = clamp(ivec2(uv * u_image_size), ivec2(0), ivec2(u_image_size) - 1);
+    return texelFetch(u_transmission_depth, px, 0).r;
+}
 #endif
 
 out vec4 frag_color;
@@ -142,18 +157,34 @@ void main() {
     vec3 iors = dispersion_iors(params.eta_dielectric, params.dispersion);
     int lookups = params.dispersion > 0.0 ? 3 : 1;
     vec4 behind = vec4(0.0);
+    vec2 own_uv = gl_FragCoord.xy / u_image_size;
+    // the ray out of the volume at the material's index: the lookup's, where the index does
+    // not disperse, and the lights' (below)
+    TransmissionRay ray_out = transmission_ray(p, v, n, params.eta_dielectric, thickness);
     for (int c = 0; c < lookups; ++c) {
         float eta = lookups == 1 ? params.eta_dielectric : iors[c];
-        vec3 exit = transmission_exit(p, v, n, eta, thickness);
-        vec4 clip = u_proj * (u_view * vec4(exit, 1.0));
-        vec2 uv = clip.w > 0.0 ? clip.xy / clip.w * 0.5 + 0.5 : gl_FragCoord.xy / u_image_size;
-        // the rough lobe's footprint on what lies behind the exit (its view depth; the
-        // background as far away), over the path from p (brdf/transmission.glsl)
-        ivec2 px = clamp(ivec2(uv * u_image_size), ivec2(0), ivec2(u_image_size) - 1);
-        float exit_depth = -(u_view * vec4(exit, 1.0)).z;
-        float far = texelFetch(u_transmission_depth, px, 0).r;
+        TransmissionRay ray = lookups == 1 ? ray_out : transmission_ray(p, v, n, eta, thickness);
+        vec2 uv = screen_uv(ray.exit, own_uv);
+        float exit_depth = -(u_view * vec4(ray.exit, 1.0)).z;
+        float far = depth_at(uv);
+        float beyond = 0.0;   // the path from the exit to what the ray reaches
+        if (thickness > 0.0) {
+            // What the ray leaving the volume reaches: the point exit + s direction at the
+            // opaque image's view depth there, by fixed-point steps from the exit's own
+            // pixel (one step on a wall facing the camera); the background as far away.
+            float rate = max(-(u_view * vec4(ray.direction, 0.0)).z, 0.05);
+            for (int k = 0; k < BEHIND_STEPS; ++k) {
+                beyond = far > 0.0 ? max(far - exit_depth, 0.0) / rate
+                                   : 1e4 * max(exit_depth, 1e-6);
+                uv = screen_uv(ray.exit + ray.direction * beyond, uv);
+                far = depth_at(uv);
+            }
+        }
+        // the rough lobe's footprint on what lies behind (its view depth; the background
+        // as far away), over the path from p (brdf/transmission.glsl)
         far = far > 0.0 ? far : 1e4 * max(exit_depth, 1e-6);
-        float path = length(exit - p) + max(far - exit_depth, 0.0);
+        float path = thickness > 0.0 ? length(ray.exit - p) + beyond
+                                     : max(far - exit_depth, 0.0);
         float lod = transmission_lod(s.perceptual_roughness, eta, thickness <= 0.0, path, far,
                                      focal_px);
         vec4 texel = textureLod(u_transmission_image, uv, lod);
@@ -175,11 +206,10 @@ void main() {
     // it from where the view ray leaves the volume, tinted as the light behind:
     //   pi sum_i base_color T(d) f_t(l_i, v) c_light_i |n.l_i|
     float alpha_t = transmission_alpha(material_alpha(s), params.eta_dielectric);
-    vec3 exit_point = transmission_exit(p, v, n, params.eta_dielectric, thickness);
     vec3 through = vec3(0.0);
     for (int i = 0; i < u_light_count; ++i) {
         vec3 l;
-        vec3 c_light = light_at(read_light(u_lights, i), exit_point, l);
+        vec3 c_light = light_at(read_light(u_lights, i), ray_out.exit, l);
         through += transmitted_light(n, v, l, alpha_t, s.f0_dielectric * params.specular_color,
                                      params.transmission, s.metallic) * c_light;
     }
