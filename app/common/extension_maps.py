@@ -7,9 +7,10 @@ fills, and the row's field it applies to (a product, or a mix from another field
 the row flag that picks it where two maps share a slot. A ``FactorTarget`` is a G-buffer
 target of such factors (RT6 ``layer_maps``, RT8 ``coat_film_maps``: app/common/gbuffer.py
 builds their ``GBufferTarget`` from it, with the order in which a layout past the draw
-buffers leaves them out), or one the forward pass alone samples (``transmission_maps``:
-glass is not in the G-buffer). Every channel of a factor target is 1 where its material
-has no map, so a target left out costs only the per-pixel variation.
+buffers leaves them out), or one only the passes that draw glass sample
+(``transmission_maps``: the forward pass and the glass shadow pass; glass is not in the
+G-buffer). Every channel of a factor target is 1 where its material has no map, so a
+target left out costs only the per-pixel variation.
 
 Derived from the declarations, nowhere restated: each map's bit and index in a layer's
 ``LAYER<i>_MAPS`` define (``MAP_BITS``, ``MAP_INDEX``, after the core maps ``CORE_MAPS``)
@@ -55,7 +56,7 @@ class FactorTarget:
     name: str  # "layer_maps": the G-buffer target's name, sample_<name>, scale_by_<name>
     define: str  # the define that says it exists (compiles in its samplers and functions)
     # Whether the G-buffer stores it (its GBufferTarget: app/common/gbuffer.py); else only
-    # the forward pass samples it (the transmission pass: glass is not in the G-buffer).
+    # the passes that draw glass sample it (forward, glass shadows: glass is not in the G-buffer).
     gbuffer: bool = True
     # The order in which a G-buffer layout past MAX_COLOR_TARGETS leaves it out, lowest
     # first (None: never); its materials then use the row's numbers alone.

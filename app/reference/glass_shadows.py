@@ -1,5 +1,6 @@
-"""Float64 twin of the glass shadows (glsl/passes/shadow_glass.frag and the glass lookup of
-glsl/lights/shadows.glsl; docs/shadows.md, "Glass").
+"""Float64 twin of the glass shadows' transmittance (glsl/passes/shadow_glass.frag;
+docs/shadows.md, "Glass"). The lighting pass's lookup of it (glsl/lights/shadows.glsl) is
+twinned by ``glass_transmittance_at`` in app/reference/shadows.py.
 
 A transmissive body between a light and a receiver lets through, per channel,
 
