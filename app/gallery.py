@@ -19,6 +19,7 @@ or reference image is one ``InputError`` naming its file (exit 2) and no sheet.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ from PIL import Image, UnidentifiedImageError
 from app.errors import InputError
 from app.gl.context import GLContext
 from app.render.renderer import Renderer
+from app.scene.gltf_document import GltfError, open_gltf
 from app.scene.loader import LoadedScene
 from app.scene.look import Look
 from app.scene.model_file import backdrop_radiance, fill_light
@@ -166,6 +168,24 @@ def letterbox(image: np.ndarray, size: int) -> np.ndarray:
     return np.asarray(square)
 
 
+def _animated(path: Path) -> bool:
+    """Whether the glTF file at ``path`` has an animation to pose it by (a file that does not
+    read is left to ``scene_from``, which names what is wrong with it)."""
+    try:
+        return bool(open_gltf(path).animations)
+    except GltfError:
+        return True
+
+
+def posed_look(model: GalleryModel, look: Look) -> Look:
+    """``look`` for ``model``: ``--animation``/``--time`` pose the models that have
+    animations (CesiumMan's reference is a frame of its walk) and leave the rest at rest,
+    where ``pbs render`` would refuse a time for a file without animations."""
+    if (look.animation is None and look.time is None) or _animated(model.model):
+        return look
+    return dataclasses.replace(look, animation=None, time=None)
+
+
 def render_model(
     gl: GLContext, model: GalleryModel, size: int, look: Look, **policy: object
 ) -> tuple[np.ndarray, bool]:
@@ -224,11 +244,12 @@ def render_gallery(
     cells = []
     look = look or Look()
     for model, reference in zip(models, references, strict=True):
-        rendered, covered = render_model(gl, model, size, look, **policy)
+        shown = posed_look(model, look)
+        rendered, covered = render_model(gl, model, size, shown, **policy)
         name = model.name
         if not covered and look.azimuth is None and look.elevation is None:
             # a flat model the named view sees edge-on (TwoSidedPlane from the front)
-            seen = Look(FALLBACK_VIEW, camera=look.camera, env=look.env)
+            seen = dataclasses.replace(shown, view=FALLBACK_VIEW)
             rendered, _ = render_model(gl, model, size, seen, **policy)
             name = f"{name} ({FALLBACK_VIEW})"
         cells.append((name, rendered, reference))

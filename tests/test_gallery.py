@@ -18,8 +18,10 @@ from app.gallery import (
     BACKDROP,
     GUTTER,
     REFERENCE_EXPOSURE,
+    GalleryModel,
     find_models,
     letterbox,
+    posed_look,
     read_reference,
     reference_look,
     render_model,
@@ -39,6 +41,17 @@ def test_the_khronos_layout_is_found():
     for m in models:
         assert m.model.suffix == ".glb" and m.model.parent.name == "glTF-Binary"
         assert m.reference is not None and m.reference.name == "screenshot.png"
+
+
+def test_a_time_poses_the_animated_models_and_leaves_the_rest_at_rest():
+    # `pbs gallery --time 1` over a folder of mixed models: `pbs render` refuses a time for
+    # a file without animations, the gallery poses only the ones that have them.
+    walk = Look(time=1.0)
+    cesium = GalleryModel("CesiumMan", ASSETS.parent / "CesiumMan.glb", None)
+    assert posed_look(cesium, walk) == walk
+    for still in find_models(ASSETS):
+        assert posed_look(still, walk) == Look()
+        assert posed_look(still, Look(variant="x")) == Look(variant="x")
 
 
 @pytest.mark.gl
