@@ -387,6 +387,38 @@ def test_unreadable_mesh_file(work: tuple[Path, Path], capsys: pytest.CaptureFix
     _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: ", "cannot read")
 
 
+# OBJ faces whose index names no vertex or is no number, which trimesh refuses with a bare
+# IndexError or ValueError: (id, the faces after four vertices and one normal, the line's
+# words expected).
+BAD_FACES = [
+    (
+        "past-the-end",
+        "f 1 2 3\nf 2 4 6\n",
+        "line 7: face index 6 ('6') names no vertex (4 vertices",
+    ),
+    ("negative", "f 1 2 3\nf -1 -2 -9\n", "line 7: face index -9 ('-9') names no vertex"),
+    ("not-a-number", "f 1//1 2//1 3//1\nf 2//1 4//1 x\n", "line 7: face word 'x' is not a whole"),
+]
+
+
+@pytest.mark.parametrize(("faces", "words"), [pytest.param(*c[1:], id=c[0]) for c in BAD_FACES])
+def test_obj_face_index_out_of_range(
+    work: tuple[Path, Path], capsys: pytest.CaptureFixture[str], faces: str, words: str
+) -> None:
+    """One line naming the scene, the object, the OBJ file, the line and the index (not
+    trimesh's 'IndexError: index 5 is out of bounds for axis 0 with size 4'); as a model
+    file (``pbs render bad.obj``), the OBJ file alone."""
+    root, out = work
+    mesh = root / "bad.obj"
+    mesh.write_bytes(f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\n{faces}".encode())
+    scene = _scene(root, BASE + '[[objects]]\nshape = "mesh"\nfile = "bad.obj"\n')
+    rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
+    _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: {mesh}: ", words)
+    rc, err = _run_inproc(capsys, str(mesh), "-o", str(out / "out.png"), "--size", SIZE)
+    line = _check(rc, err, out, f"pbs: error: {mesh}: ", words)
+    assert "Error" not in line, line
+
+
 def test_mesh_file_is_a_folder(work: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
     root, out = work
     (root / "folder.obj").mkdir()

@@ -132,16 +132,26 @@ def test_a_render_imports_the_gl_stack(tmp_path: Path) -> None:
 @pytest.mark.gl
 def test_a_render_of_primitives_imports_no_mesh_reader(tmp_path: Path) -> None:
     """The showcase (a plane and analytic spheres, shadowed: the shadow pass takes each
-    sphere's icosphere; no mesh file, no environment) is built without trimesh and its
-    scipy (app/scene/icosphere.py gives trimesh's icosphere without importing it), the glTF
-    reader, the model-file defaults and the environment's twins."""
+    sphere's icosphere; no mesh file; the studio environment) is built without trimesh and
+    its scipy (app/scene/icosphere.py gives trimesh's icosphere without importing it), the
+    glTF reader and the model-file defaults; the same scene without its environment
+    imports the environment's decoder and twins neither."""
     out = tmp_path / "x.png"
     result = run_cli("render", "showcase", "-o", str(out), "--size", "32x18", "-q")
     assert result["code"] == 0, result["stderr"]
     assert out.is_file()
     unused = ("trimesh", "scipy", "app.scene.gltf", "app.scene.gltf_schema",
-              "app.scene.model_file", "app.textures.environment", "app.reference.ibl")  # fmt: skip
+              "app.scene.model_file")  # fmt: skip
     assert among(result["modules"], unused) == []
+    environment = ("app.textures.environment", "app.reference.ibl")
+    assert set(environment) <= set(result["modules"])  # the probe sees them where used
+    text = (REPO / "scenes" / "showcase.toml").read_text(encoding="utf-8")
+    table = text[text.index("[environment]") : text.index("[render]")]
+    scene = tmp_path / "no_environment.toml"
+    scene.write_text(text.replace(table, ""), encoding="utf-8")
+    result = run_cli("render", str(scene), "-o", str(out), "--size", "32x18", "-q")
+    assert result["code"] == 0, result["stderr"]
+    assert among(result["modules"], (*unused, *environment)) == []
 
 
 def test_the_bench_times_both_quick_answers() -> None:

@@ -21,6 +21,8 @@ say they show, on real GL (EGL, llvmpipe), no mocks.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -28,7 +30,7 @@ from PIL import Image
 from app.cli import main
 from app.common.models import unpack_model_params
 from app.reference.illumination import decode_gbuffer, illumination_sum
-from app.reference.material import brdf_factors, surface_reflection
+from app.reference.material import brdf_factors, material_F0, surface_reflection
 from app.reference.punctual import light_at
 from app.render.culling import TILE_SIZE
 from app.render.debug_views import (
@@ -51,9 +53,9 @@ MAX_REL_ERR = 1e-4
 class Frame:
     """A rendered scene with its debug pass and the float64 twin's decode of its G-buffer."""
 
-    def __init__(self, gl, scene: str) -> None:
+    def __init__(self, gl, scene: str | Path, size: tuple[int, int] = SIZE) -> None:
         # Unshadowed: the debug views' light terms have no shadow (docs/shadows.md)
-        self.renderer = Renderer(gl, without_shadows(load_scene(REPO / "scenes" / scene)), SIZE)
+        self.renderer = Renderer(gl, without_shadows(load_scene(REPO / "scenes" / scene)), size)
         self.renderer.render()
         self.debug = DebugPass(self.renderer)
         self.gbuffer = self.renderer.read_gbuffer()
@@ -124,7 +126,6 @@ CHANNELS = {
     "base_color": lambda g: g.base_color[..., :3],
     "roughness": lambda g: g.normal[..., 2:3],
     "metallic": lambda g: g.base_color[..., 3:4],
-    "f0": lambda g: g.normal[..., 3:4],
     "depth": lambda g: g.depth[..., None],
     "material_id": lambda g: g.material_id[..., None],
 }
@@ -165,6 +166,56 @@ def test_coat_normal_view_is_the_decoded_coat_normal(frames, scene):
     assert (g.nc is not None) == (scene == "sec12_coat_normal.toml")
     err = np.abs(values[g.covered][:, :3] - (g.n if g.nc is None else g.nc)).max()
     assert err <= 1e-6
+
+
+def _f0_view_and_twin(frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+    """The f0 view's covered pixels (C, 3) and the twin's material_F0 of the same decoded
+    G-buffer (each pixel's row scaled by RT6, as the lighting pass reads it)."""
+    values = frame.values("f0")[frame.gbuffer.covered][:, :3].astype(np.float64)
+    g, table = frame.decoded, frame.renderer.materials.packed()
+    want = np.zeros((len(g.material_id), 3))
+    for row in np.unique(g.material_id):
+        sel = g.material_id == row
+        point = g.point(sel, unpack_model_params(table[row]))
+        want[sel] = material_F0(point.s, point.params)
+    return values, want
+
+
+def test_f0_view_is_the_metals_base_colour_and_the_dielectrics_f0(frames):
+    """sec5_metals: the f0 view is material_F0 (a metal's F0 is its base colour, RGB; a
+    dielectric's its G-buffer F0), to float32 rounding."""
+    values, want = _f0_view_and_twin(frames("sec5_metals.toml"))
+    assert np.abs(values - want).max() <= 1e-6
+    assert np.ptp(want, axis=-1).max() > 0.2, "the metals' F0 is coloured"
+
+
+def test_f0_view_takes_the_specular_colour_and_its_texture(gl_egl, tmp_path):
+    """A glTF quad with KHR_materials_specular: specularColorFactor (1, 0.8, 0.6) times a
+    specularColorTexture yellow (255, 255, 0) on its left half and white on its right.
+    The f0 view is the RGB F0 the lighting's Fresnel takes (the dielectric F0 0.04 times
+    the factor times the texel: yellow-tinted on the left, orange-tinted on the right),
+    as the twin's material_F0. Fails where the view shows the scalar F0 channel (grey)."""
+    from tests.gltf_builder import GltfBuilder
+    from tests.test_gltf_extension_maps import NEAREST, QUAD_N, QUAD_SCENE, dielectric, halves
+
+    b = GltfBuilder()
+    tex = b.texture(halves((255, 255, 0), (255, 255, 255)), NEAREST)
+    ext = {"specularColorFactor": [1.0, 0.8, 0.6], "specularColorTexture": {"index": tex}}
+    b.quad(b.material(dielectric({"KHR_materials_specular": ext})))
+    b.doc.extensionsUsed = ["KHR_materials_specular"]
+    b.save(tmp_path / "m.glb")
+    (tmp_path / "scene.toml").write_text(QUAD_SCENE, encoding="utf-8")
+    frame = Frame(gl_egl, tmp_path / "scene.toml", (QUAD_N, QUAD_N))  # an absolute path
+    try:
+        values, want = _f0_view_and_twin(frame)
+        image = frame.debug.read_values()[..., :3]
+    finally:
+        frame.release()
+    assert frame.gbuffer.covered.all()
+    assert np.abs(values - want).max() <= 1e-6
+    left, right = image[:, : QUAD_N // 2], image[:, QUAD_N // 2 :]
+    np.testing.assert_allclose(left, np.broadcast_to([0.04, 0.032, 0.0], left.shape), atol=1e-6)
+    np.testing.assert_allclose(right, np.broadcast_to([0.04, 0.032, 0.024], right.shape), atol=1e-6)
 
 
 # --- BRDF views -----------------------------------------------------------------------------

@@ -204,6 +204,35 @@ def test_scene_file_with_a_mesh_and_no_camera_or_light(tmp_path: Path) -> None:
     _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), "only.toml")
 
 
+@pytest.mark.parametrize("size", [(320, 240), (1280, 720)])
+def test_a_scene_file_naming_only_a_mesh_is_framed_for_the_output_size(
+    tmp_path: Path, size: tuple[int, int]
+) -> None:
+    """The default camera of a scene file naming only a mesh frames it for the size the
+    image is drawn at (``--size``), as a model file's does: every point of the model
+    projects inside the image at 320x240 as at the scene's own 16:9 (framed for 16:9, a
+    4:3 image cuts the model at its left and right edges)."""
+    from app.frame.camera import projection_matrix, view_matrix
+    from app.scene.geometry import build_parts
+
+    (tmp_path / "teapot.obj").write_bytes((MESHES / "teapot.obj").read_bytes())
+    (tmp_path / "only.toml").write_text('[[objects]]\nshape = "mesh"\nfile = "teapot.obj"\n')
+    loaded = scene_from(tmp_path / "only.toml", size=size)
+    cam = loaded.scene.camera
+    world = np.concatenate(
+        [p.surface_points() @ p.model[:3, :3].T + p.model[:3, 3] for p in build_parts(loaded)]
+    )
+    clip = (
+        np.c_[world, np.ones(len(world))]
+        @ (projection_matrix(cam, size[0] / size[1]) @ view_matrix(cam)).T
+    )
+    ndc = clip[:, :2] / clip[:, 3:]
+    assert np.all(clip[:, 3] > 0.0)
+    extent = np.abs(ndc).max(axis=0)
+    assert extent.max() <= 1.0, f"the model reaches {extent} of the half image (x, y)"
+    assert extent.max() >= 0.5, f"the model fills only {extent} of the half image (x, y)"
+
+
 def test_bundled_scenes_keep_their_camera_and_lights() -> None:
     """The defaults touch no scene that gives a camera and lights."""
     for name in ("teapot", "gltf_stage", "gltf_material_sampler", "showcase"):

@@ -44,10 +44,15 @@ def interior(covered: np.ndarray) -> np.ndarray:
 def render_and_reference(
     gl: GLContext, scene: str, size: tuple[int, int], gbuffer: str, tonemap: str | None = None
 ):
+    """The scene rendered and its G-buffer shaded by the twin. The scene's environment is
+    left out: the twin here sums the punctual lights (the lighting pass's loop, its
+    shadows); the studio's image-based light has its own twin and agreement tests
+    (tests/test_ibl_reference.py, tests/test_ibl_render.py)."""
     loaded = load_scene(REPO / "scenes" / scene)
     loaded = type(loaded)(
         loaded.scene.model_copy(
             update={
+                "environment": None,
                 "render": loaded.scene.render.model_copy(
                     # antialiasing "none": the display image is post's alone, its twin's
                     update={
@@ -55,7 +60,7 @@ def render_and_reference(
                         "tonemap": tonemap or loaded.scene.render.tonemap,
                         "antialiasing": "none",
                     }
-                )
+                ),
             }
         ),
         loaded.path,

@@ -169,7 +169,7 @@ def load_source(
             "gives its own camera and lights: a look applies only to a model file or a "
             "scene file that gives neither",
         )
-    return with_defaults(loaded, look or Look())
+    return with_defaults(loaded, look or Look(), size)
 
 
 def _look(file: Path, data: dict, policy: InputPolicy) -> tuple[Look | None, InputPolicy]:

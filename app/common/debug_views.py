@@ -33,7 +33,7 @@ DEBUG_VIEWS: dict[str, str] = {
     "normal": "world normal as n*0.5+0.5",
     "roughness": "perceptual roughness, grey 0..1",
     "metallic": "metallic, grey 0..1",
-    "f0": "the dielectric F0 channel (sRGB-encoded)",
+    "f0": "F0 as lit, RGB: dielectric F0 x specular colour, a metal's base colour (sRGB)",
     "depth": "linear view depth: the frame's nearest white, farthest dark grey",
     "material_id": "material table row, one colour per id",
     "coat_normal": "clear-coat normal as n*0.5+0.5 (the normal where RT4 is absent)",

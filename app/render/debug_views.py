@@ -11,7 +11,9 @@ scalar repeated in R, G and B), A 1 where it is defined and 0 on the background,
 surface covers. The BRDF views (``fresnel`` ... ``light``) evaluate one light, index
 ``light`` into ``renderer.lights``, with each pixel's own model (one program per model
 group, as the lighting pass compiles them), and are 0 where that light is below the
-surface (n.l <= 0), as brdf_eval is there.
+surface (n.l <= 0), as brdf_eval is there. ``f0`` is compiled per model group too: the
+dielectric F0 takes the specular colour (glTF KHR_materials_specular) only where the
+group's ``SPECULAR_COLOR`` says so, as in the lighting pass.
 
 How raw values become display bytes (``display_image``; "sRGB" is the sRGB transfer
 function of a linear value clamped to [0, 1], "grey" the value clamped to [0, 1] times 255):
@@ -23,7 +25,10 @@ view               raw value                                     display
 ``normal``         unit world normal n (as shaded)               n * 0.5 + 0.5, per channel
 ``roughness``      perceptual roughness r as stored              grey
 ``metallic``       metallic as stored                            grey
-``f0``             the dielectric F0 channel as stored           sRGB (0.04 -> 56 of 255)
+``f0``             F0, RGB: the F0 the lights' Fresnel takes      sRGB (0.04 -> 56 of 255)
+                   (material_F0: the dielectric F0 times the
+                   specular colour and its texture, the base
+                   colour for a metal, mixed by metallic)
 ``depth``          linear view depth, metres                     near (frame min) white to
                                                                  far (max) 10% grey
 ``material_id``    the material table's row                      ``PALETTE[id % 12]``
@@ -87,8 +92,11 @@ from app.render.renderer import Renderer
 
 # Views whose values come straight from the G-buffer (the G-buffer's texels, exactly).
 GBUFFER_VIEWS = (
-    "base_color", "normal", "roughness", "metallic", "f0", "depth", "material_id", "coat_normal",
+    "base_color", "normal", "roughness", "metallic", "depth", "material_id", "coat_normal",
 )  # fmt: skip
+# Views compiled once per model group (the model's defines), as the lighting pass is: the
+# BRDF views and F0 (whose specular colour only a group with SPECULAR_COLOR reads).
+MODEL_VIEWS = (*LIGHT_VIEWS, "f0")
 
 # material_id: 12 colours far apart in hue and lightness (index = id % 12).
 PALETTE = np.array(
@@ -244,8 +252,8 @@ class DebugPass:
 
     def _programs(self, view: str, context: ShadingContext) -> list[moderngl.Program]:
         """The view's programs from the renderer's shader cache, compiled with
-        ``context``'s defines: one per model group for the BRDF views (as
-        app/render/lighting.py builds them), one otherwise."""
+        ``context``'s defines: one per model group for the BRDF views and f0
+        (``MODEL_VIEWS``, as app/render/lighting.py builds them), one otherwise."""
         r = self.renderer
         defines: dict[str, int] = {"DEBUG_VIEW": DEBUG_VIEW_CODE[view], **context.defines()}
         if view == "tiles":
@@ -253,7 +261,7 @@ class DebugPass:
         else:
             defines["BRDF_TERMS"] = BRDF_TERMS[r.scene.render.terms]
             models = r.materials.models
-            if view in LIGHT_VIEWS:
+            if view in MODEL_VIEWS:
                 variants = [
                     defines | model.defines() | ({"MODEL_GROUP": g} if len(models) > 1 else {})
                     for g, model in enumerate(models)

@@ -571,7 +571,13 @@ def _load_file(
     any ``mtllib ../../x`` and image name it finds)."""
     import trimesh
 
-    from app.scene.references import obj_libraries, obj_materials, obj_mtl_files, obj_problem
+    from app.scene.references import (
+        obj_face_problem,
+        obj_libraries,
+        obj_materials,
+        obj_mtl_files,
+        obj_problem,
+    )
 
     scene_file, key = str(loaded.path), f"objects[{index}].file"
     path = loaded.resolve_file(obj.file or "", key)
@@ -604,6 +610,9 @@ def _load_file(
             io.BytesIO(data), file_type=suffix[1:], resolver=resolver, process=False
         )
     except Exception as exc:  # trimesh raises many types for unreadable files
+        problem = obj_face_problem(path, data) if suffix == ".obj" else None
+        if problem is not None:  # a bad face index: the file's line, not trimesh's words
+            raise InputError(scene_file, key, problem) from None
         raise InputError(
             scene_file, key, f"cannot read mesh {path} ({type(exc).__name__}: {exc})"
         ) from None

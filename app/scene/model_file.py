@@ -430,9 +430,14 @@ def _as_model_error(exc: InputError, path: Path) -> InputError:
     return exc
 
 
-def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
+def with_defaults(
+    loaded: LoadedScene, look: Look = Look(), size: tuple[int, int] | None = None
+) -> LoadedScene:
     """A scene file that names a mesh but no camera (or no light) with the model file's
-    defaults for what it lacks, and one note saying so; any other scene unchanged."""
+    defaults for what it lacks, and one note saying so; any other scene unchanged. The
+    camera frames the meshes for ``size``, the image the scene is drawn at (``--size``;
+    default the scene's render size), as a model file's does: framed for another aspect,
+    the model would be cut at the image's edges."""
     camera, lighting = needs_defaults(loaded)
     if not (camera or lighting):
         return loaded
@@ -455,7 +460,7 @@ def with_defaults(loaded: LoadedScene, look: Look = Look()) -> LoadedScene:
     budget = Budget(result.policy.limits)
     parts = build_parts(result, budget)
     if camera:
-        size = (result.scene.render.width, result.scene.render.height)
+        size = size or (result.scene.render.width, result.scene.render.height)
         final = framed(result, look, size, lit=lighting, parts=parts)
     else:
         azimuth = look.angles()[0]

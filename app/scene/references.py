@@ -218,6 +218,69 @@ def obj_libraries(data: bytes) -> list[str]:
     ]
 
 
+# The element statements an OBJ's face indices count, each kind's name, one and many.
+_OBJ_KIND_NAMES = {
+    b"v": ("vertex", "vertices"),
+    b"vt": ("texture coordinate", "texture coordinates"),
+    b"vn": ("normal", "normals"),
+}
+
+
+def obj_face_problem(path: Path, data: bytes) -> str | None:
+    """The first face of an OBJ whose index names no element (``f 1 2 6`` with 4 ``v``,
+    an index 0, a ``vt`` or ``vn`` past the file's) or that holds a word no index reads,
+    as one sentence naming the file, the line and the index; None when every face is
+    sound. A positive index counts from the file's first element of its kind, a negative
+    one back from the last one defined before the face (OBJ, Wavefront 1992).
+
+    Read line by line in Python, so called once trimesh has refused the file (its raw
+    ``IndexError: index 6 is out of bounds ...`` says neither line nor file), not on
+    every load."""
+    lines = data.splitlines()
+    totals = dict.fromkeys(_OBJ_KIND_NAMES, 0)
+    for line in lines:
+        words = line.split(None, 1)
+        if words and words[0] in totals:
+            totals[words[0]] += 1
+    seen = dict.fromkeys(_OBJ_KIND_NAMES, 0)
+    for number, line in enumerate(lines, 1):
+        words = line.split(b"#", 1)[0].split()
+        if not words:
+            continue
+        if words[0] in seen:
+            seen[words[0]] += 1
+            continue
+        if words[0] != b"f":
+            continue
+        for word in words[1:]:
+            token = word.decode("utf-8", errors="replace")
+            parts = word.split(b"/")
+            if len(parts) > 3 or not parts[0]:
+                return (
+                    f"{path}: line {number}: face word '{token}' is not v, v/vt, v//vn or v/vt/vn"
+                )
+            for kind, part in zip(_OBJ_KIND_NAMES, parts, strict=False):
+                if not part and kind != b"v":
+                    continue
+                try:
+                    index = int(part)
+                except ValueError:
+                    return f"{path}: line {number}: face word '{token}' is not a whole number"
+                limit = totals[kind] if index > 0 else seen[kind]
+                if index == 0 or abs(index) > limit:
+                    one, many = _OBJ_KIND_NAMES[kind]
+                    if index < 0:
+                        have = f"{seen[kind]} {one if seen[kind] == 1 else many} before it"
+                    else:
+                        total = totals[kind]
+                        have = f"{total} {one if total == 1 else many} in the file"
+                    return (
+                        f"{path}: line {number}: face index {index} ('{token}') names no "
+                        f"{one} ({have}; OBJ indices start at 1)"
+                    )
+    return None
+
+
 @dataclass(frozen=True)
 class MtlFile:
     """One MTL file an OBJ names: the name as written, the confined path, its bytes (read

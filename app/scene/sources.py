@@ -107,4 +107,4 @@ def scene_from(
     # decoders): imported by a scene file that needs them, once it is valid.
     from app.scene.model_file import with_defaults
 
-    return with_defaults(loaded, look)
+    return with_defaults(loaded, look, size)

@@ -5,9 +5,9 @@
 // pixels no surface covers are discarded and keep the cleared (0, 0, 0, 0). The tiles view
 // covers every pixel.
 //
-// The BRDF views (fresnel ... light) are compiled once per model group, as the lighting pass
-// is (MODEL_GROUP discards the other groups' pixels), so each pixel shows the factors of its
-// OWN model; they evaluate light u_light alone, with the lighting pass's functions:
+// The BRDF views (fresnel ... light) and f0 are compiled once per model group, as the
+// lighting pass is (MODEL_GROUP discards the other groups' pixels), so each pixel shows the
+// factors of its OWN model (f0: material_F0 with the group's SPECULAR_COLOR); they evaluate light u_light alone, with the lighting pass's functions:
 // brdf_factors (brdf/material.glsl) for F, D, G2, f_spec, f_diffuse and
 // light_contribution (lights/illumination.glsl) for the light view, so each shows what the
 // sum L_o = pi sum_i f(l_i, v) c_light_i (n.l_i)+ (RTR4 sec. 9.4) is made of.
@@ -69,7 +69,7 @@ void main() {
 #elif DEBUG_VIEW == DEBUG_METALLIC
     value = vec3(a.a);
 #elif DEBUG_VIEW == DEBUG_F0
-    value = vec3(b.a);                                  // the dielectric F0 channel
+    value = material_F0(sp.s, sp.params);               // the RGB F0 the lights' Fresnel takes
 #elif DEBUG_VIEW == DEBUG_DEPTH
     value = vec3(texelFetch(g_depth, px, 0).r);         // view depth, metres
 #elif DEBUG_VIEW == DEBUG_MATERIAL_ID
