@@ -16,6 +16,7 @@ from app.bench.antialiasing import aa_scene_data, with_aa
 from app.gl.context import GLContext
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import GLSL_VERSION
+from app.reference import msaa as twin
 from app.render.msaa import MSAA_SAMPLES
 from app.render.renderer import Renderer
 from app.scene.sources import scene_from
@@ -43,16 +44,21 @@ def _sample_copy_source(r: Renderer) -> str:
     return "\n".join([*lines, "void main() {", "ivec2 px = ivec2(gl_FragCoord.xy);", *body, "}"])
 
 
-def _hdr(texture) -> np.ndarray:
-    """An RGBA32F texture's texels, float64 (H, W, 4), rows bottom-up."""
+def _texels(texture) -> np.ndarray:
+    """A float32 texture's texels, float64 (H, W, components), rows bottom-up."""
     w, h = texture.size
-    return np.frombuffer(texture.read(), np.float32).reshape(h, w, 4).astype(np.float64)
+    data = np.frombuffer(texture.read(), np.float32)
+    return data.reshape(h, w, texture.components).astype(np.float64)
 
 
-def per_sample_shading(r: Renderer) -> np.ndarray:
+_hdr = _texels
+
+
+def per_sample_shading(r: Renderer) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(S, H, W, 4): the HDR image of each multisampled G-buffer sample of ``r``'s last
     frame, shaded by ``r``'s own lighting pass (its G-buffer overwritten, sample by sample;
-    the background's clear where the sample holds no surface)."""
+    the background's clear where the sample holds no surface); and each sample's RT2
+    (S, H, W, 2) and octahedral normal (S, H, W, 2), read back from those copies."""
     ctx, (w, h) = r.gl.ctx, SIZE
     program = ctx.program(
         vertex_shader=f"{GLSL_VERSION}\n" + (REPO / "glsl/passes/fullscreen.vert").read_text(),
@@ -60,7 +66,7 @@ def per_sample_shading(r: Renderer) -> np.ndarray:
     )
     textures = {f"s_{t.name}": getattr(r.msaa.samples, t.name)
                 for t, _ in r.msaa.samples.layout.targets()}  # fmt: skip
-    out = []
+    out, surfaces, normals = [], [], []
     try:
         for s in range(MSAA_SAMPLES):
             r.gbuffer.fbo.depth_mask = True
@@ -69,9 +75,11 @@ def per_sample_shading(r: Renderer) -> np.ndarray:
             )
             r.lighting.run(r.gbuffer, r.camera, r._drawn.background)
             out.append(_hdr(r.lighting.hdr))
+            surfaces.append(_texels(r.gbuffer.depth))
+            normals.append(_texels(r.gbuffer.normal)[..., :2])
     finally:
         program.release()
-    return np.stack(out)
+    return np.stack(out), np.stack(surfaces), np.stack(normals)
 
 
 # Two spheres of two materials that intersect (only the material id tells their seam
@@ -83,13 +91,32 @@ SEAM_OBJECTS = [
 ]
 
 
-@pytest.mark.parametrize("objects", ["bench", "seam"])
+def _plane(position: list[float], material: str) -> dict:
+    """A 1.2 m square facing the camera."""
+    return {"shape": "plane", "size": [1.2, 1.2], "position": position,
+            "rotation": [90.0, 0.0, 0.0], "material": material}  # fmt: skip
+
+
+# Squares facing the camera, so that one test alone tells each pair apart: one material
+# 3 % deeper (the depth tolerance alone), and another material 0.3 % deeper (the id alone).
+PLANE_OBJECTS = [
+    _plane([-1.3, 0.0, 0.0], "white"),
+    _plane([-0.9, 0.3, -0.2], "white"),
+    _plane([0.9, 0.0, 0.0], "white"),
+    _plane([1.3, 0.3, -0.02], "red"),
+]
+OBJECTS = {"seam": SEAM_OBJECTS, "planes": PLANE_OBJECTS}
+
+
+@pytest.mark.parametrize("objects", ["bench", "seam", "planes"])
 def test_edge_pixels_are_the_mean_of_their_samples_shading(gl_egl: GLContext, objects: str) -> None:
-    """The marked pixels: the mean of the lighting pass's radiance of each sample (float32
-    rounding of a sum of four); every other pixel: the aliased frame's HDR, bit for bit."""
+    """The marked pixels: those the twin marks from the samples read back
+    (app/reference/msaa.py ``msaa_edges``), each the mean of the lighting pass's radiance
+    of its samples (``msaa_resolve``; float32 rounding of a sum of four); every other pixel:
+    the aliased frame's HDR, bit for bit."""
     data = aa_scene_data(SIZE)
-    if objects == "seam":
-        data["objects"] = SEAM_OBJECTS
+    if objects in OBJECTS:
+        data["objects"] = OBJECTS[objects]
     r = Renderer(gl_egl, with_aa(scene_from(data), "msaa", 8))
     try:
         r.want_hdr()
@@ -98,12 +125,14 @@ def test_edge_pixels_are_the_mean_of_their_samples_shading(gl_egl: GLContext, ob
         aliased = _hdr(r.lighting.hdr)
         depth = np.frombuffer(r.msaa.fbo.read(components=1, attachment=-1, dtype="f4"), np.float32)
         edges = depth.reshape(SIZE[1], SIZE[0]) == 0.0
-        samples = per_sample_shading(r)
+        centre = _texels(r.gbuffer.depth)  # before per_sample_shading overwrites it
+        radiance, surfaces, normals = per_sample_shading(r)
     finally:
         r.release()
     assert 50 < edges.sum() < 0.3 * edges.size
-    mean = samples.mean(axis=0)
-    assert np.allclose(msaa[edges], mean[edges], rtol=1e-5, atol=1e-6)
+    assert np.array_equal(edges, twin.msaa_edges(centre, surfaces, normals))
+    expected = twin.msaa_resolve(aliased, edges, radiance)
+    assert np.allclose(msaa[edges], expected[edges], rtol=1e-5, atol=1e-6)
     # the samples differ there: not the aliased centre's value (at most of them)
     differs = np.abs(msaa[edges] - aliased[edges]).max(axis=-1) > 1e-4
     assert differs.mean() > 0.5

@@ -28,6 +28,7 @@ from app.common.camera import CameraFrame
 from app.common.gbuffer import GBUFFER_TARGETS, STORAGE_DTYPES, GBufferLayout
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
+from app.reference.msaa import MSAA_DEPTH_TOLERANCE, MSAA_NORMAL_TOLERANCE
 from app.render.antialias import sample_positions
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer, GBufferPass
@@ -38,11 +39,10 @@ from app.scene.geometry import MeshPart
 
 MSAA_SAMPLES = 4  # samples per pixel (llvmpipe's only multisample count)
 # Two samples hold one surface where their material ids agree, their view depths lie
-# within this fraction of the nearer one's and their octahedral normals within
-# MSAA_NORMAL_TOLERANCE in each coordinate (about 1 degree): two triangles of one smooth
-# mesh meet there without an edge to shade per sample; a crease or a silhouette does not.
-MSAA_DEPTH_TOLERANCE = 0.01
-MSAA_NORMAL_TOLERANCE = 0.02
+# within MSAA_DEPTH_TOLERANCE (1 %) of the nearer one's and their octahedral normals
+# within MSAA_NORMAL_TOLERANCE (0.02, about 1 degree) in each coordinate: two triangles of
+# one smooth mesh meet there without an edge to shade per sample; a crease or a
+# silhouette does not. Declared with the twin (app/reference/msaa.py).
 
 
 class SampleGBuffer:
