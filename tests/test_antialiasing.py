@@ -237,7 +237,7 @@ def test_switching_mode_builds_only_its_pass(gl_egl: GLContext, loaded: LoadedSc
 
 @pytest.mark.parametrize(
     ("line", "key"),
-    [('antialiasing = "msaa"', "render.antialiasing"),
+    [('antialiasing = "ssaa"', "render.antialiasing"),
      ("antialiasing_samples = 0", "render.antialiasing_samples")],
 )  # fmt: skip
 def test_bad_value_is_one_line_exit_2(tmp_path: Path, line: str, key: str) -> None:

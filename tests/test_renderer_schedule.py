@@ -158,6 +158,10 @@ CASES: dict[str, tuple[Callable[[Renderer], None], set[str]]] = {
         _set_render(antialiasing="jitter"),
         {"gbaa", "gbuffer", "gbuffer_pass", "lighting", "accumulate"},
     ),
+    "antialiasing msaa": (
+        _set_render(antialiasing="msaa"),
+        {"gbaa", "gbuffer", "gbuffer_pass", "lighting", "msaa"},
+    ),
     "antialiasing fxaa": (
         _set_render(antialiasing="fxaa"),
         {"gbaa", "gbuffer", "gbuffer_pass", "lighting", "fxaa"},
@@ -221,7 +225,7 @@ def test_an_edit_builds_exactly_its_objects(gl_egl, name: str) -> None:
     edit, expected = CASES[name]
     r = Renderer(gl_egl, load(scene_data()))
     try:
-        absent = ("transmission", "blend", "sraa", "dof", "resolve", "accumulate", "fxaa")
+        absent = ("transmission", "blend", "sraa", "msaa", "dof", "resolve", "accumulate", "fxaa")
         assert r.builds == {n: 1 for n in NAMES if n not in absent}
         images(r)
         built = rebuilt_by(r, edit)

@@ -43,6 +43,7 @@ CANDIDATES: tuple[tuple[str, str, int, bool], ...] = (
     ("jitter:16", "jitter", 16, False),
     ("sraa", "sraa", 8, False),
     ("gbaa", "gbaa", 8, False),
+    ("msaa", "msaa", 8, False),
     ("none+specular_aa", "none", 8, True),
     ("fxaa+specular_aa", "fxaa", 8, True),
 )
@@ -212,6 +213,7 @@ SHOWCASE_MODES: tuple[tuple[str, str, int], ...] = (
     ("jitter:4", "jitter", 4),
     ("sraa", "sraa", 8),
     ("gbaa", "gbaa", 8),
+    ("msaa", "msaa", 8),
 )
 
 

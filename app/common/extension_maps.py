@@ -331,7 +331,8 @@ def scaling_glsl() -> str:
         _CallSite("SCALE_BY_FACTOR_TARGETS", "SCALE_BY", "p",
                   lambda t: f"p = scale_by_{t.name}(p, {t.name}_factors);"),
         _CallSite("SCALE_BY_GBUFFER_FACTORS", "SCALE_BY_G", "p, px",
-                  lambda t: f"p = scale_by_{t.name}(p, texelFetch(g_{t.name}, px, 0));"),
+                  lambda t: f"p = scale_by_{t.name}(p, "
+                            f"texelFetch(g_{t.name}, px, GBUFFER_SAMPLE));"),
     )  # fmt: skip
     return "\n".join(lines)
 

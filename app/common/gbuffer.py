@@ -295,7 +295,10 @@ def glsl_declarations(defines: Mapping[str, object]) -> list[str]:
     of each optional target present), then two macros for the targets present:
     GBUFFER_OUTPUTS, the G-buffer pass's ``layout(location = ...) out`` declarations, and
     GBUFFER_SAMPLERS, the decode's ``uniform sampler2D`` ones (passes/gbuffer.frag and
-    gbuffer/decode.glsl expand them; no GLSL file lists the targets)."""
+    gbuffer/decode.glsl expand them; no GLSL file lists the targets); GBUFFER_SAMPLE, the
+    texelFetch index the decode reads (0: the level; under GBUFFER_SAMPLES, whose samplers
+    are sampler2DMS, the int ``gbuffer_sample`` the program declares), and
+    GBUFFER_SIZE(t), a target's size in either."""
     lines: list[str] = []
     resolved: dict[str, object] = dict(defines)
     defaults = {t.define: t.default for t in GBUFFER_TARGETS if t.define is not None}
@@ -316,6 +319,14 @@ def glsl_declarations(defines: Mapping[str, object]) -> list[str]:
         outputs.append(f"layout(location = {where}) out vec{channels} {target.glsl_name};")
         samplers.append(f"uniform sampler2D {target.glsl_name};")
     lines.append("#define GBUFFER_OUTPUTS " + " ".join(outputs))
+    # GBUFFER_SAMPLES = n: the decode reads a multisampled G-buffer of n samples
+    # (render.antialiasing = "msaa", app/render/msaa.py), sample ``gbuffer_sample``
+    samples = int(resolved.get("GBUFFER_SAMPLES", 0) or 0)
+    if samples:
+        samplers = [s.replace("sampler2D ", "sampler2DMS ") for s in samplers]
+        lines += ["#define GBUFFER_SAMPLE gbuffer_sample", "#define GBUFFER_SIZE(t) textureSize(t)"]
+    else:
+        lines += ["#define GBUFFER_SAMPLE 0", "#define GBUFFER_SIZE(t) textureSize(t, 0)"]
     lines.append("#define GBUFFER_SAMPLERS " + " ".join(samplers))
     return lines
 

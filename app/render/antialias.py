@@ -51,7 +51,7 @@ from app.render.gbuffer import GBuffer, GBufferPass
 from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
-ANTIALIASING = ("none", "fxaa", "jitter", "sraa", "gbaa")
+ANTIALIASING = ("none", "fxaa", "jitter", "sraa", "gbaa", "msaa")  # "msaa": app/render/msaa.py
 SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample count)
 # A sample sees a neighbour's surface where their material ids agree and their view
 # depths differ by at most this fraction of the sample's

@@ -68,6 +68,7 @@ from app.render.limits import (
     target_bytes_per_pixel,
 )
 from app.render.mesh_drawable import masked, rotated
+from app.render.msaa import MSAA_SAMPLES, MsaaPass
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
 from app.render.transmission import TransmissionPass, transmission_defines, transmissive
@@ -77,6 +78,8 @@ from app.scene.model import Camera, Environment, Light, Material, RenderSettings
 
 # Layouts whose shed targets were noted (once a process each; Renderer._layout).
 _SHED_NOTED: set[GBufferLayout] = set()
+# Scenes whose "msaa" fell back to "fxaa" (noted once a process each; Renderer.antialiasing).
+_MSAA_NOTED: set[str] = set()
 
 
 @dataclass(frozen=True)
@@ -246,7 +249,7 @@ _UNBUILT = object()  # the old key of an object never built
 # display image): reading the HDR image then needs a new frame.
 _FRAME_OBJECTS = frozenset(
     {"gbuffer", "lighting", "transmission", "blend", "sraa", "dof", "resolve", "accumulate"}
-    | {"post", "fxaa", "gbaa"}
+    | {"post", "fxaa", "gbaa", "msaa"}
 )
 
 
@@ -304,6 +307,8 @@ class Renderer:
         self.accumulate: AccumulatePass | None = None
         # the subpixel reconstruction's geometry samples and resolved HDR image ("sraa")
         self.sraa: SraaPass | None = None
+        # the multisampled G-buffer's per-sample shading of the edge pixels ("msaa")
+        self.msaa: MsaaPass | None = None
         self.post: PostPass | None = None
         self.fxaa: FxaaPass | None = None
         # the geometric edge resolve of the display image's silhouettes ("gbaa")
@@ -431,10 +436,29 @@ class Renderer:
         scene that names "gbaa" gets it whatever its triangles."""
         settings = self.scene.render
         mode = settings.antialiasing
+        if mode == "msaa":
+            return self._msaa_fallback()
         if mode != "gbaa" or "antialiasing" in settings.model_fields_set:
             return mode
         dense = self._frame_facts().mesh_triangles > GBAA_DEFAULT_TRIANGLES
         return "fxaa" if dense else mode
+
+    def _msaa_fallback(self) -> str:
+        """The mode "msaa", or "fxaa" (noted once a process per scene) where alpha-blended or
+        transmissive parts are drawn over the opaque image: their colour at an edge pixel
+        is the pixel centre's, which the per-sample shading would overwrite."""
+        facts = self._frame_facts()
+        if not (facts.blended or facts.transmissive):
+            return "msaa"
+        path = str(self.loaded.path)
+        if path not in _MSAA_NOTED:
+            _MSAA_NOTED.add(path)
+            logging.getLogger("pbs").info(
+                '%s: render.antialiasing = "msaa" does not resolve blended or transmissive '
+                'parts yet; drawn with "fxaa"',
+                path,
+            )
+        return "fxaa"
 
     def _gbaa(self) -> bool:
         """``antialiasing`` "gbaa" at one sample per pixel (with supersampling the resolve
@@ -679,6 +703,30 @@ class Renderer:
         """A restyle's new material ids, in the geometry samples too (their RT2 ids are
         matched against the frame's)."""
         for drawable, i in zip(self.sraa.geometry.drawables, self._opaque(), strict=True):
+            drawable.material_ids = self.frame.material_ids[i]
+
+    def _key_msaa(self) -> Hashable:
+        """The multisampled G-buffer and its per-sample shading, only with
+        ``render.antialiasing = "msaa"``: the G-buffer pass's parts and maps
+        (``needs``), the lighting pass's shader inputs and programs."""
+        if self.antialiasing != "msaa":
+            return None
+        return (self.render_size, self._key_gbuffer_pass(), self._key_lighting())
+
+    def _check_msaa(self) -> None:
+        check_multisampling(self.gl.ctx, MSAA_SAMPLES, str(self.loaded.path), "render.antialiasing")
+
+    def _build_msaa(self) -> MsaaPass:
+        opaque = self._opaque()
+        return MsaaPass(
+            self.gl.ctx, self.shaders, self.render_size, self._layout(),
+            [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
+            self.shading, self.scene.render.terms, self.lighting.form, self.gbuffer_pass.uploads,
+        )  # fmt: skip
+
+    def _refresh_msaa(self) -> None:
+        """A restyle's new material ids, in the multisampled G-buffer too."""
+        for drawable, i in zip(self.msaa.geometry.drawables, self._opaque(), strict=True):
             drawable.material_ids = self.frame.material_ids[i]
 
     def _key_dof(self) -> Hashable:
@@ -1022,6 +1070,10 @@ class Renderer:
             self.sraa.run(self.gbuffer, hdr, m.view, m.proj, m.frame)
             hdr = self.sraa.target
             clock.done("sraa")
+        if self.msaa is not None:  # the edge pixels shaded per sample
+            self.msaa.run(self.gbuffer, hdr, m.view, m.proj, m.frame, self._drawn.background)
+            hdr = self.msaa.target
+            clock.done("msaa")
         if self.dof is not None:
             self.dof.run(hdr, self.gbuffer.depth)
             hdr = self.dof.target
@@ -1067,7 +1119,7 @@ class Renderer:
         to (a transparent one has the post pass write every pixel's alpha)."""
         extra = (
             self.dof, self.resolve, self.blend, self.transmission, self.background,
-            self.accumulate, self.sraa,
+            self.accumulate, self.sraa, self.msaa,
         )  # fmt: skip
         return all(x is None for x in extra) and not self.transparent
 
@@ -1144,6 +1196,8 @@ class Renderer:
             return self.resolve.target
         if self.dof is not None:
             return self.dof.target
+        if self.msaa is not None:
+            return self.msaa.target
         return self.sraa.target if self.sraa is not None else self.lighting.hdr
 
     @property
@@ -1164,6 +1218,8 @@ class Renderer:
             return self.resolve.read()
         if self.dof is not None:
             return self.dof.read()
+        if self.msaa is not None:
+            return self.msaa.read()
         return self.sraa.read() if self.sraa is not None else self.lighting.read()
 
     def read_ldr(self) -> np.ndarray:
@@ -1181,7 +1237,9 @@ class Renderer:
         ``transparent``, radiance premultiplied by coverage and the coverage (OpenEXR's
         convention); alpha 1 everywhere otherwise."""
         self.complete_hdr()
-        source = self.accumulate or self.resolve or self.dof or self.sraa or self.lighting
+        source = (
+            self.accumulate or self.resolve or self.dof or self.sraa or self.msaa or self.lighting
+        )
         return read_rgba(source.fbo, self.size, "f4")
 
     def read_image(self) -> np.ndarray:
@@ -1241,6 +1299,9 @@ SCHEDULE: tuple[Built, ...] = (
     Built("sraa", Renderer._key_sraa, Renderer._build_sraa, needs=("gbuffer_pass",),
           check=Renderer._check_sraa,
           refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_sraa)),
+    Built("msaa", Renderer._key_msaa, Renderer._build_msaa,
+          needs=("gbuffer_pass", "lighting"), check=Renderer._check_msaa,
+          refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_msaa)),
     Built("dof", Renderer._key_dof, Renderer._build_dof),
     Built("resolve", Renderer._key_resolve, Renderer._build_resolve),
     Built("accumulate", Renderer._key_accumulate, Renderer._build_accumulate),

@@ -168,8 +168,10 @@ class RenderSettings(_Strict):
     # of antialiasing_samples frames with the projection jittered by Halton (2, 3)
     # sub-pixel offsets; "sraa", subpixel reconstruction from 4 geometry samples per
     # pixel; "gbaa" (the default), the silhouettes resolved from each pixel's distance to
-    # its surface's edge, written by the G-buffer pass (app/render/antialias.py).
-    antialiasing: Literal["none", "fxaa", "jitter", "sraa", "gbaa"] = "gbaa"
+    # its surface's edge, written by the G-buffer pass (app/render/antialias.py); "msaa",
+    # a 4-sample G-buffer shaded per sample where a pixel's samples differ
+    # (app/render/msaa.py).
+    antialiasing: Literal["none", "fxaa", "jitter", "sraa", "gbaa", "msaa"] = "gbaa"
     antialiasing_samples: Annotated[int, Field(strict=True, ge=1, le=256)] = 8
     # RTR4 §9.1: the surface (specular) and subsurface (diffuse) reflections as
     # separate contributions: both, or one of them alone.

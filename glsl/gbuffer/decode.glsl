@@ -13,6 +13,11 @@
 
 // uniform sampler2D g_<target>; of every target present (app/common/gbuffer.py GBUFFER_TARGETS)
 GBUFFER_SAMPLERS
+#ifdef GBUFFER_SAMPLES
+// A multisampled G-buffer (render.antialiasing = "msaa", app/render/msaa.py): the sample
+// every fetch below reads (GBUFFER_SAMPLE), set by the caller before each decode.
+int gbuffer_sample = 0;
+#endif
 
 // RT0 and RT1 of pixel px as the G-buffer pass wrote them, before the unorm mapping and
 // sanitising: (base colour, metallic) and (octahedral normal, perceptual roughness, F0).
@@ -23,11 +28,11 @@ GBUFFER_SAMPLERS
 void fetch_surface(ivec2 px, sampler2D materials, int material_id, out vec4 a, out vec4 b) {
 #if GBUFFER_CONSTANT_SURFACES
     a = texelFetch(materials, ivec2(SURFACE_TEXEL, material_id), 0);
-    b = vec4(texelFetch(g_normal, px, 0).rg,
+    b = vec4(texelFetch(g_normal, px, GBUFFER_SAMPLE).rg,
              texelFetch(materials, ivec2(SURFACE_TEXEL + 1, material_id), 0).rg);
 #else
-    a = texelFetch(g_base_color, px, 0);
-    b = texelFetch(g_normal, px, 0);
+    a = texelFetch(g_base_color, px, GBUFFER_SAMPLE);
+    b = texelFetch(g_normal, px, GBUFFER_SAMPLE);
 #endif
 }
 
@@ -40,12 +45,12 @@ void fetch_surface(ivec2 px, sampler2D materials, int material_id, out vec4 a, o
 ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_pos,
                             mat3 camera_to_world, vec2 tan_half_fov) {
     ivec2 px = ivec2(frag_coord);
-    vec2 depth_id = texelFetch(g_depth, px, 0).rg;
+    vec2 depth_id = texelFetch(g_depth, px, GBUFFER_SAMPLE).rg;
     float depth = depth_id.x;
     if (!(is_finite(depth) && depth > 0.0)) discard;
     int material_id = int(depth_id.y);
 #if GBUFFER_TANGENT
-    vec4 c = texelFetch(g_tangent, px, 0);
+    vec4 c = texelFetch(g_tangent, px, GBUFFER_SAMPLE);
 #else
     vec4 c = vec4(0.0);   // no anisotropic material: anisotropy 0, the tangent unused
 #endif
@@ -77,12 +82,12 @@ ShadingPoint decode_gbuffer(vec2 frag_coord, sampler2D materials, vec3 camera_po
     vec3 t = oct_decode(c.rg);
 
     // World position from the depth buffer at the pixel centre.
-    vec2 ndc_xy = (frag_coord / vec2(textureSize(g_depth, 0))) * 2.0 - 1.0;
+    vec2 ndc_xy = (frag_coord / vec2(GBUFFER_SIZE(g_depth))) * 2.0 - 1.0;
     vec3 p = reconstruct_position(ndc_xy, depth, camera_pos, camera_to_world, tan_half_fov);
     vec3 v = normalize(camera_pos - p);
     vec3 n = sanitize_direction(oct_decode(b.rg), v);
 #if GBUFFER_COAT_NORMAL
-    vec2 e_coat = texelFetch(g_coat_normal, px, 0).rg;
+    vec2 e_coat = texelFetch(g_coat_normal, px, GBUFFER_SAMPLE).rg;
 #if GBUFFER_UNORM_DIRECTIONS
     e_coat = unorm_to_snorm(e_coat);
 #endif
@@ -115,14 +120,14 @@ vec3 view_step(ivec2 q, float dz, float z, vec2 axis_step, vec2 size, vec2 tan_h
 // app/reference/shadows.py face_normals.
 vec3 face_normal(ivec2 px, float z, mat3 camera_to_world, vec2 tan_half_fov, vec3 v,
                  vec3 n) {
-    ivec2 size = textureSize(g_depth, 0);
+    ivec2 size = GBUFFER_SIZE(g_depth);
     vec3 e[2];
     for (int axis = 0; axis < 2; ++axis) {
         ivec2 d = axis == 0 ? ivec2(1, 0) : ivec2(0, 1);
         ivec2 a = min(px + d, size - 1);
         ivec2 b = max(px - d, ivec2(0));
-        float za = texelFetch(g_depth, a, 0).r;
-        float zb = texelFetch(g_depth, b, 0).r;
+        float za = texelFetch(g_depth, a, GBUFFER_SAMPLE).r;
+        float zb = texelFetch(g_depth, b, GBUFFER_SAMPLE).r;
         bool ok_a = a != px && is_finite(za) && za > 0.0;
         bool ok_b = b != px && is_finite(zb) && zb > 0.0;
         if (!ok_a && !ok_b) return n;
@@ -148,7 +153,7 @@ vec3 face_normal(ivec2 px, float z, mat3 camera_to_world, vec2 tan_half_fov, vec
 // RT5 at window position frag_coord: emitted radiance (rgb) and the occlusion factor of
 // environment light (a). Twin: app/reference/illumination.py decode_gbuffer.
 vec4 decode_emission(vec2 frag_coord) {
-    return texelFetch(g_emission, ivec2(frag_coord), 0);
+    return texelFetch(g_emission, ivec2(frag_coord), GBUFFER_SAMPLE);
 }
 #endif
 

@@ -32,13 +32,23 @@ layout(location = 1) out vec4 hdr_color;
 out vec4 frag_color;
 #endif
 
-void main() {
-    ivec2 px = ivec2(gl_FragCoord.xy);
+#ifdef GBUFFER_SAMPLES
+// render.antialiasing = "msaa" (app/render/msaa.py): the G-buffer is multisampled and
+// this program shades an edge pixel once per sample (the decode reads sample
+// gbuffer_sample); a sample that sees no surface takes msaa_background's radiance.
+#include "passes/msaa_background.glsl"
+#endif
+
+// The radiance of the G-buffer's surface at window position frag_coord (its pixel's
+// centre; under GBUFFER_SAMPLES the surface of sample gbuffer_sample). Discards where
+// nothing was drawn (decode_gbuffer).
+vec3 pixel_radiance(vec2 frag_coord) {
+    ivec2 px = ivec2(frag_coord);
     // Discards the background (and, with MODEL_GROUP, the other groups' pixels).
-    ShadingPoint sp = decode_gbuffer(gl_FragCoord.xy, u_materials, u_camera_pos,
+    ShadingPoint sp = decode_gbuffer(frag_coord, u_materials, u_camera_pos,
                                      u_camera_to_world, u_tan_half_fov);
 #if GBUFFER_EMISSION
-    vec4 emission = decode_emission(gl_FragCoord.xy);   // rgb emitted, a occlusion
+    vec4 emission = decode_emission(frag_coord);   // rgb emitted, a occlusion
 #else
     vec4 emission = vec4(0.0, 0.0, 0.0, 1.0);
 #endif
@@ -50,12 +60,38 @@ void main() {
 #if SHADOWS && defined(SHADOW_FACE_NORMAL)
     // a receiver's normal is mapped: the shadow lookup's offset along the plane the depths
     // give, not the mapped sp.n (elsewhere sp.n is the geometric normal)
-    vec3 ng = face_normal(px, texelFetch(g_depth, px, 0).r, u_camera_to_world,
+    vec3 ng = face_normal(px, texelFetch(g_depth, px, GBUFFER_SAMPLE).r, u_camera_to_world,
                           u_tan_half_fov, sp.v, sp.n);
 #else
     vec3 ng = sp.n;
 #endif
-    vec3 L = surface_radiance(tile, emission, sp, ng);
+    return surface_radiance(tile, emission, sp, ng);
+}
+
+void main() {
+#ifdef GBUFFER_SAMPLES
+    // The mean of the samples' radiance (linear HDR RGBA, alpha the coverage: premultiplied
+    // colour stays premultiplied). With MODEL_GROUP each group's program adds its own
+    // samples' share (blended), the first group's the background samples' too.
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec4 sum = vec4(0.0);
+    for (int s = 0; s < GBUFFER_SAMPLES; ++s) {
+        gbuffer_sample = s;
+        vec2 depth_id = texelFetch(g_depth, px, s).rg;
+        if (!(is_finite(depth_id.x) && depth_id.x > 0.0)) {
+#if !defined(MODEL_GROUP) || MODEL_GROUP == 0
+            sum += msaa_background(px);
+#endif
+            continue;
+        }
+#ifdef MODEL_GROUP
+        if (fetch_model_group(u_materials, int(depth_id.y)) != MODEL_GROUP) continue;
+#endif
+        sum += vec4(pixel_radiance(gl_FragCoord.xy), 1.0);
+    }
+    frag_color = sum / float(GBUFFER_SAMPLES);
+#else
+    vec3 L = pixel_radiance(gl_FragCoord.xy);
 #if DISPLAY_OUT
     frag_color = vec4(srgb_encode(tonemap_selected(L * u_exposure)), 1.0);
 #ifdef HDR_OUT
@@ -63,5 +99,6 @@ void main() {
 #endif
 #else
     frag_color = vec4(L, 1.0);
+#endif
 #endif
 }

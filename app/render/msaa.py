@@ -1,0 +1,201 @@
+"""Multisampled G-buffer with per-sample shading at edges: ``render.antialiasing = "msaa"``
+(docs/antialiasing.md).
+
+The deferred MSAA of A. Lauritzen, "Deferred Rendering for Current and Future Rendering
+Pipelines" (SIGGRAPH 2010 course), written for this project: the G-buffer is rasterised
+at ``MSAA_SAMPLES`` samples per pixel (every target of the frame's ``GBufferLayout``,
+multisampled, from the one declaration ``GBUFFER_TARGETS``; the fragment stage runs once
+per pixel and its values go to every sample it covers, an analytic sphere's coverage
+ray-cast per sample as ``"sraa"``'s geometry samples are); a pixel whose samples hold
+different surfaces (``glsl/passes/msaa.frag``: the background, another material id, a
+view depth ``MSAA_DEPTH_TOLERANCE`` apart, a normal ``MSAA_NORMAL_TOLERANCE`` apart) is
+shaded once per sample by the lighting pass's own program compiled with
+``GBUFFER_SAMPLES`` (``glsl/passes/lighting.frag``: the decode reads sample
+``gbuffer_sample`` of ``sampler2DMS`` targets, one lighting body), and its colour is the
+mean of its samples' radiance (a box over the pixel) in linear HDR, before exposure and
+tone mapping, as the supersampling resolve averages. Every other pixel keeps the frame
+shaded once per pixel at its centre: the one-sample G-buffer pass and the lighting pass
+run as in ``"none"`` (every other pass reads their targets), and the multisampled pass
+is drawn besides, so a pixel inside a surface keeps the aliased frame's value exactly.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from app.common.camera import CameraFrame
+from app.common.gbuffer import GBUFFER_TARGETS, STORAGE_DTYPES, GBufferLayout
+from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
+from app.gl.shaders import ShaderCache
+from app.reference.msaa import MSAA_DEPTH_TOLERANCE, MSAA_NORMAL_TOLERANCE
+from app.render.antialias import sample_positions
+from app.render.fullscreen import read_rgb
+from app.render.gbuffer import GBuffer, GBufferPass
+from app.render.inputs import TILES, GBufferInput, ShadingContext, bind_camera
+from app.render.lighting import LightingPass
+from app.render.texture_upload import TextureUploads
+from app.scene.geometry import MeshPart
+
+MSAA_SAMPLES = 4  # samples per pixel (llvmpipe's only multisample count)
+# Two samples hold one surface where their material ids agree, their view depths lie
+# within MSAA_DEPTH_TOLERANCE (1 %) of the nearer one's and their octahedral normals
+# within MSAA_NORMAL_TOLERANCE (0.02, about 1 degree) in each coordinate: two triangles of
+# one smooth mesh meet there without an edge to shade per sample; a crease or a
+# silhouette does not. Declared with the twin (app/reference/msaa.py).
+
+
+class SampleGBuffer:
+    """The G-buffer's targets multisampled: one multisampled texture per target of
+    ``layout`` (``GBUFFER_TARGETS``' storage under its encoding), attributes by the
+    targets' names as ``GBuffer``'s, and a multisampled z-buffer; drawn by a
+    ``GBufferPass`` and decoded through ``GBufferInput`` as a ``GBuffer`` is (``defines``
+    adds ``GBUFFER_SAMPLES``: the decode's samplers are then ``sampler2DMS``)."""
+
+    def __init__(
+        self, ctx: moderngl.Context, size: tuple[int, int], layout: GBufferLayout, samples: int
+    ) -> None:
+        self.size, self.layout, self.samples = size, layout, samples
+        self._targets: list[moderngl.Texture] = []
+        self._by_name: dict[str, moderngl.Texture] = {}
+        for target, channels in layout.targets():
+            dtype = STORAGE_DTYPES[layout.storage(target)]
+            tex = ctx.texture(size, channels, dtype=dtype, samples=samples)
+            self._targets.append(tex)
+            self._by_name[target.name] = tex
+        for target in GBUFFER_TARGETS:
+            setattr(self, target.name, self._by_name.get(target.name))
+        self.zbuffer = ctx.depth_renderbuffer(size, samples=samples)
+        self.fbo = ctx.framebuffer(self._targets, self.zbuffer)
+        # RT2 and the z-test, as GBuffer clears them (every drawn sample writes every target)
+        self.clear_fbo = ctx.framebuffer([self._by_name["depth"]], self.zbuffer)
+
+    def clear(self) -> None:
+        self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+
+    def defines(self) -> dict[str, int]:
+        return {**self.layout.defines(), "GBUFFER_SAMPLES": self.samples}
+
+    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
+        return [(t.glsl_name, self._by_name[t.name]) for t, _ in self.layout.targets()]
+
+    def release(self) -> None:
+        for obj in (self.fbo, self.clear_fbo, *self._targets, self.zbuffer):
+            obj.release()
+
+
+class MsaaPass:
+    """The multisampled G-buffer and the per-sample shading of its edge pixels (module
+    docstring). ``run`` draws the opaque parts into ``samples`` (``SampleGBuffer``), then
+    two draws into ``target`` (linear HDR RGBA): the mark (glsl/passes/msaa.frag) copies
+    the frame's HDR image and writes window depth 0 into ``edges`` where a pixel's samples
+    differ; the lighting programs (``shading``, one per model group, each adding its own
+    samples' share, the first the background samples') run z-tested to those pixels.
+    ``shading``: the frame's shader inputs (the lighting pass's) less the tile culler (its
+    tiles' depth bounds are the pixel centres'; an edge pixel loops over every light),
+    the multisampled G-buffer in place of the G-buffer."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        layout: GBufferLayout,
+        parts: list[MeshPart],
+        material_ids: list[list[int]],
+        shading: ShadingContext,
+        terms: str,
+        form: str,
+        uploads: TextureUploads | None = None,
+    ) -> None:
+        """``parts``, ``material_ids``, ``uploads``: the G-buffer pass's (its material maps
+        drawn with, not uploaded again); ``terms``, ``form``: the lighting pass's."""
+        self.ctx, self.size = ctx, size
+        self.samples = SampleGBuffer(ctx, size, layout, MSAA_SAMPLES)
+        defines = {**layout.defines(), "GBUFFER_SAMPLE_MASK": MSAA_SAMPLES}
+        self.geometry = GBufferPass(ctx, shaders, parts, material_ids, None, defines, uploads)
+        self.positions = sample_positions(ctx, self.samples.fbo).astype(np.float32)
+        roles = [role for role in shading.roles if role != TILES]
+        context = shading.only(*roles).with_inputs(GBufferInput(self.samples))  # type: ignore[arg-type]
+        self.lighting = LightingPass(ctx, shaders, size, context, terms, form=form)
+        self.mark = FullscreenDraw.of(ctx, shaders, "passes/msaa.frag", {"SAMPLES": MSAA_SAMPLES})
+        self.target = self.lighting.hdr  # the lighting pass's own HDR target
+        self.edges = ctx.depth_renderbuffer(size)
+        self.fbo = ctx.framebuffer([self.target], self.edges)
+
+    def run(
+        self,
+        gbuffer: GBuffer,
+        hdr: moderngl.Texture,
+        view: np.ndarray,
+        proj: np.ndarray,
+        camera: CameraFrame,
+        background: np.ndarray,
+    ) -> None:
+        """The multisampled G-buffer of the camera (``view``, ``proj``, ``camera``: the
+        frame ``gbuffer`` and ``hdr`` were drawn with), then ``target``: ``hdr`` with its
+        edge pixels shaded per sample. ``background``: the frame's RGB or RGBA background
+        radiance (a sample without a surface takes a background pixel's beside it)."""
+        positions = self.positions.tobytes()
+        for d in self.geometry.drawables:
+            if "u_sample_positions" in d.uniforms:  # a shader cache may share the program
+                d.program["u_sample_positions"].write(positions)
+        self.geometry.run(self.samples, view, proj, camera)
+        viewport = (0, 0, *self.size)
+        self.fbo.depth_mask = True
+        tolerances = {
+            "u_depth_tolerance": MSAA_DEPTH_TOLERANCE,
+            "u_normal_tolerance": MSAA_NORMAL_TOLERANCE,
+        }
+        textures = {
+            "u_hdr": hdr,
+            "u_depth": gbuffer.depth,
+            "u_samples": self.samples.depth,
+            "u_normals": self.samples.normal,
+        }
+        self.mark.draw(self.fbo, tolerances, textures, viewport=viewport, depth_func="1")
+        self.fbo.depth_mask = False
+        self.shade(gbuffer, hdr, camera, background)
+        self.fbo.depth_mask = True
+
+    def shade(
+        self,
+        gbuffer: GBuffer,
+        hdr: moderngl.Texture,
+        camera: CameraFrame,
+        background: np.ndarray,
+    ) -> None:
+        """The lighting programs at the marked pixels of ``target`` (``run``)."""
+        ctx = self.ctx
+        rgba = np.resize(np.asarray(background, np.float64), 4)
+        if len(background) == 3:
+            rgba[3] = 1.0
+        context = self.lighting.context
+        unit = context.use()
+        self.fbo.use()
+        ctx.viewport = (0, 0, *self.size)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = ">"
+        for i, draw in enumerate(self.lighting.draws):
+            program = draw.program
+            context.bind(program)
+            bind_camera(program, camera)
+            bind_textures(program, {"u_msaa_hdr": hdr, "u_msaa_centre_depth": gbuffer.depth}, unit)
+            set_uniforms(program, {"u_msaa_background": tuple(float(x) for x in rgba)})
+            if i == 0:  # the first group's share and the background's replace the copy
+                ctx.disable(moderngl.BLEND)
+            else:  # every other group's share added
+                ctx.enable(moderngl.BLEND)
+                ctx.blend_func = moderngl.ONE, moderngl.ONE
+                ctx.blend_equation = moderngl.FUNC_ADD
+            draw.vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        ctx.blend_func = moderngl.DEFAULT_BLENDING
+        ctx.depth_func = "<"
+
+    def read(self) -> np.ndarray:
+        return read_rgb(self.fbo, self.size, "f4")
+
+    def release(self) -> None:
+        for obj in (self.geometry, self.samples, self.mark, self.lighting, self.fbo, self.edges):
+            obj.release()
