@@ -247,23 +247,29 @@ def _via(get: Callable[[object, str, str], T], index: object, key: str, semantic
         raise GltfError(key, str(exc)) from None
 
 
-def _sampler(sampler: JsonObject, skey: str, accessors: Accessors) -> tuple[np.ndarray, str]:
+def _sampler(
+    sampler: JsonObject, skey: str, accessors: Accessors, checked: dict[int, np.ndarray]
+) -> tuple[np.ndarray, str]:
     """A sampler's keyframe times (float SCALAR, finite, strictly increasing) and its
-    interpolation, checked."""
+    interpolation, checked; ``checked``: the times of the input accessors checked so far
+    (samplers often share one)."""
     interpolation = sampler.interpolation if sampler.interpolation is not None else "LINEAR"
     if interpolation not in INTERPOLATIONS:
         raise GltfError(
             f"{skey}.interpolation", f"{interpolation!r} is not {', '.join(INTERPOLATIONS)}"
         )
+    if sampler.input in checked:
+        return checked[sampler.input], interpolation
     times = _via(accessors.accessor, sampler.input, f"{skey}.input", "input")[:, 0]
-    steps = np.diff(times)
-    if len(steps) and not np.all(steps > 0.0):
-        k = int(np.argmin(steps > 0.0))
+    increasing = times[1:] > times[:-1]
+    if not increasing.all():
+        k = int(np.argmin(increasing))
         raise GltfError(
             f"{skey}.input",
             f"keyframe times must increase strictly: keyframe {k + 1} ({times[k + 1]:g} s) "
             f"follows keyframe {k} ({times[k]:g} s)",
         )
+    checked[sampler.input] = times
     return times, interpolation
 
 
@@ -280,8 +286,10 @@ def checked_tracks(
     akey = f"animations[{index}]"
     nodes = doc.nodes or []
     samplers = animation.samplers or []
+    inputs: dict[int, np.ndarray] = {}
     checked = [
-        _sampler(sampler, f"{akey}.samplers[{s}]", accessors) for s, sampler in enumerate(samplers)
+        _sampler(sampler, f"{akey}.samplers[{s}]", accessors, inputs)
+        for s, sampler in enumerate(samplers)
     ]
     tracks: list[Track] = []
     for c, channel in enumerate(animation.channels or []):
