@@ -740,6 +740,7 @@ def test_mutated_pose_data_is_bad_input_or_parts(tmp_path: Path) -> None:
     requests = [
         PoseRequest(animation="all", time=0.7, variant="v"),
         PoseRequest(animation=0, time=0.3),
+        PoseRequest(),  # the rest pose checks both animations too
     ]
     for request in requests:
         path.write_text(json.dumps(valid))
@@ -758,7 +759,7 @@ def test_mutated_pose_data_is_bad_input_or_parts(tmp_path: Path) -> None:
         target[where[-1]] = value
         path.write_text(json.dumps(doc))
         try:
-            GltfFile(path, pose=requests[case % 2]).primitives()
+            GltfFile(path, pose=requests[case % 3]).primitives()
             outcomes["parts"] += 1
         except GltfError as exc:
             assert "\n" not in str(exc), (case, where, value, str(exc))
