@@ -266,6 +266,29 @@ def test_a_morph_target_weight(tmp_path: Path) -> None:
     np.testing.assert_array_equal(mid.positions[:2], rest.positions[:2])
 
 
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [("index", "99 is not one of the 4"), ("count", "2 elements, POSITION has 3")],
+)
+def test_morph_targets_are_checked_where_their_weights_are_0(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: str, message: str
+) -> None:
+    # At rest with a weight of 0 the target adds nothing and its values are not read,
+    # but a target naming no accessor, or one of another length, is still bad input.
+    doc = json.loads(_morphed(tmp_path).read_text())
+    doc["meshes"][0]["weights"] = [0.0]
+    target = doc["meshes"][0]["primitives"][0]["targets"][0]
+    if change == "index":
+        target["POSITION"] = 99
+    else:
+        doc["accessors"][target["POSITION"]]["count"] = 2
+    path = tmp_path / "target.gltf"
+    path.write_text(json.dumps(doc))
+    line = _render(capsys, path)
+    key = "meshes[0].primitives[0].targets[0].POSITION"
+    assert line == f"pbs: error: {path}: {key}: {message}", line
+
+
 def test_a_cubicspline_morph_weight(tmp_path: Path) -> None:
     # The translation case's spline as the weight (0.5625 at 0.5 s), the target's delta 2.
     doc = json.loads(_morphed(tmp_path).read_text())

@@ -646,7 +646,9 @@ class GltfFile:
                 )
             if draco:  # Draco may reorder vertices; the targets' accessors are not
                 self.note(f"{key}: morph targets on a Draco primitive are not applied")
-            elif np.any(deform.weights != 0.0):
+            else:
+                # Checked from the JSON whatever the weights; read only where one is not 0.
+                applied = bool(np.any(deform.weights != 0.0))
                 count = len(attrs["POSITION"])
                 deltas = []
                 for t, target in enumerate(targets):
@@ -656,12 +658,14 @@ class GltfFile:
                         if index is None or name not in attrs:
                             continue
                         tkey = f"{key}.targets[{t}].{name}"
-                        values = self.accessor(index, tkey, "target")
-                        if len(values) != count:
-                            raise GltfError(tkey, f"{len(values)} elements, POSITION has {count}")
-                        delta[name] = values
+                        elements = self.accessor_count(index, tkey, "target")
+                        if elements != count:
+                            raise GltfError(tkey, f"{elements} elements, POSITION has {count}")
+                        if applied:
+                            delta[name] = self.accessor(index, tkey, "target")
                     deltas.append(delta)
-                attrs = animation.morph(attrs, deltas, deform.weights)
+                if applied:
+                    attrs = animation.morph(attrs, deltas, deform.weights)
         if deform.joints is None or "JOINTS_0" not in attrs or "WEIGHTS_0" not in attrs:
             return attrs, world
         sets = []
