@@ -423,6 +423,21 @@ def test_bad_animation_data_is_bad_input_whatever_the_pose(
     assert line == f"pbs: error: {path}: {key}: {message}", line
 
 
+def test_a_weights_output_of_another_count_is_bad_input_at_rest(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    doc = json.loads(_morphed(tmp_path).read_text())
+    doc["accessors"][doc["animations"][0]["samplers"][0]["output"]]["count"] = 1
+    path = tmp_path / "weights-count.gltf"
+    path.write_text(json.dumps(doc))
+    expected = (
+        f"pbs: error: {path}: animations[0].samplers[0].output: 1 weights for 2 keyframes "
+        "of LINEAR; nodes[0]'s mesh has 1 morph targets, so 2 are needed"
+    )
+    for options in ([], ["--time", "0.5"]):
+        assert _render(capsys, path, *options) == expected
+
+
 def test_an_index_out_of_range_names_its_key_once(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

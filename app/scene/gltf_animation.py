@@ -328,15 +328,15 @@ def checked_tracks(
         output = samplers[s].output
         count = _via(accessors.accessor_count, output, f"{skey}.output", path)
         per_time = (3 if interpolation == "CUBICSPLINE" else 1) * per_key
-        if count != per_time * len(times):
-            needed = per_time * len(times)
+        needed = per_time * len(times)
+        if count != needed:
+            given = f"{count} {'weights' if path == 'weights' else 'values'}"
+            why = ""
+            if path == "weights":
+                why = f"nodes[{node}]'s mesh has {per_key} morph targets, so "
             raise GltfError(
                 f"{skey}.output",
-                f"{count} weights for {len(times)} keyframes of {interpolation}; "
-                f"nodes[{node}]'s mesh has {per_key} morph targets, so {needed} are needed"
-                if path == "weights"
-                else f"{count} values for {len(times)} keyframes of {interpolation}; "
-                f"{needed} are needed",
+                f"{given} for {len(times)} keyframes of {interpolation}; {why}{needed} are needed",
             )
         tracks.append(Track(node, path, skey, output, interpolation, times, per_key))
     return tracks
