@@ -266,6 +266,29 @@ def test_a_morph_target_weight(tmp_path: Path) -> None:
     np.testing.assert_array_equal(mid.positions[:2], rest.positions[:2])
 
 
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [("index", "99 is not one of the 4"), ("count", "2 elements, POSITION has 3")],
+)
+def test_morph_targets_are_checked_where_their_weights_are_0(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: str, message: str
+) -> None:
+    # At rest with a weight of 0 the target adds nothing and its values are not read,
+    # but a target naming no accessor, or one of another length, is still bad input.
+    doc = json.loads(_morphed(tmp_path).read_text())
+    doc["meshes"][0]["weights"] = [0.0]
+    target = doc["meshes"][0]["primitives"][0]["targets"][0]
+    if change == "index":
+        target["POSITION"] = 99
+    else:
+        doc["accessors"][target["POSITION"]]["count"] = 2
+    path = tmp_path / "target.gltf"
+    path.write_text(json.dumps(doc))
+    line = _render(capsys, path)
+    key = "meshes[0].primitives[0].targets[0].POSITION"
+    assert line == f"pbs: error: {path}: {key}: {message}", line
+
+
 def test_a_cubicspline_morph_weight(tmp_path: Path) -> None:
     # The translation case's spline as the weight (0.5625 at 0.5 s), the target's delta 2.
     doc = json.loads(_morphed(tmp_path).read_text())
@@ -331,32 +354,123 @@ def _render(capsys: pytest.CaptureFixture[str], path: Path, *options: str) -> st
     return lines[0]
 
 
-def _bad_sampler(tmp_path: Path, change: str) -> Path:
+def _bad_animation(tmp_path: Path, change: str) -> Path:
+    """A triangle with two animations: animations[0] with one defect (``change``), and a
+    valid one named 'ok' on the same node, which ``--animation ok`` poses."""
     doc = Doc()
-    mesh = doc.triangle()
-    node = doc.node(mesh=mesh)
+    node = doc.node(mesh=doc.triangle())
     if change == "type":  # a rotation given as VEC3
         doc.animate(node, "rotation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0]], 3)
     elif change == "count":  # three values for two keyframes
         doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0], [2, 0, 0]], 3)
     elif change == "times":  # times not increasing
         doc.animate(node, "translation", [0.0, 1.0, 1.0], [[0, 0, 0]] * 3, 3)
-    return doc.save(tmp_path / f"bad-{change}.gltf")
+    else:
+        doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0]], 3)
+    doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [0, 1, 0]], 3, name="ok")
+    sampler = doc.json["animations"][0]["samplers"][0]
+    channel = doc.json["animations"][0]["channels"][0]
+    if change == "interpolation":
+        sampler["interpolation"] = "BOGUS"
+    elif change == "output index":
+        sampler["output"] = 999
+    elif change == "input index":
+        sampler["input"] = 999
+    elif change == "input type":  # keyframe times as VEC3
+        sampler["input"] = sampler["output"]
+    elif change == "node":
+        channel["target"]["node"] = 9
+    elif change == "sampler":
+        channel["sampler"] = 9
+    return doc.save(tmp_path / f"bad-{change.replace(' ', '-')}.gltf")
 
 
-@pytest.mark.parametrize(
-    ("change", "key", "fragment"),
-    [
-        ("type", "animations[0].samplers[0].output", "cannot be rotation"),
-        ("count", "animations[0].samplers[0].output", "2 keyframes"),
-        ("times", "animations[0].samplers[0].input", "increase strictly"),
-    ],
-)
-def test_bad_sampler_data_is_bad_input(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: str, key: str, fragment: str
+# Each defect: the key the line names and the message after it (accessors 0-2 are the
+# triangle's POSITION and animations[0]'s input and output; 5 accessors in all).
+BAD_ANIMATIONS = [
+    ("type", "animations[0].samplers[0].output", "accessors[2]: VEC3 of componentType 5126 "
+     "cannot be rotation (allowed: VEC4 of 5126, 5120, 5121, 5122, 5123)"),
+    ("count", "animations[0].samplers[0].output",
+     "3 values for 2 keyframes of LINEAR; 2 are needed"),
+    ("times", "animations[0].samplers[0].input", "keyframe times must increase strictly: "
+     "keyframe 2 (1 s) follows keyframe 1 (1 s)"),
+    ("interpolation", "animations[0].samplers[0].interpolation",
+     "'BOGUS' is not LINEAR, STEP, CUBICSPLINE"),
+    ("output index", "animations[0].samplers[0].output", "999 is not one of the 5"),
+    ("input index", "animations[0].samplers[0].input", "999 is not one of the 5"),
+    ("input type", "animations[0].samplers[0].input", "accessors[2]: VEC3 of componentType "
+     "5126 cannot be input (allowed: SCALAR of 5126)"),
+    ("node", "animations[0].channels[0].target.node", "9 is not one of the 1"),
+    ("sampler", "animations[0].channels[0].sampler", "9 is not one of the 1 samplers"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("change", "key", "message"), BAD_ANIMATIONS)
+@pytest.mark.parametrize("pose", ["rest", "posed", "another"])
+def test_bad_animation_data_is_bad_input_whatever_the_pose(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: str,
+    key: str,
+    message: str,
+    pose: str,
 ) -> None:
-    line = _render(capsys, _bad_sampler(tmp_path, change), "--time", "0.5")
-    assert key in line and fragment in line, line
+    # The rest pose, animations[0] posed and the valid animation posed give one line, in
+    # the same words: the file's animations are checked by one function whatever is shown.
+    options = {"rest": [], "posed": ["--time", "0.5"], "another": ["--animation", "ok"]}[pose]
+    path = _bad_animation(tmp_path, change)
+    line = _render(capsys, path, *options)
+    assert line == f"pbs: error: {path}: {key}: {message}", line
+
+
+def test_a_weights_output_of_another_count_is_bad_input_at_rest(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    doc = json.loads(_morphed(tmp_path).read_text())
+    doc["accessors"][doc["animations"][0]["samplers"][0]["output"]]["count"] = 1
+    path = tmp_path / "weights-count.gltf"
+    path.write_text(json.dumps(doc))
+    expected = (
+        f"pbs: error: {path}: animations[0].samplers[0].output: 1 weights for 2 keyframes "
+        "of LINEAR; nodes[0]'s mesh has 1 morph targets, so 2 are needed"
+    )
+    for options in ([], ["--time", "0.5"]):
+        assert _render(capsys, path, *options) == expected
+
+
+def test_an_index_out_of_range_names_its_key_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # An accessor index past the table, where the reader's index check and the animation's
+    # own naming of the sampler or skin both added the key: named once.
+    for key in ("animations[0].samplers[0].output", "animations[0].samplers[0].input"):
+        doc = json.loads(_bar(tmp_path).read_text())
+        doc["animations"][0]["samplers"][0][key.rsplit(".", 1)[1]] = 999
+        path = tmp_path / "index.gltf"
+        path.write_text(json.dumps(doc))
+        for options in ([], ["--time", "0.5"]):
+            line = _render(capsys, path, *options)
+            assert line == f"pbs: error: {path}: {key}: 999 is not one of the 8", line
+    doc = json.loads(_bar(tmp_path).read_text())
+    doc["skins"][0]["inverseBindMatrices"] = 999
+    path.write_text(json.dumps(doc))
+    line = _render(capsys, path)
+    expected = f"pbs: error: {path}: skins[0].inverseBindMatrices: 999 is not one of the 8"
+    assert line == expected, line
+
+
+def test_the_rest_pose_reads_keyframe_times_not_values(tmp_path: Path) -> None:
+    # The rest pose checks every sampler's output from the JSON (type, count) and reads
+    # only the times (one number per keyframe): its cost stays that of the mesh.
+    path = _bar(tmp_path)
+    sampler = json.loads(path.read_text())["animations"][0]["samplers"][0]
+    gltf = GltfFile(path)
+    gltf.primitives()
+    read = {index for index, _ in gltf._accessors}
+    assert sampler["input"] in read and sampler["output"] not in read
+    posed = GltfFile(path, pose=PoseRequest(time=0.5))
+    posed.primitives()
+    assert sampler["output"] in {index for index, _ in posed._accessors}
 
 
 def test_joints_out_of_range_are_bad_input(
@@ -664,6 +778,7 @@ def test_mutated_pose_data_is_bad_input_or_parts(tmp_path: Path) -> None:
     requests = [
         PoseRequest(animation="all", time=0.7, variant="v"),
         PoseRequest(animation=0, time=0.3),
+        PoseRequest(),  # the rest pose checks both animations too
     ]
     for request in requests:
         path.write_text(json.dumps(valid))
@@ -682,7 +797,7 @@ def test_mutated_pose_data_is_bad_input_or_parts(tmp_path: Path) -> None:
         target[where[-1]] = value
         path.write_text(json.dumps(doc))
         try:
-            GltfFile(path, pose=requests[case % 2]).primitives()
+            GltfFile(path, pose=requests[case % 3]).primitives()
             outcomes["parts"] += 1
         except GltfError as exc:
             assert "\n" not in str(exc), (case, where, value, str(exc))

@@ -383,9 +383,16 @@ class GltfFile:
             self._accessors[(i, semantic)] = self._accessor(i, semantic)
         return self._accessors[(i, semantic)]
 
-    def _accessor(self, i: int, semantic: str) -> np.ndarray:
-        accessors = self._table("accessors")
-        a = accessors[i]
+    def accessor_count(self, index: object, key: str, semantic: str) -> int:
+        """Accessor ``index``'s count, the accessor checked as ``semantic`` from the JSON
+        alone (an index in range, a type and componentType the semantic allows, integers
+        normalized where they must be): what ``accessor`` would refuse before reading a
+        byte, in its words, for data the rest pose checks but does not read."""
+        i = _int(index, key, len(self._table("accessors")))
+        return self._accessor_checked(i, semantic)
+
+    def _accessor_checked(self, i: int, semantic: str) -> int:
+        a = self._table("accessors")[i]
         akey = f"accessors[{i}]"
         types, components = _SEMANTICS[semantic]
         if a.type not in types or a.componentType not in components:
@@ -394,9 +401,20 @@ class GltfFile:
                 f"{a.type} of componentType {a.componentType} cannot be {semantic} "
                 f"(allowed: {'/'.join(types)} of {', '.join(map(str, components))})",
             )
+        count = _int(a.count, f"{akey}.count", low=1)
+        if semantic != "indices":
+            if a.normalized and not _COMPONENTS[a.componentType][1]:
+                raise GltfError(f"{akey}.normalized", "only integer components are normalized")
+            if not a.normalized and a.componentType != 5126 and semantic in _NORMALIZED:
+                raise GltfError(f"{akey}.normalized", f"integer {semantic} must be normalized")
+        return count
+
+    def _accessor(self, i: int, semantic: str) -> np.ndarray:
+        a = self._table("accessors")[i]
+        akey = f"accessors[{i}]"
+        count = self._accessor_checked(i, semantic)
         n = _TYPES[a.type]
         dtype, divisor = _COMPONENTS[a.componentType]
-        count = _int(a.count, f"{akey}.count", low=1)
         if a.bufferView is None:
             values = np.zeros((count, n), dtype)
         else:
@@ -407,11 +425,7 @@ class GltfFile:
             return values[:, 0].astype(np.int64)
         out = values.astype(np.float64)
         if a.normalized:
-            if not divisor:
-                raise GltfError(f"{akey}.normalized", "only integer components are normalized")
             out = np.maximum(out / divisor, -1.0)
-        elif a.componentType not in (5126,) and semantic in _NORMALIZED:
-            raise GltfError(f"{akey}.normalized", f"integer {semantic} must be normalized")
         if not np.all(np.abs(out) <= MAX_COORDINATE):  # NaN and infinities fail too
             raise GltfError(
                 akey, f"{semantic} holds NaN, infinite or values past {MAX_COORDINATE:g}"
@@ -477,7 +491,7 @@ class GltfFile:
 
     def pose(self) -> Pose:
         """The pose ``request`` asks for (app/scene/gltf_animation.py), its notes logged."""
-        pose = animation.posed(self.doc, self.request, self.accessor)
+        pose = animation.posed(self.doc, self.request, self)
         for text in pose.notes:
             self.note(text)
         return pose
@@ -632,7 +646,9 @@ class GltfFile:
                 )
             if draco:  # Draco may reorder vertices; the targets' accessors are not
                 self.note(f"{key}: morph targets on a Draco primitive are not applied")
-            elif np.any(deform.weights != 0.0):
+            else:
+                # Checked from the JSON whatever the weights; read only where one is not 0.
+                applied = bool(np.any(deform.weights != 0.0))
                 count = len(attrs["POSITION"])
                 deltas = []
                 for t, target in enumerate(targets):
@@ -642,12 +658,14 @@ class GltfFile:
                         if index is None or name not in attrs:
                             continue
                         tkey = f"{key}.targets[{t}].{name}"
-                        values = self.accessor(index, tkey, "target")
-                        if len(values) != count:
-                            raise GltfError(tkey, f"{len(values)} elements, POSITION has {count}")
-                        delta[name] = values
+                        elements = self.accessor_count(index, tkey, "target")
+                        if elements != count:
+                            raise GltfError(tkey, f"{elements} elements, POSITION has {count}")
+                        if applied:
+                            delta[name] = self.accessor(index, tkey, "target")
                     deltas.append(delta)
-                attrs = animation.morph(attrs, deltas, deform.weights)
+                if applied:
+                    attrs = animation.morph(attrs, deltas, deform.weights)
         if deform.joints is None or "JOINTS_0" not in attrs or "WEIGHTS_0" not in attrs:
             return attrs, world
         sets = []

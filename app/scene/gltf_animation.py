@@ -28,7 +28,10 @@ blends the vertices by their joints, vectorised over the vertices. What is compu
 
 Bad animation, skin or morph data is a ``GltfError`` naming its JSON key; a choice the
 file cannot honour (an animation or variant it does not have) a ``PoseError`` naming the
-scene object's key (``animation``, ``time``, ``variant``).
+scene object's key (``animation``, ``time``, ``variant``). Every animation is checked
+whatever the pose, the rest pose included (``checked_tracks``: indices, interpolations,
+accessor types and counts from the JSON, keyframe times read), by the code that then
+reads the chosen animation's values to pose it.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol, TypeVar
 
 import numpy as np
 
@@ -43,6 +47,19 @@ from app.scene.gltf_document import GltfDocument, GltfError, JsonObject, node_ma
 
 # Reads accessor ``index`` for ``semantic`` (GltfFile.accessor): float64 (count, n).
 Reader = Callable[[object, str, str], np.ndarray]
+T = TypeVar("T")
+
+
+class Accessors(Protocol):
+    """The file's accessors as the animation reads them (``GltfFile``), each named by the
+    JSON key that points at it: ``accessor`` reads one for a semantic as float64
+    (count, n); ``accessor_count`` checks it from the JSON alone (index, type,
+    componentType, normalized) and gives its count, reading no byte."""
+
+    def accessor(self, index: object, key: str, semantic: str) -> np.ndarray: ...
+
+    def accessor_count(self, index: object, key: str, semantic: str) -> int: ...
+
 
 INTERPOLATIONS = ("LINEAR", "STEP", "CUBICSPLINE")
 # A channel's target path -> the components of one keyframe value (weights: one per target).
@@ -69,6 +86,22 @@ class PoseError(GltfError):
     def __init__(self, option: str, message: str) -> None:
         super().__init__("", message)
         self.option = option
+
+
+@dataclass(frozen=True)
+class Track:
+    """One animation channel checked, its keyframe values not yet read: the node and
+    property it drives, its sampler's key, output accessor and interpolation, its
+    keyframe times (strictly increasing) and the values per keyframe (1, or for
+    weights the node's morph targets)."""
+
+    node: int
+    path: str
+    skey: str
+    output: int
+    interpolation: str
+    times: np.ndarray
+    per_key: int
 
 
 @dataclass(frozen=True)
@@ -201,16 +234,64 @@ def target_count(doc: GltfDocument, node: int) -> int:
     return max((len(p.targets or []) for p in meshes[mesh].primitives or []), default=0)
 
 
-def read_channels(doc: GltfDocument, index: int, read: Reader, notes: list[str]) -> list[Channel]:
-    """Animation ``index``'s channels, every accessor checked: input times float SCALAR
-    and strictly increasing, output of the path's type and of the count the
-    interpolation needs (3 per keyframe for CUBICSPLINE, times the targets for weights)."""
+def _via(get: Callable[[object, str, str], T], index: object, key: str, semantic: str) -> T:
+    """``get(index, key, semantic)`` (an accessor read or counted) with any error named
+    by ``key``, the property that points at the accessor, once: ``key: accessors[3]:
+    ...`` where the accessor itself is at fault, the error as it is where it already
+    names ``key`` (an index out of range)."""
+    try:
+        return get(index, key, semantic)
+    except GltfError as exc:
+        if exc.key == key or exc.key.startswith(f"{key}."):
+            raise
+        raise GltfError(key, str(exc)) from None
+
+
+def _sampler(
+    sampler: JsonObject, skey: str, accessors: Accessors, checked: dict[int, np.ndarray]
+) -> tuple[np.ndarray, str]:
+    """A sampler's keyframe times (float SCALAR, finite, strictly increasing) and its
+    interpolation, checked; ``checked``: the times of the input accessors checked so far
+    (samplers often share one)."""
+    interpolation = sampler.interpolation if sampler.interpolation is not None else "LINEAR"
+    if interpolation not in INTERPOLATIONS:
+        raise GltfError(
+            f"{skey}.interpolation", f"{interpolation!r} is not {', '.join(INTERPOLATIONS)}"
+        )
+    if sampler.input in checked:
+        return checked[sampler.input], interpolation
+    times = _via(accessors.accessor, sampler.input, f"{skey}.input", "input")[:, 0]
+    increasing = times[1:] > times[:-1]
+    if not increasing.all():
+        k = int(np.argmin(increasing))
+        raise GltfError(
+            f"{skey}.input",
+            f"keyframe times must increase strictly: keyframe {k + 1} ({times[k + 1]:g} s) "
+            f"follows keyframe {k} ({times[k]:g} s)",
+        )
+    checked[sampler.input] = times
+    return times, interpolation
+
+
+def checked_tracks(
+    doc: GltfDocument, index: int, accessors: Accessors, notes: list[str]
+) -> list[Track]:
+    """Animation ``index`` checked without reading its keyframe values: every sampler's
+    interpolation and input times (float SCALAR, strictly increasing: one number per
+    keyframe, read), every channel's node and sampler, and each output accessor's type
+    and count from the JSON (the path's type; as many values as the interpolation needs:
+    3 per keyframe for CUBICSPLINE, times the targets for weights). The rest pose checks
+    every animation this way; posing reads the chosen one's values after it."""
     animation = doc.animations[index]
     akey = f"animations[{index}]"
     nodes = doc.nodes or []
     samplers = animation.samplers or []
-    channels: list[Channel] = []
-    read_samplers: dict[tuple[int, str], tuple[np.ndarray, np.ndarray, str]] = {}
+    inputs: dict[int, np.ndarray] = {}
+    checked = [
+        _sampler(sampler, f"{akey}.samplers[{s}]", accessors, inputs)
+        for s, sampler in enumerate(samplers)
+    ]
+    tracks: list[Track] = []
     for c, channel in enumerate(animation.channels or []):
         ckey = f"{akey}.channels[{c}]"
         target = channel.target
@@ -242,62 +323,42 @@ def read_channels(doc: GltfDocument, index: int, read: Reader, notes: list[str])
                     f"animates the weights of nodes[{node}], which has no morph targets",
                 )
         s = channel.sampler
-        if (s, path) not in read_samplers:
-            read_samplers[(s, path)] = _sampler(samplers[s], f"{akey}.samplers[{s}]", path, read)
-        times, values, interpolation = read_samplers[(s, path)]
+        times, interpolation = checked[s]
         skey = f"{akey}.samplers[{s}]"
+        output = samplers[s].output
+        count = _via(accessors.accessor_count, output, f"{skey}.output", path)
         per_time = (3 if interpolation == "CUBICSPLINE" else 1) * per_key
-        if path == "weights":
-            values = values.reshape(-1)
-            if len(values) != per_time * len(times):
-                raise GltfError(
-                    f"{skey}.output",
-                    f"{len(values)} weights for {len(times)} keyframes of {interpolation}; "
-                    f"nodes[{node}]'s mesh has {per_key} morph targets, so "
-                    f"{per_time * len(times)} are needed",
-                )
-            values = values.reshape(len(times), -1)
-        elif len(values) != per_time * len(times):
+        needed = per_time * len(times)
+        if count != needed:
+            given = f"{count} {'weights' if path == 'weights' else 'values'}"
+            why = ""
+            if path == "weights":
+                why = f"nodes[{node}]'s mesh has {per_key} morph targets, so "
             raise GltfError(
                 f"{skey}.output",
-                f"{len(values)} values for {len(times)} keyframes of {interpolation}; "
-                f"{per_time * len(times)} are needed",
+                f"{given} for {len(times)} keyframes of {interpolation}; {why}{needed} are needed",
             )
-        width = per_key if path == "weights" else PATHS[path]
-        if interpolation == "CUBICSPLINE":
-            values = values.reshape(len(times), 3, width)
-        else:
-            values = values.reshape(len(times), width)
-        channels.append(Channel(node, path, times, values, interpolation))
+        tracks.append(Track(node, path, skey, output, interpolation, times, per_key))
+    return tracks
+
+
+def read_channels(
+    doc: GltfDocument, index: int, accessors: Accessors, notes: list[str]
+) -> list[Channel]:
+    """Animation ``index``'s channels: checked (``checked_tracks``), then their keyframe
+    values read (finite, within the accessor's bounds) and shaped (K, n) or, for
+    CUBICSPLINE, (K, 3, n)."""
+    channels = []
+    for track in checked_tracks(doc, index, accessors, notes):
+        values = _via(accessors.accessor, track.output, f"{track.skey}.output", track.path)
+        width = track.per_key if track.path == "weights" else PATHS[track.path]
+        keys = len(track.times)
+        shape = (keys, 3, width) if track.interpolation == "CUBICSPLINE" else (keys, width)
+        channel = Channel(
+            track.node, track.path, track.times, values.reshape(shape), track.interpolation
+        )
+        channels.append(channel)
     return channels
-
-
-def _sampler(
-    sampler: JsonObject, skey: str, path: str, read: Reader
-) -> tuple[np.ndarray, np.ndarray, str]:
-    """A sampler's (times, output rows, interpolation), read for ``path``."""
-    interpolation = sampler.interpolation if sampler.interpolation is not None else "LINEAR"
-    if interpolation not in INTERPOLATIONS:
-        raise GltfError(
-            f"{skey}.interpolation", f"{interpolation!r} is not {', '.join(INTERPOLATIONS)}"
-        )
-    try:
-        times = read(sampler.input, f"{skey}.input", "input")[:, 0]
-    except GltfError as exc:
-        raise GltfError(f"{skey}.input", str(exc)) from None
-    steps = np.diff(times)
-    if len(steps) and not np.all(steps > 0.0):
-        k = int(np.argmin(steps > 0.0))
-        raise GltfError(
-            f"{skey}.input",
-            f"keyframe times must increase strictly: keyframe {k + 1} ({times[k + 1]:g} s) "
-            f"follows keyframe {k} ({times[k]:g} s)",
-        )
-    try:
-        values = read(sampler.output, f"{skey}.output", path)
-    except GltfError as exc:
-        raise GltfError(f"{skey}.output", str(exc)) from None
-    return times, values, interpolation
 
 
 def _rest(node: JsonObject) -> dict[str, list[float]]:
@@ -309,14 +370,18 @@ def _rest(node: JsonObject) -> dict[str, list[float]]:
     }
 
 
-def posed(doc: GltfDocument, request: PoseRequest, read: Reader) -> Pose:
+def posed(doc: GltfDocument, request: PoseRequest, accessors: Accessors) -> Pose:
     """The pose ``request`` asks for: the chosen animation's channels sampled at the
     time (clamped into the animation's range, with a note where it was outside), the
     animated nodes' local matrices and weights; the rest pose without an animation, with
-    a note where the file has animations."""
+    a note where the file has animations. Every animation is checked whatever the pose
+    (``checked_tracks``): bad animation data is bad input even where it is not shown."""
     pose = Pose()
     index = choose_animation(doc, request)
     animations = doc.animations or []
+    for other in range(len(animations)):
+        if other != index:
+            checked_tracks(doc, other, accessors, [])  # its notes are for posing it
     if index is None:
         if animations:
             pose.notes.append(
@@ -325,7 +390,7 @@ def posed(doc: GltfDocument, request: PoseRequest, read: Reader) -> Pose:
                 "animation and time) pose it"
             )
         return pose
-    channels = read_channels(doc, index, read, pose.notes)
+    channels = read_channels(doc, index, accessors, pose.notes)
     start = min((float(c.times[0]) for c in channels), default=0.0)
     end = max((float(c.times[-1]) for c in channels), default=0.0)
     t = start if request.time is None else float(request.time)
@@ -414,10 +479,7 @@ def joint_matrices(
         inverse_bind = np.broadcast_to(np.eye(4), (len(joints), 4, 4))
     else:
         ikey = f"{key}.inverseBindMatrices"
-        try:
-            rows = read(entry.inverseBindMatrices, ikey, "inverseBindMatrices")
-        except GltfError as exc:
-            raise GltfError(ikey, str(exc)) from None
+        rows = _via(read, entry.inverseBindMatrices, ikey, "inverseBindMatrices")
         if len(rows) != len(joints):
             raise GltfError(ikey, f"{len(rows)} matrices for {len(joints)} joints")
         inverse_bind = rows.reshape(-1, 4, 4).transpose(0, 2, 1)  # column-major

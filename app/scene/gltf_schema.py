@@ -251,8 +251,9 @@ SCHEMA = _obj(
                         ),
                         1,
                     ),
-                    # The interpolation is checked where an animation is sampled (an
-                    # extension may name its own; the file is refused only if it is used).
+                    # The interpolation (the schema allows any string) and what the
+                    # indices point at are checked by app/scene/gltf_animation.py, for
+                    # every animation whatever the pose.
                     "samplers": Arr(
                         _obj(
                             {"input": Int(), "interpolation": Str(), "output": Int()},
