@@ -57,6 +57,7 @@ from app.scene.gltf_animation import PATHS, Pose, PoseRequest
 from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matrices
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
 from app.scene.gltf_schema import MAX_COORDINATE
+from app.scene.sampled_levels import reduced_levels
 from app.textures.lean import LEAN, lean_params
 from app.textures.maps import (
     SurfaceLayer,
@@ -242,6 +243,44 @@ class GltfFile:
         self._accessors: dict[tuple[int, str], np.ndarray] = {}
         self._images: dict[int, Image.Image] = {}
         self._layers: dict[tuple[int, str, int], SurfaceLayer] = {}
+        # The least UV level of detail a still frame samples of this file's textures
+        # (app/scene/sampled_levels.py ``finest_uv_lod``), set before any material is
+        # read; None: every level (a camera that moves, the viewer, the API).
+        self.uv_lod: float | None = None
+
+    def still_streamable(self) -> bool:
+        """Whether a still frame's bound on the sampled levels (``uv_lod``) covers every
+        read of this file's textures: every material opaque (its surfaces hide what lies
+        behind them in the G-buffer and nothing is drawn forward, blended or through a
+        masked shadow caster), none transmissive, every texture read through TEXCOORD_0
+        untransformed (the bound is taken on TEXCOORD_0) and every sampler mipmapped
+        (a sampler without mips reads level 0 at any distance)."""
+        if "KHR_texture_transform" in (self.doc.extensionsUsed or []):
+            return False
+        for sampler in self._table("samplers"):
+            if sampler.minFilter is not None and _FILTERS.get(sampler.minFilter) in (
+                "nearest",
+                "linear",
+            ):
+                return False
+        forward = ("KHR_materials_transmission", "KHR_materials_volume")
+        for material in self._table("materials"):
+            if material.alphaMode not in (None, "OPAQUE"):
+                return False
+            extensions = material.extensions or {}
+            if any(name in extensions for name in forward) or any(
+                "diffuse_transmission" in name for name in extensions
+            ):
+                return False
+            if _reads_other_uv(material):
+                return False
+        return True
+
+    def _reduction(self, width: int, height: int) -> int:
+        """How many finest levels of a ``width`` x ``height`` image go undecoded."""
+        if self.uv_lod is None:
+            return 0
+        return reduced_levels(self.uv_lod, width, height)
 
     # --- bytes -------------------------------------------------------------------------
 
@@ -733,7 +772,9 @@ class GltfFile:
             else:
                 raise GltfError(ikey, "has neither uri nor bufferView")
             try:
-                self._images[i] = open_image(data, self.budget, None, decode_later=True)
+                self._images[i] = open_image(
+                    data, self.budget, None, decode_later=True, reduce=self._reduction
+                )
             except RefusedError as exc:
                 raise GltfError(ikey, str(exc)) from None
         return self._images[i]
@@ -988,6 +1029,20 @@ class GltfFile:
         for problem in material_problems(layer.params, maps, emissive_factor, strength):
             raise GltfError(_problem_key(key, problem.key), problem.message)
         return layer
+
+
+def _reads_other_uv(value: object) -> bool:
+    """Whether a material's JSON names a ``texCoord`` other than 0 anywhere (its
+    textureInfos, its extensions' textures)."""
+    if isinstance(value, JsonObject):
+        value = value.__dict__
+    if isinstance(value, dict):
+        if value.get("texCoord", 0) not in (0, None):
+            return True
+        return any(_reads_other_uv(v) for v in value.values())
+    if isinstance(value, list):
+        return any(_reads_other_uv(v) for v in value)
+    return False
 
 
 # The JSON key (after "materials[i]") that gives what a resolved check's scene-file key is

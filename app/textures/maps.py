@@ -262,6 +262,7 @@ def open_image(
     budget: Budget | None = None,
     kind: str | None = "colour",
     decode_later: bool = False,
+    reduce: Callable[[int, int], int] | None = None,
 ) -> Image.Image:
     """A texture (a plain file, or bytes from a glTF buffer) decoded, or ``RefusedError``.
 
@@ -284,7 +285,13 @@ def open_image(
     (Pillow lets go of the GIL while it decodes): a caller that opens several images
     decodes them side by side and beside its own work. Whoever reads the texels waits
     for it (``_decoded``); the caller asks ``wait_decoded`` for the verdict (the
-    ``RefusedError`` a broken image raises) before it relies on one."""
+    ``RefusedError`` a broken image raises) before it relies on one.
+
+    ``reduce``: how many of the finest mip levels of an image of the header's size a
+    still frame never samples (app/scene/sampled_levels.py), n; a JPEG is then decoded
+    at 1/2^n of its size by libjpeg's DCT scaling (Pillow's ``draft``), and everything
+    made from it (its mips, the cache's entries, keyed by the decoded size) starts
+    there. Other formats decode whole. The header's size is what is checked and charged."""
     budget = budget or Budget()
     try:
         if isinstance(source, bytes):
@@ -304,6 +311,14 @@ def open_image(
         # What the prepared-texture cache keys this image by (_image_part): the
         # file's bytes, a few MiB to hash where the decoded texels are tens.
         digest = hashlib.sha256(encoded).hexdigest()
+        skipped = reduce(width, height) if reduce is not None else 0
+        if skipped and image.format == "JPEG":
+            reduced = (width >> skipped, height >> skipped)
+            image.draft(image.mode, reduced)
+            if image.size != reduced:  # a scale libjpeg does not make: the whole image
+                image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+            else:  # another image than the file's whole one: its own entries
+                digest = f"{digest} 1/{1 << skipped}"
         image.info[SOURCE_DIGEST] = digest
         with _KEEP_LOCK:
             kept = _DECODED.get(digest)
