@@ -241,7 +241,7 @@ class GltfFile:
         self._buffers: dict[int, memoryview] = {}
         self._views: dict[int, memoryview] = {}
         self._accessors: dict[tuple[int, str], np.ndarray] = {}
-        self._images: dict[int, Image.Image] = {}
+        self._images: dict[tuple[int, bool], Image.Image] = {}  # by (index, reduced)
         self._layers: dict[tuple[int, str, int], SurfaceLayer] = {}
         # The least UV level of detail a still frame samples of this file's textures
         # (app/scene/sampled_levels.py ``finest_uv_lod``), set before any material is
@@ -277,10 +277,15 @@ class GltfFile:
         return True
 
     def _reduction(self, width: int, height: int) -> int:
-        """How many finest levels of a ``width`` x ``height`` image go undecoded."""
+        """How many finest levels of a ``width`` x ``height`` image a still frame never
+        samples (0 without a still frame's ``uv_lod``)."""
         if self.uv_lod is None:
             return 0
         return reduced_levels(self.uv_lod, width, height)
+
+    def _first_level(self, image: Image.Image) -> int:
+        """The first level a map the project filters from ``image`` (decoded whole) keeps."""
+        return self._reduction(image.width, image.height)
 
     # --- bytes -------------------------------------------------------------------------
 
@@ -757,12 +762,17 @@ class GltfFile:
             return False
         return bool(self._table("materials")[material].doubleSided)
 
-    def image(self, index: object, key: str) -> Image.Image:
+    def image(self, index: object, key: str, reduced: bool = False) -> Image.Image:
         """Image ``index`` decoded once (its size checked and charged first,
-        app/textures/maps.py ``open_image``)."""
+        app/textures/maps.py ``open_image``). ``reduced``: for a map whose mips the GL
+        makes (colour), decoded from the finest level a still frame samples (``uv_lod``;
+        a JPEG by DCT scaling); the maps the project filters (the normal/roughness chain,
+        metallic, occlusion) read the whole image and keep their levels from there on
+        (``_first_level``), the same bits as the whole chain's."""
         images = self._table("images")
         i = _int(index, key, len(images))
-        if i not in self._images:
+        reduced = reduced and self.uv_lod is not None
+        if (i, reduced) not in self._images:
             entry = images[i]
             ikey = f"images[{i}]"
             if entry.uri is not None:
@@ -772,19 +782,20 @@ class GltfFile:
             else:
                 raise GltfError(ikey, "has neither uri nor bufferView")
             try:
-                self._images[i] = open_image(
-                    data, self.budget, None, decode_later=True, reduce=self._reduction
+                reduce = self._reduction if reduced else None
+                self._images[i, reduced] = open_image(
+                    data, self.budget, None, decode_later=True, reduce=reduce
                 )
             except RefusedError as exc:
                 raise GltfError(ikey, str(exc)) from None
-        return self._images[i]
+        return self._images[i, reduced]
 
     def _decodes_checked(self) -> None:
         """Wait for the decodes of the images opened so far (``image`` starts each on a
         pool, so that a material's images decode side by side); the first broken one,
         in the order they were opened, as the ``GltfError`` naming its key that opening
         it would have raised."""
-        for i, image in self._images.items():
+        for (i, _), image in self._images.items():
             try:
                 wait_decoded(image)
             except RefusedError as exc:
@@ -824,14 +835,17 @@ class GltfFile:
         except RefusedError as exc:
             raise GltfError(key, str(exc)) from None
 
-    def _texture(self, info: object, key: str) -> tuple[Image.Image, dict, UvTransform]:
-        """A textureInfo: its image, its sampler's Texture fields, its UV transform."""
+    def _texture(
+        self, info: object, key: str, reduced: bool = False
+    ) -> tuple[Image.Image, dict, UvTransform]:
+        """A textureInfo: its image (``reduced``: as ``image``), its sampler's Texture
+        fields, its UV transform."""
         textures = self._table("textures")
         t = _int(getattr(info, "index", None), f"{key}.index", len(textures))
         tex = textures[t]
         tkey = f"textures[{t}]"
         source, skey = self._source(tex, tkey)
-        image = self.image(source, skey)
+        image = self.image(source, skey, reduced)
         sampler: dict = {}
         if tex.sampler is not None:
             samplers = self._table("samplers")
@@ -932,7 +946,7 @@ class GltfFile:
 
         if pbr is not None and pbr.baseColorTexture is not None:
             tkey = f"{pkey}.baseColorTexture"
-            img, sampler, tr = self._texture(pbr.baseColorTexture, tkey)
+            img, sampler, tr = self._texture(pbr.baseColorTexture, tkey, reduced=True)
             self._map_cost(img, "colour", tkey)
             put("base_color", colour_texture(img), sampler, tr)  # RGBA: alpha kept
         mr = None
@@ -942,7 +956,7 @@ class GltfFile:
             # Roughness joins the normal chain: built at the normal map's size where there
             # is one (charged with it), else at this image's.
             self._map_cost(mr[0], "scalar" if m.normalTexture is not None else "normal", tkey)
-            put("metallic", channel_texture(mr[0], 2), mr[1], mr[2])
+            put("metallic", channel_texture(mr[0], 2, self._first_level(mr[0])), mr[1], mr[2])
         normal_image = None
         scale = 1.0
         if m.normalTexture is not None:
@@ -960,7 +974,12 @@ class GltfFile:
             # resampled to it), else at the metallic-roughness image's.
             # (Prepared once per image content: app/textures/cache.py.)
             mr_image = None if mr is None else mr[0]
-            chain = normal_roughness_map(normal_image, scale, roughness, mr_image, normal_filter)
+            sized = normal_image if normal_image is not None else mr_image
+            assert sized is not None
+            first = self._first_level(sized)
+            chain = normal_roughness_map(
+                normal_image, scale, roughness, mr_image, normal_filter, first
+            )
             if normal_image is not None:
                 put("normal_roughness", chain, n_sampler, n_tr)
                 if normal_filter == LEAN:  # the normals' spread as a covariance map, read
@@ -977,7 +996,7 @@ class GltfFile:
             okey = f"{key}.occlusionTexture"
             img, sampler, tr = self._texture(m.occlusionTexture, okey)
             self._map_cost(img, "scalar", okey)
-            put("occlusion", channel_texture(img, 0), sampler, tr)
+            put("occlusion", channel_texture(img, 0, self._first_level(img)), sampler, tr)
             strength = getattr(m.occlusionTexture, "strength", None)
             layer.occlusion_strength = (
                 1.0 if strength is None else _number(strength, f"{okey}.strength", 0.0, 1.0)
@@ -1003,7 +1022,9 @@ class GltfFile:
                 "nothing; it is not read", self.path, key,
             )  # fmt: skip
         elif m.emissiveTexture is not None:
-            img, sampler, tr = self._texture(m.emissiveTexture, f"{key}.emissiveTexture")
+            img, sampler, tr = self._texture(
+                m.emissiveTexture, f"{key}.emissiveTexture", reduced=True
+            )
             self._map_cost(img, "colour", f"{key}.emissiveTexture")
             put("emissive", colour_texture(img), sampler, tr)
         layer.alpha = float(factor[3])
@@ -1014,7 +1035,9 @@ class GltfFile:
         if m.alphaCutoff is not None:
             layer.alpha_cutoff = _number(m.alphaCutoff, f"{key}.alphaCutoff", 0.0)
         for name, ext_texture in mapping.maps.items():
-            img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
+            img, sampler, tr = self._texture(
+                _texture_info(ext_texture), ext_texture.key, reduced=True
+            )
             declared = EXTENSION_MAP.get(name)
             kind = {"coat_normal": "normal", "anisotropy_direction": "direction"}.get(name)
             if declared is not None:

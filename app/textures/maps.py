@@ -533,16 +533,21 @@ def _normal_roughness_texture(
 
 
 def _chain_levels(
-    source: BandSource, shape: tuple[int, int], method: str, rows_up_float16: bool = False
+    source: BandSource,
+    shape: tuple[int, int],
+    method: str,
+    rows_up_float16: bool = False,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """mips.chain_levels with the project's ``none``: level 0 alone, bilinear without mips:
     each sample sees the source normals, aliasing included (what a supersampled reference
-    averages)."""
+    averages). ``first``: levels from there on (mips.chain_levels), ``none`` and ``lean``
+    never skip one."""
     if method == "none":
         return chain_levels(source, shape, "naive", 1, rows_up_float16)
     if method == LEAN:  # the spread travels in the slope_covariance map (app/textures/lean.py)
         return lean_chain_levels(source, shape, rows_up_float16)
-    return chain_levels(source, shape, method, None, rows_up_float16)
+    return chain_levels(source, shape, method, None, rows_up_float16, first)
 
 
 def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
@@ -685,16 +690,20 @@ def normal_roughness_map(
     factor: float,
     roughness_image: Image.Image | None,
     normal_filter: str,
+    first: int = 0,
 ) -> Texture:
     """A glTF material's normal/roughness chain: ``decode_normals`` of ``normal_image``
     (None: flat) with ``scale``, and roughness ``factor`` times the green channel of
     ``roughness_image`` (glTF metallicRoughnessTexture; None: the factor alone), through
     ``normal_roughness_chain``; kept in the prepared-texture cache by the images' content
-    and the parameters."""
+    and the parameters. ``first``: its levels from ``first`` on alone, the same bits as the
+    whole chain's (a still frame samples no finer one: app/scene/sampled_levels.py);
+    ``none`` and ``lean`` filters keep every level."""
+    first = first if normal_filter not in ("none", LEAN) else 0
 
     def build(rows_up_float16: bool = False) -> list[np.ndarray]:
         return _map_chain_levels(
-            normal_image, scale, factor, roughness_image, normal_filter, rows_up_float16
+            normal_image, scale, factor, roughness_image, normal_filter, rows_up_float16, first
         )
 
     parts = (
@@ -704,10 +713,11 @@ def normal_roughness_map(
         float(factor),
         _image_part(roughness_image),
         normal_filter,
+        *((("from level", first),) if first else ()),
     )
     sized = normal_image if normal_image is not None else roughness_image
     assert sized is not None, "a chain needs a normal or a roughness map"
-    layout = (sized.height, sized.width, 4, normal_filter == "none")
+    layout = (sized.height >> first, sized.width >> first, 4, normal_filter == "none")
     upload = lambda: build(rows_up_float16=True)  # noqa: E731
     return Texture(PreparedLevels("normal_roughness", parts, build, layout, upload))
 
@@ -719,6 +729,7 @@ def _map_chain_levels(
     roughness_image: Image.Image | None,
     normal_filter: str,
     rows_up_float16: bool = False,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """``normal_roughness_chain(decode_normals(normal_image, scale), factor, green / 255,
     normal_filter).levels`` (``rows_up_float16``: as the GL takes them, mips.chain_levels),
@@ -754,7 +765,7 @@ def _map_chain_levels(
             r = np.full((y1 - y0, shape[1]), float(factor))
         return n, r
 
-    return _chain_levels(source, shape, normal_filter, rows_up_float16)
+    return _chain_levels(source, shape, normal_filter, rows_up_float16, first)
 
 
 def slope_covariance_texture(normals: np.ndarray) -> Texture:
@@ -787,9 +798,10 @@ def slope_covariance_map(normal_image: Image.Image, scale: float) -> Texture:
     return Texture(PreparedLevels("slope_covariance", parts, build, layout, upload))
 
 
-def channel_texture(image: Image.Image, channel: int) -> Texture:
+def channel_texture(image: Image.Image, channel: int, first: int = 0) -> Texture:
     """``scalar_texture`` of one 8-bit RGB channel of ``image`` in [0, 1] (a glTF metallic
-    (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content."""
+    (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content;
+    ``first``: its levels from there on alone (``normal_roughness_map``'s)."""
 
     def build(rows_up_float16: bool = False) -> list[np.ndarray]:
         # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
@@ -798,9 +810,10 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
         h, w = rgb.shape[:2]
         band = lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0  # noqa: E731
         halves = lambda y0, y1: unorm8_float16(rgb[y0:y1, :, channel, None])  # noqa: E731
-        return box_levels(band, (h, w, 1), rows_up_float16, halves)
+        return box_levels(band, (h, w, 1), rows_up_float16, halves, first)
 
     parts = (_prepared_version(), _image_part(image), int(channel))
-    layout = (image.height, image.width, 1, False)
+    parts += (("from level", first),) if first else ()
+    layout = (image.height >> first, image.width >> first, 1, False)
     upload = lambda: build(rows_up_float16=True)  # noqa: E731
     return Texture(PreparedLevels("channel", parts, build, layout, upload))

@@ -134,6 +134,7 @@ def chain_levels(
     method: str,
     count: int | None = None,
     rows_up_float16: bool = False,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """``build_chain``'s levels as (h_k, w_k, 4) float32 arrays (xyz normal, a roughness),
     the first ``count`` of them (None: down to 1x1), from a ``source`` read band by band
@@ -149,17 +150,29 @@ def chain_levels(
 
     ``rows_up_float16``: each level as the GL takes it instead, ``float16_rows_up`` of the
     float32 level (rows bottom first; the same bits), level 0 converted a band at a time
-    without a float32 copy of the whole level."""
+    without a float32 copy of the whole level.
+
+    ``first``: the levels from ``first`` on alone (a still frame samples no finer one:
+    app/scene/sampled_levels.py), the same bits as the whole chain's: level 0's moments
+    are still summed from the source, but level 0 is neither converted nor kept."""
     if method not in NORMAL_FILTERS:
         raise ValueError(f"unknown normal filter {method!r}; one of {', '.join(NORMAL_FILTERS)}")
     h, w = shape
     names = _CHANNELS[method]
-    level0 = np.empty((h, w, 4), np.float16 if rows_up_float16 else np.float32)
+    level0 = np.empty(
+        (h, w, 4) if first == 0 else (0, 0, 4), np.float16 if rows_up_float16 else np.float32
+    )
     single = max(h, w) == 1 or count == 1
     sums = None if single else np.empty((max(1, h >> 1), max(1, w >> 1), len(names)))
 
     def band(y0: int, y1: int) -> None:
         n, r = source(y0, y1)
+        if first > 0:
+            if sums is not None:
+                half = sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)]
+                for c, moment in enumerate(_band_moments(names, n, r)):
+                    half[..., c] = _halve(moment)
+            return
         rows = np.empty((y1 - y0, w, 4), np.float32) if rows_up_float16 else level0[y0:y1]
         rows[..., :3] = n  # float64 -> float32, as astype rounds
         rows[..., 3] = r
@@ -193,7 +206,7 @@ def chain_levels(
         levels.append(float16_rows_up(level) if rows_up_float16 else level)
         if count is not None and len(levels) >= count:
             break
-    return levels
+    return levels[first:]
 
 
 # Threads a chain's bands are made on: each band reads its own rows of the source and
@@ -288,20 +301,26 @@ def box_levels(
     shape: tuple[int, int, int],
     rows_up_float16: bool = False,
     float16_rows: Callable[[int, int], np.ndarray] | None = None,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """``box_mips``'s levels, (h_k, w_k, C) float32, of the (H, W, C) float64 data that
     ``source(y0, y1)`` gives a band of rows at a time (as ``chain_levels`` reads its
     source, with the same bits as the whole map at once); ``rows_up_float16`` as there.
     ``float16_rows(y0, y1)``, where given with ``rows_up_float16``: the band's level-0
     rows as float16 (rows top first), the same bits as the cast of ``source``'s, made
-    cheaper by the caller (``unorm8_float16``: numpy's float16 cast is a scalar loop)."""
+    cheaper by the caller (``unorm8_float16``: numpy's float16 cast is a scalar loop).
+    ``first``: the levels from ``first`` on alone, as ``chain_levels``'s."""
     h, w, c = shape
-    level0 = np.empty((h, w, c), np.float16 if rows_up_float16 else np.float32)
+    level0 = np.empty(
+        (h, w, c) if first == 0 else (0, 0, c), np.float16 if rows_up_float16 else np.float32
+    )
     sums = None if max(h, w) == 1 else np.empty((max(1, h >> 1), max(1, w >> 1), c))
 
     def band(y0: int, y1: int) -> None:
         values = source(y0, y1)
-        if rows_up_float16 and float16_rows is not None:
+        if first > 0:
+            pass
+        elif rows_up_float16 and float16_rows is not None:
             level0[h - y1 : h - y0] = float16_rows(y0, y1)[::-1]
         elif rows_up_float16:  # float64 -> float32 -> float16, each as astype rounds
             level0[h - y1 : h - y0] = values.astype(np.float32)[::-1]
@@ -320,7 +339,7 @@ def box_levels(
         means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
         level = means.astype(np.float32)
         levels.append(float16_rows_up(level) if rows_up_float16 else level)
-    return levels
+    return levels[first:]
 
 
 # v / 255 for each 8-bit value v, cast float64 -> float32 -> float16 as astype rounds: an
