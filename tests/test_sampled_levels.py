@@ -150,3 +150,23 @@ def test_far_frame_matches_every_level(tmp_path: Path, gl_egl: GLContext) -> Non
     print("with the DCT-scaled base colour:", coloured.max(), coloured.mean())
     assert coloured.max() <= 4
     assert coloured.mean() <= 0.5
+
+
+@pytest.mark.gl
+def test_srgb_mips_match_the_gl(gl_egl: GLContext) -> None:
+    """A DCT-scaled colour map's mips are made on the CPU (mips.srgb_box_levels): a 2x2 box
+    in linear space, as the GL's sRGB mips are. llvmpipe encodes with an approximation of
+    its own: level 1 within one 8-bit step, the deeper levels (each made from the one
+    above) within a step more each."""
+    from app.render.texture_upload import GL_SRGB8_ALPHA8, read_level
+    from app.textures.mips import srgb_box_levels
+
+    texels = np.random.default_rng(5).integers(0, 256, (64, 64, 4), np.uint8)
+    gl_tex = gl_egl.ctx.texture((64, 64), 4, texels.tobytes(), internal_format=GL_SRGB8_ALPHA8)
+    gl_tex.build_mipmaps()
+    ours = srgb_box_levels(texels)
+    assert len(ours) == 7 and ours[0] is texels
+    for k in range(1, 7):
+        difference = np.abs(ours[k].astype(int) - read_level(gl_tex, k).astype(int))
+        assert difference.max() <= k, k
+    gl_tex.release()

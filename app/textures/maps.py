@@ -42,6 +42,7 @@ from app.textures.mips import (
     chain_levels,
     decode_normal_map,
     float16_rows_up,
+    srgb_box_levels,
     unorm8_float16,
 )
 from app.untrusted import RefusedError, files
@@ -55,6 +56,8 @@ MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default lim
 IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
 SOURCE_DIGEST = "pbs_source_sha256"
+# Image.info key of how many finest levels ``open_image``'s DCT scaling left out.
+REDUCED_LEVELS = "pbs_reduced_levels"
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
 _BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
@@ -64,7 +67,8 @@ class Texture:
     """One material map: its mip levels, level 0 first, rows top to bottom.
 
     ``srgb``: colour data stored as sRGB8 and decoded by the GL, which also builds its mips
-    (``levels`` then holds level 0 only); otherwise every level is given here.
+    (``levels`` then holds level 0 only, or every level where ``colour_texture`` made them
+    of a DCT-scaled image); otherwise every level is given here.
     """
 
     levels: Sequence[np.ndarray]  # (h, w, c) uint8 or float32 (a list, or PreparedLevels)
@@ -319,6 +323,7 @@ def open_image(
                 image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
             else:  # another image than the file's whole one: its own entries
                 digest = f"{digest} 1/{1 << skipped}"
+                image.info[REDUCED_LEVELS] = skipped
         image.info[SOURCE_DIGEST] = digest
         with _KEEP_LOCK:
             kept = _DECODED.get(digest)
@@ -592,6 +597,13 @@ def colour_texture(image: Image.Image) -> Texture:
         data = converted.tobytes("raw", "RGBA", 0, -1)
         return [np.frombuffer(data, np.uint8).reshape(shape)]
 
+    side = image.width
+    if image.info.get(REDUCED_LEVELS) and image.height == side and side & (side - 1) == 0:
+        # A DCT-scaled level is not the GL's level n anyway: its mips are made here
+        # (mips.srgb_box_levels), on the thread that decoded it, without a GL blit.
+        made = lambda: srgb_box_levels(rows_up()[0])  # noqa: E731
+        levels = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
+        return Texture([level[::-1] for level in levels], srgb=True, source_key=key)
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
 

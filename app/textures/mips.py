@@ -464,3 +464,53 @@ def _filtered(method: str, m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.nda
     alpha2 = alpha2_from_slope_variance(m["a2"], sigma2)
     normal = _unit(np.stack([-m["sx"], -m["sy"], np.ones_like(m["sx"])], axis=-1))
     return normal, alpha2**0.25
+
+
+# sRGB-encoded 8-bit value -> linear value in units of 1/65535 (IEC 61966-2-1's decode),
+# and the sum of four such values -> the 8-bit encoding of their mean (its encode,
+# rounded): a 2x2 box in linear space in integer arithmetic, as the GL filters sRGB
+# texels (decoded before they are averaged).
+_SRGB_LINEAR16 = np.round(
+    np.where(
+        np.arange(256) / 255.0 <= 0.04045,
+        np.arange(256) / 255.0 / 12.92,
+        ((np.arange(256) / 255.0 + 0.055) / 1.055) ** 2.4,
+    )
+    * 65535.0
+).astype(np.uint32)
+_MEAN_OF_4 = np.arange(4 * 65535 + 1) / (4 * 65535.0)
+_SRGB_OF_SUM4 = np.round(
+    np.where(
+        _MEAN_OF_4 <= 0.0031308,
+        _MEAN_OF_4 * 12.92,
+        1.055 * np.maximum(_MEAN_OF_4, 0.0031308) ** (1.0 / 2.4) - 0.055,
+    )
+    * 255.0
+).astype(np.uint8)
+del _MEAN_OF_4
+
+
+def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
+    """The mips of an (h, w, 4) uint8 sRGB colour map with linear alpha, h and w equal
+    powers of two, each texel the 2x2 box of the level above in linear space (alpha
+    averaged as it is), rounded to 8 bits: the GL's sRGB mips within a step or two per
+    level (llvmpipe encodes with an approximation of its own), made on the CPU where the
+    GL's would cost a blit (its machine code compiled once a process: a tenth of a
+    second on llvmpipe) on the render's main thread. Level 0 is ``level0`` itself."""
+    h, w = level0.shape[:2]
+    assert h == w and h & (h - 1) == 0, "a square power-of-two map"
+    levels = [level0]
+    while levels[-1].shape[0] > 1:
+        above = levels[-1]
+        linear = np.take(_SRGB_LINEAR16, above[..., :3])
+        total = linear[0::2, 0::2] + linear[1::2, 0::2]
+        total += linear[0::2, 1::2]
+        total += linear[1::2, 1::2]
+        level = np.empty((above.shape[0] // 2, above.shape[1] // 2, 4), np.uint8)
+        level[..., :3] = np.take(_SRGB_OF_SUM4, total)
+        alpha = above[..., 3].astype(np.uint16)
+        level[..., 3] = (
+            alpha[0::2, 0::2] + alpha[1::2, 0::2] + alpha[0::2, 1::2] + alpha[1::2, 1::2] + 2
+        ) >> 2
+        levels.append(level)
+    return levels
