@@ -76,23 +76,36 @@ def _maps() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return images[0], images[1], images[2]
 
 
-def _model(root: Path, colour: bool = True) -> Path:
+def _model(root: Path, colour: bool = True, change: str = "") -> Path:
     """A quad with JPEG base colour (unless not ``colour``: none), normal and
-    metallic-roughness maps of 256 texels."""
+    metallic-roughness maps of 256 texels; ``change``: "transform" (the base colour's UVs
+    scaled by KHR_texture_transform, not declared in extensionsUsed), "texcoord" (read
+    through TEXCOORD_1) or "no mips" (a sampler whose minFilter is LINEAR)."""
     b = GltfBuilder()
     textures = []
     for rgb in _maps():
         b.doc.images.append(pygltflib.Image(bufferView=b.view(_jpeg(rgb)), mimeType="image/jpeg"))
         b.doc.textures.append(pygltflib.Texture(source=len(b.doc.images) - 1))
         textures.append(len(b.doc.textures) - 1)
+    info = pygltflib.TextureInfo(index=textures[0])
+    if change == "transform":
+        info.extensions = {"KHR_texture_transform": {"scale": [4.0, 4.0]}}
+    elif change == "texcoord":
+        info.texCoord = 1
+    elif change == "no mips":
+        b.doc.samplers.append(pygltflib.Sampler(minFilter=9729))
+        b.doc.textures[textures[0]].sampler = 0
     pbr = pygltflib.PbrMetallicRoughness(
-        baseColorTexture=pygltflib.TextureInfo(index=textures[0]) if colour else None,
+        baseColorTexture=info if colour else None,
         metallicRoughnessTexture=pygltflib.TextureInfo(index=textures[2]),
     )
     material = pygltflib.Material(
         pbrMetallicRoughness=pbr, normalTexture=pygltflib.NormalMaterialTexture(index=textures[1])
     )
-    b.quad(material=b.material(material))
+    if change == "texcoord":
+        b.quad(material=b.material(material), uv1=QUAD_UV)
+    else:
+        b.quad(material=b.material(material))
     return b.save(root / "quad.glb")
 
 
@@ -133,6 +146,14 @@ def _frames(path: Path, size: tuple[int, int], gl: GLContext) -> np.ndarray:
         images.append(renderer.read_image().astype(np.int64))
         renderer.release()
     return np.abs(images[0] - images[1])
+
+
+@pytest.mark.parametrize("change", ["transform", "texcoord", "no mips"])
+def test_bound_not_taken(tmp_path: Path, change: str) -> None:
+    """Where the bound on TEXCOORD_0 does not cover every read (a transformed or other UV
+    set, a sampler without mips), a still frame keeps every level."""
+    sizes = _sizes(_model(tmp_path, change=change), (40, 40), still=True)
+    assert set(sizes.values()) == {(TEXELS, TEXELS)}
 
 
 @pytest.mark.gl

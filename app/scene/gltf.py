@@ -272,7 +272,7 @@ class GltfFile:
                 "diffuse_transmission" in name for name in extensions
             ):
                 return False
-            if _reads_other_uv(material):
+            if _reads_moved_uv(material):
                 return False
         return True
 
@@ -1035,10 +1035,11 @@ class GltfFile:
         if m.alphaCutoff is not None:
             layer.alpha_cutoff = _number(m.alphaCutoff, f"{key}.alphaCutoff", 0.0)
         for name, ext_texture in mapping.maps.items():
-            img, sampler, tr = self._texture(
-                _texture_info(ext_texture), ext_texture.key, reduced=True
-            )
             declared = EXTENSION_MAP.get(name)
+            colour = declared is not None and declared.srgb  # else whole, every level
+            img, sampler, tr = self._texture(
+                _texture_info(ext_texture), ext_texture.key, reduced=colour
+            )
             kind = {"coat_normal": "normal", "anisotropy_direction": "direction"}.get(name)
             if declared is not None:
                 kind = "colour" if declared.srgb else "scalar"
@@ -1054,17 +1055,18 @@ class GltfFile:
         return layer
 
 
-def _reads_other_uv(value: object) -> bool:
-    """Whether a material's JSON names a ``texCoord`` other than 0 anywhere (its
-    textureInfos, its extensions' textures)."""
+def _reads_moved_uv(value: object) -> bool:
+    """Whether a material's JSON names a ``texCoord`` other than 0 or a
+    KHR_texture_transform anywhere (its textureInfos, its extensions' textures; the
+    reader applies a transform whether or not ``extensionsUsed`` declares it)."""
     if isinstance(value, JsonObject):
         value = value.__dict__
     if isinstance(value, dict):
-        if value.get("texCoord", 0) not in (0, None):
+        if value.get("texCoord", 0) not in (0, None) or "KHR_texture_transform" in value:
             return True
-        return any(_reads_other_uv(v) for v in value.values())
+        return any(_reads_moved_uv(v) for v in value.values())
     if isinstance(value, list):
-        return any(_reads_other_uv(v) for v in value)
+        return any(_reads_moved_uv(v) for v in value)
     return False
 
 
