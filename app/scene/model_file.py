@@ -371,9 +371,9 @@ def model_scene(
     """The validated scene that shows the model file ``path`` (refusals name the file).
 
     ``still``: the scene is rendered once from its framing camera (``pbs render``), so a
-    glTF file's JPEG textures decode only from the finest mip level that camera can
-    sample (app/scene/sampled_levels.py); a scene whose camera may move keeps every
-    level."""
+    glTF file's maps start at the finest mip level that camera can sample (its colour
+    JPEGs DCT-scaled: app/scene/sampled_levels.py, GltfFile.uv_lod); a scene whose camera
+    may move keeps every level."""
     path = Path(path)
     if not is_model_file(path):
         raise InputError(str(path), "", f"not a model file (known: {', '.join(MODEL_SUFFIXES)})")

@@ -600,7 +600,7 @@ def colour_texture(image: Image.Image) -> Texture:
     side = image.width
     if image.info.get(REDUCED_LEVELS) and image.height == side and side & (side - 1) == 0:
         # A DCT-scaled level is not the GL's level n anyway: its mips are made here
-        # (mips.srgb_box_levels), on the thread that decoded it, without a GL blit.
+        # (mips.srgb_box_levels), without the GL's blit (compiled once a process).
         made = lambda: srgb_box_levels(rows_up()[0])  # noqa: E731
         levels = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
         return Texture([level[::-1] for level in levels], srgb=True, source_key=key)
