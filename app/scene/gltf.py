@@ -254,8 +254,9 @@ class GltfFile:
         behind them in the G-buffer and nothing is drawn forward, blended or through a
         masked shadow caster), none transmissive, every texture read through TEXCOORD_0
         untransformed (the bound is taken on TEXCOORD_0) and every sampler mipmapped
-        (a sampler without mips reads level 0 at any distance)."""
-        if "KHR_texture_transform" in (self.doc.extensionsUsed or []):
+        (a sampler without mips reads level 0 at any distance). A file without images
+        has no bound to take."""
+        if not self._table("images") or "KHR_texture_transform" in (self.doc.extensionsUsed or []):
             return False
         for sampler in self._table("samplers"):
             if sampler.minFilter is not None and _FILTERS.get(sampler.minFilter) in (
