@@ -703,6 +703,8 @@ def cmd_render(args: argparse.Namespace) -> int:
                 max_memory=args.max_memory,
                 look=_look(args),
                 size=args.size,
+                # one frame from the framing camera: only the mip levels it samples
+                still=not (args.fit or args.compare is not None or args.debug is not None),
             )
         if args.fit:
             from app.frame.camera import fit_scene

@@ -61,7 +61,12 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
     if tex.srgb:
         level0 = tex.levels[0]
         h, w = level0.shape[:2]
-        if tex.source_key is None:
+        if len(tex.levels) > 1:  # the mips made on the CPU (maps.colour_texture)
+            gl_tex = _allocated(ctx, (w, h), 4, len(tex.levels), GL_SRGB8_ALPHA8)
+            _write_level0(gl_tex, 4, np.ascontiguousarray(level0[::-1]), GL_UNSIGNED_BYTE)
+            rows_up = [np.ascontiguousarray(level[::-1]) for level in tex.levels[1:]]
+            _define_levels(gl_tex, 4, rows_up, GL_SRGB8_ALPHA8)
+        elif tex.source_key is None:
             data = level0[::-1].tobytes()
             gl_tex = ctx.texture((w, h), 4, data, internal_format=GL_SRGB8_ALPHA8)
             gl_tex.build_mipmaps()

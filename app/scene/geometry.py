@@ -699,7 +699,10 @@ def _gltf_parts(
         problem = gltf_problem(gltf.doc, path, loaded.policy)  # missing files, extensions
         if problem is not None:
             raise InputError(scene_file, key, problem)
-        for prim in gltf.primitives():
+        prims = gltf.primitives()
+        if loaded.still_view is not None and chosen is None and gltf.still_streamable():
+            gltf.uv_lod = _still_uv_lod(loaded.still_view, prims, model, gltf)
+        for prim in prims:
             blend, closed = None, False
             if chosen is not None:
                 layers, blend = chosen
@@ -727,6 +730,30 @@ def _gltf_parts(
         raise InputError(scene_file, key, f"{path} holds no triangles")
     prefetch_uploads(layer for part in parts for layer in part.layers)
     return parts
+
+
+def _still_uv_lod(
+    still_view: Callable[[np.ndarray], tuple[dict, tuple[int, int]]],
+    prims: list,
+    model: np.ndarray,
+    gltf: object,
+) -> float:
+    """The finest UV level of detail the still frame's camera samples of a glTF file's
+    primitives (app/scene/sampled_levels.py), before their materials' images are read:
+    the camera is the one ``still_view`` frames the primitives' world points with."""
+    from app.scene.sampled_levels import ViewTriangles, finest_uv_lod
+
+    triangles = []
+    for prim in prims:
+        world = model @ prim.world
+        positions = prim.positions @ world[:3, :3].T + world[:3, 3]
+        faces = np.asarray(prim.faces, np.int64).reshape(-1, 3)
+        two_sided = gltf.double_sided(prim.material)  # type: ignore[attr-defined]
+        mirrored = bool(np.linalg.det(world[:3, :3]) < 0.0)
+        triangles.append(ViewTriangles(positions, prim.uv, faces, two_sided, mirrored))
+    points = np.concatenate([t.positions for t in triangles])
+    camera, size = still_view(points)
+    return finest_uv_lod(triangles, camera, size)
 
 
 def _material_layers(

@@ -57,6 +57,7 @@ from app.scene.gltf_animation import PATHS, Pose, PoseRequest
 from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matrices
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
 from app.scene.gltf_schema import MAX_COORDINATE
+from app.scene.sampled_levels import reduced_levels
 from app.textures.lean import LEAN, lean_params
 from app.textures.maps import (
     SurfaceLayer,
@@ -240,8 +241,52 @@ class GltfFile:
         self._buffers: dict[int, memoryview] = {}
         self._views: dict[int, memoryview] = {}
         self._accessors: dict[tuple[int, str], np.ndarray] = {}
-        self._images: dict[int, Image.Image] = {}
+        self._images: dict[tuple[int, bool], Image.Image] = {}  # by (index, reduced)
         self._layers: dict[tuple[int, str, int], SurfaceLayer] = {}
+        # The least UV level of detail a still frame samples of this file's textures
+        # (app/scene/sampled_levels.py ``finest_uv_lod``), set before any material is
+        # read; None: every level (a camera that moves, the viewer, the API).
+        self.uv_lod: float | None = None
+
+    def still_streamable(self) -> bool:
+        """Whether a still frame's bound on the sampled levels (``uv_lod``) covers every
+        read of this file's textures: every material opaque (its surfaces hide what lies
+        behind them in the G-buffer and nothing is drawn forward, blended or through a
+        masked shadow caster), none transmissive, every texture read through TEXCOORD_0
+        untransformed (the bound is taken on TEXCOORD_0) and every sampler mipmapped
+        (a sampler without mips reads level 0 at any distance). A file without images
+        has no bound to take."""
+        if not self._table("images") or "KHR_texture_transform" in (self.doc.extensionsUsed or []):
+            return False
+        for sampler in self._table("samplers"):
+            if sampler.minFilter is not None and _FILTERS.get(sampler.minFilter) in (
+                "nearest",
+                "linear",
+            ):
+                return False
+        forward = ("KHR_materials_transmission", "KHR_materials_volume")
+        for material in self._table("materials"):
+            if material.alphaMode not in (None, "OPAQUE"):
+                return False
+            extensions = material.extensions or {}
+            if any(name in extensions for name in forward) or any(
+                "diffuse_transmission" in name for name in extensions
+            ):
+                return False
+            if _reads_moved_uv(material):
+                return False
+        return True
+
+    def _reduction(self, width: int, height: int) -> int:
+        """How many finest levels of a ``width`` x ``height`` image a still frame never
+        samples (0 without a still frame's ``uv_lod``)."""
+        if self.uv_lod is None:
+            return 0
+        return reduced_levels(self.uv_lod, width, height)
+
+    def _first_level(self, image: Image.Image) -> int:
+        """The first level a map the project filters from ``image`` (decoded whole) keeps."""
+        return self._reduction(image.width, image.height)
 
     # --- bytes -------------------------------------------------------------------------
 
@@ -736,12 +781,17 @@ class GltfFile:
             return False
         return bool(self._table("materials")[material].doubleSided)
 
-    def image(self, index: object, key: str) -> Image.Image:
+    def image(self, index: object, key: str, reduced: bool = False) -> Image.Image:
         """Image ``index`` decoded once (its size checked and charged first,
-        app/textures/maps.py ``open_image``)."""
+        app/textures/maps.py ``open_image``). ``reduced``: for a map whose mips the GL
+        makes (colour), decoded from the finest level a still frame samples (``uv_lod``;
+        a JPEG by DCT scaling); the maps the project filters (the normal/roughness chain,
+        metallic, occlusion) read the whole image and keep their levels from there on
+        (``_first_level``), the same bits as the whole chain's."""
         images = self._table("images")
         i = _int(index, key, len(images))
-        if i not in self._images:
+        reduced = reduced and self.uv_lod is not None
+        if (i, reduced) not in self._images:
             entry = images[i]
             ikey = f"images[{i}]"
             if entry.uri is not None:
@@ -751,17 +801,20 @@ class GltfFile:
             else:
                 raise GltfError(ikey, "has neither uri nor bufferView")
             try:
-                self._images[i] = open_image(data, self.budget, None, decode_later=True)
+                reduce = self._reduction if reduced else None
+                self._images[i, reduced] = open_image(
+                    data, self.budget, None, decode_later=True, reduce=reduce
+                )
             except RefusedError as exc:
                 raise GltfError(ikey, str(exc)) from None
-        return self._images[i]
+        return self._images[i, reduced]
 
     def _decodes_checked(self) -> None:
         """Wait for the decodes of the images opened so far (``image`` starts each on a
         pool, so that a material's images decode side by side); the first broken one,
         in the order they were opened, as the ``GltfError`` naming its key that opening
         it would have raised."""
-        for i, image in self._images.items():
+        for (i, _), image in self._images.items():
             try:
                 wait_decoded(image)
             except RefusedError as exc:
@@ -801,14 +854,17 @@ class GltfFile:
         except RefusedError as exc:
             raise GltfError(key, str(exc)) from None
 
-    def _texture(self, info: object, key: str) -> tuple[Image.Image, dict, UvTransform]:
-        """A textureInfo: its image, its sampler's Texture fields, its UV transform."""
+    def _texture(
+        self, info: object, key: str, reduced: bool = False
+    ) -> tuple[Image.Image, dict, UvTransform]:
+        """A textureInfo: its image (``reduced``: as ``image``), its sampler's Texture
+        fields, its UV transform."""
         textures = self._table("textures")
         t = _int(getattr(info, "index", None), f"{key}.index", len(textures))
         tex = textures[t]
         tkey = f"textures[{t}]"
         source, skey = self._source(tex, tkey)
-        image = self.image(source, skey)
+        image = self.image(source, skey, reduced)
         sampler: dict = {}
         if tex.sampler is not None:
             samplers = self._table("samplers")
@@ -909,7 +965,7 @@ class GltfFile:
 
         if pbr is not None and pbr.baseColorTexture is not None:
             tkey = f"{pkey}.baseColorTexture"
-            img, sampler, tr = self._texture(pbr.baseColorTexture, tkey)
+            img, sampler, tr = self._texture(pbr.baseColorTexture, tkey, reduced=True)
             self._map_cost(img, "colour", tkey)
             put("base_color", colour_texture(img), sampler, tr)  # RGBA: alpha kept
         mr = None
@@ -919,7 +975,7 @@ class GltfFile:
             # Roughness joins the normal chain: built at the normal map's size where there
             # is one (charged with it), else at this image's.
             self._map_cost(mr[0], "scalar" if m.normalTexture is not None else "normal", tkey)
-            put("metallic", channel_texture(mr[0], 2), mr[1], mr[2])
+            put("metallic", channel_texture(mr[0], 2, self._first_level(mr[0])), mr[1], mr[2])
         normal_image = None
         scale = 1.0
         if m.normalTexture is not None:
@@ -937,7 +993,12 @@ class GltfFile:
             # resampled to it), else at the metallic-roughness image's.
             # (Prepared once per image content: app/textures/cache.py.)
             mr_image = None if mr is None else mr[0]
-            chain = normal_roughness_map(normal_image, scale, roughness, mr_image, normal_filter)
+            sized = normal_image if normal_image is not None else mr_image
+            assert sized is not None
+            first = self._first_level(sized)
+            chain = normal_roughness_map(
+                normal_image, scale, roughness, mr_image, normal_filter, first
+            )
             if normal_image is not None:
                 put("normal_roughness", chain, n_sampler, n_tr)
                 if normal_filter == LEAN:  # the normals' spread as a covariance map, read
@@ -954,7 +1015,7 @@ class GltfFile:
             okey = f"{key}.occlusionTexture"
             img, sampler, tr = self._texture(m.occlusionTexture, okey)
             self._map_cost(img, "scalar", okey)
-            put("occlusion", channel_texture(img, 0), sampler, tr)
+            put("occlusion", channel_texture(img, 0, self._first_level(img)), sampler, tr)
             strength = getattr(m.occlusionTexture, "strength", None)
             layer.occlusion_strength = (
                 1.0 if strength is None else _number(strength, f"{okey}.strength", 0.0, 1.0)
@@ -980,7 +1041,9 @@ class GltfFile:
                 "nothing; it is not read", self.path, key,
             )  # fmt: skip
         elif m.emissiveTexture is not None:
-            img, sampler, tr = self._texture(m.emissiveTexture, f"{key}.emissiveTexture")
+            img, sampler, tr = self._texture(
+                m.emissiveTexture, f"{key}.emissiveTexture", reduced=True
+            )
             self._map_cost(img, "colour", f"{key}.emissiveTexture")
             put("emissive", colour_texture(img), sampler, tr)
         layer.alpha = float(factor[3])
@@ -991,8 +1054,11 @@ class GltfFile:
         if m.alphaCutoff is not None:
             layer.alpha_cutoff = _number(m.alphaCutoff, f"{key}.alphaCutoff", 0.0)
         for name, ext_texture in mapping.maps.items():
-            img, sampler, tr = self._texture(_texture_info(ext_texture), ext_texture.key)
             declared = EXTENSION_MAP.get(name)
+            colour = declared is not None and declared.srgb  # else whole, every level
+            img, sampler, tr = self._texture(
+                _texture_info(ext_texture), ext_texture.key, reduced=colour
+            )
             kind = {"coat_normal": "normal", "anisotropy_direction": "direction"}.get(name)
             if declared is not None:
                 kind = "colour" if declared.srgb else "scalar"
@@ -1006,6 +1072,21 @@ class GltfFile:
         for problem in material_problems(layer.params, maps, emissive_factor, strength):
             raise GltfError(_problem_key(key, problem.key), problem.message)
         return layer
+
+
+def _reads_moved_uv(value: object) -> bool:
+    """Whether a material's JSON names a ``texCoord`` other than 0 or a
+    KHR_texture_transform anywhere (its textureInfos, its extensions' textures; the
+    reader applies a transform whether or not ``extensionsUsed`` declares it)."""
+    if isinstance(value, JsonObject):
+        value = value.__dict__
+    if isinstance(value, dict):
+        if value.get("texCoord", 0) not in (0, None) or "KHR_texture_transform" in value:
+            return True
+        return any(_reads_moved_uv(v) for v in value.values())
+    if isinstance(value, list):
+        return any(_reads_moved_uv(v) for v in value)
+    return False
 
 
 # The JSON key (after "materials[i]") that gives what a resolved check's scene-file key is

@@ -7,8 +7,10 @@ Every failure names the file and the key path (``lights[2].range``,
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pydantic import ValidationError
 
@@ -17,6 +19,9 @@ from app.scene.model import MAX_RADIANCE, TEXTURE_KEYS, Scene
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
 from app.untrusted.structured import parse_toml
+
+if TYPE_CHECKING:
+    import numpy as np
 
 _KEY_PREFIX = re.compile(r"^(?:Value error, )?([A-Za-z_][A-Za-z0-9_]*): (.*)$", re.S)
 
@@ -34,6 +39,13 @@ class LoadedScene:
     # takes them instead of reading the file and its images again. Shared by the scenes
     # ``with_scene`` derives, keyed by what the parts depend on, taken once.
     built: dict = field(default_factory=dict, compare=False, repr=False)
+    # A one-view render's camera, for the finest mip level its textures can show
+    # (app/scene/sampled_levels.py): given the world points of the drawn geometry, the
+    # camera table that frames them and the image size. Set by a model file's still
+    # render (app/scene/model_file.py) while its parts are built; None: every level.
+    still_view: Callable[[np.ndarray], tuple[dict, tuple[int, int]]] | None = field(
+        default=None, compare=False, repr=False
+    )
 
     def resolve_file(self, relative: str, key: str) -> Path:
         """A path the scene names at ``key``, relative to the scene file's folder and

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -365,8 +366,14 @@ def model_scene(
     policy: InputPolicy,
     look: Look = Look(),
     size: tuple[int, int] | None = None,
+    still: bool = False,
 ) -> LoadedScene:
-    """The validated scene that shows the model file ``path`` (refusals name the file)."""
+    """The validated scene that shows the model file ``path`` (refusals name the file).
+
+    ``still``: the scene is rendered once from its framing camera (``pbs render``), so a
+    glTF file's maps start at the finest mip level that camera can sample (its colour
+    JPEGs DCT-scaled: app/scene/sampled_levels.py, GltfFile.uv_lod); a scene whose camera
+    may move keeps every level."""
     path = Path(path)
     if not is_model_file(path):
         raise InputError(str(path), "", f"not a model file (known: {', '.join(MODEL_SUFFIXES)})")
@@ -403,11 +410,17 @@ def model_scene(
                 look.env if look.env in ENVIRONMENTS else "image",
             )
         budget = Budget(policy.limits)
+        if still and gltf and look.camera != "file":
+
+            def framing(points: np.ndarray) -> tuple[dict, tuple[int, int]]:
+                return framing_camera(points, (width, height), *look.angles()), (width, height)
+
+            loaded = replace(loaded, still_view=framing)
         parts = build_parts(loaded, budget)
         camera = loaded.scene.camera.model_dump(exclude_unset=True)
         if look.camera != "file":
             camera.update(framing_camera(_surface_points(parts), (width, height), *look.angles()))
-        result = _lit(loaded, camera, parts, look, file_lights)
+        result = replace(_lit(loaded, camera, parts, look, file_lights), still_view=None)
         keep_built(result, parts, budget.spent)  # the frame takes them (app/frame)
         return result
     except InputError as exc:

@@ -48,6 +48,7 @@ def scene_from(
     max_memory: int | None = None,
     look: Look | None = None,
     size: tuple[int, int] | None = None,
+    still: bool = False,
 ) -> LoadedScene:
     """A validated scene from ``source``: a scene file's path, the name of a bundled scene
     (``"showcase"`` -> scenes/showcase.toml), a dict with a scene file's keys, or an already
@@ -62,7 +63,9 @@ def scene_from(
 
     A model file's path (``"teapot.obj"``, ``"model.glb"``) gives a scene that frames and
     lights it (app/scene/model_file.py); ``look`` picks the view, camera and environment
-    (a ``Look``), ``size`` the image size the camera frames for (default 1280x720). A
+    (a ``Look``), ``size`` the image size the camera frames for (default 1280x720);
+    ``still``: rendered once from that camera, so its textures' finest levels that the
+    camera cannot sample are never decoded (``model_scene``). A
     scene file that names meshes but no camera or no light gets the same defaults."""
     if isinstance(source, LoadedScene):
         return source
@@ -78,7 +81,7 @@ def scene_from(
     if is_model_file(path):
         from app.scene.model_file import model_scene
 
-        return model_scene(path, policy, look, size)
+        return model_scene(path, policy, look, size, still)
     if path.suffix.lower() not in ("", ".toml"):
         raise InputError(
             str(path),

@@ -42,6 +42,7 @@ from app.textures.mips import (
     chain_levels,
     decode_normal_map,
     float16_rows_up,
+    srgb_box_levels,
     unorm8_float16,
 )
 from app.untrusted import RefusedError, files
@@ -55,6 +56,8 @@ MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default lim
 IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
 SOURCE_DIGEST = "pbs_source_sha256"
+# Image.info key of how many finest levels ``open_image``'s DCT scaling left out.
+REDUCED_LEVELS = "pbs_reduced_levels"
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
 _BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
@@ -64,7 +67,8 @@ class Texture:
     """One material map: its mip levels, level 0 first, rows top to bottom.
 
     ``srgb``: colour data stored as sRGB8 and decoded by the GL, which also builds its mips
-    (``levels`` then holds level 0 only); otherwise every level is given here.
+    (``levels`` then holds level 0 only, or every level where ``colour_texture`` made them
+    of a DCT-scaled image); otherwise every level is given here.
     """
 
     levels: Sequence[np.ndarray]  # (h, w, c) uint8 or float32 (a list, or PreparedLevels)
@@ -262,6 +266,7 @@ def open_image(
     budget: Budget | None = None,
     kind: str | None = "colour",
     decode_later: bool = False,
+    reduce: Callable[[int, int], int] | None = None,
 ) -> Image.Image:
     """A texture (a plain file, or bytes from a glTF buffer) decoded, or ``RefusedError``.
 
@@ -284,7 +289,13 @@ def open_image(
     (Pillow lets go of the GIL while it decodes): a caller that opens several images
     decodes them side by side and beside its own work. Whoever reads the texels waits
     for it (``_decoded``); the caller asks ``wait_decoded`` for the verdict (the
-    ``RefusedError`` a broken image raises) before it relies on one."""
+    ``RefusedError`` a broken image raises) before it relies on one.
+
+    ``reduce``: how many of the finest mip levels of an image of the header's size a
+    still frame never samples (app/scene/sampled_levels.py), n; a JPEG is then decoded
+    at 1/2^n of its size by libjpeg's DCT scaling (Pillow's ``draft``), and everything
+    made from it (its mips, the cache's entries, keyed by the decoded size) starts
+    there. Other formats decode whole. The header's size is what is checked and charged."""
     budget = budget or Budget()
     try:
         if isinstance(source, bytes):
@@ -304,6 +315,15 @@ def open_image(
         # What the prepared-texture cache keys this image by (_image_part): the
         # file's bytes, a few MiB to hash where the decoded texels are tens.
         digest = hashlib.sha256(encoded).hexdigest()
+        skipped = reduce(width, height) if reduce is not None else 0
+        if skipped and image.format == "JPEG":
+            reduced = (width >> skipped, height >> skipped)
+            image.draft(image.mode, reduced)
+            if image.size != reduced:  # a scale libjpeg does not make: the whole image
+                image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+            else:  # another image than the file's whole one: its own entries
+                digest = f"{digest} 1/{1 << skipped}"
+                image.info[REDUCED_LEVELS] = skipped
         image.info[SOURCE_DIGEST] = digest
         with _KEEP_LOCK:
             kept = _DECODED.get(digest)
@@ -518,16 +538,21 @@ def _normal_roughness_texture(
 
 
 def _chain_levels(
-    source: BandSource, shape: tuple[int, int], method: str, rows_up_float16: bool = False
+    source: BandSource,
+    shape: tuple[int, int],
+    method: str,
+    rows_up_float16: bool = False,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """mips.chain_levels with the project's ``none``: level 0 alone, bilinear without mips:
     each sample sees the source normals, aliasing included (what a supersampled reference
-    averages)."""
+    averages). ``first``: levels from there on (mips.chain_levels), ``none`` and ``lean``
+    never skip one."""
     if method == "none":
         return chain_levels(source, shape, "naive", 1, rows_up_float16)
     if method == LEAN:  # the spread travels in the slope_covariance map (app/textures/lean.py)
         return lean_chain_levels(source, shape, rows_up_float16)
-    return chain_levels(source, shape, method, None, rows_up_float16)
+    return chain_levels(source, shape, method, None, rows_up_float16, first)
 
 
 def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
@@ -572,6 +597,13 @@ def colour_texture(image: Image.Image) -> Texture:
         data = converted.tobytes("raw", "RGBA", 0, -1)
         return [np.frombuffer(data, np.uint8).reshape(shape)]
 
+    side = image.width
+    if image.info.get(REDUCED_LEVELS) and image.height == side and side & (side - 1) == 0:
+        # A DCT-scaled level is not the GL's level n anyway: its mips are made here
+        # (mips.srgb_box_levels), without the GL's blit (compiled once a process).
+        made = lambda: srgb_box_levels(rows_up()[0])  # noqa: E731
+        levels = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
+        return Texture([level[::-1] for level in levels], srgb=True, source_key=key)
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
 
@@ -670,16 +702,20 @@ def normal_roughness_map(
     factor: float,
     roughness_image: Image.Image | None,
     normal_filter: str,
+    first: int = 0,
 ) -> Texture:
     """A glTF material's normal/roughness chain: ``decode_normals`` of ``normal_image``
     (None: flat) with ``scale``, and roughness ``factor`` times the green channel of
     ``roughness_image`` (glTF metallicRoughnessTexture; None: the factor alone), through
     ``normal_roughness_chain``; kept in the prepared-texture cache by the images' content
-    and the parameters."""
+    and the parameters. ``first``: its levels from ``first`` on alone, the same bits as the
+    whole chain's (a still frame samples no finer one: app/scene/sampled_levels.py);
+    ``none`` and ``lean`` filters keep every level."""
+    first = first if normal_filter not in ("none", LEAN) else 0
 
     def build(rows_up_float16: bool = False) -> list[np.ndarray]:
         return _map_chain_levels(
-            normal_image, scale, factor, roughness_image, normal_filter, rows_up_float16
+            normal_image, scale, factor, roughness_image, normal_filter, rows_up_float16, first
         )
 
     parts = (
@@ -689,10 +725,11 @@ def normal_roughness_map(
         float(factor),
         _image_part(roughness_image),
         normal_filter,
+        *((("from level", first),) if first else ()),
     )
     sized = normal_image if normal_image is not None else roughness_image
     assert sized is not None, "a chain needs a normal or a roughness map"
-    layout = (sized.height, sized.width, 4, normal_filter == "none")
+    layout = (sized.height >> first, sized.width >> first, 4, normal_filter == "none")
     upload = lambda: build(rows_up_float16=True)  # noqa: E731
     return Texture(PreparedLevels("normal_roughness", parts, build, layout, upload))
 
@@ -704,6 +741,7 @@ def _map_chain_levels(
     roughness_image: Image.Image | None,
     normal_filter: str,
     rows_up_float16: bool = False,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """``normal_roughness_chain(decode_normals(normal_image, scale), factor, green / 255,
     normal_filter).levels`` (``rows_up_float16``: as the GL takes them, mips.chain_levels),
@@ -739,7 +777,7 @@ def _map_chain_levels(
             r = np.full((y1 - y0, shape[1]), float(factor))
         return n, r
 
-    return _chain_levels(source, shape, normal_filter, rows_up_float16)
+    return _chain_levels(source, shape, normal_filter, rows_up_float16, first)
 
 
 def slope_covariance_texture(normals: np.ndarray) -> Texture:
@@ -772,9 +810,10 @@ def slope_covariance_map(normal_image: Image.Image, scale: float) -> Texture:
     return Texture(PreparedLevels("slope_covariance", parts, build, layout, upload))
 
 
-def channel_texture(image: Image.Image, channel: int) -> Texture:
+def channel_texture(image: Image.Image, channel: int, first: int = 0) -> Texture:
     """``scalar_texture`` of one 8-bit RGB channel of ``image`` in [0, 1] (a glTF metallic
-    (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content."""
+    (B) or occlusion (R) map), kept in the prepared-texture cache by the image's content;
+    ``first``: its levels from there on alone (``normal_roughness_map``'s)."""
 
     def build(rows_up_float16: bool = False) -> list[np.ndarray]:
         # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
@@ -783,9 +822,10 @@ def channel_texture(image: Image.Image, channel: int) -> Texture:
         h, w = rgb.shape[:2]
         band = lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0  # noqa: E731
         halves = lambda y0, y1: unorm8_float16(rgb[y0:y1, :, channel, None])  # noqa: E731
-        return box_levels(band, (h, w, 1), rows_up_float16, halves)
+        return box_levels(band, (h, w, 1), rows_up_float16, halves, first)
 
     parts = (_prepared_version(), _image_part(image), int(channel))
-    layout = (image.height, image.width, 1, False)
+    parts += (("from level", first),) if first else ()
+    layout = (image.height >> first, image.width >> first, 1, False)
     upload = lambda: build(rows_up_float16=True)  # noqa: E731
     return Texture(PreparedLevels("channel", parts, build, layout, upload))

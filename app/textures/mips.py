@@ -134,6 +134,7 @@ def chain_levels(
     method: str,
     count: int | None = None,
     rows_up_float16: bool = False,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """``build_chain``'s levels as (h_k, w_k, 4) float32 arrays (xyz normal, a roughness),
     the first ``count`` of them (None: down to 1x1), from a ``source`` read band by band
@@ -149,17 +150,29 @@ def chain_levels(
 
     ``rows_up_float16``: each level as the GL takes it instead, ``float16_rows_up`` of the
     float32 level (rows bottom first; the same bits), level 0 converted a band at a time
-    without a float32 copy of the whole level."""
+    without a float32 copy of the whole level.
+
+    ``first``: the levels from ``first`` on alone (a still frame samples no finer one:
+    app/scene/sampled_levels.py), the same bits as the whole chain's: level 0's moments
+    are still summed from the source, but level 0 is neither converted nor kept."""
     if method not in NORMAL_FILTERS:
         raise ValueError(f"unknown normal filter {method!r}; one of {', '.join(NORMAL_FILTERS)}")
     h, w = shape
     names = _CHANNELS[method]
-    level0 = np.empty((h, w, 4), np.float16 if rows_up_float16 else np.float32)
+    level0 = np.empty(
+        (h, w, 4) if first == 0 else (0, 0, 4), np.float16 if rows_up_float16 else np.float32
+    )
     single = max(h, w) == 1 or count == 1
     sums = None if single else np.empty((max(1, h >> 1), max(1, w >> 1), len(names)))
 
     def band(y0: int, y1: int) -> None:
         n, r = source(y0, y1)
+        if first > 0:
+            if sums is not None:
+                half = sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)]
+                for c, moment in enumerate(_band_moments(names, n, r)):
+                    half[..., c] = _halve(moment)
+            return
         rows = np.empty((y1 - y0, w, 4), np.float32) if rows_up_float16 else level0[y0:y1]
         rows[..., :3] = n  # float64 -> float32, as astype rounds
         rows[..., 3] = r
@@ -193,7 +206,7 @@ def chain_levels(
         levels.append(float16_rows_up(level) if rows_up_float16 else level)
         if count is not None and len(levels) >= count:
             break
-    return levels
+    return levels[first:]
 
 
 # Threads a chain's bands are made on: each band reads its own rows of the source and
@@ -288,20 +301,26 @@ def box_levels(
     shape: tuple[int, int, int],
     rows_up_float16: bool = False,
     float16_rows: Callable[[int, int], np.ndarray] | None = None,
+    first: int = 0,
 ) -> list[np.ndarray]:
     """``box_mips``'s levels, (h_k, w_k, C) float32, of the (H, W, C) float64 data that
     ``source(y0, y1)`` gives a band of rows at a time (as ``chain_levels`` reads its
     source, with the same bits as the whole map at once); ``rows_up_float16`` as there.
     ``float16_rows(y0, y1)``, where given with ``rows_up_float16``: the band's level-0
     rows as float16 (rows top first), the same bits as the cast of ``source``'s, made
-    cheaper by the caller (``unorm8_float16``: numpy's float16 cast is a scalar loop)."""
+    cheaper by the caller (``unorm8_float16``: numpy's float16 cast is a scalar loop).
+    ``first``: the levels from ``first`` on alone, as ``chain_levels``'s."""
     h, w, c = shape
-    level0 = np.empty((h, w, c), np.float16 if rows_up_float16 else np.float32)
+    level0 = np.empty(
+        (h, w, c) if first == 0 else (0, 0, c), np.float16 if rows_up_float16 else np.float32
+    )
     sums = None if max(h, w) == 1 else np.empty((max(1, h >> 1), max(1, w >> 1), c))
 
     def band(y0: int, y1: int) -> None:
         values = source(y0, y1)
-        if rows_up_float16 and float16_rows is not None:
+        if first > 0:
+            pass
+        elif rows_up_float16 and float16_rows is not None:
             level0[h - y1 : h - y0] = float16_rows(y0, y1)[::-1]
         elif rows_up_float16:  # float64 -> float32 -> float16, each as astype rounds
             level0[h - y1 : h - y0] = values.astype(np.float32)[::-1]
@@ -320,7 +339,7 @@ def box_levels(
         means = sums / (counts_y[:, None, None] * counts_x[None, :, None])
         level = means.astype(np.float32)
         levels.append(float16_rows_up(level) if rows_up_float16 else level)
-    return levels
+    return levels[first:]
 
 
 # v / 255 for each 8-bit value v, cast float64 -> float32 -> float16 as astype rounds: an
@@ -445,3 +464,53 @@ def _filtered(method: str, m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.nda
     alpha2 = alpha2_from_slope_variance(m["a2"], sigma2)
     normal = _unit(np.stack([-m["sx"], -m["sy"], np.ones_like(m["sx"])], axis=-1))
     return normal, alpha2**0.25
+
+
+# sRGB-encoded 8-bit value -> linear value in units of 1/65535 (IEC 61966-2-1's decode),
+# and the sum of four such values -> the 8-bit encoding of their mean (its encode,
+# rounded): a 2x2 box in linear space in integer arithmetic, as the GL filters sRGB
+# texels (decoded before they are averaged).
+_SRGB_LINEAR16 = np.round(
+    np.where(
+        np.arange(256) / 255.0 <= 0.04045,
+        np.arange(256) / 255.0 / 12.92,
+        ((np.arange(256) / 255.0 + 0.055) / 1.055) ** 2.4,
+    )
+    * 65535.0
+).astype(np.uint32)
+_MEAN_OF_4 = np.arange(4 * 65535 + 1) / (4 * 65535.0)
+_SRGB_OF_SUM4 = np.round(
+    np.where(
+        _MEAN_OF_4 <= 0.0031308,
+        _MEAN_OF_4 * 12.92,
+        1.055 * np.maximum(_MEAN_OF_4, 0.0031308) ** (1.0 / 2.4) - 0.055,
+    )
+    * 255.0
+).astype(np.uint8)
+del _MEAN_OF_4
+
+
+def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
+    """The mips of an (h, w, 4) uint8 sRGB colour map with linear alpha, h and w equal
+    powers of two, each texel the 2x2 box of the level above in linear space (alpha
+    averaged as it is), rounded to 8 bits: the GL's sRGB mips within a step or two per
+    level (llvmpipe encodes with an approximation of its own), made on the CPU where the
+    GL's would cost a blit (its machine code compiled once a process: a tenth of a
+    second on llvmpipe) on the render's main thread. Level 0 is ``level0`` itself."""
+    h, w = level0.shape[:2]
+    assert h == w and h & (h - 1) == 0, "a square power-of-two map"
+    levels = [level0]
+    while levels[-1].shape[0] > 1:
+        above = levels[-1]
+        linear = np.take(_SRGB_LINEAR16, above[..., :3])
+        total = linear[0::2, 0::2] + linear[1::2, 0::2]
+        total += linear[0::2, 1::2]
+        total += linear[1::2, 1::2]
+        level = np.empty((above.shape[0] // 2, above.shape[1] // 2, 4), np.uint8)
+        level[..., :3] = np.take(_SRGB_OF_SUM4, total)
+        alpha = above[..., 3].astype(np.uint16)
+        level[..., 3] = (
+            alpha[0::2, 0::2] + alpha[1::2, 0::2] + alpha[0::2, 1::2] + alpha[1::2, 1::2] + 2
+        ) >> 2
+        levels.append(level)
+    return levels

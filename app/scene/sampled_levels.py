@@ -1,0 +1,197 @@
+"""The finest mip level a still frame can sample of a model's textures (texture streaming,
+as engines do it: the finest level a mesh needs, from its UV density and the camera).
+
+A one-view render (`pbs render` of a model file) knows its camera before it decodes a
+texture: the framing camera depends on the geometry alone. ``finest_uv_lod`` rasterizes
+the triangles the G-buffer pass draws (back faces of one-sided meshes culled, as the GL
+culls them) at the image's pixel centres with a depth buffer, and over every pixel centre
+a textured triangle covers and no nearer triangle hides, takes the level of detail the
+GL's sampler computes there (OpenGL 4.6 §8.14.1): log2 of the scale factor rho, the
+texture coordinates' derivatives along the window's x and y (in texels). It returns the
+texture-size-free part, ``min log2 max(|du/dx|, |dv/dx|, |du/dy|, |dv/dy|)`` in UV units;
+a texture of ``N`` texels a side then samples no level finer than ``floor(lod + log2 N)``
+(``reduced_levels``), and its finer levels need not be decoded, built nor uploaded
+(``SKIPPED_WEIGHT``: nor the level a few pixels blend in by a small weight).
+
+The per-pixel rho here is the "max of absolute values" form the specification allows as
+its lower approximation (llvmpipe's default; the exact length of each derivative vector is
+at most sqrt 2 more), so the bound holds for either. The derivatives are the analytic ones
+of the perspective-correct interpolation at the pixel centre, where the GL takes finite
+differences across a 2x2 quad (at a few hundred pixels a side, a part in a thousand):
+``LOD_MARGIN`` covers that.
+
+Visibility at pixel centres is what the G-buffer keeps: a triangle hidden behind another
+is drawn and sampled but its texels never reach the image (the helmet's interior
+triangles with shrunken UVs sample level 0 where nothing sees them). Ties in depth count
+as visible (both triangles' levels are taken), and a pixel on a triangle's edge counts
+as covered by both triangles that share it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+# Levels of detail a texture's bound keeps in hand (module docstring): the finite
+# differences of a 2x2 quad against the derivative at a pixel centre.
+LOD_MARGIN = 0.01
+# The most trilinear weight a skipped level may have had at any visible pixel: where the
+# LOD lies in [n - SKIPPED_WEIGHT, n), the GL blends level n - 1 by n - LOD; starting at
+# level n, such a pixel reads level n alone. The helmet at 480x480: 104 of its 100k
+# textured pixels lie in [0.91, 1).
+SKIPPED_WEIGHT = 0.125
+# The reductions a JPEG decodes directly (libjpeg's DCT scaling: 1/2, 1/4, 1/8).
+MAX_REDUCTION = 3
+
+
+@dataclass(frozen=True)
+class ViewTriangles:
+    """One drawn primitive for the bound: world positions (N, 3), TEXCOORD_0 (N, 2) or
+    None (untextured: it hides, nothing of it is sampled), faces (M, 3), and whether both
+    faces are drawn (a double-sided material, or a mirrored world matrix's flipped
+    winding: ``mirrored``)."""
+
+    positions: np.ndarray
+    uv: np.ndarray | None
+    faces: np.ndarray
+    two_sided: bool
+    mirrored: bool = False
+
+
+def finest_uv_lod(triangles: list[ViewTriangles], camera: dict, size: tuple[int, int]) -> float:
+    """The least log2 max-abs UV derivative per pixel over the visible pixel centres of
+    the textured triangles (module docstring); ``inf`` where none is visible, ``-inf``
+    where the bound cannot be taken (a vertex at or behind the near plane)."""
+    width, height = size
+    eye = np.asarray(camera["position"], np.float64)
+    forward = np.asarray(camera["target"], np.float64) - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, np.asarray(camera["up"], np.float64))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    tan_y = math.tan(math.radians(camera["fov_y"]) / 2.0)
+    tan_x = tan_y * width / height
+    near = float(camera.get("near", 0.0))
+    screens, depths, uvs, keep = [], [], [], []
+    offset = 0
+    for tri in triangles:
+        rel = tri.positions - eye
+        z = rel @ forward
+        if np.any(z[tri.faces] <= max(near, 0.0) * 0.999):
+            return -math.inf
+        with np.errstate(divide="ignore", invalid="ignore"):  # vertices no face uses
+            sx = ((rel @ right) / z / tan_x + 1.0) * 0.5 * width
+            sy = ((rel @ up) / z / tan_y + 1.0) * 0.5 * height
+        screens.append(np.stack([sx, sy], axis=1))
+        depths.append(z)
+        uvs.append(tri.uv if tri.uv is not None else np.full((len(z), 2), np.nan))
+        faces = tri.faces + offset
+        e1, e2 = (screens[-1][tri.faces[:, k]] - screens[-1][tri.faces[:, 0]] for k in (1, 2))
+        area = e1[:, 0] * e2[:, 1] - e2[:, 0] * e1[:, 1]  # > 0: counter-clockwise, y up
+        drawn = np.ones(len(faces), bool) if tri.two_sided else (area > 0) != tri.mirrored
+        keep.append(faces[drawn & (area != 0)])
+        offset += len(z)
+    if not keep:
+        return math.inf
+    screen = np.concatenate(screens)
+    with np.errstate(divide="ignore"):
+        inv_z = 1.0 / np.concatenate(depths)
+    uv = np.concatenate(uvs)
+    faces = np.concatenate(keep)
+    worst = visible_derivatives(screen, inv_z, uv, faces, width, height)
+    if len(worst) == 0:
+        return math.inf
+    with np.errstate(divide="ignore"):
+        return float(np.log2(worst.min()))
+
+
+def visible_derivatives(
+    screen: np.ndarray,
+    inv_z: np.ndarray,
+    uv: np.ndarray,
+    faces: np.ndarray,
+    width: int,
+    height: int,
+) -> np.ndarray:
+    """``finest_uv_lod``'s raster: every drawn face's covered pixel centres (scanlines:
+    per row of its box the span between its edges' crossings of the row's centre line,
+    edges included), the nearest 1/z per pixel, then at the covered centres no nearer
+    face hides the largest absolute UV derivative per window pixel (one value per
+    visible textured pixel centre; a pixel shared by faces at one depth, each)."""
+    s = screen[faces]  # (M, 3, 2)
+    row_lo = np.maximum(np.ceil(s[:, :, 1].min(axis=1) - 0.5), 0).astype(np.int64)
+    row_hi = np.minimum(np.floor(s[:, :, 1].max(axis=1) - 0.5), height - 1).astype(np.int64)
+    rows = np.maximum(row_hi - row_lo + 1, 0)
+    owner = np.repeat(np.arange(len(faces)), rows)  # one entry per (face, row)
+    first = np.cumsum(rows) - rows
+    row = row_lo[owner] + np.arange(len(owner)) - first[owner]
+    centre = row + 0.5
+    left = np.full(len(owner), np.inf)
+    right = np.full(len(owner), -np.inf)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        p, q = s[owner, i], s[owner, j]
+        lo, hi = np.minimum(p[:, 1], q[:, 1]), np.maximum(p[:, 1], q[:, 1])
+        crosses = (lo <= centre) & (centre <= hi) & (hi > lo)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = p[:, 0] + (centre - p[:, 1]) / (q[:, 1] - p[:, 1]) * (q[:, 0] - p[:, 0])
+        left = np.where(crosses, np.minimum(left, x), left)
+        right = np.where(crosses, np.maximum(right, x), right)
+    col_lo = np.maximum(np.ceil(left - 0.5), 0)
+    col_hi = np.minimum(np.floor(right - 0.5), width - 1)
+    spans = np.where(np.isfinite(left), np.maximum(col_hi - col_lo + 1, 0), 0).astype(np.int64)
+    entry = np.repeat(np.arange(len(owner)), spans)  # one per covered pixel centre
+    if len(entry) == 0:
+        return np.zeros(0)
+    start = np.cumsum(spans) - spans
+    col = col_lo.astype(np.int64)[entry] + np.arange(len(entry)) - start[entry]
+    face = owner[entry]
+    px, py = col + 0.5, row[entry] + 0.5
+    # Per face, 1/z, u/z and v/z as affine functions of the window position: the value
+    # at vertex 0 plus the gradient (f1 - f0) grad a + (f2 - f0) grad b, where
+    # (a, b) = M^-1 (p - s0), M = [s1 - s0, s2 - s0], weigh vertices 1 and 2.
+    e1, e2 = s[:, 1] - s[:, 0], s[:, 2] - s[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e2[:, 0] * e1[:, 1]
+    grad_a = np.stack([e2[:, 1], -e2[:, 0]], axis=1) / det[:, None]
+    grad_b = np.stack([-e1[:, 1], e1[:, 0]], axis=1) / det[:, None]
+    w_z = inv_z[faces]  # (M, 3)
+    values = np.concatenate([w_z[..., None], uv[faces] * w_z[..., None]], axis=2)  # (M, 3, 3)
+    grad = (values[:, 1] - values[:, 0])[:, :, None] * grad_a[:, None, :] + (
+        values[:, 2] - values[:, 0]
+    )[:, :, None] * grad_b[:, None, :]  # (M, 3 values, 2 axes)
+    base = values[:, 0] - np.einsum("mva,ma->mv", grad, s[:, 0])
+    depth = base[face, 0] + grad[face, 0, 0] * px + grad[face, 0, 1] * py
+    pixel = row[entry] * width + col
+    nearest = np.full(width * height, -np.inf)
+    np.maximum.at(nearest, pixel, depth)
+    seen = depth >= nearest[pixel] * (1.0 - 1e-6)
+    seen &= ~np.isnan(base[face, 1])  # untextured faces hide, nothing of them is sampled
+    if not np.any(seen):
+        return np.zeros(0)
+    face, px, py, depth = face[seen], px[seen], py[seen], depth[seen]
+    g = grad[face]  # (P, 3, 2)
+    texcoord = (base[face, 1:] + g[:, 1:, 0] * px[:, None] + g[:, 1:, 1] * py[:, None]) / depth[
+        :, None
+    ]  # perspective-correct uv at the pixel centre
+    worst = np.zeros(len(depth))
+    for axis in (0, 1):  # window x, then y: d uv = (d(uv/z) - uv d(1/z)) / (1/z)
+        d_tex = (g[:, 1:, axis] - texcoord * g[:, 0, axis, None]) / depth[:, None]
+        worst = np.maximum(worst, np.abs(d_tex).max(axis=1))
+    return worst
+
+
+def reduced_levels(uv_lod: float, width: int, height: int) -> int:
+    """How many of a ``width`` x ``height`` texture's finest levels a frame whose
+    ``finest_uv_lod`` is ``uv_lod`` never samples: ``floor(uv_lod + log2 min side -
+    LOD_MARGIN)``, at most ``MAX_REDUCTION`` and no more than both sides divide by (level
+    k of the reduced texture is then level k + n of the full one, the GL's sizes); a
+    level may be skipped where it carried at most ``SKIPPED_WEIGHT`` of a pixel."""
+    if not math.isfinite(uv_lod):
+        return MAX_REDUCTION if uv_lod > 0 else 0
+    lod = uv_lod + math.log2(max(min(width, height), 1))
+    n = math.floor(lod - LOD_MARGIN + SKIPPED_WEIGHT)
+    n = max(0, min(n, MAX_REDUCTION))
+    while n and (width % (1 << n) or height % (1 << n)):
+        n -= 1
+    return n

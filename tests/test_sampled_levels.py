@@ -1,0 +1,193 @@
+"""A still frame decodes a model's textures from the finest mip level its camera samples
+(app/scene/sampled_levels.py, app/scene/gltf.py ``uv_lod``): the bound itself on a quad
+whose level of detail is known, a close camera that decodes the whole map, a far one that
+decodes it reduced, and the far frame against the frame built from every level."""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+from PIL import Image
+
+from app.gl.context import GLContext
+from app.scene.geometry import take_built
+from app.scene.sampled_levels import ViewTriangles, finest_uv_lod, reduced_levels
+from app.scene.sources import scene_from
+from tests.gltf_builder import QUAD_INDICES, QUAD_POSITIONS, QUAD_UV, GltfBuilder
+
+TEXELS = 256  # the maps' side
+
+
+def _quad(z: float = 0.0, uv: bool = True) -> ViewTriangles:
+    return ViewTriangles(
+        QUAD_POSITIONS.astype(np.float64) + np.array([0.0, 0.0, z]),
+        QUAD_UV.astype(np.float64) if uv else None,
+        QUAD_INDICES.reshape(-1, 3).astype(np.int64),
+        two_sided=False,
+    )
+
+
+def _camera(distance: float) -> dict:
+    return {"position": [0.0, 0.0, distance], "target": [0.0, 0.0, 0.0], "up": [0.0, 1.0, 0.0],
+            "fov_y": 90.0, "near": 0.1}  # fmt: skip
+
+
+def test_bound_of_a_facing_quad() -> None:
+    """A 2 m quad facing a 90-degree camera from 4 m spans a quarter of a 256-pixel image:
+    1 UV unit over 64 pixels, LOD -6 in UV units (a 256-texel map's level 2)."""
+    lod = finest_uv_lod([_quad()], _camera(4.0), (256, 256))
+    assert lod == pytest.approx(-6.0, abs=1e-9)
+    assert reduced_levels(lod, TEXELS, TEXELS) == 2
+    assert reduced_levels(lod, 200, 200) == 1  # 200 / 4 is no whole level: one only
+
+
+def test_hidden_faces_do_not_count() -> None:
+    """A textured quad behind an untextured one that covers it samples nothing; a back
+    face is culled."""
+    cover = ViewTriangles(_quad(1.0).positions * [3.0, 3.0, 1.0], None, _quad().faces, False)
+    assert finest_uv_lod([_quad(), cover], _camera(4.0), (256, 256)) == math.inf
+    behind = _camera(-4.0)
+    assert finest_uv_lod([_quad()], behind, (256, 256)) == math.inf
+
+
+def _jpeg(rgb: np.ndarray) -> bytes:
+    data = io.BytesIO()
+    Image.fromarray(rgb).save(data, format="JPEG", quality=95)
+    return data.getvalue()
+
+
+def _maps() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smooth base colour and metallic-roughness images (a few cycles across) and a
+    normal map of bumps 16 texels apart (resolved at level 2, gone by level 4)."""
+    y, x = np.mgrid[0:TEXELS, 0:TEXELS] / TEXELS * 2.0 * np.pi
+    colour = np.stack([0.5 + 0.3 * np.sin(2 * x), 0.5 + 0.3 * np.cos(3 * y), 0.4 + 0 * x], -1)
+    slope = 0.5 * np.stack([np.cos(16 * x), np.sin(16 * y)], -1)  # a period of 16 texels
+    normal = np.concatenate([-slope, np.ones((TEXELS, TEXELS, 1))], -1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    mr = np.stack([0 * x, 0.4 + 0.2 * np.sin(x + y), 0.5 + 0.5 * np.sin(y)], -1)
+    images = [
+        (np.clip(v, 0, 1) * 255).round().astype(np.uint8) for v in (colour, normal * 0.5 + 0.5, mr)
+    ]
+    return images[0], images[1], images[2]
+
+
+def _model(root: Path, colour: bool = True, change: str = "") -> Path:
+    """A quad with JPEG base colour (unless not ``colour``: none), normal and
+    metallic-roughness maps of 256 texels; ``change``: "transform" (the base colour's UVs
+    scaled by KHR_texture_transform, not declared in extensionsUsed), "texcoord" (read
+    through TEXCOORD_1) or "no mips" (a sampler whose minFilter is LINEAR)."""
+    b = GltfBuilder()
+    textures = []
+    for rgb in _maps():
+        b.doc.images.append(pygltflib.Image(bufferView=b.view(_jpeg(rgb)), mimeType="image/jpeg"))
+        b.doc.textures.append(pygltflib.Texture(source=len(b.doc.images) - 1))
+        textures.append(len(b.doc.textures) - 1)
+    info = pygltflib.TextureInfo(index=textures[0])
+    if change == "transform":
+        info.extensions = {"KHR_texture_transform": {"scale": [4.0, 4.0]}}
+    elif change == "texcoord":
+        info.texCoord = 1
+    elif change == "no mips":
+        b.doc.samplers.append(pygltflib.Sampler(minFilter=9729))
+        b.doc.textures[textures[0]].sampler = 0
+    pbr = pygltflib.PbrMetallicRoughness(
+        baseColorTexture=info if colour else None,
+        metallicRoughnessTexture=pygltflib.TextureInfo(index=textures[2]),
+    )
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pbr, normalTexture=pygltflib.NormalMaterialTexture(index=textures[1])
+    )
+    if change == "texcoord":
+        b.quad(material=b.material(material), uv1=QUAD_UV)
+    else:
+        b.quad(material=b.material(material))
+    return b.save(root / "quad.glb")
+
+
+def _sizes(path: Path, size: tuple[int, int], still: bool) -> dict[str, tuple[int, ...]]:
+    """The level-0 shape of each map a still (or full) load of ``path`` builds."""
+    loaded = scene_from(path, size=size, still=still)
+    kept = take_built(loaded)
+    assert kept is not None
+    (part,) = kept[0]
+    return {name: tuple(tex.levels[0].shape[:2]) for name, tex in part.layers[0].maps.items()}
+
+
+def test_close_camera_decodes_whole(tmp_path: Path) -> None:
+    """At 512 pixels the framed quad spans more pixels than its maps' texels: level 0 is
+    sampled, every map starts there."""
+    sizes = _sizes(_model(tmp_path), (512, 512), still=True)
+    assert set(sizes.values()) == {(TEXELS, TEXELS)}
+
+
+def test_far_camera_decodes_reduced(tmp_path: Path) -> None:
+    """At 40 pixels a 256-texel map's finest sampled level is 2: the base colour decodes
+    at 64 texels (DCT scaling), the chain and the metallic levels start at level 2; a load
+    that is not a still frame (the viewer's, the API's) keeps every level."""
+    path = _model(tmp_path)
+    still = _sizes(path, (40, 40), still=True)
+    assert set(still.values()) == {(TEXELS // 4, TEXELS // 4)}
+    assert set(_sizes(path, (40, 40), still=False).values()) == {(TEXELS, TEXELS)}
+
+
+def _frames(path: Path, size: tuple[int, int], gl: GLContext) -> np.ndarray:
+    """|still frame - frame from every level| of ``path`` at ``size``, 8-bit RGB."""
+    from app.render.renderer import Renderer
+
+    images = []
+    for still in (True, False):
+        renderer = Renderer(gl, scene_from(path, size=size, still=still), size)
+        renderer.render()
+        images.append(renderer.read_image().astype(np.int64))
+        renderer.release()
+    return np.abs(images[0] - images[1])
+
+
+@pytest.mark.parametrize("change", ["transform", "texcoord", "no mips"])
+def test_bound_not_taken(tmp_path: Path, change: str) -> None:
+    """Where the bound on TEXCOORD_0 does not cover every read (a transformed or other UV
+    set, a sampler without mips), a still frame keeps every level."""
+    sizes = _sizes(_model(tmp_path, change=change), (40, 40), still=True)
+    assert set(sizes.values()) == {(TEXELS, TEXELS)}
+
+
+@pytest.mark.gl
+def test_far_frame_matches_every_level(tmp_path: Path, gl_egl: GLContext) -> None:
+    """The far still frame against the same frame from every level. The normal/roughness
+    chain and the metallic levels from level 2 on are the same bits as the whole chain's,
+    so a quad without a base colour map differs only where a pixel blended a skipped
+    level by at most 1/8 (none here). The base colour's DCT-scaled level 2 averages
+    sRGB-encoded values where the GL's mips average linear ones, and the exposure meter
+    reads it: a few 8-bit steps."""
+    exact = _frames(_model(tmp_path, colour=False), (40, 40), gl_egl)
+    print("far frame against every level, no base colour map:", exact.max(), exact.mean())
+    assert exact.max() == 0
+    coloured = _frames(_model(tmp_path), (40, 40), gl_egl)
+    print("with the DCT-scaled base colour:", coloured.max(), coloured.mean())
+    assert coloured.max() <= 4
+    assert coloured.mean() <= 0.5
+
+
+@pytest.mark.gl
+def test_srgb_mips_match_the_gl(gl_egl: GLContext) -> None:
+    """A DCT-scaled colour map's mips are made on the CPU (mips.srgb_box_levels): a 2x2 box
+    in linear space, as the GL's sRGB mips are. llvmpipe encodes with an approximation of
+    its own: level 1 within one 8-bit step, the deeper levels (each made from the one
+    above) within a step more each."""
+    from app.render.texture_upload import GL_SRGB8_ALPHA8, read_level
+    from app.textures.mips import srgb_box_levels
+
+    texels = np.random.default_rng(5).integers(0, 256, (64, 64, 4), np.uint8)
+    gl_tex = gl_egl.ctx.texture((64, 64), 4, texels.tobytes(), internal_format=GL_SRGB8_ALPHA8)
+    gl_tex.build_mipmaps()
+    ours = srgb_box_levels(texels)
+    assert len(ours) == 7 and ours[0] is texels
+    for k in range(1, 7):
+        difference = np.abs(ours[k].astype(int) - read_level(gl_tex, k).astype(int))
+        assert difference.max() <= k, k
+    gl_tex.release()
