@@ -80,7 +80,9 @@ def _model(root: Path, colour: bool = True, change: str = "") -> Path:
     """A quad with JPEG base colour (unless not ``colour``: none), normal and
     metallic-roughness maps of 256 texels; ``change``: "transform" (the base colour's UVs
     scaled by KHR_texture_transform, not declared in extensionsUsed), "texcoord" (read
-    through TEXCOORD_1) or "no mips" (a sampler whose minFilter is LINEAR)."""
+    through TEXCOORD_1), "no mips" (a sampler whose minFilter is LINEAR), "blend"
+    (alphaMode BLEND), "transmission" (KHR_materials_transmission) or "no uv" (the
+    primitive without TEXCOORD_0: its maps read at uv (0, 0), level 0)."""
     b = GltfBuilder()
     textures = []
     for rgb in _maps():
@@ -102,10 +104,17 @@ def _model(root: Path, colour: bool = True, change: str = "") -> Path:
     material = pygltflib.Material(
         pbrMetallicRoughness=pbr, normalTexture=pygltflib.NormalMaterialTexture(index=textures[1])
     )
+    if change == "blend":
+        material.alphaMode = "BLEND"
+    elif change == "transmission":
+        material.extensions = {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+        b.doc.extensionsUsed = ["KHR_materials_transmission"]
     if change == "texcoord":
         b.quad(material=b.material(material), uv1=QUAD_UV)
     else:
         b.quad(material=b.material(material))
+    if change == "no uv":
+        b.doc.meshes[-1].primitives[0].attributes.TEXCOORD_0 = None
     return b.save(root / "quad.glb")
 
 
@@ -148,12 +157,26 @@ def _frames(path: Path, size: tuple[int, int], gl: GLContext) -> np.ndarray:
     return np.abs(images[0] - images[1])
 
 
-@pytest.mark.parametrize("change", ["transform", "texcoord", "no mips"])
+@pytest.mark.parametrize(
+    "change", ["transform", "texcoord", "no mips", "blend", "transmission", "no uv"]
+)
 def test_bound_not_taken(tmp_path: Path, change: str) -> None:
     """Where the bound on TEXCOORD_0 does not cover every read (a transformed or other UV
-    set, a sampler without mips), a still frame keeps every level."""
+    set, a sampler without mips, maps read without UVs) or the frame draws the part in a
+    pass the bound does not see (blended, transmissive), a still frame keeps every level."""
     sizes = _sizes(_model(tmp_path, change=change), (40, 40), still=True)
     assert set(sizes.values()) == {(TEXELS, TEXELS)}
+
+
+def test_a_reframed_still_builds_its_own_parts(tmp_path: Path) -> None:
+    """A still's parts hold textures from the level its camera samples: a scene derived
+    from it with another camera (an API user's edit) must not take them."""
+    from app.scene.edits import edited
+
+    loaded = scene_from(_model(tmp_path), size=(40, 40), still=True)
+    closer = edited(loaded, {"camera.position": [0.0, 0.0, 0.5]}, "test")
+    assert take_built(closer) is None
+    assert take_built(loaded) is not None  # the scene as framed takes them
 
 
 @pytest.mark.gl
@@ -191,3 +214,13 @@ def test_srgb_mips_match_the_gl(gl_egl: GLContext) -> None:
         difference = np.abs(ours[k].astype(int) - read_level(gl_tex, k).astype(int))
         assert difference.max() <= k, k
     gl_tex.release()
+
+
+def test_the_bound_is_taken_for_the_camera_that_renders(tmp_path: Path) -> None:
+    """The still's camera is the one its bound framed, and that is the camera a full load
+    frames (the same float32 points): the levels skipped are the ones the frame sees."""
+    path = _model(tmp_path)
+    still = scene_from(path, size=(40, 30), still=True).scene.camera.model_dump()
+    full = scene_from(path, size=(40, 30), still=False).scene.camera.model_dump()
+    for key in ("position", "target", "up", "fov_y", "near", "far"):
+        assert still[key] == full[key], key

@@ -746,12 +746,20 @@ def _still_uv_lod(
     triangles = []
     for prim in prims:
         world = model @ prim.world
-        positions = prim.positions @ world[:3, :3].T + world[:3, 3]
+        # The vertices as the parts keep them (float32), so that the points framed here are
+        # the ones the model file frames its camera with (model_file._surface_points).
+        local = prim.positions.astype(np.float32).astype(np.float64)
+        positions = local @ world[:3, :3].T + world[:3, 3]
         faces = np.asarray(prim.faces, np.int64).reshape(-1, 3)
         two_sided = gltf.double_sided(prim.material)  # type: ignore[attr-defined]
         mirrored = bool(np.linalg.det(world[:3, :3]) < 0.0)
-        triangles.append(ViewTriangles(positions, prim.uv, faces, two_sided, mirrored))
-    points = np.concatenate([t.positions for t in triangles])
+        uv = prim.uv
+        if uv is None and prim.material is not None:
+            # A material without TEXCOORD_0 samples its maps at uv (0, 0): no derivative,
+            # magnification, level 0 (the bound's -inf) where it is seen.
+            uv = np.zeros((len(positions), 2))
+        triangles.append(ViewTriangles(positions, uv, faces, two_sided, mirrored))
+    points = np.concatenate([t.positions[np.unique(t.faces)] for t in triangles])
     camera, size = still_view(points)
     return finest_uv_lod(triangles, camera, size)
 
@@ -787,17 +795,21 @@ def _material_layers(
 _NOT_PARTS: dict = {"camera": True, "lights": True, "background": True, "render": {"background"}}
 
 
-def _parts_key(loaded: LoadedScene) -> str:
+def _parts_key(loaded: LoadedScene, still: bool = False) -> str:
     """Everything of the scene that its parts are built from (objects, materials, textures,
-    render settings, the files they name), as one string."""
-    return repr((str(loaded.path), loaded.scene.model_dump(exclude=_NOT_PARTS)))
+    render settings, the files they name), as one string; for a still's parts (textures
+    from the finest level its camera samples, ``LoadedScene.still_view``) the camera too,
+    so that a re-framed scene builds its own."""
+    camera = loaded.scene.camera.model_dump() if still else None
+    return repr((str(loaded.path), loaded.scene.model_dump(exclude=_NOT_PARTS), camera))
 
 
-def keep_built(loaded: LoadedScene, parts: list[MeshPart], spent: int) -> None:
+def keep_built(loaded: LoadedScene, parts: list[MeshPart], spent: int, still: bool = False) -> None:
     """Keep ``parts`` (built from ``loaded`` with ``spent`` bytes charged) for the next
-    ``take_built`` of this scene or one derived from it with the same objects."""
+    ``take_built`` of this scene or one derived from it with the same objects (and, for
+    a still's parts, the same camera)."""
     loaded.built.clear()
-    loaded.built[_parts_key(loaded)] = (parts, spent)
+    loaded.built[_parts_key(loaded, still)] = (parts, spent)
 
 
 def take_built(loaded: LoadedScene) -> tuple[list[MeshPart], int] | None:
@@ -806,7 +818,11 @@ def take_built(loaded: LoadedScene) -> tuple[list[MeshPart], int] | None:
     its own); None where none were kept or the scene has changed since."""
     if not loaded.built:  # nothing kept: no key to compute
         return None
-    return loaded.built.pop(_parts_key(loaded), None)
+    for still in (False, True):
+        found = loaded.built.pop(_parts_key(loaded, still), None)
+        if found is not None:
+            return found
+    return None
 
 
 def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshPart]:

@@ -410,21 +410,37 @@ def model_scene(
                 look.env if look.env in ENVIRONMENTS else "image",
             )
         budget = Budget(policy.limits)
-        if still and gltf and look.camera != "file":
+        framed: list[dict] = []  # the camera the still's mip-level bound was taken for
+        if still and gltf and look.camera != "file" and _one_sample(loaded):
 
             def framing(points: np.ndarray) -> tuple[dict, tuple[int, int]]:
-                return framing_camera(points, (width, height), *look.angles()), (width, height)
+                framed.append(framing_camera(points, (width, height), *look.angles()))
+                return framed[-1], (width, height)
 
             loaded = replace(loaded, still_view=framing)
         parts = build_parts(loaded, budget)
         camera = loaded.scene.camera.model_dump(exclude_unset=True)
         if look.camera != "file":
-            camera.update(framing_camera(_surface_points(parts), (width, height), *look.angles()))
+            # the bound's own camera where one was taken (the same points, so the same
+            # camera as framing the parts gives), so the levels skipped are the ones it saw
+            camera.update(
+                framed[-1]
+                if framed
+                else framing_camera(_surface_points(parts), (width, height), *look.angles())
+            )
         result = replace(_lit(loaded, camera, parts, look, file_lights), still_view=None)
-        keep_built(result, parts, budget.spent)  # the frame takes them (app/frame)
+        keep_built(result, parts, budget.spent, still=bool(framed))  # the frame takes them
         return result
     except InputError as exc:
         raise _as_model_error(exc, path) from None
+
+
+def _one_sample(loaded: LoadedScene) -> bool:
+    """Whether the scene's frame samples its textures once per pixel, at the pixel centres
+    the still's mip-level bound rasterises (app/scene/sampled_levels.py): not with
+    supersampling, jittered frames or a multisampled G-buffer, which sample between them."""
+    render = loaded.scene.render
+    return render.supersample == 1 and render.antialiasing not in ("jitter", "msaa")
 
 
 def _as_model_error(exc: InputError, path: Path) -> InputError:
