@@ -100,6 +100,9 @@ class RenderOptions:
     False: every frame draws the HDR image and runs the post pass on it.
     ``flush_triangles``: the G-buffer pass flushes once this many triangles were drawn since
     the last flush (app/render/gbuffer.py FLUSH_TRIANGLES); 0: one flush at the end.
+    ``interactive``: the viewer's frame, drawn while input arrives: gbaa resolves the
+    silhouettes alone; a still (False) moves every interior pixel to its area mean too
+    (app/render/antialias.py ``GbaaPass``; docs/antialiasing.md).
     """
 
     uber: bool = False
@@ -108,6 +111,7 @@ class RenderOptions:
     constant_surfaces: bool = True
     fuse_post: bool = True
     flush_triangles: int = FLUSH_TRIANGLES
+    interactive: bool = False
 
 
 def environment_source(env: Environment) -> EnvironmentSource:
@@ -723,7 +727,8 @@ class Renderer:
         if not self._gbaa():
             return None
         parts = (Same(self.frame.parts), self._frame_facts().opaque)
-        return (self.size, self.scene.render.tonemap, self.transparent, parts)
+        interior = not self.options.interactive
+        return (self.size, self.scene.render.tonemap, self.transparent, parts, interior)
 
     def _build_gbaa(self) -> GbaaPass:
         # the opaque parts' extents, world space: the window rectangles the resolve covers
@@ -743,6 +748,7 @@ class Renderer:
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
             self.transparent, np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4),
+            interior=not self.options.interactive,
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:
@@ -1052,13 +1058,13 @@ class Renderer:
         display image (fused), it wrote the surface pixels' radiance too (``run_lighting``)
         and the background's is given as a uniform."""
         m = self.matrices  # the frame's (no jitter in this mode)
-        self.gbaa.mark(self.gbuffer, self.post.target, self.gbaa.rects(m.view, m.proj))
         background = None
         if not self._drawn.hdr:
             hdr, background = self.lighting.hdr, self._drawn.background
-        self.gbaa.resolve(
-            self.gbuffer, hdr, self.post.target, self.scene.camera.exposure, background
-        )
+        exposure = self.scene.camera.exposure
+        rects = self.gbaa.rects(m.view, m.proj)
+        self.gbaa.mark(self.gbuffer, self.post.target, rects, hdr, exposure, background)
+        self.gbaa.resolve(self.gbuffer, hdr, self.post.target, exposure, background)
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of
