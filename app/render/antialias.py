@@ -469,11 +469,15 @@ class GbaaPass:
     world-space corners of the mesh parts' bounding boxes; ``spheres``, (S, 4) world
     centre and radius of the analytic spheres, whose rectangle is their silhouette's
     (a box's corners project well outside a sphere's). None: the whole image.
-    ``interior``: the mark also writes, at each pixel whose 4 neighbours hold its own
-    surface, its centre's radiance moved to its area mean (``interior_radiance`` in the
-    shader, a 5-point second-order correction; docs/accuracy.md, "Every pixel") over
-    post's bytes: the still frame's resolve. False: silhouettes only (the viewer's
-    interactive frame, whose cost bound is tighter)."""
+    ``exact`` (a still's resolve, GBAA_EXACT): each covered area the box filter of the
+    edge's half-plane from its distances along both axes, exact at the pixel's corners
+    (``box_coverage``), and each edge pixel's own part moved to its area mean along the
+    axes whose neighbours hold its surface (``along_edge``); False: the area along the
+    nearest axis alone (the viewer's frames, whose cost bound is tighter).
+    ``interior`` (``render.gbaa_interior``, GBAA_INTERIOR): the mark also writes, at each
+    pixel whose 4 neighbours hold its own surface, its centre's radiance moved to its
+    area mean (``interior_radiance``, a 5-point second-order correction; docs/accuracy.md,
+    "Every pixel") over post's bytes."""
 
     def __init__(
         self,
@@ -484,9 +488,10 @@ class GbaaPass:
         straight_alpha: bool = False,
         boxes: np.ndarray | None = None,
         spheres: np.ndarray | None = None,
+        exact: bool = False,
         interior: bool = False,
     ) -> None:
-        self.ctx, self.size, self.interior = ctx, size, interior
+        self.ctx, self.size, self.exact, self.interior = ctx, size, exact, interior
         self.boxes = None if boxes is None else np.asarray(boxes, np.float64).reshape(-1, 8, 4)
         self.spheres = np.zeros((0, 4)) if spheres is None else np.asarray(spheres, np.float64)
         defines: dict[str, object] = {"TONEMAP": tonemap_code, "GBAA_MAX_RECTS": GBAA_MAX_RECTS}
@@ -496,6 +501,7 @@ class GbaaPass:
             defines["QUAD_NEIGHBOURS"] = 1
         vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
         defines["GBAA_INTERIOR"] = int(interior)
+        defines["GBAA_EXACT"] = int(exact)
         self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})
         self.resolver = shaders.program(vertex, fragment, {**defines, "FAR_PLANE": 1})
         self._vaos = [ctx.vertex_array(p, []) for p in (self.marker, self.resolver)]

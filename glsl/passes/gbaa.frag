@@ -32,6 +32,9 @@
 #ifndef GBAA_DEPTH_TOLERANCE
 #define GBAA_DEPTH_TOLERANCE 0.1   // view depths further apart than this fraction differ
 #endif
+#ifndef GBAA_EXACT
+#define GBAA_EXACT 0
+#endif
 #ifndef GBAA_INTERIOR
 #define GBAA_INTERIOR 0
 #endif
@@ -169,7 +172,7 @@ vec4 along_edge(vec4 c, vec2 centre, vec2 around[4], vec4 n[4]) {
 // s = 1 - offset/d inside it: a band where the edge leaves through two opposite sides
 // (0.5 + s/u), and a corner triangle (t^2 / 2uv, t from the corner) beyond.
 float box_coverage(float d, float e, float offset) {
-    float a = 1.0 / d, b = 1.0 / e;
+    float a = 1.0 / max(d, 1e-4), b = 1.0 / max(e, 1e-4);   // an edge through the centre: 1/2
     float u = max(a, b), v = min(a, b);
     float s = 1.0 - offset * a;
     float t = 0.5 * (u + v) - abs(s);
@@ -237,7 +240,7 @@ void main() {
     }
 #endif
     float weight[4] = float[4](0.0, 0.0, 0.0, 0.0);
-    float nearest = GBAA_INTERIOR > 0 ? 1.0 : 0.5;
+    float nearest = GBAA_EXACT > 0 ? 1.0 : 0.5;
     int toward = -1;
     for (int k = 0; k < 4; ++k) {
         if (in_front(centre, around[k]) && own[k] < nearest) {
@@ -245,7 +248,7 @@ void main() {
             toward = k;
         }
     }
-#if GBAA_INTERIOR
+#if GBAA_EXACT
     if (toward >= 0) {
         float across = toward < 2 ? min(own.z, own.w) : min(own.x, own.y);
         weight[toward] = 1.0 - box_coverage(nearest, across, 0.0);
@@ -261,7 +264,7 @@ void main() {
         int back = k ^ 1;   // from the neighbour toward this pixel
         float d = theirs[back];
         float across = k < 2 ? min(theirs.z, theirs.w) : min(theirs.x, theirs.y);
-#if GBAA_INTERIOR
+#if GBAA_EXACT
         if (d > 0.0 && d < 1.0) front[k] = box_coverage(d, across, 1.0);
 #else
         if (d > 0.5 && d < 1.0 && d <= GBAA_AXIS_TIE * across) front[k] = d - 0.5;
@@ -282,7 +285,7 @@ void main() {
     if (toward >= 0 && same_surface(centre, around[toward ^ 1])) {
         c = centroid_radiance(here, colours[toward ^ 1], -0.5 * weight[toward]);
     }
-#if GBAA_INTERIOR
+#if GBAA_EXACT
     c += along_edge(here, centre, around, colours);
 #endif
     c *= 1.0 - min(total, 1.0);
