@@ -47,32 +47,37 @@ def bytes_off(twin_image: np.ndarray, gl_bytes: np.ndarray) -> np.ndarray:
 STEP_TOLERANCE = 0.02
 
 
-# gbaa's resolves: the viewer's lean one (RenderOptions.interactive), a still's (the
-# coverage exact at the corners, the edge pixels' own part along the edge) and a still's
-# with render.gbaa_interior (every interior pixel moved to its area mean)
-GBAA_VARIANTS = {"lean": (True, False), "exact": (False, False), "interior": (False, True)}
+# GbaaPass's resolves, (exact, interior): the areas along the nearest axis alone (the
+# baseline), exact at the corners with the edge pixels' own part along the edge (the
+# renderer's), and with every interior pixel moved to its area mean (render.gbaa_interior)
+GBAA_VARIANTS = {"lean": (False, False), "exact": (True, False), "interior": (True, True)}
+# The renderer's, (RenderOptions.interactive, render.gbaa_interior): a still, a still with
+# the interior correction, and the viewer's frame of a scene asking for it (left out)
+SCENE_VARIANTS = {"still": (False, False), "interior": (False, True), "viewer": (True, True)}
 
 
-@pytest.mark.parametrize("variant", list(GBAA_VARIANTS))
+@pytest.mark.parametrize("variant", list(SCENE_VARIANTS))
 @pytest.mark.parametrize("fused", [False, True], ids=["hdr", "fused"])
 def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool, variant: str) -> None:
     """gbaa's resolve (glsl/passes/gbaa.frag) against ``gbaa_resolve`` on the RT2, edge
     and HDR texels it read: every pixel of the display image within ``STEP_TOLERANCE``
     of the twin's (beyond rounding), the marked pixels the twin's ``gbaa_marked``, and
     the resolve changing some of them (measured at 192x108, lean: 798 marked, 387
-    changed, none off by more than rounding), and only them but with ``gbaa_interior``.
+    changed, none off by more than rounding), and only them but with ``gbaa_interior``
+    (which the viewer's frames leave out).
     ``fused``: the lighting pass wrote the display image and the surfaces' radiance
     alone, the background's a uniform."""
-    interactive, interior = GBAA_VARIANTS[variant]
+    interactive, asked = SCENE_VARIANTS[variant]
+    interior = asked and not interactive
     loaded = with_aa(scene_from(aa_scene_data(GBAA_SIZE)), "gbaa", 1)
-    render = loaded.scene.render.model_copy(update={"gbaa_interior": interior})
+    render = loaded.scene.render.model_copy(update={"gbaa_interior": asked})
     loaded = dataclasses.replace(loaded, scene=replace_parts(loaded.scene, render=render))
     r = Renderer(gl_egl, loaded, options=RenderOptions(interactive=interactive))
     try:
         r.want_hdr(not fused)
         r.render()
         assert r.gbaa is not None and r.fused_display == fused
-        assert (r.gbaa.exact, r.gbaa.interior) == (not interactive, interior)
+        assert (r.gbaa.exact, r.gbaa.interior) == (True, interior)
         resolved = texels(r.post.target)
         surface, edge = texels(r.gbuffer.depth), texels(r.gbuffer.edge)
         hdr = texels(r.lighting.hdr)
@@ -88,7 +93,7 @@ def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool, variant: str) 
         r.release()
     expected = twin.gbaa_resolve(
         surface, edge, hdr, display, scene.camera.exposure, scene.render.tonemap,
-        background=background, exact=not interactive, interior=interior,
+        background=background, exact=True, interior=interior,
     )  # fmt: skip
     marked = twin.gbaa_marked(surface)
     off = bytes_off(expected, resolved).max(axis=-1)
@@ -217,9 +222,9 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
     ctx = gl_egl.ctx
     if variant == "fetched":
         monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
-    interactive, interior = GBAA_VARIANTS[resolve]
+    exact, interior = GBAA_VARIANTS[resolve]
     gbaa = antialias.GbaaPass(ctx, ShaderCache(ctx), size, TONEMAP_CODE["neutral"], straight,
-                              exact=not interactive, interior=interior)  # fmt: skip
+                              exact=exact, interior=interior)  # fmt: skip
     textures = {
         "surface": ctx.texture(size, 2, inputs["surface"].tobytes(), dtype="f4"),
         "edge": ctx.texture(size, 4, inputs["edge"].tobytes(), dtype="f2"),
@@ -237,7 +242,7 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
             t.release()
     expected = twin.gbaa_resolve(
         inputs["surface"], inputs["edge"], inputs["hdr"], inputs["display"], 0.5, "neutral",
-        straight_alpha=straight, exact=not interactive, interior=interior,
+        straight_alpha=straight, exact=exact, interior=interior,
     )  # fmt: skip
     off = bytes_off(expected, resolved).max(axis=-1)
     assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())

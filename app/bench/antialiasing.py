@@ -215,7 +215,7 @@ SHOWCASE_MODES: tuple[tuple[str, str, int], ...] = (
 )
 
 
-# the viewer's frames (app/viewer/window.py INTERACTIVE): gbaa's silhouettes alone
+# the viewer's frames (app/viewer/window.py INTERACTIVE): no render.gbaa_interior
 VIEWER = RenderOptions(interactive=True)
 
 

@@ -469,11 +469,12 @@ class GbaaPass:
     world-space corners of the mesh parts' bounding boxes; ``spheres``, (S, 4) world
     centre and radius of the analytic spheres, whose rectangle is their silhouette's
     (a box's corners project well outside a sphere's). None: the whole image.
-    ``exact`` (a still's resolve, GBAA_EXACT): each covered area the box filter of the
+    ``exact`` (GBAA_EXACT, the renderer's): each covered area the box filter of the
     edge's half-plane from its distances along both axes, exact at the pixel's corners
     (``box_coverage``), and each edge pixel's own part moved to its area mean along the
     axes whose neighbours hold its surface (``along_edge``); False: the area along the
-    nearest axis alone (the viewer's frames, whose cost bound is tighter).
+    nearest axis alone (Persson's, 0.5 + d), the baseline docs/antialiasing.md measures
+    the exact areas against.
     ``interior`` (``render.gbaa_interior``, GBAA_INTERIOR): the mark also writes, at each
     pixel whose 4 neighbours hold its own surface, its centre's radiance moved to its
     area mean (``interior_radiance``, a 5-point second-order correction; docs/accuracy.md,
@@ -488,7 +489,7 @@ class GbaaPass:
         straight_alpha: bool = False,
         boxes: np.ndarray | None = None,
         spheres: np.ndarray | None = None,
-        exact: bool = False,
+        exact: bool = True,
         interior: bool = False,
     ) -> None:
         self.ctx, self.size, self.exact, self.interior = ctx, size, exact, interior

@@ -100,11 +100,9 @@ class RenderOptions:
     False: every frame draws the HDR image and runs the post pass on it.
     ``flush_triangles``: the G-buffer pass flushes once this many triangles were drawn since
     the last flush (app/render/gbuffer.py FLUSH_TRIANGLES); 0: one flush at the end.
-    ``interactive``: the viewer's frames: gbaa's lean resolve (each silhouette pixel's
-    coverage along one axis); a still (False) takes the coverage exact at the pixels'
-    corners and moves each edge pixel's own part along the edge to its area mean, and with
-    ``render.gbaa_interior`` every interior pixel too (app/render/antialias.py
-    ``GbaaPass``; docs/antialiasing.md).
+    ``interactive``: the viewer's frames, which leave out ``render.gbaa_interior`` (gbaa's
+    interior correction, over the viewer's cost bound; app/render/antialias.py
+    ``GbaaPass``; docs/antialiasing.md): a still (False) draws it where the scene asks.
     """
 
     uber: bool = False
@@ -729,9 +727,8 @@ class Renderer:
         if not self._gbaa():
             return None
         parts = (Same(self.frame.parts), self._frame_facts().opaque)
-        still = not self.options.interactive
-        variant = (still, still and self.scene.render.gbaa_interior)
-        return (self.size, self.scene.render.tonemap, self.transparent, parts, variant)
+        interior = self.scene.render.gbaa_interior and not self.options.interactive
+        return (self.size, self.scene.render.tonemap, self.transparent, parts, interior)
 
     def _build_gbaa(self) -> GbaaPass:
         # the opaque parts' extents, world space: the window rectangles the resolve covers
@@ -748,11 +745,12 @@ class Renderer:
             box = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
             boxes.append(box @ model.T)
-        still = not self.options.interactive  # the viewer's frames keep the lean resolve
+        # the viewer's frames leave out the interior correction (its cost)
+        interior = self.scene.render.gbaa_interior and not self.options.interactive
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
             self.transparent, np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4),
-            exact=still, interior=still and self.scene.render.gbaa_interior,
+            interior=interior,
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:

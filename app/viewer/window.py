@@ -101,8 +101,8 @@ AREA_LIGHT_DEFAULTS: dict[str, dict[str, Any]] = {
     "tube": {"radius": 0.05, "length": 1.0},
 }
 CHECKER = 8
-# The viewer's frames are interactive ones: gbaa resolves the silhouettes alone (a still,
-# `pbs render`, also moves the interior pixels to their area mean; docs/antialiasing.md)
+# The viewer's frames are interactive ones: they leave out render.gbaa_interior (its cost;
+# a still, `pbs render`, draws it where the scene asks; docs/antialiasing.md)
 INTERACTIVE = RenderOptions(interactive=True)
 CHECKER_GREYS = (204, 153)
 
