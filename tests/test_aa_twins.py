@@ -5,6 +5,7 @@ twin's output from those inputs is compared with the pass's."""
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -13,7 +14,8 @@ import pytest
 from app.bench.antialiasing import aa_scene_data, with_aa
 from app.gl.context import GLContext
 from app.reference import antialiasing as twin
-from app.render.renderer import Renderer
+from app.render.renderer import Renderer, RenderOptions
+from app.scene.edits import replace_parts
 from app.scene.sources import scene_from
 
 pytestmark = pytest.mark.gl
@@ -45,20 +47,37 @@ def bytes_off(twin_image: np.ndarray, gl_bytes: np.ndarray) -> np.ndarray:
 STEP_TOLERANCE = 0.02
 
 
+# GbaaPass's resolves, (exact, interior): the areas along the nearest axis alone (the
+# baseline), exact at the corners with the edge pixels' own part along the edge (the
+# renderer's), and with every interior pixel moved to its area mean (render.gbaa_interior)
+GBAA_VARIANTS = {"lean": (False, False), "exact": (True, False), "interior": (True, True)}
+# The renderer's, (RenderOptions.interactive, render.gbaa_interior): a still, a still with
+# the interior correction, and the viewer's frame of a scene asking for it (left out)
+SCENE_VARIANTS = {"still": (False, False), "interior": (False, True), "viewer": (True, True)}
+
+
+@pytest.mark.parametrize("variant", list(SCENE_VARIANTS))
 @pytest.mark.parametrize("fused", [False, True], ids=["hdr", "fused"])
-def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool) -> None:
+def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool, variant: str) -> None:
     """gbaa's resolve (glsl/passes/gbaa.frag) against ``gbaa_resolve`` on the RT2, edge
     and HDR texels it read: every pixel of the display image within ``STEP_TOLERANCE``
     of the twin's (beyond rounding), the marked pixels the twin's ``gbaa_marked``, and
-    the resolve changing some of them (measured at 192x108: 798 marked, 387 changed,
-    none off by more than rounding). ``fused``: the lighting pass wrote the display
-    image and the surfaces' radiance alone, the background's a uniform."""
-    loaded = scene_from(aa_scene_data(GBAA_SIZE))
-    r = Renderer(gl_egl, with_aa(loaded, "gbaa", 1))
+    the resolve changing some of them (measured at 192x108, lean: 798 marked, 387
+    changed, none off by more than rounding), and only them but with ``gbaa_interior``
+    (which the viewer's frames leave out).
+    ``fused``: the lighting pass wrote the display image and the surfaces' radiance
+    alone, the background's a uniform."""
+    interactive, asked = SCENE_VARIANTS[variant]
+    interior = asked and not interactive
+    loaded = with_aa(scene_from(aa_scene_data(GBAA_SIZE)), "gbaa", 1)
+    render = loaded.scene.render.model_copy(update={"gbaa_interior": asked})
+    loaded = dataclasses.replace(loaded, scene=replace_parts(loaded.scene, render=render))
+    r = Renderer(gl_egl, loaded, options=RenderOptions(interactive=interactive))
     try:
         r.want_hdr(not fused)
         r.render()
         assert r.gbaa is not None and r.fused_display == fused
+        assert (r.gbaa.exact, r.gbaa.interior) == (True, interior)
         resolved = texels(r.post.target)
         surface, edge = texels(r.gbuffer.depth), texels(r.gbuffer.edge)
         hdr = texels(r.lighting.hdr)
@@ -74,7 +93,7 @@ def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool) -> None:
         r.release()
     expected = twin.gbaa_resolve(
         surface, edge, hdr, display, scene.camera.exposure, scene.render.tonemap,
-        background=background,
+        background=background, exact=True, interior=interior,
     )  # fmt: skip
     marked = twin.gbaa_marked(surface)
     off = bytes_off(expected, resolved).max(axis=-1)
@@ -82,7 +101,9 @@ def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool) -> None:
     assert 0 < marked.sum() < marked.size // 4
     if not fused:
         changed = np.any(resolved != display, axis=-1)
-        assert changed.sum() > 100 and not np.any(changed & ~marked)
+        inside = (surface[..., 0] > 0) & ~marked
+        assert changed.sum() > 100 and not np.any(changed & ~marked & ~(inside & interior))
+        assert np.any(changed & inside) == interior
 
 
 def test_fxaa_filter_is_its_twin(gl_egl: GLContext) -> None:
@@ -174,16 +195,19 @@ def synthetic_gbaa_inputs(size: tuple[int, int], seed: int) -> dict[str, np.ndar
             "display": display}  # fmt: skip
 
 
+@pytest.mark.parametrize("resolve", list(GBAA_VARIANTS))
 @pytest.mark.parametrize("variant", ["quad", "fetched", "straight"])
 def test_gbaa_resolve_is_its_twin_on_every_branch(
-    gl_egl: GLContext, variant: str, monkeypatch: pytest.MonkeyPatch
+    gl_egl: GLContext, variant: str, resolve: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``GbaaPass`` drawn on synthetic texels (``synthetic_gbaa_inputs``, 64x48) against
     ``gbaa_resolve``: every pixel within ``STEP_TOLERANCE`` of the twin's beyond rounding,
     with the quad's inner neighbours from the derivatives (``quad``), fetched, and with
     premultiplied alpha in (0, 1] written straight (a transparent background's); the
     depth tolerance, the 45-degree tie of the axes and the clamp all decide pixels here
-    (a twin without any one of them fails)."""
+    (a twin without any one of them fails); ``resolve``: ``GBAA_VARIANTS``', where the
+    corners' exact areas, the correction along the edge and the interior's decide pixels
+    too."""
     from app.common.tonemaps import TONEMAP_CODE
     from app.gl.shaders import ShaderCache
     from app.render import antialias
@@ -198,7 +222,9 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
     ctx = gl_egl.ctx
     if variant == "fetched":
         monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
-    gbaa = antialias.GbaaPass(ctx, ShaderCache(ctx), size, TONEMAP_CODE["neutral"], straight)
+    exact, interior = GBAA_VARIANTS[resolve]
+    gbaa = antialias.GbaaPass(ctx, ShaderCache(ctx), size, TONEMAP_CODE["neutral"], straight,
+                              exact=exact, interior=interior)  # fmt: skip
     textures = {
         "surface": ctx.texture(size, 2, inputs["surface"].tobytes(), dtype="f4"),
         "edge": ctx.texture(size, 4, inputs["edge"].tobytes(), dtype="f2"),
@@ -207,7 +233,7 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
     }
     gbuffer = SimpleNamespace(depth=textures["surface"], edge=textures["edge"])
     try:
-        gbaa.mark(gbuffer, textures["display"], [(0, 0, *size)])
+        gbaa.mark(gbuffer, textures["display"], [(0, 0, *size)], textures["hdr"], 0.5)
         gbaa.resolve(gbuffer, textures["hdr"], textures["display"], 0.5)
         resolved = texels(textures["display"])
     finally:
@@ -216,7 +242,7 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
             t.release()
     expected = twin.gbaa_resolve(
         inputs["surface"], inputs["edge"], inputs["hdr"], inputs["display"], 0.5, "neutral",
-        straight_alpha=straight,
+        straight_alpha=straight, exact=exact, interior=interior,
     )  # fmt: skip
     off = bytes_off(expected, resolved).max(axis=-1)
     assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())

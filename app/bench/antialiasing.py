@@ -27,7 +27,7 @@ import numpy as np
 
 from app.bench.context import Context, make_row
 from app.bench.timing import Pass
-from app.render.renderer import Renderer
+from app.render.renderer import Renderer, RenderOptions
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
 from app.scene.sources import scene_from
@@ -217,6 +217,10 @@ SHOWCASE_MODES: tuple[tuple[str, str, int], ...] = (
 )
 
 
+# the viewer's frames (app/viewer/window.py INTERACTIVE): no render.gbaa_interior
+VIEWER = RenderOptions(interactive=True)
+
+
 def run_showcase(ctx: Context) -> None:
     """scenes/showcase.toml at ``antialiasing_viewer_size``: each of ``SHOWCASE_MODES``
     timed against "none" in alternating rounds (no error: it has no reference here)."""
@@ -226,7 +230,7 @@ def run_showcase(ctx: Context) -> None:
     renderers = {}
     try:
         for name, mode, n in SHOWCASE_MODES:
-            renderers[name] = Renderer(ctx.gl, with_aa(loaded, mode, n), size)
+            renderers[name] = Renderer(ctx.gl, with_aa(loaded, mode, n), size, options=VIEWER)
         times = ctx.time_interleaved(
             {name: [Pass("frame", r.render, None)] for name, r in renderers.items()}
         )

@@ -20,6 +20,7 @@ from app.reference.tonemap import post_process, srgb_decode, srgb_encode
 # glsl/passes/gbaa.frag's defines
 GBAA_AXIS_TIE = 1.1  # a neighbour's edge counts along an axis within 10 % of its nearest
 GBAA_DEPTH_TOLERANCE = 0.1  # view depths further apart than this fraction differ
+GBAA_INTERIOR_CLAMP = 1.5  # the interior correction stays within this factor of the centre's
 # the four neighbours, +x, -x, +y, -y (gbaa.frag's STEPS; k ^ 1 is the opposite one)
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 
@@ -75,7 +76,60 @@ def gbaa_marked(surface: np.ndarray) -> np.ndarray:
     return marked
 
 
-def gbaa_coverage(surface: np.ndarray, edge: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def gbaa_box_coverage(d: np.ndarray, e: np.ndarray, offset: float) -> np.ndarray:
+    """The area of a unit pixel on its surface's side of a straight edge that crosses the
+    axes through a pixel's centre at ``d`` (toward the edge) and ``e`` (across), the pixel
+    measured ``offset`` pixels from that centre toward the edge: the box filter of a
+    half-plane, exact at the pixel's corners. With the normal (1/d, 1/e) (u the larger
+    component, v the smaller) the measured centre lies s = 1 - offset/d inside the line;
+    the area is 0.5 + s/u while the line leaves through two opposite sides (|s| <= (u -
+    v)/2), a corner's triangle t^2 / 2uv (t = (u + v)/2 - |s|) or 1 less it beyond, and 0
+    or 1 past the corners."""
+    a = 1.0 / np.maximum(np.asarray(d, np.float64), 1e-4)  # through the centre: 1/2
+    b = 1.0 / np.maximum(np.asarray(e, np.float64), 1e-4)
+    u, v = np.maximum(a, b), np.minimum(a, b)
+    s = 1.0 - offset * a
+    t = 0.5 * (u + v) - np.abs(s)
+    band = 0.5 + s / u
+    corner = t * t / (2.0 * u * v)
+    inner = np.where(np.abs(s) <= 0.5 * (u - v), band, np.where(s > 0, 1.0 - corner, corner))
+    return np.where(t <= 0, np.where(s > 0, 1.0, 0.0), inner)
+
+
+def gbaa_interior_radiance(c: np.ndarray, n: list[np.ndarray]) -> np.ndarray:
+    """A pixel's area mean from its centre's radiance ``c`` (..., 4) and its 4
+    neighbours' ``n`` (the same surface), to second order: ``c + (sum n - 4c) / 24`` (the
+    midpoint rule misses (f_xx + f_yy) / 24 of the box filter's integral; the 5-point
+    Laplacian), the colour held within ``GBAA_INTERIOR_CLAMP`` of ``c`` per channel,
+    alpha ``c``'s."""
+    c = np.asarray(c, np.float64)
+    mean = c + (n[0] + n[1] + n[2] + n[3] - 4.0 * c) / 24.0
+    rgb = np.clip(mean[..., :3], c[..., :3] / GBAA_INTERIOR_CLAMP, c[..., :3] * GBAA_INTERIOR_CLAMP)
+    return np.concatenate([rgb, c[..., 3:]], axis=-1)
+
+
+def gbaa_along_edge(
+    c: np.ndarray, surface: np.ndarray, around: list[np.ndarray], n: list[np.ndarray]
+) -> np.ndarray:
+    """(..., 4) the interior correction of a marked pixel's own part: the second
+    differences of the axes whose two neighbours both hold its surface, each over 24, the
+    colour held within ``GBAA_INTERIOR_CLAMP`` of ``c``; alpha unchanged."""
+    delta = np.zeros_like(c)
+    for axis in range(2):
+        k = 2 * axis
+        both = gbaa_same_surface(surface, around[k]) & gbaa_same_surface(surface, around[k + 1])
+        delta = delta + np.where(both[..., None], (n[k] + n[k + 1] - 2.0 * c) / 24.0, 0.0)
+    rgb = np.clip(
+        c[..., :3] + delta[..., :3],
+        c[..., :3] / GBAA_INTERIOR_CLAMP,
+        c[..., :3] * GBAA_INTERIOR_CLAMP,
+    )
+    return np.concatenate([rgb - c[..., :3], np.zeros_like(c[..., 3:])], axis=-1)
+
+
+def gbaa_coverage(
+    surface: np.ndarray, edge: np.ndarray, exact: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """The resolve's weights: (H, W, 4) the area of each pixel covered by its neighbour
     +x, -x, +y, -y, and (H, W) int ``toward``, the neighbour behind the pixel across its
     own nearest edge (-1: none). The pixel's own edge toward a neighbour behind it (the
@@ -84,21 +138,29 @@ def gbaa_coverage(surface: np.ndarray, edge: np.ndarray) -> tuple[np.ndarray, np
     centre's side by 0.5 + d). A neighbour in front whose edge toward this pixel lies
     0.5 < d < 1 from its centre, along an axis within ``GBAA_AXIS_TIE`` of its nearest
     across, covers d - 0.5 of it; where neighbours across x and across y both do (a
-    silhouette near 45 degrees), only the axis whose two cover more is kept."""
+    silhouette near 45 degrees), only the axis whose two cover more is kept.
+    ``exact`` (a still's resolve, GBAA_EXACT): both areas are
+    ``gbaa_box_coverage``'s, from the distance along the axis and the nearer across it,
+    exact at the pixel's corners: the own edge counts under 1 pixel away (1 - its area),
+    and a neighbour's edge 0 < d < 1 from its centre along any axis."""
     surface = np.asarray(surface, np.float64)
     own = np.asarray(edge, np.float64)
     shape = surface.shape[:2]
     around = [shifted(surface, dx, dy) for dx, dy in STEPS]
     edges = [shifted(own, dx, dy) for dx, dy in STEPS]
     weight = np.zeros((*shape, 4))
-    nearest = np.full(shape, 0.5)
+    nearest = np.full(shape, 1.0 if exact else 0.5)
     toward = np.full(shape, -1, np.int64)
     for k in range(4):
         take = gbaa_in_front(surface, around[k]) & (own[..., k] < nearest)
         nearest = np.where(take, own[..., k], nearest)
         toward = np.where(take, k, toward)
+    own_across = [np.minimum(own[..., 2], own[..., 3])] * 2 + [
+        np.minimum(own[..., 0], own[..., 1])
+    ] * 2
     for k in range(4):
-        weight[..., k] = np.where(toward == k, 0.5 - nearest, 0.0)
+        part = 1.0 - gbaa_box_coverage(nearest, own_across[k], 0.0) if exact else 0.5 - nearest
+        weight[..., k] = np.where(toward == k, part, 0.0)
     front = np.zeros((*shape, 4))
     for k in range(4):
         theirs = edges[k]
@@ -108,8 +170,11 @@ def gbaa_coverage(surface: np.ndarray, edge: np.ndarray) -> tuple[np.ndarray, np
             if k < 2
             else np.minimum(theirs[..., 0], theirs[..., 1])
         )
-        reaches = (d > 0.5) & (d < 1.0) & (d <= GBAA_AXIS_TIE * across)
-        front[..., k] = np.where(gbaa_in_front(around[k], surface) & reaches, d - 0.5, 0.0)
+        if exact:
+            reaches, part = (d > 0.0) & (d < 1.0), gbaa_box_coverage(d, across, 1.0)
+        else:
+            reaches, part = (d > 0.5) & (d < 1.0) & (d <= GBAA_AXIS_TIE * across), d - 0.5
+        front[..., k] = np.where(gbaa_in_front(around[k], surface) & reaches, part, 0.0)
     fx = front[..., 0] + front[..., 1]
     fy = front[..., 2] + front[..., 3]
     tie = (fx > 0) & (fy > 0)
@@ -149,16 +214,19 @@ def gbaa_resolve_radiance(
     edge: np.ndarray,
     hdr: np.ndarray,
     background: np.ndarray | None = None,
+    exact: bool = False,
 ) -> np.ndarray:
     """(H, W, 4) the resolved linear HDR RGBA at every pixel (meaningful where
     ``gbaa_marked``): the pixel's own radiance (at its covered part's centroid, through
     the pixel opposite its edge where that holds its surface) over 1 - the neighbours'
     total weight, plus each neighbour's weight (scaled to 1 where they sum past it) of its
     radiance, the widest sliver's taken at its centroid (through the pixel two steps away
-    where that holds the neighbour's surface)."""
+    where that holds the neighbour's surface). ``exact`` (a still's resolve, GBAA_EXACT):
+    the areas ``gbaa_coverage``'s exact ones, and the own part corrected along the axes
+    whose neighbours hold its surface (``gbaa_along_edge``)."""
     surface = np.asarray(surface, np.float64)
     radiance = gbaa_radiance(hdr, surface, background)
-    weight, toward = gbaa_coverage(surface, edge)
+    weight, toward = gbaa_coverage(surface, edge, exact)
     around = [shifted(surface, dx, dy) for dx, dy in STEPS]
     colours = [shifted(radiance, dx, dy) for dx, dy in STEPS]
     total = weight.sum(axis=-1)
@@ -169,6 +237,8 @@ def gbaa_resolve_radiance(
         use = (toward == k) & gbaa_same_surface(surface, around[k ^ 1])
         moved = gbaa_centroid_radiance(radiance, colours[k ^ 1], -0.5 * weight[..., k])
         c = np.where(use[..., None], moved, c)
+    if exact:
+        c = c + gbaa_along_edge(radiance, surface, around, colours)
     c = c * (1.0 - np.minimum(total, 1.0))[..., None]
     # the widest sliver other than ``toward``'s (the first of a tie)
     widest = np.full(toward.shape, -1, np.int64)
@@ -214,14 +284,26 @@ def gbaa_resolve(
     tonemap: str,
     straight_alpha: bool = False,
     background: np.ndarray | None = None,
+    exact: bool = False,
+    interior: bool = False,
 ) -> np.ndarray:
     """(H, W, 4) the display image after the resolve, in 0..1 (unrounded): at the marked
     pixels the resolved radiance's ``gbaa_display_value``, elsewhere ``display``'s bytes
-    (post's image, RGBA8) / 255."""
+    (post's image, RGBA8) / 255; ``exact``: ``gbaa_resolve_radiance``'s. ``interior``
+    (``render.gbaa_interior``, GBAA_INTERIOR): each surface pixel whose 4 neighbours
+    hold its surface at its ``gbaa_interior_radiance``'s display value (the colour; alpha
+    post's)."""
     surface = np.asarray(surface, np.float64)
-    c = gbaa_resolve_radiance(surface, edge, hdr, background)
+    c = gbaa_resolve_radiance(surface, edge, hdr, background, exact)
     out = np.asarray(display, np.float64) / 255.0
     marked = gbaa_marked(surface)
+    if interior:
+        radiance = gbaa_radiance(hdr, surface, background)
+        n = [shifted(radiance, dx, dy) for dx, dy in STEPS]
+        mean = gbaa_display_value(gbaa_interior_radiance(radiance, n), exposure_ev, tonemap,
+                                  straight_alpha)  # fmt: skip
+        inside = (surface[..., 0] > 0) & ~marked
+        out = np.where(inside[..., None], np.concatenate([mean[..., :3], out[..., 3:]], -1), out)
     resolved = gbaa_display_value(c, exposure_ev, tonemap, straight_alpha)
     return np.where(marked[..., None], resolved, out)
 

@@ -468,7 +468,17 @@ class GbaaPass:
     glsl/passes/gbaa_rects.vert), merged where they overlap: ``boxes``, (K, 8, 4)
     world-space corners of the mesh parts' bounding boxes; ``spheres``, (S, 4) world
     centre and radius of the analytic spheres, whose rectangle is their silhouette's
-    (a box's corners project well outside a sphere's). None: the whole image."""
+    (a box's corners project well outside a sphere's). None: the whole image.
+    ``exact`` (GBAA_EXACT, the renderer's): each covered area the box filter of the
+    edge's half-plane from its distances along both axes, exact at the pixel's corners
+    (``box_coverage``), and each edge pixel's own part moved to its area mean along the
+    axes whose neighbours hold its surface (``along_edge``); False: the area along the
+    nearest axis alone (Persson's, 0.5 + d), the baseline docs/antialiasing.md measures
+    the exact areas against.
+    ``interior`` (``render.gbaa_interior``, GBAA_INTERIOR): the mark also writes, at each
+    pixel whose 4 neighbours hold its own surface, its centre's radiance moved to its
+    area mean (``interior_radiance``, a 5-point second-order correction; docs/accuracy.md,
+    "Every pixel") over post's bytes."""
 
     def __init__(
         self,
@@ -479,8 +489,10 @@ class GbaaPass:
         straight_alpha: bool = False,
         boxes: np.ndarray | None = None,
         spheres: np.ndarray | None = None,
+        exact: bool = True,
+        interior: bool = False,
     ) -> None:
-        self.ctx, self.size = ctx, size
+        self.ctx, self.size, self.exact, self.interior = ctx, size, exact, interior
         self.boxes = None if boxes is None else np.asarray(boxes, np.float64).reshape(-1, 8, 4)
         self.spheres = np.zeros((0, 4)) if spheres is None else np.asarray(spheres, np.float64)
         defines: dict[str, object] = {"TONEMAP": tonemap_code, "GBAA_MAX_RECTS": GBAA_MAX_RECTS}
@@ -489,6 +501,8 @@ class GbaaPass:
         if fine_derivatives(ctx, shaders):  # three fetches of each target, not five
             defines["QUAD_NEIGHBOURS"] = 1
         vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
+        defines["GBAA_INTERIOR"] = int(interior)
+        defines["GBAA_EXACT"] = int(exact)
         self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})
         self.resolver = shaders.program(vertex, fragment, {**defines, "FAR_PLANE": 1})
         self._vaos = [ctx.vertex_array(p, []) for p in (self.marker, self.resolver)]
@@ -548,26 +562,63 @@ class GbaaPass:
         ctx.viewport = (0, 0, w, h)
         bind_textures(program, textures)
         set_uniforms(program, {**uniforms, "u_rects": self._ndc[1]})
-        ctx.disable(moderngl.BLEND)
+        if which == 0 and self.interior:
+            # the interior pixels' colour (alpha 1) over post's; the others keep post's
+            # colour (alpha 0) and every pixel its alpha: exact at the factors 0 and 1
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA,
+                              moderngl.ZERO, moderngl.ONE)  # fmt: skip
+        else:
+            ctx.disable(moderngl.BLEND)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = depth_func
         self._vaos[which].render(moderngl.TRIANGLES, vertices=6 * len(self._rects))
         ctx.disable(moderngl.DEPTH_TEST)
+        if which == 0 and self.interior:
+            ctx.disable(moderngl.BLEND)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
         ctx.depth_func = "<"
 
-    def mark(self, gbuffer: GBuffer, display: moderngl.Texture, rects: list[Rect]) -> None:
+    def mark(
+        self,
+        gbuffer: GBuffer,
+        display: moderngl.Texture,
+        rects: list[Rect],
+        hdr: moderngl.Texture | None = None,
+        exposure_ev: float = 0.0,
+        background: np.ndarray | None = None,
+    ) -> None:
         """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame inside ``rects``
         (``rects()``: the resolve's then too), 1 at their other pixels. Drawn through the
         framebuffer the resolve draws into, ``display`` (the post pass's image) with
         ``depth``, its colour writes off: one framebuffer for both draws, which llvmpipe
-        then runs without a flush between them."""
+        then runs without a flush between them. With ``interior`` it writes the interior
+        pixels' colour too, from ``hdr``, ``exposure_ev`` and ``background`` (``resolve``'s
+        inputs)."""
         self._rects = list(rects)
         self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
-        self._out.color_mask = (False, False, False, False)
         self._out.depth_mask = True
-        self._draw(0, {}, {"u_depth": gbuffer.depth}, "1")
-        self._out.color_mask = (True, True, True, True)
+        if self.interior:
+            textures = {"u_depth": gbuffer.depth, "u_hdr": hdr}
+            self._draw(0, self._uniforms(exposure_ev, background), textures, "1")
+        else:
+            self._out.color_mask = (False, False, False, False)
+            self._draw(0, {}, {"u_depth": gbuffer.depth}, "1")
+            self._out.color_mask = (True, True, True, True)
         self._out.depth_mask = False
+
+    @staticmethod
+    def _uniforms(exposure_ev: float, background: np.ndarray | None) -> dict[str, object]:
+        """The resolve's uniforms: the exposure and the background's radiance (where
+        ``background`` is given: the HDR image then holds the surface pixels alone)."""
+        rgba = np.zeros(4) if background is None else np.resize(np.asarray(background), 4)
+        if background is not None and len(background) == 3:
+            rgba[3] = 1.0
+        return {
+            "u_exposure": 2.0**exposure_ev,
+            "u_uniform_background": 0.0 if background is None else 1.0,
+            "u_background": tuple(float(x) for x in rgba),
+        }
 
     def resolve(
         self,
@@ -583,15 +634,7 @@ class GbaaPass:
         marked surface pixels (None: ``hdr`` holds every pixel)."""
         self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
         textures = {"u_depth": gbuffer.depth, "u_edge": gbuffer.edge, "u_hdr": hdr}
-        rgba = np.zeros(4) if background is None else np.resize(np.asarray(background), 4)
-        if background is not None and len(background) == 3:
-            rgba[3] = 1.0
-        uniforms = {
-            "u_exposure": 2.0**exposure_ev,
-            "u_uniform_background": 0.0 if background is None else 1.0,
-            "u_background": tuple(float(x) for x in rgba),
-        }
-        self._draw(1, uniforms, textures, ">")
+        self._draw(1, self._uniforms(exposure_ev, background), textures, ">")
 
     def release(self) -> None:
         for obj in (*self._vaos, self._out, self.depth):

@@ -103,6 +103,9 @@ class RenderOptions:
     False: every frame draws the HDR image and runs the post pass on it.
     ``flush_triangles``: the G-buffer pass flushes once this many triangles were drawn since
     the last flush (app/render/gbuffer.py FLUSH_TRIANGLES); 0: one flush at the end.
+    ``interactive``: the viewer's frames, which leave out ``render.gbaa_interior`` (gbaa's
+    interior correction, over the viewer's cost bound; app/render/antialias.py
+    ``GbaaPass``; docs/antialiasing.md): a still (False) draws it where the scene asks.
     """
 
     uber: bool = False
@@ -111,6 +114,7 @@ class RenderOptions:
     constant_surfaces: bool = True
     fuse_post: bool = True
     flush_triangles: int = FLUSH_TRIANGLES
+    interactive: bool = False
 
 
 def environment_source(env: Environment) -> EnvironmentSource:
@@ -771,7 +775,8 @@ class Renderer:
         if not self._gbaa():
             return None
         parts = (Same(self.frame.parts), self._frame_facts().opaque)
-        return (self.size, self.scene.render.tonemap, self.transparent, parts)
+        interior = self.scene.render.gbaa_interior and not self.options.interactive
+        return (self.size, self.scene.render.tonemap, self.transparent, parts, interior)
 
     def _build_gbaa(self) -> GbaaPass:
         # the opaque parts' extents, world space: the window rectangles the resolve covers
@@ -788,9 +793,12 @@ class Renderer:
             box = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
             boxes.append(box @ model.T)
+        # the viewer's frames leave out the interior correction (its cost)
+        interior = self.scene.render.gbaa_interior and not self.options.interactive
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
             self.transparent, np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4),
+            interior=interior,
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:
@@ -1104,13 +1112,13 @@ class Renderer:
         display image (fused), it wrote the surface pixels' radiance too (``run_lighting``)
         and the background's is given as a uniform."""
         m = self.matrices  # the frame's (no jitter in this mode)
-        self.gbaa.mark(self.gbuffer, self.post.target, self.gbaa.rects(m.view, m.proj))
         background = None
         if not self._drawn.hdr:
             hdr, background = self.lighting.hdr, self._drawn.background
-        self.gbaa.resolve(
-            self.gbuffer, hdr, self.post.target, self.scene.camera.exposure, background
-        )
+        exposure = self.scene.camera.exposure
+        rects = self.gbaa.rects(m.view, m.proj)
+        self.gbaa.mark(self.gbuffer, self.post.target, rects, hdr, exposure, background)
+        self.gbaa.resolve(self.gbuffer, hdr, self.post.target, exposure, background)
 
     def _plain(self) -> bool:
         """No pass between lighting and post reads or draws the HDR image: no depth of

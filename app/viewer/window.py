@@ -74,7 +74,7 @@ from app.reference.position import reconstruct_position
 from app.reference.raycast import intersect_sphere
 from app.render.compare import CompareSpec, Comparison
 from app.render.debug_views import DEBUG_VIEWS, LIGHT_VIEWS, DebugPass
-from app.render.renderer import Renderer
+from app.render.renderer import Renderer, RenderOptions
 from app.resources import glsl_dir, scenes_dir
 from app.scene.edits import get_key
 from app.scene.loader import LoadedScene
@@ -101,6 +101,9 @@ AREA_LIGHT_DEFAULTS: dict[str, dict[str, Any]] = {
     "tube": {"radius": 0.05, "length": 1.0},
 }
 CHECKER = 8
+# The viewer's frames are interactive ones: they leave out render.gbaa_interior (its cost;
+# a still, `pbs render`, draws it where the scene asks; docs/antialiasing.md)
+INTERACTIVE = RenderOptions(interactive=True)
 CHECKER_GREYS = (204, 153)
 
 
@@ -191,7 +194,9 @@ class Viewer:
         self.selection = Selection()
         self.show_ui = ui
         self.panels = None  # until the panels exist (below), the image is the whole window
-        self.renderer = Renderer(self.gl, self.display_scene(), self.image_size)
+        self.renderer = Renderer(
+            self.gl, self.display_scene(), self.image_size, options=INTERACTIVE
+        )
         self.comparison: Comparison | None = None
         self.compare_mode: str = "split"  # or "difference"
         self.divider = 0.5  # where the split falls, a fraction of the width
@@ -563,7 +568,7 @@ class Viewer:
                 name = path.with_name(f"{path.stem}-view.toml")
                 document = SceneDocument(name, data, policy)
             renderer = Renderer(self.gl, fit_scene(document.loaded, self.image_size),
-                                self.image_size)  # fmt: skip
+                                self.image_size, options=INTERACTIVE)  # fmt: skip
         except Exception as exc:
             return self._refuse(exc)
         self.stop_compare()  # a comparison of the old scene would hide the new one
@@ -607,7 +612,7 @@ class Viewer:
         and False is returned."""
         self._current()
         try:
-            renderer = Renderer(self.gl, self.display_scene(), self.image_size)
+            renderer = Renderer(self.gl, self.display_scene(), self.image_size, options=INTERACTIVE)
         except Exception as exc:
             self.state.error = _problem(exc)
             return False

@@ -32,6 +32,15 @@
 #ifndef GBAA_DEPTH_TOLERANCE
 #define GBAA_DEPTH_TOLERANCE 0.1   // view depths further apart than this fraction differ
 #endif
+#ifndef GBAA_EXACT
+#define GBAA_EXACT 0
+#endif
+#ifndef GBAA_INTERIOR
+#define GBAA_INTERIOR 0
+#endif
+#ifndef GBAA_INTERIOR_CLAMP
+#define GBAA_INTERIOR_CLAMP 1.5   // the interior correction stays within this factor of c
+#endif
 
 uniform sampler2D u_depth;   // RT2: view depth (0: background), material id
 uniform sampler2D u_edge;    // RT7: distances to the surface's edge along +x, -x, +y, -y
@@ -116,6 +125,63 @@ vec4 centroid_radiance(vec4 c, vec4 b, float shift) {
     return clamp(c + shift * (c - b), 0.5 * c, 2.0 * c);
 }
 
+// The display value of linear HDR RGBA c: exposed, tone mapped and encoded as
+// passes/post.frag does (straight alpha where the background is transparent).
+vec4 display_of(vec4 c) {
+#if STRAIGHT_ALPHA
+    float a = clamp(c.a, 0.0, 1.0);
+    vec3 rgb = (a > 0.0 ? c.rgb / a : vec3(0.0)) * u_exposure;
+    return vec4(srgb_encode(tonemap_selected(rgb)), a);
+#else
+    return vec4(srgb_encode(tonemap_selected(c.rgb * u_exposure)), 1.0);
+#endif
+}
+
+// A pixel's area mean from its centre's radiance c and its 4 neighbours' (the same
+// surface), to second order: the midpoint rule misses (f_xx + f_yy) / 24 of the box
+// filter's integral, and (sum of the neighbours - 4c) is the 5-point Laplacian; a filter
+// whose variance per axis, 2/24, is the unit box's 1/12. Held within GBAA_INTERIOR_CLAMP
+// of c per channel: a highlight smaller than a pixel would otherwise draw a bright cross
+// on its neighbours (docs/accuracy.md, "Every pixel").
+vec4 interior_radiance(vec4 c, vec4 n[4]) {
+    vec4 mean = c + (n[0] + n[1] + n[2] + n[3] - 4.0 * c) / 24.0;
+    vec3 rgb = clamp(mean.rgb, c.rgb / GBAA_INTERIOR_CLAMP, c.rgb * GBAA_INTERIOR_CLAMP);
+    return vec4(rgb, c.a);
+}
+
+// The interior correction of a marked pixel's own part: the second differences of the
+// axes whose two neighbours both hold this pixel's surface (along a silhouette, the axis
+// across its normal), each over 24, held within GBAA_INTERIOR_CLAMP of c.
+vec4 along_edge(vec4 c, vec2 centre, vec2 around[4], vec4 n[4]) {
+    vec4 delta = vec4(0.0);
+    for (int axis = 0; axis < 2; ++axis) {
+        int k = 2 * axis;
+        if (same_surface(centre, around[k]) && same_surface(centre, around[k + 1])) {
+            delta += (n[k] + n[k + 1] - 2.0 * c) / 24.0;
+        }
+    }
+    vec3 rgb = clamp(c.rgb + delta.rgb, c.rgb / GBAA_INTERIOR_CLAMP, c.rgb * GBAA_INTERIOR_CLAMP);
+    return vec4(rgb - c.rgb, 0.0);
+}
+
+// The area of a pixel on its surface's side of a straight edge (the box filter of a
+// half-plane, exact at the pixel's corners too): the edge crosses the pixel's axes at d
+// (toward the edge) and e (across) from the centre of the pixel whose distances they are,
+// and the pixel measured lies `offset` pixels from that centre toward the edge. With the
+// line's normal (1/d, 1/e) unnormalised (the areas are ratios), the pixel's centre lies
+// s = 1 - offset/d inside it: a band where the edge leaves through two opposite sides
+// (0.5 + s/u), and a corner triangle (t^2 / 2uv, t from the corner) beyond.
+float box_coverage(float d, float e, float offset) {
+    float a = 1.0 / max(d, 1e-4), b = 1.0 / max(e, 1e-4);   // an edge through the centre: 1/2
+    float u = max(a, b), v = min(a, b);
+    float s = 1.0 - offset * a;
+    float t = 0.5 * (u + v) - abs(s);
+    if (t <= 0.0) return s > 0.0 ? 1.0 : 0.0;
+    if (abs(s) <= 0.5 * (u - v)) return 0.5 + s / u;
+    float corner = t * t / (2.0 * u * v);
+    return s > 0.0 ? 1.0 - corner : corner;
+}
+
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     g_last = textureSize(u_depth, 0) - 1;
@@ -138,8 +204,24 @@ void main() {
                    (q.y != centre.y || abs(q.x - centre.x) > GBAA_DEPTH_TOLERANCE * min(q.x, centre.x)));
     }
 #ifdef GBAA_MARK
-    frag_color = vec4(0.0);
     gl_FragDepth = any(other) ? 0.0 : 1.0;
+#if GBAA_INTERIOR
+    // A pixel whose 4 neighbours hold its own surface: its centre's radiance moved to its
+    // area mean (interior_radiance), written over post's (alpha 1: the blend takes it);
+    // every other pixel keeps post's bytes (alpha 0) and a marked one is the resolve's.
+    vec4 here = radiance(px, centre);
+#if QUAD_NEIGHBOURS
+    vec4 colours[4] = quad_around(here, radiance(px + ivec2(g_out.x, 0), g_out.x > 0 ? around[0] : around[1]),
+                                  radiance(px + ivec2(0, g_out.y), g_out.y > 0 ? around[2] : around[3]));
+#else
+    vec4 colours[4];
+    for (int k = 0; k < 4; ++k) colours[k] = radiance(px + STEPS[k], around[k]);
+#endif
+    bool inside = centre.x > 0.0 && !any(other);
+    frag_color = vec4(display_of(interior_radiance(here, colours)).rgb, inside ? 1.0 : 0.0);
+#else
+    frag_color = vec4(0.0);
+#endif
 #else
     // this pixel's own edge: the nearest toward a neighbour behind it
     vec4 own = texelFetch(u_edge, px, 0);
@@ -158,7 +240,7 @@ void main() {
     }
 #endif
     float weight[4] = float[4](0.0, 0.0, 0.0, 0.0);
-    float nearest = 0.5;
+    float nearest = GBAA_EXACT > 0 ? 1.0 : 0.5;
     int toward = -1;
     for (int k = 0; k < 4; ++k) {
         if (in_front(centre, around[k]) && own[k] < nearest) {
@@ -166,7 +248,14 @@ void main() {
             toward = k;
         }
     }
+#if GBAA_EXACT
+    if (toward >= 0) {
+        float across = toward < 2 ? min(own.z, own.w) : min(own.x, own.y);
+        weight[toward] = 1.0 - box_coverage(nearest, across, 0.0);
+    }
+#else
     if (toward >= 0) weight[toward] = 0.5 - nearest;
+#endif
     // the neighbours in front whose edge reaches into this pixel, along their major axis
     float front[4] = float[4](0.0, 0.0, 0.0, 0.0);
     for (int k = 0; k < 4; ++k) {
@@ -175,7 +264,11 @@ void main() {
         int back = k ^ 1;   // from the neighbour toward this pixel
         float d = theirs[back];
         float across = k < 2 ? min(theirs.z, theirs.w) : min(theirs.x, theirs.y);
+#if GBAA_EXACT
+        if (d > 0.0 && d < 1.0) front[k] = box_coverage(d, across, 1.0);
+#else
         if (d > 0.5 && d < 1.0 && d <= GBAA_AXIS_TIE * across) front[k] = d - 0.5;
+#endif
     }
     // Near 45 degrees the two axes tie: the neighbours across x and across y see the same
     // corner of this pixel (each alone measures it); keep the axis that sees more of it.
@@ -192,6 +285,9 @@ void main() {
     if (toward >= 0 && same_surface(centre, around[toward ^ 1])) {
         c = centroid_radiance(here, colours[toward ^ 1], -0.5 * weight[toward]);
     }
+#if GBAA_EXACT
+    c += along_edge(here, centre, around, colours);
+#endif
     c *= 1.0 - min(total, 1.0);
     // A neighbour's sliver: from 0.5 to d of its centre, its centroid (0.5 + d)/2 toward
     // this pixel, the pixel beyond it two steps away. Only the widest sliver is moved to its
@@ -216,12 +312,6 @@ void main() {
     for (int k = 0; k < 4; ++k) {
         if (weight[k] > 0.0) c += weight[k] * scale * sliver[k];
     }
-#if STRAIGHT_ALPHA
-    float a = clamp(c.a, 0.0, 1.0);
-    vec3 rgb = (a > 0.0 ? c.rgb / a : vec3(0.0)) * u_exposure;
-    frag_color = vec4(srgb_encode(tonemap_selected(rgb)), a);
-#else
-    frag_color = vec4(srgb_encode(tonemap_selected(c.rgb * u_exposure)), 1.0);
-#endif
+    frag_color = display_of(c);
 #endif
 }
