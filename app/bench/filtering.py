@@ -200,6 +200,27 @@ def grooves(gl: GLContext, out: Path) -> None:
     Image.fromarray(np.concatenate(tiles, axis=1)).save(out / "filtering-groove-spheres.png")
 
 
+def models(gl: GLContext, paths: list[str]) -> None:
+    """docs/filtering.md's general normal maps: each model file framed as ``pbs render``
+    frames it (app/scene/model_file.py), NormalTangentTest-sized square images (384 px for
+    the first, 320 for the rest), ``naive``, ``variance`` and ``lean`` against an 8x8
+    reference from level 0; one table row per model and option."""
+    from app.scene.sources import scene_from
+
+    print("| model | option | rel. RMSE | mean FLIP | shimmer |")
+    print("|---|---|---:|---:|---:|")
+    options = [(m, {"normal_filter": m}) for m in ("naive", "variance", "lean")]
+    for i, path in enumerate(paths):
+        side = 384 if i == 0 else 320
+        loaded = scene_from(path, size=(side, side))
+        results, _ = measure(gl, loaded, (side, side), supersample=8, options=options)
+        for r in results:
+            print(
+                f"| {Path(path).stem} | {r.variant} | {r.rel_rmse:.3f} | {r.flip_mean:.3f} | "
+                f"{r.shimmer:.5f} |"
+            )
+
+
 # Two silver spheres: anisotropic (stretched along the bitangent, no normal map) and
 # grooved along u (scenes/textures/groove_normal.png, 256 grooves from pole to pole).
 GROOVE_SPHERES = {
@@ -226,7 +247,8 @@ def main() -> None:
     """``python -m app.bench.filtering [OUT_DIR] [grooves]``: the table and the image grid
     (``filtering-grid.png``) of docs/filtering.md (320x180, 16x16 reference, 5-step
     sweep), and the naive and variance rows again with the floor's NDF switched to GGX;
-    with ``grooves``, the LEAN table instead (``grooves``)."""
+    with ``grooves``, the LEAN table instead (``grooves``); with ``models PATH...``, the
+    general normal maps' table (``models``)."""
     import sys
 
     from PIL import Image
@@ -239,6 +261,11 @@ def main() -> None:
     if sys.argv[2:3] == ["grooves"]:
         gl = create_context()
         grooves(gl, out)
+        gl.release()
+        return
+    if sys.argv[2:3] == ["models"]:
+        gl = create_context()
+        models(gl, sys.argv[3:])
         gl.release()
         return
     loaded = load_scene(scenes_dir() / "sec13_filtering.toml")
