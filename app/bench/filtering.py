@@ -191,13 +191,19 @@ def grooves(gl: GLContext, out: Path) -> None:
     from app.scene.sources import scene_from
 
     pair = scene_from(GROOVE_SPHERES, base_dir=scenes_dir())
-    tiles = []
+    tiles, hdrs = [], []
     for render in ({"normal_filter": "none", "supersample": 8}, {"normal_filter": "variance"},
                    {"normal_filter": "lean"}):  # fmt: skip
         hdr = render_hdr(gl, with_settings(pair, (320, 160), **render))
+        hdrs.append(hdr)
         ldr = np.clip(post_process(hdr.astype(np.float64), 0.0, "neutral"), 0, 1)
         tiles.append((ldr * 255.0 + 0.5).astype(np.uint8))
     Image.fromarray(np.concatenate(tiles, axis=1)).save(out / "filtering-groove-spheres.png")
+    covered = np.ones(hdrs[0].shape[:2], bool)
+    for name, hdr in zip(("variance", "lean"), hdrs[1:], strict=True):
+        e = image_errors(hdr, hdrs[0], covered, 0.0, "neutral")
+        print(f"groove spheres (GGX), {name}: rel. RMSE {e['rel_rmse']:.3f}, "
+              f"mean FLIP {e['flip_mean']:.3f}")  # fmt: skip
 
 
 def models(gl: GLContext, paths: list[str]) -> None:
