@@ -51,9 +51,9 @@ def ggx_lean_spread(fraction: float = ONE_SIGMA_MASS) -> float:
     1/2 + x / (2 sqrt(alpha^2 + x^2)), so +-w holds f of it where w = alpha f / sqrt(1 - f^2);
     a Gaussian's +-z sigma holds f where z = Phi^-1((1 + f)/2). Equal intervals give
     alpha'^2 = 2 k sigma^2 with k = z^2 (1 - f^2) / (2 f^2): 0.573 for the one-sigma
-    interval (z = 1, the default), ln 2-like 0.682 for the quartiles (f = 1/2), falling to
-    0 as f -> 1 (GGX's tails hold ever more of its mass). docs/filtering.md measures
-    the choice."""
+    interval (z = 1, the default), 0.682 for the quartiles (f = 1/2; the 2-D median
+    radius gives ln 2 = 0.693), falling to 0 as f -> 1 (GGX's tails hold ever more of
+    its mass). docs/filtering.md measures the choice."""
     f = float(fraction)
     z = NormalDist().inv_cdf(0.5 + 0.5 * f)
     return z * z * (1.0 - f * f) / (2.0 * f * f)
