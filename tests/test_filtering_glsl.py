@@ -19,6 +19,7 @@ import numpy as np
 from app.gl.context import GLContext
 from app.gl.kernel import run_kernel
 from app.reference.filtering import (
+    GGX_LEAN_SPREAD,
     SPECULAR_AA_KAPPA,
     SPECULAR_AA_SIGMA2,
     alpha2_specular_aa,
@@ -134,7 +135,7 @@ def test_sigma2_is_the_pixel_filter_variance() -> None:
 
 
 LEAN_BODY = """
-vec4 lean = lean_anisotropic_roughness(p.x, p.y, d.xy, s.xyz);
+vec4 lean = lean_anisotropic_roughness(p.x, p.y, d.xy, s.xyz, p.z);
 result = lean;
 """
 
@@ -143,7 +144,7 @@ def lean_inputs(n: int = 4000) -> dict[str, np.ndarray]:
     """Olano & Baker 2010's conversion on random materials and covariances: r in [0, 1],
     anisotropy in [-1, 1] (a quarter 0), a unit direction, and a positive semi-definite
     Sigma of eigenvalues 10^U(-6, 0) (a quarter of them rank 1, an eighth 0) at a random
-    angle."""
+    angle; the spread factor Beckmann's 1 or GGX_LEAN_SPREAD, half each."""
     rng = np.random.default_rng(RNG_SEED + 1)
     r = rng.uniform(0.0, 1.0, n)
     a = np.where(rng.uniform(size=n) < 0.25, 0.0, rng.uniform(-1.0, 1.0, n))
@@ -158,7 +159,7 @@ def lean_inputs(n: int = 4000) -> dict[str, np.ndarray]:
          (lam[:, 0] - lam[:, 1]) * c * s], axis=-1,
     )  # fmt: skip
     return {
-        "p": f32(np.stack([r, a], axis=-1)),
+        "p": f32(np.stack([r, a, np.where(rng.uniform(size=n) < 0.5, 1.0, GGX_LEAN_SPREAD)], -1)),
         "d": f32(np.stack([np.cos(phi), np.sin(phi)], axis=-1)),
         "s": f32(sigma),
     }
@@ -174,7 +175,7 @@ def test_lean_glsl_matches_twin(gl: GLContext) -> None:
     p = x["p"]
     out = run_kernel(gl.ctx, INCLUDES, LEAN_BODY, x)
     assert np.all(np.isfinite(out))
-    r, a, d = lean_anisotropic_roughness(p[:, 0], p[:, 1], x["d"][:, :2], x["s"])
+    r, a, d = lean_anisotropic_roughness(p[:, 0], p[:, 1], x["d"][:, :2], x["s"], p[:, 2])
     assert np.abs(out[:, 0] - r).max() <= 1e-4
     assert np.abs(out[:, 1] - a).max() <= 1e-3
     assert np.allclose(np.linalg.norm(out[:, 2:], axis=-1), 1.0, atol=1e-6)

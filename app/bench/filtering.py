@@ -191,13 +191,40 @@ def grooves(gl: GLContext, out: Path) -> None:
     from app.scene.sources import scene_from
 
     pair = scene_from(GROOVE_SPHERES, base_dir=scenes_dir())
-    tiles = []
+    tiles, hdrs = [], []
     for render in ({"normal_filter": "none", "supersample": 8}, {"normal_filter": "variance"},
                    {"normal_filter": "lean"}):  # fmt: skip
         hdr = render_hdr(gl, with_settings(pair, (320, 160), **render))
+        hdrs.append(hdr)
         ldr = np.clip(post_process(hdr.astype(np.float64), 0.0, "neutral"), 0, 1)
         tiles.append((ldr * 255.0 + 0.5).astype(np.uint8))
     Image.fromarray(np.concatenate(tiles, axis=1)).save(out / "filtering-groove-spheres.png")
+    covered = np.ones(hdrs[0].shape[:2], bool)
+    for name, hdr in zip(("variance", "lean"), hdrs[1:], strict=True):
+        e = image_errors(hdr, hdrs[0], covered, 0.0, "neutral")
+        print(f"groove spheres (GGX), {name}: rel. RMSE {e['rel_rmse']:.3f}, "
+              f"mean FLIP {e['flip_mean']:.3f}")  # fmt: skip
+
+
+def models(gl: GLContext, paths: list[str]) -> None:
+    """docs/filtering.md's general normal maps: each model file framed as ``pbs render``
+    frames it (app/scene/model_file.py), NormalTangentTest-sized square images (384 px for
+    the first, 320 for the rest), ``naive``, ``variance`` and ``lean`` against an 8x8
+    reference from level 0; one table row per model and option."""
+    from app.scene.sources import scene_from
+
+    print("| model | option | rel. RMSE | mean FLIP | shimmer |")
+    print("|---|---|---:|---:|---:|")
+    options = [(m, {"normal_filter": m}) for m in ("naive", "variance", "lean")]
+    for i, path in enumerate(paths):
+        side = 384 if i == 0 else 320
+        loaded = scene_from(path, size=(side, side))
+        results, _ = measure(gl, loaded, (side, side), supersample=8, options=options)
+        for r in results:
+            print(
+                f"| {Path(path).stem} | {r.variant} | {r.rel_rmse:.3f} | {r.flip_mean:.3f} | "
+                f"{r.shimmer:.5f} |"
+            )
 
 
 # Two silver spheres: anisotropic (stretched along the bitangent, no normal map) and
@@ -226,7 +253,8 @@ def main() -> None:
     """``python -m app.bench.filtering [OUT_DIR] [grooves]``: the table and the image grid
     (``filtering-grid.png``) of docs/filtering.md (320x180, 16x16 reference, 5-step
     sweep), and the naive and variance rows again with the floor's NDF switched to GGX;
-    with ``grooves``, the LEAN table instead (``grooves``)."""
+    with ``grooves``, the LEAN table instead (``grooves``); with ``models PATH...``, the
+    general normal maps' table (``models``)."""
     import sys
 
     from PIL import Image
@@ -239,6 +267,11 @@ def main() -> None:
     if sys.argv[2:3] == ["grooves"]:
         gl = create_context()
         grooves(gl, out)
+        gl.release()
+        return
+    if sys.argv[2:3] == ["models"]:
+        gl = create_context()
+        models(gl, sys.argv[3:])
         gl.release()
         return
     loaded = load_scene(scenes_dir() / "sec13_filtering.toml")

@@ -11,12 +11,17 @@ roughness), because the variance of a distribution of slopes adds to the NDF's a
   texel's footprint, and ``slope_covariance`` (app/textures/lean.py). They have no GLSL
   counterpart: the renderer samples their result;
 * both: LEAN's covariance, sampled per pixel and added to the material's lobe as
-  anisotropic roughness, ``lean_anisotropic_roughness`` (the GLSL function of that name).
+  anisotropic roughness, ``lean_anisotropic_roughness`` (the GLSL function of that name),
+  with the spread factor ``GGX_LEAN_SPREAD`` for GGX lobes (derived below from
+  ``ggx_slope_marginal`` and measured by ``ggx_lean_lobe_errors``).
 
 Every function is float64 and broadcasts over leading axes (vectors on the last axis).
 """
 
 from __future__ import annotations
+
+import math
+from statistics import NormalDist
 
 import numpy as np
 
@@ -28,6 +33,35 @@ from app.reference._vec import dot
 # for SIGMA2; the scene format exposes both values (render.specular_aa_variance/_threshold).
 SPECULAR_AA_SIGMA2 = 0.25
 SPECULAR_AA_KAPPA = 0.18
+
+
+# The fraction of a Gaussian's mass within one standard deviation of its mean, erf(1/sqrt 2).
+ONE_SIGMA_MASS = math.erf(1.0 / math.sqrt(2.0))
+
+
+def ggx_lean_spread(fraction: float = ONE_SIGMA_MASS) -> float:
+    """The factor k of GGX's LEAN mapping alpha'^2 = alpha^2 + 2 k sigma^2: the GGX
+    lobe whose central interval holding ``fraction`` of its slopes (along an axis) is the
+    one that holds it for a Gaussian of variance sigma^2, where the spread dominates the
+    material's roughness (sigma >> alpha).
+
+    GGX's slope distribution is a bivariate Student t with 2 degrees of freedom: its
+    variance is infinite, so Beckmann's variance matching (k = 1) has no GGX counterpart.
+    Its marginal along an axis (``ggx_slope_marginal``) has the CDF
+    1/2 + x / (2 sqrt(alpha^2 + x^2)), so +-w holds f of it where w = alpha f / sqrt(1 - f^2);
+    a Gaussian's +-z sigma holds f where z = Phi^-1((1 + f)/2). Equal intervals give
+    alpha'^2 = 2 k sigma^2 with k = z^2 (1 - f^2) / (2 f^2): 0.573 for the one-sigma
+    interval (z = 1, the default), 0.682 for the quartiles (f = 1/2; the 2-D median
+    radius gives ln 2 = 0.693), falling to 0 as f -> 1 (GGX's tails hold ever more of
+    its mass). docs/filtering.md measures the choice."""
+    f = float(fraction)
+    z = NormalDist().inv_cdf(0.5 + 0.5 * f)
+    return z * z * (1.0 - f * f) / (2.0 * f * f)
+
+
+# LEAN's spread factor for GGX lobes (glsl/material/filtering.glsl GGX_LEAN_SPREAD; Beckmann's
+# Gaussian slopes keep 1, the variance matching): 0.5728.
+GGX_LEAN_SPREAD = ggx_lean_spread()
 
 
 def _f64(x: np.ndarray | float) -> np.ndarray:
@@ -119,6 +153,7 @@ def lean_anisotropic_roughness(
     anisotropy: np.ndarray | float,
     direction: np.ndarray,
     sigma: np.ndarray,
+    spread: np.ndarray | float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Olano & Baker 2010, "LEAN Mapping": a filtered normal map's slope covariance
     ``sigma`` (..., 3: Sigma_xx, Sigma_yy, Sigma_xy in the tangent frame (t, b)) added to the
@@ -130,7 +165,9 @@ def lean_anisotropic_roughness(
     (..., 2) of its tangent in (t, b)) is the alpha^2 tensor
     A = alpha_x^2 d d^T + alpha_y^2 d_perp d_perp^T; a lobe of roughness alpha has slope
     variance alpha^2/2 per axis (Beckmann), so the normal map's spread adds 2 Sigma:
-    A' = A + 2 Sigma. Its eigenvalues lambda_1 >= lambda_2 (clamped to [0, 1]) are
+    A' = A + 2 k Sigma with ``spread`` k = 1 for Beckmann lobes and ``GGX_LEAN_SPREAD``
+    for GGX lobes, whose slopes have no variance to match (``ggx_lean_spread``). Its
+    eigenvalues lambda_1 >= lambda_2 (clamped to [0, 1]) are
     alpha_x'^2 and alpha_y'^2, its major eigenvector the new tangent direction:
     lambda = m +- q, m = (A'_xx + A'_yy)/2, q = sqrt(((A'_xx - A'_yy)/2)^2 + A'_xy^2); the
     eigenvector of lambda_1 is ((A'_xx - A'_yy)/2 + q, A'_xy) where A'_xx >= A'_yy, else
@@ -143,13 +180,13 @@ def lean_anisotropic_roughness(
     alpha = _f64(r) * _f64(r)
     a = _f64(anisotropy)
     d = _f64(direction)
-    s = _f64(sigma)
+    s = _f64(sigma) * (2.0 * _f64(spread))[..., None]
     ax2 = (alpha * (1.0 + a)) ** 2
     ay2 = (alpha * (1.0 - a)) ** 2
     dx, dy = d[..., 0], d[..., 1]
-    axx = ax2 * dx * dx + ay2 * dy * dy + 2.0 * s[..., 0]
-    ayy = ax2 * dy * dy + ay2 * dx * dx + 2.0 * s[..., 1]
-    axy = (ax2 - ay2) * dx * dy + 2.0 * s[..., 2]
+    axx = ax2 * dx * dx + ay2 * dy * dy + s[..., 0]
+    ayy = ax2 * dy * dy + ay2 * dx * dx + s[..., 1]
+    axy = (ax2 - ay2) * dx * dy + s[..., 2]
     half = 0.5 * (axx - ayy)
     mean = 0.5 * (axx + ayy)
     q = np.sqrt(half * half + axy * axy)
@@ -165,3 +202,85 @@ def lean_anisotropic_roughness(
     total = alpha_x + alpha_y
     a_new = np.where(total > 0.0, (alpha_x - alpha_y) / np.where(total > 0.0, total, 1.0), 0.0)
     return np.sqrt(0.5 * total), a_new, e
+
+
+def ggx_slope_pdf(sx: np.ndarray, sy: np.ndarray, ax: float, ay: float) -> np.ndarray:
+    """GGX's distribution of slopes (Walter et al. 2007; Heitz 2014, P22), anisotropic
+    along the axes: 1 / (pi ax ay (1 + (sx/ax)^2 + (sy/ay)^2)^2), unit mass over the plane
+    (the NDF is this over cos^4 theta)."""
+    t = 1.0 + (_f64(sx) / ax) ** 2 + (_f64(sy) / ay) ** 2
+    return 1.0 / (math.pi * ax * ay * t * t)
+
+
+def ggx_slope_marginal(x: np.ndarray, alpha: float) -> np.ndarray:
+    """The isotropic GGX slope distribution's marginal along one axis (a Student t with 2
+    degrees of freedom, scale alpha/sqrt 2): alpha^2 / (2 (alpha^2 + x^2)^(3/2))."""
+    x = _f64(x)
+    return alpha * alpha / (2.0 * (alpha * alpha + x * x) ** 1.5)
+
+
+def _gaussian_kernel(sigma: float, step: float) -> np.ndarray:
+    """A normalised Gaussian of standard deviation ``sigma`` sampled every ``step`` out to
+    8 sigma (a single 1 where it is narrower than a sample)."""
+    half = math.ceil(8.0 * sigma / step)
+    if half == 0:
+        return np.ones(1)
+    t = np.arange(-half, half + 1) * step
+    g = np.exp(-0.5 * (t / sigma) ** 2)
+    return g / g.sum()
+
+
+def _convolve_same(signal: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """np.convolve(signal, kernel, "same") for an odd kernel, through the FFT."""
+    n = len(signal) + len(kernel) - 1
+    full = np.fft.irfft(np.fft.rfft(signal, n) * np.fft.rfft(kernel, n), n)
+    half = len(kernel) // 2
+    return full[half : half + len(signal)]
+
+
+def convolved_interval_alpha(
+    alpha: float, sigma: float, fraction: float = ONE_SIGMA_MASS, samples: int = 200001
+) -> float:
+    """The GGX alpha' whose slope marginal holds ``fraction`` within the same central
+    interval as GGX(alpha) convolved with a Gaussian of standard deviation ``sigma`` (the
+    material's lobe filtered by a footprint of slope variance sigma^2, LEAN's model):
+    float64, the convolution on a grid of ``samples`` slopes over +-(2000 alpha + 10 sigma),
+    the interval from its CDF; the GGX marginal's mass beyond the grid (alpha/2000 of it)
+    added back to the ends. ``ggx_lean_spread`` is its limit: (alpha'^2 - alpha^2) / (2
+    sigma^2) -> k as sigma/alpha grows."""
+    reach = 2000.0 * alpha + 10.0 * sigma
+    x = np.linspace(-reach, reach, samples)
+    step = x[1] - x[0]
+    pdf = ggx_slope_marginal(x, alpha) * step
+    lost = 0.5 - 0.5 * reach / math.sqrt(alpha * alpha + reach * reach)  # each side
+    conv = _convolve_same(pdf, _gaussian_kernel(sigma, step))
+    cdf = lost + np.cumsum(conv) - 0.5 * conv  # each sample's mass centred on it
+    w = float(np.interp(0.5 + 0.5 * fraction, cdf, x))
+    return w * math.sqrt(1.0 - fraction * fraction) / fraction
+
+
+def ggx_lean_lobe_errors(
+    alpha: float, sigma: float, spread: float, reach: float = 1.0, samples: int = 801
+) -> tuple[float, float]:
+    """How well LEAN's GGX lobe (alpha_x'^2 = alpha^2 + 2 ``spread`` sigma^2 across, alpha
+    along) stands for the filtered lobe it replaces, GGX(alpha) convolved with slopes of
+    variance sigma^2 across (a groove map's footprint): (L1, tail). L1: the integral of
+    |fit - filtered| over the slopes within +-``reach`` (the mass of reflected light sent in
+    the wrong directions, of 1). tail: the fit's mass beyond slope ``reach`` (45 degrees by
+    default) over the filtered lobe's, the light a GGX lobe's tails reflect where the
+    footprint reflects almost none. Float64 on a ``samples``^2 grid."""
+    x = np.linspace(-reach, reach, samples)
+    step = x[1] - x[0]
+    kernel = _gaussian_kernel(sigma, step)
+    pad = len(kernel) // 2
+    xs = x[0] + step * np.arange(-pad, samples + pad)
+    sx, sy = np.meshgrid(xs, x, indexing="xy")
+    own = ggx_slope_pdf(sx, sy, alpha, alpha)
+    filtered = np.apply_along_axis(np.convolve, 1, own, kernel, mode="valid")
+    fx, fy = np.meshgrid(x, x, indexing="xy")
+    fit = ggx_slope_pdf(fx, fy, math.sqrt(alpha * alpha + 2.0 * spread * sigma * sigma), alpha)
+    area = step * step
+    l1 = float(np.abs(fit - filtered).sum() * area)
+    tail_fit = 1.0 - float(fit.sum() * area)
+    tail_filtered = 1.0 - float(filtered.sum() * area)
+    return l1, tail_fit / tail_filtered

@@ -20,6 +20,7 @@ from app.render.adjacency import adjacency_indices
 from app.render.texture_upload import TextureUploads, upload_texture
 from app.render.uv import layer_maps_define, uv_defines, uv_transform_bytes
 from app.scene.geometry import VERTEX_ATTRIBUTES, VERTEX_FORMAT, MeshPart
+from app.textures.lean import lean_defines
 from app.textures.maps import Texture
 
 
@@ -91,6 +92,8 @@ class MeshDrawable:
                 defines[f"LAYER{i}_MAPS"] = layer_maps_define(layer)
         if part.blend is not None:
             defines["BLEND"] = 1
+        drawn = part.layers[:2] if part.blend else part.layers[:1]
+        defines.update(lean_defines([(layer.params, layer.maps) for layer in drawn]))
         if specular_aa is not None:
             defines["SPECULAR_AA"] = 1
         if part.analytic is not None:

@@ -26,6 +26,7 @@ of B between the 2x2 texels it mixes (the level already holds the spread within 
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -95,6 +96,19 @@ def covariance_levels(
     levels = [np.zeros((h, w, 3), np.float32)]
     levels += [slope_covariance(m.astype(np.float64)).astype(np.float32) for m in means[1:]]
     return [float16_rows_up(lv) for lv in levels] if rows_up_float16 else levels
+
+
+def lean_defines(layers: Sequence[tuple[MaterialParams, Mapping[str, object]]]) -> dict[str, int]:
+    """The G-buffer program's define for LEAN's spread factor (glsl/material/filtering.glsl
+    LEAN_SPREAD), from a part's (params, maps) layers: ``LEAN_GGX`` where the first layer
+    with a ``slope_covariance`` map shades GGX (its covariance widens the lobe by
+    GGX_LEAN_SPREAD, app/reference/filtering.py ``ggx_lean_spread``); nothing otherwise,
+    so a Beckmann material's program is the one it was (variance matching, k = 1). A
+    blend whose layers differ in NDF takes that layer's for both."""
+    for params, maps in layers:
+        if "slope_covariance" in maps:
+            return {"LEAN_GGX": 1} if params.model.ndf == "ggx" else {}
+    return {}
 
 
 def lean_params(params: MaterialParams) -> MaterialParams:

@@ -37,21 +37,36 @@ float perceptual_roughness_specular_aa(float r, vec3 dndx, vec3 dndy, float sigm
 // r, anisotropy a and the unit direction d (in the tangent frame (t, b)) are the material's;
 // sigma = (Sxx, Syy, Sxy), the covariance of the slopes under the texel's footprint
 // (app/textures/lean.py). A lobe of roughness alpha has slope variance alpha^2/2 per axis, so
-// A' = alpha_x^2 d d^T + alpha_y^2 d_perp d_perp^T + 2 Sigma; its eigenvalues (clamped to
+// A' = alpha_x^2 d d^T + alpha_y^2 d_perp d_perp^T + 2 k Sigma; its eigenvalues (clamped to
 // [0, 1]) are alpha_x'^2 >= alpha_y'^2 and its major eigenvector the new direction: the longer
 // of the two closed forms ((Axx - Ayy)/2 + q, Axy) and (Axy, (Ayy - Axx)/2 + q), which never
 // cancels; d itself where A' is isotropic. Returns vec4(r', a', direction'), r' =
 // sqrt((alpha_x' + alpha_y')/2), a' = (alpha_x' - alpha_y')/(alpha_x' + alpha_y').
+// spread: k in A' = A + 2 k Sigma, 1 for Beckmann's Gaussian slopes (variance matching),
+// GGX_LEAN_SPREAD for GGX, whose slopes have infinite variance: the lobe whose central
+// interval holding erf(1/sqrt 2) of its slopes is the footprint's +-sigma (the twin's
+// ggx_lean_spread derives it; docs/filtering.md measures it).
 // Twin: app/reference/filtering.py lean_anisotropic_roughness.
-vec4 lean_anisotropic_roughness(float r, float anisotropy, vec2 d, vec3 sigma) {
+const float GGX_LEAN_SPREAD = 0.5728118642;
+
+// The spread of the G-buffer pass's material: LEAN_GGX is defined for a GGX material's
+// covariance (app/textures/lean.py lean_defines).
+#if defined(LEAN_GGX)
+#define LEAN_SPREAD GGX_LEAN_SPREAD
+#else
+#define LEAN_SPREAD 1.0
+#endif
+
+vec4 lean_anisotropic_roughness(float r, float anisotropy, vec2 d, vec3 sigma, float spread) {
     float alpha = r * r;
     float ax2 = alpha * (1.0 + anisotropy);
     float ay2 = alpha * (1.0 - anisotropy);
     ax2 *= ax2;
     ay2 *= ay2;
-    float axx = ax2 * d.x * d.x + ay2 * d.y * d.y + 2.0 * sigma.x;
-    float ayy = ax2 * d.y * d.y + ay2 * d.x * d.x + 2.0 * sigma.y;
-    float axy = (ax2 - ay2) * d.x * d.y + 2.0 * sigma.z;
+    vec3 s = (2.0 * spread) * sigma;
+    float axx = ax2 * d.x * d.x + ay2 * d.y * d.y + s.x;
+    float ayy = ax2 * d.y * d.y + ay2 * d.x * d.x + s.y;
+    float axy = (ax2 - ay2) * d.x * d.y + s.z;
     float half_diff = 0.5 * (axx - ayy);
     float mean = 0.5 * (axx + ayy);
     float q = sqrt(half_diff * half_diff + axy * axy);

@@ -259,7 +259,8 @@ MaterialSample sample_material(vec3 normal, vec4 tangent, vec2 uv, bool front_fa
 #if LEAN_FILTERING
     // The material's lobe widened by the covariance: anisotropic roughness along the
     // covariance's major axis (material/filtering.glsl; RTR4 sec. 9.8 and 9.13).
-    vec4 lean = lean_anisotropic_roughness(l.perceptual_roughness, l.anisotropy, dir, sigma);
+    vec4 lean = lean_anisotropic_roughness(l.perceptual_roughness, l.anisotropy, dir, sigma,
+                                           LEAN_SPREAD);
     l.perceptual_roughness = lean.x;
     l.anisotropy = lean.y;
     dir = lean.zw;
