@@ -35,7 +35,6 @@ written here), writing the display image there.
 
 from __future__ import annotations
 
-import ctypes
 import dataclasses
 
 import moderngl
@@ -43,11 +42,11 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import GBufferLayout
-from app.gl.context import gl_function
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
 from app.render.fullscreen import read_rgb
-from app.render.gbuffer import GBuffer, GBufferPass
+from app.render.gbuffer import GBuffer
+from app.render.sample_geometry import SampleGeometry
 from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
@@ -56,7 +55,6 @@ SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample 
 # A sample sees a neighbour's surface where their material ids agree and their view
 # depths differ by at most this fraction of the sample's
 SRAA_DEPTH_TOLERANCE = 0.1
-_GL_SAMPLE_POSITION = 0x8E50
 
 
 def jittered_frame(
@@ -240,54 +238,11 @@ class AccumulatePass:
             obj.release()
 
 
-def sample_positions(ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> np.ndarray:
-    """(samples, 2) positions of ``fbo``'s samples inside a pixel, in pixels from its
-    lower-left corner, as the GL rasterises them (glGetMultisamplefv)."""
-    get = gl_function(ctx, "glGetMultisamplefv", [ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p])
-    fbo.use()
-    out = np.zeros(2, np.float32)
-    positions = []
-    for i in range(fbo.samples):
-        get(_GL_SAMPLE_POSITION, i, out.ctypes.data)
-        positions.append(out.copy())
-    return np.array(positions)
-
-
-class SampleTargets:
-    """The geometry samples' targets, drawn by a ``GBufferPass`` as a ``GBuffer`` is:
-    RT2 (view depth, material id) multisampled and sampled by the reconstruction; every
-    other target of ``layout`` (the pass writes them all) a one-channel 8-bit
-    multisampled renderbuffer, never read (a quarter of the bytes of RG32F); the z-test's
-    multisampled renderbuffer."""
-
-    def __init__(
-        self, ctx: moderngl.Context, size: tuple[int, int], layout: GBufferLayout, samples: int
-    ) -> None:
-        self.size = size
-        self.depth = ctx.texture(size, 2, dtype="f4", samples=samples)
-        attachments = [
-            self.depth if target.name == "depth"
-            else ctx.renderbuffer(size, 1, samples=samples, dtype="f1")
-            for target, _ in layout.targets()
-        ]  # fmt: skip
-        self._unread = [a for a in attachments if a is not self.depth]
-        self.zbuffer = ctx.depth_renderbuffer(size, samples=samples)
-        self.fbo = ctx.framebuffer(attachments, self.zbuffer)
-        self.clear_fbo = ctx.framebuffer([self.depth], self.zbuffer)
-
-    def clear(self) -> None:
-        """No surface in any sample (RT2's depth 0), the far z."""
-        self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-
-    def release(self) -> None:
-        for obj in (self.fbo, self.clear_fbo, self.depth, *self._unread, self.zbuffer):
-            obj.release()
-
-
 class SraaPass:
     """Subpixel reconstruction (module docstring): ``run`` draws the opaque parts'
-    geometry into ``samples`` (``SampleTargets``: RT2, view depth and material id per
-    sample) and reconstructs each sample's colour from the pixel-centre frame's HDR image
+    geometry into ``samples`` by ``geometry`` (``SampleGeometry``, app/render/sample_geometry.py:
+    of the multisampled G-buffer only RT2 read, view depth and material id per sample)
+    and reconstructs each sample's colour from the pixel-centre frame's HDR image
     and RT2, in two draws (glsl/passes/sraa.frag): a mark that copies the image into
     ``target`` and marks the edge pixels (a sample on another surface than the centre)
     in a depth buffer, and the reconstruction z-tested to them. ``target`` holds the
@@ -307,10 +262,6 @@ class SraaPass:
         """``parts``, ``material_ids``: the G-buffer pass's; ``uploads``: its material
         maps, drawn with rather than uploaded again."""
         self.ctx, self.size = ctx, size
-        self.samples = SampleTargets(ctx, size, layout, SRAA_SAMPLES)
-        defines = {**layout.defines(), "GBUFFER_SAMPLE_MASK": SRAA_SAMPLES}
-        self.geometry = GBufferPass(ctx, shaders, parts, material_ids, None, defines, uploads)
-        self.positions = sample_positions(ctx, self.samples.fbo).astype(np.float32)
         defines = {"SAMPLES": SRAA_SAMPLES}
         self.mark = FullscreenDraw.of(ctx, shaders, "passes/sraa.frag", {**defines, "SRAA_MARK": 1})
         self.reconstruct = FullscreenDraw.of(
@@ -318,8 +269,11 @@ class SraaPass:
         )
         self.target = ctx.texture(size, 4, dtype="f4")
         self.target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.edges = ctx.depth_renderbuffer(size)
-        self.fbo = ctx.framebuffer([self.target], self.edges)
+        self.geometry = SampleGeometry(
+            ctx, shaders, size, layout, parts, material_ids, uploads, SRAA_SAMPLES, ("depth",)
+        )
+        self.samples = self.geometry.targets  # RT2 per sample: view depth, material id
+        self.fbo = self.geometry.mark_into(self.target)
 
     def run(
         self,
@@ -331,26 +285,22 @@ class SraaPass:
     ) -> None:
         """The geometry samples of the camera (``view``, ``proj``, ``camera``: the frame
         ``gbuffer`` and ``hdr`` were drawn with), then the reconstruction into ``target``."""
-        positions = self.positions.tobytes()
-        for d in self.geometry.drawables:
-            if "u_sample_positions" in d.uniforms:  # a shader cache may share the program
-                d.program["u_sample_positions"].write(positions)
-        self.geometry.run(self.samples, view, proj, camera)
+        self.geometry.draw(view, proj, camera)
         uniforms = {"u_depth_tolerance": SRAA_DEPTH_TOLERANCE}
         textures = {"u_hdr": hdr, "u_depth": gbuffer.depth, "u_samples": self.samples.depth}
         viewport = (0, 0, *self.size)
-        self.fbo.depth_mask = True
-        self.mark.draw(self.fbo, uniforms, textures, viewport=viewport, depth_func="1")
-        self.fbo.depth_mask = False
-        self.reconstruct.draw(self.fbo, uniforms, textures, viewport=viewport, depth_func=">")
-        self.fbo.depth_mask = True
+        self.geometry.mark_then(
+            self.mark, uniforms, textures,
+            lambda: self.reconstruct.draw(
+                self.fbo, uniforms, textures, viewport=viewport, depth_func=">"
+            ),
+        )  # fmt: skip
 
     def read(self) -> np.ndarray:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (self.geometry, self.samples, self.mark, self.reconstruct, self.fbo,
-                    self.edges, self.target):  # fmt: skip
+        for obj in (self.geometry, self.mark, self.reconstruct, self.target):
             obj.release()
 
 

@@ -25,15 +25,15 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.gbuffer import GBUFFER_TARGETS, STORAGE_DTYPES, GBufferLayout
+from app.common.gbuffer import GBufferLayout
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
 from app.reference.msaa import MSAA_DEPTH_TOLERANCE, MSAA_NORMAL_TOLERANCE
-from app.render.antialias import sample_positions
 from app.render.fullscreen import read_rgb
-from app.render.gbuffer import GBuffer, GBufferPass
+from app.render.gbuffer import GBuffer
 from app.render.inputs import TILES, GBufferInput, ShadingContext, bind_camera
 from app.render.lighting import LightingPass
+from app.render.sample_geometry import SampleGeometry
 from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
@@ -45,52 +45,15 @@ MSAA_SAMPLES = 4  # samples per pixel (llvmpipe's only multisample count)
 # silhouette does not. Declared with the twin (app/reference/msaa.py).
 
 
-class SampleGBuffer:
-    """The G-buffer's targets multisampled: one multisampled texture per target of
-    ``layout`` (``GBUFFER_TARGETS``' storage under its encoding), attributes by the
-    targets' names as ``GBuffer``'s, and a multisampled z-buffer; drawn by a
-    ``GBufferPass`` and decoded through ``GBufferInput`` as a ``GBuffer`` is (``defines``
-    adds ``GBUFFER_SAMPLES``: the decode's samplers are then ``sampler2DMS``)."""
-
-    def __init__(
-        self, ctx: moderngl.Context, size: tuple[int, int], layout: GBufferLayout, samples: int
-    ) -> None:
-        self.size, self.layout, self.samples = size, layout, samples
-        self._targets: list[moderngl.Texture] = []
-        self._by_name: dict[str, moderngl.Texture] = {}
-        for target, channels in layout.targets():
-            dtype = STORAGE_DTYPES[layout.storage(target)]
-            tex = ctx.texture(size, channels, dtype=dtype, samples=samples)
-            self._targets.append(tex)
-            self._by_name[target.name] = tex
-        for target in GBUFFER_TARGETS:
-            setattr(self, target.name, self._by_name.get(target.name))
-        self.zbuffer = ctx.depth_renderbuffer(size, samples=samples)
-        self.fbo = ctx.framebuffer(self._targets, self.zbuffer)
-        # RT2 and the z-test, as GBuffer clears them (every drawn sample writes every target)
-        self.clear_fbo = ctx.framebuffer([self._by_name["depth"]], self.zbuffer)
-
-    def clear(self) -> None:
-        self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-
-    def defines(self) -> dict[str, int]:
-        return {**self.layout.defines(), "GBUFFER_SAMPLES": self.samples}
-
-    def samplers(self) -> list[tuple[str, moderngl.Texture]]:
-        return [(t.glsl_name, self._by_name[t.name]) for t, _ in self.layout.targets()]
-
-    def release(self) -> None:
-        for obj in (self.fbo, self.clear_fbo, *self._targets, self.zbuffer):
-            obj.release()
-
-
 class MsaaPass:
     """The multisampled G-buffer and the per-sample shading of its edge pixels (module
-    docstring). ``run`` draws the opaque parts into ``samples`` (``SampleGBuffer``), then
-    two draws into ``target`` (linear HDR RGBA): the mark (glsl/passes/msaa.frag) copies
-    the frame's HDR image and writes window depth 0 into ``edges`` where a pixel's samples
-    differ; the lighting programs (``shading``, one per model group, each adding its own
-    samples' share, the first the background samples') run z-tested to those pixels.
+    docstring). ``run`` draws the opaque parts into ``samples`` by ``geometry``
+    (``SampleGeometry``, app/render/sample_geometry.py: every target of the multisampled
+    G-buffer read), then two draws into ``target`` (linear HDR RGBA): the mark
+    (glsl/passes/msaa.frag) copies the frame's HDR image and writes window depth 0 into
+    ``geometry.edges`` where a pixel's samples differ; the lighting programs (``shading``,
+    one per model group, each adding its own samples' share, the first the background
+    samples') run z-tested to those pixels.
     ``shading``: the frame's shader inputs (the lighting pass's) less the tile culler (its
     tiles' depth bounds are the pixel centres'; an edge pixel loops over every light),
     the multisampled G-buffer in place of the G-buffer."""
@@ -111,17 +74,16 @@ class MsaaPass:
         """``parts``, ``material_ids``, ``uploads``: the G-buffer pass's (its material maps
         drawn with, not uploaded again); ``terms``, ``form``: the lighting pass's."""
         self.ctx, self.size = ctx, size
-        self.samples = SampleGBuffer(ctx, size, layout, MSAA_SAMPLES)
-        defines = {**layout.defines(), "GBUFFER_SAMPLE_MASK": MSAA_SAMPLES}
-        self.geometry = GBufferPass(ctx, shaders, parts, material_ids, None, defines, uploads)
-        self.positions = sample_positions(ctx, self.samples.fbo).astype(np.float32)
+        self.geometry = SampleGeometry(  # every target of the layout read
+            ctx, shaders, size, layout, parts, material_ids, uploads, MSAA_SAMPLES
+        )
+        self.samples = self.geometry.targets
         roles = [role for role in shading.roles if role != TILES]
         context = shading.only(*roles).with_inputs(GBufferInput(self.samples))  # type: ignore[arg-type]
         self.lighting = LightingPass(ctx, shaders, size, context, terms, form=form)
         self.mark = FullscreenDraw.of(ctx, shaders, "passes/msaa.frag", {"SAMPLES": MSAA_SAMPLES})
         self.target = self.lighting.hdr  # the lighting pass's own HDR target
-        self.edges = ctx.depth_renderbuffer(size)
-        self.fbo = ctx.framebuffer([self.target], self.edges)
+        self.fbo = self.geometry.mark_into(self.target)
 
     def run(
         self,
@@ -136,13 +98,7 @@ class MsaaPass:
         frame ``gbuffer`` and ``hdr`` were drawn with), then ``target``: ``hdr`` with its
         edge pixels shaded per sample. ``background``: the frame's RGB or RGBA background
         radiance (a sample without a surface takes a background pixel's beside it)."""
-        positions = self.positions.tobytes()
-        for d in self.geometry.drawables:
-            if "u_sample_positions" in d.uniforms:  # a shader cache may share the program
-                d.program["u_sample_positions"].write(positions)
-        self.geometry.run(self.samples, view, proj, camera)
-        viewport = (0, 0, *self.size)
-        self.fbo.depth_mask = True
+        self.geometry.draw(view, proj, camera)
         tolerances = {
             "u_depth_tolerance": MSAA_DEPTH_TOLERANCE,
             "u_normal_tolerance": MSAA_NORMAL_TOLERANCE,
@@ -153,10 +109,9 @@ class MsaaPass:
             "u_samples": self.samples.depth,
             "u_normals": self.samples.normal,
         }
-        self.mark.draw(self.fbo, tolerances, textures, viewport=viewport, depth_func="1")
-        self.fbo.depth_mask = False
-        self.shade(gbuffer, hdr, camera, background)
-        self.fbo.depth_mask = True
+        self.geometry.mark_then(
+            self.mark, tolerances, textures, lambda: self.shade(gbuffer, hdr, camera, background)
+        )
 
     def shade(
         self,
@@ -197,5 +152,5 @@ class MsaaPass:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (self.geometry, self.samples, self.mark, self.lighting, self.fbo, self.edges):
+        for obj in (self.geometry, self.mark, self.lighting):
             obj.release()
