@@ -6,7 +6,10 @@
 The first: the five-sphere scene (app/bench/raycast.py) at each setting of the
 sphere (analytic or icosphere) and the G-buffer encoding, with directional and with point
 lights. The second (``--scenes``): every bundled scene the ray-caster takes, at its own
-settings. Both print Markdown.
+settings with its shadows off (``unshadowed``: a shadow map's filtered edge is not a shadow
+ray's, docs/shadows.md measures shadows), as tests/test_raycast.py holds them; a scene lit by
+an image, sky or studio environment is listed apart (the split sum is an approximation by
+design, docs/ibl.md). Both print Markdown.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ import argparse
 import time
 from pathlib import Path
 
-from app.bench.raycast import five_spheres, raycast_errors
+from app.bench.raycast import five_spheres, raycast_errors, unshadowed
 from app.frame.raycast import reference_scene
 from app.gl.context import GLContext, create_context
 from app.scene.loader import load_scene
@@ -57,9 +60,9 @@ def settings_table(gl: GLContext, size: tuple[int, int]) -> None:
 def scenes_table(gl: GLContext, width: int) -> None:
     print("| scene | size | median | p99 | max | mean FLIP | coverage mismatch |")
     print("|---|---|---|---|---|---|---|")
-    refused = []
+    refused, split_sum = [], []
     for path in sorted(SCENES.glob("*.toml")):
-        loaded = load_scene(path)
+        loaded = unshadowed(load_scene(path))
         render = loaded.scene.render
         size = (width, max(1, round(width * render.height / render.width)))
         try:
@@ -67,8 +70,14 @@ def scenes_table(gl: GLContext, width: int) -> None:
         except ValueError as exc:
             refused.append(f"`{path.stem}` ({exc})")
             continue
+        env = loaded.scene.environment
+        if env is not None and env.source != "uniform":
+            split_sum.append(f"`{path.stem}` ({env.source})")
+            continue
         e = raycast_errors(gl, loaded, size)
         print(_row(f"`{path.stem}` | {size[0]}×{size[1]}", e))
+    print("\nLit by an image, sky or studio environment (the split sum, docs/ibl.md): ", end="")
+    print(", ".join(split_sum) + ".")
     print("\nRefused: " + "; ".join(refused) + ".")
 
 
