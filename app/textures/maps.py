@@ -764,8 +764,8 @@ def _map_chain_levels(
         if rgb is None:
             n = np.zeros((y1 - y0, shape[1], 3))
             n[..., 2] = 1.0
-        else:
-            n = decode_normal_map(rgb[y0:y1])
+        else:  # as planes: the moments read one component at a time (mips.py)
+            n = decode_normal_map(rgb[y0:y1], planes=True)
             if scale != 1.0:
                 n[..., :2] *= scale
                 n /= np.linalg.norm(n, axis=-1, keepdims=True)
