@@ -191,3 +191,30 @@ def test_srgb_mips_match_the_gl(gl_egl: GLContext) -> None:
         difference = np.abs(ours[k].astype(int) - read_level(gl_tex, k).astype(int))
         assert difference.max() <= k, k
     gl_tex.release()
+
+
+def test_colour_levels_off_the_reading_thread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A DCT-scaled colour map's mips are made on a thread of their own (maps.PendingLevels),
+    not on the thread that reads the material, and read when first indexed."""
+    import threading
+
+    import app.textures.maps as maps
+
+    threads: list[str] = []
+    made = maps.srgb_box_levels
+    monkeypatch.setattr(
+        maps,
+        "srgb_box_levels",
+        lambda texels: threads.append(threading.current_thread().name) or made(texels),
+    )
+    loaded = scene_from(_model(tmp_path), size=(40, 40), still=True)
+    kept = take_built(loaded)
+    assert kept is not None
+    (part,) = kept[0]
+    base = part.layers[0].maps["base_color"]
+    assert isinstance(base.levels, maps.PendingLevels)
+    assert base.levels[0].shape[:2] == (TEXELS // 4, TEXELS // 4)
+    assert len(base.levels) == 7  # 64 texels a side down to 1
+    assert threads and all(name.startswith("pbs-colour-levels") for name in threads)

@@ -602,10 +602,42 @@ def colour_texture(image: Image.Image) -> Texture:
         # A DCT-scaled level is not the GL's level n anyway: its mips are made here
         # (mips.srgb_box_levels), without the GL's blit (compiled once a process).
         made = lambda: srgb_box_levels(rows_up()[0])  # noqa: E731
-        levels = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
-        return Texture([level[::-1] for level in levels], srgb=True, source_key=key)
+
+        def levels() -> list[np.ndarray]:
+            entry = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
+            return [level[::-1] for level in entry]
+
+        return Texture(PendingLevels(_colour_maker().submit(levels)), srgb=True, source_key=key)
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
+
+
+class PendingLevels(Sequence[np.ndarray]):
+    """A colour map's levels being made on a thread of their own (``colour_texture``: its
+    decode waited for, its mips made or its entry read), read when first indexed: the
+    thread that reads the material goes on with the parts, the framing and the GL while
+    they are made. A broken image's ``RefusedError`` is raised to whoever reads them (a
+    glTF file reports it, by its key, before: app/scene/gltf.py ``_decodes_checked``)."""
+
+    def __init__(self, future: Future) -> None:
+        self._future = future
+
+    def __getitem__(self, index):  # type: ignore[override]  # an int or a slice, as a list's
+        return self._future.result()[index]
+
+    def __len__(self) -> int:
+        return len(self._future.result())
+
+
+_COLOUR_MAKER: ThreadPoolExecutor | None = None
+
+
+def _colour_maker() -> ThreadPoolExecutor:
+    global _COLOUR_MAKER
+    with _KEEP_LOCK:
+        if _COLOUR_MAKER is None:
+            _COLOUR_MAKER = ThreadPoolExecutor(1, thread_name_prefix="pbs-colour-levels")
+    return _COLOUR_MAKER
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
