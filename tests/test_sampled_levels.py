@@ -196,19 +196,26 @@ def test_srgb_mips_match_the_gl(gl_egl: GLContext) -> None:
 def test_colour_levels_off_the_reading_thread(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A DCT-scaled colour map's mips are made on a thread of their own (maps.PendingLevels),
-    not on the thread that reads the material, and read when first indexed."""
+    """A DCT-scaled colour map's levels are looked up (read, or their mips made) on a
+    thread of their own (maps.PendingLevels), not on the thread that reads the material,
+    and read when first indexed."""
     import threading
 
     import app.textures.maps as maps
 
     threads: list[str] = []
-    made = maps.srgb_box_levels
-    monkeypatch.setattr(
-        maps,
-        "srgb_box_levels",
-        lambda texels: threads.append(threading.current_thread().name) or made(texels),
-    )
+    cache = maps.prepared_cache()
+
+    class Recorded:
+        def arrays(self, kind, parts, build):
+            if kind.startswith("colour"):
+                threads.append(threading.current_thread().name)
+            return cache.arrays(kind, parts, build)
+
+        def __getattr__(self, name: str):
+            return getattr(cache, name)
+
+    monkeypatch.setattr(maps, "prepared_cache", Recorded)
     loaded = scene_from(_model(tmp_path), size=(40, 40), still=True)
     kept = take_built(loaded)
     assert kept is not None
