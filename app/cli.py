@@ -676,6 +676,12 @@ def cmd_render(args: argparse.Namespace) -> int:
     """Render a scene to PNG. Each layer is imported when the command reaches it: the
     scene's (pydantic, numpy) to validate it, GL and the renderer only once it is valid,
     so a bad scene is refused without them (docs/performance.md, "Start-up")."""
+    still = not (args.fit or args.compare is not None or args.debug is not None)
+    if still and args.max_memory is None:  # a glTF file's whole images decode while the
+        # scene's modules are imported (app/scene/early_images.py)
+        from app.scene.early_images import start_still_decodes
+
+        start_still_decodes(args.scene)
     from app.scene.sources import scene_from, scene_path
 
     start = time.perf_counter()
@@ -703,8 +709,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                 max_memory=args.max_memory,
                 look=_look(args),
                 size=args.size,
-                # one frame from the framing camera: only the mip levels it samples
-                still=not (args.fit or args.compare is not None or args.debug is not None),
+                still=still,  # one frame from the framing camera: the levels it samples
             )
         if args.fit:
             from app.frame.camera import fit_scene

@@ -33,6 +33,8 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.textures.cache import code_version, prepared_cache
+from app.textures.early import BAND_BYTES, IMAGE_FORMATS
+from app.textures.early import take as take_early
 from app.textures.lean import LEAN, covariance_levels, lean_chain_levels
 from app.textures.mips import (
     BandSource,
@@ -53,13 +55,11 @@ MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default lim
 # The image formats a texture may be in: what glTF 2.0 allows (PNG, JPEG) and what OBJ
 # exporters write. Pillow's other readers (EPS runs Ghostscript, PSD, ICNS, ...) are never
 # asked to parse an input.
-IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
 SOURCE_DIGEST = "pbs_source_sha256"
 # Image.info key of how many finest levels ``open_image``'s DCT scaling left out.
 REDUCED_LEVELS = "pbs_reduced_levels"
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
-_BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
 
 @dataclass
@@ -309,7 +309,7 @@ def open_image(
         width, height = image.size  # from the header: checked before decoding
         if width <= 0 or height <= 0:
             raise RefusedError(f"declares a {width}x{height} image")
-        bands = len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
+        bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
         budget.texture(width, height, kind, "the image")
         budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
         # What the prepared-texture cache keys this image by (_image_part): the
@@ -330,6 +330,10 @@ def open_image(
             if kept is not None:  # decoded before in this process: that image
                 _DECODED.move_to_end(digest)
                 return kept
+        early = take_early(digest) if skipped == 0 else None
+        if early is not None:  # decoded while the process started (app/textures/early.py)
+            early.info[SOURCE_DIGEST] = digest
+            image = early
         if decode_later:
             setattr(image, _PENDING, _decoder().submit(_decode_refused, image, digest))
             return image
@@ -415,7 +419,7 @@ _KEEP_LOCK = threading.Lock()
 
 
 def _image_bytes(image: Image.Image) -> int:
-    return image.width * image.height * len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
+    return image.width * image.height * len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
 
 
 def _decoded(image: Image.Image) -> Image.Image:
