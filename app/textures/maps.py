@@ -139,6 +139,10 @@ class PreparedLevels(Sequence[np.ndarray]):
                 _UPLOAD_KIND % self.kind, self.parts, self._upload_build
             )
 
+    def ready(self) -> bool:
+        """Whether ``upload_levels`` has nothing to wait for (prefetched and at hand)."""
+        return self._prefetched is not None and self._prefetched.done()
+
     def upload_levels(self) -> list[np.ndarray]:
         """Every level as the GL takes it: float16, rows bottom first, contiguous."""
         if self._prefetched is not None:
