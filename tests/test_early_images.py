@@ -91,3 +91,39 @@ def test_early_image_left_to_the_reader() -> None:
     maps.wait_decoded(maps.open_image(data, Budget(), None, decode_later=True))  # recorded
     early.decode_early(data, Budget())
     assert early.take(digest) is None
+
+
+def test_broken_gltf_image_named(tmp_path: Path, capsys, monkeypatch) -> None:
+    """A .gltf whose normal map file is cut short: the early start tries it (and keeps
+    nothing), and the render still refuses it by its key, exit 2, no output."""
+    import threading
+
+    from tests.test_bad_input import _check, _run_inproc
+
+    tried: list[int] = []
+    decode = early.decode_early
+    monkeypatch.setattr(
+        early, "decode_early", lambda data, b: tried.append(len(data)) or decode(data, b)
+    )
+    b = GltfBuilder()
+    colour = _texture(b, tmp_path, (200, 120, 40))
+    broken = _png(3)
+    (tmp_path / "broken.png").write_bytes(broken[: len(broken) // 2])
+    b.doc.images.append(pygltflib.Image(uri="broken.png"))
+    b.doc.textures.append(pygltflib.Texture(source=len(b.doc.images) - 1))
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+            baseColorTexture=pygltflib.TextureInfo(index=colour)
+        ),
+        normalTexture=pygltflib.NormalMaterialTexture(index=len(b.doc.textures) - 1),
+    )
+    b.quad(material=b.material(material))
+    path = b.save(tmp_path / "model.gltf")
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, err = _run_inproc(capsys, str(path), "-o", str(out / "x.png"), "--size", "32x24")
+    for thread in threading.enumerate():
+        if thread.name == "pbs-early-images":
+            thread.join(10.0)
+    _check(rc, err, out, f"pbs: error: {path}: images[1]:", "is not an image pbs reads")
+    assert tried == [len(broken) // 2]  # the normal map's file alone, not the base colour
