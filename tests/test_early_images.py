@@ -127,3 +127,18 @@ def test_broken_gltf_image_named(tmp_path: Path, capsys, monkeypatch) -> None:
             thread.join(10.0)
     _check(rc, err, out, f"pbs: error: {path}: images[1]:", "is not an image pbs reads")
     assert tried == [len(broken) // 2]  # the normal map's file alone, not the base colour
+
+
+def test_decoders_take_the_whole_bytes() -> None:
+    """``open_image`` (and the early decode) hand Pillow's decoder the whole encoded image
+    in one call (``early.whole_reads``: the GIL let go for the whole decode), the texels
+    those of Pillow's own 64 KiB reads."""
+    data = io.BytesIO()
+    noise = np.random.default_rng(5).integers(0, 256, (256, 256, 3), np.uint8)
+    Image.fromarray(noise).save(data, format="JPEG", quality=95)
+    encoded = data.getvalue()
+    assert len(encoded) > 65536  # more than one of Pillow's reads
+    image = maps.open_image(encoded, Budget(), None)
+    assert image.decodermaxblock >= len(encoded)
+    own = Image.open(io.BytesIO(encoded))
+    np.testing.assert_array_equal(np.asarray(image), np.asarray(own))

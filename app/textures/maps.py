@@ -35,6 +35,7 @@ from app.errors import InputError
 from app.textures.cache import code_version, prepared_cache
 from app.textures.early import BAND_BYTES, IMAGE_FORMATS
 from app.textures.early import take as take_early
+from app.textures.early import whole_reads as _whole_reads
 from app.textures.lean import LEAN, covariance_levels, lean_chain_levels
 from app.textures.mips import (
     BandSource,
@@ -310,6 +311,7 @@ def open_image(
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             # Not a ``with`` block: an image returned undecoded reads its stream later.
             image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+        _whole_reads(image, len(encoded))
         width, height = image.size  # from the header: checked before decoding
         if width <= 0 or height <= 0:
             raise RefusedError(f"declares a {width}x{height} image")
@@ -325,6 +327,7 @@ def open_image(
             image.draft(image.mode, reduced)
             if image.size != reduced:  # a scale libjpeg does not make: the whole image
                 image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+                _whole_reads(image, len(encoded))
             else:  # another image than the file's whole one: its own entries
                 digest = f"{digest} 1/{1 << skipped}"
                 image.info[REDUCED_LEVELS] = skipped
