@@ -9,6 +9,7 @@ import argparse
 import contextlib
 import logging
 import math
+import os
 import re
 import sys
 import time
@@ -676,6 +677,16 @@ def cmd_render(args: argparse.Namespace) -> int:
     """Render a scene to PNG. Each layer is imported when the command reaches it: the
     scene's (pydantic, numpy) to validate it, GL and the renderer only once it is valid,
     so a bad scene is refused without them (docs/performance.md, "Start-up")."""
+    # numpy's OpenBLAS, loaded with it, starts a thread per core that spins after each
+    # product: a render's few small products gain nothing from them, its own threads (the
+    # decodes, the chain) lose a core to them (docs/performance.md). A value given wins.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    still = not (args.fit or args.compare is not None or args.debug is not None)
+    if still and args.max_memory is None:  # a glTF file's whole images decode while the
+        # scene's modules are imported (app/scene/early_images.py)
+        from app.scene.early_images import start_still_decodes
+
+        start_still_decodes(args.scene)
     from app.scene.sources import scene_from, scene_path
 
     start = time.perf_counter()
@@ -703,8 +714,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                 max_memory=args.max_memory,
                 look=_look(args),
                 size=args.size,
-                # one frame from the framing camera: only the mip levels it samples
-                still=not (args.fit or args.compare is not None or args.debug is not None),
+                still=still,  # one frame from the framing camera: the levels it samples
             )
         if args.fit:
             from app.frame.camera import fit_scene

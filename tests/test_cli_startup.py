@@ -204,3 +204,28 @@ def test_the_quick_answer_targets(
     verdicts = [v for v in evaluate_targets(rows) if "spawn to exit" in v.target]
     assert [v.status for v in verdicts] == statuses
     assert f"{help_s:.2f} s median of 9" in verdicts[0].measured
+
+
+@pytest.mark.parametrize("given", [None, "3"])
+def test_a_render_asks_openblas_for_one_thread(tmp_path: Path, given: str | None) -> None:
+    """A render sets ``OPENBLAS_NUM_THREADS`` to 1 before numpy is imported (OpenBLAS's
+    threads spin after each product: docs/performance.md), unless the environment gives
+    a value, which is kept."""
+    probe = PROBE.replace(
+        '"code": code,',
+        '"code": code, "blas": __import__("os").environ.get("OPENBLAS_NUM_THREADS"),',
+    )
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    env.pop("OPENBLAS_NUM_THREADS", None)
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    out = tmp_path / "x.png"
+    argv = ["render", "sec3_lambert", "-o", str(out), "--size", "16x9", "-q"]
+    proc = subprocess.run(
+        [sys.executable, "-c", probe, *argv],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.splitlines()[-1])
+    assert result["code"] == 0, result["stderr"]
+    assert result["blas"] == (given or "1")

@@ -59,3 +59,31 @@ def test_broken_image_named(
     path = _model(root, scale)
     rc, err = _run_inproc(capsys, str(path), "-o", str(out / "x.png"), "--size", SIZE)
     _check(rc, err, out, f"pbs: error: {path}: images[1]:", "is not an image pbs reads")
+
+
+def test_images_open_before_colour_maps(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A material's colour map (its texels wait for their decode, its mips made on the
+    reading thread) is made once every image of the material is open, so the images
+    after it (a normal map, which the chain waits for) are decoding meanwhile."""
+    import app.scene.gltf as gltf
+    from app.common.models import MaterialParams
+
+    b = GltfBuilder()
+    colour = b.texture(png_rgb((200, 120, 40), 8))
+    normal = b.texture(png_rgb((128, 128, 255), 8))
+    pbr = pygltflib.PbrMetallicRoughness(baseColorTexture=pygltflib.TextureInfo(index=colour))
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pbr, normalTexture=pygltflib.NormalMaterialTexture(index=normal)
+    )
+    b.quad(material=b.material(material))
+    path = b.save(tmp_path / "model.glb")
+    events: list[str] = []
+    opened, made = gltf.open_image, gltf.colour_texture
+    monkeypatch.setattr(
+        gltf, "open_image", lambda *a, **k: events.append("open") or opened(*a, **k)
+    )
+    monkeypatch.setattr(gltf, "colour_texture", lambda im: events.append("colour") or made(im))
+    fallback = MaterialParams((1.0, 1.0, 1.0), 0.0, 0.5, 0.04)
+    layer = gltf.GltfFile(path).layer(0, fallback, "variance")
+    assert events == ["open", "open", "colour"]
+    assert list(layer.maps) == ["base_color", "normal_roughness"]  # the material's order

@@ -452,3 +452,36 @@ def test_box_levels_float16_table_is_the_cast(monkeypatch: pytest.MonkeyPatch) -
     cast = mips.box_levels(band, (37, 41, 1), rows_up_float16=True)
     assert len(direct) == len(cast)
     assert all(a.tobytes() == b.tobytes() for a, b in zip(direct, cast, strict=True))
+
+
+def test_decode_normal_planes() -> None:
+    """``planes=True``: the same bits as the interleaved decode (the z floor included),
+    each component a contiguous plane that the chain's moments read."""
+    rgb = np.random.default_rng(RNG_SEED).integers(0, 256, (33, 47, 3), np.uint8)
+    rgb[::3, :, 2] = 120  # n.z < MIN_NORMAL_Z: floored
+    held = decode_normal_map(rgb, planes=True)
+    whole = decode_normal_map(rgb)
+    assert (held[..., 2] == MIN_NORMAL_Z).any()
+    np.testing.assert_array_equal(held.view(np.int64), whole.view(np.int64))
+    assert all(held[..., k].flags.c_contiguous for k in range(3))
+
+
+def test_variance_texels_bits() -> None:
+    """The variance method's texels a plane at a time (``_variance_texels``, what the
+    chain's levels 1 and up are made with): the bits of ``_filtered``'s."""
+    from app.textures.mips import _filtered, _variance_texels
+
+    rng = np.random.default_rng(RNG_SEED)
+    sx, sy = rng.normal(0.0, 2.0, (2, 40, 30))
+    m = {
+        "sx": sx,
+        "sy": sy,
+        "sxx": sx * sx + rng.uniform(0.0, 3.0, sx.shape),
+        "syy": sy * sy + rng.uniform(0.0, 3.0, sx.shape),
+        "a2": rng.uniform(0.0, 1.0, sx.shape) ** 4,
+    }
+    normal, r = _filtered("variance", m)
+    out = np.empty((40, 30, 4))
+    _variance_texels(m, out)
+    np.testing.assert_array_equal(out[..., :3].view(np.int64), normal.view(np.int64))
+    np.testing.assert_array_equal(out[..., 3].view(np.int64), r.view(np.int64))

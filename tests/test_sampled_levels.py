@@ -224,3 +224,37 @@ def test_the_bound_is_taken_for_the_camera_that_renders(tmp_path: Path) -> None:
     full = scene_from(path, size=(40, 30), still=False).scene.camera.model_dump()
     for key in ("position", "target", "up", "fov_y", "near", "far"):
         assert still[key] == full[key], key
+
+
+def test_colour_levels_off_the_reading_thread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A DCT-scaled colour map's levels are looked up (read, or their mips made) on a
+    thread of their own (maps.PendingLevels), not on the thread that reads the material,
+    and read when first indexed."""
+    import threading
+
+    import app.textures.maps as maps
+
+    threads: list[str] = []
+    cache = maps.prepared_cache()
+
+    class Recorded:
+        def arrays(self, kind, parts, build):
+            if kind.startswith("colour"):
+                threads.append(threading.current_thread().name)
+            return cache.arrays(kind, parts, build)
+
+        def __getattr__(self, name: str):
+            return getattr(cache, name)
+
+    monkeypatch.setattr(maps, "prepared_cache", Recorded)
+    loaded = scene_from(_model(tmp_path), size=(40, 40), still=True)
+    kept = take_built(loaded)
+    assert kept is not None
+    (part,) = kept[0]
+    base = part.layers[0].maps["base_color"]
+    assert isinstance(base.levels, maps.PendingLevels)
+    assert base.levels[0].shape[:2] == (TEXELS // 4, TEXELS // 4)
+    assert len(base.levels) == 7  # 64 texels a side down to 1
+    assert threads and all(name.startswith("pbs-colour-levels") for name in threads)

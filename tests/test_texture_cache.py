@@ -649,3 +649,43 @@ def test_entry_read_where_it_cannot_be_mapped(
     again = chain(tmp_path, monkeypatch)
     assert cache.events[-1] == "disk"
     assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+
+
+def test_chain_written_at_the_first_draw(gl_egl, tmp_path: Path, monkeypatch) -> None:
+    """A pass's prepared map still being made gets its texture (its storage) at once and
+    its levels at the first draw that binds it (``TextureUploads.finish``): the pass is
+    built without waiting for the chain, and the texture holds every level after."""
+    import threading
+
+    from app.render.texture_upload import TextureUploads, read_level
+    from app.textures.maps import PreparedLevels
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    go = threading.Event()
+    rng = np.random.default_rng(7)
+    levels = [rng.uniform(0.0, 1.0, (16 >> k, 8 >> k if k < 4 else 1, 4)) for k in range(5)]
+    levels = [np.ascontiguousarray(lv.astype(np.float32)) for lv in levels]
+
+    built: list[bool] = []
+
+    def build() -> list[np.ndarray]:
+        go.wait(2.0)
+        built.append(True)
+        return levels
+
+    tex = Texture(PreparedLevels("test chain", ("test", tmp_path.name), build, (16, 8, 4, False)))
+    tex.levels.prefetch()
+    uploads = TextureUploads(gl_egl.ctx)
+    try:
+        uploads.upload_ready_first([tex], later=True)
+        assert not built  # returned while the chain is still being made
+        go.set()
+        uploads.finish()
+        gl_tex = uploads.get(tex)
+        for k, level in enumerate(levels):
+            want = np.ascontiguousarray(level[::-1], np.float16)
+            assert np.array_equal(read_level(gl_tex, k), want), k
+    finally:
+        go.set()
+        uploads.release()

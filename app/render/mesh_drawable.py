@@ -136,6 +136,7 @@ class MeshDrawable:
         # (uniform name, texture) in the order they take texture units.
         self.textures: list[tuple[str, moderngl.Texture]] = []
         self._owns_textures = uploads is None
+        self._uploads = uploads  # its maps left for the first draw: ``bind_material``
         upload = (lambda tex: upload_texture(ctx, tex)) if uploads is None else uploads.get
         for uniform, tex in drawn_maps(part):
             self.textures.append((uniform, upload(tex)))
@@ -261,6 +262,8 @@ class MeshDrawable:
         for name, value in values.items():
             if name in self.uniforms:  # the compiler drops what a permutation does not use
                 prog[name].value = value
+        if self._uploads is not None:
+            self._uploads.finish()  # levels left to the first draw (texture_upload.py)
         for unit, (name, tex) in enumerate(self.textures, start=first_unit):
             tex.use(unit)
             if name in self.uniforms:

@@ -31,6 +31,9 @@ class TextureUploads:
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
         self._made: dict[int, tuple[Texture, moderngl.Texture]] = {}
+        # Prepared maps whose storage is allocated and whose levels are written at the
+        # first draw that binds them (``upload_ready_first(later=True)``, ``finish``).
+        self._later: list[tuple[Texture, moderngl.Texture]] = []
 
     def get(self, tex: Texture) -> moderngl.Texture:
         made = self._made.get(id(tex))
@@ -38,15 +41,34 @@ class TextureUploads:
             made = self._made[id(tex)] = (tex, upload_texture(self.ctx, tex))
         return made[1]
 
-    def upload_ready_first(self, maps: Iterable[Texture]) -> None:
+    def upload_ready_first(self, maps: Iterable[Texture], later: bool = False) -> None:
         """Upload ``maps`` (a pass's, mesh_drawable.drawn_maps), those with nothing to wait
         for first: a colour map (its texels at hand, its GL mips made here) before a
         prepared chain, which may still be being built on the cache's background thread
         (maps.PreparedLevels): the GL's work on the colour maps runs while the chain is
-        made, not after it. The drawables then find every map uploaded."""
+        made, not after it. The drawables then find every map uploaded.
+
+        ``later``: a prepared map still being made gets its texture now, its storage
+        allocated (its levels' sizes are its declared layout), and its levels written at
+        the first draw that binds it (``finish``, from ``MeshDrawable.bind_material``):
+        the renderer's other passes and programs are made meanwhile instead of after it."""
         unique = list({id(t): t for t in maps}.values())
         for tex in sorted(unique, key=lambda t: isinstance(t.levels, PreparedLevels)):
+            levels = tex.levels
+            preparing = isinstance(levels, PreparedLevels) and not levels.ready()
+            if later and preparing and id(tex) not in self._made:
+                gl_tex = _half_storage(self.ctx, tex)
+                self._made[id(tex)] = (tex, gl_tex)
+                self._later.append((tex, gl_tex))
+                continue
             self.get(tex)
+
+    def finish(self) -> None:
+        """Write the levels of the maps ``upload_ready_first`` left for later (waiting for
+        them where they are still being made)."""
+        while self._later:
+            tex, gl_tex = self._later.pop(0)
+            _write_half_levels(gl_tex, upload_levels(tex))
 
     def release(self) -> None:
         for _, gl_tex in self._made.values():
@@ -80,10 +102,33 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
         h, w = levels[0].shape[:2]
         comps = 1 if levels[0].ndim == 2 else levels[0].shape[2]
         gl_tex = _allocated(ctx, (w, h), comps, len(levels), GL_HALF_FORMATS[comps])
-        _write_level0(gl_tex, comps, levels[0], GL_HALF_FLOAT)
-        if len(levels) > 1:
-            _define_levels(gl_tex, comps, levels[1:])
+        _write_half_levels(gl_tex, levels)
         mipmapped = len(levels) > 1
+    _sampler_state(gl_tex, tex, mipmapped)
+    return gl_tex
+
+
+def _half_storage(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
+    """``upload_texture``'s texture of a prepared map, its levels not yet written: the
+    storage of the levels its declared layout gives (maps.PreparedLevels ``layout``,
+    ``upload_bytes``'s sizes), its sampler state set."""
+    h, w, comps, single = tex.levels.layout  # type: ignore[union-attr]
+    count = 1 if single else max(h, w).bit_length()
+    gl_tex = _allocated(ctx, (w, h), comps, count, GL_HALF_FORMATS[comps])
+    _sampler_state(gl_tex, tex, count > 1)
+    return gl_tex
+
+
+def _write_half_levels(gl_tex: moderngl.Texture, levels: Sequence[np.ndarray]) -> None:
+    """Float16 levels (rows bottom first) into ``gl_tex``, made for them."""
+    comps = gl_tex.components
+    _write_level0(gl_tex, comps, levels[0], GL_HALF_FLOAT)
+    if len(levels) > 1:
+        _define_levels(gl_tex, comps, levels[1:])
+
+
+def _sampler_state(gl_tex: moderngl.Texture, tex: Texture, mipmapped: bool) -> None:
+    """The map's filters, anisotropy and wrap on ``gl_tex``."""
     if tex.min_filter == "linear_mipmap_linear" and tex.mag_filter == "linear":
         gl_tex.filter = (  # the default: trilinear where there are mips
             moderngl.LINEAR_MIPMAP_LINEAR if mipmapped else moderngl.LINEAR,
@@ -95,7 +140,6 @@ def upload_texture(ctx: moderngl.Context, tex: Texture) -> moderngl.Texture:
     gl_tex.anisotropy = MAX_ANISOTROPY
     if tex.wrap != ("repeat", "repeat"):
         set_wrap(gl_tex, tex.wrap)
-    return gl_tex
 
 
 # glTF 2.0 sampler filters by name -> the GL's (moderngl's constants are the GL enums).

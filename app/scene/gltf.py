@@ -42,7 +42,9 @@ from __future__ import annotations
 import base64
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -952,22 +954,34 @@ class GltfFile:
             _LOG.warning("%s: %s", self.path, note)
         maps: dict[str, Texture] = {}
         transforms: dict[str, UvTransform] = {}
+        # Each map in the material's order, made now or, a colour map, once every image of
+        # the material is open (``made``): its texels wait for its decode and its mips are
+        # made on this thread, while the images opened after it (the normal and
+        # metallic-roughness maps the chain waits for) would not yet be decoding.
+        entries: list[tuple[str, MapMaker, dict, UvTransform]] = []
 
-        def put(name: str, texture: Texture, sampler: dict, transform: UvTransform) -> None:
-            for attr, value in sampler.items():
-                setattr(texture, attr, value)
-            maps[name] = texture
-            if not transform.identity:
-                transforms[name] = transform
-            # A prepared map is made on the cache's background thread from now on, while
-            # the material's other images are decoded and the parts built.
-            prefetch_map(texture)
+        def put(name: str, texture: MapMaker, sampler: dict, transform: UvTransform) -> None:
+            entries.append((name, texture, sampler, transform))
+            if isinstance(texture, Texture):
+                # A prepared map is made on the cache's background thread from now on,
+                # while the material's other images are decoded and the parts built.
+                prefetch_map(texture)
+
+        def made() -> None:
+            for name, texture, sampler, transform in entries:
+                texture = texture if isinstance(texture, Texture) else texture()
+                for attr, value in sampler.items():
+                    setattr(texture, attr, value)
+                maps[name] = texture
+                if not transform.identity:
+                    transforms[name] = transform
+            entries.clear()
 
         if pbr is not None and pbr.baseColorTexture is not None:
             tkey = f"{pkey}.baseColorTexture"
             img, sampler, tr = self._texture(pbr.baseColorTexture, tkey, reduced=True)
             self._map_cost(img, "colour", tkey)
-            put("base_color", colour_texture(img), sampler, tr)  # RGBA: alpha kept
+            put("base_color", partial(colour_texture, img), sampler, tr)  # RGBA: alpha kept
         mr = None
         if pbr is not None and pbr.metallicRoughnessTexture is not None:
             tkey = f"{pkey}.metallicRoughnessTexture"
@@ -1045,7 +1059,7 @@ class GltfFile:
                 m.emissiveTexture, f"{key}.emissiveTexture", reduced=True
             )
             self._map_cost(img, "colour", f"{key}.emissiveTexture")
-            put("emissive", colour_texture(img), sampler, tr)
+            put("emissive", partial(colour_texture, img), sampler, tr)
         layer.alpha = float(factor[3])
         mode = m.alphaMode if m.alphaMode is not None else "OPAQUE"
         if mode not in ("OPAQUE", "MASK", "BLEND"):
@@ -1065,6 +1079,7 @@ class GltfFile:
             self._map_cost(img, kind or "scalar", ext_texture.key)
             wait_decoded(img)  # read here with Pillow's own calls, not through _decoded
             put(name, _extension_map(name, ext_texture, img), sampler, tr)
+        made()
         layer.uv_transforms = transforms
         layer.anisotropy_rotation = mapping.anisotropy_rotation
         # The checks every material front-end shares (app/common/material_checks.py), on
@@ -1072,6 +1087,10 @@ class GltfFile:
         for problem in material_problems(layer.params, maps, emissive_factor, strength):
             raise GltfError(_problem_key(key, problem.key), problem.message)
         return layer
+
+
+# A material map, or what makes it once the material's images are open (``_layer``).
+MapMaker = Texture | Callable[[], Texture]
 
 
 def _reads_moved_uv(value: object) -> bool:

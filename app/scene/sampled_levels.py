@@ -121,8 +121,13 @@ def visible_derivatives(
     face hides the largest absolute UV derivative per window pixel (one value per
     visible textured pixel centre; a pixel shared by faces at one depth, each)."""
     s = screen[faces]  # (M, 3, 2)
-    row_lo = np.maximum(np.ceil(s[:, :, 1].min(axis=1) - 0.5), 0).astype(np.int64)
-    row_hi = np.minimum(np.floor(s[:, :, 1].max(axis=1) - 0.5), height - 1).astype(np.int64)
+    # (the least and the most of three as two element-wise steps: numpy's reduction along
+    # a short last axis loops per row)
+    y0, y1, y2 = s[:, 0, 1], s[:, 1, 1], s[:, 2, 1]
+    row_lo = np.ceil(np.minimum(np.minimum(y0, y1), y2) - 0.5)
+    row_hi = np.floor(np.maximum(np.maximum(y0, y1), y2) - 0.5)
+    row_lo = np.maximum(row_lo, 0).astype(np.int64)
+    row_hi = np.minimum(row_hi, height - 1).astype(np.int64)
     rows = np.maximum(row_hi - row_lo + 1, 0)
     owner = np.repeat(np.arange(len(faces)), rows)  # one entry per (face, row)
     first = np.cumsum(rows) - rows
@@ -176,8 +181,8 @@ def visible_derivatives(
     ]  # perspective-correct uv at the pixel centre
     worst = np.zeros(len(depth))
     for axis in (0, 1):  # window x, then y: d uv = (d(uv/z) - uv d(1/z)) / (1/z)
-        d_tex = (g[:, 1:, axis] - texcoord * g[:, 0, axis, None]) / depth[:, None]
-        worst = np.maximum(worst, np.abs(d_tex).max(axis=1))
+        d_tex = np.abs((g[:, 1:, axis] - texcoord * g[:, 0, axis, None]) / depth[:, None])
+        worst = np.maximum(worst, np.maximum(d_tex[:, 0], d_tex[:, 1]))
     return worst
 
 

@@ -279,6 +279,20 @@ class PreparedCache:
                 _, old = self._memory.popitem(last=False)
                 self._held -= sum(a.nbytes for a in old)
 
+    def holds(self, kind: str, parts: Iterable[Part]) -> bool:
+        """Whether an entry of ``arrays(kind, parts, ...)`` is at hand (in memory, on
+        disk or in a seed), without reading or checking it."""
+        if not self.enabled:
+            return False
+        key = entry_key(kind, parts)
+        with self._lock:
+            if key in self._memory:
+                return True
+        path = self.path(key)
+        if path is not None and path.is_file():
+            return True
+        return any((seed / f"{key}{_SUFFIX}").is_file() for seed in self.seeds)
+
     def path(self, key: str) -> Path | None:
         """Where entry ``key`` lives on disk (None without a directory)."""
         return None if self.directory is None else self.directory / f"{key}{_SUFFIX}"

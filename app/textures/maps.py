@@ -33,6 +33,9 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.textures.cache import code_version, prepared_cache
+from app.textures.early import BAND_BYTES, IMAGE_FORMATS
+from app.textures.early import take as take_early
+from app.textures.early import whole_reads as _whole_reads
 from app.textures.lean import LEAN, covariance_levels, lean_chain_levels
 from app.textures.mips import (
     BandSource,
@@ -53,13 +56,11 @@ MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default lim
 # The image formats a texture may be in: what glTF 2.0 allows (PNG, JPEG) and what OBJ
 # exporters write. Pillow's other readers (EPS runs Ghostscript, PSD, ICNS, ...) are never
 # asked to parse an input.
-IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
 SOURCE_DIGEST = "pbs_source_sha256"
 # Image.info key of how many finest levels ``open_image``'s DCT scaling left out.
 REDUCED_LEVELS = "pbs_reduced_levels"
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
-_BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
 
 @dataclass
@@ -138,6 +139,10 @@ class PreparedLevels(Sequence[np.ndarray]):
             self._prefetched = prepared_cache().prepare(
                 _UPLOAD_KIND % self.kind, self.parts, self._upload_build
             )
+
+    def ready(self) -> bool:
+        """Whether ``upload_levels`` has nothing to wait for (prefetched and at hand)."""
+        return self._prefetched is not None and self._prefetched.done()
 
     def upload_levels(self) -> list[np.ndarray]:
         """Every level as the GL takes it: float16, rows bottom first, contiguous."""
@@ -306,10 +311,11 @@ def open_image(
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             # Not a ``with`` block: an image returned undecoded reads its stream later.
             image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+        _whole_reads(image, len(encoded))
         width, height = image.size  # from the header: checked before decoding
         if width <= 0 or height <= 0:
             raise RefusedError(f"declares a {width}x{height} image")
-        bands = len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
+        bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
         budget.texture(width, height, kind, "the image")
         budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
         # What the prepared-texture cache keys this image by (_image_part): the
@@ -321,6 +327,7 @@ def open_image(
             image.draft(image.mode, reduced)
             if image.size != reduced:  # a scale libjpeg does not make: the whole image
                 image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+                _whole_reads(image, len(encoded))
             else:  # another image than the file's whole one: its own entries
                 digest = f"{digest} 1/{1 << skipped}"
                 image.info[REDUCED_LEVELS] = skipped
@@ -330,6 +337,10 @@ def open_image(
             if kept is not None:  # decoded before in this process: that image
                 _DECODED.move_to_end(digest)
                 return kept
+        early = take_early(digest) if skipped == 0 else None
+        if early is not None:  # decoded while the process started (app/textures/early.py)
+            early.info[SOURCE_DIGEST] = digest
+            image = early
         if decode_later:
             setattr(image, _PENDING, _decoder().submit(_decode_refused, image, digest))
             return image
@@ -415,7 +426,7 @@ _KEEP_LOCK = threading.Lock()
 
 
 def _image_bytes(image: Image.Image) -> int:
-    return image.width * image.height * len(image.getbands()) * _BAND_BYTES.get(image.mode, 1)
+    return image.width * image.height * len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
 
 
 def _decoded(image: Image.Image) -> Image.Image:
@@ -602,10 +613,42 @@ def colour_texture(image: Image.Image) -> Texture:
         # A DCT-scaled level is not the GL's level n anyway: its mips are made here
         # (mips.srgb_box_levels), without the GL's blit (compiled once a process).
         made = lambda: srgb_box_levels(rows_up()[0])  # noqa: E731
-        levels = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
-        return Texture([level[::-1] for level in levels], srgb=True, source_key=key)
+
+        def levels() -> list[np.ndarray]:
+            entry = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
+            return [level[::-1] for level in entry]
+
+        return Texture(PendingLevels(_colour_maker().submit(levels)), srgb=True, source_key=key)
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
+
+
+class PendingLevels(Sequence[np.ndarray]):
+    """A colour map's levels being made on a thread of their own (``colour_texture``: its
+    decode waited for, its mips made or its entry read), read when first indexed: the
+    thread that reads the material goes on with the parts, the framing and the GL while
+    they are made. A broken image's ``RefusedError`` is raised to whoever reads them (a
+    glTF file reports it, by its key, before: app/scene/gltf.py ``_decodes_checked``)."""
+
+    def __init__(self, future: Future) -> None:
+        self._future = future
+
+    def __getitem__(self, index):  # type: ignore[override]  # an int or a slice, as a list's
+        return self._future.result()[index]
+
+    def __len__(self) -> int:
+        return len(self._future.result())
+
+
+_COLOUR_MAKER: ThreadPoolExecutor | None = None
+
+
+def _colour_maker() -> ThreadPoolExecutor:
+    global _COLOUR_MAKER
+    with _KEEP_LOCK:
+        if _COLOUR_MAKER is None:
+            _COLOUR_MAKER = ThreadPoolExecutor(1, thread_name_prefix="pbs-colour-levels")
+    return _COLOUR_MAKER
 
 
 def scalar_texture(values: np.ndarray) -> Texture:
@@ -764,8 +807,8 @@ def _map_chain_levels(
         if rgb is None:
             n = np.zeros((y1 - y0, shape[1], 3))
             n[..., 2] = 1.0
-        else:
-            n = decode_normal_map(rgb[y0:y1])
+        else:  # as planes: the moments read one component at a time (mips.py)
+            n = decode_normal_map(rgb[y0:y1], planes=True)
             if scale != 1.0:
                 n[..., :2] *= scale
                 n /= np.linalg.norm(n, axis=-1, keepdims=True)

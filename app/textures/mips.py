@@ -56,9 +56,11 @@ _CHANNELS = {
 }
 
 
-def decode_normal_map(rgb: np.ndarray) -> np.ndarray:
+def decode_normal_map(rgb: np.ndarray, planes: bool = False) -> np.ndarray:
     """(H, W, 3|4) uint8 tangent-space normal map (n*0.5+0.5) -> (H, W, 3) float64 unit
-    normals, z clamped > 0.
+    normals, z clamped > 0. ``planes``: the same values held as three planes (x, y, z),
+    the array a view of them: a chain's moments read one component at a time, and a
+    component held contiguous is a fraction of the memory traffic of one strided by 3.
 
     Each channel decodes as v/255 * 2 - 1, the exact inverse of the encoding and what a GL
     UNORM texture sampled as ``rgb * 2 - 1`` gives (so 128 decodes to 1/255, not 0: a flat
@@ -74,8 +76,15 @@ def decode_normal_map(rgb: np.ndarray) -> np.ndarray:
     # A table of the 256 decoded values (the same float64 operations per value as decoding
     # each texel), then |n| as sqrt(x^2 + y^2 + z^2) summed in that order: bit for bit
     # what np.linalg.norm gives, without its temporaries.
-    n = np.take(_DECODE_UNORM8, a[..., :3])  # as indexing, without its intp copy
-    n /= _length(n)[..., None]
+    if planes:
+        held = np.empty((3, *a.shape[:2]))
+        for k in range(3):
+            np.take(_DECODE_UNORM8, a[..., k], out=held[k])
+        held /= _length(np.moveaxis(held, 0, -1))
+        n = np.moveaxis(held, 0, -1)
+    else:
+        n = np.take(_DECODE_UNORM8, a[..., :3])  # as indexing, without its intp copy
+        n /= _length(n)[..., None]
     low = n[..., 2] < MIN_NORMAL_Z
     if np.any(low):
         xy = n[low, :2]
@@ -195,8 +204,12 @@ def chain_levels(
         rows = max(1, BAND_ROWS * w // 2 // counts_x.size)  # as many texels as a band
 
         def filtered(y0: int, y1: int, sums=sums, cy=counts_y, cx=counts_x, level=level) -> None:
-            means = sums[y0:y1] / (cy[y0:y1, None, None] * cx[None, :, None])
-            moments = dict(zip(names, np.moveaxis(means, -1, 0), strict=True))
+            # each moment's means a contiguous plane (the sums' channels are interleaved)
+            texels = cy[y0:y1, None] * cx[None, :]
+            moments = {name: sums[y0:y1, :, c] / texels for c, name in enumerate(names)}
+            if method == "variance":
+                _variance_texels(moments, level[y0:y1])
+                return
             normal, r_level = _filtered(method, moments)
             level[y0:y1, :, :3] = normal
             level[y0:y1, :, 3] = r_level
@@ -278,7 +291,8 @@ def _band_moments(names: tuple[str, ...], n: np.ndarray, r: np.ndarray) -> list[
         if name in ("sx", "sy"):
             if nz is None:
                 nz = np.maximum(n[..., 2], MIN_NORMAL_Z)
-            s = -n[..., "xy".index(name[1])] / nz
+            s = np.divide(n[..., "xy".index(name[1])], nz)
+            np.negative(s, out=s)  # -(x / z): -x / z's bits, without a negated copy of x
             out[name], out[name[0] + name[1] * 2] = s, s * s
         elif name not in out:
             out[name] = _moment(name, n, r)
@@ -445,6 +459,28 @@ def _unit(v: np.ndarray) -> np.ndarray:
     up = np.zeros_like(v)
     up[..., 2] = 1.0
     return np.where(length > 1e-300, v / np.where(length > 1e-300, length, 1.0), up)
+
+
+def _variance_texels(m: dict[str, np.ndarray], out: np.ndarray) -> None:
+    """``_filtered("variance", m)`` written into ``out`` (..., 4), the same bits, a plane
+    at a time: the normal (-E[s.x], -E[s.y], 1) has a length of at least 1, so ``_unit``'s
+    guard against a vanishing one never applies, and its length's squares are the
+    variances' E[s]^2 ((-a)^2 is a^2, 1^2 is 1)."""
+    sx, sy = m["sx"], m["sy"]
+    sx2, sy2 = sx * sx, sy * sy
+    var_x, var_y = m["sxx"] - sx2, m["syy"] - sy2
+    sigma2 = np.maximum(0.5 * (var_x + var_y), 0.0)
+    alpha2 = alpha2_from_slope_variance(m["a2"], sigma2)
+    length = sx2  # sqrt((x*x + y*y) + z*z) as _length sums it, in place
+    length += sy2
+    length += 1.0
+    np.sqrt(length, out=length)
+    for k, slope in enumerate((sx, sy)):
+        component = np.divide(slope, length)
+        np.negative(component, out=component)  # -(a / l): (-a) / l's bits
+        out[..., k] = component
+    out[..., 2] = np.divide(1.0, length)
+    out[..., 3] = alpha2**0.25
 
 
 def _filtered(method: str, m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

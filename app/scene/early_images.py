@@ -1,0 +1,96 @@
+"""A still render of a glTF file starts decoding the images its project-filtered maps read
+(normal, metallic-roughness, occlusion) while the process is still importing the scene's
+modules, on the core those imports leave idle.
+
+Those maps are decoded whole whatever the camera (app/scene/gltf.py: the finest level a
+still frame samples only decides where their levels start), so they can be decoded
+before the file is validated: this reads the file's JSON with the standard library alone
+and decodes each such image on its own thread (app/textures/early.py), Pillow letting go
+of the GIL while it decodes. When the reader opens the same bytes (their digest) it takes
+that image instead of decoding them again (``maps.open_image``); every check of the
+reader still runs there, in its order (header, budget, the broken image named by its
+key). Nothing found here is reported: a file, a URI or an image this cannot
+use is simply left to the reader. Only relative URIs confined as the reader confines them
+(``files.confine_uri``) and plain files are read; a .glb's images are left to the reader.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.untrusted.budget import Budget
+
+# The textureInfo objects of a material whose images the project filters (decoded whole):
+# (the material's object holding it, or None for the material itself, its key).
+_WHOLE_MAPS = (
+    ("pbrMetallicRoughness", "metallicRoughnessTexture"),
+    (None, "normalTexture"),
+    (None, "occlusionTexture"),
+)
+# A glTF JSON larger than this is left to the reader (the early start is for the common case).
+_MAX_JSON_BYTES = 16 << 20
+
+
+def start_still_decodes(model: str | Path) -> None:
+    """Start decoding ``model``'s whole-decoded images on a daemon thread, where ``model``
+    names a .gltf file; nothing else. Their texels are charged to a budget of the default
+    limits of their own (a render given a smaller ``--max-memory`` starts none)."""
+    path = Path(model)
+    if path.suffix.lower() != ".gltf":
+        return
+    threading.Thread(target=_start, args=(path,), name="pbs-early-images", daemon=True).start()
+
+
+def _start(path: Path) -> None:
+    from app.untrusted.budget import Budget
+    from app.untrusted.policy import DEFAULT_POLICY
+
+    try:
+        budget = Budget(DEFAULT_POLICY.limits)  # the images decoded here: the default's
+        for uri in whole_image_uris(path):
+            _open(uri, path, budget)
+    except Exception:  # the reader reports whatever is wrong, in its order
+        return
+
+
+def whole_image_uris(path: Path) -> list[str]:
+    """The URIs of the images that ``path``'s materials read through the maps the project
+    filters, in the materials' order, each once (no data: URIs)."""
+    from app.untrusted import files
+    from app.untrusted.policy import DEFAULT_POLICY
+
+    limit = min(_MAX_JSON_BYTES, DEFAULT_POLICY.limits.max_file_bytes)
+    doc = json.loads(files.read_bytes(path, limit))
+    textures, images = doc.get("textures") or [], doc.get("images") or []
+    uris: list[str] = []
+    for material in doc.get("materials") or []:
+        for holder, name in _WHOLE_MAPS:
+            owner = material if holder is None else material.get(holder) or {}
+            index = (owner.get(name) or {}).get("index")
+            if not isinstance(index, int) or not 0 <= index < len(textures):
+                continue
+            source = textures[index].get("source")
+            if not isinstance(source, int) or not 0 <= source < len(images):
+                continue
+            uri = images[source].get("uri")
+            if isinstance(uri, str) and not uri.startswith("data:") and uri not in uris:
+                uris.append(uri)
+    return uris
+
+
+def _open(uri: str, path: Path, budget: Budget) -> None:
+    """The file ``uri`` names, decoded on this thread (``early.decode_early``)."""
+    from app.textures.early import decode_early
+    from app.untrusted import RefusedError, files
+    from app.untrusted.policy import DEFAULT_POLICY
+
+    try:
+        file = files.confine_uri(uri, path, DEFAULT_POLICY)
+        data = files.read_bytes(file, DEFAULT_POLICY.limits.max_file_bytes)
+    except RefusedError:
+        return
+    decode_early(data, budget)
