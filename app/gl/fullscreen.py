@@ -87,12 +87,14 @@ class FullscreenDraw:
         viewport: tuple[int, int, int, int] | None = None,
         depth_func: str | None = None,
         first_unit: int = 0,
+        add: bool = False,
     ) -> None:
         """Draw the triangle into ``fbo`` (None: the framebuffer bound now) with
         ``textures`` bound from ``first_unit`` on and ``uniforms`` set (every draw: a shader
         cache may hand the same program to passes of other parameters). ``depth_func``:
         the depth test against ``fbo``'s depth attachment (">" for a far-plane triangle);
-        None draws without it."""
+        None draws without it. ``add``: the output added to what the target holds (one
+        share of a sum drawn by several programs), else written over it."""
         ctx = self.ctx
         if fbo is not None:
             fbo.use()
@@ -102,16 +104,23 @@ class FullscreenDraw:
             bind_textures(self.program, textures, first_unit)
         if uniforms:
             set_uniforms(self.program, uniforms)
-        if depth_func is None:
-            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-            self.vao.render(moderngl.TRIANGLES, vertices=3)
-            return
         ctx.disable(moderngl.BLEND)
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = depth_func
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
-        ctx.disable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
+        if add:
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.ONE, moderngl.ONE
+            ctx.blend_equation = moderngl.FUNC_ADD
+        if depth_func is None:
+            ctx.disable(moderngl.DEPTH_TEST)
+            self.vao.render(moderngl.TRIANGLES, vertices=3)
+        else:
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.depth_func = depth_func
+            self.vao.render(moderngl.TRIANGLES, vertices=3)
+            ctx.disable(moderngl.DEPTH_TEST)
+            ctx.depth_func = "<"
+        if add:
+            ctx.disable(moderngl.BLEND)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
 
     def release(self) -> None:
         self.vao.release()

@@ -121,32 +121,20 @@ class MsaaPass:
         background: np.ndarray,
     ) -> None:
         """The lighting programs at the marked pixels of ``target`` (``run``)."""
-        ctx = self.ctx
         rgba = np.resize(np.asarray(background, np.float64), 4)
         if len(background) == 3:
             rgba[3] = 1.0
         context = self.lighting.context
         unit = context.use()
-        self.fbo.use()
-        ctx.viewport = (0, 0, *self.size)
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = ">"
         for i, draw in enumerate(self.lighting.draws):
             program = draw.program
             context.bind(program)
             bind_camera(program, camera)
             bind_textures(program, {"u_msaa_hdr": hdr, "u_msaa_centre_depth": gbuffer.depth}, unit)
             set_uniforms(program, {"u_msaa_background": tuple(float(x) for x in rgba)})
-            if i == 0:  # the first group's share and the background's replace the copy
-                ctx.disable(moderngl.BLEND)
-            else:  # every other group's share added
-                ctx.enable(moderngl.BLEND)
-                ctx.blend_func = moderngl.ONE, moderngl.ONE
-                ctx.blend_equation = moderngl.FUNC_ADD
-            draw.vao.render(moderngl.TRIANGLES, vertices=3)
-        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
-        ctx.blend_func = moderngl.DEFAULT_BLENDING
-        ctx.depth_func = "<"
+            # the first group's share and the background's replace the copy, every other
+            # group's share is added
+            draw.draw(self.fbo, viewport=(0, 0, *self.size), depth_func=">", add=i > 0)
 
     def read(self) -> np.ndarray:
         return read_rgb(self.fbo, self.size, "f4")

@@ -7,6 +7,8 @@
 #ifndef PBS_MSAA_BACKGROUND_GLSL
 #define PBS_MSAA_BACKGROUND_GLSL
 
+#include "brdf/material.glsl"
+
 uniform sampler2D u_msaa_hdr;           // the frame's HDR image, shaded at pixel centres
 uniform sampler2D u_msaa_centre_depth;  // the frame's RT2 (view depth 0: no surface)
 uniform vec4 u_msaa_background;
