@@ -176,17 +176,12 @@ def chain_levels(
 
     def band(y0: int, y1: int) -> None:
         n, r = source(y0, y1)
-        if first > 0:
-            if sums is not None:
-                half = sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)]
-                for c, moment in enumerate(_band_moments(names, n, r)):
-                    half[..., c] = _halve(moment)
-            return
-        rows = np.empty((y1 - y0, w, 4), np.float32) if rows_up_float16 else level0[y0:y1]
-        rows[..., :3] = n  # float64 -> float32, as astype rounds
-        rows[..., 3] = r
-        if rows_up_float16:
-            level0[h - y1 : h - y0] = rows[::-1]  # float32 -> float16, as astype rounds
+        if first == 0:  # level 0 kept (``first``: its moments are summed all the same)
+            rows = np.empty((y1 - y0, w, 4), np.float32) if rows_up_float16 else level0[y0:y1]
+            rows[..., :3] = n  # float64 -> float32, as astype rounds
+            rows[..., 3] = r
+            if rows_up_float16:
+                level0[h - y1 : h - y0] = rows[::-1]  # float32 -> float16, as astype rounds
         if sums is not None:
             half = sums[y0 // 2 : y0 // 2 + max(1, (y1 - y0) // 2)]
             for c, moment in enumerate(_band_moments(names, n, r)):
@@ -332,7 +327,7 @@ def box_levels(
 
     def band(y0: int, y1: int) -> None:
         values = source(y0, y1)
-        if first > 0:
+        if first > 0:  # level 0 not kept; its values are summed all the same
             pass
         elif rows_up_float16 and float16_rows is not None:
             level0[h - y1 : h - y0] = float16_rows(y0, y1)[::-1]
