@@ -521,33 +521,60 @@ class _Caster:
 _IDENTITY = gl_bytes(np.eye(4))
 
 
-class _MaskedCaster:
-    """An alpha-masked part (glTF alphaMode MASK) for the shadow pass: its triangles with
-    UVs (and COLOR_0, TEXCOORD_1) and its base colour map, drawn by passes/gbuffer.vert and
-    passes/shadow_mask.frag, which discards where the coverage is below the cutoff, as the
-    G-buffer pass does. Only the base colour map is uploaded (it alone carries coverage)."""
+class _MapsCaster:
+    """A mesh part drawn into a shadow target by its own program, with the maps of
+    ``MAPS`` it has (and its UVs, COLOR_0, TEXCOORD_1): passes/gbuffer.vert and the
+    subclass's ``FRAGMENT``, the sides ``set_sides`` gives and the uniforms ``uniforms``
+    writes. Only those maps are uploaded."""
 
-    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart) -> None:
+    MAPS: tuple[str, ...] = ()
+    FRAGMENT = ""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        part: MeshPart,
+        defines: dict[str, object] | None = None,
+    ) -> None:
         layer = part.layers[0]
-        coverage = {k: v for k, v in layer.maps.items() if k == "base_color"}
+        maps = {k: v for k, v in layer.maps.items() if k in self.MAPS}
         shown = dataclasses.replace(
-            part, layers=[dataclasses.replace(layer, maps=coverage)], blend=None
+            part, layers=[dataclasses.replace(layer, maps=maps)], blend=None
         )
         self.drawable = MeshDrawable(
-            ctx, shaders, shown, [0], ("passes/gbuffer.vert", "passes/shadow_mask.frag")
+            ctx, shaders, shown, [0], ("passes/gbuffer.vert", self.FRAGMENT), defines
         )
         self.ctx = ctx
 
+    def set_sides(self, part: MeshPart) -> None:
+        set_sides(self.ctx, part)
+
+    def uniforms(self) -> list[tuple[str, bytes]]:
+        return []
+
     def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
-        """Draw into the bound map with its own program (``prog`` is the pass's)."""
+        """Draw into the bound target with its own program (``prog`` is the pass's)."""
         d = self.drawable
-        set_sides(self.ctx, d.part)
+        self.set_sides(d.part)
         d.bind_transform(_IDENTITY, light_matrix)
         d.bind_material()
+        for name, data in self.uniforms():
+            if name in d.uniforms:
+                d.program[name].write(data)
         d.vao.render(moderngl.TRIANGLES)
 
     def release(self) -> None:
         self.drawable.release()
+
+
+class _MaskedCaster(_MapsCaster):
+    """An alpha-masked part (glTF alphaMode MASK) for the shadow pass, drawn by
+    passes/shadow_mask.frag, which discards where the coverage is below the cutoff, as the
+    G-buffer pass does. Only the base colour map is uploaded (it alone carries coverage)."""
+
+    MAPS = ("base_color",)
+    FRAGMENT = "passes/shadow_mask.frag"
 
 
 def set_glass_sides(ctx: moderngl.Context, part: MeshPart) -> None:
@@ -615,41 +642,27 @@ def glass_textured(part: MeshPart) -> bool:
     return part.analytic is None and (colours or any(k in layer.maps for k in GLASS_MAPS))
 
 
-class _TexturedGlassCaster:
-    """A transmissive mesh whose tint varies over it (``glass_textured``): its triangles
-    with UVs (and COLOR_0, TEXCOORD_1) and the maps of ``GLASS_MAPS`` it has, drawn by
-    passes/gbuffer.vert and passes/shadow_glass.frag with GLASS_MAPS, which multiplies the
-    constants by the texels the transmission pass reads at the same UV (as
-    ``_MaskedCaster`` draws a masked part with its coverage)."""
+class _TexturedGlassCaster(_MapsCaster):
+    """A transmissive mesh whose tint varies over it (``glass_textured``), drawn by
+    passes/shadow_glass.frag with GLASS_MAPS, which multiplies the constants by the texels
+    the transmission pass reads at the same UV (as ``_MaskedCaster`` draws a masked part
+    with its coverage)."""
+
+    MAPS = GLASS_MAPS
+    FRAGMENT = "passes/shadow_glass.frag"
 
     def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart) -> None:
-        layer = part.layers[0]
-        maps = {k: v for k, v in layer.maps.items() if k in GLASS_MAPS}
-        shown = dataclasses.replace(
-            part, layers=[dataclasses.replace(layer, maps=maps)], blend=None
-        )
+        maps = [k for k in part.layers[0].maps if k in GLASS_MAPS]
         defines = {"GLASS_MAPS": 1, **{t.define: 1 for t in FACTOR_TARGETS
                                         if t.name in targets_of(maps)}}  # fmt: skip
-        self.drawable = MeshDrawable(
-            ctx, shaders, shown, [0], ("passes/gbuffer.vert", "passes/shadow_glass.frag"),
-            defines,
-        )  # fmt: skip
+        super().__init__(ctx, shaders, part, defines)
         self.constants = _GlassCaster.constants(part)
-        self.ctx = ctx
 
-    def draw(self, prog: moderngl.Program, light_matrix: bytes) -> None:
-        """Draw into the bound glass target with its own program (``prog`` is the pass's)."""
-        d = self.drawable
-        set_glass_sides(self.ctx, d.part)
-        d.bind_transform(_IDENTITY, light_matrix)
-        d.bind_material()
-        for name, data in self.constants:
-            if name in d.uniforms:
-                d.program[name].write(data)
-        d.vao.render(moderngl.TRIANGLES)
+    def set_sides(self, part: MeshPart) -> None:
+        set_glass_sides(self.ctx, part)
 
-    def release(self) -> None:
-        self.drawable.release()
+    def uniforms(self) -> list[tuple[str, bytes]]:
+        return self.constants
 
 
 class ShadowPass(ShaderInput):
