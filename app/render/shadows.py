@@ -366,7 +366,13 @@ def cull_back_faces(part: MeshPart) -> bool:
 def set_sides(ctx: moderngl.Context, part: MeshPart) -> None:
     """The face culling ``part`` casts with (``cull_back_faces``), its winding reversed
     where its model matrix mirrors, as in the camera pass (``MeshDrawable.cull``)."""
-    if cull_back_faces(part):
+    _cull_back(ctx, part, cull_back_faces(part))
+
+
+def _cull_back(ctx: moderngl.Context, part: MeshPart, cull: bool) -> None:
+    """Back faces culled where ``cull`` (the winding reversed where ``part``'s model
+    matrix mirrors), else both sides drawn."""
+    if cull:
         mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
         ctx.front_face = "cw" if mirrored else "ccw"
         ctx.cull_face = "back"
@@ -582,13 +588,7 @@ def set_glass_sides(ctx: moderngl.Context, part: MeshPart) -> None:
     part is closed (a sphere, a box, a single-sided glTF mesh), so that the light crosses
     each closed body once, as the transmission pass's one interface and one thickness
     model it (docs/shadows.md, "Glass"); both sides of an open part (one pane)."""
-    if part.closed:
-        mirrored = bool(np.linalg.det(part.model[:3, :3]) < 0.0)
-        ctx.front_face = "cw" if mirrored else "ccw"
-        ctx.cull_face = "back"
-        ctx.enable(moderngl.CULL_FACE)
-    else:
-        ctx.disable(moderngl.CULL_FACE)
+    _cull_back(ctx, part, part.closed)
 
 
 class _GlassCaster(_Caster):
