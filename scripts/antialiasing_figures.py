@@ -33,6 +33,9 @@ from app.scene.loader import LoadedScene
 from app.scene.sources import scene_from
 from app.walkthrough.labels import caption_band, find_font
 
+# What the script writes, each shown in docs/antialiasing.md (tests/test_docs_images.py).
+MODES_FIGURE = "antialiasing-modes.png"
+GBAA_FIGURE = "antialiasing-gbaa.png"
 JITTER_SAMPLES = 8
 GUTTER = 4  # pixels between panels
 GUTTER_RGB = (255, 255, 255)
@@ -214,7 +217,7 @@ def main() -> None:
         gbaa, note = gbaa_figure(gl)
     finally:
         gl.release()
-    figures = {"antialiasing-modes.png": modes, "antialiasing-gbaa.png": gbaa}
+    figures = {MODES_FIGURE: modes, GBAA_FIGURE: gbaa}
     for name, figure in figures.items():
         path = args.out / name
         Image.fromarray(figure).save(path, optimize=True)
