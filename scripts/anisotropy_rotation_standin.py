@@ -24,7 +24,17 @@ roughness stretched along TANGENT (KHR_materials_anisotropy, strength ``STRENGTH
 The roughness is larger than the original's 0.1 so that a sphere some 40 pixels across
 resolves the lobe's narrow width (alpha_b = 0.01 would be a fraction of a pixel there).
 Output is deterministic (the test regenerates it and compares bytes).
+
+``view_scene`` is the view the tests measure: straight ahead from 1 km away, one
+directional light, no environment. ``--figure PNG`` renders docs/gltf.md's figure of the
+stand-in: as ``pbs render MODEL --view front`` shows it (the studio environment, a key and
+a fill light), then in ``view_scene``'s light with the default ``variance``
+normal filtering, with ``lean``, and the reference from the maps' level 0 (8 x 8 samples).
+``--grooves`` prints docs/filtering.md's table of the grooved sphere's highlight
+(``highlight_shape``) by normal filter.
 Usage: python scripts/anisotropy_rotation_standin.py [OUT_FOLDER]
+       python scripts/anisotropy_rotation_standin.py --figure PNG
+       python scripts/anisotropy_rotation_standin.py --grooves
 """
 
 from __future__ import annotations
@@ -52,6 +62,9 @@ GROOVES = 128  # around the sphere
 GROOVE_TEXELS = 8  # texels across one groove
 GROOVE_DEGREES = 30.0  # the steepest slope across a groove
 BASE_COLOR = [0.9, 0.9, 0.9, 1.0]
+VIEW_SIZE = (128, 256)  # the whole stand-in in view_scene
+VIEW_SCALE = 48.0  # view_scene's pixels per metre on the file's z = 0 plane
+VIEW_DISTANCE = 1000.0  # metres
 FLOAT, USHORT = 5126, 5123
 
 # (node name, column -1 left / +1 right, row 0..4 from the bottom, mesh name)
@@ -72,6 +85,42 @@ NODES = [
 def node_centre(column: int, row: int) -> tuple[float, float]:
     """A sphere's centre in the file's XY plane (z = 0), metres."""
     return column * COLUMN_X, (row - 2) * ROW_Y
+
+
+def view_scene(
+    size: tuple[int, int] = VIEW_SIZE, centre: tuple[float, float] = (0.0, 0.0), **render: object
+) -> dict:
+    """A scene (a scene file's keys, relative to OUT) that shows the stand-in from +z,
+    ``centre`` (x, y) in the middle of a ``size`` image at ``VIEW_SCALE`` pixels a metre:
+    from ``VIEW_DISTANCE`` away, so every sphere is seen (and lit) from within 0.1 degrees
+    of the same direction and the spheres' centres fall on whole pixels. One directional
+    light from the upper right, behind the camera; no environment, so the metals show
+    their highlights alone. ``render`` adds render settings."""
+    fov = math.degrees(2.0 * math.atan(size[1] / 2.0 / (VIEW_SCALE * VIEW_DISTANCE)))
+    return {
+        "camera": {"position": [*centre, VIEW_DISTANCE], "target": [*centre, 0.0],
+                   "fov_y": fov, "near": VIEW_DISTANCE - 10, "far": VIEW_DISTANCE + 10},
+        "lights": [{"type": "directional", "direction": [-0.25, -0.2, -1.0], "intensity": 3.0}],
+        "objects": [{"shape": "mesh", "file": f"{NAME}.gltf"}],
+        "render": {"width": size[0], "height": size[1], **render},
+    }  # fmt: skip
+
+
+def highlight_shape(tile: np.ndarray) -> tuple[float, float]:
+    """The highlight's principal direction (degrees counter-clockwise from the image's +x,
+    in (-90, 90]) and elongation (the square root of the ratio of the luminance-weighted
+    second moments' eigenvalues: 1 for a round highlight)."""
+    lum = tile @ np.array([0.2126, 0.7152, 0.0722])
+    h, w = lum.shape
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    y = -y  # image rows run down, angles count up
+    p = lum / lum.sum()
+    dx, dy = x - (p * x).sum(), y - (p * y).sum()
+    cov = np.array([[(p * dx * dx).sum(), (p * dx * dy).sum()],
+                    [(p * dx * dy).sum(), (p * dy * dy).sum()]])  # fmt: skip
+    angle = 0.5 * math.degrees(math.atan2(2.0 * cov[0, 1], cov[0, 0] - cov[1, 1]))
+    low, high = np.linalg.eigvalsh(cov)
+    return angle, math.sqrt(high / low)
 
 
 def sphere(tilt_degrees: float) -> dict[str, np.ndarray]:
@@ -244,5 +293,70 @@ def main(out: Path) -> None:
         print(f"{out / name}: {len(data)} bytes")
 
 
+def _render_hdr(gl: object, data: dict) -> np.ndarray:
+    """The linear HDR image (H, W, 3), float64, of ``view_scene``'s dict ``data``."""
+    from app.render.renderer import Renderer
+    from app.scene.sources import scene_from
+
+    r = Renderer(gl, scene_from(data, base_dir=OUT))
+    try:
+        r.render()
+        return r.read_hdr()[..., :3].astype(np.float64)
+    finally:
+        r.release()
+
+
+def grooves() -> None:
+    """docs/filtering.md's table: the grooved sphere alone (48 x 48, ``view_scene``'s
+    scale) with each normal filter and the reference from level 0 (16 x 16 samples): its
+    highlight's elongation and direction, and mean FLIP against the reference."""
+    from app.bench.metrics import image_errors
+    from app.gl.context import create_context
+
+    gl = create_context("egl")
+    col, row = next((c, r) for name, c, r, _ in NODES if name == "Normal map of grooves")
+    centre = node_centre(col, row)
+    ref = _render_hdr(gl, view_scene((48, 48), centre, normal_filter="none", supersample=16))
+    angle, elongation = highlight_shape(ref)
+    print(f"| reference | {elongation:.2f} | {angle:.1f} | |")
+    for name in ("lean", "variance", "toksvig", "naive"):
+        hdr = _render_hdr(gl, view_scene((48, 48), centre, normal_filter=name))
+        angle, elongation = highlight_shape(hdr)
+        flip = image_errors(hdr, ref, np.ones((48, 48), bool), 0.0, "neutral")["flip_mean"]
+        print(f"| {name} | {elongation:.2f} | {angle:.1f} | {flip:.3f} |")
+
+
+def figure(path: Path) -> None:
+    """docs/gltf.md's figure (module docstring): four panels of ``VIEW_SIZE`` side by side,
+    from the committed stand-in in OUT."""
+    from app.gl.context import create_context
+    from app.reference.tonemap import post_process
+    from app.render.renderer import Renderer
+    from app.scene.look import Look
+    from app.scene.sources import scene_from
+
+    gl = create_context("egl")
+    look = Look(view="front")
+    r = Renderer(gl, scene_from(OUT / f"{NAME}.gltf", look=look, size=VIEW_SIZE), VIEW_SIZE)
+    try:
+        r.render()
+        panels = [np.ascontiguousarray(r.read_ldr()[..., :3])]
+    finally:
+        r.release()
+    for render in ({}, {"normal_filter": "lean"}, {"normal_filter": "none", "supersample": 8}):
+        hdr = _render_hdr(gl, view_scene(**render))
+        ldr = np.clip(post_process(hdr, 0.0, "neutral"), 0.0, 1.0)
+        panels.append((ldr * 255.0 + 0.5).astype(np.uint8))
+    gap = np.full((VIEW_SIZE[1], 2, 3), 255, np.uint8)
+    row = [x for panel in panels for x in (panel, gap)][:-1]
+    Image.fromarray(np.concatenate(row, axis=1)).save(path, optimize=True)
+    print(f"{path}: {path.stat().st_size} bytes")
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else OUT)
+    if sys.argv[1:2] == ["--figure"]:
+        figure(Path(sys.argv[2]))
+    elif sys.argv[1:2] == ["--grooves"]:
+        grooves()
+    else:
+        main(Path(sys.argv[1]) if len(sys.argv) > 1 else OUT)

@@ -23,6 +23,15 @@ from app.reference.normal_mapping import anisotropy_direction, rotate_tangent
 from app.render.renderer import Renderer
 from app.scene.gltf_extensions import map_material_extensions
 from app.scene.loader import load_scene, parse_scene
+from scripts.anisotropy_rotation_standin import (
+    NODES,
+    VIEW_SCALE,
+    VIEW_SIZE,
+    build,
+    highlight_shape,
+    node_centre,
+    view_scene,
+)
 from tests.gltf_builder import GltfBuilder, png_rgb
 from tests.test_gltf import SCENE
 
@@ -348,27 +357,10 @@ def pygltflib_params():
 
 # Khronos' AnisotropyRotationTest, as a stand-in built by scripts/anisotropy_rotation_standin.py
 # (the original's binary files cannot be had here; docs/gltf.md): ten metal spheres in two
-# columns of five, rendered through the glTF reader from nearly straight ahead, one
-# directional light, no environment (the metals have no diffuse: the image is the
-# highlights). The camera is 1 km away with a field of view that puts STANDIN_SCALE pixels
-# to a metre on the file's z = 0 plane, so the spheres' centres fall on whole pixels and
-# every sphere is seen (and lit) from within 0.1 degrees of the same direction.
+# columns of five, rendered through the glTF reader in the script's view_scene (from 1 km
+# straight ahead, VIEW_SCALE pixels a metre, one directional light, no environment: the
+# metals have no diffuse, so the image is their highlights).
 STANDIN = Path(__file__).parent / "assets" / "anisotropy_rotation"
-STANDIN_SIZE = (128, 256)
-STANDIN_SCALE = 48.0  # pixels per metre at z = 0
-STANDIN_DISTANCE = 1000.0
-
-
-def standin_scene(size: tuple[int, int], centre: tuple[float, float] = (0.0, 0.0), **render):
-    """The stand-in seen from +z, ``centre`` (x, y) in the middle of a ``size`` image."""
-    fov = math.degrees(2.0 * math.atan(size[1] / 2.0 / (STANDIN_SCALE * STANDIN_DISTANCE)))
-    return {
-        "camera": {"position": [*centre, STANDIN_DISTANCE], "target": [*centre, 0.0],
-                   "fov_y": fov, "near": STANDIN_DISTANCE - 10, "far": STANDIN_DISTANCE + 10},
-        "lights": [{"type": "directional", "direction": [-0.25, -0.2, -1.0], "intensity": 3.0}],
-        "objects": [{"shape": "mesh", "file": "AnisotropyRotationStandIn.gltf"}],
-        "render": {"width": size[0], "height": size[1], **render},
-    }  # fmt: skip
 
 
 def standin_hdr(gl: GLContext, data: dict) -> np.ndarray:
@@ -380,40 +372,23 @@ def standin_hdr(gl: GLContext, data: dict) -> np.ndarray:
         r.release()
 
 
+def standin_centre(node: str) -> tuple[float, float]:
+    """The named node's sphere centre (x, y) in metres."""
+    return next(node_centre(c, r) for name, c, r, _ in NODES if name == node)
+
+
 def sphere_tile(hdr: np.ndarray, node: str, half: int = 22) -> np.ndarray:
-    """The square of ``hdr`` (the whole stand-in, STANDIN_SIZE) around the named node's
+    """The square of ``hdr`` (the whole stand-in in view_scene) around the named node's
     sphere (radius 19.2 px)."""
-    from scripts.anisotropy_rotation_standin import NODES, node_centre
-
-    col, row = next((c, r) for name, c, r, _ in NODES if name == node)
-    x, y = node_centre(col, row)
-    cx = round(STANDIN_SIZE[0] / 2 + STANDIN_SCALE * x)
-    cy = round(STANDIN_SIZE[1] / 2 - STANDIN_SCALE * y)
+    x, y = standin_centre(node)
+    cx = round(VIEW_SIZE[0] / 2 + VIEW_SCALE * x)
+    cy = round(VIEW_SIZE[1] / 2 - VIEW_SCALE * y)
     return hdr[cy - half : cy + half, cx - half : cx + half]
-
-
-def highlight_shape(tile: np.ndarray) -> tuple[float, float]:
-    """The highlight's principal direction (degrees counter-clockwise from the image's +x,
-    in (-90, 90]) and elongation (the square root of the ratio of the luminance-weighted
-    second moments' eigenvalues: 1 for a round highlight)."""
-    lum = tile @ np.array([0.2126, 0.7152, 0.0722])
-    h, w = lum.shape
-    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
-    y = -y  # image rows run down, angles count up
-    p = lum / lum.sum()
-    dx, dy = x - (p * x).sum(), y - (p * y).sum()
-    cov = np.array([[(p * dx * dx).sum(), (p * dx * dy).sum()],
-                    [(p * dx * dy).sum(), (p * dy * dy).sum()]])  # fmt: skip
-    angle = 0.5 * math.degrees(math.atan2(2.0 * cov[0, 1], cov[0, 0] - cov[1, 1]))
-    low, high = np.linalg.eigvalsh(cov)
-    return angle, math.sqrt(high / low)
 
 
 def test_standin_is_the_generators_output(tmp_path):
     """The committed stand-in is what scripts/anisotropy_rotation_standin.py writes, byte
     for byte (so the generator's docstring describes the file the tests render)."""
-    from scripts.anisotropy_rotation_standin import build
-
     files = build()
     assert sorted(files) == sorted(p.name for p in STANDIN.iterdir())
     for name, data in files.items():
@@ -435,7 +410,7 @@ def test_standin_turned_tangents_render_as_the_plain_spheres(gl_egl):
     tilted (measured with the reader ignoring anisotropyRotation or the RG: relative L1
     0.52-1.09, directions 17-39 degrees off; both turned the wrong way, Khronos' failure
     example: 1.31 and 64 degrees)."""
-    hdr = standin_hdr(gl_egl, standin_scene(STANDIN_SIZE))
+    hdr = standin_hdr(gl_egl, view_scene())
     for plain in ("Plain 1L", "Plain 3L", "Plain 5R"):
         angle, elongation = highlight_shape(sphere_tile(hdr, plain))
         assert abs(angle) < 3.0 and elongation > 2.0, (plain, angle, elongation)
@@ -474,12 +449,9 @@ def test_standin_grooves_spread_the_light_horizontally_with_lean(gl_egl):
 
     With the covariance zeroed in the shader, lean's highlight is the mean normal's small
     round dot (elongation 1.04)."""
-    from scripts.anisotropy_rotation_standin import NODES, node_centre
-
-    col, row = next((c, r) for name, c, r, _ in NODES if name == "Normal map of grooves")
-    centre = node_centre(col, row)
+    centre = standin_centre("Normal map of grooves")
     shapes = {
-        name: highlight_shape(standin_hdr(gl_egl, standin_scene((48, 48), centre, **render)))
+        name: highlight_shape(standin_hdr(gl_egl, view_scene((48, 48), centre, **render)))
         for name, render in (
             ("reference", {"normal_filter": "none", "supersample": 16}),
             ("lean", {"normal_filter": "lean"}),
