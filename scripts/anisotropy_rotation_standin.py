@@ -23,7 +23,7 @@ roughness stretched along TANGENT (KHR_materials_anisotropy, strength ``STRENGTH
 
 The roughness is larger than the original's 0.1 so that a sphere some 40 pixels across
 resolves the lobe's narrow width (alpha_b = 0.01 would be a fraction of a pixel there).
-Output is deterministic (the test regenerates it and compares bytes).
+Output is deterministic (the test regenerates it and compares it with the committed files).
 
 ``view_scene`` is the view the tests measure: straight ahead from 1 km away, one
 directional light, no environment. ``--figure PNG`` renders docs/gltf.md's figure of the
