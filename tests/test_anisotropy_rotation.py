@@ -5,6 +5,9 @@ the lighting pass needs nothing new.
 
 The plane of tests/test_material_core.py is seen from above: normal +Y, tangent +X (+u),
 and +v along -Z, which is n x t: the bitangent, towards which the rotation turns t.
+At the end, the generated stand-in of Khronos' AnisotropyRotationTest (tests/assets/
+anisotropy_rotation/): its turned spheres' highlights against its plain ones', and its
+grooved sphere's highlight by normal filter.
 """
 
 from __future__ import annotations
