@@ -50,6 +50,7 @@ from app.render.antialias import (
     AccumulatePass,
     FxaaPass,
     GbaaPass,
+    PartRects,
     SraaPass,
     jittered_frame,
 )
@@ -726,6 +727,7 @@ class Renderer:
             self.gl.ctx, self.shaders, self.render_size, self._layout(),
             [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
             self.shading, self.scene.render.terms, self.lighting.form, self.gbuffer_pass.uploads,
+            PartRects(self.render_size, *self._opaque_extents()),
         )  # fmt: skip
 
     def _refresh_msaa(self) -> None:
@@ -778,9 +780,11 @@ class Renderer:
         interior = self.scene.render.gbaa_interior and not self.options.interactive
         return (self.size, self.scene.render.tonemap, self.transparent, parts, interior)
 
-    def _build_gbaa(self) -> GbaaPass:
-        # the opaque parts' extents, world space: the window rectangles the resolve covers
-        # (an analytic sphere's its silhouette's, a mesh's its bounding box's)
+    def _opaque_extents(self) -> tuple[np.ndarray, np.ndarray]:
+        """The opaque parts' extents, world space, for the window rectangles that gbaa's
+        draws and msaa's mark cover (``PartRects``): (K, 8, 4) corners of the meshes'
+        bounding boxes, (S, 4) the analytic spheres' centres and radii (a sphere's
+        rectangle is its silhouette's)."""
         boxes, spheres = [], []
         for i in self._opaque():
             part = self.frame.parts[i]
@@ -793,12 +797,14 @@ class Renderer:
             box = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
             boxes.append(box @ model.T)
+        return np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4)
+
+    def _build_gbaa(self) -> GbaaPass:
         # the viewer's frames leave out the interior correction (its cost)
         interior = self.scene.render.gbaa_interior and not self.options.interactive
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
-            self.transparent, np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4),
-            interior=interior,
+            self.transparent, *self._opaque_extents(), interior=interior,
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:
