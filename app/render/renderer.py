@@ -72,6 +72,7 @@ from app.render.mesh_drawable import masked, rotated
 from app.render.msaa import MSAA_SAMPLES, MsaaPass
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
+from app.render.texture_upload import TextureUploads
 from app.render.transmission import TransmissionPass, transmission_defines, transmissive
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
@@ -305,6 +306,9 @@ class Renderer:
         # environment's quadrature (docs/ibl.md)
         self.ibl: EnvironmentLighting | UniformEnvironment | None = None
         self.shadows: ShadowPass | None = None  # only where a light casts shadows
+        # the transmissive parts' maps on the GL, which the transmission pass and the
+        # shadow pass's textured-glass casters both draw with
+        self.glass_maps: TextureUploads | None = None
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
         # render.antialiasing (docs/antialiasing.md): the jittered frames' running mean,
@@ -591,7 +595,23 @@ class Renderer:
         blends = [p for i, p in enumerate(self.frame.parts) if i not in opaque]
         # transmissive parts tint the light through them (docs/shadows.md, "Glass")
         glass = [self.frame.parts[i] for i in self._frame_facts().transmissive]
-        return ShadowPass(self.gl.ctx, self.shaders, self.lights, parts, blends, glass)
+        return ShadowPass(
+            self.gl.ctx, self.shaders, self.lights, parts, blends, glass, self.glass_maps
+        )
+
+    def _key_glass_maps(self) -> Hashable:
+        """Only where a part is transmissive: those parts and their layers (the maps)."""
+        facts = self._frame_facts()
+        if not facts.transmissive:
+            return None
+        layers = tuple(Same(self.frame.parts[i].layers[0]) for i in facts.transmissive)
+        return (Same(self.frame.parts), facts.transmissive, layers)
+
+    def _build_glass_maps(self) -> TextureUploads:
+        """One GL texture per map of the transmissive parts, uploaded at the first draw
+        that asks (the shadow casters' glass maps, the transmission pass's every map):
+        the same textures in both passes, not a copy in each."""
+        return TextureUploads(self.gl.ctx)
 
     def _key_culler(self) -> Hashable:
         """The tile culler, where the frame culls by tiles (``tiles_used``): its tiles are
@@ -647,7 +667,7 @@ class Renderer:
         drawables = forward_drawables(
             self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
             self.materials, self.scene.render.terms, self._specular_aa(),
-            transmission_defines(self.shading),
+            transmission_defines(self.shading), self.glass_maps,
         )  # fmt: skip
         return TransmissionPass(self.gl.ctx, drawables, self.shading)
 
@@ -1300,14 +1320,15 @@ SCHEDULE: tuple[Built, ...] = (
           check=Renderer._check_gbuffer),
     Built("gbuffer_pass", Renderer._key_gbuffer_pass, Renderer._build_gbuffer_pass,
           refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_gbuffer_pass)),
+    Built("glass_maps", Renderer._key_glass_maps, Renderer._build_glass_maps),
     Built("shadows", Renderer._key_shadows, Renderer._build_shadows,
-          check=Renderer._check_shadows),
+          needs=("glass_maps",), check=Renderer._check_shadows),
     Built("culler", Renderer._key_culler, Renderer._build_culler,
           check=Renderer._check_culler),
     Built("lighting", Renderer._key_lighting, Renderer._build_lighting,
           needs=("gbuffer", "culler", "ibl", "shadows")),
     Built("transmission", Renderer._key_transmission, Renderer._build_transmission,
-          needs=("lighting",)),
+          needs=("lighting", "glass_maps")),
     Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
     Built("background", Renderer._key_background, Renderer._build_background),
     Built("sraa", Renderer._key_sraa, Renderer._build_sraa, needs=("gbuffer_pass",),
