@@ -179,6 +179,26 @@ def test_a_reframed_still_builds_its_own_parts(tmp_path: Path) -> None:
     assert take_built(loaded) is not None  # the scene as framed takes them
 
 
+MORE_SAMPLES = [
+    {"render.antialiasing": "msaa"},
+    {"render.antialiasing": "jitter"},
+    {"render.supersample": 2},
+]
+
+
+@pytest.mark.parametrize("change", MORE_SAMPLES)
+def test_a_still_edited_to_more_samples_builds_its_own_parts(tmp_path: Path, change: dict) -> None:
+    """A model file's still samples once per pixel (its render table sets neither
+    supersampling nor a multisampled mode), so its bound is always taken; a scene derived
+    from it that samples between the pixel centres (an API user's edit) must not take the
+    parts whose textures start at the bound's level."""
+    from app.scene.edits import edited
+
+    loaded = scene_from(_model(tmp_path), size=(40, 40), still=True)
+    assert take_built(edited(loaded, change, "test")) is None
+    assert take_built(loaded) is not None
+
+
 @pytest.mark.gl
 def test_far_frame_matches_every_level(tmp_path: Path, gl_egl: GLContext) -> None:
     """The far still frame against the same frame from every level. The normal/roughness

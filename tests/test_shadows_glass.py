@@ -20,6 +20,7 @@ import pytest
 
 from app.reference.glass_shadows import glass_transmittance, transmittance_product
 from app.render.renderer import Renderer
+from app.render.shadows import _TexturedGlassCaster
 from app.scene.loader import parse_scene
 
 pytestmark = pytest.mark.gl
@@ -157,10 +158,9 @@ def test_a_scene_without_glass_builds_no_glass_target(gl_egl):
 PANE_PROBES = [(-1.3, 0.0, 0.0), (-0.7, 0.0, 0.0)]
 
 
-def pane_visibility(gl, tmp_path: Path, ext: dict, texture: np.ndarray, key: str) -> np.ndarray:
-    """(2, 3) the floor's light at ``PANE_PROBES`` with a .glb glass pane over it (white,
-    ``ext`` and a 4 x 4 nearest ``texture`` as its ``key`` map: "baseColorTexture" or the
-    extension's textureInfo) over the light without the pane."""
+def pane_scene(tmp_path: Path, ext: dict, texture: np.ndarray, key: str) -> dict:
+    """The scene of a .glb glass pane over the floor (white, ``ext`` and a 4 x 4 nearest
+    ``texture`` as its ``key`` map: "baseColorTexture" or the extension's textureInfo)."""
     from PIL import Image
 
     from tests.gltf_builder import GltfBuilder
@@ -181,6 +181,13 @@ def pane_visibility(gl, tmp_path: Path, ext: dict, texture: np.ndarray, key: str
     pane = {"shape": "mesh", "file": str(path), "position": [0.0, 1.0, 0.0],
             "rotation": [-90.0, 0.0, 0.0], "scale": 0.5}  # fmt: skip
     data["objects"] = [data["objects"][0], pane]
+    return data
+
+
+def pane_visibility(gl, tmp_path: Path, ext: dict, texture: np.ndarray, key: str) -> np.ndarray:
+    """(2, 3) the floor's light at ``PANE_PROBES`` with the pane of ``pane_scene`` over it
+    over the light without the pane."""
+    data = pane_scene(tmp_path, ext, texture, key)
     bare = copy.deepcopy(data)
     bare["objects"] = bare["objects"][:1]
     out = []
@@ -225,3 +232,20 @@ def test_a_textured_pane_tints_its_shadow_by_its_maps(gl_egl, tmp_path, key):
     want_left = glass_transmittance(left[0], left[1], 0.0, 0.04, 0.0, np.ones(3), 0.0)
     want_right = glass_transmittance([1.0] * 3, 1.0, 0.0, 0.04, 0.0, np.ones(3), 0.0)
     np.testing.assert_allclose(seen, [want_left, want_right], rtol=2e-3, atol=1e-4)
+
+
+def test_a_textured_pane_s_caster_draws_with_the_transmission_pass_s_textures(gl_egl, tmp_path):
+    """The pane's shadow caster samples its maps from the very GL textures the
+    transmission pass draws it with (the renderer's ``glass_maps``), not a second upload.
+    Fails with the caster uploading its own."""
+    ext = {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+    data = pane_scene(tmp_path, ext, halves((255, 0, 0), (255, 255, 255)), "baseColorTexture")
+    r = Renderer(gl_egl, parse_scene(data, tmp_path / "t.toml"))
+    try:
+        r.render()
+        (caster,) = [c for c in r.shadows.glass_casters if isinstance(c, _TexturedGlassCaster)]
+        cast = {tex.glo for _, tex in caster.drawable.textures}
+        drawn = {tex.glo for d in r.transmission.drawables for _, tex in d.textures}
+        assert len(cast) == 1 and cast <= drawn
+    finally:
+        r.release()

@@ -1,6 +1,7 @@
 """Float64 twin of render.antialiasing = "msaa" (app/render/msaa.py, docs/antialiasing.md):
-which pixels glsl/passes/msaa.frag marks, and the value the lighting pass's per-sample
-programs (glsl/passes/lighting.frag under GBUFFER_SAMPLES) leave there.
+which pixels glsl/passes/msaa.frag marks, the background a sample without a surface takes
+(glsl/passes/msaa_background.glsl), and the value the lighting pass's per-sample programs
+(glsl/passes/lighting.frag under GBUFFER_SAMPLES) leave there.
 
 Arrays are indexed ``[y, x]`` in GL's order (row 0 at the bottom), as the read-back
 targets are: the one-sample G-buffer's RT2 as ``centre`` (H, W, 2: view depth, material
@@ -15,6 +16,8 @@ import numpy as np
 # app/render/msaa.py's tolerances (msaa.frag's u_depth_tolerance, u_normal_tolerance)
 MSAA_DEPTH_TOLERANCE = 0.01
 MSAA_NORMAL_TOLERANCE = 0.02
+# msaa_background.glsl's steps, in its order: the pixel itself, then +x, -x, +y, -y
+MSAA_BACKGROUND_STEPS = ((0, 0), (1, 0), (-1, 0), (0, 1), (0, -1))
 
 
 def _covered(z: np.ndarray) -> np.ndarray:
@@ -48,6 +51,25 @@ def msaa_edges(
         turned = np.any(np.abs(ns - n0) > normal_tolerance, axis=-1)
         edge |= ~msaa_same_surface(g0, gs, depth_tolerance) | (_covered(g0[..., 0]) & turned)
     return edge
+
+
+def msaa_background(hdr: np.ndarray, centre: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """(H, W, 4): the radiance msaa_background.glsl gives a sample of each pixel that sees
+    no surface: ``hdr`` (the frame shaded at the pixel centres, linear RGBA) at the first
+    of ``MSAA_BACKGROUND_STEPS`` (the pixel, then its 4 neighbours, each index clamped to
+    the image as the shader's ``clamp`` does) whose ``centre`` (RT2, H, W, 2) holds no
+    surface, else ``background`` (the uniform background's RGBA, 4)."""
+    h, w = centre.shape[:2]
+    out = np.empty((h, w, 4))
+    out[...] = np.asarray(background, np.float64)
+    found = np.zeros((h, w), bool)
+    for dx, dy in MSAA_BACKGROUND_STEPS:
+        ys = np.clip(np.arange(h) + dy, 0, h - 1)[:, None]
+        xs = np.clip(np.arange(w) + dx, 0, w - 1)[None, :]
+        take = ~found & ~_covered(centre[ys, xs, 0])
+        out[take] = hdr[ys, xs][take]
+        found |= take
+    return out
 
 
 def msaa_resolve(hdr: np.ndarray, edges: np.ndarray, sample_radiance: np.ndarray) -> np.ndarray:

@@ -401,66 +401,20 @@ def merged_rects(rects: list[Rect]) -> list[Rect]:
     return out
 
 
-class GbaaPass:
-    """Geometric edge antialiasing (module docstring): reads the G-buffer's RT2
-    (surfaces) and ``edge`` target (distances to the surface's edge) and the frame's
-    linear HDR image, and writes the display image's silhouette pixels, resolved, over
-    the post pass's image. Two draws (glsl/passes/gbaa.frag): ``mark`` writes window
-    depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces, and
-    ``resolve`` runs on the far plane z-tested (">") to those pixels, so that only blocks
-    of pixels with a silhouette run it (llvmpipe shades every branch for its whole
-    block). The other pixels keep post's bytes. The resolve reads the HDR image at
-    marked pixels only (a neighbour it mixes in holds another surface, so is marked):
-    where the lighting pass wrote the display image it wrote the surfaces' radiance too
-    (``Renderer.run_lighting``), and the background's is given as a uniform.
-    ``tonemap_code`` and ``straight_alpha`` are post's. Both draws cover the window
-    rectangles of the opaque parts and a pixel around them (no silhouette lies outside;
-    glsl/passes/gbaa_rects.vert), merged where they overlap: ``boxes``, (K, 8, 4)
+class PartRects:
+    """The window rectangles of a frame's opaque parts, for the draws that only the pixels
+    their samples see need (gbaa's mark and resolve, msaa's mark): ``boxes``, (K, 8, 4)
     world-space corners of the mesh parts' bounding boxes; ``spheres``, (S, 4) world
-    centre and radius of the analytic spheres, whose rectangle is their silhouette's
-    (a box's corners project well outside a sphere's). None: the whole image.
-    ``exact`` (GBAA_EXACT, the renderer's): each covered area the box filter of the
-    edge's half-plane from its distances along both axes, exact at the pixel's corners
-    (``box_coverage``), and each edge pixel's own part moved to its area mean along the
-    axes whose neighbours hold its surface (``along_edge``); False: the area along the
-    nearest axis alone (Persson's, 0.5 + d), the baseline docs/antialiasing.md measures
-    the exact areas against.
-    ``interior`` (``render.gbaa_interior``, GBAA_INTERIOR): the mark also writes, at each
-    pixel whose 4 neighbours hold its own surface, its centre's radiance moved to its
-    area mean (``interior_radiance``, a 5-point second-order correction; docs/accuracy.md,
-    "Every pixel") over post's bytes."""
+    centre and radius of the analytic spheres, whose rectangle is their silhouette's (a
+    box's corners project well outside a sphere's). None: the whole image."""
 
     def __init__(
-        self,
-        ctx: moderngl.Context,
-        shaders: ShaderCache,
-        size: tuple[int, int],
-        tonemap_code: int,
-        straight_alpha: bool = False,
-        boxes: np.ndarray | None = None,
-        spheres: np.ndarray | None = None,
-        exact: bool = True,
-        interior: bool = False,
+        self, size: tuple[int, int], boxes: np.ndarray | None, spheres: np.ndarray | None
     ) -> None:
-        self.ctx, self.size, self.exact, self.interior = ctx, size, exact, interior
+        self.size = size
         self.boxes = None if boxes is None else np.asarray(boxes, np.float64).reshape(-1, 8, 4)
         self.spheres = np.zeros((0, 4)) if spheres is None else np.asarray(spheres, np.float64)
-        defines: dict[str, object] = {"TONEMAP": tonemap_code, "GBAA_MAX_RECTS": GBAA_MAX_RECTS}
-        if straight_alpha:
-            defines["STRAIGHT_ALPHA"] = 1
-        if fine_derivatives(ctx, shaders):  # three fetches of each target, not five
-            defines["QUAD_NEIGHBOURS"] = 1
-        vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
-        defines["GBAA_INTERIOR"] = int(interior)
-        defines["GBAA_EXACT"] = int(exact)
-        self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})
-        self.resolver = shaders.program(vertex, fragment, {**defines, "FAR_PLANE": 1})
-        self._vaos = [ctx.vertex_array(p, []) for p in (self.marker, self.resolver)]
-        self.depth = ctx.depth_renderbuffer(size)
-        self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
-        self._rects: list[Rect] = []
         self._rects_for: tuple[bytes, list[Rect]] | None = None  # (camera, rects())
-        self._ndc: tuple[list[Rect] | None, bytes] = (None, b"")  # (rects, u_rects)
 
     def rects(self, view: np.ndarray, proj: np.ndarray) -> list[Rect]:
         """The window rectangles (x0, y0, x1, y1) of the opaque parts seen through
@@ -488,6 +442,68 @@ class GbaaPass:
                               max(q[2] for q in rects), max(q[3] for q in rects))]  # fmt: skip
         self._rects_for = (key, rects)
         return rects
+
+
+class GbaaPass:
+    """Geometric edge antialiasing (module docstring): reads the G-buffer's RT2
+    (surfaces) and ``edge`` target (distances to the surface's edge) and the frame's
+    linear HDR image, and writes the display image's silhouette pixels, resolved, over
+    the post pass's image. Two draws (glsl/passes/gbaa.frag): ``mark`` writes window
+    depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces, and
+    ``resolve`` runs on the far plane z-tested (">") to those pixels, so that only blocks
+    of pixels with a silhouette run it (llvmpipe shades every branch for its whole
+    block). The other pixels keep post's bytes. The resolve reads the HDR image at
+    marked pixels only (a neighbour it mixes in holds another surface, so is marked):
+    where the lighting pass wrote the display image it wrote the surfaces' radiance too
+    (``Renderer.run_lighting``), and the background's is given as a uniform.
+    ``tonemap_code`` and ``straight_alpha`` are post's. Both draws cover the window
+    rectangles of the opaque parts and a pixel around them (no silhouette lies outside;
+    glsl/passes/gbaa_rects.vert), merged where they overlap (``PartRects`` of ``boxes``
+    and ``spheres``).
+    ``exact`` (GBAA_EXACT, the renderer's): each covered area the box filter of the
+    edge's half-plane from its distances along both axes, exact at the pixel's corners
+    (``box_coverage``), and each edge pixel's own part moved to its area mean along the
+    axes whose neighbours hold its surface (``along_edge``); False: the area along the
+    nearest axis alone (Persson's, 0.5 + d), the baseline docs/antialiasing.md measures
+    the exact areas against.
+    ``interior`` (``render.gbaa_interior``, GBAA_INTERIOR): the mark also writes, at each
+    pixel whose 4 neighbours hold its own surface, its centre's radiance moved to its
+    area mean (``interior_radiance``, a 5-point second-order correction; docs/accuracy.md,
+    "Every pixel") over post's bytes."""
+
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        size: tuple[int, int],
+        tonemap_code: int,
+        straight_alpha: bool = False,
+        boxes: np.ndarray | None = None,
+        spheres: np.ndarray | None = None,
+        exact: bool = True,
+        interior: bool = False,
+    ) -> None:
+        self.ctx, self.size, self.exact, self.interior = ctx, size, exact, interior
+        self.part_rects = PartRects(size, boxes, spheres)
+        defines: dict[str, object] = {"TONEMAP": tonemap_code, "GBAA_MAX_RECTS": GBAA_MAX_RECTS}
+        if straight_alpha:
+            defines["STRAIGHT_ALPHA"] = 1
+        if fine_derivatives(ctx, shaders):  # three fetches of each target, not five
+            defines["QUAD_NEIGHBOURS"] = 1
+        vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
+        defines["GBAA_INTERIOR"] = int(interior)
+        defines["GBAA_EXACT"] = int(exact)
+        self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})
+        self.resolver = shaders.program(vertex, fragment, {**defines, "FAR_PLANE": 1})
+        self._vaos = [ctx.vertex_array(p, []) for p in (self.marker, self.resolver)]
+        self.depth = ctx.depth_renderbuffer(size)
+        self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
+        self._rects: list[Rect] = []
+        self._ndc: tuple[list[Rect] | None, bytes] = (None, b"")  # (rects, u_rects)
+
+    def rects(self, view: np.ndarray, proj: np.ndarray) -> list[Rect]:
+        """The window rectangles the draws cover (``PartRects.rects``)."""
+        return self.part_rects.rects(view, proj)
 
     def _draw(
         self,

@@ -47,6 +47,7 @@ from app.render.inputs import (
 )  # fmt: skip
 from app.render.lighting import LightingPass
 from app.render.mesh_drawable import MeshDrawable
+from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
 FORWARD_SHADERS = ("passes/gbuffer.vert", "passes/forward.frag")
@@ -83,13 +84,16 @@ def forward_drawables(
     terms: str,
     specular_aa: tuple[float, float] | None,
     defines: dict[str, int] | None = None,
+    uploads: TextureUploads | None = None,
 ) -> list[MeshDrawable]:
     """The drawables of glsl/passes/forward.frag for ``parts`` (the bench's forward
     renderer and the blend pass): a part is drawn once per model group among its layers,
     each draw keeping the fragments whose dominant layer is of its group (MODEL_GROUP), as
     the lighting pass shades such a part with one permutation per group. ``defines``: the
     caller's own (ALPHA_BLEND); GBUFFER_COAT_NORMAL selects the coats' own normals as the
-    deferred pass has them (the forward pass has no G-buffer)."""
+    deferred pass has them (the forward pass has no G-buffer). ``uploads``: the GL
+    textures of the parts' maps, shared (their owner releases them); None: each drawable
+    uploads its own."""
     common = {
         "BRDF_TERMS": BRDF_TERMS[terms],
         "GBUFFER_COAT_NORMAL": int(table.needs_coat_normals),
@@ -105,7 +109,9 @@ def forward_drawables(
             if len(groups) > 1:
                 part_defines["MODEL_GROUP"] = group
             drawables.append(
-                MeshDrawable(ctx, shaders, part, rows, FORWARD_SHADERS, part_defines, specular_aa)
+                MeshDrawable(
+                    ctx, shaders, part, rows, FORWARD_SHADERS, part_defines, specular_aa, uploads
+                )
             )
     return drawables
 

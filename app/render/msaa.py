@@ -29,6 +29,7 @@ from app.common.gbuffer import GBufferLayout
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
 from app.reference.msaa import MSAA_DEPTH_TOLERANCE, MSAA_NORMAL_TOLERANCE
+from app.render.antialias import PartRects
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer
 from app.render.inputs import TILES, GBufferInput, ShadingContext, bind_camera
@@ -50,8 +51,9 @@ class MsaaPass:
     docstring). ``run`` draws the opaque parts into ``samples`` by ``geometry``
     (``SampleGeometry``, app/render/sample_geometry.py: every target of the multisampled
     G-buffer read), then two draws into ``target`` (linear HDR RGBA): the mark
-    (glsl/passes/msaa.frag) copies the frame's HDR image and writes window depth 0 into
-    ``geometry.edges`` where a pixel's samples differ; the lighting programs (``shading``,
+    (glsl/passes/msaa.frag; over ``rects`` alone, the rest blitted and unmarked) copies
+    the frame's HDR image and writes window depth 0 into ``geometry.edges`` where a
+    pixel's samples differ; the lighting programs (``shading``,
     one per model group, each adding its own samples' share, the first the background
     samples') run z-tested to those pixels.
     ``shading``: the frame's shader inputs (the lighting pass's) less the tile culler (its
@@ -70,10 +72,14 @@ class MsaaPass:
         terms: str,
         form: str,
         uploads: TextureUploads | None = None,
+        rects: PartRects | None = None,
     ) -> None:
         """``parts``, ``material_ids``, ``uploads``: the G-buffer pass's (its material maps
-        drawn with, not uploaded again); ``terms``, ``form``: the lighting pass's."""
-        self.ctx, self.size = ctx, size
+        drawn with, not uploaded again); ``terms``, ``form``: the lighting pass's.
+        ``rects``: the window rectangles of ``parts`` (gbaa's), which the mark covers
+        alone (no sample outside them sees a surface); None: the whole image."""
+        self.ctx, self.size, self.rects = ctx, size, rects
+        self._hdr: tuple[moderngl.Texture, moderngl.Framebuffer] | None = None  # a blit's source
         self.geometry = SampleGeometry(  # every target of the layout read
             ctx, shaders, size, layout, parts, material_ids, uploads, MSAA_SAMPLES
         )
@@ -109,8 +115,21 @@ class MsaaPass:
             "u_samples": self.samples.depth,
             "u_normals": self.samples.normal,
         }
+        rects = None if self.rects is None else self.rects.rects(view, proj)
+        if rects is not None:
+            # every pixel outside the rectangles: hdr's value, unmarked (the mark's output
+            # there); a blit and a clear, not ten fetches a pixel
+            if self._hdr is None or self._hdr[0] is not hdr:
+                self._release_hdr()
+                self._hdr = (hdr, self.ctx.framebuffer([hdr]))
+            self.fbo.clear(depth=1.0)
+            self.ctx.copy_framebuffer(self.fbo, self._hdr[1])
         self.geometry.mark_then(
-            self.mark, tolerances, textures, lambda: self.shade(gbuffer, hdr, camera, background)
+            self.mark,
+            tolerances,
+            textures,
+            lambda: self.shade(gbuffer, hdr, camera, background),
+            rects,
         )
 
     def shade(
@@ -139,6 +158,12 @@ class MsaaPass:
     def read(self) -> np.ndarray:
         return read_rgb(self.fbo, self.size, "f4")
 
+    def _release_hdr(self) -> None:
+        if self._hdr is not None:
+            self._hdr[1].release()
+            self._hdr = None
+
     def release(self) -> None:
+        self._release_hdr()
         for obj in (self.geometry, self.mark, self.lighting):
             obj.release()

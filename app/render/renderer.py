@@ -50,6 +50,7 @@ from app.render.antialias import (
     AccumulatePass,
     FxaaPass,
     GbaaPass,
+    PartRects,
     SraaPass,
     jittered_frame,
 )
@@ -71,6 +72,7 @@ from app.render.mesh_drawable import masked, rotated
 from app.render.msaa import MSAA_SAMPLES, MsaaPass
 from app.render.post import DofPass, DownsamplePass, PostPass
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
+from app.render.texture_upload import TextureUploads
 from app.render.transmission import TransmissionPass, transmission_defines, transmissive
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
@@ -304,6 +306,9 @@ class Renderer:
         # environment's quadrature (docs/ibl.md)
         self.ibl: EnvironmentLighting | UniformEnvironment | None = None
         self.shadows: ShadowPass | None = None  # only where a light casts shadows
+        # the transmissive parts' maps on the GL, which the transmission pass and the
+        # shadow pass's textured-glass casters both draw with
+        self.glass_maps: TextureUploads | None = None
         self.dof: DofPass | None = None
         self.resolve: DownsamplePass | None = None
         # render.antialiasing (docs/antialiasing.md): the jittered frames' running mean,
@@ -590,7 +595,23 @@ class Renderer:
         blends = [p for i, p in enumerate(self.frame.parts) if i not in opaque]
         # transmissive parts tint the light through them (docs/shadows.md, "Glass")
         glass = [self.frame.parts[i] for i in self._frame_facts().transmissive]
-        return ShadowPass(self.gl.ctx, self.shaders, self.lights, parts, blends, glass)
+        return ShadowPass(
+            self.gl.ctx, self.shaders, self.lights, parts, blends, glass, self.glass_maps
+        )
+
+    def _key_glass_maps(self) -> Hashable:
+        """Only where a part is transmissive: those parts and their layers (the maps)."""
+        facts = self._frame_facts()
+        if not facts.transmissive:
+            return None
+        layers = tuple(Same(self.frame.parts[i].layers[0]) for i in facts.transmissive)
+        return (Same(self.frame.parts), facts.transmissive, layers)
+
+    def _build_glass_maps(self) -> TextureUploads:
+        """One GL texture per map of the transmissive parts, uploaded at the first draw
+        that asks (the shadow casters' glass maps, the transmission pass's every map):
+        the same textures in both passes, not a copy in each."""
+        return TextureUploads(self.gl.ctx)
 
     def _key_culler(self) -> Hashable:
         """The tile culler, where the frame culls by tiles (``tiles_used``): its tiles are
@@ -646,7 +667,7 @@ class Renderer:
         drawables = forward_drawables(
             self.gl.ctx, self.shaders, [parts[i] for i in chosen], [ids[i] for i in chosen],
             self.materials, self.scene.render.terms, self._specular_aa(),
-            transmission_defines(self.shading),
+            transmission_defines(self.shading), self.glass_maps,
         )  # fmt: skip
         return TransmissionPass(self.gl.ctx, drawables, self.shading)
 
@@ -726,6 +747,7 @@ class Renderer:
             self.gl.ctx, self.shaders, self.render_size, self._layout(),
             [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
             self.shading, self.scene.render.terms, self.lighting.form, self.gbuffer_pass.uploads,
+            PartRects(self.render_size, *self._opaque_extents()),
         )  # fmt: skip
 
     def _refresh_msaa(self) -> None:
@@ -778,9 +800,11 @@ class Renderer:
         interior = self.scene.render.gbaa_interior and not self.options.interactive
         return (self.size, self.scene.render.tonemap, self.transparent, parts, interior)
 
-    def _build_gbaa(self) -> GbaaPass:
-        # the opaque parts' extents, world space: the window rectangles the resolve covers
-        # (an analytic sphere's its silhouette's, a mesh's its bounding box's)
+    def _opaque_extents(self) -> tuple[np.ndarray, np.ndarray]:
+        """The opaque parts' extents, world space, for the window rectangles that gbaa's
+        draws and msaa's mark cover (``PartRects``): (K, 8, 4) corners of the meshes'
+        bounding boxes, (S, 4) the analytic spheres' centres and radii (a sphere's
+        rectangle is its silhouette's)."""
         boxes, spheres = [], []
         for i in self._opaque():
             part = self.frame.parts[i]
@@ -793,12 +817,14 @@ class Renderer:
             box = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
             boxes.append(box @ model.T)
+        return np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4)
+
+    def _build_gbaa(self) -> GbaaPass:
         # the viewer's frames leave out the interior correction (its cost)
         interior = self.scene.render.gbaa_interior and not self.options.interactive
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
-            self.transparent, np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4),
-            interior=interior,
+            self.transparent, *self._opaque_extents(), interior=interior,
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:
@@ -1294,14 +1320,15 @@ SCHEDULE: tuple[Built, ...] = (
           check=Renderer._check_gbuffer),
     Built("gbuffer_pass", Renderer._key_gbuffer_pass, Renderer._build_gbuffer_pass,
           refresh=(Renderer._refresh_key_gbuffer_pass, Renderer._refresh_gbuffer_pass)),
+    Built("glass_maps", Renderer._key_glass_maps, Renderer._build_glass_maps),
     Built("shadows", Renderer._key_shadows, Renderer._build_shadows,
-          check=Renderer._check_shadows),
+          needs=("glass_maps",), check=Renderer._check_shadows),
     Built("culler", Renderer._key_culler, Renderer._build_culler,
           check=Renderer._check_culler),
     Built("lighting", Renderer._key_lighting, Renderer._build_lighting,
           needs=("gbuffer", "culler", "ibl", "shadows")),
     Built("transmission", Renderer._key_transmission, Renderer._build_transmission,
-          needs=("lighting",)),
+          needs=("lighting", "glass_maps")),
     Built("blend", Renderer._key_blend, Renderer._build_blend, needs=("lighting",)),
     Built("background", Renderer._key_background, Renderer._build_background),
     Built("sraa", Renderer._key_sraa, Renderer._build_sraa, needs=("gbuffer_pass",),

@@ -14,7 +14,7 @@ What differs between the two is a parameter: ``read``, the targets a resolve sam
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Collection, Mapping, Sequence
 
 import moderngl
 import numpy as np
@@ -151,14 +151,20 @@ class SampleGeometry:
         uniforms: Mapping[str, object],
         textures: Textures,
         resolve: Callable[[], None],
+        rects: Sequence[tuple[int, int, int, int]] | None = None,
     ) -> None:
         """``mark`` drawn over all of ``fbo`` (its every fragment's depth written,
         unconditionally: 0 at an edge pixel, 1 elsewhere), then ``resolve`` with
-        ``edges`` read-only, for draws z-tested (">") to the marked pixels."""
+        ``edges`` read-only, for draws z-tested (">") to the marked pixels. ``rects``:
+        the window rectangles (x0, y0, x1, y1) the mark covers instead, each drawn as
+        the viewport (its fragments keep their window positions); the caller has
+        written every pixel outside them (the target's colour, ``edges``' depth 1)."""
         assert self.fbo is not None, "mark_into(target) first"
         self.fbo.depth_mask = True
-        viewport = (0, 0, *self.size)
-        mark.draw(self.fbo, uniforms, textures, viewport=viewport, depth_func="1")
+        for x0, y0, x1, y1 in [(0, 0, *self.size)] if rects is None else rects:
+            viewport = (x0, y0, x1 - x0, y1 - y0)
+            mark.draw(self.fbo, uniforms, textures, viewport=viewport, depth_func="1")
+        self.ctx.viewport = (0, 0, *self.size)
         self.fbo.depth_mask = False
         resolve()
         self.fbo.depth_mask = True

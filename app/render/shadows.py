@@ -69,6 +69,7 @@ from app.reference.shadows import ShadowMaps
 from app.render.inputs import SHADOWS, ShaderInput
 from app.render.limits import max_dimension
 from app.render.mesh_drawable import MeshDrawable, masked
+from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 from app.scene.model import Light
 
@@ -531,7 +532,8 @@ class _MapsCaster:
     """A mesh part drawn into a shadow target by its own program, with the maps of
     ``MAPS`` it has (and its UVs, COLOR_0, TEXCOORD_1): passes/gbuffer.vert and the
     subclass's ``FRAGMENT``, the sides ``set_sides`` gives and the uniforms ``uniforms``
-    writes. Only those maps are uploaded."""
+    writes. Only those maps are uploaded, into ``uploads`` where given (textures another
+    pass draws the part with too; their owner releases them), else its own."""
 
     MAPS: tuple[str, ...] = ()
     FRAGMENT = ""
@@ -542,15 +544,15 @@ class _MapsCaster:
         shaders: ShaderCache,
         part: MeshPart,
         defines: dict[str, object] | None = None,
+        uploads: TextureUploads | None = None,
     ) -> None:
         layer = part.layers[0]
         maps = {k: v for k, v in layer.maps.items() if k in self.MAPS}
         shown = dataclasses.replace(
             part, layers=[dataclasses.replace(layer, maps=maps)], blend=None
         )
-        self.drawable = MeshDrawable(
-            ctx, shaders, shown, [0], ("passes/gbuffer.vert", self.FRAGMENT), defines
-        )
+        pair = ("passes/gbuffer.vert", self.FRAGMENT)
+        self.drawable = MeshDrawable(ctx, shaders, shown, [0], pair, defines, uploads=uploads)
         self.ctx = ctx
 
     def set_sides(self, part: MeshPart) -> None:
@@ -646,16 +648,23 @@ class _TexturedGlassCaster(_MapsCaster):
     """A transmissive mesh whose tint varies over it (``glass_textured``), drawn by
     passes/shadow_glass.frag with GLASS_MAPS, which multiplies the constants by the texels
     the transmission pass reads at the same UV (as ``_MaskedCaster`` draws a masked part
-    with its coverage)."""
+    with its coverage). ``uploads``: the transmissive parts' maps, the transmission pass's
+    textures (``ShadowPass``'s ``glass_maps``)."""
 
     MAPS = GLASS_MAPS
     FRAGMENT = "passes/shadow_glass.frag"
 
-    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache, part: MeshPart) -> None:
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        shaders: ShaderCache,
+        part: MeshPart,
+        uploads: TextureUploads | None = None,
+    ) -> None:
         maps = [k for k in part.layers[0].maps if k in GLASS_MAPS]
         defines = {"GLASS_MAPS": 1, **{t.define: 1 for t in FACTOR_TARGETS
                                         if t.name in targets_of(maps)}}  # fmt: skip
-        super().__init__(ctx, shaders, part, defines)
+        super().__init__(ctx, shaders, part, defines, uploads)
         self.constants = _GlassCaster.constants(part)
 
     def set_sides(self, part: MeshPart) -> None:
@@ -675,7 +684,10 @@ class ShadowPass(ShaderInput):
     frustum bounds as well, so that a blended part lies inside the map, and its map is the
     one the part would have if it were opaque. The maps depend only on these, so ``run``
     renders each map at most once, when a camera first culls its light in (docs/shadows.md);
-    a renderer builds a new pass when lights or geometry change."""
+    a renderer builds a new pass when lights or geometry change. ``glass``: the
+    transmissive parts, which tint the light; ``glass_maps``: the GL textures of their
+    maps, which the transmission pass draws them with too (the renderer's ``glass_maps``,
+    released by it; None: the textured casters upload their own)."""
 
     role = SHADOWS
 
@@ -687,6 +699,7 @@ class ShadowPass(ShaderInput):
         parts: list[MeshPart],
         receivers: list[MeshPart] | None = None,
         glass: list[MeshPart] | None = None,
+        glass_maps: TextureUploads | None = None,
     ) -> None:
         self.ctx = ctx
         points = world_points([*parts, *(receivers or [])])
@@ -779,7 +792,7 @@ class ShadowPass(ShaderInput):
         if glass:
             self.glass_prog = shaders.program("passes/shadow.vert", "passes/shadow_glass.frag", {})
             self.glass_casters = [
-                _TexturedGlassCaster(ctx, shaders, part)
+                _TexturedGlassCaster(ctx, shaders, part, glass_maps)
                 if glass_textured(part)
                 else _GlassCaster(ctx, self.glass_prog, part)
                 for part in glass

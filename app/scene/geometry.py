@@ -795,34 +795,41 @@ def _material_layers(
 _NOT_PARTS: dict = {"camera": True, "lights": True, "background": True, "render": {"background"}}
 
 
-def _parts_key(loaded: LoadedScene, still: bool = False) -> str:
+def _parts_key(loaded: LoadedScene) -> str:
     """Everything of the scene that its parts are built from (objects, materials, textures,
-    render settings, the files they name), as one string; for a still's parts (textures
-    from the finest level its camera samples, ``LoadedScene.still_view``) the camera too,
-    so that a re-framed scene builds its own."""
-    camera = loaded.scene.camera.model_dump() if still else None
-    return repr((str(loaded.path), loaded.scene.model_dump(exclude=_NOT_PARTS), camera))
+    render settings, the files they name), as one string."""
+    return repr((str(loaded.path), loaded.scene.model_dump(exclude=_NOT_PARTS)))
+
+
+def _camera_key(loaded: LoadedScene) -> str:
+    """The scene's camera, as one string: what a still's parts (textures from the finest
+    level its camera samples, ``LoadedScene.still_view``) are built from besides, so that
+    a re-framed scene builds its own."""
+    return repr(loaded.scene.camera.model_dump())
 
 
 def keep_built(loaded: LoadedScene, parts: list[MeshPart], spent: int, still: bool = False) -> None:
     """Keep ``parts`` (built from ``loaded`` with ``spent`` bytes charged) for the next
     ``take_built`` of this scene or one derived from it with the same objects (and, for
-    a still's parts, the same camera)."""
+    a still's parts, the same camera). One entry, keyed by (``_parts_key``, the
+    ``_camera_key`` of a still's parts or None), its value ``(parts, spent)``."""
     loaded.built.clear()
-    loaded.built[_parts_key(loaded, still)] = (parts, spent)
+    loaded.built[(_parts_key(loaded), _camera_key(loaded) if still else None)] = (parts, spent)
 
 
 def take_built(loaded: LoadedScene) -> tuple[list[MeshPart], int] | None:
     """The parts ``keep_built`` kept for a scene with these objects, materials and
     settings, once (a frame may edit its parts' layers in place: a second frame builds
-    its own); None where none were kept or the scene has changed since."""
+    its own); None where none were kept or the scene has changed since. The scene's key
+    is computed once, the camera's only for a still's parts."""
     if not loaded.built:  # nothing kept: no key to compute
         return None
-    for still in (False, True):
-        found = loaded.built.pop(_parts_key(loaded, still), None)
-        if found is not None:
-            return found
-    return None
+    ((parts_key, camera_key),) = loaded.built.keys()
+    if parts_key != _parts_key(loaded):
+        return None
+    if camera_key is not None and camera_key != _camera_key(loaded):
+        return None
+    return loaded.built.pop((parts_key, camera_key))
 
 
 def build_parts(loaded: LoadedScene, budget: Budget | None = None) -> list[MeshPart]:

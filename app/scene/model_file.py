@@ -411,7 +411,10 @@ def model_scene(
             )
         budget = Budget(policy.limits)
         framed: list[dict] = []  # the camera the still's mip-level bound was taken for
-        if still and gltf and look.camera != "file" and _one_sample(loaded):
+        # the render table above samples once per pixel, at the centres the bound rasterises
+        # (no supersample, jitter or msaa); a scene edited to another antialiasing or
+        # supersample has another parts key, so its frame builds its own with every level
+        if still and gltf and look.camera != "file":
 
             def framing(points: np.ndarray) -> tuple[dict, tuple[int, int]]:
                 framed.append(framing_camera(points, (width, height), *look.angles()))
@@ -433,14 +436,6 @@ def model_scene(
         return result
     except InputError as exc:
         raise _as_model_error(exc, path) from None
-
-
-def _one_sample(loaded: LoadedScene) -> bool:
-    """Whether the scene's frame samples its textures once per pixel, at the pixel centres
-    the still's mip-level bound rasterises (app/scene/sampled_levels.py): not with
-    supersampling, jittered frames or a multisampled G-buffer, which sample between them."""
-    render = loaded.scene.render
-    return render.supersample == 1 and render.antialiasing not in ("jitter", "msaa")
 
 
 def _as_model_error(exc: InputError, path: Path) -> InputError:
