@@ -435,6 +435,27 @@ def test_bad_animation_data_is_bad_input_whatever_the_pose(
     assert line == f"pbs: error: {path}: {key}: {message}", line
 
 
+def test_one_cubic_key_is_bad_input_where_a_linear_sampler_shares_its_times(
+    tmp_path: Path,
+) -> None:
+    # The keyframe times an input accessor holds are checked once for all the samplers
+    # that share it; the CUBICSPLINE sampler's need of two keyframes is its own.
+    doc = Doc()
+    node = doc.node(mesh=doc.triangle())
+    doc.animate(node, "translation", [0.0], [[0, 0, 0]], 3)
+    animation = doc.json["animations"][0]
+    shared = animation["samplers"][0]["input"]
+    output = doc.accessor([[1, 1, 1]] * 3, 3)
+    animation["samplers"].append(
+        {"input": shared, "output": output, "interpolation": "CUBICSPLINE"}
+    )
+    animation["channels"].append({"sampler": 1, "target": {"node": node, "path": "scale"}})
+    path = doc.save(tmp_path / "shared.gltf")
+    with pytest.raises(GltfError) as caught:
+        _prims(path)
+    assert caught.value.key == "animations[0].samplers[1].input", caught.value
+
+
 def test_a_weights_output_of_another_count_is_bad_input_at_rest(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
