@@ -673,14 +673,20 @@ def cmd_gallery(args: argparse.Namespace) -> int:
     return 0
 
 
+def _one_blas_thread() -> None:
+    """Ask numpy's OpenBLAS for one thread, before numpy is imported (a value the
+    environment gives wins): OpenBLAS starts a thread per core that spins after each
+    product, and a render's few small products gain nothing from them while its own
+    threads (the decodes, the chain) lose a core to them. ``pbs render``, ``pbs batch``
+    (its worker processes inherit the environment) and ``pbs view`` (docs/performance.md)."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     """Render a scene to PNG. Each layer is imported when the command reaches it: the
     scene's (pydantic, numpy) to validate it, GL and the renderer only once it is valid,
     so a bad scene is refused without them (docs/performance.md, "Start-up")."""
-    # numpy's OpenBLAS, loaded with it, starts a thread per core that spins after each
-    # product: a render's few small products gain nothing from them, its own threads (the
-    # decodes, the chain) lose a core to them (docs/performance.md). A value given wins.
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    _one_blas_thread()
     still = not (args.fit or args.compare is not None or args.debug is not None)
     if still and args.max_memory is None:  # a glTF file's whole images decode while the
         # scene's modules are imported (app/scene/early_images.py)
@@ -861,6 +867,7 @@ def cmd_brdf(args: argparse.Namespace) -> int:
 def cmd_batch(args: argparse.Namespace) -> int:
     """Render a job file's images (app/batch). The job file, and the scenes of an orbit or
     a sweep, are validated before any GL work; a failed job is reported, not fatal."""
+    _one_blas_thread()  # here and in the worker processes, which inherit the environment
     from app.batch.jobs import plan_jobs
     from app.progress import Progress
 
@@ -1000,6 +1007,7 @@ def cmd_walkthrough(args: argparse.Namespace) -> int:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
+    _one_blas_thread()
     from app.scene.model_file import is_model_file, model_document
     from app.scene.sources import scene_path
     from app.viewer.window import Viewer, ViewerError

@@ -387,17 +387,37 @@ def test_unreadable_mesh_file(work: tuple[Path, Path], capsys: pytest.CaptureFix
     _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: ", "cannot read")
 
 
-# OBJ faces whose index names no vertex or is no number, which trimesh refuses with a bare
-# IndexError or ValueError: (id, the faces after four vertices and one normal, the line's
-# words expected).
+# OBJ faces whose index names no element or is no number: trimesh refuses a vertex past
+# the end or a word with a bare IndexError or ValueError, and reads an index 0 as the last
+# vertex and a texture coordinate or normal past the end as none, silently: (id, the faces
+# after four vertices, one normal and one texture coordinate, the line's words expected).
 BAD_FACES = [
     (
         "past-the-end",
         "f 1 2 3\nf 2 4 6\n",
-        "line 7: face index 6 ('6') names no vertex (4 vertices",
+        "line 8: face index 6 ('6') names no vertex (4 vertices",
     ),
-    ("negative", "f 1 2 3\nf -1 -2 -9\n", "line 7: face index -9 ('-9') names no vertex"),
-    ("not-a-number", "f 1//1 2//1 3//1\nf 2//1 4//1 x\n", "line 7: face word 'x' is not a whole"),
+    ("negative", "f 1 2 3\nf -1 -2 -9\n", "line 8: face index -9 ('-9') names no vertex"),
+    ("not-a-number", "f 1//1 2//1 3//1\nf 2//1 4//1 x\n", "line 8: face word 'x' is not a whole"),
+    ("zero", "f 1 2 3\nf 0 2 3\n", "line 8: face index 0 ('0') names no vertex"),
+    ("uv-zero", "f 1/1 2/1 3/0\n", "line 7: face index 0 ('3/0') names no texture coordinate"),
+    (
+        "uv-past-the-end",
+        "f 1/1 2/1 3/2\n",
+        "line 7: face index 2 ('3/2') names no texture coordinate (1 texture coordinate in",
+    ),
+    (
+        "uv-negative",
+        "f 1/1 2/-1 3/-2\n",
+        "line 7: face index -2 ('3/-2') names no texture coordinate (1 texture coordinate before",
+    ),
+    ("normal-zero", "f 1//1 2//0 3//1\n", "line 7: face index 0 ('2//0') names no normal"),
+    (
+        "normal-past-the-end",
+        "f 1/1/1 2/1/1 3/1/2\n",
+        "line 7: face index 2 ('3/1/2') names no normal (1 normal in the file",
+    ),
+    ("normal-negative", "f 1//1 2//-3 3//1\n", "line 7: face index -3 ('2//-3') names no normal"),
 ]
 
 
@@ -410,7 +430,7 @@ def test_obj_face_index_out_of_range(
     file (``pbs render bad.obj``), the OBJ file alone."""
     root, out = work
     mesh = root / "bad.obj"
-    mesh.write_bytes(f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\n{faces}".encode())
+    mesh.write_bytes(f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\nvt 0 0\n{faces}".encode())
     scene = _scene(root, BASE + '[[objects]]\nshape = "mesh"\nfile = "bad.obj"\n')
     rc, err = _run_inproc(capsys, str(scene), "-o", str(out / "out.png"), "--size", SIZE)
     _check(rc, err, out, f"pbs: error: {scene}: objects[1].file: {mesh}: ", words)
@@ -813,3 +833,25 @@ def test_compare_size_past_gl_limits(work: tuple[Path, Path]) -> None:
     if result.returncode == 1 and "no headless OpenGL" in result.stderr:
         pytest.skip("no headless OpenGL context here")
     _check(result.returncode, result.stderr, out, f"pbs: error: {scene}: --size: ", "GiB")
+
+
+# Sound OBJ faces in the forms the fast screen leaves to the line reading (relative
+# indices, an indented statement, a comment on a face line, CRLF) and in the plain one.
+SOUND_FACES = [
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf -3/-1/-1 -2/-1/-1 -1/-1/-1\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2 3\nf 1 2 3 # a comment\n",
+    "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nvn 0 0 1\r\nf 1//1 2//1 3//1\r\n",
+]
+
+
+@pytest.mark.parametrize("text", SOUND_FACES)
+def test_obj_sound_faces_pass(text: str) -> None:
+    """The face check refuses no sound face, whichever reading decides."""
+    from app.scene.references import obj_index_problem
+
+    assert obj_index_problem(Path("sound.obj"), text.encode()) is None
+    assert (
+        obj_index_problem(Path("teapot.obj"), (REPO / "scenes/meshes/teapot.obj").read_bytes())
+        is None
+    )

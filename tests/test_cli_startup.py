@@ -206,6 +206,52 @@ def test_the_quick_answer_targets(
     assert f"{help_s:.2f} s median of 9" in verdicts[0].measured
 
 
+# The probe, watching the first import of numpy: OPENBLAS_NUM_THREADS as it stood then.
+BLAS_PROBE = PROBE.replace(
+    "from app.cli import main",
+    """import os
+class _Watch:
+    seen = None
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy" and _Watch.seen is None:
+            _Watch.seen = os.environ.get("OPENBLAS_NUM_THREADS", "")
+sys.meta_path.insert(0, _Watch())
+from app.cli import main""",
+).replace('"code": code,', '"code": code, "blas": _Watch.seen,')
+
+
+@pytest.mark.parametrize("given", [None, "3"])
+@pytest.mark.parametrize("command", ["batch", "view"])
+def test_batch_and_view_ask_openblas_for_one_thread(
+    tmp_path: Path, command: str, given: str | None
+) -> None:
+    """``pbs batch`` (and so its worker processes, which inherit the environment) and
+    ``pbs view`` set ``OPENBLAS_NUM_THREADS`` to 1 before numpy is imported, as a render
+    does (docs/performance.md), a value the environment gives kept. Each is given a job
+    file or scene it refuses (exit 2) once numpy is loaded: no GL, no window."""
+    jobs = tmp_path / "jobs.toml"
+    jobs.write_text(
+        'scene = "sec5_metals"\nsweep = { key = "materials.nope.roughness", values = [0.1] }\n',
+        encoding="utf-8",
+    )
+    argv = {
+        "batch": ["batch", str(jobs), "-o", str(tmp_path / "out")],
+        "view": ["view", str(tmp_path / "missing.toml")],
+    }[command]
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    env.pop("OPENBLAS_NUM_THREADS", None)
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    proc = subprocess.run(
+        [sys.executable, "-c", BLAS_PROBE, *argv],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.splitlines()[-1])
+    assert result["code"] == 2, result["stderr"]
+    assert result["blas"] == (given or "1")
+
+
 @pytest.mark.parametrize("given", [None, "3"])
 def test_a_render_asks_openblas_for_one_thread(tmp_path: Path, given: str | None) -> None:
     """A render sets ``OPENBLAS_NUM_THREADS`` to 1 before numpy is imported (OpenBLAS's

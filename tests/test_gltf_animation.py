@@ -365,6 +365,12 @@ def _bad_animation(tmp_path: Path, change: str) -> Path:
         doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0], [2, 0, 0]], 3)
     elif change == "times":  # times not increasing
         doc.animate(node, "translation", [0.0, 1.0, 1.0], [[0, 0, 0]] * 3, 3)
+    elif change == "negative times":  # the specification's time[0] >= 0
+        doc.animate(node, "translation", [-1.0, 1.0], [[0, 0, 0], [1, 0, 0]], 3)
+    elif change == "one cubic key":  # CUBICSPLINE needs two keyframes
+        doc.animate(node, "translation", [0.0], [[0, 0, 0]] * 3, 3, "CUBICSPLINE")
+    elif change == "cubic count":  # two values (not 3 x 2) for two CUBICSPLINE keyframes
+        doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0]], 3, "CUBICSPLINE")
     else:
         doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [1, 0, 0]], 3)
     doc.animate(node, "translation", [0.0, 1.0], [[0, 0, 0], [0, 1, 0]], 3, name="ok")
@@ -394,6 +400,12 @@ BAD_ANIMATIONS = [
      "3 values for 2 keyframes of LINEAR; 2 are needed"),
     ("times", "animations[0].samplers[0].input", "keyframe times must increase strictly: "
      "keyframe 2 (1 s) follows keyframe 1 (1 s)"),
+    ("negative times", "animations[0].samplers[0].input", "keyframe times must be 0 or "
+     "more: keyframe 0 is at -1 s"),
+    ("one cubic key", "animations[0].samplers[0].input",
+     "1 keyframe for CUBICSPLINE, which needs at least 2 keyframes"),
+    ("cubic count", "animations[0].samplers[0].output",
+     "2 values for 2 keyframes of CUBICSPLINE; 6 are needed"),
     ("interpolation", "animations[0].samplers[0].interpolation",
      "'BOGUS' is not LINEAR, STEP, CUBICSPLINE"),
     ("output index", "animations[0].samplers[0].output", "999 is not one of the 5"),
@@ -421,6 +433,27 @@ def test_bad_animation_data_is_bad_input_whatever_the_pose(
     path = _bad_animation(tmp_path, change)
     line = _render(capsys, path, *options)
     assert line == f"pbs: error: {path}: {key}: {message}", line
+
+
+def test_one_cubic_key_is_bad_input_where_a_linear_sampler_shares_its_times(
+    tmp_path: Path,
+) -> None:
+    # The keyframe times an input accessor holds are checked once for all the samplers
+    # that share it; the CUBICSPLINE sampler's need of two keyframes is its own.
+    doc = Doc()
+    node = doc.node(mesh=doc.triangle())
+    doc.animate(node, "translation", [0.0], [[0, 0, 0]], 3)
+    animation = doc.json["animations"][0]
+    shared = animation["samplers"][0]["input"]
+    output = doc.accessor([[1, 1, 1]] * 3, 3)
+    animation["samplers"].append(
+        {"input": shared, "output": output, "interpolation": "CUBICSPLINE"}
+    )
+    animation["channels"].append({"sampler": 1, "target": {"node": node, "path": "scale"}})
+    path = doc.save(tmp_path / "shared.gltf")
+    with pytest.raises(GltfError) as caught:
+        _prims(path)
+    assert caught.value.key == "animations[0].samplers[1].input", caught.value
 
 
 def test_a_weights_output_of_another_count_is_bad_input_at_rest(

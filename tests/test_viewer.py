@@ -537,6 +537,24 @@ def test_walkthrough_next_and_previous_through_all_steps(viewer, lesson_steps):
     assert census.live() == before
 
 
+def test_a_comparison_draws_its_sides_as_the_main_view_does(viewer):
+    """A comparison's sides are the viewer's frames, as its main view is (its
+    ``RenderOptions``): with ``render.gbaa_interior``, a still's correction the viewer's
+    frames leave out, the scene split against itself shows what it shows alone, but for
+    the divider line."""
+    from app.render.compare import divider_line
+
+    v = viewer
+    assert v.edit({"render.antialiasing": "gbaa", "render.gbaa_interior": True})
+    alone = window_image(v)
+    assert v.compare("render.gbaa_interior", True, True)
+    assert all(r.options == v.renderer.options for r in v.comparison.renderers)
+    split = window_image(v)
+    line = list(divider_line(v.divider, split.shape[1]))
+    split[:, line] = alone[:, line]
+    assert_close(split, alone)
+
+
 def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps):
     """Step 5's first comparison (gold: Schlick | exact conductor Fresnel) in one call, as
     its button does: the window shows the split screen that ``pbs render --compare --fit``

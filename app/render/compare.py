@@ -41,7 +41,7 @@ from app.errors import InputError
 from app.gl.context import GLContext
 from app.gl.shaders import ShaderCache
 from app.render.fullscreen import FullscreenPass
-from app.render.renderer import Renderer
+from app.render.renderer import Renderer, RenderOptions
 from app.scene.edits import KeyPathError, edited, parse_key, toml_value
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Scene
@@ -231,7 +231,9 @@ class Comparison:
     ``render()`` renders both sides; ``composite(mode, divider, gain)`` makes the display
     image (``read_ldr``); ``set_camera`` and ``update_base`` change the base scene of both
     sides at once (the spec's value stays applied), as the viewer does every frame.
-    ``size`` overrides the scenes' render.width and render.height.
+    ``size`` overrides the scenes' render.width and render.height; ``options`` are both
+    sides' ``RenderOptions`` (the viewer's: its main view's, so that a side draws what the
+    main view would, ``render.gbaa_interior`` left out of its interactive frames).
     """
 
     def __init__(
@@ -240,6 +242,7 @@ class Comparison:
         base: LoadedScene,
         spec: CompareSpec,
         size: tuple[int, int] | None = None,
+        options: RenderOptions | None = None,
     ) -> None:
         self.gl = gl
         self.spec = spec
@@ -252,7 +255,9 @@ class Comparison:
         self.renderers: list[Renderer] = []
         try:
             for side in sides:
-                self.renderers.append(Renderer(gl, side, size, shaders=self.shaders))
+                self.renderers.append(
+                    Renderer(gl, side, size, shaders=self.shaders, options=options)
+                )
         except BaseException:
             self.release()
             raise

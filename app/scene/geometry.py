@@ -572,7 +572,7 @@ def _load_file(
     import trimesh
 
     from app.scene.references import (
-        obj_face_problem,
+        obj_index_problem,
         obj_libraries,
         obj_materials,
         obj_mtl_files,
@@ -600,6 +600,8 @@ def _load_file(
     except RefusedError as exc:
         raise InputError(scene_file, key, str(exc)) from None
     problem = obj_problem(path, mtls, policy)
+    if problem is None and suffix == ".obj":  # a bad face index: the file's line, not trimesh's
+        problem = obj_index_problem(path, data)  # words, nor an index 0 read as the last vertex
     if problem is not None:
         raise InputError(scene_file, key, problem)
     mtl = obj_materials(mtls) if mtls else None
@@ -610,9 +612,6 @@ def _load_file(
             io.BytesIO(data), file_type=suffix[1:], resolver=resolver, process=False
         )
     except Exception as exc:  # trimesh raises many types for unreadable files
-        problem = obj_face_problem(path, data) if suffix == ".obj" else None
-        if problem is not None:  # a bad face index: the file's line, not trimesh's words
-            raise InputError(scene_file, key, problem) from None
         raise InputError(
             scene_file, key, f"cannot read mesh {path} ({type(exc).__name__}: {exc})"
         ) from None

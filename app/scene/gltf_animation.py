@@ -30,7 +30,8 @@ Bad animation, skin or morph data is a ``GltfError`` naming its JSON key; a choi
 file cannot honour (an animation or variant it does not have) a ``PoseError`` naming the
 scene object's key (``animation``, ``time``, ``variant``). Every animation is checked
 whatever the pose, the rest pose included (``checked_tracks``: indices, interpolations,
-accessor types and counts from the JSON, keyframe times read), by the code that then
+accessor types and counts from the JSON, keyframe times read: 0 or more, strictly
+increasing, at least two for CUBICSPLINE), by the code that then
 reads the chosen animation's values to pose it.
 """
 
@@ -250,26 +251,39 @@ def _via(get: Callable[[object, str, str], T], index: object, key: str, semantic
 def _sampler(
     sampler: JsonObject, skey: str, accessors: Accessors, checked: dict[int, np.ndarray]
 ) -> tuple[np.ndarray, str]:
-    """A sampler's keyframe times (float SCALAR, finite, strictly increasing) and its
-    interpolation, checked; ``checked``: the times of the input accessors checked so far
-    (samplers often share one)."""
+    """A sampler's keyframe times (float SCALAR, finite, 0 or more, strictly increasing;
+    at least two for CUBICSPLINE) and its interpolation, checked; ``checked``: the times
+    of the input accessors checked so far (samplers often share one). The bounds are
+    the specification's (glTF 2.0, ``animation.sampler``: ``time[0] >= 0``,
+    ``time[n + 1] > time[n]``, "at least two keyframes" for CUBICSPLINE)."""
     interpolation = sampler.interpolation if sampler.interpolation is not None else "LINEAR"
     if interpolation not in INTERPOLATIONS:
         raise GltfError(
             f"{skey}.interpolation", f"{interpolation!r} is not {', '.join(INTERPOLATIONS)}"
         )
-    if sampler.input in checked:
-        return checked[sampler.input], interpolation
-    times = _via(accessors.accessor, sampler.input, f"{skey}.input", "input")[:, 0]
-    increasing = times[1:] > times[:-1]
-    if not increasing.all():
-        k = int(np.argmin(increasing))
+    times = checked.get(sampler.input)
+    if times is None:
+        times = _via(accessors.accessor, sampler.input, f"{skey}.input", "input")[:, 0]
+        negative = times < 0.0
+        if negative.any():
+            k = int(np.argmax(negative))
+            raise GltfError(
+                f"{skey}.input",
+                f"keyframe times must be 0 or more: keyframe {k} is at {times[k]:g} s",
+            )
+        increasing = times[1:] > times[:-1]
+        if not increasing.all():
+            k = int(np.argmin(increasing))
+            raise GltfError(
+                f"{skey}.input",
+                f"keyframe times must increase strictly: keyframe {k + 1} ({times[k + 1]:g} s) "
+                f"follows keyframe {k} ({times[k]:g} s)",
+            )
+        checked[sampler.input] = times
+    if interpolation == "CUBICSPLINE" and len(times) < 2:
         raise GltfError(
-            f"{skey}.input",
-            f"keyframe times must increase strictly: keyframe {k + 1} ({times[k + 1]:g} s) "
-            f"follows keyframe {k} ({times[k]:g} s)",
+            f"{skey}.input", "1 keyframe for CUBICSPLINE, which needs at least 2 keyframes"
         )
-    checked[sampler.input] = times
     return times, interpolation
 
 
@@ -277,11 +291,12 @@ def checked_tracks(
     doc: GltfDocument, index: int, accessors: Accessors, notes: list[str]
 ) -> list[Track]:
     """Animation ``index`` checked without reading its keyframe values: every sampler's
-    interpolation and input times (float SCALAR, strictly increasing: one number per
-    keyframe, read), every channel's node and sampler, and each output accessor's type
-    and count from the JSON (the path's type; as many values as the interpolation needs:
-    3 per keyframe for CUBICSPLINE, times the targets for weights). The rest pose checks
-    every animation this way; posing reads the chosen one's values after it."""
+    interpolation and input times (float SCALAR, 0 or more, strictly increasing, at least
+    two for CUBICSPLINE: one number per keyframe, read), every channel's node and
+    sampler, and each output accessor's type and count from the JSON (the path's type; as
+    many values as the interpolation needs: 3 per keyframe for CUBICSPLINE, times the
+    targets for weights). The rest pose checks every animation this way; posing reads
+    the chosen one's values after it."""
     animation = doc.animations[index]
     akey = f"animations[{index}]"
     nodes = doc.nodes or []

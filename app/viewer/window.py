@@ -442,7 +442,9 @@ class Viewer:
         self.touch()
         try:
             spec = CompareSpec(key, a, b, origin="compare")
-            comparison = Comparison(self.gl, self.display_scene(), spec, self.renderer.size)
+            comparison = Comparison(
+                self.gl, self.display_scene(), spec, self.renderer.size, self.renderer.options
+            )
         except (InputError, ShaderError, moderngl.Error) as exc:
             return self._refuse(exc)
         self.stop_compare()
