@@ -1155,9 +1155,9 @@ class Renderer:
             # "gbaa" mixes the radiance at the silhouettes: the surfaces' is written too
             hdr = self.lighting.hdr if self.gbaa is not None else None
             if self.gbaa is not None and self.gbaa.interior:
-                # gbaa's mark writes every surface pixel's display value (the interior's
-                # corrected, the silhouettes' for the resolve to replace): the lighting
-                # pass writes their radiance alone, over the background's display value
+                # every surface pixel's display value is gbaa's (the interior's the mark's,
+                # corrected, the silhouettes' the resolve's): the lighting pass writes
+                # their radiance alone, over the background's display value
                 self.post.display_target(self.gbuffer.zbuffer, bg, exposure)
                 self.lighting.run_surfaces(self.gbuffer, camera)
                 self._drawn = _Drawn(camera, background, hdr=False, display=True)

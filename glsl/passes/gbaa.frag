@@ -213,10 +213,10 @@ void main() {
     vec4 colours[4];
     for (int k = 0; k < 4; ++k) colours[k] = radiance(px + STEPS[k], around[k]);
 #endif
-    // every surface pixel is written (a silhouette's for the resolve to replace): on a
-    // fused frame the lighting pass wrote no display value (Renderer.run_lighting)
-    vec4 mean = any(other) ? here : interior_radiance(here, colours);
-    frag_color = vec4(display_of(mean).rgb, centre.x > 0.0 ? 1.0 : 0.0);
+    // (on a fused frame the lighting pass wrote no display value at the surfaces,
+    // Renderer.run_lighting: every surface pixel is this one's or the resolve's)
+    bool inside = centre.x > 0.0 && !any(other);
+    frag_color = vec4(display_of(interior_radiance(here, colours)).rgb, inside ? 1.0 : 0.0);
 #else
     frag_color = vec4(0.0);
 #endif
