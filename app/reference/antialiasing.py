@@ -20,6 +20,7 @@ from app.reference.tonemap import post_process, srgb_decode, srgb_encode
 # glsl/passes/gbaa.frag's defines
 GBAA_AXIS_TIE = 1.1  # a neighbour's edge counts along an axis within 10 % of its nearest
 GBAA_DEPTH_TOLERANCE = 0.1  # view depths further apart than this fraction differ
+GBAA_ALONG_EDGE_CLAMP = 1.5  # an edge pixel's own part stays within this factor of the centre's
 # the four neighbours, +x, -x, +y, -y (gbaa.frag's STEPS; k ^ 1 is the opposite one)
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 
@@ -109,14 +110,19 @@ def gbaa_along_edge(
     c: np.ndarray, surface: np.ndarray, around: list[np.ndarray], n: list[np.ndarray]
 ) -> np.ndarray:
     """(..., 4) the interior correction of a marked pixel's own part: the second
-    differences of the axes whose two neighbours both hold its surface, each over 24
-    (unclamped); alpha unchanged."""
+    differences of the axes whose two neighbours both hold its surface, each over 24, the
+    colour held within ``GBAA_ALONG_EDGE_CLAMP`` of ``c``; alpha unchanged."""
     delta = np.zeros_like(c)
     for axis in range(2):
         k = 2 * axis
         both = gbaa_same_surface(surface, around[k]) & gbaa_same_surface(surface, around[k + 1])
         delta = delta + np.where(both[..., None], (n[k] + n[k + 1] - 2.0 * c) / 24.0, 0.0)
-    return np.concatenate([delta[..., :3], np.zeros_like(c[..., 3:])], axis=-1)
+    rgb = np.clip(
+        c[..., :3] + delta[..., :3],
+        c[..., :3] / GBAA_ALONG_EDGE_CLAMP,
+        c[..., :3] * GBAA_ALONG_EDGE_CLAMP,
+    )
+    return np.concatenate([rgb - c[..., :3], np.zeros_like(c[..., 3:])], axis=-1)
 
 
 def gbaa_coverage(
