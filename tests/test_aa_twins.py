@@ -119,6 +119,30 @@ def test_gbaa_resolve_is_its_twin(gl_egl: GLContext, fused: bool, variant: str) 
         assert np.any(changed & inside) == interior
 
 
+def test_gbaa_interior_fused_frame_is_the_hdr_frames(gl_egl: GLContext) -> None:
+    """With ``gbaa_interior`` a plain still's lighting pass writes the surfaces' radiance
+    alone and gbaa's mark every surface pixel's display value (Renderer.run_lighting):
+    its display image is, byte for byte, the one drawn through the complete HDR image and
+    post (``want_hdr``), and its interior pixels are corrected (they differ from the
+    default still's)."""
+    loaded = with_aa(scene_from(aa_scene_data(GBAA_SIZE)), "gbaa", 1)
+    images = {}
+    for name, interior, hdr in (("fused", True, False), ("hdr", True, True),
+                                ("default", False, False)):  # fmt: skip
+        render = loaded.scene.render.model_copy(update={"gbaa_interior": interior})
+        variant = dataclasses.replace(loaded, scene=replace_parts(loaded.scene, render=render))
+        r = Renderer(gl_egl, variant)
+        try:
+            r.want_hdr(hdr)
+            r.render()
+            assert r.fused_display == (not hdr) and r.gbaa.interior == interior
+            images[name] = r.read_ldr()
+        finally:
+            r.release()
+    assert np.array_equal(images["fused"], images["hdr"])
+    assert np.count_nonzero(np.any(images["fused"] != images["default"], axis=-1)) > 100
+
+
 def test_fxaa_filter_is_its_twin(gl_egl: GLContext) -> None:
     """FXAA's filter (glsl/passes/fxaa.frag) against ``fxaa_filter`` on the copy of the
     display image it read: every pixel whose comparisons the twin finds clear of a tie

@@ -20,7 +20,7 @@ from app.reference.tonemap import post_process, srgb_decode, srgb_encode
 # glsl/passes/gbaa.frag's defines
 GBAA_AXIS_TIE = 1.1  # a neighbour's edge counts along an axis within 10 % of its nearest
 GBAA_DEPTH_TOLERANCE = 0.1  # view depths further apart than this fraction differ
-GBAA_INTERIOR_CLAMP = 1.5  # the interior correction stays within this factor of the centre's
+GBAA_ALONG_EDGE_CLAMP = 1.5  # an edge pixel's own part stays within this factor of the centre's
 # the four neighbours, +x, -x, +y, -y (gbaa.frag's STEPS; k ^ 1 is the opposite one)
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 
@@ -100,12 +100,10 @@ def gbaa_interior_radiance(c: np.ndarray, n: list[np.ndarray]) -> np.ndarray:
     """A pixel's area mean from its centre's radiance ``c`` (..., 4) and its 4
     neighbours' ``n`` (the same surface), to second order: ``c + (sum n - 4c) / 24`` (the
     midpoint rule misses (f_xx + f_yy) / 24 of the box filter's integral; the 5-point
-    Laplacian), the colour held within ``GBAA_INTERIOR_CLAMP`` of ``c`` per channel,
-    alpha ``c``'s."""
+    Laplacian; positive weights, unclamped), alpha ``c``'s."""
     c = np.asarray(c, np.float64)
     mean = c + (n[0] + n[1] + n[2] + n[3] - 4.0 * c) / 24.0
-    rgb = np.clip(mean[..., :3], c[..., :3] / GBAA_INTERIOR_CLAMP, c[..., :3] * GBAA_INTERIOR_CLAMP)
-    return np.concatenate([rgb, c[..., 3:]], axis=-1)
+    return np.concatenate([mean[..., :3], c[..., 3:]], axis=-1)
 
 
 def gbaa_along_edge(
@@ -113,7 +111,7 @@ def gbaa_along_edge(
 ) -> np.ndarray:
     """(..., 4) the interior correction of a marked pixel's own part: the second
     differences of the axes whose two neighbours both hold its surface, each over 24, the
-    colour held within ``GBAA_INTERIOR_CLAMP`` of ``c``; alpha unchanged."""
+    colour held within ``GBAA_ALONG_EDGE_CLAMP`` of ``c``; alpha unchanged."""
     delta = np.zeros_like(c)
     for axis in range(2):
         k = 2 * axis
@@ -121,8 +119,8 @@ def gbaa_along_edge(
         delta = delta + np.where(both[..., None], (n[k] + n[k + 1] - 2.0 * c) / 24.0, 0.0)
     rgb = np.clip(
         c[..., :3] + delta[..., :3],
-        c[..., :3] / GBAA_INTERIOR_CLAMP,
-        c[..., :3] * GBAA_INTERIOR_CLAMP,
+        c[..., :3] / GBAA_ALONG_EDGE_CLAMP,
+        c[..., :3] * GBAA_ALONG_EDGE_CLAMP,
     )
     return np.concatenate([rgb - c[..., :3], np.zeros_like(c[..., 3:])], axis=-1)
 

@@ -256,6 +256,13 @@ class LightingPass:
             draw.program["u_exposure"].value = exposure
         self._shade(draws, target, camera)
 
+    def run_surfaces(self, gbuffer: GBuffer, camera: CameraFrame) -> None:
+        """The radiance of ``gbuffer``'s surface pixels alone into the HDR image (its
+        other pixels left as they were): for a frame whose display image another pass
+        writes at every surface pixel (gbaa's interior correction, Renderer.run_lighting),
+        where the display image's tone map here would be drawn over."""
+        self._shade(self.draws, self._z_target(gbuffer), camera)
+
     def display_draws(self, tonemap: str, hdr_out: bool = False) -> list[FullscreenDraw]:
         """``run_display``'s draws for ``tonemap`` (DISPLAY_OUT, and HDR_OUT where
         ``hdr_out``), compiled at their first use: a renderer that never draws a plain

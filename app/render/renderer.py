@@ -1180,6 +1180,14 @@ class Renderer:
             bg = tuple(float(x) for x in background)
             # "gbaa" mixes the radiance at the silhouettes: the surfaces' is written too
             hdr = self.lighting.hdr if self.gbaa is not None else None
+            if self.gbaa is not None and self.gbaa.interior:
+                # every surface pixel's display value is gbaa's (the interior's the mark's,
+                # corrected, the silhouettes' the resolve's): the lighting pass writes
+                # their radiance alone, over the background's display value
+                self.post.display_target(self.gbuffer.zbuffer, bg, exposure)
+                self.lighting.run_surfaces(self.gbuffer, camera)
+                self._drawn = _Drawn(camera, background, hdr=False, display=True)
+                return
             target = self.post.display_target(self.gbuffer.zbuffer, bg, exposure, hdr)
             self.lighting.run_display(
                 self.gbuffer, camera, target, self.scene.render.tonemap, 2.0**exposure,

@@ -38,8 +38,8 @@
 #ifndef GBAA_INTERIOR
 #define GBAA_INTERIOR 0
 #endif
-#ifndef GBAA_INTERIOR_CLAMP
-#define GBAA_INTERIOR_CLAMP 1.5   // the interior correction stays within this factor of c
+#ifndef GBAA_ALONG_EDGE_CLAMP
+#define GBAA_ALONG_EDGE_CLAMP 1.5   // an edge pixel's own part stays within this factor of c
 #endif
 
 uniform sampler2D u_depth;   // RT2: view depth (0: background), material id
@@ -140,18 +140,19 @@ vec4 display_of(vec4 c) {
 // A pixel's area mean from its centre's radiance c and its 4 neighbours' (the same
 // surface), to second order: the midpoint rule misses (f_xx + f_yy) / 24 of the box
 // filter's integral, and (sum of the neighbours - 4c) is the 5-point Laplacian; a filter
-// whose variance per axis, 2/24, is the unit box's 1/12. Held within GBAA_INTERIOR_CLAMP
-// of c per channel: a highlight smaller than a pixel would otherwise draw a bright cross
-// on its neighbours (docs/accuracy.md, "Every pixel").
+// whose variance per axis, 2/24, is the unit box's 1/12. Its weights (20/24 and 1/24 each)
+// are positive, so the mean is never negative; unclamped: a clamp to a factor of c held a
+// pixel just past a light's terminator (c = 0) at 0, where its area is lit
+// (docs/accuracy.md, "Every pixel").
 vec4 interior_radiance(vec4 c, vec4 n[4]) {
     vec4 mean = c + (n[0] + n[1] + n[2] + n[3] - 4.0 * c) / 24.0;
-    vec3 rgb = clamp(mean.rgb, c.rgb / GBAA_INTERIOR_CLAMP, c.rgb * GBAA_INTERIOR_CLAMP);
-    return vec4(rgb, c.a);
+    return vec4(mean.rgb, c.a);
 }
 
 // The interior correction of a marked pixel's own part: the second differences of the
 // axes whose two neighbours both hold this pixel's surface (along a silhouette, the axis
-// across its normal), each over 24, held within GBAA_INTERIOR_CLAMP of c.
+// across its normal), each over 24, held within GBAA_ALONG_EDGE_CLAMP of c (unclamped it
+// moved the 22 scenes' mean FLIP by 5e-8 at the default: kept, so as not to move pixels).
 vec4 along_edge(vec4 c, vec2 centre, vec2 around[4], vec4 n[4]) {
     vec4 delta = vec4(0.0);
     for (int axis = 0; axis < 2; ++axis) {
@@ -160,7 +161,7 @@ vec4 along_edge(vec4 c, vec2 centre, vec2 around[4], vec4 n[4]) {
             delta += (n[k] + n[k + 1] - 2.0 * c) / 24.0;
         }
     }
-    vec3 rgb = clamp(c.rgb + delta.rgb, c.rgb / GBAA_INTERIOR_CLAMP, c.rgb * GBAA_INTERIOR_CLAMP);
+    vec3 rgb = clamp(c.rgb + delta.rgb, c.rgb / GBAA_ALONG_EDGE_CLAMP, c.rgb * GBAA_ALONG_EDGE_CLAMP);
     return vec4(rgb - c.rgb, 0.0);
 }
 
@@ -217,6 +218,8 @@ void main() {
     vec4 colours[4];
     for (int k = 0; k < 4; ++k) colours[k] = radiance(px + STEPS[k], around[k]);
 #endif
+    // (on a fused frame the lighting pass wrote no display value at the surfaces,
+    // Renderer.run_lighting: every surface pixel is this one's or the resolve's)
     bool inside = centre.x > 0.0 && !any(other);
     frag_color = vec4(display_of(interior_radiance(here, colours)).rgb, inside ? 1.0 : 0.0);
 #else
