@@ -143,7 +143,7 @@ def test_a_render_of_primitives_imports_no_mesh_reader(tmp_path: Path) -> None:
     unused = ("trimesh", "scipy", "app.scene.gltf", "app.scene.gltf_schema",
               "app.scene.model_file")  # fmt: skip
     assert among(result["modules"], unused) == []
-    environment = ("app.textures.environment", "app.reference.sh9")
+    environment = ("app.textures.environment", "app.reference.ibl")
     assert set(environment) <= set(result["modules"])  # the probe sees them where used
     text = (REPO / "scenes" / "showcase.toml").read_text(encoding="utf-8")
     table = text[text.index("[environment]") : text.index("[render]")]

@@ -99,7 +99,7 @@ def cell_integrals(env_map: np.ndarray, directions: np.ndarray, rotation: float)
     sum over the cell's texels of L dOmega (N, 3): every texel (turned ``rotation`` degrees
     about +Y into the world) goes to its nearest direction, so the cells partition the
     sphere and the integrals sum to the whole map's integral."""
-    from app.reference.sh9 import map_texels  # environment scenes only (start-up)
+    from app.reference.ibl import map_texels  # environment scenes only (start-up)
 
     d, weighted = map_texels(env_map, math.radians(rotation))
     out = np.zeros((len(directions), 3))

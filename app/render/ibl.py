@@ -243,7 +243,7 @@ class EnvironmentLighting(ShaderInput):
         self.intensity = float(env.intensity)
         # SH9 of the turned map, in the world frame (float64 twin), times the intensity;
         # the twin imported by a frame with an environment (docs/performance.md, "Start-up")
-        from app.reference.sh9 import sh9_project
+        from app.reference.ibl import sh9_project
 
         self.sh = (sh9_project(env.texels, self.rotation) * env.intensity).astype(np.float32)
 
