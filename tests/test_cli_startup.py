@@ -273,3 +273,17 @@ def test_a_render_process_ends_once_its_entries_are_written(tmp_path: Path) -> N
         written[how] = sorted(p.name for p in cache_dir.rglob("*") if p.is_file())
     assert len(written["returned"]) >= 2, written  # the model's maps have entries
     assert written["own"] == written["returned"]
+
+
+@pytest.mark.gl
+def test_a_still_gltf_render_imports_no_numpy_ma(tmp_path: Path) -> None:
+    """The still's level bound frames the points its faces use without ``np.unique``,
+    whose first call imports numpy.ma (10 ms of a render's start: docs/performance.md,
+    "A real asset against f3d"); nothing else of a model render needs it."""
+    model = REPO / "tests" / "assets" / "BoxTextured.glb"  # textured: a bound is taken
+    out = tmp_path / "x.png"
+    result = run_cli("render", str(model), "-o", str(out), "--size", "32x32", "-q")
+    assert result["code"] == 0, result["stderr"]
+    assert out.is_file()
+    assert "app.scene.sampled_levels" in result["modules"]  # the bound was taken
+    assert among(result["modules"], ("numpy.ma",)) == []
