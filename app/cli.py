@@ -1106,7 +1106,7 @@ def _end_process() -> NoReturn:
             code = 120
     try:
         c_exit = ctypes.CDLL(None).exit
-    except (OSError, AttributeError):  # no C library to name: skip its handlers too
+    except (OSError, AttributeError, TypeError):  # no C library to name (Windows): skip them
         os._exit(code)
     c_exit(code)
     os._exit(code)  # not reached: exit does not return
