@@ -275,3 +275,61 @@ def test_a_render_asks_openblas_for_one_thread(tmp_path: Path, given: str | None
     result = json.loads(proc.stdout.splitlines()[-1])
     assert result["code"] == 0, result["stderr"]
     assert result["blas"] == (given or "1")
+
+
+# A render whose prepared-texture entries take long to write: each write on the cache's
+# writer thread waits first, so a process that ended without waiting for them would lose
+# them. ``main()`` reads the process's own command line (and ends the process after a
+# render); ``main(argv)`` returns, and the interpreter's usual exit follows.
+SLOW_WRITES = """
+import sys, time
+import app.textures.cache as cache
+write = cache.PreparedCache._write_now
+def slow(self, key, arrays):
+    time.sleep(0.3)
+    write(self, key, arrays)
+cache.PreparedCache._write_now = slow
+from app.cli import main
+if sys.argv[1] == "own":
+    sys.argv = ["pbs", *sys.argv[2:]]
+    raise SystemExit(main())
+raise SystemExit(main(sys.argv[2:]))
+"""
+
+
+def test_a_render_process_ends_once_its_entries_are_written(tmp_path: Path) -> None:
+    """``pbs render`` ends its own process after the PNG (app.cli ``_end_process``: no
+    Python teardown), but only once the texture layer's background work has ended: the
+    same prepared-texture entries on disk as after the interpreter's usual exit, no
+    temporary file left, and what it printed flushed."""
+    model = REPO / "scenes" / "meshes" / "material_sampler.glb"
+    written = {}
+    for how in ("own", "returned"):
+        out, cache_dir = tmp_path / f"{how}.png", tmp_path / how
+        env = {**os.environ, "PYTHONPATH": str(REPO), "PBS_CACHE_DIR": str(cache_dir)}
+        env.pop("PBS_CACHE", None)
+        argv = ["render", str(model), "-o", str(out), "--size", "32x32"]
+        proc = subprocess.run(
+            [sys.executable, "-c", SLOW_WRITES, how, *argv],
+            cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        assert proc.stdout.startswith(f"{out}: 32x32"), proc.stdout
+        assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        written[how] = sorted(p.name for p in cache_dir.rglob("*") if p.is_file())
+    assert len(written["returned"]) >= 2, written  # the model's maps have entries
+    assert written["own"] == written["returned"]
+
+
+@pytest.mark.gl
+def test_a_still_gltf_render_imports_no_numpy_ma(tmp_path: Path) -> None:
+    """The still's level bound frames the points its faces use without ``np.unique``,
+    whose first call imports numpy.ma (10 ms of a render's start: docs/performance.md,
+    "A real asset against f3d"); nothing else of a model render needs it."""
+    model = REPO / "tests" / "assets" / "BoxTextured.glb"  # textured: a bound is taken
+    out = tmp_path / "x.png"
+    result = run_cli("render", str(model), "-o", str(out), "--size", "32x32", "-q")
+    assert result["code"] == 0, result["stderr"]
+    assert out.is_file()
+    assert "app.scene.sampled_levels" in result["modules"]  # the bound was taken
+    assert among(result["modules"], ("numpy.ma",)) == []

@@ -758,9 +758,19 @@ def _still_uv_lod(
             # magnification, level 0 (the bound's -inf) where it is seen.
             uv = np.zeros((len(positions), 2))
         triangles.append(ViewTriangles(positions, uv, faces, two_sided, mirrored))
-    points = np.concatenate([t.positions[np.unique(t.faces)] for t in triangles])
+    points = np.concatenate(
+        [t.positions[_referenced(t.faces, len(t.positions))] for t in triangles]
+    )
     camera, size = still_view(points)
     return finest_uv_lod(triangles, camera, size)
+
+
+def _referenced(faces: np.ndarray, count: int) -> np.ndarray:
+    """The vertex indices ``faces`` names, each once, ascending: ``np.unique(faces)``'s
+    values, without its sort and the import of ``numpy.ma`` it makes (10 ms a process)."""
+    used = np.zeros(count, bool)
+    used[faces.ravel()] = True
+    return np.flatnonzero(used)
 
 
 def _material_layers(
