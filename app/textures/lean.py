@@ -32,11 +32,20 @@ from dataclasses import replace
 import numpy as np
 
 from app.common.models import MaterialParams
-from app.reference.filtering import slope_covariance
-from app.textures.mips import MIN_NORMAL_Z, BandSource, box_levels, float16_rows_up
+from app.reference.filtering import directional_spread, slope_covariance, spread_sample_origins
+from app.textures.mips import (
+    MIN_NORMAL_Z,
+    BandSource,
+    box_levels,
+    decode_normal_map,
+    float16_rows_up,
+)
 
 # The material option and render.normal_filter value that selects these chains.
 LEAN = "lean"
+# The render.normal_filter value (the default) that picks LEAN for a normal map whose spread
+# keeps a direction and the isotropic variance chain for any other (``auto_filter``).
+AUTO = "auto"
 
 
 def _slopes(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -96,6 +105,41 @@ def covariance_levels(
     levels = [np.zeros((h, w, 3), np.float32)]
     levels += [slope_covariance(m.astype(np.float64)).astype(np.float32) for m in means[1:]]
     return [float16_rows_up(lv) for lv in levels] if rows_up_float16 else levels
+
+
+def sampled_spread(normals: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """The mean footprint covariance of a normal map (app/reference/filtering.py
+    ``mean_footprint_covariance``, its float64 twin) from the sampled footprints' texels
+    alone: ``normals`` (H, W, 3) unit normals, or an 8-bit normal map (H, W, 3|4) uint8
+    decoded as ``maps.decode_normals`` decodes it with ``scale`` (only the sampled texels,
+    6% of a 2048^2 map: a few ms). Returns (3,) Sigma_xx, Sigma_yy, Sigma_xy."""
+    xs, fx = spread_sample_origins(normals.shape[1])
+    ys, fy = spread_sample_origins(normals.shape[0])
+    rows = (ys[:, None] + np.arange(fy)).ravel()
+    cols = (xs[:, None] + np.arange(fx)).ravel()
+    texels = normals[np.ix_(rows, cols)]
+    if texels.dtype == np.uint8:
+        texels = decode_normal_map(texels)
+        if scale != 1.0:
+            texels[..., :2] *= scale
+            texels /= np.linalg.norm(texels, axis=-1, keepdims=True)
+    sx, sy = _slopes(np.asarray(texels, np.float64))
+    shape = (len(ys), fy, len(xs), fx)
+
+    def mean(a: np.ndarray) -> np.ndarray:  # per footprint
+        return a.reshape(shape).mean(axis=(1, 3))
+
+    moments = np.stack([mean(sx), mean(sy), mean(sx * sx), mean(sy * sy), mean(sx * sy)], -1)
+    return slope_covariance(moments).reshape(-1, 3).mean(axis=0)
+
+
+def auto_filter(normals: np.ndarray, scale: float = 1.0) -> str:
+    """What ``render.normal_filter = "auto"`` builds for a normal map (``sampled_spread``'s
+    arguments): ``lean`` where its slopes spread along one direction (brushed or grooved
+    metal, app/reference/filtering.py ``directional_spread``), else ``variance``, which
+    costs LEAN's second map, its chain's time and the anisotropic lighting only where they
+    keep a highlight's direction."""
+    return LEAN if directional_spread(sampled_spread(normals, scale)) else "variance"
 
 
 def lean_defines(layers: Sequence[tuple[MaterialParams, Mapping[str, object]]]) -> dict[str, int]:
