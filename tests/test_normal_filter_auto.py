@@ -17,6 +17,7 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.reference.filtering import (
     DIRECTIONAL_ANISOTROPY,
+    SPREAD_FOOTPRINTS,
     directional_spread,
     mean_footprint_covariance,
     spread_anisotropy,
@@ -25,7 +26,7 @@ from app.scene import gltf
 from app.scene.layers import LayerBuilder
 from app.scene.loader import parse_scene
 from app.scene.model import RenderSettings
-from app.textures.lean import auto_filter, sampled_spread
+from app.textures.lean import auto_filter, sampled_spread, spread_levels
 from app.textures.maps import decode_normals
 from tests.conftest import REPO
 from tests.gltf_builder import GltfBuilder
@@ -79,6 +80,23 @@ def test_auto_picks_lean_for_groove_maps_and_variance_for_isotropic_ones() -> No
     assert auto_filter(rgb(GROOVES), 0.05) == "variance"
 
 
+def test_auto_asks_two_levels_for_one_direction() -> None:
+    """Bumps 16 texels apart, slopes 0.5 cos(2 pi x/16) and 0.5 sin(2 pi y/16): 8 x 8-texel
+    footprints locked to their phase hold a cosine's half period across x (-1..1) and a
+    sine's along y (0..1), anisotropy 0.64; the 16 x 16 ones hold whole periods of both,
+    round: ``variance``. The grooves stay directional at both levels."""
+    y, x = np.mgrid[0:256, 0:256] / 256.0 * 2.0 * np.pi
+    slope = 0.5 * np.stack([np.cos(16 * x), np.sin(16 * y)], -1)
+    n = np.concatenate([-slope, np.ones((256, 256, 1))], -1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    bumps = np.round((n * 0.5 + 0.5) * 255.0).astype(np.uint8)
+    levels = spread_levels(bumps)
+    assert len(levels) == 2 and spread_anisotropy(levels[0])[0] >= DIRECTIONAL_ANISOTROPY
+    assert spread_anisotropy(levels[1])[0] <= 0.1 and auto_filter(bumps) == "variance"
+    assert len(spread_levels(rgb(GROOVES))) == 2 and auto_filter(rgb(GROOVES)) == "lean"
+    assert len(spread_levels(rgb(TEXTURES / "bumpy_normal.png"))) == 1  # one level decides
+
+
 @pytest.mark.parametrize(
     ("texels", "scale"),
     [
@@ -94,10 +112,14 @@ def test_sampled_spread_is_its_float64_twin(texels: np.ndarray, scale: float) ->
     normals, a scene file's path) is the float64 twin's mean footprint covariance of the
     decoded map, to rounding."""
     normals = decode_normals(Image.fromarray(texels, "RGB"), scale)
-    want = mean_footprint_covariance(normals)
-    for got in (sampled_spread(texels, scale), sampled_spread(normals)):
-        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
-    assert directional_spread(want) == (auto_filter(texels, scale) == "lean")
+    wants = [mean_footprint_covariance(normals, f) for f in SPREAD_FOOTPRINTS]
+    for footprint, want in zip(SPREAD_FOOTPRINTS, wants, strict=True):
+        for got in (
+            sampled_spread(texels, scale, footprint),
+            sampled_spread(normals, 1.0, footprint),
+        ):
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+    assert directional_spread(np.array(wants)) == (auto_filter(texels, scale) == "lean")
 
 
 def test_auto_is_the_default() -> None:

@@ -32,7 +32,13 @@ from dataclasses import replace
 import numpy as np
 
 from app.common.models import MaterialParams
-from app.reference.filtering import directional_spread, slope_covariance, spread_sample_origins
+from app.reference.filtering import (
+    SPREAD_FOOTPRINT,
+    SPREAD_FOOTPRINTS,
+    directional_spread,
+    slope_covariance,
+    spread_sample_origins,
+)
 from app.textures.mips import (
     MIN_NORMAL_Z,
     BandSource,
@@ -107,14 +113,16 @@ def covariance_levels(
     return [float16_rows_up(lv) for lv in levels] if rows_up_float16 else levels
 
 
-def sampled_spread(normals: np.ndarray, scale: float = 1.0) -> np.ndarray:
+def sampled_spread(
+    normals: np.ndarray, scale: float = 1.0, footprint: int = SPREAD_FOOTPRINT
+) -> np.ndarray:
     """The mean footprint covariance of a normal map (app/reference/filtering.py
     ``mean_footprint_covariance``, its float64 twin) from the sampled footprints' texels
     alone: ``normals`` (H, W, 3) unit normals, or an 8-bit normal map (H, W, 3|4) uint8
     decoded as ``maps.decode_normals`` decodes it with ``scale`` (only the sampled texels,
     6% of a 2048^2 map: a few ms). Returns (3,) Sigma_xx, Sigma_yy, Sigma_xy."""
-    xs, fx = spread_sample_origins(normals.shape[1])
-    ys, fy = spread_sample_origins(normals.shape[0])
+    xs, fx = spread_sample_origins(normals.shape[1], footprint)
+    ys, fy = spread_sample_origins(normals.shape[0], footprint)
     rows = (ys[:, None] + np.arange(fy)).ravel()
     cols = (xs[:, None] + np.arange(fx)).ravel()
     texels = normals[np.ix_(rows, cols)]
@@ -133,13 +141,24 @@ def sampled_spread(normals: np.ndarray, scale: float = 1.0) -> np.ndarray:
     return slope_covariance(moments).reshape(-1, 3).mean(axis=0)
 
 
+def spread_levels(normals: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """``sampled_spread`` at each footprint size of SPREAD_FOOTPRINTS in turn, stopping
+    after the first that is not directional: (k, 3), what ``directional_spread`` judges."""
+    covariances = []
+    for footprint in SPREAD_FOOTPRINTS:
+        covariances.append(sampled_spread(normals, scale, footprint))
+        if not directional_spread(covariances[-1]):
+            break
+    return np.array(covariances)
+
+
 def auto_filter(normals: np.ndarray, scale: float = 1.0) -> str:
     """What ``render.normal_filter = "auto"`` builds for a normal map (``sampled_spread``'s
     arguments): ``lean`` where its slopes spread along one direction (brushed or grooved
     metal, app/reference/filtering.py ``directional_spread``), else ``variance``, which
     costs LEAN's second map, its chain's time and the anisotropic lighting only where they
     keep a highlight's direction."""
-    return LEAN if directional_spread(sampled_spread(normals, scale)) else "variance"
+    return LEAN if directional_spread(spread_levels(normals, scale)) else "variance"
 
 
 def lean_defines(layers: Sequence[tuple[MaterialParams, Mapping[str, object]]]) -> dict[str, int]:

@@ -37,7 +37,7 @@ from app.textures.cache import code_version, prepared_cache
 from app.textures.early import BAND_BYTES, IMAGE_FORMATS
 from app.textures.early import take as take_early
 from app.textures.early import whole_reads as _whole_reads
-from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, sampled_spread
+from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, spread_levels
 from app.textures.mips import (
     BandSource,
     box_levels,
@@ -862,7 +862,7 @@ def auto_normal_filter(normal_image: Image.Image, scale: float) -> str:
     decodes no image to choose."""
 
     def build() -> list[np.ndarray]:
-        return [sampled_spread(rgb_texels(normal_image), scale)]
+        return [spread_levels(rgb_texels(normal_image), scale)]
 
     parts = (_prepared_version(), _image_part(normal_image), float(scale))
     (covariance,) = prepared_cache().arrays("normal spread", parts, build)
