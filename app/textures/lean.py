@@ -120,7 +120,8 @@ def sampled_spread(
     ``mean_footprint_covariance``, its float64 twin) from the sampled footprints' texels
     alone: ``normals`` (H, W, 3) unit normals, or an 8-bit normal map (H, W, 3|4) uint8
     decoded as ``maps.decode_normals`` decodes it with ``scale`` (only the sampled texels,
-    6% of a 2048^2 map: a few ms). Returns (3,) Sigma_xx, Sigma_yy, Sigma_xy."""
+    at most 512^2: the choice costs a fraction of the chain it chooses, docs/filtering.md).
+    Returns (3,) Sigma_xx, Sigma_yy, Sigma_xy."""
     xs, fx = spread_sample_origins(normals.shape[1], footprint)
     ys, fy = spread_sample_origins(normals.shape[0], footprint)
     rows = (ys[:, None] + np.arange(fy)).ravel()
