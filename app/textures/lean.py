@@ -126,20 +126,25 @@ def sampled_spread(
     ys, fy = spread_sample_origins(normals.shape[0], footprint)
     rows = (ys[:, None] + np.arange(fy)).ravel()
     cols = (xs[:, None] + np.arange(fx)).ravel()
-    texels = normals[np.ix_(rows, cols)]
+    texels = normals.take(rows, axis=0).take(cols, axis=1)
     if texels.dtype == np.uint8:
         texels = decode_normal_map(texels)
         if scale != 1.0:
             texels[..., :2] *= scale
             texels /= np.linalg.norm(texels, axis=-1, keepdims=True)
     sx, sy = _slopes(np.asarray(texels, np.float64))
+    # Every footprint holds as many texels, so the mean over footprints of M - B B^T is
+    # E[s s^T] over every sampled texel less the footprints' mean B B^T: the second moments
+    # summed once, not per footprint (the twin's per-footprint form, to rounding).
     shape = (len(ys), fy, len(xs), fx)
-
-    def mean(a: np.ndarray) -> np.ndarray:  # per footprint
-        return a.reshape(shape).mean(axis=(1, 3))
-
-    moments = np.stack([mean(sx), mean(sy), mean(sx * sx), mean(sy * sy), mean(sx * sy)], -1)
-    return slope_covariance(moments).reshape(-1, 3).mean(axis=0)
+    bx, by = (a.reshape(shape).mean(axis=(1, 3)) for a in (sx, sy))
+    return np.array(
+        [
+            (sx * sx).mean() - (bx * bx).mean(),
+            (sy * sy).mean() - (by * by).mean(),
+            (sx * sy).mean() - (bx * by).mean(),
+        ]
+    )
 
 
 def spread_levels(normals: np.ndarray, scale: float = 1.0) -> np.ndarray:
