@@ -28,8 +28,9 @@ Output is deterministic (the test regenerates it and compares it with the commit
 ``view_scene`` is the view the tests measure: straight ahead from 1 km away, one
 directional light, no environment. ``--figure PNG`` renders docs/gltf.md's figure of the
 stand-in: as ``pbs render MODEL --view front`` shows it (the studio environment, a key and
-a fill light), then in ``view_scene``'s light with the default ``variance``
-normal filtering, with ``lean``, and the reference from the maps' level 0 (8 x 8 samples).
+a fill light; its normal filtering the default ``auto``, which picks ``lean`` for the
+grooves), then in ``view_scene``'s light with ``variance`` normal filtering (what the
+default was), with ``lean``, and the reference from the maps' level 0 (8 x 8 samples).
 ``--grooves`` prints docs/filtering.md's table of the grooved sphere's highlight
 (``highlight_shape``) by normal filter.
 Usage: python scripts/anisotropy_rotation_standin.py [OUT_FOLDER]
@@ -319,7 +320,7 @@ def grooves() -> None:
     ref = _render_hdr(gl, view_scene((48, 48), centre, normal_filter="none", supersample=16))
     angle, elongation = highlight_shape(ref)
     print(f"| reference | {elongation:.2f} | {angle:.1f} | |")
-    for name in ("lean", "variance", "toksvig", "naive"):
+    for name in ("auto", "lean", "variance", "toksvig", "naive"):
         hdr = _render_hdr(gl, view_scene((48, 48), centre, normal_filter=name))
         angle, elongation = highlight_shape(hdr)
         flip = image_errors(hdr, ref, np.ones((48, 48), bool), 0.0, "neutral")["flip_mean"]
@@ -343,7 +344,8 @@ def figure(path: Path) -> None:
         panels = [np.ascontiguousarray(r.read_ldr()[..., :3])]
     finally:
         r.release()
-    for render in ({}, {"normal_filter": "lean"}, {"normal_filter": "none", "supersample": 8}):
+    variance, lean = {"normal_filter": "variance"}, {"normal_filter": "lean"}
+    for render in (variance, lean, {"normal_filter": "none", "supersample": 8}):
         hdr = _render_hdr(gl, view_scene(**render))
         ldr = np.clip(post_process(hdr, 0.0, "neutral"), 0.0, 1.0)
         panels.append((ldr * 255.0 + 0.5).astype(np.uint8))

@@ -451,23 +451,25 @@ def test_standin_grooves_spread_the_light_horizontally_with_lean(gl_egl):
       elongation 5.9 at -0.8 degrees (its anisotropic neighbours: 2.7);
     - ``lean``: a horizontal streak, 4.2 at -0.6 degrees (the slopes' covariance kept as
       anisotropic roughness, docs/filtering.md);
-    - the default, ``variance``: a round grey blob, 1.03: its mips fold the directional
-      spread into one isotropic roughness (docs/filtering.md, "Anisotropic filtering:
-      LEAN"). This last bound states that limitation; a default that kept the direction
-      would fail it, and the docs would then have to change with it.
+    - the default, ``auto``: the same streak as ``lean``, which it picks for this map (its
+      slopes spread across the grooves alone: docs/filtering.md, "Choosing LEAN: auto");
+    - ``variance``: a round grey blob, 1.03: its mips fold the directional spread into one
+      isotropic roughness (docs/filtering.md, "Anisotropic filtering: LEAN").
 
     With the covariance zeroed in the shader, lean's highlight is the mean normal's small
-    round dot (elongation 1.04)."""
+    round dot (elongation 1.04); with auto's anisotropy threshold above 1 the default is
+    variance's blob."""
     centre = standin_centre("Normal map of grooves")
     shapes = {
         name: highlight_shape(standin_hdr(gl_egl, view_scene((48, 48), centre, **render)))
         for name, render in (
             ("reference", {"normal_filter": "none", "supersample": 16}),
             ("lean", {"normal_filter": "lean"}),
-            ("variance", {}),
+            ("auto (default)", {}),
+            ("variance", {"normal_filter": "variance"}),
         )
     }
-    for name in ("reference", "lean"):
+    for name in ("reference", "lean", "auto (default)"):
         angle, elongation = shapes[name]
         assert abs(angle) <= 5.0 and elongation >= 3.0, (name, shapes[name])
     assert shapes["variance"][1] <= 1.3, shapes["variance"]

@@ -148,6 +148,79 @@ def slope_covariance(moments: np.ndarray) -> np.ndarray:
     return np.stack([var_x, var_y, m[..., 4] - bx * by], axis=-1)
 
 
+# ``render.normal_filter = "auto"``: a normal map whose spread of slopes under a texel keeps
+# one direction gets LEAN's covariance, any other the isotropic variance chain. The spread
+# is measured over footprints of each of SPREAD_FOOTPRINTS^2 texels (mip levels 3 and 4, in
+# turn: the second only where the first is directional), SPREAD_SAMPLE / footprint a side
+# sampled evenly over the map (at most 512^2 texels a level: 64^2 footprints at level 3,
+# 32^2 at level 4; a 2048^2 map's 6%); the map is directional where, at both, the mean
+# footprint covariance's eigenvalues differ by DIRECTIONAL_ANISOTROPY of their sum
+# ((l1 - l2)/(l1 + l2) = 0.6: l1 = 4 l2) and its trace reaches DIRECTIONAL_MIN_SPREAD (a
+# slope spread of some 2.5 degrees, a GGX lobe's alpha^2 at perceptual roughness 0.2; a
+# smaller spread changes the lobe too little to pay for LEAN). Two levels, because a bump
+# pattern whose period is twice a footprint can look one-way in footprints locked to its
+# phase and round in the next level's. docs/filtering.md measures the choice on groove
+# maps and Khronos' normal maps.
+SPREAD_FOOTPRINTS = (8, 16)
+SPREAD_FOOTPRINT = SPREAD_FOOTPRINTS[0]
+SPREAD_SAMPLE = 512
+DIRECTIONAL_ANISOTROPY = 0.6
+DIRECTIONAL_MIN_SPREAD = 0.002
+
+
+def spread_sample_origins(size: int, footprint: int = SPREAD_FOOTPRINT) -> tuple[np.ndarray, int]:
+    """The first texel of each sampled footprint along an axis of ``size`` texels: at most
+    SPREAD_SAMPLE / ``footprint`` footprints of ``footprint`` texels, on the footprint grid
+    (as a mip level's texels lie), spread evenly from the start. An axis shorter than one
+    footprint is one footprint of all its texels (returned as [0] with the axis' size)."""
+    whole = size // footprint
+    if whole == 0:
+        return np.zeros(1, np.int64), size
+    count = min(whole, SPREAD_SAMPLE // footprint)
+    return (np.arange(count, dtype=np.int64) * whole // count) * footprint, footprint
+
+
+def mean_footprint_covariance(normals: np.ndarray, footprint: int = SPREAD_FOOTPRINT) -> np.ndarray:
+    """The mean over sampled footprints (``spread_sample_origins`` on both axes) of the
+    covariance of the tangent-space slopes s = -n.xy / n.z under each (``slope_covariance``
+    of its moments), from (H, W, 3) unit normals: (3,) Sigma_xx, Sigma_yy, Sigma_xy. n.z is
+    floored to 0.05 as the chains floor it (app/textures/mips.py MIN_NORMAL_Z)."""
+    n = _f64(normals)
+    xs, fx = spread_sample_origins(n.shape[1], footprint)
+    ys, fy = spread_sample_origins(n.shape[0], footprint)
+    covariances = []
+    for y in ys:
+        for x in xs:
+            block = n[y : y + fy, x : x + fx].reshape(-1, 3)
+            nz = np.maximum(block[:, 2], 0.05)
+            sx, sy = -block[:, 0] / nz, -block[:, 1] / nz
+            moments = np.array([sx.mean(), sy.mean(), (sx * sx).mean(), (sy * sy).mean(),
+                                (sx * sy).mean()])  # fmt: skip
+            covariances.append(slope_covariance(moments))
+    return np.mean(covariances, axis=0)
+
+
+def spread_anisotropy(covariance: np.ndarray) -> tuple[float, float]:
+    """(anisotropy, trace) of a 2x2 slope covariance (Sigma_xx, Sigma_yy, Sigma_xy): its
+    eigenvalues l1 >= l2 give (l1 - l2)/(l1 + l2) (0 isotropic, 1 a spread along one
+    direction alone) and l1 + l2, the total slope variance."""
+    xx, yy, xy = (float(c) for c in covariance)
+    trace = xx + yy
+    difference = math.sqrt((xx - yy) ** 2 + 4.0 * xy * xy)
+    return (difference / trace if trace > 0.0 else 0.0), trace
+
+
+def directional_spread(covariances: np.ndarray) -> bool:
+    """Whether ``render.normal_filter = "auto"`` picks ``lean`` for a normal map whose mean
+    footprint covariances are ``covariances`` ((k, 3) or (3,): one per footprint size of
+    SPREAD_FOOTPRINTS measured, constants above): every one directional."""
+    for covariance in np.reshape(covariances, (-1, 3)):
+        anisotropy, trace = spread_anisotropy(covariance)
+        if anisotropy < DIRECTIONAL_ANISOTROPY or trace < DIRECTIONAL_MIN_SPREAD:
+            return False
+    return True
+
+
 def lean_anisotropic_roughness(
     r: np.ndarray | float,
     anisotropy: np.ndarray | float,

@@ -60,11 +60,12 @@ from app.scene.gltf_document import GltfError, JsonObject, open_gltf, world_matr
 from app.scene.gltf_extensions import ExtensionTexture, map_material_extensions
 from app.scene.gltf_schema import MAX_COORDINATE
 from app.scene.sampled_levels import reduced_levels
-from app.textures.lean import LEAN, lean_params
+from app.textures.lean import AUTO, LEAN, lean_params
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
     UvTransform,
+    auto_normal_filter,
     channel_texture,
     coat_normal_texture,
     colour_texture,
@@ -1010,6 +1011,10 @@ class GltfFile:
             sized = normal_image if normal_image is not None else mr_image
             assert sized is not None
             first = self._first_level(sized)
+            if normal_filter == AUTO:  # lean where the normals' spread keeps a direction
+                normal_filter = "variance"
+                if normal_image is not None:
+                    normal_filter = auto_normal_filter(normal_image, scale)
             chain = normal_roughness_map(
                 normal_image, scale, roughness, mr_image, normal_filter, first
             )

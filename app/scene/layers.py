@@ -14,7 +14,7 @@ from PIL import Image
 from app.errors import InputError
 from app.scene.loader import LoadedScene
 from app.scene.model import Material
-from app.textures.lean import LEAN, lean_params
+from app.textures.lean import AUTO, LEAN, auto_filter, lean_params
 from app.textures.maps import (
     SurfaceLayer,
     Texture,
@@ -100,7 +100,10 @@ class LayerBuilder:
             r = None
             if m.roughness_map is not None:
                 r = linear_channel(self.image(name, "roughness_map"))
-            if normals is not None and self.normal_filter == LEAN:
+            chosen = self.normal_filter
+            if normals is not None and chosen == AUTO:  # lean where the spread is directional
+                chosen = auto_filter(normals)
+            if normals is not None and chosen == LEAN:
                 # the normals' spread as a covariance: anisotropic roughness per pixel; its
                 # map charged as one more normal map
                 self._charge(name, "normal_map", normals.shape[:2], "normal")

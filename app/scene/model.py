@@ -154,8 +154,9 @@ class RenderSettings(_Strict):
     light_culling: Literal["auto", "tiled", "none"] = "auto"
     # RTR4 §9.13: how normal-map mips carry the variance of the normals they average
     # into roughness (app/textures/mips.py; "lean": as an anisotropic covariance,
-    # app/textures/lean.py), and screen-space geometric specular AA.
-    normal_filter: Literal["none", "naive", "toksvig", "variance", "lean"] = "variance"
+    # app/textures/lean.py; "auto": lean for a map whose spread keeps a direction, else
+    # variance), and screen-space geometric specular AA.
+    normal_filter: Literal["none", "naive", "toksvig", "variance", "lean", "auto"] = "auto"
     specular_aa: Annotated[bool, Field(strict=True)] = False
     # Tokuyoshi & Kaplanyan 2019's sigma^2 (pixel filter) and kappa (the most alpha^2 the
     # filter may add), as the twin defines them (app/reference/filtering.py).

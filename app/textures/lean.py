@@ -32,11 +32,26 @@ from dataclasses import replace
 import numpy as np
 
 from app.common.models import MaterialParams
-from app.reference.filtering import slope_covariance
-from app.textures.mips import MIN_NORMAL_Z, BandSource, box_levels, float16_rows_up
+from app.reference.filtering import (
+    SPREAD_FOOTPRINT,
+    SPREAD_FOOTPRINTS,
+    directional_spread,
+    slope_covariance,
+    spread_sample_origins,
+)
+from app.textures.mips import (
+    MIN_NORMAL_Z,
+    BandSource,
+    box_levels,
+    decode_normal_map,
+    float16_rows_up,
+)
 
 # The material option and render.normal_filter value that selects these chains.
 LEAN = "lean"
+# The render.normal_filter value (the default) that picks LEAN for a normal map whose spread
+# keeps a direction and the isotropic variance chain for any other (``auto_filter``).
+AUTO = "auto"
 
 
 def _slopes(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -96,6 +111,60 @@ def covariance_levels(
     levels = [np.zeros((h, w, 3), np.float32)]
     levels += [slope_covariance(m.astype(np.float64)).astype(np.float32) for m in means[1:]]
     return [float16_rows_up(lv) for lv in levels] if rows_up_float16 else levels
+
+
+def sampled_spread(
+    normals: np.ndarray, scale: float = 1.0, footprint: int = SPREAD_FOOTPRINT
+) -> np.ndarray:
+    """The mean footprint covariance of a normal map (app/reference/filtering.py
+    ``mean_footprint_covariance``, its float64 twin) from the sampled footprints' texels
+    alone: ``normals`` (H, W, 3) unit normals, or an 8-bit normal map (H, W, 3|4) uint8
+    decoded as ``maps.decode_normals`` decodes it with ``scale`` (only the sampled texels,
+    at most 512^2: the choice costs a fraction of the chain it chooses, docs/filtering.md).
+    Returns (3,) Sigma_xx, Sigma_yy, Sigma_xy."""
+    xs, fx = spread_sample_origins(normals.shape[1], footprint)
+    ys, fy = spread_sample_origins(normals.shape[0], footprint)
+    rows = (ys[:, None] + np.arange(fy)).ravel()
+    cols = (xs[:, None] + np.arange(fx)).ravel()
+    texels = normals.take(rows, axis=0).take(cols, axis=1)
+    if texels.dtype == np.uint8:
+        texels = decode_normal_map(texels)
+        if scale != 1.0:
+            texels[..., :2] *= scale
+            texels /= np.linalg.norm(texels, axis=-1, keepdims=True)
+    sx, sy = _slopes(np.asarray(texels, np.float64))
+    # Every footprint holds as many texels, so the mean over footprints of M - B B^T is
+    # E[s s^T] over every sampled texel less the footprints' mean B B^T: the second moments
+    # summed once, not per footprint (the twin's per-footprint form, to rounding).
+    shape = (len(ys), fy, len(xs), fx)
+    bx, by = (a.reshape(shape).mean(axis=(1, 3)) for a in (sx, sy))
+    return np.array(
+        [
+            (sx * sx).mean() - (bx * bx).mean(),
+            (sy * sy).mean() - (by * by).mean(),
+            (sx * sy).mean() - (bx * by).mean(),
+        ]
+    )
+
+
+def spread_levels(normals: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """``sampled_spread`` at each footprint size of SPREAD_FOOTPRINTS in turn, stopping
+    after the first that is not directional: (k, 3), what ``directional_spread`` judges."""
+    covariances = []
+    for footprint in SPREAD_FOOTPRINTS:
+        covariances.append(sampled_spread(normals, scale, footprint))
+        if not directional_spread(covariances[-1]):
+            break
+    return np.array(covariances)
+
+
+def auto_filter(normals: np.ndarray, scale: float = 1.0) -> str:
+    """What ``render.normal_filter = "auto"`` builds for a normal map (``sampled_spread``'s
+    arguments): ``lean`` where its slopes spread along one direction (brushed or grooved
+    metal, app/reference/filtering.py ``directional_spread``), else ``variance``, which
+    costs LEAN's second map, its chain's time and the anisotropic lighting only where they
+    keep a highlight's direction."""
+    return LEAN if directional_spread(spread_levels(normals, scale)) else "variance"
 
 
 def lean_defines(layers: Sequence[tuple[MaterialParams, Mapping[str, object]]]) -> dict[str, int]:

@@ -32,11 +32,12 @@ from PIL import Image
 
 from app.common.models import MaterialParams
 from app.errors import InputError
+from app.reference.filtering import directional_spread
 from app.textures.cache import code_version, prepared_cache
 from app.textures.early import BAND_BYTES, IMAGE_FORMATS
 from app.textures.early import take as take_early
 from app.textures.early import whole_reads as _whole_reads
-from app.textures.lean import LEAN, covariance_levels, lean_chain_levels
+from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, spread_levels
 from app.textures.mips import (
     BandSource,
     box_levels,
@@ -532,8 +533,9 @@ def normal_roughness_texture(
     """The RGBA chain of a layer's normals (flat where it has no normal map) and absolute
     perceptual roughness, filtered with ``method`` (app/textures/mips.py). ``lean`` gives
     ``variance``'s chain: lean's own is made only beside its covariance map
-    (``lean_normal_maps``), so a map built without one (a bake, a coat) keeps the spread."""
-    method = "variance" if method == LEAN else method
+    (``lean_normal_maps``), so a map built without one (a bake, a coat) keeps the spread;
+    so does ``auto``, which picks lean only beside a covariance map (``auto_normal_filter``)."""
+    method = "variance" if method in (LEAN, AUTO) else method
     return _normal_roughness_texture(normals, roughness, shape, method)
 
 
@@ -851,6 +853,20 @@ def slope_covariance_map(normal_image: Image.Image, scale: float) -> Texture:
     layout = (normal_image.height, normal_image.width, 3, False)
     upload = lambda: build(rows_up_float16=True)  # noqa: E731
     return Texture(PreparedLevels("slope_covariance", parts, build, layout, upload))
+
+
+def auto_normal_filter(normal_image: Image.Image, scale: float) -> str:
+    """What ``render.normal_filter = "auto"`` builds for a glTF normal map (``lean`` or
+    ``variance``: app/textures/lean.py ``auto_filter``), its sampled spread kept in the
+    prepared-texture cache by the image's content, so that a render whose maps are kept
+    decodes no image to choose."""
+
+    def build() -> list[np.ndarray]:
+        return [spread_levels(rgb_texels(normal_image), scale)]
+
+    parts = (_prepared_version(), _image_part(normal_image), float(scale))
+    (covariance,) = prepared_cache().arrays("normal spread", parts, build)
+    return LEAN if directional_spread(covariance) else "variance"
 
 
 def channel_texture(image: Image.Image, channel: int, first: int = 0) -> Texture:

@@ -771,7 +771,7 @@ class Panels:
                 self._edit("camera.focus_distance", float(value))
             for field, names in (
                 ("gbuffer", ENCODING_NAMES),
-                ("normal_filter", ("none", "naive", "toksvig", "variance", "lean")),
+                ("normal_filter", ("none", "naive", "toksvig", "variance", "lean", "auto")),
                 ("terms", ("all", "specular", "diffuse")),
                 ("blend", ("runtime", "baked")),
                 ("light_culling", ("auto", "tiled", "none")),
