@@ -1099,8 +1099,8 @@ def _end_process() -> NoReturn:
     """End the process now that its outputs are written and closed: the texture layer's
     background work joined (every prepared-texture entry on disk), the standard streams
     flushed, then the C library's ``exit``, which runs the native libraries' exit handlers
-    (Mesa's among them) but not Python's teardown of every module and object, 0.09 s of
-    CPU after a textured model's PNG (docs/performance.md, "A real asset against f3d")."""
+    (Mesa's among them) but not Python's teardown of every module and object (its cost
+    after a textured model's PNG: docs/performance.md, "A real asset against f3d")."""
     import ctypes
 
     from app.textures.background import finish_background_work
@@ -1108,6 +1108,8 @@ def _end_process() -> NoReturn:
     finish_background_work()
     code = 0
     for stream in (sys.stdout, sys.stderr):
+        if stream is None:  # closed at the start (pythonw, or `>&-`): nothing to flush
+            continue
         try:
             stream.flush()
         except (OSError, ValueError):  # as Python's own exit reports a failed flush

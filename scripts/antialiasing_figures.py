@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
-from app.bench.antialiasing import aa_scene_data
+from app.bench.antialiasing import aa_scene_data, with_aa
 from app.gl.context import GLContext, create_context
 from app.render.renderer import Renderer
 from app.scene.edits import replace_parts
@@ -70,7 +70,7 @@ PAIR = ("none", "gbaa")  # the frames whose crops are measured against the 4x4 b
 
 
 def _with_render(loaded: LoadedScene, **update: object) -> LoadedScene:
-    """``loaded`` with the ``[render]`` keys in ``update`` set."""
+    """``loaded`` with the ``[render]`` keys in ``update`` set (the background here)."""
     render = loaded.scene.render.model_copy(update=update)
     return dataclasses.replace(loaded, scene=replace_parts(loaded.scene, render=render))
 
@@ -80,8 +80,8 @@ def draw(
 ) -> np.ndarray:
     """The display image (rows top first) with its alpha, (H, W, 4) uint8, of ``loaded``
     drawn in ``mode`` (checked to be the mode the renderer draws, no fallback)."""
-    settings = {"antialiasing": mode, "antialiasing_samples": JITTER_SAMPLES}
-    r = Renderer(gl, _with_render(loaded, supersample=supersample, **settings), size)
+    specular_aa = loaded.scene.render.specular_aa
+    r = Renderer(gl, with_aa(loaded, mode, JITTER_SAMPLES, supersample, specular_aa), size)
     try:
         if r.antialiasing != mode:
             raise RuntimeError(f"the renderer draws {r.antialiasing!r}, not {mode!r}")

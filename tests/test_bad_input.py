@@ -855,3 +855,40 @@ def test_obj_sound_faces_pass(text: str) -> None:
         obj_index_problem(Path("teapot.obj"), (REPO / "scenes/meshes/teapot.obj").read_bytes())
         is None
     )
+
+
+OBJ_HEAD = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\nvt 0 0\n"
+
+
+@pytest.mark.parametrize(
+    "faces",
+    [pytest.param(c[1], id=c[0]) for c in BAD_FACES]
+    + [pytest.param("f 1 2 3\nf\x0b0 1 2\nf 1 2 4\n", id="vertical-tab")],
+)
+def test_obj_fast_screen_never_vouches_for_a_bad_face(faces: str) -> None:
+    """The numpy screen says False for every face the line reading refuses (it may only
+    err the safe way), a face after a vertical tab included (trimesh reads that as a face,
+    and its 0 as the last vertex), and the line reading then names it."""
+    from app.scene.references import _obj_faces_plain, obj_index_problem
+
+    data = (OBJ_HEAD + faces).encode()
+    assert not _obj_faces_plain(data)
+    assert obj_index_problem(Path("bad.obj"), data) is not None
+
+
+def test_obj_fast_screen_vouches_for_plain_files_across_chunks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The screen passes plainly sound files itself (the teapot, and a file read in many
+    chunks of whole lines), so the line reading stays the exception; a bad index in a
+    later chunk, past the file's count or 0, is still caught there."""
+    from app.scene import references
+
+    teapot = (REPO / "scenes/meshes/teapot.obj").read_bytes()
+    assert references._obj_faces_plain(teapot)
+    monkeypatch.setattr(references, "_SCREEN_CHUNK", 64)
+    faces = "".join(f"f {i} {i + 1} {i + 2}\n" for i in range(1, 40))
+    verts = "".join(f"v {i} 0 0\n" for i in range(41))
+    assert references._obj_faces_plain((faces + verts).encode())  # faces before vertices
+    assert not references._obj_faces_plain((faces + "f 1 2 42\n" + verts).encode())
+    assert not references._obj_faces_plain((verts + faces + "f 1 0 2\n").encode())

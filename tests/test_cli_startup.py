@@ -252,6 +252,7 @@ def test_batch_and_view_ask_openblas_for_one_thread(
     assert result["blas"] == (given or "1")
 
 
+@pytest.mark.gl
 @pytest.mark.parametrize("given", [None, "3"])
 def test_a_render_asks_openblas_for_one_thread(tmp_path: Path, given: str | None) -> None:
     """A render sets ``OPENBLAS_NUM_THREADS`` to 1 before numpy is imported (OpenBLAS's
@@ -297,6 +298,7 @@ raise SystemExit(main(sys.argv[2:]))
 """
 
 
+@pytest.mark.gl
 def test_a_render_process_ends_once_its_entries_are_written(tmp_path: Path) -> None:
     """``pbs render`` ends its own process after the PNG (app.cli ``_end_process``: no
     Python teardown), but only once the texture layer's background work has ended: the

@@ -767,7 +767,7 @@ def _still_uv_lod(
 
 def _referenced(faces: np.ndarray, count: int) -> np.ndarray:
     """The vertex indices ``faces`` names, each once, ascending: ``np.unique(faces)``'s
-    values, without its sort and the import of ``numpy.ma`` it makes (10 ms a process)."""
+    values, without its sort and the import of ``numpy.ma`` it makes (docs/performance.md)."""
     used = np.zeros(count, bool)
     used[faces.ravel()] = True
     return np.flatnonzero(used)

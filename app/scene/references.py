@@ -20,7 +20,7 @@ its target exists or not, and nothing outside is ever opened.
 
 from __future__ import annotations
 
-import itertools
+import io
 import re
 import warnings
 from dataclasses import dataclass
@@ -240,14 +240,15 @@ def obj_face_problem(path: Path, data: bytes) -> str | None:
     past the end as nothing, so every OBJ is checked before trimesh reads it: read line
     by line in Python, this runs only where ``_obj_faces_plain`` cannot vouch for the
     file (``obj_index_problem``)."""
-    lines = data.splitlines()
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     totals = dict.fromkeys(_OBJ_KIND_NAMES, 0)
-    for line in lines:
+    for line in io.BytesIO(data):  # a line at a time: no list of every line in memory
         words = line.split(None, 1)
         if words and words[0] in totals:
             totals[words[0]] += 1
     seen = dict.fromkeys(_OBJ_KIND_NAMES, 0)
-    for number, line in enumerate(lines, 1):
+    for number, line in enumerate(io.BytesIO(data), 1):
         words = line.split(b"#", 1)[0].split()
         if not words:
             continue
@@ -287,34 +288,54 @@ def obj_face_problem(path: Path, data: bytes) -> str | None:
 
 _WHITE = np.array([ord(" "), ord("\t"), ord("\n")], np.uint8)
 _POWERS = 10 ** np.arange(16, dtype=np.int64)
-_FACE_CHUNK = 1 << 20  # face bytes read at once: bounds the screen's arrays to ~20 MiB
+_SCREEN_CHUNK = 1 << 20  # bytes screened at once (cut after a newline): bounds its arrays
 
 
 def _obj_faces_plain(data: bytes) -> bool:
     """True where every face of the OBJ ``data`` is plainly sound: unindented statements,
     face words of positive decimal indices alone (``v``, ``v/vt``, ``v//vn``, ``v/vt/vn``;
     no sign, comment or other byte on a face line), none 0 and none past its kind's count
-    in the file. Read with numpy over the bytes, in a fraction of the time and the peak
-    memory trimesh's own parse of the file takes (the budget charges that parse); it may
-    say False for a sound file (a negative index, an indented line):
-    ``obj_face_problem`` then decides."""
+    in the file. Read with numpy over the bytes, a chunk of whole lines at a time, in a
+    fraction of the time and of the peak memory trimesh's own parse of the file takes (the
+    budget charges that parse); it may say False for a sound file (a negative index, an
+    indented line): ``obj_face_problem`` then decides."""
+    if b"\x0b" in data or b"\x0c" in data:
+        return False  # whitespace that trimesh and obj_face_problem split on, this does not
     if b"\r" in data:
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    n = len(data)
-    a = np.frombuffer(data, np.uint8)
+    totals = np.zeros(3, np.int64)  # the file's v, vt and vn
+    most = np.zeros(3, np.int64)  # the largest index of each kind a face names
+    view = memoryview(data)
+    start = 0
+    while start < len(data):
+        end = data.find(b"\n", start + _SCREEN_CHUNK)
+        end = len(data) if end < 0 else end + 1
+        found = _screen_lines(np.frombuffer(view[start:end], np.uint8))
+        if found is None:
+            return False
+        totals += found[0]
+        np.maximum(most, found[1], out=most)
+        start = end
+    return bool((most <= totals).all())
+
+
+def _screen_lines(a: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``_obj_faces_plain`` on the whole lines ``a``: their v, vt and vn counts and the
+    largest index of each kind their faces name, or None where a line is not plain."""
+    n = len(a)
     starts = np.concatenate(([0], np.flatnonzero(a == ord("\n")) + 1))
     starts = starts[starts < n]
 
-    def column(k: int) -> np.ndarray:  # each line's byte k, a newline past the file's end
+    def column(k: int) -> np.ndarray:  # each line's byte k, a newline past the end
         at = starts + k
         return np.where(at < n, a[np.minimum(at, n - 1)], ord("\n")).astype(np.uint8)
 
     c0, c1, c2 = column(0), column(1), column(2)
-    if np.isin(c0, (ord(" "), ord("\t"), 0x0B, 0x0C)).any():
-        return False
+    if np.isin(c0, _WHITE[:2]).any():
+        return None
     blank1, end2 = np.isin(c1, _WHITE[:2]), np.isin(c2, _WHITE)
     is_v = c0 == ord("v")
-    totals = np.array(
+    counts = np.array(
         [
             np.count_nonzero(is_v & (blank1 | (c1 == ord("\n")))),
             np.count_nonzero(is_v & (c1 == ord("t")) & end2),
@@ -323,40 +344,39 @@ def _obj_faces_plain(data: bytes) -> bool:
     )
     face = (c0 == ord("f")) & blank1
     if not face.any():
-        return True
+        return counts, np.zeros(3, np.int64)
     # The face lines' bytes after their "f", each line's newline kept (it parts its last
-    # word from the next line's first), read in chunks cut after a newline.
+    # word from the next line's first).
     inside = np.repeat(face, np.diff(np.append(starts, n)))
     inside[starts[face]] = False
-    faces = a[inside]
-    del inside
-    ends = np.flatnonzero(faces == ord("\n")) + 1
-    at = np.searchsorted(ends, np.arange(_FACE_CHUNK, len(faces), _FACE_CHUNK))
-    bounds = np.unique(np.concatenate(([0], ends[at[at < len(ends)]], [len(faces)])))
-    return all(_plain_words(faces[lo:hi], totals) for lo, hi in itertools.pairwise(bounds))
+    largest = _plain_words(a[inside])
+    return None if largest is None else (counts, largest)
 
 
-def _plain_words(text: np.ndarray, totals: np.ndarray) -> bool:
-    """``_obj_faces_plain`` on face words ``text`` (bytes of whole face lines after their
-    "f"): every word ``v``, ``v/vt``, ``v//vn`` or ``v/vt/vn`` of positive decimal
-    indices, none 0 and none past ``totals`` (the file's v, vt and vn counts)."""
+def _plain_words(text: np.ndarray) -> np.ndarray | None:
+    """The largest v, vt and vn index the face words ``text`` name (bytes of whole face
+    lines after their "f"), or None unless every word is ``v``, ``v/vt``, ``v//vn`` or
+    ``v/vt/vn`` of positive decimal indices."""
     b = np.concatenate((_WHITE[:1], text, _WHITE[:1]))  # a blank before and after
     digit = (b >= ord("0")) & (b <= ord("9"))
     slash = b == ord("/")
     blank = np.isin(b, _WHITE)
     if not (digit | slash | blank).all():
-        return False  # a sign, a comment or a word no index reads
+        return None  # a sign, a comment or a word no index reads
     word_at = np.flatnonzero(~blank[1:] & blank[:-1]) + 1
     if slash[word_at].any():
-        return False  # a word without its vertex index
+        return None  # a word without its vertex index
     slashes = np.cumsum(slash, dtype=np.int32)
     word_end = np.flatnonzero(~blank[:-1] & blank[1:])
     if (slashes[word_end] - slashes[word_at] > 2).any():
-        return False  # more than v/vt/vn
+        return None  # more than v/vt/vn
+    most = np.zeros(3, np.int64)
     run_at = np.flatnonzero(digit[1:] & ~digit[:-1]) + 1  # each number's first digit
+    if not len(run_at):
+        return most
     lengths = np.flatnonzero(digit[:-1] & ~digit[1:]) + 1 - run_at
-    if not len(run_at) or lengths.max() > 15:
-        return not len(run_at)  # no index at all, or one past any count (and int64's digits)
+    if lengths.max() > 15:
+        return None  # past any count (and int64's digits)
     word = np.searchsorted(word_at, run_at, side="right") - 1
     slot = slashes[run_at] - slashes[word_at[word]]  # 0 v, 1 vt, 2 vn
     last = run_at + lengths - 1
@@ -364,10 +384,9 @@ def _plain_words(text: np.ndarray, totals: np.ndarray) -> bool:
     for place in range(int(lengths.max())):  # the digits by place value, from the last
         values += np.where(place < lengths, b[last - place] - ord("0"), 0) * _POWERS[place]
     if (values == 0).any():
-        return False
-    most = np.zeros(3, np.int64)
+        return None
     np.maximum.at(most, slot, values)
-    return bool((most <= totals).all())
+    return most
 
 
 def obj_index_problem(path: Path, data: bytes) -> str | None:

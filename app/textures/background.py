@@ -3,7 +3,7 @@
 The layer runs its work on thread pools of its own (``maps``: the decodes and the colour
 maps' levels; ``mips``: a chain's bands; ``cache``: the prepared entries' lookups and their
 writes to disk). Python's exit joins them, and then tears down every module and object,
-which a ``pbs render`` of a textured model paid about 0.1 s for after its PNG was written
+which a ``pbs render`` of a textured model paid for after its PNG was written
 (docs/performance.md, "A real asset against f3d"). ``finish_background_work`` is the join
 alone, so that such a process can end at once afterwards with nothing of its lost: every
 cache entry handed to the writer is on disk when it returns.
@@ -32,6 +32,8 @@ def finish_background_work() -> None:
     imported is not imported here."""
     for module_name, attribute in _POOLS:
         module = sys.modules.get(module_name)
-        pool: ThreadPoolExecutor | None = getattr(module, attribute, None)
-        if pool is not None:
+        if module is None:
+            continue
+        pool: ThreadPoolExecutor | None = getattr(module, attribute)  # a renamed one raises
+        if pool is not None:  # None until the module's first task made it
             pool.shutdown(wait=True)

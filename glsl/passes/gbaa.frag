@@ -151,8 +151,8 @@ vec4 interior_radiance(vec4 c, vec4 n[4]) {
 
 // The interior correction of a marked pixel's own part: the second differences of the
 // axes whose two neighbours both hold this pixel's surface (along a silhouette, the axis
-// across its normal), each over 24, held within GBAA_ALONG_EDGE_CLAMP of c (unclamped it
-// moved the 22 scenes' mean FLIP by 5e-8 at the default: kept, so as not to move pixels).
+// across its normal), each over 24, held within GBAA_ALONG_EDGE_CLAMP of c (docs/antialiasing.md:
+// unclamped it barely moves the every-pixel error, and the clamp keeps the default's pixels).
 vec4 along_edge(vec4 c, vec2 centre, vec2 around[4], vec4 n[4]) {
     vec4 delta = vec4(0.0);
     for (int axis = 0; axis < 2; ++axis) {
