@@ -302,19 +302,15 @@ def edge_truth(gl_egl: GLContext) -> tuple[LoadedScene, np.ndarray, np.ndarray, 
 def test_geometric_resolve_lowers_the_silhouette_error(gl_egl: GLContext, edge_truth) -> None:
     """ "gbaa" against the 4x4 supersampled frame at the silhouettes: at least 1.9x below
     "none" and below FXAA (measured at 192x108: 2.3x, FXAA 2.0x; 4.5x at the bench's
-    640x360); the G-buffer has the edge target in this mode alone; without the interior
-    correction (``render.gbaa_interior = false``) the pixels away from every silhouette
-    keep the aliased frame's bytes (the resolve runs at marked pixels and mixes only
-    across surfaces)."""
+    640x360); the G-buffer has the edge target in this mode alone; the pixels away from
+    every silhouette keep the aliased frame's bytes (the resolve runs at marked pixels
+    and mixes only across surfaces)."""
     loaded, ref, edges, _ = edge_truth
     truth = (ref, edges)
     none_image, _ = _display(gl_egl, loaded, "none")
     none = _silhouette_error(none_image, truth)
     fxaa = _silhouette_error(_display(gl_egl, loaded, "fxaa")[0], truth)
-    resolve_alone = with_aa(loaded, "gbaa", 8)
-    render = resolve_alone.scene.render.model_copy(update={"gbaa_interior": False})
-    scene = replace_parts(resolve_alone.scene, render=render)
-    r = Renderer(gl_egl, dataclasses.replace(resolve_alone, scene=scene))
+    r = Renderer(gl_egl, with_aa(loaded, "gbaa", 8))
     try:
         r.render()
         image = r.read_ldr().astype(np.float64) / 255.0

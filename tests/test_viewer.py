@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from app.frame.camera import fit_scene
-from app.render.renderer import Renderer, RenderOptions
+from app.render.renderer import Renderer
 from app.resources import glsl_dir, scenes_dir
 from app.scene.edits import get_key
 from app.scene.loader import load_scene
@@ -45,15 +45,10 @@ def viewer(xdisplay: str, scene_copy: Path):
     v.close()
 
 
-# The viewer's frames: a still's render.gbaa_interior left out (app/viewer/window.py)
-VIEWER_FRAMES = RenderOptions(interactive=True)
-
-
 def headless(gl, loaded, size) -> np.ndarray:
-    """``pbs render``'s image of the same state as the viewer draws its frames
-    (``VIEWER_FRAMES``), in its own headless (EGL) context."""
+    """``pbs render``'s image of the same state, in its own headless (EGL) context."""
     with gl.ctx:  # current for these calls; the viewer makes its own current again
-        r = Renderer(gl, loaded, size, options=VIEWER_FRAMES)
+        r = Renderer(gl, loaded, size)
         try:
             r.render()
             return r.read_ldr()
@@ -340,7 +335,7 @@ def test_comparison_in_the_window_equals_the_headless_comparison(viewer):
         with gl.ctx:
             spec = CompareSpec("materials.ball.roughness", 0.1, 0.8)
             size = v.framebuffer_size
-            c = Comparison(gl, fit_scene(v.document.loaded, size), spec, size, VIEWER_FRAMES)
+            c = Comparison(gl, fit_scene(v.document.loaded, size), spec, size)
             try:
                 c.render()
                 c.composite("split", 0.3)
@@ -577,8 +572,7 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
     try:
         with gl.ctx:
             loaded = fit_scene(load_scene(scenes_dir() / f"{c.scene}.toml"), fitted)
-            comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size,
-                              VIEWER_FRAMES)  # fmt: skip
+            comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size)
             try:
                 comp.render()
                 comp.composite("split", 0.5)
