@@ -228,6 +228,37 @@ def synthetic_gbaa_inputs(size: tuple[int, int], seed: int) -> dict[str, np.ndar
             "display": display}  # fmt: skip
 
 
+def drawn_gbaa(
+    gl_egl: GLContext, inputs: dict[str, np.ndarray], straight: bool, exact: bool, interior: bool
+) -> np.ndarray:
+    """``GbaaPass``' mark and resolve drawn over the whole of ``inputs``' texels (RT2
+    ``surface``, ``edge``, ``hdr``, ``display``; exposure 0.5, the neutral tone map): the
+    display texels after them, float64 bytes, rows bottom-up."""
+    from app.common.tonemaps import TONEMAP_CODE
+    from app.gl.shaders import ShaderCache
+    from app.render import antialias
+
+    ctx = gl_egl.ctx
+    size = inputs["surface"].shape[1::-1]
+    gbaa = antialias.GbaaPass(ctx, ShaderCache(ctx), size, TONEMAP_CODE["neutral"], straight,
+                              exact=exact, interior=interior)  # fmt: skip
+    textures = {
+        "surface": ctx.texture(size, 2, inputs["surface"].tobytes(), dtype="f4"),
+        "edge": ctx.texture(size, 4, inputs["edge"].tobytes(), dtype="f2"),
+        "hdr": ctx.texture(size, 4, inputs["hdr"].tobytes(), dtype="f4"),
+        "display": ctx.texture(size, 4, inputs["display"].tobytes(), dtype="f1"),
+    }
+    gbuffer = SimpleNamespace(depth=textures["surface"], edge=textures["edge"])
+    try:
+        gbaa.mark(gbuffer, textures["display"], [(0, 0, *size)], textures["hdr"], 0.5)
+        gbaa.resolve(gbuffer, textures["hdr"], textures["display"], 0.5)
+        return texels(textures["display"])
+    finally:
+        gbaa.release()
+        for t in textures.values():
+            t.release()
+
+
 @pytest.mark.parametrize("resolve", list(GBAA_VARIANTS))
 @pytest.mark.parametrize("variant", ["quad", "fetched", "straight"])
 def test_gbaa_resolve_is_its_twin_on_every_branch(
@@ -241,8 +272,6 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
     (a twin without any one of them fails); ``resolve``: ``GBAA_VARIANTS``', where the
     corners' exact areas, the correction along the edge and the interior's decide pixels
     too."""
-    from app.common.tonemaps import TONEMAP_CODE
-    from app.gl.shaders import ShaderCache
     from app.render import antialias
 
     size = (64, 48)
@@ -252,27 +281,10 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
         alpha = np.random.default_rng(4).uniform(0.05, 1.0, size[::-1]).astype(np.float32)
         inputs["hdr"][..., :3] *= alpha[..., None]
         inputs["hdr"][..., 3] = alpha
-    ctx = gl_egl.ctx
     if variant == "fetched":
         monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
     exact, interior = GBAA_VARIANTS[resolve]
-    gbaa = antialias.GbaaPass(ctx, ShaderCache(ctx), size, TONEMAP_CODE["neutral"], straight,
-                              exact=exact, interior=interior)  # fmt: skip
-    textures = {
-        "surface": ctx.texture(size, 2, inputs["surface"].tobytes(), dtype="f4"),
-        "edge": ctx.texture(size, 4, inputs["edge"].tobytes(), dtype="f2"),
-        "hdr": ctx.texture(size, 4, inputs["hdr"].tobytes(), dtype="f4"),
-        "display": ctx.texture(size, 4, inputs["display"].tobytes(), dtype="f1"),
-    }
-    gbuffer = SimpleNamespace(depth=textures["surface"], edge=textures["edge"])
-    try:
-        gbaa.mark(gbuffer, textures["display"], [(0, 0, *size)], textures["hdr"], 0.5)
-        gbaa.resolve(gbuffer, textures["hdr"], textures["display"], 0.5)
-        resolved = texels(textures["display"])
-    finally:
-        gbaa.release()
-        for t in textures.values():
-            t.release()
+    resolved = drawn_gbaa(gl_egl, inputs, straight, exact, interior)
     expected = twin.gbaa_resolve(
         inputs["surface"], inputs["edge"], inputs["hdr"], inputs["display"], 0.5, "neutral",
         straight_alpha=straight, exact=exact, interior=interior,
@@ -280,6 +292,39 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
     off = bytes_off(expected, resolved).max(axis=-1)
     assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
     assert np.count_nonzero(np.any(resolved != inputs["display"], axis=-1)) > 0.3 * off.size
+
+
+def test_gbaa_half_covered_pixel_past_its_neighbours_reach(gl_egl: GLContext) -> None:
+    """A background pixel half covered by a slanted edge whose front neighbours' distances
+    toward it lie just past one pixel (the bench's spheres at 320x180, the red sphere's
+    upper right: 1.005 along y from the pixel below, 1.094 along x from the pixel to the
+    left, the 4x4 samples' coverage 0.50): the exact resolve gives it half the front
+    surface's radiance (the half-plane's area, capped at the half a half-plane missing the
+    centre can cover), the twin and the GLSL alike, where a reach of one pixel left it
+    empty."""
+    h, w = 6, 8
+    surface = np.zeros((h, w, 2), np.float32)
+    edge = np.full((h, w, 4), 16.0, np.float16)
+    hdr = np.zeros((h, w, 4), np.float32)
+    hdr[..., 3] = 1.0
+    x, y = 4, 3  # the pixel; rows bottom-up, +y up
+    front = [(x - 1, y), (x, y - 1), (x - 1, y - 1), (x - 2, y), (x, y - 2), (x - 1, y - 2)]
+    for fx, fy in front:
+        surface[fy, fx] = (5.0, 1.0)
+        hdr[fy, fx, :3] = 1.0
+    # (+x, -x, +y, -y): the left neighbour's edge toward +x, the lower one's toward +y
+    edge[y, x - 1] = (1.094, 16.0, 1.15, 16.0)
+    edge[y - 1, x] = (1.06, 16.0, 1.005, 16.0)
+    inputs = {"surface": surface, "edge": edge, "hdr": hdr,
+              "display": np.zeros((h, w, 4), np.uint8)}  # fmt: skip
+    weight, _ = twin.gbaa_coverage(surface, edge, exact=True)
+    assert 0.45 <= weight[y, x].sum() <= 0.5, weight[y, x]
+    resolved = drawn_gbaa(gl_egl, inputs, straight=False, exact=True, interior=False)
+    expected = twin.gbaa_resolve(surface, edge, hdr, inputs["display"], 0.5, "neutral", exact=True)
+    off = bytes_off(expected, resolved).max(axis=-1)
+    assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
+    dim = twin.gbaa_display_value(np.array([0.4, 0.4, 0.4, 1.0]), 0.5, "neutral")[0]
+    assert resolved[y, x, 0] > 255.0 * dim, (resolved[y, x], dim)
 
 
 def test_fxaa_filter_is_its_twin_on_alpha_and_borders(gl_egl: GLContext) -> None:

@@ -21,6 +21,8 @@ from app.reference.tonemap import post_process, srgb_decode, srgb_encode
 GBAA_AXIS_TIE = 1.1  # a neighbour's edge counts along an axis within 10 % of its nearest
 GBAA_DEPTH_TOLERANCE = 0.1  # view depths further apart than this fraction differ
 GBAA_ALONG_EDGE_CLAMP = 1.5  # an edge pixel's own part stays within this factor of the centre's
+GBAA_SLIVER_REACH = 1.5  # a neighbour's edge this far from its centre can reach into a pixel
+GBAA_SLIVER_CAP = 0.5  # the most a half-plane that misses a pixel's centre covers of it
 # the four neighbours, +x, -x, +y, -y (gbaa.frag's STEPS; k ^ 1 is the opposite one)
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 
@@ -140,7 +142,10 @@ def gbaa_coverage(
     ``exact`` (a still's resolve, GBAA_EXACT): both areas are
     ``gbaa_box_coverage``'s, from the distance along the axis and the nearer across it,
     exact at the pixel's corners: the own edge counts under 1 pixel away (1 - its area),
-    and a neighbour's edge 0 < d < 1 from its centre along any axis."""
+    and a neighbour's edge 0 < d < ``GBAA_SLIVER_REACH`` from its centre along any axis,
+    its area at most ``GBAA_SLIVER_CAP`` (a half-plane that misses the centre of a square
+    covers at most half of it: a slanted edge just past the pixel's centre from a
+    neighbour's, d a little over 1, still covers about half the pixel)."""
     surface = np.asarray(surface, np.float64)
     own = np.asarray(edge, np.float64)
     shape = surface.shape[:2]
@@ -169,7 +174,8 @@ def gbaa_coverage(
             else np.minimum(theirs[..., 0], theirs[..., 1])
         )
         if exact:
-            reaches, part = (d > 0.0) & (d < 1.0), gbaa_box_coverage(d, across, 1.0)
+            reaches = (d > 0.0) & (d < GBAA_SLIVER_REACH)
+            part = np.minimum(gbaa_box_coverage(d, across, 1.0), GBAA_SLIVER_CAP)
         else:
             reaches, part = (d > 0.5) & (d < 1.0) & (d <= GBAA_AXIS_TIE * across), d - 0.5
         front[..., k] = np.where(gbaa_in_front(around[k], surface) & reaches, part, 0.0)

@@ -38,6 +38,12 @@
 #ifndef GBAA_INTERIOR
 #define GBAA_INTERIOR 0
 #endif
+#ifndef GBAA_SLIVER_REACH
+#define GBAA_SLIVER_REACH 1.5   // a neighbour's edge this far from its centre can reach this pixel
+#endif
+#ifndef GBAA_SLIVER_CAP
+#define GBAA_SLIVER_CAP 0.5     // a half-plane that misses a pixel's centre covers at most half of it
+#endif
 #ifndef GBAA_ALONG_EDGE_CLAMP
 #define GBAA_ALONG_EDGE_CLAMP 1.5   // an edge pixel's own part stays within this factor of c
 #endif
@@ -268,7 +274,9 @@ void main() {
         float d = theirs[back];
         float across = k < 2 ? min(theirs.z, theirs.w) : min(theirs.x, theirs.y);
 #if GBAA_EXACT
-        if (d > 0.0 && d < 1.0) front[k] = box_coverage(d, across, 1.0);
+        // d past 1: the edge passes this pixel's centre as the neighbour sees it (a slanted
+        // or curved edge half over the pixel), the area capped as the centre is not covered
+        if (d > 0.0 && d < GBAA_SLIVER_REACH) front[k] = min(box_coverage(d, across, 1.0), GBAA_SLIVER_CAP);
 #else
         if (d > 0.5 && d < 1.0 && d <= GBAA_AXIS_TIE * across) front[k] = d - 0.5;
 #endif
