@@ -238,18 +238,24 @@ def test_batch_and_view_ask_openblas_for_one_thread(
         "batch": ["batch", str(jobs), "-o", str(tmp_path / "out")],
         "view": ["view", str(tmp_path / "missing.toml")],
     }[command]
+    result = _probed(BLAS_PROBE, argv, given)
+    assert result["code"] == 2, result["stderr"]
+    assert result["blas"] == (given or "1")
+
+
+def _probed(probe: str, argv: list[str], given: str | None) -> dict:
+    """The probe's report of ``pbs ARGV`` run in a child with ``OPENBLAS_NUM_THREADS``
+    unset, or set to ``given``."""
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     env.pop("OPENBLAS_NUM_THREADS", None)
     if given is not None:
         env["OPENBLAS_NUM_THREADS"] = given
     proc = subprocess.run(
-        [sys.executable, "-c", BLAS_PROBE, *argv],
+        [sys.executable, "-c", probe, *argv],
         cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    result = json.loads(proc.stdout.splitlines()[-1])
-    assert result["code"] == 2, result["stderr"]
-    assert result["blas"] == (given or "1")
+    return json.loads(proc.stdout.splitlines()[-1])
 
 
 @pytest.mark.gl
@@ -262,18 +268,8 @@ def test_a_render_asks_openblas_for_one_thread(tmp_path: Path, given: str | None
         '"code": code,',
         '"code": code, "blas": __import__("os").environ.get("OPENBLAS_NUM_THREADS"),',
     )
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
-    env.pop("OPENBLAS_NUM_THREADS", None)
-    if given is not None:
-        env["OPENBLAS_NUM_THREADS"] = given
-    out = tmp_path / "x.png"
-    argv = ["render", "sec3_lambert", "-o", str(out), "--size", "16x9", "-q"]
-    proc = subprocess.run(
-        [sys.executable, "-c", probe, *argv],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    result = json.loads(proc.stdout.splitlines()[-1])
+    argv = ["render", "sec3_lambert", "-o", str(tmp_path / "x.png"), "--size", "16x9", "-q"]
+    result = _probed(probe, argv, given)
     assert result["code"] == 0, result["stderr"]
     assert result["blas"] == (given or "1")
 
