@@ -863,12 +863,17 @@ OBJ_HEAD = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\nvt 0 0\n"
 @pytest.mark.parametrize(
     "faces",
     [pytest.param(c[1], id=c[0]) for c in BAD_FACES]
-    + [pytest.param("f 1 2 3\nf\x0b0 1 2\nf 1 2 4\n", id="vertical-tab")],
+    + [
+        pytest.param("f 1 2 3\nf\x0b0 1 2\nf 1 2 4\n", id="vertical-tab"),
+        pytest.param("f 1 2 3\nf\x1c0 1 2\n", id="file-separator"),
+        pytest.param("f 1 2 3\nf\u00a00 1 2\n", id="no-break-space"),
+    ],
 )
 def test_obj_fast_screen_never_vouches_for_a_bad_face(faces: str) -> None:
     """The numpy screen says False for every face the line reading refuses (it may only
-    err the safe way), a face after a vertical tab included (trimesh reads that as a face,
-    and its 0 as the last vertex), and the line reading then names it."""
+    err the safe way), a face after a vertical tab, a file separator or a no-break space
+    included (trimesh splits on every Unicode blank, so it reads those as faces and their
+    0 as the last vertex), and the line reading then names it."""
     from app.scene.references import _obj_faces_plain, obj_index_problem
 
     data = (OBJ_HEAD + faces).encode()
@@ -892,3 +897,19 @@ def test_obj_fast_screen_vouches_for_plain_files_across_chunks(
     assert references._obj_faces_plain((faces + verts).encode())  # faces before vertices
     assert not references._obj_faces_plain((faces + "f 1 2 42\n" + verts).encode())
     assert not references._obj_faces_plain((verts + faces + "f 1 0 2\n").encode())
+
+
+def test_obj_overlong_line_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A line longer than the screen's chunk is refused with its number before either
+    reading holds it whole (a one-polygon file of hundreds of megabytes would otherwise
+    take tens of bytes a byte); lines up to the limit, CR-separated ones included, pass."""
+    from app.scene import references
+
+    monkeypatch.setattr(references, "_SCREEN_CHUNK", 64)
+    verts = "".join(f"v {i} 0 0\n" for i in range(30))
+    long = "f " + " ".join(str(1 + i % 30) for i in range(40)) + "\n"  # 103 bytes and "\n"
+    problem = references.obj_index_problem(Path("x.obj"), (verts + long + "f 1 2 3\n").encode())
+    assert problem == "x.obj: line 31: a line of 103 bytes (OBJ lines are read up to 64 bytes)"
+    fine = verts + "f 1 2 3\n" * 20
+    assert references.obj_index_problem(Path("x.obj"), fine.encode()) is None
+    assert references.obj_index_problem(Path("x.obj"), fine.replace("\n", "\r").encode()) is None

@@ -244,12 +244,12 @@ def obj_face_problem(path: Path, data: bytes) -> str | None:
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     totals = dict.fromkeys(_OBJ_KIND_NAMES, 0)
     for line in io.BytesIO(data):  # a line at a time: no list of every line in memory
-        words = line.split(None, 1)
+        words = _obj_words(line, 1)
         if words and words[0] in totals:
             totals[words[0]] += 1
     seen = dict.fromkeys(_OBJ_KIND_NAMES, 0)
     for number, line in enumerate(io.BytesIO(data), 1):
-        words = line.split(b"#", 1)[0].split()
+        words = _obj_words(line.split(b"#", 1)[0])
         if not words:
             continue
         if words[0] in seen:
@@ -286,9 +286,15 @@ def obj_face_problem(path: Path, data: bytes) -> str | None:
     return None
 
 
+def _obj_words(line: bytes, most: int = -1) -> list[bytes]:
+    """``line``'s words as trimesh splits an OBJ line (``str.split``: every Unicode blank,
+    ``\\x1c`` and a no-break space included), each back in UTF-8."""
+    return [w.encode() for w in line.decode("utf-8", errors="replace").split(None, most)]
+
+
 _WHITE = np.array([ord(" "), ord("\t"), ord("\n")], np.uint8)
 _POWERS = 10 ** np.arange(16, dtype=np.int64)
-_SCREEN_CHUNK = 1 << 20  # bytes screened at once (cut after a newline): bounds its arrays
+_SCREEN_CHUNK = 1 << 18  # bytes screened at once (cut after a newline), and the longest line
 
 
 def _obj_faces_plain(data: bytes) -> bool:
@@ -343,6 +349,8 @@ def _screen_lines(a: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         ]
     )
     face = (c0 == ord("f")) & blank1
+    if ((c0 == ord("f")) & ~blank1).any():
+        return None  # "f" then another byte: trimesh may read a face the words here miss
     if not face.any():
         return counts, np.zeros(3, np.int64)
     # The face lines' bytes after their "f", each line's newline kept (it parts its last
@@ -391,8 +399,35 @@ def _plain_words(text: np.ndarray) -> np.ndarray | None:
 
 def obj_index_problem(path: Path, data: bytes) -> str | None:
     """``obj_face_problem`` for an OBJ whose faces ``_obj_faces_plain`` cannot vouch for;
-    None at once for one it can (nearly every file, and the fast way)."""
+    None at once for one it can (nearly every file, and the fast way). A line longer than
+    ``_SCREEN_CHUNK`` is refused first: either reading would hold it whole, at tens of
+    bytes a byte, where no mesh has a statement that long."""
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    long = _overlong_line(data)
+    if long is not None:
+        number, length = long
+        return (
+            f"{path}: line {number}: a line of {length} bytes "
+            f"(OBJ lines are read up to {_SCREEN_CHUNK} bytes)"
+        )
     return None if _obj_faces_plain(data) else obj_face_problem(path, data)
+
+
+def _overlong_line(data: bytes) -> tuple[int, int] | None:
+    """The first line of ``data`` (newlines alone) longer than ``_SCREEN_CHUNK`` bytes, as
+    its number and length, or None. Each such line holds a point ``_SCREEN_CHUNK`` past
+    the start of a chunk as ``_obj_faces_plain`` cuts them, so only those lines are read."""
+    start = 0
+    while start + _SCREEN_CHUNK < len(data):
+        cut = start + _SCREEN_CHUNK
+        first = data.rfind(b"\n", start, cut) + 1 or start
+        end = data.find(b"\n", cut)
+        end = len(data) if end < 0 else end
+        if end - first > _SCREEN_CHUNK:
+            return data.count(b"\n", 0, first) + 1, end - first
+        start = end + 1
+    return None
 
 
 @dataclass(frozen=True)
