@@ -44,11 +44,15 @@ PARSER_HEAVY = (
 )  # fmt: skip
 
 
-def run_cli(*argv: str, cwd: Path = REPO) -> dict:
-    """``pbs ARGV`` in a fresh interpreter: {"code", "stderr", "modules"}."""
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
+def run_cli(
+    *argv: str, cwd: Path = REPO, probe: str | None = None, env: dict | None = None
+) -> dict:
+    """``pbs ARGV`` in a fresh interpreter under ``probe`` (``PROBE`` by default) with
+    ``env`` (this one's, the checkout on PYTHONPATH, by default): {"code", "stderr",
+    "modules"} and whatever else the probe reports."""
+    env = env if env is not None else {**os.environ, "PYTHONPATH": str(REPO)}
     proc = subprocess.run(
-        [sys.executable, "-c", PROBE, *argv],
+        [sys.executable, "-c", probe or PROBE, *argv],
         cwd=cwd, env=env, capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
@@ -250,12 +254,7 @@ def _probed(probe: str, argv: list[str], given: str | None) -> dict:
     env.pop("OPENBLAS_NUM_THREADS", None)
     if given is not None:
         env["OPENBLAS_NUM_THREADS"] = given
-    proc = subprocess.run(
-        [sys.executable, "-c", probe, *argv],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout.splitlines()[-1])
+    return run_cli(*argv, probe=probe, env=env)
 
 
 @pytest.mark.gl

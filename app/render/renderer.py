@@ -75,6 +75,7 @@ from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atla
 from app.render.texture_upload import TextureUploads
 from app.render.transmission import TransmissionPass, transmission_defines, transmissive
 from app.scene.edits import replace_parts
+from app.scene.geometry import MeshPart
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
 
@@ -484,6 +485,12 @@ class Renderer:
         """Indices of the parts the G-buffer pass draws: all but the blended ones."""
         return list(self._frame_facts().opaque)
 
+    def _opaque_parts(self) -> tuple[list[MeshPart], list[list[int]]]:
+        """The parts the G-buffer pass draws and their material ids (``_opaque``), as the
+        passes that draw them again into samples of their own take them."""
+        opaque = self._opaque()
+        return [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque]
+
     def _environment_key(self) -> Hashable:
         """A map environment as its map and light are made from it (``environment_source``:
         the map's source settings, rotation, intensity), or a uniform one's radiance and
@@ -547,10 +554,8 @@ class Renderer:
         )  # fmt: skip
 
     def _build_gbuffer_pass(self) -> GBufferPass:
-        opaque = self._opaque()
         gbuffer_pass = GBufferPass(
-            self.gl.ctx, self.shaders, [self.frame.parts[i] for i in opaque],
-            [self.frame.material_ids[i] for i in opaque], self._specular_aa(),
+            self.gl.ctx, self.shaders, *self._opaque_parts(), self._specular_aa(),
             self.gbuffer.defines(),
         )  # fmt: skip
         gbuffer_pass.flush_triangles = self.options.flush_triangles
@@ -717,10 +722,8 @@ class Renderer:
         check_multisampling(self.gl.ctx, SRAA_SAMPLES, str(self.loaded.path), "render.antialiasing")
 
     def _build_sraa(self) -> SraaPass:
-        opaque = self._opaque()
         return SraaPass(
-            self.gl.ctx, self.shaders, self.render_size, self._layout(),
-            [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
+            self.gl.ctx, self.shaders, self.render_size, self._layout(), *self._opaque_parts(),
             self.gbuffer_pass.uploads,
         )  # fmt: skip
 
@@ -742,10 +745,8 @@ class Renderer:
         check_multisampling(self.gl.ctx, MSAA_SAMPLES, str(self.loaded.path), "render.antialiasing")
 
     def _build_msaa(self) -> MsaaPass:
-        opaque = self._opaque()
         return MsaaPass(
-            self.gl.ctx, self.shaders, self.render_size, self._layout(),
-            [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque],
+            self.gl.ctx, self.shaders, self.render_size, self._layout(), *self._opaque_parts(),
             self.shading, self.scene.render.terms, self.lighting.form, self.gbuffer_pass.uploads,
             PartRects(self.render_size, *self._opaque_extents()),
         )  # fmt: skip
