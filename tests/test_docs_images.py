@@ -1,6 +1,7 @@
 """The figures under docs/images: each one shown by a page, each image a page shows
-present, and the antialiasing figures the ones their generator writes
-(scripts/antialiasing_figures.py). Pure Python: no GL context, nothing rendered."""
+present, and the figures the scripts write (scripts/antialiasing_figures.py,
+scripts/nan_debug_figure.py) the ones their pages show. Pure Python: no GL context,
+nothing rendered."""
 
 from __future__ import annotations
 
@@ -39,18 +40,32 @@ def test_every_image_a_page_shows_exists() -> None:
     assert not missing, f"images shown but absent from docs/images: {missing}"
 
 
-def test_the_antialiasing_figures_are_their_generators() -> None:
-    """docs/antialiasing.md shows exactly the antialiasing figures the script writes,
-    and they are in docs/images (a figure renamed on one side alone fails here)."""
-    spec = importlib.util.spec_from_file_location(
-        "antialiasing_figures", REPO / "scripts" / "antialiasing_figures.py"
-    )
+def _script(name: str):
+    """scripts/NAME.py imported as a module (its figures' names are constants of it)."""
+    spec = importlib.util.spec_from_file_location(name, REPO / "scripts" / f"{name}.py")
     assert spec is not None and spec.loader is not None
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
+    return script
+
+
+def test_the_antialiasing_figures_are_their_generators() -> None:
+    """docs/antialiasing.md shows exactly the antialiasing figures the script writes,
+    and they are in docs/images (a figure renamed on one side alone fails here)."""
+    script = _script("antialiasing_figures")
     written = {script.MODES_FIGURE, script.GBAA_FIGURE}
     page = (REPO / "docs" / "antialiasing.md").read_text(encoding="utf-8")
     shown = {Path(t).name for t in _SHOWN.findall(page)}
     assert shown == written
     on_disk = {p.name for p in IMAGES.glob("antialiasing-*")}
     assert on_disk == written
+
+
+def test_the_nan_debug_figure_is_its_generators() -> None:
+    """The NaN debug view's figure docs/stability.md shows is the one
+    scripts/nan_debug_figure.py writes, and it is in docs/images."""
+    figure = _script("nan_debug_figure").FIGURE
+    page = (REPO / "docs" / "stability.md").read_text(encoding="utf-8")
+    shown = {Path(t).name for t in _SHOWN.findall(page)}
+    assert figure in shown
+    assert (IMAGES / figure).is_file()

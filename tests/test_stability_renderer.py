@@ -45,7 +45,19 @@ from app.gl.context import GLContext
 from app.reference.encoding import oct_decode
 from app.reference.illumination import pixel_ndc
 from app.reference.position import reconstruct_position
-from app.render.debug import DIM, KIND_COLORS, classify, describe, nan_debug_image
+from app.render.debug import (
+    DIM,
+    KIND_COLORS,
+    MINUS_HALF_BITS,
+    MINUS_ZERO_BITS,
+    NAN_BITS,
+    NEG_INF_BITS,
+    POS_INF_BITS,
+    classify,
+    describe,
+    nan_debug_image,
+    write_bit_patterns,
+)
 from app.render.gbuffer import GBufferData
 from app.render.lighting import LightingPass
 from app.render.renderer import Renderer
@@ -205,26 +217,7 @@ def test_stress_scene_matches_float64_twin(gl: GLContext, gbuffer: str):
 
 # ---- the NaN debug view --------------------------------------------------------------
 
-_INJECT_VERTEX = """#version 330 core
-void main() {
-    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
-    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-}
-"""
-_INJECT_FRAGMENT = """#version 330 core
-uniform uint u_bits;    // a float32 bit pattern, written into channel u_channel
-uniform int u_channel;
-out vec4 frag_color;
-void main() {
-    vec3 c = vec3(0.25);
-    c[u_channel] = uintBitsToFloat(u_bits);
-    frag_color = vec4(c, 1.0);
-}
-"""
-
 # (bit pattern, channel, GL rectangle (x, y from the bottom, w, h), kind or None)
-NAN_BITS, POS_INF_BITS, NEG_INF_BITS = 0x7FC00000, 0x7F800000, 0xFF800000
-MINUS_HALF_BITS, MINUS_ZERO_BITS = 0xBF000000, 0x80000000
 PATCHES = [
     (NAN_BITS, 0, (2, 2, 3, 2), "nan"),
     (NAN_BITS, 2, (10, 2, 1, 1), "nan"),  # one pixel, blue channel only
@@ -237,21 +230,7 @@ PATCHES = [
 
 def inject(ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> None:
     """Overwrite the PATCHES of a float target with their bit patterns, on the GPU."""
-    prog = ctx.program(vertex_shader=_INJECT_VERTEX, fragment_shader=_INJECT_FRAGMENT)
-    vao = ctx.vertex_array(prog, [])
-    try:
-        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
-        for bits, channel, rect, _ in PATCHES:
-            fbo.scissor = rect
-            fbo.use()
-            prog["u_bits"].value = bits
-            prog["u_channel"].value = channel
-            vao.render(moderngl.TRIANGLES, vertices=3)
-        fbo.scissor = None
-        fbo.use()
-    finally:
-        vao.release()
-        prog.release()
+    write_bit_patterns(ctx, fbo, [(bits, channel, rect) for bits, channel, rect, _ in PATCHES])
 
 
 def expected_masks(height: int) -> dict[str, np.ndarray]:

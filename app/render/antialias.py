@@ -41,14 +41,11 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.gbuffer import GBufferLayout
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer
-from app.render.sample_geometry import SampleGeometry
-from app.render.texture_upload import TextureUploads
-from app.scene.geometry import MeshPart
+from app.render.sample_geometry import SampleGeometry, SampleInputs
 
 ANTIALIASING = ("none", "fxaa", "jitter", "sraa", "gbaa", "msaa")  # "msaa": app/render/msaa.py
 SRAA_SAMPLES = 4  # the geometry samples per pixel (llvmpipe's only multisample count)
@@ -249,18 +246,10 @@ class SraaPass:
     resolved linear HDR RGBA (the mean of the centre and the samples, alpha averaged with
     the colour)."""
 
-    def __init__(
-        self,
-        ctx: moderngl.Context,
-        shaders: ShaderCache,
-        size: tuple[int, int],
-        layout: GBufferLayout,
-        parts: list[MeshPart],
-        material_ids: list[list[int]],
-        uploads: TextureUploads | None = None,
-    ) -> None:
-        """``parts``, ``material_ids``: the G-buffer pass's; ``uploads``: its material
-        maps, drawn with rather than uploaded again."""
+    def __init__(self, inputs: SampleInputs) -> None:
+        """``inputs``: the G-buffer pass's parts, material ids and maps, and the context,
+        shader cache, size and layout they are drawn with (``SampleInputs``)."""
+        ctx, shaders, size = inputs.ctx, inputs.shaders, inputs.size
         self.ctx, self.size = ctx, size
         defines = {"SAMPLES": SRAA_SAMPLES}
         self.mark = FullscreenDraw.of(ctx, shaders, "passes/sraa.frag", {**defines, "SRAA_MARK": 1})
@@ -269,9 +258,7 @@ class SraaPass:
         )
         self.target = ctx.texture(size, 4, dtype="f4")
         self.target.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.geometry = SampleGeometry(
-            ctx, shaders, size, layout, parts, material_ids, uploads, SRAA_SAMPLES, ("depth",)
-        )
+        self.geometry = SampleGeometry(inputs, SRAA_SAMPLES, ("depth",))
         self.samples = self.geometry.targets  # RT2 per sample: view depth, material id
         self.fbo = self.geometry.mark_into(self.target)
 

@@ -26,8 +26,10 @@ come from the same array as the image. The cost is one read-back of the HDR targ
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
+import moderngl
 import numpy as np
 
 # The kinds in the order of precedence, with their colours (8-bit sRGB).
@@ -110,3 +112,54 @@ def describe(bad: BadPixels) -> str:
             text += f" first at x={first[0]} y={first[1]}"
         parts.append(text)
     return ", ".join(parts)
+
+
+# Float32 bit patterns of the values the debug view finds (and -0.0, which it does not).
+NAN_BITS, POS_INF_BITS, NEG_INF_BITS = 0x7FC00000, 0x7F800000, 0xFF800000
+MINUS_HALF_BITS, MINUS_ZERO_BITS = 0xBF000000, 0x80000000
+
+_WRITE_VERTEX = """#version 330 core
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+"""
+_WRITE_FRAGMENT = """#version 330 core
+uniform uint u_bits;    // a float32 bit pattern, written into channel u_channel
+uniform int u_channel;
+out vec4 frag_color;
+void main() {
+    vec3 c = vec3(0.25);
+    c[u_channel] = uintBitsToFloat(u_bits);
+    frag_color = vec4(c, 1.0);
+}
+"""
+
+# A rectangle of a float target to overwrite: (float32 bit pattern, channel, GL rectangle
+# (x, y from the bottom, width, height)); the other two channels get 0.25, alpha 1.
+BitPatch = tuple[int, int, tuple[int, int, int, int]]
+
+
+def write_bit_patterns(
+    ctx: moderngl.Context, fbo: moderngl.Framebuffer, patches: Iterable[BitPatch]
+) -> None:
+    """Overwrite rectangles of ``fbo``'s float colour target with exact float32 bit
+    patterns (NaN, +-Inf, negatives), drawn on the GPU into the very texture the frame
+    was drawn into: what the debug view is checked and shown with (its tests, the
+    figure of docs/stability.md), since the renderer itself writes no such value. A
+    bit pattern, not a float uniform: a NaN must reach the target as stored bits."""
+    prog = ctx.program(vertex_shader=_WRITE_VERTEX, fragment_shader=_WRITE_FRAGMENT)
+    vao = ctx.vertex_array(prog, [])
+    try:
+        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        for bits, channel, rect in patches:
+            fbo.scissor = rect
+            fbo.use()
+            prog["u_bits"].value = bits
+            prog["u_channel"].value = channel
+            vao.render(moderngl.TRIANGLES, vertices=3)
+        fbo.scissor = None
+        fbo.use()
+    finally:
+        vao.release()
+        prog.release()

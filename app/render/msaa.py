@@ -25,18 +25,14 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
-from app.common.gbuffer import GBufferLayout
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
-from app.gl.shaders import ShaderCache
 from app.reference.msaa import MSAA_DEPTH_TOLERANCE, MSAA_NORMAL_TOLERANCE
 from app.render.antialias import PartRects
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer
 from app.render.inputs import TILES, GBufferInput, ShadingContext, bind_camera
 from app.render.lighting import LightingPass
-from app.render.sample_geometry import SampleGeometry
-from app.render.texture_upload import TextureUploads
-from app.scene.geometry import MeshPart
+from app.render.sample_geometry import SampleGeometry, SampleInputs
 
 MSAA_SAMPLES = 4  # samples per pixel (llvmpipe's only multisample count)
 # Two samples hold one surface where their material ids agree, their view depths lie
@@ -62,27 +58,21 @@ class MsaaPass:
 
     def __init__(
         self,
-        ctx: moderngl.Context,
-        shaders: ShaderCache,
-        size: tuple[int, int],
-        layout: GBufferLayout,
-        parts: list[MeshPart],
-        material_ids: list[list[int]],
+        inputs: SampleInputs,
         shading: ShadingContext,
         terms: str,
         form: str,
-        uploads: TextureUploads | None = None,
         rects: PartRects | None = None,
     ) -> None:
-        """``parts``, ``material_ids``, ``uploads``: the G-buffer pass's (its material maps
-        drawn with, not uploaded again); ``terms``, ``form``: the lighting pass's.
-        ``rects``: the window rectangles of ``parts`` (gbaa's), which the mark covers
-        alone (no sample outside them sees a surface); None: the whole image."""
+        """``inputs``: the G-buffer pass's parts, material ids and maps, and the context,
+        shader cache, size and layout they are drawn with (``SampleInputs``); ``terms``,
+        ``form``: the lighting pass's. ``rects``: the window rectangles of the parts
+        (gbaa's), which the mark covers alone (no sample outside them sees a surface);
+        None: the whole image."""
+        ctx, shaders, size = inputs.ctx, inputs.shaders, inputs.size
         self.ctx, self.size, self.rects = ctx, size, rects
         self._hdr: tuple[moderngl.Texture, moderngl.Framebuffer] | None = None  # a blit's source
-        self.geometry = SampleGeometry(  # every target of the layout read
-            ctx, shaders, size, layout, parts, material_ids, uploads, MSAA_SAMPLES
-        )
+        self.geometry = SampleGeometry(inputs, MSAA_SAMPLES)  # every target of the layout read
         self.samples = self.geometry.targets
         roles = [role for role in shading.roles if role != TILES]
         context = shading.only(*roles).with_inputs(GBufferInput(self.samples))  # type: ignore[arg-type]

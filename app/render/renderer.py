@@ -71,6 +71,7 @@ from app.render.limits import (
 from app.render.mesh_drawable import masked, rotated
 from app.render.msaa import MSAA_SAMPLES, MsaaPass
 from app.render.post import DofPass, DownsamplePass, PostPass
+from app.render.sample_geometry import SampleInputs
 from app.render.shadows import ShadowPass, check_shadow_resolutions, shadow_atlas_bytes
 from app.render.texture_upload import TextureUploads
 from app.render.transmission import TransmissionPass, transmission_defines, transmissive
@@ -486,10 +487,21 @@ class Renderer:
         return list(self._frame_facts().opaque)
 
     def _opaque_parts(self) -> tuple[list[MeshPart], list[list[int]]]:
-        """The parts the G-buffer pass draws and their material ids (``_opaque``), as the
-        passes that draw them again into samples of their own take them."""
+        """The parts the G-buffer pass draws and their material ids (``_opaque``), which
+        the passes that draw them again take with the rest of ``_sample_inputs``."""
         opaque = self._opaque()
         return [self.frame.parts[i] for i in opaque], [self.frame.material_ids[i] for i in opaque]
+
+    def _sample_inputs(self) -> SampleInputs:
+        """What the passes that draw the opaque parts again into samples of their own
+        (SRAA's and MSAA's ``SampleGeometry``) take, as one value: the G-buffer pass's
+        parts, material ids and maps, the context, shader cache, render size and layout.
+        A new such input is a field of ``SampleInputs`` and a value here."""
+        parts, material_ids = self._opaque_parts()
+        return SampleInputs(
+            self.gl.ctx, self.shaders, self.render_size, self._layout(), parts, material_ids,
+            self.gbuffer_pass.uploads,
+        )  # fmt: skip
 
     def _environment_key(self) -> Hashable:
         """A map environment as its map and light are made from it (``environment_source``:
@@ -722,16 +734,12 @@ class Renderer:
         check_multisampling(self.gl.ctx, SRAA_SAMPLES, str(self.loaded.path), "render.antialiasing")
 
     def _build_sraa(self) -> SraaPass:
-        return SraaPass(
-            self.gl.ctx, self.shaders, self.render_size, self._layout(), *self._opaque_parts(),
-            self.gbuffer_pass.uploads,
-        )  # fmt: skip
+        return SraaPass(self._sample_inputs())
 
     def _refresh_sraa(self) -> None:
         """A restyle's new material ids, in the geometry samples too (their RT2 ids are
         matched against the frame's)."""
-        for drawable, i in zip(self.sraa.geometry.drawables, self._opaque(), strict=True):
-            drawable.material_ids = self.frame.material_ids[i]
+        self.sraa.geometry.refresh(self._opaque_parts()[1])
 
     def _key_msaa(self) -> Hashable:
         """The multisampled G-buffer and its per-sample shading, only with
@@ -746,15 +754,13 @@ class Renderer:
 
     def _build_msaa(self) -> MsaaPass:
         return MsaaPass(
-            self.gl.ctx, self.shaders, self.render_size, self._layout(), *self._opaque_parts(),
-            self.shading, self.scene.render.terms, self.lighting.form, self.gbuffer_pass.uploads,
+            self._sample_inputs(), self.shading, self.scene.render.terms, self.lighting.form,
             PartRects(self.render_size, *self._opaque_extents()),
         )  # fmt: skip
 
     def _refresh_msaa(self) -> None:
         """A restyle's new material ids, in the multisampled G-buffer too."""
-        for drawable, i in zip(self.msaa.geometry.drawables, self._opaque(), strict=True):
-            drawable.material_ids = self.frame.material_ids[i]
+        self.msaa.geometry.refresh(self._opaque_parts()[1])
 
     def _key_dof(self) -> Hashable:
         """Depth of field, only for a camera with an aperture: its lens and the image."""

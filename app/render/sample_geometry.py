@@ -8,12 +8,16 @@ the pixels whose samples differ in a depth buffer (window depth 0) and draw thei
 resolve z-tested to the marked pixels only. ``SampleGeometry`` is that contract, once:
 the targets, the pass, the positions it is told, and the mark-then-resolve sequence.
 What differs between the two is a parameter: ``read``, the targets a resolve samples
-(SRAA's reconstruction RT2 alone, MSAA's per-sample shading every target).
+(SRAA's reconstruction RT2 alone, MSAA's per-sample shading every target). What both take
+from the renderer is one value, ``SampleInputs``: the opaque parts as the frame's
+G-buffer pass draws them, declared once so that a new input is one field, not an edit of
+each pass's parameters.
 """
 
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 from collections.abc import Callable, Collection, Mapping, Sequence
 
 import moderngl
@@ -29,6 +33,29 @@ from app.render.texture_upload import TextureUploads
 from app.scene.geometry import MeshPart
 
 _GL_SAMPLE_POSITION = 0x8E50
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SampleInputs:
+    """What a pass that draws the frame's opaque parts again, into multisampled targets of
+    its own, takes from the renderer (``Renderer._sample_inputs``): ``SraaPass``'s and
+    ``MsaaPass``'s ``SampleGeometry`` draw exactly what the G-buffer pass drew, so these
+    are that pass's. ``ctx``, ``shaders``: the renderer's context and shader cache;
+    ``size``: the render size (the G-buffer's); ``layout``: the G-buffer's targets
+    (``GBufferLayout``), which the samples' targets and programs follow; ``parts``,
+    ``material_ids``: the parts the G-buffer pass draws (all but the blended and
+    transmissive ones) and their rows of the material table, one per layer;
+    ``uploads``: the G-buffer pass's material maps, drawn with rather than uploaded
+    again (None: the samples' pass uploads its own). Compared by identity (it holds a
+    context and parts' arrays)."""
+
+    ctx: moderngl.Context
+    shaders: ShaderCache
+    size: tuple[int, int]
+    layout: GBufferLayout
+    parts: list[MeshPart]
+    material_ids: list[list[int]]
+    uploads: TextureUploads | None = None
 
 
 def sample_positions(ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> np.ndarray:
@@ -96,32 +123,25 @@ class SampleGBuffer:
 
 
 class SampleGeometry:
-    """The opaque parts drawn at ``samples`` samples per pixel into ``targets``
+    """The opaque parts of ``inputs`` (``SampleInputs``: the frame's G-buffer pass's parts,
+    material ids and maps) drawn at ``samples`` samples per pixel into ``targets``
     (``SampleGBuffer``, its ``read`` targets sampled) by ``gbuffer_pass`` (a ``GBufferPass``
     with ``GBUFFER_SAMPLE_MASK``), and the edge marks: ``fbo`` (``mark_into``) draws into
     the owner's target with ``edges``, the depth buffer a mark writes window depth 0 into
-    where a pixel's samples differ.
-    ``parts``, ``material_ids``, ``uploads``: the frame's G-buffer pass's (its material
-    maps drawn with, not uploaded again)."""
+    where a pixel's samples differ."""
 
     def __init__(
-        self,
-        ctx: moderngl.Context,
-        shaders: ShaderCache,
-        size: tuple[int, int],
-        layout: GBufferLayout,
-        parts: list[MeshPart],
-        material_ids: list[list[int]],
-        uploads: TextureUploads | None,
-        samples: int,
-        read: Collection[str] | None = None,
+        self, inputs: SampleInputs, samples: int, read: Collection[str] | None = None
     ) -> None:
-        self.ctx, self.size = ctx, size
-        self.targets = SampleGBuffer(ctx, size, layout, samples, read)
+        ctx, layout = inputs.ctx, inputs.layout
+        self.ctx, self.size = ctx, inputs.size
+        self.targets = SampleGBuffer(ctx, inputs.size, layout, samples, read)
         defines = {**layout.defines(), "GBUFFER_SAMPLE_MASK": samples}
-        self.gbuffer_pass = GBufferPass(ctx, shaders, parts, material_ids, None, defines, uploads)
+        self.gbuffer_pass = GBufferPass(
+            ctx, inputs.shaders, inputs.parts, inputs.material_ids, None, defines, inputs.uploads
+        )
         self.positions = sample_positions(ctx, self.targets.fbo).astype(np.float32)
-        self.edges = ctx.depth_renderbuffer(size)
+        self.edges = ctx.depth_renderbuffer(inputs.size)
         self.fbo: moderngl.Framebuffer | None = None
 
     def mark_into(self, target: moderngl.Texture) -> moderngl.Framebuffer:
@@ -131,10 +151,12 @@ class SampleGeometry:
         self.fbo = self.ctx.framebuffer([target], self.edges)
         return self.fbo
 
-    @property
-    def drawables(self) -> list:
-        """The geometry pass's drawables (a restyle updates their material ids)."""
-        return self.gbuffer_pass.drawables
+    def refresh(self, material_ids: list[list[int]]) -> None:
+        """A restyle's new material ids (``app.frame.restyle``: the same parts, new rows),
+        one list per part as ``SampleInputs.material_ids``: the samples' RT2 ids are
+        matched against the pixel-centre frame's, so they follow the G-buffer pass's."""
+        for drawable, ids in zip(self.gbuffer_pass.drawables, material_ids, strict=True):
+            drawable.material_ids = ids
 
     def draw(self, view: np.ndarray, proj: np.ndarray, camera: CameraFrame) -> None:
         """The samples of the camera (``view``, ``proj``, ``camera``), each program told
