@@ -141,8 +141,16 @@ class LightCuller(ShaderInput):
         width = LIGHTS_PER_ROW if self.local_count > LIGHTS_PER_ROW else max(1, self.local_count)
         self.lights = ctx.texture((width, rows), 4, dtype="f4")
         self.spots = ctx.texture((width, rows), 4, dtype="f4")
+        # Which lights are spots, as mask bits (one texel per quad): the cone stage's
+        # candidates are a tile's mask & these, without a read of each light's cone.
+        spot_bits = np.zeros(self.quads * 128, np.uint64)
+        spot_bits[: self.local_count] = np.array(spot, bool)
+        words = (spot_bits.reshape(-1, 32) << np.arange(32, dtype=np.uint64)).sum(axis=1)
+        words = words.astype(np.uint32).tobytes()
+        self.spot_bits = ctx.texture((self.quads, 1), 4, words, dtype="u4")
         textures = (
-            self.tile_depth, self.tile_bins, self.group_masks, self.masks, self.lights, self.spots
+            self.tile_depth, self.tile_bins, self.group_masks, self.masks, self.lights,
+            self.spots, self.spot_bits,
         )  # fmt: skip
         for tex in textures:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -186,6 +194,7 @@ class LightCuller(ShaderInput):
             "u_local_lights": self.lights,
             "u_local_spots": self.spots,
             "u_group_masks": self.group_masks,
+            "u_spot_bits": self.spot_bits,
         }
         self.cull_pass.draw(
             self.mask_fbo,
@@ -248,5 +257,6 @@ class LightCuller(ShaderInput):
             self.masks,
             self.lights,
             self.spots,
+            self.spot_bits,
         ):
             obj.release()
