@@ -332,6 +332,28 @@ def test_bit_helpers_match_twin(gl_egl) -> None:
     assert np.array_equal(out[:, 0], expected)
 
 
+def test_masks_follow_a_moved_camera(gl_egl) -> None:
+    """The culler keeps its view-space light texels while the view stays; after a camera
+    move its masks and image are a fresh renderer's at the new view."""
+    data = many_lights_scene(300, "tiled")
+    moved = {"position": [3.0, 7.0, 14.0]}
+    r = Renderer(gl_egl, parse_scene(data, "many-lights.toml"))
+    fresh = Renderer(
+        gl_egl, parse_scene({**data, "camera": {**data["camera"], **moved}}, "moved.toml")
+    )
+    try:
+        r.render()
+        r.render()  # the same view again: nothing uploaded
+        r.set_camera(r.scene.camera.model_copy(update=moved))
+        r.render()
+        fresh.render()
+        assert np.array_equal(r.culler.read_masks(), fresh.culler.read_masks())
+        assert np.array_equal(r.read_hdr(), fresh.read_hdr())
+    finally:
+        r.release()
+        fresh.release()
+
+
 def test_cone_span_pretest_changes_no_decision(gl_egl) -> None:
     """cone_reaches_span, the cone stage's pre-test, rejects a spot light only where each
     slice of its span rejects it too (the span's sphere holds every slice's sphere), so

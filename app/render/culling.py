@@ -25,7 +25,7 @@ The lighting pass then loops the directional lights (which reach everything) and
 bits of its tile's masks, in ascending light order: the same lights in the same order
 as the unculled loop minus lights that would add exactly 0, so culled and unculled
 images agree to the last bit. The CPU's per-frame work is one vectorised transform of
-the light centres into view space.
+the light centres into view space, made only when the view has moved.
 """
 
 from __future__ import annotations
@@ -148,6 +148,7 @@ class LightCuller(ShaderInput):
         words = (spot_bits.reshape(-1, 32) << np.arange(32, dtype=np.uint64)).sum(axis=1)
         words = words.astype(np.uint32).tobytes()
         self.spot_bits = ctx.texture((self.quads, 1), 4, words, dtype="u4")
+        self._view: bytes | None = None  # the view matrix the light textures were made for
         textures = (
             self.tile_depth, self.tile_bins, self.group_masks, self.masks, self.lights,
             self.spots, self.spot_bits,
@@ -159,7 +160,13 @@ class LightCuller(ShaderInput):
         self.mask_fbo = ctx.framebuffer([self.masks])
 
     def _upload(self, view: np.ndarray) -> None:
-        """Light centres in view space with their (padded) ranges, one texel per light."""
+        """Light centres in view space with their (padded) ranges, one texel per light,
+        and spot axes; kept while the view stays (a culler's lights never change: new
+        lights build a new culler)."""
+        key = np.asarray(view, np.float64).tobytes()
+        if key == self._view:
+            return
+        self._view = key
         texels = np.zeros((self.lights.width * self.lights.height, 4), np.float32)
         centres = self.centres @ view[:3, :3].T + view[:3, 3]
         texels[: self.local_count, :3] = centres
