@@ -332,6 +332,80 @@ def test_bit_helpers_match_twin(gl_egl) -> None:
     assert np.array_equal(out[:, 0], expected)
 
 
+def test_masks_follow_a_moved_camera(gl_egl) -> None:
+    """The culler keeps its view-space light texels while the view stays; after a camera
+    move its masks and image are a fresh renderer's at the new view."""
+    data = many_lights_scene(300, "tiled")
+    moved = {"position": [3.0, 7.0, 14.0]}
+    r = Renderer(gl_egl, parse_scene(data, "many-lights.toml"))
+    fresh = Renderer(
+        gl_egl, parse_scene({**data, "camera": {**data["camera"], **moved}}, "moved.toml")
+    )
+    try:
+        r.render()
+        r.render()  # the same view again: nothing uploaded
+        r.set_camera(r.scene.camera.model_copy(update=moved))
+        r.render()
+        fresh.render()
+        assert np.array_equal(r.culler.read_masks(), fresh.culler.read_masks())
+        assert np.array_equal(r.read_hdr(), fresh.read_hdr())
+    finally:
+        r.release()
+        fresh.release()
+
+
+def test_cone_span_pretest_changes_no_decision(gl_egl) -> None:
+    """cone_reaches_span, the cone stage's pre-test, rejects a spot light only where each
+    slice of its span rejects it too (the span's sphere holds every slice's sphere), so
+    the cone stage decides as without it; and it rejects most of what the slices reject
+    (the loop over slices it spares: 85 % here), on random tiles, slabs, slice runs and
+    cones."""
+    rng = np.random.default_rng(17)
+    n = 20000
+    ndc_min = rng.uniform(-1.0, 0.9, (n, 2))
+    ndc_max = ndc_min + rng.uniform(0.01, 0.1, (n, 2))
+    z_min = rng.uniform(1.0, 30.0, n)
+    z_max = z_min + rng.uniform(0.0, 12.0, n)
+    # A sphere's depth extent: a run of up to 12 slices, some of them empty.
+    lo = rng.integers(0, 32, n)
+    hi = np.minimum(lo + rng.integers(0, 12, n), 31)
+    hits = twin.bin_range_mask(lo, hi).astype(np.uint64)
+    hits &= rng.integers(0, 2**32, n, dtype=np.uint64) | (np.uint64(1) << lo.astype(np.uint64))
+    tan_half_fov = np.array([0.7, 0.4])
+    # Light centres around the tile's box (x = ndc tan depth), ranges and cones at random.
+    depth = rng.uniform(z_min - 4.0, z_max + 4.0)
+    ndc = rng.uniform(ndc_min - 0.3, ndc_max + 0.3)
+    centre = np.column_stack([ndc * tan_half_fov * depth[:, None], -depth])
+    axis = rng.normal(size=(n, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    cos_outer = rng.uniform(0.0, 0.95, n)
+    out = run_kernel(
+        gl_egl.ctx, BIT_INCLUDES,
+        "TileFrustum f = tile_frustum(tile.xy, tile.zw, vec2(0.7, 0.4), slab.x, slab.y,"
+        " 0xFFFFFFFFu);\n"
+        "uint hits = uint(slab.z) | (uint(slab.w) << 16);\n"
+        "float sin_a = sqrt(max(1.0 - spot.w * spot.w, 0.0));\n"
+        "bool slices = false;\n"
+        "for (uint h = hits; h != 0u; h &= h - 1u) {\n"
+        "    int b = lowest_bit(h);\n"
+        "    slices = slices || cone_reaches_tile(f, light.xyz, light.w, spot, sin_a,\n"
+        "                                         slice_near(f, b), slice_far(f, b));\n"
+        "}\n"
+        "bool span = cone_reaches_span(f, light.xyz, light.w, spot, sin_a, hits);\n"
+        "result = vec4(float(slices), float(span), 0.0, 0.0);",
+        {
+            "tile": np.column_stack([ndc_min, ndc_max]),
+            "slab": np.column_stack([z_min, z_max, hits & 0xFFFF, hits >> 16]),
+            "light": np.column_stack([centre, rng.uniform(1.0, 6.0, n)]),
+            "spot": np.column_stack([axis, cos_outer]),
+        },
+    )  # fmt: skip
+    slices, span = out[:, 0] > 0.5, out[:, 1] > 0.5
+    assert slices.sum() > 1000 and (~slices).sum() > 1000, "too few of either to mean anything"
+    assert not np.any(slices & ~span), "the span rejected a cone a slice's sphere reaches"
+    assert (~span).sum() > 0.5 * (~slices).sum()
+
+
 def test_auto_culls_by_tiles_only_from_its_light_count(gl_egl) -> None:
     """render.light_culling = "auto" (the default) builds the culler only from
     TILED_MIN_LOCAL_LIGHTS local lights on; "tiled" with any, "none" never; the image is

@@ -3,7 +3,9 @@
 Every function broadcasts over its arguments (a tile per element, a light per element, or
 both), so a whole frame's (tile, light) decisions come out of one call. The bin functions
 work on whole numbers and are exact; the geometric tests differ from the GLSL only by its
-float32 rounding, which the culler's range margin (app/render/culling.py) absorbs.
+float32 rounding, which the culler's range margin (app/render/culling.py) absorbs. The
+GLSL's pre-test of the cone stage (``cone_reaches_span``) only spares work and changes no
+decision, so it has no twin here.
 """
 
 from __future__ import annotations

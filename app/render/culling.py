@@ -25,7 +25,7 @@ The lighting pass then loops the directional lights (which reach everything) and
 bits of its tile's masks, in ascending light order: the same lights in the same order
 as the unculled loop minus lights that would add exactly 0, so culled and unculled
 images agree to the last bit. The CPU's per-frame work is one vectorised transform of
-the light centres into view space.
+the light centres into view space, made only when the view has moved.
 """
 
 from __future__ import annotations
@@ -141,8 +141,17 @@ class LightCuller(ShaderInput):
         width = LIGHTS_PER_ROW if self.local_count > LIGHTS_PER_ROW else max(1, self.local_count)
         self.lights = ctx.texture((width, rows), 4, dtype="f4")
         self.spots = ctx.texture((width, rows), 4, dtype="f4")
+        # Which lights are spots, as mask bits (one texel per quad): the cone stage's
+        # candidates are a tile's mask & these, without a read of each light's cone.
+        spot_bits = np.zeros(self.quads * 128, np.uint64)
+        spot_bits[: self.local_count] = np.array(spot, bool)
+        words = (spot_bits.reshape(-1, 32) << np.arange(32, dtype=np.uint64)).sum(axis=1)
+        words = words.astype(np.uint32).tobytes()
+        self.spot_bits = ctx.texture((self.quads, 1), 4, words, dtype="u4")
+        self._view: bytes | None = None  # the view matrix the light textures were made for
         textures = (
-            self.tile_depth, self.tile_bins, self.group_masks, self.masks, self.lights, self.spots
+            self.tile_depth, self.tile_bins, self.group_masks, self.masks, self.lights,
+            self.spots, self.spot_bits,
         )  # fmt: skip
         for tex in textures:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -151,7 +160,13 @@ class LightCuller(ShaderInput):
         self.mask_fbo = ctx.framebuffer([self.masks])
 
     def _upload(self, view: np.ndarray) -> None:
-        """Light centres in view space with their (padded) ranges, one texel per light."""
+        """Light centres in view space with their (padded) ranges, one texel per light,
+        and spot axes; kept while the view stays (a culler's lights never change: new
+        lights build a new culler)."""
+        key = np.asarray(view, np.float64).tobytes()
+        if key == self._view:
+            return
+        self._view = key
         texels = np.zeros((self.lights.width * self.lights.height, 4), np.float32)
         centres = self.centres @ view[:3, :3].T + view[:3, 3]
         texels[: self.local_count, :3] = centres
@@ -186,6 +201,7 @@ class LightCuller(ShaderInput):
             "u_local_lights": self.lights,
             "u_local_spots": self.spots,
             "u_group_masks": self.group_masks,
+            "u_spot_bits": self.spot_bits,
         }
         self.cull_pass.draw(
             self.mask_fbo,
@@ -248,5 +264,6 @@ class LightCuller(ShaderInput):
             self.masks,
             self.lights,
             self.spots,
+            self.spot_bits,
         ):
             obj.release()

@@ -157,49 +157,77 @@ void next_tile_word(TileMask m, inout uint words, inout int w, inout uint bits) 
 }
 #endif
 
+// --- the culling tests of one tile (or group of tiles) against one light ---
+
+// What every test of one tile shares, computed once per fragment: llvmpipe's JIT moves
+// nothing out of a loop, so the culling passes' loops over lights would otherwise compute
+// these again for every light (docs/performance.md, "Tiled culling").
+struct TileFrustum {
+    float z_min, z_max;       // the depth slab of the tile's surfaces
+    uint depth_mask;          // its occupied slices (the group pass: unused)
+    float scale;              // depth_bin_scale(z_min, z_max): slices per metre
+    float slack;              // Z_SLACK * z_max
+    vec2 k_min, k_max;        // the side planes: x = k depth (ndc * tan_half_fov)
+    vec2 norm_min, norm_max;  // sqrt(1 + k^2): the length of each side plane's normal
+};
+
+// The frustum of the pixels whose NDC lie in [ndc_min, ndc_max], over [z_min, z_max].
+TileFrustum tile_frustum(vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov, float z_min,
+                         float z_max, uint depth_mask) {
+    TileFrustum f;
+    f.z_min = z_min;
+    f.z_max = z_max;
+    f.depth_mask = depth_mask;
+    f.scale = depth_bin_scale(z_min, z_max);
+    f.slack = Z_SLACK * z_max;
+    f.k_min = ndc_min * tan_half_fov;
+    f.k_max = ndc_max * tan_half_fov;
+    f.norm_min = vec2(sqrt(1.0 + f.k_min.x * f.k_min.x), sqrt(1.0 + f.k_min.y * f.k_min.y));
+    f.norm_max = vec2(sqrt(1.0 + f.k_max.x * f.k_max.x), sqrt(1.0 + f.k_max.y * f.k_max.y));
+    return f;
+}
+
 // Harada et al. 2012: does a sphere (view-space centre c with depth d = -c.z, radius r)
 // lie inside the depth slab [z_min, z_max] and inside each of the four side planes of the
-// tile's frustum (the pixels whose NDC lie in [ndc_min, ndc_max]), each tested on its own?
-// Conservative but loose at the frustum's corners: for spheres much wider than the tile
-// it accepts every centre in the r x r squares beyond the corners of the tile's cross-
-// section, where only a quarter disc of radius r reaches it.
-bool tile_planes_reach(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
-                       float z_min, float z_max) {
+// tile's frustum, each tested on its own? Conservative but loose at the frustum's
+// corners: for spheres much wider than the tile it accepts every centre in the r x r
+// squares beyond the corners of the tile's cross-section, where only a quarter disc of
+// radius r reaches it.
+bool tile_planes_reach(TileFrustum f, vec3 c, float r) {
     float d = -c.z;
-    if (d + r < z_min || d - r > z_max) return false;
+    if (d + r < f.z_min || d - r > f.z_max) return false;
     // A point is right of the left plane when x >= ndc_min.x tan_x d; the plane's unit
     // normal in (x, d) is (1, -k)/sqrt(1 + k^2) with k = ndc_min.x tan_x.
-    vec2 k_min = ndc_min * tan_half_fov;
-    vec2 k_max = ndc_max * tan_half_fov;
-    if (c.x - k_min.x * d < -r * sqrt(1.0 + k_min.x * k_min.x)) return false;
-    if (k_max.x * d - c.x < -r * sqrt(1.0 + k_max.x * k_max.x)) return false;
-    if (c.y - k_min.y * d < -r * sqrt(1.0 + k_min.y * k_min.y)) return false;
-    if (k_max.y * d - c.y < -r * sqrt(1.0 + k_max.y * k_max.y)) return false;
+    if (c.x - f.k_min.x * d < -r * f.norm_min.x) return false;
+    if (f.k_max.x * d - c.x < -r * f.norm_max.x) return false;
+    if (c.y - f.k_min.y * d < -r * f.norm_min.y) return false;
+    if (f.k_max.y * d - c.y < -r * f.norm_max.y) return false;
     return true;
 }
 
-// The view-space bounding box, in (x, y, depth), of the tile's frustum (the pixels whose
-// NDC lie in [ndc_min, ndc_max]) between depths z_lo and z_hi: x = k depth across the
-// slab, so each side of the box is at z_lo or at z_hi.
-void tile_box(vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov, float z_lo, float z_hi,
-              out vec3 lo, out vec3 hi) {
-    vec2 k_min = ndc_min * tan_half_fov;
-    vec2 k_max = ndc_max * tan_half_fov;
-    lo = vec3(min(k_min * z_lo, k_min * z_hi), z_lo);
-    hi = vec3(max(k_max * z_lo, k_max * z_hi), z_hi);
+// The view-space bounding box, in (x, y, depth), of the tile's frustum between depths
+// z_lo and z_hi: x = k depth across the slab, so each side of the box is at z_lo or at
+// z_hi.
+void tile_box(TileFrustum f, float z_lo, float z_hi, out vec3 lo, out vec3 hi) {
+    lo = vec3(min(f.k_min * z_lo, f.k_min * z_hi), z_lo);
+    hi = vec3(max(f.k_max * z_lo, f.k_max * z_hi), z_hi);
 }
 
 // Arvo 1990, "A Simple Method for Box-Sphere Intersection Testing": does the sphere reach
-// the view-space bounding box of the tile's frustum between depths z_lo and z_hi? The
-// exact distance to the box, so tight at corners where the planes are loose; the planes
-// are tighter along a deep, slanted frustum, so the culler asks both.
-bool tile_box_reach(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
-                    float z_lo, float z_hi) {
-    vec3 lo, hi;
-    tile_box(ndc_min, ndc_max, tan_half_fov, z_lo, z_hi, lo, hi);
+// the box [lo, hi] (in (x, y, depth))? The exact distance to the box, so tight at corners
+// where the planes are loose; the planes are tighter along a deep, slanted frustum, so
+// the culler asks both.
+bool box_reach(vec3 lo, vec3 hi, vec3 c, float r) {
     vec3 q = vec3(c.xy, -c.z);
     vec3 gap = max(max(lo - q, q - hi), 0.0);
     return dot(gap, gap) <= r * r;
+}
+
+// The sphere reaches the view-space box of the tile's frustum between z_lo and z_hi.
+bool tile_box_reach(TileFrustum f, vec3 c, float r, float z_lo, float z_hi) {
+    vec3 lo, hi;
+    tile_box(f, z_lo, z_hi, lo, hi);
+    return box_reach(lo, hi, c, r);
 }
 
 // Wronski 2017, "Cull that cone!": does a spot light's cone (apex a, unit axis u, outer
@@ -215,17 +243,17 @@ bool cone_reaches_sphere(vec3 a, vec3 u, float cos_a, float sin_a, float len, ve
     return side <= rho && along <= rho + len && along >= -rho;
 }
 
-// A spot light (axis u in view space, cone cosine and sine cos_a, sin_a) reaches the
-// bounding sphere of the tile frustum's view-space box between depths z_lo and z_hi.
-// Coordinates are (x, y, depth) as in tile_box_reach, so the axis's z flips.
-bool cone_reaches_tile(vec3 c, float r, vec3 u, float cos_a, float sin_a, vec2 ndc_min,
-                       vec2 ndc_max, vec2 tan_half_fov, float z_lo, float z_hi) {
+// A spot light (centre c and range r, axis spot.xyz in view space, cone cosine spot.w and
+// sine sin_a) reaches the bounding sphere of the tile frustum's view-space box between
+// depths z_lo and z_hi. Coordinates are (x, y, depth) as in box_reach, so the z flip.
+bool cone_reaches_tile(TileFrustum f, vec3 c, float r, vec4 spot, float sin_a, float z_lo,
+                       float z_hi) {
     vec3 lo, hi;
-    tile_box(ndc_min, ndc_max, tan_half_fov, z_lo, z_hi, lo, hi);
+    tile_box(f, z_lo, z_hi, lo, hi);
     // The sphere grows by 1e-4 of its size: float32 rounding of the centre and the side
     // distance must never cull a light whose cone (barely) reaches a surface.
     float rho = 0.5 * length(hi - lo) * (1.0 + 1e-4);
-    return cone_reaches_sphere(vec3(c.xy, -c.z), vec3(u.xy, -u.z), cos_a, sin_a, r,
+    return cone_reaches_sphere(vec3(c.xy, -c.z), vec3(spot.xy, -spot.z), spot.w, sin_a, r,
                                0.5 * (lo + hi), rho);
 }
 
@@ -237,64 +265,71 @@ bool cone_reaches_tile(vec3 c, float r, vec3 u, float cos_a, float sin_a, vec2 n
 // light's cone must reach the bounding sphere of one of those slices' boxes. Every step
 // is conservative.
 
+// The ends of slice b, widened by the slack.
+float slice_near(TileFrustum f, int b) {
+    return f.z_min + float(b) / f.scale - f.slack;
+}
+
+float slice_far(TileFrustum f, int b) {
+    return f.z_min + float(b + 1) / f.scale + f.slack;
+}
+
 // The occupied slices within the sphere's depth extent (0: none).
-uint sphere_slices(vec3 c, float r, float z_min, float z_max, uint depth_mask) {
+uint sphere_slices(TileFrustum f, vec3 c, float r) {
     float d = -c.z;
-    if (d + r < z_min || d - r > z_max) return 0u;
-    float scale = depth_bin_scale(z_min, z_max);
-    return depth_mask & bin_range_mask(depth_bin(d - r, z_min, scale),
-                                       depth_bin(d + r, z_min, scale));
+    if (d + r < f.z_min || d - r > f.z_max) return 0u;
+    return f.depth_mask & bin_range_mask(depth_bin(d - r, f.z_min, f.scale),
+                                         depth_bin(d + r, f.z_min, f.scale));
 }
 
 // The sphere stage: the occupied slices within the sphere's depth extent, 0 when the
 // sphere misses the tile.
-uint sphere_reaches_tile(vec3 c, float r, vec2 ndc_min, vec2 ndc_max, vec2 tan_half_fov,
-                         float z_min, float z_max, uint depth_mask) {
-    uint hits = sphere_slices(c, r, z_min, z_max, depth_mask);
+uint sphere_reaches_tile(TileFrustum f, vec3 c, float r) {
+    uint hits = sphere_slices(f, c, r);
     if (hits == 0u) return 0u;
-    float scale = depth_bin_scale(z_min, z_max);
-    float slack = Z_SLACK * z_max;
-    float z_lo = z_min + float(lowest_bit(hits)) / scale - slack;
-    float z_hi = z_min + float(highest_bit(hits) + 1) / scale + slack;
-    if (!(tile_box_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_lo, z_hi)
-          && tile_planes_reach(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max))) {
+    if (!(tile_box_reach(f, c, r, slice_near(f, lowest_bit(hits)),
+                         slice_far(f, highest_bit(hits)))
+          && tile_planes_reach(f, c, r))) {
         return 0u;
     }
     return hits;
 }
 
+// Does the cone reach a sphere around every slice's sphere (cone_reaches_tile) from the
+// lowest to the highest slice of `hits`? The box of that span holds each slice's box, so
+// each slice's centre lies within half the span's diagonal of the span's centre, and each
+// slice's radius is at most half the diagonal of the span's cross-section and one slice's
+// depth; the sum (grown by 1e-3, beyond the slices' own 1e-4 and float32 rounding) holds
+// every slice sphere. Each of cone_reaches_sphere's three distances moves by at most the
+// distance its centre moves, so a cone that misses this sphere misses every slice's: the
+// pre-test changes no decision, and it spares the loop over slices for most of the spot
+// lights the cone stage culls.
+bool cone_reaches_span(TileFrustum f, vec3 c, float r, vec4 spot, float sin_a, uint hits) {
+    vec3 lo, hi;
+    tile_box(f, slice_near(f, lowest_bit(hits)), slice_far(f, highest_bit(hits)), lo, hi);
+    vec3 span = hi - lo;
+    float slice_depth = 1.0 / f.scale + 2.0 * f.slack;
+    float rho = 0.5 * (length(span) + length(vec3(span.xy, slice_depth))) * (1.0 + 1e-3);
+    return cone_reaches_sphere(vec3(c.xy, -c.z), vec3(spot.xy, -spot.z), spot.w, sin_a, r,
+                               0.5 * (lo + hi), rho);
+}
+
 // The cone stage: does a spot light's cone (spot.xyz its axis, spot.w the cosine of its
 // outer angle) reach the box of one of the slices `hits` (non-zero) on its own? One
 // sphere around all of them would span the tile's whole depth range (a floor seen at a
-// grazing angle).
-bool cone_reaches_slices(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
-                         vec2 tan_half_fov, float z_min, float z_max, uint hits) {
-    float scale = depth_bin_scale(z_min, z_max);
-    float slack = Z_SLACK * z_max;
+// grazing angle); it serves only to leave out the cones that miss them all at once.
+bool cone_reaches_slices(TileFrustum f, vec3 c, float r, vec4 spot, uint hits) {
     float sin_a = sqrt(max(1.0 - spot.w * spot.w, 0.0));
+    if (!cone_reaches_span(f, c, r, spot, sin_a, hits)) return false;
     bool reach = false;
     // Top-tested: as a do-while nested in light_cull.frag's loop over candidates, llvmpipe
     // (Mesa 22.3) culled 14 of 2731 (tile, spot) pairs it should keep.
     while (!reach && hits != 0u) {
         int b = lowest_bit(hits);
         hits &= hits - 1u;
-        float lo = z_min + float(b) / scale - slack;
-        float hi = z_min + float(b + 1) / scale + slack;
-        reach = cone_reaches_tile(c, r, spot.xyz, spot.w, sin_a, ndc_min, ndc_max,
-                                  tan_half_fov, lo, hi);
+        reach = cone_reaches_tile(f, c, r, spot, sin_a, slice_near(f, b), slice_far(f, b));
     }
     return reach;
-}
-
-// Both stages for one light (spot.w < -1 for a point light: no cone).
-bool light_reaches_tile(vec3 c, float r, vec4 spot, vec2 ndc_min, vec2 ndc_max,
-                        vec2 tan_half_fov, float z_min, float z_max, uint depth_mask) {
-    uint hits = sphere_reaches_tile(c, r, ndc_min, ndc_max, tan_half_fov, z_min, z_max,
-                                    depth_mask);
-    if (hits == 0u) return false;
-    if (spot.w < -1.0) return true;
-    return cone_reaches_slices(c, r, spot, ndc_min, ndc_max, tan_half_fov, z_min, z_max,
-                               hits);
 }
 
 #endif

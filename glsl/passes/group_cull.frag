@@ -43,18 +43,18 @@ void main() {
         vec2 px_max = min(vec2((t0 + GROUP_TILES) * TILE_SIZE), vec2(u_image_size));
         vec2 ndc_min = px_min / vec2(u_image_size) * 2.0 - 1.0;
         vec2 ndc_max = px_max / vec2(u_image_size) * 2.0 - 1.0;
-        // The tiles' boxes reach Z_SLACK * z_max beyond their slices (tiles.glsl).
-        float slack = Z_SLACK * z_max;
+        // The tiles' boxes reach Z_SLACK * z_max beyond their slices (tiles.glsl). The
+        // group's planes and box, computed once for all its lights.
+        TileFrustum f = tile_frustum(ndc_min, ndc_max, u_tan_half_fov, z_min, z_max, 0u);
+        vec3 lo, hi;
+        tile_box(f, z_min - f.slack, z_max + f.slack, lo, hi);
         int count = min(128, u_local_count - first);   // >= 1: the culler has no empty quad
         int b = 0;
         do {  // bottom-tested (passes/lighting.frag says why)
             int i = first + b;
             vec4 light = texelFetch(u_local_lights, ivec2(i % 1024, i / 1024), 0);
             float r = light.w * (1.0 + GROUP_MARGIN);
-            if (tile_box_reach(light.xyz, r, ndc_min, ndc_max, u_tan_half_fov,
-                               z_min - slack, z_max + slack)
-                && tile_planes_reach(light.xyz, r, ndc_min, ndc_max, u_tan_half_fov,
-                                     z_min, z_max)) {
+            if (box_reach(lo, hi, light.xyz, r) && tile_planes_reach(f, light.xyz, r)) {
                 reach |= quad_bit(b >> 5, b & 31);
             }
         } while (++b < count);

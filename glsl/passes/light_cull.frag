@@ -7,6 +7,7 @@
 uniform sampler2D u_tile_depth;      // RG32F per tile: view depth min, max (0 = empty)
 uniform usampler2D u_tile_bins;      // R32UI per tile: depth mask (lights/tiles.glsl)
 uniform usampler2D u_group_masks;    // RGBA32UI per (group, quad): group_cull.frag
+uniform usampler2D u_spot_bits;      // RGBA32UI per quad: the bits of its spot lights
 uniform sampler2D u_local_lights;    // RGBA32F, 1024 per row: view-space centre, range
 uniform sampler2D u_local_spots;     // RGBA32F, same layout: view-space axis, cos outer
                                      // (-2 for point lights)
@@ -23,7 +24,8 @@ ivec2 light_texel(int i) {
 void main() {
     ivec2 cell = ivec2(gl_FragCoord.xy);
     ivec2 tile = ivec2(cell.x / u_quads, cell.y);
-    int first = (cell.x - tile.x * u_quads) * 128;
+    int quad = cell.x - tile.x * u_quads;
+    int first = quad * 128;
     vec2 z = texelFetch(u_tile_depth, tile, 0).rg;
     uvec4 reach = uvec4(0u);
     if (z.y > 0.0) {
@@ -32,15 +34,15 @@ void main() {
         vec2 px_max = min(vec2((tile + 1) * TILE_SIZE), vec2(u_image_size));
         vec2 ndc_min = px_min / vec2(u_image_size) * 2.0 - 1.0;
         vec2 ndc_max = px_max / vec2(u_image_size) * 2.0 - 1.0;
+        TileFrustum f = tile_frustum(ndc_min, ndc_max, u_tan_half_fov, z.x, z.y, depth_mask);
         // Bottom-tested loops over set bits (passes/lighting.frag says why): first the
         // sphere stage for each light of the group's mask, then the cone stage, a loop
         // over depth slices, for the spot lights that passed it only. Inside the first
         // loop the cone stage cost llvmpipe a masked slice test per light and tile
         // (measured in docs/performance.md).
         uvec4 group_mask = texelFetch(u_group_masks,
-                                      ivec2((tile.x / GROUP_TILES) * u_quads + first / 128,
+                                      ivec2((tile.x / GROUP_TILES) * u_quads + quad,
                                             tile.y / GROUP_TILES), 0);
-        uvec4 cones = uvec4(0u);  // spot lights whose sphere reaches the tile
         uint words = quad_occupancy(group_mask);
         int w = 0;
         uint bits = 0u;
@@ -48,19 +50,13 @@ void main() {
         if (bits != 0u) do {
             int k = lowest_bit(bits);
             bits &= bits - 1u;
-            ivec2 texel = light_texel(first + 32 * w + k);
-            vec4 light = texelFetch(u_local_lights, texel, 0);
-            float cos_outer = texelFetch(u_local_spots, texel, 0).w;
-            uint hits = sphere_reaches_tile(light.xyz, light.w, ndc_min, ndc_max,
-                                            u_tan_half_fov, z.x, z.y, depth_mask);
-            uvec4 bit = quad_bit(w, k);
-            if (hits != 0u) {
-                reach |= bit;
-                if (cos_outer >= -1.0) cones |= bit;
-            }
+            vec4 light = texelFetch(u_local_lights, light_texel(first + 32 * w + k), 0);
+            if (sphere_reaches_tile(f, light.xyz, light.w) != 0u) reach |= quad_bit(w, k);
             if (bits == 0u) next_quad_word(group_mask, words, w, bits);
         } while (bits != 0u);
 
+        // the spot lights whose sphere reaches the tile
+        uvec4 cones = reach & texelFetch(u_spot_bits, ivec2(quad, 0), 0);
         words = quad_occupancy(cones);
         w = 0;
         bits = 0u;
@@ -71,9 +67,8 @@ void main() {
             ivec2 texel = light_texel(first + 32 * w + k);
             vec4 light = texelFetch(u_local_lights, texel, 0);
             vec4 spot = texelFetch(u_local_spots, texel, 0);
-            uint hits = sphere_slices(light.xyz, light.w, z.x, z.y, depth_mask);
-            if (!cone_reaches_slices(light.xyz, light.w, spot, ndc_min, ndc_max,
-                                     u_tan_half_fov, z.x, z.y, hits)) {
+            uint hits = sphere_slices(f, light.xyz, light.w);
+            if (!cone_reaches_slices(f, light.xyz, light.w, spot, hits)) {
                 reach &= ~quad_bit(w, k);
             }
             if (bits == 0u) next_quad_word(cones, words, w, bits);
