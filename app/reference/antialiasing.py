@@ -323,7 +323,7 @@ def gbaa_resolve(
     """(H, W, 4) the display image after the resolve, in 0..1 (unrounded): at the marked
     pixels the resolved radiance's ``gbaa_display_value``, elsewhere ``display``'s bytes
     (post's image, RGBA8) / 255; ``exact``: ``gbaa_resolve_radiance``'s. ``interior``
-    (``render.gbaa_interior``, GBAA_INTERIOR): each surface pixel whose 4 neighbours
+    (``render.gbaa_interior``, GBAA_CORRECT): each surface pixel whose 4 neighbours
     hold its surface at its ``gbaa_interior_radiance``'s display value (colour and
     alpha: 1, or a transparent background's coverage, 1 at such a pixel in a frame)."""
     surface = np.asarray(surface, np.float64)
