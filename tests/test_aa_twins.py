@@ -327,6 +327,35 @@ def test_gbaa_half_covered_pixel_past_its_neighbours_reach(gl_egl: GLContext) ->
     assert resolved[y, x, 0] > 255.0 * dim, (resolved[y, x], dim)
 
 
+def test_gbaa_interior_leaves_out_a_peak_whose_share_is_white(gl_egl: GLContext) -> None:
+    """The interior correction on one surface (10x8, radiance 0.1) with two peaks one pixel
+    wide: around the one past ``GBAA_SPILL`` times the display's white (its 1/24 share
+    alone white) each neighbour keeps its own display value (the peak counts as ``c``),
+    where without the guard the four turned white (a plus the area truth does not have);
+    around the one under it they rise as the correction has them. GL and twin alike."""
+    h, w = 8, 10
+    surface = np.zeros((h, w, 2), np.float32)
+    surface[..., 0], surface[..., 1] = 5.0, 1.0
+    hdr = np.full((h, w, 4), 0.1, np.float32)
+    hdr[..., 3] = 1.0
+    spill = twin.GBAA_SPILL * twin.gbaa_saturation("neutral") / 2.0**0.5
+    hot, warm = (4, 2), (3, 7)  # (y, x), rows bottom-up
+    hdr[hot][:3], hdr[warm][:3] = 2.0 * spill, 0.5 * spill
+    inputs = {"surface": surface, "edge": np.full((h, w, 4), 16.0, np.float16), "hdr": hdr,
+              "display": np.zeros((h, w, 4), np.uint8)}  # fmt: skip
+    resolved = drawn_gbaa(gl_egl, inputs, straight=False, exact=True, interior=True)
+    expected = twin.gbaa_resolve(surface, inputs["edge"], hdr, inputs["display"], 0.5, "neutral",
+                                 exact=True, interior=True)  # fmt: skip
+    off = bytes_off(expected, resolved).max(axis=-1)
+    assert off.max() <= STEP_TOLERANCE, (np.argwhere(off > STEP_TOLERANCE)[:8], off.max())
+    plain = 255.0 * twin.gbaa_display_value(hdr[0, 0], 0.5, "neutral")[0]
+    unguarded = twin.gbaa_interior_radiance(hdr[0, 0], [hdr[hot]] + [hdr[0, 0]] * 3)
+    assert twin.gbaa_display_value(unguarded, 0.5, "neutral")[0] > 254.5 / 255.0
+    for (y, x), kept in ((hot, True), (warm, False)):
+        around = [resolved[y + dy, x + dx, 0] for dx, dy in twin.STEPS]
+        assert all((abs(v - plain) <= 0.5) == kept for v in around), (around, plain)
+
+
 def test_fxaa_filter_is_its_twin_on_alpha_and_borders(gl_egl: GLContext) -> None:
     """``FxaaPass`` on a synthetic RGBA8 image (61x35, no multiple of the 4-pixel blocks:
     blocks of colour and single pixels, alpha in 1..255, edges at every border) against

@@ -507,3 +507,17 @@ def test_api_rows_first_and_next_frames(gl_egl):
         assert after["frames"] == 5 and after["programs_compiled"] == 0
         assert after["first_over_next"] == pytest.approx(first["ms_median"] / after["ms_median"])
     assert rows[(API_CASES[1], "api first frame")]["triangles_drawn"] >= 20 * 4**6
+
+
+def test_quick_run_times_the_antialiasing_suite_as_the_full_run() -> None:
+    """A quick run's antialiasing suite draws the full run's sizes with its frames a row
+    (the still's and the viewer's cost ratios against the aliased frame are its targets'
+    verdicts; at 320x180 with 3-5 frames a row fixed costs read over the bound), and the
+    tiny run keeps its own (tests take seconds)."""
+    from app.bench.antialiasing import suite_budget
+    from app.bench.context import FULL, QUICK, TINY
+
+    assert QUICK.antialiasing_size == FULL.antialiasing_size
+    assert QUICK.antialiasing_viewer_size == FULL.antialiasing_viewer_size
+    assert suite_budget(QUICK) == suite_budget(FULL) == FULL.budget
+    assert suite_budget(TINY) == TINY.budget and TINY.antialiasing_size == (64, 36)

@@ -100,7 +100,11 @@ def _settings_text(s: Settings, suites: list[str]) -> str:
         parts.append(f"shadows {w}x{h}, maps of {sizes}")
     if "antialiasing" in suites:
         w, h = s.antialiasing_size
-        parts.append(f"antialiasing {w}x{h} against its 4x4 and 8x8 supersampled frames")
+        aa = f"antialiasing {w}x{h} against its 4x4 and 8x8 supersampled frames"
+        if s.antialiasing_budget is not None:
+            b = s.antialiasing_budget
+            aa += f" ({b.min_frames}-{b.max_frames} timed frames a row, as in a full run)"
+        parts.append(aa)
     b = s.budget
     parts.append(
         f"{b.warmup} warm-up frame, then {b.min_frames}-{b.max_frames} timed frames"

@@ -25,8 +25,8 @@ import dataclasses
 
 import numpy as np
 
-from app.bench.context import Context, make_row
-from app.bench.timing import Pass
+from app.bench.context import Context, Settings, make_row
+from app.bench.timing import Budget, Pass
 from app.render.renderer import Renderer, RenderOptions
 from app.scene.edits import replace_parts
 from app.scene.loader import LoadedScene
@@ -168,7 +168,8 @@ def run_antialiasing(ctx: Context) -> None:
         for name, mode, n, specular_aa in CANDIDATES:
             renderers[name] = Renderer(ctx.gl, with_aa(loaded, mode, n, 1, specular_aa))
         times = ctx.time_interleaved(
-            {name: [Pass("frame", r.render, None)] for name, r in renderers.items()}
+            {name: [Pass("frame", r.render, None)] for name, r in renderers.items()},
+            suite_budget(s),
         )
         images = {}
         for name, r in renderers.items():
@@ -232,7 +233,8 @@ def run_showcase(ctx: Context) -> None:
         for name, mode, n in SHOWCASE_MODES:
             renderers[name] = Renderer(ctx.gl, with_aa(loaded, mode, n), size, options=VIEWER)
         times = ctx.time_interleaved(
-            {name: [Pass("frame", r.render, None)] for name, r in renderers.items()}
+            {name: [Pass("frame", r.render, None)] for name, r in renderers.items()},
+            suite_budget(ctx.settings),
         )
         lights = len(renderers["none"].lights)
     finally:
@@ -245,7 +247,13 @@ def run_showcase(ctx: Context) -> None:
         ctx.rows.append(make_row(SUITE, "showcase", name, size, lights, t, time_ratio=ratio))
 
 
-def antialiasing_tasks(settings: object) -> int:
+def suite_budget(settings: Settings) -> Budget:
+    """The suite's frames: ``antialiasing_budget``, else the run's (a quick run times this
+    suite as the full one does: its cost ratios against the aliased frame need the frames)."""
+    return settings.antialiasing_budget or settings.budget
+
+
+def antialiasing_tasks(settings: Settings) -> int:
     """The progress bar's ticks: warm-up and timed frames of every candidate."""
-    b = settings.budget
+    b = suite_budget(settings)
     return (len(CANDIDATES) + len(SHOWCASE_MODES)) * (b.warmup + b.max_frames)

@@ -71,6 +71,9 @@ class Settings:
     # Suite antialiasing (app/bench/antialiasing.py): the image (8x8 supersampled too).
     antialiasing_size: tuple[int, int] = (640, 360)
     antialiasing_viewer_size: tuple[int, int] = (960, 540)  # showcase, the viewer's window
+    # its frames (None: ``budget``): a quick run times it as the full run does, so that its
+    # cost verdicts measure the same thing (docs/performance.md, the suite's description)
+    antialiasing_budget: Budget | None = None
     # The pyrender comparison (app/bench/spheres.py): its light counts.
     pyrender_sphere_lights: tuple[int, ...] = (1, 4)
 
@@ -107,8 +110,7 @@ QUICK = replace(
     batch_frames=20,
     batch_rounds=2,
     batch_cli_frames=2,
-    antialiasing_size=(320, 180),
-    antialiasing_viewer_size=(480, 270),
+    antialiasing_budget=FULL.budget,
 )
 # For tests/test_bench.py only: every suite runs, on images small enough to take seconds.
 TINY = replace(
@@ -140,6 +142,7 @@ TINY = replace(
     shadow_showcase_size=(64, 36),
     antialiasing_size=(64, 36),
     antialiasing_viewer_size=(64, 36),
+    antialiasing_budget=None,
     pyrender_sphere_lights=(1,),
 )
 
@@ -162,11 +165,13 @@ class Context:
     def time(self, passes: list[Pass]) -> FrameTimes:
         return time_frames(self.gl, passes, self.settings.budget, self.queries, self.progress.tick)
 
-    def time_interleaved(self, variants: dict[str, list[Pass]]) -> dict[str, FrameTimes]:
-        """Variants to be compared, timed in alternating rounds (timing.time_interleaved)."""
-        return time_interleaved(
-            self.gl, variants, self.settings.budget, self.queries, self.progress.tick
-        )
+    def time_interleaved(
+        self, variants: dict[str, list[Pass]], budget: Budget | None = None
+    ) -> dict[str, FrameTimes]:
+        """Variants to be compared, timed in alternating rounds (timing.time_interleaved),
+        within ``budget`` (None: the run's)."""
+        budget = self.settings.budget if budget is None else budget
+        return time_interleaved(self.gl, variants, budget, self.queries, self.progress.tick)
 
     def light_range(self, count: int) -> float:
         """The common range giving ~16 lights per surface pixel (cached per count)."""

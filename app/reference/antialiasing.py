@@ -13,6 +13,8 @@ image is clamped to its border, as ``texelFetch(..., clamp(px, 0, last))`` is.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 from app.reference.tonemap import post_process, srgb_decode, srgb_encode
@@ -23,6 +25,9 @@ GBAA_DEPTH_TOLERANCE = 0.1  # view depths further apart than this fraction diffe
 GBAA_ALONG_EDGE_CLAMP = 1.5  # an edge pixel's own part stays within this factor of the centre's
 GBAA_SLIVER_REACH = 1.5  # a neighbour's edge this far from its centre can reach into a pixel
 GBAA_SLIVER_CAP = 0.5  # the most a half-plane that misses a pixel's centre covers of it
+# the interior correction leaves out a neighbour this many times past the display's white
+# (its 1/24 share alone would be white)
+GBAA_SPILL = 24.0
 # the four neighbours, +x, -x, +y, -y (gbaa.frag's STEPS; k ^ 1 is the opposite one)
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 
@@ -98,13 +103,37 @@ def gbaa_box_coverage(d: np.ndarray, e: np.ndarray, offset: float) -> np.ndarray
     return np.where(t <= 0, np.where(s > 0, 1.0, 0.0), inner)
 
 
-def gbaa_interior_radiance(c: np.ndarray, n: list[np.ndarray]) -> np.ndarray:
+@cache
+def gbaa_saturation(tonemap: str) -> float:
+    """The exposed radiance past which ``tonemap``'s display is white: the least grey
+    value whose display value rounds to the top 8-bit step (bisection on ``post_process``,
+    to 1e-6 relative); infinite where no value up to 1e12 reaches it."""
+    lo, hi = 0.0, 1.0
+    top = (255 - 0.5) / 255.0
+    while post_process(np.full(3, hi), 0.0, tonemap)[0] < top:
+        lo, hi = hi, 2.0 * hi
+        if hi > 1e12:
+            return float("inf")
+    while hi - lo > 1e-6 * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if post_process(np.full(3, mid), 0.0, tonemap)[0] >= top else (mid, hi)
+    return hi
+
+
+def gbaa_interior_radiance(c: np.ndarray, n: list[np.ndarray], spill: float = np.inf) -> np.ndarray:
     """A pixel's area mean from its centre's radiance ``c`` (..., 4) and its 4
     neighbours' ``n`` (the same surface), to second order: ``c + (sum n - 4c) / 24`` (the
     midpoint rule misses (f_xx + f_yy) / 24 of the box filter's integral; the 5-point
-    Laplacian; positive weights, unclamped), alpha ``c``'s."""
+    Laplacian; positive weights, unclamped), alpha ``c``'s. A neighbour whose brightest
+    channel is past ``spill`` (radiance: ``GBAA_SPILL`` times ``gbaa_saturation`` over
+    the exposure) counts as ``c``: its 1/24 alone would turn the pixel white (a highlight
+    smaller than a pixel drew a white plus around it, where the area truth is not)."""
     c = np.asarray(c, np.float64)
-    mean = c + (n[0] + n[1] + n[2] + n[3] - 4.0 * c) / 24.0
+    total = np.zeros_like(c)
+    for k in range(4):
+        past = np.asarray(n[k], np.float64)[..., :3].max(axis=-1, keepdims=True) > spill
+        total = total + np.where(past, c, n[k])
+    mean = c + (total - 4.0 * c) / 24.0
     return np.concatenate([mean[..., :3], c[..., 3:]], axis=-1)
 
 
@@ -294,9 +323,9 @@ def gbaa_resolve(
     """(H, W, 4) the display image after the resolve, in 0..1 (unrounded): at the marked
     pixels the resolved radiance's ``gbaa_display_value``, elsewhere ``display``'s bytes
     (post's image, RGBA8) / 255; ``exact``: ``gbaa_resolve_radiance``'s. ``interior``
-    (``render.gbaa_interior``, GBAA_INTERIOR): each surface pixel whose 4 neighbours
-    hold its surface at its ``gbaa_interior_radiance``'s display value (the colour; alpha
-    post's)."""
+    (``render.gbaa_interior``, GBAA_CORRECT): each surface pixel whose 4 neighbours
+    hold its surface at its ``gbaa_interior_radiance``'s display value (colour and
+    alpha: 1, or a transparent background's coverage, 1 at such a pixel in a frame)."""
     surface = np.asarray(surface, np.float64)
     c = gbaa_resolve_radiance(surface, edge, hdr, background, exact)
     out = np.asarray(display, np.float64) / 255.0
@@ -304,10 +333,11 @@ def gbaa_resolve(
     if interior:
         radiance = gbaa_radiance(hdr, surface, background)
         n = [shifted(radiance, dx, dy) for dx, dy in STEPS]
-        mean = gbaa_display_value(gbaa_interior_radiance(radiance, n), exposure_ev, tonemap,
-                                  straight_alpha)  # fmt: skip
+        spill = GBAA_SPILL * gbaa_saturation(tonemap) / 2.0**exposure_ev
+        mean = gbaa_display_value(gbaa_interior_radiance(radiance, n, spill), exposure_ev,
+                                  tonemap, straight_alpha)  # fmt: skip
         inside = (surface[..., 0] > 0) & ~marked
-        out = np.where(inside[..., None], np.concatenate([mean[..., :3], out[..., 3:]], -1), out)
+        out = np.where(inside[..., None], mean, out)
     resolved = gbaa_display_value(c, exposure_ev, tonemap, straight_alpha)
     return np.where(marked[..., None], resolved, out)
 

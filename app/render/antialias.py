@@ -41,8 +41,10 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
+from app.common.tonemaps import TONEMAPS
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
+from app.reference.antialiasing import GBAA_SPILL, gbaa_saturation
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer
 from app.render.sample_geometry import SampleGeometry, SampleInputs
@@ -436,10 +438,11 @@ class GbaaPass:
     (surfaces) and ``edge`` target (distances to the surface's edge) and the frame's
     linear HDR image, and writes the display image's silhouette pixels, resolved, over
     the post pass's image. Two draws (glsl/passes/gbaa.frag): ``mark`` writes window
-    depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces, and
-    ``resolve`` runs on the far plane z-tested (">") to those pixels, so that only blocks
-    of pixels with a silhouette run it (llvmpipe shades every branch for its whole
-    block). The other pixels keep post's bytes. The resolve reads the HDR image at
+    depth 0 into ``depth`` where a pixel and a 4-neighbour hold different surfaces (1 at
+    the other surface pixels, 0.5 at the other background ones), and ``resolve`` runs at
+    depth 0.25 z-tested (">") to those pixels, so that only blocks of pixels with a
+    silhouette run it (llvmpipe shades every branch for its whole block). The other
+    pixels keep post's bytes. The resolve reads the HDR image at
     marked pixels only (a neighbour it mixes in holds another surface, so is marked):
     where the lighting pass wrote the display image it wrote the surfaces' radiance too
     (``Renderer.run_lighting``), and the background's is given as a uniform.
@@ -453,10 +456,12 @@ class GbaaPass:
     axes whose neighbours hold its surface (``along_edge``); False: the area along the
     nearest axis alone (Persson's, 0.5 + d), the baseline docs/antialiasing.md measures
     the exact areas against.
-    ``interior`` (``render.gbaa_interior``, GBAA_INTERIOR): the mark also writes, at each
-    pixel whose 4 neighbours hold its own surface, its centre's radiance moved to its
-    area mean (``interior_radiance``, a 5-point second-order correction; docs/accuracy.md,
-    "Every pixel") over post's bytes."""
+    ``interior`` (``render.gbaa_interior``): a third draw (GBAA_CORRECT), after the mark
+    at depth 0.75 z-tested ("<") to the pixels whose 4 neighbours hold their own surface,
+    writes each one's centre radiance moved to its area mean (``interior_radiance``, a
+    5-point second-order correction; docs/accuracy.md, "Every pixel") over post's bytes,
+    from the HDR image alone; a neighbour past ``spill`` (``GBAA_SPILL`` times the tone
+    map's white, app/reference/antialiasing.py) counts as the pixel's own."""
 
     def __init__(
         self,
@@ -478,11 +483,21 @@ class GbaaPass:
         if fine_derivatives(ctx, shaders):  # three fetches of each target, not five
             defines["QUAD_NEIGHBOURS"] = 1
         vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
-        defines["GBAA_INTERIOR"] = int(interior)
         defines["GBAA_EXACT"] = int(exact)
+        # the mark writes window depth 0 (silhouettes), 1 (interior surface pixels) or 0.5
+        # (the background elsewhere): the resolve at 0.25 (">") and the correction at 0.75
+        # ("<") each z-test to their own pixels
         self.marker = shaders.program(vertex, fragment, {**defines, "GBAA_MARK": 1})
-        self.resolver = shaders.program(vertex, fragment, {**defines, "FAR_PLANE": 1})
-        self._vaos = [ctx.vertex_array(p, []) for p in (self.marker, self.resolver)]
+        self.resolver = shaders.program(vertex, fragment, {**defines, "RECT_DEPTH": -0.5})
+        programs = [self.marker, self.resolver]
+        if interior:
+            self.corrector = shaders.program(
+                vertex, fragment, {**defines, "GBAA_CORRECT": 1, "RECT_DEPTH": 0.5}
+            )
+            programs.append(self.corrector)
+        # the radiance at exposure 0 past which a neighbour's 1/24 alone is white
+        self.spill = GBAA_SPILL * gbaa_saturation(TONEMAPS[tonemap_code])
+        self._vaos = [ctx.vertex_array(p, []) for p in programs]
         self.depth = ctx.depth_renderbuffer(size)
         self._out: moderngl.Framebuffer | None = None  # the display image + ``depth``
         self._rects: list[Rect] = []
@@ -499,11 +514,11 @@ class GbaaPass:
         textures: dict[str, moderngl.Texture],
         depth_func: str,
     ) -> None:
-        """Draw program ``which`` (0 the mark, 1 the resolve) over ``_rects`` into
-        ``_out`` with the depth test ``depth_func``."""
+        """Draw program ``which`` (0 the mark, 1 the resolve, 2 the interior correction)
+        over ``_rects`` into ``_out`` with the depth test ``depth_func``."""
         if not self._rects:
             return
-        program = (self.marker, self.resolver)[which]
+        program = self._vaos[which].program
         w, h = self.size
         if self._ndc[0] != self._rects:  # the rectangles in NDC, once for both draws
             ndc = np.zeros((GBAA_MAX_RECTS, 4), np.float32)
@@ -515,21 +530,11 @@ class GbaaPass:
         ctx.viewport = (0, 0, w, h)
         bind_textures(program, textures)
         set_uniforms(program, {**uniforms, "u_rects": self._ndc[1]})
-        if which == 0 and self.interior:
-            # the interior pixels' colour (alpha 1) over post's; the others keep post's
-            # colour (alpha 0) and every pixel its alpha: exact at the factors 0 and 1
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA,
-                              moderngl.ZERO, moderngl.ONE)  # fmt: skip
-        else:
-            ctx.disable(moderngl.BLEND)
+        ctx.disable(moderngl.BLEND)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = depth_func
         self._vaos[which].render(moderngl.TRIANGLES, vertices=6 * len(self._rects))
         ctx.disable(moderngl.DEPTH_TEST)
-        if which == 0 and self.interior:
-            ctx.disable(moderngl.BLEND)
-            ctx.blend_func = moderngl.DEFAULT_BLENDING
         ctx.depth_func = "<"
 
     def mark(
@@ -542,23 +547,24 @@ class GbaaPass:
         background: np.ndarray | None = None,
     ) -> None:
         """``depth``: 0 at the silhouette pixels of ``gbuffer``'s frame inside ``rects``
-        (``rects()``: the resolve's then too), 1 at their other pixels. Drawn through the
+        (``rects()``: the resolve's then too), 1 at their other surface pixels and 0.5 at
+        their other background pixels. Drawn through the
         framebuffer the resolve draws into, ``display`` (the post pass's image) with
-        ``depth``, its colour writes off: one framebuffer for both draws, which llvmpipe
-        then runs without a flush between them. With ``interior`` it writes the interior
-        pixels' colour too, from ``hdr``, ``exposure_ev`` and ``background`` (``resolve``'s
-        inputs)."""
+        ``depth``, its colour writes off: one framebuffer for every draw, which llvmpipe
+        then runs without a flush between them. With ``interior`` the correction draw
+        then writes the interior pixels' display value (colour and alpha) from ``hdr`` and
+        ``exposure_ev`` (``background`` is the resolve's: no neighbour there is one)."""
         self._rects = list(rects)
         self._out = _display_with_depth(self.ctx, self._out, display, self.depth)
         self._out.depth_mask = True
-        if self.interior:
-            textures = {"u_depth": gbuffer.depth, "u_hdr": hdr}
-            self._draw(0, self._uniforms(exposure_ev, background), textures, "1")
-        else:
-            self._out.color_mask = (False, False, False, False)
-            self._draw(0, {}, {"u_depth": gbuffer.depth}, "1")
-            self._out.color_mask = (True, True, True, True)
+        self._out.color_mask = (False, False, False, False)
+        self._draw(0, {}, {"u_depth": gbuffer.depth}, "1")
         self._out.depth_mask = False
+        self._out.color_mask = (True, True, True, True)
+        if self.interior:  # the interior pixels' colour (and alpha 1, post's there)
+            scale = 2.0**exposure_ev
+            uniforms = {"u_exposure": scale, "u_spill": self.spill / scale}
+            self._draw(2, uniforms, {"u_hdr": hdr}, "<")
 
     @staticmethod
     def _uniforms(exposure_ev: float, background: np.ndarray | None) -> dict[str, object]:

@@ -13,10 +13,13 @@
 // linear HDR radiance (RGBA: premultiplied coverage stays premultiplied), then exposed,
 // tone mapped and encoded as passes/post.frag does.
 // Two draws (app/render/antialias.py GbaaPass): GBAA_MARK writes window depth 0 where a
-// pixel differs in surface from a 4-neighbour, 1 elsewhere; the resolve runs on the far
-// plane with the test ">", so only blocks with a silhouette pay for it (llvmpipe shades
-// every branch for a whole block: one draw that discards the other pixels took 10 ms at
-// 640x360, the two 3 ms), and writes the display image there.
+// pixel differs in surface from a 4-neighbour, else 1 on a surface and 0.5 on the
+// background; the resolve runs at depth 0.25 with the test ">", so only blocks with a
+// silhouette pay for it (llvmpipe shades every branch for a whole block: one draw that
+// discards the other pixels took 10 ms at 640x360, the two 3 ms), and writes the display
+// image there. With render.gbaa_interior a third draw, GBAA_CORRECT, runs between them at depth
+// 0.75 with the test "<": at the interior surface pixels alone (all four neighbours its
+// own surface), whose display value it writes from the HDR image alone.
 // With QUAD_NEIGHBOURS (where dFdx and dFdy are fine: app/render/antialias.py
 // fine_derivatives) each lane fetches its own texel and its two neighbours outside its 2x2
 // quad, and takes the one inside the quad from the derivative: three fetches of each
@@ -34,9 +37,6 @@
 #endif
 #ifndef GBAA_EXACT
 #define GBAA_EXACT 0
-#endif
-#ifndef GBAA_INTERIOR
-#define GBAA_INTERIOR 0
 #endif
 #ifndef GBAA_SLIVER_REACH
 #define GBAA_SLIVER_REACH 1.5   // a neighbour's edge this far from its centre can reach this pixel
@@ -56,6 +56,10 @@ uniform float u_exposure;    // linear scale, 2^EV
 // pass wrote the display image and the surfaces' radiance alone: Renderer.run_lighting)
 uniform float u_uniform_background;
 uniform vec4 u_background;
+// GBAA_CORRECT: the radiance (the HDR image's units) past which a neighbour's share of
+// the area mean, 1/24 of it, is alone past the display's white (24 times
+// app/reference/antialiasing.py gbaa_saturation, over the exposure)
+uniform float u_spill;
 
 out vec4 frag_color;
 
@@ -149,9 +153,15 @@ vec4 display_of(vec4 c) {
 // whose variance per axis, 2/24, is the unit box's 1/12. Its weights (20/24 and 1/24 each)
 // are positive, so the mean is never negative; unclamped: a clamp to a factor of c held a
 // pixel just past a light's terminator (c = 0) at 0, where its area is lit
-// (docs/accuracy.md, "Every pixel").
+// (docs/accuracy.md, "Every pixel"). A neighbour whose brightest channel is past u_spill
+// counts as c: its 1/24 alone would turn this pixel white (a highlight smaller than a
+// pixel at its centre drew a white plus around it, where the area truth is not white).
 vec4 interior_radiance(vec4 c, vec4 n[4]) {
-    vec4 mean = c + (n[0] + n[1] + n[2] + n[3] - 4.0 * c) / 24.0;
+    vec4 sum = vec4(0.0);
+    for (int k = 0; k < 4; ++k) {
+        sum += max(n[k].r, max(n[k].g, n[k].b)) > u_spill ? c : n[k];
+    }
+    vec4 mean = c + (sum - 4.0 * c) / 24.0;
     return vec4(mean.rgb, c.a);
 }
 
@@ -191,6 +201,21 @@ float box_coverage(float d, float e, float offset) {
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
+#ifdef GBAA_CORRECT
+    // An interior pixel (the depth test): its centre's radiance moved to its area mean
+    // (interior_radiance), its 4 neighbours its own surface by the mark.
+    g_last = textureSize(u_hdr, 0) - 1;
+    vec4 here = texelFetch(u_hdr, px, 0);
+    vec4 colours[4];
+#if QUAD_NEIGHBOURS
+    quad_lanes(px);
+    colours = quad_around(here, texelFetch(u_hdr, clamp(px + ivec2(g_out.x, 0), ivec2(0), g_last), 0),
+                          texelFetch(u_hdr, clamp(px + ivec2(0, g_out.y), ivec2(0), g_last), 0));
+#else
+    for (int k = 0; k < 4; ++k) colours[k] = texelFetch(u_hdr, clamp(px + STEPS[k], ivec2(0), g_last), 0);
+#endif
+    frag_color = display_of(interior_radiance(here, colours));
+#else
     g_last = textureSize(u_depth, 0) - 1;
     vec2 centre = surface_at(px);
     vec2 around[4];
@@ -211,26 +236,10 @@ void main() {
                    (q.y != centre.y || abs(q.x - centre.x) > GBAA_DEPTH_TOLERANCE * min(q.x, centre.x)));
     }
 #ifdef GBAA_MARK
-    gl_FragDepth = any(other) ? 0.0 : 1.0;
-#if GBAA_INTERIOR
-    // A pixel whose 4 neighbours hold its own surface: its centre's radiance moved to its
-    // area mean (interior_radiance), written over post's (alpha 1: the blend takes it);
-    // every other pixel keeps post's bytes (alpha 0) and a marked one is the resolve's.
-    vec4 here = radiance(px, centre);
-#if QUAD_NEIGHBOURS
-    vec4 colours[4] = quad_around(here, radiance(px + ivec2(g_out.x, 0), g_out.x > 0 ? around[0] : around[1]),
-                                  radiance(px + ivec2(0, g_out.y), g_out.y > 0 ? around[2] : around[3]));
-#else
-    vec4 colours[4];
-    for (int k = 0; k < 4; ++k) colours[k] = radiance(px + STEPS[k], around[k]);
-#endif
-    // (on a fused frame the lighting pass wrote no display value at the surfaces,
-    // Renderer.run_lighting: every surface pixel is this one's or the resolve's)
-    bool inside = centre.x > 0.0 && !any(other);
-    frag_color = vec4(display_of(interior_radiance(here, colours)).rgb, inside ? 1.0 : 0.0);
-#else
+    // 0: a silhouette pixel (the resolve's); 1: an interior surface pixel (the interior
+    // correction's); 0.5: the background away from every silhouette (neither's)
+    gl_FragDepth = any(other) ? 0.0 : centre.x > 0.0 ? 1.0 : 0.5;
     frag_color = vec4(0.0);
-#endif
 #else
     // this pixel's own edge: the nearest toward a neighbour behind it
     vec4 own = texelFetch(u_edge, px, 0);
@@ -324,5 +333,6 @@ void main() {
         if (weight[k] > 0.0) c += weight[k] * scale * sliver[k];
     }
     frag_color = display_of(c);
+#endif
 #endif
 }

@@ -15,10 +15,10 @@ const vec2 CORNERS[6] = vec2[6](vec2(0.0, 0.0), vec2(1.0, 0.0), vec2(1.0, 1.0),
 void main() {
     vec4 rect = u_rects[gl_VertexID / 6];
     vec2 p = mix(rect.xy, rect.zw, CORNERS[gl_VertexID % 6]);
-#ifdef FAR_PLANE
-    // on the far plane: the resolve z-tests it (">") against the mark's depth
-    gl_Position = vec4(p, 1.0, 1.0);
-#else
-    gl_Position = vec4(p, 0.0, 1.0);
+#ifndef RECT_DEPTH
+#define RECT_DEPTH 0.0
 #endif
+    // RECT_DEPTH (NDC): the depth the resolve and the interior correction z-test against
+    // the mark's (window 0.25 and 0.75: glsl/passes/gbaa.frag)
+    gl_Position = vec4(p, RECT_DEPTH, 1.0);
 }
