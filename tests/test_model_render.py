@@ -204,6 +204,26 @@ def test_scene_file_with_a_mesh_and_no_camera_or_light(tmp_path: Path) -> None:
     _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), "only.toml")
 
 
+def test_a_scene_file_with_a_camera_and_no_light_is_metered(tmp_path: Path) -> None:
+    """A scene file naming a mesh and a camera but no light gets the default look at the
+    exposure metered for the asset, as one without a camera does (at the camera's default
+    0 EV the white teapot under the studio and key light is blown out); an exposure the
+    scene writes is kept."""
+    (tmp_path / "teapot.obj").write_bytes((MESHES / "teapot.obj").read_bytes())
+    mesh = '[[objects]]\nshape = "mesh"\nfile = "teapot.obj"\n'
+    camera = "[camera]\nposition = [0.0, 2.0, 6.0]\ntarget = [0.0, 0.5, 0.0]\n"
+    (tmp_path / "framed.toml").write_text(mesh)
+    (tmp_path / "camera.toml").write_text(camera + mesh)
+    (tmp_path / "exposed.toml").write_text(camera + "exposure = 0.5\n" + mesh)
+    metered = scene_from(tmp_path / "framed.toml").scene
+    given = scene_from(tmp_path / "camera.toml").scene
+    assert list(given.camera.position) == [0.0, 2.0, 6.0] and len(given.lights) == 2
+    assert given.camera.exposure == pytest.approx(metered.camera.exposure)
+    assert given.camera.exposure < -2.0  # the white teapot: about -2 EV
+    assert given.background == pytest.approx(metered.background)  # the same light grey
+    assert scene_from(tmp_path / "exposed.toml").scene.camera.exposure == 0.5
+
+
 @pytest.mark.parametrize("size", [(320, 240), (1280, 720)])
 def test_a_scene_file_naming_only_a_mesh_is_framed_for_the_output_size(
     tmp_path: Path, size: tuple[int, int]
