@@ -471,7 +471,7 @@ def with_defaults(
         data.update(default_environment(look, azimuth))
     given = []
     if camera:
-        given.append("a camera framing its meshes")
+        given.append("a camera framing its objects")
     if lighting:
         given.append("the studio environment and a key light")
     _LOG.warning(
