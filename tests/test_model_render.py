@@ -204,6 +204,26 @@ def test_scene_file_with_a_mesh_and_no_camera_or_light(tmp_path: Path) -> None:
     _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), "only.toml")
 
 
+def test_a_scene_file_with_a_camera_and_no_light_is_metered(tmp_path: Path) -> None:
+    """A scene file naming a mesh and a camera but no light gets the default look at the
+    exposure metered for the asset, as one without a camera does (at the camera's default
+    0 EV the white teapot under the studio and key light is blown out); an exposure the
+    scene writes is kept."""
+    (tmp_path / "teapot.obj").write_bytes((MESHES / "teapot.obj").read_bytes())
+    mesh = '[[objects]]\nshape = "mesh"\nfile = "teapot.obj"\n'
+    camera = "[camera]\nposition = [0.0, 2.0, 6.0]\ntarget = [0.0, 0.5, 0.0]\n"
+    (tmp_path / "framed.toml").write_text(mesh)
+    (tmp_path / "camera.toml").write_text(camera + mesh)
+    (tmp_path / "exposed.toml").write_text(camera + "exposure = 0.5\n" + mesh)
+    metered = scene_from(tmp_path / "framed.toml").scene
+    given = scene_from(tmp_path / "camera.toml").scene
+    assert list(given.camera.position) == [0.0, 2.0, 6.0] and len(given.lights) == 2
+    assert given.camera.exposure == pytest.approx(metered.camera.exposure)
+    assert given.camera.exposure < -2.0  # the white teapot: about -2 EV
+    assert given.background == pytest.approx(metered.background)  # the same light grey
+    assert scene_from(tmp_path / "exposed.toml").scene.camera.exposure == 0.5
+
+
 @pytest.mark.parametrize("size", [(320, 240), (1280, 720)])
 def test_a_scene_file_naming_only_a_mesh_is_framed_for_the_output_size(
     tmp_path: Path, size: tuple[int, int]
@@ -234,10 +254,49 @@ def test_a_scene_file_naming_only_a_mesh_is_framed_for_the_output_size(
 
 
 def test_bundled_scenes_keep_their_camera_and_lights() -> None:
-    """The defaults touch no scene that gives a camera and lights."""
-    for name in ("teapot", "gltf_stage", "gltf_material_sampler", "showcase"):
-        path = REPO / "scenes" / f"{name}.toml"
-        assert scene_from(path).scene == load_scene(path).scene, name
+    """The defaults touch no bundled scene: each gives its camera and lights."""
+    for path in sorted((REPO / "scenes").glob("*.toml")):
+        assert scene_from(path).scene == load_scene(path).scene, path.name
+
+
+PRIMITIVE = '[materials.red]\nbase_color = [0.8, 0.1, 0.1]\n\n[[objects]]\nshape = "sphere"\n'
+
+
+def test_a_scene_of_primitives_with_no_light_gets_the_defaults(tmp_path: Path) -> None:
+    """A scene of one sphere and nothing that lights it is framed and lit as a mesh's,
+    with one note (it wrote an all-black image); with a camera it keeps the camera and
+    gets the light and metered exposure."""
+    (tmp_path / "ball.toml").write_text(PRIMITIVE + 'material = "red"\n')
+    out, depth = tmp_path / "out.png", tmp_path / "depth.png"
+    proc = _app("render", "ball.toml", "-o", out, "--size", SIZE, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if line.startswith("pbs: note:")]
+    assert len(notes) == 1 and "ball.toml: gives no camera or light" in notes[0], proc.stderr
+    proc = _app("render", "ball.toml", "-o", depth, "--size", SIZE, "--debug", "depth",
+                cwd=tmp_path)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), "ball.toml")
+    camera = "[camera]\nposition = [0.0, 1.0, 9.0]\n"
+    (tmp_path / "seen.toml").write_text(camera + PRIMITIVE + 'material = "red"\n')
+    seen = scene_from(tmp_path / "seen.toml").scene
+    assert list(seen.camera.position) == [0.0, 1.0, 9.0] and len(seen.lights) == 2
+    assert seen.environment is not None and seen.camera.exposure < -1.0
+
+
+@pytest.mark.parametrize(
+    "lead, material",
+    [
+        ("lights = []\n", 'material = "red"\n'),  # unlit on purpose
+        ("[materials.lamp]\nemissive = [1.0, 0.5, 0.2]\n", 'material = "lamp"\n'),
+        ('[environment]\nsource = "uniform"\n', 'material = "red"\n'),
+    ],
+    ids=["opted-out", "emissive", "environment"],
+)
+def test_a_scene_that_chose_its_light_keeps_it(tmp_path: Path, lead: str, material: str) -> None:
+    """A scene that writes ``lights = []``, lights itself by an emissive material of its
+    own, or gives an environment is left as written (no camera framed, no light added)."""
+    (tmp_path / "own.toml").write_text(lead + PRIMITIVE + material)
+    assert scene_from(tmp_path / "own.toml").scene == load_scene(tmp_path / "own.toml").scene
 
 
 @pytest.mark.viewer

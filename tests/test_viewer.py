@@ -575,7 +575,7 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
             comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size)
             try:
                 comp.render()
-                comp.composite("split", 0.5)
+                comp.composite("split", v.divider)  # the window's, on the gold spheres
                 want = comp.read_ldr()
             finally:
                 comp.release()
@@ -583,6 +583,50 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
         gl.release()
     assert_close(shown, want)
     assert v.document.path.name == f"{c.scene}.toml"
+
+
+def test_split_on_difference_centres_the_object_the_sides_differ_on() -> None:
+    """The divider goes to the median column of the sides' difference (the middle of
+    the object they differ on, a small faint one aside), or, where that falls between
+    two objects, onto the nearer one; 0.5 where the sides are the same."""
+    from app.viewer.window import split_on_difference
+
+    a = np.zeros((90, 400, 3), np.uint8)
+    b = a.copy()
+    assert split_on_difference(a, b) == 0.5
+    b[30:60, 300:340] = 200  # an object at columns 300..339
+    b[40:50, 40:50] = 30  # a small, faint one
+    assert abs(split_on_difference(a, b) * 400 - 320) <= 2
+    b[30:60, 100:140] = 200  # another like it: the median between them, on neither
+    assert (
+        100 <= split_on_difference(a, b) * 400 < 140 or 300 <= split_on_difference(a, b) * 400 < 340
+    )
+
+
+@pytest.mark.parametrize("size", [(960, 540), (1600, 900)])
+def test_walkthrough_split_falls_on_the_compared_object(xdisplay, lesson_steps, size):
+    """With the panels docked, a step's comparison opens with its divider on the object
+    the two sides differ on: step 5's copper in air | in water (a column left of the
+    image area's middle, which the divider at the middle missed, the copper wholly on the
+    A side) and step 4's spot cone (a pool right of the middle). The sides differ in the
+    columns just left and just right of the divider."""
+    from app.viewer.window import Viewer
+
+    v = Viewer(None, size, vsync=False)
+    try:
+        assert v.open_walkthrough(lesson_steps, "en", 5)
+        for section, i in ((5, 2), (4, 0)):
+            assert v.lesson.go_section(section) and v.lesson.compare(i)
+            v.settle()
+            a, b = (side.read_ldr().astype(np.int16) for side in v.comparison.renderers)
+            differ = np.abs(a - b).max(axis=(0, 2)) > 8  # per column of the image area
+            x, near = int(v.divider * a.shape[1]), max(a.shape[1] // 50, 2)
+            assert differ[x - near : x].any() and differ[x + 1 : x + 1 + near].any(), (
+                f"step {section}: the divider at {x} of {a.shape[1]} misses the columns "
+                f"the sides differ in: {np.flatnonzero(differ)}"
+            )
+    finally:
+        v.close()
 
 
 def test_walkthrough_sweep_value_and_reset(viewer, lesson_steps, gl_egl):

@@ -386,6 +386,22 @@ def albedo_curve(
 # -- the figure ----------------------------------------------------------------------------
 
 
+TITLE_POINTS = 9  # a column's title
+# A character's mean advance in ems, a little above a sans-serif's, Latin and Hangul mixed
+# (a Hangul syllable is about 1 em: a title of Korean words wraps early, never late).
+CHAR_EMS = 0.62
+
+
+def _wrapped(text: str, inches: float, points: float) -> str:
+    """``text`` broken at its spaces into lines that fit a column ``inches`` wide at
+    ``points`` (a long inline material, all its keys in its name, ran past the figure's
+    edge): each line at most as many characters as the width holds at ``CHAR_EMS``."""
+    import textwrap
+
+    chars = max(int(0.92 * inches * 72.0 / (CHAR_EMS * points)), 12)
+    return "\n".join(textwrap.wrap(text, chars, break_long_words=False)) or text
+
+
 def _subtitle(params: MaterialParams, words: FigureWords = ENGLISH) -> str:
     return words.subtitle.format(
         model=params.model.describe(), roughness=params.roughness, metallic=params.metallic
@@ -474,8 +490,12 @@ def _plot_albedo(ax: Axes, curve: AlbedoCurve, words: FigureWords = ENGLISH) -> 
     ax.set_ylabel(words.albedo, fontsize=8)
     ax.tick_params(labelsize=7)
     ax.grid(alpha=0.3)
+    # The quadrature's error note above the plot, where no curve runs: inside it, at a
+    # fixed corner, a curve along the axis there crossed it (a dielectric's albedo of
+    # 0.04 from 0 to 45 degrees), and the legend's free spot is no place for a line as
+    # long (the steep rise at the critical angle ran through it there).
     note = words.quadrature.format(error=curve.error.max())
-    ax.text(0.02, 0.02, note, transform=ax.transAxes, fontsize=7, color="dimgrey")
+    ax.set_title(note, loc="left", fontsize=7, color="dimgrey")
     ax.legend(fontsize=7, loc="best", ncol=2, frameon=False)
 
 
@@ -572,9 +592,10 @@ def _render_figure(
         polar = fig.add_subplot(grid[0, j], projection="polar")
         _plot_lobes(polar, col.lobes, quantity, rgb, log, words)
         # Above the 0 degree label, in the empty upper quarter of the square polar box.
+        name = _wrapped(col.material.name, width / len(columns), TITLE_POINTS)
         polar.set_title(
-            f"{col.material.name}\n{_subtitle(col.material.params, words)}",
-            fontsize=9,
+            f"{name}\n{_subtitle(col.material.params, words)}",
+            fontsize=TITLE_POINTS,
             y=0.75,
             pad=24,
         )

@@ -71,16 +71,39 @@ def is_model_file(path: str | Path) -> bool:
 
 
 def needs_defaults(loaded: LoadedScene) -> tuple[bool, bool]:
-    """(camera, lighting): whether a scene file that names a mesh file gives no camera,
-    and whether it gives no light, environment or imported lights (app/scene/model_file.py
-    ``with_defaults`` then fills them in)."""
+    """(camera, lighting): which of the model file's defaults a scene file gets
+    (app/scene/model_file.py ``with_defaults`` fills them in; docs/scene-format.md,
+    "A scene file without a camera or lights").
+
+    Lighting: the scene gives nothing that lights it: no light, no environment, no
+    imported light, no ``lights = []`` written (an unlit scene on purpose) and no
+    material of its own ``[materials]`` that an object wears and that emits (its emission
+    is its light). Camera: no ``[camera]`` where the scene names a mesh file; a scene of
+    primitives alone is framed only where it gets the lighting too, so a scene that
+    lights its primitives keeps the default camera it was written for."""
     scene = loaded.scene
-    if not any(obj.file is not None for obj in scene.objects):
-        return False, False
-    camera = "camera" not in scene.model_fields_set
     lighting = (
         not scene.lights
         and scene.environment is None
+        and "lights" not in scene.model_fields_set
         and not any(obj.import_lights for obj in scene.objects)
+        and not _emits(loaded)
     )
+    camera = "camera" not in scene.model_fields_set
+    if not any(obj.file is not None for obj in scene.objects):
+        camera = camera and lighting
     return camera, lighting
+
+
+def _emits(loaded: LoadedScene) -> bool:
+    """Whether an object wears a material of the scene's ``[materials]`` that emits light:
+    an emissive colour above black at a strength above zero (an ``emissive_map`` only
+    multiplies it, and a scene file refuses one without ``emissive``)."""
+    materials = loaded.scene.materials
+    for obj in loaded.scene.objects:
+        material = materials.get(obj.material) if obj.material else None
+        if material is None:
+            continue
+        if max(material.emission) > 0.0:
+            return True
+    return False

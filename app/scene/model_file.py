@@ -471,7 +471,7 @@ def with_defaults(
         data.update(default_environment(look, azimuth))
     given = []
     if camera:
-        given.append("a camera framing its meshes")
+        given.append("a camera framing its objects")
     if lighting:
         given.append("the studio environment and a key light")
     _LOG.warning(
@@ -486,6 +486,10 @@ def with_defaults(
     if camera:
         size = size or (result.scene.render.width, result.scene.render.height)
         final = framed(result, look, size, lit=lighting, parts=parts)
+    elif "exposure" not in result.scene.camera.model_fields_set:
+        # the scene's camera, at the exposure metered for the default look's light: the
+        # camera's exposure default (0 EV) is no choice of the scene's
+        final = _lit(result, result.scene.camera.model_dump(exclude_unset=True), parts, look)
     else:
         azimuth = look.angles()[0]
         key = key_light(*_sphere(_surface_points(parts)), azimuth)

@@ -98,7 +98,7 @@ class ViewerHost(Protocol):
         a: Any,
         b: Any,
         mode: str = "split",
-        divider: float = 0.5,
+        divider: float | None = 0.5,
         gain: float = 8.0,
     ) -> bool: ...
 

@@ -242,11 +242,13 @@ class Lesson:
 
     def compare(self, i: int) -> bool:
         """Comparison ``i`` of the step in the split screen: its scene (as the step file
-        names it, edits kept if it is already shown) with A on the left, B on the right."""
+        names it, edits kept if it is already shown) with A on the left, B on the right,
+        the divider on the object the two differ on most (a material's object, a spot
+        light's pool, a floor's glint), wherever the image area puts it."""
         c = self.current.step.comparisons[i]
         if not self.open(c.scene):
             return False
-        return self.viewer.compare(c.key, c.a, c.b)
+        return self.viewer.compare(c.key, c.a, c.b, divider=None)
 
     def select_sweep(self, i: int) -> bool:
         """Select sweep ``i``: its scene shown, the slider at the sweep's start value."""

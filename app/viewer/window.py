@@ -107,6 +107,41 @@ INTERACTIVE = RenderOptions(interactive=True)
 CHECKER_GREYS = (204, 153)
 
 
+# A split placed on the compared object (``split_on_difference``): the column profile of
+# the sides' difference smoothed over 1/SPLIT_SMOOTH of the width; its median column is
+# on what they differ on where the profile there keeps SPLIT_ON of its peak; else the
+# runs of columns above SPLIT_RUN of the peak are the objects to choose from.
+SPLIT_SMOOTH = 64
+SPLIT_ON = 0.05
+SPLIT_RUN = 0.25
+
+
+def split_on_difference(a: np.ndarray, b: np.ndarray) -> float:
+    """Where a split of the display images ``a`` and ``b`` (H, W, 3) should fall, a
+    fraction of the width: the median column of their difference (half of it on either
+    side: a compared sphere's middle, a spot's pool's, a glint's), or, where the sides
+    hardly differ there (the difference on objects apart), the middle of the differing
+    object nearest to it, so that what is compared straddles the divider wherever the
+    image puts it; 0.5 where the sides are the same."""
+    diff = np.abs(a[..., :3].astype(np.float32) - b[..., :3].astype(np.float32))
+    profile = diff.sum(axis=(0, 2), dtype=np.float64)
+    width = len(profile)
+    if not profile.max() > 0.0:
+        return 0.5
+    half = max(width // SPLIT_SMOOTH, 1)
+    smooth = np.convolve(profile, np.ones(2 * half + 1) / (2 * half + 1), mode="same")
+    peak = float(smooth.max())
+    total = np.cumsum(profile)
+    median = int(np.searchsorted(total, 0.5 * total[-1]))
+    if smooth[median] >= SPLIT_ON * peak:
+        return (median + 0.5) / width
+    inside = np.concatenate([[False], smooth >= SPLIT_RUN * peak, [False]])
+    edges = np.flatnonzero(np.diff(inside.astype(np.int8)))
+    runs = list(zip(edges[::2], edges[1::2], strict=True))
+    left, right = min(runs, key=lambda run: abs((run[0] + run[1]) / 2.0 - median))
+    return (left + right) / 2.0 / width
+
+
 class ViewerError(RuntimeError):
     """The window cannot be opened (no display, no OpenGL 3.3)."""
 
@@ -200,6 +235,7 @@ class Viewer:
         self.comparison: Comparison | None = None
         self.compare_mode: str = "split"  # or "difference"
         self.divider = 0.5  # where the split falls, a fraction of the width
+        self._place_divider = False  # the next frame puts it on the sides' difference
         self.gain = 8.0  # the difference view's magnification
         self.debug_view: str | None = None  # a view of app/render/debug_views.py
         self.debug_light = 0
@@ -431,13 +467,14 @@ class Viewer:
         a: Any,
         b: Any,
         mode: str = "split",
-        divider: float = 0.5,
+        divider: float | None = 0.5,
         gain: float = 8.0,
     ) -> bool:
         """Show the scene with two values of one key side by side (``mode`` "split", the
-        divider at ``divider`` of the width; drag it in the window) or as their difference
-        magnified by ``gain`` (docs/compare.md). A key or value the scene refuses is
-        reported and nothing changes."""
+        divider at ``divider`` of the width, or, with None, on the object the sides differ
+        on most, placed from the first frame's images: ``split_on_difference``; drag it in
+        the window) or as their difference magnified by ``gain`` (docs/compare.md). A key
+        or value the scene refuses is reported and nothing changes."""
         self._current()
         self.touch()
         try:
@@ -449,7 +486,9 @@ class Viewer:
             return self._refuse(exc)
         self.stop_compare()
         self.comparison = comparison
-        self.compare_mode, self.divider, self.gain = mode, float(divider), float(gain)
+        self.compare_mode, self.gain = mode, float(gain)
+        self.divider = 0.5 if divider is None else float(divider)
+        self._place_divider = divider is None
         self.state.error = ""
         self.state.dirty = True
         return True
@@ -515,6 +554,7 @@ class Viewer:
 
     def set_divider(self, divider: float) -> None:
         self.divider = float(np.clip(divider, 0.0, 1.0))
+        self._place_divider = False
         self.state.dirty = True
 
     def set_vsync(self, on: bool) -> None:
@@ -644,6 +684,9 @@ class Viewer:
         changed = self.state.dirty or self.state.rendered_scale != scale
         if self.comparison is not None:  # the two sides, composited; the base is not drawn
             self.comparison.render()
+            if self._place_divider:  # on the object the sides differ on most
+                a, b = (side.read_ldr() for side in self.comparison.renderers)
+                self.divider, self._place_divider = split_on_difference(a, b), False
             self.comparison.composite(self.compare_mode, self.divider, self.gain)
         else:
             timings: dict[str, float] = {}
