@@ -458,7 +458,7 @@ def rgb_texels(image: Image.Image) -> np.ndarray:
         return kept
     decoded = _decoded(image)
     source = decoded if decoded.mode == "RGB" else decoded.convert("RGB")
-    texels = np.asarray(source, np.uint8)
+    texels = _rgb_bytes(source)
     texels.setflags(write=False)
     if isinstance(digest, str):
         with _RGB_LOCK:
@@ -466,6 +466,25 @@ def rgb_texels(image: Image.Image) -> np.ndarray:
             while len(_RGB) > _RGB_KEPT:
                 _RGB.popitem(last=False)
     return texels
+
+
+def _rgb_bytes(image: Image.Image) -> np.ndarray:
+    """``np.asarray(image, np.uint8)`` of an RGB image, the same bytes, from one call of
+    Pillow's raw encoder: ``tobytes`` (which ``np.asarray`` calls) encodes 64 KiB at a
+    time, ~190 calls for a 2048^2 image, and joins the pieces into a second copy."""
+    size = image.width * image.height * 3
+    encoder = getattr(Image, "_getencoder", None)
+    if encoder is None or size == 0:  # not this Pillow's internals: its public path
+        return np.asarray(image, np.uint8)
+    raw = encoder(image.mode, "raw", ("RGB", 0, 1))
+    try:
+        raw.setimage(image.im, (0, 0, *image.size))
+        _, status, data = raw.encode(size)  # the whole image fits: one call, status 1
+    finally:
+        raw.cleanup()
+    if status != 1 or len(data) != size:
+        return np.asarray(image, np.uint8)
+    return np.frombuffer(data, np.uint8).reshape(image.height, image.width, 3)
 
 
 # Texels of the last few images ``rgb_texels`` made, by digest (a material's maps ask
