@@ -633,13 +633,27 @@ def colour_texture(image: Image.Image) -> Texture:
     if image.info.get(REDUCED_LEVELS) and image.height == side and side & (side - 1) == 0:
         # A DCT-scaled level is not the GL's level n anyway: its mips are made here
         # (mips.srgb_box_levels), without the GL's blit (compiled once a process).
-        made = lambda: srgb_box_levels(rows_up()[0])  # noqa: E731
+        first: Future = Future()  # level 0, handed over before its mips are made
+
+        def made() -> list[np.ndarray]:
+            texels = rows_up()[0]
+            first.set_result(texels[::-1])
+            return srgb_box_levels(texels)
 
         def levels() -> list[np.ndarray]:
-            entry = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
-            return [level[::-1] for level in entry]
+            try:
+                entry = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
+            except BaseException as exc:
+                if not first.done():
+                    first.set_exception(exc)
+                raise
+            made_levels = [level[::-1] for level in entry]
+            if not first.done():  # read from the cache: no level 0 handed over
+                first.set_result(made_levels[0])
+            return made_levels
 
-        return Texture(PendingLevels(_colour_maker().submit(levels)), srgb=True, source_key=key)
+        future = _colour_maker().submit(levels)
+        return Texture(PendingLevels(future, first), srgb=True, source_key=key)
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
 
@@ -649,12 +663,18 @@ class PendingLevels(Sequence[np.ndarray]):
     decode waited for, its mips made or its entry read), read when first indexed: the
     thread that reads the material goes on with the parts, the framing and the GL while
     they are made. A broken image's ``RefusedError`` is raised to whoever reads them (a
-    glTF file reports it, by its key, before: app/scene/gltf.py ``_decodes_checked``)."""
+    glTF file reports it, by its key, before: app/scene/gltf.py ``_decodes_checked``).
+    ``first``, where given: level 0 alone, set as soon as it is at hand (before the mips
+    are made), which ``levels[0]`` waits for instead (the exposure meter reads level 0
+    while the mips are still being made)."""
 
-    def __init__(self, future: Future) -> None:
+    def __init__(self, future: Future, first: Future | None = None) -> None:
         self._future = future
+        self._first = first
 
     def __getitem__(self, index):  # type: ignore[override]  # an int or a slice, as a list's
+        if index == 0 and self._first is not None and not self._future.done():
+            return self._first.result()
         return self._future.result()[index]
 
     def __len__(self) -> int:
