@@ -49,6 +49,7 @@ from app.textures.mips import (
     srgb_box_levels,
     unorm8_float16,
 )
+from app.textures.pillow_view import rgbx_view
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
@@ -458,7 +459,8 @@ def rgb_texels(image: Image.Image) -> np.ndarray:
         return kept
     decoded = _decoded(image)
     source = decoded if decoded.mode == "RGB" else decoded.convert("RGB")
-    texels = _rgb_bytes(source)
+    view = rgbx_view(source)  # Pillow's own storage where it exports it, else a copy
+    texels = view[..., :3] if view is not None else _rgb_bytes(source)
     texels.setflags(write=False)
     if isinstance(digest, str):
         with _RGB_LOCK:

@@ -1,0 +1,50 @@
+"""A decoded RGB image's texels are read in Pillow's own storage (app/textures/
+pillow_view.py): the same values as ``np.asarray``'s copy, a view that outlives the image,
+and a copy where Pillow's allocator split the rows."""
+
+from __future__ import annotations
+
+import gc
+import io
+
+import numpy as np
+from PIL import Image
+
+from app.textures.maps import rgb_texels
+from app.textures.pillow_view import rgbx_view
+
+
+def _decoded(side: int = 96) -> Image.Image:
+    rng = np.random.default_rng(7)
+    data = io.BytesIO()
+    Image.fromarray(rng.integers(0, 256, (side, side + 8, 3), np.uint8)).save(data, "JPEG")
+    image = Image.open(io.BytesIO(data.getvalue()))
+    image.load()
+    return image
+
+
+def test_rgb_texels_read_in_place() -> None:
+    image = _decoded()
+    expected = np.asarray(image).copy()
+    texels = rgb_texels(image)
+    assert texels.strides[1] == 4  # Pillow's 4-byte texels, not a packed copy
+    assert not texels.flags.writeable
+    assert np.array_equal(texels, expected)
+    del image
+    gc.collect()
+    np.ones(1 << 20)  # memory handed out again meanwhile
+    assert np.array_equal(texels, expected)  # the storage is kept while the view lives
+
+
+def test_split_rows_are_copied() -> None:
+    """Rows in several blocks of Pillow's allocator have no one view: copied instead."""
+    size = Image.core.get_block_size()
+    Image.core.set_block_size(4096)
+    try:
+        image = _decoded()
+    finally:
+        Image.core.set_block_size(size)
+    assert rgbx_view(image) is None
+    texels = rgb_texels(image)
+    assert texels.strides[1] == 3
+    assert np.array_equal(texels, np.asarray(image))
