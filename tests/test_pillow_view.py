@@ -48,3 +48,21 @@ def test_split_rows_are_copied() -> None:
     texels = rgb_texels(image)
     assert texels.strides[1] == 3
     assert np.array_equal(texels, np.asarray(image))
+
+
+def test_colour_rows_copied_from_the_view(tmp_path, monkeypatch) -> None:
+    """A colour map's rows (bottom first, 4 bytes a texel) are one copy of Pillow's
+    storage, never its raw encoder's pieces joined; the values are convert("RGBA")'s."""
+    from app.textures import maps
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))  # made here, not read
+    image = _decoded()
+    image.info[maps.SOURCE_DIGEST] = "test-colour-rows"
+    expected = np.asarray(image.convert("RGBA"))
+
+    def refused(*args, **kwargs):
+        raise AssertionError("the texels were encoded")
+
+    monkeypatch.setattr(Image.Image, "tobytes", refused)
+    texture = maps.colour_texture(image)
+    assert np.array_equal(texture.levels[0], expected)

@@ -622,9 +622,15 @@ def colour_texture(image: Image.Image) -> Texture:
         if decoded.mode == "RGB":
             # An RGB image's texels are stored 4 bytes each; a decoder's 4th byte is 255,
             # so the raw "RGBX" bytes are convert("RGBA")'s, without the converted copy.
-            # Checked, since an image made otherwise may hold another 4th byte.
-            texels = np.frombuffer(decoded.tobytes("raw", "RGBX", 0, -1), np.uint8)
-            texels = texels.reshape(shape)
+            # Checked, since an image made otherwise may hold another 4th byte. Copied
+            # rows bottom first from Pillow's storage where it is one view (pillow_view),
+            # else by the raw encoder (64 KiB at a time, then joined: a second copy).
+            view = rgbx_view(decoded)
+            if view is not None:
+                texels = np.ascontiguousarray(view[::-1])
+            else:
+                texels = np.frombuffer(decoded.tobytes("raw", "RGBX", 0, -1), np.uint8)
+                texels = texels.reshape(shape)
             if texels.size and texels[..., 3].min() == 255:
                 return [texels]
         converted = decoded.convert("RGBA")
