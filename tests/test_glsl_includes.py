@@ -98,3 +98,28 @@ def test_fragment_only_extension_stays_out_of_the_vertex_stage():
     assert extension in assemble("passes/gbuffer.frag", defines)
     assert extension not in assemble("passes/gbuffer.vert", defines)
     assert extension not in assemble("passes/gbuffer.frag", {})
+
+
+def test_expanded_text_is_the_traced_expansion(tmp_path) -> None:
+    """``expand_includes`` (each file parsed once a process, no line origins) gives the
+    text of the line-by-line expansion whose origins trace a compiler's errors, for every
+    shader and library file and for a file whose includes repeat, sit in a comment or
+    miss the pattern."""
+    from app.gl.shaders import _expand_file, expand_includes
+
+    stages = ("*.glsl", "*.vert", "*.frag", "*.geom")
+    names = sorted(
+        {p.relative_to(glsl_dir()).as_posix() for s in stages for p in glsl_dir().rglob(s)}
+    )
+    for name in names:
+        assert expand_includes(name) == "\n".join(_expand_file(name)[0]), name
+    (tmp_path / "a.glsl").write_text('float a;\n  #include "b.glsl"  \n', encoding="utf-8")
+    (tmp_path / "b.glsl").write_text('#include "a.glsl"\nfloat b;', encoding="utf-8")
+    text = (
+        '#include "b.glsl"\n// #include "a.glsl"\n#include "a.glsl"\n#include "b.glsl"\n'
+        '#include b.glsl\n#include "b.glsl" x\n'
+    )
+    (tmp_path / "main.frag").write_text(text, encoding="utf-8")
+    expanded = expand_includes("main.frag", tmp_path)
+    assert expanded == "\n".join(_expand_file("main.frag", tmp_path)[0])
+    assert expanded.count("float a;") == expanded.count("float b;") == 1

@@ -278,3 +278,30 @@ def test_colour_levels_off_the_reading_thread(
     assert base.levels[0].shape[:2] == (TEXELS // 4, TEXELS // 4)
     assert len(base.levels) == 7  # 64 texels a side down to 1
     assert threads and all(name.startswith("pbs-colour-levels") for name in threads)
+
+
+def test_colour_level_zero_before_its_mips(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A DCT-scaled colour map's level 0 is handed over as soon as it is decoded: the
+    exposure meter (which reads it while the scene is read) does not wait for the mips."""
+    import threading
+
+    import app.textures.maps as maps
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))  # the mips made, not read
+    read = threading.Event()  # set once the scene is read, its meter having read level 0
+    waited: list[bool] = []
+    made = maps.srgb_box_levels
+
+    def held(level0: np.ndarray) -> list[np.ndarray]:
+        waited.append(read.wait(timeout=5.0))  # False: the reader waited for the mips
+        return made(level0)
+
+    monkeypatch.setattr(maps, "srgb_box_levels", held)
+    loaded = scene_from(_model(tmp_path), size=(40, 40), still=True)
+    read.set()
+    kept = take_built(loaded)
+    assert kept is not None
+    base = kept[0][0].layers[0].maps["base_color"]
+    assert len(base.levels) == 7  # the mips, made once the scene was read
+    assert waited == [True]
+    assert base.levels[0].shape[:2] == (TEXELS // 4, TEXELS // 4)

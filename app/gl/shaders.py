@@ -65,9 +65,58 @@ def _expand(name: str, text: str, root: Path, seen: set[str]) -> tuple[list[str]
     return lines, origins
 
 
+def _includes(text: str) -> tuple[list[str], list[tuple[int, str]]]:
+    """``text``'s lines and its #include lines as (index, included name): ``_expand``'s
+    line by line match, tried only on the lines that hold "#include"."""
+    lines = text.split("\n")
+    found: list[tuple[int, str]] = []
+    start = text.find("#include")
+    while start >= 0:
+        index = text.count("\n", 0, start)
+        match = _INCLUDE.match(lines[index])
+        if match is not None and (not found or found[-1][0] != index):
+            found.append((index, match.group(1)))
+        end = text.find("\n", start)
+        start = -1 if end < 0 else text.find("#include", end)
+    return lines, found
+
+
+# ``_includes`` of each source text this process expanded: a program's files are mostly
+# the same library files, each read every time but split and searched once.
+_PARSED: dict[str, tuple[list[str], list[tuple[int, str]]]] = {}
+
+
+def _expand_lines(text: str, root: Path, seen: set[str], out: list[str]) -> None:
+    """``_expand``'s lines of ``text`` appended to ``out`` (without their origins, which
+    only a compiler's error needs): the same lines, its library files parsed once."""
+    parsed = _PARSED.get(text)
+    if parsed is None:
+        parsed = _PARSED[text] = _includes(text)
+    lines, includes = parsed
+    done = 0
+    for index, child in includes:
+        out += lines[done:index]
+        done = index + 1
+        if child in seen:
+            out.append("")
+            continue
+        seen.add(child)
+        generated = GENERATED_INCLUDES.get(child)
+        body = generated() if generated is not None else (root / child).read_text("utf-8")
+        _expand_lines(body, root, seen, out)
+    out += lines[done:]
+
+
 def expand_includes(relative: str, root: Path | None = None, _seen: set[str] | None = None) -> str:
     """The source of ``relative`` (under ``glsl/``) with every #include spliced in once."""
-    return "\n".join(_expand_file(relative, root, _seen)[0])
+    root = glsl_dir() if root is None else root
+    seen = set() if _seen is None else _seen
+    if relative in seen:
+        return ""
+    seen.add(relative)
+    out: list[str] = []
+    _expand_lines((root / relative).read_text(encoding="utf-8"), root, seen, out)
+    return "\n".join(out)
 
 
 def _expand_file(

@@ -126,7 +126,7 @@ def sampled_spread(
     ys, fy = spread_sample_origins(normals.shape[0], footprint)
     rows = (ys[:, None] + np.arange(fy)).ravel()
     cols = (xs[:, None] + np.arange(fx)).ravel()
-    texels = normals.take(rows, axis=0).take(cols, axis=1)
+    texels = normals[np.ix_(rows, cols)]  # a gather: take would copy a strided view whole
     if texels.dtype == np.uint8:
         texels = decode_normal_map(texels)
         if scale != 1.0:

@@ -49,6 +49,7 @@ from app.textures.mips import (
     srgb_box_levels,
     unorm8_float16,
 )
+from app.textures.pillow_view import rgbx_view
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
@@ -458,7 +459,8 @@ def rgb_texels(image: Image.Image) -> np.ndarray:
         return kept
     decoded = _decoded(image)
     source = decoded if decoded.mode == "RGB" else decoded.convert("RGB")
-    texels = np.asarray(source, np.uint8)
+    view = rgbx_view(source)  # Pillow's own storage where it exports it, else a copy
+    texels = view[..., :3] if view is not None else _rgb_bytes(source)
     texels.setflags(write=False)
     if isinstance(digest, str):
         with _RGB_LOCK:
@@ -466,6 +468,25 @@ def rgb_texels(image: Image.Image) -> np.ndarray:
             while len(_RGB) > _RGB_KEPT:
                 _RGB.popitem(last=False)
     return texels
+
+
+def _rgb_bytes(image: Image.Image) -> np.ndarray:
+    """``np.asarray(image, np.uint8)`` of an RGB image, the same bytes, from one call of
+    Pillow's raw encoder: ``tobytes`` (which ``np.asarray`` calls) encodes 64 KiB at a
+    time, ~190 calls for a 2048^2 image, and joins the pieces into a second copy."""
+    size = image.width * image.height * 3
+    encoder = getattr(Image, "_getencoder", None)
+    if encoder is None or size == 0:  # not this Pillow's internals: its public path
+        return np.asarray(image, np.uint8)
+    raw = encoder(image.mode, "raw", ("RGB", 0, 1))
+    try:
+        raw.setimage(image.im, (0, 0, *image.size))
+        _, status, data = raw.encode(size)  # the whole image fits: one call, status 1
+    finally:
+        raw.cleanup()
+    if status != 1 or len(data) != size:
+        return np.asarray(image, np.uint8)
+    return np.frombuffer(data, np.uint8).reshape(image.height, image.width, 3)
 
 
 # Texels of the last few images ``rgb_texels`` made, by digest (a material's maps ask
@@ -601,9 +622,15 @@ def colour_texture(image: Image.Image) -> Texture:
         if decoded.mode == "RGB":
             # An RGB image's texels are stored 4 bytes each; a decoder's 4th byte is 255,
             # so the raw "RGBX" bytes are convert("RGBA")'s, without the converted copy.
-            # Checked, since an image made otherwise may hold another 4th byte.
-            texels = np.frombuffer(decoded.tobytes("raw", "RGBX", 0, -1), np.uint8)
-            texels = texels.reshape(shape)
+            # Checked, since an image made otherwise may hold another 4th byte. Copied
+            # rows bottom first from Pillow's storage where it is one view (pillow_view),
+            # else by the raw encoder (64 KiB at a time, then joined: a second copy).
+            view = rgbx_view(decoded)
+            if view is not None:
+                texels = np.ascontiguousarray(view[::-1])
+            else:
+                texels = np.frombuffer(decoded.tobytes("raw", "RGBX", 0, -1), np.uint8)
+                texels = texels.reshape(shape)
             if texels.size and texels[..., 3].min() == 255:
                 return [texels]
         converted = decoded.convert("RGBA")
@@ -614,13 +641,27 @@ def colour_texture(image: Image.Image) -> Texture:
     if image.info.get(REDUCED_LEVELS) and image.height == side and side & (side - 1) == 0:
         # A DCT-scaled level is not the GL's level n anyway: its mips are made here
         # (mips.srgb_box_levels), without the GL's blit (compiled once a process).
-        made = lambda: srgb_box_levels(rows_up()[0])  # noqa: E731
+        first: Future = Future()  # level 0, handed over before its mips are made
+
+        def made() -> list[np.ndarray]:
+            texels = rows_up()[0]
+            first.set_result(texels[::-1])
+            return srgb_box_levels(texels)
 
         def levels() -> list[np.ndarray]:
-            entry = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
-            return [level[::-1] for level in entry]
+            try:
+                entry = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
+            except BaseException as exc:
+                if not first.done():
+                    first.set_exception(exc)
+                raise
+            made_levels = [level[::-1] for level in entry]
+            if not first.done():  # read from the cache: no level 0 handed over
+                first.set_result(made_levels[0])
+            return made_levels
 
-        return Texture(PendingLevels(_colour_maker().submit(levels)), srgb=True, source_key=key)
+        future = _colour_maker().submit(levels)
+        return Texture(PendingLevels(future, first), srgb=True, source_key=key)
     (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
     return Texture([texels[::-1]], srgb=True, source_key=key)
 
@@ -630,12 +671,18 @@ class PendingLevels(Sequence[np.ndarray]):
     decode waited for, its mips made or its entry read), read when first indexed: the
     thread that reads the material goes on with the parts, the framing and the GL while
     they are made. A broken image's ``RefusedError`` is raised to whoever reads them (a
-    glTF file reports it, by its key, before: app/scene/gltf.py ``_decodes_checked``)."""
+    glTF file reports it, by its key, before: app/scene/gltf.py ``_decodes_checked``).
+    ``first``, where given: level 0 alone, set as soon as it is at hand (before the mips
+    are made), which ``levels[0]`` waits for instead (the exposure meter reads level 0
+    while the mips are still being made)."""
 
-    def __init__(self, future: Future) -> None:
+    def __init__(self, future: Future, first: Future | None = None) -> None:
         self._future = future
+        self._first = first
 
     def __getitem__(self, index):  # type: ignore[override]  # an int or a slice, as a list's
+        if index == 0 and self._first is not None and not self._future.done():
+            return self._first.result()
         return self._future.result()[index]
 
     def __len__(self) -> int:

@@ -76,10 +76,11 @@ def decode_normal_map(rgb: np.ndarray, planes: bool = False) -> np.ndarray:
     # A table of the 256 decoded values (the same float64 operations per value as decoding
     # each texel), then |n| as sqrt(x^2 + y^2 + z^2) summed in that order: bit for bit
     # what np.linalg.norm gives, without its temporaries.
-    if planes:
+    if planes:  # mode="clip" (a uint8 index cannot leave the table) writes into ``out``
+        # directly, where "raise" fills a buffer of its own first and copies it over
         held = np.empty((3, *a.shape[:2]))
         for k in range(3):
-            np.take(_DECODE_UNORM8, a[..., k], out=held[k])
+            np.take(_DECODE_UNORM8, a[..., k], out=held[k], mode="clip")
         held /= _length(np.moveaxis(held, 0, -1))
         n = np.moveaxis(held, 0, -1)
     else:
