@@ -18,7 +18,7 @@ from app.cli import main
 from app.render.renderer import Renderer
 from app.scene.loader import load_scene
 from tests.gltf_builder import GltfBuilder, png_rgb
-from tests.test_gltf_render import EXTRA_NODE_X, N, ON_AXIS, frame
+from tests.test_gltf_render import EXTRA_NODE_X, ON_AXIS, N, frame
 
 PBR = pygltflib.PbrMetallicRoughness
 # The factors the right quad's material "paint" is given, in the file or by the scene.
