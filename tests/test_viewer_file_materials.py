@@ -54,7 +54,8 @@ def test_a_picked_model_file_object_shows_its_material_and_an_edit_redraws(
         # green fell where the helmet is, red did not
         assert after[moved][:, 1].mean() < 0.6 * before[moved][:, 1].mean()
         assert after[moved][:, 0].mean() > 0.8 * before[moved][:, 0].mean()
-        v.step(2)  # the panel draws the override
+        v.panels.open_sections = True  # Scene > Materials lists the file's material too
+        v.step(2)  # the panels draw the override
         assert v.panels.shown_material == key and not v.state.error
         saved = load_scene(v.save_scene(folder / "helmet-view.toml"))
         assert saved.scene == v.scene

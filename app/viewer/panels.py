@@ -154,8 +154,8 @@ class Panels:
         # glTF files' own materials read for it (``_file_materials``).
         self.shown_material: str | None = None
         self._file_info: dict[tuple[str, float], tuple[list[str], list[dict[str, Any]]]] = {}
-        # Every section of the Material panel drawn open (the docs' screenshot and the
-        # test that draws each layered material's controls).
+        # Every section of the Material panel (and Scene > Materials) drawn open (the docs'
+        # screenshot and the tests that draw each material's controls).
         self.open_sections = False
         io = imgui.get_io()
         io.config_flags |= imgui.ConfigFlags_.docking_enable
@@ -456,6 +456,8 @@ class Panels:
                     if imgui.selectable(label, chosen)[0]:
                         first = own[0][0] if own and own[0] and obj.material is None else None
                         v.selection = Selection(i, obj.material, first)
+            if self.open_sections:
+                imgui.set_next_item_open(True, imgui.Cond_.always)
             if imgui.collapsing_header("Materials"):
                 for name in v.scene.materials:
                     if imgui.selectable(name, v.selection.material == name)[0]:
