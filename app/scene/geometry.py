@@ -97,6 +97,9 @@ class MeshPart:
     # and (N, 4) float32, linear RGBA; None where the file has none.
     uv1: np.ndarray | None = None
     colors: np.ndarray | None = None
+    # A glTF part's own material by its ``file_materials`` key (app/scene/file_materials.py)
+    # where the file's material is drawn; None otherwise (the viewer's pick names it).
+    file_material: str | None = None
 
     @property
     def material(self) -> MaterialParams:
@@ -683,6 +686,7 @@ def _gltf_parts(
     two-sided, as for other mesh files. Any problem with the file is one InputError."""
     # The glTF reader (its schema, extensions, animation) is imported by a scene that
     # names a glTF file, not by one of primitives (docs/performance.md, "Start-up").
+    from app.scene import file_materials
     from app.scene.gltf import GltfFile
     from app.scene.gltf_animation import PoseError, PoseRequest
     from app.scene.gltf_document import GltfError
@@ -698,6 +702,12 @@ def _gltf_parts(
         problem = gltf_problem(gltf.doc, path, loaded.policy)  # missing files, extensions
         if problem is not None:
             raise InputError(scene_file, key, problem)
+        materials = gltf.doc.materials or []
+        names = file_materials.material_keys(materials)
+        if obj.file_materials:
+            gltf.factors = file_materials.resolved(
+                obj.file_materials, materials, scene_file, index, path
+            )
         prims = gltf.primitives()
         if loaded.still_view is not None and chosen is None and gltf.still_streamable():
             gltf.uv_lod = _still_uv_lod(loaded.still_view, prims, model, gltf)
@@ -720,6 +730,8 @@ def _gltf_parts(
             colors = None if prim.colors is None else prim.colors.astype(np.float32)
             part = MeshPart(vertices, indices, layers, model @ prim.world, blend, closed, index)
             part.uv1, part.colors = uv1, colors
+            if chosen is None and prim.material is not None:
+                part.file_material = names[prim.material]
             parts.append(part)
     except PoseError as exc:  # an animation, time or variant the file does not have
         raise InputError(scene_file, f"objects[{index}].{exc.option}", f"{path}: {exc}") from None

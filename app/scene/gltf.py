@@ -42,11 +42,12 @@ from __future__ import annotations
 import base64
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from PIL import Image, features
@@ -80,6 +81,9 @@ from app.textures.maps import (
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import DEFAULT_POLICY, InputPolicy
+
+if TYPE_CHECKING:
+    from app.scene.model import FileMaterial
 
 # Accessor componentType -> little-endian numpy type, and the divisor of a normalized
 # integer (glTF 2.0 sec. 3.11: signed values are max(c / (2^(n-1) - 1), -1)).
@@ -233,8 +237,12 @@ class GltfFile:
         policy: InputPolicy = DEFAULT_POLICY,
         budget: Budget | None = None,
         pose: PoseRequest | None = None,
+        factors: Mapping[int, FileMaterial] | None = None,
     ) -> None:
+        """``factors``: the scene's overrides of materials' factors by material index
+        (``objects[i].file_materials``: app/scene/file_materials.py)."""
         self.path = path
+        self.factors = dict(factors or {})
         self.policy = policy
         self.budget = budget or Budget(policy.limits)
         self.doc = open_gltf(path, policy)
@@ -942,6 +950,9 @@ class GltfFile:
                 metallic = _number(pbr.metallicFactor, f"{pkey}.metallicFactor", 0.0, 1.0)
             if pbr.roughnessFactor is not None:
                 roughness = _number(pbr.roughnessFactor, f"{pkey}.roughnessFactor", 0.0, 1.0)
+        override = self.factors.get(index)  # the scene's, read in the file's place
+        if override is not None:
+            factor, metallic, roughness = override.pbr(factor, metallic, roughness)
         params = MaterialParams(
             base_color=(float(factor[0]), float(factor[1]), float(factor[2])),
             metallic=metallic,
@@ -1048,9 +1059,9 @@ class GltfFile:
             skey = f"{key}.extensions.KHR_materials_emissive_strength"
             value = _object(strength_ext, skey).get("emissiveStrength", 1.0)
             strength = _number(value, f"{skey}.emissiveStrength", 0.0, MAX_RADIANCE)
-            emissive = emissive_factor * strength
-        else:
-            emissive = emissive_factor
+        if override is not None:
+            emissive_factor, strength = override.emission(emissive_factor, strength)
+        emissive = emissive_factor * strength
         layer.emissive = (float(emissive[0]), float(emissive[1]), float(emissive[2]))
         if m.emissiveTexture is not None and not emissive_factor.any():
             # The texture multiplies emissiveFactor, whose default is black: nothing is

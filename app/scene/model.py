@@ -761,6 +761,44 @@ class Material(_Strict):
         )
 
 
+class FileMaterial(_Strict):
+    """One of a glTF file's own materials with its factors overridden by the scene
+    (``objects[i].file_materials."<name>"``, docs/scene-format.md): each key replaces the
+    glTF 2.0 factor of the same meaning where the loader reads it (app/scene/gltf.py), so
+    the file's maps keep multiplying it (a roughness factor is baked into the file's
+    normal/roughness chain as the file's own is). Unset keys keep the file's values."""
+
+    base_color: UnitColor | None = None  # pbrMetallicRoughness.baseColorFactor, RGB
+    alpha: Unit | None = None  # baseColorFactor's A
+    metallic: Unit | None = None  # metallicFactor
+    roughness: Unit | None = None  # roughnessFactor
+    emissive: UnitColor | None = None  # emissiveFactor
+    # KHR_materials_emissive_strength's emissiveStrength (multiplies emissive)
+    emissive_strength: Annotated[Real, Field(ge=0.0, le=MAX_RADIANCE)] | None = None
+
+    def pbr(
+        self, factor: np.ndarray, metallic: float, roughness: float
+    ) -> tuple[np.ndarray, float, float]:
+        """The file's baseColorFactor (RGBA), metallicFactor and roughnessFactor with
+        this override's keys in their place."""
+        factor = np.array(factor, np.float64)
+        if self.base_color is not None:
+            factor[:3] = self.base_color
+        if self.alpha is not None:
+            factor[3] = self.alpha
+        metallic = metallic if self.metallic is None else float(self.metallic)
+        roughness = roughness if self.roughness is None else float(self.roughness)
+        return factor, metallic, roughness
+
+    def emission(self, factor: np.ndarray, strength: float) -> tuple[np.ndarray, float]:
+        """The file's emissiveFactor and emissiveStrength with this override's in place."""
+        if self.emissive is not None:
+            factor = np.array(self.emissive, np.float64)
+        if self.emissive_strength is not None:
+            strength = float(self.emissive_strength)
+        return factor, strength
+
+
 Shape = Literal["sphere", "box", "plane", "cylinder", "capsule", "mesh"]
 
 
@@ -787,6 +825,11 @@ class SceneObject(_Strict):
     animation: str | Annotated[int, Field(strict=True, ge=0)] | None = None
     time: Annotated[Real, Field(ge=-1e9, le=1e9)] | None = None
     variant: str | None = None
+    # A glTF file's own materials by name (or index), their factors overridden
+    # (``FileMaterial``; app/scene/file_materials.py names them).
+    file_materials: Annotated[dict[str, FileMaterial], Field(max_length=MAX_MATERIALS)] | None = (
+        None
+    )
 
     @field_validator("scale", mode="wrap")
     @classmethod
@@ -823,9 +866,14 @@ class SceneObject(_Strict):
         gltf = self.file is not None and self.file.lower().endswith((".gltf", ".glb"))
         if self.import_lights and not gltf:
             raise ValueError("import_lights: needs a glTF file (.gltf or .glb) as file")
-        for key in ("animation", "time", "variant"):
+        for key in ("animation", "time", "variant", "file_materials"):
             if getattr(self, key) is not None and not gltf:
                 raise ValueError(f"{key}: needs a glTF file (.gltf or .glb) as file")
+        if self.file_materials is not None and self.material is not None:
+            raise ValueError(
+                "file_materials: edits the file's own materials, which material replaces: "
+                "give one of them"
+            )
         if self.light_scale is not None and not self.import_lights:
             raise ValueError("light_scale: applies only with import_lights = true")
         if self.shape != "mesh" and self.material is None:

@@ -95,7 +95,7 @@ class SceneDocument:
         document so that its comments stay; file paths in the scene are rebased so that
         they still point at the same files from the new folder."""
         path = Path(path).resolve()
-        data = rebase_paths(self.data, self.path.parent, path.parent)
+        data = _without_none(rebase_paths(self.data, self.path.parent, path.parent))
         try:
             document = tomlkit.parse(read_text(self.path, policy=self.policy))
         except Exception:
@@ -106,6 +106,16 @@ class SceneDocument:
             tmp.write_text(tomlkit.dumps(document), encoding="utf-8")
 
         atomic_write(path, write)
+
+
+def _without_none(data: Any) -> Any:
+    """``data`` without its None values: TOML has no null, and None is an unset key (a
+    model file's scene, ``model_document``, may carry one such as ``light_scale``)."""
+    if isinstance(data, dict):
+        return {k: _without_none(v) for k, v in data.items() if v is not None}
+    if isinstance(data, list):
+        return [_without_none(v) for v in data]
+    return data
 
 
 def merge(target: Any, data: dict) -> None:

@@ -27,10 +27,13 @@ if TYPE_CHECKING:
 
 @dataclass
 class Selection:
-    """What a click picked: an object (index into scene.objects) and its material."""
+    """What a click picked: an object (index into scene.objects) and its material: a
+    name in the scene's [materials], or, for a glTF file's own material, its key in the
+    object's ``file_materials`` (app/scene/file_materials.py)."""
 
     object_index: int | None = None
     material: str | None = None
+    file_material: str | None = None
 
 
 @dataclass

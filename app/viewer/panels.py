@@ -30,6 +30,7 @@ glyphs (the one the walkthrough's labels use) into it, only when Korean is asked
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, get_args
 
 import numpy as np
@@ -57,6 +58,7 @@ from app.scene.presets import PRESETS
 from app.untrusted import RefusedError
 from app.untrusted.policy import Limits
 from app.untrusted.structured import parse_toml
+from app.viewer.host import Selection
 
 if TYPE_CHECKING:
     from app.viewer.host import ViewerHost
@@ -148,8 +150,12 @@ class Panels:
         # panel docked on its first frame takes its tab on the next).
         self._expand: dict[str, int] = {}
         self._selected: object = None  # the selection the panels last saw
-        # Every section of the Material panel drawn open (the docs' screenshot and the
-        # test that draws each layered material's controls).
+        # The key path of the material the Material panel shows (None: none), and the
+        # glTF files' own materials read for it (``_file_materials``).
+        self.shown_material: str | None = None
+        self._file_info: dict[tuple[str, float], tuple[list[str], list[dict[str, Any]]]] = {}
+        # Every section of the Material panel (and Scene > Materials) drawn open (the docs'
+        # screenshot and the tests that draw each material's controls).
         self.open_sections = False
         io = imgui.get_io()
         io.config_flags |= imgui.ConfigFlags_.docking_enable
@@ -243,10 +249,11 @@ class Panels:
     # --- a frame of panels ------------------------------------------------------------------
 
     def draw(self) -> None:
-        selected = (self.viewer.selection.object_index, self.viewer.selection.material)
+        s = self.viewer.selection
+        selected = (s.object_index, s.material, s.file_material)
         if selected != self._selected:
             self._selected = selected
-            if selected[1] is not None:
+            if selected[1] is not None or selected[2] is not None:
                 self.expand("Material")
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
@@ -441,25 +448,110 @@ class Panels:
                 v.open_walkthrough()
             if imgui.collapsing_header("Objects", imgui.TreeNodeFlags_.default_open):
                 for i, obj in enumerate(v.scene.objects):
+                    own = self._file_materials(i)
                     label = f"{obj.name or obj.shape} #{i}  ({obj.material or 'default'})"
+                    if obj.material is None and own is not None:
+                        label = f"{obj.name or Path(obj.file or '').name} #{i}  (file's)"
                     chosen = v.selection.object_index == i
                     if imgui.selectable(label, chosen)[0]:
-                        v.selection.object_index, v.selection.material = i, obj.material
+                        first = own[0][0] if own and own[0] and obj.material is None else None
+                        v.selection = Selection(i, obj.material, first)
+            if self.open_sections:
+                imgui.set_next_item_open(True, imgui.Cond_.always)
             if imgui.collapsing_header("Materials"):
                 for name in v.scene.materials:
                     if imgui.selectable(name, v.selection.material == name)[0]:
-                        v.selection.material = name
+                        v.selection.material, v.selection.file_material = name, None
+                # A model file's own materials (an object without ``material``), each
+                # edited under that object's ``file_materials``.
+                for i, obj in enumerate(v.scene.objects):
+                    own = self._file_materials(i) if obj.material is None else None
+                    for name in own[0] if own else ():
+                        chosen = (v.selection.object_index, v.selection.file_material)
+                        if imgui.selectable(f"{name}  (#{i}'s file)", chosen == (i, name))[0]:
+                            v.selection = Selection(i, None, name)
         self._end()
+
+    def _file_materials(self, index: int) -> tuple[list[str], list[dict[str, Any]]] | None:
+        """Object ``index``'s glTF file's material keys and their own factors
+        (app/scene/file_materials.py); None for another object or a file that cannot be
+        read (the scene's own error says why). Kept per file and modification time."""
+        from app.scene.file_materials import material_keys, own_factors
+        from app.scene.geometry import GLTF_SUFFIXES
+
+        v = self.viewer
+        obj = v.scene.objects[index]
+        if obj.file is None or not obj.file.lower().endswith(GLTF_SUFFIXES):
+            return None
+        try:
+            path = v.document.loaded.resolve_file(obj.file, f"objects[{index}].file")
+            stamp = (str(path), path.stat().st_mtime)
+        except (InputError, OSError):
+            return None
+        if stamp not in self._file_info:
+            from app.scene.gltf_document import GltfError, open_gltf
+
+            try:
+                materials = open_gltf(path, v.document.policy).materials or []
+            except (GltfError, InputError, RefusedError, OSError):
+                return None
+            keys = material_keys(materials)
+            self._file_info[stamp] = (keys, [own_factors(m) for m in materials])
+        return self._file_info[stamp]
 
     def _material_panel(self) -> None:
         v = self.viewer
         name = v.selection.material
         if self._window("Material"):
-            if name is None or name not in v.scene.materials:
-                imgui.text_wrapped("Click an object, or pick a material in Scene.")
-            else:
+            index, own = v.selection.object_index, v.selection.file_material
+            self.shown_material = None
+            if name is not None and name in v.scene.materials:
                 self._material_editor(name)
+                self.shown_material = f"materials.{name}"
+            elif index is not None and own is not None and index < len(v.scene.objects):
+                self._file_material_editor(index, own)
+            else:
+                imgui.text_wrapped("Click an object, or pick a material in Scene.")
         self._end()
+
+    def _file_material_editor(self, index: int, name: str) -> None:
+        """The factors of object ``index``'s glTF file's own material ``name``, edited as
+        ``objects[index].file_materials."name".<key>`` (app/scene/model.py
+        ``FileMaterial``): each shows the scene's override, else the file's value."""
+        from app.scene.file_materials import key_path
+
+        v = self.viewer
+        info = self._file_materials(index)
+        if info is None or name not in info[0]:
+            imgui.text_wrapped("Click an object, or pick a material in Scene.")
+            return
+        own = info[1][info[0].index(name)]
+        given = (v.scene.objects[index].file_materials or {}).get(name)
+        key = key_path(index, name)
+        self.shown_material = key
+        imgui.text(f"{name}  (#{index}'s file)")
+        imgui.text_disabled("glTF factors; the file's maps multiply them")
+
+        def now(field: str) -> Any:
+            value = None if given is None else getattr(given, field)
+            return own[field] if value is None else value
+
+        for field, label in (("base_color", "base colour"), ("emissive", "emissive")):
+            changed, rgb = imgui.color_edit3(label, [float(c) for c in now(field)])
+            if changed:
+                self._edit(f"{key}.{field}", [min(max(float(c), 0.0), 1.0) for c in rgb])
+        for field, high, flags in (
+            ("alpha", 1.0, 0),
+            ("metallic", 1.0, 0),
+            ("roughness", 1.0, 0),
+            ("emissive_strength", 100.0, imgui.SliderFlags_.logarithmic),
+        ):
+            label = field.replace("_", " ")
+            changed, value = imgui.slider_float(label, float(now(field)), 0.0, high, flags=flags)
+            if changed:
+                self._edit(f"{key}.{field}", float(value))
+        if given is not None and imgui.button("the file's values"):
+            self._edit(key, None)
 
     def _material_editor(self, name: str) -> None:
         v = self.viewer

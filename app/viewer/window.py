@@ -432,13 +432,13 @@ class Viewer:
                                  cam.tan_half_fov)  # fmt: skip
         origin = np.asarray(cam.position, np.float64)
         direction = (p - origin) / np.linalg.norm(p - origin)
-        best, nearest = None, np.inf
+        best, nearest, own = None, np.inf, None
         for part in r.frame.parts:
             t = _nearest_hit(origin, direction, part)
             if t < nearest:
-                best, nearest = part.object_index, t
+                best, nearest, own = part.object_index, t, part.file_material
         material = self.scene.objects[best].material if best is not None else None
-        self.selection = Selection(best, material)
+        self.selection = Selection(best, material, own if material is None else None)
         return self.selection
 
     def add_light(self, kind: str) -> bool:
