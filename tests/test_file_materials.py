@@ -130,3 +130,35 @@ def test_a_bad_override_is_one_line_naming_file_and_key(tmp_path, capsys, extra,
     assert len(err.splitlines()) == 1, err
     assert str(scene) in err and f"{key}:" in err, err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("strength", [None, "x", [1], float("nan")])
+def test_own_factors_of_an_unchecked_material_fall_back_to_the_defaults(strength) -> None:
+    """The viewer lists every material of a file, also one no primitive uses, which the
+    reader never checks: a factor that is not a finite number reads as glTF's default
+    instead of raising inside the panel's frame."""
+    from app.scene.file_materials import own_factors
+
+    material = pygltflib.Material(
+        name="unused",
+        pbrMetallicRoughness=PBR(baseColorFactor=[0.5, "a", 0.5, 1.0], metallicFactor=None),
+        emissiveFactor=[1.0, 0.5],
+        extensions={"KHR_materials_emissive_strength": {"emissiveStrength": strength}},
+    )
+    factors = own_factors(material)
+    assert factors["base_color"] == [1.0, 1.0, 1.0] and factors["alpha"] == 1.0
+    assert factors["metallic"] == 1.0 and factors["emissive"] == [0.0, 0.0, 0.0]
+    assert factors["emissive_strength"] == 1.0
+
+
+def test_a_missing_material_key_is_quoted_as_toml_writes_it(tmp_path: Path) -> None:
+    """A scene key holding a quote is named escaped, so the line shows the key written."""
+    from app.errors import InputError
+    from app.scene.file_materials import resolved
+
+    materials = [pygltflib.Material(name=f"m{i}") for i in range(12)]
+    with pytest.raises(InputError) as caught:
+        resolved({'pa"int': object()}, materials, "scene.toml", 0, "m.glb")  # type: ignore[dict-item]
+    text = str(caught.value)
+    assert 'objects[0].file_materials."pa\\"int"' in text
+    assert '"m7", ... 4 more' in text and '"m8"' not in text

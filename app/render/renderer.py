@@ -1188,8 +1188,8 @@ class Renderer:
             # "gbaa" mixes the radiance at the silhouettes: the surfaces' is written too
             hdr = self.lighting.hdr if self.gbaa is not None else None
             if self.gbaa is not None and self.gbaa.interior:
-                # every surface pixel's display value is gbaa's (the interior's the mark's,
-                # corrected, the silhouettes' the resolve's): the lighting pass writes
+                # every surface pixel's display value is gbaa's (the interior's its correction
+                # draw's, the silhouettes' the resolve's): the lighting pass writes
                 # their radiance alone, over the background's display value
                 self.post.display_target(self.gbuffer.zbuffer, bg, exposure)
                 self.lighting.run_surfaces(self.gbuffer, camera)

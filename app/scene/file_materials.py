@@ -12,6 +12,8 @@ where the scene sets none.
 
 from __future__ import annotations
 
+import json
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -36,8 +38,9 @@ def material_keys(materials: Sequence[Any]) -> list[str]:
 
 
 def key_path(index: int, key: str) -> str:
-    """The scene key path of object ``index``'s file material ``key`` (quoted)."""
-    return f'objects[{index}].file_materials."{key}"'
+    """The scene key path of object ``index``'s file material ``key``, quoted and escaped
+    as a TOML basic string (JSON's escapes are TOML's for these characters)."""
+    return f"objects[{index}].file_materials.{json.dumps(key, ensure_ascii=False)}"
 
 
 def resolved(
@@ -52,7 +55,8 @@ def resolved(
     out: dict[int, FileMaterial] = {}
     for key, override in overrides.items():
         if key not in keys:
-            known = ", ".join(f'"{k}"' for k in keys) or "none"
+            shown = ", ".join(f'"{k}"' for k in keys[:8]) or "none"
+            known = shown + (f", ... {len(keys) - 8} more" if len(keys) > 8 else "")
             raise InputError(
                 scene_file, key_path(index, key), f"{path} has no such material (its: {known})"
             )
@@ -60,22 +64,35 @@ def resolved(
     return out
 
 
+def _numbers_or(value: object, count: int, default: list[float]) -> list[float]:
+    """``value`` as ``count`` finite floats, or ``default`` where it is anything else: the
+    viewer reads every material of a file, also ones no primitive uses, which the reader
+    never checks."""
+    items = value if isinstance(value, list | tuple) else [value]
+    if len(items) < count or not all(
+        isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+        for x in items[:count]
+    ):
+        return default
+    return [float(x) for x in items[:count]]
+
+
 def own_factors(material: Any) -> dict[str, Any]:
     """A glTF material's own values of ``FileMaterial``'s keys (glTF 2.0's defaults where
-    the file leaves one out)."""
+    the file leaves one out or writes one that is not a finite number)."""
     pbr = getattr(material, "pbrMetallicRoughness", None)
-    factor = list(getattr(pbr, "baseColorFactor", None) or [1.0, 1.0, 1.0, 1.0])
-    metallic = getattr(pbr, "metallicFactor", None)
-    roughness = getattr(pbr, "roughnessFactor", None)
-    extensions = getattr(material, "extensions", None) or {}
-    strength = (extensions.get("KHR_materials_emissive_strength") or {}).get(
-        "emissiveStrength", 1.0
-    )
+    factor = _numbers_or(getattr(pbr, "baseColorFactor", None), 4, [1.0, 1.0, 1.0, 1.0])
+    extensions = getattr(material, "extensions", None)
+    strength = None
+    if isinstance(extensions, dict):
+        own = extensions.get("KHR_materials_emissive_strength")
+        if isinstance(own, dict):
+            strength = own.get("emissiveStrength")
     return {
-        "base_color": [float(c) for c in factor[:3]],
-        "alpha": float(factor[3]),
-        "metallic": 1.0 if metallic is None else float(metallic),
-        "roughness": 1.0 if roughness is None else float(roughness),
-        "emissive": [float(c) for c in (getattr(material, "emissiveFactor", None) or [0.0] * 3)],
-        "emissive_strength": float(strength),
+        "base_color": factor[:3],
+        "alpha": factor[3],
+        "metallic": _numbers_or(getattr(pbr, "metallicFactor", None), 1, [1.0])[0],
+        "roughness": _numbers_or(getattr(pbr, "roughnessFactor", None), 1, [1.0])[0],
+        "emissive": _numbers_or(getattr(material, "emissiveFactor", None), 3, [0.0] * 3),
+        "emissive_strength": _numbers_or(strength, 1, [1.0])[0],
     }

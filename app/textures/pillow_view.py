@@ -8,7 +8,9 @@ exports an image through the Arrow C data interface (``Image.__arrow_c_array__``
 one buffer holding every row, so its texels can be read where they are. The structures below
 are the interface's, as the Arrow specification declares them
 (https://arrow.apache.org/docs/format/CDataInterface.html); the view keeps the exported
-capsules, whose release lets Pillow free the storage once no view needs it.
+capsules, whose release lets Pillow free the storage once no view needs it. The view
+shares the image's memory: a loaded texture image is never changed after its decode (no
+``paste`` or drawing on it), which keeps every view's texels the decoded ones.
 """
 
 from __future__ import annotations
@@ -89,6 +91,5 @@ def rgbx_view(image: Image.Image) -> np.ndarray | None:
         return None
     storage = (ctypes.c_uint8 * size).from_address(child.buffers[1])
     storage.kept = (schema_capsule, array_capsule, image)  # released with the last view
-    view = np.frombuffer(storage, np.uint8).reshape(image.height, image.width, 4)
-    view.setflags(write=False)
-    return view
+    readonly = memoryview(storage).toreadonly()  # neither the view nor its base writable
+    return np.frombuffer(readonly, np.uint8).reshape(image.height, image.width, 4)
