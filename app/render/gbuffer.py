@@ -70,12 +70,17 @@ class GBuffer:
         # debug.frag discard the rest), and every drawn fragment writes every target, so
         # their background texels are never read on the GPU; ``read`` gives them the
         # cleared value. Clearing all six took 3.7x as long as these two here
-        # (docs/performance.md).
-        self.clear_fbo = ctx.framebuffer([self._by_name["depth"]], self.zbuffer)
+        # (docs/performance.md). Cleared through the pass's own framebuffer, the other
+        # targets masked, so that llvmpipe clears in the draws' scene, not in one of its own.
+        depth_index = self._targets.index(self._by_name["depth"])
+        self._clear_mask = tuple((i == depth_index,) * 4 for i in range(len(self._targets)))
+        self._draw_mask = tuple((True,) * 4 for _ in self._targets)
 
     def clear(self) -> None:
         """Start a frame: no surface anywhere (RT2's depth 0) and the far z."""
-        self.clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.fbo.color_mask = self._clear_mask
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.fbo.color_mask = self._draw_mask
 
     def defines(self) -> dict[str, int]:
         """The defines of every pass that writes or decodes these targets
@@ -147,7 +152,7 @@ class GBuffer:
         return [(t.glsl_name, self._by_name[t.name]) for t, _ in self.layout.targets()]
 
     def release(self) -> None:
-        for obj in (self.fbo, self.clear_fbo, *self._targets, self.zbuffer):
+        for obj in (self.fbo, *self._targets, self.zbuffer):
             obj.release()
 
 

@@ -183,6 +183,10 @@ class LightingPass:
         self._z_fbo: moderngl.Framebuffer | None = None  # hdr + the G-buffer's z (run)
         self._z_source: GBuffer | None = None
         self._shaders = shaders
+        # run's background: the far-plane triangle where the G-buffer has no surface
+        self._background = FullscreenDraw.of(
+            ctx, shaders, "passes/hdr_background.frag", {"FAR_PLANE": 1}
+        )
         self.size = size
 
     # The inputs as attributes, for the passes and tests that read them.
@@ -228,11 +232,18 @@ class LightingPass:
         """The HDR image: ``background`` where ``gbuffer`` has no surface, the radiance of
         every surface pixel elsewhere (alpha 1). ``background``: RGB (alpha 1), or RGBA:
         (0, 0, 0, 0) for a transparent background (docs/architecture.md, "Alpha")."""
-        self.fbo.use()
-        self.ctx.viewport = (0, 0, *self.size)
-        clear = [float(x) for x in background]
-        self.fbo.clear(*clear, *([1.0] if len(clear) == 3 else []))  # pixels no surface covers
-        self._shade(self.draws, self._z_target(gbuffer), camera)
+        value = tuple(float(x) for x in background)
+        if len(value) == 3:
+            value += (1.0,)
+        target = self._z_target(gbuffer)
+        for draw in self.draws:  # a surface whose depth decodes as none
+            draw.program["u_background"].value = value
+        self._shade(self.draws, target, camera)
+        # The pixels without a surface, which the draws above skip (their z is the
+        # cleared 1): the whole target is not cleared first (docs/performance.md,
+        # "Fixed costs", measures it).
+        self._background.draw(target, {"u_background": value}, viewport=(0, 0, *self.size),
+                              depth_func="<=")  # fmt: skip
 
     def run_display(
         self,
@@ -308,7 +319,7 @@ class LightingPass:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.draws, self.fbo, self.hdr):
+        for obj in (*self.draws, self._background, self.fbo, self.hdr):
             obj.release()
         if self._z_fbo is not None:
             self._z_fbo.release()

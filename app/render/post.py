@@ -88,8 +88,14 @@ class PostPass(FullscreenPass):
             self._z_fbo = self.ctx.framebuffer(attachments, zbuffer)
             self._z_fbo.depth_mask = False
             self._z_source = (zbuffer, second)
-        # k / 255 converts back to the byte k in the GL's float -> unorm8 rounding.
-        self.fbo.clear(*(k / 255.0 for k in value))
+        # k / 255 converts back to the byte k in the GL's float -> unorm8 rounding. Cleared
+        # through the draw's framebuffer (depth writes off: the z-buffer stays; ``second``
+        # masked), so that llvmpipe clears in the draw's scene, not in one of its own.
+        if second is not None:
+            self._z_fbo.color_mask = ((True,) * 4, (False,) * 4)
+        self._z_fbo.clear(*(k / 255.0 for k in value))
+        if second is not None:
+            self._z_fbo.color_mask = ((True,) * 4, (True,) * 4)
         return self._z_fbo
 
     def background_display(

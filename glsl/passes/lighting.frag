@@ -31,6 +31,13 @@ layout(location = 1) out vec4 hdr_color;
 #else
 out vec4 frag_color;
 #endif
+#if !DISPLAY_OUT && !defined(GBUFFER_SAMPLES)
+// The background radiance (RGBA) of a pixel the z-buffer gives a surface whose decoded
+// depth is none (not finite or not positive: decode_gbuffer's test); the HDR image is not
+// cleared first (app/render/lighting.py, LightingPass.run: the pixels without a z are
+// passes/hdr_background.frag's), so such a pixel is written here, not discarded.
+uniform vec4 u_background;
+#endif
 
 #ifdef GBUFFER_SAMPLES
 // render.antialiasing = "msaa" (app/render/msaa.py): the G-buffer is multisampled and
@@ -91,6 +98,13 @@ void main() {
     }
     frag_color = sum / float(GBUFFER_SAMPLES);
 #else
+#if !DISPLAY_OUT
+    float depth = texelFetch(g_depth, ivec2(gl_FragCoord.xy), GBUFFER_SAMPLE).r;
+    if (!(is_finite(depth) && depth > 0.0)) {
+        frag_color = u_background;
+        return;
+    }
+#endif
     vec3 L = pixel_radiance(gl_FragCoord.xy);
 #if DISPLAY_OUT
     frag_color = vec4(srgb_encode(tonemap_selected(L * u_exposure)), 1.0);
