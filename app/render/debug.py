@@ -32,6 +32,8 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from app.gl.fullscreen import FullscreenDraw
+
 # The kinds in the order of precedence, with their colours (8-bit sRGB).
 KIND_COLORS: dict[str, tuple[int, int, int]] = {
     "nan": (255, 0, 255),  # magenta
@@ -148,18 +150,16 @@ def write_bit_patterns(
     was drawn into: what the debug view is checked and shown with (its tests, the
     figure of docs/stability.md), since the renderer itself writes no such value. A
     bit pattern, not a float uniform: a NaN must reach the target as stored bits."""
-    prog = ctx.program(vertex_shader=_WRITE_VERTEX, fragment_shader=_WRITE_FRAGMENT)
-    vao = ctx.vertex_array(prog, [])
+    draw = FullscreenDraw(
+        ctx,
+        ctx.program(vertex_shader=_WRITE_VERTEX, fragment_shader=_WRITE_FRAGMENT),
+        owns_program=True,
+    )
     try:
-        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
         for bits, channel, rect in patches:
             fbo.scissor = rect
-            fbo.use()
-            prog["u_bits"].value = bits
-            prog["u_channel"].value = channel
-            vao.render(moderngl.TRIANGLES, vertices=3)
+            draw.draw(fbo, {"u_bits": bits, "u_channel": channel})
         fbo.scissor = None
         fbo.use()
     finally:
-        vao.release()
-        prog.release()
+        draw.release()
