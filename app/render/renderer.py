@@ -38,7 +38,7 @@ from app.common.camera import CameraFrame
 from app.common.gbuffer import MAX_COLOR_TARGETS, GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
 from app.common.tonemaps import TONEMAP_CODE
-from app.frame import FrameData, prepare_frame, restyle
+from app.frame import FrameData, prepare_frame, restyle, restyle_file_materials
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
 from app.frame.lights import environment_texels, frame_lights, uniform_environment
 from app.frame.materials import MaterialTable
@@ -924,17 +924,27 @@ class Renderer:
         """New frame data for the scene edit ``fields`` (top-level keys of the scene that
         may differ from ``old``): new parts for new objects or part settings (their maps'
         mips and bakes), restyled layers for new material constants where ``restyle`` can
+        and for a model file's new material factors where ``restyle_file_materials`` can
         (else new parts), new lights only where they differ."""
         new = self.scene
-        parts = "objects" in fields and new.objects != old.objects
+        parts = False
         if "render" in fields:
-            parts |= any(getattr(old.render, k) != getattr(new.render, k) for k in _PART_SETTINGS)
+            parts = any(getattr(old.render, k) != getattr(new.render, k) for k in _PART_SETTINGS)
         frame = self.frame
+        if not parts and "objects" in fields and new.objects != old.objects:
+            # a model file's material factors alone restyle its parts, else new parts
+            self._restyled = [part.layers for part in frame.parts]  # _change's rollback
+            restyled = restyle_file_materials(frame, self.loaded, old)
+            parts = restyled is None
+            frame = frame if restyled is None else restyled
+        elif "objects" in fields:
+            parts |= new.objects != old.objects
         if not parts and "materials" in fields and new.materials != old.materials:
             changed = {k for k in new.materials if old.materials.get(k) != new.materials[k]}
             restyled = None
             if not set(old.materials) - set(new.materials):
-                self._restyled = [part.layers for part in frame.parts]  # _change's rollback
+                if self._restyled is None:  # _change's rollback
+                    self._restyled = [part.layers for part in frame.parts]
                 restyled = restyle(frame, self.loaded, changed)
             if restyled is None:
                 parts = True
