@@ -118,7 +118,7 @@ def test_a_roughness_edit_under_the_chain_builds_the_parts_again(gl_egl, tmp_pat
 
 @pytest.mark.gl
 def test_the_files_values_back_keep_the_parts_and_draw_the_unedited_image(gl_egl, tmp_path):
-    """"The file's values" (the override removed) after an edit: the factors come back
+    """After an edit, "the file's values" (the override removed): the factors come back
     from the file's JSON on the same parts, and the image is the unedited scene's bit for
     bit. Fails where the file's own factors are read wrong (the image differs) or the
     removal builds the parts again."""
