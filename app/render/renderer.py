@@ -168,6 +168,14 @@ class _FrameFacts:
         # an alpha-masked caster's coverage shapes its shadow (docs/shadows.md): its layer,
         # which a material edit replaces (``restyle``)
         self.masks = tuple((i, Same(parts[i].layers[0])) for i in self.opaque if masked(parts[i]))
+        # the maps the G-buffer pass uploads, which a model file's roughness edit replaces
+        # on the same parts (``restyle_file_materials``: a new normal/roughness chain)
+        self.maps = tuple(
+            Same(texture)
+            for i in self.opaque
+            for layer in parts[i].layers
+            for texture in layer.maps.values()
+        )
         self.blended_ids = tuple(tuple(frame.material_ids[i]) for i in self.blended)
         # the opaque mesh triangles, which choose the default antialiasing
         # (``Renderer.antialiasing``)
@@ -555,14 +563,15 @@ class Renderer:
         return GBuffer(self.gl.ctx, self.render_size, self._layout())
 
     def _key_gbuffer_pass(self) -> Hashable:
-        """The opaque parts' geometry and maps (a new frame's parts), which of them draw
-        (a part turned blended leaves), what each compiles in (alpha test, tangent
-        rotation), specular antialiasing, the targets' layout and the flush variant; not
-        the size (a resize keeps the pass) and not the material ids (``refresh``)."""
+        """The opaque parts' geometry and maps (a new frame's parts, a new map on the same
+        parts), which of them draw (a part turned blended leaves), what each compiles in
+        (alpha test, tangent rotation), specular antialiasing, the targets' layout and the
+        flush variant; not the size (a resize keeps the pass) and not the material ids
+        (``refresh``)."""
         facts = self._frame_facts()
         return (
-            Same(self.frame.parts), facts.opaque, facts.compiled, self._specular_aa(),
-            self._layout(), self.options.flush_triangles,
+            Same(self.frame.parts), facts.opaque, facts.compiled, facts.maps,
+            self._specular_aa(), self._layout(), self.options.flush_triangles,
         )  # fmt: skip
 
     def _build_gbuffer_pass(self) -> GBufferPass:

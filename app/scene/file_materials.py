@@ -155,12 +155,14 @@ def restyled_layers(
     """The layers of object ``index``'s file materials whose overrides differ between
     ``old`` (the table its parts were built with) and ``loaded``'s, by key, made from the
     parts' own ``layers`` (by key): the same maps with the new base colour, alpha,
-    metallic, roughness, emission and strength, as the glTF reader would make them.
+    metallic, roughness, emission and strength, as the glTF reader would make them; a
+    new roughness under a normal/roughness chain a new chain, made from the images the
+    old one keeps (the factor is baked into its filtered levels, which do not commute
+    with it: docs/viewer.md).
 
-    None where only building the parts again gives the reader's layer: a roughness
-    factor under a normal/roughness chain (baked into its filtered levels, which do not
-    commute with the factor: docs/viewer.md), an emissive factor turning black or
-    not where the file has an emissive texture (the reader drops a texture under a black
+    None where only building the parts again gives the reader's layer: a new chain on a
+    blended part, an emissive factor turning black or not where the file has an emissive
+    texture (the reader drops a texture under a black
     factor), a material extension other than the emission strength, a key the file lacks,
     a material the checks refuse, or a file that cannot be read."""
     obj = loaded.scene.objects[index]
@@ -186,8 +188,17 @@ def restyled_layers(
         own = own_factors(material)
         before = _factors(own, old.get(key))
         factor, metallic, roughness, emissive, strength = _factors(own, new.get(key))
-        if "normal_roughness" in layer.maps and roughness != before[2]:
-            return None
+        maps = layer.maps
+        chain = maps.get("normal_roughness")
+        if chain is not None and roughness != before[2]:
+            # The factor is baked into the chain's filtered levels, which do not commute
+            # with it (docs/viewer.md): a new chain from the images the old one keeps.
+            if chain.with_factor is None or layer.alpha_mode == "blend":
+                return None  # (a blended part's pass keeps its maps: new parts)
+            remade = chain.with_factor(float(roughness))
+            for attr in ("wrap", "min_filter", "mag_filter", "source_key"):
+                setattr(remade, attr, getattr(chain, attr))
+            maps = {**maps, "normal_roughness": remade}
         if getattr(material, "emissiveTexture", None) is not None and (
             bool(emissive.any()) != bool(before[3].any())
         ):
@@ -198,12 +209,13 @@ def restyled_layers(
             metallic=float(metallic),
             roughness=float(roughness),
         )
-        if material_problems(params, layer.maps, emissive, float(strength)):
+        if material_problems(params, maps, emissive, float(strength)):
             return None  # the reader's own error, from building the parts again
         glow = emissive * strength
         out[key] = dataclasses.replace(
             layer,
             params=params,
+            maps=maps,
             emissive=(float(glow[0]), float(glow[1]), float(glow[2])),
             alpha=float(factor[3]),
         )
