@@ -117,11 +117,20 @@ _PLAIN_EXTENSIONS = frozenset({"KHR_materials_emissive_strength"})
 
 
 def _materials(path: Path, policy: Any) -> list[Any]:
-    """The ``materials`` of the glTF file ``path`` (its JSON: a .glb's binary chunk is
-    read past, not decoded)."""
+    """The ``materials`` of the glTF file ``path`` (its JSON), kept per file, size and
+    modification time: a slider's every step reads them, and a .glb is read whole."""
     from app.scene.gltf_document import open_gltf
 
-    return list(open_gltf(path, policy).materials or [])
+    stat = path.stat()
+    stamp = (str(path), stat.st_size, stat.st_mtime_ns, policy)
+    if stamp not in _READ:
+        if len(_READ) >= 4:
+            _READ.pop(next(iter(_READ)))
+        _READ[stamp] = list(open_gltf(path, policy).materials or [])
+    return _READ[stamp]
+
+
+_READ: dict[tuple, list[Any]] = {}  # _materials' last few files
 
 
 def _extension_names(material: Any) -> set[str]:
