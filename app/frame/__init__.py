@@ -18,7 +18,7 @@ from app.frame.materials import MaterialTable, material_table
 from app.scene.geometry import MeshPart, build_parts, take_built
 from app.scene.layers import LayerBuilder
 from app.scene.loader import LoadedScene
-from app.scene.model import TEXTURE_KEYS
+from app.scene.model import TEXTURE_KEYS, Scene
 from app.untrusted.budget import Budget
 
 
@@ -79,5 +79,44 @@ def restyle(frame: FrameData, loaded: LoadedScene, changed: set[str]) -> FrameDa
     for part, name in named:
         if name in layers:
             part.layers = [layers[name]]
+    table, ids = material_table(frame.parts)
+    return dataclasses.replace(frame, materials=table, material_ids=ids)
+
+
+def restyle_file_materials(frame: FrameData, loaded: LoadedScene, old: Scene) -> FrameData | None:
+    """``frame`` with new constants for the model files' own materials whose factors
+    (``objects[i].file_materials``) differ between ``old``, the scene ``frame`` was built
+    from, and ``loaded``'s, keeping every part and map: a viewer slider on a model file's
+    material, as ``restyle`` is one on a scene material.
+
+    The parts' layers are replaced in place. None where anything of an object but its
+    ``file_materials`` differs, or where only new parts give the glTF reader's layer
+    (``app.scene.file_materials.restyled_layers`` says when)."""
+    from app.scene.file_materials import restyled_layers
+
+    new = loaded.scene
+    if len(new.objects) != len(old.objects):
+        return None
+    replaced: dict[int, dict] = {}
+    for index, (was, now) in enumerate(zip(old.objects, new.objects, strict=True)):
+        if was == now:
+            continue
+        if was.model_copy(update={"file_materials": None}) != now.model_copy(
+            update={"file_materials": None}
+        ):
+            return None
+        drawn = {
+            part.file_material: part.layers[0]
+            for part in frame.parts
+            if part.object_index == index and part.file_material is not None
+        }
+        layers = restyled_layers(loaded, index, was.file_materials or {}, drawn)
+        if layers is None:
+            return None
+        replaced[index] = layers
+    for part in frame.parts:
+        layers = replaced.get(part.object_index, {})
+        if part.file_material in layers:
+            part.layers = [layers[part.file_material]]
     table, ids = material_table(frame.parts)
     return dataclasses.replace(frame, materials=table, material_ids=ids)

@@ -38,7 +38,7 @@ from app.common.camera import CameraFrame
 from app.common.gbuffer import MAX_COLOR_TARGETS, GBufferData, GBufferLayout
 from app.common.lights import PunctualLight
 from app.common.tonemaps import TONEMAP_CODE
-from app.frame import FrameData, prepare_frame, restyle
+from app.frame import FrameData, prepare_frame, restyle, restyle_file_materials
 from app.frame.camera import camera_frame, projection_matrix, view_matrix
 from app.frame.lights import environment_texels, frame_lights, uniform_environment
 from app.frame.materials import MaterialTable
@@ -168,6 +168,14 @@ class _FrameFacts:
         # an alpha-masked caster's coverage shapes its shadow (docs/shadows.md): its layer,
         # which a material edit replaces (``restyle``)
         self.masks = tuple((i, Same(parts[i].layers[0])) for i in self.opaque if masked(parts[i]))
+        # the maps the G-buffer pass uploads, which a model file's roughness edit replaces
+        # on the same parts (``restyle_file_materials``: a new normal/roughness chain)
+        self.maps = tuple(
+            Same(texture)
+            for i in self.opaque
+            for layer in parts[i].layers
+            for texture in layer.maps.values()
+        )
         self.blended_ids = tuple(tuple(frame.material_ids[i]) for i in self.blended)
         # the opaque mesh triangles, which choose the default antialiasing
         # (``Renderer.antialiasing``)
@@ -555,14 +563,15 @@ class Renderer:
         return GBuffer(self.gl.ctx, self.render_size, self._layout())
 
     def _key_gbuffer_pass(self) -> Hashable:
-        """The opaque parts' geometry and maps (a new frame's parts), which of them draw
-        (a part turned blended leaves), what each compiles in (alpha test, tangent
-        rotation), specular antialiasing, the targets' layout and the flush variant; not
-        the size (a resize keeps the pass) and not the material ids (``refresh``)."""
+        """The opaque parts' geometry and maps (a new frame's parts, a new map on the same
+        parts), which of them draw (a part turned blended leaves), what each compiles in
+        (alpha test, tangent rotation), specular antialiasing, the targets' layout and the
+        flush variant; not the size (a resize keeps the pass) and not the material ids
+        (``refresh``)."""
         facts = self._frame_facts()
         return (
-            Same(self.frame.parts), facts.opaque, facts.compiled, self._specular_aa(),
-            self._layout(), self.options.flush_triangles,
+            Same(self.frame.parts), facts.opaque, facts.compiled, facts.maps,
+            self._specular_aa(), self._layout(), self.options.flush_triangles,
         )  # fmt: skip
 
     def _build_gbuffer_pass(self) -> GBufferPass:
@@ -924,17 +933,27 @@ class Renderer:
         """New frame data for the scene edit ``fields`` (top-level keys of the scene that
         may differ from ``old``): new parts for new objects or part settings (their maps'
         mips and bakes), restyled layers for new material constants where ``restyle`` can
+        and for a model file's new material factors where ``restyle_file_materials`` can
         (else new parts), new lights only where they differ."""
         new = self.scene
-        parts = "objects" in fields and new.objects != old.objects
+        parts = False
         if "render" in fields:
-            parts |= any(getattr(old.render, k) != getattr(new.render, k) for k in _PART_SETTINGS)
+            parts = any(getattr(old.render, k) != getattr(new.render, k) for k in _PART_SETTINGS)
         frame = self.frame
+        if not parts and "objects" in fields and new.objects != old.objects:
+            # a model file's material factors alone restyle its parts, else new parts
+            self._restyled = [part.layers for part in frame.parts]  # _change's rollback
+            restyled = restyle_file_materials(frame, self.loaded, old)
+            parts = restyled is None
+            frame = frame if restyled is None else restyled
+        elif "objects" in fields:
+            parts |= new.objects != old.objects
         if not parts and "materials" in fields and new.materials != old.materials:
             changed = {k for k in new.materials if old.materials.get(k) != new.materials[k]}
             restyled = None
             if not set(old.materials) - set(new.materials):
-                self._restyled = [part.layers for part in frame.parts]  # _change's rollback
+                if self._restyled is None:  # _change's rollback
+                    self._restyled = [part.layers for part in frame.parts]
                 restyled = restyle(frame, self.loaded, changed)
             if restyled is None:
                 parts = True

@@ -85,6 +85,10 @@ class Texture:
     # For colour data: what its file's content is (``SOURCE_DIGEST`` and Pillow's version),
     # where known, so that the GL's mips of it can be kept (app/render/texture_upload.py).
     source_key: str | None = None
+    # A normal/roughness chain's maker with another roughness factor, from the images
+    # this one keeps (``normal_roughness_map``): a factor edit makes no file read
+    # or decode (app/scene/file_materials.py). None for every other map.
+    with_factor: Callable[[float], Texture] | None = field(default=None, compare=False, repr=False)
 
     @property
     def pixels(self) -> np.ndarray:
@@ -823,7 +827,11 @@ def normal_roughness_map(
     assert sized is not None, "a chain needs a normal or a roughness map"
     layout = (sized.height >> first, sized.width >> first, 4, normal_filter == "none")
     upload = lambda: build(rows_up_float16=True)  # noqa: E731
-    return Texture(PreparedLevels("normal_roughness", parts, build, layout, upload))
+    texture = Texture(PreparedLevels("normal_roughness", parts, build, layout, upload))
+    texture.with_factor = lambda other: normal_roughness_map(
+        normal_image, scale, other, roughness_image, normal_filter, first
+    )
+    return texture
 
 
 def _map_chain_levels(

@@ -1156,6 +1156,14 @@ _STRUCTURAL = re.compile(
 )
 
 
+# A model file's material factor: new constants on the same parts and maps, as a scene
+# material's number (app.frame.restyle_file_materials), so not deferred as "objects" is.
+_FILE_FACTOR = re.compile(
+    r"^objects\[\d+\]\.file_materials\..+\."
+    r"(base_color|alpha|metallic|roughness|emissive|emissive_strength)$"
+)
+
+
 def _structural(key: str) -> bool:
     """Whether an edit of ``key`` may need programs the renderer has not compiled."""
-    return _STRUCTURAL.match(key) is not None
+    return _STRUCTURAL.match(key) is not None and _FILE_FACTOR.match(key) is None
