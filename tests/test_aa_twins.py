@@ -16,6 +16,7 @@ from app.gl.context import GLContext
 from app.reference import antialiasing as twin
 from app.render.renderer import Renderer, RenderOptions
 from app.scene.edits import replace_parts
+from app.scene.loader import LoadedScene
 from app.scene.sources import scene_from
 
 pytestmark = pytest.mark.gl
@@ -124,11 +125,11 @@ def test_gbaa_interior_fused_frame_is_the_hdr_frames(gl_egl: GLContext) -> None:
     alone and gbaa's mark every surface pixel's display value (Renderer.run_lighting):
     its display image is, byte for byte, the one drawn through the complete HDR image and
     post (``want_hdr``), and its interior pixels are corrected (they differ from the
-    default still's)."""
+    uncorrected still's)."""
     loaded = with_aa(scene_from(aa_scene_data(GBAA_SIZE)), "gbaa", 1)
     images = {}
     for name, interior, hdr in (("fused", True, False), ("hdr", True, True),
-                                ("default", False, False)):  # fmt: skip
+                                ("uncorrected", False, False)):  # fmt: skip
         render = loaded.scene.render.model_copy(update={"gbaa_interior": interior})
         variant = dataclasses.replace(loaded, scene=replace_parts(loaded.scene, render=render))
         r = Renderer(gl_egl, variant)
@@ -140,7 +141,38 @@ def test_gbaa_interior_fused_frame_is_the_hdr_frames(gl_egl: GLContext) -> None:
         finally:
             r.release()
     assert np.array_equal(images["fused"], images["hdr"])
-    assert np.count_nonzero(np.any(images["fused"] != images["default"], axis=-1)) > 100
+    assert np.count_nonzero(np.any(images["fused"] != images["uncorrected"], axis=-1)) > 100
+
+
+def test_gbaa_interior_default_leaves_textured_frames_alone(gl_egl: GLContext) -> None:
+    """``render.gbaa_interior`` left at its default (true) corrects a still of untextured
+    surfaces, not the viewer's frames, and not a frame where an opaque surface samples a
+    texture map (its detail is filtered by the mip chain already: the frame keeps the
+    plain resolve's bytes); a scene that names it true gets it there too."""
+    size = (128, 72)
+
+    def frame(loaded: LoadedScene, interior: bool | None = None, interactive: bool = False):
+        scene = loaded.scene
+        if interior is not None:
+            render = scene.render.model_copy(update={"gbaa_interior": interior})
+            scene = replace_parts(scene, render=render)
+        options = RenderOptions(interactive=interactive)
+        r = Renderer(gl_egl, dataclasses.replace(loaded, scene=scene), size, options=options)
+        try:
+            r.render()
+            assert r.gbaa is not None and r.gbaa.interior == r.gbaa_interior
+            return r.gbaa_interior, r.read_ldr().copy()
+        finally:
+            r.release()
+
+    untextured = scene_from(aa_scene_data(size))
+    assert frame(untextured)[0] and not frame(untextured, interactive=True)[0]
+    textured = scene_from("gltf_material_sampler")
+    drawn, default = frame(textured)
+    assert not drawn
+    assert np.array_equal(default, frame(textured, False)[1])
+    named, corrected = frame(textured, True)
+    assert named and np.count_nonzero(np.any(corrected != default, axis=-1)) > 100
 
 
 def test_fxaa_filter_is_its_twin(gl_egl: GLContext) -> None:
