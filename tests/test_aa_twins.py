@@ -361,9 +361,9 @@ def test_gbaa_half_covered_pixel_past_its_neighbours_reach(gl_egl: GLContext) ->
 
 def test_gbaa_interior_leaves_out_a_peak_whose_share_is_white(gl_egl: GLContext) -> None:
     """The interior correction on one surface (10x8, radiance 0.1) with two peaks one pixel
-    wide: around the one past ``GBAA_SPILL`` times the display's white (its 1/24 share
-    alone white) each neighbour keeps its own display value (the peak counts as ``c``),
-    where without the guard the four turned white (a plus the area truth does not have);
+    wide: around the one past ``GBAA_SPILL`` times the display's white each neighbour
+    keeps its own display value (the peak counts as ``c``), where without the guard the
+    four brightened into a plus;
     around the one under it they rise as the correction has them. GL and twin alike."""
     h, w = 8, 10
     surface = np.zeros((h, w, 2), np.float32)
@@ -372,7 +372,7 @@ def test_gbaa_interior_leaves_out_a_peak_whose_share_is_white(gl_egl: GLContext)
     hdr[..., 3] = 1.0
     spill = twin.GBAA_SPILL * twin.gbaa_saturation("neutral") / 2.0**0.5
     hot, warm = (4, 2), (3, 7)  # (y, x), rows bottom-up
-    hdr[hot][:3], hdr[warm][:3] = 2.0 * spill, 0.5 * spill
+    hdr[hot][:3], hdr[warm][:3] = 30.0 * spill, 0.5 * spill  # its share alone white; under it
     inputs = {"surface": surface, "edge": np.full((h, w, 4), 16.0, np.float16), "hdr": hdr,
               "display": np.zeros((h, w, 4), np.uint8)}  # fmt: skip
     resolved = drawn_gbaa(gl_egl, inputs, straight=False, exact=True, interior=True)
