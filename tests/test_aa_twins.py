@@ -16,6 +16,7 @@ from app.gl.context import GLContext
 from app.reference import antialiasing as twin
 from app.render.renderer import Renderer, RenderOptions
 from app.scene.edits import replace_parts
+from app.scene.loader import LoadedScene
 from app.scene.sources import scene_from
 
 pytestmark = pytest.mark.gl
@@ -124,11 +125,11 @@ def test_gbaa_interior_fused_frame_is_the_hdr_frames(gl_egl: GLContext) -> None:
     alone and gbaa's mark every surface pixel's display value (Renderer.run_lighting):
     its display image is, byte for byte, the one drawn through the complete HDR image and
     post (``want_hdr``), and its interior pixels are corrected (they differ from the
-    default still's)."""
+    uncorrected still's)."""
     loaded = with_aa(scene_from(aa_scene_data(GBAA_SIZE)), "gbaa", 1)
     images = {}
     for name, interior, hdr in (("fused", True, False), ("hdr", True, True),
-                                ("default", False, False)):  # fmt: skip
+                                ("uncorrected", False, False)):  # fmt: skip
         render = loaded.scene.render.model_copy(update={"gbaa_interior": interior})
         variant = dataclasses.replace(loaded, scene=replace_parts(loaded.scene, render=render))
         r = Renderer(gl_egl, variant)
@@ -140,7 +141,38 @@ def test_gbaa_interior_fused_frame_is_the_hdr_frames(gl_egl: GLContext) -> None:
         finally:
             r.release()
     assert np.array_equal(images["fused"], images["hdr"])
-    assert np.count_nonzero(np.any(images["fused"] != images["default"], axis=-1)) > 100
+    assert np.count_nonzero(np.any(images["fused"] != images["uncorrected"], axis=-1)) > 100
+
+
+def test_gbaa_interior_default_leaves_textured_frames_alone(gl_egl: GLContext) -> None:
+    """``render.gbaa_interior`` left at its default (true) corrects a still of untextured
+    surfaces, not the viewer's frames, and not a frame where an opaque surface samples a
+    texture map (its detail is filtered by the mip chain already: the frame keeps the
+    plain resolve's bytes); a scene that names it true gets it there too."""
+    size = (128, 72)
+
+    def frame(loaded: LoadedScene, interior: bool | None = None, interactive: bool = False):
+        scene = loaded.scene
+        if interior is not None:
+            render = scene.render.model_copy(update={"gbaa_interior": interior})
+            scene = replace_parts(scene, render=render)
+        options = RenderOptions(interactive=interactive)
+        r = Renderer(gl_egl, dataclasses.replace(loaded, scene=scene), size, options=options)
+        try:
+            r.render()
+            assert r.gbaa is not None and r.gbaa.interior == r.gbaa_interior
+            return r.gbaa_interior, r.read_ldr().copy()
+        finally:
+            r.release()
+
+    untextured = scene_from(aa_scene_data(size))
+    assert frame(untextured)[0] and not frame(untextured, interactive=True)[0]
+    textured = scene_from("gltf_material_sampler")
+    drawn, default = frame(textured)
+    assert not drawn
+    assert np.array_equal(default, frame(textured, False)[1])
+    named, corrected = frame(textured, True)
+    assert named and np.count_nonzero(np.any(corrected != default, axis=-1)) > 100
 
 
 def test_fxaa_filter_is_its_twin(gl_egl: GLContext) -> None:
@@ -329,9 +361,9 @@ def test_gbaa_half_covered_pixel_past_its_neighbours_reach(gl_egl: GLContext) ->
 
 def test_gbaa_interior_leaves_out_a_peak_whose_share_is_white(gl_egl: GLContext) -> None:
     """The interior correction on one surface (10x8, radiance 0.1) with two peaks one pixel
-    wide: around the one past ``GBAA_SPILL`` times the display's white (its 1/24 share
-    alone white) each neighbour keeps its own display value (the peak counts as ``c``),
-    where without the guard the four turned white (a plus the area truth does not have);
+    wide: around the one past ``GBAA_SPILL`` times the display's white each neighbour
+    keeps its own display value (the peak counts as ``c``), where without the guard the
+    four brightened into a plus;
     around the one under it they rise as the correction has them. GL and twin alike."""
     h, w = 8, 10
     surface = np.zeros((h, w, 2), np.float32)
@@ -340,7 +372,7 @@ def test_gbaa_interior_leaves_out_a_peak_whose_share_is_white(gl_egl: GLContext)
     hdr[..., 3] = 1.0
     spill = twin.GBAA_SPILL * twin.gbaa_saturation("neutral") / 2.0**0.5
     hot, warm = (4, 2), (3, 7)  # (y, x), rows bottom-up
-    hdr[hot][:3], hdr[warm][:3] = 2.0 * spill, 0.5 * spill
+    hdr[hot][:3], hdr[warm][:3] = 30.0 * spill, 0.5 * spill  # its share alone white; under it
     inputs = {"surface": surface, "edge": np.full((h, w, 4), 16.0, np.float16), "hdr": hdr,
               "display": np.zeros((h, w, 4), np.uint8)}  # fmt: skip
     resolved = drawn_gbaa(gl_egl, inputs, straight=False, exact=True, interior=True)

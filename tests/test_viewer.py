@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from app.frame.camera import fit_scene
-from app.render.renderer import Renderer
+from app.render.renderer import Renderer, RenderOptions
 from app.resources import glsl_dir, scenes_dir
 from app.scene.edits import get_key
 from app.scene.loader import load_scene
@@ -45,10 +45,16 @@ def viewer(xdisplay: str, scene_copy: Path):
     v.close()
 
 
+# the viewer's frames: without a still's interior correction (app/viewer/window.py)
+VIEWER_FRAMES = RenderOptions(interactive=True)
+
+
 def headless(gl, loaded, size) -> np.ndarray:
-    """``pbs render``'s image of the same state, in its own headless (EGL) context."""
+    """``pbs render``'s image of the same state as the viewer draws it (its frames leave
+    out a still's interior correction, ``RenderOptions.interactive``), in its own
+    headless (EGL) context."""
     with gl.ctx:  # current for these calls; the viewer makes its own current again
-        r = Renderer(gl, loaded, size)
+        r = Renderer(gl, loaded, size, options=VIEWER_FRAMES)
         try:
             r.render()
             return r.read_ldr()
@@ -335,7 +341,7 @@ def test_comparison_in_the_window_equals_the_headless_comparison(viewer):
         with gl.ctx:
             spec = CompareSpec("materials.ball.roughness", 0.1, 0.8)
             size = v.framebuffer_size
-            c = Comparison(gl, fit_scene(v.document.loaded, size), spec, size)
+            c = Comparison(gl, fit_scene(v.document.loaded, size), spec, size, VIEWER_FRAMES)
             try:
                 c.render()
                 c.composite("split", 0.3)
@@ -558,7 +564,8 @@ def test_a_comparison_draws_its_sides_as_the_main_view_does(viewer):
 def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps):
     """Step 5's first comparison (gold: Schlick | exact conductor Fresnel) in one call, as
     its button does: the window shows the split screen that ``pbs render --compare --fit``
-    makes of the same scene file, key and values (a step keeps the scene's framing)."""
+    makes of the same scene file, key and values (a step keeps the scene's framing), drawn
+    as the viewer's frames are."""
     from app.gl.context import create_context
     from app.render.compare import CompareSpec, Comparison
 
@@ -572,7 +579,9 @@ def test_walkthrough_comparison_equals_the_headless_compare(viewer, lesson_steps
     try:
         with gl.ctx:
             loaded = fit_scene(load_scene(scenes_dir() / f"{c.scene}.toml"), fitted)
-            comp = Comparison(gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size)
+            comp = Comparison(
+                gl, loaded, CompareSpec(c.key, c.a, c.b), v.framebuffer_size, VIEWER_FRAMES
+            )
             try:
                 comp.render()
                 comp.composite("split", v.divider)  # the window's, on the gold spheres

@@ -25,9 +25,10 @@ GBAA_DEPTH_TOLERANCE = 0.1  # view depths further apart than this fraction diffe
 GBAA_ALONG_EDGE_CLAMP = 1.5  # an edge pixel's own part stays within this factor of the centre's
 GBAA_SLIVER_REACH = 1.5  # a neighbour's edge this far from its centre can reach into a pixel
 GBAA_SLIVER_CAP = 0.5  # the most a half-plane that misses a pixel's centre covers of it
-# the interior correction leaves out a neighbour this many times past the display's white
-# (its 1/24 share alone would be white)
-GBAA_SPILL = 24.0
+# the interior correction leaves out a neighbour past this many times the display's white:
+# a saturated pixel's radiance says nothing of its highlight's size, and its 1/24 share
+# drew a plus around every highlight smaller than a pixel
+GBAA_SPILL = 1.0
 # the four neighbours, +x, -x, +y, -y (gbaa.frag's STEPS; k ^ 1 is the opposite one)
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 

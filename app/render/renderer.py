@@ -182,6 +182,9 @@ class _FrameFacts:
         self.mesh_triangles = sum(
             len(parts[i].indices) // 3 for i in self.opaque if parts[i].analytic is None
         )
+        # an opaque surface samples a texture map, which leaves gbaa's interior correction
+        # out where the scene does not name it (``Renderer.gbaa_interior``)
+        self.textured = any(layer.maps for i in self.opaque for layer in parts[i].layers)
 
     @cached_property
     def table(self) -> Hashable:
@@ -813,8 +816,21 @@ class Renderer:
         if not self._gbaa():
             return None
         parts = (Same(self.frame.parts), self._frame_facts().opaque)
-        interior = self.scene.render.gbaa_interior and not self.options.interactive
-        return (self.size, self.scene.render.tonemap, self.transparent, parts, interior)
+        return (self.size, self.scene.render.tonemap, self.transparent, parts, self.gbaa_interior)
+
+    @property
+    def gbaa_interior(self) -> bool:
+        """Whether gbaa's interior correction is drawn (``render.gbaa_interior``): in a
+        still, not in the viewer's frames (``RenderOptions.interactive``: its cost), and
+        where the scene leaves the setting at its default (true) only on a frame whose
+        opaque surfaces sample no texture map: a map's detail is already filtered by its
+        mip chain, and the correction's blur took a textured model further from its
+        supersampled frame (docs/antialiasing.md, "The choice"). A scene that names it
+        true gets it whatever its surfaces."""
+        settings = self.scene.render
+        if not settings.gbaa_interior or self.options.interactive:
+            return False
+        return "gbaa_interior" in settings.model_fields_set or not self._frame_facts().textured
 
     def _opaque_extents(self) -> tuple[np.ndarray, np.ndarray]:
         """The opaque parts' extents, world space, for the window rectangles that gbaa's
@@ -836,11 +852,9 @@ class Renderer:
         return np.array(boxes).reshape(-1, 8, 4), np.array(spheres).reshape(-1, 4)
 
     def _build_gbaa(self) -> GbaaPass:
-        # the viewer's frames leave out the interior correction (its cost)
-        interior = self.scene.render.gbaa_interior and not self.options.interactive
         return GbaaPass(
             self.gl.ctx, self.shaders, self.size, TONEMAP_CODE[self.scene.render.tonemap],
-            self.transparent, *self._opaque_extents(), interior=interior,
+            self.transparent, *self._opaque_extents(), interior=self.gbaa_interior,
         )  # fmt: skip
 
     def _key_post(self) -> Hashable:

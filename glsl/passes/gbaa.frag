@@ -56,8 +56,8 @@ uniform float u_exposure;    // linear scale, 2^EV
 // pass wrote the display image and the surfaces' radiance alone: Renderer.run_lighting)
 uniform float u_uniform_background;
 uniform vec4 u_background;
-// GBAA_CORRECT: the radiance (the HDR image's units) past which a neighbour's share of
-// the area mean, 1/24 of it, is alone past the display's white (24 times
+// GBAA_CORRECT: the radiance (the HDR image's units) past which a neighbour is left out
+// of the area mean: past the display's white (GBAA_SPILL times
 // app/reference/antialiasing.py gbaa_saturation, over the exposure)
 uniform float u_spill;
 
