@@ -193,15 +193,20 @@ def test_scene_file_with_a_mesh_and_no_camera_or_light(tmp_path: Path) -> None:
     """A scene file naming only a mesh gets the defaults and one note, not a black image."""
     (tmp_path / "teapot.obj").write_bytes((MESHES / "teapot.obj").read_bytes())
     (tmp_path / "only.toml").write_text('[[objects]]\nshape = "mesh"\nfile = "teapot.obj"\n')
+    _check_defaults_with_one_note(tmp_path, "only.toml", "only.toml")
+
+
+def _check_defaults_with_one_note(tmp_path: Path, scene: str, note: str) -> None:
+    """``scene`` (in ``tmp_path``) renders with exit 0 and one note holding ``note``, its
+    object framed (the depth view's covered share) and lit (the image not flat)."""
     out, depth = tmp_path / "out.png", tmp_path / "depth.png"
-    proc = _app("render", "only.toml", "-o", out, "--size", SIZE, cwd=tmp_path)
+    proc = _app("render", scene, "-o", out, "--size", SIZE, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     notes = [line for line in proc.stderr.splitlines() if line.startswith("pbs: note:")]
-    assert len(notes) == 1 and "only.toml" in notes[0], proc.stderr
-    proc = _app("render", "only.toml", "-o", depth, "--size", SIZE, "--debug", "depth",
-                cwd=tmp_path)  # fmt: skip
+    assert len(notes) == 1 and note in notes[0], proc.stderr
+    proc = _app("render", scene, "-o", depth, "--size", SIZE, "--debug", "depth", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), "only.toml")
+    _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), scene)
 
 
 def test_a_scene_file_with_a_camera_and_no_light_is_metered(tmp_path: Path) -> None:
@@ -267,15 +272,7 @@ def test_a_scene_of_primitives_with_no_light_gets_the_defaults(tmp_path: Path) -
     with one note (it wrote an all-black image); with a camera it keeps the camera and
     gets the light and metered exposure."""
     (tmp_path / "ball.toml").write_text(PRIMITIVE + 'material = "red"\n')
-    out, depth = tmp_path / "out.png", tmp_path / "depth.png"
-    proc = _app("render", "ball.toml", "-o", out, "--size", SIZE, cwd=tmp_path)
-    assert proc.returncode == 0, proc.stderr
-    notes = [line for line in proc.stderr.splitlines() if line.startswith("pbs: note:")]
-    assert len(notes) == 1 and "ball.toml: gives no camera or light" in notes[0], proc.stderr
-    proc = _app("render", "ball.toml", "-o", depth, "--size", SIZE, "--debug", "depth",
-                cwd=tmp_path)  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    _check_framed_and_lit(_png(depth).max(axis=2) > 0.0, _png(out), "ball.toml")
+    _check_defaults_with_one_note(tmp_path, "ball.toml", "ball.toml: gives no camera or light")
     camera = "[camera]\nposition = [0.0, 1.0, 9.0]\n"
     (tmp_path / "seen.toml").write_text(camera + PRIMITIVE + 'material = "red"\n')
     seen = scene_from(tmp_path / "seen.toml").scene
