@@ -145,7 +145,7 @@ def test_gbaa_interior_fused_frame_is_the_hdr_frames(gl_egl: GLContext) -> None:
 
 
 def test_gbaa_interior_default_leaves_textured_frames_alone(gl_egl: GLContext) -> None:
-    """``render.gbaa_interior`` left at its default (true) corrects a still of untextured
+    """``render.gbaa_interior`` left unset corrects a still of untextured
     surfaces, not the viewer's frames, and not a frame where an opaque surface samples a
     texture map (its detail is filtered by the mip chain already: the frame keeps the
     plain resolve's bytes); a scene that names it true gets it there too."""
@@ -173,6 +173,13 @@ def test_gbaa_interior_default_leaves_textured_frames_alone(gl_egl: GLContext) -
     assert np.array_equal(default, frame(textured, False)[1])
     named, corrected = frame(textured, True)
     assert named and np.count_nonzero(np.any(corrected != default, axis=-1)) > 100
+    # an edit validates the whole render table again (the API's set_settings, a sweep):
+    # the setting left unset stays unset, so the texture rule still holds
+    from app.scene.edits import edited, parse_key
+
+    tonemap = textured.scene.render.tonemap
+    again = edited(textured, [(parse_key("render.tonemap", "test"), tonemap)], "test")
+    assert again.scene.render.gbaa_interior is None and not frame(again)[0]
 
 
 def test_fxaa_filter_is_its_twin(gl_egl: GLContext) -> None:

@@ -77,7 +77,10 @@ class GBuffer:
         self._draw_mask = tuple((True,) * 4 for _ in self._targets)
 
     def clear(self) -> None:
-        """Start a frame: no surface anywhere (RT2's depth 0) and the far z."""
+        """Start a frame: no surface anywhere (RT2's depth 0) and the far z. Bound first:
+        moderngl applies a framebuffer's mask to the GL only while it is bound, so the
+        restored mask would otherwise stay the clear's for the next draw."""
+        self.fbo.use()
         self.fbo.color_mask = self._clear_mask
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.fbo.color_mask = self._draw_mask

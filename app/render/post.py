@@ -91,6 +91,8 @@ class PostPass(FullscreenPass):
         # k / 255 converts back to the byte k in the GL's float -> unorm8 rounding. Cleared
         # through the draw's framebuffer (depth writes off: the z-buffer stays; ``second``
         # masked), so that llvmpipe clears in the draw's scene, not in one of its own.
+        # Bound first: moderngl applies a mask to the GL only while its framebuffer is bound.
+        self._z_fbo.use()
         if second is not None:
             self._z_fbo.color_mask = ((True,) * 4, (False,) * 4)
         self._z_fbo.clear(*(k / 255.0 for k in value))

@@ -822,15 +822,15 @@ class Renderer:
     def gbaa_interior(self) -> bool:
         """Whether gbaa's interior correction is drawn (``render.gbaa_interior``): in a
         still, not in the viewer's frames (``RenderOptions.interactive``: its cost), and
-        where the scene leaves the setting at its default (true) only on a frame whose
+        where the scene leaves the setting unset (None) only on a frame whose
         opaque surfaces sample no texture map: a map's detail is already filtered by its
         mip chain, and the correction's blur took a textured model further from its
         supersampled frame (docs/antialiasing.md, "The choice"). A scene that names it
         true gets it whatever its surfaces."""
-        settings = self.scene.render
-        if not settings.gbaa_interior or self.options.interactive:
+        named = self.scene.render.gbaa_interior
+        if named is False or self.options.interactive:
             return False
-        return "gbaa_interior" in settings.model_fields_set or not self._frame_facts().textured
+        return named is True or not self._frame_facts().textured
 
     def _opaque_extents(self) -> tuple[np.ndarray, np.ndarray]:
         """The opaque parts' extents, world space, for the window rectangles that gbaa's

@@ -175,9 +175,11 @@ class RenderSettings(_Strict):
     antialiasing: Literal["none", "fxaa", "jitter", "sraa", "gbaa", "msaa"] = "gbaa"
     antialiasing_samples: Annotated[int, Field(strict=True, ge=1, le=256)] = 8
     # "gbaa" in a still (not the viewer's frames): every pixel inside a surface also moved
-    # from its centre's radiance to its area mean (docs/antialiasing.md); left at this
-    # default, only where no opaque surface samples a texture map (Renderer.gbaa_interior)
-    gbaa_interior: Annotated[bool, Field(strict=True)] = True
+    # from its centre's radiance to its area mean (docs/antialiasing.md); unset (None, the
+    # default), only where no opaque surface samples a texture map (Renderer.gbaa_interior):
+    # None rather than a default of true, so a table dumped and validated again by an edit
+    # keeps meaning "not named"
+    gbaa_interior: Annotated[bool | None, Field(strict=True)] = None
     # RTR4 §9.1: the surface (specular) and subsurface (diffuse) reflections as
     # separate contributions: both, or one of them alone.
     terms: Literal["all", "specular", "diffuse"] = "all"

@@ -1158,9 +1158,10 @@ _STRUCTURAL = re.compile(
 
 # A model file's material factor: new constants on the same parts and maps, as a scene
 # material's number (app.frame.restyle_file_materials), so not deferred as "objects" is.
+# The emissive ones stay deferred: an emission turning on or off from black compiles the
+# G-buffer and lighting programs again.
 _FILE_FACTOR = re.compile(
-    r"^objects\[\d+\]\.file_materials\..+\."
-    r"(base_color|alpha|metallic|roughness|emissive|emissive_strength)$"
+    r"^objects\[\d+\]\.file_materials\..+\.(base_color|alpha|metallic|roughness)$"
 )
 
 
