@@ -436,15 +436,25 @@ def test_gbaa_window_rectangle_of_a_sphere_holds_its_silhouette() -> None:
 def test_the_default_falls_back_to_fxaa_on_a_dense_mesh(gl_egl: GLContext) -> None:
     """A scene that leaves render.antialiasing at its default draws gbaa up to
     GBAA_DEFAULT_TRIANGLES opaque mesh triangles and FXAA past them (gbaa's geometry stage
-    runs once per triangle); a scene that names "gbaa" keeps it at any count."""
+    runs once per triangle); a scene that names "gbaa" keeps it at any count, and an edit
+    of another render key leaves the default the default."""
     data = aa_scene_data(SIZE)
     light, dense = dict(data), dict(data)
     # subdivision 5: 20,480 triangles, past the 20,000 of GBAA_DEFAULT_TRIANGLES
     dense["objects"] = [*data["objects"][:3], {**data["objects"][3], "subdivisions": 5}]
     named = {**dense, "render": {**dense["render"], "antialiasing": "gbaa"}}
+    # an edit validates the whole render table again (the API's set_settings, a sweep):
+    # the key left unset stays unset
+    from app.scene.edits import edited, parse_key
+
+    loaded = scene_from(dense)
+    tonemap = loaded.scene.render.tonemap
+    edit = edited(loaded, [(parse_key("render.tonemap", "test"), tonemap)], "test")
     drawn = {}
-    for name, scene in (("light", light), ("dense", dense), ("named", named)):
-        r = Renderer(gl_egl, scene_from(scene), SIZE)
+    cases = (("light", scene_from(light)), ("dense", loaded), ("named", scene_from(named)),
+             ("edited", edit))  # fmt: skip
+    for name, scene in cases:
+        r = Renderer(gl_egl, scene, SIZE)
         try:
             r.render()
             drawn[name] = (r.antialiasing, r.gbaa is not None, r.fxaa is not None)
@@ -454,6 +464,7 @@ def test_the_default_falls_back_to_fxaa_on_a_dense_mesh(gl_egl: GLContext) -> No
         "light": ("gbaa", True, False),
         "dense": ("fxaa", False, True),
         "named": ("gbaa", True, False),
+        "edited": ("fxaa", False, True),
     }
 
 

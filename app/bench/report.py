@@ -32,7 +32,7 @@ from app.bench.startup import BAD_SCENE, HELP
 from app.gl.context import GLContext
 from app.output import atomic_write
 from app.render.shadows import hardware_pcf, probe_hardware_pcf
-from app.scene.model import RenderSettings
+from app.scene.model import DEFAULT_ANTIALIASING
 
 CULLED_FLOOR_MAX = 1.5
 UNCULLED_SPEEDUP_MIN = 8.0
@@ -53,7 +53,7 @@ SPHERES_PYRENDER = "pyrender"
 # mode costs <= AA_VIEWER_COST_MAX x; both on the suite's time-vs-error front.
 # The still default is the scene model's; the viewer draws the scene's mode while input
 # arrives too (its idle frames add jittered samples only where the mode is "jitter").
-AA_STILL_DEFAULT: str = RenderSettings.model_fields["antialiasing"].default
+AA_STILL_DEFAULT: str = DEFAULT_ANTIALIASING
 AA_VIEWER_INTERACTIVE = AA_STILL_DEFAULT
 AA_STILL_REDUCTION_MIN = 3.0
 AA_STILL_COST_MAX = 2.0

@@ -78,7 +78,15 @@ from app.render.transmission import TransmissionPass, transmission_defines, tran
 from app.scene.edits import replace_parts
 from app.scene.geometry import MeshPart
 from app.scene.loader import LoadedScene
-from app.scene.model import Camera, Environment, Light, Material, RenderSettings, Scene
+from app.scene.model import (
+    DEFAULT_ANTIALIASING,
+    Camera,
+    Environment,
+    Light,
+    Material,
+    RenderSettings,
+    Scene,
+)
 
 # Layouts whose shed targets were noted (once a process each; Renderer._layout).
 _SHED_NOTED: set[GBufferLayout] = set()
@@ -257,8 +265,8 @@ class _Drawn:
 # Render settings whose change needs new mesh parts (their maps' mips and baked blends).
 _PART_SETTINGS = ("normal_filter", "blend")
 
-# Past this many opaque mesh triangles a scene that leaves render.antialiasing at its
-# default draws "fxaa" instead of "gbaa" (``Renderer.antialiasing``; docs/antialiasing.md
+# Past this many opaque mesh triangles a scene that leaves render.antialiasing unset
+# draws "fxaa" instead of "gbaa" (``Renderer.antialiasing``; docs/antialiasing.md
 # measures both sides of it).
 GBAA_DEFAULT_TRIANGLES = 20_000
 
@@ -451,7 +459,7 @@ class Renderer:
     @property
     def antialiasing(self) -> str:
         """The antialiasing this renderer draws: ``render.antialiasing``, except that a
-        scene which leaves it at its default ("gbaa") and has more than
+        scene which leaves it unset (``DEFAULT_ANTIALIASING``, "gbaa") and has more than
         ``GBAA_DEFAULT_TRIANGLES`` opaque mesh triangles gets "fxaa": gbaa's geometry
         stage runs once per triangle, on llvmpipe on one thread, and on a dense scene it
         cost more than the rest of the frame (docs/antialiasing.md, "The choice"). A
@@ -460,10 +468,10 @@ class Renderer:
         mode = settings.antialiasing
         if mode == "msaa":
             return self._msaa_fallback()
-        if mode != "gbaa" or "antialiasing" in settings.model_fields_set:
+        if mode is not None:
             return mode
         dense = self._frame_facts().mesh_triangles > GBAA_DEFAULT_TRIANGLES
-        return "fxaa" if dense else mode
+        return "fxaa" if dense else DEFAULT_ANTIALIASING
 
     def _msaa_fallback(self) -> str:
         """The mode "msaa", or "fxaa" (noted once a process per scene) where alpha-blended or

@@ -142,6 +142,11 @@ class Camera(_Strict):
         return float(np.linalg.norm(np.subtract(self.target, self.position)))
 
 
+# The antialiasing a scene that leaves render.antialiasing unset gets (docs/antialiasing.md,
+# "The choice").
+DEFAULT_ANTIALIASING = "gbaa"
+
+
 class RenderSettings(_Strict):
     """Image size and pipeline options."""
 
@@ -168,11 +173,13 @@ class RenderSettings(_Strict):
     # luma-edge filter of the display image (after Lottes' FXAA 3.11); "jitter", the mean
     # of antialiasing_samples frames with the projection jittered by Halton (2, 3)
     # sub-pixel offsets; "sraa", subpixel reconstruction from 4 geometry samples per
-    # pixel; "gbaa" (the default), the silhouettes resolved from each pixel's distance to
-    # its surface's edge, written by the G-buffer pass (app/render/antialias.py); "msaa",
-    # a 4-sample G-buffer shaded per sample where a pixel's samples differ
-    # (app/render/msaa.py).
-    antialiasing: Literal["none", "fxaa", "jitter", "sraa", "gbaa", "msaa"] = "gbaa"
+    # pixel; "gbaa", the silhouettes resolved from each pixel's distance to its surface's
+    # edge, written by the G-buffer pass (app/render/antialias.py); "msaa", a 4-sample
+    # G-buffer shaded per sample where a pixel's samples differ (app/render/msaa.py).
+    # Unset (None), DEFAULT_ANTIALIASING, or "fxaa" past a triangle count
+    # (Renderer.antialiasing): None rather than a default value, so a table dumped and
+    # validated again by an edit keeps meaning "not named".
+    antialiasing: Literal["none", "fxaa", "jitter", "sraa", "gbaa", "msaa"] | None = None
     antialiasing_samples: Annotated[int, Field(strict=True, ge=1, le=256)] = 8
     # "gbaa" in a still (not the viewer's frames): every pixel inside a surface also moved
     # from its centre's radiance to its area mean (docs/antialiasing.md); unset (None, the
