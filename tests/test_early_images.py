@@ -1,7 +1,8 @@
 """A still render starts decoding a glTF file's whole-decoded images (normal,
-metallic-roughness, occlusion) while it imports its modules (app/scene/early_images.py,
-app/textures/early.py): which images, and the reader taking the decoded image instead of
-decoding the same bytes again, a broken or a known image left to the reader."""
+metallic-roughness, occlusion, and the colour maps that are no JPEG) while it imports its
+modules (app/scene/early_images.py, app/textures/early.py): which images, the reader
+taking the decoded image instead of decoding the same bytes again, a broken or a known
+image left to the reader, and a PNG's image data joined into one chunk."""
 
 from __future__ import annotations
 
@@ -126,7 +127,8 @@ def test_broken_gltf_image_named(tmp_path: Path, capsys, monkeypatch) -> None:
         if thread.name == "pbs-early-images":
             thread.join(10.0)
     _check(rc, err, out, f"pbs: error: {path}: images[1]:", "is not an image pbs reads")
-    assert tried == [len(broken) // 2]  # the normal map's file alone, not the base colour
+    # the normal map's file first, then the base colour (a PNG: decoded whole, so early)
+    assert len(tried) == 2 and tried[0] == len(broken) // 2
 
 
 def test_decoders_take_the_whole_bytes() -> None:
@@ -142,3 +144,105 @@ def test_decoders_take_the_whole_bytes() -> None:
     assert image.decodermaxblock >= len(encoded)
     own = Image.open(io.BytesIO(encoded))
     np.testing.assert_array_equal(np.asarray(image), np.asarray(own))
+
+
+def test_colour_maps_decoded_early_unless_jpeg(tmp_path: Path) -> None:
+    """The base colour and emissive images are the colour maps a still render decodes
+    early, after the filtered maps' images; a JPEG among them is left to the reader, which
+    may decode it reduced (libjpeg's DCT scaling)."""
+    from app.scene import early_images
+
+    b = GltfBuilder()
+    base, emissive, normal = (_texture(b, tmp_path, (10 * k, 20, 30)) for k in range(3))
+    info = pygltflib.TextureInfo
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(baseColorTexture=info(index=base)),
+        normalTexture=pygltflib.NormalMaterialTexture(index=normal),
+        emissiveTexture=info(index=emissive),
+    )
+    b.quad(material=b.material(material))
+    path = b.save(tmp_path / "model.gltf")
+    assert whole_image_uris(path) == ["image2.png"]
+    assert whole_image_uris(path, early_images._COLOUR_MAPS) == ["image0.png", "image1.png"]
+    jpeg = io.BytesIO()
+    Image.new("RGB", (8, 8), (200, 10, 10)).save(jpeg, format="JPEG")
+    (tmp_path / "image0.png").write_bytes(jpeg.getvalue())  # a JPEG whatever its name says
+    (tmp_path / "image1.png").write_bytes(_png(4))
+    tried: list[int] = []
+    decode = early.decode_early
+    try:
+        early.decode_early = lambda data, budget: tried.append(len(data))  # type: ignore[assignment]
+        for name in ("image0.png", "image1.png"):
+            early_images._open(name, path, Budget(), skip_jpeg=True)
+    finally:
+        early.decode_early = decode  # type: ignore[assignment]
+    assert tried == [len(_png(4))]
+
+
+def _png_chunks(data: bytes) -> list[tuple[bytes, int]]:
+    import struct
+
+    chunks, at = [], 8
+    while at < len(data):
+        length, kind = struct.unpack_from(">I4s", data, at)
+        chunks.append((kind, length))
+        at += 12 + length
+    return chunks
+
+
+def test_single_idat_same_texels() -> None:
+    """``single_idat``: a PNG whose image data spans many IDAT chunks (as libpng writes
+    them, 8 KiB each) becomes one IDAT chunk with a valid CRC, and decodes to the same
+    texels; bytes that are no PNG, hold one IDAT, or are cut short come back as they
+    are."""
+    import zlib
+
+    noise = np.random.default_rng(9).integers(0, 256, (96, 80, 3), np.uint8)
+    out = io.BytesIO()
+    Image.fromarray(noise).save(out, format="PNG", compress_level=0)
+    one = out.getvalue()
+    # the same image with its zlib stream split into 1000-byte IDAT chunks
+    stream = b"".join(
+        one[at + 8 : at + 8 + n] for at, (kind, n) in _chunk_offsets(one) if kind == b"IDAT"
+    )
+    head = b"".join(
+        one[at : at + 12 + n] for at, (kind, n) in _chunk_offsets(one) if kind == b"IHDR"
+    )
+    end = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+    pieces = [stream[i : i + 1000] for i in range(0, len(stream), 1000)]
+    import struct
+
+    split = (
+        early.PNG_SIGNATURE
+        + head
+        + b"".join(
+            struct.pack(">I", len(p))
+            + b"IDAT"
+            + p
+            + struct.pack(">I", zlib.crc32(p, zlib.crc32(b"IDAT")))
+            for p in pieces
+        )
+        + end
+    )
+    assert [k for k, _ in _png_chunks(split)].count(b"IDAT") == len(pieces) > 20
+    joined = early.single_idat(split)
+    assert [k for k, _ in _png_chunks(joined)] == [b"IHDR", b"IDAT", b"IEND"]
+    for data in (split, joined):
+        image = Image.open(io.BytesIO(data))
+        image.load()  # Pillow checks each chunk's CRC
+        np.testing.assert_array_equal(np.asarray(image), noise)
+    assert early.single_idat(one) is one  # one IDAT already
+    cut = split[:-30]
+    assert early.single_idat(cut) is cut  # cut short: left to the decoder
+    assert early.single_idat(b"GIF89a....") == b"GIF89a...."
+
+
+def _chunk_offsets(data: bytes) -> list[tuple[int, tuple[bytes, int]]]:
+    import struct
+
+    out, at = [], 8
+    while at < len(data):
+        length, kind = struct.unpack_from(">I4s", data, at)
+        out.append((at, (kind, length)))
+        at += 12 + length
+    return out

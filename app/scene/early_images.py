@@ -1,12 +1,13 @@
-"""A still render of a glTF file starts decoding the images its project-filtered maps read
-(normal, metallic-roughness, occlusion) while the process is still importing the scene's
-modules, on the core those imports leave idle.
+"""A still render of a glTF file starts decoding the images its maps read while the process
+is still importing the scene's modules, on the core those imports leave idle.
 
-Those maps are decoded whole whatever the camera (app/scene/gltf.py: the finest level a
-still frame samples only decides where their levels start), so they can be decoded
-before the file is validated: this reads the file's JSON with the standard library alone
-and decodes each such image on its own thread (app/textures/early.py), Pillow letting go
-of the GIL while it decodes. When the reader opens the same bytes (their digest) it takes
+The maps the project filters (normal, metallic-roughness, occlusion) are decoded whole
+whatever the camera (app/scene/gltf.py: the finest level a still frame samples only
+decides where their levels start), and so is every colour map that is not a JPEG (only
+libjpeg decodes at a reduced size): they can be decoded before the file is validated.
+This reads the file's JSON with the standard library alone and decodes those images,
+the filtered maps' first, on ``EARLY_THREADS`` threads (app/textures/early.py), Pillow
+letting go of the GIL while it decodes. When the reader opens the same bytes (their digest) it takes
 that image instead of decoding them again (``maps.open_image``); every check of the
 reader still runs there, in its order (header, budget, the broken image named by its
 key). Nothing found here is reported: a file, a URI or an image this cannot
@@ -31,6 +32,13 @@ _WHOLE_MAPS = (
     (None, "normalTexture"),
     (None, "occlusionTexture"),
 )
+# Those of its colour maps (sRGB, whose mips the GL makes): decoded whole unless a JPEG.
+_COLOUR_MAPS = (
+    ("pbrMetallicRoughness", "baseColorTexture"),
+    (None, "emissiveTexture"),
+)
+EARLY_THREADS = 2  # the images decode side by side, beside the imports
+_JPEG_SIGNATURE = b"\xff\xd8\xff"
 # A glTF JSON larger than this is left to the reader (the early start is for the common case).
 _MAX_JSON_BYTES = 16 << 20
 
@@ -51,15 +59,39 @@ def _start(path: Path) -> None:
 
     try:
         budget = Budget(DEFAULT_POLICY.limits)  # the images decoded here: the default's
-        for uri in whole_image_uris(path):
-            _open(uri, path, budget)
+        whole = whole_image_uris(path)
+        colour = [uri for uri in whole_image_uris(path, _COLOUR_MAPS) if uri not in whole]
     except Exception:  # the reader reports whatever is wrong, in its order
         return
+    queue = iter([(uri, False) for uri in whole] + [(uri, True) for uri in colour])
+    lock = threading.Lock()
+
+    def drain() -> None:
+        while True:
+            with lock:
+                item = next(queue, None)
+            if item is None:
+                return
+            try:
+                _open(item[0], path, budget, skip_jpeg=item[1])
+            except Exception:  # the reader reports whatever is wrong, in its order
+                continue
+
+    helpers = [
+        threading.Thread(target=drain, name="pbs-early-images", daemon=True)
+        for _ in range(EARLY_THREADS - 1)
+    ]
+    for helper in helpers:
+        helper.start()
+    drain()
 
 
-def whole_image_uris(path: Path) -> list[str]:
+def whole_image_uris(
+    path: Path, maps: tuple[tuple[str | None, str], ...] = _WHOLE_MAPS
+) -> list[str]:
     """The URIs of the images that ``path``'s materials read through the maps the project
-    filters, in the materials' order, each once (no data: URIs)."""
+    filters (``maps``: through those textureInfo objects instead), in the materials'
+    order, each once (no data: URIs)."""
     from app.untrusted import files
     from app.untrusted.policy import DEFAULT_POLICY
 
@@ -68,7 +100,7 @@ def whole_image_uris(path: Path) -> list[str]:
     textures, images = doc.get("textures") or [], doc.get("images") or []
     uris: list[str] = []
     for material in doc.get("materials") or []:
-        for holder, name in _WHOLE_MAPS:
+        for holder, name in maps:
             owner = material if holder is None else material.get(holder) or {}
             index = (owner.get(name) or {}).get("index")
             if not isinstance(index, int) or not 0 <= index < len(textures):
@@ -82,8 +114,9 @@ def whole_image_uris(path: Path) -> list[str]:
     return uris
 
 
-def _open(uri: str, path: Path, budget: Budget) -> None:
-    """The file ``uri`` names, decoded on this thread (``early.decode_early``)."""
+def _open(uri: str, path: Path, budget: Budget, skip_jpeg: bool = False) -> None:
+    """The file ``uri`` names, decoded on this thread (``early.decode_early``); not where
+    ``skip_jpeg`` and it is a JPEG (a colour map the reader may decode reduced)."""
     from app.textures.early import decode_early
     from app.untrusted import RefusedError, files
     from app.untrusted.policy import DEFAULT_POLICY
@@ -92,5 +125,7 @@ def _open(uri: str, path: Path, budget: Budget) -> None:
         file = files.confine_uri(uri, path, DEFAULT_POLICY)
         data = files.read_bytes(file, DEFAULT_POLICY.limits.max_file_bytes)
     except RefusedError:
+        return
+    if skip_jpeg and data.startswith(_JPEG_SIGNATURE):
         return
     decode_early(data, budget)

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import hashlib
 import io
+import struct
 import threading
 import warnings
+import zlib
 from concurrent.futures import Future
 from typing import TYPE_CHECKING
 
@@ -43,8 +45,9 @@ def decode_early(data: bytes, budget: Budget) -> None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            image = Image.open(io.BytesIO(data), formats=IMAGE_FORMATS)
-        whole_reads(image, len(data))
+            encoded = single_idat(data)
+            image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+        whole_reads(image, len(encoded))
         width, height = image.size
         bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
         budget.texture(width, height, None, "the image")
@@ -86,3 +89,46 @@ def take(digest: str):  # -> PIL.Image.Image | None
     if done is None or done.exception() is not None:
         return None
     return done.result()
+
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def single_idat(data: bytes) -> bytes:
+    """A PNG's bytes with its image data in one IDAT chunk, the same image: the bytes
+    themselves where they are no PNG, hold one IDAT already, or are not laid out as the
+    PNG specification lays a file out (the decoder then meets them as they are).
+
+    PNG splits its one zlib stream of image data over IDAT chunks, commonly of 8 KiB
+    (libpng's default): 437 chunks in Khronos' WaterBottle metallic-roughness map. Pillow
+    hands its decoder one chunk per call, and takes the GIL back between calls, so a
+    decode on a thread of its own waited for the GIL at every chunk while another thread
+    ran Python (the imports, the main thread's work). The stream's bytes joined into one
+    chunk (its CRC-32 computed anew, chunk type and data as the specification defines
+    it) decode in one call: the same texels (tests/test_early_images.py)."""
+    if not data.startswith(PNG_SIGNATURE):
+        return data
+    head: list[bytes] = []
+    idat: list[bytes] = []
+    tail: list[bytes] = []
+    at = len(PNG_SIGNATURE)
+    while at < len(data):
+        if at + 12 > len(data):
+            return data
+        length, kind = struct.unpack_from(">I4s", data, at)
+        end = at + 12 + length
+        if end > len(data):
+            return data
+        if kind == b"IDAT":
+            if tail:  # image data after another chunk: not one stream as PNG has it
+                return data
+            idat.append(data[at + 8 : at + 8 + length])
+        else:
+            (tail if idat else head).append(data[at:end])
+        at = end
+    if len(idat) < 2:
+        return data
+    stream = b"".join(idat)
+    crc = zlib.crc32(stream, zlib.crc32(b"IDAT"))
+    chunk = struct.pack(">I", len(stream)) + b"IDAT" + stream + struct.pack(">I", crc)
+    return b"".join([PNG_SIGNATURE, *head, chunk, *tail])

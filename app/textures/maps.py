@@ -34,7 +34,7 @@ from app.common.models import MaterialParams
 from app.errors import InputError
 from app.reference.filtering import directional_spread
 from app.textures.cache import code_version, prepared_cache
-from app.textures.early import BAND_BYTES, IMAGE_FORMATS
+from app.textures.early import BAND_BYTES, IMAGE_FORMATS, single_idat
 from app.textures.early import take as take_early
 from app.textures.early import whole_reads as _whole_reads
 from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, spread_levels
@@ -316,8 +316,9 @@ def open_image(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             # Not a ``with`` block: an image returned undecoded reads its stream later.
-            image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
-        _whole_reads(image, len(encoded))
+            stream = single_idat(encoded)  # a PNG decodes in one call (early.single_idat)
+            image = Image.open(io.BytesIO(stream), formats=IMAGE_FORMATS)
+        _whole_reads(image, len(stream))
         width, height = image.size  # from the header: checked before decoding
         if width <= 0 or height <= 0:
             raise RefusedError(f"declares a {width}x{height} image")
@@ -343,7 +344,8 @@ def open_image(
             if kept is not None:  # decoded before in this process: that image
                 _DECODED.move_to_end(digest)
                 return kept
-        early = take_early(digest) if skipped == 0 else None
+        # the image of the file's bytes, unless libjpeg decodes a reduced one
+        early = take_early(digest) if REDUCED_LEVELS not in image.info else None
         if early is not None:  # decoded while the process started (app/textures/early.py)
             early.info[SOURCE_DIGEST] = digest
             image = early
