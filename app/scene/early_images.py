@@ -84,6 +84,8 @@ def _start(path: Path) -> None:
     for helper in helpers:
         helper.start()
     drain()
+    for helper in helpers:  # this thread ends with every early decode
+        helper.join()
 
 
 def whole_image_uris(
