@@ -216,7 +216,7 @@ class GBufferPass:
         self.flush_triangles = FLUSH_TRIANGLES  # 0: one flush at the end (the bench's "before")
         defines = dict(defines or {"GBUFFER_TANGENT": 1})
         self._owns_uploads = uploads is None
-        self.uploads = TextureUploads(ctx) if uploads is None else uploads
+        self.uploads = TextureUploads(ctx, shaders) if uploads is None else uploads
         self.uploads.upload_ready_first((t for p in parts for _, t in drawn_maps(p)), later=True)
         self.drawables = [
             MeshDrawable(

@@ -648,7 +648,7 @@ class Renderer:
         """One GL texture per map of the transmissive parts, uploaded at the first draw
         that asks (the shadow casters' glass maps, the transmission pass's every map):
         the same textures in both passes, not a copy in each."""
-        return TextureUploads(self.gl.ctx)
+        return TextureUploads(self.gl.ctx, self.shaders)
 
     def _key_culler(self) -> Hashable:
         """The tile culler, where the frame culls by tiles (``tiles_used``): its tiles are

@@ -33,6 +33,7 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.reference.filtering import directional_spread
+from app.resources import glsl_dir
 from app.textures.cache import code_version, prepared_cache
 from app.textures.early import BAND_BYTES, IMAGE_FORMATS, single_idat
 from app.textures.early import take as take_early
@@ -115,8 +116,12 @@ class PreparedLevels(Sequence[np.ndarray]):
         build: Callable[[], Sequence[np.ndarray]],
         layout: tuple[int, int, int, bool],
         build_upload: Callable[[], Sequence[np.ndarray]] | None = None,
+        gl_source: ChainSource | None = None,
     ) -> None:
         self.kind, self.parts, self._build = kind, parts, build
+        # What the GL builds the float16 levels from where it can (a render's upload, app/
+        # render/texture_upload.py); a consumer on the CPU builds them as ever
+        self.gl_source = gl_source
         # ``upload_levels``'s float16 levels made directly (the same bits as converting
         # ``build``'s, without holding float32 copies of the levels), where given
         self._build_upload = build_upload
@@ -140,11 +145,33 @@ class PreparedLevels(Sequence[np.ndarray]):
     def prefetch(self) -> None:
         """Start getting the float16 levels on the cache's background thread (read from
         disk, or built and kept where they are not there): ``upload_levels`` then waits
-        for that instead of doing it itself."""
-        if self._prefetched is None:
-            self._prefetched = prepared_cache().prepare(
-                _UPLOAD_KIND % self.kind, self.parts, self._upload_build
-            )
+        for that instead of doing it itself. A chain the GL can build is only read here,
+        where its GL-built levels are kept: else the upload builds it."""
+        if self._prefetched is not None:
+            return
+        if self.gl_source is not None:
+            if prepared_cache().holds(_UPLOAD_KIND % self.kind, self.gl_parts):
+                self._prefetched = prepared_cache().prepare(
+                    _UPLOAD_KIND % self.kind, self.gl_parts, self._upload_build
+                )
+            return
+        self._prefetched = prepared_cache().prepare(
+            _UPLOAD_KIND % self.kind, self.parts, self._upload_build
+        )
+
+    @property
+    def gl_parts(self) -> tuple:
+        """The cache key parts of the float16 levels the GL built."""
+        return (*self.parts, GL_BUILT, gl_chain_version())
+
+    @property
+    def gl_kind(self) -> str:
+        """The cache kind of the float16 levels (the GL's as the CPU's)."""
+        return _UPLOAD_KIND % self.kind
+
+    def prefetched(self) -> bool:
+        """Whether ``prefetch`` started reading (or building) the float16 levels."""
+        return self._prefetched is not None
 
     def ready(self) -> bool:
         """Whether ``upload_levels`` has nothing to wait for (prefetched and at hand)."""
@@ -166,6 +193,62 @@ class PreparedLevels(Sequence[np.ndarray]):
 
 
 _UPLOAD_KIND = "%s f16 rows up"  # the cache kind of a chain's float16 levels
+# A key part of the float16 levels of a chain the GL built (app/render/normal_chain.py):
+# float32 moments, not the float64 ones, so not the same bits as the CPU's.
+GL_BUILT = "built by the GL"
+
+
+def gl_chain_version() -> str:
+    """The code version of a chain the GL draws: its program's GLSL and its driver
+    (app/render/normal_chain.py), read by path (this layer imports nothing of the GL's)."""
+    global _GL_CHAIN_VERSION
+    if _GL_CHAIN_VERSION is None:
+        glsl = glsl_dir()
+        render = Path(__file__).resolve().parent.parent / "render" / "normal_chain.py"
+        _GL_CHAIN_VERSION = code_version(
+            render,
+            glsl / "passes" / "normal_chain.frag",
+            glsl / "material" / "chain.glsl",
+            glsl / "common" / "footprint.glsl",
+        )
+    return _GL_CHAIN_VERSION
+
+
+_GL_CHAIN_VERSION: str | None = None
+
+
+@dataclass(frozen=True)
+class ChainSource:
+    """What the GL needs to build a ``variance`` normal/roughness chain itself
+    (app/render/normal_chain.py): the normal map, the roughness image (its green channel,
+    the normal map's size) or None, the material's normal scale and roughness factor, and
+    the first level kept (``normal_roughness_map``'s ``first``)."""
+
+    normal_image: Image.Image = field(compare=False)
+    roughness_image: Image.Image | None = field(compare=False)
+    scale: float
+    factor: float
+    first: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.normal_image.height, self.normal_image.width)
+
+    def normal_texels(self) -> np.ndarray:
+        """The normal map's 8-bit texels, (H, W, 4) where Pillow's storage can be read
+        in place (the 4th byte its padding), else (H, W, 3)."""
+        source = _decoded(self.normal_image)
+        if source.mode == "RGB":
+            view = rgbx_view(source)
+            if view is not None:
+                return view
+        return rgb_texels(self.normal_image)
+
+    def roughness_texels(self) -> np.ndarray | None:
+        """The roughness image's green channel, (H, W) uint8, or None."""
+        if self.roughness_image is None:
+            return None
+        return np.ascontiguousarray(rgb_texels(self.roughness_image)[..., 1])
 
 
 def prefetch_uploads(layers: Iterable[SurfaceLayer]) -> None:
@@ -829,7 +912,15 @@ def normal_roughness_map(
     assert sized is not None, "a chain needs a normal or a roughness map"
     layout = (sized.height >> first, sized.width >> first, 4, normal_filter == "none")
     upload = lambda: build(rows_up_float16=True)  # noqa: E731
-    texture = Texture(PreparedLevels("normal_roughness", parts, build, layout, upload))
+    gl_source = None
+    if (
+        normal_filter == "variance"
+        and normal_image is not None
+        and (roughness_image is None or roughness_image.size == normal_image.size)
+    ):
+        gl_source = ChainSource(normal_image, roughness_image, float(scale), float(factor), first)
+    levels = PreparedLevels("normal_roughness", parts, build, layout, upload, gl_source)
+    texture = Texture(levels)
     texture.with_factor = lambda other: normal_roughness_map(
         normal_image, scale, other, roughness_image, normal_filter, first
     )

@@ -1,0 +1,146 @@
+"""Normal/roughness mip chains built on the GL: the ``variance`` chain of a glTF material's
+normal map and roughness (app/textures/mips.py; RTR4 §9.13) drawn level by level by
+glsl/passes/normal_chain.frag into the texture the G-buffer pass samples, where the CPU
+would build it in float64 and upload it.
+
+The GL's float32 moments give the twin's levels to float16's rounding (tests/
+test_normal_chain.py holds them to the float64 chain on maps of odd sizes, steep normals
+and scaled ones); what a render uploads is float16 either way. The drawing is the fragment
+stage's work, on every core where the GL is llvmpipe, in place of numpy's passes over
+float64 planes, and it writes into the map's own texture: nothing is uploaded but the two
+images' 8-bit texels. Its levels are read back for the prepared-texture cache (app/render/
+texture_upload.py), under a key of their own (``GL_BUILT``), so a second render uploads
+them as it uploads a chain built on the CPU.
+
+Which chains: ``variance`` (the filter ``auto`` picks for a normal map whose spread has no
+direction) of a normal map, with no roughness map or one of the normal map's size
+(``maps.ChainSource``); the others (``lean``'s slope covariance, ``toksvig``, ``naive``,
+``none``, a roughness map to resample) are built on the CPU as before.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from app.gl.fullscreen import FullscreenDraw
+from app.gl.shaders import ShaderCache
+from app.gl.texture_storage import (
+    GL_HALF_FORMATS,
+    GL_UNSIGNED_BYTE,
+    LevelFramebuffer,
+    allocated,
+    has_texture_storage,
+    read_level,
+    set_level_range,
+    write_level0,
+)
+from app.textures.maps import ChainSource
+
+FRAGMENT = "passes/normal_chain.frag"
+GL_RGBA8, GL_R8, GL_RGBA32F = 0x8058, 0x8229, 0x8814
+
+
+def supported(ctx: moderngl.Context) -> bool:
+    """Whether this GL can build a chain: every level's storage at once (the levels are
+    drawn into as framebuffer attachments)."""
+    return has_texture_storage(ctx)
+
+
+def build_chain(
+    ctx: moderngl.Context, source: ChainSource, shaders: ShaderCache | None = None
+) -> moderngl.Texture:
+    """The chain of ``source`` as an RGBA16F texture of levels ``source.first`` .. 1x1 of
+    the map (its level 0 the map's level ``first``), rows bottom first; its sampler state is
+    the caller's. ``shaders``: a cache of the same context for the three programs (else
+    one of its own, released here)."""
+    h, w = source.shape
+    first = source.first
+    count = max(h, w).bit_length()  # levels 0 .. 1x1
+    own = shaders is None
+    shaders = ShaderCache(ctx) if shaders is None else shaders
+    chain = allocated(ctx, (max(1, w >> first), max(1, h >> first)), 4, count - first,
+                      GL_HALF_FORMATS[4])  # fmt: skip
+    made: list[moderngl.Texture] = []
+    draws: dict[int, FullscreenDraw] = {}
+    fbo = LevelFramebuffer(ctx)
+
+    def draw(stage: int, uniforms: dict, textures: dict, size: tuple[int, int]) -> None:
+        if stage not in draws:
+            draws[stage] = FullscreenDraw.of(ctx, shaders, FRAGMENT, {"CHAIN_STAGE": stage})
+        draws[stage].draw(None, uniforms, textures, viewport=(0, 0, *size))
+
+    try:
+        normals = _source_texture(ctx, source.normal_texels())
+        made.append(normals)
+        roughness = source.roughness_texels()
+        rough = _source_texture(ctx, roughness) if roughness is not None else normals
+        if roughness is not None:
+            made.append(rough)
+        moments = None
+        if count > 1:
+            moments = allocated(ctx, (max(1, w >> 1), max(1, h >> 1)), 4, count - 1,
+                                GL_RGBA32F, "f4")  # fmt: skip
+            made.append(moments)
+        common = {
+            "u_has_roughness": roughness is not None,
+            "u_factor": float(source.factor),
+            "u_scale": float(source.scale),
+            "u_size0": (w, h),
+        }
+        maps = {"u_normals": normals, "u_roughness": rough}
+        if first == 0:
+            fbo.attach([(chain, 0)])
+            level0 = {**common, "u_child_size": (w, h), "u_size": (w, h), "u_level": 0}
+            draw(0, level0, maps, (w, h))
+        child = (w, h)
+        for k in range(1, count):
+            size = (max(1, w >> k), max(1, h >> k))
+            attachments = [(moments, k - 1)] + ([(chain, k - first)] if k >= first else [])
+            fbo.attach(attachments)
+            uniforms = {**common, "u_child_size": child, "u_size": size, "u_level": k}
+            if k == 1:
+                draw(1, uniforms, maps, size)
+            else:
+                _one_level(ctx, moments, k - 2)  # read: the level before; written: k - 1
+                draw(2, uniforms, {"u_moments": moments}, size)
+            child = size
+    except BaseException:
+        chain.release()
+        raise
+    finally:
+        fbo.release()
+        for fullscreen in draws.values():
+            fullscreen.release()
+        for texture in made:
+            texture.release()
+        if own:
+            shaders.release()
+    set_level_range(ctx, chain, 0, count - first - 1)
+    return chain
+
+
+def chain_levels(chain: moderngl.Texture) -> list[np.ndarray]:
+    """Every level of a built chain as the GL holds it: float16, rows bottom first (what a
+    prepared chain's upload takes, maps.PreparedLevels ``upload_levels``)."""
+    w, h = chain.size
+    return [read_level(chain, k) for k in range(max(w, h).bit_length())]
+
+
+def _source_texture(ctx: moderngl.Context, texels: np.ndarray) -> moderngl.Texture:
+    """One level of 8-bit texels (H, W) or (H, W, 4), image rows as they are (the chain's
+    program indexes them so), for ``texelFetch``."""
+    h, w = texels.shape[:2]
+    comps = 1 if texels.ndim == 2 else texels.shape[2]
+    internal = GL_R8 if comps == 1 else GL_RGBA8  # RGB texels padded by the GL
+    texture = allocated(ctx, (w, h), comps, 1, internal, "f1")
+    write_level0(texture, comps, np.ascontiguousarray(texels), GL_UNSIGNED_BYTE)
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture
+
+
+def _one_level(ctx: moderngl.Context, texture: moderngl.Texture, level: int) -> None:
+    """Sampling of ``texture`` limited to ``level``: the level drawn into is outside it,
+    so reading the one and writing the other is no feedback loop."""
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    set_level_range(ctx, texture, level, level)

@@ -1,0 +1,72 @@
+"""A colour map's mips drawn by the project's own program (glsl/passes/srgb_mips.frag)
+in place of glGenerateMipmap: each level from the one above, each texel the mean of its
+footprint's texels in linear light (the mips' footprints of app/textures/mips.py), written
+through the framebuffer's sRGB encoding into the map's own texture.
+
+The GL's own call gives the same means for a map of power-of-two sides (llvmpipe's sRGB
+encoding, its rounding, is the same one either way: tests/test_srgb_mips.py), but llvmpipe
+compiles the blit behind it in every process, since its internal program is not in Mesa's
+shader cache: a few tens of milliseconds on the main thread of a cold render, where this
+program's machine code comes from the cache. The map's levels are kept in the
+prepared-texture cache as before (app/render/texture_upload.py ``_srgb_mips``).
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import moderngl
+
+from app.gl.fullscreen import FullscreenDraw
+from app.gl.shaders import ShaderCache
+from app.gl.texture_storage import LevelFramebuffer, set_level_range
+from app.resources import glsl_dir
+from app.textures.cache import code_version as _files_version
+
+FRAGMENT = "passes/srgb_mips.frag"
+GL_FRAMEBUFFER_SRGB = 0x8DB9
+
+
+@functools.cache
+def code_version() -> str:
+    """The code version of the mips drawn here (a key part of those the cache keeps)."""
+    glsl = glsl_dir()
+    return _files_version(Path(__file__), glsl / "passes" / FRAGMENT.split("/")[1],
+                          glsl / "common" / "footprint.glsl")  # fmt: skip
+
+
+def draw_srgb_mips(
+    ctx: moderngl.Context, texture: moderngl.Texture, shaders: ShaderCache | None = None
+) -> None:
+    """Levels 1 .. 1x1 of ``texture`` (GL_SRGB8_ALPHA8, every level's storage allocated,
+    level 0 written) drawn from level 0; its level range left 0 .. the last. ``shaders``:
+    a cache of the same context for the program (else one of its own, released here)."""
+    w, h = texture.size
+    count = max(w, h).bit_length()
+    if count < 2:
+        return
+    own = shaders is None
+    shaders = ShaderCache(ctx) if shaders is None else shaders
+    draw = FullscreenDraw.of(ctx, shaders, FRAGMENT)
+    fbo = LevelFramebuffer(ctx)
+    filters = texture.filter
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    ctx.enable_direct(GL_FRAMEBUFFER_SRGB)
+    try:
+        above = (w, h)
+        for k in range(1, count):
+            size = (max(1, w >> k), max(1, h >> k))
+            set_level_range(ctx, texture, k - 1, k - 1)  # read level k - 1, write level k
+            fbo.attach([(texture, k)])
+            uniforms = {"u_size0": (w, h), "u_child_size": above, "u_size": size, "u_level": k}
+            draw.draw(None, uniforms, {"u_above": texture}, viewport=(0, 0, *size))
+            above = size
+    finally:
+        ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
+        fbo.release()
+        draw.release()
+        if own:
+            shaders.release()
+        set_level_range(ctx, texture, 0, count - 1)
+        texture.filter = filters

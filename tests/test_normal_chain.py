@@ -1,0 +1,85 @@
+"""The normal/roughness chain the GL draws (app/render/normal_chain.py, glsl/passes/
+normal_chain.frag) against the CPU's float64 chain (app/textures/mips.py, the twin): every
+level within float16's rounding of it, on maps of odd and one-texel sides, steep normals
+(the n.z floor), a normal scale, no roughness map, and levels from ``first`` on."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.gl.context import GLContext
+from app.render import normal_chain
+from app.textures.maps import ChainSource, _map_chain_levels
+
+pytestmark = pytest.mark.gl
+
+
+def _maps(
+    shape: tuple[int, int], seed: int, steep: bool = False
+) -> tuple[Image.Image, Image.Image]:
+    rng = np.random.default_rng(seed)
+    normal = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    if not steep:  # the upper hemisphere, as a height field's normals lie
+        normal[..., 2] = rng.integers(128, 256, shape, dtype=np.uint8)
+    rough = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    return Image.fromarray(normal, "RGB"), Image.fromarray(rough, "RGB")
+
+
+def _drawn(gl: GLContext, source: ChainSource) -> list[np.ndarray]:
+    chain = normal_chain.build_chain(gl.ctx, source)
+    try:
+        return normal_chain.chain_levels(chain)
+    finally:
+        chain.release()
+
+
+CASES = [
+    ((37, 29), 1.0, 0.9, True, 0, False),
+    ((37, 29), 1.7, 0.4, False, 0, False),  # a normal scale, no roughness map
+    ((64, 64), 0.6, 1.0, True, 2, False),  # levels from 2 on
+    ((1, 9), 1.0, 1.0, True, 0, False),
+    ((33, 1), 1.0, 0.5, True, 1, False),
+    ((24, 40), 1.0, 0.3, True, 0, True),  # normals down to the surface and below it
+]
+
+
+@pytest.mark.parametrize(("shape", "scale", "factor", "rough", "first", "steep"), CASES)
+def test_drawn_chain_is_the_cpus(
+    gl_egl: GLContext,
+    shape: tuple[int, int],
+    scale: float,
+    factor: float,
+    rough: bool,
+    first: int,
+    steep: bool,
+) -> None:
+    normal, roughness = _maps(shape, sum(shape) + first, steep)
+    roughness = roughness if rough else None
+    drawn = _drawn(gl_egl, ChainSource(normal, roughness, scale, factor, first))
+    cpu = _map_chain_levels(normal, scale, factor, roughness, "variance", True, first)
+    assert len(drawn) == len(cpu)
+    worst = 0.0
+    for k, (ours, theirs) in enumerate(zip(drawn, cpu, strict=True)):
+        assert ours.shape == theirs.shape and ours.dtype == np.float16, k
+        error = np.abs(ours.astype(np.float64) - theirs.astype(np.float64))
+        ulp = np.abs(theirs.astype(np.float64)) * 2.0**-10 + 2.0**-24  # float16's step
+        assert np.all(error <= ulp), (k, float(error.max()))
+        worst = max(worst, float(error.max()))
+    print(f"{shape} scale {scale} first {first} steep {steep}: largest difference {worst:.2e}")
+
+
+def test_flat_map_is_its_roughness(gl_egl: GLContext) -> None:
+    """A flat normal map (128, 128, 255) and one roughness: every level the decoded flat
+    normal (1/255 off +z in x and y, as the GL samples rgb * 2 - 1) and the roughness,
+    no variance added."""
+    normal = Image.new("RGB", (16, 8), (128, 128, 255))
+    rough = Image.new("RGB", (16, 8), (0, 102, 0))  # 0.4
+    levels = _drawn(gl_egl, ChainSource(normal, rough, 1.0, 1.0, 0))
+    n = np.array([1.0 / 255.0, 1.0 / 255.0, 1.0])
+    n /= np.linalg.norm(n)
+    for level in levels:
+        texels = level.reshape(-1, 4).astype(np.float64)
+        np.testing.assert_allclose(texels[:, :3], np.broadcast_to(n, (len(texels), 3)), atol=1e-3)
+        np.testing.assert_allclose(texels[:, 3], 0.4, atol=1e-3)
