@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pygltflib
+import pytest
 from PIL import Image
 
 from app.scene.early_images import whole_image_uris
@@ -90,8 +91,21 @@ def test_early_image_left_to_the_reader() -> None:
     early.decode_early(broken, Budget())
     assert early.take(hashlib.sha256(broken).hexdigest()) is None
     maps.wait_decoded(maps.open_image(data, Budget(), None, decode_later=True))  # recorded
+    early._TAKEN.discard(digest)  # asked for above: its own reason to decode none
     early.decode_early(data, Budget())
     assert early.take(digest) is None
+
+
+def test_no_early_decode_after_the_reader_asked() -> None:
+    """Bytes the reader asked for before the early threads reached them (it decoded them
+    itself) are not decoded early afterwards, nor kept."""
+    import hashlib
+
+    data = _png(6)
+    digest = hashlib.sha256(data).hexdigest()
+    assert early.take(digest) is None  # the reader came first
+    early.decode_early(data, Budget())
+    assert digest not in early._EARLY
 
 
 def test_broken_gltf_image_named(tmp_path: Path, capsys, monkeypatch) -> None:
@@ -247,3 +261,40 @@ def _chunk_offsets(data: bytes) -> list[tuple[int, tuple[bytes, int]]]:
         out.append((at, (kind, length)))
         at += 12 + length
     return out
+
+
+def test_single_idat_keeps_what_follows_iend_and_bounds_its_work(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Bytes after IEND come back as they are, after the joined chunk; a file of more IDAT
+    chunks than ``MAX_IDAT_CHUNKS`` is left as it is (a hostile file's millions of empty
+    chunks cost no loop of that length)."""
+    import struct
+    import zlib
+
+    noise = np.random.default_rng(10).integers(0, 256, (32, 32, 3), np.uint8)
+    out = io.BytesIO()
+    Image.fromarray(noise).save(out, format="PNG", compress_level=0)
+    one = out.getvalue()
+    offsets = _chunk_offsets(one)
+    stream = b"".join(one[at + 8 : at + 8 + n] for at, (kind, n) in offsets if kind == b"IDAT")
+    head = b"".join(one[at : at + 12 + n] for at, (kind, n) in offsets if kind == b"IHDR")
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        crc = zlib.crc32(data, zlib.crc32(kind))
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+
+    pieces = [stream[i : i + 500] for i in range(0, len(stream), 500)]
+    trailer = b"trailing bytes that are no chunk"
+    split = (
+        early.PNG_SIGNATURE + head + b"".join(chunk(b"IDAT", p) for p in pieces)
+        + chunk(b"IEND", b"") + trailer
+    )  # fmt: skip
+    joined = early.single_idat(split)
+    assert joined.endswith(chunk(b"IEND", b"") + trailer)
+    assert joined.count(b"IDAT") == 1
+    image = Image.open(io.BytesIO(joined))
+    image.load()
+    np.testing.assert_array_equal(np.asarray(image), noise)
+    monkeypatch.setattr(early, "MAX_IDAT_CHUNKS", 3)
+    assert early.single_idat(split) is split

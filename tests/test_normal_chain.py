@@ -83,3 +83,76 @@ def test_flat_map_is_its_roughness(gl_egl: GLContext) -> None:
         texels = level.reshape(-1, 4).astype(np.float64)
         np.testing.assert_allclose(texels[:, :3], np.broadcast_to(n, (len(texels), 3)), atol=1e-3)
         np.testing.assert_allclose(texels[:, 3], 0.4, atol=1e-3)
+
+
+def test_framebuffer_state_kept(gl_egl: GLContext) -> None:
+    """A chain drawn while a framebuffer of moderngl's is bound leaves it bound with its
+    own viewport: the levels' viewports are set on the GL, not on moderngl's framebuffer."""
+    ctx = gl_egl.ctx
+    target = ctx.texture((64, 32), 4)
+    fbo = ctx.framebuffer([target])
+    fbo.use()
+    normal, rough = _maps((37, 29), 3)
+    chain = normal_chain.build_chain(ctx, ChainSource(normal, rough, 1.0, 1.0, 0))
+    try:
+        assert ctx.fbo is fbo
+        assert fbo.viewport == (0, 0, 64, 32)
+        assert tuple(ctx.viewport) == (0, 0, 64, 32)
+    finally:
+        chain.release()
+        fbo.release()
+        target.release()
+
+
+def test_refused_chain_built_on_the_cpu(
+    gl_egl: GLContext, tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Where the GL refuses to draw a chain (an incomplete level framebuffer, an error),
+    the upload builds it on the CPU: the CPU's float16 levels, nothing kept under the
+    GL-built key."""
+    from app.gl.texture_storage import LevelFramebufferError, read_level
+    from app.render import texture_upload
+    from app.textures.cache import prepared_cache
+    from app.textures.maps import normal_roughness_map
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, rough = _maps((21, 17), 4)
+    tex = normal_roughness_map(normal, 1.0, 0.7, rough, "variance")
+
+    def refused(*args, **kwargs):
+        raise LevelFramebufferError("refused for the test")
+
+    monkeypatch.setattr(normal_chain, "build_chain", refused)
+    made = texture_upload.upload_texture(gl_egl.ctx, tex)
+    try:
+        want = tex.levels.upload_levels()
+        for k, level in enumerate(want):
+            assert np.array_equal(read_level(made, k), level), k
+        assert not prepared_cache().holds(tex.levels.gl_kind, tex.levels.gl_parts)
+    finally:
+        made.release()
+
+
+def test_vanished_gl_entry_is_not_rebuilt_under_its_key(
+    tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A prefetch that found the GL-built levels kept, whose entry is gone by the time it
+    reads it, makes no CPU chain under the GL's key: the upload then builds the CPU's
+    levels under their own."""
+    from app.textures import cache as cache_module
+    from app.textures.maps import normal_roughness_map
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, rough = _maps((21, 17), 5)
+    levels = normal_roughness_map(normal, 1.0, 0.7, rough, "variance").levels
+    cache = cache_module.prepared_cache()
+    monkeypatch.setattr(type(cache), "holds", lambda self, kind, parts: True)
+    levels.prefetch()
+    assert levels.prefetched()
+    want = _map_chain_levels(normal, 1.0, 0.7, rough, "variance", True)
+    got = levels.upload_levels()
+    assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+    monkeypatch.undo()
+    assert not cache_module.prepared_cache().holds(levels.gl_kind, levels.gl_parts)

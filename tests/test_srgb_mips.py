@@ -1,7 +1,8 @@
 """A colour map's mips drawn by glsl/passes/srgb_mips.frag (app/render/srgb_mips.py) against
-their float64 twin (app/reference/footprint.py): each texel the mean of its footprint in
-linear light, to llvmpipe's 8-bit sRGB rounding, which each level made from the rounded
-one above adds to; and, on a map of power-of-two sides, the GL's own glGenerateMipmap."""
+their float64 twin (app/reference/footprint.py): each texel the mean of its footprint (in
+image rows: an odd last row of the image joins the pair above it) in linear light, to
+llvmpipe's 8-bit sRGB rounding, which each level made from the rounded one above adds to;
+and, on a map of power-of-two sides, the GL's own glGenerateMipmap."""
 
 from __future__ import annotations
 
@@ -38,7 +39,8 @@ def test_drawn_mips_are_footprint_means(gl_egl: GLContext, shape: tuple[int, int
     texture = _texture(gl_egl, texels)
     try:
         draw_srgb_mips(gl_egl.ctx, texture)
-        twin = srgb_footprint_levels(texels)
+        # the texture's rows are bottom first; the footprints are the image's (top first)
+        twin = [level[::-1] for level in srgb_footprint_levels(texels[::-1])]
         for k in range(1, max(shape).bit_length()):
             drawn = read_level(texture, k).astype(np.float64)
             assert drawn.shape == twin[k].shape, k

@@ -249,7 +249,8 @@ def test_colour_mips_kept(gl_egl, tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     # The first lookups: open_image's record that these bytes decode, the RGBA texels.
     assert cache.events[2:] == ["built", "disk"]
     try:
-        twin = srgb_footprint_levels(read_level(made[0], 0))  # rows bottom first, as the GL's
+        # the GL's rows are bottom first; the footprints are the image's (top first)
+        twin = [t[::-1] for t in srgb_footprint_levels(read_level(made[0], 0)[::-1])]
         for k in range(max(tex.levels[0].shape[:2]).bit_length()):
             drawn = read_level(made[0], k)
             assert np.array_equal(read_level(made[1], k), drawn), k

@@ -290,20 +290,22 @@ def wait_before_read(ctx: moderngl.Context) -> None:
     ctx.finish()
 
 
-def gl_function(ctx: moderngl.Context, name: str, argtypes: list[type]) -> ctypes._CFuncPtr:
+def gl_function(
+    ctx: moderngl.Context, name: str, argtypes: list[type], restype: type | None = None
+) -> ctypes._CFuncPtr:
     """A GL entry point of ``ctx`` that moderngl does not wrap (e.g. glTexParameteri for
-    GL_MIRRORED_REPEAT), called with ``argtypes``, from the loader of the backend that
-    made the context: ``eglGetProcAddress`` for EGL (looked up once per name), OSMesa's
-    ``OSMesaGetProcAddress``. A context made elsewhere (the viewer's glfw window, GLX)
-    gets the system libGL's."""
+    GL_MIRRORED_REPEAT), called with ``argtypes`` and returning ``restype`` (None: no
+    value), from the loader of the backend that made the context: ``eglGetProcAddress``
+    for EGL (looked up once per name), OSMesa's ``OSMesaGetProcAddress``. A context made
+    elsewhere (the viewer's glfw window, GLX) gets the system libGL's."""
     loader = ctx.extra
     if isinstance(loader, _EGLEntryPoints | _OSMesaLoader):
         address = loader.load_opengl_function(name)
         if not address:
             raise ContextError(f"no GL entry point {name}")
-        return ctypes.CFUNCTYPE(None, *argtypes)(address)
+        return ctypes.CFUNCTYPE(restype, *argtypes)(address)
     function = getattr(_system_gl(), name)
-    function.argtypes, function.restype = argtypes, None
+    function.argtypes, function.restype = argtypes, restype
     return function
 
 

@@ -25,6 +25,7 @@ GL_SRGB8_ALPHA8 = 0x8C43  # colour maps: decoded to linear on fetch
 # 16-bit float internal formats and the client formats of 1-4 components.
 GL_HALF_FORMATS = {1: 0x822D, 2: 0x822F, 3: 0x881B, 4: 0x881A}  # R16F ... RGBA16F
 GL_FRAMEBUFFER = 0x8D40
+GL_FRAMEBUFFER_COMPLETE = 0x8CD5
 GL_COLOR_ATTACHMENT0 = 0x8CE0
 GL_CLIENT_FORMATS = {1: 0x1903, 2: 0x8227, 3: 0x1907, 4: 0x1908}  # RED, RG, RGB, RGBA
 
@@ -190,21 +191,43 @@ def set_level_range(ctx: moderngl.Context, texture: moderngl.Texture, base: int,
     set_parameter(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, top)
 
 
+def _gl_errors(ctx: moderngl.Context) -> bool:
+    """Whether the GL has error flags set, each cleared (glGetError)."""
+    error = gl_function(ctx, "glGetError", [], ctypes.c_uint)
+    found = False
+    for _ in range(16):  # each flag once; a lost context would report its own forever
+        if error() == 0:
+            break
+        found = True
+    return found
+
+
+class LevelFramebufferError(RuntimeError):
+    """The GL refused a level framebuffer (incomplete) or reported an error while one was
+    drawn into: what was drawn is not to be used."""
+
+
 class LevelFramebuffer:
     """One framebuffer object whose colour attachments are levels of textures (moderngl
-    attaches level 0 alone), bound for the draws that follow ``attach``."""
+    attaches level 0 alone), bound for the draws that follow ``attach`` with the viewport
+    of the first attachment's level and every colour channel written. moderngl's own
+    state is left as it was: its framebuffer is bound again at ``release`` (moderngl sets
+    that framebuffer's viewport and colour mask on ``use``)."""
 
     def __init__(self, ctx: moderngl.Context) -> None:
         uint = ctypes.c_uint
         self.ctx = ctx
         self._previous = ctx.fbo
         self._name = uint(0)
+        _gl_errors(ctx)  # what ``check`` reports are the errors from here on
         gl_function(ctx, "glGenFramebuffers", [ctypes.c_int, ctypes.POINTER(uint)])(
             1, ctypes.byref(self._name)
         )
         self._attached = 0
 
     def attach(self, levels: Sequence[tuple[moderngl.Texture, int]]) -> None:
+        """Bind the framebuffer with ``levels`` (texture, level) as its colour attachments
+        0, 1, ...; ``LevelFramebufferError`` where the GL finds it incomplete."""
         uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
         ctx = self.ctx
         gl_function(ctx, "glBindFramebuffer", [enum, uint])(GL_FRAMEBUFFER, self._name.value)
@@ -216,6 +239,19 @@ class LevelFramebuffer:
         self._attached = len(levels)
         buffers = (uint * len(levels))(*(GL_COLOR_ATTACHMENT0 + i for i in range(len(levels))))
         gl_function(ctx, "glDrawBuffers", [int_, ctypes.c_void_p])(len(levels), buffers)
+        status = gl_function(ctx, "glCheckFramebufferStatus", [enum], enum)
+        if status(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE:
+            raise LevelFramebufferError("a level framebuffer the GL finds incomplete")
+        texture, level = levels[0]
+        w, h = max(1, texture.width >> level), max(1, texture.height >> level)
+        gl_function(ctx, "glViewport", [int_, int_, int_, int_])(0, 0, w, h)
+        gl_function(ctx, "glColorMask", [ctypes.c_ubyte] * 4)(1, 1, 1, 1)
+
+    def check(self) -> None:
+        """``LevelFramebufferError`` where the GL reports an error since the last check
+        (an allocation it could not make, a draw it refused)."""
+        if _gl_errors(self.ctx):
+            raise LevelFramebufferError("the GL reported an error while levels were drawn")
 
     def release(self) -> None:
         uint, enum = ctypes.c_uint, ctypes.c_uint

@@ -23,6 +23,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from app.gl.context import wait_before_read
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.gl.texture_storage import (
@@ -53,24 +54,27 @@ def build_chain(
     """The chain of ``source`` as an RGBA16F texture of levels ``source.first`` .. 1x1 of
     the map (its level 0 the map's level ``first``), rows bottom first; its sampler state is
     the caller's. ``shaders``: a cache of the same context for the three programs (else
-    one of its own, released here)."""
+    one of its own, released here). ``LevelFramebufferError`` where the GL refused a level
+    or reported an error (nothing is returned then: the caller builds on the CPU)."""
     h, w = source.shape
     first = source.first
     count = max(h, w).bit_length()  # levels 0 .. 1x1
     own = shaders is None
     shaders = ShaderCache(ctx) if shaders is None else shaders
-    chain = allocated(ctx, (max(1, w >> first), max(1, h >> first)), 4, count - first,
-                      GL_HALF_FORMATS[4])  # fmt: skip
     made: list[moderngl.Texture] = []
     draws: dict[int, FullscreenDraw] = {}
-    fbo = LevelFramebuffer(ctx)
+    fbo: LevelFramebuffer | None = None
+    chain: moderngl.Texture | None = None
 
-    def draw(stage: int, uniforms: dict, textures: dict, size: tuple[int, int]) -> None:
+    def draw(stage: int, uniforms: dict, textures: dict) -> None:
         if stage not in draws:
             draws[stage] = FullscreenDraw.of(ctx, shaders, FRAGMENT, {"CHAIN_STAGE": stage})
-        draws[stage].draw(None, uniforms, textures, viewport=(0, 0, *size))
+        draws[stage].draw(None, uniforms, textures)  # the level's viewport: fbo.attach
 
     try:
+        fbo = LevelFramebuffer(ctx)
+        chain = allocated(ctx, (max(1, w >> first), max(1, h >> first)), 4, count - first,
+                          GL_HALF_FORMATS[4])  # fmt: skip
         normals = _source_texture(ctx, source.normal_texels())
         made.append(normals)
         roughness = source.roughness_texels()
@@ -91,8 +95,7 @@ def build_chain(
         maps = {"u_normals": normals, "u_roughness": rough}
         if first == 0:
             fbo.attach([(chain, 0)])
-            level0 = {**common, "u_child_size": (w, h), "u_size": (w, h), "u_level": 0}
-            draw(0, level0, maps, (w, h))
+            draw(0, {**common, "u_child_size": (w, h), "u_size": (w, h), "u_level": 0}, maps)
         child = (w, h)
         for k in range(1, count):
             size = (max(1, w >> k), max(1, h >> k))
@@ -100,29 +103,34 @@ def build_chain(
             fbo.attach(attachments)
             uniforms = {**common, "u_child_size": child, "u_size": size, "u_level": k}
             if k == 1:
-                draw(1, uniforms, maps, size)
+                draw(1, uniforms, maps)
             else:
-                _one_level(ctx, moments, k - 2)  # read: the level before; written: k - 1
-                draw(2, uniforms, {"u_moments": moments}, size)
+                _sampled_level(ctx, moments, k - 2)  # read: the level before; written: k - 1
+                draw(2, uniforms, {"u_moments": moments})
             child = size
+        set_level_range(ctx, chain, 0, count - first - 1)
+        fbo.check()
     except BaseException:
-        chain.release()
+        if chain is not None:
+            chain.release()
         raise
     finally:
-        fbo.release()
+        if fbo is not None:
+            fbo.release()
         for fullscreen in draws.values():
             fullscreen.release()
         for texture in made:
             texture.release()
         if own:
             shaders.release()
-    set_level_range(ctx, chain, 0, count - first - 1)
     return chain
 
 
 def chain_levels(chain: moderngl.Texture) -> list[np.ndarray]:
     """Every level of a built chain as the GL holds it: float16, rows bottom first (what a
-    prepared chain's upload takes, maps.PreparedLevels ``upload_levels``)."""
+    prepared chain's upload takes, maps.PreparedLevels ``upload_levels``), once every
+    queued draw is done (llvmpipe waits on its own only for the current framebuffer)."""
+    wait_before_read(chain.ctx)
     w, h = chain.size
     return [read_level(chain, k) for k in range(max(w, h).bit_length())]
 
@@ -139,7 +147,7 @@ def _source_texture(ctx: moderngl.Context, texels: np.ndarray) -> moderngl.Textu
     return texture
 
 
-def _one_level(ctx: moderngl.Context, texture: moderngl.Texture, level: int) -> None:
+def _sampled_level(ctx: moderngl.Context, texture: moderngl.Texture, level: int) -> None:
     """Sampling of ``texture`` limited to ``level``: the level drawn into is outside it,
     so reading the one and writing the other is no feedback loop."""
     texture.filter = (moderngl.NEAREST, moderngl.NEAREST)

@@ -3,12 +3,13 @@ in place of glGenerateMipmap: each level from the one above, each texel the mean
 footprint's texels in linear light (the mips' footprints of app/textures/mips.py), written
 through the framebuffer's sRGB encoding into the map's own texture.
 
-The GL's own call gives the same means for a map of power-of-two sides (llvmpipe's sRGB
-encoding, its rounding, is the same one either way: tests/test_srgb_mips.py), but llvmpipe
-compiles the blit behind it in every process, since its internal program is not in Mesa's
-shader cache: a few tens of milliseconds on the main thread of a cold render, where this
-program's machine code comes from the cache. The map's levels are kept in the
-prepared-texture cache as before (app/render/texture_upload.py ``_srgb_mips``).
+The GL's own call gives the same means for a map of power-of-two sides, to its sRGB
+rounding (tests/test_srgb_mips.py), but llvmpipe compiles the blit behind it in every
+process, since its internal program is not in Mesa's shader cache, where this program's
+machine code comes from the cache (docs/performance.md). Footprints are taken in image
+rows, as the CPU's mips take them (an odd last row of the image joins the pair above it).
+The map's levels are kept in the prepared-texture cache (app/render/texture_upload.py
+``_srgb_mips``).
 """
 
 from __future__ import annotations
@@ -40,8 +41,10 @@ def draw_srgb_mips(
     ctx: moderngl.Context, texture: moderngl.Texture, shaders: ShaderCache | None = None
 ) -> None:
     """Levels 1 .. 1x1 of ``texture`` (GL_SRGB8_ALPHA8, every level's storage allocated,
-    level 0 written) drawn from level 0; its level range left 0 .. the last. ``shaders``:
-    a cache of the same context for the program (else one of its own, released here)."""
+    level 0 written, rows bottom first) drawn from level 0; its level range left 0 .. the
+    last. ``shaders``: a cache of the same context for the program (else one of its own,
+    released here). ``LevelFramebufferError`` where the GL refused a level or reported an
+    error."""
     w, h = texture.size
     count = max(w, h).bit_length()
     if count < 2:
@@ -58,10 +61,11 @@ def draw_srgb_mips(
         for k in range(1, count):
             size = (max(1, w >> k), max(1, h >> k))
             set_level_range(ctx, texture, k - 1, k - 1)  # read level k - 1, write level k
-            fbo.attach([(texture, k)])
+            fbo.attach([(texture, k)])  # and the level's viewport
             uniforms = {"u_size0": (w, h), "u_child_size": above, "u_size": size, "u_level": k}
-            draw.draw(None, uniforms, {"u_above": texture}, viewport=(0, 0, *size))
+            draw.draw(None, uniforms, {"u_above": texture})
             above = size
+        fbo.check()
     finally:
         ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
         fbo.release()

@@ -7,12 +7,13 @@ with these (app/render/mesh_drawable.py); app/render/limits.py counts their byte
 from __future__ import annotations
 
 import ctypes
+import logging
 from collections.abc import Iterable, Sequence
 
 import moderngl
 import numpy as np
 
-from app.gl.context import gl_function
+from app.gl.context import gl_function, wait_before_read
 from app.gl.shaders import ShaderCache
 from app.gl.texture_storage import (
     GL_HALF_FLOAT,
@@ -20,6 +21,7 @@ from app.gl.texture_storage import (
     GL_SRGB8_ALPHA8,
     GL_TEXTURE_2D,
     GL_UNSIGNED_BYTE,
+    LevelFramebufferError,
     allocated,
     define_levels,
     has_texture_storage,
@@ -30,6 +32,8 @@ from app.render import normal_chain, srgb_mips
 from app.render.srgb_mips import draw_srgb_mips
 from app.textures.cache import prepared_cache
 from app.textures.maps import PreparedLevels, Texture, upload_levels
+
+_LOG = logging.getLogger(__name__)
 
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -71,6 +75,8 @@ class TextureUploads:
         unique = list({id(t): t for t in maps}.values())
         for tex in sorted(unique, key=lambda t: isinstance(t.levels, PreparedLevels)):
             levels = tex.levels
+            if isinstance(levels, PreparedLevels) and not normal_chain.supported(self.ctx):
+                levels.prefetch(gl=False)  # built on the CPU's background thread
             preparing = (
                 isinstance(levels, PreparedLevels)
                 and not levels.ready()
@@ -148,17 +154,31 @@ def _gl_chain(
     ctx: moderngl.Context, levels: PreparedLevels, shaders: ShaderCache | None
 ) -> moderngl.Texture:
     """The chain's texture: the levels the GL built before where the prepared-texture
-    cache keeps them (uploaded), else drawn now and read back for the cache."""
-    made: list[moderngl.Texture] = []
+    cache keeps them (uploaded), else drawn now and read back for the cache (not read back
+    where the cache is off); built on the CPU where the GL refuses to draw it."""
+    assert levels.gl_source is not None
+    source = levels.gl_source
+    cache = prepared_cache()
+    try:
+        if not cache.enabled:
+            return normal_chain.build_chain(ctx, source, shaders)
+        made: list[moderngl.Texture] = []
 
-    def build() -> list[np.ndarray]:
-        assert levels.gl_source is not None
-        made.append(normal_chain.build_chain(ctx, levels.gl_source, shaders))
-        return normal_chain.chain_levels(made[0])
+        def build() -> list[np.ndarray]:
+            made.append(normal_chain.build_chain(ctx, source, shaders))
+            return normal_chain.chain_levels(made[0])
 
-    kept = prepared_cache().arrays(levels.gl_kind, levels.gl_parts, build)
-    if made:
-        return made[0]
+        try:
+            kept = cache.arrays(levels.gl_kind, levels.gl_parts, build)
+        except BaseException:
+            for texture in made:
+                texture.release()
+            raise
+        if made:
+            return made[0]
+    except LevelFramebufferError:
+        _LOG.warning("the GL did not draw a normal/roughness chain; built on the CPU")
+        kept = levels.upload_levels()
     h, w = kept[0].shape[:2]
     gl_tex = allocated(ctx, (w, h), 4, len(kept), GL_HALF_FORMATS[4])
     _write_half_levels(gl_tex, kept)
@@ -255,6 +275,7 @@ def _srgb_mips(
 
     def build() -> list[np.ndarray]:
         draw_srgb_mips(ctx, gl_tex, shaders)
+        wait_before_read(ctx)  # llvmpipe waits on its own only for the bound framebuffer
         w, h = gl_tex.size
         count = max(w, h).bit_length()  # levels 1 .. floor(log2(max side))
         return [read_level(gl_tex, k).reshape(-1) for k in range(1, count)]

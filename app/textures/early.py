@@ -27,9 +27,12 @@ IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")  # what pbs parses
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
 BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 
-# Images decoding or decoded early, by their bytes' SHA-256, until the reader takes them.
+# Images decoding or decoded early, by their bytes' SHA-256, until the reader takes them;
+# the digests the reader asked for, so that an early decode it did not wait for (the
+# reader came first) is not made, nor kept, afterwards.
 _EARLY: dict[str, Future] = {}
-_LOCK = threading.Lock()
+_TAKEN: set[str] = set()
+_LOCK = threading.Lock()  # both, and the early decodes' shared budget
 
 
 def decode_early(data: bytes, budget: Budget) -> None:
@@ -50,8 +53,11 @@ def decode_early(data: bytes, budget: Budget) -> None:
         whole_reads(image, len(encoded))
         width, height = image.size
         bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
-        budget.texture(width, height, None, "the image")
-        budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
+        with _LOCK:  # the early threads charge one budget
+            if digest in _TAKEN:
+                return
+            budget.texture(width, height, None, "the image")
+            budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
     except Exception:  # not an image pbs reads, or past the budget (a RefusedError)
         return
     from app.textures.cache import prepared_cache
@@ -60,7 +66,7 @@ def decode_early(data: bytes, budget: Budget) -> None:
         return
     done: Future = Future()
     with _LOCK:
-        if digest in _EARLY:
+        if digest in _EARLY or digest in _TAKEN:
             return
         _EARLY[digest] = done
     try:
@@ -83,24 +89,30 @@ def whole_reads(image, size: int) -> None:  # image: PIL.ImageFile.ImageFile
 
 def take(digest: str):  # -> PIL.Image.Image | None
     """The image of the bytes with SHA-256 ``digest`` decoded early (waited for where its
-    decode is still running), once; None where there is none or its decode failed."""
+    decode is still running), once; None where there is none or its decode failed (and no
+    early decode of those bytes starts after this)."""
     with _LOCK:
         done = _EARLY.pop(digest, None)
+        _TAKEN.add(digest)
     if done is None or done.exception() is not None:
         return None
     return done.result()
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# More IDAT chunks than this are left as they are (the decoder meets them one by one): a
+# hostile file's millions of empty chunks would cost a loop and a list of that length.
+MAX_IDAT_CHUNKS = 1 << 16
 
 
 def single_idat(data: bytes) -> bytes:
     """A PNG's bytes with its image data in one IDAT chunk, the same image: the bytes
-    themselves where they are no PNG, hold one IDAT already, or are not laid out as the
-    PNG specification lays a file out (the decoder then meets them as they are).
+    themselves where they are no PNG, hold one IDAT already, more than ``MAX_IDAT_CHUNKS``,
+    or are not laid out as the PNG specification lays a file out (the decoder then meets
+    them as they are). One copy of the bytes is made; the chunks after IEND are kept.
 
     PNG splits its one zlib stream of image data over IDAT chunks, commonly of 8 KiB
-    (libpng's default): 437 chunks in Khronos' WaterBottle metallic-roughness map. Pillow
+    (libpng's default): hundreds in a 2048^2 map (docs/performance.md). Pillow
     hands its decoder one chunk per call, and takes the GIL back between calls, so a
     decode on a thread of its own waited for the GIL at every chunk while another thread
     ran Python (the imports, the main thread's work). The stream's bytes joined into one
@@ -108,27 +120,34 @@ def single_idat(data: bytes) -> bytes:
     it) decode in one call: the same texels (tests/test_early_images.py)."""
     if not data.startswith(PNG_SIGNATURE):
         return data
-    head: list[bytes] = []
-    idat: list[bytes] = []
-    tail: list[bytes] = []
+    view = memoryview(data)
+    first = end_of_idat = None  # the offsets of the first IDAT chunk and past the last
+    pieces: list[tuple[int, int]] = []  # each IDAT chunk's data: (offset, length)
     at = len(PNG_SIGNATURE)
     while at < len(data):
-        if at + 12 > len(data):
+        if at + 12 > len(data) or len(pieces) > MAX_IDAT_CHUNKS:
             return data
         length, kind = struct.unpack_from(">I4s", data, at)
         end = at + 12 + length
         if end > len(data):
             return data
         if kind == b"IDAT":
-            if tail:  # image data after another chunk: not one stream as PNG has it
+            if end_of_idat is not None and end_of_idat != at:  # image data after another chunk
                 return data
-            idat.append(data[at + 8 : at + 8 + length])
-        else:
-            (tail if idat else head).append(data[at:end])
+            first = at if first is None else first
+            pieces.append((at + 8, length))
+            end_of_idat = end
+        elif kind == b"IEND":
+            break  # what follows is no part of the image: kept as it is
         at = end
-    if len(idat) < 2:
+    if len(pieces) < 2 or first is None or end_of_idat is None:
         return data
-    stream = b"".join(idat)
-    crc = zlib.crc32(stream, zlib.crc32(b"IDAT"))
-    chunk = struct.pack(">I", len(stream)) + b"IDAT" + stream + struct.pack(">I", crc)
-    return b"".join([PNG_SIGNATURE, *head, chunk, *tail])
+    crc = zlib.crc32(b"IDAT")
+    for offset, length in pieces:
+        crc = zlib.crc32(view[offset : offset + length], crc)
+    size = sum(length for _, length in pieces)
+    return b"".join([
+        view[:first], struct.pack(">I", size), b"IDAT",
+        *(view[offset : offset + length] for offset, length in pieces),
+        struct.pack(">I", crc), view[end_of_idat:],
+    ])  # fmt: skip

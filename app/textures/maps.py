@@ -142,22 +142,20 @@ class PreparedLevels(Sequence[np.ndarray]):
     def __len__(self) -> int:
         return len(self._loaded())
 
-    def prefetch(self) -> None:
+    def prefetch(self, gl: bool = True) -> None:
         """Start getting the float16 levels on the cache's background thread (read from
         disk, or built and kept where they are not there): ``upload_levels`` then waits
-        for that instead of doing it itself. A chain the GL can build is only read here,
-        where its GL-built levels are kept: else the upload builds it."""
+        for that instead of doing it itself. A chain the GL can build (``gl``: the GL
+        that uploads it can draw it) is only read here, where its GL-built levels are
+        kept: else the upload draws it."""
         if self._prefetched is not None:
             return
-        if self.gl_source is not None:
-            if prepared_cache().holds(_UPLOAD_KIND % self.kind, self.gl_parts):
-                self._prefetched = prepared_cache().prepare(
-                    _UPLOAD_KIND % self.kind, self.gl_parts, self._upload_build
-                )
+        kind = _UPLOAD_KIND % self.kind
+        if self.gl_source is not None and gl:
+            if prepared_cache().holds(kind, self.gl_parts):
+                self._prefetched = prepared_cache().prepare(kind, self.gl_parts, _not_kept)
             return
-        self._prefetched = prepared_cache().prepare(
-            _UPLOAD_KIND % self.kind, self.parts, self._upload_build
-        )
+        self._prefetched = prepared_cache().prepare(kind, self.parts, self._upload_build)
 
     @property
     def gl_parts(self) -> tuple:
@@ -178,9 +176,13 @@ class PreparedLevels(Sequence[np.ndarray]):
         return self._prefetched is not None and self._prefetched.done()
 
     def upload_levels(self) -> list[np.ndarray]:
-        """Every level as the GL takes it: float16, rows bottom first, contiguous."""
+        """Every level as the GL takes it: float16, rows bottom first, contiguous (the
+        CPU's where the GL-built levels a prefetch looked for were gone by then)."""
         if self._prefetched is not None:
-            return list(self._prefetched.result())
+            try:
+                return list(self._prefetched.result())
+            except NotKeptError:
+                self._prefetched = None
         kind = _UPLOAD_KIND % self.kind
         return list(prepared_cache().arrays(kind, self.parts, self._upload_build))
 
@@ -193,8 +195,21 @@ class PreparedLevels(Sequence[np.ndarray]):
 
 
 _UPLOAD_KIND = "%s f16 rows up"  # the cache kind of a chain's float16 levels
+
+
+class NotKeptError(LookupError):
+    """A prefetch of a GL-built chain found no entry (removed since ``holds``): such levels
+    are made by the GL's upload, never by a CPU build stored under their key."""
+
+
+def _not_kept() -> list[np.ndarray]:
+    raise NotKeptError("the GL-built levels are no longer kept")
+
+
 # A key part of the float16 levels of a chain the GL built (app/render/normal_chain.py):
-# float32 moments, not the float64 ones, so not the same bits as the CPU's.
+# float32 moments, not the float64 ones, so not the same bits as the CPU's. Not keyed by
+# the GL's renderer (a prefetch looks the levels up before the GL is started): every GL's
+# are held to the float64 chain within one float16 step, so another GL's entry is as near.
 GL_BUILT = "built by the GL"
 
 
@@ -203,11 +218,12 @@ def gl_chain_version() -> str:
     (app/render/normal_chain.py), read by path (this layer imports nothing of the GL's)."""
     global _GL_CHAIN_VERSION
     if _GL_CHAIN_VERSION is None:
-        glsl = glsl_dir()
-        render = Path(__file__).resolve().parent.parent / "render" / "normal_chain.py"
+        glsl, app = glsl_dir(), Path(__file__).resolve().parent.parent
         _GL_CHAIN_VERSION = code_version(
-            render,
+            app / "render" / "normal_chain.py",
+            app / "gl" / "texture_storage.py",
             glsl / "passes" / "normal_chain.frag",
+            glsl / "passes" / "fullscreen.vert",
             glsl / "material" / "chain.glsl",
             glsl / "common" / "footprint.glsl",
         )

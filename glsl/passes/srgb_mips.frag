@@ -16,7 +16,10 @@ uniform int u_level;        // k
 out vec4 frag_color;
 
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
+    // Footprints in image rows (top first), as the CPU's mips and the normal chain's take
+    // them; the texture holds its rows bottom first: output row j is image row h_k - 1 - j.
+    ivec2 out_px = ivec2(gl_FragCoord.xy);
+    ivec2 p = ivec2(out_px.x, u_size.y - 1 - out_px.y);
     ivec2 first = min(2 * p, u_child_size - 1);
     ivec2 last = ivec2(footprint_last_child(p.x, u_child_size.x, u_size.x),
                        footprint_last_child(p.y, u_child_size.y, u_size.y));
@@ -26,7 +29,7 @@ void main() {
         for (int x = first.x; x <= last.x; ++x) {
             float w = footprint_texels(x, u_level - 1, u_child_size.x, u_size0.x)
                     * footprint_texels(y, u_level - 1, u_child_size.y, u_size0.y);
-            sum += texelFetch(u_above, ivec2(x, y), 0) * w;
+            sum += texelFetch(u_above, ivec2(x, u_child_size.y - 1 - y), 0) * w;
             total += w;
         }
     }
