@@ -64,6 +64,21 @@ ChainMoments chain_merge(ChainMoments m, float w, vec2 s, float v, float a2) {
     return m;
 }
 
+// Four parts of equal weight at once (a 2x2 block of texels of one level, mean slopes s,
+// total slope variances v, mean alpha^2 a2): the mean of the means, and the variance of the
+// whole, the mean of the variances plus that of the means about their mean (Chan et al.'s
+// update for equal weights, in two passes over the four). Weight 1: chain_stored reads
+// means from it as from a running merge.
+ChainMoments chain_block4(vec2 s[4], float v[4], float a2) {
+    vec2 mean = 0.25 * ((s[0] + s[1]) + (s[2] + s[3]));
+    float spread = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        vec2 d = s[i] - mean;
+        spread += v[i] + dot(d, d);
+    }
+    return ChainMoments(1.0, mean, 0.25 * spread, a2);
+}
+
 // The moments as a level stores them: (mean s.x, mean s.y, total variance, mean alpha^2).
 vec4 chain_stored(ChainMoments m) {
     return vec4(m.mean, m.deviations / m.weight, m.alpha2 / m.weight);

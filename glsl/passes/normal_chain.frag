@@ -44,20 +44,48 @@ void main() {
     ivec2 last = ivec2(footprint_last_child(p.x, u_child_size.x, u_size.x),
                        footprint_last_child(p.y, u_child_size.y, u_size.y));
     ChainMoments m = chain_empty();
-    for (int y = first.y; y <= last.y; ++y) {
-        for (int x = first.x; x <= last.x; ++x) {
+    if (all(lessThan(p, u_size - 1))) {
+        // A texel short of the last row and column: a 2x2 block of children of equal
+        // weight (only the last texel of a level takes an odd remainder), merged at once.
 #if CHAIN_STAGE == 1
-            ivec2 c = ivec2(x, y);
-            vec2 s = chain_slope(chain_normal(texelFetch(u_normals, c, 0).rgb, u_scale));
+        vec2 s[4];
+        float a2 = 0.0;
+        for (int i = 0; i < 4; ++i) {
+            ivec2 c = first + ivec2(i & 1, i >> 1);
+            s[i] = chain_slope(chain_normal(texelFetch(u_normals, c, 0).rgb, u_scale));
             float r = roughness_at(c);
-            float r2 = r * r;
-            m = chain_merge(m, 1.0, s, 0.0, r2 * r2);
+            a2 += (r * r) * (r * r);
+        }
+        m = chain_block4(s, float[4](0.0, 0.0, 0.0, 0.0), a2 * 0.25);
 #else
-            vec4 child = texelFetch(u_moments, ivec2(x, u_child_size.y - 1 - y), 0);
-            float w = footprint_texels(x, u_level - 1, u_child_size.x, u_size0.x)
-                    * footprint_texels(y, u_level - 1, u_child_size.y, u_size0.y);
-            m = chain_merge(m, w, child.xy, child.z, child.w);
+        vec2 s[4];
+        float v[4];
+        float a2 = 0.0;
+        for (int i = 0; i < 4; ++i) {
+            vec4 child = texelFetch(u_moments, ivec2(first.x + (i & 1),
+                                                     u_child_size.y - 1 - first.y - (i >> 1)), 0);
+            s[i] = child.xy;
+            v[i] = child.z;
+            a2 += child.w;
+        }
+        m = chain_block4(s, v, a2 * 0.25);
 #endif
+    } else {
+        for (int y = first.y; y <= last.y; ++y) {
+            for (int x = first.x; x <= last.x; ++x) {
+#if CHAIN_STAGE == 1
+                ivec2 c = ivec2(x, y);
+                vec2 s = chain_slope(chain_normal(texelFetch(u_normals, c, 0).rgb, u_scale));
+                float r = roughness_at(c);
+                float r2 = r * r;
+                m = chain_merge(m, 1.0, s, 0.0, r2 * r2);
+#else
+                vec4 child = texelFetch(u_moments, ivec2(x, u_child_size.y - 1 - y), 0);
+                float w = footprint_texels(x, u_level - 1, u_child_size.x, u_size0.x)
+                        * footprint_texels(y, u_level - 1, u_child_size.y, u_size0.y);
+                m = chain_merge(m, w, child.xy, child.z, child.w);
+#endif
+            }
         }
     }
     vec4 stored = chain_stored(m);
