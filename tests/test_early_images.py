@@ -7,6 +7,7 @@ image left to the reader, and a PNG's image data joined into one chunk."""
 from __future__ import annotations
 
 import io
+import json
 from pathlib import Path
 
 import numpy as np
@@ -298,3 +299,41 @@ def test_single_idat_keeps_what_follows_iend_and_bounds_its_work(
     np.testing.assert_array_equal(np.asarray(image), noise)
     monkeypatch.setattr(early, "MAX_IDAT_CHUNKS", 3)
     assert early.single_idat(split) is split
+
+
+def test_normal_spread_made_early(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A normal map decoded early also gets the sampled spread that ``auto`` chooses by,
+    under the key the reader's ``auto_normal_filter`` looks up (its scale included), so the
+    reader finds it kept; a scale the reader would refuse makes none."""
+    import hashlib
+
+    from app.scene import early_images
+    from app.textures.cache import prepared_cache
+    from app.textures.maps import _image_part, _prepared_version, auto_normal_filter
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    b = GltfBuilder()
+    normal = _texture(b, tmp_path, (120, 130, 250))
+    (tmp_path / "image0.png").write_bytes(_png(8))
+    material = pygltflib.Material(
+        normalTexture=pygltflib.NormalMaterialTexture(index=normal, scale=0.5)
+    )
+    b.quad(material=b.material(material))
+    path = b.save(tmp_path / "model.gltf")
+    assert early_images.normal_map_scales(path) == {"image0.png": [0.5]}
+    data = (tmp_path / "image0.png").read_bytes()
+    digest = hashlib.sha256(data).hexdigest()
+    early_images._start(path)
+    image = maps.open_image(data, Budget(), "normal", decode_later=True)
+    maps.wait_decoded(image)
+    parts = (_prepared_version(), _image_part(image), 0.5)
+    assert prepared_cache().holds("normal spread", parts)
+    events = len(prepared_cache().events)
+    assert auto_normal_filter(image, 0.5) == "variance"
+    assert prepared_cache().events[events:] == ["memory"]  # found, not made again
+    assert early.take(digest) is None  # the reader took the image
+    doc = json.loads(path.read_text())
+    doc["materials"][0]["normalTexture"]["scale"] = 5e3  # past the reader's bound
+    path.write_text(json.dumps(doc))
+    assert early_images.normal_map_scales(path) == {}

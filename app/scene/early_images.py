@@ -61,6 +61,7 @@ def _start(path: Path) -> None:
         budget = Budget(DEFAULT_POLICY.limits)  # the images decoded here: the default's
         whole = whole_image_uris(path)
         colour = [uri for uri in whole_image_uris(path, _COLOUR_MAPS) if uri not in whole]
+        scales = normal_map_scales(path)
     except Exception:  # the reader reports whatever is wrong, in its order
         return
     queue = iter([(uri, False) for uri in whole] + [(uri, True) for uri in colour])
@@ -73,7 +74,10 @@ def _start(path: Path) -> None:
             if item is None:
                 return
             try:
-                _open(item[0], path, budget, skip_jpeg=item[1])
+                digest = _open(item[0], path, budget, skip_jpeg=item[1])
+                if digest is not None:
+                    for scale in scales.get(item[0], ()):
+                        _normal_spread(digest, scale)
             except Exception:  # the reader reports whatever is wrong, in its order
                 continue
 
@@ -116,9 +120,55 @@ def whole_image_uris(
     return uris
 
 
-def _open(uri: str, path: Path, budget: Budget, skip_jpeg: bool = False) -> None:
+def normal_map_scales(path: Path) -> dict[str, list[float]]:
+    """The normal maps' URIs of ``path``'s materials, each with the normal scales it is
+    read with (glTF's ``normalTexture.scale``, 1 where absent; a scale the reader would
+    refuse is left out)."""
+    from app.untrusted import files
+    from app.untrusted.policy import DEFAULT_POLICY
+
+    limit = min(_MAX_JSON_BYTES, DEFAULT_POLICY.limits.max_file_bytes)
+    doc = json.loads(files.read_bytes(path, limit))
+    textures, images = doc.get("textures") or [], doc.get("images") or []
+    scales: dict[str, list[float]] = {}
+    for material in doc.get("materials") or []:
+        info = material.get("normalTexture") or {}
+        index, scale = info.get("index"), info.get("scale", 1.0)
+        if not isinstance(index, int) or not 0 <= index < len(textures):
+            continue
+        if isinstance(scale, bool) or not isinstance(scale, int | float):
+            continue
+        if not -1e3 <= scale <= 1e3:  # the reader's bounds (app/scene/gltf.py)
+            continue
+        source = textures[index].get("source")
+        if not isinstance(source, int) or not 0 <= source < len(images):
+            continue
+        uri = images[source].get("uri")
+        if isinstance(uri, str) and float(scale) not in scales.setdefault(uri, []):
+            scales[uri].append(float(scale))
+    return scales
+
+
+def _normal_spread(digest: str, scale: float) -> None:
+    """The sampled spread that ``render.normal_filter = "auto"`` chooses by, for the normal
+    map decoded early with bytes of ``digest`` (``maps.auto_normal_filter``, kept in the
+    prepared-texture cache under the key the reader's call looks up): made here, on the
+    core the imports leave idle, where the reader would make it while reading the scene.
+    Nothing where the reader has taken the image already."""
+    from app.textures import early
+    from app.textures.maps import SOURCE_DIGEST, auto_normal_filter
+
+    image = early.peek(digest)
+    if image is None:
+        return
+    image.info[SOURCE_DIGEST] = digest  # as maps.open_image records it
+    auto_normal_filter(image, scale)
+
+
+def _open(uri: str, path: Path, budget: Budget, skip_jpeg: bool = False) -> str | None:
     """The file ``uri`` names, decoded on this thread (``early.decode_early``); not where
-    ``skip_jpeg`` and it is a JPEG (a colour map the reader may decode reduced)."""
+    ``skip_jpeg`` and it is a JPEG (a colour map the reader may decode reduced). Its bytes'
+    digest where it was decoded."""
     from app.textures.early import decode_early
     from app.untrusted import RefusedError, files
     from app.untrusted.policy import DEFAULT_POLICY
@@ -127,7 +177,7 @@ def _open(uri: str, path: Path, budget: Budget, skip_jpeg: bool = False) -> None
         file = files.confine_uri(uri, path, DEFAULT_POLICY)
         data = files.read_bytes(file, DEFAULT_POLICY.limits.max_file_bytes)
     except RefusedError:
-        return
+        return None
     if skip_jpeg and data.startswith(_JPEG_SIGNATURE):
-        return
-    decode_early(data, budget)
+        return None
+    return decode_early(data, budget)

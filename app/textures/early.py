@@ -35,12 +35,13 @@ _TAKEN: set[str] = set()
 _LOCK = threading.Lock()  # both, and the early decodes' shared budget
 
 
-def decode_early(data: bytes, budget: Budget) -> None:
+def decode_early(data: bytes, budget: Budget) -> str | None:
     """Decode the image ``data`` holds on this thread, for ``take``: not where it is no
     image of ``IMAGE_FORMATS``, where its texels do not fit ``budget`` (charged as
     ``maps.open_image`` charges an image: the early decodes of one render share one), or
     where the prepared-texture cache records that these bytes decoded before (a warm
-    render reads its prepared maps and decodes no whole image: ``maps.open_image``)."""
+    render reads its prepared maps and decodes no whole image: ``maps.open_image``).
+    Returns the bytes' digest where it decoded them (``peek`` then has the image)."""
     import PIL
     from PIL import Image
 
@@ -73,8 +74,9 @@ def decode_early(data: bytes, budget: Budget) -> None:
         image.load()
     except Exception as exc:  # the reader decodes it again and names it
         done.set_exception(exc)
-        return
+        return None
     done.set_result(image)
+    return digest
 
 
 def whole_reads(image, size: int) -> None:  # image: PIL.ImageFile.ImageFile
@@ -85,6 +87,16 @@ def whole_reads(image, size: int) -> None:  # image: PIL.ImageFile.ImageFile
     metallic-roughness JPEG decoded beside a busy thread in 0.11 s instead of 0.21. The
     same decoder on the same bytes: the same texels."""
     image.decodermaxblock = max(getattr(image, "decodermaxblock", 0), size)
+
+
+def peek(digest: str):  # -> PIL.Image.Image | None
+    """The image of the bytes with SHA-256 ``digest`` decoded early, where its decode is
+    done and the reader has not taken it yet; else None. Not taken by this."""
+    with _LOCK:
+        done = _EARLY.get(digest)
+    if done is None or not done.done() or done.exception() is not None:
+        return None
+    return done.result()
 
 
 def take(digest: str):  # -> PIL.Image.Image | None
