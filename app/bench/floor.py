@@ -26,6 +26,7 @@ import numpy as np
 
 from app.bench.pairs import LightPairs
 from app.common.models import BRDF_TERMS
+from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw
 from app.render.fullscreen import read_rgb
 from app.render.inputs import SURFACE_ROLES, ShaderInput, ShadingContext, bind_camera
@@ -151,5 +152,4 @@ class FloorPass:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.draws, self.z_fbo, self.fbo, self.hdr, self.masks):
-            obj.release()
+        release_objects(*self.draws, self.z_fbo, self.fbo, self.hdr, self.masks)

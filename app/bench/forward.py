@@ -26,7 +26,7 @@ import numpy as np
 
 from app.frame import prepare_frame
 from app.frame.camera import camera_frame, gl_bytes, projection_matrix, view_matrix
-from app.gl.context import GLContext
+from app.gl.context import GLContext, release_objects
 from app.gl.shaders import ShaderCache
 from app.render.blend import forward_drawables
 from app.render.inputs import bind_camera, shading_context
@@ -122,7 +122,6 @@ class ForwardRenderer:
     def release(self) -> None:
         for d in self.drawables:
             d.release()
-        for obj in (self.fbo, self.hdr, self.zbuffer):
-            obj.release()
+        release_objects(self.fbo, self.hdr, self.zbuffer)
         self.context.release()
         self.shaders.release()

@@ -28,6 +28,7 @@ from app.bench.floor import shade_gbuffer, z_target
 from app.bench.pairs import LightPairs
 from app.common.lights import pack_lights
 from app.common.models import BRDF_TERMS
+from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw
 from app.render.fullscreen import read_rgb
 from app.render.inputs import GBUFFER, MATERIALS, MS_TABLE, SHEEN_TABLE, ShaderInput
@@ -180,5 +181,4 @@ class LimitPass:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.draws, self.z_fbo, self.fbo, self.hdr, self.indices, self.lights):
-            obj.release()
+        release_objects(*self.draws, self.z_fbo, self.fbo, self.hdr, self.indices, self.lights)

@@ -23,6 +23,7 @@ import functools
 import logging
 import os
 import re
+import weakref
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -288,6 +289,33 @@ def wait_before_read(ctx: moderngl.Context) -> None:
     tests/test_material_core.py's alpha-mode edit once the post pass was fused into
     lighting, which left one framebuffer change fewer between them)."""
     ctx.finish()
+
+
+def release_objects(*objects: object) -> None:
+    """Release moderngl objects (None skipped). A framebuffer moderngl holds as bound (the
+    last ``use``) is unbound first, the GL's default framebuffer bound in its place:
+    moderngl binds the framebuffer it holds as bound again whenever it makes another, and
+    a deleted name there is a GL_INVALID_OPERATION (tests/test_gl_errors.py)."""
+    for obj in objects:
+        if obj is None:
+            continue
+        if isinstance(obj, moderngl.Framebuffer) and obj.ctx.fbo is obj:
+            _default_framebuffer(obj.ctx).use()
+        obj.release()  # type: ignore[attr-defined]
+
+
+def _default_framebuffer(ctx: moderngl.Context) -> moderngl.Framebuffer:
+    """The context's default framebuffer as moderngl's object: its window's, else name 0
+    (a headless context's, which nothing draws into), made once a context."""
+    if ctx.screen is not None:
+        return ctx.screen
+    made = _DEFAULT_FRAMEBUFFERS.get(ctx)
+    if made is None:
+        made = _DEFAULT_FRAMEBUFFERS[ctx] = ctx.detect_framebuffer(0)
+    return made
+
+
+_DEFAULT_FRAMEBUFFERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def gl_function(

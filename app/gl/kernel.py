@@ -13,6 +13,7 @@ from collections.abc import Callable, Mapping, Sequence
 import moderngl
 import numpy as np
 
+from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw, bind_textures
 from app.gl.shaders import assemble, assemble_text
 
@@ -103,5 +104,4 @@ def run_kernel(
         out = np.frombuffer(target.read(), stored).reshape(-1, 4)[:n].astype(np.float64)
         return out / 65535.0 if target_dtype == "nu2" else out
     finally:
-        for obj in (fullscreen, fbo, target, *textures):
-            obj.release()
+        release_objects(fullscreen, fbo, target, *textures)

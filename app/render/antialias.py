@@ -42,6 +42,7 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.tonemaps import TONEMAPS
+from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.gl.shaders import ShaderCache
 from app.reference.antialiasing import GBAA_SPILL, gbaa_saturation
@@ -176,7 +177,7 @@ class FxaaPass:
         ctx.viewport = (0, 0, *self.size)
 
     def release(self) -> None:
-        for obj in (
+        release_objects(
             self.mark,
             self._points,  # the program is the shader cache's
             self._blocks,
@@ -185,9 +186,7 @@ class FxaaPass:
             self.source,
             self._marks_fbo,
             self.marks,
-        ):
-            if obj is not None:
-                obj.release()
+        )
 
 
 class AccumulatePass:
@@ -233,8 +232,7 @@ class AccumulatePass:
 
     def release(self) -> None:
         self.fullscreen.release()
-        for obj in (*self.fbos, *self.targets):
-            obj.release()
+        release_objects(*self.fbos, *self.targets)
 
 
 class SraaPass:
@@ -313,8 +311,7 @@ def fine_derivatives(ctx: moderngl.Context, shaders: ShaderCache) -> bool:
             ddx, ddy, x, y = texels.reshape(-1, 4).T
             _FINE_DERIVATIVES[key] = bool(np.all(ddx == y) and np.all(ddy == x))
         finally:
-            for obj in (probe, fbo, target):
-                obj.release()
+            release_objects(probe, fbo, target)
     return _FINE_DERIVATIVES[key]
 
 
@@ -596,6 +593,4 @@ class GbaaPass:
         self._draw(1, self._uniforms(exposure_ev, background), textures, ">")
 
     def release(self) -> None:
-        for obj in (*self._vaos, self._out, self.depth):
-            if obj is not None:
-                obj.release()
+        release_objects(*self._vaos, self._out, self.depth)

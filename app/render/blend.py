@@ -32,6 +32,7 @@ from app.common.camera import CameraFrame
 from app.common.models import BRDF_TERMS
 from app.frame.camera import gl_bytes
 from app.frame.materials import MaterialTable
+from app.gl.context import release_objects
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
 from app.render.inputs import (
@@ -200,8 +201,7 @@ class OverOpaqueTarget:
         return self.fbo
 
     def release(self) -> None:
-        if self.fbo is not None:
-            self.fbo.release()
+        release_objects(self.fbo)
         self.fbo = None
         self._attached = None
 

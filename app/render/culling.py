@@ -38,7 +38,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.common.lights import POINT_COS_OUTER, LightType, PunctualLight
 from app.errors import InputError
-from app.gl.context import wait_before_read
+from app.gl.context import release_objects, wait_before_read
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBuffer
@@ -251,7 +251,7 @@ class LightCuller(ShaderInput):
         return bits.reshape(ny, nx, self.quads * 128)[..., : self.local_count].astype(bool)
 
     def release(self) -> None:
-        for obj in (
+        release_objects(
             self.depth_pass,
             self.group_pass,
             self.cull_pass,
@@ -265,5 +265,4 @@ class LightCuller(ShaderInput):
             self.lights,
             self.spots,
             self.spot_bits,
-        ):
-            obj.release()
+        )

@@ -75,7 +75,7 @@ import numpy as np
 
 from app.common.debug_views import DEBUG_VIEW_CODE, DEBUG_VIEWS, LIGHT_VIEWS
 from app.common.models import BRDF_TERMS
-from app.gl.context import wait_before_read
+from app.gl.context import release_objects, wait_before_read
 from app.gl.fullscreen import FullscreenDraw
 from app.render.culling import LightCuller, tiles_used
 from app.render.debug import BadPixels, nan_debug_image
@@ -331,6 +331,5 @@ class DebugPass:
         return self._display
 
     def release(self) -> None:
-        for obj in (*self._draws.values(), self.fbo, self.target, self.display):
-            obj.release()
+        release_objects(*self._draws.values(), self.fbo, self.target, self.display)
         self._release_own_culler()

@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import moderngl
 import numpy as np
 
-from app.gl.context import wait_before_read
+from app.gl.context import release_objects, wait_before_read
 from app.gl.fullscreen import FullscreenDraw, Textures
 from app.gl.shaders import ShaderCache
 
@@ -93,5 +93,4 @@ class FullscreenPass:
         return read_rgb(self.fbo, self.size, "f1", self._scratch)
 
     def release(self) -> None:
-        for obj in (self.fullscreen, self.fbo, self.target):
-            obj.release()
+        release_objects(self.fullscreen, self.fbo, self.target)

@@ -30,7 +30,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.common.gbuffer import GBUFFER_TARGETS, STORAGE_DTYPES, GBufferData, GBufferLayout
 from app.frame.camera import gl_bytes
-from app.gl.context import gl_function, wait_before_read
+from app.gl.context import gl_function, release_objects, wait_before_read
 from app.gl.shaders import ShaderCache
 from app.reference.encoding import unorm_to_snorm
 from app.render.mesh_drawable import MeshDrawable, drawn_maps
@@ -155,8 +155,7 @@ class GBuffer:
         return [(t.glsl_name, self._by_name[t.name]) for t, _ in self.layout.targets()]
 
     def release(self) -> None:
-        for obj in (self.fbo, *self._targets, self.zbuffer):
-            obj.release()
+        release_objects(self.fbo, *self._targets, self.zbuffer)
 
 
 def _read_float(

@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 
 from app.common.tables import read_dfg_table
+from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentSource, equirect_texture
@@ -150,8 +151,7 @@ def _prefilter_faces(
             data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
             faces.append(data.reshape(size, size, 4)[..., :3].copy())
     finally:
-        fbo.release()
-        target.release()
+        release_objects(fbo, target)
     return np.stack(faces)
 
 

@@ -32,6 +32,7 @@ import numpy as np
 from app.common.camera import CameraFrame
 from app.common.models import BRDF_TERMS
 from app.common.tonemaps import TONEMAP_CODE
+from app.gl.context import release_objects
 from app.gl.fullscreen import FULLSCREEN_VERTEX, FullscreenDraw
 from app.gl.shaders import ShaderCache, ShaderError
 from app.render.fullscreen import read_rgb
@@ -307,8 +308,7 @@ class LightingPass:
         """The HDR image with ``gbuffer``'s z-buffer, depth writes off; made again for a new
         G-buffer (a resize, a new encoding)."""
         if self._z_fbo is None or self._z_source is not gbuffer:
-            if self._z_fbo is not None:
-                self._z_fbo.release()
+            release_objects(self._z_fbo)
             self._z_fbo = self.ctx.framebuffer([self.hdr], gbuffer.zbuffer)
             self._z_fbo.depth_mask = False
             self._z_source = gbuffer
@@ -319,10 +319,7 @@ class LightingPass:
         return read_rgb(self.fbo, self.size, "f4")
 
     def release(self) -> None:
-        for obj in (*self.draws, self._background, self.fbo, self.hdr):
-            obj.release()
-        if self._z_fbo is not None:
-            self._z_fbo.release()
+        release_objects(*self.draws, self._background, self.fbo, self.hdr, self._z_fbo)
         for draws in self._display.values():  # the programs are the shader cache's
             for draw in draws:
                 draw.release()

@@ -25,6 +25,7 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
+from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
 from app.reference.msaa import MSAA_DEPTH_TOLERANCE, MSAA_NORMAL_TOLERANCE
 from app.render.antialias import PartRects
@@ -150,7 +151,7 @@ class MsaaPass:
 
     def _release_hdr(self) -> None:
         if self._hdr is not None:
-            self._hdr[1].release()
+            release_objects(self._hdr[1])
             self._hdr = None
 
     def release(self) -> None:

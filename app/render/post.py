@@ -6,6 +6,7 @@ import moderngl
 import numpy as np
 
 from app.common.tonemaps import TONEMAP_CODE
+from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.reference import dof
@@ -82,8 +83,7 @@ class PostPass(FullscreenPass):
         render.antialiasing = "gbaa" has the lighting pass write too)."""
         value = self.background_display(background, exposure_ev)
         if self._z_fbo is None or self._z_source != (zbuffer, second):
-            if self._z_fbo is not None:
-                self._z_fbo.release()
+            release_objects(self._z_fbo)
             attachments = [self.target] if second is None else [self.target, second]
             self._z_fbo = self.ctx.framebuffer(attachments, zbuffer)
             self._z_fbo.depth_mask = False
@@ -119,8 +119,7 @@ class PostPass(FullscreenPass):
                 )
                 value = tuple(int(b) for b in fbo.read(components=4, alignment=1))
             finally:
-                for obj in (fbo, dst, src):
-                    obj.release()
+                release_objects(fbo, dst, src)
             self._background = (*key, value)
         return self._background[2]
 
@@ -128,8 +127,7 @@ class PostPass(FullscreenPass):
         super().release()
         if self._far is not None:
             self._far.release()  # the program is the shader cache's
-        if self._z_fbo is not None:
-            self._z_fbo.release()
+        release_objects(self._z_fbo)
 
 
 class DownsamplePass(FullscreenPass):

@@ -25,7 +25,7 @@ import numpy as np
 
 from app.common.camera import CameraFrame
 from app.common.gbuffer import GBUFFER_TARGETS, STORAGE_DTYPES, GBufferLayout
-from app.gl.context import gl_function
+from app.gl.context import gl_function, release_objects
 from app.gl.fullscreen import FullscreenDraw, Textures
 from app.gl.shaders import ShaderCache
 from app.render.gbuffer import GBufferPass
@@ -118,8 +118,7 @@ class SampleGBuffer:
         return [(t.glsl_name, self._by_name[t.name]) for t, _ in self.layout.targets()]
 
     def release(self) -> None:
-        for obj in (self.fbo, self.clear_fbo, *self._attachments, self.zbuffer):
-            obj.release()
+        release_objects(self.fbo, self.clear_fbo, *self._attachments, self.zbuffer)
 
 
 class SampleGeometry:
@@ -192,6 +191,4 @@ class SampleGeometry:
         self.fbo.depth_mask = True
 
     def release(self) -> None:
-        for obj in (self.gbuffer_pass, self.targets, self.fbo, self.edges):
-            if obj is not None:
-                obj.release()
+        release_objects(self.gbuffer_pass, self.targets, self.fbo, self.edges)

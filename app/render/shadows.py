@@ -62,7 +62,7 @@ from app.common.extension_maps import FACTOR_TARGETS, targets_of
 from app.common.lights import LightType, PunctualLight
 from app.errors import InputError
 from app.frame.camera import gl_bytes
-from app.gl.context import wait_before_read
+from app.gl.context import release_objects, wait_before_read
 from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache, assemble
 from app.reference.shadows import ShadowMaps
@@ -479,8 +479,7 @@ def measure_pcf(ctx: moderngl.Context, texture_filter: int = moderngl.LINEAR) ->
         got = np.frombuffer(target.read(), np.float32).reshape(n, 4)[:, 0].astype(np.float64)
     finally:
         draw.release()
-        for obj in (fbo, target, depth):
-            obj.release()
+        release_objects(fbo, target, depth)
     errors = {name: float(np.abs(got - want).max()) for name, want in models.items()}
     behaviour = min(errors, key=errors.__getitem__)
     if errors[behaviour] > PCF_PROBE_TOLERANCE:
@@ -983,7 +982,5 @@ class ShadowPass(ShaderInput):
         for caster in [*self.casters, *self.glass_casters]:
             caster.release()
         if self.glass_atlas is not None:
-            self.glass_fbo.release()
-            self.glass_atlas.release()
-        self.fbo.release()
-        self.atlas.release()
+            release_objects(self.glass_fbo, self.glass_atlas)
+        release_objects(self.fbo, self.atlas)

@@ -32,6 +32,7 @@ import moderngl
 import numpy as np
 
 from app.common.camera import CameraFrame
+from app.gl.context import release_objects
 from app.render.blend import BLEND_INPUTS, OverOpaqueTarget, draw_farthest_first, world_centre
 from app.render.gbuffer import GBuffer
 from app.render.inputs import LIGHTS, MATERIALS, ShadingContext
@@ -145,9 +146,7 @@ class TransmissionPass:
         ctx.front_face = "ccw"
 
     def _release_copy(self) -> None:
-        for obj in (self._source, self._copy, self.image):
-            if obj is not None:
-                obj.release()
+        release_objects(self._source, self._copy, self.image)
         self._source = self._copy = self.image = None
 
     def release(self) -> None:
