@@ -17,11 +17,12 @@ framebuffer and sets it on ``use``) unless ``viewport`` sets another.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 
 import moderngl
 
 from app.gl.shaders import ShaderCache
+from app.gl.texture_storage import LevelFramebuffer
 
 FULLSCREEN_VERTEX = "passes/fullscreen.vert"
 
@@ -126,3 +127,44 @@ class FullscreenDraw:
         self.vao.release()
         if self._owns_program:
             self.program.release()
+
+
+class LevelDraws:
+    """Full-screen draws into levels of textures (mips the project draws itself: app/render/
+    normal_chain.py, app/render/srgb_mips.py): one ``LevelFramebuffer``, a ``FullscreenDraw``
+    per fragment file and defines, made at its first draw, with ``shaders``' programs (a
+    cache of its own where none is given, released with it)."""
+
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderCache | None = None) -> None:
+        self.ctx = ctx
+        self._own = shaders is None
+        self.shaders = ShaderCache(ctx) if shaders is None else shaders
+        self._draws: dict[tuple, FullscreenDraw] = {}
+        self.fbo = LevelFramebuffer(ctx)
+
+    def draw(
+        self,
+        fragment: str,
+        defines: Mapping[str, object],
+        into: Sequence[tuple[moderngl.Texture, int]],
+        uniforms: Mapping[str, object],
+        textures: Textures,
+    ) -> None:
+        """Draw glsl/``fragment`` with ``defines`` into the levels ``into`` ((texture,
+        level), colour attachments 0, 1, ...; the viewport the first one's)."""
+        key = (fragment, tuple(sorted(defines.items())))
+        if key not in self._draws:
+            self._draws[key] = FullscreenDraw.of(self.ctx, self.shaders, fragment, defines)
+        self.fbo.attach(into)
+        self._draws[key].draw(None, uniforms, textures)
+
+    def check(self) -> None:
+        """``LevelFramebufferError`` where the GL reported an error since it was made."""
+        self.fbo.check()
+
+    def release(self) -> None:
+        self.fbo.release()
+        for draw in self._draws.values():
+            draw.release()
+        if self._own:
+            self.shaders.release()

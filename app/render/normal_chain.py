@@ -24,12 +24,11 @@ import moderngl
 import numpy as np
 
 from app.gl.context import wait_before_read
-from app.gl.fullscreen import FullscreenDraw
+from app.gl.fullscreen import LevelDraws
 from app.gl.shaders import ShaderCache
 from app.gl.texture_storage import (
     GL_HALF_FORMATS,
     GL_UNSIGNED_BYTE,
-    LevelFramebuffer,
     allocated,
     has_texture_storage,
     read_level,
@@ -59,20 +58,11 @@ def build_chain(
     h, w = source.shape
     first = source.first
     count = max(h, w).bit_length()  # levels 0 .. 1x1
-    own = shaders is None
-    shaders = ShaderCache(ctx) if shaders is None else shaders
     made: list[moderngl.Texture] = []
-    draws: dict[int, FullscreenDraw] = {}
-    fbo: LevelFramebuffer | None = None
+    draws: LevelDraws | None = None
     chain: moderngl.Texture | None = None
-
-    def draw(stage: int, uniforms: dict, textures: dict) -> None:
-        if stage not in draws:
-            draws[stage] = FullscreenDraw.of(ctx, shaders, FRAGMENT, {"CHAIN_STAGE": stage})
-        draws[stage].draw(None, uniforms, textures)  # the level's viewport: fbo.attach
-
     try:
-        fbo = LevelFramebuffer(ctx)
+        draws = LevelDraws(ctx, shaders)
         chain = allocated(ctx, (max(1, w >> first), max(1, h >> first)), 4, count - first,
                           GL_HALF_FORMATS[4])  # fmt: skip
         normals = _source_texture(ctx, source.normal_texels())
@@ -85,6 +75,7 @@ def build_chain(
         if count > 1:
             moments = allocated(ctx, (max(1, w >> 1), max(1, h >> 1)), 4, count - 1,
                                 GL_RGBA32F, "f4")  # fmt: skip
+            moments.filter = (moderngl.NEAREST, moderngl.NEAREST)
             made.append(moments)
         common = {
             "u_has_roughness": roughness is not None,
@@ -94,35 +85,30 @@ def build_chain(
         }
         maps = {"u_normals": normals, "u_roughness": rough}
         if first == 0:
-            fbo.attach([(chain, 0)])
-            draw(0, {**common, "u_child_size": (w, h), "u_size": (w, h), "u_level": 0}, maps)
+            level0 = {**common, "u_child_size": (w, h), "u_size": (w, h), "u_level": 0}
+            draws.draw(FRAGMENT, {"CHAIN_STAGE": 0}, [(chain, 0)], level0, maps)
         child = (w, h)
         for k in range(1, count):
             size = (max(1, w >> k), max(1, h >> k))
-            attachments = [(moments, k - 1)] + ([(chain, k - first)] if k >= first else [])
-            fbo.attach(attachments)
+            into = [(moments, k - 1)] + ([(chain, k - first)] if k >= first else [])
             uniforms = {**common, "u_child_size": child, "u_size": size, "u_level": k}
             if k == 1:
-                draw(1, uniforms, maps)
-            else:
-                _sampled_level(ctx, moments, k - 2)  # read: the level before; written: k - 1
-                draw(2, uniforms, {"u_moments": moments})
+                draws.draw(FRAGMENT, {"CHAIN_STAGE": 1}, into, uniforms, maps)
+            else:  # read: the level before, alone; written: level k - 1 of the moments
+                set_level_range(ctx, moments, k - 2, k - 2)
+                draws.draw(FRAGMENT, {"CHAIN_STAGE": 2}, into, uniforms, {"u_moments": moments})
             child = size
         set_level_range(ctx, chain, 0, count - first - 1)
-        fbo.check()
+        draws.check()
     except BaseException:
         if chain is not None:
             chain.release()
         raise
     finally:
-        if fbo is not None:
-            fbo.release()
-        for fullscreen in draws.values():
-            fullscreen.release()
+        if draws is not None:
+            draws.release()
         for texture in made:
             texture.release()
-        if own:
-            shaders.release()
     return chain
 
 
@@ -145,10 +131,3 @@ def _source_texture(ctx: moderngl.Context, texels: np.ndarray) -> moderngl.Textu
     write_level0(texture, comps, np.ascontiguousarray(texels), GL_UNSIGNED_BYTE)
     texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
     return texture
-
-
-def _sampled_level(ctx: moderngl.Context, texture: moderngl.Texture, level: int) -> None:
-    """Sampling of ``texture`` limited to ``level``: the level drawn into is outside it,
-    so reading the one and writing the other is no feedback loop."""
-    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    set_level_range(ctx, texture, level, level)

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import moderngl
 
-from app.gl.fullscreen import FullscreenDraw
+from app.gl.fullscreen import LevelDraws
 from app.gl.shaders import ShaderCache
-from app.gl.texture_storage import LevelFramebuffer, set_level_range
+from app.gl.texture_storage import set_level_range
 from app.resources import glsl_dir
 from app.textures.cache import code_version as _files_version
 
@@ -49,10 +49,7 @@ def draw_srgb_mips(
     count = max(w, h).bit_length()
     if count < 2:
         return
-    own = shaders is None
-    shaders = ShaderCache(ctx) if shaders is None else shaders
-    draw = FullscreenDraw.of(ctx, shaders, FRAGMENT)
-    fbo = LevelFramebuffer(ctx)
+    draws = LevelDraws(ctx, shaders)
     filters = texture.filter
     texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
     ctx.enable_direct(GL_FRAMEBUFFER_SRGB)
@@ -61,16 +58,12 @@ def draw_srgb_mips(
         for k in range(1, count):
             size = (max(1, w >> k), max(1, h >> k))
             set_level_range(ctx, texture, k - 1, k - 1)  # read level k - 1, write level k
-            fbo.attach([(texture, k)])  # and the level's viewport
             uniforms = {"u_size0": (w, h), "u_child_size": above, "u_size": size, "u_level": k}
-            draw.draw(None, uniforms, {"u_above": texture})
+            draws.draw(FRAGMENT, {}, [(texture, k)], uniforms, {"u_above": texture})
             above = size
-        fbo.check()
+        draws.check()
     finally:
         ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
-        fbo.release()
-        draw.release()
-        if own:
-            shaders.release()
+        draws.release()
         set_level_range(ctx, texture, 0, count - 1)
         texture.filter = filters

@@ -59,9 +59,10 @@ def _start(path: Path) -> None:
 
     try:
         budget = Budget(DEFAULT_POLICY.limits)  # the images decoded here: the default's
-        whole = whole_image_uris(path)
-        colour = [uri for uri in whole_image_uris(path, _COLOUR_MAPS) if uri not in whole]
-        scales = normal_map_scales(path)
+        doc = _document(path)  # read once
+        whole = whole_image_uris(doc)
+        colour = [uri for uri in whole_image_uris(doc, _COLOUR_MAPS) if uri not in whole]
+        scales = normal_map_scales(doc)
     except Exception:  # the reader reports whatever is wrong, in its order
         return
     queue = iter([(uri, False) for uri in whole] + [(uri, True) for uri in colour])
@@ -93,60 +94,62 @@ def _start(path: Path) -> None:
 
 
 def whole_image_uris(
-    path: Path, maps: tuple[tuple[str | None, str], ...] = _WHOLE_MAPS
+    path: Path | dict, maps: tuple[tuple[str | None, str], ...] = _WHOLE_MAPS
 ) -> list[str]:
-    """The URIs of the images that ``path``'s materials read through the maps the project
-    filters (``maps``: through those textureInfo objects instead), in the materials'
-    order, each once (no data: URIs)."""
+    """The URIs of the images that ``path``'s materials (or a glTF document already read)
+    read through the maps the project filters (``maps``: through those textureInfo
+    objects instead), in the materials' order, each once (no data: URIs)."""
+    uris: list[str] = []
+    for _, uri in _map_uris(_document(path), maps):
+        if not uri.startswith("data:") and uri not in uris:
+            uris.append(uri)
+    return uris
+
+
+def normal_map_scales(path: Path | dict) -> dict[str, list[float]]:
+    """The normal maps' URIs of ``path``'s materials (or of a glTF document already read),
+    each with the normal scales it is read with (glTF's ``normalTexture.scale``, 1 where
+    absent; a scale the reader would refuse is left out)."""
+    scales: dict[str, list[float]] = {}
+    for info, uri in _map_uris(_document(path), ((None, "normalTexture"),)):
+        scale = info.get("scale", 1.0)
+        if isinstance(scale, bool) or not isinstance(scale, int | float):
+            continue
+        if not -1e3 <= scale <= 1e3:  # the reader's bounds (app/scene/gltf.py)
+            continue
+        if float(scale) not in scales.setdefault(uri, []):
+            scales[uri].append(float(scale))
+    return scales
+
+
+def _document(path: Path | dict) -> dict:
+    """The glTF file's JSON, read with the standard library (a document passes through)."""
+    if isinstance(path, dict):
+        return path
     from app.untrusted import files
     from app.untrusted.policy import DEFAULT_POLICY
 
     limit = min(_MAX_JSON_BYTES, DEFAULT_POLICY.limits.max_file_bytes)
-    doc = json.loads(files.read_bytes(path, limit))
+    return json.loads(files.read_bytes(path, limit))
+
+
+def _map_uris(doc: dict, maps: tuple[tuple[str | None, str], ...]):  # -> Iterator
+    """(textureInfo object, image URI) of every material's ``maps`` (held by the material or
+    by one of its objects) whose texture and image indices are in range, in order."""
     textures, images = doc.get("textures") or [], doc.get("images") or []
-    uris: list[str] = []
     for material in doc.get("materials") or []:
         for holder, name in maps:
             owner = material if holder is None else material.get(holder) or {}
-            index = (owner.get(name) or {}).get("index")
+            info = owner.get(name) or {}
+            index = info.get("index")
             if not isinstance(index, int) or not 0 <= index < len(textures):
                 continue
             source = textures[index].get("source")
             if not isinstance(source, int) or not 0 <= source < len(images):
                 continue
             uri = images[source].get("uri")
-            if isinstance(uri, str) and not uri.startswith("data:") and uri not in uris:
-                uris.append(uri)
-    return uris
-
-
-def normal_map_scales(path: Path) -> dict[str, list[float]]:
-    """The normal maps' URIs of ``path``'s materials, each with the normal scales it is
-    read with (glTF's ``normalTexture.scale``, 1 where absent; a scale the reader would
-    refuse is left out)."""
-    from app.untrusted import files
-    from app.untrusted.policy import DEFAULT_POLICY
-
-    limit = min(_MAX_JSON_BYTES, DEFAULT_POLICY.limits.max_file_bytes)
-    doc = json.loads(files.read_bytes(path, limit))
-    textures, images = doc.get("textures") or [], doc.get("images") or []
-    scales: dict[str, list[float]] = {}
-    for material in doc.get("materials") or []:
-        info = material.get("normalTexture") or {}
-        index, scale = info.get("index"), info.get("scale", 1.0)
-        if not isinstance(index, int) or not 0 <= index < len(textures):
-            continue
-        if isinstance(scale, bool) or not isinstance(scale, int | float):
-            continue
-        if not -1e3 <= scale <= 1e3:  # the reader's bounds (app/scene/gltf.py)
-            continue
-        source = textures[index].get("source")
-        if not isinstance(source, int) or not 0 <= source < len(images):
-            continue
-        uri = images[source].get("uri")
-        if isinstance(uri, str) and float(scale) not in scales.setdefault(uri, []):
-            scales[uri].append(float(scale))
-    return scales
+            if isinstance(uri, str):
+                yield info, uri
 
 
 def _normal_spread(digest: str, scale: float) -> None:
