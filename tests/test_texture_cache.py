@@ -5,6 +5,7 @@ stays within its size, and a glTF material's maps go through it."""
 
 from __future__ import annotations
 
+import mmap
 from pathlib import Path
 
 import numpy as np
@@ -698,3 +699,98 @@ def test_chain_written_at_the_first_draw(gl_egl, tmp_path: Path, monkeypatch) ->
     finally:
         go.set()
         uploads.release()
+
+
+def _layout() -> list[tuple[tuple[int, ...], type]]:
+    return [((5, 3, 4), np.float16), ((7,), np.uint8), ((2, 2, 4), np.float16)]
+
+
+def _fill(into: tuple[np.ndarray, ...]) -> None:
+    for k, a in enumerate(into):
+        a[...] = (np.arange(a.size) * (k + 3)).reshape(a.shape) % 250
+
+
+def test_entry_filled_in_place_is_what_pack_entry_holds(tmp_path: Path) -> None:
+    """An entry whose layout is known before its data is made in its file (``filled``):
+    the arrays handed out are the file's pages, and the finished file reads back as an
+    entry written whole would (checksum, dtypes, shapes, values) from disk and in
+    another process's view; a second lookup reads it instead of filling again."""
+    cache = PreparedCache(tmp_path)
+    calls: list[int] = []
+
+    def fill(into: tuple[np.ndarray, ...]) -> None:
+        calls.append(1)
+        assert all(a.flags.writeable and a.flags.c_contiguous for a in into)
+        _fill(into)
+
+    made = cache.filled("test", ("in place",), _layout(), fill)
+    assert calls == [1] and cache.events == ["built"]
+    assert all(not a.flags.writeable for a in made)
+    assert all(isinstance(_root(a), mmap.mmap) for a in made)  # the file's pages
+    cache.flush()
+    (path,) = tmp_path.glob("*.npy")  # renamed into place: no temporary left
+    expected = [np.empty(shape, dtype) for shape, dtype in _layout()]
+    _fill(tuple(expected))
+    read = cache_module.unpack_entry(np.load(path, allow_pickle=False))
+    for a, b, c in zip(made, read, expected, strict=True):
+        assert a.dtype == b.dtype == c.dtype and a.shape == b.shape == c.shape
+        assert np.array_equal(a, c) and np.array_equal(b, c)
+    assert cache.filled("test", ("in place",), _layout(), fill) is made  # from memory
+    cache.clear_memory()
+    again = cache.filled("test", ("in place",), _layout(), fill)
+    assert calls == [1] and cache.events[-1] == "disk"
+    assert all(np.array_equal(a, c) for a, c in zip(again, expected, strict=True))
+    # A flipped byte in its data is caught by the checksum the writer added.
+    data = bytearray(path.read_bytes())
+    data[-3] ^= 0xFF
+    path.write_bytes(bytes(data))
+    cache.clear_memory()
+    cache.filled("test", ("in place",), _layout(), fill)
+    assert cache.events[-2:] == ["rebuilt", "built"] and calls == [1, 1]
+
+
+def test_entry_filled_in_memory_without_a_directory_or_a_mapping(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``filled`` without a directory fills arrays of its own; where the file cannot be
+    mapped it fills them in memory and the writer writes them, read back the same."""
+    for cache in (PreparedCache(None), PreparedCache(tmp_path, enabled=False)):
+        made = cache.filled("test", ("x",), _layout(), _fill)
+        assert [a.shape for a in made] == [shape for shape, _ in _layout()]
+    monkeypatch.setattr(cache_module.mmap, "mmap", _refuse_mapping)
+    cache = PreparedCache(tmp_path)
+    made = cache.filled("test", ("y",), _layout(), _fill)
+    cache.flush()
+    (path,) = tmp_path.glob("*.npy")
+    assert not list(tmp_path.glob(f"{cache_module._TEMPORARY}*"))  # none left behind
+    read = cache_module.unpack_entry(np.load(path, allow_pickle=False))
+    assert all(np.array_equal(a, b) for a, b in zip(made, read, strict=True))
+
+
+def _root(a: np.ndarray) -> object:
+    """The object that owns an array's memory (the end of its chain of bases)."""
+    base: object = a
+    while isinstance(base, np.ndarray) and base.base is not None:
+        base = base.base
+    return base.obj if isinstance(base, memoryview) else base
+
+
+def _refuse_mapping(*args: object, **kwargs: object) -> object:
+    raise OSError("mapping refused")
+
+
+def test_entry_whose_fill_fails_leaves_no_file(tmp_path: Path) -> None:
+    """A fill that raises: the error reaches the caller, no entry or temporary is left,
+    and the next lookup fills again."""
+    cache = PreparedCache(tmp_path)
+
+    def broken(into: tuple[np.ndarray, ...]) -> None:
+        into[0][...] = 1
+        raise RuntimeError("the GL refused")
+
+    with pytest.raises(RuntimeError, match="refused"):
+        cache.filled("test", ("z",), _layout(), broken)
+    cache.flush()
+    assert not list(tmp_path.iterdir())
+    made = cache.filled("test", ("z",), _layout(), _fill)
+    assert cache.events == ["built"] and made[1][4] == (4 * 4) % 250

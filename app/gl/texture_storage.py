@@ -161,16 +161,21 @@ def define_levels(
     set_parameter(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, len(levels))
 
 
-def read_level(gl_tex: moderngl.Texture, level: int) -> np.ndarray:
+def read_level(gl_tex: moderngl.Texture, level: int, out: np.ndarray | None = None) -> np.ndarray:
     """Level ``level`` of a 16-bit float (or 8-bit) texture as the GL holds it, (h, w,
     comps) float16 (uint8) rows bottom first (glGetTexImage: moderngl's ``read`` refuses
     levels it did not make with ``build_mipmaps``, and ``define_levels`` makes them
-    without it)."""
+    without it); into ``out`` where given (C-contiguous, of that many values and that
+    dtype: a prepared-texture entry made in place, app/textures/cache.py ``filled``)."""
     uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
     comps = gl_tex.components
     w, h = max(1, gl_tex.width >> level), max(1, gl_tex.height >> level)
     byte = gl_tex.dtype == "f1"
-    out = np.empty((h, w, comps), np.uint8 if byte else np.float16)
+    dtype = np.uint8 if byte else np.float16
+    if out is None:
+        out = np.empty((h, w, comps), dtype)
+    elif out.dtype != dtype or out.size != h * w * comps or not out.flags.c_contiguous:
+        raise ValueError(f"level {level} takes {h * w * comps} C-ordered {np.dtype(dtype)}")
     bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
     store = gl_function(gl_tex.ctx, "glPixelStorei", [enum, int_])
     get = gl_function(gl_tex.ctx, "glGetTexImage", [enum, int_, enum, enum, ctypes.c_void_p])

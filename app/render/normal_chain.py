@@ -20,6 +20,8 @@ direction) of a normal map, with no roughness map or one of the normal map's siz
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import moderngl
 import numpy as np
 
@@ -112,13 +114,27 @@ def build_chain(
     return chain
 
 
-def chain_levels(chain: moderngl.Texture) -> list[np.ndarray]:
+def level_shapes(source: ChainSource) -> list[tuple[int, int, int]]:
+    """The (h, w, 4) shape of each level ``build_chain`` makes of ``source``, known before
+    it is drawn (the prepared-texture entry the levels are read back into)."""
+    h, w = source.shape
+    cw, ch = max(1, w >> source.first), max(1, h >> source.first)
+    return [(max(1, ch >> k), max(1, cw >> k), 4) for k in range(max(cw, ch).bit_length())]
+
+
+def chain_levels(
+    chain: moderngl.Texture, into: Sequence[np.ndarray] | None = None
+) -> list[np.ndarray]:
     """Every level of a built chain as the GL holds it: float16, rows bottom first (what a
     prepared chain's upload takes, maps.PreparedLevels ``upload_levels``), once every
-    queued draw is done (llvmpipe waits on its own only for the current framebuffer)."""
+    queued draw is done (llvmpipe waits on its own only for the current framebuffer);
+    read into ``into``'s arrays where given (``level_shapes``)."""
     wait_before_read(chain.ctx)
     w, h = chain.size
-    return [read_level(chain, k) for k in range(max(w, h).bit_length())]
+    count = max(w, h).bit_length()
+    if into is None:
+        return [read_level(chain, k) for k in range(count)]
+    return [read_level(chain, k, out) for k, out in zip(range(count), into, strict=True)]
 
 
 def _source_texture(ctx: moderngl.Context, texels: np.ndarray) -> moderngl.Texture:

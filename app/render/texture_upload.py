@@ -164,12 +164,13 @@ def _gl_chain(
             return normal_chain.build_chain(ctx, source, shaders)
         made: list[moderngl.Texture] = []
 
-        def build() -> list[np.ndarray]:
+        def fill(into: tuple[np.ndarray, ...]) -> None:
             made.append(normal_chain.build_chain(ctx, source, shaders))
-            return normal_chain.chain_levels(made[0])
+            normal_chain.chain_levels(made[0], into)
 
+        layout = [(shape, np.float16) for shape in normal_chain.level_shapes(source)]
         try:
-            kept = cache.arrays(levels.gl_kind, levels.gl_parts, build)
+            kept = cache.filled(levels.gl_kind, levels.gl_parts, layout, fill)
         except BaseException:
             for texture in made:
                 texture.release()
@@ -273,14 +274,19 @@ def _srgb_mips(
         srgb_mips.code_version(),  # the program that draws them
     )
 
-    def build() -> list[np.ndarray]:
+    w, h = gl_tex.size
+    count = max(w, h).bit_length()  # levels 1 .. floor(log2(max side))
+    sizes = [max(1, w >> k) * max(1, h >> k) * gl_tex.components for k in range(1, count)]
+
+    def fill(into: tuple[np.ndarray, ...]) -> None:
+        built.append(True)
         draw_srgb_mips(ctx, gl_tex, shaders)
         wait_before_read(ctx)  # llvmpipe waits on its own only for the bound framebuffer
-        w, h = gl_tex.size
-        count = max(w, h).bit_length()  # levels 1 .. floor(log2(max side))
-        return [read_level(gl_tex, k).reshape(-1) for k in range(1, count)]
+        for k, out in zip(range(1, count), into, strict=True):
+            read_level(gl_tex, k, out)
 
     built: list[bool] = []
-    levels = prepared_cache().arrays("srgb_mips", parts, lambda: built.append(True) or build())
+    layout = [((size,), np.uint8) for size in sizes]
+    levels = prepared_cache().filled("srgb_mips", parts, layout, fill)
     if not built:
         define_levels(gl_tex, 4, list(levels), GL_SRGB8_ALPHA8)

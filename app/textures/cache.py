@@ -16,8 +16,12 @@ a new key and nothing stale is ever returned. Two levels:
   SHA-256 secures), mapped (``np.load`` with ``mmap_mode="r"``: no copy, no fresh
   memory) with ``allow_pickle=False``: an entry is data, never code; a corrupt or
   unreadable entry is deleted and rebuilt. Written to a temporary file
-  and renamed, so a killed process leaves no half entry. Bounded by ``disk_bytes``: the
-  least recently used entries (by modification time, refreshed on each hit) go first.
+  and renamed, so a killed process leaves no half entry. An entry whose arrays' shapes
+  are known before they are made (``filled``) is made in that file: the builder writes
+  into views of the file mapped, and the writer thread adds the checksum and the header
+  (no second copy of the data, no ``write`` of it: docs/performance.md). Bounded by
+  ``disk_bytes``: the least recently used entries (by modification time, refreshed on
+  each hit) go first.
 
 Where: ``$PBS_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/pbs`` (``~/.cache/pbs``).
 ``PBS_CACHE=off`` (or ``0``, ``no``, ``false``) turns both levels off: every call builds.
@@ -35,6 +39,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import mmap
 import os
 import sys
 import tempfile
@@ -145,6 +150,88 @@ def _entry_pieces(arrays: Sequence[np.ndarray]) -> tuple[bytes, list[np.ndarray]
     return prefix + bytes(size - len(prefix)), pieces
 
 
+Shape = tuple[int, ...]
+
+
+def entry_layout(layout: Sequence[tuple[Shape, np.dtype | type]]) -> tuple[list, int]:
+    """``_entry_pieces``' layout of arrays of these shapes and dtypes, made before their
+    data: ([[dtype, shape, offset], ...], the data's length), each array at a 64-byte
+    aligned offset."""
+    arrays, offset = [], 0
+    for shape, dtype in layout:
+        offset = -(-offset // _ALIGN) * _ALIGN
+        dt = np.dtype(dtype)
+        arrays.append([dt.str, [int(n) for n in shape], offset])
+        offset += int(np.prod(shape, dtype=np.int64)) * dt.itemsize
+    return arrays, offset
+
+
+def _prefix(arrays: list, crc: int) -> bytes:
+    """An entry's prefix for a layout known before its data: the JSON header padded with
+    spaces to the length the largest CRC-32 gives it (JSON allows trailing white space),
+    so the data's offset does not depend on the checksum, which comes after the data."""
+    widest = json.dumps({"arrays": arrays, "crc32": 0xFFFFFFFF})
+    head = json.dumps({"arrays": arrays, "crc32": crc}).ljust(len(widest)).encode()
+    size = -(-(8 + len(head)) // _ALIGN) * _ALIGN
+    prefix = len(head).to_bytes(8, "little") + head
+    return prefix + bytes(size - len(prefix))
+
+
+def _npy_header(size: int) -> bytes:
+    """The .npy header of a flat uint8 array of ``size`` bytes (``write_entry``'s)."""
+    import io
+
+    out = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        out, {"descr": "|u1", "fortran_order": False, "shape": (size,)}
+    )
+    return out.getvalue()
+
+
+class _InPlace:
+    """An entry being made in its temporary file, mapped: ``arrays`` are writable views of
+    the file at their offsets (``entry_layout``); ``finish`` (on the writer thread) takes
+    the CRC-32 of the data, writes the header in front of it and renames the file into
+    place. Its pages are the page cache's: the builder's writes are the entry's only copy."""
+
+    def __init__(self, directory: Path, layout: Sequence[tuple[Shape, np.dtype | type]]):
+        self.layout, data_size = entry_layout(layout)
+        prefix = _prefix(self.layout, 0)
+        head = _npy_header(len(prefix) + data_size)
+        self.data_start = len(head) + len(prefix)
+        size = self.data_start + data_size
+        directory.mkdir(parents=True, exist_ok=True)
+        fd, self.temporary = tempfile.mkstemp(prefix=_TEMPORARY, suffix=_SUFFIX, dir=directory)
+        try:
+            os.ftruncate(fd, size)
+            self.mapping = mmap.mmap(fd, size)
+        except BaseException:
+            os.close(fd)
+            Path(self.temporary).unlink(missing_ok=True)
+            raise
+        os.close(fd)  # the mapping keeps the file
+        self.arrays = tuple(
+            np.frombuffer(self.mapping, np.dtype(dt), int(np.prod(shape, dtype=np.int64)),
+                          self.data_start + offset).reshape(shape)
+            for dt, shape, offset in self.layout
+        )  # fmt: skip
+
+    def finish(self, path: Path) -> None:
+        """Checksum, header, rename (the writer thread's part)."""
+        data = memoryview(self.mapping)[self.data_start :]
+        try:
+            crc = zlib.crc32(data)
+        finally:
+            data.release()
+        prefix = _prefix(self.layout, crc)
+        head = _npy_header(len(prefix) + len(self.mapping) - self.data_start)
+        self.mapping[: len(head) + len(prefix)] = head + prefix
+        os.replace(self.temporary, path)
+
+    def discard(self) -> None:
+        Path(self.temporary).unlink(missing_ok=True)
+
+
 def unpack_entry(entry: np.ndarray) -> tuple[np.ndarray, ...]:
     """The arrays of ``pack_entry``'s output (views of it); ValueError when it is not one
     or its data's CRC-32 is not the header's."""
@@ -237,6 +324,56 @@ class PreparedCache:
             a.setflags(write=False)
         self._remember(key, arrays)
         return arrays
+
+    def filled(
+        self,
+        kind: str,
+        parts: Iterable[Part],
+        layout: Sequence[tuple[Shape, np.dtype | type]],
+        fill: Callable[[tuple[np.ndarray, ...]], None],
+    ) -> tuple[np.ndarray, ...]:
+        """``arrays`` for an entry whose arrays' shapes and dtypes (``layout``) are known
+        before they are made: on a miss ``fill(arrays)`` writes them in place, into the
+        entry's file mapped (``_InPlace``), where ``arrays`` builds them in fresh memory
+        and the writer copies them into the file (a GL read-back, a copy of a decoded
+        image's rows). Without a directory, or where the file cannot be mapped, they are
+        filled in memory and written as ``arrays`` writes them."""
+
+        def in_memory() -> tuple[np.ndarray, ...]:
+            made = tuple(np.empty(shape, dtype) for shape, dtype in layout)
+            fill(made)
+            return made
+
+        if not self.enabled or self.directory is None:
+            return self.arrays(kind, parts, in_memory)
+        parts = tuple(parts)
+        key = entry_key(kind, parts)
+        with self._lock:
+            known = key in self._memory or key in self._writing
+        path = self.path(key)
+        if known or (path is not None and path.is_file()):
+            return self.arrays(kind, parts, in_memory)
+        if any((seed / f"{key}{_SUFFIX}").is_file() for seed in self.seeds):
+            return self.arrays(kind, parts, in_memory)
+        try:
+            entry = _InPlace(self.directory, layout)
+        except (OSError, ValueError) as exc:  # no room, or a file system that cannot map
+            _LOG.debug("texture cache: %s not made in place (%s)", key, exc)
+            return self.arrays(kind, parts, in_memory)
+        try:
+            fill(entry.arrays)
+        except BaseException:
+            entry.discard()
+            raise
+        future = _writer().submit(self._finish_in_place, key, entry)
+        with self._lock:
+            self._writing[key] = future
+        future.add_done_callback(lambda _: self._written(key, future))
+        self.events.append("built")
+        for a in entry.arrays:
+            a.setflags(write=False)
+        self._remember(key, entry.arrays)
+        return entry.arrays
 
     def prepare(
         self, kind: str, parts: Iterable[Part], build: Callable[[], Sequence[np.ndarray]]
@@ -360,6 +497,19 @@ class PreparedCache:
                 raise
             self._evict()
         except OSError as exc:  # a read-only or full disk: the cache is an optimisation
+            _LOG.warning("texture cache: cannot write %s (%s)", path, exc)
+
+    def _finish_in_place(self, key: str, entry: _InPlace) -> None:
+        path = self.path(key)
+        assert path is not None
+        try:
+            try:
+                entry.finish(path)
+            except BaseException:
+                entry.discard()
+                raise
+            self._evict()
+        except OSError as exc:  # as ``_write_now``: the cache is an optimisation
             _LOG.warning("texture cache: cannot write %s (%s)", path, exc)
 
     def _evict(self) -> None:

@@ -718,12 +718,13 @@ def colour_texture(image: Image.Image) -> Texture:
         return Texture(rgba(), srgb=True)
     key = f"{image.mode}|{image.size}|{PIL.__version__}|{digest}"
 
-    def rows_up() -> list[np.ndarray]:
+    def rows_up_into(texels: np.ndarray) -> None:
         # Kept rows bottom first, as the GL takes them: level 0 is a view of the entry read
         # backwards, and the upload's rows-up copy of it is the entry itself. Pillow's raw
         # encoder writes the rows in that order (orientation -1): one copy of the texels.
         decoded = _decoded(image)
-        shape = (decoded.height, decoded.width, 4)
+        if texels.shape != (decoded.height, decoded.width, 4):
+            raise ValueError(f"{decoded.size} texels decoded for a {image.size} image")
         if decoded.mode == "RGB":
             # An RGB image's texels are stored 4 bytes each; a decoder's 4th byte is 255,
             # so the raw "RGBX" bytes are convert("RGBA")'s, without the converted copy.
@@ -732,15 +733,19 @@ def colour_texture(image: Image.Image) -> Texture:
             # else by the raw encoder (64 KiB at a time, then joined: a second copy).
             view = rgbx_view(decoded)
             if view is not None:
-                texels = np.ascontiguousarray(view[::-1])
+                np.copyto(texels, view[::-1])
             else:
-                texels = np.frombuffer(decoded.tobytes("raw", "RGBX", 0, -1), np.uint8)
-                texels = texels.reshape(shape)
+                raw = decoded.tobytes("raw", "RGBX", 0, -1)
+                texels.reshape(-1)[:] = np.frombuffer(raw, np.uint8)
             if texels.size and texels[..., 3].min() == 255:
-                return [texels]
+                return
         converted = decoded.convert("RGBA")
-        data = converted.tobytes("raw", "RGBA", 0, -1)
-        return [np.frombuffer(data, np.uint8).reshape(shape)]
+        texels.reshape(-1)[:] = np.frombuffer(converted.tobytes("raw", "RGBA", 0, -1), np.uint8)
+
+    def rows_up() -> list[np.ndarray]:
+        texels = np.empty((image.height, image.width, 4), np.uint8)
+        rows_up_into(texels)
+        return [texels]
 
     side = image.width
     if image.info.get(REDUCED_LEVELS) and image.height == side and side & (side - 1) == 0:
@@ -767,7 +772,9 @@ def colour_texture(image: Image.Image) -> Texture:
 
         future = _colour_maker().submit(levels)
         return Texture(PendingLevels(future, first), srgb=True, source_key=key)
-    (texels,) = prepared_cache().arrays("colour rgba8 rows up", (key,), rows_up)
+    layout = [((image.height, image.width, 4), np.uint8)]  # the texels of its header's size
+    fill = lambda into: rows_up_into(*into)  # noqa: E731
+    (texels,) = prepared_cache().filled("colour rgba8 rows up", (key,), layout, fill)
     return Texture([texels[::-1]], srgb=True, source_key=key)
 
 
