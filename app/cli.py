@@ -693,6 +693,20 @@ def cmd_render(args: argparse.Namespace) -> int:
         from app.scene.early_images import start_still_decodes
 
         start_still_decodes(args.scene)
+    if still:  # one frame: no later load reuses a decoded image
+        from app.textures.maps import keep_decoded_images
+
+        keeping = keep_decoded_images(False)
+        try:
+            return _render(args, still)
+        finally:  # a caller in this process (a test, the API) may load again
+            keep_decoded_images(keeping)
+    return _render(args, still)
+
+
+def _render(args: argparse.Namespace, still: bool) -> int:
+    """``cmd_render`` once a still's decodes are started: the scene read, checked and
+    rendered, the PNG written."""
     from app.scene.sources import scene_from, scene_path
 
     start = time.perf_counter()

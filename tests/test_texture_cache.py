@@ -794,3 +794,59 @@ def test_entry_whose_fill_fails_leaves_no_file(tmp_path: Path) -> None:
     assert not list(tmp_path.iterdir())
     made = cache.filled("test", ("z",), _layout(), _fill)
     assert cache.events == ["built"] and made[1][4] == (4 * 4) % 250
+
+
+def test_one_frame_keeps_no_decoded_image(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``keep_decoded_images(False)`` (a one-frame ``pbs render``): an image is not kept
+    for a later load, so a colour map's image is freed once its texels are in their
+    entry; kept again (the default), a second open of the same bytes is the same image."""
+    import gc
+    import weakref
+
+    from app.textures import maps
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    monkeypatch.setattr(maps, "_DECODED", type(maps._DECODED)())
+    data = _jpeg(6)
+    before = maps.keep_decoded_images(False)
+    try:
+        image = maps.open_image(data)
+        texture = maps.colour_texture(image)
+        assert not maps._DECODED
+        freed = weakref.ref(image)
+        del image
+        gc.collect()
+        assert freed() is None  # nothing but the caller held it: its texels are gone
+        assert texture.levels[0].shape == (24, 40, 4)  # the entry's texels stay
+    finally:
+        assert maps.keep_decoded_images(before) is False
+    other = _jpeg(7)  # bytes this process has not decoded (those above it has)
+    first = maps.open_image(other)
+    maps.colour_texture(first)
+    assert maps.open_image(other) is first  # kept: a later load reuses it
+
+
+def test_a_still_render_keeps_no_decoded_image_and_restores_the_setting(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``pbs render`` of one frame turns the keeping off while it renders and back to what
+    it was when it returns (a test or the API may load again in the same process)."""
+    from app import cli
+    from app.resources import scenes_dir
+    from app.textures import maps
+
+    seen: list[bool] = []
+    keep = maps.keep_decoded_images
+
+    def recorded(value: bool) -> bool:
+        seen.append(value)
+        return keep(value)
+
+    monkeypatch.setattr(maps, "keep_decoded_images", recorded)
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
+    model = scenes_dir() / "meshes" / "material_sampler.glb"
+    out = tmp_path / "still.png"
+    assert cli.main(["render", str(model), "-o", str(out), "--size", "48x32", "-q"]) == 0
+    assert out.is_file()
+    assert seen == [False, True] and maps._KEEPING[0] is True

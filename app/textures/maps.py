@@ -518,10 +518,27 @@ def _decoder() -> ThreadPoolExecutor:
 # for each caller was 60 MiB of memcpy and fresh pages for DamagedHelmet's five maps.
 _DECODED: OrderedDict[str, Image.Image] = OrderedDict()
 _DECODED_BYTES = 256 << 20
+_KEEPING = [True]
+
+
+def keep_decoded_images(keep: bool) -> bool:
+    """Whether this process keeps the images it decodes for a later load (``_DECODED``).
+    A one-frame render (``pbs render``) has no later load: an image no map holds any more
+    is then freed as soon as its maps are made (a colour map's once its texels are in the
+    prepared-texture entry), and the GL's textures made next take its pages instead of
+    fresh ones (a first touch of memory is dear on a virtual machine: docs/performance.md,
+    "A real asset against f3d"). Returns the setting it replaces."""
+    with _KEEP_LOCK:
+        before, _KEEPING[0] = _KEEPING[0], keep
+        if not keep:
+            _DECODED.clear()
+    return before
 
 
 def _keep_decoded(digest: str, image: Image.Image) -> None:
     with _KEEP_LOCK:
+        if not _KEEPING[0]:
+            return
         _DECODED[digest] = image
         total = sum(_image_bytes(im) for im in _DECODED.values())
         while total > _DECODED_BYTES and len(_DECODED) > 1:
