@@ -485,3 +485,35 @@ def test_variance_texels_bits() -> None:
     _variance_texels(m, out)
     np.testing.assert_array_equal(out[..., :3].view(np.int64), normal.view(np.int64))
     np.testing.assert_array_equal(out[..., 3].view(np.int64), r.view(np.int64))
+
+
+@pytest.mark.parametrize("side", [1, 2, 64, 256])
+def test_srgb_box_levels_in_bands_are_the_whole_levels(
+    side: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A DCT-scaled colour map's CPU mips, made a band of rows at a time, are the bits of
+    the whole level's arithmetic (each texel: the 2x2 box of the level above in linear
+    space through the same two tables, alpha averaged and rounded as it is), whatever
+    the band size (one output row a band, and one band for the whole level)."""
+    from app.textures import mips
+
+    texels = np.random.default_rng(side).integers(0, 256, (side, side, 4), np.uint8)
+    expected = [texels]
+    while expected[-1].shape[0] > 1:
+        above = expected[-1]
+        linear = mips._SRGB_LINEAR16[above[..., :3].astype(np.int64)]
+        total = linear[0::2, 0::2] + linear[1::2, 0::2] + linear[0::2, 1::2] + linear[1::2, 1::2]
+        alpha = above[..., 3].astype(np.int64)
+        box = alpha[0::2, 0::2] + alpha[1::2, 0::2] + alpha[0::2, 1::2] + alpha[1::2, 1::2]
+        level = np.empty((above.shape[0] // 2, above.shape[1] // 2, 4), np.uint8)
+        level[..., :3] = mips._SRGB_OF_SUM4[total]
+        level[..., 3] = (box + 2) // 4
+        expected.append(level)
+    for band_texels in (1, 1 << 20):
+        monkeypatch.setattr(mips, "SRGB_BAND_TEXELS", band_texels)
+        made = mips.srgb_box_levels(texels)
+        assert len(made) == len(expected) == side.bit_length()
+        assert made[0] is texels
+        for k, (a, b) in enumerate(zip(made, expected, strict=True)):
+            assert a.dtype == np.uint8 and a.shape == b.shape, k
+            assert np.array_equal(a, b), k

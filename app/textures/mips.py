@@ -520,6 +520,7 @@ _SRGB_OF_SUM4 = np.round(
     * 255.0
 ).astype(np.uint8)
 del _MEAN_OF_4
+SRGB_BAND_TEXELS = 1 << 16  # source texels a band of srgb_box_levels reads
 
 
 def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
@@ -528,21 +529,33 @@ def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
     averaged as it is), rounded to 8 bits: the GL's sRGB mips within a step or two per
     level (llvmpipe encodes with an approximation of its own), made on the CPU where the
     GL's would cost a blit (its machine code compiled once a process: a tenth of a
-    second on llvmpipe) on the render's main thread. Level 0 is ``level0`` itself."""
+    second on llvmpipe) on the render's main thread. Level 0 is ``level0`` itself.
+
+    Each level is made a band of ``SRGB_BAND_TEXELS`` source texels at a time, on two
+    threads (``each_band``): the table lookups' index and value arrays of a whole level
+    were some 50 MB of fresh memory for a 1024² map, a band's are reused."""
     h, w = level0.shape[:2]
     assert h == w and h & (h - 1) == 0, "a square power-of-two map"
     levels = [level0]
     while levels[-1].shape[0] > 1:
         above = levels[-1]
-        linear = np.take(_SRGB_LINEAR16, above[..., :3])
-        total = linear[0::2, 0::2] + linear[1::2, 0::2]
-        total += linear[0::2, 1::2]
-        total += linear[1::2, 1::2]
-        level = np.empty((above.shape[0] // 2, above.shape[1] // 2, 4), np.uint8)
-        level[..., :3] = np.take(_SRGB_OF_SUM4, total)
-        alpha = above[..., 3].astype(np.uint16)
-        level[..., 3] = (
-            alpha[0::2, 0::2] + alpha[1::2, 0::2] + alpha[0::2, 1::2] + alpha[1::2, 1::2] + 2
-        ) >> 2
+        half = above.shape[0] // 2
+        level = np.empty((half, above.shape[1] // 2, 4), np.uint8)
+        rows = max(1, SRGB_BAND_TEXELS // (2 * above.shape[1]))  # output rows a band
+
+        def band(y0: int, y1: int, above: np.ndarray = above, level: np.ndarray = level) -> None:
+            block = above[2 * y0 : 2 * y1]
+            linear = np.take(_SRGB_LINEAR16, block[..., :3])
+            total = linear[0::2, 0::2] + linear[1::2, 0::2]
+            total += linear[0::2, 1::2]
+            total += linear[1::2, 1::2]
+            out = level[y0:y1]
+            out[..., :3] = np.take(_SRGB_OF_SUM4, total)
+            alpha = block[..., 3].astype(np.uint16)
+            out[..., 3] = (
+                alpha[0::2, 0::2] + alpha[1::2, 0::2] + alpha[0::2, 1::2] + alpha[1::2, 1::2] + 2
+            ) >> 2
+
+        each_band(band, [(y, min(y + rows, half)) for y in range(0, half, rows)])
         levels.append(level)
     return levels
