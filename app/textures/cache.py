@@ -37,6 +37,7 @@ seed entry is skipped (and the entry built as on any miss).
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import logging
 import mmap
@@ -179,8 +180,6 @@ def _prefix(arrays: list, crc: int) -> bytes:
 
 def _npy_header(size: int) -> bytes:
     """The .npy header of a flat uint8 array of ``size`` bytes (``write_entry``'s)."""
-    import io
-
     out = io.BytesIO()
     np.lib.format.write_array_header_1_0(
         out, {"descr": "|u1", "fortran_order": False, "shape": (size,)}
