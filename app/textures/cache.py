@@ -121,43 +121,19 @@ def write_entry(out: BinaryIO, arrays: Sequence[np.ndarray]) -> None:
     .npy header, the entry's prefix and each array's own buffer, never a packed copy
     (a render's entries are ~100 MiB)."""
     prefix, pieces = _entry_pieces(arrays)
-    size = len(prefix) + sum(p.nbytes for p in pieces)
-    header = {"descr": "|u1", "fortran_order": False, "shape": (size,)}
-    np.lib.format.write_array_header_1_0(out, header)
+    out.write(_npy_header(len(prefix) + sum(p.nbytes for p in pieces)))
     out.write(prefix)
     for piece in pieces:
         out.write(piece.data)
-
-
-def _entry_pieces(arrays: Sequence[np.ndarray]) -> tuple[bytes, list[np.ndarray]]:
-    """An entry's prefix (header length and JSON header, padded) and its data, as the
-    arrays' bytes and the zero padding between them (the CRC-32 taken over them in turn)."""
-    pieces: list[np.ndarray] = []
-    layout, offset, crc = [], 0, 0
-    for a in arrays:
-        pad = -(-offset // _ALIGN) * _ALIGN - offset
-        if pad:
-            pieces.append(np.zeros(pad, np.uint8))
-            offset += pad
-        layout.append([a.dtype.str, list(a.shape), offset])
-        piece = np.frombuffer(np.ascontiguousarray(a).data, np.uint8)
-        pieces.append(piece)
-        offset += a.nbytes
-    for piece in pieces:
-        crc = zlib.crc32(piece.data, crc)
-    head = json.dumps({"arrays": layout, "crc32": crc}).encode()
-    size = -(-(8 + len(head)) // _ALIGN) * _ALIGN
-    prefix = len(head).to_bytes(8, "little") + head
-    return prefix + bytes(size - len(prefix)), pieces
 
 
 Shape = tuple[int, ...]
 
 
 def entry_layout(layout: Sequence[tuple[Shape, np.dtype | type]]) -> tuple[list, int]:
-    """``_entry_pieces``' layout of arrays of these shapes and dtypes, made before their
-    data: ([[dtype, shape, offset], ...], the data's length), each array at a 64-byte
-    aligned offset."""
+    """An entry's layout of arrays of these shapes and dtypes, known before their data:
+    ([[dtype, shape, offset], ...], the data's length), each array at a 64-byte aligned
+    offset."""
     arrays, offset = [], 0
     for shape, dtype in layout:
         offset = -(-offset // _ALIGN) * _ALIGN
@@ -167,19 +143,39 @@ def entry_layout(layout: Sequence[tuple[Shape, np.dtype | type]]) -> tuple[list,
     return arrays, offset
 
 
-def _prefix(arrays: list, crc: int) -> bytes:
-    """An entry's prefix for a layout known before its data: the JSON header padded with
-    spaces to the length the largest CRC-32 gives it (JSON allows trailing white space),
-    so the data's offset does not depend on the checksum, which comes after the data."""
-    widest = json.dumps({"arrays": arrays, "crc32": 0xFFFFFFFF})
-    head = json.dumps({"arrays": arrays, "crc32": crc}).ljust(len(widest)).encode()
-    size = -(-(8 + len(head)) // _ALIGN) * _ALIGN
-    prefix = len(head).to_bytes(8, "little") + head
+def _entry_pieces(arrays: Sequence[np.ndarray]) -> tuple[bytes, list[np.ndarray]]:
+    """An entry's prefix (header length and JSON header, padded) and its data, as the
+    arrays' bytes and the zero padding between them (the CRC-32 taken over them in turn)."""
+    layout, _ = entry_layout([(a.shape, a.dtype) for a in arrays])
+    pieces: list[np.ndarray] = []
+    end, crc = 0, 0
+    for a, (_, _, offset) in zip(arrays, layout, strict=True):
+        if offset > end:
+            pieces.append(np.zeros(offset - end, np.uint8))
+        pieces.append(np.frombuffer(np.ascontiguousarray(a).data, np.uint8))
+        end = offset + a.nbytes
+    for piece in pieces:
+        crc = zlib.crc32(piece.data, crc)
+    return _prefix(layout, crc, fixed_width=False), pieces
+
+
+def _prefix(arrays: list, crc: int, fixed_width: bool = True) -> bytes:
+    """An entry's prefix: the header's length (8 bytes, little-endian) and its JSON,
+    zero-padded to a 64-byte boundary. ``fixed_width``: the JSON padded with spaces to the
+    length the largest CRC-32 gives it (JSON allows trailing white space), so that the
+    data's offset does not depend on the checksum, which an entry made in place
+    (``_InPlace``) writes after its data."""
+    head = json.dumps({"arrays": arrays, "crc32": crc})
+    if fixed_width:
+        head = head.ljust(len(json.dumps({"arrays": arrays, "crc32": 0xFFFFFFFF})))
+    encoded = head.encode()
+    size = -(-(8 + len(encoded)) // _ALIGN) * _ALIGN
+    prefix = len(encoded).to_bytes(8, "little") + encoded
     return prefix + bytes(size - len(prefix))
 
 
 def _npy_header(size: int) -> bytes:
-    """The .npy header of a flat uint8 array of ``size`` bytes (``write_entry``'s)."""
+    """The .npy header of a flat uint8 array of ``size`` bytes (an entry on disk)."""
     out = io.BytesIO()
     np.lib.format.write_array_header_1_0(
         out, {"descr": "|u1", "fortran_order": False, "shape": (size,)}
