@@ -344,11 +344,8 @@ class PreparedCache:
         parts = tuple(parts)
         key = entry_key(kind, parts)
         with self._lock:
-            known = key in self._memory or key in self._writing
-        path = self.path(key)
-        if known or (path is not None and path.is_file()):
-            return self.arrays(kind, parts, in_memory)
-        if any((seed / f"{key}{_SUFFIX}").is_file() for seed in self.seeds):
+            writing = key in self._writing
+        if writing or self.holds(kind, parts):  # read (after its write) as ``arrays`` reads
             return self.arrays(kind, parts, in_memory)
         try:
             entry = _InPlace(self.directory, layout)
