@@ -850,3 +850,25 @@ def test_a_still_render_keeps_no_decoded_image_and_restores_the_setting(
     assert cli.main(["render", str(model), "-o", str(out), "--size", "48x32", "-q"]) == 0
     assert out.is_file()
     assert seen == [False, True] and maps._KEEPING[0] is True
+
+
+def test_entry_made_in_memory_where_its_blocks_cannot_be_reserved(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A full disk when an entry would be made in place: its blocks are reserved before
+    the file is mapped (a write into a mapped sparse file on a full disk is a SIGBUS), so
+    the refusal is an OSError, and the arrays are filled in memory; no temporary is left."""
+    import errno
+
+    def full(*args: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(cache_module.os, "posix_fallocate", full)
+    cache = PreparedCache(tmp_path)
+    made = cache.filled("test", ("full",), _layout(), _fill)
+    assert all(isinstance(_root(a), np.ndarray) for a in made)  # not the file's pages
+    cache.flush()
+    assert not list(tmp_path.glob(f"{cache_module._TEMPORARY}*"))
+    expected = [np.empty(shape, dtype) for shape, dtype in _layout()]
+    _fill(tuple(expected))
+    assert all(np.array_equal(a, b) for a, b in zip(made, expected, strict=True))

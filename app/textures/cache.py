@@ -191,14 +191,17 @@ class _InPlace:
 
     def __init__(self, directory: Path, layout: Sequence[tuple[Shape, np.dtype | type]]):
         self.layout, data_size = entry_layout(layout)
-        prefix = _prefix(self.layout, 0)
-        head = _npy_header(len(prefix) + data_size)
-        self.data_start = len(head) + len(prefix)
+        prefix = _prefix(self.layout, 0)  # its length, whatever the checksum
+        self.head = _npy_header(len(prefix) + data_size)
+        self.data_start = len(self.head) + len(prefix)
         size = self.data_start + data_size
         directory.mkdir(parents=True, exist_ok=True)
         fd, self.temporary = tempfile.mkstemp(prefix=_TEMPORARY, suffix=_SUFFIX, dir=directory)
         try:
-            os.ftruncate(fd, size)
+            # The file's blocks reserved before it is mapped: a write into a mapped sparse
+            # file that finds the disk full is a SIGBUS, not an OSError; here it is an
+            # OSError, and the entry is made in memory (``filled``)
+            os.posix_fallocate(fd, 0, size)
             self.mapping = mmap.mmap(fd, size)
         except BaseException:
             os.close(fd)
@@ -218,9 +221,7 @@ class _InPlace:
             crc = zlib.crc32(data)
         finally:
             data.release()
-        prefix = _prefix(self.layout, crc)
-        head = _npy_header(len(prefix) + len(self.mapping) - self.data_start)
-        self.mapping[: len(head) + len(prefix)] = head + prefix
+        self.mapping[: self.data_start] = self.head + _prefix(self.layout, crc)
         os.replace(self.temporary, path)
 
     def discard(self) -> None:
@@ -350,6 +351,7 @@ class PreparedCache:
         try:
             entry = _InPlace(self.directory, layout)
         except (OSError, ValueError) as exc:  # no room, or a file system that cannot map
+            # (or reserve: posix_fallocate)
             _LOG.debug("texture cache: %s not made in place (%s)", key, exc)
             return self.arrays(kind, parts, in_memory)
         try:
