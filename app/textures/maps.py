@@ -233,7 +233,7 @@ def gl_chain_version() -> str:
 _GL_CHAIN_VERSION: str | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # two sources are the same only when they are one
 class ChainSource:
     """What the GL needs to build a ``variance`` normal/roughness chain itself
     (app/render/normal_chain.py): the normal map, the roughness image (its green channel,
