@@ -122,7 +122,6 @@ def define_levels(
     chain, under llvmpipe on the CPU) only for ours to overwrite them."""
     uint, enum, int_ = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
     bind = gl_function(gl_tex.ctx, "glBindTexture", [enum, uint])
-    set_parameter = gl_function(gl_tex.ctx, "glTexParameteri", [enum, enum, int_])
     store = gl_function(gl_tex.ctx, "glPixelStorei", [enum, int_])
     image = gl_function(
         gl_tex.ctx,
@@ -157,8 +156,7 @@ def define_levels(
                 GL_TEXTURE_2D, k, internal or GL_HALF_FORMATS[comps], size_w, size_h, 0,
                 GL_CLIENT_FORMATS[comps], kind, pointer,
             )  # fmt: skip
-    set_parameter(GL_TEXTURE_2D, GL_TEXTURE_BASE_LEVEL, 0)
-    set_parameter(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, len(levels))
+    set_level_range(gl_tex.ctx, gl_tex, 0, len(levels))
 
 
 def read_level(gl_tex: moderngl.Texture, level: int, out: np.ndarray | None = None) -> np.ndarray:

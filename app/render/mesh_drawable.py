@@ -137,7 +137,7 @@ class MeshDrawable:
         self.textures: list[tuple[str, moderngl.Texture]] = []
         self._owns_textures = uploads is None
         self._uploads = uploads  # its maps left for the first draw: ``bind_material``
-        upload = (lambda tex: upload_texture(ctx, tex)) if uploads is None else uploads.get
+        upload = (lambda tex: upload_texture(ctx, tex, shaders)) if uploads is None else uploads.get
         for uniform, tex in drawn_maps(part):
             self.textures.append((uniform, upload(tex)))
         self.part = part

@@ -125,7 +125,7 @@ def upload_texture(
         else:  # every level's storage at once: the mips are drawn into it, no second copy
             gl_tex = allocated(ctx, (w, h), 4, max(w, h).bit_length(), GL_SRGB8_ALPHA8)
             write_level0(gl_tex, 4, np.ascontiguousarray(level0[::-1]), GL_UNSIGNED_BYTE)
-            if tex.source_key is None:  # nothing to keep them by
+            if tex.source_key is None or not prepared_cache().enabled:  # none to keep
                 draw_srgb_mips(ctx, gl_tex, shaders)
             else:
                 _srgb_mips(ctx, gl_tex, tex.source_key, shaders)
