@@ -6,10 +6,13 @@ build); in a source checkout they sit at the repository root beside ``app/``.
 
 from __future__ import annotations
 
+import re
 from functools import cache
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parent
+# A GLSL source's include line (app/gl/shaders.py splices the file it names, under glsl/).
+GLSL_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
 
 
 def _first_existing(name: str) -> Path:
@@ -23,6 +26,28 @@ def _first_existing(name: str) -> Path:
 def glsl_dir() -> Path:
     """The folder holding the GLSL sources the renderer compiles."""
     return _first_existing("glsl")
+
+
+def glsl_closure(*names: str) -> tuple[Path, ...]:
+    """The GLSL files ``names`` (paths under ``glsl/``) and every file they include,
+    transitively, each once, in the order met: what a program built from them reads, so
+    that a key over their bytes (app/textures/versions.py) follows an edit
+    to any include without a hand-kept list. ``FileNotFoundError`` names an include that
+    is no file (a generated one, "generated/...", whose text comes from Python
+    declarations that such a key would not see)."""
+    root = glsl_dir()
+    found: dict[str, Path] = {}
+    pending = list(names)
+    while pending:
+        name = pending.pop(0)
+        if name in found:
+            continue
+        path = root / name
+        if not path.is_file():
+            raise FileNotFoundError(f"{name}: no GLSL file under {root}")
+        found[name] = path
+        pending += GLSL_INCLUDE.findall(path.read_text(encoding="utf-8"))
+    return tuple(found.values())
 
 
 @cache

@@ -88,16 +88,9 @@ setup() {
     # The bundled environments' prefiltered levels, made by this machine's GL into the
     # installation's seed of the prepared-texture cache (app/render/prepared_seed.py): a
     # first render starts with its environment made. Only where the seed is missing or
-    # older than the code that makes it; a GL that cannot start just leaves it out.
-    seed_dir="$VENV/share/pbs/prepared"
-    seed_code=(app/render/ibl.py app/render/prepared_seed.py app/textures/environment.py
-               glsl/passes/env_prefilter.frag glsl/passes/fullscreen.vert glsl/env glsl/common)
-    if [ ! -d "$seed_dir" ] || [ -n "$(find "${seed_code[@]}" -newer "$seed_dir" 2>/dev/null)" ]; then
-        if "$VENV/bin/python" -m app.render.prepared_seed "$seed_dir"; then
-            touch "$seed_dir"
-        else
-            echo "setup: no prefiltered environments seeded (first renders prefilter them)"
-        fi
+    # was made by other code (its VERSION file); a GL that cannot start just leaves it out.
+    if ! "$VENV/bin/python" -m app.render.prepared_seed --if-stale "$VENV/share/pbs/prepared"; then
+        echo "setup: no prefiltered environments seeded (first renders prefilter them)"
     fi
 }
 

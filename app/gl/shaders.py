@@ -30,10 +30,10 @@ from app.common.extension_maps import GENERATED_INCLUDES
 from app.common.gbuffer import glsl_declarations
 from app.common.glsl import shared_defines
 from app.common.models import material_glsl
+from app.resources import GLSL_INCLUDE as _INCLUDE
 from app.resources import glsl_dir
 
 GLSL_VERSION = "#version 330 core"
-_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
 
 
 Origin = tuple[str, int]  # (file under glsl/ or "<text>", 1-based line)

@@ -14,7 +14,6 @@ import hashlib
 import math
 from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
 import moderngl
 import numpy as np
@@ -25,8 +24,8 @@ from app.gl.fullscreen import FullscreenDraw
 from app.gl.shaders import ShaderCache
 from app.render.background import EnvironmentSource, equirect_texture
 from app.render.inputs import ENVIRONMENT, ShaderInput
-from app.resources import glsl_dir
-from app.textures.cache import code_version, prepared_cache
+from app.textures.cache import prepared_cache
+from app.textures.versions import version
 
 ENV_LEVELS = 6  # roughness r_k = k / 5; glsl/lights/ibl.glsl samples exactly these
 FACE_SIZE = 128  # level 0's face; level k has max(FACE_SIZE >> k, MIN_FACE) texels
@@ -193,7 +192,7 @@ def prepared_prefilter(
     The bench's direct ``prefilter`` calls (timing it) never read the disk."""
     info = ctx.info
     parts = (
-        _prefilter_version(),
+        prefilter_version(),
         np.ascontiguousarray(env_map, np.float32),
         int(base),
         int(samples),
@@ -204,17 +203,9 @@ def prepared_prefilter(
     return list(prepared_cache().arrays("env_prefilter", parts, build))
 
 
-_VERSION: list[str] = []
-
-
-def _prefilter_version() -> str:
-    if not _VERSION:
-        glsl = glsl_dir()
-        names = ("passes/env_prefilter.frag", "passes/fullscreen.vert",
-                 "common/constants.glsl", "env/cube.glsl", "env/equirect.glsl")  # fmt: skip
-        files = [Path(__file__), *(glsl / name for name in names)]
-        _VERSION.append(code_version(*(f for f in files if f.is_file())))
-    return _VERSION[0]
+def prefilter_version() -> str:
+    """The code version of the prefiltered levels (app/textures/versions.py)."""
+    return version("env prefilter")
 
 
 class EnvironmentLighting(ShaderInput):

@@ -72,11 +72,33 @@ def seed(directory: Path, backend: str = "egl") -> list[Path]:
                 os.environ[key] = value
 
 
+# The seed folder's record of the code that made it (``seed_version``).
+VERSION_FILE = "VERSION"
+
+
+def seed_version() -> str:
+    """The code the seed's entries depend on, besides the GL: the bundled maps' makers and
+    the prefilter's (app/textures/versions.py). A seed folder made by other code is remade
+    by ``--if-stale``; another GL's keys are simply not found in it."""
+    from app.textures.versions import version
+
+    return f"{version('bundled environments')}-{version('env prefilter')}"
+
+
 def main(argv: list[str]) -> int:
+    """``[--if-stale] [DIR]``: seed DIR (default the installation's seed folder); with
+    ``--if-stale`` only where it holds no seed of this code (``seed_version``)."""
     from app.textures.cache import default_seed_directory
 
-    directory = Path(argv[0]) if argv else default_seed_directory()
+    if_stale = "--if-stale" in argv
+    rest = [a for a in argv if a != "--if-stale"]
+    directory = Path(rest[0]) if rest else default_seed_directory()
+    version = seed_version()
+    stamp = directory / VERSION_FILE
+    if if_stale and stamp.is_file() and stamp.read_text().strip() == version:
+        return 0
     written = seed(directory)
+    stamp.write_text(version + "\n")
     total = sum(p.stat().st_size for p in written)
     print(f"{directory}: {len(written)} prepared environments, {total / 2**20:.1f} MiB")
     return 0

@@ -14,27 +14,20 @@ The map's levels are kept in the prepared-texture cache (app/render/texture_uplo
 
 from __future__ import annotations
 
-import functools
-from pathlib import Path
-
 import moderngl
 
 from app.gl.fullscreen import LevelDraws
 from app.gl.shaders import ShaderCache
 from app.gl.texture_storage import set_level_range
-from app.resources import glsl_dir
-from app.textures.cache import code_version as _files_version
+from app.textures.versions import version
 
 FRAGMENT = "passes/srgb_mips.frag"
 GL_FRAMEBUFFER_SRGB = 0x8DB9
 
 
-@functools.cache
 def code_version() -> str:
-    """The code version of the mips drawn here (a key part of those the cache keeps)."""
-    glsl = glsl_dir()
-    return _files_version(Path(__file__), glsl / "passes" / FRAGMENT.split("/")[1],
-                          glsl / "common" / "footprint.glsl")  # fmt: skip
+    """The code version of the mips drawn here (app/textures/versions.py)."""
+    return version("srgb mips")
 
 
 def draw_srgb_mips(

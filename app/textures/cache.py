@@ -72,17 +72,6 @@ SWITCH_INTERVAL_S = 0.001  # the GIL's switch interval once a background build c
 Part = bytes | str | int | float | bool | None | np.ndarray | tuple
 
 
-def code_version(*files: str | Path) -> str:
-    """A hash of the given source files' bytes: the code-version part of a key, so that an
-    edit to the code that prepares an entry retires every entry it made."""
-    digest = hashlib.sha256()
-    for name in files:
-        path = Path(name)
-        digest.update(path.name.encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
-
-
 def entry_key(kind: str, parts: Iterable[Part]) -> str:
     """The SHA-256 (hex) of ``kind`` and ``parts``, each part tagged with its type (and an
     array with its dtype and shape) so that no two different inputs run together."""

@@ -23,7 +23,10 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from app.untrusted.budget import Budget
 
-IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")  # what pbs parses
+# The image formats a texture may be in: what glTF 2.0 allows (PNG, JPEG) and what OBJ
+# exporters write. Pillow's other readers (EPS runs Ghostscript, PSD, ICNS, ...) are never
+# asked to parse an input.
+IMAGE_FORMATS = ("PNG", "JPEG", "BMP", "TGA", "TIFF", "WEBP")
 # Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
 BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 

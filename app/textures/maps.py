@@ -33,8 +33,7 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.reference.filtering import directional_spread
-from app.resources import glsl_dir
-from app.textures.cache import code_version, prepared_cache
+from app.textures.cache import prepared_cache
 from app.textures.early import BAND_BYTES, IMAGE_FORMATS, single_idat
 from app.textures.early import take as take_early
 from app.textures.early import whole_reads as _whole_reads
@@ -51,19 +50,16 @@ from app.textures.mips import (
     unorm8_float16,
 )
 from app.textures.pillow_view import rgbx_view
+from app.textures.versions import version
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
 
 MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default limit)
-# The image formats a texture may be in: what glTF 2.0 allows (PNG, JPEG) and what OBJ
-# exporters write. Pillow's other readers (EPS runs Ghostscript, PSD, ICNS, ...) are never
-# asked to parse an input.
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
 SOURCE_DIGEST = "pbs_source_sha256"
 # Image.info key of how many finest levels ``open_image``'s DCT scaling left out.
 REDUCED_LEVELS = "pbs_reduced_levels"
-# Bytes per band of a decoded Pillow image by mode (what ``load`` allocates per texel).
 
 
 @dataclass
@@ -214,23 +210,8 @@ GL_BUILT = "built by the GL"
 
 
 def gl_chain_version() -> str:
-    """The code version of a chain the GL draws: its program's GLSL and its driver
-    (app/render/normal_chain.py), read by path (this layer imports nothing of the GL's)."""
-    global _GL_CHAIN_VERSION
-    if _GL_CHAIN_VERSION is None:
-        glsl, app = glsl_dir(), Path(__file__).resolve().parent.parent
-        _GL_CHAIN_VERSION = code_version(
-            app / "render" / "normal_chain.py",
-            app / "gl" / "texture_storage.py",
-            glsl / "passes" / "normal_chain.frag",
-            glsl / "passes" / "fullscreen.vert",
-            glsl / "material" / "chain.glsl",
-            glsl / "common" / "footprint.glsl",
-        )
-    return _GL_CHAIN_VERSION
-
-
-_GL_CHAIN_VERSION: str | None = None
+    """The code version of a chain the GL draws (app/textures/versions.py)."""
+    return version("gl chain")
 
 
 @dataclass(frozen=True, eq=False)  # two sources are the same only when they are one
@@ -777,7 +758,9 @@ def colour_texture(image: Image.Image) -> Texture:
 
         def levels() -> list[np.ndarray]:
             try:
-                entry = prepared_cache().arrays("colour rgba8 rows up mips", (key,), made)
+                entry = prepared_cache().arrays(
+                    "colour rgba8 rows up mips", (_prepared_version(), key), made
+                )
             except BaseException as exc:
                 if not first.done():
                     first.set_exception(exc)
@@ -791,7 +774,9 @@ def colour_texture(image: Image.Image) -> Texture:
         return Texture(PendingLevels(future, first), srgb=True, source_key=key)
     layout = [((image.height, image.width, 4), np.uint8)]  # the texels of its header's size
     fill = lambda into: rows_up_into(*into)  # noqa: E731
-    (texels,) = prepared_cache().filled("colour rgba8 rows up", (key,), layout, fill)
+    (texels,) = prepared_cache().filled(
+        "colour rgba8 rows up", (_prepared_version(), key), layout, fill
+    )
     return Texture([texels[::-1]], srgb=True, source_key=key)
 
 
@@ -892,17 +877,8 @@ def coat_normal_texture(image: Image.Image, scale: float) -> Texture:
 
 
 def _prepared_version() -> str:
-    """The code version of what this module prepares (app/textures/cache.py): this file,
-    the mip chains and the filtering formulas they apply."""
-    global _VERSION
-    if _VERSION is None:
-        here = Path(__file__).resolve().parent
-        reference = here.parent / "reference" / "filtering.py"
-        _VERSION = code_version(Path(__file__), here / "mips.py", here / "lean.py", reference)
-    return _VERSION
-
-
-_VERSION: str | None = None
+    """The code version of what this module prepares in numpy (app/textures/versions.py)."""
+    return version("maps")
 
 
 def _image_part(image: Image.Image | None) -> tuple:
