@@ -26,6 +26,7 @@ from statistics import NormalDist
 import numpy as np
 
 from app.reference._vec import dot
+from app.reference.chain import chain_slope
 
 # Tokuyoshi & Kaplanyan 2019, their deferred-shading listing: the variance of the pixel filter
 # in pixels^2 (a Gaussian of standard deviation 1/2 pixel, so that +-2 sigma spans one pixel)
@@ -184,7 +185,7 @@ def mean_footprint_covariance(normals: np.ndarray, footprint: int = SPREAD_FOOTP
     """The mean over sampled footprints (``spread_sample_origins`` on both axes) of the
     covariance of the tangent-space slopes s = -n.xy / n.z under each (``slope_covariance``
     of its moments), from (H, W, 3) unit normals: (3,) Sigma_xx, Sigma_yy, Sigma_xy. n.z is
-    floored to 0.05 as the chains floor it (app/textures/mips.py MIN_NORMAL_Z)."""
+    floored as the chains floor it (``chain_slope``, app/reference/chain.py)."""
     n = _f64(normals)
     xs, fx = spread_sample_origins(n.shape[1], footprint)
     ys, fy = spread_sample_origins(n.shape[0], footprint)
@@ -192,8 +193,7 @@ def mean_footprint_covariance(normals: np.ndarray, footprint: int = SPREAD_FOOTP
     for y in ys:
         for x in xs:
             block = n[y : y + fy, x : x + fx].reshape(-1, 3)
-            nz = np.maximum(block[:, 2], 0.05)
-            sx, sy = -block[:, 0] / nz, -block[:, 1] / nz
+            sx, sy = np.moveaxis(chain_slope(block), -1, 0)
             moments = np.array([sx.mean(), sy.mean(), (sx * sx).mean(), (sy * sy).mean(),
                                 (sx * sy).mean()])  # fmt: skip
             covariances.append(slope_covariance(moments))

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.reference.chain import CHAIN_MIN_NORMAL_Z
 from app.reference.filtering import alpha2_from_slope_variance, alpha2_toksvig
 
 NORMAL_FILTERS = ("naive", "toksvig", "variance")
@@ -43,8 +44,9 @@ NORMAL_FILTERS = ("naive", "toksvig", "variance")
 # moment. 0.05 is 87.1 degrees from the surface normal, |slope| <= 20: one such texel adds
 # up to 400/N to the slope second moment of a footprint of N texels, which saturates alpha^2
 # (at sigma^2 >= 1/2) for N < 800; height-field normal maps rarely pass 80 degrees
-# (|slope| 5.7), so the floor changes only outliers.
-MIN_NORMAL_Z = 0.05
+# (|slope| 5.7), so the floor changes only outliers. One value with the chain the GL draws:
+# glsl/material/chain.glsl's CHAIN_MIN_NORMAL_Z, held by its twin app/reference/chain.py.
+MIN_NORMAL_Z = CHAIN_MIN_NORMAL_Z
 
 UNIT_TOLERANCE = 1e-3  # |1 - |n|| allowed for the input normals of build_chain
 

@@ -39,7 +39,13 @@ _FULLSCREEN = "passes/fullscreen.vert"
 MAKERS: dict[str, Makers] = {
     # Mip chains and filtered maps made in numpy (app/textures/maps.py ``_prepared_version``).
     "maps": Makers(
-        ("textures/maps.py", "textures/mips.py", "textures/lean.py", "reference/filtering.py")
+        (
+            "textures/maps.py",
+            "textures/mips.py",
+            "textures/lean.py",
+            "reference/filtering.py",
+            "reference/chain.py",
+        )
     ),
     # A normal/roughness chain the GL draws (app/render/normal_chain.py).
     "gl chain": Makers(

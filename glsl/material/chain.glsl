@@ -1,6 +1,7 @@
 // A normal map's and a roughness map's joint mip chain, built on the GL (RTR4 sec. 9.13,
-// "Blending and Filtering Materials"): the "variance" method of app/textures/mips.py, whose
-// float64 form is the twin (the per-texel formulas: app/reference/filtering.py).
+// "Blending and Filtering Materials"): the "variance" method of app/textures/mips.py, the
+// float64 chain the drawn one is held to as a whole; each function's float64 twin, of the
+// same name, is in app/reference/chain.py (the per-texel formulas: app/reference/filtering.py).
 // Each texel of level k holds what its footprint's source texels give together: the mean
 // slope s = -n.xy / n.z, the slopes' total variance Var(s.x) + Var(s.y) and the mean
 // alpha^2 = r^4 (LEAN-style moments, Olano & Baker 2010); its normal is the mean slope's
