@@ -77,3 +77,38 @@ def test_footprint_means_twin() -> None:
     assert level1.shape == (1, 2, 1)
     np.testing.assert_allclose(level1[0, :, 0], [values[:, :2].mean(), values[:, 2:].mean()])
     np.testing.assert_allclose(level2[0, 0, 0], values.mean())
+
+
+@pytest.mark.parametrize("cache", ["on", "off"])
+def test_refused_mips_are_the_gls_own(
+    gl_egl: GLContext, tmp_path, monkeypatch: pytest.MonkeyPatch, cache: str
+) -> None:
+    """Where the GL refuses to draw a colour map's mips (an incomplete level framebuffer,
+    an error), the upload has the GL generate them (glGenerateMipmap's texels, bit for
+    bit) and keeps nothing in the prepared-texture cache."""
+    from app.gl.texture_storage import LevelFramebufferError
+    from app.render import texture_upload
+    from app.textures.maps import Texture
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("PBS_CACHE", cache)
+    texels = np.random.default_rng(5).integers(0, 256, (37, 21, 4), np.uint8)
+
+    def refused(*args, **kwargs):
+        raise LevelFramebufferError("refused for the test")
+
+    monkeypatch.setattr(texture_upload, "draw_srgb_mips", refused)
+    made = texture_upload.upload_texture(
+        gl_egl.ctx, Texture([texels], srgb=True, source_key="refused-mips-test")
+    )
+    theirs = _texture(gl_egl, np.ascontiguousarray(texels[::-1]))
+    try:
+        uint, enum = ctypes.c_uint, ctypes.c_uint
+        gl_function(gl_egl.ctx, "glBindTexture", [enum, uint])(GL_TEXTURE_2D, theirs.glo)
+        gl_function(gl_egl.ctx, "glGenerateMipmap", [enum])(GL_TEXTURE_2D)
+        for k in range(0, 6):
+            assert np.array_equal(read_level(made, k), read_level(theirs, k)), k
+        assert not list(tmp_path.rglob("*.npy"))
+    finally:
+        made.release()
+        theirs.release()
