@@ -30,7 +30,7 @@ def _maps(
 def _drawn(gl: GLContext, source: ChainSource) -> list[np.ndarray]:
     chain = normal_chain.build_chain(gl.ctx, source)
     try:
-        return normal_chain.chain_levels(chain)
+        return normal_chain.read_chain_levels(chain)
     finally:
         chain.release()
 

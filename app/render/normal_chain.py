@@ -122,7 +122,7 @@ def level_shapes(source: ChainSource) -> list[tuple[int, int, int]]:
     return [(max(1, ch >> k), max(1, cw >> k), 4) for k in range(max(cw, ch).bit_length())]
 
 
-def chain_levels(
+def read_chain_levels(
     chain: moderngl.Texture, into: Sequence[np.ndarray] | None = None
 ) -> list[np.ndarray]:
     """Every level of a built chain as the GL holds it: float16, rows bottom first (what a

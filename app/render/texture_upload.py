@@ -170,7 +170,7 @@ def _gl_chain(
 
         def fill(into: tuple[np.ndarray, ...]) -> None:
             made.append(normal_chain.build_chain(ctx, source, shaders))
-            normal_chain.chain_levels(made[0], into)
+            normal_chain.read_chain_levels(made[0], into)
 
         layout = [(shape, np.float16) for shape in normal_chain.level_shapes(source)]
         try:
