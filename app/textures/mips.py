@@ -26,6 +26,7 @@ footprint unequally.)
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -500,28 +501,29 @@ def _filtered(method: str, m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.nda
     return normal, alpha2**0.25
 
 
-# sRGB-encoded 8-bit value -> linear value in units of 1/65535 (IEC 61966-2-1's decode),
-# and the sum of four such values -> the 8-bit encoding of their mean (its encode,
-# rounded): a 2x2 box in linear space in integer arithmetic, as the GL filters sRGB
-# texels (decoded before they are averaged).
-_SRGB_LINEAR16 = np.round(
-    np.where(
-        np.arange(256) / 255.0 <= 0.04045,
-        np.arange(256) / 255.0 / 12.92,
-        ((np.arange(256) / 255.0 + 0.055) / 1.055) ** 2.4,
-    )
-    * 65535.0
-).astype(np.uint32)
-_MEAN_OF_4 = np.arange(4 * 65535 + 1) / (4 * 65535.0)
-_SRGB_OF_SUM4 = np.round(
-    np.where(
-        _MEAN_OF_4 <= 0.0031308,
-        _MEAN_OF_4 * 12.92,
-        1.055 * np.maximum(_MEAN_OF_4, 0.0031308) ** (1.0 / 2.4) - 0.055,
-    )
-    * 255.0
-).astype(np.uint8)
-del _MEAN_OF_4
+@functools.cache
+def srgb_tables() -> tuple[np.ndarray, np.ndarray]:
+    """sRGB-encoded 8-bit value -> linear value in units of 1/65535 (IEC 61966-2-1's
+    decode), and the sum of four such values -> the 8-bit encoding of their mean (its
+    encode, rounded): a 2x2 box in linear space in integer arithmetic, as the GL filters
+    sRGB texels (decoded before they are averaged). Made at first use (the second is
+    262,141 powers), not by every process that imports this module."""
+    code = np.arange(256) / 255.0
+    linear16 = np.round(
+        np.where(code <= 0.04045, code / 12.92, ((code + 0.055) / 1.055) ** 2.4) * 65535.0
+    ).astype(np.uint32)
+    mean = np.arange(4 * 65535 + 1) / (4 * 65535.0)
+    of_sum4 = np.round(
+        np.where(
+            mean <= 0.0031308,
+            mean * 12.92,
+            1.055 * np.maximum(mean, 0.0031308) ** (1.0 / 2.4) - 0.055,
+        )
+        * 255.0
+    ).astype(np.uint8)
+    return linear16, of_sum4
+
+
 SRGB_BAND_TEXELS = 1 << 16  # source texels a band of srgb_box_levels reads
 
 
@@ -538,6 +540,7 @@ def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
     were some 50 MB of fresh memory for a 1024² map, a band's are reused."""
     h, w = level0.shape[:2]
     assert h == w and h & (h - 1) == 0, "a square power-of-two map"
+    linear16, of_sum4 = srgb_tables()
     levels = [level0]
     while levels[-1].shape[0] > 1:
         above = levels[-1]
@@ -547,12 +550,12 @@ def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
 
         def band(y0: int, y1: int, above: np.ndarray = above, level: np.ndarray = level) -> None:
             block = above[2 * y0 : 2 * y1]
-            linear = np.take(_SRGB_LINEAR16, block[..., :3])
+            linear = np.take(linear16, block[..., :3])
             total = linear[0::2, 0::2] + linear[1::2, 0::2]
             total += linear[0::2, 1::2]
             total += linear[1::2, 1::2]
             out = level[y0:y1]
-            out[..., :3] = np.take(_SRGB_OF_SUM4, total)
+            out[..., :3] = np.take(of_sum4, total)
             alpha = block[..., 3].astype(np.uint16)
             out[..., 3] = (
                 alpha[0::2, 0::2] + alpha[1::2, 0::2] + alpha[0::2, 1::2] + alpha[1::2, 1::2] + 2
