@@ -16,7 +16,16 @@ from PIL import Image
 
 from app.gl.context import GLContext
 from app.scene.geometry import take_built
-from app.scene.sampled_levels import ViewTriangles, finest_uv_lod, reduced_levels
+from app.scene.sampled_levels import (
+    LOD_MARGIN,
+    MAX_REDUCTION,
+    MAX_SKIPPED_WEIGHT,
+    SKIPPED_SHARE,
+    ViewTriangles,
+    finest_uv_lod,
+    reduced_levels,
+    sampled_uv_lods,
+)
 from app.scene.sources import scene_from
 from tests.gltf_builder import QUAD_INDICES, QUAD_POSITIONS, QUAD_UV, GltfBuilder
 
@@ -40,19 +49,37 @@ def _camera(distance: float) -> dict:
 def test_bound_of_a_facing_quad() -> None:
     """A 2 m quad facing a 90-degree camera from 4 m spans a quarter of a 256-pixel image:
     1 UV unit over 64 pixels, LOD -6 in UV units (a 256-texel map's level 2)."""
-    lod = finest_uv_lod([_quad()], _camera(4.0), (256, 256))
-    assert lod == pytest.approx(-6.0, abs=1e-9)
-    assert reduced_levels(lod, TEXELS, TEXELS) == 2
-    assert reduced_levels(lod, 200, 200) == 1  # 200 / 4 is no whole level: one only
+    lods = sampled_uv_lods([_quad()], _camera(4.0), (256, 256))
+    assert len(lods) == 64 * 64 + 64  # its pixel centres, the diagonal's for both triangles
+    assert lods == pytest.approx(-6.0, abs=1e-9)
+    assert finest_uv_lod([_quad()], _camera(4.0), (256, 256)) == lods.min()
+    assert reduced_levels(lods, TEXELS, TEXELS) == 2
+    assert reduced_levels(lods, 200, 200) == 1  # 200 / 4 is no whole level: one only
 
 
-def test_hidden_faces_do_not_count() -> None:
-    """A textured quad behind an untextured one that covers it samples nothing; a back
-    face is culled."""
-    cover = ViewTriangles(_quad(1.0).positions * [3.0, 3.0, 1.0], None, _quad().faces, False)
-    assert finest_uv_lod([_quad(), cover], _camera(4.0), (256, 256)) == math.inf
-    behind = _camera(-4.0)
-    assert finest_uv_lod([_quad()], behind, (256, 256)) == math.inf
+def test_a_level_a_few_pixels_blend_a_little_is_skipped() -> None:
+    """Level 0 of a 1024-texel map is skipped where the pixels that blend it take at most
+    MAX_SKIPPED_WEIGHT of it each (less LOD_MARGIN) and SKIPPED_SHARE of the frame's
+    pixels' worth together; one pixel more than either keeps it."""
+    side = 1024
+    at_level = lambda lod: lod - math.log2(side)  # noqa: E731 (a pixel's uv lod)
+    frame = np.full(100_000, at_level(1.5))
+    light = at_level(0.8)  # blends level 0 by 0.2
+    share = round(SKIPPED_SHARE * len(frame) / 0.2)  # 500 such pixels
+    few = frame.copy()
+    few[:share] = light
+    assert reduced_levels(few, side, side) == 1
+    many = frame.copy()
+    many[: share + 1] = light
+    assert reduced_levels(many, side, side) == 0
+    heavy = frame.copy()
+    heavy[0] = at_level(1.0 - MAX_SKIPPED_WEIGHT + LOD_MARGIN / 2)  # one pixel, margin over
+    assert reduced_levels(heavy, side, side) == 0
+    heavy[0] = at_level(1.0 - MAX_SKIPPED_WEIGHT + 2 * LOD_MARGIN)
+    assert reduced_levels(heavy, side, side) == 1
+    assert reduced_levels(np.zeros(0), side, side) == MAX_REDUCTION  # nothing seen
+    assert reduced_levels(np.zeros(0), 12, 12) == 2  # 12 divides by 4, not 8
+    assert reduced_levels(np.array([-math.inf]), side, side) == 0  # no bound taken
 
 
 def _jpeg(rgb: np.ndarray) -> bytes:

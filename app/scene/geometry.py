@@ -748,11 +748,12 @@ def _still_uv_lod(
     prims: list,
     model: np.ndarray,
     gltf: object,
-) -> float:
-    """The finest UV level of detail the still frame's camera samples of a glTF file's
-    primitives (app/scene/sampled_levels.py), before their materials' images are read:
-    the camera is the one ``still_view`` frames the primitives' world points with."""
-    from app.scene.sampled_levels import ViewTriangles, finest_uv_lod
+) -> np.ndarray:
+    """The UV levels of detail the still frame's camera samples of a glTF file's
+    primitives at its visible pixels (app/scene/sampled_levels.py ``sampled_uv_lods``),
+    before their materials' images are read: the camera is the one ``still_view`` frames
+    the primitives' world points with."""
+    from app.scene.sampled_levels import ViewTriangles, sampled_uv_lods
 
     triangles = []
     for prim in prims:
@@ -774,7 +775,7 @@ def _still_uv_lod(
         [t.positions[_referenced(t.faces, len(t.positions))] for t in triangles]
     )
     camera, size = still_view(points)
-    return finest_uv_lod(triangles, camera, size)
+    return sampled_uv_lods(triangles, camera, size)
 
 
 def _referenced(faces: np.ndarray, count: int) -> np.ndarray:

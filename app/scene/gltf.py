@@ -254,10 +254,10 @@ class GltfFile:
         self._accessors: dict[tuple[int, str], np.ndarray] = {}
         self._images: dict[tuple[int, bool], Image.Image] = {}  # by (index, reduced)
         self._layers: dict[tuple[int, str, int], SurfaceLayer] = {}
-        # The least UV level of detail a still frame samples of this file's textures
-        # (app/scene/sampled_levels.py ``finest_uv_lod``), set before any material is
-        # read; None: every level (a camera that moves, the viewer, the API).
-        self.uv_lod: float | None = None
+        # The UV levels of detail a still frame samples of this file's textures at its
+        # visible pixels (app/scene/sampled_levels.py ``sampled_uv_lods``), set before any
+        # material is read; None: every level (a camera that moves, the viewer, the API).
+        self.uv_lod: np.ndarray | None = None
 
     def still_streamable(self) -> bool:
         """Whether a still frame's bound on the sampled levels (``uv_lod``) covers every

@@ -8,10 +8,11 @@ culls them) at the image's pixel centres with a depth buffer, and over every pix
 a textured triangle covers and no nearer triangle hides, takes the level of detail the
 GL's sampler computes there (OpenGL 4.6 §8.14.1): log2 of the scale factor rho, the
 texture coordinates' derivatives along the window's x and y (in texels). It returns the
-texture-size-free part, ``min log2 max(|du/dx|, |dv/dx|, |du/dy|, |dv/dy|)`` in UV units;
-a texture of ``N`` texels a side then samples no level finer than ``floor(lod + log2 N)``
-(``reduced_levels``), and its finer levels need not be decoded, built nor uploaded
-(``SKIPPED_WEIGHT``: nor the level a few pixels blend in by a small weight).
+texture-size-free part per visible pixel, ``log2 max(|du/dx|, |dv/dx|, |du/dy|, |dv/dy|)``
+in UV units (``sampled_uv_lods``); a texture of ``N`` texels a side samples no level finer
+than ``floor(lod + log2 N)`` at a pixel, and the levels no pixel samples need not be
+decoded, built nor uploaded (``reduced_levels``: nor the levels that a few pixels blend
+in by a small weight, ``MAX_SKIPPED_WEIGHT`` and ``SKIPPED_SHARE``).
 
 The per-pixel rho here is the "max of absolute values" form the specification allows as
 its lower approximation (llvmpipe's default; the exact length of each derivative vector is
@@ -37,11 +38,15 @@ import numpy as np
 # Levels of detail a texture's bound keeps in hand (module docstring): the finite
 # differences of a 2x2 quad against the derivative at a pixel centre.
 LOD_MARGIN = 0.01
-# The most trilinear weight a skipped level may have had at any visible pixel: where the
-# LOD lies in [n - SKIPPED_WEIGHT, n), the GL blends level n - 1 by n - LOD; starting at
-# level n, such a pixel reads level n alone. The helmet at 480x480: 104 of its 100k
-# textured pixels lie in [0.91, 1).
-SKIPPED_WEIGHT = 0.125
+# What skipping the levels below n may take from the frame, over its visible textured
+# pixel centres: where a pixel's LOD lies in [n - 1, n), the GL blends level n - 1 by
+# n - LOD, and starting at level n it reads level n alone. Skipped: at most
+# MAX_SKIPPED_WEIGHT of any one pixel, and at most SKIPPED_SHARE of the pixels' summed
+# weight (a mean over the frame, as the accuracy targets' mean error is). The helmet at
+# 480x480: 104 of its 100k textured pixels lie in [0.91, 1), 3.2 pixels' worth of level 0;
+# WaterBottle: 17 of 64k in [0.877, 1), 1.8 pixels' worth (docs/filtering.md).
+MAX_SKIPPED_WEIGHT = 0.25
+SKIPPED_SHARE = 1e-3
 # The reductions a JPEG decodes directly (libjpeg's DCT scaling: 1/2, 1/4, 1/8).
 MAX_REDUCTION = 3
 
@@ -60,9 +65,11 @@ class ViewTriangles:
     mirrored: bool = False
 
 
-def finest_uv_lod(triangles: list[ViewTriangles], camera: dict, size: tuple[int, int]) -> float:
-    """The least log2 max-abs UV derivative per pixel over the visible pixel centres of
-    the textured triangles (module docstring); ``inf`` where none is visible, ``-inf``
+def sampled_uv_lods(
+    triangles: list[ViewTriangles], camera: dict, size: tuple[int, int]
+) -> np.ndarray:
+    """The log2 max-abs UV derivative at each visible pixel centre of the textured
+    triangles (module docstring), in no order: empty where none is visible, ``[-inf]``
     where the bound cannot be taken (a vertex at or behind the near plane)."""
     width, height = size
     eye = np.asarray(camera["position"], np.float64)
@@ -80,7 +87,7 @@ def finest_uv_lod(triangles: list[ViewTriangles], camera: dict, size: tuple[int,
         rel = tri.positions - eye
         z = rel @ forward
         if np.any(z[tri.faces] <= max(near, 0.0) * 0.999):
-            return -math.inf
+            return np.array([-math.inf])
         with np.errstate(divide="ignore", invalid="ignore"):  # vertices no face uses
             sx = ((rel @ right) / z / tan_x + 1.0) * 0.5 * width
             sy = ((rel @ up) / z / tan_y + 1.0) * 0.5 * height
@@ -94,17 +101,22 @@ def finest_uv_lod(triangles: list[ViewTriangles], camera: dict, size: tuple[int,
         keep.append(faces[drawn & (area != 0)])
         offset += len(z)
     if not keep:
-        return math.inf
+        return np.zeros(0)
     screen = np.concatenate(screens)
     with np.errstate(divide="ignore"):
         inv_z = 1.0 / np.concatenate(depths)
     uv = np.concatenate(uvs)
     faces = np.concatenate(keep)
     worst = visible_derivatives(screen, inv_z, uv, faces, width, height)
-    if len(worst) == 0:
-        return math.inf
     with np.errstate(divide="ignore"):
-        return float(np.log2(worst.min()))
+        return np.log2(worst)
+
+
+def finest_uv_lod(triangles: list[ViewTriangles], camera: dict, size: tuple[int, int]) -> float:
+    """The least of ``sampled_uv_lods``: ``inf`` where no textured pixel is visible,
+    ``-inf`` where the bound cannot be taken."""
+    lods = sampled_uv_lods(triangles, camera, size)
+    return float(lods.min()) if len(lods) else math.inf
 
 
 def visible_derivatives(
@@ -186,17 +198,28 @@ def visible_derivatives(
     return worst
 
 
-def reduced_levels(uv_lod: float, width: int, height: int) -> int:
-    """How many of a ``width`` x ``height`` texture's finest levels a frame whose
-    ``finest_uv_lod`` is ``uv_lod`` never samples: ``floor(uv_lod + log2 min side -
-    LOD_MARGIN)``, at most ``MAX_REDUCTION`` and no more than both sides divide by (level
-    k of the reduced texture is then level k + n of the full one, the GL's sizes); a
-    level may be skipped where it carried at most ``SKIPPED_WEIGHT`` of a pixel."""
-    if not math.isfinite(uv_lod):
-        return MAX_REDUCTION if uv_lod > 0 else 0
-    lod = uv_lod + math.log2(max(min(width, height), 1))
-    n = math.floor(lod - LOD_MARGIN + SKIPPED_WEIGHT)
-    n = max(0, min(n, MAX_REDUCTION))
+def reduced_levels(uv_lods: np.ndarray, width: int, height: int) -> int:
+    """How many of a ``width`` x ``height`` texture's finest levels a frame whose visible
+    pixels sample at ``uv_lods`` (``sampled_uv_lods``) may start without: the most n, at
+    most ``MAX_REDUCTION`` and no more than both sides divide by (level k of the reduced
+    texture is then level k + n of the full one, the GL's sizes), for which the levels
+    below n carry at most ``MAX_SKIPPED_WEIGHT`` of any pixel's trilinear blend (its LOD
+    ``uv_lod + log2 min side`` less ``LOD_MARGIN``, the GL's finite differences) and
+    ``SKIPPED_SHARE`` of the frame's (the LODs as they are: the margin bounds one pixel's
+    error, it is no blend every pixel makes)."""
+    if len(uv_lods) == 0:  # nothing textured is seen
+        n = MAX_REDUCTION
+    elif not np.isfinite(uv_lods).all():  # no bound (or a magnification beyond any)
+        return 0
+    else:
+        lod = uv_lods + math.log2(max(min(width, height), 1))
+        least = float(lod.min()) - LOD_MARGIN  # the most any pixel may blend: the margin's
+        n = 0
+        for k in range(MAX_REDUCTION, 0, -1):
+            taken = np.clip(k - lod, 0.0, 1.0).sum()  # the pixels' blend of levels < k
+            if k - least <= MAX_SKIPPED_WEIGHT and taken <= SKIPPED_SHARE * len(lod):
+                n = k
+                break
     while n and (width % (1 << n) or height % (1 << n)):
         n -= 1
     return n
