@@ -211,13 +211,29 @@ def test_single_idat_same_texels() -> None:
     them, 8 KiB each) becomes one IDAT chunk with a valid CRC, and decodes to the same
     texels; bytes that are no PNG, hold one IDAT, or are cut short come back as they
     are."""
+    noise = np.random.default_rng(9).integers(0, 256, (96, 80, 3), np.uint8)
+    one, split, _ = _split_png(noise)
+    joined = early.single_idat(split)
+    assert [k for k, _ in _png_chunks(joined)] == [b"IHDR", b"IDAT", b"IEND"]
+    for data in (split, joined):
+        image = Image.open(io.BytesIO(data))
+        image.load()  # Pillow checks each chunk's CRC
+        np.testing.assert_array_equal(np.asarray(image), noise)
+    assert early.single_idat(one) is one  # one IDAT already
+    cut = split[:-30]
+    assert early.single_idat(cut) is cut  # cut short: left to the decoder
+    assert early.single_idat(b"GIF89a....") == b"GIF89a...."
+
+
+def _split_png(texels: np.ndarray) -> tuple[bytes, bytes, int]:
+    """A PNG of ``texels`` as Pillow writes it (one IDAT chunk), the same image with its
+    zlib stream split into 1000-byte IDAT chunks, and how many those are (> 20)."""
+    import struct
     import zlib
 
-    noise = np.random.default_rng(9).integers(0, 256, (96, 80, 3), np.uint8)
     out = io.BytesIO()
-    Image.fromarray(noise).save(out, format="PNG", compress_level=0)
+    Image.fromarray(texels).save(out, format="PNG", compress_level=0)
     one = out.getvalue()
-    # the same image with its zlib stream split into 1000-byte IDAT chunks
     stream = b"".join(
         one[at + 8 : at + 8 + n] for at, (kind, n) in _chunk_offsets(one) if kind == b"IDAT"
     )
@@ -226,8 +242,6 @@ def test_single_idat_same_texels() -> None:
     )
     end = b"\x00\x00\x00\x00IEND\xaeB`\x82"
     pieces = [stream[i : i + 1000] for i in range(0, len(stream), 1000)]
-    import struct
-
     split = (
         early.PNG_SIGNATURE
         + head
@@ -241,16 +255,40 @@ def test_single_idat_same_texels() -> None:
         + end
     )
     assert [k for k, _ in _png_chunks(split)].count(b"IDAT") == len(pieces) > 20
-    joined = early.single_idat(split)
-    assert [k for k, _ in _png_chunks(joined)] == [b"IHDR", b"IDAT", b"IEND"]
-    for data in (split, joined):
-        image = Image.open(io.BytesIO(data))
-        image.load()  # Pillow checks each chunk's CRC
-        np.testing.assert_array_equal(np.asarray(image), noise)
-    assert early.single_idat(one) is one  # one IDAT already
-    cut = split[:-30]
-    assert early.single_idat(cut) is cut  # cut short: left to the decoder
-    assert early.single_idat(b"GIF89a....") == b"GIF89a...."
+    return one, split, len(pieces)
+
+
+def test_open_image_joins_the_image_data_only_to_decode(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``maps.open_image`` joins a PNG's IDAT chunks (``single_idat``) for the decode it
+    makes; where the prepared-texture cache records that these bytes decoded before, the
+    image is returned undecoded and nothing is joined (a copy and a checksum of every
+    byte, on a warm render's main thread), and its texels, read later, are the same."""
+    from app.textures.cache import prepared_cache
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    noise = np.random.default_rng(11).integers(0, 256, (96, 88, 3), np.uint8)
+    _, split, _ = _split_png(noise)
+    joins: list[int] = []
+
+    def counted(data: bytes) -> bytes:
+        joins.append(len(data))
+        return early.single_idat(data)
+
+    monkeypatch.setattr(maps, "single_idat", counted)
+    keeping = maps.keep_decoded_images(False)  # no process memo: the cache's record alone
+    try:
+        first = maps.open_image(split, Budget())
+        np.testing.assert_array_equal(np.asarray(first), noise)
+        assert joins == [len(split)]
+        prepared_cache().flush()
+        again = maps.open_image(split, Budget())
+        assert joins == [len(split)]  # recorded as decoded: not joined
+        np.testing.assert_array_equal(np.asarray(again.convert("RGB")), noise)
+    finally:
+        maps.keep_decoded_images(keeping)
 
 
 def _chunk_offsets(data: bytes) -> list[tuple[int, tuple[bytes, int]]]:

@@ -52,9 +52,7 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            encoded = single_idat(data)
-            image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
-        whole_reads(image, len(encoded))
+            image = Image.open(io.BytesIO(data), formats=IMAGE_FORMATS)
         width, height = image.size
         bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
         with _LOCK:  # the early threads charge one budget
@@ -68,6 +66,15 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
 
     if prepared_cache().holds("decodes", (PIL.__version__, image.format, digest)):
         return
+    try:
+        encoded = single_idat(data)  # to be decoded: its image data in one chunk
+        if encoded is not data:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+    except Exception:  # left to the reader, which names what is wrong
+        return
+    whole_reads(image, len(encoded))
     done: Future = Future()
     with _LOCK:
         if digest in _EARLY or digest in _TAKEN:

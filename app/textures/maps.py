@@ -396,9 +396,8 @@ def open_image(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             # Not a ``with`` block: an image returned undecoded reads its stream later.
-            stream = single_idat(encoded)  # a PNG decodes in one call (early.single_idat)
-            image = Image.open(io.BytesIO(stream), formats=IMAGE_FORMATS)
-        _whole_reads(image, len(stream))
+            image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+        _whole_reads(image, len(encoded))
         width, height = image.size  # from the header: checked before decoding
         if width <= 0 or height <= 0:
             raise RefusedError(f"declares a {width}x{height} image")
@@ -429,6 +428,8 @@ def open_image(
         if early is not None:  # decoded while the process started (app/textures/early.py)
             early.info[SOURCE_DIGEST] = digest
             image = early
+        elif image.format == "PNG" and not _decoded_before(image, digest):
+            image = _one_idat(image, encoded)  # to be decoded here: in one call
         if decode_later:
             setattr(image, _PENDING, _decoder().submit(_decode_refused, image, digest))
             return image
@@ -442,6 +443,29 @@ def open_image(
         ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
         raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+
+
+def _decoded_before(image: Image.Image, digest: str) -> bool:
+    """Whether the prepared-texture cache records that the bytes of SHA-256 ``digest``
+    decoded before as ``image``'s format (``_decode``'s entry): it is then returned
+    undecoded."""
+    return prepared_cache().holds("decodes", (PIL.__version__, image.format, digest))
+
+
+def _one_idat(image: Image.Image, encoded: bytes) -> Image.Image:
+    """The PNG ``image`` opened from ``encoded`` again with its image data in one chunk
+    (early.single_idat: the decoder takes it in one call, not one per 8 KiB chunk with
+    the GIL taken back between), its info carried over; only for an image about to be
+    decoded: the join copies and checksums every byte (15 ms for WaterBottle's four)."""
+    stream = single_idat(encoded)
+    if stream is encoded:
+        return image
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        joined = Image.open(io.BytesIO(stream), formats=IMAGE_FORMATS)
+    _whole_reads(joined, len(stream))
+    joined.info.update(image.info)
+    return joined
 
 
 def _decode(image: Image.Image, digest: str) -> None:
