@@ -1,14 +1,14 @@
-"""The finest mip level a still frame can sample of a model's textures (texture streaming,
-as engines do it: the finest level a mesh needs, from its UV density and the camera).
+"""The mip levels a still frame samples of a model's textures (texture streaming, as
+engines do it: the finest level a mesh needs, from its UV density and the camera).
 
 A one-view render (`pbs render` of a model file) knows its camera before it decodes a
-texture: the framing camera depends on the geometry alone. ``finest_uv_lod`` rasterizes
+texture: the framing camera depends on the geometry alone. ``sampled_uv_lods`` rasterizes
 the triangles the G-buffer pass draws (back faces of one-sided meshes culled, as the GL
 culls them) at the image's pixel centres with a depth buffer, and over every pixel centre
 a textured triangle covers and no nearer triangle hides, takes the level of detail the
 GL's sampler computes there (OpenGL 4.6 §8.14.1): log2 of the scale factor rho, the
-texture coordinates' derivatives along the window's x and y (in texels). It returns the
-texture-size-free part per visible pixel, ``log2 max(|du/dx|, |dv/dx|, |du/dy|, |dv/dy|)``
+texture coordinates' derivatives along the window's x and y (in texels). It returns
+the texture-size-free part per visible pixel, ``log2 max(|du/dx|, |dv/dx|, |du/dy|, |dv/dy|)``
 in UV units (``sampled_uv_lods``); a texture of ``N`` texels a side samples no level finer
 than ``floor(lod + log2 N)`` at a pixel, and the levels no pixel samples need not be
 decoded, built nor uploaded (``reduced_levels``: nor the levels that a few pixels blend
