@@ -82,7 +82,9 @@ def test_images_open_before_colour_maps(tmp_path: Path, monkeypatch: pytest.Monk
     monkeypatch.setattr(
         gltf, "open_image", lambda *a, **k: events.append("open") or opened(*a, **k)
     )
-    monkeypatch.setattr(gltf, "colour_texture", lambda im: events.append("colour") or made(im))
+    monkeypatch.setattr(
+        gltf, "colour_texture", lambda im, *a: events.append("colour") or made(im, *a)
+    )
     fallback = MaterialParams((1.0, 1.0, 1.0), 0.0, 0.5, 0.04)
     layer = gltf.GltfFile(path).layer(0, fallback, "variance")
     assert events == ["open", "open", "colour"]

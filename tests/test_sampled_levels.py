@@ -103,8 +103,14 @@ def _maps() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return images[0], images[1], images[2]
 
 
-def _model(root: Path, colour: bool = True, change: str = "") -> Path:
-    """A quad with JPEG base colour (unless not ``colour``: none), normal and
+def _png(rgb: np.ndarray) -> bytes:
+    data = io.BytesIO()
+    Image.fromarray(rgb).save(data, format="PNG")
+    return data.getvalue()
+
+
+def _model(root: Path, colour: bool = True, change: str = "", png: bool = False) -> Path:
+    """A quad with JPEG (``png``: PNG) base colour (unless not ``colour``: none), normal and
     metallic-roughness maps of 256 texels; ``change``: "transform" (the base colour's UVs
     scaled by KHR_texture_transform, not declared in extensionsUsed), "texcoord" (read
     through TEXCOORD_1), "no mips" (a sampler whose minFilter is LINEAR), "blend"
@@ -113,7 +119,8 @@ def _model(root: Path, colour: bool = True, change: str = "") -> Path:
     b = GltfBuilder()
     textures = []
     for rgb in _maps():
-        b.doc.images.append(pygltflib.Image(bufferView=b.view(_jpeg(rgb)), mimeType="image/jpeg"))
+        encoded, mime = (_png(rgb), "image/png") if png else (_jpeg(rgb), "image/jpeg")
+        b.doc.images.append(pygltflib.Image(bufferView=b.view(encoded), mimeType=mime))
         b.doc.textures.append(pygltflib.Texture(source=len(b.doc.images) - 1))
         textures.append(len(b.doc.textures) - 1)
     info = pygltflib.TextureInfo(index=textures[0])
@@ -168,6 +175,38 @@ def test_far_camera_decodes_reduced(tmp_path: Path) -> None:
     path = _model(tmp_path)
     still = _sizes(path, (40, 40), still=True)
     assert set(still.values()) == {(TEXELS // 4, TEXELS // 4)}
+    assert set(_sizes(path, (40, 40), still=False).values()) == {(TEXELS, TEXELS)}
+
+
+def test_far_camera_keeps_a_png_colour_maps_sampled_levels(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A PNG decodes whole, but at 40 pixels its base colour keeps level 2 and the ones
+    below alone: a linear-light 2x2 box of the whole map's texels (mips.srgb_box_levels),
+    as a DCT-scaled JPEG's mips are made; a second load reads them from the
+    prepared-texture cache, the same bytes, without decoding the image."""
+    from app.textures import maps
+    from app.textures.cache import prepared_cache
+    from app.textures.mips import srgb_box_levels
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    path = _model(tmp_path, png=True)
+    whole = np.concatenate([_maps()[0], np.full((TEXELS, TEXELS, 1), 255, np.uint8)], -1)
+    want = [level[::-1] for level in srgb_box_levels(np.ascontiguousarray(whole[::-1]))[2:]]
+    decoded: list[object] = []
+    texels_of = maps._decoded
+    monkeypatch.setattr(maps, "_decoded", lambda image: decoded.append(image) or texels_of(image))
+    for load in range(2):  # made, then read from the cache
+        (part,) = take_built(scene_from(path, size=(40, 40), still=True))[0]
+        levels = part.layers[0].maps["base_color"].levels
+        assert len(levels) == len(want)
+        for got, made in zip(levels, want, strict=True):
+            np.testing.assert_array_equal(got, made)
+        assert bool(decoded) == (load == 0)  # the texels read to make the levels, once
+        decoded.clear()
+        prepared_cache().flush()
+    assert set(_sizes(path, (40, 40), still=True).values()) == {(TEXELS // 4, TEXELS // 4)}
     assert set(_sizes(path, (40, 40), still=False).values()) == {(TEXELS, TEXELS)}
 
 

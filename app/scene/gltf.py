@@ -993,7 +993,8 @@ class GltfFile:
             tkey = f"{pkey}.baseColorTexture"
             img, sampler, tr = self._texture(pbr.baseColorTexture, tkey, reduced=True)
             self._map_cost(img, "colour", tkey)
-            put("base_color", partial(colour_texture, img), sampler, tr)  # RGBA: alpha kept
+            first = self._first_level(img)  # a whole image's (a JPEG is decoded reduced)
+            put("base_color", partial(colour_texture, img, first), sampler, tr)  # RGBA kept
         mr = None
         if pbr is not None and pbr.metallicRoughnessTexture is not None:
             tkey = f"{pkey}.metallicRoughnessTexture"
@@ -1075,7 +1076,7 @@ class GltfFile:
                 m.emissiveTexture, f"{key}.emissiveTexture", reduced=True
             )
             self._map_cost(img, "colour", f"{key}.emissiveTexture")
-            put("emissive", partial(colour_texture, img), sampler, tr)
+            put("emissive", partial(colour_texture, img, self._first_level(img)), sampler, tr)
         layer.alpha = float(factor[3])
         mode = m.alphaMode if m.alphaMode is not None else "OPAQUE"
         if mode not in ("OPAQUE", "MASK", "BLEND"):

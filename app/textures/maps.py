@@ -726,11 +726,17 @@ def decode_normals(image: Image.Image, scale: float) -> np.ndarray:
     return n
 
 
-def colour_texture(image: Image.Image) -> Texture:
+def colour_texture(image: Image.Image, first: int = 0) -> Texture:
     """Base colour: sRGB8 with alpha, decoded by the GL (which builds its mips). An image
     ``open_image`` read has its RGBA texels kept in the prepared-texture cache by its
     file's content (with Pillow's version, whose decoder made them): a later load reads
-    them instead of decoding the file (``open_image`` then returns it undecoded)."""
+    them instead of decoding the file (``open_image`` then returns it undecoded).
+
+    ``first``: the first level a still frame samples of the whole ``image`` (a map that
+    is no JPEG, which libjpeg would have decoded at that level: app/scene/sampled_levels.py).
+    A square power-of-two map then keeps that level and the ones below alone, made here as a
+    DCT-scaled map's mips are (``mips.srgb_box_levels``: a 2x2 box in linear light, within
+    a step of the GL's), so its finer levels are neither kept nor uploaded."""
 
     def rgba() -> list[np.ndarray]:
         return [np.asarray(_decoded(image).convert("RGBA"), np.uint8)]
@@ -770,32 +776,39 @@ def colour_texture(image: Image.Image) -> Texture:
         return [texels]
 
     side = image.width
-    if image.info.get(REDUCED_LEVELS) and image.height == side and side & (side - 1) == 0:
-        # A DCT-scaled level is not the GL's level n anyway: its mips are made here
-        # (mips.srgb_box_levels), without the GL's blit (compiled once a process).
-        first: Future = Future()  # level 0, handed over before its mips are made
+    square = image.height == side and side & (side - 1) == 0
+    skipped = first if square and not image.info.get(REDUCED_LEVELS) else 0
+    if square and (image.info.get(REDUCED_LEVELS) or skipped):
+        # A DCT-scaled level is not the GL's level n anyway, and a whole map's level n is
+        # made here: the mips too (mips.srgb_box_levels), without the GL's blit (compiled
+        # once a process).
+        finest: Future = Future()  # the first level kept, handed over before the others
 
         def made() -> list[np.ndarray]:
             texels = rows_up()[0]
-            first.set_result(texels[::-1])
-            return srgb_box_levels(texels)
+            if not skipped:
+                finest.set_result(texels[::-1])
+                return srgb_box_levels(texels)
+            kept = srgb_box_levels(texels)[skipped:]
+            finest.set_result(kept[0][::-1])
+            return kept
+
+        parts = (_prepared_version(), key) + ((("from level", skipped),) if skipped else ())
 
         def levels() -> list[np.ndarray]:
             try:
-                entry = prepared_cache().arrays(
-                    "colour rgba8 rows up mips", (_prepared_version(), key), made
-                )
+                entry = prepared_cache().arrays("colour rgba8 rows up mips", parts, made)
             except BaseException as exc:
-                if not first.done():
-                    first.set_exception(exc)
+                if not finest.done():
+                    finest.set_exception(exc)
                 raise
             made_levels = [level[::-1] for level in entry]
-            if not first.done():  # read from the cache: no level 0 handed over
-                first.set_result(made_levels[0])
+            if not finest.done():  # read from the cache: no level handed over
+                finest.set_result(made_levels[0])
             return made_levels
 
         future = _colour_maker().submit(levels)
-        return Texture(PendingLevels(future, first), srgb=True, source_key=key)
+        return Texture(PendingLevels(future, finest), srgb=True, source_key=key)
     layout = [((image.height, image.width, 4), np.uint8)]  # the texels of its header's size
     fill = lambda into: rows_up_into(*into)  # noqa: E731
     (texels,) = prepared_cache().filled(
