@@ -550,16 +550,16 @@ def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
 
         def band(y0: int, y1: int, above: np.ndarray = above, level: np.ndarray = level) -> None:
             block = above[2 * y0 : 2 * y1]
-            linear = np.take(linear16, block[..., :3])
-            total = linear[0::2, 0::2] + linear[1::2, 0::2]
-            total += linear[0::2, 1::2]
-            total += linear[1::2, 1::2]
+            # Every channel looked up (alpha's decoded value unused): a contiguous lookup
+            # is the faster; rows summed first, then column pairs (two passes, not three)
+            linear = np.take(linear16, block)
+            pairs = linear[0::2] + linear[1::2]
+            total = pairs[:, 0::2, :3] + pairs[:, 1::2, :3]
             out = level[y0:y1]
             out[..., :3] = np.take(of_sum4, total)
             alpha = block[..., 3].astype(np.uint16)
-            out[..., 3] = (
-                alpha[0::2, 0::2] + alpha[1::2, 0::2] + alpha[0::2, 1::2] + alpha[1::2, 1::2] + 2
-            ) >> 2
+            alpha = alpha[0::2] + alpha[1::2]
+            out[..., 3] = (alpha[:, 0::2] + alpha[:, 1::2] + 2) >> 2
 
         each_band(band, [(y, min(y + rows, half)) for y in range(0, half, rows)])
         levels.append(level)
