@@ -32,7 +32,7 @@ from PIL import Image, features
 from app.scene.gltf import meshopt_available
 from app.scene.gltf_document import GltfDocument
 from app.scene.gltf_extensions import SUPPORTED as MATERIAL_EXTENSIONS
-from app.textures.maps import IMAGE_FORMATS
+from app.textures.early import IMAGE_FORMATS
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import InputPolicy
 

@@ -46,20 +46,14 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
     render reads its prepared maps and decodes no whole image: ``maps.open_image``).
     Returns the bytes' digest where it decoded them (``peek`` then has the image)."""
     import PIL
-    from PIL import Image
 
     digest = hashlib.sha256(data).hexdigest()
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            image = Image.open(io.BytesIO(data), formats=IMAGE_FORMATS)
-        width, height = image.size
-        bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
+        image = open_header(data)
         with _LOCK:  # the early threads charge one budget
             if digest in _TAKEN:
                 return
-            budget.texture(width, height, None, "the image")
-            budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
+            charge_decode(image, budget, None)
     except Exception:  # not an image pbs reads, or past the budget (a RefusedError)
         return
     from app.textures.cache import prepared_cache
@@ -69,9 +63,7 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
     try:
         encoded = single_idat(data)  # to be decoded: its image data in one chunk
         if encoded is not data:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-                image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
+            image = open_header(encoded)
     except Exception:  # left to the reader, which names what is wrong
         return
     whole_reads(image, len(encoded))
@@ -87,6 +79,35 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
         return None
     done.set_result(image)
     return digest
+
+
+def open_header(data: bytes):  # -> PIL.ImageFile.ImageFile
+    """The image ``data`` holds, its header read and nothing decoded: only
+    ``IMAGE_FORMATS`` parsed, Pillow's own size warnings kept off stderr (``charge_decode``
+    is what refuses an oversized image), its decoder handed the whole stream at once
+    (``whole_reads``). Pillow's error where ``data`` is no such image."""
+    from PIL import Image
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        image = Image.open(io.BytesIO(data), formats=IMAGE_FORMATS)
+    whole_reads(image, len(data))
+    return image
+
+
+def charge_decode(image, budget: Budget, kind: str | None) -> None:
+    """Check the size ``image``'s header declares and charge its decode to ``budget``,
+    before a texel is decoded: at most the limits' side, the map of ``kind`` (colour,
+    scalar, normal, direction; None: the caller charges the map) and the decoded texels'
+    bytes (Pillow's storage: 4 bytes a texel at least). ``RefusedError`` past either."""
+    from app.untrusted import RefusedError
+
+    width, height = image.size
+    if width <= 0 or height <= 0:
+        raise RefusedError(f"declares a {width}x{height} image")
+    bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
+    budget.texture(width, height, kind, "the image")
+    budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
 
 
 def whole_reads(image, size: int) -> None:  # image: PIL.ImageFile.ImageFile

@@ -17,9 +17,7 @@ entry of their own, so that a render reads half the bytes and converts none.
 from __future__ import annotations
 
 import hashlib
-import io
 import threading
-import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -34,9 +32,8 @@ from app.common.models import MaterialParams
 from app.errors import InputError
 from app.reference.filtering import directional_spread
 from app.textures.cache import prepared_cache
-from app.textures.early import BAND_BYTES, IMAGE_FORMATS, single_idat
+from app.textures.early import BAND_BYTES, charge_decode, open_header, single_idat
 from app.textures.early import take as take_early
-from app.textures.early import whole_reads as _whole_reads
 from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, spread_levels
 from app.textures.mips import (
     BandSource,
@@ -393,17 +390,10 @@ def open_image(
             encoded = source
         else:
             encoded = files.read_bytes(Path(source), budget.limits.max_file_bytes)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            # Not a ``with`` block: an image returned undecoded reads its stream later.
-            image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
-        _whole_reads(image, len(encoded))
+        # Not a ``with`` block: an image returned undecoded reads its stream later.
+        image = open_header(encoded)
         width, height = image.size  # from the header: checked before decoding
-        if width <= 0 or height <= 0:
-            raise RefusedError(f"declares a {width}x{height} image")
-        bands = len(image.getbands()) * BAND_BYTES.get(image.mode, 1)
-        budget.texture(width, height, kind, "the image")
-        budget.charge(width * height * max(bands, 4), "byte", "its decoded texels")
+        charge_decode(image, budget, kind)
         # What the prepared-texture cache keys this image by (_image_part): the
         # file's bytes, a few MiB to hash where the decoded texels are tens.
         digest = hashlib.sha256(encoded).hexdigest()
@@ -412,8 +402,7 @@ def open_image(
             reduced = (width >> skipped, height >> skipped)
             image.draft(image.mode, reduced)
             if image.size != reduced:  # a scale libjpeg does not make: the whole image
-                image = Image.open(io.BytesIO(encoded), formats=IMAGE_FORMATS)
-                _whole_reads(image, len(encoded))
+                image = open_header(encoded)
             else:  # another image than the file's whole one: its own entries
                 digest = f"{digest} 1/{1 << skipped}"
                 image.info[REDUCED_LEVELS] = skipped
@@ -460,10 +449,7 @@ def _one_idat(image: Image.Image, encoded: bytes) -> Image.Image:
     stream = single_idat(encoded)
     if stream is encoded:
         return image
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-        joined = Image.open(io.BytesIO(stream), formats=IMAGE_FORMATS)
-    _whole_reads(joined, len(stream))
+    joined = open_header(stream)
     joined.info.update(image.info)
     return joined
 
