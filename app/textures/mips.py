@@ -36,6 +36,7 @@ import numpy as np
 
 from app.reference.chain import CHAIN_MIN_NORMAL_Z
 from app.reference.filtering import alpha2_from_slope_variance, alpha2_toksvig
+from app.reference.tonemap import srgb_decode, srgb_encode
 
 NORMAL_FILTERS = ("naive", "toksvig", "variance")
 
@@ -508,19 +509,9 @@ def srgb_tables() -> tuple[np.ndarray, np.ndarray]:
     encode, rounded): a 2x2 box in linear space in integer arithmetic, as the GL filters
     sRGB texels (decoded before they are averaged). Made at first use (the second is
     262,141 powers), not by every process that imports this module."""
-    code = np.arange(256) / 255.0
-    linear16 = np.round(
-        np.where(code <= 0.04045, code / 12.92, ((code + 0.055) / 1.055) ** 2.4) * 65535.0
-    ).astype(np.uint32)
+    linear16 = np.round(srgb_decode(np.arange(256) / 255.0) * 65535.0).astype(np.uint32)
     mean = np.arange(4 * 65535 + 1) / (4 * 65535.0)
-    of_sum4 = np.round(
-        np.where(
-            mean <= 0.0031308,
-            mean * 12.92,
-            1.055 * np.maximum(mean, 0.0031308) ** (1.0 / 2.4) - 0.055,
-        )
-        * 255.0
-    ).astype(np.uint8)
+    of_sum4 = np.round(srgb_encode(mean) * 255.0).astype(np.uint8)
     return linear16, of_sum4
 
 
