@@ -45,7 +45,6 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
     where the prepared-texture cache records that these bytes decoded before (a warm
     render reads its prepared maps and decodes no whole image: ``maps.open_image``).
     Returns the bytes' digest where it decoded them (``peek`` then has the image)."""
-    import PIL
 
     digest = hashlib.sha256(data).hexdigest()
     try:
@@ -56,9 +55,7 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
             charge_decode(image, budget, None)
     except Exception:  # not an image pbs reads, or past the budget (a RefusedError)
         return
-    from app.textures.cache import prepared_cache
-
-    if prepared_cache().holds("decodes", (PIL.__version__, image.format, digest)):
+    if decoded_before(image, digest):
         return
     try:
         encoded = single_idat(data)  # to be decoded: its image data in one chunk
@@ -66,7 +63,6 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
             image = open_header(encoded)
     except Exception:  # left to the reader, which names what is wrong
         return
-    whole_reads(image, len(encoded))
     done: Future = Future()
     with _LOCK:
         if digest in _EARLY or digest in _TAKEN:
@@ -79,6 +75,28 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
         return None
     done.set_result(image)
     return digest
+
+
+# The prepared-texture cache's record that an image's bytes decoded (maps._decode writes
+# it once a decode succeeds): its kind; its parts are ``decode_record``'s.
+DECODES = "decodes"
+
+
+def decode_record(image, digest: str) -> tuple:  # image: PIL.Image.Image
+    """The key parts of the record that the bytes of SHA-256 ``digest`` decode as
+    ``image``'s format under this Pillow."""
+    import PIL
+
+    return (PIL.__version__, image.format, digest)
+
+
+def decoded_before(image, digest: str) -> bool:  # image: PIL.Image.Image
+    """Whether the prepared-texture cache records that the bytes of SHA-256 ``digest``
+    decoded before as ``image``'s format: such an image is not decoded until its texels
+    are read (a warm render reads its prepared maps instead)."""
+    from app.textures.cache import prepared_cache
+
+    return prepared_cache().holds(DECODES, decode_record(image, digest))
 
 
 def open_header(data: bytes):  # -> PIL.ImageFile.ImageFile

@@ -32,7 +32,15 @@ from app.common.models import MaterialParams
 from app.errors import InputError
 from app.reference.filtering import directional_spread
 from app.textures.cache import prepared_cache
-from app.textures.early import BAND_BYTES, charge_decode, open_header, single_idat
+from app.textures.early import (
+    BAND_BYTES,
+    DECODES,
+    charge_decode,
+    decode_record,
+    decoded_before,
+    open_header,
+    single_idat,
+)
 from app.textures.early import take as take_early
 from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, spread_levels
 from app.textures.mips import (
@@ -417,7 +425,7 @@ def open_image(
         if early is not None:  # decoded while the process started (app/textures/early.py)
             early.info[SOURCE_DIGEST] = digest
             image = early
-        elif image.format == "PNG" and not _decoded_before(image, digest):
+        elif image.format == "PNG" and not decoded_before(image, digest):
             image = _one_idat(image, encoded)  # to be decoded here: in one call
         if decode_later:
             setattr(image, _PENDING, _decoder().submit(_decode_refused, image, digest))
@@ -432,13 +440,6 @@ def open_image(
         ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
         raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
-
-
-def _decoded_before(image: Image.Image, digest: str) -> bool:
-    """Whether the prepared-texture cache records that the bytes of SHA-256 ``digest``
-    decoded before as ``image``'s format (``_decode``'s entry): it is then returned
-    undecoded."""
-    return prepared_cache().holds("decodes", (PIL.__version__, image.format, digest))
 
 
 def _one_idat(image: Image.Image, encoded: bytes) -> Image.Image:
@@ -465,7 +466,7 @@ def _decode(image: Image.Image, digest: str) -> None:
         decoded.append(True)
         return [np.array(image.size, np.int64)]
 
-    prepared_cache().arrays("decodes", (PIL.__version__, image.format, digest), decode)
+    prepared_cache().arrays(DECODES, decode_record(image, digest), decode)
     if decoded:
         _keep_decoded(digest, image)
 
