@@ -22,7 +22,6 @@ from app.scene.sampled_levels import (
     MAX_SKIPPED_WEIGHT,
     SKIPPED_SHARE,
     ViewTriangles,
-    finest_uv_lod,
     reduced_levels,
     sampled_uv_lods,
 )
@@ -52,7 +51,6 @@ def test_bound_of_a_facing_quad() -> None:
     lods = sampled_uv_lods([_quad()], _camera(4.0), (256, 256))
     assert len(lods) == 64 * 64 + 64  # its pixel centres, the diagonal's for both triangles
     assert lods == pytest.approx(-6.0, abs=1e-9)
-    assert finest_uv_lod([_quad()], _camera(4.0), (256, 256)) == lods.min()
     assert reduced_levels(lods, TEXELS, TEXELS) == 2
     assert reduced_levels(lods, 200, 200) == 1  # 200 / 4 is no whole level: one only
 

@@ -112,13 +112,6 @@ def sampled_uv_lods(
         return np.log2(worst)
 
 
-def finest_uv_lod(triangles: list[ViewTriangles], camera: dict, size: tuple[int, int]) -> float:
-    """The least of ``sampled_uv_lods``: ``inf`` where no textured pixel is visible,
-    ``-inf`` where the bound cannot be taken."""
-    lods = sampled_uv_lods(triangles, camera, size)
-    return float(lods.min()) if len(lods) else math.inf
-
-
 def visible_derivatives(
     screen: np.ndarray,
     inv_z: np.ndarray,
@@ -127,7 +120,7 @@ def visible_derivatives(
     width: int,
     height: int,
 ) -> np.ndarray:
-    """``finest_uv_lod``'s raster: every drawn face's covered pixel centres (scanlines:
+    """``sampled_uv_lods``' raster: every drawn face's covered pixel centres (scanlines:
     per row of its box the span between its edges' crossings of the row's centre line,
     edges included), the nearest 1/z per pixel, then at the covered centres no nearer
     face hides the largest absolute UV derivative per window pixel (one value per
