@@ -45,6 +45,7 @@ MAKERS: dict[str, Makers] = {
             "textures/lean.py",
             "reference/filtering.py",
             "reference/chain.py",
+            "reference/tonemap.py",
         )
     ),
     # A normal/roughness chain the GL draws (app/render/normal_chain.py).
