@@ -1,5 +1,5 @@
 """A still frame decodes a model's textures from the finest mip level its camera samples
-(app/scene/sampled_levels.py, app/scene/gltf.py ``uv_lod``): the bound itself on a quad
+(app/scene/sampled_levels.py, app/scene/gltf.py ``uv_lods``): the bound itself on a quad
 whose level of detail is known, a close camera that decodes the whole map, a far one that
 decodes it reduced, and the far frame against the frame built from every level."""
 

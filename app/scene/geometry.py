@@ -710,7 +710,7 @@ def _gltf_parts(
             )
         prims = gltf.primitives()
         if loaded.still_view is not None and chosen is None and gltf.still_streamable():
-            gltf.uv_lod = _still_uv_lod(loaded.still_view, prims, model, gltf)
+            gltf.uv_lods = _still_uv_lod(loaded.still_view, prims, model, gltf)
         for prim in prims:
             blend, closed = None, False
             if chosen is not None:

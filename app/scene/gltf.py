@@ -257,10 +257,10 @@ class GltfFile:
         # The UV levels of detail a still frame samples of this file's textures at its
         # visible pixels (app/scene/sampled_levels.py ``sampled_uv_lods``), set before any
         # material is read; None: every level (a camera that moves, the viewer, the API).
-        self.uv_lod: np.ndarray | None = None
+        self.uv_lods: np.ndarray | None = None
 
     def still_streamable(self) -> bool:
-        """Whether a still frame's bound on the sampled levels (``uv_lod``) covers every
+        """Whether a still frame's bound on the sampled levels (``uv_lods``) covers every
         read of this file's textures: every material opaque (its surfaces hide what lies
         behind them in the G-buffer and nothing is drawn forward, blended or through a
         masked shadow caster), none transmissive, every texture read through TEXCOORD_0
@@ -290,10 +290,10 @@ class GltfFile:
 
     def _reduction(self, width: int, height: int) -> int:
         """How many finest levels of a ``width`` x ``height`` image a still frame never
-        samples (0 without a still frame's ``uv_lod``)."""
-        if self.uv_lod is None:
+        samples (0 without a still frame's ``uv_lods``)."""
+        if self.uv_lods is None:
             return 0
-        return reduced_levels(self.uv_lod, width, height)
+        return reduced_levels(self.uv_lods, width, height)
 
     def _first_level(self, image: Image.Image) -> int:
         """The first level a map the project filters from ``image`` (decoded whole) keeps."""
@@ -795,13 +795,13 @@ class GltfFile:
     def image(self, index: object, key: str, reduced: bool = False) -> Image.Image:
         """Image ``index`` decoded once (its size checked and charged first,
         app/textures/maps.py ``open_image``). ``reduced``: for a map whose mips the GL
-        makes (colour), decoded from the finest level a still frame samples (``uv_lod``;
+        makes (colour), decoded from the finest level a still frame samples (``uv_lods``;
         a JPEG by DCT scaling); the maps the project filters (the normal/roughness chain,
         metallic, occlusion) read the whole image and keep their levels from there on
         (``_first_level``), the same bits as the whole chain's."""
         images = self._table("images")
         i = _int(index, key, len(images))
-        reduced = reduced and self.uv_lod is not None
+        reduced = reduced and self.uv_lods is not None
         if (i, reduced) not in self._images:
             entry = images[i]
             ikey = f"images[{i}]"

@@ -372,7 +372,7 @@ def model_scene(
 
     ``still``: the scene is rendered once from its framing camera (``pbs render``), so a
     glTF file's maps start at the finest mip level that camera can sample (its colour
-    JPEGs DCT-scaled: app/scene/sampled_levels.py, GltfFile.uv_lod); a scene whose camera
+    JPEGs DCT-scaled: app/scene/sampled_levels.py, GltfFile.uv_lods); a scene whose camera
     may move keeps every level."""
     path = Path(path)
     if not is_model_file(path):
