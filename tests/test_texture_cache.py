@@ -13,6 +13,7 @@ import pytest
 from PIL import Image
 
 from app.textures import cache as cache_module
+from app.textures import cache_keys
 from app.textures.cache import PreparedCache, entry_key, prepared_cache
 from app.textures.maps import Texture, channel_texture, normal_roughness_map
 
@@ -145,9 +146,9 @@ def test_key_separates_inputs() -> None:
 def test_default_directory(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.delenv("PBS_CACHE_DIR", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    assert cache_module.cache_directory() == tmp_path / "pbs"
+    assert cache_keys.cache_directory() == tmp_path / "pbs"
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "mine"))
-    assert cache_module.cache_directory() == tmp_path / "mine"
+    assert cache_keys.cache_directory() == tmp_path / "mine"
 
 
 def test_channel_texture_cached(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -454,11 +455,11 @@ def test_seed_directories(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> No
     import sys
 
     monkeypatch.setenv("PBS_CACHE_SEED", f"{tmp_path / 'a'}{os.pathsep}{tmp_path / 'b'}")
-    assert cache_module.seed_directories() == [tmp_path / "a", tmp_path / "b"]
+    assert cache_keys.seed_directories() == [tmp_path / "a", tmp_path / "b"]
     monkeypatch.setenv("PBS_CACHE_SEED", "")
-    assert cache_module.seed_directories() == []
+    assert cache_keys.seed_directories() == []
     monkeypatch.delenv("PBS_CACHE_SEED")
-    assert cache_module.seed_directories() == [Path(sys.prefix) / "share/pbs/prepared"]
+    assert cache_keys.seed_directories() == [Path(sys.prefix) / "share/pbs/prepared"]
 
 
 def test_seeded_environment_is_not_prefiltered_again(

@@ -54,7 +54,7 @@ def bench_assets() -> list[Path]:
 def seeded() -> bool:
     """Whether this installation's prepared-texture cache has a seed with entries in it
     (app/textures/cache.py ``seed_directories``)."""
-    from app.textures.cache import seed_directories
+    from app.textures.cache_keys import seed_directories
 
     return any(any(d.glob("*.npy")) for d in seed_directories() if d.is_dir())
 

@@ -31,17 +31,18 @@ def seed(directory: Path, backend: str = "egl") -> list[Path]:
     from app.gl.context import create_context
     from app.gl.shaders import ShaderCache
     from app.render.ibl import _SETTINGS, clear_cache, prepared_prefilter
-    from app.textures import cache as cache_module
+    from app.textures import cache_keys
+    from app.textures.cache import prepared_cache
     from app.textures.environment import environment_map
 
-    saved = {k: os.environ.get(k) for k in (cache_module.ENV_DIR, cache_module.ENV_SEED)}
+    saved = {k: os.environ.get(k) for k in (cache_keys.ENV_DIR, cache_keys.ENV_SEED)}
     gl = create_context(backend)
     try:
         with tempfile.TemporaryDirectory(prefix="pbs-seed-") as tmp:
             # A cache of its own, no seed read: every entry is built here, by this GL.
-            os.environ[cache_module.ENV_DIR] = tmp
-            os.environ[cache_module.ENV_SEED] = ""
-            os.environ.pop(cache_module.ENV_SWITCH, None)
+            os.environ[cache_keys.ENV_DIR] = tmp
+            os.environ[cache_keys.ENV_SEED] = ""
+            os.environ.pop(cache_keys.ENV_SWITCH, None)
             shaders = ShaderCache(gl.ctx)
             try:
                 clear_cache()
@@ -49,7 +50,7 @@ def seed(directory: Path, backend: str = "egl") -> list[Path]:
                     prepared_prefilter(gl.ctx, shaders, environment_map(source), *_SETTINGS)
             finally:
                 shaders.release()
-            cache_module.prepared_cache().flush()
+            prepared_cache().flush()
             built = sorted((Path(tmp) / "textures").glob("*.npy"))
             directory.mkdir(parents=True, exist_ok=True)
             for old in directory.glob("*.npy"):
@@ -88,7 +89,7 @@ def seed_version() -> str:
 def main(argv: list[str]) -> int:
     """``[--if-stale] [DIR]``: seed DIR (default the installation's seed folder); with
     ``--if-stale`` only where it holds no seed of this code (``seed_version``)."""
-    from app.textures.cache import default_seed_directory
+    from app.textures.cache_keys import default_seed_directory
 
     if_stale = "--if-stale" in argv
     rest = [a for a in argv if a != "--if-stale"]

@@ -36,7 +36,6 @@ seed entry is skipped (and the entry built as on any miss).
 
 from __future__ import annotations
 
-import hashlib
 import io
 import json
 import logging
@@ -51,50 +50,32 @@ from collections import OrderedDict
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import BinaryIO
+from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
 
+from app.textures.cache_keys import (
+    SUFFIX,
+    cache_directory,
+    cache_enabled,
+    entry_file,
+    entry_key,
+    seed_directories,
+    textures_directory,
+)
+
+if TYPE_CHECKING:
+    from app.textures.cache_keys import Part
+
 _LOG = logging.getLogger(__name__)
 
-ENV_DIR = "PBS_CACHE_DIR"
-ENV_SWITCH = "PBS_CACHE"
-ENV_SEED = "PBS_CACHE_SEED"
-OFF_VALUES = ("off", "0", "no", "false")
 MEMORY_BYTES = 1 << 30  # in-process entries kept (DamagedHelmet's prepared maps: ~140 MiB)
 DISK_BYTES = 4 << 30  # on-disk entries kept
-_SUFFIX = ".npy"
+_SUFFIX = SUFFIX
 _TEMPORARY = ".tmp-"  # prefix of an entry being written (renamed into place when whole)
 _STALE_NS = 3600 * 10**9  # a temporary file this old was left by a killed process
 _ALIGN = 64
 SWITCH_INTERVAL_S = 0.001  # the GIL's switch interval once a background build can run
-
-Part = bytes | str | int | float | bool | None | np.ndarray | tuple
-
-
-def entry_key(kind: str, parts: Iterable[Part]) -> str:
-    """The SHA-256 (hex) of ``kind`` and ``parts``, each part tagged with its type (and an
-    array with its dtype and shape) so that no two different inputs run together."""
-    digest = hashlib.sha256(kind.encode())
-    for part in parts:
-        _feed(digest, part)
-    return digest.hexdigest()
-
-
-def _feed(digest: hashlib._Hash, part: Part) -> None:
-    if isinstance(part, np.ndarray):
-        a = np.ascontiguousarray(part)
-        digest.update(f"|a{a.dtype.str}{a.shape}|".encode())
-        digest.update(a.data)
-    elif isinstance(part, bytes):
-        digest.update(f"|b{len(part)}|".encode())
-        digest.update(part)
-    elif isinstance(part, tuple):
-        digest.update(f"|t{len(part)}|".encode())
-        for item in part:
-            _feed(digest, item)
-    else:
-        digest.update(f"|{type(part).__name__}:{part!r}|".encode())
 
 
 def pack_entry(arrays: Sequence[np.ndarray]) -> np.ndarray:
@@ -408,10 +389,7 @@ class PreparedCache:
         with self._lock:
             if key in self._memory:
                 return True
-        path = self.path(key)
-        if path is not None and path.is_file():
-            return True
-        return any((seed / f"{key}{_SUFFIX}").is_file() for seed in self.seeds)
+        return entry_file(self.directory, self.seeds, key) is not None
 
     def path(self, key: str) -> Path | None:
         """Where entry ``key`` lives on disk (None without a directory)."""
@@ -546,33 +524,6 @@ def _writer() -> ThreadPoolExecutor:
     return _WRITER
 
 
-def cache_directory() -> Path:
-    """``$PBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/pbs``, else ``~/.cache/pbs``."""
-    given = os.environ.get(ENV_DIR)
-    if given:
-        return Path(given)
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "pbs"
-
-
-def seed_directories() -> list[Path]:
-    """The read-only seed folders: ``$PBS_CACHE_SEED`` (folders separated by
-    ``os.pathsep``; set and empty: none), else ``<sys.prefix>/share/pbs/prepared``, where
-    ``scripts/dev.sh`` seeds an installation (app/render/prepared_seed.py)."""
-    given = os.environ.get(ENV_SEED)
-    if given is not None:
-        return [Path(p) for p in given.split(os.pathsep) if p.strip()]
-    return [default_seed_directory()]
-
-
-def default_seed_directory() -> Path:
-    return Path(sys.prefix) / "share" / "pbs" / "prepared"
-
-
-def cache_enabled() -> bool:
-    return os.environ.get(ENV_SWITCH, "").strip().lower() not in OFF_VALUES
-
-
 _SHARED: dict[tuple[str, bool, tuple[Path, ...]], PreparedCache] = {}
 
 
@@ -583,6 +534,6 @@ def prepared_cache() -> PreparedCache:
     setting = (str(cache_directory()), cache_enabled(), seeds)
     cache = _SHARED.get(setting)
     if cache is None:
-        directory = Path(setting[0]) / "textures"
+        directory = textures_directory()
         cache = _SHARED[setting] = PreparedCache(directory, setting[1], seeds=seeds)
     return cache

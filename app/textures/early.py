@@ -93,7 +93,16 @@ def decode_record(image, digest: str) -> tuple:  # image: PIL.Image.Image
 def decoded_before(image, digest: str) -> bool:  # image: PIL.Image.Image
     """Whether the prepared-texture cache records that the bytes of SHA-256 ``digest``
     decoded before as ``image``'s format: such an image is not decoded until its texels
-    are read (a warm render reads its prepared maps instead)."""
+    are read (a warm render reads its prepared maps instead). Before the cache's module is
+    imported its process's cache holds nothing in memory, and the disk is asked with the
+    standard library alone (app/textures/cache_keys.py): an early decode does not wait for
+    numpy's import on the main thread."""
+    import sys
+
+    if "app.textures.cache" not in sys.modules:
+        from app.textures.cache_keys import held_on_disk
+
+        return held_on_disk(DECODES, decode_record(image, digest))
     from app.textures.cache import prepared_cache
 
     return prepared_cache().holds(DECODES, decode_record(image, digest))
