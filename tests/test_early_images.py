@@ -375,3 +375,55 @@ def test_normal_spread_made_early(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     doc["materials"][0]["normalTexture"]["scale"] = 5e3  # past the reader's bound
     path.write_text(json.dumps(doc))
     assert early_images.normal_map_scales(path) == {}
+
+
+def test_colour_levels_made_early(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A colour map decoded early gets its levels from level 1 on made on the early
+    thread (``maps.start_colour_levels``); the reader's ``colour_texture`` takes them
+    (made once, not again) and they are the bits it makes itself. A map that is no square
+    power of two, or a still that samples level 0, leaves them unused."""
+    import hashlib
+
+    from app.scene import early_images
+    from app.textures import mips
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    texels = np.random.default_rng(12).integers(0, 256, (32, 32, 3), np.uint8)
+    encoded = io.BytesIO()
+    Image.fromarray(texels).save(encoded, format="PNG")
+    data = encoded.getvalue()
+    (tmp_path / "image0.png").write_bytes(data)
+    b = GltfBuilder()
+    b.doc.images.append(pygltflib.Image(uri="image0.png"))
+    b.doc.textures.append(pygltflib.Texture(source=len(b.doc.images) - 1))
+    info = pygltflib.TextureInfo(index=len(b.doc.textures) - 1)
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(baseColorTexture=info)
+    )
+    b.quad(material=b.material(material))
+    path = b.save(tmp_path / "model.gltf")
+    digest = hashlib.sha256(data).hexdigest()
+    made: list[tuple[int, ...]] = []
+    box = mips.srgb_box_levels
+
+    def counted(level0: np.ndarray) -> list[np.ndarray]:
+        made.append(level0.shape)
+        return box(level0)
+
+    monkeypatch.setattr(maps, "srgb_box_levels", counted)
+    early_images._start(path)
+    assert made == [(32, 32, 4)] and digest in maps._EARLY_LEVELS
+    image = maps.open_image(data, Budget(), "colour", decode_later=True)
+    levels = list(maps.colour_texture(image, 2).levels)
+    assert made == [(32, 32, 4)]  # taken, not made again
+    assert digest not in maps._EARLY_LEVELS
+    rgba = np.dstack([texels, np.full((32, 32), 255, np.uint8)])
+    expected = box(rgba[::-1].copy())[2:]
+    assert [lv.shape for lv in levels] == [(8, 8, 4), (4, 4, 4), (2, 2, 4), (1, 1, 4)]
+    for level, want in zip(levels, expected, strict=True):
+        np.testing.assert_array_equal(level, want[::-1])
+    odd = Image.fromarray(texels[:, :24])
+    odd.info[maps.SOURCE_DIGEST] = "not square"
+    maps.start_colour_levels(odd)
+    assert "not square" not in maps._EARLY_LEVELS

@@ -76,7 +76,9 @@ def _start(path: Path) -> None:
                 return
             try:
                 digest = _open(item[0], path, budget, skip_jpeg=item[1])
-                if digest is not None:
+                if digest is not None and item[1]:
+                    _colour_levels(digest)
+                elif digest is not None:
                     for scale in scales.get(item[0], ()):
                         _normal_spread(digest, scale)
             except Exception:  # the reader reports whatever is wrong, in its order
@@ -166,6 +168,21 @@ def _normal_spread(digest: str, scale: float) -> None:
         return
     image.info[SOURCE_DIGEST] = digest  # as maps.open_image records it
     auto_normal_filter(image, scale)
+
+
+def _colour_levels(digest: str) -> None:
+    """A colour map decoded early gets its levels from level 1 on made here, on the core
+    the imports leave idle (``maps.start_colour_levels``), where the reader would make
+    them while the scene's exposure waits for the base colour. Nothing where the reader
+    has taken the image already."""
+    from app.textures import early
+    from app.textures.maps import SOURCE_DIGEST, start_colour_levels
+
+    image = early.peek(digest)
+    if image is None:
+        return
+    image.info[SOURCE_DIGEST] = digest  # as maps.open_image records it
+    start_colour_levels(image)
 
 
 def _open(uri: str, path: Path, budget: Budget, skip_jpeg: bool = False) -> str | None:

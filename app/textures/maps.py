@@ -772,11 +772,11 @@ def colour_texture(image: Image.Image, first: int = 0) -> Texture:
         finest: Future = Future()  # the first level kept, handed over before the others
 
         def made() -> list[np.ndarray]:
-            texels = rows_up()[0]
             if not skipped:
+                texels = rows_up()[0]
                 finest.set_result(texels[::-1])
                 return srgb_box_levels(texels)
-            kept = srgb_box_levels(texels)[skipped:]
+            kept = _colour_levels_from_one(image)[skipped - 1 :]
             finest.set_result(kept[0][::-1])
             return kept
 
@@ -802,6 +802,60 @@ def colour_texture(image: Image.Image, first: int = 0) -> Texture:
         "colour rgba8 rows up", (_prepared_version(), key), layout, fill
     )
     return Texture([texels[::-1]], srgb=True, source_key=key)
+
+
+def start_colour_levels(image: Image.Image) -> None:
+    """Make the levels of colour map ``image`` from level 1 on, as ``colour_texture``
+    keeps them, on this thread, before the reader asks for them: a still render's early
+    decode of a colour map that is no JPEG (app/scene/early_images.py) calls this once the
+    image is decoded, while the main thread is still importing and framing the scene, so
+    that ``colour_texture`` finds them made instead of making them while the scene's
+    exposure waits for the base colour. Nothing where ``image`` (an image ``open_image``
+    reads by the digest of its bytes) is no square power-of-two map or its levels are
+    being made already. ``first`` is not known yet: level 1 is where a still frame's
+    levels start unless it samples the map's finest one, and then these go unused (a
+    third of the map's RGBA bytes, made on the core the imports leave idle)."""
+    digest = image.info.get(SOURCE_DIGEST)
+    side = image.width
+    if not isinstance(digest, str) or image.height != side or side < 2 or side & (side - 1):
+        return
+    done: Future = Future()
+    with _KEEP_LOCK:
+        if digest in _EARLY_LEVELS:
+            return
+        _EARLY_LEVELS[digest] = done
+    try:
+        done.set_result(srgb_box_levels(_rows_up_source(image))[1:])
+    except BaseException as exc:  # the reader makes them again and meets what failed
+        done.set_exception(exc)
+
+
+def _colour_levels_from_one(image: Image.Image) -> list[np.ndarray]:
+    """``srgb_box_levels`` of colour map ``image`` from level 1 on, rows bottom first:
+    those ``start_colour_levels`` made of it (waited for where they are being made),
+    once, else made here."""
+    digest = image.info.get(SOURCE_DIGEST)
+    with _KEEP_LOCK:
+        early = _EARLY_LEVELS.pop(digest, None) if isinstance(digest, str) else None
+    if early is not None and early.exception() is None:
+        return early.result()
+    return srgb_box_levels(_rows_up_source(image))[1:]
+
+
+# Levels from 1 on of colour maps decoded early (``start_colour_levels``), by the digest of
+# their image's bytes, until ``colour_texture`` takes them.
+_EARLY_LEVELS: dict[str, Future] = {}
+
+
+def _rows_up_source(image: Image.Image) -> np.ndarray:
+    """A colour map's RGBA texels rows bottom first, to make levels from that are kept
+    without it: a view of Pillow's storage read backwards where the image is RGB, stored
+    so and its padding byte 255 (what ``convert("RGBA")`` gives it), else a copy."""
+    decoded = _decoded(image)
+    view = rgbx_view(decoded) if decoded.mode == "RGB" else None
+    if view is not None and (view.size == 0 or view[..., 3].min() == 255):
+        return view[::-1]
+    return np.asarray(decoded.convert("RGBA"), np.uint8)[::-1]
 
 
 class PendingLevels(Sequence[np.ndarray]):
