@@ -156,3 +156,56 @@ def test_vanished_gl_entry_is_not_rebuilt_under_its_key(
     assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
     monkeypatch.undo()
     assert not cache_module.prepared_cache().holds(levels.gl_kind, levels.gl_parts)
+
+
+@pytest.mark.parametrize("first", [0, 1])
+def test_texels_read_in_place_give_the_same_levels(gl: GLContext, first: int) -> None:
+    """The maps' texels read in place (app/gl/texel_buffer.py: the decoded images' own
+    storage as buffer textures, GL_AMD_pinned_memory) and uploaded as textures give every
+    level bit for bit, with and without a roughness map; the roughness read is the
+    roughness image's (its green channel), not the normal map's."""
+    from app.gl.texel_buffer import has_pinned_memory
+
+    if not has_pinned_memory(gl.ctx):
+        pytest.skip(f"{gl.described}: no GL_AMD_pinned_memory")
+    normal, rough = _maps((37, 29), 5 + first)
+    for roughness in (rough, None):
+        source = ChainSource(normal, roughness, 1.3, 0.8, first)
+        levels = []
+        for in_place in (True, False):
+            chain = normal_chain.build_chain(gl.ctx, source, texel_buffers=in_place)
+            try:
+                levels.append(normal_chain.read_chain_levels(chain))
+            finally:
+                chain.release()
+        assert len(levels[0]) == len(levels[1])
+        for ours, theirs in zip(*levels, strict=True):
+            np.testing.assert_array_equal(ours, theirs)
+    swapped = ChainSource(normal, normal, 1.3, 0.8, first)  # the normal map's green instead
+    chain = normal_chain.build_chain(gl.ctx, swapped, texel_buffers=True)
+    try:
+        other = normal_chain.read_chain_levels(chain)
+    finally:
+        chain.release()
+    source = ChainSource(normal, rough, 1.3, 0.8, first)
+    chain = normal_chain.build_chain(gl.ctx, source, texel_buffers=True)
+    try:
+        assert not np.array_equal(normal_chain.read_chain_levels(chain)[0], other[0])
+    finally:
+        chain.release()
+
+
+def test_texels_uploaded_where_they_cannot_be_read_in_place(gl_egl: GLContext) -> None:
+    """A map whose decoded storage is not an RGB image's (an RGBA normal map) is uploaded
+    as a texture: the chain is the same as the RGB map's, and asking for the texels in
+    place is refused."""
+    normal, rough = _maps((16, 12), 9)
+    rgba = normal.convert("RGBA")
+    assert ChainSource(rgba, rough, 1.0, 1.0, 0).texels_in_place() is None
+    drawn = _drawn(gl_egl, ChainSource(rgba, rough, 1.0, 1.0, 0))
+    for ours, theirs in zip(drawn, _drawn(gl_egl, ChainSource(normal, rough, 1.0, 1.0, 0)),
+                            strict=True):  # fmt: skip
+        np.testing.assert_array_equal(ours, theirs)
+    with pytest.raises(ValueError, match="in place"):
+        normal_chain.build_chain(gl_egl.ctx, ChainSource(rgba, rough, 1.0, 1.0, 0),
+                                 texel_buffers=True)  # fmt: skip

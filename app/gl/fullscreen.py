@@ -17,10 +17,12 @@ framebuffer and sets it on ``use``) unless ``viewport`` sets another.
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Iterable, Mapping, Sequence
 
 import moderngl
 
+from app.gl.context import gl_function
 from app.gl.shaders import ShaderCache
 from app.gl.texture_storage import LevelFramebuffer
 
@@ -50,9 +52,24 @@ def bind_textures(program: moderngl.Program, textures: Textures, first_unit: int
     for name, texture in pairs:
         texture.use(unit)
         if name in program:
-            program[name].value = unit
+            uniform = program[name]
+            if uniform.gl_type == GL_SAMPLER_BUFFER:  # moderngl's setter drops these
+                _sampler_unit(program, uniform.location, unit)
+            else:
+                uniform.value = unit
         unit += 1
     return unit
+
+
+GL_SAMPLER_BUFFER = 0x8DC2  # a samplerBuffer uniform (app/gl/texel_buffer.py's textures)
+
+
+def _sampler_unit(program: moderngl.Program, location: int, unit: int) -> None:
+    """Point the sampler uniform at ``location`` of ``program`` at texture unit ``unit``
+    through the GL (moderngl 5.13 takes a samplerBuffer's value and sets nothing)."""
+    enum, int_ = ctypes.c_uint, ctypes.c_int
+    gl_function(program.ctx, "glUseProgram", [enum])(program.glo)
+    gl_function(program.ctx, "glUniform1i", [int_, int_])(location, unit)
 
 
 class FullscreenDraw:

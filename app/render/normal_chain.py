@@ -28,6 +28,7 @@ import numpy as np
 from app.gl.context import wait_before_read
 from app.gl.fullscreen import LevelDraws
 from app.gl.shaders import ShaderCache
+from app.gl.texel_buffer import PinnedMemoryError, PinnedTexels, has_pinned_memory
 from app.gl.texture_storage import (
     GL_HALF_FORMATS,
     GL_UNSIGNED_BYTE,
@@ -50,29 +51,44 @@ def supported(ctx: moderngl.Context) -> bool:
 
 
 def build_chain(
-    ctx: moderngl.Context, source: ChainSource, shaders: ShaderCache | None = None
+    ctx: moderngl.Context,
+    source: ChainSource,
+    shaders: ShaderCache | None = None,
+    texel_buffers: bool | None = None,
 ) -> moderngl.Texture:
     """The chain of ``source`` as an RGBA16F texture of levels ``source.first`` .. 1x1 of
     the map (its level 0 the map's level ``first``), rows bottom first; its sampler state is
     the caller's. ``shaders``: a cache of the same context for the three programs (else
     one of its own, released here). ``LevelFramebufferError`` where the GL refused a level
-    or reported an error (nothing is returned then: the caller builds on the CPU)."""
+    or reported an error (nothing is returned then: the caller builds on the CPU).
+
+    ``texel_buffers``: the maps' texels read in place, from the decoded images' storage
+    (app/gl/texel_buffer.py: no texture allocated, cleared and copied into), or uploaded as
+    textures (False); None: in place where the GL can and the images' storage is exported
+    (``ChainSource.texels_in_place``). The same texels either way, so the same levels."""
     h, w = source.shape
     first = source.first
     count = max(h, w).bit_length()  # levels 0 .. 1x1
-    made: list[moderngl.Texture] = []
+    made: list = []  # textures or PinnedTexels
     draws: LevelDraws | None = None
     chain: moderngl.Texture | None = None
     try:
         draws = LevelDraws(ctx, shaders)
         chain = allocated(ctx, (max(1, w >> first), max(1, h >> first)), 4, count - first,
                           GL_HALF_FORMATS[4])  # fmt: skip
-        normals = _source_texture(ctx, source.normal_texels())
-        made.append(normals)
-        roughness = source.roughness_texels()
-        rough = _source_texture(ctx, roughness) if roughness is not None else normals
-        if roughness is not None:
-            made.append(rough)
+        in_place = _texels_in_place(ctx, source, texel_buffers)
+        if in_place is not None:
+            made.extend(in_place)
+            normals, rough = in_place[0], in_place[-1]
+            roughness = rough if source.roughness_image is not None else None
+        else:
+            normals = _source_texture(ctx, source.normal_texels())
+            made.append(normals)
+            roughness = source.roughness_texels()
+            rough = _source_texture(ctx, roughness) if roughness is not None else normals
+            if roughness is not None:
+                made.append(rough)
+        buffers = {"CHAIN_TEXEL_BUFFERS": 1} if in_place is not None else {}
         moments = None
         if count > 1:
             moments = allocated(ctx, (max(1, w >> 1), max(1, h >> 1)), 4, count - 1,
@@ -88,14 +104,14 @@ def build_chain(
         maps = {"u_normals": normals, "u_roughness": rough}
         if first == 0:
             level0 = {**common, "u_child_size": (w, h), "u_size": (w, h), "u_level": 0}
-            draws.draw(FRAGMENT, {"CHAIN_STAGE": 0}, [(chain, 0)], level0, maps)
+            draws.draw(FRAGMENT, {"CHAIN_STAGE": 0, **buffers}, [(chain, 0)], level0, maps)
         child = (w, h)
         for k in range(1, count):
             size = (max(1, w >> k), max(1, h >> k))
             into = [(moments, k - 1)] + ([(chain, k - first)] if k >= first else [])
             uniforms = {**common, "u_child_size": child, "u_size": size, "u_level": k}
             if k == 1:
-                draws.draw(FRAGMENT, {"CHAIN_STAGE": 1}, into, uniforms, maps)
+                draws.draw(FRAGMENT, {"CHAIN_STAGE": 1, **buffers}, into, uniforms, maps)
             else:  # read: the level before, alone; written: level k - 1 of the moments
                 set_level_range(ctx, moments, k - 2, k - 2)
                 draws.draw(FRAGMENT, {"CHAIN_STAGE": 2}, into, uniforms, {"u_moments": moments})
@@ -135,6 +151,33 @@ def read_chain_levels(
     if into is None:
         return [read_level(chain, k) for k in range(count)]
     return [read_level(chain, k, out) for k, out in zip(range(count), into, strict=True)]
+
+
+def _texels_in_place(
+    ctx: moderngl.Context, source: ChainSource, wanted: bool | None
+) -> list[PinnedTexels] | None:
+    """The normal map's texels and, where ``source`` has one, the roughness image's, read
+    in place (``build_chain``'s ``texel_buffers``); None where they are uploaded instead."""
+    if wanted is False or not has_pinned_memory(ctx):
+        if wanted:
+            raise ValueError("this GL cannot read texels in place (GL_AMD_pinned_memory)")
+        return None
+    views = source.texels_in_place()
+    if views is None:
+        if wanted:
+            raise ValueError("the maps' decoded storage cannot be read in place")
+        return None
+    made: list[PinnedTexels] = []
+    try:
+        for view in views:
+            made.append(PinnedTexels(ctx, view))
+    except PinnedMemoryError:
+        for texels in made:
+            texels.release()
+        if wanted:
+            raise
+        return None
+    return made
 
 
 def _source_texture(ctx: moderngl.Context, texels: np.ndarray) -> moderngl.Texture:

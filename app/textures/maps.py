@@ -246,6 +246,22 @@ class ChainSource:
                 return view
         return rgb_texels(self.normal_image)
 
+    def texels_in_place(self) -> list[np.ndarray] | None:
+        """The normal map's and (where there is one) the roughness image's decoded storage
+        as (H, W, 4) uint8 views, the 4th byte Pillow's padding (app/textures/pillow_view.py
+        ``rgbx_view``), for the GL to read in place; None where either image is no RGB
+        image whose storage Pillow exports in one piece."""
+        views = []
+        for image in (self.normal_image, self.roughness_image):
+            if image is None:
+                continue
+            decoded = _decoded(image)
+            view = rgbx_view(decoded) if decoded.mode == "RGB" else None
+            if view is None:
+                return None
+            views.append(view)
+        return views
+
     def roughness_texels(self) -> np.ndarray | None:
         """The roughness image's green channel, (H, W) uint8, or None."""
         if self.roughness_image is None:

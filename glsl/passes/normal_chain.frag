@@ -11,8 +11,15 @@
 #include "common/footprint.glsl"
 #include "material/chain.glsl"
 
+#ifdef CHAIN_TEXEL_BUFFERS
+// The maps' texels read where they lie (app/gl/texel_buffer.py), row after row: texel
+// (x, y) of level 0 is element y * width + x.
+uniform samplerBuffer u_normals;    // the normal map's texels (RGBA UNORM, A unused)
+uniform samplerBuffer u_roughness;  // the roughness image's texels (RGBA UNORM): green
+#else
 uniform sampler2D u_normals;    // the normal map's texels (RGB UNORM), image rows
 uniform sampler2D u_roughness;  // the roughness channel (R UNORM), image rows
+#endif
 uniform bool u_has_roughness;   // else u_factor alone
 uniform float u_factor;         // the material's roughness factor
 uniform float u_scale;          // the material's normal scale
@@ -29,15 +36,23 @@ layout(location = 0) out vec4 moments_out;
 layout(location = 1) out vec4 chain_out;
 #endif
 
+#ifdef CHAIN_TEXEL_BUFFERS
+vec3 normal_texel(ivec2 p) { return texelFetch(u_normals, p.y * u_size0.x + p.x).rgb; }
+float roughness_texel(ivec2 p) { return texelFetch(u_roughness, p.y * u_size0.x + p.x).g; }
+#else
+vec3 normal_texel(ivec2 p) { return texelFetch(u_normals, p, 0).rgb; }
+float roughness_texel(ivec2 p) { return texelFetch(u_roughness, p, 0).r; }
+#endif
+
 float roughness_at(ivec2 p) {
-    return u_factor * (u_has_roughness ? texelFetch(u_roughness, p, 0).r : 1.0);
+    return u_factor * (u_has_roughness ? roughness_texel(p) : 1.0);
 }
 
 void main() {
     ivec2 out_px = ivec2(gl_FragCoord.xy);
     ivec2 p = ivec2(out_px.x, u_size.y - 1 - out_px.y);  // image rows
 #if CHAIN_STAGE == 0
-    vec3 n = chain_normal(texelFetch(u_normals, p, 0).rgb, u_scale);
+    vec3 n = chain_normal(normal_texel(p), u_scale);
     chain_out = vec4(n, roughness_at(p));
 #else
     ivec2 first = min(2 * p, u_child_size - 1);
@@ -52,7 +67,7 @@ void main() {
         float a2 = 0.0;
         for (int i = 0; i < 4; ++i) {
             ivec2 c = first + ivec2(i & 1, i >> 1);
-            s[i] = chain_slope(chain_normal(texelFetch(u_normals, c, 0).rgb, u_scale));
+            s[i] = chain_slope(chain_normal(normal_texel(c), u_scale));
             float r = roughness_at(c);
             a2 += (r * r) * (r * r);
         }
@@ -75,7 +90,7 @@ void main() {
             for (int x = first.x; x <= last.x; ++x) {
 #if CHAIN_STAGE == 1
                 ivec2 c = ivec2(x, y);
-                vec2 s = chain_slope(chain_normal(texelFetch(u_normals, c, 0).rgb, u_scale));
+                vec2 s = chain_slope(chain_normal(normal_texel(c), u_scale));
                 float r = roughness_at(c);
                 float r2 = r * r;
                 m = chain_merge(m, 1.0, s, 0.0, r2 * r2);
