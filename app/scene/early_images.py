@@ -37,7 +37,9 @@ _COLOUR_MAPS = (
     ("pbrMetallicRoughness", "baseColorTexture"),
     (None, "emissiveTexture"),
 )
-EARLY_THREADS = 2  # the images decode side by side, beside the imports
+# One thread: the imports keep a core of their own on a 2-core machine, and every image
+# is decoded before the reader needs it (docs/performance.md, "A real asset against f3d").
+EARLY_THREADS = 1
 _JPEG_SIGNATURE = b"\xff\xd8\xff"
 # A glTF JSON larger than this is left to the reader (the early start is for the common case).
 _MAX_JSON_BYTES = 16 << 20
