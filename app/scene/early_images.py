@@ -6,8 +6,10 @@ whatever the camera (app/scene/gltf.py: the finest level a still frame samples o
 decides where their levels start), and so is every colour map that is not a JPEG (only
 libjpeg decodes at a reduced size): they can be decoded before the file is validated.
 This reads the file's JSON with the standard library alone and decodes those images,
-the filtered maps' first, on ``EARLY_THREADS`` threads (app/textures/early.py), Pillow
-letting go of the GIL while it decodes. When the reader opens the same bytes (their digest) it takes
+the filtered maps' first, on a thread of its own (``EARLY_THREADS``; app/textures/early.py),
+Pillow letting go of the GIL while it decodes; a colour map's levels from level 1 on and a
+normal map's sampled spread are made there too, once it is decoded. When the reader opens
+the same bytes (their digest) it takes
 that image instead of decoding them again (``maps.open_image``); every check of the
 reader still runs there, in its order (header, budget, the broken image named by its
 key). Nothing found here is reported: a file, a URI or an image this cannot
