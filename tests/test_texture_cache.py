@@ -410,6 +410,32 @@ def test_prepare_looks_up_an_entry_in_the_background(tmp_path: Path) -> None:
         cache.prepare("test", ("broken",), broken).result()
 
 
+def test_kept_reads_and_never_builds(tmp_path: Path) -> None:
+    """``kept`` answers an entry kept in memory, on disk or in a seed (read-only, as
+    ``arrays`` answers it) and None where there is none, without building or storing
+    anything; ``prepare_kept`` does it on the background thread; a cache that is off keeps
+    nothing."""
+    seed = PreparedCache(tmp_path / "seed")
+    seed.arrays("test", ("seeded",), lambda: [np.ones(3)])
+    seed.flush()
+    cache = PreparedCache(tmp_path / "own", seeds=[tmp_path / "seed"])
+    cache.arrays("test", ("kept",), lambda: [np.arange(4.0)])
+    cache.flush()
+    assert cache.kept("test", ("missing",)) is None
+    assert cache.events == ["built"] and not cache.holds("test", ("missing",))
+    (held,) = cache.kept("test", ("kept",))
+    assert np.array_equal(held, np.arange(4.0)) and not held.flags.writeable
+    assert cache.events[-1] == "memory"
+    cache.clear_memory()
+    assert np.array_equal(cache.prepare_kept("test", ("kept",)).result()[0], np.arange(4.0))
+    assert cache.events[-1] == "disk"
+    assert cache.prepare_kept("test", ("missing",)).result() is None
+    assert np.array_equal(cache.kept("test", ("seeded",))[0], np.ones(3))
+    assert cache.events[-1] == "seed"
+    off = PreparedCache(tmp_path / "own", enabled=False)
+    assert off.kept("test", ("kept",)) is None
+
+
 @pytest.mark.parametrize("method", ["none", "variance"])
 def test_declared_upload_bytes_are_the_built_levels(
     method: str, monkeypatch: pytest.MonkeyPatch

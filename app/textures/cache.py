@@ -271,6 +271,29 @@ class PreparedCache:
             self.events.append("built")
             return tuple(np.asarray(a) for a in build())
         key = entry_key(kind, parts)
+        arrays = self._looked_up(key)
+        if arrays is not None:
+            return arrays
+        arrays = tuple(np.ascontiguousarray(a) for a in build())
+        self._write(key, arrays)
+        self.events.append("built")
+        for a in arrays:
+            a.setflags(write=False)
+        self._remember(key, arrays)
+        return arrays
+
+    def kept(self, kind: str, parts: Iterable[Part]) -> tuple[np.ndarray, ...] | None:
+        """``arrays(kind, parts, ...)`` where the entry is kept (in memory, on disk or in a
+        seed), None where it is not: nothing is built. For arrays that only another maker
+        makes (the levels the GL drew, app/textures/maps.py ``PreparedLevels.prefetch``),
+        which a build here would store under their key with other bits."""
+        if not self.enabled:
+            return None
+        return self._looked_up(entry_key(kind, parts))
+
+    def _looked_up(self, key: str) -> tuple[np.ndarray, ...] | None:
+        """Entry ``key`` from memory, else from disk (checksum verified), else from a seed,
+        read-only and remembered in memory; None where none has it."""
         with self._lock:
             held = self._memory.get(key)
             if held is not None:
@@ -283,9 +306,7 @@ class PreparedCache:
         elif (arrays := self._seeded(key)) is not None:
             self.events.append("seed")
         else:
-            arrays = tuple(np.ascontiguousarray(a) for a in build())
-            self._write(key, arrays)
-            self.events.append("built")
+            return None
         for a in arrays:
             a.setflags(write=False)
         self._remember(key, arrays)
@@ -351,6 +372,10 @@ class PreparedCache:
         where ``build`` raised one)."""
         parts = tuple(parts)
         return _preparer().submit(self.arrays, kind, parts, build)
+
+    def prepare_kept(self, kind: str, parts: Iterable[Part]) -> Future:
+        """``kept(kind, parts)`` on the background thread ``prepare`` uses, started now."""
+        return _preparer().submit(self.kept, kind, tuple(parts))
 
     def flush(self) -> None:
         """Wait until every entry handed to the writer is on disk."""

@@ -154,7 +154,7 @@ class PreparedLevels(Sequence[np.ndarray]):
         kind = _UPLOAD_KIND % self.kind
         if self.gl_source is not None and gl:
             if prepared_cache().holds(kind, self.gl_parts):
-                self._prefetched = prepared_cache().prepare(kind, self.gl_parts, _not_kept)
+                self._prefetched = prepared_cache().prepare_kept(kind, self.gl_parts)
             return
         self._prefetched = prepared_cache().prepare(kind, self.parts, self._upload_build)
 
@@ -180,10 +180,10 @@ class PreparedLevels(Sequence[np.ndarray]):
         """Every level as the GL takes it: float16, rows bottom first, contiguous (the
         CPU's where the GL-built levels a prefetch looked for were gone by then)."""
         if self._prefetched is not None:
-            try:
-                return list(self._prefetched.result())
-            except NotKeptError:
-                self._prefetched = None
+            prefetched = self._prefetched.result()
+            if prefetched is not None:
+                return list(prefetched)
+            self._prefetched = None  # the GL-built levels were gone by the time it read
         kind = _UPLOAD_KIND % self.kind
         return list(prepared_cache().arrays(kind, self.parts, self._upload_build))
 
@@ -196,15 +196,6 @@ class PreparedLevels(Sequence[np.ndarray]):
 
 
 _UPLOAD_KIND = "%s f16 rows up"  # the cache kind of a chain's float16 levels
-
-
-class NotKeptError(LookupError):
-    """A prefetch of a GL-built chain found no entry (removed since ``holds``): such levels
-    are made by the GL's upload, never by a CPU build stored under their key."""
-
-
-def _not_kept() -> list[np.ndarray]:
-    raise NotKeptError("the GL-built levels are no longer kept")
 
 
 # A key part of the float16 levels of a chain the GL built (app/render/normal_chain.py):
