@@ -18,13 +18,13 @@ import moderngl
 import numpy as np
 
 from app.gl.context import gl_function
+from app.gl.texture_storage import GL_RGBA8
 
 GL_EXTERNAL_VIRTUAL_MEMORY_BUFFER_AMD = 0x9160
 GL_TEXTURE_BUFFER = 0x8C2A
 GL_TEXTURE0 = 0x84C0
 GL_STATIC_DRAW = 0x88E4
 GL_NO_ERROR = 0
-GL_RGBA8, GL_R8 = 0x8058, 0x8229
 
 
 class PinnedMemoryError(RuntimeError):
@@ -38,9 +38,9 @@ def has_pinned_memory(ctx: moderngl.Context) -> bool:
 
 
 class PinnedTexels:
-    """A C-contiguous uint8 array of (H, W, 4) or (H, W) texels read by the GL in place, as
-    a buffer texture of GL_RGBA8 or GL_R8 texels: texel (x, y) is ``texelFetch(sampler,
-    y * W + x)`` of a ``samplerBuffer``. The array is kept alive until ``release``, which
+    """A C-contiguous uint8 array of (H, W, 4) texels read by the GL in place, as a buffer
+    texture of GL_RGBA8 texels: texel (x, y) is ``texelFetch(sampler, y * W + x)`` of a
+    ``samplerBuffer``. The array is kept alive until ``release``, which
     waits for the GL's queued passes first (they may still read it). ``use(unit)`` binds
     it as ``moderngl.Texture.use`` binds a texture (app/gl/fullscreen.py
     ``bind_textures``). ``PinnedMemoryError`` where the GL refuses the memory."""
@@ -48,14 +48,11 @@ class PinnedTexels:
     def __init__(self, ctx: moderngl.Context, texels: np.ndarray) -> None:
         if texels.dtype != np.uint8 or not texels.flags.c_contiguous:
             raise ValueError("pinned texels must be C-contiguous uint8")
-        if texels.ndim == 3 and texels.shape[2] == 4:
-            internal = GL_RGBA8
-        elif texels.ndim == 2:
-            internal = GL_R8
-        else:
-            raise ValueError(f"pinned texels of shape {texels.shape}: (H, W, 4) or (H, W)")
+        if texels.ndim != 3 or texels.shape[2] != 4:
+            raise ValueError(f"pinned texels of shape {texels.shape}: (H, W, 4) expected")
         self.ctx = ctx
         self._texels: np.ndarray | None = texels
+        self._buffer = self._texture = 0  # the GL's names, 0 until made
         uint, enum, size = ctypes.c_uint, ctypes.c_uint, ctypes.c_int
         self._bind_texture = gl_function(ctx, "glBindTexture", [enum, uint])
         self._active = gl_function(ctx, "glActiveTexture", [enum])
@@ -77,7 +74,7 @@ class PinnedTexels:
         self._texture = texture.value
         self._bind_texture(GL_TEXTURE_BUFFER, self._texture)
         gl_function(ctx, "glTexBuffer", [enum, enum, uint])(
-            GL_TEXTURE_BUFFER, internal, self._buffer
+            GL_TEXTURE_BUFFER, GL_RGBA8, self._buffer
         )
         self._bind_texture(GL_TEXTURE_BUFFER, 0)
         if error() != GL_NO_ERROR:
@@ -100,7 +97,7 @@ class PinnedTexels:
 
     def _delete(self) -> None:
         uint, size = ctypes.c_uint, ctypes.c_int
-        if getattr(self, "_texture", 0):
+        if self._texture:
             name = uint(self._texture)
             gl_function(self.ctx, "glDeleteTextures", [size, ctypes.POINTER(uint)])(
                 1, ctypes.byref(name)

@@ -22,6 +22,7 @@ GL_UNPACK_ALIGNMENT, GL_PACK_ALIGNMENT = 0x0CF5, 0x0D05
 GL_HALF_FLOAT = 0x140B
 GL_UNSIGNED_BYTE = 0x1401
 GL_SRGB8_ALPHA8 = 0x8C43  # colour maps: decoded to linear on fetch
+GL_RGBA8, GL_R8, GL_RGBA32F = 0x8058, 0x8229, 0x8814  # 8-bit maps' texels, float moments
 # 16-bit float internal formats and the client formats of 1-4 components.
 GL_HALF_FORMATS = {1: 0x822D, 2: 0x822F, 3: 0x881B, 4: 0x881A}  # R16F ... RGBA16F
 GL_FRAMEBUFFER = 0x8D40

@@ -31,6 +31,9 @@ from app.gl.shaders import ShaderCache
 from app.gl.texel_buffer import PinnedMemoryError, PinnedTexels, has_pinned_memory
 from app.gl.texture_storage import (
     GL_HALF_FORMATS,
+    GL_R8,
+    GL_RGBA8,
+    GL_RGBA32F,
     GL_UNSIGNED_BYTE,
     allocated,
     has_texture_storage,
@@ -41,7 +44,6 @@ from app.gl.texture_storage import (
 from app.textures.maps import ChainSource
 
 FRAGMENT = "passes/normal_chain.frag"
-GL_RGBA8, GL_R8, GL_RGBA32F = 0x8058, 0x8229, 0x8814
 
 
 def supported(ctx: moderngl.Context) -> bool:
