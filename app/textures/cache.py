@@ -71,7 +71,6 @@ _LOG = logging.getLogger(__name__)
 
 MEMORY_BYTES = 1 << 30  # in-process entries kept (DamagedHelmet's prepared maps: ~140 MiB)
 DISK_BYTES = 4 << 30  # on-disk entries kept
-_SUFFIX = SUFFIX
 _TEMPORARY = ".tmp-"  # prefix of an entry being written (renamed into place when whole)
 _STALE_NS = 3600 * 10**9  # a temporary file this old was left by a killed process
 _ALIGN = 64
@@ -166,7 +165,7 @@ class _InPlace:
         self.data_start = len(self.head) + len(prefix)
         size = self.data_start + data_size
         directory.mkdir(parents=True, exist_ok=True)
-        fd, self.temporary = tempfile.mkstemp(prefix=_TEMPORARY, suffix=_SUFFIX, dir=directory)
+        fd, self.temporary = tempfile.mkstemp(prefix=_TEMPORARY, suffix=SUFFIX, dir=directory)
         try:
             # The file's blocks reserved before it is mapped: a write into a mapped sparse
             # file that finds the disk full is a SIGBUS, not an OSError; here it is an
@@ -270,7 +269,10 @@ class PreparedCache:
         if not self.enabled:
             self.events.append("built")
             return tuple(np.asarray(a) for a in build())
-        key = entry_key(kind, parts)
+        return self._keyed(entry_key(kind, parts), build)
+
+    def _keyed(self, key: str, build: Callable[[], Sequence[np.ndarray]]) -> tuple[np.ndarray, ...]:
+        """``arrays`` of the entry ``key`` (the cache on)."""
         arrays = self._looked_up(key)
         if arrays is not None:
             return arrays
@@ -333,18 +335,17 @@ class PreparedCache:
 
         if not self.enabled or self.directory is None:
             return self.arrays(kind, parts, in_memory)
-        parts = tuple(parts)
         key = entry_key(kind, parts)
         with self._lock:
             writing = key in self._writing
-        if writing or self.holds(kind, parts):  # read (after its write) as ``arrays`` reads
-            return self.arrays(kind, parts, in_memory)
+        if writing or self._holds(key):  # read (after its write) as ``arrays`` reads
+            return self._keyed(key, in_memory)
         try:
             entry = _InPlace(self.directory, layout)
         except (OSError, ValueError) as exc:  # no room, or a file system that cannot map
             # (or reserve: posix_fallocate)
             _LOG.debug("texture cache: %s not made in place (%s)", key, exc)
-            return self.arrays(kind, parts, in_memory)
+            return self._keyed(key, in_memory)
         try:
             fill(entry.arrays)
         except BaseException:
@@ -408,9 +409,9 @@ class PreparedCache:
     def holds(self, kind: str, parts: Iterable[Part]) -> bool:
         """Whether an entry of ``arrays(kind, parts, ...)`` is at hand (in memory, on
         disk or in a seed), without reading or checking it."""
-        if not self.enabled:
-            return False
-        key = entry_key(kind, parts)
+        return self.enabled and self._holds(entry_key(kind, parts))
+
+    def _holds(self, key: str) -> bool:
         with self._lock:
             if key in self._memory:
                 return True
@@ -418,7 +419,7 @@ class PreparedCache:
 
     def path(self, key: str) -> Path | None:
         """Where entry ``key`` lives on disk (None without a directory)."""
-        return None if self.directory is None else self.directory / f"{key}{_SUFFIX}"
+        return None if self.directory is None else self.directory / f"{key}{SUFFIX}"
 
     def _read(self, key: str) -> tuple[np.ndarray, ...] | None:
         writing = self._writing.get(key)
@@ -441,7 +442,7 @@ class PreparedCache:
         """Entry ``key`` from the first seed folder that holds a readable one (read-only:
         never refreshed, and a bad one is left where it is and skipped)."""
         for seed in self.seeds:
-            path = seed / f"{key}{_SUFFIX}"
+            path = seed / f"{key}{SUFFIX}"
             if not path.is_file():
                 continue
             try:
@@ -473,7 +474,7 @@ class PreparedCache:
             return
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=_TEMPORARY, suffix=_SUFFIX, dir=path.parent)
+            fd, tmp = tempfile.mkstemp(prefix=_TEMPORARY, suffix=SUFFIX, dir=path.parent)
             try:
                 with os.fdopen(fd, "wb") as out:
                     write_entry(out, arrays)
@@ -503,7 +504,7 @@ class PreparedCache:
         assert self.directory is not None
         entries = []
         now = time.time_ns()
-        for entry in self.directory.glob(f"*{_SUFFIX}"):
+        for entry in self.directory.glob(f"*{SUFFIX}"):
             try:
                 stat = entry.stat()
             except OSError:
