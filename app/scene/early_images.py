@@ -164,14 +164,11 @@ def _normal_spread(digest: str, scale: float) -> None:
     prepared-texture cache under the key the reader's call looks up): made here, on the
     core the imports leave idle, where the reader would make it while reading the scene.
     Nothing where the reader has taken the image already."""
-    from app.textures import early
-    from app.textures.maps import SOURCE_DIGEST, auto_normal_filter
+    from app.textures.maps import auto_normal_filter
 
-    image = early.peek(digest)
-    if image is None:
-        return
-    image.info[SOURCE_DIGEST] = digest  # as maps.open_image records it
-    auto_normal_filter(image, scale)
+    image = _decoded_early(digest)
+    if image is not None:
+        auto_normal_filter(image, scale)
 
 
 def _colour_levels(digest: str) -> None:
@@ -179,14 +176,24 @@ def _colour_levels(digest: str) -> None:
     the imports leave idle (``maps.start_colour_levels``), where the reader would make
     them while the scene's exposure waits for the base colour. Nothing where the reader
     has taken the image already."""
+    from app.textures.maps import start_colour_levels
+
+    image = _decoded_early(digest)
+    if image is not None:
+        start_colour_levels(image)
+
+
+def _decoded_early(digest: str):  # -> PIL.Image.Image | None
+    """The image decoded early from the bytes of ``digest``, its digest recorded as
+    ``maps.open_image`` records it (the key of what is made of it); None where the reader
+    has taken it already."""
     from app.textures import early
-    from app.textures.maps import SOURCE_DIGEST, start_colour_levels
+    from app.textures.maps import SOURCE_DIGEST
 
     image = early.peek(digest)
-    if image is None:
-        return
-    image.info[SOURCE_DIGEST] = digest  # as maps.open_image records it
-    start_colour_levels(image)
+    if image is not None:
+        image.info[SOURCE_DIGEST] = digest
+    return image
 
 
 def _open(uri: str, path: Path, budget: Budget, skip_jpeg: bool = False) -> str | None:

@@ -230,28 +230,17 @@ class ChainSource:
     def normal_texels(self) -> np.ndarray:
         """The normal map's 8-bit texels, (H, W, 4) where Pillow's storage can be read
         in place (the 4th byte its padding), else (H, W, 3)."""
-        source = _decoded(self.normal_image)
-        if source.mode == "RGB":
-            view = rgbx_view(source)
-            if view is not None:
-                return view
-        return rgb_texels(self.normal_image)
+        view = _stored_rgbx(self.normal_image)
+        return view if view is not None else rgb_texels(self.normal_image)
 
     def texels_in_place(self) -> list[np.ndarray] | None:
         """The normal map's and (where there is one) the roughness image's decoded storage
         as (H, W, 4) uint8 views, the 4th byte Pillow's padding (app/textures/pillow_view.py
         ``rgbx_view``), for the GL to read in place; None where either image is no RGB
         image whose storage Pillow exports in one piece."""
-        views = []
-        for image in (self.normal_image, self.roughness_image):
-            if image is None:
-                continue
-            decoded = _decoded(image)
-            view = rgbx_view(decoded) if decoded.mode == "RGB" else None
-            if view is None:
-                return None
-            views.append(view)
-        return views
+        images = (self.normal_image, self.roughness_image)
+        views = [_stored_rgbx(image) for image in images if image is not None]
+        return None if any(view is None for view in views) else views
 
     def roughness_texels(self) -> np.ndarray | None:
         """The roughness image's green channel, (H, W) uint8, or None."""
@@ -854,15 +843,22 @@ def _colour_levels_from_one(image: Image.Image) -> list[np.ndarray]:
 _EARLY_LEVELS: dict[str, Future] = {}
 
 
+def _stored_rgbx(image: Image.Image) -> np.ndarray | None:
+    """``image`` decoded, its storage as an (H, W, 4) view where it is an RGB image whose
+    storage Pillow exports in one piece (``pillow_view.rgbx_view``: the 4th byte its
+    padding); else None."""
+    decoded = _decoded(image)
+    return rgbx_view(decoded) if decoded.mode == "RGB" else None
+
+
 def _rows_up_source(image: Image.Image) -> np.ndarray:
     """A colour map's RGBA texels rows bottom first, to make levels from that are kept
     without it: a view of Pillow's storage read backwards where the image is RGB, stored
     so and its padding byte 255 (what ``convert("RGBA")`` gives it), else a copy."""
-    decoded = _decoded(image)
-    view = rgbx_view(decoded) if decoded.mode == "RGB" else None
+    view = _stored_rgbx(image)
     if view is not None and (view.size == 0 or view[..., 3].min() == 255):
         return view[::-1]
-    return np.asarray(decoded.convert("RGBA"), np.uint8)[::-1]
+    return np.asarray(_decoded(image).convert("RGBA"), np.uint8)[::-1]
 
 
 class PendingLevels(Sequence[np.ndarray]):
