@@ -758,8 +758,7 @@ def colour_texture(image: Image.Image, first: int = 0) -> Texture:
         rows_up_into(texels)
         return [texels]
 
-    side = image.width
-    square = image.height == side and side & (side - 1) == 0
+    square = _square_power_of_two(image)
     skipped = first if square and not image.info.get(REDUCED_LEVELS) else 0
     if square and (image.info.get(REDUCED_LEVELS) or skipped):
         # A DCT-scaled level is not the GL's level n anyway, and a whole map's level n is
@@ -812,8 +811,7 @@ def start_colour_levels(image: Image.Image) -> None:
     levels start unless it samples the map's finest one, and then these go unused (a
     third of the map's RGBA bytes, made on the core the imports leave idle)."""
     digest = image.info.get(SOURCE_DIGEST)
-    side = image.width
-    if not isinstance(digest, str) or image.height != side or side < 2 or side & (side - 1):
+    if not isinstance(digest, str) or not _square_power_of_two(image) or image.width < 2:
         return
     done: Future = Future()
     with _KEEP_LOCK:
@@ -841,6 +839,13 @@ def _colour_levels_from_one(image: Image.Image) -> list[np.ndarray]:
 # Levels from 1 on of colour maps decoded early (``start_colour_levels``), by the digest of
 # their image's bytes, until ``colour_texture`` takes them.
 _EARLY_LEVELS: dict[str, Future] = {}
+
+
+def _square_power_of_two(image: Image.Image) -> bool:
+    """Whether ``image`` is square with a power-of-two side: a map whose levels are made
+    here on the CPU (``colour_texture``'s 2x2 boxes halve it exactly)."""
+    side = image.width
+    return image.height == side and side & (side - 1) == 0
 
 
 def _stored_rgbx(image: Image.Image) -> np.ndarray | None:
