@@ -1,8 +1,6 @@
-"""Camera matrices (column-vector convention, float64).
-
-pyrr builds its matrices for row vectors (``v @ M``); they are transposed here once so
-that the rest of the code reads like the maths (``M @ v``). For upload to GL, whose
-uniforms are column-major, ``gl_bytes`` writes ``M.T`` in C order.
+"""Camera matrices (column-vector convention, float64: the code reads like the maths,
+``M @ v``). For upload to GL, whose uniforms are column-major, ``gl_bytes`` writes
+``M.T`` in C order.
 """
 
 from __future__ import annotations
@@ -10,30 +8,44 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pyrr import matrix44
 
 from app.common.camera import CameraFrame
 from app.scene.loader import LoadedScene
 from app.scene.model import Camera
 
 
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.sqrt(np.sum(v * v))
+
+
 def view_matrix(cam: Camera) -> np.ndarray:
-    """World -> view (right-handed, looking down -Z)."""
-    m = matrix44.create_look_at(
-        np.array(cam.position, np.float64),
-        np.array(cam.target, np.float64),
-        np.array(cam.up, np.float64),
-        dtype=np.float64,
-    )
-    return np.asarray(m, np.float64).T
+    """World -> view (right-handed, looking down -Z; gluLookAt's matrix): the rows are
+    the camera's right, up and backward axes, and the translation moves the eye to the
+    origin."""
+    eye = np.array(cam.position, np.float64)
+    forward = _unit(np.array(cam.target, np.float64) - eye)
+    right = _unit(np.cross(forward, np.array(cam.up, np.float64)))
+    up = _unit(np.cross(right, forward))
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = right, up, -forward
+    m[:3, 3] = -np.dot(right, eye), -np.dot(up, eye), np.dot(forward, eye)
+    return m
 
 
 def projection_matrix(cam: Camera, aspect: float) -> np.ndarray:
-    """View -> clip, OpenGL depth range [-1, 1]."""
-    m = matrix44.create_perspective_projection(
-        cam.fov_y, aspect, cam.near, cam.far, dtype=np.float64
-    )
-    return np.asarray(m, np.float64).T
+    """View -> clip, OpenGL depth range [-1, 1] (gluPerspective's matrix, ``fov_y`` in
+    degrees): x and y scaled by near over the near plane's half extents, z mapped so that
+    -near and -far land on -1 and 1, w = -z."""
+    near, far = float(cam.near), float(cam.far)
+    half_h = near * math.tan(cam.fov_y * math.pi / 360.0)
+    half_w = half_h * aspect
+    m = np.zeros((4, 4))
+    m[0, 0] = near / half_w
+    m[1, 1] = near / half_h
+    m[2, 2] = -(far + near) / (far - near)
+    m[2, 3] = -2.0 * far * near / (far - near)
+    m[3, 2] = -1.0
+    return m
 
 
 def gl_bytes(m: np.ndarray) -> bytes:

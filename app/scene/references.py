@@ -12,7 +12,7 @@ its target exists or not, and nothing outside is ever opened.
 - glTF / GLB (an opened ``GltfDocument``): every ``buffers[i].uri`` and ``images[i].uri``
   that is not a ``data:`` URI must name a plain file (relative to the glTF,
   percent-decoded as glTF 2.0 says); an image's header must open as a format pbs reads.
-  Every name in ``extensionsRequired`` must be in ``SUPPORTED_EXTENSIONS``.
+  Every name in ``extensionsRequired`` must be one pbs reads (``extension_read``).
 - OBJ: every ``mtllib`` must name a plain text file, and every map in it that the project
   reads (``MTL_MAP_KEYWORDS``: ``map_Kd``, ``map_Pr``, ``map_Pm``, ``norm``, ``map_Ke``,
   ``map_d``) an image, relative to the MTL's folder.
@@ -23,6 +23,7 @@ from __future__ import annotations
 import io
 import re
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,7 +40,6 @@ from app.untrusted.policy import InputPolicy
 # glTF extensions a file may *require* (docs/scene-format.md, "Mesh files"): those the
 # reader (app/scene/gltf.py) decodes, the material extensions it hands to
 # app/scene/gltf_extensions.py, and KHR_lights_punctual (lights are optional to draw).
-# EXT_meshopt_compression only where the optional meshoptimizer package imports.
 SUPPORTED_EXTENSIONS: frozenset[str] = frozenset(
     {
         "KHR_draco_mesh_compression",
@@ -50,9 +50,21 @@ SUPPORTED_EXTENSIONS: frozenset[str] = frozenset(
         "KHR_materials_variants",
         *MATERIAL_EXTENSIONS,
     }
-    | ({"EXT_texture_webp"} if features.check("webp") else set())
-    | ({"EXT_meshopt_compression"} if meshopt_available() else set())
 )
+# And those whose decoder is optional: asked only when a file requires one, so that no
+# render imports meshoptimizer or probes Pillow's codecs for files that need neither.
+OPTIONAL_EXTENSIONS: dict[str, Callable[[], bool]] = {
+    "EXT_texture_webp": lambda: features.check("webp"),
+    "EXT_meshopt_compression": meshopt_available,
+}
+
+
+def extension_read(name: str) -> bool:
+    """Whether pbs reads a file that requires the glTF extension ``name``."""
+    return name in SUPPORTED_EXTENSIONS or (
+        name in OPTIONAL_EXTENSIONS and OPTIONAL_EXTENSIONS[name]()
+    )
+
 
 # Hints for required extensions users meet most (a Draco .glb used to draw nothing).
 _HINTS = {
@@ -103,7 +115,7 @@ def _ktx2_only(doc: GltfDocument) -> set[int]:
 def gltf_problem(doc: GltfDocument, path: Path, policy: InputPolicy) -> str | None:
     """The first problem with a glTF/GLB's required extensions or referenced files."""
     for name in doc.extensionsRequired or []:
-        if name not in SUPPORTED_EXTENSIONS:
+        if not extension_read(name):
             what = f" ({_HINTS[name]})" if name in _HINTS else ""
             return (
                 f"{path} requires the glTF extension {name}{what}, which pbs does not "

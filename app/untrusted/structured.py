@@ -12,7 +12,6 @@ refuse them with the key that holds one).
 from __future__ import annotations
 
 import json
-import tomllib
 from typing import Any
 
 from app.untrusted import RefusedError
@@ -61,6 +60,8 @@ def parse_json(text: str | bytes, max_nesting: int, constants: bool = False) -> 
 
 def parse_toml(text: str, max_nesting: int) -> dict[str, Any]:
     """TOML ``text``; ``RefusedError`` where it is malformed or nests past ``max_nesting``."""
+    import tomllib  # here: a model file's render reads no TOML
+
     try:
         data = tomllib.loads(text)
     except RecursionError:
