@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import ctypes
 import logging
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from typing import TypeVar
 
 import moderngl
 import numpy as np
@@ -34,6 +35,7 @@ from app.textures.cache import prepared_cache
 from app.textures.maps import PreparedLevels, Texture, upload_levels
 
 _LOG = logging.getLogger(__name__)
+_Drawn = TypeVar("_Drawn")  # what a GL draw of kept levels made (a texture)
 
 # Isotropic trilinear filtering. llvmpipe's anisotropic filter (GL_EXT_texture_filter_
 # anisotropic) stepped between mip levels on the receding floor of
@@ -126,7 +128,7 @@ def upload_texture(
             gl_tex = allocated(ctx, (w, h), 4, max(w, h).bit_length(), GL_SRGB8_ALPHA8)
             write_level0(gl_tex, 4, np.ascontiguousarray(level0[::-1]), GL_UNSIGNED_BYTE)
             try:
-                if tex.source_key is None or not prepared_cache().enabled:  # none to keep
+                if tex.source_key is None:  # none to keep
                     draw_srgb_mips(ctx, gl_tex, shaders)
                 else:
                     _srgb_mips(ctx, gl_tex, tex.source_key, shaders)
@@ -154,33 +156,59 @@ def _gl_builds(ctx: moderngl.Context, levels: PreparedLevels) -> bool:
     return levels.gl_source is not None and not levels.prefetched() and normal_chain.supported(ctx)
 
 
+def _drawn_or_kept(
+    kind: str,
+    parts: tuple[str, ...],
+    layout: list[tuple[tuple[int, ...], type]],
+    draw: Callable[[], _Drawn],
+    read_back: Callable[[_Drawn, tuple[np.ndarray, ...]], None],
+    release: Callable[[_Drawn], None] = lambda _: None,
+) -> tuple[_Drawn | None, tuple[np.ndarray, ...]]:
+    """The flow of the levels the GL draws that the prepared-texture cache keeps (the
+    normal/roughness chain, a colour map's mips): with the cache off, ``draw()`` alone
+    and nothing read back; else the entry (``kind``, ``parts``) of ``layout``'s arrays,
+    on a miss drawn now and read back into it (``PreparedCache.filled``) and returned
+    with what ``draw`` made, on a hit its kept arrays alone (None drawn), which the
+    caller defines its texture from. What ``draw`` made is released where the entry
+    fails after it."""
+    cache = prepared_cache()
+    if not cache.enabled:
+        return draw(), ()
+    made: list[_Drawn] = []
+
+    def fill(into: tuple[np.ndarray, ...]) -> None:
+        made.append(draw())
+        read_back(made[0], into)
+
+    try:
+        kept = cache.filled(kind, parts, layout, fill)
+    except BaseException:
+        for drawn in made:
+            release(drawn)
+        raise
+    return (made[0] if made else None), kept
+
+
 def _gl_chain(
     ctx: moderngl.Context, levels: PreparedLevels, shaders: ShaderCache | None
 ) -> moderngl.Texture:
     """The chain's texture: the levels the GL built before where the prepared-texture
-    cache keeps them (uploaded), else drawn now and read back for the cache (not read back
-    where the cache is off); built on the CPU where the GL refuses to draw it."""
+    cache keeps them (uploaded), else drawn now (``_drawn_or_kept``); built on the CPU
+    where the GL refuses to draw it."""
     assert levels.gl_source is not None
     source = levels.gl_source
-    cache = prepared_cache()
+    layout = [(shape, np.float16) for shape in normal_chain.level_shapes(source)]
     try:
-        if not cache.enabled:
-            return normal_chain.build_chain(ctx, source, shaders)
-        made: list[moderngl.Texture] = []
-
-        def fill(into: tuple[np.ndarray, ...]) -> None:
-            made.append(normal_chain.build_chain(ctx, source, shaders))
-            normal_chain.read_chain_levels(made[0], into)
-
-        layout = [(shape, np.float16) for shape in normal_chain.level_shapes(source)]
-        try:
-            kept = cache.filled(levels.gl_kind, levels.gl_parts, layout, fill)
-        except BaseException:
-            for texture in made:
-                texture.release()
-            raise
-        if made:
-            return made[0]
+        chain, kept = _drawn_or_kept(
+            levels.gl_kind,
+            levels.gl_parts,
+            layout,
+            lambda: normal_chain.build_chain(ctx, source, shaders),
+            normal_chain.read_chain_levels,
+            lambda texture: texture.release(),
+        )
+        if chain is not None:
+            return chain
     except LevelFramebufferError:
         _LOG.warning("the GL did not draw a normal/roughness chain; built on the CPU")
         kept = levels.upload_levels()
@@ -268,7 +296,7 @@ def _srgb_mips(
     """A colour map's mips (app/render/srgb_mips.py), kept in the prepared-texture cache
     (app/textures/cache.py) by the image file's content and the GL's renderer and version:
     drawn and read back the first time, defined from the kept bytes after that (the same
-    bytes, so the same texture, without a pass over a 2048^2 map)."""
+    bytes, so the same texture, without a pass over a 2048^2 map): ``_drawn_or_kept``."""
     info = ctx.info
     parts = (
         "srgb8 mips",
@@ -277,20 +305,20 @@ def _srgb_mips(
         str(info.get("GL_VERSION")),
         srgb_mips.code_version(),  # the program that draws them
     )
-
     w, h = gl_tex.size
     count = max(w, h).bit_length()  # levels 1 .. floor(log2(max side))
     sizes = [max(1, w >> k) * max(1, h >> k) * gl_tex.components for k in range(1, count)]
 
-    def fill(into: tuple[np.ndarray, ...]) -> None:
-        built.append(True)
+    def draw() -> moderngl.Texture:
         draw_srgb_mips(ctx, gl_tex, shaders)
+        return gl_tex
+
+    def read_back(drawn: moderngl.Texture, into: tuple[np.ndarray, ...]) -> None:
         wait_before_read(ctx)  # llvmpipe waits on its own only for the bound framebuffer
         for k, out in zip(range(1, count), into, strict=True):
-            read_level(gl_tex, k, out)
+            read_level(drawn, k, out)
 
-    built: list[bool] = []
     layout = [((size,), np.uint8) for size in sizes]
-    levels = prepared_cache().filled("srgb_mips", parts, layout, fill)
-    if not built:
-        define_levels(gl_tex, 4, list(levels), GL_SRGB8_ALPHA8)
+    drawn, kept = _drawn_or_kept("srgb_mips", parts, layout, draw, read_back)
+    if drawn is None:
+        define_levels(gl_tex, 4, list(kept), GL_SRGB8_ALPHA8)
