@@ -694,7 +694,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
         start_still_decodes(args.scene)
     if still:  # one frame: no later load reuses a decoded image
-        from app.textures.maps import keep_decoded_images
+        from app.textures.decoded import keep_decoded_images
 
         keeping = keep_decoded_images(False)
         try:

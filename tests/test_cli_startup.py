@@ -42,6 +42,13 @@ PARSER_HEAVY = (
     *GL_STACK, "numpy", "pydantic", "PIL", "trimesh", "scipy",
     "app.output", "app.reference", "app.textures", "app.scene.model", "app.scene.loader",
 )  # fmt: skip
+# The image library and the texture layer: a scene's maps are read only once it is valid
+# (a still render's switches, app.textures.decoded and app.scene.early_images, are
+# standard library alone).
+IMAGE_LAYER = (
+    "PIL", "app.textures.maps", "app.textures.cache", "app.textures.mips",
+    "app.textures.lean", "app.textures.early",
+)  # fmt: skip
 
 
 def run_cli(
@@ -109,6 +116,7 @@ def test_a_bad_scene_is_refused_without_the_gl_stack(tmp_path: Path, case: str) 
     assert named in result["stderr"] and len(result["stderr"].splitlines()) == 1
     assert not out.exists()
     assert among(result["modules"], GL_STACK) == []
+    assert among(result["modules"], IMAGE_LAYER) == []
 
 
 def test_a_bad_job_file_is_refused_without_the_gl_stack(tmp_path: Path) -> None:

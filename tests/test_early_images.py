@@ -16,7 +16,7 @@ import pytest
 from PIL import Image
 
 from app.scene.early_images import whole_image_uris
-from app.textures import early, maps
+from app.textures import decoded, early, maps
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
 from tests.gltf_builder import GltfBuilder, png_rgb
@@ -278,7 +278,7 @@ def test_open_image_joins_the_image_data_only_to_decode(
         return early.single_idat(data)
 
     monkeypatch.setattr(maps, "single_idat", counted)
-    keeping = maps.keep_decoded_images(False)  # no process memo: the cache's record alone
+    keeping = decoded.keep_decoded_images(False)  # no process memo: the cache's record alone
     try:
         first = maps.open_image(split, Budget())
         np.testing.assert_array_equal(np.asarray(first), noise)
@@ -288,7 +288,7 @@ def test_open_image_joins_the_image_data_only_to_decode(
         assert joins == [len(split)]  # recorded as decoded: not joined
         np.testing.assert_array_equal(np.asarray(again.convert("RGB")), noise)
     finally:
-        maps.keep_decoded_images(keeping)
+        decoded.keep_decoded_images(keeping)
 
 
 def _chunk_offsets(data: bytes) -> list[tuple[int, tuple[bytes, int]]]:

@@ -300,19 +300,19 @@ def test_image_known_to_decode_is_decoded_when_read(
     """open_image decodes an image the first time (and records that its bytes decode);
     a later process gets it undecoded, the same texels once read; a broken image is
     refused every time, never recorded."""
-    from app.textures import maps
+    from app.textures import decoded, maps
     from app.untrusted import RefusedError
 
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("PBS_CACHE", raising=False)
-    monkeypatch.setattr(maps, "_DECODED", type(maps._DECODED)())
+    monkeypatch.setattr(decoded, "_IMAGES", type(decoded._IMAGES)())
     data = _jpeg()
     first = maps.open_image(data)
     assert not _undecoded(first)
     expected = first.tobytes()
     cache = prepared_cache()
     cache.clear_memory()
-    maps._DECODED.clear()  # the next process
+    decoded.forget()  # the next process
     later = maps.open_image(data)
     assert _undecoded(later)  # nothing has read its texels yet
     assert later.info[maps.SOURCE_DIGEST] == first.info[maps.SOURCE_DIGEST]
@@ -366,17 +366,17 @@ def test_colour_texels_kept_and_file_not_decoded_again(
 ) -> None:
     """A colour map's RGBA texels are kept by its file's content: a later process gets the
     same texels with the image left undecoded."""
-    from app.textures import maps
+    from app.textures import decoded, maps
 
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("PBS_CACHE", raising=False)
-    monkeypatch.setattr(maps, "_DECODED", type(maps._DECODED)())
+    monkeypatch.setattr(decoded, "_IMAGES", type(decoded._IMAGES)())
     data = _jpeg(5)
     first = maps.colour_texture(maps.open_image(data))
     cache = prepared_cache()
     assert cache.events[-1] == "built"
     cache.clear_memory()
-    maps._DECODED.clear()  # the next process
+    decoded.forget()  # the next process
     image = maps.open_image(data)
     again = maps.colour_texture(image)
     assert cache.events[-1] == "disk"
@@ -830,24 +830,24 @@ def test_one_frame_keeps_no_decoded_image(tmp_path: Path, monkeypatch: pytest.Mo
     import gc
     import weakref
 
-    from app.textures import maps
+    from app.textures import decoded, maps
 
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("PBS_CACHE", raising=False)
-    monkeypatch.setattr(maps, "_DECODED", type(maps._DECODED)())
+    monkeypatch.setattr(decoded, "_IMAGES", type(decoded._IMAGES)())
     data = _jpeg(6)
-    before = maps.keep_decoded_images(False)
+    before = decoded.keep_decoded_images(False)
     try:
         image = maps.open_image(data)
         texture = maps.colour_texture(image)
-        assert not maps._DECODED
+        assert not decoded.holding()
         freed = weakref.ref(image)
         del image
         gc.collect()
         assert freed() is None  # nothing but the caller held it: its texels are gone
         assert texture.levels[0].shape == (24, 40, 4)  # the entry's texels stay
     finally:
-        assert maps.keep_decoded_images(before) is False
+        assert decoded.keep_decoded_images(before) is False
     other = _jpeg(7)  # bytes this process has not decoded (those above it has)
     first = maps.open_image(other)
     maps.colour_texture(first)
@@ -861,22 +861,22 @@ def test_a_still_render_keeps_no_decoded_image_and_restores_the_setting(
     it was when it returns (a test or the API may load again in the same process)."""
     from app import cli
     from app.resources import scenes_dir
-    from app.textures import maps
+    from app.textures import decoded
 
     seen: list[bool] = []
-    keep = maps.keep_decoded_images
+    keep = decoded.keep_decoded_images
 
     def recorded(value: bool) -> bool:
         seen.append(value)
         return keep(value)
 
-    monkeypatch.setattr(maps, "keep_decoded_images", recorded)
+    monkeypatch.setattr(decoded, "keep_decoded_images", recorded)
     monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
     model = scenes_dir() / "meshes" / "material_sampler.glb"
     out = tmp_path / "still.png"
     assert cli.main(["render", str(model), "-o", str(out), "--size", "48x32", "-q"]) == 0
     assert out.is_file()
-    assert seen == [False, True] and maps._KEEPING[0] is True
+    assert seen == [False, True] and decoded._KEEPING[0] is True
 
 
 def test_entry_made_in_memory_where_its_blocks_cannot_be_reserved(

@@ -31,6 +31,7 @@ from PIL import Image
 from app.common.models import MaterialParams
 from app.errors import InputError
 from app.reference.filtering import directional_spread
+from app.textures import decoded as decoded_images
 from app.textures.cache import prepared_cache
 from app.textures.early import (
     BAND_BYTES,
@@ -411,11 +412,9 @@ def open_image(
                 digest = f"{digest} 1/{1 << skipped}"
                 image.info[REDUCED_LEVELS] = skipped
         image.info[SOURCE_DIGEST] = digest
-        with _KEEP_LOCK:
-            kept = _DECODED.get(digest)
-            if kept is not None:  # decoded before in this process: that image
-                _DECODED.move_to_end(digest)
-                return kept
+        kept = decoded_images.kept(digest)
+        if kept is not None:  # decoded before in this process: that image
+            return kept
         # the image of the file's bytes, unless libjpeg decodes a reduced one
         early = take_early(digest) if REDUCED_LEVELS not in image.info else None
         if early is not None:  # decoded while the process started (app/textures/early.py)
@@ -499,42 +498,12 @@ def _decoder() -> ThreadPoolExecutor:
     return _DECODER
 
 
-# Images decoded in this process by their file's digest (a model file's parts are built
-# once to frame the camera and again for the frame; a batch's frames, a viewer's reload),
-# least recently used out past _DECODED_BYTES of texels. Callers share them and only read
-# them (every map is made from a ``convert`` or an array of the texels): a copy of each
-# for each caller was 60 MiB of memcpy and fresh pages for DamagedHelmet's five maps.
-_DECODED: OrderedDict[str, Image.Image] = OrderedDict()
-_DECODED_BYTES = 256 << 20
-_KEEPING = [True]
-
-
-def keep_decoded_images(keep: bool) -> bool:
-    """Whether this process keeps the images it decodes for a later load (``_DECODED``).
-    A one-frame render (``pbs render``) has no later load: an image no map holds any more
-    is then freed as soon as its maps are made (a colour map's once its texels are in the
-    prepared-texture entry), and the GL's textures made next take its pages instead of
-    fresh ones (a first touch of memory is dear on a virtual machine: docs/performance.md,
-    "A real asset against f3d"). Returns the setting it replaces."""
-    with _KEEP_LOCK:
-        before, _KEEPING[0] = _KEEPING[0], keep
-        if not keep:
-            _DECODED.clear()
-    return before
-
-
 def _keep_decoded(digest: str, image: Image.Image) -> None:
-    with _KEEP_LOCK:
-        if not _KEEPING[0]:
-            return
-        _DECODED[digest] = image
-        total = sum(_image_bytes(im) for im in _DECODED.values())
-        while total > _DECODED_BYTES and len(_DECODED) > 1:
-            _, old = _DECODED.popitem(last=False)
-            total -= _image_bytes(old)
+    decoded_images.keep(digest, image, _image_bytes(image))
 
 
-_KEEP_LOCK = threading.Lock()
+# Guards the colour levels made early (``_EARLY_LEVELS``) and their maker's pool.
+_LEVELS_LOCK = threading.Lock()
 
 
 def _image_bytes(image: Image.Image) -> int:
@@ -814,7 +783,7 @@ def start_colour_levels(image: Image.Image) -> None:
     if not isinstance(digest, str) or not _square_power_of_two(image) or image.width < 2:
         return
     done: Future = Future()
-    with _KEEP_LOCK:
+    with _LEVELS_LOCK:
         if digest in _EARLY_LEVELS:
             return
         _EARLY_LEVELS[digest] = done
@@ -829,7 +798,7 @@ def _colour_levels_from_one(image: Image.Image) -> list[np.ndarray]:
     those ``start_colour_levels`` made of it (waited for where they are being made),
     once, else made here."""
     digest = image.info.get(SOURCE_DIGEST)
-    with _KEEP_LOCK:
+    with _LEVELS_LOCK:
         early = _EARLY_LEVELS.pop(digest, None) if isinstance(digest, str) else None
     if early is not None and early.exception() is None:
         return early.result()
@@ -894,7 +863,7 @@ _COLOUR_MAKER: ThreadPoolExecutor | None = None
 
 def _colour_maker() -> ThreadPoolExecutor:
     global _COLOUR_MAKER
-    with _KEEP_LOCK:
+    with _LEVELS_LOCK:
         if _COLOUR_MAKER is None:
             _COLOUR_MAKER = ThreadPoolExecutor(1, thread_name_prefix="pbs-colour-levels")
     return _COLOUR_MAKER
