@@ -158,6 +158,57 @@ def test_vanished_gl_entry_is_not_rebuilt_under_its_key(
     assert not cache_module.prepared_cache().holds(levels.gl_kind, levels.gl_parts)
 
 
+@pytest.mark.parametrize("when", ["now", "later"])
+def test_damaged_gl_entry_is_drawn_again(
+    gl_egl: GLContext, tmp_path, monkeypatch: pytest.MonkeyPatch, when: str
+) -> None:
+    """A chain whose GL-drawn levels a prefetch finds kept but cannot read (a damaged
+    file; or evicted meanwhile) is drawn by the GL again, uploaded at once or into storage
+    made before it (``TextureUploads.finish``): the levels a cold render draws, not the
+    CPU's, which differ from them in the last bits."""
+    from app.gl.texture_storage import read_level
+    from app.render import texture_upload
+    from app.textures.cache import prepared_cache
+    from app.textures.cache_keys import entry_file, entry_key, textures_directory
+    from app.textures.maps import normal_roughness_map
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, rough = _maps((21, 17), 6)
+    cold_tex = normal_roughness_map(normal, 1.0, 0.7, rough, "variance")
+    cold = texture_upload.upload_texture(gl_egl.ctx, cold_tex)  # drawn and kept
+    levels = cold_tex.levels
+    want = [read_level(cold, k) for k in range(len(levels.upload_levels()))]
+    cold.release()
+    cpu = _map_chain_levels(normal, 1.0, 0.7, rough, "variance", True)
+    assert any(not np.array_equal(a, b) for a, b in zip(want, cpu, strict=True))  # telling
+
+    cache = prepared_cache()
+    cache.clear_memory()  # the next process: the entry on disk alone
+    path = entry_file(textures_directory(), [], entry_key(levels.gl_kind, levels.gl_parts))
+    assert path is not None
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    path.write_bytes(bytes(data))
+
+    tex = normal_roughness_map(normal, 1.0, 0.7, rough, "variance")
+    tex.levels.prefetch()  # finds the entry, fails to read it
+    assert tex.levels.prefetched()
+    uploads = texture_upload.TextureUploads(gl_egl.ctx)
+    try:
+        if when == "later":
+            monkeypatch.setattr(type(tex.levels), "ready", lambda self: False)  # still read
+            uploads.upload_ready_first([tex], later=True)
+            uploads.finish()
+        made = uploads.get(tex)
+        for k, level in enumerate(want):
+            assert np.array_equal(read_level(made, k), level), k
+    finally:
+        uploads.release()
+    cache.clear_memory()
+    assert cache.kept(levels.gl_kind, levels.gl_parts) is not None  # kept again, readable
+
+
 @pytest.mark.parametrize("first", [0, 1])
 def test_texels_read_in_place_give_the_same_levels(gl: GLContext, first: int) -> None:
     """The maps' texels read in place (app/gl/texel_buffer.py: the decoded images' own

@@ -96,7 +96,7 @@ class TextureUploads:
         them where they are still being made)."""
         while self._later:
             tex, gl_tex = self._later.pop(0)
-            _write_half_levels(gl_tex, upload_levels(tex))
+            _write_half_levels(gl_tex, _half_levels(self.ctx, tex, self.shaders))
 
     def release(self) -> None:
         for _, gl_tex in self._made.values():
@@ -140,7 +140,7 @@ def upload_texture(
         gl_tex = _gl_chain(ctx, tex.levels, shaders)
         mipmapped = max(gl_tex.size) > 1  # levels down to 1x1
     else:  # float16 rows bottom first (a prepared chain's kept as such: maps.PreparedLevels)
-        levels = upload_levels(tex)
+        levels = _half_levels(ctx, tex, shaders)
         h, w = levels[0].shape[:2]
         comps = 1 if levels[0].ndim == 2 else levels[0].shape[2]
         gl_tex = allocated(ctx, (w, h), comps, len(levels), GL_HALF_FORMATS[comps])
@@ -154,6 +154,33 @@ def _gl_builds(ctx: moderngl.Context, levels: PreparedLevels) -> bool:
     """Whether the upload of ``levels`` is the GL's to build: a chain it can draw whose
     kept levels are not being read already (``PreparedLevels.prefetch``)."""
     return levels.gl_source is not None and not levels.prefetched() and normal_chain.supported(ctx)
+
+
+def _half_levels(
+    ctx: moderngl.Context, tex: Texture, shaders: ShaderCache | None
+) -> list[np.ndarray]:
+    """``upload_levels(tex)``, but a chain the GL draws whose GL-drawn levels a prefetch
+    found kept and then could not read (``PreparedLevels.upload_levels``) is drawn again
+    (``_redrawn_chain``), so that a damaged or evicted entry gives the image a cold render
+    gives, not the CPU's levels."""
+    levels = tex.levels
+    drawn = isinstance(levels, PreparedLevels) and levels.gl_source is not None
+    if drawn and normal_chain.supported(ctx):
+        return levels.upload_levels(lambda: _redrawn_chain(ctx, levels, shaders))
+    return upload_levels(tex)
+
+
+def _redrawn_chain(
+    ctx: moderngl.Context, levels: PreparedLevels, shaders: ShaderCache | None
+) -> list[np.ndarray]:
+    """The chain's float16 levels drawn by the GL and read back (into its entry, as a cold
+    render keeps them: ``_gl_chain``, read back once more here, on this rare path, for
+    the storage made before them); the CPU's where the GL refuses to draw it."""
+    chain = _gl_chain(ctx, levels, shaders)
+    try:
+        return normal_chain.read_chain_levels(chain)
+    finally:
+        chain.release()
 
 
 def _drawn_or_kept(

@@ -177,14 +177,21 @@ class PreparedLevels(Sequence[np.ndarray]):
         """Whether ``upload_levels`` has nothing to wait for (prefetched and at hand)."""
         return self._prefetched is not None and self._prefetched.done()
 
-    def upload_levels(self) -> list[np.ndarray]:
-        """Every level as the GL takes it: float16, rows bottom first, contiguous (the
-        CPU's where the GL-built levels a prefetch looked for were gone by then)."""
+    def upload_levels(
+        self, redraw: Callable[[], Sequence[np.ndarray]] | None = None
+    ) -> list[np.ndarray]:
+        """Every level as the GL takes it: float16, rows bottom first, contiguous. Where
+        the GL-built levels a prefetch looked for were gone by the time it read them
+        (evicted, or a damaged file), ``redraw()``'s where given (the GL draws them again:
+        the bits a cold render draws), else the CPU's, which differ from the GL's in the
+        last bits."""
         if self._prefetched is not None:
             prefetched = self._prefetched.result()
             if prefetched is not None:
                 return list(prefetched)
             self._prefetched = None  # the GL-built levels were gone by the time it read
+            if redraw is not None:
+                return list(redraw())
         kind = _UPLOAD_KIND % self.kind
         return list(prepared_cache().arrays(kind, self.parts, self._upload_build))
 
