@@ -879,6 +879,37 @@ def test_a_still_render_keeps_no_decoded_image_and_restores_the_setting(
     assert seen == [False, True] and decoded._KEEPING[0] is True
 
 
+@pytest.mark.parametrize("way", ["written", "in place"])
+def test_a_failed_write_leaves_no_file_and_keeps_the_arrays(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, way: str
+) -> None:
+    """A disk that fills while an entry is written (``arrays``: written by the writer;
+    ``filled``: finished in place): one warning, no entry and no temporary file left, and
+    the caller keeps the arrays it was handed (the cache is an optimisation)."""
+    import errno
+    import logging
+
+    def full(*args: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    if way == "written":
+        monkeypatch.setattr(cache_module, "write_entry", full)
+    else:
+        monkeypatch.setattr(cache_module._InPlace, "finish", full)
+    cache = PreparedCache(tmp_path)
+    expected = [np.empty(shape, dtype) for shape, dtype in _layout()]
+    _fill(tuple(expected))
+    with caplog.at_level(logging.WARNING, logger=cache_module.__name__):
+        if way == "written":
+            made = cache.arrays("test", ("full", way), lambda: [a.copy() for a in expected])
+        else:
+            made = cache.filled("test", ("full", way), _layout(), _fill)
+        cache.flush()
+    assert all(np.array_equal(a, b) for a, b in zip(made, expected, strict=True))
+    assert [r.message for r in caplog.records if "cannot write" in r.message]
+    assert not list(tmp_path.iterdir())  # neither the entry nor a temporary
+
+
 def test_entry_made_in_memory_where_its_blocks_cannot_be_reserved(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

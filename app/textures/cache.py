@@ -472,31 +472,35 @@ class PreparedCache:
         path = self.path(key)
         if path is None:
             return
-        try:
+        made: list[str] = []  # the temporary file, once there is one
+
+        def write() -> None:
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(prefix=_TEMPORARY, suffix=SUFFIX, dir=path.parent)
-            try:
-                with os.fdopen(fd, "wb") as out:
-                    write_entry(out, arrays)
-                os.replace(tmp, path)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
-            self._evict()
-        except OSError as exc:  # a read-only or full disk: the cache is an optimisation
-            _LOG.warning("texture cache: cannot write %s (%s)", path, exc)
+            made.append(tmp)
+            with os.fdopen(fd, "wb") as out:
+                write_entry(out, arrays)
+            os.replace(tmp, path)
+
+        self._stored(path, write, lambda: [Path(tmp).unlink(missing_ok=True) for tmp in made])
 
     def _finish_in_place(self, key: str, entry: _InPlace) -> None:
         path = self.path(key)
         assert path is not None
+        self._stored(path, lambda: entry.finish(path), entry.discard)
+
+    def _stored(self, path: Path, write: Callable[[], None], undo: Callable[[], object]) -> None:
+        """An entry's file written at ``path`` (by ``write``; ``undo`` removes what a failed
+        write left), then the directory evicted down to its budget. A read-only or full
+        disk is a warning, not an error: the cache is an optimisation."""
         try:
             try:
-                entry.finish(path)
+                write()
             except BaseException:
-                entry.discard()
+                undo()
                 raise
             self._evict()
-        except OSError as exc:  # as ``_write_now``: the cache is an optimisation
+        except OSError as exc:
             _LOG.warning("texture cache: cannot write %s (%s)", path, exc)
 
     def _evict(self) -> None:
