@@ -138,14 +138,20 @@ def visible_derivatives(
     first = np.cumsum(rows) - rows
     row = row_lo[owner] + np.arange(len(owner)) - first[owner]
     centre = row + 0.5
+    # Per face and edge as contiguous arrays (rows: edge e runs from corner e to corner
+    # e + 1), each gathered once per entry: gathers from the (M, 3, 2) corners were most
+    # of the raster's time.
+    sx, sy = s[:, :, 0].T, s[:, :, 1].T  # (3, M)
+    ex, ey = sx[[1, 2, 0]], sy[[1, 2, 0]]  # each edge's end
+    dx, dy = ex - sx, ey - sy
+    edge_lo, edge_hi = np.minimum(sy, ey), np.maximum(sy, ey)
     left = np.full(len(owner), np.inf)
     right = np.full(len(owner), -np.inf)
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        p, q = s[owner, i], s[owner, j]
-        lo, hi = np.minimum(p[:, 1], q[:, 1]), np.maximum(p[:, 1], q[:, 1])
+    for e in range(3):
+        lo, hi = edge_lo[e][owner], edge_hi[e][owner]
         crosses = (lo <= centre) & (centre <= hi) & (hi > lo)
         with np.errstate(divide="ignore", invalid="ignore"):
-            x = p[:, 0] + (centre - p[:, 1]) / (q[:, 1] - p[:, 1]) * (q[:, 0] - p[:, 0])
+            x = sx[e][owner] + (centre - sy[e][owner]) / dy[e][owner] * dx[e][owner]
         left = np.where(crosses, np.minimum(left, x), left)
         right = np.where(crosses, np.maximum(right, x), right)
     col_lo = np.maximum(np.ceil(left - 0.5), 0)
@@ -157,7 +163,8 @@ def visible_derivatives(
     start = np.cumsum(spans) - spans
     col = col_lo.astype(np.int64)[entry] + np.arange(len(entry)) - start[entry]
     face = owner[entry]
-    px, py = col + 0.5, row[entry] + 0.5
+    row = row[entry]
+    px, py = col + 0.5, row + 0.5
     # Per face, 1/z, u/z and v/z as affine functions of the window position: the value
     # at vertex 0 plus the gradient (f1 - f0) grad a + (f2 - f0) grad b, where
     # (a, b) = M^-1 (p - s0), M = [s1 - s0, s2 - s0], weigh vertices 1 and 2.
@@ -171,23 +178,28 @@ def visible_derivatives(
         values[:, 2] - values[:, 0]
     )[:, :, None] * grad_b[:, None, :]  # (M, 3 values, 2 axes)
     base = values[:, 0] - np.einsum("mva,ma->mv", grad, s[:, 0])
-    depth = base[face, 0] + grad[face, 0, 0] * px + grad[face, 0, 1] * py
-    pixel = row[entry] * width + col
+    # Each value's base and gradients as contiguous per-face arrays, gathered per pixel.
+    base_of = [np.ascontiguousarray(base[:, v]) for v in range(3)]
+    grad_of = [[np.ascontiguousarray(grad[:, v, a]) for a in range(2)] for v in range(3)]
+    depth = base_of[0][face] + grad_of[0][0][face] * px + grad_of[0][1][face] * py
+    pixel = row * width + col
     nearest = np.full(width * height, -np.inf)
     np.maximum.at(nearest, pixel, depth)
     seen = depth >= nearest[pixel] * (1.0 - 1e-6)
-    seen &= ~np.isnan(base[face, 1])  # untextured faces hide, nothing of them is sampled
+    seen &= ~np.isnan(base_of[1][face])  # untextured faces hide, nothing of them is sampled
     if not np.any(seen):
         return np.zeros(0)
     face, px, py, depth = face[seen], px[seen], py[seen], depth[seen]
-    g = grad[face]  # (P, 3, 2)
-    texcoord = (base[face, 1:] + g[:, 1:, 0] * px[:, None] + g[:, 1:, 1] * py[:, None]) / depth[
-        :, None
-    ]  # perspective-correct uv at the pixel centre
+    # perspective-correct u and v at the pixel centre, then per window axis
+    # d uv = (d(uv/z) - uv d(1/z)) / (1/z); the largest of the four
+    u = (base_of[1][face] + grad_of[1][0][face] * px + grad_of[1][1][face] * py) / depth
+    v = (base_of[2][face] + grad_of[2][0][face] * px + grad_of[2][1][face] * py) / depth
     worst = np.zeros(len(depth))
-    for axis in (0, 1):  # window x, then y: d uv = (d(uv/z) - uv d(1/z)) / (1/z)
-        d_tex = np.abs((g[:, 1:, axis] - texcoord * g[:, 0, axis, None]) / depth[:, None])
-        worst = np.maximum(worst, np.maximum(d_tex[:, 0], d_tex[:, 1]))
+    for axis in (0, 1):
+        dz = grad_of[0][axis][face]
+        du = np.abs((grad_of[1][axis][face] - u * dz) / depth)
+        dv = np.abs((grad_of[2][axis][face] - v * dz) / depth)
+        worst = np.maximum(worst, np.maximum(du, dv))
     return worst
 
 
