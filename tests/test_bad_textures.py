@@ -40,8 +40,15 @@ CASES = [
         "truncated-png",
         TEXTURED,
         "materials.m.normal_map",
-        "is not an image pbs reads",
+        "is not an image pbs reads (UnidentifiedImageError: cannot identify image file)",
         "truncate",
+    ),
+    (  # the header whole, the image data cut short: the reason says so
+        "truncated-png-data",
+        TEXTURED,
+        "materials.m.normal_map",
+        "is not an image pbs reads (OSError: image file is truncated)",
+        "truncate-data",
     ),
     (
         "oversized-image",
@@ -188,6 +195,11 @@ def test_bad_texture_input(
         _png(root / "n.png")
         data = (root / "n.png").read_bytes()
         (root / "n.png").write_bytes(data[: len(data) // 2])
+    elif texture == "truncate-data":  # noise does not compress: most of the file is data
+        noise = np.random.default_rng(5).integers(0, 256, (64, 64, 3), np.uint8)
+        Image.fromarray(noise).save(root / "n.png")
+        data = (root / "n.png").read_bytes()
+        (root / "n.png").write_bytes(data[: len(data) * 7 // 10])
     elif texture == "huge":  # 8200 x 1: a few bytes of PNG, over the size limit
         Image.fromarray(np.zeros((1, 8200, 3), np.uint8)).save(root / "n.png")
     elif isinstance(texture, bytes):

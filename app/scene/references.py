@@ -33,7 +33,7 @@ from PIL import Image, features
 from app.scene.gltf import meshopt_available
 from app.scene.gltf_document import GltfDocument
 from app.scene.gltf_extensions import SUPPORTED as MATERIAL_EXTENSIONS
-from app.textures.early import IMAGE_FORMATS
+from app.textures.early import IMAGE_FORMATS, unreadable
 from app.untrusted import RefusedError, files
 from app.untrusted.policy import InputPolicy
 
@@ -91,7 +91,7 @@ def _unreadable(file: Path, image: bool, policy: InputPolicy) -> str | None:
     except RefusedError as exc:
         return str(exc)
     except Exception as exc:  # Pillow raises many types for data it cannot decode
-        return f"{file}: is not an image pbs reads ({type(exc).__name__})"
+        return f"{file}: {unreadable(exc)}"
     return None
 
 

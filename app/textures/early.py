@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import re
 import struct
 import threading
 import warnings
@@ -106,6 +107,20 @@ def decoded_before(image, digest: str) -> bool:  # image: PIL.Image.Image
     from app.textures.cache import prepared_cache
 
     return prepared_cache().holds(DECODES, decode_record(image, digest))
+
+
+def unreadable(exc: BaseException) -> str:
+    """Why an image is refused, for the one line that names its file and key: Pillow's
+    exception type and message ("OSError: image file is truncated"), without the object
+    reprs some messages carry (a memory address), and at most ``_REASON_CHARS`` long."""
+    text = " ".join(re.sub(r"<[^<>]*>", "", str(exc)).split())
+    reason = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    if len(reason) > _REASON_CHARS:
+        reason = reason[: _REASON_CHARS - 1] + "…"
+    return f"is not an image pbs reads ({reason})"
+
+
+_REASON_CHARS = 100
 
 
 def open_header(data: bytes):  # -> PIL.ImageFile.ImageFile

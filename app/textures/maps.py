@@ -41,6 +41,7 @@ from app.textures.early import (
     decoded_before,
     open_header,
     single_idat,
+    unreadable,
 )
 from app.textures.early import take as take_early
 from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, spread_levels
@@ -441,7 +442,7 @@ def open_image(
             f"declares more texels than an image of {budget.limits.max_texture_side} a side"
         ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
-        raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+        raise RefusedError(unreadable(exc)) from None
 
 
 def _one_idat(image: Image.Image, encoded: bytes) -> Image.Image:
@@ -480,7 +481,7 @@ def _decode_refused(image: Image.Image, digest: str) -> None:
     except Image.DecompressionBombError:
         raise RefusedError("declares more texels than the texture limit allows") from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
-        raise RefusedError(f"is not an image pbs reads ({type(exc).__name__})") from None
+        raise RefusedError(unreadable(exc)) from None
 
 
 def wait_decoded(image: Image.Image) -> None:
