@@ -400,6 +400,23 @@ def test_adjacency_finds_each_edge_s_neighbour() -> None:
         assert len(set(tri[0::2].tolist()) | set(tri[1::2].tolist())) == 4
 
 
+def test_vertices_weld_by_position_as_unique_rows_do() -> None:
+    """The adjacency's welding of split vertices (``adjacency._welded``): ids equal where
+    positions compare equal, -0 and +0 welded, numbered as ``np.unique(axis=0)``'s inverse
+    (the lexicographic order of the rows), on coincident and nearly coincident points."""
+    from app.render.adjacency import _welded
+
+    rng = np.random.default_rng(4)
+    for case in range(20):
+        p = (rng.integers(-2, 3, (300, 3)) * 0.5).astype(np.float32)
+        p[rng.random(300) < 0.3] *= -1.0  # some +0 become -0
+        if case % 2:
+            p[::7] += np.float32(1e-6)  # near, not equal
+        _, expected = np.unique(p, axis=0, return_inverse=True)
+        assert np.array_equal(_welded(p), expected.reshape(-1)), case
+    assert _welded(np.zeros((0, 3), np.float32)).shape == (0,)
+
+
 def test_gbaa_window_rectangle_of_a_sphere_holds_its_silhouette() -> None:
     """The window rectangle gbaa's draws cover for an analytic sphere (the planes through
     the eye that touch it) is its silhouette's: every projected point of the sphere lies
