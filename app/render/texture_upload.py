@@ -173,12 +173,19 @@ def _half_levels(
 def _redrawn_chain(
     ctx: moderngl.Context, levels: PreparedLevels, shaders: ShaderCache | None
 ) -> list[np.ndarray]:
-    """The chain's float16 levels drawn by the GL and read back (into its entry, as a cold
-    render keeps them: ``_gl_chain``, read back once more here, on this rare path, for
-    the storage made before them); the CPU's where the GL refuses to draw it."""
-    chain = _gl_chain(ctx, levels, shaders)
+    """The chain's float16 levels drawn by the GL, as a cold render draws them, for the
+    storage made before them: those read back into its entry (``_chain_drawn_or_kept``),
+    read back here only where the cache keeps none; the CPU's where the GL refuses to
+    draw it."""
     try:
-        return normal_chain.read_chain_levels(chain)
+        chain, kept = _chain_drawn_or_kept(ctx, levels, shaders)
+    except LevelFramebufferError:
+        _LOG.warning("the GL did not draw a normal/roughness chain; built on the CPU")
+        return levels.upload_levels()
+    if chain is None:  # kept meanwhile (another process wrote it)
+        return list(kept)
+    try:
+        return list(kept) if kept else normal_chain.read_chain_levels(chain)
     finally:
         chain.release()
 
@@ -216,24 +223,30 @@ def _drawn_or_kept(
     return (made[0] if made else None), kept
 
 
+def _chain_drawn_or_kept(
+    ctx: moderngl.Context, levels: PreparedLevels, shaders: ShaderCache | None
+) -> tuple[moderngl.Texture | None, tuple[np.ndarray, ...]]:
+    """``_drawn_or_kept`` of the chain ``levels`` the GL draws (``normal_chain``)."""
+    assert levels.gl_source is not None
+    source = levels.gl_source
+    return _drawn_or_kept(
+        levels.gl_kind,
+        levels.gl_parts,
+        [(shape, np.float16) for shape in normal_chain.level_shapes(source)],
+        lambda: normal_chain.build_chain(ctx, source, shaders),
+        normal_chain.read_chain_levels,
+        lambda texture: texture.release(),
+    )
+
+
 def _gl_chain(
     ctx: moderngl.Context, levels: PreparedLevels, shaders: ShaderCache | None
 ) -> moderngl.Texture:
     """The chain's texture: the levels the GL built before where the prepared-texture
-    cache keeps them (uploaded), else drawn now (``_drawn_or_kept``); built on the CPU
-    where the GL refuses to draw it."""
-    assert levels.gl_source is not None
-    source = levels.gl_source
-    layout = [(shape, np.float16) for shape in normal_chain.level_shapes(source)]
+    cache keeps them (uploaded), else drawn now (``_chain_drawn_or_kept``); built on the
+    CPU where the GL refuses to draw it."""
     try:
-        chain, kept = _drawn_or_kept(
-            levels.gl_kind,
-            levels.gl_parts,
-            layout,
-            lambda: normal_chain.build_chain(ctx, source, shaders),
-            normal_chain.read_chain_levels,
-            lambda texture: texture.release(),
-        )
+        chain, kept = _chain_drawn_or_kept(ctx, levels, shaders)
         if chain is not None:
             return chain
     except LevelFramebufferError:
