@@ -471,7 +471,7 @@ def _decode(image: Image.Image, digest: str) -> None:
 
     prepared_cache().arrays(DECODES, decode_record(image, digest), decode)
     if decoded:
-        _keep_decoded(digest, image)
+        decoded_images.keep(digest, image, _image_bytes(image))
 
 
 def _decode_refused(image: Image.Image, digest: str) -> None:
@@ -504,10 +504,6 @@ def _decoder() -> ThreadPoolExecutor:
     if _DECODER is None:
         _DECODER = ThreadPoolExecutor(DECODE_THREADS, thread_name_prefix="pbs-decode")
     return _DECODER
-
-
-def _keep_decoded(digest: str, image: Image.Image) -> None:
-    decoded_images.keep(digest, image, _image_bytes(image))
 
 
 # Guards the colour levels made early (``_EARLY_LEVELS``) and their maker's pool.
