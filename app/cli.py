@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from app.render.renderer import Renderer
     from app.scene.loader import LoadedScene
     from app.scene.look import Look
+    from app.waiting import Ahead
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -588,6 +589,13 @@ def _size_option(exc: InputError) -> InputError:
     return InputError(exc.file, "--size" if exc.key == "size" else exc.key, exc.message)
 
 
+def _renderer_class() -> type[Renderer]:
+    """The renderer's class, its modules imported (the GL stack among them)."""
+    from app.render.renderer import Renderer
+
+    return Renderer
+
+
 def _context(args: argparse.Namespace) -> GLContext:
     """The headless context of ``--backend`` on ``--device`` (app/gl/context.py): an
     index EGL does not enumerate is one line naming the option (or PBS_EGL_DEVICE) and
@@ -684,8 +692,9 @@ def _one_blas_thread() -> None:
 
 def cmd_render(args: argparse.Namespace) -> int:
     """Render a scene to PNG. Each layer is imported when the command reaches it: the
-    scene's (pydantic, numpy) to validate it, GL and the renderer only once it is valid,
-    so a bad scene is refused without them (docs/performance.md, "Start-up")."""
+    scene's (pydantic, numpy) to validate it, GL and the renderer once it is valid or
+    where its reader waits for a map (app/waiting.py), so a bad scene is refused without
+    them (docs/performance.md, "Start-up")."""
     _one_blas_thread()
     still = not (args.fit or args.compare is not None or args.debug is not None)
     if still and args.max_memory is None:  # a glTF file's whole images decode while the
@@ -706,7 +715,21 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def _render(args: argparse.Namespace, still: bool) -> int:
     """``cmd_render`` once a still's decodes are started: the scene read, checked and
-    rendered, the PNG written."""
+    rendered, the PNG written. The renderer's import and the GL context are made ahead,
+    where the scene's reader waits for its maps (app/waiting.py), else after it."""
+    from app.waiting import Ahead, ahead
+
+    renderer_class = Ahead(_renderer_class)
+    context = Ahead(lambda: _context(args), release=lambda gl: gl.release())
+    with ahead(renderer_class, context):
+        return _read_and_render(args, still, renderer_class, context)
+
+
+def _read_and_render(
+    args: argparse.Namespace, still: bool, renderer_class: Ahead, context: Ahead
+) -> int:
+    """``_render``'s work, with the renderer class and the GL context it takes when the
+    scene is read and checked."""
     from app.scene.sources import scene_from, scene_path
 
     start = time.perf_counter()
@@ -745,7 +768,7 @@ def _render(args: argparse.Namespace, still: bool) -> int:
 
             loaded = edited(loaded, {"render.background": args.background}, "--background")
         if args.compare is not None:
-            return _render_comparison(args, loaded, out, start, inputs)
+            return _render_comparison(args, loaded, out, start, inputs, context)
         for option, value in (
             ("--compare-mode", args.compare_mode),
             ("--divider", args.divider),
@@ -753,11 +776,10 @@ def _render(args: argparse.Namespace, still: bool) -> int:
         ):
             if value is not None:
                 raise InputError(option, "", "applies only with --compare")
-        from app.render.renderer import Renderer
-
-        gl = _context(args)
+        make_renderer = renderer_class.get()
+        gl = context.get()
         try:
-            renderer = Renderer(gl, loaded, args.size)
+            renderer = make_renderer(gl, loaded, args.size)
         except InputError as exc:
             gl.release()
             raise _size_option(exc) from None
@@ -799,7 +821,12 @@ def _render(args: argparse.Namespace, still: bool) -> int:
 
 
 def _render_comparison(
-    args: argparse.Namespace, loaded: LoadedScene, out: Path, start: float, inputs: set[Path]
+    args: argparse.Namespace,
+    loaded: LoadedScene,
+    out: Path,
+    start: float,
+    inputs: set[Path],
+    context: Ahead,
 ) -> int:
     """``render --compare KEY=A,B``: both sides validated before any GL work, then the
     split or difference composite written as the PNG (app/render/compare.py)."""
@@ -820,8 +847,8 @@ def _render_comparison(
     divider = 0.5 if args.divider is None else args.divider
     gain = 8.0 if args.gain is None else args.gain
     spec = parse_compare(args.compare)
-    spec.scenes(loaded, args.size)  # every refusal here, before a context exists
-    gl = _context(args)
+    spec.scenes(loaded, args.size)  # every refusal here, before the context is taken
+    gl = context.get()
     try:
         comparison = Comparison(gl, loaded, spec, args.size)
     except InputError as exc:

@@ -21,6 +21,8 @@ import zlib
 from concurrent.futures import Future
 from typing import TYPE_CHECKING
 
+from app.waiting import before_waiting
+
 if TYPE_CHECKING:
     from app.untrusted.budget import Budget
 
@@ -179,6 +181,7 @@ def take(digest: str):  # -> PIL.Image.Image | None
     with _LOCK:
         done = _EARLY.pop(digest, None)
         _TAKEN.add(digest)
+    before_waiting(done)
     if done is None or done.exception() is not None:
         return None
     return done.result()

@@ -61,6 +61,7 @@ from app.textures.versions import version
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
+from app.waiting import before_waiting
 
 MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default limit)
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
@@ -489,6 +490,7 @@ def wait_decoded(image: Image.Image) -> None:
     the ``RefusedError`` of a broken image is raised here (and to every later caller)."""
     pending = getattr(image, _PENDING, None)
     if pending is not None:
+        before_waiting(pending)
         pending.result()
 
 
@@ -804,6 +806,7 @@ def _colour_levels_from_one(image: Image.Image) -> list[np.ndarray]:
     digest = image.info.get(SOURCE_DIGEST)
     with _LEVELS_LOCK:
         early = _EARLY_LEVELS.pop(digest, None) if isinstance(digest, str) else None
+    before_waiting(early)
     if early is not None and early.exception() is None:
         return early.result()
     return srgb_box_levels(_rows_up_source(image))[1:]
@@ -855,7 +858,9 @@ class PendingLevels(Sequence[np.ndarray]):
 
     def __getitem__(self, index):  # type: ignore[override]  # an int or a slice, as a list's
         if index == 0 and self._first is not None and not self._future.done():
+            before_waiting(self._first)
             return self._first.result()
+        before_waiting(self._future)
         return self._future.result()[index]
 
     def __len__(self) -> int:

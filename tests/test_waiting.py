@@ -1,0 +1,159 @@
+"""Work the main thread does ahead while it waits (app/waiting.py): what runs at a wait,
+what does not, an error kept for the caller, the block's end; and ``pbs render``'s GL
+context started while the scene's reader waits for a map's levels, with the same image."""
+
+from __future__ import annotations
+
+import io
+import threading
+import time
+from concurrent.futures import Future
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+from PIL import Image
+
+from app import waiting
+from app.waiting import Ahead, ahead, before_waiting
+from tests.gltf_builder import GltfBuilder
+
+
+def test_work_done_at_a_main_thread_wait_one_piece_at_a_time() -> None:
+    """A wait for a future that is not done does the declared work, oldest first, and
+    stops once the future is done; ``get`` then takes the value without making it again."""
+    future: Future = Future()
+    made: list[str] = []
+
+    def first() -> str:
+        made.append("first")
+        future.set_result(None)  # what the wait waited for is done meanwhile
+        return "one"
+
+    later = Ahead(lambda: made.append("later") or "two")
+    with ahead(Ahead(first), later):
+        work = waiting._PENDING[0]
+        before_waiting(future)
+        assert made == ["first"]  # the future was done: the second piece waits its turn
+        assert work.get() == "one" and made == ["first"]
+        before_waiting(Future())  # another wait does it
+        assert made == ["first", "later"] and later.get() == "two"
+
+
+def test_nothing_done_where_there_is_no_wait() -> None:
+    """A future already done, no future, or a wait on another thread does none of it: the
+    value is made where ``get`` asks for it."""
+    made: list[int] = []
+    work = Ahead(lambda: made.append(1) or 7)
+    done: Future = Future()
+    done.set_result(None)
+    with ahead(work):
+        before_waiting(done)
+        before_waiting(None)
+        helper = threading.Thread(target=before_waiting, args=(Future(),))
+        helper.start()
+        helper.join()
+        assert made == []
+        assert work.get() == 7 and made == [1]
+        before_waiting(Future())
+        assert made == [1]  # made once
+
+
+def test_error_kept_for_the_caller() -> None:
+    """An exception the work raises at a wait is not raised there but by ``get``."""
+
+    def fails() -> None:
+        raise ValueError("no device 3")
+
+    work = Ahead(fails)
+    with ahead(work):
+        before_waiting(Future())  # no exception here
+        with pytest.raises(ValueError, match="no device 3"):
+            work.get()
+
+
+def test_block_end_drops_the_work_and_releases_what_was_not_taken() -> None:
+    """Work not done by the block's end is never done by a later wait; a value made
+    ahead and never taken (a render refused after its context started) is released; one
+    taken is its taker's."""
+    released: list[str] = []
+    made: list[str] = []
+    taken = Ahead(lambda: "kept", release=released.append)
+    untaken = Ahead(lambda: "spare", release=released.append)
+    never = Ahead(lambda: made.append("never"), release=released.append)
+    with ahead(taken, untaken):
+        before_waiting(Future())
+        assert taken.get() == "kept"
+    with ahead(never):
+        pass
+    before_waiting(Future())
+    assert released == ["spare"] and made == [] and waiting._PENDING == []
+
+
+def _colour_gltf(folder: Path, seed: int) -> Path:
+    """A quad whose base colour is a 256^2 PNG of random texels (bytes no other render of
+    this process decodes, so its levels are made here)."""
+    texels = np.random.default_rng(seed).integers(0, 256, (256, 256, 3), np.uint8)
+    encoded = io.BytesIO()
+    Image.fromarray(texels).save(encoded, format="PNG")
+    (folder / "colour.png").write_bytes(encoded.getvalue())
+    b = GltfBuilder()
+    b.doc.images.append(pygltflib.Image(uri="colour.png"))
+    b.doc.textures.append(pygltflib.Texture(source=0))
+    info = pygltflib.TextureInfo(index=0)
+    material = pygltflib.Material(
+        pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(baseColorTexture=info)
+    )
+    b.quad(material=b.material(material))
+    return b.save(folder / "model.gltf")
+
+
+def test_render_starts_its_context_while_the_scene_waits(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``pbs render MODEL`` whose base colour's levels are slow: the GL context is made
+    while the scene's reader waits for them (the exposure meter reads them), before the
+    scene is read, and the PNG is the one made without working ahead."""
+    from app import cli
+    from app.scene import sources
+    from app.textures import early, maps
+
+    events: list[str] = []
+    context, scene_from, box = cli._context, sources.scene_from, maps.srgb_box_levels
+    making = threading.Event()
+
+    def slow_levels(level0: np.ndarray) -> list[np.ndarray]:
+        making.set()
+        time.sleep(0.5)
+        return box(level0)
+
+    def read(*args, **kwargs):
+        # the reader comes once the early thread is making the levels (in a new process
+        # its imports take longer than the decode), so that it waits for them
+        assert making.wait(10.0)
+        loaded = scene_from(*args, **kwargs)
+        events.append("scene read")
+        return loaded
+
+    monkeypatch.setattr(maps, "srgb_box_levels", slow_levels)
+    monkeypatch.setattr(sources, "scene_from", read)
+    monkeypatch.setattr(cli, "_context", lambda args: events.append("context") or context(args))
+    images = []
+    for name, work_ahead in (("ahead", True), ("after", False)):
+        folder = tmp_path / name
+        folder.mkdir()
+        path = _colour_gltf(folder, 29)
+        monkeypatch.setenv("PBS_CACHE_DIR", str(folder / "cache"))
+        making.clear()
+        monkeypatch.setattr(early, "_TAKEN", set())  # the same bytes decode early again
+        if not work_ahead:  # no wait of the texture layer does the work
+            for module in (early, maps):
+                monkeypatch.setattr(module, "before_waiting", lambda future: None)
+        events.clear()
+        out = folder / "out.png"
+        assert cli.main(["render", str(path), "-o", str(out), "--size", "48x40", "-q"]) == 0
+        expected = ["context", "scene read"] if work_ahead else ["scene read", "context"]
+        assert events == expected, name
+        images.append(np.asarray(Image.open(out)))
+    np.testing.assert_array_equal(images[0], images[1])
