@@ -487,17 +487,31 @@ def test_variance_texels_bits() -> None:
     np.testing.assert_array_equal(out[..., 3].view(np.int64), r.view(np.int64))
 
 
+@pytest.mark.parametrize("pattern", ["random", "sparse"])
 @pytest.mark.parametrize("side", [1, 2, 64, 256])
 def test_srgb_box_levels_in_bands_are_the_whole_levels(
-    side: int, monkeypatch: pytest.MonkeyPatch
+    side: int, pattern: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A DCT-scaled colour map's CPU mips, made a band of rows at a time, are the bits of
     the whole level's arithmetic (each texel: the 2x2 box of the level above in linear
     space through the same two tables, alpha averaged and rounded as it is), whatever
-    the band size (one output row a band, and one band for the whole level)."""
+    the band size (one output row a band, and one band for the whole level). "sparse" is
+    an emission map's kind: black and opaque but for a few texels, with a block of one
+    translucent colour, so that most bands hold one texel value (boxed once)."""
     from app.textures import mips
 
-    texels = np.random.default_rng(side).integers(0, 256, (side, side, 4), np.uint8)
+    rng = np.random.default_rng(side)
+    texels = rng.integers(0, 256, (side, side, 4), np.uint8)
+    if pattern == "sparse":
+        lit = texels[rng.integers(0, side, 3), rng.integers(0, side, 3)]
+        texels[:] = (0, 0, 0, 255)
+        texels[rng.integers(0, side, 3), rng.integers(0, side, 3)] = lit
+        texels[side // 2 :, : side // 2] = (200, 90, 17, 77)
+    uniform = mips._uniform_texel
+    boxed_once: list[bool] = []
+    monkeypatch.setattr(
+        mips, "_uniform_texel", lambda b: boxed_once.append((t := uniform(b)) is not None) or t
+    )
     expected = [texels]
     while expected[-1].shape[0] > 1:
         above = expected[-1]
@@ -517,3 +531,5 @@ def test_srgb_box_levels_in_bands_are_the_whole_levels(
         for k, (a, b) in enumerate(zip(made, expected, strict=True)):
             assert a.dtype == np.uint8 and a.shape == b.shape, k
             assert np.array_equal(a, b), k
+    if pattern == "sparse" and side >= 64:  # the one-texel path taken, and held to the bits
+        assert any(boxed_once)

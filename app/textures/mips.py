@@ -518,6 +518,21 @@ def srgb_tables() -> tuple[np.ndarray, np.ndarray]:
 SRGB_BAND_TEXELS = 1 << 16  # source texels a band of srgb_box_levels reads
 
 
+def _uniform_texel(block: np.ndarray) -> np.ndarray | None:
+    """The one RGBA texel every texel of the (rows, w, 4) uint8 ``block`` holds, or None.
+    Texels are compared as 32-bit words (a comparison whose innermost axis is a texel's 4
+    bytes runs numpy's loop once a texel), the first row first, so a varied band costs a
+    row's comparison; None too where a texel's bytes are not contiguous (no such view)."""
+    try:
+        words = block.view(np.uint32)[..., 0]  # a view of the same bytes, no copy
+    except ValueError:
+        return None
+    first = words[0, 0]
+    if not (words[0] == first).all() or not (words == first).all():
+        return None
+    return block[0, 0].copy()
+
+
 def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
     """The mips of an (h, w, 4) uint8 sRGB colour map with linear alpha, h and w equal
     powers of two, each texel the 2x2 box of the level above in linear space (alpha
@@ -539,18 +554,25 @@ def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
         level = np.empty((half, above.shape[1] // 2, 4), np.uint8)
         rows = max(1, SRGB_BAND_TEXELS // (2 * above.shape[1]))  # output rows a band
 
-        def band(y0: int, y1: int, above: np.ndarray = above, level: np.ndarray = level) -> None:
-            block = above[2 * y0 : 2 * y1]
+        def boxed(block: np.ndarray, out: np.ndarray) -> None:
             # Every channel looked up (alpha's decoded value unused): a contiguous lookup
             # is the faster; rows summed first, then column pairs (two passes, not three)
             linear = np.take(linear16, block)
             pairs = linear[0::2] + linear[1::2]
             total = pairs[:, 0::2, :3] + pairs[:, 1::2, :3]
-            out = level[y0:y1]
             out[..., :3] = np.take(of_sum4, total)
             alpha = block[..., 3].astype(np.uint16)
             alpha = alpha[0::2] + alpha[1::2]
             out[..., 3] = (alpha[:, 0::2] + alpha[:, 1::2] + 2) >> 2
+
+        def band(y0: int, y1: int, above: np.ndarray = above, level: np.ndarray = level) -> None:
+            block, out = above[2 * y0 : 2 * y1], level[y0:y1]
+            texel = _uniform_texel(block)
+            if texel is None:
+                boxed(block, out)
+            else:  # one texel value throughout (a mostly black emission map): its box once
+                boxed(np.broadcast_to(texel, (2, 2, 4)), out[:1, :1])
+                out[...] = out[0, 0]
 
         each_band(band, [(y, min(y + rows, half)) for y in range(0, half, rows)])
         levels.append(level)
