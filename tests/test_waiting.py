@@ -60,6 +60,29 @@ def test_nothing_done_where_there_is_no_wait() -> None:
         assert made == [1]  # made once
 
 
+def test_work_done_by_the_thread_that_declared_it() -> None:
+    """Work declared on a helper thread is done at that thread's wait, not at the main
+    thread's (its value, a GL context, is the helper's to use)."""
+    made: list[str] = []
+    work = Ahead(lambda: made.append(threading.current_thread().name) or 1)
+
+    def helper() -> None:
+        with ahead(work):
+            declared.set()
+            assert go.wait(10.0)
+            before_waiting(Future())
+
+    declared, go = threading.Event(), threading.Event()
+    thread = threading.Thread(target=helper, name="declaring")
+    thread.start()
+    assert declared.wait(10.0)
+    before_waiting(Future())  # the main thread's wait: not its work
+    assert made == []
+    go.set()
+    thread.join(10.0)
+    assert made == ["declaring"]
+
+
 def test_error_kept_for_the_caller() -> None:
     """An exception the work raises at a wait is not raised there but by ``get``."""
 
