@@ -547,23 +547,24 @@ def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
     h, w = level0.shape[:2]
     assert h == w and h & (h - 1) == 0, "a square power-of-two map"
     linear16, of_sum4 = srgb_tables()
+
+    def boxed(block: np.ndarray, out: np.ndarray) -> None:
+        # Every channel looked up (alpha's decoded value unused): a contiguous lookup
+        # is the faster; rows summed first, then column pairs (two passes, not three)
+        linear = np.take(linear16, block)
+        pairs = linear[0::2] + linear[1::2]
+        total = pairs[:, 0::2, :3] + pairs[:, 1::2, :3]
+        out[..., :3] = np.take(of_sum4, total)
+        alpha = block[..., 3].astype(np.uint16)
+        alpha = alpha[0::2] + alpha[1::2]
+        out[..., 3] = (alpha[:, 0::2] + alpha[:, 1::2] + 2) >> 2
+
     levels = [level0]
     while levels[-1].shape[0] > 1:
         above = levels[-1]
         half = above.shape[0] // 2
         level = np.empty((half, above.shape[1] // 2, 4), np.uint8)
         rows = max(1, SRGB_BAND_TEXELS // (2 * above.shape[1]))  # output rows a band
-
-        def boxed(block: np.ndarray, out: np.ndarray) -> None:
-            # Every channel looked up (alpha's decoded value unused): a contiguous lookup
-            # is the faster; rows summed first, then column pairs (two passes, not three)
-            linear = np.take(linear16, block)
-            pairs = linear[0::2] + linear[1::2]
-            total = pairs[:, 0::2, :3] + pairs[:, 1::2, :3]
-            out[..., :3] = np.take(of_sum4, total)
-            alpha = block[..., 3].astype(np.uint16)
-            alpha = alpha[0::2] + alpha[1::2]
-            out[..., 3] = (alpha[:, 0::2] + alpha[:, 1::2] + 2) >> 2
 
         def band(y0: int, y1: int, above: np.ndarray = above, level: np.ndarray = level) -> None:
             block, out = above[2 * y0 : 2 * y1], level[y0:y1]
