@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar
 if TYPE_CHECKING:
     from concurrent.futures import Future
 
+R = TypeVar("R")
+
 T = TypeVar("T")
 
 # The work declared ahead and not yet done, oldest first, each done at a wait of the
@@ -105,6 +107,13 @@ def before_waiting(future: Future | None) -> None:
         if work is None:
             return
         work.run()
+
+
+def waited(future: Future[R]) -> R:
+    """``future.result()``, this thread's work declared ahead done first while it is not
+    done (``before_waiting``)."""
+    before_waiting(future)
+    return future.result()
 
 
 def _forget(work: Ahead) -> None:

@@ -171,7 +171,7 @@ def test_render_starts_its_context_while_the_scene_waits(
         making.clear()
         monkeypatch.setattr(early, "_TAKEN", set())  # the same bytes decode early again
         if not work_ahead:  # no wait of the texture layer does the work
-            for module in (early, maps):
+            for module in (early, maps, waiting):
                 monkeypatch.setattr(module, "before_waiting", lambda future: None)
         events.clear()
         out = folder / "out.png"

@@ -61,7 +61,7 @@ from app.textures.versions import version
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
-from app.waiting import before_waiting
+from app.waiting import before_waiting, waited
 
 MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default limit)
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
@@ -490,8 +490,7 @@ def wait_decoded(image: Image.Image) -> None:
     the ``RefusedError`` of a broken image is raised here (and to every later caller)."""
     pending = getattr(image, _PENDING, None)
     if pending is not None:
-        before_waiting(pending)
-        pending.result()
+        waited(pending)
 
 
 # The attribute of an image that holds its decode on the pool (``decode_later``): a
@@ -858,13 +857,11 @@ class PendingLevels(Sequence[np.ndarray]):
 
     def __getitem__(self, index):  # type: ignore[override]  # an int or a slice, as a list's
         if index == 0 and self._first is not None and not self._future.done():
-            before_waiting(self._first)
-            return self._first.result()
-        before_waiting(self._future)
-        return self._future.result()[index]
+            return waited(self._first)
+        return waited(self._future)[index]
 
     def __len__(self) -> int:
-        return len(self._future.result())
+        return len(waited(self._future))
 
 
 _COLOUR_MAKER: ThreadPoolExecutor | None = None
