@@ -321,7 +321,7 @@ def test_gbaa_resolve_is_its_twin_on_every_branch(
         inputs["hdr"][..., :3] *= alpha[..., None]
         inputs["hdr"][..., 3] = alpha
     if variant == "fetched":
-        monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
+        monkeypatch.setattr(antialias, "quad_neighbour_defines", lambda ctx, shaders: {})
     exact, interior = GBAA_VARIANTS[resolve]
     resolved = drawn_gbaa(gl_egl, inputs, straight, exact, interior)
     expected = twin.gbaa_resolve(

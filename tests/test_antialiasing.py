@@ -348,15 +348,28 @@ def test_geometric_resolve_lowers_the_silhouette_error(gl_egl: GLContext, edge_t
 def test_gbaa_quad_neighbours_are_the_fetched_ones(
     gl_egl: GLContext, edge_truth, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """gbaa's draws taking a 2x2 quad's inner neighbour from the derivative (where the GL's
-    dFdx and dFdy are fine, as llvmpipe's) give the display bytes of the five fetches
-    they replace (the path of a GL whose derivatives are coarse)."""
+    """gbaa's draws taking a 2x2 quad's inner neighbour from the derivatives give the
+    display bytes of the five fetches they replace (the path of a GL whose derivatives
+    are coarse): with dFdxFine/dFdyFine (GL_ARB_derivative_control, llvmpipe's default
+    path here) and with dFdx/dFdy, which the probe finds fine on llvmpipe."""
     loaded = edge_truth[0]
-    assert antialias.fine_derivatives(gl_egl.ctx, ShaderCache(gl_egl.ctx))
-    quad, _ = _display(gl_egl, loaded, "gbaa")
-    monkeypatch.setattr(antialias, "fine_derivatives", lambda ctx, shaders: False)
-    fetched, _ = _display(gl_egl, loaded, "gbaa")
-    assert np.array_equal(quad, fetched)
+    ctx = gl_egl.ctx
+    shaders = ShaderCache(ctx)
+    assert antialias.DERIVATIVE_CONTROL in ctx.extensions
+    assert antialias.quad_neighbour_defines(ctx, shaders) == {
+        "QUAD_NEIGHBOURS": 1,
+        "DERIVATIVE_CONTROL": 1,
+    }
+    assert antialias.fine_derivatives(ctx, shaders)
+    fine, _ = _display(gl_egl, loaded, "gbaa")
+    paths = {
+        "dFdx": {"QUAD_NEIGHBOURS": 1},  # a GL without the extension whose probe passed
+        "fetched": {},  # a GL whose derivatives are coarse
+    }
+    for name, defines in paths.items():
+        monkeypatch.setattr(antialias, "quad_neighbour_defines", lambda c, s, d=defines: d)
+        other, _ = _display(gl_egl, loaded, "gbaa")
+        assert np.array_equal(fine, other), name
 
 
 def test_edge_coverage_of_analytic_spheres_and_meshes(gl_egl: GLContext, edge_truth) -> None:

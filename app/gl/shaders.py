@@ -142,6 +142,8 @@ def _header(defines: Mapping[str, object] | None, fragment: bool = True) -> str:
     lines = [GLSL_VERSION]
     if fragment and "GBUFFER_SAMPLE_MASK" in (defines or {}):  # gl_SampleMask, gbuffer.frag
         lines.append("#extension GL_ARB_sample_shading : require")
+    if fragment and (defines or {}).get("DERIVATIVE_CONTROL"):  # dFdxFine, passes/gbaa.frag
+        lines.append("#extension GL_ARB_derivative_control : require")
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")

@@ -293,6 +293,20 @@ class SraaPass:
 
 # Contexts whose dFdx and dFdy were found fine (or not), by id and renderer
 _FINE_DERIVATIVES: dict[tuple[int, str], bool] = {}
+DERIVATIVE_CONTROL = "GL_ARB_derivative_control"
+
+
+def quad_neighbour_defines(ctx: moderngl.Context, shaders: ShaderCache) -> dict[str, int]:
+    """The defines with which gbaa's draws take a 2x2 quad's inner neighbour from the
+    derivatives (passes/gbaa.frag QUAD_NEIGHBOURS): with ``DERIVATIVE_CONTROL``'s
+    dFdxFine and dFdyFine where the GL has it (fine by definition: no draw to find out),
+    else with dFdx and dFdy where ``fine_derivatives`` finds them fine; none (five
+    fetches) where neither holds."""
+    if DERIVATIVE_CONTROL in ctx.extensions:
+        return {"QUAD_NEIGHBOURS": 1, "DERIVATIVE_CONTROL": 1}
+    if fine_derivatives(ctx, shaders):
+        return {"QUAD_NEIGHBOURS": 1}
+    return {}
 
 
 def fine_derivatives(ctx: moderngl.Context, shaders: ShaderCache) -> bool:
@@ -477,8 +491,7 @@ class GbaaPass:
         defines: dict[str, object] = {"TONEMAP": tonemap_code, "GBAA_MAX_RECTS": GBAA_MAX_RECTS}
         if straight_alpha:
             defines["STRAIGHT_ALPHA"] = 1
-        if fine_derivatives(ctx, shaders):  # three fetches of each target, not five
-            defines["QUAD_NEIGHBOURS"] = 1
+        defines.update(quad_neighbour_defines(ctx, shaders))  # three fetches each, not five
         vertex, fragment = "passes/gbaa_rects.vert", "passes/gbaa.frag"
         defines["GBAA_EXACT"] = int(exact)
         # the mark writes window depth 0 (silhouettes), 1 (interior surface pixels) or 0.5

@@ -20,14 +20,22 @@
 // image there. With render.gbaa_interior a third draw, GBAA_CORRECT, runs between them at depth
 // 0.75 with the test "<": at the interior surface pixels alone (all four neighbours its
 // own surface), whose display value it writes from the HDR image alone.
-// With QUAD_NEIGHBOURS (where dFdx and dFdy are fine: app/render/antialias.py
-// fine_derivatives) each lane fetches its own texel and its two neighbours outside its 2x2
-// quad, and takes the one inside the quad from the derivative: three fetches of each
-// target instead of five (a fetch is most of these draws' cost on llvmpipe).
+// With QUAD_NEIGHBOURS (where the derivatives are fine: app/render/antialias.py
+// quad_neighbour_defines) each lane fetches its own texel and its two neighbours outside
+// its 2x2 quad, and takes the one inside the quad from the derivative: three fetches of
+// each target instead of five (a fetch is most of these draws' cost on llvmpipe). With
+// DERIVATIVE_CONTROL those are dFdxFine and dFdyFine (GL_ARB_derivative_control: fine by
+// definition), else dFdx and dFdy, which a probe draw found fine on this GL.
 #include "post/tonemap.glsl"
 
 #ifndef STRAIGHT_ALPHA
 #define STRAIGHT_ALPHA 0
+#endif
+#ifndef QUAD_NEIGHBOURS
+#define QUAD_NEIGHBOURS 0
+#endif
+#ifndef DERIVATIVE_CONTROL
+#define DERIVATIVE_CONTROL 0
 #endif
 #ifndef GBAA_AXIS_TIE
 #define GBAA_AXIS_TIE 1.1   // a neighbour's edge counts along an axis within 10 % of its nearest
@@ -72,6 +80,13 @@ vec2 surface_at(ivec2 px) {
 }
 
 #if QUAD_NEIGHBOURS
+#if DERIVATIVE_CONTROL
+#define QUAD_DFDX dFdxFine
+#define QUAD_DFDY dFdyFine
+#else
+#define QUAD_DFDX dFdx
+#define QUAD_DFDY dFdy
+#endif
 // Whether this lane is the first (left, lower) of its quad along x and y: the (fine)
 // derivative of the position's parity is +1 where a quad's first lane is even.
 bvec2 g_first;
@@ -80,7 +95,7 @@ ivec2 g_out;
 
 void quad_lanes(ivec2 px) {
     vec2 parity = vec2(px & 1);
-    vec2 even_first = vec2(dFdx(parity.x), dFdy(parity.y));
+    vec2 even_first = vec2(QUAD_DFDX(parity.x), QUAD_DFDY(parity.y));
     g_first = equal(equal(parity, vec2(0.0)), greaterThan(even_first, vec2(0.0)));
     g_out = ivec2(g_first.x ? -1 : 1, g_first.y ? -1 : 1);
 }
@@ -91,8 +106,8 @@ void quad_lanes(ivec2 px) {
 // lemma; a surface's depth and a background's 0 stay exact, an id is an integer).
 // Derivatives are taken here, in uniform control flow, every lane alive.
 vec4[4] quad_around(vec4 v, vec4 out_x, vec4 out_y) {
-    vec4 in_x = g_first.x ? v + dFdx(v) : v - dFdx(v);
-    vec4 in_y = g_first.y ? v + dFdy(v) : v - dFdy(v);
+    vec4 in_x = g_first.x ? v + QUAD_DFDX(v) : v - QUAD_DFDX(v);
+    vec4 in_y = g_first.y ? v + QUAD_DFDY(v) : v - QUAD_DFDY(v);
     return vec4[4](g_first.x ? in_x : out_x, g_first.x ? out_x : in_x,
                    g_first.y ? in_y : out_y, g_first.y ? out_y : in_y);
 }
