@@ -19,7 +19,7 @@ import pytest
 from app.bench.antialiasing import aa_scene_data, with_aa
 from app.gl.context import GLContext
 from app.gl.fullscreen import FullscreenDraw
-from app.gl.shaders import GLSL_VERSION, ShaderCache
+from app.gl.shaders import DERIVATIVE_CONTROL, GLSL_VERSION, ShaderCache
 from app.reference.antialiasing import halton, jitter_offsets
 from app.render import antialias
 from app.render.adjacency import adjacency_indices
@@ -350,20 +350,20 @@ def test_gbaa_quad_neighbours_are_the_fetched_ones(
 ) -> None:
     """gbaa's draws taking a 2x2 quad's inner neighbour from the derivatives give the
     display bytes of the five fetches they replace (the path of a GL whose derivatives
-    are coarse): with dFdxFine/dFdyFine (GL_ARB_derivative_control, llvmpipe's default
-    path here) and with dFdx/dFdy, which the probe finds fine on llvmpipe."""
+    are coarse): with dFdxFine/dFdyFine (GLSL 4.00 and GL_ARB_derivative_control,
+    llvmpipe's path here) and with dFdx/dFdy, which the probe finds fine on llvmpipe."""
     loaded = edge_truth[0]
     ctx = gl_egl.ctx
     shaders = ShaderCache(ctx)
-    assert antialias.DERIVATIVE_CONTROL in ctx.extensions
+    assert ctx.version_code >= 400 and DERIVATIVE_CONTROL in ctx.extensions
     assert antialias.quad_neighbour_defines(ctx, shaders) == {
         "QUAD_NEIGHBOURS": 1,
-        "DERIVATIVE_CONTROL": 1,
+        "FINE_DERIVATIVES": 1,
     }
     assert antialias.fine_derivatives(ctx, shaders)
     fine, _ = _display(gl_egl, loaded, "gbaa")
     paths = {
-        "dFdx": {"QUAD_NEIGHBOURS": 1},  # a GL without the extension whose probe passed
+        "dFdx": {"QUAD_NEIGHBOURS": 1},  # a GL 3.3 context whose probe passed
         "fetched": {},  # a GL whose derivatives are coarse
     }
     for name, defines in paths.items():

@@ -100,6 +100,22 @@ def test_fragment_only_extension_stays_out_of_the_vertex_stage():
     assert extension not in assemble("passes/gbuffer.frag", {})
 
 
+def test_fine_derivatives_program_is_glsl_400_with_the_extension_in_its_fragment_stage():
+    """gbaa's program with FINE_DERIVATIVES (dFdxFine, dFdyFine) is GLSL 4.00 in both
+    stages, which GL_ARB_derivative_control needs, and names the extension in its
+    fragment stage alone; without the define both stages stay 3.30 and name nothing."""
+    from app.gl.shaders import DERIVATIVE_CONTROL, GLSL_VERSION, GLSL_VERSION_FINE_DERIVATIVES
+
+    fine = {"FINE_DERIVATIVES": 1, "QUAD_NEIGHBOURS": 1}
+    extension = f"#extension {DERIVATIVE_CONTROL} : require"
+    fragment = assemble("passes/gbaa.frag", fine)
+    vertex = assemble("passes/gbaa_rects.vert", fine)
+    assert fragment.startswith(GLSL_VERSION_FINE_DERIVATIVES + "\n") and extension in fragment
+    assert vertex.startswith(GLSL_VERSION_FINE_DERIVATIVES + "\n") and extension not in vertex
+    plain = assemble("passes/gbaa.frag", {"QUAD_NEIGHBOURS": 1})
+    assert plain.startswith(GLSL_VERSION + "\n") and extension not in plain
+
+
 def test_expanded_text_is_the_traced_expansion(tmp_path) -> None:
     """``expand_includes`` (each file parsed once a process, no line origins) gives the
     text of the line-by-line expansion whose origins trace a compiler's errors, for every

@@ -34,6 +34,12 @@ from app.resources import GLSL_INCLUDE as _INCLUDE
 from app.resources import glsl_dir
 
 GLSL_VERSION = "#version 330 core"
+# A program whose fragment stage takes fine derivatives (dFdxFine, dFdyFine): GLSL 4.00 with
+# GL_ARB_derivative_control, which needs 4.00 (a 3.30 shader cannot name them; they are
+# core from 4.50): passes/gbaa.frag under FINE_DERIVATIVES, on a GL of 4.0 or later with
+# the extension (app/render/antialias.py).
+GLSL_VERSION_FINE_DERIVATIVES = "#version 400 core"
+DERIVATIVE_CONTROL = "GL_ARB_derivative_control"
 
 
 Origin = tuple[str, int]  # (file under glsl/ or "<text>", 1-based line)
@@ -139,11 +145,12 @@ def _header(defines: Mapping[str, object] | None, fragment: bool = True) -> str:
     """``#version``, the shared constants, a program's feature ``defines``, the lines
     generated from them (``_generated``), then ``#line 1``: the compiler numbers the
     expanded source from 1. ``fragment``: the stage may name fragment-only extensions."""
-    lines = [GLSL_VERSION]
+    fine = bool((defines or {}).get("FINE_DERIVATIVES"))
+    lines = [GLSL_VERSION_FINE_DERIVATIVES if fine else GLSL_VERSION]
     if fragment and "GBUFFER_SAMPLE_MASK" in (defines or {}):  # gl_SampleMask, gbuffer.frag
         lines.append("#extension GL_ARB_sample_shading : require")
-    if fragment and (defines or {}).get("DERIVATIVE_CONTROL"):  # dFdxFine, passes/gbaa.frag
-        lines.append("#extension GL_ARB_derivative_control : require")
+    if fragment and fine:
+        lines.append(f"#extension {DERIVATIVE_CONTROL} : require")
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")

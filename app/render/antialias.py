@@ -44,7 +44,7 @@ from app.common.camera import CameraFrame
 from app.common.tonemaps import TONEMAPS
 from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
-from app.gl.shaders import ShaderCache
+from app.gl.shaders import DERIVATIVE_CONTROL, ShaderCache
 from app.reference.antialiasing import GBAA_SPILL, gbaa_saturation
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer
@@ -293,17 +293,17 @@ class SraaPass:
 
 # Contexts whose dFdx and dFdy were found fine (or not), by id and renderer
 _FINE_DERIVATIVES: dict[tuple[int, str], bool] = {}
-DERIVATIVE_CONTROL = "GL_ARB_derivative_control"
 
 
 def quad_neighbour_defines(ctx: moderngl.Context, shaders: ShaderCache) -> dict[str, int]:
     """The defines with which gbaa's draws take a 2x2 quad's inner neighbour from the
-    derivatives (passes/gbaa.frag QUAD_NEIGHBOURS): with ``DERIVATIVE_CONTROL``'s
-    dFdxFine and dFdyFine where the GL has it (fine by definition: no draw to find out),
-    else with dFdx and dFdy where ``fine_derivatives`` finds them fine; none (five
-    fetches) where neither holds."""
-    if DERIVATIVE_CONTROL in ctx.extensions:
-        return {"QUAD_NEIGHBOURS": 1, "DERIVATIVE_CONTROL": 1}
+    derivatives (passes/gbaa.frag QUAD_NEIGHBOURS): with ``FINE_DERIVATIVES``, dFdxFine
+    and dFdyFine (fine by definition, no draw to find out), on a GL of 4.0 or later with
+    GL_ARB_derivative_control (app/gl/shaders.py gives the program GLSL 4.00 and the
+    extension); else with dFdx and dFdy where ``fine_derivatives`` finds them fine; none
+    (five fetches) where neither holds."""
+    if ctx.version_code >= 400 and DERIVATIVE_CONTROL in ctx.extensions:
+        return {"QUAD_NEIGHBOURS": 1, "FINE_DERIVATIVES": 1}
     if fine_derivatives(ctx, shaders):
         return {"QUAD_NEIGHBOURS": 1}
     return {}

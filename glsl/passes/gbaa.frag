@@ -24,8 +24,8 @@
 // quad_neighbour_defines) each lane fetches its own texel and its two neighbours outside
 // its 2x2 quad, and takes the one inside the quad from the derivative: three fetches of
 // each target instead of five (a fetch is most of these draws' cost on llvmpipe). With
-// DERIVATIVE_CONTROL those are dFdxFine and dFdyFine (GL_ARB_derivative_control: fine by
-// definition), else dFdx and dFdy, which a probe draw found fine on this GL.
+// FINE_DERIVATIVES (a program of GLSL 4.00: app/gl/shaders.py) those are dFdxFine and
+// dFdyFine, fine by definition, else dFdx and dFdy, which a probe draw found fine here.
 #include "post/tonemap.glsl"
 
 #ifndef STRAIGHT_ALPHA
@@ -34,8 +34,8 @@
 #ifndef QUAD_NEIGHBOURS
 #define QUAD_NEIGHBOURS 0
 #endif
-#ifndef DERIVATIVE_CONTROL
-#define DERIVATIVE_CONTROL 0
+#ifndef FINE_DERIVATIVES
+#define FINE_DERIVATIVES 0
 #endif
 #ifndef GBAA_AXIS_TIE
 #define GBAA_AXIS_TIE 1.1   // a neighbour's edge counts along an axis within 10 % of its nearest
@@ -80,7 +80,7 @@ vec2 surface_at(ivec2 px) {
 }
 
 #if QUAD_NEIGHBOURS
-#if DERIVATIVE_CONTROL
+#if FINE_DERIVATIVES
 #define QUAD_DFDX dFdxFine
 #define QUAD_DFDY dFdyFine
 #else
