@@ -89,3 +89,43 @@ def test_images_open_before_colour_maps(tmp_path: Path, monkeypatch: pytest.Monk
     layer = gltf.GltfFile(path).layer(0, fallback, "variance")
     assert events == ["open", "open", "colour"]
     assert list(layer.maps) == ["base_color", "normal_roughness"]  # the material's order
+
+
+@pytest.mark.parametrize(
+    "raised, reason",
+    [
+        (
+            Image.DecompressionBombError("too many"),
+            "declares more texels than an image of 64 a side",
+        ),
+        (OSError("broken data stream"), "is not an image pbs reads (OSError: broken data stream)"),
+        ("refused", "past its budget"),
+    ],
+)
+def test_a_decode_on_the_pool_is_refused_as_open_image_refuses(
+    monkeypatch: pytest.MonkeyPatch, raised: object, reason: str
+) -> None:
+    """What the decoder pool's decode raises reaches ``wait_decoded`` as ``open_image``
+    itself would refuse it: Pillow's bomb check as the texture limit (the same sentence
+    as a header's), its other errors by type and message, a ``RefusedError`` unchanged
+    (not wrapped as an unreadable image)."""
+    from app.textures import maps
+    from app.untrusted import RefusedError
+    from app.untrusted.budget import Budget
+    from app.untrusted.policy import Limits
+
+    if raised == "refused":
+        raised = RefusedError("past its budget")
+
+    def fail(image: Image.Image, digest: str) -> None:
+        raise raised  # type: ignore[misc]
+
+    monkeypatch.setattr(maps, "_decode", fail)
+    texels = np.random.default_rng(len(reason)).integers(0, 256, (8, 8, 3), np.uint8)
+    encoded = io.BytesIO()
+    Image.fromarray(texels).save(encoded, "PNG")
+    budget = Budget(Limits(max_texture_side=64))
+    image = maps.open_image(encoded.getvalue(), budget, decode_later=True)
+    with pytest.raises(RefusedError) as refused:
+        maps.wait_decoded(image)
+    assert str(refused.value) == reason

@@ -432,18 +432,26 @@ def open_image(
         elif image.format == "PNG" and not decoded_before(image, digest):
             image = _one_idat(image, encoded)  # to be decoded here: in one call
         if decode_later:
-            setattr(image, _PENDING, _decoder().submit(_decode_refused, image, digest))
+            pending = _decoder().submit(_decode_refused, image, digest, budget.limits)
+            setattr(image, _PENDING, pending)
             return image
         _decode(image, digest)
         return image
-    except RefusedError:
-        raise
-    except Image.DecompressionBombError:
-        raise RefusedError(
-            f"declares more texels than an image of {budget.limits.max_texture_side} a side"
-        ) from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
-        raise RefusedError(unreadable(exc)) from None
+        raise _refused(exc, budget.limits) from None
+
+
+def _refused(exc: Exception, limits: Limits) -> RefusedError:
+    """What ``open_image`` raises for ``exc``, raised opening or decoding an image (on the
+    caller's thread or the decoder pool's): a ``RefusedError`` as it is, Pillow's
+    decompression-bomb check as the texture limit the image exceeds, anything else Pillow
+    raises for data it cannot decode by its type and message (``early.unreadable``)."""
+    if isinstance(exc, RefusedError):
+        return exc
+    if isinstance(exc, Image.DecompressionBombError):
+        side = limits.max_texture_side
+        return RefusedError(f"declares more texels than an image of {side} a side")
+    return RefusedError(unreadable(exc))
 
 
 def _one_idat(image: Image.Image, encoded: bytes) -> Image.Image:
@@ -475,14 +483,12 @@ def _decode(image: Image.Image, digest: str) -> None:
         decoded_images.keep(digest, image, _image_bytes(image))
 
 
-def _decode_refused(image: Image.Image, digest: str) -> None:
+def _decode_refused(image: Image.Image, digest: str, limits: Limits) -> None:
     """``_decode`` on the decoder pool, what fails as ``open_image`` refuses it."""
     try:
         _decode(image, digest)
-    except Image.DecompressionBombError:
-        raise RefusedError("declares more texels than the texture limit allows") from None
     except Exception as exc:  # Pillow raises many types for data it cannot decode
-        raise RefusedError(unreadable(exc)) from None
+        raise _refused(exc, limits) from None
 
 
 def wait_decoded(image: Image.Image) -> None:
