@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import moderngl
@@ -34,12 +35,46 @@ from app.resources import GLSL_INCLUDE as _INCLUDE
 from app.resources import glsl_dir
 
 GLSL_VERSION = "#version 330 core"
-# A program whose fragment stage takes fine derivatives (dFdxFine, dFdyFine): GLSL 4.00 with
-# GL_ARB_derivative_control, which needs 4.00 (a 3.30 shader cannot name them; they are
-# core from 4.50): passes/gbaa.frag under FINE_DERIVATIVES, on a GL of 4.0 or later with
-# the extension (app/render/antialias.py).
 GLSL_VERSION_FINE_DERIVATIVES = "#version 400 core"
 DERIVATIVE_CONTROL = "GL_ARB_derivative_control"
+
+
+@dataclass(frozen=True)
+class Needs:
+    """What a program's feature define needs of the GLSL: the ``#version`` line of both
+    stages (each program's is the highest its defines need) and the extension its
+    fragment stage names (a vertex stage gains nothing from them, and a strict compiler
+    may refuse them there)."""
+
+    version: str
+    extension: str
+
+
+# Feature defines that need more than GLSL 3.30 core, declared once: the header names
+# their version and extension (``_header``), and ``supports`` asks a GL for them.
+NEEDS: dict[str, Needs] = {
+    # gl_SampleMask (passes/gbuffer.frag, the geometry samples' program)
+    "GBUFFER_SAMPLE_MASK": Needs(GLSL_VERSION, "GL_ARB_sample_shading"),
+    # dFdxFine, dFdyFine (passes/gbaa.frag): the extension needs GLSL 4.00, so a 3.30
+    # shader cannot name them; core from 4.50
+    "FINE_DERIVATIVES": Needs(GLSL_VERSION_FINE_DERIVATIVES, DERIVATIVE_CONTROL),
+}
+
+
+def _needed(defines: Mapping[str, object]) -> list[Needs]:
+    """``NEEDS`` of the defines a program sets (present, and not 0 or False)."""
+    return [NEEDS[name] for name in NEEDS if name in defines and defines[name] not in (0, False)]
+
+
+def _version_number(line: str) -> int:
+    return int(line.split()[1])
+
+
+def supports(ctx: moderngl.Context, define: str) -> bool:
+    """Whether ``ctx`` compiles a program with feature ``define`` (``NEEDS``): its GL
+    version reaches the GLSL version the define needs, and it lists the extension."""
+    needs = NEEDS[define]
+    return ctx.version_code >= _version_number(needs.version) and needs.extension in ctx.extensions
 
 
 Origin = tuple[str, int]  # (file under glsl/ or "<text>", 1-based line)
@@ -145,12 +180,10 @@ def _header(defines: Mapping[str, object] | None, fragment: bool = True) -> str:
     """``#version``, the shared constants, a program's feature ``defines``, the lines
     generated from them (``_generated``), then ``#line 1``: the compiler numbers the
     expanded source from 1. ``fragment``: the stage may name fragment-only extensions."""
-    fine = bool((defines or {}).get("FINE_DERIVATIVES"))
-    lines = [GLSL_VERSION_FINE_DERIVATIVES if fine else GLSL_VERSION]
-    if fragment and "GBUFFER_SAMPLE_MASK" in (defines or {}):  # gl_SampleMask, gbuffer.frag
-        lines.append("#extension GL_ARB_sample_shading : require")
-    if fragment and fine:
-        lines.append(f"#extension {DERIVATIVE_CONTROL} : require")
+    needed = _needed(defines or {})
+    lines = [max([GLSL_VERSION, *(n.version for n in needed)], key=_version_number)]
+    if fragment:
+        lines += [f"#extension {n.extension} : require" for n in needed]
     lines += [f"#define {name} {value}" for name, value in shared_defines().items()]
     for name, value in sorted((defines or {}).items()):
         lines.append(f"#define {name} {value}" if value is not None else f"#define {name}")

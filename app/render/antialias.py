@@ -44,7 +44,7 @@ from app.common.camera import CameraFrame
 from app.common.tonemaps import TONEMAPS
 from app.gl.context import release_objects
 from app.gl.fullscreen import FullscreenDraw, bind_textures, set_uniforms
-from app.gl.shaders import DERIVATIVE_CONTROL, ShaderCache
+from app.gl.shaders import ShaderCache, supports
 from app.reference.antialiasing import GBAA_SPILL, gbaa_saturation
 from app.render.fullscreen import read_rgb
 from app.render.gbuffer import GBuffer
@@ -298,11 +298,11 @@ _FINE_DERIVATIVES: dict[tuple[int, str], bool] = {}
 def quad_neighbour_defines(ctx: moderngl.Context, shaders: ShaderCache) -> dict[str, int]:
     """The defines with which gbaa's draws take a 2x2 quad's inner neighbour from the
     derivatives (passes/gbaa.frag QUAD_NEIGHBOURS): with ``FINE_DERIVATIVES``, dFdxFine
-    and dFdyFine (fine by definition, no draw to find out), on a GL of 4.0 or later with
-    GL_ARB_derivative_control (app/gl/shaders.py gives the program GLSL 4.00 and the
-    extension); else with dFdx and dFdy where ``fine_derivatives`` finds them fine; none
-    (five fetches) where neither holds."""
-    if ctx.version_code >= 400 and DERIVATIVE_CONTROL in ctx.extensions:
+    and dFdyFine (fine by definition, no draw to find out), where the GL supports what
+    the define needs (app/gl/shaders.py ``NEEDS``: GLSL 4.00 and
+    GL_ARB_derivative_control); else with dFdx and dFdy where ``fine_derivatives`` finds
+    them fine; none (five fetches) where neither holds."""
+    if supports(ctx, "FINE_DERIVATIVES"):
         return {"QUAD_NEIGHBOURS": 1, "FINE_DERIVATIVES": 1}
     if fine_derivatives(ctx, shaders):
         return {"QUAD_NEIGHBOURS": 1}
