@@ -1110,6 +1110,8 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse exits 2 on bad arguments, 0 on --help
         return int(exc.code or 0)
+    if own_process and args.command == "render":
+        _no_cycle_collection()
     handlers = {
         "render": cmd_render,
         "brdf": cmd_brdf,
@@ -1134,6 +1136,18 @@ def main(argv: list[str] | None = None) -> int:
     if own_process and args.command == "render" and code == 0:
         _end_process()
     return code
+
+
+def _no_cycle_collection() -> None:
+    """Switch Python's cyclic garbage collector off for a ``pbs render`` process: it draws
+    one image and ends (``_end_process``), and what it allocates is freed by reference
+    counting (arrays, images, GL objects), so the collector's passes found little to free
+    and walked every object the imports made, on the main thread and holding the GIL
+    (docs/performance.md, "Start-up"). Garbage in a reference cycle stays until the
+    process ends, a few hundred small objects in a render."""
+    import gc
+
+    gc.disable()
 
 
 def _end_process() -> NoReturn:

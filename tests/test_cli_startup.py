@@ -338,3 +338,40 @@ def test_a_still_gltf_render_imports_no_numpy_ma(tmp_path: Path) -> None:
     assert out.is_file()
     assert "app.scene.sampled_levels" in result["modules"]  # the bound was taken
     assert among(result["modules"], ("numpy.ma",)) == []
+
+
+# ``main()`` on the process's own command line (``own``) or on a given one; then whether
+# Python's cyclic collector is on, and the exit code.
+COLLECTOR = """
+import gc, sys
+from app.cli import main
+if sys.argv[1] == "own":
+    sys.argv = ["pbs", *sys.argv[2:]]
+    code = main()
+else:
+    code = main(sys.argv[2:])
+print(gc.isenabled(), code)
+"""
+
+
+@pytest.mark.parametrize(
+    ("how", "command", "enabled"),
+    [("own", "render", False), ("given", "render", True), ("own", "batch", True)],
+)
+def test_only_a_render_process_switches_the_cycle_collector_off(
+    tmp_path: Path, how: str, command: str, enabled: bool
+) -> None:
+    """A ``pbs render`` process draws one image and ends, so it runs without the cyclic
+    collector (app.cli ``_no_cycle_collection``); a render called with its arguments (a
+    test, a caller's process) and the other commands keep it. The scene is refused
+    (exit 2): the switch is made before the scene is read, and a refused render returns
+    instead of ending its process."""
+    argv = [command, str(tmp_path / "missing.toml")]
+    argv += ["-o", str(tmp_path / ("x.png" if command == "render" else "out"))]
+    proc = subprocess.run(
+        [sys.executable, "-c", COLLECTOR, how, *argv],
+        cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)},
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == [str(enabled), "2"], (proc.stdout, proc.stderr)
