@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+import app.dataclass_code  # noqa: F401  (before any dataclass: the methods' code cached)
 from app.common.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
 from app.errors import EXIT_BAD_INPUT, InputError
 from app.untrusted import RefusedError, files
@@ -1158,9 +1159,11 @@ def _end_process() -> NoReturn:
     after a textured model's PNG: docs/performance.md, "A real asset against f3d")."""
     import ctypes
 
+    from app.dataclass_code import TABLE
     from app.textures.background import finish_background_work
 
     finish_background_work()
+    TABLE.save()  # what atexit would write: the C library's exit skips Python's handlers
     code = 0
     for stream in (sys.stdout, sys.stderr):
         if stream is None:  # closed at the start (pythonw, or `>&-`): nothing to flush

@@ -26,7 +26,15 @@ APP = REPO / "app"
 # Packages (or modules) in layer order. Within a layer, peers may not import each other:
 # the twins and the GL plumbing know nothing of one another.
 LAYERS: list[tuple[str, ...]] = [
-    ("app.common", "app.errors", "app.resources", "app.output", "app.progress", "app.waiting"),
+    (
+        "app.common",
+        "app.errors",
+        "app.resources",
+        "app.output",
+        "app.progress",
+        "app.waiting",
+        "app.dataclass_code",
+    ),
     ("app.untrusted",),  # every input file opened, parsed and budgeted (docs/stability.md)
     ("app.reference", "app.gl"),
     ("app.textures",),
