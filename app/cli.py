@@ -1113,6 +1113,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     if own_process and args.command == "render":
         _no_cycle_collection()
+    _no_pydantic_plugins()
     handlers = {
         "render": cmd_render,
         "brdf": cmd_brdf,
@@ -1137,6 +1138,48 @@ def main(argv: list[str] | None = None) -> int:
     if own_process and args.command == "render" and code == 0:
         _end_process()
     return code
+
+
+# pydantic's module that finds its plugins (entry points of the group "pydantic")
+_PLUGIN_LOADER = "pydantic.plugin._loader"
+
+
+def _no_pydantic_plugins() -> None:
+    """Run the command without pydantic plugins, as ``PYDANTIC_DISABLE_PLUGINS=__all__``
+    does, and without looking for them: the first model pydantic builds imports its plugin
+    loader, which imports ``importlib.metadata`` (52 modules: email, zipfile, socket, ...)
+    and reads every installed distribution's entry points, about 35 ms of the main thread
+    of every command that reads a scene (docs/performance.md, "Start-up"). A plugin would
+    only watch pbs validate its own scene models. The loader pydantic imports is then one
+    whose ``get_plugins`` finds none; any other name is taken from pydantic's own module,
+    loaded where asked for. Nothing where pydantic has loaded its plugins already."""
+    if _PLUGIN_LOADER in sys.modules:
+        return
+    import types
+
+    def get_plugins() -> tuple:
+        return ()
+
+    def from_pydantic(name: str):  # -> Any: the real module's attribute
+        if name.startswith("__"):  # the import system's questions (a package's __path__)
+            raise AttributeError(name)
+        import importlib.machinery
+        import importlib.util
+
+        import pydantic.plugin
+
+        spec = importlib.machinery.PathFinder.find_spec(_PLUGIN_LOADER, pydantic.plugin.__path__)
+        if spec is None or spec.loader is None:
+            raise AttributeError(name)
+        real = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(real)
+        loader.__getattr__ = real.__getattribute__  # loaded once
+        return getattr(real, name)
+
+    loader = types.ModuleType(_PLUGIN_LOADER, "pydantic's plugin loader, finding none (pbs)")
+    loader.get_plugins = get_plugins  # type: ignore[attr-defined]
+    loader.__getattr__ = from_pydantic  # type: ignore[attr-defined]
+    sys.modules[_PLUGIN_LOADER] = loader
 
 
 def _no_cycle_collection() -> None:

@@ -375,3 +375,22 @@ def test_only_a_render_process_switches_the_cycle_collector_off(
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == [str(enabled), "2"], (proc.stdout, proc.stderr)
+
+
+def test_the_cli_looks_for_no_pydantic_plugins(tmp_path: Path) -> None:
+    """The scene's models are built with pydantic's plugins off and unsearched (app.cli
+    ``_no_pydantic_plugins``): no ``importlib.metadata`` (52 modules) and no scan of the
+    installed distributions before a bad scene is refused. pydantic's loader module still
+    answers for the names it has."""
+    scene = tmp_path / "bad.toml"
+    scene.write_text(BAD_SCENES["bad material"][0], encoding="utf-8")
+    probe = PROBE.replace(
+        '"modules": sorted(sys.modules)',
+        '"modules": sorted(sys.modules), "group": __import__('
+        '"pydantic.plugin._loader", fromlist=["x"]).PYDANTIC_ENTRY_POINT_GROUP',
+    )
+    result = run_cli("render", str(scene), "-o", str(tmp_path / "x.png"), probe=probe)
+    assert result["code"] == 2
+    assert "pydantic" in result["modules"]  # the models were built
+    assert among(result["modules"], ("importlib.metadata",)) == []
+    assert result["group"] == "pydantic"
