@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
-import app.dataclass_code  # noqa: F401  (before any dataclass: the methods' code cached)
+import app.code_cache  # noqa: F401  (first: the code dataclasses and typing compile, cached)
 from app.common.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
 from app.errors import EXIT_BAD_INPUT, InputError
 from app.untrusted import RefusedError, files
@@ -1202,7 +1202,7 @@ def _end_process() -> NoReturn:
     after a textured model's PNG: docs/performance.md, "A real asset against f3d")."""
     import ctypes
 
-    from app.dataclass_code import TABLE
+    from app.code_cache import TABLE
     from app.textures.background import finish_background_work
 
     finish_background_work()

@@ -33,7 +33,7 @@ LAYERS: list[tuple[str, ...]] = [
         "app.output",
         "app.progress",
         "app.waiting",
-        "app.dataclass_code",
+        "app.code_cache",
     ),
     ("app.untrusted",),  # every input file opened, parsed and budgeted (docs/stability.md)
     ("app.reference", "app.gl"),

@@ -1,9 +1,11 @@
-"""app/dataclass_code.py: the methods ``dataclasses`` writes, compiled once per installation.
+"""app/code_cache.py: the code the standard library compiles from text at every import
+(dataclasses' methods, typing's forward references), compiled once per installation.
 
-A class made with the table's ``exec`` has the very methods the built-in ``exec`` gives it
-(the same code, the same behaviour); a process writes the table where Python writes its
-bytecode, and only then; the next process compiles none of the texts it holds; a table from
-another interpreter or a damaged one is not used.
+A class made with the table's ``exec`` has the very methods the built-in ``exec`` gives it,
+and a forward reference the code ``compile`` gives it (the same code, the same behaviour);
+a process writes the table where Python writes its bytecode, and only then; the next
+process compiles none of the texts it holds; a table from another interpreter or a damaged
+one is not used.
 """
 
 from __future__ import annotations
@@ -14,13 +16,14 @@ import importlib.util
 import os
 import subprocess
 import sys
+import typing
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
 from typing import ClassVar
 
 import pytest
 
-from app import dataclass_code
+from app import code_cache
 from tests.conftest import REPO
 
 CODE_PARTS = (
@@ -77,7 +80,7 @@ def methods(cls) -> dict:
 
 
 def test_the_table_gives_the_code_exec_compiles(monkeypatch: pytest.MonkeyPatch) -> None:
-    table = dataclass_code._Table(None)
+    table = code_cache._Table(None)
     monkeypatch.setattr(dataclasses, "exec", table.exec, raising=False)
     cached = declare()
     assert table.compiled > 10  # every method text compiled through the table
@@ -94,7 +97,7 @@ def test_the_table_gives_the_code_exec_compiles(monkeypatch: pytest.MonkeyPatch)
 def test_classes_made_through_the_table_behave_as_dataclasses(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    table = dataclass_code._Table(None)
+    table = code_cache._Table(None)
     monkeypatch.setattr(dataclasses, "exec", table.exec, raising=False)
     for _ in range(2):  # made, then made again from the texts compiled the first time
         frozen, ordered, slotted = declare()
@@ -111,6 +114,28 @@ def test_classes_made_through_the_table_behave_as_dataclasses(
         assert s != slotted(1) and s == s and repr(s) == "declare.<locals>.Slotted(x=1)"
         assert not hasattr(s, "__dict__")
     assert table.compiled > 0 and len(table.used) == table.compiled
+
+
+@pytest.mark.parametrize(
+    "text", ["int", "list[tuple[str, float]]", "Frozen | None", "*Ts", "'quoted'"]
+)
+def test_a_forward_reference_gets_the_code_compile_gives(
+    monkeypatch: pytest.MonkeyPatch, text: str
+) -> None:
+    """typing compiles a string annotation into the reference's code: the table's is the
+    built-in's (and a text that is no expression raises as before)."""
+    table = code_cache._Table(None)
+    argument = not text.startswith("*")
+    monkeypatch.setattr(typing, "compile", table.compile, raising=False)
+    ours = typing.ForwardRef(text, is_argument=argument)
+    monkeypatch.setattr(typing, "compile", builtins.compile, raising=False)
+    theirs = typing.ForwardRef(text, is_argument=argument)
+    for part in CODE_PARTS:
+        assert getattr(ours.__forward_code__, part) == getattr(theirs.__forward_code__, part)
+    assert table.compiled == 1
+    monkeypatch.setattr(typing, "compile", table.compile, raising=False)
+    with pytest.raises(SyntaxError):
+        typing.ForwardRef("not an expression")
 
 
 def _child(code: str, cache: Path, write: bool = True) -> str:
@@ -132,7 +157,7 @@ def _child(code: str, cache: Path, write: bool = True) -> str:
 PROBE = """
 import app.cli
 import app.scene.sources
-from app.dataclass_code import TABLE
+from app.code_cache import TABLE
 print(TABLE.compiled, len(TABLE.codes), TABLE.path)
 """
 
@@ -166,24 +191,24 @@ def test_a_foreign_or_damaged_table_is_not_used(tmp_path: Path, content: bytes |
     table.write_bytes(content)
     compiled, held, _ = _child(PROBE, tmp_path).split()
     assert int(compiled) > 50 and int(held) == int(compiled)
-    assert dataclass_code._read(table).keys()  # written whole again
+    assert code_cache._read(table).keys()  # written whole again
 
 
 def test_a_full_table_keeps_only_what_its_process_used(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(sys, "dont_write_bytecode", False)
-    table = dataclass_code._Table(tmp_path / "t.dataclasses")
-    table.codes = {f"x = {i}": compile(f"x = {i}", "<string>", "exec") for i in range(5)}
+    table = code_cache._Table(tmp_path / "t.codes")
+    table.codes = {("exec", f"x = {i}"): compile(f"x = {i}", "<string>", "exec") for i in range(5)}
     table.exec("y = 1", {}, {})
     table.exec("x = 0", {}, {})
-    table_max = dataclass_code.MAX_ENTRIES
+    table_max = code_cache.MAX_ENTRIES
     try:
-        dataclass_code.MAX_ENTRIES = 4
+        code_cache.MAX_ENTRIES = 4
         table.save()
     finally:
-        dataclass_code.MAX_ENTRIES = table_max
-    assert sorted(dataclass_code._read(table.path)) == ["x = 0", "y = 1"]
+        code_cache.MAX_ENTRIES = table_max
+    assert sorted(code_cache._read(table.path)) == [("exec", "x = 0"), ("exec", "y = 1")]
 
 
 @pytest.mark.gl
@@ -203,5 +228,5 @@ def test_a_render_process_writes_the_table(tmp_path: Path) -> None:
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert out.is_file()
-    tables = list((tmp_path / "c").rglob("*.dataclasses"))
-    assert len(tables) == 1 and len(dataclass_code._read(tables[0])) > 50
+    tables = list((tmp_path / "c").rglob("*.codes"))
+    assert len(tables) == 1 and len(code_cache._read(tables[0])) > 50
