@@ -515,6 +515,22 @@ def srgb_tables() -> tuple[np.ndarray, np.ndarray]:
     return linear16, of_sum4
 
 
+@functools.cache
+def srgb_pair_tables() -> tuple[np.ndarray, np.ndarray]:
+    """``srgb_tables``' decode for two 8-bit channels at once: indexed by the 16-bit word
+    of two adjacent bytes of an RGBA texel (R and G, B and A, as memory holds them), the
+    64-bit word of their two 32-bit linear values in the same order, so that one lookup
+    decodes two channels and one 64-bit add sums two (a 2x2 box's sum of four, at most
+    4 x 65535, never carries from one half into the other). The B-and-A table keeps
+    alpha as it is (alpha is linear). Byte order is the machine's for both views, so the
+    halves fall where the bytes were."""
+    linear16, _ = srgb_tables()
+    pairs = np.arange(1 << 16, dtype=np.uint16).view(np.uint8).reshape(-1, 2)  # memory bytes
+    rg = linear16[pairs].astype(np.uint32)
+    ba = np.stack([linear16[pairs[:, 0]], pairs[:, 1]], axis=1).astype(np.uint32)
+    return rg.view(np.uint64)[:, 0].copy(), ba.view(np.uint64)[:, 0].copy()
+
+
 SRGB_BAND_TEXELS = 1 << 16  # source texels a band of srgb_box_levels reads
 
 
@@ -546,18 +562,23 @@ def srgb_box_levels(level0: np.ndarray) -> list[np.ndarray]:
     were some 50 MB of fresh memory for a 1024² map, a band's are reused."""
     h, w = level0.shape[:2]
     assert h == w and h & (h - 1) == 0, "a square power-of-two map"
-    linear16, of_sum4 = srgb_tables()
+    _, of_sum4 = srgb_tables()
+    rg_table, ba_table = srgb_pair_tables()
 
     def boxed(block: np.ndarray, out: np.ndarray) -> None:
-        # Every channel looked up (alpha's decoded value unused): a contiguous lookup
-        # is the faster; rows summed first, then column pairs (two passes, not three)
-        linear = np.take(linear16, block)
-        pairs = linear[0::2] + linear[1::2]
-        total = pairs[:, 0::2, :3] + pairs[:, 1::2, :3]
-        out[..., :3] = np.take(of_sum4, total)
-        alpha = block[..., 3].astype(np.uint16)
-        alpha = alpha[0::2] + alpha[1::2]
-        out[..., 3] = (alpha[:, 0::2] + alpha[:, 1::2] + 2) >> 2
+        # Two channels a lookup (srgb_pair_tables: half the lookups and index casts of
+        # one a channel); rows summed first, then column pairs, both halves at once
+        words = block.view(np.uint16)  # (rows, w, 2): R and G, B and A
+        sums = []
+        for table, half in ((rg_table, 0), (ba_table, 1)):
+            linear = np.take(table, words[..., half])
+            linear = linear[0::2] + linear[1::2]
+            total = linear[:, 0::2] + linear[:, 1::2]
+            sums.append(total.view(np.uint32).reshape(*total.shape, 2))
+        out[..., 0] = np.take(of_sum4, sums[0][..., 0])
+        out[..., 1] = np.take(of_sum4, sums[0][..., 1])
+        out[..., 2] = np.take(of_sum4, sums[1][..., 0])
+        out[..., 3] = (sums[1][..., 1] + 2) >> 2
 
     levels = [level0]
     while levels[-1].shape[0] > 1:
