@@ -1111,9 +1111,10 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse exits 2 on bad arguments, 0 on --help
         return int(exc.code or 0)
-    if own_process and args.command == "render":
-        _no_cycle_collection()
-    _no_pydantic_plugins()
+    if own_process:  # the process is the command's, not a caller's
+        _no_pydantic_plugins()
+        if args.command == "render":
+            _no_cycle_collection()
     handlers = {
         "render": cmd_render,
         "brdf": cmd_brdf,
@@ -1145,14 +1146,16 @@ _PLUGIN_LOADER = "pydantic.plugin._loader"
 
 
 def _no_pydantic_plugins() -> None:
-    """Run the command without pydantic plugins, as ``PYDANTIC_DISABLE_PLUGINS=__all__``
-    does, and without looking for them: the first model pydantic builds imports its plugin
-    loader, which imports ``importlib.metadata`` (52 modules: email, zipfile, socket, ...)
-    and reads every installed distribution's entry points, about 35 ms of the main thread
-    of every command that reads a scene (docs/performance.md, "Start-up"). A plugin would
-    only watch pbs validate its own scene models. The loader pydantic imports is then one
-    whose ``get_plugins`` finds none; any other name is taken from pydantic's own module,
-    loaded where asked for. Nothing where pydantic has loaded its plugins already."""
+    """Run the command's process without pydantic plugins, as
+    ``PYDANTIC_DISABLE_PLUGINS=__all__`` does, and without looking for them: the first
+    model pydantic builds imports its plugin loader, which imports ``importlib.metadata``
+    (52 modules: email, zipfile, socket, ...) and reads every installed distribution's
+    entry points, about 35 ms of the main thread of every command that reads a scene
+    (docs/performance.md, "Start-up"). A plugin would only watch pbs validate its own
+    scene models. The loader pydantic imports is then one whose ``get_plugins`` finds
+    none; any other name is taken from pydantic's own module, loaded where asked for.
+    Nothing where pydantic has loaded its plugins already, nor in a caller's process
+    (``main(argv)``: its plugins are its own)."""
     if _PLUGIN_LOADER in sys.modules:
         return
     import types

@@ -377,11 +377,13 @@ def test_only_a_render_process_switches_the_cycle_collector_off(
     assert proc.stdout.split() == [str(enabled), "2"], (proc.stdout, proc.stderr)
 
 
-def test_the_cli_looks_for_no_pydantic_plugins(tmp_path: Path) -> None:
-    """The scene's models are built with pydantic's plugins off and unsearched (app.cli
-    ``_no_pydantic_plugins``): no ``importlib.metadata`` (52 modules) and no scan of the
-    installed distributions before a bad scene is refused. pydantic's loader module still
-    answers for the names it has."""
+@pytest.mark.parametrize("own", [True, False])
+def test_the_cli_process_looks_for_no_pydantic_plugins(tmp_path: Path, own: bool) -> None:
+    """In its own process (``main()``) the command builds the scene's models with
+    pydantic's plugins off and unsearched (app.cli ``_no_pydantic_plugins``): no
+    ``importlib.metadata`` (52 modules) and no scan of the installed distributions before
+    a bad scene is refused, and pydantic's loader module still answers for the names it
+    has. Called with its arguments (a caller's process) it leaves pydantic as it is."""
     scene = tmp_path / "bad.toml"
     scene.write_text(BAD_SCENES["bad material"][0], encoding="utf-8")
     probe = PROBE.replace(
@@ -389,8 +391,11 @@ def test_the_cli_looks_for_no_pydantic_plugins(tmp_path: Path) -> None:
         '"modules": sorted(sys.modules), "group": __import__('
         '"pydantic.plugin._loader", fromlist=["x"]).PYDANTIC_ENTRY_POINT_GROUP',
     )
+    if own:  # main() on the process's own command line (a refused render returns)
+        probe = probe.replace("code = main(sys.argv[1:])", "sys.argv[0] = 'pbs'; code = main()")
     result = run_cli("render", str(scene), "-o", str(tmp_path / "x.png"), probe=probe)
     assert result["code"] == 2
     assert "pydantic" in result["modules"]  # the models were built
-    assert among(result["modules"], ("importlib.metadata",)) == []
+    searched = among(result["modules"], ("importlib.metadata",)) != []
+    assert searched is not own
     assert result["group"] == "pydantic"
