@@ -6,6 +6,7 @@ Exit codes: 0 success, 2 bad input (one line naming the file and key), 1 anythin
 from __future__ import annotations
 
 import argparse
+import atexit
 import contextlib
 import logging
 import math
@@ -18,7 +19,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
-import app.code_cache  # noqa: F401  (first: the code dataclasses and typing compile, cached)
+import app.code_cache as code_table  # first: the code dataclasses and typing compile, cached
 from app.common.debug_views import DEBUG_VIEWS, LIGHT_VIEWS
 from app.errors import EXIT_BAD_INPUT, InputError
 from app.untrusted import RefusedError, files
@@ -1115,6 +1116,7 @@ def main(argv: list[str] | None = None) -> int:
         _no_pydantic_plugins()
         if args.command == "render":
             _no_cycle_collection()
+        atexit.register(code_table.TABLE.save)  # _end_process saves it, atexit or not
     handlers = {
         "render": cmd_render,
         "brdf": cmd_brdf,
@@ -1205,11 +1207,10 @@ def _end_process() -> NoReturn:
     after a textured model's PNG: docs/performance.md, "A real asset against f3d")."""
     import ctypes
 
-    from app.code_cache import TABLE
     from app.textures.background import finish_background_work
 
     finish_background_work()
-    TABLE.save()  # what atexit would write: the C library's exit skips Python's handlers
+    code_table.TABLE.save()  # as atexit would: the C library's exit skips Python's handlers
     code = 0
     for stream in (sys.stdout, sys.stderr):
         if stream is None:  # closed at the start (pythonw, or `>&-`): nothing to flush

@@ -32,12 +32,13 @@ same filename ("<string>"), mode and optimisation level, and no ``__future__`` f
 bytes, flags, another filename) goes to the built-in as it is. In Python 3.11–3.13 each
 module makes exactly one such call (``dataclasses``: ``_create_fn``, then ``_FuncBuilder``;
 ``typing``: ``ForwardRef.__init__``), looking the name up in the module's globals first,
-which is all this sets: nothing else of the standard library changes.
+which is all this sets: nothing else of the standard library changes. The table is
+written by the command's own process as it ends (app/cli.py ``main``), not by a process
+that calls the CLI with arguments (a test run, a script): what they compile is theirs.
 """
 
 from __future__ import annotations
 
-import atexit
 import builtins
 import dataclasses
 import importlib.util
@@ -156,4 +157,3 @@ def table_path() -> Path | None:
 TABLE = _Table(table_path())
 dataclasses.exec = TABLE.exec  # type: ignore[attr-defined]
 typing.compile = TABLE.compile  # type: ignore[attr-defined]
-atexit.register(TABLE.save)

@@ -138,28 +138,43 @@ def test_a_forward_reference_gets_the_code_compile_gives(
         typing.ForwardRef("not an expression")
 
 
-def _child(code: str, cache: Path, write: bool = True) -> str:
-    """Run ``code`` in a fresh interpreter whose bytecode goes under ``cache``."""
+def _child(code: str, cache: Path, write: bool = True, how: str = "own") -> str:
+    """Run ``code`` (``PROBE``) in a fresh interpreter whose bytecode goes under ``cache``,
+    on a bad scene beside it, the CLI in its own process (``how``: "own") or called."""
     env = {**os.environ, "PYTHONPATH": str(REPO), "PYTHONPYCACHEPREFIX": str(cache)}
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     if not write:
         env["PYTHONDONTWRITEBYTECODE"] = "1"
+    scene = cache / "bad.toml"
+    scene.parent.mkdir(parents=True, exist_ok=True)
+    scene.write_text(BAD_SCENE, encoding="utf-8")
     proc = subprocess.run(
-        [sys.executable, "-c", code], cwd=REPO, env=env,
-        capture_output=True, text=True, timeout=120, check=False,
+        [sys.executable, "-c", code, str(scene), str(cache / "x.png"), how], cwd=REPO,
+        env=env, capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     return proc.stdout
 
 
-# The CLI's imports and a render's scene layer (pydantic's and the project's declarations
-# among them), then what the table compiled and held.
+# ``pbs render`` of a scene that is refused once validated (the CLI's and the scene layer's
+# imports: pydantic's and the project's declarations among them), in its own process
+# (``main()``) or called with its arguments (``main(argv)``); then what the table compiled
+# and held, and where it lives. The interpreter's exit follows (a refused render returns).
 PROBE = """
-import app.cli
-import app.scene.sources
+import sys
+from app.cli import main
 from app.code_cache import TABLE
+scene, out, how = sys.argv[1:]
+argv = ["render", scene, "-o", out]
+if how == "own":
+    sys.argv = ["pbs", *argv]
+    code = main()
+else:
+    code = main(argv)
+assert code == 2, code
 print(TABLE.compiled, len(TABLE.codes), TABLE.path)
 """
+BAD_SCENE = "[materials.m]\nroughness = 2.0\n"
 
 
 def test_a_process_writes_the_table_and_the_next_compiles_nothing(tmp_path: Path) -> None:
@@ -174,6 +189,14 @@ def test_a_process_writes_the_table_and_the_next_compiles_nothing(tmp_path: Path
 
 def test_no_table_is_written_where_python_writes_no_bytecode(tmp_path: Path) -> None:
     compiled, _, path = _child(PROBE, tmp_path, write=False).split()
+    assert int(compiled) > 50
+    assert not Path(path).exists()
+
+
+def test_a_caller_of_the_cli_writes_no_table(tmp_path: Path) -> None:
+    """``main(argv)`` runs in a caller's process (a test run, a script): the texts it
+    compiled through the table are not written for the command's processes."""
+    compiled, _, path = _child(PROBE, tmp_path, how="called").split()
     assert int(compiled) > 50
     assert not Path(path).exists()
 
