@@ -1151,9 +1151,9 @@ def _no_pydantic_plugins() -> None:
     """Run the command's process without pydantic plugins, as
     ``PYDANTIC_DISABLE_PLUGINS=__all__`` does, and without looking for them: the first
     model pydantic builds imports its plugin loader, which imports ``importlib.metadata``
-    (52 modules: email, zipfile, socket, ...) and reads every installed distribution's
-    entry points, about 35 ms of the main thread of every command that reads a scene
-    (docs/performance.md, "Start-up"). A plugin would only watch pbs validate its own
+    (email, zipfile, socket and more) and reads every installed distribution's entry
+    points, on the main thread of every command that reads a scene (its cost:
+    docs/performance.md, "Start-up"). A plugin would only watch pbs validate its own
     scene models. The loader pydantic imports is then one whose ``get_plugins`` finds
     none; any other name is taken from pydantic's own module, loaded where asked for.
     Nothing where pydantic has loaded its plugins already, nor in a caller's process
@@ -1193,7 +1193,7 @@ def _no_cycle_collection() -> None:
     counting (arrays, images, GL objects), so the collector's passes found little to free
     and walked every object the imports made, on the main thread and holding the GIL
     (docs/performance.md, "Start-up"). Garbage in a reference cycle stays until the
-    process ends, a few hundred small objects in a render."""
+    process ends: a render makes little of it (small objects, no arrays)."""
     import gc
 
     gc.disable()

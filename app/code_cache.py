@@ -10,9 +10,9 @@ Two places compile source text each time a module is imported:
   (every annotation of a module with ``from __future__ import annotations``, which
   pydantic evaluates to build its models).
 
-A ``pbs render`` of a model file compiled 596 such methods (about 125 dataclasses: the
-project's declarations, pydantic's, annotated_types') and 920 such annotations: 90–110 ms
-of the main thread on Python 3.11, before the scene is read (docs/performance.md,
+A ``pbs render`` of a model file imports some hundred dataclasses (the project's
+declarations, pydantic's, annotated_types') and hundreds of such annotations, all compiled
+on the main thread before the scene is read (their count and cost: docs/performance.md,
 "Start-up").
 
 Imported first by the command line (app/cli.py), this module gives ``dataclasses`` an
