@@ -79,9 +79,13 @@ class _Table:
         return code
 
     def exec(self, source: Any, scope: dict | None = None, local: Any = None) -> None:
-        """``exec`` for ``dataclasses`` (``scope``, ``local``: its globals and locals)."""
+        """``exec`` for ``dataclasses`` (``scope``, ``local``: its globals and locals; where
+        no globals are given, the caller's, as the built-in takes them)."""
         if isinstance(source, str):
             source = self.code("exec", source)
+        if scope is None:
+            caller = sys._getframe(1)
+            scope, local = caller.f_globals, caller.f_locals if local is None else local
         builtins.exec(source, scope, local)
 
     def compile(

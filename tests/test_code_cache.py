@@ -116,6 +116,17 @@ def test_classes_made_through_the_table_behave_as_dataclasses(
     assert table.compiled > 0 and len(table.used) == table.compiled
 
 
+def test_exec_without_globals_takes_the_callers() -> None:
+    """Given no globals, the table's ``exec`` runs the text in its caller's, as the
+    built-in does (``dataclasses`` always passes its class's module's)."""
+    table = code_cache._Table(None)
+    ours: dict = {}
+    table.exec("r = __name__", None, ours)
+    theirs: dict = {}
+    exec("r = __name__", None, theirs)
+    assert ours == theirs == {"r": __name__}
+
+
 @pytest.mark.parametrize(
     "text", ["int", "list[tuple[str, float]]", "Frozen | None", "*Ts", "'quoted'"]
 )
