@@ -149,22 +149,28 @@ def test_a_forward_reference_gets_the_code_compile_gives(
         typing.ForwardRef("not an expression")
 
 
-def _child(code: str, cache: Path, write: bool = True, how: str = "own") -> str:
-    """Run ``code`` (``PROBE``) in a fresh interpreter whose bytecode goes under ``cache``,
-    on a bad scene beside it, the CLI in its own process (``how``: "own") or called."""
+def _run(code: str, cache: Path, *args: str, write: bool = True) -> str:
+    """Run ``code`` with ``args`` in a fresh interpreter whose bytecode goes under
+    ``cache`` (not written where ``write`` is off); its standard output."""
     env = {**os.environ, "PYTHONPATH": str(REPO), "PYTHONPYCACHEPREFIX": str(cache)}
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     if not write:
         env["PYTHONDONTWRITEBYTECODE"] = "1"
-    scene = cache / "bad.toml"
-    scene.parent.mkdir(parents=True, exist_ok=True)
-    scene.write_text(BAD_SCENE, encoding="utf-8")
     proc = subprocess.run(
-        [sys.executable, "-c", code, str(scene), str(cache / "x.png"), how], cwd=REPO,
-        env=env, capture_output=True, text=True, timeout=120, check=False,
+        [sys.executable, "-c", code, *args], cwd=REPO, env=env,
+        capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     return proc.stdout
+
+
+def _child(code: str, cache: Path, write: bool = True, how: str = "own") -> str:
+    """Run ``code`` (``PROBE``) as ``_run`` does on a bad scene beside ``cache``, the CLI
+    in its own process (``how``: "own") or called."""
+    scene = cache / "bad.toml"
+    scene.parent.mkdir(parents=True, exist_ok=True)
+    scene.write_text(BAD_SCENE, encoding="utf-8")
+    return _run(code, cache, str(scene), str(cache / "x.png"), how, write=write)
 
 
 # ``pbs render`` of a scene that is refused once validated (the CLI's and the scene layer's
@@ -254,13 +260,7 @@ def test_a_render_process_writes_the_table(tmp_path: Path) -> None:
         "import sys; sys.argv = ['pbs', 'render', 'sec3_lambert', '-o', sys.argv[1],"
         " '--size', '16x9', '-q']\nfrom app.cli import main\nmain()"
     )
-    env = {**os.environ, "PYTHONPATH": str(REPO), "PYTHONPYCACHEPREFIX": str(tmp_path / "c")}
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
-    proc = subprocess.run(
-        [sys.executable, "-c", code, str(out)], cwd=REPO, env=env,
-        capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
+    _run(code, tmp_path / "c", str(out))
     assert out.is_file()
     tables = list((tmp_path / "c").rglob("*.codes"))
     assert len(tables) == 1 and len(code_cache._read(tables[0])) > 50
