@@ -454,6 +454,62 @@ def test_box_levels_float16_table_is_the_cast(monkeypatch: pytest.MonkeyPatch) -
     assert all(a.tobytes() == b.tobytes() for a, b in zip(direct, cast, strict=True))
 
 
+@pytest.mark.parametrize("shape", [(131, 37), (64, 9), (1, 5), (5, 1), (1, 1), (256, 256)])
+def test_unorm8_box_levels_are_box_levels(
+    shape: tuple[int, int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An 8-bit channel's levels from its integer sums (what channel_texture builds) are
+    box_levels' of its float64 values v / 255, bit for bit: float32 and float16 rows up,
+    from each first level, of a strided view like an image's storage, random texels
+    and a map of one value."""
+    from app.textures import mips
+
+    monkeypatch.setattr(mips, "BAND_ROWS", 16)
+    rng = np.random.default_rng(RNG_SEED + 11)
+    storage = rng.integers(0, 256, (*shape, 4), dtype=np.uint8)
+    for texels in (storage[..., 2], np.full(shape, 255, np.uint8)):
+        band = lambda y0, y1, t=texels: t[y0:y1, :, None] / 255.0  # noqa: E731
+        table = lambda y0, y1, t=texels: mips.unorm8_float16(t[y0:y1, :, None])  # noqa: E731
+        for first in range(3):
+            for rows_up in (False, True):
+                want = mips.box_levels(band, (*shape, 1), rows_up, table, first)
+                made = mips.unorm8_box_levels(texels, rows_up, first)
+                assert [a.dtype for a in made] == [b.dtype for b in want]
+                assert [a.shape for a in made] == [b.shape for b in want]
+                assert all(a.tobytes() == b.tobytes() for a, b in zip(made, want, strict=True))
+
+
+def test_unorm8_box_levels_every_level_one_sum() -> None:
+    """Every sum a level-1 footprint of 4, 6 or 9 texels can hold (maps of 2x2, 2x3 and
+    3x3: one footprint each), each split over its texels at random: level 1 is
+    box_levels', bit for bit, where it divides in float32 and box_levels adds float64
+    quotients."""
+    from app.textures import mips
+
+    rng = np.random.default_rng(RNG_SEED + 12)
+    for shape in ((2, 2), (2, 3), (3, 3)):
+        n = shape[0] * shape[1]
+        for total in range(255 * n + 1):
+            texels = np.full(n, total // n)
+            texels[: total % n] += 1
+            for i, j in rng.integers(0, n, (2 * n, 2)):  # moved between texels, each <= 255
+                if i != j:
+                    texels[i], texels[j] = _moved(rng, texels[i], texels[j])
+            assert texels.sum() == total and texels.max() <= 255
+            t = texels.reshape(shape).astype(np.uint8)
+            band = lambda y0, y1, t=t: t[y0:y1, :, None] / 255.0  # noqa: E731
+            for rows_up in (False, True):
+                (want,) = mips.box_levels(band, (*shape, 1), rows_up, None, 1)
+                (made,) = mips.unorm8_box_levels(t, rows_up, 1)
+                assert made.tobytes() == want.tobytes(), (shape, total)
+
+
+def _moved(rng: np.random.Generator, a: int, b: int) -> tuple[int, int]:
+    """Some of ``a`` moved to ``b`` (at most what keeps ``b`` <= 255)."""
+    amount = int(rng.integers(0, min(a, 255 - b) + 1))
+    return a - amount, b + amount
+
+
 def test_decode_normal_planes() -> None:
     """``planes=True``: the same bits as the interleaved decode (the z floor included),
     each component a contiguous plane that the chain's moments read."""

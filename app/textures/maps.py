@@ -47,14 +47,13 @@ from app.textures.early import take as take_early
 from app.textures.lean import AUTO, LEAN, covariance_levels, lean_chain_levels, spread_levels
 from app.textures.mips import (
     BandSource,
-    box_levels,
     box_mips,
     chain_inputs,
     chain_levels,
     decode_normal_map,
     float16_rows_up,
     srgb_box_levels,
-    unorm8_float16,
+    unorm8_box_levels,
 )
 from app.textures.pillow_view import rgbx_view
 from app.textures.versions import version
@@ -1106,13 +1105,9 @@ def channel_texture(image: Image.Image, channel: int, first: int = 0) -> Texture
     ``first``: its levels from there on alone (``normal_roughness_map``'s)."""
 
     def build(rows_up_float16: bool = False) -> list[np.ndarray]:
-        # scalar_texture(rgb[..., channel] / 255.0).levels, the float64 values made a band
-        # of rows at a time (mips.box_levels: the same bits; rows_up_float16 as there)
-        rgb = rgb_texels(image)
-        h, w = rgb.shape[:2]
-        band = lambda y0, y1: rgb[y0:y1, :, channel, None] / 255.0  # noqa: E731
-        halves = lambda y0, y1: unorm8_float16(rgb[y0:y1, :, channel, None])  # noqa: E731
-        return box_levels(band, (h, w, 1), rows_up_float16, halves, first)
+        # scalar_texture(rgb[..., channel] / 255.0).levels, made from the 8-bit texels
+        # (mips.unorm8_box_levels: box_levels' bits; rows_up_float16 as there)
+        return unorm8_box_levels(rgb_texels(image)[..., channel], rows_up_float16, first)
 
     parts = (_prepared_version(), _image_part(image), int(channel))
     parts += (("from level", first),) if first else ()

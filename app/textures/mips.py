@@ -356,6 +356,72 @@ def box_levels(
     return levels[first:]
 
 
+def unorm8_box_levels(
+    texels: np.ndarray, rows_up_float16: bool = False, first: int = 0
+) -> list[np.ndarray]:
+    """``box_levels`` of an 8-bit channel, (H, W) uint8 (a view of an image's storage
+    will do) read as v / 255: levels (h_k, w_k, 1) float32, or float16 rows bottom first
+    with ``rows_up_float16``; ``first`` as there (a glTF metallic or occlusion map).
+
+    Made from the integers: a footprint's texels are summed exactly (16 bits at level 1,
+    where a footprint holds at most nine, 64 below) and each mean is one division
+    S / (255 n) rounded to float32, which ``box_levels`` reaches through float64 sums of
+    the rounded quotients v / 255 (the same bits on the maps tests/test_mips.py tries,
+    including every sum level 1 can hold). Level 1's S and 255 n are exact in float32,
+    whose division rounds the mean once, as the float64 one followed by the float32 cast
+    does (no float64 quotient of so small a denominator falls on a float32 tie). Level 1
+    is made a band of rows at a time (``each_band``), so that nothing of its size is held
+    but its 16-bit sums and the level itself, where box_levels held float64 sums, means
+    and a float32 copy: fresh memory's page faults were much of their time
+    (docs/performance.md, "A real asset against f3d"). The levels below are a quarter of
+    its size and divide in float64."""
+    h, w = texels.shape
+    out_type = np.float16 if rows_up_float16 else np.float32
+    levels: list[np.ndarray] = []
+    if first == 0:
+        level0 = unorm8_float16(texels[::-1]) if rows_up_float16 else texels / np.float32(255)
+        levels.append(np.ascontiguousarray(level0)[..., None])
+    if max(h, w) == 1:
+        return levels
+    counts_y, counts_x = _halve_counts(np.ones(h)), _halve_counts(np.ones(w))
+    sums = np.empty((counts_y.size, counts_x.size), np.uint16)
+    level = np.empty((*sums.shape, 1), out_type) if first <= 1 else None
+
+    def band(y0: int, y1: int) -> None:  # level-0 rows y0 .. y1 (``_bands``)
+        rows = slice(y0 // 2, y0 // 2 + max(1, (y1 - y0) // 2))
+        block = sums[rows] = _halve(texels[y0:y1], np.uint16)
+        if level is not None:  # rows bottom first where float16: the level's rows backwards
+            mean = _unorm8_means(block, counts_y[rows], counts_x, np.float32)[..., None]
+            at = slice(len(sums) - rows.stop, len(sums) - rows.start) if rows_up_float16 else rows
+            level[at] = mean[::-1] if rows_up_float16 else mean
+
+    each_band(band, _bands(h))
+    if level is not None:
+        levels.append(level)
+    k = 1
+    while max(sums.shape) > 1:
+        k += 1
+        sums = _halve(sums, np.uint64)
+        counts_y, counts_x = _halve_counts(counts_y), _halve_counts(counts_x)
+        if k >= first:
+            mean = _unorm8_means(sums, counts_y, counts_x, np.float64).astype(np.float32)
+            levels.append(float16_rows_up(mean[..., None]) if rows_up_float16 else mean[..., None])
+    return levels
+
+
+def _unorm8_means(
+    sums: np.ndarray, counts_y: np.ndarray, counts_x: np.ndarray, dtype: type
+) -> np.ndarray:
+    """Footprint sums of 8-bit texels over 255 times their texel counts (``counts_y`` per
+    row, ``counts_x`` per column), divided in ``dtype``: one number where every footprint
+    holds as many texels (even sides), else each footprint's."""
+    if np.ptp(counts_y) == 0 and np.ptp(counts_x) == 0:
+        counts = dtype(255.0 * counts_y[0] * counts_x[0])
+    else:
+        counts = (255.0 * np.outer(counts_y, counts_x)).astype(dtype)
+    return np.divide(sums, counts, dtype=dtype)
+
+
 # v / 255 for each 8-bit value v, cast float64 -> float32 -> float16 as astype rounds: an
 # 8-bit channel's level-0 texels through ``np.take`` of this are the same bits as the
 # casts of its float64 values.
@@ -419,13 +485,15 @@ def _moment(name: str, n: np.ndarray, r: np.ndarray) -> np.ndarray:
     return s * s if len(name) == 3 else s
 
 
-def _halve(a: np.ndarray) -> np.ndarray:
+def _halve(a: np.ndarray, dtype: type | None = None) -> np.ndarray:
     """Sums over the next level's footprints: 2x2 blocks of rows and columns, an odd last
-    row or column joining the last pair, a side of 1 staying 1.
+    row or column joining the last pair, a side of 1 staying 1; ``dtype``: what the sums
+    are added in (an 8-bit map's widened), else ``a``'s.
 
     Pairs are added as two strided views (a[0::2] + a[1::2]) and a block of three as
     a + (b + c): the same additions in the same order as np.add.reduceat over the blocks,
     so the same bits, without reduceat's per-block loop."""
+    add = functools.partial(np.add, dtype=dtype or a.dtype)
     for axis in (0, 1):
         size = a.shape[axis]
         if size == 1:
@@ -435,7 +503,7 @@ def _halve(a: np.ndarray) -> np.ndarray:
         second = [slice(None)] * a.ndim
         first[axis] = slice(0, 2 * pairs, 2)
         second[axis] = slice(1, 2 * pairs, 2)
-        halved = a[tuple(first)] + a[tuple(second)]
+        halved = add(a[tuple(first)], a[tuple(second)])
         if size % 2:  # the last block: a + (b + c), the order reduceat adds three in
             block = [[slice(None)] * a.ndim for _ in range(3)]
             for k in range(3):
@@ -443,8 +511,9 @@ def _halve(a: np.ndarray) -> np.ndarray:
             end = [slice(None)] * a.ndim
             end[axis] = slice(pairs - 1, pairs)
             a_, b_, c_ = (a[tuple(b)] for b in block)
-            halved[tuple(end)] = a_ + (b_ + c_)
+            halved[tuple(end)] = add(a_, add(b_, c_))
         a = halved
+        add = np.add
     return a
 
 
