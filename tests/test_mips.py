@@ -543,6 +543,21 @@ def test_variance_texels_bits() -> None:
     np.testing.assert_array_equal(out[..., 3].view(np.int64), r.view(np.int64))
 
 
+def test_srgb_tables_are_the_formulas() -> None:
+    """``srgb_tables``: the decode table is IEC 61966-2-1's decode of every 8-bit code in
+    units of 1/65535, and the table made from the codes' steps is the encode of the mean,
+    rounded, at every one of the 262,141 sums of four (the formula the steps stand for)."""
+    from app.reference.tonemap import srgb_decode, srgb_encode
+    from app.textures import mips
+
+    linear16, of_sum4 = mips.srgb_tables()
+    codes = np.arange(256) / 255.0
+    assert np.array_equal(linear16, np.round(srgb_decode(codes) * 65535.0).astype(np.uint32))
+    sums = np.arange(mips.SUM4 + 1)
+    want = np.round(srgb_encode(sums / float(mips.SUM4)) * 255.0).astype(np.uint8)
+    assert of_sum4.dtype == np.uint8 and np.array_equal(of_sum4, want)
+
+
 @pytest.mark.parametrize("pattern", ["random", "sparse"])
 @pytest.mark.parametrize("side", [1, 2, 64, 256])
 def test_srgb_box_levels_in_bands_are_the_whole_levels(

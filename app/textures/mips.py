@@ -576,12 +576,39 @@ def srgb_tables() -> tuple[np.ndarray, np.ndarray]:
     """sRGB-encoded 8-bit value -> linear value in units of 1/65535 (IEC 61966-2-1's
     decode), and the sum of four such values -> the 8-bit encoding of their mean (its
     encode, rounded): a 2x2 box in linear space in integer arithmetic, as the GL filters
-    sRGB texels (decoded before they are averaged). Made at first use (the second is
-    262,141 powers), not by every process that imports this module."""
+    sRGB texels (decoded before they are averaged). Made at first use, not by every
+    process that imports this module.
+
+    The second table, ``round(255 encode(s / SUM4))`` for every sum s, steps up once for
+    each of the 255 codes above 0: it is made from the sum each step starts at, that
+    formula evaluated on a few sums around the decode of the code's lower midpoint
+    (``_code_starts``), instead of on all 262,141 (tens of milliseconds of powers in the
+    cold render that first asks for it). tests/test_mips.py holds it to the formula at
+    every sum."""
     linear16 = np.round(srgb_decode(np.arange(256) / 255.0) * 65535.0).astype(np.uint32)
-    mean = np.arange(4 * 65535 + 1) / (4 * 65535.0)
-    of_sum4 = np.round(srgb_encode(mean) * 255.0).astype(np.uint8)
+    starts = _code_starts()
+    lengths = np.diff(np.concatenate([[0], starts, [SUM4 + 1]]))
+    of_sum4 = np.repeat(np.arange(256, dtype=np.uint8), lengths)
     return linear16, of_sum4
+
+
+SUM4 = 4 * 65535  # the largest sum of four ``srgb_tables`` linear values
+
+
+def _code_starts() -> np.ndarray:
+    """For each 8-bit code k = 1..255, the least sum s of four linear values whose mean
+    encodes to k or more, ``round(255 encode(s / SUM4)) >= k``: the encode is monotonic,
+    so s lies within a step of where the decode of (k - 1/2) / 255 puts it (the two
+    formulas agree to far less than a sum's step, 1 / SUM4), and a window of sums there
+    holds the step (checked: a window that missed it raises)."""
+    codes = np.arange(1, 256)
+    guess = np.floor(srgb_decode((codes - 0.5) / 255.0) * SUM4).astype(np.int64)
+    window = np.clip(guess[:, None] + np.arange(-4, 5), 0, SUM4)  # (255, 9)
+    encoded = np.round(srgb_encode(window / float(SUM4)) * 255.0)
+    above = encoded >= codes[:, None]
+    if above[:, 0].any() or not above[:, -1].all():
+        raise AssertionError("an sRGB code's step lies outside its window")
+    return window[np.arange(len(codes)), np.argmax(above, axis=1)]
 
 
 @functools.cache
