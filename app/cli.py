@@ -598,6 +598,18 @@ def _renderer_class() -> type[Renderer]:
     return Renderer
 
 
+def _start_device(args: argparse.Namespace) -> None:
+    """Start the EGL device's driver on a thread of its own (app/gl/egl.py
+    ``start_device``: llvmpipe's LLVM loaded without the GIL) for the context ``_context``
+    makes later; nothing for ``--backend osmesa``. A model file's render starts it with
+    its early decodes, a scene file's once the file is read and valid: a bad scene is
+    refused without the GL stack (docs/performance.md, "Start-up")."""
+    if args.backend != "osmesa":
+        from app.gl.egl import start_device
+
+        start_device(args.device)
+
+
 def _context(args: argparse.Namespace) -> GLContext:
     """The headless context of ``--backend`` on ``--device`` (app/gl/context.py): an
     index EGL does not enumerate is one line naming the option (or PBS_EGL_DEVICE) and
@@ -704,6 +716,10 @@ def cmd_render(args: argparse.Namespace) -> int:
         from app.scene.early_images import start_still_decodes
 
         start_still_decodes(args.scene)
+    from app.scene.look import is_model_file
+
+    if is_model_file(args.scene):  # a scene file's, once it is read (_read_and_render)
+        _start_device(args)
     if still:  # one frame: no later load reuses a decoded image
         from app.textures.decoded import keep_decoded_images
 
@@ -732,6 +748,7 @@ def _read_and_render(
 ) -> int:
     """``_render``'s work, with the renderer class and the GL context it takes when the
     scene is read and checked."""
+    from app.scene.look import is_model_file
     from app.scene.sources import scene_from, scene_path
 
     start = time.perf_counter()
@@ -769,6 +786,8 @@ def _read_and_render(
             from app.scene.edits import edited
 
             loaded = edited(loaded, {"render.background": args.background}, "--background")
+        if not is_model_file(scene_file):
+            _start_device(args)  # the renderer's modules are imported meanwhile
         if args.compare is not None:
             return _render_comparison(args, loaded, out, start, inputs, context)
         for option, value in (

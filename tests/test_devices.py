@@ -25,7 +25,7 @@ import pytest
 
 from app.cli import main
 from app.gl import egl
-from app.gl.context import DEVICE_ENV, GLContext, gl_function
+from app.gl.context import GLContext, gl_function
 from tests.conftest import REPO
 from tests.test_cli_startup import among, run_cli
 
@@ -74,7 +74,7 @@ def two_devices(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     icd = {"file_format_version": "1.0.0", "ICD": {"library_path": str(copy)}}
     second.write_text(json.dumps(icd), encoding="utf-8")
     env = {**os.environ, VENDOR_FILES: f"{vendor}:{second}"}
-    env.pop(DEVICE_ENV, None)
+    env.pop(egl.DEVICE_ENV, None)
     return env
 
 
@@ -147,19 +147,19 @@ def test_a_device_out_of_range_is_one_line_and_no_png(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"--device {count}: out of range" in err, err
     assert f"EGL enumerates {count} device" in err
-    monkeypatch.setenv(DEVICE_ENV, str(count))
+    monkeypatch.setenv(egl.DEVICE_ENV, str(count))
     assert main(render) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"{DEVICE_ENV}={count}: out of range" in err, err
+    assert err.count("\n") == 1 and f"{egl.DEVICE_ENV}={count}: out of range" in err, err
     assert not out.exists()
     assert main([*render, "--device", "0"]) == 0  # the flag over the variable
     assert out.is_file()
-    monkeypatch.setenv(DEVICE_ENV, "first")
+    monkeypatch.setenv(egl.DEVICE_ENV, "first")
     assert main(render) == 2
-    assert f"{DEVICE_ENV}=first" in capsys.readouterr().err
+    assert f"{egl.DEVICE_ENV}=first" in capsys.readouterr().err
     jobs = tmp_path / "jobs.toml"
     jobs.write_text('scene = "sec3_lambert"\nsize = "16x16"\norbit = { frames = 2 }\n')
-    monkeypatch.delenv(DEVICE_ENV)
+    monkeypatch.delenv(egl.DEVICE_ENV)
     folder = tmp_path / "frames"
     assert main(["batch", str(jobs), "-o", str(folder), "--devices", f"0,{count}"]) == 2
     err = capsys.readouterr().err
@@ -173,7 +173,7 @@ def test_the_variable_and_the_flag_choose_the_device(
     """``PBS_EGL_DEVICE=1`` renders on device 1, ``--device 0`` over it on device 0
     (the render's line names the device EGL put the context on)."""
     render = ("render", "sec3_lambert", "-o", str(tmp_path / "x.png"), "--size", "16x9")
-    env = {**two_devices, DEVICE_ENV: "1"}
+    env = {**two_devices, egl.DEVICE_ENV: "1"}
     for extra, device in (((), 1), (("--device", "0"), 0)):
         proc = _pbs(*render, *extra, env=env)
         assert proc.returncode == 0, proc.stderr
@@ -249,3 +249,47 @@ def test_an_egl_render_never_loads_the_glx_libgl(tmp_path: Path) -> None:
     mapped = json.loads(proc.stdout.splitlines()[-1])
     assert any(name.startswith("libEGL.so") for name in mapped), mapped
     assert not [n for n in mapped if n.startswith(("libGL.so", "libGLX.so"))], mapped
+
+
+START_DEVICE_PROBE = """
+import ctypes, json, threading
+from app.gl import egl
+lib = egl._library()
+query = lib.eglQueryString
+query.restype, query.argtypes = ctypes.c_char_p, [ctypes.c_void_p, ctypes.c_int]
+platform_display = egl._extension(
+    "eglGetPlatformDisplayEXT", egl._handle, [ctypes.c_uint, egl._handle, ctypes.POINTER(egl._int)]
+)
+display = platform_display(egl._EGL_PLATFORM_DEVICE_EXT, egl._device_handles()[0], None)
+before = query(display, 0x3054)  # EGL_VERSION: NULL on a display not initialized
+egl.start_device(None)
+(started,) = [t for t in threading.enumerate() if t.name == "pbs-gl-device"]
+started.join(60)
+after = query(display, 0x3054)
+from app.gl.context import create_context
+gl = create_context("egl")
+gl.ctx.clear(0.25, 0.5, 0.75, 1.0)
+print(json.dumps({"before": before is not None, "after": (after or b"").decode(),
+                  "device": gl.device, "renderer": gl.ctx.info["GL_RENDERER"]}))
+"""
+
+
+def test_start_device_initializes_the_display_the_context_is_made_on() -> None:
+    """``egl.start_device`` (what ``pbs render`` starts while it imports and reads the
+    scene) initializes device 0's display on a thread of its own: a fresh process's
+    display answers EGL_VERSION only after it, and the context made afterwards is on that
+    device and draws. An index EGL does not enumerate is refused by ``initialize_device``
+    (``start_device`` reports nothing: the context's creation names it)."""
+    env = {
+        k: v for k, v in os.environ.items() if k not in (egl.DEVICE_ENV, "GLCONTEXT_DEVICE_INDEX")
+    }
+    proc = subprocess.run(
+        [sys.executable, "-c", START_DEVICE_PROBE], cwd=REPO,
+        env={**env, "PYTHONPATH": str(REPO)}, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.splitlines()[-1])
+    assert not result["before"] and re.match(r"\d+\.\d+", result["after"]), result
+    assert result["device"] == 0 and result["renderer"], result
+    with pytest.raises(egl.EGLUnavailableError):
+        egl.initialize_device(egl.device_count())

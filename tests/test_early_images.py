@@ -377,6 +377,33 @@ def test_normal_spread_made_early(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     assert early_images.normal_map_scales(path) == {}
 
 
+def test_normal_spread_made_early_after_the_reader_took_the_image(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The reader takes a normal map while its early decode runs; the early thread still
+    makes its spread (the reader's call then finds it, or waits for it: the prepared
+    cache builds an entry once), under the reader's key."""
+    import hashlib
+
+    from app.scene import early_images
+    from app.textures.cache import prepared_cache
+    from app.textures.maps import auto_normal_filter
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    data = _png(9)
+    digest = hashlib.sha256(data).hexdigest()
+    early.decode_early(data, Budget())
+    image = maps.open_image(data, Budget(), "normal", decode_later=True)
+    maps.wait_decoded(image)
+    assert early.peek(digest) is None and early.decoded(digest) is image  # taken
+    events = len(prepared_cache().events)
+    early_images._normal_spread(digest, 1.0)
+    assert prepared_cache().events[events:] == ["built"]
+    assert auto_normal_filter(image, 1.0) in ("lean", "variance")
+    assert prepared_cache().events[events + 1 :] == ["memory"]  # found, not made again
+
+
 def test_colour_levels_made_early(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A colour map decoded early gets its levels from level 1 on made on the early
     thread (``maps.start_colour_levels``); the reader's ``colour_texture`` takes them

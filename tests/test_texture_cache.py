@@ -436,6 +436,53 @@ def test_kept_reads_and_never_builds(tmp_path: Path) -> None:
     assert off.kept("test", ("kept",)) is None
 
 
+@pytest.mark.parametrize("fails", [False, True])
+def test_an_entry_being_built_is_waited_for_not_built_again(tmp_path: Path, fails: bool) -> None:
+    """Two threads ask for one entry at once: the second waits for the first one's build
+    and gets its arrays (or its exception), and nothing is built twice; once the build is
+    over, a new miss builds again (an exception is not kept)."""
+    import threading
+
+    cache = PreparedCache(tmp_path)
+    started, release = threading.Event(), threading.Event()
+    builds: list[str] = []
+
+    def build() -> list[np.ndarray]:
+        builds.append(threading.current_thread().name)
+        started.set()
+        release.wait(10)
+        if fails:
+            raise ValueError("the build failed")
+        return [np.arange(5.0)]
+
+    got: dict[str, object] = {}
+
+    def ask(name: str) -> None:
+        try:
+            got[name] = cache.arrays("test", ("shared",), build)[0]
+        except ValueError as exc:
+            got[name] = exc
+
+    first = threading.Thread(target=ask, args=("first",), name="first")
+    first.start()
+    assert started.wait(10)
+    second = threading.Thread(target=ask, args=("second",), name="second")
+    second.start()
+    second.join(0.2)
+    assert second.is_alive()  # waiting for the first build, not building its own
+    release.set()
+    first.join(10)
+    second.join(10)
+    assert builds == ["first"]
+    if fails:
+        assert all(isinstance(got[n], ValueError) for n in ("first", "second"))
+        cache.arrays("test", ("shared",), lambda: [np.zeros(2)])  # built anew
+        assert cache.events[-1] == "built"
+    else:
+        assert got["first"] is got["second"] and np.array_equal(got["first"], np.arange(5.0))
+        assert cache.events == ["built"]
+
+
 @pytest.mark.parametrize("method", ["none", "variance"])
 def test_declared_upload_bytes_are_the_built_levels(
     method: str, monkeypatch: pytest.MonkeyPatch

@@ -22,7 +22,6 @@ import ctypes.util
 import functools
 import logging
 import os
-import re
 import weakref
 from dataclasses import dataclass, field
 from typing import Literal
@@ -31,6 +30,7 @@ import moderngl
 
 from app.errors import InputError
 from app.gl import egl
+from app.gl.egl import GLCONTEXT_DEVICE_ENV, DeviceRequest, device_request
 
 Backend = Literal["auto", "egl", "osmesa"]
 REQUIRED_GL = 330
@@ -162,48 +162,7 @@ def osmesa_changes() -> int:
     return _osmesa_changes
 
 
-DEVICE_ENV = "PBS_EGL_DEVICE"
-# glcontext's own variable: it overrides the device_index it is given.
-_GLCONTEXT_DEVICE_ENV = "GLCONTEXT_DEVICE_INDEX"
 _log = logging.getLogger("pbs.gl")
-
-
-@dataclass(frozen=True)
-class DeviceRequest:
-    """An EGL device asked for, and by what (``--device``, ``PBS_EGL_DEVICE``), for the
-    one-line refusal of an index EGL does not enumerate."""
-
-    index: int
-    asked_by: str
-
-    @property
-    def named(self) -> str:
-        """How the user wrote it: ``--device 3``, ``PBS_EGL_DEVICE=3``."""
-        joint = "=" if self.asked_by == DEVICE_ENV else " "
-        return f"{self.asked_by}{joint}{self.index}"
-
-    def refused(self, count: int) -> InputError:
-        have = f"{count} device" + ("" if count == 1 else "s")
-        valid = "" if not count else " (index 0)" if count == 1 else f" (0..{count - 1})"
-        return InputError(self.named, "", f"out of range: EGL enumerates {have}{valid}")
-
-
-def device_request(device: int | None, option: str = "device") -> DeviceRequest | None:
-    """The device asked for: ``device`` (named ``option`` in errors) over the
-    ``PBS_EGL_DEVICE`` environment variable; None where neither asks (EGL's first device).
-    A variable that is not a whole number >= 0 is bad input."""
-    if device is not None:
-        if device < 0:
-            raise InputError(f"{option} {device}", "", "expected a device index >= 0")
-        return DeviceRequest(device, option)
-    text = os.environ.get(DEVICE_ENV, "").strip()
-    if not text:
-        return None
-    if not re.fullmatch(r"\d+", text):
-        raise InputError(
-            f"{DEVICE_ENV}={text}", "", "expected a device index (0, 1, ...; pbs devices)"
-        )
-    return DeviceRequest(int(text), DEVICE_ENV)
 
 
 def check_device(request: DeviceRequest) -> None:
@@ -259,7 +218,7 @@ def _create_egl(request: DeviceRequest | None = None) -> GLContext:
         ctx.release()
         raise ContextError(
             f"{request.named} asked for, but the context is on device "
-            f"{device} ({_GLCONTEXT_DEVICE_ENV} is set?)"
+            f"{device} ({GLCONTEXT_DEVICE_ENV} is set?)"
         )
     return GLContext(ctx, "egl", device=device)
 

@@ -18,7 +18,12 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import os
+import re
+import threading
 from dataclasses import dataclass
+
+from app.errors import InputError
 
 LIBEGL = "libEGL.so.1"
 
@@ -48,6 +53,49 @@ _GL_VERSION = 0x1F02
 _handle = ctypes.c_void_p
 _boolean = ctypes.c_uint
 _int = ctypes.c_int32
+
+
+DEVICE_ENV = "PBS_EGL_DEVICE"
+# glcontext's own variable: it overrides the device_index it is given.
+GLCONTEXT_DEVICE_ENV = "GLCONTEXT_DEVICE_INDEX"
+
+
+@dataclass(frozen=True)
+class DeviceRequest:
+    """An EGL device asked for, and by what (``--device``, ``PBS_EGL_DEVICE``), for the
+    one-line refusal of an index EGL does not enumerate."""
+
+    index: int
+    asked_by: str
+
+    @property
+    def named(self) -> str:
+        """How the user wrote it: ``--device 3``, ``PBS_EGL_DEVICE=3``."""
+        joint = "=" if self.asked_by == DEVICE_ENV else " "
+        return f"{self.asked_by}{joint}{self.index}"
+
+    def refused(self, count: int) -> InputError:
+        have = f"{count} device" + ("" if count == 1 else "s")
+        valid = "" if not count else " (index 0)" if count == 1 else f" (0..{count - 1})"
+        return InputError(self.named, "", f"out of range: EGL enumerates {have}{valid}")
+
+
+def device_request(device: int | None, option: str = "device") -> DeviceRequest | None:
+    """The device asked for: ``device`` (named ``option`` in errors) over the
+    ``PBS_EGL_DEVICE`` environment variable; None where neither asks (EGL's first device).
+    A variable that is not a whole number >= 0 is bad input."""
+    if device is not None:
+        if device < 0:
+            raise InputError(f"{option} {device}", "", "expected a device index >= 0")
+        return DeviceRequest(device, option)
+    text = os.environ.get(DEVICE_ENV, "").strip()
+    if not text:
+        return None
+    if not re.fullmatch(r"\d+", text):
+        raise InputError(
+            f"{DEVICE_ENV}={text}", "", "expected a device index (0, 1, ...; pbs devices)"
+        )
+    return DeviceRequest(int(text), DEVICE_ENV)
 
 
 class EGLUnavailableError(RuntimeError):
@@ -181,6 +229,44 @@ def _kind(handle: int, extensions: tuple[str, ...]) -> str:
         ok = attribute(handle, _EGL_CUDA_DEVICE_NV, ctypes.byref(cuda))
         parts.append(f"CUDA device {cuda.value if ok else '?'} (EGL_NV_device_cuda)")
     return ", ".join(parts) or "unknown kind (" + (" ".join(extensions) or "no extensions") + ")"
+
+
+def initialize_device(index: int) -> None:
+    """``eglInitialize`` of the display of device ``index``, the display moderngl's EGL
+    backend makes its context on (``eglGetPlatformDisplayEXT`` of the device, no
+    attributes): EGL loads the device's driver and makes its screen (llvmpipe: LLVM's
+    library loaded and its code generator set up, some 40 ms) here, through ctypes, which
+    lets go of the GIL while it waits; moderngl's backend holds the GIL throughout. The
+    context made later on that display finds it initialized (EGL 1.5 §3.2: initializing
+    an initialized display does nothing more). ``RuntimeError`` where EGL cannot."""
+    handles = _device_handles()
+    if not 0 <= index < len(handles):
+        raise EGLUnavailableError(f"no EGL device {index}")
+    platform_display = _extension(
+        "eglGetPlatformDisplayEXT", _handle, [ctypes.c_uint, _handle, ctypes.POINTER(_int)]
+    )
+    display = platform_display(_EGL_PLATFORM_DEVICE_EXT, handles[index], None)
+    if not display or not _library().eglInitialize(display, None, None):
+        raise RuntimeError(f"eglInitialize failed (0x{_library().eglGetError():x})")
+
+
+def start_device(device: int | None) -> None:
+    """Initialize, on a daemon thread, the display of the device a context will be asked
+    for (``device`` over ``PBS_EGL_DEVICE``, as ``device_request``; glcontext's own
+    ``GLCONTEXT_DEVICE_INDEX`` over both, as it takes it): ``initialize_device`` while the
+    caller's thread goes on importing and reading the scene (``pbs render``). Nothing is
+    reported: an index or an EGL that cannot be used is the context's creation's to name."""
+
+    def initialize() -> None:
+        try:
+            request = device_request(device)
+            index = 0 if request is None else request.index
+            override = os.environ.get(GLCONTEXT_DEVICE_ENV, "").strip()
+            initialize_device(int(override) if override.isdigit() else index)
+        except Exception:  # the context's creation reports it, in its order
+            return
+
+    threading.Thread(target=initialize, name="pbs-gl-device", daemon=True).start()
 
 
 def _gl_strings(handle: int) -> tuple[str, str, str]:

@@ -161,13 +161,16 @@ def _map_uris(doc: dict, maps: tuple[tuple[str | None, str], ...]):  # -> Iterat
 def _normal_spread(digest: str, scale: float) -> None:
     """The sampled spread that ``render.normal_filter = "auto"`` chooses by, for the normal
     map decoded early with bytes of ``digest`` (``maps.auto_normal_filter``, kept in the
-    prepared-texture cache under the key the reader's call looks up): made here, on the
-    core the imports leave idle, where the reader would make it while reading the scene.
-    Nothing where the reader has taken the image already."""
-    from app.textures.maps import auto_normal_filter
+    prepared-texture cache under the key the reader's call looks up): made here, where
+    the reader would make it on the main thread while reading the scene. Made too where
+    the reader has taken the image already (it takes it while the decode runs): its call
+    then waits for this build instead of making its own (``PreparedCache.arrays``)."""
+    from app.textures import early
+    from app.textures.maps import SOURCE_DIGEST, auto_normal_filter
 
-    image = _decoded_early(digest)
+    image = early.decoded(digest)
     if image is not None:
+        image.info[SOURCE_DIGEST] = digest
         auto_normal_filter(image, scale)
 
 

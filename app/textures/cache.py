@@ -63,6 +63,7 @@ from app.textures.cache_keys import (
     seed_directories,
     textures_directory,
 )
+from app.waiting import waited
 
 if TYPE_CHECKING:
     from app.textures.cache_keys import Part
@@ -256,6 +257,7 @@ class PreparedCache:
         self._held = 0
         self._lock = threading.Lock()
         self._writing: dict[str, Future] = {}  # entries being written (``_write``) by key
+        self._building: dict[str, Future] = {}  # entries being built (``_keyed``) by key
         # What happened to each lookup, for tests and the bench: memory, disk, seed, built,
         # rebuilt.
         self.events: list[str] = []
@@ -272,16 +274,33 @@ class PreparedCache:
         return self._keyed(entry_key(kind, parts), build)
 
     def _keyed(self, key: str, build: Callable[[], Sequence[np.ndarray]]) -> tuple[np.ndarray, ...]:
-        """``arrays`` of the entry ``key`` (the cache on)."""
+        """``arrays`` of the entry ``key`` (the cache on). An entry another thread is
+        building is waited for (``waited``: this thread's work declared ahead first), not
+        built a second time beside it (a still render's early decode makes a normal map's
+        spread while the reader asks for it); its build's exception is raised to both."""
         arrays = self._looked_up(key)
         if arrays is not None:
             return arrays
-        arrays = tuple(np.ascontiguousarray(a) for a in build())
-        self._write(key, arrays)
-        self.events.append("built")
-        for a in arrays:
-            a.setflags(write=False)
-        self._remember(key, arrays)
+        mine: Future = Future()
+        with self._lock:
+            building = self._building.setdefault(key, mine)
+        if building is not mine:
+            return waited(building)
+        try:
+            arrays = tuple(np.ascontiguousarray(a) for a in build())
+            self._write(key, arrays)
+            self.events.append("built")
+            for a in arrays:
+                a.setflags(write=False)
+            self._remember(key, arrays)
+        except BaseException as exc:
+            mine.set_exception(exc)
+            raise
+        else:
+            mine.set_result(arrays)
+        finally:
+            with self._lock:
+                del self._building[key]
         return arrays
 
     def kept(self, kind: str, parts: Iterable[Part]) -> tuple[np.ndarray, ...] | None:

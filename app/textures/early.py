@@ -17,6 +17,7 @@ import re
 import struct
 import threading
 import warnings
+import weakref
 import zlib
 from concurrent.futures import Future
 from typing import TYPE_CHECKING
@@ -39,6 +40,8 @@ BAND_BYTES = {"I;16": 2, "I;16L": 2, "I;16B": 2, "I;16N": 2, "I": 4, "F": 4}
 _EARLY: dict[str, Future] = {}
 _TAKEN: set[str] = set()
 _LOCK = threading.Lock()  # both, and the early decodes' shared budget
+# Every image decoded early, by digest, for as long as something holds it (taken or not).
+_DECODED: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
 
 
 def decode_early(data: bytes, budget: Budget) -> str | None:
@@ -76,6 +79,7 @@ def decode_early(data: bytes, budget: Budget) -> str | None:
     except Exception as exc:  # the reader decodes it again and names it
         done.set_exception(exc)
         return None
+    _DECODED[digest] = image
     done.set_result(image)
     return digest
 
@@ -172,6 +176,12 @@ def peek(digest: str):  # -> PIL.Image.Image | None
     if done is None or not done.done() or done.exception() is not None:
         return None
     return done.result()
+
+
+def decoded(digest: str):  # -> PIL.Image.Image | None
+    """The image of the bytes with SHA-256 ``digest`` decoded early, whether or not the
+    reader has taken it, while something holds it; else None."""
+    return _DECODED.get(digest)
 
 
 def take(digest: str):  # -> PIL.Image.Image | None
