@@ -16,6 +16,7 @@ libEGL is opened once a process by its soname: ``ctypes.util.find_library`` woul
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import functools
 import os
@@ -255,7 +256,10 @@ def start_device(device: int | None) -> None:
     for (``device`` over ``PBS_EGL_DEVICE``, as ``device_request``; glcontext's own
     ``GLCONTEXT_DEVICE_INDEX`` over both, as it takes it): ``initialize_device`` while the
     caller's thread goes on importing and reading the scene (``pbs render``). Nothing is
-    reported: an index or an EGL that cannot be used is the context's creation's to name."""
+    reported: an index or an EGL that cannot be used is the context's creation's to name.
+    The interpreter's exit waits for it (at most ``EXIT_WAIT_S``): the C library's exit
+    runs the driver's and LLVM's destructors, which must not meet their initialization
+    on this thread (a command refused right after its start)."""
 
     def initialize() -> None:
         try:
@@ -266,7 +270,12 @@ def start_device(device: int | None) -> None:
         except Exception:  # the context's creation reports it, in its order
             return
 
-    threading.Thread(target=initialize, name="pbs-gl-device", daemon=True).start()
+    thread = threading.Thread(target=initialize, name="pbs-gl-device", daemon=True)
+    thread.start()
+    atexit.register(thread.join, EXIT_WAIT_S)
+
+
+EXIT_WAIT_S = 10.0  # how long an exit waits for ``start_device``'s initialization
 
 
 def _gl_strings(handle: int) -> tuple[str, str, str]:
