@@ -243,12 +243,22 @@ def initialize_device(index: int) -> None:
     handles = _device_handles()
     if not 0 <= index < len(handles):
         raise EGLUnavailableError(f"no EGL device {index}")
+    _initialized_display(handles[index])
+
+
+def _initialized_display(handle: int) -> int:
+    """The EGLDisplay of device ``handle`` (``eglGetPlatformDisplayEXT``, no attributes),
+    initialized; ``RuntimeError`` naming the step that failed."""
+    lib = _library()
     platform_display = _extension(
         "eglGetPlatformDisplayEXT", _handle, [ctypes.c_uint, _handle, ctypes.POINTER(_int)]
     )
-    display = platform_display(_EGL_PLATFORM_DEVICE_EXT, handles[index], None)
-    if not display or not _library().eglInitialize(display, None, None):
-        raise RuntimeError(f"eglInitialize failed (0x{_library().eglGetError():x})")
+    display = platform_display(_EGL_PLATFORM_DEVICE_EXT, handle, None)
+    if not display:
+        raise RuntimeError(f"eglGetPlatformDisplayEXT failed (0x{lib.eglGetError():x})")
+    if not lib.eglInitialize(display, None, None):
+        raise RuntimeError(f"eglInitialize failed (0x{lib.eglGetError():x})")
+    return display
 
 
 def start_device(device: int | None) -> None:
@@ -283,18 +293,11 @@ def _gl_strings(handle: int) -> tuple[str, str, str]:
     device (no surface: EGL_KHR_surfaceless_context), destroyed after; the context current
     before is made current again. ``RuntimeError`` naming the step that failed."""
     lib = _library()
-    platform_display = _extension(
-        "eglGetPlatformDisplayEXT", _handle, [ctypes.c_uint, _handle, ctypes.POINTER(_int)]
-    )
 
     def failed(step: str) -> RuntimeError:
         return RuntimeError(f"{step} failed (0x{lib.eglGetError():x})")
 
-    display = platform_display(_EGL_PLATFORM_DEVICE_EXT, handle, None)
-    if not display:
-        raise failed("eglGetPlatformDisplayEXT")
-    if not lib.eglInitialize(display, None, None):
-        raise failed("eglInitialize")
+    display = _initialized_display(handle)
     wanted = (_int * 5)(_EGL_SURFACE_TYPE, _EGL_PBUFFER_BIT, _EGL_RENDERABLE_TYPE, _EGL_OPENGL_BIT,
                         _EGL_NONE)  # fmt: skip
     config, found = _handle(), _int(0)

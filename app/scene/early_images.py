@@ -165,12 +165,10 @@ def _normal_spread(digest: str, scale: float) -> None:
     the reader would make it on the main thread while reading the scene. Made too where
     the reader has taken the image already (it takes it while the decode runs): its call
     then waits for this build instead of making its own (``PreparedCache.arrays``)."""
-    from app.textures import early
-    from app.textures.maps import SOURCE_DIGEST, auto_normal_filter
+    from app.textures.maps import auto_normal_filter
 
-    image = early.decoded(digest)
+    image = _decoded_early(digest, taken_too=True)
     if image is not None:
-        image.info[SOURCE_DIGEST] = digest
         auto_normal_filter(image, scale)
 
 
@@ -186,14 +184,14 @@ def _colour_levels(digest: str) -> None:
         start_colour_levels(image)
 
 
-def _decoded_early(digest: str):  # -> PIL.Image.Image | None
+def _decoded_early(digest: str, taken_too: bool = False):  # -> PIL.Image.Image | None
     """The image decoded early from the bytes of ``digest``, its digest recorded as
     ``maps.open_image`` records it (the key of what is made of it); None where the reader
-    has taken it already."""
+    has taken it already, unless ``taken_too`` (``early.decoded``: while it is held)."""
     from app.textures import early
     from app.textures.maps import SOURCE_DIGEST
 
-    image = early.peek(digest)
+    image = early.decoded(digest) if taken_too else early.peek(digest)
     if image is not None:
         image.info[SOURCE_DIGEST] = digest
     return image
