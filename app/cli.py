@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from app.render.renderer import Renderer
     from app.scene.loader import LoadedScene
     from app.scene.look import Look
+    from app.textures.maps import PreparedLevels
     from app.waiting import Ahead
 
 
@@ -598,6 +599,39 @@ def _renderer_class() -> type[Renderer]:
     return Renderer
 
 
+def _environment_twin() -> None:
+    """Import the float64 twin that an environment's set-up projects its map onto SH9 with
+    (app/render/ibl.py ``EnvironmentLighting``, which imports it when a frame has an
+    environment), at one of the scene reader's waits rather than after the scene is read
+    (docs/performance.md, "A real asset against f3d")."""
+    import app.reference.ibl  # noqa: F401
+
+
+def _draw_chain_ahead(args: argparse.Namespace, context: Ahead, levels: PreparedLevels) -> None:
+    """Draw a map's normal/roughness chain on the render's GL context (made now where it is
+    not yet) at a wait of the scene's reader, for the renderer's upload to take
+    (app/render/texture_upload.py ``draw_chain_ahead``): the GL's fraction of a second of
+    a cold render spent where the main thread waits for another map, not after the scene
+    is read (docs/performance.md, "A real asset against f3d")."""
+    from app.render.texture_upload import draw_chain_ahead
+    from app.untrusted.policy import Limits
+
+    limit = Limits().with_memory(args.max_memory).max_memory
+    draw_chain_ahead(context.lend().ctx, levels, limit)
+
+
+def _forget_chains_ahead(context: Ahead) -> None:
+    """Forget the chains drawn ahead that the renderer did not take (a render refused after
+    its scene was read): their textures go with the GL context."""
+    from app.render.texture_upload import forget_chains_ahead
+
+    try:
+        gl = context.lend()
+    except Exception:  # no context was made: nothing was drawn on it
+        return
+    forget_chains_ahead(gl.ctx)
+
+
 def _start_device(args: argparse.Namespace) -> None:
     """Start the EGL device's driver on a thread of its own (app/gl/egl.py
     ``start_device``: llvmpipe's LLVM loaded without the GIL) for the context ``_context``
@@ -735,12 +769,21 @@ def _render(args: argparse.Namespace, still: bool) -> int:
     """``cmd_render`` once a still's decodes are started: the scene read, checked and
     rendered, the PNG written. The renderer's import and the GL context are made ahead,
     where the scene's reader waits for its maps (app/waiting.py), else after it."""
-    from app.waiting import Ahead, ahead
+    from app.waiting import GL_CHAIN, Ahead, AheadEach, ahead
 
     renderer_class = Ahead(_renderer_class)
     context = Ahead(lambda: _context(args), release=lambda gl: gl.release())
-    with ahead(renderer_class, context):
-        return _read_and_render(args, still, renderer_class, context)
+    # made at a wait only, never asked for: a scene that waits for no map imports it when
+    # its environment is set up, if it has one
+    environment_twin = Ahead(_environment_twin)
+    # a map's chain drawn on the GL where the reader waits for another map
+    chains = AheadEach(GL_CHAIN, lambda levels: _draw_chain_ahead(args, context, levels))
+    with ahead(renderer_class, context, environment_twin, chains):
+        try:
+            return _read_and_render(args, still, renderer_class, context)
+        finally:
+            if context.made:
+                _forget_chains_ahead(context)
 
 
 def _read_and_render(

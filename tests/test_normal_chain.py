@@ -260,3 +260,45 @@ def test_texels_uploaded_where_they_cannot_be_read_in_place(gl_egl: GLContext) -
     with pytest.raises(ValueError, match="in place"):
         normal_chain.build_chain(gl_egl.ctx, ChainSource(rgba, rough, 1.0, 1.0, 0),
                                  texel_buffers=True)  # fmt: skip
+
+
+def test_chain_drawn_ahead_is_the_one_uploaded(
+    gl_egl: GLContext, tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A chain drawn ahead (``draw_chain_ahead``, as ``pbs render`` does where the scene's
+    reader waits) is the texture the upload takes, with the levels a chain drawn by the
+    upload has and its entry kept; drawn on another context, or with its GL memory past
+    the limit, it is not drawn ahead (the upload draws it); one not taken is forgotten."""
+    from app.gl.texture_storage import read_level
+    from app.render import texture_upload
+    from app.textures.cache import prepared_cache
+    from app.textures.maps import normal_roughness_map
+
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("PBS_CACHE", raising=False)
+    normal, rough = _maps((48, 40), 6)
+    tex = normal_roughness_map(normal, 1.0, 0.6, rough, "variance")
+    want = _drawn(gl_egl, tex.levels.gl_source)
+    drawn: list[int] = []
+    build = normal_chain.build_chain
+    monkeypatch.setattr(
+        normal_chain, "build_chain", lambda *a, **k: drawn.append(1) or build(*a, **k)
+    )
+    small = normal_chain.gpu_bytes(tex.levels.gl_source)  # without the maps' texels
+    texture_upload.draw_chain_ahead(gl_egl.ctx, tex.levels, small)
+    assert drawn == [] and not prepared_cache().holds(tex.levels.gl_kind, tex.levels.gl_parts)
+    texture_upload.draw_chain_ahead(gl_egl.ctx, tex.levels, 1 << 30)
+    assert drawn == [1] and prepared_cache().holds(tex.levels.gl_kind, tex.levels.gl_parts)
+    other = object()  # another context's upload does not take it
+    assert texture_upload._drawn_ahead(other, tex.levels) is None  # type: ignore[arg-type]
+    made = texture_upload.upload_texture(gl_egl.ctx, tex)
+    try:
+        assert drawn == [1]  # taken, not drawn again
+        for k, level in enumerate(want):
+            assert np.array_equal(read_level(made, k), level), k
+    finally:
+        made.release()
+    second = normal_roughness_map(*_maps((16, 16), 7)[:1], 1.0, 0.5, None, "variance")
+    texture_upload.draw_chain_ahead(gl_egl.ctx, second.levels, 1 << 30)
+    texture_upload.forget_chains_ahead(gl_egl.ctx)
+    assert texture_upload._drawn_ahead(gl_egl.ctx, second.levels) is None

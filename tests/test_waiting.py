@@ -1,6 +1,7 @@
 """Work the main thread does ahead while it waits (app/waiting.py): what runs at a wait,
-what does not, an error kept for the caller, the block's end; and ``pbs render``'s GL
-context started while the scene's reader waits for a map's levels, with the same image."""
+what does not, an error kept for the caller, the block's end, items offered while a block
+lasts; and ``pbs render``'s GL context started and a map's chain drawn while the scene's
+reader waits for a map's levels, with the same image."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ import pytest
 from PIL import Image
 
 from app import waiting
-from app.waiting import Ahead, ahead, before_waiting
+from app.waiting import Ahead, AheadEach, ahead, before_waiting, offer
 from tests.gltf_builder import GltfBuilder
 
 
@@ -114,20 +115,71 @@ def test_block_end_drops_the_work_and_releases_what_was_not_taken() -> None:
     assert released == ["spare"] and made == [] and waiting._PENDING == []
 
 
-def _colour_gltf(folder: Path, seed: int) -> Path:
+def test_lent_value_is_released_where_nothing_takes_it() -> None:
+    """``lend`` makes the value for other work done ahead without taking it: the block's
+    end releases it where nothing took it after, and a ready work is one not made."""
+    released: list[str] = []
+    work = Ahead(lambda: "context", release=released.append)
+    with ahead(work):
+        assert work.ready() and not work.made
+        assert work.lend() == "context"
+        assert not work.ready() and work.made
+        before_waiting(Future())  # made already: not made again
+    assert released == ["context"]
+
+
+def test_items_offered_are_done_at_the_declaring_threads_waits() -> None:
+    """Items offered under a topic while a block lasts are done at a wait of the thread
+    that declared the work, oldest first; not at another thread's wait, nor where nothing
+    was offered; one whose handling raises is left to its caller; another topic's items,
+    those offered outside the block and those left at its end are never done."""
+    done: list[str] = []
+
+    def handle(item: str) -> None:
+        if item == "broken":
+            raise RuntimeError("left to the caller")
+        done.append(item)
+
+    each = AheadEach("maps", handle)
+    offer("maps", "before")  # no block: nobody takes it
+    with ahead(each):
+        before_waiting(Future())
+        assert done == [] and not each.ready()
+        for item in ("first", "broken", "second"):
+            offer("maps", item)
+        offer("lights", "elsewhere")
+        helper = threading.Thread(target=before_waiting, args=(Future(),))
+        helper.start()
+        helper.join()
+        assert done == [] and each.ready()
+        before_waiting(Future())
+        assert done == ["first", "second"] and not each.ready()
+        offer("maps", "left")
+    before_waiting(Future())
+    assert done == ["first", "second"] and waiting._PENDING == []
+
+
+def _colour_gltf(folder: Path, seed: int, chain: bool = False) -> Path:
     """A quad whose base colour is a 256^2 PNG of random texels (bytes no other render of
-    this process decodes, so its levels are made here)."""
-    texels = np.random.default_rng(seed).integers(0, 256, (256, 256, 3), np.uint8)
-    encoded = io.BytesIO()
-    Image.fromarray(texels).save(encoded, format="PNG")
-    (folder / "colour.png").write_bytes(encoded.getvalue())
+    this process decodes, so its levels are made here); ``chain``: with a normal map (its
+    normals in the upper hemisphere, spread alike in every direction: the ``variance``
+    chain the GL draws) and a metallic-roughness map of its size."""
+    rng = np.random.default_rng(seed)
     b = GltfBuilder()
-    b.doc.images.append(pygltflib.Image(uri="colour.png"))
-    b.doc.textures.append(pygltflib.Texture(source=0))
-    info = pygltflib.TextureInfo(index=0)
-    material = pygltflib.Material(
-        pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(baseColorTexture=info)
-    )
+    for name in ("colour", "normal", "rough") if chain else ("colour",):
+        texels = rng.integers(0, 256, (256, 256, 3), np.uint8)
+        if name == "normal":
+            texels[..., 2] = rng.integers(200, 256, (256, 256), np.uint8)
+        encoded = io.BytesIO()
+        Image.fromarray(texels).save(encoded, format="PNG")
+        (folder / f"{name}.png").write_bytes(encoded.getvalue())
+        b.doc.images.append(pygltflib.Image(uri=f"{name}.png"))
+        b.doc.textures.append(pygltflib.Texture(source=len(b.doc.images) - 1))
+    pbr = pygltflib.PbrMetallicRoughness(baseColorTexture=pygltflib.TextureInfo(index=0))
+    material = pygltflib.Material(pbrMetallicRoughness=pbr)
+    if chain:
+        pbr.metallicRoughnessTexture = pygltflib.TextureInfo(index=2)
+        material.normalTexture = pygltflib.NormalMaterialTexture(index=1)
     b.quad(material=b.material(material))
     return b.save(folder / "model.gltf")
 
@@ -177,6 +229,58 @@ def test_render_starts_its_context_while_the_scene_waits(
         out = folder / "out.png"
         assert cli.main(["render", str(path), "-o", str(out), "--size", "48x40", "-q"]) == 0
         expected = ["context", "scene read"] if work_ahead else ["scene read", "context"]
+        assert events == expected, name
+        images.append(np.asarray(Image.open(out)))
+    np.testing.assert_array_equal(images[0], images[1])
+
+
+def test_render_draws_a_maps_chain_while_the_scene_waits(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``pbs render MODEL`` with a normal map whose chain the GL draws, and slow base
+    colour levels: the chain is drawn while the scene's reader waits for them (app/cli.py
+    ``_draw_chain_ahead``), and the renderer's upload takes it; the PNG is the one made
+    with the chain drawn in the renderer's set-up."""
+    from app import cli
+    from app.render import normal_chain
+    from app.scene import sources
+    from app.textures import early, maps
+
+    events: list[str] = []
+    build, scene_from, box = normal_chain.build_chain, sources.scene_from, maps.srgb_box_levels
+    making = threading.Event()
+
+    def slow_levels(level0: np.ndarray) -> list[np.ndarray]:
+        making.set()
+        time.sleep(0.5)
+        return box(level0)
+
+    def read(*args, **kwargs):
+        assert making.wait(10.0)  # the reader comes while the levels are being made
+        loaded = scene_from(*args, **kwargs)
+        events.append("scene read")
+        return loaded
+
+    monkeypatch.setattr(maps, "srgb_box_levels", slow_levels)
+    monkeypatch.setattr(sources, "scene_from", read)
+    monkeypatch.setattr(
+        normal_chain, "build_chain", lambda *a, **k: events.append("chain") or build(*a, **k)
+    )
+    images = []
+    for name, work_ahead in (("ahead", True), ("after", False)):
+        folder = tmp_path / name
+        folder.mkdir()
+        path = _colour_gltf(folder, 31, chain=True)
+        monkeypatch.setenv("PBS_CACHE_DIR", str(folder / "cache"))
+        making.clear()
+        monkeypatch.setattr(early, "_TAKEN", set())  # the same bytes decode early again
+        if not work_ahead:  # no wait of the texture layer does the work
+            for module in (early, maps, waiting):
+                monkeypatch.setattr(module, "before_waiting", lambda future: None)
+        events.clear()
+        out = folder / "out.png"
+        assert cli.main(["render", str(path), "-o", str(out), "--size", "48x40", "-q"]) == 0
+        expected = ["chain", "scene read"] if work_ahead else ["scene read", "chain"]
         assert events == expected, name
         images.append(np.asarray(Image.open(out)))
     np.testing.assert_array_equal(images[0], images[1])

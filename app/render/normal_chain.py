@@ -140,6 +140,16 @@ def level_shapes(source: ChainSource) -> list[tuple[int, int, int]]:
     return [(max(1, ch >> k), max(1, cw >> k), 4) for k in range(max(cw, ch).bit_length())]
 
 
+def gpu_bytes(source: ChainSource) -> int:
+    """The GL memory ``build_chain`` allocates for ``source`` at most: its float16 levels,
+    the float32 moments from level 1 down, and the maps' 8-bit texels where uploaded
+    rather than read in place."""
+    h, w = source.shape
+    chain = sum(8 * lh * lw for lh, lw, _ in level_shapes(source))
+    moments = sum(16 * max(1, h >> k) * max(1, w >> k) for k in range(1, max(h, w).bit_length()))
+    return chain + moments + 2 * 4 * h * w
+
+
 def read_chain_levels(
     chain: moderngl.Texture, into: Sequence[np.ndarray] | None = None
 ) -> list[np.ndarray]:

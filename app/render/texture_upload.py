@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import logging
+import threading
 from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
 
@@ -137,7 +138,7 @@ def upload_texture(
                 gl_tex.build_mipmaps()
         mipmapped = True
     elif isinstance(tex.levels, PreparedLevels) and _gl_builds(ctx, tex.levels):
-        gl_tex = _gl_chain(ctx, tex.levels, shaders)
+        gl_tex = _drawn_ahead(ctx, tex.levels) or _gl_chain(ctx, tex.levels, shaders)
         mipmapped = max(gl_tex.size) > 1  # levels down to 1x1
     else:  # float16 rows bottom first (a prepared chain's kept as such: maps.PreparedLevels)
         levels = _half_levels(ctx, tex, shaders)
@@ -150,9 +151,61 @@ def upload_texture(
     return gl_tex
 
 
+# Chains drawn before a renderer asked for them (``draw_chain_ahead``), by the identity of
+# their levels (held in the entry, so the identity is not reused): (context, levels,
+# texture). ``upload_texture`` takes its own; one not taken goes with its context.
+_AHEAD: dict[int, tuple[moderngl.Context, PreparedLevels, moderngl.Texture]] = {}
+_AHEAD_LOCK = threading.Lock()
+
+
+def draw_chain_ahead(ctx: moderngl.Context, levels: PreparedLevels, limit: int) -> None:
+    """Draw the chain ``levels`` on ``ctx`` now, as ``upload_texture`` would (its levels
+    read back into the prepared-texture cache), and keep its texture for that call to
+    take: ``pbs render`` does this where the scene's reader waits for another map
+    (app/cli.py), where the main thread would otherwise sit idle, not in the renderer's
+    set-up after the scene is read. Nothing where the GL does not draw this chain, or
+    where its GL memory and its maps' texels would pass ``limit`` bytes (the render's
+    ``--max-memory``: the renderer's own check, app/render/limits.py, comes after the
+    scene is read and names it then)."""
+    if not _gl_builds(ctx, levels):
+        return
+    source = levels.gl_source
+    assert source is not None
+    h, w = source.shape
+    if normal_chain.gpu_bytes(source) + 2 * 4 * h * w > limit:
+        return
+    texture = _gl_chain(ctx, levels, None)
+    with _AHEAD_LOCK:
+        _AHEAD[id(levels)] = (ctx, levels, texture)
+
+
+def forget_chains_ahead(ctx: moderngl.Context) -> None:
+    """Forget the chains drawn ahead on ``ctx`` that no upload took (a render refused after
+    its scene was read): their textures go with the context, released by its owner."""
+    with _AHEAD_LOCK:
+        for key in [key for key, (made_on, _, _) in _AHEAD.items() if made_on is ctx]:
+            del _AHEAD[key]
+
+
+def _drawn_ahead(ctx: moderngl.Context, levels: PreparedLevels) -> moderngl.Texture | None:
+    """The chain of ``levels`` drawn ahead on ``ctx`` (``draw_chain_ahead``), taken; None
+    where there is none."""
+    with _AHEAD_LOCK:
+        made = _AHEAD.get(id(levels))
+        if made is None or made[0] is not ctx:
+            return None
+        del _AHEAD[id(levels)]
+    return made[2]
+
+
 def _gl_builds(ctx: moderngl.Context, levels: PreparedLevels) -> bool:
-    """Whether the upload of ``levels`` is the GL's to build: a chain it can draw whose
-    kept levels are not being read already (``PreparedLevels.prefetch``)."""
+    """Whether the upload of ``levels`` is the GL's to build: a chain it drew ahead
+    (``draw_chain_ahead``), or one it can draw whose kept levels are not being read
+    already (``PreparedLevels.prefetch``)."""
+    with _AHEAD_LOCK:
+        made = _AHEAD.get(id(levels))
+    if made is not None and made[0] is ctx:
+        return True
     return levels.gl_source is not None and not levels.prefetched() and normal_chain.supported(ctx)
 
 

@@ -60,7 +60,7 @@ from app.textures.versions import version
 from app.untrusted import RefusedError, files
 from app.untrusted.budget import Budget
 from app.untrusted.policy import Limits
-from app.waiting import before_waiting, waited
+from app.waiting import GL_CHAIN, before_waiting, offer, waited
 
 MAX_TEXTURE_SIZE = Limits().max_texture_side  # texels per side (the default limit)
 # Image.info key of the SHA-256 of the bytes an image was decoded from (open_image).
@@ -1002,6 +1002,8 @@ def normal_roughness_map(
     ):
         gl_source = ChainSource(normal_image, roughness_image, float(scale), float(factor), first)
     levels = PreparedLevels("normal_roughness", parts, build, layout, upload, gl_source)
+    if gl_source is not None:  # drawn at a wait of the reader where a render asks (app/cli.py)
+        offer(GL_CHAIN, levels)
     texture = Texture(levels)
     texture.with_factor = lambda other: normal_roughness_map(
         normal_image, scale, other, roughness_image, normal_filter, first
