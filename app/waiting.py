@@ -80,9 +80,7 @@ class Ahead(Generic[T]):
         """The value (made now where no wait made it), or the making's exception."""
         self.run()
         self._taken = True
-        if self._error is not None:
-            raise self._error
-        return self._value  # type: ignore[return-value]
+        return self.lend()
 
     def lend(self) -> T:
         """The value for other work done ahead (made now where it is not made yet), not

@@ -184,18 +184,19 @@ def _colour_gltf(folder: Path, seed: int, chain: bool = False) -> Path:
     return b.save(folder / "model.gltf")
 
 
-def test_render_starts_its_context_while_the_scene_waits(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """``pbs render MODEL`` whose base colour's levels are slow: the GL context is made
-    while the scene's reader waits for them (the exposure meter reads them), before the
-    scene is read, and the PNG is the one made without working ahead."""
+def _renders_ahead_and_after(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, events: list[str], seed: int, chain: bool
+) -> list[np.ndarray]:
+    """``pbs render`` of ``_colour_gltf`` whose base colour's levels are slow (the scene's
+    reader waits for them: the exposure meter reads them), once with the work declared
+    ahead done at the reader's waits and once with no wait doing it; ``events`` gets
+    "scene read" once the scene is read, beside the caller's own events. Returns each
+    render's (events, PNG), ahead first."""
     from app import cli
     from app.scene import sources
     from app.textures import early, maps
 
-    events: list[str] = []
-    context, scene_from, box = cli._context, sources.scene_from, maps.srgb_box_levels
+    scene_from, box = sources.scene_from, maps.srgb_box_levels
     making = threading.Event()
 
     def slow_levels(level0: np.ndarray) -> list[np.ndarray]:
@@ -213,12 +214,11 @@ def test_render_starts_its_context_while_the_scene_waits(
 
     monkeypatch.setattr(maps, "srgb_box_levels", slow_levels)
     monkeypatch.setattr(sources, "scene_from", read)
-    monkeypatch.setattr(cli, "_context", lambda args: events.append("context") or context(args))
-    images = []
+    made = []
     for name, work_ahead in (("ahead", True), ("after", False)):
         folder = tmp_path / name
         folder.mkdir()
-        path = _colour_gltf(folder, 29)
+        path = _colour_gltf(folder, seed, chain=chain)
         monkeypatch.setenv("PBS_CACHE_DIR", str(folder / "cache"))
         making.clear()
         monkeypatch.setattr(early, "_TAKEN", set())  # the same bytes decode early again
@@ -228,10 +228,27 @@ def test_render_starts_its_context_while_the_scene_waits(
         events.clear()
         out = folder / "out.png"
         assert cli.main(["render", str(path), "-o", str(out), "--size", "48x40", "-q"]) == 0
-        expected = ["context", "scene read"] if work_ahead else ["scene read", "context"]
-        assert events == expected, name
-        images.append(np.asarray(Image.open(out)))
-    np.testing.assert_array_equal(images[0], images[1])
+        made.append((list(events), np.asarray(Image.open(out))))
+    return made
+
+
+def test_render_starts_its_context_while_the_scene_waits(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``pbs render MODEL`` whose base colour's levels are slow: the GL context is made
+    while the scene's reader waits for them (the exposure meter reads them), before the
+    scene is read, and the PNG is the one made without working ahead."""
+    from app import cli
+
+    events: list[str] = []
+    context = cli._context
+    monkeypatch.setattr(cli, "_context", lambda args: events.append("context") or context(args))
+    (ahead_events, ahead_png), (after_events, after_png) = _renders_ahead_and_after(
+        tmp_path, monkeypatch, events, 29, chain=False
+    )
+    assert ahead_events == ["context", "scene read"]
+    assert after_events == ["scene read", "context"]
+    np.testing.assert_array_equal(ahead_png, after_png)
 
 
 def test_render_draws_a_maps_chain_while_the_scene_waits(
@@ -241,46 +258,16 @@ def test_render_draws_a_maps_chain_while_the_scene_waits(
     colour levels: the chain is drawn while the scene's reader waits for them (app/cli.py
     ``_draw_chain_ahead``), and the renderer's upload takes it; the PNG is the one made
     with the chain drawn in the renderer's set-up."""
-    from app import cli
     from app.render import normal_chain
-    from app.scene import sources
-    from app.textures import early, maps
 
     events: list[str] = []
-    build, scene_from, box = normal_chain.build_chain, sources.scene_from, maps.srgb_box_levels
-    making = threading.Event()
-
-    def slow_levels(level0: np.ndarray) -> list[np.ndarray]:
-        making.set()
-        time.sleep(0.5)
-        return box(level0)
-
-    def read(*args, **kwargs):
-        assert making.wait(10.0)  # the reader comes while the levels are being made
-        loaded = scene_from(*args, **kwargs)
-        events.append("scene read")
-        return loaded
-
-    monkeypatch.setattr(maps, "srgb_box_levels", slow_levels)
-    monkeypatch.setattr(sources, "scene_from", read)
+    build = normal_chain.build_chain
     monkeypatch.setattr(
         normal_chain, "build_chain", lambda *a, **k: events.append("chain") or build(*a, **k)
     )
-    images = []
-    for name, work_ahead in (("ahead", True), ("after", False)):
-        folder = tmp_path / name
-        folder.mkdir()
-        path = _colour_gltf(folder, 31, chain=True)
-        monkeypatch.setenv("PBS_CACHE_DIR", str(folder / "cache"))
-        making.clear()
-        monkeypatch.setattr(early, "_TAKEN", set())  # the same bytes decode early again
-        if not work_ahead:  # no wait of the texture layer does the work
-            for module in (early, maps, waiting):
-                monkeypatch.setattr(module, "before_waiting", lambda future: None)
-        events.clear()
-        out = folder / "out.png"
-        assert cli.main(["render", str(path), "-o", str(out), "--size", "48x40", "-q"]) == 0
-        expected = ["chain", "scene read"] if work_ahead else ["scene read", "chain"]
-        assert events == expected, name
-        images.append(np.asarray(Image.open(out)))
-    np.testing.assert_array_equal(images[0], images[1])
+    (ahead_events, ahead_png), (after_events, after_png) = _renders_ahead_and_after(
+        tmp_path, monkeypatch, events, 31, chain=True
+    )
+    assert ahead_events == ["chain", "scene read"]
+    assert after_events == ["scene read", "chain"]
+    np.testing.assert_array_equal(ahead_png, after_png)

@@ -187,14 +187,17 @@ def forget_chains_ahead(ctx: moderngl.Context) -> None:
             del _AHEAD[key]
 
 
-def _drawn_ahead(ctx: moderngl.Context, levels: PreparedLevels) -> moderngl.Texture | None:
-    """The chain of ``levels`` drawn ahead on ``ctx`` (``draw_chain_ahead``), taken; None
-    where there is none."""
+def _drawn_ahead(
+    ctx: moderngl.Context, levels: PreparedLevels, take: bool = True
+) -> moderngl.Texture | None:
+    """The chain of ``levels`` drawn ahead on ``ctx`` (``draw_chain_ahead``), taken unless
+    ``take`` is False; None where there is none."""
     with _AHEAD_LOCK:
         made = _AHEAD.get(id(levels))
         if made is None or made[0] is not ctx:
             return None
-        del _AHEAD[id(levels)]
+        if take:
+            del _AHEAD[id(levels)]
     return made[2]
 
 
@@ -202,9 +205,7 @@ def _gl_builds(ctx: moderngl.Context, levels: PreparedLevels) -> bool:
     """Whether the upload of ``levels`` is the GL's to build: a chain it drew ahead
     (``draw_chain_ahead``), or one it can draw whose kept levels are not being read
     already (``PreparedLevels.prefetch``)."""
-    with _AHEAD_LOCK:
-        made = _AHEAD.get(id(levels))
-    if made is not None and made[0] is ctx:
+    if _drawn_ahead(ctx, levels, take=False) is not None:
         return True
     return levels.gl_source is not None and not levels.prefetched() and normal_chain.supported(ctx)
 
