@@ -9,6 +9,7 @@ from __future__ import annotations
 import io
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pygltflib
@@ -223,6 +224,34 @@ def test_single_idat_same_texels() -> None:
     cut = split[:-30]
     assert early.single_idat(cut) is cut  # cut short: left to the decoder
     assert early.single_idat(b"GIF89a....") == b"GIF89a...."
+
+
+def test_single_idat_checks_the_joined_stream_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``single_idat`` computes the joined chunk's CRC in one call over the whole stream,
+    not one per chunk: CPython's ``zlib.crc32`` lets go of the GIL for each buffer past
+    5 KiB, and a decode thread that checked a 2048² map chunk by chunk waited for the GIL
+    hundreds of times beside the main thread's Python."""
+    import struct
+    import zlib
+
+    noise = np.random.default_rng(12).integers(0, 256, (96, 80, 3), np.uint8)
+    _, split, pieces = _split_png(noise)
+    sizes: list[int] = []
+
+    def crc32(data, value=0):
+        sizes.append(len(data))
+        return zlib.crc32(data, value)
+
+    monkeypatch.setattr(early, "zlib", SimpleNamespace(crc32=crc32))
+    joined = early.single_idat(split)
+    assert len(sizes) <= 2 and max(sizes) > 1000 * (pieces - 1)  # the stream, at once
+    at = joined.index(b"IDAT") - 4
+    (length,) = struct.unpack_from(">I", joined, at)
+    (stored,) = struct.unpack_from(">I", joined, at + 8 + length)
+    assert stored == zlib.crc32(joined[at + 4 : at + 8 + length])
+    image = Image.open(io.BytesIO(joined))
+    image.load()
+    np.testing.assert_array_equal(np.asarray(image), noise)
 
 
 def _split_png(texels: np.ndarray) -> tuple[bytes, bytes, int]:

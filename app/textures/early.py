@@ -215,7 +215,12 @@ def single_idat(data: bytes) -> bytes:
     decode on a thread of its own waited for the GIL at every chunk while another thread
     ran Python (the imports, the main thread's work). The stream's bytes joined into one
     chunk (its CRC-32 computed anew, chunk type and data as the specification defines
-    it) decode in one call: the same texels (tests/test_early_images.py)."""
+    it) decode in one call: the same texels (tests/test_early_images.py).
+
+    The CRC is computed over the joined stream in one call, not chunk by chunk: CPython's
+    ``zlib.crc32`` lets go of the GIL for every buffer past 5 KiB, so a checksum per 8 KiB
+    chunk took the GIL back hundreds of times, a switch interval each beside a thread
+    running Python (docs/performance.md). A second copy of the stream costs less."""
     if not data.startswith(PNG_SIGNATURE):
         return data
     view = memoryview(data)
@@ -240,12 +245,9 @@ def single_idat(data: bytes) -> bytes:
         at = end
     if len(pieces) < 2 or first is None or end_of_idat is None:
         return data
-    crc = zlib.crc32(b"IDAT")
-    for offset, length in pieces:
-        crc = zlib.crc32(view[offset : offset + length], crc)
-    size = sum(length for _, length in pieces)
+    stream = b"".join([view[offset : offset + length] for offset, length in pieces])
+    crc = zlib.crc32(stream, zlib.crc32(b"IDAT"))  # once: see the docstring
     return b"".join([
-        view[:first], struct.pack(">I", size), b"IDAT",
-        *(view[offset : offset + length] for offset, length in pieces),
+        view[:first], struct.pack(">I", len(stream)), b"IDAT", stream,
         struct.pack(">I", crc), view[end_of_idat:],
     ])  # fmt: skip
