@@ -336,7 +336,8 @@ def test_single_idat_keeps_what_follows_iend_and_bounds_its_work(
 ) -> None:
     """Bytes after IEND come back as they are, after the joined chunk; a file of more IDAT
     chunks than ``MAX_IDAT_CHUNKS`` is left as it is (a hostile file's millions of empty
-    chunks cost no loop of that length)."""
+    chunks cost no loop of that length), and so is one of more image data than
+    ``MAX_JOINED_BYTES`` (the join's copies are bounded)."""
     import struct
     import zlib
 
@@ -364,6 +365,10 @@ def test_single_idat_keeps_what_follows_iend_and_bounds_its_work(
     image = Image.open(io.BytesIO(joined))
     image.load()
     np.testing.assert_array_equal(np.asarray(image), noise)
+    monkeypatch.setattr(early, "MAX_JOINED_BYTES", len(stream) - 1)
+    assert early.single_idat(split) is split
+    monkeypatch.setattr(early, "MAX_JOINED_BYTES", len(stream))
+    assert early.single_idat(split) == joined
     monkeypatch.setattr(early, "MAX_IDAT_CHUNKS", 3)
     assert early.single_idat(split) is split
 

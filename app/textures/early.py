@@ -201,13 +201,17 @@ PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 # More IDAT chunks than this are left as they are (the decoder meets them one by one): a
 # hostile file's millions of empty chunks would cost a loop and a list of that length.
 MAX_IDAT_CHUNKS = 1 << 16
+# Image data past this many bytes is left in its chunks too: the join holds two copies of
+# it (the stream, then the file around it) beside the file's own bytes.
+MAX_JOINED_BYTES = 256 << 20
 
 
 def single_idat(data: bytes) -> bytes:
     """A PNG's bytes with its image data in one IDAT chunk, the same image: the bytes
-    themselves where they are no PNG, hold one IDAT already, more than ``MAX_IDAT_CHUNKS``,
-    or are not laid out as the PNG specification lays a file out (the decoder then meets
-    them as they are). One copy of the bytes is made; the chunks after IEND are kept.
+    themselves where they are no PNG, hold one IDAT already, more than ``MAX_IDAT_CHUNKS``
+    or ``MAX_JOINED_BYTES`` of image data, or are not laid out as the PNG specification
+    lays a file out (the decoder then meets them as they are). The chunks after IEND are
+    kept.
 
     PNG splits its one zlib stream of image data over IDAT chunks, commonly of 8 KiB
     (libpng's default): hundreds in a 2048^2 map (docs/performance.md). Pillow
@@ -220,7 +224,8 @@ def single_idat(data: bytes) -> bytes:
     The CRC is computed over the joined stream in one call, not chunk by chunk: CPython's
     ``zlib.crc32`` lets go of the GIL for every buffer past 5 KiB, so a checksum per 8 KiB
     chunk took the GIL back hundreds of times, a switch interval each beside a thread
-    running Python (docs/performance.md). A second copy of the stream costs less."""
+    running Python (docs/performance.md). The stream joined first costs a second copy of
+    it, which ``MAX_JOINED_BYTES`` bounds."""
     if not data.startswith(PNG_SIGNATURE):
         return data
     view = memoryview(data)
@@ -244,6 +249,8 @@ def single_idat(data: bytes) -> bytes:
             break  # what follows is no part of the image: kept as it is
         at = end
     if len(pieces) < 2 or first is None or end_of_idat is None:
+        return data
+    if sum(length for _, length in pieces) > MAX_JOINED_BYTES:
         return data
     stream = b"".join([view[offset : offset + length] for offset, length in pieces])
     crc = zlib.crc32(stream, zlib.crc32(b"IDAT"))  # once: see the docstring
