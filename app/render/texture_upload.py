@@ -172,7 +172,8 @@ def draw_chain_ahead(ctx: moderngl.Context, levels: PreparedLevels, limit: int) 
     source = levels.gl_source
     assert source is not None
     h, w = source.shape
-    if normal_chain.gpu_bytes(source) + 2 * 4 * h * w > limit:
+    decoded = 2 * 4 * h * w  # the two maps' decoded texels, held while the GL draws
+    if normal_chain.gpu_bytes(source) + decoded > limit:  # an upper bound of both
         return
     texture = _gl_chain(ctx, levels, None)
     with _AHEAD_LOCK:
