@@ -418,3 +418,35 @@ def test_backdrop_radiance_inverts_the_post_pass(tonemap: str) -> None:
         radiance = backdrop_radiance(exposure, tonemap)
         shown = post_process(np.full(3, radiance), exposure, tonemap)
         assert np.allclose(shown, BACKDROP, atol=1e-9), (exposure, shown)
+
+
+@pytest.mark.parametrize("size", [(160, 120), (256, 256), (480, 480), (512, 512), (400, 300)])
+def test_the_key_lights_shadow_map_is_sized_for_the_image(size: tuple[int, int]) -> None:
+    """The key light's shadow map follows the image (``key_shadow_resolution``): below the
+    scene default's 2048 for a small image, yet with at least one texel for each pixel
+    across the model (its bounding sphere, seen from the light in the map and from the
+    camera in the image), as the default look's 1280x720 image has with a 2048 map."""
+    import math
+
+    from app.scene.geometry import build_parts
+    from app.scene.model_file import _sphere, _surface_points
+
+    def texels_per_pixel(size: tuple[int, int]) -> tuple[int, float]:
+        loaded = scene_from(MESHES / "teapot.obj", size=size)
+        key = next(light for light in loaded.scene.lights if light.type == "spot")
+        centre, radius = _sphere(_surface_points(build_parts(loaded)))
+        cam = loaded.scene.camera
+
+        def across(eye: list[float], half_angle: float) -> float:  # of the field's side
+            distance = float(np.linalg.norm(np.asarray(eye) - centre))
+            return math.tan(math.asin(radius / distance)) / math.tan(math.radians(half_angle))
+
+        texels = key.shadow_resolution * across(key.position, key.outer_angle)
+        pixels = size[1] * across(cam.position, cam.fov_y / 2.0)
+        return key.shadow_resolution, texels / pixels
+
+    resolution, ratio = texels_per_pixel(size)
+    assert resolution < 2048, f"{size}: a {resolution} map"
+    assert ratio >= 1.0, f"{size}: {ratio:.2f} texels a pixel across the model"
+    default, default_ratio = texels_per_pixel((1280, 720))
+    assert default == 2048 and ratio >= default_ratio

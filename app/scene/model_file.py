@@ -81,6 +81,10 @@ MARGIN = 1.08  # the bounding sphere's angular radius times this fits the narrow
 EXPOSURE = -2.4  # EV: the studio's room, boxes and key light on a light grey stay below white
 KEY_INTENSITY = 1.5  # the key light's radiance scale (c_light)
 KEY_DISTANCE = 4.0  # the key light's distance from the model's centre, in its radii
+# The key light's shadow map: a power of two with at least this many texels a side per
+# pixel of the image's longer side, within these bounds (the most: a scene light's default).
+KEY_SHADOW_TEXELS_PER_PIXEL = 2
+KEY_SHADOW_RESOLUTIONS = (512, 2048)
 FILL_RATIO = 0.25  # the fill light's radiance scale to the key's: 2 stops under it
 STUDIO_MEAN = 1.13  # the bundled studio's mean texel radiance
 # Another environment (the sky, an image) with the key light: METER_EXPOSURE under a mean
@@ -114,11 +118,28 @@ def default_environment(look: Look, azimuth: float) -> dict[str, Any]:
     return {"environment": _environment(look, azimuth)}
 
 
-def key_light(centre: np.ndarray, radius: float, azimuth: float) -> dict[str, Any]:
+def key_shadow_resolution(pixels: tuple[int, int]) -> int:
+    """The key light's shadow map side for an image of ``pixels`` (drawn, supersampling
+    included): ``KEY_SHADOW_TEXELS_PER_PIXEL`` texels a side per pixel of its longer side,
+    rounded up to a power of two, within ``KEY_SHADOW_RESOLUTIONS``. The key's cone is a
+    little wider than the model and the camera frames the model, so the model spans most
+    of both the map and the image: a small image's soft (PCSS) shadows gain nothing from
+    a scene light's default 2048 map, which its render still clears, draws and holds (16
+    MiB of depth; its cost and the images at each side: docs/shadows.md, "The default
+    look's key light")."""
+    want = KEY_SHADOW_TEXELS_PER_PIXEL * max(pixels)
+    least, most = KEY_SHADOW_RESOLUTIONS
+    return min(max(1 << (want - 1).bit_length(), least), most)
+
+
+def key_light(
+    centre: np.ndarray, radius: float, azimuth: float, pixels: tuple[int, int]
+) -> dict[str, Any]:
     """The default look's key light: a spot ``KEY_DISTANCE`` radii from the model's centre,
     above the camera's left shoulder (50 degrees to its left, 50 up), aimed at the centre,
     its cone a little wider than the model; its soft shadows by PCSS from a source a
-    tenth of the model's radius. Its fall-off over the model keeps even a flat model
+    tenth of the model's radius, in a map sized for the image of ``pixels``
+    (``key_shadow_resolution``). Its fall-off over the model keeps even a flat model
     from looking flat-lit."""
     az, el = math.radians(azimuth - 50.0), math.radians(50.0)
     towards = np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
@@ -134,6 +155,7 @@ def key_light(centre: np.ndarray, radius: float, azimuth: float) -> dict[str, An
         "outer_angle": 24.0,
         "shadow": True,
         "shadow_filter": "pcss",
+        "shadow_resolution": key_shadow_resolution(pixels),
         "shadow_light_radius": min(0.1 * radius, 10.0),
     }
 
@@ -324,7 +346,7 @@ def framed(
     parts = build_parts(loaded) if parts is None else parts
     camera = loaded.scene.camera.model_dump(exclude_unset=True)
     camera.update(framing_camera(_surface_points(parts), size, *look.angles()))
-    return _lit(loaded, camera, parts, look) if lit else _with(loaded, camera=camera)
+    return _lit(loaded, camera, parts, look, size) if lit else _with(loaded, camera=camera)
 
 
 def _with(loaded: LoadedScene, **tables: Any) -> LoadedScene:
@@ -337,16 +359,19 @@ def _lit(
     camera: dict[str, Any],
     parts: list[MeshPart],
     look: Look,
+    size: tuple[int, int] | None = None,
     file_lights: bool = False,
 ) -> LoadedScene:
     """``loaded`` with ``camera`` at the default look's metered exposure, the key light
-    (unless ``file_lights``: the scene's lights are the glTF file's) and, under the
-    studio, the backdrop."""
+    (unless ``file_lights``: the scene's lights are the glTF file's; its shadow map sized
+    for the image of ``size``, default the scene's render size) and, under the studio,
+    the backdrop."""
     centre, radius = _sphere(_surface_points(parts))
     lights = _dumped(loaded).get("lights", [])
     if not file_lights:
         azimuth = look.angles()[0]
-        lights = [*lights, key_light(centre, radius, azimuth), fill_light(azimuth)]
+        key = key_light(centre, radius, azimuth, _drawn(loaded, size))
+        lights = [*lights, key, fill_light(azimuth)]
     keyed = _with(loaded, lights=lights)
     incident = exposure_for(keyed, centre if file_lights else None)
     exposure = metered_exposure(incident, mean_albedo(parts))
@@ -355,6 +380,14 @@ def _lit(
         tone = loaded.scene.render.tonemap
         tables["background"] = [backdrop_radiance(exposure, tone)] * 3
     return _with(loaded, **tables)
+
+
+def _drawn(loaded: LoadedScene, size: tuple[int, int] | None) -> tuple[int, int]:
+    """The pixels ``loaded`` is drawn at for an image of ``size`` (default its render
+    size): its supersampling included."""
+    render = loaded.scene.render
+    width, height = size or (render.width, render.height)
+    return width * render.supersample, height * render.supersample
 
 
 def _dumped(loaded: LoadedScene) -> dict[str, Any]:
@@ -431,7 +464,8 @@ def model_scene(
                 if framed
                 else framing_camera(_surface_points(parts), (width, height), *look.angles())
             )
-        result = replace(_lit(loaded, camera, parts, look, file_lights), still_view=None)
+        lit = _lit(loaded, camera, parts, look, (width, height), file_lights)
+        result = replace(lit, still_view=None)
         keep_built(result, parts, budget.spent, still=bool(framed))  # the frame takes them
         return result
     except InputError as exc:
@@ -489,10 +523,11 @@ def with_defaults(
     elif "exposure" not in result.scene.camera.model_fields_set:
         # the scene's camera, at the exposure metered for the default look's light: the
         # camera's exposure default (0 EV) is no choice of the scene's
-        final = _lit(result, result.scene.camera.model_dump(exclude_unset=True), parts, look)
+        camera_table = result.scene.camera.model_dump(exclude_unset=True)
+        final = _lit(result, camera_table, parts, look, size)
     else:
         azimuth = look.angles()[0]
-        key = key_light(*_sphere(_surface_points(parts)), azimuth)
+        key = key_light(*_sphere(_surface_points(parts)), azimuth, _drawn(result, size))
         tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
         if look.env == "studio" and "background" not in result.scene.model_fields_set:
             exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
