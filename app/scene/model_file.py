@@ -123,10 +123,10 @@ def key_shadow_resolution(pixels: tuple[int, int]) -> int:
     included): ``KEY_SHADOW_TEXELS_PER_PIXEL`` texels a side per pixel of its longer side,
     rounded up to a power of two, within ``KEY_SHADOW_RESOLUTIONS``. The key's cone is a
     little wider than the model and the camera frames the model, so the model spans most
-    of both the map and the image: a small image's soft (PCSS) shadows gain nothing from
-    a scene light's default 2048 map, which its render still clears, draws and holds (16
-    MiB of depth; its cost and the images at each side: docs/shadows.md, "The default
-    look's key light")."""
+    of both the map and the image: up to 512 pixels a side this keeps more than a texel
+    a pixel across the model, more than the default 2048 map gives a 1280x720 image,
+    without the 16 MiB of depth that map's render clears, draws and holds (the images at
+    each side: docs/shadows.md, "The default look's key light")."""
     want = KEY_SHADOW_TEXELS_PER_PIXEL * max(pixels)
     least, most = KEY_SHADOW_RESOLUTIONS
     return min(max(1 << (want - 1).bit_length(), least), most)
