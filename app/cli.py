@@ -592,6 +592,16 @@ def _size_option(exc: InputError) -> InputError:
     return InputError(exc.file, "--size" if exc.key == "size" else exc.key, exc.message)
 
 
+def _release_writes() -> None:
+    """Let the prepared-texture cache write the entries it held while a still's scene was
+    read (app/textures/background.py ``writes_held``): its writer then runs beside the
+    renderer's set-up on the main thread, on the core the scene's decodes and levels no
+    longer use."""
+    from app.textures.background import release_writes
+
+    release_writes()
+
+
 def _renderer_class() -> type[Renderer]:
     """The renderer's class, its modules imported (the GL stack among them)."""
     from app.render.renderer import Renderer
@@ -754,12 +764,15 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     if is_model_file(args.scene):  # a scene file's, once it is read (_read_and_render)
         _start_device(args)
-    if still:  # one frame: no later load reuses a decoded image
+    if still:  # one frame: no later load reuses a decoded image; the prepared-texture
+        # cache's writes wait for the renderer's set-up (_read_and_render)
+        from app.textures.background import writes_held
         from app.textures.decoded import keep_decoded_images
 
         keeping = keep_decoded_images(False)
         try:
-            return _render(args, still)
+            with writes_held():
+                return _render(args, still)
         finally:  # a caller in this process (a test, the API) may load again
             keep_decoded_images(keeping)
     return _render(args, still)
@@ -842,6 +855,7 @@ def _read_and_render(
                 raise InputError(option, "", "applies only with --compare")
         make_renderer = renderer_class.get()
         gl = context.get()
+        _release_writes()  # held while a still's scene was read (cmd_render)
         try:
             renderer = make_renderer(gl, loaded, args.size)
         except InputError as exc:

@@ -977,3 +977,83 @@ def test_entry_made_in_memory_where_its_blocks_cannot_be_reserved(
     expected = [np.empty(shape, dtype) for shape, dtype in _layout()]
     _fill(tuple(expected))
     assert all(np.array_equal(a, b) for a, b in zip(made, expected, strict=True))
+
+
+def test_held_writes_wait_for_their_release_and_never_block_a_wait(tmp_path: Path) -> None:
+    """Within ``writes_held`` the writer leaves the entries handed to it queued: nothing is
+    on disk until ``release_writes``; a wait for a held entry (its key read again from
+    disk, ``flush``) lets them go first instead of waiting on itself; the block's end lets
+    go what is still held."""
+    from concurrent.futures import TimeoutError as FutureTimeout
+
+    from app.textures import background
+
+    cache = PreparedCache(tmp_path / "a")
+    with background.writes_held():
+        cache.arrays("test", ("one",), lambda: [np.arange(3.0)])
+        cache.arrays("test", ("two",), lambda: [np.ones(2)])
+        with pytest.raises(FutureTimeout):  # unheld, a 24-byte entry is written at once
+            cache._writing[entry_key("test", ("one",))].result(timeout=0.5)
+        assert list(cache.directory.glob("*.npy")) == []
+        background.release_writes()
+        cache.flush()
+        assert len(list(cache.directory.glob("*.npy"))) == 2
+    # a lookup of a held entry's key from disk releases it rather than wait on itself
+    other = PreparedCache(tmp_path / "b")
+    with background.writes_held():
+        other.arrays("test", ("three",), lambda: [np.zeros(4)])
+        other._memory.clear()  # as another lookup meets it: only on disk, being written
+        (again,) = other.arrays("test", ("three",), lambda: [np.full(4, 9.0)])
+        assert np.array_equal(again, np.zeros(4)) and other.events[-1] == "disk"
+    # the block's end lets go what is still held
+    last = PreparedCache(tmp_path / "c")
+    with background.writes_held():
+        last.arrays("test", ("four",), lambda: [np.zeros(1)])
+        held = last._writing[entry_key("test", ("four",))]
+    held.result(timeout=10.0)
+    assert len(list(last.directory.glob("*.npy"))) == 1
+
+
+def test_a_still_render_holds_the_cache_writes_while_its_scene_is_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``pbs render`` of one frame holds the prepared-texture cache's writes while the
+    scene is read (its entries queued, none on disk) and lets them go when the renderer
+    is set up: every entry is on disk when the command returns, and writes are free after
+    it, as before it."""
+    from app import cli
+    from app.render import renderer as renderer_module
+    from app.resources import scenes_dir
+    from app.scene import sources
+    from app.textures import background
+
+    seen: dict[str, object] = {}
+    read, init = sources.scene_from, renderer_module.Renderer.__init__
+    folder = tmp_path / "cache" / "textures"
+
+    def entries() -> list[Path]:  # written ones, not the files being filled in place
+        return [p for p in folder.glob("*.npy") if not p.name.startswith(cache_module._TEMPORARY)]
+
+    def reading(*args, **kwargs):
+        loaded = read(*args, **kwargs)
+        seen["free after the read"] = background._WRITES_FREE.is_set()
+        seen["on disk after the read"] = len(entries())
+        return loaded
+
+    def setting_up(self, *args, **kwargs):
+        seen["free at the set-up"] = background._WRITES_FREE.is_set()
+        return init(self, *args, **kwargs)
+
+    monkeypatch.setattr(sources, "scene_from", reading)
+    monkeypatch.setattr(renderer_module.Renderer, "__init__", setting_up)
+    monkeypatch.setenv("PBS_CACHE_DIR", str(tmp_path / "cache"))
+    model = scenes_dir() / "meshes" / "material_sampler.glb"
+    out = tmp_path / "still.png"
+    assert cli.main(["render", str(model), "-o", str(out), "--size", "48x32", "-q"]) == 0
+    assert seen == {
+        "free after the read": False,
+        "on disk after the read": 0,
+        "free at the set-up": True,
+    }
+    prepared_cache().flush()
+    assert len(entries()) >= 4 and background._WRITES_FREE.is_set()

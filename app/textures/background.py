@@ -12,7 +12,10 @@ cache entry handed to the writer is on disk when it returns.
 from __future__ import annotations
 
 import sys
+import threading
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 
 # The pools in the order they are finished: the lookups and the colour levels first (they
 # wait for decodes and bands and hand entries to the writer), then the decodes and the bands
@@ -26,10 +29,44 @@ _POOLS = (
 )
 
 
+# Set while the prepared-texture cache's writer may write the entries handed to it; clear
+# within ``writes_held``.
+_WRITES_FREE = threading.Event()
+_WRITES_FREE.set()
+
+
+@contextmanager
+def writes_held() -> Iterator[None]:
+    """Within the block the cache's writer leaves the entries handed to it queued
+    (app/textures/cache.py), until ``release_writes`` or the block's end. ``pbs render``
+    holds them while a still's scene is read, where the decodes, the levels and the GL's
+    chain keep both cores busy, and lets them go when the renderer is set up on the main
+    thread alone, the other core idle (docs/performance.md, "A real asset against f3d").
+    A wait for a queued entry (its key looked up again, ``flush``, the end's join) lets
+    them go first, so that nothing waits on a held write."""
+    _WRITES_FREE.clear()
+    try:
+        yield
+    finally:
+        _WRITES_FREE.set()
+
+
+def release_writes() -> None:
+    """Let the cache's writer write what it holds (``writes_held``); nothing where it
+    holds nothing."""
+    _WRITES_FREE.set()
+
+
+def when_writes_free() -> None:
+    """Return once the cache's writer may write (at once outside ``writes_held``)."""
+    _WRITES_FREE.wait()
+
+
 def finish_background_work() -> None:
     """Wait for every task of the layer's pools to end, each pool then shut (a task given
     to it afterwards is refused, as at the interpreter's exit). A module this process never
-    imported is not imported here."""
+    imported is not imported here. Held writes are let go first (``writes_held``)."""
+    release_writes()
     for module_name, attribute in _POOLS:
         module = sys.modules.get(module_name)
         if module is None:

@@ -54,6 +54,7 @@ from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
 
+from app.textures.background import release_writes, when_writes_free
 from app.textures.cache_keys import (
     SUFFIX,
     cache_directory,
@@ -370,7 +371,7 @@ class PreparedCache:
         except BaseException:
             entry.discard()
             raise
-        future = _writer().submit(self._finish_in_place, key, entry)
+        future = _writer().submit(_when_free, self._finish_in_place, key, entry)
         with self._lock:
             self._writing[key] = future
         future.add_done_callback(lambda _: self._written(key, future))
@@ -401,6 +402,7 @@ class PreparedCache:
         """Wait until every entry handed to the writer is on disk."""
         with self._lock:
             pending = list(self._writing.values())
+        release_writes()  # held ones (background.writes_held) are written first
         for future in pending:  # a write handed over meanwhile follows one of these
             future.result()
 
@@ -443,6 +445,7 @@ class PreparedCache:
     def _read(self, key: str) -> tuple[np.ndarray, ...] | None:
         writing = self._writing.get(key)
         if writing is not None:  # this process is writing it: read it whole
+            release_writes()  # a held write (background.writes_held) is written now
             writing.result()
         path = self.path(key)
         if path is None or not path.is_file():
@@ -477,7 +480,7 @@ class PreparedCache:
         none is lost; a lookup of the key in this process waits for its write."""
         if self.directory is None:
             return
-        future = _writer().submit(self._write_now, key, arrays)
+        future = _writer().submit(_when_free, self._write_now, key, arrays)
         with self._lock:
             self._writing[key] = future
         future.add_done_callback(lambda _: self._written(key, future))
@@ -563,6 +566,13 @@ def _preparer() -> ThreadPoolExecutor:
 
 
 _WRITER: ThreadPoolExecutor | None = None
+
+
+def _when_free(write: Callable[..., None], *args: object) -> None:
+    """``write(*args)`` on the writer thread once writes are not held
+    (app/textures/background.py ``writes_held``)."""
+    when_writes_free()
+    write(*args)
 
 
 def _writer() -> ThreadPoolExecutor:
