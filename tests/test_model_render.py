@@ -226,7 +226,15 @@ def test_a_scene_file_with_a_camera_and_no_light_is_metered(tmp_path: Path) -> N
     assert given.camera.exposure == pytest.approx(metered.camera.exposure)
     assert given.camera.exposure < -2.0  # the white teapot: about -2 EV
     assert given.background == pytest.approx(metered.background)  # the same light grey
-    assert scene_from(tmp_path / "exposed.toml").scene.camera.exposure == 0.5
+    from app.scene.model_file import backdrop_radiance
+
+    exposed = scene_from(tmp_path / "exposed.toml").scene
+    assert exposed.camera.exposure == 0.5 and list(exposed.camera.position) == [0.0, 2.0, 6.0]
+    assert [light.model_dump() for light in exposed.lights] == [
+        light.model_dump() for light in given.lights
+    ]  # the same key and fill lights, whatever the exposure
+    # the backdrop for the exposure the scene gives: the same grey on screen
+    assert exposed.background == pytest.approx([backdrop_radiance(0.5, exposed.render.tonemap)] * 3)
 
 
 @pytest.mark.parametrize("size", [(320, 240), (1280, 720)])

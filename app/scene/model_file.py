@@ -356,26 +356,31 @@ def _with(loaded: LoadedScene, **tables: Any) -> LoadedScene:
 
 def _lit(
     loaded: LoadedScene,
-    camera: dict[str, Any],
+    camera: dict[str, Any] | None,
     parts: list[MeshPart],
     look: Look,
     size: tuple[int, int] | None = None,
     file_lights: bool = False,
 ) -> LoadedScene:
-    """``loaded`` with ``camera`` at the default look's metered exposure, the key light
-    (unless ``file_lights``: the scene's lights are the glTF file's; its shadow map sized
+    """``loaded`` with ``camera`` at the default look's metered exposure (None: the
+    scene's camera and the exposure it gives, kept), the key and fill lights (unless
+    ``file_lights``: the scene's lights are the glTF file's; the key's shadow map sized
     for the image of ``size``, default the scene's render size) and, under the studio,
-    the backdrop."""
+    the backdrop for that exposure."""
     centre, radius = _sphere(_surface_points(parts))
     lights = _dumped(loaded).get("lights", [])
     if not file_lights:
         azimuth = look.angles()[0]
         key = key_light(centre, radius, azimuth, _drawn(loaded, size))
         lights = [*lights, key, fill_light(azimuth)]
-    keyed = _with(loaded, lights=lights)
-    incident = exposure_for(keyed, centre if file_lights else None)
-    exposure = metered_exposure(incident, mean_albedo(parts))
-    tables: dict[str, Any] = {"camera": {**camera, "exposure": exposure}, "lights": lights}
+    tables: dict[str, Any] = {"lights": lights}
+    if camera is None:
+        exposure = loaded.scene.camera.exposure
+    else:
+        keyed = _with(loaded, lights=lights)
+        incident = exposure_for(keyed, centre if file_lights else None)
+        exposure = metered_exposure(incident, mean_albedo(parts))
+        tables["camera"] = {**camera, "exposure": exposure}
     if look.env == "studio" and "background" not in loaded.scene.model_fields_set:
         tone = loaded.scene.render.tonemap
         tables["background"] = [backdrop_radiance(exposure, tone)] * 3
@@ -525,14 +530,8 @@ def with_defaults(
         # camera's exposure default (0 EV) is no choice of the scene's
         camera_table = result.scene.camera.model_dump(exclude_unset=True)
         final = _lit(result, camera_table, parts, look, size)
-    else:
-        azimuth = look.angles()[0]
-        key = key_light(*_sphere(_surface_points(parts)), azimuth, _drawn(result, size))
-        tables: dict[str, Any] = {"lights": [key, fill_light(azimuth)]}  # camera, exposure kept
-        if look.env == "studio" and "background" not in result.scene.model_fields_set:
-            exposure, tone = result.scene.camera.exposure, result.scene.render.tonemap
-            tables["background"] = [backdrop_radiance(exposure, tone)] * 3
-        final = _with(result, **tables)
+    else:  # the scene's camera and its exposure kept
+        final = _lit(result, None, parts, look, size)
     keep_built(final, parts, budget.spent)  # the frame takes them, as a model file's
     return final
 
