@@ -103,13 +103,14 @@ def reference_scene(loaded: LoadedScene, size: tuple[int, int] | None = None) ->
     scene = loaded.scene
     size, prims, materials, lights = _scene_inputs(loaded, size)
     factor = scene.render.supersample
-    camera = camera_frame(scene.camera, size[0] * factor, size[1] * factor)
+    drawn = scene.render.drawn_size(size)
+    camera = camera_frame(scene.camera, *drawn)
     # A uniform environment: the renderer's own quadrature, through the twin (docs/ibl.md)
     uniform = uniform_environment(scene.environment)
     background = np.asarray(scene.background, np.float64)
     env = scene.environment
     if env is not None and env.background:  # as app/render/background.py draws it
-        rays = camera_rays(camera, size[0] * factor, size[1] * factor)
+        rays = camera_rays(camera, *drawn)
         uv = equirect_uv(rays, math.radians(env.rotation))
         background = env.intensity * sample_bilinear(environment_texels(env), uv)
     return render_reference(

@@ -379,8 +379,7 @@ class Renderer:
     @property
     def render_size(self) -> tuple[int, int]:
         """The size every pass before the resolve runs at (``size`` x supersample)."""
-        factor = self.scene.render.supersample
-        return (self.size[0] * factor, self.size[1] * factor)
+        return self.scene.render.drawn_size(self.size)
 
     @property
     def view(self) -> np.ndarray:

@@ -195,6 +195,12 @@ class RenderSettings(_Strict):
     # antialiased coverage, and the PNG is RGBA with straight alpha (docs/scene-format.md).
     background: Literal["opaque", "transparent"] = "opaque"
 
+    def drawn_size(self, size: tuple[int, int] | None = None) -> tuple[int, int]:
+        """The pixels every pass before the resolve runs at for an image of ``size``
+        (default ``width`` x ``height``): each side times ``supersample``."""
+        width, height = size or (self.width, self.height)
+        return width * self.supersample, height * self.supersample
+
     @model_validator(mode="after")
     def _check(self) -> RenderSettings:
         if max(self.width, self.height) * self.supersample > 16384:

@@ -371,7 +371,7 @@ def _lit(
     lights = _dumped(loaded).get("lights", [])
     if not file_lights:
         azimuth = look.angles()[0]
-        key = key_light(centre, radius, azimuth, _drawn(loaded, size))
+        key = key_light(centre, radius, azimuth, loaded.scene.render.drawn_size(size))
         lights = [*lights, key, fill_light(azimuth)]
     tables: dict[str, Any] = {"lights": lights}
     if camera is None:
@@ -385,14 +385,6 @@ def _lit(
         tone = loaded.scene.render.tonemap
         tables["background"] = [backdrop_radiance(exposure, tone)] * 3
     return _with(loaded, **tables)
-
-
-def _drawn(loaded: LoadedScene, size: tuple[int, int] | None) -> tuple[int, int]:
-    """The pixels ``loaded`` is drawn at for an image of ``size`` (default its render
-    size): its supersampling included."""
-    render = loaded.scene.render
-    width, height = size or (render.width, render.height)
-    return width * render.supersample, height * render.supersample
 
 
 def _dumped(loaded: LoadedScene) -> dict[str, Any]:
